@@ -1,0 +1,55 @@
+"""haptex: synthesis and energy analysis of haptic textures.
+
+Implements the smooth wall W and the texture algorithms A–G of Campion & Hayward,
+"On the Synthesis of Haptic Textures" (IEEE Trans. Haptics, 2008), their Jacobians,
+characteristic numbers and loop energies. SI units throughout (m, N, s).
+"""
+
+from ._validation import ParameterError
+from .algorithms import ALGORITHMS, Algorithm, algorithm
+from .analysis import (
+    CharacteristicNumber,
+    Conservativity,
+    Continuity,
+    characteristic_number,
+    conservativity,
+    continuity,
+    curl,
+    loop_energy,
+    paper_loop,
+    path_work,
+    random_loops,
+    spectral_norm,
+)
+from .closest import ClosestPoint, closest_point
+from .tables import PAPER_PARAMETERS, table_ii
+from .textures import Flat, Sinusoid, SumOfSinusoids, Texture
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "ALGORITHMS",
+    "Algorithm",
+    "CharacteristicNumber",
+    "ClosestPoint",
+    "Conservativity",
+    "Continuity",
+    "Flat",
+    "PAPER_PARAMETERS",
+    "ParameterError",
+    "Sinusoid",
+    "SumOfSinusoids",
+    "Texture",
+    "algorithm",
+    "characteristic_number",
+    "closest_point",
+    "conservativity",
+    "continuity",
+    "curl",
+    "loop_energy",
+    "paper_loop",
+    "path_work",
+    "random_loops",
+    "spectral_norm",
+    "table_ii",
+]

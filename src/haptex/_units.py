@@ -1,0 +1,73 @@
+"""Parsing of quantities written with units ("0.8mm", "2 kN/m") into SI floats, via pint."""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+from ._validation import ParameterError
+
+
+@lru_cache(maxsize=1)
+def _registry():
+    import pint
+
+    return pint.UnitRegistry()
+
+
+def parse_quantity(text: str, unit: str, name: str) -> float:
+    """Convert ``text`` (e.g. ``"0.8mm"``, ``"2 kN/m"``, ``"1e-3"``) to a float in ``unit``.
+
+    A bare number is taken to be in ``unit`` already (SI). ``µ`` and ``u`` both mean micro.
+
+    Parameters
+    ----------
+    text : str
+        The quantity as a user wrote it.
+    unit : str
+        The SI unit the result is expressed in, e.g. ``"m"`` or ``"N/m"``.
+    name : str
+        Parameter name used in error messages.
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    ParameterError
+        If the text is not a number with a unit of the right dimension, or is not finite.
+    """
+    import pint
+
+    raw = str(text).strip()
+    try:
+        value = float(raw)
+    except ValueError:
+        pass
+    else:
+        return _finite(value, raw, unit, name)
+    ureg = _registry()
+    cleaned = raw.replace("µ", "u").replace("μ", "u")
+    try:
+        q = ureg.Quantity(cleaned)
+        value = float(q.to(unit).magnitude)
+    except pint.DimensionalityError:
+        raise ParameterError(
+            f"{name} = {raw!r} is not allowed: its unit is not convertible to {unit}"
+        ) from None
+    except Exception:  # pint raises many kinds of parse errors
+        raise ParameterError(
+            f"{name} = {raw!r} is not allowed: must be a number with a unit convertible to {unit} "
+            f"(e.g. '{_example(unit)}')"
+        ) from None
+    return _finite(value, raw, unit, name)
+
+
+def _finite(value: float, raw: str, unit: str, name: str) -> float:
+    if value != value or value in (float("inf"), float("-inf")):
+        raise ParameterError(f"{name} = {raw!r} is not allowed: must be a finite quantity in {unit}")
+    return value
+
+
+def _example(unit: str) -> str:
+    return {"m": "0.8mm", "N/m": "2 kN/m", "s": "100us", "N": "1.5 N", "m/s": "0.1 m/s"}.get(unit, f"1 {unit}")

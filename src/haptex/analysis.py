@@ -1,0 +1,712 @@
+"""Energy analysis of texture algorithms: characteristic numbers, path and loop work,
+curl, continuity and measured conservativity (Campion & Hayward, Sections III–IV).
+
+Analysis functions take an algorithm and return plain numbers or small frozen
+dataclasses; they never plot.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import integrate, optimize
+
+from ._validation import ParameterError, fail, positions, positive
+from .algorithms import Algorithm
+from .closest import closest_point
+from .textures import Flat, Sinusoid, Texture
+
+__all__ = [
+    "CharacteristicNumber",
+    "characteristic_number",
+    "spectral_norm",
+    "path_work",
+    "loop_energy",
+    "paper_loop",
+    "curl",
+    "Continuity",
+    "continuity",
+    "Conservativity",
+    "conservativity",
+]
+
+
+# ------------------------------------------------------------------------------------
+# characteristic number
+# ------------------------------------------------------------------------------------
+def spectral_norm(j) -> np.ndarray:
+    """Largest singular value of 2x2 matrices.
+
+    Parameters
+    ----------
+    j : array_like, shape (..., 2, 2)
+
+    Returns
+    -------
+    ndarray, shape (...)
+        sigma_max(J) = sqrt((|J|_F^2 + sqrt(|J|_F^4 - 4 det(J)^2)) / 2), in the units of J.
+    """
+    j = np.asarray(j, dtype=np.float64)
+    fro2 = np.sum(j * j, axis=(-2, -1))
+    det = j[..., 0, 0] * j[..., 1, 1] - j[..., 0, 1] * j[..., 1, 0]
+    disc = np.sqrt(np.maximum(fro2 * fro2 - 4 * det * det, 0.0))
+    return np.sqrt(0.5 * (fro2 + disc))
+
+
+@dataclass(frozen=True)
+class CharacteristicNumber:
+    """Result of :func:`characteristic_number`.
+
+    Attributes
+    ----------
+    letter : str
+        Algorithm letter.
+    value : float
+        Numeric q = sup ||J||_2 / kappa_0 over the rendering region (eq. 5); ``inf``
+        when the sup is unbounded (algorithm D below peaks whose radius of curvature is
+        within the region).
+    closed_form : float or None
+        The paper's value where it gives one: A, eq. 10 (with 2 pi A / l replaced by the
+        Lipschitz bound M for other textures, Remark 2); D, 1 (eq. 18); E, 1 (eq. 21);
+        W, 1 (eq. 30). ``None`` for B, C, G ("no closed form", Table II).
+    where : tuple of float
+        Probe position [x, z] (m) attaining the sup (the centre of curvature for an
+        unbounded D).
+    max_penetration : float
+        Depth bound of the region searched (m).
+    note : str
+        How the value was obtained, in one sentence.
+    paper_form_value : float or None
+        For D only: the sup of the eq. 18 (flat-boundary) Jacobian, which is 1.
+    """
+
+    letter: str
+    value: float
+    closed_form: float | None
+    where: tuple[float, float]
+    max_penetration: float
+    note: str = ""
+    paper_form_value: float | None = None
+
+    def __float__(self) -> float:
+        return float(self.value)
+
+    @property
+    def unbounded(self) -> bool:
+        """True when the sup is infinite."""
+        return math.isinf(self.value)
+
+
+def _x_range(alg: Algorithm, x_range) -> tuple[float, float]:
+    if x_range is not None:
+        try:
+            a, b = (float(v) for v in x_range)
+        except (TypeError, ValueError):
+            raise fail("x_range", x_range, "a pair (x_min, x_max) of finite metres with x_min < x_max") from None
+        if not (math.isfinite(a) and math.isfinite(b) and a < b):
+            raise fail("x_range", x_range, "a pair (x_min, x_max) of finite metres with x_min < x_max")
+        return a, b
+    tex = alg.texture
+    if isinstance(tex, Flat):
+        return 0.0, 1e-3
+    if tex.period is None:
+        raise ParameterError(
+            f"x_range = None is not allowed for the aperiodic texture {tex!r}: "
+            "give x_range=(x_min, x_max) in metres"
+        )
+    return 0.0, float(tex.period)
+
+
+def _region_point(alg: Algorithm, x, depth):
+    """Probe positions at abscissa x and depth (m) for 'vertical' and 'nominal' kinds."""
+    if alg.penetration_kind == "vertical":
+        return np.stack([x, alg.texture.height(x) - depth], axis=-1)
+    return np.stack([x, -depth], axis=-1)
+
+
+def _closed_form_q(alg: Algorithm) -> float | None:
+    if alg.letter == "A":
+        return math.sqrt(1.0 + alg.texture.max_slope**2)
+    if alg.letter in ("D", "E", "W"):
+        return 1.0
+    return None
+
+
+def characteristic_number(
+    algorithm: Algorithm,
+    max_penetration: float = 1e-3,
+    x_range=None,
+    resolution: tuple[int, int] = (256, 64),
+) -> CharacteristicNumber:
+    """Characteristic number q = sup ||J_f||_2 / kappa_0 of an algorithm (eq. 5).
+
+    The sup is taken over probe positions inside the wall whose penetration, measured
+    the way the algorithm measures it (Table I), lies in (0, ``max_penetration``], and
+    whose abscissa spans one texture period (or ``x_range``). A grid of
+    ``resolution = (n_x, n_depth)`` points is searched first, then the best grid points
+    are refined by bounded quasi-Newton maximisation inside their grid cells, so the
+    result is the sup and not a grid sample.
+
+    Parameters
+    ----------
+    algorithm : Algorithm
+        A memoryless algorithm (W, A–E, G).
+    max_penetration : float, optional
+        Depth bound d_max (m), default 1 mm (the paper's d^z_max).
+    x_range : (float, float), optional
+        Abscissa interval (m); required for an aperiodic texture.
+    resolution : (int, int), optional
+        Grid size along x and along depth.
+
+    Returns
+    -------
+    CharacteristicNumber
+
+    Raises
+    ------
+    ParameterError
+        If ``max_penetration`` <= 0, ``x_range`` is malformed or missing for an
+        aperiodic texture, or the resolution is below (8, 4).
+
+    Notes
+    -----
+    For D the exact Jacobian (including the boundary's curvature) is
+    -kappa_0 (I - v v^T / D) with v = [1, h'] and D = 1 + h'^2 + (h - p^z) h''; its norm
+    is kappa_0 max(1, (1 + h'^2) / D - 1), which grows without bound as the probe
+    approaches the centre of curvature below a peak (D -> 0). When the smallest radius
+    of curvature of a convex-up part of the boundary is shallower than
+    ``max_penetration`` (for the paper's sinusoid, l^2 / (4 pi^2 A) = 32 um), the sup is
+    therefore infinite; ``value`` is ``inf`` and ``where`` is that centre of curvature.
+    The paper's value 1 is the sup of the flat-boundary linearisation eq. 18, reported
+    in ``paper_form_value``.
+    """
+    dmax = positive("max_penetration", max_penetration, "m")
+    nx, nd = (int(v) for v in resolution)
+    if nx < 8 or nd < 4:
+        raise fail("resolution", resolution, "(n_x, n_depth) with n_x >= 8 and n_depth >= 4")
+    x0, x1 = _x_range(algorithm, x_range)
+    k0 = algorithm.stiffness
+    closed = _closed_form_q(algorithm)
+
+    if algorithm.penetration_kind == "distance":
+        return _q_distance(algorithm, dmax, x0, x1, nx, nd, closed)
+
+    xs = np.linspace(x0, x1, nx + 1)
+    ds = np.linspace(dmax / nd, dmax, nd)
+    X, Dp = np.meshgrid(xs, ds, indexing="ij")
+    norms = spectral_norm(algorithm.jacobian(_region_point(algorithm, X, Dp))) / k0
+    dx = (x1 - x0) / nx
+    dd = dmax / nd
+
+    def neg_q(v):
+        p = _region_point(algorithm, np.array([v[0]]), np.array([v[1]]))
+        return -float(spectral_norm(algorithm.jacobian(p))[0]) / k0
+
+    best = float(norms.max())
+    flat_idx = np.argsort(norms, axis=None)[-6:]
+    i0, j0 = np.unravel_index(flat_idx[-1], norms.shape)
+    where_xd = (xs[i0], ds[j0])
+    for idx in flat_idx:
+        i, j = np.unravel_index(idx, norms.shape)
+        bounds = [(max(x0, xs[i] - dx), min(x1, xs[i] + dx)), (max(dd * 1e-6, ds[j] - dd), min(dmax, ds[j] + dd))]
+        r = optimize.minimize(neg_q, x0=[xs[i], ds[j]], method="L-BFGS-B", bounds=bounds,
+                              options={"ftol": 1e-15, "gtol": 1e-12})
+        if -r.fun > best:
+            best = -float(r.fun)
+            where_xd = (float(r.x[0]), float(r.x[1]))
+    where = _region_point(algorithm, np.array([where_xd[0]]), np.array([where_xd[1]]))[0]
+    return CharacteristicNumber(
+        letter=algorithm.letter,
+        value=best,
+        closed_form=closed,
+        where=(float(where[0]), float(where[1])),
+        max_penetration=dmax,
+        note=f"grid {nx}x{nd} over x in [{x0:g}, {x1:g}] m and depth in (0, {dmax:g}] m, refined by L-BFGS-B",
+    )
+
+
+def _q_distance(alg, dmax, x0, x1, nx, nd, closed) -> CharacteristicNumber:
+    """Characteristic number for D and E (penetration = distance to the textured surface)."""
+    tex = alg.texture
+    k0 = alg.stiffness
+    lo, hi = tex.height_range
+    nz = max(nd, int(round(nd * (hi - lo + dmax) / dmax)))
+    xs = np.linspace(x0, x1, nx + 1)
+    zs = np.linspace(lo - dmax, hi, nz + 1)
+    X, Z = np.meshgrid(xs, zs, indexing="ij")
+    P = np.stack([X, Z], axis=-1)
+    cp = closest_point(tex, P)
+    region = (cp.distance > 0) & (cp.distance <= dmax) & ~cp.tie
+    J = alg.jacobian(P)
+    norms = np.where(region, spectral_norm(J) / k0, -np.inf)
+    paper_value = None
+    note = f"grid {nx}x{nz} over x in [{x0:g}, {x1:g}] m and distance in (0, {dmax:g}] m, refined by L-BFGS-B"
+    if alg.letter == "D":
+        paper_value = float(np.max(np.where(region, spectral_norm(alg.jacobian(P, form="paper")) / k0, -np.inf)))
+        focal = _unbounded_focus(tex, dmax, x0, x1)
+        if focal is not None:
+            rho, fx, fz = focal
+            return CharacteristicNumber(
+                letter="D",
+                value=math.inf,
+                closed_form=closed,
+                where=(fx, fz),
+                max_penetration=dmax,
+                note=(
+                    f"unbounded: ||J|| -> inf approaching the centre of curvature at depth {rho:.4g} m "
+                    f"below a peak (< max_penetration {dmax:g} m); eq. 18 gives {paper_value:.6g}"
+                ),
+                paper_form_value=paper_value,
+            )
+    i, j = np.unravel_index(int(np.argmax(norms)), norms.shape)
+    best = float(norms[i, j])
+    where = (float(X[i, j]), float(Z[i, j]))
+    dx = (x1 - x0) / nx
+    dz = zs[1] - zs[0]
+
+    def neg_q(v):
+        p = np.array([[v[0], v[1]]])
+        c = closest_point(tex, p)
+        if not (0 < c.distance[0] <= dmax) or c.tie[0]:
+            return 0.0
+        return -float(spectral_norm(alg.jacobian(p))[0]) / k0
+
+    r = optimize.minimize(neg_q, x0=[X[i, j], Z[i, j]], method="L-BFGS-B",
+                          bounds=[(X[i, j] - dx, X[i, j] + dx), (Z[i, j] - dz, Z[i, j] + dz)])
+    if -r.fun > best:
+        best = -float(r.fun)
+        where = (float(r.x[0]), float(r.x[1]))
+    return CharacteristicNumber(alg.letter, best, closed, where, dmax, note, paper_value)
+
+
+def _unbounded_focus(tex: Texture, dmax: float, x0: float, x1: float):
+    """Smallest radius of curvature rho of the convex-up boundary (h'' < 0) in [x0, x1]
+    and its centre of curvature, if rho < dmax and the boundary point is the closest
+    point of the points just above that centre; else None."""
+    if isinstance(tex, Flat):
+        return None
+    xs = np.linspace(x0, x1, 4097)
+    s = tex.slope(xs)
+    c = tex.curvature(xs)
+    with np.errstate(divide="ignore"):
+        rho = np.where(c < 0, (1 + s * s) ** 1.5 / np.abs(c), np.inf)
+    i = int(np.argmin(rho))
+    if not np.isfinite(rho[i]):
+        return None
+
+    def rho_at(t):
+        cc = float(tex.curvature(np.array([t]))[0])
+        ss = float(tex.slope(np.array([t]))[0])
+        return (1 + ss * ss) ** 1.5 / abs(cc) if cc < 0 else np.inf
+
+    dxs = xs[1] - xs[0]
+    r = optimize.minimize_scalar(rho_at, bounds=(xs[i] - dxs, xs[i] + dxs), method="bounded",
+                                 options={"xatol": 1e-14})
+    t = float(r.x)
+    rmin = float(r.fun)
+    if not rmin < dmax:
+        return None
+    s_t = float(tex.slope(np.array([t]))[0])
+    g = 1.0 / math.sqrt(1 + s_t * s_t)
+    h_t = float(tex.height(np.array([t]))[0])
+    fx, fz = t + rmin * s_t * g, h_t - rmin * g
+    # check that the boundary point t is the closest point just above the focus
+    probe = np.array([[t + 0.999 * rmin * s_t * g, h_t - 0.999 * rmin * g]])
+    cp = closest_point(tex, probe)
+    if abs(cp.distance[0] - 0.999 * rmin) > 1e-9 * rmin + 1e-15:
+        return None
+    return rmin, fx, fz
+
+
+# ------------------------------------------------------------------------------------
+# path work and loop energies
+# ------------------------------------------------------------------------------------
+def _signed_depths(alg: Algorithm, pts: np.ndarray) -> list[np.ndarray]:
+    """Functions whose sign changes mark kinks of the force along a path: the boundary
+    and, with max_penetration, the clamp depth."""
+    x, z = pts[..., 0], pts[..., 1]
+    if alg.penetration_kind == "nominal":
+        d = z
+    else:
+        d = z - alg.texture.height(x)
+    out = [d]
+    dm = getattr(alg, "max_penetration", None)
+    if dm is not None:
+        out.append(d + dm)
+    return out
+
+
+def _breakpoints(alg: Algorithm, a: np.ndarray, b: np.ndarray) -> list[float]:
+    """Parameters u in (0, 1) where the segment a->b crosses the boundary or a clamp depth."""
+    length = float(np.hypot(*(b - a)))
+    tex = alg.texture
+    scale = tex.shortest_period if not isinstance(tex, Flat) else length
+    n = int(min(max(64, 64 * length / scale), 20000))
+    u = np.linspace(0.0, 1.0, n + 1)
+    pts = a + u[:, None] * (b - a)
+    out: list[float] = []
+    for k, vals in enumerate(_signed_depths(alg, pts)):
+        sgn = np.sign(vals)
+        for i in np.nonzero(sgn[:-1] * sgn[1:] < 0)[0]:
+            fn = lambda uu, k=k: float(_signed_depths(alg, (a + uu * (b - a))[None, :])[k][0])  # noqa: E731
+            out.append(optimize.brentq(fn, u[i], u[i + 1], xtol=1e-16, rtol=1e-15))
+    return sorted(out)
+
+
+def path_work(algorithm: Algorithm, path, rtol: float = 1e-10) -> float:
+    """Work done by the field on a probe moving along a polyline, W = integral f . dp (J).
+
+    Parameters
+    ----------
+    algorithm : Algorithm
+        The force field.
+    path : array_like, shape (N, 2)
+        Polyline vertices [x, z] (m), N >= 2. A closed loop repeats its first vertex
+        at the end (see :func:`loop_energy`).
+    rtol : float, optional
+        Relative tolerance handed to the adaptive quadrature of each piece.
+
+    Returns
+    -------
+    float
+        Work (J); > 0 means the field generated energy (the paper's Delta E).
+
+    Raises
+    ------
+    ParameterError
+        If ``path`` is not of shape (N, 2) with N >= 2 finite vertices.
+
+    Notes
+    -----
+    Each segment is split where it crosses the boundary (and the clamp depth of
+    Remark 3), located by bracketing and Brent's method; each piece is integrated by
+    adaptive Gauss–Kronrod quadrature (QUADPACK's QAGS via scipy), which also resolves
+    the interior jumps of algorithm D's field.
+    """
+    pts = positions(path, "path")
+    if pts.ndim != 2 or pts.shape[0] < 2:
+        raise ParameterError(f"path has shape {pts.shape}, which is not allowed: must be (N, 2) with N >= 2")
+    if getattr(algorithm, "has_memory", False):
+        return algorithm.path_work(pts)
+    total = 0.0
+    for a, b in zip(pts[:-1], pts[1:]):
+        delta = b - a
+        length = float(np.hypot(*delta))
+        if length == 0.0:
+            continue
+        cuts = [0.0, *_breakpoints(algorithm, a, b), 1.0]
+        scale = algorithm.stiffness * length * length
+
+        def integrand(u, a=a, delta=delta):
+            return float(algorithm.force((a + u * delta)[None, :])[0] @ delta)
+
+        for u0, u1 in zip(cuts[:-1], cuts[1:]):
+            if u1 <= u0:
+                continue
+            with warnings.catch_warnings():
+                # the requested accuracy is near round-off on purpose; QUADPACK says so
+                warnings.simplefilter("ignore", integrate.IntegrationWarning)
+                val, _err = integrate.quad(integrand, u0, u1, epsabs=1e-15 * scale, epsrel=rtol, limit=400)
+            total += val
+    return total
+
+
+def loop_energy(algorithm: Algorithm, loop) -> float:
+    """Energy generated by the field around a closed polygon (J), Delta E = closed-path work.
+
+    Parameters
+    ----------
+    algorithm : Algorithm
+    loop : array_like, shape (N, 2)
+        Polygon vertices [x, z] (m); closed automatically if the last vertex differs
+        from the first.
+
+    Returns
+    -------
+    float
+        > 0 means the field generated energy around the loop (not conservative).
+    """
+    pts = positions(loop, "loop")
+    if pts.ndim != 2 or pts.shape[0] < 3:
+        raise ParameterError(f"loop has shape {pts.shape}, which is not allowed: must be (N, 2) with N >= 3")
+    if not np.array_equal(pts[0], pts[-1]):
+        pts = np.vstack([pts, pts[:1]])
+    return path_work(algorithm, pts)
+
+
+def _sinusoid_geometry(tex: Texture) -> tuple[float, float, float]:
+    """(A, l, x_shift) such that h(x + x_shift) = A sin(2 pi x / l) for a Sinusoid."""
+    if isinstance(tex, Sinusoid):
+        return tex.amplitude, tex.period, -tex.phases[0] * tex.period / (2 * np.pi)
+    raise ParameterError(
+        f"texture = {tex!r} is not allowed here: the Fig. 3 loops are defined for a Sinusoid"
+    )
+
+
+def paper_loop(algorithm: Algorithm, depth: float | None = None) -> tuple[np.ndarray, float | None, str]:
+    """The closed path of Fig. 3 for an algorithm, and the paper's value of its energy.
+
+    Parameters
+    ----------
+    algorithm : Algorithm
+        W, A–E or G on a :class:`~haptex.textures.Sinusoid` (W: none needed).
+    depth : float, optional
+        The depth a (m) of the eq. 29 path used for G and W; default 0.5 mm.
+
+    Returns
+    -------
+    path : ndarray, shape (5, 2)
+        Closed polygon [x, z] (m).
+    expected : float or None
+        The closed-form loop energy (J): A, kappa_0 A^2 / 2 (Section IV-A-4); B, eq. 12;
+        C, D, W: 0; G: eq. 29's Delta E_2, which for h = A sin(2 pi x / l) integrates to
+        kappa_0 a l arctan(2 pi A / l) / pi; E: ``None`` (the paper only says > 0).
+    source : str
+        Where the path and value come from.
+
+    Raises
+    ------
+    ParameterError
+        If the texture is not a Sinusoid (the paths are defined for one).
+    """
+    k0 = algorithm.stiffness
+    letter = algorithm.letter
+    if letter in ("G", "W"):
+        a = 0.5e-3 if depth is None else positive("depth", depth, "m")
+        if letter == "W":
+            A, l, x_s = 0.0, 1e-3, 0.0
+        else:
+            A, l, x_s = _sinusoid_geometry(algorithm.texture)
+        path = np.array([[l / 4, a], [l / 4, -a], [3 * l / 4, -a], [3 * l / 4, a], [l / 4, a]])
+        path[:, 0] += x_s
+        expected = 0.0 if letter == "W" else k0 * a * l * math.atan(2 * math.pi * A / l) / math.pi
+        return path, expected, "eq. 29 path, a = %g m" % a
+    A, l, x_s = _sinusoid_geometry(algorithm.texture)
+    path = np.array([[0.0, 0.0], [l / 4, 0.0], [l / 4, A], [0.0, A], [0.0, 0.0]])
+    path[:, 0] += x_s
+    expected: float | None
+    if letter == "A":
+        expected = 0.5 * k0 * A * A
+    elif letter == "B":
+        expected = 0.5 * k0 * A * A + k0 * l * l / (4 * math.pi**2) * (1 - math.sqrt((l * l + 4 * A * A * math.pi**2) / (l * l)))
+    elif letter in ("C", "D"):
+        expected = 0.0
+    else:
+        expected = None
+    return path, expected, "Fig. 3 path (0,0)->(l/4,0)->(l/4,A)->(0,A)->(0,0)"
+
+
+# ------------------------------------------------------------------------------------
+# curl, continuity, conservativity
+# ------------------------------------------------------------------------------------
+def curl(algorithm: Algorithm, p) -> np.ndarray:
+    """Scalar curl of the planar field, df_z/dx - df_x/dz (N/m), shape (...).
+
+    Zero everywhere inside for a gradient field (C, D, W); the paper reads
+    non-conservativity off the Jacobian's asymmetry (Section IV-A-4).
+
+    Parameters
+    ----------
+    p : array_like, shape (..., 2)
+        Probe positions [x, z] (m).
+    """
+    j = algorithm.jacobian(p)
+    return j[..., 1, 0] - j[..., 0, 1]
+
+
+def _region_box(alg: Algorithm, max_penetration: float, x_range=None):
+    x0, x1 = _x_range(alg, x_range)
+    lo, hi = alg.texture.height_range
+    return x0, x1, lo - max_penetration, hi
+
+
+@dataclass(frozen=True)
+class Continuity:
+    """Result of :func:`continuity`.
+
+    Attributes
+    ----------
+    continuous : bool
+        True when the largest force difference between grid neighbours shrinks with
+        the grid spacing (order > 0.5), i.e. the field has no jump in the region.
+    spacings : tuple of float
+        Grid spacings (m), coarse to fine.
+    max_differences : tuple of float
+        Largest |f(p_i) - f(p_j)| between neighbours (N) at each spacing.
+    order : float
+        Fitted exponent of max_difference ~ spacing^order: about 1 for a Lipschitz
+        field, about 0 for a field with a jump.
+    where : tuple of float
+        Midpoint [x, z] (m) of the largest difference on the finest grid.
+    """
+
+    continuous: bool
+    spacings: tuple
+    max_differences: tuple
+    order: float
+    where: tuple
+
+
+def continuity(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=None, levels: int = 4,
+               base: int = 32) -> Continuity:
+    """Measure whether the force field jumps, by grid refinement.
+
+    On successively halved grids covering one texture period and the wall down to
+    ``max_penetration`` below the lowest valley (plus the boundary), the largest force
+    difference between horizontal or vertical neighbours is computed. For a continuous
+    (Lipschitz) field it shrinks in proportion to the spacing; across a jump (algorithm D
+    below the peaks of a sinusoid, Remark 6) it does not.
+
+    Parameters
+    ----------
+    algorithm : Algorithm
+    max_penetration : float, optional
+        Depth of the region below the lowest valley (m), default 1 mm.
+    x_range : (float, float), optional
+        Abscissa interval (m); one texture period by default.
+    levels : int, optional
+        Number of grids (>= 3).
+    base : int, optional
+        Number of cells per period on the coarsest grid (>= 8).
+
+    Returns
+    -------
+    Continuity
+
+    Raises
+    ------
+    ParameterError
+        If a parameter is out of range.
+    """
+    dmax = positive("max_penetration", max_penetration, "m")
+    if int(levels) < 3:
+        raise fail("levels", levels, "an integer >= 3")
+    if int(base) < 8:
+        raise fail("base", base, "an integer >= 8")
+    x0, x1, z0, z1 = _region_box(algorithm, dmax, x_range)
+    z1 = z1 + 0.05 * (x1 - x0)
+    spacings, diffs = [], []
+    where = (math.nan, math.nan)
+    for lev in range(int(levels)):
+        n = int(base) * 2**lev
+        hstep = (x1 - x0) / n
+        nz = int(math.ceil((z1 - z0) / hstep))
+        xs = x0 + hstep * np.arange(n + 1)
+        zs = z0 + hstep * np.arange(nz + 1)
+        X, Z = np.meshgrid(xs, zs, indexing="ij")
+        F = algorithm.force(np.stack([X, Z], axis=-1))
+        dxf = np.linalg.norm(F[1:, :] - F[:-1, :], axis=-1)
+        dzf = np.linalg.norm(F[:, 1:] - F[:, :-1], axis=-1)
+        mx, mz = float(dxf.max()), float(dzf.max())
+        spacings.append(hstep)
+        diffs.append(max(mx, mz))
+        if mx >= mz:
+            i, j = np.unravel_index(int(np.argmax(dxf)), dxf.shape)
+            where = (float(xs[i] + hstep / 2), float(zs[j]))
+        else:
+            i, j = np.unravel_index(int(np.argmax(dzf)), dzf.shape)
+            where = (float(xs[i]), float(zs[j] + hstep / 2))
+    d = np.asarray(diffs)
+    if np.all(d == 0):
+        order = math.inf
+    else:
+        order = float(np.polyfit(np.log(spacings), np.log(np.maximum(d, 1e-300)), 1)[0])
+    return Continuity(order > 0.5, tuple(spacings), tuple(diffs), order, where)
+
+
+@dataclass(frozen=True)
+class Conservativity:
+    """Result of :func:`conservativity`.
+
+    Attributes
+    ----------
+    conservative : bool
+        True when every loop energy is zero to ``tolerance``.
+    paper_loop_energy : float
+        Energy around the algorithm's Fig. 3 path (J), or NaN when the texture is not a
+        Sinusoid.
+    random_loop_energies : tuple of float
+        Energies around random closed polygons in the wall (J).
+    tolerance : float
+        Quadrature accuracy used as the zero threshold (J).
+    """
+
+    conservative: bool
+    paper_loop_energy: float
+    random_loop_energies: tuple = field(default=())
+    tolerance: float = 0.0
+
+    @property
+    def max_abs_energy(self) -> float:
+        """Largest |loop energy| among all loops tried (J)."""
+        vals = [abs(v) for v in self.random_loop_energies]
+        if not math.isnan(self.paper_loop_energy):
+            vals.append(abs(self.paper_loop_energy))
+        return max(vals) if vals else 0.0
+
+
+def random_loops(algorithm: Algorithm, n: int = 6, vertices: int = 5, max_penetration: float = 1e-3,
+                 seed: int = 0, x_range=None) -> list[np.ndarray]:
+    """Random closed polygons in the box spanned by one period and the wall's depth.
+
+    Parameters
+    ----------
+    n : int
+        Number of polygons.
+    vertices : int
+        Vertices per polygon (>= 3); the first is repeated at the end.
+    max_penetration : float
+        The box reaches this far (m) below the lowest valley.
+    seed : int
+        Seed of numpy's default generator (reproducible).
+
+    Returns
+    -------
+    list of ndarray, each of shape (vertices + 1, 2), metres.
+    """
+    x0, x1, z0, z1 = _region_box(algorithm, positive("max_penetration", max_penetration, "m"), x_range)
+    rng = np.random.default_rng(seed)
+    loops = []
+    for _ in range(int(n)):
+        v = np.column_stack([rng.uniform(x0, x1, vertices), rng.uniform(z0, z1, vertices)])
+        loops.append(np.vstack([v, v[:1]]))
+    return loops
+
+
+def conservativity(algorithm: Algorithm, max_penetration: float = 1e-3, n_random: int = 6, seed: int = 0,
+                   x_range=None) -> Conservativity:
+    """Measure conservativity: loop energies on the Fig. 3 path and on random polygons.
+
+    A field is reported conservative when every loop energy is zero to the quadrature
+    accuracy, taken as 1e-9 kappa_0 L^2 where L is the size of the region (the paper's
+    Section III-C: a system is conservative iff the work around any cycle is zero).
+
+    Parameters
+    ----------
+    algorithm : Algorithm
+    max_penetration : float, optional
+        Depth of the region explored by the random loops (m), default 1 mm.
+    n_random : int, optional
+        Number of random closed polygons, default 6.
+    seed : int, optional
+        Seed of the random polygons.
+
+    Returns
+    -------
+    Conservativity
+    """
+    loops = random_loops(algorithm, n_random, 5, max_penetration, seed, x_range)
+    energies = tuple(loop_energy(algorithm, lp) for lp in loops)
+    x0, x1, z0, z1 = _region_box(algorithm, max_penetration, x_range)
+    size = max(x1 - x0, z1 - z0)
+    tol = 1e-9 * algorithm.stiffness * size * size
+    try:
+        path, _, _ = paper_loop(algorithm)
+        e_paper = path_work(algorithm, path)
+    except ParameterError:
+        e_paper = math.nan
+    vals = [abs(e) for e in energies] + ([] if math.isnan(e_paper) else [abs(e_paper)])
+    return Conservativity(all(v <= tol for v in vals), e_paper, energies, tol)

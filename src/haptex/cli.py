@@ -1,0 +1,182 @@
+"""The ``haptex`` command.
+
+Every bad input ends as one line on stderr (``haptex: error: ...``) and exit status 2.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+import click
+
+from ._units import parse_quantity
+from ._validation import ParameterError
+from .tables import PAPER_PARAMETERS
+
+
+class Quantity(click.ParamType):
+    """A click parameter written with a unit ("0.8mm", "2 kN/m"), converted to SI."""
+
+    name = "quantity"
+
+    def __init__(self, unit: str):
+        self.unit = unit
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, float):
+            return value
+        pname = param.name if param is not None else "value"
+        try:
+            return parse_quantity(value, self.unit, pname)
+        except ParameterError as exc:
+            self.fail(str(exc), param, ctx)
+
+
+def _paper_options(func):
+    opts = [
+        click.option("--stiffness", type=Quantity("N/m"), default=PAPER_PARAMETERS["stiffness"],
+                     show_default="2000 N/m", help="Nominal wall stiffness kappa_0, e.g. '2 kN/m'."),
+        click.option("--amplitude", type=Quantity("m"), default=PAPER_PARAMETERS["amplitude"],
+                     show_default="0.8mm", help="Texture amplitude A, e.g. '0.8mm'."),
+        click.option("--period", type=Quantity("m"), default=PAPER_PARAMETERS["period"],
+                     show_default="1mm", help="Texture spatial period l, e.g. '1mm'."),
+        click.option("--max-penetration", type=Quantity("m"), default=PAPER_PARAMETERS["max_penetration"],
+                     show_default="1mm", help="Depth of the analysed region, d^z_max."),
+    ]
+    for opt in reversed(opts):
+        func = opt(func)
+    return func
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(package_name="haptex")
+def cli():
+    """haptex: haptic texture synthesis and energy analysis (Campion & Hayward)."""
+
+
+@cli.command()
+@_paper_options
+@click.option("--json", "as_json", is_flag=True, help="Print the table as JSON.")
+def table(stiffness, amplitude, period, max_penetration, as_json):
+    """Table II: characteristic number, loop energy, conservativity, continuity."""
+    data = _table(stiffness, amplitude, period, max_penetration)
+    if as_json:
+        click.echo(json.dumps(_jsonable(data), indent=2))
+    else:
+        _print_table(data)
+
+
+@cli.command()
+@_paper_options
+@click.option("--out", "out", type=click.Path(file_okay=False, path_type=Path), default=Path("haptex-report"),
+              show_default=True, help="Directory the report is written into.")
+def reproduce(stiffness, amplitude, period, max_penetration, out):
+    """Recompute the paper's results on its parameters and write a report into --out."""
+    _prepare_dir(out)
+    data = _table(stiffness, amplitude, period, max_penetration)
+    _print_table(data)
+    summary = {"paper": "Campion & Hayward, On the Synthesis of Haptic Textures", "table_ii": _jsonable(data)}
+    path = _write_json(out, "summary.json", summary)
+    click.echo(f"wrote {path}")
+
+
+def _table(stiffness, amplitude, period, max_penetration):
+    from .tables import table_ii
+
+    return table_ii(stiffness, amplitude, period, max_penetration)
+
+
+def _fmt_q(row) -> str:
+    v = row["characteristic_number"]
+    return "unbounded" if math.isinf(v) else f"{v:.4g}"
+
+
+def _print_table(data) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    p = data["parameters"]
+    t = Table(
+        title=(f"Table II  (kappa_0 = {p['stiffness']:g} N/m, A = {p['amplitude'] * 1e3:g} mm, "
+               f"l = {p['period'] * 1e3:g} mm, max penetration {p['max_penetration'] * 1e3:g} mm)"),
+    )
+    for col in ("alg.", "q (numeric)", "q closed form", "paper q", "loop energy (J)", "paper loop",
+                "conservative", "paper", "continuous", "paper"):
+        t.add_column(col)
+    for r in data["rows"]:
+        cf = r["characteristic_number_closed_form"]
+        le = r["loop_energy_closed_form"]
+        t.add_row(
+            r["algorithm"],
+            _fmt_q(r),
+            "-" if cf is None else f"{cf:.4g}",
+            r["paper"]["characteristic_number"],
+            f"{r['loop_energy']:.4g}",
+            "> 0" if le is None else f"{le:.4g}",
+            "yes" if r["conservative"] else "no",
+            r["paper"]["conservative"],
+            "yes" if r["continuous"] else "no",
+            r["paper"]["continuous"],
+        )
+    Console(width=160).print(t)
+
+
+def _jsonable(obj):
+    """Replace non-finite floats (an unbounded q) by strings so the JSON is standard."""
+    if isinstance(obj, dict):
+        return {k: _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return "inf" if obj > 0 else ("-inf" if obj < 0 else "nan")
+    return obj
+
+
+def _prepare_dir(directory: Path) -> None:
+    """Create ``directory`` (before any work is done), or fail with one line."""
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ParameterError(f"out = {str(directory)!r} is not allowed: cannot create it ({exc.strerror})") from None
+    if not os.access(directory, os.W_OK):
+        raise ParameterError(f"out = {str(directory)!r} is not allowed: the directory is not writable")
+
+
+def _write_json(directory: Path, name: str, data) -> Path:
+    """Write ``data`` as JSON into ``directory/name`` atomically (temporary file, rename)."""
+    try:
+        _prepare_dir(directory)
+        fd, tmp = tempfile.mkstemp(prefix=f".{name}.", dir=directory)
+        with os.fdopen(fd, "w") as fh:
+            json.dump(data, fh, indent=2)
+        os.replace(tmp, directory / name)
+    except OSError as exc:
+        raise ParameterError(f"out = {str(directory)!r} is not allowed: cannot write there ({exc.strerror})") from None
+    return directory / name
+
+
+def main(argv=None) -> int:
+    """Entry point of the ``haptex`` console script; returns the exit status."""
+    try:
+        cli.main(args=argv, prog_name="haptex", standalone_mode=False)
+    except click.exceptions.Exit as exc:
+        return exc.exit_code
+    except click.exceptions.Abort:
+        click.echo("haptex: aborted", err=True)
+        return 1
+    except click.ClickException as exc:
+        click.echo(f"haptex: error: {exc.format_message()}", err=True)
+        return 2
+    except ParameterError as exc:
+        click.echo(f"haptex: error: {exc}", err=True)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
