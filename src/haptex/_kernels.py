@@ -109,6 +109,20 @@ def _golden(kind, coeffs, px, pz, a, b):
 
 
 @nb.njit(**_JIT)
+def _polish(kind, coeffs, px, pz, t, a, b):
+    """Newton iterations on phi'/2 from t, kept inside [a, b]."""
+    for _ in range(60):
+        _, g, gp = _dphi(kind, coeffs, px, pz, t)
+        if gp <= 0.0:
+            break
+        tn = min(max(t - g / gp, a), b)
+        if abs(tn - t) <= 1e-15 * (1.0 + abs(t)):
+            return tn
+        t = tn
+    return t
+
+
+@nb.njit(**_JIT)
 def closest_point(kind, coeffs, step, px, pz):
     """Closest point abscissa t on the boundary z = h(x) to a point (px, pz) below it.
 
@@ -130,7 +144,8 @@ def closest_point(kind, coeffs, step, px, pz):
         n = 8
     dt = 2.0 * dv / n
     best_t = px
-    best_f = dv * dv
+    best_f = math.inf
+    found = False
     second_f = math.inf
     t_prev = px - dv
     f_prev, g_prev, _ = _dphi(kind, coeffs, px, pz, t_prev)
@@ -146,10 +161,11 @@ def closest_point(kind, coeffs, step, px, pz):
             t = _refine_bracket(kind, coeffs, px, pz, t_prev, t_i)
             f, _, _ = _dphi(kind, coeffs, px, pz, t)
             if f < best_f:
-                if best_f < second_f and abs(t - best_t) > 0.5 * dt:
+                if found and best_f < second_f and abs(t - best_t) > 0.5 * dt:
                     second_f = best_f
                 best_f = f
                 best_t = t
+                found = True
             elif f < second_f and abs(t - best_t) > 0.5 * dt:
                 second_f = f
         t_prev = t_i
@@ -158,11 +174,17 @@ def closest_point(kind, coeffs, step, px, pz):
     a = px - dv + max(node_best_i - 1, 0) * dt
     b = px - dv + min(node_best_i + 1, n) * dt
     t, f = _golden(kind, coeffs, px, pz, a, b)
-    if f < best_f * (1.0 - 1e-14):
-        if abs(t - best_t) > 0.5 * dt and best_f < second_f:
-            second_f = best_f
-        best_f = f
-        best_t = t
+    if not found or abs(t - best_t) > 0.5 * dt:
+        # a minimum that no bracket caught: polish it to full precision with Newton
+        t = _polish(kind, coeffs, px, pz, t, a, b)
+        f, _, _ = _dphi(kind, coeffs, px, pz, t)
+        if f < best_f:
+            if found and best_f < second_f:
+                second_f = best_f
+            best_f = f
+            best_t = t
+        elif found and f < second_f:
+            second_f = f
     ties = 0
     if second_f < math.inf and math.sqrt(second_f) - math.sqrt(best_f) <= 1e-9 * math.sqrt(best_f):
         ties = 1

@@ -12,7 +12,7 @@ import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import integrate, optimize
+from scipy import integrate, ndimage, optimize
 
 from ._validation import ParameterError, fail, positions, positive
 from .algorithms import Algorithm
@@ -188,6 +188,9 @@ def characteristic_number(
     if nx < 8 or nd < 4:
         raise fail("resolution", resolution, "(n_x, n_depth) with n_x >= 8 and n_depth >= 4")
     x0, x1 = _x_range(algorithm, x_range)
+    if not isinstance(algorithm.texture, Flat):
+        # at least 64 grid cells per shortest period, so every local maximum has its cell
+        nx = int(min(max(nx, math.ceil(64 * (x1 - x0) / algorithm.texture.shortest_period)), 8192))
     k0 = algorithm.stiffness
     closed = _closed_form_q(algorithm)
 
@@ -206,8 +209,8 @@ def characteristic_number(
         return -float(spectral_norm(algorithm.jacobian(p))[0]) / k0
 
     best = float(norms.max())
-    flat_idx = np.argsort(norms, axis=None)[-6:]
-    i0, j0 = np.unravel_index(flat_idx[-1], norms.shape)
+    flat_idx = _candidates(norms)
+    i0, j0 = np.unravel_index(flat_idx[0], norms.shape)
     where_xd = (xs[i0], ds[j0])
     for idx in flat_idx:
         i, j = np.unravel_index(idx, norms.shape)
@@ -228,22 +231,50 @@ def characteristic_number(
     )
 
 
+def _candidates(values: np.ndarray, count: int = 8) -> np.ndarray:
+    """Flat indices of the ``count`` largest local maxima of a 2-D grid, best first."""
+    finite = np.where(np.isfinite(values), values, -np.inf)
+    peaks = (ndimage.maximum_filter(finite, size=3, mode="nearest") == finite) & np.isfinite(finite)
+    labels, n = ndimage.label(peaks, structure=np.ones((3, 3)))
+    if n == 0:
+        return np.array([int(np.argmax(finite))])
+    # one candidate per connected plateau of local maxima, so ties do not crowd out others
+    pos = ndimage.maximum_position(finite, labels, index=np.arange(1, n + 1))
+    idx = np.array([np.ravel_multi_index(q, finite.shape) for q in pos])
+    order = np.argsort(finite.ravel()[idx])[::-1]
+    return idx[order[:count]]
+
+
+def _normal_point(tex: Texture, t, r):
+    """Probe positions at distance r (m) along the inward normal from (t, h(t))."""
+    t = np.asarray(t, dtype=np.float64)
+    s = tex.slope(t)
+    g = 1.0 / np.sqrt(1.0 + s * s)
+    return np.stack([t + r * s * g, tex.height(t) - r * g], axis=-1)
+
+
 def _q_distance(alg, dmax, x0, x1, nx, nd, closed) -> CharacteristicNumber:
-    """Characteristic number for D and E (penetration = distance to the textured surface)."""
+    """Characteristic number for D and E (penetration = distance to the textured surface).
+
+    The region is parametrised by the closest boundary abscissa t and the distance r:
+    p = (t, h(t)) + r n_in(t), kept only where (t, h(t)) is the unique closest point of p.
+    """
     tex = alg.texture
     k0 = alg.stiffness
-    lo, hi = tex.height_range
-    nz = max(nd, int(round(nd * (hi - lo + dmax) / dmax)))
-    xs = np.linspace(x0, x1, nx + 1)
-    zs = np.linspace(lo - dmax, hi, nz + 1)
-    X, Z = np.meshgrid(xs, zs, indexing="ij")
-    P = np.stack([X, Z], axis=-1)
-    cp = closest_point(tex, P)
-    region = (cp.distance > 0) & (cp.distance <= dmax) & ~cp.tie
-    J = alg.jacobian(P)
-    norms = np.where(region, spectral_norm(J) / k0, -np.inf)
+    ts = np.linspace(x0, x1, nx + 1)
+    rs = np.linspace(dmax / nd, dmax, nd)
+    T, R = np.meshgrid(ts, rs, indexing="ij")
+    P = _normal_point(tex, T, R)
+
+    def valid(points, r):
+        cp = closest_point(tex, points)
+        return (cp.distance >= r * (1 - 1e-9)) & ~cp.tie
+
+    region = valid(P, R)
+    norms = np.where(region, spectral_norm(alg.jacobian(P)) / k0, -np.inf)
     paper_value = None
-    note = f"grid {nx}x{nz} over x in [{x0:g}, {x1:g}] m and distance in (0, {dmax:g}] m, refined by L-BFGS-B"
+    note = (f"grid {nx}x{nd} over closest-point x in [{x0:g}, {x1:g}] m and distance in (0, {dmax:g}] m, "
+            "refined by L-BFGS-B")
     if alg.letter == "D":
         paper_value = float(np.max(np.where(region, spectral_norm(alg.jacobian(P, form="paper")) / k0, -np.inf)))
         focal = _unbounded_focus(tex, dmax, x0, x1)
@@ -261,25 +292,27 @@ def _q_distance(alg, dmax, x0, x1, nx, nd, closed) -> CharacteristicNumber:
                 ),
                 paper_form_value=paper_value,
             )
-    i, j = np.unravel_index(int(np.argmax(norms)), norms.shape)
-    best = float(norms[i, j])
-    where = (float(X[i, j]), float(Z[i, j]))
-    dx = (x1 - x0) / nx
-    dz = zs[1] - zs[0]
+    dt = (x1 - x0) / nx
+    dr = dmax / nd
 
     def neg_q(v):
-        p = np.array([[v[0], v[1]]])
-        c = closest_point(tex, p)
-        if not (0 < c.distance[0] <= dmax) or c.tie[0]:
+        p = _normal_point(tex, np.array([v[0]]), v[1])
+        if not valid(p, v[1])[0]:
             return 0.0
         return -float(spectral_norm(alg.jacobian(p))[0]) / k0
 
-    r = optimize.minimize(neg_q, x0=[X[i, j], Z[i, j]], method="L-BFGS-B",
-                          bounds=[(X[i, j] - dx, X[i, j] + dx), (Z[i, j] - dz, Z[i, j] + dz)])
-    if -r.fun > best:
-        best = -float(r.fun)
-        where = (float(r.x[0]), float(r.x[1]))
-    return CharacteristicNumber(alg.letter, best, closed, where, dmax, note, paper_value)
+    best, where_tr = -np.inf, (x0, dmax)
+    for idx in _candidates(norms):
+        i, j = np.unravel_index(idx, norms.shape)
+        if norms[i, j] > best:
+            best, where_tr = float(norms[i, j]), (T[i, j], R[i, j])
+        bounds = [(T[i, j] - dt, T[i, j] + dt), (max(dr * 1e-6, R[i, j] - dr), min(dmax, R[i, j] + dr))]
+        r = optimize.minimize(neg_q, x0=[T[i, j], R[i, j]], method="L-BFGS-B", bounds=bounds,
+                              options={"ftol": 1e-15, "gtol": 1e-12})
+        if -r.fun > best:
+            best, where_tr = -float(r.fun), (float(r.x[0]), float(r.x[1]))
+    w = _normal_point(tex, np.array([where_tr[0]]), where_tr[1])[0]
+    return CharacteristicNumber(alg.letter, best, closed, (float(w[0]), float(w[1])), dmax, note, paper_value)
 
 
 def _unbounded_focus(tex: Texture, dmax: float, x0: float, x1: float):
@@ -353,7 +386,33 @@ def _breakpoints(alg: Algorithm, a: np.ndarray, b: np.ndarray) -> list[float]:
         for i in np.nonzero(sgn[:-1] * sgn[1:] < 0)[0]:
             fn = lambda uu, k=k: float(_signed_depths(alg, (a + uu * (b - a))[None, :])[k][0])  # noqa: E731
             out.append(optimize.brentq(fn, u[i], u[i + 1], xtol=1e-16, rtol=1e-15))
+    if alg.penetration_kind == "distance":
+        out.extend(_closest_point_jumps(tex, a, b, u, pts, length / n))
     return sorted(out)
+
+
+def _closest_point_jumps(tex: Texture, a, b, u, pts, spacing) -> list[float]:
+    """Parameters where the closest boundary point jumps along the segment a->b (the
+    probe crosses the medial axis, Remark 6), located by bisection to round-off."""
+    cp = closest_point(tex, pts)
+    inside = cp.distance > 0
+    dt = np.abs(np.diff(cp.x))
+    out = []
+    for i in np.nonzero((dt > 2 * spacing) & inside[:-1] & inside[1:])[0]:
+        lo, hi = u[i], u[i + 1]
+        t_lo, t_hi = cp.x[i], cp.x[i + 1]
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            if not lo < mid < hi:
+                break
+            t_mid = closest_point(tex, (a + mid * (b - a))[None, :]).x[0]
+            if abs(t_mid - t_lo) >= abs(t_hi - t_mid):
+                hi, t_hi = mid, t_mid
+            else:
+                lo, t_lo = mid, t_mid
+        if abs(t_hi - t_lo) > 2 * spacing * (hi - lo) / (u[1] - u[0]) + 1e-12 * tex.shortest_period:
+            out.append(0.5 * (lo + hi))
+    return out
 
 
 def path_work(algorithm: Algorithm, path, rtol: float = 1e-10) -> float:

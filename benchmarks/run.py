@@ -1,0 +1,62 @@
+"""Speed of the analysis core, per algorithm: force and jacobian on 10^6 positions and
+characteristic_number at default resolution (the paper's Section V-A parameters).
+
+Run:  python benchmarks/run.py [--points N] [--json]
+Never part of the test run; results are reported in benchmarks/README.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import time
+
+import numpy as np
+
+import haptex as hx
+
+
+def best_of(fn, repeat=3):
+    times = []
+    for _ in range(repeat):
+        t = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t)
+    return min(times)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--points", type=int, default=1_000_000)
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args()
+
+    tex = hx.Sinusoid(0.8e-3, 1e-3)
+    rng = np.random.default_rng(0)
+    n = args.points
+    # positions over one period, from 0.2 mm above the peaks to 1 mm below the valleys
+    p = np.column_stack([rng.uniform(0, 1e-3, n), rng.uniform(-1.8e-3, 1.0e-3, n)])
+    # warm the compiled kernels (numba compilation or cache load) before timing
+    hx.algorithm("D", tex, 2000).force(p[:10])
+    rows = []
+    for letter in "WABCDEG":
+        alg = hx.algorithm(letter, None if letter == "W" else tex, 2000.0)
+        t_f = best_of(lambda: alg.force(p))
+        t_j = best_of(lambda: alg.jacobian(p))
+        t_q = best_of(lambda: hx.characteristic_number(alg), repeat=1)
+        rows.append({"algorithm": letter, "force_s": t_f, "jacobian_s": t_j, "characteristic_number_s": t_q,
+                     "force_Mpts_per_s": n / t_f / 1e6, "jacobian_Mpts_per_s": n / t_j / 1e6})
+    machine = {"python": platform.python_version(), "machine": platform.machine(),
+               "processor": platform.processor() or platform.machine(), "numpy": np.__version__}
+    if args.json:
+        print(json.dumps({"points": n, "machine": machine, "rows": rows}, indent=2))
+        return
+    print(f"{n} positions; {machine}")
+    print(f"{'alg':4} {'force (s)':>10} {'jacobian (s)':>13} {'q (s)':>8}")
+    for r in rows:
+        print(f"{r['algorithm']:4} {r['force_s']:10.3f} {r['jacobian_s']:13.3f} {r['characteristic_number_s']:8.2f}")
+
+
+if __name__ == "__main__":
+    main()

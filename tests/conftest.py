@@ -1,0 +1,35 @@
+"""Shared test settings and strategies."""
+
+import os
+
+import numpy as np
+from hypothesis import HealthCheck, settings
+from hypothesis import strategies as st
+
+import haptex as hx
+
+settings.register_profile(
+    "haptex",
+    deadline=None,
+    max_examples=int(os.environ.get("HAPTEX_HYPOTHESIS_EXAMPLES", "40")),
+    suppress_health_check=[HealthCheck.too_slow],
+)
+settings.load_profile("haptex")
+
+# The paper's Section V-A parameters.
+K0 = 2000.0  # N/m
+A = 0.8e-3  # m
+L = 1e-3  # m
+
+
+@st.composite
+def textures(draw, max_components=3):
+    """Random sums of sinusoids with commensurate periods between 0.5 mm and 4 mm and
+    slopes up to about 6 (the paper's sinusoid has 2 pi A / l = 5.03)."""
+    n = draw(st.integers(1, max_components))
+    base = draw(st.sampled_from([0.5e-3, 1e-3, 2e-3]))
+    mult = draw(st.lists(st.integers(1, 4), min_size=n, max_size=n, unique=True))
+    periods = [base * m for m in mult]
+    amps = [draw(st.floats(0.02, 0.6)) * p / (2 * np.pi) * 2 for p in periods]
+    phases = draw(st.lists(st.floats(0, 2 * np.pi), min_size=n, max_size=n))
+    return hx.SumOfSinusoids(amps, periods, phases)

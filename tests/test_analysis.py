@@ -1,0 +1,222 @@
+"""Characteristic numbers, loop energies, curl, continuity and conservativity against the
+paper's closed forms (eqs. 10, 12, 29), Table II and brute-force references."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+import haptex as hx
+
+from .conftest import A, K0, L, textures
+
+SINE = hx.Sinusoid(A, L)
+
+
+def alg(letter, tex=SINE, **kw):
+    return hx.algorithm(letter, None if letter == "W" else tex, K0, **kw)
+
+
+# -- characteristic numbers ------------------------------------------------------------
+def test_q_A_is_eq_10_and_the_paper_reports_5_1():
+    q = hx.characteristic_number(alg("A"))
+    assert q.value == pytest.approx(math.sqrt(1 + (2 * math.pi * A / L) ** 2), rel=1e-9)
+    assert q.closed_form == pytest.approx(q.value, rel=1e-9)
+    assert round(q.value, 1) == 5.1  # Section V-A: q_A = 5.1
+    assert math.cos(2 * math.pi * q.where[0] / L) ** 2 == pytest.approx(1.0, abs=1e-9)  # p^x = 0 mod l/2
+
+
+@given(textures())
+def test_q_A_of_a_sum_of_sinusoids_uses_the_lipschitz_bound(tex):
+    # Remark 2: 2 pi A / l is replaced by M = sup |h'|
+    q = hx.characteristic_number(alg("A", tex))
+    assert q.value == pytest.approx(math.sqrt(1 + tex.max_slope**2), rel=1e-7)
+
+
+def test_q_W_and_E_are_one():
+    assert float(hx.characteristic_number(alg("W"))) == pytest.approx(1.0, abs=1e-12)
+    e = hx.characteristic_number(alg("E"))
+    assert e.value == pytest.approx(1.0, abs=1e-9) and e.closed_form == 1.0  # eq. 21
+
+
+def dense_sup(a, dmax=1e-3, nx=2001, nd=401):
+    """Reference: a dense grid over one period and depth (0, dmax]."""
+    x = np.linspace(0, L, nx)
+    d = np.linspace(dmax / nd, dmax, nd)
+    X, D = np.meshgrid(x, d, indexing="ij")
+    Z = (a.texture.height(X) - D) if a.penetration_kind == "vertical" else -D
+    return float(hx.spectral_norm(a.jacobian(np.stack([X, Z], -1))).max()) / K0
+
+
+@pytest.mark.parametrize("letter", ["B", "C", "G"])
+def test_q_without_closed_form_is_the_sup_not_a_grid_sample(letter):
+    q = hx.characteristic_number(alg(letter))
+    ref = dense_sup(alg(letter))
+    assert q.closed_form is None  # Table II: "No closed-form"
+    assert q.value >= ref * (1 - 1e-12)
+    assert q.value == pytest.approx(ref, rel=1e-4)
+    # a coarse grid must not lose the sup either: refinement recovers it
+    coarse = hx.characteristic_number(alg(letter), resolution=(16, 4))
+    assert coarse.value == pytest.approx(q.value, rel=1e-6)
+
+
+def test_q_grows_with_max_penetration_for_coupled_algorithms():
+    # Remark 3: the characteristic number of B, C, G depends on the penetration
+    for letter in "BCG":
+        q1 = hx.characteristic_number(alg(letter), max_penetration=0.2e-3).value
+        q2 = hx.characteristic_number(alg(letter), max_penetration=1e-3).value
+        assert q2 > q1
+
+
+def test_q_D_is_unbounded_at_the_centre_of_curvature_below_each_peak():
+    q = hx.characteristic_number(alg("D"))
+    rho = L**2 / (4 * math.pi**2 * A)  # radius of curvature at the peak, 31.7 um
+    assert q.unbounded and math.isinf(float(q))
+    assert q.where[0] == pytest.approx(L / 4, abs=1e-9)
+    assert q.where[1] == pytest.approx(A - rho, abs=1e-9)
+    assert q.closed_form == 1.0 and q.paper_form_value == pytest.approx(1.0, rel=1e-9)  # eq. 18
+    # approaching the focus from above, ||J||/kappa_0 = (r/rho)/(1 - r/rho) exactly (s = 0)
+    d = alg("D")
+    for frac in (0.5, 0.9, 0.99, 0.999):
+        p = np.array([[L / 4, A - frac * rho]])
+        norm = hx.spectral_norm(d.jacobian(p))[0] / K0
+        assert norm == pytest.approx(frac / (1 - frac), rel=1e-6)
+
+
+def test_q_D_is_bounded_when_the_curvature_is_gentle():
+    # A = 20 um, l = 1 mm: radius of curvature rho = l^2/(4 pi^2 A) = 1.27 mm > 1 mm, so the
+    # sup is finite. Directly below a peak at depth r, ||J||/kappa_0 = (r/rho)/(1 - r/rho)
+    # (s = 0 in the exact Jacobian), largest at r = 1 mm: 3.74. A dense grid agrees.
+    amp = 20e-6
+    tex = hx.Sinusoid(amp, 1e-3)
+    q = hx.characteristic_number(alg("D", tex))
+    rho = L**2 / (4 * math.pi**2 * amp)
+    assert math.isfinite(q.value)
+    assert q.value == pytest.approx((1e-3 / rho) / (1 - 1e-3 / rho), rel=1e-3)
+    x = np.linspace(0, L, 801)
+    z = np.linspace(-amp - 1e-3, amp, 801)
+    P = np.stack(np.meshgrid(x, z, indexing="ij"), -1)
+    cp = hx.closest_point(tex, P)
+    ok = (cp.distance > 0) & (cp.distance <= 1e-3)
+    ref = float(hx.spectral_norm(alg("D", tex).jacobian(P))[ok].max()) / K0
+    assert q.value >= ref * (1 - 1e-9)
+
+
+# -- loop energies (Fig. 3) ------------------------------------------------------------
+def test_loop_A_is_half_kappa0_A_squared():
+    path, expected, _ = hx.paper_loop(alg("A"))
+    np.testing.assert_allclose(path, [[0, 0], [L / 4, 0], [L / 4, A], [0, A], [0, 0]])
+    assert expected == pytest.approx(0.5 * K0 * A * A)
+    assert hx.path_work(alg("A"), path) == pytest.approx(0.5 * K0 * A * A, rel=1e-6)
+
+
+def test_loop_B_is_eq_12():
+    path, _, _ = hx.paper_loop(alg("B"))
+    eq12 = K0 * A**2 / 2 + K0 * L**2 / (4 * math.pi**2) * (1 - math.sqrt((L**2 + 4 * A**2 * math.pi**2) / L**2))
+    assert hx.path_work(alg("B"), path) == pytest.approx(eq12, rel=1e-6)
+    assert eq12 == pytest.approx(4.3102e-4, rel=1e-4)
+
+
+def test_loop_E_is_positive():
+    path, expected, _ = hx.paper_loop(alg("E"))
+    assert expected is None
+    assert hx.path_work(alg("E"), path) > 1e-5  # Section IV-E-4: Delta E > 0
+
+
+def test_loop_G_equals_the_work_along_its_bottom_segment():
+    # eq. 29: -k a^2/2 + dE2 + k a^2/2 + 0 = dE2, and for h = A sin the bottom segment's work
+    # integrates to kappa_0 a l arctan(2 pi A / l) / pi
+    a = 0.5e-3
+    path, expected, _ = hx.paper_loop(alg("G"), depth=a)
+    loop = hx.path_work(alg("G"), path)
+    bottom = hx.path_work(alg("G"), path[1:3])
+    assert loop == pytest.approx(bottom, rel=1e-9)
+    assert loop == pytest.approx(K0 * a * L * math.atan(2 * math.pi * A / L) / math.pi, rel=1e-6)
+    assert expected == pytest.approx(loop, rel=1e-6)
+    assert hx.path_work(alg("G"), path[0:2]) == pytest.approx(-0.5 * K0 * a * a, rel=1e-9)
+
+
+@pytest.mark.parametrize("letter", ["C", "D", "W"])
+def test_paper_loop_is_zero_for_gradient_fields(letter):
+    path, expected, _ = hx.paper_loop(alg(letter))
+    assert expected == 0.0
+    assert abs(hx.path_work(alg(letter), path)) < 1e-12 * K0 * L * L
+
+
+@pytest.mark.parametrize("letter", ["C", "W", "D"])
+@given(tex=textures(max_components=2), seed=st.integers(0, 2**32 - 1))
+def test_random_closed_polygons_do_no_work_in_gradient_fields(letter, tex, seed):
+    a = alg(letter, tex)
+    for loop in hx.random_loops(a, n=1, vertices=4, seed=seed):
+        assert abs(hx.loop_energy(a, loop)) < 1e-9 * K0 * (2e-3) ** 2
+
+
+def test_path_work_equals_potential_drop_for_gradient_fields():
+    # W = V(start) - V(end) along an open path that enters and leaves the wall
+    path = np.array([[0.1e-3, 1e-3], [0.3e-3, -0.7e-3], [0.9e-3, -0.2e-3], [1.3e-3, -1.1e-3]])
+    for letter in "CDW":
+        a = alg(letter)
+        V = a.potential(path[[0, -1]])
+        assert hx.path_work(a, path) == pytest.approx(V[0] - V[1], rel=1e-8)
+
+
+def test_stokes_theorem_links_curl_and_loop_energy_for_A():
+    # For A the curl is kappa_0 h'(x); over a rectangle inside the wall the loop energy is
+    # the integral of the curl: kappa_0 (z1 - z0)(h(x1) - h(x0)).
+    a = alg("A")
+    x0, x1, z0, z1 = 0.05e-3, 0.2e-3, -1.2e-3, -0.9e-3
+    rect = np.array([[x0, z0], [x1, z0], [x1, z1], [x0, z1], [x0, z0]])
+    expected = K0 * (z1 - z0) * float(SINE.height(np.array([x1]))[0] - SINE.height(np.array([x0]))[0])
+    assert hx.path_work(a, rect) == pytest.approx(expected, rel=1e-8)
+    p = np.array([[0.1e-3, -1e-3]])
+    assert hx.curl(a, p)[0] == pytest.approx(K0 * float(SINE.slope(p[:, 0])[0]), rel=1e-12)
+
+
+@pytest.mark.parametrize("letter", ["C", "W"])
+def test_curl_vanishes_for_gradient_fields(letter):
+    rng = np.random.default_rng(0)
+    p = np.column_stack([rng.uniform(0, L, 100), rng.uniform(-1.8e-3, -0.81e-3, 100)])
+    np.testing.assert_allclose(hx.curl(alg(letter), p), 0.0, atol=1e-9 * K0)
+
+
+def test_path_work_rejects_bad_paths():
+    with pytest.raises(hx.ParameterError, match=r"^path has shape"):
+        hx.path_work(alg("A"), [[0.0, 0.0]])
+    with pytest.raises(hx.ParameterError, match="non-finite"):
+        hx.path_work(alg("A"), [[0.0, 0.0], [np.nan, 0.0]])
+
+
+# -- continuity and conservativity (Table II) ---------------------------------------------
+@pytest.mark.parametrize("letter, continuous", [("W", True), ("A", True), ("B", True), ("C", True),
+                                                ("D", False), ("E", True), ("G", True)])
+def test_continuity_matches_table_II(letter, continuous):
+    c = hx.continuity(alg(letter))
+    assert c.continuous is continuous
+    if letter == "D":
+        # Remark 6: the jump is below the maxima of the sinusoid (x = l/4)
+        assert c.where[0] == pytest.approx(L / 4, abs=2 * c.spacings[-1])
+        assert c.order < 0.1
+    else:
+        assert c.order > 0.8
+
+
+@pytest.mark.parametrize("letter, conservative", [("W", True), ("A", False), ("B", False), ("C", True),
+                                                  ("D", True), ("E", False), ("G", False)])
+def test_conservativity_matches_table_II(letter, conservative):
+    c = hx.conservativity(alg(letter))
+    assert c.conservative is conservative
+
+
+def test_bad_analysis_input():
+    with pytest.raises(hx.ParameterError, match=r"^max_penetration = 0 "):
+        hx.characteristic_number(alg("A"), max_penetration=0)
+    with pytest.raises(hx.ParameterError, match=r"^x_range = "):
+        hx.characteristic_number(alg("A"), x_range=(1e-3, 0))
+    aperiodic = hx.SumOfSinusoids([1e-4, 1e-4], [1e-3, math.sqrt(2) * 1e-3])
+    with pytest.raises(hx.ParameterError, match="x_range = None is not allowed for the aperiodic"):
+        hx.characteristic_number(alg("A", aperiodic))
+    assert hx.characteristic_number(alg("A", aperiodic), x_range=(0, 5e-3)).value > 1
+    with pytest.raises(hx.ParameterError, match="Fig. 3 loops are defined for a Sinusoid"):
+        hx.paper_loop(alg("A", aperiodic))

@@ -1,0 +1,90 @@
+"""The ``haptex`` command: Table II as JSON against the paper, units, and bad input that
+ends in one line and exit status 2."""
+
+import json
+import math
+import subprocess
+import sys
+
+import pytest
+
+import haptex as hx
+from haptex._units import parse_quantity
+from haptex.cli import main
+
+
+@pytest.fixture(scope="module")
+def table_json():
+    import io
+    from contextlib import redirect_stdout
+
+    buf = io.StringIO()
+    with redirect_stdout(buf):
+        assert main(["table", "--json"]) == 0
+    return json.loads(buf.getvalue())
+
+
+def test_table_json_has_every_algorithm_and_the_paper_parameters(table_json):
+    assert table_json["parameters"]["stiffness"] == 2000.0
+    assert table_json["parameters"]["amplitude"] == pytest.approx(0.8e-3)
+    assert [r["algorithm"] for r in table_json["rows"]] == list("WABCDEG")
+    keys = {"algorithm", "characteristic_number", "characteristic_number_closed_form", "loop_energy",
+            "conservative", "continuous", "paper"}
+    assert all(keys <= set(r) for r in table_json["rows"])
+
+
+def test_table_reproduces_table_II(table_json):
+    rows = {r["algorithm"]: r for r in table_json["rows"]}
+    # Table II's conservativity and continuity columns, measured (W from eq. 30)
+    assert {k: r["conservative"] for k, r in rows.items()} == dict(W=True, A=False, B=False, C=True, D=True, E=False, G=False)
+    assert {k: r["continuous"] for k, r in rows.items()} == dict(W=True, A=True, B=True, C=True, D=False, E=True, G=True)
+    # eq. 10 and Section V-A's 5.1
+    assert rows["A"]["characteristic_number"] == pytest.approx(math.sqrt(1 + (2 * math.pi * 0.8) ** 2), rel=1e-9)
+    assert rows["E"]["characteristic_number"] == pytest.approx(1.0, abs=1e-9)
+    assert rows["D"]["characteristic_number"] == "inf"  # exact Jacobian; eq. 18 gives 1
+    assert rows["D"]["characteristic_number_paper_form"] == pytest.approx(1.0)
+    # Fig. 3 loop energies: A = kappa_0 A^2 / 2, B = eq. 12
+    assert rows["A"]["loop_energy"] == pytest.approx(0.5 * 2000 * 0.8e-3**2, rel=1e-6)
+    assert rows["B"]["loop_energy"] == pytest.approx(rows["B"]["loop_energy_closed_form"], rel=1e-6)
+    assert all(r["agrees_with_paper"]["conservative"] for r in rows.values())
+
+
+def test_units_are_parsed_where_people_write_them():
+    assert parse_quantity("0.8mm", "m", "amplitude") == pytest.approx(0.8e-3)
+    assert parse_quantity("2 kN/m", "N/m", "stiffness") == pytest.approx(2000.0)
+    assert parse_quantity("15 µm", "m", "x") == pytest.approx(15e-6)
+    assert parse_quantity("1e-3", "m", "x") == 1e-3  # bare numbers are SI
+    with pytest.raises(hx.ParameterError, match="^stiffness = '2 kg' is not allowed: its unit"):
+        parse_quantity("2 kg", "N/m", "stiffness")
+    with pytest.raises(hx.ParameterError, match="^period = 'abc' is not allowed"):
+        parse_quantity("abc", "m", "period")
+
+
+@pytest.mark.parametrize(
+    "args, fragment",
+    [
+        (["table", "--stiffness", "-2 kN/m"], "stiffness = -2000 is not allowed"),
+        (["table", "--period", "2kg"], "period = '2kg' is not allowed"),
+        (["table", "--amplitude", "nan"], "amplitude"),
+        (["table", "--bogus"], "No such option"),
+        (["reproduce", "--out", "/proc/haptex-cannot-be-here"], "out = '/proc/haptex-cannot-be-here' is not allowed"),
+    ],
+)
+def test_bad_input_prints_one_line_and_exits_2(args, fragment):
+    r = subprocess.run([sys.executable, "-m", "haptex", *args], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("haptex: error: ") and fragment in lines[0]
+    assert "Traceback" not in r.stderr
+
+
+def test_reproduce_writes_summary_json(tmp_path):
+    out = tmp_path / "report"
+    r = subprocess.run([sys.executable, "-m", "haptex", "reproduce", "--out", str(out)],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    rows = {row["algorithm"]: row for row in summary["table_ii"]["rows"]}
+    assert rows["A"]["characteristic_number"] == pytest.approx(5.125, abs=1e-3)  # eq. 10 at V-A
+    assert "Table II" in r.stdout
+    assert not [p for p in out.iterdir() if p.name.startswith(".")]  # no temporary file left
