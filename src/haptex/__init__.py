@@ -5,8 +5,10 @@ Implements the smooth wall W and the texture algorithms A–G of Campion & Haywa
 characteristic numbers and loop energies. SI units throughout (m, N, s).
 """
 
+from . import friction
 from ._validation import ParameterError
 from .algorithms import ALGORITHMS, Algorithm, algorithm
+from .friction import PreslidingState
 from .analysis import (
     CharacteristicNumber,
     Conservativity,
@@ -15,6 +17,7 @@ from .analysis import (
     conservativity,
     continuity,
     curl,
+    friction_bounds,
     loop_energy,
     paper_loop,
     path_work,
@@ -37,6 +40,7 @@ __all__ = [
     "Flat",
     "PAPER_PARAMETERS",
     "ParameterError",
+    "PreslidingState",
     "Sinusoid",
     "SumOfSinusoids",
     "Texture",
@@ -46,6 +50,8 @@ __all__ = [
     "conservativity",
     "continuity",
     "curl",
+    "friction",
+    "friction_bounds",
     "loop_energy",
     "paper_loop",
     "path_work",

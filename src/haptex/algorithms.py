@@ -6,16 +6,20 @@ over probe positions ``p = [x, z]`` (m) of shape (..., 2), built with
 surface. Sign convention for the paper's penetration: d < 0 inside (Table I); the
 :meth:`Algorithm.penetration` method returns the *depth* -d >= 0 instead.
 
-Algorithm F (friction with memory) lives in :mod:`haptex.friction` and is added to the
-same registry when it exists.
+Algorithm F (friction with memory) keeps its presliding state in :mod:`haptex.friction`.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ._validation import ParameterError, fail, optional_positive, positions, positive
+import warnings
+
+from scipy import integrate
+
+from ._validation import ParameterError, fail, in_range, nonnegative, optional_positive, positions, positive
 from .closest import closest_point
+from .friction import PreslidingState, step
 from .textures import Flat, Texture
 
 __all__ = ["Algorithm", "algorithm", "ALGORITHMS"]
@@ -489,6 +493,230 @@ class ForceShading(Algorithm):
         return f, j
 
 
+class FrictionModulated(Algorithm):
+    """F — flat wall with lateral friction modulated by the texture (the paper's own).
+
+    Eq. 22, with the dissipative sign: for p^z < 0,
+
+        f_x = -mu kappa_0 |p^z| [1 - h~(p^x)] d^x / d^x_max,     f_z = -kappa_0 p^z,
+
+    where d^x is the presliding deflection of the Hayward–Armstrong model
+    (:mod:`haptex.friction`, eq. 24), so the lateral force opposes the deflection and
+    reaches mu kappa_0 |p^z| [1 - h~] (Amontons–Coulomb) in slip. The printed eq. 22
+    reads -kappa_0 mu [1 - h] (d^x / d^x_max) p^z, which with p^z < 0 pushes *along*
+    the deflection and would make sliding generative; Section IV-F-4 says sliding is
+    dissipative, so haptex uses the sign that makes it so.
+
+    Reading of the paper's dimensionless h: for F the paper assumes 0 <= h <= 1 and its
+    experiments use "A = 0.8". haptex normalises the texture to peak magnitude 1 and
+    scales it by ``modulation_depth`` (0 <= depth <= 1): h~ = depth h / max|h|, so the
+    modulation 1 - h~ lies in [1 - depth, 1 + depth] within [0, 2]. The default
+    depth 0.8 is the paper's A = 0.8. A texture of zero amplitude gives h~ = 0.
+
+    With ``max_penetration`` (d^z_max, Remark 3 and Section IV-F-3) the lateral term uses
+    min(|p^z|, d^z_max).
+
+    The field has memory: evaluate it statically with an explicit deflection
+    (``force(p, deflection)``, ``jacobian(p, deflection, phase)``, eqs. 23, 25, 26), or
+    along a path with :func:`haptex.path_work`, which steps the friction state.
+    """
+
+    letter = "F"
+    name = "flat wall with modulated lateral friction"
+    penetration_kind = "nominal"
+    has_memory = True
+    reference = "eq. 22–27, 31; Hayward & Armstrong (2000) [32]"
+
+    def __init__(self, texture, stiffness, friction=0.8, presliding=1e-3, modulation_depth=0.8,
+                 max_penetration=None, stick_deflection=None):
+        super().__init__(texture, stiffness, max_penetration)
+        self.friction = nonnegative("friction", friction)
+        self.presliding = positive("presliding", presliding, "m")
+        self.modulation_depth = in_range("modulation_depth", modulation_depth, 0.0, 1.0)
+        # validates stick_deflection against presliding
+        self.stick_deflection = PreslidingState(0.0, self.presliding, stick_deflection).stick_deflection
+        peak = float(texture.peak_magnitude)
+        if not np.isfinite(peak):
+            raise fail("texture", texture, "a texture with finite heights")
+        self._scale = self.modulation_depth / peak if peak > 0 else 0.0
+
+    def __repr__(self) -> str:
+        return (f"algorithm('F', {self.texture!r}, stiffness={self.stiffness:g}, friction={self.friction:g}, "
+                f"presliding={self.presliding:g}, modulation_depth={self.modulation_depth:g})")
+
+    # -- modulation --------------------------------------------------------------------
+    def modulation(self, x) -> np.ndarray:
+        """Modulation 1 - h~(x) (dimensionless) for x of any shape (m)."""
+        return 1.0 - self._scale * self.texture.height(np.asarray(x, dtype=np.float64))
+
+    @property
+    def modulation_max_slope(self) -> float:
+        """sup |d h~ / dx| (1/m): depth M / max|h|, with M the texture's Lipschitz bound."""
+        return self._scale * self.texture.max_slope
+
+    def initial_state(self, x: float) -> PreslidingState:
+        """Friction state of a fresh contact at abscissa x (m): zero deflection."""
+        return PreslidingState.at(x, self.presliding, self.stick_deflection)
+
+    # -- static evaluation ---------------------------------------------------------------
+    def _deflection(self, deflection, shape):
+        d = np.broadcast_to(np.asarray(deflection, dtype=np.float64), shape)
+        if not np.all(np.isfinite(d)) or np.any(np.abs(d) > self.presliding * (1 + 1e-12)):
+            bad = d[~(np.isfinite(d) & (np.abs(d) <= self.presliding * (1 + 1e-12)))].ravel()[0]
+            raise fail("deflection", float(bad), f"a finite deflection in [-{self.presliding:g}, {self.presliding:g}] m")
+        return d
+
+    def force(self, p, deflection=0.0) -> np.ndarray:
+        """Force of F at positions p for a given presliding deflection (eq. 22).
+
+        Parameters
+        ----------
+        p : array_like, shape (..., 2)
+            Probe positions [x, z] (m).
+        deflection : float or array_like, shape broadcastable to (...)
+            Presliding deflection d^x (m), |d^x| <= d^x_max.
+
+        Returns
+        -------
+        ndarray, shape (..., 2)
+            Force (N); zero outside the wall (p^z >= 0).
+
+        Raises
+        ------
+        ParameterError
+            If ``p`` is malformed or a deflection is outside [-d^x_max, d^x_max].
+        """
+        arr = positions(p)
+        x, z = arr[..., 0], arr[..., 1]
+        d = self._deflection(deflection, x.shape)
+        f, _ = self._static(x, z, d, None)
+        return f
+
+    def jacobian(self, p, deflection=0.0, phase: str = "stick") -> np.ndarray:
+        """Jacobian of F (eq. 23) for a given deflection and friction phase.
+
+        Parameters
+        ----------
+        p : array_like, shape (..., 2)
+            Probe positions [x, z] (m).
+        deflection : float or array_like
+            Presliding deflection d^x (m), |d^x| <= d^x_max.
+        phase : {"stick", "slip"}
+            dd^x/dp^x = 1 in stick and 0 in slip (eq. 24).
+
+        Returns
+        -------
+        ndarray, shape (..., 2, 2)
+            With m = 1 - h~, z_c = min(|p^z|, d^z_max):
+            J_xx = -mu kappa_0 z_c (m dd/dx - h~' d) / d_max,
+            J_xz = mu kappa_0 m d / d_max where |p^z| < d^z_max (else 0),
+            J_zx = 0, J_zz = -kappa_0 (N/m).
+
+        Raises
+        ------
+        ParameterError
+            If ``phase`` is not "stick" or "slip", or another argument is malformed.
+        """
+        if phase not in ("stick", "slip"):
+            raise fail("phase", phase, 'one of "stick", "slip"')
+        arr = positions(p)
+        x, z = arr[..., 0], arr[..., 1]
+        d = self._deflection(deflection, x.shape)
+        _, j = self._static(x, z, d, 1.0 if phase == "stick" else 0.0)
+        return j
+
+    def _static(self, x, z, d, dd_dx):
+        k, mu, dm = self.stiffness, self.friction, self.presliding
+        inside = z < 0
+        depth = np.where(inside, -z, 0.0)
+        follows = np.ones_like(inside)
+        if self.max_penetration is not None:
+            follows = depth < self.max_penetration
+            depth = np.minimum(depth, self.max_penetration)
+        m = self.modulation(x)
+        f, j = _zeros(x, dd_dx is not None)
+        f[..., 0] = -mu * k * depth * m * d / dm
+        f[..., 1] = np.where(inside, -k * z, 0.0)
+        if j is not None:
+            hs = self._scale * self.texture.slope(x)
+            j[..., 0, 0] = -mu * k * depth * (m * dd_dx - hs * d) / dm
+            j[..., 0, 1] = np.where(inside & follows, mu * k * m * d / dm, 0.0)
+            j[..., 1, 1] = np.where(inside, -k, 0.0)
+        return f, j
+
+    def _evaluate(self, x, z, jacobian):
+        return self._static(x, z, np.zeros_like(x), 1.0 if jacobian else None)
+
+    # -- along a path ----------------------------------------------------------------------
+    def path_work(self, pts: np.ndarray, rtol: float = 1e-10) -> float:
+        """Work (J) along a polyline of shape (N, 2), stepping the friction state.
+
+        Contact starts with zero deflection where the path enters the wall and the state
+        is reset where it leaves. With the sharp model the deflection is piecewise
+        affine along each segment, so each stick and slip piece is integrated by
+        adaptive quadrature; the smooth variant is stepped on 4000 sub-steps a piece and
+        integrated by the trapezoidal rule.
+        """
+        from .analysis import _breakpoints
+
+        total = 0.0
+        state = None  # None: out of contact
+        for a, b in zip(pts[:-1], pts[1:]):
+            delta = b - a
+            if not np.any(delta):
+                continue
+            cuts = [0.0, *_breakpoints(self, a, b), 1.0]
+            for u0, u1 in zip(cuts[:-1], cuts[1:]):
+                if u1 <= u0:
+                    continue
+                if (a + 0.5 * (u0 + u1) * delta)[1] >= 0.0:
+                    state = None
+                    continue
+                if state is None:
+                    state = self.initial_state(float(a[0] + u0 * delta[0]))
+                work, state = self._piece_work(a, delta, u0, u1, state, rtol)
+                total += work
+        return total
+
+    def _piece_work(self, a, delta, u0, u1, state, rtol):
+        def fz_work(u, d):
+            return float(self.force((a + u * delta)[None, :], d)[0] @ delta)
+
+        scale = self.stiffness * float(delta @ delta)
+        if self.stick_deflection is not None or delta[0] == 0.0:
+            if delta[0] == 0.0:
+                d = state.deflection
+                val = integrate.quad(lambda u: fz_work(u, d), u0, u1, epsabs=1e-15 * scale, epsrel=rtol, limit=200)[0]
+                return val, state
+            us = np.linspace(u0, u1, 4001)
+            vals = np.empty_like(us)
+            for i, u in enumerate(us):
+                d, state = step(state, float(a[0] + u * delta[0])) if i else (state.deflection, state)
+                vals[i] = fz_work(u, d)
+            return float(np.trapezoid(vals, us)), state
+        direction = 1.0 if delta[0] > 0 else -1.0
+        dm = self.presliding
+        w = state.adhesion
+        # stick until x(u) - w reaches direction * d_max
+        u_slip = (w + direction * dm - a[0]) / delta[0]
+        pieces = []
+        if u_slip > u0:
+            pieces.append((u0, min(u1, u_slip), "stick"))
+        if u_slip < u1:
+            pieces.append((max(u0, u_slip), u1, "slip"))
+        total = 0.0
+        for p0, p1, kind in pieces:
+            if kind == "stick":
+                fn = lambda u: fz_work(u, a[0] + u * delta[0] - w)  # noqa: E731
+            else:
+                fn = lambda u: fz_work(u, direction * dm)  # noqa: E731
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", integrate.IntegrationWarning)
+                total += integrate.quad(fn, p0, p1, epsabs=1e-15 * scale, epsrel=rtol, limit=200)[0]
+        _, state = step(state, float(a[0] + u1 * delta[0]))
+        return total, state
+
+
 ALGORITHMS: dict[str, type[Algorithm]] = {
     "W": SmoothWall,
     "A": GroovedVertical,
@@ -496,6 +724,7 @@ ALGORITHMS: dict[str, type[Algorithm]] = {
     "C": ChangeOfHeight,
     "D": GodObjectGradient,
     "E": GodObjectVertical,
+    "F": FrictionModulated,
     "G": ForceShading,
 }
 """Registry of algorithm classes by the paper's letter (Table I)."""
@@ -513,8 +742,10 @@ def algorithm(letter: str, texture: Texture | None = None, stiffness: float = 20
     stiffness : float
         Nominal stiffness kappa_0 > 0 (N/m); default 2000 N/m, the paper's Section V-A.
     **params
-        Algorithm-specific parameters: ``max_penetration`` (d^z_max, m) for B, C and G
-        (Remark 3); F's friction parameters (see :mod:`haptex.friction`).
+        Algorithm-specific parameters: ``max_penetration`` (d^z_max, m) for B, C, F and G
+        (Remark 3); for F also ``friction`` (mu >= 0, default 0.8), ``presliding``
+        (d^x_max > 0, m, default 1 mm), ``modulation_depth`` (in [0, 1], default 0.8) and
+        ``stick_deflection`` (z_stick, m, smooth stick-to-slip variant; default None).
 
     Returns
     -------
@@ -551,5 +782,5 @@ def _accepted(key: str) -> str:
     if key in ("B", "C", "G"):
         return "it accepts max_penetration"
     if key == "F":
-        return "see haptex.friction"
+        return "it accepts friction, presliding, modulation_depth, max_penetration, stick_deflection"
     return "it accepts no extra parameter"

@@ -22,6 +22,7 @@ from .textures import Flat, Sinusoid, Texture
 __all__ = [
     "CharacteristicNumber",
     "characteristic_number",
+    "friction_bounds",
     "spectral_norm",
     "path_work",
     "loop_energy",
@@ -81,6 +82,11 @@ class CharacteristicNumber:
         How the value was obtained, in one sentence.
     paper_form_value : float or None
         For D only: the sup of the eq. 18 (flat-boundary) Jacobian, which is 1.
+    extra : dict
+        For F: ``phase`` and ``deflection`` (m) at the sup, ``bound_eq26`` (the norm of
+        the matrix of eq. 26 over kappa_0), ``eq31_as_printed`` (Appendix I's expression
+        evaluated literally), ``paper_reported`` (8.3, Section V-A) and the parameters
+        those were evaluated with.
     """
 
     letter: str
@@ -90,6 +96,7 @@ class CharacteristicNumber:
     max_penetration: float
     note: str = ""
     paper_form_value: float | None = None
+    extra: dict = field(default_factory=dict)
 
     def __float__(self) -> float:
         return float(self.value)
@@ -196,6 +203,8 @@ def characteristic_number(
 
     if algorithm.penetration_kind == "distance":
         return _q_distance(algorithm, dmax, x0, x1, nx, nd, closed)
+    if algorithm.has_memory:
+        return _q_friction(algorithm, dmax, x0, x1, nx, nd)
 
     xs = np.linspace(x0, x1, nx + 1)
     ds = np.linspace(dmax / nd, dmax, nd)
@@ -243,6 +252,101 @@ def _candidates(values: np.ndarray, count: int = 8) -> np.ndarray:
     idx = np.array([np.ravel_multi_index(q, finite.shape) for q in pos])
     order = np.argsort(finite.ravel()[idx])[::-1]
     return idx[order[:count]]
+
+
+def friction_bounds(algorithm, depth: float) -> dict:
+    """The paper's bounds on q_F: eq. 26's matrix norm and Appendix I's eq. 31 as printed.
+
+    Both are evaluated with the paper's reading of F: A the dimensionless modulation depth
+    (h in [0, 1]), l the texture period (the shortest period for other textures; for them
+    2 pi A / l is replaced by the modulation's Lipschitz bound, Remark 2), p^z = ``depth``.
+
+    Parameters
+    ----------
+    algorithm : Algorithm
+        Algorithm F.
+    depth : float
+        |p^z| at which the bounds are evaluated (m), the paper's d^z_max.
+
+    Returns
+    -------
+    dict
+        ``bound_eq26``: ||[[2 mu p^z (1/d^x_max + pi A / l), 2 mu], [0, 1]]||_2;
+        ``eq31_as_printed``: eq. 31 evaluated term by term as printed (its exponents such
+        as (mu^4 p^z)^4 are kept, although they make it differ from the norm it bounds);
+        ``eq31_corrected``: eq. 31 with the inner root replaced by the closed form of the
+        2x2 singular value, which equals ``bound_eq26``.
+    """
+    mu = algorithm.friction
+    dm = algorithm.presliding
+    P = depth
+    K = 0.5 * algorithm.modulation_max_slope  # pi A / l for h~ = A sin(2 pi x / l)
+    a = 2 * mu * P * (1 / dm + K)
+    b = 2 * mu
+    eq26 = float(spectral_norm(np.array([[a, b], [0.0, 1.0]])))
+    r = K * dm
+    D = dm
+    outer = 4 * (mu * P) ** 2 + 8 * (mu * P) ** 2 * r + 4 * (mu * P * r) ** 2 + 4 * (mu * D) ** 2 + D**2
+    inner = (16 * (mu**4 * P) ** 4 + 32 * mu**2 * (mu**2 * D * P) ** 2 + 64 * (mu * P) ** 4 * r + D**4
+             + 96 * (mu * P) ** 4 * r**2 + 64 * (mu * P) ** 4 * r**3 + 64 * mu**4 * D**3 * P**2 * K
+             - 16 * D**3 * (mu * P) ** 2 * K + 16 * (mu * P * r) ** 4 + 32 * (mu**4 * D) ** 4 * (P * K) ** 2
+             - 8 * D**4 * (mu * P * K) ** 2 + 16 * (mu * D) ** 4 + 8 * mu**2 * D**4 - 8 * (mu * P * D) ** 2)
+    eq31 = math.sqrt(2) / (2 * D) * math.sqrt(outer + math.sqrt(inner)) if inner >= 0 else math.nan
+    s2 = outer / D**2
+    corrected = math.sqrt(0.5 * (s2 + math.sqrt(max(s2 * s2 - 4 * a * a, 0.0))))
+    return {"bound_eq26": eq26, "eq31_as_printed": eq31, "eq31_corrected": corrected,
+            "evaluated_with": {"mu": mu, "presliding": dm, "p_z": P, "pi_A_over_l": K}}
+
+
+PAPER_Q_F = 8.3
+"""q_F reported in Section V-A (kappa_0 = 2000 N/m, l = 1 mm, A = 0.8, mu = 0.8,
+d^x_max = d^z_max = 1 mm)."""
+
+
+def _q_friction(alg, dmax, x0, x1, nx, nd) -> CharacteristicNumber:
+    """Characteristic number of F: sup over x, depth, deflection and both phases."""
+    k0 = alg.stiffness
+    dm = alg.presliding
+    depth_max = dmax
+    nq = 33
+    xs = np.linspace(x0, x1, nx + 1)
+    ds = np.linspace(depth_max / nd, depth_max, nd)
+    qs = np.linspace(-dm, dm, nq)
+    best, arg = -np.inf, None
+    for phase, defl in (("stick", qs), ("slip", np.array([-dm, dm]))):
+        X, Dp, Q = np.meshgrid(xs, ds, defl, indexing="ij")
+        P = np.stack([X, -Dp], axis=-1)
+        norms = spectral_norm(alg.jacobian(P, Q, phase)) / k0
+        flat = np.argsort(norms, axis=None)[-4:]
+        for idx in flat:
+            i, j, q = np.unravel_index(idx, norms.shape)
+
+            def neg(v, phase=phase, q=q):
+                dd = v[2] if phase == "stick" else defl[q]
+                return -float(spectral_norm(alg.jacobian(np.array([[v[0], -v[1]]]), dd, phase))[0]) / k0
+
+            dx, dd_ = (x1 - x0) / nx, depth_max / nd
+            bounds = [(max(x0, xs[i] - dx), min(x1, xs[i] + dx)), (max(dd_ * 1e-6, ds[j] - dd_), min(depth_max, ds[j] + dd_)),
+                      (-dm, dm) if phase == "stick" else (defl[q], defl[q])]
+            r = optimize.minimize(neg, x0=[xs[i], ds[j], defl[q]], method="L-BFGS-B", bounds=bounds,
+                                  options={"ftol": 1e-15, "gtol": 1e-12})
+            val, v = (-float(r.fun), r.x) if -r.fun > norms[i, j, q] else (float(norms[i, j, q]), (xs[i], ds[j], defl[q]))
+            if val > best:
+                best, arg = val, (float(v[0]), float(v[1]), float(v[2]), phase)
+    bounds_paper = friction_bounds(alg, depth_max if alg.max_penetration is None else min(depth_max, alg.max_penetration))
+    extra = {"phase": arg[3], "deflection": arg[2], **bounds_paper}
+    note = (f"sup over x in [{x0:g}, {x1:g}] m, depth in (0, {depth_max:g}] m, deflection in "
+            f"[-{dm:g}, {dm:g}] m, stick and slip; eq. 26 bound {bounds_paper['bound_eq26']:.4g}, "
+            f"eq. 31 as printed {bounds_paper['eq31_as_printed']:.4g}")
+    tex = alg.texture
+    paper_case = (isinstance(tex, Sinusoid) and math.isclose(tex.period, 1e-3) and math.isclose(alg.friction, 0.8)
+                  and math.isclose(dm, 1e-3) and math.isclose(depth_max, 1e-3)
+                  and math.isclose(alg.modulation_depth, 0.8)
+                  and (alg.max_penetration is None or alg.max_penetration >= depth_max))
+    if paper_case:
+        extra["paper_reported"] = PAPER_Q_F
+        note += f"; Section V-A reports {PAPER_Q_F} for these parameters"
+    return CharacteristicNumber("F", best, None, (arg[0], -arg[1]), dmax, note, None, extra)
 
 
 def _normal_point(tex: Texture, t, r):
@@ -383,6 +487,7 @@ def _breakpoints(alg: Algorithm, a: np.ndarray, b: np.ndarray) -> list[float]:
     out: list[float] = []
     for k, vals in enumerate(_signed_depths(alg, pts)):
         sgn = np.sign(vals)
+        out.extend(float(u[i]) for i in np.nonzero(sgn[1:-1] == 0)[0] + 1)  # a sample on the kink
         for i in np.nonzero(sgn[:-1] * sgn[1:] < 0)[0]:
             fn = lambda uu, k=k: float(_signed_depths(alg, (a + uu * (b - a))[None, :])[k][0])  # noqa: E731
             out.append(optimize.brentq(fn, u[i], u[i + 1], xtol=1e-16, rtol=1e-15))
@@ -533,6 +638,8 @@ def paper_loop(algorithm: Algorithm, depth: float | None = None) -> tuple[np.nda
     """
     k0 = algorithm.stiffness
     letter = algorithm.letter
+    if letter == "F":
+        return _paper_loop_f(algorithm, depth)
     if letter in ("G", "W"):
         a = 0.5e-3 if depth is None else positive("depth", depth, "m")
         if letter == "W":
@@ -558,6 +665,29 @@ def paper_loop(algorithm: Algorithm, depth: float | None = None) -> tuple[np.nda
     return path, expected, "Fig. 3 path (0,0)->(l/4,0)->(l/4,A)->(0,A)->(0,0)"
 
 
+def _paper_loop_f(alg, a: float | None):
+    """Eq. 27's path for F and its energy derived from eq. 22 along it."""
+    dz = alg.max_penetration if alg.max_penetration is not None else 1e-3
+    dm = alg.presliding
+    a = 1e-3 * dz if a is None else positive("depth", a, "m")
+    if not a < dz:
+        raise fail("depth", a, f"a depth below d^z_max = {dz:g} m")
+    path = np.array([[0.0, dz], [0.0, -a], [dm, -a], [dm, -dz], [0.0, -dz], [0.0, dz]])
+    # The lateral work is mu kappa_0 (dz - a)/dm * integral_0^dm m(x) x dx (stick both ways).
+    tex = alg.texture
+    if alg._scale == 0.0:
+        integral = dm * dm / 2
+    elif isinstance(tex, Sinusoid):
+        k = 2 * math.pi / tex.period
+        ph = tex.phases[0]
+        sx = math.sin(k * dm + ph) / k**2 - dm * math.cos(k * dm + ph) / k - math.sin(ph) / k**2
+        integral = dm * dm / 2 - alg._scale * tex.amplitude * sx
+    else:
+        return path, None, "eq. 27 path, a = %g m" % a
+    expected = alg.friction * alg.stiffness * (dz - a) / dm * integral
+    return path, expected, "eq. 27 path, a = %g m (eq. 27: kappa_0 mu d^z_max d^x_max / 2 as a -> 0, A = 0)" % a
+
+
 # ------------------------------------------------------------------------------------
 # curl, continuity, conservativity
 # ------------------------------------------------------------------------------------
@@ -574,6 +704,13 @@ def curl(algorithm: Algorithm, p) -> np.ndarray:
     """
     j = algorithm.jacobian(p)
     return j[..., 1, 0] - j[..., 0, 1]
+
+
+def _static_force(alg: Algorithm, p) -> np.ndarray:
+    """Force over positions; for F in full slip (|d^x| = d^x_max), its largest lateral force."""
+    if alg.has_memory:
+        return alg.force(p, alg.presliding)
+    return alg.force(p)
 
 
 def _region_box(alg: Algorithm, max_penetration: float, x_range=None):
@@ -656,7 +793,7 @@ def continuity(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=None
         xs = x0 + hstep * np.arange(n + 1)
         zs = z0 + hstep * np.arange(nz + 1)
         X, Z = np.meshgrid(xs, zs, indexing="ij")
-        F = algorithm.force(np.stack([X, Z], axis=-1))
+        F = _static_force(algorithm, np.stack([X, Z], axis=-1))
         dxf = np.linalg.norm(F[1:, :] - F[:-1, :], axis=-1)
         dzf = np.linalg.norm(F[:, 1:] - F[:, :-1], axis=-1)
         mx, mz = float(dxf.max()), float(dzf.max())
@@ -691,12 +828,22 @@ class Conservativity:
         Energies around random closed polygons in the wall (J).
     tolerance : float
         Quadrature accuracy used as the zero threshold (J).
+    almost : bool or None
+        For F only ("almost conservative", Table II): True when every loop energy stays
+        below its stick-phase bound in ``loop_bounds``; None for memoryless fields.
+    loop_bounds : tuple of float
+        For F: the most a loop can generate (J), n_runs mu kappa_0 (1 + depth) d^z d^x_max / 2,
+        with n_runs the number of monotone runs of x around the loop: energy is generated
+        only in stick, at most the lateral spring's energy mu kappa_0 |p^z| m d_max^2 / 2
+        per run (Section IV-F-4, eq. 27).
     """
 
     conservative: bool
     paper_loop_energy: float
     random_loop_energies: tuple = field(default=())
     tolerance: float = 0.0
+    almost: bool | None = None
+    loop_bounds: tuple = field(default=())
 
     @property
     def max_abs_energy(self) -> float:
@@ -768,4 +915,20 @@ def conservativity(algorithm: Algorithm, max_penetration: float = 1e-3, n_random
     except ParameterError:
         e_paper = math.nan
     vals = [abs(e) for e in energies] + ([] if math.isnan(e_paper) else [abs(e_paper)])
-    return Conservativity(all(v <= tol for v in vals), e_paper, energies, tol)
+    almost, bounds = None, ()
+    if algorithm.has_memory:
+        dz = max_penetration if algorithm.max_penetration is None else min(max_penetration, algorithm.max_penetration)
+        per_run = 0.5 * algorithm.friction * algorithm.stiffness * (1 + algorithm.modulation_depth) * dz * algorithm.presliding
+        bounds = tuple(_monotone_runs(lp) * per_run for lp in loops)
+        almost = all(e <= b * (1 + 1e-9) + tol for e, b in zip(energies, bounds))
+    return Conservativity(all(v <= tol for v in vals), e_paper, energies, tol, almost, bounds)
+
+
+def _monotone_runs(loop: np.ndarray) -> int:
+    """Number of maximal runs of a closed polygon along which x is monotone."""
+    dx = np.diff(loop[:, 0])
+    sgn = np.sign(dx[dx != 0])
+    if sgn.size == 0:
+        return 0
+    changes = int(np.count_nonzero(sgn != np.roll(sgn, 1)))
+    return max(changes, 1)

@@ -105,7 +105,7 @@ def _print_table(data) -> None:
         title=(f"Table II  (kappa_0 = {p['stiffness']:g} N/m, A = {p['amplitude'] * 1e3:g} mm, "
                f"l = {p['period'] * 1e3:g} mm, max penetration {p['max_penetration'] * 1e3:g} mm)"),
     )
-    for col in ("alg.", "q (numeric)", "q closed form", "paper q", "loop energy (J)", "paper loop",
+    for col in ("alg.", "q (numeric)", "q closed form", "paper q", "loop energy (J)", "closed form",
                 "conservative", "paper", "continuous", "paper"):
         t.add_column(col)
     for r in data["rows"]:
@@ -118,12 +118,24 @@ def _print_table(data) -> None:
             r["paper"]["characteristic_number"],
             f"{r['loop_energy']:.4g}",
             "> 0" if le is None else f"{le:.4g}",
-            "yes" if r["conservative"] else "no",
+            "yes" if r["conservative"] else ("almost" if r.get("almost_conservative") else "no"),
             r["paper"]["conservative"],
             "yes" if r["continuous"] else "no",
             r["paper"]["continuous"],
         )
-    Console(width=160).print(t)
+    console = Console(width=160)
+    console.print(t)
+    for r in data["rows"]:
+        ex = r.get("characteristic_number_extra") or {}
+        if "bound_eq26" in ex:
+            paper = ex.get("paper_reported")
+            q = r["characteristic_number"]
+            verdict = (f"paper reports {paper}: {'agrees' if math.isclose(q, paper, rel_tol=0.05) else 'differs'}"
+                       if paper is not None else "no value reported by the paper for these parameters")
+            console.print(
+                f"{r['algorithm']}: q numeric {q:.4g} ({ex['phase']}, |d| = {abs(ex['deflection']) * 1e3:.3g} mm); "
+                f"eq. 26 bound {ex['bound_eq26']:.4g}; eq. 31 as printed {ex['eq31_as_printed']:.4g}; {verdict}"
+            )
 
 
 def _jsonable(obj):
