@@ -47,6 +47,10 @@ def _paper_options(func):
                      show_default="1mm", help="Texture spatial period l, e.g. '1mm'."),
         click.option("--max-penetration", type=Quantity("m"), default=PAPER_PARAMETERS["max_penetration"],
                      show_default="1mm", help="Depth of the analysed region, d^z_max."),
+        click.option("--friction", type=Quantity("dimensionless"), default=PAPER_PARAMETERS["friction"],
+                     show_default="0.8", help="Algorithm F's friction coefficient mu."),
+        click.option("--presliding", type=Quantity("m"), default=PAPER_PARAMETERS["presliding"],
+                     show_default="1mm", help="Algorithm F's presliding range d^x_max."),
     ]
     for opt in reversed(opts):
         func = opt(func)
@@ -62,9 +66,9 @@ def cli():
 @cli.command()
 @_paper_options
 @click.option("--json", "as_json", is_flag=True, help="Print the table as JSON.")
-def table(stiffness, amplitude, period, max_penetration, as_json):
+def table(stiffness, amplitude, period, max_penetration, friction, presliding, as_json):
     """Table II: characteristic number, loop energy, conservativity, continuity."""
-    data = _table(stiffness, amplitude, period, max_penetration)
+    data = _table(stiffness, amplitude, period, max_penetration, friction, presliding)
     if as_json:
         click.echo(json.dumps(_jsonable(data), indent=2))
     else:
@@ -75,20 +79,20 @@ def table(stiffness, amplitude, period, max_penetration, as_json):
 @_paper_options
 @click.option("--out", "out", type=click.Path(file_okay=False, path_type=Path), default=Path("haptex-report"),
               show_default=True, help="Directory the report is written into.")
-def reproduce(stiffness, amplitude, period, max_penetration, out):
+def reproduce(stiffness, amplitude, period, max_penetration, friction, presliding, out):
     """Recompute the paper's results on its parameters and write a report into --out."""
     _prepare_dir(out)
-    data = _table(stiffness, amplitude, period, max_penetration)
+    data = _table(stiffness, amplitude, period, max_penetration, friction, presliding)
     _print_table(data)
     summary = {"paper": "Campion & Hayward, On the Synthesis of Haptic Textures", "table_ii": _jsonable(data)}
     path = _write_json(out, "summary.json", summary)
     click.echo(f"wrote {path}")
 
 
-def _table(stiffness, amplitude, period, max_penetration):
+def _table(stiffness, amplitude, period, max_penetration, friction, presliding):
     from .tables import table_ii
 
-    return table_ii(stiffness, amplitude, period, max_penetration)
+    return table_ii(stiffness, amplitude, period, max_penetration, friction=friction, presliding=presliding)
 
 
 def _fmt_q(row) -> str:
