@@ -5,7 +5,7 @@ Implements the smooth wall W and the texture algorithms A–G of Campion & Haywa
 characteristic numbers and loop energies. SI units throughout (m, N, s).
 """
 
-from . import friction
+from . import friction, operators
 from ._validation import ParameterError
 from .algorithms import ALGORITHMS, Algorithm, algorithm
 from .friction import PreslidingState
@@ -25,6 +25,8 @@ from .analysis import (
     spectral_norm,
 )
 from .closest import ClosestPoint, closest_point
+from .devices import Device, critical_stiffness, five_bar_jacobian
+from .simulate import BatchResult, Oscillation, SimulationResult, simulate, simulate_batch
 from .tables import PAPER_PARAMETERS, table_ii
 from .textures import Flat, Sinusoid, SumOfSinusoids, Texture
 
@@ -32,6 +34,15 @@ __version__ = "0.1.0"
 
 __all__ = [
     "ALGORITHMS",
+    "BatchResult",
+    "Device",
+    "Oscillation",
+    "SimulationResult",
+    "critical_stiffness",
+    "five_bar_jacobian",
+    "operators",
+    "simulate",
+    "simulate_batch",
     "Algorithm",
     "CharacteristicNumber",
     "ClosestPoint",

@@ -204,3 +204,125 @@ def closest_points(kind, coeffs, step, px, pz, t_out, d_out, tie_out):
 def empty_coeffs() -> np.ndarray:
     """Coefficient array for ``TEXTURE_FLAT``."""
     return np.zeros((3, 0), dtype=np.float64)
+
+
+# ----------------------------------------------------------------------------------------
+# Algorithm force kernels: one scalar entry point for every letter, dispatched by code.
+# ----------------------------------------------------------------------------------------
+ALG_W, ALG_A, ALG_B, ALG_C, ALG_D, ALG_E, ALG_F, ALG_G = 0, 1, 2, 3, 4, 5, 6, 7
+# parameter vector layout (float64[8])
+P_K0, P_DZMAX, P_MU, P_DXMAX, P_SCALE, P_ZSTICK, P_STEP = 0, 1, 2, 3, 4, 5, 6
+N_PARAMS = 8
+# state vector layout (float64[3]) for F: adhesion point, in-contact flag, last x
+S_ADH, S_CONTACT, S_LASTX = 0, 1, 2
+N_STATE = 3
+
+
+@nb.njit(**_JIT)
+def _clamp_depth(d, dzmax):
+    """Lateral depth of Remark 3: max(d, -d_max) when d_max > 0 (d < 0 inside)."""
+    if dzmax > 0.0 and d < -dzmax:
+        return -dzmax
+    return d
+
+
+@nb.njit(**_JIT)
+def _presliding(st, x, dxmax, zstick):
+    """Advance F's friction state to x; returns the deflection."""
+    if zstick < 0.0:
+        d = x - st[S_ADH]
+        if d > dxmax:
+            d = dxmax
+            st[S_ADH] = x - dxmax
+        elif d < -dxmax:
+            d = -dxmax
+            st[S_ADH] = x + dxmax
+        st[S_LASTX] = x
+        return d
+    d0 = st[S_LASTX] - st[S_ADH]
+    dx = x - st[S_LASTX]
+    d = d0
+    if dx != 0.0:
+        direction = 1.0 if dx > 0.0 else -1.0
+        n = int(math.ceil(abs(dx) / ((dxmax - zstick) / 64.0)))
+        if n < 1:
+            n = 1
+        h = dx / n
+        for _ in range(n):
+            k1 = _smooth_rate(d, direction, dxmax, zstick)
+            k2 = _smooth_rate(d + 0.5 * h * k1, direction, dxmax, zstick)
+            k3 = _smooth_rate(d + 0.5 * h * k2, direction, dxmax, zstick)
+            k4 = _smooth_rate(d + h * k3, direction, dxmax, zstick)
+            d += h * (k1 + 2.0 * k2 + 2.0 * k3 + k4) / 6.0
+            if d > dxmax:
+                d = dxmax
+            elif d < -dxmax:
+                d = -dxmax
+    st[S_ADH] = x - d
+    st[S_LASTX] = x
+    return d
+
+
+@nb.njit(**_JIT)
+def _smooth_rate(d, direction, dxmax, zstick):
+    if d * direction <= 0.0:
+        return 1.0
+    a = abs(d)
+    if a <= zstick:
+        alpha = 0.0
+    elif a >= dxmax:
+        alpha = 1.0
+    else:
+        alpha = 0.5 + 0.5 * math.sin(math.pi * (a - 0.5 * (dxmax + zstick)) / (dxmax - zstick))
+    return 1.0 - alpha * a / dxmax
+
+
+@nb.njit(**_JIT)
+def alg_force(code, x, z, kind, coeffs, prm, st):
+    """Force (fx, fz) in N of algorithm ``code`` at the probe position (x, z) in m.
+
+    Mirrors the vectorised ``force`` of :mod:`haptex.algorithms` (the tests compare them).
+    ``st`` is F's friction state (updated in place: contact starts with zero deflection,
+    leaving the wall resets it); other algorithms ignore it.
+    """
+    k0 = prm[P_K0]
+    if code == ALG_W:
+        if z < 0.0:
+            return 0.0, -k0 * z
+        return 0.0, 0.0
+    if code == ALG_F or code == ALG_G:
+        if z >= 0.0:
+            st[S_CONTACT] = 0.0
+            return 0.0, 0.0
+        if code == ALG_G:
+            h, s, c = texture_eval(kind, coeffs, x)
+            g = 1.0 / math.sqrt(1.0 + s * s)
+            dl = _clamp_depth(z, prm[P_DZMAX])
+            return k0 * dl * s * g, -k0 * z * g
+        if st[S_CONTACT] == 0.0:
+            st[S_CONTACT] = 1.0
+            st[S_ADH] = x
+            st[S_LASTX] = x
+        d = _presliding(st, x, prm[P_DXMAX], prm[P_ZSTICK])
+        h, s, c = texture_eval(kind, coeffs, x)
+        depth = -z
+        if prm[P_DZMAX] > 0.0 and depth > prm[P_DZMAX]:
+            depth = prm[P_DZMAX]
+        m = 1.0 - prm[P_SCALE] * h
+        return -prm[P_MU] * k0 * depth * m * d / prm[P_DXMAX], -k0 * z
+    h, s, c = texture_eval(kind, coeffs, x)
+    d = z - h
+    if d >= 0.0:
+        return 0.0, 0.0
+    if code == ALG_A:
+        return 0.0, -k0 * d
+    if code == ALG_B:
+        g = 1.0 / math.sqrt(1.0 + s * s)
+        return k0 * _clamp_depth(d, prm[P_DZMAX]) * s * g, -k0 * d * g
+    if code == ALG_C:
+        return k0 * _clamp_depth(d, prm[P_DZMAX]) * s, -k0 * d
+    t, dist, tie = closest_point(kind, coeffs, prm[P_STEP], x, z)
+    if code == ALG_D:
+        th, _, _ = texture_eval(kind, coeffs, t)
+        return -k0 * (x - t), -k0 * (z - th)
+    return 0.0, k0 * dist  # ALG_E

@@ -17,6 +17,7 @@ import warnings
 
 from scipy import integrate
 
+from . import _kernels
 from ._validation import ParameterError, fail, in_range, nonnegative, optional_positive, positions, positive
 from .closest import closest_point
 from .friction import PreslidingState, step
@@ -139,6 +140,28 @@ class Algorithm:
     def inside(self, p) -> np.ndarray:
         """True where the probe is inside the wall (penetration > 0), shape (...)."""
         return self.penetration(p) > 0
+
+    def kernel_spec(self) -> tuple[int, np.ndarray, int, np.ndarray]:
+        """What the compiled force kernel :func:`haptex._kernels.alg_force` reads.
+
+        Returns
+        -------
+        (code, params, kind, coeffs)
+            Algorithm code, parameter vector float64[8] (kappa_0 N/m, d^z_max m or -1,
+            mu, d^x_max m, modulation scale 1/m, z_stick m or -1, closest-point step m),
+            and the texture's (kind, coeffs).
+        """
+        prm = np.zeros(_kernels.N_PARAMS)
+        prm[_kernels.P_K0] = self.stiffness
+        prm[_kernels.P_DZMAX] = -1.0 if self.max_penetration is None else self.max_penetration
+        prm[_kernels.P_ZSTICK] = -1.0
+        prm[_kernels.P_STEP] = self.texture.closest_point_step
+        self._fill_kernel_params(prm)
+        kind, coeffs = self.texture.kernel_data()
+        return _CODES[self.letter], prm, kind, np.ascontiguousarray(coeffs)
+
+    def _fill_kernel_params(self, prm) -> None:
+        """Hook for algorithm-specific kernel parameters (F)."""
 
     def potential(self, p) -> np.ndarray:
         """Stored elastic energy V(p) >= 0 (J) with f = -grad V, where the field is a gradient.
@@ -554,6 +577,12 @@ class FrictionModulated(Algorithm):
         """sup |d h~ / dx| (1/m): depth M / max|h|, with M the texture's Lipschitz bound."""
         return self._scale * self.texture.max_slope
 
+    def _fill_kernel_params(self, prm) -> None:
+        prm[_kernels.P_MU] = self.friction
+        prm[_kernels.P_DXMAX] = self.presliding
+        prm[_kernels.P_SCALE] = self._scale
+        prm[_kernels.P_ZSTICK] = -1.0 if self.stick_deflection is None else self.stick_deflection
+
     def initial_state(self, x: float) -> PreslidingState:
         """Friction state of a fresh contact at abscissa x (m): zero deflection."""
         return PreslidingState.at(x, self.presliding, self.stick_deflection)
@@ -716,6 +745,9 @@ class FrictionModulated(Algorithm):
         _, state = step(state, float(a[0] + u1 * delta[0]))
         return total, state
 
+
+_CODES = {"W": _kernels.ALG_W, "A": _kernels.ALG_A, "B": _kernels.ALG_B, "C": _kernels.ALG_C,
+          "D": _kernels.ALG_D, "E": _kernels.ALG_E, "F": _kernels.ALG_F, "G": _kernels.ALG_G}
 
 ALGORITHMS: dict[str, type[Algorithm]] = {
     "W": SmoothWall,

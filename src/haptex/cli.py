@@ -89,6 +89,108 @@ def reproduce(stiffness, amplitude, period, max_penetration, friction, preslidin
     click.echo(f"wrote {path}")
 
 
+def _parse_point(text: str, name: str):
+    parts = [p for p in str(text).replace(";", ",").split(",")]
+    if len(parts) != 2:
+        raise ParameterError(f"{name} = {text!r} is not allowed: must be two lengths 'x,z', e.g. '0,-20mm'")
+    return [parse_quantity(p.strip(), "m", name) for p in parts]
+
+
+def _parse_path(text: str):
+    pts = [_parse_point(v, "path") for v in str(text).split(";") if v.strip()]
+    if len(pts) < 2:
+        raise ParameterError(f"path = {text!r} is not allowed: must be at least two points 'x,z;x,z;...'")
+    return pts
+
+
+@cli.command()
+@click.argument("mode", type=click.Choice(["thrust", "scan", "path"]))
+@click.option("--algorithm", "letter", default="A", show_default=True, help="W or A-G.")
+@_paper_options
+@click.option("--device", "device_name", type=click.Choice(["pantograph", "point-mass"]), default="pantograph",
+              show_default=True, help="Device preset.")
+@click.option("--joint-damping", type=Quantity("N*m*s"), default=4.7e-3, show_default="4.7 mN*m*s",
+              help="Pantograph joint damping inside the wall.")
+@click.option("--mass", type=Quantity("kg"), default=0.1, show_default="0.1 kg", help="Point-mass mass.")
+@click.option("--damping", type=Quantity("N*s/m"), default=0.5, show_default="0.5 N*s/m", help="Point-mass damping.")
+@click.option("--sampling-period", type=Quantity("s"), default=1e-4, show_default="100 us", help="T.")
+@click.option("--delay", type=int, default=0, show_default=True, help="Whole samples of latency.")
+@click.option("--duration", type=Quantity("s"), default=2.0, show_default="2 s")
+@click.option("--band-stiffness", type=Quantity("N/m"), default=100.0, show_default="100 N/m", help="thrust: band stiffness.")
+@click.option("--anchor", default="0,-30mm", show_default=True, help="thrust: band anchor 'x,z'.")
+@click.option("--hand-stiffness", type=Quantity("N/m"), default=300.0, show_default="300 N/m", help="scan: hand stiffness.")
+@click.option("--hand-damping", type=Quantity("N*s/m"), default=1.0, show_default="1 N*s/m", help="scan: hand damping.")
+@click.option("--velocity", type=Quantity("m/s"), default=0.01, show_default="10 mm/s", help="scan: set-point speed.")
+@click.option("--depth", type=Quantity("m"), default=1e-3, show_default="1mm", help="scan: set-point depth.")
+@click.option("--path", "path_text", default=None, help="path: vertices 'x,z;x,z;...' (units allowed).")
+@click.option("--speed", type=Quantity("m/s"), default=1e-3, show_default="1 mm/s", help="path: speed.")
+@click.option("--plot", type=click.Path(dir_okay=False, path_type=Path), default=None, help="Write a PNG figure.")
+@click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
+def simulate(mode, letter, stiffness, amplitude, period, max_penetration, friction, presliding, device_name,
+             joint_damping, mass, damping, sampling_period, delay, duration, band_stiffness, anchor, hand_stiffness,
+             hand_damping, velocity, depth, path_text, speed, plot, as_json):
+    """Simulate a device in closed loop with an algorithm: thrust (Fig. 5), scan (Figs. 6, 7) or path."""
+    from . import operators as ops
+    from .algorithms import algorithm
+    from .devices import Device
+    from .simulate import simulate as run
+    from .textures import Sinusoid
+
+    letter = letter.upper()
+    params = {"friction": friction, "presliding": presliding, "max_penetration": max_penetration} if letter == "F" else {}
+    alg = algorithm(letter, None if letter == "W" else Sinusoid(amplitude, period), stiffness, **params)
+    if device_name == "pantograph":
+        dev = Device.pantograph(joint_damping=joint_damping, period=sampling_period, delay=delay)
+    else:
+        dev = Device.point_mass(mass, damping, sampling_period, delay=delay)
+    start = None
+    if mode == "thrust":
+        op = ops.ElasticBand(band_stiffness, _parse_point(anchor, "anchor"))
+        start = [0.0, 1e-3]
+    elif mode == "scan":
+        op = ops.ScanningHand(hand_stiffness, hand_damping, velocity=velocity, depth=depth)
+        start = [0.0, 0.0]
+    else:
+        if path_text is None:
+            raise ParameterError("path = None is not allowed in path mode: give --path 'x,z;x,z;...'")
+        op = ops.KinematicPath(_parse_path(path_text), speed)
+    res = run(alg, dev, op, duration, initial_position=start, record_every=max(1, int(round(duration / dev.period / 20000))))
+    osc = res.oscillation
+    summary = {"mode": mode, "algorithm": letter, "stiffness": stiffness, "device": dev.name,
+               "sampling_period": dev.period, "duration": duration, **res.totals,
+               "energy_balance_error": res.energy_balance_error, "max_penetration": res.max_penetration,
+               "saturations": res.saturations, "oscillating": osc.oscillating, "amplitude": osc.amplitude,
+               "frequency": osc.frequency, "energy_per_cycle": osc.energy_per_cycle}
+    if plot is not None:
+        from .plotting import plot_simulation
+
+        try:
+            plot_simulation(res, plot, f"{mode}: algorithm {letter}, kappa_0 = {stiffness:g} N/m")
+        except OSError as exc:
+            raise ParameterError(f"plot = {str(plot)!r} is not allowed: cannot write it ({exc.strerror})") from None
+        summary["plot"] = str(plot)
+    if as_json:
+        click.echo(json.dumps(_jsonable(summary), indent=2))
+        return
+    from rich.console import Console
+    from rich.table import Table
+
+    t = Table(title=f"simulate {mode}: algorithm {letter} on the {dev.name}, {duration:g} s at T = {dev.period:g} s")
+    t.add_column("quantity")
+    t.add_column("value")
+    rows = [("E_x = -Σ f_x Δx (J)", f"{res.totals['energy_x']:.4g}"), ("E_z = -Σ f_z Δz (J)", f"{res.totals['energy_z']:.4g}"),
+            ("dissipated by damping (J)", f"{res.totals['damping_energy']:.4g}"),
+            ("operator work (J)", f"{res.totals['operator_work']:.4g}"),
+            ("energy balance error (relative)", f"{res.energy_balance_error:.2g}"),
+            ("max penetration (mm)", f"{res.max_penetration * 1e3:.4g}"), ("saturations", str(res.saturations)),
+            ("oscillating", "yes" if osc.oscillating else "no"),
+            ("tail amplitude (mm) / frequency (Hz)", f"{osc.amplitude * 1e3:.3g} / {osc.frequency:.4g}"),
+            ("energy supplied per cycle (J)", f"{osc.energy_per_cycle:.3g}")]
+    for a, b in rows:
+        t.add_row(a, b)
+    Console(width=120).print(t)
+
+
 def _table(stiffness, amplitude, period, max_penetration, friction, presliding):
     from .tables import table_ii
 

@@ -1,0 +1,337 @@
+"""Sampled-data haptic devices: mass and damping at the handle, sampling period, delay,
+resolutions and force limit; presets for a point mass and a five-bar pantograph.
+
+The virtual plane's axes [x, z] are the device's Cartesian axes at the handle: x along
+the surface, z along the wall's outward normal.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ._validation import ParameterError, fail, nonnegative, positive
+
+
+def _matrix(name: str, value, allow_zero: bool) -> np.ndarray:
+    """A 2x2 symmetric matrix from a scalar (isotropic) or a 2x2 array; checks definiteness."""
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise fail(name, value, "a scalar or a 2x2 symmetric matrix") from None
+    if arr.ndim == 0:
+        arr = float(arr) * np.eye(2)
+    if arr.shape != (2, 2) or not np.all(np.isfinite(arr)):
+        raise fail(name, value, "a finite scalar or a finite 2x2 symmetric matrix")
+    if not np.allclose(arr, arr.T, rtol=1e-12, atol=0.0):
+        raise fail(name, arr.tolist(), "a symmetric 2x2 matrix")
+    eig = np.linalg.eigvalsh(arr)
+    if allow_zero:
+        if eig.min() < -1e-12 * max(1.0, abs(eig.max())):
+            raise fail(name, arr.tolist(), "positive semi-definite (no negative damping)")
+    elif eig.min() <= 0:
+        raise fail(name, arr.tolist(), "positive definite")
+    return arr
+
+
+@dataclass(frozen=True)
+class Device:
+    """A planar 2-DOF sampled-data haptic device.
+
+    Parameters
+    ----------
+    mass : float or array_like, shape (2, 2)
+        Mass matrix M at the handle (kg), symmetric positive definite; a scalar means
+        isotropic.
+    damping : float or array_like, shape (2, 2)
+        Viscous damping matrix B at the handle (N s/m) while the handle is inside the
+        virtual object; symmetric positive semi-definite.
+    period : float
+        Sampling period T (s), > 0.
+    delay : int, optional
+        Whole sampling periods between reading a position and applying the force it
+        produced; 0 means the force computed from the position sampled at kT is held over
+        [kT, (k+1)T).
+    position_resolution : float, optional
+        delta (m): the controller sees positions rounded to multiples of delta; 0 = exact.
+    force_resolution : float, optional
+        b (N): commands are rounded to multiples of b per axis; 0 = exact.
+    max_force : float, optional
+        Largest command magnitude (N); larger commands are scaled down to it and counted.
+    damping_outside : float or array_like, shape (2, 2), optional
+        Damping while the handle is outside the virtual object (N s/m); defaults to
+        ``damping``. The paper energises its eddy-current brakes only inside (Section V-A).
+    first_resonance : float, optional
+        F0 (Hz), the first structural mode (Section II); inf if not modelled.
+    name : str, optional
+        A label for reports.
+
+    Raises
+    ------
+    ParameterError
+        For a non-symmetric or non-positive-definite mass, negative damping, T <= 0, a
+        negative or non-integer delay, or negative resolutions or force limit.
+
+    Notes
+    -----
+    Between samples the handle obeys M dv/dt = f_cmd + f_operator - B v; the simulator
+    integrates it exactly (see :mod:`haptex.simulate`).
+    """
+
+    mass: np.ndarray
+    damping: np.ndarray
+    period: float
+    delay: int = 0
+    position_resolution: float = 0.0
+    force_resolution: float = 0.0
+    max_force: float = math.inf
+    damping_outside: np.ndarray | None = None
+    first_resonance: float = math.inf
+    name: str = "device"
+    details: dict = field(default_factory=dict, compare=False)
+
+    def __post_init__(self):
+        object.__setattr__(self, "mass", _matrix("mass", self.mass, allow_zero=False))
+        object.__setattr__(self, "damping", _matrix("damping", self.damping, allow_zero=True))
+        out = self.damping if self.damping_outside is None else self.damping_outside
+        object.__setattr__(self, "damping_outside", _matrix("damping_outside", out, allow_zero=True))
+        object.__setattr__(self, "period", positive("period", self.period, "s"))
+        if isinstance(self.delay, bool) or not float(self.delay).is_integer() or self.delay < 0:
+            raise fail("delay", self.delay, "a whole number of sampling periods >= 0")
+        object.__setattr__(self, "delay", int(self.delay))
+        object.__setattr__(self, "position_resolution", nonnegative("position_resolution", self.position_resolution, "m"))
+        object.__setattr__(self, "force_resolution", nonnegative("force_resolution", self.force_resolution, "N"))
+        mf = float(self.max_force)
+        if not mf > 0 or math.isnan(mf):
+            raise fail("max_force", self.max_force, "a number of newtons > 0 (inf for no limit)")
+        object.__setattr__(self, "max_force", mf)
+        fr = float(self.first_resonance)
+        if not fr > 0 or math.isnan(fr):
+            raise fail("first_resonance", self.first_resonance, "a frequency > 0 Hz (inf if not modelled)")
+        object.__setattr__(self, "first_resonance", fr)
+
+    # -- derived numbers ---------------------------------------------------------------
+    @property
+    def min_damping(self) -> float:
+        """sigma_0(B): the smallest singular value of the inside damping matrix (N s/m)."""
+        return float(np.linalg.svd(self.damping, compute_uv=False).min())
+
+    @property
+    def passivity_limit(self) -> float:
+        """sigma_0(B) / (2 T) (N/m): the bound on ||J||_2 of Corollary 1 (eq. 1)."""
+        return self.min_damping / (2 * self.period)
+
+    def replace(self, **changes) -> Device:
+        """A copy with some parameters changed (validated again)."""
+        fields = {k: getattr(self, k) for k in ("mass", "damping", "period", "delay", "position_resolution",
+                                                "force_resolution", "max_force", "first_resonance", "name")}
+        fields["damping_outside"] = None if np.array_equal(self.damping_outside, self.damping) else self.damping_outside
+        if "damping" in changes and "damping_outside" not in changes and fields["damping_outside"] is None:
+            fields["damping_outside"] = None
+        fields.update(changes)
+        return Device(**fields, details=self.details)
+
+    # -- presets -----------------------------------------------------------------------
+    @classmethod
+    def point_mass(cls, mass: float = 0.1, damping: float = 0.5, period: float = 1e-4, **kw) -> Device:
+        """An isotropic point mass.
+
+        Parameters
+        ----------
+        mass : float
+            kg (default 0.1 kg, a light handle).
+        damping : float
+            N s/m (default 0.5).
+        period : float
+            s (default 1e-4, the paper's 10 kHz).
+        **kw
+            Any other :class:`Device` parameter.
+        """
+        return cls(mass=mass, damping=damping, period=period, name=kw.pop("name", "point mass"), **kw)
+
+    @classmethod
+    def pantograph(cls, joint_damping: float = 4.7e-3, joint_damping_outside: float = 0.0, period: float = 1e-4,
+                   position_resolution: float = 10e-6, link_proximal: float = 0.10, link_distal: float = 0.14,
+                   base: float = 0.05, rotor_inertia: float = 1.4e-5, link_mass: float = 0.02,
+                   handle_mass: float = 0.02, working_point=(0.0, 0.15), **kw) -> Device:
+        """A five-bar planar pantograph, its Cartesian mass and damping at a working point.
+
+        Two motors at (-base/2, 0) and (+base/2, 0) drive proximal links of length
+        ``link_proximal``; distal links of length ``link_distal`` meet at the handle. With
+        J = d p / d theta the linkage Jacobian at the handle's working point,
+
+            M_x = J^-T diag(I_1, I_2) J^-1 + m_h I,     B_x = J^-T B_theta J^-1,
+
+        with I_j = rotor inertia + link_mass * link_proximal^2 / 3 (a uniform rod about
+        the motor axis) and m_h = handle_mass + link_mass (the two distal links lumped
+        half each at the handle, the other halves at the elbows and ignored).
+
+        Parameters
+        ----------
+        joint_damping : float
+            Damping of each motor joint while inside the virtual object (N m s/rad); the
+            paper uses 4.7e-3 (Section V-A) and 4.0e-3 (V-B, V-C) from eddy-current brakes.
+        joint_damping_outside : float
+            Joint damping outside (N m s/rad); 0: the brakes are off outside (V-A).
+        period : float
+            T (s), default 1e-4 (the paper's 10 kHz).
+        position_resolution : float
+            delta (m), default 10 um (Section V: better than 15 um).
+        link_proximal, link_distal, base : float
+            Link lengths and motor separation (m).
+        rotor_inertia : float
+            kg m^2 per motor.
+        link_mass, handle_mass : float
+            kg.
+        working_point : (float, float)
+            Handle position (m) in the linkage frame where the matrices are evaluated.
+        **kw
+            Other :class:`Device` parameters (delay, force_resolution, max_force, ...).
+
+        Notes
+        -----
+        The defaults are documented, plausible values, not the published drawings of the
+        paper's device (the Pantograph Mk-II of Campion, Wang & Hayward, IROS 2005, ref.
+        [33]): 10 cm and 14 cm links on motors 5 cm apart give a workspace of about
+        10 x 15 cm around the working point; 1.4e-5 kg m^2 is the rotor inertia of a
+        40 mm graphite-brush DC motor of the kind used in direct-drive haptic devices;
+        20 g aluminium links. At the default working point M_x is about 0.05 kg and
+        sigma_0(B_x) / (2T) about 2.1 kN/m for 4.7 mN m s: just above the
+        kappa_0 = 2 kN/m that the paper finds passive for W (Section V-A).
+
+        Raises
+        ------
+        ParameterError
+            For non-positive lengths or masses, or a working point the linkage cannot reach.
+        """
+        a1 = positive("link_proximal", link_proximal, "m")
+        a2 = positive("link_distal", link_distal, "m")
+        d = nonnegative("base", base, "m")
+        inertia = positive("rotor_inertia", rotor_inertia, "kg m^2")
+        ml = nonnegative("link_mass", link_mass, "kg")
+        mh = positive("handle_mass", handle_mass, "kg")
+        bj = nonnegative("joint_damping", joint_damping, "N m s/rad")
+        bj_out = nonnegative("joint_damping_outside", joint_damping_outside, "N m s/rad")
+        p = np.asarray(working_point, dtype=np.float64)
+        J, angles = five_bar_jacobian(a1, a2, d, p)
+        Jinv = np.linalg.inv(J)
+        I_j = inertia + ml * a1 * a1 / 3
+        M = Jinv.T @ (I_j * np.eye(2)) @ Jinv + (mh + ml) * np.eye(2)
+        B = Jinv.T @ (bj * np.eye(2)) @ Jinv
+        B_out = Jinv.T @ (bj_out * np.eye(2)) @ Jinv
+        M = 0.5 * (M + M.T)
+        B = 0.5 * (B + B.T)
+        B_out = 0.5 * (B_out + B_out.T)
+        details = {"link_proximal": a1, "link_distal": a2, "base": d, "rotor_inertia": inertia,
+                   "link_mass": ml, "handle_mass": mh, "joint_damping": bj, "joint_damping_outside": bj_out,
+                   "working_point": p.tolist(), "joint_angles": angles.tolist(), "jacobian": J.tolist()}
+        return cls(mass=M, damping=B, damping_outside=B_out, period=period, position_resolution=position_resolution,
+                   name=kw.pop("name", "pantograph"), details=details, **kw)
+
+
+def five_bar_jacobian(a1: float, a2: float, base: float, p) -> tuple[np.ndarray, np.ndarray]:
+    """Jacobian d p / d theta (m/rad) of a symmetric five-bar linkage at handle position p.
+
+    Parameters
+    ----------
+    a1, a2 : float
+        Proximal and distal link lengths (m).
+    base : float
+        Distance between the two motor axes (m), placed at (-base/2, 0) and (base/2, 0).
+    p : array_like, shape (2,)
+        Handle position (m).
+
+    Returns
+    -------
+    J : ndarray, shape (2, 2)
+        Column j is the handle velocity per unit angular velocity of motor j.
+    angles : ndarray, shape (2,)
+        Motor angles (rad) of the elbows-out assembly.
+
+    Raises
+    ------
+    ParameterError
+        If the linkage cannot reach p.
+
+    Notes
+    -----
+    Each distal link keeps |p - e_j| = a2, so (p - e_j) . dp = (p - e_j) . de_j/dtheta_j
+    dtheta_j; J = A^-1 diag((p - e_j) . de_j/dtheta_j) with A's rows (p - e_j)^T.
+    """
+    p = np.asarray(p, dtype=np.float64)
+    bases = np.array([[-base / 2, 0.0], [base / 2, 0.0]])
+    angles = np.empty(2)
+    elbows = np.empty((2, 2))
+    for j, b in enumerate(bases):
+        r = p - b
+        L = math.hypot(*r)
+        if not (abs(a1 - a2) < L < a1 + a2):
+            raise ParameterError(
+                f"working_point = {p.tolist()} is not allowed: motor {j + 1} cannot reach it with links "
+                f"{a1:g} m and {a2:g} m"
+            )
+        # angle at the motor between r and the proximal link (law of cosines)
+        gam = math.acos((a1 * a1 + L * L - a2 * a2) / (2 * a1 * L))
+        phi = math.atan2(r[1], r[0])
+        th = phi + gam if j == 0 else phi - gam  # elbows out
+        angles[j] = th
+        elbows[j] = b + a1 * np.array([math.cos(th), math.sin(th)])
+    A = p - elbows
+    de = a1 * np.column_stack([-np.sin(angles), np.cos(angles)])
+    diag = np.einsum("ij,ij->i", A, de)
+    J = np.linalg.solve(A, np.diag(diag))
+    return J, angles
+
+
+def critical_stiffness(mass: float, damping: float, period: float, delay: int = 0) -> float:
+    """Largest stable stiffness of a virtual spring on a sampled mass-damper (1 DOF).
+
+    The plant 1 / (m s^2 + b s) is discretised with a zero-order hold; the controller
+    applies -kappa x with ``delay`` extra samples of latency. The returned kappa is where
+    the largest closed-loop pole of (z - 1)(z - e^{-bT/m}) z^delay + kappa (n1 z + n0)
+    reaches the unit circle. For small bT/m and no delay it tends to Colgate & Schenkel's
+    2b/T ("Passivity of a class of sampled-data systems", 1997).
+
+    Parameters
+    ----------
+    mass : float
+        kg, > 0.
+    damping : float
+        N s/m, > 0.
+    period : float
+        s, > 0.
+    delay : int
+        Whole samples of latency, >= 0.
+
+    Returns
+    -------
+    float
+        Critical stiffness (N/m).
+    """
+    from scipy.optimize import brentq
+
+    m = positive("mass", mass, "kg")
+    b = positive("damping", damping, "N s/m")
+    T = positive("period", period, "s")
+    if int(delay) != delay or delay < 0:
+        raise fail("delay", delay, "a whole number >= 0")
+    a = math.exp(-b * T / m)
+    # ZOH of 1/(s (m s + b)): numerator n1 z + n0
+    n1 = T / b - m / (b * b) * (1 - a)
+    n0 = m / (b * b) * (1 - a) - a * T / b
+    den = np.polymul([1.0, -1.0], [1.0, -a])
+    den = np.polymul(den, np.r_[1.0, np.zeros(int(delay))])
+
+    def radius(k):
+        num = np.r_[np.zeros(len(den) - 2), n1, n0]
+        return float(np.abs(np.roots(den + k * num)).max()) - 1.0
+
+    hi = 2 * b / T
+    while radius(hi) < 0:
+        hi *= 2
+    lo = hi
+    while radius(lo) >= 0 and lo > 1e-12:
+        lo /= 2
+    return brentq(radius, lo, hi, xtol=1e-12 * hi, rtol=1e-13)

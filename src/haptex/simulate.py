@@ -1,0 +1,792 @@
+"""Sampled-data simulation of a haptic device in closed loop with a texture algorithm,
+measuring energy the way the paper's experiments do (Section V).
+
+Every sampling period T the controller reads the (quantised) handle position, computes
+the algorithm's force, quantises and saturates it, and holds it (zero-order hold, after
+``delay`` samples) while the handle moves. Between samples the handle, its damping and
+the operator's springs and dampers form a linear system that is integrated exactly with
+the matrix exponential of an augmented system; the energy dissipated by the damping and
+the operator's work over each interval are exact quadratic forms of the state at the
+sampling instant (Van Loan's integrals, computed once with scipy's expm).
+
+References
+----------
+C. F. Van Loan, "Computing integrals involving the matrix exponential", IEEE Trans.
+Automatic Control 23(3), 1978, pp. 395–404.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numba as nb
+import numpy as np
+from scipy.linalg import expm
+
+from . import _kernels
+from ._kernels import alg_force, texture_eval
+from ._validation import ParameterError, fail, positions, positive
+from .algorithms import Algorithm
+from .devices import Device
+from .operators import Operator
+
+__all__ = ["SimulationResult", "Oscillation", "simulate", "simulate_batch", "MEMORY_BUDGET"]
+
+MEMORY_BUDGET = 2 * 1024**3
+"""Largest time-series allocation (bytes) :func:`simulate` accepts: 2 GiB (96 bytes a
+recorded sample). Longer runs must record every n-th sample (``record_every``)."""
+
+_BYTES_PER_SAMPLE = 12 * 8
+_NZ = 10  # augmented state [p(2), v(2), u(2), g(2), r(2)]
+
+
+# --------------------------------------------------------------------------------------
+# exact discretisation
+# --------------------------------------------------------------------------------------
+def _augmented(M: np.ndarray, B: np.ndarray, K: np.ndarray, C: np.ndarray) -> np.ndarray:
+    """F of dz/dt = F z for z = [p, v, u, g, r]: M dv/dt = u + g - K p - (B + C) v,
+    du/dt = 0, dg/dt = r, dr/dt = 0."""
+    Minv = np.linalg.inv(M)
+    F = np.zeros((_NZ, _NZ))
+    F[0:2, 2:4] = np.eye(2)
+    F[2:4, 0:2] = -Minv @ K
+    F[2:4, 2:4] = -Minv @ (B + C)
+    F[2:4, 4:6] = Minv
+    F[2:4, 6:8] = Minv
+    F[6:8, 8:10] = np.eye(2)
+    return F
+
+
+def _van_loan(F: np.ndarray, Q: np.ndarray, T: float) -> tuple[np.ndarray, np.ndarray]:
+    """(Phi, W): Phi = e^{F T} and W = int_0^T e^{F' s} Q e^{F s} ds (Van Loan 1978)."""
+    n = F.shape[0]
+    big = np.zeros((2 * n, 2 * n))
+    big[:n, :n] = -F.T
+    big[:n, n:] = Q
+    big[n:, n:] = F
+    E = expm(big * T)
+    Phi = E[n:, n:]
+    W = Phi.T @ E[:n, n:]
+    return Phi, 0.5 * (W + W.T)
+
+
+def _discretise(device: Device, op: Operator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per damping regime (0 outside, 1 inside): Phi (2, 10, 10), W_damping, W_operator."""
+    T = device.period
+    K, C = op.stiffness, op.damping
+    Qop = np.zeros((_NZ, _NZ))
+    Qop[2:4, 0:2] = -0.5 * K
+    Qop[0:2, 2:4] = -0.5 * K.T
+    Qop[2:4, 2:4] = -0.5 * (C + C.T)
+    Qop[2:4, 6:8] = 0.5 * np.eye(2)
+    Qop[6:8, 2:4] = 0.5 * np.eye(2)
+    Phi = np.empty((2, _NZ, _NZ))
+    Wd = np.empty((2, _NZ, _NZ))
+    Wo = np.empty((2, _NZ, _NZ))
+    for reg, B in enumerate((device.damping_outside, device.damping)):
+        F = _augmented(device.mass, B, K, C)
+        Qd = np.zeros((_NZ, _NZ))
+        Qd[2:4, 2:4] = B
+        Phi[reg], Wd[reg] = _van_loan(F, Qd, T)
+        _, Wo[reg] = _van_loan(F, Qop, T)
+    return Phi, Wd, Wo
+
+
+# --------------------------------------------------------------------------------------
+# compiled loop
+# --------------------------------------------------------------------------------------
+_JIT = dict(cache=True, nogil=True)
+
+# summary slots
+(S_EX, S_EZ, S_DAMP, S_OP, S_KE0, S_KE, S_SAT, S_MAXPEN, S_MAXF, S_NSAMP, S_TAILSTART_E) = range(11)
+N_SUMMARY = 12
+
+
+@nb.njit(**_JIT)
+def _quad(W, z):
+    acc = 0.0
+    for i in range(_NZ):
+        row = 0.0
+        for j in range(_NZ):
+            row += W[i, j] * z[j]
+        acc += z[i] * row
+    return acc
+
+
+@nb.njit(**_JIT)
+def _setpoint(ts, ps, vend, t, out):
+    n = ts.shape[0]
+    if t >= ts[n - 1]:
+        dt = t - ts[n - 1]
+        out[0] = ps[n - 1, 0] + vend[0] * dt
+        out[1] = ps[n - 1, 1] + vend[1] * dt
+        return
+    if t <= ts[0]:
+        out[0] = ps[0, 0]
+        out[1] = ps[0, 1]
+        return
+    lo = 0
+    hi = n - 1
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if ts[mid] <= t:
+            lo = mid
+        else:
+            hi = mid
+    w = (t - ts[lo]) / (ts[hi] - ts[lo])
+    out[0] = ps[lo, 0] + w * (ps[hi, 0] - ps[lo, 0])
+    out[1] = ps[lo, 1] + w * (ps[hi, 1] - ps[lo, 1])
+
+
+@nb.njit(**_JIT)
+def _run(code, kind, coeffs, prm, nominal, Phi, Wd, Wo, Bs, M, K, C, f0, sp_t, sp_p, vend, rest_len, kinematic,
+         n_steps, T, delay, delta, fres, fmax, p0, v0, record_every, rec, summary, tail_start, tail_z):
+    """One simulation; fills ``rec`` (n_rec, 12) if it has rows, ``summary`` and ``tail_z``.
+
+    Record columns: t, px, pz, vx, vz, fx, fz, E_x, E_z, E_damping, W_operator, KE.
+    """
+    st = np.zeros(_kernels.N_STATE)
+    z = np.zeros(_NZ)
+    p = p0.copy()
+    v = v0.copy()
+    buf = np.zeros((delay + 1, 2))
+    s0 = np.zeros(2)
+    s1 = np.zeros(2)
+    ex = 0.0
+    ez = 0.0
+    ed = 0.0
+    eo = 0.0
+    sat = 0
+    maxpen = 0.0
+    maxf = 0.0
+    ke0 = 0.5 * (v[0] * (M[0, 0] * v[0] + M[0, 1] * v[1]) + v[1] * (M[1, 0] * v[0] + M[1, 1] * v[1]))
+    ke_prev = ke0
+    n_tail = tail_z.shape[0]
+    tail_stride = max((n_steps - tail_start) // max(n_tail, 1), 1)
+    e_tail = 0.0
+    irec = 0
+    nrec = rec.shape[0]
+    for k in range(n_steps):
+        t = k * T
+        if kinematic:
+            _setpoint(sp_t, sp_p, vend, t, p)
+            _setpoint(sp_t, sp_p, vend, t + T, s1)
+            v[0] = (s1[0] - p[0]) / T
+            v[1] = (s1[1] - p[1]) / T
+        # controller: sense, compute, quantise, saturate, delay
+        if delta > 0.0:
+            sx = delta * np.round(p[0] / delta)
+            sz = delta * np.round(p[1] / delta)
+        else:
+            sx = p[0]
+            sz = p[1]
+        fx, fz = alg_force(code, sx, sz, kind, coeffs, prm, st)
+        if fres > 0.0:
+            fx = fres * np.round(fx / fres)
+            fz = fres * np.round(fz / fres)
+        mag = math.sqrt(fx * fx + fz * fz)
+        if mag > fmax:
+            fx *= fmax / mag
+            fz *= fmax / mag
+            sat += 1
+        slot = k % (delay + 1)
+        buf[slot, 0] = fx
+        buf[slot, 1] = fz
+        ux = buf[(k + 1) % (delay + 1), 0] if delay > 0 else fx
+        uz = buf[(k + 1) % (delay + 1), 1] if delay > 0 else fz
+        if delay > 0 and k < delay:
+            ux = 0.0
+            uz = 0.0
+        # damping regime from the sensed position (brakes on inside the virtual object)
+        if nominal:
+            inside = sz < 0.0
+            pen = -p[1]
+        else:
+            h, _, _ = texture_eval(kind, coeffs, sx)
+            inside = sz < h
+            hp, _, _ = texture_eval(kind, coeffs, p[0])
+            pen = hp - p[1]
+        if pen > maxpen:
+            maxpen = pen
+        if mag > maxf:
+            maxf = mag
+        reg = 1 if inside else 0
+        if kinematic:
+            # prescribed motion: constant velocity over the sample; the operator supplies
+            # whatever work keeps it on the path (so the energy balance closes by design)
+            dpx = s1[0] - p[0]
+            dpz = s1[1] - p[1]
+            Bm = Bs[reg]
+            dd = T * (v[0] * (Bm[0, 0] * v[0] + Bm[0, 1] * v[1]) + v[1] * (Bm[1, 0] * v[0] + Bm[1, 1] * v[1]))
+            ke_now = 0.5 * (v[0] * (M[0, 0] * v[0] + M[0, 1] * v[1]) + v[1] * (M[1, 0] * v[0] + M[1, 1] * v[1]))
+            if k == 0:
+                ke0 = ke_now
+                ke_prev = ke_now
+            ed += dd
+            eo += (ke_now - ke_prev) + dd - (ux * dpx + uz * dpz)
+            ke_prev = ke_now
+            ex -= ux * dpx
+            ez -= uz * dpz
+            p[0] = s1[0]
+            p[1] = s1[1]
+        else:
+            # operator forcing over [t, t + T]: g(t + s) = g0 + r s
+            _setpoint(sp_t, sp_p, vend, t, s0)
+            _setpoint(sp_t, sp_p, vend, t + T, s1)
+            sdx = (s1[0] - s0[0]) / T
+            sdz = (s1[1] - s0[1]) / T
+            g0x = K[0, 0] * s0[0] + K[0, 1] * s0[1] + C[0, 0] * sdx + C[0, 1] * sdz + f0[0]
+            g0z = K[1, 0] * s0[0] + K[1, 1] * s0[1] + C[1, 0] * sdx + C[1, 1] * sdz + f0[1]
+            if rest_len > 0.0:
+                ax = p[0] - sp_p[0, 0]
+                az = p[1] - sp_p[0, 1]
+                nrm = math.sqrt(ax * ax + az * az)
+                if nrm > 0.0:
+                    g0x += K[0, 0] * rest_len * ax / nrm
+                    g0z += K[1, 1] * rest_len * az / nrm
+            z[0] = p[0]
+            z[1] = p[1]
+            z[2] = v[0]
+            z[3] = v[1]
+            z[4] = ux
+            z[5] = uz
+            z[6] = g0x
+            z[7] = g0z
+            z[8] = K[0, 0] * sdx + K[0, 1] * sdz
+            z[9] = K[1, 0] * sdx + K[1, 1] * sdz
+            ed += _quad(Wd[reg], z)
+            eo += _quad(Wo[reg], z)
+            P = Phi[reg]
+            npx = 0.0
+            npz = 0.0
+            nvx = 0.0
+            nvz = 0.0
+            for j in range(_NZ):
+                npx += P[0, j] * z[j]
+                npz += P[1, j] * z[j]
+                nvx += P[2, j] * z[j]
+                nvz += P[3, j] * z[j]
+            ex -= ux * (npx - p[0])
+            ez -= uz * (npz - p[1])
+            p[0] = npx
+            p[1] = npz
+            v[0] = nvx
+            v[1] = nvz
+        if k == tail_start:
+            e_tail = ex + ez
+        if k >= tail_start and n_tail > 0:
+            j = (k - tail_start) // tail_stride
+            if j < n_tail:
+                tail_z[j] = p[1]
+        if nrec > 0 and (k + 1) % record_every == 0 and irec < nrec:
+            rec[irec, 0] = t + T
+            rec[irec, 1] = p[0]
+            rec[irec, 2] = p[1]
+            rec[irec, 3] = v[0]
+            rec[irec, 4] = v[1]
+            rec[irec, 5] = ux
+            rec[irec, 6] = uz
+            rec[irec, 7] = ex
+            rec[irec, 8] = ez
+            rec[irec, 9] = ed
+            rec[irec, 10] = eo
+            rec[irec, 11] = 0.5 * (v[0] * (M[0, 0] * v[0] + M[0, 1] * v[1]) + v[1] * (M[1, 0] * v[0] + M[1, 1] * v[1]))
+            irec += 1
+    summary[S_EX] = ex
+    summary[S_EZ] = ez
+    summary[S_DAMP] = ed
+    summary[S_OP] = eo
+    summary[S_KE0] = ke0
+    summary[S_KE] = 0.5 * (v[0] * (M[0, 0] * v[0] + M[0, 1] * v[1]) + v[1] * (M[1, 0] * v[0] + M[1, 1] * v[1]))
+    summary[S_SAT] = sat
+    summary[S_MAXPEN] = maxpen
+    summary[S_MAXF] = maxf
+    summary[S_NSAMP] = n_steps
+    summary[S_TAILSTART_E] = e_tail
+
+
+@nb.njit(parallel=True, cache=True)
+def _run_batch(code, kind, coeffs, prm, nominal, Phi, Wd, Wo, Bs, M, K, C, f0, sp_t, sp_p, vend, rest_len,
+               kinematic, n_steps, T, delay, delta, fres, fmax, p0, v0, record_every, rec, summary, tail_start,
+               tail_z):
+    """Runs i = 0..N-1 of :func:`_run` in parallel; every per-run array has a leading N axis."""
+    for i in nb.prange(coeffs.shape[0]):
+        _run(code, kind, coeffs[i], prm[i], nominal, Phi[i], Wd[i], Wo[i], Bs[i], M[i], K[i], C[i], f0[i], sp_t,
+             sp_p[i], vend[i], rest_len[i], kinematic, n_steps, T, delay[i], delta[i], fres[i], fmax[i], p0[i], v0[i],
+             record_every, rec[i], summary[i], tail_start, tail_z[i])
+
+
+# --------------------------------------------------------------------------------------
+# results
+# --------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Oscillation:
+    """Verdict on the last part of a run: sustained limit cycle or decaying transient.
+
+    Attributes
+    ----------
+    oscillating : bool
+        True when the peak-to-peak motion of p^z in the second half of the tail window is
+        above ``threshold`` and at least 0.9 times that of the first half (sustained or
+        growing), over at least 3 cycles.
+    amplitude : float
+        Half the peak-to-peak p^z in the second half of the tail (m).
+    decay_ratio : float
+        Amplitude of the second half over that of the first half.
+    frequency : float
+        Dominant frequency of p^z in the tail (Hz), from a Hann-windowed periodogram.
+    energy_per_cycle : float
+        Net energy the environment supplied per cycle in the tail (J), i.e. minus the
+        change of E_x + E_z divided by the number of cycles; > 0 feeds the oscillation.
+    threshold : float
+        Amplitude below which motion counts as rest (m): the larger of the position
+        resolution and 1e-7 m.
+    """
+
+    oscillating: bool
+    amplitude: float
+    decay_ratio: float
+    frequency: float
+    energy_per_cycle: float
+    threshold: float
+
+
+def _oscillation(tail_z: np.ndarray, tail_duration: float, e_env_tail: float, threshold: float) -> Oscillation:
+    z = np.asarray(tail_z, dtype=np.float64)
+    n = z.size
+    if n < 8 or tail_duration <= 0:
+        return Oscillation(False, 0.0, 0.0, 0.0, 0.0, threshold)
+    h1, h2 = z[: n // 2], z[n // 2:]
+    a1 = 0.5 * float(np.ptp(h1))
+    a2 = 0.5 * float(np.ptp(h2))
+    ratio = a2 / a1 if a1 > 0 else (math.inf if a2 > 0 else 0.0)
+    zc = (z - z.mean()) * np.hanning(n)
+    spec = np.abs(np.fft.rfft(zc)) ** 2
+    spec[0] = 0.0
+    fs = n / tail_duration
+    freq = float(np.argmax(spec) * fs / n) if spec.max() > 0 else 0.0
+    cycles = freq * tail_duration
+    per_cycle = -e_env_tail / cycles if cycles > 0 else 0.0
+    osc = bool(a2 > threshold and ratio >= 0.9 and cycles >= 3)
+    return Oscillation(osc, a2, float(ratio), freq, float(per_cycle), threshold)
+
+
+@dataclass(frozen=True)
+class SimulationResult:
+    """Time series and energy figures of one simulation.
+
+    Arrays have one row per recorded sample (every ``record_every`` samples), at the end
+    of each sampling interval.
+
+    Attributes
+    ----------
+    time : ndarray, shape (n,)
+        s.
+    position, velocity : ndarray, shape (n, 2)
+        Handle position [x, z] (m) and velocity (m/s).
+    force : ndarray, shape (n, 2)
+        Force command applied over the interval ending at ``time`` (N).
+    energy_x, energy_z : ndarray, shape (n,)
+        Energy absorbed by the virtual environment, E_x = -sum f_x dp^x and
+        E_z = -sum f_z dp^z (J), the sums of Section V-B; decreasing means the
+        environment supplies energy.
+    damping_energy : ndarray, shape (n,)
+        Energy dissipated by the device's viscous damping (J), exact.
+    operator_work : ndarray, shape (n,)
+        Work done by the operator on the handle (J), exact.
+    kinetic_energy : ndarray, shape (n,)
+        1/2 v' M v (J).
+    initial_kinetic_energy : float
+        J.
+    saturations : int
+        Number of samples whose command exceeded ``max_force`` and was scaled down.
+    max_penetration : float
+        Largest penetration of the handle below the textured (or nominal) surface (m).
+    oscillation : Oscillation
+        Verdict on the last ``tail_fraction`` of the run.
+    totals : dict
+        Final E_x, E_z, damping, operator work and kinetic energy (J).
+    """
+
+    time: np.ndarray
+    position: np.ndarray
+    velocity: np.ndarray
+    force: np.ndarray
+    energy_x: np.ndarray
+    energy_z: np.ndarray
+    damping_energy: np.ndarray
+    operator_work: np.ndarray
+    kinetic_energy: np.ndarray
+    initial_kinetic_energy: float
+    saturations: int
+    max_penetration: float
+    oscillation: Oscillation
+    totals: dict = field(default_factory=dict)
+
+    @property
+    def oscillating(self) -> bool:
+        """Shortcut for ``oscillation.oscillating``."""
+        return self.oscillation.oscillating
+
+    @property
+    def energy_balance_error(self) -> float:
+        """Relative closure of the energy balance at the end of the run.
+
+        (KE_end - KE_0) - (W_command + W_operator - E_damping), with
+        W_command = -(E_x + E_z), divided by the largest of those terms in magnitude.
+        Round-off only (about 1e-12) when the simulation is exact.
+        """
+        t = self.totals
+        w_cmd = -(t["energy_x"] + t["energy_z"])
+        err = (t["kinetic_energy"] - self.initial_kinetic_energy) - (w_cmd + t["operator_work"] - t["damping_energy"])
+        scale = max(abs(w_cmd), abs(t["operator_work"]), abs(t["damping_energy"]), abs(t["kinetic_energy"]),
+                    abs(self.initial_kinetic_energy), 1e-300)
+        return abs(err) / scale
+
+
+# --------------------------------------------------------------------------------------
+# public entry points
+# --------------------------------------------------------------------------------------
+def _prepare(algorithm, device, operator, duration, initial_position, initial_velocity):
+    if not isinstance(algorithm, Algorithm):
+        raise fail("algorithm", algorithm, "a haptex algorithm (haptex.algorithm(...))")
+    if not isinstance(device, Device):
+        raise fail("device", device, "a haptex.Device")
+    if not isinstance(operator, Operator):
+        raise fail("operator", operator, "an operator from haptex.operators")
+    dur = positive("duration", duration, "s")
+    n_steps = int(round(dur / device.period))
+    if n_steps < 1:
+        raise fail("duration", duration, f"at least one sampling period ({device.period:g} s)")
+    if operator.kinematic:
+        p0 = operator.setpoint_points[0].copy() if initial_position is None else _point("initial_position", initial_position)
+    else:
+        p0 = np.zeros(2) if initial_position is None else _point("initial_position", initial_position)
+    v0 = np.zeros(2) if initial_velocity is None else _point("initial_velocity", initial_velocity)
+    return n_steps, p0, v0
+
+
+def _point(name, value):
+    arr = positions(value, name)
+    if arr.shape != (2,):
+        raise fail(name, value, "two finite numbers [x, z]")
+    return arr.copy()
+
+
+def _kernel_inputs(algorithm, device, operator):
+    code, prm, kind, coeffs = algorithm.kernel_spec()
+    Phi, Wd, Wo = _discretise(device, operator)
+    Bs = np.stack([device.damping_outside, device.damping])
+    nominal = algorithm.penetration_kind == "nominal"
+    return code, prm, kind, coeffs, nominal, Phi, Wd, Wo, Bs
+
+
+def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration: float, initial_position=None,
+             initial_velocity=None, record_every: int = 1, tail_fraction: float = 0.4) -> SimulationResult:
+    """Simulate a device in closed loop with an algorithm, driven by an operator.
+
+    Parameters
+    ----------
+    algorithm : Algorithm
+        Any of W, A–G (:func:`haptex.algorithm`).
+    device : Device
+        The sampled-data device.
+    operator : Operator
+        From :mod:`haptex.operators`.
+    duration : float
+        Simulated time (s); rounded to whole sampling periods.
+    initial_position : array_like, shape (2,), optional
+        [x, z] (m); default [0, 0] (the start of the path for a KinematicPath).
+    initial_velocity : array_like, shape (2,), optional
+        m/s; default zero.
+    record_every : int, optional
+        Record one sample in this many (>= 1).
+    tail_fraction : float, optional
+        Fraction of the run, at its end, on which the oscillation verdict is decided.
+
+    Returns
+    -------
+    SimulationResult
+
+    Raises
+    ------
+    ParameterError
+        For invalid inputs, or a recording that would exceed :data:`MEMORY_BUDGET`
+        (2 GiB; 96 bytes a recorded sample) — record fewer samples with ``record_every``.
+    """
+    n_steps, p0, v0 = _prepare(algorithm, device, operator, duration, initial_position, initial_velocity)
+    if isinstance(record_every, bool) or int(record_every) != record_every or record_every < 1:
+        raise fail("record_every", record_every, "a whole number >= 1")
+    record_every = int(record_every)
+    if not 0 < tail_fraction <= 1:
+        raise fail("tail_fraction", tail_fraction, "a number in (0, 1]")
+    n_rec = n_steps // record_every
+    if n_rec * _BYTES_PER_SAMPLE > MEMORY_BUDGET:
+        raise ParameterError(
+            f"duration = {duration:g} s is not allowed with record_every = {record_every}: recording "
+            f"{n_rec} samples needs {n_rec * _BYTES_PER_SAMPLE / 2**30:.1f} GiB, over the 2 GiB budget; "
+            f"use record_every >= {math.ceil(n_steps * _BYTES_PER_SAMPLE / MEMORY_BUDGET)}"
+        )
+    code, prm, kind, coeffs, nominal, Phi, Wd, Wo, Bs = _kernel_inputs(algorithm, device, operator)
+    rec = np.zeros((n_rec, 12))
+    summary = np.zeros(N_SUMMARY)
+    tail_start = int(n_steps * (1 - tail_fraction))
+    tail_z = np.zeros(min(n_steps - tail_start, 65536))
+    _run(code, kind, coeffs, prm, nominal, Phi, Wd, Wo, Bs, device.mass, operator.stiffness, operator.damping,
+         operator.force, operator.setpoint_times, operator.setpoint_points, operator.final_velocity,
+         operator.rest_length, operator.kinematic, n_steps, device.period, device.delay, device.position_resolution,
+         device.force_resolution, device.max_force, p0, v0, record_every, rec, summary, tail_start, tail_z)
+    return _result(rec, summary, tail_z, (n_steps - tail_start) * device.period, device)
+
+
+def _result(rec, summary, tail_z, tail_duration, device) -> SimulationResult:
+    e_env_tail = summary[S_EX] + summary[S_EZ] - summary[S_TAILSTART_E]
+    osc = _oscillation(tail_z, tail_duration, e_env_tail, max(device.position_resolution, 1e-7))
+    totals = {"energy_x": float(summary[S_EX]), "energy_z": float(summary[S_EZ]),
+              "damping_energy": float(summary[S_DAMP]), "operator_work": float(summary[S_OP]),
+              "kinetic_energy": float(summary[S_KE])}
+    return SimulationResult(
+        time=rec[:, 0], position=rec[:, 1:3], velocity=rec[:, 3:5], force=rec[:, 5:7], energy_x=rec[:, 7],
+        energy_z=rec[:, 8], damping_energy=rec[:, 9], operator_work=rec[:, 10], kinetic_energy=rec[:, 11],
+        initial_kinetic_energy=float(summary[S_KE0]), saturations=int(summary[S_SAT]),
+        max_penetration=float(summary[S_MAXPEN]), oscillation=osc, totals=totals)
+
+
+_ALGORITHM_KEYS = ("stiffness", "amplitude", "texture_period", "friction", "presliding", "modulation_depth",
+                   "max_penetration")
+_DEVICE_KEYS = ("mass", "damping", "damping_outside", "delay", "position_resolution", "force_resolution",
+                "max_force")
+_OPERATOR_KEYS = ("push_x", "push_z", "band_stiffness", "anchor_x", "anchor_z", "hand_stiffness", "hand_damping",
+                  "depth", "velocity")
+_START_KEYS = ("initial_x", "initial_z")
+SWEEP_KEYS = _ALGORITHM_KEYS + _DEVICE_KEYS + _OPERATOR_KEYS + _START_KEYS
+"""Parameters :func:`simulate_batch` can sweep (SI units)."""
+
+
+@dataclass(frozen=True)
+class BatchResult:
+    """Per-run summaries of :func:`simulate_batch`; every array has shape (N,).
+
+    Attributes
+    ----------
+    parameters : dict of ndarray
+        The swept values, broadcast to N runs.
+    energy_x, energy_z : ndarray
+        Final E_x, E_z (J).
+    damping_energy, operator_work, kinetic_energy : ndarray
+        Final values (J).
+    energy_balance_error : ndarray
+        Relative closure of each run's energy balance.
+    oscillating : ndarray of bool
+    amplitude, frequency, energy_per_cycle : ndarray
+        The oscillation verdict's numbers (m, Hz, J).
+    max_penetration : ndarray
+        m.
+    saturations : ndarray of int
+    runs : list of SimulationResult or None
+        Full time series, only with ``record=True``.
+    """
+
+    parameters: dict
+    energy_x: np.ndarray
+    energy_z: np.ndarray
+    damping_energy: np.ndarray
+    operator_work: np.ndarray
+    kinetic_energy: np.ndarray
+    energy_balance_error: np.ndarray
+    oscillating: np.ndarray
+    amplitude: np.ndarray
+    frequency: np.ndarray
+    energy_per_cycle: np.ndarray
+    max_penetration: np.ndarray
+    saturations: np.ndarray
+    runs: list | None = None
+
+
+def _rebuild(algorithm: Algorithm, device: Device, operator: Operator, values: dict):
+    """The algorithm, device and operator of one run of a sweep."""
+    from .algorithms import algorithm as make
+    from .textures import Sinusoid
+
+    if any(k in values for k in _ALGORITHM_KEYS):
+        tex = algorithm.texture
+        if "amplitude" in values or "texture_period" in values:
+            if not isinstance(tex, Sinusoid):
+                raise ParameterError("amplitude and texture_period sweeps are not allowed for a texture that is not a Sinusoid")
+            tex = Sinusoid(values.get("amplitude", tex.amplitude), values.get("texture_period", tex.period), tex.phases[0])
+        kw = {}
+        if algorithm.letter in ("B", "C", "G", "F"):
+            kw["max_penetration"] = values.get("max_penetration", algorithm.max_penetration)
+        elif "max_penetration" in values:
+            raise ParameterError(f"max_penetration is not allowed in a sweep of algorithm {algorithm.letter}")
+        if algorithm.letter == "F":
+            kw.update(friction=values.get("friction", algorithm.friction),
+                      presliding=values.get("presliding", algorithm.presliding),
+                      modulation_depth=values.get("modulation_depth", algorithm.modulation_depth),
+                      stick_deflection=algorithm.stick_deflection)
+        elif any(k in values for k in ("friction", "presliding", "modulation_depth")):
+            raise ParameterError(f"friction parameters are not allowed in a sweep of algorithm {algorithm.letter}")
+        algorithm = make(algorithm.letter, None if algorithm.letter == "W" else tex,
+                         values.get("stiffness", algorithm.stiffness), **kw)
+    dv = {k: values[k] for k in _DEVICE_KEYS if k in values}
+    if "delay" in dv:
+        dv["delay"] = int(round(dv["delay"]))
+    if dv:
+        device = device.replace(**dv)
+    ov = {k: values[k] for k in _OPERATOR_KEYS if k in values}
+    if ov:
+        K, C, f = operator.stiffness.copy(), operator.damping.copy(), operator.force.copy()
+        pts = operator.setpoint_points.copy()
+        vend = operator.final_velocity.copy()
+        if "push_x" in ov or "push_z" in ov:
+            f = np.array([ov.get("push_x", f[0]), ov.get("push_z", f[1])])
+        if "band_stiffness" in ov:
+            K = positive("band_stiffness", ov["band_stiffness"], "N/m") * np.eye(2)
+        if "hand_stiffness" in ov:
+            K = positive("hand_stiffness", ov["hand_stiffness"], "N/m") * np.eye(2)
+        if "hand_damping" in ov:
+            C = float(ov["hand_damping"]) * np.eye(2)
+        if "anchor_x" in ov or "anchor_z" in ov:
+            pts[0] = [ov.get("anchor_x", pts[0, 0]), ov.get("anchor_z", pts[0, 1])]
+        depth = operator.depth
+        if "depth" in ov:
+            depth = float(ov["depth"])
+            pts[:, 1] += operator.depth - depth
+        if "velocity" in ov:
+            vend = np.array([float(ov["velocity"]), 0.0])
+        operator = Operator(stiffness=K, damping=C, force=f, setpoint_times=operator.setpoint_times,
+                            setpoint_points=pts, final_velocity=vend, rest_length=operator.rest_length,
+                            kinematic=operator.kinematic, depth=depth)
+    return algorithm, device, operator
+
+
+def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, duration: float, initial_position=None,
+                   initial_velocity=None, record: bool = False, record_every: int = 1, tail_fraction: float = 0.4,
+                   progress: bool | None = None, **sweep) -> BatchResult:
+    """Run many simulations that differ in some parameters, in one parallel compiled loop.
+
+    Parameters
+    ----------
+    algorithm, device, operator, duration, initial_position, initial_velocity
+        As for :func:`simulate`; they give the values of everything not swept.
+    record : bool, optional
+        Keep every run's time series (memory: N x samples x 96 bytes, within the 2 GiB
+        budget); default False, summaries only.
+    record_every, tail_fraction
+        As for :func:`simulate`.
+    progress : bool, optional
+        Show a progress bar; default: when the batch has more than 5e7 samples in all.
+    **sweep : array_like, shape (N,) or scalar
+        Parameters to vary, each broadcast to N runs; names from :data:`SWEEP_KEYS`:
+        algorithm ``stiffness``, ``amplitude``, ``texture_period``, ``friction``,
+        ``presliding``, ``modulation_depth``, ``max_penetration``; device ``mass``,
+        ``damping``, ``damping_outside``, ``delay``, ``position_resolution``,
+        ``force_resolution``, ``max_force``; operator ``push_x``, ``push_z``,
+        ``band_stiffness``, ``anchor_x``, ``anchor_z``, ``hand_stiffness``,
+        ``hand_damping``, ``depth``, ``velocity``; and ``initial_x``, ``initial_z``.
+
+    Returns
+    -------
+    BatchResult
+
+    Raises
+    ------
+    ParameterError
+        For an unknown sweep name, arrays that do not broadcast, or any invalid value
+        (checked for every run before anything runs).
+    """
+    unknown = sorted(set(sweep) - set(SWEEP_KEYS))
+    if unknown:
+        raise ParameterError(f"sweep parameters {unknown} are not allowed: choose from {', '.join(SWEEP_KEYS)}")
+    n_steps, p0, v0 = _prepare(algorithm, device, operator, duration, initial_position, initial_velocity)
+    try:
+        arrays = np.broadcast_arrays(*[np.atleast_1d(np.asarray(v, dtype=np.float64)) for v in sweep.values()]) if sweep else []
+    except ValueError:
+        raise ParameterError("the sweep arrays are not allowed: their shapes do not broadcast to one length N") from None
+    values = {k: a.ravel() for k, a in zip(sweep, arrays)}
+    N = len(next(iter(values.values()))) if values else 1
+    for k, a in values.items():
+        if not np.all(np.isfinite(a)):
+            raise fail(k, a.tolist(), "finite values")
+    n_rec = n_steps // int(record_every) if record else 0
+    if N * n_rec * _BYTES_PER_SAMPLE > MEMORY_BUDGET:
+        raise ParameterError(f"record = True is not allowed here: {N} runs x {n_rec} samples need more than the 2 GiB budget")
+    runs = [_rebuild(algorithm, device, operator, {k: float(a[i]) for k, a in values.items()}) for i in range(N)]
+    letters = {a.letter for a, _, _ in runs}
+    shapes = {a.kernel_spec()[3].shape for a, _, _ in runs}
+    periods = {d.period for _, d, _ in runs}
+    if len(letters) != 1 or len(shapes) != 1 or len(periods) != 1:
+        raise ParameterError("the runs of a batch must share the algorithm letter, texture shape and sampling period")
+    specs = [_kernel_inputs(a, d, o) for a, d, o in runs]
+    code, kind, nominal = specs[0][0], specs[0][2], specs[0][4]
+    st = lambda j: np.ascontiguousarray(np.stack([s[j] for s in specs]))  # noqa: E731
+    prm, coeffs, Phi, Wd, Wo, Bs = st(1), st(3), st(5), st(6), st(7), st(8)
+    dev = [d for _, d, _ in runs]
+    ops = [o for _, _, o in runs]
+    M = np.stack([d.mass for d in dev])
+    K = np.stack([o.stiffness for o in ops])
+    C = np.stack([o.damping for o in ops])
+    f0 = np.stack([o.force for o in ops])
+    sp_p = np.stack([o.setpoint_points for o in ops])
+    vend = np.stack([o.final_velocity for o in ops])
+    rest = np.array([o.rest_length for o in ops])
+    delay = np.array([d.delay for d in dev], dtype=np.int64)
+    delta = np.array([d.position_resolution for d in dev])
+    fres = np.array([d.force_resolution for d in dev])
+    fmax = np.array([d.max_force for d in dev])
+    P0 = np.tile(p0, (N, 1))
+    if "initial_x" in values:
+        P0[:, 0] = values["initial_x"]
+    if "initial_z" in values:
+        P0[:, 1] = values["initial_z"]
+    V0 = np.tile(v0, (N, 1))
+    rec = np.zeros((N, n_rec, 12))
+    summary = np.zeros((N, N_SUMMARY))
+    tail_start = int(n_steps * (1 - tail_fraction))
+    tail_z = np.zeros((N, min(n_steps - tail_start, 8192)))
+    T = dev[0].period
+    # (value, True if it has one row per run)
+    args = [(code, False), (kind, False), (coeffs, True), (prm, True), (nominal, False), (Phi, True), (Wd, True),
+            (Wo, True), (Bs, True), (M, True), (K, True), (C, True), (f0, True), (ops[0].setpoint_times, False),
+            (sp_p, True), (vend, True), (rest, True), (ops[0].kinematic, False), (n_steps, False), (T, False),
+            (delay, True), (delta, True), (fres, True), (fmax, True), (P0, True), (V0, True),
+            (int(record_every), False), (rec, True), (summary, True), (tail_start, False), (tail_z, True)]
+    show = (N * n_steps > 5e7) if progress is None else bool(progress)
+    bar = _progress(show, N)
+    for idx in np.array_split(np.arange(N), min(N, 20) if show else 1):
+        if idx.size:
+            lo, hi = idx[0], idx[-1] + 1
+            _run_batch(*[a[lo:hi] if per_run else a for a, per_run in args])
+            bar(idx.size)
+    bar(None)
+    results = [_result(rec[i], summary[i], tail_z[i], (n_steps - tail_start) * T, dev[i]) for i in range(N)]
+    col = lambda f: np.array([f(r) for r in results])  # noqa: E731
+    return BatchResult(
+        parameters=values,
+        energy_x=summary[:, S_EX].copy(), energy_z=summary[:, S_EZ].copy(), damping_energy=summary[:, S_DAMP].copy(),
+        operator_work=summary[:, S_OP].copy(), kinetic_energy=summary[:, S_KE].copy(),
+        energy_balance_error=col(lambda r: r.energy_balance_error), oscillating=col(lambda r: r.oscillating),
+        amplitude=col(lambda r: r.oscillation.amplitude), frequency=col(lambda r: r.oscillation.frequency),
+        energy_per_cycle=col(lambda r: r.oscillation.energy_per_cycle),
+        max_penetration=summary[:, S_MAXPEN].copy(), saturations=summary[:, S_SAT].astype(np.int64),
+        runs=results if record else None)
+
+
+def _progress(show: bool, total: int):
+    """A rich progress bar advanced by the returned callable; ``None`` closes it."""
+    if not show:
+        return lambda n: None
+    from rich.progress import Progress
+
+    prog = Progress(transient=True)
+    prog.start()
+    task = prog.add_task("simulating", total=total)
+
+    def advance(n):
+        if n is None:
+            prog.stop()
+        else:
+            prog.advance(task, n)
+
+    return advance

@@ -1,0 +1,196 @@
+"""The sampled-data simulator: exact zero-order-hold integration, the critical stiffness
+of a sampled virtual wall (Colgate & Schenkel), energy balance, loop energies in closed
+loop, quantisation, delay, batches and bad input."""
+
+import math
+
+import numpy as np
+import pytest
+
+import haptex as hx
+from haptex.operators import ConstantForce, ElasticBand, KinematicPath, ScanningHand
+
+from .conftest import A, K0, L
+
+SINE = hx.Sinusoid(A, L)
+
+
+def wall(k):
+    return hx.algorithm("W", None, k)
+
+
+def test_zero_order_hold_step_is_exact():
+    # A free damped mass (no wall: z > 0) under a constant push f from rest:
+    # x(t) = f/b t - f m / b^2 (1 - exp(-b t / m)) (by hand, textbook first-order lag).
+    m, b, T, f = 0.2, 0.7, 1e-3, 0.3
+    dev = hx.Device.point_mass(m, b, T)
+    r = hx.simulate(wall(1000.0), dev, ConstantForce([f, 0.0]), 0.5, initial_position=[0.0, 1.0])
+    t = r.time
+    exact = f / b * t - f * m / b**2 * (1 - np.exp(-b * t / m))
+    np.testing.assert_allclose(r.position[:, 0], exact, rtol=1e-10, atol=1e-15)
+    np.testing.assert_allclose(r.velocity[:, 0], f / b * (1 - np.exp(-b * t / m)), rtol=1e-10, atol=1e-15)
+    # the operator's work is f x, the damping takes the rest of what is not kinetic energy
+    assert r.totals["operator_work"] == pytest.approx(f * exact[-1], rel=1e-10)
+
+
+@pytest.mark.parametrize("m, b, T, delay, duration", [
+    (0.1, 0.5, 1e-4, 0, 10.0),
+    (0.05, 1.0, 1e-4, 0, 6.0),
+    (0.01, 2.0, 1e-3, 0, 20.0),
+    (0.1, 0.5, 1e-4, 1, 10.0),
+])
+def test_wall_critical_stiffness_from_the_closed_loop_poles(m, b, T, delay, duration):
+    # Stable at 0.95 kappa_c, oscillating at 1.05 kappa_c, where kappa_c puts a pole of the
+    # ZOH-discretised spring-mass-damper loop on the unit circle.
+    kc = hx.critical_stiffness(m, b, T, delay)
+    dev = hx.Device.point_mass(m, b, T, delay=delay)
+    for factor, expect in ((0.95, False), (1.05, True)):
+        k = factor * kc
+        start = [0.0, -1.2 * 1.0 / k]  # 20 % off the equilibrium of a 1 N push
+        r = hx.simulate(wall(k), dev, ConstantForce([0.0, -1.0]), duration, initial_position=start)
+        assert r.oscillating is expect, (factor, r.oscillation)
+
+
+@pytest.mark.parametrize("m, b, T", [(0.1, 0.5, 1e-4), (1.0, 0.1, 1e-4), (0.05, 0.02, 1e-3)])
+def test_critical_stiffness_tends_to_colgate_2b_over_T(m, b, T):
+    # Colgate & Schenkel (1997): K < 2b/T for a sampled wall, exact as bT/m -> 0 (delay 0)
+    assert b * T / m <= 5e-4
+    assert hx.critical_stiffness(m, b, T) == pytest.approx(2 * b / T, rel=b * T / m + 1e-9)
+
+
+def test_critical_stiffness_grows_with_bT_over_m_and_falls_with_delay():
+    assert hx.critical_stiffness(0.01, 2.0, 1e-3) > 2 * 2.0 / 1e-3  # 4138 > 4000 N/m
+    assert hx.critical_stiffness(0.1, 0.5, 1e-4, 1) < hx.critical_stiffness(0.1, 0.5, 1e-4, 0) / 2
+
+
+@pytest.mark.parametrize("letter", ["W", "A", "B", "C", "D", "E", "F", "G"])
+def test_energy_balance_closes_over_a_million_samples(letter):
+    alg = hx.algorithm(letter, None if letter == "W" else SINE, K0)
+    dev = hx.Device.pantograph(joint_damping=4.0e-3, joint_damping_outside=1e-3)
+    hand = ScanningHand(300.0, 1.0, velocity=0.01, depth=1e-3)
+    r = hx.simulate(alg, dev, hand, 100.0, record_every=1000)
+    assert r.time.size == 1000
+    assert r.energy_balance_error <= 1e-9
+
+
+def test_kinematic_loop_of_A_gives_the_closed_form():
+    # Driving the probe around Fig. 3's loop, the environment absorbs -kappa_0 A^2 / 2 (it
+    # generates kappa_0 A^2 / 2) up to the sampled-data error of the ZOH sum, which is at
+    # most kappa_0 dp (path length) with dp = speed * T.
+    path, expected, _ = hx.paper_loop(hx.algorithm("A", SINE, K0))
+    speed, T = 1e-3, 1e-4
+    dev = hx.Device.point_mass(0.1, 0.0, T)
+    length = float(np.hypot(*np.diff(path, axis=0).T).sum())
+    r = hx.simulate(hx.algorithm("A", SINE, K0), dev, KinematicPath(path, speed), length / speed + 10 * T)
+    absorbed = r.totals["energy_x"] + r.totals["energy_z"]
+    assert absorbed == pytest.approx(-expected, abs=K0 * speed * T * length)
+    assert abs(absorbed + expected) < 1e-3 * expected
+
+
+@pytest.mark.parametrize("letter", ["C", "W"])
+def test_kinematic_loop_of_a_conservative_field_returns_what_it_absorbed(letter):
+    # C and W around closed loops: the sampled sum -sum f . dp vanishes as dp = speed T -> 0
+    alg = hx.algorithm(letter, None if letter == "W" else SINE, K0)
+    loop = np.array([[0.1e-3, 0.5e-3], [0.3e-3, -0.9e-3], [0.9e-3, -0.4e-3], [0.6e-3, 0.9e-3], [0.1e-3, 0.5e-3]])
+    length = float(np.hypot(*np.diff(loop, axis=0).T).sum())
+    errs = []
+    for T in (1e-4, 1e-5):
+        dev = hx.Device.point_mass(0.1, 0.0, T)
+        r = hx.simulate(alg, dev, KinematicPath(loop, 1e-3), length / 1e-3 + 10 * T, record_every=100)
+        errs.append(abs(r.totals["energy_x"] + r.totals["energy_z"]))
+    assert errs[0] < K0 * 1e-3 * 1e-4 * length * (1 + 2 * math.pi * A / L) ** 2
+    assert errs[1] < errs[0] / 5  # first order in T
+
+
+def test_position_quantisation_force_quantisation_and_saturation():
+    dev = hx.Device.point_mass(0.1, 0.5, 1e-4, position_resolution=10e-6, force_resolution=0.01, max_force=1.5)
+    r = hx.simulate(wall(2000.0), dev, ConstantForce([0.0, -3.0]), 0.5, initial_position=[0.0, 0.0])
+    # commands are multiples of 10 mN (up to the saturation scaling) and never above 1.5 N
+    assert np.abs(np.linalg.norm(r.force, axis=1)).max() <= 1.5 * (1 + 1e-12)
+    assert r.saturations > 0
+    unsat = np.linalg.norm(r.force, axis=1) < 1.5 - 1e-9
+    np.testing.assert_allclose(r.force[unsat] / 0.01, np.round(r.force[unsat] / 0.01), atol=1e-9)
+    # the wall force is kappa_0 times a position multiple of 10 um: multiples of 20 mN
+    fz = r.force[unsat, 1]
+    np.testing.assert_allclose(fz / 0.02, np.round(fz / 0.02), atol=1e-6)
+
+
+def test_damping_only_inside_the_wall():
+    # The paper's brakes are on only inside: outside, a coasting handle keeps its speed.
+    dev = hx.Device.point_mass(0.1, 0.5, 1e-4, damping_outside=0.0)
+    r = hx.simulate(wall(2000.0), dev, ConstantForce([0.0, 0.0]), 0.2, initial_position=[0.0, 0.01],
+                    initial_velocity=[0.01, 0.0])
+    np.testing.assert_allclose(r.velocity[:, 0], 0.01, rtol=1e-12)
+    assert r.totals["damping_energy"] == 0.0
+
+
+def test_batch_equals_single_runs():
+    dev = hx.Device.point_mass(0.1, 0.5, 1e-4)
+    op = ElasticBand(200.0, [0.2e-3, -20e-3])
+    ks = np.array([1000.0, 3000.0, 12000.0])
+    b = hx.simulate_batch(hx.algorithm("A", SINE, 1.0), dev, op, 1.0, initial_position=[0.0, 1e-3], stiffness=ks)
+    for i, k in enumerate(ks):
+        r = hx.simulate(hx.algorithm("A", SINE, k), dev, op, 1.0, initial_position=[0.0, 1e-3])
+        assert b.energy_z[i] == pytest.approx(r.totals["energy_z"], rel=1e-12, abs=1e-18)
+        assert b.oscillating[i] == r.oscillating
+        assert b.max_penetration[i] == pytest.approx(r.max_penetration, rel=1e-12)
+    assert np.all(b.energy_balance_error < 1e-9)
+
+
+def test_pantograph_matrices_follow_from_the_linkage_jacobian():
+    dev = hx.Device.pantograph(joint_damping=4.7e-3)
+    d = dev.details
+    J = np.array(d["jacobian"])
+    # J against finite differences of the forward kinematics (circle intersection)
+    a1, a2, base = d["link_proximal"], d["link_distal"], d["base"]
+
+    def forward(th):
+        e1 = np.array([-base / 2 + a1 * math.cos(th[0]), a1 * math.sin(th[0])])
+        e2 = np.array([base / 2 + a1 * math.cos(th[1]), a1 * math.sin(th[1])])
+        mid = (e1 + e2) / 2
+        half = np.linalg.norm(e2 - e1) / 2
+        n = np.array([-(e2 - e1)[1], (e2 - e1)[0]]) / (2 * half)
+        return mid + n * math.sqrt(a2**2 - half**2)
+
+    th = np.array(d["joint_angles"])
+    np.testing.assert_allclose(forward(th), d["working_point"], atol=1e-12)
+    e = 1e-7
+    fd = np.column_stack([(forward(th + e * np.eye(2)[k]) - forward(th - e * np.eye(2)[k])) / (2 * e) for k in range(2)])
+    np.testing.assert_allclose(J, fd, rtol=1e-6)
+    Jinv = np.linalg.inv(J)
+    np.testing.assert_allclose(dev.damping, Jinv.T @ (4.7e-3 * np.eye(2)) @ Jinv, rtol=1e-12, atol=1e-14)  # J^-T B J^-1
+    assert np.all(np.linalg.eigvalsh(dev.mass) > 0)
+    assert 1000 < dev.passivity_limit < 5000  # sigma_0(B)/(2T) of order the paper's 2 kN/m
+
+
+@pytest.mark.parametrize("kwargs, pattern", [
+    (dict(mass=[[1.0, 0.5], [0.0, 1.0]]), r"^mass = .* must be a symmetric"),
+    (dict(mass=[[1.0, 0.0], [0.0, -1.0]]), r"^mass = .* must be positive definite"),
+    (dict(damping=-0.1), r"^damping = .*no negative damping"),
+    (dict(period=0.0), r"^period = 0 is not allowed"),
+    (dict(delay=-1), r"^delay = -1 is not allowed"),
+    (dict(delay=0.5), r"^delay = 0.5 is not allowed"),
+    (dict(position_resolution=-1e-6), r"^position_resolution = "),
+    (dict(max_force=0.0), r"^max_force = 0 "),
+])
+def test_bad_device(kwargs, pattern):
+    base = dict(mass=0.1, damping=0.5, period=1e-4)
+    base.update(kwargs)
+    with pytest.raises(hx.ParameterError, match=pattern):
+        hx.Device(**base)
+
+
+def test_bad_simulation_input():
+    dev = hx.Device.point_mass()
+    with pytest.raises(hx.ParameterError, match="over the 2 GiB budget; use record_every >= "):
+        hx.simulate(wall(1000), dev, ConstantForce([0, -1]), 1e5)
+    with pytest.raises(hx.ParameterError, match=r"^initial_position contains the non-finite"):
+        hx.simulate(wall(1000), dev, ConstantForce([0, -1]), 1.0, initial_position=[np.nan, 0])
+    with pytest.raises(hx.ParameterError, match=r"^duration = -1 "):
+        hx.simulate(wall(1000), dev, ConstantForce([0, -1]), -1)
+    with pytest.raises(hx.ParameterError, match=r"sweep parameters \['bogus'\] are not allowed"):
+        hx.simulate_batch(wall(1000), dev, ConstantForce([0, -1]), 0.1, bogus=[1, 2])
+    with pytest.raises(hx.ParameterError, match=r"^stiffness = -5 "):
+        hx.simulate_batch(wall(1000), dev, ConstantForce([0, -1]), 0.1, stiffness=[100, -5])
+    with pytest.raises(hx.ParameterError, match="exactly one"):
+        ScanningHand(100, 1)
