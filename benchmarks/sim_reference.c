@@ -1,0 +1,161 @@
+/* Plain C reference for haptex's simulator loop (benchmarks only, never part of the package).
+ *
+ * It does the same work per sample as haptex.simulate._run for a scanning hand:
+ * sense (no quantisation), compute algorithm A's or D's force on a Fourier texture (D
+ * with the same closest-point search: sampling every step, bracketed Newton, golden
+ * section), hold it, pick the damping regime, build the augmented state, advance it with
+ * the 10x10 transition matrix and accumulate the two Van Loan quadratic forms and the
+ * per-axis environment energies.
+ *
+ * Input (binary, little-endian float64 unless noted), written by benchmarks/run_sim.py:
+ *   int64 code (1 = A, 4 = D), int64 ncomp, int64 n_steps, int64 n_runs
+ *   coeffs[3][ncomp], k0, step, T, K[2][2], C[2][2], s0[2], vend[2], p0[2]
+ *   Phi[2][10][10], Wd[2][10][10], Wo[2][10][10]
+ * Output: "samples_per_second <value>" and a checksum on stdout.
+ *
+ * Build: gcc -O2 -o sim_reference sim_reference.c -lm
+ */
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <time.h>
+
+#define NZ 10
+static int ncomp;
+static double *co;
+
+static void tex(double x, double *h, double *s, double *c) {
+    double hh = 0, ss = 0, cc = 0;
+    for (int i = 0; i < ncomp; i++) {
+        double a = co[i], k = co[ncomp + i], arg = k * x + co[2 * ncomp + i];
+        double sn = sin(arg), cs = cos(arg);
+        hh += a * sn; ss += a * k * cs; cc -= a * k * k * sn;
+    }
+    *h = hh; *s = ss; *c = cc;
+}
+
+static void dphi(double px, double pz, double t, double *f, double *g, double *gp) {
+    double h, s, c; tex(t, &h, &s, &c);
+    double dz = h - pz;
+    *f = (t - px) * (t - px) + dz * dz; *g = (t - px) + dz * s; *gp = 1 + s * s + dz * c;
+}
+
+static double refine(double px, double pz, double a, double b) {
+    double lo = a, hi = b, t = 0.5 * (a + b), f, g, gp;
+    for (int i = 0; i < 100; i++) {
+        dphi(px, pz, t, &f, &g, &gp);
+        if (g > 0) hi = t; else lo = t;
+        double tn = gp > 0 ? t - g / gp : 0.5 * (lo + hi);
+        if (!(lo < tn && tn < hi)) tn = 0.5 * (lo + hi);
+        if (fabs(tn - t) <= 1e-15 * (1 + fabs(t)) || hi - lo <= 1e-16 * (1 + fabs(t))) { t = tn; break; }
+        t = tn;
+    }
+    return t;
+}
+
+static void golden(double px, double pz, double a, double b, double *tb, double *fb) {
+    const double r = 0.6180339887498949;
+    double c = b - r * (b - a), d = a + r * (b - a), fc, fd, g, gp;
+    dphi(px, pz, c, &fc, &g, &gp); dphi(px, pz, d, &fd, &g, &gp);
+    for (int i = 0; i < 80; i++) {
+        if (fc < fd) { b = d; d = c; fd = fc; c = b - r * (b - a); dphi(px, pz, c, &fc, &g, &gp); }
+        else { a = c; c = d; fc = fd; d = a + r * (b - a); dphi(px, pz, d, &fd, &g, &gp); }
+    }
+    *tb = 0.5 * (a + b); dphi(px, pz, *tb, fb, &g, &gp);
+}
+
+static double polish(double px, double pz, double t, double a, double b) {
+    double f, g, gp;
+    for (int i = 0; i < 60; i++) {
+        dphi(px, pz, t, &f, &g, &gp);
+        if (gp <= 0) break;
+        double tn = fmin(fmax(t - g / gp, a), b);
+        if (fabs(tn - t) <= 1e-15 * (1 + fabs(t))) return tn;
+        t = tn;
+    }
+    return t;
+}
+
+static double closest(double step, double px, double pz) {
+    double h0, s0, c0; tex(px, &h0, &s0, &c0);
+    double dv = h0 - pz;
+    if (dv <= 0) return px;
+    int n = (int)ceil(2 * dv / step); if (n < 8) n = 8;
+    double dt = 2 * dv / n, best_t = px, best_f = INFINITY, f, g, gp;
+    int found = 0, node_i = 0;
+    double tp = px - dv, fp, gprev; dphi(px, pz, tp, &fp, &gprev, &gp);
+    double node_f = fp;
+    for (int i = 1; i <= n; i++) {
+        double ti = px - dv + i * dt, fi, gi;
+        dphi(px, pz, ti, &fi, &gi, &gp);
+        if (fi < node_f) { node_f = fi; node_i = i; }
+        if (gprev <= 0 && gi > 0) {
+            double t = refine(px, pz, tp, ti);
+            dphi(px, pz, t, &f, &g, &gp);
+            if (f < best_f) { best_f = f; best_t = t; found = 1; }
+        }
+        tp = ti; gprev = gi;
+    }
+    double a = px - dv + (node_i > 0 ? node_i - 1 : 0) * dt, b = px - dv + (node_i + 1 < n ? node_i + 1 : n) * dt, t;
+    golden(px, pz, a, b, &t, &f);
+    if (!found || fabs(t - best_t) > 0.5 * dt) {
+        t = polish(px, pz, t, a, b); dphi(px, pz, t, &f, &g, &gp);
+        if (f < best_f) { best_f = f; best_t = t; }
+    }
+    return best_t;
+}
+
+static double quad(const double *W, const double *z) {
+    double acc = 0;
+    for (int i = 0; i < NZ; i++) { double row = 0; for (int j = 0; j < NZ; j++) row += W[i * NZ + j] * z[j]; acc += z[i] * row; }
+    return acc;
+}
+
+int main(int argc, char **argv) {
+    if (argc < 2) { fprintf(stderr, "usage: sim_reference input.bin\n"); return 2; }
+    FILE *fh = fopen(argv[1], "rb");
+    if (!fh) { perror(argv[1]); return 2; }
+    int64_t hdr[4];
+    if (fread(hdr, 8, 4, fh) != 4) return 2;
+    int code = (int)hdr[0]; ncomp = (int)hdr[1]; long n_steps = hdr[2], n_runs = hdr[3];
+    co = malloc(sizeof(double) * 3 * ncomp);
+    double sc[3 + 4 + 4 + 2 + 2 + 2], Phi[2 * NZ * NZ], Wd[2 * NZ * NZ], Wo[2 * NZ * NZ];
+    if (fread(co, 8, 3 * ncomp, fh) != (size_t)(3 * ncomp) || fread(sc, 8, 17, fh) != 17 ||
+        fread(Phi, 8, 200, fh) != 200 || fread(Wd, 8, 200, fh) != 200 || fread(Wo, 8, 200, fh) != 200) return 2;
+    fclose(fh);
+    double k0 = sc[0], step = sc[1], T = sc[2], *K = sc + 3, *C = sc + 7, *s0 = sc + 11, *vend = sc + 13, *p0 = sc + 15;
+    double checksum = 0;
+    struct timespec t0, t1;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    for (long run = 0; run < n_runs; run++) {
+        double p[2] = {p0[0], p0[1]}, v[2] = {0, 0}, z[NZ], ex = 0, ez = 0, ed = 0, eo = 0;
+        for (long k = 0; k < n_steps; k++) {
+            double t = k * T, fx = 0, fz = 0, h, s, c;
+            tex(p[0], &h, &s, &c);
+            double d = p[1] - h;
+            if (d < 0) {
+                if (code == 1) { fz = -k0 * d; }
+                else { double tt = closest(step, p[0], p[1]), th, ts, tc; tex(tt, &th, &ts, &tc); fx = -k0 * (p[0] - tt); fz = -k0 * (p[1] - th); }
+            }
+            double mag = sqrt(fx * fx + fz * fz); (void)mag;
+            int reg = p[1] < h ? 1 : 0;
+            double sx = s0[0] + vend[0] * t, sz = s0[1] + vend[1] * t, sdx = vend[0], sdz = vend[1];
+            z[0] = p[0]; z[1] = p[1]; z[2] = v[0]; z[3] = v[1]; z[4] = fx; z[5] = fz;
+            z[6] = K[0] * sx + K[1] * sz + C[0] * sdx + C[1] * sdz;
+            z[7] = K[2] * sx + K[3] * sz + C[2] * sdx + C[3] * sdz;
+            z[8] = K[0] * sdx + K[1] * sdz; z[9] = K[2] * sdx + K[3] * sdz;
+            ed += quad(Wd + reg * NZ * NZ, z); eo += quad(Wo + reg * NZ * NZ, z);
+            const double *P = Phi + reg * NZ * NZ;
+            double np[4] = {0, 0, 0, 0};
+            for (int i = 0; i < 4; i++) for (int j = 0; j < NZ; j++) np[i] += P[i * NZ + j] * z[j];
+            ex -= fx * (np[0] - p[0]); ez -= fz * (np[1] - p[1]);
+            p[0] = np[0]; p[1] = np[1]; v[0] = np[2]; v[1] = np[3];
+        }
+        checksum += ex + ez + ed + eo;
+    }
+    clock_gettime(CLOCK_MONOTONIC, &t1);
+    double el = (t1.tv_sec - t0.tv_sec) + 1e-9 * (t1.tv_nsec - t0.tv_nsec);
+    printf("samples_per_second %.6g\nchecksum %.17g\n", (double)n_steps * n_runs / el, checksum);
+    return 0;
+}
