@@ -91,3 +91,40 @@ def test_reproduce_writes_summary_json(tmp_path):
     assert rows["A"]["characteristic_number"] == pytest.approx(5.125, abs=1e-3)  # eq. 10 at V-A
     assert "Table II" in r.stdout
     assert not [p for p in out.iterdir() if p.name.startswith(".")]  # no temporary file left
+
+
+def run_cli(*args, timeout=300):
+    return subprocess.run([sys.executable, "-m", "haptex", *args], capture_output=True, text=True, timeout=timeout)
+
+
+def test_simulate_path_json_reports_the_loop_energy_of_A():
+    # Fig. 3's loop for A driven kinematically: the environment absorbs -kappa_0 A^2/2 = -0.64 mJ
+    r = run_cli("simulate", "path", "--algorithm", "A", "--path", "0,0;0.25mm,0;0.25mm,0.8mm;0,0.8mm;0,0",
+                "--speed", "1 mm/s", "--duration", "2.2s", "--json")
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout)
+    assert out["energy_x"] + out["energy_z"] == pytest.approx(-0.5 * 2000 * 0.8e-3**2, rel=2e-3)
+
+
+def test_simulate_thrust_writes_a_plot(tmp_path):
+    png = tmp_path / "thrust.png"
+    r = run_cli("simulate", "thrust", "--algorithm", "W", "--duration", "0.3s", "--plot", str(png), "--json")
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout)
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert out["energy_balance_error"] < 1e-9  # the simulator's energy balance closes
+    assert out["max_penetration"] > 0
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (["simulate", "thrust", "--anchor", "0"], "anchor = '0' is not allowed"),
+    (["simulate", "path"], "path = None is not allowed"),
+    (["simulate", "scan", "--sampling-period", "0s"], "period = 0 is not allowed"),
+    (["simulate", "thrust", "--algorithm", "Q"], "letter = 'Q' is not allowed"),
+    (["simulate", "thrust", "--plot", "/proc/nope/x.png", "--duration", "0.01s"], "plot = '/proc/nope/x.png' is not allowed"),
+])
+def test_simulate_bad_input(args, fragment):
+    r = run_cli(*args)
+    assert r.returncode == 2
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and fragment in lines[0], r.stderr
