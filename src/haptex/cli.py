@@ -7,9 +7,7 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import sys
-import tempfile
 from pathlib import Path
 
 import click
@@ -77,16 +75,47 @@ def table(stiffness, amplitude, period, max_penetration, friction, presliding, a
 
 @cli.command()
 @_paper_options
-@click.option("--out", "out", type=click.Path(file_okay=False, path_type=Path), default=Path("haptex-report"),
+@click.option("--out", "out", type=click.Path(path_type=Path), default=Path("haptex-report"),
               show_default=True, help="Directory the report is written into.")
-def reproduce(stiffness, amplitude, period, max_penetration, friction, presliding, out):
-    """Recompute the paper's results on its parameters and write a report into --out."""
-    _prepare_dir(out)
-    data = _table(stiffness, amplitude, period, max_penetration, friction, presliding)
-    _print_table(data)
-    summary = {"paper": "Campion & Hayward, On the Synthesis of Haptic Textures", "table_ii": _jsonable(data)}
-    path = _write_json(out, "summary.json", summary)
-    click.echo(f"wrote {path}")
+@click.option("--quick", is_flag=True, help="Smaller grids and shorter runs (what the test suite runs).")
+@click.option("--force", is_flag=True, help="Write into an existing directory that is not a haptex report.")
+def reproduce(stiffness, amplitude, period, max_penetration, friction, presliding, out, quick, force):
+    """Recompute the paper's tables and experiments; write DIR/index.html, summary.json and PNGs.
+
+    The Table II options change Table II only; the experiments use the paper's conditions.
+    """
+    import time as _time
+
+    from rich.console import Console
+    from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+
+    from . import report
+
+    report.check_output(out, force)
+    params = dict(stiffness=stiffness, amplitude=amplitude, period=period, max_penetration=max_penetration,
+                  friction=friction, presliding=presliding)
+    t0 = _time.perf_counter()
+    console = Console(stderr=True)
+    with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(), console=console,
+                  transient=True, disable=not console.is_terminal) as prog:
+        task = prog.add_task("starting", total=None)
+
+        def step(text):
+            prog.update(task, description=text)
+            if not console.is_terminal:
+                console.print(f"haptex: {text}")
+
+        data = report.compute(quick=quick, progress=step, table_params=params)
+        step("figures and report")
+        elapsed = _time.perf_counter() - t0
+        report.write_report(data, out, force=force, elapsed=elapsed)
+    _print_table(data["table_ii"])
+    n_ok = sum(c["verdict"] == "matches" for c in data["claims"])
+    click.echo(f"{len(data['claims'])} claims: {n_ok} match, {len(data['claims']) - n_ok} differ")
+    for c in data["claims"]:
+        if c["verdict"] == "differs":
+            click.echo(f"  differs  {c['id']:8} {c['claim']}: paper {c['paper']}; haptex {c['ours']}")
+    click.echo(f"wrote {out / 'index.html'} and {out / 'summary.json'} in {_time.perf_counter() - t0:.1f} s")
 
 
 def _parse_point(text: str, name: str):
@@ -253,29 +282,6 @@ def _jsonable(obj):
     if isinstance(obj, float) and not math.isfinite(obj):
         return "inf" if obj > 0 else ("-inf" if obj < 0 else "nan")
     return obj
-
-
-def _prepare_dir(directory: Path) -> None:
-    """Create ``directory`` (before any work is done), or fail with one line."""
-    try:
-        directory.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ParameterError(f"out = {str(directory)!r} is not allowed: cannot create it ({exc.strerror})") from None
-    if not os.access(directory, os.W_OK):
-        raise ParameterError(f"out = {str(directory)!r} is not allowed: the directory is not writable")
-
-
-def _write_json(directory: Path, name: str, data) -> Path:
-    """Write ``data`` as JSON into ``directory/name`` atomically (temporary file, rename)."""
-    try:
-        _prepare_dir(directory)
-        fd, tmp = tempfile.mkstemp(prefix=f".{name}.", dir=directory)
-        with os.fdopen(fd, "w") as fh:
-            json.dump(data, fh, indent=2)
-        os.replace(tmp, directory / name)
-    except OSError as exc:
-        raise ParameterError(f"out = {str(directory)!r} is not allowed: cannot write there ({exc.strerror})") from None
-    return directory / name
 
 
 def main(argv=None) -> int:

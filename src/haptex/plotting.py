@@ -64,3 +64,156 @@ def finite_or_nan(values) -> np.ndarray:
     """Array of floats with non-finite entries as NaN (for plotting)."""
     arr = np.asarray(values, dtype=np.float64)
     return np.where(np.isfinite(arr), arr, np.nan)
+
+
+def plot_force_field(alg, path, n: int = 23, max_penetration: float = 1e-3) -> Path:
+    """Force field of one algorithm over one texture period, in the spirit of Fig. 2.
+
+    Arrows show the force direction (length scaled by magnitude^0.5 for legibility),
+    colour its magnitude (N); the solid line is the textured surface z = h(x), the grey
+    line the nominal surface z = 0. For F the field is shown in full slip to the right
+    (d^x = +d^x_max).
+
+    Parameters
+    ----------
+    alg : Algorithm
+    path : str or Path
+        PNG file to write.
+    n : int
+        Arrows per axis.
+    max_penetration : float
+        Depth shown below the lowest valley (m).
+    """
+    plt = _pyplot()
+    tex = alg.texture
+    lo, hi = tex.height_range
+    period = tex.period if tex.period else 1e-3
+    x = np.linspace(0, period, n)
+    z = np.linspace(lo - max_penetration, hi + 0.1 * period, n)
+    X, Z = np.meshgrid(x, z)
+    P = np.stack([X, Z], -1)
+    F = alg.force(P, alg.presliding) if alg.has_memory else alg.force(P)
+    mag = np.hypot(F[..., 0], F[..., 1])
+    scale = np.where(mag > 0, np.sqrt(mag / max(mag.max(), 1e-300)) / np.maximum(mag, 1e-300), 0.0)
+    fig, ax = plt.subplots(figsize=(5.2, 4.2))
+    q = ax.quiver(X * 1e3, Z * 1e3, F[..., 0] * scale, F[..., 1] * scale, mag, cmap="viridis", angles="xy",
+                  pivot="tail", width=0.004)
+    xs = np.linspace(0, period, 400)
+    ax.plot(xs * 1e3, tex.height(xs) * 1e3, "k-", lw=1.5, label="textured surface")
+    ax.axhline(0.0, color="0.6", lw=2, zorder=0, label="nominal surface")
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel("z (mm)")
+    ax.set_title(f"{alg.letter}: {alg.name}", fontsize=9)
+    fig.colorbar(q, ax=ax, label="|f| (N)")
+    ax.legend(loc="lower right", fontsize=7)
+    fig.tight_layout()
+    out = Path(path)
+    fig.savefig(out, dpi=100)
+    plt.close(fig)
+    return out
+
+
+def plot_loop_energies(rows, path) -> Path:
+    """Bar chart of Fig. 3 loop energies: computed by quadrature beside the closed forms.
+
+    Parameters
+    ----------
+    rows : list of dict
+        Table II rows (``algorithm``, ``loop_energy``, ``loop_energy_closed_form``).
+    path : str or Path
+    """
+    plt = _pyplot()
+    letters = [r["algorithm"] for r in rows]
+    ours = [r["loop_energy"] * 1e3 for r in rows]
+    closed = [np.nan if r["loop_energy_closed_form"] is None else r["loop_energy_closed_form"] * 1e3 for r in rows]
+    xs = np.arange(len(letters))
+    fig, ax = plt.subplots(figsize=(7, 3.6))
+    ax.bar(xs - 0.2, ours, 0.4, label="haptex (quadrature)")
+    ax.bar(xs + 0.2, closed, 0.4, label="closed form (eqs. 10, 12, 27, 29)")
+    ax.set_xticks(xs, letters)
+    ax.set_ylabel("loop energy ΔE (mJ)")
+    ax.axhline(0, color="k", lw=0.8)
+    ax.legend(fontsize=8)
+    ax.grid(True, axis="y", alpha=0.3)
+    fig.tight_layout()
+    out = Path(path)
+    fig.savefig(out, dpi=100)
+    plt.close(fig)
+    return out
+
+
+def plot_runs(runs, path, quantity: str = "position", title: str = "") -> Path:
+    """Time series of several runs, one panel each (Figs. 5, 6, 7).
+
+    Parameters
+    ----------
+    runs : list of Run
+        From :mod:`haptex.experiments`.
+    path : str or Path
+    quantity : {"position", "energy"}
+        ``"position"``: p^z (mm) over time with E_x + E_z on a second axis;
+        ``"energy"``: E_x and E_z (mJ) over time.
+    title : str
+    """
+    plt = _pyplot()
+    fig, axes = plt.subplots(len(runs), 1, figsize=(7.5, 1.9 * len(runs) + 0.6), sharex=False, squeeze=False)
+    for ax, run in zip(axes[:, 0], runs):
+        r = run.result
+        if quantity == "position":
+            ax.plot(r.time, r.position[:, 1] * 1e3, lw=0.8, color="C0")
+            ax.set_ylabel("z (mm)", color="C0")
+            ax2 = ax.twinx()
+            ax2.plot(r.time, (r.energy_x + r.energy_z) * 1e3, lw=0.8, color="C3")
+            ax2.set_ylabel("E (mJ)", color="C3")
+        else:
+            ax.plot(r.time, r.energy_x * 1e3, lw=1.0, label="E_x")
+            ax.plot(r.time, r.energy_z * 1e3, lw=1.0, label="E_z")
+            ax.set_ylabel("energy (mJ)")
+            ax.axhline(0, color="k", lw=0.5)
+            ax.legend(loc="lower left", fontsize=7)
+        osc = (" — oscillating" if r.oscillating else " — no limit cycle") if quantity == "position" else ""
+        ax.set_title(f"{run.label}{osc}", fontsize=9)
+        ax.grid(True, alpha=0.3)
+    axes[-1, 0].set_xlabel("time (s)")
+    if title:
+        fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    out = Path(path)
+    fig.savefig(out, dpi=100)
+    plt.close(fig)
+    return out
+
+
+def plot_trajectories(runs, surface_x, surface_h, path, title: str = "") -> Path:
+    """Handle trajectories over a textured surface (Fig. 7's enlarged bump).
+
+    Parameters
+    ----------
+    runs : list of Run
+    surface_x, surface_h : ndarray
+        The surface profile to draw (m).
+    path : str or Path
+    title : str
+    """
+    plt = _pyplot()
+    fig, axes = plt.subplots(len(runs), 2, figsize=(10, 2.2 * len(runs) + 0.6), squeeze=False)
+    for (ax, ax2), run in zip(axes, runs):
+        r = run.result
+        ax.plot(surface_x * 1e3, surface_h * 1e3, "k-", lw=1.2)
+        ax.plot(r.position[:, 0] * 1e3, r.position[:, 1] * 1e3, lw=0.7)
+        ax.set_ylabel("z (mm)")
+        ax.set_title(f"{run.label}: trajectory", fontsize=9)
+        ax2.plot(r.time, (r.energy_x + r.energy_z) * 1e3, lw=0.8, color="C3")
+        ax2.set_ylabel("E_x + E_z (mJ)")
+        ax2.set_title(f"{run.label}: energy absorbed by the environment", fontsize=9)
+        for a in (ax, ax2):
+            a.grid(True, alpha=0.3)
+    axes[-1, 0].set_xlabel("x (mm)")
+    axes[-1, 1].set_xlabel("time (s)")
+    if title:
+        fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    out = Path(path)
+    fig.savefig(out, dpi=100)
+    plt.close(fig)
+    return out

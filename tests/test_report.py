@@ -1,0 +1,112 @@
+"""``haptex reproduce --quick`` end to end: every claim of Sections IV and V has a row, the
+verdicts follow from computed numbers, the report is complete and written atomically."""
+
+import json
+import math
+import subprocess
+import sys
+
+import pytest
+
+EXPECTED_CLAIMS = {
+    # Section IV (and its remarks) and Table II
+    "IV-A.1", "IV-A.2", "IV-A.nc", "IV-B.nc", "IV-E.nc", "IV-G.nc", "IV-B.1", "IV-C.c", "IV-D.c", "IV-C.1",
+    "IV-D.1", "IV-D.2", "IV-D.3", "IV-E.1", "IV-E.2", "IV-E.3", "IV-F.1", "IV-F.2", "IV-F.3", "IV-F.4", "IV-G.1",
+    "R3", "III-B", "T2-A", "T2-B", "T2-C", "T2-G", "T2-F",
+    # Section V
+    "V.0", "V-A.1", "V-A.A1", "V-A.A2", "V-A.F1", "V-A.F2", "V-A.q", "V-B.A", "V-B.G", "V-B.D", "V-B.F",
+    "V-C.A", "V-C.D", "V-C.ABE",
+}
+
+
+def run_cli(*args):
+    return subprocess.run([sys.executable, "-m", "haptex", *args], capture_output=True, text=True, timeout=600)
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory):
+    out = tmp_path_factory.mktemp("rep") / "report"
+    r = run_cli("reproduce", "--quick", "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    return out, json.loads((out / "summary.json").read_text()), r
+
+
+def test_every_claim_has_a_row(report):
+    _, summary, _ = report
+    ids = [c["id"] for c in summary["claims"]]
+    assert len(ids) == len(set(ids))
+    # the "not conservative" rows are per algorithm: IV-A.nc etc.
+    assert set(ids) == EXPECTED_CLAIMS
+    for c in summary["claims"]:
+        assert c["verdict"] in ("matches", "differs")
+        assert c["paper"] and c["ours"]
+        assert (c["verdict"] == "differs") == bool(c["reason"])
+
+
+def test_verdicts_come_from_the_computed_numbers(report):
+    _, summary, _ = report
+    claims = {c["id"]: c for c in summary["claims"]}
+    rows = {r["algorithm"]: r for r in summary["table_ii"]["rows"]}
+    # eq. 10 at the paper's parameters: numeric sup and closed form printed as computed
+    assert claims["IV-A.1"]["ours"] == f"{rows['A']['characteristic_number']:.4g}"
+    assert claims["IV-A.1"]["verdict"] == "matches"
+    # q_F: the computed value, the paper's 8.3 and the verdict agree with each other
+    qf = rows["F"]["characteristic_number"]
+    assert claims["IV-F.1"]["ours"].startswith(f"{qf:.4g}")
+    assert claims["IV-F.1"]["verdict"] == ("matches" if math.isclose(qf, 8.3, rel_tol=0.05) else "differs")
+    # the passivity verdicts follow the simulated oscillation flags
+    runs = {r["label"]: r for r in summary["passivity"]["runs"]}
+    assert claims["V-A.1"]["verdict"] == ("differs" if runs["W at kappa_0"]["oscillating"] else "matches")
+    assert claims["V-A.A1"]["verdict"] == ("matches" if runs["A at kappa_0"]["oscillating"] else "differs")
+    # Fig. 6: A has no lateral force, so E_x is exactly zero (Section V-B: "no energy ... lateral")
+    cons = {r["algorithm"]: r for r in summary["conservativity"]["runs"]}
+    assert cons["A"]["energy_x"] == 0.0
+    # every simulation closed its energy balance
+    for part in ("passivity", "conservativity", "surface_activity"):
+        assert all(r["energy_balance_error"] < 1e-9 for r in summary[part]["runs"])
+
+
+def test_report_files(report):
+    out, summary, r = report
+    html = (out / "index.html").read_text()
+    for name in ["fig2_W", "fig2_A", "fig2_B", "fig2_C", "fig2_D", "fig2_E", "fig2_F", "fig2_G", "fig3_loops",
+                 "fig5_passivity", "fig6_conservativity", "fig7_bump"]:
+        assert (out / f"{name}.png").read_bytes()[:4] == b"\x89PNG"
+        assert f"{name}.png" in html
+    assert "data:image/png;base64," in html  # self-contained
+    assert html.count("<tr class='differs'>") + html.count("<tr class='matches'>") == len(summary["claims"])
+    assert summary["generator"] == "haptex-report"
+    assert not [p for p in out.parent.iterdir() if p.name.startswith(".report")]  # no temporary left
+    assert "claims:" in r.stdout
+
+
+def test_existing_directory_that_is_not_a_report_is_refused(tmp_path):
+    target = tmp_path / "mine"
+    target.mkdir()
+    (target / "notes.txt").write_text("keep me")
+    r = run_cli("reproduce", "--quick", "--out", str(target))
+    assert r.returncode == 2
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "is not a haptex report (use --force" in lines[0]
+    assert (target / "notes.txt").read_text() == "keep me"
+
+
+def test_unwritable_path_is_one_line_exit_2():
+    r = run_cli("reproduce", "--quick", "--out", "/proc/haptex/report")
+    assert r.returncode == 2
+    assert len(r.stderr.strip().splitlines()) == 1 and r.stderr.startswith("haptex: error: out = ")
+
+
+def test_force_writes_into_a_foreign_directory_and_keeps_its_files(tmp_path):
+    target = tmp_path / "mine"
+    target.mkdir()
+    (target / "notes.txt").write_text("keep me")
+    r = run_cli("reproduce", "--quick", "--force", "--out", str(target))
+    assert r.returncode == 0, r.stderr
+    assert (target / "notes.txt").read_text() == "keep me"
+    assert json.loads((target / "summary.json").read_text())["generator"] == "haptex-report"
+    # a second run over it (now a report with a foreign file) still keeps the file
+    r = run_cli("reproduce", "--quick", "--out", str(target))
+    assert r.returncode == 0, r.stderr
+    assert (target / "notes.txt").read_text() == "keep me"
+    assert (target / "index.html").exists()
