@@ -31,7 +31,7 @@ def c_reference(alg, dev, op, n_steps, n_runs, workdir, exe):
         np.array([code, coeffs.shape[1], n_steps, n_runs], dtype=np.int64).tofile(fh)
         coeffs.astype(np.float64).tofile(fh)
         sc = np.r_[prm[0], prm[6], dev.period, op.stiffness.ravel(), op.damping.ravel(), op.setpoint_points[0],
-                   op.final_velocity, [0.0, 0.0]]
+                   op.final_velocity, [0.0, 0.0], prm[7], prm[8]]
         sc.astype(np.float64).tofile(fh)
         for m in (Phi, Wd, Wo):
             np.ascontiguousarray(m, dtype=np.float64).tofile(fh)

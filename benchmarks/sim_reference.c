@@ -2,14 +2,14 @@
  *
  * It does the same work per sample as haptex.simulate._run for a scanning hand:
  * sense (no quantisation), compute algorithm A's or D's force on a Fourier texture (D
- * with the same closest-point search: sampling every step, bracketed Newton, golden
- * section), hold it, pick the damping regime, build the augmented state, advance it with
+ * with the same closest-point search: warm start, cells pruned by Lipschitz and
+ * curvature bounds, sampling every step, bracketed Newton, polishing), hold it, pick the damping regime, build the augmented state, advance it with
  * the 10x10 transition matrix and accumulate the two Van Loan quadratic forms and the
  * per-axis environment energies.
  *
  * Input (binary, little-endian float64 unless noted), written by benchmarks/run_sim.py:
  *   int64 code (1 = A, 4 = D), int64 ncomp, int64 n_steps, int64 n_runs
- *   coeffs[3][ncomp], k0, step, T, K[2][2], C[2][2], s0[2], vend[2], p0[2]
+ *   coeffs[3][ncomp], k0, step, T, K[2][2], C[2][2], s0[2], vend[2], p0[2], M, Kc
  *   Phi[2][10][10], Wd[2][10][10], Wo[2][10][10]
  * Output: "samples_per_second <value>" and a checksum on stdout.
  *
@@ -54,17 +54,6 @@ static double refine(double px, double pz, double a, double b) {
     return t;
 }
 
-static void golden(double px, double pz, double a, double b, double *tb, double *fb) {
-    const double r = 0.6180339887498949;
-    double c = b - r * (b - a), d = a + r * (b - a), fc, fd, g, gp;
-    dphi(px, pz, c, &fc, &g, &gp); dphi(px, pz, d, &fd, &g, &gp);
-    for (int i = 0; i < 80; i++) {
-        if (fc < fd) { b = d; d = c; fd = fc; c = b - r * (b - a); dphi(px, pz, c, &fc, &g, &gp); }
-        else { a = c; c = d; fc = fd; d = a + r * (b - a); dphi(px, pz, d, &fd, &g, &gp); }
-    }
-    *tb = 0.5 * (a + b); dphi(px, pz, *tb, fb, &g, &gp);
-}
-
 static double polish(double px, double pz, double t, double a, double b) {
     double f, g, gp;
     for (int i = 0; i < 60; i++) {
@@ -77,31 +66,49 @@ static double polish(double px, double pz, double t, double a, double b) {
     return t;
 }
 
-static double closest(double step, double px, double pz) {
+static double closest(double step, double M, double K, double px, double pz, double guess) {
     double h0, s0, c0; tex(px, &h0, &s0, &c0);
-    double dv = h0 - pz;
+    double dv = h0 - pz, f, g, gp;
     if (dv <= 0) return px;
-    int n = (int)ceil(2 * dv / step); if (n < 8) n = 8;
-    double dt = 2 * dv / n, best_t = px, best_f = INFINITY, f, g, gp;
-    int found = 0, node_i = 0;
-    double tp = px - dv, fp, gprev; dphi(px, pz, tp, &fp, &gprev, &gp);
-    double node_f = fp;
-    for (int i = 1; i <= n; i++) {
-        double ti = px - dv + i * dt, fi, gi;
-        dphi(px, pz, ti, &fi, &gi, &gp);
-        if (fi < node_f) { node_f = fi; node_i = i; }
-        if (gprev <= 0 && gi > 0) {
-            double t = refine(px, pz, tp, ti);
-            dphi(px, pz, t, &f, &g, &gp);
-            if (f < best_f) { best_f = f; best_t = t; found = 1; }
-        }
-        tp = ti; gprev = gi;
+    double best_t = px, best_f = dv * dv, second = INFINITY; (void)second;
+    int found = 0;
+    if (guess == guess) {
+        double tg = polish(px, pz, guess, px - dv, px + dv);
+        dphi(px, pz, tg, &f, &g, &gp);
+        if (f < best_f) { best_f = f; best_t = tg; }
     }
-    double a = px - dv + (node_i > 0 ? node_i - 1 : 0) * dt, b = px - dv + (node_i + 1 < n ? node_i + 1 : n) * dt, t;
-    golden(px, pz, a, b, &t, &f);
-    if (!found || fabs(t - best_t) > 0.5 * dt) {
-        t = polish(px, pz, t, a, b); dphi(px, pz, t, &f, &g, &gp);
-        if (f < best_f) { best_f = f; best_t = t; }
+    double R = sqrt(best_f);
+    int fine = 8; double width = fine * step;
+    int nc = (int)ceil(2 * R / width); if (nc < 1) nc = 1;
+    width = 2 * R / nc;
+    if (width / fine > step) fine = (int)ceil(width / step);
+    double dt = width / fine, nb_t = px, nb_f = INFINITY;
+    for (int ci = 0; ci < nc; ci++) {
+        double a = px - R + ci * width, c = a + 0.5 * width, hc, sc, cc;
+        tex(c, &hc, &sc, &cc);
+        double dx = fabs(c - px) - 0.5 * width; if (dx < 0) dx = 0;
+        double spread = M * 0.5 * width, tay = fabs(sc) * 0.5 * width + K * 0.125 * width * width;
+        if (tay < spread) spread = tay;
+        double dz = fabs(hc - pz) - spread; if (dz < 0) dz = 0;
+        if (dx * dx + dz * dz >= best_f * (1 + 1e-12)) continue;
+        double tp = a, fp, gprev; dphi(px, pz, tp, &fp, &gprev, &gp);
+        if (fp < nb_f) { nb_f = fp; nb_t = tp; }
+        for (int i = 1; i <= fine; i++) {
+            double ti = a + i * dt, fi, gi;
+            dphi(px, pz, ti, &fi, &gi, &gp);
+            if (fi < nb_f) { nb_f = fi; nb_t = ti; }
+            if (gprev <= 0 && gi > 0) {
+                double t = refine(px, pz, tp, ti);
+                dphi(px, pz, t, &f, &g, &gp);
+                if (f < best_f) { best_f = f; best_t = t; found = 1; }
+            }
+            tp = ti; gprev = gi;
+        }
+    }
+    if (nb_f < INFINITY) {
+        double t = polish(px, pz, nb_t, nb_t - dt, nb_t + dt);
+        dphi(px, pz, t, &f, &g, &gp);
+        if ((!found || fabs(t - best_t) > 0.5 * dt) && f < best_f) { best_f = f; best_t = t; }
     }
     return best_t;
 }
@@ -120,23 +127,25 @@ int main(int argc, char **argv) {
     if (fread(hdr, 8, 4, fh) != 4) return 2;
     int code = (int)hdr[0]; ncomp = (int)hdr[1]; long n_steps = hdr[2], n_runs = hdr[3];
     co = malloc(sizeof(double) * 3 * ncomp);
-    double sc[3 + 4 + 4 + 2 + 2 + 2], Phi[2 * NZ * NZ], Wd[2 * NZ * NZ], Wo[2 * NZ * NZ];
-    if (fread(co, 8, 3 * ncomp, fh) != (size_t)(3 * ncomp) || fread(sc, 8, 17, fh) != 17 ||
+    double sc[3 + 4 + 4 + 2 + 2 + 2 + 2], Phi[2 * NZ * NZ], Wd[2 * NZ * NZ], Wo[2 * NZ * NZ];
+    if (fread(co, 8, 3 * ncomp, fh) != (size_t)(3 * ncomp) || fread(sc, 8, 19, fh) != 19 ||
         fread(Phi, 8, 200, fh) != 200 || fread(Wd, 8, 200, fh) != 200 || fread(Wo, 8, 200, fh) != 200) return 2;
     fclose(fh);
     double k0 = sc[0], step = sc[1], T = sc[2], *K = sc + 3, *C = sc + 7, *s0 = sc + 11, *vend = sc + 13, *p0 = sc + 15;
+    double Mslope = sc[17], Kcurv = sc[18];
     double checksum = 0;
     struct timespec t0, t1;
     clock_gettime(CLOCK_MONOTONIC, &t0);
     for (long run = 0; run < n_runs; run++) {
-        double p[2] = {p0[0], p0[1]}, v[2] = {0, 0}, z[NZ], ex = 0, ez = 0, ed = 0, eo = 0;
+        double p[2] = {p0[0], p0[1]}, v[2] = {0, 0}, z[NZ], ex = 0, ez = 0, ed = 0, eo = 0, guess = NAN;
         for (long k = 0; k < n_steps; k++) {
             double t = k * T, fx = 0, fz = 0, h, s, c;
             tex(p[0], &h, &s, &c);
             double d = p[1] - h;
             if (d < 0) {
                 if (code == 1) { fz = -k0 * d; }
-                else { double tt = closest(step, p[0], p[1]), th, ts, tc; tex(tt, &th, &ts, &tc); fx = -k0 * (p[0] - tt); fz = -k0 * (p[1] - th); }
+                else { double tt = closest(step, Mslope, Kcurv, p[0], p[1], guess), th, ts, tc; guess = tt;
+                       tex(tt, &th, &ts, &tc); fx = -k0 * (p[0] - tt); fz = -k0 * (p[1] - th); }
             }
             double mag = sqrt(fx * fx + fz * fz); (void)mag;
             int reg = p[1] < h ? 1 : 0;

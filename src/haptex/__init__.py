@@ -26,6 +26,7 @@ from .analysis import (
 )
 from .closest import ClosestPoint, closest_point
 from .devices import Device, critical_stiffness, five_bar_jacobian
+from .renderer import Renderer
 from .simulate import BatchResult, Oscillation, SimulationResult, simulate, simulate_batch
 from .tables import PAPER_PARAMETERS, table_ii
 from .textures import Flat, Sinusoid, SumOfSinusoids, Texture
@@ -52,6 +53,7 @@ __all__ = [
     "PAPER_PARAMETERS",
     "ParameterError",
     "PreslidingState",
+    "Renderer",
     "Sinusoid",
     "SumOfSinusoids",
     "Texture",

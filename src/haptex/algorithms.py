@@ -147,8 +147,9 @@ class Algorithm:
         Returns
         -------
         (code, params, kind, coeffs)
-            Algorithm code, parameter vector float64[8] (kappa_0 N/m, d^z_max m or -1,
-            mu, d^x_max m, modulation scale 1/m, z_stick m or -1, closest-point step m),
+            Algorithm code, parameter vector float64[9] (kappa_0 N/m, d^z_max m or -1,
+            mu, d^x_max m, modulation scale 1/m, z_stick m or -1, closest-point step m,
+            the texture's Lipschitz bound M and its bound on |h''| in 1/m),
             and the texture's (kind, coeffs).
         """
         prm = np.zeros(_kernels.N_PARAMS)
@@ -156,6 +157,8 @@ class Algorithm:
         prm[_kernels.P_DZMAX] = -1.0 if self.max_penetration is None else self.max_penetration
         prm[_kernels.P_ZSTICK] = -1.0
         prm[_kernels.P_STEP] = self.texture.closest_point_step
+        prm[_kernels.P_SLOPE] = self.texture.max_slope
+        prm[_kernels.P_CURV] = self.texture.max_curvature
         self._fill_kernel_params(prm)
         kind, coeffs = self.texture.kernel_data()
         return _CODES[self.letter], prm, kind, np.ascontiguousarray(coeffs)

@@ -299,6 +299,9 @@ def main(argv=None) -> int:
     except ParameterError as exc:
         click.echo(f"haptex: error: {exc}", err=True)
         return 2
+    except OSError as exc:  # the file system refused: still one line, never a traceback
+        click.echo(f"haptex: error: {exc.strerror or exc}: {exc.filename or ''}".rstrip(": "), err=True)
+        return 2
     return 0
 
 

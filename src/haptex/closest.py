@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import _kernels
-from ._validation import positions
+from ._validation import ParameterError, positions
 from .textures import Texture
 
 
@@ -64,10 +64,12 @@ def closest_point(texture: Texture, p) -> ClosestPoint:
     Notes
     -----
     For a probe at vertical depth d_v = h(p^x) - p^z > 0 the global minimiser of
-    |p - (t, h(t))| lies in [p^x - d_v, p^x + d_v]. That interval is sampled every 1/64 of
-    the shortest texture period, every local minimum of the squared distance is refined
-    by safeguarded (bracketed) Newton iterations, the best sample is refined again by
-    golden section, and the smallest distance wins. This is the god-object projection of
+    |p - (t, h(t))| lies in [p^x - d_v, p^x + d_v]. That interval is cut into cells; a
+    cell is skipped when a rigorous lower bound of the distance over it (from the
+    texture's Lipschitz bound M) is not below the best distance so far; the others are
+    sampled every 1/64 of the shortest texture period, every local minimum of the squared
+    distance is refined by safeguarded (bracketed) Newton iterations, the best sample is
+    polished by bounded Newton, and the smallest distance wins. This is the god-object projection of
     Zilles & Salisbury (1995) [28] restricted to a height profile.
     """
     arr = positions(p)
@@ -82,12 +84,20 @@ def closest_point(texture: Texture, p) -> ClosestPoint:
         kind,
         coeffs,
         float(texture.closest_point_step),
+        float(texture.max_slope),
+        float(texture.max_curvature),
         np.ascontiguousarray(flat[:, 0]),
         np.ascontiguousarray(flat[:, 1]),
         t,
         d,
         tie,
     )
+    if np.isnan(d).any():
+        bad = flat[np.isnan(d)][0]
+        raise ParameterError(
+            f"p = {bad.tolist()} is not allowed: it is too deep below the texture for the closest-point "
+            f"search (more than about {_kernels.MAX_CELLS * 8 * texture.closest_point_step / 2:g} m)"
+        )
     return ClosestPoint(
         x=t.reshape(shape),
         z=texture.height(t).reshape(shape),

@@ -287,8 +287,10 @@ def check_output(out: Path, force: bool) -> None:
         parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise ParameterError(f"out = {str(out)!r} is not allowed: cannot create {str(parent)!r} ({exc.strerror})") from None
-    if not os.access(parent, os.W_OK):
-        raise ParameterError(f"out = {str(out)!r} is not allowed: {str(parent)!r} is not writable")
+    try:  # a real probe: os.access says yes to root on read-only or virtual file systems
+        shutil.rmtree(tempfile.mkdtemp(prefix=f".{out.name}.probe-", dir=parent))
+    except OSError as exc:
+        raise ParameterError(f"out = {str(out)!r} is not allowed: cannot write in {str(parent)!r} ({exc.strerror})") from None
 
 
 def write_report(data: dict, out: Path, force: bool = False, elapsed: float | None = None) -> Path:

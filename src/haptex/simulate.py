@@ -20,12 +20,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-import numba as nb
 import numpy as np
 from scipy.linalg import expm
 
-from . import _kernels
-from ._kernels import alg_force, texture_eval
+from ._kernels import _NZ, N_SUMMARY, S_DAMP, S_EX, S_EZ, S_KE, S_KE0, S_MAXPEN, S_OP, S_SAT, S_TAILSTART_E
+from ._kernels import run_batch as _run_batch
+from ._kernels import run_one as _run
 from ._validation import ParameterError, fail, positions, positive
 from .algorithms import Algorithm
 from .devices import Device
@@ -38,7 +38,6 @@ MEMORY_BUDGET = 2 * 1024**3
 recorded sample). Longer runs must record every n-th sample (``record_every``)."""
 
 _BYTES_PER_SAMPLE = 12 * 8
-_NZ = 10  # augmented state [p(2), v(2), u(2), g(2), r(2)]
 
 
 # --------------------------------------------------------------------------------------
@@ -91,231 +90,6 @@ def _discretise(device: Device, op: Operator) -> tuple[np.ndarray, np.ndarray, n
         Phi[reg], Wd[reg] = _van_loan(F, Qd, T)
         _, Wo[reg] = _van_loan(F, Qop, T)
     return Phi, Wd, Wo
-
-
-# --------------------------------------------------------------------------------------
-# compiled loop
-# --------------------------------------------------------------------------------------
-_JIT = dict(cache=True, nogil=True)
-
-# summary slots
-(S_EX, S_EZ, S_DAMP, S_OP, S_KE0, S_KE, S_SAT, S_MAXPEN, S_MAXF, S_NSAMP, S_TAILSTART_E) = range(11)
-N_SUMMARY = 12
-
-
-@nb.njit(**_JIT)
-def _quad(W, z):
-    acc = 0.0
-    for i in range(_NZ):
-        row = 0.0
-        for j in range(_NZ):
-            row += W[i, j] * z[j]
-        acc += z[i] * row
-    return acc
-
-
-@nb.njit(**_JIT)
-def _setpoint(ts, ps, vend, t, out):
-    n = ts.shape[0]
-    if t >= ts[n - 1]:
-        dt = t - ts[n - 1]
-        out[0] = ps[n - 1, 0] + vend[0] * dt
-        out[1] = ps[n - 1, 1] + vend[1] * dt
-        return
-    if t <= ts[0]:
-        out[0] = ps[0, 0]
-        out[1] = ps[0, 1]
-        return
-    lo = 0
-    hi = n - 1
-    while hi - lo > 1:
-        mid = (lo + hi) // 2
-        if ts[mid] <= t:
-            lo = mid
-        else:
-            hi = mid
-    w = (t - ts[lo]) / (ts[hi] - ts[lo])
-    out[0] = ps[lo, 0] + w * (ps[hi, 0] - ps[lo, 0])
-    out[1] = ps[lo, 1] + w * (ps[hi, 1] - ps[lo, 1])
-
-
-@nb.njit(**_JIT)
-def _run(code, kind, coeffs, prm, nominal, Phi, Wd, Wo, Bs, M, K, C, f0, sp_t, sp_p, vend, rest_len, kinematic,
-         n_steps, T, delay, delta, fres, fmax, p0, v0, record_every, rec, summary, tail_start, tail_z):
-    """One simulation; fills ``rec`` (n_rec, 12) if it has rows, ``summary`` and ``tail_z``.
-
-    Record columns: t, px, pz, vx, vz, fx, fz, E_x, E_z, E_damping, W_operator, KE.
-    """
-    st = np.zeros(_kernels.N_STATE)
-    z = np.zeros(_NZ)
-    p = p0.copy()
-    v = v0.copy()
-    buf = np.zeros((delay + 1, 2))
-    s0 = np.zeros(2)
-    s1 = np.zeros(2)
-    ex = 0.0
-    ez = 0.0
-    ed = 0.0
-    eo = 0.0
-    sat = 0
-    maxpen = 0.0
-    maxf = 0.0
-    ke0 = 0.5 * (v[0] * (M[0, 0] * v[0] + M[0, 1] * v[1]) + v[1] * (M[1, 0] * v[0] + M[1, 1] * v[1]))
-    ke_prev = ke0
-    n_tail = tail_z.shape[0]
-    tail_stride = max((n_steps - tail_start) // max(n_tail, 1), 1)
-    e_tail = 0.0
-    irec = 0
-    nrec = rec.shape[0]
-    for k in range(n_steps):
-        t = k * T
-        if kinematic:
-            _setpoint(sp_t, sp_p, vend, t, p)
-            _setpoint(sp_t, sp_p, vend, t + T, s1)
-            v[0] = (s1[0] - p[0]) / T
-            v[1] = (s1[1] - p[1]) / T
-        # controller: sense, compute, quantise, saturate, delay
-        if delta > 0.0:
-            sx = delta * np.round(p[0] / delta)
-            sz = delta * np.round(p[1] / delta)
-        else:
-            sx = p[0]
-            sz = p[1]
-        fx, fz = alg_force(code, sx, sz, kind, coeffs, prm, st)
-        if fres > 0.0:
-            fx = fres * np.round(fx / fres)
-            fz = fres * np.round(fz / fres)
-        mag = math.sqrt(fx * fx + fz * fz)
-        if mag > fmax:
-            fx *= fmax / mag
-            fz *= fmax / mag
-            sat += 1
-        slot = k % (delay + 1)
-        buf[slot, 0] = fx
-        buf[slot, 1] = fz
-        ux = buf[(k + 1) % (delay + 1), 0] if delay > 0 else fx
-        uz = buf[(k + 1) % (delay + 1), 1] if delay > 0 else fz
-        if delay > 0 and k < delay:
-            ux = 0.0
-            uz = 0.0
-        # damping regime from the sensed position (brakes on inside the virtual object)
-        if nominal:
-            inside = sz < 0.0
-            pen = -p[1]
-        else:
-            h, _, _ = texture_eval(kind, coeffs, sx)
-            inside = sz < h
-            if delta > 0.0:
-                h, _, _ = texture_eval(kind, coeffs, p[0])
-            pen = h - p[1]
-        if pen > maxpen:
-            maxpen = pen
-        if mag > maxf:
-            maxf = mag
-        reg = 1 if inside else 0
-        if kinematic:
-            # prescribed motion: constant velocity over the sample; the operator supplies
-            # whatever work keeps it on the path (so the energy balance closes by design)
-            dpx = s1[0] - p[0]
-            dpz = s1[1] - p[1]
-            Bm = Bs[reg]
-            dd = T * (v[0] * (Bm[0, 0] * v[0] + Bm[0, 1] * v[1]) + v[1] * (Bm[1, 0] * v[0] + Bm[1, 1] * v[1]))
-            ke_now = 0.5 * (v[0] * (M[0, 0] * v[0] + M[0, 1] * v[1]) + v[1] * (M[1, 0] * v[0] + M[1, 1] * v[1]))
-            if k == 0:
-                ke0 = ke_now
-                ke_prev = ke_now
-            ed += dd
-            eo += (ke_now - ke_prev) + dd - (ux * dpx + uz * dpz)
-            ke_prev = ke_now
-            ex -= ux * dpx
-            ez -= uz * dpz
-            p[0] = s1[0]
-            p[1] = s1[1]
-        else:
-            # operator forcing over [t, t + T]: g(t + s) = g0 + r s
-            _setpoint(sp_t, sp_p, vend, t, s0)
-            _setpoint(sp_t, sp_p, vend, t + T, s1)
-            sdx = (s1[0] - s0[0]) / T
-            sdz = (s1[1] - s0[1]) / T
-            g0x = K[0, 0] * s0[0] + K[0, 1] * s0[1] + C[0, 0] * sdx + C[0, 1] * sdz + f0[0]
-            g0z = K[1, 0] * s0[0] + K[1, 1] * s0[1] + C[1, 0] * sdx + C[1, 1] * sdz + f0[1]
-            if rest_len > 0.0:
-                ax = p[0] - sp_p[0, 0]
-                az = p[1] - sp_p[0, 1]
-                nrm = math.sqrt(ax * ax + az * az)
-                if nrm > 0.0:
-                    g0x += K[0, 0] * rest_len * ax / nrm
-                    g0z += K[1, 1] * rest_len * az / nrm
-            z[0] = p[0]
-            z[1] = p[1]
-            z[2] = v[0]
-            z[3] = v[1]
-            z[4] = ux
-            z[5] = uz
-            z[6] = g0x
-            z[7] = g0z
-            z[8] = K[0, 0] * sdx + K[0, 1] * sdz
-            z[9] = K[1, 0] * sdx + K[1, 1] * sdz
-            ed += _quad(Wd[reg], z)
-            eo += _quad(Wo[reg], z)
-            P = Phi[reg]
-            npx = 0.0
-            npz = 0.0
-            nvx = 0.0
-            nvz = 0.0
-            for j in range(_NZ):
-                npx += P[0, j] * z[j]
-                npz += P[1, j] * z[j]
-                nvx += P[2, j] * z[j]
-                nvz += P[3, j] * z[j]
-            ex -= ux * (npx - p[0])
-            ez -= uz * (npz - p[1])
-            p[0] = npx
-            p[1] = npz
-            v[0] = nvx
-            v[1] = nvz
-        if k == tail_start:
-            e_tail = ex + ez
-        if k >= tail_start and n_tail > 0:
-            j = (k - tail_start) // tail_stride
-            if j < n_tail:
-                tail_z[j] = p[1]
-        if nrec > 0 and (k + 1) % record_every == 0 and irec < nrec:
-            rec[irec, 0] = t + T
-            rec[irec, 1] = p[0]
-            rec[irec, 2] = p[1]
-            rec[irec, 3] = v[0]
-            rec[irec, 4] = v[1]
-            rec[irec, 5] = ux
-            rec[irec, 6] = uz
-            rec[irec, 7] = ex
-            rec[irec, 8] = ez
-            rec[irec, 9] = ed
-            rec[irec, 10] = eo
-            rec[irec, 11] = 0.5 * (v[0] * (M[0, 0] * v[0] + M[0, 1] * v[1]) + v[1] * (M[1, 0] * v[0] + M[1, 1] * v[1]))
-            irec += 1
-    summary[S_EX] = ex
-    summary[S_EZ] = ez
-    summary[S_DAMP] = ed
-    summary[S_OP] = eo
-    summary[S_KE0] = ke0
-    summary[S_KE] = 0.5 * (v[0] * (M[0, 0] * v[0] + M[0, 1] * v[1]) + v[1] * (M[1, 0] * v[0] + M[1, 1] * v[1]))
-    summary[S_SAT] = sat
-    summary[S_MAXPEN] = maxpen
-    summary[S_MAXF] = maxf
-    summary[S_NSAMP] = n_steps
-    summary[S_TAILSTART_E] = e_tail
-
-
-@nb.njit(parallel=True, cache=True)
-def _run_batch(code, kind, coeffs, prm, nominal, Phi, Wd, Wo, Bs, M, K, C, f0, sp_t, sp_p, vend, rest_len,
-               kinematic, n_steps, T, delay, delta, fres, fmax, p0, v0, record_every, rec, summary, tail_start,
-               tail_z):
-    """Runs i = 0..N-1 of :func:`_run` in parallel; every per-run array has a leading N axis."""
-    for i in nb.prange(coeffs.shape[0]):
-        _run(code, kind, coeffs[i], prm[i], nominal, Phi[i], Wd[i], Wo[i], Bs[i], M[i], K[i], C[i], f0[i], sp_t,
-             sp_p[i], vend[i], rest_len[i], kinematic, n_steps, T, delay[i], delta[i], fres[i], fmax[i], p0[i], v0[i],
-             record_every, rec[i], summary[i], tail_start, tail_z[i])
 
 
 # --------------------------------------------------------------------------------------
