@@ -1,20 +1,31 @@
-"""Speed of the analysis core, per algorithm: force and jacobian on 10^6 positions and
-characteristic_number at default resolution (the paper's Section V-A parameters).
+"""haptex's benchmark suite, one command: python benchmarks/run.py
 
-Run:  python benchmarks/run.py [--points N] [--json]
-Never part of the test run; results are reported in benchmarks/README.md.
+1. analysis: force and jacobian on 10^6 positions and characteristic_number at default
+   resolution, per algorithm (the paper's Section V-A parameters);
+2. renderer: Renderer.step latency from Python and of the compiled kernel, against plain C
+   (benchmarks/run_renderer.py);
+3. simulator: simulate_batch samples per second against plain C, N = 1 and 1000
+   (benchmarks/run_sim.py).
+
+Options: --only {analysis,renderer,simulator}, --points N, --json (analysis only).
+Never part of the test run; results are reported in benchmarks/README.md. Sections 2 and
+3 need gcc.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import platform
+import sys
 import time
 
 import numpy as np
 
 import haptex as hx
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 
 def best_of(fn, repeat=3):
@@ -30,7 +41,25 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--points", type=int, default=1_000_000)
     ap.add_argument("--json", action="store_true")
+    ap.add_argument("--only", choices=["analysis", "renderer", "simulator"])
     args = ap.parse_args()
+    if args.only in (None, "analysis"):
+        analysis(args)
+    if args.only in (None, "renderer") and not args.json:
+        import run_renderer
+
+        print("\n# renderer")
+        sys.argv = sys.argv[:1]
+        run_renderer.main()
+    if args.only in (None, "simulator") and not args.json:
+        import run_sim
+
+        print("\n# simulator")
+        sys.argv = sys.argv[:1]
+        run_sim.main()
+
+
+def analysis(args) -> None:
 
     tex = hx.Sinusoid(0.8e-3, 1e-3)
     rng = np.random.default_rng(0)
@@ -40,7 +69,7 @@ def main() -> None:
     # warm the compiled kernels (numba compilation or cache load) before timing
     hx.algorithm("D", tex, 2000).force(p[:10])
     rows = []
-    for letter in "WABCDEG":
+    for letter in "WABCDEFG":
         alg = hx.algorithm(letter, None if letter == "W" else tex, 2000.0)
         t_f = best_of(lambda: alg.force(p))
         t_j = best_of(lambda: alg.jacobian(p))
@@ -52,7 +81,7 @@ def main() -> None:
     if args.json:
         print(json.dumps({"points": n, "machine": machine, "rows": rows}, indent=2))
         return
-    print(f"{n} positions; {machine}")
+    print(f"# analysis: {n} positions; {machine}")
     print(f"{'alg':4} {'force (s)':>10} {'jacobian (s)':>13} {'q (s)':>8}")
     for r in rows:
         print(f"{r['algorithm']:4} {r['force_s']:10.3f} {r['jacobian_s']:13.3f} {r['characteristic_number_s']:8.2f}")

@@ -23,7 +23,7 @@ from haptex.simulate import _discretise
 HERE = os.path.dirname(os.path.abspath(__file__))
 
 
-def c_reference(alg, dev, op, n_steps, n_runs, workdir, exe):
+def c_reference(alg, dev, op, n_steps, n_runs, workdir, exe, render=False):
     code, prm, kind, coeffs = alg.kernel_spec()
     Phi, Wd, Wo = _discretise(dev, op)
     path = os.path.join(workdir, f"in_{alg.letter}_{n_runs}.bin")
@@ -35,8 +35,19 @@ def c_reference(alg, dev, op, n_steps, n_runs, workdir, exe):
         sc.astype(np.float64).tofile(fh)
         for m in (Phi, Wd, Wo):
             np.ascontiguousarray(m, dtype=np.float64).tofile(fh)
-    out = subprocess.run([exe, path], capture_output=True, text=True, check=True).stdout
+    out = subprocess.run([exe, path] + (["render"] if render else []), capture_output=True, text=True,
+                         check=True).stdout
     return float(out.split()[1])
+
+
+def build_reference(tmp):
+    """Compile the C reference with gcc -O2; returns the executable's path."""
+    gcc = shutil.which("gcc")
+    if gcc is None:
+        raise SystemExit("gcc is needed for the C reference")
+    exe = os.path.join(tmp, "sim_reference")
+    subprocess.run([gcc, "-O2", "-o", exe, os.path.join(HERE, "sim_reference.c"), "-lm"], check=True)
+    return exe
 
 
 def haptex_rate(alg, dev, op, n_steps, n_runs):
@@ -52,15 +63,11 @@ def main() -> None:
     ap.add_argument("--steps-single", type=int, default=2_000_000)
     ap.add_argument("--steps-batch", type=int, default=4_000)
     args = ap.parse_args()
-    gcc = shutil.which("gcc")
-    if gcc is None:
-        raise SystemExit("gcc is needed for the C reference")
     tex = hx.Sinusoid(0.8e-3, 1e-3)
     dev = hx.Device.pantograph(joint_damping=4.0e-3)
     op = ScanningHand(300.0, 1.0, velocity=0.01, depth=1e-3)
     with tempfile.TemporaryDirectory() as tmp:
-        exe = os.path.join(tmp, "sim_reference")
-        subprocess.run([gcc, "-O2", "-o", exe, os.path.join(HERE, "sim_reference.c"), "-lm"], check=True)
+        exe = build_reference(tmp)
         print(f"{'alg':4} {'N':>5} {'steps':>8} {'haptex (samples/s)':>19} {'C -O2 (samples/s)':>18} {'ratio':>6}")
         for letter in "AD":
             alg = hx.algorithm(letter, tex, 2000.0)

@@ -119,8 +119,43 @@ static double quad(const double *W, const double *z) {
     return acc;
 }
 
+/* Render mode: the force of algorithm A or D at n points of a scan x_i = i * 1e-6 m,
+ * z_i = h(x_i) - 0.4 mm, with D warm-starting from the previous closest point, as
+ * haptex.Renderer does. Prints ns per point. */
+static int render_mode(int code, long n, double k0, double step, double M, double Kc) {
+    double guess = NAN, acc = 0, ex = 0, ez = 0, lx = 0, lz = 0, lfx = 0, lfz = 0;
+    long clamps = 0; int have = 0;
+    struct timespec t0, t1;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    for (long i = 0; i < n; i++) {
+        double x = i * 1e-6, h, s, c, fx = 0, fz = 0;
+        tex(x, &h, &s, &c);
+        double z = h - 0.4e-3;
+        if (!(isfinite(x) && isfinite(z))) continue;
+        tex(x, &h, &s, &c);
+        double d = z - h;
+        if (d < 0) {
+            if (code == 1) fz = -k0 * d;
+            else { double tt = closest(step, M, Kc, x, z, guess), th, ts, tc; guess = tt; tex(tt, &th, &ts, &tc);
+                   fx = -k0 * (x - tt); fz = -k0 * (z - th); }
+        }
+        /* the renderer's extra work: finiteness, clamp to 10 N, passivity observer */
+        if (!(isfinite(fx) && isfinite(fz))) { fx = 0; fz = 0; }
+        double mag = sqrt(fx * fx + fz * fz);
+        if (mag > 10.0) { fx *= 10.0 / mag; fz *= 10.0 / mag; clamps++; }
+        if (have) { ex -= lfx * (x - lx); ez -= lfz * (z - lz); }
+        lx = x; lz = z; lfx = fx; lfz = fz; have = 1;
+        acc += fx + fz;
+    }
+    acc += ex + ez + clamps;
+    clock_gettime(CLOCK_MONOTONIC, &t1);
+    double el = (t1.tv_sec - t0.tv_sec) + 1e-9 * (t1.tv_nsec - t0.tv_nsec);
+    printf("ns_per_point %.6g\nchecksum %.17g\n", el / n * 1e9, acc);
+    return 0;
+}
+
 int main(int argc, char **argv) {
-    if (argc < 2) { fprintf(stderr, "usage: sim_reference input.bin\n"); return 2; }
+    if (argc < 2) { fprintf(stderr, "usage: sim_reference input.bin [render]\n"); return 2; }
     FILE *fh = fopen(argv[1], "rb");
     if (!fh) { perror(argv[1]); return 2; }
     int64_t hdr[4];
@@ -133,6 +168,7 @@ int main(int argc, char **argv) {
     fclose(fh);
     double k0 = sc[0], step = sc[1], T = sc[2], *K = sc + 3, *C = sc + 7, *s0 = sc + 11, *vend = sc + 13, *p0 = sc + 15;
     double Mslope = sc[17], Kcurv = sc[18];
+    if (argc > 2) return render_mode(code, n_steps, k0, step, Mslope, Kcurv);
     double checksum = 0;
     struct timespec t0, t1;
     clock_gettime(CLOCK_MONOTONIC, &t0);
