@@ -19,6 +19,9 @@ from .analysis import (
     curl,
     friction_bounds,
     loop_energy,
+    max_passive_stiffness,
+    passivity_condition,
+    texture_limits,
     paper_loop,
     path_work,
     random_loops,
@@ -29,12 +32,14 @@ from .devices import Device, critical_stiffness, five_bar_jacobian
 from .renderer import Renderer
 from .simulate import BatchResult, Oscillation, SimulationResult, simulate, simulate_batch
 from .tables import PAPER_PARAMETERS, table_ii
-from .textures import Flat, Sinusoid, SumOfSinusoids, Texture
+from .textures import BandLimitedNoise, Flat, SampledProfile, Sinusoid, SumOfSinusoids, Texture
 
 __version__ = "0.1.0"
 
 __all__ = [
     "ALGORITHMS",
+    "BandLimitedNoise",
+    "SampledProfile",
     "BatchResult",
     "Device",
     "Oscillation",
@@ -66,6 +71,9 @@ __all__ = [
     "friction",
     "friction_bounds",
     "loop_energy",
+    "max_passive_stiffness",
+    "passivity_condition",
+    "texture_limits",
     "paper_loop",
     "path_work",
     "random_loops",

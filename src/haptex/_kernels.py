@@ -12,6 +12,11 @@ Texture encoding shared by all kernels
 * ``TEXTURE_FLAT`` (0): h = 0 (no texture, e.g. algorithm W); ``coeffs`` is ignored.
 * ``TEXTURE_FOURIER`` (1): ``coeffs`` has shape (3, n): amplitudes a_k (m), wavenumbers
   k_k = 2*pi/l_k (rad/m) and phases phi_k (rad); h(x) = sum a_k sin(k_k x + phi_k).
+* ``TEXTURE_SPLINE`` (2): a uniformly sampled cubic spline with m intervals; ``coeffs``
+  has shape (4, m + 2): columns 0..m-1 hold the polynomial coefficients of each interval
+  (highest power first, in the local abscissa t = x - x_i, as scipy's CubicSpline.c);
+  column m holds [x0, dx, periodic (0 or 1), m]; column m + 1 holds [h, h'] at the left
+  end and [h, h'] at the right end, used to extend a non-periodic profile linearly.
 """
 
 from __future__ import annotations
@@ -23,6 +28,7 @@ import numpy as np
 
 TEXTURE_FLAT = 0
 TEXTURE_FOURIER = 1
+TEXTURE_SPLINE = 2
 
 _JIT = dict(cache=True, fastmath=False, nogil=True)
 
@@ -32,11 +38,41 @@ about 10^6 texture periods deep); beyond it the search returns NaN."""
 
 
 @nb.njit(**_JIT)
+def _spline_eval(coeffs, x):
+    """Uniform cubic spline (see ``TEXTURE_SPLINE``): (h, h', h'')."""
+    m = coeffs.shape[1] - 2
+    x0 = coeffs[0, m]
+    dx = coeffs[1, m]
+    periodic = coeffs[2, m] != 0.0
+    length = m * dx
+    u = x - x0
+    if periodic:
+        u = u - length * math.floor(u / length)
+    elif u < 0.0:
+        return coeffs[0, m + 1] + coeffs[1, m + 1] * u, coeffs[1, m + 1], 0.0
+    elif u > length:
+        return coeffs[2, m + 1] + coeffs[3, m + 1] * (u - length), coeffs[3, m + 1], 0.0
+    i = int(u / dx)
+    if i >= m:
+        i = m - 1
+    elif i < 0:
+        i = 0
+    t = u - i * dx
+    a3 = coeffs[0, i]
+    a2 = coeffs[1, i]
+    a1 = coeffs[2, i]
+    a0 = coeffs[3, i]
+    return ((a3 * t + a2) * t + a1) * t + a0, (3.0 * a3 * t + 2.0 * a2) * t + a1, 6.0 * a3 * t + 2.0 * a2
+
+
+@nb.njit(**_JIT)
 def texture_eval(kind, coeffs, x):
     """Return (h, h', h'') at abscissa ``x`` (m, m/m, 1/m)."""
     h = 0.0
     s = 0.0
     c = 0.0
+    if kind == TEXTURE_SPLINE:
+        return _spline_eval(coeffs, x)
     if kind == TEXTURE_FOURIER:
         for i in range(coeffs.shape[1]):
             a = coeffs[0, i]

@@ -220,6 +220,122 @@ def simulate(mode, letter, stiffness, amplitude, period, max_penetration, fricti
     Console(width=120).print(t)
 
 
+def _split_spec(text: str, name: str, kind: str, count: tuple[int, int]):
+    parts = [v.strip() for v in text.split(",")] if text else []
+    if not count[0] <= len(parts) <= count[1]:
+        raise ParameterError(f"{name} = {kind + ':' + text!r} is not allowed: {kind} takes {count[0]}"
+                             + (f" to {count[1]}" if count[1] != count[0] else "") + " comma-separated values")
+    return parts
+
+
+def _texture_from_spec(spec: str, spacing, x_unit, height_unit, level, lowpass, scale, periodic):
+    from .textures import BandLimitedNoise, SampledProfile, Sinusoid
+
+    kind, _, rest = spec.partition(":")
+    if kind == "sine" and rest:
+        a, ell = _split_spec(rest, "texture", "sine", (2, 2))
+        return Sinusoid(parse_quantity(a, "m", "amplitude"), parse_quantity(ell, "m", "period"))
+    if kind == "noise" and rest:
+        vals = _split_spec(rest, "texture", "noise", (4, 5))
+        names = ["rms", "shortest_period", "longest_period", "length"]
+        q = [parse_quantity(v, "m", n) for v, n in zip(vals[:4], names)]
+        seed = int(vals[4]) if len(vals) == 5 and vals[4].lstrip("-").isdigit() else 0
+        if len(vals) == 5 and not vals[4].lstrip("-").isdigit():
+            raise ParameterError(f"seed = {vals[4]!r} is not allowed: must be an integer")
+        return BandLimitedNoise(*q, seed=seed)
+    prof = SampledProfile.from_file(spec, spacing=spacing, x_unit=x_unit, height_unit=height_unit,
+                                    periodic=periodic)
+    if level:
+        prof = prof.leveled()
+    if lowpass is not None:
+        prof = prof.lowpass(lowpass)
+    if scale is not None:
+        lf, hf = _split_spec(scale, "scale", "scale", (2, 2))
+        try:
+            prof = prof.scaled(float(lf), float(hf))
+        except ValueError:
+            raise ParameterError(f"scale = {scale!r} is not allowed: must be 'length_factor,height_factor'") from None
+    return prof
+
+
+def _device_from_spec(spec: str, joint_damping):
+    from .devices import Device
+
+    kind, _, rest = spec.partition(":")
+    if kind == "pantograph":
+        return Device.pantograph(joint_damping=joint_damping if not rest else parse_quantity(rest, "N*m*s", "joint_damping"))
+    if kind == "point-mass":
+        vals = _split_spec(rest, "device", "point-mass", (3, 4))
+        m = parse_quantity(vals[0], "kg", "mass")
+        b = parse_quantity(vals[1], "N*s/m", "damping")
+        T = parse_quantity(vals[2], "s", "period")
+        delta = parse_quantity(vals[3], "m", "position_resolution") if len(vals) == 4 else 0.0
+        return Device.point_mass(m, b, T, position_resolution=delta)
+    raise ParameterError(f"device = {spec!r} is not allowed: must be 'pantograph[:JOINT_DAMPING]' or "
+                         "'point-mass:MASS,DAMPING,PERIOD[,RESOLUTION]'")
+
+
+@cli.command()
+@click.option("--texture", "texture_spec", required=True,
+              help="FILE (CSV, Dektak CSV, .mat), 'sine:AMPLITUDE,PERIOD' or 'noise:RMS,SHORTEST,LONGEST,LENGTH[,SEED]'.")
+@click.option("--device", "device_spec", default="pantograph", show_default=True,
+              help="'pantograph[:JOINT_DAMPING]' or 'point-mass:MASS,DAMPING,PERIOD[,RESOLUTION]'.")
+@click.option("--stiffness", type=Quantity("N/m"), default=PAPER_PARAMETERS["stiffness"], show_default="2000 N/m",
+              help="The stiffness you want to render at.")
+@click.option("--speed", type=Quantity("m/s"), default=0.1, show_default="0.1 m/s", help="Scanning speed.")
+@click.option("--max-penetration", type=Quantity("m"), default=1e-3, show_default="1mm", help="Rendering depth.")
+@click.option("--joint-damping", type=Quantity("N*m*s"), default=4.7e-3, show_default="4.7 mN*m*s")
+@click.option("--spacing", default=None, help="Sample spacing when the file does not state it, e.g. '0.5um'.")
+@click.option("--x-unit", default=None, help="Unit of the file's x column when it does not state it.")
+@click.option("--height-unit", default=None, help="Unit of the file's heights when it does not state it.")
+@click.option("--level", is_flag=True, help="Remove the profile's best-fit line.")
+@click.option("--lowpass", type=Quantity("m"), default=None, help="Band-limit the profile to this shortest period.")
+@click.option("--scale", default=None, help="'LENGTH_FACTOR,HEIGHT_FACTOR' to stretch the profile.")
+@click.option("--periodic", is_flag=True, help="Close the profile into a periodic texture.")
+@click.option("--window", default=None, help="'X0,X1' abscissa window to analyse (default: one period or the whole profile).")
+@click.option("--json", "as_json", is_flag=True)
+def design(texture_spec, device_spec, stiffness, speed, max_penetration, joint_damping, spacing, x_unit, height_unit,
+           level, lowpass, scale, periodic, window, as_json):
+    """Which algorithm, how stiff, will it be passive, can the device render it?"""
+    from .design import design as run_design
+
+    tex = _texture_from_spec(texture_spec, spacing, x_unit, height_unit, level, lowpass, scale, periodic)
+    dev = _device_from_spec(device_spec, joint_damping)
+    x_range = _parse_point(window, "window") if window else None
+    data = run_design(tex, dev, stiffness, speed=speed, max_penetration=max_penetration, x_range=x_range)
+    if as_json:
+        click.echo(json.dumps(_jsonable(data), indent=2))
+        return
+    from rich.console import Console
+    from rich.table import Table
+
+    console = Console(width=140)
+    tn = data["texture_numbers"]
+    console.print(f"texture {data['texture']}: shortest period {tn['shortest_period'] * 1e3:.4g} mm, "
+                  f"M = {tn['max_slope']:.4g}, heights {tn['height_range'][0] * 1e3:.4g} to {tn['height_range'][1] * 1e3:.4g} mm")
+    console.print(f"device {data['device']}: sigma_0(B)/(2T) = {data['passivity_limit']:.4g} N/m; sampled wall "
+                  f"stability limit {data['wall_stability_limit']:.4g} N/m")
+    t = Table(title=f"at {stiffness:g} N/m")
+    for col in ("alg.", "q", "largest passive stiffness (N/m)", f"passive at {stiffness:g}", "conservative",
+                "max |loop energy| (J)", "continuous"):
+        t.add_column(col)
+    for r in data["rows"]:
+        t.add_row(r["algorithm"], "unbounded" if math.isinf(r["q"]) else f"{r['q']:.4g}",
+                  f"{r['max_passive_stiffness']:.4g}", "yes" if r["passive_at_stiffness"] else "no",
+                  "yes" if r["conservative"] else ("almost" if r["almost_conservative"] else "no"),
+                  f"{r['max_abs_loop_energy']:.3g}", "yes" if r["continuous"] else "no")
+    console.print(t)
+    lt = Table(title="rendering limits (Section II-B)")
+    for col in ("limit", "condition", "value", "bound", "ok"):
+        lt.add_column(col)
+    for lim in data["limits"]:
+        unit = "" if lim["unit"] == "1" else " " + lim["unit"]
+        lt.add_row(lim["name"], lim["formula"], f"{lim['lhs']:.4g}{unit}", f"{lim['rhs']:.4g}{unit}",
+                   "yes" if lim["passed"] else "NO")
+    console.print(lt)
+    console.print("recommendation: " + data["recommendation"])
+
+
 def _table(stiffness, amplitude, period, max_penetration, friction, presliding):
     from .tables import table_ii
 

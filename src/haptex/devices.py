@@ -65,6 +65,10 @@ class Device:
         ``damping``. The paper energises its eddy-current brakes only inside (Section V-A).
     first_resonance : float, optional
         F0 (Hz), the first structural mode (Section II); inf if not modelled.
+    stiffness_limit : float, optional
+        The largest stiffness the device renders stably (N/m), if measured; default
+        (None) the passivity bound sigma_0(B) / (2T) of Corollary 1 (see
+        :attr:`max_stiffness`).
     name : str, optional
         A label for reports.
 
@@ -90,6 +94,7 @@ class Device:
     damping_outside: np.ndarray | None = None
     first_resonance: float = math.inf
     name: str = "device"
+    stiffness_limit: float | None = None
     details: dict = field(default_factory=dict, compare=False)
 
     def __post_init__(self):
@@ -111,6 +116,8 @@ class Device:
         if not fr > 0 or math.isnan(fr):
             raise fail("first_resonance", self.first_resonance, "a frequency > 0 Hz (inf if not modelled)")
         object.__setattr__(self, "first_resonance", fr)
+        if self.stiffness_limit is not None:
+            object.__setattr__(self, "stiffness_limit", positive("stiffness_limit", self.stiffness_limit, "N/m"))
 
     # -- derived numbers ---------------------------------------------------------------
     @property
@@ -123,10 +130,16 @@ class Device:
         """sigma_0(B) / (2 T) (N/m): the bound on ||J||_2 of Corollary 1 (eq. 1)."""
         return self.min_damping / (2 * self.period)
 
+    @property
+    def max_stiffness(self) -> float:
+        """A_0 of Section II-B (N/m): ``stiffness_limit`` if given, else sigma_0(B) / (2T)."""
+        return self.passivity_limit if self.stiffness_limit is None else self.stiffness_limit
+
     def replace(self, **changes) -> Device:
         """A copy with some parameters changed (validated again)."""
         fields = {k: getattr(self, k) for k in ("mass", "damping", "period", "delay", "position_resolution",
-                                                "force_resolution", "max_force", "first_resonance", "name")}
+                                                "force_resolution", "max_force", "first_resonance", "name",
+                                                "stiffness_limit")}
         fields["damping_outside"] = None if np.array_equal(self.damping_outside, self.damping) else self.damping_outside
         if "damping" in changes and "damping_outside" not in changes and fields["damping_outside"] is None:
             fields["damping_outside"] = None
@@ -188,7 +201,9 @@ class Device:
         working_point : (float, float)
             Handle position (m) in the linkage frame where the matrices are evaluated.
         **kw
-            Other :class:`Device` parameters (delay, force_resolution, max_force, ...).
+            Other :class:`Device` parameters (delay, force_resolution, max_force, ...);
+            ``first_resonance`` defaults to 400 Hz, the 3 dB flat band the paper reports
+            for its device (Section V).
 
         Notes
         -----
@@ -227,6 +242,7 @@ class Device:
         details = {"link_proximal": a1, "link_distal": a2, "base": d, "rotor_inertia": inertia,
                    "link_mass": ml, "handle_mass": mh, "joint_damping": bj, "joint_damping_outside": bj_out,
                    "working_point": p.tolist(), "joint_angles": angles.tolist(), "jacobian": J.tolist()}
+        kw.setdefault("first_resonance", 400.0)
         return cls(mass=M, damping=B, damping_outside=B_out, period=period, position_resolution=position_resolution,
                    name=kw.pop("name", "pantograph"), details=details, **kw)
 

@@ -172,6 +172,16 @@ class SumOfSinusoids(Texture):
         """True when :attr:`max_slope` is the computed sup rather than an upper bound."""
         return self.period is not None
 
+    def spectrum(self) -> tuple[np.ndarray, np.ndarray]:
+        """Line spectrum: spatial frequencies 1/l_k (1/m) and amplitudes a_k (m), shape (n,)."""
+        order = np.argsort(self.periods)[::-1]
+        return 1.0 / self.periods[order], self.amplitudes[order]
+
+    @property
+    def domain(self) -> tuple[float, float] | None:
+        """Abscissa interval (m) analysed by default: one period, or None if aperiodic."""
+        return None if self.period is None else (0.0, float(self.period))
+
     @cached_property
     def max_slope(self) -> float:
         """Lipschitz bound M = sup |h'(x)| (dimensionless), Remark 2."""
@@ -254,10 +264,336 @@ class Sinusoid(SumOfSinusoids):
         return (-self.amplitude, self.amplitude)
 
 
+class BandLimitedNoise(SumOfSinusoids):
+    """A stochastic, band-limited profile, periodic over ``length``, reproducible from ``seed``.
+
+    h(x) = sum_k a sin(2 pi k x / length + phi_k) over every harmonic k whose period
+    length / k lies in [shortest_period, longest_period], with equal amplitudes a (a flat
+    amplitude spectrum in the band) and independent phases uniform in [0, 2 pi) drawn by
+    ``numpy.random.default_rng(seed)``; a = rms sqrt(2 / n) so the profile's RMS height
+    is exactly ``rms``.
+
+    Parameters
+    ----------
+    rms : float
+        RMS height (m), >= 0.
+    shortest_period, longest_period : float
+        Band limits (m), 0 < shortest <= longest <= length.
+    length : float
+        Period of the whole profile (m).
+    seed : int
+        Seed of the phases.
+
+    Raises
+    ------
+    ParameterError
+        For out-of-range values or a band that contains no harmonic of 1/length.
+    """
+
+    def __init__(self, rms, shortest_period, longest_period, length, seed=0):
+        rms = nonnegative("rms", rms, "m")
+        lmin = positive("shortest_period", shortest_period, "m")
+        lmax = positive("longest_period", longest_period, "m")
+        L = positive("length", length, "m")
+        if not lmin <= lmax <= L:
+            raise fail("longest_period", lmax, f"in [shortest_period = {lmin:g}, length = {L:g}] m")
+        k = np.arange(int(math.ceil(L / lmax - 1e-9)), int(math.floor(L / lmin + 1e-9)) + 1)
+        k = k[k >= 1]
+        if k.size == 0:
+            raise fail("shortest_period", lmin, f"a band that contains a harmonic of 1/length = {1 / L:g} 1/m")
+        if isinstance(seed, bool) or int(seed) != seed:
+            raise fail("seed", seed, "an integer")
+        rng = np.random.default_rng(int(seed))
+        phases = rng.uniform(0.0, 2 * np.pi, k.size)
+        amp = rms * math.sqrt(2.0 / k.size)
+        self.rms = rms
+        self.length = L
+        self.seed = int(seed)
+        super().__init__(np.full(k.size, amp), L / k, phases)
+
+    def __repr__(self) -> str:
+        return (f"BandLimitedNoise(rms={self.rms:g}, shortest_period={self.periods.min():g}, "
+                f"longest_period={self.periods.max():g}, length={self.length:g}, seed={self.seed})")
+
+    @property
+    def period(self) -> float:  # type: ignore[override]
+        return self.length
+
+
+class SampledProfile(Texture):
+    """A measured height profile, evaluated by a C^2 cubic spline through its samples.
+
+    Parameters
+    ----------
+    x : array_like, shape (n,)
+        Abscissae (m), strictly increasing, n >= 4. Uniform spacing is used as is; a
+        non-uniform one is resampled onto a uniform grid of the same number of points by
+        the spline through the given samples (``resampled`` tells).
+    h : array_like, shape (n,)
+        Heights (m), finite.
+    periodic : bool, optional
+        Close the profile into a periodic texture (the last sample joins the first one
+        ``dx`` later; period n dx) with a periodic spline. Otherwise a not-a-knot spline
+        over [x_0, x_n-1], extended beyond the ends by straight lines with the end
+        slopes (C^1 there), and analysed over the sampled range.
+    shortest_period : float, optional
+        The shortest period present (m); default the Nyquist period 2 dx. ``lowpass`` sets
+        it to its cut-off.
+
+    Raises
+    ------
+    ParameterError
+        For mismatched lengths, fewer than 4 samples, non-finite values, or x not
+        strictly increasing (the message gives the first offending index).
+
+    Notes
+    -----
+    The spline's coefficients are what the compiled kernels read (``TEXTURE_SPLINE``).
+    ``max_slope`` (Remark 2's M) and ``max_curvature`` are exact for the spline: its
+    derivative is quadratic and its second derivative linear on each interval.
+    """
+
+    def __init__(self, x, h, periodic: bool = False, shortest_period: float | None = None, source: str = ""):
+        x = _vector("x", x)
+        h = _vector("h", h)
+        if x.size != h.size:
+            raise ParameterError(f"x and h have lengths {x.size} and {h.size}, which is not allowed: they must match")
+        if x.size < 4:
+            raise ParameterError(f"the profile has {x.size} samples, which is not allowed: at least 4 are needed")
+        dx_all = np.diff(x)
+        if not np.all(dx_all > 0):
+            i = int(np.argmax(~(dx_all > 0))) + 1
+            raise ParameterError(f"x[{i}] = {x[i]:g} is not allowed: x must increase strictly (x[{i - 1}] = {x[i - 1]:g})")
+        from scipy.interpolate import CubicSpline
+
+        n = x.size
+        dx = (x[-1] - x[0]) / (n - 1)
+        self.resampled = bool(np.max(np.abs(dx_all - dx)) > 1e-6 * dx)
+        if self.resampled:
+            xu = x[0] + dx * np.arange(n)
+            h = CubicSpline(x, h)(xu)
+            x = xu
+        self.x = x
+        self.h = h
+        self.dx = float(dx)
+        self.periodic = bool(periodic)
+        self.source = source
+        if self.periodic:
+            xe = np.r_[x, x[-1] + dx]
+            spline = CubicSpline(xe, np.r_[h, h[0]], bc_type="periodic")
+        else:
+            spline = CubicSpline(x, h, bc_type="not-a-knot")
+        m = spline.c.shape[1]
+        coeffs = np.zeros((4, m + 2))
+        coeffs[:, :m] = spline.c
+        coeffs[:, m] = [x[0], dx, 1.0 if self.periodic else 0.0, m]
+        s_left = float(spline(x[0], 1))
+        s_right = float(spline(spline.x[-1], 1))
+        coeffs[:, m + 1] = [float(spline(x[0])), s_left, float(spline(spline.x[-1])), s_right]
+        self._coeffs = np.ascontiguousarray(coeffs)
+        self._m = m
+        nyquist = 2 * dx
+        self._shortest = nyquist if shortest_period is None else max(positive("shortest_period", shortest_period, "m"),
+                                                                     nyquist)
+
+    def __repr__(self) -> str:
+        src = f", source={self.source!r}" if self.source else ""
+        return (f"SampledProfile(n={self.x.size}, dx={self.dx:g}, length={self.length:g}, "
+                f"periodic={self.periodic}{src})")
+
+    # -- evaluation (plain NumPy twin of the compiled TEXTURE_SPLINE evaluation) ------------
+    def _eval(self, x, order):
+        x = np.asarray(x, dtype=np.float64)
+        c = self._coeffs
+        m, dx, x0 = self._m, self.dx, self.x[0]
+        L = m * dx
+        u = x - x0
+        if self.periodic:
+            u = np.mod(u, L)
+        i = np.clip((u / dx).astype(np.int64) if u.ndim else int(u / dx), 0, m - 1)
+        t = u - i * dx
+        a3, a2, a1, a0 = c[0, i], c[1, i], c[2, i], c[3, i]
+        if order == 0:
+            val = ((a3 * t + a2) * t + a1) * t + a0
+        elif order == 1:
+            val = (3 * a3 * t + 2 * a2) * t + a1
+        else:
+            val = 6 * a3 * t + 2 * a2
+        if not self.periodic:
+            hl, sl, hr, sr = c[:, m + 1]
+            left, right = u < 0, u > L
+            if order == 0:
+                val = np.where(left, hl + sl * u, np.where(right, hr + sr * (u - L), val))
+            elif order == 1:
+                val = np.where(left, sl, np.where(right, sr, val))
+            else:
+                val = np.where(left | right, 0.0, val)
+        return val
+
+    def height(self, x):
+        """h(x) (m) for x of any shape (m)."""
+        return self._eval(x, 0)
+
+    def slope(self, x):
+        """h'(x) (dimensionless)."""
+        return self._eval(x, 1)
+
+    def curvature(self, x):
+        """h''(x) (1/m); 0 on the straight extensions of a non-periodic profile."""
+        return self._eval(x, 2)
+
+    def kernel_data(self) -> tuple[int, np.ndarray]:
+        """(``TEXTURE_SPLINE``, coefficients) for the compiled kernels."""
+        return _kernels.TEXTURE_SPLINE, self._coeffs
+
+    # -- summary numbers ---------------------------------------------------------------------
+    @property
+    def length(self) -> float:
+        """Length covered by the spline (m): n dx if periodic, (n - 1) dx otherwise."""
+        return self._m * self.dx
+
+    @property
+    def period(self) -> float | None:  # type: ignore[override]
+        """n dx for a periodic profile, else None."""
+        return self.length if self.periodic else None
+
+    @property
+    def domain(self) -> tuple[float, float]:
+        """The sampled range [x_0, x_0 + length] (m), analysed by default."""
+        return float(self.x[0]), float(self.x[0] + self.length)
+
+    @property
+    def shortest_period(self) -> float:
+        """Shortest period present (m): the low-pass cut-off, else the Nyquist period 2 dx."""
+        return self._shortest
+
+    @cached_property
+    def max_slope(self) -> float:
+        """Exact sup |h'| of the spline (Remark 2's M)."""
+        c = self._coeffs[:, : self._m]
+        a3, a2, a1 = c[0], c[1], c[2]
+        vals = [np.abs(a1), np.abs((3 * a3 * self.dx + 2 * a2) * self.dx + a1)]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            tv = np.where(a3 != 0, -a2 / (3 * a3), -1.0)
+        inside = (tv > 0) & (tv < self.dx)
+        vals.append(np.where(inside, np.abs((3 * a3 * tv + 2 * a2) * tv + a1), 0.0))
+        return float(max(v.max() for v in vals))
+
+    max_slope_is_exact = True
+
+    @cached_property
+    def max_curvature(self) -> float:
+        """Exact sup |h''| of the spline (1/m)."""
+        c = self._coeffs[:, : self._m]
+        return float(max(np.abs(2 * c[1]).max(), np.abs(6 * c[0] * self.dx + 2 * c[1]).max()))
+
+    @cached_property
+    def height_range(self) -> tuple[float, float]:
+        """(min h, max h) over the spline's range (m)."""
+        x = self.x[0] + np.linspace(0, self.length, 8 * self._m + 1)
+        hh = self.height(x)
+        pad = self.max_curvature * (self.dx / 8) ** 2 / 8
+        return float(hh.min() - pad), float(hh.max() + pad)
+
+    def spectrum(self) -> tuple[np.ndarray, np.ndarray]:
+        """Single-sided amplitude spectrum of the samples: spatial frequency (1/m) and
+        amplitude (m), from numpy's rfft (amplitude 2|H_k|/n, DC and Nyquist not doubled)."""
+        n = self.h.size
+        H = np.fft.rfft(self.h - self.h.mean())
+        amp = 2 * np.abs(H) / n
+        amp[0] = abs(self.h.mean())
+        if n % 2 == 0:
+            amp[-1] /= 2
+        return np.fft.rfftfreq(n, self.dx), amp
+
+    # -- helpers -----------------------------------------------------------------------------
+    def _new(self, x, h, shortest=None, periodic=None):
+        return SampledProfile(x, h, self.periodic if periodic is None else periodic,
+                              self._shortest if shortest is None else shortest, self.source)
+
+    def leveled(self) -> SampledProfile:
+        """The profile minus its least-squares straight line (removes tilt and offset)."""
+        line = np.polyval(np.polyfit(self.x - self.x[0], self.h, 1), self.x - self.x[0])
+        return self._new(self.x, self.h - line)
+
+    def lowpass(self, shortest_period: float) -> SampledProfile:
+        """Band-limit the profile to periods >= ``shortest_period`` (m), as Section II asks.
+
+        Periodic profiles: the FFT components above the cut-off frequency are removed.
+        Others: a zero-phase 4th-order Butterworth filter (scipy.signal.sosfiltfilt).
+
+        Raises
+        ------
+        ParameterError
+            If the cut-off is not above the Nyquist period 2 dx.
+        """
+        lc = positive("shortest_period", shortest_period, "m")
+        if not lc > 2 * self.dx:
+            raise fail("shortest_period", lc, f"longer than the Nyquist period 2 dx = {2 * self.dx:g} m")
+        if self.periodic:
+            H = np.fft.rfft(self.h)
+            f = np.fft.rfftfreq(self.h.size, self.dx)
+            H[f > 1.0 / lc] = 0.0
+            hf = np.fft.irfft(H, self.h.size)
+        else:
+            from scipy.signal import butter, sosfiltfilt
+
+            sos = butter(4, (1.0 / lc) / (0.5 / self.dx), output="sos")
+            hf = sosfiltfilt(sos, self.h)
+        return self._new(self.x, hf, shortest=lc)
+
+    def scaled(self, length_factor: float = 1.0, height_factor: float = 1.0) -> SampledProfile:
+        """Stretch the profile: x by ``length_factor`` and h by ``height_factor``
+        (a 1.5 mm scan can be felt as a 15 mm texture)."""
+        lf = positive("length_factor", length_factor)
+        hf = finite("height_factor", height_factor)
+        return self._new(self.x * lf, self.h * hf, shortest=self._shortest * lf)
+
+    @classmethod
+    def from_file(cls, path, *, spacing=None, x_unit=None, height_unit=None, variable=None, x_column=0,
+                  height_column=1, periodic: bool = False) -> SampledProfile:
+        """Load a measured profile.
+
+        Formats: the Bruker Dektak CSV export (header block, ``Scan Data``, Latin-1,
+        CR/CRLF line ends; spacing from its ``Resolution`` line and units from its column
+        header), plain CSV or whitespace-separated text columns, and MATLAB ``.mat`` files
+        (scipy.io.loadmat).
+
+        Parameters
+        ----------
+        path : str or Path
+        spacing : float or str, optional
+            Sample spacing ("0.5um" or metres). Required when the file gives no abscissa
+            (a .mat vector, a single text column); never guessed.
+        x_unit, height_unit : str, optional
+            Units of the file's abscissa and heights ("um", "nm", "mm", "m"). Required when
+            the file does not state them; never guessed.
+        variable : str, optional
+            Variable of a .mat file; default its only variable.
+        x_column, height_column : int, optional
+            Columns of a text file (0-based); x_column=None for heights only.
+        periodic : bool, optional
+            See :class:`SampledProfile`.
+
+        Raises
+        ------
+        ParameterError
+            Naming the file (and line where there is one) for an unreadable file, an
+            unparseable unit, NaNs, non-increasing x, fewer than 4 samples, or missing
+            spacing/units.
+        """
+        from ._loaders import load_profile
+
+        x, h, shortest, src = load_profile(path, spacing=spacing, x_unit=x_unit, height_unit=height_unit,
+                                           variable=variable, x_column=x_column, height_column=height_column)
+        return cls(x, h, periodic=periodic, source=src)
+
+
 class Flat(Texture):
     """The untextured nominal surface h(x) = 0 (used by algorithm W)."""
 
     period = None
+    domain = None
     max_slope = 0.0
     max_slope_is_exact = True
     max_curvature = 0.0
@@ -277,6 +613,10 @@ class Flat(Texture):
     def kernel_data(self) -> tuple[int, np.ndarray]:
         """(``TEXTURE_FLAT``, empty coefficients)."""
         return _kernels.TEXTURE_FLAT, _kernels.empty_coeffs()
+
+    def spectrum(self) -> tuple[np.ndarray, np.ndarray]:
+        """Empty: a flat surface has no texture."""
+        return np.zeros(0), np.zeros(0)
 
 
 def _vector(name: str, values) -> np.ndarray:

@@ -1,0 +1,120 @@
+"""The design question: for a texture and a device, which algorithm, how stiff, will it be
+passive, will the device even reproduce the texture?"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .algorithms import algorithm
+from .analysis import characteristic_number, conservativity, continuity, paper_loop, texture_limits
+from .devices import Device, critical_stiffness
+from .textures import Texture
+
+LETTERS = "WABCDEFG"
+
+
+def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.1, max_penetration: float = 1e-3,
+           samples_per_period=5, friction: float = 0.8, presliding: float = 1e-3, n_loops: int = 4,
+           x_range=None) -> dict:
+    """Analyse every algorithm for one texture on one device and recommend.
+
+    Parameters
+    ----------
+    texture : Texture
+        Any texture (Sinusoid, SumOfSinusoids, BandLimitedNoise, SampledProfile).
+    device : Device
+    stiffness : float
+        The nominal stiffness kappa_0 the user wants (N/m).
+    speed : float, optional
+        Scanning speed (m/s) for the rendering limits.
+    max_penetration : float, optional
+        Depth of the rendering region (m); also F's d^z_max.
+    samples_per_period : float, optional
+        alpha, beta, gamma of Section II-B.
+    friction, presliding : float, optional
+        F's mu and d^x_max (m).
+    n_loops : int, optional
+        Random closed polygons per algorithm for the conservativity measurement.
+    x_range : (float, float), optional
+        Abscissa window analysed (m); default the texture's domain (one period, or the
+        sampled range of a measured profile). A window keeps long profiles quick.
+
+    Returns
+    -------
+    dict
+        ``texture``, ``device``, ``stiffness``, ``limits`` (list of dicts),
+        ``wall_stability_limit`` (the sampled wall's critical stiffness along the normal
+        from the closed-loop poles, N/m), ``rows`` (per algorithm: ``q``,
+        ``max_passive_stiffness``, ``passive_at_stiffness``, ``conservative``,
+        ``almost_conservative``, ``max_abs_loop_energy``, ``continuous``) and
+        ``recommendation`` (text) with ``recommended`` (letters).
+
+    Raises
+    ------
+    ParameterError
+        For invalid parameters.
+    """
+    rows = []
+    for L in LETTERS:
+        kw = {"friction": friction, "presliding": presliding, "max_penetration": max_penetration} if L == "F" else {}
+        alg = algorithm(L, None if L == "W" else texture, stiffness, **kw)
+        xr = None if L == "W" else x_range
+        q = characteristic_number(alg, max_penetration=max_penetration, x_range=xr)
+        kmax = 0.0 if math.isinf(q.value) else device.passivity_limit / q.value
+        cons = conservativity(alg, max_penetration=max_penetration, n_random=n_loops, x_range=xr)
+        cont = continuity(alg, max_penetration=max_penetration, levels=3, x_range=xr)
+        try:
+            path, _, _ = paper_loop(alg)
+        except Exception:  # the Fig. 3 paths are defined for sinusoids only
+            path = None
+        rows.append({
+            "algorithm": L, "name": alg.name, "q": q.value, "q_note": q.note,
+            "max_passive_stiffness": kmax, "passive_at_stiffness": bool(stiffness <= kmax),
+            "conservative": cons.conservative, "almost_conservative": cons.almost,
+            "max_abs_loop_energy": max((abs(e) for e in cons.random_loop_energies), default=0.0),
+            "continuous": cont.continuous, "has_paper_loop": path is not None,
+        })
+    m, b = float(device.mass[1, 1]), float(device.damping[1, 1])
+    wall_limit = critical_stiffness(m, b, device.period, device.delay) if b > 0 else 0.0
+    limits = texture_limits(texture, device, speed, stiffness, samples_per_period)
+    textured = [r for r in rows if r["algorithm"] != "W"]
+    good = [r["algorithm"] for r in textured if r["passive_at_stiffness"] and r["conservative"] and r["continuous"]]
+    fair = [r["algorithm"] for r in textured if r["passive_at_stiffness"] and r["continuous"]
+            and (r["conservative"] or r["almost_conservative"]) and r["algorithm"] not in good]
+    text = []
+    if good:
+        text.append(f"passive (Corollary 1), conservative and continuous at {stiffness:g} N/m: {', '.join(good)}")
+    if fair:
+        text.append(f"passive and almost conservative (dissipative friction): {', '.join(fair)}")
+    if not good and not fair:
+        best = max((r for r in textured if r["conservative"] and r["continuous"]),
+                   key=lambda r: r["max_passive_stiffness"], default=None)
+        if best is not None:
+            text.append(f"no algorithm is passive, conservative and continuous at {stiffness:g} N/m; "
+                        f"{best['algorithm']} ({best['name']}) is at up to {best['max_passive_stiffness']:.3g} N/m")
+        else:
+            text.append(f"no textured algorithm is passive, conservative and continuous at {stiffness:g} N/m")
+    failed = [lim.name for lim in limits if not lim.passed]
+    if failed:
+        text.append("the device cannot reproduce this texture faithfully: " + ", ".join(failed) + " limit(s) violated")
+    return {
+        "texture": repr(texture), "device": device.name, "stiffness": stiffness, "speed": speed,
+        "max_penetration": max_penetration, "passivity_limit": device.passivity_limit,
+        "wall_stability_limit": wall_limit,
+        "texture_numbers": {"shortest_period": texture.shortest_period, "max_slope": texture.max_slope,
+                            "max_curvature": texture.max_curvature, "height_range": list(texture.height_range)},
+        "limits": [{"name": lim.name, "formula": lim.formula, "lhs": lim.lhs, "rhs": lim.rhs, "unit": lim.unit,
+                    "passed": lim.passed} for lim in limits],
+        "rows": rows, "recommended": good + fair, "recommendation": "; ".join(text),
+    }
+
+
+def nan_to_none(v):
+    """JSON helper: non-finite floats as strings."""
+    if isinstance(v, float) and not math.isfinite(v):
+        return "inf" if v > 0 else "nan"
+    if isinstance(v, np.generic):
+        return v.item()
+    return v
