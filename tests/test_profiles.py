@@ -1,0 +1,247 @@
+"""Measured profiles, band-limited noise, the six rendering limits, the passivity condition
+and the design question (issue 6), on synthetic data and on the two real profiles in
+../shared/data (skipped, saying why, when that folder is absent)."""
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.interpolate import CubicSpline
+
+import haptex as hx
+from haptex import _kernels
+from haptex.design import design
+
+DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+DEKTAK = DATA / "dektak-stylus-profile.csv"
+GROOVES = DATA / "grooves-4mm-profile.mat"
+needs_data = pytest.mark.skipif(not DEKTAK.exists(), reason="../shared/data is not beside this checkout")
+
+
+# -- loaders -----------------------------------------------------------------------------
+@needs_data
+def test_dektak_export_is_read_with_its_stated_spacing_and_units():
+    p = hx.SampledProfile.from_file(DEKTAK)
+    # the file: 1500 um scan, "Resolution,0.156 um/sample", 9600 rows, heights in um
+    assert p.x.size == 9600
+    assert p.dx == pytest.approx(0.156e-6, rel=1e-12)
+    assert p.h[0] == pytest.approx(-0.00933e-6, rel=1e-9) and p.h[-1] == pytest.approx(16.58112e-6, rel=1e-9)
+    # data README: a tilt of about 16 um over the scan, which leveling removes
+    slope = np.polyfit(p.x, p.h, 1)[0]
+    assert slope * 1.5e-3 == pytest.approx(16e-6, rel=0.1)
+    q = p.leveled()
+    assert abs(np.polyfit(q.x, q.h, 1)[0]) < 1e-12
+    assert q.height_range[1] - q.height_range[0] < 1e-6  # a polished surface: sub-micrometre
+
+
+@needs_data
+def test_mat_file_needs_spacing_and_unit_and_never_guesses():
+    with pytest.raises(hx.ParameterError, match=r"grooves-4mm-profile.mat does not state its sample spacing or height "
+                                                r"unit: pass spacing .* and height_unit"):
+        hx.SampledProfile.from_file(GROOVES)
+    with pytest.raises(hx.ParameterError, match="pass height_unit"):
+        hx.SampledProfile.from_file(GROOVES, spacing="0.5um")
+    g = hx.SampledProfile.from_file(GROOVES, spacing="0.5um", height_unit="um")
+    assert g.x.size == 8000 and g.length == pytest.approx(7999 * 0.5e-6)
+    assert g.height_range[0] == pytest.approx(-0.622e-6, rel=2e-3)  # grooves about 0.6 units deep
+
+
+def write(tmp_path, name, text, encoding="utf-8", newline="\n"):
+    f = tmp_path / name
+    f.write_bytes(text.replace("\n", newline).encode(encoding))
+    return f
+
+
+def test_csv_columns_with_units_from_the_caller(tmp_path):
+    x = np.arange(20) * 2.0
+    rows = "\n".join(f"{a:.1f},{1000 * math.sin(a / 5):.6f}" for a in x)
+    f = write(tmp_path, "p.csv", "x (um),h (nm)\n" + rows + "\n", newline="\r\n")
+    with pytest.raises(hx.ParameterError, match="does not state its height unit: pass height_unit"):
+        hx.SampledProfile.from_file(f)
+    with pytest.raises(hx.ParameterError, match="does not state its x unit: pass x_unit"):
+        hx.SampledProfile.from_file(f, height_unit="nm")
+    p = hx.SampledProfile.from_file(f, x_unit="um", height_unit="nm")
+    assert p.dx == pytest.approx(2e-6) and p.h[5] == pytest.approx(1e-6 * math.sin(2.0), rel=1e-6)
+
+
+@pytest.mark.parametrize("text, pattern", [
+    ("0,1\n1,2\n2,nan\n3,4\n4,5\n", r"p.csv, line 3: the height is not a finite number"),
+    ("0,1\n1,2\n1,3\n3,4\n4,5\n", r"p.csv, line 3: x = 1e-06 does not increase"),
+    ("0,1\n1,2\n2,3\n", r"p.csv: 3 samples, which is not allowed: at least 4"),
+    ("0,1\n1,2\n2,x3\n3,4\n", r"p.csv, line 3: '2,x3' is not numbers"),
+])
+def test_bad_profiles_name_the_file_and_line(tmp_path, text, pattern):
+    f = write(tmp_path, "p.csv", text)
+    with pytest.raises(hx.ParameterError, match=pattern):
+        hx.SampledProfile.from_file(f, x_unit="um", height_unit="um")
+
+
+def test_bad_unit_and_unreadable_encoding(tmp_path):
+    f = write(tmp_path, "p.csv", "0,1\n1,2\n2,3\n3,4\n")
+    with pytest.raises(hx.ParameterError, match=r"^height_unit = 'furlong-ish' is not allowed"):
+        hx.SampledProfile.from_file(f, x_unit="um", height_unit="furlong-ish")
+    g = write(tmp_path, "u16.csv", "0,1\n1,2\n2,3\n3,4\n", encoding="utf-16")
+    with pytest.raises(hx.ParameterError, match=r"u16.csv: the file is not readable text"):
+        hx.SampledProfile.from_file(g, x_unit="um", height_unit="um")
+
+
+# -- the spline texture --------------------------------------------------------------------
+def test_spline_is_C2_matches_scipy_and_the_compiled_kernel():
+    rng = np.random.default_rng(3)
+    x = np.arange(40) * 25e-6
+    h = 1e-5 * rng.standard_normal(40)
+    p = hx.SampledProfile(x, h)
+    ref = CubicSpline(x, h)  # not-a-knot, the reference interpolant
+    xi = np.linspace(x[0], x[-1], 2001)
+    np.testing.assert_allclose(p.height(xi), ref(xi), atol=1e-18)
+    np.testing.assert_allclose(p.slope(xi), ref(xi, 1), atol=1e-12)
+    np.testing.assert_allclose(p.curvature(xi), ref(xi, 2), rtol=1e-9, atol=1e-6)
+    kind, co = p.kernel_data()
+    for xv in np.r_[xi[::97], -1e-4, 2e-3]:
+        got = _kernels.texture_eval(kind, co, xv)
+        assert got == pytest.approx((p.height(xv), p.slope(xv), p.curvature(xv)), rel=1e-12, abs=1e-15)
+    # h'' continuous across the interior knots (C^2): the left interval's end value
+    # (one ulp left of the knot) equals the right interval's start value
+    knots = x[1:-1]
+    left = p.curvature(np.nextafter(knots, -np.inf))
+    np.testing.assert_allclose(left, p.curvature(knots), rtol=1e-8, atol=1e-6)
+    # exact sup |h'| and |h''| against dense sampling
+    dense = np.linspace(x[0], x[-1], 400001)
+    assert p.max_slope == pytest.approx(np.abs(p.slope(dense)).max(), rel=1e-6)
+    assert p.max_curvature == pytest.approx(np.abs(p.curvature(dense)).max(), rel=1e-6)
+
+
+def test_periodic_profile_wraps_smoothly():
+    x = np.arange(64) * 1e-5
+    h = 1e-4 * np.sin(2 * np.pi * x / 64e-5)
+    p = hx.SampledProfile(x, h, periodic=True)
+    xi = np.linspace(-1e-3, 2e-3, 777)
+    np.testing.assert_allclose(p.height(xi + p.period), p.height(xi), atol=1e-15)
+    # an exactly periodic sine is reproduced closely by the periodic spline
+    np.testing.assert_allclose(p.height(xi), 1e-4 * np.sin(2 * np.pi * xi / 64e-5), atol=1e-4 * 1e-4)
+
+
+def test_lowpass_band_limits_and_scaled_stretches():
+    x = np.arange(4000) * 1e-6
+    slow = 1e-5 * np.sin(2 * np.pi * x / 400e-6)  # period 400 um: kept
+    fast = 1e-5 * np.sin(2 * np.pi * x / 10e-6)  # period 10 um: removed
+    p = hx.SampledProfile(x, slow + fast).lowpass(40e-6)
+    mid = slice(500, 3500)  # away from the filter's end effects
+    assert np.abs(p.h[mid] - slow[mid]).max() < 0.01 * 1e-5
+    assert p.shortest_period == 40e-6
+    q = hx.SampledProfile(x, slow, periodic=True).lowpass(40e-6)
+    f, amp = q.spectrum()
+    assert amp[f > 1 / 40e-6].max() < 1e-20  # periodic: FFT components above the cut-off are gone
+    s = p.scaled(10, 2)
+    assert s.length == pytest.approx(10 * p.length) and s.max_slope == pytest.approx(p.max_slope * 2 / 10, rel=1e-9)
+    with pytest.raises(hx.ParameterError, match="longer than the Nyquist period"):
+        p.lowpass(1e-6)
+
+
+def test_band_limited_noise():
+    n = hx.BandLimitedNoise(rms=0.1e-3, shortest_period=0.5e-3, longest_period=5e-3, length=20e-3, seed=7)
+    x = np.linspace(0, 20e-3, 200000, endpoint=False)
+    h = n.height(x)
+    assert np.sqrt(np.mean(h**2)) == pytest.approx(0.1e-3, rel=1e-9)  # exact RMS
+    assert n.periods.min() >= 0.5e-3 * (1 - 1e-12) and n.periods.max() <= 5e-3 * (1 + 1e-12)  # in band
+    np.testing.assert_allclose(n.height(x + 20e-3), h, atol=1e-15)  # periodic over length
+    again = hx.BandLimitedNoise(0.1e-3, 0.5e-3, 5e-3, 20e-3, seed=7)
+    np.testing.assert_array_equal(again.height(x[:100]), h[:100])  # reproducible
+    other = hx.BandLimitedNoise(0.1e-3, 0.5e-3, 5e-3, 20e-3, seed=8)
+    assert not np.allclose(other.height(x[:100]), h[:100])
+    assert n.max_slope == pytest.approx(np.abs(n.slope(x)).max(), rel=1e-4)
+    with pytest.raises(hx.ParameterError, match="^longest_period = "):
+        hx.BandLimitedNoise(1e-4, 2e-3, 1e-3, 20e-3)
+
+
+# -- device limits ---------------------------------------------------------------------------
+def test_section_V_numbers_of_the_rendering_limits():
+    # Section V: at v < 0.2 m/s, T = 100 us, l = 1 mm, at least 50 samples a period, and the
+    # 200 Hz texture frequency is within the 400 Hz flat band of the device.
+    dev = hx.Device.pantograph()
+    lim = {x.name: x for x in hx.texture_limits(hx.Sinusoid(0.8e-3, 1e-3), dev, 0.2, 2000.0, samples_per_period=50)}
+    assert lim["scanning velocity"].lhs == pytest.approx(1.0)  # exactly 50 samples a period
+    assert lim["device structural"].lhs == pytest.approx(200.0) and lim["device structural"].rhs == 400.0
+    assert lim["device structural"].passed
+    # gain: kappa_0 * 2 pi A / l against sigma_0(B) / (2T)
+    assert lim["gain"].lhs == pytest.approx(2000 * 2 * math.pi * 0.8)
+    assert lim["gain"].rhs == pytest.approx(dev.passivity_limit) and not lim["gain"].passed
+    dev2 = hx.Device.point_mass(0.1, 0.5, 1e-4, position_resolution=15e-6, force_resolution=0.05)
+    lim2 = {x.name: x for x in hx.texture_limits(hx.Sinusoid(0.1e-3, 0.05e-3), dev2, 0.05, 100.0)}
+    assert lim2["low-speed reconstruction"].lhs == pytest.approx(5 * 15e-6 / 0.05e-3) and not lim2["low-speed reconstruction"].passed
+    assert lim2["force reconstruction"].lhs == pytest.approx(5 * 0.05)
+    assert lim2["force reconstruction"].rhs == pytest.approx(100 * 0.1e-3) and not lim2["force reconstruction"].passed
+
+
+def test_max_passive_stiffness_is_corollary_1():
+    dev = hx.Device.point_mass(0.1, 0.5, 1e-4)
+    assert hx.max_passive_stiffness(hx.algorithm("W", None, 1.0), dev) == pytest.approx(0.5 / (2 * 1e-4))
+    a = hx.algorithm("A", hx.Sinusoid(0.8e-3, 1e-3), 1.0)
+    qa = math.sqrt(1 + (2 * math.pi * 0.8) ** 2)
+    assert hx.max_passive_stiffness(a, dev) == pytest.approx(2500 / qa, rel=1e-9)
+    assert hx.passivity_condition(hx.algorithm("A", a.texture, 2500 / qa * 0.99), dev).holds
+    assert not hx.passivity_condition(hx.algorithm("A", a.texture, 2500 / qa * 1.01), dev).holds
+    assert hx.max_passive_stiffness(hx.algorithm("D", a.texture, 1.0), dev) == 0.0  # q_D unbounded here
+
+
+def test_recommended_stiffness_holds_in_simulation_and_twice_the_real_limit_does_not():
+    # Corollary 1 gives b/(2T) for the wall; the sampled wall's real limit is ~2b/T (its
+    # closed-loop poles). The simulator: no limit cycle at the recommendation, one at 2x.
+    m, b, T = 0.1, 0.5, 1e-4
+    dev = hx.Device.point_mass(m, b, T)
+    k_rec = hx.max_passive_stiffness(hx.algorithm("W", None, 1.0), dev)
+    k_real = hx.critical_stiffness(m, b, T)
+    assert k_rec < k_real
+    push = hx.operators.ConstantForce([0.0, -1.0])
+    ok = hx.simulate(hx.algorithm("W", None, k_rec), dev, push, 3.0, initial_position=[0.0, -1.2 / k_rec])
+    bad = hx.simulate(hx.algorithm("W", None, 2 * k_real), dev, push, 3.0, initial_position=[0.0, -1.2 / (2 * k_real)])
+    assert not ok.oscillating and bad.oscillating
+
+
+# -- the design question on real profiles ------------------------------------------------------
+@needs_data
+@pytest.mark.parametrize("which", ["dektak", "grooves"])
+def test_design_on_real_profiles(which):
+    if which == "dektak":
+        p = hx.SampledProfile.from_file(DEKTAK).leveled().lowpass(20e-6).scaled(10, 1000)
+    else:
+        p = hx.SampledProfile.from_file(GROOVES, spacing="0.5um", height_unit="um").leveled().lowpass(10e-6).scaled(10, 100)
+    x0 = p.domain[0] + 0.3 * p.length
+    window = (x0, x0 + 4 * p.shortest_period)
+    d = design(p, hx.Device.pantograph(), 500.0, x_range=window, n_loops=2)
+    rows = {r["algorithm"]: r for r in d["rows"]}
+    assert set(rows) == set("WABCDEFG")
+    assert rows["C"]["conservative"] and rows["W"]["conservative"]  # gradients
+    assert not rows["A"]["conservative"] and not rows["E"]["conservative"]
+    assert rows["F"]["almost_conservative"]
+    assert rows["E"]["q"] == pytest.approx(1.0, abs=1e-9)  # eq. 21, any texture
+    assert rows["A"]["q"] <= math.sqrt(1 + p.max_slope**2) * (1 + 1e-9)  # eq. 10 with M (Remark 2)
+    for r in rows.values():
+        expected = 0.0 if math.isinf(r["q"]) else d["passivity_limit"] / r["q"]
+        assert r["max_passive_stiffness"] == pytest.approx(expected)
+        assert r["passive_at_stiffness"] == (500.0 <= r["max_passive_stiffness"])
+    assert d["recommendation"]
+    assert set(d["recommended"]) <= {L for L, r in rows.items() if r["passive_at_stiffness"]}
+
+
+@needs_data
+def test_design_cli_on_the_dektak_file():
+    r = subprocess.run([sys.executable, "-m", "haptex", "design", "--texture", str(DEKTAK), "--level", "--lowpass",
+                        "20um", "--scale", "10,1000", "--stiffness", "500 N/m", "--window", "4mm,4.8mm", "--json"],
+                       capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout)
+    assert len(out["rows"]) == 8 and len(out["limits"]) == 6
+
+
+@needs_data
+def test_design_cli_refuses_a_mat_file_without_units():
+    r = subprocess.run([sys.executable, "-m", "haptex", "design", "--texture", str(GROOVES)], capture_output=True,
+                       text=True, timeout=120)
+    assert r.returncode == 2
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "grooves-4mm-profile.mat does not state its sample spacing" in lines[0]
