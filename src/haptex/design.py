@@ -88,14 +88,14 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         text.append(f"passive (Corollary 1), conservative and continuous at {stiffness:g} N/m: {', '.join(good)}")
     if fair:
         text.append(f"passive and almost conservative (dissipative friction): {', '.join(fair)}")
-    if not good and not fair:
-        best = max((r for r in textured if r["conservative"] and r["continuous"]),
-                   key=lambda r: r["max_passive_stiffness"], default=None)
-        if best is not None:
-            text.append(f"no algorithm is passive, conservative and continuous at {stiffness:g} N/m; "
-                        f"{best['algorithm']} ({best['name']}) is at up to {best['max_passive_stiffness']:.3g} N/m")
-        else:
-            text.append(f"no textured algorithm is passive, conservative and continuous at {stiffness:g} N/m")
+    softer = [r for r in textured if r["conservative"] and r["continuous"] and not r["passive_at_stiffness"]]
+    if not good and not fair and not softer:
+        text.append(f"no textured algorithm is passive, conservative and continuous at {stiffness:g} N/m")
+    elif not good:
+        text.append(f"none is passive, conservative and continuous at {stiffness:g} N/m")
+    if softer:
+        text.append("conservative and continuous if the stiffness is lowered: " + ", ".join(
+            f"{r['algorithm']} up to {r['max_passive_stiffness']:.3g} N/m" for r in softer))
     failed = [lim.name for lim in limits if not lim.passed]
     if failed:
         text.append("the device cannot reproduce this texture faithfully: " + ", ".join(failed) + " limit(s) violated")
