@@ -390,14 +390,10 @@ def _print_table(data) -> None:
 
 
 def _jsonable(obj):
-    """Replace non-finite floats (an unbounded q) by strings so the JSON is standard."""
-    if isinstance(obj, dict):
-        return {k: _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return "inf" if obj > 0 else ("-inf" if obj < 0 else "nan")
-    return obj
+    """JSON-ready copy of results (non-finite floats as strings); see haptex.report.jsonable."""
+    from .report import jsonable
+
+    return jsonable(obj)
 
 
 def main(argv=None) -> int:

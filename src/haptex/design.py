@@ -5,8 +5,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from .algorithms import algorithm
 from .analysis import characteristic_number, conservativity, continuity, paper_loop, texture_limits
 from .devices import Device, critical_stiffness
@@ -109,12 +107,3 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
                     "passed": lim.passed} for lim in limits],
         "rows": rows, "recommended": good + fair, "recommendation": "; ".join(text),
     }
-
-
-def nan_to_none(v):
-    """JSON helper: non-finite floats as strings."""
-    if isinstance(v, float) and not math.isfinite(v):
-        return "inf" if v > 0 else "nan"
-    if isinstance(v, np.generic):
-        return v.item()
-    return v

@@ -215,8 +215,8 @@ def surface_activity(quick: bool = False) -> dict:
     dict
         ``runs`` (list of :class:`Run`), ``metrics`` (letter -> contact losses, the
         largest energy the environment supplied within 20 ms, net energy absorbed, J),
-        ``sensitivity`` (final energies under a sweep of hand speed... as hand stiffness
-        and depth), ``parameters``.
+        ``sensitivity`` (net energy absorbed by A and D under a sweep of the hand's
+        stiffness and depth), ``parameters``.
     """
     p = dict(SURFACE_ACTIVITY)
     dev = _device(p["joint_damping"])

@@ -35,97 +35,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
-import numba as nb
-
+from ._kernels import presliding_step, presliding_step_smooth
 from ._validation import fail, finite, positive
 
 __all__ = ["PreslidingState", "step", "phase_of", "presliding_step", "presliding_step_smooth"]
-
-_JIT = dict(cache=True, nogil=True)
-
-
-@nb.njit(**_JIT)
-def _alpha(a, d_max, z_stick):
-    if a <= z_stick:
-        return 0.0
-    if a >= d_max:
-        return 1.0
-    return 0.5 + 0.5 * math.sin(math.pi * (a - 0.5 * (d_max + z_stick)) / (d_max - z_stick))
-
-
-@nb.njit(**_JIT)
-def _rate(d, direction, d_max, z_stick):
-    """dd/dx for motion in ``direction`` (+1 or -1) at deflection d (smooth model)."""
-    if d * direction <= 0.0:
-        return 1.0  # |d| shrinks (or is zero): purely elastic
-    return 1.0 - _alpha(abs(d), d_max, z_stick) * abs(d) / d_max
-
-
-@nb.njit(**_JIT)
-def presliding_step(adhesion, x, d_max):
-    """Compiled scalar update of the sharp presliding model (eq. 24).
-
-    Parameters
-    ----------
-    adhesion : float
-        Adhesion point w before the step (m).
-    x : float
-        New position (m).
-    d_max : float
-        Maximum presliding deflection (m), > 0.
-
-    Returns
-    -------
-    (deflection, adhesion) : (float, float)
-        The deflection d = x - w after the step (m) and the new adhesion point (m).
-    """
-    d = x - adhesion
-    if d > d_max:
-        return d_max, x - d_max
-    if d < -d_max:
-        return -d_max, x + d_max
-    return d, adhesion
-
-
-@nb.njit(**_JIT)
-def presliding_step_smooth(deflection, dx, d_max, z_stick):
-    """Compiled update of the smooth variant: integrate dd/dx over an increment dx.
-
-    Parameters
-    ----------
-    deflection : float
-        Deflection before the step (m).
-    dx : float
-        Displacement of the probe during the step (m).
-    d_max, z_stick : float
-        Model parameters (m), 0 <= z_stick < d_max.
-
-    Returns
-    -------
-    float
-        Deflection after the step (m), |d| <= d_max.
-    """
-    if dx == 0.0:
-        return deflection
-    direction = 1.0 if dx > 0.0 else -1.0
-    h_max = (d_max - z_stick) / 64.0
-    n = int(math.ceil(abs(dx) / h_max))
-    if n < 1:
-        n = 1
-    h = dx / n
-    d = deflection
-    for _ in range(n):
-        k1 = _rate(d, direction, d_max, z_stick)
-        k2 = _rate(d + 0.5 * h * k1, direction, d_max, z_stick)
-        k3 = _rate(d + 0.5 * h * k2, direction, d_max, z_stick)
-        k4 = _rate(d + h * k3, direction, d_max, z_stick)
-        d += h * (k1 + 2.0 * k2 + 2.0 * k3 + k4) / 6.0
-        if d > d_max:
-            d = d_max
-        elif d < -d_max:
-            d = -d_max
-    return d
-
 
 @dataclass(frozen=True)
 class PreslidingState:

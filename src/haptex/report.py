@@ -374,11 +374,13 @@ def _install(tmp: Path, out: Path, force: bool) -> None:
         shutil.rmtree(old, ignore_errors=True)
 
 
-def _jsonable(obj):
+def jsonable(obj):
+    """A JSON-ready copy: dict keys as strings, tuples as lists, NumPy scalars as Python
+    numbers, and non-finite floats as the strings "inf", "-inf", "nan" (an unbounded q)."""
     if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
+        return {str(k): jsonable(v) for k, v in obj.items()}
     if isinstance(obj, list | tuple):
-        return [_jsonable(v) for v in obj]
+        return [jsonable(v) for v in obj]
     if isinstance(obj, np.generic):
         obj = obj.item()
     if isinstance(obj, float) and not math.isfinite(obj):
@@ -398,7 +400,7 @@ def _run_summary(run) -> dict:
 def summary_json(data: dict, elapsed: float | None = None) -> dict:
     """The report's numbers as plain JSON-able data (energies J, lengths m, stiffness N/m)."""
     pas, con, sur = data["passivity"], data["conservativity"], data["surface_activity"]
-    return _jsonable({
+    return jsonable({
         "generator": MARKER,
         "paper": "Campion & Hayward, On the Synthesis of Haptic Textures",
         "elapsed_seconds": elapsed,

@@ -249,9 +249,19 @@ def _point(name, value):
     return arr.copy()
 
 
-def _kernel_inputs(algorithm, device, operator):
+def _kernel_inputs(algorithm, device, operator, memo: dict | None = None):
+    """Everything the compiled loop reads for one run. ``memo`` shares the discretisation
+    (six 20x20 matrix exponentials) between runs whose device and operator are the same
+    objects, as in sweeps of algorithm parameters."""
     code, prm, kind, coeffs = algorithm.kernel_spec()
-    Phi, Wd, Wo = _discretise(device, operator)
+    key = (id(device), id(operator))
+    if memo is None or key not in memo:
+        disc = _discretise(device, operator)
+        if memo is not None:
+            memo[key] = disc
+    else:
+        disc = memo[key]
+    Phi, Wd, Wo = disc
     Bs = np.stack([device.damping_outside, device.damping])
     nominal = algorithm.penetration_kind == "nominal"
     return code, prm, kind, coeffs, nominal, Phi, Wd, Wo, Bs
@@ -494,19 +504,7 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     if len(letters) != 1 or len(shapes) != 1 or len(periods) != 1:
         raise ParameterError("the runs of a batch must share the algorithm letter, texture shape and sampling period")
     memo: dict = {}
-
-    def inputs(a, d, o):
-        # the discretisation (six 20x20 matrix exponentials) is shared by runs whose
-        # device and operator are the same objects (sweeps of algorithm parameters)
-        key = (id(d), id(o))
-        if key not in memo:
-            memo[key] = _discretise(d, o)
-        code, prm, kind, coeffs = a.kernel_spec()
-        Phi, Wd, Wo = memo[key]
-        return code, prm, kind, coeffs, a.penetration_kind == "nominal", Phi, Wd, Wo, \
-            np.stack([d.damping_outside, d.damping])
-
-    specs = [inputs(a, d, o) for a, d, o in runs]
+    specs = [_kernel_inputs(a, d, o, memo) for a, d, o in runs]
     code, kind, nominal = specs[0][0], specs[0][2], specs[0][4]
     st = lambda j: np.ascontiguousarray(np.stack([s[j] for s in specs]))  # noqa: E731
     prm, coeffs, Phi, Wd, Wo, Bs = st(1), st(3), st(5), st(6), st(7), st(8)
