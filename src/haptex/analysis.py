@@ -327,7 +327,7 @@ def _q_friction(alg, dmax, x0, x1, nx, nd) -> CharacteristicNumber:
         for idx in flat:
             i, j, q = np.unravel_index(idx, norms.shape)
 
-            def neg(v, phase=phase, q=q):
+            def neg(v, phase=phase, q=q, defl=defl):
                 dd = v[2] if phase == "stick" else defl[q]
                 return -float(spectral_norm(alg.jacobian(np.array([[v[0], -v[1]]]), dd, phase))[0]) / k0
 

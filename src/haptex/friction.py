@@ -32,7 +32,6 @@ References
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, replace
 
 from ._kernels import presliding_step, presliding_step_smooth
