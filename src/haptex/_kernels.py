@@ -1,9 +1,15 @@
 """Numba-compiled scalar kernels (private).
 
 No validation, no allocation in the inner loops, no I/O: the Python wrappers in the public
-modules validate and convert inputs once and call these. Every kernel here has a plain
-NumPy counterpart that the tests compare it with (the texture methods, and a brute-force
-closest-point search).
+modules validate and convert inputs once and call these. The tests compare each kernel with
+a plain-Python/NumPy twin: texture evaluation with the texture methods, the closest point
+with a brute-force search, ``alg_force`` with the vectorised ``force``, the presliding
+step with :func:`haptex.friction.step` and an ODE solver; the simulator loop is checked by
+its exact zero-order hold against closed forms and by its energy balance.
+
+Everything compiled that calls something else compiled lives in this one file: numba's
+on-disk cache is invalidated per source file, so a kernel in another module would keep a
+stale copy of a callee edited here.
 
 Texture encoding shared by all kernels
 --------------------------------------
