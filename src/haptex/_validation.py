@@ -67,6 +67,25 @@ def optional_positive(name: str, value, unit: str = "") -> float | None:
     return None if value is None else positive(name, value, unit)
 
 
+def matrix2(name: str, value, what: str = "2x2 matrix") -> np.ndarray:
+    """A 2x2 float64 matrix from a scalar (times the identity: isotropic) or a 2x2 array.
+
+    Raises
+    ------
+    ParameterError
+        If the value is neither, or holds a non-finite entry.
+    """
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise fail(name, value, f"a scalar or a {what}") from None
+    if arr.ndim == 0:
+        arr = float(arr) * np.eye(2)
+    if arr.shape != (2, 2) or not np.all(np.isfinite(arr)):
+        raise fail(name, value, f"a finite scalar or a finite {what}")
+    return arr
+
+
 def positions(p, name: str = "p") -> np.ndarray:
     """Return probe positions as a float64 array of shape (..., 2).
 

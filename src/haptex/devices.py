@@ -12,19 +12,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._validation import ParameterError, fail, nonnegative, positive
+from ._validation import ParameterError, fail, matrix2, nonnegative, positive
 
 
 def _matrix(name: str, value, allow_zero: bool) -> np.ndarray:
     """A 2x2 symmetric matrix from a scalar (isotropic) or a 2x2 array; checks definiteness."""
-    try:
-        arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise fail(name, value, "a scalar or a 2x2 symmetric matrix") from None
-    if arr.ndim == 0:
-        arr = float(arr) * np.eye(2)
-    if arr.shape != (2, 2) or not np.all(np.isfinite(arr)):
-        raise fail(name, value, "a finite scalar or a finite 2x2 symmetric matrix")
+    arr = matrix2(name, value, "2x2 symmetric matrix")
     if not np.allclose(arr, arr.T, rtol=1e-12, atol=0.0):
         raise fail(name, arr.tolist(), "a symmetric 2x2 matrix")
     eig = np.linalg.eigvalsh(arr)

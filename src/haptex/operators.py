@@ -13,18 +13,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._validation import ParameterError, fail, finite, nonnegative, positions, positive
+from ._validation import ParameterError, fail, finite, matrix2, nonnegative, positions, positive
 
 
 def _impedance(name: str, value) -> np.ndarray:
-    try:
-        arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise fail(name, value, "a scalar or a 2x2 matrix") from None
-    if arr.ndim == 0:
-        arr = float(arr) * np.eye(2)
-    if arr.shape != (2, 2) or not np.all(np.isfinite(arr)):
-        raise fail(name, value, "a finite scalar or 2x2 matrix")
+    arr = matrix2(name, value)
     if np.linalg.eigvalsh(0.5 * (arr + arr.T)).min() < 0:
         raise fail(name, arr.tolist(), "positive semi-definite")
     return arr

@@ -16,6 +16,17 @@ def _pyplot():
     return plt
 
 
+def _finish(plt, fig, path, title: str = "", dpi: int = 100, title_size=None) -> Path:
+    """Title, lay out, write the PNG and free the figure; returns the path written."""
+    if title:
+        fig.suptitle(title, fontsize=title_size)
+    fig.tight_layout()
+    out = Path(path)
+    fig.savefig(out, dpi=dpi)
+    plt.close(fig)
+    return out
+
+
 def plot_simulation(result, path, title: str = "") -> Path:
     """Position, force and energy of a simulation, as in the paper's Figs. 5–7.
 
@@ -51,19 +62,7 @@ def plot_simulation(result, path, title: str = "") -> Path:
     axes[2].legend(loc="lower left")
     for ax in axes:
         ax.grid(True, alpha=0.3)
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    out = Path(path)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
-
-
-def finite_or_nan(values) -> np.ndarray:
-    """Array of floats with non-finite entries as NaN (for plotting)."""
-    arr = np.asarray(values, dtype=np.float64)
-    return np.where(np.isfinite(arr), arr, np.nan)
+    return _finish(plt, fig, path, title, dpi=110)
 
 
 def plot_force_field(alg, path, n: int = 23, max_penetration: float = 1e-3) -> Path:
@@ -106,11 +105,7 @@ def plot_force_field(alg, path, n: int = 23, max_penetration: float = 1e-3) -> P
     ax.set_title(f"{alg.letter}: {alg.name}", fontsize=9)
     fig.colorbar(q, ax=ax, label="|f| (N)")
     ax.legend(loc="lower right", fontsize=7)
-    fig.tight_layout()
-    out = Path(path)
-    fig.savefig(out, dpi=100)
-    plt.close(fig)
-    return out
+    return _finish(plt, fig, path)
 
 
 def plot_loop_energies(rows, path) -> Path:
@@ -135,11 +130,7 @@ def plot_loop_energies(rows, path) -> Path:
     ax.axhline(0, color="k", lw=0.8)
     ax.legend(fontsize=8)
     ax.grid(True, axis="y", alpha=0.3)
-    fig.tight_layout()
-    out = Path(path)
-    fig.savefig(out, dpi=100)
-    plt.close(fig)
-    return out
+    return _finish(plt, fig, path)
 
 
 def plot_runs(runs, path, quantity: str = "position", title: str = "") -> Path:
@@ -175,13 +166,7 @@ def plot_runs(runs, path, quantity: str = "position", title: str = "") -> Path:
         ax.set_title(f"{run.label}{osc}", fontsize=9)
         ax.grid(True, alpha=0.3)
     axes[-1, 0].set_xlabel("time (s)")
-    if title:
-        fig.suptitle(title, fontsize=10)
-    fig.tight_layout()
-    out = Path(path)
-    fig.savefig(out, dpi=100)
-    plt.close(fig)
-    return out
+    return _finish(plt, fig, path, title, title_size=10)
 
 
 def plot_trajectories(runs, surface_x, surface_h, path, title: str = "") -> Path:
@@ -210,10 +195,4 @@ def plot_trajectories(runs, surface_x, surface_h, path, title: str = "") -> Path
             a.grid(True, alpha=0.3)
     axes[-1, 0].set_xlabel("x (mm)")
     axes[-1, 1].set_xlabel("time (s)")
-    if title:
-        fig.suptitle(title, fontsize=10)
-    fig.tight_layout()
-    out = Path(path)
-    fig.savefig(out, dpi=100)
-    plt.close(fig)
-    return out
+    return _finish(plt, fig, path, title, title_size=10)
