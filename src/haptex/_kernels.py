@@ -445,6 +445,12 @@ N_SUMMARY = 12
 
 
 @nb.njit(**_JIT)
+def _half_quad2(A, v):
+    """v' A v / 2 for a 2x2 matrix (kinetic energy with A = M)."""
+    return 0.5 * (v[0] * (A[0, 0] * v[0] + A[0, 1] * v[1]) + v[1] * (A[1, 0] * v[0] + A[1, 1] * v[1]))
+
+
+@nb.njit(**_JIT)
 def _quad(W, z):
     acc = 0.0
     for i in range(_NZ):
@@ -501,7 +507,7 @@ def run_one(code, kind, coeffs, prm, nominal, Phi, Wd, Wo, Bs, M, K, C, f0, sp_t
     sat = 0
     maxpen = 0.0
     maxf = 0.0
-    ke0 = 0.5 * (v[0] * (M[0, 0] * v[0] + M[0, 1] * v[1]) + v[1] * (M[1, 0] * v[0] + M[1, 1] * v[1]))
+    ke0 = _half_quad2(M, v)
     ke_prev = ke0
     n_tail = tail_z.shape[0]
     tail_stride = max((n_steps - tail_start) // max(n_tail, 1), 1)
@@ -559,9 +565,8 @@ def run_one(code, kind, coeffs, prm, nominal, Phi, Wd, Wo, Bs, M, K, C, f0, sp_t
             # whatever work keeps it on the path (so the energy balance closes by design)
             dpx = s1[0] - p[0]
             dpz = s1[1] - p[1]
-            Bm = Bs[reg]
-            dd = T * (v[0] * (Bm[0, 0] * v[0] + Bm[0, 1] * v[1]) + v[1] * (Bm[1, 0] * v[0] + Bm[1, 1] * v[1]))
-            ke_now = 0.5 * (v[0] * (M[0, 0] * v[0] + M[0, 1] * v[1]) + v[1] * (M[1, 0] * v[0] + M[1, 1] * v[1]))
+            dd = 2.0 * T * _half_quad2(Bs[reg], v)
+            ke_now = _half_quad2(M, v)
             if k == 0:
                 ke0 = ke_now
                 ke_prev = ke_now
@@ -633,14 +638,14 @@ def run_one(code, kind, coeffs, prm, nominal, Phi, Wd, Wo, Bs, M, K, C, f0, sp_t
             rec[irec, 8] = ez
             rec[irec, 9] = ed
             rec[irec, 10] = eo
-            rec[irec, 11] = 0.5 * (v[0] * (M[0, 0] * v[0] + M[0, 1] * v[1]) + v[1] * (M[1, 0] * v[0] + M[1, 1] * v[1]))
+            rec[irec, 11] = _half_quad2(M, v)
             irec += 1
     summary[S_EX] = ex
     summary[S_EZ] = ez
     summary[S_DAMP] = ed
     summary[S_OP] = eo
     summary[S_KE0] = ke0
-    summary[S_KE] = 0.5 * (v[0] * (M[0, 0] * v[0] + M[0, 1] * v[1]) + v[1] * (M[1, 0] * v[0] + M[1, 1] * v[1]))
+    summary[S_KE] = _half_quad2(M, v)
     summary[S_SAT] = sat
     summary[S_MAXPEN] = maxpen
     summary[S_MAXF] = maxf

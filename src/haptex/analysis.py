@@ -223,18 +223,13 @@ def characteristic_number(
         p = _region_point(algorithm, np.array([v[0]]), np.array([v[1]]))
         return -float(spectral_norm(algorithm.jacobian(p))[0]) / k0
 
-    best = float(norms.max())
-    flat_idx = _candidates(norms)
-    i0, j0 = np.unravel_index(flat_idx[0], norms.shape)
-    where_xd = (xs[i0], ds[j0])
-    for idx in flat_idx:
+    best, where_xd = -np.inf, (x0, dmax)
+    for idx in _candidates(norms):
         i, j = np.unravel_index(idx, norms.shape)
         bounds = [(max(x0, xs[i] - dx), min(x1, xs[i] + dx)), (max(dd * 1e-6, ds[j] - dd), min(dmax, ds[j] + dd))]
-        r = optimize.minimize(neg_q, x0=[xs[i], ds[j]], method="L-BFGS-B", bounds=bounds,
-                              options={"ftol": 1e-15, "gtol": 1e-12})
-        if -r.fun > best:
-            best = -float(r.fun)
-            where_xd = (float(r.x[0]), float(r.x[1]))
+        val, pt = _refine(neg_q, (xs[i], ds[j]), norms[i, j], bounds)
+        if val > best:
+            best, where_xd = val, pt
     where = _region_point(algorithm, np.array([where_xd[0]]), np.array([where_xd[1]]))[0]
     return CharacteristicNumber(
         letter=algorithm.letter,
@@ -244,6 +239,16 @@ def characteristic_number(
         max_penetration=dmax,
         note=f"grid {nx}x{nd} over x in [{x0:g}, {x1:g}] m and depth in (0, {dmax:g}] m, refined by L-BFGS-B",
     )
+
+
+def _refine(neg, start, value: float, bounds) -> tuple[float, tuple]:
+    """Bounded L-BFGS-B maximisation from a grid point: (value, point), the grid's own if
+    the refinement finds nothing larger."""
+    r = optimize.minimize(neg, x0=list(start), method="L-BFGS-B", bounds=bounds,
+                          options={"ftol": 1e-15, "gtol": 1e-12})
+    if -r.fun > value:
+        return -float(r.fun), tuple(float(v) for v in r.x)
+    return float(value), tuple(float(v) for v in start)
 
 
 def _candidates(values: np.ndarray, count: int = 8) -> np.ndarray:
@@ -334,11 +339,9 @@ def _q_friction(alg, dmax, x0, x1, nx, nd) -> CharacteristicNumber:
             dx, dd_ = (x1 - x0) / nx, depth_max / nd
             bounds = [(max(x0, xs[i] - dx), min(x1, xs[i] + dx)), (max(dd_ * 1e-6, ds[j] - dd_), min(depth_max, ds[j] + dd_)),
                       (-dm, dm) if phase == "stick" else (defl[q], defl[q])]
-            r = optimize.minimize(neg, x0=[xs[i], ds[j], defl[q]], method="L-BFGS-B", bounds=bounds,
-                                  options={"ftol": 1e-15, "gtol": 1e-12})
-            val, v = (-float(r.fun), r.x) if -r.fun > norms[i, j, q] else (float(norms[i, j, q]), (xs[i], ds[j], defl[q]))
+            val, v = _refine(neg, (xs[i], ds[j], defl[q]), norms[i, j, q], bounds)
             if val > best:
-                best, arg = val, (float(v[0]), float(v[1]), float(v[2]), phase)
+                best, arg = val, (*v, phase)
     bounds_paper = friction_bounds(alg, depth_max if alg.max_penetration is None else min(depth_max, alg.max_penetration))
     extra = {"phase": arg[3], "deflection": arg[2], **bounds_paper}
     note = (f"sup over x in [{x0:g}, {x1:g}] m, depth in (0, {depth_max:g}] m, deflection in "
@@ -414,13 +417,10 @@ def _q_distance(alg, dmax, x0, x1, nx, nd, closed) -> CharacteristicNumber:
     best, where_tr = -np.inf, (x0, dmax)
     for idx in _candidates(norms):
         i, j = np.unravel_index(idx, norms.shape)
-        if norms[i, j] > best:
-            best, where_tr = float(norms[i, j]), (T[i, j], R[i, j])
         bounds = [(T[i, j] - dt, T[i, j] + dt), (max(dr * 1e-6, R[i, j] - dr), min(dmax, R[i, j] + dr))]
-        r = optimize.minimize(neg_q, x0=[T[i, j], R[i, j]], method="L-BFGS-B", bounds=bounds,
-                              options={"ftol": 1e-15, "gtol": 1e-12})
-        if -r.fun > best:
-            best, where_tr = -float(r.fun), (float(r.x[0]), float(r.x[1]))
+        val, pt = _refine(neg_q, (T[i, j], R[i, j]), norms[i, j], bounds)
+        if val > best:
+            best, where_tr = val, pt
     w = _normal_point(tex, np.array([where_tr[0]]), where_tr[1])[0]
     return CharacteristicNumber(alg.letter, best, closed, (float(w[0]), float(w[1])), dmax, note, paper_value)
 
