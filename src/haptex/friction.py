@@ -39,6 +39,7 @@ from ._validation import fail, finite, positive
 
 __all__ = ["PreslidingState", "step", "phase_of", "presliding_step", "presliding_step_smooth"]
 
+
 @dataclass(frozen=True)
 class PreslidingState:
     """State of the presliding friction model (Hayward & Armstrong [32]).
