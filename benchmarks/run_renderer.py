@@ -26,10 +26,10 @@ except ImportError:  # run from the repository root
 
 
 @nb.njit(cache=True)
-def _kernel_loop(xs, zs, code, kind, coeffs, prm, st, rs):
+def _kernel_loop(xs, zs, code, kind, coeffs, prm, aux, st, rs):
     acc = 0.0
     for i in range(xs.shape[0]):
-        fx, fz = _kernels.render_step(xs[i], zs[i], code, kind, coeffs, prm, st, rs)
+        fx, fz = _kernels.render_step(xs[i], zs[i], code, kind, coeffs, prm, aux, st, rs)
         acc += fx + fz
     return acc
 
@@ -69,10 +69,10 @@ def main() -> None:
                 lat[i] = time.perf_counter_ns() - t0
             lat -= timer
             r.reset()
-            _kernel_loop(xs[:10], zs[:10], r._code, r._kind, r._coeffs, r._prm, r._st, r._rs)
+            _kernel_loop(xs[:10], zs[:10], r._code, r._kind, r._coeffs, r._prm, r._aux, r._st, r._rs)
             r.reset()
             t0 = time.perf_counter()
-            _kernel_loop(xs, zs, r._code, r._kind, r._coeffs, r._prm, r._st, r._rs)
+            _kernel_loop(xs, zs, r._code, r._kind, r._coeffs, r._prm, r._aux, r._st, r._rs)
             kern = (time.perf_counter() - t0) / n * 1e9
             c_ns = math.nan
             if letter in "AD":

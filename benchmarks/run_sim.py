@@ -24,14 +24,15 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 
 
 def c_reference(alg, dev, op, n_steps, n_runs, workdir, exe, render=False):
-    code, prm, kind, coeffs = alg.kernel_spec()
+    code, prm, kind, coeffs, aux = alg.kernel_spec()
+    tex = alg.texture
     Phi, Wd, Wo = _discretise(dev, op)
     path = os.path.join(workdir, f"in_{alg.letter}_{n_runs}.bin")
     with open(path, "wb") as fh:
         np.array([code, coeffs.shape[1], n_steps, n_runs], dtype=np.int64).tofile(fh)
         coeffs.astype(np.float64).tofile(fh)
-        sc = np.r_[prm[0], prm[6], dev.period, op.stiffness.ravel(), op.damping.ravel(), op.setpoint_points[0],
-                   op.final_velocity, [0.0, 0.0], prm[7], prm[8]]
+        sc = np.r_[prm[0], tex.shortest_period / 64.0, dev.period, op.stiffness.ravel(), op.damping.ravel(), op.setpoint_points[0],
+                   op.final_velocity, [0.0, 0.0], tex.max_slope, tex.max_curvature]
         sc.astype(np.float64).tofile(fh)
         for m in (Phi, Wd, Wo):
             np.ascontiguousarray(m, dtype=np.float64).tofile(fh)

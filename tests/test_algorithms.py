@@ -256,13 +256,13 @@ def test_compiled_kernel_matches_vectorised_force(letter):
 
     kw = {"max_penetration": 0.6e-3} if letter in "BCG" else {}
     alg = make(letter, hx.Sinusoid(A, L, phase=0.4), **kw)
-    code, prm, kind, coeffs = alg.kernel_spec()
+    code, prm, kind, coeffs, aux = alg.kernel_spec()
     rng = np.random.default_rng(5)
     p = np.column_stack([rng.uniform(-1e-3, 2e-3, 300), rng.uniform(-1.9e-3, 1e-3, 300)])
     ref = alg.force(p)
     for pi, fi in zip(p, ref):
         st = np.zeros(_kernels.N_STATE)
-        got = _kernels.alg_force(code, pi[0], pi[1], kind, coeffs, prm, st)
+        got = _kernels.alg_force(code, pi[0], pi[1], kind, coeffs, prm, aux, st)
         np.testing.assert_allclose(got, fi, rtol=1e-12, atol=1e-12)
 
 
@@ -271,7 +271,7 @@ def test_compiled_F_kernel_follows_the_friction_state_along_a_path():
     from haptex import friction as fr
 
     alg = hx.algorithm("F", hx.Sinusoid(A, L), K0, max_penetration=0.8e-3)
-    code, prm, kind, coeffs = alg.kernel_spec()
+    code, prm, kind, coeffs, aux = alg.kernel_spec()
     st = np.zeros(_kernels.N_STATE)
     t = np.linspace(0, 1, 2000)
     xs = 3e-3 * np.sin(7 * t) + 0.5e-3 * t
@@ -279,7 +279,7 @@ def test_compiled_F_kernel_follows_the_friction_state_along_a_path():
     zs[900:950] = 1e-4  # leave the wall once: the state resets
     state = None
     for x, z in zip(xs, zs):
-        got = _kernels.alg_force(code, x, z, kind, coeffs, prm, st)
+        got = _kernels.alg_force(code, x, z, kind, coeffs, prm, aux, st)
         if z >= 0:
             state = None
             np.testing.assert_array_equal(got, [0.0, 0.0])

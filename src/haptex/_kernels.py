@@ -38,11 +38,6 @@ TEXTURE_SPLINE = 2
 
 _JIT = dict(cache=True, fastmath=False, nogil=True)
 
-MAX_CELLS = 4_000_000
-"""Largest number of coarse cells one closest-point search may scan (a probe more than
-about 10^6 texture periods deep); beyond it the search returns NaN."""
-
-
 @nb.njit(**_JIT)
 def _spline_eval(coeffs, x):
     """Uniform cubic spline (see ``TEXTURE_SPLINE``): (h, h', h'')."""
@@ -92,10 +87,32 @@ def texture_eval(kind, coeffs, x):
     return h, s, c
 
 
+# ----------------------------------------------------------------------------------------
+# Closest point on the textured boundary (algorithms D and E): a bounded branch and bound.
+# ----------------------------------------------------------------------------------------
+# The search reads a per-texture float64 array ``aux`` built once by
+# haptex.closest.search_data: a header, then a binary tree (heap order, node 1 the root) of
+# rigorous lower/upper bounds of h over dyadic sub-intervals of a "core" interval (one
+# period of a periodic texture, the sampled range of a non-periodic profile).
+CP_VERTICAL, CP_PERIODIC, CP_FINITE, CP_OPEN = 0, 1, 2, 3
+(A_MODE, A_START, A_PERIOD, A_TREELEN, A_NLEAF, A_STEP, A_SLOPE, A_CURV, A_HMIN, A_TMIN, A_WCAP,
+ A_X0, A_XE, A_HL, A_SL, A_HR, A_SR, A_TIE, A_JERK) = range(19)
+A_TREE = 20
+"""lo[i] is aux[A_TREE + i] and hi[i] is aux[A_TREE + 2 n_leaf + i], i = 1 .. 2 n_leaf - 1."""
+MAX_LEAVES = 1 << 22
+"""Largest bound tree (leaves) a texture may ask for: 2^22 leaves are 128 MiB of bounds."""
+OPEN_LEAVES = 4096
+"""An aperiodic Fourier sum is searched within +-OPEN_LEAVES leaves of the probe's abscissa."""
+# scratch slots of the search (inside the algorithm state array, from S_SEARCH on)
+B_F, B_T, B_SECOND, B_FOUND, B_WORK, B_SAMPLE = range(6)
+B_STACK = 8
+STACK_DEPTH = 64
+N_SEARCH = B_STACK + STACK_DEPTH
+
+
 @nb.njit(**_JIT)
 def _dphi(kind, coeffs, px, pz, t):
-    """Half the derivative of the squared distance phi(t) = (t-px)^2 + (h(t)-pz)^2 and
-    half its second derivative, plus phi itself."""
+    """phi(t) = (t-px)^2 + (h(t)-pz)^2, g = phi'/2 and g' = phi''/2."""
     h, s, c = texture_eval(kind, coeffs, t)
     dz = h - pz
     g = (t - px) + dz * s
@@ -105,158 +122,368 @@ def _dphi(kind, coeffs, px, pz, t):
 
 @nb.njit(**_JIT)
 def _refine_bracket(kind, coeffs, px, pz, a, b):
-    """Root of g = phi'/2 in [a, b] where g(a) <= 0 <= g(b): safeguarded Newton."""
+    """Root of g = phi'/2 in [a, b] where g(a) <= 0 < g(b): safeguarded Newton (at most
+    60 iterations). Returns (t, iterations)."""
     lo = a
     hi = b
     t = 0.5 * (a + b)
-    for _ in range(100):
+    it = 0
+    for it in range(1, 61):
         _, g, gp = _dphi(kind, coeffs, px, pz, t)
         if g > 0.0:
             hi = t
         else:
             lo = t
-        if gp > 0.0:
-            tn = t - g / gp
-        else:
-            tn = 0.5 * (lo + hi)
+        tn = t - g / gp if gp > 0.0 else 0.5 * (lo + hi)
         if not (lo < tn < hi):
             tn = 0.5 * (lo + hi)
         if abs(tn - t) <= 1e-15 * (1.0 + abs(t)) or hi - lo <= 1e-16 * (1.0 + abs(t)):
-            t = tn
-            break
+            return tn, it
         t = tn
-    return t
+    return t, it
 
 
 @nb.njit(**_JIT)
 def _polish(kind, coeffs, px, pz, t, a, b):
-    """Newton iterations on phi'/2 from t, kept inside [a, b]."""
-    for _ in range(60):
+    """Newton iterations on phi'/2 from t, kept inside [a, b] (at most 30). Returns (t, iterations)."""
+    it = 0
+    for it in range(1, 31):
         _, g, gp = _dphi(kind, coeffs, px, pz, t)
         if gp <= 0.0:
-            break
+            return t, it
         tn = min(max(t - g / gp, a), b)
         if abs(tn - t) <= 1e-15 * (1.0 + abs(t)):
-            return tn
+            return tn, it
         t = tn
-    return t
+    return t, it
 
 
 @nb.njit(**_JIT)
-def closest_point(kind, coeffs, step, slope_bound, curv_bound, px, pz, t_guess):
+def _bound(bs, t, f):
+    """A boundary point (t, f): an upper bound of the minimum, not a certified local minimum."""
+    if f < bs[B_F]:
+        bs[B_F] = f
+        bs[B_T] = t
+
+
+@nb.njit(**_JIT)
+def _offer(bs, t, f, sep):
+    """A refined local minimum (t, f): keep the best and the best runner-up more than
+    ``sep`` away from it (for the medial-axis tie)."""
+    if f < bs[B_F]:
+        if bs[B_FOUND] != 0.0 and bs[B_F] < bs[B_SECOND] and abs(t - bs[B_T]) > sep:
+            bs[B_SECOND] = bs[B_F]
+        bs[B_F] = f
+        bs[B_T] = t
+        bs[B_FOUND] = 1.0
+    elif bs[B_FOUND] != 0.0 and f < bs[B_SECOND] and abs(t - bs[B_T]) > sep:
+        bs[B_SECOND] = f
+
+
+@nb.njit(**_JIT)
+def _pair_possible(aux, g0, g1, gp0, gp1, dz, dt):
+    """False when phi provably has no local minimum in a sample interval other than the
+    one a - to + sign change of g = phi'/2 reveals: phi is convex on it (g' > 0), or g
+    cannot reach zero there. |g''| = |3 h' h'' + (h - pz) h'''| <= G2, with |h - pz| <= dz."""
+    g2 = 3.0 * aux[A_SLOPE] * aux[A_CURV] + dz * aux[A_JERK]
+    if min(gp0, gp1) - g2 * dt > 0.0:
+        return False
+    if (g0 > 0.0) == (g1 > 0.0):
+        return abs(g0) + abs(g1) <= (max(abs(gp0), abs(gp1)) + g2 * dt) * dt
+    return True
+
+
+@nb.njit(**_JIT)
+def _scan_interval(kind, coeffs, px, pz, a, b, f_a, g_a, n, bs, best):
+    """Sample [a, b] at n + 1 points (the first is given), refine every - to + sign change of
+    g; ``best`` = [t, f] of the best sample is updated. Returns the work spent."""
+    work = 0
+    dt = (b - a) / n
+    t_prev = a
+    g_prev = g_a
+    for k in range(1, n + 1):
+        t_k = b if k == n else a + k * dt
+        f_k, g_k, _ = _dphi(kind, coeffs, px, pz, t_k)
+        work += 1
+        if f_k < best[1]:
+            best[0] = t_k
+            best[1] = f_k
+        if g_prev <= 0.0 and g_k > 0.0:
+            t, it = _refine_bracket(kind, coeffs, px, pz, t_prev, t_k)
+            f, _, _ = _dphi(kind, coeffs, px, pz, t)
+            work += it + 1
+            _offer(bs, t, f, 0.5 * dt)
+        t_prev = t_k
+        g_prev = g_k
+    return work
+
+
+@nb.njit(**_JIT)
+def _scan_leaf(kind, coeffs, aux, px, pz, u, w, bs):
+    """Sample g = phi'/2 on [u, u + w] every <= aux[A_STEP], refine every - to + sign
+    change, and polish the best sample. A sample interval on which a minimum could hide
+    (:func:`_pair_possible`, e.g. two minima near a centre of curvature) is sampled again
+    16 times finer, so a minimum between two samples is not lost."""
+    n = int(math.ceil(w / aux[A_STEP]))
+    if n < 2:
+        n = 2
+    dt = w / n
+    best = bs[B_SAMPLE:B_SAMPLE + 2]
+    f_prev, g_prev, gp_prev = _dphi(kind, coeffs, px, pz, u)
+    best[0] = u
+    best[1] = f_prev
+    work = 1
+    t_prev = u
+    for i in range(1, n + 1):
+        t_i = u + w if i == n else u + i * dt
+        f_i, g_i, gp_i = _dphi(kind, coeffs, px, pz, t_i)
+        work += 1
+        if f_i < best[1]:
+            best[0] = t_i
+            best[1] = f_i
+        dz = math.sqrt(max(f_prev, f_i)) + aux[A_SLOPE] * dt
+        if _pair_possible(aux, g_prev, g_i, gp_prev, gp_i, dz, dt):
+            work += _scan_interval(kind, coeffs, px, pz, t_prev, t_i, f_prev, g_prev, 16, bs, best)
+        elif g_prev <= 0.0 and g_i > 0.0:
+            t, it = _refine_bracket(kind, coeffs, px, pz, t_prev, t_i)
+            f, _, _ = _dphi(kind, coeffs, px, pz, t)
+            work += it + 1
+            _offer(bs, t, f, 0.5 * dt)
+        t_prev = t_i
+        f_prev = f_i
+        g_prev = g_i
+        gp_prev = gp_i
+    t, it = _polish(kind, coeffs, px, pz, best[0], max(u, best[0] - dt), min(u + w, best[0] + dt))
+    f, g, _ = _dphi(kind, coeffs, px, pz, t)
+    work += it + 1
+    if abs(g) <= 1e-9 * math.sqrt(f) or f < bs[B_F]:  # a stationary point, or simply better
+        _offer(bs, t, f, 0.5 * dt)
+    bs[B_WORK] += work
+
+
+@nb.njit(**_JIT)
+def _descend(kind, coeffs, aux, px, pz, root_u, root_w, n_leaf, table, bs):
+    """Depth-first branch and bound over the implicit binary tree on [root_u, root_u + root_w]
+    with ``n_leaf`` leaves: a node is pruned when a lower bound of the distance over it is not
+    below the best distance so far; a surviving leaf is scanned. Node bounds come from the
+    table in ``aux`` or, without one (``table`` False), from a Taylor bound at the centre."""
+    nl = int(aux[A_NLEAF])
+    bs[B_STACK] = 1.0
+    sp = 1
+    while sp > 0:
+        sp -= 1
+        i = int(bs[B_STACK + sp])
+        level = 0
+        j = i
+        while j > 1:
+            j >>= 1
+            level += 1
+        first = 1 << level
+        w = root_w / first
+        u = root_u + (i - first) * w
+        if table:
+            lo = aux[A_TREE + i]
+            hi = aux[A_TREE + 2 * nl + i]
+        else:
+            hc, sc, _ = texture_eval(kind, coeffs, u + 0.5 * w)
+            bs[B_WORK] += 1.0
+            spread = min(aux[A_SLOPE] * 0.5 * w, abs(sc) * 0.5 * w + aux[A_CURV] * 0.125 * w * w)
+            lo = hc - spread
+            hi = hc + spread
+        dx_lb = max(0.0, u - px, px - (u + w))
+        dz_lb = max(0.0, lo - pz, pz - hi)
+        reach = math.sqrt(bs[B_F]) + aux[A_TIE]
+        if dx_lb * dx_lb + dz_lb * dz_lb > reach * reach:
+            continue
+        if i >= n_leaf:
+            _scan_leaf(kind, coeffs, aux, px, pz, u, w, bs)
+            continue
+        if px < u + 0.5 * w:  # the nearer child is popped first
+            bs[B_STACK + sp] = 2 * i + 1
+            bs[B_STACK + sp + 1] = 2 * i
+        else:
+            bs[B_STACK + sp] = 2 * i
+            bs[B_STACK + sp + 1] = 2 * i + 1
+        sp += 2
+
+
+@nb.njit(**_JIT)
+def _ray(kind, coeffs, px, pz, t_end, h_end, s_end, left, bs):
+    """Closest point of the straight extension of a non-periodic profile (exact)."""
+    t = (px + s_end * (pz - h_end + s_end * t_end)) / (1.0 + s_end * s_end)
+    clamped = (left and t > t_end) or (not left and t < t_end)
+    if clamped:
+        t = t_end
+    f, _, _ = _dphi(kind, coeffs, px, pz, t)
+    bs[B_WORK] += 1.0
+    if clamped:
+        _bound(bs, t, f)
+    else:
+        _offer(bs, t, f, 0.0)
+
+
+@nb.njit(**_JIT)
+def closest_point(kind, coeffs, aux, px, pz, t_guess, bs):
     """Closest point abscissa t on the boundary z = h(x) to a point (px, pz) below it.
 
-    The global minimiser of phi(t) = (t-px)^2 + (h(t)-pz)^2 lies within the current best
-    distance R of px (R starts at the vertical depth dv = h(px) - pz, or at the distance
-    to the point a warm start ``t_guess`` converges to, if that is smaller). [px - R,
-    px + R] is cut into coarse cells of 8 ``step``; a cell is skipped when a rigorous
-    lower bound of the distance over it, from the Lipschitz bound ``slope_bound`` of h
-    and the bound ``curv_bound`` of |h''| (Taylor: h(t) lies within
-    |h'(c)| w/2 + curv_bound w^2/8 of h(c) on a cell of width w centred on c), is not
-    below R. Surviving cells are sampled every ``step`` (a fraction of the
-    texture's shortest period); every sampled sign change of phi' from - to + is solved by
-    safeguarded Newton, and the best sample is polished by bounded Newton too, so a
-    minimum between two samples is not lost. Returns (t, distance, tie) where tie is 1
-    when another, distinct local minimum lies at the same distance to 1e-9 relative (a
-    point on the medial axis).
+    Bounded branch and bound (see :func:`haptex.closest.closest_point` for the argument):
+    upper bounds from the vertical point, a warm start ``t_guess`` (NaN for none), the
+    nearest global minimum of h and the straight extensions of a finite profile; then the
+    bound tree prunes every part of the boundary that cannot be closer. ``bs`` is scratch
+    of length N_SEARCH. Returns (t, distance, tie, work): tie is 1 when another, distinct
+    local minimum lies at the same distance to aux[A_TIE] + 1e-9 times the distance
+    (the medial axis), work the number of texture evaluations spent.
     """
     h0, _, _ = texture_eval(kind, coeffs, px)
     dv = h0 - pz
     if dv <= 0.0:
-        return px, 0.0, 0
-    best_t = px
-    best_f = dv * dv  # the vertical point is on the boundary: a valid upper bound
-    found = False
-    second_f = math.inf
-    if t_guess == t_guess:  # warm start (not NaN)
-        tg = _polish(kind, coeffs, px, pz, t_guess, px - dv, px + dv)
-        fg, gg, gpg = _dphi(kind, coeffs, px, pz, tg)
-        if fg < best_f:
-            best_f = fg
-            best_t = tg
-    radius = math.sqrt(best_f)
-    fine = 8
-    width = fine * step
-    if 2.0 * radius / width > MAX_CELLS:
-        return px, math.nan, 0  # absurdly deep for this texture: the caller reports it
-    n_coarse = int(math.ceil(2.0 * radius / width))
-    if n_coarse < 1:
-        n_coarse = 1
-    width = 2.0 * radius / n_coarse
-    if width / fine > step:
-        fine = int(math.ceil(width / step))
-    dt = width / fine
-    node_best_t = px
-    node_best_f = math.inf
-    for ci in range(n_coarse):
-        a = px - radius + ci * width
-        c = a + 0.5 * width
-        hc, sc, _ = texture_eval(kind, coeffs, c)
-        dx_lb = abs(c - px) - 0.5 * width
-        if dx_lb < 0.0:
-            dx_lb = 0.0
-        spread = slope_bound * 0.5 * width
-        taylor = abs(sc) * 0.5 * width + curv_bound * 0.125 * width * width
-        if taylor < spread:
-            spread = taylor
-        dz_lb = abs(hc - pz) - spread
-        if dz_lb < 0.0:
-            dz_lb = 0.0
-        if dx_lb * dx_lb + dz_lb * dz_lb >= best_f * (1.0 + 1e-12):
-            continue
-        t_prev = a
-        f_prev, g_prev, _ = _dphi(kind, coeffs, px, pz, t_prev)
-        if f_prev < node_best_f:
-            node_best_f = f_prev
-            node_best_t = t_prev
-        for i in range(1, fine + 1):
-            t_i = a + i * dt
-            f_i, g_i, _ = _dphi(kind, coeffs, px, pz, t_i)
-            if f_i < node_best_f:
-                node_best_f = f_i
-                node_best_t = t_i
-            if g_prev <= 0.0 and g_i > 0.0:
-                t = _refine_bracket(kind, coeffs, px, pz, t_prev, t_i)
-                f, _, _ = _dphi(kind, coeffs, px, pz, t)
-                if f < best_f:
-                    if found and best_f < second_f and abs(t - best_t) > 0.5 * dt:
-                        second_f = best_f
-                    best_f = f
-                    best_t = t
-                    found = True
-                elif found and f < second_f and abs(t - best_t) > 0.5 * dt:
-                    second_f = f
-            t_prev = t_i
-            g_prev = g_i
-    # safety net: polish the best sample (covers a min/max pair inside one cell)
-    if node_best_f < math.inf:
-        lo = node_best_t - dt
-        hi = node_best_t + dt
-        t = _polish(kind, coeffs, px, pz, node_best_t, lo, hi)
-        f, _, _ = _dphi(kind, coeffs, px, pz, t)
-        if not found or abs(t - best_t) > 0.5 * dt:
-            if f < best_f:
-                if found and best_f < second_f:
-                    second_f = best_f
-                best_f = f
-                best_t = t
-            elif found and f < second_f:
-                second_f = f
-    ties = 0
-    if second_f < math.inf and math.sqrt(second_f) - math.sqrt(best_f) <= 1e-9 * math.sqrt(best_f):
-        ties = 1
-    return best_t, math.sqrt(best_f), ties
+        return px, 0.0, 0, 1
+    bs[B_F] = dv * dv
+    bs[B_T] = px
+    bs[B_SECOND] = math.inf
+    bs[B_FOUND] = 0.0
+    bs[B_WORK] = 1.0
+    mode = int(aux[A_MODE])
+    if mode == CP_VERTICAL:  # flat: the vertical point is the closest
+        return px, dv, 0, 1
+    if t_guess == t_guess:
+        r = dv
+        tg, it = _polish(kind, coeffs, px, pz, t_guess, px - r, px + r)
+        f, _, _ = _dphi(kind, coeffs, px, pz, tg)
+        bs[B_WORK] += it + 1
+        _bound(bs, tg, f)
+    nl = int(aux[A_NLEAF])
+    if mode == CP_PERIODIC:
+        period = aux[A_PERIOD]
+        tv = aux[A_TMIN] + period * math.floor((px - aux[A_TMIN]) / period + 0.5)
+        f, _, _ = _dphi(kind, coeffs, px, pz, tv)
+        bs[B_WORK] += 1.0
+        _bound(bs, tv, f)
+        # beyond W of px every boundary point is farther than the best: its height is >= hmin
+        below = max(aux[A_HMIN] - pz, 0.0)
+        half = math.sqrt(max(bs[B_F] - below * below, 0.0)) * (1.0 + 1e-9)
+        start = aux[A_START]
+        k_lo = math.floor((px - half - start) / period)
+        k_hi = math.floor((px + half - start) / period)
+        k = k_lo
+        while k <= k_hi:
+            _descend(kind, coeffs, aux, px, pz, start + k * period, aux[A_TREELEN], nl, True, bs)
+            k += 1.0
+    elif mode == CP_FINITE:
+        f, _, _ = _dphi(kind, coeffs, px, pz, aux[A_TMIN])
+        bs[B_WORK] += 1.0
+        _bound(bs, aux[A_TMIN], f)
+        _ray(kind, coeffs, px, pz, aux[A_X0], aux[A_HL], aux[A_SL], True, bs)
+        _ray(kind, coeffs, px, pz, aux[A_XE], aux[A_HR], aux[A_SR], False, bs)
+        _descend(kind, coeffs, aux, px, pz, aux[A_START], aux[A_TREELEN], nl, True, bs)
+    else:  # CP_OPEN: an aperiodic sum, searched on a window capped at A_WCAP
+        below = max(aux[A_HMIN] - pz, 0.0)
+        half = min(math.sqrt(max(bs[B_F] - below * below, 0.0)) * (1.0 + 1e-9), aux[A_WCAP])
+        leaf = 8.0 * aux[A_STEP]
+        n = 1
+        while n * leaf < 2.0 * half:
+            n *= 2
+        _descend(kind, coeffs, aux, px, pz, px - 0.5 * n * leaf, n * leaf, n, False, bs)
+    best_f = bs[B_F]
+    second = bs[B_SECOND]
+    tie = 0
+    if second < math.inf and math.sqrt(second) - math.sqrt(best_f) <= min(aux[A_TIE], 1e-9 * math.sqrt(best_f)):
+        tie = 1
+    return bs[B_T], math.sqrt(best_f), tie, int(bs[B_WORK])
 
 
 @nb.njit(parallel=True, cache=True, nogil=True)
-def closest_points(kind, coeffs, step, slope_bound, curv_bound, px, pz, t_out, d_out, tie_out):
+def closest_points(kind, coeffs, aux, px, pz, t_out, d_out, tie_out, work_out):
     """Vectorised :func:`closest_point` over flat arrays ``px``, ``pz`` (no warm start),
     in parallel over the cores."""
     for i in nb.prange(px.shape[0]):
-        t, d, tie = closest_point(kind, coeffs, step, slope_bound, curv_bound, px[i], pz[i], math.nan)
+        bs = np.empty(N_SEARCH)
+        t, d, tie, work = closest_point(kind, coeffs, aux, px[i], pz[i], math.nan, bs)
         t_out[i] = t
         d_out[i] = d
         tie_out[i] = tie
+        work_out[i] = work
+
+
+@nb.njit(**_JIT)
+def _cubic_floor(h, d1, d2, jerk, s):
+    """min over u in [0, s] of h + d1 u + d2 u^2/2 - jerk u^3/6: a lower bound of a function
+    with value h, slope d1 and curvature d2 at u = 0 and |third derivative| <= jerk."""
+    best = min(h, h + s * (d1 + s * (0.5 * d2 - s * jerk / 6.0)))
+    if jerk > 0.0:
+        disc = d2 * d2 + 2.0 * jerk * d1
+        if disc >= 0.0:
+            for u in ((d2 + math.sqrt(disc)) / jerk, (d2 - math.sqrt(disc)) / jerk):
+                if 0.0 < u < s:
+                    best = min(best, h + u * (d1 + u * (0.5 * d2 - u * jerk / 6.0)))
+    return best
+
+
+@nb.njit(**_JIT)
+def fourier_leaf_bounds(coeffs, start, width, n_leaf, n_sub, jerk, lo, hi):
+    """Bounds of a Fourier-series h over ``n_leaf`` leaves of ``width`` from ``start``.
+
+    Each leaf is sampled at ``n_sub`` + 1 points (spacing s). Where h' changes sign between
+    two samples the extremum is located by bracketed Newton and its value taken (one
+    extremum per sign change: s is 1/64 of the shortest period). Elsewhere h is bounded
+    by the larger of the two third-order Taylor floors from the interval's ends (``jerk``
+    bounds the third derivative), which is the smaller end value wherever h is monotone.
+    Fills lo[i], hi[i] (leaf i) and returns (t, h) of the smallest height found.
+    """
+    s = width / n_sub
+    best_t = start
+    best_h = math.inf
+    for i in range(n_leaf):
+        u = start + i * width
+        h0, d0, c0 = texture_eval(TEXTURE_FOURIER, coeffs, u)
+        l = h0
+        m = h0
+        if h0 < best_h:
+            best_h = h0
+            best_t = u
+        for k in range(1, n_sub + 1):
+            t1 = u + k * s
+            h1, d1, c1 = texture_eval(TEXTURE_FOURIER, coeffs, t1)
+            l = min(l, h1)
+            m = max(m, h1)
+            if h1 < best_h:
+                best_h = h1
+                best_t = t1
+            if (d0 < 0.0) != (d1 < 0.0):
+                a = t1 - s
+                b = t1
+                neg_at_a = d0 < 0.0
+                t = 0.5 * (a + b)
+                for _ in range(80):
+                    _, dd, cc = texture_eval(TEXTURE_FOURIER, coeffs, t)
+                    if (dd < 0.0) == neg_at_a:
+                        a = t
+                    else:
+                        b = t
+                    tn = t - dd / cc if cc != 0.0 else 0.5 * (a + b)
+                    if not (min(a, b) < tn < max(a, b)):
+                        tn = 0.5 * (a + b)
+                    if abs(tn - t) <= 1e-16 * (1.0 + abs(t)):
+                        t = tn
+                        break
+                    t = tn
+                he, _, _ = texture_eval(TEXTURE_FOURIER, coeffs, t)
+                l = min(l, he)
+                m = max(m, he)
+                if he < best_h:
+                    best_h = he
+                    best_t = t
+            else:
+                floor = max(_cubic_floor(h0, d0, c0, jerk, s), _cubic_floor(h1, -d1, c1, jerk, s))
+                ceil = -max(_cubic_floor(-h0, -d0, -c0, jerk, s), _cubic_floor(-h1, d1, -c1, jerk, s))
+                l = min(l, floor)
+                m = max(m, ceil)
+            h0 = h1
+            d0 = d1
+            c0 = c1
+        lo[i] = l
+        hi[i] = m
+    return best_t, best_h
 
 
 def empty_coeffs() -> np.ndarray:
@@ -268,12 +495,15 @@ def empty_coeffs() -> np.ndarray:
 # Algorithm force kernels: one scalar entry point for every letter, dispatched by code.
 # ----------------------------------------------------------------------------------------
 ALG_W, ALG_A, ALG_B, ALG_C, ALG_D, ALG_E, ALG_F, ALG_G = 0, 1, 2, 3, 4, 5, 6, 7
-# parameter vector layout (float64[9])
-P_K0, P_DZMAX, P_MU, P_DXMAX, P_SCALE, P_ZSTICK, P_STEP, P_SLOPE, P_CURV = 0, 1, 2, 3, 4, 5, 6, 7, 8
-N_PARAMS = 9
-# state vector layout (float64[3]) for F: adhesion point, in-contact flag, last x
-S_ADH, S_CONTACT, S_LASTX = 0, 1, 2
-N_STATE = 3
+# parameter vector layout (float64[6])
+P_K0, P_DZMAX, P_MU, P_DXMAX, P_SCALE, P_ZSTICK = 0, 1, 2, 3, 4, 5
+N_PARAMS = 6
+# state vector layout: F's adhesion point (D, E: the last closest point, a warm start),
+# in-contact flag, last x, the work (texture evaluations) of the last call, then the
+# closest-point search's scratch
+S_ADH, S_CONTACT, S_LASTX, S_WORK = 0, 1, 2, 3
+S_SEARCH = 4
+N_STATE = S_SEARCH + N_SEARCH
 
 
 @nb.njit(**_JIT)
@@ -285,23 +515,6 @@ def _clamp_depth(d, dzmax):
 
 
 # presliding friction (Hayward & Armstrong 2000), used by haptex.friction and by F
-@nb.njit(**_JIT)
-def _alpha(a, d_max, z_stick):
-    if a <= z_stick:
-        return 0.0
-    if a >= d_max:
-        return 1.0
-    return 0.5 + 0.5 * math.sin(math.pi * (a - 0.5 * (d_max + z_stick)) / (d_max - z_stick))
-
-
-@nb.njit(**_JIT)
-def _rate(d, direction, d_max, z_stick):
-    """dd/dx for motion in ``direction`` (+1 or -1) at deflection d (smooth model)."""
-    if d * direction <= 0.0:
-        return 1.0  # |d| shrinks (or is zero): purely elastic
-    return 1.0 - _alpha(abs(d), d_max, z_stick) * abs(d) / d_max
-
-
 @nb.njit(**_JIT)
 def presliding_step(adhesion, x, d_max):
     """Compiled scalar update of the sharp presliding model (eq. 24).
@@ -328,9 +541,31 @@ def presliding_step(adhesion, x, d_max):
     return d, adhesion
 
 
+# table of the smooth presliding model (built by haptex.friction.smooth_table), in units of
+# d_max: X(e) = distance travelled from the start of the ramp (|d| = z_stick) to e = 1 - |d|/d_max,
+# tabulated with its derivative at e_j = r exp(-j dv), r = 1 - z_stick/d_max
+T_N, T_LOGR, T_DV, T_BETA = range(4)
+T_DATA = 8
+
+
 @nb.njit(**_JIT)
-def presliding_step_smooth(deflection, dx, d_max, z_stick):
-    """Compiled update of the smooth variant: integrate dd/dx over an increment dx.
+def _hermite(tab, j, th):
+    """X at node j + th (0 <= th <= 1) and dX/dth, cubic Hermite."""
+    n = int(tab[T_N])
+    x0 = tab[T_DATA + j]
+    x1 = tab[T_DATA + j + 1]
+    m0 = tab[T_DATA + n + j]
+    m1 = tab[T_DATA + n + j + 1]
+    t2 = th * th
+    t3 = t2 * th
+    val = (2 * t3 - 3 * t2 + 1) * x0 + (t3 - 2 * t2 + th) * m0 + (-2 * t3 + 3 * t2) * x1 + (t3 - t2) * m1
+    der = (6 * t2 - 6 * th) * x0 + (3 * t2 - 4 * th + 1) * m0 + (-6 * t2 + 6 * th) * x1 + (3 * t2 - 2 * th) * m1
+    return val, der
+
+
+@nb.njit(**_JIT)
+def presliding_step_smooth(deflection, dx, d_max, z_stick, tab):
+    """Compiled update of the smooth variant: the exact flow of dd/dx over an increment dx.
 
     Parameters
     ----------
@@ -340,55 +575,106 @@ def presliding_step_smooth(deflection, dx, d_max, z_stick):
         Displacement of the probe during the step (m).
     d_max, z_stick : float
         Model parameters (m), 0 <= z_stick < d_max.
+    tab : ndarray
+        The model's travel table (:func:`haptex.friction.smooth_table`).
 
     Returns
     -------
     float
         Deflection after the step (m), |d| <= d_max.
+
+    Notes
+    -----
+    Bounded work for any dx: the elastic part is exact; along the ramp the travel
+    X(e) = int de / rate is tabulated once (cubic Hermite, relative error < 1e-10) and
+    inverted by bisection-safeguarded Newton (at most 60 iterations); below the table's
+    last node (e < 1e-16 r) the flow of rate = e + (pi e / 2r)^2 is used in closed form.
     """
     if dx == 0.0:
         return deflection
-    direction = 1.0 if dx > 0.0 else -1.0
-    h_max = (d_max - z_stick) / 64.0
-    n = int(math.ceil(abs(dx) / h_max))
-    if n < 1:
-        n = 1
-    h = dx / n
-    d = deflection
-    for _ in range(n):
-        k1 = _rate(d, direction, d_max, z_stick)
-        k2 = _rate(d + 0.5 * h * k1, direction, d_max, z_stick)
-        k3 = _rate(d + 0.5 * h * k2, direction, d_max, z_stick)
-        k4 = _rate(d + h * k3, direction, d_max, z_stick)
-        d += h * (k1 + 2.0 * k2 + 2.0 * k3 + k4) / 6.0
-        if d > d_max:
-            d = d_max
-        elif d < -d_max:
-            d = -d_max
-    return d
+    s = 1.0 if dx > 0.0 else -1.0
+    a = deflection * s  # deflection along the motion
+    rem = abs(dx)
+    if a < z_stick:  # purely elastic until |d| = z_stick in the direction of motion
+        if a + rem <= z_stick:
+            return s * (a + rem)
+        rem -= z_stick - a
+        a = z_stick
+    r = 1.0 - z_stick / d_max
+    e = 1.0 - a / d_max
+    if e <= 0.0:
+        return s * d_max
+    n = int(tab[T_N])
+    dv = tab[T_DV]
+    logr = tab[T_LOGR]
+    travel = rem / d_max
+    jl = (logr - math.log(e)) / dv  # continuous node index of e
+    if jl < n - 1:
+        j0 = int(jl)
+        if j0 < 0:
+            j0 = 0
+        x_start, _ = _hermite(tab, j0, jl - j0)
+        target = x_start + travel
+        if target < tab[T_DATA + n - 1]:
+            lo = j0
+            hi = n - 1
+            while hi - lo > 1:  # the node interval holding the target
+                mid = (lo + hi) // 2
+                if tab[T_DATA + mid] <= target:
+                    lo = mid
+                else:
+                    hi = mid
+            a_th = 0.0
+            b_th = 1.0
+            th = 0.5
+            for _ in range(60):
+                val, der = _hermite(tab, lo, th)
+                if val < target:
+                    a_th = th
+                else:
+                    b_th = th
+                tn = th - (val - target) / der if der > 0.0 else 0.5 * (a_th + b_th)
+                if not (a_th <= tn <= b_th):
+                    tn = 0.5 * (a_th + b_th)
+                if abs(tn - th) <= 1e-15:
+                    th = tn
+                    break
+                th = tn
+            e = r * math.exp(-(lo + th) * dv)
+            return s * d_max * (1.0 - e)
+        travel = target - tab[T_DATA + n - 1]
+        e = r * math.exp(-(n - 1) * dv)
+    # tail: de/dx = -(e + beta e^2), exact logistic flow
+    beta = tab[T_BETA]
+    g = (1.0 / e + beta) * math.exp(travel) - beta
+    e = 1.0 / g if g < math.inf else 0.0
+    return s * d_max * (1.0 - e)
 
 
 @nb.njit(**_JIT)
-def _presliding(st, x, dxmax, zstick):
+def _presliding(st, x, dxmax, zstick, tab):
     """Advance F's friction state to x (see haptex.friction); returns the deflection."""
     if zstick < 0.0:
         d, st[S_ADH] = presliding_step(st[S_ADH], x, dxmax)
     else:
-        d = presliding_step_smooth(st[S_LASTX] - st[S_ADH], x - st[S_LASTX], dxmax, zstick)
+        d = presliding_step_smooth(st[S_LASTX] - st[S_ADH], x - st[S_LASTX], dxmax, zstick, tab)
         st[S_ADH] = x - d
     st[S_LASTX] = x
     return d
 
 
 @nb.njit(**_JIT)
-def alg_force(code, x, z, kind, coeffs, prm, st):
+def alg_force(code, x, z, kind, coeffs, prm, aux, st):
     """Force (fx, fz) in N of algorithm ``code`` at the probe position (x, z) in m.
 
     Mirrors the vectorised ``force`` of :mod:`haptex.algorithms` (the tests compare them).
-    ``st`` is F's friction state (updated in place: contact starts with zero deflection,
-    leaving the wall resets it); other algorithms ignore it.
+    ``aux`` is the closest-point search data (D, E) or the smooth presliding table (F).
+    ``st`` (length N_STATE) is the algorithm's state, updated in place: F's friction state
+    (contact starts with zero deflection, leaving the wall resets it), D's and E's warm
+    start, and st[S_WORK], the texture evaluations this call spent.
     """
     k0 = prm[P_K0]
+    st[S_WORK] = 1.0
     if code == ALG_W:
         if z < 0.0:
             return 0.0, -k0 * z
@@ -406,7 +692,7 @@ def alg_force(code, x, z, kind, coeffs, prm, st):
             st[S_CONTACT] = 1.0
             st[S_ADH] = x
             st[S_LASTX] = x
-        d = _presliding(st, x, prm[P_DXMAX], prm[P_ZSTICK])
+        d = _presliding(st, x, prm[P_DXMAX], prm[P_ZSTICK], aux)
         h, s, c = texture_eval(kind, coeffs, x)
         depth = -z
         if prm[P_DZMAX] > 0.0 and depth > prm[P_DZMAX]:
@@ -425,7 +711,8 @@ def alg_force(code, x, z, kind, coeffs, prm, st):
     if code == ALG_C:
         return k0 * _clamp_depth(d, prm[P_DZMAX]) * s, -k0 * d
     guess = st[S_ADH] if st[S_CONTACT] != 0.0 else math.nan
-    t, dist, tie = closest_point(kind, coeffs, prm[P_STEP], prm[P_SLOPE], prm[P_CURV], x, z, guess)
+    t, dist, tie, work = closest_point(kind, coeffs, aux, x, z, guess, st[S_SEARCH:])
+    st[S_WORK] = work
     st[S_ADH] = t  # warm start of the next call (D and E keep the last closest point here)
     st[S_CONTACT] = 1.0
     if code == ALG_D:
@@ -440,8 +727,28 @@ def alg_force(code, x, z, kind, coeffs, prm, st):
 _NZ = 10  # augmented state [p(2), v(2), u(2), g(2), r(2)]
 
 # summary slots
-(S_EX, S_EZ, S_DAMP, S_OP, S_KE0, S_KE, S_SAT, S_MAXPEN, S_MAXF, S_NSAMP, S_TAILSTART_E) = range(11)
-N_SUMMARY = 12
+(S_EX, S_EZ, S_DAMP, S_OP, S_KE0, S_KE, S_SAT, S_MAXPEN, S_MAXF, S_NSAMP, S_TAILSTART_E, S_DIVERGED,
+ S_DIVERGED_WHAT) = range(13)
+N_SUMMARY = 13
+DIVERGED_POSITION, DIVERGED_VELOCITY, DIVERGED_FORCE, DIVERGED_ENERGY = 1, 2, 3, 4
+"""What became non-finite first in a diverged simulation (summary[S_DIVERGED_WHAT])."""
+
+
+@nb.njit(**_JIT)
+def saturate(fx, fz, fmax):
+    """Scale (fx, fz) down to magnitude ``fmax`` without overflow (hypot, and the direction
+    of an infinite component kept). Returns (fx, fz, clamped); NaN in, NaN out."""
+    if math.isinf(fx) or math.isinf(fz):
+        if fx != fx or fz != fz or fmax == math.inf:
+            return fx, fz, False
+        ux = 0.0 if not math.isinf(fx) else math.copysign(1.0, fx)
+        uz = 0.0 if not math.isinf(fz) else math.copysign(1.0, fz)
+        n = math.hypot(ux, uz)
+        return fmax * ux / n, fmax * uz / n, True
+    mag = math.hypot(fx, fz)
+    if mag > fmax:
+        return fx * (fmax / mag), fz * (fmax / mag), True
+    return fx, fz, False
 
 
 @nb.njit(**_JIT)
@@ -487,11 +794,14 @@ def _setpoint(ts, ps, vend, t, out):
 
 
 @nb.njit(**_JIT)
-def run_one(code, kind, coeffs, prm, nominal, Phi, Wd, Wo, Bs, M, K, C, f0, sp_t, sp_p, vend, rest_len, kinematic,
-         n_steps, T, delay, delta, fres, fmax, p0, v0, record_every, rec, summary, tail_start, tail_z):
+def run_one(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, M, K, C, f0, sp_t, sp_p, vend, rest_len,
+            kinematic, n_steps, T, delay, delta, fres, fmax, p0, v0, record_every, rec, summary, tail_start, tail_z):
     """One simulation; fills ``rec`` (n_rec, 12) if it has rows, ``summary`` and ``tail_z``.
 
     Record columns: t, px, pz, vx, vz, fx, fz, E_x, E_z, E_damping, W_operator, KE.
+    The run stops at the first sample whose position, velocity, force or energy is not
+    finite: summary[S_DIVERGED] is then that sample's number (1-based) and
+    summary[S_DIVERGED_WHAT] says which quantity (DIVERGED_*); both are 0 otherwise.
     """
     st = np.zeros(N_STATE)
     z = np.zeros(_NZ)
@@ -528,14 +838,13 @@ def run_one(code, kind, coeffs, prm, nominal, Phi, Wd, Wo, Bs, M, K, C, f0, sp_t
         else:
             sx = p[0]
             sz = p[1]
-        fx, fz = alg_force(code, sx, sz, kind, coeffs, prm, st)
+        fx, fz = alg_force(code, sx, sz, kind, coeffs, prm, aux, st)
         if fres > 0.0:
             fx = fres * np.round(fx / fres)
             fz = fres * np.round(fz / fres)
-        mag = math.sqrt(fx * fx + fz * fz)
-        if mag > fmax:
-            fx *= fmax / mag
-            fz *= fmax / mag
+        mag = math.hypot(fx, fz)
+        fx, fz, clamped = saturate(fx, fz, fmax)
+        if clamped:
             sat += 1
         slot = k % (delay + 1)
         buf[slot, 0] = fx
@@ -620,6 +929,20 @@ def run_one(code, kind, coeffs, prm, nominal, Phi, Wd, Wo, Bs, M, K, C, f0, sp_t
             p[1] = npz
             v[0] = nvx
             v[1] = nvz
+        what = 0
+        if not (math.isfinite(p[0]) and math.isfinite(p[1])):
+            what = DIVERGED_POSITION
+        elif not (math.isfinite(v[0]) and math.isfinite(v[1])):
+            what = DIVERGED_VELOCITY
+        elif not (math.isfinite(ux) and math.isfinite(uz)):
+            what = DIVERGED_FORCE
+        elif not (math.isfinite(ex) and math.isfinite(ez) and math.isfinite(ed) and math.isfinite(eo)):
+            what = DIVERGED_ENERGY
+        if what != 0:
+            summary[S_DIVERGED] = k + 1
+            summary[S_DIVERGED_WHAT] = what
+            n_steps = k + 1
+            break
         if k == tail_start:
             e_tail = ex + ez
         if k >= tail_start and n_tail > 0:
@@ -654,12 +977,12 @@ def run_one(code, kind, coeffs, prm, nominal, Phi, Wd, Wo, Bs, M, K, C, f0, sp_t
 
 
 @nb.njit(parallel=True, cache=True)
-def run_batch(code, kind, coeffs, prm, nominal, Phi, Wd, Wo, Bs, M, K, C, f0, sp_t, sp_p, vend, rest_len,
-               kinematic, n_steps, T, delay, delta, fres, fmax, p0, v0, record_every, rec, summary, tail_start,
-               tail_z):
+def run_batch(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, M, K, C, f0, sp_t, sp_p, vend, rest_len,
+              kinematic, n_steps, T, delay, delta, fres, fmax, p0, v0, record_every, rec, summary, tail_start,
+              tail_z):
     """Runs i = 0..N-1 of :func:`run_one` in parallel; every per-run array has a leading N axis."""
     for i in nb.prange(coeffs.shape[0]):
-        run_one(code, kind, coeffs[i], prm[i], nominal, Phi[i], Wd[i], Wo[i], Bs[i], M[i], K[i], C[i], f0[i], sp_t,
+        run_one(code, kind, coeffs[i], prm[i], aux[i], nominal, Phi[i], Wd[i], Wo[i], Bs[i], M[i], K[i], C[i], f0[i], sp_t,
              sp_p[i], vend[i], rest_len[i], kinematic, n_steps, T, delay[i], delta[i], fres[i], fmax[i], p0[i], v0[i],
              record_every, rec[i], summary[i], tail_start, tail_z[i])
 
@@ -668,28 +991,34 @@ def run_batch(code, kind, coeffs, prm, nominal, Phi, Wd, Wo, Bs, M, K, C, f0, sp
 # the renderer's servo tick (haptex.Renderer)
 # --------------------------------------------------------------------------------------
 # renderer state slots (float64 array)
-RS_MAXF, RS_FAULTS, RS_CLAMPS, RS_MONITOR, RS_HAVE_LAST, RS_LX, RS_LZ, RS_LFX, RS_LFZ, RS_EX, RS_EZ, RS_LIMIT = range(12)
-N_RS = 12
+(RS_MAXF, RS_FAULTS, RS_CLAMPS, RS_MONITOR, RS_HAVE_LAST, RS_LX, RS_LZ, RS_LFX, RS_LFZ, RS_EX, RS_EZ, RS_LIMIT,
+ RS_WORK, RS_MAXWORK) = range(14)
+N_RS = 14
 
 
 @nb.njit(**_JIT)
-def render_step(x, z, code, kind, coeffs, prm, st, rs):
-    """Compiled servo-tick: validate, compute, clamp, count, observe energy."""
+def render_step(x, z, code, kind, coeffs, prm, aux, st, rs):
+    """Compiled servo-tick: validate, compute, clamp, count, observe energy.
+
+    rs[RS_WORK] is the work (texture evaluations) of this call and rs[RS_MAXWORK] the
+    largest so far.
+    """
+    rs[RS_WORK] = 0.0
     if not (math.isfinite(x) and math.isfinite(z)) or abs(x) > rs[RS_LIMIT] or abs(z) > rs[RS_LIMIT]:
         rs[RS_FAULTS] += 1.0
         rs[RS_HAVE_LAST] = 0.0
         return 0.0, 0.0
-    fx, fz = alg_force(code, x, z, kind, coeffs, prm, st)
+    fx, fz = alg_force(code, x, z, kind, coeffs, prm, aux, st)
+    rs[RS_WORK] = st[S_WORK]
+    if st[S_WORK] > rs[RS_MAXWORK]:
+        rs[RS_MAXWORK] = st[S_WORK]
+    fx, fz, clamped = saturate(fx, fz, rs[RS_MAXF])
     if not (math.isfinite(fx) and math.isfinite(fz)):
         rs[RS_FAULTS] += 1.0
         rs[RS_HAVE_LAST] = 0.0
         st[S_CONTACT] = 0.0
         return 0.0, 0.0
-    mag = math.sqrt(fx * fx + fz * fz)
-    if mag > rs[RS_MAXF]:
-        s = rs[RS_MAXF] / mag
-        fx *= s
-        fz *= s
+    if clamped:
         rs[RS_CLAMPS] += 1.0
     if rs[RS_MONITOR] != 0.0:
         # passivity observer (Hannaford & Ryu 2002): energy absorbed by the environment,

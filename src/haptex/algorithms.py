@@ -19,8 +19,8 @@ from scipy import integrate
 
 from . import _kernels
 from ._validation import ParameterError, fail, in_range, nonnegative, optional_positive, positions, positive
-from .closest import closest_point
-from .friction import PreslidingState, step
+from .closest import closest_point, search_data
+from .friction import PreslidingState, smooth_table, step
 from .textures import Flat, Texture
 
 __all__ = ["Algorithm", "algorithm", "ALGORITHMS"]
@@ -141,30 +141,32 @@ class Algorithm:
         """True where the probe is inside the wall (penetration > 0), shape (...)."""
         return self.penetration(p) > 0
 
-    def kernel_spec(self) -> tuple[int, np.ndarray, int, np.ndarray]:
+    def kernel_spec(self) -> tuple[int, np.ndarray, int, np.ndarray, np.ndarray]:
         """What the compiled force kernel :func:`haptex._kernels.alg_force` reads.
 
         Returns
         -------
-        (code, params, kind, coeffs)
-            Algorithm code, parameter vector float64[9] (kappa_0 N/m, d^z_max m or -1,
-            mu, d^x_max m, modulation scale 1/m, z_stick m or -1, closest-point step m,
-            the texture's Lipschitz bound M and its bound on |h''| in 1/m),
-            and the texture's (kind, coeffs).
+        (code, params, kind, coeffs, aux)
+            Algorithm code, parameter vector float64[6] (kappa_0 N/m, d^z_max m or -1,
+            mu, d^x_max m, modulation scale 1/m, z_stick m or -1), the texture's
+            (kind, coeffs), and ``aux``: the closest-point search data for D and E
+            (:func:`haptex.closest.search_data`), the smooth presliding table for F
+            (:func:`haptex.friction.smooth_table`), else empty.
         """
         prm = np.zeros(_kernels.N_PARAMS)
         prm[_kernels.P_K0] = self.stiffness
         prm[_kernels.P_DZMAX] = -1.0 if self.max_penetration is None else self.max_penetration
         prm[_kernels.P_ZSTICK] = -1.0
-        prm[_kernels.P_STEP] = self.texture.closest_point_step
-        prm[_kernels.P_SLOPE] = self.texture.max_slope
-        prm[_kernels.P_CURV] = self.texture.max_curvature
         self._fill_kernel_params(prm)
         kind, coeffs = self.texture.kernel_data()
-        return _CODES[self.letter], prm, kind, np.ascontiguousarray(coeffs)
+        return _CODES[self.letter], prm, kind, np.ascontiguousarray(coeffs), self._aux()
 
     def _fill_kernel_params(self, prm) -> None:
         """Hook for algorithm-specific kernel parameters (F)."""
+
+    def _aux(self) -> np.ndarray:
+        """The kernel's auxiliary array (see :meth:`kernel_spec`)."""
+        return np.zeros(1)
 
     def potential(self, p) -> np.ndarray:
         """Stored elastic energy V(p) >= 0 (J) with f = -grad V, where the field is a gradient.
@@ -351,6 +353,9 @@ class _Distance(Algorithm):
     """Shared evaluation for D and E: the closest point p_h on z = h(x)."""
 
     penetration_kind = "distance"
+
+    def _aux(self) -> np.ndarray:
+        return search_data(self.texture)
 
     def _evaluate(self, x, z, jacobian):
         f, j = _zeros(x, jacobian)
@@ -579,6 +584,11 @@ class FrictionModulated(Algorithm):
     def modulation_max_slope(self) -> float:
         """sup |d h~ / dx| (1/m): depth M / max|h|, with M the texture's Lipschitz bound."""
         return self._scale * self.texture.max_slope
+
+    def _aux(self) -> np.ndarray:
+        if self.stick_deflection is None:
+            return np.zeros(1)
+        return smooth_table(self.presliding, self.stick_deflection)
 
     def _fill_kernel_params(self, prm) -> None:
         prm[_kernels.P_MU] = self.friction

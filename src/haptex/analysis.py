@@ -546,7 +546,42 @@ def _tie_changes(tex: Texture, a, b, u, tie) -> list[float]:
         same = closest_point(tex, a + mid[:, None] * (b - a)).tie == lo_tie
         lo = np.where(live & same, mid, lo)
         hi = np.where(live & ~same, mid, hi)
-    return (0.5 * (lo + hi)).tolist()
+    # the flag flips where the two minima are closer than the search can tell apart, a
+    # little off the centre of curvature itself: solve p(u) = (t, h) + (1 + h'^2) (-h', 1) / h''
+    # for (t, u) from there (Newton), and keep the exact crossing when it is close by
+    out = []
+    for u0 in 0.5 * (lo + hi):
+        t0 = float(closest_point(tex, (a + u0 * (b - a))[None, :]).x[0])
+        out.append(_focal_crossing(tex, a, b, t0, float(u0)))
+    return out
+
+
+def _focal_crossing(tex: Texture, a, b, t0: float, u0: float) -> float:
+    """Parameter u where the segment a->b crosses the centre of curvature of the boundary
+    near abscissa t0 (Newton on (t, u)); u0 if Newton does not converge nearby."""
+    d = b - a
+    t, u = t0, u0
+    for _ in range(30):
+        h, s, c = (float(f(np.array(t))) for f in (tex.height, tex.slope, tex.curvature))
+        if c == 0.0:
+            return u0
+        q = 1.0 + s * s
+        third = (float(tex.curvature(np.array(t + 1e-9 * tex.shortest_period))) - c) / (1e-9 * tex.shortest_period)
+        res = np.array([t - s * q / c - (a[0] + u * d[0]), h + q / c - (a[1] + u * d[1])])
+        # d/dt of the centre: x: 1 - (c q + 2 s^2 c) / c^2 + s q c' / c^2 ; z: s + 2 s c / c - q c' / c^2
+        jx = 1.0 - (q + 2 * s * s) + s * q * third / (c * c)
+        jz = s + 2 * s - q * third / (c * c)
+        jac = np.array([[jx, -d[0]], [jz, -d[1]]])
+        try:
+            step = np.linalg.solve(jac, -res)
+        except np.linalg.LinAlgError:
+            return u0
+        t += step[0]
+        u += step[1]
+        if abs(step[1]) <= 1e-15 and abs(step[0]) <= 1e-15 * tex.shortest_period:
+            break
+    ok = np.isfinite(u) and abs(u - u0) <= 1e-3 and abs(t - t0) <= 0.05 * tex.shortest_period
+    return float(u) if ok else u0
 
 
 _GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(16)

@@ -1,18 +1,25 @@
 """Closest point on the textured boundary z = h(x), used by algorithms D and E.
 
-The search is compiled (:func:`haptex._kernels.closest_point`); this module validates,
+The search is compiled (:func:`haptex._kernels.closest_point`); this module builds, once
+per texture, the data it reads (:func:`search_data`: a tree of height bounds), validates,
 flattens and calls it. The reference it is tested against is a brute-force dense search.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from . import _kernels
+from . import _kernels as K
 from ._validation import ParameterError, positions
-from .textures import Texture
+from .textures import SampledProfile, SumOfSinusoids, Texture
+
+__all__ = ["ClosestPoint", "closest_point", "search_data"]
+
+FOURIER_WORK_LIMIT = 4e9
+"""Largest number of harmonic evaluations :func:`search_data` may spend on a Fourier texture."""
 
 
 @dataclass(frozen=True)
@@ -33,12 +40,16 @@ class ClosestPoint:
         True where a second, distinct boundary point lies at the same distance to
         1e-9 relative: the probe is on the medial axis (e.g. below a peak of a sinusoid
         deeper than its radius of curvature), where algorithm D's force jumps (Remark 6).
+    work : ndarray of int, shape (...)
+        Texture evaluations each search spent (bounded for any position; see Notes of
+        :func:`closest_point`).
     """
 
     x: np.ndarray
     z: np.ndarray
     distance: np.ndarray
     tie: np.ndarray
+    work: np.ndarray
 
 
 def closest_point(texture: Texture, p) -> ClosestPoint:
@@ -59,48 +70,198 @@ def closest_point(texture: Texture, p) -> ClosestPoint:
     Raises
     ------
     ParameterError
-        If ``p`` is not of shape (..., 2) or holds a non-finite coordinate.
+        If ``p`` is not of shape (..., 2) or holds a non-finite coordinate, or if the
+        texture's bound tree would exceed its limits (see :func:`search_data`).
 
     Notes
     -----
-    For a probe at vertical depth d_v = h(p^x) - p^z > 0 the global minimiser of
-    |p - (t, h(t))| lies in [p^x - d_v, p^x + d_v]. That interval is cut into cells; a
-    cell is skipped when a rigorous lower bound of the distance over it (from the
-    texture's Lipschitz bound M) is not below the best distance so far; the others are
-    sampled every 1/64 of the shortest texture period, every local minimum of the squared
-    distance is refined by safeguarded (bracketed) Newton iterations, the best sample is
-    polished by bounded Newton, and the smallest distance wins. This is the god-object projection of
-    Zilles & Salisbury (1995) [28] restricted to a height profile.
+    Branch and bound over a tree of rigorous height bounds, the god-object projection of
+    Zilles & Salisbury (1995) [28] restricted to a height profile. For a probe p at
+    vertical depth d_v = h(p^x) - p^z > 0:
+
+    1. Upper bounds of the minimum distance: the vertical point, the nearest global
+       minimum of h (periodic textures), the straight extensions of a finite profile
+       (closed form).
+    2. Window: every boundary point has height >= min h, so a point farther than
+       W = sqrt(best^2 - (min h - p^z)^2) horizontally cannot be closer. Below min h the
+       nearest global minimum makes W <= half a period at *any* depth; above it
+       W <= d_v <= the height range. The work is therefore bounded by the texture, not by
+       the depth: far below the texture the answer is, as it must be, within the height
+       range of the nearest deepest valley.
+    3. The window is covered by the bound tree's roots (one per period); a node is pruned
+       when the distance to the box [node interval] x [min h, max h over it] is not below
+       the best distance; a surviving leaf (1/8 of the shortest period, or one spline
+       interval) is sampled every 1/64 of the shortest period (1/8 of a spline interval),
+       every - to + sign change of phi' is refined by safeguarded Newton and the best
+       sample is polished.
+
+    An aperiodic sum of sinusoids (incommensurate periods) has no tree: it is searched
+    on the fly within +-2048 leaves of p^x, exact to that depth and, deeper, within the
+    texture's height range (2 sum a_k) of the true distance.
     """
     arr = positions(p)
     shape = arr.shape[:-1]
     flat = arr.reshape(-1, 2)
     kind, coeffs = texture.kernel_data()
+    aux = search_data(texture)
     n = flat.shape[0]
     t = np.empty(n)
     d = np.empty(n)
     tie = np.empty(n, dtype=np.int64)
-    _kernels.closest_points(
-        kind,
-        coeffs,
-        float(texture.closest_point_step),
-        float(texture.max_slope),
-        float(texture.max_curvature),
-        np.ascontiguousarray(flat[:, 0]),
-        np.ascontiguousarray(flat[:, 1]),
-        t,
-        d,
-        tie,
-    )
-    if np.isnan(d).any():
-        bad = flat[np.isnan(d)][0]
-        raise ParameterError(
-            f"p = {bad.tolist()} is not allowed: it is too deep below the texture for the closest-point "
-            f"search (more than about {_kernels.MAX_CELLS * 8 * texture.closest_point_step / 2:g} m)"
-        )
+    work = np.empty(n, dtype=np.int64)
+    K.closest_points(kind, coeffs, aux, np.ascontiguousarray(flat[:, 0]), np.ascontiguousarray(flat[:, 1]),
+                     t, d, tie, work)
     return ClosestPoint(
         x=t.reshape(shape),
         z=texture.height(t).reshape(shape),
         distance=d.reshape(shape),
         tie=(tie != 0).reshape(shape),
+        work=work.reshape(shape),
     )
+
+
+def search_data(texture: Texture) -> np.ndarray:
+    """The closest-point search's data for a texture (built once, cached on the texture).
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        Header (``haptex._kernels.A_*``) and the bound tree: lower and upper bounds of h (m)
+        over the 2 n_leaf - 1 dyadic sub-intervals of the core interval.
+
+    Raises
+    ------
+    ParameterError
+        If the tree would need more than ``_kernels.MAX_LEAVES`` leaves (a texture whose
+        period holds more than 500,000 shortest periods) or more than
+        ``FOURIER_WORK_LIMIT`` harmonic evaluations to build.
+    """
+    cached = texture.__dict__.get("_search_data")
+    if cached is not None:
+        return cached
+    aux = _build(texture)
+    texture.__dict__["_search_data"] = aux
+    return aux
+
+
+def _header(texture: Texture) -> np.ndarray:
+    head = np.zeros(K.A_TREE)
+    head[K.A_TIE] = 1e-9 * texture.shortest_period  # medial-axis ties: a distance scale of the texture
+    head[K.A_SLOPE] = texture.max_slope
+    head[K.A_CURV] = texture.max_curvature
+    if isinstance(texture, SampledProfile):  # h''' is 6 a3 on each interval
+        head[K.A_JERK] = float(np.max(np.abs(6.0 * texture._coeffs[0, :texture._m])))
+    elif isinstance(texture, SumOfSinusoids):
+        head[K.A_JERK] = float(np.sum(texture.amplitudes * texture._coeffs[1] ** 3))
+    return head
+
+
+def _build(texture: Texture) -> np.ndarray:
+    if texture.max_slope == 0.0:
+        head = _header(texture)
+        head[K.A_MODE] = K.CP_VERTICAL
+        return head
+    if isinstance(texture, SampledProfile):
+        return _spline_tree(texture)
+    if isinstance(texture, SumOfSinusoids):
+        if texture.period is None:
+            head = _header(texture)
+            step = texture.shortest_period / 64.0
+            head[K.A_MODE] = K.CP_OPEN
+            head[K.A_STEP] = step
+            head[K.A_HMIN] = -float(np.sum(texture.amplitudes))
+            head[K.A_WCAP] = K.OPEN_LEAVES / 2 * 8.0 * step
+            return head
+        return _fourier_tree(texture)
+    raise ParameterError(f"texture = {texture!r} is not allowed: D and E need a haptex texture")
+
+
+def _leaves_for(count: float, what: str) -> int:
+    if not count <= K.MAX_LEAVES:
+        raise ParameterError(
+            f"{what} needs {count:.3g} closest-point leaves, which is not allowed: at most "
+            f"{K.MAX_LEAVES} (use a shorter period or a longer shortest period)")
+    n = 1
+    while n < count:
+        n *= 2
+    return n
+
+
+def _tree(head: np.ndarray, lo_leaf: np.ndarray, hi_leaf: np.ndarray, n_leaf: int) -> np.ndarray:
+    """Header + heap-ordered min/max tree over n_leaf leaves (empty leaves: +inf / -inf)."""
+    lo = np.full(2 * n_leaf, np.inf)
+    hi = np.full(2 * n_leaf, -np.inf)
+    lo[n_leaf:n_leaf + lo_leaf.size] = lo_leaf
+    hi[n_leaf:n_leaf + hi_leaf.size] = hi_leaf
+    level = n_leaf
+    while level > 1:
+        half = level // 2
+        lo[half:level] = np.minimum(lo[level:2 * level:2], lo[level + 1:2 * level:2])
+        hi[half:level] = np.maximum(hi[level:2 * level:2], hi[level + 1:2 * level:2])
+        level = half
+    head[K.A_NLEAF] = n_leaf
+    head[K.A_HMIN] = lo[1]
+    return np.ascontiguousarray(np.concatenate([head, lo, hi]))
+
+
+def _fourier_tree(tex: SumOfSinusoids) -> np.ndarray:
+    period = float(tex.period)
+    shortest = tex.shortest_period
+    n_leaf = _leaves_for(math.ceil(8 * period / shortest - 1e-9), f"texture = {tex!r}")
+    n_harm = tex.amplitudes.size
+    if n_leaf * 9 * n_harm > FOURIER_WORK_LIMIT:
+        raise ParameterError(
+            f"texture = {tex!r} is not allowed for D and E: bounding it takes {n_leaf * 9 * n_harm:.3g} harmonic "
+            f"evaluations, more than {FOURIER_WORK_LIMIT:.0e} (fewer harmonics or a shorter period)")
+    width = period / n_leaf
+    lo = np.empty(n_leaf)
+    hi = np.empty(n_leaf)
+    head = _header(tex)
+    tmin, _ = K.fourier_leaf_bounds(tex._coeffs, 0.0, width, n_leaf, 8, head[K.A_JERK], lo, hi)
+    pad = 1e-13 * float(np.sum(tex.amplitudes))
+    head[K.A_MODE] = K.CP_PERIODIC
+    head[K.A_START] = 0.0
+    head[K.A_PERIOD] = period
+    head[K.A_TREELEN] = period
+    head[K.A_STEP] = shortest / 64.0
+    head[K.A_TMIN] = tmin
+    return _tree(head, lo - pad, hi + pad, n_leaf)
+
+
+def _spline_tree(prof: SampledProfile) -> np.ndarray:
+    c = prof._coeffs
+    m, dx = prof._m, prof.dx
+    a3, a2, a1, a0 = c[0, :m], c[1, :m], c[2, :m], c[3, :m]
+    vals = [a0, ((a3 * dx + a2) * dx + a1) * dx + a0]  # the interval's ends
+    # interior extrema: roots of 3 a3 t^2 + 2 a2 t + a1 in (0, dx)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        qa, qb, qc = 3 * a3, 2 * a2, a1
+        disc = qb * qb - 4 * qa * qc
+        sq = np.sqrt(np.maximum(disc, 0.0))
+        roots = [((-qb + sq) / (2 * qa), (qa != 0) & (disc >= 0)),
+                 ((-qb - sq) / (2 * qa), (qa != 0) & (disc >= 0)),
+                 (-qc / qb, (qa == 0) & (qb != 0))]
+        for r, valid in roots:
+            ok = valid & np.isfinite(r) & (r > 0) & (r < dx)
+            r = np.where(ok, r, 0.0)
+            vals.append(np.where(ok, ((a3 * r + a2) * r + a1) * r + a0, a0))
+    lo_leaf = np.minimum.reduce(vals)
+    hi_leaf = np.maximum.reduce(vals)
+    pad = 1e-13 * float(np.max(np.abs(prof.h)) + 1e-300)
+    n_leaf = _leaves_for(m, f"texture = {prof!r}")
+    head = _header(prof)
+    head[K.A_START] = prof.x[0]
+    head[K.A_TREELEN] = n_leaf * dx
+    head[K.A_STEP] = dx / 8.0
+    i = int(np.argmin(lo_leaf))
+    t_grid = prof.x[0] + i * dx + np.linspace(0.0, dx, 65)
+    head[K.A_TMIN] = float(t_grid[np.argmin(prof.height(t_grid))])
+    if prof.periodic:
+        head[K.A_MODE] = K.CP_PERIODIC
+        head[K.A_PERIOD] = m * dx
+    else:
+        head[K.A_MODE] = K.CP_FINITE
+        head[K.A_X0] = prof.x[0]
+        head[K.A_XE] = prof.x[0] + m * dx
+        head[K.A_HL], head[K.A_SL], head[K.A_HR], head[K.A_SR] = c[:, m + 1]
+    return _tree(head, lo_leaf - pad, hi_leaf + pad, n_leaf)

@@ -64,18 +64,19 @@ class Renderer:
             if not mf > 0 or math.isnan(mf):
                 raise fail("max_force", max_force, "a force > 0 N, or None for no limit")
         self.algorithm = algorithm
-        code, prm, kind, coeffs = algorithm.kernel_spec()
+        code, prm, kind, coeffs, aux = algorithm.kernel_spec()
         self._code = int(code)
         self._kind = int(kind)
         self._coeffs = np.ascontiguousarray(coeffs, dtype=np.float64)
         self._prm = np.ascontiguousarray(prm, dtype=np.float64)
+        self._aux = np.ascontiguousarray(aux, dtype=np.float64)
         self._st = np.zeros(_kernels.N_STATE)
         self._rs = np.zeros(N_RS)
         self._rs[RS_MAXF] = math.inf if max_force is None else float(max_force)
         self._rs[RS_MONITOR] = 1.0 if energy_monitor else 0.0
         self._rs[RS_LIMIT] = WORKSPACE_LIMIT
         # compile (or load from the cache) now, not in the servo loop
-        _render_step(0.0, 1.0, self._code, self._kind, self._coeffs, self._prm, self._st, self._rs)
+        _render_step(0.0, 1.0, self._code, self._kind, self._coeffs, self._prm, self._aux, self._st, self._rs)
         self.reset()
 
     def step(self, p):
@@ -93,7 +94,7 @@ class Renderer:
         """
         try:
             return _render_step(float(p[0]), float(p[1]), self._code, self._kind, self._coeffs, self._prm,
-                                self._st, self._rs)
+                                self._aux, self._st, self._rs)
         except Exception:  # a malformed p: never let it reach the motor loop
             self._rs[RS_FAULTS] += 1.0
             self._rs[RS_HAVE_LAST] = 0.0

@@ -18,12 +18,15 @@ Automatic Control 23(3), 1978, pp. 395–404.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.linalg import expm
 
-from ._kernels import _NZ, N_SUMMARY, S_DAMP, S_EX, S_EZ, S_KE, S_KE0, S_MAXPEN, S_OP, S_SAT, S_TAILSTART_E
+from ._kernels import (_NZ, DIVERGED_ENERGY, DIVERGED_FORCE, DIVERGED_POSITION, DIVERGED_VELOCITY, N_SUMMARY, S_DAMP,
+                       S_DIVERGED, S_DIVERGED_WHAT, S_EX, S_EZ, S_KE, S_KE0, S_MAXPEN, S_NSAMP, S_OP, S_SAT,
+                       S_TAILSTART_E)
 from ._kernels import run_batch as _run_batch
 from ._kernels import run_one as _run
 from ._validation import ParameterError, fail, positions, positive
@@ -31,7 +34,18 @@ from .algorithms import Algorithm
 from .devices import Device
 from .operators import Operator
 
-__all__ = ["SimulationResult", "Oscillation", "simulate", "simulate_batch", "MEMORY_BUDGET"]
+__all__ = ["SimulationResult", "Oscillation", "simulate", "simulate_batch", "MEMORY_BUDGET", "SimulationWarning",
+           "BALANCE_TOLERANCE"]
+
+BALANCE_TOLERANCE = 1e-6
+"""Relative energy-balance error above which a result is flagged (exact runs close to ~1e-12)."""
+
+_DIVERGED_NAMES = {DIVERGED_POSITION: "position", DIVERGED_VELOCITY: "velocity", DIVERGED_FORCE: "force",
+                   DIVERGED_ENERGY: "energy"}
+
+
+class SimulationWarning(RuntimeWarning):
+    """A simulation diverged (a non-finite state) or its energy balance does not close."""
 
 MEMORY_BUDGET = 2 * 1024**3
 """Largest time-series allocation (bytes) :func:`simulate` accepts: 2 GiB (96 bytes a
@@ -182,6 +196,11 @@ class SimulationResult:
         Verdict on the last ``tail_fraction`` of the run.
     totals : dict
         Final E_x, E_z, damping, operator work and kinetic energy (J).
+    diverged_at : int or None
+        The sample (1-based) at which a position, velocity, force or energy became
+        non-finite; the run stopped there and its series end before it. None if it did not.
+    diverged_quantity : str or None
+        Which: ``"position"``, ``"velocity"``, ``"force"`` or ``"energy"``.
     """
 
     time: np.ndarray
@@ -198,6 +217,18 @@ class SimulationResult:
     max_penetration: float
     oscillation: Oscillation
     totals: dict = field(default_factory=dict)
+    diverged_at: int | None = None
+    diverged_quantity: str | None = None
+
+    @property
+    def diverged(self) -> bool:
+        """True when the run stopped on a non-finite state (see :attr:`diverged_at`)."""
+        return self.diverged_at is not None
+
+    @property
+    def energy_balance_ok(self) -> bool:
+        """True when the run did not diverge and its balance closes to :data:`BALANCE_TOLERANCE`."""
+        return not self.diverged and self.energy_balance_error <= BALANCE_TOLERANCE
 
     @property
     def oscillating(self) -> bool:
@@ -217,7 +248,7 @@ class SimulationResult:
         err = (t["kinetic_energy"] - self.initial_kinetic_energy) - (w_cmd + t["operator_work"] - t["damping_energy"])
         scale = max(abs(w_cmd), abs(t["operator_work"]), abs(t["damping_energy"]), abs(t["kinetic_energy"]),
                     abs(self.initial_kinetic_energy), 1e-300)
-        return abs(err) / scale
+        return abs(err) / scale if math.isfinite(err) else math.inf
 
 
 # --------------------------------------------------------------------------------------
@@ -253,7 +284,7 @@ def _kernel_inputs(algorithm, device, operator, memo: dict | None = None):
     """Everything the compiled loop reads for one run. ``memo`` shares the discretisation
     (six 20x20 matrix exponentials) between runs whose device and operator are the same
     objects, as in sweeps of algorithm parameters."""
-    code, prm, kind, coeffs = algorithm.kernel_spec()
+    code, prm, kind, coeffs, aux = algorithm.kernel_spec()
     key = (id(device), id(operator))
     if memo is None or key not in memo:
         disc = _discretise(device, operator)
@@ -264,7 +295,7 @@ def _kernel_inputs(algorithm, device, operator, memo: dict | None = None):
     Phi, Wd, Wo = disc
     Bs = np.stack([device.damping_outside, device.damping])
     nominal = algorithm.penetration_kind == "nominal"
-    return code, prm, kind, coeffs, nominal, Phi, Wd, Wo, Bs
+    return code, prm, kind, coeffs, aux, nominal, Phi, Wd, Wo, Bs
 
 
 def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration: float, initial_position=None,
@@ -313,19 +344,41 @@ def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration:
             f"{n_rec} samples needs {n_rec * _BYTES_PER_SAMPLE / 2**30:.1f} GiB, over the 2 GiB budget; "
             f"use record_every >= {math.ceil(n_steps * _BYTES_PER_SAMPLE / MEMORY_BUDGET)}"
         )
-    code, prm, kind, coeffs, nominal, Phi, Wd, Wo, Bs = _kernel_inputs(algorithm, device, operator)
+    code, prm, kind, coeffs, aux, nominal, Phi, Wd, Wo, Bs = _kernel_inputs(algorithm, device, operator)
     rec = np.zeros((n_rec, 12))
     summary = np.zeros(N_SUMMARY)
     tail_start = int(n_steps * (1 - tail_fraction))
     tail_z = np.zeros(min(n_steps - tail_start, 65536))
-    _run(code, kind, coeffs, prm, nominal, Phi, Wd, Wo, Bs, device.mass, operator.stiffness, operator.damping,
+    _run(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, device.mass, operator.stiffness, operator.damping,
          operator.force, operator.setpoint_times, operator.setpoint_points, operator.final_velocity,
          operator.rest_length, operator.kinematic, n_steps, device.period, device.delay, device.position_resolution,
          device.force_resolution, device.max_force, p0, v0, record_every, rec, summary, tail_start, tail_z)
-    return _result(rec, summary, tail_z, (n_steps - tail_start) * device.period, device)
+    result = _result(rec, summary, tail_z, (n_steps - tail_start) * device.period, device)
+    _warn_health([result])
+    return result
+
+
+def _warn_health(results) -> None:
+    """One SimulationWarning for runs that diverged or whose energy balance does not close."""
+    div = [i for i, r in enumerate(results) if r.diverged]
+    bad = [i for i, r in enumerate(results) if not r.diverged and r.energy_balance_error > BALANCE_TOLERANCE]
+    if div:
+        r = results[div[0]]
+        where = "" if len(results) == 1 else f"run {div[0]} of {len(results)} ({len(div)} in all) "
+        warnings.warn(f"the simulation {where}diverged: its {r.diverged_quantity} became non-finite at sample "
+                      f"{r.diverged_at}; it stopped there", SimulationWarning, stacklevel=3)
+    if bad:
+        r = results[bad[0]]
+        where = "" if len(results) == 1 else f"of run {bad[0]} of {len(results)} ({len(bad)} in all) "
+        warnings.warn(f"the energy balance {where}closes only to {r.energy_balance_error:.2g} relative, above "
+                      f"{BALANCE_TOLERANCE:g}: the discretisation is ill-conditioned for these parameters",
+                      SimulationWarning, stacklevel=3)
 
 
 def _result(rec, summary, tail_z, tail_duration, device) -> SimulationResult:
+    diverged = int(summary[S_DIVERGED]) or None
+    if diverged is not None:  # rows are written in order and their time is > 0
+        rec = rec[:int(np.count_nonzero(rec[:, 0]))]
     e_env_tail = summary[S_EX] + summary[S_EZ] - summary[S_TAILSTART_E]
     osc = _oscillation(tail_z, tail_duration, e_env_tail, max(device.position_resolution, 1e-7))
     totals = {"energy_x": float(summary[S_EX]), "energy_z": float(summary[S_EZ]),
@@ -335,7 +388,8 @@ def _result(rec, summary, tail_z, tail_duration, device) -> SimulationResult:
         time=rec[:, 0], position=rec[:, 1:3], velocity=rec[:, 3:5], force=rec[:, 5:7], energy_x=rec[:, 7],
         energy_z=rec[:, 8], damping_energy=rec[:, 9], operator_work=rec[:, 10], kinetic_energy=rec[:, 11],
         initial_kinetic_energy=float(summary[S_KE0]), saturations=int(summary[S_SAT]),
-        max_penetration=float(summary[S_MAXPEN]), oscillation=osc, totals=totals)
+        max_penetration=float(summary[S_MAXPEN]), oscillation=osc, totals=totals, diverged_at=diverged,
+        diverged_quantity=None if diverged is None else _DIVERGED_NAMES[int(summary[S_DIVERGED_WHAT])])
 
 
 _ALGORITHM_KEYS = ("stiffness", "amplitude", "texture_period", "friction", "presliding", "modulation_depth",
@@ -369,6 +423,8 @@ class BatchResult:
     max_penetration : ndarray
         m.
     saturations : ndarray of int
+    diverged_at : ndarray of int
+        Sample (1-based) at which each run became non-finite and stopped; 0 if it did not.
     runs : list of SimulationResult or None
         Full time series, only with ``record=True``.
     """
@@ -386,6 +442,7 @@ class BatchResult:
     energy_per_cycle: np.ndarray
     max_penetration: np.ndarray
     saturations: np.ndarray
+    diverged_at: np.ndarray
     runs: list | None = None
 
 
@@ -505,9 +562,13 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
         raise ParameterError("the runs of a batch must share the algorithm letter, texture shape and sampling period")
     memo: dict = {}
     specs = [_kernel_inputs(a, d, o, memo) for a, d, o in runs]
-    code, kind, nominal = specs[0][0], specs[0][2], specs[0][4]
+    code, kind, nominal = specs[0][0], specs[0][2], specs[0][5]
     st = lambda j: np.ascontiguousarray(np.stack([s[j] for s in specs]))  # noqa: E731
-    prm, coeffs, Phi, Wd, Wo, Bs = st(1), st(3), st(5), st(6), st(7), st(8)
+    prm, coeffs, Phi, Wd, Wo, Bs = st(1), st(3), st(6), st(7), st(8), st(9)
+    n_aux = max(s[4].size for s in specs)  # bound trees of different sizes: pad (the header says the size)
+    aux = np.zeros((N, n_aux))
+    for i, s in enumerate(specs):
+        aux[i, :s[4].size] = s[4]
     dev = [d for _, d, _ in runs]
     ops = [o for _, _, o in runs]
     M = np.stack([d.mass for d in dev])
@@ -533,7 +594,7 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     tail_z = np.zeros((N, min(n_steps - tail_start, 8192)))
     T = dev[0].period
     # (value, True if it has one row per run)
-    args = [(code, False), (kind, False), (coeffs, True), (prm, True), (nominal, False), (Phi, True), (Wd, True),
+    args = [(code, False), (kind, False), (coeffs, True), (prm, True), (aux, True), (nominal, False), (Phi, True), (Wd, True),
             (Wo, True), (Bs, True), (M, True), (K, True), (C, True), (f0, True), (ops[0].setpoint_times, False),
             (sp_p, True), (vend, True), (rest, True), (ops[0].kinematic, False), (n_steps, False), (T, False),
             (delay, True), (delta, True), (fres, True), (fmax, True), (P0, True), (V0, True),
@@ -547,6 +608,7 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
             bar(idx.size)
     bar(None)
     results = [_result(rec[i], summary[i], tail_z[i], (n_steps - tail_start) * T, dev[i]) for i in range(N)]
+    _warn_health(results)
     col = lambda f: np.array([f(r) for r in results])  # noqa: E731
     return BatchResult(
         parameters=values,
@@ -556,7 +618,7 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
         amplitude=col(lambda r: r.oscillation.amplitude), frequency=col(lambda r: r.oscillation.frequency),
         energy_per_cycle=col(lambda r: r.oscillation.energy_per_cycle),
         max_penetration=summary[:, S_MAXPEN].copy(), saturations=summary[:, S_SAT].astype(np.int64),
-        runs=results if record else None)
+        diverged_at=summary[:, S_DIVERGED].astype(np.int64), runs=results if record else None)
 
 
 def _progress(show: bool, total: int):
