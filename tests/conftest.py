@@ -1,8 +1,10 @@
 """Shared test settings and strategies."""
 
 import os
+from pathlib import Path
 
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, settings
 from hypothesis import strategies as st
 
@@ -33,3 +35,9 @@ def textures(draw, max_components=3):
     amps = [draw(st.floats(0.02, 0.6)) * p / (2 * np.pi) * 2 for p in periods]
     phases = draw(st.lists(st.floats(0, 2 * np.pi), min_size=n, max_size=n))
     return hx.SumOfSinusoids(amps, periods, phases)
+
+
+DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+DEKTAK = DATA / "dektak-stylus-profile.csv"
+GROOVES = DATA / "grooves-4mm-profile.mat"
+needs_data = pytest.mark.skipif(not DEKTAK.exists(), reason="../shared/data is not beside this checkout")

@@ -16,10 +16,8 @@ import haptex as hx
 from haptex import _kernels
 from haptex.design import design
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
-DEKTAK = DATA / "dektak-stylus-profile.csv"
-GROOVES = DATA / "grooves-4mm-profile.mat"
-needs_data = pytest.mark.skipif(not DEKTAK.exists(), reason="../shared/data is not beside this checkout")
+from .conftest import DEKTAK, GROOVES, needs_data
+
 
 
 # -- loaders -----------------------------------------------------------------------------

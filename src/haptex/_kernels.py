@@ -262,6 +262,15 @@ def _scan_leaf(kind, coeffs, aux, px, pz, u, w, bs):
 
 
 @nb.njit(**_JIT)
+def _box_lb(px, pz, u, w, lo, hi):
+    """Squared distance from (px, pz) to the box [u, u + w] x [lo, hi]: a lower bound of the
+    squared distance to the boundary over that interval."""
+    dx = max(0.0, u - px, px - (u + w))
+    dz = max(0.0, lo - pz, pz - hi)
+    return dx * dx + dz * dz
+
+
+@nb.njit(**_JIT)
 def _descend(kind, coeffs, aux, px, pz, root_u, root_w, n_leaf, table, bs):
     """Depth-first branch and bound over the implicit binary tree on [root_u, root_u + root_w]
     with ``n_leaf`` leaves: a node is pruned when a lower bound of the distance over it is not
@@ -290,15 +299,21 @@ def _descend(kind, coeffs, aux, px, pz, root_u, root_w, n_leaf, table, bs):
             spread = min(aux[A_SLOPE] * 0.5 * w, abs(sc) * 0.5 * w + aux[A_CURV] * 0.125 * w * w)
             lo = hc - spread
             hi = hc + spread
-        dx_lb = max(0.0, u - px, px - (u + w))
-        dz_lb = max(0.0, lo - pz, pz - hi)
         reach = math.sqrt(bs[B_F]) + aux[A_TIE]
-        if dx_lb * dx_lb + dz_lb * dz_lb > reach * reach:
+        if _box_lb(px, pz, u, w, lo, hi) > reach * reach:
             continue
         if i >= n_leaf:
             _scan_leaf(kind, coeffs, aux, px, pz, u, w, bs)
             continue
-        if px < u + 0.5 * w:  # the nearer child is popped first
+        # the child with the smaller lower bound is popped first (a greedy dive towards the
+        # closest leaf, so that the best distance, and with it the pruning, tightens early)
+        first_left = px < u + 0.5 * w
+        if table:
+            hw = 0.5 * w
+            lb_l = _box_lb(px, pz, u, hw, aux[A_TREE + 2 * i], aux[A_TREE + 2 * nl + 2 * i])
+            lb_r = _box_lb(px, pz, u + hw, hw, aux[A_TREE + 2 * i + 1], aux[A_TREE + 2 * nl + 2 * i + 1])
+            first_left = lb_l <= lb_r
+        if first_left:
             bs[B_STACK + sp] = 2 * i + 1
             bs[B_STACK + sp + 1] = 2 * i
         else:

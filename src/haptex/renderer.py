@@ -13,12 +13,14 @@ import numpy as np
 
 from . import _kernels
 from ._kernels import (N_RS, RS_CLAMPS, RS_EX, RS_EZ, RS_FAULTS, RS_HAVE_LAST, RS_LFX, RS_LFZ, RS_LIMIT, RS_LX, RS_LZ,
-                       RS_MAXF, RS_MONITOR)
+                       RS_MAXF, RS_MAXWORK, RS_MONITOR, RS_WORK)
 from ._kernels import render_step as _render_step
-from ._validation import fail
+from ._validation import fail, optional_positive
 from .algorithms import Algorithm
 
 __all__ = ["Renderer", "WORKSPACE_LIMIT"]
+
+_REAL = (int, float, np.integer, np.floating)
 
 WORKSPACE_LIMIT = 1e3
 """Positions with a coordinate beyond +-1 km (m) are treated as faults (zero force)."""
@@ -59,10 +61,7 @@ class Renderer:
     def __init__(self, algorithm: Algorithm, max_force: float | None = None, energy_monitor: bool = False):
         if not isinstance(algorithm, Algorithm):
             raise fail("algorithm", algorithm, "a haptex algorithm (haptex.algorithm(...))")
-        if max_force is not None:
-            mf = float(max_force) if not isinstance(max_force, bool) else -1.0
-            if not mf > 0 or math.isnan(mf):
-                raise fail("max_force", max_force, "a force > 0 N, or None for no limit")
+        optional_positive("max_force", max_force, "N")
         self.algorithm = algorithm
         code, prm, kind, coeffs, aux = algorithm.kernel_spec()
         self._code = int(code)
@@ -84,26 +83,50 @@ class Renderer:
 
         Parameters
         ----------
-        p : sequence of two floats
-            Probe position [x, z] (m).
+        p : sequence of two real numbers
+            Probe position [x, z] (m): a tuple, list or NumPy array of exactly two real
+            (not boolean, not complex) numbers.
 
         Returns
         -------
         tuple of two floats
-            Force [f_x, f_z] (N); (0.0, 0.0) for a faulty position.
+            Force [f_x, f_z] (N); (0.0, 0.0) for a faulty position: anything else than two
+            finite real numbers within +-1 km (strings, bytes, dicts, complex numbers,
+            booleans, three coordinates, ...), counted in :attr:`faults`.
+
+        Notes
+        -----
+        Never raises, never returns NaN or a force above ``max_force``, and does a bounded
+        amount of work for any input (:attr:`last_work`, texture evaluations).
         """
         try:
-            return _render_step(float(p[0]), float(p[1]), self._code, self._kind, self._coeffs, self._prm,
-                                self._aux, self._st, self._rs)
+            if isinstance(p, (str, bytes, bytearray, dict)) or len(p) != 2:
+                raise TypeError
+            x, z = p[0], p[1]
+            if not (isinstance(x, _REAL) and isinstance(z, _REAL)) or isinstance(x, bool) or isinstance(z, bool):
+                raise TypeError
+            return _render_step(float(x), float(z), self._code, self._kind, self._coeffs, self._prm, self._aux,
+                                self._st, self._rs)
         except Exception:  # a malformed p: never let it reach the motor loop
             self._rs[RS_FAULTS] += 1.0
             self._rs[RS_HAVE_LAST] = 0.0
+            self._rs[RS_WORK] = 0.0
             return (0.0, 0.0)
+
+    @property
+    def last_work(self) -> int:
+        """Texture evaluations spent by the last :meth:`step` (bounded for any input)."""
+        return int(self._rs[RS_WORK])
+
+    @property
+    def max_work(self) -> int:
+        """Largest :attr:`last_work` since construction or :meth:`reset`."""
+        return int(self._rs[RS_MAXWORK])
 
     def reset(self) -> None:
         """Clear the algorithm's state (friction, warm start), the energy monitor and the counters."""
         self._st[:] = 0.0
-        for k in (RS_FAULTS, RS_CLAMPS, RS_HAVE_LAST, RS_LX, RS_LZ, RS_LFX, RS_LFZ, RS_EX, RS_EZ):
+        for k in (RS_FAULTS, RS_CLAMPS, RS_HAVE_LAST, RS_LX, RS_LZ, RS_LFX, RS_LFZ, RS_EX, RS_EZ, RS_WORK, RS_MAXWORK):
             self._rs[k] = 0.0
 
     @property
