@@ -185,3 +185,33 @@ def test_malformed_positions_are_faults_not_coordinates(bad):
     assert r.step(bad) == (0.0, 0.0)
     assert r.faults == 1
     assert r.step(np.array([1e-4, -1e-3])) != (0.0, 0.0)  # a well-formed one still works
+
+
+def test_an_ill_conditioned_discretisation_is_refused_with_the_reason():
+    # reproducer 6: Device.point_mass(1e-6, 0.5, 1e-4) (b T / m = 50) closed its energy balance
+    # only to 0.91, with no word; b T / m = 10 closes to ~1e-12 (measured), so it runs
+    alg = hx.algorithm("A", SINE, 2000.0)
+    push = hx.operators.ConstantForce([0.0, -1.0])
+    for mass, damping in ((1e-6, 0.5), (1e-10, 0.5), (0.1, 1e10)):
+        with pytest.raises(hx.ParameterError, match=r"damping x period / mass = .* is not allowed"):
+            hx.simulate(alg, hx.Device.point_mass(mass, damping, 1e-4), push, 0.01)
+    ok = hx.simulate(alg, hx.Device.point_mass(5e-6, 0.5, 1e-4), push, 0.05)
+    assert ok.energy_balance_ok and ok.energy_balance_error < 1e-9
+
+
+@pytest.mark.parametrize("case", ["band", "scan", "resolution"])
+def test_a_non_finite_state_stops_the_run_and_says_where(case):
+    # reproducer 6: band stiffness 1e300, a scan at 1e300 m/s or position_resolution 5e-324
+    # gave NaN energies with no error
+    alg = hx.algorithm("A", SINE, 2000.0)
+    dev = hx.Device.point_mass(position_resolution=5e-324) if case == "resolution" else hx.Device.point_mass()
+    op = {"band": hx.operators.ElasticBand(1e300, [0.0, -1e-3]),
+          "scan": hx.operators.ScanningHand(500.0, 2.0, velocity=1e300, depth=1e-4)}.get(
+        case, hx.operators.ConstantForce([0.0, -1.0]))
+    with pytest.warns(hx.SimulationWarning, match="diverged"):
+        res = hx.simulate(alg, dev, op, 0.01)
+    assert res.diverged and res.diverged_at >= 1
+    assert res.diverged_quantity in ("position", "velocity", "force", "energy")
+    assert not res.energy_balance_ok
+    assert res.time.size < res.diverged_at  # the series stop before the non-finite sample
+    assert np.all(np.isfinite(res.position))

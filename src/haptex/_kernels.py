@@ -28,9 +28,16 @@ Texture encoding shared by all kernels
 from __future__ import annotations
 
 import math
+import os
 
 import numba as nb
 import numpy as np
+
+if "NUMBA_THREADING_LAYER" not in os.environ:
+    # GNU OpenMP, numba's default layer where it is installed, kills or hangs the workers of a
+    # fork-based multiprocessing pool (or Dask) started after a parallel kernel ran: ask for a
+    # fork-safe layer (TBB if installed, else numba's workqueue). A user's explicit choice wins.
+    nb.config.THREADING_LAYER = "forksafe"
 
 TEXTURE_FLAT = 0
 TEXTURE_FOURIER = 1

@@ -1,0 +1,31 @@
+"""Issue 17, reproducer 9: after haptex has run a parallel kernel, a fork-based
+multiprocessing pool still works (GNU OpenMP's layer killed its workers: "fork() called
+from a process already using GNU OpenMP", and pool.map hung)."""
+
+import subprocess
+import sys
+import textwrap
+
+
+def test_a_fork_pool_works_after_a_parallel_kernel():
+    # in a fresh interpreter, so that the threading layer is the one haptex chooses at import
+    code = textwrap.dedent("""
+        import multiprocessing as mp, numpy as np, haptex as hx
+        from haptex import _kernels
+        import numba
+        tex = hx.Sinusoid(0.8e-3, 1e-3)
+        hx.closest_point(tex, np.column_stack([np.linspace(0, 1e-3, 4000), np.full(4000, -1e-3)]))  # parallel
+        def work(z):
+            return float(hx.algorithm("D", tex, 1000.0).force([[0.0, z]])[0, 1])
+        with mp.get_context("fork").Pool(2) as pool:
+            out = pool.map_async(work, [-1e-4, -2e-4, -3e-4, -4e-4]).get(timeout=120)
+        print(numba.threading_layer(), out)
+    """)
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr[-2000:]
+    layer, rest = run.stdout.split(" ", 1)
+    assert layer in ("tbb", "workqueue")  # the fork-safe layers
+    # D's force below the valley at x = 0 (h = 0): kappa_0 times a distance <= the depth
+    values = [float(v) for v in rest.strip(" []\n").split(",")]
+    assert all(0 < v <= 1000.0 * d * (1 + 1e-12) for v, d in zip(values, (1e-4, 2e-4, 3e-4, 4e-4)))
+
