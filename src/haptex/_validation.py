@@ -8,6 +8,7 @@ can print it as one line.
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 
@@ -60,6 +61,36 @@ def in_range(name: str, value, lo: float, hi: float, unit: str = "") -> float:
     if not lo <= v <= hi:
         raise fail(name, value, allowed)
     return v
+
+
+def positive_or_inf(name: str, value, unit: str = "") -> float:
+    """Return ``value`` as float if it is a real number > 0 or +inf (no limit), else raise."""
+    allowed = f"a number > 0{_u(unit)}, or inf for no limit"
+    if isinstance(value, bool):
+        raise fail(name, value, allowed)
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise fail(name, value, allowed) from None
+    if not v > 0:  # also NaN
+        raise fail(name, value, allowed)
+    return v
+
+
+def whole(name: str, value, lo: int = 0, hi: int | None = None, what: str = "") -> int:
+    """Return ``value`` as int if it is a whole number in [lo, hi] (a float like 2.0 is
+    accepted, 2.5 and booleans are not), else raise ParameterError."""
+    allowed = f"a whole number >= {lo}" + ("" if hi is None else f" and <= {hi}") + (f" ({what})" if what else "")
+    if isinstance(value, bool):
+        raise fail(name, value, allowed)
+    try:
+        v = float(value)
+        ok = v.is_integer() and v >= lo and (hi is None or v <= hi)
+    except (TypeError, ValueError, OverflowError):
+        raise fail(name, value, allowed) from None
+    if not ok:
+        raise fail(name, value, allowed)
+    return int(v)
 
 
 def optional_positive(name: str, value, unit: str = "") -> float | None:
@@ -125,3 +156,32 @@ def _scalar(name: str, value, allowed: str) -> float:
 
 def _u(unit: str) -> str:
     return f" ({unit})" if unit else ""
+
+
+def memory_budget() -> int:
+    """Bytes one haptex call may allocate: ``HAPTEX_MEMORY_BUDGET`` (bytes) if set, else a
+    quarter of the machine's physical memory (6 GiB on a 24 GiB machine)."""
+    env = os.environ.get("HAPTEX_MEMORY_BUDGET")
+    if env:
+        return int(float(env))
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") // 4
+    except (ValueError, OSError, AttributeError):  # pragma: no cover - non-POSIX
+        return 4 * 1024**3
+
+
+def check_budget(name: str, value, need_bytes: float, what: str) -> None:
+    """Refuse, in one line naming ``name`` and its value, a computation whose estimated
+    allocation ``need_bytes`` exceeds :func:`memory_budget`."""
+    budget = memory_budget()
+    if not need_bytes <= budget:
+        raise ParameterError(
+            f"{name} = {_fmt(value)} is not allowed: {what} would need {need_bytes / 2**30:.3g} GiB, over the "
+            f"memory budget of {budget / 2**30:.3g} GiB (set HAPTEX_MEMORY_BUDGET to change it)")
+
+
+def check_count(name: str, value, count: float, limit: float, what: str) -> None:
+    """Refuse an absurd amount of work: ``count`` items of ``what`` above ``limit``."""
+    if not count <= limit:
+        raise ParameterError(f"{name} = {_fmt(value)} is not allowed: it asks for {count:.3g} {what}, more than "
+                             f"{limit:.3g}")

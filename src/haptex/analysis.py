@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import integrate, ndimage, optimize
 
-from ._validation import ParameterError, fail, positions, positive
+from ._validation import ParameterError, check_budget, check_count, fail, in_range, positions, positive, whole
 from .algorithms import Algorithm
 from .closest import closest_point
 from .textures import Flat, Sinusoid, Texture
@@ -598,6 +598,23 @@ def _composite_gauss(fun, u0: float, u1: float, pieces: int) -> float:
     return float(np.sum(half * (vals @ _GL_WEIGHTS)))
 
 
+MAX_PATH_PIECES = 1_000_000
+"""Most quadrature pieces (1/8 of the shortest period each, 16 to 512 force evaluations)
+one :func:`path_work` call may integrate."""
+
+
+def _check_path_size(algorithm: Algorithm, pts: np.ndarray) -> None:
+    """Refuse a path whose quadrature would take absurdly long (a 1 km segment over a 1 mm
+    texture is 8 million pieces)."""
+    tex = algorithm.texture
+    if isinstance(tex, Flat):
+        return
+    length = float(np.sum(np.hypot(*np.diff(pts, axis=0).T)))
+    pieces = length / (tex.shortest_period / 8)
+    check_count("path", f"a polyline {length:g} m long", pieces, MAX_PATH_PIECES,
+                f"quadrature pieces of 1/8 of the shortest period {tex.shortest_period:g} m")
+
+
 def path_work(algorithm: Algorithm, path, rtol: float = 1e-12) -> float:
     """Work done by the field on a probe moving along a polyline, W = integral f . dp (J).
 
@@ -633,6 +650,8 @@ def path_work(algorithm: Algorithm, path, rtol: float = 1e-12) -> float:
     pts = positions(path, "path")
     if pts.ndim != 2 or pts.shape[0] < 2:
         raise ParameterError(f"path has shape {pts.shape}, which is not allowed: must be (N, 2) with N >= 2")
+    rtol = in_range("rtol", rtol, 1e-15, 1e-2)
+    _check_path_size(algorithm, pts)
     if getattr(algorithm, "has_memory", False):
         return algorithm.path_work(pts)
     total = 0.0
@@ -877,10 +896,8 @@ def continuity(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=None
         If a parameter is out of range.
     """
     dmax = positive("max_penetration", max_penetration, "m")
-    if int(levels) < 3:
-        raise fail("levels", levels, "an integer >= 3")
-    if int(base) < 8:
-        raise fail("base", base, "an integer >= 8")
+    levels = whole("levels", levels, 3, 12, "grid refinements; level k has (base 2^k)^2 points")
+    base = whole("base", base, 8, 4096)
     x0, x1, z0, z1 = _region_box(algorithm, dmax, x_range)
     z1 = z1 + 0.05 * (x1 - x0)
     if not isinstance(algorithm.texture, Flat):
@@ -892,6 +909,8 @@ def continuity(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=None
         n = int(base) * 2**lev
         hstep = (x1 - x0) / n
         nz = int(math.ceil((z1 - z0) / hstep))
+        # positions, forces and their differences: about 12 float64 a grid point
+        check_budget("levels", levels, 12 * 8 * (n + 1) * (nz + 1), f"the {n + 1} x {nz + 1} grid of level {lev}")
         xs = x0 + hstep * np.arange(n + 1)
         zs = z0 + hstep * np.arange(nz + 1)
         X, Z = np.meshgrid(xs, zs, indexing="ij")
@@ -1006,6 +1025,7 @@ def conservativity(algorithm: Algorithm, max_penetration: float = 1e-3, n_random
     -------
     Conservativity
     """
+    n_random = whole("n_random", n_random, 1, 10_000, "random loops, each a path_work call")
     loops = random_loops(algorithm, n_random, 5, max_penetration, seed, x_range)
     # relative accuracy 1e-10 on each loop is far below the verdict's tolerance
     energies = tuple(loop_energy(algorithm, lp, rtol=1e-10) for lp in loops)

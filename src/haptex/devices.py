@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._validation import ParameterError, fail, matrix2, nonnegative, positive
+from ._validation import ParameterError, fail, matrix2, nonnegative, positive, positive_or_inf, whole
 
 
 def _matrix(name: str, value, allow_zero: bool) -> np.ndarray:
@@ -96,19 +96,14 @@ class Device:
         out = self.damping if self.damping_outside is None else self.damping_outside
         object.__setattr__(self, "damping_outside", _matrix("damping_outside", out, allow_zero=True))
         object.__setattr__(self, "period", positive("period", self.period, "s"))
-        if isinstance(self.delay, bool) or not float(self.delay).is_integer() or self.delay < 0:
-            raise fail("delay", self.delay, "a whole number of sampling periods >= 0")
-        object.__setattr__(self, "delay", int(self.delay))
-        object.__setattr__(self, "position_resolution", nonnegative("position_resolution", self.position_resolution, "m"))
-        object.__setattr__(self, "force_resolution", nonnegative("force_resolution", self.force_resolution, "N"))
-        mf = float(self.max_force)
-        if not mf > 0 or math.isnan(mf):
-            raise fail("max_force", self.max_force, "a number of newtons > 0 (inf for no limit)")
-        object.__setattr__(self, "max_force", mf)
-        fr = float(self.first_resonance)
-        if not fr > 0 or math.isnan(fr):
-            raise fail("first_resonance", self.first_resonance, "a frequency > 0 Hz (inf if not modelled)")
-        object.__setattr__(self, "first_resonance", fr)
+        object.__setattr__(self, "delay", whole("delay", self.delay, 0, 10_000, "sampling periods"))
+        for name, unit, smallest in (("position_resolution", "m", 1e-15), ("force_resolution", "N", 1e-15)):
+            v = nonnegative(name, getattr(self, name), unit)
+            if 0.0 < v < smallest:  # finer than any sensor: a typo, and x / v overflows
+                raise fail(name, v, f"0 (ideal) or >= {smallest:g} {unit}")
+            object.__setattr__(self, name, v)
+        object.__setattr__(self, "max_force", positive_or_inf("max_force", self.max_force, "N"))
+        object.__setattr__(self, "first_resonance", positive_or_inf("first_resonance", self.first_resonance, "Hz"))
         if self.stiffness_limit is not None:
             object.__setattr__(self, "stiffness_limit", positive("stiffness_limit", self.stiffness_limit, "N/m"))
 

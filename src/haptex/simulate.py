@@ -29,7 +29,7 @@ from ._kernels import (_NZ, DIVERGED_ENERGY, DIVERGED_FORCE, DIVERGED_POSITION, 
                        S_TAILSTART_E)
 from ._kernels import run_batch as _run_batch
 from ._kernels import run_one as _run
-from ._validation import ParameterError, fail, positions, positive
+from ._validation import ParameterError, fail, nonnegative, positions, positive, whole
 from .algorithms import Algorithm
 from .devices import Device
 from .operators import Operator
@@ -494,7 +494,7 @@ def _rebuild(algorithm: Algorithm, device: Device, operator: Operator, values: d
                          values.get("stiffness", algorithm.stiffness), **kw)
     dv = {k: values[k] for k in _DEVICE_KEYS if k in values}
     if "delay" in dv:
-        dv["delay"] = int(round(dv["delay"]))
+        dv["delay"] = whole("delay", dv["delay"], 0, 10_000, "sampling periods")
     if dv:
         device = device.replace(**dv)
     ov = {k: values[k] for k in _OPERATOR_KEYS if k in values}
@@ -509,12 +509,12 @@ def _rebuild(algorithm: Algorithm, device: Device, operator: Operator, values: d
         if "hand_stiffness" in ov:
             K = positive("hand_stiffness", ov["hand_stiffness"], "N/m") * np.eye(2)
         if "hand_damping" in ov:
-            C = float(ov["hand_damping"]) * np.eye(2)
+            C = nonnegative("hand_damping", ov["hand_damping"], "N s/m") * np.eye(2)
         if "anchor_x" in ov or "anchor_z" in ov:
             pts[0] = [ov.get("anchor_x", pts[0, 0]), ov.get("anchor_z", pts[0, 1])]
         depth = operator.depth
         if "depth" in ov:
-            depth = float(ov["depth"])
+            depth = nonnegative("depth", ov["depth"], "m")
             pts[:, 1] += operator.depth - depth
         if "velocity" in ov:
             vend = np.array([float(ov["velocity"]), 0.0])

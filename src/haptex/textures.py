@@ -15,7 +15,11 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from . import _kernels
-from ._validation import ParameterError, fail, finite, nonnegative, positive
+from ._validation import ParameterError, check_count, fail, finite, nonnegative, positive
+
+
+MAX_HARMONICS = 100_000
+"""Most harmonics a Fourier texture may have (each evaluation of h costs one per harmonic)."""
 
 
 class Texture:
@@ -104,21 +108,28 @@ class SumOfSinusoids(Texture):
         )
 
     # -- evaluation -------------------------------------------------------------------
-    def _args(self, x):
+    def _series(self, x, fun, weights):
+        """sum_k weights_k fun(k_k x + phi_k), in chunks of x so that the (points x harmonics)
+        temporary stays below 32 MiB whatever the sizes."""
         x = np.asarray(x, dtype=np.float64)
-        return x[..., None] * self._coeffs[1] + self._coeffs[2]
+        flat = x.reshape(-1)
+        out = np.empty(flat.size)
+        step = max(1, (4 * 1024**2) // self.amplitudes.size)
+        for i in range(0, flat.size, step):
+            out[i:i + step] = fun(flat[i:i + step, None] * self._coeffs[1] + self._coeffs[2]) @ weights
+        return out.reshape(x.shape)
 
     def height(self, x):
         """Height h(x) (m) for x of any shape (m); returns the same shape."""
-        return np.sin(self._args(x)) @ self.amplitudes
+        return self._series(x, np.sin, self.amplitudes)
 
     def slope(self, x):
         """Slope h'(x) (dimensionless) for x of any shape (m)."""
-        return np.cos(self._args(x)) @ (self.amplitudes * self._coeffs[1])
+        return self._series(x, np.cos, self.amplitudes * self._coeffs[1])
 
     def curvature(self, x):
         """Second derivative h''(x) (1/m) for x of any shape (m)."""
-        return -(np.sin(self._args(x)) @ (self.amplitudes * self._coeffs[1] ** 2))
+        return -self._series(x, np.sin, self.amplitudes * self._coeffs[1] ** 2)
 
     def kernel_data(self) -> tuple[int, np.ndarray]:
         """(kind, coeffs) for the compiled kernels: ``TEXTURE_FOURIER`` and a (3, n)
@@ -297,7 +308,10 @@ class BandLimitedNoise(SumOfSinusoids):
         L = positive("length", length, "m")
         if not lmin <= lmax <= L:
             raise fail("longest_period", lmax, f"in [shortest_period = {lmin:g}, length = {L:g}] m")
-        k = np.arange(int(math.ceil(L / lmax - 1e-9)), int(math.floor(L / lmin + 1e-9)) + 1)
+        k_lo, k_hi = math.ceil(L / lmax - 1e-9), math.floor(L / lmin + 1e-9)
+        check_count("shortest_period", lmin, k_hi - k_lo + 1, MAX_HARMONICS,
+                    f"harmonics of 1/length = {1 / L:g} 1/m (each evaluation of h costs one per harmonic)")
+        k = np.arange(k_lo, k_hi + 1)
         k = k[k >= 1]
         if k.size == 0:
             raise fail("shortest_period", lmin, f"a band that contains a harmonic of 1/length = {1 / L:g} 1/m")
