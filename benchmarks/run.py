@@ -5,9 +5,11 @@
 2. renderer: Renderer.step latency from Python and of the compiled kernel, against plain C
    (benchmarks/run_renderer.py);
 3. simulator: simulate_batch samples per second against plain C, N = 1 and 1000
-   (benchmarks/run_sim.py).
+   (benchmarks/run_sim.py);
+4. worst: the maximum Renderer.step latency and work over 10^6 adversarial positions per
+   algorithm and texture (benchmarks/run_worst.py).
 
-Options: --only {analysis,renderer,simulator}, --points N, --json (analysis only).
+Options: --only {analysis,renderer,simulator,worst}, --points N, --json (analysis only).
 Never part of the test run; results are reported in benchmarks/README.md. Sections 2 and
 3 need gcc.
 """
@@ -41,7 +43,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--points", type=int, default=1_000_000)
     ap.add_argument("--json", action="store_true")
-    ap.add_argument("--only", choices=["analysis", "renderer", "simulator"])
+    ap.add_argument("--only", choices=["analysis", "renderer", "simulator", "worst"])
     args = ap.parse_args()
     if args.only in (None, "analysis"):
         analysis(args)
@@ -57,6 +59,12 @@ def main() -> None:
         print("\n# simulator")
         sys.argv = sys.argv[:1]
         run_sim.main()
+    if args.only in (None, "worst") and not args.json:
+        import run_worst
+
+        print("\n# worst-case servo tick (10^6 adversarial calls per algorithm and texture)")
+        sys.argv = sys.argv[:1]
+        run_worst.main()
 
 
 def analysis(args) -> None:

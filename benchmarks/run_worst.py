@@ -1,0 +1,65 @@
+"""Worst-case servo-tick latency (issue 17): Renderer.step over adversarial positions for
+W and A-G on the paper's sinusoid, the levelled Dektak profile and band-limited noise.
+
+Positions: 1 nm to 1 km below the surface (log-uniform), at peaks, valleys and anywhere
+between, far along the workspace, plus NaN/inf/huge values, wrong types and huge jumps.
+Reports the maximum and the 99.999th percentile of the wall time of one call (Python call
+included, timer cost subtracted) and the maximum counted work (texture evaluations).
+"""
+
+import argparse
+import gc
+import time
+from pathlib import Path
+
+import numpy as np
+
+import haptex as hx
+
+DEKTAK = Path(__file__).resolve().parents[2] / "shared" / "data" / "dektak-stylus-profile.csv"
+
+
+def inputs(tex, n, rng):
+    x = np.concatenate([rng.uniform(-3e-3, 3e-3, n - n // 10), rng.uniform(-900.0, 900.0, n // 10)])
+    z = tex.height(x) - 10 ** rng.uniform(-9, 3, n)
+    pts = list(zip(x.tolist(), z.tolist()))
+    bad = [(float("nan"), 0.0), (0.0, float("inf")), (1e300, -1.0), "12", b"12", (1.0, 2.0, 3.0), {0: 1}, None]
+    for i in range(0, n, max(1, n // 200)):
+        pts[i] = bad[i % len(bad)]
+    return pts
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--calls", type=int, default=1_000_000, help="adversarial calls per algorithm and texture")
+    n = ap.parse_args().calls
+    textures = {"sinusoid": hx.Sinusoid(0.8e-3, 1e-3), "noise": hx.BandLimitedNoise(1e-4, 0.5e-3, 5e-3, 1e-2, seed=3)}
+    if DEKTAK.exists():
+        textures["dektak"] = hx.SampledProfile.from_file(DEKTAK).leveled()
+    probe = np.empty(10000)
+    for i in range(probe.size):
+        t0 = time.perf_counter_ns()
+        probe[i] = time.perf_counter_ns() - t0
+    timer = float(np.median(probe))
+    print(f"| texture | algorithm | calls | max us | 99.999 % us | median us | max work |")
+    print("| --- | --- | ---: | ---: | ---: | ---: | ---: |")
+    rng = np.random.default_rng(2026)
+    for name, tex in textures.items():
+        pts = inputs(tex, n, rng)
+        for letter in "WABCDEFG":
+            r = hx.Renderer(hx.algorithm(letter, None if letter == "W" else tex, 1000.0), max_force=5.0)
+            step = r.step
+            lat = np.empty(n)
+            gc.disable()
+            for i, p in enumerate(pts):
+                t0 = time.perf_counter_ns()
+                step(p)
+                lat[i] = time.perf_counter_ns() - t0
+            gc.enable()
+            lat = (lat - timer) / 1e3
+            print(f"| {name} | {letter} | {n} | {lat.max():.1f} | {np.percentile(lat, 99.999):.1f} | "
+                  f"{np.median(lat):.2f} | {r.max_work} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()
