@@ -10,6 +10,7 @@ import haptex as hx
 from haptex import _kernels
 
 from .conftest import DEKTAK, needs_data
+from .test_closest import brute_force_distance
 
 SINE = hx.Sinusoid(0.8e-3, 1e-3)
 NOISE = hx.BandLimitedNoise(1e-4, 0.5e-3, 5e-3, 1e-2, seed=3)
@@ -31,23 +32,6 @@ def adversarial(tex, n, seed):
     x = np.concatenate([rng.uniform(-3e-3, 3e-3, n), rng.uniform(-900.0, 900.0, n // 10)])
     depth = 10 ** rng.uniform(-9, 3, x.size)
     return x, tex.height(x) - depth
-
-
-def brute_force(tex, px, pz, n=400_001):
-    """Reference distance: a dense search over the window the minimum must lie in
-    (|t - px| <= vertical depth, capped at 3 mm: beyond it every point is farther than the
-    nearest valley for these textures), refined by bounded minimisation."""
-    from scipy.optimize import minimize_scalar
-
-    dv = float(tex.height(np.array([px]))[0]) - pz
-    half = min(dv, 3e-3)
-    t = np.linspace(px - half, px + half, n)
-    d2 = (t - px) ** 2 + (tex.height(t) - pz) ** 2
-    i = int(np.argmin(d2))
-    dt = t[1] - t[0]
-    r = minimize_scalar(lambda u: (u - px) ** 2 + (float(tex.height(np.array([u]))[0]) - pz) ** 2,
-                        bounds=(t[i] - dt, t[i] + dt), method="bounded", options={"xatol": 1e-16})
-    return math.sqrt(min(float(r.fun), float(d2[i])))
 
 
 @needs_data
@@ -171,7 +155,7 @@ def test_closest_point_is_the_global_one_against_brute_force(name):
     z = tex.height(x) - 10 ** rng.uniform(-9, np.log10(3e-3), x.size)
     cp = hx.closest_point(tex, np.column_stack([x, z]))
     for px, pz, d in zip(x, z, cp.distance):
-        ref = brute_force(tex, px, pz)
+        ref = brute_force_distance(tex, px, pz)
         assert d <= ref * (1 + 1e-12) + 1e-15  # never farther than the true closest point
         assert d >= ref - 1e-12 * ref - 2e-15  # and a real boundary distance
 
