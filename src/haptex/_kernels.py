@@ -201,6 +201,16 @@ def _pair_possible(aux, g0, g1, gp0, gp1, dz, dt):
 
 
 @nb.njit(**_JIT)
+def _refine_and_offer(kind, coeffs, px, pz, a, b, sep, bs):
+    """Refine the minimum of phi bracketed by a - to + sign change of g on [a, b] and offer
+    it (:func:`_offer`); returns the work spent."""
+    t, it = _refine_bracket(kind, coeffs, px, pz, a, b)
+    f, _, _ = _dphi(kind, coeffs, px, pz, t)
+    _offer(bs, t, f, sep)
+    return it + 1
+
+
+@nb.njit(**_JIT)
 def _scan_interval(kind, coeffs, px, pz, a, b, f_a, g_a, n, bs, best):
     """Sample [a, b] at n + 1 points (the first is given), refine every - to + sign change of
     g; ``best`` = [t, f] of the best sample is updated. Returns the work spent."""
@@ -216,10 +226,7 @@ def _scan_interval(kind, coeffs, px, pz, a, b, f_a, g_a, n, bs, best):
             best[0] = t_k
             best[1] = f_k
         if g_prev <= 0.0 and g_k > 0.0:
-            t, it = _refine_bracket(kind, coeffs, px, pz, t_prev, t_k)
-            f, _, _ = _dphi(kind, coeffs, px, pz, t)
-            work += it + 1
-            _offer(bs, t, f, 0.5 * dt)
+            work += _refine_and_offer(kind, coeffs, px, pz, t_prev, t_k, 0.5 * dt, bs)
         t_prev = t_k
         g_prev = g_k
     return work
@@ -252,10 +259,7 @@ def _scan_leaf(kind, coeffs, aux, px, pz, u, w, bs):
         if _pair_possible(aux, g_prev, g_i, gp_prev, gp_i, dz, dt):
             work += _scan_interval(kind, coeffs, px, pz, t_prev, t_i, f_prev, g_prev, 16, bs, best)
         elif g_prev <= 0.0 and g_i > 0.0:
-            t, it = _refine_bracket(kind, coeffs, px, pz, t_prev, t_i)
-            f, _, _ = _dphi(kind, coeffs, px, pz, t)
-            work += it + 1
-            _offer(bs, t, f, 0.5 * dt)
+            work += _refine_and_offer(kind, coeffs, px, pz, t_prev, t_i, 0.5 * dt, bs)
         t_prev = t_i
         f_prev = f_i
         g_prev = g_i

@@ -49,11 +49,6 @@ class Texture:
         lo, hi = self.height_range
         return max(abs(lo), abs(hi))
 
-    @property
-    def closest_point_step(self) -> float:
-        """Sampling step (m) used by the closest-point search: 1/64 of the shortest period."""
-        return self.shortest_period / 64.0
-
 
 class SumOfSinusoids(Texture):
     """A sum of sinusoids h(x) = sum_k a_k sin(2 pi x / l_k + phi_k).
