@@ -128,3 +128,60 @@ def test_simulate_bad_input(args, fragment):
     assert r.returncode == 2
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and fragment in lines[0], r.stderr
+
+
+@pytest.fixture(scope="module")
+def bad_files(tmp_path_factory):
+    """The malformed inputs of issue 17's reproducer 7, written the way instruments and
+    MATLAB write them."""
+    import numpy as np
+    import scipy.io as sio
+    import scipy.sparse as sp
+
+    d = tmp_path_factory.mktemp("bad")
+    dektak = "\n".join(["Resolution,e um/sample", "Scan Data", "", "Lateral um,Raw Micrometer,",
+                        *[f"{i * 0.156:.3f},{0.01 * i:.5f}," for i in range(20)]])
+    (d / "res_e.csv").write_text(dektak)
+    (d / "onecol.csv").write_text("\n".join(["Scan Data", "Lateral um", *[f"{0.156 * i:.3f}" for i in range(20)]]))
+    h = np.linspace(0.0, 1.0, 50)
+    sio.savemat(d / "struct.mat", {"s": {"a": h}})
+    sio.savemat(d / "cell.mat", {"c": np.array([h, h[:20]], dtype=object)})
+    sio.savemat(d / "sparse.mat", {"h": sp.csr_matrix(h[None, :])})
+    sio.savemat(d / "string.mat", {"h": "heights"})
+    sio.savemat(d / "complex.mat", {"h": h + 1j * h})
+    np.savetxt(d / "huge.csv", np.c_[np.arange(50) * 1e-6, np.full(50, 1e308)], delimiter=",")
+    np.savetxt(d / "small.csv", np.c_[np.arange(50), np.sin(np.arange(50))], delimiter=",")
+    return d
+
+
+MAT = ["--spacing", "1um", "--height-unit", "um"]
+
+
+@pytest.mark.parametrize("args, fragment", [
+    # loaders (each one crashed with a traceback, or silently dropped an imaginary part)
+    (["design", "--texture", "{d}/res_e.csv"], "resolution 'e um/sample' is not a number"),
+    (["design", "--texture", "{d}/onecol.csv"], "has one column"),
+    (["design", "--texture", "{d}/struct.mat", *MAT], "is a struct with fields ['a']"),
+    (["design", "--texture", "{d}/cell.mat", *MAT], "is a cell array"),
+    (["design", "--texture", "{d}/sparse.mat", *MAT], "is a sparse matrix"),
+    (["design", "--texture", "{d}/string.mat", *MAT], "is text"),
+    (["design", "--texture", "{d}/complex.mat", *MAT], "is complex"),
+    (["design", "--texture", "{d}/huge.csv", "--x-unit", "m", "--height-unit", "m"], "h[0] = 1e+308 is not allowed"),
+    (["design", "--texture", "{d}/small.csv", "--x-unit", "um", "--height-unit", "parsec"], "within +-1000 m"),
+    (["design", "--texture", "noise:0.1mm,0.5mm,5mm,10mm," + "9" * 5000], "seed = '999"),
+    # absurd magnitudes: refused before any grid is built, naming what is out of range
+    (["table", "--amplitude", "1e308m"], "max slope M = inf exceeds 10000"),
+    (["table", "--amplitude", "1 furlong"], "max slope M = 1.26e+06 exceeds 10000"),
+    (["table", "--period", "1e308m"], "shortest period 1e+308 m"),
+    (["table", "--period", "1e-300m"], "max slope M = 5.03e+297"),
+    (["table", "--stiffness", "1e308 N/m"], "stiffness = 1e+308 is not allowed: must be at most 1e+12 N/m"),
+    (["simulate", "thrust", "--duration", "1e300s"], "duration = 1e+300 is not allowed: must be at most 1e+09 sampling"),
+    (["simulate", "thrust", "--sampling-period", "1e-300s"], "it asks for 2e+300"),
+    (["simulate", "thrust", "--duration", "10ms", "--plot", "{d}/x.txt"], "its extension must name a figure format"),
+])
+def test_reproducer_7_one_line_not_a_traceback(bad_files, args, fragment):
+    # issue 17, reproducer 7: every one of these printed a Python traceback (exit 1)
+    r = run_cli(*[a.replace("{d}", str(bad_files)) for a in args], timeout=120)
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == 2, r.stderr
+    assert len(lines) == 1 and lines[0].startswith("haptex: error: ") and fragment in lines[0], r.stderr

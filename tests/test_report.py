@@ -110,3 +110,46 @@ def test_force_writes_into_a_foreign_directory_and_keeps_its_files(tmp_path):
     assert r.returncode == 0, r.stderr
     assert (target / "notes.txt").read_text() == "keep me"
     assert (target / "index.html").exists()
+
+
+def _dead_pid() -> int:
+    """The PID of a process that has exited (reaped), for a scratch directory left by a killed run."""
+    p = subprocess.Popen([sys.executable, "-c", "pass"])
+    p.wait()
+    return p.pid
+
+
+def test_report_directory_follows_the_umask_and_stale_scratch_is_cleaned(tmp_path):
+    # issue 17, reproducer 10: reports were created 0700 (mkdtemp's mode) and a killed run's
+    # hidden .DIR.tmp-*/.DIR.old-* directories stayed forever
+    import os
+
+    target = tmp_path / "report"
+    dead = _dead_pid()
+    stale = [tmp_path / f".report.tmp-{dead}-abc", tmp_path / f".report.old-{dead}-def"]
+    live = tmp_path / f".report.tmp-{os.getpid()}-ghi"  # a running process's scratch stays
+    other = tmp_path / f".notes.tmp-{dead}-x"  # beside another directory: not ours to touch
+    for d in [*stale, live, other]:
+        d.mkdir()
+    r = subprocess.run([sys.executable, "-m", "haptex", "reproduce", "--quick", "--out", str(target)],
+                       capture_output=True, text=True, timeout=600, preexec_fn=lambda: os.umask(0o027))
+    assert r.returncode == 0, r.stderr
+    assert oct(target.stat().st_mode & 0o777) == oct(0o750)  # 0777 & ~umask, like mkdir
+    assert not any(d.exists() for d in stale)
+    assert live.exists() and other.exists()
+
+
+def test_reproduce_into_the_current_directory(tmp_path):
+    # issue 17, reproducer 7: `reproduce --out .` computed everything, then
+    # "ValueError: PosixPath('.') has an empty name"
+    (tmp_path / "notes.txt").write_text("keep me")
+    r = subprocess.run([sys.executable, "-m", "haptex", "reproduce", "--quick", "--out", "."], cwd=tmp_path,
+                       capture_output=True, text=True, timeout=600)
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1  # a foreign directory: refused at once
+    assert "use --force" in r.stderr
+    r = subprocess.run([sys.executable, "-m", "haptex", "reproduce", "--quick", "--out", ".", "--force"],
+                       cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "notes.txt").read_text() == "keep me"
+    assert json.loads((tmp_path / "summary.json").read_text())["generator"] == "haptex-report"
+    assert not [p for p in tmp_path.parent.iterdir() if p.name.startswith(f".{tmp_path.name}.")]

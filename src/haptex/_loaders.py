@@ -110,7 +110,14 @@ def _load_dektak(p: Path, lines):
         if cells[0].lower() == "resolution" and len(cells) > 1:
             m = re.match(r"([0-9.eE+-]+)\s*([^/\s]+)\s*/\s*sample", cells[1])
             if m:
-                res_um = float(m.group(1)) * _unit_factor(m.group(2), "resolution unit", f"{p}, line {i + 1}")
+                try:
+                    value = float(m.group(1))
+                except ValueError:
+                    raise ParameterError(f"{p}, line {i + 1}: resolution {cells[1]!r} is not a number per sample") from None
+                if not (math.isfinite(value) and value > 0):
+                    raise ParameterError(f"{p}, line {i + 1}: resolution {cells[1]!r} is not allowed: "
+                                         "must be a finite length > 0 per sample")
+                res_um = value * _unit_factor(m.group(2), "resolution unit", f"{p}, line {i + 1}")
         if line.strip().lower().startswith("scan data"):
             start = i + 1
             break
@@ -133,8 +140,11 @@ def _load_dektak(p: Path, lines):
         try:
             xs.append(float(cells[0]))
             hs.append(float(cells[1]))
-        except (ValueError, IndexError):
+        except ValueError:
             raise ParameterError(f"{p}, line {j + 1}: {lines[j][:60]!r} is not two numbers") from None
+        except IndexError:
+            raise ParameterError(f"{p}, line {j + 1}: {lines[j][:60]!r} has one column: Dektak 'Scan Data' "
+                                 "needs two (lateral position, height)") from None
         line_no.append(j + 1)
     x = np.array(xs) * units[0]
     h = np.array(hs) * units[1]
@@ -202,7 +212,7 @@ def _load_mat(p: Path, spacing, height_unit, variable):
         variable = names[0]
     if variable not in data:
         raise ParameterError(f"variable = {variable!r} is not allowed: {p} holds {names}")
-    arr = np.asarray(data[variable], dtype=np.float64).squeeze()
+    arr = _mat_vector(p, variable, data[variable])
     if arr.ndim != 1:
         raise ParameterError(f"{p}: variable {variable!r} has shape {data[variable].shape}: a profile must be a vector")
     examples = {"spacing": "spacing='0.5um'", "height_unit": "height_unit='mm'"}
@@ -214,3 +224,28 @@ def _load_mat(p: Path, spacing, height_unit, variable):
     _check(p, None, h)
     x = _spacing(spacing, str(p)) * np.arange(h.size)
     return x, h
+
+
+def _mat_vector(p: Path, variable: str, value) -> np.ndarray:
+    """The MATLAB variable as float64 if it is a real numeric array; anything else is refused."""
+    import scipy.sparse
+
+    what = None
+    if scipy.sparse.issparse(value):
+        what = "a sparse matrix"
+    elif not isinstance(value, np.ndarray):
+        what = f"a {type(value).__name__}"
+    elif value.dtype.names:
+        what = f"a struct with fields {list(value.dtype.names)}"
+    elif value.dtype.kind == "O":
+        what = "a cell array"
+    elif value.dtype.kind in "US":
+        what = "text"
+    elif value.dtype.kind == "c":
+        what = "complex (its imaginary part would be lost)"
+    elif value.dtype.kind not in "iuf":
+        what = f"of type {value.dtype} (logical or other)"
+    if what is not None:
+        raise ParameterError(f"{p}: variable {variable!r} is {what}, which is not allowed: "
+                             "a profile must be a real numeric vector")
+    return value.astype(np.float64).squeeze()

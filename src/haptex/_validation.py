@@ -13,6 +13,12 @@ import os
 import numpy as np
 
 
+MAX_LENGTH = 1e3
+"""Largest length (m) haptex accepts for a texture's heights and abscissae, a period or an
+analysed depth: a kilometre is far beyond any haptic workspace, and at 1e3 m a double
+still resolves 1e-13 m."""
+
+
 class ParameterError(ValueError):
     """A parameter has a value that is not allowed.
 
@@ -81,16 +87,21 @@ def whole(name: str, value, lo: int = 0, hi: int | None = None, what: str = "") 
     """Return ``value`` as int if it is a whole number in [lo, hi] (a float like 2.0 is
     accepted, 2.5 and booleans are not), else raise ParameterError."""
     allowed = f"a whole number >= {lo}" + ("" if hi is None else f" and <= {hi}") + (f" ({what})" if what else "")
-    if isinstance(value, bool):
+    if isinstance(value, bool | np.bool_):
         raise fail(name, value, allowed)
+    if isinstance(value, int | np.integer):  # exact, however large
+        v = int(value)
+        if not (v >= lo and (hi is None or v <= hi)):
+            raise fail(name, value, allowed)
+        return v
     try:
-        v = float(value)
-        ok = v.is_integer() and v >= lo and (hi is None or v <= hi)
+        f = float(value)
+        ok = f.is_integer() and f >= lo and (hi is None or f <= hi)
     except (TypeError, ValueError, OverflowError):
         raise fail(name, value, allowed) from None
     if not ok:
         raise fail(name, value, allowed)
-    return int(v)
+    return int(f)
 
 
 def optional_positive(name: str, value, unit: str = "") -> float | None:

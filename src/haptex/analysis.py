@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import integrate, ndimage, optimize
 
-from ._validation import ParameterError, check_budget, check_count, fail, in_range, positions, positive, whole
+from ._validation import MAX_LENGTH, ParameterError, check_budget, check_count, fail, in_range, positions, positive, whole
 from .algorithms import Algorithm
 from .closest import closest_point
 from .textures import Flat, Sinusoid, Texture
@@ -112,6 +112,55 @@ class CharacteristicNumber:
         return math.isinf(self.value)
 
 
+MAX_ANALYSIS_STIFFNESS = 1e12
+"""Largest kappa_0 (N/m) the analysis accepts: 10^4 times the stiffest wall a haptic device
+renders, and far enough from overflow that energies kappa_0 d^2 and squared Jacobian
+entries (kappa_0 M)^2 stay exact in double precision. The renderer and the simulator
+accept any finite stiffness."""
+MAX_SLOPE = 1e4
+"""Largest texture slope M the analysis accepts (a slope of 10^4 is a vertical wall to
+within 0.006 degrees; Remark 2's sqrt(1 + M^2) squares it)."""
+MAX_REGION_PERIODS = 1e4
+"""Largest depth of the analysed region, in shortest texture periods; deeper regions
+are refused rather than sampled at 64 grid cells per period."""
+
+
+def _analysis_depth(algorithm: Algorithm, max_penetration) -> float:
+    """Validate ``max_penetration`` (m) and the algorithm's scale for a region analysis.
+
+    Raises
+    ------
+    ParameterError
+        If the depth is not in (0, MAX_LENGTH], kappa_0 exceeds MAX_ANALYSIS_STIFFNESS,
+        the texture is steeper than MAX_SLOPE, its shortest period or height range
+        exceeds MAX_LENGTH, or the depth exceeds MAX_REGION_PERIODS shortest periods.
+    """
+    dmax = positive("max_penetration", max_penetration, "m")
+    if dmax > MAX_LENGTH:
+        raise fail("max_penetration", max_penetration, f"a depth in (0, {MAX_LENGTH:g}] m")
+    k0 = algorithm.stiffness
+    if k0 > MAX_ANALYSIS_STIFFNESS:
+        raise fail("stiffness", k0, f"at most {MAX_ANALYSIS_STIFFNESS:g} N/m in the analysis (energies "
+                   "kappa_0 d^2 must stay far from overflow); the renderer and simulator accept it")
+    tex = algorithm.texture
+    if isinstance(tex, Flat):
+        return dmax
+    slope = tex.max_slope
+    if not slope <= MAX_SLOPE:
+        raise ParameterError(f"texture = {tex!r} is not allowed in the analysis: its max slope M = {slope:.3g} "
+                             f"exceeds {MAX_SLOPE:g} (steeper than a vertical wall to 0.006 degrees; check the "
+                             "amplitude, period or height unit)")
+    lo, hi = tex.height_range
+    ell = tex.shortest_period
+    if not (ell <= MAX_LENGTH and hi - lo <= MAX_LENGTH):
+        raise ParameterError(f"texture = {tex!r} is not allowed in the analysis: its shortest period {ell:g} m or "
+                             f"height range {hi - lo:g} m exceeds {MAX_LENGTH:g} m")
+    if dmax > MAX_REGION_PERIODS * ell:
+        raise fail("max_penetration", dmax, f"at most {MAX_REGION_PERIODS:g} shortest texture periods "
+                   f"({MAX_REGION_PERIODS * ell:g} m) for {tex!r}")
+    return dmax
+
+
 def _x_range(alg: Algorithm, x_range) -> tuple[float, float]:
     if x_range is not None:
         try:
@@ -196,7 +245,7 @@ def characteristic_number(
     The paper's value 1 is the sup of the flat-boundary linearisation eq. 18, reported
     in ``paper_form_value``.
     """
-    dmax = positive("max_penetration", max_penetration, "m")
+    dmax = _analysis_depth(algorithm, max_penetration)
     nx, nd = (int(v) for v in resolution)
     if nx < 8 or nd < 4:
         raise fail("resolution", resolution, "(n_x, n_depth) with n_x >= 8 and n_depth >= 4")
@@ -895,7 +944,7 @@ def continuity(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=None
     ParameterError
         If a parameter is out of range.
     """
-    dmax = positive("max_penetration", max_penetration, "m")
+    dmax = _analysis_depth(algorithm, max_penetration)
     levels = whole("levels", levels, 3, 12, "grid refinements; level k has (base 2^k)^2 points")
     base = whole("base", base, 8, 4096)
     x0, x1, z0, z1 = _region_box(algorithm, dmax, x_range)
@@ -994,7 +1043,7 @@ def random_loops(algorithm: Algorithm, n: int = 6, vertices: int = 5, max_penetr
     -------
     list of ndarray, each of shape (vertices + 1, 2), metres.
     """
-    x0, x1, z0, z1 = _region_box(algorithm, positive("max_penetration", max_penetration, "m"), x_range)
+    x0, x1, z0, z1 = _region_box(algorithm, _analysis_depth(algorithm, max_penetration), x_range)
     rng = np.random.default_rng(seed)
     loops = []
     for _ in range(int(n)):

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import sys
 from pathlib import Path
 
@@ -165,6 +166,8 @@ def simulate(mode, letter, stiffness, amplitude, period, max_penetration, fricti
     from .simulate import simulate as run
     from .textures import Sinusoid
 
+    if plot is not None:
+        _check_plot_path(plot)
     letter = letter.upper()
     params = {"friction": friction, "presliding": presliding, "max_penetration": max_penetration} if letter == "F" else {}
     alg = algorithm(letter, None if letter == "W" else Sinusoid(amplitude, period), stiffness, **params)
@@ -220,6 +223,21 @@ def simulate(mode, letter, stiffness, amplitude, period, max_penetration, fricti
     Console(width=120).print(t)
 
 
+def _check_plot_path(plot: Path) -> None:
+    """Refuse, before computing, a figure path matplotlib cannot write."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    formats = sorted(FigureCanvasAgg(Figure()).get_supported_filetypes())
+    suffix = plot.suffix.lower().lstrip(".")
+    if suffix not in formats:
+        raise ParameterError(f"plot = {str(plot)!r} is not allowed: its extension must name a figure format "
+                             f"({', '.join(formats)})")
+    parent = plot.parent if str(plot.parent) else Path(".")
+    if not parent.is_dir():
+        raise ParameterError(f"plot = {str(plot)!r} is not allowed: the directory {str(parent)!r} does not exist")
+
+
 def _split_spec(text: str, name: str, kind: str, count: tuple[int, int]):
     parts = [v.strip() for v in text.split(",")] if text else []
     if not count[0] <= len(parts) <= count[1]:
@@ -239,9 +257,12 @@ def _texture_from_spec(spec: str, spacing, x_unit, height_unit, level, lowpass, 
         vals = _split_spec(rest, "texture", "noise", (4, 5))
         names = ["rms", "shortest_period", "longest_period", "length"]
         q = [parse_quantity(v, "m", n) for v, n in zip(vals[:4], names)]
-        seed = int(vals[4]) if len(vals) == 5 and vals[4].lstrip("-").isdigit() else 0
-        if len(vals) == 5 and not vals[4].lstrip("-").isdigit():
-            raise ParameterError(f"seed = {vals[4]!r} is not allowed: must be an integer")
+        seed = 0
+        if len(vals) == 5:
+            if not re.fullmatch(r"\d{1,20}", vals[4]):
+                raise ParameterError(f"seed = {vals[4][:30]!r}{'...' if len(vals[4]) > 30 else ''} is not allowed: "
+                                     "must be a whole number in [0, 2^64)")
+            seed = int(vals[4])
         return BandLimitedNoise(*q, seed=seed)
     prof = SampledProfile.from_file(spec, spacing=spacing, x_unit=x_unit, height_unit=height_unit,
                                     periodic=periodic)

@@ -274,7 +274,12 @@ def check_output(out: Path, force: bool) -> None:
     ------
     ParameterError
         If ``out`` exists, is not empty, is not a previous report and ``force`` is
-        False; or if its parent is not writable.
+        False; or if it or its parent is not writable (checked before any computing).
+
+    Notes
+    -----
+    Hidden scratch directories that a killed run left beside ``out`` are removed here
+    (:func:`remove_stale_scratch`).
     """
     if out.exists():
         if not out.is_dir():
@@ -282,15 +287,59 @@ def check_output(out: Path, force: bool) -> None:
         if any(out.iterdir()) and not _is_previous_report(out) and not force:
             raise ParameterError(f"out = {str(out)!r} is not allowed: it exists and is not a haptex report "
                                  "(use --force to write into it)")
-    parent = out.resolve().parent
+    target = out.resolve()
+    parent = target.parent
     try:
         parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise ParameterError(f"out = {str(out)!r} is not allowed: cannot create {str(parent)!r} ({exc.strerror})") from None
     try:  # a real probe: os.access says yes to root on read-only or virtual file systems
-        shutil.rmtree(tempfile.mkdtemp(prefix=f".{out.name}.probe-", dir=parent))
+        shutil.rmtree(tempfile.mkdtemp(prefix=_scratch_prefix(target, "probe"), dir=parent))
+        if target.is_dir():
+            shutil.rmtree(tempfile.mkdtemp(prefix=".haptex-probe-", dir=target))
     except OSError as exc:
         raise ParameterError(f"out = {str(out)!r} is not allowed: cannot write in {str(parent)!r} ({exc.strerror})") from None
+    remove_stale_scratch(target)
+
+
+def _scratch_prefix(target: Path, what: str) -> str:
+    """Name prefix of the hidden scratch directories beside ``target``, carrying our PID."""
+    return f".{target.name or 'root'}.{what}-{os.getpid()}-"
+
+
+def remove_stale_scratch(target: Path) -> list[Path]:
+    """Remove the hidden ``.DIR.tmp-PID-*``, ``.DIR.old-PID-*`` and ``.DIR.probe-PID-*``
+    directories that a killed run left beside ``target``; a directory whose process still
+    runs is kept. Returns the paths removed."""
+    removed = []
+    stem = f".{target.name or 'root'}."
+    try:
+        entries = list(target.parent.iterdir())
+    except OSError:
+        return removed
+    for entry in entries:
+        name = entry.name
+        if not name.startswith(stem) or not entry.is_dir() or entry.is_symlink():
+            continue
+        what, _, rest = name[len(stem):].partition("-")
+        pid = rest.split("-", 1)[0]
+        if what not in ("tmp", "old", "probe") or not pid.isdigit() or _alive(int(pid)):
+            continue
+        shutil.rmtree(entry, ignore_errors=True)
+        removed.append(entry)
+    return removed
+
+
+def _alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError):
+        return True  # another user's process, or not a PID we can ask about: keep it
+    return True
 
 
 def write_report(data: dict, out: Path, force: bool = False, elapsed: float | None = None) -> Path:
@@ -316,8 +365,9 @@ def write_report(data: dict, out: Path, force: bool = False, elapsed: float | No
 
     out = Path(out)
     check_output(out, force)
-    parent = out.resolve().parent
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=parent))
+    target = out.resolve()
+    tmp = Path(tempfile.mkdtemp(prefix=_scratch_prefix(target, "tmp"), dir=target.parent))
+    os.chmod(tmp, 0o777 & ~_umask())  # like any directory the user creates (mkdtemp makes it 0700)
     try:
         figs = {}
         for r in data["table_ii"]["rows"]:
@@ -340,7 +390,7 @@ def write_report(data: dict, out: Path, force: bool = False, elapsed: float | No
         summary = summary_json(data, elapsed)
         (tmp / "summary.json").write_text(json.dumps(summary, indent=2))
         (tmp / "index.html").write_text(_html(data, figs, summary))
-        _install(tmp, out, force)
+        _install(tmp, target, force)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
@@ -357,8 +407,11 @@ def _install(tmp: Path, out: Path, force: bool) -> None:
     run never leaves a directory that looks like a whole report.
     """
     ours = {f.name for f in tmp.iterdir()}
-    if out.exists() and not {f.name for f in out.iterdir()} <= ours:
-        if not (force or _is_previous_report(out)):
+    cwd = Path.cwd().resolve()
+    holds_cwd = out == cwd or out in cwd.parents  # never rename a directory the user stands in
+    foreign = {f.name for f in out.iterdir()} - ours if out.exists() else set()
+    if out.exists() and (holds_cwd or foreign):
+        if foreign and not (force or _is_previous_report(out)):
             raise ParameterError(f"out = {str(out)!r} is not allowed: it exists and is not a haptex report")
         (out / "summary.json").unlink(missing_ok=True)
         for f in sorted(tmp.iterdir(), key=lambda p: p.name == "summary.json"):
@@ -367,11 +420,18 @@ def _install(tmp: Path, out: Path, force: bool) -> None:
         return
     old = None
     if out.exists():
-        old = out.with_name(f".{out.name}.old-{os.getpid()}")
+        old = Path(tempfile.mkdtemp(prefix=_scratch_prefix(out, "old"), dir=out.parent))
+        old.rmdir()
         os.replace(out, old)
     os.replace(tmp, out)
     if old is not None:
         shutil.rmtree(old, ignore_errors=True)
+
+
+def _umask() -> int:
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
 
 
 def jsonable(obj):

@@ -261,8 +261,7 @@ def _prepare(algorithm, device, operator, duration, initial_position, initial_ve
         raise fail("device", device, "a haptex.Device")
     if not isinstance(operator, Operator):
         raise fail("operator", operator, "an operator from haptex.operators")
-    dur = positive("duration", duration, "s")
-    n_steps = int(round(dur / device.period))
+    n_steps = _n_steps(duration, device.period)
     if n_steps < 1:
         raise fail("duration", duration, f"at least one sampling period ({device.period:g} s)")
     if operator.kinematic:
@@ -271,6 +270,20 @@ def _prepare(algorithm, device, operator, duration, initial_position, initial_ve
         p0 = np.zeros(2) if initial_position is None else _point("initial_position", initial_position)
     v0 = np.zeros(2) if initial_velocity is None else _point("initial_velocity", initial_velocity)
     return n_steps, p0, v0
+
+
+MAX_STEPS = 10**9
+"""Most sampling periods one run may take: 2 to 3 minutes of the compiled simulator on one
+core (benchmarks/README.md); longer runs are refused, not started."""
+
+
+def _n_steps(duration, period: float) -> int:
+    dur = positive("duration", duration, "s")
+    n = dur / period
+    if not n <= MAX_STEPS:
+        raise fail("duration", duration, f"at most {MAX_STEPS:.0e} sampling periods of {period:g} s "
+                   f"({MAX_STEPS * period:g} s); it asks for {n:.3g}")
+    return int(round(n))
 
 
 def _point(name, value):

@@ -15,7 +15,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from . import _kernels
-from ._validation import ParameterError, check_count, fail, finite, nonnegative, positive
+from ._validation import MAX_LENGTH, ParameterError, check_count, fail, finite, nonnegative, positive, whole
 
 
 MAX_HARMONICS = 100_000
@@ -310,9 +310,8 @@ class BandLimitedNoise(SumOfSinusoids):
         k = k[k >= 1]
         if k.size == 0:
             raise fail("shortest_period", lmin, f"a band that contains a harmonic of 1/length = {1 / L:g} 1/m")
-        if isinstance(seed, bool) or int(seed) != seed:
-            raise fail("seed", seed, "an integer")
-        rng = np.random.default_rng(int(seed))
+        seed = whole("seed", seed, 0, 2**64 - 1, "numpy's default_rng seed")
+        rng = np.random.default_rng(seed)
         phases = rng.uniform(0.0, 2 * np.pi, k.size)
         amp = rms * math.sqrt(2.0 / k.size)
         self.rms = rms
@@ -369,6 +368,12 @@ class SampledProfile(Texture):
             raise ParameterError(f"x and h have lengths {x.size} and {h.size}, which is not allowed: they must match")
         if x.size < 4:
             raise ParameterError(f"the profile has {x.size} samples, which is not allowed: at least 4 are needed")
+        for name, v in (("x", x), ("h", h)):
+            big = np.nonzero(~(np.abs(v) <= MAX_LENGTH))[0]
+            if big.size:
+                i = int(big[0])
+                raise ParameterError(f"{name}[{i}] = {v[i]:g} is not allowed: samples must lie within "
+                                     f"+-{MAX_LENGTH:g} m (check the unit)")
         dx_all = np.diff(x)
         if not np.all(dx_all > 0):
             i = int(np.argmax(~(dx_all > 0))) + 1
