@@ -616,25 +616,34 @@ def presliding_step_smooth(deflection, dx, d_max, z_stick, tab):
     inverted by bisection-safeguarded Newton (at most 60 iterations); below the table's
     last node (e < 1e-16 r) the flow of rate = e + (pi e / 2r)^2 is used in closed form.
     """
+    return _smooth_flow(deflection, dx, d_max, z_stick, tab)[0]
+
+
+@nb.njit(**_JIT)
+def _smooth_flow(deflection, dx, d_max, z_stick, tab):
+    """:func:`presliding_step_smooth` and its work: (deflection, table steps), where a table
+    step is one node comparison of the bisection or one Hermite evaluation of the Newton
+    inversion (at most 11 + 60 with the 2,048-node table)."""
     if dx == 0.0:
-        return deflection
+        return deflection, 0
     s = 1.0 if dx > 0.0 else -1.0
     a = deflection * s  # deflection along the motion
     rem = abs(dx)
     if a < z_stick:  # purely elastic until |d| = z_stick in the direction of motion
         if a + rem <= z_stick:
-            return s * (a + rem)
+            return s * (a + rem), 0
         rem -= z_stick - a
         a = z_stick
     r = 1.0 - z_stick / d_max
     e = 1.0 - a / d_max
     if e <= 0.0:
-        return s * d_max
+        return s * d_max, 0
     n = int(tab[T_N])
     dv = tab[T_DV]
     logr = tab[T_LOGR]
     travel = rem / d_max
     jl = (logr - math.log(e)) / dv  # continuous node index of e
+    work = 0
     if jl < n - 1:
         j0 = int(jl)
         if j0 < 0:
@@ -645,6 +654,7 @@ def presliding_step_smooth(deflection, dx, d_max, z_stick, tab):
             lo = j0
             hi = n - 1
             while hi - lo > 1:  # the node interval holding the target
+                work += 1
                 mid = (lo + hi) // 2
                 if tab[T_DATA + mid] <= target:
                     lo = mid
@@ -654,6 +664,7 @@ def presliding_step_smooth(deflection, dx, d_max, z_stick, tab):
             b_th = 1.0
             th = 0.5
             for _ in range(60):
+                work += 1
                 val, der = _hermite(tab, lo, th)
                 if val < target:
                     a_th = th
@@ -667,24 +678,26 @@ def presliding_step_smooth(deflection, dx, d_max, z_stick, tab):
                     break
                 th = tn
             e = r * math.exp(-(lo + th) * dv)
-            return s * d_max * (1.0 - e)
+            return s * d_max * (1.0 - e), work
         travel = target - tab[T_DATA + n - 1]
         e = r * math.exp(-(n - 1) * dv)
     # tail: de/dx = -(e + beta e^2), exact logistic flow
     beta = tab[T_BETA]
     g = (1.0 / e + beta) * math.exp(travel) - beta
     e = 1.0 / g if g < math.inf else 0.0
-    return s * d_max * (1.0 - e)
+    return s * d_max * (1.0 - e), work
 
 
 @nb.njit(**_JIT)
 def _presliding(st, x, dxmax, zstick, tab):
-    """Advance F's friction state to x (see haptex.friction); returns the deflection."""
+    """Advance F's friction state to x (see haptex.friction); returns the deflection and
+    adds the table steps of the smooth variant to st[S_WORK]."""
     if zstick < 0.0:
         d, st[S_ADH] = presliding_step(st[S_ADH], x, dxmax)
     else:
-        d = presliding_step_smooth(st[S_LASTX] - st[S_ADH], x - st[S_LASTX], dxmax, zstick, tab)
+        d, work = _smooth_flow(st[S_LASTX] - st[S_ADH], x - st[S_LASTX], dxmax, zstick, tab)
         st[S_ADH] = x - d
+        st[S_WORK] += work
     st[S_LASTX] = x
     return d
 
@@ -697,7 +710,8 @@ def alg_force(code, x, z, kind, coeffs, prm, aux, st):
     ``aux`` is the closest-point search data (D, E) or the smooth presliding table (F).
     ``st`` (length N_STATE) is the algorithm's state, updated in place: F's friction state
     (contact starts with zero deflection, leaving the wall resets it), D's and E's warm
-    start, and st[S_WORK], the texture evaluations this call spent.
+    start, and st[S_WORK], the work this call spent: texture evaluations, plus F's
+    presliding table steps.
     """
     k0 = prm[P_K0]
     st[S_WORK] = 1.0

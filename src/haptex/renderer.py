@@ -97,7 +97,7 @@ class Renderer:
         Notes
         -----
         Never raises, never returns NaN or a force above ``max_force``, and does a bounded
-        amount of work for any input (:attr:`last_work`, texture evaluations).
+        amount of work for any input (:attr:`last_work`).
         """
         try:
             if isinstance(p, (str, bytes, bytearray, dict)) or len(p) != 2:
@@ -115,7 +115,8 @@ class Renderer:
 
     @property
     def last_work(self) -> int:
-        """Texture evaluations spent by the last :meth:`step` (bounded for any input)."""
+        """Work of the last :meth:`step`, bounded for any input: texture evaluations, plus
+        F's presliding table steps (at most 11 + 60) in its smooth variant."""
         return int(self._rs[RS_WORK])
 
     @property
