@@ -174,7 +174,12 @@ MAT = ["--spacing", "1um", "--height-unit", "um"]
     (["table", "--amplitude", "1 furlong"], "max slope M = 1.26e+06 exceeds 10000"),
     (["table", "--period", "1e308m"], "shortest period 1e+308 m"),
     (["table", "--period", "1e-300m"], "max slope M = 5.03e+297"),
-    (["table", "--stiffness", "1e308 N/m"], "stiffness = 1e+308 is not allowed: must be at most 1e+12 N/m"),
+    (["table", "--stiffness", "1e308 N/m"], "stiffness = 1e+308 is not allowed: must be in [1e-06, 1e+12] N/m"),
+    # found by tests/test_fuzz.py: NaN positions and an OverflowError inside F's analysis
+    (["table", "--friction", "1e300"], "presliding lateral stiffness"),
+    (["table", "--presliding", "1e-300m"], "presliding lateral stiffness"),
+    (["table", "--presliding", "1e300m"], "presliding = 1e+300 is not allowed: must be at most 1000 m"),
+    (["table", "--max-penetration", "999m"], "max_penetration = 999 is not allowed"),
     (["simulate", "thrust", "--duration", "1e300s"], "duration = 1e+300 is not allowed: must be at most 1e+09 sampling"),
     (["simulate", "thrust", "--sampling-period", "1e-300s"], "it asks for 2e+300"),
     (["simulate", "thrust", "--duration", "10ms", "--plot", "{d}/x.txt"], "its extension must name a figure format"),

@@ -115,18 +115,26 @@ class CharacteristicNumber:
 MAX_ANALYSIS_STIFFNESS = 1e12
 """Largest kappa_0 (N/m) the analysis accepts: 10^4 times the stiffest wall a haptic device
 renders, and far enough from overflow that energies kappa_0 d^2 and squared Jacobian
-entries (kappa_0 M)^2 stay exact in double precision. The renderer and the simulator
-accept any finite stiffness."""
+entries (kappa_0 M)^2 stay exact in double precision. It also bounds F's presliding
+lateral stiffness mu kappa_0 d^z_max / d^x_max. The renderer and the simulator accept any
+finite stiffness."""
+MIN_ANALYSIS_STIFFNESS = 1e-6
+"""Smallest kappa_0 (N/m) the analysis accepts, so that energies kappa_0 d^2 of nanometre
+penetrations stay normal doubles (above 1e-300) and the conservativity tolerance
+1e-9 kappa_0 L^2 means something."""
 MAX_SLOPE = 1e4
 """Largest texture slope M the analysis accepts (a slope of 10^4 is a vertical wall to
 within 0.006 degrees; Remark 2's sqrt(1 + M^2) squares it)."""
-MAX_REGION_PERIODS = 1e4
+MAX_REGION_PERIODS = 1e3
 """Largest depth of the analysed region, in shortest texture periods; deeper regions
 are refused rather than sampled at 64 grid cells per period."""
 
 
-def _analysis_depth(algorithm: Algorithm, max_penetration) -> float:
-    """Validate ``max_penetration`` (m) and the algorithm's scale for a region analysis.
+def check_analysis_scale(algorithm: Algorithm, max_penetration) -> float:
+    """Validate ``max_penetration`` (m) and the algorithm's scale for a region analysis;
+    returns ``max_penetration`` as a float. Called by every region analysis, and up front
+    by :func:`haptex.tables.table_ii` and :func:`haptex.design.design` for all their
+    algorithms, so nothing is computed before a bad parameter is refused.
 
     Raises
     ------
@@ -139,11 +147,24 @@ def _analysis_depth(algorithm: Algorithm, max_penetration) -> float:
     if dmax > MAX_LENGTH:
         raise fail("max_penetration", max_penetration, f"a depth in (0, {MAX_LENGTH:g}] m")
     k0 = algorithm.stiffness
-    if k0 > MAX_ANALYSIS_STIFFNESS:
-        raise fail("stiffness", k0, f"at most {MAX_ANALYSIS_STIFFNESS:g} N/m in the analysis (energies "
-                   "kappa_0 d^2 must stay far from overflow); the renderer and simulator accept it")
+    if not MIN_ANALYSIS_STIFFNESS <= k0 <= MAX_ANALYSIS_STIFFNESS:
+        raise fail("stiffness", k0, f"in [{MIN_ANALYSIS_STIFFNESS:g}, {MAX_ANALYSIS_STIFFNESS:g}] N/m in the analysis "
+                   "(energies kappa_0 d^2 must stay normal doubles); the renderer and simulator accept it")
+    if algorithm.has_memory:  # F: its presliding range and lateral stiffness
+        dxm = algorithm.presliding
+        if dxm > MAX_LENGTH:
+            raise fail("presliding", dxm, f"at most {MAX_LENGTH:g} m")
+        dz = dmax if algorithm.max_penetration is None else min(dmax, algorithm.max_penetration)
+        k_lat = algorithm.friction * k0 * (1 + algorithm.modulation_depth) * dz / dxm
+        if k_lat > MAX_ANALYSIS_STIFFNESS:
+            raise ParameterError(f"friction = {algorithm.friction:g} with presliding = {dxm:g} m is not allowed in "
+                                 f"the analysis: F's presliding lateral stiffness mu kappa_0 (1 + A) d^z_max / "
+                                 f"d^x_max = {k_lat:.3g} N/m exceeds {MAX_ANALYSIS_STIFFNESS:g} N/m")
     tex = algorithm.texture
-    if isinstance(tex, Flat):
+    if isinstance(tex, Flat):  # the analysed region of a flat wall is 1 mm wide (_x_range)
+        if dmax > MAX_REGION_PERIODS * 1e-3:
+            raise fail("max_penetration", dmax, f"at most {MAX_REGION_PERIODS * 1e-3:g} m for a flat wall "
+                       f"({MAX_REGION_PERIODS:g} times the 1 mm wide analysed region)")
         return dmax
     slope = tex.max_slope
     if not slope <= MAX_SLOPE:
@@ -245,7 +266,7 @@ def characteristic_number(
     The paper's value 1 is the sup of the flat-boundary linearisation eq. 18, reported
     in ``paper_form_value``.
     """
-    dmax = _analysis_depth(algorithm, max_penetration)
+    dmax = check_analysis_scale(algorithm, max_penetration)
     nx, nd = (int(v) for v in resolution)
     if nx < 8 or nd < 4:
         raise fail("resolution", resolution, "(n_x, n_depth) with n_x >= 8 and n_depth >= 4")
@@ -483,7 +504,7 @@ def _unbounded_focus(tex: Texture, dmax: float, x0: float, x1: float):
     xs = np.linspace(x0, x1, 4097)
     s = tex.slope(xs)
     c = tex.curvature(xs)
-    with np.errstate(divide="ignore"):
+    with np.errstate(divide="ignore", over="ignore"):  # where c = 0 or is subnormal, rho is inf
         rho = np.where(c < 0, (1 + s * s) ** 1.5 / np.abs(c), np.inf)
     i = int(np.argmin(rho))
     if not np.isfinite(rho[i]):
@@ -944,7 +965,7 @@ def continuity(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=None
     ParameterError
         If a parameter is out of range.
     """
-    dmax = _analysis_depth(algorithm, max_penetration)
+    dmax = check_analysis_scale(algorithm, max_penetration)
     levels = whole("levels", levels, 3, 12, "grid refinements; level k has (base 2^k)^2 points")
     base = whole("base", base, 8, 4096)
     x0, x1, z0, z1 = _region_box(algorithm, dmax, x_range)
@@ -1043,7 +1064,7 @@ def random_loops(algorithm: Algorithm, n: int = 6, vertices: int = 5, max_penetr
     -------
     list of ndarray, each of shape (vertices + 1, 2), metres.
     """
-    x0, x1, z0, z1 = _region_box(algorithm, _analysis_depth(algorithm, max_penetration), x_range)
+    x0, x1, z0, z1 = _region_box(algorithm, check_analysis_scale(algorithm, max_penetration), x_range)
     rng = np.random.default_rng(seed)
     loops = []
     for _ in range(int(n)):

@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 
 from .algorithms import algorithm
-from .analysis import characteristic_number, conservativity, continuity, paper_loop, texture_limits
+from .analysis import characteristic_number, check_analysis_scale, conservativity, continuity, paper_loop, texture_limits
 from .devices import Device, critical_stiffness
 from .textures import Texture
 
@@ -54,10 +54,13 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
     ParameterError
         For invalid parameters.
     """
-    rows = []
-    for L in LETTERS:
+    algs = {}
+    for L in LETTERS:  # every parameter is checked before anything is computed
         kw = {"friction": friction, "presliding": presliding, "max_penetration": max_penetration} if L == "F" else {}
-        alg = algorithm(L, None if L == "W" else texture, stiffness, **kw)
+        algs[L] = algorithm(L, None if L == "W" else texture, stiffness, **kw)
+        check_analysis_scale(algs[L], max_penetration)
+    rows = []
+    for L, alg in algs.items():
         xr = None if L == "W" else x_range
         q = characteristic_number(alg, max_penetration=max_penetration, x_range=xr)
         kmax = 0.0 if math.isinf(q.value) else device.passivity_limit / q.value

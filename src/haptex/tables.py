@@ -7,7 +7,7 @@ import math
 
 from ._validation import nonnegative, positive
 from .algorithms import ALGORITHMS, algorithm
-from .analysis import characteristic_number, conservativity, continuity, paper_loop, path_work
+from .analysis import characteristic_number, check_analysis_scale, conservativity, continuity, paper_loop, path_work
 from .textures import Sinusoid
 
 PAPER_PARAMETERS = {
@@ -92,10 +92,13 @@ def table_ii(stiffness: float = PAPER_PARAMETERS["stiffness"], amplitude: float 
     presliding = positive("presliding", presliding, "m")
     tex = Sinusoid(A, l)
     order = [c for c in "WABCDEFG" if c in ALGORITHMS] if letters is None else [c.upper() for c in letters]
-    rows = []
-    for letter in order:
+    algs = {}
+    for letter in order:  # every parameter is checked before anything is computed
         params = {"friction": friction, "presliding": presliding, "max_penetration": dmax} if letter == "F" else {}
-        alg = algorithm(letter, None if letter == "W" else tex, k0, **params)
+        algs[letter] = algorithm(letter, None if letter == "W" else tex, k0, **params)
+        check_analysis_scale(algs[letter], dmax)
+    rows = []
+    for letter, alg in algs.items():
         q = characteristic_number(alg, max_penetration=dmax)
         path, expected, source = paper_loop(alg, depth=dmax / 2 if letter in "GW" else None)
         e_loop = path_work(alg, path)
