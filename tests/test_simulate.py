@@ -194,3 +194,25 @@ def test_bad_simulation_input():
         hx.simulate_batch(wall(1000), dev, ConstantForce([0, -1]), 0.1, stiffness=[100, -5])
     with pytest.raises(hx.ParameterError, match="exactly one"):
         ScanningHand(100, 1)
+
+
+@pytest.mark.parametrize("decay, expect", [(0.0, True), (3.0, False)])
+def test_a_lateral_limit_cycle_is_an_oscillation_and_sliding_is_not(decay, expect):
+    # Issue 10: the verdict watched p^z only, so algorithm C thrown sideways into a lateral
+    # cycle was reported at rest. A 0.2 mm, 40 Hz lateral cycle (the issue's F case) riding on
+    # 10 mm/s of steady sliding, with p^z at rest: oscillating on x, amplitude 0.2 mm and
+    # 40 Hz (to the periodogram's 1/duration bin), when sustained; not when it decays e^-3t.
+    from haptex.simulate import _oscillation
+
+    dur, n = 2.0, 8000
+    t = np.arange(n) * dur / n
+    x = 0.01 * t + 0.2e-3 * np.exp(-decay * t) * np.sin(2 * np.pi * 40.0 * t)
+    z = np.full(n, -1e-3)
+    o = _oscillation(np.column_stack([x, z]), dur, 0.0, 1e-6)
+    assert o.oscillating is expect and o.x.oscillating is expect and not o.z.oscillating
+    if expect:
+        assert o.axis == "x"
+        assert o.amplitude == pytest.approx(0.2e-3, rel=0.02)
+        assert o.frequency == pytest.approx(40.0, abs=1 / dur)
+    # steady sliding alone (a scan's traversal) is not an oscillation
+    assert not _oscillation(np.column_stack([0.01 * t, z]), dur, 0.0, 1e-6).oscillating

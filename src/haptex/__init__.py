@@ -30,7 +30,7 @@ from .analysis import (
 from .closest import ClosestPoint, closest_point
 from .devices import Device, critical_stiffness, five_bar_jacobian
 from .renderer import Renderer
-from .simulate import BatchResult, Oscillation, SimulationResult, SimulationWarning, simulate, simulate_batch
+from .simulate import AxisOscillation, BatchResult, Oscillation, SimulationResult, SimulationWarning, simulate, simulate_batch
 from .tables import PAPER_PARAMETERS, table_ii
 from .textures import BandLimitedNoise, Flat, SampledProfile, Sinusoid, SumOfSinusoids, Texture
 
@@ -43,6 +43,7 @@ __all__ = [
     "SimulationWarning",
     "BatchResult",
     "Device",
+    "AxisOscillation",
     "Oscillation",
     "SimulationResult",
     "critical_stiffness",

@@ -836,7 +836,8 @@ def _setpoint(ts, ps, vend, t, out):
 @nb.njit(**_JIT)
 def run_one(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, M, K, C, f0, sp_t, sp_p, vend, rest_len,
             kinematic, n_steps, T, delay, delta, fres, fmax, p0, v0, record_every, rec, summary, tail_start, tail_z):
-    """One simulation; fills ``rec`` (n_rec, 12) if it has rows, ``summary`` and ``tail_z``.
+    """One simulation; fills ``rec`` (n_rec, 12) if it has rows, ``summary`` and ``tail_z``
+    (n_tail, 2): the position [x, z] sampled evenly over the tail of the run.
 
     Record columns: t, px, pz, vx, vz, fx, fz, E_x, E_z, E_damping, W_operator, KE.
     The run stops at the first sample whose position, velocity, force or energy is not
@@ -988,7 +989,8 @@ def run_one(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, M, K, C, f0,
         if k >= tail_start and n_tail > 0:
             j = (k - tail_start) // tail_stride
             if j < n_tail:
-                tail_z[j] = p[1]
+                tail_z[j, 0] = p[0]
+                tail_z[j, 1] = p[1]
         if nrec > 0 and (k + 1) % record_every == 0 and irec < nrec:
             rec[irec, 0] = t + T
             rec[irec, 1] = p[0]

@@ -543,8 +543,10 @@ def _html(data, figs, summary) -> str:
                  f"{pas['parameters']['band_stiffness']:g} N/m at {pas['parameters']['band_angle_deg']:g} degrees. "
                  "Smallest stiffness of the sweep at which each algorithm oscillated: " +
                  ", ".join(f"{L}: {_g(v)} N/m" for L, v in pas["critical"].items()) + ".</p>")
-    parts.append(_table(["run", "oscillating", "amplitude (um)", "frequency (Hz)", "decay ratio", "energy/cycle (J)"],
-                        [[r.label, r.result.oscillating, _g(r.result.oscillation.amplitude * 1e6, ".3g"),
+    parts.append(_table(["run", "oscillating", "axis", "amplitude (um)", "frequency (Hz)", "decay ratio",
+                         "energy/cycle (J)"],
+                        [[r.label, r.result.oscillating, r.result.oscillation.axis,
+                          _g(r.result.oscillation.amplitude * 1e6, ".3g"),
                           _g(r.result.oscillation.frequency, ".4g"), _g(r.result.oscillation.decay_ratio, ".3g"),
                           _g(r.result.oscillation.energy_per_cycle, ".3g")] for r in pas["runs"]]))
     parts.append(_img(figs["fig5_passivity"], "Fig. 5 thrust runs"))

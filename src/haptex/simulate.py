@@ -110,27 +110,53 @@ def _discretise(device: Device, op: Operator) -> tuple[np.ndarray, np.ndarray, n
 # results
 # --------------------------------------------------------------------------------------
 @dataclass(frozen=True)
-class Oscillation:
-    """Verdict on the last part of a run: sustained limit cycle or decaying transient.
+class AxisOscillation:
+    """The oscillation verdict on one axis of the tail of a run.
 
     Attributes
     ----------
     oscillating : bool
-        True when the peak-to-peak motion of p^z in the second half of the tail window is
-        above ``threshold`` and at least 0.9 times that of the first half (sustained or
+        True when the half peak-to-peak motion along this axis in the second half of the
+        tail, after removing the tail's straight-line trend (steady sliding or drift), is
+        above the threshold and at least 0.9 times that of the first half (sustained or
         growing), over at least 3 cycles.
     amplitude : float
-        Half the peak-to-peak p^z in the second half of the tail (m).
+        Half the detrended peak-to-peak motion in the second half of the tail (m).
     decay_ratio : float
         Amplitude of the second half over that of the first half.
     frequency : float
-        Dominant frequency of p^z in the tail (Hz), from a Hann-windowed periodogram.
+        Dominant frequency (Hz), from a Hann-windowed periodogram of the detrended motion.
+    """
+
+    oscillating: bool
+    amplitude: float
+    decay_ratio: float
+    frequency: float
+
+
+@dataclass(frozen=True)
+class Oscillation:
+    """Verdict on the last part of a run, on both axes: sustained limit cycle or decaying
+    transient.
+
+    Attributes
+    ----------
+    oscillating : bool
+        True when either axis oscillates (:class:`AxisOscillation`): a lateral limit cycle
+        counts as much as one along the normal.
+    axis : str
+        ``"x"`` or ``"z"``: the axis reported in ``amplitude``, ``decay_ratio`` and
+        ``frequency`` — the oscillating one with the larger amplitude, else the larger.
+    amplitude, decay_ratio, frequency : float
+        That axis's figures (m, 1, Hz).
     energy_per_cycle : float
-        Net energy the environment supplied per cycle in the tail (J), i.e. minus the
-        change of E_x + E_z divided by the number of cycles; > 0 feeds the oscillation.
+        Net energy the environment supplied per cycle of that axis's frequency in the tail
+        (J): minus the change of E_x + E_z divided by the number of cycles; > 0 feeds it.
     threshold : float
-        Amplitude below which motion counts as rest (m): the larger of the position
-        resolution and 1e-7 m.
+        Amplitude below which motion counts as rest (m): the larger of the encoder's
+        position resolution and 1e-7 m.
+    x, z : AxisOscillation
+        The verdict on each axis.
     """
 
     oscillating: bool
@@ -139,26 +165,38 @@ class Oscillation:
     frequency: float
     energy_per_cycle: float
     threshold: float
+    axis: str = "z"
+    x: AxisOscillation | None = None
+    z: AxisOscillation | None = None
 
 
-def _oscillation(tail_z: np.ndarray, tail_duration: float, e_env_tail: float, threshold: float) -> Oscillation:
-    z = np.asarray(tail_z, dtype=np.float64)
-    n = z.size
-    if n < 8 or tail_duration <= 0:
-        return Oscillation(False, 0.0, 0.0, 0.0, 0.0, threshold)
-    h1, h2 = z[: n // 2], z[n // 2:]
-    a1 = 0.5 * float(np.ptp(h1))
-    a2 = 0.5 * float(np.ptp(h2))
+def _axis_oscillation(u: np.ndarray, tail_duration: float, threshold: float) -> AxisOscillation:
+    n = u.size
+    t = np.arange(n, dtype=np.float64)
+    u = u - np.polyval(np.polyfit(t, u, 1), t)  # steady sliding or drift is not an oscillation
+    a1 = 0.5 * float(np.ptp(u[: n // 2]))
+    a2 = 0.5 * float(np.ptp(u[n // 2:]))
     ratio = a2 / a1 if a1 > 0 else (math.inf if a2 > 0 else 0.0)
-    zc = (z - z.mean()) * np.hanning(n)
-    spec = np.abs(np.fft.rfft(zc)) ** 2
+    spec = np.abs(np.fft.rfft((u - u.mean()) * np.hanning(n))) ** 2
     spec[0] = 0.0
-    fs = n / tail_duration
-    freq = float(np.argmax(spec) * fs / n) if spec.max() > 0 else 0.0
-    cycles = freq * tail_duration
+    freq = float(np.argmax(spec) / tail_duration) if spec.max() > 0 else 0.0
+    osc = bool(a2 > threshold and ratio >= 0.9 and freq * tail_duration >= 3)
+    return AxisOscillation(osc, a2, float(ratio), freq)
+
+
+def _oscillation(tail: np.ndarray, tail_duration: float, e_env_tail: float, threshold: float) -> Oscillation:
+    """Verdict from the tail positions ``tail`` (n, 2) [x, z] sampled evenly over ``tail_duration`` (s)."""
+    tail = np.asarray(tail, dtype=np.float64)
+    if tail.shape[0] < 8 or tail_duration <= 0:
+        rest = AxisOscillation(False, 0.0, 0.0, 0.0)
+        return Oscillation(False, 0.0, 0.0, 0.0, 0.0, threshold, "z", rest, rest)
+    ax = {name: _axis_oscillation(tail[:, i], tail_duration, threshold) for i, name in enumerate("xz")}
+    key = max("zx", key=lambda k: (ax[k].oscillating, ax[k].amplitude))
+    main = ax[key]
+    cycles = main.frequency * tail_duration
     per_cycle = -e_env_tail / cycles if cycles > 0 else 0.0
-    osc = bool(a2 > threshold and ratio >= 0.9 and cycles >= 3)
-    return Oscillation(osc, a2, float(ratio), freq, float(per_cycle), threshold)
+    return Oscillation(ax["x"].oscillating or ax["z"].oscillating, main.amplitude, main.decay_ratio, main.frequency,
+                       float(per_cycle), threshold, key, ax["x"], ax["z"])
 
 
 @dataclass(frozen=True)
@@ -382,7 +420,7 @@ def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration:
     rec = np.zeros((n_rec, 12))
     summary = np.zeros(N_SUMMARY)
     tail_start = int(n_steps * (1 - tail_fraction))
-    tail_z = np.zeros(min(n_steps - tail_start, 65536))
+    tail_z = np.zeros((min(n_steps - tail_start, 65536), 2))
     _run(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, device.mass, operator.stiffness, operator.damping,
          operator.force, operator.setpoint_times, operator.setpoint_points, operator.final_velocity,
          operator.rest_length, operator.kinematic, n_steps, device.period, device.delay, device.position_resolution,
@@ -625,7 +663,7 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     rec = np.zeros((N, n_rec, 12))
     summary = np.zeros((N, N_SUMMARY))
     tail_start = int(n_steps * (1 - tail_fraction))
-    tail_z = np.zeros((N, min(n_steps - tail_start, 8192)))
+    tail_z = np.zeros((N, min(n_steps - tail_start, 8192), 2))
     T = dev[0].period
     # (value, True if it has one row per run)
     args = [(code, False), (kind, False), (coeffs, True), (prm, True), (aux, True), (nominal, False), (Phi, True), (Wd, True),
