@@ -216,3 +216,60 @@ def test_a_lateral_limit_cycle_is_an_oscillation_and_sliding_is_not(decay, expec
         assert o.frequency == pytest.approx(40.0, abs=1 / dur)
     # steady sliding alone (a scan's traversal) is not an oscillation
     assert not _oscillation(np.column_stack([0.01 * t, z]), dur, 0.0, 1e-6).oscillating
+
+
+def _net_absorbed(k, virtual_b, device_b, T, points, n_segments):
+    """Energy the operator puts into the device plus wall along a kinematic path, per
+    segment: environment absorption E_x + E_z plus the device's viscous dissipation (J)."""
+    dev = hx.Device.point_mass(0.1, device_b, T)
+    alg = hx.algorithm("W", None, k, damping=virtual_b, period=T)
+    seg = np.linalg.norm(points[1] - points[0])
+    r = hx.simulate(alg, dev, KinematicPath(points, seg * (len(points) - 1) / (n_segments * T)), n_segments * T * 0.999999)
+    t = r.totals
+    return (t["energy_x"] + t["energy_z"] + t["damping_energy"]) / n_segments
+
+
+@pytest.mark.parametrize("virtual_b", [0.0, 0.2, 0.5])
+def test_virtual_wall_passivity_at_nyquist_is_colgate_schenkel(virtual_b):
+    # Colgate & Schenkel (1997): the sampled spring-damper wall on a device with damping b is
+    # passive iff b > K T / 2 + |B|. For B >= 0 the worst motion alternates each sample,
+    # p_k = -d + a (-1)^k: by hand the wall generates 2 K a^2 + 4 a^2 B / T per sample and
+    # the device dissipates 4 a^2 b / T, so the net is (4 a^2 / T)(b - K T / 2 - B).
+    k, T, a, d = 1000.0, 1e-3, 1e-4, 1e-3
+    n = 2000
+    pts = np.array([[0.0, -d + a * (-1) ** i] for i in range(n + 1)])
+    b_crit = k * T / 2 + virtual_b
+    for factor in (0.98, 1.02):
+        net = _net_absorbed(k, virtual_b, factor * b_crit, T, pts, n)
+        # the first sample has no previous position, so no damper force: 4 a^2 B / T less generated
+        expect = 4 * a * a / T * ((factor - 1) * b_crit + virtual_b / n)
+        assert net == pytest.approx(expect, rel=1e-6)
+        assert (net > 0) is (factor > 1)
+
+
+def test_negative_virtual_damping_costs_its_magnitude_colgate_schenkel():
+    # The |B| of Colgate & Schenkel for B < 0: a slow triangle wave at constant speed v, where
+    # the backward difference is exact. Per sample the ZOH spring generates K T v^2 T / 2
+    # (f_k held while p moves v T), the damper generates |B| v^2 T, the device dissipates
+    # b v^2 T: passive iff b > K T / 2 + |B|.
+    k, T, B = 1000.0, 1e-3, -0.2
+    a, d, per_leg = 1e-4, 1e-3, 200
+    pts = np.array([[0.0, -d - a], [0.0, -d + a]] * 10 + [[0.0, -d - a]])
+    v = 2 * a / (per_leg * T)
+    b_crit = k * T / 2 + abs(B)
+    n = per_leg * 20
+    for factor in (0.95, 1.05):
+        net = _net_absorbed(k, B, factor * b_crit, T, pts, n)
+        # edges, by hand: at each of the 19 turns the backward difference has the wrong sign for
+        # one sample (2 |B| v^2 T less generated); the first sample has no damper (|B| v^2 T)
+        expect = ((factor - 1) * b_crit + (19 * 2 + 1) * abs(B) / n) * v * v * T
+        assert net == pytest.approx(expect, rel=1e-6)
+        assert (net > 0) is (factor > 1)
+
+
+def test_a_virtual_damper_needs_the_device_period():
+    with pytest.raises(hx.ParameterError, match="^period = None is not allowed with damping = 0.5"):
+        hx.algorithm("W", None, 1000.0, damping=0.5)
+    alg = hx.algorithm("W", None, 1000.0, damping=0.5, period=1e-3)
+    with pytest.raises(hx.ParameterError, match="must use the device's sampling period 0.0001 s"):
+        hx.simulate(alg, hx.Device.point_mass(0.1, 0.5, 1e-4), ConstantForce([0.0, -1.0]), 0.01)

@@ -715,10 +715,15 @@ def alg_force(code, x, z, kind, coeffs, prm, aux, st):
     """
     k0 = prm[P_K0]
     st[S_WORK] = 1.0
-    if code == ALG_W:
+    if code == ALG_W:  # prm[P_MU] is W's virtual damping B, prm[P_DXMAX] its servo period T
+        fz = 0.0
         if z < 0.0:
-            return 0.0, -k0 * z
-        return 0.0, 0.0
+            fz = -k0 * z
+            if prm[P_MU] != 0.0 and st[S_CONTACT] != 0.0:
+                fz -= prm[P_MU] * (z - st[S_LASTX]) / prm[P_DXMAX]
+        st[S_LASTX] = z  # the previous sensed p^z, for the backward difference
+        st[S_CONTACT] = 1.0
+        return 0.0, fz
     if code == ALG_F or code == ALG_G:
         if z >= 0.0:
             st[S_CONTACT] = 0.0

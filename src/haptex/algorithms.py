@@ -18,7 +18,7 @@ import warnings
 from scipy import integrate
 
 from . import _kernels
-from ._validation import ParameterError, fail, in_range, nonnegative, optional_positive, positions, positive
+from ._validation import ParameterError, fail, finite, in_range, nonnegative, optional_positive, positions, positive
 from .closest import closest_point, search_data
 from .friction import PreslidingState, smooth_table, step
 from .textures import Flat, Texture
@@ -204,6 +204,34 @@ class SmoothWall(Algorithm):
     """W — the smooth virtual wall, eq. 30: f = [0, -kappa_0 p^z] for p^z < 0.
 
     Its Jacobian is diag(0, -kappa_0), so its characteristic number is 1.
+
+    With ``damping`` B > 0 it is the classic sampled spring–damper virtual wall of Colgate
+    & Schenkel ("Passivity of a class of sampled-data systems: application to haptic
+    interfaces", J. Robotic Systems 14(1), 1997): inside the wall the command is
+    f^z_k = -kappa_0 p^z_k - B (p^z_k - p^z_{k-1}) / T, the velocity being the backward
+    difference of the sensed positions over the servo period T (``period``). Colgate and
+    Schenkel show this wall, on a device with physical damping b, is passive iff
+    b > kappa_0 T / 2 + |B|. The damper is linear (it may pull while the probe leaves
+    fast), as in their analysis. It acts in the compiled servo loop (simulator,
+    renderer); the static field (:meth:`force`, :meth:`jacobian` and the analysis) is the
+    spring alone.
+
+    Parameters
+    ----------
+    texture : None
+    stiffness : float
+        kappa_0 (N/m).
+    damping : float, optional
+        Virtual damping B (N s/m), default 0; negative values are allowed (they model a
+        controller that injects energy, the other half of Colgate & Schenkel's condition).
+    period : float, optional
+        Servo period T (s) of the backward difference; required when ``damping`` != 0 and
+        checked against the device's period by the simulator.
+
+    Raises
+    ------
+    ParameterError
+        For a texture, a non-finite damping, or a damping without a period.
     """
 
     letter = "W"
@@ -212,12 +240,27 @@ class SmoothWall(Algorithm):
     is_gradient = True
     reference = "eq. 30"
 
-    def __init__(self, texture: Texture | None, stiffness: float):
+    def __init__(self, texture: Texture | None, stiffness: float, damping: float = 0.0, period: float | None = None):
         if texture is not None and not isinstance(texture, Flat):
             raise ParameterError(
                 f"texture = {texture!r} is not allowed for algorithm W: the smooth wall has no texture (pass None)"
             )
         super().__init__(Flat(), stiffness)
+        self.damping = finite("damping", damping, "N s/m")
+        self.period = optional_positive("period", period, "s")
+        if self.damping != 0.0 and self.period is None:
+            raise ParameterError(f"period = None is not allowed with damping = {self.damping:g} N s/m: the "
+                                 "virtual damper's backward-difference velocity needs the servo period T (s)")
+
+    def __repr__(self) -> str:
+        if self.damping == 0.0:
+            return super().__repr__()
+        return (f"algorithm('W', None, stiffness={self.stiffness:g}, damping={self.damping:g}, "
+                f"period={self.period:g})")
+
+    def _fill_kernel_params(self, prm) -> None:
+        prm[_kernels.P_MU] = self.damping  # W's slots: virtual damping B and servo period T
+        prm[_kernels.P_DXMAX] = 1.0 if self.period is None else self.period
 
     def _evaluate(self, x, z, jacobian):
         k = self.stiffness
@@ -790,7 +833,8 @@ def algorithm(letter: str, texture: Texture | None = None, stiffness: float = 20
         Algorithm-specific parameters: ``max_penetration`` (d^z_max, m) for B, C, F and G
         (Remark 3); for F also ``friction`` (mu >= 0, default 0.8), ``presliding``
         (d^x_max > 0, m, default 1 mm), ``modulation_depth`` (in [0, 1], default 0.8) and
-        ``stick_deflection`` (z_stick, m, smooth stick-to-slip variant; default None).
+        ``stick_deflection`` (z_stick, m, smooth stick-to-slip variant; default None);
+        for W ``damping`` (a virtual damper B, N s/m) and ``period`` (its servo period T, s).
 
     Returns
     -------
@@ -826,6 +870,8 @@ def algorithm(letter: str, texture: Texture | None = None, stiffness: float = 20
 def _accepted(key: str) -> str:
     if key in ("B", "C", "G"):
         return "it accepts max_penetration"
+    if key == "W":
+        return "it accepts damping and period (a virtual damper)"
     if key == "F":
         return "it accepts friction, presliding, modulation_depth, max_penetration, stick_deflection"
     return "it accepts no extra parameter"

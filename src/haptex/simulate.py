@@ -356,6 +356,10 @@ def _kernel_inputs(algorithm, device, operator, memo: dict | None = None):
     (six 20x20 matrix exponentials) between runs whose device and operator are the same
     objects, as in sweeps of algorithm parameters."""
     code, prm, kind, coeffs, aux = algorithm.kernel_spec()
+    T_alg = getattr(algorithm, "period", None)
+    if T_alg is not None and not math.isclose(T_alg, device.period, rel_tol=1e-12):
+        raise ParameterError(f"period = {T_alg:g} s of {algorithm!r} is not allowed on {device.name}: its virtual "
+                             f"damper's backward difference must use the device's sampling period {device.period:g} s")
     _check_conditioning(device, operator)
     key = (id(device), id(operator))
     if memo is None or key not in memo:
