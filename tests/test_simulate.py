@@ -273,3 +273,49 @@ def test_a_virtual_damper_needs_the_device_period():
     alg = hx.algorithm("W", None, 1000.0, damping=0.5, period=1e-3)
     with pytest.raises(hx.ParameterError, match="must use the device's sampling period 0.0001 s"):
         hx.simulate(alg, hx.Device.point_mass(0.1, 0.5, 1e-4), ConstantForce([0.0, -1.0]), 0.01)
+
+
+@pytest.mark.parametrize("push", [0.5, 1.5])
+def test_coulomb_friction_sticks_below_fc_and_slides_exactly_above(push):
+    # A damped mass with Coulomb friction f_c = 1 N pushed from rest by a constant force F:
+    # below f_c stiction holds it exactly still; above, m dv/dt = F - f_c - b v, whose
+    # solution x(t) = (F - f_c)/b t - m (F - f_c)/b^2 (1 - e^{-bt/m}) (textbook first-order
+    # lag) the sampled friction model reproduces exactly, its force being constant.
+    m, b, T, fc = 0.2, 0.7, 1e-3, 1.0
+    dev = hx.Device.point_mass(m, b, T, coulomb_friction=fc)
+    r = hx.simulate(wall(1000.0), dev, ConstantForce([push, 0.0]), 0.5, initial_position=[0.0, 1.0])
+    net = max(push - fc, 0.0)
+    exact = net / b * r.time - net * m / b**2 * (1 - np.exp(-b * r.time / m))
+    np.testing.assert_allclose(r.position[:, 0], exact, rtol=1e-10, atol=1e-15)
+    assert r.totals["friction_energy"] == pytest.approx(fc * exact[-1], rel=1e-10, abs=0.0)
+    assert r.energy_balance_error < 1e-9
+
+
+def test_coulomb_friction_stops_a_sliding_handle_where_the_closed_form_says():
+    # From v0 with no force: m dv/dt = -f_c - b v stops at t* = (m/b) ln(1 + b v0 / f_c),
+    # x* = (m/b) v0 - (f_c m / b^2) ln(1 + b v0 / f_c) (by hand). The sampled model stops at
+    # the end of the sample holding t*, within f_c T^2 / m of x*, and exactly at rest; all of
+    # the kinetic energy goes into damping and friction.
+    m, b, T, fc, v0 = 0.2, 0.7, 1e-3, 1.0, 0.3
+    dev = hx.Device.point_mass(m, b, T, coulomb_friction=fc)
+    r = hx.simulate(wall(1000.0), dev, ConstantForce([0.0, 0.0]), 0.5, initial_position=[0.0, 1.0],
+                    initial_velocity=[v0, 0.0])
+    x_star = m / b * v0 - fc * m / b**2 * math.log(1 + b * v0 / fc)
+    assert abs(r.position[-1, 0] - x_star) <= fc * T * T / m
+    assert tuple(r.velocity[-1]) == (0.0, 0.0)
+    assert r.totals["damping_energy"] + r.totals["friction_energy"] == pytest.approx(0.5 * m * v0**2, rel=1e-12)
+
+
+@pytest.mark.parametrize("letter", ["W", "A", "D", "F"])
+def test_energy_balance_closes_with_coulomb_friction_in_closed_loop(letter):
+    # Issue 10: friction's dissipation enters the balance, which must still close to 1e-9
+    alg = hx.algorithm(letter, None if letter == "W" else SINE, K0)
+    dev = hx.Device.pantograph(coulomb_friction=0.05)
+    r = hx.simulate(alg, dev, ScanningHand(300.0, 1.0, velocity=0.02, depth=2e-3), 1.0)
+    assert r.totals["friction_energy"] > 0
+    assert r.energy_balance_error < 1e-9
+
+
+def test_negative_coulomb_friction_is_refused():
+    with pytest.raises(hx.ParameterError, match="^coulomb_friction = -0.1 is not allowed"):
+        hx.Device.point_mass(0.1, 0.5, 1e-4, coulomb_friction=-0.1)

@@ -773,8 +773,8 @@ _NZ = 10  # augmented state [p(2), v(2), u(2), g(2), r(2)]
 
 # summary slots
 (S_EX, S_EZ, S_DAMP, S_OP, S_KE0, S_KE, S_SAT, S_MAXPEN, S_MAXF, S_NSAMP, S_TAILSTART_E, S_DIVERGED,
- S_DIVERGED_WHAT) = range(13)
-N_SUMMARY = 13
+ S_DIVERGED_WHAT, S_FRIC, S_STUCK) = range(15)
+N_SUMMARY = 15
 DIVERGED_POSITION, DIVERGED_VELOCITY, DIVERGED_FORCE, DIVERGED_ENERGY = 1, 2, 3, 4
 """What became non-finite first in a diverged simulation (summary[S_DIVERGED_WHAT])."""
 
@@ -839,8 +839,41 @@ def _setpoint(ts, ps, vend, t, out):
 
 
 @nb.njit(**_JIT)
+def _coulomb(P, z, v, fc):
+    """The handle's Coulomb friction force over one sample, held like the command (a sampled
+    Karnopp model). Returns (f_x, f_z, at_rest).
+
+    f* is the constant force that brings the velocity at the end of the sample to zero
+    (the sample's exact map ``P`` is affine in the held input, slots 4-5 of ``z``). If
+    |f*| <= fc the handle is stopped and held by stiction (friction = f*, at_rest). Else it
+    slides: friction fc opposes the velocity at the start of the sample, or, from rest,
+    the net applied force (the direction of f*).
+    """
+    a0 = 0.0
+    a1 = 0.0
+    for j in range(_NZ):
+        a0 += P[2, j] * z[j]
+        a1 += P[3, j] * z[j]
+    b00 = P[2, 4]
+    b01 = P[2, 5]
+    b10 = P[3, 4]
+    b11 = P[3, 5]
+    det = b00 * b11 - b01 * b10
+    fx = -(b11 * a0 - b01 * a1) / det
+    fz = -(-b10 * a0 + b00 * a1) / det
+    n = math.hypot(fx, fz)
+    if n <= fc:
+        return fx, fz, True
+    sp = math.hypot(v[0], v[1])
+    if sp > 0.0:
+        return -fc * v[0] / sp, -fc * v[1] / sp, False
+    return fc * fx / n, fc * fz / n, False
+
+
+@nb.njit(**_JIT)
 def run_one(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, M, K, C, f0, sp_t, sp_p, vend, rest_len,
-            kinematic, n_steps, T, delay, delta, fres, fmax, p0, v0, record_every, rec, summary, tail_start, tail_z):
+            kinematic, n_steps, T, delay, delta, fres, fmax, fc, p0, v0, record_every, rec, summary, tail_start,
+            tail_z):
     """One simulation; fills ``rec`` (n_rec, 12) if it has rows, ``summary`` and ``tail_z``
     (n_tail, 2): the position [x, z] sampled evenly over the tail of the run.
 
@@ -848,6 +881,10 @@ def run_one(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, M, K, C, f0,
     The run stops at the first sample whose position, velocity, force or energy is not
     finite: summary[S_DIVERGED] is then that sample's number (1-based) and
     summary[S_DIVERGED_WHAT] says which quantity (DIVERGED_*); both are 0 otherwise.
+
+    ``fc`` (N) is the handle's isotropic Coulomb friction, sampled (see
+    :func:`_coulomb`); summary[S_FRIC] is the energy it dissipated (J) and
+    summary[S_STUCK] the number of samples that ended at rest by stiction.
     """
     st = np.zeros(N_STATE)
     z = np.zeros(_NZ)
@@ -868,6 +905,8 @@ def run_one(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, M, K, C, f0,
     n_tail = tail_z.shape[0]
     tail_stride = max((n_steps - tail_start) // max(n_tail, 1), 1)
     e_tail = 0.0
+    efr = 0.0
+    stuck = 0
     irec = 0
     nrec = rec.shape[0]
     for k in range(n_steps):
@@ -926,7 +965,9 @@ def run_one(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, M, K, C, f0,
                 ke0 = ke_now
                 ke_prev = ke_now
             ed += dd
-            eo += (ke_now - ke_prev) + dd - (ux * dpx + uz * dpz)
+            dfr = fc * math.hypot(dpx, dpz)  # prescribed sliding: friction opposes each step
+            efr += dfr
+            eo += (ke_now - ke_prev) + dd + dfr - (ux * dpx + uz * dpz)
             ke_prev = ke_now
             ex -= ux * dpx
             ez -= uz * dpz
@@ -957,20 +998,40 @@ def run_one(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, M, K, C, f0,
             z[7] = g0z
             z[8] = K[0, 0] * sdx + K[0, 1] * sdz
             z[9] = K[1, 0] * sdx + K[1, 1] * sdz
-            ed += _quad(Wd[reg], z)
-            eo += _quad(Wo[reg], z)
             P = Phi[reg]
-            npx = 0.0
-            npz = 0.0
+            ffx = 0.0
+            ffz = 0.0
+            rest = False
+            held = False
+            if fc > 0.0:
+                ffx, ffz, rest = _coulomb(P, z, v, fc)
+                z[4] = ux + ffx
+                z[5] = uz + ffz
+                if rest:
+                    stuck += 1
+                    # at rest and held by stiction: the friction force follows the applied
+                    # force within the sample, so the handle does not move at all
+                    held = v[0] == 0.0 and v[1] == 0.0
+            npx = p[0]
+            npz = p[1]
             nvx = 0.0
             nvz = 0.0
-            for j in range(_NZ):
-                npx += P[0, j] * z[j]
-                npz += P[1, j] * z[j]
-                nvx += P[2, j] * z[j]
-                nvz += P[3, j] * z[j]
+            if not held:
+                ed += _quad(Wd[reg], z)
+                eo += _quad(Wo[reg], z)
+                npx = 0.0
+                npz = 0.0
+                for j in range(_NZ):
+                    npx += P[0, j] * z[j]
+                    npz += P[1, j] * z[j]
+                    nvx += P[2, j] * z[j]
+                    nvz += P[3, j] * z[j]
             ex -= ux * (npx - p[0])
             ez -= uz * (npz - p[1])
+            efr -= ffx * (npx - p[0]) + ffz * (npz - p[1])
+            if fc > 0.0 and rest:  # stiction: at rest exactly, not at a round-off velocity
+                nvx = 0.0
+                nvz = 0.0
             p[0] = npx
             p[1] = npz
             v[0] = nvx
@@ -1021,16 +1082,19 @@ def run_one(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, M, K, C, f0,
     summary[S_MAXF] = maxf
     summary[S_NSAMP] = n_steps
     summary[S_TAILSTART_E] = e_tail
+    summary[S_FRIC] = efr
+    summary[S_STUCK] = stuck
 
 
 @nb.njit(parallel=True, cache=True)
 def run_batch(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, M, K, C, f0, sp_t, sp_p, vend, rest_len,
-              kinematic, n_steps, T, delay, delta, fres, fmax, p0, v0, record_every, rec, summary, tail_start,
+              kinematic, n_steps, T, delay, delta, fres, fmax, fc, p0, v0, record_every, rec, summary, tail_start,
               tail_z):
     """Runs i = 0..N-1 of :func:`run_one` in parallel; every per-run array has a leading N axis."""
     for i in nb.prange(coeffs.shape[0]):
         run_one(code, kind, coeffs[i], prm[i], aux[i], nominal, Phi[i], Wd[i], Wo[i], Bs[i], M[i], K[i], C[i], f0[i], sp_t,
-             sp_p[i], vend[i], rest_len[i], kinematic, n_steps, T, delay[i], delta[i], fres[i], fmax[i], p0[i], v0[i],
+             sp_p[i], vend[i], rest_len[i], kinematic, n_steps, T, delay[i], delta[i], fres[i], fmax[i], fc[i], p0[i],
+             v0[i],
              record_every, rec[i], summary[i], tail_start, tail_z[i])
 
 

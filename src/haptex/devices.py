@@ -58,6 +58,13 @@ class Device:
         ``damping``. The paper energises its eddy-current brakes only inside (Section V-A).
     first_resonance : float, optional
         F0 (Hz), the first structural mode (Section II); inf if not modelled.
+    coulomb_friction : float, optional
+        f_c (N), the handle's isotropic Coulomb friction with stiction, default 0. The
+        simulator holds it over each sample like the command (a sampled Karnopp model,
+        :func:`haptex._kernels._coulomb`): the handle sticks while the friction needed to
+        stop it within the sample is at most f_c, else slides against f_c. Its dissipation
+        enters the energy balance. Abbott & Okamura (IEEE Trans. Robotics 21(5), 2005)
+        tie the wall's passivity to it through the encoder resolution.
     stiffness_limit : float, optional
         The largest stiffness the device renders stably (N/m), if measured; default
         (None) the passivity bound sigma_0(B) / (2T) of Corollary 1 (see
@@ -69,7 +76,8 @@ class Device:
     ------
     ParameterError
         For a non-symmetric or non-positive-definite mass, negative damping, T <= 0, a
-        negative or non-integer delay, or negative resolutions or force limit.
+        negative or non-integer delay, negative resolutions, force limit or Coulomb
+        friction.
 
     Notes
     -----
@@ -86,6 +94,7 @@ class Device:
     max_force: float = math.inf
     damping_outside: np.ndarray | None = None
     first_resonance: float = math.inf
+    coulomb_friction: float = 0.0
     name: str = "device"
     stiffness_limit: float | None = None
     details: dict = field(default_factory=dict, compare=False)
@@ -104,6 +113,7 @@ class Device:
             object.__setattr__(self, name, v)
         object.__setattr__(self, "max_force", positive_or_inf("max_force", self.max_force, "N"))
         object.__setattr__(self, "first_resonance", positive_or_inf("first_resonance", self.first_resonance, "Hz"))
+        object.__setattr__(self, "coulomb_friction", nonnegative("coulomb_friction", self.coulomb_friction, "N"))
         if self.stiffness_limit is not None:
             object.__setattr__(self, "stiffness_limit", positive("stiffness_limit", self.stiffness_limit, "N/m"))
 
@@ -126,8 +136,8 @@ class Device:
     def replace(self, **changes) -> Device:
         """A copy with some parameters changed (validated again)."""
         fields = {k: getattr(self, k) for k in ("mass", "damping", "period", "delay", "position_resolution",
-                                                "force_resolution", "max_force", "first_resonance", "name",
-                                                "stiffness_limit")}
+                                                "force_resolution", "max_force", "first_resonance",
+                                                "coulomb_friction", "name", "stiffness_limit")}
         fields["damping_outside"] = None if np.array_equal(self.damping_outside, self.damping) else self.damping_outside
         if "damping" in changes and "damping_outside" not in changes and fields["damping_outside"] is None:
             fields["damping_outside"] = None

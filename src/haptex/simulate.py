@@ -25,7 +25,7 @@ import numpy as np
 from scipy.linalg import expm
 
 from ._kernels import (_NZ, DIVERGED_ENERGY, DIVERGED_FORCE, DIVERGED_POSITION, DIVERGED_VELOCITY, N_SUMMARY, S_DAMP,
-                       S_DIVERGED, S_DIVERGED_WHAT, S_EX, S_EZ, S_KE, S_KE0, S_MAXPEN, S_NSAMP, S_OP, S_SAT,
+                       S_DIVERGED, S_DIVERGED_WHAT, S_EX, S_EZ, S_FRIC, S_KE, S_KE0, S_MAXPEN, S_NSAMP, S_OP, S_SAT,
                        S_TAILSTART_E)
 from ._kernels import run_batch as _run_batch
 from ._kernels import run_one as _run
@@ -233,7 +233,8 @@ class SimulationResult:
     oscillation : Oscillation
         Verdict on the last ``tail_fraction`` of the run.
     totals : dict
-        Final E_x, E_z, damping, operator work and kinetic energy (J).
+        Final E_x, E_z, damping, operator work, kinetic energy and the energy dissipated by
+        the device's Coulomb friction (``friction_energy``) (J).
     diverged_at : int or None
         The sample (1-based) at which a position, velocity, force or energy became
         non-finite; the run stopped there and its series end before it. None if it did not.
@@ -277,15 +278,17 @@ class SimulationResult:
     def energy_balance_error(self) -> float:
         """Relative closure of the energy balance at the end of the run.
 
-        (KE_end - KE_0) - (W_command + W_operator - E_damping), with
+        (KE_end - KE_0) - (W_command + W_operator - E_damping - E_friction), with
         W_command = -(E_x + E_z), divided by the largest of those terms in magnitude.
         Round-off only (about 1e-12) when the simulation is exact.
         """
         t = self.totals
         w_cmd = -(t["energy_x"] + t["energy_z"])
-        err = (t["kinetic_energy"] - self.initial_kinetic_energy) - (w_cmd + t["operator_work"] - t["damping_energy"])
+        e_fr = t.get("friction_energy", 0.0)
+        err = (t["kinetic_energy"] - self.initial_kinetic_energy) - (w_cmd + t["operator_work"] - t["damping_energy"]
+                                                                     - e_fr)
         scale = max(abs(w_cmd), abs(t["operator_work"]), abs(t["damping_energy"]), abs(t["kinetic_energy"]),
-                    abs(self.initial_kinetic_energy), 1e-300)
+                    abs(self.initial_kinetic_energy), abs(e_fr), 1e-300)
         return abs(err) / scale if math.isfinite(err) else math.inf
 
 
@@ -428,7 +431,8 @@ def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration:
     _run(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, device.mass, operator.stiffness, operator.damping,
          operator.force, operator.setpoint_times, operator.setpoint_points, operator.final_velocity,
          operator.rest_length, operator.kinematic, n_steps, device.period, device.delay, device.position_resolution,
-         device.force_resolution, device.max_force, p0, v0, record_every, rec, summary, tail_start, tail_z)
+         device.force_resolution, device.max_force, device.coulomb_friction, p0, v0, record_every, rec, summary,
+         tail_start, tail_z)
     result = _result(rec, summary, tail_z, (n_steps - tail_start) * device.period, device)
     _warn_health([result])
     return result
@@ -459,7 +463,7 @@ def _result(rec, summary, tail_z, tail_duration, device) -> SimulationResult:
     osc = _oscillation(tail_z, tail_duration, e_env_tail, max(device.position_resolution, 1e-7))
     totals = {"energy_x": float(summary[S_EX]), "energy_z": float(summary[S_EZ]),
               "damping_energy": float(summary[S_DAMP]), "operator_work": float(summary[S_OP]),
-              "kinetic_energy": float(summary[S_KE])}
+              "kinetic_energy": float(summary[S_KE]), "friction_energy": float(summary[S_FRIC])}
     return SimulationResult(
         time=rec[:, 0], position=rec[:, 1:3], velocity=rec[:, 3:5], force=rec[:, 5:7], energy_x=rec[:, 7],
         energy_z=rec[:, 8], damping_energy=rec[:, 9], operator_work=rec[:, 10], kinetic_energy=rec[:, 11],
@@ -470,7 +474,7 @@ def _result(rec, summary, tail_z, tail_duration, device) -> SimulationResult:
 
 _ALGORITHM_KEYS = ("stiffness", "amplitude", "texture_period", "friction", "presliding", "modulation_depth",
                    "max_penetration")
-_DEVICE_KEYS = ("mass", "damping", "damping_outside", "delay", "position_resolution", "force_resolution",
+_DEVICE_KEYS = ("mass", "damping", "damping_outside", "delay", "position_resolution", "force_resolution", "coulomb_friction",
                 "max_force")
 _OPERATOR_KEYS = ("push_x", "push_z", "band_stiffness", "anchor_x", "anchor_z", "hand_stiffness", "hand_damping",
                   "depth", "velocity")
@@ -658,6 +662,7 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     delta = np.array([d.position_resolution for d in dev])
     fres = np.array([d.force_resolution for d in dev])
     fmax = np.array([d.max_force for d in dev])
+    fc = np.array([d.coulomb_friction for d in dev])
     P0 = np.tile(p0, (N, 1))
     if "initial_x" in values:
         P0[:, 0] = values["initial_x"]
@@ -673,7 +678,7 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     args = [(code, False), (kind, False), (coeffs, True), (prm, True), (aux, True), (nominal, False), (Phi, True), (Wd, True),
             (Wo, True), (Bs, True), (M, True), (K, True), (C, True), (f0, True), (ops[0].setpoint_times, False),
             (sp_p, True), (vend, True), (rest, True), (ops[0].kinematic, False), (n_steps, False), (T, False),
-            (delay, True), (delta, True), (fres, True), (fmax, True), (P0, True), (V0, True),
+            (delay, True), (delta, True), (fres, True), (fmax, True), (fc, True), (P0, True), (V0, True),
             (int(record_every), False), (rec, True), (summary, True), (tail_start, False), (tail_z, True)]
     show = (N * n_steps > 5e7) if progress is None else bool(progress)
     bar = _progress(show, N)
