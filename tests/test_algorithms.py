@@ -287,3 +287,20 @@ def test_compiled_F_kernel_follows_the_friction_state_along_a_path():
         state = alg.initial_state(x) if state is None else state
         d, state = fr.step(state, x)
         np.testing.assert_allclose(got, alg.force([[x, z]], d)[0], rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.parametrize("letter", ["W", "C", "D"])
+def test_spring_energy_is_the_potential_where_there_is_one(letter):
+    # Issue 10: Fig. 7 is judged on E - V with V = kappa_0 d^2 / 2 (d from Table I); for the
+    # gradient fields that V is exactly their potential (eqs. 13, 16)
+    alg = make(letter, None if letter == "W" else hx.Sinusoid(A, L))
+    rng = np.random.default_rng(5)
+    p = np.column_stack([rng.uniform(0, 2e-3, 50), rng.uniform(-2e-3, 1e-3, 50)])
+    np.testing.assert_allclose(alg.spring_energy(p), alg.potential(p), rtol=1e-12, atol=0.0)
+
+
+def test_a_s_spring_energy_is_its_vertical_stretch():
+    # A stores kappa_0 (h(x) - z)^2 / 2 in its vertical spring (Table I), though its field has
+    # no potential: at x = l/4 (a peak, h = A) and 0.3 mm below it, 2000 * (0.3e-3)^2 / 2 J
+    alg = make("A", hx.Sinusoid(A, L))
+    assert alg.spring_energy([[L / 4, A - 0.3e-3]])[0] == pytest.approx(0.5 * K0 * 0.3e-3**2, rel=1e-12)

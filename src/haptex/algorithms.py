@@ -168,6 +168,24 @@ class Algorithm:
         """The kernel's auxiliary array (see :meth:`kernel_spec`)."""
         return np.zeros(1)
 
+    def spring_energy(self, p) -> np.ndarray:
+        """Energy stored in the virtual spring, kappa_0 d^2 / 2 (J), shape (...), with d the
+        algorithm's own penetration (:meth:`penetration`, Table I).
+
+        It is what a probe at p gets back on leaving the wall along the penetration
+        direction, so E - V (the energy a run absorbed minus what is still stored) is the
+        energy gained or lost for good, the quantity on which Section V-C's energy jumps
+        are judged. It equals :meth:`potential` where the field is a gradient (W, D; C
+        without a clamp); for A, B, E, F, G it is the spring's stretch energy, not a
+        potential of the field (those fields have none).
+
+        Raises
+        ------
+        ParameterError
+            If ``p`` has the wrong shape or a non-finite coordinate.
+        """
+        return 0.5 * self.stiffness * self.penetration(p) ** 2
+
     def potential(self, p) -> np.ndarray:
         """Stored elastic energy V(p) >= 0 (J) with f = -grad V, where the field is a gradient.
 

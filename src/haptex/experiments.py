@@ -10,6 +10,12 @@ Chosen values (not stated by the paper)
 * Device: :meth:`Device.pantograph` defaults (10 cm / 14 cm links, motors 5 cm apart,
   1.4e-5 kg m^2 rotors, 10 um resolution, T = 100 us) with the paper's joint damping
   inside the wall and none outside (the eddy-current brakes are energised only inside).
+* Fig. 5's device sits off the linkage's symmetry axis, the handle at (0.05, 0.13) m from
+  the base, with one sample of computation delay. On the axis the mass and damping
+  matrices are diagonal, and A's Jacobian [[0, 0], [kappa_0 h', -kappa_0]] is triangular,
+  so A's linearised sampled loop is W's at every slope: no per-axis effect can separate
+  them there (issue 10). The report sweeps working points x delays x band angles
+  (:data:`ROBUSTNESS_GRID`).
 * Elastic band (Fig. 5): 100 N/m, anchored 30 mm below the surface, pulling 10 degrees
   off the normal; swept over 50–200 N/m and 0–30 degrees.
 * Scanning hand (Figs. 6, 7): 300 N/m and 1 N s/m, the order of a human finger/hand
@@ -47,6 +53,8 @@ PASSIVITY = {
     "band_angle_deg": 10.0,  # degrees off the normal (chosen)
     "duration": 3.0,  # s
     "paper_q": {"A": 5.1, "F": 8.3},
+    "working_point": (0.05, 0.13),  # m, handle in the linkage frame, 5 cm off the symmetry axis (chosen)
+    "delay": 1,  # samples of computation delay (chosen)
 }
 """Parameters of the passivity experiment (Section V-A) and the values chosen here."""
 
@@ -89,8 +97,47 @@ def _alg(letter, p, stiffness=None):
     return algorithm(letter, None if letter == "W" else tex, k)
 
 
-def _device(joint_damping):
-    return Device.pantograph(joint_damping=joint_damping, joint_damping_outside=0.0)
+def _device(joint_damping, working_point=(0.0, 0.15), delay=0):
+    return Device.pantograph(joint_damping=joint_damping, joint_damping_outside=0.0, working_point=working_point,
+                             delay=delay)
+
+
+ROBUSTNESS_GRID = {
+    "working_x": (0.0, 0.03, 0.05, 0.07),  # m
+    "working_z": (0.11, 0.13, 0.15),  # m
+    "delay": (0, 1, 2),  # samples
+    "band_angle_deg": (0.0, 10.0, 30.0),
+}
+"""Grid of unstated conditions over which Fig. 5's ordering is tested (:func:`passivity`)."""
+
+
+def _robustness(p: dict, quick: bool) -> dict:
+    """Fig. 5's ordering (W stable, A and F in limit cycles at kappa_0) over working points,
+    delays and band angles: one 3 s thrust per algorithm and grid point (1 s when quick)."""
+    g = ROBUSTNESS_GRID
+    xs = g["working_x"][::2] if quick else g["working_x"]
+    cases = []
+    for wx in xs:
+        for wz in g["working_z"]:
+            for delay in g["delay"]:
+                dev = _device(p["joint_damping"], (wx, wz), delay)
+                for ang in g["band_angle_deg"]:
+                    v = {}
+                    for L in "WAF":
+                        r = simulate(_alg(L, p), dev, _band(p, angle_deg=ang), 1.0 if quick else p["duration"],
+                                     initial_position=[0.0, 1e-3], record_every=50)
+                        o = r.oscillation
+                        v[L] = {"oscillating": o.oscillating, "axis": o.axis, "amplitude": o.amplitude,
+                                "frequency": o.frequency}
+                    cases.append({"working_point": (wx, wz), "delay": delay, "band_angle_deg": ang, "runs": v,
+                                  "coupling": abs(dev.mass[0, 1]) / math.sqrt(dev.mass[0, 0] * dev.mass[1, 1])})
+    n = len(cases)
+    osc = [(c["runs"]["W"]["oscillating"], c["runs"]["A"]["oscillating"], c["runs"]["F"]["oscillating"]) for c in cases]
+    return {"cases": cases, "count": n,
+            "paper_ordering": sum(not w and a and f for w, a, f in osc),
+            "w_stable_a_oscillates": sum(not w and a for w, a, _ in osc),
+            "w_stable_f_oscillates": sum(not w and f for w, _, f in osc),
+            "w_oscillates": sum(w for w, _, _ in osc)}
 
 
 def _band(p, stiffness=None, angle_deg=None):
@@ -132,7 +179,8 @@ def passivity(quick: bool = False) -> dict:
     """
     p = dict(PASSIVITY)
     dur = 1.0 if quick else p["duration"]
-    dev = _device(p["joint_damping"])
+    dev = _device(p["joint_damping"], p["working_point"], p["delay"])
+    sym = _device(p["joint_damping"])  # on the symmetry axis: M and B diagonal
     band = _band(p)
     start = [0.0, 1e-3]
     q = {L: float(characteristic_number(_alg(L, p), max_penetration=p["max_penetration"],
@@ -163,8 +211,12 @@ def passivity(quick: bool = False) -> dict:
         for s, g, o, a in zip(S.ravel(), G.ravel(), b.oscillating, b.amplitude):
             sens.append({"algorithm": L, "band_stiffness": float(s), "band_angle_deg": float(g),
                          "oscillating": bool(o), "amplitude": float(a)})
+    decoupled = {"mass_offdiagonal": float(sym.mass[0, 1]), "damping_offdiagonal": float(sym.damping[0, 1]),
+                 "working_point": list(sym.details["working_point"])}
     return {"runs": runs, "q": q, "critical": critical, "critical_sweep": ks.tolist(), "sensitivity": sens,
-            "parameters": p, "passivity_limit": dev.passivity_limit}
+            "parameters": p, "passivity_limit": dev.passivity_limit, "robustness": _robustness(p, quick),
+            "decoupled": decoupled, "device": {"working_point": list(p["working_point"]), "delay": p["delay"],
+                                               "mass": dev.mass.tolist(), "damping": dev.damping.tolist()}}
 
 
 def conservativity(quick: bool = False) -> dict:
@@ -259,14 +311,24 @@ def activity_metrics(alg, res, window: float = 0.02) -> dict:
     -------
     dict
         ``contact_losses`` (number of inside-to-outside transitions after first contact),
-        ``max_energy_jump`` (largest energy the environment supplied within ``window``,
-        J), ``net_absorbed`` (final E_x + E_z, J).
+        ``max_energy_jump`` (largest drop of E - V within ``window``, J: energy the
+        environment supplied beyond what its spring gave back), ``net_absorbed`` (final
+        E_x + E_z, J), ``net_lost`` (final E - V, J: absorbed and not stored; > 0 is
+        dissipation by the texture, < 0 energy it created), where E = E_x + E_z and V is
+        the spring energy still stored (:meth:`~haptex.algorithms.Algorithm.spring_energy`).
+
+    Notes
+    -----
+    Judging on E alone counts the spring's stored energy as absorbed when the probe is
+    deep and as supplied when it comes back out, which is not activity: on Fig. 7 it hid
+    the difference between A and D (issue 10: E - V separates them, E does not).
     """
     inside = alg.inside(res.position)
     first = int(np.argmax(inside)) if inside.any() else len(inside)
     trans = np.count_nonzero(inside[first:-1] & ~inside[first + 1:])
-    e = res.energy_x + res.energy_z
+    e = res.energy_x + res.energy_z - alg.spring_energy(res.position)
     dt = float(res.time[1] - res.time[0]) if res.time.size > 1 else 1.0
     w = max(int(round(window / dt)), 1)
     jump = float(np.max(e[:-w] - e[w:])) if e.size > w else 0.0
-    return {"contact_losses": int(trans), "max_energy_jump": max(jump, 0.0), "net_absorbed": float(e[-1])}
+    return {"contact_losses": int(trans), "max_energy_jump": max(jump, 0.0),
+            "net_absorbed": float(res.energy_x[-1] + res.energy_z[-1]), "net_lost": float(e[-1])}

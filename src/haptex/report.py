@@ -243,16 +243,19 @@ def _claims(table, pas, con, sur, extra) -> list[dict]:
     c.append(_claim("V-B.F", "V-B, Fig. 6", "F is marginally passive in z and passive in x", "z marginal, x passive",
                     fmt("F"), cls["F"][1] == "marginal" and cls["F"][0] == "passive", "different energy classes"))
     m = sur["metrics"]
+    # Section V-C judged on E - V: energy absorbed minus what the virtual spring still stores
     c.append(_claim("V-C.A", "V-C, Fig. 7", "A: energy jumps and lost contact on the enlarged bump",
-                    "jumps, contact lost", f"{m['A']['contact_losses']} contact losses, largest 20 ms jump "
-                    f"{m['A']['max_energy_jump'] * 1e3:.3g} mJ, net absorbed {m['A']['net_absorbed'] * 1e3:.3g} mJ",
-                    m["A"]["contact_losses"] > 0 and m["A"]["net_absorbed"] < 0, "no contact loss or no net supply"))
+                    "jumps, contact lost", f"{m['A']['contact_losses']} contact losses, largest 20 ms supply of E - V "
+                    f"{m['A']['max_energy_jump'] * 1e3:.3g} mJ (D: {m['D']['max_energy_jump'] * 1e3:.3g} mJ), "
+                    f"net E - V {m['A']['net_lost'] * 1e3:.3g} mJ",
+                    m["A"]["contact_losses"] > 0 and m["A"]["max_energy_jump"] > 10 * m["D"]["max_energy_jump"],
+                    "no contact loss, or jumps no larger than D's"))
     c.append(_claim("V-C.D", "V-C, Fig. 7", "D maintains an overall energy balance", "balance",
-                    f"net absorbed {m['D']['net_absorbed'] * 1e3:.3g} mJ (A: {m['A']['net_absorbed'] * 1e3:.3g} mJ)",
-                    m["D"]["net_absorbed"] >= -0.05 * abs(m["A"]["net_absorbed"]), "D supplied energy"))
-    active = {L: m[L]["net_absorbed"] < 0 for L in "ABE"}
+                    f"net E - V {m['D']['net_lost'] * 1e3:.3g} mJ (A: {m['A']['net_lost'] * 1e3:.3g} mJ)",
+                    m["D"]["net_lost"] >= -0.05 * abs(m["A"]["net_lost"]), "D supplied energy"))
+    active = {L: m[L]["net_lost"] < 0 for L in "ABE"}
     c.append(_claim("V-C.ABE", "V-C", "A, B and E feel active (supply energy) on the bump", "active",
-                    ", ".join(f"{L} {m[L]['net_absorbed'] * 1e3:.3g} mJ" for L in "ABE"), all(active.values()),
+                    ", ".join(f"{L} E - V {m[L]['net_lost'] * 1e3:.3g} mJ" for L in "ABE"), all(active.values()),
                     "one of them absorbed energy"))
     return c
 
@@ -467,7 +470,8 @@ def summary_json(data: dict, elapsed: float | None = None) -> dict:
         "table_ii": data["table_ii"],
         "passivity": {"parameters": pas["parameters"], "q": pas["q"], "critical_stiffness": pas["critical"],
                       "passivity_limit": pas["passivity_limit"], "runs": [_run_summary(r) for r in pas["runs"]],
-                      "sensitivity": pas["sensitivity"]},
+                      "sensitivity": pas["sensitivity"], "decoupled": pas["decoupled"], "device": pas["device"],
+                      "robustness": pas["robustness"]},
         "conservativity": {"parameters": con["parameters"], "reference_energy": con["reference_energy"],
                            "runs": [_run_summary(r) for r in con["runs"]], "sensitivity": con["sensitivity"]},
         "surface_activity": {"parameters": sur["parameters"], "metrics": sur["metrics"],
@@ -554,6 +558,27 @@ def _html(data, figs, summary) -> str:
         ["alg.", "band stiffness (N/m)", "angle (deg)", "oscillating", "amplitude (um)"],
         [[s["algorithm"], _g(s["band_stiffness"]), _g(s["band_angle_deg"]), s["oscillating"],
           _g(s["amplitude"] * 1e6, ".3g")] for s in pas["sensitivity"]]))
+    dec, rob = pas["decoupled"], pas["robustness"]
+    parts.append(
+        "<h3>Why the device sits off the symmetry axis</h3><p>At the working point "
+        f"{dec['working_point']} m the pantograph's mass and damping matrices are diagonal (off-diagonal terms "
+        f"{_g(dec['mass_offdiagonal'])} kg and {_g(dec['damping_offdiagonal'])} N s/m). A commands no lateral force, "
+        "so its Jacobian [[0, 0], [kappa_0 h', -kappa_0]] is triangular and its linearised sampled loop is W's at "
+        "every slope: there, no per-axis effect (delay, quantisation, a per-axis mode) can separate A from W. The "
+        f"experiment uses the handle at {pas['device']['working_point']} m with {pas['device']['delay']} sample(s) "
+        "of computation delay (chosen, not stated by the paper).</p>")
+    parts.append(
+        "<h3>Robustness of Fig. 5 over the unstated conditions</h3>"
+        f"<p>{rob['count']} grid points (working points x delays 0-2 x band angles). The paper's ordering, W "
+        f"stable and both A and F in limit cycles at kappa_0, holds on {rob['paper_ordering']}; W stable and A "
+        f"oscillating on {rob['w_stable_a_oscillates']}; W stable and F oscillating on "
+        f"{rob['w_stable_f_oscillates']}; W itself oscillates on {rob['w_oscillates']}.</p>" + _table(
+            ["working point (m)", "delay", "angle (deg)", "coupling", "W", "A", "F"],
+            [[f"({c['working_point'][0]:g}, {c['working_point'][1]:g})", c["delay"], _g(c["band_angle_deg"]),
+              _g(c["coupling"], ".2g")] +
+             [("osc. " + c["runs"][L]["axis"] + f" {c['runs'][L]['amplitude'] * 1e3:.3g} mm, "
+               f"{c['runs'][L]['frequency']:.3g} Hz") if c["runs"][L]["oscillating"] else "stable" for L in "WAF"]
+             for c in rob["cases"]]))
     con = data["conservativity"]
     parts.append("<h2>Conservativity (Section V-B, Fig. 6)</h2>")
     parts.append(f"<p>Verdict classes: an axis 'generates' when its final energy is below "
@@ -569,9 +594,12 @@ def _html(data, figs, summary) -> str:
           _g(s["energy_z"] * 1e3)] for s in con["sensitivity"]]))
     sur = data["surface_activity"]
     parts.append("<h2>Surface activity (Section V-C, Fig. 7)</h2>" + _table(
-        ["alg.", "contact losses", "largest 20 ms energy supply (mJ)", "net absorbed (mJ)"],
-        [[L, m["contact_losses"], _g(m["max_energy_jump"] * 1e3), _g(m["net_absorbed"] * 1e3)]
+        ["alg.", "contact losses", "largest 20 ms supply of E - V (mJ)", "net absorbed E (mJ)", "net E - V (mJ)"],
+        [[L, m["contact_losses"], _g(m["max_energy_jump"] * 1e3), _g(m["net_absorbed"] * 1e3), _g(m["net_lost"] * 1e3)]
          for L, m in sur["metrics"].items()]))
+    parts.append("<p>E = E_x + E_z is the energy the environment absorbed, V = kappa_0 d^2/2 what its spring still "
+                 "stores (d: the algorithm's penetration); E - V is absorbed and not given back. Judged on E alone, a "
+                 "deep probe looks absorbing and a rising one looks active.</p>")
     parts.append(_img(figs["fig7_bump"], "Fig. 7 enlarged bump"))
     parts.append("<h3>Sensitivity to the hand</h3>" + _table(
         ["alg.", "hand stiffness (N/m)", "depth (mm)", "net absorbed (mJ)"],
