@@ -220,3 +220,18 @@ def test_bad_analysis_input():
     assert hx.characteristic_number(alg("A", aperiodic), x_range=(0, 5e-3)).value > 1
     with pytest.raises(hx.ParameterError, match="Fig. 3 loops are defined for a Sinusoid"):
         hx.paper_loop(alg("A", aperiodic))
+
+
+@pytest.mark.parametrize("depth", [0.2e-3, 0.5e-3, 1.5e-3])
+def test_G_is_neutral_along_a_constant_depth_over_a_period(depth):
+    # Issue 10's explanation of Fig. 6: G's lateral force is kappa_0 d h' / sqrt(1 + h'^2) at a
+    # constant depth d, and h' = (2 pi A / l) cos(2 pi x / l) integrates to zero over a period
+    # with that odd weighting (by hand), so G neither supplies nor absorbs energy at constant
+    # depth; its Fig. 6 generation needs the depth to co-vary with the slope.
+    alg = hx.algorithm("G", hx.Sinusoid(A, L), K0)
+    w = hx.path_work(alg, [[0.1e-3, -depth], [0.1e-3 + L, -depth]])
+    assert abs(w) <= 1e-12 * K0 * A * L
+    # and a depth that follows the slope is not neutral: down the rising flank, up the falling one
+    x = np.linspace(0.0, L, 401)
+    path = np.column_stack([x, -depth - 0.2e-3 * np.cos(2 * np.pi * x / L)])
+    assert abs(hx.path_work(alg, path)) > 1e-3 * K0 * A * L

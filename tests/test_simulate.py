@@ -319,3 +319,19 @@ def test_energy_balance_closes_with_coulomb_friction_in_closed_loop(letter):
 def test_negative_coulomb_friction_is_refused():
     with pytest.raises(hx.ParameterError, match="^coulomb_friction = -0.1 is not allowed"):
         hx.Device.point_mass(0.1, 0.5, 1e-4, coulomb_friction=-0.1)
+
+
+def test_steady_stroke_separates_the_conservative_D_from_A_per_period():
+    # Issue 10, Fig. 6 in steady contact: per texture period A's vertical spring generates
+    # energy (its Fig. 3 loop energy is kappa_0 A^2 / 2 > 0, Section IV-A) and commands no
+    # lateral force (E_x = 0 exactly), while D is a gradient field (eq. 16) whose per-period
+    # E - dV is only the sampling's small leak.
+    from haptex import experiments as ex
+
+    p = ex.CONSERVATIVITY
+    dev = ex._device(p["joint_damping"])
+    _, a = ex._steady_stroke(ex._alg("A", p), dev, p, p["velocity"], p["duration"])
+    _, d = ex._steady_stroke(ex._alg("D", p), dev, p, p["velocity"], p["duration"])
+    assert a["periods"] == 8 and a["energy_x"] == 0.0
+    assert a["lost"] < 0
+    assert abs(d["lost"]) < 0.1 * abs(a["lost"])
