@@ -604,7 +604,7 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
         algorithm ``stiffness``, ``amplitude``, ``texture_period``, ``friction``,
         ``presliding``, ``modulation_depth``, ``max_penetration``; device ``mass``,
         ``damping``, ``damping_outside``, ``delay``, ``position_resolution``,
-        ``force_resolution``, ``max_force``; operator ``push_x``, ``push_z``,
+        ``force_resolution``, ``coulomb_friction``, ``max_force``; operator ``push_x``, ``push_z``,
         ``band_stiffness``, ``anchor_x``, ``anchor_z``, ``hand_stiffness``,
         ``hand_damping``, ``depth``, ``velocity``; and ``initial_x``, ``initial_z``.
 
