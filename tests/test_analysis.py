@@ -235,3 +235,14 @@ def test_G_is_neutral_along_a_constant_depth_over_a_period(depth):
     x = np.linspace(0.0, L, 401)
     path = np.column_stack([x, -depth - 0.2e-3 * np.cos(2 * np.pi * x / L)])
     assert abs(hx.path_work(alg, path)) > 1e-3 * K0 * A * L
+
+
+def test_q_D_is_one_down_to_half_the_radius_of_curvature_below_the_peaks():
+    # Below a peak h' = 0 and D = 1 - depth / rho (rho = l^2 / (4 pi^2 A), the radius of
+    # curvature), so the exact gain max(1, 1/D - 1) of D stays 1 while depth <= rho / 2
+    # (by hand): eq. 18's q_D = 1 holds there, and only there.
+    alg = hx.algorithm("D", hx.Sinusoid(A, L), K0)
+    rho = L**2 / (4 * math.pi**2 * A)
+    assert hx.characteristic_number(alg, max_penetration=0.98 * rho / 2).value == pytest.approx(1.0, abs=1e-6)
+    deeper = hx.characteristic_number(alg, max_penetration=1.02 * rho / 2).value
+    assert deeper == pytest.approx(1 / (1 - 1.02 / 2) - 1, rel=1e-3)  # 1/D - 1 at the deepest point

@@ -13,6 +13,8 @@ EXPECTED_CLAIMS = {
     "IV-A.1", "IV-A.2", "IV-A.nc", "IV-B.nc", "IV-E.nc", "IV-G.nc", "IV-B.1", "IV-C.c", "IV-D.c", "IV-C.1",
     "IV-D.1", "IV-D.2", "IV-D.3", "IV-E.1", "IV-E.2", "IV-E.3", "IV-F.1", "IV-F.2", "IV-F.3", "IV-F.4", "IV-G.1",
     "R3", "III-B", "T2-A", "T2-B", "T2-C", "T2-G", "T2-F",
+    # issue 10: claims not checked before
+    "IV-A.3", "R2", "IV-D.4", "IV-F.5", "V-B.0", "C1", "III-C", "V-C.perp",
     # Section V
     "V.0", "V-A.1", "V-A.A1", "V-A.A2", "V-A.F1", "V-A.F2", "V-A.q", "V-B.A", "V-B.G", "V-B.D", "V-B.F",
     "V-C.A", "V-C.D", "V-C.ABE",

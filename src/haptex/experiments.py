@@ -221,6 +221,30 @@ def passivity(quick: bool = False) -> dict:
                                                "mass": dev.mass.tolist(), "damping": dev.damping.tolist()}}
 
 
+def activity_while_passive(quick: bool = False) -> dict:
+    """A at kappa_0 / q_A on a device made very passive (T / 10, 4x the joint damping): the
+    thrust of Fig. 5 settles, yet a steady stroke over the texture still draws energy from
+    the environment every period (Sections III-C and V-C: non-conservative fields feel
+    'alive' although the system is passive).
+
+    Returns
+    -------
+    dict
+        ``stiffness`` (N/m), ``thrust_oscillating`` (bool), ``thrust_amplitude`` (m),
+        ``energy_z_per_period`` (J, < 0: supplied by the environment), ``periods``.
+    """
+    p = dict(PASSIVITY)
+    k = p["stiffness"] / math.sqrt(1 + (2 * math.pi * p["amplitude"] / p["period"]) ** 2)
+    dev = Device.pantograph(joint_damping=4 * p["joint_damping"], joint_damping_outside=0.0, period=1e-5,
+                            working_point=p["working_point"], delay=p["delay"])
+    thrust = simulate(_alg("A", p, k), dev, _band(p), 0.5 if quick else 1.0, initial_position=[0.0, 1e-3],
+                      record_every=50)
+    q = dict(CONSERVATIVITY, stiffness=k, period=p["period"], amplitude=p["amplitude"], velocity=0.01)
+    _, rates = _steady_stroke(_alg("A", q), dev, q, q["velocity"], (q["settle_periods"] + 4) * q["period"] / q["velocity"])
+    return {"stiffness": k, "thrust_oscillating": thrust.oscillating, "thrust_amplitude": thrust.oscillation.amplitude,
+            "energy_z_per_period": rates["energy_z"], "periods": rates["periods"]}
+
+
 def conservativity(quick: bool = False) -> dict:
     """Section V-B: one scanning stroke at nearly constant penetration (Fig. 6).
 

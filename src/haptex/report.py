@@ -22,9 +22,10 @@ import numpy as np
 from . import experiments as ex
 from ._validation import ParameterError
 from .algorithms import algorithm
-from .analysis import characteristic_number, loop_energy
+from .analysis import characteristic_number, friction_bounds, loop_energy
+from .devices import critical_stiffness
 from .tables import PAPER_PARAMETERS, table_ii
-from .textures import Sinusoid
+from .textures import Sinusoid, SumOfSinusoids
 
 MARKER = "haptex-report"
 """Value of ``summary.json``'s ``generator`` key that identifies a haptex report."""
@@ -117,6 +118,37 @@ def _extra_numbers(quick: bool) -> dict:
     d = algorithm("D", Sinusoid(A, l), k0)
     p = np.array([[l / 4, A - 0.3 * l**2 / (4 * math.pi**2 * A)]])  # below a peak, 0.3 of the curvature radius
     out["D_min_singular_value_over_k0"] = float(np.linalg.svd(d.jacobian(p)[0], compute_uv=False).min() / k0)
+    # q_D = 1 holds below a peak down to half its radius of curvature rho = l^2 / (4 pi^2 A):
+    # there D = 1 - depth / rho and the tangential gain 1 / D - 1 reaches 1 at depth = rho / 2
+    rho = l**2 / (4 * math.pi**2 * A)
+    out["q_D_validity"] = {"half_radius": rho / 2, "q_above": q("D", depth=0.98 * rho / 2),
+                           "q_below": q("D", depth=1.02 * rho / 2)}
+    # where A's ||J|| peaks (eq. 10's p^x), in periods
+    qa = characteristic_number(algorithm("A", Sinusoid(A, l), k0), max_penetration=dm, resolution=res)
+    out["q_A_where_x_over_l"] = float(qa.where[0] / l)
+    # Remark 2: a sum of sinusoids with Lipschitz bound M in place of 2 pi A / l
+    tex2 = SumOfSinusoids([0.3e-3, 0.25e-3], [1e-3, 0.5e-3], [0.0, 0.7])
+    out["remark2"] = {"q": float(characteristic_number(algorithm("A", tex2, k0), max_penetration=dm, x_range=(0.0, 1e-3),
+                                                       resolution=res)),
+                      "closed_form": math.sqrt(1 + tex2.max_slope**2), "M": tex2.max_slope}
+    # eq. 27 grows with d^x_max (the paper: a problem for compliant bodies)
+    out["eq27_presliding"] = {}
+    for dx in (0.5e-3, 1e-3, 2e-3):
+        f_dx = algorithm("F", Sinusoid(0.0, l), k0, friction=P["friction"], presliding=dx, max_penetration=dm)
+        out["eq27_presliding"][dx] = float(loop_energy(f_dx, np.array([[0, dm], [0, -a], [dx, -a], [dx, -dm], [0, -dm],
+                                                                          [0, dm]])))
+    # A along a closed path perpendicular to the surface (x fixed): its force depends on z only
+    out["A_vertical_loop"] = float(loop_energy(algorithm("A", Sinusoid(A, l), k0),
+                                               np.array([[0.3 * l, 1e-3], [0.3 * l, -1e-3], [0.3 * l, 1e-3]])))
+    out["activity_while_passive"] = ex.activity_while_passive(quick)
+    # readings of q_F near the paper's 8.3 (conjectures, labelled as such in the report)
+    fb = friction_bounds(fa, dm)
+    out["q_F_readings"] = {
+        "eq26_without_half": math.sqrt(2) * fb["bound_eq26"],
+        "unit_modulation": float(characteristic_number(
+            algorithm("F", Sinusoid(A, l), k0, friction=P["friction"], presliding=P["presliding"], max_penetration=dm,
+                      modulation_depth=1.0), max_penetration=dm, resolution=res)),
+    }
     return out
 
 
@@ -177,6 +209,19 @@ def _claims(table, pas, con, sur, extra) -> list[dict]:
                     f"{exf['eq31_as_printed']:.4g})", math.isclose(rf["characteristic_number"], 8.3, rel_tol=0.05),
                     "the sup of eq. 23's norm is below both the paper's own bound eq. 26 and 8.3; "
                     "no reading found gives 8.3"))
+    rq = dict(extra["q_F_readings"])
+    P = PAPER_PARAMETERS
+    f_thrust = next(r for r in pas["runs"] if r.label == "F at kappa_0")
+    rq["thrust_depth"] = f_thrust.result.max_penetration
+    fa = algorithm("F", Sinusoid(P["amplitude"], P["period"]), P["stiffness"], friction=P["friction"],
+                   presliding=P["presliding"], max_penetration=P["max_penetration"])
+    rq["eq26_at_thrust_depth"] = friction_bounds(fa, rq["thrust_depth"])["bound_eq26"]
+    extra["q_F_readings"] = rq
+    c[-1]["readings"] = (f"readings near 8.3, each a conjecture: eq. 26's singular value without the 1/2 under its "
+                         f"root {rq['eq26_without_half']:.3g}; eq. 26 unclamped at the depth F's Fig. 5 thrust reaches "
+                         f"({rq['thrust_depth'] * 1e3:.3g} mm) {rq['eq26_at_thrust_depth']:.3g}; h = sin without the "
+                         f"0.8 modulation depth {rq['unit_modulation']:.3g}")
+    c[-1]["ours"] += "; " + c[-1]["readings"]
     e27 = extra["eq27"]
     c.append(_claim("IV-F.2", "IV-F-4, eq. 27", "F's loop energy with A = 0 is kappa_0 mu d^z_max d^x_max / 2",
                     f"{e27['closed_form']:.4g} J", f"{e27['computed']:.4g} J (a = {e27['a']:g} m)",
@@ -196,6 +241,27 @@ def _claims(table, pas, con, sur, extra) -> list[dict]:
     c.append(_claim("R3", "Remark 3", "q of B, C, G, F depends on the penetration", "depends",
                     "; ".join(f"{L}: {v[0]:.3g} at 0.5 mm, {v[1]:.3g} at 1 mm" for L, v in dep.items()),
                     all(v[1] > v[0] * (1 + 1e-6) for v in dep.values()), "no dependence found"))
+    xl = extra["q_A_where_x_over_l"] % 0.5
+    c.append(_claim("IV-A.3", "IV-A-3, eq. 10", "q_A is attained at p^x = 0 (mod pi/l) as printed",
+                    "0 mod pi/l", f"at p^x = {extra['q_A_where_x_over_l']:.4g} l, i.e. 0 mod l/2 (pi/l is not a length: "
+                    "read as l/2, where |h'| = 2 pi A / l)", min(xl, 0.5 - xl) < 1e-3, "not where |h'| peaks"))
+    r2 = extra["remark2"]
+    c.append(_claim("R2", "Remark 2", "for other textures 2 pi A / l is replaced by the Lipschitz bound M",
+                     f"sqrt(1 + M^2) = {r2['closed_form']:.4g}", f"q_A {r2['q']:.4g} on a two-sinusoid sum (M = {r2['M']:.4g})",
+                     math.isclose(r2["q"], r2["closed_form"], rel_tol=1e-6), "q_A differs from sqrt(1 + M^2)"))
+    qv = extra["q_D_validity"]
+    c.append(_claim("IV-D.4", "IV-D-3, eq. 18", "q_D = 1 near the surface", "1",
+                    f"q_D = {qv['q_above']:.4g} down to {0.98 * qv['half_radius'] * 1e6:.3g} um below the peaks, "
+                    f"{qv['q_below']:.4g} at {1.02 * qv['half_radius'] * 1e6:.3g} um: eq. 18's value holds down to half "
+                    "the radius of curvature, beyond it the medial axis of Remark 6 approaches",
+                    math.isclose(qv["q_above"], 1.0, rel_tol=1e-3) and qv["q_below"] > 1.0 + 1e-3,
+                    "q_D departs from 1 elsewhere"))
+    e27p = extra["eq27_presliding"]
+    dxs = sorted(e27p)
+    c.append(_claim("IV-F.5", "IV-F-4, eq. 27", "F's non-conservative energy is proportional to d^x_max (compliant bodies)",
+                    "proportional", ", ".join(f"{e27p[d] * 1e3:.4g} mJ at {d * 1e3:g} mm" for d in dxs),
+                    all(math.isclose(e27p[d] / d, e27p[dxs[0]] / dxs[0], rel_tol=1e-6) for d in dxs),
+                    "not proportional"))
     ratio = extra["q_A_half_period_ratio"]
     c.append(_claim("III-B", "III-B", "doubling the spatial frequency requires dividing the stiffness by two (A)",
                     "2", f"q_A(l/2) / q_A(l) = {ratio:.3f}", abs(ratio - 2) < 0.05, "ratio far from 2"))
@@ -244,7 +310,30 @@ def _claims(table, pas, con, sur, extra) -> list[dict]:
                     fmt("D"), cls["D"][1] == "marginal" and cls["D"][0] == "passive", "different energy classes"))
     c.append(_claim("V-B.F", "V-B, Fig. 6", "F is marginally passive in z and passive in x", "z marginal, x passive",
                     fmt("F"), cls["F"][1] == "marginal" and cls["F"][0] == "passive", "different energy classes"))
+    dev_vb = ex._device(con["parameters"]["joint_damping"])
+    qa_vb = math.sqrt(1 + (2 * math.pi * con["parameters"]["amplitude"] / con["parameters"]["period"]) ** 2)
+    margin_vb = dev_vb.passivity_limit / (con["parameters"]["stiffness"] * qa_vb)
+    margin_va = pas["passivity_limit"] / (pas["parameters"]["stiffness"] * pas["q"]["A"])
+    c.append(_claim("V-B.0", "V-B", "V-B's passivity margin is larger than V-A's", "larger",
+                    f"sigma_0(B)/(2T) / (kappa_0 q_A): V-B {margin_vb:.3g}, V-A {margin_va:.3g}", margin_vb > margin_va,
+                    "smaller"))
+    sym = ex._device(pas["parameters"]["joint_damping"])
+    exact = critical_stiffness(float(sym.mass[1, 1]), float(sym.damping[1, 1]), sym.period)
+    c.append(_claim("C1", "Section II, Corollary 1", "||J|| <= sigma_0(B) / (2T) is sufficient for passivity",
+                    "sufficient", f"sigma_0(B)/(2T) = {sym.passivity_limit:.4g} N/m; the sampled wall's exact limit "
+                    f"along the normal {exact:.4g} N/m ({exact / sym.passivity_limit:.3g} times larger)",
+                    exact >= sym.passivity_limit, "the bound is exceeded by an unstable wall"))
+    awp = extra["activity_while_passive"]
+    c.append(_claim("III-C", "III-C, V-C", "a non-conservative field feels 'alive' although the system is passive",
+                    "alive while passive", f"A at {awp['stiffness']:.4g} N/m (kappa_0/q_A) with T/10 and 4x damping: "
+                    f"thrust {'oscillates' if awp['thrust_oscillating'] else 'settles'} "
+                    f"({awp['thrust_amplitude'] * 1e9:.3g} nm), a steady stroke draws "
+                    f"{-awp['energy_z_per_period'] * 1e6:.3g} uJ per period from it",
+                    not awp["thrust_oscillating"] and awp["energy_z_per_period"] < 0, "no activity, or not passive"))
     m = sur["metrics"]
+    c.append(_claim("V-C.perp", "V-C", "A is passive when the probe moves perpendicularly to the surface", "passive",
+                    f"loop energy of a vertical stroke in and out: {extra['A_vertical_loop']:.3g} J",
+                    abs(extra["A_vertical_loop"]) <= 1e-15, "energy on a vertical loop"))
     # Section V-C judged on E - V: energy absorbed minus what the virtual spring still stores
     c.append(_claim("V-C.A", "V-C, Fig. 7", "A: energy jumps and lost contact on the enlarged bump",
                     "jumps, contact lost", f"{m['A']['contact_losses']} contact losses, largest 20 ms supply of E - V "
