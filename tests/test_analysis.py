@@ -246,3 +246,16 @@ def test_q_D_is_one_down_to_half_the_radius_of_curvature_below_the_peaks():
     assert hx.characteristic_number(alg, max_penetration=0.98 * rho / 2).value == pytest.approx(1.0, abs=1e-6)
     deeper = hx.characteristic_number(alg, max_penetration=1.02 * rho / 2).value
     assert deeper == pytest.approx(1 / (1 - 1.02 / 2) - 1, rel=1e-3)  # 1/D - 1 at the deepest point
+
+
+def test_D_path_work_finds_two_medial_axis_crossings_in_one_sample_interval():
+    # Found by hypothesis (test_random_closed_polygons_do_no_work_in_gradient_fields): this
+    # segment crosses a thin branch of the medial axis twice within 2.2 um (closest point
+    # 2.98 -> 2.11 -> 1.08 mm), inside one of path_work's 16 um sampling intervals; only one
+    # jump was located and the loop of a gradient field (eq. 16) "generated" 3.3e-6 J.
+    tex = hx.SumOfSinusoids([0.0001193662073189215, 0.0004133064354502457], [1e-3, 4e-3], [4.203125, 5.0])
+    a = hx.algorithm("D", tex, K0)
+    loop = np.array([[1.04644854e-03, -2.95560960e-04], [1.19396457e-03, -3.69411755e-05],
+                     [3.25690296e-03, -1.12541409e-03], [3.67663769e-04, -1.39267959e-03],
+                     [1.04644854e-03, -2.95560960e-04]])
+    assert abs(hx.loop_energy(a, loop)) < 1e-12 * K0 * (2e-3) ** 2

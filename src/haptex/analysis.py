@@ -581,23 +581,34 @@ def _closest_point_jumps(tex: Texture, a, b, u, pts, spacing) -> list[float]:
     dt = np.abs(np.diff(cp.x))
     out = _tie_changes(tex, a, b, u, cp.tie)
     idx = np.nonzero((dt > 2 * spacing) & inside[:-1] & inside[1:])[0]
-    if idx.size == 0:
-        return out
+    per_u = 2 * spacing / (u[1] - u[0])  # the closest point's smooth motion allowed per unit of u
+    slack = 1e-12 * tex.shortest_period
     lo, hi = u[idx].copy(), u[idx + 1].copy()
     t_lo, t_hi = cp.x[idx].copy(), cp.x[idx + 1].copy()
-    for _ in range(60):
-        mid = 0.5 * (lo + hi)
-        live = (lo < mid) & (mid < hi)
-        if not live.any():
+    for _ in range(8):  # a bracket may hold several jumps (a thin branch of the medial axis)
+        if lo.size == 0:
             break
-        t_mid = closest_point(tex, a + mid[:, None] * (b - a)).x
-        left = np.abs(t_mid - t_lo) >= np.abs(t_hi - t_mid)
-        hi = np.where(live & left, mid, hi)
-        t_hi = np.where(live & left, t_mid, t_hi)
-        lo = np.where(live & ~left, mid, lo)
-        t_lo = np.where(live & ~left, t_mid, t_lo)
-    jump = np.abs(t_hi - t_lo) > 2 * spacing * (hi - lo) / (u[1] - u[0]) + 1e-12 * tex.shortest_period
-    return out + (0.5 * (lo + hi))[jump].tolist()
+        lo0, hi0, t_lo0, t_hi0 = lo.copy(), hi.copy(), t_lo.copy(), t_hi.copy()
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            live = (lo < mid) & (mid < hi)
+            if not live.any():
+                break
+            t_mid = closest_point(tex, a + mid[:, None] * (b - a)).x
+            left = np.abs(t_mid - t_lo) >= np.abs(t_hi - t_mid)
+            hi = np.where(live & left, mid, hi)
+            t_hi = np.where(live & left, t_mid, t_hi)
+            lo = np.where(live & ~left, mid, lo)
+            t_lo = np.where(live & ~left, t_mid, t_lo)
+        jump = np.abs(t_hi - t_lo) > per_u * (hi - lo) + slack
+        out += (0.5 * (lo + hi))[jump].tolist()
+        # what is left on either side of the jump found: another jump if the closest point
+        # moved more there than smooth motion allows
+        left_more = jump & (np.abs(t_lo - t_lo0) > per_u * (lo - lo0) + slack)
+        right_more = jump & (np.abs(t_hi0 - t_hi) > per_u * (hi0 - hi) + slack)
+        lo, hi = np.r_[lo0[left_more], hi[right_more]], np.r_[lo[left_more], hi0[right_more]]
+        t_lo, t_hi = np.r_[t_lo0[left_more], t_hi[right_more]], np.r_[t_lo[left_more], t_hi0[right_more]]
+    return out
 
 
 def _tie_changes(tex: Texture, a, b, u, tie) -> list[float]:
