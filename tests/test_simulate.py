@@ -335,3 +335,60 @@ def test_steady_stroke_separates_the_conservative_D_from_A_per_period():
     assert a["periods"] == 8 and a["energy_x"] == 0.0
     assert a["lost"] < 0
     assert abs(d["lost"]) < 0.1 * abs(a["lost"])
+
+
+@pytest.mark.parametrize("delay, f0", [(0, 400.0), (1, 400.0), (0, 100.0)])
+def test_two_mass_wall_limit_from_the_closed_loop_eigenvalues(delay, f0):
+    # Issue 10, structural mode: the device as two masses (motor side 0.06 kg with b = 0.5
+    # N s/m, handle 0.04 kg) joined by a mode at f0 with zeta = 0.05, the wall sensed and
+    # pushed on the motor side. kappa_c puts an eigenvalue of the ZOH-discretised closed
+    # loop on the unit circle (haptex.critical_stiffness, an eigenvalue computation
+    # independent of the simulator's loop); the simulated wall is stable at 0.95 kappa_c
+    # and oscillates at 1.05 kappa_c, and its energy balance includes the mode.
+    m, b, T, mh, zeta = 0.1, 0.5, 1e-4, 0.04, 0.05
+    kc = hx.critical_stiffness(m, b, T, delay, handle_mass=mh, first_resonance=f0, mode_damping_ratio=zeta)
+    dev = hx.Device.point_mass(m, b, T, delay=delay, handle_mass=mh, first_resonance=f0, mode_damping_ratio=zeta)
+    for factor, expect in ((0.95, False), (1.05, True)):
+        k = factor * kc
+        r = hx.simulate(wall(k), dev, ConstantForce([0.0, -1.0]), 10.0, initial_position=[0.0, -1.2 / k])
+        assert r.oscillating is expect, (factor, r.oscillation)
+        assert r.energy_balance_error < 1e-9
+
+
+def test_a_stiff_well_damped_mode_is_the_rigid_device():
+    # A mode just below Nyquist with zeta = 0.7 barely moves the collocated wall's limit
+    # (Colgate & Schenkel's 2b/T for the rigid device): within 1e-3
+    m, b, T = 0.1, 0.5, 1e-4
+    rigid = hx.critical_stiffness(m, b, T)
+    stiff = hx.critical_stiffness(m, b, T, handle_mass=0.05, first_resonance=4999.0, mode_damping_ratio=0.7)
+    assert stiff == pytest.approx(rigid, rel=1e-3)
+
+
+@pytest.mark.parametrize("letter", ["W", "A", "D", "F"])
+def test_energy_balance_closes_with_a_structural_mode(letter):
+    # the mode's spring energy and damper dissipation enter the balance (issue 10: <= 1e-9)
+    alg = hx.algorithm(letter, None if letter == "W" else SINE, K0)
+    dev = hx.Device.pantograph(mode_damping_ratio=0.05, coulomb_friction=0.02)
+    r = hx.simulate(alg, dev, ScanningHand(300.0, 1.0, velocity=0.02, depth=2e-3), 1.0)
+    assert r.energy_balance_error < 1e-9
+
+
+@pytest.mark.parametrize("kw, fragment", [
+    (dict(first_resonance=6000.0, mode_damping_ratio=0.05, handle_mass=0.04),
+     "first_resonance = 6000 is not allowed: must be below the Nyquist frequency 5000 Hz"),
+    (dict(first_resonance=400.0, mode_damping_ratio=0.0, handle_mass=0.04), "mode_damping_ratio = 0 is not allowed"),
+    (dict(first_resonance=400.0, mode_damping_ratio=-0.1, handle_mass=0.04), "mode_damping_ratio = -0.1"),
+    (dict(first_resonance=400.0, mode_damping_ratio=0.05), "handle_mass = None is not allowed"),
+    (dict(first_resonance=400.0, mode_damping_ratio=0.05, handle_mass=0.2), "handle_mass = [[0.2, 0.0], [0.0, 0.2]] "
+     "is not allowed: must be smaller than the device's mass"),
+])
+def test_bad_structural_modes_are_refused(kw, fragment):
+    with pytest.raises(hx.ParameterError) as err:
+        hx.Device.point_mass(0.1, 0.5, 1e-4, **kw)
+    assert str(err.value).startswith(fragment)
+
+
+def test_a_kinematic_path_with_a_structural_mode_is_refused():
+    dev = hx.Device.pantograph(mode_damping_ratio=0.05)
+    with pytest.raises(hx.ParameterError, match="^operator = KinematicPath is not allowed"):
+        hx.simulate(wall(K0), dev, KinematicPath([[0, 0], [1e-3, 0]], 1e-3), 0.1)

@@ -769,7 +769,8 @@ def alg_force(code, x, z, kind, coeffs, prm, aux, st):
 # --------------------------------------------------------------------------------------
 # the simulator's compiled loop (haptex.simulate)
 # --------------------------------------------------------------------------------------
-_NZ = 10  # augmented state [p(2), v(2), u(2), g(2), r(2)]
+_NZ = 10  # augmented state [p(2), v(2), u(2), g(2), r(2)]; a structural mode appends [p_h(2), v_h(2)]
+_NZ_MODE = 14
 
 # summary slots
 (S_EX, S_EZ, S_DAMP, S_OP, S_KE0, S_KE, S_SAT, S_MAXPEN, S_MAXF, S_NSAMP, S_TAILSTART_E, S_DIVERGED,
@@ -804,10 +805,11 @@ def _half_quad2(A, v):
 
 @nb.njit(**_JIT)
 def _quad(W, z):
+    n = z.shape[0]
     acc = 0.0
-    for i in range(_NZ):
+    for i in range(n):
         row = 0.0
-        for j in range(_NZ):
+        for j in range(n):
             row += W[i, j] * z[j]
         acc += z[i] * row
     return acc
@@ -839,6 +841,20 @@ def _setpoint(ts, ps, vend, t, out):
 
 
 @nb.njit(**_JIT)
+def _mech_energy(M, modal, v, ph, vh, p):
+    """Kinetic energy of the device, plus the structural mode's elastic energy (J): with
+    ``modal`` = [M_h, K_s] (a two-mass device, M the motor side) 1/2 v'Mv + 1/2 vh'M_h vh +
+    1/2 (p - ph)' K_s (p - ph); 1/2 v'Mv for a rigid one (modal empty)."""
+    e = _half_quad2(M, v)
+    if modal.shape[0] == 2:
+        e += _half_quad2(modal[0], vh)
+        dx = p[0] - ph[0]
+        dz = p[1] - ph[1]
+        e += 0.5 * (dx * (modal[1, 0, 0] * dx + modal[1, 0, 1] * dz) + dz * (modal[1, 1, 0] * dx + modal[1, 1, 1] * dz))
+    return e
+
+
+@nb.njit(**_JIT)
 def _coulomb(P, z, v, fc):
     """The handle's Coulomb friction force over one sample, held like the command (a sampled
     Karnopp model). Returns (f_x, f_z, at_rest).
@@ -851,7 +867,7 @@ def _coulomb(P, z, v, fc):
     """
     a0 = 0.0
     a1 = 0.0
-    for j in range(_NZ):
+    for j in range(z.shape[0]):
         a0 += P[2, j] * z[j]
         a1 += P[3, j] * z[j]
     b00 = P[2, 4]
@@ -871,7 +887,7 @@ def _coulomb(P, z, v, fc):
 
 
 @nb.njit(**_JIT)
-def run_one(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, M, K, C, f0, sp_t, sp_p, vend, rest_len,
+def run_one(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, M, modal, K, C, f0, sp_t, sp_p, vend, rest_len,
             kinematic, n_steps, T, delay, delta, fres, fmax, fc, p0, v0, record_every, rec, summary, tail_start,
             tail_z):
     """One simulation; fills ``rec`` (n_rec, 12) if it has rows, ``summary`` and ``tail_z``
@@ -882,14 +898,22 @@ def run_one(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, M, K, C, f0,
     finite: summary[S_DIVERGED] is then that sample's number (1-based) and
     summary[S_DIVERGED_WHAT] says which quantity (DIVERGED_*); both are 0 otherwise.
 
+    A structural mode (``Phi`` of size 14, ``modal`` = [M_h, K_s]) adds the handle side
+    [p_h, v_h], which the operator drives; positions, the tail and the records are the
+    motor side's, which the encoder senses and the command drives.
+
     ``fc`` (N) is the handle's isotropic Coulomb friction, sampled (see
     :func:`_coulomb`); summary[S_FRIC] is the energy it dissipated (J) and
     summary[S_STUCK] the number of samples that ended at rest by stiction.
     """
     st = np.zeros(N_STATE)
-    z = np.zeros(_NZ)
+    nz = Phi.shape[1]
+    mode = nz == _NZ_MODE
+    z = np.zeros(nz)
     p = p0.copy()
     v = v0.copy()
+    ph = p0.copy()  # the handle side starts with the motor side: the mode at rest
+    vh = v0.copy()
     buf = np.zeros((delay + 1, 2))
     s0 = np.zeros(2)
     s1 = np.zeros(2)
@@ -900,7 +924,7 @@ def run_one(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, M, K, C, f0,
     sat = 0
     maxpen = 0.0
     maxf = 0.0
-    ke0 = _half_quad2(M, v)
+    ke0 = _mech_energy(M, modal, v, ph, vh, p)
     ke_prev = ke0
     n_tail = tail_z.shape[0]
     tail_stride = max((n_steps - tail_start) // max(n_tail, 1), 1)
@@ -982,8 +1006,8 @@ def run_one(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, M, K, C, f0,
             g0x = K[0, 0] * s0[0] + K[0, 1] * s0[1] + C[0, 0] * sdx + C[0, 1] * sdz + f0[0]
             g0z = K[1, 0] * s0[0] + K[1, 1] * s0[1] + C[1, 0] * sdx + C[1, 1] * sdz + f0[1]
             if rest_len > 0.0:
-                ax = p[0] - sp_p[0, 0]
-                az = p[1] - sp_p[0, 1]
+                ax = (ph[0] if mode else p[0]) - sp_p[0, 0]
+                az = (ph[1] if mode else p[1]) - sp_p[0, 1]
                 nrm = math.sqrt(ax * ax + az * az)
                 if nrm > 0.0:
                     g0x += K[0, 0] * rest_len * ax / nrm
@@ -998,6 +1022,11 @@ def run_one(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, M, K, C, f0,
             z[7] = g0z
             z[8] = K[0, 0] * sdx + K[0, 1] * sdz
             z[9] = K[1, 0] * sdx + K[1, 1] * sdz
+            if mode:
+                z[10] = ph[0]
+                z[11] = ph[1]
+                z[12] = vh[0]
+                z[13] = vh[1]
             P = Phi[reg]
             ffx = 0.0
             ffz = 0.0
@@ -1011,7 +1040,7 @@ def run_one(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, M, K, C, f0,
                     stuck += 1
                     # at rest and held by stiction: the friction force follows the applied
                     # force within the sample, so the handle does not move at all
-                    held = v[0] == 0.0 and v[1] == 0.0
+                    held = v[0] == 0.0 and v[1] == 0.0 and not mode  # a mode keeps the handle moving
             npx = p[0]
             npz = p[1]
             nvx = 0.0
@@ -1021,11 +1050,25 @@ def run_one(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, M, K, C, f0,
                 eo += _quad(Wo[reg], z)
                 npx = 0.0
                 npz = 0.0
-                for j in range(_NZ):
+                for j in range(nz):
                     npx += P[0, j] * z[j]
                     npz += P[1, j] * z[j]
                     nvx += P[2, j] * z[j]
                     nvz += P[3, j] * z[j]
+                if mode:
+                    h0 = 0.0
+                    h1 = 0.0
+                    h2 = 0.0
+                    h3 = 0.0
+                    for j in range(nz):
+                        h0 += P[10, j] * z[j]
+                        h1 += P[11, j] * z[j]
+                        h2 += P[12, j] * z[j]
+                        h3 += P[13, j] * z[j]
+                    ph[0] = h0
+                    ph[1] = h1
+                    vh[0] = h2
+                    vh[1] = h3
             ex -= ux * (npx - p[0])
             ez -= uz * (npz - p[1])
             efr -= ffx * (npx - p[0]) + ffz * (npz - p[1])
@@ -1069,14 +1112,14 @@ def run_one(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, M, K, C, f0,
             rec[irec, 8] = ez
             rec[irec, 9] = ed
             rec[irec, 10] = eo
-            rec[irec, 11] = _half_quad2(M, v)
+            rec[irec, 11] = _mech_energy(M, modal, v, ph, vh, p)
             irec += 1
     summary[S_EX] = ex
     summary[S_EZ] = ez
     summary[S_DAMP] = ed
     summary[S_OP] = eo
     summary[S_KE0] = ke0
-    summary[S_KE] = _half_quad2(M, v)
+    summary[S_KE] = _mech_energy(M, modal, v, ph, vh, p)
     summary[S_SAT] = sat
     summary[S_MAXPEN] = maxpen
     summary[S_MAXF] = maxf
@@ -1087,12 +1130,13 @@ def run_one(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, M, K, C, f0,
 
 
 @nb.njit(parallel=True, cache=True)
-def run_batch(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, M, K, C, f0, sp_t, sp_p, vend, rest_len,
+def run_batch(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, M, modal, K, C, f0, sp_t, sp_p, vend, rest_len,
               kinematic, n_steps, T, delay, delta, fres, fmax, fc, p0, v0, record_every, rec, summary, tail_start,
               tail_z):
     """Runs i = 0..N-1 of :func:`run_one` in parallel; every per-run array has a leading N axis."""
     for i in nb.prange(coeffs.shape[0]):
-        run_one(code, kind, coeffs[i], prm[i], aux[i], nominal, Phi[i], Wd[i], Wo[i], Bs[i], M[i], K[i], C[i], f0[i], sp_t,
+        run_one(code, kind, coeffs[i], prm[i], aux[i], nominal, Phi[i], Wd[i], Wo[i], Bs[i], M[i], modal[i], K[i], C[i],
+                f0[i], sp_t,
              sp_p[i], vend[i], rest_len[i], kinematic, n_steps, T, delay[i], delta[i], fres[i], fmax[i], fc[i], p0[i],
              v0[i],
              record_every, rec[i], summary[i], tail_start, tail_z[i])

@@ -58,6 +58,18 @@ class Device:
         ``damping``. The paper energises its eddy-current brakes only inside (Section V-A).
     first_resonance : float, optional
         F0 (Hz), the first structural mode (Section II); inf if not modelled.
+    mode_damping_ratio : float, optional
+        zeta > 0 of the first structural mode. When given (and ``first_resonance`` is
+        finite) the device is simulated as two masses: the motor side M - M_h, where the
+        command acts, the encoder senses, and the viscous damping and Coulomb friction act,
+        joined to the handle side ``handle_mass`` M_h, which the operator holds, by a
+        spring K_s = w^2 (M_m^-1 + M_h^-1)^-1 and a damper 2 zeta w (M_m^-1 + M_h^-1)^-1,
+        w = 2 pi F0: the relative motion rings at F0 with damping ratio zeta. Default None:
+        a rigid device. The sensing is collocated with the actuation (encoders on the
+        motor shafts, as on the pantograph), non-collocated with the hand.
+    handle_mass : float or array_like, shape (2, 2), optional
+        M_h (kg), the handle-side inertia of the two-mass model; required with
+        ``mode_damping_ratio``; M - M_h must stay positive definite.
     coulomb_friction : float, optional
         f_c (N), the handle's isotropic Coulomb friction with stiction, default 0. The
         simulator holds it over each sample like the command (a sampled Karnopp model,
@@ -95,6 +107,8 @@ class Device:
     damping_outside: np.ndarray | None = None
     first_resonance: float = math.inf
     coulomb_friction: float = 0.0
+    mode_damping_ratio: float | None = None
+    handle_mass: np.ndarray | None = None
     name: str = "device"
     stiffness_limit: float | None = None
     details: dict = field(default_factory=dict, compare=False)
@@ -114,10 +128,51 @@ class Device:
         object.__setattr__(self, "max_force", positive_or_inf("max_force", self.max_force, "N"))
         object.__setattr__(self, "first_resonance", positive_or_inf("first_resonance", self.first_resonance, "Hz"))
         object.__setattr__(self, "coulomb_friction", nonnegative("coulomb_friction", self.coulomb_friction, "N"))
+        if self.handle_mass is not None:
+            object.__setattr__(self, "handle_mass", _matrix("handle_mass", self.handle_mass, allow_zero=False))
+        if self.mode_damping_ratio is not None:
+            zeta = positive("mode_damping_ratio", self.mode_damping_ratio)
+            object.__setattr__(self, "mode_damping_ratio", zeta)
+            nyquist = 0.5 / self.period
+            if not self.first_resonance < nyquist:
+                raise fail("first_resonance", self.first_resonance,
+                           f"below the Nyquist frequency {nyquist:g} Hz of T = {self.period:g} s for a simulated "
+                           "structural mode (mode_damping_ratio given)")
+            if self.handle_mass is None:
+                raise ParameterError(f"handle_mass = None is not allowed with mode_damping_ratio = {zeta:g}: the "
+                                     "two-mass model needs the handle-side inertia (kg)")
+            if np.linalg.eigvalsh(self.mass - self.handle_mass).min() <= 0:
+                raise fail("handle_mass", self.handle_mass.tolist(),
+                           f"smaller than the device's mass {self.mass.tolist()} (the motor side M - M_h must "
+                           "stay positive definite)")
         if self.stiffness_limit is not None:
             object.__setattr__(self, "stiffness_limit", positive("stiffness_limit", self.stiffness_limit, "N/m"))
 
     # -- derived numbers ---------------------------------------------------------------
+    @property
+    def structural_mode(self) -> bool:
+        """True when the device is simulated as two masses (see ``mode_damping_ratio``)."""
+        return self.mode_damping_ratio is not None
+
+    def mode_matrices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(M_m, M_h, K_s, C_s) of the two-mass model: motor- and handle-side masses (kg),
+        the mode's stiffness (N/m) and damping (N s/m) matrices, each shape (2, 2).
+
+        Raises
+        ------
+        ParameterError
+            If the device has no structural mode.
+        """
+        if not self.structural_mode:
+            raise ParameterError("mode_damping_ratio = None is not allowed here: the device is rigid")
+        Mh = self.handle_mass
+        Mm = self.mass - Mh
+        red = np.linalg.inv(np.linalg.inv(Mm) + np.linalg.inv(Mh))
+        w = 2 * math.pi * self.first_resonance
+        Ks = w * w * red
+        Cs = 2 * self.mode_damping_ratio * w * red
+        return Mm, Mh, 0.5 * (Ks + Ks.T), 0.5 * (Cs + Cs.T)
+
     @property
     def min_damping(self) -> float:
         """sigma_0(B): the smallest singular value of the inside damping matrix (N s/m)."""
@@ -137,7 +192,8 @@ class Device:
         """A copy with some parameters changed (validated again)."""
         fields = {k: getattr(self, k) for k in ("mass", "damping", "period", "delay", "position_resolution",
                                                 "force_resolution", "max_force", "first_resonance",
-                                                "coulomb_friction", "name", "stiffness_limit")}
+                                                "coulomb_friction", "mode_damping_ratio", "handle_mass", "name",
+                                                "stiffness_limit")}
         fields["damping_outside"] = None if np.array_equal(self.damping_outside, self.damping) else self.damping_outside
         if "damping" in changes and "damping_outside" not in changes and fields["damping_outside"] is None:
             fields["damping_outside"] = None
@@ -241,6 +297,7 @@ class Device:
                    "link_mass": ml, "handle_mass": mh, "joint_damping": bj, "joint_damping_outside": bj_out,
                    "working_point": p.tolist(), "joint_angles": angles.tolist(), "jacobian": J.tolist()}
         kw.setdefault("first_resonance", 400.0)
+        kw.setdefault("handle_mass", (mh + ml) * np.eye(2))  # the handle side of a structural mode
         return cls(mass=M, damping=B, damping_outside=B_out, period=period, position_resolution=position_resolution,
                    name=kw.pop("name", "pantograph"), details=details, **kw)
 
@@ -299,8 +356,15 @@ def five_bar_jacobian(a1: float, a2: float, base: float, p) -> tuple[np.ndarray,
     return J, angles
 
 
-def critical_stiffness(mass: float, damping: float, period: float, delay: int = 0) -> float:
+def critical_stiffness(mass: float, damping: float, period: float, delay: int = 0, *, handle_mass: float | None = None,
+                       first_resonance: float | None = None, mode_damping_ratio: float | None = None) -> float:
     """Largest stable stiffness of a virtual spring on a sampled mass-damper (1 DOF).
+
+    With ``handle_mass``, ``first_resonance`` and ``mode_damping_ratio`` the device is the
+    two-mass model of :class:`Device` (``mass`` the total, the spring and damping on the
+    motor side, the handle free): the returned kappa is where the largest eigenvalue of
+    the ZOH-discretised closed loop (state [x_m, v_m, x_h, v_h] and ``delay`` held
+    commands) reaches the unit circle.
 
     The plant 1 / (m s^2 + b s) is discretised with a zero-order hold; the controller
     applies -kappa x with ``delay`` extra samples of latency. The returned kappa is where
@@ -331,6 +395,8 @@ def critical_stiffness(mass: float, damping: float, period: float, delay: int = 
     T = positive("period", period, "s")
     if int(delay) != delay or delay < 0:
         raise fail("delay", delay, "a whole number >= 0")
+    if handle_mass is not None or first_resonance is not None or mode_damping_ratio is not None:
+        return _critical_stiffness_two_mass(m, b, T, int(delay), handle_mass, first_resonance, mode_damping_ratio)
     a = math.exp(-b * T / m)
     # ZOH of 1/(s (m s + b)): numerator n1 z + n0
     n1 = T / b - m / (b * b) * (1 - a)
@@ -341,6 +407,53 @@ def critical_stiffness(mass: float, damping: float, period: float, delay: int = 
     def radius(k):
         num = np.r_[np.zeros(len(den) - 2), n1, n0]
         return float(np.abs(np.roots(den + k * num)).max()) - 1.0
+
+    hi = 2 * b / T
+    while radius(hi) < 0:
+        hi *= 2
+    lo = hi
+    while radius(lo) >= 0 and lo > 1e-12:
+        lo /= 2
+    return brentq(radius, lo, hi, xtol=1e-12 * hi, rtol=1e-13)
+
+
+def _critical_stiffness_two_mass(m, b, T, delay, handle_mass, first_resonance, zeta) -> float:
+    from scipy.linalg import expm
+    from scipy.optimize import brentq
+
+    mh = positive("handle_mass", handle_mass, "kg")
+    if not mh < m:
+        raise fail("handle_mass", handle_mass, f"below the total mass {m:g} kg")
+    f0 = positive("first_resonance", first_resonance, "Hz")
+    if not f0 < 0.5 / T:
+        raise fail("first_resonance", f0, f"below the Nyquist frequency {0.5 / T:g} Hz")
+    zeta = positive("mode_damping_ratio", zeta)
+    mm = m - mh
+    red = mm * mh / m
+    w = 2 * math.pi * f0
+    ks, cs = w * w * red, 2 * zeta * w * red
+    A = np.array([[0.0, 1.0, 0.0, 0.0],
+                  [-ks / mm, -(b + cs) / mm, ks / mm, cs / mm],
+                  [0.0, 0.0, 0.0, 1.0],
+                  [ks / mh, cs / mh, -ks / mh, -cs / mh]])
+    big = np.zeros((5, 5))
+    big[:4, :4] = A
+    big[1, 4] = 1.0 / mm  # the command acts on the motor side
+    E = expm(big * T)
+    Phi, Gam = E[:4, :4], E[:4, 4]
+    n = 4 + delay
+
+    def radius(k):
+        L = np.zeros((n, n))
+        L[:4, :4] = Phi
+        if delay == 0:
+            L[:4, 0] -= k * Gam  # u_k = -k x_m,k, held over [kT, (k+1)T)
+        else:
+            L[:4, 4 + delay - 1] = Gam  # the oldest stored command is applied
+            L[4, 0] = -k  # the newest command from this sample's motor position
+            for j in range(1, delay):
+                L[4 + j, 4 + j - 1] = 1.0
+        return float(np.abs(np.linalg.eigvals(L)).max()) - 1.0
 
     hi = 2 * b / T
     while radius(hi) < 0:

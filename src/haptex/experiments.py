@@ -34,7 +34,7 @@ import numpy as np
 
 from .algorithms import algorithm
 from .analysis import characteristic_number
-from .devices import Device
+from .devices import Device, critical_stiffness
 from .operators import ElasticBand, ScanningHand
 from .simulate import simulate, simulate_batch
 from .textures import Sinusoid
@@ -213,11 +213,21 @@ def passivity(quick: bool = False) -> dict:
         for s, g, o, a in zip(S.ravel(), G.ravel(), b.oscillating, b.amplitude):
             sens.append({"algorithm": L, "band_stiffness": float(s), "band_angle_deg": float(g),
                          "oscillating": bool(o), "amplitude": float(a)})
+    # the sampled wall's limit along the normal, rigid and with the first structural mode
+    # (the preset's 400 Hz, sensing and actuation on the motor side), delay 0 and 1
+    mz, bz, mh = float(sym.mass[1, 1]), float(sym.damping[1, 1]), float(sym.handle_mass[1, 1])
+    mode_limits = []
+    for delay in (0, 1):
+        row = {"delay": delay, "rigid": critical_stiffness(mz, bz, sym.period, delay)}
+        for zeta in (0.05, 0.2):
+            row[f"mode_zeta_{zeta:g}"] = critical_stiffness(mz, bz, sym.period, delay, handle_mass=mh,
+                                                            first_resonance=sym.first_resonance, mode_damping_ratio=zeta)
+        mode_limits.append(row)
     decoupled = {"mass_offdiagonal": float(sym.mass[0, 1]), "damping_offdiagonal": float(sym.damping[0, 1]),
                  "working_point": list(sym.details["working_point"])}
     return {"runs": runs, "q": q, "critical": critical, "critical_sweep": ks.tolist(), "sensitivity": sens,
             "parameters": p, "passivity_limit": dev.passivity_limit, "robustness": _robustness(p, quick),
-            "decoupled": decoupled, "device": {"working_point": list(p["working_point"]), "delay": p["delay"],
+            "decoupled": decoupled, "mode_limits": mode_limits, "device": {"working_point": list(p["working_point"]), "delay": p["delay"],
                                                "mass": dev.mass.tolist(), "damping": dev.damping.tolist()}}
 
 

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.linalg import expm
 
-from ._kernels import (_NZ, DIVERGED_ENERGY, DIVERGED_FORCE, DIVERGED_POSITION, DIVERGED_VELOCITY, N_SUMMARY, S_DAMP,
+from ._kernels import (_NZ, _NZ_MODE, DIVERGED_ENERGY, DIVERGED_FORCE, DIVERGED_POSITION, DIVERGED_VELOCITY, N_SUMMARY, S_DAMP,
                        S_DIVERGED, S_DIVERGED_WHAT, S_EX, S_EZ, S_FRIC, S_KE, S_KE0, S_MAXPEN, S_NSAMP, S_OP, S_SAT,
                        S_TAILSTART_E)
 from ._kernels import run_batch as _run_batch
@@ -57,17 +57,40 @@ _BYTES_PER_SAMPLE = 12 * 8
 # --------------------------------------------------------------------------------------
 # exact discretisation
 # --------------------------------------------------------------------------------------
-def _augmented(M: np.ndarray, B: np.ndarray, K: np.ndarray, C: np.ndarray) -> np.ndarray:
+def _augmented(M: np.ndarray, B: np.ndarray, K: np.ndarray, C: np.ndarray, mode=None) -> np.ndarray:
     """F of dz/dt = F z for z = [p, v, u, g, r]: M dv/dt = u + g - K p - (B + C) v,
-    du/dt = 0, dg/dt = r, dr/dt = 0."""
-    Minv = np.linalg.inv(M)
-    F = np.zeros((_NZ, _NZ))
+    du/dt = 0, dg/dt = r, dr/dt = 0.
+
+    With ``mode`` = (M_m, M_h, K_s, C_s), z = [p, v, u, g, r, p_h, v_h]: the command u, the
+    damping B and the sensing act on the motor side (p, v), the operator on the handle
+    side: M_m dv/dt = u - B v - K_s (p - p_h) - C_s (v - v_h) and
+    M_h dv_h/dt = g - K p_h - C v_h + K_s (p - p_h) + C_s (v - v_h)."""
+    if mode is None:
+        Minv = np.linalg.inv(M)
+        F = np.zeros((_NZ, _NZ))
+        F[0:2, 2:4] = np.eye(2)
+        F[2:4, 0:2] = -Minv @ K
+        F[2:4, 2:4] = -Minv @ (B + C)
+        F[2:4, 4:6] = Minv
+        F[2:4, 6:8] = Minv
+        F[6:8, 8:10] = np.eye(2)
+        return F
+    Mm, Mh, Ks, Cs = mode
+    mi, hi = np.linalg.inv(Mm), np.linalg.inv(Mh)
+    F = np.zeros((_NZ_MODE, _NZ_MODE))
     F[0:2, 2:4] = np.eye(2)
-    F[2:4, 0:2] = -Minv @ K
-    F[2:4, 2:4] = -Minv @ (B + C)
-    F[2:4, 4:6] = Minv
-    F[2:4, 6:8] = Minv
+    F[2:4, 0:2] = -mi @ Ks
+    F[2:4, 2:4] = -mi @ (B + Cs)
+    F[2:4, 4:6] = mi
+    F[2:4, 10:12] = mi @ Ks
+    F[2:4, 12:14] = mi @ Cs
     F[6:8, 8:10] = np.eye(2)
+    F[10:12, 12:14] = np.eye(2)
+    F[12:14, 10:12] = -hi @ (K + Ks)
+    F[12:14, 12:14] = -hi @ (C + Cs)
+    F[12:14, 6:8] = hi
+    F[12:14, 0:2] = hi @ Ks
+    F[12:14, 2:4] = hi @ Cs
     return F
 
 
@@ -85,25 +108,44 @@ def _van_loan(F: np.ndarray, Q: np.ndarray, T: float) -> tuple[np.ndarray, np.nd
 
 
 def _discretise(device: Device, op: Operator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per damping regime (0 outside, 1 inside): Phi (2, 10, 10), W_damping, W_operator."""
+    """Per damping regime (0 outside, 1 inside): Phi (2, n, n), W_damping, W_operator, with
+    n = 10, or 14 for a device with a structural mode (see :func:`_augmented`)."""
     T = device.period
     K, C = op.stiffness, op.damping
-    Qop = np.zeros((_NZ, _NZ))
-    Qop[2:4, 0:2] = -0.5 * K
-    Qop[0:2, 2:4] = -0.5 * K.T
-    Qop[2:4, 2:4] = -0.5 * (C + C.T)
-    Qop[2:4, 6:8] = 0.5 * np.eye(2)
-    Qop[6:8, 2:4] = 0.5 * np.eye(2)
-    Phi = np.empty((2, _NZ, _NZ))
-    Wd = np.empty((2, _NZ, _NZ))
-    Wo = np.empty((2, _NZ, _NZ))
+    mode = device.mode_matrices() if device.structural_mode else None
+    n = _NZ if mode is None else _NZ_MODE
+    p_op, v_op = (slice(0, 2), slice(2, 4)) if mode is None else (slice(10, 12), slice(12, 14))
+    Qop = np.zeros((n, n))  # the operator's power v' (g - K p - C v) on the body it holds
+    Qop[v_op, p_op] = -0.5 * K
+    Qop[p_op, v_op] = -0.5 * K.T
+    Qop[v_op, v_op] = -0.5 * (C + C.T)
+    Qop[v_op, 6:8] = 0.5 * np.eye(2)
+    Qop[6:8, v_op] = 0.5 * np.eye(2)
+    Phi = np.empty((2, n, n))
+    Wd = np.empty((2, n, n))
+    Wo = np.empty((2, n, n))
     for reg, B in enumerate((device.damping_outside, device.damping)):
-        F = _augmented(device.mass, B, K, C)
-        Qd = np.zeros((_NZ, _NZ))
+        F = _augmented(device.mass, B, K, C, mode)
+        Qd = np.zeros((n, n))  # dissipation: v' B v, and the mode's damper on v - v_h
         Qd[2:4, 2:4] = B
+        if mode is not None:
+            Cs = mode[3]
+            Qd[2:4, 2:4] += Cs
+            Qd[12:14, 12:14] = Cs
+            Qd[2:4, 12:14] = -Cs
+            Qd[12:14, 2:4] = -Cs
         Phi[reg], Wd[reg] = _van_loan(F, Qd, T)
         _, Wo[reg] = _van_loan(F, Qop, T)
     return Phi, Wd, Wo
+
+
+def _mass_inputs(device: Device) -> tuple[np.ndarray, np.ndarray]:
+    """(M, modal) for the compiled loop: the whole mass and no modal data for a rigid
+    device; the motor side and [M_h, K_s] with a structural mode."""
+    if not device.structural_mode:
+        return device.mass, np.zeros((0, 2, 2))
+    Mm, Mh, Ks, _ = device.mode_matrices()
+    return Mm, np.stack([Mh, Ks])
 
 
 # --------------------------------------------------------------------------------------
@@ -359,6 +401,9 @@ def _kernel_inputs(algorithm, device, operator, memo: dict | None = None):
     (six 20x20 matrix exponentials) between runs whose device and operator are the same
     objects, as in sweeps of algorithm parameters."""
     code, prm, kind, coeffs, aux = algorithm.kernel_spec()
+    if device.structural_mode and operator.kinematic:
+        raise ParameterError(f"operator = KinematicPath is not allowed with the structural mode of {device.name}: "
+                             "a prescribed path fixes one body and leaves the mode undefined; use a hand or a band")
     T_alg = getattr(algorithm, "period", None)
     if T_alg is not None and not math.isclose(T_alg, device.period, rel_tol=1e-12):
         raise ParameterError(f"period = {T_alg:g} s of {algorithm!r} is not allowed on {device.name}: its virtual "
@@ -428,7 +473,8 @@ def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration:
     summary = np.zeros(N_SUMMARY)
     tail_start = int(n_steps * (1 - tail_fraction))
     tail_z = np.zeros((min(n_steps - tail_start, 65536), 2))
-    _run(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, device.mass, operator.stiffness, operator.damping,
+    _run(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, *_mass_inputs(device), operator.stiffness,
+         operator.damping,
          operator.force, operator.setpoint_times, operator.setpoint_points, operator.final_velocity,
          operator.rest_length, operator.kinematic, n_steps, device.period, device.delay, device.position_resolution,
          device.force_resolution, device.max_force, device.coulomb_friction, p0, v0, record_every, rec, summary,
@@ -651,7 +697,10 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
         aux[i, :s[4].size] = s[4]
     dev = [d for _, d, _ in runs]
     ops = [o for _, _, o in runs]
-    M = np.stack([d.mass for d in dev])
+    if len({d.structural_mode for d in dev}) != 1:
+        raise ParameterError("the runs of a batch must all have a structural mode or all be rigid")
+    M = np.stack([_mass_inputs(d)[0] for d in dev])
+    modal = np.stack([_mass_inputs(d)[1] for d in dev])
     K = np.stack([o.stiffness for o in ops])
     C = np.stack([o.damping for o in ops])
     f0 = np.stack([o.force for o in ops])
@@ -676,7 +725,8 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     T = dev[0].period
     # (value, True if it has one row per run)
     args = [(code, False), (kind, False), (coeffs, True), (prm, True), (aux, True), (nominal, False), (Phi, True), (Wd, True),
-            (Wo, True), (Bs, True), (M, True), (K, True), (C, True), (f0, True), (ops[0].setpoint_times, False),
+            (Wo, True), (Bs, True), (M, True), (modal, True), (K, True), (C, True), (f0, True),
+            (ops[0].setpoint_times, False),
             (sp_p, True), (vend, True), (rest, True), (ops[0].kinematic, False), (n_steps, False), (T, False),
             (delay, True), (delta, True), (fres, True), (fmax, True), (fc, True), (P0, True), (V0, True),
             (int(record_every), False), (rec, True), (summary, True), (tail_start, False), (tail_z, True)]
