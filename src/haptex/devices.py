@@ -257,7 +257,9 @@ class Device:
         **kw
             Other :class:`Device` parameters (delay, force_resolution, max_force, ...);
             ``first_resonance`` defaults to 400 Hz, the 3 dB flat band the paper reports
-            for its device (Section V).
+            for its device (Section V), and ``handle_mass`` to m_h I: with
+            ``mode_damping_ratio`` the linkage becomes two masses, the motors' reflected
+            inertia J^-T diag(I_1, I_2) J^-1 on one side and the handle on the other.
 
         Notes
         -----
