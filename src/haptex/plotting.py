@@ -196,3 +196,69 @@ def plot_trajectories(runs, surface_x, surface_h, path, title: str = "") -> Path
     axes[-1, 0].set_xlabel("x (mm)")
     axes[-1, 1].set_xlabel("time (s)")
     return _finish(plt, fig, path, title, title_size=10)
+
+
+ROBUSTNESS_CLASSES = ("none oscillates", "A only", "F only", "A and F (the paper)", "W oscillates")
+
+
+def plot_robustness(robustness: dict, path) -> Path:
+    """Fig. 5's outcome over working points x delays x band angles, one cell each.
+
+    Parameters
+    ----------
+    robustness : dict
+        ``passivity(...)["robustness"]`` of :mod:`haptex.experiments`.
+    path : str or Path
+        PNG file to write.
+    """
+    plt = _pyplot()
+    from matplotlib.colors import ListedColormap
+
+    cases = robustness["cases"]
+    points = sorted({tuple(c["working_point"]) for c in cases})
+    conds = sorted({(c["delay"], c["band_angle_deg"]) for c in cases})
+    grid = np.full((len(points), len(conds)), np.nan)
+    for c in cases:
+        r = c["runs"]
+        w, a, f = (r[L]["oscillating"] for L in "WAF")
+        cls = 4 if w else (3 if a and f else (1 if a else (2 if f else 0)))
+        grid[points.index(tuple(c["working_point"])), conds.index((c["delay"], c["band_angle_deg"]))] = cls
+    fig, ax = plt.subplots(figsize=(8, 0.35 * len(points) + 2))
+    cmap = ListedColormap(["#e8e8e8", "#fdae61", "#abd9e9", "#1a9641", "#d7191c"])
+    ax.imshow(grid, cmap=cmap, vmin=-0.5, vmax=4.5, aspect="auto")
+    ax.set_xticks(range(len(conds)), [f"{d} / {g:g}" for d, g in conds], rotation=45)
+    ax.set_yticks(range(len(points)), [f"({x * 1e3:g}, {z * 1e3:g})" for x, z in points])
+    ax.set_xlabel("delay (samples) / band angle (degrees)")
+    ax.set_ylabel("handle working point (mm)")
+    handles = [plt.Rectangle((0, 0), 1, 1, color=cmap(i)) for i in range(5)]
+    ax.legend(handles, ROBUSTNESS_CLASSES, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
+    return _finish(plt, fig, path, "Fig. 5 at kappa_0 = 2 kN/m: which algorithms oscillate")
+
+
+def plot_speed_sweep(sweep: list, path) -> Path:
+    """Fig. 6's energies per texture period against scanning speed, relative to A's |E_z|.
+
+    Parameters
+    ----------
+    sweep : list of dict
+        ``conservativity(...)["speed_sweep"]`` of :mod:`haptex.experiments`.
+    path : str or Path
+        PNG file to write.
+    """
+    plt = _pyplot()
+    fig, axes = plt.subplots(1, 3, figsize=(12, 3.6), sharex=True)
+    letters = sorted({s["algorithm"] for s in sweep})
+    for ax, key, label in zip(axes, ("relative_x", "relative_z", "relative_lost"),
+                              ("E_x per period", "E_z per period", "(E - dV) per period")):
+        for L in letters:
+            rows = sorted((s for s in sweep if s["algorithm"] == L), key=lambda s: s["velocity"])
+            ax.plot([s["velocity"] * 1e3 for s in rows], [s[key] for s in rows], "o-", label=L)
+        ax.axhline(0.0, color="k", lw=0.6)
+        ax.set_xlabel("scanning speed (mm/s)")
+        ax.set_ylabel(f"{label} / |E_z,A| (1)")
+        ax.set_xscale("log")
+        speeds = sorted({s["velocity"] * 1e3 for s in sweep})
+        ax.set_xticks(speeds, [f"{v:g}" for v in speeds])
+        ax.minorticks_off()
+    axes[0].legend()
+    return _finish(plt, fig, path, "Fig. 6 in steady contact: energy per texture period (< 0: supplied)")

@@ -474,6 +474,9 @@ def write_report(data: dict, out: Path, force: bool = False, elapsed: float | No
         figs["fig3_loops"] = plotting.plot_loop_energies(data["table_ii"]["rows"], tmp / "fig3_loops.png")
         figs["fig5_passivity"] = plotting.plot_runs(data["passivity"]["runs"], tmp / "fig5_passivity.png", "position",
                                                     "Fig. 5: thrust with an elastic band (z and E_x + E_z)")
+        figs["fig5_robustness"] = plotting.plot_robustness(data["passivity"]["robustness"], tmp / "fig5_robustness.png")
+        figs["fig6_speed_sweep"] = plotting.plot_speed_sweep(data["conservativity"]["speed_sweep"],
+                                                             tmp / "fig6_speed_sweep.png")
         figs["fig6_conservativity"] = plotting.plot_runs(data["conservativity"]["runs"], tmp / "fig6_conservativity.png",
                                                          "energy", "Fig. 6: one scanning stroke, energy per axis")
         sp = data["surface_activity"]["parameters"]
@@ -680,6 +683,7 @@ def _html(data, figs, summary) -> str:
              [("osc. " + c["runs"][L]["axis"] + f" {c['runs'][L]['amplitude'] * 1e3:.3g} mm, "
                f"{c['runs'][L]['frequency']:.3g} Hz") if c["runs"][L]["oscillating"] else "stable" for L in "WAF"]
              for c in rob["cases"]]))
+    parts.append(_img(figs["fig5_robustness"], "Fig. 5 robustness map"))
     con = data["conservativity"]
     parts.append("<h2>Conservativity (Section V-B, Fig. 6)</h2>")
     ref_a = abs(con["per_period"]["A"]["energy_z"])
@@ -697,6 +701,7 @@ def _html(data, figs, summary) -> str:
         ["alg.", "speed (mm/s)", "E_x / |E_z,A|", "E_z / |E_z,A|", "(E - dV) / |E_z,A|"],
         [[s["algorithm"], _g(s["velocity"] * 1e3), _g(s["relative_x"], ".3g"), _g(s["relative_z"], ".3g"),
           _g(s["relative_lost"], ".3g")] for s in con["speed_sweep"]]))
+    parts.append(_img(figs["fig6_speed_sweep"], "Fig. 6 speed sweep"))
     parts.append("<p>G: along a path at constant depth its lateral work over a period is exactly zero (the "
                  "lateral force follows h'(x), whose integral over a period vanishes); it generates here because "
                  "under a compliant hand the depth co-varies with the slope.</p>")
