@@ -392,3 +392,25 @@ def test_a_kinematic_path_with_a_structural_mode_is_refused():
     dev = hx.Device.pantograph(mode_damping_ratio=0.05)
     with pytest.raises(hx.ParameterError, match="^operator = KinematicPath is not allowed"):
         hx.simulate(wall(K0), dev, KinematicPath([[0, 0], [1e-3, 0]], 1e-3), 0.1)
+
+
+@pytest.mark.parametrize("factor", [0.95, 1.05])
+def test_quantised_wall_with_coulomb_friction_is_passive_iff_K_below_2fc_over_delta(factor):
+    # The quantisation half of Abbott & Okamura (2005), "K <= 2 f_c / Delta" as commonly
+    # cited, derived here by hand for the worst small motion: p^z alternating each sample
+    # between -10.5 Delta + eps and -10.5 Delta - eps, across one encoder step. The sensed
+    # positions are -10 Delta and -11 Delta, so per cycle the held wall forces do
+    # -(10 K Delta)(2 eps) + (11 K Delta)(2 eps) = 2 K Delta eps of work on the handle, while
+    # Coulomb friction takes 4 f_c eps and viscous damping 8 b eps^2 / T. Absorbed per cycle:
+    # 4 f_c eps + 8 b eps^2 / T - 2 K Delta eps, < 0 (active) as eps -> 0 iff K > 2 f_c / Delta.
+    T, delta, fc, b = 1e-3, 1e-5, 0.05, 0.01
+    eps, n = 1e-3 * delta, 2000
+    k = factor * 2 * fc / delta
+    pts = np.array([[0.0, -10.5 * delta + (eps if i % 2 == 0 else -eps)] for i in range(n + 1)])
+    dev = hx.Device.point_mass(0.1, b, T, position_resolution=delta, coulomb_friction=fc)
+    r = hx.simulate(wall(k), dev, KinematicPath(pts, 2 * eps / T), n * T * 0.999999)
+    t = r.totals
+    absorbed = t["energy_x"] + t["energy_z"] + t["damping_energy"] + t["friction_energy"]
+    expect = n / 2 * (4 * fc * eps + 8 * b * eps**2 / T - 2 * k * delta * eps)
+    assert absorbed == pytest.approx(expect, rel=1e-6)
+    assert (absorbed > 0) is (factor < 1)
