@@ -409,3 +409,58 @@ def activity_metrics(alg, res, window: float = 0.02) -> dict:
     jump = float(np.max(e[:-w] - e[w:])) if e.size > w else 0.0
     return {"contact_losses": int(trans), "max_energy_jump": max(jump, 0.0),
             "net_absorbed": float(res.energy_x[-1] + res.energy_z[-1]), "net_lost": float(e[-1])}
+
+
+WALL_MAP = {
+    "mass": 0.1,  # kg (chosen: a light handle)
+    "period": 1e-3,  # s
+    "stiffness": 2000.0,  # N/m
+    "resolution": 1e-5,  # m, encoder step Delta
+    "push": 1.0,  # N, constant operator force into the wall
+    "duration": 4.0,  # s
+}
+"""The 1-DOF virtual wall mapped by :func:`wall_map` (chosen values)."""
+
+
+def wall_map(quick: bool = False) -> dict:
+    """The sampled, quantised virtual wall W on a mass with viscous and Coulomb friction,
+    over the plane beta = b / (K T), sigma = f_c / (K Delta) of Diolaiti et al. (IEEE
+    Trans. Robotics 22(2), 2006).
+
+    Each point is classified twice: *passive* by the two worst-case conditions checked
+    exactly in the tests, beta > 1/2 (Colgate & Schenkel 1997: b > K T / 2) and sigma >= 1/2
+    (the quantisation condition K <= 2 f_c / Delta, Abbott & Okamura 2005 as cited), and by
+    what a closed-loop push into the wall does: ``unstable`` (a growing or large
+    oscillation, amplitude > 10 Delta), ``limit cycle`` (a sustained oscillation within
+    10 Delta) or ``rest``.
+
+    Returns
+    -------
+    dict
+        ``beta``, ``sigma`` (lists), ``points`` (list of dicts with ``beta``, ``sigma``,
+        ``passive``, ``behaviour``, ``amplitude`` m, ``frequency`` Hz), ``parameters``.
+    """
+    p = dict(WALL_MAP)
+    K, T, delta = p["stiffness"], p["period"], p["resolution"]
+    betas = np.array([0.2, 0.4, 0.6, 1.0, 2.0]) if quick else np.array([0.1, 0.2, 0.3, 0.4, 0.45, 0.55, 0.6, 0.8, 1.0,
+                                                                            1.5, 2.0, 4.0])
+    sigmas = np.array([0.0, 0.25, 0.75, 2.0]) if quick else np.array([0.0, 0.05, 0.1, 0.2, 0.3, 0.4, 0.45, 0.55, 0.6,
+                                                                          0.8, 1.0, 2.0])
+    B, S = np.meshgrid(betas, sigmas, indexing="ij")
+    dev = Device.point_mass(p["mass"], p["push"], T, position_resolution=delta)
+    from .operators import ConstantForce
+
+    alg = algorithm("W", None, K)
+    res = simulate_batch(alg, dev, ConstantForce([0.0, -p["push"]]), 1.0 if quick else p["duration"],
+                         initial_position=[0.0, -p["push"] / K - 20 * delta], damping=(B * K * T).ravel(),
+                         coulomb_friction=(S * K * delta).ravel())
+    points = []
+    for i, (beta, sigma) in enumerate(zip(B.ravel(), S.ravel())):
+        amp = float(res.amplitude[i])
+        if res.oscillating[i]:
+            behaviour = "unstable" if amp > 10 * delta else "limit cycle"
+        else:
+            behaviour = "rest"
+        points.append({"beta": float(beta), "sigma": float(sigma), "passive": bool(beta > 0.5 and sigma >= 0.5),
+                       "behaviour": behaviour, "amplitude": amp, "frequency": float(res.frequency[i])})
+    return {"beta": betas.tolist(), "sigma": sigmas.tolist(), "points": points, "parameters": p}

@@ -262,3 +262,33 @@ def plot_speed_sweep(sweep: list, path) -> Path:
         ax.minorticks_off()
     axes[0].legend()
     return _finish(plt, fig, path, "Fig. 6 in steady contact: energy per texture period (< 0: supplied)")
+
+
+def plot_wall_map(wall_map: dict, path) -> Path:
+    """The virtual wall's passivity and closed-loop behaviour over beta = b/(KT) and
+    sigma = f_c/(K Delta) (:func:`haptex.experiments.wall_map`).
+
+    Parameters
+    ----------
+    wall_map : dict
+        From :func:`haptex.experiments.wall_map`.
+    path : str or Path
+        PNG file to write.
+    """
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(7, 5))
+    style = {"rest": ("o", "#1a9641"), "limit cycle": ("s", "#fdae61"), "unstable": ("X", "#d7191c")}
+    for behaviour, (marker, color) in style.items():
+        for passive in (True, False):
+            pts = [p for p in wall_map["points"] if p["behaviour"] == behaviour and p["passive"] is passive]
+            if pts:
+                ax.scatter([p["beta"] for p in pts], [p["sigma"] for p in pts], marker=marker, s=60,
+                           facecolors=color if passive else "none", edgecolors=color,
+                           label=f"{behaviour}, {'passive' if passive else 'not passive'}")
+    ax.axvline(0.5, color="k", lw=0.8, ls="--")
+    ax.axhline(0.5, color="k", lw=0.8, ls=":")
+    ax.set_xscale("log")
+    ax.set_xlabel("beta = b / (K T) (1); dashed: b = K T / 2 (Colgate & Schenkel)")
+    ax.set_ylabel("sigma = f_c / (K Delta) (1); dotted: K = 2 f_c / Delta")
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    return _finish(plt, fig, path, "Sampled, quantised virtual wall: passivity and behaviour")

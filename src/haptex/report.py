@@ -80,6 +80,8 @@ def compute(quick: bool = False, progress=None, table_params: dict | None = None
     con = ex.conservativity(quick)
     step("Section V-C: surface activity (enlarged bump)")
     sur = ex.surface_activity(quick)
+    step("the virtual wall's passivity map (beta, sigma)")
+    pas["wall_map"] = ex.wall_map(quick)
     step("claims")
     extra = _extra_numbers(quick)
     claims = _claims(table, pas, con, sur, extra)
@@ -474,6 +476,7 @@ def write_report(data: dict, out: Path, force: bool = False, elapsed: float | No
         figs["fig3_loops"] = plotting.plot_loop_energies(data["table_ii"]["rows"], tmp / "fig3_loops.png")
         figs["fig5_passivity"] = plotting.plot_runs(data["passivity"]["runs"], tmp / "fig5_passivity.png", "position",
                                                     "Fig. 5: thrust with an elastic band (z and E_x + E_z)")
+        figs["wall_map"] = plotting.plot_wall_map(data["passivity"]["wall_map"], tmp / "wall_map.png")
         figs["fig5_robustness"] = plotting.plot_robustness(data["passivity"]["robustness"], tmp / "fig5_robustness.png")
         figs["fig6_speed_sweep"] = plotting.plot_speed_sweep(data["conservativity"]["speed_sweep"],
                                                              tmp / "fig6_speed_sweep.png")
@@ -684,6 +687,22 @@ def _html(data, figs, summary) -> str:
                f"{c['runs'][L]['frequency']:.3g} Hz") if c["runs"][L]["oscillating"] else "stable" for L in "WAF"]
              for c in rob["cases"]]))
     parts.append(_img(figs["fig5_robustness"], "Fig. 5 robustness map"))
+    wm = pas["wall_map"]
+    counts = {}
+    for pt in wm["points"]:
+        key = (pt["passive"], pt["behaviour"])
+        counts[key] = counts.get(key, 0) + 1
+    wp = wm["parameters"]
+    parts.append(
+        "<h3>The virtual wall W: passivity is not stability</h3><p>W at "
+        f"{wp['stiffness']:g} N/m on a {wp['mass']:g} kg handle, T = {wp['period'] * 1e3:g} ms, encoder step "
+        f"{wp['resolution'] * 1e6:g} um, pushed with {wp['push']:g} N, over beta = b/(KT) and sigma = f_c/(K Delta) "
+        "(the plane of Diolaiti et al., 2006). Passive where beta > 1/2 (Colgate & Schenkel) and sigma >= 1/2 "
+        "(K <= 2 f_c / Delta, Abbott & Okamura as cited); both worst cases are checked exactly in the tests. "
+        "Closed-loop behaviour: " + ", ".join(f"{n} {'passive' if k[0] else 'not passive'} and {k[1]}"
+                                              for k, n in sorted(counts.items())) +
+        ". Many non-passive points settle: passivity is sufficient, not necessary, for a stable wall.</p>"
+        + _img(figs["wall_map"], "virtual wall map"))
     con = data["conservativity"]
     parts.append("<h2>Conservativity (Section V-B, Fig. 6)</h2>")
     ref_a = abs(con["per_period"]["A"]["energy_z"])
