@@ -414,3 +414,16 @@ def test_quantised_wall_with_coulomb_friction_is_passive_iff_K_below_2fc_over_de
     expect = n / 2 * (4 * fc * eps + 8 * b * eps**2 / T - 2 * k * delta * eps)
     assert absorbed == pytest.approx(expect, rel=1e-6)
     assert (absorbed > 0) is (factor < 1)
+
+
+def test_wall_map_passive_points_rest_and_frictionless_points_below_colgate_go_unstable():
+    # Issue 10's map in Diolaiti et al.'s plane: a passive wall (beta > 1/2 and sigma >= 1/2,
+    # both worst cases tested exactly above) pushed by a constant force cannot sustain an
+    # oscillation; without Coulomb friction, beta < 1/2 means K > 2 b / T, beyond Colgate &
+    # Schenkel's limit for this light, lightly damped handle (b T / m <= 2e-3): unstable.
+    from haptex import experiments as ex
+
+    m = ex.wall_map(quick=True)
+    assert all(p["behaviour"] == "rest" for p in m["points"] if p["passive"])
+    assert all(p["behaviour"] == "unstable" for p in m["points"] if p["sigma"] == 0.0 and p["beta"] < 0.5)
+    assert any(p["behaviour"] == "rest" and not p["passive"] for p in m["points"])  # stable though not passive
