@@ -420,7 +420,7 @@ def test_wall_map_passive_points_rest_and_frictionless_points_below_colgate_go_u
     # Issue 10's map in Diolaiti et al.'s plane: a passive wall (beta > 1/2 and sigma >= 1/2,
     # both worst cases tested exactly above) pushed by a constant force cannot sustain an
     # oscillation; without Coulomb friction, beta < 1/2 means K > 2 b / T, beyond Colgate &
-    # Schenkel's limit for this light, lightly damped handle (b T / m <= 2e-3): unstable.
+    # Schenkel's limit for this lightly damped handle (b T / m <= 0.01 there): unstable.
     from haptex import experiments as ex
 
     m = ex.wall_map(quick=True)
