@@ -163,7 +163,7 @@ def passivity(quick: bool = False) -> dict:
     """Section V-A: thrust into the wall with an elastic band (Fig. 5).
 
     W, A and F at kappa_0 and at kappa_0 / q (q computed by haptex, and the paper's
-    q_A = 5.1, q_F = 8.3); a stiffness sweep that finds where each algorithm actually
+    q_A = 5.1, q_F = 8.3), and B and C at kappa_0 as positive controls (q about 30); a stiffness sweep that finds where each algorithm actually
     starts a limit cycle; and a sensitivity sweep of A and F at kappa_0 over the band's
     stiffness and angle.
 
@@ -192,6 +192,7 @@ def passivity(quick: bool = False) -> dict:
     for L in "AF":
         cases += [(L, p["stiffness"], f"{L} at kappa_0"), (L, p["stiffness"] / q[L], f"{L} at kappa_0/q (q = {q[L]:.3g})"),
                   (L, p["stiffness"] / p["paper_q"][L], f"{L} at kappa_0/{p['paper_q'][L]} (paper's q)")]
+    cases += [(L, p["stiffness"], f"{L} at kappa_0 (positive control)") for L in "BC"]  # q_B, q_C ~ 30
     for L, k, label in cases:
         res = simulate(_alg(L, p, k), dev, band, dur, initial_position=start, record_every=5)
         runs.append(Run(label, L, k, res))
