@@ -6,6 +6,7 @@ import math
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 import haptex as hx
@@ -190,3 +191,41 @@ def test_reproducer_7_one_line_not_a_traceback(bad_files, args, fragment):
     lines = r.stderr.strip().splitlines()
     assert r.returncode == 2, r.stderr
     assert len(lines) == 1 and lines[0].startswith("haptex: error: ") and fragment in lines[0], r.stderr
+
+
+@pytest.mark.parametrize("args, fragment", [
+    # issue 16, stumble 1: a bare number was silently SI (0.8 m of amplitude, then 11 GB)
+    (["table", "--amplitude", "0.8"], "amplitude = '0.8' is not allowed: a number without a unit; write the unit"),
+    (["simulate", "thrust", "--duration", "2"], "duration = '2' is not allowed: a number without a unit"),
+    (["design", "--texture", "sine:0.1,1mm"], "amplitude = '0.1' is not allowed: a number without a unit"),
+    (["design", "--texture", "{d}/small.csv", "--spacing", "0.5"], "spacing = '0.5' is not allowed: a number without"),
+    # stumble 4: options silently ignored, a directory reported as missing, Python-syntax hints
+    (["design", "--texture", "sine:0.1mm,1mm", "--scale", "10,1"],
+     "--scale is not allowed with the synthetic texture 'sine:0.1mm,1mm': --scale applies to measured profiles"),
+    (["design", "--texture", "noise:0.1mm,0.5mm,5mm,10mm", "--level", "--periodic"],
+     "--level is not allowed with the synthetic texture"),
+    (["design", "--texture", "{d}"], "it is a directory, not a profile file"),
+    (["design", "--texture", "{d}/none.csv"], "no such file"),
+    (["design", "--texture", "{d}/heights.txt"], "give it, --height-unit um at the command line"),
+    (["design", "--texture", "{d}/heights.txt", "--height-unit", "um"], "give the sample spacing, --spacing 0.5um"),
+])
+def test_cli_trust_one_line(bad_files, args, fragment):
+    (bad_files / "heights.txt").write_text("\n".join(f"{0.1 * math.sin(i / 3):.5f}" for i in range(30)))
+    r = run_cli(*[a.replace("{d}", str(bad_files)) for a in args], timeout=120)
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == 2, r.stderr
+    assert len(lines) == 1 and fragment in lines[0], r.stderr
+
+
+def test_a_zero_needs_no_unit_and_a_single_column_of_heights_loads():
+    # "0" is the same in every unit; a one-column file is heights (it failed on the columns)
+    assert parse_quantity("0", "m", "amplitude", require_unit=True) == 0.0
+    import tempfile
+    from pathlib import Path
+
+    with tempfile.TemporaryDirectory() as d:
+        f = Path(d) / "h.txt"
+        f.write_text("0.1\n0.3\n-0.2\n0.05\n0.4\n-0.1\n")
+        p = hx.SampledProfile.from_file(f, spacing="0.5um", height_unit="um")
+    np.testing.assert_allclose(p.h, [1e-7, 3e-7, -2e-7, 5e-8, 4e-7, -1e-7])
+    assert p.dx == pytest.approx(0.5e-6)

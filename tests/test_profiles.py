@@ -39,9 +39,10 @@ def test_dektak_export_is_read_with_its_stated_spacing_and_units():
 @needs_data
 def test_mat_file_needs_spacing_and_unit_and_never_guesses():
     with pytest.raises(hx.ParameterError, match=r"grooves-4mm-profile.mat does not state its sample spacing or height "
-                                                r"unit: pass spacing .* and height_unit"):
+                                                r"unit: give --spacing 0.5um at the command line, spacing='0.5um' in Python and "
+                                                r"--height-unit mm"):
         hx.SampledProfile.from_file(GROOVES)
-    with pytest.raises(hx.ParameterError, match="pass height_unit"):
+    with pytest.raises(hx.ParameterError, match="give --height-unit mm at the command line, height_unit='mm'"):
         hx.SampledProfile.from_file(GROOVES, spacing="0.5um")
     g = hx.SampledProfile.from_file(GROOVES, spacing="0.5um", height_unit="um")
     assert g.x.size == 8000 and g.length == pytest.approx(7999 * 0.5e-6)
@@ -58,9 +59,9 @@ def test_csv_columns_with_units_from_the_caller(tmp_path):
     x = np.arange(20) * 2.0
     rows = "\n".join(f"{a:.1f},{1000 * math.sin(a / 5):.6f}" for a in x)
     f = write(tmp_path, "p.csv", "x (um),h (nm)\n" + rows + "\n", newline="\r\n")
-    with pytest.raises(hx.ParameterError, match="does not state its height unit: pass height_unit"):
+    with pytest.raises(hx.ParameterError, match="does not state its height unit: give it, --height-unit um at the command line"):
         hx.SampledProfile.from_file(f)
-    with pytest.raises(hx.ParameterError, match="does not state its x unit: pass x_unit"):
+    with pytest.raises(hx.ParameterError, match="does not state its x unit: give it, --x-unit um at the command line, x_unit='um' in Python"):
         hx.SampledProfile.from_file(f, height_unit="nm")
     p = hx.SampledProfile.from_file(f, x_unit="um", height_unit="nm")
     assert p.dx == pytest.approx(2e-6) and p.h[5] == pytest.approx(1e-6 * math.sin(2.0), rel=1e-6)

@@ -72,7 +72,8 @@ def test_report_files(report):
     out, summary, r = report
     html = (out / "index.html").read_text()
     for name in ["fig2_W", "fig2_A", "fig2_B", "fig2_C", "fig2_D", "fig2_E", "fig2_F", "fig2_G", "fig3_loops",
-                 "fig5_passivity", "fig6_conservativity", "fig7_bump"]:
+                 "fig5_passivity", "fig5_robustness", "fig6_conservativity", "fig6_speed_sweep", "fig7_bump",
+                 "wall_map"]:
         assert (out / f"{name}.png").read_bytes()[:4] == b"\x89PNG"
         assert f"{name}.png" in html
     assert "data:image/png;base64," in html  # self-contained
@@ -80,6 +81,9 @@ def test_report_files(report):
     assert summary["generator"] == "haptex-report"
     assert not [p for p in out.parent.iterdir() if p.name.startswith(".report")]  # no temporary left
     assert "claims:" in r.stdout
+    # issue 16: a quick run says so in the HTML, the JSON and the terminal (it did nowhere)
+    assert summary["quick"] is True
+    assert "<b>Quick run</b>" in html and "quick run" in r.stdout
 
 
 def test_existing_directory_that_is_not_a_report_is_refused(tmp_path):

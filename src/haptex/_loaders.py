@@ -36,6 +36,11 @@ def _unit_factor(unit: str, name: str, where: str) -> float:
                              "'um', 'nm', 'mm' or 'm'") from None
 
 
+def _hint(name: str, example: str) -> str:
+    """How to give a missing value, in both of haptex's syntaxes."""
+    return f"--{name.replace('_', '-')} {example} at the command line, {name}='{example}' in Python"
+
+
 def _spacing(spacing, where: str) -> float:
     if isinstance(spacing, str):
         v = parse_quantity(spacing, "m", "spacing")
@@ -70,8 +75,12 @@ def _read_text(path: Path) -> str:
 def load_profile(path, *, spacing=None, x_unit=None, height_unit=None, variable=None, x_column=0, height_column=1):
     """Read (x, h) in metres from a file; returns (x, h, shortest_period or None, source)."""
     p = Path(path)
-    if not p.is_file():
+    if p.is_dir():
+        raise ParameterError(f"path = {str(p)!r} is not allowed: it is a directory, not a profile file")
+    if not p.exists():
         raise ParameterError(f"path = {str(p)!r} is not allowed: no such file")
+    if not p.is_file():
+        raise ParameterError(f"path = {str(p)!r} is not allowed: not a regular file")
     if p.suffix.lower() == ".mat":
         return _load_mat(p, spacing, height_unit, variable) + (None, p.name)
     try:
@@ -177,22 +186,24 @@ def _load_columns(p: Path, lines, spacing, x_unit, height_unit, x_column, height
     if not rows:
         raise ParameterError(f"{p}: no numeric data found")
     width = min(len(r) for r in rows)
+    if width == 1:  # a single column can only be the heights
+        x_column, height_column = None, 0
     hc = height_column if x_column is not None else (height_column if width > 1 else 0)
     if hc >= width or (x_column is not None and x_column >= width):
         raise ParameterError(f"{p}: columns x_column = {x_column}, height_column = {height_column} are not allowed: "
                              f"the data has {width} column(s)")
     if height_unit is None:
-        raise ParameterError(f"{p}: the file does not state its height unit: pass height_unit (e.g. 'um')")
+        raise ParameterError(f"{p}: the file does not state its height unit: give it, {_hint('height_unit', 'um')}")
     hf = _unit_factor(height_unit, "height_unit", str(p))
     h = np.array([r[hc] for r in rows]) * hf
     if x_column is None or width == 1:
         if spacing is None:
-            raise ParameterError(f"{p}: the file gives no abscissa: pass spacing (e.g. '0.5um')")
+            raise ParameterError(f"{p}: the file gives no abscissa: give the sample spacing, {_hint('spacing', '0.5um')}")
         x = _spacing(spacing, str(p)) * np.arange(h.size)
         _check(p, None, h, line_no)
         return x, h
     if x_unit is None:
-        raise ParameterError(f"{p}: the file does not state its x unit: pass x_unit (e.g. 'um')")
+        raise ParameterError(f"{p}: the file does not state its x unit: give it, {_hint('x_unit', 'um')}")
     x = np.array([r[x_column] for r in rows]) * _unit_factor(x_unit, "x_unit", str(p))
     _check(p, x, h, line_no)
     return x, h
@@ -215,11 +226,11 @@ def _load_mat(p: Path, spacing, height_unit, variable):
     arr = _mat_vector(p, variable, data[variable])
     if arr.ndim != 1:
         raise ParameterError(f"{p}: variable {variable!r} has shape {data[variable].shape}: a profile must be a vector")
-    examples = {"spacing": "spacing='0.5um'", "height_unit": "height_unit='mm'"}
+    examples = {"spacing": "0.5um", "height_unit": "mm"}
     missing = [n for n, v in (("spacing", spacing), ("height_unit", height_unit)) if v is None]
     if missing:
-        raise ParameterError(f"{p} does not state its sample spacing or height unit: pass "
-                             + " and ".join(f"{m} (e.g. {examples[m]})" for m in missing))
+        raise ParameterError(f"{p} does not state its sample spacing or height unit: give "
+                             + " and ".join(_hint(m, examples[m]) for m in missing))
     h = arr * _unit_factor(height_unit, "height_unit", str(p))
     _check(p, None, h)
     x = _spacing(spacing, str(p)) * np.arange(h.size)

@@ -14,10 +14,12 @@ def _registry():
     return pint.UnitRegistry()
 
 
-def parse_quantity(text: str, unit: str, name: str) -> float:
+def parse_quantity(text: str, unit: str, name: str, require_unit: bool = False) -> float:
     """Convert ``text`` (e.g. ``"0.8mm"``, ``"2 kN/m"``, ``"1e-3"``) to a float in ``unit``.
 
-    A bare number is taken to be in ``unit`` already (SI). ``µ`` and ``u`` both mean micro.
+    A bare number is taken to be in ``unit`` already (SI), unless ``require_unit``: then a
+    bare number other than zero is refused (the command line's rule: "0.8" for a length is
+    far more often a forgotten "mm" than 0.8 m). ``µ`` and ``u`` both mean micro.
 
     Parameters
     ----------
@@ -35,7 +37,8 @@ def parse_quantity(text: str, unit: str, name: str) -> float:
     Raises
     ------
     ParameterError
-        If the text is not a number with a unit of the right dimension, or is not finite.
+        If the text is not a number with a unit of the right dimension, is not finite, or
+        (with ``require_unit``) is a bare nonzero number.
     """
     import pint
 
@@ -45,6 +48,9 @@ def parse_quantity(text: str, unit: str, name: str) -> float:
     except ValueError:
         pass
     else:
+        if require_unit and value != 0.0:
+            raise ParameterError(f"{name} = {raw!r} is not allowed: a number without a unit; write the unit, "
+                                 f"e.g. '{raw} {unit}' or '{_example(unit)}'")
         return _finite(value, raw, unit, name)
     ureg = _registry()
     cleaned = raw.replace("µ", "u").replace("μ", "u")

@@ -31,9 +31,15 @@ class Quantity(click.ParamType):
             return value
         pname = param.name if param is not None else "value"
         try:
-            return parse_quantity(value, self.unit, pname)
+            return _q(value, self.unit, pname)
         except ParameterError as exc:
             self.fail(str(exc), param, ctx)
+
+
+def _q(text, unit: str, name: str) -> float:
+    """A quantity as the command line takes it: a unit is required unless the value is 0
+    or the quantity is dimensionless."""
+    return parse_quantity(text, unit, name, require_unit=unit != "dimensionless")
 
 
 def _paper_options(func):
@@ -112,7 +118,8 @@ def reproduce(stiffness, amplitude, period, max_penetration, friction, preslidin
         report.write_report(data, out, force=force, elapsed=elapsed)
     _print_table(data["table_ii"])
     n_ok = sum(c["verdict"] == "matches" for c in data["claims"])
-    click.echo(f"{len(data['claims'])} claims: {n_ok} match, {len(data['claims']) - n_ok} differ")
+    click.echo(f"{len(data['claims'])} claims: {n_ok} match, {len(data['claims']) - n_ok} differ"
+               + (" (quick run: smaller grids and shorter runs, verdicts may differ from a full run)" if quick else ""))
     for c in data["claims"]:
         if c["verdict"] == "differs":
             click.echo(f"  differs  {c['id']:8} {c['claim']}: paper {c['paper']}; haptex {c['ours']}")
@@ -123,7 +130,7 @@ def _parse_point(text: str, name: str):
     parts = [p for p in str(text).replace(";", ",").split(",")]
     if len(parts) != 2:
         raise ParameterError(f"{name} = {text!r} is not allowed: must be two lengths 'x,z', e.g. '0,-20mm'")
-    return [parse_quantity(p.strip(), "m", name) for p in parts]
+    return [_q(p.strip(), "m", name) for p in parts]
 
 
 def _parse_path(text: str):
@@ -250,13 +257,21 @@ def _texture_from_spec(spec: str, spacing, x_unit, height_unit, level, lowpass, 
     from .textures import BandLimitedNoise, SampledProfile, Sinusoid
 
     kind, _, rest = spec.partition(":")
+    if kind in ("sine", "noise") and rest:
+        given = [flag for flag, v in (("--spacing", spacing), ("--x-unit", x_unit), ("--height-unit", height_unit),
+                                      ("--level", level), ("--lowpass", lowpass), ("--scale", scale),
+                                      ("--periodic", periodic)) if v not in (None, False)]
+        if given:
+            raise ParameterError(f"{given[0]} is not allowed with the synthetic texture {kind + ':' + rest!r}: "
+                                 f"{', '.join(given)} appl{'ies' if len(given) == 1 else 'y'} to measured profiles read from "
+                                 "a file")
     if kind == "sine" and rest:
         a, ell = _split_spec(rest, "texture", "sine", (2, 2))
-        return Sinusoid(parse_quantity(a, "m", "amplitude"), parse_quantity(ell, "m", "period"))
+        return Sinusoid(_q(a, "m", "amplitude"), _q(ell, "m", "period"))
     if kind == "noise" and rest:
         vals = _split_spec(rest, "texture", "noise", (4, 5))
         names = ["rms", "shortest_period", "longest_period", "length"]
-        q = [parse_quantity(v, "m", n) for v, n in zip(vals[:4], names)]
+        q = [_q(v, "m", n) for v, n in zip(vals[:4], names)]
         seed = 0
         if len(vals) == 5:
             if not re.fullmatch(r"\d{1,20}", vals[4]):
@@ -284,13 +299,13 @@ def _device_from_spec(spec: str, joint_damping):
 
     kind, _, rest = spec.partition(":")
     if kind == "pantograph":
-        return Device.pantograph(joint_damping=joint_damping if not rest else parse_quantity(rest, "N*m*s", "joint_damping"))
+        return Device.pantograph(joint_damping=joint_damping if not rest else _q(rest, "N*m*s", "joint_damping"))
     if kind == "point-mass":
         vals = _split_spec(rest, "device", "point-mass", (3, 4))
-        m = parse_quantity(vals[0], "kg", "mass")
-        b = parse_quantity(vals[1], "N*s/m", "damping")
-        T = parse_quantity(vals[2], "s", "period")
-        delta = parse_quantity(vals[3], "m", "position_resolution") if len(vals) == 4 else 0.0
+        m = _q(vals[0], "kg", "mass")
+        b = _q(vals[1], "N*s/m", "damping")
+        T = _q(vals[2], "s", "period")
+        delta = _q(vals[3], "m", "position_resolution") if len(vals) == 4 else 0.0
         return Device.point_mass(m, b, T, position_resolution=delta)
     raise ParameterError(f"device = {spec!r} is not allowed: must be 'pantograph[:JOINT_DAMPING]' or "
                          "'point-mass:MASS,DAMPING,PERIOD[,RESOLUTION]'")
@@ -306,7 +321,8 @@ def _device_from_spec(spec: str, joint_damping):
 @click.option("--speed", type=Quantity("m/s"), default=0.1, show_default="0.1 m/s", help="Scanning speed.")
 @click.option("--max-penetration", type=Quantity("m"), default=1e-3, show_default="1mm", help="Rendering depth.")
 @click.option("--joint-damping", type=Quantity("N*m*s"), default=4.7e-3, show_default="4.7 mN*m*s")
-@click.option("--spacing", default=None, help="Sample spacing when the file does not state it, e.g. '0.5um'.")
+@click.option("--spacing", type=Quantity("m"), default=None,
+              help="Sample spacing when the file does not state it, e.g. '0.5um'.")
 @click.option("--x-unit", default=None, help="Unit of the file's x column when it does not state it.")
 @click.option("--height-unit", default=None, help="Unit of the file's heights when it does not state it.")
 @click.option("--level", is_flag=True, help="Remove the profile's best-fit line.")

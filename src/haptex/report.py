@@ -86,7 +86,7 @@ def compute(quick: bool = False, progress=None, table_params: dict | None = None
     extra = _extra_numbers(quick)
     claims = _claims(table, pas, con, sur, extra)
     return {"table_ii": table, "passivity": pas, "conservativity": con, "surface_activity": sur,
-            "extra": extra, "claims": claims}
+            "extra": extra, "claims": claims, "quick": bool(quick)}
 
 
 def _extra_numbers(quick: bool) -> dict:
@@ -564,6 +564,7 @@ def summary_json(data: dict, elapsed: float | None = None) -> dict:
         "generator": MARKER,
         "paper": "Campion & Hayward, On the Synthesis of Haptic Textures",
         "elapsed_seconds": elapsed,
+        "quick": bool(data.get("quick", False)),
         "table_ii": data["table_ii"],
         "passivity": {"parameters": pas["parameters"], "q": pas["q"], "critical_stiffness": pas["critical"],
                       "passivity_limit": pas["passivity_limit"], "runs": [_run_summary(r) for r in pas["runs"]],
@@ -609,6 +610,9 @@ def _html(data, figs, summary) -> str:
              "th{background:#eee}figure{display:inline-block;margin:0.5em}img{max-width:100%}",
              ".differs{background:#fde2e2}.matches{background:#e2f5e2}</style></head><body>",
              "<h1>haptex: Campion &amp; Hayward, <i>On the Synthesis of Haptic Textures</i>, recomputed</h1>",
+             ("<p class='differs'><b>Quick run</b> (<code>--quick</code>): smaller grids, shorter runs and smaller "
+              "sweeps; verdicts may differ from a full run. Run without <code>--quick</code> for the report of "
+              "record.</p>") if data.get("quick") else "",
              f"<p>{len(claims)} claims checked: {n_ok} match, {len(claims) - n_ok} differ. "
              f"Computed in {summary.get('elapsed_seconds') or 0:.1f} s. All numbers are also in "
              "<a href='summary.json'>summary.json</a>.</p>",
