@@ -229,3 +229,36 @@ def test_a_zero_needs_no_unit_and_a_single_column_of_heights_loads():
         p = hx.SampledProfile.from_file(f, spacing="0.5um", height_unit="um")
     np.testing.assert_allclose(p.h, [1e-7, 3e-7, -2e-7, 5e-8, 4e-7, -1e-7])
     assert p.dx == pytest.approx(0.5e-6)
+
+
+def _width(text: str) -> int:
+    return max(len(line) for line in text.splitlines())
+
+
+def test_terminal_output_fits_80_columns_and_json_has_units():
+    # Issue 16, stumble 7: tables were 140-160 columns wide; stumble 5: simulate --json had no units
+    env = {**__import__("os").environ, "COLUMNS": "80"}
+    for args in (["table"], ["simulate", "thrust", "--duration", "0.2s"],
+                 ["design", "--texture", "sine:0.2mm,2mm", "--stiffness", "500 N/m"]):
+        r = subprocess.run([sys.executable, "-m", "haptex", *args], capture_output=True, text=True, timeout=300, env=env)
+        assert r.returncode == 0, r.stderr
+        assert _width(r.stdout) <= 80, args
+    out = json.loads(run_cli("simulate", "thrust", "--duration", "0.2s", "--json").stdout)
+    assert out["units"]["energy_x"] == "J" and out["units"]["amplitude"] == "m" and out["units"]["frequency"] == "Hz"
+
+
+def test_thrust_angle_makes_the_texture_felt():
+    # Issue 16, stumble 5: the band was anchored straight below, x never moved and the texture
+    # was never felt; --angle (default 10 degrees, as in Fig. 5's experiment) pulls it sideways
+    import numpy as np
+
+    straight = json.loads(run_cli("simulate", "thrust", "--angle", "0deg", "--duration", "0.5s", "--json").stdout)
+    tilted = json.loads(run_cli("simulate", "thrust", "--duration", "0.5s", "--json").stdout)
+    assert straight["angle"] == 0.0 and tilted["angle"] == 10.0
+    # straight down, A's vertical spring only stores energy (E_z > 0, x fixed); pulled 10 degrees
+    # off the normal the handle slides across the bumps and A's non-conservative field supplies
+    # energy (E_z < 0: the paper's Section IV-A loop energy, felt)
+    assert straight["energy_z"] > 0 > tilted["energy_z"]
+    assert np.isfinite(tilted["energy_x"])
+    r = run_cli("simulate", "thrust", "--angle", "85deg")
+    assert r.returncode == 2 and "angle = 85 is not allowed" in r.stderr

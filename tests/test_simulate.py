@@ -427,3 +427,16 @@ def test_wall_map_passive_points_rest_and_frictionless_points_below_colgate_go_u
     assert all(p["behaviour"] == "rest" for p in m["points"] if p["passive"])
     assert all(p["behaviour"] == "unstable" for p in m["points"] if p["sigma"] == 0.0 and p["beta"] < 0.5)
     assert any(p["behaviour"] == "rest" and not p["passive"] for p in m["points"])  # stable though not passive
+
+
+def test_a_scan_crossing_the_texture_is_not_an_oscillation_and_rest_has_no_frequency():
+    # Issue 16, stumble 6: a scan at v / l = 10 Hz over the paper's sinusoid was reported
+    # oscillating (its p^z follows the texture at exactly v / l), and a frequency was reported
+    # next to an amplitude of 1e-13 m (the smooth wall, at rest in z).
+    dev = hx.Device.pantograph()
+    hand = ScanningHand(300.0, 1.0, velocity=0.01, depth=1e-3)
+    r = hx.simulate(hx.algorithm("A", SINE, K0), dev, hand, 2.0)
+    assert not r.oscillating and r.oscillation.z.texture_driven
+    assert r.oscillation.z.frequency == pytest.approx(0.01 / L, abs=1.5 / 0.8)  # v / l, within the bins
+    w = hx.simulate(wall(K0), dev, hand, 2.0)
+    assert w.oscillation.z.amplitude < dev.position_resolution and w.oscillation.z.frequency == 0.0

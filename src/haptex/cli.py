@@ -154,7 +154,10 @@ def _parse_path(text: str):
 @click.option("--delay", type=int, default=0, show_default=True, help="Whole samples of latency.")
 @click.option("--duration", type=Quantity("s"), default=2.0, show_default="2 s")
 @click.option("--band-stiffness", type=Quantity("N/m"), default=100.0, show_default="100 N/m", help="thrust: band stiffness.")
-@click.option("--anchor", default="0,-30mm", show_default=True, help="thrust: band anchor 'x,z'.")
+@click.option("--anchor", default="0,-30mm", show_default=True, help="thrust: band anchor 'x,z' before --angle.")
+@click.option("--angle", type=Quantity("degree"), default=10.0, show_default="10 degree",
+              help="thrust: the band pulls this far off the normal (the anchor moves back by depth x tan(angle)), "
+                   "so the texture is felt, as in Fig. 5.")
 @click.option("--hand-stiffness", type=Quantity("N/m"), default=300.0, show_default="300 N/m", help="scan: hand stiffness.")
 @click.option("--hand-damping", type=Quantity("N*s/m"), default=1.0, show_default="1 N*s/m", help="scan: hand damping.")
 @click.option("--velocity", type=Quantity("m/s"), default=0.01, show_default="10 mm/s", help="scan: set-point speed.")
@@ -164,7 +167,7 @@ def _parse_path(text: str):
 @click.option("--plot", type=click.Path(dir_okay=False, path_type=Path), default=None, help="Write a PNG figure.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
 def simulate(mode, letter, stiffness, amplitude, period, max_penetration, friction, presliding, device_name,
-             joint_damping, mass, damping, sampling_period, delay, duration, band_stiffness, anchor, hand_stiffness,
+             joint_damping, mass, damping, sampling_period, delay, duration, band_stiffness, anchor, angle, hand_stiffness,
              hand_damping, velocity, depth, path_text, speed, plot, as_json):
     """Simulate a device in closed loop with an algorithm: thrust (Fig. 5), scan (Figs. 6, 7) or path."""
     from . import operators as ops
@@ -184,7 +187,10 @@ def simulate(mode, letter, stiffness, amplitude, period, max_penetration, fricti
         dev = Device.point_mass(mass, damping, sampling_period, delay=delay)
     start = None
     if mode == "thrust":
-        op = ops.ElasticBand(band_stiffness, _parse_point(anchor, "anchor"))
+        if not -80.0 <= angle <= 80.0:
+            raise ParameterError(f"angle = {angle:g} is not allowed: must be within +-80 degrees of the normal")
+        ax, az = _parse_point(anchor, "anchor")
+        op = ops.ElasticBand(band_stiffness, [ax + az * math.tan(math.radians(angle)), az])
         start = [0.0, 1e-3]
     elif mode == "scan":
         op = ops.ScanningHand(hand_stiffness, hand_damping, velocity=velocity, depth=depth)
@@ -195,11 +201,17 @@ def simulate(mode, letter, stiffness, amplitude, period, max_penetration, fricti
         op = ops.KinematicPath(_parse_path(path_text), speed)
     res = run(alg, dev, op, duration, initial_position=start, record_every=max(1, int(round(duration / dev.period / 20000))))
     osc = res.oscillation
-    summary = {"mode": mode, "algorithm": letter, "stiffness": stiffness, "device": dev.name,
+    units = {"stiffness": "N/m", "sampling_period": "s", "duration": "s", "energy_x": "J", "energy_z": "J",
+             "damping_energy": "J", "operator_work": "J", "kinetic_energy": "J", "friction_energy": "J",
+             "energy_balance_error": "1 (relative)", "max_penetration": "m", "saturations": "samples",
+             "amplitude": "m", "frequency": "Hz", "energy_per_cycle": "J", "angle": "degree"}
+    summary = {"units": units, "mode": mode, "algorithm": letter, "stiffness": stiffness, "device": dev.name,
                "sampling_period": dev.period, "duration": duration, **res.totals,
                "energy_balance_error": res.energy_balance_error, "max_penetration": res.max_penetration,
-               "saturations": res.saturations, "oscillating": osc.oscillating, "amplitude": osc.amplitude,
-               "frequency": osc.frequency, "energy_per_cycle": osc.energy_per_cycle}
+               "saturations": res.saturations, "oscillating": osc.oscillating, "oscillation_axis": osc.axis,
+               "amplitude": osc.amplitude, "frequency": osc.frequency, "energy_per_cycle": osc.energy_per_cycle}
+    if mode == "thrust":
+        summary["angle"] = angle
     if plot is not None:
         from .plotting import plot_simulation
 
@@ -227,7 +239,7 @@ def simulate(mode, letter, stiffness, amplitude, period, max_penetration, fricti
             ("energy supplied per cycle (J)", f"{osc.energy_per_cycle:.3g}")]
     for a, b in rows:
         t.add_row(a, b)
-    Console(width=120).print(t)
+    Console().print(t)
 
 
 def _check_plot_path(plot: Path) -> None:
@@ -346,15 +358,17 @@ def design(texture_spec, device_spec, stiffness, speed, max_penetration, joint_d
     from rich.console import Console
     from rich.table import Table
 
-    console = Console(width=140)
+    console = Console()
     tn = data["texture_numbers"]
     console.print(f"texture {data['texture']}: shortest period {tn['shortest_period'] * 1e3:.4g} mm, "
                   f"M = {tn['max_slope']:.4g}, heights {tn['height_range'][0] * 1e3:.4g} to {tn['height_range'][1] * 1e3:.4g} mm")
     console.print(f"device {data['device']}: sigma_0(B)/(2T) = {data['passivity_limit']:.4g} N/m; sampled wall "
                   f"stability limit {data['wall_stability_limit']:.4g} N/m")
-    t = Table(title=f"at {stiffness:g} N/m")
-    for col in ("alg.", "q", "largest passive stiffness (N/m)", f"passive at {stiffness:g}", "conservative",
-                "max |loop energy| (J)", "continuous"):
+    from rich import box
+
+    t = Table(title=f"at {stiffness:g} N/m", box=box.SIMPLE_HEAD,
+              caption="max passive: largest passive stiffness; cons.: conservative; cont.: continuous")
+    for col in ("alg.", "q", "max passive (N/m)", "passive", "cons.", "max |loop| (J)", "cont."):
         t.add_column(col)
     for r in data["rows"]:
         t.add_row(r["algorithm"], "unbounded" if math.isinf(r["q"]) else f"{r['q']:.4g}",
@@ -362,7 +376,7 @@ def design(texture_spec, device_spec, stiffness, speed, max_penetration, joint_d
                   "yes" if r["conservative"] else ("almost" if r["almost_conservative"] else "no"),
                   f"{r['max_abs_loop_energy']:.3g}", "yes" if r["continuous"] else "no")
     console.print(t)
-    lt = Table(title="rendering limits (Section II-B)")
+    lt = Table(title="rendering limits (Section II-B)", box=box.SIMPLE_HEAD)
     for col in ("limit", "condition", "value", "bound", "ok"):
         lt.add_column(col)
     for lim in data["limits"]:
@@ -385,33 +399,29 @@ def _fmt_q(row) -> str:
 
 
 def _print_table(data) -> None:
+    from rich import box
     from rich.console import Console
     from rich.table import Table
 
     p = data["parameters"]
     t = Table(
-        title=(f"Table II  (kappa_0 = {p['stiffness']:g} N/m, A = {p['amplitude'] * 1e3:g} mm, "
-               f"l = {p['period'] * 1e3:g} mm, max penetration {p['max_penetration'] * 1e3:g} mm)"),
+        title=(f"Table II: kappa_0 = {p['stiffness']:g} N/m, A = {p['amplitude'] * 1e3:g} mm, "
+               f"l = {p['period'] * 1e3:g} mm, depth {p['max_penetration'] * 1e3:g} mm"),
+        box=box.SIMPLE_HEAD, caption="ours / paper; closed forms in --json",
     )
-    for col in ("alg.", "q (numeric)", "q closed form", "paper q", "loop energy (J)", "closed form",
-                "conservative", "paper", "continuous", "paper"):
+    for col in ("alg.", "q", "paper q", "loop energy (J)", "conservative", "continuous"):
         t.add_column(col)
     for r in data["rows"]:
-        cf = r["characteristic_number_closed_form"]
-        le = r["loop_energy_closed_form"]
         t.add_row(
             r["algorithm"],
             _fmt_q(r),
-            "-" if cf is None else f"{cf:.4g}",
             r["paper"]["characteristic_number"],
             f"{r['loop_energy']:.4g}",
-            "> 0" if le is None else f"{le:.4g}",
-            "yes" if r["conservative"] else ("almost" if r.get("almost_conservative") else "no"),
-            r["paper"]["conservative"],
-            "yes" if r["continuous"] else "no",
-            r["paper"]["continuous"],
+            ("yes" if r["conservative"] else ("almost" if r.get("almost_conservative") else "no"))
+            + " / " + r["paper"]["conservative"],
+            ("yes" if r["continuous"] else "no") + " / " + r["paper"]["continuous"],
         )
-    console = Console(width=160)
+    console = Console()
     console.print(t)
     for r in data["rows"]:
         ex = r.get("characteristic_number_extra") or {}

@@ -167,13 +167,19 @@ class AxisOscillation:
     decay_ratio : float
         Amplitude of the second half over that of the first half.
     frequency : float
-        Dominant frequency (Hz), from a Hann-windowed periodogram of the detrended motion.
+        Dominant frequency (Hz), from a Hann-windowed periodogram of the detrended motion;
+        0 when the amplitude is below the threshold (motion at rest has no frequency).
+    texture_driven : bool
+        True when a sustained motion is the texture traversed during a scan (its frequency
+        within 1.5 periodogram bins of n v / l, n = 1..3, for a texture period l): not an
+        oscillation of the device, so ``oscillating`` is False.
     """
 
     oscillating: bool
     amplitude: float
     decay_ratio: float
     frequency: float
+    texture_driven: bool = False
 
 
 @dataclass(frozen=True)
@@ -212,7 +218,7 @@ class Oscillation:
     z: AxisOscillation | None = None
 
 
-def _axis_oscillation(u: np.ndarray, tail_duration: float, threshold: float) -> AxisOscillation:
+def _axis_oscillation(u: np.ndarray, tail_duration: float, threshold: float, texture_freqs=()) -> AxisOscillation:
     n = u.size
     t = np.arange(n, dtype=np.float64)
     u = u - np.polyval(np.polyfit(t, u, 1), t)  # steady sliding or drift is not an oscillation
@@ -222,17 +228,22 @@ def _axis_oscillation(u: np.ndarray, tail_duration: float, threshold: float) -> 
     spec = np.abs(np.fft.rfft((u - u.mean()) * np.hanning(n))) ** 2
     spec[0] = 0.0
     freq = float(np.argmax(spec) / tail_duration) if spec.max() > 0 else 0.0
+    if not a2 > threshold:
+        freq = 0.0
     osc = bool(a2 > threshold and ratio >= 0.9 and freq * tail_duration >= 3)
-    return AxisOscillation(osc, a2, float(ratio), freq)
+    driven = osc and any(abs(freq - n * ft) <= 1.5 / tail_duration for ft in texture_freqs for n in (1, 2, 3))
+    return AxisOscillation(osc and not driven, a2, float(ratio), freq, bool(driven))
 
 
-def _oscillation(tail: np.ndarray, tail_duration: float, e_env_tail: float, threshold: float) -> Oscillation:
-    """Verdict from the tail positions ``tail`` (n, 2) [x, z] sampled evenly over ``tail_duration`` (s)."""
+def _oscillation(tail: np.ndarray, tail_duration: float, e_env_tail: float, threshold: float,
+                 texture_freqs=()) -> Oscillation:
+    """Verdict from the tail positions ``tail`` (n, 2) [x, z] sampled evenly over ``tail_duration``
+    (s); ``texture_freqs`` (Hz) are the rates at which a scan crosses the texture's periods."""
     tail = np.asarray(tail, dtype=np.float64)
     if tail.shape[0] < 8 or tail_duration <= 0:
         rest = AxisOscillation(False, 0.0, 0.0, 0.0)
         return Oscillation(False, 0.0, 0.0, 0.0, 0.0, threshold, "z", rest, rest)
-    ax = {name: _axis_oscillation(tail[:, i], tail_duration, threshold) for i, name in enumerate("xz")}
+    ax = {name: _axis_oscillation(tail[:, i], tail_duration, threshold, texture_freqs) for i, name in enumerate("xz")}
     key = max("zx", key=lambda k: (ax[k].oscillating, ax[k].amplitude))
     main = ax[key]
     cycles = main.frequency * tail_duration
@@ -479,7 +490,8 @@ def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration:
          operator.rest_length, operator.kinematic, n_steps, device.period, device.delay, device.position_resolution,
          device.force_resolution, device.max_force, device.coulomb_friction, p0, v0, record_every, rec, summary,
          tail_start, tail_z)
-    result = _result(rec, summary, tail_z, (n_steps - tail_start) * device.period, device)
+    result = _result(rec, summary, tail_z, (n_steps - tail_start) * device.period, device,
+                     _texture_frequencies(algorithm, operator))
     _warn_health([result])
     return result
 
@@ -501,12 +513,22 @@ def _warn_health(results) -> None:
                       SimulationWarning, stacklevel=3)
 
 
-def _result(rec, summary, tail_z, tail_duration, device) -> SimulationResult:
+def _texture_frequencies(algorithm, operator) -> tuple:
+    """Rates (Hz) at which a constant-velocity scan crosses the texture's periods, v / l_k; empty
+    for other operators and for textures without a line spectrum (measured profiles)."""
+    periods = getattr(algorithm.texture, "periods", None)
+    v = abs(float(operator.final_velocity[0]))
+    if periods is None or operator.kinematic or operator.setpoint_times.size != 1 or v == 0.0:
+        return ()
+    return tuple(float(v / p) for p in np.atleast_1d(periods))
+
+
+def _result(rec, summary, tail_z, tail_duration, device, texture_freqs=()) -> SimulationResult:
     diverged = int(summary[S_DIVERGED]) or None
     if diverged is not None:  # rows are written in order and their time is > 0
         rec = rec[:int(np.count_nonzero(rec[:, 0]))]
     e_env_tail = summary[S_EX] + summary[S_EZ] - summary[S_TAILSTART_E]
-    osc = _oscillation(tail_z, tail_duration, e_env_tail, max(device.position_resolution, 1e-7))
+    osc = _oscillation(tail_z, tail_duration, e_env_tail, max(device.position_resolution, 1e-7), texture_freqs)
     totals = {"energy_x": float(summary[S_EX]), "energy_z": float(summary[S_EZ]),
               "damping_energy": float(summary[S_DAMP]), "operator_work": float(summary[S_OP]),
               "kinetic_energy": float(summary[S_KE]), "friction_energy": float(summary[S_FRIC])}
@@ -738,7 +760,8 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
             _run_batch(*[a[lo:hi] if per_run else a for a, per_run in args])
             bar(idx.size)
     bar(None)
-    results = [_result(rec[i], summary[i], tail_z[i], (n_steps - tail_start) * T, dev[i]) for i in range(N)]
+    results = [_result(rec[i], summary[i], tail_z[i], (n_steps - tail_start) * T, dev[i],
+                       _texture_frequencies(a, o)) for i, (a, _, o) in enumerate(runs)]
     _warn_health(results)
     col = lambda f: np.array([f(r) for r in results])  # noqa: E731
     return BatchResult(
