@@ -262,3 +262,54 @@ def test_thrust_angle_makes_the_texture_felt():
     assert np.isfinite(tilted["energy_x"])
     r = run_cli("simulate", "thrust", "--angle", "85deg")
     assert r.returncode == 2 and "angle = 85 is not allowed" in r.stderr
+
+
+@pytest.mark.parametrize("args, fragment", [
+    # issue 16, stumble 4 at `simulate`: options of another mode, device or algorithm were ignored
+    (["simulate", "scan", "--band-stiffness", "50N/m"], "--band-stiffness is not allowed with the scan mode"),
+    (["simulate", "thrust", "--velocity", "10mm/s"], "--velocity is not allowed with the thrust mode"),
+    (["simulate", "thrust", "--device", "point-mass", "--joint-damping", "1mN*m*s"],
+     "--joint-damping is not allowed with --device point-mass"),
+    (["simulate", "thrust", "--algorithm", "A", "--friction", "0.5"], "--friction is not allowed with --algorithm A"),
+    (["simulate", "thrust", "--algorithm", "W", "--amplitude", "1mm"], "--amplitude is not allowed with --algorithm W"),
+    (["simulate", "thrust", "--save", "run.txt"], "must end in .csv or .npz"),
+    (["design", "--texture", "sine:0.2mm,2mm", "--device", "point-mass:0.1kg,0.5N*s/m,100us", "--joint-damping",
+      "1mN*m*s"], "--joint-damping is not allowed with --device point-mass"),
+])
+def test_options_that_do_not_apply_are_refused(args, fragment):
+    r = run_cli(*args, "--duration", "0.1s") if args[0] == "simulate" else run_cli(*args)
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and fragment in r.stderr, r.stderr
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".npz"])
+def test_simulate_saves_its_trace_with_units(tmp_path, suffix):
+    # issue 16, traces out: the time series a user can plot elsewhere, SI units stated
+    import numpy as np
+
+    f = tmp_path / f"run{suffix}"
+    out = json.loads(run_cli("simulate", "thrust", "--algorithm", "W", "--duration", "0.05s", "--save", str(f),
+                             "--json").stdout)
+    if suffix == ".csv":
+        header = f.read_text().splitlines()[0]
+        assert header.startswith("time (s),x (m),z (m),vx (m/s),vz (m/s),fx (N),fz (N),energy_x (J)")
+        data = np.loadtxt(f, delimiter=",", skiprows=1)
+        t, ex, ez = data[:, 0], data[:, 7], data[:, 8]
+    else:
+        d = np.load(f)
+        assert list(d["units"][:3]) == ["s", "m", "m"]
+        t, ex, ez = d["time"], d["energy_x"], d["energy_z"]
+    assert t.size == 500 and t[-1] == pytest.approx(0.05)  # every sample of T = 100 us
+    assert ex[-1] + ez[-1] == pytest.approx(out["energy_x"] + out["energy_z"], rel=1e-12, abs=1e-18)
+
+
+def test_design_and_table_report_progress_per_algorithm():
+    # issue 16, stumble 2: minutes of silence; the progress display is fed one call per algorithm
+    from haptex.design import design
+    from haptex.tables import table_ii
+
+    seen = []
+    table_ii(progress=seen.append)
+    assert seen == list("WABCDEFG")
+    seen.clear()
+    design(hx.Sinusoid(0.2e-3, 2e-3), hx.Device.pantograph(), 500.0, progress=seen.append)
+    assert seen == list("WABCDEFG")

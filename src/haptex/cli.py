@@ -71,9 +71,11 @@ def cli():
 @cli.command()
 @_paper_options
 @click.option("--json", "as_json", is_flag=True, help="Print the table as JSON.")
-def table(stiffness, amplitude, period, max_penetration, friction, presliding, as_json):
+@click.option("--quiet", is_flag=True, help="No progress display.")
+def table(stiffness, amplitude, period, max_penetration, friction, presliding, as_json, quiet):
     """Table II: characteristic number, loop energy, conservativity, continuity."""
-    data = _table(stiffness, amplitude, period, max_penetration, friction, presliding)
+    with _Steps(8, "Table II", quiet or as_json) as step:
+        data = _table(stiffness, amplitude, period, max_penetration, friction, presliding, progress=step)
     if as_json:
         click.echo(json.dumps(_jsonable(data), indent=2))
     else:
@@ -165,10 +167,13 @@ def _parse_path(text: str):
 @click.option("--path", "path_text", default=None, help="path: vertices 'x,z;x,z;...' (units allowed).")
 @click.option("--speed", type=Quantity("m/s"), default=1e-3, show_default="1 mm/s", help="path: speed.")
 @click.option("--plot", type=click.Path(dir_okay=False, path_type=Path), default=None, help="Write a PNG figure.")
+@click.option("--save", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Write the time series to a .csv (with a header of units) or .npz file.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
-def simulate(mode, letter, stiffness, amplitude, period, max_penetration, friction, presliding, device_name,
+@click.pass_context
+def simulate(ctx, mode, letter, stiffness, amplitude, period, max_penetration, friction, presliding, device_name,
              joint_damping, mass, damping, sampling_period, delay, duration, band_stiffness, anchor, angle, hand_stiffness,
-             hand_damping, velocity, depth, path_text, speed, plot, as_json):
+             hand_damping, velocity, depth, path_text, speed, plot, save, as_json):
     """Simulate a device in closed loop with an algorithm: thrust (Fig. 5), scan (Figs. 6, 7) or path."""
     from . import operators as ops
     from .algorithms import algorithm
@@ -176,8 +181,18 @@ def simulate(mode, letter, stiffness, amplitude, period, max_penetration, fricti
     from .simulate import simulate as run
     from .textures import Sinusoid
 
+    _refuse_unused(ctx, {
+        "thrust": {"band_stiffness", "anchor", "angle"}, "scan": {"hand_stiffness", "hand_damping", "velocity", "depth"},
+        "path": {"path_text", "speed"}}, mode)
+    _refuse_unused(ctx, {"pantograph": {"joint_damping"}, "point-mass": {"mass", "damping"}}, device_name, "--device")
+    if str(letter).upper() != "F":
+        _refuse_unused(ctx, {"F": {"friction", "presliding", "max_penetration"}}, str(letter).upper(), "--algorithm")
+    if str(letter).upper() == "W":
+        _refuse_unused(ctx, {"*": {"amplitude", "period"}}, "W", "--algorithm", owner="*")
     if plot is not None:
         _check_plot_path(plot)
+    if save is not None:
+        _check_save_path(save)
     letter = letter.upper()
     params = {"friction": friction, "presliding": presliding, "max_penetration": max_penetration} if letter == "F" else {}
     alg = algorithm(letter, None if letter == "W" else Sinusoid(amplitude, period), stiffness, **params)
@@ -212,6 +227,9 @@ def simulate(mode, letter, stiffness, amplitude, period, max_penetration, fricti
                "amplitude": osc.amplitude, "frequency": osc.frequency, "energy_per_cycle": osc.energy_per_cycle}
     if mode == "thrust":
         summary["angle"] = angle
+    if save is not None:
+        _save_trace(res, save)
+        summary["save"] = str(save)
     if plot is not None:
         from .plotting import plot_simulation
 
@@ -240,6 +258,90 @@ def simulate(mode, letter, stiffness, amplitude, period, max_penetration, fricti
     for a, b in rows:
         t.add_row(a, b)
     Console().print(t)
+
+
+class _Steps:
+    """A rich progress bar over the eight algorithms on stderr, shown on a terminal only and
+    never with --json or --quiet; used as ``with _Steps(n, quiet) as step: f(progress=step)``."""
+
+    def __init__(self, total: int, title: str, quiet: bool):
+        from rich.console import Console
+
+        self.console = Console(stderr=True)
+        self.show = self.console.is_terminal and not quiet
+        self.total, self.title = total, title
+
+    def __enter__(self):
+        if not self.show:
+            return lambda letter: None
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+        self.bar = Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                            console=self.console, transient=True)
+        self.bar.__enter__()
+        self.task = self.bar.add_task(self.title, total=self.total)
+        self.started = False
+
+        def step(letter):
+            if self.started:
+                self.bar.advance(self.task)
+            self.started = True
+            self.bar.update(self.task, description=f"{self.title}: algorithm {letter}")
+        return step
+
+    def __exit__(self, *exc):
+        if self.show:
+            self.bar.__exit__(*exc)
+        return False
+
+
+def _refuse_unused(ctx, groups: dict, chosen: str, by: str = "mode", owner: str | None = None) -> None:
+    """Refuse, in one line, an option given on the command line that the choice ``chosen``
+    does not use: ``groups`` maps each choice to the options only it uses (or, with
+    ``owner``, the options that choice ``owner`` cannot take)."""
+    from click.core import ParameterSource
+
+    for key, names in groups.items():
+        relevant = (key != chosen) if owner is None else (key == owner)
+        if not relevant:
+            continue
+        for name in sorted(names):
+            if ctx.get_parameter_source(name) == ParameterSource.COMMANDLINE:
+                flag = "--" + ("path" if name == "path_text" else name.replace("_", "-"))
+                what = f"{by} {chosen}" if by != "mode" else f"the {chosen} mode"
+                raise ParameterError(f"{flag} is not allowed with {what}: it applies to "
+                                     + (f"{key}" if owner is None else "textured algorithms") + " only")
+
+
+_SAVE_COLUMNS = [("time", "s"), ("x", "m"), ("z", "m"), ("vx", "m/s"), ("vz", "m/s"), ("fx", "N"), ("fz", "N"),
+                 ("energy_x", "J"), ("energy_z", "J"), ("damping_energy", "J"), ("operator_work", "J"),
+                 ("kinetic_energy", "J")]
+
+
+def _check_save_path(save: Path) -> None:
+    if save.suffix.lower() not in (".csv", ".npz"):
+        raise ParameterError(f"save = {str(save)!r} is not allowed: must end in .csv or .npz")
+    parent = save.parent if str(save.parent) else Path(".")
+    if not parent.is_dir():
+        raise ParameterError(f"save = {str(save)!r} is not allowed: the directory {str(parent)!r} does not exist")
+
+
+def _save_trace(res, save: Path) -> None:
+    """The recorded time series, one row per recorded sample, SI units in the header."""
+    import numpy as np
+
+    cols = [res.time, res.position[:, 0], res.position[:, 1], res.velocity[:, 0], res.velocity[:, 1],
+            res.force[:, 0], res.force[:, 1], res.energy_x, res.energy_z, res.damping_energy, res.operator_work,
+            res.kinetic_energy]
+    try:
+        if save.suffix.lower() == ".npz":
+            np.savez_compressed(save, **{n: c for (n, _), c in zip(_SAVE_COLUMNS, cols)},
+                                units=np.array([u for _, u in _SAVE_COLUMNS]))
+        else:
+            header = ",".join(f"{n} ({u})" for n, u in _SAVE_COLUMNS)
+            np.savetxt(save, np.column_stack(cols), delimiter=",", header=header, comments="", fmt="%.17g")
+    except OSError as exc:
+        raise ParameterError(f"save = {str(save)!r} is not allowed: cannot write it ({exc.strerror})") from None
 
 
 def _check_plot_path(plot: Path) -> None:
@@ -343,15 +445,21 @@ def _device_from_spec(spec: str, joint_damping):
 @click.option("--periodic", is_flag=True, help="Close the profile into a periodic texture.")
 @click.option("--window", default=None, help="'X0,X1' abscissa window to analyse (default: one period or the whole profile).")
 @click.option("--json", "as_json", is_flag=True)
-def design(texture_spec, device_spec, stiffness, speed, max_penetration, joint_damping, spacing, x_unit, height_unit,
-           level, lowpass, scale, periodic, window, as_json):
+@click.option("--quiet", is_flag=True, help="No progress display.")
+@click.pass_context
+def design(ctx, texture_spec, device_spec, stiffness, speed, max_penetration, joint_damping, spacing, x_unit,
+           height_unit, level, lowpass, scale, periodic, window, as_json, quiet):
     """Which algorithm, how stiff, will it be passive, can the device render it?"""
     from .design import design as run_design
 
+    if not device_spec.startswith("pantograph"):
+        _refuse_unused(ctx, {"pantograph": {"joint_damping"}}, device_spec.partition(":")[0], "--device")
     tex = _texture_from_spec(texture_spec, spacing, x_unit, height_unit, level, lowpass, scale, periodic)
     dev = _device_from_spec(device_spec, joint_damping)
     x_range = _parse_point(window, "window") if window else None
-    data = run_design(tex, dev, stiffness, speed=speed, max_penetration=max_penetration, x_range=x_range)
+    with _Steps(8, "design", quiet or as_json) as step:
+        data = run_design(tex, dev, stiffness, speed=speed, max_penetration=max_penetration, x_range=x_range,
+                          progress=step)
     if as_json:
         click.echo(json.dumps(_jsonable(data), indent=2))
         return
@@ -387,10 +495,11 @@ def design(texture_spec, device_spec, stiffness, speed, max_penetration, joint_d
     console.print("recommendation: " + data["recommendation"])
 
 
-def _table(stiffness, amplitude, period, max_penetration, friction, presliding):
+def _table(stiffness, amplitude, period, max_penetration, friction, presliding, progress=None):
     from .tables import table_ii
 
-    return table_ii(stiffness, amplitude, period, max_penetration, friction=friction, presliding=presliding)
+    return table_ii(stiffness, amplitude, period, max_penetration, friction=friction, presliding=presliding,
+                    progress=progress)
 
 
 def _fmt_q(row) -> str:

@@ -15,7 +15,7 @@ LETTERS = "WABCDEFG"
 
 def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.1, max_penetration: float = 1e-3,
            samples_per_period=5, friction: float = 0.8, presliding: float = 1e-3, n_loops: int = 4,
-           x_range=None) -> dict:
+           x_range=None, progress=None) -> dict:
     """Analyse every algorithm for one texture on one device and recommend.
 
     Parameters
@@ -38,6 +38,8 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
     x_range : (float, float), optional
         Abscissa window analysed (m); default the texture's domain (one period, or the
         sampled range of a measured profile). A window keeps long profiles quick.
+    progress : callable, optional
+        Called with each algorithm's letter before it is analysed (a progress display).
 
     Returns
     -------
@@ -61,6 +63,8 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         check_analysis_scale(algs[L], max_penetration)
     rows = []
     for L, alg in algs.items():
+        if progress is not None:
+            progress(L)
         xr = None if L == "W" else x_range
         q = characteristic_number(alg, max_penetration=max_penetration, x_range=xr)
         kmax = 0.0 if math.isinf(q.value) else device.passivity_limit / q.value

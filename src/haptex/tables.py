@@ -48,7 +48,8 @@ _EXPECTED = {
 def table_ii(stiffness: float = PAPER_PARAMETERS["stiffness"], amplitude: float = PAPER_PARAMETERS["amplitude"],
              period: float = PAPER_PARAMETERS["period"],
              max_penetration: float = PAPER_PARAMETERS["max_penetration"], letters=None,
-             friction: float = PAPER_PARAMETERS["friction"], presliding: float = PAPER_PARAMETERS["presliding"]) -> dict:
+             friction: float = PAPER_PARAMETERS["friction"], presliding: float = PAPER_PARAMETERS["presliding"],
+             progress=None) -> dict:
     """Recompute Table II for a sinusoidal texture.
 
     Parameters
@@ -68,6 +69,8 @@ def table_ii(stiffness: float = PAPER_PARAMETERS["stiffness"], amplitude: float 
     presliding : float
         F's presliding range d^x_max (m), default 1 mm. F's modulation depth is its
         default 0.8 (the paper's A = 0.8) and its d^z_max is ``max_penetration``.
+    progress : callable, optional
+        Called with each algorithm's letter before its row is computed.
 
     Returns
     -------
@@ -99,6 +102,8 @@ def table_ii(stiffness: float = PAPER_PARAMETERS["stiffness"], amplitude: float 
         check_analysis_scale(algs[letter], dmax)
     rows = []
     for letter, alg in algs.items():
+        if progress is not None:
+            progress(letter)
         q = characteristic_number(alg, max_penetration=dmax)
         path, expected, source = paper_loop(alg, depth=dmax / 2 if letter in "GW" else None)
         e_loop = path_work(alg, path)
