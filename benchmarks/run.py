@@ -7,9 +7,10 @@
 3. simulator: simulate_batch samples per second against plain C, N = 1 and 1000
    (benchmarks/run_sim.py);
 4. worst: the maximum Renderer.step latency and work over 10^6 adversarial positions per
-   algorithm and texture (benchmarks/run_worst.py).
+   algorithm and texture (benchmarks/run_worst.py);
+5. export: ns per call of the C99 tick `haptex export` generates (benchmarks/run_export.py).
 
-Options: --only {analysis,renderer,simulator,worst}, --points N, --json (analysis only).
+Options: --only {analysis,renderer,simulator,worst,export}, --points N, --json (analysis only).
 Never part of the test run; results are reported in benchmarks/README.md. Sections 2 and
 3 need gcc.
 """
@@ -43,7 +44,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--points", type=int, default=1_000_000)
     ap.add_argument("--json", action="store_true")
-    ap.add_argument("--only", choices=["analysis", "renderer", "simulator", "worst"])
+    ap.add_argument("--only", choices=["analysis", "renderer", "simulator", "worst", "export"])
     args = ap.parse_args()
     if args.only in (None, "analysis"):
         analysis(args)
@@ -65,6 +66,11 @@ def main() -> None:
         print("\n# worst-case servo tick (10^6 adversarial calls per algorithm and texture)")
         sys.argv = sys.argv[:1]
         run_worst.main()
+    if args.only in (None, "export") and not args.json:
+        import run_export
+
+        print("\n# exported C tick")
+        run_export.main()
 
 
 def analysis(args) -> None:

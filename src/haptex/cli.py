@@ -495,6 +495,54 @@ def design(ctx, texture_spec, device_spec, stiffness, speed, max_penetration, jo
     console.print("recommendation: " + data["recommendation"])
 
 
+@cli.command()
+@click.option("--algorithm", "letter", required=True, help="W, A, B, C, F or G.")
+@click.option("--texture", "texture_spec", default=None,
+              help="FILE, 'sine:AMPLITUDE,PERIOD' or 'noise:RMS,SHORTEST,LONGEST,LENGTH[,SEED]' (not for W).")
+@click.option("--stiffness", type=Quantity("N/m"), required=True, help="kappa_0, e.g. '2 kN/m'.")
+@click.option("--max-force", type=Quantity("N"), required=True, help="Force saturation, e.g. '5 N'.")
+@click.option("--max-penetration", type=Quantity("m"), default=None, help="B, C, G, F: d^z_max (Remark 3).")
+@click.option("--friction", type=Quantity("dimensionless"), default=None, help="F: mu (default 0.8).")
+@click.option("--presliding", type=Quantity("m"), default=None, help="F: d^x_max (default 1 mm).")
+@click.option("--spacing", type=Quantity("m"), default=None, help="Sample spacing when the file does not state it.")
+@click.option("--x-unit", default=None, help="Unit of the file's x column when it does not state it.")
+@click.option("--height-unit", default=None, help="Unit of the file's heights when it does not state it.")
+@click.option("--level", is_flag=True, help="Remove the profile's best-fit line.")
+@click.option("--lowpass", type=Quantity("m"), default=None, help="Band-limit the profile to this shortest period.")
+@click.option("--periodic", is_flag=True, help="Close the profile into a periodic texture.")
+@click.option("--out", "out", type=click.Path(file_okay=False, path_type=Path), required=True,
+              help="Directory for haptex_texture.c and haptex_texture.h.")
+def export(letter, texture_spec, stiffness, max_force, max_penetration, friction, presliding, spacing, x_unit,
+           height_unit, level, lowpass, periodic, out):
+    """C99 source of one algorithm on one texture, for device firmware (<math.h> only)."""
+    from .algorithms import algorithm
+    from .export import export_c
+
+    letter = str(letter).upper()
+    if letter == "W":
+        if texture_spec is not None:
+            raise ParameterError(f"--texture is not allowed with --algorithm W: the smooth wall has no texture")
+        tex = None
+    elif texture_spec is None:
+        raise ParameterError(f"--texture is required with --algorithm {letter}: give a file, 'sine:...' or 'noise:...'")
+    else:
+        tex = _texture_from_spec(texture_spec, spacing, x_unit, height_unit, level, lowpass, None, periodic)
+    params = {}
+    if max_penetration is not None:
+        if letter not in "BCGF":
+            raise ParameterError(f"--max-penetration is not allowed with --algorithm {letter}: it applies to B, C, "
+                                 "G and F")
+        params["max_penetration"] = max_penetration
+    for flag, name, value in (("--friction", "friction", friction), ("--presliding", "presliding", presliding)):
+        if value is not None:
+            if letter != "F":
+                raise ParameterError(f"{flag} is not allowed with --algorithm {letter}: it applies to F only")
+            params[name] = value
+    alg = algorithm(letter, tex, stiffness, **params)
+    h_path, c_path = export_c(alg, out, max_force)
+    click.echo(f"wrote {c_path} and {h_path}: {alg!r}, max force {max_force:g} N")
+
+
 def _table(stiffness, amplitude, period, max_penetration, friction, presliding, progress=None):
     from .tables import table_ii
 

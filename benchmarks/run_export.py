@@ -1,0 +1,62 @@
+"""ns per call of the C99 tick that `haptex export` generates (issue 16): the exported
+haptex_step for A, B, C, F and G on the paper's sinusoid and for A on the levelled Dektak
+profile (spline tables), driven by a C loop over 10^7 positions sweeping in and out of the
+wall, compiled with cc -O2. Needs a C compiler."""
+
+import shutil
+import subprocess
+import tempfile
+from pathlib import Path
+
+import haptex as hx
+from haptex.export import export_c
+
+DEKTAK = Path(__file__).resolve().parents[2] / "shared" / "data" / "dektak-stylus-profile.csv"
+
+DRIVER = r"""#define _POSIX_C_SOURCE 199309L
+#include <stdio.h>
+#include <time.h>
+#include "haptex_texture.h"
+int main(void) {
+    haptex_state s; haptex_init(&s);
+    double p[2], f[2], acc = 0.0;
+    const long n = 10000000;
+    struct timespec t0, t1;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    for (long i = 0; i < n; ++i) {
+        p[0] = 1e-6 * (double)(i % 4000);
+        p[1] = -1e-6 * (double)(i % 1500) + 2e-4;
+        haptex_step(&s, p, f);
+        acc += f[0] + f[1];
+    }
+    clock_gettime(CLOCK_MONOTONIC, &t1);
+    double ns = ((t1.tv_sec - t0.tv_sec) * 1e9 + (t1.tv_nsec - t0.tv_nsec)) / n;
+    printf("%.2f %g\n", ns, acc);
+    return 0;
+}
+"""
+
+
+def main() -> None:
+    cc = shutil.which("cc") or shutil.which("gcc")
+    if cc is None:
+        print("no C compiler: skipped")
+        return
+    cases = [(L, "sinusoid", hx.Sinusoid(0.8e-3, 1e-3)) for L in "ABCFG"]
+    if DEKTAK.exists():
+        cases.append(("A", "Dektak", hx.SampledProfile.from_file(DEKTAK).leveled()))
+    print("| algorithm | texture | ns per haptex_step |")
+    print("| --- | --- | ---: |")
+    for letter, name, tex in cases:
+        with tempfile.TemporaryDirectory() as d:
+            export_c(hx.algorithm(letter, tex, 2000.0), d, 5.0)
+            Path(d, "driver.c").write_text(DRIVER)
+            exe = Path(d, "bench")
+            subprocess.run([cc, "-std=c99", "-O2", "-o", str(exe), str(Path(d, "driver.c")),
+                            str(Path(d, "haptex_texture.c")), "-lm"], check=True)
+            ns = float(subprocess.run([str(exe)], capture_output=True, text=True, check=True).stdout.split()[0])
+        print(f"| {letter} | {name} | {ns:.1f} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()

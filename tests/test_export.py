@@ -1,0 +1,131 @@
+"""Issue 16, textures leave Python: the generated C99 servo tick, compiled with the system's C
+compiler (-std=c99 -Wall -Wextra -pedantic -Werror), against the library's own fields and
+renderer."""
+
+import ctypes
+import math
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+import haptex as hx
+from haptex.export import export_c
+
+from .conftest import DEKTAK, K0, A, L
+
+CC = shutil.which("cc") or shutil.which("gcc")
+pytestmark = pytest.mark.skipif(CC is None, reason="no C compiler on this machine")
+
+
+class State(ctypes.Structure):
+    _fields_ = [("adhesion", ctypes.c_double), ("contact", ctypes.c_int), ("faults", ctypes.c_ulong),
+                ("clamps", ctypes.c_ulong)]
+
+
+class Compiled:
+    """The exported tick of one algorithm, loaded from a shared library."""
+
+    def __init__(self, alg, tmp_path, max_force=math.inf):
+        h, c = export_c(alg, tmp_path, max_force)
+        assert "#include <math.h>" in c.read_text() and "typedef struct haptex_state" in h.read_text()
+        so = tmp_path / "libhaptex_texture.so"
+        subprocess.run([CC, "-std=c99", "-O2", "-Wall", "-Wextra", "-pedantic", "-Werror", "-shared", "-fPIC",
+                        "-o", str(so), str(c), "-lm"], check=True, capture_output=True, text=True)
+        self.lib = ctypes.CDLL(str(so))
+        self.lib.haptex_step.restype = ctypes.c_int
+        self.lib.haptex_step.argtypes = [ctypes.POINTER(State), ctypes.POINTER(ctypes.c_double),
+                                         ctypes.POINTER(ctypes.c_double)]
+        self.state = State()
+        self.lib.haptex_init(ctypes.byref(self.state))
+        self.p = (ctypes.c_double * 2)()
+        self.f = (ctypes.c_double * 2)()
+
+    def step(self, x, z):
+        self.p[0], self.p[1] = x, z
+        code = self.lib.haptex_step(ctypes.byref(self.state), self.p, self.f)
+        return code, (self.f[0], self.f[1])
+
+
+def _textures():
+    out = [("sine", hx.Sinusoid(A, L)), ("sum", hx.SumOfSinusoids([0.3e-3, 0.1e-3], [1e-3, 0.25e-3], [0.0, 1.0]))]
+    if DEKTAK.exists():
+        out.append(("dektak", hx.SampledProfile.from_file(DEKTAK).leveled()))
+    return out
+
+
+@pytest.mark.parametrize("letter", list("WABCG"))
+@pytest.mark.parametrize("name, tex", _textures())
+def test_exported_field_equals_the_library_on_1e5_points(tmp_path, letter, name, tex):
+    alg = hx.algorithm(letter, None if letter == "W" else tex, K0,
+                       **({"max_penetration": 0.5e-3} if letter in "BCG" else {}))
+    c = Compiled(alg, tmp_path)
+    rng = np.random.default_rng(7)
+    lo, hi = (tex.domain if getattr(tex, "domain", None) is not None else (0.0, 4e-3))
+    span = hi - lo
+    x = rng.uniform(lo - 0.1 * span, hi + 0.1 * span, 100_000)  # beyond the ends too (a profile extends)
+    z = rng.uniform(-2e-3, 1e-3, x.size) + (tex.height(x) if letter in "ABC" else 0.0)
+    ref = alg.force(np.column_stack([x, z]))
+    got = np.array([c.step(xi, zi)[1] for xi, zi in zip(x, z)])
+    # 1e-12 relative, or a few rounding errors of h (the C loop sums the harmonics in another
+    # order than numpy) times kappa_0 where d = z - h nearly cancels
+    hmax = max(abs(v) for v in tex.height_range)
+    tol = 1e-12 * np.hypot(ref[:, 0], ref[:, 1]) + 16 * np.finfo(float).eps * K0 * hmax
+    assert np.all(np.hypot(*(got - ref).T) <= tol), np.max(np.hypot(*(got - ref).T) / tol)
+    assert c.state.faults == 0
+
+
+def test_exported_F_follows_the_renderer_along_a_stroke(tmp_path):
+    # F keeps a presliding state: along a stroke in and out of the wall, back and forth over
+    # the texture, every tick equals the compiled renderer's, and so does the work sum (the
+    # environment's -sum f . dp, what path_work integrates)
+    alg = hx.algorithm("F", hx.Sinusoid(A, L), K0, friction=0.8, presliding=1e-3, max_penetration=1e-3)
+    c = Compiled(alg, tmp_path, max_force=5.0)
+    r = hx.Renderer(alg, max_force=5.0)
+    t = np.linspace(0.0, 1.0, 20_001)
+    x = 3e-3 * np.sin(2 * np.pi * 3 * t)
+    z = -0.8e-3 * np.sin(2 * np.pi * 2 * t) + 0.2e-3
+    got = np.array([c.step(a, b)[1] for a, b in zip(x, z)])
+    ref = np.array([r.step((a, b)) for a, b in zip(x, z)])
+    np.testing.assert_allclose(got, ref, rtol=1e-12, atol=1e-15)
+    work = lambda f: -np.sum(f[:-1, 0] * np.diff(x) + f[:-1, 1] * np.diff(z))  # noqa: E731
+    assert work(got) == pytest.approx(work(ref), rel=1e-12, abs=1e-18)
+    assert c.state.clamps == r.clamps
+
+
+def test_exported_tick_keeps_the_renderers_safety_rules(tmp_path):
+    # reproducer 3 of issue 17 (a huge force is clamped to max_force, not to zero) and the
+    # faults: NaN, inf and positions beyond the workspace give zero force and a nonzero code
+    c = Compiled(hx.algorithm("W", None, 1e200), tmp_path, max_force=5.0)
+    code, f = c.step(0.0, -1e-3)
+    assert code == 0 and f == (0.0, 5.0) and c.state.clamps == 1
+    for bad in ((math.nan, 0.0), (0.0, math.inf), (0.0, -2e3)):
+        code, f = c.step(*bad)
+        assert code != 0 and f == (0.0, 0.0)
+    assert c.state.faults == 3
+
+
+def test_what_cannot_be_exported_is_refused(tmp_path):
+    with pytest.raises(hx.ParameterError, match="algorithm = 'D' is not allowed for export"):
+        export_c(hx.algorithm("D", hx.Sinusoid(A, L), K0), tmp_path, 5.0)
+    with pytest.raises(hx.ParameterError, match="stick_deflection is not allowed for export"):
+        export_c(hx.algorithm("F", hx.Sinusoid(A, L), K0, stick_deflection=0.5e-3), tmp_path, 5.0)
+    with pytest.raises(hx.ParameterError, match="max_force = -1 is not allowed"):
+        export_c(hx.algorithm("A", hx.Sinusoid(A, L), K0), tmp_path, -1.0)
+
+
+def test_haptex_export_at_the_command_line_writes_code_that_compiles(tmp_path):
+    # the CLI's output compiles warning-free and takes units like every other command
+    out = tmp_path / "fw"
+    r = subprocess.run(["haptex", "export", "--algorithm", "G", "--texture", "sine:0.8mm,1mm", "--stiffness",
+                        "2 kN/m", "--max-force", "5 N", "--max-penetration", "0.5mm", "--out", str(out)],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    subprocess.run([CC, "-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror", "-c", str(out / "haptex_texture.c"),
+                    "-o", str(tmp_path / "t.o")], check=True)
+    text = (out / "haptex_texture.c").read_text()
+    assert "#define DZMAX (0.0005)" in text and "#define K0 (2000.0)" in text
+    r = subprocess.run(["haptex", "export", "--algorithm", "A", "--texture", "sine:0.8mm,1mm", "--stiffness", "2000",
+                        "--max-force", "5 N", "--out", str(out)], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and "stiffness = '2000' is not allowed: a number without a unit" in r.stderr
