@@ -84,6 +84,15 @@ def test_report_files(report):
     # issue 16: a quick run says so in the HTML, the JSON and the terminal (it did nowhere)
     assert summary["quick"] is True
     assert "<b>Quick run</b>" in html and "quick run" in r.stdout
+    # issue 16, stumble 8: Python's False as a value, "-0.00", ASCII kappa_0, raster only
+    import re
+
+    cells = re.findall(r"<td>([^<]*)</td>", html)
+    assert not [c for c in cells if c in ("True", "False")]
+    assert not [c for c in cells if re.fullmatch(r"-0(\.0+)?(e[+-]?\d+)?", c)]
+    assert "kappa_0" not in html and "\u03ba\u2080" in html
+    for png in out.glob("*.png"):
+        assert png.with_suffix(".svg").read_text().lstrip().startswith("<?xml")
 
 
 def test_existing_directory_that_is_not_a_report_is_refused(tmp_path):

@@ -16,13 +16,16 @@ def _pyplot():
     return plt
 
 
-def _finish(plt, fig, path, title: str = "", dpi: int = 100, title_size=None) -> Path:
-    """Title, lay out, write the PNG and free the figure; returns the path written."""
+def _finish(plt, fig, path, title: str = "", dpi: int = 200, title_size=None) -> Path:
+    """Title, lay out, write the figure and free it; returns the path written. A PNG path
+    also gets its vector twin (same name, .svg) beside it."""
     if title:
-        fig.suptitle(title, fontsize=title_size)
+        fig.suptitle(title.replace("kappa_0", "\u03ba\u2080"), fontsize=title_size)
     fig.tight_layout()
     out = Path(path)
     fig.savefig(out, dpi=dpi)
+    if out.suffix.lower() == ".png":
+        fig.savefig(out.with_suffix(".svg"))
     plt.close(fig)
     return out
 
@@ -62,7 +65,7 @@ def plot_simulation(result, path, title: str = "") -> Path:
     axes[2].legend(loc="lower left")
     for ax in axes:
         ax.grid(True, alpha=0.3)
-    return _finish(plt, fig, path, title, dpi=110)
+    return _finish(plt, fig, path, title)
 
 
 def plot_force_field(alg, path, n: int = 23, max_penetration: float = 1e-3) -> Path:

@@ -582,13 +582,23 @@ def summary_json(data: dict, elapsed: float | None = None) -> dict:
 
 def _img(path: Path, alt: str) -> str:
     b64 = base64.b64encode(Path(path).read_bytes()).decode()
+    svg = Path(path).with_suffix(".svg").name
     return f'<figure><img alt="{html.escape(alt)}" src="data:image/png;base64,{b64}"><figcaption>{html.escape(alt)} ' \
-           f'(<a href="{Path(path).name}">{Path(path).name}</a>)</figcaption></figure>'
+           f'(<a href="{Path(path).name}">{Path(path).name}</a>, <a href="{svg}">{svg}</a>)</figcaption></figure>'
+
+
+def _cell(x) -> str:
+    """A table cell as a person reads it: yes/no for booleans, numbers through :func:`_g`."""
+    if isinstance(x, bool | np.bool_):
+        return "yes" if x else "no"
+    if isinstance(x, float | np.floating):
+        return _g(float(x))
+    return str(x)
 
 
 def _table(header, rows) -> str:
     h = "".join(f"<th>{html.escape(str(x))}</th>" for x in header)
-    body = "".join("<tr>" + "".join(f"<td>{html.escape(str(x))}</td>" for x in r) + "</tr>" for r in rows)
+    body = "".join("<tr>" + "".join(f"<td>{html.escape(_cell(x))}</td>" for x in r) + "</tr>" for r in rows)
     return f"<table><thead><tr>{h}</tr></thead><tbody>{body}</tbody></table>"
 
 
@@ -597,7 +607,18 @@ def _g(v, fmt=".4g"):
         return "-"
     if isinstance(v, str):
         return v
-    return "unbounded" if (isinstance(v, float) and math.isinf(v)) else format(v, fmt)
+    if isinstance(v, float) and math.isinf(v):
+        return "unbounded"
+    text = format(v, fmt)
+    if text.startswith("-") and float(text) == 0.0:  # "-0.00": a negative number rounded to zero
+        text = text[1:]
+    return text
+
+
+def _typeset(text: str) -> str:
+    """Symbols as a reader expects them in the HTML (the JSON keeps ASCII names)."""
+    return (text.replace("kappa_0", "\u03ba\u2080").replace("sigma_0", "\u03c3\u2080").replace("d^z_max", "d\u1dbb\u2098\u2090\u2093")
+            .replace("d^x_max", "d\u02e3\u2098\u2090\u2093").replace("zeta", "\u03b6").replace(" mu ", " \u03bc "))
 
 
 def _html(data, figs, summary) -> str:
@@ -750,4 +771,4 @@ def _html(data, figs, summary) -> str:
         [[s["algorithm"], _g(s["hand_stiffness"]), _g(s["depth"] * 1e3), _g(s["energy"] * 1e3)]
          for s in sur["sensitivity"]]))
     parts.append(f"<p><small>haptex report, {time.strftime('%Y-%m-%d %H:%M:%S')}</small></p></body></html>")
-    return "\n".join(parts)
+    return _typeset("\n".join(parts))
