@@ -13,6 +13,8 @@ import haptex as hx
 from haptex._units import parse_quantity
 from haptex.cli import main
 
+from .conftest import DEKTAK, needs_data
+
 
 @pytest.fixture(scope="module")
 def table_json():
@@ -313,3 +315,18 @@ def test_design_and_table_report_progress_per_algorithm():
     seen.clear()
     design(hx.Sinusoid(0.2e-3, 2e-3), hx.Device.pantograph(), 500.0, progress=seen.append)
     assert seen == list("WABCDEFG")
+
+
+def test_absurd_regions_are_refused_at_once_naming_the_way_out():
+    # issue 16, stumble 1: `--amplitude 0.8` (metres) ran with no output while memory climbed
+    # to 11 GB; written with its unit it is refused before any grid, naming the height range
+    r = run_cli("table", "--amplitude", "0.8m")
+    assert r.returncode == 2 and "height range 1.6 m spans more than 1000 shortest periods" in r.stderr
+
+
+@needs_data
+def test_raw_dektak_design_is_refused_at_once_with_the_lowpass_hint():
+    # issue 13's raw scan did not finish in 15 minutes; until raw data is fast it is one line
+    r = run_cli("design", "--texture", str(DEKTAK), timeout=60)
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
+    assert "at most 1000 shortest texture periods" in r.stderr and "--lowpass" in r.stderr

@@ -178,7 +178,11 @@ def check_analysis_scale(algorithm: Algorithm, max_penetration) -> float:
                              f"height range {hi - lo:g} m exceeds {MAX_LENGTH:g} m")
     if dmax > MAX_REGION_PERIODS * ell:
         raise fail("max_penetration", dmax, f"at most {MAX_REGION_PERIODS:g} shortest texture periods "
-                   f"({MAX_REGION_PERIODS * ell:g} m) for {tex!r}")
+                   f"({MAX_REGION_PERIODS * ell:g} m) for {tex!r}; or band-limit the texture (lowpass, --lowpass)")
+    if hi - lo > MAX_REGION_PERIODS * ell:
+        raise ParameterError(f"texture = {tex!r} is not allowed in the analysis: its height range {hi - lo:g} m spans "
+                             f"more than {MAX_REGION_PERIODS:g} shortest periods ({MAX_REGION_PERIODS * ell:g} m); "
+                             "check the amplitude or height unit, or band-limit it")
     return dmax
 
 
