@@ -121,7 +121,7 @@ def test_simulate_thrust_writes_a_plot(tmp_path):
 
 @pytest.mark.parametrize("args, fragment", [
     (["simulate", "thrust", "--anchor", "0"], "anchor = '0' is not allowed"),
-    (["simulate", "path"], "path = None is not allowed"),
+    (["simulate", "path"], "Missing option '--path'"),
     (["simulate", "scan", "--sampling-period", "0s"], "period = 0 is not allowed"),
     (["simulate", "thrust", "--algorithm", "Q"], "letter = 'Q' is not allowed"),
     (["simulate", "thrust", "--plot", "/proc/nope/x.png", "--duration", "0.01s"], "plot = '/proc/nope/x.png' is not allowed"),
@@ -268,8 +268,8 @@ def test_thrust_angle_makes_the_texture_felt():
 
 @pytest.mark.parametrize("args, fragment", [
     # issue 16, stumble 4 at `simulate`: options of another mode, device or algorithm were ignored
-    (["simulate", "scan", "--band-stiffness", "50N/m"], "--band-stiffness is not allowed with the scan mode"),
-    (["simulate", "thrust", "--velocity", "10mm/s"], "--velocity is not allowed with the thrust mode"),
+    (["simulate", "scan", "--band-stiffness", "50N/m"], "No such option '--band-stiffness'"),
+    (["simulate", "thrust", "--velocity", "10mm/s"], "No such option '--velocity'"),
     (["simulate", "thrust", "--device", "point-mass", "--joint-damping", "1mN*m*s"],
      "--joint-damping is not allowed with --device point-mass"),
     (["simulate", "thrust", "--algorithm", "A", "--friction", "0.5"], "--friction is not allowed with --algorithm A"),
@@ -330,3 +330,20 @@ def test_raw_dektak_design_is_refused_at_once_with_the_lowpass_hint():
     r = run_cli("design", "--texture", str(DEKTAK), timeout=60)
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
     assert "at most 1000 shortest texture periods" in r.stderr and "--lowpass" in r.stderr
+
+
+def test_one_device_syntax_and_help_per_subcommand():
+    # issue 16, stumble 5: design took 'point-mass:M,B,T' and simulate '--device point-mass --mass ...';
+    # `simulate --help` printed one page for three subcommands
+    for cmd in (["design", "--texture", "sine:0.2mm,2mm", "--stiffness", "500 N/m"],
+                ["simulate", "thrust", "--duration", "0.05s"]):
+        a = json.loads(run_cli(*cmd, "--device", "point-mass", "--mass", "100g", "--damping", "0.5 N*s/m",
+                               "--sampling-period", "100us", "--json").stdout)
+        b = json.loads(run_cli(*cmd, "--device", "point-mass:0.1kg,0.5N*s/m,100us", "--json").stdout)
+        assert a == b  # the two spellings are the same device
+    r = run_cli("design", "--texture", "sine:0.2mm,2mm", "--device", "point-mass:0.1kg,0.5N*s/m,100us", "--mass", "1kg")
+    assert r.returncode == 2 and "--mass is not allowed with --device point-mass:0.1kg,0.5N*s/m,100us" in r.stderr
+    thrust_help = run_cli("simulate", "thrust", "--help").stdout
+    scan_help = run_cli("simulate", "scan", "--help").stdout
+    assert "--band-stiffness" in thrust_help and "--hand-stiffness" not in thrust_help
+    assert "--hand-stiffness" in scan_help and "--band-stiffness" not in scan_help

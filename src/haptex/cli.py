@@ -142,49 +142,113 @@ def _parse_path(text: str):
     return pts
 
 
-@cli.command()
-@click.argument("mode", type=click.Choice(["thrust", "scan", "path"]))
-@click.option("--algorithm", "letter", default="A", show_default=True, help="W or A-G.")
-@_paper_options
-@click.option("--device", "device_name", type=click.Choice(["pantograph", "point-mass"]), default="pantograph",
-              show_default=True, help="Device preset.")
-@click.option("--joint-damping", type=Quantity("N*m*s"), default=4.7e-3, show_default="4.7 mN*m*s",
-              help="Pantograph joint damping inside the wall.")
-@click.option("--mass", type=Quantity("kg"), default=0.1, show_default="0.1 kg", help="Point-mass mass.")
-@click.option("--damping", type=Quantity("N*s/m"), default=0.5, show_default="0.5 N*s/m", help="Point-mass damping.")
-@click.option("--sampling-period", type=Quantity("s"), default=1e-4, show_default="100 us", help="T.")
-@click.option("--delay", type=int, default=0, show_default=True, help="Whole samples of latency.")
-@click.option("--duration", type=Quantity("s"), default=2.0, show_default="2 s")
-@click.option("--band-stiffness", type=Quantity("N/m"), default=100.0, show_default="100 N/m", help="thrust: band stiffness.")
-@click.option("--anchor", default="0,-30mm", show_default=True, help="thrust: band anchor 'x,z' before --angle.")
-@click.option("--angle", type=Quantity("degree"), default=10.0, show_default="10 degree",
-              help="thrust: the band pulls this far off the normal (the anchor moves back by depth x tan(angle)), "
-                   "so the texture is felt, as in Fig. 5.")
-@click.option("--hand-stiffness", type=Quantity("N/m"), default=300.0, show_default="300 N/m", help="scan: hand stiffness.")
-@click.option("--hand-damping", type=Quantity("N*s/m"), default=1.0, show_default="1 N*s/m", help="scan: hand damping.")
-@click.option("--velocity", type=Quantity("m/s"), default=0.01, show_default="10 mm/s", help="scan: set-point speed.")
-@click.option("--depth", type=Quantity("m"), default=1e-3, show_default="1mm", help="scan: set-point depth.")
-@click.option("--path", "path_text", default=None, help="path: vertices 'x,z;x,z;...' (units allowed).")
-@click.option("--speed", type=Quantity("m/s"), default=1e-3, show_default="1 mm/s", help="path: speed.")
-@click.option("--plot", type=click.Path(dir_okay=False, path_type=Path), default=None, help="Write a PNG figure.")
-@click.option("--save", type=click.Path(dir_okay=False, path_type=Path), default=None,
-              help="Write the time series to a .csv (with a header of units) or .npz file.")
-@click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
-@click.pass_context
-def simulate(ctx, mode, letter, stiffness, amplitude, period, max_penetration, friction, presliding, device_name,
-             joint_damping, mass, damping, sampling_period, delay, duration, band_stiffness, anchor, angle, hand_stiffness,
-             hand_damping, velocity, depth, path_text, speed, plot, save, as_json):
+def _device_options(func):
+    """One device syntax for every command: --device pantograph|point-mass with its
+    parameters as options (or the shorthand 'point-mass:MASS,DAMPING,PERIOD[,RESOLUTION]')."""
+    opts = [
+        click.option("--device", "device_spec", default="pantograph", show_default=True,
+                     help="'pantograph' or 'point-mass' (parameters below), or the shorthand "
+                          "'point-mass:MASS,DAMPING,PERIOD[,RESOLUTION]'."),
+        click.option("--joint-damping", type=Quantity("N*m*s"), default=4.7e-3, show_default="4.7 mN*m*s",
+                     help="pantograph: joint damping inside the wall."),
+        click.option("--mass", type=Quantity("kg"), default=0.1, show_default="0.1 kg", help="point-mass: mass."),
+        click.option("--damping", type=Quantity("N*s/m"), default=0.5, show_default="0.5 N*s/m",
+                     help="point-mass: damping."),
+        click.option("--sampling-period", type=Quantity("s"), default=1e-4, show_default="100 us", help="T."),
+        click.option("--delay", type=int, default=0, show_default=True, help="Whole samples of latency."),
+    ]
+    for opt in reversed(opts):
+        func = opt(func)
+    return func
+
+
+def _build_device(ctx, spec: str, joint_damping, mass, damping, sampling_period, delay):
+    """The device an invocation describes, refusing parameters of the other preset."""
+    from .devices import Device
+
+    kind, _, rest = str(spec).partition(":")
+    if kind == "pantograph":
+        _refuse_unused(ctx, {"point-mass": {"mass", "damping"}}, kind, "--device")
+        jd = _q(rest, "N*m*s", "joint_damping") if rest else joint_damping
+        return Device.pantograph(joint_damping=jd, period=sampling_period, delay=delay)
+    if kind == "point-mass":
+        _refuse_unused(ctx, {"pantograph": {"joint_damping"}}, kind, "--device")
+        if not rest:
+            return Device.point_mass(mass, damping, sampling_period, delay=delay)
+        _refuse_unused(ctx, {"*": {"mass", "damping", "sampling_period"}}, spec, "--device", owner="*",
+                       what="the shorthand already gives it")
+        vals = _split_spec(rest, "device", "point-mass", (3, 4))
+        delta = _q(vals[3], "m", "position_resolution") if len(vals) == 4 else 0.0
+        return Device.point_mass(_q(vals[0], "kg", "mass"), _q(vals[1], "N*s/m", "damping"),
+                                 _q(vals[2], "s", "period"), position_resolution=delta, delay=delay)
+    raise ParameterError(f"device = {spec!r} is not allowed: must be 'pantograph', 'point-mass' or "
+                         "'point-mass:MASS,DAMPING,PERIOD[,RESOLUTION]'")
+
+
+def _sim_common(func):
+    opts = [
+        click.option("--algorithm", "letter", default="A", show_default=True, help="W or A-G."),
+        _paper_options,
+        _device_options,
+        click.option("--duration", type=Quantity("s"), default=2.0, show_default="2 s"),
+        click.option("--plot", type=click.Path(dir_okay=False, path_type=Path), default=None,
+                     help="Write a figure (PNG, SVG, PDF, ...)."),
+        click.option("--save", type=click.Path(dir_okay=False, path_type=Path), default=None,
+                     help="Write the time series to a .csv (with a header of units) or .npz file."),
+        click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON."),
+        click.pass_context,
+    ]
+    for opt in reversed(opts):
+        func = opt(func)
+    return func
+
+
+@cli.group()
+def simulate():
     """Simulate a device in closed loop with an algorithm: thrust (Fig. 5), scan (Figs. 6, 7) or path."""
+
+
+@simulate.command()
+@_sim_common
+@click.option("--band-stiffness", type=Quantity("N/m"), default=100.0, show_default="100 N/m", help="Band stiffness.")
+@click.option("--anchor", default="0,-30mm", show_default=True, help="Band anchor 'x,z' before --angle.")
+@click.option("--angle", type=Quantity("degree"), default=10.0, show_default="10 degree",
+              help="The band pulls this far off the normal (the anchor moves back by depth x tan(angle)), so the "
+                   "texture is felt, as in Fig. 5.")
+def thrust(ctx, **kw):
+    """Push into the wall with an elastic band (Fig. 5)."""
+    _simulate(ctx, "thrust", **kw)
+
+
+@simulate.command()
+@_sim_common
+@click.option("--hand-stiffness", type=Quantity("N/m"), default=300.0, show_default="300 N/m", help="Hand stiffness.")
+@click.option("--hand-damping", type=Quantity("N*s/m"), default=1.0, show_default="1 N*s/m", help="Hand damping.")
+@click.option("--velocity", type=Quantity("m/s"), default=0.01, show_default="10 mm/s", help="Set-point speed.")
+@click.option("--depth", type=Quantity("m"), default=1e-3, show_default="1mm", help="Set-point depth.")
+def scan(ctx, **kw):
+    """Stroke along the texture with a hand impedance (Figs. 6, 7)."""
+    _simulate(ctx, "scan", **kw)
+
+
+@simulate.command()
+@_sim_common
+@click.option("--path", "path_text", required=True, help="Vertices 'x,z;x,z;...' (units required, 0 excepted).")
+@click.option("--speed", type=Quantity("m/s"), default=1e-3, show_default="1 mm/s", help="Speed along the path.")
+def path(ctx, **kw):
+    """Drive the handle along a polyline (an infinitely stiff hand): loop energies in closed loop."""
+    _simulate(ctx, "path", **kw)
+
+
+def _simulate(ctx, mode, letter, stiffness, amplitude, period, max_penetration, friction, presliding, device_spec,
+              joint_damping, mass, damping, sampling_period, delay, duration, plot, save, as_json,
+              band_stiffness=100.0, anchor="0,-30mm", angle=10.0, hand_stiffness=300.0, hand_damping=1.0,
+              velocity=0.01, depth=1e-3, path_text=None, speed=1e-3):
     from . import operators as ops
     from .algorithms import algorithm
-    from .devices import Device
     from .simulate import simulate as run
     from .textures import Sinusoid
 
-    _refuse_unused(ctx, {
-        "thrust": {"band_stiffness", "anchor", "angle"}, "scan": {"hand_stiffness", "hand_damping", "velocity", "depth"},
-        "path": {"path_text", "speed"}}, mode)
-    _refuse_unused(ctx, {"pantograph": {"joint_damping"}, "point-mass": {"mass", "damping"}}, device_name, "--device")
     if str(letter).upper() != "F":
         _refuse_unused(ctx, {"F": {"friction", "presliding", "max_penetration"}}, str(letter).upper(), "--algorithm")
     if str(letter).upper() == "W":
@@ -196,10 +260,7 @@ def simulate(ctx, mode, letter, stiffness, amplitude, period, max_penetration, f
     letter = letter.upper()
     params = {"friction": friction, "presliding": presliding, "max_penetration": max_penetration} if letter == "F" else {}
     alg = algorithm(letter, None if letter == "W" else Sinusoid(amplitude, period), stiffness, **params)
-    if device_name == "pantograph":
-        dev = Device.pantograph(joint_damping=joint_damping, period=sampling_period, delay=delay)
-    else:
-        dev = Device.point_mass(mass, damping, sampling_period, delay=delay)
+    dev = _build_device(ctx, device_spec, joint_damping, mass, damping, sampling_period, delay)
     start = None
     if mode == "thrust":
         if not -80.0 <= angle <= 80.0:
@@ -295,10 +356,11 @@ class _Steps:
         return False
 
 
-def _refuse_unused(ctx, groups: dict, chosen: str, by: str = "mode", owner: str | None = None) -> None:
+def _refuse_unused(ctx, groups: dict, chosen: str, by: str = "mode", owner: str | None = None,
+                   what: str | None = None) -> None:
     """Refuse, in one line, an option given on the command line that the choice ``chosen``
     does not use: ``groups`` maps each choice to the options only it uses (or, with
-    ``owner``, the options that choice ``owner`` cannot take)."""
+    ``owner``, the options that choice ``owner`` cannot take; ``what`` says why)."""
     from click.core import ParameterSource
 
     for key, names in groups.items():
@@ -308,9 +370,9 @@ def _refuse_unused(ctx, groups: dict, chosen: str, by: str = "mode", owner: str 
         for name in sorted(names):
             if ctx.get_parameter_source(name) == ParameterSource.COMMANDLINE:
                 flag = "--" + ("path" if name == "path_text" else name.replace("_", "-"))
-                what = f"{by} {chosen}" if by != "mode" else f"the {chosen} mode"
-                raise ParameterError(f"{flag} is not allowed with {what}: it applies to "
-                                     + (f"{key}" if owner is None else "textured algorithms") + " only")
+                where = f"{by} {chosen}" if by != "mode" else f"the {chosen} mode"
+                why = what or (f"it applies to {key} only" if owner is None else "it applies to textured algorithms only")
+                raise ParameterError(f"{flag} is not allowed with {where}: {why}")
 
 
 _SAVE_COLUMNS = [("time", "s"), ("x", "m"), ("z", "m"), ("vx", "m/s"), ("vz", "m/s"), ("fx", "N"), ("fz", "N"),
@@ -408,33 +470,14 @@ def _texture_from_spec(spec: str, spacing, x_unit, height_unit, level, lowpass, 
     return prof
 
 
-def _device_from_spec(spec: str, joint_damping):
-    from .devices import Device
-
-    kind, _, rest = spec.partition(":")
-    if kind == "pantograph":
-        return Device.pantograph(joint_damping=joint_damping if not rest else _q(rest, "N*m*s", "joint_damping"))
-    if kind == "point-mass":
-        vals = _split_spec(rest, "device", "point-mass", (3, 4))
-        m = _q(vals[0], "kg", "mass")
-        b = _q(vals[1], "N*s/m", "damping")
-        T = _q(vals[2], "s", "period")
-        delta = _q(vals[3], "m", "position_resolution") if len(vals) == 4 else 0.0
-        return Device.point_mass(m, b, T, position_resolution=delta)
-    raise ParameterError(f"device = {spec!r} is not allowed: must be 'pantograph[:JOINT_DAMPING]' or "
-                         "'point-mass:MASS,DAMPING,PERIOD[,RESOLUTION]'")
-
-
 @cli.command()
 @click.option("--texture", "texture_spec", required=True,
               help="FILE (CSV, Dektak CSV, .mat), 'sine:AMPLITUDE,PERIOD' or 'noise:RMS,SHORTEST,LONGEST,LENGTH[,SEED]'.")
-@click.option("--device", "device_spec", default="pantograph", show_default=True,
-              help="'pantograph[:JOINT_DAMPING]' or 'point-mass:MASS,DAMPING,PERIOD[,RESOLUTION]'.")
+@_device_options
 @click.option("--stiffness", type=Quantity("N/m"), default=PAPER_PARAMETERS["stiffness"], show_default="2000 N/m",
               help="The stiffness you want to render at.")
 @click.option("--speed", type=Quantity("m/s"), default=0.1, show_default="0.1 m/s", help="Scanning speed.")
 @click.option("--max-penetration", type=Quantity("m"), default=1e-3, show_default="1mm", help="Rendering depth.")
-@click.option("--joint-damping", type=Quantity("N*m*s"), default=4.7e-3, show_default="4.7 mN*m*s")
 @click.option("--spacing", type=Quantity("m"), default=None,
               help="Sample spacing when the file does not state it, e.g. '0.5um'.")
 @click.option("--x-unit", default=None, help="Unit of the file's x column when it does not state it.")
@@ -447,15 +490,13 @@ def _device_from_spec(spec: str, joint_damping):
 @click.option("--json", "as_json", is_flag=True)
 @click.option("--quiet", is_flag=True, help="No progress display.")
 @click.pass_context
-def design(ctx, texture_spec, device_spec, stiffness, speed, max_penetration, joint_damping, spacing, x_unit,
-           height_unit, level, lowpass, scale, periodic, window, as_json, quiet):
+def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, sampling_period, delay, stiffness, speed,
+           max_penetration, spacing, x_unit, height_unit, level, lowpass, scale, periodic, window, as_json, quiet):
     """Which algorithm, how stiff, will it be passive, can the device render it?"""
     from .design import design as run_design
 
-    if not device_spec.startswith("pantograph"):
-        _refuse_unused(ctx, {"pantograph": {"joint_damping"}}, device_spec.partition(":")[0], "--device")
     tex = _texture_from_spec(texture_spec, spacing, x_unit, height_unit, level, lowpass, scale, periodic)
-    dev = _device_from_spec(device_spec, joint_damping)
+    dev = _build_device(ctx, device_spec, joint_damping, mass, damping, sampling_period, delay)
     x_range = _parse_point(window, "window") if window else None
     with _Steps(8, "design", quiet or as_json) as step:
         data = run_design(tex, dev, stiffness, speed=speed, max_penetration=max_penetration, x_range=x_range,
