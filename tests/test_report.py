@@ -168,3 +168,14 @@ def test_reproduce_into_the_current_directory(tmp_path):
     assert (tmp_path / "notes.txt").read_text() == "keep me"
     assert json.loads((tmp_path / "summary.json").read_text())["generator"] == "haptex-report"
     assert not [p for p in tmp_path.parent.iterdir() if p.name.startswith(f".{tmp_path.name}.")]
+
+
+def test_a_quick_run_reaches_the_full_runs_verdicts(report, tmp_path):
+    # issue 16, stumble 3: --quick flipped a verdict (33 / 9 against 34 / 8) and said nothing;
+    # now every claim's verdict at quick resolution equals the full run's
+    _, quick, _ = report
+    r = run_cli("reproduce", "--out", str(tmp_path / "full"))
+    assert r.returncode == 0, r.stderr
+    full = json.loads((tmp_path / "full" / "summary.json").read_text())
+    assert full["quick"] is False
+    assert {c["id"]: c["verdict"] for c in quick["claims"]} == {c["id"]: c["verdict"] for c in full["claims"]}
