@@ -68,7 +68,7 @@ def plot_simulation(result, path, title: str = "") -> Path:
     return _finish(plt, fig, path, title)
 
 
-def plot_force_field(alg, path, n: int = 23, max_penetration: float = 1e-3) -> Path:
+def plot_force_field(alg, path, n: int = 23, max_penetration: float = 1e-3, vmax: float | None = None) -> Path:
     """Force field of one algorithm over one texture period, in the spirit of Fig. 2.
 
     Arrows show the force direction (length scaled by magnitude^0.5 for legibility),
@@ -85,6 +85,9 @@ def plot_force_field(alg, path, n: int = 23, max_penetration: float = 1e-3) -> P
         Arrows per axis.
     max_penetration : float
         Depth shown below the lowest valley (m).
+    vmax : float, optional
+        Top of the colour scale (N), shared by panels that are compared; larger forces
+        take the top colour (the colour bar says so). Default: this panel's largest force.
     """
     plt = _pyplot()
     tex = alg.texture
@@ -106,7 +109,9 @@ def plot_force_field(alg, path, n: int = 23, max_penetration: float = 1e-3) -> P
     ax.set_xlabel("x (mm)")
     ax.set_ylabel("z (mm)")
     ax.set_title(f"{alg.letter}: {alg.name}", fontsize=9)
-    fig.colorbar(q, ax=ax, label="|f| (N)")
+    top = float(mag.max()) if vmax is None else float(vmax)
+    q.set_clim(0.0, top)
+    fig.colorbar(q, ax=ax, label="|f| (N)", extend="max" if mag.max() > top else "neither")
     ax.legend(loc="lower right", fontsize=7)
     return _finish(plt, fig, path)
 
@@ -172,8 +177,8 @@ def plot_runs(runs, path, quantity: str = "position", title: str = "") -> Path:
     return _finish(plt, fig, path, title, title_size=10)
 
 
-def plot_trajectories(runs, surface_x, surface_h, path, title: str = "") -> Path:
-    """Handle trajectories over a textured surface (Fig. 7's enlarged bump).
+def plot_trajectories(runs, surface_x, surface_h, path, title: str = "", setpoint=None) -> Path:
+    """Handle trajectories over a textured surface (Fig. 7's enlarged bump), drawn to scale.
 
     Parameters
     ----------
@@ -182,13 +187,18 @@ def plot_trajectories(runs, surface_x, surface_h, path, title: str = "") -> Path
         The surface profile to draw (m).
     path : str or Path
     title : str
+    setpoint : ndarray, shape (n, 2), optional
+        The hand's set-point path (m), drawn dashed.
     """
     plt = _pyplot()
     fig, axes = plt.subplots(len(runs), 2, figsize=(10, 2.2 * len(runs) + 0.6), squeeze=False)
     for (ax, ax2), run in zip(axes, runs):
         r = run.result
-        ax.plot(surface_x * 1e3, surface_h * 1e3, "k-", lw=1.2)
-        ax.plot(r.position[:, 0] * 1e3, r.position[:, 1] * 1e3, lw=0.7)
+        ax.plot(surface_x * 1e3, surface_h * 1e3, "k-", lw=1.2, label="surface")
+        if setpoint is not None:
+            ax.plot(setpoint[:, 0] * 1e3, setpoint[:, 1] * 1e3, "--", color="0.5", lw=0.8, label="hand set-point")
+        ax.plot(r.position[:, 0] * 1e3, r.position[:, 1] * 1e3, lw=0.7, label="handle")
+        ax.set_aspect("equal", adjustable="datalim")
         ax.set_ylabel("z (mm)")
         ax.set_title(f"{run.label}: trajectory", fontsize=9)
         ax2.plot(r.time, (r.energy_x + r.energy_z) * 1e3, lw=0.8, color="C3")
@@ -198,6 +208,7 @@ def plot_trajectories(runs, surface_x, surface_h, path, title: str = "") -> Path
             a.grid(True, alpha=0.3)
     axes[-1, 0].set_xlabel("x (mm)")
     axes[-1, 1].set_xlabel("time (s)")
+    axes[0, 0].legend(fontsize=7, loc="lower left")
     return _finish(plt, fig, path, title, title_size=10)
 
 

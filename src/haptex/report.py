@@ -466,13 +466,15 @@ def write_report(data: dict, out: Path, force: bool = False, elapsed: float | No
     os.chmod(tmp, 0o777 & ~_umask())  # like any directory the user creates (mkdtemp makes it 0700)
     try:
         figs = {}
+        P = PAPER_PARAMETERS  # Fig. 2's panels share one colour scale: the deepest vertical spring force shown
+        vmax = P["stiffness"] * (2 * P["amplitude"] + P["max_penetration"])
         for r in data["table_ii"]["rows"]:
             L = r["algorithm"]
             P = PAPER_PARAMETERS
             params = {"friction": P["friction"], "presliding": P["presliding"],
                       "max_penetration": P["max_penetration"]} if L == "F" else {}
             alg = algorithm(L, None if L == "W" else Sinusoid(P["amplitude"], P["period"]), P["stiffness"], **params)
-            figs[f"fig2_{L}"] = plotting.plot_force_field(alg, tmp / f"fig2_{L}.png")
+            figs[f"fig2_{L}"] = plotting.plot_force_field(alg, tmp / f"fig2_{L}.png", vmax=vmax)
         figs["fig3_loops"] = plotting.plot_loop_energies(data["table_ii"]["rows"], tmp / "fig3_loops.png")
         figs["fig5_passivity"] = plotting.plot_runs(data["passivity"]["runs"], tmp / "fig5_passivity.png", "position",
                                                     "Fig. 5: thrust with an elastic band (z and E_x + E_z)")
@@ -486,7 +488,8 @@ def write_report(data: dict, out: Path, force: bool = False, elapsed: float | No
         sx = np.linspace(-0.25 * sp["period"], -0.25 * sp["period"] + sp["length"], 400)
         figs["fig7_bump"] = plotting.plot_trajectories(
             data["surface_activity"]["runs"], sx, Sinusoid(sp["amplitude"], sp["period"]).height(sx),
-            tmp / "fig7_bump.png", "Fig. 7: the enlarged bump (A = l = 20 mm)")
+            tmp / "fig7_bump.png", "Fig. 7: the enlarged bump (A = l = 20 mm)",
+            setpoint=ex.bump_path(sp) - np.array([0.0, sp["depth"]]))
         summary = summary_json(data, elapsed)
         (tmp / "summary.json").write_text(json.dumps(summary, indent=2))
         (tmp / "index.html").write_text(_html(data, figs, summary))
