@@ -91,6 +91,8 @@ def test_report_files(report):
     assert not [c for c in cells if c in ("True", "False")]
     assert not [c for c in cells if re.fullmatch(r"-0(\.0+)?(e[+-]?\d+)?", c)]
     assert "kappa_0" not in html and "\u03ba\u2080" in html
+    assert html.count("<h3>Set-up</h3>") == 3  # one per experiment of Section V, with units
+    assert "<td>band stiffness</td><td>100</td><td>N/m</td>" in html
     for png in out.glob("*.png"):
         assert png.with_suffix(".svg").read_text().lstrip().startswith("<?xml")
 

@@ -590,6 +590,38 @@ def _img(path: Path, alt: str) -> str:
            f'(<a href="{Path(path).name}">{Path(path).name}</a>, <a href="{svg}">{svg}</a>)</figcaption></figure>'
 
 
+_SETUP_UNITS = {"stiffness": ("kappa_0", 1.0, "N/m"), "period": ("texture period l", 1e3, "mm"),
+                "amplitude": ("texture amplitude A", 1e3, "mm"), "friction": ("F's mu", 1.0, ""),
+                "presliding": ("F's d^x_max", 1e3, "mm"), "max_penetration": ("d^z_max", 1e3, "mm"),
+                "joint_damping": ("pantograph joint damping inside", 1e3, "mN m s"),
+                "band_stiffness": ("band stiffness", 1.0, "N/m"), "band_depth": ("band anchor depth", 1e3, "mm"),
+                "band_angle_deg": ("band angle off the normal", 1.0, "degree"), "duration": ("run length", 1.0, "s"),
+                "working_point": ("handle working point", 1e3, "mm"), "delay": ("computation delay", 1.0, "samples"),
+                "hand_stiffness": ("hand stiffness", 1.0, "N/m"), "hand_damping": ("hand damping", 1.0, "N s/m"),
+                "depth": ("set-point depth", 1e3, "mm"), "velocity": ("stroke speed", 1e3, "mm/s"),
+                "speed": ("speed along the bump", 1e3, "mm/s"), "length": ("stroke length", 1e3, "mm"),
+                "settle_periods": ("periods discarded before measuring", 1.0, ""),
+                "speeds": ("speed sweep", 1e3, "mm/s"), "paper_q": ("characteristic numbers the paper reports", 1.0, "")}
+
+
+def _setup(params: dict) -> str:
+    """A 'Set-up' table: every condition of an experiment with its unit (paper's or chosen,
+    see haptex.experiments)."""
+    rows = []
+    for key, value in params.items():
+        label, factor, unit = _SETUP_UNITS.get(key, (key, 1.0, ""))
+        if isinstance(value, dict):
+            value = ", ".join(f"{k} {v:g}" for k, v in value.items())
+        elif isinstance(value, list | tuple):
+            value = ", ".join(_g(v * factor) for v in value)
+        elif isinstance(value, float | int) and not isinstance(value, bool):
+            value = _g(value * factor)
+        rows.append([label, value, unit])
+    return "<h3>Set-up</h3>" + _table(["condition", "value", "unit"], rows) + \
+        "<p>Device: the pantograph preset (haptex.Device.pantograph); conditions the paper does not state are " \
+        "chosen in haptex.experiments and swept below.</p>"
+
+
 def _cell(x) -> str:
     """A table cell as a person reads it: yes/no for booleans, numbers through :func:`_g`."""
     if isinstance(x, bool | np.bool_):
@@ -668,7 +700,7 @@ def _html(data, figs, summary) -> str:
     parts += [_img(figs[f"fig2_{r['algorithm']}"], f"Fig. 2, algorithm {r['algorithm']}") for r in t2]
     parts.append("<h2>Loop energies (Fig. 3)</h2>" + _img(figs["fig3_loops"], "Fig. 3 loop energies"))
     pas = data["passivity"]
-    parts.append("<h2>Passivity (Section V-A, Fig. 5)</h2>")
+    parts.append("<h2>Passivity (Section V-A, Fig. 5)</h2>" + _setup(pas["parameters"]))
     parts.append(f"<p>Pantograph preset, sigma_0(B)/(2T) = {pas['passivity_limit']:.0f} N/m; band "
                  f"{pas['parameters']['band_stiffness']:g} N/m at {pas['parameters']['band_angle_deg']:g} degrees. "
                  "Smallest stiffness of the sweep at which each algorithm oscillated: " +
@@ -732,7 +764,7 @@ def _html(data, figs, summary) -> str:
         ". Many non-passive points settle: passivity is sufficient, not necessary, for a stable wall.</p>"
         + _img(figs["wall_map"], "virtual wall map"))
     con = data["conservativity"]
-    parts.append("<h2>Conservativity (Section V-B, Fig. 6)</h2>")
+    parts.append("<h2>Conservativity (Section V-B, Fig. 6)</h2>" + _setup(con["parameters"]))
     ref_a = abs(con["per_period"]["A"]["energy_z"])
     parts.append(f"<p>Each stroke starts in steady contact (the handle moving with the set-point at the depth where "
                  f"the hand balances the wall); the first {con['parameters']['settle_periods']} texture periods are "
@@ -761,7 +793,7 @@ def _html(data, figs, summary) -> str:
         [[s["algorithm"], _g(s["hand_stiffness"]), _g(s["depth"] * 1e3), _g(s["energy_x"] * 1e3),
           _g(s["energy_z"] * 1e3)] for s in con["sensitivity"]]))
     sur = data["surface_activity"]
-    parts.append("<h2>Surface activity (Section V-C, Fig. 7)</h2>" + _table(
+    parts.append("<h2>Surface activity (Section V-C, Fig. 7)</h2>" + _setup(sur["parameters"]) + _table(
         ["alg.", "contact losses", "largest 20 ms supply of E - V (mJ)", "net absorbed E (mJ)", "net E - V (mJ)"],
         [[L, m["contact_losses"], _g(m["max_energy_jump"] * 1e3), _g(m["net_absorbed"] * 1e3), _g(m["net_lost"] * 1e3)]
          for L, m in sur["metrics"].items()]))
