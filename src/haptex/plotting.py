@@ -268,6 +268,7 @@ def plot_speed_sweep(sweep: list, path) -> Path:
             rows = sorted((s for s in sweep if s["algorithm"] == L), key=lambda s: s["velocity"])
             ax.plot([s["velocity"] * 1e3 for s in rows], [s[key] for s in rows], "o-", label=L)
         ax.axhline(0.0, color="k", lw=0.6)
+        ax.axhspan(-0.1, 0.1, color="0.85", zorder=0, label="marginal (the verdict band)" if key == "relative_x" else None)
         ax.set_xlabel("scanning speed (mm/s)")
         ax.set_ylabel(f"{label} / |E_z,A| (1)")
         ax.set_xscale("log")
