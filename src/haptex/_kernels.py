@@ -841,6 +841,15 @@ def _setpoint(ts, ps, vend, t, out):
 
 
 @nb.njit(**_JIT)
+def _row_dot(P, i, z):
+    """Row i of the sample's exact map times the augmented state: one entry of P z."""
+    acc = 0.0
+    for j in range(z.shape[0]):
+        acc += P[i, j] * z[j]
+    return acc
+
+
+@nb.njit(**_JIT)
 def _mech_energy(M, modal, v, ph, vh, p):
     """Kinetic energy of the device, plus the structural mode's elastic energy (J): with
     ``modal`` = [M_h, K_s] (a two-mass device, M the motor side) 1/2 v'Mv + 1/2 vh'M_h vh +
@@ -865,11 +874,8 @@ def _coulomb(P, z, v, fc):
     slides: friction fc opposes the velocity at the start of the sample, or, from rest,
     the net applied force (the direction of f*).
     """
-    a0 = 0.0
-    a1 = 0.0
-    for j in range(z.shape[0]):
-        a0 += P[2, j] * z[j]
-        a1 += P[3, j] * z[j]
+    a0 = _row_dot(P, 2, z)
+    a1 = _row_dot(P, 3, z)
     b00 = P[2, 4]
     b01 = P[2, 5]
     b10 = P[3, 4]
@@ -1048,27 +1054,15 @@ def run_one(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, M, modal, K,
             if not held:
                 ed += _quad(Wd[reg], z)
                 eo += _quad(Wo[reg], z)
-                npx = 0.0
-                npz = 0.0
-                for j in range(nz):
-                    npx += P[0, j] * z[j]
-                    npz += P[1, j] * z[j]
-                    nvx += P[2, j] * z[j]
-                    nvz += P[3, j] * z[j]
-                if mode:
-                    h0 = 0.0
-                    h1 = 0.0
-                    h2 = 0.0
-                    h3 = 0.0
-                    for j in range(nz):
-                        h0 += P[10, j] * z[j]
-                        h1 += P[11, j] * z[j]
-                        h2 += P[12, j] * z[j]
-                        h3 += P[13, j] * z[j]
-                    ph[0] = h0
-                    ph[1] = h1
-                    vh[0] = h2
-                    vh[1] = h3
+                npx = _row_dot(P, 0, z)
+                npz = _row_dot(P, 1, z)
+                nvx = _row_dot(P, 2, z)
+                nvz = _row_dot(P, 3, z)
+                if mode:  # the handle side of the structural mode
+                    ph[0] = _row_dot(P, 10, z)
+                    ph[1] = _row_dot(P, 11, z)
+                    vh[0] = _row_dot(P, 12, z)
+                    vh[1] = _row_dot(P, 13, z)
             ex -= ux * (npx - p[0])
             ez -= uz * (npz - p[1])
             efr -= ffx * (npx - p[0]) + ffz * (npz - p[1])

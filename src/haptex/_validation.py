@@ -72,12 +72,7 @@ def in_range(name: str, value, lo: float, hi: float, unit: str = "") -> float:
 def positive_or_inf(name: str, value, unit: str = "") -> float:
     """Return ``value`` as float if it is a real number > 0 or +inf (no limit), else raise."""
     allowed = f"a number > 0{_u(unit)}, or inf for no limit"
-    if isinstance(value, bool):
-        raise fail(name, value, allowed)
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise fail(name, value, allowed) from None
+    v = _real(name, value, allowed)
     if not v > 0:  # also NaN
         raise fail(name, value, allowed)
     return v
@@ -153,13 +148,18 @@ def positions(p, name: str = "p") -> np.ndarray:
     return arr
 
 
-def _scalar(name: str, value, allowed: str) -> float:
+def _real(name: str, value, allowed: str) -> float:
+    """``value`` as a float (booleans and non-numbers refused; inf and NaN pass)."""
     if isinstance(value, bool):
         raise fail(name, value, allowed)
     try:
-        v = float(value)
+        return float(value)
     except (TypeError, ValueError):
         raise fail(name, value, allowed) from None
+
+
+def _scalar(name: str, value, allowed: str) -> float:
+    v = _real(name, value, allowed)
     if not math.isfinite(v):
         raise fail(name, value, allowed)
     return v

@@ -186,6 +186,44 @@ def check_analysis_scale(algorithm: Algorithm, max_penetration) -> float:
     return dmax
 
 
+def checked_algorithms(letters, texture: Texture, stiffness: float, max_penetration: float, friction: float,
+                       presliding: float) -> dict:
+    """The algorithms of ``letters`` on one texture, each checked by :func:`check_analysis_scale`
+    before anything is computed (Table II, ``design``).
+
+    Parameters
+    ----------
+    letters : iterable of str
+        Paper letters, W and A–G.
+    texture : Texture
+        Used by A–G (W has none).
+    stiffness : float
+        kappa_0 (N/m).
+    max_penetration : float
+        Depth of the analysed region (m); also F's d^z_max.
+    friction, presliding : float
+        F's mu and d^x_max (m).
+
+    Returns
+    -------
+    dict
+        Letter -> Algorithm, in the order given.
+
+    Raises
+    ------
+    ParameterError
+        If an algorithm cannot be built or is outside the analysis' scale.
+    """
+    from .algorithms import algorithm
+
+    algs = {}
+    for letter in letters:
+        kw = {"friction": friction, "presliding": presliding, "max_penetration": max_penetration} if letter == "F" else {}
+        algs[letter] = algorithm(letter, None if letter == "W" else texture, stiffness, **kw)
+        check_analysis_scale(algs[letter], max_penetration)
+    return algs
+
+
 def _x_range(alg: Algorithm, x_range) -> tuple[float, float]:
     if x_range is not None:
         try:

@@ -5,8 +5,7 @@ from __future__ import annotations
 
 import math
 
-from .algorithms import algorithm
-from .analysis import characteristic_number, check_analysis_scale, conservativity, continuity, paper_loop, texture_limits
+from .analysis import characteristic_number, checked_algorithms, conservativity, continuity, paper_loop, texture_limits
 from .devices import Device, critical_stiffness
 from .textures import Texture
 
@@ -56,11 +55,7 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
     ParameterError
         For invalid parameters.
     """
-    algs = {}
-    for L in LETTERS:  # every parameter is checked before anything is computed
-        kw = {"friction": friction, "presliding": presliding, "max_penetration": max_penetration} if L == "F" else {}
-        algs[L] = algorithm(L, None if L == "W" else texture, stiffness, **kw)
-        check_analysis_scale(algs[L], max_penetration)
+    algs = checked_algorithms(LETTERS, texture, stiffness, max_penetration, friction, presliding)
     rows = []
     for L, alg in algs.items():
         if progress is not None:

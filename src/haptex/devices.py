@@ -390,8 +390,6 @@ def critical_stiffness(mass: float, damping: float, period: float, delay: int = 
     float
         Critical stiffness (N/m).
     """
-    from scipy.optimize import brentq
-
     m = positive("mass", mass, "kg")
     b = positive("damping", damping, "N s/m")
     T = positive("period", period, "s")
@@ -410,18 +408,11 @@ def critical_stiffness(mass: float, damping: float, period: float, delay: int = 
         num = np.r_[np.zeros(len(den) - 2), n1, n0]
         return float(np.abs(np.roots(den + k * num)).max()) - 1.0
 
-    hi = 2 * b / T
-    while radius(hi) < 0:
-        hi *= 2
-    lo = hi
-    while radius(lo) >= 0 and lo > 1e-12:
-        lo /= 2
-    return brentq(radius, lo, hi, xtol=1e-12 * hi, rtol=1e-13)
+    return _stability_edge(radius, 2 * b / T)
 
 
 def _critical_stiffness_two_mass(m, b, T, delay, handle_mass, first_resonance, zeta) -> float:
     from scipy.linalg import expm
-    from scipy.optimize import brentq
 
     mh = positive("handle_mass", handle_mass, "kg")
     if not mh < m:
@@ -457,7 +448,16 @@ def _critical_stiffness_two_mass(m, b, T, delay, handle_mass, first_resonance, z
                 L[4 + j, 4 + j - 1] = 1.0
         return float(np.abs(np.linalg.eigvals(L)).max()) - 1.0
 
-    hi = 2 * b / T
+    return _stability_edge(radius, 2 * b / T)
+
+
+def _stability_edge(radius, guess: float) -> float:
+    """The stiffness where ``radius`` (the closed loop's largest pole or eigenvalue modulus
+    minus 1) crosses zero: bracketed by doubling and halving from ``guess`` (N/m), then
+    Brent's method."""
+    from scipy.optimize import brentq
+
+    hi = guess
     while radius(hi) < 0:
         hi *= 2
     lo = hi

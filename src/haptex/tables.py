@@ -6,8 +6,8 @@ from __future__ import annotations
 import math
 
 from ._validation import nonnegative, positive
-from .algorithms import ALGORITHMS, algorithm
-from .analysis import characteristic_number, check_analysis_scale, conservativity, continuity, paper_loop, path_work
+from .algorithms import ALGORITHMS
+from .analysis import characteristic_number, checked_algorithms, conservativity, continuity, paper_loop, path_work
 from .textures import Sinusoid
 
 PAPER_PARAMETERS = {
@@ -95,11 +95,7 @@ def table_ii(stiffness: float = PAPER_PARAMETERS["stiffness"], amplitude: float 
     presliding = positive("presliding", presliding, "m")
     tex = Sinusoid(A, l)
     order = [c for c in "WABCDEFG" if c in ALGORITHMS] if letters is None else [c.upper() for c in letters]
-    algs = {}
-    for letter in order:  # every parameter is checked before anything is computed
-        params = {"friction": friction, "presliding": presliding, "max_penetration": dmax} if letter == "F" else {}
-        algs[letter] = algorithm(letter, None if letter == "W" else tex, k0, **params)
-        check_analysis_scale(algs[letter], dmax)
+    algs = checked_algorithms(order, tex, k0, dmax, friction, presliding)
     rows = []
     for letter, alg in algs.items():
         if progress is not None:
