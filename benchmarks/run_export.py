@@ -1,7 +1,7 @@
 """ns per call of the C99 tick that `haptex export` generates (issue 16): the exported
-haptex_step for A, B, C, F and G on the paper's sinusoid and for A on the levelled Dektak
-profile (spline tables), driven by a C loop over 10^7 positions sweeping in and out of the
-wall, compiled with cc -O2. Needs a C compiler."""
+haptex_step for every algorithm on the paper's sinusoid (F sharp and smooth) and for A, D, E
+on the levelled Dektak profile (spline tables), driven by a C loop over 10^7 positions (10^6
+for D and E) sweeping in and out of the wall, compiled with cc -O2. Needs a C compiler."""
 
 import shutil
 import subprocess
@@ -20,7 +20,7 @@ DRIVER = r"""#define _POSIX_C_SOURCE 199309L
 int main(void) {
     haptex_state s; haptex_init(&s);
     double p[2], f[2], acc = 0.0;
-    const long n = 10000000;
+    const long n = N_CALLS;
     struct timespec t0, t1;
     clock_gettime(CLOCK_MONOTONIC, &t0);
     for (long i = 0; i < n; ++i) {
@@ -42,17 +42,21 @@ def main() -> None:
     if cc is None:
         print("no C compiler: skipped")
         return
-    cases = [(L, "sinusoid", hx.Sinusoid(0.8e-3, 1e-3)) for L in "ABCFG"]
+    sine = hx.Sinusoid(0.8e-3, 1e-3)
+    cases = [(L, "sinusoid", sine, {}) for L in "ABCDEFG"]
+    cases.append(("F smooth", "sinusoid", sine, {"stick_deflection": 0.5e-3}))
     if DEKTAK.exists():
-        cases.append(("A", "Dektak", hx.SampledProfile.from_file(DEKTAK).leveled()))
+        dektak = hx.SampledProfile.from_file(DEKTAK).leveled()
+        cases += [(L, "Dektak", dektak, {}) for L in "ADE"]
     print("| algorithm | texture | ns per haptex_step |")
     print("| --- | --- | ---: |")
-    for letter, name, tex in cases:
+    for letter, name, tex, kw in cases:
         with tempfile.TemporaryDirectory() as d:
-            export_c(hx.algorithm(letter, tex, 2000.0), d, 5.0)
+            export_c(hx.algorithm(letter[0], tex, 2000.0, **kw), d, 5.0)
             Path(d, "driver.c").write_text(DRIVER)
             exe = Path(d, "bench")
-            subprocess.run([cc, "-std=c99", "-O2", "-o", str(exe), str(Path(d, "driver.c")),
+            n = 1_000_000 if letter in "DE" else 10_000_000
+            subprocess.run([cc, "-std=c99", "-O2", f"-DN_CALLS={n}L", "-o", str(exe), str(Path(d, "driver.c")),
                             str(Path(d, "haptex_texture.c")), "-lm"], check=True)
             ns = float(subprocess.run([str(exe)], capture_output=True, text=True, check=True).stdout.split()[0])
         print(f"| {letter} | {name} | {ns:.1f} |", flush=True)

@@ -347,3 +347,44 @@ def test_one_device_syntax_and_help_per_subcommand():
     scan_help = run_cli("simulate", "scan", "--help").stdout
     assert "--band-stiffness" in thrust_help and "--hand-stiffness" not in thrust_help
     assert "--hand-stiffness" in scan_help and "--band-stiffness" not in scan_help
+
+
+def test_a_toml_device_file_is_the_same_device_as_the_options(tmp_path):
+    # issue 16, "one device syntax everywhere (... or a TOML file)": the file and the options
+    # spell the same pantograph, so the simulation (deterministic) prints the same JSON
+    f = tmp_path / "rig.toml"
+    f.write_text('preset = "pantograph"\njoint_damping = "4.0 mN*m*s"\nperiod = "100 us"\ndelay = 1\n')
+    cmd = ["simulate", "thrust", "--duration", "0.05s", "--json"]
+    a = json.loads(run_cli(*cmd, "--device", str(f)).stdout)
+    b = json.loads(run_cli(*cmd, "--device", "pantograph", "--joint-damping", "4mN*m*s", "--delay", "1").stdout)
+    assert a == b
+    # a custom device with a 2x2 mass table, every value with its unit
+    g = tmp_path / "custom.toml"
+    g.write_text('name = "rig"\nmass = [["50 g", "0 g"], ["0 g", "60 g"]]\ndamping = "0.5 N*s/m"\n'
+                 'period = "1 ms"\ncoulomb_friction = "20 mN"\n')
+    dev = hx.device_from_file(g)
+    assert np.array_equal(dev.mass, [[0.05, 0.0], [0.0, 0.06]]) and dev.period == 1e-3
+    assert dev.coulomb_friction == pytest.approx(0.02) and dev.name == "rig"
+
+
+@pytest.mark.parametrize("text, message", [
+    ('preset = "custom"\nmass = "50 g"\ndamping = 0.5\nperiod = "1 ms"\n',
+     "device file 'F': damping = '0.5' is not allowed: a number without a unit"),
+    ('preset = "point-mass"\nlink_mass = "1 g"\n',
+     "key 'link_mass' is not allowed with preset = 'point-mass'"),
+    ('preset = "point-mass"\nmas = "50 g"\n', "key 'mas' is not allowed: allowed keys are preset, name, mass"),
+    ('preset = "point-mass"\ndelay = 1.5\n', "delay = 1.5 is not allowed: must be a whole number"),
+    ('preset = "point-mass\n', "not a TOML file"),
+    ('preset = "custom"\nmass = "50 g"\n', "key 'damping' is missing"),
+    ('preset = "point-mass"\nmass = [["50 g", "0 g"]]\n', "a quantity or a 2x2 table of quantities"),
+])
+def test_a_bad_device_file_is_one_line_naming_the_key(tmp_path, text, message):
+    f = tmp_path / "F"
+    f.mkdir()
+    path = f / "dev.toml"
+    path.write_text(text)
+    r = run_cli("design", "--texture", "sine:0.2mm,2mm", "--device", str(path))
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
+    assert message.replace("'F'", repr(str(path))) in r.stderr
+    r = run_cli("simulate", "thrust", "--device", str(path), "--delay", "2")
+    assert r.returncode == 2 and "--delay is not allowed with --device" in r.stderr

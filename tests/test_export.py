@@ -20,7 +20,8 @@ pytestmark = pytest.mark.skipif(CC is None, reason="no C compiler on this machin
 
 
 class State(ctypes.Structure):
-    _fields_ = [("adhesion", ctypes.c_double), ("contact", ctypes.c_int), ("faults", ctypes.c_ulong),
+    _fields_ = [("adhesion", ctypes.c_double), ("last_x", ctypes.c_double), ("contact", ctypes.c_int),
+                ("faults", ctypes.c_ulong),
                 ("clamps", ctypes.c_ulong)]
 
 
@@ -41,6 +42,9 @@ class Compiled:
         self.lib.haptex_init(ctypes.byref(self.state))
         self.p = (ctypes.c_double * 2)()
         self.f = (ctypes.c_double * 2)()
+
+    def reset(self):
+        self.lib.haptex_init(ctypes.byref(self.state))
 
     def step(self, x, z):
         self.p[0], self.p[1] = x, z
@@ -106,11 +110,59 @@ def test_exported_tick_keeps_the_renderers_safety_rules(tmp_path):
     assert c.state.faults == 3
 
 
+@pytest.mark.parametrize("letter", list("DE"))
+@pytest.mark.parametrize("name, tex", _textures())
+def test_exported_closest_point_algorithms_equal_the_library_on_1e5_points(tmp_path, letter, name, tex):
+    # D and E carry the bounded closest-point search into C (issue 16): from a cold start (as
+    # the vectorised field computes) every force equals Algorithm.force to 1e-12 relative, away
+    # from the medial axis, where D's force jumps (Remark 6) and either side is right
+    alg = hx.algorithm(letter, tex, K0)
+    c = Compiled(alg, tmp_path)
+    rng = np.random.default_rng(11)
+    lo, hi = (tex.domain if getattr(tex, "domain", None) is not None else (0.0, 4e-3))
+    span = hi - lo
+    x = rng.uniform(lo - 0.1 * span, hi + 0.1 * span, 100_000)
+    z = tex.height(x) - rng.uniform(0.0, 2e-3, x.size) * rng.uniform(0.0, 1.0, x.size) ** 2
+    p = np.column_stack([x, z])
+    ref = alg.force(p)
+    got = np.empty_like(ref)
+    for i, (xi, zi) in enumerate(p):
+        c.reset()
+        got[i] = c.step(xi, zi)[1]
+    tie = hx.closest_point(tex, p).tie
+    err = np.hypot(*(got - ref).T)
+    tol = 1e-12 * np.hypot(ref[:, 0], ref[:, 1]) + 16 * np.finfo(float).eps * K0 * max(abs(v) for v in tex.height_range)
+    assert np.all((err <= tol) | tie), np.max(err[~tie] / tol[~tie])
+    assert tie.mean() < 1e-3
+
+
+@pytest.mark.parametrize("letter, params", [("D", {}), ("E", {}), ("F", {"stick_deflection": 0.5e-3}),
+                                            ("F", {"stick_deflection": 0.0})])
+def test_exported_stateful_ticks_follow_the_renderer_along_a_stroke(tmp_path, letter, params):
+    # D and E warm-start their search from the previous tick, F's smooth presliding integrates
+    # its flow (Hayward & Armstrong 2000) along the motion: along a stroke in and out of the
+    # wall the exported tick equals the compiled renderer's tick by tick
+    tex = hx.Sinusoid(A, L)
+    kw = {"friction": 0.8, "presliding": 1e-3, "max_penetration": 1e-3} if letter == "F" else {}
+    alg = hx.algorithm(letter, tex, K0, **kw, **params)
+    c = Compiled(alg, tmp_path, max_force=5.0)
+    r = hx.Renderer(alg, max_force=5.0)
+    t = np.linspace(0.0, 1.0, 20_001)
+    x = 3e-3 * np.sin(2 * np.pi * 3 * t)
+    z = -0.8e-3 * np.sin(2 * np.pi * 2 * t) + 0.2e-3
+    got = np.array([c.step(a, b)[1] for a, b in zip(x, z)])
+    ref = np.array([r.step((a, b)) for a, b in zip(x, z)])
+    np.testing.assert_allclose(got, ref, rtol=1e-12, atol=1e-15)
+    assert c.state.clamps == r.clamps and c.state.faults == 0
+
+
 def test_what_cannot_be_exported_is_refused(tmp_path):
-    with pytest.raises(hx.ParameterError, match="algorithm = 'D' is not allowed for export"):
-        export_c(hx.algorithm("D", hx.Sinusoid(A, L), K0), tmp_path, 5.0)
-    with pytest.raises(hx.ParameterError, match="stick_deflection is not allowed for export"):
-        export_c(hx.algorithm("F", hx.Sinusoid(A, L), K0, stick_deflection=0.5e-3), tmp_path, 5.0)
+    from haptex import export as ex
+
+    big = hx.SampledProfile(np.arange(2_000_001) * 1e-7, np.zeros(2_000_001))
+    with pytest.raises(hx.ParameterError, match="its tables hold .* numbers, more than 1000000"):
+        export_c(hx.algorithm("A", big, K0), tmp_path, 5.0)
+    assert ex.EXPORTABLE == "WABCDEFG"
     with pytest.raises(hx.ParameterError, match="max_force = -1 is not allowed"):
         export_c(hx.algorithm("A", hx.Sinusoid(A, L), K0), tmp_path, -1.0)
 

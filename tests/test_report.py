@@ -6,6 +6,7 @@ import math
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 EXPECTED_CLAIMS = {
@@ -181,3 +182,33 @@ def test_a_quick_run_reaches_the_full_runs_verdicts(report, tmp_path):
     full = json.loads((tmp_path / "full" / "summary.json").read_text())
     assert full["quick"] is False
     assert {c["id"]: c["verdict"] for c in quick["claims"]} == {c["id"]: c["verdict"] for c in full["claims"]}
+
+
+def test_design_report_for_a_users_texture(tmp_path):
+    # issue 16, "Traces out": `design --report DIR` writes an HTML report for the user's own texture
+    out = tmp_path / "design"
+    r = run_cli("design", "--texture", "sine:0.2mm,2mm", "--device", "point-mass:0.1kg,0.5N*s/m,100us",
+                "--report", str(out), "--quiet")
+    assert r.returncode == 0, r.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["generator"] == "haptex-report" and summary["kind"] == "design"
+    html = (out / "index.html").read_text()
+    assert summary["recommendation"] in html.replace("&#x27;", "'")
+    rows = {row["algorithm"]: row for row in summary["rows"]}
+    for L in "WABCDEFG":
+        assert (out / f"field_{L}.png").read_bytes()[:4] == b"\x89PNG" and f"field_{L}.png" in html
+        assert (out / f"field_{L}.svg").exists()
+        assert (out / f"q_{L}.png").exists() == (L != "F")  # F's map depends on its presliding state
+    # the q map marks where q is attained. A: Remark 2, q_A = sqrt(1 + (2 pi A / l)^2); D: unbounded at
+    # the peak's centre of curvature, x = l/4, z = A - 1/(A k^2), k = 2 pi / l (Remark 6)
+    A, l = 0.2e-3, 2e-3
+    k = 2 * np.pi / l
+    assert rows["A"]["q"] == pytest.approx(np.sqrt(1 + (A * k) ** 2), rel=1e-6)
+    assert rows["D"]["q"] == "inf"
+    assert rows["D"]["q_where"] == pytest.approx([l / 4, A - 1 / (A * k * k)], rel=1e-6)
+    assert "\u03ba\u2080" in html and "kappa_0" not in html
+    # the directory is checked before the analysis, like reproduce's
+    r = run_cli("design", "--texture", "sine:0.2mm,2mm", "--report", "/proc/haptex/design")
+    assert r.returncode == 2 and r.stderr.startswith("haptex: error: out = ")
+    r = run_cli("design", "--texture", "sine:0.2mm,2mm", "--force")
+    assert r.returncode == 2 and "--force is not allowed without --report" in r.stderr

@@ -28,7 +28,7 @@ from .analysis import (
     spectral_norm,
 )
 from .closest import ClosestPoint, closest_point
-from .devices import Device, critical_stiffness, five_bar_jacobian
+from .devices import Device, critical_stiffness, device_from_file, five_bar_jacobian
 from .renderer import Renderer
 from .simulate import AxisOscillation, BatchResult, Oscillation, SimulationResult, SimulationWarning, simulate, simulate_batch
 from .tables import PAPER_PARAMETERS, table_ii
@@ -47,6 +47,7 @@ __all__ = [
     "Oscillation",
     "SimulationResult",
     "critical_stiffness",
+    "device_from_file",
     "five_bar_jacobian",
     "operators",
     "simulate",

@@ -57,6 +57,10 @@ def parse_quantity(text: str, unit: str, name: str, require_unit: bool = False) 
     try:
         q = ureg.Quantity(cleaned)
         value = float(q.to(unit).magnitude)
+        # pint multiplies by the prefix's factor (100 * 1e-6 = 9.999999999999999e-05); a
+        # decimal quantity means the decimal number: keep 15 significant digits, within
+        # 5e-16 relative of pint's result, so that '100 us' is the double 1e-4
+        value = float(f"{value:.15g}")
     except pint.DimensionalityError:
         raise ParameterError(
             f"{name} = {raw!r} is not allowed: its unit is not convertible to {unit}"

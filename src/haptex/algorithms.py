@@ -633,8 +633,11 @@ class FrictionModulated(Algorithm):
         self._scale = self.modulation_depth / peak if peak > 0 else 0.0
 
     def __repr__(self) -> str:
+        extra = "" if self.max_penetration is None else f", max_penetration={self.max_penetration:g}"
+        if self.stick_deflection is not None:
+            extra += f", stick_deflection={self.stick_deflection:g}"
         return (f"algorithm('F', {self.texture!r}, stiffness={self.stiffness:g}, friction={self.friction:g}, "
-                f"presliding={self.presliding:g}, modulation_depth={self.modulation_depth:g})")
+                f"presliding={self.presliding:g}, modulation_depth={self.modulation_depth:g}{extra})")
 
     # -- modulation --------------------------------------------------------------------
     def modulation(self, x) -> np.ndarray:

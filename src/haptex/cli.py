@@ -147,8 +147,9 @@ def _device_options(func):
     parameters as options (or the shorthand 'point-mass:MASS,DAMPING,PERIOD[,RESOLUTION]')."""
     opts = [
         click.option("--device", "device_spec", default="pantograph", show_default=True,
-                     help="'pantograph' or 'point-mass' (parameters below), or the shorthand "
-                          "'point-mass:MASS,DAMPING,PERIOD[,RESOLUTION]'."),
+                     help="'pantograph' or 'point-mass' (parameters below), the shorthand "
+                          "'point-mass:MASS,DAMPING,PERIOD[,RESOLUTION]', or a TOML device file "
+                          "(FILE.toml; see haptex.device_from_file)."),
         click.option("--joint-damping", type=Quantity("N*m*s"), default=4.7e-3, show_default="4.7 mN*m*s",
                      help="pantograph: joint damping inside the wall."),
         click.option("--mass", type=Quantity("kg"), default=0.1, show_default="0.1 kg", help="point-mass: mass."),
@@ -164,8 +165,12 @@ def _device_options(func):
 
 def _build_device(ctx, spec: str, joint_damping, mass, damping, sampling_period, delay):
     """The device an invocation describes, refusing parameters of the other preset."""
-    from .devices import Device
+    from .devices import Device, device_from_file
 
+    if str(spec).lower().endswith(".toml"):
+        _refuse_unused(ctx, {"*": {"joint_damping", "mass", "damping", "sampling_period", "delay"}}, spec,
+                       "--device", owner="*", what="write it in the device file")
+        return device_from_file(spec)
     kind, _, rest = str(spec).partition(":")
     if kind == "pantograph":
         _refuse_unused(ctx, {"point-mass": {"mass", "damping"}}, kind, "--device")
@@ -181,8 +186,8 @@ def _build_device(ctx, spec: str, joint_damping, mass, damping, sampling_period,
         delta = _q(vals[3], "m", "position_resolution") if len(vals) == 4 else 0.0
         return Device.point_mass(_q(vals[0], "kg", "mass"), _q(vals[1], "N*s/m", "damping"),
                                  _q(vals[2], "s", "period"), position_resolution=delta, delay=delay)
-    raise ParameterError(f"device = {spec!r} is not allowed: must be 'pantograph', 'point-mass' or "
-                         "'point-mass:MASS,DAMPING,PERIOD[,RESOLUTION]'")
+    raise ParameterError(f"device = {spec!r} is not allowed: must be 'pantograph', 'point-mass', "
+                         "'point-mass:MASS,DAMPING,PERIOD[,RESOLUTION]' or a TOML device file (FILE.toml)")
 
 
 def _sim_common(func):
@@ -487,20 +492,34 @@ def _texture_from_spec(spec: str, spacing, x_unit, height_unit, level, lowpass, 
 @click.option("--scale", default=None, help="'LENGTH_FACTOR,HEIGHT_FACTOR' to stretch the profile.")
 @click.option("--periodic", is_flag=True, help="Close the profile into a periodic texture.")
 @click.option("--window", default=None, help="'X0,X1' abscissa window to analyse (default: one period or the whole profile).")
+@click.option("--report", "report_dir", type=click.Path(path_type=Path), default=None,
+              help="Also write an HTML report (force fields, q maps, limits, recommendation) into this directory.")
+@click.option("--force", is_flag=True, help="With --report: write into an existing directory that is not a haptex report.")
 @click.option("--json", "as_json", is_flag=True)
 @click.option("--quiet", is_flag=True, help="No progress display.")
 @click.pass_context
 def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, sampling_period, delay, stiffness, speed,
-           max_penetration, spacing, x_unit, height_unit, level, lowpass, scale, periodic, window, as_json, quiet):
+           max_penetration, spacing, x_unit, height_unit, level, lowpass, scale, periodic, window, report_dir, force,
+           as_json, quiet):
     """Which algorithm, how stiff, will it be passive, can the device render it?"""
     from .design import design as run_design
 
     tex = _texture_from_spec(texture_spec, spacing, x_unit, height_unit, level, lowpass, scale, periodic)
     dev = _build_device(ctx, device_spec, joint_damping, mass, damping, sampling_period, delay)
     x_range = _parse_point(window, "window") if window else None
+    if report_dir is not None:
+        from .report import check_output
+
+        check_output(report_dir, force)  # before the minutes of analysis
+    elif force:
+        raise ParameterError("--force is not allowed without --report: it applies to the report directory")
     with _Steps(8, "design", quiet or as_json) as step:
         data = run_design(tex, dev, stiffness, speed=speed, max_penetration=max_penetration, x_range=x_range,
                           progress=step)
+    if report_dir is not None:
+        from .report import write_design_report
+
+        write_design_report(data, tex, report_dir, force)
     if as_json:
         click.echo(json.dumps(_jsonable(data), indent=2))
         return
@@ -534,10 +553,12 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
                    "yes" if lim["passed"] else "NO")
     console.print(lt)
     console.print("recommendation: " + data["recommendation"])
+    if report_dir is not None:
+        console.print(f"report: {report_dir / 'index.html'}")
 
 
 @cli.command()
-@click.option("--algorithm", "letter", required=True, help="W, A, B, C, F or G.")
+@click.option("--algorithm", "letter", required=True, help="W or A-G.")
 @click.option("--texture", "texture_spec", default=None,
               help="FILE, 'sine:AMPLITUDE,PERIOD' or 'noise:RMS,SHORTEST,LONGEST,LENGTH[,SEED]' (not for W).")
 @click.option("--stiffness", type=Quantity("N/m"), required=True, help="kappa_0, e.g. '2 kN/m'.")
@@ -545,6 +566,8 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
 @click.option("--max-penetration", type=Quantity("m"), default=None, help="B, C, G, F: d^z_max (Remark 3).")
 @click.option("--friction", type=Quantity("dimensionless"), default=None, help="F: mu (default 0.8).")
 @click.option("--presliding", type=Quantity("m"), default=None, help="F: d^x_max (default 1 mm).")
+@click.option("--stick-deflection", type=Quantity("m"), default=None,
+              help="F: the smooth presliding model's elastic range z_stick (default: the sharp model).")
 @click.option("--spacing", type=Quantity("m"), default=None, help="Sample spacing when the file does not state it.")
 @click.option("--x-unit", default=None, help="Unit of the file's x column when it does not state it.")
 @click.option("--height-unit", default=None, help="Unit of the file's heights when it does not state it.")
@@ -553,8 +576,8 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
 @click.option("--periodic", is_flag=True, help="Close the profile into a periodic texture.")
 @click.option("--out", "out", type=click.Path(file_okay=False, path_type=Path), required=True,
               help="Directory for haptex_texture.c and haptex_texture.h.")
-def export(letter, texture_spec, stiffness, max_force, max_penetration, friction, presliding, spacing, x_unit,
-           height_unit, level, lowpass, periodic, out):
+def export(letter, texture_spec, stiffness, max_force, max_penetration, friction, presliding, stick_deflection,
+           spacing, x_unit, height_unit, level, lowpass, periodic, out):
     """C99 source of one algorithm on one texture, for device firmware (<math.h> only)."""
     from .algorithms import algorithm
     from .export import export_c
@@ -574,7 +597,8 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
             raise ParameterError(f"--max-penetration is not allowed with --algorithm {letter}: it applies to B, C, "
                                  "G and F")
         params["max_penetration"] = max_penetration
-    for flag, name, value in (("--friction", "friction", friction), ("--presliding", "presliding", presliding)):
+    for flag, name, value in (("--friction", "friction", friction), ("--presliding", "presliding", presliding),
+                              ("--stick-deflection", "stick_deflection", stick_deflection)):
         if value is not None:
             if letter != "F":
                 raise ParameterError(f"{flag} is not allowed with --algorithm {letter}: it applies to F only")

@@ -47,7 +47,8 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         ``wall_stability_limit`` (the sampled wall's critical stiffness along the normal
         from the closed-loop poles, N/m), ``rows`` (per algorithm: ``q``,
         ``max_passive_stiffness``, ``passive_at_stiffness``, ``conservative``,
-        ``almost_conservative``, ``max_abs_loop_energy``, ``continuous``) and
+        ``almost_conservative``, ``max_abs_loop_energy``, ``continuous``, ``q_where``: the
+        probe position [x, z] (m) attaining q) and
         ``recommendation`` (text) with ``recommended`` (letters).
 
     Raises
@@ -70,7 +71,7 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         except Exception:  # the Fig. 3 paths are defined for sinusoids only
             path = None
         rows.append({
-            "algorithm": L, "name": alg.name, "q": q.value, "q_note": q.note,
+            "algorithm": L, "name": alg.name, "q": q.value, "q_note": q.note, "q_where": list(q.where),
             "max_passive_stiffness": kmax, "passive_at_stiffness": bool(stiffness <= kmax),
             "conservative": cons.conservative, "almost_conservative": cons.almost,
             "max_abs_loop_energy": max((abs(e) for e in cons.random_loop_energies), default=0.0),
@@ -101,7 +102,9 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         text.append("the device cannot reproduce this texture faithfully: " + ", ".join(failed) + " limit(s) violated")
     return {
         "texture": repr(texture), "device": device.name, "stiffness": stiffness, "speed": speed,
-        "max_penetration": max_penetration, "passivity_limit": device.passivity_limit,
+        "max_penetration": max_penetration, "friction": friction, "presliding": presliding,
+        "x_range": None if x_range is None else [float(v) for v in x_range],
+        "passivity_limit": device.passivity_limit,
         "wall_stability_limit": wall_limit,
         "texture_numbers": {"shortest_period": texture.shortest_period, "max_slope": texture.max_slope,
                             "max_curvature": texture.max_curvature, "height_range": list(texture.height_range)},

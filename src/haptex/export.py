@@ -8,9 +8,11 @@ workspace is a fault (zero force, nonzero return), the force is saturated to ``m
 without overflow (hypot), and a non-finite force is a fault. It mirrors the compiled kernel
 ``haptex._kernels.alg_force`` line for line; the tests compile it and compare.
 
-Exported: W (with its optional virtual damper), A, B, C, G, and F with the sharp presliding
-model (eq. 24). D and E need the bounded closest-point search (a bound tree per texture)
-and F's smooth variant a travel table; they are refused with the reason.
+All eight algorithms are exported: W (with its optional virtual damper), A, B, C, G; D and
+E with the bounded closest-point search (the texture's bound tree as a table, searched by
+the same branch and bound as :func:`haptex._kernels.closest_point`, warm-started from the
+previous tick like the renderer); F with the sharp (eq. 24) or smooth presliding model
+(its travel table as a table).
 """
 
 from __future__ import annotations
@@ -25,7 +27,7 @@ from ._validation import ParameterError, positive_or_inf
 from .algorithms import Algorithm
 from .renderer import WORKSPACE_LIMIT
 
-EXPORTABLE = "WABCFG"
+EXPORTABLE = "WABCDEFG"
 """Algorithms :func:`export_c` can write."""
 
 MAX_TABLE = 1_000_000
@@ -58,8 +60,10 @@ extern "C" {{
 
 /* Public so that it can live on the stack; initialise with haptex_init. */
 typedef struct haptex_state {{
-    double adhesion;        /* F: presliding adhesion point (m); W: previous sensed z (m) */
-    int contact;            /* 1 while in contact (F), or a previous sample exists (W) */
+    double adhesion;        /* F: presliding adhesion point (m); W: previous sensed z (m);
+                               D, E: the last closest point's abscissa (m), the next warm start */
+    double last_x;          /* F: the previous sensed x (m), for the smooth presliding flow */
+    int contact;            /* 1 while in contact (F), or a previous sample exists (W, D, E) */
     unsigned long faults;   /* malformed positions or non-finite forces answered with zero */
     unsigned long clamps;   /* forces scaled down to HAPTEX_MAX_FORCE */
 }} haptex_state;
@@ -70,7 +74,7 @@ typedef struct haptex_state {{
 void haptex_init(haptex_state *s);
 
 /* One servo tick: reads p[0..1], writes f[0..1]. Returns 0, or nonzero on a fault (f is
- * then zero). Bounded work: one texture evaluation. */
+ * then zero). Bounded work for any p: {work}. */
 int haptex_step(haptex_state *s, const double *p, double *f);
 
 #ifdef __cplusplus
@@ -93,6 +97,7 @@ _SOURCE = """/* haptex_texture.c: {description}
 #define DXMAX ({dxmax})
 #define SCALE ({scale})
 #define WORKSPACE ({workspace})
+#define ZSTICK ({zstick})  /* F: smooth presliding's elastic range (m); < 0: the sharp model */
 #define TEXTURE_KIND {kind}  /* 0 flat, 1 Fourier, 2 uniform cubic spline */
 {tables}
 #if ALG != 0
@@ -145,9 +150,11 @@ static double clamp_depth(double d)  /* Remark 3: the lateral depth, max(d, -d^z
 }}
 #endif
 
+{extra}
 void haptex_init(haptex_state *s)
 {{
     s->adhesion = 0.0;
+    s->last_x = 0.0;
     s->contact = 0;
     s->faults = 0;
     s->clamps = 0;
@@ -181,7 +188,12 @@ static void force(haptex_state *st, double x, double z, double *fx, double *fz)
     if (!st->contact) {{
         st->contact = 1;
         st->adhesion = x;
+        st->last_x = x;
     }}
+#if ZSTICK_SMOOTH
+    double d = smooth_flow(st->last_x - st->adhesion, x - st->last_x);  /* smooth presliding */
+    st->adhesion = x - d;
+#else
     double d = x - st->adhesion;  /* sharp presliding, eq. 24 */
     if (d > DXMAX) {{
         d = DXMAX;
@@ -190,6 +202,8 @@ static void force(haptex_state *st, double x, double z, double *fx, double *fz)
         d = -DXMAX;
         st->adhesion = x + DXMAX;
     }}
+#endif
+    st->last_x = x;
     texture_eval(x, &h, &s, &c);
     double depth = -z;
     if (DZMAX > 0.0 && depth > DZMAX) depth = DZMAX;
@@ -197,11 +211,24 @@ static void force(haptex_state *st, double x, double z, double *fx, double *fz)
     *fx = -MU * K0 * depth * m * d / DXMAX;
     *fz = -K0 * z;
 #endif
-#else  /* A, B, C: vertical penetration d = z - h(x) (Table I) */
+#else  /* A, B, C: vertical penetration d = z - h(x) (Table I); D, E below it */
     texture_eval(x, &h, &s, &c);
     double d = z - h;
     if (d >= 0.0) return;
-#if ALG == 1
+#if ALG == 4 || ALG == 5  /* D (eq. 15) and E (eq. 19): the closest point, warm-started */
+    double dist;
+    double t = cp_closest(x, z, st->adhesion, st->contact, &dist);
+    st->adhesion = t;
+    st->contact = 1;
+#if ALG == 4
+    double th, ts, tc;
+    texture_eval(t, &th, &ts, &tc);
+    *fx = -K0 * (x - t);
+    *fz = -K0 * (z - th);
+#else
+    *fz = K0 * dist;
+#endif
+#elif ALG == 1
     *fz = -K0 * d;
 #elif ALG == 2
     double g = 1.0 / sqrt(1.0 + s * s);
@@ -258,14 +285,329 @@ int haptex_step(haptex_state *s, const double *p, double *f)
 """
 
 
+_CLOSEST = """
+/* Closest point on z = h(x) (D, E): the bounded branch and bound of
+ * haptex._kernels.closest_point over the bound tree AUX (header, then heap-ordered lower and
+ * upper bounds of h), line for line. Its work is bounded for any position by the texture's
+ * bound tree, never by the depth. */
+enum { CP_VERTICAL, CP_PERIODIC, CP_FINITE, CP_OPEN };
+#define CP_STACK 64
+
+typedef struct {
+    double f, t, second, best_t, best_f;  /* best squared distance and its abscissa; runner-up */
+    int found;
+    long stack[CP_STACK];
+} cp_search;
+
+static void dphi(double px, double pz, double t, double *f, double *g, double *gp)
+{
+    double h, s, c;
+    texture_eval(t, &h, &s, &c);
+    double dz = h - pz;
+    *g = (t - px) + dz * s;
+    *gp = 1.0 + s * s + dz * c;
+    *f = (t - px) * (t - px) + dz * dz;
+}
+
+static double refine_bracket(double px, double pz, double a, double b)
+{
+    double lo = a, hi = b, t = 0.5 * (a + b), f, g, gp;
+    for (int it = 1; it <= 60; ++it) {
+        dphi(px, pz, t, &f, &g, &gp);
+        if (g > 0.0) hi = t;
+        else lo = t;
+        double tn = gp > 0.0 ? t - g / gp : 0.5 * (lo + hi);
+        if (!(lo < tn && tn < hi)) tn = 0.5 * (lo + hi);
+        if (fabs(tn - t) <= 1e-15 * (1.0 + fabs(t)) || hi - lo <= 1e-16 * (1.0 + fabs(t))) return tn;
+        t = tn;
+    }
+    return t;
+}
+
+static double polish(double px, double pz, double t, double a, double b)
+{
+    double f, g, gp;
+    for (int it = 1; it <= 30; ++it) {
+        dphi(px, pz, t, &f, &g, &gp);
+        if (gp <= 0.0) return t;
+        double tn = t - g / gp;
+        if (tn < a) tn = a;
+        if (tn > b) tn = b;
+        if (fabs(tn - t) <= 1e-15 * (1.0 + fabs(t))) return tn;
+        t = tn;
+    }
+    return t;
+}
+
+static void cp_bound(cp_search *bs, double t, double f)
+{
+    if (f < bs->f) {
+        bs->f = f;
+        bs->t = t;
+    }
+}
+
+static void cp_offer(cp_search *bs, double t, double f, double sep)
+{
+    if (f < bs->f) {
+        if (bs->found && bs->f < bs->second && fabs(t - bs->t) > sep) bs->second = bs->f;
+        bs->f = f;
+        bs->t = t;
+        bs->found = 1;
+    } else if (bs->found && f < bs->second && fabs(t - bs->t) > sep) {
+        bs->second = f;
+    }
+}
+
+static int cp_pair_possible(double g0, double g1, double gp0, double gp1, double dz, double dt)
+{
+    double g2 = 3.0 * AUX[A_SLOPE] * AUX[A_CURV] + dz * AUX[A_JERK];
+    if (fmin(gp0, gp1) - g2 * dt > 0.0) return 0;
+    if ((g0 > 0.0) == (g1 > 0.0)) return fabs(g0) + fabs(g1) <= (fmax(fabs(gp0), fabs(gp1)) + g2 * dt) * dt;
+    return 1;
+}
+
+static void cp_refine_and_offer(double px, double pz, double a, double b, double sep, cp_search *bs)
+{
+    double f, g, gp, t = refine_bracket(px, pz, a, b);
+    dphi(px, pz, t, &f, &g, &gp);
+    cp_offer(bs, t, f, sep);
+}
+
+static void cp_scan_interval(double px, double pz, double a, double b, double g_a, int n, cp_search *bs)
+{
+    double dt = (b - a) / n, t_prev = a, g_prev = g_a, f_k, g_k, gp_k;
+    for (int k = 1; k <= n; ++k) {
+        double t_k = k == n ? b : a + k * dt;
+        dphi(px, pz, t_k, &f_k, &g_k, &gp_k);
+        if (f_k < bs->best_f) {
+            bs->best_t = t_k;
+            bs->best_f = f_k;
+        }
+        if (g_prev <= 0.0 && g_k > 0.0) cp_refine_and_offer(px, pz, t_prev, t_k, 0.5 * dt, bs);
+        t_prev = t_k;
+        g_prev = g_k;
+    }
+}
+
+static void cp_scan_leaf(double px, double pz, double u, double w, cp_search *bs)
+{
+    long n = (long)ceil(w / AUX[A_STEP]);
+    if (n < 2) n = 2;
+    double dt = w / n, f_prev, g_prev, gp_prev, f_i, g_i, gp_i, t_prev = u;
+    dphi(px, pz, u, &f_prev, &g_prev, &gp_prev);
+    bs->best_t = u;
+    bs->best_f = f_prev;
+    for (long i = 1; i <= n; ++i) {
+        double t_i = i == n ? u + w : u + i * dt;
+        dphi(px, pz, t_i, &f_i, &g_i, &gp_i);
+        if (f_i < bs->best_f) {
+            bs->best_t = t_i;
+            bs->best_f = f_i;
+        }
+        double dz = sqrt(fmax(f_prev, f_i)) + AUX[A_SLOPE] * dt;
+        if (cp_pair_possible(g_prev, g_i, gp_prev, gp_i, dz, dt))
+            cp_scan_interval(px, pz, t_prev, t_i, g_prev, 16, bs);
+        else if (g_prev <= 0.0 && g_i > 0.0)
+            cp_refine_and_offer(px, pz, t_prev, t_i, 0.5 * dt, bs);
+        t_prev = t_i;
+        f_prev = f_i;
+        g_prev = g_i;
+        gp_prev = gp_i;
+    }
+    double f, g, gp;
+    double t = polish(px, pz, bs->best_t, fmax(u, bs->best_t - dt), fmin(u + w, bs->best_t + dt));
+    dphi(px, pz, t, &f, &g, &gp);
+    if (fabs(g) <= 1e-9 * sqrt(f) || f < bs->f) cp_offer(bs, t, f, 0.5 * dt);
+}
+
+static double cp_box_lb(double px, double pz, double u, double w, double lo, double hi)
+{
+    double dx = fmax(0.0, fmax(u - px, px - (u + w)));
+    double dz = fmax(0.0, fmax(lo - pz, pz - hi));
+    return dx * dx + dz * dz;
+}
+
+static void cp_descend(double px, double pz, double root_u, double root_w, long n_leaf, int table, cp_search *bs)
+{
+    long nl = (long)AUX[A_NLEAF];
+    int sp = 1;
+    bs->stack[0] = 1;
+    while (sp > 0) {
+        sp -= 1;
+        long i = bs->stack[sp], j = i, first;
+        int level = 0;
+        while (j > 1) {
+            j >>= 1;
+            level += 1;
+        }
+        first = 1L << level;
+        double w = root_w / first;
+        double u = root_u + (i - first) * w;
+        double lo, hi;
+        if (table) {
+            lo = AUX[A_TREE + i];
+            hi = AUX[A_TREE + 2 * nl + i];
+        } else {  /* no tree (an aperiodic sum): a Taylor bound at the node's centre */
+            double hc, sc, cc;
+            texture_eval(u + 0.5 * w, &hc, &sc, &cc);
+            double spread = fmin(AUX[A_SLOPE] * 0.5 * w, fabs(sc) * 0.5 * w + AUX[A_CURV] * 0.125 * w * w);
+            lo = hc - spread;
+            hi = hc + spread;
+        }
+        double reach = sqrt(bs->f) + AUX[A_TIE];
+        if (cp_box_lb(px, pz, u, w, lo, hi) > reach * reach) continue;
+        if (i >= n_leaf) {
+            cp_scan_leaf(px, pz, u, w, bs);
+            continue;
+        }
+        int first_left = px < u + 0.5 * w;
+        if (table) {
+            double hw = 0.5 * w;
+            double lb_l = cp_box_lb(px, pz, u, hw, AUX[A_TREE + 2 * i], AUX[A_TREE + 2 * nl + 2 * i]);
+            double lb_r = cp_box_lb(px, pz, u + hw, hw, AUX[A_TREE + 2 * i + 1], AUX[A_TREE + 2 * nl + 2 * i + 1]);
+            first_left = lb_l <= lb_r;
+        }
+        bs->stack[sp] = first_left ? 2 * i + 1 : 2 * i;
+        bs->stack[sp + 1] = first_left ? 2 * i : 2 * i + 1;
+        sp += 2;
+    }
+}
+
+static void cp_ray(double px, double pz, double t_end, double h_end, double s_end, int left, cp_search *bs)
+{
+    double t = (px + s_end * (pz - h_end + s_end * t_end)) / (1.0 + s_end * s_end), f, g, gp;
+    int clamped = (left && t > t_end) || (!left && t < t_end);
+    if (clamped) t = t_end;
+    dphi(px, pz, t, &f, &g, &gp);
+    if (clamped) cp_bound(bs, t, f);
+    else cp_offer(bs, t, f, 0.0);
+}
+
+/* Abscissa of the closest boundary point to (px, pz) below the boundary; *dist its distance. */
+static double cp_closest(double px, double pz, double t_guess, int has_guess, double *dist)
+{
+    double h0, s0, c0, f, g, gp;
+    texture_eval(px, &h0, &s0, &c0);
+    double dv = h0 - pz;
+    cp_search bs;
+    bs.f = dv * dv;
+    bs.t = px;
+    bs.second = HUGE_VAL;
+    bs.found = 0;
+    int mode = (int)AUX[A_MODE];
+    if (mode == CP_VERTICAL) {
+        *dist = dv;
+        return px;
+    }
+    if (has_guess) {
+        double tg = polish(px, pz, t_guess, px - dv, px + dv);
+        dphi(px, pz, tg, &f, &g, &gp);
+        cp_bound(&bs, tg, f);
+    }
+    long nl = (long)AUX[A_NLEAF];
+    if (mode == CP_PERIODIC) {
+        double period = AUX[A_PERIOD];
+        double tv = AUX[A_TMIN] + period * floor((px - AUX[A_TMIN]) / period + 0.5);
+        dphi(px, pz, tv, &f, &g, &gp);
+        cp_bound(&bs, tv, f);
+        double below = fmax(AUX[A_HMIN] - pz, 0.0);  /* beyond the window, every point is farther */
+        double half = sqrt(fmax(bs.f - below * below, 0.0)) * (1.0 + 1e-9);
+        double start = AUX[A_START];
+        double k_hi = floor((px + half - start) / period);
+        for (double k = floor((px - half - start) / period); k <= k_hi; k += 1.0)
+            cp_descend(px, pz, start + k * period, AUX[A_TREELEN], nl, 1, &bs);
+    } else if (mode == CP_FINITE) {
+        dphi(px, pz, AUX[A_TMIN], &f, &g, &gp);
+        cp_bound(&bs, AUX[A_TMIN], f);
+        cp_ray(px, pz, AUX[A_X0], AUX[A_HL], AUX[A_SL], 1, &bs);
+        cp_ray(px, pz, AUX[A_XE], AUX[A_HR], AUX[A_SR], 0, &bs);
+        cp_descend(px, pz, AUX[A_START], AUX[A_TREELEN], nl, 1, &bs);
+    } else {  /* CP_OPEN: an aperiodic sum, searched on a window capped at A_WCAP */
+        double below = fmax(AUX[A_HMIN] - pz, 0.0);
+        double half = fmin(sqrt(fmax(bs.f - below * below, 0.0)) * (1.0 + 1e-9), AUX[A_WCAP]);
+        double leaf = 8.0 * AUX[A_STEP];
+        long n = 1;
+        while (n * leaf < 2.0 * half) n *= 2;
+        cp_descend(px, pz, px - 0.5 * n * leaf, n * leaf, n, 0, &bs);
+    }
+    *dist = sqrt(bs.f);
+    return bs.t;
+}
+"""
+
+_SMOOTH = """
+/* F's smooth presliding (haptex.friction, Hayward & Armstrong 2000): the exact flow of
+ * dd/dx over one increment, along the travel table AUX (haptex._kernels._smooth_flow, line
+ * for line); bounded work: a bisection over the table's nodes and at most 60 Newton steps. */
+static double hermite(long j, double th, double *der)
+{
+    long n = (long)AUX[T_N];
+    double x0 = AUX[T_DATA + j], x1 = AUX[T_DATA + j + 1], m0 = AUX[T_DATA + n + j], m1 = AUX[T_DATA + n + j + 1];
+    double t2 = th * th, t3 = t2 * th;
+    *der = (6 * t2 - 6 * th) * x0 + (3 * t2 - 4 * th + 1) * m0 + (-6 * t2 + 6 * th) * x1 + (3 * t2 - 2 * th) * m1;
+    return (2 * t3 - 3 * t2 + 1) * x0 + (t3 - 2 * t2 + th) * m0 + (-2 * t3 + 3 * t2) * x1 + (t3 - t2) * m1;
+}
+
+static double smooth_flow(double deflection, double dx)
+{
+    if (dx == 0.0) return deflection;
+    double s = dx > 0.0 ? 1.0 : -1.0, a = deflection * s, rem = fabs(dx), der;
+    if (a < ZSTICK) {  /* purely elastic until |d| = ZSTICK in the direction of motion */
+        if (a + rem <= ZSTICK) return s * (a + rem);
+        rem -= ZSTICK - a;
+        a = ZSTICK;
+    }
+    double r = 1.0 - ZSTICK / DXMAX, e = 1.0 - a / DXMAX;
+    if (e <= 0.0) return s * DXMAX;
+    long n = (long)AUX[T_N];
+    double dv = AUX[T_DV], travel = rem / DXMAX;
+    double jl = (AUX[T_LOGR] - log(e)) / dv;  /* continuous node index of e */
+    if (jl < n - 1) {
+        long j0 = (long)jl;
+        if (j0 < 0) j0 = 0;
+        double target = hermite(j0, jl - j0, &der) + travel;
+        if (target < AUX[T_DATA + n - 1]) {
+            long lo = j0, hi = n - 1;
+            while (hi - lo > 1) {
+                long mid = (lo + hi) / 2;
+                if (AUX[T_DATA + mid] <= target) lo = mid;
+                else hi = mid;
+            }
+            double a_th = 0.0, b_th = 1.0, th = 0.5;
+            for (int k = 0; k < 60; ++k) {
+                double val = hermite(lo, th, &der);
+                if (val < target) a_th = th;
+                else b_th = th;
+                double tn = der > 0.0 ? th - (val - target) / der : 0.5 * (a_th + b_th);
+                if (!(a_th <= tn && tn <= b_th)) tn = 0.5 * (a_th + b_th);
+                if (fabs(tn - th) <= 1e-15) {
+                    th = tn;
+                    break;
+                }
+                th = tn;
+            }
+            e = r * exp(-(lo + th) * dv);
+            return s * DXMAX * (1.0 - e);
+        }
+        travel = target - AUX[T_DATA + n - 1];
+        e = r * exp(-(n - 1) * dv);
+    }
+    double beta = AUX[T_BETA];  /* the tail: de/dx = -(e + beta e^2), an exact logistic flow */
+    double g = (1.0 / e + beta) * exp(travel) - beta;
+    e = g < HUGE_VAL ? 1.0 / g : 0.0;
+    return s * DXMAX * (1.0 - e);
+}
+"""
+
+
 def export_c(algorithm: Algorithm, out, max_force: float) -> tuple[Path, Path]:
     """Write ``out/haptex_texture.h`` and ``out/haptex_texture.c`` for one algorithm.
 
     Parameters
     ----------
     algorithm : Algorithm
-        W, A, B, C, G, or F with the sharp presliding model, on any texture (Fourier
-        series or sampled profile).
+        Any of W, A-G on any texture (Fourier series or sampled profile).
     out : str or Path
         Directory, created if needed.
     max_force : float
@@ -279,26 +621,23 @@ def export_c(algorithm: Algorithm, out, max_force: float) -> tuple[Path, Path]:
     Raises
     ------
     ParameterError
-        For D, E or F's smooth variant (not exportable, with the reason), a texture table
-        above :data:`MAX_TABLE` coefficients, a bad ``max_force``, or an unwritable ``out``.
+        For tables (texture, bound tree, travel table) above :data:`MAX_TABLE` numbers, a
+        bad ``max_force``, or an unwritable ``out``.
     """
     from importlib.metadata import version
 
     if not isinstance(algorithm, Algorithm):
         raise ParameterError(f"algorithm = {algorithm!r} is not allowed: must be a haptex algorithm")
     letter = algorithm.letter
-    if letter not in EXPORTABLE:
-        raise ParameterError(f"algorithm = {letter!r} is not allowed for export: {letter} needs the bounded "
-                             f"closest-point search, not exported yet; exportable: {', '.join(EXPORTABLE)}")
     fmax = positive_or_inf("max_force", max_force, "N")
-    code, prm, kind, coeffs, _ = algorithm.kernel_spec()
-    if letter == "F" and prm[_kernels.P_ZSTICK] >= 0.0:
-        raise ParameterError("stick_deflection is not allowed for export: F's smooth presliding needs its travel "
-                             "table, not exported yet; export the sharp model (stick_deflection=None)")
+    code, prm, kind, coeffs, aux = algorithm.kernel_spec()
     coeffs = np.asarray(coeffs, dtype=np.float64)
-    if coeffs.size > MAX_TABLE:
-        raise ParameterError(f"texture = {algorithm.texture!r} is not allowed for export: its table has {coeffs.size} "
-                             f"coefficients, more than {MAX_TABLE}; low-pass or window the profile first")
+    smooth = letter == "F" and prm[_kernels.P_ZSTICK] >= 0.0
+    aux = np.asarray(aux, dtype=np.float64) if (letter in "DE" or smooth) else np.empty(0)
+    if coeffs.size + aux.size > MAX_TABLE:
+        raise ParameterError(f"texture = {algorithm.texture!r} is not allowed for export: its tables hold "
+                             f"{coeffs.size + aux.size} numbers, more than {MAX_TABLE}; low-pass or window the "
+                             "profile first")
     if kind == _kernels.TEXTURE_FOURIER:
         tables = (f"#define N_HARMONICS {coeffs.shape[1]}\n" + _array("AMPLITUDE", coeffs[0])
                   + _array("WAVENUMBER", coeffs[1]) + _array("PHASE", coeffs[2]))
@@ -313,13 +652,27 @@ def export_c(algorithm: Algorithm, out, max_force: float) -> tuple[Path, Path]:
                   + _array("C0", coeffs[3, :m]))
     else:
         tables = ""
+    tables += f"#define ZSTICK_SMOOTH {1 if smooth else 0}\n"
+    extra = ""
+    work = "one texture evaluation"
+    if letter in "DE":
+        names = ("A_MODE A_START A_PERIOD A_TREELEN A_NLEAF A_STEP A_SLOPE A_CURV A_HMIN A_TMIN A_WCAP A_X0 A_XE "
+                 "A_HL A_SL A_HR A_SR A_TIE A_JERK A_TREE").split()
+        tables += "".join(f"#define {n} {getattr(_kernels, n)}\n" for n in names) + _array("AUX", aux)
+        extra = _CLOSEST
+        work = "the closest-point search, bounded by the texture's bound tree whatever the depth"
+    elif smooth:
+        tables += "".join(f"#define {n} {getattr(_kernels, n)}\n" for n in ("T_N", "T_LOGR", "T_DV", "T_BETA",
+                                                                           "T_DATA")) + _array("AUX", aux)
+        extra = _SMOOTH
+        work = "one texture evaluation and at most 71 steps of the presliding table"
     description = f"{algorithm!r}, max force {fmax:g} N".replace("*/", "* /")
     fields = {"description": description, "version": version("haptex")}
-    header = _HEADER.format(max_force=_num(fmax), **fields)
+    header = _HEADER.format(max_force=_num(fmax), work=work, **fields)
     source = _SOURCE.format(code=code, k0=_num(prm[_kernels.P_K0]), dzmax=_num(prm[_kernels.P_DZMAX]),
                             mu=_num(prm[_kernels.P_MU]), dxmax=_num(prm[_kernels.P_DXMAX]),
-                            scale=_num(prm[_kernels.P_SCALE]), workspace=_num(WORKSPACE_LIMIT), kind=kind,
-                            tables=tables, **fields)
+                            scale=_num(prm[_kernels.P_SCALE]), zstick=_num(prm[_kernels.P_ZSTICK]),
+                            workspace=_num(WORKSPACE_LIMIT), kind=kind, tables=tables, extra=extra, **fields)
     out = Path(out)
     try:
         out.mkdir(parents=True, exist_ok=True)

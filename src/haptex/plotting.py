@@ -68,7 +68,8 @@ def plot_simulation(result, path, title: str = "") -> Path:
     return _finish(plt, fig, path, title)
 
 
-def plot_force_field(alg, path, n: int = 23, max_penetration: float = 1e-3, vmax: float | None = None) -> Path:
+def plot_force_field(alg, path, n: int = 23, max_penetration: float = 1e-3, vmax: float | None = None,
+                     x_range=None) -> Path:
     """Force field of one algorithm over one texture period, in the spirit of Fig. 2.
 
     Arrows show the force direction (length scaled by magnitude^0.5 for legibility),
@@ -88,13 +89,16 @@ def plot_force_field(alg, path, n: int = 23, max_penetration: float = 1e-3, vmax
     vmax : float, optional
         Top of the colour scale (N), shared by panels that are compared; larger forces
         take the top colour (the colour bar says so). Default: this panel's largest force.
+    x_range : (float, float), optional
+        Abscissa window (m); default one texture period from 0 (1 mm for an aperiodic
+        texture).
     """
     plt = _pyplot()
     tex = alg.texture
+    x0, x1 = _window(tex, x_range)
     lo, hi = tex.height_range
-    period = tex.period if tex.period else 1e-3
-    x = np.linspace(0, period, n)
-    z = np.linspace(lo - max_penetration, hi + 0.1 * period, n)
+    x = np.linspace(x0, x1, n)
+    z = np.linspace(lo - max_penetration, hi + 0.1 * (x1 - x0), n)
     X, Z = np.meshgrid(x, z)
     P = np.stack([X, Z], -1)
     F = alg.force(P, alg.presliding) if alg.has_memory else alg.force(P)
@@ -103,15 +107,74 @@ def plot_force_field(alg, path, n: int = 23, max_penetration: float = 1e-3, vmax
     fig, ax = plt.subplots(figsize=(5.2, 4.2))
     q = ax.quiver(X * 1e3, Z * 1e3, F[..., 0] * scale, F[..., 1] * scale, mag, cmap="viridis", angles="xy",
                   pivot="tail", width=0.004)
-    xs = np.linspace(0, period, 400)
-    ax.plot(xs * 1e3, tex.height(xs) * 1e3, "k-", lw=1.5, label="textured surface")
-    ax.axhline(0.0, color="0.6", lw=2, zorder=0, label="nominal surface")
-    ax.set_xlabel("x (mm)")
-    ax.set_ylabel("z (mm)")
+    _surface(ax, tex, x0, x1)
     ax.set_title(f"{alg.letter}: {alg.name}", fontsize=9)
     top = float(mag.max()) if vmax is None else float(vmax)
     q.set_clim(0.0, top)
     fig.colorbar(q, ax=ax, label="|f| (N)", extend="max" if mag.max() > top else "neither")
+    ax.legend(loc="lower right", fontsize=7)
+    return _finish(plt, fig, path)
+
+
+def _window(tex, x_range) -> tuple[float, float]:
+    if x_range is not None:
+        return float(x_range[0]), float(x_range[1])
+    period = tex.period if tex.period else 1e-3
+    return 0.0, period
+
+
+def _surface(ax, tex, x0, x1) -> None:
+    """The textured surface (black) and the nominal surface z = 0 (grey), axes in mm."""
+    xs = np.linspace(x0, x1, 800)
+    ax.plot(xs * 1e3, tex.height(xs) * 1e3, "k-", lw=1.5, label="textured surface")
+    ax.axhline(0.0, color="0.6", lw=2, zorder=0, label="nominal surface")
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel("z (mm)")
+
+
+def plot_q_map(alg, path, q, max_penetration: float = 1e-3, x_range=None, n: int = 121) -> Path:
+    """Map of ||J(p)||_2 / kappa_0 over the rendering region (penetration in (0, d_max],
+    as the algorithm measures it), with the sup q marked.
+
+    Parameters
+    ----------
+    alg : Algorithm
+        A memoryless algorithm (F's map depends on its presliding state and is not drawn).
+    path : str or Path
+        PNG file to write (and its SVG twin).
+    q : CharacteristicNumber
+        From :func:`haptex.characteristic_number` on the same region; its location is
+        marked and its value printed.
+    max_penetration : float
+        Depth of the region below the lowest valley (m).
+    x_range : (float, float), optional
+        Abscissa window (m), as in :func:`plot_force_field`.
+    n : int
+        Grid points per axis.
+    """
+    from .analysis import spectral_norm
+
+    plt = _pyplot()
+    tex = alg.texture
+    x0, x1 = _window(tex, x_range)
+    lo, hi = tex.height_range
+    x = np.linspace(x0, x1, n)
+    z = np.linspace(lo - max_penetration, max(hi, 0.0), n)
+    X, Z = np.meshgrid(x, z)
+    P = np.stack([X, Z], -1)
+    norm = spectral_norm(alg.jacobian(P)) / alg.stiffness
+    depth = alg.penetration(P)
+    region = (depth > 0) & (depth <= max_penetration * (1 + 1e-9))  # the region q is the sup over
+    norm = np.where(region, norm, np.nan)
+    fig, ax = plt.subplots(figsize=(5.2, 4.2))
+    finite = norm[np.isfinite(norm)]
+    top = float(np.percentile(finite, 99.5)) if finite.size else 1.0
+    mesh = ax.pcolormesh(X * 1e3, Z * 1e3, norm, cmap="magma", shading="auto", vmin=0.0, vmax=max(top, 1.0))
+    fig.colorbar(mesh, ax=ax, label="\u2016J\u2016\u2082 / \u03ba\u2080", extend="max")
+    _surface(ax, tex, x0, x1)
+    label = "q unbounded" if q.unbounded else f"q = {q.value:.4g}"
+    ax.plot(q.where[0] * 1e3, q.where[1] * 1e3, "c*", ms=12, mec="k", label=label)
+    ax.set_title(f"{alg.letter}: {alg.name}, {label}", fontsize=9)
     ax.legend(loc="lower right", fontsize=7)
     return _finish(plt, fig, path)
 

@@ -15,6 +15,7 @@ import os
 import shutil
 import tempfile
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -459,12 +460,7 @@ def write_report(data: dict, out: Path, force: bool = False, elapsed: float | No
     """
     from . import plotting
 
-    out = Path(out)
-    check_output(out, force)
-    target = out.resolve()
-    tmp = Path(tempfile.mkdtemp(prefix=_scratch_prefix(target, "tmp"), dir=target.parent))
-    os.chmod(tmp, 0o777 & ~_umask())  # like any directory the user creates (mkdtemp makes it 0700)
-    try:
+    with _staged(out, force) as tmp:
         figs = {}
         P = PAPER_PARAMETERS  # Fig. 2's panels share one colour scale: the deepest vertical spring force shown
         vmax = P["stiffness"] * (2 * P["amplitude"] + P["max_penetration"])
@@ -493,11 +489,129 @@ def write_report(data: dict, out: Path, force: bool = False, elapsed: float | No
         summary = summary_json(data, elapsed)
         (tmp / "summary.json").write_text(json.dumps(summary, indent=2))
         (tmp / "index.html").write_text(_html(data, figs, summary))
+    return Path(out)
+
+
+@contextmanager
+def _staged(out, force: bool):
+    """Yield a scratch directory beside ``out`` to write a report into; on success put it in
+    place (:func:`_install`), on any exception remove it."""
+    out = Path(out)
+    check_output(out, force)
+    target = out.resolve()
+    tmp = Path(tempfile.mkdtemp(prefix=_scratch_prefix(target, "tmp"), dir=target.parent))
+    os.chmod(tmp, 0o777 & ~_umask())  # like any directory the user creates (mkdtemp makes it 0700)
+    try:
+        yield tmp
         _install(tmp, target, force)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
-    return out
+
+
+def write_design_report(data: dict, texture, out: Path, force: bool = False) -> Path:
+    """Write the design report of one texture on one device: ``DIR/index.html``,
+    ``DIR/summary.json`` and the figures (PNG at 200 dpi with SVG twins), atomically.
+
+    Parameters
+    ----------
+    data : dict
+        From :func:`haptex.design.design` on ``texture``.
+    texture : Texture
+        The texture analysed (m).
+    out : Path
+        Target directory (the rules of :func:`check_output`).
+    force : bool
+        Write into an existing directory that is not a haptex report.
+
+    Returns
+    -------
+    Path
+        ``out``.
+
+    Raises
+    ------
+    ParameterError
+        If ``out`` cannot be used (see :func:`check_output`).
+
+    Notes
+    -----
+    Per algorithm: the force field (one colour scale for all panels: kappa_0 times the
+    deepest vertical penetration shown, as in Fig. 2) and the map of ||J||_2 / kappa_0 with
+    the location of q (eq. 5); then the rendering limits of Section II-B and the
+    recommendation. F's Jacobian depends on its presliding state: its q is the sup over
+    states (:func:`haptex.characteristic_number`) and no map is drawn.
+    """
+    from . import plotting
+    from .analysis import CharacteristicNumber, checked_algorithms
+
+    letters = [r["algorithm"] for r in data["rows"]]
+    algs = checked_algorithms(letters, texture, data["stiffness"], data["max_penetration"], data["friction"],
+                              data["presliding"])
+    dm = data["max_penetration"]
+    lo, hi = texture.height_range
+    vmax = data["stiffness"] * (hi - lo + dm)
+    with _staged(out, force) as tmp:
+        figs = {}
+        for r in data["rows"]:
+            L = r["algorithm"]
+            xr = data["x_range"] or texture.domain  # W too: its field drawn over the same window
+            figs[f"field_{L}"] = plotting.plot_force_field(algs[L], tmp / f"field_{L}.png", max_penetration=dm,
+                                                           vmax=vmax, x_range=xr)
+            if not algs[L].has_memory:
+                q = CharacteristicNumber(L, r["q"], None, tuple(r["q_where"]), dm)
+                figs[f"q_{L}"] = plotting.plot_q_map(algs[L], tmp / f"q_{L}.png", q, max_penetration=dm, x_range=xr)
+        summary = jsonable({"generator": MARKER, "kind": "design", **data})
+        (tmp / "summary.json").write_text(json.dumps(summary, indent=2))
+        (tmp / "index.html").write_text(_design_html(data, figs))
+    return Path(out)
+
+
+def _design_html(data: dict, figs: dict) -> str:
+    tn = data["texture_numbers"]
+    parts = ["<!doctype html><html><head><meta charset='utf-8'><title>haptex design report</title><style>",
+             "body{font-family:sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;color:#222}",
+             "table{border-collapse:collapse;margin:1em 0;font-size:13px}td,th{border:1px solid #bbb;padding:3px 6px}",
+             "th{background:#eee}figure{display:inline-block;margin:0.5em}img{max-width:100%}</style></head><body>",
+             f"<h1>haptex design: {html.escape(data['texture'])} on {html.escape(data['device'])}</h1>",
+             f"<p><b>Recommendation</b>: {html.escape(data['recommendation'])}.</p>",
+             "<h2>Set-up</h2>" + _table(["condition", "value", "unit"], [
+                 ["kappa_0 asked for", _g(data["stiffness"]), "N/m"],
+                 ["scanning speed", _g(data["speed"] * 1e3), "mm/s"],
+                 ["d^z_max (rendering depth)", _g(data["max_penetration"] * 1e3), "mm"],
+                 ["F's mu", _g(data["friction"]), ""], ["F's d^x_max", _g(data["presliding"] * 1e3), "mm"],
+                 ["window analysed", "-" if data["x_range"] is None else
+                  ", ".join(_g(v * 1e3) for v in data["x_range"]), "mm"],
+                 ["device sigma_0(B)/(2T) (Corollary 1)", _g(data["passivity_limit"]), "N/m"],
+                 ["device sampled wall's stability limit", _g(data["wall_stability_limit"]), "N/m"]]),
+             "<h2>Texture</h2>" + _table(["shortest period (mm)", "max slope M", "max curvature (1/m)",
+                                         "heights (mm)"],
+                                        [[_g(tn["shortest_period"] * 1e3), _g(tn["max_slope"]),
+                                          _g(tn["max_curvature"]),
+                                          f"{_g(tn['height_range'][0] * 1e3)} to {_g(tn['height_range'][1] * 1e3)}"]]),
+             "<h2>Algorithms</h2>" + _table(
+                 ["alg.", "q", "q at [x, z] (mm)", "max passive kappa_0 (N/m)", "passive at kappa_0", "conservative",
+                  "max |loop energy| (J)", "continuous"],
+                 [[r["algorithm"], _g(r["q"]), ", ".join(_g(v * 1e3) for v in r["q_where"]),
+                   _g(r["max_passive_stiffness"]), r["passive_at_stiffness"],
+                   "yes" if r["conservative"] else ("almost" if r["almost_conservative"] else "no"),
+                   _g(r["max_abs_loop_energy"], ".3g"), r["continuous"]] for r in data["rows"]]),
+             "<p>q = sup ||J||_2 / kappa_0 over the rendering region (eq. 5); passive at kappa_0 when "
+             "kappa_0 q <= sigma_0(B)/(2T) (Corollary 1).</p>",
+             "<h2>Rendering limits (Section II-B)</h2>" + _table(
+                 ["limit", "condition", "value", "bound", "unit", "met"],
+                 [[lim["name"], lim["formula"], _g(lim["lhs"]), _g(lim["rhs"]), "" if lim["unit"] == "1" else lim["unit"],
+                   lim["passed"]] for lim in data["limits"]]),
+             "<h2>Force fields and ||J||_2 / kappa_0</h2><p>Force fields share one colour scale (kappa_0 times the "
+             "deepest vertical penetration shown). F's map depends on its presliding state and is not drawn.</p>"]
+    for r in data["rows"]:
+        L = r["algorithm"]
+        parts.append(_img(figs[f"field_{L}"], f"{L}: force field"))
+        if f"q_{L}" in figs:
+            parts.append(_img(figs[f"q_{L}"], f"{L}: ||J||_2 / kappa_0"))
+    parts.append(f"<p><small>haptex design report, {time.strftime('%Y-%m-%d %H:%M:%S')}; all numbers in "
+                 "<a href='summary.json'>summary.json</a> (SI units)</small></p></body></html>")
+    return _typeset("\n".join(parts))
 
 
 def _install(tmp: Path, out: Path, force: bool) -> None:
