@@ -247,6 +247,13 @@ def test_terminal_output_fits_80_columns_and_json_has_units():
         assert _width(r.stdout) <= 80, args
     out = json.loads(run_cli("simulate", "thrust", "--duration", "0.2s", "--json").stdout)
     assert out["units"]["energy_x"] == "J" and out["units"]["amplitude"] == "m" and out["units"]["frequency"] == "Hz"
+    # every --json carries its units: design's too (it had none)
+    out = json.loads(run_cli("design", "--texture", "sine:0.2mm,2mm", "--json").stdout)
+    numbers = {k for k, v in out.items() if isinstance(v, float)} | set(out["rows"][0]) | set(out["texture_numbers"])
+    numbers -= {"algorithm", "name", "q_note", "passive_at_stiffness", "conservative", "almost_conservative",
+                "continuous", "has_paper_loop"}
+    assert numbers <= set(out["units"]), numbers - set(out["units"])
+    assert out["units"]["max_passive_stiffness"] == "N/m" and all("unit" in lim for lim in out["limits"])
 
 
 def test_thrust_angle_makes_the_texture_felt():

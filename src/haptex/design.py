@@ -43,7 +43,7 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
     Returns
     -------
     dict
-        ``texture``, ``device``, ``stiffness``, ``limits`` (list of dicts),
+        ``units`` (the SI unit of every number below), ``texture``, ``device``, ``stiffness``, ``limits`` (list of dicts),
         ``wall_stability_limit`` (the sampled wall's critical stiffness along the normal
         from the closed-loop poles, N/m), ``rows`` (per algorithm: ``q``,
         ``max_passive_stiffness``, ``passive_at_stiffness``, ``conservative``,
@@ -101,6 +101,10 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
     if failed:
         text.append("the device cannot reproduce this texture faithfully: " + ", ".join(failed) + " limit(s) violated")
     return {
+        "units": {"stiffness": "N/m", "speed": "m/s", "max_penetration": "m", "friction": "1", "presliding": "m",
+                  "x_range": "m", "passivity_limit": "N/m", "wall_stability_limit": "N/m", "shortest_period": "m",
+                  "max_slope": "1", "max_curvature": "1/m", "height_range": "m", "q": "1", "q_where": "m",
+                  "max_passive_stiffness": "N/m", "max_abs_loop_energy": "J", "limits": "each limit's 'unit'"},
         "texture": repr(texture), "device": device.name, "stiffness": stiffness, "speed": speed,
         "max_penetration": max_penetration, "friction": friction, "presliding": presliding,
         "x_range": None if x_range is None else [float(v) for v in x_range],
