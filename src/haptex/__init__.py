@@ -32,6 +32,7 @@ from .devices import Device, critical_stiffness, device_from_file, five_bar_jaco
 from .renderer import Renderer
 from .simulate import AxisOscillation, BatchResult, Oscillation, SimulationResult, SimulationWarning, simulate, simulate_batch
 from .tables import PAPER_PARAMETERS, table_ii
+from .surfaces import BandLimitedNoise2D, Extruded, Grating, SumOfGratings, Surface
 from .textures import BandLimitedNoise, Flat, SampledProfile, Sinusoid, SumOfSinusoids, Texture
 
 __version__ = "0.1.0"
@@ -39,6 +40,11 @@ __version__ = "0.1.0"
 __all__ = [
     "ALGORITHMS",
     "BandLimitedNoise",
+    "BandLimitedNoise2D",
+    "Extruded",
+    "Grating",
+    "SumOfGratings",
+    "Surface",
     "SampledProfile",
     "SimulationWarning",
     "BatchResult",

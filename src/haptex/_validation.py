@@ -123,21 +123,27 @@ def matrix2(name: str, value, what: str = "2x2 matrix") -> np.ndarray:
     return arr
 
 
-def positions(p, name: str = "p") -> np.ndarray:
-    """Return probe positions as a float64 array of shape (..., 2).
+def positions(p, name: str = "p", dim: int = 2) -> np.ndarray:
+    """Return probe positions as a float64 array of shape (..., dim).
+
+    ``dim`` is 2 ([x, z], over a profile h(x)) or 3 ([x, y, z], over a surface h(x, y)).
 
     Raises
     ------
     ParameterError
-        If the last axis is not of length 2 or a coordinate is not finite.
+        If the last axis is not of length ``dim`` (a profile given 3-D positions, or a
+        surface given 2-D ones) or a coordinate is not finite.
     """
+    what = "[x, z]" if dim == 2 else "[x, y, z]"
     try:
         arr = np.asarray(p, dtype=np.float64)
     except (TypeError, ValueError):
-        raise fail(name, p, "an array of shape (..., 2) of finite positions [x, z] in metres") from None
-    if arr.ndim == 0 or arr.shape[-1] != 2:
+        raise fail(name, p, f"an array of shape (..., {dim}) of finite positions {what} in metres") from None
+    if arr.ndim == 0 or arr.shape[-1] != dim:
+        over = "a profile h(x)" if dim == 2 else "a surface h(x, y)"
         raise ParameterError(
-            f"{name} has shape {arr.shape}, which is not allowed: must be (..., 2) = [x, z] in metres"
+            f"{name} has shape {arr.shape}, which is not allowed: must be (..., {dim}) = {what} in metres "
+            f"over {over}"
         )
     if not np.all(np.isfinite(arr)):
         bad = arr[~np.isfinite(arr).all(axis=-1)][0]

@@ -58,10 +58,25 @@ class Algorithm:
     has_memory: bool = False
     reference: str = ""
 
+    surfaces = True
+    """Whether the algorithm is defined over surfaces h(x, y) yet (else profiles only)."""
+
     def __init__(self, texture: Texture, stiffness: float, max_penetration: float | None = None):
+        if texture.dimension != 1 and not self.surfaces:
+            raise ParameterError(f"texture = {texture!r} is not allowed for algorithm {self.letter} yet: its 3-D "
+                                 "form (a surface h(x, y)) is not implemented; W, A, B, C and G take surfaces")
         self.texture = texture
         self.stiffness = positive("stiffness", stiffness, "N/m")
         self.max_penetration = optional_positive("max_penetration", max_penetration, "m")
+
+    @property
+    def dimension(self) -> int:
+        """Coordinates of a probe position: 2 ([x, z]) over a profile, 3 ([x, y, z]) over a
+        surface."""
+        return self.texture.dimension + 1
+
+    def _positions(self, p) -> np.ndarray:
+        return positions(p, dim=self.dimension)
 
     def __repr__(self) -> str:
         extra = "" if self.max_penetration is None else f", max_penetration={self.max_penetration:g}"
@@ -73,21 +88,22 @@ class Algorithm:
 
         Parameters
         ----------
-        p : array_like, shape (..., 2)
-            Probe positions [x, z] (m).
+        p : array_like, shape (..., 2) or (..., 3)
+            Probe positions [x, z] over a profile, [x, y, z] over a surface (m).
 
         Returns
         -------
-        ndarray, shape (..., 2)
-            Force [f_x, f_z] (N); zero outside the wall.
+        ndarray, shape (..., 2) or (..., 3)
+            Force [f_x, f_z] or [f_x, f_y, f_z] (N); zero outside the wall.
 
         Raises
         ------
         ParameterError
-            If ``p`` has the wrong shape or a non-finite coordinate.
+            If ``p`` has the wrong shape (a profile given 3-D positions or a surface 2-D
+            ones) or a non-finite coordinate.
         """
-        arr = positions(p)
-        f, _ = self._evaluate(arr[..., 0], arr[..., 1], jacobian=False)
+        arr = self._positions(p)
+        f, _ = self._evaluate(arr[..., :-1], arr[..., -1], jacobian=False)
         return f
 
     def jacobian(self, p) -> np.ndarray:
@@ -95,46 +111,47 @@ class Algorithm:
 
         Parameters
         ----------
-        p : array_like, shape (..., 2)
-            Probe positions [x, z] (m).
+        p : array_like, shape (..., 2) or (..., 3)
+            Probe positions [x, z] over a profile, [x, y, z] over a surface (m).
 
         Returns
         -------
-        ndarray, shape (..., 2, 2)
-            ``J[..., i, j] = d f_i / d p_j`` (N/m) with index 0 = x and 1 = z; zero
-            outside the wall.
+        ndarray, shape (..., 2, 2) or (..., 3, 3)
+            ``J[..., i, j] = d f_i / d p_j`` (N/m), indices in the order of ``p`` (the last
+            is z); zero outside the wall.
 
         Raises
         ------
         ParameterError
             If ``p`` has the wrong shape or a non-finite coordinate.
         """
-        arr = positions(p)
-        _, j = self._evaluate(arr[..., 0], arr[..., 1], jacobian=True)
+        arr = self._positions(p)
+        _, j = self._evaluate(arr[..., :-1], arr[..., -1], jacobian=True)
         return j
 
     def force_and_jacobian(self, p) -> tuple[np.ndarray, np.ndarray]:
-        """Both :meth:`force` (shape (..., 2), N) and :meth:`jacobian` (shape (..., 2, 2), N/m)."""
-        arr = positions(p)
-        return self._evaluate(arr[..., 0], arr[..., 1], jacobian=True)
+        """Both :meth:`force` (shape (..., n), N) and :meth:`jacobian` (shape (..., n, n), N/m),
+        n = :attr:`dimension`."""
+        arr = self._positions(p)
+        return self._evaluate(arr[..., :-1], arr[..., -1], jacobian=True)
 
     def penetration(self, p) -> np.ndarray:
         """Penetration depth as this algorithm measures it (m), >= 0, shape (...).
 
-        ``h(p^x) - p^z`` for A, B, C; the distance to the textured surface for D, E;
-        ``-p^z`` for W, F, G (Table I); 0 outside the wall.
+        ``h(p^x) - p^z`` for A, B, C (h(p^x, p^y) - p^z over a surface); the distance to
+        the textured surface for D, E; ``-p^z`` for W, F, G (Table I); 0 outside the wall.
 
         Raises
         ------
         ParameterError
             If ``p`` has the wrong shape or a non-finite coordinate.
         """
-        arr = positions(p)
-        x, z = arr[..., 0], arr[..., 1]
+        arr = self._positions(p)
+        z = arr[..., -1]
         if self.penetration_kind == "nominal":
             return np.maximum(-z, 0.0)
         if self.penetration_kind == "vertical":
-            return np.maximum(self.texture.height(x) - z, 0.0)
+            return np.maximum(self.texture.height_at(arr[..., :-1]) - z, 0.0)
         return closest_point(self.texture, arr).distance
 
     def inside(self, p) -> np.ndarray:
@@ -152,7 +169,17 @@ class Algorithm:
             (kind, coeffs), and ``aux``: the closest-point search data for D and E
             (:func:`haptex.closest.search_data`), the smooth presliding table for F
             (:func:`haptex.friction.smooth_table`), else empty.
+
+        Raises
+        ------
+        ParameterError
+            Over a surface: the compiled kernels (simulator, renderer, C export) take
+            positions [x, z] over profiles for now.
         """
+        if self.dimension != 2:
+            raise ParameterError(f"texture = {self.texture!r} is not allowed here: the compiled simulator, renderer "
+                                 "and C export take profiles h(x) (positions [x, z]) for now; surfaces are analysed "
+                                 "in 3-D (force, jacobian, characteristic_number)")
         prm = np.zeros(_kernels.N_PARAMS)
         prm[_kernels.P_K0] = self.stiffness
         prm[_kernels.P_DZMAX] = -1.0 if self.max_penetration is None else self.max_penetration
@@ -212,10 +239,51 @@ class Algorithm:
         return np.maximum(d, -self.max_penetration), d > -self.max_penetration
 
 
-def _zeros(x, jacobian):
-    f = np.zeros(x.shape + (2,))
-    j = np.zeros(x.shape + (2, 2)) if jacobian else None
+def _zeros(xt, jacobian):
+    """Zero forces (..., n) and Jacobians (..., n, n) for in-plane positions xt of shape
+    (..., n - 1)."""
+    n = xt.shape[-1] + 1
+    f = np.zeros(xt.shape[:-1] + (n,))
+    j = np.zeros(xt.shape[:-1] + (n, n)) if jacobian else None
     return f, j
+
+
+def _outer(a, b):
+    """a b^T over the last axis: shape (..., k, k)."""
+    return a[..., :, None] * b[..., None, :]
+
+
+def _matvec(m, v):
+    """m v over the last axes: (..., k, k) x (..., k) -> (..., k)."""
+    if v.shape[-1] == 1:  # a profile: a product of numbers (no reduction to pay for)
+        return m[..., 0] * v
+    return np.sum(m * v[..., None, :], axis=-1)
+
+
+def _unit_scale(s):
+    """g = (1 + |s|^2)^(-1/2) for gradients s of shape (..., k): shape (...)."""
+    sq = s[..., 0] * s[..., 0] if s.shape[-1] == 1 else np.sum(s * s, axis=-1)
+    return 1.0 / np.sqrt(1.0 + sq)
+
+
+def _matmul(a, b):
+    """a b over the last two axes: (..., k, k) x (..., k, k)."""
+    return a * b if a.shape[-1] == 1 else a @ b
+
+
+def _normal_projector(s, g):
+    """P = I - g^2 s s^T with g = (1 + |s|^2)^(-1/2), shape (..., k, k): the derivative of the
+    unit normal's in-plane part, d(g s)/dx = g P H. Written without cancellation (for
+    k = 2, P = g^2 [[1 + s_y^2, -s_x s_y], [-s_x s_y, 1 + s_x^2]]; for k = 1, P = g^2)."""
+    g2 = g * g
+    if s.shape[-1] == 1:
+        return g2[..., None, None]
+    sx, sy = s[..., 0], s[..., 1]
+    p = np.empty(s.shape + (2,))
+    p[..., 0, 0] = 1.0 + sy * sy
+    p[..., 1, 1] = 1.0 + sx * sx
+    p[..., 0, 1] = p[..., 1, 0] = -sx * sy
+    return g2[..., None, None] * p
 
 
 class SmoothWall(Algorithm):
@@ -261,9 +329,10 @@ class SmoothWall(Algorithm):
     def __init__(self, texture: Texture | None, stiffness: float, damping: float = 0.0, period: float | None = None):
         if texture is not None and not isinstance(texture, Flat):
             raise ParameterError(
-                f"texture = {texture!r} is not allowed for algorithm W: the smooth wall has no texture (pass None)"
+                f"texture = {texture!r} is not allowed for algorithm W: the smooth wall has no texture (pass None, "
+                "or Flat(dimension=2) for positions [x, y, z])"
             )
-        super().__init__(Flat(), stiffness)
+        super().__init__(texture if texture is not None else Flat(), stiffness)
         self.damping = finite("damping", damping, "N s/m")
         self.period = optional_positive("period", period, "s")
         if self.damping != 0.0 and self.period is None:
@@ -280,34 +349,37 @@ class SmoothWall(Algorithm):
         prm[_kernels.P_MU] = self.damping  # W's slots: virtual damping B and servo period T
         prm[_kernels.P_DXMAX] = 1.0 if self.period is None else self.period
 
-    def _evaluate(self, x, z, jacobian):
+    def _evaluate(self, xt, z, jacobian):
         k = self.stiffness
-        f, j = _zeros(x, jacobian)
+        f, j = _zeros(xt, jacobian)
         inside = z < 0
-        f[..., 1] = np.where(inside, -k * z, 0.0)
+        f[..., -1] = np.where(inside, -k * z, 0.0)
         if jacobian:
-            j[..., 1, 1] = np.where(inside, -k, 0.0)
+            j[..., -1, -1] = np.where(inside, -k, 0.0)
         return f, j
 
     def potential(self, p):
         """Stored energy V = kappa_0 (p^z)^2 / 2 inside, 0 outside (J), shape (...)."""
-        z = positions(p)[..., 1]
+        z = self._positions(p)[..., -1]
         return np.where(z < 0, 0.5 * self.stiffness * z**2, 0.0)
 
 
 class _Vertical(Algorithm):
-    """Shared evaluation for A, B, C: d = p^z - h(p^x) (Table I)."""
+    """Shared evaluation for A, B, C: d = p^z - h(p^x) (Table I), over a profile or a
+    surface: the formulas below are written with the in-plane gradient s = grad h and
+    Hessian H of h, which for a profile are h' and h''."""
 
     penetration_kind = "vertical"
 
-    def _evaluate(self, x, z, jacobian):
-        h = self.texture.height(x)
-        s = self.texture.slope(x)
-        c = self.texture.curvature(x) if jacobian else None
+    def _evaluate(self, xt, z, jacobian):
+        tex = self.texture
+        h = tex.height_at(xt)
+        s = tex.gradient(xt)
+        hess = tex.hessian(xt) if jacobian else None
         d = z - h
         inside = d < 0
-        f, j = _zeros(x, jacobian)
-        self._fill(np.where(inside, d, 0.0), s, c, f, j)
+        f, j = _zeros(xt, jacobian)
+        self._fill(np.where(inside, d, 0.0), s, hess, f, j)
         f[~inside] = 0.0
         if jacobian:
             j[~inside] = 0.0
@@ -319,6 +391,10 @@ class GroovedVertical(_Vertical):
 
     Eq. 6: f = [0, -kappa_0 d^z] with d^z = p^z - h(p^x) < 0 inside. Jacobian eq. 7:
     -kappa_0 [[0, 0], [-h', 1]].
+
+    Over a surface (3-D): f = [0, 0, -kappa_0 d^z], d^z = p^z - h(p^x, p^y); the
+    Jacobian's last row is kappa_0 [h_x, h_y, -1], the others zero, so
+    q_A = sqrt(1 + sup |grad h|^2) (Remark 2 with the gradient's norm).
     """
 
     letter = "A"
@@ -328,12 +404,12 @@ class GroovedVertical(_Vertical):
     def __init__(self, texture, stiffness):
         super().__init__(texture, stiffness)
 
-    def _fill(self, d, s, c, f, j):
+    def _fill(self, d, s, hess, f, j):
         k = self.stiffness
-        f[..., 1] = -k * d
+        f[..., -1] = -k * d
         if j is not None:
-            j[..., 1, 0] = k * s
-            j[..., 1, 1] = -k
+            j[..., -1, :-1] = k * s
+            j[..., -1, -1] = -k
 
 
 class GroovedNormal(_Vertical):
@@ -345,6 +421,11 @@ class GroovedNormal(_Vertical):
 
         J = kappa_0 [[-s^2 g + d c g^3,  s g], [s g + d s c g^3,  -g]].
 
+    Over a surface (3-D) n is the textured normal (-grad h, 1) / sqrt(1 + |grad h|^2); with
+    s = grad h, H its Hessian, g = (1 + |s|^2)^(-1/2) and P = I - g^2 s s^T, the in-plane
+    block is kappa_0 (-g s s^T + d g P H), the in-plane column kappa_0 g s, the last row
+    kappa_0 [g s + d g^3 H s, -g].
+
     With ``max_penetration`` the lateral component uses max(d, -d_max^z) (Remark 3).
     """
 
@@ -352,18 +433,20 @@ class GroovedNormal(_Vertical):
     name = "grooved boundary, force normal to groove"
     reference = "eq. 11, 12; Choi & Tan (2004) [19]"
 
-    def _fill(self, d, s, c, f, j):
+    def _fill(self, d, s, hess, f, j):
         k = self.stiffness
-        g = 1.0 / np.sqrt(1.0 + s * s)
+        g = _unit_scale(s)
         dl, follows = self._clamped(d)
-        f[..., 0] = k * dl * s * g
-        f[..., 1] = -k * d * g
+        np.multiply((k * dl * g)[..., None], s, out=f[..., :-1])
+        f[..., -1] = -k * d * g
         if j is not None:
             g3 = g**3
-            j[..., 0, 0] = k * (np.where(follows, -s * s * g, 0.0) + dl * c * g3)
-            j[..., 0, 1] = k * np.where(follows, s * g, 0.0)
-            j[..., 1, 0] = k * (s * g + d * s * c * g3)
-            j[..., 1, 1] = -k * g
+            lat = np.where(follows, g, 0.0)
+            j[..., :-1, :-1] = k * (-lat[..., None, None] * _outer(s, s)
+                                    + (dl * g)[..., None, None] * _matmul(_normal_projector(s, g), hess))
+            j[..., :-1, -1] = (k * lat)[..., None] * s
+            j[..., -1, :-1] = k * (g[..., None] * s + (d * g3)[..., None] * _matvec(hess, s))
+            j[..., -1, -1] = -k * g
 
 
 class ChangeOfHeight(_Vertical):
@@ -371,6 +454,10 @@ class ChangeOfHeight(_Vertical):
 
     Eq. 14: f = -kappa_0 [-d^z h', d^z], the gradient of U_C = -kappa_0 (d^z)^2 / 2
     (eq. 13). Jacobian eq. 15: -kappa_0 [[h'^2 - d^z h'', -h'], [-h', 1]].
+
+    Over a surface (3-D) the same potential gives f = (kappa_0 d h_x, kappa_0 d h_y,
+    -kappa_0 d) and J = -kappa_0 [[s s^T - d H, -s], [-s^T, 1]] with s = grad h, H its
+    Hessian.
 
     With ``max_penetration`` the lateral component uses max(d, -d_max^z) (Remark 3); the
     field is then no longer a gradient below that depth.
@@ -384,16 +471,17 @@ class ChangeOfHeight(_Vertical):
     def is_gradient(self) -> bool:  # type: ignore[override]
         return self.max_penetration is None
 
-    def _fill(self, d, s, c, f, j):
+    def _fill(self, d, s, hess, f, j):
         k = self.stiffness
         dl, follows = self._clamped(d)
-        f[..., 0] = k * dl * s
-        f[..., 1] = -k * d
+        np.multiply((k * dl)[..., None], s, out=f[..., :-1])
+        f[..., -1] = -k * d
         if j is not None:
-            j[..., 0, 0] = k * (np.where(follows, -s * s, 0.0) + dl * c)
-            j[..., 0, 1] = k * np.where(follows, s, 0.0)
-            j[..., 1, 0] = k * s
-            j[..., 1, 1] = -k
+            lat = np.where(follows, 1.0, 0.0)
+            j[..., :-1, :-1] = k * (-lat[..., None, None] * _outer(s, s) + dl[..., None, None] * hess)
+            j[..., :-1, -1] = (k * lat)[..., None] * s
+            j[..., -1, :-1] = k * s
+            j[..., -1, -1] = -k
 
     def potential(self, p):
         """Stored energy V = kappa_0 (d^z)^2 / 2 inside, 0 outside (J), shape (...).
@@ -405,8 +493,8 @@ class ChangeOfHeight(_Vertical):
         """
         if not self.is_gradient:
             return super().potential(p)
-        arr = positions(p)
-        d = arr[..., 1] - self.texture.height(arr[..., 0])
+        arr = self._positions(p)
+        d = arr[..., -1] - self.texture.height_at(arr[..., :-1])
         return np.where(d < 0, 0.5 * self.stiffness * d**2, 0.0)
 
 
@@ -414,12 +502,14 @@ class _Distance(Algorithm):
     """Shared evaluation for D and E: the closest point p_h on z = h(x)."""
 
     penetration_kind = "distance"
+    surfaces = False
 
     def _aux(self) -> np.ndarray:
         return search_data(self.texture)
 
-    def _evaluate(self, x, z, jacobian):
-        f, j = _zeros(x, jacobian)
+    def _evaluate(self, xt, z, jacobian):
+        x = xt[..., 0]
+        f, j = _zeros(xt, jacobian)
         h = self.texture.height(x)
         inside = z < h
         if not np.any(inside):
@@ -556,6 +646,10 @@ class ForceShading(Algorithm):
 
         J = kappa_0 [[p^z c g^3,  s g], [p^z s c g^3,  -g]].
 
+    Over a surface (3-D) n is the textured normal (-grad h, 1) / sqrt(1 + |grad h|^2):
+    f = -kappa_0 p^z n, J's in-plane block kappa_0 p^z g P H, in-plane column kappa_0 g s,
+    last row kappa_0 [p^z g^3 H s, -g] (s = grad h, H its Hessian, g and P as for B).
+
     With ``max_penetration`` the lateral component uses max(p^z, -d_max^z) (Remark 3).
     """
 
@@ -564,23 +658,23 @@ class ForceShading(Algorithm):
     penetration_kind = "nominal"
     reference = "eq. 28, 29; Morgenbesser & Srinivasan (1996) [29]"
 
-    def _evaluate(self, x, z, jacobian):
+    def _evaluate(self, xt, z, jacobian):
         k = self.stiffness
-        s = self.texture.slope(x)
-        g = 1.0 / np.sqrt(1.0 + s * s)
+        s = self.texture.gradient(xt)
+        g = _unit_scale(s)
         inside = z < 0
         d = np.where(inside, z, 0.0)
         dl, follows = self._clamped(d)
-        f, j = _zeros(x, jacobian)
-        f[..., 0] = k * dl * s * g
-        f[..., 1] = -k * d * g
+        f, j = _zeros(xt, jacobian)
+        np.multiply((k * dl * g)[..., None], s, out=f[..., :-1])
+        f[..., -1] = -k * d * g
         if jacobian:
-            c = self.texture.curvature(x)
+            hess = self.texture.hessian(xt)
             g3 = g**3
-            j[..., 0, 0] = k * dl * c * g3
-            j[..., 0, 1] = k * np.where(follows, s * g, 0.0)
-            j[..., 1, 0] = k * d * s * c * g3
-            j[..., 1, 1] = -k * g
+            j[..., :-1, :-1] = (k * dl * g)[..., None, None] * _matmul(_normal_projector(s, g), hess)
+            j[..., :-1, -1] = (k * np.where(follows, g, 0.0))[..., None] * s
+            j[..., -1, :-1] = (k * d * g3)[..., None] * _matvec(hess, s)
+            j[..., -1, -1] = -k * g
             j[~inside] = 0.0
         return f, j
 
@@ -617,6 +711,7 @@ class FrictionModulated(Algorithm):
     name = "flat wall with modulated lateral friction"
     penetration_kind = "nominal"
     has_memory = True
+    surfaces = False
     reference = "eq. 22–27, 31; Hayward & Armstrong (2000) [32]"
 
     def __init__(self, texture, stiffness, friction=0.8, presliding=1e-3, modulation_depth=0.8,
@@ -740,7 +835,7 @@ class FrictionModulated(Algorithm):
             follows = depth < self.max_penetration
             depth = np.minimum(depth, self.max_penetration)
         m = self.modulation(x)
-        f, j = _zeros(x, dd_dx is not None)
+        f, j = _zeros(x[..., None], dd_dx is not None)
         f[..., 0] = -mu * k * depth * m * d / dm
         f[..., 1] = np.where(inside, -k * z, 0.0)
         if j is not None:
@@ -750,7 +845,8 @@ class FrictionModulated(Algorithm):
             j[..., 1, 1] = np.where(inside, -k, 0.0)
         return f, j
 
-    def _evaluate(self, x, z, jacobian):
+    def _evaluate(self, xt, z, jacobian):
+        x = xt[..., 0]
         return self._static(x, z, np.zeros_like(x), 1.0 if jacobian else None)
 
     # -- along a path ----------------------------------------------------------------------
@@ -847,7 +943,9 @@ def algorithm(letter: str, texture: Texture | None = None, stiffness: float = 20
     letter : str
         ``"W"`` (smooth wall, eq. 30) or one of ``"A"``–``"G"`` (Table I); case-insensitive.
     texture : Texture, optional
-        Height profile h (m). Required for A–G; must be ``None`` for W.
+        Height profile h(x) or surface h(x, y) (m). Required for A–G; ``None`` (or
+        ``Flat(dimension=2)`` for 3-D positions) for W. Over a surface W, A, B, C and G
+        take positions [x, y, z]; D, E and F take profiles for now.
     stiffness : float
         Nominal stiffness kappa_0 > 0 (N/m); default 2000 N/m, the paper's Section V-A.
     **params

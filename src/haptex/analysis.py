@@ -44,18 +44,21 @@ __all__ = [
 # characteristic number
 # ------------------------------------------------------------------------------------
 def spectral_norm(j) -> np.ndarray:
-    """Largest singular value of 2x2 matrices.
+    """Largest singular value of 2x2 or 3x3 matrices.
 
     Parameters
     ----------
-    j : array_like, shape (..., 2, 2)
+    j : array_like, shape (..., 2, 2) or (..., 3, 3)
 
     Returns
     -------
     ndarray, shape (...)
-        sigma_max(J) = sqrt((|J|_F^2 + sqrt(|J|_F^4 - 4 det(J)^2)) / 2), in the units of J.
+        sigma_max(J), in the units of J: for 2x2 in closed form,
+        sqrt((|J|_F^2 + sqrt(|J|_F^4 - 4 det(J)^2)) / 2); for 3x3 by LAPACK's SVD.
     """
     j = np.asarray(j, dtype=np.float64)
+    if j.shape[-2:] != (2, 2):
+        return np.linalg.svd(j, compute_uv=False)[..., 0]
     fro2 = np.sum(j * j, axis=(-2, -1))
     det = j[..., 0, 0] * j[..., 1, 1] - j[..., 0, 1] * j[..., 1, 0]
     disc = np.sqrt(np.maximum(fro2 * fro2 - 4 * det * det, 0.0))
@@ -225,6 +228,9 @@ def checked_algorithms(letters, texture: Texture, stiffness: float, max_penetrat
 
 
 def _x_range(alg: Algorithm, x_range) -> tuple[float, float]:
+    if alg.texture.dimension != 1:
+        raise ParameterError(f"texture = {alg.texture!r} is a surface: this analysis takes profiles h(x) for now "
+                             "(characteristic_number and the fields take surfaces)")
     if x_range is not None:
         try:
             a, b = (float(v) for v in x_range)
@@ -245,11 +251,40 @@ def _x_range(alg: Algorithm, x_range) -> tuple[float, float]:
     return float(dom[0]), float(dom[1])
 
 
+def _plane_ranges(alg: Algorithm, x_range) -> list[tuple[float, float]]:
+    """The in-plane extent of the analysed region, one (min, max) in m per in-plane axis:
+    [(x0, x1)] over a profile (:func:`_x_range`), [(x0, x1), (y0, y1)] over a surface (one
+    periodic cell by default, or ``x_range = ((x0, x1), (y0, y1))``)."""
+    tex = alg.texture
+    if tex.dimension == 1:
+        return [_x_range(alg, x_range)]
+    allowed = "((x_min, x_max), (y_min, y_max)) in finite metres, each min < max"
+    if x_range is None:
+        if isinstance(tex, Flat):
+            return [(0.0, 1e-3), (0.0, 1e-3)]
+        if tex.domain is None:
+            raise ParameterError(f"x_range = None is not allowed for the surface {tex!r}, which has no periodic "
+                                 f"cell: give x_range={allowed}")
+        return [tuple(float(v) for v in r) for r in tex.domain]
+    try:
+        (a, b), (c, d) = ((float(u), float(v)) for u, v in x_range)
+    except (TypeError, ValueError):
+        raise fail("x_range", x_range, allowed) from None
+    if not all(math.isfinite(v) for v in (a, b, c, d)) or not (a < b and c < d):
+        raise fail("x_range", x_range, allowed)
+    return [(a, b), (c, d)]
+
+
+def _region_points(alg: Algorithm, xt, depth):
+    """Probe positions (..., k + 1) at in-plane positions xt (..., k) and depth (...) (m),
+    for the 'vertical' (below h) and 'nominal' (below z = 0) kinds."""
+    z = alg.texture.height_at(xt) - depth if alg.penetration_kind == "vertical" else -depth
+    return np.concatenate([xt, np.broadcast_to(z, np.shape(depth))[..., None]], axis=-1)
+
+
 def _region_point(alg: Algorithm, x, depth):
-    """Probe positions at abscissa x and depth (m) for 'vertical' and 'nominal' kinds."""
-    if alg.penetration_kind == "vertical":
-        return np.stack([x, alg.texture.height(x) - depth], axis=-1)
-    return np.stack([x, -depth], axis=-1)
+    """:func:`_region_points` over a profile, abscissae x of any shape (m)."""
+    return _region_points(alg, np.asarray(x)[..., None], depth)
 
 
 def _closed_form_q(alg: Algorithm) -> float | None:
@@ -312,44 +347,58 @@ def characteristic_number(
     nx, nd = (int(v) for v in resolution)
     if nx < 8 or nd < 4:
         raise fail("resolution", resolution, "(n_x, n_depth) with n_x >= 8 and n_depth >= 4")
-    x0, x1 = _x_range(algorithm, x_range)
-    if not isinstance(algorithm.texture, Flat):
-        # at least 64 grid cells per shortest period, so every local maximum has its cell
-        nx = int(min(max(nx, math.ceil(64 * (x1 - x0) / algorithm.texture.shortest_period)), 8192))
+    ranges = _plane_ranges(algorithm, x_range)
+    tex = algorithm.texture
+    if tex.dimension == 2:  # a surface: a 3-D grid, kept to ~10^6 points (refinement does the rest)
+        if algorithm.penetration_kind == "distance" or algorithm.has_memory:
+            raise ParameterError(f"algorithm = {algorithm.letter!r} on a surface is not analysed yet")
+        nd = max(4, nd // 4)
+        counts = [int(min(max(32, math.ceil(32 * (b - a) / tex.shortest_period)), 256)) for a, b in ranges]
+    else:
+        counts = [nx]
+        if not isinstance(tex, Flat):
+            # at least 64 grid cells per shortest period, so every local maximum has its cell
+            counts = [int(min(max(nx, math.ceil(64 * (ranges[0][1] - ranges[0][0]) / tex.shortest_period)), 8192))]
     k0 = algorithm.stiffness
     closed = _closed_form_q(algorithm)
 
     if algorithm.penetration_kind == "distance":
-        return _q_distance(algorithm, dmax, x0, x1, nx, nd, closed)
+        return _q_distance(algorithm, dmax, *ranges[0], counts[0], nd, closed)
     if algorithm.has_memory:
-        return _q_friction(algorithm, dmax, x0, x1, nx, nd)
+        return _q_friction(algorithm, dmax, *ranges[0], counts[0], nd)
 
-    xs = np.linspace(x0, x1, nx + 1)
+    axes = [np.linspace(a, b, n + 1) for (a, b), n in zip(ranges, counts)]
     ds = np.linspace(dmax / nd, dmax, nd)
-    X, Dp = np.meshgrid(xs, ds, indexing="ij")
-    norms = spectral_norm(algorithm.jacobian(_region_point(algorithm, X, Dp))) / k0
-    dx = (x1 - x0) / nx
+    mesh = np.meshgrid(*axes, ds, indexing="ij")
+    plane_pts = np.stack(mesh[:-1], axis=-1)
+    norms = spectral_norm(algorithm.jacobian(_region_points(algorithm, plane_pts, mesh[-1]))) / k0
+    steps = [(b - a) / n for (a, b), n in zip(ranges, counts)]
     dd = dmax / nd
 
     def neg_q(v):
-        p = _region_point(algorithm, np.array([v[0]]), np.array([v[1]]))
+        p = _region_points(algorithm, np.asarray(v[:-1])[None, :], np.array([v[-1]]))
         return -float(spectral_norm(algorithm.jacobian(p))[0]) / k0
 
-    best, where_xd = -np.inf, (x0, dmax)
+    start = [r[0] for r in ranges] + [dmax]
+    best, where_pt = -np.inf, tuple(start)
     for idx in _candidates(norms):
-        i, j = np.unravel_index(idx, norms.shape)
-        bounds = [(max(x0, xs[i] - dx), min(x1, xs[i] + dx)), (max(dd * 1e-6, ds[j] - dd), min(dmax, ds[j] + dd))]
-        val, pt = _refine(neg_q, (xs[i], ds[j]), norms[i, j], bounds)
+        ijk = np.unravel_index(idx, norms.shape)
+        pt = [axes[a][ijk[a]] for a in range(len(axes))] + [ds[ijk[-1]]]
+        bounds = [(max(r[0], v - h), min(r[1], v + h)) for r, v, h in zip(ranges, pt, steps)]
+        bounds.append((max(dd * 1e-6, pt[-1] - dd), min(dmax, pt[-1] + dd)))
+        val, found = _refine(neg_q, pt, norms[ijk], bounds)
         if val > best:
-            best, where_xd = val, pt
-    where = _region_point(algorithm, np.array([where_xd[0]]), np.array([where_xd[1]]))[0]
+            best, where_pt = val, found
+    where = _region_points(algorithm, np.array(where_pt[:-1])[None, :], np.array([where_pt[-1]]))[0]
+    grid = "x".join(str(n) for n in counts + [nd])
+    extent = " and ".join(f"{name} in [{a:g}, {b:g}] m" for name, (a, b) in zip("xy", ranges))
     return CharacteristicNumber(
         letter=algorithm.letter,
         value=best,
         closed_form=closed,
-        where=(float(where[0]), float(where[1])),
+        where=tuple(float(v) for v in where),
         max_penetration=dmax,
-        note=f"grid {nx}x{nd} over x in [{x0:g}, {x1:g}] m and depth in (0, {dmax:g}] m, refined by L-BFGS-B",
+        note=f"grid {grid} over {extent} and depth in (0, {dmax:g}] m, refined by L-BFGS-B",
     )
 
 
@@ -364,10 +413,10 @@ def _refine(neg, start, value: float, bounds) -> tuple[float, tuple]:
 
 
 def _candidates(values: np.ndarray, count: int = 8) -> np.ndarray:
-    """Flat indices of the ``count`` largest local maxima of a 2-D grid, best first."""
+    """Flat indices of the ``count`` largest local maxima of a 2-D or 3-D grid, best first."""
     finite = np.where(np.isfinite(values), values, -np.inf)
     peaks = (ndimage.maximum_filter(finite, size=3, mode="nearest") == finite) & np.isfinite(finite)
-    labels, n = ndimage.label(peaks, structure=np.ones((3, 3)))
+    labels, n = ndimage.label(peaks, structure=np.ones((3,) * values.ndim))
     if n == 0:
         return np.array([int(np.argmax(finite))])
     # one candidate per connected plateau of local maxima, so ties do not crowd out others

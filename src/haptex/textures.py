@@ -23,13 +23,33 @@ MAX_HARMONICS = 100_000
 
 
 class Texture:
-    """Base class of height profiles h(x) (metres) along the scan direction x (metres).
+    """Base class of textures: height profiles h(x) and surfaces h(x, y) (metres).
 
-    Subclasses provide :meth:`height`, :meth:`slope`, :meth:`curvature` and
-    :meth:`kernel_data`. Analysis code relies on :attr:`max_slope` (the Lipschitz bound M
-    of Remark 2 in Campion & Hayward), :attr:`shortest_period`, :attr:`period` (``None``
-    when the profile is not periodic) and :attr:`height_range`.
+    A texture knows its :attr:`dimension`: 1 for a profile over the scan direction x, 2
+    for a surface over the plane (x, y). The algorithms and the analysis read it through
+    :meth:`height_at`, :meth:`gradient` and :meth:`hessian` on in-plane coordinates of
+    shape (..., dimension), so one implementation serves both (a profile is the 1-D case
+    of a surface). Profiles also provide :meth:`height`, :meth:`slope`, :meth:`curvature`
+    on abscissae of any shape, and :meth:`kernel_data` for the compiled kernels. Analysis
+    code relies on :attr:`max_slope` (the Lipschitz bound M = sup |grad h| of Remark 2 in
+    Campion & Hayward), :attr:`shortest_period`, :attr:`period` (``None`` when the
+    texture is not periodic) and :attr:`height_range`.
     """
+
+    dimension = 1
+
+    def height_at(self, xt):
+        """h at in-plane positions ``xt`` of shape (..., dimension) (m); shape (...)."""
+        return self.height(xt[..., 0])
+
+    def gradient(self, xt):
+        """grad h at ``xt`` of shape (..., dimension) (m); shape (..., dimension), m/m."""
+        return self.slope(xt[..., 0])[..., None]
+
+    def hessian(self, xt):
+        """Hessian of h at ``xt`` of shape (..., dimension) (m); shape (..., dimension,
+        dimension), 1/m."""
+        return self.curvature(xt[..., 0])[..., None, None]
 
     def height(self, x):  # pragma: no cover - abstract
         raise NotImplementedError
@@ -145,15 +165,7 @@ class SumOfSinusoids(Texture):
         live = self.periods[self.amplitudes > 0]
         if live.size == 0:
             return float(self.periods.max())
-        base = float(live.min())
-        num, den = 1, 0
-        for p in live:
-            fr = Fraction(float(p) / base).limit_denominator(1000)
-            if abs(float(fr) * base - p) > 1e-9 * p:
-                return None
-            num = math.lcm(num, fr.numerator)
-            den = math.gcd(den, fr.denominator)
-        return base * num / den
+        return common_period(live)
 
     def _extreme(self, fun) -> float:
         """sup over x of |fun(x)|, by dense sampling of one period and bounded refinement."""
@@ -604,7 +616,9 @@ class SampledProfile(Texture):
 
 
 class Flat(Texture):
-    """The untextured nominal surface h(x) = 0 (used by algorithm W)."""
+    """The untextured nominal surface h = 0 (used by algorithm W): a profile
+    (``dimension=1``, positions [x, z]) or a surface (``dimension=2``, positions
+    [x, y, z])."""
 
     period = None
     domain = None
@@ -614,12 +628,23 @@ class Flat(Texture):
     height_range = (0.0, 0.0)
     shortest_period = 1e-3  # only sets the closest-point step; any positive value works
 
+    def __init__(self, dimension: int = 1):
+        self.dimension = whole("dimension", dimension, 1, 2, "(1: a profile h(x), 2: a surface h(x, y))")
+
     def __repr__(self) -> str:
-        return "Flat()"
+        return "Flat()" if self.dimension == 1 else "Flat(dimension=2)"
 
     def height(self, x):
         """h(x) = 0 (m)."""
         return np.zeros(np.shape(x))
+
+    def gradient(self, xt):
+        """0, shape (..., dimension)."""
+        return np.zeros(np.shape(xt)[:-1] + (self.dimension,))
+
+    def hessian(self, xt):
+        """0, shape (..., dimension, dimension)."""
+        return np.zeros(np.shape(xt)[:-1] + (self.dimension, self.dimension))
 
     slope = height
     curvature = height
@@ -631,6 +656,20 @@ class Flat(Texture):
     def spectrum(self) -> tuple[np.ndarray, np.ndarray]:
         """Empty: a flat surface has no texture."""
         return np.zeros(0), np.zeros(0)
+
+
+def common_period(periods) -> float | None:
+    """The least common multiple of positive periods (m), or None when two of them are not
+    commensurate with a ratio of denominator <= 1000 (to 1e-9 relative)."""
+    base = float(np.min(periods))
+    num, den = 1, 0
+    for p in periods:
+        fr = Fraction(float(p) / base).limit_denominator(1000)
+        if abs(float(fr) * base - p) > 1e-9 * p:
+            return None
+        num = math.lcm(num, fr.numerator)
+        den = math.gcd(den, fr.denominator)
+    return base * num / den
 
 
 def _vector(name: str, values) -> np.ndarray:

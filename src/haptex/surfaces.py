@@ -1,0 +1,449 @@
+"""Areal textures h(x, y) (metres) over the nominal plane z = 0: gratings and their sums,
+band-limited noise, and a profile extruded across the scan.
+
+A surface is a :class:`~haptex.textures.Texture` of dimension 2: the algorithms and the
+analysis read it through ``height_at``, ``gradient`` and ``hessian`` on in-plane
+positions of shape (..., 2) = [x, y] (m), the same calls through which they read a profile,
+so a profile is the 1-D case and :class:`Extruded` reproduces its numbers exactly.
+"""
+
+from __future__ import annotations
+
+import math
+from functools import cached_property
+
+import numpy as np
+from scipy import optimize
+
+from ._validation import ParameterError, check_count, fail, nonnegative, positive, whole
+from .textures import MAX_HARMONICS, Texture, _vector, common_period
+
+__all__ = ["Surface", "SumOfGratings", "Grating", "BandLimitedNoise2D", "Extruded"]
+
+MAX_GRID = 4_000_000
+"""Most points of the dense grid on which a surface's sup |grad h|, sup ||H|| and height
+range are searched before refinement."""
+
+
+def plane(xy, name: str = "xy") -> np.ndarray:
+    """In-plane positions as float64 of shape (..., 2) = [x, y] (m).
+
+    Raises
+    ------
+    ParameterError
+        If the last axis is not of length 2 or a coordinate is not finite.
+    """
+    try:
+        arr = np.asarray(xy, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise fail(name, xy, "an array of shape (..., 2) of finite in-plane positions [x, y] in metres") from None
+    if arr.ndim == 0 or arr.shape[-1] != 2:
+        raise ParameterError(f"{name} has shape {arr.shape}, which is not allowed: must be (..., 2) = [x, y] in metres")
+    if not np.all(np.isfinite(arr)):
+        raise fail(name, "a non-finite position", "finite coordinates in metres")
+    return arr
+
+
+class Surface(Texture):
+    """Base class of areal textures h(x, y) (m).
+
+    Subclasses provide ``height_at``, ``gradient`` and ``hessian`` on positions of shape
+    (..., 2), and :attr:`shortest_period` (the shortest wavelength over all directions),
+    :attr:`cell` (a periodic cell (L_x, L_y) in m, or None), :attr:`max_slope`
+    (sup |grad h|), :attr:`max_curvature` (sup of the Hessian's 2-norm) and
+    :attr:`height_range`.
+    """
+
+    dimension = 2
+    period = None  # a surface has a periodic cell (see cell), not a period along one axis
+
+    def height(self, x):
+        raise ParameterError(f"texture = {self!r} is a surface h(x, y): evaluate it with height_at([x, y])")
+
+    slope = curvature = height
+
+    def kernel_data(self):
+        """Surfaces are not compiled yet: the simulator, renderer and export take profiles.
+
+        Raises
+        ------
+        ParameterError
+            Always, naming what to use instead.
+        """
+        raise ParameterError(f"texture = {self!r} is not allowed here: the compiled simulator, renderer and C "
+                             "export take profiles h(x) for now (surfaces are analysed in 3-D)")
+
+    @property
+    def cell(self) -> tuple[float, float] | None:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    @property
+    def domain(self) -> tuple[tuple[float, float], tuple[float, float]] | None:
+        """The in-plane region analysed by default, ((x0, x1), (y0, y1)) in m: one periodic
+        cell, or None when the surface has none."""
+        c = self.cell
+        return None if c is None else ((0.0, float(c[0])), (0.0, float(c[1])))
+
+    @property
+    def peak_magnitude(self) -> float:
+        lo, hi = self.height_range
+        return max(abs(lo), abs(hi))
+
+    # -- sups over a cell, by dense sampling and bounded refinement -----------------------
+    def _grid(self):
+        (x0, x1), (y0, y1) = self.domain
+        n = [int(min(max(64 * (b - a) / self.shortest_period, 64), 4096)) for a, b in ((x0, x1), (y0, y1))]
+        check_count("texture", self, n[0] * n[1], MAX_GRID, "grid points over the periodic cell (a cell of at "
+                    "most ~30 shortest periods a side)")
+        xs = np.linspace(x0, x1, n[0], endpoint=False)
+        ys = np.linspace(y0, y1, n[1], endpoint=False)
+        X, Y = np.meshgrid(xs, ys, indexing="ij")
+        return np.stack([X, Y], -1), ((x1 - x0) / n[0], (y1 - y0) / n[1])
+
+    def _sup(self, fun) -> float:
+        """sup over the cell of fun(xy) >= 0, fun vectorised over (..., 2)."""
+        pts, (dx, dy) = self._grid()
+        vals = fun(pts)
+        best = float(vals.max())
+        flat = vals.ravel()
+        scale = np.array([dx, dy])
+        for idx in np.argsort(flat)[-8:]:
+            start = pts.reshape(-1, 2)[idx]
+
+            def neg(u):  # in grid steps about the sample, so that the problem is well scaled
+                return -float(fun((start + u * scale)[None, :])[0]) / max(best, 1e-300)
+
+            r = optimize.minimize(neg, np.zeros(2), method="L-BFGS-B", bounds=[(-1.0, 1.0)] * 2,
+                                  options={"ftol": 1e-16, "gtol": 1e-13})
+            best = max(best, -float(r.fun) * max(best, 1e-300))
+        return best
+
+
+class SumOfGratings(Surface):
+    """A sum of gratings h(x, y) = sum_k a_k sin(2 pi (x cos th_k + y sin th_k) / l_k + phi_k).
+
+    Parameters
+    ----------
+    amplitudes : array_like, shape (n,)
+        a_k >= 0 (m).
+    periods : array_like, shape (n,)
+        Wavelengths l_k > 0 (m), measured along each grating's direction.
+    directions : array_like, shape (n,)
+        th_k (rad): the direction of each wave vector from the x axis.
+    phases : array_like, shape (n,), optional
+        phi_k (rad), default 0.
+
+    Raises
+    ------
+    ParameterError
+        If the arrays are empty, of different lengths or not finite, an amplitude is
+        negative or a period not > 0.
+
+    Notes
+    -----
+    The areal form of Remark 2's sums: :attr:`max_slope` is sup |grad h| over a periodic
+    cell when the gratings share one (each wave vector's components commensurate, ratio
+    denominators <= 1000), else the rigorous bound sum_k 2 pi a_k / l_k
+    (:attr:`max_slope_is_exact` says which).
+    """
+
+    def __init__(self, amplitudes, periods, directions, phases=None):
+        a = _vector("amplitudes", amplitudes)
+        lengths = _vector("periods", periods)
+        th = _vector("directions", directions)
+        ph = np.zeros_like(a) if phases is None else _vector("phases", phases)
+        if not (a.shape == lengths.shape == th.shape == ph.shape):
+            raise ParameterError(f"amplitudes, periods, directions and phases have lengths {a.size}, {lengths.size}, "
+                                 f"{th.size}, {ph.size}, which is not allowed: they must have the same length")
+        check_count("amplitudes", f"{a.size} gratings", a.size, MAX_HARMONICS, "gratings")
+        for i, v in enumerate(a):
+            nonnegative(f"amplitudes[{i}]", v, "m")
+        for i, v in enumerate(lengths):
+            positive(f"periods[{i}]", v, "m")
+        self.amplitudes, self.periods, self.directions, self.phases = a, lengths, th, ph
+        k = 2 * np.pi / lengths
+        self._kvec = np.ascontiguousarray(np.stack([k * np.cos(th), k * np.sin(th)], -1))  # (n, 2), rad/m
+        self._grad_w = a[:, None] * self._kvec  # (n, 2)
+        self._hess_w = -(a[:, None, None] * self._kvec[:, :, None] * self._kvec[:, None, :]).reshape(-1, 4)
+
+    def __repr__(self) -> str:
+        return (f"SumOfGratings(amplitudes={self.amplitudes.tolist()}, periods={self.periods.tolist()}, "
+                f"directions={self.directions.tolist()}, phases={self.phases.tolist()})")
+
+    def _series(self, xy, fun, weights):
+        """sum_k weights_k fun(k_k . xy + phi_k) in chunks (temporaries below 32 MiB)."""
+        xy = plane(xy)
+        flat = xy.reshape(-1, 2)
+        w = weights.reshape(self.amplitudes.size, -1)
+        out = np.empty((flat.shape[0], w.shape[1]))
+        step = max(1, (4 * 1024**2) // self.amplitudes.size)
+        for i in range(0, flat.shape[0], step):
+            out[i:i + step] = fun(flat[i:i + step] @ self._kvec.T + self.phases) @ w
+        return out.reshape(xy.shape[:-1] + weights.shape[1:])
+
+    def height_at(self, xt):
+        """h(x, y) (m) at positions of shape (..., 2) (m); shape (...)."""
+        return self._series(xt, np.sin, self.amplitudes)
+
+    def gradient(self, xt):
+        """grad h = [h_x, h_y] (m/m) at positions of shape (..., 2); shape (..., 2)."""
+        return self._series(xt, np.cos, self._grad_w)
+
+    def hessian(self, xt):
+        """Hessian [[h_xx, h_xy], [h_xy, h_yy]] (1/m), shape (..., 2, 2)."""
+        return self._series(xt, np.sin, self._hess_w).reshape(np.shape(xt)[:-1] + (2, 2))
+
+    @property
+    def shortest_period(self) -> float:
+        """Shortest wavelength over all directions among the live gratings (m)."""
+        live = self.periods[self.amplitudes > 0]
+        return float((live if live.size else self.periods).min())
+
+    @cached_property
+    def cell(self) -> tuple[float, float] | None:
+        """A periodic cell (L_x, L_y) (m): h(x + L_x, y) = h(x, y + L_y) = h(x, y); None
+        when the wave vectors' components are not commensurate."""
+        live = self.amplitudes > 0
+        out = []
+        for axis in (0, 1):
+            comp = np.abs(self._kvec[live, axis])
+            comp = comp[comp > 1e-12 * np.abs(self._kvec[live]).max(initial=1.0)]
+            if comp.size == 0:  # invariant along this axis: any length is a period
+                out.append(self.shortest_period)
+                continue
+            length = common_period(2 * np.pi / comp)
+            if length is None:
+                return None
+            out.append(length)
+        return out[0], out[1]
+
+    @cached_property
+    def max_slope_is_exact(self) -> bool:
+        """True when :attr:`max_slope` is the computed sup rather than an upper bound."""
+        return self.cell is not None
+
+    @cached_property
+    def max_slope(self) -> float:
+        """M = sup |grad h| (m/m) over the plane (Remark 2 with the gradient's norm)."""
+        if self.cell is None:
+            return float(np.sum(self.amplitudes * 2 * np.pi / self.periods))
+        return math.sqrt(self._sup(lambda p: np.sum(self.gradient(p) ** 2, axis=-1)))  # smooth at the sup
+
+    @cached_property
+    def max_curvature(self) -> float:
+        """sup of the Hessian's 2-norm (1/m); the bound sum_k a_k k_k^2 without a cell."""
+        if self.cell is None:
+            return float(np.sum(self.amplitudes * (2 * np.pi / self.periods) ** 2))
+        return self._sup(lambda p: np.linalg.norm(self.hessian(p), ord=2, axis=(-2, -1)))
+
+    @cached_property
+    def height_range(self) -> tuple[float, float]:
+        """(min h, max h) (m); the bound (-sum a, sum a) without a cell."""
+        total = float(self.amplitudes.sum())
+        if self.cell is None:
+            return (-total, total)
+        pts, (dx, dy) = self._grid()
+        h = self.height_at(pts)
+        pad = self.max_curvature * (dx * dx + dy * dy) / 8  # sampling error of an extremum
+        return (max(float(h.min()) - pad, -total), min(float(h.max()) + pad, total))
+
+    def spectrum(self) -> tuple[np.ndarray, np.ndarray]:
+        """Wave vectors / 2 pi, shape (n, 2) (1/m), and amplitudes a_k, shape (n,) (m)."""
+        return self._kvec / (2 * np.pi), self.amplitudes.copy()
+
+    @classmethod
+    def egg_crate(cls, amplitude: float, period: float) -> SumOfGratings:
+        """h = A sin(2 pi x / l) sin(2 pi y / l): the isotropic 'egg-crate' of the paper's
+        A and l, written as the two gratings (A/2) [cos(k(x - y)) - cos(k(x + y))] of
+        wavelength l / sqrt(2) at -45 and +45 degrees. Its sup |grad h| is 2 pi A / l (at
+        x = 0, y = l/4), the same as the profile's.
+
+        Raises
+        ------
+        ParameterError
+            If the amplitude is negative or the period not > 0.
+        """
+        a = nonnegative("amplitude", amplitude, "m")
+        lp = positive("period", period, "m")
+        return cls([a / 2, a / 2], [lp / math.sqrt(2)] * 2, [-math.pi / 4, math.pi / 4], [math.pi / 2, -math.pi / 2])
+
+
+class Grating(SumOfGratings):
+    """One grating h = A sin(2 pi (x cos th + y sin th) / l + phi) (m).
+
+    Parameters
+    ----------
+    amplitude : float
+        A >= 0 (m).
+    period : float
+        Wavelength l > 0 (m) along the direction.
+    direction : float, optional
+        th (rad) of the wave vector from the x axis, default 0 (ridges along y).
+    phase : float, optional
+        phi (rad).
+
+    Raises
+    ------
+    ParameterError
+        For a negative amplitude, a non-positive period or non-finite values.
+    """
+
+    def __init__(self, amplitude, period, direction=0.0, phase=0.0):
+        super().__init__([amplitude], [period], [direction], [phase])
+
+    def __repr__(self) -> str:
+        return (f"Grating(amplitude={self.amplitudes[0]:g}, period={self.periods[0]:g}, "
+                f"direction={self.directions[0]:g}, phase={self.phases[0]:g})")
+
+    @property
+    def max_slope(self) -> float:  # type: ignore[override]
+        """2 pi A / l, exact."""
+        return float(2 * np.pi * self.amplitudes[0] / self.periods[0])
+
+    max_slope_is_exact = True
+
+    @property
+    def max_curvature(self) -> float:  # type: ignore[override]
+        """A (2 pi / l)^2, exact."""
+        return float(self.amplitudes[0] * (2 * np.pi / self.periods[0]) ** 2)
+
+    @property
+    def height_range(self) -> tuple[float, float]:  # type: ignore[override]
+        a = float(self.amplitudes[0])
+        return (-a, a)
+
+
+class BandLimitedNoise2D(SumOfGratings):
+    """Isotropic band-limited noise h(x, y), periodic on a size x size cell (m).
+
+    Every wave vector 2 pi (m, n) / size of the lattice (one of each +-pair) whose
+    wavelength lies in [shortest_period, longest_period] gets the same amplitude a (a flat
+    spectrum over the annulus) and an independent phase uniform in [0, 2 pi) from
+    ``numpy.random.default_rng(seed)``; a = rms sqrt(2 / n), so the RMS height over the
+    cell is exactly ``rms``.
+
+    Parameters
+    ----------
+    rms : float
+        RMS height (m), >= 0.
+    shortest_period, longest_period : float
+        Band limits (m), 0 < shortest <= longest <= size.
+    size : float
+        Side of the periodic cell (m).
+    seed : int
+        Seed of the phases.
+
+    Raises
+    ------
+    ParameterError
+        For out-of-range values, a band with no lattice wave vector, or more than
+        ``MAX_HARMONICS`` of them.
+    """
+
+    def __init__(self, rms, shortest_period, longest_period, size, seed=0):
+        rms = nonnegative("rms", rms, "m")
+        lmin = positive("shortest_period", shortest_period, "m")
+        lmax = positive("longest_period", longest_period, "m")
+        side = positive("size", size, "m")
+        if not lmin <= lmax <= side:
+            raise fail("longest_period", lmax, f"in [shortest_period = {lmin:g}, size = {side:g}] m")
+        rmax = side / lmin * (1 + 1e-9)
+        check_count("shortest_period", lmin, math.pi * rmax * rmax / 2, MAX_HARMONICS,
+                    "lattice wave vectors in the band (each evaluation of h costs one per grating)")
+        r = math.floor(rmax)
+        m, n = np.meshgrid(np.arange(0, r + 1), np.arange(-r, r + 1), indexing="ij")
+        m, n = m.ravel(), n.ravel()
+        half = (m > 0) | ((m == 0) & (n > 0))  # one of each +- pair
+        radius = np.hypot(m, n)
+        keep = half & (radius >= side / lmax * (1 - 1e-9)) & (radius <= rmax)
+        m, n, radius = m[keep], n[keep], radius[keep]
+        if m.size == 0:
+            raise fail("shortest_period", lmin, f"a band that contains a wave vector of the 1/size = {1 / side:g} "
+                       "1/m lattice")
+        seed = whole("seed", seed, 0, 2**64 - 1, "numpy's default_rng seed")
+        phases = np.random.default_rng(seed).uniform(0.0, 2 * np.pi, m.size)
+        amp = rms * math.sqrt(2.0 / m.size)
+        self.rms, self.size, self.seed = rms, side, int(seed)
+        super().__init__(np.full(m.size, amp), side / radius, np.arctan2(n, m), phases)
+
+    def __repr__(self) -> str:
+        return (f"BandLimitedNoise2D(rms={self.rms:g}, shortest_period={self.shortest_period:g}, "
+                f"size={self.size:g}, seed={self.seed})")
+
+    @property
+    def cell(self) -> tuple[float, float]:  # type: ignore[override]
+        """(size, size): every wave vector is on the lattice 2 pi (m, n) / size."""
+        return (self.size, self.size)
+
+
+class Extruded(Surface):
+    """A profile extruded across the scan: h(x, y) = h(x) (m).
+
+    The 2-D paper is its y-invariant slice: every algorithm and analysis on
+    ``Extruded(profile)`` in 3-D reproduces the profile's 2-D numbers, with zero force and
+    Jacobian entries along y.
+
+    Parameters
+    ----------
+    profile : Texture
+        A height profile h(x) (dimension 1).
+
+    Raises
+    ------
+    ParameterError
+        If ``profile`` is not a profile.
+    """
+
+    def __init__(self, profile: Texture):
+        if not isinstance(profile, Texture) or profile.dimension != 1:
+            raise fail("profile", profile, "a haptex profile h(x) (e.g. haptex.Sinusoid(0.8e-3, 1e-3))")
+        self.profile = profile
+
+    def __repr__(self) -> str:
+        return f"Extruded({self.profile!r})"
+
+    def height_at(self, xt):
+        return self.profile.height(plane(xt)[..., 0])
+
+    def gradient(self, xt):
+        x = plane(xt)[..., 0]
+        out = np.zeros(x.shape + (2,))
+        out[..., 0] = self.profile.slope(x)
+        return out
+
+    def hessian(self, xt):
+        x = plane(xt)[..., 0]
+        out = np.zeros(x.shape + (2, 2))
+        out[..., 0, 0] = self.profile.curvature(x)
+        return out
+
+    @property
+    def shortest_period(self) -> float:
+        return self.profile.shortest_period
+
+    @property
+    def cell(self) -> tuple[float, float] | None:
+        """(the profile's period, its shortest period): invariant along y."""
+        period = self.profile.period
+        return None if period is None else (float(period), self.profile.shortest_period)
+
+    @property
+    def domain(self):
+        dom = self.profile.domain
+        return None if dom is None else ((float(dom[0]), float(dom[1])), (0.0, self.profile.shortest_period))
+
+    @property
+    def max_slope(self) -> float:
+        return self.profile.max_slope
+
+    @property
+    def max_slope_is_exact(self) -> bool:
+        return bool(getattr(self.profile, "max_slope_is_exact", True))
+
+    @property
+    def max_curvature(self) -> float:
+        return self.profile.max_curvature
+
+    @property
+    def height_range(self) -> tuple[float, float]:
+        return self.profile.height_range

@@ -1,0 +1,190 @@
+"""Issue 11, textures on surfaces in 3-D: the areal textures, the fields of W, A, B, C, G with
+3x3 Jacobians, and the characteristic number over a surface, with the paper's 2-D case as
+the exact special case."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+import haptex as hx
+
+from .conftest import K0, A, L
+
+SURFACE_LETTERS = "WABCG"
+
+
+def _alg(letter, texture, **kw):
+    if letter == "W":
+        return hx.algorithm("W", None if texture.dimension == 1 else hx.Flat(2), K0)
+    return hx.algorithm(letter, texture, K0, **kw)
+
+
+def _embed(p2):
+    """[x, z] -> [x, y, z] with a random y (the extruded surface does not depend on it)."""
+    y = np.random.default_rng(3).uniform(-5e-3, 5e-3, p2.shape[:-1])
+    return np.stack([p2[..., 0], y, p2[..., 1]], -1)
+
+
+@pytest.mark.parametrize("letter", SURFACE_LETTERS)
+@pytest.mark.parametrize("clamp", [None, 0.5e-3])
+def test_extruded_profile_reproduces_the_2d_fields_exactly(letter, clamp):
+    # Issue 11, "exact reduction": the 3-D code on Extruded(profile) is the 2-D paper with
+    # zero force and Jacobian entries along y (reference: today's 2-D fields, same formulas)
+    kw = {"max_penetration": clamp} if (clamp and letter in "BCG") else {}
+    tex = hx.Sinusoid(A, L)
+    a2, a3 = _alg(letter, tex, **kw), _alg(letter, hx.Extruded(tex), **kw)
+    rng = np.random.default_rng(5)
+    p2 = np.stack([rng.uniform(-2e-3, 2e-3, 4000), rng.uniform(-2.5e-3, 1e-3, 4000)], -1)
+    p3 = _embed(p2)
+    f2, j2 = a2.force_and_jacobian(p2)
+    f3, j3 = a3.force_and_jacobian(p3)
+    keep = [0, 2]
+    np.testing.assert_allclose(f3[:, keep], f2, rtol=1e-13, atol=0.0)
+    np.testing.assert_allclose(j3[:, keep][:, :, keep], j2, rtol=1e-13, atol=0.0)
+    assert not np.any(f3[:, 1]) and not np.any(j3[:, 1, :]) and not np.any(j3[:, :, 1])
+    np.testing.assert_array_equal(a3.penetration(p3), a2.penetration(p2))
+
+
+@pytest.mark.parametrize("letter", SURFACE_LETTERS)
+def test_table_ii_characteristic_numbers_through_the_3d_code(letter):
+    # Issue 11: Table II's q recomputed in 3-D on Extruded(Sinusoid(0.8 mm, 1 mm)) agrees with
+    # the 2-D code to 1e-9 relative (reference: haptex's 2-D q, itself checked against the
+    # paper in test_analysis)
+    tex = hx.Sinusoid(A, L)
+    q2 = hx.characteristic_number(_alg(letter, tex)).value
+    q3 = hx.characteristic_number(_alg(letter, hx.Extruded(tex)))
+    assert q3.value == pytest.approx(q2, rel=1e-9)
+    assert len(q3.where) == 3
+
+
+def test_q_of_A_on_an_egg_crate_is_remark_2_with_the_gradient():
+    # h = A sin(kx) sin(ky): |grad h|^2 = A^2 k^2 (cos^2 kx sin^2 ky + sin^2 kx cos^2 ky) <= A^2 k^2,
+    # reached at (0, l/4); Remark 2 in 3-D: q_A = sqrt(1 + sup |grad h|^2) = sqrt(1 + (2 pi A / l)^2)
+    egg = hx.SumOfGratings.egg_crate(A, L)
+    k = 2 * np.pi / L
+    xy = np.random.default_rng(1).uniform(0, 3e-3, (1000, 2))
+    np.testing.assert_allclose(egg.height_at(xy), A * np.sin(k * xy[:, 0]) * np.sin(k * xy[:, 1]), atol=1e-18)
+    assert egg.cell == pytest.approx((L, L), rel=1e-12)
+    assert egg.max_slope == pytest.approx(A * k, rel=1e-12)
+    assert egg.max_curvature == pytest.approx(A * k * k, rel=1e-12)  # Hessian eigenvalues -A k^2 (s s' +- c c')
+    assert egg.height_range == pytest.approx((-A, A), rel=1e-9)
+    q = hx.characteristic_number(hx.algorithm("A", egg, K0))
+    assert q.value == pytest.approx(math.sqrt(1 + (A * k) ** 2), rel=1e-9)
+    assert q.closed_form == pytest.approx(q.value, rel=1e-9)
+
+
+@pytest.mark.parametrize("letter", "ABCG")
+def test_a_grating_turned_in_the_plane_turns_its_field(letter):
+    # Issue 11, rotation invariance: a grating along direction th is the one along x turned by
+    # th about z, so f(R p) = R f(p), J(R p) = R J(p) R^T, and q is the same
+    th = 0.7
+    R = np.array([[math.cos(th), -math.sin(th), 0.0], [math.sin(th), math.cos(th), 0.0], [0.0, 0.0, 1.0]])
+    a0 = hx.algorithm(letter, hx.Grating(A, L), K0)
+    a1 = hx.algorithm(letter, hx.Grating(A, L, direction=th), K0)
+    rng = np.random.default_rng(9)
+    p = np.stack([rng.uniform(-2e-3, 2e-3, 3000), rng.uniform(-2e-3, 2e-3, 3000), rng.uniform(-2e-3, 1e-3, 3000)], -1)
+    f0, j0 = a0.force_and_jacobian(p)
+    f1, j1 = a1.force_and_jacobian(p @ R.T)
+    scale = K0 * 3e-3
+    np.testing.assert_allclose(f1, f0 @ R.T, rtol=0, atol=1e-9 * scale)
+    np.testing.assert_allclose(j1, R @ j0 @ R.T, rtol=0, atol=1e-7 * K0 * 40)
+    q0 = hx.characteristic_number(a0).value
+    q1 = hx.characteristic_number(a1, x_range=((0.0, L / math.cos(th)), (0.0, L / math.sin(th)))).value
+    assert q1 == pytest.approx(q0, rel=1e-9)
+
+
+@st.composite
+def surfaces(draw):
+    """Sums of up to three gratings in random directions, slopes up to ~4."""
+    n = draw(st.integers(1, 3))
+    periods = [draw(st.sampled_from([0.5e-3, 1e-3, 2e-3])) for _ in range(n)]
+    amps = [draw(st.floats(0.02, 0.6)) * p / (2 * np.pi) * 2 for p in periods]
+    dirs = draw(st.lists(st.floats(-np.pi, np.pi), min_size=n, max_size=n))
+    phases = draw(st.lists(st.floats(0, 2 * np.pi), min_size=n, max_size=n))
+    return hx.SumOfGratings(amps, periods, dirs, phases)
+
+
+@given(tex=surfaces(), letter=st.sampled_from("ABCG"), clamp=st.sampled_from([None, 0.4e-3]),
+       seed=st.integers(0, 10**6))
+def test_analytic_3x3_jacobians_match_finite_differences(tex, letter, clamp, seed):
+    # the chain-rule Jacobians in the docstrings against central differences of the force
+    # (O(h^2) error, h = 1e-8 m), away from the wall's surface and from the clamp depth
+    kw = {"max_penetration": clamp} if (clamp and letter in "BCG") else {}
+    alg = hx.algorithm(letter, tex, K0, **kw)
+    rng = np.random.default_rng(seed)
+    xy = rng.uniform(-2e-3, 2e-3, (40, 2))
+    ref = tex.height_at(xy) if letter != "G" else np.zeros(40)
+    z = ref - rng.uniform(0.05e-3, 1.5e-3, 40)
+    p = np.column_stack([xy, z])
+    if clamp:
+        p = p[np.abs(ref - z - clamp) > 0.02e-3]
+    J = alg.jacobian(p)
+    h = 1e-8
+    fd = np.empty_like(J)
+    for axis in range(3):
+        e = np.zeros(3)
+        e[axis] = h
+        fd[..., axis] = (alg.force(p + e) - alg.force(p - e)) / (2 * h)
+    scale = K0 * (1 + tex.max_slope) ** 2 * (1 + tex.max_curvature * 2e-3)
+    np.testing.assert_allclose(J, fd, rtol=0, atol=2e-5 * scale)
+
+
+@given(tex=surfaces(), seed=st.integers(0, 10**6))
+def test_c_and_w_are_gradients_in_3d_and_a_is_not(tex, seed):
+    # a field is a gradient (zero work around every closed loop) iff its Jacobian is symmetric
+    # on a simply connected region: C = -grad(kappa_0 d^2 / 2) (eq. 13) and W are; A is not
+    # wherever the texture has a slope (its J has kappa_0 grad h in the last row only)
+    rng = np.random.default_rng(seed)
+    xy = rng.uniform(-2e-3, 2e-3, (50, 2))
+    p = np.column_stack([xy, tex.height_at(xy) - rng.uniform(0.01e-3, 1e-3, 50)])
+    for alg in (hx.algorithm("C", tex, K0), hx.algorithm("W", hx.Flat(2), K0)):
+        J = alg.jacobian(p)
+        np.testing.assert_allclose(J, np.swapaxes(J, -1, -2), rtol=0, atol=1e-12 * K0 * (1 + tex.max_slope) ** 2)
+    J = hx.algorithm("A", tex, K0).jacobian(p)
+    slope = np.linalg.norm(tex.gradient(xy), axis=-1)
+    asym = np.abs(J - np.swapaxes(J, -1, -2)).max(axis=(-2, -1))
+    np.testing.assert_allclose(asym, K0 * np.abs(tex.gradient(xy)).max(axis=-1), rtol=1e-12)
+    assert np.all(asym[slope > 1e-3] > 0)
+
+
+def test_band_limited_noise_2d_has_the_exact_rms_and_band():
+    # every lattice wave vector 2 pi (m, n)/size in the band, equal amplitudes rms sqrt(2/N):
+    # the mean of h^2 over the periodic cell is rms^2 exactly (orthogonality of the modes on a
+    # grid finer than twice the highest index), and it is periodic on the cell
+    noise = hx.BandLimitedNoise2D(2e-6, 50e-6, 400e-6, 1e-3, seed=4)
+    lam = noise.periods
+    assert lam.min() >= 50e-6 * (1 - 1e-9) and lam.max() <= 400e-6 * (1 + 1e-9)
+    n = 128
+    g = (np.arange(n) + 0.5) * 1e-3 / n
+    X, Y = np.meshgrid(g, g, indexing="ij")
+    pts = np.stack([X, Y], -1)
+    assert math.sqrt(np.mean(noise.height_at(pts) ** 2)) == pytest.approx(2e-6, rel=1e-12)
+    np.testing.assert_allclose(noise.height_at(pts + [1e-3, 0.0]), noise.height_at(pts), atol=1e-17)
+    np.testing.assert_allclose(noise.height_at(pts + [0.0, 1e-3]), noise.height_at(pts), atol=1e-17)
+    again = hx.BandLimitedNoise2D(2e-6, 50e-6, 400e-6, 1e-3, seed=4)
+    assert np.array_equal(again.phases, noise.phases)
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda: hx.algorithm("A", hx.Grating(A, L), K0).force([[0.0, -1e-3]]),
+     r"p has shape \(1, 2\), which is not allowed: must be \(\.\.\., 3\) = \[x, y, z\]"),
+    (lambda: hx.algorithm("A", hx.Sinusoid(A, L), K0).force([[0.0, 0.0, -1e-3]]),
+     r"p has shape \(1, 3\), which is not allowed: must be \(\.\.\., 2\) = \[x, z\]"),
+    (lambda: hx.algorithm("D", hx.Grating(A, L), K0), "not allowed for algorithm D yet"),
+    (lambda: hx.algorithm("F", hx.Grating(A, L), K0), "not allowed for algorithm F yet"),
+    (lambda: hx.simulate(hx.algorithm("A", hx.Grating(A, L), K0), hx.Device.point_mass(),
+                         hx.operators.ConstantForce([0.0, -1.0]), 0.01),
+     "the compiled simulator, renderer and C export take profiles"),
+    (lambda: hx.Extruded(hx.Grating(A, L)), "profile = .* is not allowed"),
+    (lambda: hx.SumOfGratings([1e-4, 1e-4], [1e-3], [0.0, 1.0]), "must have the same length"),
+    (lambda: hx.Grating(-1e-4, 1e-3), "amplitudes\\[0\\] = -0.0001 is not allowed"),
+    (lambda: hx.Grating(1e-4, 1e-3).height(0.0), "is a surface h\\(x, y\\): evaluate it with height_at"),
+    (lambda: hx.characteristic_number(hx.algorithm("A", hx.Grating(A, L), K0), x_range=(0, 1e-3)),
+     "x_range = .* is not allowed: must be \\(\\(x_min, x_max\\), \\(y_min, y_max\\)\\)"),
+])
+def test_bad_3d_input_is_a_parameter_error_naming_it(call, message):
+    with pytest.raises(hx.ParameterError, match=message):
+        call()
