@@ -859,7 +859,7 @@ class FrictionModulated(Algorithm):
         adaptive quadrature; the smooth variant is stepped on 4000 sub-steps a piece and
         integrated by the trapezoidal rule.
         """
-        from .analysis import _breakpoints
+        from .analysis.work import _breakpoints
 
         total = 0.0
         state = None  # None: out of contact

@@ -1,0 +1,429 @@
+"""The characteristic number q = sup ||J||_2 / kappa_0 over the rendering region (eq. 5),
+with its closed forms and F's presliding bounds (Campion & Hayward, Sections III-IV)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import ndimage, optimize
+
+from .._validation import ParameterError, fail
+from ..algorithms import Algorithm
+from ..closest import closest_point
+from ..textures import Flat, Sinusoid, Texture
+from ._region import _plane_ranges, _region_points, check_analysis_scale
+
+
+# ------------------------------------------------------------------------------------
+# characteristic number
+# ------------------------------------------------------------------------------------
+def spectral_norm(j) -> np.ndarray:
+    """Largest singular value of 2x2 or 3x3 matrices.
+
+    Parameters
+    ----------
+    j : array_like, shape (..., 2, 2) or (..., 3, 3)
+
+    Returns
+    -------
+    ndarray, shape (...)
+        sigma_max(J), in the units of J: for 2x2 in closed form,
+        sqrt((|J|_F^2 + sqrt(|J|_F^4 - 4 det(J)^2)) / 2); for 3x3 by LAPACK's SVD.
+    """
+    j = np.asarray(j, dtype=np.float64)
+    if j.shape[-2:] != (2, 2):
+        return np.linalg.svd(j, compute_uv=False)[..., 0]
+    fro2 = np.sum(j * j, axis=(-2, -1))
+    det = j[..., 0, 0] * j[..., 1, 1] - j[..., 0, 1] * j[..., 1, 0]
+    disc = np.sqrt(np.maximum(fro2 * fro2 - 4 * det * det, 0.0))
+    return np.sqrt(0.5 * (fro2 + disc))
+
+
+@dataclass(frozen=True)
+class CharacteristicNumber:
+    """Result of :func:`characteristic_number`.
+
+    Attributes
+    ----------
+    letter : str
+        Algorithm letter.
+    value : float
+        Numeric q = sup ||J||_2 / kappa_0 over the rendering region (eq. 5); ``inf``
+        when the sup is unbounded (algorithm D below peaks whose radius of curvature is
+        within the region).
+    closed_form : float or None
+        The paper's value where it gives one: A, eq. 10 (with 2 pi A / l replaced by the
+        Lipschitz bound M for other textures, Remark 2); D, 1 (eq. 18); E, 1 (eq. 21);
+        W, 1 (eq. 30). ``None`` for B, C, G ("no closed form", Table II).
+    where : tuple of float
+        Probe position [x, z] (m) attaining the sup (the centre of curvature for an
+        unbounded D).
+    max_penetration : float
+        Depth bound of the region searched (m).
+    note : str
+        How the value was obtained, in one sentence.
+    paper_form_value : float or None
+        For D only: the sup of the eq. 18 (flat-boundary) Jacobian, which is 1.
+    extra : dict
+        For F: ``phase`` and ``deflection`` (m) at the sup, ``bound_eq26`` (the norm of
+        the matrix of eq. 26 over kappa_0), ``eq31_as_printed`` (Appendix I's expression
+        evaluated literally), ``paper_reported`` (8.3, Section V-A) and the parameters
+        those were evaluated with.
+    """
+
+    letter: str
+    value: float
+    closed_form: float | None
+    where: tuple[float, float]
+    max_penetration: float
+    note: str = ""
+    paper_form_value: float | None = None
+    extra: dict = field(default_factory=dict)
+
+    def __float__(self) -> float:
+        return float(self.value)
+
+    @property
+    def unbounded(self) -> bool:
+        """True when the sup is infinite."""
+        return math.isinf(self.value)
+
+
+def _closed_form_q(alg: Algorithm) -> float | None:
+    if alg.letter == "A":
+        return math.sqrt(1.0 + alg.texture.max_slope**2)
+    if alg.letter in ("D", "E", "W"):
+        return 1.0
+    return None
+
+
+def characteristic_number(
+    algorithm: Algorithm,
+    max_penetration: float = 1e-3,
+    x_range=None,
+    resolution: tuple[int, int] = (256, 64),
+) -> CharacteristicNumber:
+    """Characteristic number q = sup ||J_f||_2 / kappa_0 of an algorithm (eq. 5).
+
+    The sup is taken over probe positions inside the wall whose penetration, measured
+    the way the algorithm measures it (Table I), lies in (0, ``max_penetration``], and
+    whose abscissa spans one texture period (or ``x_range``). A grid of
+    ``resolution = (n_x, n_depth)`` points is searched first, then the best grid points
+    are refined by bounded quasi-Newton maximisation inside their grid cells, so the
+    result is the sup and not a grid sample.
+
+    Parameters
+    ----------
+    algorithm : Algorithm
+        A memoryless algorithm (W, A–E, G).
+    max_penetration : float, optional
+        Depth bound d_max (m), default 1 mm (the paper's d^z_max).
+    x_range : (float, float), optional
+        Abscissa interval (m); required for an aperiodic texture.
+    resolution : (int, int), optional
+        Grid size along x and along depth.
+
+    Returns
+    -------
+    CharacteristicNumber
+
+    Raises
+    ------
+    ParameterError
+        If ``max_penetration`` <= 0, ``x_range`` is malformed or missing for an
+        aperiodic texture, or the resolution is below (8, 4).
+
+    Notes
+    -----
+    For D the exact Jacobian (including the boundary's curvature) is
+    -kappa_0 (I - v v^T / D) with v = [1, h'] and D = 1 + h'^2 + (h - p^z) h''; its norm
+    is kappa_0 max(1, (1 + h'^2) / D - 1), which grows without bound as the probe
+    approaches the centre of curvature below a peak (D -> 0). When the smallest radius
+    of curvature of a convex-up part of the boundary is shallower than
+    ``max_penetration`` (for the paper's sinusoid, l^2 / (4 pi^2 A) = 32 um), the sup is
+    therefore infinite; ``value`` is ``inf`` and ``where`` is that centre of curvature.
+    The paper's value 1 is the sup of the flat-boundary linearisation eq. 18, reported
+    in ``paper_form_value``.
+    """
+    dmax = check_analysis_scale(algorithm, max_penetration)
+    nx, nd = (int(v) for v in resolution)
+    if nx < 8 or nd < 4:
+        raise fail("resolution", resolution, "(n_x, n_depth) with n_x >= 8 and n_depth >= 4")
+    ranges = _plane_ranges(algorithm, x_range)
+    tex = algorithm.texture
+    if tex.dimension == 2:  # a surface: a 3-D grid, kept to ~10^6 points (refinement does the rest)
+        if algorithm.penetration_kind == "distance" or algorithm.has_memory:
+            raise ParameterError(f"algorithm = {algorithm.letter!r} on a surface is not analysed yet")
+        nd = max(4, nd // 4)
+        counts = [int(min(max(32, math.ceil(32 * (b - a) / tex.shortest_period)), 256)) for a, b in ranges]
+    else:
+        counts = [nx]
+        if not isinstance(tex, Flat):
+            # at least 64 grid cells per shortest period, so every local maximum has its cell
+            counts = [int(min(max(nx, math.ceil(64 * (ranges[0][1] - ranges[0][0]) / tex.shortest_period)), 8192))]
+    k0 = algorithm.stiffness
+    closed = _closed_form_q(algorithm)
+
+    if algorithm.penetration_kind == "distance":
+        return _q_distance(algorithm, dmax, *ranges[0], counts[0], nd, closed)
+    if algorithm.has_memory:
+        return _q_friction(algorithm, dmax, *ranges[0], counts[0], nd)
+
+    axes = [np.linspace(a, b, n + 1) for (a, b), n in zip(ranges, counts)]
+    ds = np.linspace(dmax / nd, dmax, nd)
+    mesh = np.meshgrid(*axes, ds, indexing="ij")
+    plane_pts = np.stack(mesh[:-1], axis=-1)
+    norms = spectral_norm(algorithm.jacobian(_region_points(algorithm, plane_pts, mesh[-1]))) / k0
+    steps = [(b - a) / n for (a, b), n in zip(ranges, counts)]
+    dd = dmax / nd
+
+    def neg_q(v):
+        p = _region_points(algorithm, np.asarray(v[:-1])[None, :], np.array([v[-1]]))
+        return -float(spectral_norm(algorithm.jacobian(p))[0]) / k0
+
+    start = [r[0] for r in ranges] + [dmax]
+    best, where_pt = -np.inf, tuple(start)
+    for idx in _candidates(norms):
+        ijk = np.unravel_index(idx, norms.shape)
+        pt = [axes[a][ijk[a]] for a in range(len(axes))] + [ds[ijk[-1]]]
+        bounds = [(max(r[0], v - h), min(r[1], v + h)) for r, v, h in zip(ranges, pt, steps)]
+        bounds.append((max(dd * 1e-6, pt[-1] - dd), min(dmax, pt[-1] + dd)))
+        val, found = _refine(neg_q, pt, norms[ijk], bounds)
+        if val > best:
+            best, where_pt = val, found
+    where = _region_points(algorithm, np.array(where_pt[:-1])[None, :], np.array([where_pt[-1]]))[0]
+    grid = "x".join(str(n) for n in counts + [nd])
+    extent = " and ".join(f"{name} in [{a:g}, {b:g}] m" for name, (a, b) in zip("xy", ranges))
+    return CharacteristicNumber(
+        letter=algorithm.letter,
+        value=best,
+        closed_form=closed,
+        where=tuple(float(v) for v in where),
+        max_penetration=dmax,
+        note=f"grid {grid} over {extent} and depth in (0, {dmax:g}] m, refined by L-BFGS-B",
+    )
+
+
+def _refine(neg, start, value: float, bounds) -> tuple[float, tuple]:
+    """Bounded L-BFGS-B maximisation from a grid point: (value, point), the grid's own if
+    the refinement finds nothing larger."""
+    r = optimize.minimize(neg, x0=list(start), method="L-BFGS-B", bounds=bounds,
+                          options={"ftol": 1e-15, "gtol": 1e-12})
+    if -r.fun > value:
+        return -float(r.fun), tuple(float(v) for v in r.x)
+    return float(value), tuple(float(v) for v in start)
+
+
+def _candidates(values: np.ndarray, count: int = 8) -> np.ndarray:
+    """Flat indices of the ``count`` largest local maxima of a 2-D or 3-D grid, best first."""
+    finite = np.where(np.isfinite(values), values, -np.inf)
+    peaks = (ndimage.maximum_filter(finite, size=3, mode="nearest") == finite) & np.isfinite(finite)
+    labels, n = ndimage.label(peaks, structure=np.ones((3,) * values.ndim))
+    if n == 0:
+        return np.array([int(np.argmax(finite))])
+    # one candidate per connected plateau of local maxima, so ties do not crowd out others
+    pos = ndimage.maximum_position(finite, labels, index=np.arange(1, n + 1))
+    idx = np.array([np.ravel_multi_index(q, finite.shape) for q in pos])
+    order = np.argsort(finite.ravel()[idx])[::-1]
+    return idx[order[:count]]
+
+
+def friction_bounds(algorithm, depth: float) -> dict:
+    """The paper's bounds on q_F: eq. 26's matrix norm and Appendix I's eq. 31 as printed.
+
+    Both are evaluated with the paper's reading of F: A the dimensionless modulation depth
+    (h in [0, 1]), l the texture period (the shortest period for other textures; for them
+    2 pi A / l is replaced by the modulation's Lipschitz bound, Remark 2), p^z = ``depth``.
+
+    Parameters
+    ----------
+    algorithm : Algorithm
+        Algorithm F.
+    depth : float
+        |p^z| at which the bounds are evaluated (m), the paper's d^z_max.
+
+    Returns
+    -------
+    dict
+        ``bound_eq26``: ||[[2 mu p^z (1/d^x_max + pi A / l), 2 mu], [0, 1]]||_2;
+        ``eq31_as_printed``: eq. 31 evaluated term by term as printed (its exponents such
+        as (mu^4 p^z)^4 are kept, although they make it differ from the norm it bounds);
+        ``eq31_corrected``: eq. 31 with the inner root replaced by the closed form of the
+        2x2 singular value, which equals ``bound_eq26``.
+    """
+    mu = algorithm.friction
+    dm = algorithm.presliding
+    P = depth
+    K = 0.5 * algorithm.modulation_max_slope  # pi A / l for h~ = A sin(2 pi x / l)
+    a = 2 * mu * P * (1 / dm + K)
+    b = 2 * mu
+    eq26 = float(spectral_norm(np.array([[a, b], [0.0, 1.0]])))
+    r = K * dm
+    D = dm
+    outer = 4 * (mu * P) ** 2 + 8 * (mu * P) ** 2 * r + 4 * (mu * P * r) ** 2 + 4 * (mu * D) ** 2 + D**2
+    inner = (16 * (mu**4 * P) ** 4 + 32 * mu**2 * (mu**2 * D * P) ** 2 + 64 * (mu * P) ** 4 * r + D**4
+             + 96 * (mu * P) ** 4 * r**2 + 64 * (mu * P) ** 4 * r**3 + 64 * mu**4 * D**3 * P**2 * K
+             - 16 * D**3 * (mu * P) ** 2 * K + 16 * (mu * P * r) ** 4 + 32 * (mu**4 * D) ** 4 * (P * K) ** 2
+             - 8 * D**4 * (mu * P * K) ** 2 + 16 * (mu * D) ** 4 + 8 * mu**2 * D**4 - 8 * (mu * P * D) ** 2)
+    eq31 = math.sqrt(2) / (2 * D) * math.sqrt(outer + math.sqrt(inner)) if inner >= 0 else math.nan
+    s2 = outer / D**2
+    corrected = math.sqrt(0.5 * (s2 + math.sqrt(max(s2 * s2 - 4 * a * a, 0.0))))
+    return {"bound_eq26": eq26, "eq31_as_printed": eq31, "eq31_corrected": corrected,
+            "evaluated_with": {"mu": mu, "presliding": dm, "p_z": P, "pi_A_over_l": K}}
+
+
+PAPER_Q_F = 8.3
+"""q_F reported in Section V-A (kappa_0 = 2000 N/m, l = 1 mm, A = 0.8, mu = 0.8,
+d^x_max = d^z_max = 1 mm)."""
+
+
+def _q_friction(alg, dmax, x0, x1, nx, nd) -> CharacteristicNumber:
+    """Characteristic number of F: sup over x, depth, deflection and both phases."""
+    k0 = alg.stiffness
+    dm = alg.presliding
+    depth_max = dmax
+    nq = 33
+    xs = np.linspace(x0, x1, nx + 1)
+    ds = np.linspace(depth_max / nd, depth_max, nd)
+    qs = np.linspace(-dm, dm, nq)
+    best, arg = -np.inf, None
+    for phase, defl in (("stick", qs), ("slip", np.array([-dm, dm]))):
+        X, Dp, Q = np.meshgrid(xs, ds, defl, indexing="ij")
+        P = np.stack([X, -Dp], axis=-1)
+        norms = spectral_norm(alg.jacobian(P, Q, phase)) / k0
+        flat = np.argsort(norms, axis=None)[-4:]
+        for idx in flat:
+            i, j, q = np.unravel_index(idx, norms.shape)
+
+            def neg(v, phase=phase, q=q, defl=defl):
+                dd = v[2] if phase == "stick" else defl[q]
+                return -float(spectral_norm(alg.jacobian(np.array([[v[0], -v[1]]]), dd, phase))[0]) / k0
+
+            dx, dd_ = (x1 - x0) / nx, depth_max / nd
+            bounds = [(max(x0, xs[i] - dx), min(x1, xs[i] + dx)), (max(dd_ * 1e-6, ds[j] - dd_), min(depth_max, ds[j] + dd_)),
+                      (-dm, dm) if phase == "stick" else (defl[q], defl[q])]
+            val, v = _refine(neg, (xs[i], ds[j], defl[q]), norms[i, j, q], bounds)
+            if val > best:
+                best, arg = val, (*v, phase)
+    bounds_paper = friction_bounds(alg, depth_max if alg.max_penetration is None else min(depth_max, alg.max_penetration))
+    extra = {"phase": arg[3], "deflection": arg[2], **bounds_paper}
+    note = (f"sup over x in [{x0:g}, {x1:g}] m, depth in (0, {depth_max:g}] m, deflection in "
+            f"[-{dm:g}, {dm:g}] m, stick and slip; eq. 26 bound {bounds_paper['bound_eq26']:.4g}, "
+            f"eq. 31 as printed {bounds_paper['eq31_as_printed']:.4g}")
+    tex = alg.texture
+    paper_case = (isinstance(tex, Sinusoid) and math.isclose(tex.period, 1e-3) and math.isclose(alg.friction, 0.8)
+                  and math.isclose(dm, 1e-3) and math.isclose(depth_max, 1e-3)
+                  and math.isclose(alg.modulation_depth, 0.8)
+                  and (alg.max_penetration is None or alg.max_penetration >= depth_max))
+    if paper_case:
+        extra["paper_reported"] = PAPER_Q_F
+        note += f"; Section V-A reports {PAPER_Q_F} for these parameters"
+    return CharacteristicNumber("F", best, None, (arg[0], -arg[1]), dmax, note, None, extra)
+
+
+def _normal_point(tex: Texture, t, r):
+    """Probe positions at distance r (m) along the inward normal from (t, h(t))."""
+    t = np.asarray(t, dtype=np.float64)
+    s = tex.slope(t)
+    g = 1.0 / np.sqrt(1.0 + s * s)
+    return np.stack([t + r * s * g, tex.height(t) - r * g], axis=-1)
+
+
+def _q_distance(alg, dmax, x0, x1, nx, nd, closed) -> CharacteristicNumber:
+    """Characteristic number for D and E (penetration = distance to the textured surface).
+
+    The region is parametrised by the closest boundary abscissa t and the distance r:
+    p = (t, h(t)) + r n_in(t), kept only where (t, h(t)) is the unique closest point of p.
+    """
+    tex = alg.texture
+    k0 = alg.stiffness
+    ts = np.linspace(x0, x1, nx + 1)
+    rs = np.linspace(dmax / nd, dmax, nd)
+    T, R = np.meshgrid(ts, rs, indexing="ij")
+    P = _normal_point(tex, T, R)
+
+    def valid(points, r):
+        cp = closest_point(tex, points)
+        return (cp.distance >= r * (1 - 1e-9)) & ~cp.tie
+
+    region = valid(P, R)
+    norms = np.where(region, spectral_norm(alg.jacobian(P)) / k0, -np.inf)
+    paper_value = None
+    note = (f"grid {nx}x{nd} over closest-point x in [{x0:g}, {x1:g}] m and distance in (0, {dmax:g}] m, "
+            "refined by L-BFGS-B")
+    if alg.letter == "D":
+        paper_value = float(np.max(np.where(region, spectral_norm(alg.jacobian(P, form="paper")) / k0, -np.inf)))
+        focal = _unbounded_focus(tex, dmax, x0, x1)
+        if focal is not None:
+            rho, fx, fz = focal
+            return CharacteristicNumber(
+                letter="D",
+                value=math.inf,
+                closed_form=closed,
+                where=(fx, fz),
+                max_penetration=dmax,
+                note=(
+                    f"unbounded: ||J|| -> inf approaching the centre of curvature at depth {rho:.4g} m "
+                    f"below a peak (< max_penetration {dmax:g} m); eq. 18 gives {paper_value:.6g}"
+                ),
+                paper_form_value=paper_value,
+            )
+    dt = (x1 - x0) / nx
+    dr = dmax / nd
+
+    def neg_q(v):
+        p = _normal_point(tex, np.array([v[0]]), v[1])
+        if not valid(p, v[1])[0]:
+            return 0.0
+        return -float(spectral_norm(alg.jacobian(p))[0]) / k0
+
+    best, where_tr = -np.inf, (x0, dmax)
+    for idx in _candidates(norms):
+        i, j = np.unravel_index(idx, norms.shape)
+        bounds = [(T[i, j] - dt, T[i, j] + dt), (max(dr * 1e-6, R[i, j] - dr), min(dmax, R[i, j] + dr))]
+        val, pt = _refine(neg_q, (T[i, j], R[i, j]), norms[i, j], bounds)
+        if val > best:
+            best, where_tr = val, pt
+    w = _normal_point(tex, np.array([where_tr[0]]), where_tr[1])[0]
+    return CharacteristicNumber(alg.letter, best, closed, (float(w[0]), float(w[1])), dmax, note, paper_value)
+
+
+def _unbounded_focus(tex: Texture, dmax: float, x0: float, x1: float):
+    """Smallest radius of curvature rho of the convex-up boundary (h'' < 0) in [x0, x1]
+    and its centre of curvature, if rho < dmax and the boundary point is the closest
+    point of the points just above that centre; else None."""
+    if isinstance(tex, Flat):
+        return None
+    xs = np.linspace(x0, x1, 4097)
+    s = tex.slope(xs)
+    c = tex.curvature(xs)
+    with np.errstate(divide="ignore", over="ignore"):  # where c = 0 or is subnormal, rho is inf
+        rho = np.where(c < 0, (1 + s * s) ** 1.5 / np.abs(c), np.inf)
+    i = int(np.argmin(rho))
+    if not np.isfinite(rho[i]):
+        return None
+
+    def rho_at(t):
+        cc = float(tex.curvature(np.array([t]))[0])
+        ss = float(tex.slope(np.array([t]))[0])
+        return (1 + ss * ss) ** 1.5 / abs(cc) if cc < 0 else np.inf
+
+    dxs = xs[1] - xs[0]
+    r = optimize.minimize_scalar(rho_at, bounds=(xs[i] - dxs, xs[i] + dxs), method="bounded",
+                                 options={"xatol": 1e-14})
+    t = float(r.x)
+    rmin = float(r.fun)
+    if not rmin < dmax:
+        return None
+    s_t = float(tex.slope(np.array([t]))[0])
+    g = 1.0 / math.sqrt(1 + s_t * s_t)
+    h_t = float(tex.height(np.array([t]))[0])
+    fx, fz = t + rmin * s_t * g, h_t - rmin * g
+    # check that the boundary point t is the closest point just above the focus
+    probe = np.array([[t + 0.999 * rmin * s_t * g, h_t - 0.999 * rmin * g]])
+    cp = closest_point(tex, probe)
+    if abs(cp.distance[0] - 0.999 * rmin) > 1e-9 * rmin + 1e-15:
+        return None
+    return rmin, fx, fz

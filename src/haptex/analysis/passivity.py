@@ -1,0 +1,175 @@
+"""Passivity and what a device can render: the condition of Corollary 1 (eq. 1), the
+largest passive stiffness and the rendering limits of Section II-B."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._validation import positive
+from ..algorithms import Algorithm
+from ..textures import Texture
+from .characteristic import CharacteristicNumber, characteristic_number
+
+
+# ------------------------------------------------------------------------------------
+# devices: the six texture-rendering limits and the passivity condition
+# ------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Limit:
+    """One inequality of Section II-B: ``lhs < rhs`` must hold.
+
+    Attributes
+    ----------
+    name : str
+    formula : str
+        As evaluated (with the paper's printed form where it differs).
+    lhs, rhs : float
+        Both sides, in the units of ``unit``.
+    unit : str
+    passed : bool
+    """
+
+    name: str
+    formula: str
+    lhs: float
+    rhs: float
+    unit: str
+    passed: bool
+
+
+def texture_limits(texture: Texture, device, speed: float, stiffness: float, samples_per_period=5) -> list[Limit]:
+    """The six necessary conditions of Section II-B for rendering a texture on a device.
+
+    With l the texture's shortest period, M its Lipschitz bound (Remark 2: 2 pi A / l for
+    a sinusoid), A_F = kappa_0 max|h| the force amplitude the texture produces at
+    stiffness kappa_0, and alpha = beta = gamma = ``samples_per_period``:
+
+    1. scanning velocity       alpha v T / l < 1
+    2. low-speed reconstruction beta delta / l < 1
+    3. high-speed reconstruction alpha delta / l < 1 (as printed)
+    4. force reconstruction    gamma b < A_F (printed "gamma b / l < A", whose sides
+       have different units; the force amplitude must span gamma force quanta)
+    5. gain                    kappa_0 M < K_max (printed 2 pi A / l < A_0 with A the
+       force amplitude: the force gradient 2 pi A_F / l = kappa_0 M), with K_max the
+       device's largest stiffness (its ``max_stiffness``, else sigma_0(B) / (2T))
+    6. structural              v / l < F_0
+
+    Parameters
+    ----------
+    texture : Texture
+    device : Device
+    speed : float
+        Scanning velocity v (m/s), > 0.
+    stiffness : float
+        kappa_0 (N/m) the texture is rendered with.
+    samples_per_period : float or (float, float, float), optional
+        alpha, beta, gamma ("typically 5 to 10"), default 5.
+
+    Returns
+    -------
+    list of Limit
+        In the paper's order.
+
+    Raises
+    ------
+    ParameterError
+        For a non-positive speed, stiffness or sample count.
+    """
+    v = positive("speed", speed, "m/s")
+    k0 = positive("stiffness", stiffness, "N/m")
+    spp = np.broadcast_to(np.asarray(samples_per_period, dtype=np.float64), (3,))
+    for name, val in zip(("alpha", "beta", "gamma"), spp):
+        positive(f"samples_per_period ({name})", val)
+    alpha, beta, gamma = (float(v_) for v_ in spp)
+    ell = float(texture.shortest_period)
+    M = float(texture.max_slope)
+    force_amp = k0 * float(texture.peak_magnitude)
+    T = device.period
+    delta = device.position_resolution
+    b = device.force_resolution
+    kmax = device.max_stiffness
+    return [
+        Limit("scanning velocity", "alpha v T / l < 1", alpha * v * T / ell, 1.0, "1", alpha * v * T / ell < 1),
+        Limit("low-speed reconstruction", "beta delta / l < 1", beta * delta / ell, 1.0, "1", beta * delta / ell < 1),
+        Limit("high-speed reconstruction", "alpha delta / l < 1", alpha * delta / ell, 1.0, "1", alpha * delta / ell < 1),
+        Limit("force reconstruction", "gamma b < A_F (printed: gamma b / l < A)", gamma * b, force_amp, "N",
+              gamma * b < force_amp),
+        Limit("gain", "kappa_0 M < K_max (printed: 2 pi A / l < A_0)", k0 * M, kmax, "N/m", k0 * M < kmax),
+        Limit("device structural", "v / l < F_0", v / ell, device.first_resonance, "Hz", v / ell < device.first_resonance),
+    ]
+
+
+@dataclass(frozen=True)
+class PassivityCondition:
+    """Result of :func:`passivity_condition` (Corollary 1, eq. 1).
+
+    Attributes
+    ----------
+    holds : bool
+        sup ||J||_2 <= sigma_0(B) / (2T) over the rendering region.
+    sup_jacobian_norm : float
+        kappa_0 q (N/m); inf when q is unbounded.
+    limit : float
+        sigma_0(B) / (2T) (N/m).
+    margin : float
+        limit / sup_jacobian_norm (> 1 when the condition holds with room to spare).
+    characteristic_number : CharacteristicNumber
+    """
+
+    holds: bool
+    sup_jacobian_norm: float
+    limit: float
+    margin: float
+    characteristic_number: CharacteristicNumber
+
+
+def passivity_condition(algorithm: Algorithm, device, max_penetration: float = 1e-3, x_range=None) -> PassivityCondition:
+    """Corollary 1: is ||J_f||_2 <= sigma_0(B) / (2T) everywhere in the rendering region?
+
+    Parameters
+    ----------
+    algorithm : Algorithm
+    device : Device
+        Its inside damping matrix B and sampling period T are used.
+    max_penetration : float, optional
+        Depth of the rendering region (m).
+    x_range : (float, float), optional
+        Abscissa range (m); the texture's domain by default.
+
+    Returns
+    -------
+    PassivityCondition
+
+    Notes
+    -----
+    A sufficient condition (eq. 1), derived from Theorem 1 of Miller, Colgate & Freeman
+    [18]; the simulator shows how conservative it is for a given device.
+    """
+    q = characteristic_number(algorithm, max_penetration=max_penetration, x_range=x_range)
+    sup = algorithm.stiffness * q.value
+    lim = device.passivity_limit
+    margin = lim / sup if sup > 0 else math.inf
+    return PassivityCondition(bool(sup <= lim), float(sup), float(lim), float(margin), q)
+
+
+def max_passive_stiffness(algorithm: Algorithm, device, max_penetration: float = 1e-3, x_range=None) -> float:
+    """Largest nominal stiffness kappa_0 (N/m) that satisfies Corollary 1: sigma_0(B) / (2 T q).
+
+    q is computed numerically for the algorithm's texture (it does not depend on
+    kappa_0); 0 when q is unbounded (algorithm D below peaks sharper than the region's
+    depth: use ``characteristic_number(...).paper_form_value`` for eq. 18's 1).
+
+    Parameters
+    ----------
+    algorithm : Algorithm
+    device : Device
+    max_penetration : float, optional
+        Depth of the rendering region (m).
+    x_range : (float, float), optional
+        Abscissa range (m).
+    """
+    q = characteristic_number(algorithm, max_penetration=max_penetration, x_range=x_range).value
+    return 0.0 if math.isinf(q) else float(device.passivity_limit / q)

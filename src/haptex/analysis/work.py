@@ -1,0 +1,511 @@
+"""Work of a field along a path and around loops, the paper's Fig. 3 loops, the curl, and
+measured conservativity (Campion & Hayward, Section III)."""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import integrate, optimize
+
+from .._validation import ParameterError, check_count, fail, in_range, positions, positive, whole
+from ..algorithms import Algorithm
+from ..closest import closest_point
+from ..textures import Flat, Sinusoid, Texture
+from ._region import _region_box, check_analysis_scale
+
+
+# ------------------------------------------------------------------------------------
+# path work and loop energies
+# ------------------------------------------------------------------------------------
+def _signed_depths(alg: Algorithm, pts: np.ndarray) -> list[np.ndarray]:
+    """Functions whose sign changes mark kinks of the force along a path: the boundary
+    and, with max_penetration, the clamp depth."""
+    x, z = pts[..., 0], pts[..., 1]
+    if alg.penetration_kind == "nominal":
+        d = z
+    else:
+        d = z - alg.texture.height(x)
+    out = [d]
+    dm = getattr(alg, "max_penetration", None)
+    if dm is not None:
+        out.append(d + dm)
+    return out
+
+
+def _breakpoints(alg: Algorithm, a: np.ndarray, b: np.ndarray) -> list[float]:
+    """Parameters u in (0, 1) where the segment a->b crosses the boundary or a clamp depth."""
+    length = float(np.hypot(*(b - a)))
+    tex = alg.texture
+    scale = tex.shortest_period if not isinstance(tex, Flat) else length
+    n = int(min(max(64, 64 * length / scale), 20000))
+    u = np.linspace(0.0, 1.0, n + 1)
+    pts = a + u[:, None] * (b - a)
+    out: list[float] = []
+    for k, vals in enumerate(_signed_depths(alg, pts)):
+        sgn = np.sign(vals)
+        out.extend(float(u[i]) for i in np.nonzero(sgn[1:-1] == 0)[0] + 1)  # a sample on the kink
+        for i in np.nonzero(sgn[:-1] * sgn[1:] < 0)[0]:
+            fn = lambda uu, k=k: float(_signed_depths(alg, (a + uu * (b - a))[None, :])[k][0])  # noqa: E731
+            out.append(optimize.brentq(fn, u[i], u[i + 1], xtol=1e-16, rtol=1e-15))
+    if alg.penetration_kind == "distance":
+        out.extend(_closest_point_jumps(tex, a, b, u, pts, length / n))
+    return sorted(out)
+
+
+def _closest_point_jumps(tex: Texture, a, b, u, pts, spacing) -> list[float]:
+    """Parameters where the closest boundary point jumps along the segment a->b (the
+    probe crosses the medial axis, Remark 6), located by bisection to round-off (all
+    brackets bisected together, one vectorised closest-point call per halving)."""
+    cp = closest_point(tex, pts)
+    inside = cp.distance > 0
+    dt = np.abs(np.diff(cp.x))
+    out = _tie_changes(tex, a, b, u, cp.tie)
+    idx = np.nonzero((dt > 2 * spacing) & inside[:-1] & inside[1:])[0]
+    per_u = 2 * spacing / (u[1] - u[0])  # the closest point's smooth motion allowed per unit of u
+    slack = 1e-12 * tex.shortest_period
+    lo, hi = u[idx].copy(), u[idx + 1].copy()
+    t_lo, t_hi = cp.x[idx].copy(), cp.x[idx + 1].copy()
+    for _ in range(8):  # a bracket may hold several jumps (a thin branch of the medial axis)
+        if lo.size == 0:
+            break
+        lo0, hi0, t_lo0, t_hi0 = lo.copy(), hi.copy(), t_lo.copy(), t_hi.copy()
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            live = (lo < mid) & (mid < hi)
+            if not live.any():
+                break
+            t_mid = closest_point(tex, a + mid[:, None] * (b - a)).x
+            left = np.abs(t_mid - t_lo) >= np.abs(t_hi - t_mid)
+            hi = np.where(live & left, mid, hi)
+            t_hi = np.where(live & left, t_mid, t_hi)
+            lo = np.where(live & ~left, mid, lo)
+            t_lo = np.where(live & ~left, t_mid, t_lo)
+        jump = np.abs(t_hi - t_lo) > per_u * (hi - lo) + slack
+        out += (0.5 * (lo + hi))[jump].tolist()
+        # what is left on either side of the jump found: another jump if the closest point
+        # moved more there than smooth motion allows
+        left_more = jump & (np.abs(t_lo - t_lo0) > per_u * (lo - lo0) + slack)
+        right_more = jump & (np.abs(t_hi0 - t_hi) > per_u * (hi0 - hi) + slack)
+        lo, hi = np.r_[lo0[left_more], hi[right_more]], np.r_[lo[left_more], hi0[right_more]]
+        t_lo, t_hi = np.r_[t_lo0[left_more], t_hi[right_more]], np.r_[t_lo[left_more], t_hi0[right_more]]
+    return out
+
+
+def _tie_changes(tex: Texture, a, b, u, tie) -> list[float]:
+    """Parameters where the segment enters or leaves the medial axis (a centre of
+    curvature: the force is continuous there but not smooth), by bisection."""
+    idx = np.nonzero(tie[:-1] != tie[1:])[0]
+    if idx.size == 0:
+        return []
+    lo, hi = u[idx].copy(), u[idx + 1].copy()
+    lo_tie = tie[idx].copy()
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        live = (lo < mid) & (mid < hi)
+        if not live.any():
+            break
+        same = closest_point(tex, a + mid[:, None] * (b - a)).tie == lo_tie
+        lo = np.where(live & same, mid, lo)
+        hi = np.where(live & ~same, mid, hi)
+    # the flag flips where the two minima are closer than the search can tell apart, a
+    # little off the centre of curvature itself: solve p(u) = (t, h) + (1 + h'^2) (-h', 1) / h''
+    # for (t, u) from there (Newton), and keep the exact crossing when it is close by
+    out = []
+    for u0 in 0.5 * (lo + hi):
+        t0 = float(closest_point(tex, (a + u0 * (b - a))[None, :]).x[0])
+        out.append(_focal_crossing(tex, a, b, t0, float(u0)))
+    return out
+
+
+def _focal_crossing(tex: Texture, a, b, t0: float, u0: float) -> float:
+    """Parameter u where the segment a->b crosses the centre of curvature of the boundary
+    near abscissa t0 (Newton on (t, u)); u0 if Newton does not converge nearby."""
+    d = b - a
+    t, u = t0, u0
+    for _ in range(30):
+        h, s, c = (float(f(np.array(t))) for f in (tex.height, tex.slope, tex.curvature))
+        if c == 0.0:
+            return u0
+        q = 1.0 + s * s
+        third = (float(tex.curvature(np.array(t + 1e-9 * tex.shortest_period))) - c) / (1e-9 * tex.shortest_period)
+        res = np.array([t - s * q / c - (a[0] + u * d[0]), h + q / c - (a[1] + u * d[1])])
+        # d/dt of the centre: x: 1 - (c q + 2 s^2 c) / c^2 + s q c' / c^2 ; z: s + 2 s c / c - q c' / c^2
+        jx = 1.0 - (q + 2 * s * s) + s * q * third / (c * c)
+        jz = s + 2 * s - q * third / (c * c)
+        jac = np.array([[jx, -d[0]], [jz, -d[1]]])
+        try:
+            step = np.linalg.solve(jac, -res)
+        except np.linalg.LinAlgError:
+            return u0
+        t += step[0]
+        u += step[1]
+        if abs(step[1]) <= 1e-15 and abs(step[0]) <= 1e-15 * tex.shortest_period:
+            break
+    ok = np.isfinite(u) and abs(u - u0) <= 1e-3 and abs(t - t0) <= 0.05 * tex.shortest_period
+    return float(u) if ok else u0
+
+
+_GL_NODES, _GL_WEIGHTS = np.polynomial.legendre.leggauss(16)
+
+
+def _composite_gauss(fun, u0: float, u1: float, pieces: int) -> float:
+    """Integral of a vectorised fun over [u0, u1]: 16-point Gauss–Legendre on ``pieces``
+    equal sub-intervals, all nodes evaluated in one call."""
+    edges = np.linspace(u0, u1, pieces + 1)
+    half = 0.5 * np.diff(edges)
+    mid = 0.5 * (edges[:-1] + edges[1:])
+    nodes = (mid[:, None] + half[:, None] * _GL_NODES[None, :]).ravel()
+    vals = fun(nodes).reshape(pieces, -1)
+    return float(np.sum(half * (vals @ _GL_WEIGHTS)))
+
+
+MAX_PATH_PIECES = 1_000_000
+"""Most quadrature pieces (1/8 of the shortest period each, 16 to 512 force evaluations)
+one :func:`path_work` call may integrate."""
+
+
+def _check_path_size(algorithm: Algorithm, pts: np.ndarray) -> None:
+    """Refuse a path whose quadrature would take absurdly long (a 1 km segment over a 1 mm
+    texture is 8 million pieces)."""
+    tex = algorithm.texture
+    if isinstance(tex, Flat):
+        return
+    length = float(np.sum(np.hypot(*np.diff(pts, axis=0).T)))
+    pieces = length / (tex.shortest_period / 8)
+    check_count("path", f"a polyline {length:g} m long", pieces, MAX_PATH_PIECES,
+                f"quadrature pieces of 1/8 of the shortest period {tex.shortest_period:g} m")
+
+
+def path_work(algorithm: Algorithm, path, rtol: float = 1e-12) -> float:
+    """Work done by the field on a probe moving along a polyline, W = integral f . dp (J).
+
+    Parameters
+    ----------
+    algorithm : Algorithm
+        The force field.
+    path : array_like, shape (N, 2)
+        Polyline vertices [x, z] (m), N >= 2. A closed loop repeats its first vertex
+        at the end (see :func:`loop_energy`).
+    rtol : float, optional
+        Relative tolerance handed to the adaptive quadrature of each piece.
+
+    Returns
+    -------
+    float
+        Work (J); > 0 means the field generated energy (the paper's Delta E).
+
+    Raises
+    ------
+    ParameterError
+        If ``path`` is not of shape (N, 2) with N >= 2 finite vertices.
+
+    Notes
+    -----
+    Each segment is split where the force has a kink or a jump: where it crosses the
+    boundary (and the clamp depth of Remark 3), located by bracketing and Brent's method,
+    and, for D and E, where the closest point jumps (the medial axis), located by
+    bisection. The force is smooth on each piece, which is integrated by composite
+    16-point Gauss–Legendre quadrature on sub-intervals of at most 1/8 of the shortest
+    texture period, halved until two successive results agree to ``rtol``.
+    """
+    pts = positions(path, "path")
+    if pts.ndim != 2 or pts.shape[0] < 2:
+        raise ParameterError(f"path has shape {pts.shape}, which is not allowed: must be (N, 2) with N >= 2")
+    rtol = in_range("rtol", rtol, 1e-15, 1e-2)
+    _check_path_size(algorithm, pts)
+    if getattr(algorithm, "has_memory", False):
+        return algorithm.path_work(pts)
+    total = 0.0
+    tex = algorithm.texture
+    for a, b in zip(pts[:-1], pts[1:]):
+        delta = b - a
+        length = float(np.hypot(*delta))
+        if length == 0.0:
+            continue
+        cuts = [0.0, *_breakpoints(algorithm, a, b), 1.0]
+        scale = algorithm.stiffness * length * length
+        feature = tex.shortest_period if not isinstance(tex, Flat) else length
+
+        def integrand(u, a=a, delta=delta):
+            return algorithm.force(a + u[:, None] * delta) @ delta
+
+        for u0, u1 in zip(cuts[:-1], cuts[1:]):
+            if u1 <= u0:
+                continue
+            # composite Gauss–Legendre, sub-intervals of at most 1/8 of the shortest
+            # period, doubled until two successive results agree to rtol
+            pieces = max(1, int(math.ceil((u1 - u0) * length / (feature / 8))))
+            val = _composite_gauss(integrand, u0, u1, pieces)
+            done = False
+            for _ in range(5):
+                pieces *= 2
+                finer = _composite_gauss(integrand, u0, u1, pieces)
+                done = abs(finer - val) <= rtol * abs(finer) + 1e-15 * scale
+                val = finer
+                if done:
+                    break
+            if not done:
+                # a weak singularity inside the piece (a centre of curvature on the path):
+                # QUADPACK's extrapolating QAGS converges where plain refinement is slow
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore", integrate.IntegrationWarning)
+                    val = integrate.quad(lambda uu: float(integrand(np.array([uu]))[0]), u0, u1,
+                                         epsabs=1e-15 * scale, epsrel=rtol, limit=400)[0]
+            total += val
+    return total
+
+
+def loop_energy(algorithm: Algorithm, loop, rtol: float = 1e-12) -> float:
+    """Energy generated by the field around a closed polygon (J), Delta E = closed-path work.
+
+    Parameters
+    ----------
+    algorithm : Algorithm
+    loop : array_like, shape (N, 2)
+        Polygon vertices [x, z] (m); closed automatically if the last vertex differs
+        from the first.
+    rtol : float, optional
+        Relative accuracy of the quadrature (see :func:`path_work`).
+
+    Returns
+    -------
+    float
+        > 0 means the field generated energy around the loop (not conservative).
+    """
+    pts = positions(loop, "loop")
+    if pts.ndim != 2 or pts.shape[0] < 3:
+        raise ParameterError(f"loop has shape {pts.shape}, which is not allowed: must be (N, 2) with N >= 3")
+    if not np.array_equal(pts[0], pts[-1]):
+        pts = np.vstack([pts, pts[:1]])
+    return path_work(algorithm, pts, rtol=rtol)
+
+
+def _sinusoid_geometry(tex: Texture) -> tuple[float, float, float]:
+    """(A, l, x_shift) such that h(x + x_shift) = A sin(2 pi x / l) for a Sinusoid."""
+    if isinstance(tex, Sinusoid):
+        return tex.amplitude, tex.period, -tex.phases[0] * tex.period / (2 * np.pi)
+    raise ParameterError(
+        f"texture = {tex!r} is not allowed here: the Fig. 3 loops are defined for a Sinusoid"
+    )
+
+
+def paper_loop(algorithm: Algorithm, depth: float | None = None) -> tuple[np.ndarray, float | None, str]:
+    """The closed path of Fig. 3 for an algorithm, and the paper's value of its energy.
+
+    Parameters
+    ----------
+    algorithm : Algorithm
+        W, A–E or G on a :class:`~haptex.textures.Sinusoid` (W: none needed).
+    depth : float, optional
+        The depth a (m) of the eq. 29 path used for G and W; default 0.5 mm.
+
+    Returns
+    -------
+    path : ndarray, shape (5, 2)
+        Closed polygon [x, z] (m).
+    expected : float or None
+        The closed-form loop energy (J): A, kappa_0 A^2 / 2 (Section IV-A-4); B, eq. 12;
+        C, D, W: 0; G: eq. 29's Delta E_2, which for h = A sin(2 pi x / l) integrates to
+        kappa_0 a l arctan(2 pi A / l) / pi; E: ``None`` (the paper only says > 0).
+    source : str
+        Where the path and value come from.
+
+    Raises
+    ------
+    ParameterError
+        If the texture is not a Sinusoid (the paths are defined for one).
+    """
+    k0 = algorithm.stiffness
+    letter = algorithm.letter
+    if letter == "F":
+        return _paper_loop_f(algorithm, depth)
+    if letter in ("G", "W"):
+        a = 0.5e-3 if depth is None else positive("depth", depth, "m")
+        if letter == "W":
+            A, l, x_s = 0.0, 1e-3, 0.0
+        else:
+            A, l, x_s = _sinusoid_geometry(algorithm.texture)
+        path = np.array([[l / 4, a], [l / 4, -a], [3 * l / 4, -a], [3 * l / 4, a], [l / 4, a]])
+        path[:, 0] += x_s
+        expected = 0.0 if letter == "W" else k0 * a * l * math.atan(2 * math.pi * A / l) / math.pi
+        return path, expected, "eq. 29 path, a = %g m" % a
+    A, l, x_s = _sinusoid_geometry(algorithm.texture)
+    path = np.array([[0.0, 0.0], [l / 4, 0.0], [l / 4, A], [0.0, A], [0.0, 0.0]])
+    path[:, 0] += x_s
+    expected: float | None
+    if letter == "A":
+        expected = 0.5 * k0 * A * A
+    elif letter == "B":
+        expected = 0.5 * k0 * A * A + k0 * l * l / (4 * math.pi**2) * (1 - math.sqrt((l * l + 4 * A * A * math.pi**2) / (l * l)))
+    elif letter in ("C", "D"):
+        expected = 0.0
+    else:
+        expected = None
+    return path, expected, "Fig. 3 path (0,0)->(l/4,0)->(l/4,A)->(0,A)->(0,0)"
+
+
+def _paper_loop_f(alg, a: float | None):
+    """Eq. 27's path for F and its energy derived from eq. 22 along it."""
+    dz = alg.max_penetration if alg.max_penetration is not None else 1e-3
+    dm = alg.presliding
+    a = 1e-3 * dz if a is None else positive("depth", a, "m")
+    if not a < dz:
+        raise fail("depth", a, f"a depth below d^z_max = {dz:g} m")
+    path = np.array([[0.0, dz], [0.0, -a], [dm, -a], [dm, -dz], [0.0, -dz], [0.0, dz]])
+    # The lateral work is mu kappa_0 (dz - a)/dm * integral_0^dm m(x) x dx (stick both ways).
+    tex = alg.texture
+    if alg._scale == 0.0:
+        integral = dm * dm / 2
+    elif isinstance(tex, Sinusoid):
+        k = 2 * math.pi / tex.period
+        ph = tex.phases[0]
+        sx = math.sin(k * dm + ph) / k**2 - dm * math.cos(k * dm + ph) / k - math.sin(ph) / k**2
+        integral = dm * dm / 2 - alg._scale * tex.amplitude * sx
+    else:
+        return path, None, "eq. 27 path, a = %g m" % a
+    expected = alg.friction * alg.stiffness * (dz - a) / dm * integral
+    return path, expected, "eq. 27 path, a = %g m (eq. 27: kappa_0 mu d^z_max d^x_max / 2 as a -> 0, A = 0)" % a
+
+
+# ------------------------------------------------------------------------------------
+# curl, continuity, conservativity
+# ------------------------------------------------------------------------------------
+def curl(algorithm: Algorithm, p) -> np.ndarray:
+    """Scalar curl of the planar field, df_z/dx - df_x/dz (N/m), shape (...).
+
+    Zero everywhere inside for a gradient field (C, D, W); the paper reads
+    non-conservativity off the Jacobian's asymmetry (Section IV-A-4).
+
+    Parameters
+    ----------
+    p : array_like, shape (..., 2)
+        Probe positions [x, z] (m).
+    """
+    j = algorithm.jacobian(p)
+    return j[..., 1, 0] - j[..., 0, 1]
+
+
+@dataclass(frozen=True)
+class Conservativity:
+    """Result of :func:`conservativity`.
+
+    Attributes
+    ----------
+    conservative : bool
+        True when every loop energy is zero to ``tolerance``.
+    paper_loop_energy : float
+        Energy around the algorithm's Fig. 3 path (J), or NaN when the texture is not a
+        Sinusoid.
+    random_loop_energies : tuple of float
+        Energies around random closed polygons in the wall (J).
+    tolerance : float
+        Quadrature accuracy used as the zero threshold (J).
+    almost : bool or None
+        For F only ("almost conservative", Table II): True when every loop energy stays
+        below its stick-phase bound in ``loop_bounds``; None for memoryless fields.
+    loop_bounds : tuple of float
+        For F: the most a loop can generate (J), n_runs mu kappa_0 (1 + depth) d^z d^x_max / 2,
+        with n_runs the number of monotone runs of x around the loop: energy is generated
+        only in stick, at most the lateral spring's energy mu kappa_0 |p^z| m d_max^2 / 2
+        per run (Section IV-F-4, eq. 27).
+    """
+
+    conservative: bool
+    paper_loop_energy: float
+    random_loop_energies: tuple = field(default=())
+    tolerance: float = 0.0
+    almost: bool | None = None
+    loop_bounds: tuple = field(default=())
+
+    @property
+    def max_abs_energy(self) -> float:
+        """Largest |loop energy| among all loops tried (J)."""
+        vals = [abs(v) for v in self.random_loop_energies]
+        if not math.isnan(self.paper_loop_energy):
+            vals.append(abs(self.paper_loop_energy))
+        return max(vals) if vals else 0.0
+
+
+def random_loops(algorithm: Algorithm, n: int = 6, vertices: int = 5, max_penetration: float = 1e-3,
+                 seed: int = 0, x_range=None) -> list[np.ndarray]:
+    """Random closed polygons in the box spanned by one period and the wall's depth.
+
+    Parameters
+    ----------
+    n : int
+        Number of polygons.
+    vertices : int
+        Vertices per polygon (>= 3); the first is repeated at the end.
+    max_penetration : float
+        The box reaches this far (m) below the lowest valley.
+    seed : int
+        Seed of numpy's default generator (reproducible).
+
+    Returns
+    -------
+    list of ndarray, each of shape (vertices + 1, 2), metres.
+    """
+    x0, x1, z0, z1 = _region_box(algorithm, check_analysis_scale(algorithm, max_penetration), x_range)
+    rng = np.random.default_rng(seed)
+    loops = []
+    for _ in range(int(n)):
+        v = np.column_stack([rng.uniform(x0, x1, vertices), rng.uniform(z0, z1, vertices)])
+        loops.append(np.vstack([v, v[:1]]))
+    return loops
+
+
+def conservativity(algorithm: Algorithm, max_penetration: float = 1e-3, n_random: int = 6, seed: int = 0,
+                   x_range=None) -> Conservativity:
+    """Measure conservativity: loop energies on the Fig. 3 path and on random polygons.
+
+    A field is reported conservative when every loop energy is zero to the quadrature
+    accuracy, taken as 1e-9 kappa_0 L^2 where L is the size of the region (the paper's
+    Section III-C: a system is conservative iff the work around any cycle is zero).
+
+    Parameters
+    ----------
+    algorithm : Algorithm
+    max_penetration : float, optional
+        Depth of the region explored by the random loops (m), default 1 mm.
+    n_random : int, optional
+        Number of random closed polygons, default 6.
+    seed : int, optional
+        Seed of the random polygons.
+
+    Returns
+    -------
+    Conservativity
+    """
+    n_random = whole("n_random", n_random, 1, 10_000, "random loops, each a path_work call")
+    loops = random_loops(algorithm, n_random, 5, max_penetration, seed, x_range)
+    # relative accuracy 1e-10 on each loop is far below the verdict's tolerance
+    energies = tuple(loop_energy(algorithm, lp, rtol=1e-10) for lp in loops)
+    x0, x1, z0, z1 = _region_box(algorithm, max_penetration, x_range)
+    size = max(x1 - x0, z1 - z0)
+    tol = 1e-9 * algorithm.stiffness * size * size
+    try:
+        path, _, _ = paper_loop(algorithm)
+        e_paper = path_work(algorithm, path)
+    except ParameterError:
+        e_paper = math.nan
+    vals = [abs(e) for e in energies] + ([] if math.isnan(e_paper) else [abs(e_paper)])
+    almost, bounds = None, ()
+    if algorithm.has_memory:
+        dz = max_penetration if algorithm.max_penetration is None else min(max_penetration, algorithm.max_penetration)
+        per_run = 0.5 * algorithm.friction * algorithm.stiffness * (1 + algorithm.modulation_depth) * dz * algorithm.presliding
+        bounds = tuple(_monotone_runs(lp) * per_run for lp in loops)
+        almost = all(e <= b * (1 + 1e-9) + tol for e, b in zip(energies, bounds))
+    return Conservativity(all(v <= tol for v in vals), e_paper, energies, tol, almost, bounds)
+
+
+def _monotone_runs(loop: np.ndarray) -> int:
+    """Number of maximal runs of a closed polygon along which x is monotone."""
+    dx = np.diff(loop[:, 0])
+    sgn = np.sign(dx[dx != 0])
+    if sgn.size == 0:
+        return 0
+    changes = int(np.count_nonzero(sgn != np.roll(sgn, 1)))
+    return max(changes, 1)
