@@ -188,3 +188,57 @@ def test_band_limited_noise_2d_has_the_exact_rms_and_band():
 def test_bad_3d_input_is_a_parameter_error_naming_it(call, message):
     with pytest.raises(hx.ParameterError, match=message):
         call()
+
+
+@pytest.mark.parametrize("letter", SURFACE_LETTERS)
+def test_table_ii_loop_energies_and_verdicts_through_the_3d_code(letter):
+    # Issue 11, exact reduction: the Fig. 3 loops (eq. 29's for G and W) in the plane y = 0.3 mm
+    # over Extruded(Sinusoid(0.8 mm, 1 mm)) do the work the 2-D code computes (to 1e-9), which
+    # equals the paper's closed forms: A kappa_0 A^2/2, B eq. 12, C and W 0, G eq. 29
+    tex = hx.Sinusoid(A, L)
+    a2, a3 = _alg(letter, tex), _alg(letter, hx.Extruded(tex))
+    path, expected, _ = hx.paper_loop(a2)
+    p3 = np.column_stack([path[:, 0], np.full(len(path), 0.3e-3), path[:, 1]])
+    w2, w3 = hx.path_work(a2, path), hx.path_work(a3, p3)
+    scale = K0 * A * A
+    assert w3 == pytest.approx(w2, rel=1e-9, abs=1e-12 * scale)
+    assert w3 == pytest.approx(expected, rel=1e-9, abs=1e-12 * scale)
+    c2, c3 = hx.conservativity(a2), hx.conservativity(a3)
+    assert c3.conservative == c2.conservative == (letter in "WC")
+    assert hx.continuity(a3, levels=3).continuous and hx.continuity(a2, levels=3).continuous
+
+
+@pytest.mark.parametrize("letter", "WC")
+def test_gradient_fields_do_no_work_around_polygons_in_space(letter):
+    # Issue 11: zero loop work for W and C on random closed polygons in space over an egg-crate
+    # (both are gradients: W of kappa_0 z^2/2, C of kappa_0 d^2/2, eq. 13), to the quadrature's
+    # 1e-9 kappa_0 L^2; A does work on the same loops
+    egg = hx.SumOfGratings.egg_crate(A, L)
+    alg = hx.algorithm(letter, egg if letter == "C" else hx.Flat(2), K0)
+    loops = hx.random_loops(alg, n=4, vertices=6, seed=2)
+    assert all(lp.shape == (7, 3) for lp in loops)
+    tol = 1e-9 * K0 * (2 * A + 1e-3) ** 2
+    assert all(abs(hx.loop_energy(alg, lp)) <= tol for lp in loops)
+    a = hx.algorithm("A", egg, K0)
+    assert max(abs(hx.loop_energy(a, lp)) for lp in hx.random_loops(a, n=4, vertices=6, seed=2)) > 1e3 * tol
+
+
+def test_curl_in_3d_is_the_profiles_curl_seen_from_y():
+    # the x-z plane's scalar curl df_z/dx - df_x/dz is the y component of the 3-D curl with
+    # the opposite sign (right-handed x, y, z), and the other components vanish on an
+    # extruded profile; on an egg-crate, A's curl is kappa_0 (h_y, -h_x, 0)
+    tex = hx.Sinusoid(A, L)
+    rng = np.random.default_rng(8)
+    p2 = np.column_stack([rng.uniform(0, L, 200), rng.uniform(-1.5e-3, -0.9e-3, 200)])
+    for letter in "ABG":
+        c2 = hx.curl(_alg(letter, tex), p2)
+        c3 = hx.curl(_alg(letter, hx.Extruded(tex)), _embed(p2))
+        np.testing.assert_allclose(c3[:, 1], -c2, rtol=1e-13, atol=0.0)
+        assert not np.any(c3[:, [0, 2]])
+    egg = hx.SumOfGratings.egg_crate(A, L)
+    xy = rng.uniform(0, L, (200, 2))
+    p = np.column_stack([xy, egg.height_at(xy) - 0.1e-3])
+    g = egg.gradient(xy)
+    np.testing.assert_allclose(hx.curl(hx.algorithm("A", egg, K0), p), K0 * np.column_stack([g[:, 1], -g[:, 0],
+                                                                                           np.zeros(200)]),
+                               rtol=1e-12, atol=1e-9)

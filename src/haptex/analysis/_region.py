@@ -186,7 +186,9 @@ def _static_force(alg: Algorithm, p) -> np.ndarray:
     return alg.force(p)
 
 
-def _region_box(alg: Algorithm, max_penetration: float, x_range=None):
-    x0, x1 = _x_range(alg, x_range)
+def _region_box(alg: Algorithm, max_penetration: float, x_range=None) -> list[tuple[float, float]]:
+    """The box of the analysed region, one (min, max) in m per coordinate of a probe
+    position: the in-plane ranges (:func:`_plane_ranges`), then z from ``max_penetration``
+    below the lowest valley to the highest peak."""
     lo, hi = alg.texture.height_range
-    return x0, x1, lo - max_penetration, hi
+    return [*_plane_ranges(alg, x_range), (lo - max_penetration, hi)]

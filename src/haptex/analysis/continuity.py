@@ -30,7 +30,7 @@ class Continuity:
         Fitted exponent of max_difference ~ spacing^order: about 1 for a Lipschitz
         field, about 0 for a field with a jump.
     where : tuple of float
-        Midpoint [x, z] (m) of the largest difference on the finest grid.
+        Midpoint [x, z] or [x, y, z] (m) of the largest difference on the finest grid.
     """
 
     continuous: bool
@@ -44,9 +44,10 @@ def continuity(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=None
                base: int = 32) -> Continuity:
     """Measure whether the force field jumps, by grid refinement.
 
-    On successively halved grids covering one texture period and the wall down to
-    ``max_penetration`` below the lowest valley (plus the boundary), the largest force
-    difference between horizontal or vertical neighbours is computed. For a continuous
+    On successively halved grids covering one texture period (a periodic cell over a
+    surface) and the wall down to ``max_penetration`` below the lowest valley (plus the
+    boundary), the largest force difference between neighbours along any axis is
+    computed. For a continuous
     (Lipschitz) field it shrinks in proportion to the spacing; across a jump (algorithm D
     below the peaks of a sinusoid, Remark 6) it does not.
 
@@ -55,8 +56,9 @@ def continuity(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=None
     algorithm : Algorithm
     max_penetration : float, optional
         Depth of the region below the lowest valley (m), default 1 mm.
-    x_range : (float, float), optional
-        Abscissa interval (m); one texture period by default.
+    x_range : (float, float) or ((float, float), (float, float)), optional
+        Abscissa interval (m), or the in-plane rectangle over a surface; one texture
+        period (cell) by default.
     levels : int, optional
         Number of grids (>= 3).
     base : int, optional
@@ -74,34 +76,31 @@ def continuity(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=None
     dmax = check_analysis_scale(algorithm, max_penetration)
     levels = whole("levels", levels, 3, 12, "grid refinements; level k has (base 2^k)^2 points")
     base = whole("base", base, 8, 4096)
-    x0, x1, z0, z1 = _region_box(algorithm, dmax, x_range)
+    box = _region_box(algorithm, dmax, x_range)
+    (x0, x1), (z0, z1) = box[0], box[-1]
     z1 = z1 + 0.05 * (x1 - x0)
-    if not isinstance(algorithm.texture, Flat):
+    box[-1] = (z0, z1)
+    tex = algorithm.texture
+    if not isinstance(tex, Flat):
         # resolve the texture: at least 4 coarse cells per shortest period
-        base = int(min(max(int(base), math.ceil(4 * (x1 - x0) / algorithm.texture.shortest_period)), 2048))
+        base = int(min(max(int(base), math.ceil(4 * (x1 - x0) / tex.shortest_period)), 2048))
     spacings, diffs = [], []
-    where = (math.nan, math.nan)
+    where = (math.nan,) * len(box)
     for lev in range(int(levels)):
         n = int(base) * 2**lev
         hstep = (x1 - x0) / n
-        nz = int(math.ceil((z1 - z0) / hstep))
+        counts = [int(math.ceil((b - a) / hstep)) for a, b in box]
         # positions, forces and their differences: about 12 float64 a grid point
-        check_budget("levels", levels, 12 * 8 * (n + 1) * (nz + 1), f"the {n + 1} x {nz + 1} grid of level {lev}")
-        xs = x0 + hstep * np.arange(n + 1)
-        zs = z0 + hstep * np.arange(nz + 1)
-        X, Z = np.meshgrid(xs, zs, indexing="ij")
-        F = _static_force(algorithm, np.stack([X, Z], axis=-1))
-        dxf = np.linalg.norm(F[1:, :] - F[:-1, :], axis=-1)
-        dzf = np.linalg.norm(F[:, 1:] - F[:, :-1], axis=-1)
-        mx, mz = float(dxf.max()), float(dzf.max())
+        check_budget("levels", levels, 12 * 8 * math.prod(c + 1 for c in counts),
+                     f"the {' x '.join(str(c + 1) for c in counts)} grid of level {lev}")
+        axes = [a + hstep * np.arange(c + 1) for (a, _), c in zip(box, counts)]
+        F = _static_force(algorithm, np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1))
+        steps = [np.linalg.norm(np.diff(F, axis=k), axis=-1) for k in range(len(box))]
+        k = int(np.argmax([float(d.max()) for d in steps]))
         spacings.append(hstep)
-        diffs.append(max(mx, mz))
-        if mx >= mz:
-            i, j = np.unravel_index(int(np.argmax(dxf)), dxf.shape)
-            where = (float(xs[i] + hstep / 2), float(zs[j]))
-        else:
-            i, j = np.unravel_index(int(np.argmax(dzf)), dzf.shape)
-            where = (float(xs[i]), float(zs[j] + hstep / 2))
+        diffs.append(float(steps[k].max()))
+        idx = np.unravel_index(int(np.argmax(steps[k])), steps[k].shape)
+        where = tuple(float(axes[a][idx[a]] + (hstep / 2 if a == k else 0.0)) for a in range(len(box)))
     d = np.asarray(diffs)
     if np.all(d == 0):
         order = math.inf

@@ -23,11 +23,11 @@ from ._region import _region_box, check_analysis_scale
 def _signed_depths(alg: Algorithm, pts: np.ndarray) -> list[np.ndarray]:
     """Functions whose sign changes mark kinks of the force along a path: the boundary
     and, with max_penetration, the clamp depth."""
-    x, z = pts[..., 0], pts[..., 1]
+    z = pts[..., -1]
     if alg.penetration_kind == "nominal":
         d = z
     else:
-        d = z - alg.texture.height(x)
+        d = z - alg.texture.height_at(pts[..., :-1])
     out = [d]
     dm = getattr(alg, "max_penetration", None)
     if dm is not None:
@@ -37,7 +37,7 @@ def _signed_depths(alg: Algorithm, pts: np.ndarray) -> list[np.ndarray]:
 
 def _breakpoints(alg: Algorithm, a: np.ndarray, b: np.ndarray) -> list[float]:
     """Parameters u in (0, 1) where the segment a->b crosses the boundary or a clamp depth."""
-    length = float(np.hypot(*(b - a)))
+    length = float(np.linalg.norm(b - a))
     tex = alg.texture
     scale = tex.shortest_period if not isinstance(tex, Flat) else length
     n = int(min(max(64, 64 * length / scale), 20000))
@@ -173,7 +173,7 @@ def _check_path_size(algorithm: Algorithm, pts: np.ndarray) -> None:
     tex = algorithm.texture
     if isinstance(tex, Flat):
         return
-    length = float(np.sum(np.hypot(*np.diff(pts, axis=0).T)))
+    length = float(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=-1)))
     pieces = length / (tex.shortest_period / 8)
     check_count("path", f"a polyline {length:g} m long", pieces, MAX_PATH_PIECES,
                 f"quadrature pieces of 1/8 of the shortest period {tex.shortest_period:g} m")
@@ -186,9 +186,9 @@ def path_work(algorithm: Algorithm, path, rtol: float = 1e-12) -> float:
     ----------
     algorithm : Algorithm
         The force field.
-    path : array_like, shape (N, 2)
-        Polyline vertices [x, z] (m), N >= 2. A closed loop repeats its first vertex
-        at the end (see :func:`loop_energy`).
+    path : array_like, shape (N, 2) or (N, 3)
+        Polyline vertices [x, z] over a profile, [x, y, z] over a surface (m), N >= 2. A
+        closed loop repeats its first vertex at the end (see :func:`loop_energy`).
     rtol : float, optional
         Relative tolerance handed to the adaptive quadrature of each piece.
 
@@ -200,7 +200,7 @@ def path_work(algorithm: Algorithm, path, rtol: float = 1e-12) -> float:
     Raises
     ------
     ParameterError
-        If ``path`` is not of shape (N, 2) with N >= 2 finite vertices.
+        If ``path`` is not of shape (N, dimension) with N >= 2 finite vertices.
 
     Notes
     -----
@@ -211,9 +211,10 @@ def path_work(algorithm: Algorithm, path, rtol: float = 1e-12) -> float:
     16-point Gauss–Legendre quadrature on sub-intervals of at most 1/8 of the shortest
     texture period, halved until two successive results agree to ``rtol``.
     """
-    pts = positions(path, "path")
+    n = algorithm.dimension
+    pts = positions(path, "path", dim=n)
     if pts.ndim != 2 or pts.shape[0] < 2:
-        raise ParameterError(f"path has shape {pts.shape}, which is not allowed: must be (N, 2) with N >= 2")
+        raise ParameterError(f"path has shape {pts.shape}, which is not allowed: must be (N, {n}) with N >= 2")
     rtol = in_range("rtol", rtol, 1e-15, 1e-2)
     _check_path_size(algorithm, pts)
     if getattr(algorithm, "has_memory", False):
@@ -222,7 +223,7 @@ def path_work(algorithm: Algorithm, path, rtol: float = 1e-12) -> float:
     tex = algorithm.texture
     for a, b in zip(pts[:-1], pts[1:]):
         delta = b - a
-        length = float(np.hypot(*delta))
+        length = float(np.linalg.norm(delta))
         if length == 0.0:
             continue
         cuts = [0.0, *_breakpoints(algorithm, a, b), 1.0]
@@ -264,9 +265,9 @@ def loop_energy(algorithm: Algorithm, loop, rtol: float = 1e-12) -> float:
     Parameters
     ----------
     algorithm : Algorithm
-    loop : array_like, shape (N, 2)
-        Polygon vertices [x, z] (m); closed automatically if the last vertex differs
-        from the first.
+    loop : array_like, shape (N, 2) or (N, 3)
+        Polygon vertices [x, z] over a profile, [x, y, z] over a surface (m); closed
+        automatically if the last vertex differs from the first.
     rtol : float, optional
         Relative accuracy of the quadrature (see :func:`path_work`).
 
@@ -275,9 +276,10 @@ def loop_energy(algorithm: Algorithm, loop, rtol: float = 1e-12) -> float:
     float
         > 0 means the field generated energy around the loop (not conservative).
     """
-    pts = positions(loop, "loop")
+    n = algorithm.dimension
+    pts = positions(loop, "loop", dim=n)
     if pts.ndim != 2 or pts.shape[0] < 3:
-        raise ParameterError(f"loop has shape {pts.shape}, which is not allowed: must be (N, 2) with N >= 3")
+        raise ParameterError(f"loop has shape {pts.shape}, which is not allowed: must be (N, {n}) with N >= 3")
     if not np.array_equal(pts[0], pts[-1]):
         pts = np.vstack([pts, pts[:1]])
     return path_work(algorithm, pts, rtol=rtol)
@@ -374,18 +376,23 @@ def _paper_loop_f(alg, a: float | None):
 # curl, continuity, conservativity
 # ------------------------------------------------------------------------------------
 def curl(algorithm: Algorithm, p) -> np.ndarray:
-    """Scalar curl of the planar field, df_z/dx - df_x/dz (N/m), shape (...).
+    """Curl of the field (N/m): over a profile the scalar df_z/dx - df_x/dz, shape (...);
+    over a surface the vector curl f = [df_z/dy - df_y/dz, df_x/dz - df_z/dx,
+    df_y/dx - df_x/dy], shape (..., 3). (On ``Extruded(profile)`` its y component is
+    minus the profile's scalar curl: the x-z plane seen from +y.)
 
     Zero everywhere inside for a gradient field (C, D, W); the paper reads
     non-conservativity off the Jacobian's asymmetry (Section IV-A-4).
 
     Parameters
     ----------
-    p : array_like, shape (..., 2)
-        Probe positions [x, z] (m).
+    p : array_like, shape (..., 2) or (..., 3)
+        Probe positions [x, z] or [x, y, z] (m).
     """
     j = algorithm.jacobian(p)
-    return j[..., 1, 0] - j[..., 0, 1]
+    if j.shape[-1] == 2:
+        return j[..., 1, 0] - j[..., 0, 1]
+    return np.stack([j[..., 2, 1] - j[..., 1, 2], j[..., 0, 2] - j[..., 2, 0], j[..., 1, 0] - j[..., 0, 1]], -1)
 
 
 @dataclass(frozen=True)
@@ -446,13 +453,14 @@ def random_loops(algorithm: Algorithm, n: int = 6, vertices: int = 5, max_penetr
 
     Returns
     -------
-    list of ndarray, each of shape (vertices + 1, 2), metres.
+    list of ndarray, each of shape (vertices + 1, dimension), metres: [x, z] over a
+    profile, [x, y, z] (polygons in space) over a surface.
     """
-    x0, x1, z0, z1 = _region_box(algorithm, check_analysis_scale(algorithm, max_penetration), x_range)
+    box = _region_box(algorithm, check_analysis_scale(algorithm, max_penetration), x_range)
     rng = np.random.default_rng(seed)
     loops = []
     for _ in range(int(n)):
-        v = np.column_stack([rng.uniform(x0, x1, vertices), rng.uniform(z0, z1, vertices)])
+        v = np.column_stack([rng.uniform(a, b, vertices) for a, b in box])
         loops.append(np.vstack([v, v[:1]]))
     return loops
 
@@ -483,8 +491,7 @@ def conservativity(algorithm: Algorithm, max_penetration: float = 1e-3, n_random
     loops = random_loops(algorithm, n_random, 5, max_penetration, seed, x_range)
     # relative accuracy 1e-10 on each loop is far below the verdict's tolerance
     energies = tuple(loop_energy(algorithm, lp, rtol=1e-10) for lp in loops)
-    x0, x1, z0, z1 = _region_box(algorithm, max_penetration, x_range)
-    size = max(x1 - x0, z1 - z0)
+    size = max(b - a for a, b in _region_box(algorithm, max_penetration, x_range))
     tol = 1e-9 * algorithm.stiffness * size * size
     try:
         path, _, _ = paper_loop(algorithm)
