@@ -242,3 +242,103 @@ def test_curl_in_3d_is_the_profiles_curl_seen_from_y():
     np.testing.assert_allclose(hx.curl(hx.algorithm("A", egg, K0), p), K0 * np.column_stack([g[:, 1], -g[:, 0],
                                                                                            np.zeros(200)]),
                                rtol=1e-12, atol=1e-9)
+
+
+def _egg_map(n=48, cells=2, periodic=True):
+    k = 2 * np.pi / L
+    x = np.arange(n) * cells * L / n
+    X, Y = np.meshgrid(x, x, indexing="ij")
+    return x, A * np.sin(k * X) * np.sin(k * Y)
+
+
+def test_a_sampled_egg_crate_is_the_egg_crate_to_the_splines_accuracy():
+    # a bicubic interpolating spline of a smooth periodic map: error below (5/384) dx^4 per axis
+    # times the fourth derivative A k^4 (de Boor's bound for the cubic interpolant), here 24
+    # samples a period (reference: the egg-crate's closed forms, as above)
+    x, h = _egg_map()
+    s = hx.SampledSurface(x, x, h, periodic=True)
+    egg = hx.SumOfGratings.egg_crate(A, L)
+    xy = np.random.default_rng(2).uniform(-3e-3, 3e-3, (2000, 2))  # beyond the cell too: it is periodic
+    k = 2 * np.pi / L
+    dx = x[1] - x[0]
+    assert np.max(np.abs(s.height_at(xy) - egg.height_at(xy))) < 2 * 5 / 384 * dx**4 * A * k**4
+    assert np.max(np.abs(s.gradient(xy) - egg.gradient(xy))) < 1e-3 * A * k
+    assert s.cell == pytest.approx((2 * L, 2 * L))
+    assert s.max_slope == pytest.approx(A * k, rel=1e-4)
+    assert s.height_range[0] <= -A * (1 - 1e-4) and s.height_range[1] >= A * (1 - 1e-4)
+    q = hx.characteristic_number(hx.algorithm("A", s, K0)).value
+    assert q == pytest.approx(math.sqrt(1 + (A * k) ** 2), rel=1e-4)
+
+
+def test_a_map_constant_across_the_scan_is_the_profiles_spline():
+    # the tensor-product spline of data constant along y is the 1-D not-a-knot spline along x
+    # (both interpolate the same samples with the same end conditions): it equals
+    # SampledProfile's spline to rounding, and with it every field
+    rng = np.random.default_rng(6)
+    x = np.arange(40) * 20e-6
+    prof = rng.normal(0, 5e-6, x.size)
+    y = np.arange(6) * 20e-6
+    s = hx.SampledSurface(x, y, np.repeat(prof[:, None], y.size, axis=1))
+    p1 = hx.SampledProfile(x, prof)
+    xs = rng.uniform(x[0], x[-1], 500)
+    pts = np.column_stack([xs, rng.uniform(y[0], y[-1], 500)])
+    np.testing.assert_allclose(s.height_at(pts), p1.height(xs), rtol=0, atol=1e-12 * 5e-6)
+    np.testing.assert_allclose(s.gradient(pts)[:, 0], p1.slope(xs), rtol=0, atol=1e-9)
+    np.testing.assert_allclose(s.gradient(pts)[:, 1], 0.0, atol=1e-9)
+
+
+def test_leveled_and_lowpass_do_what_they_say():
+    # leveled: a tilted plane under a grating comes off (least squares on a full period of the
+    # grating leaves the grating itself); lowpass on a periodic map removes the short grating
+    # and keeps the long one exactly (FFT lines on the grid)
+    n = 64
+    x = np.arange(n) * L / 16  # four periods of l = 1 mm across, 16 samples a period
+    X, Y = np.meshgrid(x, x, indexing="ij")
+    long_ = 20e-6 * np.sin(2 * np.pi * X / L)
+    short = 5e-6 * np.sin(2 * np.pi * Y / (L / 4))
+    tilted = hx.SampledSurface(x, x, long_ + 3e-3 * X - 1e-3 * Y + 7e-6)
+    lev = tilted.leveled()
+    plane = np.linalg.lstsq(np.stack([np.ones(X.size), X.ravel(), Y.ravel()], -1), lev.h.ravel(), rcond=None)[0]
+    assert np.all(np.abs(plane) < 1e-12 + 1e-9 * np.abs([1e-5, 1e-2, 1e-2]))
+    m = hx.SampledSurface(x, x, long_ + short, periodic=True)
+    low = m.lowpass(0.5e-3)
+    np.testing.assert_allclose(low.h, long_, atol=1e-18)
+    assert low.shortest_period == 0.5e-3
+    fx, fy, amp = m.spectrum()
+    i, j = np.unravel_index(np.argmax(amp), amp.shape)
+    assert (abs(fx[i]), fy[j]) == pytest.approx((1 / L, 0.0)) and amp[i, j] == pytest.approx(20e-6)
+
+
+def test_a_greyscale_image_becomes_a_height_map(tmp_path):
+    # CHAI3D/H3D bump maps: grey g in [0, 1] -> black + g (white - black); column i at
+    # x = i pixel, row j at y = j pixel (top row y = 0); pixel size and heights required
+    from PIL import Image
+
+    grey = np.zeros((6, 8), dtype=np.uint8)  # 6 rows (y) x 8 columns (x)
+    grey[:, 4:] = 255
+    grey[2, 1] = 51  # 0.2 of white
+    path = tmp_path / "bump.png"
+    Image.fromarray(grey, mode="L").save(path)
+    s = hx.SampledSurface.from_image(path, pixel_size=10e-6, height_range=(-1e-6, 4e-6))
+    assert s.h.shape == (8, 6) and s.dx == pytest.approx(10e-6)
+    assert s.h[1, 2] == pytest.approx(-1e-6 + 0.2 * 5e-6) and s.h[0, 0] == -1e-6 and s.h[7, 5] == 4e-6
+    with pytest.raises(hx.ParameterError, match="pixel_size = None is not allowed: an image does not state"):
+        hx.SampledSurface.from_image(path, None, (0, 1e-6))
+    with pytest.raises(hx.ParameterError, match="height_range = None is not allowed"):
+        hx.SampledSurface.from_image(path, 10e-6, None)
+    (tmp_path / "notes.txt").write_text("not an image")
+    with pytest.raises(hx.ParameterError, match="not an image Pillow can read"):
+        hx.SampledSurface.from_image(tmp_path / "notes.txt", 10e-6, (0, 1e-6))
+
+
+@pytest.mark.parametrize("args, message", [
+    ((np.arange(5) * 1e-5, np.arange(5) * 1e-5, np.where(np.eye(5) > 0, np.nan, 0.0)),
+     r"h\[0, 0\] = nan is not allowed: a height map must be finite"),
+    ((np.r_[0, 1, 2, 4, 5] * 1e-5, np.arange(5) * 1e-5, np.zeros((5, 5))), "its spacing is not uniform"),
+    ((np.arange(3) * 1e-5, np.arange(5) * 1e-5, np.zeros((3, 5))), "at least 4 x 4 samples"),
+    ((np.arange(5) * 1e-5, np.arange(5) * 1e-5, np.zeros((4, 5))), r"h has shape \(4, 5\), which is not allowed"),
+    ((np.arange(5) * 1e-5, np.arange(5) * 1e-5, np.full((5, 5), 2e3)), "samples must lie within"),
+])
+def test_a_bad_height_map_is_refused_by_name(args, message):
+    with pytest.raises(hx.ParameterError, match=message):
+        hx.SampledSurface(*args)

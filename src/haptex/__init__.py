@@ -32,7 +32,7 @@ from .devices import Device, critical_stiffness, device_from_file, five_bar_jaco
 from .renderer import Renderer
 from .simulate import AxisOscillation, BatchResult, Oscillation, SimulationResult, SimulationWarning, simulate, simulate_batch
 from .tables import PAPER_PARAMETERS, table_ii
-from .surfaces import BandLimitedNoise2D, Extruded, Grating, SumOfGratings, Surface
+from .surfaces import BandLimitedNoise2D, Extruded, Grating, SampledSurface, SumOfGratings, Surface
 from .textures import BandLimitedNoise, Flat, SampledProfile, Sinusoid, SumOfSinusoids, Texture
 
 __version__ = "0.1.0"
@@ -43,6 +43,7 @@ __all__ = [
     "BandLimitedNoise2D",
     "Extruded",
     "Grating",
+    "SampledSurface",
     "SumOfGratings",
     "Surface",
     "SampledProfile",

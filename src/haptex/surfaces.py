@@ -1,5 +1,6 @@
 """Areal textures h(x, y) (metres) over the nominal plane z = 0: gratings and their sums,
-band-limited noise, and a profile extruded across the scan.
+band-limited noise, a profile extruded across the scan, and sampled height maps (measured,
+generated, or greyscale images) with a C^2 bicubic spline.
 
 A surface is a :class:`~haptex.textures.Texture` of dimension 2: the algorithms and the
 analysis read it through ``height_at``, ``gradient`` and ``hessian`` on in-plane
@@ -18,7 +19,7 @@ from scipy import optimize
 from ._validation import ParameterError, check_count, fail, nonnegative, positive, whole
 from .textures import MAX_HARMONICS, Texture, _vector, common_period
 
-__all__ = ["Surface", "SumOfGratings", "Grating", "BandLimitedNoise2D", "Extruded"]
+__all__ = ["Surface", "SumOfGratings", "Grating", "BandLimitedNoise2D", "Extruded", "SampledSurface"]
 
 MAX_GRID = 4_000_000
 """Most points of the dense grid on which a surface's sup |grad h|, sup ||H|| and height
@@ -447,3 +448,319 @@ class Extruded(Surface):
     @property
     def height_range(self) -> tuple[float, float]:
         return self.profile.height_range
+
+
+MAX_SAMPLES = 16_000_000
+"""Most samples a height map may have (4000 x 4000): its spline's coefficients take as much
+memory again."""
+
+
+def _grid_axis(name: str, values) -> tuple[np.ndarray, float]:
+    """A uniform, strictly increasing sample axis (m) and its spacing."""
+    arr = _vector(name, values)
+    if arr.size < 4:
+        raise ParameterError(f"{name} has {arr.size} samples, which is not allowed: a height map needs at least "
+                             "4 x 4 samples (a bicubic spline)")
+    step = np.diff(arr)
+    if not np.all(step > 0):
+        i = int(np.argmax(~(step > 0))) + 1
+        raise ParameterError(f"{name}[{i}] = {arr[i]:g} is not allowed: {name} must increase strictly")
+    d = (arr[-1] - arr[0]) / (arr.size - 1)
+    if np.max(np.abs(step - d)) > 1e-6 * d:
+        i = int(np.argmax(np.abs(step - d)))
+        raise ParameterError(f"{name} is not allowed: its spacing is not uniform ({name}[{i + 1}] - {name}[{i}] = "
+                             f"{step[i]:g} m against the mean {d:g} m); resample the map onto a regular grid")
+    return arr, float(d)
+
+
+class SampledSurface(Surface):
+    """A measured or generated height map h(x, y) on a regular grid, evaluated by a C^2
+    bicubic spline (the tensor product of cubic interpolating splines).
+
+    Parameters
+    ----------
+    x : array_like, shape (nx,)
+        Column positions (m), uniform and strictly increasing, nx >= 4.
+    y : array_like, shape (ny,)
+        Row positions (m), uniform and strictly increasing, ny >= 4.
+    h : array_like, shape (nx, ny)
+        Heights (m), finite, ``h[i, j]`` at (x[i], y[j]).
+    periodic : bool, optional
+        Close the map into a periodic texture on the cell (nx dx, ny dy) with periodic
+        splines; otherwise not-a-knot splines over the sampled rectangle, extended beyond
+        it by the tangent plane of its edge (C^1 there).
+    shortest_period : float, optional
+        The shortest wavelength present (m); default the Nyquist period 2 max(dx, dy).
+    source : str, optional
+        Where the map came from (for reports).
+
+    Raises
+    ------
+    ParameterError
+        For fewer than 4 x 4 samples, NaNs or infinities, heights beyond +-1 km, a
+        non-uniform or non-increasing axis, mismatched shapes, or more than
+        ``MAX_SAMPLES`` samples.
+    """
+
+    def __init__(self, x, y, h, periodic: bool = False, shortest_period: float | None = None, source: str = ""):
+        from scipy.interpolate import NdBSpline, make_interp_spline
+
+        from ._validation import MAX_LENGTH
+
+        x, dx = _grid_axis("x", x)
+        y, dy = _grid_axis("y", y)
+        try:
+            h = np.asarray(h, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise fail("h", "a non-numeric array", "an array of heights in metres, shape (nx, ny)") from None
+        if h.shape != (x.size, y.size):
+            raise ParameterError(f"h has shape {h.shape}, which is not allowed: must be (nx, ny) = ({x.size}, "
+                                 f"{y.size}), h[i, j] at (x[i], y[j])")
+        check_count("h", f"a {h.shape[0]} x {h.shape[1]} map", h.size, MAX_SAMPLES, "samples")
+        bad = np.argwhere(~np.isfinite(h))
+        if bad.size:
+            i, j = (int(v) for v in bad[0])
+            raise ParameterError(f"h[{i}, {j}] = {h[i, j]} is not allowed: a height map must be finite everywhere "
+                                 f"({bad.shape[0]} non-finite samples; fill or crop them first)")
+        if np.max(np.abs(h)) > MAX_LENGTH or max(abs(x[0]), abs(x[-1]), abs(y[0]), abs(y[-1])) > MAX_LENGTH:
+            raise ParameterError(f"h = a map beyond +-{MAX_LENGTH:g} m is not allowed: samples must lie within "
+                                 f"+-{MAX_LENGTH:g} m (check the unit)")
+        self.x, self.y, self.h = x, y, np.ascontiguousarray(h)
+        self.dx, self.dy = dx, dy
+        self.periodic = bool(periodic)
+        self.source = source
+        if self.periodic:
+            xe, ye = np.r_[x, x[-1] + dx], np.r_[y, y[-1] + dy]
+            he = np.pad(h, ((0, 1), (0, 1)), mode="wrap")
+            bx = make_interp_spline(xe, he, k=3, bc_type="periodic", axis=0)
+            by = make_interp_spline(ye, bx.c, k=3, bc_type="periodic", axis=1)
+            self._size = (x.size * dx, y.size * dy)
+        else:
+            bx = make_interp_spline(x, h, k=3, axis=0)
+            by = make_interp_spline(y, bx.c, k=3, axis=1)
+            self._size = ((x.size - 1) * dx, (y.size - 1) * dy)
+        # make_interp_spline puts the interpolated axis first: by.c is (y coefficients, x coefficients)
+        self._spline = NdBSpline((bx.t, by.t), np.ascontiguousarray(np.moveaxis(by.c, 0, 1)), 3)
+        nyquist = 2 * max(dx, dy)
+        self._shortest = nyquist if shortest_period is None else max(positive("shortest_period", shortest_period, "m"),
+                                                                     nyquist)
+
+    def __repr__(self) -> str:
+        what = f", source={self.source!r}" if self.source else ""
+        return (f"SampledSurface({self.x.size}x{self.y.size} samples, dx={self.dx:g}, dy={self.dy:g}, "
+                f"periodic={self.periodic}{what})")
+
+    # -- evaluation ------------------------------------------------------------------
+    def _eval(self, xt, nu):
+        """Derivative ``nu`` = (i, j) of the spline at in-plane positions (..., 2)."""
+        p = plane(xt)
+        start = np.array([self.x[0], self.y[0]])
+        size = np.array(self._size)
+        if self.periodic:
+            p = start + np.mod(p - start, size)
+            return self._spline(p.reshape(-1, 2), nu=nu).reshape(p.shape[:-1])
+        c = np.clip(p, start, start + size)
+        d = p - c  # nonzero along the axes where p lies beyond the map
+        flat_c = c.reshape(-1, 2)
+
+        def at(i, j):
+            return self._spline(flat_c, nu=(i, j)).reshape(p.shape[:-1])
+
+        out = at(*nu)
+        if not np.any(d):
+            return out
+        dx, dy = d[..., 0], d[..., 1]
+        # the tangent-plane extension F(p) = h(c) + grad h(c) . d, with c the nearest point of
+        # the map (c_i = p_i along the axes where p is inside, d_i = 0 there). Differentiated
+        # along p: a derivative along an axis where p is outside acts on d only; so with m such
+        # derivatives, F's derivative is D(h)(c) + D(grad h)(c) . d for m = 0, D(h)(c) for
+        # m = 1, and 0 for m = 2.
+        outside = [dx != 0, dy != 0]
+        m = sum(outside[a].astype(int) for a, times in enumerate(nu) for _ in range(times))
+        m = np.broadcast_to(m, out.shape)
+        extra = at(nu[0] + 1, nu[1]) * dx + at(nu[0], nu[1] + 1) * dy
+        return np.where(m == 0, out + extra, np.where(m == 1, out, 0.0))
+
+    def height_at(self, xt):
+        """h(x, y) (m) at positions of shape (..., 2) (m); shape (...)."""
+        return self._eval(xt, (0, 0))
+
+    def gradient(self, xt):
+        """grad h (m/m), shape (..., 2)."""
+        return np.stack([self._eval(xt, (1, 0)), self._eval(xt, (0, 1))], -1)
+
+    def hessian(self, xt):
+        """Hessian of h (1/m), shape (..., 2, 2)."""
+        hxx, hxy, hyy = self._eval(xt, (2, 0)), self._eval(xt, (1, 1)), self._eval(xt, (0, 2))
+        return np.stack([np.stack([hxx, hxy], -1), np.stack([hxy, hyy], -1)], -2)
+
+    # -- summary numbers -------------------------------------------------------------
+    @property
+    def shortest_period(self) -> float:
+        return self._shortest
+
+    @property
+    def cell(self) -> tuple[float, float] | None:
+        """(nx dx, ny dy) for a periodic map, else None."""
+        return self._size if self.periodic else None
+
+    @property
+    def domain(self):
+        """The sampled rectangle ((x0, x1), (y0, y1)) (m); one cell if periodic."""
+        return ((float(self.x[0]), float(self.x[0] + self._size[0])),
+                (float(self.y[0]), float(self.y[0] + self._size[1])))
+
+    def _grid(self):
+        """Four points a sample interval (fewer if the map is large), for the sups."""
+        (x0, x1), (y0, y1) = self.domain
+        per = max(1, min(4, int(math.sqrt(MAX_GRID / (self.x.size * self.y.size)))))
+        n = [self.x.size * per, self.y.size * per]
+        xs = np.linspace(x0, x1, n[0], endpoint=self.periodic is False)
+        ys = np.linspace(y0, y1, n[1], endpoint=self.periodic is False)
+        X, Y = np.meshgrid(xs, ys, indexing="ij")
+        return np.stack([X, Y], -1), (xs[1] - xs[0], ys[1] - ys[0])
+
+    max_slope_is_exact = True
+
+    @cached_property
+    def max_slope(self) -> float:
+        """M = sup |grad h| of the spline over the map (m/m): a dense grid (4 points a
+        sample interval) refined by bounded quasi-Newton steps."""
+        return math.sqrt(self._sup(lambda p: np.sum(self.gradient(p) ** 2, axis=-1)))
+
+    @cached_property
+    def max_curvature(self) -> float:
+        """sup of the Hessian's 2-norm over the map (1/m), found like :attr:`max_slope`."""
+        return self._sup(lambda p: np.linalg.norm(self.hessian(p), ord=2, axis=(-2, -1)))
+
+    @cached_property
+    def height_range(self) -> tuple[float, float]:
+        """(min h, max h) (m): the grid's extremes widened by the sampling error
+        sup ||H|| (dx^2 + dy^2) / 8."""
+        pts, (dx, dy) = self._grid()
+        hh = self.height_at(pts)
+        pad = self.max_curvature * (dx * dx + dy * dy) / 8
+        return (float(hh.min()) - pad, float(hh.max()) + pad)
+
+    def spectrum(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Amplitude spectrum of the samples: spatial frequencies f_x (shape (nx,)), f_y
+        (shape (ny // 2 + 1,)) in 1/m, and amplitudes (m), shape (nx, ny // 2 + 1), scaled
+        so that a grating of amplitude a on the grid shows a (numpy's rfft2)."""
+        H = np.fft.rfft2(self.h) / self.h.size
+        amp = np.abs(H) * 2
+        amp[0, 0] /= 2
+        return np.fft.fftfreq(self.x.size, self.dx), np.fft.rfftfreq(self.y.size, self.dy), amp
+
+    # -- transformations ---------------------------------------------------------------
+    def _new(self, h, x=None, y=None, shortest=None) -> SampledSurface:
+        return SampledSurface(self.x if x is None else x, self.y if y is None else y, h, self.periodic,
+                              self._shortest if shortest is None else shortest, self.source)
+
+    def leveled(self) -> SampledSurface:
+        """The map minus its least-squares plane a + b x + c y (removes tilt and offset)."""
+        X, Y = np.meshgrid(self.x - self.x[0], self.y - self.y[0], indexing="ij")
+        basis = np.stack([np.ones(X.size), X.ravel(), Y.ravel()], -1)
+        coef, *_ = np.linalg.lstsq(basis, self.h.ravel(), rcond=None)
+        return self._new(self.h - (basis @ coef).reshape(self.h.shape))
+
+    def lowpass(self, shortest_period: float) -> SampledSurface:
+        """Band-limit the map to wavelengths >= ``shortest_period`` (m) in every direction.
+
+        Periodic maps: the 2-D FFT components with |f| > 1 / shortest_period are removed
+        (an isotropic cut). Others: a zero-phase 4th-order Butterworth filter along x and
+        then along y (scipy.signal.sosfiltfilt), cut-off 1 / shortest_period on each axis.
+
+        Raises
+        ------
+        ParameterError
+            If the cut-off is not above the Nyquist period 2 max(dx, dy).
+        """
+        lc = positive("shortest_period", shortest_period, "m")
+        nyq = 2 * max(self.dx, self.dy)
+        if not lc > nyq:
+            raise fail("shortest_period", lc, f"longer than the Nyquist period 2 max(dx, dy) = {nyq:g} m")
+        if self.periodic:
+            H = np.fft.rfft2(self.h)
+            fx = np.fft.fftfreq(self.x.size, self.dx)[:, None]
+            fy = np.fft.rfftfreq(self.y.size, self.dy)[None, :]
+            H[np.hypot(fx, fy) > 1.0 / lc] = 0.0
+            hf = np.fft.irfft2(H, self.h.shape)
+        else:
+            from scipy.signal import butter, sosfiltfilt
+
+            hf = self.h
+            for axis, step in ((0, self.dx), (1, self.dy)):
+                hf = sosfiltfilt(butter(4, (1.0 / lc) / (0.5 / step), output="sos"), hf, axis=axis)
+        return self._new(hf, shortest=lc)
+
+    def scaled(self, length_factor: float = 1.0, height_factor: float = 1.0) -> SampledSurface:
+        """Stretch the map: x and y by ``length_factor``, h by ``height_factor``."""
+        from ._validation import finite
+
+        lf = positive("length_factor", length_factor)
+        hf = finite("height_factor", height_factor)
+        return self._new(self.h * hf, self.x * lf, self.y * lf, self._shortest * lf)
+
+    @classmethod
+    def from_image(cls, path, pixel_size, height_range, periodic: bool = False) -> SampledSurface:
+        """A greyscale height map from an image (the bump maps CHAI3D and H3D users have).
+
+        Parameters
+        ----------
+        path : str or Path
+            An image Pillow reads (PNG, TIFF, JPEG, ...); colour is converted to luminance.
+            8- and 16-bit greys keep their depth.
+        pixel_size : float
+            Size of a pixel (m), > 0; required (an image does not state it).
+        height_range : (float, float)
+            Heights (m) of black and of white: grey g in [0, 1] maps to
+            black + g (white - black); required (an image does not state it).
+        periodic : bool, optional
+            Tile the image (a seamless texture).
+
+        Returns
+        -------
+        SampledSurface
+            Column i at x = i pixel_size, row j at y = j pixel_size (the image's top row
+            at y = 0).
+
+        Raises
+        ------
+        ParameterError
+            If the file cannot be read as an image, the pixel size or height range is
+            missing or invalid, or the image is smaller than 4 x 4 pixels.
+        """
+        from pathlib import Path
+
+        from PIL import Image, UnidentifiedImageError
+
+        if pixel_size is None:
+            raise ParameterError("pixel_size = None is not allowed: an image does not state its pixel size; give it "
+                                 "in metres (e.g. 10e-6, or --pixel-size 10um at the command line)")
+        if height_range is None:
+            raise ParameterError("height_range = None is not allowed: an image does not state its heights; give "
+                                 "(black, white) in metres (e.g. (0, 50e-6))")
+        step = positive("pixel_size", pixel_size, "m")
+        try:
+            black, white = (float(v) for v in height_range)
+        except (TypeError, ValueError):
+            raise fail("height_range", height_range, "a pair (black, white) of heights in metres") from None
+        if not (math.isfinite(black) and math.isfinite(white)) or black == white:
+            raise fail("height_range", height_range, "two different finite heights (black, white) in metres")
+        p = Path(path)
+        if not p.is_file():
+            raise ParameterError(f"path = {str(path)!r} is not allowed: {'a directory' if p.is_dir() else 'no such file'}")
+        try:
+            with Image.open(p) as im:
+                check_count("path", str(path), im.width * im.height, MAX_SAMPLES, "pixels")
+                if im.mode in ("I;16", "I;16B", "I;16L", "I"):
+                    grey = np.asarray(im, dtype=np.float64) / (65535.0 if im.mode.startswith("I;16") else
+                                                                max(float(np.max(np.asarray(im))), 1.0))
+                else:
+                    grey = np.asarray(im.convert("L"), dtype=np.float64) / 255.0
+        except (UnidentifiedImageError, OSError) as exc:
+            raise ParameterError(f"path = {str(path)!r} is not allowed: not an image Pillow can read ({exc})") from None
+        h = black + grey.T * (white - black)  # rows are y, columns x: h[i, j] at (x_i, y_j)
+        x = step * np.arange(h.shape[0])
+        y = step * np.arange(h.shape[1])
+        return cls(x, y, h, periodic=periodic, source=str(path))
