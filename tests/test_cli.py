@@ -383,7 +383,7 @@ def test_a_toml_device_file_is_the_same_device_as_the_options(tmp_path):
     ('preset = "point-mass"\ndelay = 1.5\n', "delay = 1.5 is not allowed: must be a whole number"),
     ('preset = "point-mass\n', "not a TOML file"),
     ('preset = "custom"\nmass = "50 g"\n', "key 'damping' is missing"),
-    ('preset = "point-mass"\nmass = [["50 g", "0 g"]]\n', "a quantity or a 2x2 table of quantities"),
+    ('preset = "point-mass"\nmass = [["50 g", "0 g"]]\n', "a quantity or a 2x2 or 3x3 table of quantities"),
 ])
 def test_a_bad_device_file_is_one_line_naming_the_key(tmp_path, text, message):
     f = tmp_path / "F"

@@ -342,3 +342,60 @@ def test_a_greyscale_image_becomes_a_height_map(tmp_path):
 def test_a_bad_height_map_is_refused_by_name(args, message):
     with pytest.raises(hx.ParameterError, match=message):
         hx.SampledSurface(*args)
+
+
+def test_table_ii_in_3d_on_the_egg_crate_at_the_command_line():
+    # Issue 11, "Table II in 3-D": on the egg-crate at the paper's A and l, q_A is Remark 2's
+    # sqrt(1 + (2 pi A / l)^2) (sup |grad h| = 2 pi A / l); the loops in the plane y = l/4,
+    # where the egg-crate's slice is the paper's sinusoid and its gradient has no y
+    # component, give the paper's closed forms (A: kappa_0 A^2 / 2; B: eq. 12; C, W: 0;
+    # G: eq. 29); verdicts as in Table II (C and W conservative, all continuous)
+    import json
+    import subprocess
+    import sys
+
+    r = subprocess.run([sys.executable, "-m", "haptex", "table", "--surface", "egg-crate", "--json"],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    rows = {row["algorithm"]: row for row in json.loads(r.stdout)["rows"]}
+    assert list(rows) == list("WABCG")
+    assert rows["A"]["characteristic_number"] == pytest.approx(math.sqrt(1 + (2 * np.pi * A / L) ** 2), rel=1e-9)
+    for row in rows.values():
+        assert row["loop_energy"] == pytest.approx(row["loop_energy_closed_form"], rel=1e-9, abs=1e-15)
+        assert row["conservative"] == (row["algorithm"] in "WC") and row["continuous"]
+    r = subprocess.run([sys.executable, "-m", "haptex", "table", "--surface", "egg-crate", "--friction", "0.5"],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and "--friction is not allowed with --surface egg-crate" in r.stderr
+
+
+def test_passivity_over_a_surface_uses_the_3x3_damping():
+    # Corollary 1 in 3-D: kappa_0 q <= sigma_0(B) / (2T), sigma_0 the smallest singular value
+    # of the 3x3 damping (here diag(0.5, 0.3, 0.6) N s/m: 0.3), T = 0.1 ms -> 1500 N/m; A on
+    # the egg-crate has q = sqrt(1 + (2 pi A / l)^2)
+    dev = hx.Device(mass=0.1, damping=np.diag([0.5, 0.3, 0.6]), period=1e-4)
+    assert dev.dimension == 3 and dev.passivity_limit == pytest.approx(1500.0)
+    alg = hx.algorithm("A", hx.SumOfGratings.egg_crate(A, L), K0)
+    q = math.sqrt(1 + (2 * np.pi * A / L) ** 2)
+    assert hx.max_passive_stiffness(alg, dev) == pytest.approx(1500.0 / q, rel=1e-9)
+    assert not hx.passivity_condition(alg, dev).holds
+    with pytest.raises(hx.ParameterError, match="a surface h\\(x, y\\) needs a 3-DOF device"):
+        hx.passivity_condition(alg, hx.Device.pantograph())
+    with pytest.raises(hx.ParameterError, match="the simulator takes planar devices"):
+        hx.simulate(hx.algorithm("A", hx.Sinusoid(A, L), K0), dev, hx.operators.ConstantForce([0.0, -1.0]), 0.01)
+
+
+def test_design_on_an_areal_texture():
+    # `design` on a surface: the algorithms defined over surfaces, a 3-DOF point mass, and the
+    # largest passive stiffness sigma_0(B) / (2 T q) with q_A = sqrt(1 + (2 pi A / l)^2)
+    from haptex.design import design
+
+    egg = hx.SumOfGratings.egg_crate(0.2e-3, 2e-3)
+    dev = hx.Device.point_mass(0.1, 0.5, 1e-4, dimension=3)
+    data = design(egg, dev, 1000.0)
+    rows = {r["algorithm"]: r for r in data["rows"]}
+    assert list(rows) == list("WABCG")
+    qa = math.sqrt(1 + (2 * np.pi * 0.2 / 2) ** 2)
+    assert rows["A"]["max_passive_stiffness"] == pytest.approx(2500.0 / qa, rel=1e-9)
+    assert rows["C"]["conservative"] and not rows["A"]["conservative"]
+    with pytest.raises(hx.ParameterError, match="a surface needs a 3-DOF device"):
+        design(egg, hx.Device.point_mass(), 1000.0)

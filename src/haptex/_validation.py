@@ -104,8 +104,9 @@ def optional_positive(name: str, value, unit: str = "") -> float | None:
     return None if value is None else positive(name, value, unit)
 
 
-def matrix2(name: str, value, what: str = "2x2 matrix") -> np.ndarray:
-    """A 2x2 float64 matrix from a scalar (times the identity: isotropic) or a 2x2 array.
+def matrix2(name: str, value, what: str = "2x2 matrix", dim: int = 2) -> np.ndarray:
+    """A dim x dim float64 matrix (2x2 by default) from a scalar (times the identity:
+    isotropic) or a dim x dim array.
 
     Raises
     ------
@@ -117,8 +118,8 @@ def matrix2(name: str, value, what: str = "2x2 matrix") -> np.ndarray:
     except (TypeError, ValueError):
         raise fail(name, value, f"a scalar or a {what}") from None
     if arr.ndim == 0:
-        arr = float(arr) * np.eye(2)
-    if arr.shape != (2, 2) or not np.all(np.isfinite(arr)):
+        arr = float(arr) * np.eye(dim)
+    if arr.shape != (dim, dim) or not np.all(np.isfinite(arr)):
         raise fail(name, value, f"a finite scalar or a finite {what}")
     return arr
 

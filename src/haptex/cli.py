@@ -70,12 +70,19 @@ def cli():
 
 @cli.command()
 @_paper_options
+@click.option("--surface", type=click.Choice(["egg-crate"]), default=None,
+              help="Table II in 3-D over the areal texture A sin(2 pi x / l) sin(2 pi y / l) (W, A, B, C, G).")
 @click.option("--json", "as_json", is_flag=True, help="Print the table as JSON.")
 @click.option("--quiet", is_flag=True, help="No progress display.")
-def table(stiffness, amplitude, period, max_penetration, friction, presliding, as_json, quiet):
+@click.pass_context
+def table(ctx, stiffness, amplitude, period, max_penetration, friction, presliding, surface, as_json, quiet):
     """Table II: characteristic number, loop energy, conservativity, continuity."""
-    with _Steps(8, "Table II", quiet or as_json) as step:
-        data = _table(stiffness, amplitude, period, max_penetration, friction, presliding, progress=step)
+    if surface is not None:
+        _refuse_unused(ctx, {"*": {"friction", "presliding"}}, surface, "--surface", owner="*",
+                       what="it applies to F, which takes profiles only for now")
+    with _Steps(5 if surface else 8, "Table II", quiet or as_json) as step:
+        data = _table(stiffness, amplitude, period, max_penetration, friction, presliding, progress=step,
+                      surface=surface)
     if as_json:
         click.echo(json.dumps(_jsonable(data), indent=2))
     else:
@@ -163,8 +170,9 @@ def _device_options(func):
     return func
 
 
-def _build_device(ctx, spec: str, joint_damping, mass, damping, sampling_period, delay):
-    """The device an invocation describes, refusing parameters of the other preset."""
+def _build_device(ctx, spec: str, joint_damping, mass, damping, sampling_period, delay, dimension: int = 2):
+    """The device an invocation describes, refusing parameters of the other preset; a
+    point mass is built with ``dimension`` axes (3 for a surface)."""
     from .devices import Device, device_from_file
 
     if str(spec).lower().endswith(".toml"):
@@ -172,6 +180,9 @@ def _build_device(ctx, spec: str, joint_damping, mass, damping, sampling_period,
                        "--device", owner="*", what="write it in the device file")
         return device_from_file(spec)
     kind, _, rest = str(spec).partition(":")
+    if kind == "pantograph" and dimension != 2:
+        raise ParameterError("--device pantograph is not allowed with a surface: the pantograph is planar; use "
+                             "--device point-mass (built 3-DOF) or a TOML device file with dimension = 3")
     if kind == "pantograph":
         _refuse_unused(ctx, {"point-mass": {"mass", "damping"}}, kind, "--device")
         jd = _q(rest, "N*m*s", "joint_damping") if rest else joint_damping
@@ -179,13 +190,14 @@ def _build_device(ctx, spec: str, joint_damping, mass, damping, sampling_period,
     if kind == "point-mass":
         _refuse_unused(ctx, {"pantograph": {"joint_damping"}}, kind, "--device")
         if not rest:
-            return Device.point_mass(mass, damping, sampling_period, delay=delay)
+            return Device.point_mass(mass, damping, sampling_period, delay=delay, dimension=dimension)
         _refuse_unused(ctx, {"*": {"mass", "damping", "sampling_period"}}, spec, "--device", owner="*",
                        what="the shorthand already gives it")
         vals = _split_spec(rest, "device", "point-mass", (3, 4))
         delta = _q(vals[3], "m", "position_resolution") if len(vals) == 4 else 0.0
         return Device.point_mass(_q(vals[0], "kg", "mass"), _q(vals[1], "N*s/m", "damping"),
-                                 _q(vals[2], "s", "period"), position_resolution=delta, delay=delay)
+                                 _q(vals[2], "s", "period"), position_resolution=delta, delay=delay,
+                                 dimension=dimension)
     raise ParameterError(f"device = {spec!r} is not allowed: must be 'pantograph', 'point-mass', "
                          "'point-mass:MASS,DAMPING,PERIOD[,RESOLUTION]' or a TOML device file (FILE.toml)")
 
@@ -438,7 +450,7 @@ def _texture_from_spec(spec: str, spacing, x_unit, height_unit, level, lowpass, 
     from .textures import BandLimitedNoise, SampledProfile, Sinusoid
 
     kind, _, rest = spec.partition(":")
-    if kind in ("sine", "noise") and rest:
+    if kind in ("sine", "noise", "egg-crate", "grating") and rest:
         given = [flag for flag, v in (("--spacing", spacing), ("--x-unit", x_unit), ("--height-unit", height_unit),
                                       ("--level", level), ("--lowpass", lowpass), ("--scale", scale),
                                       ("--periodic", periodic)) if v not in (None, False)]
@@ -449,6 +461,17 @@ def _texture_from_spec(spec: str, spacing, x_unit, height_unit, level, lowpass, 
     if kind == "sine" and rest:
         a, ell = _split_spec(rest, "texture", "sine", (2, 2))
         return Sinusoid(_q(a, "m", "amplitude"), _q(ell, "m", "period"))
+    if kind == "egg-crate" and rest:
+        from .surfaces import SumOfGratings
+
+        a, ell = _split_spec(rest, "texture", "egg-crate", (2, 2))
+        return SumOfGratings.egg_crate(_q(a, "m", "amplitude"), _q(ell, "m", "period"))
+    if kind == "grating" and rest:
+        from .surfaces import Grating
+
+        vals = _split_spec(rest, "texture", "grating", (2, 3))
+        direction = _q(vals[2], "radian", "direction") if len(vals) == 3 else 0.0
+        return Grating(_q(vals[0], "m", "amplitude"), _q(vals[1], "m", "period"), direction)
     if kind == "noise" and rest:
         vals = _split_spec(rest, "texture", "noise", (4, 5))
         names = ["rms", "shortest_period", "longest_period", "length"]
@@ -477,7 +500,8 @@ def _texture_from_spec(spec: str, spacing, x_unit, height_unit, level, lowpass, 
 
 @cli.command()
 @click.option("--texture", "texture_spec", required=True,
-              help="FILE (CSV, Dektak CSV, .mat), 'sine:AMPLITUDE,PERIOD' or 'noise:RMS,SHORTEST,LONGEST,LENGTH[,SEED]'.")
+              help="FILE (CSV, Dektak CSV, .mat), 'sine:AMPLITUDE,PERIOD', 'noise:RMS,SHORTEST,LONGEST,LENGTH[,SEED]', "
+                   "or a surface: 'egg-crate:AMPLITUDE,PERIOD', 'grating:AMPLITUDE,PERIOD[,DIRECTION]'.")
 @_device_options
 @click.option("--stiffness", type=Quantity("N/m"), default=PAPER_PARAMETERS["stiffness"], show_default="2000 N/m",
               help="The stiffness you want to render at.")
@@ -505,7 +529,9 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
     from .design import design as run_design
 
     tex = _texture_from_spec(texture_spec, spacing, x_unit, height_unit, level, lowpass, scale, periodic)
-    dev = _build_device(ctx, device_spec, joint_damping, mass, damping, sampling_period, delay)
+    dev = _build_device(ctx, device_spec, joint_damping, mass, damping, sampling_period, delay, tex.dimension + 1)
+    if window and tex.dimension != 1:
+        raise ParameterError("--window is not allowed with a surface: the analysis covers one periodic cell")
     x_range = _parse_point(window, "window") if window else None
     if report_dir is not None:
         from .report import check_output
@@ -608,11 +634,11 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
     click.echo(f"wrote {c_path} and {h_path}: {alg!r}, max force {max_force:g} N")
 
 
-def _table(stiffness, amplitude, period, max_penetration, friction, presliding, progress=None):
+def _table(stiffness, amplitude, period, max_penetration, friction, presliding, progress=None, surface=None):
     from .tables import table_ii
 
     return table_ii(stiffness, amplitude, period, max_penetration, friction=friction, presliding=presliding,
-                    progress=progress)
+                    progress=progress, surface=surface)
 
 
 def _fmt_q(row) -> str:
@@ -626,8 +652,9 @@ def _print_table(data) -> None:
     from rich.table import Table
 
     p = data["parameters"]
+    where = " in 3-D, egg-crate" if p["texture"].startswith("SumOfGratings") else ""
     t = Table(
-        title=(f"Table II: kappa_0 = {p['stiffness']:g} N/m, A = {p['amplitude'] * 1e3:g} mm, "
+        title=(f"Table II{where}: kappa_0 = {p['stiffness']:g} N/m, A = {p['amplitude'] * 1e3:g} mm, "
                f"l = {p['period'] * 1e3:g} mm, depth {p['max_penetration'] * 1e3:g} mm"),
         box=box.SIMPLE_HEAD, caption="ours / paper; closed forms in --json",
     )

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import math
 
+from ._validation import ParameterError
+from .algorithms import ALGORITHMS
 from .analysis import characteristic_number, checked_algorithms, conservativity, continuity, paper_loop, texture_limits
 from .devices import Device, critical_stiffness
 from .textures import Texture
@@ -20,8 +22,11 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
     Parameters
     ----------
     texture : Texture
-        Any texture (Sinusoid, SumOfSinusoids, BandLimitedNoise, SampledProfile).
+        Any profile (Sinusoid, SumOfSinusoids, BandLimitedNoise, SampledProfile) or surface
+        (SumOfGratings, BandLimitedNoise2D, SampledSurface, Extruded); over a surface the
+        algorithms defined there (W, A, B, C, G) are analysed.
     device : Device
+        Of the texture's dimension plus one (3-DOF over a surface).
     stiffness : float
         The nominal stiffness kappa_0 the user wants (N/m).
     speed : float, optional
@@ -54,9 +59,14 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
     Raises
     ------
     ParameterError
-        For invalid parameters.
+        For invalid parameters, or a device of the wrong dimension.
     """
-    algs = checked_algorithms(LETTERS, texture, stiffness, max_penetration, friction, presliding)
+    if device.dimension != texture.dimension + 1:
+        raise ParameterError(f"device = {device.name!r} with dimension = {device.dimension} is not allowed for "
+                             f"{texture!r}: a {'surface needs a 3-DOF' if texture.dimension == 2 else 'profile needs a planar'}"
+                             " device")
+    letters = [L for L in LETTERS if texture.dimension == 1 or ALGORITHMS[L].surfaces]
+    algs = checked_algorithms(letters, texture, stiffness, max_penetration, friction, presliding)
     rows = []
     for L, alg in algs.items():
         if progress is not None:
@@ -77,7 +87,7 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
             "max_abs_loop_energy": max((abs(e) for e in cons.random_loop_energies), default=0.0),
             "continuous": cont.continuous, "has_paper_loop": path is not None,
         })
-    m, b = float(device.mass[1, 1]), float(device.damping[1, 1])
+    m, b = float(device.mass[-1, -1]), float(device.damping[-1, -1])  # along the normal z
     wall_limit = critical_stiffness(m, b, device.period, device.delay) if b > 0 else 0.0
     limits = texture_limits(texture, device, speed, stiffness, samples_per_period)
     textured = [r for r in rows if r["algorithm"] != "W"]

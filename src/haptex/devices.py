@@ -15,11 +15,11 @@ import numpy as np
 from ._validation import ParameterError, fail, matrix2, nonnegative, positive, positive_or_inf, whole
 
 
-def _matrix(name: str, value, allow_zero: bool) -> np.ndarray:
-    """A 2x2 symmetric matrix from a scalar (isotropic) or a 2x2 array; checks definiteness."""
-    arr = matrix2(name, value, "2x2 symmetric matrix")
+def _matrix(name: str, value, allow_zero: bool, dim: int = 2) -> np.ndarray:
+    """A dim x dim symmetric matrix from a scalar (isotropic) or an array; checks definiteness."""
+    arr = matrix2(name, value, f"{dim}x{dim} symmetric matrix", dim)
     if not np.allclose(arr, arr.T, rtol=1e-12, atol=0.0):
-        raise fail(name, arr.tolist(), "a symmetric 2x2 matrix")
+        raise fail(name, arr.tolist(), f"a symmetric {dim}x{dim} matrix")
     eig = np.linalg.eigvalsh(arr)
     if allow_zero:
         if eig.min() < -1e-12 * max(1.0, abs(eig.max())):
@@ -31,14 +31,14 @@ def _matrix(name: str, value, allow_zero: bool) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Device:
-    """A planar 2-DOF sampled-data haptic device.
+    """A sampled-data haptic device: planar 2-DOF ([x, z]) or 3-DOF ([x, y, z]).
 
     Parameters
     ----------
-    mass : float or array_like, shape (2, 2)
+    mass : float or array_like, shape (2, 2) or (3, 3)
         Mass matrix M at the handle (kg), symmetric positive definite; a scalar means
-        isotropic.
-    damping : float or array_like, shape (2, 2)
+        isotropic (of ``dimension``).
+    damping : float or array_like, shape (2, 2) or (3, 3)
         Viscous damping matrix B at the handle (N s/m) while the handle is inside the
         virtual object; symmetric positive semi-definite.
     period : float
@@ -83,6 +83,10 @@ class Device:
         :attr:`max_stiffness`).
     name : str, optional
         A label for reports.
+    dimension : int, optional
+        2 (planar, positions [x, z]) or 3 (positions [x, y, z]); default: that of the
+        matrices given, 2 when all are scalars. The passivity analysis (Corollary 1 with a
+        3x3 damping matrix) takes 3-DOF devices; the simulator takes planar ones for now.
 
     Raises
     ------
@@ -112,12 +116,22 @@ class Device:
     name: str = "device"
     stiffness_limit: float | None = None
     details: dict = field(default_factory=dict, compare=False)
+    dimension: int | None = None
 
     def __post_init__(self):
-        object.__setattr__(self, "mass", _matrix("mass", self.mass, allow_zero=False))
-        object.__setattr__(self, "damping", _matrix("damping", self.damping, allow_zero=True))
+        dims = {np.ndim(v) and np.shape(v)[0] for v in (self.mass, self.damping, self.damping_outside,
+                                                          self.handle_mass) if v is not None} - {0}
+        if self.dimension is not None:
+            dim = whole("dimension", self.dimension, 2, 3, "(2: planar [x, z], 3: [x, y, z])")
+        elif len(dims) == 1 and dims <= {2, 3}:
+            dim = int(next(iter(dims)))
+        else:
+            dim = 2
+        object.__setattr__(self, "dimension", dim)
+        object.__setattr__(self, "mass", _matrix("mass", self.mass, allow_zero=False, dim=dim))
+        object.__setattr__(self, "damping", _matrix("damping", self.damping, allow_zero=True, dim=dim))
         out = self.damping if self.damping_outside is None else self.damping_outside
-        object.__setattr__(self, "damping_outside", _matrix("damping_outside", out, allow_zero=True))
+        object.__setattr__(self, "damping_outside", _matrix("damping_outside", out, allow_zero=True, dim=dim))
         object.__setattr__(self, "period", positive("period", self.period, "s"))
         object.__setattr__(self, "delay", whole("delay", self.delay, 0, 10_000, "sampling periods"))
         for name, unit, smallest in (("position_resolution", "m", 1e-15), ("force_resolution", "N", 1e-15)):
@@ -129,7 +143,7 @@ class Device:
         object.__setattr__(self, "first_resonance", positive_or_inf("first_resonance", self.first_resonance, "Hz"))
         object.__setattr__(self, "coulomb_friction", nonnegative("coulomb_friction", self.coulomb_friction, "N"))
         if self.handle_mass is not None:
-            object.__setattr__(self, "handle_mass", _matrix("handle_mass", self.handle_mass, allow_zero=False))
+            object.__setattr__(self, "handle_mass", _matrix("handle_mass", self.handle_mass, allow_zero=False, dim=dim))
         if self.mode_damping_ratio is not None:
             zeta = positive("mode_damping_ratio", self.mode_damping_ratio)
             object.__setattr__(self, "mode_damping_ratio", zeta)
@@ -156,7 +170,8 @@ class Device:
 
     def mode_matrices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(M_m, M_h, K_s, C_s) of the two-mass model: motor- and handle-side masses (kg),
-        the mode's stiffness (N/m) and damping (N s/m) matrices, each shape (2, 2).
+        the mode's stiffness (N/m) and damping (N s/m) matrices, each shape (n, n),
+        n = :attr:`dimension`.
 
         Raises
         ------
@@ -193,7 +208,7 @@ class Device:
         fields = {k: getattr(self, k) for k in ("mass", "damping", "period", "delay", "position_resolution",
                                                 "force_resolution", "max_force", "first_resonance",
                                                 "coulomb_friction", "mode_damping_ratio", "handle_mass", "name",
-                                                "stiffness_limit")}
+                                                "stiffness_limit", "dimension")}
         fields["damping_outside"] = None if np.array_equal(self.damping_outside, self.damping) else self.damping_outside
         if "damping" in changes and "damping_outside" not in changes and fields["damping_outside"] is None:
             fields["damping_outside"] = None
@@ -475,7 +490,7 @@ _FILE_KEYS = {  # key: (SI unit, kind) -- kind: q quantity, m quantity or 2x2 ma
     "mode_damping_ratio": (None, "x"), "handle_mass": ("kg", "m"), "stiffness_limit": ("N/m", "q"),
     "joint_damping": ("N*m*s", "q"), "joint_damping_outside": ("N*m*s", "q"), "link_proximal": ("m", "q"),
     "link_distal": ("m", "q"), "base": ("m", "q"), "rotor_inertia": ("kg*m^2", "q"), "link_mass": ("kg", "q"),
-    "working_point": ("m", "p"),
+    "working_point": ("m", "p"), "dimension": (None, "i"),
 }
 _PANTOGRAPH_ONLY = {"joint_damping", "joint_damping_outside", "link_proximal", "link_distal", "base",
                     "rotor_inertia", "link_mass", "working_point"}
@@ -574,11 +589,14 @@ def device_from_file(path) -> Device:
             kw[key] = quantity(key, value, unit)
         elif kind == "p" or (kind == "m" and isinstance(value, list)):
             rows = value if kind == "m" else [value]
-            if not isinstance(rows, list) or len(rows) != 2 - (kind == "p") or any(
-                    not isinstance(r, list) or len(r) != 2 for r in rows):
+            size = 2 if kind == "p" else len(rows) if isinstance(rows, list) else 0
+            if not isinstance(rows, list) or len(rows) != (1 if kind == "p" else size) or size not in (2, 3) or any(
+                    not isinstance(r, list) or len(r) != size for r in rows):
                 raise fail(f"device file {str(path)!r}: {key}", value,
-                           "a pair of quantities" if kind == "p" else "a quantity or a 2x2 table of quantities")
+                           "a pair of quantities" if kind == "p" else "a quantity or a 2x2 or 3x3 table of quantities")
             arr = np.array([[quantity(key, v, unit) for v in r] for r in rows])
+            if kind == "m" and arr.shape[0] != arr.shape[1]:
+                raise fail(f"device file {str(path)!r}: {key}", value, "a square table of quantities")
             kw[key] = arr[0] if kind == "p" else arr
         else:
             kw[key] = quantity(key, value, unit)

@@ -353,6 +353,10 @@ def _prepare(algorithm, device, operator, duration, initial_position, initial_ve
         raise fail("algorithm", algorithm, "a haptex algorithm (haptex.algorithm(...))")
     if not isinstance(device, Device):
         raise fail("device", device, "a haptex.Device")
+    if device.dimension != 2:
+        raise ParameterError(f"device = {device.name!r} with dimension = {device.dimension} is not allowed here: the "
+                             "simulator takes planar devices (dimension 2) for now; 3-DOF devices are analysed "
+                             "(passivity_condition, max_passive_stiffness)")
     if not isinstance(operator, Operator):
         raise fail("operator", operator, "an operator from haptex.operators")
     n_steps = _n_steps(duration, device.period)

@@ -168,6 +168,8 @@ class SumOfGratings(Surface):
         self._hess_w = -(a[:, None, None] * self._kvec[:, :, None] * self._kvec[:, None, :]).reshape(-1, 4)
 
     def __repr__(self) -> str:
+        if getattr(self, "_label", None):
+            return self._label
         return (f"SumOfGratings(amplitudes={self.amplitudes.tolist()}, periods={self.periods.tolist()}, "
                 f"directions={self.directions.tolist()}, phases={self.phases.tolist()})")
 
@@ -266,7 +268,9 @@ class SumOfGratings(Surface):
         """
         a = nonnegative("amplitude", amplitude, "m")
         lp = positive("period", period, "m")
-        return cls([a / 2, a / 2], [lp / math.sqrt(2)] * 2, [-math.pi / 4, math.pi / 4], [math.pi / 2, -math.pi / 2])
+        out = cls([a / 2, a / 2], [lp / math.sqrt(2)] * 2, [-math.pi / 4, math.pi / 4], [math.pi / 2, -math.pi / 2])
+        out._label = f"SumOfGratings.egg_crate(amplitude={a:g}, period={lp:g})"
+        return out
 
 
 class Grating(SumOfGratings):

@@ -5,9 +5,12 @@ from __future__ import annotations
 
 import math
 
-from ._validation import nonnegative, positive
+import numpy as np
+
+from ._validation import fail, nonnegative, positive
 from .algorithms import ALGORITHMS
 from .analysis import characteristic_number, checked_algorithms, conservativity, continuity, paper_loop, path_work
+from .surfaces import SumOfGratings
 from .textures import Sinusoid
 
 PAPER_PARAMETERS = {
@@ -49,8 +52,8 @@ def table_ii(stiffness: float = PAPER_PARAMETERS["stiffness"], amplitude: float 
              period: float = PAPER_PARAMETERS["period"],
              max_penetration: float = PAPER_PARAMETERS["max_penetration"], letters=None,
              friction: float = PAPER_PARAMETERS["friction"], presliding: float = PAPER_PARAMETERS["presliding"],
-             progress=None) -> dict:
-    """Recompute Table II for a sinusoidal texture.
+             progress=None, surface: str | None = None) -> dict:
+    """Recompute Table II for a sinusoidal texture, or in 3-D for an areal one.
 
     Parameters
     ----------
@@ -71,6 +74,12 @@ def table_ii(stiffness: float = PAPER_PARAMETERS["stiffness"], amplitude: float 
         default 0.8 (the paper's A = 0.8) and its d^z_max is ``max_penetration``.
     progress : callable, optional
         Called with each algorithm's letter before its row is computed.
+    surface : {None, "egg-crate"}, optional
+        ``"egg-crate"``: Table II in 3-D over h = A sin(2 pi x / l) sin(2 pi y / l), for
+        the algorithms defined over surfaces (W, A, B, C, G). The loops are the paper's
+        (Fig. 3, eq. 29) in the plane y = l/4, where the egg-crate's slice is the paper's
+        sinusoid and its gradient has no y component, so their closed forms still hold;
+        the random loops are polygons in space.
 
     Returns
     -------
@@ -94,14 +103,25 @@ def table_ii(stiffness: float = PAPER_PARAMETERS["stiffness"], amplitude: float 
     friction = nonnegative("friction", friction)
     presliding = positive("presliding", presliding, "m")
     tex = Sinusoid(A, l)
+    if surface not in (None, "egg-crate"):
+        raise fail("surface", surface, "None or 'egg-crate'")
     order = [c for c in "WABCDEFG" if c in ALGORITHMS] if letters is None else [c.upper() for c in letters]
+    if surface is not None:
+        tex = SumOfGratings.egg_crate(A, l)
+        order = [c for c in order if ALGORITHMS[c].surfaces] if letters is None else order
     algs = checked_algorithms(order, tex, k0, dmax, friction, presliding)
     rows = []
     for letter, alg in algs.items():
         if progress is not None:
             progress(letter)
         q = characteristic_number(alg, max_penetration=dmax)
-        path, expected, source = paper_loop(alg, depth=dmax / 2 if letter in "GW" else None)
+        if surface is None:
+            path, expected, source = paper_loop(alg, depth=dmax / 2 if letter in "GW" else None)
+        else:  # the paper's loop in the plane y = l/4, where the egg-crate is the paper's sinusoid
+            flat = checked_algorithms([letter], Sinusoid(A, l), k0, dmax, friction, presliding)[letter]
+            path, expected, source = paper_loop(flat, depth=dmax / 2 if letter in "GW" else None)
+            path = np.column_stack([path[:, 0], np.full(len(path), l / 4), path[:, 1]])
+            source += ", in the plane y = l/4"
         e_loop = path_work(alg, path)
         cons = conservativity(alg, max_penetration=dmax)
         cont = continuity(alg, max_penetration=dmax)
@@ -136,7 +156,7 @@ def table_ii(stiffness: float = PAPER_PARAMETERS["stiffness"], amplitude: float 
         )
     return {
         "parameters": {"stiffness": k0, "amplitude": A, "period": l, "max_penetration": dmax,
-                       "friction": friction, "presliding": presliding,
+                       "friction": friction, "presliding": presliding, "texture": repr(tex),
                        "units": {"stiffness": "N/m", "amplitude": "m", "period": "m", "max_penetration": "m",
                                  "friction": "1", "presliding": "m"}},
         "rows": rows,

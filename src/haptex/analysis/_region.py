@@ -96,7 +96,7 @@ def checked_algorithms(letters, texture: Texture, stiffness: float, max_penetrat
     letters : iterable of str
         Paper letters, W and A–G.
     texture : Texture
-        Used by A–G (W has none).
+        Used by A–G; W gets the flat surface of the same dimension.
     stiffness : float
         kappa_0 (N/m).
     max_penetration : float
@@ -119,7 +119,7 @@ def checked_algorithms(letters, texture: Texture, stiffness: float, max_penetrat
     algs = {}
     for letter in letters:
         kw = {"friction": friction, "presliding": presliding, "max_penetration": max_penetration} if letter == "F" else {}
-        algs[letter] = algorithm(letter, None if letter == "W" else texture, stiffness, **kw)
+        algs[letter] = algorithm(letter, Flat(texture.dimension) if letter == "W" else texture, stiffness, **kw)
         check_analysis_scale(algs[letter], max_penetration)
     return algs
 

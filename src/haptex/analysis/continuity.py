@@ -40,8 +40,8 @@ class Continuity:
     where: tuple
 
 
-def continuity(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=None, levels: int = 4,
-               base: int = 32) -> Continuity:
+def continuity(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=None, levels: int | None = None,
+               base: int | None = None) -> Continuity:
     """Measure whether the force field jumps, by grid refinement.
 
     On successively halved grids covering one texture period (a periodic cell over a
@@ -60,9 +60,10 @@ def continuity(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=None
         Abscissa interval (m), or the in-plane rectangle over a surface; one texture
         period (cell) by default.
     levels : int, optional
-        Number of grids (>= 3).
+        Number of grids (>= 3); default 4 over a profile, 3 over a surface (whose grids
+        are 3-D).
     base : int, optional
-        Number of cells per period on the coarsest grid (>= 8).
+        Number of cells per period on the coarsest grid (>= 8), default 32.
 
     Returns
     -------
@@ -74,6 +75,9 @@ def continuity(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=None
         If a parameter is out of range.
     """
     dmax = check_analysis_scale(algorithm, max_penetration)
+    surface = algorithm.dimension == 3
+    levels = (3 if surface else 4) if levels is None else levels
+    base = 32 if base is None else base
     levels = whole("levels", levels, 3, 12, "grid refinements; level k has (base 2^k)^2 points")
     base = whole("base", base, 8, 4096)
     box = _region_box(algorithm, dmax, x_range)
@@ -83,7 +87,7 @@ def continuity(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=None
     tex = algorithm.texture
     if not isinstance(tex, Flat):
         # resolve the texture: at least 4 coarse cells per shortest period
-        base = int(min(max(int(base), math.ceil(4 * (x1 - x0) / tex.shortest_period)), 2048))
+        base = int(min(max(int(base), math.ceil(4 * (x1 - x0) / tex.shortest_period)), 256 if surface else 2048))
     spacings, diffs = [], []
     where = (math.nan,) * len(box)
     for lev in range(int(levels)):

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validation import positive
+from .._validation import ParameterError, positive
 from ..algorithms import Algorithm
 from ..textures import Texture
 from .characteristic import CharacteristicNumber, characteristic_number
@@ -133,7 +133,8 @@ def passivity_condition(algorithm: Algorithm, device, max_penetration: float = 1
     ----------
     algorithm : Algorithm
     device : Device
-        Its inside damping matrix B and sampling period T are used.
+        Its inside damping matrix B and sampling period T are used; of the algorithm's
+        dimension (a 3-DOF device, B 3x3, over a surface).
     max_penetration : float, optional
         Depth of the rendering region (m).
     x_range : (float, float), optional
@@ -148,6 +149,7 @@ def passivity_condition(algorithm: Algorithm, device, max_penetration: float = 1
     A sufficient condition (eq. 1), derived from Theorem 1 of Miller, Colgate & Freeman
     [18]; the simulator shows how conservative it is for a given device.
     """
+    _same_dimension(algorithm, device)
     q = characteristic_number(algorithm, max_penetration=max_penetration, x_range=x_range)
     sup = algorithm.stiffness * q.value
     lim = device.passivity_limit
@@ -171,5 +173,14 @@ def max_passive_stiffness(algorithm: Algorithm, device, max_penetration: float =
     x_range : (float, float), optional
         Abscissa range (m).
     """
+    _same_dimension(algorithm, device)
     q = characteristic_number(algorithm, max_penetration=max_penetration, x_range=x_range).value
     return 0.0 if math.isinf(q) else float(device.passivity_limit / q)
+
+
+def _same_dimension(algorithm: Algorithm, device) -> None:
+    """Corollary 1 compares the field's n x n Jacobian with the device's n x n damping."""
+    if device.dimension != algorithm.dimension:
+        what = "a surface h(x, y) needs a 3-DOF device" if algorithm.dimension == 3 else "a profile needs a planar device"
+        raise ParameterError(f"device = {device.name!r} with dimension = {device.dimension} is not allowed for "
+                             f"{algorithm!r}: {what} (Device(..., dimension={algorithm.dimension}))")
