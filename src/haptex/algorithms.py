@@ -11,6 +11,8 @@ Algorithm F (friction with memory) keeps its presliding state in :mod:`haptex.fr
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 import warnings
@@ -702,6 +704,14 @@ class FrictionModulated(Algorithm):
     With ``max_penetration`` (d^z_max, Remark 3 and Section IV-F-3) the lateral term uses
     min(|p^z|, d^z_max).
 
+    Over a surface (3-D) the presliding is isotropic in the tangent plane: the deflection
+    d = p_t - w is a 2-D vector with |d| <= d^x_max, the adhesion point w moving only when
+    |d| reaches d^x_max (the sharp model, eq. 24, as a play operator in the plane: w is
+    dragged along d), and f_t = -mu kappa_0 |p^z| [1 - h~(p^x, p^y)] d / d^x_max, f_z =
+    -kappa_0 p^z. In stick dd/dp_t = I; in slip dd/dp_t = I - u u^T, u = d / |d| (motion
+    along d is slip, across it turns d). The smooth variant is implemented along a line
+    only.
+
     The field has memory: evaluate it statically with an explicit deflection
     (``force(p, deflection)``, ``jacobian(p, deflection, phase)``, eqs. 23, 25, 26), or
     along a path with :func:`haptex.path_work`, which steps the friction state.
@@ -711,7 +721,6 @@ class FrictionModulated(Algorithm):
     name = "flat wall with modulated lateral friction"
     penetration_kind = "nominal"
     has_memory = True
-    surfaces = False
     reference = "eq. 22–27, 31; Hayward & Armstrong (2000) [32]"
 
     def __init__(self, texture, stiffness, friction=0.8, presliding=1e-3, modulation_depth=0.8,
@@ -722,6 +731,10 @@ class FrictionModulated(Algorithm):
         self.modulation_depth = in_range("modulation_depth", modulation_depth, 0.0, 1.0)
         # validates stick_deflection against presliding
         self.stick_deflection = PreslidingState(0.0, self.presliding, stick_deflection).stick_deflection
+        if texture.dimension != 1 and self.stick_deflection is not None:
+            raise ParameterError(f"stick_deflection = {self.stick_deflection:g} is not allowed over a surface yet: "
+                                 "F's smooth presliding is implemented along a line; over a surface F uses the sharp "
+                                 "isotropic model (stick_deflection=None)")
         peak = float(texture.peak_magnitude)
         if not np.isfinite(peak):
             raise fail("texture", texture, "a texture with finite heights")
@@ -736,12 +749,16 @@ class FrictionModulated(Algorithm):
 
     # -- modulation --------------------------------------------------------------------
     def modulation(self, x) -> np.ndarray:
-        """Modulation 1 - h~(x) (dimensionless) for x of any shape (m)."""
-        return 1.0 - self._scale * self.texture.height(np.asarray(x, dtype=np.float64))
+        """Modulation 1 - h~ (dimensionless): at abscissae x of any shape (m) over a
+        profile, at in-plane positions of shape (..., 2) (m) over a surface."""
+        x = np.asarray(x, dtype=np.float64)
+        if self.texture.dimension == 1:
+            return 1.0 - self._scale * self.texture.height(x)
+        return 1.0 - self._scale * self.texture.height_at(x)
 
     @property
     def modulation_max_slope(self) -> float:
-        """sup |d h~ / dx| (1/m): depth M / max|h|, with M the texture's Lipschitz bound."""
+        """sup |grad h~| (1/m): depth M / max|h|, with M the texture's Lipschitz bound."""
         return self._scale * self.texture.max_slope
 
     def _aux(self) -> np.ndarray:
@@ -761,10 +778,23 @@ class FrictionModulated(Algorithm):
 
     # -- static evaluation ---------------------------------------------------------------
     def _deflection(self, deflection, shape):
-        d = np.broadcast_to(np.asarray(deflection, dtype=np.float64), shape)
-        if not np.all(np.isfinite(d)) or np.any(np.abs(d) > self.presliding * (1 + 1e-12)):
-            bad = d[~(np.isfinite(d) & (np.abs(d) <= self.presliding * (1 + 1e-12)))].ravel()[0]
-            raise fail("deflection", float(bad), f"a finite deflection in [-{self.presliding:g}, {self.presliding:g}] m")
+        """Deflections broadcast to ``shape`` (profiles) or ``shape + (2,)`` (surfaces),
+        each within the presliding range."""
+        k = self.texture.dimension
+        d = np.asarray(deflection, dtype=np.float64)
+        if k == 2 and d.ndim == 0:
+            d = np.array([float(d), 0.0])  # a scalar over a surface: a deflection along x
+        try:
+            d = np.broadcast_to(d, shape + ((2,) if k == 2 else ()))
+        except ValueError:
+            raise fail("deflection", f"an array of shape {np.shape(deflection)}",
+                       f"broadcastable to {shape + ((2,) if k == 2 else ())} (a 2-vector per position over a surface)")\
+                from None
+        size = np.abs(d) if k == 1 else np.linalg.norm(d, axis=-1)
+        ok = np.isfinite(size) & (size <= self.presliding * (1 + 1e-12))
+        if not np.all(ok):
+            bad = (d if k == 1 else size)[~ok].ravel()[0]
+            raise fail("deflection", float(bad), f"a finite deflection of magnitude <= {self.presliding:g} m")
         return d
 
     def force(self, p, deflection=0.0) -> np.ndarray:
@@ -772,25 +802,26 @@ class FrictionModulated(Algorithm):
 
         Parameters
         ----------
-        p : array_like, shape (..., 2)
-            Probe positions [x, z] (m).
-        deflection : float or array_like, shape broadcastable to (...)
-            Presliding deflection d^x (m), |d^x| <= d^x_max.
+        p : array_like, shape (..., 2) or (..., 3)
+            Probe positions [x, z] over a profile, [x, y, z] over a surface (m).
+        deflection : float or array_like
+            Presliding deflection d^x (m), |d^x| <= d^x_max: broadcastable to (...) over a
+            profile, to (..., 2) over a surface (a scalar there means along x).
 
         Returns
         -------
-        ndarray, shape (..., 2)
+        ndarray, shape (..., 2) or (..., 3)
             Force (N); zero outside the wall (p^z >= 0).
 
         Raises
         ------
         ParameterError
-            If ``p`` is malformed or a deflection is outside [-d^x_max, d^x_max].
+            If ``p`` is malformed or a deflection is outside the presliding range.
         """
-        arr = positions(p)
-        x, z = arr[..., 0], arr[..., 1]
-        d = self._deflection(deflection, x.shape)
-        f, _ = self._static(x, z, d, None)
+        arr = self._positions(p)
+        xt, z = arr[..., :-1], arr[..., -1]
+        d = self._deflection(deflection, z.shape)
+        f, _ = self._static(xt, z, d, None)
         return f
 
     def jacobian(self, p, deflection=0.0, phase: str = "stick") -> np.ndarray:
@@ -798,20 +829,21 @@ class FrictionModulated(Algorithm):
 
         Parameters
         ----------
-        p : array_like, shape (..., 2)
-            Probe positions [x, z] (m).
+        p : array_like, shape (..., 2) or (..., 3)
+            Probe positions (m).
         deflection : float or array_like
-            Presliding deflection d^x (m), |d^x| <= d^x_max.
+            Presliding deflection (m), as for :meth:`force`.
         phase : {"stick", "slip"}
-            dd^x/dp^x = 1 in stick and 0 in slip (eq. 24).
+            Over a profile dd^x/dp^x = 1 in stick and 0 in slip (eq. 24); over a surface
+            dd/dp_t = I in stick and I - u u^T in slip, u = d / |d| (0 at d = 0).
 
         Returns
         -------
-        ndarray, shape (..., 2, 2)
-            With m = 1 - h~, z_c = min(|p^z|, d^z_max):
-            J_xx = -mu kappa_0 z_c (m dd/dx - h~' d) / d_max,
-            J_xz = mu kappa_0 m d / d_max where |p^z| < d^z_max (else 0),
-            J_zx = 0, J_zz = -kappa_0 (N/m).
+        ndarray, shape (..., 2, 2) or (..., 3, 3)
+            With m = 1 - h~, z_c = min(|p^z|, d^z_max), D = dd/dp_t:
+            J_tt = -mu kappa_0 z_c (m D - d grad h~^T) / d_max,
+            J_tz = mu kappa_0 m d / d_max where |p^z| < d^z_max (else 0),
+            J_zt = 0, J_zz = -kappa_0 (N/m).
 
         Raises
         ------
@@ -820,38 +852,51 @@ class FrictionModulated(Algorithm):
         """
         if phase not in ("stick", "slip"):
             raise fail("phase", phase, 'one of "stick", "slip"')
-        arr = positions(p)
-        x, z = arr[..., 0], arr[..., 1]
-        d = self._deflection(deflection, x.shape)
-        _, j = self._static(x, z, d, 1.0 if phase == "stick" else 0.0)
+        arr = self._positions(p)
+        xt, z = arr[..., :-1], arr[..., -1]
+        d = self._deflection(deflection, z.shape)
+        dv = d[..., None] if self.texture.dimension == 1 else d
+        eye = np.broadcast_to(np.eye(dv.shape[-1]), dv.shape + (dv.shape[-1],))
+        if phase == "stick":
+            D = eye
+        else:
+            size = np.linalg.norm(dv, axis=-1)
+            u = np.divide(dv, size[..., None], out=np.zeros_like(dv), where=size[..., None] > 0)
+            D = np.where((size > 0)[..., None, None], eye - _outer(u, u), 0.0)
+        _, j = self._static(xt, z, d, D)
         return j
 
-    def _static(self, x, z, d, dd_dx):
-        k, mu, dm = self.stiffness, self.friction, self.presliding
+    def _static(self, xt, z, d, D):
+        """Force and (with D = dd/dp_t, shape (..., k, k)) Jacobian for deflections d
+        ((...) over a profile, (..., 2) over a surface)."""
+        k0, mu, dm = self.stiffness, self.friction, self.presliding
+        dv = d[..., None] if self.texture.dimension == 1 else d
         inside = z < 0
         depth = np.where(inside, -z, 0.0)
         follows = np.ones_like(inside)
         if self.max_penetration is not None:
             follows = depth < self.max_penetration
             depth = np.minimum(depth, self.max_penetration)
-        m = self.modulation(x)
-        f, j = _zeros(x[..., None], dd_dx is not None)
-        f[..., 0] = -mu * k * depth * m * d / dm
-        f[..., 1] = np.where(inside, -k * z, 0.0)
+        m = 1.0 - self._scale * self.texture.height_at(xt)
+        f, j = _zeros(xt, D is not None)
+        f[..., :-1] = (-mu * k0 * depth * m / dm)[..., None] * dv
+        f[..., -1] = np.where(inside, -k0 * z, 0.0)
         if j is not None:
-            hs = self._scale * self.texture.slope(x)
-            j[..., 0, 0] = -mu * k * depth * (m * dd_dx - hs * d) / dm
-            j[..., 0, 1] = np.where(inside & follows, mu * k * m * d / dm, 0.0)
-            j[..., 1, 1] = np.where(inside, -k, 0.0)
+            grad_mod = self._scale * self.texture.gradient(xt)  # grad h~ = -grad m
+            j[..., :-1, :-1] = (-mu * k0 * depth / dm)[..., None, None] * (m[..., None, None] * D - _outer(dv, grad_mod))
+            j[..., :-1, -1] = np.where(inside & follows, mu * k0 * m / dm, 0.0)[..., None] * dv
+            j[..., -1, -1] = np.where(inside, -k0, 0.0)
         return f, j
 
     def _evaluate(self, xt, z, jacobian):
-        x = xt[..., 0]
-        return self._static(x, z, np.zeros_like(x), 1.0 if jacobian else None)
+        d = np.zeros(z.shape + ((2,) if self.texture.dimension == 2 else ()))
+        eye = np.broadcast_to(np.eye(xt.shape[-1]), z.shape + (xt.shape[-1],) * 2)
+        return self._static(xt, z, d, eye if jacobian else None)
 
     # -- along a path ----------------------------------------------------------------------
     def path_work(self, pts: np.ndarray, rtol: float = 1e-10) -> float:
-        """Work (J) along a polyline of shape (N, 2), stepping the friction state.
+        """Work (J) along a polyline of shape (N, 2) (over a surface (N, 3): see
+        :meth:`_path_work_plane`), stepping the friction state.
 
         Contact starts with zero deflection where the path enters the wall and the state
         is reset where it leaves. With the sharp model the deflection is piecewise
@@ -861,6 +906,8 @@ class FrictionModulated(Algorithm):
         """
         from .analysis.work import _breakpoints
 
+        if self.texture.dimension == 2:
+            return self._path_work_plane(pts)
         total = 0.0
         state = None  # None: out of contact
         for a, b in zip(pts[:-1], pts[1:]):
@@ -878,6 +925,43 @@ class FrictionModulated(Algorithm):
                     state = self.initial_state(float(a[0] + u0 * delta[0]))
                 work, state = self._piece_work(a, delta, u0, u1, state, rtol)
                 total += work
+        return total
+
+    def _path_work_plane(self, pts: np.ndarray, steps: int = 4000) -> float:
+        """Work (J) along a polyline in space over a surface, stepping the isotropic play
+        operator: each segment is cut where it crosses z = 0 (and d^z_max) and each piece
+        in contact into ``steps`` equal sub-steps, at each of which the adhesion point is
+        projected to within d^x_max of the probe (exact for straight slides along d, first
+        order in the sub-step otherwise), and the work is summed by the trapezoidal rule."""
+        from .analysis.work import _breakpoints
+
+        total = 0.0
+        w = None  # adhesion point; None out of contact
+        for a, b in zip(pts[:-1], pts[1:]):
+            delta = b - a
+            if not np.any(delta):
+                continue
+            cuts = [0.0, *_breakpoints(self, a, b), 1.0]
+            for u0, u1 in zip(cuts[:-1], cuts[1:]):
+                if u1 <= u0:
+                    continue
+                if (a + 0.5 * (u0 + u1) * delta)[-1] >= 0.0:
+                    w = None
+                    continue
+                us = np.linspace(u0, u1, steps + 1)
+                p = a + us[:, None] * delta
+                if w is None:
+                    w = p[0, :-1].copy()
+                d = np.empty((us.size, 2))
+                for i in range(us.size):
+                    dv = p[i, :-1] - w
+                    size = math.hypot(dv[0], dv[1])
+                    if size > self.presliding:
+                        dv *= self.presliding / size
+                        w = p[i, :-1] - dv
+                    d[i] = dv
+                vals = self.force(p, d) @ delta
+                total += float(np.trapezoid(vals, us))
         return total
 
     def _piece_work(self, a, delta, u0, u1, state, rtol):

@@ -71,16 +71,12 @@ def cli():
 @cli.command()
 @_paper_options
 @click.option("--surface", type=click.Choice(["egg-crate"]), default=None,
-              help="Table II in 3-D over the areal texture A sin(2 pi x / l) sin(2 pi y / l) (W, A, B, C, G).")
+              help="Table II in 3-D over the areal texture A sin(2 pi x / l) sin(2 pi y / l) (W, A, B, C, F, G).")
 @click.option("--json", "as_json", is_flag=True, help="Print the table as JSON.")
 @click.option("--quiet", is_flag=True, help="No progress display.")
-@click.pass_context
-def table(ctx, stiffness, amplitude, period, max_penetration, friction, presliding, surface, as_json, quiet):
+def table(stiffness, amplitude, period, max_penetration, friction, presliding, surface, as_json, quiet):
     """Table II: characteristic number, loop energy, conservativity, continuity."""
-    if surface is not None:
-        _refuse_unused(ctx, {"*": {"friction", "presliding"}}, surface, "--surface", owner="*",
-                       what="it applies to F, which takes profiles only for now")
-    with _Steps(5 if surface else 8, "Table II", quiet or as_json) as step:
+    with _Steps(6 if surface else 8, "Table II", quiet or as_json) as step:
         data = _table(stiffness, amplitude, period, max_penetration, friction, presliding, progress=step,
                       surface=surface)
     if as_json:
@@ -611,7 +607,7 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
     letter = str(letter).upper()
     if letter == "W":
         if texture_spec is not None:
-            raise ParameterError(f"--texture is not allowed with --algorithm W: the smooth wall has no texture")
+            raise ParameterError("--texture is not allowed with --algorithm W: the smooth wall has no texture")
         tex = None
     elif texture_spec is None:
         raise ParameterError(f"--texture is required with --algorithm {letter}: give a file, 'sine:...' or 'noise:...'")

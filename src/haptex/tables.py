@@ -76,7 +76,7 @@ def table_ii(stiffness: float = PAPER_PARAMETERS["stiffness"], amplitude: float 
         Called with each algorithm's letter before its row is computed.
     surface : {None, "egg-crate"}, optional
         ``"egg-crate"``: Table II in 3-D over h = A sin(2 pi x / l) sin(2 pi y / l), for
-        the algorithms defined over surfaces (W, A, B, C, G). The loops are the paper's
+        the algorithms defined over surfaces (W, A, B, C, F, G). The loops are the paper's
         (Fig. 3, eq. 29) in the plane y = l/4, where the egg-crate's slice is the paper's
         sinusoid and its gradient has no y component, so their closed forms still hold;
         the random loops are polygons in space.

@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import ndimage, optimize
 
-from .._validation import ParameterError, fail
+from .._validation import fail
 from ..algorithms import Algorithm
 from ..closest import closest_point
 from ..textures import Flat, Sinusoid, Texture
@@ -154,8 +154,6 @@ def characteristic_number(
     ranges = _plane_ranges(algorithm, x_range)
     tex = algorithm.texture
     if tex.dimension == 2:  # a surface: a 3-D grid, kept to ~10^6 points (refinement does the rest)
-        if algorithm.penetration_kind == "distance" or algorithm.has_memory:
-            raise ParameterError(f"algorithm = {algorithm.letter!r} on a surface is not analysed yet")
         nd = max(4, nd // 4)
         counts = [int(min(max(32, math.ceil(32 * (b - a) / tex.shortest_period)), 256)) for a, b in ranges]
     else:
@@ -169,7 +167,9 @@ def characteristic_number(
     if algorithm.penetration_kind == "distance":
         return _q_distance(algorithm, dmax, *ranges[0], counts[0], nd, closed)
     if algorithm.has_memory:
-        return _q_friction(algorithm, dmax, *ranges[0], counts[0], nd)
+        if tex.dimension == 2:  # a 5-D search (x, y, depth, deflection): a coarser plane grid
+            counts = [max(16, c // 2) for c in counts]
+        return _q_friction(algorithm, dmax, ranges, counts, nd)
 
     axes = [np.linspace(a, b, n + 1) for (a, b), n in zip(ranges, counts)]
     ds = np.linspace(dmax / nd, dmax, nd)
@@ -279,38 +279,72 @@ PAPER_Q_F = 8.3
 d^x_max = d^z_max = 1 mm)."""
 
 
-def _q_friction(alg, dmax, x0, x1, nx, nd) -> CharacteristicNumber:
-    """Characteristic number of F: sup over x, depth, deflection and both phases."""
+def _q_friction(alg, dmax, ranges, counts, nd) -> CharacteristicNumber:
+    """Characteristic number of F: sup over the in-plane position, depth, deflection and
+    both phases. Over a surface the deflection is a vector in the disk |d| <= d^x_max
+    (stick: magnitudes and directions; slip: directions at d^x_max)."""
     k0 = alg.stiffness
     dm = alg.presliding
     depth_max = dmax
-    nq = 33
-    xs = np.linspace(x0, x1, nx + 1)
+    k = len(ranges)
+    axes = [np.linspace(a, b, n + 1) for (a, b), n in zip(ranges, counts)]
+    steps = [(b - a) / n for (a, b), n in zip(ranges, counts)]
     ds = np.linspace(depth_max / nd, depth_max, nd)
-    qs = np.linspace(-dm, dm, nq)
+    dd_ = depth_max / nd
+    if k == 1:
+        stick = np.linspace(-dm, dm, 33)[:, None]
+        slip = np.array([[-dm], [dm]])
+    else:
+        ang = np.linspace(0.0, 2 * np.pi, 16, endpoint=False)
+        rad = np.linspace(0.0, dm, 5)
+        stick = np.concatenate([[[0.0, 0.0]], (rad[1:, None, None] * np.stack([np.cos(ang), np.sin(ang)], -1)).reshape(-1, 2)])
+        slip = dm * np.stack([np.cos(ang), np.sin(ang)], -1)
+
+    def jac(xt, depth, d, phase):
+        p = np.concatenate([xt, -depth[..., None]], axis=-1)
+        return alg.jacobian(p, d[..., 0] if k == 1 else d, phase)
+
+    def deflection(w, phase):
+        """The deflection of the refinement's last variables: d itself over a profile; over
+        a surface polar (r, angle), r fixed at d^x_max in slip."""
+        if k == 1:
+            return np.asarray(w)
+        return w[0] * np.array([math.cos(w[1]), math.sin(w[1])])
+
     best, arg = -np.inf, None
-    for phase, defl in (("stick", qs), ("slip", np.array([-dm, dm]))):
-        X, Dp, Q = np.meshgrid(xs, ds, defl, indexing="ij")
-        P = np.stack([X, -Dp], axis=-1)
-        norms = spectral_norm(alg.jacobian(P, Q, phase)) / k0
-        flat = np.argsort(norms, axis=None)[-4:]
-        for idx in flat:
-            i, j, q = np.unravel_index(idx, norms.shape)
+    for phase, defl in (("stick", stick), ("slip", slip)):
+        mesh = np.meshgrid(*axes, ds, np.arange(len(defl)), indexing="ij")
+        xt = np.stack(mesh[:k], -1)
+        norms = spectral_norm(jac(xt, mesh[k], defl[mesh[k + 1]], phase)) / k0
+        for idx in np.argsort(norms, axis=None)[-4:]:
+            ijk = np.unravel_index(idx, norms.shape)
+            pt = [axes[a][ijk[a]] for a in range(k)] + [ds[ijk[k]]]
+            d0 = defl[ijk[k + 1]]
 
-            def neg(v, phase=phase, q=q, defl=defl):
-                dd = v[2] if phase == "stick" else defl[q]
-                return -float(spectral_norm(alg.jacobian(np.array([[v[0], -v[1]]]), dd, phase))[0]) / k0
+            def neg(v, phase=phase):
+                d = deflection(v[k + 1:], phase)
+                return -float(spectral_norm(jac(np.asarray(v[:k])[None, :], np.array([v[k]]), d[None, :], phase))[0]) / k0
 
-            dx, dd_ = (x1 - x0) / nx, depth_max / nd
-            bounds = [(max(x0, xs[i] - dx), min(x1, xs[i] + dx)), (max(dd_ * 1e-6, ds[j] - dd_), min(depth_max, ds[j] + dd_)),
-                      (-dm, dm) if phase == "stick" else (defl[q], defl[q])]
-            val, v = _refine(neg, (xs[i], ds[j], defl[q]), norms[i, j, q], bounds)
+            bounds = [(max(r[0], v - h), min(r[1], v + h)) for r, v, h in zip(ranges, pt, steps)]
+            bounds.append((max(dd_ * 1e-6, pt[k] - dd_), min(depth_max, pt[k] + dd_)))
+            if k == 1:
+                w0 = [float(d0[0])]
+                bounds.append((-dm, dm) if phase == "stick" else (w0[0], w0[0]))
+            else:
+                r0, a0 = float(np.linalg.norm(d0)), math.atan2(d0[1], d0[0])
+                w0 = [r0, a0]
+                bounds += [(0.0, dm) if phase == "stick" else (dm, dm), (a0 - np.pi / 8, a0 + np.pi / 8)]
+            val, v = _refine(neg, (*pt, *w0), norms[ijk], bounds)
             if val > best:
-                best, arg = val, (*v, phase)
+                best, arg = val, (v[:k], v[k], deflection(v[k + 1:], phase), phase)
+    x0, x1 = ranges[0]
     bounds_paper = friction_bounds(alg, depth_max if alg.max_penetration is None else min(depth_max, alg.max_penetration))
-    extra = {"phase": arg[3], "deflection": arg[2], **bounds_paper}
-    note = (f"sup over x in [{x0:g}, {x1:g}] m, depth in (0, {depth_max:g}] m, deflection in "
-            f"[-{dm:g}, {dm:g}] m, stick and slip; eq. 26 bound {bounds_paper['bound_eq26']:.4g}, "
+    deflection = float(arg[2][0]) if k == 1 else [float(v) for v in arg[2]]
+    extra = {"phase": arg[3], "deflection": deflection, **bounds_paper}
+    extent = " and ".join(f"{name} in [{a:g}, {b:g}] m" for name, (a, b) in zip("xy", ranges))
+    note = (f"sup over {extent}, depth in (0, {depth_max:g}] m, deflection "
+            + (f"in [-{dm:g}, {dm:g}] m" if k == 1 else f"in the disk |d| <= {dm:g} m")
+            + f", stick and slip; eq. 26 bound {bounds_paper['bound_eq26']:.4g}, "
             f"eq. 31 as printed {bounds_paper['eq31_as_printed']:.4g}")
     tex = alg.texture
     paper_case = (isinstance(tex, Sinusoid) and math.isclose(tex.period, 1e-3) and math.isclose(alg.friction, 0.8)
@@ -320,7 +354,8 @@ def _q_friction(alg, dmax, x0, x1, nx, nd) -> CharacteristicNumber:
     if paper_case:
         extra["paper_reported"] = PAPER_Q_F
         note += f"; Section V-A reports {PAPER_Q_F} for these parameters"
-    return CharacteristicNumber("F", best, None, (arg[0], -arg[1]), dmax, note, None, extra)
+    return CharacteristicNumber("F", best, None, (*(float(v) for v in arg[0]), -float(arg[1])), dmax, note, None,
+                                extra)
 
 
 def _normal_point(tex: Texture, t, r):
