@@ -1,7 +1,8 @@
 """haptex's benchmark suite, one command: python benchmarks/run.py
 
 1. analysis: force and jacobian on 10^6 positions and characteristic_number at default
-   resolution, per algorithm (the paper's Section V-A parameters);
+   resolution, per algorithm (the paper's Section V-A parameters), over the paper's
+   sinusoid (2-D) and over the egg-crate A sin(kx) sin(ky) at the same A and l (3-D);
 2. renderer: Renderer.step latency from Python and of the compiled kernel, against plain C
    (benchmarks/run_renderer.py);
 3. simulator: simulate_batch samples per second against plain C, N = 1 and 1000
@@ -99,6 +100,17 @@ def analysis(args) -> None:
     print(f"{'alg':4} {'force (s)':>10} {'jacobian (s)':>13} {'q (s)':>8}")
     for r in rows:
         print(f"{r['algorithm']:4} {r['force_s']:10.3f} {r['jacobian_s']:13.3f} {r['characteristic_number_s']:8.2f}")
+    # 3-D: the egg-crate, positions over one cell from 0.2 mm above the peaks to 1 mm below
+    egg = hx.SumOfGratings.egg_crate(0.8e-3, 1e-3)
+    p3 = np.column_stack([rng.uniform(0, 1e-3, n), rng.uniform(0, 1e-3, n), rng.uniform(-1.8e-3, 1.0e-3, n)])
+    print("# analysis in 3-D over the egg-crate (surfaces: W, A, B, C, F, G)")
+    print(f"{'alg':4} {'force (s)':>10} {'jacobian (s)':>13} {'q (s)':>8}")
+    for letter in "WABCFG":
+        alg = hx.algorithm(letter, hx.Flat(2) if letter == "W" else egg, 2000.0)
+        t_f = best_of(lambda: alg.force(p3))
+        t_j = best_of(lambda: alg.jacobian(p3))
+        t_q = best_of(lambda: hx.characteristic_number(alg), repeat=1)
+        print(f"{letter:4} {t_f:10.3f} {t_j:13.3f} {t_q:8.2f}")
 
 
 if __name__ == "__main__":
