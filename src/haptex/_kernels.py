@@ -1181,3 +1181,236 @@ def render_step(x, z, code, kind, coeffs, prm, aux, st, rs):
         rs[RS_LFZ] = fz
         rs[RS_HAVE_LAST] = 1.0
     return fx, fz
+
+
+# ----------------------------------------------------------------------------------------
+# Closest point on a surface z = h(x, y) of gratings (D and E over surfaces): branch and
+# bound over a quadtree of cells, Taylor bounds of h on each cell.
+# ----------------------------------------------------------------------------------------
+# ``gcoeffs`` has shape (4, n): amplitudes a (m), wave-vector components kx, ky (rad/m),
+# phases (rad); h = sum a sin(kx x + ky y + phase). ``gaux``: the search's constants.
+G_HMIN, G_SLOPE, G_CURV, G_LEAF, G_TIE = range(5)
+N_GAUX = 5
+SURF_STACK = 512
+"""Cells the quadtree search may hold pending (depth-first: 3 per level; far above need)."""
+MAX_SURF_LEAVES = 1 << 16
+"""Most leaves one surface search may refine (its work bound: each leaf a local Newton)."""
+
+
+@nb.njit(**_JIT)
+def grating_eval(gc, x, y):
+    """(h, h_x, h_y, h_xx, h_xy, h_yy) of a sum of gratings at (x, y)."""
+    h = 0.0
+    gx = 0.0
+    gy = 0.0
+    hxx = 0.0
+    hxy = 0.0
+    hyy = 0.0
+    for i in range(gc.shape[1]):
+        a = gc[0, i]
+        kx = gc[1, i]
+        ky = gc[2, i]
+        arg = kx * x + ky * y + gc[3, i]
+        sn = math.sin(arg)
+        cs = math.cos(arg)
+        h += a * sn
+        gx += a * kx * cs
+        gy += a * ky * cs
+        hxx -= a * kx * kx * sn
+        hxy -= a * kx * ky * sn
+        hyy -= a * ky * ky * sn
+    return h, gx, gy, hxx, hxy, hyy
+
+
+@nb.njit(**_JIT)
+def _grating_range(gc, cx, cy, w):
+    """Rigorous (min h, max h) over the square cell of centre (cx, cy) and half-width w: the
+    exact range of each grating's sine over its phase interval, summed."""
+    lo = 0.0
+    hi = 0.0
+    for i in range(gc.shape[1]):
+        a = gc[0, i]
+        kx = gc[1, i]
+        ky = gc[2, i]
+        arg = kx * cx + ky * cy + gc[3, i]
+        delta = w * (abs(kx) + abs(ky))
+        if delta >= math.pi:
+            lo -= a
+            hi += a
+            continue
+        s0 = math.sin(arg - delta)
+        s1 = math.sin(arg + delta)
+        tlo = min(s0, s1)
+        thi = max(s0, s1)
+        # a crest (pi/2 + 2 pi m) or a trough (-pi/2 + 2 pi m) inside the interval
+        if math.floor((arg + delta - 0.5 * math.pi) / (2 * math.pi)) > math.floor((arg - delta - 0.5 * math.pi) / (2 * math.pi)):
+            thi = 1.0
+        if math.floor((arg + delta + 0.5 * math.pi) / (2 * math.pi)) > math.floor((arg - delta + 0.5 * math.pi) / (2 * math.pi)):
+            tlo = -1.0
+        lo += a * tlo
+        hi += a * thi
+    return lo, hi
+
+
+@nb.njit(**_JIT)
+def _surf_newton(gc, px, py, pz, tx, ty, x0, x1, y0, y1):
+    """Projected Newton on phi/2 = (|t - p_xy|^2 + (h(t) - pz)^2) / 2 from (tx, ty), kept in the
+    cell [x0, x1] x [y0, y1] (at most 40 iterations; a gradient step where the Hessian is not
+    positive definite). Returns (tx, ty, phi, iterations)."""
+    it = 0
+    for it in range(1, 41):
+        h, gx, gy, hxx, hxy, hyy = grating_eval(gc, tx, ty)
+        e = h - pz
+        g0 = (tx - px) + e * gx
+        g1 = (ty - py) + e * gy
+        a = 1.0 + gx * gx + e * hxx
+        b = gx * gy + e * hxy
+        c = 1.0 + gy * gy + e * hyy
+        det = a * c - b * b
+        if a > 0.0 and det > 0.0:
+            sx = -(c * g0 - b * g1) / det
+            sy = -(a * g1 - b * g0) / det
+        else:  # not convex here: a steepest-descent step of the cell's size
+            n = math.sqrt(g0 * g0 + g1 * g1)
+            if n == 0.0:
+                break
+            step = 0.25 * min(x1 - x0, y1 - y0)
+            sx = -step * g0 / n
+            sy = -step * g1 / n
+        nx = min(max(tx + sx, x0), x1)
+        ny = min(max(ty + sy, y0), y1)
+        done = abs(nx - tx) <= 1e-15 * (1.0 + abs(tx)) and abs(ny - ty) <= 1e-15 * (1.0 + abs(ty))
+        tx = nx
+        ty = ny
+        if done:
+            break
+    h = grating_eval(gc, tx, ty)[0]
+    return tx, ty, (tx - px) ** 2 + (ty - py) ** 2 + (h - pz) ** 2, it
+
+
+@nb.njit(**_JIT)
+def surface_closest_point(gc, gaux, px, py, pz, best):
+    """Closest point (tx, ty) of z = h(x, y) to p = (px, py, pz) below it.
+
+    Branch and bound: the square of half-width W around p_xy (W from the vertical distance
+    and the lowest height, as in the 1-D search) is cut into cells; a cell is pruned when the
+    distance from p to the box [cell] x [h bounds over the cell] is not below the best
+    distance, the bounds being the tighter of h(c) +- min(M r, |grad h(c)| r +
+    sup||H|| r^2 / 2) (r the cell's half-diagonal) and the sum of each grating's exact range
+    over the cell; a cell of half-width <= G_LEAF is refined by projected Newton from the
+    best of six samples in it (its centre, its quarters' centres, p_xy clamped into it).
+    ``best`` is scratch of length 4 + 3 * SURF_STACK. Returns (tx, ty, distance, tie, work):
+    tie is 1 when a second local minimum farther than four leaves away lies at the same
+    distance to G_TIE (the medial axis).
+    """
+    h0 = grating_eval(gc, px, py)[0]
+    dv = h0 - pz
+    if dv <= 0.0:
+        return px, py, 0.0, 0, 1
+    bf = dv * dv
+    btx = px
+    bty = py
+    second = math.inf
+    found = False
+    work = 1
+    # a first upper bound from the local minimum nearest the vertical point (Newton from it)
+    below = max(gaux[G_HMIN] - pz, 0.0)
+    half = math.sqrt(max(bf - below * below, 0.0)) * (1.0 + 1e-9) + 1e-300
+    tx, ty, f, it = _surf_newton(gc, px, py, pz, px, py, px - half, px + half, py - half, py + half)
+    work += it + 1
+    if f < bf:
+        bf = f
+        btx = tx
+        bty = ty
+    leaf = gaux[G_LEAF]
+    slope = gaux[G_SLOPE]
+    curv = gaux[G_CURV]
+    tie_eps = gaux[G_TIE]
+    stack = best  # (cx, cy, w) triples from index 4
+    sp = 0
+    stack[4] = px
+    stack[5] = py
+    stack[6] = half
+    sp = 1
+    leaves = 0
+    while sp > 0:
+        sp -= 1
+        cx = stack[4 + 3 * sp]
+        cy = stack[5 + 3 * sp]
+        w = stack[6 + 3 * sp]
+        h, gx, gy, _, _, _ = grating_eval(gc, cx, cy)
+        work += 1
+        r = w * math.sqrt(2.0)
+        spread = min(slope * r, math.sqrt(gx * gx + gy * gy) * r + 0.5 * curv * r * r)
+        glo, ghi = _grating_range(gc, cx, cy, w)
+        lo = max(h - spread, glo)
+        hi = min(h + spread, ghi)
+        dx = max(0.0, abs(px - cx) - w)
+        dy = max(0.0, abs(py - cy) - w)
+        dz = max(0.0, lo - pz, pz - hi)
+        reach = math.sqrt(bf) + tie_eps
+        if dx * dx + dy * dy + dz * dz > reach * reach:
+            continue
+        if w <= leaf or leaves >= MAX_SURF_LEAVES or sp + 4 > SURF_STACK:
+            # a leaf: projected Newton from the best of its centre, its four quarter centres and
+            # p_xy clamped into it
+            sx = min(max(px, cx - w), cx + w)
+            sy = min(max(py, cy - w), cy + w)
+            fs = (sx - px) ** 2 + (sy - py) ** 2 + (grating_eval(gc, sx, sy)[0] - pz) ** 2
+            for q in range(5):
+                qx = cx if q == 0 else cx + (0.5 * w if (q & 1) else -0.5 * w)
+                qy = cy if q == 0 else cy + (0.5 * w if (q & 2) else -0.5 * w)
+                fq = (qx - px) ** 2 + (qy - py) ** 2 + (grating_eval(gc, qx, qy)[0] - pz) ** 2
+                if fq < fs:
+                    fs = fq
+                    sx = qx
+                    sy = qy
+            work += 6
+            leaves += 1
+            tx, ty, f, it = _surf_newton(gc, px, py, pz, sx, sy, cx - w, cx + w, cy - w, cy + w)
+            work += it + 1
+            inner = abs(tx - cx) < w * (1 - 1e-12) and abs(ty - cy) < w * (1 - 1e-12)
+            sep = 4.0 * leaf
+            if f < bf:
+                if found and bf < second and math.hypot(tx - btx, ty - bty) > sep:
+                    second = bf
+                bf = f
+                btx = tx
+                bty = ty
+                found = found or inner
+            elif inner and found and f < second and math.hypot(tx - btx, ty - bty) > sep:
+                second = f
+            continue
+        hw = 0.5 * w
+        # the four children, the one holding p_xy's quadrant last (popped first)
+        for k in range(4):
+            qx = cx + (hw if (k & 1) else -hw)
+            qy = cy + (hw if (k & 2) else -hw)
+            if (qx > cx) == (px > cx) and (qy > cy) == (py > cy):
+                continue
+            stack[4 + 3 * sp] = qx
+            stack[5 + 3 * sp] = qy
+            stack[6 + 3 * sp] = hw
+            sp += 1
+        stack[4 + 3 * sp] = cx + (hw if px > cx else -hw)
+        stack[5 + 3 * sp] = cy + (hw if py > cy else -hw)
+        stack[6 + 3 * sp] = hw
+        sp += 1
+    d = math.sqrt(bf)
+    tie = 0
+    if second < math.inf and math.sqrt(second) - d <= max(tie_eps, 1e-9 * d):
+        tie = 1
+    return btx, bty, d, tie, work
+
+
+@nb.njit(parallel=True, cache=True, nogil=True)
+def surface_closest_points(gc, gaux, px, py, pz, tx_out, ty_out, d_out, tie_out, work_out):
+    """Vectorised :func:`surface_closest_point` over flat arrays, in parallel."""
+    for i in nb.prange(px.shape[0]):
+        scratch = np.empty(4 + 3 * SURF_STACK + 3)
+        tx, ty, d, tie, work = surface_closest_point(gc, gaux, px[i], py[i], pz[i], scratch)
+        tx_out[i] = tx
+        ty_out[i] = ty
+        d_out[i] = d
+        tie_out[i] = tie
+        work_out[i] = work

@@ -501,28 +501,41 @@ class ChangeOfHeight(_Vertical):
 
 
 class _Distance(Algorithm):
-    """Shared evaluation for D and E: the closest point p_h on z = h(x)."""
+    """Shared evaluation for D and E: the closest point p_h on z = h(x) (or z = h(x, y))."""
 
     penetration_kind = "distance"
-    surfaces = False
+
+    def __init__(self, texture, stiffness):
+        super().__init__(texture, stiffness)
+        if texture.dimension == 2:
+            from .surfaces import Extruded, SumOfGratings
+
+            if not isinstance(texture, Extruded | SumOfGratings):
+                raise ParameterError(f"texture = {texture!r} is not allowed for algorithm {self.letter} yet: the "
+                                     "closest point is searched on profiles, sums of gratings and extruded profiles")
 
     def _aux(self) -> np.ndarray:
         return search_data(self.texture)
 
     def _evaluate(self, xt, z, jacobian):
-        x = xt[..., 0]
         f, j = _zeros(xt, jacobian)
-        h = self.texture.height(x)
-        inside = z < h
+        inside = z < self.texture.height_at(xt)
         if not np.any(inside):
             return f, j
-        px, pz = x[inside], z[inside]
-        cp = closest_point(self.texture, np.stack([px, pz], axis=-1))
-        fi, ji = self._inside(px, pz, cp.x, cp.z, cp.distance, jacobian)
+        p = np.concatenate([xt[inside], z[inside][:, None]], axis=-1)
+        cp = closest_point(self.texture, p)
+        fi, ji = self._inside(p, cp, jacobian)
         f[inside] = fi
         if jacobian:
             j[inside] = ji
         return f, j
+
+    def _surface_frame(self, cp):
+        """grad h, shape (n, k), and its Hessian, shape (n, k, k), at the closest points."""
+        tex = self.texture
+        t = np.stack([cp.x] if cp.y is None else [cp.x, cp.y], axis=-1)
+        s = tex.gradient(t)
+        return s, tex.hessian(t)
 
 
 class GodObjectGradient(_Distance):
@@ -541,6 +554,12 @@ class GodObjectGradient(_Distance):
     available as ``jacobian(p, form="paper")``. Below a peak (c < 0), D tends to 0 at the
     centre of curvature, where ||J|| grows without bound; deeper, the closest point jumps
     from one flank to the other (Remark 6) and the force is discontinuous.
+
+    Over a surface (3-D) p_h = (t, h(t)) minimises |p - p_h| over the plane t = (x, y)
+    (a 2-D search, :func:`haptex.closest_point`); with s = grad h(t), H its Hessian,
+    V = [I; s^T] and G = I + s s^T + (h(t) - p^z) H (the shape operator's part),
+    dp_h/dp = V G^-1 V^T and J = -kappa_0 (I - V G^-1 V^T), which for a profile is the
+    formula above; eq. 18's form is -kappa_0 n n^T, n the unit normal at p_h.
     """
 
     letter = "D"
@@ -552,12 +571,12 @@ class GodObjectGradient(_Distance):
         super().__init__(texture, stiffness)
 
     def jacobian(self, p, form: str = "exact") -> np.ndarray:
-        """Jacobian of D (N/m), shape (..., 2, 2).
+        """Jacobian of D (N/m), shape (..., 2, 2) or (..., 3, 3).
 
         Parameters
         ----------
-        p : array_like, shape (..., 2)
-            Probe positions [x, z] (m).
+        p : array_like, shape (..., 2) or (..., 3)
+            Probe positions [x, z] or [x, y, z] (m).
         form : {"exact", "paper"}
             ``"exact"``: the derivative of -kappa_0 (p - p_h) including the boundary's
             curvature. ``"paper"``: eq. 18 (flat-boundary linearisation, ||J|| = kappa_0).
@@ -571,34 +590,39 @@ class GodObjectGradient(_Distance):
             return super().jacobian(p)
         if form != "paper":
             raise fail("form", form, 'one of "exact", "paper"')
-        arr = positions(p)
-        x, z = arr[..., 0], arr[..., 1]
-        j = np.zeros(x.shape + (2, 2))
-        inside = z < self.texture.height(x)
+        arr = self._positions(p)
+        xt, z = arr[..., :-1], arr[..., -1]
+        n = arr.shape[-1]
+        j = np.zeros(z.shape + (n, n))
+        inside = z < self.texture.height_at(xt)
         if np.any(inside):
             cp = closest_point(self.texture, arr[inside])
-            s = self.texture.slope(cp.x)
-            k = -self.stiffness / (1 + s * s)
-            j[inside] = k[:, None, None] * np.stack(
-                [np.stack([s * s, -s], -1), np.stack([-s, np.ones_like(s)], -1)], -2
-            )
+            s, _ = self._surface_frame(cp)
+            normal = np.concatenate([-s, np.ones(s.shape[:-1] + (1,))], -1)
+            normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
+            j[inside] = -self.stiffness * _outer(normal, normal)
         return j
 
-    def _inside(self, px, pz, tx, tz, dist, jacobian):
+    def _inside(self, p, cp, jacobian):
         k = self.stiffness
-        f = -k * np.stack([px - tx, pz - tz], axis=-1)
+        f = -k * (p - cp.point)
         if not jacobian:
             return f, None
-        s = self.texture.slope(tx)
-        c = self.texture.curvature(tx)
-        den = 1.0 + s * s + (tz - pz) * c
-        with np.errstate(divide="ignore", invalid="ignore"):
-            inv = 1.0 / den
-        j = np.empty(px.shape + (2, 2))
-        j[:, 0, 0] = -k * (1.0 - inv)
-        j[:, 0, 1] = k * s * inv
-        j[:, 1, 0] = k * s * inv
-        j[:, 1, 1] = -k * (1.0 - s * s * inv)
+        s, hess = self._surface_frame(cp)
+        n, kk = s.shape
+        e = (cp.z - p[:, -1])[:, None, None]
+        G = np.eye(kk) + _outer(s, s) + e * hess
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            if kk == 1:
+                Ginv = 1.0 / G
+            else:
+                det = G[:, 0, 0] * G[:, 1, 1] - G[:, 0, 1] * G[:, 1, 0]
+                adj = np.stack([np.stack([G[:, 1, 1], -G[:, 0, 1]], -1), np.stack([-G[:, 1, 0], G[:, 0, 0]], -1)], -2)
+                Ginv = adj / det[:, None, None]
+        V = np.concatenate([np.broadcast_to(np.eye(kk), (n, kk, kk)), s[:, None, :]], axis=1)  # (n, k+1, k)
+        with np.errstate(invalid="ignore", over="ignore"):
+            dph = V @ Ginv @ np.swapaxes(V, -1, -2)  # d p_h / d p, (n, k+1, k+1)
+        j = -k * (np.eye(kk + 1) - dph)
         return f, j
 
     def potential(self, p):
@@ -616,7 +640,9 @@ class GodObjectVertical(_Distance):
 
         J = (kappa_0 / d^min) [[0, 0], [p^x - p_h^x, p^z - p_h^z]],
 
-    whose 2-norm is kappa_0 wherever the closest point is unique (eq. 21).
+    whose 2-norm is kappa_0 wherever the closest point is unique (eq. 21). Over a surface
+    (3-D) f = [0, 0, kappa_0 d^min] and J's last row is kappa_0 (p - p_h)^T / d^min (the
+    distance's gradient), of norm kappa_0.
     """
 
     letter = "E"
@@ -626,16 +652,16 @@ class GodObjectVertical(_Distance):
     def __init__(self, texture, stiffness):
         super().__init__(texture, stiffness)
 
-    def _inside(self, px, pz, tx, tz, dist, jacobian):
+    def _inside(self, p, cp, jacobian):
         k = self.stiffness
-        f = np.zeros(px.shape + (2,))
-        f[:, 1] = k * dist
+        dist = cp.distance
+        f = np.zeros(p.shape)
+        f[:, -1] = k * dist
         if not jacobian:
             return f, None
-        j = np.zeros(px.shape + (2, 2))
+        j = np.zeros(p.shape + (p.shape[-1],))
         safe = dist > 0
-        j[safe, 1, 0] = k * (px - tx)[safe] / dist[safe]
-        j[safe, 1, 1] = k * (pz - tz)[safe] / dist[safe]
+        j[safe, -1, :] = k * (p - cp.point)[safe] / dist[safe, None]
         return f, j
 
 

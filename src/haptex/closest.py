@@ -1,4 +1,4 @@
-"""Closest point on the textured boundary z = h(x), used by algorithms D and E.
+"""Closest point on the textured boundary z = h(x) or z = h(x, y), used by algorithms D and E.
 
 The search is compiled (:func:`haptex._kernels.closest_point`); this module builds, once
 per texture, the data it reads (:func:`search_data`: a tree of height bounds), validates,
@@ -43,6 +43,8 @@ class ClosestPoint:
     work : ndarray of int, shape (...)
         Texture evaluations each search spent (bounded for any position; see Notes of
         :func:`closest_point`).
+    y : ndarray, shape (...), or None
+        Over a surface, the ordinate p_h^y of the closest point (m); None over a profile.
     """
 
     x: np.ndarray
@@ -50,6 +52,13 @@ class ClosestPoint:
     distance: np.ndarray
     tie: np.ndarray
     work: np.ndarray
+    y: np.ndarray | None = None
+
+    @property
+    def point(self) -> np.ndarray:
+        """The closest points p_h as [x, z] or [x, y, z] (m), shape (..., 2) or (..., 3)."""
+        coords = [self.x, self.z] if self.y is None else [self.x, self.y, self.z]
+        return np.stack(coords, axis=-1)
 
 
 def closest_point(texture: Texture, p) -> ClosestPoint:
@@ -58,9 +67,10 @@ def closest_point(texture: Texture, p) -> ClosestPoint:
     Parameters
     ----------
     texture : Texture
-        The height profile h (m).
-    p : array_like, shape (..., 2)
-        Probe positions [x, z] (m).
+        The height profile h(x) or surface h(x, y) (m): a profile, a sum of gratings or an
+        extruded profile (a sampled height map is not searched yet).
+    p : array_like, shape (..., 2) or (..., 3)
+        Probe positions [x, z] over a profile, [x, y, z] over a surface (m).
 
     Returns
     -------
@@ -98,7 +108,16 @@ def closest_point(texture: Texture, p) -> ClosestPoint:
     An aperiodic sum of sinusoids (incommensurate periods) has no tree: it is searched
     on the fly within +-2048 leaves of p^x, exact to that depth and, deeper, within the
     texture's height range (2 sum a_k) of the true distance.
+
+    Over a surface of gratings the same argument runs on a quadtree
+    (:func:`haptex._kernels.surface_closest_point`): the square of half-width
+    sqrt(best^2 - (min h - p^z)^2) around p_xy is cut into cells, pruned by Taylor bounds
+    of h over each (from sup |grad h| and sup ||H||), down to cells of 1/64 of the shortest
+    wavelength, each refined by projected Newton. Over ``Extruded(profile)`` the profile's
+    search is exact and p_h^y = p^y.
     """
+    if texture.dimension == 2:
+        return _closest_point_surface(texture, p)
     arr = positions(p)
     shape = arr.shape[:-1]
     flat = arr.reshape(-1, 2)
@@ -265,3 +284,49 @@ def _spline_tree(prof: SampledProfile) -> np.ndarray:
         head[K.A_XE] = prof.x[0] + m * dx
         head[K.A_HL], head[K.A_SL], head[K.A_HR], head[K.A_SR] = c[:, m + 1]
     return _tree(head, lo_leaf - pad, hi_leaf + pad, n_leaf)
+
+
+def _closest_point_surface(texture: Texture, p) -> ClosestPoint:
+    from .surfaces import Extruded, SumOfGratings
+
+    arr = positions(p, dim=3)
+    shape = arr.shape[:-1]
+    if isinstance(texture, Extruded):
+        cp = closest_point(texture.profile, arr[..., [0, 2]])
+        return ClosestPoint(x=cp.x, z=cp.z, distance=cp.distance, tie=cp.tie, work=cp.work, y=arr[..., 1].copy())
+    if not isinstance(texture, SumOfGratings):
+        raise ParameterError(f"texture = {texture!r} is not allowed for D and E yet: the closest point is searched "
+                             "on profiles, sums of gratings and extruded profiles")
+    gc, gaux = surface_search_data(texture)
+    flat = arr.reshape(-1, 3)
+    n = flat.shape[0]
+    tx, ty, d = np.empty(n), np.empty(n), np.empty(n)
+    tie, work = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64)
+    K.surface_closest_points(gc, gaux, *(np.ascontiguousarray(flat[:, i]) for i in range(3)), tx, ty, d, tie, work)
+    xy = np.stack([tx, ty], -1)
+    return ClosestPoint(x=tx.reshape(shape), z=texture.height_at(xy).reshape(shape), distance=d.reshape(shape),
+                        tie=(tie != 0).reshape(shape), work=work.reshape(shape), y=ty.reshape(shape))
+
+
+def surface_search_data(texture) -> tuple[np.ndarray, np.ndarray]:
+    """The compiled surface search's data for a sum of gratings: coefficients (4, n) =
+    amplitudes (m), k_x, k_y (rad/m), phases (rad), and the constants ``_kernels.G_*``
+    (lowest height, sup |grad h|, sup ||H||, leaf half-width 1/64 of the shortest wavelength,
+    tie tolerance 1e-9 of it)."""
+    cached = texture.__dict__.get("_surface_search")
+    if cached is not None:
+        return cached
+    gc = np.ascontiguousarray(np.vstack([texture.amplitudes, texture._kvec[:, 0], texture._kvec[:, 1],
+                                         texture.phases]))
+    gaux = np.zeros(K.N_GAUX)
+    gaux[K.G_HMIN] = texture.height_range[0]
+    gaux[K.G_SLOPE] = texture.max_slope
+    gaux[K.G_CURV] = texture.max_curvature
+    gaux[K.G_LEAF] = texture.shortest_period / LEAF_DIVISOR
+    gaux[K.G_TIE] = 1e-9 * texture.shortest_period
+    texture.__dict__["_surface_search"] = (gc, gaux)
+    return gc, gaux
+
+
+LEAF_DIVISOR = 16
+"""A surface search's leaves are cells of half-width shortest wavelength / LEAF_DIVISOR."""

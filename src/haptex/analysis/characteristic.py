@@ -165,6 +165,8 @@ def characteristic_number(
     closed = _closed_form_q(algorithm)
 
     if algorithm.penetration_kind == "distance":
+        if tex.dimension == 2:
+            return _q_distance_surface(algorithm, dmax, ranges, counts, nd, closed, x_range, resolution)
         return _q_distance(algorithm, dmax, *ranges[0], counts[0], nd, closed)
     if algorithm.has_memory:
         if tex.dimension == 2:  # a 5-D search (x, y, depth, deflection): a coarser plane grid
@@ -423,6 +425,88 @@ def _q_distance(alg, dmax, x0, x1, nx, nd, closed) -> CharacteristicNumber:
             best, where_tr = val, pt
     w = _normal_point(tex, np.array([where_tr[0]]), where_tr[1])[0]
     return CharacteristicNumber(alg.letter, best, closed, (float(w[0]), float(w[1])), dmax, note, paper_value)
+
+
+def _surface_normal_point(tex, t, r):
+    """p = (t, h(t)) + r n_in(t) over a surface: t of shape (..., 2), r (...) (m)."""
+    s = tex.gradient(t)
+    w = np.sqrt(1.0 + np.sum(s * s, axis=-1))
+    return np.concatenate([t + (r / w)[..., None] * s, (tex.height_at(t) - r / w)[..., None]], axis=-1)
+
+
+def _q_distance_surface(alg, dmax, ranges, counts, nd, closed, x_range, resolution) -> CharacteristicNumber:
+    """Characteristic number of D and E over a surface: the region parametrised by the
+    closest point t and the distance r, p = (t, h(t)) + r n_in(t), kept where t is the unique
+    closest point of p. D is unbounded when a focal point (a centre of curvature 1/|kappa|
+    below a convex-up point, kappa a principal curvature) lies within max_penetration; on
+    ``Extruded(profile)`` the profile's q (the same Jacobians, embedded)."""
+    from ..algorithms import algorithm as make
+    from ..surfaces import Extruded
+
+    tex = alg.texture
+    k0 = alg.stiffness
+    if isinstance(tex, Extruded):
+        xr = None if x_range is None else tuple(_plane_ranges(alg, x_range)[0])
+        q = characteristic_number(make(alg.letter, tex.profile, k0), dmax, xr, resolution)
+        y = 0.5 * sum(_plane_ranges(alg, x_range)[1])
+        return CharacteristicNumber(q.letter, q.value, q.closed_form, (q.where[0], y, q.where[1]), dmax,
+                                    q.note + " (the extruded profile's, at any y)", q.paper_form_value, q.extra)
+    axes = [np.linspace(a, b, n + 1) for (a, b), n in zip(ranges, counts)]
+    rs = np.linspace(dmax / nd, dmax, nd)
+    X, Y, R = np.meshgrid(*axes, rs, indexing="ij")
+    T = np.stack([X, Y], -1)
+    P = _surface_normal_point(tex, T, R)
+
+    def valid(points, r):
+        cp = closest_point(tex, points)
+        return (cp.distance >= r * (1 - 1e-9)) & ~cp.tie
+
+    region = valid(P, R)
+    norms = np.where(region, spectral_norm(alg.jacobian(P)) / k0, -np.inf)
+    note = (f"grid {counts[0]}x{counts[1]}x{nd} over the closest point's (x, y) and the distance in (0, {dmax:g}] m, "
+            "refined by L-BFGS-B")
+    paper_value = None
+    if alg.letter == "D":
+        paper_value = float(np.max(np.where(region, spectral_norm(alg.jacobian(P, form="paper")) / k0, -np.inf)))
+        # principal curvatures of the graph: H v = kappa W (I + s s^T) v, W = sqrt(1 + |s|^2)
+        t = T[..., 0, :]
+        s_, hess = tex.gradient(t), tex.hessian(t)
+        w = np.sqrt(1.0 + np.sum(s_ * s_, axis=-1))
+        metric = np.eye(2) + s_[..., :, None] * s_[..., None, :]
+        kappa = np.linalg.eigvals(np.linalg.solve(metric, hess)).real / w[..., None]
+        focal = np.where(kappa < 0, -1.0 / np.where(kappa < 0, kappa, -1.0), np.inf).min(axis=-1)  # 1/|kappa|
+        for idx in np.argsort(focal, axis=None)[:8]:
+            rho = float(focal.ravel()[idx])
+            if not rho <= dmax:
+                break
+            i, j = np.unravel_index(idx, focal.shape)
+            fp = _surface_normal_point(tex, t[i, j][None, :], np.array([rho]))
+            if closest_point(tex, fp).distance[0] >= rho * (1 - 1e-6):
+                return CharacteristicNumber(
+                    "D", math.inf, closed, tuple(float(v) for v in fp[0]), dmax,
+                    f"unbounded: ||J|| -> inf approaching the centre of curvature at depth {rho:.4g} m below a "
+                    f"convex-up point (< max_penetration {dmax:g} m); eq. 18 gives {paper_value:.6g}",
+                    paper_value)
+    steps = [(b - a) / n for (a, b), n in zip(ranges, counts)]
+    dr = dmax / nd
+
+    def neg_q(v):
+        p = _surface_normal_point(tex, np.array([v[:2]]), np.array([v[2]]))
+        if not valid(p, v[2])[0]:
+            return 0.0
+        return -float(spectral_norm(alg.jacobian(p))[0]) / k0
+
+    best, where_v = -np.inf, (ranges[0][0], ranges[1][0], dmax)
+    for idx in _candidates(norms):
+        i, j, m = np.unravel_index(idx, norms.shape)
+        pt = (X[i, j, m], Y[i, j, m], R[i, j, m])
+        bounds = [(pt[0] - steps[0], pt[0] + steps[0]), (pt[1] - steps[1], pt[1] + steps[1]),
+                  (max(dr * 1e-6, pt[2] - dr), min(dmax, pt[2] + dr))]
+        val, found = _refine(neg_q, pt, norms[i, j, m], bounds)
+        if val > best:
+            best, where_v = val, found
+    w_ = _surface_normal_point(tex, np.array([where_v[:2]]), np.array([where_v[2]]))[0]
+    return CharacteristicNumber(alg.letter, best, closed, tuple(float(v) for v in w_), dmax, note, paper_value)
 
 
 def _unbounded_focus(tex: Texture, dmax: float, x0: float, x1: float):

@@ -51,7 +51,13 @@ def _breakpoints(alg: Algorithm, a: np.ndarray, b: np.ndarray) -> list[float]:
             fn = lambda uu, k=k: float(_signed_depths(alg, (a + uu * (b - a))[None, :])[k][0])  # noqa: E731
             out.append(optimize.brentq(fn, u[i], u[i + 1], xtol=1e-16, rtol=1e-15))
     if alg.penetration_kind == "distance":
-        out.extend(_closest_point_jumps(tex, a, b, u, pts, length / n))
+        from ..surfaces import Extruded
+
+        if isinstance(tex, Extruded):  # the profile's search, on the segment seen in the x-z plane
+            keep = [0, 2]
+            out.extend(_closest_point_jumps(tex.profile, a[keep], b[keep], u, pts[:, keep], length / n))
+        else:
+            out.extend(_closest_point_jumps(tex, a, b, u, pts, length / n))
     return sorted(out)
 
 
@@ -61,13 +67,22 @@ def _closest_point_jumps(tex: Texture, a, b, u, pts, spacing) -> list[float]:
     brackets bisected together, one vectorised closest-point call per halving)."""
     cp = closest_point(tex, pts)
     inside = cp.distance > 0
-    dt = np.abs(np.diff(cp.x))
+
+    def foot(c):  # the closest points' in-plane coordinates, shape (n, k)
+        return np.stack([c.x] if c.y is None else [c.x, c.y], axis=-1)
+
+    t_all = foot(cp)
+    dt = np.linalg.norm(np.diff(t_all, axis=0), axis=-1)
     out = _tie_changes(tex, a, b, u, cp.tie)
     idx = np.nonzero((dt > 2 * spacing) & inside[:-1] & inside[1:])[0]
     per_u = 2 * spacing / (u[1] - u[0])  # the closest point's smooth motion allowed per unit of u
     slack = 1e-12 * tex.shortest_period
     lo, hi = u[idx].copy(), u[idx + 1].copy()
-    t_lo, t_hi = cp.x[idx].copy(), cp.x[idx + 1].copy()
+    t_lo, t_hi = t_all[idx].copy(), t_all[idx + 1].copy()
+
+    def gap(p, q):
+        return np.linalg.norm(p - q, axis=-1)
+
     for _ in range(8):  # a bracket may hold several jumps (a thin branch of the medial axis)
         if lo.size == 0:
             break
@@ -77,20 +92,21 @@ def _closest_point_jumps(tex: Texture, a, b, u, pts, spacing) -> list[float]:
             live = (lo < mid) & (mid < hi)
             if not live.any():
                 break
-            t_mid = closest_point(tex, a + mid[:, None] * (b - a)).x
-            left = np.abs(t_mid - t_lo) >= np.abs(t_hi - t_mid)
+            t_mid = foot(closest_point(tex, a + mid[:, None] * (b - a)))
+            left = gap(t_mid, t_lo) >= gap(t_hi, t_mid)
             hi = np.where(live & left, mid, hi)
-            t_hi = np.where(live & left, t_mid, t_hi)
+            t_hi = np.where((live & left)[:, None], t_mid, t_hi)
             lo = np.where(live & ~left, mid, lo)
-            t_lo = np.where(live & ~left, t_mid, t_lo)
-        jump = np.abs(t_hi - t_lo) > per_u * (hi - lo) + slack
+            t_lo = np.where((live & ~left)[:, None], t_mid, t_lo)
+        jump = gap(t_hi, t_lo) > per_u * (hi - lo) + slack
         out += (0.5 * (lo + hi))[jump].tolist()
         # what is left on either side of the jump found: another jump if the closest point
         # moved more there than smooth motion allows
-        left_more = jump & (np.abs(t_lo - t_lo0) > per_u * (lo - lo0) + slack)
-        right_more = jump & (np.abs(t_hi0 - t_hi) > per_u * (hi0 - hi) + slack)
+        left_more = jump & (gap(t_lo, t_lo0) > per_u * (lo - lo0) + slack)
+        right_more = jump & (gap(t_hi0, t_hi) > per_u * (hi0 - hi) + slack)
         lo, hi = np.r_[lo0[left_more], hi[right_more]], np.r_[lo[left_more], hi0[right_more]]
-        t_lo, t_hi = np.r_[t_lo0[left_more], t_hi[right_more]], np.r_[t_lo[left_more], t_hi0[right_more]]
+        t_lo, t_hi = (np.concatenate([t_lo0[left_more], t_hi[right_more]]),
+                      np.concatenate([t_lo[left_more], t_hi0[right_more]]))
     return out
 
 
@@ -113,6 +129,8 @@ def _tie_changes(tex: Texture, a, b, u, tie) -> list[float]:
     # the flag flips where the two minima are closer than the search can tell apart, a
     # little off the centre of curvature itself: solve p(u) = (t, h) + (1 + h'^2) (-h', 1) / h''
     # for (t, u) from there (Newton), and keep the exact crossing when it is close by
+    if tex.dimension == 2:  # over a surface the bisected parameter itself
+        return (0.5 * (lo + hi)).tolist()
     out = []
     for u0 in 0.5 * (lo + hi):
         t0 = float(closest_point(tex, (a + u0 * (b - a))[None, :]).x[0])
