@@ -103,14 +103,25 @@ def analysis(args) -> None:
     # 3-D: the egg-crate, positions over one cell from 0.2 mm above the peaks to 1 mm below
     egg = hx.SumOfGratings.egg_crate(0.8e-3, 1e-3)
     p3 = np.column_stack([rng.uniform(0, 1e-3, n), rng.uniform(0, 1e-3, n), rng.uniform(-1.8e-3, 1.0e-3, n)])
-    print("# analysis in 3-D over the egg-crate (surfaces: W, A, B, C, F, G)")
+    print("# analysis in 3-D over the egg-crate")
     print(f"{'alg':4} {'force (s)':>10} {'jacobian (s)':>13} {'q (s)':>8}")
-    for letter in "WABCFG":
+    hx.algorithm("D", egg, 2000.0).force(p3[:10])  # compile the surface search
+    for letter in "WABCDEFG":
         alg = hx.algorithm(letter, hx.Flat(2) if letter == "W" else egg, 2000.0)
         t_f = best_of(lambda: alg.force(p3))
         t_j = best_of(lambda: alg.jacobian(p3))
         t_q = best_of(lambda: hx.characteristic_number(alg), repeat=1)
         print(f"{letter:4} {t_f:10.3f} {t_j:13.3f} {t_q:8.2f}")
+    # the closest point on a surface: time per point per core (both cores run the search)
+    cores = int(os.environ.get("NUMBA_NUM_THREADS", os.cpu_count() or 1))
+    for name, surf in (("grating (A = 0.8 mm, l = 1 mm, 0.3 rad)", hx.Grating(0.8e-3, 1e-3, 0.3)), ("egg-crate", egg)):
+        xy = rng.uniform(0, 1e-3, (n, 2))
+        q = np.column_stack([xy, surf.height_at(xy) - rng.uniform(0.0, 1e-3, n)])
+        hx.closest_point(surf, q[:10])
+        t = best_of(lambda: hx.closest_point(surf, q), repeat=1)
+        work = hx.closest_point(surf, q[:100_000]).work
+        print(f"closest point on the {name}, 0 to 1 mm deep: {t / n * cores * 1e6:.2f} us per point per core "
+              f"({cores} cores), {work.mean():.0f} evaluations a point on average, {work.max()} at most")
 
 
 if __name__ == "__main__":
