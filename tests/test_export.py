@@ -20,7 +20,7 @@ pytestmark = pytest.mark.skipif(CC is None, reason="no C compiler on this machin
 
 
 class State(ctypes.Structure):
-    _fields_ = [("adhesion", ctypes.c_double), ("last_x", ctypes.c_double), ("contact", ctypes.c_int),
+    _fields_ = [("adhesion", ctypes.c_double * 2), ("last_x", ctypes.c_double), ("contact", ctypes.c_int),
                 ("faults", ctypes.c_ulong),
                 ("clamps", ctypes.c_ulong)]
 
@@ -181,3 +181,97 @@ def test_haptex_export_at_the_command_line_writes_code_that_compiles(tmp_path):
     r = subprocess.run(["haptex", "export", "--algorithm", "A", "--texture", "sine:0.8mm,1mm", "--stiffness", "2000",
                         "--max-force", "5 N", "--out", str(out)], capture_output=True, text=True, timeout=120)
     assert r.returncode == 2 and "stiffness = '2000' is not allowed: a number without a unit" in r.stderr
+
+
+class Compiled3(Compiled):
+    """An exported tick over a surface: p = [x, y, z], f = [f_x, f_y, f_z]."""
+
+    def __init__(self, alg, tmp_path, max_force=math.inf):
+        super().__init__(alg, tmp_path, max_force)
+        assert "#define HAPTEX_DIMENSION 3" in (tmp_path / "haptex_texture.h").read_text()
+        self.p = (ctypes.c_double * 3)()
+        self.f = (ctypes.c_double * 3)()
+
+    def step(self, x, y, z):
+        self.p[0], self.p[1], self.p[2] = x, y, z
+        code = self.lib.haptex_step(ctypes.byref(self.state), self.p, self.f)
+        return code, (self.f[0], self.f[1], self.f[2])
+
+
+def _surfaces():
+    out = [("egg", hx.SumOfGratings.egg_crate(A, L)),
+           ("gratings", hx.SumOfGratings([0.2e-3, 0.05e-3], [1e-3, 0.3e-3], [0.3, 2.0], [0.0, 1.0]))]
+    if DEKTAK.exists():
+        out.append(("extruded-dektak", hx.Extruded(hx.SampledProfile.from_file(DEKTAK).leveled())))
+    return out
+
+
+@pytest.mark.parametrize("letter", list("WABCDEG"))
+@pytest.mark.parametrize("name, tex", _surfaces())
+def test_exported_3d_field_equals_the_library(tmp_path, letter, name, tex):
+    # issue 16, "p and f of the texture's dimension, 2 or 3": over a surface the C tick equals
+    # Algorithm.force in 3-D (10^5 points for the closed forms, 10^4 for D and E, each from a
+    # cold start like the vectorised field; D may take either side where the closest point is
+    # tied, on the medial axis, where its force jumps)
+    alg = hx.algorithm(letter, hx.Flat(2) if letter == "W" else tex, K0,
+                       **({"max_penetration": 0.5e-3} if letter in "BCG" else {}))
+    c = Compiled3(alg, tmp_path)
+    rng = np.random.default_rng(7)
+    n = 10_000 if letter in "DE" else 100_000
+    dom = tex.domain or ((0.0, 2e-3), (0.0, 2e-3))  # an aperiodic sum: any window
+    xy = np.column_stack([rng.uniform(dom[0][0] - 0.1e-3, dom[0][1] + 0.1e-3, n),
+                          rng.uniform(dom[1][0] - 0.1e-3, dom[1][1] + 0.1e-3, n)])
+    z = rng.uniform(-2e-3, 1e-3, n) + (tex.height_at(xy) if letter in "ABCDE" else 0.0)
+    p = np.column_stack([xy, z])
+    ref = alg.force(p)
+    got = np.empty_like(ref)
+    for i, q in enumerate(p):
+        c.reset()
+        got[i] = c.step(*q)[1]
+    hmax = max(abs(v) for v in tex.height_range)
+    tol = 1e-12 * np.linalg.norm(ref, axis=-1) + 64 * np.finfo(float).eps * K0 * (hmax + 2e-3)
+    err = np.linalg.norm(got - ref, axis=-1)
+    ok = err <= tol
+    if letter == "D":
+        ok |= hx.closest_point(tex, p).tie
+    assert np.all(ok), (np.count_nonzero(~ok), np.max(err[~ok] / tol[~ok]))
+    assert c.state.faults == 0
+
+
+def test_exported_3d_f_drags_its_adhesion_point_like_the_library(tmp_path):
+    # F over a surface: the isotropic play operator (the adhesion point dragged to within
+    # d^x_max) along a stroke in and out of the wall; every tick equals Algorithm.force at the
+    # deflection the library's own stepping (FrictionModulated._path_work_plane's rule) gives
+    egg = hx.SumOfGratings.egg_crate(A, L)
+    alg = hx.algorithm("F", egg, K0, friction=0.8, presliding=0.3e-3, max_penetration=1e-3)
+    c = Compiled3(alg, tmp_path, max_force=50.0)
+    t = np.linspace(0.0, 1.0, 20_001)
+    p = np.column_stack([2e-3 * np.sin(2 * np.pi * 3 * t), 1.5e-3 * np.sin(2 * np.pi * 5 * t + 1.0),
+                         -0.8e-3 * np.sin(2 * np.pi * 2 * t) + 0.2e-3])
+    w = None
+    for q in p:
+        code, f = c.step(*q)
+        if q[2] >= 0:
+            w = None
+            assert f == (0.0, 0.0, 0.0)
+            continue
+        if w is None:
+            w = q[:2].copy()
+        d = q[:2] - w
+        size = math.hypot(*d)
+        if size > 0.3e-3:
+            d *= 0.3e-3 / size
+            w = q[:2] - d
+        np.testing.assert_allclose(f, alg.force(q[None, :], d[None, :])[0], rtol=1e-12, atol=1e-15)
+    assert c.state.faults == 0
+
+
+def test_export_over_a_surface_at_the_command_line(tmp_path):
+    out = tmp_path / "fw3"
+    r = subprocess.run(["haptex", "export", "--algorithm", "B", "--texture", "egg-crate:0.8mm,1mm", "--stiffness",
+                        "2 kN/m", "--max-force", "5 N", "--out", str(out)], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert "#define HAPTEX_DIMENSION 3" in (out / "haptex_texture.h").read_text()
+    assert "p = [x, y, z] (m)" in (out / "haptex_texture.h").read_text()
+    subprocess.run([CC, "-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror", "-c", str(out / "haptex_texture.c"),
+                    "-o", str(tmp_path / "t.o")], check=True)

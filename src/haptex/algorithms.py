@@ -182,13 +182,18 @@ class Algorithm:
             raise ParameterError(f"texture = {self.texture!r} is not allowed here: the compiled simulator, renderer "
                                  "and C export take profiles h(x) (positions [x, z]) for now; surfaces are analysed "
                                  "in 3-D (force, jacobian, characteristic_number)")
+        kind, coeffs = self.texture.kernel_data()
+        return _CODES[self.letter], self.kernel_params(), kind, np.ascontiguousarray(coeffs), self._aux()
+
+    def kernel_params(self) -> np.ndarray:
+        """The algorithm's parameter vector float64[6] of the compiled kernels and the C
+        export (see :meth:`kernel_spec`), for a profile or a surface."""
         prm = np.zeros(_kernels.N_PARAMS)
         prm[_kernels.P_K0] = self.stiffness
         prm[_kernels.P_DZMAX] = -1.0 if self.max_penetration is None else self.max_penetration
         prm[_kernels.P_ZSTICK] = -1.0
         self._fill_kernel_params(prm)
-        kind, coeffs = self.texture.kernel_data()
-        return _CODES[self.letter], prm, kind, np.ascontiguousarray(coeffs), self._aux()
+        return prm
 
     def _fill_kernel_params(self, prm) -> None:
         """Hook for algorithm-specific kernel parameters (F)."""
