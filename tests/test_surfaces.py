@@ -94,6 +94,11 @@ def test_a_grating_turned_in_the_plane_turns_its_field(letter):
     q0 = hx.characteristic_number(a0).value
     q1 = hx.characteristic_number(a1, x_range=((0.0, L / math.cos(th)), (0.0, L / math.sin(th)))).value
     assert q1 == pytest.approx(q0, rel=1e-9)
+    # the Fig. 3 loop (eq. 29's for G) in the x-z plane, turned with the grating: the same work
+    path, expected, _ = hx.paper_loop(hx.algorithm(letter, hx.Sinusoid(A, L), K0))
+    loop0 = np.column_stack([path[:, 0], np.full(len(path), 0.4e-3), path[:, 1]])
+    w0, w1 = hx.path_work(a0, loop0), hx.path_work(a1, loop0 @ R.T)
+    assert w1 == pytest.approx(w0, rel=1e-9, abs=1e-15) and w0 == pytest.approx(expected, rel=1e-9, abs=1e-15)
 
 
 @st.composite
@@ -210,13 +215,14 @@ def test_table_ii_loop_energies_and_verdicts_through_the_3d_code(letter):
     assert hx.continuity(a3, levels=3).continuous and hx.continuity(a2, levels=3).continuous
 
 
-@pytest.mark.parametrize("letter", "WC")
+@pytest.mark.parametrize("letter", "WCD")
 def test_gradient_fields_do_no_work_around_polygons_in_space(letter):
-    # Issue 11: zero loop work for W and C on random closed polygons in space over an egg-crate
-    # (both are gradients: W of kappa_0 z^2/2, C of kappa_0 d^2/2, eq. 13), to the quadrature's
-    # 1e-9 kappa_0 L^2; A does work on the same loops
+    # Issue 11: zero loop work for W, C and D on random closed polygons in space over an
+    # egg-crate (all gradients: W of kappa_0 z^2/2, C of kappa_0 d^2/2, eq. 13, D of
+    # kappa_0 (d^min)^2/2, eq. 16, whose force jumps on the medial axis but whose potential is
+    # continuous), to the quadrature's 1e-9 kappa_0 L^2; A does work on the same loops
     egg = hx.SumOfGratings.egg_crate(A, L)
-    alg = hx.algorithm(letter, egg if letter == "C" else hx.Flat(2), K0)
+    alg = hx.algorithm(letter, hx.Flat(2) if letter == "W" else egg, K0)
     loops = hx.random_loops(alg, n=4, vertices=6, seed=2)
     assert all(lp.shape == (7, 3) for lp in loops)
     tol = 1e-9 * K0 * (2 * A + 1e-3) ** 2
