@@ -1189,8 +1189,16 @@ def render_step(x, z, code, kind, coeffs, prm, aux, st, rs):
 # ----------------------------------------------------------------------------------------
 # ``gcoeffs`` has shape (4, n): amplitudes a (m), wave-vector components kx, ky (rad/m),
 # phases (rad); h = sum a sin(kx x + ky y + phase). ``gaux``: the search's constants.
-G_HMIN, G_SLOPE, G_CURV, G_LEAF, G_TIE = range(5)
-N_GAUX = 5
+G_HMIN, G_SLOPE, G_CURV, G_LEAF, G_TIE, G_HMAX = range(6)
+N_GAUX = 6
+SURFACE_GRATINGS = 3
+SURFACE_PATCHES = 4
+"""Surface kinds of the search: a sum of gratings (``sc`` of shape (4, n): a, kx, ky, phase)
+or bicubic patches (``sc`` of shape (1, 8 + 16 n): the header PATCH_* then, per cell in row-major
+order (i along x), the 16 coefficients c[a, b] of s^a t^b, s and t the cell's local
+coordinates in [0, 1])."""
+(PATCH_X0, PATCH_Y0, PATCH_DX, PATCH_DY, PATCH_NX, PATCH_NY, PATCH_PERIODIC) = range(7)
+PATCH_DATA = 8
 SURF_STACK = 512
 """Cells the quadtree search may hold pending (depth-first: 3 per level; far above need)."""
 MAX_SURF_LEAVES = 1 << 16
@@ -1220,6 +1228,104 @@ def grating_eval(gc, x, y):
         hxy -= a * kx * ky * sn
         hyy -= a * ky * ky * sn
     return h, gx, gy, hxx, hxy, hyy
+
+
+@nb.njit(**_JIT)
+def _patch_derivs(sc, x, y):
+    """All derivatives d^(a+b) h / dx^a dy^b, a, b <= 3, of the bicubic patch holding (x, y)
+    (clamped to the map), as a 4 x 4 array, and the clamped point."""
+    hd = sc[0]
+    dx = hd[PATCH_DX]
+    dy = hd[PATCH_DY]
+    nx = int(hd[PATCH_NX])
+    ny = int(hd[PATCH_NY])
+    u = (x - hd[PATCH_X0]) / dx
+    v = (y - hd[PATCH_Y0]) / dy
+    cx = x  # the nearest point of the map: p itself unless clamped
+    cy = y
+    if hd[PATCH_PERIODIC] != 0.0:
+        u = u - nx * math.floor(u / nx)
+        v = v - ny * math.floor(v / ny)
+    else:
+        if u < 0.0 or u > nx:
+            u = min(max(u, 0.0), float(nx))
+            cx = hd[PATCH_X0] + u * dx
+        if v < 0.0 or v > ny:
+            v = min(max(v, 0.0), float(ny))
+            cy = hd[PATCH_Y0] + v * dy
+    i = min(int(u), nx - 1)
+    j = min(int(v), ny - 1)
+    s_ = u - i
+    t_ = v - j
+    base = PATCH_DATA + 16 * (i * ny + j)
+    out = np.zeros((4, 4))
+    # d^p/ds^p d^q/dt^q of sum c[a, b] s^a t^b, scaled to x and y by dx^-p dy^-q
+    for a in range(4):
+        for b in range(4):
+            c = sc[0, base + 4 * a + b]
+            if c == 0.0:
+                continue
+            for pd in range(a + 1):
+                fa = 1.0
+                for k in range(pd):
+                    fa *= a - k
+                sa = s_ ** (a - pd)
+                for qd in range(b + 1):
+                    fb = 1.0
+                    for k in range(qd):
+                        fb *= b - k
+                    out[pd, qd] += c * fa * fb * sa * t_ ** (b - qd)
+    for pd in range(4):
+        for qd in range(4):
+            out[pd, qd] /= dx ** pd * dy ** qd
+    return out, cx, cy
+
+
+@nb.njit(**_JIT)
+def patch_eval(sc, x, y):
+    """(h, h_x, h_y, h_xx, h_xy, h_yy) of a bicubic height map at (x, y): the spline inside;
+    outside a non-periodic map its tangent-plane extension h(c) + grad h(c) . (p - c), c the
+    nearest point of the map (as haptex.SampledSurface evaluates it)."""
+    D, cx, cy = _patch_derivs(sc, x, y)
+    dx = x - cx
+    dy = y - cy
+    if dx == 0.0 and dy == 0.0:
+        return D[0, 0], D[1, 0], D[0, 1], D[2, 0], D[1, 1], D[0, 2]
+    ox = dx != 0.0
+    oy = dy != 0.0
+    h = D[0, 0] + D[1, 0] * dx + D[0, 1] * dy
+    gx = D[1, 0] if ox else D[1, 0] + D[2, 0] * dx + D[1, 1] * dy
+    gy = D[0, 1] if oy else D[0, 1] + D[1, 1] * dx + D[0, 2] * dy
+    hxx = 0.0 if ox else D[2, 0] + D[3, 0] * dx + D[2, 1] * dy
+    hyy = 0.0 if oy else D[0, 2] + D[1, 2] * dx + D[0, 3] * dy
+    m = int(ox) + int(oy)
+    hxy = D[1, 1] + D[2, 1] * dx + D[1, 2] * dy if m == 0 else (D[1, 1] if m == 1 else 0.0)
+    return h, gx, gy, hxx, hxy, hyy
+
+
+@nb.njit(**_JIT)
+def surf_eval(kind, sc, x, y):
+    """(h, h_x, h_y, h_xx, h_xy, h_yy) of a surface of kind SURFACE_GRATINGS or SURFACE_PATCHES."""
+    if kind == SURFACE_PATCHES:
+        return patch_eval(sc, x, y)
+    return grating_eval(sc, x, y)
+
+
+@nb.njit(**_JIT)
+def _patch_range(sc, gaux, cx, cy, w):
+    """Rigorous (min h, max h) over a square cell of a height map: outside a non-periodic map
+    the extension moves at most sup |grad h| per metre beyond the map's range."""
+    hd = sc[0]
+    if hd[PATCH_PERIODIC] != 0.0:
+        return gaux[G_HMIN], gaux[G_HMAX]
+    x0 = hd[PATCH_X0]
+    y0 = hd[PATCH_Y0]
+    x1 = x0 + hd[PATCH_NX] * hd[PATCH_DX]
+    y1 = y0 + hd[PATCH_NY] * hd[PATCH_DY]
+    ox = max(0.0, x0 - (cx - w), (cx + w) - x1)
+    oy = max(0.0, y0 - (cy - w), (cy + w) - y1)
+    out = math.sqrt(ox * ox + oy * oy) * gaux[G_SLOPE]
+    return gaux[G_HMIN] - out, gaux[G_HMAX] + out
 
 
 @nb.njit(**_JIT)
@@ -1253,13 +1359,13 @@ def _grating_range(gc, cx, cy, w):
 
 
 @nb.njit(**_JIT)
-def _surf_newton(gc, px, py, pz, tx, ty, x0, x1, y0, y1):
+def _surf_newton(kind, gc, px, py, pz, tx, ty, x0, x1, y0, y1):
     """Projected Newton on phi/2 = (|t - p_xy|^2 + (h(t) - pz)^2) / 2 from (tx, ty), kept in the
     cell [x0, x1] x [y0, y1] (at most 40 iterations; a gradient step where the Hessian is not
     positive definite). Returns (tx, ty, phi, iterations)."""
     it = 0
     for it in range(1, 41):
-        h, gx, gy, hxx, hxy, hyy = grating_eval(gc, tx, ty)
+        h, gx, gy, hxx, hxy, hyy = surf_eval(kind, gc, tx, ty)
         e = h - pz
         g0 = (tx - px) + e * gx
         g1 = (ty - py) + e * gy
@@ -1284,12 +1390,12 @@ def _surf_newton(gc, px, py, pz, tx, ty, x0, x1, y0, y1):
         ty = ny
         if done:
             break
-    h = grating_eval(gc, tx, ty)[0]
+    h = surf_eval(kind, gc, tx, ty)[0]
     return tx, ty, (tx - px) ** 2 + (ty - py) ** 2 + (h - pz) ** 2, it
 
 
 @nb.njit(**_JIT)
-def surface_closest_point(gc, gaux, px, py, pz, best):
+def surface_closest_point(kind, gc, gaux, px, py, pz, best):
     """Closest point (tx, ty) of z = h(x, y) to p = (px, py, pz) below it.
 
     Branch and bound: the square of half-width W around p_xy (W from the vertical distance
@@ -1303,7 +1409,7 @@ def surface_closest_point(gc, gaux, px, py, pz, best):
     tie is 1 when a second local minimum farther than four leaves away lies at the same
     distance to G_TIE (the medial axis).
     """
-    h0 = grating_eval(gc, px, py)[0]
+    h0 = surf_eval(kind, gc, px, py)[0]
     dv = h0 - pz
     if dv <= 0.0:
         return px, py, 0.0, 0, 1
@@ -1316,7 +1422,7 @@ def surface_closest_point(gc, gaux, px, py, pz, best):
     # a first upper bound from the local minimum nearest the vertical point (Newton from it)
     below = max(gaux[G_HMIN] - pz, 0.0)
     half = math.sqrt(max(bf - below * below, 0.0)) * (1.0 + 1e-9) + 1e-300
-    tx, ty, f, it = _surf_newton(gc, px, py, pz, px, py, px - half, px + half, py - half, py + half)
+    tx, ty, f, it = _surf_newton(kind, gc, px, py, pz, px, py, px - half, px + half, py - half, py + half)
     work += it + 1
     if f < bf:
         bf = f
@@ -1338,11 +1444,16 @@ def surface_closest_point(gc, gaux, px, py, pz, best):
         cx = stack[4 + 3 * sp]
         cy = stack[5 + 3 * sp]
         w = stack[6 + 3 * sp]
-        h, gx, gy, _, _, _ = grating_eval(gc, cx, cy)
+        h, gx, gy, _, _, _ = surf_eval(kind, gc, cx, cy)
         work += 1
         r = w * math.sqrt(2.0)
         spread = min(slope * r, math.sqrt(gx * gx + gy * gy) * r + 0.5 * curv * r * r)
-        glo, ghi = _grating_range(gc, cx, cy, w)
+        if kind == SURFACE_PATCHES:
+            glo, ghi = _patch_range(gc, gaux, cx, cy, w)
+            if glo < gaux[G_HMIN] or ghi > gaux[G_HMAX]:  # beyond the map: the extension's bound only
+                spread = math.inf
+        else:
+            glo, ghi = _grating_range(gc, cx, cy, w)
         lo = max(h - spread, glo)
         hi = min(h + spread, ghi)
         dx = max(0.0, abs(px - cx) - w)
@@ -1356,18 +1467,18 @@ def surface_closest_point(gc, gaux, px, py, pz, best):
             # p_xy clamped into it
             sx = min(max(px, cx - w), cx + w)
             sy = min(max(py, cy - w), cy + w)
-            fs = (sx - px) ** 2 + (sy - py) ** 2 + (grating_eval(gc, sx, sy)[0] - pz) ** 2
+            fs = (sx - px) ** 2 + (sy - py) ** 2 + (surf_eval(kind, gc, sx, sy)[0] - pz) ** 2
             for q in range(5):
                 qx = cx if q == 0 else cx + (0.5 * w if (q & 1) else -0.5 * w)
                 qy = cy if q == 0 else cy + (0.5 * w if (q & 2) else -0.5 * w)
-                fq = (qx - px) ** 2 + (qy - py) ** 2 + (grating_eval(gc, qx, qy)[0] - pz) ** 2
+                fq = (qx - px) ** 2 + (qy - py) ** 2 + (surf_eval(kind, gc, qx, qy)[0] - pz) ** 2
                 if fq < fs:
                     fs = fq
                     sx = qx
                     sy = qy
             work += 6
             leaves += 1
-            tx, ty, f, it = _surf_newton(gc, px, py, pz, sx, sy, cx - w, cx + w, cy - w, cy + w)
+            tx, ty, f, it = _surf_newton(kind, gc, px, py, pz, sx, sy, cx - w, cx + w, cy - w, cy + w)
             work += it + 1
             inner = abs(tx - cx) < w * (1 - 1e-12) and abs(ty - cy) < w * (1 - 1e-12)
             sep = 4.0 * leaf
@@ -1404,11 +1515,11 @@ def surface_closest_point(gc, gaux, px, py, pz, best):
 
 
 @nb.njit(parallel=True, cache=True, nogil=True)
-def surface_closest_points(gc, gaux, px, py, pz, tx_out, ty_out, d_out, tie_out, work_out):
+def surface_closest_points(kind, gc, gaux, px, py, pz, tx_out, ty_out, d_out, tie_out, work_out):
     """Vectorised :func:`surface_closest_point` over flat arrays, in parallel."""
     for i in nb.prange(px.shape[0]):
         scratch = np.empty(4 + 3 * SURF_STACK + 3)
-        tx, ty, d, tie, work = surface_closest_point(gc, gaux, px[i], py[i], pz[i], scratch)
+        tx, ty, d, tie, work = surface_closest_point(kind, gc, gaux, px[i], py[i], pz[i], scratch)
         tx_out[i] = tx
         ty_out[i] = ty
         d_out[i] = d

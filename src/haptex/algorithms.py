@@ -513,11 +513,12 @@ class _Distance(Algorithm):
     def __init__(self, texture, stiffness):
         super().__init__(texture, stiffness)
         if texture.dimension == 2:
-            from .surfaces import Extruded, SumOfGratings
+            from .surfaces import Extruded, SampledSurface, SumOfGratings
 
-            if not isinstance(texture, Extruded | SumOfGratings):
-                raise ParameterError(f"texture = {texture!r} is not allowed for algorithm {self.letter} yet: the "
-                                     "closest point is searched on profiles, sums of gratings and extruded profiles")
+            if not isinstance(texture, Extruded | SampledSurface | SumOfGratings):
+                raise ParameterError(f"texture = {texture!r} is not allowed for algorithm {self.letter}: the closest "
+                                     "point is searched on profiles, sums of gratings, height maps and extruded "
+                                     "profiles")
 
     def _aux(self) -> np.ndarray:
         return search_data(self.texture)

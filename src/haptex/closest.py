@@ -67,8 +67,8 @@ def closest_point(texture: Texture, p) -> ClosestPoint:
     Parameters
     ----------
     texture : Texture
-        The height profile h(x) or surface h(x, y) (m): a profile, a sum of gratings or an
-        extruded profile (a sampled height map is not searched yet).
+        The height profile h(x) or surface h(x, y) (m): a profile, a sum of gratings, a
+        sampled height map or an extruded profile.
     p : array_like, shape (..., 2) or (..., 3)
         Probe positions [x, z] over a profile, [x, y, z] over a surface (m).
 
@@ -109,12 +109,14 @@ def closest_point(texture: Texture, p) -> ClosestPoint:
     on the fly within +-2048 leaves of p^x, exact to that depth and, deeper, within the
     texture's height range (2 sum a_k) of the true distance.
 
-    Over a surface of gratings the same argument runs on a quadtree
+    Over a surface the same argument runs on a quadtree
     (:func:`haptex._kernels.surface_closest_point`): the square of half-width
-    sqrt(best^2 - (min h - p^z)^2) around p_xy is cut into cells, pruned by Taylor bounds
-    of h over each (from sup |grad h| and sup ||H||), down to cells of 1/64 of the shortest
-    wavelength, each refined by projected Newton. Over ``Extruded(profile)`` the profile's
-    search is exact and p_h^y = p^y.
+    sqrt(best^2 - (min h - p^z)^2) around p_xy is cut into cells, pruned by bounds of h over
+    each (Taylor bounds from sup |grad h| and sup ||H||; for gratings also each grating's
+    exact range; beyond a non-periodic height map the extension's), down to leaves (1/16 of
+    the shortest wavelength for gratings, one sample interval for a height map), each refined
+    by projected Newton from the best of six samples. Over ``Extruded(profile)`` the
+    profile's search is exact and p_h^y = p^y.
     """
     if texture.dimension == 2:
         return _closest_point_surface(texture, p)
@@ -287,45 +289,55 @@ def _spline_tree(prof: SampledProfile) -> np.ndarray:
 
 
 def _closest_point_surface(texture: Texture, p) -> ClosestPoint:
-    from .surfaces import Extruded, SumOfGratings
+    from .surfaces import Extruded, SampledSurface, SumOfGratings
 
     arr = positions(p, dim=3)
     shape = arr.shape[:-1]
     if isinstance(texture, Extruded):
         cp = closest_point(texture.profile, arr[..., [0, 2]])
         return ClosestPoint(x=cp.x, z=cp.z, distance=cp.distance, tie=cp.tie, work=cp.work, y=arr[..., 1].copy())
-    if not isinstance(texture, SumOfGratings):
-        raise ParameterError(f"texture = {texture!r} is not allowed for D and E yet: the closest point is searched "
-                             "on profiles, sums of gratings and extruded profiles")
-    gc, gaux = surface_search_data(texture)
+    if not isinstance(texture, SumOfGratings | SampledSurface):
+        raise ParameterError(f"texture = {texture!r} is not allowed for D and E: the closest point is searched on "
+                             "profiles, sums of gratings, height maps and extruded profiles")
+    kind, gc, gaux = surface_search_data(texture)
     flat = arr.reshape(-1, 3)
     n = flat.shape[0]
     tx, ty, d = np.empty(n), np.empty(n), np.empty(n)
     tie, work = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64)
-    K.surface_closest_points(gc, gaux, *(np.ascontiguousarray(flat[:, i]) for i in range(3)), tx, ty, d, tie, work)
+    K.surface_closest_points(kind, gc, gaux, *(np.ascontiguousarray(flat[:, i]) for i in range(3)), tx, ty, d, tie,
+                             work)
     xy = np.stack([tx, ty], -1)
     return ClosestPoint(x=tx.reshape(shape), z=texture.height_at(xy).reshape(shape), distance=d.reshape(shape),
                         tie=(tie != 0).reshape(shape), work=work.reshape(shape), y=ty.reshape(shape))
 
 
-def surface_search_data(texture) -> tuple[np.ndarray, np.ndarray]:
-    """The compiled surface search's data for a sum of gratings: coefficients (4, n) =
-    amplitudes (m), k_x, k_y (rad/m), phases (rad), and the constants ``_kernels.G_*``
-    (lowest height, sup |grad h|, sup ||H||, leaf half-width 1/64 of the shortest wavelength,
-    tie tolerance 1e-9 of it)."""
+def surface_search_data(texture) -> tuple[int, np.ndarray, np.ndarray]:
+    """The compiled surface search's data: the surface kind, its coefficients (a sum of
+    gratings: shape (4, n) = amplitudes (m), k_x, k_y (rad/m), phases (rad); a height map: its
+    bicubic patches, :meth:`haptex.SampledSurface.patches`), and the constants
+    ``_kernels.G_*`` (lowest and highest height, sup |grad h|, sup ||H||, leaf half-width,
+    tie tolerance 1e-9 of the shortest wavelength). Cached on the texture."""
+    from .surfaces import SampledSurface
+
     cached = texture.__dict__.get("_surface_search")
     if cached is not None:
         return cached
-    gc = np.ascontiguousarray(np.vstack([texture.amplitudes, texture._kvec[:, 0], texture._kvec[:, 1],
-                                         texture.phases]))
+    if isinstance(texture, SampledSurface):
+        kind, gc = K.SURFACE_PATCHES, texture.patches()
+        leaf = max(texture.dx, texture.dy)  # one sample interval: a bicubic patch
+    else:
+        kind = K.SURFACE_GRATINGS
+        gc = np.ascontiguousarray(np.vstack([texture.amplitudes, texture._kvec[:, 0], texture._kvec[:, 1],
+                                             texture.phases]))
+        leaf = texture.shortest_period / LEAF_DIVISOR
     gaux = np.zeros(K.N_GAUX)
-    gaux[K.G_HMIN] = texture.height_range[0]
+    gaux[K.G_HMIN], gaux[K.G_HMAX] = texture.height_range
     gaux[K.G_SLOPE] = texture.max_slope
     gaux[K.G_CURV] = texture.max_curvature
-    gaux[K.G_LEAF] = texture.shortest_period / LEAF_DIVISOR
+    gaux[K.G_LEAF] = leaf
     gaux[K.G_TIE] = 1e-9 * texture.shortest_period
-    texture.__dict__["_surface_search"] = (gc, gaux)
-    return gc, gaux
+    texture.__dict__["_surface_search"] = (kind, gc, gaux)
+    return kind, gc, gaux
 
 
 LEAF_DIVISOR = 16

@@ -834,7 +834,7 @@ def _surface_spec(algorithm: Algorithm):
         aux = search_data(tex.profile) if algorithm.letter in "DE" else np.zeros(1)
         return code, prm, kind, coeffs, aux
     if isinstance(tex, SumOfGratings):
-        gc, gaux = surface_search_data(tex)
+        _, gc, gaux = surface_search_data(tex)
         return code, prm, GRATINGS, gc, gaux
     raise ParameterError(f"texture = {tex!r} is not allowed for export yet: surfaces export as sums of gratings or "
                          "extruded profiles")

@@ -598,6 +598,47 @@ class SampledSurface(Surface):
         hxx, hxy, hyy = self._eval(xt, (2, 0)), self._eval(xt, (1, 1)), self._eval(xt, (0, 2))
         return np.stack([np.stack([hxx, hxy], -1), np.stack([hxy, hyy], -1)], -2)
 
+    def patches(self) -> np.ndarray:
+        """The spline as bicubic patches for the compiled closest-point search
+        (``haptex._kernels.SURFACE_PATCHES``): shape (1, 8 + 16 n_cells), the header PATCH_*
+        and per cell the coefficients c[a, b] of s^a t^b in the cell's local coordinates
+        s, t in [0, 1], found by sampling the spline at 4 x 4 points of each cell (a bicubic
+        is fixed by 16 values). Cached.
+
+        Raises
+        ------
+        ParameterError
+            If the patches would take more than the memory budget.
+        """
+        cached = self.__dict__.get("_patches")
+        if cached is not None:
+            return cached
+        from . import _kernels as K
+        from ._validation import check_budget
+
+        nx = self.x.size if self.periodic else self.x.size - 1
+        ny = self.y.size if self.periodic else self.y.size - 1
+        check_budget("h", f"a {self.x.size} x {self.y.size} map", 3 * 16 * 8 * nx * ny,
+                     "bicubic patches for the closest-point search (D, E)")
+        nodes = np.arange(4) / 3.0
+        vand_inv = np.linalg.inv(nodes[:, None] ** np.arange(4)[None, :])  # values at s_k -> coefficients
+        out = np.empty((nx, ny, 4, 4))
+        for i0 in range(0, nx, max(1, 250_000 // ny)):
+            i1 = min(nx, i0 + max(1, 250_000 // ny))
+            X = self.x[0] + (np.arange(i0, i1)[:, None, None, None] + nodes[None, None, :, None]) * self.dx
+            Y = self.y[0] + (np.arange(ny)[None, :, None, None] + nodes[None, None, None, :]) * self.dy
+            pts = np.stack(np.broadcast_arrays(X, Y), -1)
+            vals = self._spline(pts.reshape(-1, 2)).reshape(i1 - i0, ny, 4, 4)
+            out[i0:i1] = vand_inv @ vals @ vand_inv.T
+        head = np.zeros(K.PATCH_DATA)
+        head[K.PATCH_X0], head[K.PATCH_Y0] = self.x[0], self.y[0]
+        head[K.PATCH_DX], head[K.PATCH_DY] = self.dx, self.dy
+        head[K.PATCH_NX], head[K.PATCH_NY] = nx, ny
+        head[K.PATCH_PERIODIC] = 1.0 if self.periodic else 0.0
+        arr = np.ascontiguousarray(np.concatenate([head, out.ravel()])[None, :])
+        self.__dict__["_patches"] = arr
+        return arr
+
     # -- summary numbers -------------------------------------------------------------
     @property
     def shortest_period(self) -> float:
