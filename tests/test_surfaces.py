@@ -571,3 +571,19 @@ def test_closest_point_on_a_height_map_agrees_with_brute_force(periodic):
     assert np.all(cp.distance <= ref + 1e-9), np.max(cp.distance - ref)
     e = hx.algorithm("E", s, K0)
     np.testing.assert_allclose(e.force(p)[:, 2], K0 * cp.distance, rtol=1e-12)
+
+
+@pytest.mark.parametrize("tex", [hx.Grating(A, L), hx.SumOfGratings.egg_crate(A, L)], ids=["grating", "egg"])
+def test_the_medial_axis_below_a_peak_is_detected_as_a_tie(tex):
+    # Remark 6 in 3-D: below a peak deeper than its radius of curvature (1/(A k^2) = 32 um) the
+    # probe on the symmetry plane x = l/4 has two closest points, mirror images, at the same
+    # distance (the medial axis, where D's force jumps); 30 um off that plane there is one
+    y = 0.3e-3 if isinstance(tex, hx.Grating) else L / 4
+    p = np.array([[L / 4, y, A - 0.5e-3], [L / 4 + 30e-6, y, A - 0.5e-3]])
+    cp = hx.closest_point(tex, p)
+    assert cp.tie.tolist() == [True, False]
+    # the mirror image of the closest point in the plane x = l/4 is as close
+    m = np.array([L / 2 - cp.x[0], cp.y[0]])
+    mirror = np.array([*m, tex.height_at(m[None, :])[0]])
+    assert abs(cp.x[0] - L / 4) > 0.1e-3
+    assert np.linalg.norm(p[0] - mirror) == pytest.approx(cp.distance[0], rel=1e-9)

@@ -1362,7 +1362,7 @@ def _grating_range(gc, cx, cy, w):
 def _surf_newton(kind, gc, px, py, pz, tx, ty, x0, x1, y0, y1):
     """Projected Newton on phi/2 = (|t - p_xy|^2 + (h(t) - pz)^2) / 2 from (tx, ty), kept in the
     cell [x0, x1] x [y0, y1] (at most 40 iterations; a gradient step where the Hessian is not
-    positive definite). Returns (tx, ty, phi, iterations)."""
+    positive definite). Returns (tx, ty, phi, iterations, stationary)."""
     it = 0
     for it in range(1, 41):
         h, gx, gy, hxx, hxy, hyy = surf_eval(kind, gc, tx, ty)
@@ -1390,8 +1390,12 @@ def _surf_newton(kind, gc, px, py, pz, tx, ty, x0, x1, y0, y1):
         ty = ny
         if done:
             break
-    h = surf_eval(kind, gc, tx, ty)[0]
-    return tx, ty, (tx - px) ** 2 + (ty - py) ** 2 + (h - pz) ** 2, it
+    h, gx, gy, _, _, _ = surf_eval(kind, gc, tx, ty)
+    e = h - pz
+    f = (tx - px) ** 2 + (ty - py) ** 2 + e * e
+    # a stationary point of phi (not a minimum pinned to the cell's edge): |grad phi/2| ~ 0
+    stationary = math.hypot((tx - px) + e * gx, (ty - py) + e * gy) <= 1e-9 * math.sqrt(f) + 1e-300
+    return tx, ty, f, it, stationary
 
 
 @nb.njit(**_JIT)
@@ -1422,7 +1426,7 @@ def surface_closest_point(kind, gc, gaux, px, py, pz, best):
     # a first upper bound from the local minimum nearest the vertical point (Newton from it)
     below = max(gaux[G_HMIN] - pz, 0.0)
     half = math.sqrt(max(bf - below * below, 0.0)) * (1.0 + 1e-9) + 1e-300
-    tx, ty, f, it = _surf_newton(kind, gc, px, py, pz, px, py, px - half, px + half, py - half, py + half)
+    tx, ty, f, it, _ = _surf_newton(kind, gc, px, py, pz, px, py, px - half, px + half, py - half, py + half)
     work += it + 1
     if f < bf:
         bf = f
@@ -1478,9 +1482,8 @@ def surface_closest_point(kind, gc, gaux, px, py, pz, best):
                     sy = qy
             work += 6
             leaves += 1
-            tx, ty, f, it = _surf_newton(kind, gc, px, py, pz, sx, sy, cx - w, cx + w, cy - w, cy + w)
+            tx, ty, f, it, inner = _surf_newton(kind, gc, px, py, pz, sx, sy, cx - w, cx + w, cy - w, cy + w)
             work += it + 1
-            inner = abs(tx - cx) < w * (1 - 1e-12) and abs(ty - cy) < w * (1 - 1e-12)
             sep = 4.0 * leaf
             if f < bf:
                 if found and bf < second and math.hypot(tx - btx, ty - bty) > sep:
