@@ -20,7 +20,8 @@ pytestmark = pytest.mark.skipif(CC is None, reason="no C compiler on this machin
 
 
 class State(ctypes.Structure):
-    _fields_ = [("adhesion", ctypes.c_double * 2), ("last_x", ctypes.c_double), ("contact", ctypes.c_int),
+    _fields_ = [("adhesion", ctypes.c_double * 2), ("last_x", ctypes.c_double), ("last_y", ctypes.c_double),
+                ("contact", ctypes.c_int),
                 ("faults", ctypes.c_ulong),
                 ("clamps", ctypes.c_ulong)]
 
@@ -238,31 +239,30 @@ def test_exported_3d_field_equals_the_library(tmp_path, letter, name, tex):
     assert c.state.faults == 0
 
 
-def test_exported_3d_f_drags_its_adhesion_point_like_the_library(tmp_path):
-    # F over a surface: the isotropic play operator (the adhesion point dragged to within
-    # d^x_max) along a stroke in and out of the wall; every tick equals Algorithm.force at the
-    # deflection the library's own stepping (FrictionModulated._path_work_plane's rule) gives
+@pytest.mark.parametrize("stick", [None, 0.15e-3])
+def test_exported_3d_f_drags_its_adhesion_point_like_the_library(tmp_path, stick):
+    # F over a surface: the isotropic presliding (sharp: the adhesion point dragged to within
+    # d^x_max; smooth: the 1-D flow along d, elastic across) along a stroke in and out of the
+    # wall; every tick equals Algorithm.force at the deflection haptex.friction.step_plane gives
+    from haptex.friction import step_plane
+
     egg = hx.SumOfGratings.egg_crate(A, L)
-    alg = hx.algorithm("F", egg, K0, friction=0.8, presliding=0.3e-3, max_penetration=1e-3)
+    alg = hx.algorithm("F", egg, K0, friction=0.8, presliding=0.3e-3, max_penetration=1e-3, stick_deflection=stick)
+    table = None if stick is None else alg._aux()
     c = Compiled3(alg, tmp_path, max_force=50.0)
     t = np.linspace(0.0, 1.0, 20_001)
     p = np.column_stack([2e-3 * np.sin(2 * np.pi * 3 * t), 1.5e-3 * np.sin(2 * np.pi * 5 * t + 1.0),
                          -0.8e-3 * np.sin(2 * np.pi * 2 * t) + 0.2e-3])
-    w = None
+    d = last = None
     for q in p:
         code, f = c.step(*q)
         if q[2] >= 0:
-            w = None
+            d = None
             assert f == (0.0, 0.0, 0.0)
             continue
-        if w is None:
-            w = q[:2].copy()
-        d = q[:2] - w
-        size = math.hypot(*d)
-        if size > 0.3e-3:
-            d *= 0.3e-3 / size
-            w = q[:2] - d
-        np.testing.assert_allclose(f, alg.force(q[None, :], d[None, :])[0], rtol=1e-12, atol=1e-15)
+        d = np.zeros(2) if d is None else step_plane(d, q[:2] - last, 0.3e-3, stick, table)
+        last = q[:2]
+        np.testing.assert_allclose(f, alg.force(q[None, :], d[None, :])[0], rtol=1e-10, atol=1e-12)
     assert c.state.faults == 0
 
 

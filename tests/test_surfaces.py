@@ -178,8 +178,6 @@ def test_band_limited_noise_2d_has_the_exact_rms_and_band():
      r"p has shape \(1, 2\), which is not allowed: must be \(\.\.\., 3\) = \[x, y, z\]"),
     (lambda: hx.algorithm("A", hx.Sinusoid(A, L), K0).force([[0.0, 0.0, -1e-3]]),
      r"p has shape \(1, 3\), which is not allowed: must be \(\.\.\., 2\) = \[x, z\]"),
-    (lambda: hx.algorithm("F", hx.Grating(A, L), K0, stick_deflection=0.5e-3),
-     "stick_deflection = 0.0005 is not allowed over a surface yet"),
     (lambda: hx.simulate(hx.algorithm("A", hx.Grating(A, L), K0), hx.Device.point_mass(),
                          hx.operators.ConstantForce([0.0, -1.0]), 0.01),
      "the compiled simulator, renderer and C export take profiles"),
@@ -427,6 +425,20 @@ def test_f_over_an_extruded_profile_is_the_2d_f():
         j3 = a3.jacobian(_embed(p2), d3, phase)
         np.testing.assert_allclose(j3[:, keep][:, :, keep], a2.jacobian(p2, d, phase), rtol=1e-13, atol=1e-9)
     assert hx.characteristic_number(a3).value == pytest.approx(hx.characteristic_number(a2).value, rel=1e-9)
+
+
+@pytest.mark.parametrize("direction", [0.0, 0.4, 2.0, -2.5])
+def test_smooth_presliding_along_any_tangent_direction_is_the_1d_model(direction):
+    # F's smooth variant over a surface follows the 1-D flow along the deflection, so eq. 27's
+    # path laid along any direction over a grating turned the same way does the 2-D work of the
+    # smooth model (reference: haptex's 2-D smooth F, itself tested against an ODE solver)
+    kw = {"friction": 0.8, "presliding": 1e-3, "max_penetration": 1e-3, "stick_deflection": 0.5e-3}
+    e = np.array([math.cos(direction), math.sin(direction)])
+    a2 = hx.algorithm("F", hx.Sinusoid(A, L), K0, **kw)
+    a3 = hx.algorithm("F", hx.Grating(A, L, direction), K0, **kw)
+    path, _, _ = hx.paper_loop(a2)
+    p3 = np.column_stack([path[:, 0] * e[0], path[:, 0] * e[1], path[:, 1]])
+    assert hx.path_work(a3, p3) == pytest.approx(hx.path_work(a2, path), rel=1e-9)
 
 
 @pytest.mark.parametrize("direction", [0.0, 0.4, 2.0, -2.5])

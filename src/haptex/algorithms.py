@@ -11,8 +11,6 @@ Algorithm F (friction with memory) keeps its presliding state in :mod:`haptex.fr
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 import warnings
@@ -741,8 +739,8 @@ class FrictionModulated(Algorithm):
     |d| reaches d^x_max (the sharp model, eq. 24, as a play operator in the plane: w is
     dragged along d), and f_t = -mu kappa_0 |p^z| [1 - h~(p^x, p^y)] d / d^x_max, f_z =
     -kappa_0 p^z. In stick dd/dp_t = I; in slip dd/dp_t = I - u u^T, u = d / |d| (motion
-    along d is slip, across it turns d). The smooth variant is implemented along a line
-    only.
+    along d is slip, across it turns d). The smooth variant follows the 1-D flow along d and
+    is elastic across it (:func:`haptex.friction.step_plane`).
 
     The field has memory: evaluate it statically with an explicit deflection
     (``force(p, deflection)``, ``jacobian(p, deflection, phase)``, eqs. 23, 25, 26), or
@@ -763,10 +761,6 @@ class FrictionModulated(Algorithm):
         self.modulation_depth = in_range("modulation_depth", modulation_depth, 0.0, 1.0)
         # validates stick_deflection against presliding
         self.stick_deflection = PreslidingState(0.0, self.presliding, stick_deflection).stick_deflection
-        if texture.dimension != 1 and self.stick_deflection is not None:
-            raise ParameterError(f"stick_deflection = {self.stick_deflection:g} is not allowed over a surface yet: "
-                                 "F's smooth presliding is implemented along a line; over a surface F uses the sharp "
-                                 "isotropic model (stick_deflection=None)")
         peak = float(texture.peak_magnitude)
         if not np.isfinite(peak):
             raise fail("texture", texture, "a texture with finite heights")
@@ -960,15 +954,17 @@ class FrictionModulated(Algorithm):
         return total
 
     def _path_work_plane(self, pts: np.ndarray, steps: int = 4000) -> float:
-        """Work (J) along a polyline in space over a surface, stepping the isotropic play
-        operator: each segment is cut where it crosses z = 0 (and d^z_max) and each piece
-        in contact into ``steps`` equal sub-steps, at each of which the adhesion point is
-        projected to within d^x_max of the probe (exact for straight slides along d, first
-        order in the sub-step otherwise), and the work is summed by the trapezoidal rule."""
+        """Work (J) along a polyline in space over a surface: each segment is cut where it
+        crosses z = 0 (and d^z_max) and each piece in contact into ``steps`` equal sub-steps,
+        the deflection stepped by :func:`haptex.friction.step_plane` (exact for straight
+        strokes from rest, first order in the sub-step otherwise) and the work summed by the
+        trapezoidal rule."""
         from .analysis.work import _breakpoints
+        from .friction import step_plane
 
+        table = None if self.stick_deflection is None else self._aux()
         total = 0.0
-        w = None  # adhesion point; None out of contact
+        d = None  # deflection; None out of contact
         for a, b in zip(pts[:-1], pts[1:]):
             delta = b - a
             if not np.any(delta):
@@ -978,21 +974,17 @@ class FrictionModulated(Algorithm):
                 if u1 <= u0:
                     continue
                 if (a + 0.5 * (u0 + u1) * delta)[-1] >= 0.0:
-                    w = None
+                    d = None
                     continue
                 us = np.linspace(u0, u1, steps + 1)
                 p = a + us[:, None] * delta
-                if w is None:
-                    w = p[0, :-1].copy()
-                d = np.empty((us.size, 2))
-                for i in range(us.size):
-                    dv = p[i, :-1] - w
-                    size = math.hypot(dv[0], dv[1])
-                    if size > self.presliding:
-                        dv *= self.presliding / size
-                        w = p[i, :-1] - dv
-                    d[i] = dv
-                vals = self.force(p, d) @ delta
+                ds = np.empty((us.size, 2))
+                d = np.zeros(2) if d is None else d
+                ds[0] = d
+                for i in range(1, us.size):
+                    d = step_plane(d, p[i, :-1] - p[i - 1, :-1], self.presliding, self.stick_deflection, table)
+                    ds[i] = d
+                vals = self.force(p, ds) @ delta
                 total += float(np.trapezoid(vals, us))
         return total
 

@@ -63,7 +63,7 @@ typedef struct haptex_state {{
     double adhesion[2];     /* F: presliding adhesion point in the plane (m); W: adhesion[0] is the
                                previous sensed z (m); D, E over a profile: adhesion[0] is the last
                                closest point's abscissa (m), the next warm start */
-    double last_x;          /* F: the previous sensed x (m), for the smooth presliding flow */
+    double last_x, last_y;  /* F: the previous sensed x and y (m), for the smooth presliding flow */
     int contact;            /* 1 while in contact (F), or a previous sample exists (W, D, E) */
     unsigned long faults;   /* malformed positions or non-finite forces answered with zero */
     unsigned long clamps;   /* forces scaled down to HAPTEX_MAX_FORCE */
@@ -187,6 +187,7 @@ void haptex_init(haptex_state *s)
     s->adhesion[0] = 0.0;
     s->adhesion[1] = 0.0;
     s->last_x = 0.0;
+    s->last_y = 0.0;
     s->contact = 0;
     s->faults = 0;
     s->clamps = 0;
@@ -222,11 +223,32 @@ static void force(haptex_state *st, const double *p, double *f)
         st->contact = 1;
         for (int i = 0; i < KT; ++i) st->adhesion[i] = p[i];
         st->last_x = p[0];
+        st->last_y = p[KT - 1];
     }}
     double d[KT];
-#if ZSTICK_SMOOTH
+#if ZSTICK_SMOOTH && KT == 1
     d[0] = smooth_flow(st->last_x - st->adhesion[0], p[0] - st->last_x);  /* smooth presliding */
     st->adhesion[0] = p[0] - d[0];
+#elif ZSTICK_SMOOTH  /* in the plane: the 1-D flow along d, elastic across (friction.step_plane) */
+    double dv[2] = {{st->last_x - st->adhesion[0], st->last_y - st->adhesion[KT - 1]}};
+    double dp[2] = {{p[0] - st->last_x, p[KT - 1] - st->last_y}};
+    double r = hypot(dv[0], dv[1]), u[2];
+    if (r > 0.0) {{
+        u[0] = dv[0] / r;
+        u[1] = dv[1] / r;
+    }} else {{
+        double n = hypot(dp[0], dp[1]);
+        u[0] = n > 0.0 ? dp[0] / n : 1.0;
+        u[1] = n > 0.0 ? dp[1] / n : 0.0;
+    }}
+    double a = u[0] * dp[0] + u[1] * dp[1];
+    double radial = smooth_flow(r, a);
+    for (int i = 0; i < KT; ++i) d[i] = radial * u[i] + (dp[i] - a * u[i]);
+    double size = hypot(d[0], d[KT - 1]);
+    if (size > DXMAX) {{
+        for (int i = 0; i < KT; ++i) d[i] *= DXMAX / size;
+    }}
+    for (int i = 0; i < KT; ++i) st->adhesion[i] = p[i] - d[i];
 #elif KT == 1
     d[0] = p[0] - st->adhesion[0];  /* sharp presliding, eq. 24 */
     if (d[0] > DXMAX) {{
@@ -251,6 +273,7 @@ static void force(haptex_state *st, const double *p, double *f)
     }}
 #endif
     st->last_x = p[0];
+    st->last_y = p[KT - 1];
     texture_at(p, &h, g, H);
     double depth = -z;
     if (DZMAX > 0.0 && depth > DZMAX) depth = DZMAX;
@@ -831,11 +854,11 @@ def _surface_spec(algorithm: Algorithm):
         return code, prm, _kernels.TEXTURE_FLAT, _kernels.empty_coeffs(), np.zeros(1)
     if isinstance(tex, Extruded):
         kind, coeffs = tex.profile.kernel_data()
-        aux = search_data(tex.profile) if algorithm.letter in "DE" else np.zeros(1)
+        aux = search_data(tex.profile) if algorithm.letter in "DE" else algorithm._aux()
         return code, prm, kind, coeffs, aux
     if isinstance(tex, SumOfGratings):
         _, gc, gaux = surface_search_data(tex)
-        return code, prm, GRATINGS, gc, gaux
+        return code, prm, GRATINGS, gc, gaux if algorithm.letter in "DE" else algorithm._aux()
     raise ParameterError(f"texture = {tex!r} is not allowed for export yet: surfaces export as sums of gratings or "
                          "extruded profiles")
 

@@ -202,3 +202,56 @@ def step(state: PreslidingState, x: float) -> tuple[float, PreslidingState]:
 def phase_of(deflection: float, max_deflection: float, rtol: float = 1e-12) -> str:
     """``"slip"`` when |d| = d_max (to ``rtol``), else ``"stick"`` (eq. 24)."""
     return "slip" if abs(deflection) >= max_deflection * (1 - rtol) else "stick"
+
+
+def step_plane(deflection, displacement, max_deflection: float, stick_deflection: float | None = None,
+               table: np.ndarray | None = None) -> np.ndarray:
+    """One step of isotropic presliding in a plane (algorithm F over a surface).
+
+    Parameters
+    ----------
+    deflection : array_like, shape (2,)
+        Deflection d = p_t - w before the step (m), |d| <= d_max.
+    displacement : array_like, shape (2,)
+        The probe's in-plane displacement over the step (m).
+    max_deflection : float
+        d_max (m).
+    stick_deflection : float, optional
+        z_stick (m) of the smooth model; None: the sharp model.
+    table : ndarray, optional
+        The smooth model's travel table (:func:`smooth_table`), required with it.
+
+    Returns
+    -------
+    ndarray, shape (2,)
+        The deflection after the step (m), |d| <= d_max.
+
+    Notes
+    -----
+    Sharp model: the adhesion point is dragged to within d_max (d + dp projected onto the
+    disk |d| <= d_max): the play operator in the plane. Smooth model: along the deflection's
+    direction u (the displacement's if d = 0) |d| follows the 1-D flow of this module exactly
+    for the displacement's component u . dp, and the component across u is elastic
+    (d += dp - (u . dp) u), the result kept in the disk. A straight stroke from d = 0 keeps d
+    along the stroke, so the plane model is the 1-D model there, exactly. The step is first
+    order in |dp| on curved paths: integrate along them in small steps.
+    """
+    d = np.asarray(deflection, dtype=np.float64)
+    dp = np.asarray(displacement, dtype=np.float64)
+    dm = float(max_deflection)
+    if stick_deflection is None:
+        new = d + dp
+    else:
+        r = math.hypot(d[0], d[1])
+        if r > 0.0:
+            u = d / r
+        else:
+            n = math.hypot(dp[0], dp[1])
+            if n == 0.0:
+                return d.copy()
+            u = dp / n
+        a = float(u @ dp)
+        radial = _kernels.presliding_step_smooth(r, a, dm, float(stick_deflection), table)
+        new = radial * u + (dp - a * u)
+    size = math.hypot(new[0], new[1])
+    return new * (dm / size) if size > dm else new
