@@ -406,6 +406,14 @@ def test_design_on_an_areal_texture():
     assert rows["C"]["conservative"] and not rows["A"]["conservative"]
     with pytest.raises(hx.ParameterError, match="a surface needs a 3-DOF device"):
         design(egg, hx.Device.point_mass(), 1000.0)
+    import subprocess
+    import sys
+
+    r = subprocess.run([sys.executable, "-m", "haptex", "design", "--texture", "egg-crate:0.2mm,2mm", "--device",
+                        "point-mass", "--report", "rep"], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and r.stderr.strip() == ("haptex: error: --report is not allowed with a surface yet: the "
+                                                      "design report draws fields in the x-z plane of a profile; use "
+                                                      "--json for a surface")
 
 
 def test_f_over_an_extruded_profile_is_the_2d_f():

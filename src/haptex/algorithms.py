@@ -294,7 +294,9 @@ def _normal_projector(s, g):
 class SmoothWall(Algorithm):
     """W — the smooth virtual wall, eq. 30: f = [0, -kappa_0 p^z] for p^z < 0.
 
-    Its Jacobian is diag(0, -kappa_0), so its characteristic number is 1.
+    Its Jacobian is diag(0, -kappa_0), so its characteristic number is 1. Over a surface
+    (texture ``Flat(dimension=2)``, positions [x, y, z]) f = [0, 0, -kappa_0 p^z] and
+    J = diag(0, 0, -kappa_0).
 
     With ``damping`` B > 0 it is the classic sampled spring–damper virtual wall of Colgate
     & Schenkel ("Passivity of a class of sampled-data systems: application to haptic
@@ -309,7 +311,8 @@ class SmoothWall(Algorithm):
 
     Parameters
     ----------
-    texture : None
+    texture : None or Flat
+        None (a planar wall), or ``Flat(dimension=2)`` for positions [x, y, z].
     stiffness : float
         kappa_0 (N/m).
     damping : float, optional

@@ -532,6 +532,9 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
     if report_dir is not None:
         from .report import check_output
 
+        if tex.dimension != 1:
+            raise ParameterError("--report is not allowed with a surface yet: the design report draws fields in the "
+                                 "x-z plane of a profile; use --json for a surface")
         check_output(report_dir, force)  # before the minutes of analysis
     elif force:
         raise ParameterError("--force is not allowed without --report: it applies to the report directory")

@@ -532,7 +532,7 @@ def write_design_report(data: dict, texture, out: Path, force: bool = False) -> 
     Raises
     ------
     ParameterError
-        If ``out`` cannot be used (see :func:`check_output`).
+        If ``out`` cannot be used (see :func:`check_output`), or the texture is a surface.
 
     Notes
     -----
@@ -545,6 +545,9 @@ def write_design_report(data: dict, texture, out: Path, force: bool = False) -> 
     from . import plotting
     from .analysis import CharacteristicNumber, checked_algorithms
 
+    if texture.dimension != 1:
+        raise ParameterError(f"texture = {texture!r} is not allowed here yet: the design report draws fields in "
+                             "the x-z plane of a profile")
     letters = [r["algorithm"] for r in data["rows"]]
     algs = checked_algorithms(letters, texture, data["stiffness"], data["max_penetration"], data["friction"],
                               data["presliding"])
