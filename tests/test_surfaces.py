@@ -180,7 +180,7 @@ def test_band_limited_noise_2d_has_the_exact_rms_and_band():
      r"p has shape \(1, 3\), which is not allowed: must be \(\.\.\., 2\) = \[x, z\]"),
     (lambda: hx.simulate(hx.algorithm("A", hx.Grating(A, L), K0), hx.Device.point_mass(),
                          hx.operators.ConstantForce([0.0, -1.0]), 0.01),
-     "the compiled simulator, renderer and C export take profiles"),
+     "the compiled simulator and renderer take profiles"),
     (lambda: hx.Extruded(hx.Grating(A, L)), "profile = .* is not allowed"),
     (lambda: hx.SumOfGratings([1e-4, 1e-4], [1e-3], [0.0, 1.0]), "must have the same length"),
     (lambda: hx.Grating(-1e-4, 1e-3), "amplitudes\\[0\\] = -0.0001 is not allowed"),

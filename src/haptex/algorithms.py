@@ -173,13 +173,13 @@ class Algorithm:
         Raises
         ------
         ParameterError
-            Over a surface: the compiled kernels (simulator, renderer, C export) take
-            positions [x, z] over profiles for now.
+            Over a surface: the compiled simulator and renderer take positions [x, z]
+            over profiles for now (:func:`haptex.export.export_c` writes C for surfaces).
         """
         if self.dimension != 2:
-            raise ParameterError(f"texture = {self.texture!r} is not allowed here: the compiled simulator, renderer "
-                                 "and C export take profiles h(x) (positions [x, z]) for now; surfaces are analysed "
-                                 "in 3-D (force, jacobian, characteristic_number)")
+            raise ParameterError(f"texture = {self.texture!r} is not allowed here: the compiled simulator and "
+                                 "renderer take profiles h(x) (positions [x, z]) for now; surfaces are analysed in "
+                                 "3-D (force, jacobian, characteristic_number) and exported to C (haptex export)")
         kind, coeffs = self.texture.kernel_data()
         return _CODES[self.letter], self.kernel_params(), kind, np.ascontiguousarray(coeffs), self._aux()
 

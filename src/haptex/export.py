@@ -847,8 +847,10 @@ def _surface_spec(algorithm: Algorithm):
     from .closest import search_data, surface_search_data
     from .surfaces import Extruded, SumOfGratings
 
+    from .algorithms import _CODES
+
     tex = algorithm.texture
-    code = _kernels.ALG_W if algorithm.letter == "W" else "WABCDEFG".index(algorithm.letter)
+    code = _CODES[algorithm.letter]
     prm = algorithm.kernel_params()
     if algorithm.letter == "W":
         return code, prm, _kernels.TEXTURE_FLAT, _kernels.empty_coeffs(), np.zeros(1)

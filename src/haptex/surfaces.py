@@ -64,15 +64,15 @@ class Surface(Texture):
     slope = curvature = height
 
     def kernel_data(self):
-        """Surfaces are not compiled yet: the simulator, renderer and export take profiles.
+        """Surfaces are not compiled for the simulator and renderer yet (they take profiles).
 
         Raises
         ------
         ParameterError
             Always, naming what to use instead.
         """
-        raise ParameterError(f"texture = {self!r} is not allowed here: the compiled simulator, renderer and C "
-                             "export take profiles h(x) for now (surfaces are analysed in 3-D)")
+        raise ParameterError(f"texture = {self!r} is not allowed here: the compiled simulator and renderer take "
+                             "profiles h(x) for now (surfaces are analysed in 3-D and exported to C)")
 
     @property
     def cell(self) -> tuple[float, float] | None:  # pragma: no cover - abstract
