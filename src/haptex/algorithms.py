@@ -933,41 +933,27 @@ class FrictionModulated(Algorithm):
         adaptive quadrature; the smooth variant is stepped on 4000 sub-steps a piece and
         integrated by the trapezoidal rule.
         """
-        from .analysis.work import _breakpoints
-
         if self.texture.dimension == 2:
             return self._path_work_plane(pts)
         total = 0.0
         state = None  # None: out of contact
-        for a, b in zip(pts[:-1], pts[1:]):
-            delta = b - a
-            if not np.any(delta):
+        for piece in self._contact_pieces(pts):
+            if piece is None:
+                state = None
                 continue
-            cuts = [0.0, *_breakpoints(self, a, b), 1.0]
-            for u0, u1 in zip(cuts[:-1], cuts[1:]):
-                if u1 <= u0:
-                    continue
-                if (a + 0.5 * (u0 + u1) * delta)[1] >= 0.0:
-                    state = None
-                    continue
-                if state is None:
-                    state = self.initial_state(float(a[0] + u0 * delta[0]))
-                work, state = self._piece_work(a, delta, u0, u1, state, rtol)
-                total += work
+            a, delta, u0, u1 = piece
+            if state is None:
+                state = self.initial_state(float(a[0] + u0 * delta[0]))
+            work, state = self._piece_work(a, delta, u0, u1, state, rtol)
+            total += work
         return total
 
-    def _path_work_plane(self, pts: np.ndarray, steps: int = 4000) -> float:
-        """Work (J) along a polyline in space over a surface: each segment is cut where it
-        crosses z = 0 (and d^z_max) and each piece in contact into ``steps`` equal sub-steps,
-        the deflection stepped by :func:`haptex.friction.step_plane` (exact for straight
-        strokes from rest, first order in the sub-step otherwise) and the work summed by the
-        trapezoidal rule."""
+    def _contact_pieces(self, pts: np.ndarray):
+        """The smooth pieces of a polyline, in order: (a, delta, u0, u1) for the piece
+        a + u delta, u in [u0, u1], inside the wall, None for a piece outside it (where the
+        friction state resets). Segments are cut where they cross z = 0 or d^z_max."""
         from .analysis.work import _breakpoints
-        from .friction import step_plane
 
-        table = None if self.stick_deflection is None else self._aux()
-        total = 0.0
-        d = None  # deflection; None out of contact
         for a, b in zip(pts[:-1], pts[1:]):
             delta = b - a
             if not np.any(delta):
@@ -977,18 +963,35 @@ class FrictionModulated(Algorithm):
                 if u1 <= u0:
                     continue
                 if (a + 0.5 * (u0 + u1) * delta)[-1] >= 0.0:
-                    d = None
-                    continue
-                us = np.linspace(u0, u1, steps + 1)
-                p = a + us[:, None] * delta
-                ds = np.empty((us.size, 2))
-                d = np.zeros(2) if d is None else d
-                ds[0] = d
-                for i in range(1, us.size):
-                    d = step_plane(d, p[i, :-1] - p[i - 1, :-1], self.presliding, self.stick_deflection, table)
-                    ds[i] = d
-                vals = self.force(p, ds) @ delta
-                total += float(np.trapezoid(vals, us))
+                    yield None
+                else:
+                    yield a, delta, u0, u1
+
+    def _path_work_plane(self, pts: np.ndarray, steps: int = 4000) -> float:
+        """Work (J) along a polyline in space over a surface: each piece in contact
+        (:meth:`_contact_pieces`) is cut into ``steps`` equal sub-steps, the deflection
+        stepped by :func:`haptex.friction.step_plane` (exact for straight strokes from rest,
+        first order in the sub-step otherwise) and the work summed by the trapezoidal rule."""
+        from .friction import step_plane
+
+        table = None if self.stick_deflection is None else self._aux()
+        total = 0.0
+        d = None  # deflection; None out of contact
+        for piece in self._contact_pieces(pts):
+            if piece is None:
+                d = None
+                continue
+            a, delta, u0, u1 = piece
+            us = np.linspace(u0, u1, steps + 1)
+            p = a + us[:, None] * delta
+            ds = np.empty((us.size, 2))
+            d = np.zeros(2) if d is None else d
+            ds[0] = d
+            for i in range(1, us.size):
+                d = step_plane(d, p[i, :-1] - p[i - 1, :-1], self.presliding, self.stick_deflection, table)
+                ds[i] = d
+            vals = self.force(p, ds) @ delta
+            total += float(np.trapezoid(vals, us))
         return total
 
     def _piece_work(self, a, delta, u0, u1, state, rtol):
