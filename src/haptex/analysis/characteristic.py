@@ -368,6 +368,14 @@ def _normal_point(tex: Texture, t, r):
     return np.stack([t + r * s * g, tex.height(t) - r * g], axis=-1)
 
 
+def _unique_foot(tex: Texture, points, r):
+    """True where the probe positions ``points`` (normal points at distance r, m) have the
+    point they were built from as their unique closest point: the distance is r and there
+    is no tie (the region where D's and E's Jacobians are defined)."""
+    cp = closest_point(tex, points)
+    return (cp.distance >= r * (1 - 1e-9)) & ~cp.tie
+
+
 def _q_distance(alg, dmax, x0, x1, nx, nd, closed) -> CharacteristicNumber:
     """Characteristic number for D and E (penetration = distance to the textured surface).
 
@@ -381,11 +389,7 @@ def _q_distance(alg, dmax, x0, x1, nx, nd, closed) -> CharacteristicNumber:
     T, R = np.meshgrid(ts, rs, indexing="ij")
     P = _normal_point(tex, T, R)
 
-    def valid(points, r):
-        cp = closest_point(tex, points)
-        return (cp.distance >= r * (1 - 1e-9)) & ~cp.tie
-
-    region = valid(P, R)
+    region = _unique_foot(tex, P, R)
     norms = np.where(region, spectral_norm(alg.jacobian(P)) / k0, -np.inf)
     paper_value = None
     note = (f"grid {nx}x{nd} over closest-point x in [{x0:g}, {x1:g}] m and distance in (0, {dmax:g}] m, "
@@ -412,7 +416,7 @@ def _q_distance(alg, dmax, x0, x1, nx, nd, closed) -> CharacteristicNumber:
 
     def neg_q(v):
         p = _normal_point(tex, np.array([v[0]]), v[1])
-        if not valid(p, v[1])[0]:
+        if not _unique_foot(tex, p, v[1])[0]:
             return 0.0
         return -float(spectral_norm(alg.jacobian(p))[0]) / k0
 
@@ -457,11 +461,7 @@ def _q_distance_surface(alg, dmax, ranges, counts, nd, closed, x_range, resoluti
     T = np.stack([X, Y], -1)
     P = _surface_normal_point(tex, T, R)
 
-    def valid(points, r):
-        cp = closest_point(tex, points)
-        return (cp.distance >= r * (1 - 1e-9)) & ~cp.tie
-
-    region = valid(P, R)
+    region = _unique_foot(tex, P, R)
     norms = np.where(region, spectral_norm(alg.jacobian(P)) / k0, -np.inf)
     note = (f"grid {counts[0]}x{counts[1]}x{nd} over the closest point's (x, y) and the distance in (0, {dmax:g}] m, "
             "refined by L-BFGS-B")
@@ -492,7 +492,7 @@ def _q_distance_surface(alg, dmax, ranges, counts, nd, closed, x_range, resoluti
 
     def neg_q(v):
         p = _surface_normal_point(tex, np.array([v[:2]]), np.array([v[2]]))
-        if not valid(p, v[2])[0]:
+        if not _unique_foot(tex, p, v[2])[0]:
             return 0.0
         return -float(spectral_norm(alg.jacobian(p))[0]) / k0
 
