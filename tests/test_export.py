@@ -53,6 +53,20 @@ class Compiled:
         return code, (self.f[0], self.f[1])
 
 
+def _stroke_against_the_renderer(alg, tmp_path):
+    """The exported tick and the compiled Renderer (max force 5 N) along one stroke in and
+    out of the wall, back and forth over the texture (20,001 ticks): (compiled, renderer, x,
+    z, exported forces, renderer forces)."""
+    c = Compiled(alg, tmp_path, max_force=5.0)
+    r = hx.Renderer(alg, max_force=5.0)
+    t = np.linspace(0.0, 1.0, 20_001)
+    x = 3e-3 * np.sin(2 * np.pi * 3 * t)
+    z = -0.8e-3 * np.sin(2 * np.pi * 2 * t) + 0.2e-3
+    got = np.array([c.step(a, b)[1] for a, b in zip(x, z)])
+    ref = np.array([r.step((a, b)) for a, b in zip(x, z)])
+    return c, r, x, z, got, ref
+
+
 def _textures():
     out = [("sine", hx.Sinusoid(A, L)), ("sum", hx.SumOfSinusoids([0.3e-3, 0.1e-3], [1e-3, 0.25e-3], [0.0, 1.0]))]
     if DEKTAK.exists():
@@ -86,13 +100,7 @@ def test_exported_F_follows_the_renderer_along_a_stroke(tmp_path):
     # the texture, every tick equals the compiled renderer's, and so does the work sum (the
     # environment's -sum f . dp, what path_work integrates)
     alg = hx.algorithm("F", hx.Sinusoid(A, L), K0, friction=0.8, presliding=1e-3, max_penetration=1e-3)
-    c = Compiled(alg, tmp_path, max_force=5.0)
-    r = hx.Renderer(alg, max_force=5.0)
-    t = np.linspace(0.0, 1.0, 20_001)
-    x = 3e-3 * np.sin(2 * np.pi * 3 * t)
-    z = -0.8e-3 * np.sin(2 * np.pi * 2 * t) + 0.2e-3
-    got = np.array([c.step(a, b)[1] for a, b in zip(x, z)])
-    ref = np.array([r.step((a, b)) for a, b in zip(x, z)])
+    c, r, x, z, got, ref = _stroke_against_the_renderer(alg, tmp_path)
     np.testing.assert_allclose(got, ref, rtol=1e-12, atol=1e-15)
     work = lambda f: -np.sum(f[:-1, 0] * np.diff(x) + f[:-1, 1] * np.diff(z))  # noqa: E731
     assert work(got) == pytest.approx(work(ref), rel=1e-12, abs=1e-18)
@@ -146,13 +154,7 @@ def test_exported_stateful_ticks_follow_the_renderer_along_a_stroke(tmp_path, le
     tex = hx.Sinusoid(A, L)
     kw = {"friction": 0.8, "presliding": 1e-3, "max_penetration": 1e-3} if letter == "F" else {}
     alg = hx.algorithm(letter, tex, K0, **kw, **params)
-    c = Compiled(alg, tmp_path, max_force=5.0)
-    r = hx.Renderer(alg, max_force=5.0)
-    t = np.linspace(0.0, 1.0, 20_001)
-    x = 3e-3 * np.sin(2 * np.pi * 3 * t)
-    z = -0.8e-3 * np.sin(2 * np.pi * 2 * t) + 0.2e-3
-    got = np.array([c.step(a, b)[1] for a, b in zip(x, z)])
-    ref = np.array([r.step((a, b)) for a, b in zip(x, z)])
+    c, r, x, z, got, ref = _stroke_against_the_renderer(alg, tmp_path)
     np.testing.assert_allclose(got, ref, rtol=1e-12, atol=1e-15)
     assert c.state.clamps == r.clamps and c.state.faults == 0
 

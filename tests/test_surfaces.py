@@ -22,6 +22,16 @@ def _alg(letter, texture, **kw):
     return hx.algorithm(letter, texture, K0, **kw)
 
 
+def _fd_jacobian(alg, p, h):
+    """Central differences of alg.force at positions p (n, 3) with step h (m): (n, 3, 3), N/m."""
+    fd = np.empty(p.shape + (3,))
+    for axis in range(3):
+        e = np.zeros(3)
+        e[axis] = h
+        fd[..., axis] = (alg.force(p + e) - alg.force(p - e)) / (2 * h)
+    return fd
+
+
 def _embed(p2):
     """[x, z] -> [x, y, z] with a random y (the extruded surface does not depend on it)."""
     y = np.random.default_rng(3).uniform(-5e-3, 5e-3, p2.shape[:-1])
@@ -127,12 +137,7 @@ def test_analytic_3x3_jacobians_match_finite_differences(tex, letter, clamp, see
     if clamp:
         p = p[np.abs(ref - z - clamp) > 0.02e-3]
     J = alg.jacobian(p)
-    h = 1e-8
-    fd = np.empty_like(J)
-    for axis in range(3):
-        e = np.zeros(3)
-        e[axis] = h
-        fd[..., axis] = (alg.force(p + e) - alg.force(p - e)) / (2 * h)
+    fd = _fd_jacobian(alg, p, 1e-8)
     scale = K0 * (1 + tex.max_slope) ** 2 * (1 + tex.max_curvature * 2e-3)
     np.testing.assert_allclose(J, fd, rtol=0, atol=2e-5 * scale)
 
@@ -248,7 +253,7 @@ def test_curl_in_3d_is_the_profiles_curl_seen_from_y():
                                rtol=1e-12, atol=1e-9)
 
 
-def _egg_map(n=48, cells=2, periodic=True):
+def _egg_map(n=48, cells=2):
     k = 2 * np.pi / L
     x = np.arange(n) * cells * L / n
     X, Y = np.meshgrid(x, x, indexing="ij")
@@ -553,12 +558,7 @@ def test_d_and_e_jacobians_over_a_grating_sum_match_finite_differences(seed, let
     cp = hx.closest_point(tex, p)
     ok = ~cp.tie
     J = alg.jacobian(p)
-    h = 1e-9
-    fd = np.empty_like(J)
-    for axis in range(3):
-        e = np.zeros(3)
-        e[axis] = h
-        fd[..., axis] = (alg.force(p + e) - alg.force(p - e)) / (2 * h)
+    fd = _fd_jacobian(alg, p, 1e-9)
     good = ok & np.all(np.isfinite(J), axis=(-2, -1)) & (np.abs(J).max(axis=(-2, -1)) < 20 * K0)
     np.testing.assert_allclose(J[good], fd[good], rtol=0, atol=2e-3 * K0)
 
