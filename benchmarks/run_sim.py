@@ -1,5 +1,11 @@
-"""Simulator speed: haptex.simulate_batch against a plain C loop (gcc -O2) doing the same
-work (benchmarks/sim_reference.c), for algorithms A and D, N = 1 and N = 1000 runs.
+"""Simulator speed, two comparisons, each measured in one run:
+
+1. the fast path (issue 12): simulate_batch on 1000 runs x 10^4 samples of algorithm A on a
+   point mass (m = 0.1 kg, b = 0.5 N s/m, T = 0.1 ms) pushed into the texture by 1 N, in 2-D
+   (the paper's sinusoid) and 3-D (the egg-crate), against a plain one-thread C loop doing the
+   same physics (benchmarks/fast_reference.c) and against NumPy vectorised over the runs;
+2. the general path: a scanning hand on the pantograph, algorithms A and D, N = 1 and 1000,
+   against a C loop doing the same work with the 10x10 transition (benchmarks/sim_reference.c).
 
 Run:  python benchmarks/run_sim.py [--steps-single 2000000] [--steps-batch 4000]
 Needs gcc. Reported in benchmarks/README.md; never part of the test run.
@@ -18,7 +24,9 @@ import numpy as np
 
 import haptex as hx
 from haptex.operators import ScanningHand
-from haptex.simulate import _discretise
+from haptex.operators import ConstantForce
+
+simulate_module = __import__("sys").modules["haptex.simulate"]
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -26,7 +34,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 def c_reference(alg, dev, op, n_steps, n_runs, workdir, exe, render=False):
     code, prm, kind, coeffs, aux = alg.kernel_spec()
     tex = alg.texture
-    Phi, Wd, Wo = _discretise(dev, op)
+    Phi, Wd, Wo, _ = simulate_module._discretise(dev, op)
     path = os.path.join(workdir, f"in_{alg.letter}_{n_runs}.bin")
     with open(path, "wb") as fh:
         np.array([code, coeffs.shape[1], n_steps, n_runs], dtype=np.int64).tofile(fh)
@@ -41,14 +49,71 @@ def c_reference(alg, dev, op, n_steps, n_runs, workdir, exe, render=False):
     return float(out.split()[1])
 
 
-def build_reference(tmp):
-    """Compile the C reference with gcc -O2; returns the executable's path."""
+def build_reference(tmp, name="sim_reference"):
+    """Compile a C reference with gcc -O2; returns the executable's path."""
     gcc = shutil.which("gcc")
     if gcc is None:
         raise SystemExit("gcc is needed for the C reference")
-    exe = os.path.join(tmp, "sim_reference")
-    subprocess.run([gcc, "-O2", "-o", exe, os.path.join(HERE, "sim_reference.c"), "-lm"], check=True)
+    exe = os.path.join(tmp, name)
+    subprocess.run([gcc, "-O2", "-o", exe, os.path.join(HERE, f"{name}.c"), "-lm"], check=True)
     return exe
+
+
+def fast_case(d):
+    """(algorithm, device, operator) of the fast-path benchmark in d = 2 or 3 dimensions."""
+    A, L = 0.8e-3, 1e-3
+    tex = hx.Sinusoid(A, L) if d == 2 else hx.SumOfGratings.egg_crate(A, L)
+    dev = hx.Device.point_mass(dimension=d)
+    op = ConstantForce([0.0, -1.0] if d == 2 else [0.0, 0.0, -1.0])
+    return hx.algorithm("A", tex, 2000.0), dev, op
+
+
+def fast_c(d, n_steps, n_runs, workdir, exe):
+    alg, dev, op = fast_case(d)
+    _, _, kind, coeffs, _ = alg.kernel_spec()
+    co = coeffs[:3] if d == 2 else coeffs  # amplitudes, wave-vector components, phases
+    path = os.path.join(workdir, f"fast_{d}.bin")
+    with open(path, "wb") as fh:
+        np.array([d, co.shape[1], n_steps, n_runs], dtype=np.int64).tofile(fh)
+        np.r_[alg.stiffness, op.force, co.ravel(), simulate_module._fast_coefficients(dev, op).ravel()].tofile(fh)
+    out = subprocess.run([exe, path], capture_output=True, text=True, check=True).stdout
+    return float(out.split()[1])
+
+
+def fast_numpy(d, n_steps, n_runs):
+    """The same physics in NumPy, vectorised over the runs (what a user writes in ten lines)."""
+    alg, dev, op = fast_case(d)
+    _, _, _, co, _ = alg.kernel_spec()
+    c = simulate_module._fast_coefficients(dev, op)  # (2, d, 7)
+    a, kv, ph = co[0], co[1:d], co[d]
+    k0, f0 = alg.stiffness, op.force
+    p = np.zeros((n_runs, d))
+    v = np.zeros((n_runs, d))
+    e = np.zeros((n_runs, d))
+    ed = np.zeros(n_runs)
+    t = time.perf_counter()
+    for _ in range(n_steps):
+        h = np.sin(p[:, :d - 1] @ kv + ph) @ a
+        pen = p[:, -1] - h
+        inside = pen < 0
+        f = np.zeros((n_runs, d))
+        f[:, -1] = np.where(inside, -k0 * pen, 0.0)
+        cc = c[inside.astype(np.intp)]  # (N, d, 7)
+        w = f + f0
+        dp = cc[..., 0] * v + cc[..., 1] * w
+        ed += np.sum(v * (cc[..., 4] * v + cc[..., 5] * w) + cc[..., 6] * w * w, axis=1)
+        e -= f * dp
+        v = cc[..., 2] * v + cc[..., 3] * w
+        p += dp
+    return n_steps * n_runs / (time.perf_counter() - t)
+
+
+def fast_haptex(d, n_steps, n_runs):
+    alg, dev, op = fast_case(d)
+    hx.simulate_batch(alg, dev, op, 10 * dev.period, stiffness=[alg.stiffness] * 2)  # compile / load cache
+    t = time.perf_counter()
+    hx.simulate_batch(alg, dev, op, n_steps * dev.period, stiffness=np.full(n_runs, alg.stiffness), progress=False)
+    return n_steps * n_runs / (time.perf_counter() - t)
 
 
 def haptex_rate(alg, dev, op, n_steps, n_runs):
@@ -68,6 +133,15 @@ def main() -> None:
     dev = hx.Device.pantograph(joint_damping=4.0e-3)
     op = ScanningHand(300.0, 1.0, velocity=0.01, depth=1e-3)
     with tempfile.TemporaryDirectory() as tmp:
+        fexe = build_reference(tmp, "fast_reference")
+        print("fast path: A, point mass, constant push, 1000 runs x 10^4 samples (samples/s)")
+        print(f"{'d':2} {'haptex':>10} {'C -O2 (1 thread)':>17} {'NumPy':>10} {'haptex/C':>9} {'haptex/NumPy':>13}")
+        for d in (2, 3):
+            h = max(fast_haptex(d, 10_000, 1000) for _ in range(3))
+            c = max(fast_c(d, 10_000, 1000, tmp, fexe) for _ in range(3))
+            npy = fast_numpy(d, 10_000, 1000)
+            print(f"{d:2d} {h:10.3g} {c:17.3g} {npy:10.3g} {h / c:9.2f} {h / npy:13.2f}")
+        print()
         exe = build_reference(tmp)
         print(f"{'alg':4} {'N':>5} {'steps':>8} {'haptex (samples/s)':>19} {'C -O2 (samples/s)':>18} {'ratio':>6}")
         for letter in "AD":

@@ -185,7 +185,7 @@ def test_band_limited_noise_2d_has_the_exact_rms_and_band():
      r"p has shape \(1, 3\), which is not allowed: must be \(\.\.\., 2\) = \[x, z\]"),
     (lambda: hx.simulate(hx.algorithm("A", hx.Grating(A, L), K0), hx.Device.point_mass(),
                          hx.operators.ConstantForce([0.0, -1.0]), 0.01),
-     "the compiled simulator and renderer take profiles"),
+     "the device needs dimension = 3"),
     (lambda: hx.Extruded(hx.Grating(A, L)), "profile = .* is not allowed"),
     (lambda: hx.SumOfGratings([1e-4, 1e-4], [1e-3], [0.0, 1.0]), "must have the same length"),
     (lambda: hx.Grating(-1e-4, 1e-3), "amplitudes\\[0\\] = -0.0001 is not allowed"),
@@ -392,7 +392,7 @@ def test_passivity_over_a_surface_uses_the_3x3_damping():
     assert not hx.passivity_condition(alg, dev).holds
     with pytest.raises(hx.ParameterError, match="a surface h\\(x, y\\) needs a 3-DOF device"):
         hx.passivity_condition(alg, hx.Device.pantograph())
-    with pytest.raises(hx.ParameterError, match="the simulator takes planar devices"):
+    with pytest.raises(hx.ParameterError, match="so the device needs dimension = 2"):
         hx.simulate(hx.algorithm("A", hx.Sinusoid(A, L), K0), dev, hx.operators.ConstantForce([0.0, -1.0]), 0.01)
 
 

@@ -29,7 +29,7 @@ from .analysis import (
 )
 from .closest import ClosestPoint, closest_point
 from .devices import Device, critical_stiffness, device_from_file, five_bar_jacobian
-from .renderer import Renderer
+from .renderer import PassivityController, Renderer
 from .simulate import AxisOscillation, BatchResult, Oscillation, SimulationResult, SimulationWarning, simulate, simulate_batch
 from .tables import PAPER_PARAMETERS, table_ii
 from .surfaces import BandLimitedNoise2D, Extruded, Grating, SampledSurface, SumOfGratings, Surface
@@ -68,6 +68,7 @@ __all__ = [
     "PAPER_PARAMETERS",
     "ParameterError",
     "PreslidingState",
+    "PassivityController",
     "Renderer",
     "Sinusoid",
     "SumOfSinusoids",

@@ -73,7 +73,7 @@ def _spline_eval(coeffs, x):
     return ((a3 * t + a2) * t + a1) * t + a0, (3.0 * a3 * t + 2.0 * a2) * t + a1, 6.0 * a3 * t + 2.0 * a2
 
 
-@nb.njit(**_JIT)
+@nb.njit(inline="always", **_JIT)
 def texture_eval(kind, coeffs, x):
     """Return (h, h', h'') at abscissa ``x`` (m, m/m, 1/m)."""
     h = 0.0
@@ -92,6 +92,18 @@ def texture_eval(kind, coeffs, x):
             s += a * k * cs
             c -= a * k * k * sn
     return h, s, c
+
+
+@nb.njit(inline="always", **_JIT)
+def texture_height(kind, coeffs, x):
+    """h at abscissa ``x`` (m) alone: :func:`texture_eval`'s first value, without the
+    derivatives' cosines where only the height is needed (A, D, E, F, the damping regime)."""
+    if kind == TEXTURE_FOURIER:
+        h = 0.0
+        for i in range(coeffs.shape[1]):
+            h += coeffs[0, i] * math.sin(coeffs[1, i] * x + coeffs[2, i])
+        return h
+    return texture_eval(kind, coeffs, x)[0]
 
 
 # ----------------------------------------------------------------------------------------
@@ -524,12 +536,14 @@ ALG_W, ALG_A, ALG_B, ALG_C, ALG_D, ALG_E, ALG_F, ALG_G = 0, 1, 2, 3, 4, 5, 6, 7
 # parameter vector layout (float64[6])
 P_K0, P_DZMAX, P_MU, P_DXMAX, P_SCALE, P_ZSTICK = 0, 1, 2, 3, 4, 5
 N_PARAMS = 6
-# state vector layout: F's adhesion point (D, E: the last closest point, a warm start),
-# in-contact flag, last x, the work (texture evaluations) of the last call, then the
-# closest-point search's scratch
-S_ADH, S_CONTACT, S_LASTX, S_WORK = 0, 1, 2, 3
-S_SEARCH = 4
-N_STATE = S_SEARCH + N_SEARCH
+# state vector layout: F's adhesion point (D, E over a profile: the last closest point, a
+# warm start), in-contact flag, last x, the work (texture evaluations) of the last call; over
+# a surface F's adhesion y and last y; the height h under the probe that the last call
+# evaluated (NaN if it did not) and the algorithm's penetration there (>= 0, Table I); then
+# the closest-point search's scratch (a profile's, or a surface's quadtree stack)
+S_ADH, S_CONTACT, S_LASTX, S_WORK, S_ADHY, S_LASTY, S_H, S_PEN = range(8)
+S_SEARCH = 8
+N_STATE = S_SEARCH + max(N_SEARCH, 4 + 3 * 512)
 
 
 @nb.njit(**_JIT)
@@ -691,8 +705,9 @@ def _smooth_flow(deflection, dx, d_max, z_stick, tab):
 @nb.njit(**_JIT)
 def _presliding(st, x, dxmax, zstick, tab):
     """Advance F's friction state to x (see haptex.friction); returns the deflection and
-    adds the table steps of the smooth variant to st[S_WORK]."""
-    if zstick < 0.0:
+    adds the table steps of the smooth variant to st[S_WORK]. ``tab`` is None for the
+    sharp model (its branch is then compiled away)."""
+    if tab is None or zstick < 0.0:
         d, st[S_ADH] = presliding_step(st[S_ADH], x, dxmax)
     else:
         d, work = _smooth_flow(st[S_LASTX] - st[S_ADH], x - st[S_LASTX], dxmax, zstick, tab)
@@ -702,7 +717,7 @@ def _presliding(st, x, dxmax, zstick, tab):
     return d
 
 
-@nb.njit(**_JIT)
+@nb.njit(inline="always", **_JIT)
 def alg_force(code, x, z, kind, coeffs, prm, aux, st):
     """Force (fx, fz) in N of algorithm ``code`` at the probe position (x, z) in m.
 
@@ -715,6 +730,8 @@ def alg_force(code, x, z, kind, coeffs, prm, aux, st):
     """
     k0 = prm[P_K0]
     st[S_WORK] = 1.0
+    st[S_H] = math.nan
+    st[S_PEN] = max(-z, 0.0)
     if code == ALG_W:  # prm[P_MU] is W's virtual damping B, prm[P_DXMAX] its servo period T
         fz = 0.0
         if z < 0.0:
@@ -730,6 +747,7 @@ def alg_force(code, x, z, kind, coeffs, prm, aux, st):
             return 0.0, 0.0
         if code == ALG_G:
             h, s, c = texture_eval(kind, coeffs, x)
+            st[S_H] = h
             g = 1.0 / math.sqrt(1.0 + s * s)
             dl = _clamp_depth(z, prm[P_DZMAX])
             return k0 * dl * s * g, -k0 * z * g
@@ -738,14 +756,21 @@ def alg_force(code, x, z, kind, coeffs, prm, aux, st):
             st[S_ADH] = x
             st[S_LASTX] = x
         d = _presliding(st, x, prm[P_DXMAX], prm[P_ZSTICK], aux)
-        h, s, c = texture_eval(kind, coeffs, x)
+        h = texture_height(kind, coeffs, x)
+        st[S_H] = h
         depth = -z
         if prm[P_DZMAX] > 0.0 and depth > prm[P_DZMAX]:
             depth = prm[P_DZMAX]
         m = 1.0 - prm[P_SCALE] * h
         return -prm[P_MU] * k0 * depth * m * d / prm[P_DXMAX], -k0 * z
-    h, s, c = texture_eval(kind, coeffs, x)
+    if code == ALG_B or code == ALG_C:
+        h, s, c = texture_eval(kind, coeffs, x)
+    else:
+        h = texture_height(kind, coeffs, x)
+        s = 0.0
+    st[S_H] = h
     d = z - h
+    st[S_PEN] = max(-d, 0.0)
     if d >= 0.0:
         return 0.0, 0.0
     if code == ALG_A:
@@ -755,432 +780,17 @@ def alg_force(code, x, z, kind, coeffs, prm, aux, st):
         return k0 * _clamp_depth(d, prm[P_DZMAX]) * s * g, -k0 * d * g
     if code == ALG_C:
         return k0 * _clamp_depth(d, prm[P_DZMAX]) * s, -k0 * d
+    if aux is None:  # D and E always have their search data; compiled away for the others
+        return 0.0, 0.0
     guess = st[S_ADH] if st[S_CONTACT] != 0.0 else math.nan
     t, dist, tie, work = closest_point(kind, coeffs, aux, x, z, guess, st[S_SEARCH:])
     st[S_WORK] = work
     st[S_ADH] = t  # warm start of the next call (D and E keep the last closest point here)
     st[S_CONTACT] = 1.0
+    st[S_PEN] = dist
     if code == ALG_D:
-        th, _, _ = texture_eval(kind, coeffs, t)
-        return -k0 * (x - t), -k0 * (z - th)
+        return -k0 * (x - t), -k0 * (z - texture_height(kind, coeffs, t))
     return 0.0, k0 * dist  # ALG_E
-
-
-# --------------------------------------------------------------------------------------
-# the simulator's compiled loop (haptex.simulate)
-# --------------------------------------------------------------------------------------
-_NZ = 10  # augmented state [p(2), v(2), u(2), g(2), r(2)]; a structural mode appends [p_h(2), v_h(2)]
-_NZ_MODE = 14
-
-# summary slots
-(S_EX, S_EZ, S_DAMP, S_OP, S_KE0, S_KE, S_SAT, S_MAXPEN, S_MAXF, S_NSAMP, S_TAILSTART_E, S_DIVERGED,
- S_DIVERGED_WHAT, S_FRIC, S_STUCK) = range(15)
-N_SUMMARY = 15
-DIVERGED_POSITION, DIVERGED_VELOCITY, DIVERGED_FORCE, DIVERGED_ENERGY = 1, 2, 3, 4
-"""What became non-finite first in a diverged simulation (summary[S_DIVERGED_WHAT])."""
-
-
-@nb.njit(**_JIT)
-def saturate(fx, fz, fmax):
-    """Scale (fx, fz) down to magnitude ``fmax`` without overflow (hypot, and the direction
-    of an infinite component kept). Returns (fx, fz, clamped); NaN in, NaN out."""
-    if math.isinf(fx) or math.isinf(fz):
-        if fx != fx or fz != fz or fmax == math.inf:
-            return fx, fz, False
-        ux = 0.0 if not math.isinf(fx) else math.copysign(1.0, fx)
-        uz = 0.0 if not math.isinf(fz) else math.copysign(1.0, fz)
-        n = math.hypot(ux, uz)
-        return fmax * ux / n, fmax * uz / n, True
-    mag = math.hypot(fx, fz)
-    if mag > fmax:
-        return fx * (fmax / mag), fz * (fmax / mag), True
-    return fx, fz, False
-
-
-@nb.njit(**_JIT)
-def _half_quad2(A, v):
-    """v' A v / 2 for a 2x2 matrix (kinetic energy with A = M)."""
-    return 0.5 * (v[0] * (A[0, 0] * v[0] + A[0, 1] * v[1]) + v[1] * (A[1, 0] * v[0] + A[1, 1] * v[1]))
-
-
-@nb.njit(**_JIT)
-def _quad(W, z):
-    n = z.shape[0]
-    acc = 0.0
-    for i in range(n):
-        row = 0.0
-        for j in range(n):
-            row += W[i, j] * z[j]
-        acc += z[i] * row
-    return acc
-
-
-@nb.njit(**_JIT)
-def _setpoint(ts, ps, vend, t, out):
-    n = ts.shape[0]
-    if t >= ts[n - 1]:
-        dt = t - ts[n - 1]
-        out[0] = ps[n - 1, 0] + vend[0] * dt
-        out[1] = ps[n - 1, 1] + vend[1] * dt
-        return
-    if t <= ts[0]:
-        out[0] = ps[0, 0]
-        out[1] = ps[0, 1]
-        return
-    lo = 0
-    hi = n - 1
-    while hi - lo > 1:
-        mid = (lo + hi) // 2
-        if ts[mid] <= t:
-            lo = mid
-        else:
-            hi = mid
-    w = (t - ts[lo]) / (ts[hi] - ts[lo])
-    out[0] = ps[lo, 0] + w * (ps[hi, 0] - ps[lo, 0])
-    out[1] = ps[lo, 1] + w * (ps[hi, 1] - ps[lo, 1])
-
-
-@nb.njit(**_JIT)
-def _row_dot(P, i, z):
-    """Row i of the sample's exact map times the augmented state: one entry of P z."""
-    acc = 0.0
-    for j in range(z.shape[0]):
-        acc += P[i, j] * z[j]
-    return acc
-
-
-@nb.njit(**_JIT)
-def _mech_energy(M, modal, v, ph, vh, p):
-    """Kinetic energy of the device, plus the structural mode's elastic energy (J): with
-    ``modal`` = [M_h, K_s] (a two-mass device, M the motor side) 1/2 v'Mv + 1/2 vh'M_h vh +
-    1/2 (p - ph)' K_s (p - ph); 1/2 v'Mv for a rigid one (modal empty)."""
-    e = _half_quad2(M, v)
-    if modal.shape[0] == 2:
-        e += _half_quad2(modal[0], vh)
-        dx = p[0] - ph[0]
-        dz = p[1] - ph[1]
-        e += 0.5 * (dx * (modal[1, 0, 0] * dx + modal[1, 0, 1] * dz) + dz * (modal[1, 1, 0] * dx + modal[1, 1, 1] * dz))
-    return e
-
-
-@nb.njit(**_JIT)
-def _coulomb(P, z, v, fc):
-    """The handle's Coulomb friction force over one sample, held like the command (a sampled
-    Karnopp model). Returns (f_x, f_z, at_rest).
-
-    f* is the constant force that brings the velocity at the end of the sample to zero
-    (the sample's exact map ``P`` is affine in the held input, slots 4-5 of ``z``). If
-    |f*| <= fc the handle is stopped and held by stiction (friction = f*, at_rest). Else it
-    slides: friction fc opposes the velocity at the start of the sample, or, from rest,
-    the net applied force (the direction of f*).
-    """
-    a0 = _row_dot(P, 2, z)
-    a1 = _row_dot(P, 3, z)
-    b00 = P[2, 4]
-    b01 = P[2, 5]
-    b10 = P[3, 4]
-    b11 = P[3, 5]
-    det = b00 * b11 - b01 * b10
-    fx = -(b11 * a0 - b01 * a1) / det
-    fz = -(-b10 * a0 + b00 * a1) / det
-    n = math.hypot(fx, fz)
-    if n <= fc:
-        return fx, fz, True
-    sp = math.hypot(v[0], v[1])
-    if sp > 0.0:
-        return -fc * v[0] / sp, -fc * v[1] / sp, False
-    return fc * fx / n, fc * fz / n, False
-
-
-@nb.njit(**_JIT)
-def run_one(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, M, modal, K, C, f0, sp_t, sp_p, vend, rest_len,
-            kinematic, n_steps, T, delay, delta, fres, fmax, fc, p0, v0, record_every, rec, summary, tail_start,
-            tail_z):
-    """One simulation; fills ``rec`` (n_rec, 12) if it has rows, ``summary`` and ``tail_z``
-    (n_tail, 2): the position [x, z] sampled evenly over the tail of the run.
-
-    Record columns: t, px, pz, vx, vz, fx, fz, E_x, E_z, E_damping, W_operator, KE.
-    The run stops at the first sample whose position, velocity, force or energy is not
-    finite: summary[S_DIVERGED] is then that sample's number (1-based) and
-    summary[S_DIVERGED_WHAT] says which quantity (DIVERGED_*); both are 0 otherwise.
-
-    A structural mode (``Phi`` of size 14, ``modal`` = [M_h, K_s]) adds the handle side
-    [p_h, v_h], which the operator drives; positions, the tail and the records are the
-    motor side's, which the encoder senses and the command drives.
-
-    ``fc`` (N) is the handle's isotropic Coulomb friction, sampled (see
-    :func:`_coulomb`); summary[S_FRIC] is the energy it dissipated (J) and
-    summary[S_STUCK] the number of samples that ended at rest by stiction.
-    """
-    st = np.zeros(N_STATE)
-    nz = Phi.shape[1]
-    mode = nz == _NZ_MODE
-    z = np.zeros(nz)
-    p = p0.copy()
-    v = v0.copy()
-    ph = p0.copy()  # the handle side starts with the motor side: the mode at rest
-    vh = v0.copy()
-    buf = np.zeros((delay + 1, 2))
-    s0 = np.zeros(2)
-    s1 = np.zeros(2)
-    ex = 0.0
-    ez = 0.0
-    ed = 0.0
-    eo = 0.0
-    sat = 0
-    maxpen = 0.0
-    maxf = 0.0
-    ke0 = _mech_energy(M, modal, v, ph, vh, p)
-    ke_prev = ke0
-    n_tail = tail_z.shape[0]
-    tail_stride = max((n_steps - tail_start) // max(n_tail, 1), 1)
-    e_tail = 0.0
-    efr = 0.0
-    stuck = 0
-    irec = 0
-    nrec = rec.shape[0]
-    for k in range(n_steps):
-        t = k * T
-        if kinematic:
-            _setpoint(sp_t, sp_p, vend, t, p)
-            _setpoint(sp_t, sp_p, vend, t + T, s1)
-            v[0] = (s1[0] - p[0]) / T
-            v[1] = (s1[1] - p[1]) / T
-        # controller: sense, compute, quantise, saturate, delay
-        if delta > 0.0:
-            sx = delta * np.round(p[0] / delta)
-            sz = delta * np.round(p[1] / delta)
-        else:
-            sx = p[0]
-            sz = p[1]
-        fx, fz = alg_force(code, sx, sz, kind, coeffs, prm, aux, st)
-        if fres > 0.0:
-            fx = fres * np.round(fx / fres)
-            fz = fres * np.round(fz / fres)
-        mag = math.hypot(fx, fz)
-        fx, fz, clamped = saturate(fx, fz, fmax)
-        if clamped:
-            sat += 1
-        slot = k % (delay + 1)
-        buf[slot, 0] = fx
-        buf[slot, 1] = fz
-        ux = buf[(k + 1) % (delay + 1), 0] if delay > 0 else fx
-        uz = buf[(k + 1) % (delay + 1), 1] if delay > 0 else fz
-        if delay > 0 and k < delay:
-            ux = 0.0
-            uz = 0.0
-        # damping regime from the sensed position (brakes on inside the virtual object)
-        if nominal:
-            inside = sz < 0.0
-            pen = -p[1]
-        else:
-            h, _, _ = texture_eval(kind, coeffs, sx)
-            inside = sz < h
-            if delta > 0.0:
-                h, _, _ = texture_eval(kind, coeffs, p[0])
-            pen = h - p[1]
-        if pen > maxpen:
-            maxpen = pen
-        if mag > maxf:
-            maxf = mag
-        reg = 1 if inside else 0
-        if kinematic:
-            # prescribed motion: constant velocity over the sample; the operator supplies
-            # whatever work keeps it on the path (so the energy balance closes by design)
-            dpx = s1[0] - p[0]
-            dpz = s1[1] - p[1]
-            dd = 2.0 * T * _half_quad2(Bs[reg], v)
-            ke_now = _half_quad2(M, v)
-            if k == 0:
-                ke0 = ke_now
-                ke_prev = ke_now
-            ed += dd
-            dfr = fc * math.hypot(dpx, dpz)  # prescribed sliding: friction opposes each step
-            efr += dfr
-            eo += (ke_now - ke_prev) + dd + dfr - (ux * dpx + uz * dpz)
-            ke_prev = ke_now
-            ex -= ux * dpx
-            ez -= uz * dpz
-            p[0] = s1[0]
-            p[1] = s1[1]
-        else:
-            # operator forcing over [t, t + T]: g(t + s) = g0 + r s
-            _setpoint(sp_t, sp_p, vend, t, s0)
-            _setpoint(sp_t, sp_p, vend, t + T, s1)
-            sdx = (s1[0] - s0[0]) / T
-            sdz = (s1[1] - s0[1]) / T
-            g0x = K[0, 0] * s0[0] + K[0, 1] * s0[1] + C[0, 0] * sdx + C[0, 1] * sdz + f0[0]
-            g0z = K[1, 0] * s0[0] + K[1, 1] * s0[1] + C[1, 0] * sdx + C[1, 1] * sdz + f0[1]
-            if rest_len > 0.0:
-                ax = (ph[0] if mode else p[0]) - sp_p[0, 0]
-                az = (ph[1] if mode else p[1]) - sp_p[0, 1]
-                nrm = math.sqrt(ax * ax + az * az)
-                if nrm > 0.0:
-                    g0x += K[0, 0] * rest_len * ax / nrm
-                    g0z += K[1, 1] * rest_len * az / nrm
-            z[0] = p[0]
-            z[1] = p[1]
-            z[2] = v[0]
-            z[3] = v[1]
-            z[4] = ux
-            z[5] = uz
-            z[6] = g0x
-            z[7] = g0z
-            z[8] = K[0, 0] * sdx + K[0, 1] * sdz
-            z[9] = K[1, 0] * sdx + K[1, 1] * sdz
-            if mode:
-                z[10] = ph[0]
-                z[11] = ph[1]
-                z[12] = vh[0]
-                z[13] = vh[1]
-            P = Phi[reg]
-            ffx = 0.0
-            ffz = 0.0
-            rest = False
-            held = False
-            if fc > 0.0:
-                ffx, ffz, rest = _coulomb(P, z, v, fc)
-                z[4] = ux + ffx
-                z[5] = uz + ffz
-                if rest:
-                    stuck += 1
-                    # at rest and held by stiction: the friction force follows the applied
-                    # force within the sample, so the handle does not move at all
-                    held = v[0] == 0.0 and v[1] == 0.0 and not mode  # a mode keeps the handle moving
-            npx = p[0]
-            npz = p[1]
-            nvx = 0.0
-            nvz = 0.0
-            if not held:
-                ed += _quad(Wd[reg], z)
-                eo += _quad(Wo[reg], z)
-                npx = _row_dot(P, 0, z)
-                npz = _row_dot(P, 1, z)
-                nvx = _row_dot(P, 2, z)
-                nvz = _row_dot(P, 3, z)
-                if mode:  # the handle side of the structural mode
-                    ph[0] = _row_dot(P, 10, z)
-                    ph[1] = _row_dot(P, 11, z)
-                    vh[0] = _row_dot(P, 12, z)
-                    vh[1] = _row_dot(P, 13, z)
-            ex -= ux * (npx - p[0])
-            ez -= uz * (npz - p[1])
-            efr -= ffx * (npx - p[0]) + ffz * (npz - p[1])
-            if fc > 0.0 and rest:  # stiction: at rest exactly, not at a round-off velocity
-                nvx = 0.0
-                nvz = 0.0
-            p[0] = npx
-            p[1] = npz
-            v[0] = nvx
-            v[1] = nvz
-        what = 0
-        if not (math.isfinite(p[0]) and math.isfinite(p[1])):
-            what = DIVERGED_POSITION
-        elif not (math.isfinite(v[0]) and math.isfinite(v[1])):
-            what = DIVERGED_VELOCITY
-        elif not (math.isfinite(ux) and math.isfinite(uz)):
-            what = DIVERGED_FORCE
-        elif not (math.isfinite(ex) and math.isfinite(ez) and math.isfinite(ed) and math.isfinite(eo)):
-            what = DIVERGED_ENERGY
-        if what != 0:
-            summary[S_DIVERGED] = k + 1
-            summary[S_DIVERGED_WHAT] = what
-            n_steps = k + 1
-            break
-        if k == tail_start:
-            e_tail = ex + ez
-        if k >= tail_start and n_tail > 0:
-            j = (k - tail_start) // tail_stride
-            if j < n_tail:
-                tail_z[j, 0] = p[0]
-                tail_z[j, 1] = p[1]
-        if nrec > 0 and (k + 1) % record_every == 0 and irec < nrec:
-            rec[irec, 0] = t + T
-            rec[irec, 1] = p[0]
-            rec[irec, 2] = p[1]
-            rec[irec, 3] = v[0]
-            rec[irec, 4] = v[1]
-            rec[irec, 5] = ux
-            rec[irec, 6] = uz
-            rec[irec, 7] = ex
-            rec[irec, 8] = ez
-            rec[irec, 9] = ed
-            rec[irec, 10] = eo
-            rec[irec, 11] = _mech_energy(M, modal, v, ph, vh, p)
-            irec += 1
-    summary[S_EX] = ex
-    summary[S_EZ] = ez
-    summary[S_DAMP] = ed
-    summary[S_OP] = eo
-    summary[S_KE0] = ke0
-    summary[S_KE] = _mech_energy(M, modal, v, ph, vh, p)
-    summary[S_SAT] = sat
-    summary[S_MAXPEN] = maxpen
-    summary[S_MAXF] = maxf
-    summary[S_NSAMP] = n_steps
-    summary[S_TAILSTART_E] = e_tail
-    summary[S_FRIC] = efr
-    summary[S_STUCK] = stuck
-
-
-@nb.njit(parallel=True, cache=True)
-def run_batch(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, M, modal, K, C, f0, sp_t, sp_p, vend, rest_len,
-              kinematic, n_steps, T, delay, delta, fres, fmax, fc, p0, v0, record_every, rec, summary, tail_start,
-              tail_z):
-    """Runs i = 0..N-1 of :func:`run_one` in parallel; every per-run array has a leading N axis."""
-    for i in nb.prange(coeffs.shape[0]):
-        run_one(code, kind, coeffs[i], prm[i], aux[i], nominal, Phi[i], Wd[i], Wo[i], Bs[i], M[i], modal[i], K[i], C[i],
-                f0[i], sp_t,
-             sp_p[i], vend[i], rest_len[i], kinematic, n_steps, T, delay[i], delta[i], fres[i], fmax[i], fc[i], p0[i],
-             v0[i],
-             record_every, rec[i], summary[i], tail_start, tail_z[i])
-
-
-# --------------------------------------------------------------------------------------
-# the renderer's servo tick (haptex.Renderer)
-# --------------------------------------------------------------------------------------
-# renderer state slots (float64 array)
-(RS_MAXF, RS_FAULTS, RS_CLAMPS, RS_MONITOR, RS_HAVE_LAST, RS_LX, RS_LZ, RS_LFX, RS_LFZ, RS_EX, RS_EZ, RS_LIMIT,
- RS_WORK, RS_MAXWORK) = range(14)
-N_RS = 14
-
-
-@nb.njit(**_JIT)
-def render_step(x, z, code, kind, coeffs, prm, aux, st, rs):
-    """Compiled servo-tick: validate, compute, clamp, count, observe energy.
-
-    rs[RS_WORK] is the work (texture evaluations) of this call and rs[RS_MAXWORK] the
-    largest so far.
-    """
-    rs[RS_WORK] = 0.0
-    if not (math.isfinite(x) and math.isfinite(z)) or abs(x) > rs[RS_LIMIT] or abs(z) > rs[RS_LIMIT]:
-        rs[RS_FAULTS] += 1.0
-        rs[RS_HAVE_LAST] = 0.0
-        return 0.0, 0.0
-    fx, fz = alg_force(code, x, z, kind, coeffs, prm, aux, st)
-    rs[RS_WORK] = st[S_WORK]
-    if st[S_WORK] > rs[RS_MAXWORK]:
-        rs[RS_MAXWORK] = st[S_WORK]
-    fx, fz, clamped = saturate(fx, fz, rs[RS_MAXF])
-    if not (math.isfinite(fx) and math.isfinite(fz)):
-        rs[RS_FAULTS] += 1.0
-        rs[RS_HAVE_LAST] = 0.0
-        st[S_CONTACT] = 0.0
-        return 0.0, 0.0
-    if clamped:
-        rs[RS_CLAMPS] += 1.0
-    if rs[RS_MONITOR] != 0.0:
-        # passivity observer (Hannaford & Ryu 2002): energy absorbed by the environment,
-        # the force held over the last period times the displacement it saw
-        if rs[RS_HAVE_LAST] != 0.0:
-            rs[RS_EX] -= rs[RS_LFX] * (x - rs[RS_LX])
-            rs[RS_EZ] -= rs[RS_LFZ] * (z - rs[RS_LZ])
-        rs[RS_LX] = x
-        rs[RS_LZ] = z
-        rs[RS_LFX] = fx
-        rs[RS_LFZ] = fz
-        rs[RS_HAVE_LAST] = 1.0
-    return fx, fz
 
 
 # ----------------------------------------------------------------------------------------
@@ -1528,3 +1138,805 @@ def surface_closest_points(kind, gc, gaux, px, py, pz, tx_out, ty_out, d_out, ti
         d_out[i] = d
         tie_out[i] = tie
         work_out[i] = work
+
+
+assert N_STATE >= S_SEARCH + 4 + 3 * SURF_STACK  # the state holds a surface search's stack
+
+
+# ----------------------------------------------------------------------------------------
+# Algorithm forces over a surface (positions [x, y, z]): alg_force written for 3-D
+# ----------------------------------------------------------------------------------------
+@nb.njit(inline="always", **_JIT)
+def _height3(kind, coeffs, x, y):
+    """(h, h_x, h_y) at (x, y): a surface (SURFACE_GRATINGS, SURFACE_PATCHES), or a profile
+    h(x) extruded along y (the profile kinds of :func:`texture_eval`; TEXTURE_FLAT for W)."""
+    if kind == SURFACE_GRATINGS or kind == SURFACE_PATCHES:
+        h, gx, gy, _, _, _ = surf_eval(kind, coeffs, x, y)
+        return h, gx, gy
+    h, s, _ = texture_eval(kind, coeffs, x)
+    return h, s, 0.0
+
+
+@nb.njit(inline="always", **_JIT)
+def _height3_only(kind, coeffs, x, y):
+    """h at (x, y) alone (see :func:`_height3`): no derivatives' cosines for a sum of gratings."""
+    if kind == SURFACE_GRATINGS:
+        h = 0.0
+        for i in range(coeffs.shape[1]):
+            h += coeffs[0, i] * math.sin(coeffs[1, i] * x + coeffs[2, i] * y + coeffs[3, i])
+        return h
+    if kind == SURFACE_PATCHES:
+        return patch_eval(coeffs, x, y)[0]
+    return texture_height(kind, coeffs, x)
+
+
+@nb.njit(**_JIT)
+def presliding_plane(dx, dy, ddx, ddy, d_max, z_stick, tab):
+    """One step of isotropic presliding in the tangent plane (F over a surface).
+
+    (dx, dy) is the deflection before the step (m), (ddx, ddy) the probe's in-plane
+    displacement (m); z_stick < 0 selects the sharp model (the play operator: d + dp kept in
+    the disk |d| <= d_max), else the smooth model along the deflection's direction u (the
+    displacement's if d = 0), elastic across it. Returns (dx, dy, table steps). The compiled
+    body of :func:`haptex.friction.step_plane`.
+    """
+    work = 0
+    if tab is None or z_stick < 0.0:
+        nx = dx + ddx
+        ny = dy + ddy
+    else:
+        r = math.hypot(dx, dy)
+        if r > 0.0:
+            ux = dx / r
+            uy = dy / r
+        else:
+            n = math.hypot(ddx, ddy)
+            if n == 0.0:
+                return dx, dy, 0
+            ux = ddx / n
+            uy = ddy / n
+        a = ux * ddx + uy * ddy
+        radial, work = _smooth_flow(r, a, d_max, z_stick, tab)
+        nx = radial * ux + (ddx - a * ux)
+        ny = radial * uy + (ddy - a * uy)
+    size = math.hypot(nx, ny)
+    if size > d_max:
+        nx *= d_max / size
+        ny *= d_max / size
+    return nx, ny, work
+
+
+@nb.njit(inline="always", **_JIT)
+def alg_force3(code, x, y, z, kind, coeffs, prm, aux, st):
+    """Force (fx, fy, fz) in N of algorithm ``code`` at [x, y, z] (m) over a surface.
+
+    The 3-D twin of :func:`alg_force` (same parameters and state; the tests compare it with
+    the vectorised fields): ``kind`` is a surface kind, or a profile kind for an extruded
+    profile. D and E search the closest point on a surface with
+    :func:`surface_closest_point` (``aux`` its constants G_*), on an extruded profile with
+    the profile's search (``aux`` its bound tree, y unchanged). F's presliding is isotropic
+    in the plane (:func:`presliding_plane`).
+    """
+    k0 = prm[P_K0]
+    st[S_WORK] = 1.0
+    st[S_H] = math.nan
+    st[S_PEN] = max(-z, 0.0)
+    if code == ALG_W:
+        fz = 0.0
+        if z < 0.0:
+            fz = -k0 * z
+            if prm[P_MU] != 0.0 and st[S_CONTACT] != 0.0:
+                fz -= prm[P_MU] * (z - st[S_LASTX]) / prm[P_DXMAX]
+        st[S_LASTX] = z
+        st[S_CONTACT] = 1.0
+        return 0.0, 0.0, fz
+    if code == ALG_F or code == ALG_G:
+        if z >= 0.0:
+            st[S_CONTACT] = 0.0
+            return 0.0, 0.0, 0.0
+        if code == ALG_G:
+            h, gx, gy = _height3(kind, coeffs, x, y)
+            st[S_H] = h
+            g = 1.0 / math.sqrt(1.0 + gx * gx + gy * gy)
+            dl = _clamp_depth(z, prm[P_DZMAX])
+            return k0 * dl * gx * g, k0 * dl * gy * g, -k0 * z * g
+        if st[S_CONTACT] == 0.0:
+            st[S_CONTACT] = 1.0
+            st[S_ADH] = x
+            st[S_ADHY] = y
+            st[S_LASTX] = x
+            st[S_LASTY] = y
+        dx, dy, work = presliding_plane(st[S_LASTX] - st[S_ADH], st[S_LASTY] - st[S_ADHY], x - st[S_LASTX],
+                                        y - st[S_LASTY], prm[P_DXMAX], prm[P_ZSTICK], aux)
+        st[S_WORK] += work
+        st[S_ADH] = x - dx
+        st[S_ADHY] = y - dy
+        st[S_LASTX] = x
+        st[S_LASTY] = y
+        h = _height3_only(kind, coeffs, x, y)
+        st[S_H] = h
+        depth = -z
+        if prm[P_DZMAX] > 0.0 and depth > prm[P_DZMAX]:
+            depth = prm[P_DZMAX]
+        c = -prm[P_MU] * k0 * depth * (1.0 - prm[P_SCALE] * h) / prm[P_DXMAX]
+        return c * dx, c * dy, -k0 * z
+    if code == ALG_B or code == ALG_C:
+        h, gx, gy = _height3(kind, coeffs, x, y)
+    else:
+        h = _height3_only(kind, coeffs, x, y)
+        gx = gy = 0.0
+    st[S_H] = h
+    d = z - h
+    st[S_PEN] = max(-d, 0.0)
+    if d >= 0.0:
+        return 0.0, 0.0, 0.0
+    if code == ALG_A:
+        return 0.0, 0.0, -k0 * d
+    if code == ALG_B:
+        g = 1.0 / math.sqrt(1.0 + gx * gx + gy * gy)
+        dl = _clamp_depth(d, prm[P_DZMAX])
+        return k0 * dl * gx * g, k0 * dl * gy * g, -k0 * d * g
+    if code == ALG_C:
+        dl = _clamp_depth(d, prm[P_DZMAX])
+        return k0 * dl * gx, k0 * dl * gy, -k0 * d
+    if aux is None:  # D and E always have their search data; compiled away for the others
+        return 0.0, 0.0, 0.0
+    if kind == SURFACE_GRATINGS or kind == SURFACE_PATCHES:
+        tx, ty, dist, _, work = surface_closest_point(kind, coeffs, aux, x, y, z, st[S_SEARCH:])
+        th = _height3_only(kind, coeffs, tx, ty)
+        work += 1
+    else:  # an extruded profile: the profile's search in the plane y = const
+        guess = st[S_ADH] if st[S_CONTACT] != 0.0 else math.nan
+        tx, dist, _, work = closest_point(kind, coeffs, aux, x, z, guess, st[S_SEARCH:])
+        st[S_ADH] = tx
+        st[S_CONTACT] = 1.0
+        ty = y
+        th = texture_height(kind, coeffs, tx)
+    st[S_WORK] = work
+    st[S_PEN] = dist
+    if code == ALG_D:
+        return -k0 * (x - tx), -k0 * (y - ty), -k0 * (z - th)
+    return 0.0, 0.0, k0 * dist  # ALG_E
+
+
+@nb.njit(inline="always", **_JIT)
+def force_at(n, code, p, kind, coeffs, prm, aux, st, f):
+    """f[:n] = the force (N) of algorithm ``code`` at p[:n] (m): n = 2 over a profile
+    ([x, z], :func:`alg_force`), n = 3 over a surface ([x, y, z], :func:`alg_force3`)."""
+    if n == 2:
+        fx, fz = alg_force(code, p[0], p[1], kind, coeffs, prm, aux, st)
+        f[0] = fx
+        f[1] = fz
+    else:
+        fx, fy, fz = alg_force3(code, p[0], p[1], p[2], kind, coeffs, prm, aux, st)
+        f[0] = fx
+        f[1] = fy
+        f[2] = fz
+
+
+@nb.njit(inline="always", **_JIT)
+def height_under(n, kind, coeffs, p):
+    """h under the probe p[:n] (m): h(x) over a profile, h(x, y) over a surface."""
+    if n == 2:
+        return texture_height(kind, coeffs, p[0])
+    return _height3_only(kind, coeffs, p[0], p[1])
+
+
+@nb.njit(inline="always", **_JIT)
+def saturate_vec(f, n, fmax):
+    """Scale f[:n] in place down to magnitude ``fmax`` without overflow (hypot, and the
+    direction of infinite components kept); returns True when it scaled f down. NaN in,
+    NaN out (the caller counts a fault)."""
+    if fmax == math.inf:
+        return False
+    infinite = False
+    nan = False
+    for i in range(n):
+        if math.isinf(f[i]):
+            infinite = True
+        elif f[i] != f[i]:
+            nan = True
+    if infinite:
+        if nan:
+            return False
+        cnt = 0.0
+        for i in range(n):
+            if math.isinf(f[i]):
+                cnt += 1.0
+        r = fmax / math.sqrt(cnt)
+        for i in range(n):
+            f[i] = math.copysign(r, f[i]) if math.isinf(f[i]) else 0.0
+        return True
+    mag = 0.0
+    for i in range(n):
+        mag = math.hypot(mag, f[i])
+    if mag > fmax:
+        r = fmax / mag
+        for i in range(n):
+            f[i] *= r
+        return True
+    return False
+
+
+# ----------------------------------------------------------------------------------------
+# Passivity observer and controller (Hannaford & Ryu 2002), shared by the renderer and the
+# simulator: one array ``pc`` per loop.
+# ----------------------------------------------------------------------------------------
+(PC_ON, PC_BMAX, PC_REF, PC_T, PC_E, PC_HAVE, PC_ACTIVE, PC_DISSIPATED, PC_ALPHA) = range(9)
+PC_LAST, PC_LASTF, PC_EAX = 10, 13, 16  # last sensed position, last force sent, E per axis (3 each)
+N_PC = PC_EAX + 3
+PC_REF_ZERO, PC_REF_STORED = 0.0, 1.0
+
+
+@nb.njit(inline="always", **_JIT)
+def passivity_tick(pc, n, p, f, k0, pen):
+    """Observe, then control, one servo tick (impedance causality, a velocity-sensing device).
+
+    Observer: pc[PC_E] += -f_{k-1} . (p_k - p_{k-1}), the energy the virtual environment has
+    absorbed (J), from the force sent last tick and the displacement sensed since (Hannaford
+    & Ryu 2002, eq. 7). Controller (when pc[PC_ON]): if E falls below the reference
+    (0, or with PC_REF_STORED the energy kappa_0 pen^2 / 2 still stored in the virtual
+    spring, so that what the rendering gives back is never more than it took: reference
+    energy following in the style of Ryu, Preusche, Hannaford & Hirzinger 2005), add the
+    damping force -alpha v, v = (p_k - p_{k-1}) / T, with alpha = (E_ref - E) / (T |v|^2)
+    bounded by pc[PC_BMAX] (N s/m). Modifies f[:n] in place; the caller saturates and then
+    calls :func:`passivity_sent` with the force actually sent.
+    """
+    pc[PC_ALPHA] = 0.0
+    if pc[PC_HAVE] == 0.0:
+        return
+    v2 = 0.0
+    for i in range(n):
+        dp = p[i] - pc[PC_LAST + i]
+        de = pc[PC_LASTF + i] * dp
+        pc[PC_E] -= de
+        pc[PC_EAX + i] -= de
+        v2 += dp * dp
+    if pc[PC_ON] == 0.0:
+        return
+    ref = 0.5 * k0 * pen * pen if pc[PC_REF] == PC_REF_STORED else 0.0
+    deficit = ref - pc[PC_E]
+    if deficit > 0.0 and v2 > 0.0:
+        T = pc[PC_T]
+        alpha = deficit * T / v2  # (E_ref - E) / (T |v|^2) with v = dp / T
+        if alpha > pc[PC_BMAX]:
+            alpha = pc[PC_BMAX]
+        for i in range(n):
+            f[i] -= alpha * (p[i] - pc[PC_LAST + i]) / T
+        pc[PC_ALPHA] = alpha
+        pc[PC_ACTIVE] += 1.0
+
+
+@nb.njit(inline="always", **_JIT)
+def passivity_sent(pc, n, p, f):
+    """Remember the sensed position and the force sent this tick (for the next observation)."""
+    for i in range(n):
+        pc[PC_LAST + i] = p[i]
+        pc[PC_LASTF + i] = f[i]
+    pc[PC_HAVE] = 1.0
+
+
+# ----------------------------------------------------------------------------------------
+# the simulator's compiled loop (haptex.simulate): positions of n = 2 ([x, z]) or 3 ([x, y, z])
+# ----------------------------------------------------------------------------------------
+# summary slots
+(S_EX, S_EZ, S_DAMP, S_OP, S_KE0, S_KE, S_SAT, S_MAXPEN, S_MAXF, S_NSAMP, S_TAILSTART_E, S_DIVERGED,
+ S_DIVERGED_WHAT, S_FRIC, S_STUCK, S_EY, S_PC_ACTIVE) = range(17)
+N_SUMMARY = 17
+DIVERGED_POSITION, DIVERGED_VELOCITY, DIVERGED_FORCE, DIVERGED_ENERGY = 1, 2, 3, 4
+"""What became non-finite first in a diverged simulation (summary[S_DIVERGED_WHAT])."""
+# per-axis coefficients of the decoupled fast path, per damping regime: p+ = p + a_pv v +
+# a_pw w, v+ = a_vv v + a_vw w (w the force held over the sample, N), and the energy the
+# damping dissipates over it, c_vv v^2 + c_vw v w + c_ww w^2 (J)
+F_PV, F_PW, F_VV, F_VW, F_CVV, F_CVW, F_CWW = range(7)
+N_FAST = 7
+
+
+@nb.njit(inline="always", **_JIT)
+def _half_quad(A, v, n):
+    """v' A v / 2 for an n x n matrix."""
+    acc = 0.0
+    for i in range(n):
+        row = 0.0
+        for j in range(n):
+            row += A[i, j] * v[j]
+        acc += v[i] * row
+    return 0.5 * acc
+
+
+@nb.njit(inline="always", **_JIT)
+def _quad(W, z):
+    n = z.shape[0]
+    acc = 0.0
+    for i in range(n):
+        row = 0.0
+        for j in range(n):
+            row += W[i, j] * z[j]
+        acc += z[i] * row
+    return acc
+
+
+@nb.njit(inline="always", **_JIT)
+def _setpoint(ts, ps, vend, t, out):
+    """The operator's set-point s(t) into out[:n] (m): the polyline (ts, ps), then vend."""
+    m = ts.shape[0]
+    n = ps.shape[1]
+    if t >= ts[m - 1]:
+        dt = t - ts[m - 1]
+        for i in range(n):
+            out[i] = ps[m - 1, i] + vend[i] * dt
+        return
+    if t <= ts[0]:
+        for i in range(n):
+            out[i] = ps[0, i]
+        return
+    lo = 0
+    hi = m - 1
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if ts[mid] <= t:
+            lo = mid
+        else:
+            hi = mid
+    w = (t - ts[lo]) / (ts[hi] - ts[lo])
+    for i in range(n):
+        out[i] = ps[lo, i] + w * (ps[hi, i] - ps[lo, i])
+
+
+@nb.njit(inline="always", **_JIT)
+def _row_dot(P, i, z):
+    """Row i of the sample's exact map times the augmented state: one entry of P z."""
+    acc = 0.0
+    for j in range(z.shape[0]):
+        acc += P[i, j] * z[j]
+    return acc
+
+
+@nb.njit(inline="always", **_JIT)
+def _mech_energy(M, modal, v, ph, vh, p, n):
+    """Kinetic energy of the device, plus the structural mode's elastic energy (J): with
+    ``modal`` = [M_h, K_s] (a two-mass device, M the motor side) 1/2 v'Mv + 1/2 vh'M_h vh +
+    1/2 (p - ph)' K_s (p - ph); 1/2 v'Mv for a rigid one (modal empty)."""
+    e = _half_quad(M, v, n)
+    if modal.shape[0] == 2:
+        e += _half_quad(modal[0], vh, n)
+        for i in range(n):
+            for j in range(n):
+                e += 0.5 * (p[i] - ph[i]) * modal[1, i, j] * (p[j] - ph[j])
+    return e
+
+
+@nb.njit(inline="always", **_JIT)
+def _diverged(p, v, u, e, ed, eo, n):
+    """Which of position, velocity, force, energy (DIVERGED_*) is non-finite first; 0 if
+    none is (a sum of finite terms that overflowed)."""
+    for i in range(n):
+        if not math.isfinite(p[i]):
+            return DIVERGED_POSITION
+    for i in range(n):
+        if not math.isfinite(v[i]):
+            return DIVERGED_VELOCITY
+    for i in range(n):
+        if not math.isfinite(u[i]):
+            return DIVERGED_FORCE
+    for i in range(n):
+        if not math.isfinite(e[i]):
+            return DIVERGED_ENERGY
+    return 0 if math.isfinite(ed) and math.isfinite(eo) else DIVERGED_ENERGY
+
+
+@nb.njit(inline="always", **_JIT)
+def _coulomb(a, Binv, v, fc, n, out):
+    """The handle's Coulomb friction force over one sample, held like the command (a sampled
+    Karnopp model), into out[:n]; returns True when the handle ends the sample at rest.
+
+    ``a`` is the velocity the sample would end with without friction and ``Binv`` the
+    inverse of the sample's map from a held force to that velocity, so f* = -Binv a is the
+    constant force that stops the handle. If |f*| <= fc the handle is held by stiction
+    (friction = f*). Else it slides: friction fc opposes the velocity at the start of the
+    sample, or, from rest, the net applied force (the direction of f*).
+    """
+    nrm = 0.0
+    for i in range(n):
+        acc = 0.0
+        for j in range(n):
+            acc -= Binv[i, j] * a[j]
+        out[i] = acc
+        nrm += acc * acc
+    nrm = math.sqrt(nrm)
+    if nrm <= fc:
+        return True
+    sp = 0.0
+    for i in range(n):
+        sp += v[i] * v[i]
+    sp = math.sqrt(sp)
+    if sp > 0.0:
+        for i in range(n):
+            out[i] = -fc * v[i] / sp
+    else:
+        for i in range(n):
+            out[i] = fc * out[i] / nrm
+    return False
+
+
+@nb.njit(**_JIT)
+def run_one(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, Binv, fast, M, modal, K, C, f0, sp_t, sp_p, vend,
+            rest_len, kinematic, n_steps, T, delay, delta, fres, fmax, fc, pc_on, pc_bmax, pc_ref, p0, v0,
+            record_every, rec, summary, tail_start, tail_p, dims):
+    """One simulation of n = len(dims) axes (``dims`` a tuple of n zeros: its length is a
+    compile-time constant, so each dimension gets its own compiled loop with the per-axis
+    loops unrolled); fills ``rec`` (n_rec, 4 n + 4) if it has rows,
+    ``summary`` and ``tail_p`` (n_tail, n): the position sampled evenly over the tail.
+
+    Record columns: t, p (n), v (n), f (n), the per-axis environment energies E_i (n),
+    E_damping, W_operator, KE. The run stops at the first sample whose position, velocity,
+    force or energy is not finite: summary[S_DIVERGED] is then that sample's number
+    (1-based) and summary[S_DIVERGED_WHAT] says which quantity (DIVERGED_*); both are 0
+    otherwise.
+
+    The sample is integrated exactly: by the augmented transition ``Phi`` (n_z = 5 n, or
+    7 n with a structural mode) and the Van Loan quadratic forms ``Wd`` and ``Wo``; or, when
+    ``fast`` has rows (a diagonal device with no structural mode, pushed by a constant
+    force), axis by axis with the closed forms ``fast`` (2, n, N_FAST), the operator's work
+    being f0 . dp. A structural mode (``modal`` = [M_h, K_s]) adds the handle side
+    [p_h, v_h], which the operator drives; positions, the tail and the records are the motor
+    side's, which the encoder senses and the command drives.
+
+    ``fc`` (N) is the handle's isotropic Coulomb friction, sampled (see
+    :func:`_coulomb`); summary[S_FRIC] is the energy it dissipated (J) and
+    summary[S_STUCK] the number of samples that ended at rest by stiction. With ``pc_on``
+    the passivity controller (:func:`passivity_tick`) acts on the sensed positions;
+    summary[S_PC_ACTIVE] counts the samples it acted on.
+    """
+    n = len(dims)
+    st = np.zeros(N_STATE)
+    nz = Phi.shape[1]
+    mode = modal.shape[0] == 2
+    use_fast = fast.shape[0] > 0
+    z = np.zeros(nz)
+    p = p0.copy()
+    v = v0.copy()
+    ph = p0.copy()  # the handle side starts with the motor side: the mode at rest
+    vh = v0.copy()
+    sense = np.zeros(n)
+    f = np.zeros(n)
+    u = np.zeros(n)
+    g = np.zeros(n)
+    r = np.zeros(n)
+    a = np.zeros(n)
+    ff = np.zeros(n)
+    newp = np.zeros(n)
+    newv = np.zeros(n)
+    e = np.zeros(n)
+    buf = np.zeros((delay + 1, n))
+    s0 = np.zeros(n)
+    s1 = np.zeros(n)
+    pc = np.zeros(N_PC)
+    pc[PC_ON] = 1.0 if pc_on else 0.0
+    pc[PC_BMAX] = pc_bmax
+    pc[PC_REF] = pc_ref
+    pc[PC_T] = T
+    k0 = prm[P_K0]
+    ed = 0.0
+    eo = 0.0
+    sat = 0
+    maxpen = 0.0
+    ke0 = _mech_energy(M, modal, v, ph, vh, p, n)
+    ke_prev = ke0
+    n_tail = tail_p.shape[0]
+    tail_stride = max((n_steps - tail_start) // max(n_tail, 1), 1)
+    e_tail = 0.0
+    efr = 0.0
+    stuck = 0
+    irec = 0
+    nrec = rec.shape[0]
+    next_rec = record_every if nrec > 0 else -1  # the next sample number (1-based) to record
+    itail = 0
+    next_tail = tail_start if n_tail > 0 else -1
+    last = n - 1
+    for k in range(n_steps):
+        t = k * T
+        if kinematic:
+            _setpoint(sp_t, sp_p, vend, t, p)
+            _setpoint(sp_t, sp_p, vend, t + T, s1)
+            for i in range(n):
+                v[i] = (s1[i] - p[i]) / T
+        # controller: sense, compute, (passivity control), quantise, saturate, delay
+        for i in range(n):
+            sense[i] = delta * np.round(p[i] / delta) if delta > 0.0 else p[i]
+        if n == 2:  # (n is a compile-time constant here: one branch is compiled away)
+            f[0], f[1] = alg_force(code, sense[0], sense[1], kind, coeffs, prm, aux, st)
+        else:
+            f[0], f[1], f[2] = alg_force3(code, sense[0], sense[1], sense[2], kind, coeffs, prm, aux, st)
+        if pc_on:
+            passivity_tick(pc, n, sense, f, k0, st[S_PEN])
+        if fres > 0.0:
+            for i in range(n):
+                f[i] = fres * np.round(f[i] / fres)
+        if saturate_vec(f, n, fmax):
+            sat += 1
+        if pc_on:
+            passivity_sent(pc, n, sense, f)
+        if delay == 0:
+            for i in range(n):
+                u[i] = f[i]
+        else:
+            slot = k % (delay + 1)
+            nxt = (k + 1) % (delay + 1)
+            for i in range(n):
+                buf[slot, i] = f[i]
+                u[i] = buf[nxt, i] if k >= delay else 0.0
+        # damping regime from the sensed position (brakes on inside the virtual object)
+        if nominal:
+            inside = sense[last] < 0.0
+            pen = -p[last]
+        else:
+            h = st[S_H]
+            if h != h:
+                h = height_under(n, kind, coeffs, sense)
+            inside = sense[last] < h
+            if delta > 0.0:
+                h = height_under(n, kind, coeffs, p)
+            pen = h - p[last]
+        if pen > maxpen:
+            maxpen = pen
+        reg = 1 if inside else 0
+        if kinematic:
+            # prescribed motion: constant velocity over the sample; the operator supplies
+            # whatever work keeps it on the path (so the energy balance closes by design)
+            dd = 2.0 * T * _half_quad(Bs[reg], v, n)
+            ke_now = _half_quad(M, v, n)
+            if k == 0:
+                ke0 = ke_now
+                ke_prev = ke_now
+            ed += dd
+            step2 = 0.0
+            work = 0.0
+            for i in range(n):
+                dp = s1[i] - p[i]
+                step2 += dp * dp
+                work += u[i] * dp
+                e[i] -= u[i] * dp
+                p[i] = s1[i]
+            dfr = fc * math.sqrt(step2)  # prescribed sliding: friction opposes each step
+            efr += dfr
+            eo += (ke_now - ke_prev) + dd + dfr - work
+            ke_prev = ke_now
+        else:
+            if use_fast:  # a constant push: g = f0, no ramp
+                for i in range(n):
+                    g[i] = f0[i]
+                    a[i] = fast[reg, i, F_VV] * v[i] + fast[reg, i, F_VW] * (u[i] + g[i])
+            else:
+                # operator forcing over [t, t + T]: g(t + s) = g0 + r s
+                _setpoint(sp_t, sp_p, vend, t, s0)
+                _setpoint(sp_t, sp_p, vend, t + T, s1)
+                for i in range(n):
+                    acc = f0[i]
+                    racc = 0.0
+                    for j in range(n):
+                        sd = (s1[j] - s0[j]) / T
+                        acc += K[i, j] * s0[j] + C[i, j] * sd
+                        racc += K[i, j] * sd
+                    g[i] = acc
+                    r[i] = racc
+                if rest_len > 0.0:
+                    nrm = 0.0
+                    for i in range(n):
+                        d_i = (ph[i] if mode else p[i]) - sp_p[0, i]
+                        nrm += d_i * d_i
+                    nrm = math.sqrt(nrm)
+                    if nrm > 0.0:
+                        for i in range(n):
+                            g[i] += K[i, i] * rest_len * ((ph[i] if mode else p[i]) - sp_p[0, i]) / nrm
+                for i in range(n):
+                    z[i] = p[i]
+                    z[n + i] = v[i]
+                    z[2 * n + i] = u[i]
+                    z[3 * n + i] = g[i]
+                    z[4 * n + i] = r[i]
+                    if mode:
+                        z[5 * n + i] = ph[i]
+                        z[6 * n + i] = vh[i]
+                for i in range(n):
+                    a[i] = _row_dot(Phi[reg], n + i, z)
+            rest = False
+            held = False
+            for i in range(n):
+                ff[i] = 0.0
+            if fc > 0.0:
+                rest = _coulomb(a, Binv[reg], v, fc, n, ff)
+                if rest:
+                    stuck += 1
+                    # at rest and held by stiction: the friction force follows the applied
+                    # force within the sample, so the handle does not move at all
+                    held = not mode  # a mode keeps the handle moving
+                    for i in range(n):
+                        if v[i] != 0.0:
+                            held = False
+            for i in range(n):
+                newp[i] = p[i]
+                newv[i] = 0.0
+            if not held:
+                if use_fast:
+                    for i in range(n):
+                        w = u[i] + g[i] + ff[i]
+                        newp[i] = p[i] + fast[reg, i, F_PV] * v[i] + fast[reg, i, F_PW] * w
+                        newv[i] = fast[reg, i, F_VV] * v[i] + fast[reg, i, F_VW] * w
+                        ed += v[i] * (fast[reg, i, F_CVV] * v[i] + fast[reg, i, F_CVW] * w) + fast[reg, i, F_CWW] * w * w
+                        eo += g[i] * (newp[i] - p[i])
+                else:
+                    for i in range(n):
+                        z[2 * n + i] = u[i] + ff[i]
+                    P = Phi[reg]
+                    ed += _quad(Wd[reg], z)
+                    eo += _quad(Wo[reg], z)
+                    for i in range(n):
+                        newp[i] = _row_dot(P, i, z)
+                        newv[i] = _row_dot(P, n + i, z)
+                    if mode:  # the handle side of the structural mode
+                        for i in range(n):
+                            ph[i] = _row_dot(P, 5 * n + i, z)
+                            vh[i] = _row_dot(P, 6 * n + i, z)
+            for i in range(n):
+                dp = newp[i] - p[i]
+                e[i] -= u[i] * dp
+                efr -= ff[i] * dp
+                p[i] = newp[i]
+                v[i] = 0.0 if (fc > 0.0 and rest) else newv[i]  # stiction: at rest exactly
+        what = 0
+        check = ed + eo  # one test a sample: a non-finite term makes the sum non-finite
+        for i in range(n):
+            check += p[i] + v[i] + u[i] + e[i]
+        if not math.isfinite(check):
+            what = _diverged(p, v, u, e, ed, eo, n)
+        if what != 0:
+            summary[S_DIVERGED] = k + 1
+            summary[S_DIVERGED_WHAT] = what
+            n_steps = k + 1
+            break
+        if k == tail_start:
+            e_tail = 0.0
+            for i in range(n):
+                e_tail += e[i]
+        if k == next_tail:  # every tail_stride-th sample of the tail (no division per sample)
+            if itail < n_tail:
+                for i in range(n):
+                    tail_p[itail, i] = p[i]
+                itail += 1
+                next_tail += tail_stride
+        if k + 1 == next_rec:
+            next_rec += record_every
+            rec[irec, 0] = t + T
+            for i in range(n):
+                rec[irec, 1 + i] = p[i]
+                rec[irec, 1 + n + i] = v[i]
+                rec[irec, 1 + 2 * n + i] = u[i]
+                rec[irec, 1 + 3 * n + i] = e[i]
+            rec[irec, 1 + 4 * n] = ed
+            rec[irec, 2 + 4 * n] = eo
+            rec[irec, 3 + 4 * n] = _mech_energy(M, modal, v, ph, vh, p, n)
+            irec += 1
+            if irec == nrec:
+                next_rec = -1
+    summary[S_EX] = e[0]
+    summary[S_EZ] = e[n - 1]
+    summary[S_EY] = e[1] if n == 3 else 0.0
+    summary[S_DAMP] = ed
+    summary[S_OP] = eo
+    summary[S_KE0] = ke0
+    summary[S_KE] = _mech_energy(M, modal, v, ph, vh, p, n)
+    summary[S_SAT] = sat
+    summary[S_MAXPEN] = maxpen
+    summary[S_NSAMP] = n_steps
+    summary[S_TAILSTART_E] = e_tail
+    summary[S_FRIC] = efr
+    summary[S_STUCK] = stuck
+    summary[S_PC_ACTIVE] = pc[PC_ACTIVE]
+
+
+@nb.njit(parallel=True, cache=True)
+def run_batch(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, Binv, fast, M, modal, K, C, f0, sp_t, sp_p, vend,
+              rest_len, kinematic, n_steps, T, delay, delta, fres, fmax, fc, pc_on, pc_bmax, pc_ref, p0, v0,
+              record_every, rec, summary, tail_start, tail_p, dims):
+    """Runs i = 0..N-1 of :func:`run_one` in parallel; every per-run array has a leading N axis."""
+    for i in nb.prange(coeffs.shape[0]):
+        if aux is None:  # (compiled away for the algorithms without search data or table)
+            aux_i = None
+        else:
+            aux_i = aux[i]
+        run_one(code, kind, coeffs[i], prm[i], aux_i, nominal, Phi[i], Wd[i], Wo[i], Bs[i], Binv[i], fast[i], M[i],
+                modal[i], K[i], C[i], f0[i], sp_t, sp_p[i], vend[i], rest_len[i], kinematic, n_steps, T, delay[i],
+                delta[i], fres[i], fmax[i], fc[i], pc_on, pc_bmax[i], pc_ref, p0[i], v0[i], record_every, rec[i],
+                summary[i], tail_start, tail_p[i], dims)
+
+
+# ----------------------------------------------------------------------------------------
+# the renderer's servo tick (haptex.Renderer)
+# ----------------------------------------------------------------------------------------
+# renderer state slots (float64 array)
+(RS_MAXF, RS_FAULTS, RS_CLAMPS, RS_MONITOR, RS_LIMIT, RS_WORK, RS_MAXWORK, RS_DIM) = range(8)
+N_RS = 8
+
+
+@nb.njit(**_JIT)
+def render_step(x, y, z, code, kind, coeffs, prm, aux, st, rs, pc, buf):
+    """Compiled servo tick: validate, compute, control passivity, clamp, count, observe.
+
+    (x, y, z) is the probe position (m); y is ignored over a profile (rs[RS_DIM] = 2).
+    Returns (fx, fy, fz) (N), fy = 0 over a profile. A position with a non-finite
+    coordinate or one beyond rs[RS_LIMIT] returns zero force and counts a fault, as does a
+    non-finite force. ``pc`` is the passivity observer/controller's state
+    (:func:`passivity_tick`; observing only unless pc[PC_ON]); ``buf`` scratch of length 6.
+    rs[RS_WORK] is the work (texture evaluations) of this call and rs[RS_MAXWORK] the
+    largest so far.
+    """
+    rs[RS_WORK] = 0.0
+    n = int(rs[RS_DIM])
+    lim = rs[RS_LIMIT]
+    if (not (math.isfinite(x) and math.isfinite(y) and math.isfinite(z)) or abs(x) > lim or abs(y) > lim
+            or abs(z) > lim):
+        rs[RS_FAULTS] += 1.0
+        pc[PC_HAVE] = 0.0
+        return 0.0, 0.0, 0.0
+    p = buf[:3]
+    f = buf[3:]
+    p[0] = x
+    p[1] = z if n == 2 else y
+    p[2] = z
+    force_at(n, code, p, kind, coeffs, prm, aux, st, f)
+    rs[RS_WORK] = st[S_WORK]
+    if st[S_WORK] > rs[RS_MAXWORK]:
+        rs[RS_MAXWORK] = st[S_WORK]
+    if rs[RS_MONITOR] != 0.0:
+        passivity_tick(pc, n, p, f, prm[P_K0], st[S_PEN])
+    clamped = saturate_vec(f, n, rs[RS_MAXF])
+    for i in range(n):
+        if not math.isfinite(f[i]):
+            rs[RS_FAULTS] += 1.0
+            pc[PC_HAVE] = 0.0
+            st[S_CONTACT] = 0.0
+            return 0.0, 0.0, 0.0
+    if clamped:
+        rs[RS_CLAMPS] += 1.0
+    if rs[RS_MONITOR] != 0.0:
+        passivity_sent(pc, n, p, f)
+    if n == 2:
+        return f[0], 0.0, f[1]
+    return f[0], f[1], f[2]
+
+
+@nb.njit(parallel=True, cache=True)
+def tail_amplitudes(u, a1, a2):
+    """Half the peak-to-peak of each row of ``u`` (N, m) in its first and second halves
+    (into a1, a2, shape (N,)), after removing the row's least-squares straight line (steady
+    sliding or drift is not an oscillation): the amplitudes of the oscillation verdict
+    (:func:`haptex.simulate._axis_verdicts`)."""
+    N, m = u.shape
+    tm = 0.5 * (m - 1)
+    stt = 0.0
+    for j in range(m):
+        stt += (j - tm) * (j - tm)
+    for r in nb.prange(N):
+        mean = 0.0
+        for j in range(m):
+            mean += u[r, j]
+        mean /= m
+        sty = 0.0
+        for j in range(m):
+            sty += (j - tm) * (u[r, j] - mean)
+        slope = sty / stt if stt > 0.0 else 0.0
+        lo1 = math.inf
+        hi1 = -math.inf
+        lo2 = math.inf
+        hi2 = -math.inf
+        for j in range(m):
+            w = u[r, j] - mean - slope * (j - tm)
+            if j < m // 2:
+                lo1 = min(lo1, w)
+                hi1 = max(hi1, w)
+            else:
+                lo2 = min(lo2, w)
+                hi2 = max(hi2, w)
+        a1[r] = 0.5 * (hi1 - lo1) if m // 2 > 0 else 0.0
+        a2[r] = 0.5 * (hi2 - lo2)

@@ -159,29 +159,29 @@ class Algorithm:
         return self.penetration(p) > 0
 
     def kernel_spec(self) -> tuple[int, np.ndarray, int, np.ndarray, np.ndarray]:
-        """What the compiled force kernel :func:`haptex._kernels.alg_force` reads.
+        """What the compiled force kernels :func:`haptex._kernels.alg_force` (positions
+        [x, z] over a profile) and :func:`haptex._kernels.alg_force3` ([x, y, z] over a
+        surface) read.
 
         Returns
         -------
         (code, params, kind, coeffs, aux)
             Algorithm code, parameter vector float64[6] (kappa_0 N/m, d^z_max m or -1,
-            mu, d^x_max m, modulation scale 1/m, z_stick m or -1), the texture's
-            (kind, coeffs), and ``aux``: the closest-point search data for D and E
-            (:func:`haptex.closest.search_data`), the smooth presliding table for F
-            (:func:`haptex.friction.smooth_table`), else empty.
-
-        Raises
-        ------
-        ParameterError
-            Over a surface: the compiled simulator and renderer take positions [x, z]
-            over profiles for now (:func:`haptex.export.export_c` writes C for surfaces).
+            mu, d^x_max m, modulation scale 1/m, z_stick m or -1), the texture's (kind, coeffs)
+            (:meth:`haptex.Texture.kernel_data`), and ``aux``: the closest-point search data
+            for D and E (:func:`haptex.closest.search_data` over a profile or an extruded
+            profile, the constants of :func:`haptex.closest.surface_search_data` over a sum
+            of gratings or a height map), the smooth presliding table for F
+            (:func:`haptex.friction.smooth_table`), else zeros(1).
         """
-        if self.dimension != 2:
-            raise ParameterError(f"texture = {self.texture!r} is not allowed here: the compiled simulator and "
-                                 "renderer take profiles h(x) (positions [x, z]) for now; surfaces are analysed in "
-                                 "3-D (force, jacobian, characteristic_number) and exported to C (haptex export)")
         kind, coeffs = self.texture.kernel_data()
         return _CODES[self.letter], self.kernel_params(), kind, np.ascontiguousarray(coeffs), self._aux()
+
+    @property
+    def kernel_aux_used(self) -> bool:
+        """True when the compiled kernels read ``aux`` (D and E's search, smooth F's table);
+        the others are given None, which compiles their kernels without those branches."""
+        return self.letter in "DE" or (self.letter == "F" and self.stick_deflection is not None)
 
     def kernel_params(self) -> np.ndarray:
         """The algorithm's parameter vector float64[6] of the compiled kernels and the C
@@ -522,7 +522,16 @@ class _Distance(Algorithm):
                                      "profiles")
 
     def _aux(self) -> np.ndarray:
-        return search_data(self.texture)
+        from .surfaces import Extruded
+
+        tex = self.texture
+        if tex.dimension == 1:
+            return search_data(tex)
+        if isinstance(tex, Extruded):
+            return search_data(tex.profile)
+        from .closest import surface_search_data
+
+        return surface_search_data(tex)[2]
 
     def _evaluate(self, xt, z, jacobian):
         f, j = _zeros(xt, jacobian)

@@ -131,17 +131,19 @@ def reproduce(stiffness, amplitude, period, max_penetration, friction, preslidin
     click.echo(f"wrote {out / 'index.html'} and {out / 'summary.json'} in {_time.perf_counter() - t0:.1f} s")
 
 
-def _parse_point(text: str, name: str):
+def _parse_point(text: str, name: str, d: int = 2):
     parts = [p for p in str(text).replace(";", ",").split(",")]
-    if len(parts) != 2:
-        raise ParameterError(f"{name} = {text!r} is not allowed: must be two lengths 'x,z', e.g. '0,-20mm'")
+    if len(parts) != d:
+        what = "two lengths 'x,z', e.g. '0,-20mm'" if d == 2 else "three lengths 'x,y,z', e.g. '0,0,-20mm'"
+        raise ParameterError(f"{name} = {text!r} is not allowed: must be {what}")
     return [_q(p.strip(), "m", name) for p in parts]
 
 
-def _parse_path(text: str):
-    pts = [_parse_point(v, "path") for v in str(text).split(";") if v.strip()]
+def _parse_path(text: str, d: int = 2):
+    pts = [_parse_point(v, "path", d) for v in str(text).split(";") if v.strip()]
     if len(pts) < 2:
-        raise ParameterError(f"path = {text!r} is not allowed: must be at least two points 'x,z;x,z;...'")
+        raise ParameterError(f"path = {text!r} is not allowed: must be at least two points "
+                             + ("'x,z;x,z;...'" if d == 2 else "'x,y,z;x,y,z;...'"))
     return pts
 
 
@@ -151,8 +153,8 @@ def _device_options(func):
     opts = [
         click.option("--device", "device_spec", default="pantograph", show_default=True,
                      help="'pantograph' or 'point-mass' (parameters below), the shorthand "
-                          "'point-mass:MASS,DAMPING,PERIOD[,RESOLUTION]', or a TOML device file "
-                          "(FILE.toml; see haptex.device_from_file)."),
+                          "'point-mass:MASS,DAMPING,PERIOD[,RESOLUTION]', the 3-DOF presets 'serial-arm' and "
+                          "'delta' (over a surface), or a TOML device file (FILE.toml; see haptex.device_from_file)."),
         click.option("--joint-damping", type=Quantity("N*m*s"), default=4.7e-3, show_default="4.7 mN*m*s",
                      help="pantograph: joint damping inside the wall."),
         click.option("--mass", type=Quantity("kg"), default=0.1, show_default="0.1 kg", help="point-mass: mass."),
@@ -176,6 +178,13 @@ def _build_device(ctx, spec: str, joint_damping, mass, damping, sampling_period,
                        "--device", owner="*", what="write it in the device file")
         return device_from_file(spec)
     kind, _, rest = str(spec).partition(":")
+    if kind in ("serial-arm", "delta") and not rest:
+        if dimension != 3:
+            raise ParameterError(f"--device {kind} is not allowed over a profile: it is a 3-DOF device; simulate it "
+                                 "over a surface (--surface) or use the pantograph or a point mass")
+        _refuse_unused(ctx, {"*": {"joint_damping", "mass", "damping", "sampling_period"}}, kind, "--device",
+                       owner="*", what="the preset gives it (write a TOML device file to change it)")
+        return Device.serial_arm(delay=delay) if kind == "serial-arm" else Device.delta(delay=delay)
     if kind == "pantograph" and dimension != 2:
         raise ParameterError("--device pantograph is not allowed with a surface: the pantograph is planar; use "
                              "--device point-mass (built 3-DOF) or a TOML device file with dimension = 3")
@@ -208,6 +217,11 @@ def _sim_common(func):
                      help="Write a figure (PNG, SVG, PDF, ...)."),
         click.option("--save", type=click.Path(dir_okay=False, path_type=Path), default=None,
                      help="Write the time series to a .csv (with a header of units) or .npz file."),
+        click.option("--surface", "surface_spec", default=None,
+                     help="Simulate in 3-D over a surface: 'egg-crate:AMPLITUDE,PERIOD' or "
+                          "'grating:AMPLITUDE,PERIOD[,DIRECTION]' (a 3-DOF device: point-mass, serial-arm, delta)."),
+        click.option("--passivity-control", type=Quantity("N*s/m"), default=None,
+                     help="Add a passivity observer/controller with this largest damping, e.g. '20 N*s/m'."),
         click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON."),
         click.pass_context,
     ]
@@ -254,13 +268,14 @@ def path(ctx, **kw):
 
 
 def _simulate(ctx, mode, letter, stiffness, amplitude, period, max_penetration, friction, presliding, device_spec,
-              joint_damping, mass, damping, sampling_period, delay, duration, plot, save, as_json,
-              band_stiffness=100.0, anchor="0,-30mm", angle=10.0, hand_stiffness=300.0, hand_damping=1.0,
-              velocity=0.01, depth=1e-3, path_text=None, speed=1e-3):
+              joint_damping, mass, damping, sampling_period, delay, duration, plot, save, as_json, surface_spec=None,
+              passivity_control=None, band_stiffness=100.0, anchor="0,-30mm", angle=10.0, hand_stiffness=300.0,
+              hand_damping=1.0, velocity=0.01, depth=1e-3, path_text=None, speed=1e-3):
     from . import operators as ops
     from .algorithms import algorithm
+    from .renderer import PassivityController
     from .simulate import simulate as run
-    from .textures import Sinusoid
+    from .textures import Flat, Sinusoid
 
     if str(letter).upper() != "F":
         _refuse_unused(ctx, {"F": {"friction", "presliding", "max_penetration"}}, str(letter).upper(), "--algorithm")
@@ -272,33 +287,55 @@ def _simulate(ctx, mode, letter, stiffness, amplitude, period, max_penetration, 
         _check_save_path(save)
     letter = letter.upper()
     params = {"friction": friction, "presliding": presliding, "max_penetration": max_penetration} if letter == "F" else {}
-    alg = algorithm(letter, None if letter == "W" else Sinusoid(amplitude, period), stiffness, **params)
-    dev = _build_device(ctx, device_spec, joint_damping, mass, damping, sampling_period, delay)
+    d = 2
+    if surface_spec is not None:
+        _refuse_unused(ctx, {"*": {"amplitude", "period"}}, repr(surface_spec), "--surface", owner="*",
+                       what="the surface spec gives the texture")
+        tex = _texture_from_spec(surface_spec, None, None, None, False, None, None, False)
+        if tex.dimension != 2:
+            raise ParameterError(f"surface = {surface_spec!r} is not allowed: must be 'egg-crate:AMPLITUDE,PERIOD' or "
+                                 "'grating:AMPLITUDE,PERIOD[,DIRECTION]'")
+        d = 3
+        alg = algorithm(letter, Flat(dimension=2) if letter == "W" else tex, stiffness, **params)
+    else:
+        alg = algorithm(letter, None if letter == "W" else Sinusoid(amplitude, period), stiffness, **params)
+    dev = _build_device(ctx, device_spec, joint_damping, mass, damping, sampling_period, delay, dimension=d)
+    pc = None if passivity_control is None else PassivityController(passivity_control)
     start = None
     if mode == "thrust":
         if not -80.0 <= angle <= 80.0:
             raise ParameterError(f"angle = {angle:g} is not allowed: must be within +-80 degrees of the normal")
         ax, az = _parse_point(anchor, "anchor")
-        op = ops.ElasticBand(band_stiffness, [ax + az * math.tan(math.radians(angle)), az])
-        start = [0.0, 1e-3]
+        a = [ax + az * math.tan(math.radians(angle)), az]
+        op = ops.ElasticBand(band_stiffness, a if d == 2 else [a[0], 0.0, a[1]])
+        start = [0.0, 1e-3] if d == 2 else [0.0, 0.0, 1e-3]
     elif mode == "scan":
-        op = ops.ScanningHand(hand_stiffness, hand_damping, velocity=velocity, depth=depth)
-        start = [0.0, 0.0]
+        op = ops.ScanningHand(hand_stiffness, hand_damping, velocity=velocity, depth=depth, dimension=d)
+        start = [0.0] * d
     else:
         if path_text is None:
-            raise ParameterError("path = None is not allowed in path mode: give --path 'x,z;x,z;...'")
-        op = ops.KinematicPath(_parse_path(path_text), speed)
-    res = run(alg, dev, op, duration, initial_position=start, record_every=max(1, int(round(duration / dev.period / 20000))))
+            raise ParameterError("path = None is not allowed in path mode: give --path 'x,z;x,z;...' "
+                                 "('x,y,z;...' over a surface)")
+        op = ops.KinematicPath(_parse_path(path_text, d), speed)
+    res = run(alg, dev, op, duration, initial_position=start, record_every=max(1, int(round(duration / dev.period / 20000))),
+              passivity_controller=pc)
     osc = res.oscillation
     units = {"stiffness": "N/m", "sampling_period": "s", "duration": "s", "energy_x": "J", "energy_z": "J",
-             "damping_energy": "J", "operator_work": "J", "kinetic_energy": "J", "friction_energy": "J",
+             "damping_energy": "J", "operator_work": "J", "kinetic_energy": "J", "friction_energy": "J", "energy_y": "J",
+             "passivity_control": "N*s/m", "passivity_control_samples": "samples",
              "energy_balance_error": "1 (relative)", "max_penetration": "m", "saturations": "samples",
              "amplitude": "m", "frequency": "Hz", "energy_per_cycle": "J", "angle": "degree"}
     summary = {"units": units, "mode": mode, "algorithm": letter, "stiffness": stiffness, "device": dev.name,
                "sampling_period": dev.period, "duration": duration, **res.totals,
                "energy_balance_error": res.energy_balance_error, "max_penetration": res.max_penetration,
                "saturations": res.saturations, "oscillating": osc.oscillating, "oscillation_axis": osc.axis,
-               "amplitude": osc.amplitude, "frequency": osc.frequency, "energy_per_cycle": osc.energy_per_cycle}
+               "amplitude": osc.amplitude, "frequency": osc.frequency, "energy_per_cycle": osc.energy_per_cycle,
+               "dimension": d}
+    if surface_spec is not None:
+        summary["surface"] = surface_spec
+    if pc is not None:
+        summary["passivity_control"] = pc.max_damping
+        summary["passivity_control_samples"] = res.passivity_control_samples
     if mode == "thrust":
         summary["angle"] = angle
     if save is not None:
@@ -321,7 +358,10 @@ def _simulate(ctx, mode, letter, stiffness, amplitude, period, max_penetration, 
     t = Table(title=f"simulate {mode}: algorithm {letter} on the {dev.name}, {duration:g} s at T = {dev.period:g} s")
     t.add_column("quantity")
     t.add_column("value")
-    rows = [("E_x = -Σ f_x Δx (J)", f"{res.totals['energy_x']:.4g}"), ("E_z = -Σ f_z Δz (J)", f"{res.totals['energy_z']:.4g}"),
+    rows = [("E_x = -Σ f_x Δx (J)", f"{res.totals['energy_x']:.4g}")]
+    if d == 3:
+        rows.append(("E_y = -Σ f_y Δy (J)", f"{res.totals['energy_y']:.4g}"))
+    rows += [("E_z = -Σ f_z Δz (J)", f"{res.totals['energy_z']:.4g}"),
             ("dissipated by damping (J)", f"{res.totals['damping_energy']:.4g}"),
             ("operator work (J)", f"{res.totals['operator_work']:.4g}"),
             ("energy balance error (relative)", f"{res.energy_balance_error:.2g}"),
@@ -388,9 +428,12 @@ def _refuse_unused(ctx, groups: dict, chosen: str, by: str = "mode", owner: str 
                 raise ParameterError(f"{flag} is not allowed with {where}: {why}")
 
 
-_SAVE_COLUMNS = [("time", "s"), ("x", "m"), ("z", "m"), ("vx", "m/s"), ("vz", "m/s"), ("fx", "N"), ("fz", "N"),
-                 ("energy_x", "J"), ("energy_z", "J"), ("damping_energy", "J"), ("operator_work", "J"),
-                 ("kinetic_energy", "J")]
+def _save_columns(d: int) -> list[tuple[str, str]]:
+    """(name, SI unit) of the saved trace's columns, in the plane (d = 2) or in space (3)."""
+    axes = "xz" if d == 2 else "xyz"
+    return ([("time", "s")] + [(a, "m") for a in axes] + [(f"v{a}", "m/s") for a in axes]
+            + [(f"f{a}", "N") for a in axes] + [(f"energy_{a}", "J") for a in axes]
+            + [("damping_energy", "J"), ("operator_work", "J"), ("kinetic_energy", "J")])
 
 
 def _check_save_path(save: Path) -> None:
@@ -405,15 +448,15 @@ def _save_trace(res, save: Path) -> None:
     """The recorded time series, one row per recorded sample, SI units in the header."""
     import numpy as np
 
-    cols = [res.time, res.position[:, 0], res.position[:, 1], res.velocity[:, 0], res.velocity[:, 1],
-            res.force[:, 0], res.force[:, 1], res.energy_x, res.energy_z, res.damping_energy, res.operator_work,
-            res.kinetic_energy]
+    names = _save_columns(res.dimension)
+    cols = ([res.time] + list(res.position.T) + list(res.velocity.T) + list(res.force.T)
+            + list(res.energy_per_axis.T) + [res.damping_energy, res.operator_work, res.kinetic_energy])
     try:
         if save.suffix.lower() == ".npz":
-            np.savez_compressed(save, **{n: c for (n, _), c in zip(_SAVE_COLUMNS, cols)},
-                                units=np.array([u for _, u in _SAVE_COLUMNS]))
+            np.savez_compressed(save, **{n: c for (n, _), c in zip(names, cols)},
+                                units=np.array([u for _, u in names]))
         else:
-            header = ",".join(f"{n} ({u})" for n, u in _SAVE_COLUMNS)
+            header = ",".join(f"{n} ({u})" for n, u in names)
             np.savetxt(save, np.column_stack(cols), delimiter=",", header=header, comments="", fmt="%.17g")
     except OSError as exc:
         raise ParameterError(f"save = {str(save)!r} is not allowed: cannot write it ({exc.strerror})") from None

@@ -322,13 +322,10 @@ def surface_search_data(texture) -> tuple[int, np.ndarray, np.ndarray]:
     cached = texture.__dict__.get("_surface_search")
     if cached is not None:
         return cached
+    kind, gc = texture.kernel_data()
     if isinstance(texture, SampledSurface):
-        kind, gc = K.SURFACE_PATCHES, texture.patches()
         leaf = max(texture.dx, texture.dy)  # one sample interval: a bicubic patch
     else:
-        kind = K.SURFACE_GRATINGS
-        gc = np.ascontiguousarray(np.vstack([texture.amplitudes, texture._kvec[:, 0], texture._kvec[:, 1],
-                                             texture.phases]))
         leaf = texture.shortest_period / LEAF_DIVISOR
     gaux = np.zeros(K.N_GAUX)
     gaux[K.G_HMIN], gaux[K.G_HMAX] = texture.height_range

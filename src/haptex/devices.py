@@ -302,14 +302,9 @@ class Device:
         bj_out = nonnegative("joint_damping_outside", joint_damping_outside, "N m s/rad")
         p = np.asarray(working_point, dtype=np.float64)
         J, angles = five_bar_jacobian(a1, a2, d, p)
-        Jinv = np.linalg.inv(J)
         I_j = inertia + ml * a1 * a1 / 3
-        M = Jinv.T @ (I_j * np.eye(2)) @ Jinv + (mh + ml) * np.eye(2)
-        B = Jinv.T @ (bj * np.eye(2)) @ Jinv
-        B_out = Jinv.T @ (bj_out * np.eye(2)) @ Jinv
-        M = 0.5 * (M + M.T)
-        B = 0.5 * (B + B.T)
-        B_out = 0.5 * (B_out + B_out.T)
+        M, B = _cartesian(J, I_j * np.eye(2), bj * np.eye(2), mh + ml)
+        _, B_out = _cartesian(J, I_j * np.eye(2), bj_out * np.eye(2), mh + ml)
         details = {"link_proximal": a1, "link_distal": a2, "base": d, "rotor_inertia": inertia,
                    "link_mass": ml, "handle_mass": mh, "joint_damping": bj, "joint_damping_outside": bj_out,
                    "working_point": p.tolist(), "joint_angles": angles.tolist(), "jacobian": J.tolist()}
@@ -317,6 +312,234 @@ class Device:
         kw.setdefault("handle_mass", (mh + ml) * np.eye(2))  # the handle side of a structural mode
         return cls(mass=M, damping=B, damping_outside=B_out, period=period, position_resolution=position_resolution,
                    name=kw.pop("name", "pantograph"), details=details, **kw)
+
+    @classmethod
+    def serial_arm(cls, link_upper: float = 0.14, link_fore: float = 0.14, joint_inertia=(1.0e-3, 6.5e-4, 6.5e-4),
+                   tip_mass: float = 0.02, joint_damping: float = 2e-4, joint_angles=(0.0, 0.0, 0.0),
+                   period: float = 1e-3, position_resolution: float = 30e-6, max_force: float = 8.5,
+                   coulomb_friction: float = 0.04, stiffness_limit: float = 3500.0, **kw) -> Device:
+        """A serial 3-DOF arm in the style of the Phantom Premium 1.0 / Touch, its Cartesian
+        mass and damping at a configuration.
+
+        Kinematics (base yaw theta_1, shoulder theta_2, elbow theta_3 measured from the base
+        as on the Phantom's parallelogram drive; x lateral, y away from the base, z up, the
+        virtual surface's normal), r = l_1 cos theta_2 + l_2 sin theta_3:
+
+            p = [r sin theta_1, r cos theta_1, l_1 sin theta_2 - l_2 cos theta_3],
+
+        and with J = dp/dtheta (:func:`serial_arm_kinematics`)
+        M_x = J^-T diag(I) J^-1 + m_tip I, B_x = J^-T (b I) J^-1: the inertia depends on the
+        configuration.
+
+        Parameters
+        ----------
+        link_upper, link_fore : float
+            l_1, l_2 (m).
+        joint_inertia : (float, float, float)
+            Inertia about each joint axis, motor and cable drive reflected (kg m^2).
+        tip_mass : float
+            Gimbal and stylus (kg).
+        joint_damping : float
+            Viscous damping of each joint (N m s/rad).
+        joint_angles : (float, float, float)
+            The configuration (rad) where the matrices are evaluated; default the home pose
+            (upper arm horizontal, forearm down), where they are diagonal.
+        period, position_resolution, max_force, coulomb_friction, stiffness_limit : float
+            Device parameters (s, m, N, N, N/m); the defaults are the Phantom Premium 1.0's
+            published ones (below).
+        **kw
+            Other :class:`Device` parameters (delay, force_resolution, first_resonance, ...).
+
+        Notes
+        -----
+        Published (SensAble Technologies, PHANTOM Premium 1.0 specifications): nominal
+        position resolution 0.03 mm, maximum force 8.5 N, stiffness 3.5 N/mm, backdrive
+        friction 0.04 N, apparent mass at the tip < 75 g, workspace 25 x 18 x 13 cm, and the
+        1 kHz servo rate of its OpenHaptics/GHOST loop. Chosen (plausible, not published):
+        14 cm links, the joint inertias (which give 53-71 g of apparent mass at home, inside
+        the published bound) and the joint damping. Identification of a Premium 1.5:
+        M. C. Cavusoglu, D. Feygin and F. Tendick, "A critical study of the mechanical and
+        electrical properties of the PHANToM haptic interface and improvements for high
+        performance control", Presence 11(6), 2002. For a Geomagic Touch use its published
+        0.055 mm, 3.3 N, 1.02-2.31 N/mm, 0.26 N backdrive friction and about 45 g.
+
+        Raises
+        ------
+        ParameterError
+            For non-positive lengths or inertias, or a singular configuration.
+        """
+        l1 = positive("link_upper", link_upper, "m")
+        l2 = positive("link_fore", link_fore, "m")
+        I = np.array([positive(f"joint_inertia[{i}]", v, "kg m^2") for i, v in enumerate(_triple("joint_inertia", joint_inertia))])
+        mt = nonnegative("tip_mass", tip_mass, "kg")
+        bj = nonnegative("joint_damping", joint_damping, "N m s/rad")
+        q = np.array(_triple("joint_angles", joint_angles), dtype=np.float64)
+        p, J = serial_arm_kinematics(l1, l2, q)
+        M, B = _cartesian(J, np.diag(I), bj * np.eye(3), mt)
+        details = {"link_upper": l1, "link_fore": l2, "joint_inertia": I.tolist(), "tip_mass": mt,
+                   "joint_damping": bj, "joint_angles": q.tolist(), "position": p.tolist(), "jacobian": J.tolist()}
+        return cls(mass=M, damping=B, period=period, position_resolution=position_resolution, max_force=max_force,
+                   coulomb_friction=coulomb_friction, stiffness_limit=stiffness_limit,
+                   name=kw.pop("name", "serial arm"), details=details, **kw)
+
+    @classmethod
+    def delta(cls, base_radius: float = 0.06, effector_radius: float = 0.02, link_upper: float = 0.10,
+              link_fore: float = 0.13, joint_inertia: float = 4e-5, effector_mass: float = 0.06,
+              joint_damping: float = 5e-5, working_point=(0.0, 0.0, -0.12), period: float = 1e-3,
+              position_resolution: float = 60e-6, max_force: float = 8.9, **kw) -> Device:
+        """A 3-DOF delta in the style of the Novint Falcon / Force Dimension delta, its
+        Cartesian mass and damping at a working point.
+
+        Three motors at 0, 120 and 240 degrees on a circle of radius R (the base, at z = 0,
+        z up) swing upper arms of length a in vertical planes; parallelogram forearms of
+        length b join them to an effector of radius r that stays parallel to the base. Arm
+        i's constraint |p + r u_i - e_i(theta_i)| = b gives, differentiated, the Jacobian
+        J = A^-1 diag((p + r u_i - e_i) . de_i/dtheta_i) (:func:`delta_kinematics`), and
+        M_x = J^-T (I_j I) J^-1 + m_e I, B_x = J^-T (b_j I) J^-1. At the centre of the
+        workspace the three-fold symmetry makes M_x and B_x diagonal with equal x and y
+        entries.
+
+        Parameters
+        ----------
+        base_radius, effector_radius, link_upper, link_fore : float
+            R, r, a, b (m).
+        joint_inertia : float
+            Inertia of each motor and upper arm about its axis (kg m^2).
+        effector_mass : float
+            Effector, grip and the forearms' share (kg).
+        joint_damping : float
+            N m s/rad per joint.
+        working_point : (float, float, float)
+            The effector's position (m) where the matrices are evaluated, below the base.
+        period, position_resolution, max_force : float
+            s, m, N; the defaults are the Falcon's published figures (below).
+        **kw
+            Other :class:`Device` parameters.
+
+        Notes
+        -----
+        Published (Novint Falcon specifications): 4 x 4 x 4 inch (10 cm) workspace, more
+        than 2 lb (8.9 N) of force, position resolution better than 400 dpi (0.0635 mm,
+        60 um taken), a 1 kHz servo loop over USB. Chosen (plausible, not published): the
+        link lengths and radii (which give a workspace of about that size around the default
+        working point), the inertias, masses and damping. S. Martin and N. Hillier,
+        "Characterisation of the Novint Falcon haptic device for application as a robot
+        manipulator", ACRA 2009, measure its kinematics. The Force Dimension delta.3 and
+        omega.3 share the architecture with larger forces (12-20 N) and finer resolution
+        (< 0.01-0.02 mm).
+
+        Raises
+        ------
+        ParameterError
+            For non-positive dimensions or a working point the arms cannot reach.
+        """
+        R = positive("base_radius", base_radius, "m")
+        r = nonnegative("effector_radius", effector_radius, "m")
+        a = positive("link_upper", link_upper, "m")
+        b = positive("link_fore", link_fore, "m")
+        Ij = positive("joint_inertia", joint_inertia, "kg m^2")
+        me = nonnegative("effector_mass", effector_mass, "kg")
+        bj = nonnegative("joint_damping", joint_damping, "N m s/rad")
+        p = np.array(_triple("working_point", working_point), dtype=np.float64)
+        J, angles = delta_kinematics(R, r, a, b, p)
+        M, B = _cartesian(J, Ij * np.eye(3), bj * np.eye(3), me)
+        details = {"base_radius": R, "effector_radius": r, "link_upper": a, "link_fore": b, "joint_inertia": Ij,
+                   "effector_mass": me, "joint_damping": bj, "working_point": p.tolist(),
+                   "joint_angles": angles.tolist(), "jacobian": J.tolist()}
+        return cls(mass=M, damping=B, period=period, position_resolution=position_resolution, max_force=max_force,
+                   name=kw.pop("name", "delta"), details=details, **kw)
+
+
+
+def _triple(name: str, value) -> tuple[float, float, float]:
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise fail(name, value, "three finite numbers") from None
+    if arr.shape != (3,) or not np.all(np.isfinite(arr)):
+        raise fail(name, value, "three finite numbers")
+    return tuple(float(v) for v in arr)
+
+
+def _cartesian(J: np.ndarray, M_joint: np.ndarray, B_joint: np.ndarray, m_end: float):
+    """(M_x, B_x) = (J^-T M_q J^-1 + m I, J^-T B_q J^-1), symmetrised: joint-space inertia
+    and damping seen at the handle through the Jacobian J = dp/dq."""
+    Jinv = np.linalg.inv(J)
+    M = Jinv.T @ M_joint @ Jinv + m_end * np.eye(J.shape[0])
+    B = Jinv.T @ B_joint @ Jinv
+    return 0.5 * (M + M.T), 0.5 * (B + B.T)
+
+
+def _closed_chain_jacobian(ends: np.ndarray, elbows: np.ndarray, delbows: np.ndarray) -> np.ndarray:
+    """J = dp/dtheta of a parallel linkage whose i-th distal link keeps |ends_i - elbows_i|
+    constant, ends_i moving rigidly with p and elbow i with motor angle theta_i:
+    (ends_i - elbows_i) . dp = (ends_i - elbows_i) . de_i/dtheta_i dtheta_i, so
+    J = A^-1 diag(a_i . de_i/dtheta_i) with A's rows a_i = ends_i - elbows_i."""
+    A = ends - elbows
+    return np.linalg.solve(A, np.diag(np.einsum("ij,ij->i", A, delbows)))
+
+
+def serial_arm_kinematics(l1: float, l2: float, q) -> tuple[np.ndarray, np.ndarray]:
+    """Forward kinematics of :meth:`Device.serial_arm`: the handle position p (m), shape (3,),
+    and J = dp/dq (m/rad), shape (3, 3), at joint angles q (rad).
+
+    Raises
+    ------
+    ParameterError
+        At a singular configuration (r = 0, or the arm stretched: cos theta_2 cos theta_3 +
+        sin theta_2 sin theta_3 = 0, i.e. theta_2 - theta_3 = +-pi/2).
+    """
+    t1, t2, t3 = (float(v) for v in q)
+    r = l1 * math.cos(t2) + l2 * math.sin(t3)
+    p = np.array([r * math.sin(t1), r * math.cos(t1), l1 * math.sin(t2) - l2 * math.cos(t3)])
+    J = np.array([[r * math.cos(t1), -l1 * math.sin(t2) * math.sin(t1), l2 * math.cos(t3) * math.sin(t1)],
+                  [-r * math.sin(t1), -l1 * math.sin(t2) * math.cos(t1), l2 * math.cos(t3) * math.cos(t1)],
+                  [0.0, l1 * math.cos(t2), l2 * math.sin(t3)]])
+    if abs(np.linalg.det(J)) < 1e-9 * (l1 + l2) ** 3:
+        raise fail("joint_angles", [t1, t2, t3], "a non-singular configuration (r > 0, the arm not stretched)")
+    return p, J
+
+
+def delta_kinematics(R: float, r: float, a: float, b: float, p) -> tuple[np.ndarray, np.ndarray]:
+    """Jacobian dp/dtheta (m/rad), shape (3, 3), and motor angles (rad) of the delta of
+    :meth:`Device.delta` at effector position p (m): arm i at azimuth phi_i = 2 pi i / 3,
+    its elbow e_i = (R + a cos theta_i) u_i - a sin theta_i z (theta_i > 0 down), its forearm
+    end p + r u_i.
+
+    Raises
+    ------
+    ParameterError
+        If an arm cannot reach p.
+    """
+    from scipy.optimize import brentq
+
+    p = np.asarray(p, dtype=np.float64)
+    angles = np.empty(3)
+    ends = np.empty((3, 3))
+    elbows = np.empty((3, 3))
+    delbows = np.empty((3, 3))
+    z = np.array([0.0, 0.0, 1.0])
+    for i in range(3):
+        phi = 2 * math.pi * i / 3
+        u = np.array([math.cos(phi), math.sin(phi), 0.0])
+        end = p + r * u
+
+        def gap(th, u=u, end=end):
+            e = (R + a * math.cos(th)) * u - a * math.sin(th) * z
+            return float(np.dot(end - e, end - e)) - b * b
+
+        grid = np.linspace(-math.pi / 2, math.pi / 2, 181)
+        vals = [gap(t) for t in grid]
+        roots = [brentq(gap, grid[j], grid[j + 1], xtol=1e-15) for j in range(180) if vals[j] * vals[j + 1] < 0]
+        if not roots:
+            raise ParameterError(f"working_point = {p.tolist()} is not allowed: arm {i + 1} of the delta cannot reach "
+                                 f"it with links {a:g} m and {b:g} m")
+        th = max(roots, key=lambda t: math.cos(t))  # the elbow out, the upper arm nearest the horizontal
+        angles[i] = th
+        ends[i] = end
+        elbows[i] = (R + a * math.cos(th)) * u - a * math.sin(th) * z
+        delbows[i] = -a * math.sin(th) * u - a * math.cos(th) * z
+    return _closed_chain_jacobian(ends, elbows, delbows), angles
 
 
 def five_bar_jacobian(a1: float, a2: float, base: float, p) -> tuple[np.ndarray, np.ndarray]:
@@ -366,11 +589,8 @@ def five_bar_jacobian(a1: float, a2: float, base: float, p) -> tuple[np.ndarray,
         th = phi + gam if j == 0 else phi - gam  # elbows out
         angles[j] = th
         elbows[j] = b + a1 * np.array([math.cos(th), math.sin(th)])
-    A = p - elbows
     de = a1 * np.column_stack([-np.sin(angles), np.cos(angles)])
-    diag = np.einsum("ij,ij->i", A, de)
-    J = np.linalg.solve(A, np.diag(diag))
-    return J, angles
+    return _closed_chain_jacobian(np.tile(p, (2, 1)), elbows, de), angles
 
 
 def critical_stiffness(mass: float, damping: float, period: float, delay: int = 0, *, handle_mass: float | None = None,

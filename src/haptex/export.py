@@ -835,34 +835,19 @@ static void cp_surface(const double *p, double *ph, double *dist)
 """
 
 
-GRATINGS = 3
+GRATINGS = _kernels.SURFACE_GRATINGS
 """The exported texture kind of a sum of gratings h(x, y) (tables AMPLITUDE, KX, KY, PHASE)."""
 
 
 def _surface_spec(algorithm: Algorithm):
-    """(code, params, kind, coeffs, aux) of an algorithm over a surface, as
-    :meth:`Algorithm.kernel_spec` gives them over a profile: an extruded profile exports the
-    profile's tables (and bound tree), a sum of gratings its wave vectors (and the surface
-    search's constants); a sampled height map is refused."""
-    from .closest import search_data, surface_search_data
-    from .surfaces import Extruded, SumOfGratings
+    """(code, params, kind, coeffs, aux) of an algorithm over a surface
+    (:meth:`Algorithm.kernel_spec`); a sampled height map is refused (not exported yet)."""
+    from .surfaces import SampledSurface
 
-    from .algorithms import _CODES
-
-    tex = algorithm.texture
-    code = _CODES[algorithm.letter]
-    prm = algorithm.kernel_params()
-    if algorithm.letter == "W":
-        return code, prm, _kernels.TEXTURE_FLAT, _kernels.empty_coeffs(), np.zeros(1)
-    if isinstance(tex, Extruded):
-        kind, coeffs = tex.profile.kernel_data()
-        aux = search_data(tex.profile) if algorithm.letter in "DE" else algorithm._aux()
-        return code, prm, kind, coeffs, aux
-    if isinstance(tex, SumOfGratings):
-        _, gc, gaux = surface_search_data(tex)
-        return code, prm, GRATINGS, gc, gaux if algorithm.letter in "DE" else algorithm._aux()
-    raise ParameterError(f"texture = {tex!r} is not allowed for export yet: surfaces export as sums of gratings or "
-                         "extruded profiles")
+    if isinstance(algorithm.texture, SampledSurface):
+        raise ParameterError(f"texture = {algorithm.texture!r} is not allowed for export yet: surfaces export as sums "
+                             "of gratings or extruded profiles")
+    return algorithm.kernel_spec()
 
 
 def export_c(algorithm: Algorithm, out, max_force: float) -> tuple[Path, Path]:

@@ -238,20 +238,8 @@ def step_plane(deflection, displacement, max_deflection: float, stick_deflection
     """
     d = np.asarray(deflection, dtype=np.float64)
     dp = np.asarray(displacement, dtype=np.float64)
-    dm = float(max_deflection)
-    if stick_deflection is None:
-        new = d + dp
-    else:
-        r = math.hypot(d[0], d[1])
-        if r > 0.0:
-            u = d / r
-        else:
-            n = math.hypot(dp[0], dp[1])
-            if n == 0.0:
-                return d.copy()
-            u = dp / n
-        a = float(u @ dp)
-        radial = _kernels.presliding_step_smooth(r, a, dm, float(stick_deflection), table)
-        new = radial * u + (dp - a * u)
-    size = math.hypot(new[0], new[1])
-    return new * (dm / size) if size > dm else new
+    z = -1.0 if stick_deflection is None else float(stick_deflection)
+    tab = np.zeros(1) if table is None else table
+    dx, dy, _ = _kernels.presliding_plane(float(d[0]), float(d[1]), float(dp[0]), float(dp[1]),
+                                          float(max_deflection), z, tab)
+    return np.array([dx, dy])

@@ -31,7 +31,8 @@ def _finish(plt, fig, path, title: str = "", dpi: int = 200, title_size=None) ->
 
 
 def plot_simulation(result, path, title: str = "") -> Path:
-    """Position, force and energy of a simulation, as in the paper's Figs. 5–7.
+    """Position, force and energy per axis of a simulation (2-D or 3-D), as in the paper's
+    Figs. 5–7.
 
     Parameters
     ----------
@@ -50,16 +51,17 @@ def plot_simulation(result, path, title: str = "") -> Path:
     plt = _pyplot()
     fig, axes = plt.subplots(3, 1, figsize=(8, 8), sharex=True)
     t = result.time
-    axes[0].plot(t, result.position[:, 0] * 1e3, label="x")
-    axes[0].plot(t, result.position[:, 1] * 1e3, label="z")
+    axes_names = "xz" if result.dimension == 2 else "xyz"
+    for i, a in enumerate(axes_names):
+        axes[0].plot(t, result.position[:, i] * 1e3, label=a)
     axes[0].set_ylabel("position (mm)")
     axes[0].legend(loc="upper right")
-    axes[1].plot(t, result.force[:, 0], label="f_x")
-    axes[1].plot(t, result.force[:, 1], label="f_z")
+    for i, a in enumerate(axes_names):
+        axes[1].plot(t, result.force[:, i], label=f"f_{a}")
     axes[1].set_ylabel("force command (N)")
     axes[1].legend(loc="upper right")
-    axes[2].plot(t, result.energy_x * 1e3, label="E_x = -Σ f_x Δx")
-    axes[2].plot(t, result.energy_z * 1e3, label="E_z = -Σ f_z Δz")
+    for i, a in enumerate(axes_names):
+        axes[2].plot(t, result.energy_per_axis[:, i] * 1e3, label=f"E_{a} = -Σ f_{a} Δ{a}")
     axes[2].set_ylabel("energy absorbed (mJ)")
     axes[2].set_xlabel("time (s)")
     axes[2].legend(loc="lower left")

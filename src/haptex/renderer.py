@@ -11,46 +11,107 @@ import math
 
 import numpy as np
 
+from dataclasses import dataclass
+
 from . import _kernels
-from ._kernels import (N_RS, RS_CLAMPS, RS_EX, RS_EZ, RS_FAULTS, RS_HAVE_LAST, RS_LFX, RS_LFZ, RS_LIMIT, RS_LX, RS_LZ,
-                       RS_MAXF, RS_MAXWORK, RS_MONITOR, RS_WORK)
+from ._kernels import (N_PC, N_RS, PC_ACTIVE, PC_ALPHA, PC_BMAX, PC_E, PC_EAX, PC_HAVE, PC_ON, PC_REF, PC_REF_STORED,
+                       PC_REF_ZERO, PC_T, RS_CLAMPS, RS_DIM, RS_FAULTS, RS_LIMIT, RS_MAXF, RS_MAXWORK, RS_MONITOR,
+                       RS_WORK)
 from ._kernels import render_step as _render_step
-from ._validation import fail, optional_positive
+from ._validation import fail, optional_positive, positive
 from .algorithms import Algorithm
 
-__all__ = ["Renderer", "WORKSPACE_LIMIT"]
+__all__ = ["Renderer", "PassivityController", "WORKSPACE_LIMIT"]
 
 _REAL = (int, float, np.integer, np.floating)
 
 WORKSPACE_LIMIT = 1e3
 """Positions with a coordinate beyond +-1 km (m) are treated as faults (zero force)."""
 
+
+@dataclass(frozen=True)
+class PassivityController:
+    """A time-domain passivity observer and controller for a servo loop.
+
+    The observer sums the energy the virtual environment absorbs, E = -sum f_{k-1} . dp_k,
+    from the force sent and the displacement sensed (Hannaford & Ryu 2002). When E falls
+    below a reference the controller adds a variable damper -alpha v (v the backward
+    difference of the sensed positions) that dissipates the deficit within one sample,
+    alpha = (E_ref - E) / (T |v|^2), bounded by ``max_damping``.
+
+    Parameters
+    ----------
+    max_damping : float
+        Largest damping the controller may add (N s/m), > 0: what the device can render
+        without going unstable itself (for a device with viscous damping b and sampling
+        period T, a virtual damper is passive up to about b; Colgate & Schenkel 1997).
+    reference : {"stored", "zero"}
+        ``"zero"``: E_ref = 0, the observer of Hannaford & Ryu (2002): the environment may
+        give back all it absorbed. ``"stored"`` (default): E_ref = kappa_0 d^2 / 2, the energy
+        still stored in the algorithm's virtual spring at its own penetration d (Table I):
+        what the environment has absorbed must cover what it can still give back, so energy
+        generated anywhere along a path (a non-conservative field, the zero-order hold) is
+        dissipated as it appears — a reference energy in the style of Ryu, Preusche,
+        Hannaford & Hirzinger (2005).
+
+    Raises
+    ------
+    ParameterError
+        If ``max_damping`` is not > 0 or ``reference`` is not one of the two.
+
+    References
+    ----------
+    B. Hannaford and J.-H. Ryu, "Time-domain passivity control of haptic interfaces", IEEE
+    Trans. Robotics and Automation 18(1), 2002, pp. 1–10.
+    J.-H. Ryu, C. Preusche, B. Hannaford and G. Hirzinger, "Time domain passivity control
+    with reference energy following", IEEE Trans. Control Systems Technology 13(5), 2005,
+    pp. 737–742.
+    """
+
+    max_damping: float
+    reference: str = "stored"
+
+    def __post_init__(self):
+        object.__setattr__(self, "max_damping", positive("max_damping", self.max_damping, "N s/m"))
+        if self.reference not in ("stored", "zero"):
+            raise fail("reference", self.reference, 'one of "stored", "zero"')
+
+
 class Renderer:
-    """Compiled force rendering for a servo loop.
+    """Compiled force rendering for a servo loop, over a profile ([x, z]) or a surface
+    ([x, y, z]).
 
     Parameters
     ----------
     algorithm : Algorithm
-        W or A–G, from :func:`haptex.algorithm`.
+        W or A–G, from :func:`haptex.algorithm`; its texture's dimension sets the
+        positions' (2 over a profile, 3 over a surface).
     max_force : float, optional
         Largest force magnitude to command (N); larger forces are scaled down to it and
         counted in :attr:`clamps`. ``None``: no limit.
     energy_monitor : bool, optional
         Keep the passivity observer of Hannaford & Ryu (2002): the running sum of
         -f . dp, exposed as :attr:`energy` (J). It decreases when the texture supplies
-        energy to the hand.
+        energy to the hand. Implied by ``passivity_controller``.
+    passivity_controller : PassivityController, optional
+        Add the passivity controller's damping to the force (:class:`PassivityController`);
+        needs ``period``.
+    period : float, optional
+        The servo period T (s) at which :meth:`step` is called; required with a
+        ``passivity_controller`` (its velocity estimate is dp / T).
 
     Raises
     ------
     ParameterError
-        If ``algorithm`` is not a haptex algorithm or ``max_force`` is not > 0.
+        If ``algorithm`` is not a haptex algorithm, ``max_force`` is not > 0, or a
+        controller is given without a period.
 
     Notes
     -----
     ``step`` never raises and never returns a non-finite force: a position that is not
-    two finite numbers within +-1 km returns zero force and is counted in
-    :attr:`faults`. One renderer per device; it keeps state between calls and is **not
-    thread-safe** — call it from one thread (the servo thread) only.
+    finite numbers within +-1 km returns zero force and is counted in :attr:`faults`.
+    One renderer per device; it keeps state between calls and is **not thread-safe** —
+    call it from one thread (the servo thread) only.
 
     References
     ----------
@@ -58,41 +119,63 @@ class Renderer:
     IEEE Trans. Robotics and Automation 18(1), 2002, pp. 1–10.
     """
 
-    def __init__(self, algorithm: Algorithm, max_force: float | None = None, energy_monitor: bool = False):
+    def __init__(self, algorithm: Algorithm, max_force: float | None = None, energy_monitor: bool = False,
+                 passivity_controller: PassivityController | None = None, period: float | None = None):
         if not isinstance(algorithm, Algorithm):
             raise fail("algorithm", algorithm, "a haptex algorithm (haptex.algorithm(...))")
         optional_positive("max_force", max_force, "N")
+        if passivity_controller is not None and not isinstance(passivity_controller, PassivityController):
+            raise fail("passivity_controller", passivity_controller, "None or a haptex.PassivityController")
+        if passivity_controller is not None and period is None:
+            raise fail("period", period, "the servo period in s (> 0) with a passivity_controller")
+        T = None if period is None else positive("period", period, "s")
         self.algorithm = algorithm
+        self.passivity_controller = passivity_controller
+        self.dimension = algorithm.dimension
         code, prm, kind, coeffs, aux = algorithm.kernel_spec()
         self._code = int(code)
         self._kind = int(kind)
         self._coeffs = np.ascontiguousarray(coeffs, dtype=np.float64)
         self._prm = np.ascontiguousarray(prm, dtype=np.float64)
-        self._aux = np.ascontiguousarray(aux, dtype=np.float64)
+        self._aux = np.ascontiguousarray(aux, dtype=np.float64) if algorithm.kernel_aux_used else None
         self._st = np.zeros(_kernels.N_STATE)
         self._rs = np.zeros(N_RS)
+        self._pc = np.zeros(N_PC)
+        self._buf = np.zeros(6)
         self._rs[RS_MAXF] = math.inf if max_force is None else float(max_force)
-        self._rs[RS_MONITOR] = 1.0 if energy_monitor else 0.0
+        self._rs[RS_MONITOR] = 1.0 if (energy_monitor or passivity_controller is not None) else 0.0
         self._rs[RS_LIMIT] = WORKSPACE_LIMIT
+        self._rs[RS_DIM] = self.dimension
+        if passivity_controller is not None:
+            self._pc[PC_ON] = 1.0
+            self._pc[PC_BMAX] = passivity_controller.max_damping
+            self._pc[PC_REF] = PC_REF_STORED if passivity_controller.reference == "stored" else PC_REF_ZERO
+            self._pc[PC_T] = T
         # compile (or load from the cache) now, not in the servo loop
-        _render_step(0.0, 1.0, self._code, self._kind, self._coeffs, self._prm, self._aux, self._st, self._rs)
+        self._tick(0.0, 0.0, 1.0)
         self.reset()
+
+    def _tick(self, x, y, z):
+        return _render_step(x, y, z, self._code, self._kind, self._coeffs, self._prm, self._aux, self._st, self._rs,
+                            self._pc, self._buf)
 
     def step(self, p):
         """Force to command for one probe position.
 
         Parameters
         ----------
-        p : sequence of two real numbers
-            Probe position [x, z] (m): a tuple, list or NumPy array of exactly two real
-            (not boolean, not complex) numbers.
+        p : sequence of two or three real numbers
+            Probe position (m): [x, z] over a profile, [x, y, z] over a surface; a tuple,
+            list or NumPy array of exactly :attr:`dimension` real (not boolean, not
+            complex) numbers.
 
         Returns
         -------
-        tuple of two floats
-            Force [f_x, f_z] (N); (0.0, 0.0) for a faulty position: anything else than two
-            finite real numbers within +-1 km (strings, bytes, dicts, complex numbers,
-            booleans, three coordinates, ...), counted in :attr:`faults`.
+        tuple of floats
+            Force [f_x, f_z] or [f_x, f_y, f_z] (N); zeros for a faulty position: anything
+            else than finite real numbers within +-1 km (strings, bytes, dicts, complex
+            numbers, booleans, the wrong number of coordinates, ...), counted in
+            :attr:`faults`.
 
         Notes
         -----
@@ -100,18 +183,23 @@ class Renderer:
         amount of work for any input (:attr:`last_work`).
         """
         try:
-            if isinstance(p, (str, bytes, bytearray, dict)) or len(p) != 2:
+            if isinstance(p, (str, bytes, bytearray, dict)) or len(p) != self.dimension:
                 raise TypeError
-            x, z = p[0], p[1]
-            if not (isinstance(x, _REAL) and isinstance(z, _REAL)) or isinstance(x, bool) or isinstance(z, bool):
+            if self.dimension == 2:
+                x, z = p[0], p[1]
+                if not (isinstance(x, _REAL) and isinstance(z, _REAL)) or isinstance(x, bool) or isinstance(z, bool):
+                    raise TypeError
+                fx, _, fz = self._tick(float(x), 0.0, float(z))
+                return fx, fz
+            x, y, z = p[0], p[1], p[2]
+            if not all(isinstance(c, _REAL) and not isinstance(c, bool) for c in (x, y, z)):
                 raise TypeError
-            return _render_step(float(x), float(z), self._code, self._kind, self._coeffs, self._prm, self._aux,
-                                self._st, self._rs)
+            return self._tick(float(x), float(y), float(z))
         except Exception:  # a malformed p: never let it reach the motor loop
             self._rs[RS_FAULTS] += 1.0
-            self._rs[RS_HAVE_LAST] = 0.0
+            self._pc[PC_HAVE] = 0.0
             self._rs[RS_WORK] = 0.0
-            return (0.0, 0.0)
+            return (0.0,) * self.dimension
 
     @property
     def last_work(self) -> int:
@@ -125,14 +213,18 @@ class Renderer:
         return int(self._rs[RS_MAXWORK])
 
     def reset(self) -> None:
-        """Clear the algorithm's state (friction, warm start), the energy monitor and the counters."""
+        """Clear the algorithm's state (friction, warm start), the observer, the controller and
+        the counters."""
         self._st[:] = 0.0
-        for k in (RS_FAULTS, RS_CLAMPS, RS_HAVE_LAST, RS_LX, RS_LZ, RS_LFX, RS_LFZ, RS_EX, RS_EZ, RS_WORK, RS_MAXWORK):
+        for k in (RS_FAULTS, RS_CLAMPS, RS_WORK, RS_MAXWORK):
             self._rs[k] = 0.0
+        on, bmax, ref, T = (self._pc[k] for k in (PC_ON, PC_BMAX, PC_REF, PC_T))
+        self._pc[:] = 0.0
+        self._pc[PC_ON], self._pc[PC_BMAX], self._pc[PC_REF], self._pc[PC_T] = on, bmax, ref, T
 
     @property
     def faults(self) -> int:
-        """Calls whose position was not two finite numbers within +-1 km (zero force returned)."""
+        """Calls whose position was not finite numbers within +-1 km (zero force returned)."""
         return int(self._rs[RS_FAULTS])
 
     @property
@@ -144,16 +236,30 @@ class Renderer:
     def energy(self) -> float:
         """Passivity observer: energy absorbed by the virtual environment so far (J);
         negative means the rendering has supplied energy. 0 without ``energy_monitor``."""
-        return float(self._rs[RS_EX] + self._rs[RS_EZ])
+        return float(self._pc[PC_E])
 
     @property
-    def energy_per_axis(self) -> tuple[float, float]:
-        """(E_x, E_z) of the passivity observer (J), the paper's Section V-B sums."""
-        return float(self._rs[RS_EX]), float(self._rs[RS_EZ])
+    def energy_per_axis(self) -> tuple[float, ...]:
+        """(E_x, E_z) or (E_x, E_y, E_z) of the passivity observer (J), the paper's Section
+        V-B sums."""
+        return tuple(float(self._pc[PC_EAX + i]) for i in range(self.dimension))
 
     @property
-    def adhesion(self) -> float | None:
-        """F's adhesion point (m) while in contact, else None."""
+    def controller_active(self) -> int:
+        """Ticks on which the passivity controller added damping."""
+        return int(self._pc[PC_ACTIVE])
+
+    @property
+    def controller_damping(self) -> float:
+        """The damping alpha the controller added on the last tick (N s/m), 0 if none."""
+        return float(self._pc[PC_ALPHA])
+
+    @property
+    def adhesion(self):
+        """F's adhesion point while in contact (m): x over a profile, (x, y) over a surface;
+        else None."""
         if self.algorithm.letter != "F" or self._st[_kernels.S_CONTACT] == 0.0:
             return None
+        if self.dimension == 3:
+            return float(self._st[_kernels.S_ADH]), float(self._st[_kernels.S_ADHY])
         return float(self._st[_kernels.S_ADH])

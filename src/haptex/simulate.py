@@ -24,15 +24,17 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.linalg import expm
 
-from ._kernels import (_NZ, _NZ_MODE, DIVERGED_ENERGY, DIVERGED_FORCE, DIVERGED_POSITION, DIVERGED_VELOCITY, N_SUMMARY, S_DAMP,
-                       S_DIVERGED, S_DIVERGED_WHAT, S_EX, S_EZ, S_FRIC, S_KE, S_KE0, S_MAXPEN, S_NSAMP, S_OP, S_SAT,
-                       S_TAILSTART_E)
+from ._kernels import (DIVERGED_ENERGY, DIVERGED_FORCE, DIVERGED_POSITION, DIVERGED_VELOCITY, N_FAST, N_SUMMARY,
+                       PC_REF_STORED, PC_REF_ZERO, S_DAMP, S_DIVERGED, S_DIVERGED_WHAT, S_EX, S_EY, S_EZ, S_FRIC, S_KE,
+                       S_KE0, S_MAXPEN, S_OP, S_PC_ACTIVE, S_SAT, S_TAILSTART_E)
 from ._kernels import run_batch as _run_batch
 from ._kernels import run_one as _run
+from ._kernels import tail_amplitudes as _tail_amplitudes
 from ._validation import ParameterError, fail, nonnegative, positions, positive, whole
 from .algorithms import Algorithm
 from .devices import Device
 from .operators import Operator
+from .renderer import PassivityController
 
 __all__ = ["SimulationResult", "Oscillation", "simulate", "simulate_batch", "MEMORY_BUDGET", "SimulationWarning",
            "BALANCE_TOLERANCE"]
@@ -49,48 +51,47 @@ class SimulationWarning(RuntimeWarning):
 
 MEMORY_BUDGET = 2 * 1024**3
 """Largest time-series allocation (bytes) :func:`simulate` accepts: 2 GiB (96 bytes a
-recorded sample). Longer runs must record every n-th sample (``record_every``)."""
-
-_BYTES_PER_SAMPLE = 12 * 8
+recorded sample in the plane, 128 in space). Longer runs must record every n-th sample
+(``record_every``)."""
 
 
 # --------------------------------------------------------------------------------------
 # exact discretisation
 # --------------------------------------------------------------------------------------
 def _augmented(M: np.ndarray, B: np.ndarray, K: np.ndarray, C: np.ndarray, mode=None) -> np.ndarray:
-    """F of dz/dt = F z for z = [p, v, u, g, r]: M dv/dt = u + g - K p - (B + C) v,
-    du/dt = 0, dg/dt = r, dr/dt = 0.
+    """F of dz/dt = F z for z = [p, v, u, g, r] (n entries each, n = 2 or 3):
+    M dv/dt = u + g - K p - (B + C) v, du/dt = 0, dg/dt = r, dr/dt = 0.
 
     With ``mode`` = (M_m, M_h, K_s, C_s), z = [p, v, u, g, r, p_h, v_h]: the command u, the
     damping B and the sensing act on the motor side (p, v), the operator on the handle
     side: M_m dv/dt = u - B v - K_s (p - p_h) - C_s (v - v_h) and
     M_h dv_h/dt = g - K p_h - C v_h + K_s (p - p_h) + C_s (v - v_h)."""
+    n = M.shape[0]
+    eye = np.eye(n)
+    P, V, U, G, R, PH, VH = (slice(i * n, (i + 1) * n) for i in range(7))
+    F = np.zeros((5 * n, 5 * n) if mode is None else (7 * n, 7 * n))
+    F[P, V] = eye
+    F[G, R] = eye
     if mode is None:
         Minv = np.linalg.inv(M)
-        F = np.zeros((_NZ, _NZ))
-        F[0:2, 2:4] = np.eye(2)
-        F[2:4, 0:2] = -Minv @ K
-        F[2:4, 2:4] = -Minv @ (B + C)
-        F[2:4, 4:6] = Minv
-        F[2:4, 6:8] = Minv
-        F[6:8, 8:10] = np.eye(2)
+        F[V, P] = -Minv @ K
+        F[V, V] = -Minv @ (B + C)
+        F[V, U] = Minv
+        F[V, G] = Minv
         return F
     Mm, Mh, Ks, Cs = mode
     mi, hi = np.linalg.inv(Mm), np.linalg.inv(Mh)
-    F = np.zeros((_NZ_MODE, _NZ_MODE))
-    F[0:2, 2:4] = np.eye(2)
-    F[2:4, 0:2] = -mi @ Ks
-    F[2:4, 2:4] = -mi @ (B + Cs)
-    F[2:4, 4:6] = mi
-    F[2:4, 10:12] = mi @ Ks
-    F[2:4, 12:14] = mi @ Cs
-    F[6:8, 8:10] = np.eye(2)
-    F[10:12, 12:14] = np.eye(2)
-    F[12:14, 10:12] = -hi @ (K + Ks)
-    F[12:14, 12:14] = -hi @ (C + Cs)
-    F[12:14, 6:8] = hi
-    F[12:14, 0:2] = hi @ Ks
-    F[12:14, 2:4] = hi @ Cs
+    F[V, P] = -mi @ Ks
+    F[V, V] = -mi @ (B + Cs)
+    F[V, U] = mi
+    F[V, PH] = mi @ Ks
+    F[V, VH] = mi @ Cs
+    F[PH, VH] = eye
+    F[VH, PH] = -hi @ (K + Ks)
+    F[VH, VH] = -hi @ (C + Cs)
+    F[VH, G] = hi
+    F[VH, P] = hi @ Ks
+    F[VH, V] = hi @ Cs
     return F
 
 
@@ -107,43 +108,79 @@ def _van_loan(F: np.ndarray, Q: np.ndarray, T: float) -> tuple[np.ndarray, np.nd
     return Phi, 0.5 * (W + W.T)
 
 
-def _discretise(device: Device, op: Operator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per damping regime (0 outside, 1 inside): Phi (2, n, n), W_damping, W_operator, with
-    n = 10, or 14 for a device with a structural mode (see :func:`_augmented`)."""
+def _discretise(device: Device, op: Operator) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Per damping regime (0 outside, 1 inside): Phi (2, n_z, n_z), W_damping, W_operator,
+    with n_z = 5 n, or 7 n for a device with a structural mode (see :func:`_augmented`), and
+    the inverse of Phi's block from a held force to the end velocity (2, n, n), which the
+    sampled Coulomb friction reads."""
     T = device.period
+    n = device.dimension
     K, C = op.stiffness, op.damping
     mode = device.mode_matrices() if device.structural_mode else None
-    n = _NZ if mode is None else _NZ_MODE
-    p_op, v_op = (slice(0, 2), slice(2, 4)) if mode is None else (slice(10, 12), slice(12, 14))
-    Qop = np.zeros((n, n))  # the operator's power v' (g - K p - C v) on the body it holds
+    nz = 5 * n if mode is None else 7 * n
+    V, U = slice(n, 2 * n), slice(2 * n, 3 * n)
+    p_op, v_op = (slice(0, n), V) if mode is None else (slice(5 * n, 6 * n), slice(6 * n, 7 * n))
+    G = slice(3 * n, 4 * n)
+    Qop = np.zeros((nz, nz))  # the operator's power v' (g - K p - C v) on the body it holds
     Qop[v_op, p_op] = -0.5 * K
     Qop[p_op, v_op] = -0.5 * K.T
     Qop[v_op, v_op] = -0.5 * (C + C.T)
-    Qop[v_op, 6:8] = 0.5 * np.eye(2)
-    Qop[6:8, v_op] = 0.5 * np.eye(2)
-    Phi = np.empty((2, n, n))
-    Wd = np.empty((2, n, n))
-    Wo = np.empty((2, n, n))
+    Qop[v_op, G] = 0.5 * np.eye(n)
+    Qop[G, v_op] = 0.5 * np.eye(n)
+    Phi, Wd, Wo = (np.empty((2, nz, nz)) for _ in range(3))
+    Binv = np.empty((2, n, n))
     for reg, B in enumerate((device.damping_outside, device.damping)):
         F = _augmented(device.mass, B, K, C, mode)
-        Qd = np.zeros((n, n))  # dissipation: v' B v, and the mode's damper on v - v_h
-        Qd[2:4, 2:4] = B
+        Qd = np.zeros((nz, nz))  # dissipation: v' B v, and the mode's damper on v - v_h
+        Qd[V, V] = B
         if mode is not None:
-            Cs = mode[3]
-            Qd[2:4, 2:4] += Cs
-            Qd[12:14, 12:14] = Cs
-            Qd[2:4, 12:14] = -Cs
-            Qd[12:14, 2:4] = -Cs
+            Cs, VH = mode[3], slice(6 * n, 7 * n)
+            Qd[V, V] += Cs
+            Qd[VH, VH] = Cs
+            Qd[V, VH] = -Cs
+            Qd[VH, V] = -Cs
         Phi[reg], Wd[reg] = _van_loan(F, Qd, T)
         _, Wo[reg] = _van_loan(F, Qop, T)
-    return Phi, Wd, Wo
+        Binv[reg] = np.linalg.inv(Phi[reg][V, U])
+    return Phi, Wd, Wo, Binv
+
+
+def _diagonal(A: np.ndarray) -> bool:
+    """Diagonal to round-off: off-diagonal entries at most 1e-13 of the largest entry (the
+    Cartesian matrices of a symmetric linkage at its centre carry ~1e-17 of noise there)."""
+    return bool(np.all(np.abs(A - np.diag(np.diag(A))) <= 1e-13 * np.abs(A).max()))
+
+
+def _fast_coefficients(device: Device, op: Operator) -> np.ndarray:
+    """The decoupled fast path's per-axis closed forms, shape (2, n, N_FAST) (see
+    :func:`haptex._kernels.run_one`), for a rigid device with diagonal mass and damping
+    matrices pushed by a constant force; shape (0, n, N_FAST) otherwise (the general path).
+
+    Each axis is the 1-DOF mass-damper m dv/dt = w - b v under a held force w: its exact
+    transition and damping energy come from the same Van Loan integrals as the general path,
+    on the axis alone."""
+    n = device.dimension
+    if (device.structural_mode or not op.constant_push or op.rest_length > 0
+            or not all(_diagonal(A) for A in (device.mass, device.damping, device.damping_outside))):
+        return np.zeros((0, n, N_FAST))
+    out = np.empty((2, n, N_FAST))
+    zero = np.zeros((1, 1))
+    for reg, B in enumerate((device.damping_outside, device.damping)):
+        for i in range(n):
+            F = _augmented(device.mass[i:i + 1, i:i + 1], B[i:i + 1, i:i + 1], zero, zero)
+            Qd = np.zeros((5, 5))
+            Qd[1, 1] = B[i, i]
+            Phi, W = _van_loan(F, Qd, device.period)  # z = [p, v, u, g, r] of one axis; w in u's slot
+            out[reg, i] = (Phi[0, 1], Phi[0, 2], Phi[1, 1], Phi[1, 2], W[1, 1], 2 * W[1, 2], W[2, 2])
+    return out
 
 
 def _mass_inputs(device: Device) -> tuple[np.ndarray, np.ndarray]:
     """(M, modal) for the compiled loop: the whole mass and no modal data for a rigid
     device; the motor side and [M_h, K_s] with a structural mode."""
+    n = device.dimension
     if not device.structural_mode:
-        return device.mass, np.zeros((0, 2, 2))
+        return device.mass, np.zeros((0, n, n))
     Mm, Mh, Ks, _ = device.mode_matrices()
     return Mm, np.stack([Mh, Ks])
 
@@ -190,21 +227,25 @@ class Oscillation:
     Attributes
     ----------
     oscillating : bool
-        True when either axis oscillates (:class:`AxisOscillation`): a lateral limit cycle
+        True when any axis oscillates (:class:`AxisOscillation`): a lateral limit cycle
         counts as much as one along the normal.
     axis : str
-        ``"x"`` or ``"z"``: the axis reported in ``amplitude``, ``decay_ratio`` and
-        ``frequency`` — the oscillating one with the larger amplitude, else the larger.
+        ``"x"``, ``"y"`` (3-D) or ``"z"``: the axis reported in ``amplitude``,
+        ``decay_ratio`` and ``frequency`` — the oscillating one with the larger amplitude,
+        else the larger.
     amplitude, decay_ratio, frequency : float
         That axis's figures (m, 1, Hz).
     energy_per_cycle : float
         Net energy the environment supplied per cycle of that axis's frequency in the tail
-        (J): minus the change of E_x + E_z divided by the number of cycles; > 0 feeds it.
+        (J): minus the change of the summed per-axis energies divided by the number of
+        cycles; > 0 feeds it.
     threshold : float
         Amplitude below which motion counts as rest (m): the larger of the encoder's
         position resolution and 1e-7 m.
     x, z : AxisOscillation
         The verdict on each axis.
+    y : AxisOscillation or None
+        The verdict along y in 3-D; None in the plane.
     """
 
     oscillating: bool
@@ -216,40 +257,86 @@ class Oscillation:
     axis: str = "z"
     x: AxisOscillation | None = None
     z: AxisOscillation | None = None
+    y: AxisOscillation | None = None
 
 
-def _axis_oscillation(u: np.ndarray, tail_duration: float, threshold: float, texture_freqs=()) -> AxisOscillation:
-    n = u.size
-    t = np.arange(n, dtype=np.float64)
-    u = u - np.polyval(np.polyfit(t, u, 1), t)  # steady sliding or drift is not an oscillation
-    a1 = 0.5 * float(np.ptp(u[: n // 2]))
-    a2 = 0.5 * float(np.ptp(u[n // 2:]))
-    ratio = a2 / a1 if a1 > 0 else (math.inf if a2 > 0 else 0.0)
-    spec = np.abs(np.fft.rfft((u - u.mean()) * np.hanning(n))) ** 2
-    spec[0] = 0.0
-    freq = float(np.argmax(spec) / tail_duration) if spec.max() > 0 else 0.0
-    if not a2 > threshold:
-        freq = 0.0
-    osc = bool(a2 > threshold and ratio >= 0.9 and freq * tail_duration >= 3)
-    driven = osc and any(abs(freq - n * ft) <= 1.5 / tail_duration for ft in texture_freqs for n in (1, 2, 3))
-    return AxisOscillation(osc and not driven, a2, float(ratio), freq, bool(driven))
+def _axis_verdicts(u: np.ndarray, tail_duration: float, threshold: np.ndarray, texture_freqs: np.ndarray):
+    """The verdict of :class:`AxisOscillation` on N runs at once.
+
+    ``u`` (N, m) is one axis's tail, sampled evenly over ``tail_duration`` (s); ``threshold``
+    (N,) in m; ``texture_freqs`` (N, k) the texture rates of each run (Hz, NaN-padded).
+    Returns arrays (N,): oscillating, amplitude, decay ratio, frequency, texture driven.
+    The detrended half amplitudes are computed by the compiled
+    :func:`haptex._kernels.tail_amplitudes`, the spectrum only for the runs that move."""
+    N, n = u.shape
+    a1 = np.empty(N)
+    a2 = np.empty(N)
+    _tail_amplitudes(u, a1, a2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(a1 > 0, a2 / np.where(a1 > 0, a1, 1.0), np.where(a2 > 0, np.inf, 0.0))
+    moving = np.flatnonzero(a2 > threshold)
+    freq = np.zeros(N)
+    if moving.size:
+        tc = np.arange(n, dtype=np.float64) - 0.5 * (n - 1)
+        um = u[moving]
+        um = um - um.mean(axis=1, keepdims=True)
+        um -= np.outer(um @ tc / (tc @ tc), tc)  # the detrended tail, as tail_amplitudes sees it
+        spec = np.abs(np.fft.rfft(um * np.hanning(n), axis=1)) ** 2
+        spec[:, 0] = 0.0
+        freq[moving] = np.where(spec.max(axis=1) > 0, np.argmax(spec, axis=1) / tail_duration, 0.0)
+    osc = (a2 > threshold) & (ratio >= 0.9) & (freq * tail_duration >= 3)
+    driven = np.zeros_like(osc)
+    if texture_freqs.shape[1]:
+        harmonics = texture_freqs[:, :, None] * np.arange(1, 4)
+        with np.errstate(invalid="ignore"):
+            near = np.abs(freq[:, None, None] - harmonics) <= 1.5 / tail_duration
+        driven = osc & np.any(near, axis=(1, 2))
+    return osc & ~driven, a2, ratio, freq, driven
+
+
+def _oscillations(tail: np.ndarray, tail_duration: float, e_env_tail: np.ndarray, threshold: np.ndarray,
+                  texture_freqs: np.ndarray) -> list[Oscillation]:
+    """Verdicts of N runs from their tail positions ``tail`` (N, m, d) [x, (y,) z] sampled
+    evenly over ``tail_duration`` (s); ``e_env_tail`` (N,) the change of the summed
+    environment energies over the tail (J); ``threshold`` (N,) m; ``texture_freqs`` (N, k)
+    the rates (Hz, NaN-padded) at which a scan crosses the texture's periods."""
+    N, m, d = tail.shape
+    names = "xz" if d == 2 else "xyz"
+    if m < 8 or tail_duration <= 0:
+        rest = AxisOscillation(False, 0.0, 0.0, 0.0)
+        return [Oscillation(False, 0.0, 0.0, 0.0, 0.0, float(threshold[i]), "z", rest, rest,
+                            rest if d == 3 else None) for i in range(N)]
+    cols = [_axis_verdicts(np.ascontiguousarray(tail[:, :, i]), tail_duration, threshold, texture_freqs)
+            for i in range(d)]
+    out = []
+    for r in range(N):
+        ax = {name: AxisOscillation(bool(c[0][r]), float(c[1][r]), float(c[2][r]), float(c[3][r]), bool(c[4][r]))
+              for name, c in zip(names, cols)}
+        key = max(names[::-1], key=lambda k: (ax[k].oscillating, ax[k].amplitude))
+        main = ax[key]
+        cycles = main.frequency * tail_duration
+        per_cycle = -float(e_env_tail[r]) / cycles if cycles > 0 else 0.0
+        out.append(Oscillation(any(a.oscillating for a in ax.values()), main.amplitude, main.decay_ratio,
+                               main.frequency, per_cycle, float(threshold[r]), key, ax["x"], ax["z"], ax.get("y")))
+    return out
 
 
 def _oscillation(tail: np.ndarray, tail_duration: float, e_env_tail: float, threshold: float,
                  texture_freqs=()) -> Oscillation:
-    """Verdict from the tail positions ``tail`` (n, 2) [x, z] sampled evenly over ``tail_duration``
-    (s); ``texture_freqs`` (Hz) are the rates at which a scan crosses the texture's periods."""
+    """The verdict of one run from its tail positions (m, d) (see :func:`_oscillations`)."""
     tail = np.asarray(tail, dtype=np.float64)
-    if tail.shape[0] < 8 or tail_duration <= 0:
-        rest = AxisOscillation(False, 0.0, 0.0, 0.0)
-        return Oscillation(False, 0.0, 0.0, 0.0, 0.0, threshold, "z", rest, rest)
-    ax = {name: _axis_oscillation(tail[:, i], tail_duration, threshold, texture_freqs) for i, name in enumerate("xz")}
-    key = max("zx", key=lambda k: (ax[k].oscillating, ax[k].amplitude))
-    main = ax[key]
-    cycles = main.frequency * tail_duration
-    per_cycle = -e_env_tail / cycles if cycles > 0 else 0.0
-    return Oscillation(ax["x"].oscillating or ax["z"].oscillating, main.amplitude, main.decay_ratio, main.frequency,
-                       float(per_cycle), threshold, key, ax["x"], ax["z"])
+    freqs = np.asarray(texture_freqs, dtype=np.float64).reshape(1, -1)
+    return _oscillations(tail[None], tail_duration, np.array([e_env_tail]), np.array([threshold]), freqs)[0]
+
+
+def _balance_error(ke, ke0, w_cmd, w_op, e_damp, e_fr):
+    """Relative closure of the energy balance (KE_end - KE_0) - (W_command + W_operator -
+    E_damping - E_friction) over the largest of its terms; arrays or floats."""
+    err = (ke - ke0) - (w_cmd + w_op - e_damp - e_fr)
+    scale = np.maximum.reduce([np.abs(w_cmd), np.abs(w_op), np.abs(e_damp), np.abs(ke), np.abs(ke0), np.abs(e_fr),
+                               np.full(np.shape(err), 1e-300)])
+    with np.errstate(invalid="ignore"):
+        return np.where(np.isfinite(err), np.abs(err) / scale, np.inf)
 
 
 @dataclass(frozen=True)
@@ -263,14 +350,16 @@ class SimulationResult:
     ----------
     time : ndarray, shape (n,)
         s.
-    position, velocity : ndarray, shape (n, 2)
-        Handle position [x, z] (m) and velocity (m/s).
-    force : ndarray, shape (n, 2)
+    position, velocity : ndarray, shape (n, d)
+        Handle position [x, z] (d = 2) or [x, y, z] (d = 3) (m) and velocity (m/s).
+    force : ndarray, shape (n, d)
         Force command applied over the interval ending at ``time`` (N).
     energy_x, energy_z : ndarray, shape (n,)
         Energy absorbed by the virtual environment, E_x = -sum f_x dp^x and
         E_z = -sum f_z dp^z (J), the sums of Section V-B; decreasing means the
         environment supplies energy.
+    energy_y : ndarray, shape (n,), or None
+        E_y in 3-D (J); None in the plane.
     damping_energy : ndarray, shape (n,)
         Energy dissipated by the device's viscous damping (J), exact.
     operator_work : ndarray, shape (n,)
@@ -286,13 +375,15 @@ class SimulationResult:
     oscillation : Oscillation
         Verdict on the last ``tail_fraction`` of the run.
     totals : dict
-        Final E_x, E_z, damping, operator work, kinetic energy and the energy dissipated by
-        the device's Coulomb friction (``friction_energy``) (J).
+        Final E_x, (E_y,) E_z, damping, operator work, kinetic energy and the energy
+        dissipated by the device's Coulomb friction (``friction_energy``) (J).
     diverged_at : int or None
         The sample (1-based) at which a position, velocity, force or energy became
         non-finite; the run stopped there and its series end before it. None if it did not.
     diverged_quantity : str or None
         Which: ``"position"``, ``"velocity"``, ``"force"`` or ``"energy"``.
+    passivity_control_samples : int
+        Samples on which the passivity controller added damping (0 without one).
     """
 
     time: np.ndarray
@@ -311,6 +402,19 @@ class SimulationResult:
     totals: dict = field(default_factory=dict)
     diverged_at: int | None = None
     diverged_quantity: str | None = None
+    energy_y: np.ndarray | None = None
+    passivity_control_samples: int = 0
+
+    @property
+    def dimension(self) -> int:
+        """2 (positions [x, z]) or 3 ([x, y, z])."""
+        return int(self.position.shape[1])
+
+    @property
+    def energy_per_axis(self) -> np.ndarray:
+        """[E_x, (E_y,) E_z] (J), shape (n, d)."""
+        cols = [self.energy_x] + ([self.energy_y] if self.energy_y is not None else []) + [self.energy_z]
+        return np.column_stack(cols)
 
     @property
     def diverged(self) -> bool:
@@ -332,17 +436,13 @@ class SimulationResult:
         """Relative closure of the energy balance at the end of the run.
 
         (KE_end - KE_0) - (W_command + W_operator - E_damping - E_friction), with
-        W_command = -(E_x + E_z), divided by the largest of those terms in magnitude.
+        W_command = -(E_x + (E_y +) E_z), divided by the largest of those terms in magnitude.
         Round-off only (about 1e-12) when the simulation is exact.
         """
         t = self.totals
-        w_cmd = -(t["energy_x"] + t["energy_z"])
-        e_fr = t.get("friction_energy", 0.0)
-        err = (t["kinetic_energy"] - self.initial_kinetic_energy) - (w_cmd + t["operator_work"] - t["damping_energy"]
-                                                                     - e_fr)
-        scale = max(abs(w_cmd), abs(t["operator_work"]), abs(t["damping_energy"]), abs(t["kinetic_energy"]),
-                    abs(self.initial_kinetic_energy), abs(e_fr), 1e-300)
-        return abs(err) / scale if math.isfinite(err) else math.inf
+        w_cmd = -(t["energy_x"] + t.get("energy_y", 0.0) + t["energy_z"])
+        return float(_balance_error(t["kinetic_energy"], self.initial_kinetic_energy, w_cmd, t["operator_work"],
+                                    t["damping_energy"], t.get("friction_energy", 0.0)))
 
 
 # --------------------------------------------------------------------------------------
@@ -353,20 +453,26 @@ def _prepare(algorithm, device, operator, duration, initial_position, initial_ve
         raise fail("algorithm", algorithm, "a haptex algorithm (haptex.algorithm(...))")
     if not isinstance(device, Device):
         raise fail("device", device, "a haptex.Device")
-    if device.dimension != 2:
-        raise ParameterError(f"device = {device.name!r} with dimension = {device.dimension} is not allowed here: the "
-                             "simulator takes planar devices (dimension 2) for now; 3-DOF devices are analysed "
-                             "(passivity_condition, max_passive_stiffness)")
     if not isinstance(operator, Operator):
         raise fail("operator", operator, "an operator from haptex.operators")
+    d = algorithm.dimension
+    over = "a profile h(x), positions [x, z]" if d == 2 else "a surface h(x, y), positions [x, y, z]"
+    if device.dimension != d:
+        raise ParameterError(f"device = {device.name!r} with dimension = {device.dimension} is not allowed with "
+                             f"{algorithm!r}: the texture is {over}, so the device needs dimension = {d} "
+                             f"({d}x{d} mass and damping)")
+    if operator.dimension != d:
+        raise ParameterError(f"operator of dimension {operator.dimension} is not allowed with {algorithm!r}: the "
+                             f"texture is {over}, so forces, anchors and paths need {d} coordinates")
     n_steps = _n_steps(duration, device.period)
     if n_steps < 1:
         raise fail("duration", duration, f"at least one sampling period ({device.period:g} s)")
     if operator.kinematic:
-        p0 = operator.setpoint_points[0].copy() if initial_position is None else _point("initial_position", initial_position)
+        p0 = operator.setpoint_points[0].copy() if initial_position is None else _point("initial_position",
+                                                                                        initial_position, d)
     else:
-        p0 = np.zeros(2) if initial_position is None else _point("initial_position", initial_position)
-    v0 = np.zeros(2) if initial_velocity is None else _point("initial_velocity", initial_velocity)
+        p0 = np.zeros(d) if initial_position is None else _point("initial_position", initial_position, d)
+    v0 = np.zeros(d) if initial_velocity is None else _point("initial_velocity", initial_velocity, d)
     return n_steps, p0, v0
 
 
@@ -384,10 +490,10 @@ def _n_steps(duration, period: float) -> int:
     return int(round(n))
 
 
-def _point(name, value):
-    arr = positions(value, name)
-    if arr.shape != (2,):
-        raise fail(name, value, "two finite numbers [x, z]")
+def _point(name, value, d: int):
+    arr = positions(value, name, dim=d)
+    if arr.shape != (d,):
+        raise fail(name, value, "two finite numbers [x, z]" if d == 2 else "three finite numbers [x, y, z]")
     return arr.copy()
 
 
@@ -413,8 +519,8 @@ def _check_conditioning(device: Device, operator: Operator) -> None:
 
 def _kernel_inputs(algorithm, device, operator, memo: dict | None = None):
     """Everything the compiled loop reads for one run. ``memo`` shares the discretisation
-    (six 20x20 matrix exponentials) between runs whose device and operator are the same
-    objects, as in sweeps of algorithm parameters."""
+    (the matrix exponentials) between runs whose device and operator are the same objects, as
+    in sweeps of algorithm parameters."""
     code, prm, kind, coeffs, aux = algorithm.kernel_spec()
     if device.structural_mode and operator.kinematic:
         raise ParameterError(f"operator = KinematicPath is not allowed with the structural mode of {device.name}: "
@@ -423,42 +529,60 @@ def _kernel_inputs(algorithm, device, operator, memo: dict | None = None):
     if T_alg is not None and not math.isclose(T_alg, device.period, rel_tol=1e-12):
         raise ParameterError(f"period = {T_alg:g} s of {algorithm!r} is not allowed on {device.name}: its virtual "
                              f"damper's backward difference must use the device's sampling period {device.period:g} s")
-    _check_conditioning(device, operator)
     key = (id(device), id(operator))
     if memo is None or key not in memo:
-        disc = _discretise(device, operator)
+        _check_conditioning(device, operator)
+        disc = _discretise(device, operator) + (_fast_coefficients(device, operator),)
         if memo is not None:
             memo[key] = disc
     else:
         disc = memo[key]
-    Phi, Wd, Wo = disc
+    Phi, Wd, Wo, Binv, fast = disc
     Bs = np.stack([device.damping_outside, device.damping])
     nominal = algorithm.penetration_kind == "nominal"
-    return code, prm, kind, coeffs, aux, nominal, Phi, Wd, Wo, Bs
+    aux = aux if algorithm.kernel_aux_used else None
+    return code, prm, kind, coeffs, aux, nominal, Phi, Wd, Wo, Bs, Binv, fast
+
+
+def _controller(pc: PassivityController | None) -> tuple[bool, float, float]:
+    """(on, max damping N s/m, reference code) of the compiled loop."""
+    if pc is None:
+        return False, 0.0, PC_REF_ZERO
+    if not isinstance(pc, PassivityController):
+        raise fail("passivity_controller", pc, "None or a haptex.PassivityController")
+    return True, pc.max_damping, PC_REF_STORED if pc.reference == "stored" else PC_REF_ZERO
 
 
 def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration: float, initial_position=None,
-             initial_velocity=None, record_every: int = 1, tail_fraction: float = 0.4) -> SimulationResult:
+             initial_velocity=None, record_every: int = 1, tail_fraction: float = 0.4,
+             passivity_controller: PassivityController | None = None) -> SimulationResult:
     """Simulate a device in closed loop with an algorithm, driven by an operator.
+
+    In the plane (a profile h(x), positions [x, z]) or in space (a surface h(x, y),
+    positions [x, y, z]): the algorithm's texture, the device and the operator must agree.
 
     Parameters
     ----------
     algorithm : Algorithm
         Any of W, A–G (:func:`haptex.algorithm`).
     device : Device
-        The sampled-data device.
+        The sampled-data device, of the algorithm's dimension.
     operator : Operator
-        From :mod:`haptex.operators`.
+        From :mod:`haptex.operators`, of the algorithm's dimension.
     duration : float
         Simulated time (s); rounded to whole sampling periods.
-    initial_position : array_like, shape (2,), optional
-        [x, z] (m); default [0, 0] (the start of the path for a KinematicPath).
-    initial_velocity : array_like, shape (2,), optional
+    initial_position : array_like, shape (d,), optional
+        [x, z] or [x, y, z] (m); default the origin (the start of the path for a
+        KinematicPath).
+    initial_velocity : array_like, shape (d,), optional
         m/s; default zero.
     record_every : int, optional
         Record one sample in this many (>= 1).
     tail_fraction : float, optional
         Fraction of the run, at its end, on which the oscillation verdict is decided.
+    passivity_controller : PassivityController, optional
+        A passivity observer and controller in the loop (Hannaford & Ryu 2002), acting on
+        the sensed positions like the :class:`haptex.Renderer`; default none.
 
     Returns
     -------
@@ -467,8 +591,16 @@ def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration:
     Raises
     ------
     ParameterError
-        For invalid inputs, or a recording that would exceed :data:`MEMORY_BUDGET`
-        (2 GiB; 96 bytes a recorded sample) — record fewer samples with ``record_every``.
+        For invalid inputs, dimensions that disagree, or a recording that would exceed
+        :data:`MEMORY_BUDGET` (2 GiB; 96 bytes a recorded sample in the plane, 128 in
+        space) — record fewer samples with ``record_every``.
+
+    Notes
+    -----
+    A rigid device with diagonal mass and damping matrices pushed by a constant force is
+    integrated axis by axis (:func:`_fast_coefficients`), everything else by the augmented
+    transition and Van Loan's quadratic forms; both are exact, and the energy balance closes
+    to round-off on both.
     """
     n_steps, p0, v0 = _prepare(algorithm, device, operator, duration, initial_position, initial_velocity)
     if isinstance(record_every, bool) or int(record_every) != record_every or record_every < 1:
@@ -476,81 +608,115 @@ def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration:
     record_every = int(record_every)
     if not 0 < tail_fraction <= 1:
         raise fail("tail_fraction", tail_fraction, "a number in (0, 1]")
+    pc_on, pc_b, pc_ref = _controller(passivity_controller)
+    d = p0.size
+    width = 4 * d + 4
     n_rec = n_steps // record_every
-    if n_rec * _BYTES_PER_SAMPLE > MEMORY_BUDGET:
+    if n_rec * width * 8 > MEMORY_BUDGET:
         raise ParameterError(
             f"duration = {duration:g} s is not allowed with record_every = {record_every}: recording "
-            f"{n_rec} samples needs {n_rec * _BYTES_PER_SAMPLE / 2**30:.1f} GiB, over the 2 GiB budget; "
-            f"use record_every >= {math.ceil(n_steps * _BYTES_PER_SAMPLE / MEMORY_BUDGET)}"
+            f"{n_rec} samples needs {n_rec * width * 8 / 2**30:.1f} GiB, over the 2 GiB budget; "
+            f"use record_every >= {math.ceil(n_steps * width * 8 / MEMORY_BUDGET)}"
         )
-    code, prm, kind, coeffs, aux, nominal, Phi, Wd, Wo, Bs = _kernel_inputs(algorithm, device, operator)
-    rec = np.zeros((n_rec, 12))
+    code, prm, kind, coeffs, aux, nominal, Phi, Wd, Wo, Bs, Binv, fast = _kernel_inputs(algorithm, device, operator)
+    rec = np.zeros((n_rec, width))
     summary = np.zeros(N_SUMMARY)
     tail_start = int(n_steps * (1 - tail_fraction))
-    tail_z = np.zeros((min(n_steps - tail_start, 65536), 2))
-    _run(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, *_mass_inputs(device), operator.stiffness,
-         operator.damping,
-         operator.force, operator.setpoint_times, operator.setpoint_points, operator.final_velocity,
-         operator.rest_length, operator.kinematic, n_steps, device.period, device.delay, device.position_resolution,
-         device.force_resolution, device.max_force, device.coulomb_friction, p0, v0, record_every, rec, summary,
-         tail_start, tail_z)
-    result = _result(rec, summary, tail_z, (n_steps - tail_start) * device.period, device,
-                     _texture_frequencies(algorithm, operator))
+    tail = np.zeros((min(n_steps - tail_start, 65536), d))
+    _run(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, Binv, fast, *_mass_inputs(device),
+         operator.stiffness, operator.damping, operator.force, operator.setpoint_times, operator.setpoint_points,
+         operator.final_velocity, operator.rest_length, operator.kinematic, n_steps, device.period, device.delay,
+         device.position_resolution, device.force_resolution, device.max_force, device.coulomb_friction, pc_on, pc_b,
+         pc_ref, p0, v0, record_every, rec, summary, tail_start, tail, (0,) * d)
+    osc = _oscillations(tail[None], (n_steps - tail_start) * device.period, _tail_energy(summary[None]),
+                        np.array([_threshold(device)]), _frequency_table([_texture_frequencies(algorithm, operator)]))
+    result = _result(rec, summary, osc[0])
     _warn_health([result])
     return result
 
 
+def _threshold(device: Device) -> float:
+    """Amplitude below which motion counts as rest (m): the encoder's resolution, >= 0.1 um."""
+    return max(device.position_resolution, 1e-7)
+
+
+def _tail_energy(summary: np.ndarray) -> np.ndarray:
+    """Change of the summed environment energies over the tail (J), per run."""
+    return summary[:, S_EX] + summary[:, S_EY] + summary[:, S_EZ] - summary[:, S_TAILSTART_E]
+
+
+def _frequency_table(freqs: list) -> np.ndarray:
+    """Per-run texture rates (Hz) as an (N, k) array, NaN-padded."""
+    k = max((len(f) for f in freqs), default=0)
+    out = np.full((len(freqs), k), np.nan)
+    for i, f in enumerate(freqs):
+        out[i, :len(f)] = f
+    return out
+
+
 def _warn_health(results) -> None:
     """One SimulationWarning for runs that diverged or whose energy balance does not close."""
-    div = [i for i, r in enumerate(results) if r.diverged]
-    bad = [i for i, r in enumerate(results) if not r.diverged and r.energy_balance_error > BALANCE_TOLERANCE]
-    if div:
-        r = results[div[0]]
-        where = "" if len(results) == 1 else f"run {div[0]} of {len(results)} ({len(div)} in all) "
-        warnings.warn(f"the simulation {where}diverged: its {r.diverged_quantity} became non-finite at sample "
-                      f"{r.diverged_at}; it stopped there", SimulationWarning, stacklevel=3)
-    if bad:
-        r = results[bad[0]]
-        where = "" if len(results) == 1 else f"of run {bad[0]} of {len(results)} ({len(bad)} in all) "
-        warnings.warn(f"the energy balance {where}closes only to {r.energy_balance_error:.2g} relative, above "
+    _warn_arrays(np.array([r.diverged_at or 0 for r in results]),
+                 np.array([r.energy_balance_error for r in results]),
+                 [r.diverged_quantity for r in results])
+
+
+def _warn_arrays(diverged_at: np.ndarray, balance: np.ndarray, quantities) -> None:
+    div = np.flatnonzero(diverged_at)
+    bad = np.flatnonzero((diverged_at == 0) & (balance > BALANCE_TOLERANCE))
+    n = diverged_at.size
+    if div.size:
+        i = int(div[0])
+        where = "" if n == 1 else f"run {i} of {n} ({div.size} in all) "
+        warnings.warn(f"the simulation {where}diverged: its {quantities[i]} became non-finite at sample "
+                      f"{int(diverged_at[i])}; it stopped there", SimulationWarning, stacklevel=4)
+    if bad.size:
+        i = int(bad[0])
+        where = "" if n == 1 else f"run {i} of {n} ({bad.size} in all) "
+        warnings.warn(f"the energy balance of the simulation {where}closes to {balance[i]:.2g} relative, above "
                       f"{BALANCE_TOLERANCE:g}: the discretisation is ill-conditioned for these parameters",
-                      SimulationWarning, stacklevel=3)
+                      SimulationWarning, stacklevel=4)
 
 
 def _texture_frequencies(algorithm, operator) -> tuple:
     """Rates (Hz) at which a constant-velocity scan crosses the texture's periods, v / l_k; empty
-    for other operators and for textures without a line spectrum (measured profiles)."""
+    for other operators and for textures without a line spectrum (measured profiles, surfaces)."""
     periods = getattr(algorithm.texture, "periods", None)
     v = abs(float(operator.final_velocity[0]))
-    if periods is None or operator.kinematic or operator.setpoint_times.size != 1 or v == 0.0:
+    if (periods is None or algorithm.dimension != 2 or operator.kinematic or operator.setpoint_times.size != 1
+            or v == 0.0):
         return ()
     return tuple(float(v / p) for p in np.atleast_1d(periods))
 
 
-def _result(rec, summary, tail_z, tail_duration, device, texture_freqs=()) -> SimulationResult:
+def _result(rec, summary, osc: Oscillation) -> SimulationResult:
+    d = (rec.shape[1] - 4) // 4
     diverged = int(summary[S_DIVERGED]) or None
     if diverged is not None:  # rows are written in order and their time is > 0
         rec = rec[:int(np.count_nonzero(rec[:, 0]))]
-    e_env_tail = summary[S_EX] + summary[S_EZ] - summary[S_TAILSTART_E]
-    osc = _oscillation(tail_z, tail_duration, e_env_tail, max(device.position_resolution, 1e-7), texture_freqs)
     totals = {"energy_x": float(summary[S_EX]), "energy_z": float(summary[S_EZ]),
               "damping_energy": float(summary[S_DAMP]), "operator_work": float(summary[S_OP]),
               "kinetic_energy": float(summary[S_KE]), "friction_energy": float(summary[S_FRIC])}
+    if d == 3:
+        totals["energy_y"] = float(summary[S_EY])
+    E = 1 + 3 * d
     return SimulationResult(
-        time=rec[:, 0], position=rec[:, 1:3], velocity=rec[:, 3:5], force=rec[:, 5:7], energy_x=rec[:, 7],
-        energy_z=rec[:, 8], damping_energy=rec[:, 9], operator_work=rec[:, 10], kinetic_energy=rec[:, 11],
+        time=rec[:, 0], position=rec[:, 1:1 + d], velocity=rec[:, 1 + d:1 + 2 * d], force=rec[:, 1 + 2 * d:E],
+        energy_x=rec[:, E], energy_z=rec[:, E + d - 1], damping_energy=rec[:, 1 + 4 * d],
+        operator_work=rec[:, 2 + 4 * d], kinetic_energy=rec[:, 3 + 4 * d],
         initial_kinetic_energy=float(summary[S_KE0]), saturations=int(summary[S_SAT]),
         max_penetration=float(summary[S_MAXPEN]), oscillation=osc, totals=totals, diverged_at=diverged,
-        diverged_quantity=None if diverged is None else _DIVERGED_NAMES[int(summary[S_DIVERGED_WHAT])])
+        diverged_quantity=None if diverged is None else _DIVERGED_NAMES[int(summary[S_DIVERGED_WHAT])],
+        energy_y=rec[:, E + 1] if d == 3 else None, passivity_control_samples=int(summary[S_PC_ACTIVE]))
 
 
 _ALGORITHM_KEYS = ("stiffness", "amplitude", "texture_period", "friction", "presliding", "modulation_depth",
                    "max_penetration")
 _DEVICE_KEYS = ("mass", "damping", "damping_outside", "delay", "position_resolution", "force_resolution", "coulomb_friction",
                 "max_force")
-_OPERATOR_KEYS = ("push_x", "push_z", "band_stiffness", "anchor_x", "anchor_z", "hand_stiffness", "hand_damping",
-                  "depth", "velocity")
-_START_KEYS = ("initial_x", "initial_z")
+_OPERATOR_KEYS = ("push_x", "push_y", "push_z", "band_stiffness", "anchor_x", "anchor_y", "anchor_z", "hand_stiffness",
+                  "hand_damping", "depth", "velocity")
+_START_KEYS = ("initial_x", "initial_y", "initial_z")
 SWEEP_KEYS = _ALGORITHM_KEYS + _DEVICE_KEYS + _OPERATOR_KEYS + _START_KEYS
 """Parameters :func:`simulate_batch` can sweep (SI units)."""
 
@@ -565,6 +731,8 @@ class BatchResult:
         The swept values, broadcast to N runs.
     energy_x, energy_z : ndarray
         Final E_x, E_z (J).
+    energy_y : ndarray or None
+        Final E_y (J) in 3-D; None in the plane.
     damping_energy, operator_work, kinetic_energy : ndarray
         Final values (J).
     energy_balance_error : ndarray
@@ -579,6 +747,8 @@ class BatchResult:
         Sample (1-based) at which each run became non-finite and stopped; 0 if it did not.
     runs : list of SimulationResult or None
         Full time series, only with ``record=True``.
+    passivity_control_samples : ndarray of int
+        Samples on which the passivity controller acted, per run.
     """
 
     parameters: dict
@@ -596,6 +766,8 @@ class BatchResult:
     saturations: np.ndarray
     diverged_at: np.ndarray
     runs: list | None = None
+    energy_y: np.ndarray | None = None
+    passivity_control_samples: np.ndarray | None = None
 
 
 def _rebuild(algorithm: Algorithm, device: Device, operator: Operator, values: dict):
@@ -630,25 +802,30 @@ def _rebuild(algorithm: Algorithm, device: Device, operator: Operator, values: d
         device = device.replace(**dv)
     ov = {k: values[k] for k in _OPERATOR_KEYS if k in values}
     if ov:
+        d = operator.dimension
+        if d == 2 and ("push_y" in ov or "anchor_y" in ov):
+            raise ParameterError("push_y and anchor_y are not allowed in the plane (a profile): they sweep 3-D operators")
         K, C, f = operator.stiffness.copy(), operator.damping.copy(), operator.force.copy()
         pts = operator.setpoint_points.copy()
         vend = operator.final_velocity.copy()
-        if "push_x" in ov or "push_z" in ov:
-            f = np.array([ov.get("push_x", f[0]), ov.get("push_z", f[1])])
+        for axis, i in (("x", 0), ("y", 1), ("z", d - 1)):
+            if f"push_{axis}" in ov:
+                f[i] = ov[f"push_{axis}"]
+            if f"anchor_{axis}" in ov:
+                pts[0, i] = ov[f"anchor_{axis}"]
         if "band_stiffness" in ov:
-            K = positive("band_stiffness", ov["band_stiffness"], "N/m") * np.eye(2)
+            K = positive("band_stiffness", ov["band_stiffness"], "N/m") * np.eye(d)
         if "hand_stiffness" in ov:
-            K = positive("hand_stiffness", ov["hand_stiffness"], "N/m") * np.eye(2)
+            K = positive("hand_stiffness", ov["hand_stiffness"], "N/m") * np.eye(d)
         if "hand_damping" in ov:
-            C = nonnegative("hand_damping", ov["hand_damping"], "N s/m") * np.eye(2)
-        if "anchor_x" in ov or "anchor_z" in ov:
-            pts[0] = [ov.get("anchor_x", pts[0, 0]), ov.get("anchor_z", pts[0, 1])]
+            C = nonnegative("hand_damping", ov["hand_damping"], "N s/m") * np.eye(d)
         depth = operator.depth
         if "depth" in ov:
             depth = nonnegative("depth", ov["depth"], "m")
-            pts[:, 1] += operator.depth - depth
+            pts[:, -1] += operator.depth - depth
         if "velocity" in ov:
-            vend = np.array([float(ov["velocity"]), 0.0])
+            vend = np.zeros(d)
+            vend[0] = float(ov["velocity"])
         operator = Operator(stiffness=K, damping=C, force=f, setpoint_times=operator.setpoint_times,
                             setpoint_points=pts, final_velocity=vend, rest_length=operator.rest_length,
                             kinematic=operator.kinematic, depth=depth)
@@ -657,7 +834,8 @@ def _rebuild(algorithm: Algorithm, device: Device, operator: Operator, values: d
 
 def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, duration: float, initial_position=None,
                    initial_velocity=None, record: bool = False, record_every: int = 1, tail_fraction: float = 0.4,
-                   progress: bool | None = None, **sweep) -> BatchResult:
+                   progress: bool | None = None, passivity_controller: PassivityController | None = None,
+                   **sweep) -> BatchResult:
     """Run many simulations that differ in some parameters, in one parallel compiled loop.
 
     Parameters
@@ -665,9 +843,9 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     algorithm, device, operator, duration, initial_position, initial_velocity
         As for :func:`simulate`; they give the values of everything not swept.
     record : bool, optional
-        Keep every run's time series (memory: N x samples x 96 bytes, within the 2 GiB
-        budget); default False, summaries only.
-    record_every, tail_fraction
+        Keep every run's time series (memory: N x samples x 96 bytes in the plane, 128 in
+        space, within the 2 GiB budget); default False, summaries only.
+    record_every, tail_fraction, passivity_controller
         As for :func:`simulate`.
     progress : bool, optional
         Show a progress bar; default: when the batch has more than 5e7 samples in all.
@@ -676,9 +854,10 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
         algorithm ``stiffness``, ``amplitude``, ``texture_period``, ``friction``,
         ``presliding``, ``modulation_depth``, ``max_penetration``; device ``mass``,
         ``damping``, ``damping_outside``, ``delay``, ``position_resolution``,
-        ``force_resolution``, ``coulomb_friction``, ``max_force``; operator ``push_x``, ``push_z``,
-        ``band_stiffness``, ``anchor_x``, ``anchor_z``, ``hand_stiffness``,
-        ``hand_damping``, ``depth``, ``velocity``; and ``initial_x``, ``initial_z``.
+        ``force_resolution``, ``coulomb_friction``, ``max_force``; operator ``push_x``,
+        ``push_y``, ``push_z``, ``band_stiffness``, ``anchor_x``, ``anchor_y``, ``anchor_z``,
+        ``hand_stiffness``, ``hand_damping``, ``depth``, ``velocity``; and ``initial_x``,
+        ``initial_y``, ``initial_z`` (the y keys in 3-D only).
 
     Returns
     -------
@@ -689,11 +868,20 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     ParameterError
         For an unknown sweep name, arrays that do not broadcast, or any invalid value
         (checked for every run before anything runs).
+
+    Notes
+    -----
+    The per-run summaries, oscillation verdicts included, are computed for all runs at once
+    (vectorised over the runs), so a batch of short runs is not dominated by Python.
     """
     unknown = sorted(set(sweep) - set(SWEEP_KEYS))
     if unknown:
         raise ParameterError(f"sweep parameters {unknown} are not allowed: choose from {', '.join(SWEEP_KEYS)}")
     n_steps, p0, v0 = _prepare(algorithm, device, operator, duration, initial_position, initial_velocity)
+    d = p0.size
+    if d == 2 and "initial_y" in sweep:
+        raise ParameterError("initial_y is not allowed in the plane (a profile): it sweeps 3-D starts")
+    pc_on, pc_b, pc_ref = _controller(passivity_controller)
     try:
         arrays = np.broadcast_arrays(*[np.atleast_1d(np.asarray(v, dtype=np.float64)) for v in sweep.values()]) if sweep else []
     except ValueError:
@@ -703,59 +891,64 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     for k, a in values.items():
         if not np.all(np.isfinite(a)):
             raise fail(k, a.tolist(), "finite values")
+    width = 4 * d + 4
     n_rec = n_steps // int(record_every) if record else 0
-    if N * n_rec * _BYTES_PER_SAMPLE > MEMORY_BUDGET:
+    if N * n_rec * width * 8 > MEMORY_BUDGET:
         raise ParameterError(f"record = True is not allowed here: {N} runs x {n_rec} samples need more than the 2 GiB budget")
     runs = [_rebuild(algorithm, device, operator, {k: float(a[i]) for k, a in values.items()}) for i in range(N)]
     letters = {a.letter for a, _, _ in runs}
     shapes = {a.kernel_spec()[3].shape for a, _, _ in runs}
-    periods = {d.period for _, d, _ in runs}
+    periods = {d_.period for _, d_, _ in runs}
     if len(letters) != 1 or len(shapes) != 1 or len(periods) != 1:
         raise ParameterError("the runs of a batch must share the algorithm letter, texture shape and sampling period")
     memo: dict = {}
-    specs = [_kernel_inputs(a, d, o, memo) for a, d, o in runs]
+    specs = [_kernel_inputs(a, d_, o, memo) for a, d_, o in runs]
     code, kind, nominal = specs[0][0], specs[0][2], specs[0][5]
     st = lambda j: np.ascontiguousarray(np.stack([s[j] for s in specs]))  # noqa: E731
-    prm, coeffs, Phi, Wd, Wo, Bs = st(1), st(3), st(6), st(7), st(8), st(9)
-    n_aux = max(s[4].size for s in specs)  # bound trees of different sizes: pad (the header says the size)
-    aux = np.zeros((N, n_aux))
-    for i, s in enumerate(specs):
-        aux[i, :s[4].size] = s[4]
-    dev = [d for _, d, _ in runs]
+    prm, coeffs, Phi, Wd, Wo, Bs, Binv = st(1), st(3), st(6), st(7), st(8), st(9), st(10)
+    fast = st(11) if len({s[11].shape[0] for s in specs}) == 1 else np.zeros((N, 0, d, N_FAST))
+    aux = None  # no search data or table: the kernel is compiled without them
+    if specs[0][4] is not None:
+        n_aux = max(s[4].size for s in specs)  # bound trees of different sizes: pad (the header says the size)
+        aux = np.zeros((N, n_aux))
+        for i, s in enumerate(specs):
+            aux[i, :s[4].size] = s[4]
+    dev = [d_ for _, d_, _ in runs]
     ops = [o for _, _, o in runs]
-    if len({d.structural_mode for d in dev}) != 1:
+    if len({d_.structural_mode for d_ in dev}) != 1:
         raise ParameterError("the runs of a batch must all have a structural mode or all be rigid")
-    M = np.stack([_mass_inputs(d)[0] for d in dev])
-    modal = np.stack([_mass_inputs(d)[1] for d in dev])
+    M = np.stack([_mass_inputs(d_)[0] for d_ in dev])
+    modal = np.stack([_mass_inputs(d_)[1] for d_ in dev])
     K = np.stack([o.stiffness for o in ops])
     C = np.stack([o.damping for o in ops])
     f0 = np.stack([o.force for o in ops])
     sp_p = np.stack([o.setpoint_points for o in ops])
     vend = np.stack([o.final_velocity for o in ops])
     rest = np.array([o.rest_length for o in ops])
-    delay = np.array([d.delay for d in dev], dtype=np.int64)
-    delta = np.array([d.position_resolution for d in dev])
-    fres = np.array([d.force_resolution for d in dev])
-    fmax = np.array([d.max_force for d in dev])
-    fc = np.array([d.coulomb_friction for d in dev])
+    delay = np.array([d_.delay for d_ in dev], dtype=np.int64)
+    delta = np.array([d_.position_resolution for d_ in dev])
+    fres = np.array([d_.force_resolution for d_ in dev])
+    fmax = np.array([d_.max_force for d_ in dev])
+    fc = np.array([d_.coulomb_friction for d_ in dev])
+    pcb = np.full(N, pc_b)
     P0 = np.tile(p0, (N, 1))
-    if "initial_x" in values:
-        P0[:, 0] = values["initial_x"]
-    if "initial_z" in values:
-        P0[:, 1] = values["initial_z"]
+    for axis, i in (("x", 0), ("y", 1), ("z", d - 1)):
+        if f"initial_{axis}" in values:
+            P0[:, i] = values[f"initial_{axis}"]
     V0 = np.tile(v0, (N, 1))
-    rec = np.zeros((N, n_rec, 12))
+    rec = np.zeros((N, n_rec, width))
     summary = np.zeros((N, N_SUMMARY))
     tail_start = int(n_steps * (1 - tail_fraction))
-    tail_z = np.zeros((N, min(n_steps - tail_start, 8192), 2))
+    tail = np.zeros((N, min(n_steps - tail_start, 8192), d))
     T = dev[0].period
     # (value, True if it has one row per run)
-    args = [(code, False), (kind, False), (coeffs, True), (prm, True), (aux, True), (nominal, False), (Phi, True), (Wd, True),
-            (Wo, True), (Bs, True), (M, True), (modal, True), (K, True), (C, True), (f0, True),
-            (ops[0].setpoint_times, False),
-            (sp_p, True), (vend, True), (rest, True), (ops[0].kinematic, False), (n_steps, False), (T, False),
-            (delay, True), (delta, True), (fres, True), (fmax, True), (fc, True), (P0, True), (V0, True),
-            (int(record_every), False), (rec, True), (summary, True), (tail_start, False), (tail_z, True)]
+    args = [(code, False), (kind, False), (coeffs, True), (prm, True), (aux, aux is not None), (nominal, False), (Phi, True),
+            (Wd, True), (Wo, True), (Bs, True), (Binv, True), (fast, True), (M, True), (modal, True), (K, True),
+            (C, True), (f0, True), (ops[0].setpoint_times, False), (sp_p, True), (vend, True), (rest, True),
+            (ops[0].kinematic, False), (n_steps, False), (T, False), (delay, True), (delta, True), (fres, True),
+            (fmax, True), (fc, True), (pc_on, False), (pcb, True), (pc_ref, False), (P0, True), (V0, True),
+            (int(record_every), False), (rec, True), (summary, True), (tail_start, False), (tail, True),
+            ((0,) * d, False)]
     show = (N * n_steps > 5e7) if progress is None else bool(progress)
     bar = _progress(show, N)
     for idx in np.array_split(np.arange(N), min(N, 20) if show else 1):
@@ -764,19 +957,26 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
             _run_batch(*[a[lo:hi] if per_run else a for a, per_run in args])
             bar(idx.size)
     bar(None)
-    results = [_result(rec[i], summary[i], tail_z[i], (n_steps - tail_start) * T, dev[i],
-                       _texture_frequencies(a, o)) for i, (a, _, o) in enumerate(runs)]
-    _warn_health(results)
-    col = lambda f: np.array([f(r) for r in results])  # noqa: E731
+    osc = _oscillations(tail, (n_steps - tail_start) * T, _tail_energy(summary),
+                        np.array([_threshold(d_) for d_ in dev]),
+                        _frequency_table([_texture_frequencies(a, o) for a, _, o in runs]))
+    w_cmd = -(summary[:, S_EX] + summary[:, S_EY] + summary[:, S_EZ])
+    balance = _balance_error(summary[:, S_KE], summary[:, S_KE0], w_cmd, summary[:, S_OP], summary[:, S_DAMP],
+                             summary[:, S_FRIC])
+    diverged_at = summary[:, S_DIVERGED].astype(np.int64)
+    _warn_arrays(diverged_at, balance, [_DIVERGED_NAMES.get(int(w)) for w in summary[:, S_DIVERGED_WHAT]])
+    col = lambda f: np.array([f(o) for o in osc])  # noqa: E731
     return BatchResult(
         parameters=values,
         energy_x=summary[:, S_EX].copy(), energy_z=summary[:, S_EZ].copy(), damping_energy=summary[:, S_DAMP].copy(),
         operator_work=summary[:, S_OP].copy(), kinetic_energy=summary[:, S_KE].copy(),
-        energy_balance_error=col(lambda r: r.energy_balance_error), oscillating=col(lambda r: r.oscillating),
-        amplitude=col(lambda r: r.oscillation.amplitude), frequency=col(lambda r: r.oscillation.frequency),
-        energy_per_cycle=col(lambda r: r.oscillation.energy_per_cycle),
+        energy_balance_error=balance, oscillating=col(lambda o: o.oscillating),
+        amplitude=col(lambda o: o.amplitude), frequency=col(lambda o: o.frequency),
+        energy_per_cycle=col(lambda o: o.energy_per_cycle),
         max_penetration=summary[:, S_MAXPEN].copy(), saturations=summary[:, S_SAT].astype(np.int64),
-        diverged_at=summary[:, S_DIVERGED].astype(np.int64), runs=results if record else None)
+        diverged_at=diverged_at, runs=[_result(rec[i], summary[i], osc[i]) for i in range(N)] if record else None,
+        energy_y=summary[:, S_EY].copy() if d == 3 else None,
+        passivity_control_samples=summary[:, S_PC_ACTIVE].astype(np.int64))
 
 
 def _progress(show: bool, total: int):

@@ -16,6 +16,7 @@ from functools import cached_property
 import numpy as np
 from scipy import optimize
 
+from . import _kernels
 from ._validation import ParameterError, check_count, fail, nonnegative, positive, whole
 from .textures import MAX_HARMONICS, Texture, _vector, common_period
 
@@ -63,16 +64,19 @@ class Surface(Texture):
 
     slope = curvature = height
 
-    def kernel_data(self):
-        """Surfaces are not compiled for the simulator and renderer yet (they take profiles).
+    def kernel_data(self) -> tuple[int, np.ndarray]:
+        """(kind, coeffs) of the compiled kernels (:mod:`haptex._kernels`): a sum of gratings
+        as ``SURFACE_GRATINGS`` with shape (4, n) (amplitudes m, k_x, k_y rad/m, phases
+        rad), a height map as ``SURFACE_PATCHES`` (its bicubic patches), an extruded profile
+        as its profile's data (h does not depend on y).
 
         Raises
         ------
         ParameterError
-            Always, naming what to use instead.
+            For a surface type the compiled kernels do not know.
         """
         raise ParameterError(f"texture = {self!r} is not allowed here: the compiled simulator and renderer take "
-                             "profiles h(x) for now (surfaces are analysed in 3-D and exported to C)")
+                             "sums of gratings, height maps and extruded profiles")
 
     @property
     def cell(self) -> tuple[float, float] | None:  # pragma: no cover - abstract
@@ -183,6 +187,11 @@ class SumOfGratings(Surface):
         for i in range(0, flat.shape[0], step):
             out[i:i + step] = fun(flat[i:i + step] @ self._kvec.T + self.phases) @ w
         return out.reshape(xy.shape[:-1] + weights.shape[1:])
+
+    def kernel_data(self) -> tuple[int, np.ndarray]:
+        """(``SURFACE_GRATINGS``, [amplitudes, k_x, k_y, phases]) of shape (4, n)."""
+        return _kernels.SURFACE_GRATINGS, np.ascontiguousarray(
+            np.vstack([self.amplitudes, self._kvec[:, 0], self._kvec[:, 1], self.phases]))
 
     def height_at(self, xt):
         """h(x, y) (m) at positions of shape (..., 2) (m); shape (...)."""
@@ -407,6 +416,10 @@ class Extruded(Surface):
     def __repr__(self) -> str:
         return f"Extruded({self.profile!r})"
 
+    def kernel_data(self) -> tuple[int, np.ndarray]:
+        """The profile's (kind, coeffs): over [x, y, z] the kernels read h(x) and ignore y."""
+        return self.profile.kernel_data()
+
     def height_at(self, xt):
         return self.profile.height(plane(xt)[..., 0])
 
@@ -597,6 +610,10 @@ class SampledSurface(Surface):
         """Hessian of h (1/m), shape (..., 2, 2)."""
         hxx, hxy, hyy = self._eval(xt, (2, 0)), self._eval(xt, (1, 1)), self._eval(xt, (0, 2))
         return np.stack([np.stack([hxx, hxy], -1), np.stack([hxy, hyy], -1)], -2)
+
+    def kernel_data(self) -> tuple[int, np.ndarray]:
+        """(``SURFACE_PATCHES``, :meth:`patches`)."""
+        return _kernels.SURFACE_PATCHES, self.patches()
 
     def patches(self) -> np.ndarray:
         """The spline as bicubic patches for the compiled closest-point search
