@@ -1,6 +1,7 @@
 """Renderer latency per algorithm: Renderer.step called from Python (median and 99th
 percentile of single calls), the compiled kernel alone (mean per call in a compiled
-loop), and the same force arithmetic in plain C (gcc -O2) for A and D.
+loop), and the same force arithmetic in plain C (gcc -O2) for A and D; over the paper's
+sinusoid ([x, z]) and over the egg-crate ([x, y, z], a diagonal scan).
 
 Run:  python benchmarks/run_renderer.py [--calls 100000]
 Reported in benchmarks/README.md; never part of the test run.
@@ -26,19 +27,26 @@ except ImportError:  # run from the repository root
 
 
 @nb.njit(cache=True)
-def _kernel_loop(xs, zs, code, kind, coeffs, prm, aux, st, rs):
+def _kernel_loop(xs, ys, zs, code, kind, coeffs, prm, aux, st, rs, pc, buf):
     acc = 0.0
     for i in range(xs.shape[0]):
-        fx, fz = _kernels.render_step(xs[i], zs[i], code, kind, coeffs, prm, aux, st, rs)
-        acc += fx + fz
+        fx, fy, fz = _kernels.render_step(xs[i], ys[i], zs[i], code, kind, coeffs, prm, aux, st, rs, pc, buf)
+        acc += fx + fy + fz
     return acc
 
 
 def trajectory(tex, letter, n):
-    """A 10 mm/s scan sampled at 10 kHz (1 um a call), 0.4 mm inside the wall."""
-    x = np.arange(n) * 1e-6
-    z = (-0.4e-3 + 0 * x) if letter in "WFG" else tex.height(x) - 0.4e-3
-    return x, z
+    """A 10 mm/s scan sampled at 10 kHz (1 um a call), 0.4 mm inside the wall: along x over a
+    profile, along the diagonal over a surface. Returns x, y, z (m)."""
+    s = np.arange(n) * 1e-6
+    if tex.dimension == 1:
+        x, y = s, np.zeros(n)
+        h = tex.height(x)
+    else:
+        x = y = s / math.sqrt(2.0)
+        h = tex.height_at(np.column_stack([x, y]))
+    z = (-0.4e-3 + 0 * s) if letter in "WFG" else h - 0.4e-3
+    return x, y, z
 
 
 def main() -> None:
@@ -56,34 +64,38 @@ def main() -> None:
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         exe = build_reference(tmp)
-        for letter in "WABCDEFG":
-            alg = hx.algorithm(letter, None if letter == "W" else tex, 2000.0)
-            r = hx.Renderer(alg, max_force=10.0, energy_monitor=True)
-            xs, zs = trajectory(tex, letter, n)
-            pts = list(zip(xs.tolist(), zs.tolist()))
-            lat = np.empty(n)
-            step = r.step
-            for i, p in enumerate(pts):
-                t0 = time.perf_counter_ns()
-                step(p)
-                lat[i] = time.perf_counter_ns() - t0
-            lat -= timer
-            r.reset()
-            _kernel_loop(xs[:10], zs[:10], r._code, r._kind, r._coeffs, r._prm, r._aux, r._st, r._rs)
-            r.reset()
-            t0 = time.perf_counter()
-            _kernel_loop(xs, zs, r._code, r._kind, r._coeffs, r._prm, r._aux, r._st, r._rs)
-            kern = (time.perf_counter() - t0) / n * 1e9
-            c_ns = math.nan
-            if letter in "AD":
-                dev = hx.Device.point_mass()
-                c_ns = c_reference(alg, dev, hx.operators.ConstantForce([0.0, 0.0]), n, 1, tmp, exe, render=True)
-            rows.append((letter, np.median(lat) / 1e3, np.percentile(lat, 99) / 1e3, kern, c_ns))
+        for tex in (hx.Sinusoid(0.8e-3, 1e-3), hx.SumOfGratings.egg_crate(0.8e-3, 1e-3)):
+            d = tex.dimension + 1
+            for letter in "WABCDEFG":
+                base = None if d == 2 else hx.Flat(dimension=2)
+                alg = hx.algorithm(letter, base if letter == "W" else tex, 2000.0)
+                r = hx.Renderer(alg, max_force=10.0, energy_monitor=True)
+                xs, ys, zs = trajectory(tex, letter, n)
+                pts = list(zip(xs.tolist(), zs.tolist())) if d == 2 else list(zip(xs.tolist(), ys.tolist(), zs.tolist()))
+                lat = np.empty(n)
+                step = r.step
+                for i, p in enumerate(pts):
+                    t0 = time.perf_counter_ns()
+                    step(p)
+                    lat[i] = time.perf_counter_ns() - t0
+                lat -= timer
+                args = (r._code, r._kind, r._coeffs, r._prm, r._aux, r._st, r._rs, r._pc, r._buf)
+                r.reset()
+                _kernel_loop(xs[:10], ys[:10], zs[:10], *args)
+                r.reset()
+                t0 = time.perf_counter()
+                _kernel_loop(xs, ys, zs, *args)
+                kern = (time.perf_counter() - t0) / n * 1e9
+                c_ns = math.nan
+                if letter in "AD" and d == 2:
+                    dev = hx.Device.point_mass()
+                    c_ns = c_reference(alg, dev, hx.operators.ConstantForce([0.0, 0.0]), n, 1, tmp, exe, render=True)
+                rows.append((d, letter, np.median(lat) / 1e3, np.percentile(lat, 99) / 1e3, kern, c_ns))
     print(f"timer overhead subtracted: {timer:.0f} ns")
-    print(f"{'alg':4} {'step median (us)':>17} {'step p99 (us)':>14} {'kernel (ns/call)':>17} {'C -O2 (ns/call)':>16}")
-    for letter, med, p99, kern, c_ns in rows:
+    print(f"{'d':2} {'alg':4} {'step median (us)':>17} {'step p99 (us)':>14} {'kernel (ns/call)':>17} {'C -O2 (ns/call)':>16}")
+    for d, letter, med, p99, kern, c_ns in rows:
         c_txt = "" if math.isnan(c_ns) else f"{c_ns:16.0f}"
-        print(f"{letter:4} {med:17.2f} {p99:14.2f} {kern:17.0f} {c_txt}")
+        print(f"{d:2d} {letter:4} {med:17.2f} {p99:14.2f} {kern:17.0f} {c_txt}")
 
 
 if __name__ == "__main__":

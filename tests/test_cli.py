@@ -119,6 +119,49 @@ def test_simulate_thrust_writes_a_plot(tmp_path):
     assert out["max_penetration"] > 0
 
 
+def test_simulate_over_a_surface_on_a_3dof_preset(tmp_path):
+    # issue 12: the scan in 3-D over the egg-crate on the serial-arm preset; the saved trace has
+    # the y columns, its last E_y is the JSON's, the exact ZOH's energy balance closes; and the
+    # Fig. 3 loop for A driven along the egg-crate's line y = l/4 (where h = A sin(kx), the
+    # paper's profile) absorbs -kappa_0 A^2 / 2, as in the plane
+    import numpy as np
+
+    f = tmp_path / "run.npz"
+    r = run_cli("simulate", "scan", "--surface", "egg-crate:0.3mm,2mm", "--device", "serial-arm", "--duration", "0.2s",
+                "--save", str(f), "--passivity-control", "5 N*s/m", "--json")
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout)
+    assert out["dimension"] == 3 and out["device"] == "serial arm" and out["energy_balance_error"] < 1e-9
+    assert out["passivity_control"] == 5.0 and out["units"]["energy_y"] == "J"
+    d = np.load(f)
+    assert {"y", "vy", "fy", "energy_y"} <= set(d.files) and list(d["units"][:4]) == ["s", "m", "m", "m"]
+    assert d["energy_y"][-1] == pytest.approx(out["energy_y"], rel=1e-12, abs=1e-18)
+    loop = run_cli("simulate", "path", "--algorithm", "A", "--surface", "egg-crate:0.8mm,1mm", "--device",
+                   "point-mass", "--path", "0,0.25mm,0;0.25mm,0.25mm,0;0.25mm,0.25mm,0.8mm;0,0.25mm,0.8mm;0,0.25mm,0",
+                   "--speed", "1 mm/s", "--duration", "2.2s", "--json")
+    assert loop.returncode == 0, loop.stderr
+    lo = json.loads(loop.stdout)
+    assert lo["energy_x"] + lo["energy_y"] + lo["energy_z"] == pytest.approx(-0.5 * 2000 * 0.8e-3**2, rel=2e-3)
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (["simulate", "scan", "--device", "serial-arm"], "--device serial-arm is not allowed over a profile"),
+    (["simulate", "scan", "--surface", "egg-crate:0.3mm,2mm"], "--device pantograph is not allowed with a surface"),
+    (["simulate", "scan", "--surface", "sine:0.3mm,2mm", "--device", "delta"], "surface = 'sine:0.3mm,2mm' is not allowed"),
+    (["simulate", "scan", "--surface", "egg-crate:0.3mm,2mm", "--device", "delta", "--amplitude", "1mm"],
+     "--amplitude is not allowed with --surface"),
+    (["simulate", "scan", "--surface", "egg-crate:0.3mm,2mm", "--device", "delta", "--mass", "1kg"],
+     "--mass is not allowed with --device delta"),
+    (["simulate", "path", "--surface", "egg-crate:0.3mm,2mm", "--device", "delta", "--path", "0,0;1mm,0"],
+     "path = '0,0' is not allowed: must be three lengths"),
+    (["simulate", "scan", "--passivity-control", "-1 N*s/m"], "max_damping = -1 is not allowed"),
+])
+def test_bad_3d_simulation_options_are_refused_in_one_line(args, fragment):
+    r = run_cli(*args, "--duration", "0.01s")
+    assert r.returncode == 2 and fragment in r.stderr and "Traceback" not in r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1
+
+
 @pytest.mark.parametrize("args, fragment", [
     (["simulate", "thrust", "--anchor", "0"], "anchor = '0' is not allowed"),
     (["simulate", "path"], "Missing option '--path'"),

@@ -73,7 +73,7 @@ def _spline_eval(coeffs, x):
     return ((a3 * t + a2) * t + a1) * t + a0, (3.0 * a3 * t + 2.0 * a2) * t + a1, 6.0 * a3 * t + 2.0 * a2
 
 
-@nb.njit(inline="always", **_JIT)
+@nb.njit(**_JIT)
 def texture_eval(kind, coeffs, x):
     """Return (h, h', h'') at abscissa ``x`` (m, m/m, 1/m)."""
     h = 0.0
@@ -705,9 +705,8 @@ def _smooth_flow(deflection, dx, d_max, z_stick, tab):
 @nb.njit(**_JIT)
 def _presliding(st, x, dxmax, zstick, tab):
     """Advance F's friction state to x (see haptex.friction); returns the deflection and
-    adds the table steps of the smooth variant to st[S_WORK]. ``tab`` is None for the
-    sharp model (its branch is then compiled away)."""
-    if tab is None or zstick < 0.0:
+    adds the table steps of the smooth variant to st[S_WORK]."""
+    if zstick < 0.0:
         d, st[S_ADH] = presliding_step(st[S_ADH], x, dxmax)
     else:
         d, work = _smooth_flow(st[S_LASTX] - st[S_ADH], x - st[S_LASTX], dxmax, zstick, tab)
@@ -780,8 +779,6 @@ def alg_force(code, x, z, kind, coeffs, prm, aux, st):
         return k0 * _clamp_depth(d, prm[P_DZMAX]) * s * g, -k0 * d * g
     if code == ALG_C:
         return k0 * _clamp_depth(d, prm[P_DZMAX]) * s, -k0 * d
-    if aux is None:  # D and E always have their search data; compiled away for the others
-        return 0.0, 0.0
     guess = st[S_ADH] if st[S_CONTACT] != 0.0 else math.nan
     t, dist, tie, work = closest_point(kind, coeffs, aux, x, z, guess, st[S_SEARCH:])
     st[S_WORK] = work
@@ -1146,7 +1143,7 @@ assert N_STATE >= S_SEARCH + 4 + 3 * SURF_STACK  # the state holds a surface sea
 # ----------------------------------------------------------------------------------------
 # Algorithm forces over a surface (positions [x, y, z]): alg_force written for 3-D
 # ----------------------------------------------------------------------------------------
-@nb.njit(inline="always", **_JIT)
+@nb.njit(**_JIT)
 def _height3(kind, coeffs, x, y):
     """(h, h_x, h_y) at (x, y): a surface (SURFACE_GRATINGS, SURFACE_PATCHES), or a profile
     h(x) extruded along y (the profile kinds of :func:`texture_eval`; TEXTURE_FLAT for W)."""
@@ -1181,7 +1178,7 @@ def presliding_plane(dx, dy, ddx, ddy, d_max, z_stick, tab):
     body of :func:`haptex.friction.step_plane`.
     """
     work = 0
-    if tab is None or z_stick < 0.0:
+    if z_stick < 0.0:
         nx = dx + ddx
         ny = dy + ddy
     else:
@@ -1279,8 +1276,6 @@ def alg_force3(code, x, y, z, kind, coeffs, prm, aux, st):
     if code == ALG_C:
         dl = _clamp_depth(d, prm[P_DZMAX])
         return k0 * dl * gx, k0 * dl * gy, -k0 * d
-    if aux is None:  # D and E always have their search data; compiled away for the others
-        return 0.0, 0.0, 0.0
     if kind == SURFACE_GRATINGS or kind == SURFACE_PATCHES:
         tx, ty, dist, _, work = surface_closest_point(kind, coeffs, aux, x, y, z, st[S_SEARCH:])
         th = _height3_only(kind, coeffs, tx, ty)
@@ -1299,7 +1294,7 @@ def alg_force3(code, x, y, z, kind, coeffs, prm, aux, st):
     return 0.0, 0.0, k0 * dist  # ALG_E
 
 
-@nb.njit(inline="always", **_JIT)
+@nb.njit(**_JIT)
 def force_at(n, code, p, kind, coeffs, prm, aux, st, f):
     """f[:n] = the force (N) of algorithm ``code`` at p[:n] (m): n = 2 over a profile
     ([x, z], :func:`alg_force`), n = 3 over a surface ([x, y, z], :func:`alg_force3`)."""
@@ -1314,7 +1309,7 @@ def force_at(n, code, p, kind, coeffs, prm, aux, st, f):
         f[2] = fz
 
 
-@nb.njit(inline="always", **_JIT)
+@nb.njit(**_JIT)
 def height_under(n, kind, coeffs, p):
     """h under the probe p[:n] (m): h(x) over a profile, h(x, y) over a surface."""
     if n == 2:
@@ -1322,7 +1317,7 @@ def height_under(n, kind, coeffs, p):
     return _height3_only(kind, coeffs, p[0], p[1])
 
 
-@nb.njit(inline="always", **_JIT)
+@nb.njit(**_JIT)
 def saturate_vec(f, n, fmax):
     """Scale f[:n] in place down to magnitude ``fmax`` without overflow (hypot, and the
     direction of infinite components kept); returns True when it scaled f down. NaN in,
@@ -1368,7 +1363,7 @@ N_PC = PC_EAX + 3
 PC_REF_ZERO, PC_REF_STORED = 0.0, 1.0
 
 
-@nb.njit(inline="always", **_JIT)
+@nb.njit(**_JIT)
 def passivity_tick(pc, n, p, f, k0, pen):
     """Observe, then control, one servo tick (impedance causality, a velocity-sensing device).
 
@@ -1407,7 +1402,7 @@ def passivity_tick(pc, n, p, f, k0, pen):
         pc[PC_ACTIVE] += 1.0
 
 
-@nb.njit(inline="always", **_JIT)
+@nb.njit(**_JIT)
 def passivity_sent(pc, n, p, f):
     """Remember the sensed position and the force sent this tick (for the next observation)."""
     for i in range(n):
@@ -1432,7 +1427,7 @@ F_PV, F_PW, F_VV, F_VW, F_CVV, F_CVW, F_CWW = range(7)
 N_FAST = 7
 
 
-@nb.njit(inline="always", **_JIT)
+@nb.njit(**_JIT)
 def _half_quad(A, v, n):
     """v' A v / 2 for an n x n matrix."""
     acc = 0.0
@@ -1444,7 +1439,7 @@ def _half_quad(A, v, n):
     return 0.5 * acc
 
 
-@nb.njit(inline="always", **_JIT)
+@nb.njit(**_JIT)
 def _quad(W, z):
     n = z.shape[0]
     acc = 0.0
@@ -1456,7 +1451,7 @@ def _quad(W, z):
     return acc
 
 
-@nb.njit(inline="always", **_JIT)
+@nb.njit(**_JIT)
 def _setpoint(ts, ps, vend, t, out):
     """The operator's set-point s(t) into out[:n] (m): the polyline (ts, ps), then vend."""
     m = ts.shape[0]
@@ -1483,7 +1478,7 @@ def _setpoint(ts, ps, vend, t, out):
         out[i] = ps[lo, i] + w * (ps[hi, i] - ps[lo, i])
 
 
-@nb.njit(inline="always", **_JIT)
+@nb.njit(**_JIT)
 def _row_dot(P, i, z):
     """Row i of the sample's exact map times the augmented state: one entry of P z."""
     acc = 0.0
@@ -1492,7 +1487,7 @@ def _row_dot(P, i, z):
     return acc
 
 
-@nb.njit(inline="always", **_JIT)
+@nb.njit(**_JIT)
 def _mech_energy(M, modal, v, ph, vh, p, n):
     """Kinetic energy of the device, plus the structural mode's elastic energy (J): with
     ``modal`` = [M_h, K_s] (a two-mass device, M the motor side) 1/2 v'Mv + 1/2 vh'M_h vh +
@@ -1506,7 +1501,7 @@ def _mech_energy(M, modal, v, ph, vh, p, n):
     return e
 
 
-@nb.njit(inline="always", **_JIT)
+@nb.njit(**_JIT)
 def _diverged(p, v, u, e, ed, eo, n):
     """Which of position, velocity, force, energy (DIVERGED_*) is non-finite first; 0 if
     none is (a sum of finite terms that overflowed)."""
@@ -1525,7 +1520,7 @@ def _diverged(p, v, u, e, ed, eo, n):
     return 0 if math.isfinite(ed) and math.isfinite(eo) else DIVERGED_ENERGY
 
 
-@nb.njit(inline="always", **_JIT)
+@nb.njit(**_JIT)
 def _coulomb(a, Binv, v, fc, n, out):
     """The handle's Coulomb friction force over one sample, held like the command (a sampled
     Karnopp model), into out[:n]; returns True when the handle ends the sample at rest.
@@ -1841,11 +1836,7 @@ def run_batch(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, Binv, fast
               record_every, rec, summary, tail_start, tail_p, dims):
     """Runs i = 0..N-1 of :func:`run_one` in parallel; every per-run array has a leading N axis."""
     for i in nb.prange(coeffs.shape[0]):
-        if aux is None:  # (compiled away for the algorithms without search data or table)
-            aux_i = None
-        else:
-            aux_i = aux[i]
-        run_one(code, kind, coeffs[i], prm[i], aux_i, nominal, Phi[i], Wd[i], Wo[i], Bs[i], Binv[i], fast[i], M[i],
+        run_one(code, kind, coeffs[i], prm[i], aux[i], nominal, Phi[i], Wd[i], Wo[i], Bs[i], Binv[i], fast[i], M[i],
                 modal[i], K[i], C[i], f0[i], sp_t, sp_p[i], vend[i], rest_len[i], kinematic, n_steps, T, delay[i],
                 delta[i], fres[i], fmax[i], fc[i], pc_on, pc_bmax[i], pc_ref, p0[i], v0[i], record_every, rec[i],
                 summary[i], tail_start, tail_p[i], dims)
@@ -1908,10 +1899,10 @@ def render_step(x, y, z, code, kind, coeffs, prm, aux, st, rs, pc, buf):
 
 @nb.njit(parallel=True, cache=True)
 def tail_amplitudes(u, a1, a2):
-    """Half the peak-to-peak of each row of ``u`` (N, m) in its first and second halves
-    (into a1, a2, shape (N,)), after removing the row's least-squares straight line (steady
-    sliding or drift is not an oscillation): the amplitudes of the oscillation verdict
-    (:func:`haptex.simulate._axis_verdicts`)."""
+    """Remove from each row of ``u`` (N, m), in place, its mean and least-squares straight
+    line (steady sliding or drift is not an oscillation), and write half the peak-to-peak of
+    the detrended row in its first and second halves into a1 and a2 (shape (N,)): the
+    amplitudes of the oscillation verdict (:func:`haptex.simulate._axis_verdicts`)."""
     N, m = u.shape
     tm = 0.5 * (m - 1)
     stt = 0.0
@@ -1932,6 +1923,7 @@ def tail_amplitudes(u, a1, a2):
         hi2 = -math.inf
         for j in range(m):
             w = u[r, j] - mean - slope * (j - tm)
+            u[r, j] = w
             if j < m // 2:
                 lo1 = min(lo1, w)
                 hi1 = max(hi1, w)

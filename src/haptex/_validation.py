@@ -120,7 +120,7 @@ def matrix2(name: str, value, what: str = "2x2 matrix", dim: int = 2) -> np.ndar
     if arr.ndim == 0:
         arr = float(arr) * np.eye(dim)
     if arr.shape != (dim, dim) or not np.all(np.isfinite(arr)):
-        raise fail(name, value, f"a finite scalar or a finite {what}")
+        raise fail(name, arr.tolist(), f"a finite scalar or a finite {what}")  # a list: one line
     return arr
 
 

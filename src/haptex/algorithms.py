@@ -177,12 +177,6 @@ class Algorithm:
         kind, coeffs = self.texture.kernel_data()
         return _CODES[self.letter], self.kernel_params(), kind, np.ascontiguousarray(coeffs), self._aux()
 
-    @property
-    def kernel_aux_used(self) -> bool:
-        """True when the compiled kernels read ``aux`` (D and E's search, smooth F's table);
-        the others are given None, which compiles their kernels without those branches."""
-        return self.letter in "DE" or (self.letter == "F" and self.stick_deflection is not None)
-
     def kernel_params(self) -> np.ndarray:
         """The algorithm's parameter vector float64[6] of the compiled kernels and the C
         export (see :meth:`kernel_spec`), for a profile or a surface."""

@@ -137,7 +137,7 @@ class Renderer:
         self._kind = int(kind)
         self._coeffs = np.ascontiguousarray(coeffs, dtype=np.float64)
         self._prm = np.ascontiguousarray(prm, dtype=np.float64)
-        self._aux = np.ascontiguousarray(aux, dtype=np.float64) if algorithm.kernel_aux_used else None
+        self._aux = np.ascontiguousarray(aux, dtype=np.float64)
         self._st = np.zeros(_kernels.N_STATE)
         self._rs = np.zeros(N_RS)
         self._pc = np.zeros(N_PC)

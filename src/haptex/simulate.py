@@ -266,24 +266,24 @@ def _axis_verdicts(u: np.ndarray, tail_duration: float, threshold: np.ndarray, t
     ``u`` (N, m) is one axis's tail, sampled evenly over ``tail_duration`` (s); ``threshold``
     (N,) in m; ``texture_freqs`` (N, k) the texture rates of each run (Hz, NaN-padded).
     Returns arrays (N,): oscillating, amplitude, decay ratio, frequency, texture driven.
-    The detrended half amplitudes are computed by the compiled
-    :func:`haptex._kernels.tail_amplitudes`, the spectrum only for the runs that move."""
+    The detrending and the half amplitudes are the compiled
+    :func:`haptex._kernels.tail_amplitudes`; the spectrum is taken only for the runs that move."""
     N, n = u.shape
     a1 = np.empty(N)
     a2 = np.empty(N)
+    u = np.array(u, dtype=np.float64)  # detrended in place below
     _tail_amplitudes(u, a1, a2)
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(a1 > 0, a2 / np.where(a1 > 0, a1, 1.0), np.where(a2 > 0, np.inf, 0.0))
     moving = np.flatnonzero(a2 > threshold)
     freq = np.zeros(N)
     if moving.size:
-        tc = np.arange(n, dtype=np.float64) - 0.5 * (n - 1)
         um = u[moving]
-        um = um - um.mean(axis=1, keepdims=True)
-        um -= np.outer(um @ tc / (tc @ tc), tc)  # the detrended tail, as tail_amplitudes sees it
-        spec = np.abs(np.fft.rfft(um * np.hanning(n), axis=1)) ** 2
+        um *= np.hanning(n)
+        spec = np.abs(np.fft.rfft(um, axis=1))  # the peak of |X| is the peak of the periodogram
         spec[:, 0] = 0.0
-        freq[moving] = np.where(spec.max(axis=1) > 0, np.argmax(spec, axis=1) / tail_duration, 0.0)
+        peak = np.argmax(spec, axis=1)
+        freq[moving] = np.where(spec[np.arange(moving.size), peak] > 0, peak / tail_duration, 0.0)
     osc = (a2 > threshold) & (ratio >= 0.9) & (freq * tail_duration >= 3)
     driven = np.zeros_like(osc)
     if texture_freqs.shape[1]:
@@ -306,7 +306,7 @@ def _oscillations(tail: np.ndarray, tail_duration: float, e_env_tail: np.ndarray
         rest = AxisOscillation(False, 0.0, 0.0, 0.0)
         return [Oscillation(False, 0.0, 0.0, 0.0, 0.0, float(threshold[i]), "z", rest, rest,
                             rest if d == 3 else None) for i in range(N)]
-    cols = [_axis_verdicts(np.ascontiguousarray(tail[:, :, i]), tail_duration, threshold, texture_freqs)
+    cols = [_axis_verdicts(tail[:, :, i], tail_duration, threshold, texture_freqs)
             for i in range(d)]
     out = []
     for r in range(N):
@@ -540,7 +540,6 @@ def _kernel_inputs(algorithm, device, operator, memo: dict | None = None):
     Phi, Wd, Wo, Binv, fast = disc
     Bs = np.stack([device.damping_outside, device.damping])
     nominal = algorithm.penetration_kind == "nominal"
-    aux = aux if algorithm.kernel_aux_used else None
     return code, prm, kind, coeffs, aux, nominal, Phi, Wd, Wo, Bs, Binv, fast
 
 
@@ -907,12 +906,10 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     st = lambda j: np.ascontiguousarray(np.stack([s[j] for s in specs]))  # noqa: E731
     prm, coeffs, Phi, Wd, Wo, Bs, Binv = st(1), st(3), st(6), st(7), st(8), st(9), st(10)
     fast = st(11) if len({s[11].shape[0] for s in specs}) == 1 else np.zeros((N, 0, d, N_FAST))
-    aux = None  # no search data or table: the kernel is compiled without them
-    if specs[0][4] is not None:
-        n_aux = max(s[4].size for s in specs)  # bound trees of different sizes: pad (the header says the size)
-        aux = np.zeros((N, n_aux))
-        for i, s in enumerate(specs):
-            aux[i, :s[4].size] = s[4]
+    n_aux = max(s[4].size for s in specs)  # bound trees of different sizes: pad (the header says the size)
+    aux = np.zeros((N, n_aux))
+    for i, s in enumerate(specs):
+        aux[i, :s[4].size] = s[4]
     dev = [d_ for _, d_, _ in runs]
     ops = [o for _, _, o in runs]
     if len({d_.structural_mode for d_ in dev}) != 1:
@@ -942,7 +939,7 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     tail = np.zeros((N, min(n_steps - tail_start, 8192), d))
     T = dev[0].period
     # (value, True if it has one row per run)
-    args = [(code, False), (kind, False), (coeffs, True), (prm, True), (aux, aux is not None), (nominal, False), (Phi, True),
+    args = [(code, False), (kind, False), (coeffs, True), (prm, True), (aux, True), (nominal, False), (Phi, True),
             (Wd, True), (Wo, True), (Bs, True), (Binv, True), (fast, True), (M, True), (modal, True), (K, True),
             (C, True), (f0, True), (ops[0].setpoint_times, False), (sp_p, True), (vend, True), (rest, True),
             (ops[0].kinematic, False), (n_steps, False), (T, False), (delay, True), (delta, True), (fres, True),
