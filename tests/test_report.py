@@ -115,6 +115,7 @@ def test_unwritable_path_is_one_line_exit_2():
     assert len(r.stderr.strip().splitlines()) == 1 and r.stderr.startswith("haptex: error: out = ")
 
 
+@pytest.mark.slow  # a full reproduce --quick in a subprocess (~20-30 s)
 def test_force_writes_into_a_foreign_directory_and_keeps_its_files(tmp_path):
     target = tmp_path / "mine"
     target.mkdir()
@@ -137,6 +138,7 @@ def _dead_pid() -> int:
     return p.pid
 
 
+@pytest.mark.slow  # a full reproduce --quick in a subprocess (~20-30 s)
 def test_report_directory_follows_the_umask_and_stale_scratch_is_cleaned(tmp_path):
     # issue 17, reproducer 10: reports were created 0700 (mkdtemp's mode) and a killed run's
     # hidden .DIR.tmp-*/.DIR.old-* directories stayed forever
@@ -157,6 +159,7 @@ def test_report_directory_follows_the_umask_and_stale_scratch_is_cleaned(tmp_pat
     assert live.exists() and other.exists()
 
 
+@pytest.mark.slow  # a full reproduce --quick in a subprocess (~20-30 s)
 def test_reproduce_into_the_current_directory(tmp_path):
     # issue 17, reproducer 7: `reproduce --out .` computed everything, then
     # "ValueError: PosixPath('.') has an empty name"

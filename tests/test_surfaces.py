@@ -353,6 +353,7 @@ def test_a_bad_height_map_is_refused_by_name(args, message):
         hx.SampledSurface(*args)
 
 
+@pytest.mark.slow  # 50 s cold: the 3-D Table II in a subprocess (the library's rows are tested above)
 def test_table_ii_in_3d_on_the_egg_crate_at_the_command_line():
     # Issue 11, "Table II in 3-D": on the egg-crate at the paper's A and l, q_A is Remark 2's
     # sqrt(1 + (2 pi A / l)^2) (sup |grad h| = 2 pi A / l); the loops in the plane y = l/4,
@@ -440,7 +441,8 @@ def test_f_over_an_extruded_profile_is_the_2d_f():
     assert hx.characteristic_number(a3).value == pytest.approx(hx.characteristic_number(a2).value, rel=1e-9)
 
 
-@pytest.mark.parametrize("direction", [0.0, 0.4, 2.0, -2.5])
+@pytest.mark.parametrize("direction", [pytest.param(0.0, marks=pytest.mark.slow), 0.4,
+                                       pytest.param(2.0, marks=pytest.mark.slow), pytest.param(-2.5, marks=pytest.mark.slow)])
 def test_smooth_presliding_along_any_tangent_direction_is_the_1d_model(direction):
     # F's smooth variant over a surface follows the 1-D flow along the deflection, so eq. 27's
     # path laid along any direction over a grating turned the same way does the 2-D work of the
@@ -509,7 +511,8 @@ def _brute_closest(tex, p, half=1.6e-3, n=641):
     return math.sqrt(best)
 
 
-@pytest.mark.parametrize("tex", [hx.SumOfGratings.egg_crate(A, L), hx.Grating(A, L, 0.3)], ids=["egg", "grating"])
+@pytest.mark.parametrize("tex", [pytest.param(hx.SumOfGratings.egg_crate(A, L), marks=pytest.mark.slow),
+                                 hx.Grating(A, L, 0.3)], ids=["egg", "grating"])
 def test_closest_point_on_a_surface_agrees_with_brute_force(tex):
     # Issue 11: the quadtree branch and bound finds the global closest point (to < 1e-9 m of a
     # dense brute-force search refined by BFGS), within its bounded work
@@ -575,7 +578,7 @@ def test_e_over_a_surface_has_q_one_and_d_is_unbounded_below_sharp_peaks():
     assert egg.height_at(np.array(q.where[:2])[None, :])[0] - q.where[2] == pytest.approx(1 / (A * k * k), rel=1e-3)
 
 
-@pytest.mark.parametrize("periodic", [True, False])
+@pytest.mark.parametrize("periodic", [True, pytest.param(False, marks=pytest.mark.slow)])
 def test_closest_point_on_a_height_map_agrees_with_brute_force(periodic):
     # D and E on a sampled height map: the search runs on the spline's bicubic patches (their
     # values and derivatives equal the spline's), with the tangent-plane extension beyond a

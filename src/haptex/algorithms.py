@@ -175,7 +175,10 @@ class Algorithm:
             (:func:`haptex.friction.smooth_table`), else zeros(1).
         """
         kind, coeffs = self.texture.kernel_data()
-        return _CODES[self.letter], self.kernel_params(), kind, np.ascontiguousarray(coeffs), self._aux()
+        # writeable C arrays: numba compiles a read-only array (the cached presliding table) as
+        # another type, and so a second copy of every kernel that reads it
+        return (_CODES[self.letter], self.kernel_params(), kind, np.require(coeffs, np.float64, ["C", "W"]),
+                np.require(self._aux(), np.float64, ["C", "W"]))
 
     def kernel_params(self) -> np.ndarray:
         """The algorithm's parameter vector float64[6] of the compiled kernels and the C
