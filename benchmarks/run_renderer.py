@@ -27,10 +27,10 @@ except ImportError:  # run from the repository root
 
 
 @nb.njit(cache=True)
-def _kernel_loop(xs, ys, zs, code, kind, coeffs, prm, aux, st, rs, pc, buf):
+def _kernel_loop(xs, ys, zs, mem):
     acc = 0.0
     for i in range(xs.shape[0]):
-        fx, fy, fz = _kernels.render_step(xs[i], ys[i], zs[i], code, kind, coeffs, prm, aux, st, rs, pc, buf)
+        fx, fy, fz = _kernels.render_step(xs[i], ys[i], zs[i], mem)
         acc += fx + fy + fz
     return acc
 
@@ -79,7 +79,7 @@ def main() -> None:
                     step(p)
                     lat[i] = time.perf_counter_ns() - t0
                 lat -= timer
-                args = (r._code, r._kind, r._coeffs, r._prm, r._aux, r._st, r._rs, r._pc, r._buf)
+                args = (r._mem,)
                 r.reset()
                 _kernel_loop(xs[:10], ys[:10], zs[:10], *args)
                 r.reset()

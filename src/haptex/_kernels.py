@@ -1850,18 +1850,44 @@ def run_batch(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, Binv, fast
 N_RS = 8
 
 
+# the renderer's one array (a single argument to unbox per call): a header (algorithm code,
+# texture kind, the coefficients' rows and columns, the search data's length), the algorithm's
+# parameters, the renderer's slots, the passivity observer/controller, scratch, the algorithm's
+# state, then the texture's coefficients and the search data or table
+H_CODE, H_KIND, H_ROWS, H_COLS, H_NAUX = range(5)
+R_PRM = 8
+R_RS = R_PRM + N_PARAMS
+R_PC = R_RS + N_RS
+R_BUF = R_PC + N_PC
+R_ST = R_BUF + 6
+R_DATA = R_ST + N_STATE
+
+
 @nb.njit(**_JIT)
-def render_step(x, y, z, code, kind, coeffs, prm, aux, st, rs, pc, buf):
+def render_step(x, y, z, mem):
     """Compiled servo tick: validate, compute, control passivity, clamp, count, observe.
 
     (x, y, z) is the probe position (m); y is ignored over a profile (rs[RS_DIM] = 2).
-    Returns (fx, fy, fz) (N), fy = 0 over a profile. A position with a non-finite
-    coordinate or one beyond rs[RS_LIMIT] returns zero force and counts a fault, as does a
-    non-finite force. ``pc`` is the passivity observer/controller's state
-    (:func:`passivity_tick`; observing only unless pc[PC_ON]); ``buf`` scratch of length 6.
-    rs[RS_WORK] is the work (texture evaluations) of this call and rs[RS_MAXWORK] the
-    largest so far.
+    ``mem`` holds the header H_* from 0, then from R_PRM, R_RS, R_PC, R_BUF, R_ST and R_DATA:
+    the algorithm's parameters, the renderer's slots RS_*, the passivity observer/
+    controller's state (:func:`passivity_tick`; observing only unless PC_ON), scratch of 6,
+    the algorithm's state, and the texture's coefficients (rows x columns, row-major) followed
+    by the search data or table. Returns (fx, fy, fz) (N), fy = 0 over a profile. A position
+    with a non-finite coordinate or one beyond rs[RS_LIMIT] returns zero force and counts a
+    fault, as does a non-finite force. rs[RS_WORK] is the work (texture evaluations) of this
+    call and rs[RS_MAXWORK] the largest so far.
     """
+    code = int(mem[H_CODE])
+    kind = int(mem[H_KIND])
+    rows = int(mem[H_ROWS])
+    cols = int(mem[H_COLS])
+    coeffs = mem[R_DATA:R_DATA + rows * cols].reshape((rows, cols))
+    aux = mem[R_DATA + rows * cols:R_DATA + rows * cols + int(mem[H_NAUX])]
+    prm = mem[R_PRM:R_RS]
+    rs = mem[R_RS:R_PC]
+    pc = mem[R_PC:R_BUF]
+    buf = mem[R_BUF:R_ST]
+    st = mem[R_ST:R_DATA]
     rs[RS_WORK] = 0.0
     n = int(rs[RS_DIM])
     lim = rs[RS_LIMIT]

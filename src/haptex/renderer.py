@@ -14,7 +14,7 @@ import numpy as np
 from dataclasses import dataclass
 
 from . import _kernels
-from ._kernels import (N_PC, N_RS, PC_ACTIVE, PC_ALPHA, PC_BMAX, PC_E, PC_EAX, PC_HAVE, PC_ON, PC_REF, PC_REF_STORED,
+from ._kernels import (PC_ACTIVE, PC_ALPHA, PC_BMAX, PC_E, PC_EAX, PC_HAVE, PC_ON, PC_REF, PC_REF_STORED,
                        PC_REF_ZERO, PC_T, RS_CLAMPS, RS_DIM, RS_FAULTS, RS_LIMIT, RS_MAXF, RS_MAXWORK, RS_MONITOR,
                        RS_WORK)
 from ._kernels import render_step as _render_step
@@ -133,15 +133,17 @@ class Renderer:
         self.passivity_controller = passivity_controller
         self.dimension = algorithm.dimension
         code, prm, kind, coeffs, aux = algorithm.kernel_spec()
-        self._code = int(code)
-        self._kind = int(kind)
-        self._coeffs = np.ascontiguousarray(coeffs, dtype=np.float64)
-        self._prm = np.ascontiguousarray(prm, dtype=np.float64)
-        self._aux = np.ascontiguousarray(aux, dtype=np.float64)
-        self._st = np.zeros(_kernels.N_STATE)
-        self._rs = np.zeros(N_RS)
-        self._pc = np.zeros(N_PC)
-        self._buf = np.zeros(6)
+        K = _kernels
+        # one array for the kernel (one argument to unbox a call); views of it for Python
+        self._mem = np.zeros(K.R_DATA + coeffs.size + aux.size)
+        self._mem[[K.H_CODE, K.H_KIND, K.H_ROWS, K.H_COLS, K.H_NAUX]] = (code, kind, *coeffs.shape, aux.size)
+        self._mem[K.R_DATA:K.R_DATA + coeffs.size] = coeffs.ravel()
+        self._mem[K.R_DATA + coeffs.size:] = aux
+        self._prm = self._mem[K.R_PRM:K.R_RS]
+        self._rs = self._mem[K.R_RS:K.R_PC]
+        self._pc = self._mem[K.R_PC:K.R_BUF]
+        self._st = self._mem[K.R_ST:K.R_DATA]
+        self._prm[:] = prm
         self._rs[RS_MAXF] = math.inf if max_force is None else float(max_force)
         self._rs[RS_MONITOR] = 1.0 if (energy_monitor or passivity_controller is not None) else 0.0
         self._rs[RS_LIMIT] = WORKSPACE_LIMIT
@@ -156,8 +158,7 @@ class Renderer:
         self.reset()
 
     def _tick(self, x, y, z):
-        return _render_step(x, y, z, self._code, self._kind, self._coeffs, self._prm, self._aux, self._st, self._rs,
-                            self._pc, self._buf)
+        return _render_step(x, y, z, self._mem)
 
     def step(self, p):
         """Force to command for one probe position.
@@ -186,15 +187,15 @@ class Renderer:
             if isinstance(p, (str, bytes, bytearray, dict)) or len(p) != self.dimension:
                 raise TypeError
             if self.dimension == 2:
-                x, z = p[0], p[1]
+                x, z = p
                 if not (isinstance(x, _REAL) and isinstance(z, _REAL)) or isinstance(x, bool) or isinstance(z, bool):
                     raise TypeError
-                fx, _, fz = self._tick(float(x), 0.0, float(z))
+                fx, _, fz = _render_step(float(x), 0.0, float(z), self._mem)
                 return fx, fz
-            x, y, z = p[0], p[1], p[2]
+            x, y, z = p
             if not all(isinstance(c, _REAL) and not isinstance(c, bool) for c in (x, y, z)):
                 raise TypeError
-            return self._tick(float(x), float(y), float(z))
+            return _render_step(float(x), float(y), float(z), self._mem)
         except Exception:  # a malformed p: never let it reach the motor loop
             self._rs[RS_FAULTS] += 1.0
             self._pc[PC_HAVE] = 0.0
