@@ -1064,8 +1064,8 @@ def algorithm(letter: str, texture: Texture | None = None, stiffness: float = 20
         ``"W"`` (smooth wall, eq. 30) or one of ``"A"``–``"G"`` (Table I); case-insensitive.
     texture : Texture, optional
         Height profile h(x) or surface h(x, y) (m). Required for A–G; ``None`` (or
-        ``Flat(dimension=2)`` for 3-D positions) for W. Over a surface W, A, B, C and G
-        take positions [x, y, z]; D, E and F take profiles for now.
+        ``Flat(dimension=2)`` for 3-D positions) for W. Over a surface every algorithm
+        takes positions [x, y, z].
     stiffness : float
         Nominal stiffness kappa_0 > 0 (N/m); default 2000 N/m, the paper's Section V-A.
     **params

@@ -85,8 +85,8 @@ class Device:
         A label for reports.
     dimension : int, optional
         2 (planar, positions [x, z]) or 3 (positions [x, y, z]); default: that of the
-        matrices given, 2 when all are scalars. The passivity analysis (Corollary 1 with a
-        3x3 damping matrix) takes 3-DOF devices; the simulator takes planar ones for now.
+        matrices given, 2 when all are scalars. A 3-DOF device is analysed (Corollary 1
+        with a 3x3 damping matrix), simulated and rendered over surfaces.
 
     Raises
     ------

@@ -657,10 +657,12 @@ def _warn_health(results) -> None:
     """One SimulationWarning for runs that diverged or whose energy balance does not close."""
     _warn_arrays(np.array([r.diverged_at or 0 for r in results]),
                  np.array([r.energy_balance_error for r in results]),
-                 [r.diverged_quantity for r in results])
+                 [r.diverged_quantity for r in results], stacklevel=4)
 
 
-def _warn_arrays(diverged_at: np.ndarray, balance: np.ndarray, quantities) -> None:
+def _warn_arrays(diverged_at: np.ndarray, balance: np.ndarray, quantities, stacklevel: int) -> None:
+    """One SimulationWarning for the runs that diverged, one for balances that do not close;
+    ``stacklevel`` points at the user's call."""
     div = np.flatnonzero(diverged_at)
     bad = np.flatnonzero((diverged_at == 0) & (balance > BALANCE_TOLERANCE))
     n = diverged_at.size
@@ -668,13 +670,13 @@ def _warn_arrays(diverged_at: np.ndarray, balance: np.ndarray, quantities) -> No
         i = int(div[0])
         where = "" if n == 1 else f"run {i} of {n} ({div.size} in all) "
         warnings.warn(f"the simulation {where}diverged: its {quantities[i]} became non-finite at sample "
-                      f"{int(diverged_at[i])}; it stopped there", SimulationWarning, stacklevel=4)
+                      f"{int(diverged_at[i])}; it stopped there", SimulationWarning, stacklevel=stacklevel)
     if bad.size:
         i = int(bad[0])
         where = "" if n == 1 else f"run {i} of {n} ({bad.size} in all) "
         warnings.warn(f"the energy balance of the simulation {where}closes to {balance[i]:.2g} relative, above "
                       f"{BALANCE_TOLERANCE:g}: the discretisation is ill-conditioned for these parameters",
-                      SimulationWarning, stacklevel=4)
+                      SimulationWarning, stacklevel=stacklevel)
 
 
 def _texture_frequencies(algorithm, operator) -> tuple:
@@ -961,7 +963,8 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     balance = _balance_error(summary[:, S_KE], summary[:, S_KE0], w_cmd, summary[:, S_OP], summary[:, S_DAMP],
                              summary[:, S_FRIC])
     diverged_at = summary[:, S_DIVERGED].astype(np.int64)
-    _warn_arrays(diverged_at, balance, [_DIVERGED_NAMES.get(int(w)) for w in summary[:, S_DIVERGED_WHAT]])
+    _warn_arrays(diverged_at, balance, [_DIVERGED_NAMES.get(int(w)) for w in summary[:, S_DIVERGED_WHAT]],
+                 stacklevel=3)
     col = lambda f: np.array([f(o) for o in osc])  # noqa: E731
     return BatchResult(
         parameters=values,
