@@ -1415,9 +1415,9 @@ def passivity_sent(pc, n, p, f):
 # the simulator's compiled loop (haptex.simulate): positions of n = 2 ([x, z]) or 3 ([x, y, z])
 # ----------------------------------------------------------------------------------------
 # summary slots
-(S_EX, S_EZ, S_DAMP, S_OP, S_KE0, S_KE, S_SAT, S_MAXPEN, S_MAXF, S_NSAMP, S_TAILSTART_E, S_DIVERGED,
- S_DIVERGED_WHAT, S_FRIC, S_STUCK, S_EY, S_PC_ACTIVE) = range(17)
-N_SUMMARY = 17
+(S_EX, S_EZ, S_DAMP, S_OP, S_KE0, S_KE, S_SAT, S_MAXPEN, S_NSAMP, S_TAILSTART_E, S_DIVERGED,
+ S_DIVERGED_WHAT, S_FRIC, S_STUCK, S_EY, S_PC_ACTIVE) = range(16)
+N_SUMMARY = 16
 DIVERGED_POSITION, DIVERGED_VELOCITY, DIVERGED_FORCE, DIVERGED_ENERGY = 1, 2, 3, 4
 """What became non-finite first in a diverged simulation (summary[S_DIVERGED_WHAT])."""
 # per-axis coefficients of the decoupled fast path, per damping regime: p+ = p + a_pv v +
@@ -1428,20 +1428,9 @@ N_FAST = 7
 
 
 @nb.njit(**_JIT)
-def _half_quad(A, v, n):
-    """v' A v / 2 for an n x n matrix."""
-    acc = 0.0
-    for i in range(n):
-        row = 0.0
-        for j in range(n):
-            row += A[i, j] * v[j]
-        acc += v[i] * row
-    return 0.5 * acc
-
-
-@nb.njit(**_JIT)
-def _quad(W, z):
-    n = z.shape[0]
+def _quad(W, z, n):
+    """z' W z over the first n entries: the Van Loan energy forms (n = n_z) and, halved, the
+    kinetic energy 1/2 v' M v (n the dimension)."""
     acc = 0.0
     for i in range(n):
         row = 0.0
@@ -1492,9 +1481,9 @@ def _mech_energy(M, modal, v, ph, vh, p, n):
     """Kinetic energy of the device, plus the structural mode's elastic energy (J): with
     ``modal`` = [M_h, K_s] (a two-mass device, M the motor side) 1/2 v'Mv + 1/2 vh'M_h vh +
     1/2 (p - ph)' K_s (p - ph); 1/2 v'Mv for a rigid one (modal empty)."""
-    e = _half_quad(M, v, n)
+    e = 0.5 * _quad(M, v, n)
     if modal.shape[0] == 2:
-        e += _half_quad(modal[0], vh, n)
+        e += 0.5 * _quad(modal[0], vh, n)
         for i in range(n):
             for j in range(n):
                 e += 0.5 * (p[i] - ph[i]) * modal[1, i, j] * (p[j] - ph[j])
@@ -1679,8 +1668,8 @@ def run_one(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, Binv, fast, 
         if kinematic:
             # prescribed motion: constant velocity over the sample; the operator supplies
             # whatever work keeps it on the path (so the energy balance closes by design)
-            dd = 2.0 * T * _half_quad(Bs[reg], v, n)
-            ke_now = _half_quad(M, v, n)
+            dd = T * _quad(Bs[reg], v, n)
+            ke_now = 0.5 * _quad(M, v, n)
             if k == 0:
                 ke0 = ke_now
                 ke_prev = ke_now
@@ -1764,8 +1753,8 @@ def run_one(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, Binv, fast, 
                     for i in range(n):
                         z[2 * n + i] = u[i] + ff[i]
                     P = Phi[reg]
-                    ed += _quad(Wd[reg], z)
-                    eo += _quad(Wo[reg], z)
+                    ed += _quad(Wd[reg], z, nz)
+                    eo += _quad(Wo[reg], z, nz)
                     for i in range(n):
                         newp[i] = _row_dot(P, i, z)
                         newv[i] = _row_dot(P, n + i, z)
