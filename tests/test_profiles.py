@@ -22,11 +22,19 @@ from .conftest import DEKTAK, GROOVES, needs_data
 
 # -- loaders -----------------------------------------------------------------------------
 @needs_data
-def test_dektak_export_is_read_with_its_stated_spacing_and_units():
+def test_dektak_export_is_read_through_surfacetopography_with_its_units():
     p = hx.SampledProfile.from_file(DEKTAK)
-    # the file: 1500 um scan, "Resolution,0.156 um/sample", 9600 rows, heights in um
+    # issue 13: 9600 samples over 1499.8 um (the last lateral position printed); the header's
+    # "Length,1500.0 um" over 9600 samples is 0.15625 um per sample, which the column, printed
+    # to 0.1 um, rounds (its stated "Resolution,0.156 um/sample" is itself rounded: 9599 x
+    # 0.156 um = 1497.4 um would miss the last position by 2.4 um)
     assert p.x.size == 9600
-    assert p.dx == pytest.approx(0.156e-6, rel=1e-12)
+    assert p.x[-1] - p.x[0] == pytest.approx(1499.8e-6, abs=0.05e-6)
+    assert p.dx == pytest.approx(1500e-6 / 9600, rel=1e-9)
+    from SurfaceTopography import open_topography
+
+    printed = open_topography(str(DEKTAK)).topography().positions() * 1e-6
+    assert np.max(np.abs(p.x - printed)) <= 0.05e-6 * (1 + 1e-6)  # within the printing's half quantum
     assert p.h[0] == pytest.approx(-0.00933e-6, rel=1e-9) and p.h[-1] == pytest.approx(16.58112e-6, rel=1e-9)
     # data README: a tilt of about 16 um over the scan, which leveling removes
     slope = np.polyfit(p.x, p.h, 1)[0]
@@ -59,17 +67,19 @@ def test_csv_columns_with_units_from_the_caller(tmp_path):
     x = np.arange(20) * 2.0
     rows = "\n".join(f"{a:.1f},{1000 * math.sin(a / 5):.6f}" for a in x)
     f = write(tmp_path, "p.csv", "x (um),h (nm)\n" + rows + "\n", newline="\r\n")
-    with pytest.raises(hx.ParameterError, match="does not state its height unit: give it, --height-unit um at the command line"):
+    with pytest.raises(hx.ParameterError, match=r"does not state its height unit or lateral unit: give --height-unit um "
+                                                r"at the command line, height_unit='um' in Python and --x-unit um"):
         hx.SampledProfile.from_file(f)
-    with pytest.raises(hx.ParameterError, match="does not state its x unit: give it, --x-unit um at the command line, x_unit='um' in Python"):
+    with pytest.raises(hx.ParameterError, match="does not state its lateral unit: give --x-unit um at the command line, x_unit='um' in Python"):
         hx.SampledProfile.from_file(f, height_unit="nm")
     p = hx.SampledProfile.from_file(f, x_unit="um", height_unit="nm")
     assert p.dx == pytest.approx(2e-6) and p.h[5] == pytest.approx(1e-6 * math.sin(2.0), rel=1e-6)
 
 
 @pytest.mark.parametrize("text, pattern", [
-    ("0,1\n1,2\n2,nan\n3,4\n4,5\n", r"p.csv, line 3: the height is not a finite number"),
-    ("0,1\n1,2\n1,3\n3,4\n4,5\n", r"p.csv, line 3: x = 1e-06 does not increase"),
+    ("0,1\n1,2\n2,nan\n3,4\n4,5\n", r"p.csv: 1 of 5 heights are undefined \(NaN: the instrument lost them\), the "
+                                       r"first at sample 2; crop them, or fill them by interpolation \(--fill-undefined"),
+    ("0,1\n1,2\n1,3\n3,4\n4,5\n", r"p.csv, sample 2: x = 1e-06 does not increase"),
     ("0,1\n1,2\n2,3\n", r"p.csv: 3 samples, which is not allowed: at least 4"),
     ("0,1\n1,2\n2,x3\n3,4\n", r"p.csv, line 3: '2,x3' is not numbers"),
 ])
@@ -83,9 +93,21 @@ def test_bad_unit_and_unreadable_encoding(tmp_path):
     f = write(tmp_path, "p.csv", "0,1\n1,2\n2,3\n3,4\n")
     with pytest.raises(hx.ParameterError, match=r"^height_unit = 'furlong-ish' is not allowed"):
         hx.SampledProfile.from_file(f, x_unit="um", height_unit="furlong-ish")
+    # UTF-16 text, refused by haptex's own reader, is read by SurfaceTopography's
     g = write(tmp_path, "u16.csv", "0,1\n1,2\n2,3\n3,4\n", encoding="utf-16")
-    with pytest.raises(hx.ParameterError, match=r"u16.csv: the file is not readable text"):
-        hx.SampledProfile.from_file(g, x_unit="um", height_unit="um")
+    assert hx.SampledProfile.from_file(g, x_unit="um", height_unit="um").h.tolist() == pytest.approx([1e-6, 2e-6, 3e-6, 4e-6])
+    b = tmp_path / "junk.dat"
+    b.write_bytes(bytes(range(256)) * 4)
+    with pytest.raises(hx.ParameterError, match=r"junk.dat: SurfaceTopography recognises none of its formats in it, and it "
+                                                r"is not text either"):
+        hx.SampledProfile.from_file(b, x_unit="um", height_unit="um")
+
+
+def test_undefined_heights_are_filled_only_when_asked(tmp_path):
+    f = write(tmp_path, "p.csv", "0,1\n1,2\n2,nan\n3,4\n4,5\n5,6\n")
+    p = hx.SampledProfile.from_file(f, x_unit="um", height_unit="um", fill_undefined=True)
+    # SurfaceTopography fills a line scan's gap linearly between its neighbours (2 and 4 um)
+    assert p.h[2] == pytest.approx(3e-6, rel=1e-12)
 
 
 # -- the spline texture --------------------------------------------------------------------

@@ -250,5 +250,5 @@ def test_a_text_file_too_large_for_the_memory_budget_is_refused(tmp_path, monkey
     f = tmp_path / "big.csv"
     f.write_text("0,0\n" * 100_000)  # 400 kB, i.e. about 16 MB while parsed
     monkeypatch.setenv("HAPTEX_MEMORY_BUDGET", str(1_000_000))
-    with pytest.raises(hx.ParameterError, match=r"^path = .* is not allowed: reading this text file would need"):
+    with pytest.raises(hx.ParameterError, match=r"^path = .* is not allowed: reading this file would need"):
         hx.SampledProfile.from_file(f, x_unit="m", height_unit="m")

@@ -32,7 +32,7 @@ from .devices import Device, critical_stiffness, device_from_file, five_bar_jaco
 from .renderer import PassivityController, Renderer
 from .simulate import AxisOscillation, BatchResult, Oscillation, SimulationResult, SimulationWarning, simulate, simulate_batch
 from .tables import PAPER_PARAMETERS, table_ii
-from .surfaces import BandLimitedNoise2D, Extruded, Grating, SampledSurface, SumOfGratings, Surface
+from .surfaces import BandLimitedNoise2D, Extruded, Grating, SampledSurface, SumOfGratings, Surface, load_texture
 from .textures import BandLimitedNoise, Flat, SampledProfile, Sinusoid, SumOfSinusoids, Texture
 
 __version__ = "0.1.0"
@@ -44,6 +44,7 @@ __all__ = [
     "Extruded",
     "Grating",
     "SampledSurface",
+    "load_texture",
     "SumOfGratings",
     "Surface",
     "SampledProfile",

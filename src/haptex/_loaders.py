@@ -1,14 +1,27 @@
-"""Readers of measured height profiles (private; used by SampledProfile.from_file).
+"""Readers of measured topography: line scans and areal height maps (private; used by
+``SampledProfile.from_file``, ``SampledSurface.from_file`` and ``load_texture``).
 
-Every error names the file, and the line where there is one. Units and sample spacing are
-taken from the file when it states them and otherwise required from the caller; nothing
-is guessed.
+Every instrument format is read by SurfaceTopography (ContactEngineering, MIT licence),
+which knows some 40 of them. haptex keeps two readers of its own, each where
+SurfaceTopography fails on files our users and tests have:
+
+- MATLAB ``.mat``: SurfaceTopography's reader skips variables that are not numeric arrays
+  without saying so (a struct, a cell array, a sparse matrix, text) and keeps the real part
+  of a complex array; ours refuses each of these by name (scipy.io.loadmat).
+- Text columns SurfaceTopography does not recognise (a stray word in a data row, a comment
+  line, more than three columns), a chosen column, and UTF-8 text that starts with a byte
+  order mark (SurfaceTopography 1.27 drops that first row without saying so): ours reads
+  them, or names the line that is wrong.
+
+Units and sample spacing are taken from the file when it states them and otherwise
+required from the caller; nothing is guessed. Every error is one line naming the file.
 """
 
 from __future__ import annotations
 
 import math
 import re
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -55,14 +68,16 @@ def _spacing(spacing, where: str) -> float:
 
 
 TEXT_BYTES_FACTOR = 40
-"""Bytes of memory a text profile takes per byte of file while it is parsed (measured: a
-10^7-line, 80 MB CSV peaked at 3.3 GB)."""
+"""Bytes of memory a file takes per byte while it is parsed (measured on text: a 10^7-line,
+80 MB CSV peaked at 3.3 GB); binary formats take less, and are held to the same bound."""
 
 
-def _read_text(path: Path) -> str:
-    check_budget("path", str(path), TEXT_BYTES_FACTOR * path.stat().st_size, "reading this text file")
+def _read_text(path: Path, why: str | None = None) -> str:
     raw = path.read_bytes()
     if b"\x00" in raw[:4096]:
+        if why is not None:
+            raise ParameterError(f"{path}: {why}, and it is not text either (NUL bytes); see SurfaceTopography's "
+                                 "list of formats, or export the data as text columns")
         raise ParameterError(f"{path}: the file is not readable text (NUL bytes: binary or UTF-16); "
                              "export it as UTF-8 or Latin-1 text")
     try:
@@ -72,27 +87,229 @@ def _read_text(path: Path) -> str:
     return text.replace("\r\n", "\n").replace("\r", "\n")
 
 
-def load_profile(path, *, spacing=None, x_unit=None, height_unit=None, variable=None, x_column=0, height_column=1):
-    """Read (x, h) in metres from a file; returns (x, h, shortest_period or None, source)."""
+ST_BYTES_PER_SAMPLE = 64
+"""Bytes of memory per sample while an instrument file is read and turned into a spline
+(SurfaceTopography's masked heights and positions, our copy in metres, the spline's
+coefficients and its knots): an estimate with room to spare, used to refuse a map too
+large for memory before its data are read."""
+
+
+@dataclass(frozen=True)
+class Reading:
+    """What a file holds, in metres.
+
+    Attributes
+    ----------
+    x : ndarray, shape (nx,)
+        Positions along the scan (m), strictly increasing.
+    y : ndarray, shape (ny,), or None
+        Row positions (m) of an areal map; None for a line scan.
+    h : ndarray, shape (nx,) or (nx, ny)
+        Heights (m), finite.
+    source : str
+        The file's name.
+    reader : str
+        Which reader read it (``SurfaceTopography: <format>`` or ``haptex: <format>``).
+    filled : int
+        How many undefined (NaN) samples were filled by interpolation (0 unless asked).
+    """
+
+    x: np.ndarray
+    y: np.ndarray | None
+    h: np.ndarray
+    source: str
+    reader: str
+    filled: int = 0
+
+    @property
+    def areal(self) -> bool:
+        return self.y is not None
+
+
+def read_topography(path, *, spacing=None, x_unit=None, height_unit=None, variable=None, x_column=0,
+                    height_column=1, fill_undefined=False) -> Reading:
+    """Read a line scan or an areal map from a file; see ``SampledProfile.from_file``."""
     p = Path(path)
     if p.is_dir():
-        raise ParameterError(f"path = {str(p)!r} is not allowed: it is a directory, not a profile file")
+        raise ParameterError(f"path = {str(p)!r} is not allowed: it is a directory, not a topography file")
     if not p.exists():
         raise ParameterError(f"path = {str(p)!r} is not allowed: no such file")
     if not p.is_file():
         raise ParameterError(f"path = {str(p)!r} is not allowed: not a regular file")
+    if p.stat().st_size == 0:
+        raise ParameterError(f"{p}: the file is empty")
+    check_budget("path", str(p), TEXT_BYTES_FACTOR * p.stat().st_size, "reading this file")
     if p.suffix.lower() == ".mat":
-        return _load_mat(p, spacing, height_unit, variable) + (None, p.name)
+        return _load_mat(p, spacing, height_unit, variable, x_unit)
+    with open(p, "rb") as fh:
+        bom = fh.read(3) == b"\xef\xbb\xbf"
+    if (x_column, height_column) != (0, 1) or bom:  # see the module's docstring
+        return _read_text_columns(p, spacing, x_unit, height_unit, x_column, height_column, None)
+    reader, why = _open(p)
+    if reader is None:
+        return _read_text_columns(p, spacing, x_unit, height_unit, x_column, height_column, why)
+    return _read_st(p, reader, spacing, x_unit, height_unit, variable, fill_undefined)
+
+
+def _first_line(exc: BaseException) -> str:
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    return text if len(text) <= 160 else text[:157] + "..."
+
+
+def _open(p: Path):
+    """(SurfaceTopography reader, None), or (None, why) when it recognises no format."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        from SurfaceTopography import open_topography
+        from SurfaceTopography.Exceptions import CannotDetectFileFormat
+
+        try:
+            return open_topography(str(p)), None
+        except CannotDetectFileFormat:
+            return None, "SurfaceTopography recognises none of its formats in it"
+        except MemoryError:
+            raise ParameterError(f"{p}: reading it ran out of memory; the file is too large") from None
+        except Exception as exc:  # a reader that recognised the file and then failed: corrupt or truncated
+            return None, f"SurfaceTopography cannot read it ({_first_line(exc)})"
+
+
+def _read_text_columns(p: Path, spacing, x_unit, height_unit, x_column, height_column, why) -> Reading:
     try:
-        text = _read_text(p)
+        text = _read_text(p, why)
     except OSError as exc:
         raise ParameterError(f"{p}: cannot read it ({exc.strerror})") from None
-    lines = text.split("\n")
-    if any(line.strip().lower().startswith("scan data") for line in lines[:400]):
-        x, h = _load_dektak(p, lines)
+    x, h = _load_columns(p, text.split("\n"), spacing, x_unit, height_unit, x_column, height_column)
+    return Reading(x, None, h, p.name, "haptex: text columns")
+
+
+def _read_st(p: Path, reader, spacing, x_unit, height_unit, variable, fill_undefined) -> Reading:
+    import warnings
+
+    fmt = type(reader).name()
+    channels = reader.channels
+    if not channels:
+        raise ParameterError(f"{p}: the {fmt} file holds no height data")
+    if variable is None:
+        ch = reader.default_channel
     else:
-        x, h = _load_columns(p, lines, spacing, x_unit, height_unit, x_column, height_column)
-    return x, h, None, p.name
+        names = [c.name for c in channels]
+        if variable not in names:
+            raise ParameterError(f"variable = {variable!r} is not allowed: {p} holds the channels {names}")
+        ch = channels[names.index(variable)]
+    shape = tuple(int(n) for n in ch.nb_grid_pts)
+    count = int(np.prod(shape))
+    check_budget("path", str(p), ST_BYTES_PER_SAMPLE * count, f"a {' x '.join(map(str, shape))} {fmt} map")
+    unit = ch.unit
+    if isinstance(unit, (tuple, list)):
+        unit = unit[0]
+    stated = unit is not None
+    for name, given in (("x_unit", x_unit), ("height_unit", height_unit)):
+        if stated and given is not None:
+            raise ParameterError(f"{name} = {given!r} is not allowed: {p} states its unit ({unit}), which is used")
+    if stated and spacing is not None and ch.physical_sizes is not None:
+        raise ParameterError(f"spacing = {spacing!r} is not allowed: {p} states its physical size, which is used")
+    sizes = ch.physical_sizes
+    missing = []
+    if not stated and height_unit is None:
+        missing.append(("height_unit", "um"))
+    if sizes is None and spacing is None:
+        missing.append(("spacing", "0.5um"))
+    elif sizes is not None and not stated and x_unit is None:
+        missing.append(("x_unit", "um"))
+    if missing:
+        raise ParameterError(f"{p} ({fmt}) does not state its " + " or ".join(
+            {"height_unit": "height unit", "spacing": "sample spacing", "x_unit": "lateral unit"}[n] for n, _ in missing)
+            + ": give " + " and ".join(_hint(n, e) for n, e in missing))
+    hf = _unit_factor(unit if stated else height_unit, "unit" if stated else "height_unit", str(p))
+    xf = hf if stated else (None if x_unit is None else _unit_factor(x_unit, "x_unit", str(p)))
+    step = None if sizes is not None else _spacing(spacing, str(p))
+    kw = {} if sizes is not None else {"physical_sizes": tuple(float(n) for n in shape)}
+    if not stated:
+        kw["unit"] = "m"  # a placeholder: the numbers are scaled by the caller's units below
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            topo = reader.topography(channel_index=ch.index, **kw)
+            heights = np.ma.getdata(topo.heights()).astype(np.float64)
+            mask = np.ma.getmaskarray(topo.heights())
+    except MemoryError:
+        raise ParameterError(f"{p}: reading it ran out of memory; the file is too large") from None
+    except Exception as exc:  # truncated or corrupt data after a valid header
+        raise ParameterError(f"{p}: SurfaceTopography's {fmt} reader cannot read it ({_first_line(exc)})") from None
+    mask = mask | ~np.isfinite(heights)
+    filled = int(mask.sum())
+    if filled:
+        if not fill_undefined:
+            first = np.unravel_index(int(np.argmax(mask.ravel())), mask.shape)
+            where = f"sample {first[0]}" if heights.ndim == 1 else f"sample {tuple(int(v) for v in first)}"
+            raise ParameterError(
+                f"{p}: {filled} of {mask.size} heights are undefined (NaN: the instrument lost them), the first at "
+                f"{where}; crop them, or fill them by interpolation (--fill-undefined at the command line, "
+                "fill_undefined=True in Python)")
+        if filled == mask.size:
+            raise ParameterError(f"{p}: every height is undefined (NaN); there is nothing to fill from")
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                topo = topo.interpolate_undefined_data()
+                heights = np.ma.getdata(topo.heights()).astype(np.float64)
+        except Exception as exc:
+            raise ParameterError(f"{p}: its undefined heights cannot be filled ({_first_line(exc)})") from None
+    h = heights * hf
+    line = heights.ndim == 1 or min(heights.shape) == 1
+    if line:
+        h = h.ravel()
+        n = h.size
+        if step is not None:
+            x = step * np.arange(n)
+        elif getattr(topo, "is_uniform", True):
+            size = float(np.ravel(sizes)[int(np.argmax(shape))]) if heights.ndim == 2 else float(np.ravel(sizes)[0])
+            x = (size / n) * np.arange(n) * xf
+        else:
+            x = _rounded_uniform(np.asarray(topo.positions(), dtype=np.float64)) * xf
+        _check(p, x, h)
+        return Reading(x, None, h, p.name, f"SurfaceTopography: {fmt}", filled)
+    if step is not None:
+        x, y = step * np.arange(h.shape[0]), step * np.arange(h.shape[1])
+    else:
+        (sx, sy) = (float(s) for s in sizes)
+        x = (sx / h.shape[0]) * np.arange(h.shape[0]) * xf
+        y = (sy / h.shape[1]) * np.arange(h.shape[1]) * xf
+    return Reading(x, y, h, p.name, f"SurfaceTopography: {fmt}", filled)
+
+
+def _rounded_uniform(x: np.ndarray) -> np.ndarray:
+    """A non-uniform line scan's positions, made uniform when they are a uniform grid
+    rounded on output: every position a whole multiple of a power of ten q (the printed
+    resolution) and a grid a + b i within q/2 of every position (the minimax line through
+    (i, x_i), a linear programme). A Dektak CSV prints its lateral positions to 0.1 um at
+    1500 um / 9600 samples. Otherwise the positions are returned as they are (the profile
+    is then resampled by its spline)."""
+    from scipy.optimize import linprog
+
+    n = x.size
+    if n < 2 or not np.all(np.isfinite(x)) or not np.all(np.diff(x) > 0):
+        return x
+    span = x[-1] - x[0]
+    for k in range(15, -16, -1):  # the largest power of ten every position is a multiple of
+        q = 10.0 ** k
+        r = x / q
+        if q <= span and np.max(np.abs(r - np.rint(r))) <= 1e-6:
+            break
+    else:
+        return x
+    i = np.arange(n, dtype=np.float64) / (n - 1)  # scaled for the solver
+    ones = np.ones(n)
+    # minimise t subject to |x_i - a - b i| <= t, variables (a, b, t)
+    A = np.block([[-ones[:, None], -i[:, None], -ones[:, None]], [ones[:, None], i[:, None], -ones[:, None]]])
+    res = linprog([0.0, 0.0, 1.0], A_ub=A, b_ub=np.r_[-x, x], bounds=[(None, None)] * 3, method="highs")
+    if not res.success or res.x[2] > 0.5 * q * (1 + 1e-6):
+        return x
+    a, b, _ = res.x
+    return a + b * i
+
 
 
 def _check(p: Path, x, h, lines_of=None):
@@ -109,63 +326,6 @@ def _check(p: Path, x, h, lines_of=None):
             raise ParameterError(f"{p}, {where}: x = {x[i]:g} does not increase (previous {x[i - 1]:g})")
     if h.size < 4:
         raise ParameterError(f"{p}: {h.size} samples, which is not allowed: at least 4 are needed")
-
-
-def _load_dektak(p: Path, lines):
-    res_um = None
-    start = None
-    for i, line in enumerate(lines):
-        cells = [c.strip() for c in line.split(",")]
-        if cells[0].lower() == "resolution" and len(cells) > 1:
-            m = re.match(r"([0-9.eE+-]+)\s*([^/\s]+)\s*/\s*sample", cells[1])
-            if m:
-                try:
-                    value = float(m.group(1))
-                except ValueError:
-                    raise ParameterError(f"{p}, line {i + 1}: resolution {cells[1]!r} is not a number per sample") from None
-                if not (math.isfinite(value) and value > 0):
-                    raise ParameterError(f"{p}, line {i + 1}: resolution {cells[1]!r} is not allowed: "
-                                         "must be a finite length > 0 per sample")
-                res_um = value * _unit_factor(m.group(2), "resolution unit", f"{p}, line {i + 1}")
-        if line.strip().lower().startswith("scan data"):
-            start = i + 1
-            break
-    while start < len(lines) and not lines[start].strip():
-        start += 1
-    if start >= len(lines):
-        raise ParameterError(f"{p}: 'Scan Data' is followed by no column header")
-    header = [c.strip() for c in lines[start].split(",")]
-    units = []
-    for col in header[:2]:
-        words = col.split()
-        if len(words) < 2:
-            raise ParameterError(f"{p}, line {start + 1}: column header {col!r} states no unit")
-        units.append(_unit_factor(words[-1], "unit", f"{p}, line {start + 1}"))
-    xs, hs, line_no = [], [], []
-    for j in range(start + 1, len(lines)):
-        cells = [c.strip() for c in lines[j].split(",")]
-        if not cells[0]:
-            continue
-        try:
-            xs.append(float(cells[0]))
-            hs.append(float(cells[1]))
-        except ValueError:
-            raise ParameterError(f"{p}, line {j + 1}: {lines[j][:60]!r} is not two numbers") from None
-        except IndexError:
-            raise ParameterError(f"{p}, line {j + 1}: {lines[j][:60]!r} has one column: Dektak 'Scan Data' "
-                                 "needs two (lateral position, height)") from None
-        line_no.append(j + 1)
-    x = np.array(xs) * units[0]
-    h = np.array(hs) * units[1]
-    _check(p, x, h, line_no)
-    if res_um is not None:
-        # the lateral column is rounded (0.1 um); the stated resolution is the true spacing
-        uniform = x[0] + res_um * np.arange(x.size)
-        if abs(uniform[-1] - x[-1]) > 0.01 * (x[-1] - x[0]):
-            raise ParameterError(f"{p}: the stated resolution {res_um:g} m/sample disagrees with the lateral "
-                                 f"column ({x.size} samples over {x[-1] - x[0]:g} m)")
-        x = uniform
-    return x, h
 
 
 def _load_columns(p: Path, lines, spacing, x_unit, height_unit, x_column, height_column):
@@ -209,13 +369,15 @@ def _load_columns(p: Path, lines, spacing, x_unit, height_unit, x_column, height
     return x, h
 
 
-def _load_mat(p: Path, spacing, height_unit, variable):
+def _load_mat(p: Path, spacing, height_unit, variable, x_unit) -> Reading:
     from scipy.io import loadmat
 
     try:
         data = loadmat(p)
+    except MemoryError:
+        raise ParameterError(f"{p}: reading it ran out of memory; the file is too large") from None
     except Exception as exc:  # scipy raises several kinds for unreadable files
-        raise ParameterError(f"{p}: not a readable MATLAB file ({exc})") from None
+        raise ParameterError(f"{p}: not a readable MATLAB file ({_first_line(exc)})") from None
     names = [k for k in data if not k.startswith("__")]
     if variable is None:
         if len(names) != 1:
@@ -223,22 +385,33 @@ def _load_mat(p: Path, spacing, height_unit, variable):
         variable = names[0]
     if variable not in data:
         raise ParameterError(f"variable = {variable!r} is not allowed: {p} holds {names}")
-    arr = _mat_vector(p, variable, data[variable])
-    if arr.ndim != 1:
-        raise ParameterError(f"{p}: variable {variable!r} has shape {data[variable].shape}: a profile must be a vector")
+    arr = np.atleast_1d(_mat_array(p, variable, data[variable]))
+    if arr.ndim > 2:
+        raise ParameterError(f"{p}: variable {variable!r} has shape {data[variable].shape}: a profile must be a "
+                             "vector and a height map a matrix")
+    if x_unit is not None:
+        raise ParameterError(f"x_unit = {x_unit!r} is not allowed: {p} has no positions; give the sample spacing")
     examples = {"spacing": "0.5um", "height_unit": "mm"}
     missing = [n for n, v in (("spacing", spacing), ("height_unit", height_unit)) if v is None]
     if missing:
         raise ParameterError(f"{p} does not state its sample spacing or height unit: give "
                              + " and ".join(_hint(m, examples[m]) for m in missing))
     h = arr * _unit_factor(height_unit, "height_unit", str(p))
+    step = _spacing(spacing, str(p))
+    if h.ndim == 2:  # a MATLAB matrix: rows are y, columns x (as an image), h[i, j] at (x_i, y_j)
+        h = np.ascontiguousarray(h.T)
+        bad = np.argwhere(~np.isfinite(h))
+        if bad.size:
+            raise ParameterError(f"{p}: {bad.shape[0]} of {h.size} heights are not finite numbers (NaN or inf), "
+                                 f"the first at sample {tuple(int(v) for v in bad[0])}")
+        return Reading(step * np.arange(h.shape[0]), step * np.arange(h.shape[1]), h, p.name, "haptex: MATLAB")
     _check(p, None, h)
-    x = _spacing(spacing, str(p)) * np.arange(h.size)
-    return x, h
+    return Reading(step * np.arange(h.size), None, h, p.name, "haptex: MATLAB")
 
 
-def _mat_vector(p: Path, variable: str, value) -> np.ndarray:
-    """The MATLAB variable as float64 if it is a real numeric array; anything else is refused."""
+def _mat_array(p: Path, variable: str, value) -> np.ndarray:
+    """The MATLAB variable as float64, squeezed (a vector or a matrix), if it is a real
+    numeric array; anything else is refused."""
     import scipy.sparse
 
     what = None
@@ -258,5 +431,5 @@ def _mat_vector(p: Path, variable: str, value) -> np.ndarray:
         what = f"of type {value.dtype} (logical or other)"
     if what is not None:
         raise ParameterError(f"{p}: variable {variable!r} is {what}, which is not allowed: "
-                             "a profile must be a real numeric vector")
+                             "a profile must be a real numeric vector, a height map a real numeric matrix")
     return value.astype(np.float64).squeeze()

@@ -485,14 +485,16 @@ def _split_spec(text: str, name: str, kind: str, count: tuple[int, int]):
     return parts
 
 
-def _texture_from_spec(spec: str, spacing, x_unit, height_unit, level, lowpass, scale, periodic):
-    from .textures import BandLimitedNoise, SampledProfile, Sinusoid
+def _texture_from_spec(spec: str, spacing, x_unit, height_unit, level, lowpass, scale, periodic, fill_undefined=False):
+    from .surfaces import load_texture
+    from .textures import BandLimitedNoise, Sinusoid
 
     kind, _, rest = spec.partition(":")
     if kind in ("sine", "noise", "egg-crate", "grating") and rest:
         given = [flag for flag, v in (("--spacing", spacing), ("--x-unit", x_unit), ("--height-unit", height_unit),
                                       ("--level", level), ("--lowpass", lowpass), ("--scale", scale),
-                                      ("--periodic", periodic)) if v not in (None, False)]
+                                      ("--periodic", periodic), ("--fill-undefined", fill_undefined))
+                 if v not in (None, False)]
         if given:
             raise ParameterError(f"{given[0]} is not allowed with the synthetic texture {kind + ':' + rest!r}: "
                                  f"{', '.join(given)} appl{'ies' if len(given) == 1 else 'y'} to measured profiles read from "
@@ -522,8 +524,8 @@ def _texture_from_spec(spec: str, spacing, x_unit, height_unit, level, lowpass, 
                                      "must be a whole number in [0, 2^64)")
             seed = int(vals[4])
         return BandLimitedNoise(*q, seed=seed)
-    prof = SampledProfile.from_file(spec, spacing=spacing, x_unit=x_unit, height_unit=height_unit,
-                                    periodic=periodic)
+    prof = load_texture(spec, spacing=spacing, x_unit=x_unit, height_unit=height_unit, periodic=periodic,
+                        fill_undefined=fill_undefined)
     if level:
         prof = prof.leveled()
     if lowpass is not None:

@@ -17,8 +17,8 @@ import numpy as np
 from scipy import optimize
 
 from . import _kernels
-from ._validation import ParameterError, check_count, fail, nonnegative, positive, whole
-from .textures import MAX_HARMONICS, Texture, _vector, common_period
+from ._validation import ParameterError, check_count, fail, finite, nonnegative, positive, whole
+from .textures import MAX_HARMONICS, SampledProfile, Texture, _vector, common_period
 
 __all__ = ["Surface", "SumOfGratings", "Grating", "BandLimitedNoise2D", "Extruded", "SampledSurface"]
 
@@ -763,6 +763,82 @@ class SampledSurface(Surface):
         hf = finite("height_factor", height_factor)
         return self._new(self.h * hf, self.x * lf, self.y * lf, self._shortest * lf)
 
+    def line(self, y: float | None = None, row: int | None = None):
+        """One line of the map along x, as a profile.
+
+        Parameters
+        ----------
+        y : float, optional
+            Position of the line (m): the spline evaluated at (x_i, y) for every column
+            x_i (beyond the rows of a non-periodic map: its tangent-plane extension).
+        row : int, optional
+            Index j of a row of samples: h[:, j] as they are. Give exactly one of the two.
+
+        Returns
+        -------
+        SampledProfile
+            On the map's x samples, periodic if the map is.
+
+        Raises
+        ------
+        ParameterError
+            If neither or both are given, or the row is out of range.
+        """
+        if (y is None) == (row is None):
+            raise ParameterError(f"y = {y!r}, row = {row!r} is not allowed: give exactly one of the two")
+        if row is not None:
+            j = whole("row", row, 0, self.y.size - 1)
+            h, where = self.h[:, j], f"row {j}"
+        else:
+            yv = finite("y", y, "m")
+            h = self.height_at(np.stack([self.x, np.full(self.x.size, yv)], -1))
+            where = f"y = {yv:g} m"
+        return SampledProfile(self.x, h, periodic=self.periodic, source=f"{self.source}, {where}".lstrip(", "))
+
+    @classmethod
+    def from_file(cls, path, *, spacing=None, x_unit=None, height_unit=None, variable=None, periodic: bool = False,
+                  fill_undefined: bool = False) -> SampledSurface:
+        """Load a measured areal height map: every format SurfaceTopography reads (X3P, SDF,
+        Gwyddion, Zygo, Wyko, Digital Surf, Keyence, Olympus, Sensofar, NPY, ...) with its
+        stated physical size and unit, and MATLAB matrices (rows along y, as an image).
+
+        Parameters
+        ----------
+        path : str or Path
+        spacing : float or str, optional
+            Pixel size, the same along x and y ("1um" or metres); required when the file
+            states no physical size; never guessed.
+        x_unit, height_unit : str, optional
+            Units of the positions and heights when the file does not state them.
+        variable : str, optional
+            A .mat variable or an instrument file's channel; default its only variable, or
+            the instrument's height channel.
+        periodic : bool, optional
+            See :class:`SampledSurface`.
+        fill_undefined : bool, optional
+            Fill undefined (NaN) heights by SurfaceTopography's harmonic interpolation;
+            by default such a map is refused, naming how many and where.
+
+        Returns
+        -------
+        SampledSurface
+            ``h[i, j]`` at (x_i, y_j), x along the instrument's first axis.
+
+        Raises
+        ------
+        ParameterError
+            As :meth:`SampledProfile.from_file`; a line scan is refused (read it with
+            ``SampledProfile.from_file``), and so is a map over ``MAX_SAMPLES`` samples.
+        """
+        from ._loaders import read_topography
+
+        r = read_topography(path, spacing=spacing, x_unit=x_unit, height_unit=height_unit, variable=variable,
+                            fill_undefined=fill_undefined)
+        if not r.areal:
+            raise ParameterError(f"{path}: holds a line scan ({r.x.size} samples), not an areal map: read it with "
+                                 "SampledProfile.from_file, or extrude it with Extruded(...)")
+        return cls(r.x, r.y, r.h, periodic=periodic, source=r.source)
+
     @classmethod
     def from_image(cls, path, pixel_size, height_range, periodic: bool = False) -> SampledSurface:
         """A greyscale height map from an image (the bump maps CHAI3D and H3D users have).
@@ -826,3 +902,20 @@ class SampledSurface(Surface):
         x = step * np.arange(h.shape[0])
         y = step * np.arange(h.shape[1])
         return cls(x, y, h, periodic=periodic, source=str(path))
+
+
+def load_texture(path, *, spacing=None, x_unit=None, height_unit=None, variable=None, periodic: bool = False,
+                 fill_undefined: bool = False) -> SampledProfile | SampledSurface:
+    """A measured texture from any file haptex reads, as the file holds it: a line scan
+    becomes a :class:`~haptex.textures.SampledProfile`, an areal map a
+    :class:`SampledSurface` (what ``--texture FILE`` does at the command line).
+
+    Parameters and errors are those of :meth:`SampledSurface.from_file`.
+    """
+    from ._loaders import read_topography
+
+    r = read_topography(path, spacing=spacing, x_unit=x_unit, height_unit=height_unit, variable=variable,
+                        fill_undefined=fill_undefined)
+    if r.areal:
+        return SampledSurface(r.x, r.y, r.h, periodic=periodic, source=r.source)
+    return SampledProfile(r.x, r.h, periodic=periodic, source=r.source)

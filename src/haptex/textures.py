@@ -577,42 +577,56 @@ class SampledProfile(Texture):
 
     @classmethod
     def from_file(cls, path, *, spacing=None, x_unit=None, height_unit=None, variable=None, x_column=0,
-                  height_column=1, periodic: bool = False) -> SampledProfile:
-        """Load a measured profile.
+                  height_column=1, periodic: bool = False, fill_undefined: bool = False) -> SampledProfile:
+        """Load a measured line scan.
 
-        Formats: the Bruker Dektak CSV export (header block, ``Scan Data``, Latin-1,
-        CR/CRLF line ends; spacing from its ``Resolution`` line and units from its column
-        header), plain CSV or whitespace-separated text columns, and MATLAB ``.mat`` files
-        (scipy.io.loadmat).
+        Every format SurfaceTopography reads (some 40 instrument formats: Dektak CSV and
+        OPDx, Wyko OPD, Zygo DATX and MetroPro, Digital Surf SUR, X3P, SDF, Gwyddion,
+        Keyence, Olympus, Sensofar, Bruker/Veeco, NT-MDT, plain text, HDF5, NPY, ...) with
+        its stated physical size and unit; MATLAB ``.mat`` files and text columns
+        SurfaceTopography does not recognise by haptex's own readers (see ``_loaders``).
+        Positions printed rounded (a Dektak export's 0.1 um) are taken as the uniform
+        grid they round. An areal map is refused: read it with
+        ``SampledSurface.from_file`` and take ``.line(...)``.
 
         Parameters
         ----------
         path : str or Path
         spacing : float or str, optional
-            Sample spacing ("0.5um" or metres). Required when the file gives no abscissa
-            (a .mat vector, a single text column); never guessed.
+            Sample spacing ("0.5um" or metres). Required when the file states no physical
+            size (a .mat vector, a single text column, an NPY array); never guessed.
         x_unit, height_unit : str, optional
-            Units of the file's abscissa and heights ("um", "nm", "mm", "m"). Required when
-            the file does not state them; never guessed.
+            Units of the file's positions and heights ("um", "nm", "mm", "m"). Required
+            when the file does not state them, refused when it does; never guessed.
         variable : str, optional
-            Variable of a .mat file; default its only variable.
+            The variable of a .mat file, or the channel of a multi-channel instrument file;
+            default its only variable, or the instrument's height channel.
         x_column, height_column : int, optional
-            Columns of a text file (0-based); x_column=None for heights only.
+            Columns of a text file (0-based; x_column=None for heights only). Other than
+            (0, 1) the file is read by haptex's text reader.
         periodic : bool, optional
             See :class:`SampledProfile`.
+        fill_undefined : bool, optional
+            Fill undefined (NaN) heights by SurfaceTopography's interpolation; by default a
+            file with undefined heights is refused, naming how many and where.
 
         Raises
         ------
         ParameterError
-            Naming the file (and line where there is one) for an unreadable file, an
-            unparseable unit, NaNs, non-increasing x, fewer than 4 samples, or missing
-            spacing/units.
+            One line naming the file for an unknown format, a truncated or corrupt file,
+            an unparseable or refused unit, undefined heights, non-increasing x, fewer than
+            4 samples, a missing spacing or unit, an areal map, or a file too large for the
+            memory budget.
         """
-        from ._loaders import load_profile
+        from ._loaders import read_topography
 
-        x, h, shortest, src = load_profile(path, spacing=spacing, x_unit=x_unit, height_unit=height_unit,
-                                           variable=variable, x_column=x_column, height_column=height_column)
-        return cls(x, h, periodic=periodic, source=src)
+        r = read_topography(path, spacing=spacing, x_unit=x_unit, height_unit=height_unit, variable=variable,
+                            x_column=x_column, height_column=height_column, fill_undefined=fill_undefined)
+        if r.areal:
+            raise ParameterError(f"{path}: holds an areal map ({r.x.size} x {r.y.size} samples), not a line scan: read "
+                                 "it with SampledSurface.from_file (haptex reads it as a surface at the command line) "
+                                 "and take one line with .line(y=...) or .line(row=...)")
+        return cls(r.x, r.h, periodic=periodic, source=r.source)
 
 
 class Flat(Texture):

@@ -12,11 +12,14 @@ from ._region import (MAX_ANALYSIS_STIFFNESS, MAX_REGION_PERIODS, MAX_SLOPE, MIN
                       check_analysis_scale, checked_algorithms)
 from .characteristic import PAPER_Q_F, CharacteristicNumber, characteristic_number, friction_bounds, spectral_norm
 from .continuity import Continuity, continuity
-from .passivity import Limit, PassivityCondition, max_passive_stiffness, passivity_condition, texture_limits
+from .passivity import (Cutoff, Limit, PassivityCondition, max_passive_stiffness, passivity_condition,
+                        rendering_cutoff, texture_limits)
 from .work import (MAX_PATH_PIECES, Conservativity, conservativity, curl, loop_energy, paper_loop, path_work,
                    random_loops)
 
 __all__ = [
+    "Cutoff",
+    "rendering_cutoff",
     "CharacteristicNumber",
     "characteristic_number",
     "friction_bounds",

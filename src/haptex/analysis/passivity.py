@@ -80,26 +80,98 @@ def texture_limits(texture: Texture, device, speed: float, stiffness: float, sam
     """
     v = positive("speed", speed, "m/s")
     k0 = positive("stiffness", stiffness, "N/m")
-    spp = np.broadcast_to(np.asarray(samples_per_period, dtype=np.float64), (3,))
-    for name, val in zip(("alpha", "beta", "gamma"), spp):
-        positive(f"samples_per_period ({name})", val)
-    alpha, beta, gamma = (float(v_) for v_ in spp)
+    alpha, beta, gamma = _samples_per_period(samples_per_period)
     ell = float(texture.shortest_period)
     M = float(texture.max_slope)
     force_amp = k0 * float(texture.peak_magnitude)
-    T = device.period
-    delta = device.position_resolution
     b = device.force_resolution
     kmax = device.max_stiffness
-    return [
-        Limit("scanning velocity", "alpha v T / l < 1", alpha * v * T / ell, 1.0, "1", alpha * v * T / ell < 1),
-        Limit("low-speed reconstruction", "beta delta / l < 1", beta * delta / ell, 1.0, "1", beta * delta / ell < 1),
-        Limit("high-speed reconstruction", "alpha delta / l < 1", alpha * delta / ell, 1.0, "1", alpha * delta / ell < 1),
+    bound = _period_bounds(device, v, alpha, beta)
+    out = [Limit(name, formula, bound[name] / ell, 1.0, "1", bound[name] / ell < 1)
+           for name, formula in PERIOD_LIMITS[:3]]
+    out += [
         Limit("force reconstruction", "gamma b < A_F (printed: gamma b / l < A)", gamma * b, force_amp, "N",
               gamma * b < force_amp),
         Limit("gain", "kappa_0 M < K_max (printed: 2 pi A / l < A_0)", k0 * M, kmax, "N/m", k0 * M < kmax),
-        Limit("device structural", "v / l < F_0", v / ell, device.first_resonance, "Hz", v / ell < device.first_resonance),
+        Limit("device structural", "v / l < F_0", v / ell, device.first_resonance, "Hz",
+              v / ell < device.first_resonance),
     ]
+    return out
+
+
+PERIOD_LIMITS = (("scanning velocity", "alpha v T / l < 1"), ("low-speed reconstruction", "beta delta / l < 1"),
+                 ("high-speed reconstruction", "alpha delta / l < 1"), ("device structural", "v / l < F_0"))
+"""The four limits of Section II-B that bound the texture's shortest period l from below."""
+
+
+def _samples_per_period(samples_per_period) -> tuple[float, float, float]:
+    spp = np.broadcast_to(np.asarray(samples_per_period, dtype=np.float64), (3,))
+    for name, val in zip(("alpha", "beta", "gamma"), spp):
+        positive(f"samples_per_period ({name})", val)
+    return tuple(float(v_) for v_ in spp)
+
+
+def _period_bounds(device, v: float, alpha: float, beta: float) -> dict[str, float]:
+    """The shortest period (m) each of the four period limits allows: l > alpha v T,
+    beta delta, alpha delta, v / F_0."""
+    T, delta = device.period, device.position_resolution
+    return {"scanning velocity": alpha * v * T, "low-speed reconstruction": beta * delta,
+            "high-speed reconstruction": alpha * delta, "device structural": v / device.first_resonance}
+
+
+@dataclass(frozen=True)
+class Cutoff:
+    """Result of :func:`rendering_cutoff`.
+
+    Attributes
+    ----------
+    period : float
+        l_c (m): the shortest period the device renders faithfully at the speed.
+    set_by : tuple of str
+        The limit(s) attaining l_c (their names as in :func:`texture_limits`).
+    bounds : dict
+        Each of the four period limits' bound on l (m).
+    """
+
+    period: float
+    set_by: tuple[str, ...]
+    bounds: dict
+
+
+def rendering_cutoff(device, speed: float, samples_per_period=5) -> Cutoff:
+    """The shortest texture period a device can render at a scanning speed: the largest of
+    the bounds the four period limits of Section II-B (scanning velocity, low- and
+    high-speed reconstruction, device structural) put on the shortest period l,
+
+        l_c = max(alpha v T, beta delta, alpha delta, v / F_0).
+
+    A texture band-limited to periods >= l_c passes those four limits (with equality at
+    l_c); the force-reconstruction and gain limits depend on amplitude and stiffness and
+    are checked on the band-limited texture by :func:`texture_limits`.
+
+    Parameters
+    ----------
+    device : Device
+        Its ``period`` T (s), ``position_resolution`` delta (m), ``first_resonance`` F_0 (Hz).
+    speed : float
+        Scanning velocity v (m/s), > 0.
+    samples_per_period : float or (float, float, float), optional
+        alpha, beta, gamma (default 5).
+
+    Returns
+    -------
+    Cutoff
+
+    Raises
+    ------
+    ParameterError
+        For a non-positive speed or sample count.
+    """
+    v = positive("speed", speed, "m/s")
+    alpha, beta, _ = _samples_per_period(samples_per_period)
+    bounds = _period_bounds(device, v, alpha, beta)
+    lc = max(bounds.values())
+    return Cutoff(lc, tuple(name for name, b in bounds.items() if b >= lc * (1 - 1e-12)), bounds)
 
 
 @dataclass(frozen=True)
