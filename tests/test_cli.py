@@ -205,8 +205,9 @@ MAT = ["--spacing", "1um", "--height-unit", "um"]
 
 @pytest.mark.parametrize("args, fragment", [
     # loaders (each one crashed with a traceback, or silently dropped an imaginary part)
-    (["design", "--texture", "{d}/res_e.csv"], "resolution 'e um/sample' is not a number"),
-    (["design", "--texture", "{d}/onecol.csv"], "has one column"),
+    # a Dektak header SurfaceTopography does not recognise: haptex's text reader asks for units
+    (["design", "--texture", "{d}/res_e.csv"], "res_e.csv: the file does not state its height unit"),
+    (["design", "--texture", "{d}/onecol.csv"], "onecol.csv (Plain text) does not state its height unit or sample spacing"),
     (["design", "--texture", "{d}/struct.mat", *MAT], "is a struct with fields ['a']"),
     (["design", "--texture", "{d}/cell.mat", *MAT], "is a cell array"),
     (["design", "--texture", "{d}/sparse.mat", *MAT], "is a sparse matrix"),
@@ -249,10 +250,10 @@ def test_reproducer_7_one_line_not_a_traceback(bad_files, args, fragment):
      "--scale is not allowed with the synthetic texture 'sine:0.1mm,1mm': --scale applies to measured profiles"),
     (["design", "--texture", "noise:0.1mm,0.5mm,5mm,10mm", "--level", "--periodic"],
      "--level is not allowed with the synthetic texture"),
-    (["design", "--texture", "{d}"], "it is a directory, not a profile file"),
+    (["design", "--texture", "{d}"], "it is a directory, not a topography file"),
     (["design", "--texture", "{d}/none.csv"], "no such file"),
-    (["design", "--texture", "{d}/heights.txt"], "give it, --height-unit um at the command line"),
-    (["design", "--texture", "{d}/heights.txt", "--height-unit", "um"], "give the sample spacing, --spacing 0.5um"),
+    (["design", "--texture", "{d}/heights.txt"], "does not state its height unit or sample spacing: give --height-unit um"),
+    (["design", "--texture", "{d}/heights.txt", "--height-unit", "um"], "does not state its sample spacing: give --spacing 0.5um"),
 ])
 def test_cli_trust_one_line(bad_files, args, fragment):
     (bad_files / "heights.txt").write_text("\n".join(f"{0.1 * math.sin(i / 3):.5f}" for i in range(30)))
@@ -364,7 +365,7 @@ def test_design_and_table_report_progress_per_algorithm():
     assert seen == list("WABCDEFG")
     seen.clear()
     design(hx.Sinusoid(0.2e-3, 2e-3), hx.Device.pantograph(), 500.0, progress=seen.append)
-    assert seen == list("WABCDEFG")
+    assert seen == ["band-limiting", *"WABCDEFG"]  # issue 13: the first step band-limits a measured texture
 
 
 def test_absurd_regions_are_refused_at_once_naming_the_way_out():
@@ -372,14 +373,6 @@ def test_absurd_regions_are_refused_at_once_naming_the_way_out():
     # to 11 GB; written with its unit it is refused before any grid, naming the height range
     r = run_cli("table", "--amplitude", "0.8m")
     assert r.returncode == 2 and "height range 1.6 m spans more than 1000 shortest periods" in r.stderr
-
-
-@needs_data
-def test_raw_dektak_design_is_refused_at_once_with_the_lowpass_hint():
-    # issue 13's raw scan did not finish in 15 minutes; until raw data is fast it is one line
-    r = run_cli("design", "--texture", str(DEKTAK), timeout=60)
-    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
-    assert "at most 1000 shortest texture periods" in r.stderr and "--lowpass" in r.stderr
 
 
 def test_one_device_syntax_and_help_per_subcommand():

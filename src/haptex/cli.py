@@ -98,25 +98,13 @@ def reproduce(stiffness, amplitude, period, max_penetration, friction, preslidin
     """
     import time as _time
 
-    from rich.console import Console
-    from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
-
     from . import report
 
     report.check_output(out, force)
     params = dict(stiffness=stiffness, amplitude=amplitude, period=period, max_penetration=max_penetration,
                   friction=friction, presliding=presliding)
     t0 = _time.perf_counter()
-    console = Console(stderr=True)
-    with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(), console=console,
-                  transient=True, disable=not console.is_terminal) as prog:
-        task = prog.add_task("starting", total=None)
-
-        def step(text):
-            prog.update(task, description=text)
-            if not console.is_terminal:
-                console.print(f"haptex: {text}")
-
+    with _Spinner("starting", quiet=False, echo=True) as step:
         data = report.compute(quick=quick, progress=step, table_params=params)
         step("figures and report")
         elapsed = _time.perf_counter() - t0
@@ -223,6 +211,7 @@ def _sim_common(func):
         click.option("--passivity-control", type=Quantity("N*s/m"), default=None,
                      help="Add a passivity observer/controller with this largest damping, e.g. '20 N*s/m'."),
         click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON."),
+        click.option("--quiet", is_flag=True, help="No progress display."),
         click.pass_context,
     ]
     for opt in reversed(opts):
@@ -268,7 +257,8 @@ def path(ctx, **kw):
 
 
 def _simulate(ctx, mode, letter, stiffness, amplitude, period, max_penetration, friction, presliding, device_spec,
-              joint_damping, mass, damping, sampling_period, delay, duration, plot, save, as_json, surface_spec=None,
+              joint_damping, mass, damping, sampling_period, delay, duration, plot, save, as_json, quiet=False,
+              surface_spec=None,
               passivity_control=None, band_stiffness=100.0, anchor="0,-30mm", angle=10.0, hand_stiffness=300.0,
               hand_damping=1.0, velocity=0.01, depth=1e-3, path_text=None, speed=1e-3):
     from . import operators as ops
@@ -317,8 +307,9 @@ def _simulate(ctx, mode, letter, stiffness, amplitude, period, max_penetration, 
             raise ParameterError("path = None is not allowed in path mode: give --path 'x,z;x,z;...' "
                                  "('x,y,z;...' over a surface)")
         op = ops.KinematicPath(_parse_path(path_text, d), speed)
-    res = run(alg, dev, op, duration, initial_position=start, record_every=max(1, int(round(duration / dev.period / 20000))),
-              passivity_controller=pc)
+    with _Spinner(f"simulating {duration:g} s at T = {dev.period:g} s", quiet or as_json):
+        res = run(alg, dev, op, duration, initial_position=start,
+                  record_every=max(1, int(round(duration / dev.period / 20000))), passivity_controller=pc)
     osc = res.oscillation
     units = {"stiffness": "N/m", "sampling_period": "s", "duration": "s", "energy_x": "J", "energy_z": "J",
              "damping_energy": "J", "operator_work": "J", "kinetic_energy": "J", "friction_energy": "J", "energy_y": "J",
@@ -400,12 +391,45 @@ class _Steps:
             if self.started:
                 self.bar.advance(self.task)
             self.started = True
-            self.bar.update(self.task, description=f"{self.title}: algorithm {letter}")
+            what = f"algorithm {letter}" if len(letter) == 1 else letter
+            self.bar.update(self.task, description=f"{self.title}: {what}")
         return step
 
     def __exit__(self, *exc):
         if self.show:
             self.bar.__exit__(*exc)
+        return False
+
+
+class _Spinner:
+    """A rich spinner with the elapsed time on stderr for work whose length is unknown (a
+    compiled simulation, reading a file), shown on a terminal only and never with --json or
+    --quiet: ``with _Spinner("simulating", quiet) as say: ...; say("next step")``. Off a
+    terminal, ``echo=True`` prints each step as a line instead."""
+
+    def __init__(self, text: str, quiet: bool, echo: bool = False):
+        from rich.console import Console
+
+        self.console = Console(stderr=True)
+        self.text, self.quiet, self.echo = text, quiet, echo
+
+    def __enter__(self):
+        from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+
+        self.prog = Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(),
+                             console=self.console, transient=True,
+                             disable=self.quiet or not self.console.is_terminal)
+        self.prog.__enter__()
+        self.task = self.prog.add_task(self.text, total=None)
+
+        def say(text):
+            self.prog.update(self.task, description=text)
+            if self.echo and not self.quiet and not self.console.is_terminal:
+                self.console.print(f"haptex: {text}")
+        return say
+
+    def __exit__(self, *exc):
+        self.prog.__exit__(*exc)
         return False
 
 
@@ -541,7 +565,8 @@ def _texture_from_spec(spec: str, spacing, x_unit, height_unit, level, lowpass, 
 
 @cli.command()
 @click.option("--texture", "texture_spec", required=True,
-              help="FILE (CSV, Dektak CSV, .mat), 'sine:AMPLITUDE,PERIOD', 'noise:RMS,SHORTEST,LONGEST,LENGTH[,SEED]', "
+              help="FILE (a line scan or an areal map in any format SurfaceTopography reads: Dektak, X3P, SDF, "
+                   "Gwyddion, Zygo, Wyko, Keyence, NPY, text, ...; or .mat), 'sine:AMPLITUDE,PERIOD', 'noise:RMS,SHORTEST,LONGEST,LENGTH[,SEED]', "
                    "or a surface: 'egg-crate:AMPLITUDE,PERIOD', 'grating:AMPLITUDE,PERIOD[,DIRECTION]'.")
 @_device_options
 @click.option("--stiffness", type=Quantity("N/m"), default=PAPER_PARAMETERS["stiffness"], show_default="2000 N/m",
@@ -557,6 +582,10 @@ def _texture_from_spec(spec: str, spacing, x_unit, height_unit, level, lowpass, 
 @click.option("--scale", default=None, help="'LENGTH_FACTOR,HEIGHT_FACTOR' to stretch the profile.")
 @click.option("--periodic", is_flag=True, help="Close the profile into a periodic texture.")
 @click.option("--window", default=None, help="'X0,X1' abscissa window to analyse (default: one period or the whole profile).")
+@click.option("--fill-undefined", is_flag=True,
+              help="Fill a measured file's undefined (NaN) heights by interpolation instead of refusing the file.")
+@click.option("--raw", is_flag=True,
+              help="Analyse the measured samples as they are, not band-limited to what the device renders.")
 @click.option("--report", "report_dir", type=click.Path(path_type=Path), default=None,
               help="Also write an HTML report (force fields, q maps, limits, recommendation) into this directory.")
 @click.option("--force", is_flag=True, help="With --report: write into an existing directory that is not a haptex report.")
@@ -564,12 +593,21 @@ def _texture_from_spec(spec: str, spacing, x_unit, height_unit, level, lowpass, 
 @click.option("--quiet", is_flag=True, help="No progress display.")
 @click.pass_context
 def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, sampling_period, delay, stiffness, speed,
-           max_penetration, spacing, x_unit, height_unit, level, lowpass, scale, periodic, window, report_dir, force,
-           as_json, quiet):
-    """Which algorithm, how stiff, will it be passive, can the device render it?"""
+           max_penetration, spacing, x_unit, height_unit, level, lowpass, scale, periodic, window, fill_undefined, raw,
+           report_dir, force, as_json, quiet):
+    """Which algorithm, how stiff, will it be passive, can the device render it?
+
+    A measured texture is band-limited to the shortest period the device renders at the
+    speed (the four period limits of Section II-B) and analysed as rendered; --raw analyses
+    the samples as they are."""
     from .design import design as run_design
 
-    tex = _texture_from_spec(texture_spec, spacing, x_unit, height_unit, level, lowpass, scale, periodic)
+    with _Spinner("reading the texture", quiet or as_json):
+        tex = _texture_from_spec(texture_spec, spacing, x_unit, height_unit, level, lowpass, scale, periodic,
+                                 fill_undefined)
+    if raw and not hasattr(tex, "band_limited"):
+        raise ParameterError(f"--raw is not allowed with the synthetic texture {texture_spec!r}: it applies to measured "
+                             "textures read from a file")
     dev = _build_device(ctx, device_spec, joint_damping, mass, damping, sampling_period, delay, tex.dimension + 1)
     if window and tex.dimension != 1:
         raise ParameterError("--window is not allowed with a surface: the analysis covers one periodic cell")
@@ -583,9 +621,9 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
         check_output(report_dir, force)  # before the minutes of analysis
     elif force:
         raise ParameterError("--force is not allowed without --report: it applies to the report directory")
-    with _Steps(8, "design", quiet or as_json) as step:
+    with _Steps(9, "design", quiet or as_json) as step:
         data = run_design(tex, dev, stiffness, speed=speed, max_penetration=max_penetration, x_range=x_range,
-                          progress=step)
+                          progress=step, band_limit=not raw)
     if report_dir is not None:
         from .report import write_design_report
 
@@ -597,8 +635,23 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
     from rich.table import Table
 
     console = Console()
+    bl = data["band_limit"]
+    rn = bl["raw"]
+    if bl["sampled"]:
+        dom = "" if rn["dominant_period"] is None else f", dominant period {rn['dominant_period'] * 1e3:.4g} mm"
+        console.print(f"measured {data['texture']}: {bl['samples']['raw']} samples, RMS {rn['rms'] * 1e6:.4g} um{dom}, "
+                      f"M = {rn['max_slope']:.4g}, max curvature {rn['max_curvature']:.4g} 1/m")
+    cut = (f"the device renders periods >= {bl['cutoff'] * 1e3:.4g} mm at {speed:g} m/s "
+           f"(set by the {' and '.join(bl['set_by'])} limit)")
+    if bl["applied"]:
+        console.print(f"{cut}: band-limited to it ({rn['rms_removed'] * 1e6:.3g} um RMS removed) and resampled to "
+                      f"{bl['samples']['rendered']} samples; analysed as rendered (--raw: as measured)")
+    elif bl["sampled"] and not bl["requested"]:
+        console.print(f"{cut}; --raw: analysed as measured, not as rendered")
+    else:
+        console.print(cut)
     tn = data["texture_numbers"]
-    console.print(f"texture {data['texture']}: shortest period {tn['shortest_period'] * 1e3:.4g} mm, "
+    console.print(f"{'rendered ' if bl['applied'] else ''}texture {data['rendered_texture']}: shortest period {tn['shortest_period'] * 1e3:.4g} mm, "
                   f"M = {tn['max_slope']:.4g}, heights {tn['height_range'][0] * 1e3:.4g} to {tn['height_range'][1] * 1e3:.4g} mm")
     console.print(f"device {data['device']}: sigma_0(B)/(2T) = {data['passivity_limit']:.4g} N/m; sampled wall "
                   f"stability limit {data['wall_stability_limit']:.4g} N/m")

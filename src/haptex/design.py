@@ -7,7 +7,8 @@ import math
 
 from ._validation import ParameterError
 from .algorithms import ALGORITHMS
-from .analysis import characteristic_number, checked_algorithms, conservativity, continuity, paper_loop, texture_limits
+from .analysis import (characteristic_number, checked_algorithms, conservativity, continuity, paper_loop, rendering_cutoff,
+                       texture_limits)
 from .devices import Device, critical_stiffness
 from .textures import Texture
 
@@ -16,7 +17,7 @@ LETTERS = "WABCDEFG"
 
 def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.1, max_penetration: float = 1e-3,
            samples_per_period=5, friction: float = 0.8, presliding: float = 1e-3, n_loops: int = 4,
-           x_range=None, progress=None) -> dict:
+           x_range=None, progress=None, band_limit: bool = True) -> dict:
     """Analyse every algorithm for one texture on one device and recommend.
 
     Parameters
@@ -43,7 +44,17 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         Abscissa window analysed (m); default the texture's domain (one period, or the
         sampled range of a measured profile). A window keeps long profiles quick.
     progress : callable, optional
-        Called with each algorithm's letter before it is analysed (a progress display).
+        Called with each step's name before it runs ("band-limiting", then each
+        algorithm's letter): a progress display.
+    band_limit : bool, optional
+        Analyse what the device renders (default): a sampled texture (SampledProfile,
+        SampledSurface) holding periods shorter than the device's cut-off l_c
+        (:func:`~haptex.analysis.rendering_cutoff`: the four period limits of Section II-B
+        at ``speed``) is low-passed to l_c and resampled to 32 samples per l_c
+        (``band_limited``) before any analysis. False analyses the raw samples (slow, and
+        often refused: a raw scan's Nyquist period makes the rendering region thousands
+        of periods deep). Analytic textures are analysed as they are; the limits table
+        says whether their shortest period is rendered.
 
     Returns
     -------
@@ -54,7 +65,12 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         ``max_passive_stiffness``, ``passive_at_stiffness``, ``conservative``,
         ``almost_conservative``, ``max_abs_loop_energy``, ``continuous``, ``q_where``: the
         probe position [x, z] (m) attaining q) and
-        ``recommendation`` (text) with ``recommended`` (letters).
+        ``recommendation`` (text) with ``recommended`` (letters), and ``band_limit``: the
+        cut-off ``cutoff`` (m), the limit(s) ``set_by`` it, each limit's ``bounds`` (m),
+        whether it was ``applied``, ``samples`` raw and rendered, and ``raw``: the given
+        texture's own numbers (shortest period, max slope, max curvature, height range, and
+        for sampled textures its RMS height, dominant period and the RMS the cut-off
+        removes). The other numbers are those of the rendered texture.
 
     Raises
     ------
@@ -65,6 +81,10 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         raise ParameterError(f"device = {device.name!r} with dimension = {device.dimension} is not allowed for "
                              f"{texture!r}: a {'surface needs a 3-DOF' if texture.dimension == 2 else 'profile needs a planar'}"
                              " device")
+    if progress is not None:
+        progress("band-limiting")
+    given = texture
+    texture, band = _band_limited(texture, device, speed, samples_per_period, band_limit)
     letters = [L for L in LETTERS if texture.dimension == 1 or ALGORITHMS[L].surfaces]
     algs = checked_algorithms(letters, texture, stiffness, max_penetration, friction, presliding)
     rows = []
@@ -111,11 +131,12 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
     if failed:
         text.append("the device cannot reproduce this texture faithfully: " + ", ".join(failed) + " limit(s) violated")
     return {
-        "units": {"stiffness": "N/m", "speed": "m/s", "max_penetration": "m", "friction": "1", "presliding": "m",
+        "units": {"cutoff": "m", "bounds": "m", "rms": "m", "rms_removed": "m", "dominant_period": "m",
+                  "stiffness": "N/m", "speed": "m/s", "max_penetration": "m", "friction": "1", "presliding": "m",
                   "x_range": "m", "passivity_limit": "N/m", "wall_stability_limit": "N/m", "shortest_period": "m",
                   "max_slope": "1", "max_curvature": "1/m", "height_range": "m", "q": "1", "q_where": "m",
                   "max_passive_stiffness": "N/m", "max_abs_loop_energy": "J", "limits": "each limit's 'unit'"},
-        "texture": repr(texture), "device": device.name, "stiffness": stiffness, "speed": speed,
+        "texture": repr(given), "rendered_texture": repr(texture), "device": device.name, "stiffness": stiffness, "speed": speed,
         "max_penetration": max_penetration, "friction": friction, "presliding": presliding,
         "x_range": None if x_range is None else [float(v) for v in x_range],
         "passivity_limit": device.passivity_limit,
@@ -124,5 +145,36 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
                             "max_curvature": texture.max_curvature, "height_range": list(texture.height_range)},
         "limits": [{"name": lim.name, "formula": lim.formula, "lhs": lim.lhs, "rhs": lim.rhs, "unit": lim.unit,
                     "passed": lim.passed} for lim in limits],
-        "rows": rows, "recommended": good + fair, "recommendation": "; ".join(text),
+        "rows": rows, "recommended": good + fair, "recommendation": "; ".join(text), "band_limit": band,
+    }
+
+
+def _band_limited(texture: Texture, device: Device, speed: float, samples_per_period, band_limit: bool):
+    """The texture the device renders, and what band-limiting did (see :func:`design`)."""
+    import numpy as np
+
+    cut = rendering_cutoff(device, speed, samples_per_period)
+    sampled = hasattr(texture, "band_limited")
+    raw = {"shortest_period": texture.shortest_period, "max_slope": texture.max_slope,
+           "max_curvature": texture.max_curvature, "height_range": list(texture.height_range)}
+    filtered = rendered = texture
+    if band_limit and sampled:
+        filtered = texture.lowpass(cut.period) if cut.period > texture.shortest_period else texture
+        rendered = filtered.band_limited(cut.period)  # resampling only: filtered is band-limited
+    if sampled:
+        h = texture.h
+        raw["rms"] = float(np.std(h))
+        spec = texture.spectrum()
+        amp = spec[-1].copy()
+        amp.flat[0] = 0.0  # not the mean
+        k = np.unravel_index(int(np.argmax(amp)), amp.shape)
+        freq = abs(spec[0][k[0]]) if amp.ndim == 1 else float(np.hypot(spec[0][k[0]], spec[1][k[1]]))
+        raw["dominant_period"] = float(1.0 / freq) if freq > 0 else None
+        raw["rms_removed"] = float(np.std(h - filtered.h))
+    return rendered, {
+        "cutoff": cut.period, "set_by": list(cut.set_by), "bounds": dict(cut.bounds),
+        "applied": rendered is not texture, "requested": bool(band_limit), "sampled": sampled,
+        "samples": {"raw": int(texture.h.size) if sampled else None,
+                    "rendered": int(rendered.h.size) if sampled else None},
+        "raw": raw,
     }

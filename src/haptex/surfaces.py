@@ -18,7 +18,7 @@ from scipy import optimize
 
 from . import _kernels
 from ._validation import ParameterError, check_count, fail, finite, nonnegative, positive, whole
-from .textures import MAX_HARMONICS, SampledProfile, Texture, _vector, common_period
+from .textures import MAX_HARMONICS, SAMPLES_PER_CUTOFF, SampledProfile, Texture, _decimated, _vector, common_period
 
 __all__ = ["Surface", "SumOfGratings", "Grating", "BandLimitedNoise2D", "Extruded", "SampledSurface"]
 
@@ -754,6 +754,27 @@ class SampledSurface(Surface):
             for axis, step in ((0, self.dx), (1, self.dy)):
                 hf = sosfiltfilt(butter(4, (1.0 / lc) / (0.5 / step), output="sos"), hf, axis=axis)
         return self._new(hf, shortest=lc)
+
+    def band_limited(self, shortest_period: float, samples_per_period: int = SAMPLES_PER_CUTOFF) -> SampledSurface:
+        """What a device renders of this map: band-limited to wavelengths >= ``shortest_period``
+        (:meth:`lowpass`) and resampled along x and y to at least ``samples_per_period``
+        samples per shortest period; see :meth:`SampledProfile.band_limited`.
+
+        Raises
+        ------
+        ParameterError
+            For a non-positive period or fewer than 4 samples per period.
+        """
+        lc = positive("shortest_period", shortest_period, "m")
+        per = whole("samples_per_period", samples_per_period, 4, 10**6)
+        surf = self.lowpass(lc) if lc > self._shortest else self
+        keep = max(lc, self._shortest)
+        h, sx = _decimated(surf.h, 0, self.dx, keep, self.periodic, per)
+        h, sy = _decimated(h, 1, self.dy, keep, self.periodic, per)
+        if h is surf.h:
+            return surf
+        return SampledSurface(self.x[0] + sx * np.arange(h.shape[0]), self.y[0] + sy * np.arange(h.shape[1]), h,
+                              self.periodic, surf._shortest, self.source)
 
     def scaled(self, length_factor: float = 1.0, height_factor: float = 1.0) -> SampledSurface:
         """Stretch the map: x and y by ``length_factor``, h by ``height_factor``."""

@@ -340,6 +340,10 @@ class BandLimitedNoise(SumOfSinusoids):
         return self.length
 
 
+SAMPLES_PER_CUTOFF = 32
+"""Samples per shortest period kept by ``band_limited`` (profiles and surfaces)."""
+
+
 class SampledProfile(Texture):
     """A measured height profile, evaluated by a C^2 cubic spline through its samples.
 
@@ -568,6 +572,42 @@ class SampledProfile(Texture):
             hf = sosfiltfilt(sos, self.h)
         return self._new(self.x, hf, shortest=lc)
 
+    def band_limited(self, shortest_period: float, samples_per_period: int = SAMPLES_PER_CUTOFF) -> SampledProfile:
+        """What a device renders of this profile: band-limited to periods >= ``shortest_period``
+        (:meth:`lowpass`, when the profile holds shorter ones) and resampled to at least
+        ``samples_per_period`` samples per shortest period, so that every analysis grid
+        scales with the rendered texture, not with the instrument's sample count.
+
+        Periodic profiles are resampled in the Fourier domain (exact for the band-limited
+        profile); others are decimated by the largest whole factor that keeps the samples
+        per period (no interpolation: every kept sample is a filtered sample).
+
+        Parameters
+        ----------
+        shortest_period : float
+            l_c (m), e.g. :func:`haptex.analysis.rendering_cutoff`'s.
+        samples_per_period : int, optional
+            Samples per l_c kept (default 32: a cubic spline's curvature then errs by about
+            (2 pi / 32)^2 / 12 = 0.3 % at l_c).
+
+        Returns
+        -------
+        SampledProfile
+            ``self`` when it is already band-limited and not oversampled.
+
+        Raises
+        ------
+        ParameterError
+            For a non-positive period or fewer than 4 samples per period.
+        """
+        lc = positive("shortest_period", shortest_period, "m")
+        per = whole("samples_per_period", samples_per_period, 4, 10**6)
+        prof = self.lowpass(lc) if lc > self._shortest else self
+        h, step = _decimated(prof.h, 0, self.dx, max(lc, self._shortest), self.periodic, per)
+        if h is prof.h:
+            return prof
+        return SampledProfile(self.x[0] + step * np.arange(h.size), h, self.periodic, prof._shortest, self.source)
+
     def scaled(self, length_factor: float = 1.0, height_factor: float = 1.0) -> SampledProfile:
         """Stretch the profile: x by ``length_factor`` and h by ``height_factor``
         (a 1.5 mm scan can be felt as a 15 mm texture)."""
@@ -627,6 +667,25 @@ class SampledProfile(Texture):
                                  "it with SampledSurface.from_file (haptex reads it as a surface at the command line) "
                                  "and take one line with .line(y=...) or .line(row=...)")
         return cls(r.x, r.h, periodic=periodic, source=r.source)
+
+
+def _decimated(h: np.ndarray, axis: int, step: float, lc: float, periodic: bool, per: int):
+    """Samples of a texture band-limited to periods >= lc, thinned along ``axis`` to at least
+    ``per`` samples per lc: (h, step) unchanged when they are not more than twice as dense,
+    else the new samples and spacing (Fourier resampling of a periodic texture, decimation
+    by a whole factor otherwise)."""
+    n = h.shape[axis]
+    if periodic:
+        m = max(int(math.ceil(n * step * per / lc)), 4)
+        if 2 * m > n:
+            return h, step
+        from scipy.signal import resample
+
+        return resample(h, m, axis=axis), n * step / m
+    k = int((lc / per) // step)
+    if k < 2 or (n - 1) // k + 1 < 4:
+        return h, step
+    return np.take(h, np.arange(0, n, k), axis=axis), k * step
 
 
 class Flat(Texture):

@@ -57,6 +57,10 @@ def texture_limits(texture: Texture, device, speed: float, stiffness: float, sam
        device's largest stiffness (its ``max_stiffness``, else sigma_0(B) / (2T))
     6. structural              v / l < F_0
 
+    Limits 1-3 and 6 bound the shortest period from below; they count as met at equality,
+    so that a texture band-limited to exactly :func:`rendering_cutoff`'s l_c passes them
+    (its filter has already attenuated l_c itself).
+
     Parameters
     ----------
     texture : Texture
@@ -87,14 +91,14 @@ def texture_limits(texture: Texture, device, speed: float, stiffness: float, sam
     b = device.force_resolution
     kmax = device.max_stiffness
     bound = _period_bounds(device, v, alpha, beta)
-    out = [Limit(name, formula, bound[name] / ell, 1.0, "1", bound[name] / ell < 1)
+    out = [Limit(name, formula, bound[name] / ell, 1.0, "1", bound[name] / ell <= 1)
            for name, formula in PERIOD_LIMITS[:3]]
     out += [
         Limit("force reconstruction", "gamma b < A_F (printed: gamma b / l < A)", gamma * b, force_amp, "N",
               gamma * b < force_amp),
         Limit("gain", "kappa_0 M < K_max (printed: 2 pi A / l < A_0)", k0 * M, kmax, "N/m", k0 * M < kmax),
         Limit("device structural", "v / l < F_0", v / ell, device.first_resonance, "Hz",
-              v / ell < device.first_resonance),
+              v / ell <= device.first_resonance),
     ]
     return out
 

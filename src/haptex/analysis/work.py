@@ -473,14 +473,33 @@ def random_loops(algorithm: Algorithm, n: int = 6, vertices: int = 5, max_penetr
     -------
     list of ndarray, each of shape (vertices + 1, dimension), metres: [x, z] over a
     profile, [x, y, z] (polygons in space) over a surface.
+
+    Notes
+    -----
+    Over a region wider than ``LOOP_SPAN_PERIODS`` shortest texture periods (a long
+    measured profile), each polygon is drawn in a window of that width placed at random in
+    the region: conservativity is local, and a loop's cost grows with the periods it
+    crosses, so a 1 m profile costs what a short one does.
     """
     box = _region_box(algorithm, check_analysis_scale(algorithm, max_penetration), x_range)
     rng = np.random.default_rng(seed)
+    span = LOOP_SPAN_PERIODS * float(algorithm.texture.shortest_period)
     loops = []
     for _ in range(int(n)):
-        v = np.column_stack([rng.uniform(a, b, vertices) for a, b in box])
+        cols = []
+        for k, (a, b) in enumerate(box):
+            if k < len(box) - 1 and b - a > span:  # an in-plane axis wider than the window
+                a = rng.uniform(a, b - span)
+                b = a + span
+            cols.append(rng.uniform(a, b, vertices))
+        v = np.column_stack(cols)
         loops.append(np.vstack([v, v[:1]]))
     return loops
+
+
+LOOP_SPAN_PERIODS = 16
+"""Width, in shortest texture periods, of the window a random loop is drawn in (see
+:func:`random_loops`)."""
 
 
 def conservativity(algorithm: Algorithm, max_penetration: float = 1e-3, n_random: int = 6, seed: int = 0,
@@ -509,7 +528,9 @@ def conservativity(algorithm: Algorithm, max_penetration: float = 1e-3, n_random
     loops = random_loops(algorithm, n_random, 5, max_penetration, seed, x_range)
     # relative accuracy 1e-10 on each loop is far below the verdict's tolerance
     energies = tuple(loop_energy(algorithm, lp, rtol=1e-10) for lp in loops)
-    size = max(b - a for a, b in _region_box(algorithm, max_penetration, x_range))
+    box = _region_box(algorithm, max_penetration, x_range)
+    span = LOOP_SPAN_PERIODS * float(algorithm.texture.shortest_period)
+    size = max(min(b - a, span) if k < len(box) - 1 else b - a for k, (a, b) in enumerate(box))  # a loop's box
     tol = 1e-9 * algorithm.stiffness * size * size
     try:
         path, _, _ = paper_loop(algorithm)

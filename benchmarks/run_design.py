@@ -1,0 +1,74 @@
+"""`haptex design` on raw measured data (issue 13), wall time in one run on this machine:
+
+1. the CLI end to end (a fresh Python each, numba cache warm) on the paper's sinusoid and on
+   the raw Dektak scan with no options, and their ratio (goal <= 4);
+2. design() from Python on a 10^6-sample synthetic profile (a random walk, 1 um a sample,
+   levelled) and on a 1024 x 1024 areal map (a grating plus noise, 1 um a pixel, read from
+   an X3P file SurfaceTopography wrote), each band-limited to what the pantograph (or the
+   serial arm, over the map) renders at 0.1 m/s.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+import haptex as hx
+from haptex.design import design
+
+DEKTAK = Path(__file__).resolve().parents[2] / "shared" / "data" / "dektak-stylus-profile.csv"
+
+
+def cli(*args) -> float:
+    t = time.perf_counter()
+    r = subprocess.run([sys.executable, "-m", "haptex", "design", *args, "--json"], capture_output=True, text=True)
+    if r.returncode != 0:
+        raise SystemExit(r.stderr)
+    return time.perf_counter() - t
+
+
+def main() -> None:
+    cli("--texture", "sine:0.2mm,2mm")  # warm the numba cache
+    sine = cli("--texture", "sine:0.2mm,2mm")
+    print(f"haptex design --texture sine:0.2mm,2mm            {sine:6.1f} s")
+    if DEKTAK.exists():
+        raw = cli("--texture", str(DEKTAK))
+        print(f"haptex design --texture dektak-stylus-profile.csv {raw:6.1f} s  ({raw / sine:.2f} x the sinusoid)")
+    else:
+        print(f"(the Dektak scan is not at {DEKTAK}: skipped)")
+
+    rng = np.random.default_rng(1)
+    n = 10**6
+    x = np.arange(n) * 1e-6
+    h = np.cumsum(rng.standard_normal(n)) * 1e-8
+    prof = hx.SampledProfile(x, h - np.polyval(np.polyfit(x, h, 1), x))
+    t = time.perf_counter()
+    d = design(prof, hx.Device.pantograph(), 2000.0)
+    print(f"design, 10^6-sample profile (1 m)                {time.perf_counter() - t:6.1f} s  "
+          f"({d['band_limit']['samples']['raw']} -> {d['band_limit']['samples']['rendered']} samples)")
+
+    from SurfaceTopography import Topography
+
+    m = 1024
+    g = np.arange(m) * 1e-6
+    X, Y = np.meshgrid(g, g, indexing="ij")
+    hm = 2e-6 * np.sin(2 * np.pi * X / 400e-6) * np.cos(2 * np.pi * Y / 300e-6) + 5e-8 * rng.standard_normal((m, m))
+    with tempfile.TemporaryDirectory() as tmp:
+        f = Path(tmp) / "map.x3p"
+        Topography(hm, (m * 1e-6, m * 1e-6), unit="m").to_x3p(str(f))
+        t = time.perf_counter()
+        surf = hx.SampledSurface.from_file(f)
+        read = time.perf_counter() - t
+        d = design(surf, hx.Device.serial_arm(), 500.0)
+        print(f"design, 1024 x 1024 map (X3P, 1 mm square)        {time.perf_counter() - t:6.1f} s  "
+              f"(reading {read:.1f} s; {d['band_limit']['samples']['raw']} -> "
+              f"{d['band_limit']['samples']['rendered']} samples)")
+
+
+if __name__ == "__main__":
+    main()
