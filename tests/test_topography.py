@@ -205,6 +205,18 @@ def test_design_cli_on_the_raw_dektak_scan_and_raw_on_request():
 
 
 def test_design_cli_reads_an_areal_map_as_a_surface(tmp_path):
+    # the file decides: an areal map is a surface, which needs a 3-DOF device (refused at once)
+    x, y, h, A, L = _grating_map(periods=2, per=32, A=20e-6, L=2e-3, rows=32)
+    f = tmp_path / "g.x3p"
+    _topography(h, x, y).to_x3p(str(f))
+    r = subprocess.run([sys.executable, "-m", "haptex", "design", "--texture", str(f), "--device", "pantograph"],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
+    assert "--device pantograph is not allowed with a surface: the pantograph is planar" in r.stderr
+
+
+@pytest.mark.slow
+def test_design_cli_analyses_an_areal_map_on_a_3dof_device(tmp_path):
     x, y, h, A, L = _grating_map(periods=2, per=32, A=20e-6, L=2e-3, rows=32)
     f = tmp_path / "g.x3p"
     _topography(h, x, y).to_x3p(str(f))
@@ -213,3 +225,6 @@ def test_design_cli_reads_an_areal_map_as_a_surface(tmp_path):
     assert r.returncode == 0, r.stderr
     out = json.loads(r.stdout)
     assert out["texture"].startswith("SampledSurface(64x32") and [row["algorithm"] for row in out["rows"]] == list("WABCDEFG")
+    # the grating's slope is its profile's: q_A = sqrt(1 + (2 pi A / l)^2) (Table II)
+    q = {row["algorithm"]: row["q"] for row in out["rows"]}
+    assert q["A"] == pytest.approx(math.sqrt(1 + (2 * np.pi * A / L) ** 2), rel=1e-4)
