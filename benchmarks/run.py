@@ -9,9 +9,11 @@
    (benchmarks/run_sim.py);
 4. worst: the maximum Renderer.step latency and work over 10^6 adversarial positions per
    algorithm and texture (benchmarks/run_worst.py);
-5. export: ns per call of the C99 tick `haptex export` generates (benchmarks/run_export.py).
+5. export: ns per call of the C99 tick `haptex export` generates (benchmarks/run_export.py);
+6. design: `haptex design` on the raw Dektak scan against the paper's sinusoid, and design()
+   on a 10^6-sample profile and a 1024 x 1024 map (benchmarks/run_design.py).
 
-Options: --only {analysis,renderer,simulator,worst,export}, --points N, --json (analysis only).
+Options: --only {analysis,renderer,simulator,worst,export,design}, --points N, --json (analysis only).
 Never part of the test run; results are reported in benchmarks/README.md. Sections 2 and
 3 need gcc.
 """
@@ -45,7 +47,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--points", type=int, default=1_000_000)
     ap.add_argument("--json", action="store_true")
-    ap.add_argument("--only", choices=["analysis", "renderer", "simulator", "worst", "export"])
+    ap.add_argument("--only", choices=["analysis", "renderer", "simulator", "worst", "export", "design"])
     args = ap.parse_args()
     if args.only in (None, "analysis"):
         analysis(args)
@@ -72,6 +74,11 @@ def main() -> None:
 
         print("\n# exported C tick")
         run_export.main()
+    if args.only in (None, "design") and not args.json:
+        import run_design
+
+        print("\n# design on raw measured data")
+        run_design.main()
 
 
 def analysis(args) -> None:

@@ -625,9 +625,10 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
         data = run_design(tex, dev, stiffness, speed=speed, max_penetration=max_penetration, x_range=x_range,
                           progress=step, band_limit=not raw)
     if report_dir is not None:
+        from .design import rendered_texture
         from .report import write_design_report
 
-        write_design_report(data, tex, report_dir, force)
+        write_design_report(data, rendered_texture(tex, dev, speed, band_limit=not raw), report_dir, force)
     if as_json:
         click.echo(json.dumps(_jsonable(data), indent=2))
         return
@@ -641,11 +642,16 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
         dom = "" if rn["dominant_period"] is None else f", dominant period {rn['dominant_period'] * 1e3:.4g} mm"
         console.print(f"measured {data['texture']}: {bl['samples']['raw']} samples, RMS {rn['rms'] * 1e6:.4g} um{dom}, "
                       f"M = {rn['max_slope']:.4g}, max curvature {rn['max_curvature']:.4g} 1/m")
-    cut = (f"the device renders periods >= {bl['cutoff'] * 1e3:.4g} mm at {speed:g} m/s "
-           f"(set by the {' and '.join(bl['set_by'])} limit)")
-    if bl["applied"]:
+    names = bl["set_by"]
+    by = names[0] + " limit" if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1] + " limits"
+    cut = f"the device renders periods >= {bl['cutoff'] * 1e3:.4g} mm at {speed:g} m/s (set by the {by})"
+    n_out = bl["samples"]["rendered"]
+    if bl["filtered"]:
         console.print(f"{cut}: band-limited to it ({rn['rms_removed'] * 1e6:.3g} um RMS removed) and resampled to "
-                      f"{bl['samples']['rendered']} samples; analysed as rendered (--raw: as measured)")
+                      f"{n_out} samples; analysed as rendered (--raw: as measured)")
+    elif bl["applied"]:
+        console.print(f"{cut}: the texture holds no shorter period (its shortest: "
+                      f"{rn['shortest_period'] * 1e3:.4g} mm); resampled to {n_out} samples")
     elif bl["sampled"] and not bl["requested"]:
         console.print(f"{cut}; --raw: analysed as measured, not as rendered")
     else:
@@ -699,8 +705,9 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
 @click.option("--periodic", is_flag=True, help="Close the profile into a periodic texture.")
 @click.option("--out", "out", type=click.Path(file_okay=False, path_type=Path), required=True,
               help="Directory for haptex_texture.c and haptex_texture.h.")
+@click.option("--quiet", is_flag=True, help="No progress display.")
 def export(letter, texture_spec, stiffness, max_force, max_penetration, friction, presliding, stick_deflection,
-           spacing, x_unit, height_unit, level, lowpass, periodic, out):
+           spacing, x_unit, height_unit, level, lowpass, periodic, out, quiet):
     """C99 source of one algorithm on one texture, for device firmware (<math.h> only)."""
     from .algorithms import algorithm
     from .export import export_c
@@ -713,7 +720,8 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
     elif texture_spec is None:
         raise ParameterError(f"--texture is required with --algorithm {letter}: give a file, 'sine:...' or 'noise:...'")
     else:
-        tex = _texture_from_spec(texture_spec, spacing, x_unit, height_unit, level, lowpass, None, periodic)
+        with _Spinner("reading the texture", quiet):
+            tex = _texture_from_spec(texture_spec, spacing, x_unit, height_unit, level, lowpass, None, periodic)
     params = {}
     if max_penetration is not None:
         if letter not in "BCGF":
@@ -727,7 +735,8 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
                 raise ParameterError(f"{flag} is not allowed with --algorithm {letter}: it applies to F only")
             params[name] = value
     alg = algorithm(letter, tex, stiffness, **params)
-    h_path, c_path = export_c(alg, out, max_force)
+    with _Spinner("writing the C source", quiet):
+        h_path, c_path = export_c(alg, out, max_force)
     click.echo(f"wrote {c_path} and {h_path}: {alg!r}, max force {max_force:g} N")
 
 

@@ -67,7 +67,8 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         probe position [x, z] (m) attaining q) and
         ``recommendation`` (text) with ``recommended`` (letters), and ``band_limit``: the
         cut-off ``cutoff`` (m), the limit(s) ``set_by`` it, each limit's ``bounds`` (m),
-        whether it was ``applied``, ``samples`` raw and rendered, and ``raw``: the given
+        whether it was ``applied`` (and the texture ``filtered``, not only resampled),
+        ``samples`` raw and rendered, and ``raw``: the given
         texture's own numbers (shortest period, max slope, max curvature, height range, and
         for sampled textures its RMS height, dominant period and the RMS the cut-off
         removes). The other numbers are those of the rendered texture.
@@ -149,6 +150,30 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
     }
 
 
+def _rendered(texture: Texture, cutoff: float, band_limit: bool = True):
+    """(rendered, filtered): the texture low-passed to ``cutoff`` when it holds shorter
+    periods (filtered), then resampled (rendered); the texture itself for analytic
+    textures or ``band_limit=False``."""
+    if not (band_limit and hasattr(texture, "band_limited")):
+        return texture, texture
+    filtered = texture.lowpass(cutoff) if cutoff > texture.shortest_period else texture
+    return filtered.band_limited(cutoff), filtered  # resampling only: filtered is band-limited
+
+
+def rendered_texture(texture: Texture, device: Device, speed: float = 0.1, samples_per_period=5,
+                     band_limit: bool = True) -> Texture:
+    """The texture :func:`design` analyses: a sampled texture band-limited to the device's
+    cut-off at ``speed`` and resampled (see ``band_limit`` there); the texture itself
+    otherwise.
+
+    Raises
+    ------
+    ParameterError
+        For a non-positive speed or sample count.
+    """
+    return _rendered(texture, rendering_cutoff(device, speed, samples_per_period).period, band_limit)[0]
+
+
 def _band_limited(texture: Texture, device: Device, speed: float, samples_per_period, band_limit: bool):
     """The texture the device renders, and what band-limiting did (see :func:`design`)."""
     import numpy as np
@@ -157,10 +182,7 @@ def _band_limited(texture: Texture, device: Device, speed: float, samples_per_pe
     sampled = hasattr(texture, "band_limited")
     raw = {"shortest_period": texture.shortest_period, "max_slope": texture.max_slope,
            "max_curvature": texture.max_curvature, "height_range": list(texture.height_range)}
-    filtered = rendered = texture
-    if band_limit and sampled:
-        filtered = texture.lowpass(cut.period) if cut.period > texture.shortest_period else texture
-        rendered = filtered.band_limited(cut.period)  # resampling only: filtered is band-limited
+    rendered, filtered = _rendered(texture, cut.period, band_limit)
     if sampled:
         h = texture.h
         raw["rms"] = float(np.std(h))
@@ -173,7 +195,8 @@ def _band_limited(texture: Texture, device: Device, speed: float, samples_per_pe
         raw["rms_removed"] = float(np.std(h - filtered.h))
     return rendered, {
         "cutoff": cut.period, "set_by": list(cut.set_by), "bounds": dict(cut.bounds),
-        "applied": rendered is not texture, "requested": bool(band_limit), "sampled": sampled,
+        "applied": rendered is not texture, "filtered": filtered is not texture, "requested": bool(band_limit),
+        "sampled": sampled,
         "samples": {"raw": int(texture.h.size) if sampled else None,
                     "rendered": int(rendered.h.size) if sampled else None},
         "raw": raw,
