@@ -228,3 +228,17 @@ def test_design_cli_analyses_an_areal_map_on_a_3dof_device(tmp_path):
     # the grating's slope is its profile's: q_A = sqrt(1 + (2 pi A / l)^2) (Table II)
     q = {row["algorithm"]: row["q"] for row in out["rows"]}
     assert q["A"] == pytest.approx(math.sqrt(1 + (2 * np.pi * A / L) ** 2), rel=1e-4)
+
+
+def test_a_matlab_matrix_is_an_areal_map_rows_along_y(tmp_path):
+    # MATLAB stores a height map as an image: row j is y_j, column i is x_i; haptex's own
+    # MATLAB reader (SurfaceTopography's drops non-numeric variables silently) keeps that
+    from scipy.io import savemat
+
+    rng = np.random.default_rng(5)
+    img = rng.normal(0, 1, (6, 9))  # 6 rows (y) x 9 columns (x), heights in um
+    f = tmp_path / "map.mat"
+    savemat(f, {"z": img})
+    s = hx.SampledSurface.from_file(f, spacing="2um", height_unit="um")
+    assert s.h.shape == (9, 6) and np.allclose(s.h, img.T * 1e-6, rtol=1e-15, atol=0)
+    assert s.dx == pytest.approx(2e-6) and s.dy == pytest.approx(2e-6)
