@@ -740,6 +740,32 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
     click.echo(f"wrote {c_path} and {h_path}: {alg!r}, max force {max_force:g} N")
 
 
+@cli.command()
+@click.argument("spec", type=click.Path(path_type=Path))
+@click.option("--out", "out", type=click.Path(path_type=Path), required=True,
+              help="The Zarr store (a directory); rerunning the same SPEC into it resumes.")
+@click.option("--scheduler", default=None, help="A running Dask scheduler, tcp://HOST:PORT (default: a local cluster).")
+@click.option("--workers", type=int, default=None, help="Worker processes of the local cluster (default: the cores).")
+@click.option("--quiet", is_flag=True, help="No progress display.")
+def sweep(spec, out, scheduler, workers, quiet):
+    """A stability atlas: every run of SPEC (TOML or YAML) on Dask, into a Zarr store."""
+    import time as _time
+
+    from .atlas import SweepSpec
+    from .atlas import sweep as run_sweep
+
+    if scheduler is not None and workers is not None:
+        raise ParameterError("--workers is not allowed with --scheduler: the cluster at the scheduler has its workers")
+    parsed = SweepSpec.from_file(spec)
+    t0 = _time.perf_counter()
+    ds = run_sweep(parsed, out, scheduler=scheduler, workers=workers, progress=not quiet)
+    n = parsed.runs
+    click.echo(f"{out}: {n} runs ({' x '.join(f'{a.name} {a.values.size}' for a in parsed.axes)}), "
+               f"{ds.attrs['blocks_computed']} blocks computed and {ds.attrs['blocks_skipped']} already done, in "
+               f"{_time.perf_counter() - t0:.1f} s; {int(ds['oscillating'].sum())} oscillating, "
+               f"{int(ds['growing'].sum())} growing")
+
+
 def _table(stiffness, amplitude, period, max_penetration, friction, presliding, progress=None, surface=None):
     from .tables import table_ii
 

@@ -757,8 +757,6 @@ def device_from_file(path) -> Device:
     import tomllib
     from pathlib import Path
 
-    from ._units import parse_quantity
-
     p = Path(path)
     if not p.is_file():
         raise ParameterError(f"device = {str(path)!r} is not allowed: "
@@ -769,41 +767,54 @@ def device_from_file(path) -> Device:
         spec = tomllib.loads(p.read_text(encoding="utf-8"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise ParameterError(f"device = {str(path)!r} is not allowed: not a TOML file ({exc})") from None
+    if not isinstance(spec, dict):
+        raise ParameterError(f"device = {str(path)!r} is not allowed: a TOML table of device keys")
+    return _device_from_table(spec, f"device file {str(path)!r}")
+
+
+def _device_from_table(spec: dict, where: str) -> Device:
+    """The device a table of :func:`device_from_file`'s keys describes (``where`` names it
+    in errors: a device file, a sweep SPEC's [device] table)."""
+    from ._units import parse_quantity
+
+    if not isinstance(spec, dict):
+        raise fail(where, spec, "a table of device keys (preset, mass, damping, period, ...)")
+    spec = dict(spec)
     unknown = sorted(set(spec) - set(_FILE_KEYS))
     if unknown:
-        raise ParameterError(f"device file {str(path)!r}: key {unknown[0]!r} is not allowed: allowed keys are "
+        raise ParameterError(f"{where}: key {unknown[0]!r} is not allowed: allowed keys are "
                              + ", ".join(_FILE_KEYS))
     preset = spec.pop("preset", "custom")
     if preset not in _PRESETS:
-        raise fail(f"device file {str(path)!r}: preset", preset, "one of " + ", ".join(repr(s) for s in _PRESETS))
+        raise fail(f"{where}: preset", preset, "one of " + ", ".join(repr(s) for s in _PRESETS))
     if preset != "pantograph":
         extra = sorted(set(spec) & _PANTOGRAPH_ONLY)
         if extra:
-            raise ParameterError(f"device file {str(path)!r}: key {extra[0]!r} is not allowed with preset = "
+            raise ParameterError(f"{where}: key {extra[0]!r} is not allowed with preset = "
                                  f"{preset!r}: it belongs to the pantograph preset")
     if preset == "custom" and not {"mass", "damping", "period"} <= set(spec):
         missing = sorted({"mass", "damping", "period"} - set(spec))
-        raise ParameterError(f"device file {str(path)!r}: key {missing[0]!r} is missing: a custom device needs "
+        raise ParameterError(f"{where}: key {missing[0]!r} is missing: a custom device needs "
                              "mass, damping and period (or preset = 'point-mass' or 'pantograph')")
 
     def quantity(key, value, unit):
         if isinstance(value, bool) or not isinstance(value, str | int | float):
-            raise fail(f"device file {str(path)!r}: {key}", value, f"a quantity in {unit} written as a string, "
+            raise fail(f"{where}: {key}", value, f"a quantity in {unit} written as a string, "
                        "e.g. '50 g'")
-        return parse_quantity(str(value), unit, f"device file {str(path)!r}: {key}", require_unit=True)
+        return parse_quantity(str(value), unit, f"{where}: {key}", require_unit=True)
 
     kw = {}
     for key, value in spec.items():
         unit, kind = _FILE_KEYS[key]
         if kind == "s":
             if not isinstance(value, str):
-                raise fail(f"device file {str(path)!r}: {key}", value, "a string")
+                raise fail(f"{where}: {key}", value, "a string")
             kw[key] = value
         elif kind == "i":
-            kw[key] = value if isinstance(value, int) and not isinstance(value, bool) else whole(f"device file {str(path)!r}: {key}", value, 0)
+            kw[key] = value if isinstance(value, int) and not isinstance(value, bool) else whole(f"{where}: {key}", value, 0)
         elif kind == "x":
             if isinstance(value, bool) or not isinstance(value, int | float):
-                raise fail(f"device file {str(path)!r}: {key}", value, "a plain number")
+                raise fail(f"{where}: {key}", value, "a plain number")
             kw[key] = float(value)
         elif kind == "q":
             kw[key] = quantity(key, value, unit)
@@ -812,11 +823,11 @@ def device_from_file(path) -> Device:
             size = 2 if kind == "p" else len(rows) if isinstance(rows, list) else 0
             if not isinstance(rows, list) or len(rows) != (1 if kind == "p" else size) or size not in (2, 3) or any(
                     not isinstance(r, list) or len(r) != size for r in rows):
-                raise fail(f"device file {str(path)!r}: {key}", value,
+                raise fail(f"{where}: {key}", value,
                            "a pair of quantities" if kind == "p" else "a quantity or a 2x2 or 3x3 table of quantities")
             arr = np.array([[quantity(key, v, unit) for v in r] for r in rows])
             if kind == "m" and arr.shape[0] != arr.shape[1]:
-                raise fail(f"device file {str(path)!r}: {key}", value, "a square table of quantities")
+                raise fail(f"{where}: {key}", value, "a square table of quantities")
             kw[key] = arr[0] if kind == "p" else arr
         else:
             kw[key] = quantity(key, value, unit)

@@ -720,6 +720,14 @@ _OPERATOR_KEYS = ("push_x", "push_y", "push_z", "band_stiffness", "anchor_x", "a
 _START_KEYS = ("initial_x", "initial_y", "initial_z")
 SWEEP_KEYS = _ALGORITHM_KEYS + _DEVICE_KEYS + _OPERATOR_KEYS + _START_KEYS
 """Parameters :func:`simulate_batch` can sweep (SI units)."""
+SWEEP_UNITS = {"stiffness": "N/m", "amplitude": "m", "texture_period": "m", "friction": "dimensionless",
+               "presliding": "m", "modulation_depth": "dimensionless", "max_penetration": "m", "mass": "kg",
+               "damping": "N*s/m", "damping_outside": "N*s/m", "delay": "samples", "position_resolution": "m",
+               "force_resolution": "N", "coulomb_friction": "N", "max_force": "N", "push_x": "N", "push_y": "N",
+               "push_z": "N", "band_stiffness": "N/m", "anchor_x": "m", "anchor_y": "m", "anchor_z": "m",
+               "hand_stiffness": "N/m", "hand_damping": "N*s/m", "depth": "m", "velocity": "m/s", "initial_x": "m",
+               "initial_y": "m", "initial_z": "m"}
+"""The SI unit of each of :data:`SWEEP_KEYS` (``delay`` in whole samples)."""
 
 
 @dataclass(frozen=True)
@@ -750,6 +758,11 @@ class BatchResult:
         Full time series, only with ``record=True``.
     passivity_control_samples : ndarray of int
         Samples on which the passivity controller acted, per run.
+    oscillating_axes : ndarray of bool, shape (N, d)
+        The verdict per axis, [x, z] in the plane, [x, y, z] in space.
+    decay_ratio : ndarray
+        Amplitude of the tail's second half over its first, on the main axis (> 1: the
+        motion grows: an unstable loop).
     """
 
     parameters: dict
@@ -769,6 +782,8 @@ class BatchResult:
     runs: list | None = None
     energy_y: np.ndarray | None = None
     passivity_control_samples: np.ndarray | None = None
+    oscillating_axes: np.ndarray | None = None
+    decay_ratio: np.ndarray | None = None
 
 
 def _rebuild(algorithm: Algorithm, device: Device, operator: Operator, values: dict):
@@ -976,7 +991,10 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
         max_penetration=summary[:, S_MAXPEN].copy(), saturations=summary[:, S_SAT].astype(np.int64),
         diverged_at=diverged_at, runs=[_result(rec[i], summary[i], osc[i]) for i in range(N)] if record else None,
         energy_y=summary[:, S_EY].copy() if d == 3 else None,
-        passivity_control_samples=summary[:, S_PC_ACTIVE].astype(np.int64))
+        passivity_control_samples=summary[:, S_PC_ACTIVE].astype(np.int64),
+        oscillating_axes=np.array([[o.x.oscillating] + ([o.y.oscillating] if d == 3 else []) + [o.z.oscillating]
+                                   for o in osc], dtype=bool).reshape(N, d),
+        decay_ratio=col(lambda o: o.decay_ratio))
 
 
 def _progress(show: bool, total: int):

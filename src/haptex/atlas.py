@@ -1,0 +1,565 @@
+"""Stability atlases: parameter sweeps of the compiled batch simulator on Dask, stored as
+Zarr through xarray, resumable and deterministic (issue 14).
+
+A sweep SPEC (TOML or YAML) names the fixed parts (algorithm and texture, device, operator,
+duration) and the axes to sweep. The grid of runs (the Cartesian product of the axes) is cut
+into blocks; each block is one Dask task that calls :func:`haptex.simulate_batch` on its
+runs; the client writes each block into the Zarr store as its task finishes, then marks it
+done. Rerunning the same SPEC into the same store skips the blocks marked done; a store
+written by another SPEC is refused. Runs are deterministic (no randomness), so a block
+recomputed after a lost worker is bit for bit the same.
+
+Example SPEC (``examples/sweeps/wall.toml``)::
+
+    duration = "1 s"
+
+    [algorithm]
+    letter = "W"
+
+    [device]                     # the keys of a TOML device file (haptex.device_from_file)
+    preset = "point-mass"
+    mass = "0.1 kg"
+    damping = "0.5 N*s/m"
+    period = "100 us"
+
+    [operator]
+    kind = "push"                # a constant force into the surface
+    force = "1 N"
+
+    [axes]                       # in this order: the Dataset's dimensions
+    stiffness = "0.5-20 kN/m, 60 log steps"
+    damping = "0.1-1 N*s/m, 10 steps"
+    delay = [0, 1]
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ._units import parse_quantity
+from ._validation import ParameterError, fail, whole
+
+MAX_RUNS = 10**9
+"""Largest number of runs one sweep may hold (the grid's product)."""
+MAX_SPEC_BYTES = 1 << 20
+DEFAULT_BLOCK = 512
+"""Runs per task by default."""
+
+_TOP_KEYS = ("duration", "block", "algorithm", "device", "operator", "axes", "initial_position")
+_OPERATORS = {"push": ("force",), "band": ("stiffness", "anchor"), "hand": ("stiffness", "damping", "velocity", "depth")}
+_ALG_QUANTITIES = {"stiffness": "N/m", "amplitude": "m", "period": "m", "friction": "dimensionless",
+                   "presliding": "m", "max_penetration": "m"}
+_RANGE = re.compile(r"^\s*(?P<a>[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(?:–|—|-|\.\.|to)\s*"
+                    r"(?P<b>[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(?P<unit>[^,]*?)\s*,\s*(?P<n>\d+)\s*"
+                    r"(?P<log>log\s+)?steps?\s*$")
+
+
+@dataclass(frozen=True)
+class Axis:
+    """One swept parameter.
+
+    Attributes
+    ----------
+    name : str
+        A key of :data:`haptex.simulate.SWEEP_KEYS`, or ``algorithm`` (letters).
+    values : ndarray, shape (n,)
+        SI values (float; whole samples for ``delay``), or letters for ``algorithm``.
+    unit : str
+    """
+
+    name: str
+    values: np.ndarray
+    unit: str
+
+
+@dataclass(frozen=True)
+class SweepSpec:
+    """A parsed SPEC: what is fixed, what is swept, and how the runs are cut into tasks.
+
+    Attributes
+    ----------
+    mapping : dict
+        The SPEC as read (its canonical JSON identifies the store it may write into).
+    axes : tuple of Axis
+        In the SPEC's order: the Dataset's dimensions.
+    block : tuple of int
+        Runs per task along each axis (a block of the grid; 1 along ``algorithm``).
+    duration : float
+        Simulated time per run (s).
+    """
+
+    mapping: dict
+    axes: tuple
+    block: tuple
+    duration: float
+
+    @property
+    def shape(self) -> tuple:
+        return tuple(a.values.size for a in self.axes)
+
+    @property
+    def runs(self) -> int:
+        return int(np.prod(self.shape, dtype=np.int64))
+
+    @property
+    def canonical(self) -> str:
+        return json.dumps(self.mapping, sort_keys=True, separators=(",", ":"))
+
+    def blocks(self) -> list[tuple[slice, ...]]:
+        """Every task's block as slices into the grid, in C order."""
+        starts = [range(0, n, b) for n, b in zip(self.shape, self.block)]
+        return [tuple(slice(i, min(i + b, n)) for i, b, n in zip(idx, self.block, self.shape))
+                for idx in itertools.product(*starts)]
+
+    @classmethod
+    def from_file(cls, path) -> SweepSpec:
+        """Read a SPEC from a ``.toml``, ``.yaml`` or ``.yml`` file.
+
+        Raises
+        ------
+        ParameterError
+            If the file is missing, too large, not TOML/YAML, or the SPEC is invalid
+            (see :meth:`from_mapping`).
+        """
+        p = Path(path)
+        if not p.is_file():
+            raise ParameterError(f"spec = {str(path)!r} is not allowed: {'a directory' if p.is_dir() else 'no such file'}")
+        if p.stat().st_size > MAX_SPEC_BYTES:
+            raise fail("spec", str(path), f"a SPEC file of at most {MAX_SPEC_BYTES} bytes")
+        text = p.read_text(encoding="utf-8", errors="replace")
+        if p.suffix.lower() == ".toml":
+            import tomllib
+
+            try:
+                data = tomllib.loads(text)
+            except tomllib.TOMLDecodeError as exc:
+                raise ParameterError(f"spec = {str(path)!r} is not allowed: not a TOML file ({exc})") from None
+        elif p.suffix.lower() in (".yaml", ".yml"):
+            import yaml
+
+            try:
+                data = yaml.safe_load(text)
+            except yaml.YAMLError as exc:
+                raise ParameterError(f"spec = {str(path)!r} is not allowed: not a YAML file "
+                                     f"({' '.join(str(exc).split())})") from None
+        else:
+            raise fail("spec", str(path), "a .toml, .yaml or .yml file")
+        if not isinstance(data, dict):
+            raise fail("spec", str(path), "a table of keys (TOML or YAML)")
+        return cls.from_mapping(data)
+
+    @classmethod
+    def from_mapping(cls, data: dict) -> SweepSpec:
+        """Validate a SPEC given as a mapping (what TOML or YAML gives).
+
+        Raises
+        ------
+        ParameterError
+            Naming the key for an unknown key, an axis with no values, an unknown swept
+            parameter, a unit that does not fit the parameter, more than ``MAX_RUNS`` runs,
+            or invalid fixed parts (built once here, before any task).
+        """
+        unknown = sorted(set(data) - set(_TOP_KEYS))
+        if unknown:
+            raise ParameterError(f"spec key {unknown[0]!r} is not allowed: allowed keys are {', '.join(_TOP_KEYS)}")
+        for key in ("duration", "axes", "device", "operator"):
+            if key not in data:
+                raise ParameterError(f"spec key {key!r} is missing")
+        duration = _quantity("duration", data["duration"], "s")
+        if not duration > 0:
+            raise fail("duration", data["duration"], "a duration > 0")
+        axes_table = data["axes"]
+        if not isinstance(axes_table, dict) or not axes_table:
+            raise fail("axes", axes_table, "a table of at least one swept parameter")
+        axes = tuple(_axis(name, value) for name, value in axes_table.items())
+        shape = [a.values.size for a in axes]
+        runs = math.prod(shape)
+        if runs > MAX_RUNS:
+            raise fail("axes", " x ".join(map(str, shape)), f"at most {MAX_RUNS:.0e} runs in all")
+        block_runs = whole("block", data.get("block", DEFAULT_BLOCK), 1, 10**7, "runs per task")
+        block = [1] * len(axes)
+        prod = 1
+        for i in range(len(axes) - 1, -1, -1):
+            if axes[i].name == "algorithm":
+                break
+            n = shape[i]
+            if prod * n <= block_runs:
+                block[i] = n
+                prod *= n
+                continue
+            block[i] = max(1, block_runs // prod)
+            break
+        spec = cls(dict(data), axes, tuple(block), duration)
+        spec.build()  # every fixed part is checked before any task runs
+        letters = next((a.values for a in axes if a.name == "algorithm"), None)
+        if letters is not None:
+            for L in letters:
+                spec.build(letter=str(L))
+        return spec
+
+    def build(self, letter: str | None = None):
+        """(algorithm, device, operator, initial_position) of the fixed parts."""
+        from .algorithms import algorithm
+        from .devices import _device_from_table
+
+        alg_table = self.mapping.get("algorithm", {})
+        if not isinstance(alg_table, dict):
+            raise fail("algorithm", alg_table, "a table with 'letter' (W, A-G), 'texture' and the parameters")
+        alg_table = dict(alg_table)
+        L = letter or alg_table.pop("letter", None)
+        alg_table.pop("letter", None)
+        if L is None:
+            raise ParameterError("algorithm.letter is missing: give it, or sweep 'algorithm' in [axes]")
+        texture_spec = alg_table.pop("texture", None)
+        params = {}
+        for key, value in alg_table.items():
+            if key not in _ALG_QUANTITIES:
+                raise ParameterError(f"algorithm key {key!r} is not allowed: allowed keys are letter, texture, "
+                                     + ", ".join(_ALG_QUANTITIES))
+            params[key] = _quantity(f"algorithm.{key}", value, _ALG_QUANTITIES[key])
+        stiffness = params.pop("stiffness", 2000.0)
+        texture = None
+        if str(L).upper() != "W":
+            if texture_spec is None:
+                raise ParameterError(f"algorithm.texture is missing: algorithm {L} needs one, e.g. 'sine:0.8mm,1mm'")
+            from .cli import _texture_from_spec
+
+            amplitude, period = params.pop("amplitude", None), params.pop("period", None)
+            texture = _texture_from_spec(str(texture_spec), None, None, None, False, None, None, False)
+            if amplitude is not None or period is not None:
+                raise ParameterError("algorithm.amplitude and algorithm.period are not allowed: the texture spec "
+                                     "gives them (sweep 'amplitude' or 'texture_period' in [axes])")
+        elif texture_spec is not None:
+            raise ParameterError("algorithm.texture is not allowed with letter W: the smooth wall has no texture")
+        alg = algorithm(str(L), texture, stiffness, **params)
+        device = _device_from_table(dict(self.mapping["device"]), "spec [device]")
+        op = _operator(self.mapping["operator"], device.dimension)
+        start = self.mapping.get("initial_position")
+        p0 = None if start is None else np.array([_quantity("initial_position", v, "m") for v in start])
+        return alg, device, op, p0
+
+
+def _quantity(name: str, value, unit: str) -> float:
+    if isinstance(value, bool):
+        raise fail(name, value, f"a quantity in {unit}")
+    if unit == "dimensionless":
+        if isinstance(value, int | float):
+            return float(value)
+        return parse_quantity(str(value), unit, name)
+    if isinstance(value, int | float) and value != 0:
+        raise fail(name, value, f"a quantity with its unit, e.g. '{1:g} {unit}' (a bare number is refused)")
+    return parse_quantity(str(value), unit, name, require_unit=True)
+
+
+def _axis(name: str, value) -> Axis:
+    from .simulate import SWEEP_KEYS, SWEEP_UNITS
+
+    if name == "algorithm":
+        letters = value if isinstance(value, list) else None
+        if not letters:
+            raise fail("axes.algorithm", value, "a list of letters, e.g. ['A', 'C']")
+        bad = [v for v in letters if str(v).upper() not in "WABCDEFG" or len(str(v)) != 1]
+        if bad:
+            raise fail("axes.algorithm", bad[0], "letters W, A-G")
+        return Axis("algorithm", np.array([str(v).upper() for v in letters]), "")
+    if name not in SWEEP_KEYS:
+        raise ParameterError(f"axes.{name} is not allowed: a swept parameter must be algorithm or one of "
+                             + ", ".join(SWEEP_KEYS))
+    unit = SWEEP_UNITS[name]
+    label = f"axes.{name}"
+    if isinstance(value, list):
+        if not value:
+            raise fail(label, value, "at least one value")
+        if name == "delay":
+            vals = np.array([whole(label, v, 0, 10_000) for v in value], dtype=np.float64)
+        else:
+            vals = np.array([_quantity(label, v, unit) for v in value])
+    elif isinstance(value, str):
+        m = _RANGE.match(value)
+        if not m:
+            raise fail(label, value, f"a list, or a range such as '0.5-20 {unit if unit != 'dimensionless' else ''}, "
+                       "60 log steps'".replace(" ,", ","))
+        n = int(m["n"])
+        if n < 1:
+            raise fail(label, value, "at least one step")
+        u = m["unit"].strip()
+        if name == "delay":
+            if u not in ("", "samples", "sample"):
+                raise fail(label, value, "whole samples")
+            a, b = float(m["a"]), float(m["b"])
+            vals = np.unique(np.rint(np.linspace(a, b, n)))
+        else:
+            if not u and unit != "dimensionless":
+                raise fail(label, value, f"a range with its unit, e.g. '0.5-20 kN/m, 60 log steps' ({unit})")
+            a = parse_quantity(f"{m['a']} {u}", unit, label)
+            b = parse_quantity(f"{m['b']} {u}", unit, label)
+            if m["log"]:
+                if not (a > 0 and b > 0):
+                    raise fail(label, value, "a log range of positive values")
+                vals = np.geomspace(a, b, n)
+            else:
+                vals = np.linspace(a, b, n)
+    else:
+        raise fail(label, value, "a list of values, or a range string such as '0.5-20 kN/m, 60 log steps'")
+    if not np.all(np.isfinite(vals)):
+        raise fail(label, value, "finite values")
+    return Axis(name, vals, "samples" if name == "delay" else unit)
+
+
+def _operator(table, dimension: int):
+    from . import operators as ops
+
+    if not isinstance(table, dict):
+        raise fail("operator", table, "a table with kind = 'push', 'band' or 'hand'")
+    table = dict(table)
+    kind = table.pop("kind", None)
+    if kind not in _OPERATORS:
+        raise fail("operator.kind", kind, "'push' (a constant force into the surface), 'band' or 'hand'")
+    unknown = sorted(set(table) - set(_OPERATORS[kind]))
+    if unknown:
+        raise ParameterError(f"operator key {unknown[0]!r} is not allowed with kind = {kind!r}: allowed keys are "
+                             + ", ".join(_OPERATORS[kind]))
+    missing = [k for k in _OPERATORS[kind] if k not in table]
+    if missing:
+        raise ParameterError(f"operator.{missing[0]} is missing: kind = {kind!r} needs " + ", ".join(_OPERATORS[kind]))
+    if kind == "push":
+        f = _quantity("operator.force", table["force"], "N")
+        return ops.ConstantForce([0.0] * (dimension - 1) + [-f])
+    if kind == "band":
+        anchor = table["anchor"]
+        if not isinstance(anchor, list) or len(anchor) != dimension:
+            raise fail("operator.anchor", anchor, f"a list of {dimension} lengths")
+        return ops.ElasticBand(_quantity("operator.stiffness", table["stiffness"], "N/m"),
+                               [_quantity("operator.anchor", v, "m") for v in anchor])
+    return ops.ScanningHand(_quantity("operator.stiffness", table["stiffness"], "N/m"),
+                            _quantity("operator.damping", table["damping"], "N*s/m"),
+                            velocity=_quantity("operator.velocity", table["velocity"], "m/s"),
+                            depth=_quantity("operator.depth", table["depth"], "m"), dimension=dimension)
+
+
+# -- the task and the Dataset --------------------------------------------------------------
+def _variables(dimension: int) -> dict:
+    """name: (unit, dtype, fill, description) of every per-run variable of an atlas."""
+    axes = "xz" if dimension == 2 else "xyz"
+    out = {"oscillating": ("1", "bool", False, "the run oscillates on some axis (Oscillation verdict)")}
+    for a in axes:
+        out[f"oscillating_{a}"] = ("1", "bool", False, f"the verdict along {a}")
+    out |= {"growing": ("1", "bool", False, "the motion grows over the tail (decay_ratio > 1): an unstable loop"),
+            "amplitude": ("m", "float64", np.nan, "tail amplitude of the oscillating (or largest) axis"),
+            "frequency": ("Hz", "float64", np.nan, "its frequency"),
+            "decay_ratio": ("1", "float64", np.nan, "amplitude of the tail's second half over its first")}
+    for a in axes:
+        out[f"energy_rate_{a}"] = ("W", "float64", np.nan,
+                                   f"energy the environment supplies along {a} per second: -E_{a} / duration")
+    out |= {"max_penetration": ("m", "float64", np.nan, "deepest penetration"),
+            "saturations": ("samples", "int64", -1, "samples at the force limit"),
+            "energy_balance_error": ("1", "float64", np.nan, "relative closure of the energy balance"),
+            "diverged_at": ("samples", "int64", -1, "sample at which the run became non-finite, 0 if never")}
+    return out
+
+
+def _run_block(spec_mapping: dict, block: tuple, numba_threads: int | None = None) -> dict:
+    """One task: simulate the runs of one block; returns the variables, shaped as the block."""
+    if numba_threads is not None:
+        import numba
+
+        numba.set_num_threads(max(1, min(int(numba_threads), numba.config.NUMBA_NUM_THREADS)))
+    from .simulate import simulate_batch
+
+    spec = SweepSpec.from_mapping(spec_mapping) if not isinstance(spec_mapping, SweepSpec) else spec_mapping
+    shape = tuple(s.stop - s.start for s in block)
+    grids = np.meshgrid(*[a.values[s] for a, s in zip(spec.axes, block)], indexing="ij")
+    values = {a.name: g.ravel() for a, g in zip(spec.axes, grids)}
+    letter = values.pop("algorithm", None)
+    alg, device, op, p0 = spec.build(letter=None if letter is None else str(letter[0]))
+    res = simulate_batch(alg, device, op, spec.duration, initial_position=p0, progress=False, **values)
+    d = device.dimension
+    axes = "xz" if d == 2 else "xyz"
+    out = {"oscillating": res.oscillating, "growing": res.decay_ratio > 1.0, "decay_ratio": res.decay_ratio,
+           "amplitude": res.amplitude, "frequency": res.frequency,
+           "max_penetration": res.max_penetration, "saturations": res.saturations,
+           "energy_balance_error": res.energy_balance_error, "diverged_at": res.diverged_at}
+    energies = {"x": res.energy_x, "z": res.energy_z, "y": res.energy_y}
+    for i, a in enumerate(axes):
+        out[f"oscillating_{a}"] = res.oscillating_axes[:, i]
+        out[f"energy_rate_{a}"] = -energies[a] / spec.duration
+    return {k: np.asarray(v).reshape(shape) for k, v in out.items()}
+
+
+def _template(spec: SweepSpec, dimension: int, lazy: bool = True):
+    """The atlas before any run: fill values, lazily (dask, for the store's metadata) or as
+    one NumPy array per variable (in memory)."""
+    import dask.array as da
+    import xarray as xr
+
+    dims = [a.name for a in spec.axes]
+    coords = {a.name: (a.name, a.values, {"units": a.unit}) for a in spec.axes}
+    full = (lambda fill, dtype: da.full(spec.shape, fill, dtype=dtype, chunks=spec.block)) if lazy else (
+        lambda fill, dtype: np.full(spec.shape, fill, dtype=dtype))
+    data = {}
+    for name, (unit, dtype, fill, desc) in _variables(dimension).items():
+        data[name] = (dims, full(fill, dtype), {"units": unit, "description": desc})
+    data["done"] = (dims, full(False, bool), {"description": "the run's block was computed and written"})
+    return xr.Dataset(data, coords=coords, attrs={"haptex_spec": spec.canonical, "duration_s": spec.duration,
+                                                  "made_by": "haptex sweep"})
+
+
+def sweep(spec, out=None, *, scheduler: str | None = None, workers: int | None = None, progress: bool = False,
+          on_block=None):
+    """Run a stability atlas: every run of a SPEC, on Dask, into a Zarr store.
+
+    Parameters
+    ----------
+    spec : SweepSpec, dict, str or Path
+        A SPEC (see the module's docstring), as parsed, as a mapping, or a TOML/YAML file.
+    out : str or Path, optional
+        The Zarr store (a directory). Blocks already marked done there are skipped (a
+        resumed sweep); a store written by another SPEC is refused. Without ``out`` the
+        Dataset is kept in memory only.
+    scheduler : str, optional
+        Address of a running Dask scheduler (``tcp://host:port``); default a
+        ``LocalCluster`` on this machine.
+    workers : int, optional
+        Worker processes of the local cluster (default: the machine's cores).
+    progress : bool, optional
+        A rich progress bar of runs done.
+    on_block : callable, optional
+        Called with the number of blocks written so far after each (for progress and tests).
+
+    Returns
+    -------
+    xarray.Dataset
+        One dimension per axis (with its coordinate and unit); the variables of
+        :func:`_variables`; ``attrs["blocks_computed"]`` and ``attrs["blocks_skipped"]``
+        of this call.
+
+    Raises
+    ------
+    ParameterError
+        For an invalid SPEC, a store written by another SPEC, or an unreachable scheduler
+        (within 5 s).
+    """
+    import xarray as xr
+
+    if not isinstance(spec, SweepSpec):
+        spec = SweepSpec.from_mapping(spec) if isinstance(spec, dict) else SweepSpec.from_file(spec)
+    dimension = spec.build(letter=str(spec.axes[0].values[0]) if spec.axes[0].name == "algorithm" else None)[1].dimension
+    blocks = spec.blocks()
+    store = None if out is None else Path(out)
+    done_blocks: set = set()
+    if store is not None:
+        if store.exists():
+            try:
+                old = xr.open_zarr(store, consolidated=False)
+            except Exception as exc:
+                raise ParameterError(f"out = {str(store)!r} is not allowed: it exists and is not a haptex atlas "
+                                     f"({' '.join(str(exc).split())[:120]})") from None
+            if old.attrs.get("haptex_spec") != spec.canonical:
+                raise ParameterError(f"out = {str(store)!r} is not allowed: it was written by another SPEC; give a new "
+                                     "store, or the SPEC that wrote it to resume")
+            done = old["done"].values
+            done_blocks = {i for i, b in enumerate(blocks) if bool(done[b].all())}
+        else:
+            _template(spec, dimension).to_zarr(store, mode="w", compute=False, consolidated=False)
+    results = {} if store is None else None
+    todo = [i for i in range(len(blocks)) if i not in done_blocks]
+    computed = 0
+    if todo:
+        client, cluster, threads = _client(scheduler, workers)
+        bar = _bar(progress, spec.runs, sum(_size(blocks[i]) for i in done_blocks))
+        try:
+            from dask.distributed import as_completed
+
+            futures = {client.submit(_run_block, spec.mapping, blocks[i], threads, pure=True, retries=3): i
+                       for i in todo}
+            for fut in as_completed(futures):
+                i = futures[fut]
+                data = fut.result()
+                if store is None:
+                    results[i] = data
+                else:
+                    _write(store, spec, blocks[i], data, dimension)
+                computed += 1
+                bar(_size(blocks[i]))
+                if on_block is not None:
+                    on_block(computed)
+        finally:
+            bar(None)
+            client.close()
+            if cluster is not None:
+                cluster.close()
+    if store is None:
+        ds = _template(spec, dimension, lazy=False)
+        for i, data in results.items():
+            for k, v in data.items():
+                ds[k].values[blocks[i]] = v
+            ds["done"].values[blocks[i]] = True
+    else:
+        ds = xr.open_zarr(store, consolidated=False).load()
+    ds.attrs["blocks_computed"] = computed
+    ds.attrs["blocks_skipped"] = len(done_blocks)
+    return ds
+
+
+def _size(block) -> int:
+    return int(np.prod([s.stop - s.start for s in block]))
+
+
+def _write(store: Path, spec: SweepSpec, block: tuple, data: dict, dimension: int) -> None:
+    """Write one block's variables, then (a second write) mark it done."""
+    import xarray as xr
+
+    dims = [a.name for a in spec.axes]
+    region = dict(zip(dims, block))
+    xr.Dataset({k: (dims, v) for k, v in data.items()}).to_zarr(store, region=region, consolidated=False)
+    shape = tuple(s.stop - s.start for s in block)
+    xr.Dataset({"done": (dims, np.ones(shape, dtype=bool))}).to_zarr(store, region=region, consolidated=False)
+
+
+def _client(scheduler: str | None, workers: int | None):
+    """(client, local cluster or None, numba threads per task)."""
+    import logging
+    import os
+
+    from dask.distributed import Client, LocalCluster
+
+    if scheduler is not None:
+        try:
+            return Client(scheduler, timeout="5s"), None, None
+        except (OSError, TimeoutError) as exc:
+            raise ParameterError(f"scheduler = {scheduler!r} is not allowed: no Dask scheduler answered there within "
+                                 f"5 s ({' '.join(str(exc).split())[:100]})") from None
+        except ValueError as exc:
+            raise ParameterError(f"scheduler = {scheduler!r} is not allowed: {exc}") from None
+    cores = os.cpu_count() or 1
+    n = cores if workers is None else whole("workers", workers, 1, 1024)
+    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
+                           silence_logs=logging.ERROR)
+    return Client(cluster), cluster, max(1, cores // n)
+
+
+def _bar(show: bool, total: int, done: int):
+    if not show:
+        return lambda n: None
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    console = Console(stderr=True)
+    prog = Progress(TextColumn("sweep: runs"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                    console=console, transient=True, disable=not console.is_terminal)
+    prog.start()
+    task = prog.add_task("runs", total=total, completed=done)
+
+    def advance(n):
+        if n is None:
+            prog.stop()
+        else:
+            prog.advance(task, n)
+    return advance

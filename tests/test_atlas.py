@@ -1,0 +1,93 @@
+"""Stability atlases on Dask (issue 14): the sampled wall's boundary against its closed form,
+identical stores whatever the number of workers, resuming an interrupted sweep, and bad
+SPECs refused in one line."""
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import haptex as hx
+from haptex.atlas import SweepSpec, sweep
+
+M, T = 0.1, 1e-4
+
+
+def wall_spec(axes, duration="5 s", block=None):
+    spec = {"duration": duration, "algorithm": {"letter": "W"},
+            "device": {"preset": "point-mass", "mass": "0.1 kg", "damping": "0.5 N*s/m", "period": "100 us"},
+            "operator": {"kind": "push", "force": "1 N"}, "axes": axes}
+    if block is not None:
+        spec["block"] = block
+    return spec
+
+
+def test_the_wall_atlas_finds_the_closed_form_boundary_within_one_grid_step():
+    # W on a point mass pushed by 1 N: the loop is unstable above the stiffness that puts a
+    # pole of the ZOH-discretised spring-mass-damper on the unit circle
+    # (haptex.critical_stiffness, tested point-wise against simulation in test_simulate);
+    # the atlas's boundary is where the motion first grows along the stiffness axis
+    ds = sweep(wall_spec({"stiffness": "0.5-20 kN/m, 30 log steps", "damping": [f"{b} N*s/m" for b in (0.2, 0.5, 1.0)],
+                          "delay": [0, 1]}), workers=2)
+    assert list(ds.sizes) == ["stiffness", "damping", "delay"] and ds.stiffness.attrs["units"] == "N/m"
+    k = ds.stiffness.values
+    for b in ds.damping.values:
+        for d in ds.delay.values:
+            growing = ds.growing.sel(damping=b, delay=d).values
+            kc = hx.critical_stiffness(M, float(b), T, int(d))
+            expected = int(np.searchsorted(k, kc))  # the first grid stiffness above kappa_c
+            first = int(np.argmax(growing)) if growing.any() else k.size
+            assert abs(first - expected) <= 1, (b, d, kc, first, expected)
+            assert not growing[:max(expected - 1, 0)].any()  # stable below: every run decays
+    assert np.all(ds.energy_balance_error.values < 1e-9)  # the exact ZOH energy accounting
+
+
+def test_one_or_two_workers_write_identical_stores_and_a_resumed_sweep_completes(tmp_path):
+    spec = wall_spec({"stiffness": "1-30 kN/m, 12 log steps", "delay": [0, 1]}, duration="0.3 s", block=5)
+    one = sweep(spec, tmp_path / "one.zarr", workers=1)
+    two = sweep(spec, tmp_path / "two.zarr", workers=2)
+    assert one.attrs["blocks_computed"] == len(SweepSpec.from_mapping(spec).blocks()) == 6
+    for name in one.data_vars:
+        assert np.array_equal(one[name].values, two[name].values, equal_nan=one[name].dtype.kind == "f"), name
+
+    class Interrupted(Exception):
+        pass
+
+    def stop_after_two(n):
+        if n == 2:
+            raise Interrupted  # the client dies after writing two blocks
+
+    with pytest.raises(Interrupted):
+        sweep(spec, tmp_path / "resumed.zarr", workers=2, on_block=stop_after_two)
+    resumed = sweep(spec, tmp_path / "resumed.zarr", workers=2)
+    assert resumed.attrs["blocks_skipped"] == 2 and resumed.attrs["blocks_computed"] == 4
+    for name in one.data_vars:
+        assert np.array_equal(one[name].values, resumed[name].values, equal_nan=one[name].dtype.kind == "f"), name
+    # a store written by another SPEC is refused
+    other = wall_spec({"stiffness": "1-30 kN/m, 13 log steps", "delay": [0, 1]}, duration="0.3 s", block=5)
+    with pytest.raises(hx.ParameterError, match=r"one.zarr' is not allowed: it was written by another SPEC"):
+        sweep(other, tmp_path / "one.zarr", workers=1)
+
+
+@pytest.mark.parametrize("axes, pattern", [
+    ({"stiffness": []}, r"^axes.stiffness = \[\] is not allowed: must be at least one value"),
+    ({"stifness": "1-2 kN/m, 3 steps"}, r"^axes.stifness is not allowed: a swept parameter must be algorithm or one of"),
+    ({"stiffness": "1-2 kg, 3 steps"}, r"^axes.stiffness = '1 kg' is not allowed"),
+    ({"stiffness": "1-2, 3 steps"}, r"^axes.stiffness = '1-2, 3 steps' is not allowed: must be a range with its unit"),
+    ({"stiffness": ["1 kN/m", 2000]}, r"^axes.stiffness = 2000 is not allowed: must be a quantity with its unit"),
+    ({"delay": [0, 1.5]}, r"^axes.delay = 1.5 is not allowed"),
+])
+def test_bad_axes_are_refused_naming_them(axes, pattern):
+    with pytest.raises(hx.ParameterError, match=pattern):
+        SweepSpec.from_mapping(wall_spec(axes))
+
+
+def test_the_cli_refuses_an_unreachable_scheduler_within_seconds(tmp_path):
+    f = tmp_path / "s.toml"
+    f.write_text('duration = "0.1 s"\n[algorithm]\nletter = "W"\n[device]\npreset = "point-mass"\n'
+                 '[operator]\nkind = "push"\nforce = "1 N"\n[axes]\nstiffness = "1-2 kN/m, 2 steps"\n')
+    r = subprocess.run([sys.executable, "-m", "haptex", "sweep", str(f), "--out", str(tmp_path / "a.zarr"),
+                        "--scheduler", "tcp://127.0.0.1:9"], capture_output=True, text=True, timeout=60)
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
+    assert "no Dask scheduler answered there within 5 s" in r.stderr
