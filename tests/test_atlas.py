@@ -40,7 +40,13 @@ def test_the_wall_atlas_finds_the_closed_form_boundary_within_one_grid_step():
             first = int(np.argmax(growing)) if growing.any() else k.size
             assert abs(first - expected) <= 1, (b, d, kc, first, expected)
             assert not growing[:max(expected - 1, 0)].any()  # stable below: every run decays
-    assert np.all(ds.energy_balance_error.values < 1e-9)  # the exact ZOH energy accounting
+    assert np.all(np.abs(ds.energy_balance_error.values) < 1e-9)  # the exact ZOH energy accounting
+    # the limit `haptex atlas plot` draws is the same closed form, row by row
+    from haptex.atlas import analytic_boundary
+
+    for d in (0, 1):
+        drawn = analytic_boundary(ds, "stiffness", "damping", {"delay": d})
+        assert drawn == pytest.approx([hx.critical_stiffness(M, float(b), T, d) for b in ds.damping.values], rel=1e-12)
 
 
 def test_one_or_two_workers_write_identical_stores_and_a_resumed_sweep_completes(tmp_path):
@@ -91,3 +97,19 @@ def test_the_cli_refuses_an_unreachable_scheduler_within_seconds(tmp_path):
                         "--scheduler", "tcp://127.0.0.1:9"], capture_output=True, text=True, timeout=60)
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
     assert "no Dask scheduler answered there within 5 s" in r.stderr
+
+
+def test_atlas_plot_at_the_command_line_needs_every_other_dimension_fixed(tmp_path):
+    spec = wall_spec({"stiffness": "1-30 kN/m, 6 log steps", "damping": ["0.5 N*s/m", "1 N*s/m"], "delay": [0, 1]},
+                     duration="0.2 s")
+    sweep(spec, tmp_path / "a.zarr", workers=1)
+    cmd = [sys.executable, "-m", "haptex", "atlas", "plot", str(tmp_path / "a.zarr"), "--x", "stiffness", "--y", "damping"]
+    r = subprocess.run(cmd + ["--out", str(tmp_path / "a.png")], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and "'delay' is left free: fix it with --select delay=VALUE (values: 0, 1)" in r.stderr
+    r = subprocess.run(cmd + ["--select", "delay=1", "--out", str(tmp_path / "a.png")], capture_output=True, text=True,
+                       timeout=120)
+    assert r.returncode == 0, r.stderr
+    from PIL import Image
+
+    with Image.open(tmp_path / "a.png") as im:  # two panels side by side
+        assert im.width > 2 * im.height

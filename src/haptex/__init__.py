@@ -32,6 +32,7 @@ from .devices import Device, critical_stiffness, device_from_file, five_bar_jaco
 from .renderer import PassivityController, Renderer
 from .simulate import AxisOscillation, BatchResult, Oscillation, SimulationResult, SimulationWarning, simulate, simulate_batch
 from .tables import PAPER_PARAMETERS, table_ii
+from .atlas import SweepSpec, open_atlas, sweep
 from .surfaces import BandLimitedNoise2D, Extruded, Grating, SampledSurface, SumOfGratings, Surface, load_texture
 from .textures import BandLimitedNoise, Flat, SampledProfile, Sinusoid, SumOfSinusoids, Texture
 
@@ -44,6 +45,9 @@ __all__ = [
     "Extruded",
     "Grating",
     "SampledSurface",
+    "SweepSpec",
+    "open_atlas",
+    "sweep",
     "load_texture",
     "SumOfGratings",
     "Surface",

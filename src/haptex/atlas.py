@@ -563,3 +563,98 @@ def _bar(show: bool, total: int, done: int):
         else:
             prog.advance(task, n)
     return advance
+
+
+# -- reading an atlas back -------------------------------------------------------------------
+def open_atlas(path):
+    """An atlas written by :func:`sweep`, loaded into memory.
+
+    Raises
+    ------
+    ParameterError
+        If ``path`` is not a Zarr store written by haptex sweep.
+    """
+    import xarray as xr
+
+    p = Path(path)
+    if not p.exists():
+        raise ParameterError(f"atlas = {str(path)!r} is not allowed: no such store")
+    try:
+        ds = xr.open_zarr(p, consolidated=False).load()
+    except Exception as exc:
+        raise ParameterError(f"atlas = {str(path)!r} is not allowed: not a Zarr store "
+                             f"({' '.join(str(exc).split())[:120]})") from None
+    if "haptex_spec" not in ds.attrs:
+        raise ParameterError(f"atlas = {str(path)!r} is not allowed: not written by haptex sweep")
+    return ds
+
+
+def select(ds, x: str, y: str, where: dict):
+    """The 2-D slice (y, x) of an atlas: every other dimension fixed by ``where`` (name:
+    value, the nearest coordinate) or of length 1.
+
+    Raises
+    ------
+    ParameterError
+        For an unknown dimension, x = y, or a dimension left free.
+    """
+    dims = list(ds.sizes)
+    for name in (x, y, *where):
+        if name not in dims:
+            raise ParameterError(f"{name!r} is not allowed: the atlas's dimensions are {', '.join(dims)}")
+    if x == y:
+        raise ParameterError(f"x = y = {x!r} is not allowed: choose two different dimensions")
+    free = [d for d in dims if d not in (x, y) and d not in where and ds.sizes[d] > 1]
+    if free:
+        raise ParameterError(f"{free[0]!r} is left free: fix it with --select {free[0]}=VALUE "
+                             f"(values: {', '.join(f'{v:g}' if not isinstance(v, str) else v for v in ds[free[0]].values[:6])}"
+                             f"{', ...' if ds.sizes[free[0]] > 6 else ''})")
+    sel = {}
+    for name, value in where.items():
+        coord = ds[name].values
+        if coord.dtype.kind in "US":
+            if value not in coord:
+                raise fail(f"select {name}", value, "one of " + ", ".join(coord))
+            sel[name] = value
+        else:
+            sel[name] = coord[int(np.argmin(np.abs(coord - float(value))))]
+    out = ds.sel(sel)
+    rest = [d for d in out.dims if d not in (x, y)]
+    return out.isel({d: 0 for d in rest}).transpose(y, x)
+
+
+def analytic_boundary(ds, x: str, y: str, where: dict) -> np.ndarray | None:
+    """Where the analytic stability or passivity limit lies along ``x`` = stiffness, for
+    each y coordinate (N/m), or None when no closed form applies.
+
+    W: the sampled wall's exact limit (:func:`haptex.critical_stiffness`, the closed-loop
+    poles of the ZOH spring-mass-damper with the device's delay); a textured algorithm: the
+    passivity bound kappa_0 q = sigma_0(B) / (2T) (Corollary 1, eq. 1), i.e.
+    kappa = sigma_0(B) / (2 T q) with q its characteristic number. Mass, damping and delay
+    come from the y axis or the selection when swept, else from the SPEC's device.
+    """
+    if x != "stiffness":
+        return None
+    from .analysis import characteristic_number
+    from .devices import critical_stiffness
+
+    spec = SweepSpec.from_mapping(json.loads(ds.attrs["haptex_spec"]))
+    letter = where.get("algorithm")
+    alg, device, _, _ = spec.build(letter=letter)
+    out = []
+    for yv in ds[y].values:
+        params = {k: float(v) for k, v in where.items() if k != "algorithm"} | ({y: float(yv)} if y != "algorithm" else {})
+        m = params.get("mass", float(device.mass[-1, -1]))
+        b = params.get("damping", float(device.damping[-1, -1]))
+        delay = int(round(params.get("delay", device.delay)))
+        L = str(yv) if y == "algorithm" else alg.letter
+        if L == "W":
+            out.append(critical_stiffness(m, b, device.period, delay) if b > 0 else np.nan)
+        else:
+            a = alg if y != "algorithm" else spec.build(letter=L)[0]
+            q = characteristic_number(a).value
+            # sigma_0(B) / (2T): the device's, or b / (2T) when the damping (isotropic) is swept;
+            # Corollary 1 assumes no delay
+            limit = (b / (2 * device.period) if "damping" in params else device.passivity_limit)
+            out.append(limit / q if (q > 0 and delay == 0) else np.nan)
+    return np.array(out)

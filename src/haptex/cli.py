@@ -766,6 +766,45 @@ def sweep(spec, out, scheduler, workers, quiet):
                f"{int(ds['growing'].sum())} growing")
 
 
+@cli.group()
+def atlas():
+    """Read a stability atlas written by haptex sweep."""
+
+
+@atlas.command("plot")
+@click.argument("store", type=click.Path(path_type=Path))
+@click.option("--x", "x", required=True, help="Dimension along the horizontal axis, e.g. stiffness.")
+@click.option("--y", "y", required=True, help="Dimension along the vertical axis, e.g. damping.")
+@click.option("--select", "selects", multiple=True, help="NAME=VALUE fixing another dimension (nearest value; "
+              "with its unit for a quantity, e.g. delay=1 or damping='0.5 N*s/m').")
+@click.option("--out", "out", type=click.Path(dir_okay=False, path_type=Path), default=Path("atlas.png"),
+              show_default=True, help="Figure file (PNG, SVG, PDF, ...).")
+def atlas_plot(store, x, y, selects, out):
+    """Heat maps of verdict and energy rate over two dimensions, with the analytic limit."""
+    from .atlas import open_atlas
+    from .plotting import plot_atlas
+    from .simulate import SWEEP_UNITS
+
+    _check_plot_path(out)
+    ds = open_atlas(store)
+    where = {}
+    for item in selects:
+        name, sep, value = item.partition("=")
+        name = name.strip()
+        if not sep or not name:
+            raise ParameterError(f"select = {item!r} is not allowed: must be NAME=VALUE, e.g. delay=0")
+        if name == "algorithm":
+            where[name] = value.strip().upper()
+        elif name == "delay":
+            where[name] = float(_q(value, "dimensionless", "select delay"))
+        elif name in SWEEP_UNITS:
+            where[name] = _q(value, SWEEP_UNITS[name], f"select {name}")
+        else:
+            raise ParameterError(f"select {name!r} is not allowed: the atlas's dimensions are {', '.join(ds.sizes)}")
+    path = plot_atlas(ds, x, y, where, out)
+    click.echo(f"wrote {path}")
+
+
 def _table(stiffness, amplitude, period, max_penetration, friction, presliding, progress=None, surface=None):
     from .tables import table_ii
 

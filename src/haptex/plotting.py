@@ -372,3 +372,61 @@ def plot_wall_map(wall_map: dict, path) -> Path:
     ax.set_ylabel("sigma = f_c / (K Delta) (1); dotted: K = 2 f_c / Delta")
     ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     return _finish(plt, fig, path, "Sampled, quantised virtual wall: passivity and behaviour")
+
+
+def plot_atlas(ds, x: str, y: str, where: dict, path) -> Path:
+    """Heat maps of one 2-D slice of a stability atlas: the verdict (decays / persists /
+    grows) and the energy the environment supplies per second (W), with the analytic
+    boundary along the stiffness where one exists (:func:`haptex.atlas.analytic_boundary`).
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        From :func:`haptex.atlas.sweep` or :func:`haptex.atlas.open_atlas`.
+    x, y : str
+        Dimensions along the horizontal and vertical axes.
+    where : dict
+        Values of the other dimensions (nearest coordinate).
+    path : str or Path
+        Figure file (PNG also writes its SVG twin).
+
+    Raises
+    ------
+    ParameterError
+        For unknown or free dimensions (see :func:`haptex.atlas.select`).
+    """
+    from matplotlib.colors import ListedColormap, SymLogNorm
+
+    from .atlas import analytic_boundary, select
+
+    s = select(ds, x, y, where)
+    plt = _pyplot()
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+    xs, ys = s[x].values, s[y].values
+    verdict = np.where(s["growing"].values, 2, np.where(s["oscillating"].values, 1, 0))
+    rate = sum(s[v].values for v in s.data_vars if v.startswith("energy_rate_"))
+    xlog = x in ("stiffness", "mass", "damping") and np.all(xs > 0) and xs.max() / xs.min() > 20
+    ylog = y in ("stiffness", "mass", "damping") and np.all(ys > 0) and ys.max() / ys.min() > 20
+    im0 = axes[0].pcolormesh(xs, ys, verdict, shading="nearest", vmin=-0.5, vmax=2.5,
+                             cmap=ListedColormap(["#d9ead3", "#ffe599", "#e06666"]))
+    cb = fig.colorbar(im0, ax=axes[0], ticks=[0, 1, 2])
+    cb.ax.set_yticklabels(["decays", "persists", "grows"])
+    lim = float(np.nanmax(np.abs(rate))) if np.any(np.isfinite(rate)) else 1.0
+    im1 = axes[1].pcolormesh(xs, ys, rate, shading="nearest", cmap="RdBu_r",
+                             norm=SymLogNorm(linthresh=max(lim * 1e-6, 1e-12), vmin=-lim, vmax=lim))
+    fig.colorbar(im1, ax=axes[1], label="energy supplied by the environment (W)")
+    bound = analytic_boundary(ds, x, y, where) if y in s.dims else None
+    for ax, title in zip(axes, ("verdict", "energy rate")):
+        if bound is not None and np.any(np.isfinite(bound)):
+            ax.plot(bound, ys, "k--", lw=1.2, label="analytic limit")
+            ax.legend(loc="lower right", fontsize=8)
+        ax.set_xlabel(f"{x} ({ds[x].attrs.get('units', '')})")
+        ax.set_ylabel(f"{y} ({ds[y].attrs.get('units', '')})")
+        ax.set_xlim(xs.min(), xs.max())
+        if xlog:
+            ax.set_xscale("log")
+        if ylog:
+            ax.set_yscale("log")
+        ax.set_title(title)
+    fixed = ", ".join(f"{k} = {v}" for k, v in where.items())
+    return _finish(plt, fig, path, "stability atlas" + (f" ({fixed})" if fixed else ""))
