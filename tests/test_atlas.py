@@ -113,3 +113,57 @@ def test_atlas_plot_at_the_command_line_needs_every_other_dimension_fixed(tmp_pa
 
     with Image.open(tmp_path / "a.png") as im:  # two panels side by side
         assert im.width > 2 * im.height
+
+
+def test_a_real_deployment_loses_nothing_when_a_worker_is_killed(tmp_path):
+    # a `dask scheduler` and two `dask worker` processes on 127.0.0.1, as on a cluster; one
+    # worker is killed (SIGKILL, no nanny to restart it) once the first block is written,
+    # while the others are running or queued: Dask reruns its tasks on the survivor and the
+    # store is bit for bit the single-process one (runs are deterministic)
+    import json as _json
+    import os
+    import signal
+    import time
+
+    spec = wall_spec({"stiffness": "1-30 kN/m, 24 log steps", "delay": [0, 1]}, duration="20 s", block=4)
+    reference = sweep(spec, tmp_path / "ref.zarr", workers=1)
+    sched_file = tmp_path / "scheduler.json"
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    procs = [subprocess.Popen([sys.executable, "-m", "dask", "scheduler", "--scheduler-file", str(sched_file),
+                               "--host", "127.0.0.1", "--port", "0", "--no-dashboard"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                              env=env)]
+    try:
+        for _ in range(300):
+            if sched_file.exists() and sched_file.stat().st_size:
+                break
+            time.sleep(0.1)
+        address = _json.loads(sched_file.read_text())["address"]
+        for _ in range(2):
+            procs.append(subprocess.Popen([sys.executable, "-m", "dask", "worker", address, "--nthreads", "1",
+                                           "--host", "127.0.0.1", "--no-nanny", "--no-dashboard"], stdout=subprocess.DEVNULL,
+                                          stderr=subprocess.DEVNULL, env=env))
+        from dask.distributed import Client
+
+        with Client(address, timeout="30s") as c:
+            c.wait_for_workers(2, timeout=60)
+        killed, busy = [], []
+
+        def kill_one(n):
+            if n == 1:
+                with Client(address, timeout="30s") as c:
+                    addr = next(a for a, pid in c.run(os.getpid).items() if pid == procs[2].pid)
+                    busy.append(len(c.processing()[addr]))  # its tasks running or queued at the kill
+                procs[2].send_signal(signal.SIGKILL)
+                killed.append(procs[2].wait(timeout=30))
+
+        ds = sweep(spec, tmp_path / "cluster.zarr", scheduler=address, on_block=kill_one)
+        assert killed == [-signal.SIGKILL] and busy[0] >= 1
+        assert ds.attrs["blocks_computed"] == 12 and bool(ds["done"].all())
+        for name in reference.data_vars:
+            assert np.array_equal(reference[name].values, ds[name].values,
+                                  equal_nan=reference[name].dtype.kind == "f"), name
+    finally:
+        for p in procs:
+            if p.poll() is None:
+                p.kill()
+                p.wait(timeout=30)

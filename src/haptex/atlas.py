@@ -540,7 +540,7 @@ def _client(scheduler: str | None, workers: int | None):
             raise ParameterError(f"scheduler = {scheduler!r} is not allowed: {exc}") from None
     cores = os.cpu_count() or 1
     n = cores if workers is None else whole("workers", workers, 1, 1024)
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
+    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None,
                            silence_logs=logging.ERROR)
     return Client(cluster), cluster, max(1, cores // n)
 
