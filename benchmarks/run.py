@@ -11,9 +11,11 @@
    algorithm and texture (benchmarks/run_worst.py);
 5. export: ns per call of the C99 tick `haptex export` generates (benchmarks/run_export.py);
 6. design: `haptex design` on the raw Dektak scan against the paper's sinusoid, and design()
-   on a 10^6-sample profile and a 1024 x 1024 map (benchmarks/run_design.py).
+   on a 10^6-sample profile and a 1024 x 1024 map (benchmarks/run_design.py);
+7. atlas: `haptex.sweep` on Dask with 1 and 2 workers, the overhead per task, the largest
+   sweep (benchmarks/run_atlas.py).
 
-Options: --only {analysis,renderer,simulator,worst,export,design}, --points N, --json (analysis only).
+Options: --only {analysis,renderer,simulator,worst,export,design,atlas}, --points N, --json (analysis only).
 Never part of the test run; results are reported in benchmarks/README.md. Sections 2 and
 3 need gcc.
 """
@@ -47,7 +49,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--points", type=int, default=1_000_000)
     ap.add_argument("--json", action="store_true")
-    ap.add_argument("--only", choices=["analysis", "renderer", "simulator", "worst", "export", "design"])
+    ap.add_argument("--only", choices=["analysis", "renderer", "simulator", "worst", "export", "design", "atlas"])
     args = ap.parse_args()
     if args.only in (None, "analysis"):
         analysis(args)
@@ -79,6 +81,11 @@ def main() -> None:
 
         print("\n# design on raw measured data")
         run_design.main()
+    if args.only in (None, "atlas") and not args.json:
+        import run_atlas
+
+        print("\n# stability atlas on Dask")
+        run_atlas.main()
 
 
 def analysis(args) -> None:

@@ -1,0 +1,73 @@
+"""Stability atlases on Dask (issue 14), one run on this machine:
+
+1. runs and simulated samples per second of `haptex.sweep` with 1 and 2 local workers, on
+   the wall atlas of examples/sweeps/wall.toml (1200 runs x 5 s at T = 100 us: 6e7 samples),
+   cluster start-up included and excluded;
+2. the overhead per task against calling the same block's simulate_batch in this process,
+   for blocks of 10^5, 10^6 and 10^7 samples (goal <= 10 % from 10^5);
+3. the largest sweep run here: the wall atlas at 8 x the stiffness resolution.
+"""
+
+from __future__ import annotations
+
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from haptex.atlas import SweepSpec, _run_block, sweep
+
+WALL = Path(__file__).resolve().parents[1] / "examples" / "sweeps" / "wall.toml"
+
+
+def timed_sweep(spec, workers: int, out: Path):
+    t = time.perf_counter()
+    ds = sweep(spec, out, workers=workers)
+    return time.perf_counter() - t, ds
+
+
+def main() -> None:
+    spec = SweepSpec.from_file(WALL)
+    samples = spec.runs * round(spec.duration / 1e-4)
+    with tempfile.TemporaryDirectory() as tmp:
+        sweep(spec, Path(tmp) / "warm.zarr", workers=2)  # numba cache and imports warm
+        for w in (1, 2):
+            wall, _ = timed_sweep(spec, w, Path(tmp) / f"w{w}.zarr")
+            print(f"wall atlas, {w} worker(s): {spec.runs} runs in {wall:.2f} s: {spec.runs / wall:.0f} runs/s, "
+                  f"{samples / wall:.3g} samples/s (cluster start-up and store included)")
+    # overhead per task: one block through Dask against simulate_batch in this process
+    from dask.distributed import Client, LocalCluster
+
+    with LocalCluster(n_workers=1, threads_per_worker=1, host="127.0.0.1", dashboard_address=None) as cluster, \
+            Client(cluster) as client:
+        for runs, duration in ((10, "1 s"), (100, "1 s"), (100, "10 s")):
+            mapping = dict(spec.mapping, duration=duration,
+                           axes={"stiffness": f"0.5-2 kN/m, {runs} log steps"}, block=runs)
+            s = SweepSpec.from_mapping(mapping)
+            block = s.blocks()[0]
+            n = runs * round(s.duration / 1e-4)
+            client.submit(_run_block, s.mapping, block, 1, pure=False).result()  # warm the worker
+            direct = min(_time(lambda: _run_block(s.mapping, block, 1)) for _ in range(3))
+            remote = min(_time(lambda: client.submit(_run_block, s.mapping, block, 1, pure=False).result())
+                         for _ in range(3))
+            print(f"one task of {n:.0e} samples: simulate_batch {direct * 1e3:.1f} ms, through Dask "
+                  f"{remote * 1e3:.1f} ms: overhead {100 * (remote - direct) / direct:.1f} %")
+    big = dict(spec.mapping, axes=dict(spec.mapping["axes"], stiffness="0.5-20 kN/m, 480 log steps"))
+    s = SweepSpec.from_mapping(big)
+    with tempfile.TemporaryDirectory() as tmp:
+        wall, _ = timed_sweep(s, 2, Path(tmp) / "big.zarr")
+    n = s.runs * round(s.duration / 1e-4)
+    print(f"largest sweep: {s.runs} runs x {round(s.duration / 1e-4)} samples = {n:.2g} samples in {wall:.1f} s "
+          f"({n / wall:.3g} samples/s, 2 workers)")
+
+
+def _time(fn) -> float:
+    t = time.perf_counter()
+    fn()
+    return time.perf_counter() - t
+
+
+if __name__ == "__main__":
+    np.seterr(all="ignore")
+    main()
