@@ -39,7 +39,7 @@ def main() -> None:
     # overhead per task: one block through Dask against simulate_batch in this process
     from dask.distributed import Client, LocalCluster
 
-    with LocalCluster(n_workers=1, threads_per_worker=1, host="127.0.0.1", dashboard_address=None) as cluster, \
+    with LocalCluster(n_workers=1, threads_per_worker=1, host="127.0.0.1", dashboard_address="127.0.0.1:0") as cluster, \
             Client(cluster) as client:
         for runs, duration in ((10, "1 s"), (100, "1 s"), (100, "10 s")):
             mapping = dict(spec.mapping, duration=duration,

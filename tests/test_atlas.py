@@ -129,9 +129,9 @@ def test_a_real_deployment_loses_nothing_when_a_worker_is_killed(tmp_path):
     reference = sweep(spec, tmp_path / "ref.zarr", workers=1)
     sched_file = tmp_path / "scheduler.json"
     env = dict(os.environ, PYTHONUNBUFFERED="1")
-    procs = [subprocess.Popen([sys.executable, "-m", "dask", "scheduler", "--scheduler-file", str(sched_file),
-                               "--host", "127.0.0.1", "--port", "0", "--no-dashboard"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                              env=env)]
+    procs = [subprocess.Popen([sys.executable, "-m", "dask", "scheduler", "--scheduler-file", str(sched_file), "--host",
+                               "127.0.0.1", "--port", "0", "--dashboard-address", "127.0.0.1:0"],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)]
     try:
         for _ in range(300):
             if sched_file.exists() and sched_file.stat().st_size:

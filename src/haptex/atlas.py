@@ -197,11 +197,9 @@ class SweepSpec:
             block[i] = max(1, block_runs // prod)
             break
         spec = cls(dict(data), axes, tuple(block), duration)
-        spec.build()  # every fixed part is checked before any task runs
         letters = next((a.values for a in axes if a.name == "algorithm"), None)
-        if letters is not None:
-            for L in letters:
-                spec.build(letter=str(L))
+        for L in ([None] if letters is None else letters):  # every fixed part, checked before any task
+            spec.build(letter=None if L is None else str(L))
         return spec
 
     def build(self, letter: str | None = None):
@@ -268,7 +266,7 @@ def _axis(name: str, value) -> Axis:
         bad = [v for v in letters if str(v).upper() not in "WABCDEFG" or len(str(v)) != 1]
         if bad:
             raise fail("axes.algorithm", bad[0], "letters W, A-G")
-        return Axis("algorithm", np.array([str(v).upper() for v in letters]), "")
+        return Axis("algorithm", np.array([str(v).upper() for v in letters], dtype=object), "")
     if name not in SWEEP_KEYS:
         raise ParameterError(f"axes.{name} is not allowed: a swept parameter must be algorithm or one of "
                              + ", ".join(SWEEP_KEYS))
@@ -351,14 +349,15 @@ def _variables(dimension: int) -> dict:
     out = {"oscillating": ("1", "bool", False, "the run oscillates on some axis (Oscillation verdict)")}
     for a in axes:
         out[f"oscillating_{a}"] = ("1", "bool", False, f"the verdict along {a}")
-    out |= {"growing": ("1", "bool", False, "the motion grows over the tail (decay_ratio > 1): an unstable loop"),
-            "amplitude": ("m", "float64", np.nan, "tail amplitude of the oscillating (or largest) axis"),
-            "frequency": ("Hz", "float64", np.nan, "its frequency"),
+    out |= {"growing": ("1", "bool", False, "the motion grows over the tail (decay_ratio > 1, above the rest "
+                                            "threshold): an unstable loop"),
+            "tail_amplitude": ("m", "float64", np.nan, "tail amplitude of the oscillating (or largest) axis"),
+            "tail_frequency": ("Hz", "float64", np.nan, "its frequency"),
             "decay_ratio": ("1", "float64", np.nan, "amplitude of the tail's second half over its first")}
     for a in axes:
         out[f"energy_rate_{a}"] = ("W", "float64", np.nan,
                                    f"energy the environment supplies along {a} per second: -E_{a} / duration")
-    out |= {"max_penetration": ("m", "float64", np.nan, "deepest penetration"),
+    out |= {"deepest_penetration": ("m", "float64", np.nan, "deepest penetration into the surface"),
             "saturations": ("samples", "int64", -1, "samples at the force limit"),
             "energy_balance_error": ("1", "float64", np.nan, "relative closure of the energy balance"),
             "diverged_at": ("samples", "int64", -1, "sample at which the run became non-finite, 0 if never")}
@@ -382,9 +381,9 @@ def _run_block(spec_mapping: dict, block: tuple, numba_threads: int | None = Non
     res = simulate_batch(alg, device, op, spec.duration, initial_position=p0, progress=False, **values)
     d = device.dimension
     axes = "xz" if d == 2 else "xyz"
-    out = {"oscillating": res.oscillating, "growing": res.decay_ratio > 1.0, "decay_ratio": res.decay_ratio,
-           "amplitude": res.amplitude, "frequency": res.frequency,
-           "max_penetration": res.max_penetration, "saturations": res.saturations,
+    out = {"oscillating": res.oscillating, "growing": res.growing, "decay_ratio": res.decay_ratio,
+           "tail_amplitude": res.amplitude, "tail_frequency": res.frequency,
+           "deepest_penetration": res.max_penetration, "saturations": res.saturations,
            "energy_balance_error": res.energy_balance_error, "diverged_at": res.diverged_at}
     energies = {"x": res.energy_x, "z": res.energy_z, "y": res.energy_y}
     for i, a in enumerate(axes):
@@ -540,7 +539,8 @@ def _client(scheduler: str | None, workers: int | None):
             raise ParameterError(f"scheduler = {scheduler!r} is not allowed: {exc}") from None
     cores = os.cpu_count() or 1
     n = cores if workers is None else whole("workers", workers, 1, 1024)
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None,
+    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                           dashboard_address="127.0.0.1:0",
                            silence_logs=logging.ERROR)
     return Client(cluster), cluster, max(1, cores // n)
 
@@ -612,7 +612,7 @@ def select(ds, x: str, y: str, where: dict):
     sel = {}
     for name, value in where.items():
         coord = ds[name].values
-        if coord.dtype.kind in "US":
+        if not np.issubdtype(coord.dtype, np.number):
             if value not in coord:
                 raise fail(f"select {name}", value, "one of " + ", ".join(coord))
             sel[name] = value
@@ -628,33 +628,29 @@ def analytic_boundary(ds, x: str, y: str, where: dict) -> np.ndarray | None:
     each y coordinate (N/m), or None when no closed form applies.
 
     W: the sampled wall's exact limit (:func:`haptex.critical_stiffness`, the closed-loop
-    poles of the ZOH spring-mass-damper with the device's delay); a textured algorithm: the
-    passivity bound kappa_0 q = sigma_0(B) / (2T) (Corollary 1, eq. 1), i.e.
-    kappa = sigma_0(B) / (2 T q) with q its characteristic number. Mass, damping and delay
-    come from the y axis or the selection when swept, else from the SPEC's device.
+    poles of the ZOH spring-mass-damper along the normal, with the device's delay); a
+    textured algorithm: the passivity bound kappa_0 q = sigma_0(B) / (2T) (Corollary 1,
+    eq. 1), i.e. kappa = sigma_0(B) / (2 T q) with q the characteristic number of the run's
+    texture (no delay). Every parameter on the y axis or in ``where`` is applied to the
+    SPEC's algorithm and device as the sweep does (``simulate_batch``'s rebuilding).
     """
     if x != "stiffness":
         return None
     from .analysis import characteristic_number
     from .devices import critical_stiffness
+    from .simulate import _rebuild
 
     spec = SweepSpec.from_mapping(json.loads(ds.attrs["haptex_spec"]))
-    letter = where.get("algorithm")
-    alg, device, _, _ = spec.build(letter=letter)
     out = []
     for yv in ds[y].values:
-        params = {k: float(v) for k, v in where.items() if k != "algorithm"} | ({y: float(yv)} if y != "algorithm" else {})
-        m = params.get("mass", float(device.mass[-1, -1]))
-        b = params.get("damping", float(device.damping[-1, -1]))
-        delay = int(round(params.get("delay", device.delay)))
-        L = str(yv) if y == "algorithm" else alg.letter
-        if L == "W":
-            out.append(critical_stiffness(m, b, device.period, delay) if b > 0 else np.nan)
+        params = dict(where) | {y: yv}
+        letter = params.pop("algorithm", None)
+        alg, device, op, _ = spec.build(letter=None if letter is None else str(letter))
+        alg, device, _ = _rebuild(alg, device, op, {k: float(v) for k, v in params.items()})
+        if alg.letter == "W":
+            m, b = float(device.mass[-1, -1]), float(device.damping[-1, -1])
+            out.append(critical_stiffness(m, b, device.period, device.delay) if b > 0 else np.nan)
         else:
-            a = alg if y != "algorithm" else spec.build(letter=L)[0]
-            q = characteristic_number(a).value
-            # sigma_0(B) / (2T): the device's, or b / (2T) when the damping (isotropic) is swept;
-            # Corollary 1 assumes no delay
-            limit = (b / (2 * device.period) if "damping" in params else device.passivity_limit)
-            out.append(limit / q if (q > 0 and delay == 0) else np.nan)
+            q = characteristic_number(alg).value
+            out.append(device.passivity_limit / q if (q > 0 and device.delay == 0) else np.nan)
     return np.array(out)

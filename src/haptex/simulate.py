@@ -761,8 +761,10 @@ class BatchResult:
     oscillating_axes : ndarray of bool, shape (N, d)
         The verdict per axis, [x, z] in the plane, [x, y, z] in space.
     decay_ratio : ndarray
-        Amplitude of the tail's second half over its first, on the main axis (> 1: the
-        motion grows: an unstable loop).
+        Amplitude of the tail's second half over its first, on the main axis.
+    growing : ndarray of bool
+        The motion grows: decay ratio > 1 with an amplitude above the rest threshold, not
+        at the rate the texture drives (an unstable loop, before any limit cycle).
     """
 
     parameters: dict
@@ -784,6 +786,7 @@ class BatchResult:
     passivity_control_samples: np.ndarray | None = None
     oscillating_axes: np.ndarray | None = None
     decay_ratio: np.ndarray | None = None
+    growing: np.ndarray | None = None
 
 
 def _rebuild(algorithm: Algorithm, device: Device, operator: Operator, values: dict):
@@ -994,7 +997,9 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
         passivity_control_samples=summary[:, S_PC_ACTIVE].astype(np.int64),
         oscillating_axes=np.array([[o.x.oscillating] + ([o.y.oscillating] if d == 3 else []) + [o.z.oscillating]
                                    for o in osc], dtype=bool).reshape(N, d),
-        decay_ratio=col(lambda o: o.decay_ratio))
+        decay_ratio=col(lambda o: o.decay_ratio),
+        growing=col(lambda o: bool(o.decay_ratio > 1.0 and o.amplitude > o.threshold
+                                    and not getattr(o, o.axis).texture_driven)))
 
 
 def _progress(show: bool, total: int):
