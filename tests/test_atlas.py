@@ -167,3 +167,24 @@ def test_a_real_deployment_loses_nothing_when_a_worker_is_killed(tmp_path):
             if p.poll() is None:
                 p.kill()
                 p.wait(timeout=30)
+
+
+def test_a_yaml_spec_is_the_same_spec_as_its_toml(tmp_path):
+    # the example SPEC written in YAML: the same axes (values in SI) and the same identity,
+    # so either file resumes the other's store (yaml is a dependency of SurfaceTopography and ours)
+    from pathlib import Path
+
+    toml = SweepSpec.from_file(Path(__file__).resolve().parents[1] / "examples" / "sweeps" / "wall.toml")
+    import yaml
+
+    f = tmp_path / "wall.yaml"
+    f.write_text(yaml.safe_dump(toml.mapping, sort_keys=False))
+    y = SweepSpec.from_file(f)
+    assert y.canonical == toml.canonical and y.shape == (60, 10, 2)
+    # the axes' order is the dimensions' order: the same axes in another order are another SPEC
+    f.write_text(yaml.safe_dump(toml.mapping, sort_keys=True))
+    assert SweepSpec.from_file(f).canonical != toml.canonical
+    # 60 log steps from 0.5 to 20 kN/m: a ratio of 40^(1/59) between neighbours
+    k = y.axes[0].values
+    assert k[0] == pytest.approx(500.0) and k[-1] == pytest.approx(20_000.0)
+    assert np.allclose(k[1:] / k[:-1], 40 ** (1 / 59), rtol=1e-12)

@@ -110,7 +110,10 @@ class SweepSpec:
 
     @property
     def canonical(self) -> str:
-        return json.dumps(self.mapping, sort_keys=True, separators=(",", ":"))
+        """The SPEC's identity: its JSON with sorted keys, except the axes, whose order is
+        the Dataset's dimensions."""
+        m = dict(self.mapping, axes=[[k, v] for k, v in self.mapping["axes"].items()])
+        return json.dumps(m, sort_keys=True, separators=(",", ":"))
 
     def blocks(self) -> list[tuple[slice, ...]]:
         """Every task's block as slices into the grid, in C order."""
