@@ -466,6 +466,10 @@ def sweep(spec, out=None, *, scheduler: str | None = None, workers: int | None =
             if old.attrs.get("haptex_spec") != spec.canonical:
                 raise ParameterError(f"out = {str(store)!r} is not allowed: it was written by another SPEC; give a new "
                                      "store, or the SPEC that wrote it to resume")
+            missing = sorted(set(_variables(dimension)) | {"done"} - set(old.data_vars))
+            if missing:
+                raise ParameterError(f"out = {str(store)!r} is not allowed: it lacks the variables {missing} (written by "
+                                     "another version of haptex); give a new store")
             done = old["done"].values
             done_blocks = {i for i, b in enumerate(blocks) if bool(done[b].all())}
         else:
@@ -643,7 +647,8 @@ def analytic_boundary(ds, x: str, y: str, where: dict) -> np.ndarray | None:
     from .devices import critical_stiffness
     from .simulate import _rebuild
 
-    spec = SweepSpec.from_mapping(json.loads(ds.attrs["haptex_spec"]))
+    stored = json.loads(ds.attrs["haptex_spec"])
+    spec = SweepSpec.from_mapping(dict(stored, axes=dict(stored["axes"])))  # the axes, in order
     out = []
     for yv in ds[y].values:
         params = dict(where) | {y: yv}
