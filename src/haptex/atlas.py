@@ -466,7 +466,7 @@ def sweep(spec, out=None, *, scheduler: str | None = None, workers: int | None =
             if old.attrs.get("haptex_spec") != spec.canonical:
                 raise ParameterError(f"out = {str(store)!r} is not allowed: it was written by another SPEC; give a new "
                                      "store, or the SPEC that wrote it to resume")
-            missing = sorted(set(_variables(dimension)) | {"done"} - set(old.data_vars))
+            missing = sorted((set(_variables(dimension)) | {"done"}) - set(old.data_vars))
             if missing:
                 raise ParameterError(f"out = {str(store)!r} is not allowed: it lacks the variables {missing} (written by "
                                      "another version of haptex); give a new store")
