@@ -188,3 +188,17 @@ def test_a_yaml_spec_is_the_same_spec_as_its_toml(tmp_path):
     k = y.axes[0].values
     assert k[0] == pytest.approx(500.0) and k[-1] == pytest.approx(20_000.0)
     assert np.allclose(k[1:] / k[:-1], 40 ** (1 / 59), rtol=1e-12)
+
+
+def test_a_3d_atlas_of_the_wall_is_the_planar_one():
+    # an isotropic point mass pushed along the normal of W moves along z only: the 3-DOF
+    # atlas (x, y, z) has the planar atlas's verdicts and energies, and no energy along x or y
+    axes = {"stiffness": "1-30 kN/m, 10 log steps", "delay": [0, 1]}
+    planar = sweep(wall_spec(axes, duration="1 s"), workers=1)
+    spec = wall_spec(axes, duration="1 s")
+    spec["device"] = dict(spec["device"], dimension=3)
+    space = sweep(spec, workers=1)
+    assert "energy_rate_y" in space and "energy_rate_y" not in planar
+    assert np.array_equal(space.growing.values, planar.growing.values) and space.growing.values.any()
+    np.testing.assert_allclose(space.energy_rate_z.values, planar.energy_rate_z.values, rtol=1e-12, atol=0)
+    assert not space.energy_rate_x.values.any() and not space.energy_rate_y.values.any()

@@ -239,8 +239,12 @@ class SweepSpec:
                                      "gives them (sweep 'amplitude' or 'texture_period' in [axes])")
         elif texture_spec is not None:
             raise ParameterError("algorithm.texture is not allowed with letter W: the smooth wall has no texture")
-        alg = algorithm(str(L), texture, stiffness, **params)
         device = _device_from_table(dict(self.mapping["device"]), "spec [device]")
+        if texture is None and device.dimension == 3:
+            from .textures import Flat
+
+            texture = Flat(dimension=2)  # the wall under a 3-DOF device: the plane z = 0
+        alg = algorithm(str(L), texture, stiffness, **params)
         op = _operator(self.mapping["operator"], device.dimension)
         start = self.mapping.get("initial_position")
         p0 = None if start is None else np.array([_quantity("initial_position", v, "m") for v in start])
