@@ -89,6 +89,16 @@ def test_bad_axes_are_refused_naming_them(axes, pattern):
         SweepSpec.from_mapping(wall_spec(axes))
 
 
+def test_a_spec_must_give_or_sweep_the_stiffness_and_its_start_must_fit_the_device():
+    with pytest.raises(hx.ParameterError, match=r"^algorithm.stiffness is missing: give it \(e.g. '2 kN/m'\) or sweep"):
+        SweepSpec.from_mapping(wall_spec({"delay": [0, 1]}))
+    spec = wall_spec({"delay": [0, 1]})
+    spec["algorithm"]["stiffness"] = "2 kN/m"
+    spec["initial_position"] = ["0 mm", "0 mm", "1 mm"]  # three coordinates for a planar device
+    with pytest.raises(hx.ParameterError, match=r"^initial_position = .* is not allowed: must be a list of 2 lengths"):
+        SweepSpec.from_mapping(spec)
+
+
 def test_the_cli_refuses_an_unreachable_scheduler_within_seconds(tmp_path):
     f = tmp_path / "s.toml"
     f.write_text('duration = "0.1 s"\n[algorithm]\nletter = "W"\n[device]\npreset = "point-mass"\n'

@@ -54,8 +54,7 @@ DEFAULT_BLOCK = 512
 
 _TOP_KEYS = ("duration", "block", "algorithm", "device", "operator", "axes", "initial_position")
 _OPERATORS = {"push": ("force",), "band": ("stiffness", "anchor"), "hand": ("stiffness", "damping", "velocity", "depth")}
-_ALG_QUANTITIES = {"stiffness": "N/m", "amplitude": "m", "period": "m", "friction": "dimensionless",
-                   "presliding": "m", "max_penetration": "m"}
+_ALG_QUANTITIES = {"stiffness": "N/m", "friction": "dimensionless", "presliding": "m", "max_penetration": "m"}
 _RANGE = re.compile(r"^\s*(?P<a>[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(?:–|—|-|\.\.|to)\s*"
                     r"(?P<b>[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(?P<unit>[^,]*?)\s*,\s*(?P<n>\d+)\s*"
                     r"(?P<log>log\s+)?steps?\s*$")
@@ -225,18 +224,17 @@ class SweepSpec:
                 raise ParameterError(f"algorithm key {key!r} is not allowed: allowed keys are letter, texture, "
                                      + ", ".join(_ALG_QUANTITIES))
             params[key] = _quantity(f"algorithm.{key}", value, _ALG_QUANTITIES[key])
-        stiffness = params.pop("stiffness", 2000.0)
+        swept = {a.name for a in self.axes}
+        if "stiffness" not in params and "stiffness" not in swept:
+            raise ParameterError("algorithm.stiffness is missing: give it (e.g. '2 kN/m') or sweep 'stiffness' in [axes]")
+        stiffness = params.pop("stiffness", 2000.0)  # a swept stiffness replaces it in every run
         texture = None
         if str(L).upper() != "W":
             if texture_spec is None:
                 raise ParameterError(f"algorithm.texture is missing: algorithm {L} needs one, e.g. 'sine:0.8mm,1mm'")
             from .cli import _texture_from_spec
 
-            amplitude, period = params.pop("amplitude", None), params.pop("period", None)
             texture = _texture_from_spec(str(texture_spec), None, None, None, False, None, None, False)
-            if amplitude is not None or period is not None:
-                raise ParameterError("algorithm.amplitude and algorithm.period are not allowed: the texture spec "
-                                     "gives them (sweep 'amplitude' or 'texture_period' in [axes])")
         elif texture_spec is not None:
             raise ParameterError("algorithm.texture is not allowed with letter W: the smooth wall has no texture")
         device = _device_from_table(dict(self.mapping["device"]), "spec [device]")
@@ -247,6 +245,8 @@ class SweepSpec:
         alg = algorithm(str(L), texture, stiffness, **params)
         op = _operator(self.mapping["operator"], device.dimension)
         start = self.mapping.get("initial_position")
+        if start is not None and (not isinstance(start, list) or len(start) != device.dimension):
+            raise fail("initial_position", start, f"a list of {device.dimension} lengths, e.g. ['0 mm', '1 mm']")
         p0 = None if start is None else np.array([_quantity("initial_position", v, "m") for v in start])
         return alg, device, op, p0
 
