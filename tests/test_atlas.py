@@ -109,6 +109,7 @@ def test_the_cli_refuses_an_unreachable_scheduler_within_seconds(tmp_path):
     assert "no Dask scheduler answered there within 5 s" in r.stderr
 
 
+@pytest.mark.slow
 def test_atlas_plot_at_the_command_line_needs_every_other_dimension_fixed(tmp_path):
     spec = wall_spec({"stiffness": "1-30 kN/m, 6 log steps", "damping": ["0.5 N*s/m", "1 N*s/m"], "delay": [0, 1]},
                      duration="0.2 s")
