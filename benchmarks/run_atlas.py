@@ -3,8 +3,9 @@
 1. runs and simulated samples per second of `haptex.sweep` with 1 and 2 local workers, on
    the wall atlas of examples/sweeps/wall.toml (1200 runs x 5 s at T = 100 us: 6e7 samples),
    cluster start-up included and excluded;
-2. the overhead per task against calling the same block's simulate_batch in this process,
-   for blocks of 10^5, 10^6 and 10^7 samples (goal <= 10 % from 10^5);
+2. the overhead per task: 40 blocks through Dask (submitted together, as a sweep does) against
+   the same blocks run in this process, for blocks of 10^5, 10^6 and 10^7 samples (goal
+   <= 10 % from 10^5), and one task's round trip;
 3. the largest sweep run here: the wall atlas at 8 x the stiffness resolution.
 """
 
@@ -36,23 +37,27 @@ def main() -> None:
             wall, _ = timed_sweep(spec, w, Path(tmp) / f"w{w}.zarr")
             print(f"wall atlas, {w} worker(s): {spec.runs} runs in {wall:.2f} s: {spec.runs / wall:.0f} runs/s, "
                   f"{samples / wall:.3g} samples/s (cluster start-up and store included)")
-    # overhead per task: one block through Dask against simulate_batch in this process
+    # overhead per task: 40 blocks through Dask (submitted together, as a sweep does) against
+    # the same 40 blocks run one after the other in this process; and one task's latency
     from dask.distributed import Client, LocalCluster
 
     with LocalCluster(n_workers=1, threads_per_worker=1, host="127.0.0.1", dashboard_address="127.0.0.1:0") as cluster, \
             Client(cluster) as client:
         for runs, duration in ((10, "1 s"), (100, "1 s"), (100, "10 s")):
             mapping = dict(spec.mapping, duration=duration,
-                           axes={"stiffness": f"0.5-2 kN/m, {runs} log steps"}, block=runs)
+                           axes={"stiffness": f"0.5-2 kN/m, {40 * runs} log steps"}, block=runs)
             s = SweepSpec.from_mapping(mapping)
-            block = s.blocks()[0]
+            blocks = s.blocks()
             n = runs * round(s.duration / 1e-4)
-            client.submit(_run_block, s.mapping, block, 1, pure=False).result()  # warm the worker
-            direct = min(_time(lambda: _run_block(s.mapping, block, 1)) for _ in range(3))
-            remote = min(_time(lambda: client.submit(_run_block, s.mapping, block, 1, pure=False).result())
-                         for _ in range(3))
-            print(f"one task of {n:.0e} samples: simulate_batch {direct * 1e3:.1f} ms, through Dask "
-                  f"{remote * 1e3:.1f} ms: overhead {100 * (remote - direct) / direct:.1f} %")
+            _run_block(s.mapping, blocks[0], 1)
+            client.submit(_run_block, s.mapping, blocks[0], 1, pure=False).result()  # warm the worker
+            direct = _time(lambda: [_run_block(s.mapping, b, 1) for b in blocks])
+            remote = _time(lambda: client.gather([client.submit(_run_block, s.mapping, b, 1, pure=False)
+                                                  for b in blocks]))
+            latency = _time(lambda: client.submit(_run_block, s.mapping, blocks[0], 1, pure=False).result())
+            print(f"40 tasks of {n:.0e} samples: in this process {direct:.2f} s, through Dask {remote:.2f} s: overhead "
+                  f"{100 * (remote - direct) / direct:.1f} % ({(remote - direct) / 40 * 1e3:.1f} ms a task); one task's "
+                  f"round trip {latency * 1e3:.1f} ms against {direct / 40 * 1e3:.1f} ms")
     big = dict(spec.mapping, axes=dict(spec.mapping["axes"], stiffness="0.5-20 kN/m, 480 log steps"))
     s = SweepSpec.from_mapping(big)
     with tempfile.TemporaryDirectory() as tmp:
