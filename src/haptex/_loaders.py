@@ -211,6 +211,8 @@ def _read_st(p: Path, reader, spacing, x_unit, height_unit, variable, fill_undef
     if stated and spacing is not None and ch.physical_sizes is not None:
         raise ParameterError(f"spacing = {spacing!r} is not allowed: {p} states its physical size, which is used")
     sizes = ch.physical_sizes
+    if sizes is None and x_unit is not None:
+        raise ParameterError(f"x_unit = {x_unit!r} is not allowed: {p} has no positions; give the sample spacing")
     missing = []
     if not stated and height_unit is None:
         missing.append(("height_unit", "um"))
