@@ -561,23 +561,15 @@ def _client(scheduler: str | None, workers: int | None):
 
 
 def _bar(show: bool, total: int, done: int):
-    if not show:
-        return lambda n: None
+    """The progress of a sweep on stderr, in runs done (on a terminal only)."""
     from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+    from rich.progress import BarColumn, MofNCompleteColumn, TextColumn, TimeElapsedColumn
+
+    from .simulate import _progress
 
     console = Console(stderr=True)
-    prog = Progress(TextColumn("sweep: runs"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                    console=console, transient=True, disable=not console.is_terminal)
-    prog.start()
-    task = prog.add_task("runs", total=total, completed=done)
-
-    def advance(n):
-        if n is None:
-            prog.stop()
-        else:
-            prog.advance(task, n)
-    return advance
+    return _progress(show and console.is_terminal, total, "runs", done,
+                     (TextColumn("sweep: runs"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn()), console)
 
 
 # -- reading an atlas back -------------------------------------------------------------------

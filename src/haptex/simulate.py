@@ -1002,15 +1002,17 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
                                     and not getattr(o, o.axis).texture_driven)))
 
 
-def _progress(show: bool, total: int):
-    """A rich progress bar advanced by the returned callable; ``None`` closes it."""
+def _progress(show: bool, total: int, description: str = "simulating", completed: int = 0, columns=(),
+              console=None):
+    """A rich progress bar advanced by the returned callable; ``None`` closes it. ``columns``
+    and ``console`` as rich's ``Progress`` takes them (default: its columns, on stdout)."""
     if not show:
         return lambda n: None
     from rich.progress import Progress
 
-    prog = Progress(transient=True)
+    prog = Progress(*columns, transient=True, console=console)
     prog.start()
-    task = prog.add_task("simulating", total=total)
+    task = prog.add_task(description, total=total, completed=completed)
 
     def advance(n):
         if n is None:

@@ -18,7 +18,7 @@ from scipy import optimize
 
 from . import _kernels
 from ._validation import ParameterError, check_count, fail, finite, nonnegative, positive, whole
-from .textures import MAX_HARMONICS, SAMPLES_PER_CUTOFF, SampledProfile, Texture, _decimated, _vector, common_period
+from .textures import MAX_HARMONICS, SAMPLES_PER_CUTOFF, SampledProfile, Texture, _band_limited_samples, _vector, common_period
 
 __all__ = ["Surface", "SumOfGratings", "Grating", "BandLimitedNoise2D", "Extruded", "SampledSurface"]
 
@@ -765,13 +765,8 @@ class SampledSurface(Surface):
         ParameterError
             For a non-positive period or fewer than 4 samples per period.
         """
-        lc = positive("shortest_period", shortest_period, "m")
-        per = whole("samples_per_period", samples_per_period, 4, 10**6)
-        surf = self.lowpass(lc) if lc > self._shortest else self
-        keep = max(lc, self._shortest)
-        h, sx = _decimated(surf.h, 0, self.dx, keep, self.periodic, per)
-        h, sy = _decimated(h, 1, self.dy, keep, self.periodic, per)
-        if h is surf.h:
+        surf, h, (sx, sy) = _band_limited_samples(self, shortest_period, samples_per_period, (self.dx, self.dy))
+        if h is None:
             return surf
         return SampledSurface(self.x[0] + sx * np.arange(h.shape[0]), self.y[0] + sy * np.arange(h.shape[1]), h,
                               self.periodic, surf._shortest, self.source)

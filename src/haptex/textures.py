@@ -600,11 +600,8 @@ class SampledProfile(Texture):
         ParameterError
             For a non-positive period or fewer than 4 samples per period.
         """
-        lc = positive("shortest_period", shortest_period, "m")
-        per = whole("samples_per_period", samples_per_period, 4, 10**6)
-        prof = self.lowpass(lc) if lc > self._shortest else self
-        h, step = _decimated(prof.h, 0, self.dx, max(lc, self._shortest), self.periodic, per)
-        if h is prof.h:
+        prof, h, (step,) = _band_limited_samples(self, shortest_period, samples_per_period, (self.dx,))
+        if h is None:
             return prof
         return SampledProfile(self.x[0] + step * np.arange(h.size), h, self.periodic, prof._shortest, self.source)
 
@@ -667,6 +664,21 @@ class SampledProfile(Texture):
                                  "it with SampledSurface.from_file (haptex reads it as a surface at the command line) "
                                  "and take one line with .line(y=...) or .line(row=...)")
         return cls(r.x, r.h, periodic=periodic, source=r.source)
+
+
+def _band_limited_samples(tex, shortest_period, samples_per_period, steps):
+    """The shared work of ``band_limited`` for a profile (steps (dx,)) or a map (dx, dy):
+    (the texture low-passed to ``shortest_period`` when it holds shorter periods, its
+    samples thinned along every axis or None when no axis was thinned, the new steps)."""
+    lc = positive("shortest_period", shortest_period, "m")
+    per = whole("samples_per_period", samples_per_period, 4, 10**6)
+    filtered = tex.lowpass(lc) if lc > tex._shortest else tex
+    keep = max(lc, tex._shortest)
+    h, new = filtered.h, []
+    for axis, step in enumerate(steps):
+        h, step = _decimated(h, axis, step, keep, tex.periodic, per)
+        new.append(step)
+    return filtered, (None if h is filtered.h else h), tuple(new)
 
 
 def _decimated(h: np.ndarray, axis: int, step: float, lc: float, periodic: bool, per: int):
