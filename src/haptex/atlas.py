@@ -232,9 +232,9 @@ class SweepSpec:
         if str(L).upper() != "W":
             if texture_spec is None:
                 raise ParameterError(f"algorithm.texture is missing: algorithm {L} needs one, e.g. 'sine:0.8mm,1mm'")
-            from .cli import _texture_from_spec
+            from ._specs import texture_from_spec
 
-            texture = _texture_from_spec(str(texture_spec), None, None, None, False, None, None, False)
+            texture = texture_from_spec(str(texture_spec))
         elif texture_spec is not None:
             raise ParameterError("algorithm.texture is not allowed with letter W: the smooth wall has no texture")
         device = _device_from_table(dict(self.mapping["device"]), "spec [device]")

@@ -7,13 +7,12 @@ from __future__ import annotations
 
 import json
 import math
-import re
 import sys
 from pathlib import Path
 
 import click
 
-from ._units import parse_quantity
+from ._specs import quantity as _q, split_spec as _split_spec, texture_from_spec as _texture_from_spec
 from ._validation import ParameterError
 from .tables import PAPER_PARAMETERS
 
@@ -34,12 +33,6 @@ class Quantity(click.ParamType):
             return _q(value, self.unit, pname)
         except ParameterError as exc:
             self.fail(str(exc), param, ctx)
-
-
-def _q(text, unit: str, name: str) -> float:
-    """A quantity as the command line takes it: a unit is required unless the value is 0
-    or the quantity is dimensionless."""
-    return parse_quantity(text, unit, name, require_unit=unit != "dimensionless")
 
 
 def _paper_options(func):
@@ -501,72 +494,11 @@ def _check_plot_path(plot: Path) -> None:
         raise ParameterError(f"plot = {str(plot)!r} is not allowed: the directory {str(parent)!r} does not exist")
 
 
-def _split_spec(text: str, name: str, kind: str, count: tuple[int, int]):
-    parts = [v.strip() for v in text.split(",")] if text else []
-    if not count[0] <= len(parts) <= count[1]:
-        raise ParameterError(f"{name} = {kind + ':' + text!r} is not allowed: {kind} takes {count[0]}"
-                             + (f" to {count[1]}" if count[1] != count[0] else "") + " comma-separated values")
-    return parts
-
-
-def _texture_from_spec(spec: str, spacing, x_unit, height_unit, level, lowpass, scale, periodic, fill_undefined=False):
-    from .surfaces import load_texture
-    from .textures import BandLimitedNoise, Sinusoid
-
-    kind, _, rest = spec.partition(":")
-    if kind in ("sine", "noise", "egg-crate", "grating") and rest:
-        given = [flag for flag, v in (("--spacing", spacing), ("--x-unit", x_unit), ("--height-unit", height_unit),
-                                      ("--level", level), ("--lowpass", lowpass), ("--scale", scale),
-                                      ("--periodic", periodic), ("--fill-undefined", fill_undefined))
-                 if v not in (None, False)]
-        if given:
-            raise ParameterError(f"{given[0]} is not allowed with the synthetic texture {kind + ':' + rest!r}: "
-                                 f"{', '.join(given)} appl{'ies' if len(given) == 1 else 'y'} to measured profiles read from "
-                                 "a file")
-    if kind == "sine" and rest:
-        a, ell = _split_spec(rest, "texture", "sine", (2, 2))
-        return Sinusoid(_q(a, "m", "amplitude"), _q(ell, "m", "period"))
-    if kind == "egg-crate" and rest:
-        from .surfaces import SumOfGratings
-
-        a, ell = _split_spec(rest, "texture", "egg-crate", (2, 2))
-        return SumOfGratings.egg_crate(_q(a, "m", "amplitude"), _q(ell, "m", "period"))
-    if kind == "grating" and rest:
-        from .surfaces import Grating
-
-        vals = _split_spec(rest, "texture", "grating", (2, 3))
-        direction = _q(vals[2], "radian", "direction") if len(vals) == 3 else 0.0
-        return Grating(_q(vals[0], "m", "amplitude"), _q(vals[1], "m", "period"), direction)
-    if kind == "noise" and rest:
-        vals = _split_spec(rest, "texture", "noise", (4, 5))
-        names = ["rms", "shortest_period", "longest_period", "length"]
-        q = [_q(v, "m", n) for v, n in zip(vals[:4], names)]
-        seed = 0
-        if len(vals) == 5:
-            if not re.fullmatch(r"\d{1,20}", vals[4]):
-                raise ParameterError(f"seed = {vals[4][:30]!r}{'...' if len(vals[4]) > 30 else ''} is not allowed: "
-                                     "must be a whole number in [0, 2^64)")
-            seed = int(vals[4])
-        return BandLimitedNoise(*q, seed=seed)
-    prof = load_texture(spec, spacing=spacing, x_unit=x_unit, height_unit=height_unit, periodic=periodic,
-                        fill_undefined=fill_undefined)
-    if level:
-        prof = prof.leveled()
-    if lowpass is not None:
-        prof = prof.lowpass(lowpass)
-    if scale is not None:
-        lf, hf = _split_spec(scale, "scale", "scale", (2, 2))
-        try:
-            prof = prof.scaled(float(lf), float(hf))
-        except ValueError:
-            raise ParameterError(f"scale = {scale!r} is not allowed: must be 'length_factor,height_factor'") from None
-    return prof
-
-
 @cli.command()
 @click.option("--texture", "texture_spec", required=True,
               help="FILE (a line scan or an areal map in any format SurfaceTopography reads: Dektak, X3P, SDF, "
-                   "Gwyddion, Zygo, Wyko, Keyence, NPY, text, ...; or .mat), 'sine:AMPLITUDE,PERIOD', 'noise:RMS,SHORTEST,LONGEST,LENGTH[,SEED]', "
+                   "Gwyddion, Zygo, Wyko, Keyence, NPY, text, ...; or .mat), 'sine:AMPLITUDE,PERIOD', "
+                   "'sum:A1,L1;A2,L2', 'noise:RMS,SHORTEST,LONGEST,LENGTH[,SEED]', "
                    "or a surface: 'egg-crate:AMPLITUDE,PERIOD', 'grating:AMPLITUDE,PERIOD[,DIRECTION]'.")
 @_device_options
 @click.option("--stiffness", type=Quantity("N/m"), default=PAPER_PARAMETERS["stiffness"], show_default="2000 N/m",
@@ -689,7 +621,8 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
 @cli.command()
 @click.option("--algorithm", "letter", required=True, help="W or A-G.")
 @click.option("--texture", "texture_spec", default=None,
-              help="FILE, 'sine:AMPLITUDE,PERIOD' or 'noise:RMS,SHORTEST,LONGEST,LENGTH[,SEED]' (not for W).")
+              help="FILE, 'sine:AMPLITUDE,PERIOD', 'sum:A1,L1;A2,L2' or 'noise:RMS,SHORTEST,LONGEST,LENGTH[,SEED]' "
+                   "(not for W).")
 @click.option("--stiffness", type=Quantity("N/m"), required=True, help="kappa_0, e.g. '2 kN/m'.")
 @click.option("--max-force", type=Quantity("N"), required=True, help="Force saturation, e.g. '5 N'.")
 @click.option("--max-penetration", type=Quantity("m"), default=None, help="B, C, G, F: d^z_max (Remark 3).")
@@ -764,6 +697,27 @@ def sweep(spec, out, scheduler, workers, quiet):
                f"{ds.attrs['blocks_computed']} blocks computed and {ds.attrs['blocks_skipped']} already done, in "
                f"{_time.perf_counter() - t0:.1f} s; {int(ds['oscillating'].sum())} oscillating, "
                f"{int(ds['growing'].sum())} growing")
+
+
+@cli.command()
+@click.option("--port", type=int, default=5006, show_default=True, help="TCP port (0: any free port).")
+@click.option("--no-browser", is_flag=True, help="Do not open the page in a browser.")
+def explore(port, no_browser):
+    """Explore a texture's force field, gain, curl, loop energies and scans in the browser.
+
+    Serves http://127.0.0.1:PORT/ until interrupted (Ctrl-C)."""
+    from .explore import serve
+
+    if not 0 <= port <= 65535:
+        raise ParameterError(f"port = {port} is not allowed: must be a whole number in [0, 65535]")
+    server = serve(port, open_browser=not no_browser, block=False)
+    click.echo(f"haptex explore: serving http://127.0.0.1:{server.port}/ (Ctrl-C to stop)")
+    try:
+        server.io_loop.start()
+    except KeyboardInterrupt:
+        pass
+    finally:
+        server.stop()
 
 
 @cli.group()

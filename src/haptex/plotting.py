@@ -95,15 +95,14 @@ def plot_force_field(alg, path, n: int = 23, max_penetration: float = 1e-3, vmax
         Abscissa window (m); default one texture period from 0 (1 mm for an aperiodic
         texture).
     """
+    from .analysis import field_map
+
     plt = _pyplot()
     tex = alg.texture
-    x0, x1 = _window(tex, x_range)
-    lo, hi = tex.height_range
-    x = np.linspace(x0, x1, n)
-    z = np.linspace(lo - max_penetration, hi + 0.1 * (x1 - x0), n)
-    X, Z = np.meshgrid(x, z)
-    P = np.stack([X, Z], -1)
-    F = alg.force(P, alg.presliding) if alg.has_memory else alg.force(P)
+    m = field_map(alg, x_range, n=n, max_penetration=max_penetration)
+    x0, x1 = m.x[0], m.x[-1]
+    X, Z = np.meshgrid(m.x, m.z)
+    F = m.force
     mag = np.hypot(F[..., 0], F[..., 1])
     scale = np.where(mag > 0, np.sqrt(mag / max(mag.max(), 1e-300)) / np.maximum(mag, 1e-300), 0.0)
     fig, ax = plt.subplots(figsize=(5.2, 4.2))
@@ -116,13 +115,6 @@ def plot_force_field(alg, path, n: int = 23, max_penetration: float = 1e-3, vmax
     fig.colorbar(q, ax=ax, label="|f| (N)", extend="max" if mag.max() > top else "neither")
     ax.legend(loc="lower right", fontsize=7)
     return _finish(plt, fig, path)
-
-
-def _window(tex, x_range) -> tuple[float, float]:
-    if x_range is not None:
-        return float(x_range[0]), float(x_range[1])
-    period = tex.period if tex.period else 1e-3
-    return 0.0, period
 
 
 def _surface(ax, tex, x0, x1) -> None:
@@ -154,20 +146,15 @@ def plot_q_map(alg, path, q, max_penetration: float = 1e-3, x_range=None, n: int
     n : int
         Grid points per axis.
     """
-    from .analysis import spectral_norm
+    from .analysis import field_map
 
     plt = _pyplot()
     tex = alg.texture
-    x0, x1 = _window(tex, x_range)
     lo, hi = tex.height_range
-    x = np.linspace(x0, x1, n)
-    z = np.linspace(lo - max_penetration, max(hi, 0.0), n)
-    X, Z = np.meshgrid(x, z)
-    P = np.stack([X, Z], -1)
-    norm = spectral_norm(alg.jacobian(P)) / alg.stiffness
-    depth = alg.penetration(P)
-    region = (depth > 0) & (depth <= max_penetration * (1 + 1e-9))  # the region q is the sup over
-    norm = np.where(region, norm, np.nan)
+    m = field_map(alg, x_range, (lo - max_penetration, max(hi, 0.0)), n=n, max_penetration=max_penetration)
+    x0, x1 = m.x[0], m.x[-1]
+    X, Z = np.meshgrid(m.x, m.z)
+    norm = m.gain  # NaN outside the region q is the sup over
     fig, ax = plt.subplots(figsize=(5.2, 4.2))
     finite = norm[np.isfinite(norm)]
     top = float(np.percentile(finite, 99.5)) if finite.size else 1.0

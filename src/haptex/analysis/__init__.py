@@ -1,8 +1,8 @@
 """Energy analysis of texture algorithms (Campion & Hayward, Sections III–IV), a package by
 concern: :mod:`.characteristic` (the characteristic number q), :mod:`.work` (path and loop
 work, curl, conservativity), :mod:`.continuity`, :mod:`.passivity` (Corollary 1, the largest
-passive stiffness, the rendering limits) and :mod:`._region` (the analysed region and the
-scale guards every region analysis applies first).
+passive stiffness, the rendering limits), :mod:`.maps` (force, gain and curl on a grid) and
+:mod:`._region` (the analysed region and the scale guards every region analysis applies first).
 
 Analysis functions take an algorithm and return plain numbers or small frozen
 dataclasses; they never plot.
@@ -12,10 +12,11 @@ from ._region import (MAX_ANALYSIS_STIFFNESS, MAX_REGION_PERIODS, MAX_SLOPE, MIN
                       check_analysis_scale, checked_algorithms)
 from .characteristic import PAPER_Q_F, CharacteristicNumber, characteristic_number, friction_bounds, spectral_norm
 from .continuity import Continuity, continuity
+from .maps import MAX_MAP_POINTS, FieldMap, default_window, field_map
 from .passivity import (Cutoff, Limit, PassivityCondition, max_passive_stiffness, passivity_condition,
                         rendering_cutoff, texture_limits)
-from .work import (MAX_PATH_PIECES, Conservativity, conservativity, curl, loop_energy, paper_loop, path_work,
-                   random_loops)
+from .work import (MAX_PATH_PIECES, Conservativity, conservativity, curl, curl_of_jacobian, loop_energy, paper_loop,
+                   path_work, random_loops)
 
 __all__ = [
     "Cutoff",
@@ -28,6 +29,11 @@ __all__ = [
     "loop_energy",
     "paper_loop",
     "curl",
+    "curl_of_jacobian",
+    "FieldMap",
+    "field_map",
+    "default_window",
+    "MAX_MAP_POINTS",
     "Continuity",
     "continuity",
     "Conservativity",

@@ -407,7 +407,12 @@ def curl(algorithm: Algorithm, p) -> np.ndarray:
     p : array_like, shape (..., 2) or (..., 3)
         Probe positions [x, z] or [x, y, z] (m).
     """
-    j = algorithm.jacobian(p)
+    return curl_of_jacobian(algorithm.jacobian(p))
+
+
+def curl_of_jacobian(j: np.ndarray) -> np.ndarray:
+    """The curl of a field from its Jacobian j, shape (..., 2, 2) or (..., 3, 3) (N/m):
+    as :func:`curl` returns it (a scalar in the plane, a vector in space)."""
     if j.shape[-1] == 2:
         return j[..., 1, 0] - j[..., 0, 1]
     return np.stack([j[..., 2, 1] - j[..., 1, 2], j[..., 0, 2] - j[..., 2, 0], j[..., 1, 0] - j[..., 0, 1]], -1)

@@ -1,0 +1,114 @@
+"""Texture and quantity specs as people write them ("sine:0.8mm,1mm", "2 kN/m"), parsed
+into haptex objects: one parser for the command line, the sweep SPEC files and the
+browser explorer."""
+
+from __future__ import annotations
+
+import re
+
+from ._units import parse_quantity
+from ._validation import ParameterError
+
+
+def quantity(text, unit: str, name: str) -> float:
+    """A quantity as the command line takes it: a unit is required unless the value is 0
+    or the quantity is dimensionless."""
+    return parse_quantity(text, unit, name, require_unit=unit != "dimensionless")
+
+
+def split_spec(text: str, name: str, kind: str, count: tuple[int, int]):
+    """The comma-separated values of ``kind:text``, refused unless there are ``count[0]``
+    to ``count[1]`` of them."""
+    parts = [v.strip() for v in text.split(",")] if text else []
+    if not count[0] <= len(parts) <= count[1]:
+        raise ParameterError(f"{name} = {kind + ':' + text!r} is not allowed: {kind} takes {count[0]}"
+                             + (f" to {count[1]}" if count[1] != count[0] else "") + " comma-separated values")
+    return parts
+
+
+def texture_from_spec(spec: str, spacing=None, x_unit=None, height_unit=None, level=False, lowpass=None, scale=None,
+                      periodic=False, fill_undefined=False):
+    """The texture a spec names.
+
+    Parameters
+    ----------
+    spec : str
+        ``sine:AMPLITUDE,PERIOD`` (:class:`~haptex.Sinusoid`), ``sum:A1,L1;A2,L2;...``
+        (:class:`~haptex.SumOfSinusoids`), ``noise:RMS,SHORTEST,LONGEST,LENGTH[,SEED]``
+        (:class:`~haptex.BandLimitedNoise`), ``egg-crate:AMPLITUDE,PERIOD`` and
+        ``grating:AMPLITUDE,PERIOD[,DIRECTION]`` (surfaces), each length with its unit
+        ("0.8mm"); anything else is a file read by :func:`haptex.load_texture`.
+    spacing, x_unit, height_unit, periodic, fill_undefined
+        As :func:`haptex.load_texture` takes them; files only.
+    level : bool
+        Remove the least-squares line (files only).
+    lowpass : float, optional
+        Low-pass cut-off period (m) (files only).
+    scale : str, optional
+        ``"LENGTH_FACTOR,HEIGHT_FACTOR"`` (files only).
+
+    Returns
+    -------
+    Texture
+
+    Raises
+    ------
+    ParameterError
+        If a value is missing, has no unit or the wrong one, is out of range, a file
+        option is given with a synthetic texture, or the file cannot be read.
+    """
+    from .surfaces import load_texture
+    from .textures import BandLimitedNoise, Sinusoid, SumOfSinusoids
+
+    kind, _, rest = spec.partition(":")
+    if kind in ("sine", "sum", "noise", "egg-crate", "grating") and rest:
+        given = [flag for flag, v in (("--spacing", spacing), ("--x-unit", x_unit), ("--height-unit", height_unit),
+                                      ("--level", level), ("--lowpass", lowpass), ("--scale", scale),
+                                      ("--periodic", periodic), ("--fill-undefined", fill_undefined))
+                 if v not in (None, False)]
+        if given:
+            raise ParameterError(f"{given[0]} is not allowed with the synthetic texture {kind + ':' + rest!r}: "
+                                 f"{', '.join(given)} appl{'ies' if len(given) == 1 else 'y'} to measured profiles read from "
+                                 "a file")
+    if kind == "sine" and rest:
+        a, ell = split_spec(rest, "texture", "sine", (2, 2))
+        return Sinusoid(quantity(a, "m", "amplitude"), quantity(ell, "m", "period"))
+    if kind == "sum" and rest:
+        terms = [split_spec(t.strip(), "texture", "sum", (2, 2)) for t in rest.split(";")]
+        return SumOfSinusoids([quantity(a, "m", f"amplitude {i + 1}") for i, (a, _) in enumerate(terms)],
+                              [quantity(ell, "m", f"period {i + 1}") for i, (_, ell) in enumerate(terms)])
+    if kind == "egg-crate" and rest:
+        from .surfaces import SumOfGratings
+
+        a, ell = split_spec(rest, "texture", "egg-crate", (2, 2))
+        return SumOfGratings.egg_crate(quantity(a, "m", "amplitude"), quantity(ell, "m", "period"))
+    if kind == "grating" and rest:
+        from .surfaces import Grating
+
+        vals = split_spec(rest, "texture", "grating", (2, 3))
+        direction = quantity(vals[2], "radian", "direction") if len(vals) == 3 else 0.0
+        return Grating(quantity(vals[0], "m", "amplitude"), quantity(vals[1], "m", "period"), direction)
+    if kind == "noise" and rest:
+        vals = split_spec(rest, "texture", "noise", (4, 5))
+        names = ["rms", "shortest_period", "longest_period", "length"]
+        q = [quantity(v, "m", n) for v, n in zip(vals[:4], names)]
+        seed = 0
+        if len(vals) == 5:
+            if not re.fullmatch(r"\d{1,20}", vals[4]):
+                raise ParameterError(f"seed = {vals[4][:30]!r}{'...' if len(vals[4]) > 30 else ''} is not allowed: "
+                                     "must be a whole number in [0, 2^64)")
+            seed = int(vals[4])
+        return BandLimitedNoise(*q, seed=seed)
+    prof = load_texture(spec, spacing=spacing, x_unit=x_unit, height_unit=height_unit, periodic=periodic,
+                        fill_undefined=fill_undefined)
+    if level:
+        prof = prof.leveled()
+    if lowpass is not None:
+        prof = prof.lowpass(lowpass)
+    if scale is not None:
+        lf, hf = split_spec(scale, "scale", "scale", (2, 2))
+        try:
+            prof = prof.scaled(float(lf), float(hf))
+        except ValueError:
+            raise ParameterError(f"scale = {scale!r} is not allowed: must be 'length_factor,height_factor'") from None
+    return prof

@@ -1,0 +1,454 @@
+"""The explorer's page, on Bokeh (server, widgets and plots). It holds no physics: each
+control change rebuilds a :class:`~haptex.explore.model.Scene` and draws what
+:mod:`haptex.explore.model` computes with the library's functions.
+
+Stable element ids (for tests and scripts): ``#algorithm``, ``#texture``, ``#stiffness``,
+``#device``, ``#q-value``, ``#loop-energy``, ``#fig3-loop``, ``#run-scan``,
+``#scan-verdict``, ``#message``, ``#field-view``, ``#gain-view``, ``#curl-view``,
+``#scan-view``, ``#height-view``.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import logging
+import os
+import tempfile
+import time
+
+import numpy as np
+
+from .._validation import ParameterError
+from . import model
+
+log = logging.getLogger("haptex.explore")
+
+MM = 1e3  # the page draws lengths in mm
+
+
+def _span(ident: str, text: str) -> str:
+    return f'<span id="{ident}">{html.escape(text)}</span>'
+
+
+class ExplorerPage:
+    """One browser tab's page: controls, five views and the readouts.
+
+    Parameters
+    ----------
+    doc : bokeh.document.Document
+        The document to fill (one per browser session).
+    settings : model.Settings, optional
+        Initial control values; the paper's Section V-A parameters by default.
+    """
+
+    def __init__(self, doc, settings: model.Settings | None = None):
+        from bokeh.layouts import column, row
+        from bokeh.models import (Arrow, Button, ColumnDataSource, Div, FileInput, FreehandDrawTool, Legend, LinearColorMapper,
+                                  PolyDrawTool, Range1d, Select, TextInput, VeeHead)
+        from bokeh.palettes import Magma256, RdBu11, Viridis256, interp_palette
+        from bokeh.plotting import figure
+
+        self.doc = doc
+        self.settings = settings or model.Settings()
+        self.scene = None
+        self.tmpdir = tempfile.mkdtemp(prefix="haptex-explore-")
+        s = self.settings
+
+        def text(name, title, value, ident=None):
+            w = TextInput(title=title, value=value, width=220, html_id=ident or name.replace("_", "-"))
+            w.on_change("value", lambda attr, old, new, name=name: self._set(name, new))
+            return w
+
+        self.w_texture = Select(title="texture", value=s.texture, options=model.TEXTURES, width=220,
+                                html_id="texture")
+        self.w_texture.on_change("value", lambda a, o, n: self._set("texture", n, self.w_texture))
+        self.w_amplitude = text("amplitude", "amplitude A", s.amplitude)
+        self.w_period = text("period", "period l", s.period)
+        self.w_terms = text("terms", "sum: A1, l1; A2, l2; ...", s.terms)
+        self.w_noise = text("noise", "noise: rms, shortest, longest, length[, seed]", s.noise)
+        self.w_file = FileInput(title="file (profile, areal map or image)", width=220, html_id="texture-file")
+        self.w_file.on_change("value", self._upload)
+        self.w_pixel = text("pixel_size", "image: pixel size", s.pixel_size)
+        self.w_hrange = text("height_range", "image: black-to-white height", s.height_range)
+        self.w_algorithm = Select(title="algorithm", value=s.algorithm, options=model.ALGORITHM_LABELS, width=220,
+                                  html_id="algorithm")
+        self.w_algorithm.on_change("value", lambda a, o, n: self._set("algorithm", n, self.w_algorithm))
+        self.w_stiffness = text("stiffness", "stiffness κ0", s.stiffness)
+        self.w_dmax = text("max_penetration", "max penetration d_max", s.max_penetration)
+        self.w_friction = text("friction", "F: friction μ", s.friction)
+        self.w_presliding = text("presliding", "F: presliding d^x_max", s.presliding)
+        self.w_section = text("section", "areal: section at y =", s.section)
+        self.w_device = Select(title="device", value=s.device, options=model.DEVICES, width=220, html_id="device")
+        self.w_device.on_change("value", lambda a, o, n: self._set("device", n, self.w_device))
+        self.w_speed = text("speed", "scan speed", s.speed)
+        self.w_duration = text("duration", "scan duration", s.duration)
+        self.b_fig3 = Button(label="Fig. 3 loop", width=105, html_id="fig3-loop")
+        self.b_fig3.on_click(self._fig3)
+        self.b_clear = Button(label="clear path", width=105, html_id="clear-path")
+        self.b_clear.on_click(self._clear)
+        self.b_scan = Button(label="Run scan", button_type="primary", width=220, html_id="run-scan")
+        self.b_scan.on_click(self._scan)
+
+        self.d_message = Div(text=_span("message-text", ""), width=900, html_id="message",
+                             styles={"color": "#b00020", "font-weight": "bold"})
+        self.d_q = Div(text="q = " + _span("q-value", "…"), width=460)
+        self.d_loop = Div(text="loop energy ΔE = " + _span("loop-energy", "–") + " J", width=460)
+        self.d_scan = Div(text="scan: " + _span("scan-verdict", "–"), width=460)
+        self.d_timing = Div(text="", width=460, styles={"color": "#666"})
+
+        # --- views -------------------------------------------------------------------
+        self.src_boundary = ColumnDataSource(dict(x=[], h=[], h0=[]))
+        self.src_arrows = ColumnDataSource(dict(x0=[], z0=[], x1=[], z1=[], mag=[]))
+        self.src_path = ColumnDataSource(dict(xs=[], ys=[]))
+        self.src_gain = ColumnDataSource(dict(image=[], x=[], y=[], dw=[], dh=[]))
+        self.src_qmark = ColumnDataSource(dict(x=[], z=[]))
+        self.src_curl = ColumnDataSource(dict(image=[], x=[], y=[], dw=[], dh=[]))
+        self.src_energy = ColumnDataSource(dict(t=[], x=[], y=[], z=[]))
+        self.src_heights = ColumnDataSource(dict(image=[], x=[], y=[], dw=[], dh=[]))
+        self.src_section = ColumnDataSource(dict(x=[], y=[]))
+        self.x_range, self.z_range = Range1d(0, 1), Range1d(-1, 1)
+        opts = dict(width=460, height=380, x_range=self.x_range, y_range=self.z_range, x_axis_label="x (mm)",
+                    y_axis_label="z (mm)", match_aspect=False, min_border_left=60, min_border_right=20,
+                    min_border_top=30, min_border_bottom=50)
+
+        self.f_field = figure(title="force field (arrows: direction, colour: |f|); draw a closed path",
+                              tools="pan,wheel_zoom,reset", html_id="field-view", name="field", **opts)
+        self.mag_mapper = LinearColorMapper(palette=Viridis256, low=0, high=1)
+        colour = {"field": "mag", "transform": self.mag_mapper}
+        self.f_field.add_layout(Arrow(x_start="x0", y_start="z0", x_end="x1", y_end="z1", source=self.src_arrows,
+                                      line_color=colour, line_width=1.5,
+                                      end=VeeHead(size=5, line_color=colour, fill_color=colour)))
+        self._boundary(self.f_field, legend=True)
+        path = self.f_field.multi_line("xs", "ys", source=self.src_path, line_width=2.5, color="#d62728")
+        free = FreehandDrawTool(renderers=[path], num_objects=1)
+        poly = PolyDrawTool(renderers=[path], num_objects=1)
+        self.f_field.add_tools(free, poly)
+        self.f_field.toolbar.active_drag = free
+        self.src_path.on_change("data", self._path_changed)
+
+        self.f_gain = figure(title="‖J‖₂/κ0 over the rendering region (star: q)", tools="pan,wheel_zoom,reset",
+                             html_id="gain-view", name="gain", **opts)
+        self.gain_mapper = LinearColorMapper(palette=Magma256, low=0, high=1, nan_color=(0, 0, 0, 0))
+        self.f_gain.image("image", "x", "y", "dw", "dh", source=self.src_gain, color_mapper=self.gain_mapper)
+        self._boundary(self.f_gain)
+        self.f_gain.scatter("x", "z", source=self.src_qmark, marker="star", size=18, fill_color="cyan",
+                            line_color="black")
+
+        self.f_curl = figure(title="curl ∂f_z/∂x − ∂f_x/∂z (N/m)", tools="pan,wheel_zoom,reset",
+                             html_id="curl-view", name="curl", **opts)
+        self.curl_mapper = LinearColorMapper(palette=interp_palette(tuple(reversed(RdBu11)), 255), low=-1, high=1)
+        self.f_curl.image("image", "x", "y", "dw", "dh", source=self.src_curl, color_mapper=self.curl_mapper)
+        self._boundary(self.f_curl)
+        for f, mapper, label in ((self.f_field, self.mag_mapper, "|f| (N)"), (self.f_gain, self.gain_mapper, "‖J‖₂/κ0"),
+                                 (self.f_curl, self.curl_mapper, "N/m")):
+            f.add_layout(_colour_bar(mapper, label), "right")
+
+        self.f_scan = figure(title="scan: energy absorbed by the texture per axis (falls: texture supplies)",
+                             width=460, height=300, x_axis_label="t (s)", y_axis_label="E (mJ)",
+                             tools="pan,wheel_zoom,reset", html_id="scan-view", name="scan")
+        self.scan_lines = {axis: self.f_scan.line("t", axis, source=self.src_energy, color=colour, line_width=2)
+                           for axis, colour in (("x", "#1f77b4"), ("y", "#2ca02c"), ("z", "#ff7f0e"))}
+        self.scan_legend = Legend(items=[], location="top_left")
+        self.f_scan.add_layout(self.scan_legend)
+
+        self.f_heights = figure(title="height map h(x, y) (mm); line: the section shown", width=460, height=380,
+                                x_axis_label="x (mm)", y_axis_label="y (mm)", tools="pan,wheel_zoom,reset",
+                                html_id="height-view", name="heights")
+        self.height_mapper = LinearColorMapper(palette=Viridis256, low=0, high=1)
+        self.f_heights.image("image", "x", "y", "dw", "dh", source=self.src_heights, color_mapper=self.height_mapper)
+        self.f_heights.line("x", "y", source=self.src_section, color="white", line_width=2, line_dash="dashed")
+        self.f_heights.add_layout(_colour_bar(self.height_mapper, "h (mm)"), "right")
+
+        texture_box = column(self.w_texture, self.w_amplitude, self.w_period, self.w_terms, self.w_noise, self.w_file,
+                             self.w_pixel, self.w_hrange, self.w_section)
+        controls = column(texture_box, self.w_algorithm, self.w_stiffness, self.w_dmax, self.w_friction,
+                          self.w_presliding, self.w_device, self.w_speed, self.w_duration,
+                          row(self.b_fig3, self.b_clear), self.b_scan, width=240)
+        readouts = column(self.d_q, self.d_loop, self.d_scan, self.d_timing)
+        views = column(row(self.f_field, self.f_gain), row(self.f_curl, column(readouts, self.f_scan)),
+                       row(self.f_heights))
+        doc.add_root(column(self.d_message, row(controls, views)))
+        doc.title = "haptex explore"
+        self._show_controls()
+        self._recompute(first=True)
+
+    # --- building blocks ---------------------------------------------------------------
+    def _boundary(self, f, legend: bool = False) -> None:
+        labels = ({"legend_label": "textured surface"}, {"legend_label": "nominal surface"}) if legend else ({}, {})
+        f.line("x", "h", source=self.src_boundary, color="black", line_width=2, **labels[0])
+        f.line("x", "h0", source=self.src_boundary, color="#999", line_width=1.5, line_dash="dotted", **labels[1])
+        if legend:
+            f.legend.location = "bottom_right"
+            f.legend.label_text_font_size = "8pt"
+            f.legend.background_fill_alpha = 0.6
+
+    def _message(self, text: str = "") -> None:
+        self.d_message.text = _span("message-text", text)
+
+    def _show_controls(self) -> None:
+        from bokeh.models import LegendItem
+
+        k = self.settings.texture
+        letter = self.settings.algorithm
+        self.w_amplitude.visible = self.w_period.visible = k in ("sine", "egg-crate", "grating")
+        self.w_terms.visible = k == "sum"
+        self.w_noise.visible = k == "noise"
+        self.w_file.visible = k in ("file", "image")
+        self.w_pixel.visible = self.w_hrange.visible = k == "image"
+        self.w_section.visible = self.scene is not None and self.scene.dimension == 3
+        self.w_friction.visible = self.w_presliding.visible = letter == "F"
+        self.f_heights.visible = self.scene is not None and self.scene.dimension == 3
+        axes = "xyz" if self.f_heights.visible else "xz"
+        for axis, line in self.scan_lines.items():
+            line.visible = axis in axes
+        self.scan_legend.items = [LegendItem(label=f"E_{a}", renderers=[self.scan_lines[a]]) for a in axes]
+
+    # --- callbacks ---------------------------------------------------------------------
+    def _set(self, name: str, value, selector=None) -> None:
+        """One control changed: recompute, or keep the previous view and say why in one line.
+        A refused choice in a selector is undone there too, so that the selectors show
+        what the views show; a refused text stays in its box for the user to correct."""
+        old = getattr(self.settings, name)
+        if value == old:
+            return
+        setattr(self.settings, name, value)
+        if not self._recompute():
+            setattr(self.settings, name, old)
+            if selector is not None:
+                message = self.d_message.text
+                selector.value = old  # re-enters _set with the old value: a no-op
+                self.d_message.text = message
+        self._show_controls()
+
+    def _upload(self, attr, old, new) -> None:
+        name = os.path.basename(self.w_file.filename or "upload")
+        path = os.path.join(self.tmpdir, name)
+        try:
+            with open(path, "wb") as fh:
+                fh.write(base64.b64decode(new))
+        except (OSError, ValueError) as exc:
+            self._message(f"file = {name!r} could not be received: {exc}")
+            return
+        before = (self.settings.file, self.settings.file_name)
+        self.settings.file, self.settings.file_name = path, name
+        if not self._recompute():
+            self.settings.file, self.settings.file_name = before
+        self._show_controls()
+
+    def _guard(self, what, fn):
+        """Run one computation; a bad input is one line in the page, never a crash."""
+        try:
+            return fn(), True
+        except ParameterError as exc:
+            self._message(str(exc))
+        except Exception as exc:  # the server must survive anything a control can send
+            log.exception("explorer: %s failed", what)
+            self._message(f"{what} failed: {type(exc).__name__}: {exc}")
+        return None, False
+
+    def _recompute(self, first: bool = False) -> bool:
+        t0 = time.perf_counter()
+
+        def work():
+            scene = model.build(self.settings)
+            return scene, model.views(scene)
+
+        out, ok = self._guard("recompute", work)
+        if not ok:
+            return False
+        scene, v = out
+        self.scene = scene
+        self._draw(scene, v)
+        self._message("")
+        self.d_timing.text = f"recomputed in {time.perf_counter() - t0:.2f} s"
+        if not first:
+            self._clear()
+        return True
+
+    def _draw(self, scene, v) -> None:
+        x0, x1 = float(v.boundary_x[0]), float(v.boundary_x[-1])
+        z = v.maps.z
+        self.x_range.start, self.x_range.end = x0 * MM, x1 * MM
+        self.z_range.start, self.z_range.end = float(z[0]) * MM, float(z[-1]) * MM
+        self.src_boundary.data = dict(x=v.boundary_x * MM, h=v.boundary_h * MM, h0=np.zeros_like(v.boundary_x))
+        a = v.arrows
+        X, Z = np.meshgrid(a.x, a.z)
+        f = a.force
+        mag = np.hypot(f[..., 0], f[..., 1])
+        top = float(mag.max()) if mag.size and mag.max() > 0 else 1.0
+        step = max((a.x[1] - a.x[0]), (a.z[1] - a.z[0])) * 0.9  # the longest arrow: one grid step
+        scale = np.where(mag > 0, step * np.sqrt(mag / top) / np.maximum(mag, 1e-300), 0.0)
+        on = mag > 0  # no arrow where the field is zero (outside the wall)
+        self.src_arrows.data = dict(x0=X[on] * MM, z0=Z[on] * MM, x1=(X + f[..., 0] * scale)[on] * MM,
+                                    z1=(Z + f[..., 1] * scale)[on] * MM, mag=mag[on])
+        self.mag_mapper.high = top
+        m = v.maps
+        box = dict(x=[x0 * MM], y=[float(z[0]) * MM], dw=[(x1 - x0) * MM], dh=[float(z[-1] - z[0]) * MM])
+        gain = m.gain
+        finite = gain[np.isfinite(gain)]
+        self.gain_mapper.high = max(float(np.percentile(finite, 99.5)) if finite.size else 1.0, 1.0)
+        self.src_gain.data = dict(image=[gain], **box)
+        q = v.q
+        where = q.where if q.where is not None else None
+        if where is not None and np.all(np.isfinite(where)):
+            self.src_qmark.data = dict(x=[where[0] * MM], z=[where[-1] * MM])
+        else:
+            self.src_qmark.data = dict(x=[], z=[])
+        q_text = "unbounded" if q.unbounded else f"{q.value:.4g}"
+        at = ""
+        if where is not None and len(where) == 3:
+            at = f" (at y = {where[1] * MM:.3g} mm)"
+        self.d_q.text = f"q ({scene.algorithm.letter}) = " + _span("q-value", q_text) + at
+        curl = m.curl
+        c = float(np.percentile(np.abs(curl[np.isfinite(curl)]), 99)) if np.isfinite(curl).any() else 0.0
+        self.curl_mapper.low, self.curl_mapper.high = -max(c, 1e-9), max(c, 1e-9)
+        self.src_curl.data = dict(image=[np.where(np.isfinite(curl), curl, 0.0)], **box)
+        if v.heights is not None:
+            gx, gy, h = v.heights
+            self.height_mapper.low, self.height_mapper.high = float(h.min()) * MM, float(max(h.max(), h.min() + 1e-12)) * MM
+            self.src_heights.data = dict(image=[h * MM], x=[gx[0] * MM], y=[gy[0] * MM], dw=[(gx[-1] - gx[0]) * MM],
+                                         dh=[(gy[-1] - gy[0]) * MM])
+            self.src_section.data = dict(x=[gx[0] * MM, gx[-1] * MM], y=[scene.section * MM] * 2)
+
+    def _show_loop(self, energy: float, polygon: np.ndarray, expected=None, source: str = "") -> None:
+        xs, zs = polygon[:, 0] * MM, polygon[:, -1] * MM
+        self._drawing = True
+        try:
+            self.src_path.data = dict(xs=[list(xs)], ys=[list(zs)])
+        finally:
+            self._drawing = False
+        extra = ""
+        if expected is not None:
+            extra = f" (the paper: {expected:.6g} J; {source})"
+        elif source:
+            extra = f" ({source})"
+        self.d_loop.text = "loop energy ΔE = " + _span("loop-energy", f"{energy:.6g}") + " J" + html.escape(extra)
+
+    _drawing = False
+
+    def _path_changed(self, attr, old, new) -> None:
+        if self._drawing or self.scene is None:
+            return
+        xs, ys = new.get("xs", []), new.get("ys", [])
+        if not xs or len(xs[-1]) < 3:
+            return
+        px, pz = np.asarray(xs[-1], dtype=float) / MM, np.asarray(ys[-1], dtype=float) / MM
+        out, ok = self._guard("loop energy", lambda: model.loop(self.scene, px, pz))
+        if ok:
+            energy, polygon = out
+            self._show_loop(energy, polygon, source=f"{len(polygon) - 1} vertices, closed")
+            self._message("")
+
+    def _fig3(self) -> None:
+        if self.scene is None:
+            return
+        out, ok = self._guard("Fig. 3 loop", lambda: model.fig3(self.scene))
+        if ok:
+            path, energy, expected, source = out
+            self._show_loop(energy, path, expected, source)
+            self._message("")
+
+    def _clear(self) -> None:
+        self._drawing = True
+        try:
+            self.src_path.data = dict(xs=[], ys=[])
+        finally:
+            self._drawing = False
+        self.d_loop.text = "loop energy ΔE = " + _span("loop-energy", "–") + " J"
+
+    def _scan(self) -> None:
+        if self.scene is None:
+            return
+        t0 = time.perf_counter()
+        out, ok = self._guard("scan", lambda: model.scan(self.scene))
+        if not ok:
+            return
+        e = out.energy
+        zeros = np.zeros_like(out.time)
+        self.src_energy.data = dict(t=out.time, x=e["x"] * 1e3, y=e.get("y", zeros) * 1e3, z=e["z"] * 1e3)
+        self.d_scan.text = "scan: " + _span("scan-verdict", out.verdict)
+        self.d_timing.text = (f"scan of {self.scene.duration:g} s on the {self.scene.device.name} simulated in "
+                              f"{time.perf_counter() - t0:.2f} s (energy balance error "
+                              f"{out.energy_balance_error:.1g})")
+        self._message("")
+
+
+def _colour_bar(mapper, label):
+    from bokeh.models import ColorBar
+
+    return ColorBar(color_mapper=mapper, title=label, width=10)
+
+
+def app(doc) -> ExplorerPage:
+    """Fill a Bokeh document with the explorer (a Bokeh application's entry point).
+
+    In a Jupyter notebook: ``from bokeh.io import output_notebook, show;
+    output_notebook(); show(haptex.explore.app)``.
+
+    Parameters
+    ----------
+    doc : bokeh.document.Document
+
+    Returns
+    -------
+    ExplorerPage
+    """
+    return ExplorerPage(doc)
+
+
+def serve(port: int = 5006, address: str = "127.0.0.1", open_browser: bool = True, block: bool = True):
+    """Serve the explorer at ``http://ADDRESS:PORT/``.
+
+    Parameters
+    ----------
+    port : int
+        TCP port in [1, 65535], or 0 for any free port (read it from ``server.port``).
+    address : str
+        Interface to listen on; the loopback interface by default (the page runs the
+        library on this machine: do not expose it to a network you do not trust).
+    open_browser : bool
+        Open the page in the default browser.
+    block : bool
+        Run the server's event loop until interrupted (Ctrl-C); else return the started
+        server (its loop must then be run by the caller, or by a thread).
+
+    Returns
+    -------
+    bokeh.server.server.Server
+
+    Raises
+    ------
+    ParameterError
+        If the port is out of range or already in use.
+    """
+    from bokeh.application import Application
+    from bokeh.application.handlers.function import FunctionHandler
+    from bokeh.server.server import Server
+
+    if not (isinstance(port, int) and 0 <= port <= 65535):
+        raise ParameterError(f"port = {port!r} is not allowed: must be a whole number in [0, 65535]")
+    if port == 0:
+        import socket
+
+        with socket.socket() as probe:
+            probe.bind((address, 0))
+            port = probe.getsockname()[1]
+    origins = [f"{host}:{port}" for host in ("127.0.0.1", "localhost", address)]
+    try:
+        server = Server({"/": Application(FunctionHandler(app))}, port=port, address=address,
+                        allow_websocket_origin=sorted(set(origins)), num_procs=1)
+    except OSError as exc:
+        raise ParameterError(f"port = {port} is not allowed: cannot listen on {address}:{port} "
+                             f"({exc.strerror or exc})") from None
+    server.start()
+    if open_browser:
+        server.io_loop.add_callback(server.show, "/")
+    if block:
+        try:
+            server.io_loop.start()
+        except KeyboardInterrupt:
+            pass
+        finally:
+            server.stop()
+    return server

@@ -1,0 +1,379 @@
+"""What the explorer computes, without any web code: the controls' text (with units) is
+parsed into a texture, an algorithm and a device, and every number the page shows comes
+from the library's own functions (:func:`haptex.analysis.field_map`,
+:func:`haptex.characteristic_number`, :func:`haptex.loop_energy`,
+:func:`haptex.paper_loop`, :func:`haptex.simulate`). The page only draws these arrays.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from .._specs import quantity, texture_from_spec
+from .._validation import ParameterError, fail
+
+#: Textures the texture control offers (value, label).
+TEXTURES = [("sine", "sinusoid"), ("sum", "sum of sinusoids"), ("noise", "band-limited noise"),
+            ("egg-crate", "areal: egg-crate"), ("grating", "areal: grating"),
+            ("file", "measured file (profile or areal map)"), ("image", "image (grey levels as heights)")]
+#: Algorithms the algorithm control offers (value, label): Table I and the smooth wall.
+ALGORITHM_LABELS = [("W", "W: smooth wall"), ("A", "A: vertical (grooved)"), ("B", "B: normal (grooved)"),
+                    ("C", "C: change of height"), ("D", "D: god-object gradient"), ("E", "E: god-object vertical"),
+                    ("F", "F: friction modulated"), ("G", "G: force shading")]
+#: Devices the device control offers (value, label).
+DEVICES = [("pantograph", "pantograph (the paper's, planar)"), ("point-mass", "point mass 0.1 kg, 0.5 N s/m"),
+           ("serial-arm", "serial 3-DOF arm (surfaces)"), ("delta", "delta (surfaces)")]
+#: The scanning hand of Section V-B (the CLI's ``simulate scan`` defaults).
+HAND_STIFFNESS, HAND_DAMPING, HAND_DEPTH = 300.0, 1.0, 1e-3
+#: Grid of the arrows and of the maps (points per axis along x, z).
+ARROW_GRID, MAP_GRID = (23, 19), (121, 121)
+#: Longest scan the page runs (s of simulated time): about 0.3 s of computing at T = 100 us.
+MAX_SCAN_DURATION = 10.0
+#: Most vertices a drawn path may keep (loop work costs up to 20 ms a segment for D and E).
+MAX_PATH_VERTICES = 400
+
+
+@dataclass
+class Settings:
+    """What the controls say, as the user typed it (quantities with their units).
+
+    Attributes
+    ----------
+    texture : str
+        One of :data:`TEXTURES`' values.
+    amplitude, period : str
+        Sinusoid, egg-crate and grating (e.g. "0.8 mm", "1 mm").
+    terms : str
+        Sum of sinusoids: "A1,L1; A2,L2; ...".
+    noise : str
+        Band-limited noise: "RMS, SHORTEST, LONGEST, LENGTH[, SEED]".
+    file : str or None
+        Path of the measured file or image on the server (an upload is saved first).
+    file_name : str
+        The name the user gave the file (for messages).
+    pixel_size, height_range : str
+        Image only: a pixel's size and the height from black to white.
+    algorithm : str
+        W or A–G.
+    stiffness : str
+        kappa_0 (e.g. "2 kN/m").
+    max_penetration : str
+        d^z_max of B, C, F, G and the depth of the analysed region for all.
+    friction, presliding : str
+        F's mu and d^x_max.
+    device : str
+        One of :data:`DEVICES`' values.
+    speed, duration : str
+        The scan's set-point speed and length.
+    section : str
+        Over a surface, the ordinate y of the section shown and scanned.
+    """
+
+    texture: str = "sine"
+    amplitude: str = "0.8 mm"
+    period: str = "1 mm"
+    terms: str = "0.4 mm, 1 mm; 0.1 mm, 0.25 mm"
+    noise: str = "0.1 mm, 0.5 mm, 4 mm, 20 mm"
+    file: str | None = None
+    file_name: str = ""
+    pixel_size: str = "10 um"
+    height_range: str = "0.2 mm"
+    algorithm: str = "A"
+    stiffness: str = "2 kN/m"
+    max_penetration: str = "1 mm"
+    friction: str = "0.8"
+    presliding: str = "1 mm"
+    device: str = "pantograph"
+    speed: str = "10 mm/s"
+    duration: str = "1 s"
+    section: str = "0 mm"
+
+
+@dataclass(frozen=True)
+class Scene:
+    """The objects the settings describe (SI units)."""
+
+    settings: Settings
+    texture: object
+    algorithm: object
+    device: object
+    max_penetration: float
+    speed: float
+    duration: float
+    section: float
+
+    @property
+    def dimension(self) -> int:
+        """2 over a profile ([x, z]), 3 over a surface ([x, y, z])."""
+        return self.algorithm.dimension
+
+
+@dataclass(frozen=True)
+class Views:
+    """Everything the page draws for one scene (lengths in m, forces in N).
+
+    Attributes
+    ----------
+    boundary_x, boundary_h : ndarray, shape (800,)
+        The textured boundary z = h(x) (or h(x, y) on the section).
+    arrows : FieldMap
+        The force on the coarse grid :data:`ARROW_GRID`.
+    maps : FieldMap
+        Gain ||J||_2/kappa_0 and curl on :data:`MAP_GRID`.
+    q : CharacteristicNumber
+        q over the rendering region (its ``where`` is marked on the gain map).
+    heights : (x, y, h) or None
+        Over a surface, the height map (m) on one window in x and y.
+    """
+
+    boundary_x: np.ndarray
+    boundary_h: np.ndarray
+    arrows: object
+    maps: object
+    q: object
+    heights: tuple | None = None
+
+
+@dataclass(frozen=True)
+class Scan:
+    """A simulated stroke: time (s), energies per axis absorbed by the environment (J),
+    the oscillation verdict (:class:`haptex.Oscillation`) and the energy balance error."""
+
+    time: np.ndarray
+    energy: dict = field(default_factory=dict)
+    oscillation: object = None
+    energy_balance_error: float = 0.0
+    verdict: str = ""
+
+
+def build(settings: Settings) -> Scene:
+    """The texture, algorithm and device the settings describe.
+
+    Raises
+    ------
+    ParameterError
+        Naming the control whose text is wrong, its value and what is allowed.
+    """
+    from ..algorithms import algorithm
+    from ..devices import Device
+    from ..surfaces import SampledSurface
+    from ..textures import Flat
+
+    s = settings
+    letter = str(s.algorithm).strip().upper()
+    kind = s.texture
+    if kind in ("sine", "egg-crate", "grating"):
+        tex = texture_from_spec(f"{kind}:{s.amplitude},{s.period}")
+    elif kind == "sum":
+        tex = texture_from_spec(f"sum:{s.terms}")
+    elif kind == "noise":
+        tex = texture_from_spec(f"noise:{s.noise}")
+    elif kind in ("file", "image"):
+        if not s.file:
+            raise ParameterError(f"file = None is not allowed for the texture '{kind}': choose a file first")
+        try:
+            if kind == "image":
+                lo_hi = quantity(s.height_range, "m", "height_range")
+                tex = SampledSurface.from_image(s.file, quantity(s.pixel_size, "m", "pixel_size"), (0.0, lo_hi))
+            else:
+                tex = texture_from_spec(s.file)
+        except ParameterError as exc:
+            raise ParameterError(str(exc).replace(str(s.file), s.file_name or str(s.file))) from None
+    else:
+        raise fail("texture", kind, "one of " + ", ".join(v for v, _ in TEXTURES))
+    dmax = quantity(s.max_penetration, "m", "max_penetration")
+    params = {}
+    if letter in ("B", "C", "F", "G"):
+        params["max_penetration"] = dmax
+    if letter == "F":
+        params["friction"] = quantity(s.friction, "dimensionless", "friction")
+        params["presliding"] = quantity(s.presliding, "m", "presliding")
+    stiffness = quantity(s.stiffness, "N/m", "stiffness")
+    if letter == "W":
+        alg = algorithm("W", Flat(dimension=2) if tex.dimension == 2 else None, stiffness)
+        if tex.dimension == 1:
+            tex = alg.texture
+    else:
+        alg = algorithm(letter, tex, stiffness, **params)
+    d = alg.dimension
+    dev_kind = s.device
+    if dev_kind == "pantograph":
+        if d != 2:
+            raise ParameterError("device = 'pantograph' is not allowed over a surface: it is planar; choose the "
+                                 "point mass, the serial arm or the delta")
+        dev = Device.pantograph()
+    elif dev_kind == "point-mass":
+        dev = Device.point_mass(0.1, 0.5, 1e-4, dimension=d)
+    elif dev_kind in ("serial-arm", "delta"):
+        if d != 3:
+            raise ParameterError(f"device = {dev_kind!r} is not allowed over a profile: it is a 3-DOF device; "
+                                 "choose an areal texture, or the pantograph or the point mass")
+        dev = Device.serial_arm() if dev_kind == "serial-arm" else Device.delta()
+    else:
+        raise fail("device", dev_kind, "one of " + ", ".join(v for v, _ in DEVICES))
+    speed = quantity(s.speed, "m/s", "speed")
+    if not 0 < speed <= 1.0:
+        raise fail("speed", s.speed, "a scan speed in (0, 1 m/s]")
+    duration = quantity(s.duration, "s", "duration")
+    if not 0 < duration <= MAX_SCAN_DURATION:
+        raise fail("duration", s.duration, f"a scan length in (0, {MAX_SCAN_DURATION:g} s]")
+    section = quantity(s.section, "m", "section")
+    if d == 2 and section != 0.0:
+        raise fail("section", s.section, "0 over a profile (the section applies to areal textures)")
+    return Scene(settings=replace(s), texture=tex, algorithm=alg, device=dev, max_penetration=dmax, speed=speed,
+                 duration=duration, section=section)
+
+
+def window(scene: Scene) -> tuple[tuple[float, float], tuple[float, float] | None]:
+    """The region shown (m): the texture's ``domain``, the region its analysis (q) covers
+    by default (one period or cell, a sampled texture's extent), else x in [0, 1 mm];
+    returns ((x0, x1), (y0, y1)) over a surface and ((x0, x1), None) over a profile."""
+    from ..analysis import default_window
+
+    tex = scene.texture
+    dom = getattr(tex, "domain", None)
+    if tex.dimension == 2:
+        if dom is None:
+            return (0.0, 1e-3), (0.0, 1e-3)
+        return (float(dom[0][0]), float(dom[0][1])), (float(dom[1][0]), float(dom[1][1]))
+    if dom is None:
+        return default_window(tex), None
+    return (float(dom[0]), float(dom[1])), None
+
+
+def heights(scene: Scene, x) -> np.ndarray:
+    """h(x) on the section shown (m), shape like ``x``."""
+    tex = scene.texture
+    x = np.asarray(x, dtype=np.float64)
+    if tex.dimension == 1:
+        return tex.height(x)
+    return tex.height_at(np.stack([x, np.full_like(x, scene.section)], -1))
+
+
+def views(scene: Scene) -> Views:
+    """The force arrows, gain and curl maps, q and (over a surface) the height map."""
+    from ..analysis import characteristic_number, field_map
+
+    alg, dmax = scene.algorithm, scene.max_penetration
+    (x0, x1), yr = window(scene)
+    bx = np.linspace(x0, x1, 800)
+    bh = heights(scene, bx)
+    y = scene.section if scene.dimension == 3 else 0.0
+    arrows = field_map(alg, (x0, x1), n=ARROW_GRID, max_penetration=dmax, y=y)
+    maps = field_map(alg, (x0, x1), n=MAP_GRID, max_penetration=dmax, y=y)
+    q = characteristic_number(alg, max_penetration=dmax)
+    hmap = None
+    if scene.dimension == 3:
+        y0, y1 = yr
+        gx, gy = np.linspace(x0, x1, MAP_GRID[0]), np.linspace(y0, y1, MAP_GRID[1])
+        X, Y = np.meshgrid(gx, gy)
+        hmap = (gx, gy, scene.texture.height_at(np.stack([X, Y], -1)))
+    return Views(boundary_x=bx, boundary_h=bh, arrows=arrows, maps=maps, q=q, heights=hmap)
+
+
+def section_points(scene: Scene, xs, zs) -> np.ndarray:
+    """Positions (m) of points drawn on the section: [x, z], or [x, y, z] at y = section."""
+    xs, zs = np.asarray(xs, dtype=np.float64), np.asarray(zs, dtype=np.float64)
+    if scene.dimension == 2:
+        return np.stack([xs, zs], -1)
+    return np.stack([xs, np.full_like(xs, scene.section), zs], -1)
+
+
+def simplify(points: np.ndarray) -> np.ndarray:
+    """Drop vertices that lie on the straight line through their neighbours (to rounding),
+    so that a path dragged with the mouse costs one quadrature per straight piece; the
+    path itself is unchanged."""
+    p = np.asarray(points, dtype=np.float64)
+    if len(p) < 3:
+        return p
+    keep = [0]
+    for i in range(1, len(p) - 1):
+        a, b, c = p[keep[-1]], p[i], p[i + 1]
+        u, w = b - a, c - b
+        nu, nw = np.linalg.norm(u), np.linalg.norm(w)
+        if nu == 0.0:
+            continue
+        cross = np.linalg.norm(np.cross(u, w)) if len(u) == 3 else abs(u[0] * w[1] - u[1] * w[0])
+        if nw == 0.0 or cross > 1e-9 * nu * nw or np.dot(u, w) < 0:
+            keep.append(i)
+    keep.append(len(p) - 1)
+    return p[keep]
+
+
+def loop(scene: Scene, xs, zs) -> tuple[float, np.ndarray]:
+    """Loop energy (J) of the closed path through the drawn points (m), and the polygon
+    used (closed).
+
+    Raises
+    ------
+    ParameterError
+        If the path has fewer than 3 distinct vertices, or more than
+        :data:`MAX_PATH_VERTICES` after straight runs are merged.
+    """
+    from ..analysis import loop_energy
+
+    pts = simplify(section_points(scene, xs, zs))
+    if len(pts) < 3 or len(np.unique(pts, axis=0)) < 3:
+        raise ParameterError(f"path has {len(np.unique(pts, axis=0))} distinct points, which is not allowed: draw a "
+                             "closed path with at least 3")
+    if len(pts) > MAX_PATH_VERTICES:
+        raise ParameterError(f"path has {len(pts)} vertices, which is not allowed: at most {MAX_PATH_VERTICES} "
+                             "(draw it with fewer turns, or use the polygon tool)")
+    return loop_energy(scene.algorithm, pts), np.vstack([pts, pts[:1]])
+
+
+def fig3(scene: Scene) -> tuple[np.ndarray, float, float | None, str]:
+    """The Fig. 3 loop (eq. 27 for F, eq. 29 for G and W) drawn on the section: polygon
+    (m), its loop energy by :func:`haptex.loop_energy` (J), the paper's value (J) and
+    where the path comes from.
+
+    Raises
+    ------
+    ParameterError
+        Over anything but a sinusoid (the paths are defined for one).
+    """
+    from ..analysis import loop_energy, paper_loop
+
+    path, expected, source = paper_loop(scene.algorithm)
+    return path, loop_energy(scene.algorithm, path), expected, source
+
+
+def scan(scene: Scene) -> Scan:
+    """A stroke along x on the section: the scanning hand of Section V-B (K = 300 N/m,
+    C = 1 N s/m, pressing 1 mm below the nominal surface) dragged at ``speed`` for
+    ``duration`` on the chosen device, simulated by :func:`haptex.simulate`."""
+    from .. import operators as ops
+    from ..simulate import simulate
+
+    d = scene.dimension
+    (x0, _), _ = window(scene)
+    if d == 2:  # a constant-velocity set-point: the verdict then knows the texture's own rates v / l
+        op = ops.ScanningHand(HAND_STIFFNESS, HAND_DAMPING, velocity=scene.speed, depth=HAND_DEPTH, start=x0)
+        start = [x0, 0.0]
+    else:  # along x on the section y = section
+        end = x0 + scene.speed * scene.duration
+        op = ops.ScanningHand(HAND_STIFFNESS, HAND_DAMPING, path=[[x0, scene.section, 0.0], [end, scene.section, 0.0]],
+                              speed=scene.speed, depth=HAND_DEPTH, dimension=3)
+        start = [x0, scene.section, 0.0]
+    n = scene.duration / scene.device.period
+    res = simulate(scene.algorithm, scene.device, op, scene.duration, initial_position=start,
+                   record_every=max(1, int(math.ceil(n / 4000))))
+    energy = {"x": res.energy_x, "z": res.energy_z}
+    if d == 3:
+        energy["y"] = res.energy_y
+    osc = res.oscillation
+    if res.diverged_at is not None:
+        verdict = f"diverged at sample {res.diverged_at} ({res.diverged_quantity})"
+    elif osc.oscillating:
+        verdict = (f"oscillating along {osc.axis}: {osc.amplitude * 1e3:.3g} mm at {osc.frequency:.4g} Hz, "
+                   f"{osc.energy_per_cycle:.3g} J a cycle")
+    elif osc.axis is not None and getattr(osc, osc.axis).texture_driven:
+        verdict = (f"not oscillating: the {osc.amplitude * 1e3:.3g} mm motion along {osc.axis} at "
+                   f"{osc.frequency:.4g} Hz is the texture's own rate v/l")
+    else:
+        verdict = f"not oscillating (tail amplitude {osc.amplitude * 1e3:.3g} mm, decay ratio {osc.decay_ratio:.3g})"
+    return Scan(time=res.time, energy=energy, oscillation=osc, energy_balance_error=res.energy_balance_error,
+                verdict=verdict)
