@@ -13,9 +13,11 @@
 6. design: `haptex design` on the raw Dektak scan against the paper's sinusoid, and design()
    on a 10^6-sample profile and a 1024 x 1024 map (benchmarks/run_design.py);
 7. atlas: `haptex.sweep` on Dask with 1 and 2 workers, the overhead per task, the largest
-   sweep (benchmarks/run_atlas.py).
+   sweep (benchmarks/run_atlas.py);
+8. explore: the explorer's recompute per algorithm, and the browser's round trip from a
+   control change to the new view (Chromium; benchmarks/run_explore.py).
 
-Options: --only {analysis,renderer,simulator,worst,export,design,atlas}, --points N, --json (analysis only).
+Options: --only {analysis,renderer,simulator,worst,export,design,atlas,explore}, --points N, --json (analysis only).
 Never part of the test run; results are reported in benchmarks/README.md. Sections 2 and
 3 need gcc.
 """
@@ -49,7 +51,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--points", type=int, default=1_000_000)
     ap.add_argument("--json", action="store_true")
-    ap.add_argument("--only", choices=["analysis", "renderer", "simulator", "worst", "export", "design", "atlas"])
+    ap.add_argument("--only", choices=["analysis", "renderer", "simulator", "worst", "export", "design", "atlas",
+                                       "explore"])
     args = ap.parse_args()
     if args.only in (None, "analysis"):
         analysis(args)
@@ -86,6 +89,11 @@ def main() -> None:
 
         print("\n# stability atlas on Dask")
         run_atlas.main()
+    if args.only in (None, "explore") and not args.json:
+        import run_explore
+
+        print("\n# explorer: recompute and browser round trip")
+        run_explore.main()
 
 
 def analysis(args) -> None:

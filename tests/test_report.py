@@ -187,6 +187,7 @@ def test_a_quick_run_reaches_the_full_runs_verdicts(report, tmp_path):
     assert {c["id"]: c["verdict"] for c in quick["claims"]} == {c["id"]: c["verdict"] for c in full["claims"]}
 
 
+@pytest.mark.slow  # 18 s: a full design report; the report's parts are tested above in the default run
 def test_design_report_for_a_users_texture(tmp_path):
     # issue 16, "Traces out": `design --report DIR` writes an HTML report for the user's own texture
     out = tmp_path / "design"

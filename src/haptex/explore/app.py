@@ -14,6 +14,7 @@ import base64
 import html
 import logging
 import os
+import shutil
 import tempfile
 import time
 
@@ -52,7 +53,8 @@ class ExplorerPage:
         self.doc = doc
         self.settings = settings or model.Settings()
         self.scene = None
-        self.tmpdir = tempfile.mkdtemp(prefix="haptex-explore-")
+        self.tmpdir = tempfile.mkdtemp(prefix="haptex-explore-")  # uploaded files, removed with the session
+        doc.on_session_destroyed(lambda context, d=self.tmpdir: shutil.rmtree(d, ignore_errors=True))
         s = self.settings
 
         def text(name, title, value, ident=None):
@@ -68,7 +70,8 @@ class ExplorerPage:
         self.w_terms = text("terms", "sum: A1, l1; A2, l2; ...", s.terms)
         self.w_noise = text("noise", "noise: rms, shortest, longest, length[, seed]", s.noise)
         self.w_file = FileInput(title="file (profile, areal map or image)", width=220, html_id="texture-file")
-        self.w_file.on_change("value", self._upload)
+        # the file's name and contents arrive together; read them once both are set
+        self.w_file.on_change("value", lambda a, o, n: self.doc.add_next_tick_callback(self._upload))
         self.w_pixel = text("pixel_size", "image: pixel size", s.pixel_size)
         self.w_hrange = text("height_range", "image: black-to-white height", s.height_range)
         self.w_algorithm = Select(title="algorithm", value=s.algorithm, options=model.ALGORITHM_LABELS, width=220,
@@ -103,6 +106,7 @@ class ExplorerPage:
         self.src_path = ColumnDataSource(dict(xs=[], ys=[]))
         self.src_gain = ColumnDataSource(dict(image=[], x=[], y=[], dw=[], dh=[]))
         self.src_qmark = ColumnDataSource(dict(x=[], z=[]))
+        self.src_qmark_xy = ColumnDataSource(dict(x=[], y=[]))
         self.src_curl = ColumnDataSource(dict(image=[], x=[], y=[], dw=[], dh=[]))
         self.src_energy = ColumnDataSource(dict(t=[], x=[], y=[], z=[]))
         self.src_heights = ColumnDataSource(dict(image=[], x=[], y=[], dw=[], dh=[]))
@@ -127,7 +131,7 @@ class ExplorerPage:
         self.f_field.toolbar.active_drag = free
         self.src_path.on_change("data", self._path_changed)
 
-        self.f_gain = figure(title="‖J‖₂/κ0 over the rendering region (star: q)", tools="pan,wheel_zoom,reset",
+        self.f_gain = figure(title="‖J‖₂/κ0 over the rendering region (star: q, if on this section)", tools="pan,wheel_zoom,reset",
                              html_id="gain-view", name="gain", **opts)
         self.gain_mapper = LinearColorMapper(palette=Magma256, low=0, high=1, nan_color=(0, 0, 0, 0))
         self.f_gain.image("image", "x", "y", "dw", "dh", source=self.src_gain, color_mapper=self.gain_mapper)
@@ -152,12 +156,14 @@ class ExplorerPage:
         self.scan_legend = Legend(items=[], location="top_left")
         self.f_scan.add_layout(self.scan_legend)
 
-        self.f_heights = figure(title="height map h(x, y) (mm); line: the section shown", width=460, height=380,
+        self.f_heights = figure(title="height map h(x, y) (mm); line: the section shown; star: where q is", width=460, height=380,
                                 x_axis_label="x (mm)", y_axis_label="y (mm)", tools="pan,wheel_zoom,reset",
                                 html_id="height-view", name="heights")
         self.height_mapper = LinearColorMapper(palette=Viridis256, low=0, high=1)
         self.f_heights.image("image", "x", "y", "dw", "dh", source=self.src_heights, color_mapper=self.height_mapper)
         self.f_heights.line("x", "y", source=self.src_section, color="white", line_width=2, line_dash="dashed")
+        self.f_heights.scatter("x", "y", source=self.src_qmark_xy, marker="star", size=18, fill_color="cyan",
+                               line_color="black")
         self.f_heights.add_layout(_colour_bar(self.height_mapper, "h (mm)"), "right")
 
         texture_box = column(self.w_texture, self.w_amplitude, self.w_period, self.w_terms, self.w_noise, self.w_file,
@@ -210,9 +216,16 @@ class ExplorerPage:
         A refused choice in a selector is undone there too, so that the selectors show
         what the views show; a refused text stays in its box for the user to correct."""
         old = getattr(self.settings, name)
-        if value == old:
+        if value == old:  # back to what the views show (after a refusal, or a selector's undo)
+            if selector is None:
+                self._message("")
             return
         setattr(self.settings, name, value)
+        if name == "texture" and value in ("file", "image") and not self.settings.file:
+            self._show_controls()  # wait for the file, keeping the view
+            self._message(f"texture = {value!r}: choose a file to load (the view shows the previous texture "
+                          "until then)")
+            return
         if not self._recompute():
             setattr(self.settings, name, old)
             if selector is not None:
@@ -221,12 +234,15 @@ class ExplorerPage:
                 self.d_message.text = message
         self._show_controls()
 
-    def _upload(self, attr, old, new) -> None:
-        name = os.path.basename(self.w_file.filename or "upload")
+    def _upload(self) -> None:
+        try:
+            name = os.path.basename(self.w_file.filename or "upload")
+        except Exception:  # bokeh's UnsetValueError: no name was sent
+            name = "upload"
         path = os.path.join(self.tmpdir, name)
         try:
             with open(path, "wb") as fh:
-                fh.write(base64.b64decode(new))
+                fh.write(base64.b64decode(self.w_file.value))
         except (OSError, ValueError) as exc:
             self._message(f"file = {name!r} could not be received: {exc}")
             return
@@ -291,10 +307,11 @@ class ExplorerPage:
         self.src_gain.data = dict(image=[gain], **box)
         q = v.q
         where = q.where if q.where is not None else None
-        if where is not None and np.all(np.isfinite(where)):
-            self.src_qmark.data = dict(x=[where[0] * MM], z=[where[-1] * MM])
-        else:
-            self.src_qmark.data = dict(x=[], z=[])
+        shown = where is not None and np.all(np.isfinite(where))
+        on_section = shown and (len(where) == 2 or abs(where[1] - scene.section) <= 1e-9 + 1e-6 * abs(x1 - x0))
+        self.src_qmark.data = dict(x=[where[0] * MM], z=[where[-1] * MM]) if on_section else dict(x=[], z=[])
+        self.src_qmark_xy.data = (dict(x=[where[0] * MM], y=[where[1] * MM]) if shown and len(where) == 3
+                                  else dict(x=[], y=[]))
         q_text = "unbounded" if q.unbounded else f"{q.value:.4g}"
         at = ""
         if where is not None and len(where) == 3:

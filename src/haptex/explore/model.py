@@ -69,7 +69,8 @@ class Settings:
     speed, duration : str
         The scan's set-point speed and length.
     section : str
-        Over a surface, the ordinate y of the section shown and scanned.
+        Over a surface, the ordinate y of the section shown and scanned; "auto" is a
+        quarter of the way across the region shown (through the egg-crate's peaks).
     """
 
     texture: str = "sine"
@@ -89,7 +90,7 @@ class Settings:
     device: str = "pantograph"
     speed: str = "10 mm/s"
     duration: str = "1 s"
-    section: str = "0 mm"
+    section: str = "auto"
 
 
 @dataclass(frozen=True)
@@ -220,11 +221,16 @@ def build(settings: Settings) -> Scene:
     duration = quantity(s.duration, "s", "duration")
     if not 0 < duration <= MAX_SCAN_DURATION:
         raise fail("duration", s.duration, f"a scan length in (0, {MAX_SCAN_DURATION:g} s]")
-    section = quantity(s.section, "m", "section")
+    auto = str(s.section).strip().lower() == "auto"
+    section = 0.0 if auto else quantity(s.section, "m", "section")
     if d == 2 and section != 0.0:
-        raise fail("section", s.section, "0 over a profile (the section applies to areal textures)")
-    return Scene(settings=replace(s), texture=tex, algorithm=alg, device=dev, max_penetration=dmax, speed=speed,
-                 duration=duration, section=section)
+        raise fail("section", s.section, "'auto' or 0 over a profile (the section applies to areal textures)")
+    scene = Scene(settings=replace(s), texture=tex, algorithm=alg, device=dev, max_penetration=dmax, speed=speed,
+                  duration=duration, section=section)
+    if auto and d == 3:
+        _, (y0, y1) = window(scene)
+        scene = replace(scene, section=y0 + (y1 - y0) / 4)
+    return scene
 
 
 def window(scene: Scene) -> tuple[tuple[float, float], tuple[float, float] | None]:
@@ -305,7 +311,7 @@ def simplify(points: np.ndarray) -> np.ndarray:
 
 def loop(scene: Scene, xs, zs) -> tuple[float, np.ndarray]:
     """Loop energy (J) of the closed path through the drawn points (m), and the polygon
-    used (closed).
+    used, shape (N + 1, d), closed (last vertex = first).
 
     Raises
     ------
@@ -315,14 +321,18 @@ def loop(scene: Scene, xs, zs) -> tuple[float, np.ndarray]:
     """
     from ..analysis import loop_energy
 
-    pts = simplify(section_points(scene, xs, zs))
-    if len(pts) < 3 or len(np.unique(pts, axis=0)) < 3:
-        raise ParameterError(f"path has {len(np.unique(pts, axis=0))} distinct points, which is not allowed: draw a "
-                             "closed path with at least 3")
-    if len(pts) > MAX_PATH_VERTICES:
-        raise ParameterError(f"path has {len(pts)} vertices, which is not allowed: at most {MAX_PATH_VERTICES} "
+    pts = section_points(scene, xs, zs)
+    distinct = len(np.unique(pts, axis=0)) if pts.size else 0
+    if distinct < 3:
+        raise ParameterError(f"path has {distinct} distinct points, which is not allowed: draw a closed path with "
+                             "at least 3")
+    if not np.array_equal(pts[0], pts[-1]):
+        pts = np.vstack([pts, pts[:1]])
+    pts = simplify(pts)
+    if len(pts) - 1 > MAX_PATH_VERTICES:
+        raise ParameterError(f"path has {len(pts) - 1} vertices, which is not allowed: at most {MAX_PATH_VERTICES} "
                              "(draw it with fewer turns, or use the polygon tool)")
-    return loop_energy(scene.algorithm, pts), np.vstack([pts, pts[:1]])
+    return loop_energy(scene.algorithm, pts), pts
 
 
 def fig3(scene: Scene) -> tuple[np.ndarray, float, float | None, str]:

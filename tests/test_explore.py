@@ -1,0 +1,158 @@
+"""The explorer's computations and page logic, without a browser (the page in a real
+browser: tests/test_explore_browser.py).
+
+References: Campion & Hayward, Section IV-A (q_A = sqrt(1 + (2 pi A / l)^2) = 5.125 at the
+paper's A = 0.8 mm, l = 1 mm; the Fig. 3 loop of A supplies kappa_0 A^2 / 2), and the
+fields' definitions in Table I (A: f = [0, kappa_0 (h(x) - z)] inside the wall, so its curl
+is kappa_0 h'(x); C and D are gradients, curl-free).
+"""
+
+import math
+import socket
+
+import numpy as np
+import pytest
+
+import haptex as hx
+from haptex.analysis import field_map
+from haptex.explore import model
+
+bokeh = pytest.importorskip("bokeh")
+
+K0, A, L = 2000.0, 0.8e-3, 1e-3
+Q_A = math.sqrt(1 + (2 * math.pi * A / L) ** 2)
+
+
+def test_field_map_gain_sup_is_q_and_curl_of_a_is_k0_slope():
+    """On a 121 x 121 grid the largest gain of A lies within 0.5 % below q_A (the sup is
+    attained at the inflection points x = 0, l/2, l, which the grid contains), and A's
+    curl equals kappa_0 h'(x) inside the wall, 0 outside."""
+    alg = hx.algorithm("A", hx.Sinusoid(A, L), K0)
+    m = field_map(alg, n=121)
+    assert np.nanmax(m.gain) == pytest.approx(Q_A, rel=5e-3)
+    assert np.nanmax(m.gain) <= Q_A * (1 + 1e-12)
+    X, Z = np.meshgrid(m.x, m.z)
+    h = A * np.sin(2 * np.pi * X / L)
+    inside = Z < h - 1e-9
+    slope = K0 * A * 2 * np.pi / L * np.cos(2 * np.pi * X / L)
+    assert np.allclose(m.curl[inside], slope[inside], rtol=1e-9, atol=1e-9)
+    assert np.all(m.curl[Z > h + 1e-9] == 0.0)
+    # the gain is shown over the rendering region only: penetration in (0, d_max]
+    assert np.all(np.isnan(m.gain[Z > h + 1e-9]))
+    assert np.all(np.isnan(m.gain[Z < h - 1e-3 - 1e-9]))
+
+
+@pytest.mark.parametrize("letter", ["C", "D"])
+def test_field_map_curl_of_gradient_fields_is_zero(letter):
+    """C and D are gradients of a potential over the rendering region (Section IV-A-4):
+    no curl there (C's potential holds for penetrations up to d^z_max only)."""
+    alg = hx.algorithm(letter, hx.Sinusoid(0.2e-3, 2e-3), K0, **({"max_penetration": 1e-3} if letter == "C" else {}))
+    m = field_map(alg, n=41)
+    region = (m.penetration > 0) & (m.penetration < 1e-3 * (1 - 1e-6))
+    assert region.mean() > 0.3
+    assert np.max(np.abs(m.curl[region])) < 1e-6 * K0
+
+
+def test_field_map_over_a_surface_section_matches_the_profile():
+    """An extruded profile's section at any y is the profile's own map (force and gain)."""
+    prof = hx.Sinusoid(A, L)
+    flat = field_map(hx.algorithm("A", prof, K0), n=31)
+    ext = field_map(hx.algorithm("A", hx.Extruded(prof), K0), n=31, y=0.3e-3)
+    assert np.allclose(ext.force, flat.force, atol=1e-12)
+    assert np.allclose(ext.gain, flat.gain, equal_nan=True, atol=1e-12)
+    assert np.allclose(ext.curl, flat.curl, atol=1e-6)
+
+
+def test_field_map_refuses_bad_grids():
+    alg = hx.algorithm("A", hx.Sinusoid(A, L), K0)
+    for kw, name in (({"n": 1}, "n"), ({"n": 10**5}, "n"), ({"x_range": (1e-3, 0.0)}, "x_range"),
+                     ({"y": 1e-3}, "y"), ({"deflection": 1e-4}, "deflection")):
+        with pytest.raises(hx.ParameterError, match=name):
+            field_map(alg, **kw)
+
+
+def test_model_paper_parameters_q_and_fig3_loop():
+    """The default settings are the paper's (Section V-A): q_A = 5.125, and the Fig. 3 loop
+    computed by loop_energy supplies kappa_0 A^2 / 2 = 0.64 mJ."""
+    scene = model.build(model.Settings())
+    v = model.views(scene)
+    assert f"{v.q.value:.4g}" == "5.125"
+    path, energy, expected, _ = model.fig3(scene)
+    assert energy == pytest.approx(K0 * A * A / 2, rel=1e-9)
+    assert expected == pytest.approx(K0 * A * A / 2, rel=1e-12)
+
+
+def test_model_drawn_loop_merges_straight_runs_and_keeps_the_energy():
+    """A rectangle dragged with many collinear points is the Fig. 3 rectangle: 4 corners
+    after merging, and the same energy kappa_0 A^2 / 2."""
+    scene = model.build(model.Settings())
+    corners = np.array([[0, 0], [L / 4, 0], [L / 4, A], [0, A], [0, 0]])
+    dense = np.concatenate([np.linspace(corners[i], corners[i + 1], 17, endpoint=False) for i in range(4)])
+    energy, polygon = model.loop(scene, dense[:, 0], dense[:, 1])
+    assert len(polygon) == 5  # 4 corners, closed
+    assert energy == pytest.approx(K0 * A * A / 2, rel=1e-9)
+    with pytest.raises(hx.ParameterError, match="path has 2 distinct points"):
+        model.loop(scene, [0, 1e-4, 0], [0, 0, 0])
+
+
+def test_model_scan_verdicts_on_the_pantograph():
+    """A scan of A at 10 mm/s over l = 1 mm moves the handle at v/l = 10 Hz, the texture's
+    own rate: the verdict says so and does not call it an oscillation; E_x and E_z are
+    reported with an energy balance closed to 1e-9."""
+    scene = model.build(model.Settings())
+    s = model.scan(scene)
+    assert not s.oscillation.oscillating
+    assert "texture's own rate" in s.verdict and "10 Hz" in s.verdict
+    assert set(s.energy) == {"x", "z"} and s.energy_balance_error < 1e-9
+
+
+def test_model_refuses_bad_controls_by_name():
+    cases = [({"stiffness": "-5 kN/m"}, "stiffness"), ({"stiffness": "2"}, "stiffness"),
+             ({"amplitude": "0.8 s"}, "amplitude"), ({"texture": "egg-crate"}, "pantograph"),
+             ({"device": "delta"}, "delta"), ({"duration": "1 h"}, "duration"), ({"speed": "0 m/s"}, "speed"),
+             ({"texture": "file"}, "file"), ({"algorithm": "Z"}, "letter"),
+             ({"section": "1 mm"}, "section"), ({"section": "middle"}, "section")]
+    for change, name in cases:
+        with pytest.raises(hx.ParameterError, match=name):
+            model.build(model.Settings(**change))
+
+
+def test_page_document_shows_q_and_keeps_the_view_on_bad_input(tmp_path):
+    """The Bokeh document a notebook or the server shows: q_A = 5.125 in #q-value; a bad
+    stiffness leaves q and the maps as they were and says why in #message; a refused
+    selector choice is undone in the selector."""
+    from bokeh.document import Document
+
+    from haptex.explore import app
+
+    doc = Document()
+    page = app(doc)
+    assert '<span id="q-value">5.125</span>' in page.d_q.text
+    ids = {m.html_id for m in doc.select({"type": bokeh.models.UIElement}) if getattr(m, "html_id", None)}
+    assert {"algorithm", "stiffness", "run-scan", "fig3-loop", "message", "field-view"} <= ids
+    gain_before = page.src_gain.data["image"][0].copy()
+    page.w_stiffness.value = "-5 kN/m"
+    assert "stiffness" in page.d_message.text and "5.125" in page.d_q.text
+    assert np.array_equal(page.src_gain.data["image"][0], gain_before, equal_nan=True)
+    page.w_texture.value = "egg-crate"  # refused on the planar pantograph
+    assert "pantograph" in page.d_message.text and page.w_texture.value == "sine"
+    page.w_stiffness.value = "2 kN/m"
+    page.w_algorithm.value = "C"
+    c = hx.characteristic_number(hx.algorithm("C", hx.Sinusoid(A, L), K0, max_penetration=1e-3))
+    assert f'<span id="q-value">{c.value:.4g}</span>' in page.d_q.text and page.d_message.text.endswith("></span>")
+    bad = tmp_path / "bad.dat"
+    bad.write_bytes(b"\x00\x01 not a topography")
+    page.settings.file, page.settings.file_name = str(bad), "bad.dat"
+    page.w_texture.value = "file"
+    assert "bad.dat" in page.d_message.text and page.w_texture.value == "sine"
+
+
+def test_serve_refuses_a_port_in_use():
+    from haptex.explore import serve
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        s.listen(1)
+        port = s.getsockname()[1]
+        with pytest.raises(hx.ParameterError, match=f"port = {port}"):
+            serve(port, open_browser=False, block=False)

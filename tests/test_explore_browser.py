@@ -1,0 +1,198 @@
+"""``haptex explore`` in a real browser: Playwright driving Debian's Chromium against the
+server started as a user starts it (``haptex explore --port P --no-browser``).
+
+References: q_A = sqrt(1 + (2 pi A / l)^2) = 5.125 at the paper's A = 0.8 mm, l = 1 mm
+(Section IV-A); the Fig. 3 loop of A supplies kappa_0 A^2 / 2 = 0.64 mJ at kappa_0 =
+2 kN/m (Section IV-A-4); C's q is what :func:`haptex.characteristic_number` gives (its
+closed form is tested in tests/test_analysis.py).
+
+Chromium: ``.ci/run`` installs Debian's package when it is missing. Outside CI these tests
+are skipped, saying why, on a machine without it; in CI (``CI`` set) they fail instead.
+Screenshots of each view are saved under the test's temporary directory.
+"""
+
+import os
+import shutil
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+
+import pytest
+
+import haptex as hx
+from haptex.explore import model
+
+pytestmark = pytest.mark.browser
+
+K0, A, L = 2000.0, 0.8e-3, 1e-3
+CHROMIUM = os.environ.get("HAPTEX_CHROMIUM") or shutil.which("chromium") or shutil.which("chromium-browser")
+
+
+def _need_browser():
+    missing = CHROMIUM is None
+    try:
+        import playwright.sync_api  # noqa: F401
+    except ImportError:
+        missing = True
+    if missing and os.environ.get("CI"):
+        pytest.fail("Chromium or Playwright is missing: .ci/run installs both (apt-get install chromium)")
+    if missing:
+        pytest.skip("needs Debian's Chromium (apt-get install chromium) and Playwright (pip install '.[test]')")
+
+
+@pytest.fixture(scope="module")
+def server():
+    _need_browser()
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    proc = subprocess.Popen([sys.executable, "-m", "haptex", "explore", "--port", str(port), "--no-browser"],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    url = f"http://127.0.0.1:{port}/"
+    deadline = time.monotonic() + 60
+    while True:
+        try:
+            urllib.request.urlopen(url, timeout=2).read(100)
+            break
+        except OSError:
+            if proc.poll() is not None or time.monotonic() > deadline:
+                proc.kill()
+                pytest.fail(f"the explorer did not start: {proc.communicate()[0].decode()[-2000:]}")
+            time.sleep(0.3)
+    yield url, proc
+    proc.terminate()
+    try:
+        proc.wait(10)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+
+
+@pytest.fixture(scope="module")
+def browser():
+    _need_browser()
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as p:
+        b = p.chromium.launch(executable_path=CHROMIUM, args=["--no-sandbox", "--disable-gpu"])
+        yield b
+        b.close()
+
+
+@pytest.fixture
+def page(server, browser):
+    url, proc = server
+    pg = browser.new_page(viewport={"width": 1500, "height": 1350})
+    errors = []
+    pg.on("pageerror", lambda e: errors.append(f"page error: {e}"))
+    pg.on("console", lambda m: errors.append(f"console {m.type}: {m.text}") if m.type == "error" else None)
+    pg.goto(url)
+    pg.wait_for_selector("#q-value", timeout=30000)
+    yield pg
+    pg.close()
+    assert proc.poll() is None, "the server stopped"
+    assert errors == [], errors  # the page logs no JavaScript errors
+
+
+def _text(pg, selector: str) -> str:
+    return pg.locator(selector).inner_text().strip()
+
+
+def _wait_text(pg, selector: str, predicate, timeout: float = 30.0) -> str:
+    deadline = time.monotonic() + timeout
+    while True:
+        text = _text(pg, selector)
+        if predicate(text):
+            return text
+        if time.monotonic() > deadline:
+            raise AssertionError(f"{selector} still shows {text!r} after {timeout} s")
+        time.sleep(0.1)
+
+
+def _choose(pg, ident: str, value: str) -> None:
+    """Pick an option of a selector by its value, through the label the page shows."""
+    labels = dict({"texture": model.TEXTURES, "algorithm": model.ALGORITHM_LABELS, "device": model.DEVICES}[ident])
+    pg.locator(f"#{ident} select").select_option(label=labels[value])
+
+
+def _type(pg, ident: str, value: str) -> None:
+    box = pg.locator(f"#{ident} input")
+    box.fill(value)
+    box.press("Enter")
+
+
+# Screen position of data points (mm) on a named plot, from BokehJS's own scales.
+_TO_SCREEN = """([name, pts]) => {
+  const plot = Bokeh.documents[0].get_model_by_name(name);
+  const view = Bokeh.index.find_one(plot);
+  const box = view.canvas_view.el.getBoundingClientRect();
+  return pts.map(([x, y]) => [box.left + view.frame.x_scale.compute(x), box.top + view.frame.y_scale.compute(y)]);
+}"""
+
+
+def test_q_for_a_then_c_and_screenshots_of_each_view(page, tmp_path):
+    assert _text(page, "#q-value") == "5.125"
+    for view in ("field-view", "gain-view", "curl-view"):
+        page.locator(f"#{view}").screenshot(path=str(tmp_path / f"{view}.png"))
+        assert (tmp_path / f"{view}.png").stat().st_size > 5000
+    _choose(page, "algorithm", "C")
+    c = hx.characteristic_number(hx.algorithm("C", hx.Sinusoid(A, L), K0, max_penetration=1e-3))
+    assert _wait_text(page, "#q-value", lambda t: t != "5.125") == f"{c.value:.4g}"
+    page.screenshot(path=str(tmp_path / "page-C.png"), full_page=True)
+
+
+def test_a_loop_drawn_with_the_mouse_around_fig3_supplies_k0_a2_over_2(page, tmp_path):
+    corners_mm = [[0, 0], [L / 4 * 1e3, 0], [L / 4 * 1e3, A * 1e3], [0, A * 1e3], [0, 0]]
+    pts = page.evaluate(_TO_SCREEN, ["field", corners_mm])
+    page.mouse.move(*pts[0])
+    page.mouse.down()
+    for p in pts[1:]:
+        page.mouse.move(*p, steps=12)
+    page.mouse.up()
+    shown = float(_wait_text(page, "#loop-energy", lambda t: t not in ("", "–")))
+    assert shown == pytest.approx(K0 * A * A / 2, rel=0.01)
+    page.locator("#field-view").screenshot(path=str(tmp_path / "loop.png"))
+    page.locator("#clear-path").click()
+    _wait_text(page, "#loop-energy", lambda t: t == "–")
+    page.locator("#fig3-loop").click()  # the same loop, one click away
+    assert float(_wait_text(page, "#loop-energy", lambda t: t != "–")) == pytest.approx(K0 * A * A / 2, rel=1e-6)
+
+
+def test_a_scan_produces_a_verdict(page, tmp_path):
+    assert _text(page, "#scan-verdict") == "–"
+    page.locator("#run-scan").click()
+    verdict = _wait_text(page, "#scan-verdict", lambda t: t != "–")
+    # A at 10 mm/s over l = 1 mm on the pantograph: the handle follows the texture at v/l = 10 Hz
+    assert verdict.startswith("not oscillating") and "10 Hz" in verdict
+    page.locator("#scan-view").screenshot(path=str(tmp_path / "scan-view.png"))
+
+
+def test_bad_input_is_one_line_and_the_view_is_kept(page, tmp_path):
+    _type(page, "stiffness", "-5 kN/m")
+    message = _wait_text(page, "#message-text", lambda t: t != "")
+    assert "stiffness" in message and "\n" not in message
+    assert _text(page, "#q-value") == "5.125"
+    _type(page, "stiffness", "2 kN/m")
+    _wait_text(page, "#message-text", lambda t: t == "")
+    _choose(page, "texture", "file")
+    bad = tmp_path / "scan.xyz"
+    bad.write_bytes(b"\x00\x01\x02 this is not a topography file")
+    page.locator("#texture-file input").set_input_files(str(bad))
+    message = _wait_text(page, "#message-text", lambda t: "scan.xyz" in t)
+    assert "\n" not in message and _text(page, "#q-value") == "5.125"
+    page.screenshot(path=str(tmp_path / "bad-file.png"), full_page=True)
+
+
+def test_an_areal_texture_shows_its_height_map_and_a_section(page, tmp_path):
+    _choose(page, "device", "point-mass")
+    _choose(page, "texture", "egg-crate")
+    _type(page, "amplitude", "0.2 mm")
+    _type(page, "period", "2 mm")
+    egg = hx.characteristic_number(hx.algorithm("A", hx.SumOfGratings.egg_crate(0.2e-3, 2e-3), K0))
+    assert _wait_text(page, "#q-value", lambda t: t == f"{egg.value:.4g}") == f"{egg.value:.4g}"
+    page.locator("#height-view").wait_for(state="visible")
+    page.locator("#height-view").screenshot(path=str(tmp_path / "height-view.png"))
+    page.screenshot(path=str(tmp_path / "page-areal.png"), full_page=True)
+    page.locator("#run-scan").click()
+    assert _wait_text(page, "#scan-verdict", lambda t: t != "–")
