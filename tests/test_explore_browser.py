@@ -11,6 +11,7 @@ are skipped, saying why, on a machine without it; in CI (``CI`` set) they fail i
 Screenshots of each view are saved under the test's temporary directory.
 """
 
+import importlib.util
 import os
 import shutil
 import socket
@@ -31,11 +32,7 @@ CHROMIUM = os.environ.get("HAPTEX_CHROMIUM") or shutil.which("chromium") or shut
 
 
 def _need_browser():
-    missing = CHROMIUM is None
-    try:
-        import playwright.sync_api  # noqa: F401
-    except ImportError:
-        missing = True
+    missing = CHROMIUM is None or importlib.util.find_spec("playwright") is None
     if missing and os.environ.get("CI"):
         pytest.fail("Chromium or Playwright is missing: .ci/run installs both (apt-get install chromium)")
     if missing:
