@@ -45,8 +45,8 @@ class ExplorerPage:
 
     def __init__(self, doc, settings: model.Settings | None = None):
         from bokeh.layouts import column, row
-        from bokeh.models import (Arrow, Button, ColumnDataSource, Div, FileInput, FreehandDrawTool, Legend, LinearColorMapper,
-                                  PolyDrawTool, Range1d, Select, TextInput, VeeHead)
+        from bokeh.models import (Arrow, Button, ColumnDataSource, Div, FileInput, FreehandDrawTool, Legend,
+                                  LinearColorMapper, PolyDrawTool, Range1d, Select, TextInput, VeeHead)
         from bokeh.palettes import Magma256, RdBu11, Viridis256, interp_palette
         from bokeh.plotting import figure
 
