@@ -39,10 +39,10 @@ def main() -> None:
                   f"{samples / wall:.3g} samples/s (cluster start-up and store included)")
     # overhead per task: 40 blocks through Dask (submitted together, as a sweep does) against
     # the same 40 blocks run one after the other in this process; and one task's latency
-    from dask.distributed import Client, LocalCluster
+    from haptex.atlas import _client
 
-    with LocalCluster(n_workers=1, threads_per_worker=1, host="127.0.0.1", dashboard_address="127.0.0.1:0") as cluster, \
-            Client(cluster) as client:
+    client, cluster, _ = _client(None, 1)  # the local cluster a sweep starts, with one worker
+    with cluster, client:
         for runs, duration in ((10, "1 s"), (100, "1 s"), (100, "10 s")):
             mapping = dict(spec.mapping, duration=duration,
                            axes={"stiffness": f"0.5-2 kN/m, {40 * runs} log steps"}, block=runs)

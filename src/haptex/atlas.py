@@ -552,11 +552,16 @@ def _client(scheduler: str | None, workers: int | None):
                                  f"5 s ({' '.join(str(exc).split())[:100]})") from None
         except ValueError as exc:
             raise ParameterError(f"scheduler = {scheduler!r} is not allowed: {exc}") from None
+    import dask
+
     cores = os.cpu_count() or 1
     n = cores if workers is None else whole("workers", workers, 1, 1024)
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-                           dashboard_address="127.0.0.1:0",
-                           silence_logs=logging.ERROR)
+    # The blocks are alike and independent: the scheduler hands them all out at once
+    # (worker saturation "inf"), so that a worker never waits a round trip for its next
+    # block; work stealing still rebalances, and a lost worker's blocks are recomputed.
+    with dask.config.set({"distributed.scheduler.worker-saturation": "inf"}):
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                               dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR)
     return Client(cluster), cluster, max(1, cores // n)
 
 
