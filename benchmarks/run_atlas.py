@@ -4,19 +4,22 @@
    the wall atlas of examples/sweeps/wall.toml (1200 runs x 5 s at T = 100 us: 6e7 samples),
    cluster start-up included and excluded;
 2. the overhead per task: 40 blocks through Dask (submitted together, as a sweep does) against
-   the same blocks run in this process, for blocks of 10^5, 10^6 and 10^7 samples (goal
+   simulate_batch called directly on the same runs (the issue's baseline) and against the
+   task function run in this process, for blocks of 10^5, 10^6 and 10^7 samples (goal
    <= 10 % from 10^5), and one task's round trip;
 3. the largest sweep run here: the wall atlas at 8 x the stiffness resolution.
 """
 
 from __future__ import annotations
 
+import statistics
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
+from haptex import simulate_batch
 from haptex.atlas import SweepSpec, _run_block, sweep
 
 WALL = Path(__file__).resolve().parents[1] / "examples" / "sweeps" / "wall.toml"
@@ -51,20 +54,31 @@ def main() -> None:
             n = runs * round(s.duration / 1e-4)
             _run_block(s.mapping, blocks[0], 1)
             client.submit(_run_block, s.mapping, blocks[0], 1, pure=False).result()  # warm the worker
-            direct = _time(lambda: [_run_block(s.mapping, b, 1) for b in blocks])
-            remote = _time(lambda: client.gather([client.submit(_run_block, s.mapping, b, 1, pure=False)
-                                                  for b in blocks]))
-            latency = _time(lambda: client.submit(_run_block, s.mapping, blocks[0], 1, pure=False).result())
-            print(f"40 tasks of {n:.0e} samples: in this process {direct:.2f} s, through Dask {remote:.2f} s: overhead "
-                  f"{100 * (remote - direct) / direct:.1f} % ({(remote - direct) / 40 * 1e3:.1f} ms a task); one task's "
-                  f"round trip {latency * 1e3:.1f} ms against {direct / 40 * 1e3:.1f} ms")
+            alg, device, op, p0 = s.build()
+            values = [s.axes[0].values[b[0]] for b in blocks]
+
+            def batch():  # simulate_batch called directly on the same runs, fixed parts built once
+                for v in values:
+                    simulate_batch(alg, device, op, s.duration, initial_position=p0, progress=False, stiffness=v)
+
+            direct = statistics.median(_time(batch) for _ in range(3))
+            local = statistics.median(_time(lambda: [_run_block(s.mapping, b, 1) for b in blocks]) for _ in range(3))
+            remote = statistics.median(_time(lambda: client.gather([client.submit(_run_block, s.mapping, b, 1, pure=False)
+                                                                    for b in blocks])) for _ in range(3))
+            latency = statistics.median(_time(lambda: client.submit(_run_block, s.mapping, blocks[0], 1,
+                                                                    pure=False).result()) for _ in range(5))
+            print(f"40 tasks of {n:.0e} samples (median of 3): simulate_batch directly {direct:.3f} s, the task "
+                  f"function in this process {local:.3f} s, through Dask {remote:.3f} s: overhead "
+                  f"{100 * (remote - direct) / direct:.1f} % against simulate_batch "
+                  f"({(remote - direct) / 40 * 1e3:.2f} ms a task), {100 * (remote - local) / local:.1f} % against the "
+                  f"task function; one task's round trip {latency * 1e3:.1f} ms against {direct / 40 * 1e3:.1f} ms")
     big = dict(spec.mapping, axes=dict(spec.mapping["axes"], stiffness="0.5-20 kN/m, 480 log steps"))
     s = SweepSpec.from_mapping(big)
     with tempfile.TemporaryDirectory() as tmp:
-        wall, _ = timed_sweep(s, 2, Path(tmp) / "big.zarr")
+        wall, _ = timed_sweep(s, None, Path(tmp) / "big.zarr")  # the default: a worker process a core
     n = s.runs * round(s.duration / 1e-4)
     print(f"largest sweep: {s.runs} runs x {round(s.duration / 1e-4)} samples = {n:.2g} samples in {wall:.1f} s "
-          f"({n / wall:.3g} samples/s, 2 workers)")
+          f"({n / wall:.3g} samples/s, the default: a worker process a core)")
 
 
 def _time(fn) -> float:

@@ -1819,7 +1819,7 @@ def run_one(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, Binv, fast, 
     summary[S_PC_ACTIVE] = pc[PC_ACTIVE]
 
 
-@nb.njit(parallel=True, cache=True)
+@nb.njit(parallel=True, cache=True, nogil=True)
 def run_batch(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, Binv, fast, M, modal, K, C, f0, sp_t, sp_p, vend,
               rest_len, kinematic, n_steps, T, delay, delta, fres, fmax, fc, pc_on, pc_bmax, pc_ref, p0, v0,
               record_every, rec, summary, tail_start, tail_p, dims):
@@ -1912,7 +1912,7 @@ def render_step(x, y, z, mem):
     return f[0], f[1], f[2]
 
 
-@nb.njit(parallel=True, cache=True)
+@nb.njit(parallel=True, cache=True, nogil=True)
 def tail_amplitudes(u, a1, a2):
     """Remove from each row of ``u`` (N, m), in place, its mean and least-squares straight
     line (steady sliding or drift is not an oscillation), and write half the peak-to-peak of

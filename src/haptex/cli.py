@@ -678,7 +678,8 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
 @click.option("--out", "out", type=click.Path(path_type=Path), required=True,
               help="The Zarr store (a directory); rerunning the same SPEC into it resumes.")
 @click.option("--scheduler", default=None, help="A running Dask scheduler, tcp://HOST:PORT (default: a local cluster).")
-@click.option("--workers", type=int, default=None, help="Worker processes of the local cluster (default: the cores).")
+@click.option("--workers", type=int, default=None, help="Workers of the local cluster (default: one process a core; 1: in this process, "
+                   "using every core).")
 @click.option("--quiet", is_flag=True, help="No progress display.")
 def sweep(spec, out, scheduler, workers, quiet):
     """A stability atlas: every run of SPEC (TOML or YAML) on Dask, into a Zarr store."""
