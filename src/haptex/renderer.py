@@ -184,18 +184,25 @@ class Renderer:
         amount of work for any input (:attr:`last_work`).
         """
         try:
-            if isinstance(p, (str, bytes, bytearray, dict)) or len(p) != self.dimension:
-                raise TypeError
+            tp = type(p)
+            if tp is not tuple and tp is not list:  # a tuple or a list: unpacking checks the length
+                if isinstance(p, (str, bytes, bytearray, dict)) or len(p) != self.dimension:
+                    raise TypeError
             if self.dimension == 2:
                 x, z = p
-                if not (isinstance(x, _REAL) and isinstance(z, _REAL)) or isinstance(x, bool) or isinstance(z, bool):
-                    raise TypeError
-                fx, _, fz = _render_step(float(x), 0.0, float(z), self._mem)
+                if type(x) is not float or type(z) is not float:  # plain floats need no further check
+                    if (not (isinstance(x, _REAL) and isinstance(z, _REAL)) or isinstance(x, bool)
+                            or isinstance(z, bool)):
+                        raise TypeError
+                    x, z = float(x), float(z)
+                fx, _, fz = _render_step(x, 0.0, z, self._mem)
                 return fx, fz
             x, y, z = p
-            if not all(isinstance(c, _REAL) and not isinstance(c, bool) for c in (x, y, z)):
-                raise TypeError
-            return _render_step(float(x), float(y), float(z), self._mem)
+            if type(x) is not float or type(y) is not float or type(z) is not float:
+                if not all(isinstance(c, _REAL) and not isinstance(c, bool) for c in (x, y, z)):
+                    raise TypeError
+                x, y, z = float(x), float(y), float(z)
+            return _render_step(x, y, z, self._mem)
         except Exception:  # a malformed p: never let it reach the motor loop
             self._rs[RS_FAULTS] += 1.0
             self._pc[PC_HAVE] = 0.0
