@@ -82,6 +82,16 @@ def test_model_paper_parameters_q_and_fig3_loop():
     assert expected == pytest.approx(K0 * A * A / 2, rel=1e-12)
 
 
+def test_model_the_smooth_wall_shows_the_flat_boundary_it_renders():
+    """W ignores the texture (eq. 30): over an areal texture the page shows a flat
+    boundary and q = 1 (the wall's Jacobian is -kappa_0 e_z e_z^T)."""
+    scene = model.build(model.Settings(algorithm="W", texture="egg-crate", amplitude="0.2 mm", period="2 mm",
+                                       device="point-mass"))
+    v = model.views(scene)
+    assert np.all(v.boundary_h == 0.0) and np.all(v.heights[2] == 0.0)
+    assert v.q.value == pytest.approx(1.0, rel=1e-12)
+
+
 def test_model_drawn_loop_merges_straight_runs_and_keeps_the_energy():
     """A rectangle dragged with many collinear points is the Fig. 3 rectangle: 4 corners
     after merging, and the same energy kappa_0 A^2 / 2."""

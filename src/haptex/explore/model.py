@@ -195,8 +195,7 @@ def build(settings: Settings) -> Scene:
     stiffness = quantity(s.stiffness, "N/m", "stiffness")
     if letter == "W":
         alg = algorithm("W", Flat(dimension=2) if tex.dimension == 2 else None, stiffness)
-        if tex.dimension == 1:
-            tex = alg.texture
+        tex = alg.texture  # the smooth wall ignores the texture: show the flat boundary it renders
     else:
         alg = algorithm(letter, tex, stiffness, **params)
     d = alg.dimension
