@@ -709,16 +709,8 @@ def explore(port, no_browser):
     Serves http://127.0.0.1:PORT/ until interrupted (Ctrl-C)."""
     from .explore import serve
 
-    if not 0 <= port <= 65535:
-        raise ParameterError(f"port = {port} is not allowed: must be a whole number in [0, 65535]")
-    server = serve(port, open_browser=not no_browser, block=False)
-    click.echo(f"haptex explore: serving http://127.0.0.1:{server.port}/ (Ctrl-C to stop)")
-    try:
-        server.io_loop.start()
-    except KeyboardInterrupt:
-        pass
-    finally:
-        server.stop()
+    serve(port, open_browser=not no_browser,
+          announce=lambda url: click.echo(f"haptex explore: serving {url} (Ctrl-C to stop)"))
 
 
 @cli.group()

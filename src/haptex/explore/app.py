@@ -62,9 +62,12 @@ class ExplorerPage:
             w.on_change("value", lambda attr, old, new, name=name: self._set(name, new))
             return w
 
-        self.w_texture = Select(title="texture", value=s.texture, options=model.TEXTURES, width=220,
-                                html_id="texture")
-        self.w_texture.on_change("value", lambda a, o, n: self._set("texture", n, self.w_texture))
+        def choice(name, title, options):
+            w = Select(title=title, value=getattr(s, name), options=options, width=220, html_id=name)
+            w.on_change("value", lambda attr, old, new, name=name: self._set(name, new, w))
+            return w
+
+        self.w_texture = choice("texture", "texture", model.TEXTURES)
         self.w_amplitude = text("amplitude", "amplitude A", s.amplitude)
         self.w_period = text("period", "period l", s.period)
         self.w_terms = text("terms", "sum: A1, l1; A2, l2; ...", s.terms)
@@ -74,16 +77,13 @@ class ExplorerPage:
         self.w_file.on_change("value", lambda a, o, n: self.doc.add_next_tick_callback(self._upload))
         self.w_pixel = text("pixel_size", "image: pixel size", s.pixel_size)
         self.w_hrange = text("height_range", "image: black-to-white height", s.height_range)
-        self.w_algorithm = Select(title="algorithm", value=s.algorithm, options=model.ALGORITHM_LABELS, width=220,
-                                  html_id="algorithm")
-        self.w_algorithm.on_change("value", lambda a, o, n: self._set("algorithm", n, self.w_algorithm))
+        self.w_algorithm = choice("algorithm", "algorithm", model.ALGORITHM_LABELS)
         self.w_stiffness = text("stiffness", "stiffness κ0", s.stiffness)
         self.w_dmax = text("max_penetration", "max penetration d_max", s.max_penetration)
         self.w_friction = text("friction", "F: friction μ", s.friction)
         self.w_presliding = text("presliding", "F: presliding d^x_max", s.presliding)
         self.w_section = text("section", "areal: section at y =", s.section)
-        self.w_device = Select(title="device", value=s.device, options=model.DEVICES, width=220, html_id="device")
-        self.w_device.on_change("value", lambda a, o, n: self._set("device", n, self.w_device))
+        self.w_device = choice("device", "device", model.DEVICES)
         self.w_speed = text("speed", "scan speed", s.speed)
         self.w_duration = text("duration", "scan duration", s.duration)
         self.b_fig3 = Button(label="Fig. 3 loop", width=105, html_id="fig3-loop")
@@ -414,7 +414,8 @@ def app(doc) -> ExplorerPage:
     return ExplorerPage(doc)
 
 
-def serve(port: int = 5006, address: str = "127.0.0.1", open_browser: bool = True, block: bool = True):
+def serve(port: int = 5006, address: str = "127.0.0.1", open_browser: bool = True, block: bool = True,
+          announce=None):
     """Serve the explorer at ``http://ADDRESS:PORT/``.
 
     Parameters
@@ -429,6 +430,9 @@ def serve(port: int = 5006, address: str = "127.0.0.1", open_browser: bool = Tru
     block : bool
         Run the server's event loop until interrupted (Ctrl-C); else return the started
         server (its loop must then be run by the caller, or by a thread).
+    announce : callable, optional
+        Called with the page's URL (the port chosen when ``port`` is 0) once the server
+        listens, before it blocks.
 
     Returns
     -------
@@ -459,6 +463,8 @@ def serve(port: int = 5006, address: str = "127.0.0.1", open_browser: bool = Tru
         raise ParameterError(f"port = {port} is not allowed: cannot listen on {address}:{port} "
                              f"({exc.strerror or exc})") from None
     server.start()
+    if announce is not None:
+        announce(f"http://{address}:{server.port}/")
     if open_browser:
         server.io_loop.add_callback(server.show, "/")
     if block:

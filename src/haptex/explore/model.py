@@ -14,6 +14,7 @@ import numpy as np
 
 from .._specs import quantity, texture_from_spec
 from .._validation import ParameterError, fail
+from ..tables import PAPER_PARAMETERS
 
 #: Textures the texture control offers (value, label).
 TEXTURES = [("sine", "sinusoid"), ("sum", "sum of sinusoids"), ("noise", "band-limited noise"),
@@ -74,8 +75,8 @@ class Settings:
     """
 
     texture: str = "sine"
-    amplitude: str = "0.8 mm"
-    period: str = "1 mm"
+    amplitude: str = f"{PAPER_PARAMETERS['amplitude'] * 1e3:g} mm"
+    period: str = f"{PAPER_PARAMETERS['period'] * 1e3:g} mm"
     terms: str = "0.4 mm, 1 mm; 0.1 mm, 0.25 mm"
     noise: str = "0.1 mm, 0.5 mm, 4 mm, 20 mm"
     file: str | None = None
@@ -83,10 +84,10 @@ class Settings:
     pixel_size: str = "10 um"
     height_range: str = "0.2 mm"
     algorithm: str = "A"
-    stiffness: str = "2 kN/m"
-    max_penetration: str = "1 mm"
-    friction: str = "0.8"
-    presliding: str = "1 mm"
+    stiffness: str = f"{PAPER_PARAMETERS['stiffness'] / 1e3:g} kN/m"
+    max_penetration: str = f"{PAPER_PARAMETERS['max_penetration'] * 1e3:g} mm"
+    friction: str = f"{PAPER_PARAMETERS['friction']:g}"
+    presliding: str = f"{PAPER_PARAMETERS['presliding'] * 1e3:g} mm"
     device: str = "pantograph"
     speed: str = "10 mm/s"
     duration: str = "1 s"
