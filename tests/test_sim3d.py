@@ -97,6 +97,39 @@ def test_the_fast_path_is_the_general_path(monkeypatch, d):
     assert fast.energy_balance_error < 1e-10 and general.energy_balance_error < 1e-10
 
 
+@pytest.mark.parametrize("d", [2, 3])
+@pytest.mark.parametrize("letter", ["W", "A", "B", "D"])
+def test_the_lean_loop_is_the_fast_path_without_its_machinery(monkeypatch, d, letter):
+    # run_lean (no delay, quantisation, saturation, friction or controller) against run_one on a
+    # device whose only difference is a force limit it never reaches: the same arithmetic in the
+    # same order, so every recorded sample and every total is equal, not merely close. W and A
+    # take the loop compiled for their letter, B and D the loop for any algorithm.
+    tex = hx.Sinusoid(A, L) if d == 2 else hx.SumOfGratings.egg_crate(A, L)
+    alg = hx.algorithm(letter, (None if d == 2 else hx.Flat(dimension=2)) if letter == "W" else tex, K0)
+    dev = hx.Device(mass=np.diag([0.1, 0.12, 0.08][:d]), damping=np.diag([0.5, 0.4, 0.6][:d]),
+                    damping_outside=np.diag([0.1, 0.2, 0.3][:d]), period=1e-4)
+    push = ConstantForce([0.3, -1.2] if d == 2 else [0.3, 0.2, -1.2])
+    calls = []
+    lean = SIM._run_lean
+    monkeypatch.setattr(SIM, "_run_lean", lambda *a: calls.append(1) or lean(*a))
+    duration = 0.05 if letter == "D" else 0.3
+    fast = hx.simulate(alg, dev, push, duration)
+    assert calls == [1]
+    general = hx.simulate(alg, dev.replace(max_force=1e6), push, duration)
+    assert calls == [1] and general.saturations == 0
+    for name in ("position", "velocity", "force", "energy_x", "energy_z", "damping_energy", "operator_work",
+                 "kinetic_energy"):
+        np.testing.assert_array_equal(getattr(fast, name), getattr(general, name), err_msg=name)
+    assert fast.totals == general.totals and fast.max_penetration == general.max_penetration
+    assert fast.oscillation == general.oscillation
+    # and in a batch: the lean batch is the general batch run for run
+    b_fast = hx.simulate_batch(alg, dev, push, duration, stiffness=[K0, 2 * K0])
+    b_gen = hx.simulate_batch(alg, dev.replace(max_force=1e6), push, duration, stiffness=[K0, 2 * K0])
+    for name in ("energy_x", "energy_z", "damping_energy", "operator_work", "kinetic_energy", "amplitude",
+                 "frequency", "max_penetration", "oscillating"):
+        np.testing.assert_array_equal(getattr(b_fast, name), getattr(b_gen, name), err_msg=name)
+
+
 def test_a_3d_wall_settles_where_the_push_balances_the_spring():
     # closed form: W in 3-D under a constant push f settles at z = -f_z / kappa_0; the lateral
     # push slides the handle at the terminal velocity f_x / b of the viscous damping

@@ -1550,7 +1550,8 @@ def run_one(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, Binv, fast, 
     """One simulation of n = len(dims) axes (``dims`` a tuple of n zeros: its length is a
     compile-time constant, so each dimension gets its own compiled loop with the per-axis
     loops unrolled); fills ``rec`` (n_rec, 4 n + 4) if it has rows,
-    ``summary`` and ``tail_p`` (n_tail, n): the position sampled evenly over the tail.
+    ``summary`` and ``tail_p`` (n, n_tail): the position sampled evenly over the tail, one
+    contiguous row an axis (the verdicts read each axis's row without a copy).
 
     Record columns: t, p (n), v (n), f (n), the per-axis environment energies E_i (n),
     E_damping, W_operator, KE. The run stops at the first sample whose position, velocity,
@@ -1607,7 +1608,7 @@ def run_one(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, Binv, fast, 
     maxpen = 0.0
     ke0 = _mech_energy(M, modal, v, ph, vh, p, n)
     ke_prev = ke0
-    n_tail = tail_p.shape[0]
+    n_tail = tail_p.shape[1]
     tail_stride = max((n_steps - tail_start) // max(n_tail, 1), 1)
     e_tail = 0.0
     efr = 0.0
@@ -1786,7 +1787,7 @@ def run_one(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, Binv, fast, 
         if k == next_tail:  # every tail_stride-th sample of the tail (no division per sample)
             if itail < n_tail:
                 for i in range(n):
-                    tail_p[itail, i] = p[i]
+                    tail_p[i, itail] = p[i]
                 itail += 1
                 next_tail += tail_stride
         if k + 1 == next_rec:
@@ -1819,12 +1820,186 @@ def run_one(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, Binv, fast, 
     summary[S_PC_ACTIVE] = pc[PC_ACTIVE]
 
 
+@nb.njit(inline="always", **_JIT)
+def _axis_zoh(c, p, v, u, g):
+    """One axis of the decoupled fast path over one sample (``c`` = fast[regime, axis]):
+    (p+, v+, damping energy of the sample), the held force being u + g."""
+    w = u + g
+    return (p + c[F_PV] * v + c[F_PW] * w, c[F_VV] * v + c[F_VW] * w,
+            v * (c[F_CVV] * v + c[F_CVW] * w) + c[F_CWW] * w * w)
+
+
+@nb.njit(**_JIT)
+def run_lean(code, kind, coeffs, prm, aux, nominal, fast, M, f0, n_steps, T, p0, v0, record_every, rec, summary,
+             tail_start, tail_p, dims):
+    """:func:`run_one` without its optional machinery (see :func:`_lean_loop`). The loop is
+    compiled three times: for W and A with the algorithm a constant, so that their force
+    compiles to a few instructions (A's dispatch and state writes cost 25 % in 2-D,
+    measured), and for any algorithm."""
+    if code == ALG_A:
+        _lean_loop(ALG_A, kind, coeffs, prm, aux, nominal, fast, M, f0, n_steps, T, p0, v0, record_every, rec,
+                   summary, tail_start, tail_p, dims)
+    elif code == ALG_W:
+        _lean_loop(ALG_W, kind, coeffs, prm, aux, nominal, fast, M, f0, n_steps, T, p0, v0, record_every, rec,
+                   summary, tail_start, tail_p, dims)
+    else:
+        _lean_loop(code, kind, coeffs, prm, aux, nominal, fast, M, f0, n_steps, T, p0, v0, record_every, rec,
+                   summary, tail_start, tail_p, dims)
+
+
+@nb.njit(inline="always", **_JIT)
+def _lean_loop(code, kind, coeffs, prm, aux, nominal, fast, M, f0, n_steps, T, p0, v0, record_every, rec, summary,
+               tail_start, tail_p, dims):
+    """:func:`run_one` for the case with none of its optional machinery: a rigid device with
+    diagonal mass and damping (the decoupled closed forms ``fast``), pushed by the constant
+    force ``f0``, with no delay, position quantisation, force resolution, saturation, Coulomb
+    friction, passivity controller or kinematic operator (the caller checks; see
+    :func:`haptex.simulate._lean`). Same inputs and outputs, the same arithmetic in the same
+    order (the results are equal), with the state in scalars rather than arrays: the state's
+    loop-carried chain then stays in registers (2.3x faster in 2-D, measured)."""
+    n = len(dims)
+    three = n == 3  # a compile-time constant
+    st = np.zeros(N_STATE)
+    scratch = np.zeros(n)
+    x = p0[0]
+    y = p0[1] if three else 0.0
+    z = p0[n - 1]
+    vx = v0[0]
+    vy = v0[1] if three else 0.0
+    vz = v0[n - 1]
+    gx = f0[0]
+    gy = f0[1] if three else 0.0
+    gz = f0[n - 1]
+    ux = 0.0
+    uy = 0.0
+    uz = 0.0
+    ex = 0.0
+    ey = 0.0
+    ez = 0.0
+    ed = 0.0
+    eo = 0.0
+    maxpen = 0.0
+    ke0 = 0.5 * _quad(M, v0, n)
+    n_tail = tail_p.shape[1]
+    tail_stride = max((n_steps - tail_start) // max(n_tail, 1), 1)
+    e_tail = 0.0
+    irec = 0
+    nrec = rec.shape[0]
+    next_rec = record_every if nrec > 0 else -1
+    itail = 0
+    next_tail = tail_start if n_tail > 0 else -1
+    for k in range(n_steps):
+        if three:
+            ux, uy, uz = alg_force3(code, x, y, z, kind, coeffs, prm, aux, st)
+        else:
+            ux, uz = alg_force(code, x, z, kind, coeffs, prm, aux, st)
+        if nominal:
+            inside = z < 0.0
+            pen = -z
+        else:
+            h = st[S_H]
+            if h != h:
+                scratch[0] = x
+                scratch[n - 1] = z
+                if three:
+                    scratch[1] = y
+                h = height_under(n, kind, coeffs, scratch)
+            inside = z < h
+            pen = h - z
+        if pen > maxpen:
+            maxpen = pen
+        reg = 1 if inside else 0
+        nx, nvx, dx = _axis_zoh(fast[reg, 0], x, vx, ux, gx)
+        ed += dx
+        eo += gx * (nx - x)
+        if three:
+            ny, nvy, dy = _axis_zoh(fast[reg, 1], y, vy, uy, gy)
+            ed += dy
+            eo += gy * (ny - y)
+        nz, nvz, dz = _axis_zoh(fast[reg, n - 1], z, vz, uz, gz)
+        ed += dz
+        eo += gz * (nz - z)
+        ex -= ux * (nx - x)
+        x = nx
+        vx = nvx
+        if three:
+            ey -= uy * (ny - y)
+            y = ny
+            vy = nvy
+        ez -= uz * (nz - z)
+        z = nz
+        vz = nvz
+        if not math.isfinite(ed + eo + x + vx + ux + ex + y + vy + uy + ey + z + vz + uz + ez):
+            pp = np.array([x, y, z])
+            vv = np.array([vx, vy, vz])
+            uu = np.array([ux, uy, uz])
+            ee = np.array([ex, ey, ez])
+            if not three:
+                pp[1], vv[1], uu[1], ee[1] = z, vz, uz, ez
+            what = _diverged(pp, vv, uu, ee, ed, eo, n)
+            if what != 0:
+                summary[S_DIVERGED] = k + 1
+                summary[S_DIVERGED_WHAT] = what
+                n_steps = k + 1
+                break
+        if k == tail_start:
+            e_tail = ex + ey + ez if three else ex + ez
+        if k == next_tail:
+            if itail < n_tail:
+                tail_p[0, itail] = x
+                if three:
+                    tail_p[1, itail] = y
+                tail_p[n - 1, itail] = z
+                itail += 1
+                next_tail += tail_stride
+        if k + 1 == next_rec:
+            next_rec += record_every
+            rec[irec, 0] = k * T + T
+            row = ((x, vx, ux, ex), (y, vy, uy, ey), (z, vz, uz, ez))
+            for i in range(n):
+                a = 2 if (i == n - 1) else i
+                rec[irec, 1 + i] = row[a][0]
+                rec[irec, 1 + n + i] = row[a][1]
+                rec[irec, 1 + 2 * n + i] = row[a][2]
+                rec[irec, 1 + 3 * n + i] = row[a][3]
+                scratch[i] = row[a][1]
+            rec[irec, 1 + 4 * n] = ed
+            rec[irec, 2 + 4 * n] = eo
+            rec[irec, 3 + 4 * n] = 0.5 * _quad(M, scratch, n)
+            irec += 1
+            if irec == nrec:
+                next_rec = -1
+    summary[S_EX] = ex
+    summary[S_EZ] = ez
+    summary[S_EY] = ey
+    summary[S_DAMP] = ed
+    summary[S_OP] = eo
+    summary[S_KE0] = ke0
+    scratch[0] = vx
+    scratch[n - 1] = vz
+    if three:
+        scratch[1] = vy
+    summary[S_KE] = 0.5 * _quad(M, scratch, n)
+    summary[S_SAT] = 0
+    summary[S_MAXPEN] = maxpen
+    summary[S_NSAMP] = n_steps
+    summary[S_TAILSTART_E] = e_tail
+    summary[S_FRIC] = 0.0
+    summary[S_STUCK] = 0
+    summary[S_PC_ACTIVE] = 0.0
+
+
 @nb.njit(parallel=True, cache=True, nogil=True)
 def run_batch(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, Binv, fast, M, modal, K, C, f0, sp_t, sp_p, vend,
               rest_len, kinematic, n_steps, T, delay, delta, fres, fmax, fc, pc_on, pc_bmax, pc_ref, p0, v0,
-              record_every, rec, summary, tail_start, tail_p, dims):
-    """Runs i = 0..N-1 of :func:`run_one` in parallel; every per-run array has a leading N axis."""
+              record_every, rec, summary, tail_start, tail_p, dims, lean):
+    """Runs i = 0..N-1 of :func:`run_one` in parallel; every per-run array has a leading N axis.
+    ``lean`` = (1,) takes :func:`run_lean` instead (its length is a compile-time constant)."""
     for i in nb.prange(coeffs.shape[0]):
+        if len(lean) == 1:
+            run_lean(code, kind, coeffs[i], prm[i], aux[i], nominal, fast[i], M[i], f0[i], n_steps, T, p0[i], v0[i],
+                     record_every, rec[i], summary[i], tail_start, tail_p[i], dims)
+            continue
         run_one(code, kind, coeffs[i], prm[i], aux[i], nominal, Phi[i], Wd[i], Wo[i], Bs[i], Binv[i], fast[i], M[i],
                 modal[i], K[i], C[i], f0[i], sp_t, sp_p[i], vend[i], rest_len[i], kinematic, n_steps, T, delay[i],
                 delta[i], fres[i], fmax[i], fc[i], pc_on, pc_bmax[i], pc_ref, p0[i], v0[i], record_every, rec[i],
@@ -1917,7 +2092,8 @@ def tail_amplitudes(u, a1, a2):
     """Remove from each row of ``u`` (N, m), in place, its mean and least-squares straight
     line (steady sliding or drift is not an oscillation), and write half the peak-to-peak of
     the detrended row in its first and second halves into a1 and a2 (shape (N,)): the
-    amplitudes of the oscillation verdict (:func:`haptex.simulate._axis_verdicts`)."""
+    amplitudes of the oscillation verdict (:func:`haptex.simulate._axis_verdicts`). The rows
+    may be a strided view (one axis of the simulator's tail, (N, d, m)): nothing is copied."""
     N, m = u.shape
     tm = 0.5 * (m - 1)
     stt = 0.0

@@ -22,12 +22,14 @@ import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.fft
 from scipy.linalg import expm
 
 from ._kernels import (DIVERGED_ENERGY, DIVERGED_FORCE, DIVERGED_POSITION, DIVERGED_VELOCITY, N_FAST, N_SUMMARY,
                        PC_REF_STORED, PC_REF_ZERO, S_DAMP, S_DIVERGED, S_DIVERGED_WHAT, S_EX, S_EY, S_EZ, S_FRIC, S_KE,
                        S_KE0, S_MAXPEN, S_OP, S_PC_ACTIVE, S_SAT, S_TAILSTART_E)
 from ._kernels import run_batch as _run_batch
+from ._kernels import run_lean as _run_lean
 from ._kernels import run_one as _run
 from ._kernels import tail_amplitudes as _tail_amplitudes
 from ._validation import ParameterError, fail, nonnegative, positions, positive, whole
@@ -53,6 +55,9 @@ MEMORY_BUDGET = 2 * 1024**3
 """Largest time-series allocation (bytes) :func:`simulate` accepts: 2 GiB (96 bytes a
 recorded sample in the plane, 128 in space). Longer runs must record every n-th sample
 (``record_every``)."""
+TAIL_BLOCK = 16 * 1024**2
+"""Bytes of tail positions a batch holds at once (its runs go in blocks that reuse the buffer):
+the memory stays bounded for any number of runs, and pages are not faulted in afresh per run."""
 
 
 # --------------------------------------------------------------------------------------
@@ -175,6 +180,18 @@ def _fast_coefficients(device: Device, op: Operator) -> np.ndarray:
     return out
 
 
+def _lean(fast: np.ndarray, kinematic: bool, pc_on: bool, delay, delta, fres, fmax, fc) -> tuple:
+    """``(1,)`` when every run can take :func:`haptex._kernels.run_lean`: the decoupled fast
+    path (``fast`` has rows) with none of the machinery that loop leaves out (a kinematic
+    operator, the passivity controller, delay, position quantisation, force resolution,
+    saturation, Coulomb friction); ``()`` otherwise (the general :func:`~haptex._kernels.run_one`).
+    The compiled batch reads the tuple's length, a compile-time constant."""
+    off = (fast.shape[-3] > 0 and not kinematic and not pc_on and np.all(np.asarray(delay) == 0)
+           and np.all(np.asarray(delta) == 0.0) and np.all(np.asarray(fres) == 0.0)
+           and np.all(np.asarray(fmax) == math.inf) and np.all(np.asarray(fc) == 0.0))
+    return (1,) if off else ()
+
+
 def _mass_inputs(device: Device) -> tuple[np.ndarray, np.ndarray]:
     """(M, modal) for the compiled loop: the whole mass and no modal data for a rigid
     device; the motor side and [M_h, K_s] with a structural mode."""
@@ -263,7 +280,8 @@ class Oscillation:
 def _axis_verdicts(u: np.ndarray, tail_duration: float, threshold: np.ndarray, texture_freqs: np.ndarray):
     """The verdict of :class:`AxisOscillation` on N runs at once.
 
-    ``u`` (N, m) is one axis's tail, sampled evenly over ``tail_duration`` (s); ``threshold``
+    ``u`` (N, m) is one axis's tail, sampled evenly over ``tail_duration`` (s), detrended in
+    place (a view of the simulator's own tail: nothing is copied); ``threshold``
     (N,) in m; ``texture_freqs`` (N, k) the texture rates of each run (Hz, NaN-padded).
     Returns arrays (N,): oscillating, amplitude, decay ratio, frequency, texture driven.
     The detrending and the half amplitudes are the compiled
@@ -271,19 +289,20 @@ def _axis_verdicts(u: np.ndarray, tail_duration: float, threshold: np.ndarray, t
     N, n = u.shape
     a1 = np.empty(N)
     a2 = np.empty(N)
-    u = np.array(u, dtype=np.float64)  # detrended in place below
     _tail_amplitudes(u, a1, a2)
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(a1 > 0, a2 / np.where(a1 > 0, a1, 1.0), np.where(a2 > 0, np.inf, 0.0))
     moving = np.flatnonzero(a2 > threshold)
     freq = np.zeros(N)
     if moving.size:
-        um = u[moving]
-        um *= np.hanning(n)
-        spec = np.abs(np.fft.rfft(um, axis=1))  # the peak of |X| is the peak of the periodogram
-        spec[:, 0] = 0.0
-        peak = np.argmax(spec, axis=1)
-        freq[moving] = np.where(spec[np.arange(moving.size), peak] > 0, peak / tail_duration, 0.0)
+        window = np.hanning(n)
+        step = max(1, (1 << 16) // n)  # blocks of 512 KiB: their temporaries are reused, not faulted in afresh
+        for lo in range(0, moving.size, step):
+            rows = moving[lo:lo + step]
+            spec = np.abs(scipy.fft.rfft(u[rows] * window, axis=1))  # the peak of |X| is the periodogram's
+            spec[:, 0] = 0.0
+            peak = np.argmax(spec, axis=1)
+            freq[rows] = np.where(spec[np.arange(rows.size), peak] > 0, peak / tail_duration, 0.0)
     osc = (a2 > threshold) & (ratio >= 0.9) & (freq * tail_duration >= 3)
     driven = np.zeros_like(osc)
     if texture_freqs.shape[1]:
@@ -296,17 +315,17 @@ def _axis_verdicts(u: np.ndarray, tail_duration: float, threshold: np.ndarray, t
 
 def _oscillations(tail: np.ndarray, tail_duration: float, e_env_tail: np.ndarray, threshold: np.ndarray,
                   texture_freqs: np.ndarray) -> list[Oscillation]:
-    """Verdicts of N runs from their tail positions ``tail`` (N, m, d) [x, (y,) z] sampled
+    """Verdicts of N runs from their tail positions ``tail`` (N, d, m) [x, (y,) z] sampled
     evenly over ``tail_duration`` (s); ``e_env_tail`` (N,) the change of the summed
     environment energies over the tail (J); ``threshold`` (N,) m; ``texture_freqs`` (N, k)
     the rates (Hz, NaN-padded) at which a scan crosses the texture's periods."""
-    N, m, d = tail.shape
+    N, d, m = tail.shape
     names = "xz" if d == 2 else "xyz"
     if m < 8 or tail_duration <= 0:
         rest = AxisOscillation(False, 0.0, 0.0, 0.0)
         return [Oscillation(False, 0.0, 0.0, 0.0, 0.0, float(threshold[i]), "z", rest, rest,
                             rest if d == 3 else None) for i in range(N)]
-    cols = [_axis_verdicts(tail[:, :, i], tail_duration, threshold, texture_freqs)
+    cols = [_axis_verdicts(tail[:, i, :], tail_duration, threshold, texture_freqs)
             for i in range(d)]
     out = []
     for r in range(N):
@@ -324,7 +343,7 @@ def _oscillations(tail: np.ndarray, tail_duration: float, e_env_tail: np.ndarray
 def _oscillation(tail: np.ndarray, tail_duration: float, e_env_tail: float, threshold: float,
                  texture_freqs=()) -> Oscillation:
     """The verdict of one run from its tail positions (m, d) (see :func:`_oscillations`)."""
-    tail = np.asarray(tail, dtype=np.float64)
+    tail = np.array(np.asarray(tail, dtype=np.float64).T)  # detrended in place: a copy, (d, m)
     freqs = np.asarray(texture_freqs, dtype=np.float64).reshape(1, -1)
     return _oscillations(tail[None], tail_duration, np.array([e_env_tail]), np.array([threshold]), freqs)[0]
 
@@ -621,12 +640,17 @@ def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration:
     rec = np.zeros((n_rec, width))
     summary = np.zeros(N_SUMMARY)
     tail_start = int(n_steps * (1 - tail_fraction))
-    tail = np.zeros((min(n_steps - tail_start, 65536), d))
-    _run(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, Binv, fast, *_mass_inputs(device),
-         operator.stiffness, operator.damping, operator.force, operator.setpoint_times, operator.setpoint_points,
-         operator.final_velocity, operator.rest_length, operator.kinematic, n_steps, device.period, device.delay,
-         device.position_resolution, device.force_resolution, device.max_force, device.coulomb_friction, pc_on, pc_b,
-         pc_ref, p0, v0, record_every, rec, summary, tail_start, tail, (0,) * d)
+    tail = np.zeros((d, min(n_steps - tail_start, 65536)))
+    if _lean(fast, operator.kinematic, pc_on, device.delay, device.position_resolution, device.force_resolution,
+             device.max_force, device.coulomb_friction):
+        _run_lean(code, kind, coeffs, prm, aux, nominal, fast, device.mass, operator.force, n_steps, device.period,
+                  p0, v0, record_every, rec, summary, tail_start, tail, (0,) * d)
+    else:
+        _run(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, Binv, fast, *_mass_inputs(device),
+             operator.stiffness, operator.damping, operator.force, operator.setpoint_times, operator.setpoint_points,
+             operator.final_velocity, operator.rest_length, operator.kinematic, n_steps, device.period, device.delay,
+             device.position_resolution, device.force_resolution, device.max_force, device.coulomb_friction, pc_on,
+             pc_b, pc_ref, p0, v0, record_every, rec, summary, tail_start, tail, (0,) * d)
     osc = _oscillations(tail[None], (n_steps - tail_start) * device.period, _tail_energy(summary[None]),
                         np.array([_threshold(device)]), _frequency_table([_texture_frequencies(algorithm, operator)]))
     result = _result(rec, summary, osc[0])
@@ -914,39 +938,48 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     n_rec = n_steps // int(record_every) if record else 0
     if N * n_rec * width * 8 > MEMORY_BUDGET:
         raise ParameterError(f"record = True is not allowed here: {N} runs x {n_rec} samples need more than the 2 GiB budget")
-    runs = [_rebuild(algorithm, device, operator, {k: float(a[i]) for k, a in values.items()}) for i in range(N)]
+    # runs that differ only in their start share everything else: build each distinct run once
+    keys = [k for k in values if not k.startswith("initial_")]
+    if keys:
+        _, first, inverse = np.unique(np.column_stack([values[k] for k in keys]), axis=0, return_index=True,
+                                      return_inverse=True)
+        inverse = inverse.ravel()
+    else:
+        first, inverse = np.zeros(1, dtype=np.intp), np.zeros(N, dtype=np.intp)
+    runs = [_rebuild(algorithm, device, operator, {k: float(values[k][i]) for k in keys}) for i in first]
     letters = {a.letter for a, _, _ in runs}
-    shapes = {a.kernel_spec()[3].shape for a, _, _ in runs}
     periods = {d_.period for _, d_, _ in runs}
-    if len(letters) != 1 or len(shapes) != 1 or len(periods) != 1:
-        raise ParameterError("the runs of a batch must share the algorithm letter, texture shape and sampling period")
     memo: dict = {}
     specs = [_kernel_inputs(a, d_, o, memo) for a, d_, o in runs]
+    if len(letters) != 1 or len({s[3].shape for s in specs}) != 1 or len(periods) != 1:
+        raise ParameterError("the runs of a batch must share the algorithm letter, texture shape and sampling period")
     code, kind, nominal = specs[0][0], specs[0][2], specs[0][5]
-    st = lambda j: np.ascontiguousarray(np.stack([s[j] for s in specs]))  # noqa: E731
+    st = lambda j: np.ascontiguousarray(np.stack([s[j] for s in specs])[inverse])  # noqa: E731
     prm, coeffs, Phi, Wd, Wo, Bs, Binv = st(1), st(3), st(6), st(7), st(8), st(9), st(10)
     fast = st(11) if len({s[11].shape[0] for s in specs}) == 1 else np.zeros((N, 0, d, N_FAST))
     n_aux = max(s[4].size for s in specs)  # bound trees of different sizes: pad (the header says the size)
-    aux = np.zeros((N, n_aux))
+    aux = np.zeros((len(specs), n_aux))
     for i, s in enumerate(specs):
         aux[i, :s[4].size] = s[4]
+    aux = aux[inverse]
     dev = [d_ for _, d_, _ in runs]
     ops = [o for _, _, o in runs]
     if len({d_.structural_mode for d_ in dev}) != 1:
         raise ParameterError("the runs of a batch must all have a structural mode or all be rigid")
-    M = np.stack([_mass_inputs(d_)[0] for d_ in dev])
-    modal = np.stack([_mass_inputs(d_)[1] for d_ in dev])
-    K = np.stack([o.stiffness for o in ops])
-    C = np.stack([o.damping for o in ops])
-    f0 = np.stack([o.force for o in ops])
-    sp_p = np.stack([o.setpoint_points for o in ops])
-    vend = np.stack([o.final_velocity for o in ops])
-    rest = np.array([o.rest_length for o in ops])
-    delay = np.array([d_.delay for d_ in dev], dtype=np.int64)
-    delta = np.array([d_.position_resolution for d_ in dev])
-    fres = np.array([d_.force_resolution for d_ in dev])
-    fmax = np.array([d_.max_force for d_ in dev])
-    fc = np.array([d_.coulomb_friction for d_ in dev])
+    per_run = lambda items, **kw: np.ascontiguousarray(np.asarray(items, **kw)[inverse])  # noqa: E731
+    M = per_run([_mass_inputs(d_)[0] for d_ in dev])
+    modal = per_run([_mass_inputs(d_)[1] for d_ in dev])
+    K = per_run([o.stiffness for o in ops])
+    C = per_run([o.damping for o in ops])
+    f0 = per_run([o.force for o in ops])
+    sp_p = per_run([o.setpoint_points for o in ops])
+    vend = per_run([o.final_velocity for o in ops])
+    rest = per_run([o.rest_length for o in ops])
+    delay = per_run([d_.delay for d_ in dev], dtype=np.int64)
+    delta = per_run([d_.position_resolution for d_ in dev])
+    fres = per_run([d_.force_resolution for d_ in dev])
+    fmax = per_run([d_.max_force for d_ in dev])
+    fc = per_run([d_.coulomb_friction for d_ in dev])
     pcb = np.full(N, pc_b)
     P0 = np.tile(p0, (N, 1))
     for axis, i in (("x", 0), ("y", 1), ("z", d - 1)):
@@ -956,7 +989,9 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     rec = np.zeros((N, n_rec, width))
     summary = np.zeros((N, N_SUMMARY))
     tail_start = int(n_steps * (1 - tail_fraction))
-    tail = np.zeros((N, min(n_steps - tail_start, 8192), d))
+    m_tail = min(n_steps - tail_start, 8192)
+    per_block = max(1, TAIL_BLOCK // (d * m_tail * 8))  # runs a block: the tail buffer is reused between blocks
+    tail = np.zeros((min(N, per_block), d, m_tail))
     T = dev[0].period
     # (value, True if it has one row per run)
     args = [(code, False), (kind, False), (coeffs, True), (prm, True), (aux, True), (nominal, False), (Phi, True),
@@ -964,19 +999,27 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
             (C, True), (f0, True), (ops[0].setpoint_times, False), (sp_p, True), (vend, True), (rest, True),
             (ops[0].kinematic, False), (n_steps, False), (T, False), (delay, True), (delta, True), (fres, True),
             (fmax, True), (fc, True), (pc_on, False), (pcb, True), (pc_ref, False), (P0, True), (V0, True),
-            (int(record_every), False), (rec, True), (summary, True), (tail_start, False), (tail, True),
-            ((0,) * d, False)]
+            (int(record_every), False), (rec, True), (summary, True), (tail_start, False), (None, False),
+            ((0,) * d, False), (_lean(fast, ops[0].kinematic, pc_on, delay, delta, fres, fmax, fc), False)]
+    i_tail = next(i for i, (a, _) in enumerate(args) if a is None)
+    thresholds = np.array([_threshold(d_) for d_ in dev])[inverse]
+    freqs = _frequency_table([_texture_frequencies(a, o) for a, _, o in runs])[inverse]
     show = (N * n_steps > 5e7) if progress is None else bool(progress)
     bar = _progress(show, N)
-    for idx in np.array_split(np.arange(N), min(N, 20) if show else 1):
+    osc = []
+    for idx in np.array_split(np.arange(N), max(-(-N // per_block), min(N, 20) if show else 1)):
         if idx.size:
             lo, hi = idx[0], idx[-1] + 1
-            _run_batch(*[a[lo:hi] if per_run else a for a, per_run in args])
+            block = tail[:hi - lo]
+            if lo:
+                block.fill(0.0)  # a run that diverges leaves the rest of its tail as it found it
+            call = [a[lo:hi] if per_run else a for a, per_run in args]
+            call[i_tail] = block
+            _run_batch(*call)
+            osc += _oscillations(block, (n_steps - tail_start) * T, _tail_energy(summary[lo:hi]), thresholds[lo:hi],
+                                 freqs[lo:hi])
             bar(idx.size)
     bar(None)
-    osc = _oscillations(tail, (n_steps - tail_start) * T, _tail_energy(summary),
-                        np.array([_threshold(d_) for d_ in dev]),
-                        _frequency_table([_texture_frequencies(a, o) for a, _, o in runs]))
     w_cmd = -(summary[:, S_EX] + summary[:, S_EY] + summary[:, S_EZ])
     balance = _balance_error(summary[:, S_KE], summary[:, S_KE0], w_cmd, summary[:, S_OP], summary[:, S_DAMP],
                              summary[:, S_FRIC])
