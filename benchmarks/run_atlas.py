@@ -3,10 +3,11 @@
 1. runs and simulated samples per second of `haptex.sweep` with 1 and 2 local workers, on
    the wall atlas of examples/sweeps/wall.toml (1200 runs x 5 s at T = 100 us: 6e7 samples),
    cluster start-up included and excluded;
-2. the overhead per task: 40 blocks through Dask (submitted together, as a sweep does) against
+2. the overhead per task: 40 blocks through Dask, one a task (submitted together), against
    simulate_batch called directly on the same runs (the issue's baseline) and against the
    task function run in this process, for blocks of 10^5, 10^6 and 10^7 samples (goal
-   <= 10 % from 10^5), and one task's round trip;
+   <= 10 % from 10^5), and one task's round trip; then the same 40 blocks gathered into tasks
+   as a sweep sends them (haptex.atlas.TASK_SAMPLES), and a no-op task's cost;
 3. the largest sweep run here: the wall atlas at 8 x the stiffness resolution.
 """
 
@@ -20,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from haptex import simulate_batch
-from haptex.atlas import SweepSpec, _run_block, sweep
+from haptex.atlas import SweepSpec, _run_block, _run_blocks, _tasks, sweep
 
 WALL = Path(__file__).resolve().parents[1] / "examples" / "sweeps" / "wall.toml"
 
@@ -65,6 +66,12 @@ def main() -> None:
             local = statistics.median(_time(lambda: [_run_block(s.mapping, b, 1) for b in blocks]) for _ in range(3))
             remote = statistics.median(_time(lambda: client.gather([client.submit(_run_block, s.mapping, b, 1, pure=False)
                                                                     for b in blocks])) for _ in range(3))
+            groups = [[blocks[i] for i in g] for g in _tasks(list(range(len(blocks))), n, 1)]
+            grouped = statistics.median(_time(lambda: client.gather([client.submit(_run_blocks, s.mapping, g, 1, pure=False)
+                                                                     for g in groups])) for _ in range(3))
+            print(f"40 blocks of {n:.0e} samples as a sweep sends them ({len(groups)} tasks): {grouped:.3f} s, overhead "
+                  f"{100 * (grouped - direct) / direct:.1f} % against simulate_batch "
+                  f"({(grouped - direct) / 40 * 1e3:.2f} ms a block)")
             latency = statistics.median(_time(lambda: client.submit(_run_block, s.mapping, blocks[0], 1,
                                                                     pure=False).result()) for _ in range(5))
             print(f"40 tasks of {n:.0e} samples (median of 3): simulate_batch directly {direct:.3f} s, the task "
@@ -72,6 +79,12 @@ def main() -> None:
                   f"{100 * (remote - direct) / direct:.1f} % against simulate_batch "
                   f"({(remote - direct) / 40 * 1e3:.2f} ms a task), {100 * (remote - local) / local:.1f} % against the "
                   f"task function; one task's round trip {latency * 1e3:.1f} ms against {direct / 40 * 1e3:.1f} ms")
+    with cluster_for_noop() as (client, n_tasks):
+        client.gather([client.submit(_noop, i, pure=False) for i in range(n_tasks)])
+        noop = statistics.median(_time(lambda: client.gather([client.submit(_noop, i, pure=False)
+                                                              for i in range(n_tasks)])) for _ in range(5))
+        print(f"a no-op task (returning 14 small arrays, {n_tasks} submitted together, 1 worker in this process): "
+              f"{noop / n_tasks * 1e3:.2f} ms")
     big = dict(spec.mapping, axes=dict(spec.mapping["axes"], stiffness="0.5-20 kN/m, 480 log steps"))
     s = SweepSpec.from_mapping(big)
     with tempfile.TemporaryDirectory() as tmp:
@@ -79,6 +92,24 @@ def main() -> None:
     n = s.runs * round(s.duration / 1e-4)
     print(f"largest sweep: {s.runs} runs x {round(s.duration / 1e-4)} samples = {n:.2g} samples in {wall:.1f} s "
           f"({n / wall:.3g} samples/s, the default: a worker process a core)")
+
+
+def _noop(i):
+    return {f"v{j}": np.zeros(10) for j in range(14)}
+
+
+class cluster_for_noop:
+    """The local cluster a sweep with one worker starts, and 40 tasks."""
+
+    def __enter__(self):
+        from haptex.atlas import _client
+
+        self.client, self.cluster, _ = _client(None, 1)
+        return self.client, 40
+
+    def __exit__(self, *exc):
+        self.client.close()
+        self.cluster.close()
 
 
 def _time(fn) -> float:

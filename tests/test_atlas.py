@@ -49,6 +49,25 @@ def test_the_wall_atlas_finds_the_closed_form_boundary_within_one_grid_step():
         assert drawn == pytest.approx([hx.critical_stiffness(M, float(b), T, d) for b in ds.damping.values], rel=1e-12)
 
 
+def test_small_blocks_are_gathered_into_tasks_and_give_the_same_atlas(tmp_path):
+    # a Dask task costs ~1.7 ms here whatever it does (benchmarks/README.md): consecutive small
+    # blocks share a task of about TASK_SAMPLES samples, keeping >= 4 tasks a worker thread
+    from haptex.atlas import TASK_SAMPLES, _tasks
+
+    todo = list(range(40))
+    assert _tasks(todo, 100_000, 1) == [todo[i:i + 10] for i in range(0, 40, 10)]  # capped by 4 a thread
+    assert _tasks(todo, 100_000, 2) == [todo[i:i + 5] for i in range(0, 40, 5)]
+    assert _tasks(list(range(400)), 100_000, 1)[0] == list(range(TASK_SAMPLES // 100_000))  # 20 blocks a task
+    assert _tasks(todo, TASK_SAMPLES, 1) == [[i] for i in todo]  # large blocks: one a task
+    # the same runs in blocks of 1 (24 blocks, gathered 6 to a task) and of 5: the same atlas
+    axes = {"stiffness": "1-30 kN/m, 12 log steps", "delay": [0, 1]}
+    fine = sweep(wall_spec(axes, duration="0.3 s", block=1), tmp_path / "fine.zarr", workers=1)
+    coarse = sweep(wall_spec(axes, duration="0.3 s", block=5), tmp_path / "coarse.zarr", workers=1)
+    assert fine.attrs["blocks_computed"] == 24 and bool(fine["done"].all())
+    for name in coarse.data_vars:
+        assert np.array_equal(fine[name].values, coarse[name].values, equal_nan=fine[name].dtype.kind == "f"), name
+
+
 def test_one_or_two_workers_write_identical_stores_and_a_resumed_sweep_completes(tmp_path):
     spec = wall_spec({"stiffness": "1-30 kN/m, 12 log steps", "delay": [0, 1]}, duration="0.3 s", block=5)
     one = sweep(spec, tmp_path / "one.zarr", workers=1)

@@ -3,9 +3,10 @@ Zarr through xarray, resumable and deterministic (issue 14).
 
 A sweep SPEC (TOML or YAML) names the fixed parts (algorithm and texture, device, operator,
 duration) and the axes to sweep. The grid of runs (the Cartesian product of the axes) is cut
-into blocks; each block is one Dask task that calls :func:`haptex.simulate_batch` on its
-runs; the client writes each block into the Zarr store as its task finishes, then marks it
-done. Rerunning the same SPEC into the same store skips the blocks marked done; a store
+into blocks; each block is one call of :func:`haptex.simulate_batch` on its runs, and one
+Dask task computes one block or, when the blocks are small and many, a few consecutive ones
+(:data:`TASK_SAMPLES`); the client writes each block into the Zarr store as its task finishes,
+then marks it done. Rerunning the same SPEC into the same store skips the blocks marked done; a store
 written by another SPEC is refused. Runs are deterministic (no randomness), so a block
 recomputed after a lost worker is bit for bit the same.
 
@@ -386,6 +387,27 @@ def _built(key: str, letter: str | None):
     return _parsed(key).build(letter=letter)
 
 
+TASK_SAMPLES = 2_000_000
+"""Simulated samples a Dask task aims at, gathering consecutive blocks when theirs are fewer:
+a task costs Dask about 1.7 ms on this project's 2-core machine whatever it does (40 no-op
+tasks, one in-process worker), against about 0.1 s of simulation for 2e6 samples. Dask's own
+advice is tasks of 100 ms or more ("Dask best practices: avoid very small tasks"). The blocks
+(the store's chunks, the unit of resume) keep their size; a sweep still has at least four tasks
+a worker thread, so that the workers share it and a lost worker costs little."""
+
+
+def _tasks(todo: list, block_samples: int, threads: int) -> list[list]:
+    """The blocks ``todo`` (indices, in order) gathered into tasks of about
+    :data:`TASK_SAMPLES` samples (``block_samples`` a block), at least 4 tasks a thread."""
+    k = max(1, min(-(-TASK_SAMPLES // max(block_samples, 1)), len(todo) // (4 * max(threads, 1))))
+    return [todo[i:i + k] for i in range(0, len(todo), k)]
+
+
+def _run_blocks(spec_mapping: dict, blocks: list, numba_threads: int | None = None) -> list[dict]:
+    """One task: :func:`_run_block` on each of ``blocks``, in order."""
+    return [_run_block(spec_mapping, b, numba_threads) for b in blocks]
+
+
 def _run_block(spec_mapping: dict, block: tuple, numba_threads: int | None = None) -> dict:
     """One task: simulate the runs of one block; returns the variables, shaped as the block."""
     if numba_threads is not None:
@@ -475,7 +497,8 @@ def sweep(spec, out=None, *, scheduler: str | None = None, workers: int | None =
 
     if not isinstance(spec, SweepSpec):
         spec = SweepSpec.from_mapping(spec) if isinstance(spec, dict) else SweepSpec.from_file(spec)
-    dimension = spec.build(letter=str(spec.axes[0].values[0]) if spec.axes[0].name == "algorithm" else None)[1].dimension
+    fixed_device = spec.build(letter=str(spec.axes[0].values[0]) if spec.axes[0].name == "algorithm" else None)[1]
+    dimension = fixed_device.dimension
     blocks = spec.blocks()
     store = None if out is None else Path(out)
     done_blocks: set = set()
@@ -510,19 +533,21 @@ def sweep(spec, out=None, *, scheduler: str | None = None, workers: int | None =
         try:
             from dask.distributed import as_completed
 
-            futures = {client.submit(_run_block, spec.mapping, blocks[i], threads, pure=True, retries=3): i
-                       for i in todo}
+            n_threads = sum(client.nthreads().values()) or 1
+            steps = round(spec.duration / fixed_device.period)  # samples a run
+            groups = _tasks(todo, max(_size(blocks[i]) for i in todo) * steps, n_threads)
+            futures = {client.submit(_run_blocks, spec.mapping, [blocks[i] for i in g], threads, pure=True,
+                                     retries=3): g for g in groups}
             for fut in as_completed(futures):
-                i = futures[fut]
-                data = fut.result()
-                if store is None:
-                    results[i] = data
-                else:
-                    _write(store, spec, blocks[i], data, dimension)
-                computed += 1
-                bar(_size(blocks[i]))
-                if on_block is not None:
-                    on_block(computed)
+                for i, data in zip(futures[fut], fut.result()):
+                    if store is None:
+                        results[i] = data
+                    else:
+                        _write(store, spec, blocks[i], data, dimension)
+                    computed += 1
+                    bar(_size(blocks[i]))
+                    if on_block is not None:
+                        on_block(computed)
         finally:
             bar(None)
             client.close()
