@@ -409,7 +409,7 @@ def _run_blocks(spec_mapping: dict, blocks: list, numba_threads: int | None = No
 
 
 def _run_block(spec_mapping: dict, block: tuple, numba_threads: int | None = None) -> dict:
-    """One task: simulate the runs of one block; returns the variables, shaped as the block."""
+    """One block: simulate its runs; returns the variables, shaped as the block."""
     if numba_threads is not None:
         import numba
 
