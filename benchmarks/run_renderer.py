@@ -26,7 +26,7 @@ except ImportError:  # run from the repository root
     from benchmarks.run_sim import build_reference, c_reference
 
 
-@nb.njit(cache=True)
+@nb.njit  # not cached: a cached copy would keep a stale render_step after _kernels changes
 def _kernel_loop(xs, ys, zs, mem):
     acc = 0.0
     for i in range(xs.shape[0]):

@@ -155,7 +155,11 @@ def test_exported_stateful_ticks_follow_the_renderer_along_a_stroke(tmp_path, le
     kw = {"friction": 0.8, "presliding": 1e-3, "max_penetration": 1e-3} if letter == "F" else {}
     alg = hx.algorithm(letter, tex, K0, **kw, **params)
     c, r, x, z, got, ref = _stroke_against_the_renderer(alg, tmp_path)
-    np.testing.assert_allclose(got, ref, rtol=1e-12, atol=1e-15)
+    # F: the same arithmetic. D and E: the exported tick searches the bound tree, the renderer
+    # its cell table (haptex.closest.table_search_data); each closest point is certified within
+    # about 1e-15 m of the true one, so the forces agree to kappa_0 sqrt(1 + h'^2) 2e-15 m
+    atol = 2e-15 * K0 * math.sqrt(1.0 + tex.max_slope ** 2) if letter in "DE" else 1e-15
+    np.testing.assert_allclose(got, ref, rtol=1e-12, atol=atol)
     assert c.state.clamps == r.clamps and c.state.faults == 0
 
 

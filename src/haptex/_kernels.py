@@ -115,8 +115,9 @@ def texture_height(kind, coeffs, x):
 # period of a periodic texture, the sampled range of a non-periodic profile).
 CP_VERTICAL, CP_PERIODIC, CP_FINITE, CP_OPEN = 0, 1, 2, 3
 (A_MODE, A_START, A_PERIOD, A_TREELEN, A_NLEAF, A_STEP, A_SLOPE, A_CURV, A_HMIN, A_TMIN, A_WCAP,
- A_X0, A_XE, A_HL, A_SL, A_HR, A_SR, A_TIE, A_JERK) = range(19)
+ A_X0, A_XE, A_HL, A_SL, A_HR, A_SR, A_TIE, A_JERK, A_TABLE) = range(20)
 A_TREE = 20
+"""aux[A_TABLE] is the offset in ``aux`` of a cell table (:func:`build_cell_table`), 0 for none."""
 """lo[i] is aux[A_TREE + i] and hi[i] is aux[A_TREE + 2 n_leaf + i], i = 1 .. 2 n_leaf - 1."""
 MAX_LEAVES = 1 << 22
 """Largest bound tree (leaves) a texture may ask for: 2^22 leaves are 128 MiB of bounds."""
@@ -361,31 +362,11 @@ def _ray(kind, coeffs, px, pz, t_end, h_end, s_end, left, bs):
 
 
 @nb.njit(**_JIT)
-def closest_point(kind, coeffs, aux, px, pz, t_guess, bs):
-    """Closest point abscissa t on the boundary z = h(x) to a point (px, pz) below it.
-
-    Bounded branch and bound (see :func:`haptex.closest.closest_point` for the argument):
-    upper bounds from the vertical point, a warm start ``t_guess`` (NaN for none), the
-    nearest global minimum of h and the straight extensions of a finite profile; then the
-    bound tree prunes every part of the boundary that cannot be closer. ``bs`` is scratch
-    of length N_SEARCH. Returns (t, distance, tie, work): tie is 1 when another, distinct
-    local minimum lies at the same distance to aux[A_TIE] + 1e-9 times the distance
-    (the medial axis), work the number of texture evaluations spent.
-    """
-    h0, _, _ = texture_eval(kind, coeffs, px)
-    dv = h0 - pz
-    if dv <= 0.0:
-        return px, 0.0, 0, 1
-    bs[B_F] = dv * dv
-    bs[B_T] = px
-    bs[B_SECOND] = math.inf
-    bs[B_FOUND] = 0.0
-    bs[B_WORK] = 1.0
-    mode = int(aux[A_MODE])
-    if mode == CP_VERTICAL:  # flat: the vertical point is the closest
-        return px, dv, 0, 1
+def _tree_search(kind, coeffs, aux, px, pz, t_guess, mode, bs):
+    """The bounded branch and bound of :func:`closest_point` over the bound tree, from the
+    vertical point already in ``bs``: the warm start, the bounds of the texture's mode, the tree."""
     if t_guess == t_guess:
-        r = dv
+        r = math.sqrt(bs[B_F])  # the vertical depth: the closest point is within it of px
         tg, it = _polish(kind, coeffs, px, pz, t_guess, px - r, px + r)
         f, _, _ = _dphi(kind, coeffs, px, pz, tg)
         bs[B_WORK] += it + 1
@@ -422,6 +403,39 @@ def closest_point(kind, coeffs, aux, px, pz, t_guess, bs):
         while n * leaf < 2.0 * half:
             n *= 2
         _descend(kind, coeffs, aux, px, pz, px - 0.5 * n * leaf, n * leaf, n, False, bs)
+
+
+@nb.njit(**_JIT)
+def closest_point(kind, coeffs, aux, px, pz, t_guess, bs):
+    """Closest point abscissa t on the boundary z = h(x) to a point (px, pz) below it.
+
+    Bounded branch and bound (see :func:`haptex.closest.closest_point` for the argument):
+    upper bounds from the vertical point, a warm start ``t_guess`` (NaN for none), the
+    nearest global minimum of h and the straight extensions of a finite profile; then the
+    bound tree prunes every part of the boundary that cannot be closer. ``bs`` is scratch
+    of length N_SEARCH. Returns (t, distance, tie, work): tie is 1 when another, distinct
+    local minimum lies at the same distance to aux[A_TIE] + 1e-9 times the distance
+    (the medial axis), work the number of texture evaluations spent.
+    """
+    return closest_point_below(kind, coeffs, aux, px, pz, texture_height(kind, coeffs, px) - pz, t_guess, bs)
+
+
+@nb.njit(**_JIT)
+def closest_point_below(kind, coeffs, aux, px, pz, dv, t_guess, bs):
+    """:func:`closest_point` given the vertical depth dv = h(px) - pz (m) the caller has
+    already evaluated."""
+    if dv <= 0.0:
+        return px, 0.0, 0, 1
+    bs[B_F] = dv * dv
+    bs[B_T] = px
+    bs[B_SECOND] = math.inf
+    bs[B_FOUND] = 0.0
+    bs[B_WORK] = 1.0
+    mode = int(aux[A_MODE])
+    if mode == CP_VERTICAL:  # flat: the vertical point is the closest
+        return px, dv, 0, 1
+    if aux[A_TABLE] == 0.0 or not _table_search(kind, coeffs, aux, px, pz, t_guess, bs):
+        _tree_search(kind, coeffs, aux, px, pz, t_guess, mode, bs)
     best_f = bs[B_F]
     second = bs[B_SECOND]
     tie = 0
@@ -441,6 +455,264 @@ def closest_points(kind, coeffs, aux, px, pz, t_out, d_out, tie_out, work_out):
         d_out[i] = d
         tie_out[i] = tie
         work_out[i] = work
+
+
+# ----------------------------------------------------------------------------------------
+# The cell table: the closest-point search of a servo tick in constant work (D and E over a
+# periodic profile). Probe positions are cut into square cells of side w in (x mod period,
+# z); for each cell, built once, the few pieces of the boundary that can hold the closest
+# point of *any* probe in it, each certified either convex (one Newton solve) or not (scanned).
+# ----------------------------------------------------------------------------------------
+T_X0, T_PERIOD, T_W, T_NX, T_Z0, T_NZ = range(6)
+T_CELLS = 6
+"""Table layout from aux[A_TABLE]: the header T_*, then per cell (row-major, x fastest) the
+index in ``aux`` of its first piece and its number of pieces (-1: search the tree), then the
+pieces (lo, hi, kind, m, G): lo and hi relative to the start of the cell's period (m); on a
+convex piece, a lower bound m of g' and an upper bound G of |g''| over it for every probe of
+the cell, g = phi'/2 (m/m, 1/m)."""
+PIECE = 5
+PIECE_NEWTON, PIECE_SCAN = 0.0, 1.0
+TABLE_FINE = 8
+"""A cell's pieces are built from intervals of at most its width / TABLE_FINE."""
+TABLE_TOP = 32
+"""The first cut of a cell's search window when its pieces are built (then halved as needed)."""
+TABLE_MAXP = 16
+"""Most pieces a cell may hold; a cell that would need more is searched by the tree."""
+
+
+@nb.njit(inline="always", **_JIT)
+def _convex_min(kind, coeffs, px, pz, lo, hi, m, G, t0, bs):
+    """Minimum of phi over [lo, hi] where g = phi'/2 has g' >= m > 0 and |g''| <= G: Newton
+    from t0 inside a bracket, an end evaluated only when a step leaves the piece. The Newton
+    step tn from t is returned as soon as its error is certified below 1e-15 (1 + |t|) m
+    (|t - t*| <= |g(t)| / m and |tn - t*| <= G / (2 g'(t)) (t - t*)^2), or the step itself is
+    that small (the tree's criterion, :func:`_refine_bracket`; where m is small, rounding in g
+    can keep the certificate out of reach). Returns (t, f), and adds the work to bs[B_WORK]."""
+    a = lo
+    b = hi
+    a_known = False
+    b_known = False
+    t = min(max(t0, lo), hi)
+    work = 0
+    for _ in range(64):
+        h, s, c = texture_eval(kind, coeffs, t)
+        dz = h - pz
+        g = (t - px) + dz * s
+        gp = 1.0 + s * s + dz * c
+        work += 1
+        if g > 0.0:
+            b = t
+            b_known = True
+        else:
+            a = t
+            a_known = True
+        tn = t - g / gp if gp > 0.0 else 0.5 * (a + b)
+        e = g / m
+        if lo <= tn <= hi and (G / (2.0 * gp) * e * e <= 1e-15 * (1.0 + abs(t)) or abs(tn - t) <= 1e-15 * (1.0 + abs(t))):
+            bs[B_WORK] += work
+            u = tn - t  # h(tn) by Taylor: its error, A_JERK |u|^3 / 6, is far below rounding here
+            dz = h + u * (s + 0.5 * u * c) - pz
+            return tn, (tn - px) * (tn - px) + dz * dz
+        if tn <= a or tn >= b:
+            if tn <= a and not a_known:  # the minimum may be the piece's left end
+                fa, ga, _ = _dphi(kind, coeffs, px, pz, lo)
+                work += 1
+                if ga >= 0.0:
+                    bs[B_WORK] += work
+                    return lo, fa
+                a_known = True
+            elif tn >= b and not b_known:
+                fb, gb, _ = _dphi(kind, coeffs, px, pz, hi)
+                work += 1
+                if gb <= 0.0:
+                    bs[B_WORK] += work
+                    return hi, fb
+                b_known = True
+            tn = 0.5 * (a + b)
+        t = tn
+        if b - a <= 1e-16 * (1.0 + abs(t)):
+            break
+    t = min(max(t, lo), hi)
+    f, _, _ = _dphi(kind, coeffs, px, pz, t)
+    bs[B_WORK] += work + 1
+    return t, f
+
+
+@nb.njit(inline="always", **_JIT)
+def _table_search(kind, coeffs, aux, px, pz, t_guess, bs):
+    """The closest point from the cell table at aux[A_TABLE] (see ``T_CELLS``): minimise phi on
+    each of the cell's pieces (Newton on a convex one, :func:`_scan_leaf` on the others) and
+    offer each minimum. False, with nothing done, when the probe is outside the table or its
+    cell has too many pieces: the caller then searches the tree."""
+    o = int(aux[A_TABLE])
+    w = aux[o + T_W]
+    nx = int(aux[o + T_NX])
+    jz = math.floor((pz - aux[o + T_Z0]) / w)
+    if not (0.0 <= jz < aux[o + T_NZ]):
+        return False
+    period = aux[o + T_PERIOD]
+    base = aux[o + T_X0] + period * math.floor((px - aux[o + T_X0]) / period)
+    ix = int((px - base) / w)
+    ix = min(max(ix, 0), nx - 1)
+    c = o + T_CELLS + 2 * (int(jz) * nx + ix)
+    n = int(aux[c + 1])
+    if n < 0:
+        return False
+    first = int(aux[c])
+    guess = t_guess if t_guess == t_guess else px
+    sep = w / TABLE_FINE
+    for k in range(n):
+        q = first + PIECE * k
+        lo = base + aux[q]
+        hi = base + aux[q + 1]
+        if aux[q + 2] == PIECE_NEWTON:
+            t, f = _convex_min(kind, coeffs, px, pz, lo, hi, aux[q + 3], aux[q + 4], guess, bs)
+            _offer(bs, t, f, sep)
+        else:
+            _scan_leaf(kind, coeffs, aux, px, pz, lo, hi - lo, bs)
+    return True
+
+
+@nb.njit(**_JIT)
+def _cell_pieces(kind, coeffs, aux, period, x0, w, cx, zlo, zhi, row):
+    """The pieces of one cell (see :func:`build_cell_table`) into ``row``; returns their number
+    (more than TABLE_MAXP: only the first TABLE_MAXP are written). ``aux`` is the search data
+    without a table."""
+    S = aux[A_SLOPE]
+    C = aux[A_CURV]
+    J = aux[A_JERK]
+    L = math.sqrt(1.0 + S * S)
+    r = 0.5 * w * math.sqrt(2.0) * (1.0 + 1e-9) + 1e-9 * w
+    cz = 0.5 * (zlo + zhi)
+    hc = texture_height(kind, coeffs, cx)
+    if zlo > hc + S * 0.5 * w + 1e-9 * w:  # the whole cell is above the boundary: no probe of it searches
+        return 0
+    tmin = aux[A_TMIN]
+    U = abs(hc - cz)
+    tv = tmin + period * math.floor((cx - tmin) / period + 0.5)
+    U = min(U, math.hypot(tv - cx, texture_height(kind, coeffs, tv) - cz))
+    if cz < hc:  # the centre's own distance, from the bound tree
+        _, dc, _, _ = closest_point(kind, coeffs, aux, cx, cz, math.nan, np.empty(N_SEARCH))
+        U = min(U, dc)
+    else:  # the best of a few boundary points
+        for k in range(TABLE_TOP + 1):
+            t = cx - U + 2.0 * U * k / TABLE_TOP
+            U = min(U, math.hypot(t - cx, texture_height(kind, coeffs, t) - cz))
+    reach = U + 2.0 * r
+    R = reach
+    # dyadic intervals of the window [cx - R, cx + R]: TABLE_TOP at level 0, the finest (at most
+    # w / TABLE_FINE wide) at level nlev; interval (l, i) covers the finest ones i 2^(nlev - l)
+    # to (i + 1) 2^(nlev - l) - 1, of width dt each
+    nlev = 0
+    while 2.0 * R / (TABLE_TOP << nlev) > w / TABLE_FINE:
+        nlev += 1
+    dt = 2.0 * R / (TABLE_TOP << nlev)
+    # depth-first, left first (pieces come in increasing t); an entry: level, index, then
+    # (d, h, h', h'') at its left and right ends
+    stk = np.empty((TABLE_TOP + 2 * nlev + 2, 10))
+    sp = 0
+    hb, sb, cb = texture_eval(kind, coeffs, cx + R)
+    db = math.hypot(R, hb - cz)
+    for k in range(TABLE_TOP - 1, -1, -1):
+        ta = cx - R + (k << nlev) * dt
+        ha, sa, ca = texture_eval(kind, coeffs, ta)
+        da = math.hypot(ta - cx, ha - cz)
+        e = stk[sp]
+        e[0] = 0.0
+        e[1] = k
+        e[2], e[3], e[4], e[5] = da, ha, sa, ca
+        e[6], e[7], e[8], e[9] = db, hb, sb, cb
+        sp += 1
+        db, hb, sb, cb = da, ha, sa, ca
+    npc = 0
+    cur = -1.0  # kind of the open piece, -1 none
+    last = -2  # the last finest index in the open piece
+    while sp > 0:
+        sp -= 1
+        e = stk[sp]
+        lev = int(e[0])
+        idx = int(e[1])
+        da, ha, sa, ca = e[2], e[3], e[4], e[5]
+        db, hb, sb, cb = e[6], e[7], e[8], e[9]
+        span = 1 << (nlev - lev)
+        width = span * dt
+        if 0.5 * (da + db - L * width) > reach:  # no point of it within reach of the centre
+            continue
+        # classified at most a cell wide (wider, the bounds m and G of a piece would be loose)
+        qa0 = 1.0 + sa * sa + (ha - zlo) * ca
+        qa1 = 1.0 + sa * sa + (ha - zhi) * ca
+        qb0 = 1.0 + sb * sb + (hb - zlo) * cb
+        qb1 = 1.0 + sb * sb + (hb - zhi) * cb
+        G = 3.0 * S * C + (max(abs(ha - zlo), abs(ha - zhi)) + S * width) * J
+        qmin = 0.5 * (min(qa0, qa1) + min(qb0, qb1) - G * width)
+        if width <= w and qmin > 0.0:
+            cls = PIECE_NEWTON
+        elif width <= w and 0.5 * (max(qa0, qa1) + max(qb0, qb1) + G * width) < 0.0:
+            continue  # strictly concave: no minimum inside; its ends belong to its neighbours
+        elif lev < nlev:  # undecided or too wide: split at the midpoint
+            tm = cx - R + (2 * idx + 1) * (span // 2) * dt
+            hm, sm, cm = texture_eval(kind, coeffs, tm)
+            dm = math.hypot(tm - cx, hm - cz)
+            f = stk[sp + 1]
+            f[0] = lev + 1
+            f[1] = 2 * idx
+            f[2], f[3], f[4], f[5] = da, ha, sa, ca
+            f[6], f[7], f[8], f[9] = dm, hm, sm, cm
+            e[0] = lev + 1
+            e[1] = 2 * idx + 1
+            e[2], e[3], e[4], e[5] = dm, hm, sm, cm
+            sp += 2
+            continue
+        else:
+            cls = PIECE_SCAN
+        first = idx * span
+        ta = cx - R + first * dt
+        tb = cx - R + (first + span) * dt
+        if cls == cur and first == last + 1:
+            if npc <= TABLE_MAXP:  # extend the open piece
+                q = PIECE * (npc - 1)
+                row[q + 1] = tb - x0
+                row[q + 3] = min(row[q + 3], qmin)
+                row[q + 4] = max(row[q + 4], G)
+        else:
+            npc += 1
+            if npc <= TABLE_MAXP:
+                q = PIECE * (npc - 1)
+                row[q] = ta - x0
+                row[q + 1] = tb - x0
+                row[q + 2] = cls
+                row[q + 3] = qmin
+                row[q + 4] = G
+            cur = cls
+        last = first + span - 1
+    return npc
+
+
+@nb.njit(parallel=True, cache=True, nogil=True)
+def build_cell_table(kind, coeffs, aux, x0, w, nx, zlo, hmax, count, out):
+    """One row of cells of the table: count[i] (-1: more than TABLE_MAXP) and out[i] (shape
+    (nx, PIECE TABLE_MAXP)) the pieces (lo, hi, kind, m, G) of the cell [x0 + i w, x0 + (i+1) w]
+    x [zlo, zlo + w], lo and hi relative to x0 (see ``T_CELLS``).
+
+    With c the cell's centre and r its half-diagonal, every probe p in it has d(p) <= U + r, U
+    any distance from c to a boundary point (the distance is 1-Lipschitz), so its closest point
+    is within U + 2 r of c (U: c's distance from the bound tree when c is below the boundary).
+    The window |t - c_x| <= U + 2 r is cut in dyadic intervals. An interval is dropped when it
+    cannot come that close (between samples the distance to c changes by at most
+    sqrt(1 + sup h'^2) per unit of t); it is *convex* when g' = phi''/2 = 1 + h'^2 + (h - p_z) h''
+    > 0 on it for every p_z of the cell (linear in p_z: checked at both ends; between samples its
+    t-derivative is at most 3 sup|h'| sup|h''| + |h - p_z| A_JERK); dropped when < 0 there
+    (strictly concave: no minimum inside, its ends belong to its neighbours); else halved, down
+    to w / TABLE_FINE, where it is kept to be scanned. Consecutive kept intervals of one kind
+    are merged into a piece.
+    """
+    period = aux[A_PERIOD]
+    for i in nb.prange(nx):
+        count[i] = 0.0
+        if zlo > hmax:  # every probe of the cell is above the boundary
+            continue
+        n = _cell_pieces(kind, coeffs, aux, period, x0, w, x0 + (i + 0.5) * w, zlo, zlo + w, out[i])
+        count[i] = n if n <= TABLE_MAXP else -1.0
 
 
 @nb.njit(**_JIT)
@@ -717,6 +989,30 @@ def _presliding(st, x, dxmax, zstick, tab):
 
 
 @nb.njit(inline="always", **_JIT)
+def _warm_guess(st, aux):
+    """D's and E's warm start over a profile: the last closest point st[S_ADH], moved on by
+    its last step (st[S_LASTX] the one before) when that step was under a thousandth of the
+    shortest period; NaN before the first contact. Only a guess: the search certifies the
+    global minimum whatever it is."""
+    if st[S_CONTACT] == 0.0:
+        return math.nan
+    t = st[S_ADH]
+    if st[S_CONTACT] == 2.0:
+        step = t - st[S_LASTX]
+        if abs(step) < 1e6 * aux[A_TIE]:  # A_TIE is 1e-9 of the shortest period
+            t += step
+    return t
+
+
+@nb.njit(inline="always", **_JIT)
+def _keep_guess(st, t):
+    """Record the closest point t for :func:`_warm_guess` (contact 1: one point, 2: two)."""
+    st[S_CONTACT] = 2.0 if st[S_CONTACT] != 0.0 else 1.0
+    st[S_LASTX] = st[S_ADH]
+    st[S_ADH] = t
+
+
+@nb.njit(inline="always", **_JIT)
 def alg_force(code, x, z, kind, coeffs, prm, aux, st):
     """Force (fx, fz) in N of algorithm ``code`` at the probe position (x, z) in m.
 
@@ -779,11 +1075,9 @@ def alg_force(code, x, z, kind, coeffs, prm, aux, st):
         return k0 * _clamp_depth(d, prm[P_DZMAX]) * s * g, -k0 * d * g
     if code == ALG_C:
         return k0 * _clamp_depth(d, prm[P_DZMAX]) * s, -k0 * d
-    guess = st[S_ADH] if st[S_CONTACT] != 0.0 else math.nan
-    t, dist, tie, work = closest_point(kind, coeffs, aux, x, z, guess, st[S_SEARCH:])
+    t, dist, tie, work = closest_point_below(kind, coeffs, aux, x, z, -d, _warm_guess(st, aux), st[S_SEARCH:])
+    _keep_guess(st, t)
     st[S_WORK] = work
-    st[S_ADH] = t  # warm start of the next call (D and E keep the last closest point here)
-    st[S_CONTACT] = 1.0
     st[S_PEN] = dist
     if code == ALG_D:
         return -k0 * (x - t), -k0 * (z - texture_height(kind, coeffs, t))
@@ -1281,10 +1575,8 @@ def alg_force3(code, x, y, z, kind, coeffs, prm, aux, st):
         th = _height3_only(kind, coeffs, tx, ty)
         work += 1
     else:  # an extruded profile: the profile's search in the plane y = const
-        guess = st[S_ADH] if st[S_CONTACT] != 0.0 else math.nan
-        tx, dist, _, work = closest_point(kind, coeffs, aux, x, z, guess, st[S_SEARCH:])
-        st[S_ADH] = tx
-        st[S_CONTACT] = 1.0
+        tx, dist, _, work = closest_point_below(kind, coeffs, aux, x, z, -d, _warm_guess(st, aux), st[S_SEARCH:])
+        _keep_guess(st, tx)
         ty = y
         th = texture_height(kind, coeffs, tx)
     st[S_WORK] = work

@@ -16,10 +16,15 @@ from . import _kernels as K
 from ._validation import ParameterError, positions
 from .textures import SampledProfile, SumOfSinusoids, Texture
 
-__all__ = ["ClosestPoint", "closest_point", "search_data"]
+__all__ = ["ClosestPoint", "closest_point", "search_data", "table_search_data"]
 
 FOURIER_WORK_LIMIT = 4e9
 """Largest number of harmonic evaluations :func:`search_data` may spend on a Fourier texture."""
+TABLE_CELL_DIVISOR = 64
+"""A cell table's cells are squares of side shortest period / TABLE_CELL_DIVISOR (or larger,
+see ``TABLE_MAX_CELLS``)."""
+TABLE_MAX_CELLS = 1 << 18
+"""Most cells a cell table may hold (a few MiB); a larger table gets larger cells."""
 
 
 @dataclass(frozen=True)
@@ -163,6 +168,71 @@ def search_data(texture: Texture) -> np.ndarray:
     aux = _build(texture)
     texture.__dict__["_search_data"] = aux
     return aux
+
+
+def table_search_data(texture: Texture) -> np.ndarray:
+    """:func:`search_data` with a cell table appended: the closest-point search of a servo tick
+    in a few texture evaluations (built once, cached on the texture).
+
+    The probe positions [x mod period, z] from min h - (2 (max h - min h) + 2 shortest
+    period) up to max h are cut into square cells (side: shortest period / 64, or larger to
+    stay within ``TABLE_MAX_CELLS``). For each cell the table holds the few pieces of the
+    boundary that can contain the closest point of *any* probe in the cell, found with the
+    1-Lipschitz bound of the distance, each certified either convex for every probe of the
+    cell (a Newton solve finds its minimum) or not (it is scanned as a leaf of the tree)
+    (:func:`haptex._kernels.build_cell_table`). A probe outside the table, or in a cell
+    needing more than ``_kernels.TABLE_MAXP`` pieces, is searched by the tree: the result is
+    the same global closest point either way, only the work differs.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        The search data with aux[``_kernels.A_TABLE``] the offset of the table (0: no table,
+        for textures other than periodic profiles).
+
+    Raises
+    ------
+    ParameterError
+        As :func:`search_data`.
+    """
+    cached = texture.__dict__.get("_table_search_data")
+    if cached is not None:
+        return cached
+    aux = search_data(texture)
+    if int(aux[K.A_MODE]) != K.CP_PERIODIC:
+        texture.__dict__["_table_search_data"] = aux
+        return aux
+    nl = int(aux[K.A_NLEAF])
+    hmin, hmax = float(aux[K.A_TREE + 1]), float(aux[K.A_TREE + 2 * nl + 1])  # the tree's root bounds
+    period, shortest = float(aux[K.A_PERIOD]), texture.shortest_period
+    z0 = hmin - 2.0 * (hmax - hmin) - 2.0 * shortest
+    w = shortest / TABLE_CELL_DIVISOR
+    while True:
+        nx = math.ceil(period / w - 1e-9)
+        nz = math.ceil((hmax - z0) / (period / nx))
+        if nx * nz <= TABLE_MAX_CELLS:
+            break
+        w *= 1.25
+    w = period / nx
+    counts, rows = [], []
+    count = np.empty(nx)
+    out = np.zeros((nx, K.PIECE * K.TABLE_MAXP))
+    kind, coeffs = texture.kernel_data()
+    for j in range(nz):  # one row of cells a call: a row's scratch, not the whole table's
+        K.build_cell_table(kind, coeffs, aux, float(aux[K.A_START]), w, nx, z0 + j * w, hmax, count, out)
+        n = count.astype(np.int64)
+        counts.append(n)
+        rows.append(out.reshape(nx, K.TABLE_MAXP, K.PIECE)[np.arange(K.TABLE_MAXP)[None, :] < n[:, None]])
+    count = np.concatenate(counts)
+    used = np.maximum(count, 0)
+    off = aux.size
+    first = off + K.T_CELLS + 2 * nx * nz + K.PIECE * (np.cumsum(used) - used)
+    head = np.zeros(K.T_CELLS)
+    head[[K.T_X0, K.T_PERIOD, K.T_W, K.T_NX, K.T_Z0, K.T_NZ]] = aux[K.A_START], period, w, nx, z0, nz
+    table = np.concatenate([aux, head, np.column_stack([first, count]).ravel(), np.concatenate(rows).ravel()])
+    table[K.A_TABLE] = off
+    texture.__dict__["_table_search_data"] = table
+    return table
 
 
 def _header(texture: Texture) -> np.ndarray:

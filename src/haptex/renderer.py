@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 
 from dataclasses import dataclass
@@ -20,6 +21,7 @@ from ._kernels import (PC_ACTIVE, PC_ALPHA, PC_BMAX, PC_E, PC_EAX, PC_HAVE, PC_O
 from ._kernels import render_step as _render_step
 from ._validation import fail, optional_positive, positive
 from .algorithms import Algorithm
+from .closest import table_search_data
 
 __all__ = ["Renderer", "PassivityController", "WORKSPACE_LIMIT"]
 
@@ -75,6 +77,54 @@ class PassivityController:
         object.__setattr__(self, "max_damping", positive("max_damping", self.max_damping, "N s/m"))
         if self.reference not in ("stored", "zero"):
             raise fail("reference", self.reference, 'one of "stored", "zero"')
+
+
+def _tick_search_data(algorithm: Algorithm, aux: np.ndarray) -> np.ndarray:
+    """D's and E's search data with the cell table a tick reads over a profile (the tree
+    alone over a surface); other algorithms' ``aux`` unchanged."""
+    if algorithm.letter not in ("D", "E"):
+        return aux
+    from .surfaces import Extruded
+
+    tex = algorithm.texture
+    if tex.dimension == 1:
+        return table_search_data(tex)
+    if isinstance(tex, Extruded):
+        return table_search_data(tex.profile)
+    return aux
+
+
+def _fast_step(renderer: "Renderer"):
+    """:meth:`Renderer.step` for a servo loop: a tuple or list of plain floats goes straight to
+    the compiled tick, through its compiled entry point (numba's type dispatch skipped: the
+    argument types are known), with no attribute lookup; anything else takes the checked path.
+    About 0.2 us less a call than the checked path on the benchmark machine."""
+    mem = renderer._mem
+    checked = renderer._step_checked
+    args = (0.0, 0.0, 0.0, mem)
+    try:
+        tick = _render_step.overloads[tuple(numba.typeof(a) for a in args)].entry_point
+    except (AttributeError, KeyError):  # numba does not expose it: dispatch as usual
+        tick = _render_step
+    if renderer.dimension == 2:
+        def step(p):
+            if type(p) is tuple or type(p) is list:
+                if len(p) == 2:
+                    x, z = p
+                    if type(x) is float and type(z) is float:
+                        fx, _, fz = tick(x, 0.0, z, mem)
+                        return fx, fz
+            return checked(p)
+    else:
+        def step(p):
+            if type(p) is tuple or type(p) is list:
+                if len(p) == 3:
+                    x, y, z = p
+                    if type(x) is float and type(y) is float and type(z) is float:
+                        return tick(x, y, z, mem)
+            return checked(p)
+    step.__doc__ = Renderer.step.__doc__
+    return step
 
 
 class Renderer:
@@ -133,6 +183,9 @@ class Renderer:
         self.passivity_controller = passivity_controller
         self.dimension = algorithm.dimension
         code, prm, kind, coeffs, aux = algorithm.kernel_spec()
+        tabled = _tick_search_data(algorithm, aux)
+        self._search_table = tabled is not aux and tabled[_kernels.A_TABLE] != 0.0
+        aux = tabled
         K = _kernels
         # one array for the kernel (one argument to unbox a call); views of it for Python
         self._mem = np.zeros(K.R_DATA + coeffs.size + aux.size)
@@ -156,6 +209,7 @@ class Renderer:
         # compile (or load from the cache) now, not in the servo loop
         self._tick(0.0, 0.0, 1.0)
         self.reset()
+        self.step = _fast_step(self)
 
     def _tick(self, x, y, z):
         return _render_step(x, y, z, self._mem)
@@ -183,6 +237,9 @@ class Renderer:
         Never raises, never returns NaN or a force above ``max_force``, and does a bounded
         amount of work for any input (:attr:`last_work`).
         """
+        return self._step_checked(p)  # an instance's own ``step`` (_fast_step) comes first
+
+    def _step_checked(self, p):
         try:
             tp = type(p)
             if tp is not tuple and tp is not list:  # a tuple or a list: unpacking checks the length
@@ -208,6 +265,13 @@ class Renderer:
             self._pc[PC_HAVE] = 0.0
             self._rs[RS_WORK] = 0.0
             return (0.0,) * self.dimension
+
+    @property
+    def search_table(self) -> bool:
+        """True when D's or E's closest point is found from a cell table
+        (:func:`haptex.closest.table_search_data`: periodic profiles and profiles extruded
+        from them), False when every tick searches the bound tree."""
+        return self._search_table
 
     @property
     def last_work(self) -> int:
