@@ -575,8 +575,8 @@ def _table_search(kind, coeffs, aux, px, pz, t_guess, bs):
 
 @nb.njit(**_JIT)
 def _cell_pieces(kind, coeffs, aux, period, x0, w, cx, zlo, zhi, row):
-    """The pieces of one cell (see :func:`build_cell_table`) into ``row``; returns their number
-    (more than TABLE_MAXP: only the first TABLE_MAXP are written). ``aux`` is the search data
+    """The pieces of one cell (see :func:`build_cell_table`) into ``row``; returns their number,
+    TABLE_MAXP + 1 as soon as there are more than TABLE_MAXP. ``aux`` is the search data
     without a table."""
     S = aux[A_SLOPE]
     C = aux[A_CURV]
@@ -668,21 +668,21 @@ def _cell_pieces(kind, coeffs, aux, period, x0, w, cx, zlo, zhi, row):
         first = idx * span
         ta = cx - R + first * dt
         tb = cx - R + (first + span) * dt
-        if cls == cur and first == last + 1:
-            if npc <= TABLE_MAXP:  # extend the open piece
-                q = PIECE * (npc - 1)
-                row[q + 1] = tb - x0
-                row[q + 3] = min(row[q + 3], qmin)
-                row[q + 4] = max(row[q + 4], G)
+        if cls == cur and first == last + 1:  # extend the open piece
+            q = PIECE * (npc - 1)
+            row[q + 1] = tb - x0
+            row[q + 3] = min(row[q + 3], qmin)
+            row[q + 4] = max(row[q + 4], G)
         else:
             npc += 1
-            if npc <= TABLE_MAXP:
-                q = PIECE * (npc - 1)
-                row[q] = ta - x0
-                row[q + 1] = tb - x0
-                row[q + 2] = cls
-                row[q + 3] = qmin
-                row[q + 4] = G
+            if npc > TABLE_MAXP:  # too many: the cell's probes search the tree (and so stops the work here)
+                return npc
+            q = PIECE * (npc - 1)
+            row[q] = ta - x0
+            row[q + 1] = tb - x0
+            row[q + 2] = cls
+            row[q + 3] = qmin
+            row[q + 4] = G
             cur = cls
         last = first + span - 1
     return npc
