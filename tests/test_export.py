@@ -207,6 +207,7 @@ class Compiled3(Compiled):
 
 def _surfaces():
     out = [("egg", hx.SumOfGratings.egg_crate(A, L)),
+           ("gentle-egg", hx.SumOfGratings.egg_crate(0.1e-3, 2e-3)),  # the convexity certificate's regime
            ("gratings", hx.SumOfGratings([0.2e-3, 0.05e-3], [1e-3, 0.3e-3], [0.3, 2.0], [0.0, 1.0]))]
     if DEKTAK.exists():
         out.append(("extruded-dektak", hx.Extruded(hx.SampledProfile.from_file(DEKTAK).leveled())))

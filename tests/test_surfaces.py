@@ -10,6 +10,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import haptex as hx
+from haptex import _kernels
 
 from .conftest import K0, A, L
 
@@ -610,3 +611,78 @@ def test_the_medial_axis_below_a_peak_is_detected_as_a_tie(tex):
     mirror = np.array([*m, tex.height_at(m[None, :])[0]])
     assert abs(cp.x[0] - L / 4) > 0.1e-3
     assert np.linalg.norm(p[0] - mirror) == pytest.approx(cp.distance[0], rel=1e-9)
+
+
+GENTLE = hx.SumOfGratings.egg_crate(0.1e-3, 2e-3)
+"""An egg-crate whose least radius of curvature, 1 / (A k^2) = 1.01 mm, is beyond the probes'
+reach here (0.4 mm deep, 0.2 mm of relief): the convexity certificate's regime."""
+
+
+def test_the_curvature_bound_holds_the_hessian_everywhere():
+    # the certificate's C >= sup ||H||_2 rigorously: the egg-crate's Hessian has eigenvalues
+    # A k^2 (-sin kx sin ky +- cos kx cos ky), so its sup is A k^2 exactly (at a crest); the
+    # bound is the sampled sup plus its sampling error, under sum a |k|^2 = 2 A k^2
+    egg = hx.SumOfGratings.egg_crate(A, L)
+    k = 2 * math.pi / L
+    assert A * k ** 2 <= egg.curvature_bound <= 1.2 * A * k ** 2  # measured 1.14 A k^2
+    noise = hx.BandLimitedNoise2D(20e-6, 0.5e-3, 2e-3, 4e-3, seed=1)
+    kk = np.hypot(*noise.spectrum()[0].T) * 2 * math.pi
+    assert noise.curvature_bound <= np.sum(noise.spectrum()[1] * kk ** 2)
+    xy = np.random.default_rng(5).uniform(0.0, 4e-3, (100_000, 2))
+    assert np.max(np.linalg.norm(noise.hessian(xy), ord=2, axis=(-2, -1))) <= noise.curvature_bound
+    lo, hi = noise.height_range
+    assert lo <= noise.height_at(xy).min() and noise.height_at(xy).max() <= hi
+
+
+@pytest.mark.parametrize("name, tex, certified", [
+    ("gentle-egg", GENTLE, True),
+    ("three-gratings", hx.SumOfGratings([60e-6, 20e-6, 10e-6], [3e-3, 1.3e-3, 0.9e-3], [0.2, 1.4, 2.5], [0, 1, 2]), True),
+    ("paper-egg", hx.SumOfGratings.egg_crate(A, L), False)])
+def test_the_convexity_certificate_gives_the_searchs_closest_point(name, tex, certified):
+    # where the squared distance is certified strongly convex on the whole plane (probe within
+    # the least radius of curvature of every point, roughly), Newton from p_xy finds the
+    # branch and bound's closest point (the independent reference, run with the certificate
+    # off) to 1e-15 m in a bounded handful of evaluations; where it is not (the paper's
+    # egg-crate, 32 um radius of curvature, 0.4 mm deep), the search is untouched, bit for bit
+    from haptex import _kernels as K
+    from haptex.closest import surface_search_data
+
+    kind, gc, gaux = surface_search_data(tex)
+    rng = np.random.default_rng(11)
+    n = 4000
+    x, y = rng.uniform(-3e-3, 3e-3, (2, n))
+    z = tex.height_at(np.column_stack([x, y])) - rng.uniform(0.0, 0.4e-3, n)
+    m = 1.0 - np.maximum(gaux[K.G_HMAX] - z, z - gaux[K.G_HMIN]) * gaux[K.G_CONVEX]
+    assert np.all(m >= K.CONVEX_MIN) if certified else np.all(m < K.CONVEX_MIN)
+    runs = []
+    for g in (gaux, np.where(np.arange(K.N_GAUX) == K.G_CONVEX, 0.0, gaux)):
+        out = [np.empty(n) for _ in range(3)] + [np.empty(n, dtype=np.int64) for _ in range(2)]
+        K.surface_closest_points(kind, gc, g, x, y, z, *out)
+        runs.append(out)
+    (tx, ty, d, tie, work), (rx, ry, rd, rtie, rwork) = runs
+    if certified:
+        assert work.max() <= 1 + K.CONVEX_EVALS and np.median(work) < np.median(rwork) / 5  # measured 6; 5 vs 56
+        assert np.max(np.hypot(tx - rx, ty - ry)) <= 2e-15 and np.max(np.abs(d - rd)) <= 2e-15  # measured 1e-15, 3e-19
+        assert not tie.any() and not rtie.any()  # strictly convex: one minimum
+    else:
+        for a, b in zip(runs[0], runs[1]):
+            assert np.array_equal(a, b)
+
+
+@pytest.mark.parametrize("letter", "DE")
+def test_a_renderer_over_a_gentle_surface_ticks_d_and_e_in_a_few_evaluations(letter):
+    # the renderer benchmark's stroke (10 mm/s at 10 kHz, 0.4 mm deep, along the diagonal):
+    # Newton from the extrapolated last closest point, certified, then the height there
+    alg = hx.algorithm(letter, GENTLE, K0)
+    r = hx.Renderer(alg)
+    s = np.arange(20_000) * 1e-6 / math.sqrt(2.0)
+    p = np.column_stack([s, s, GENTLE.height_at(np.column_stack([s, s])) - 0.4e-3])
+    work = []
+    forces = []
+    for q in p.tolist():
+        forces.append(r.step(q))
+        work.append(r.last_work)
+    work = np.array(work)
+    # the height under p, 1 + 2 evaluations of Newton from the warm start, the height at t
+    assert np.median(work) <= 5 and work.max() <= 2 + _kernels.CONVEX_EVALS  # measured 5 and 6
+    np.testing.assert_allclose(np.array(forces), alg.force(p), rtol=1e-12, atol=K0 * 4e-15)

@@ -1090,8 +1090,8 @@ def alg_force(code, x, z, kind, coeffs, prm, aux, st):
 # ----------------------------------------------------------------------------------------
 # ``gcoeffs`` has shape (4, n): amplitudes a (m), wave-vector components kx, ky (rad/m),
 # phases (rad); h = sum a sin(kx x + ky y + phase). ``gaux``: the search's constants.
-G_HMIN, G_SLOPE, G_CURV, G_LEAF, G_TIE, G_HMAX = range(6)
-N_GAUX = 6
+G_HMIN, G_SLOPE, G_CURV, G_LEAF, G_TIE, G_HMAX, G_CONVEX = range(7)
+N_GAUX = 7
 SURFACE_GRATINGS = 3
 SURFACE_PATCHES = 4
 """Surface kinds of the search: a sum of gratings (``sc`` of shape (4, n): a, kx, ky, phase)
@@ -1299,8 +1299,79 @@ def _surf_newton(kind, gc, px, py, pz, tx, ty, x0, x1, y0, y1):
     return tx, ty, f, it, stationary
 
 
+CONVEX_MIN = 0.05
+"""Least certified strong convexity of phi / 2 for :func:`convex_closest_point` to be tried."""
+CONVEX_EVALS = 16
+"""Most texture evaluations :func:`convex_closest_point` spends before giving up."""
+
+
 @nb.njit(**_JIT)
-def surface_closest_point(kind, gc, gaux, px, py, pz, best):
+def convex_closest_point(kind, gc, gaux, px, py, pz, tx, ty):
+    """The closest point of z = h(x, y) to p by Newton, certified by global strong convexity.
+
+    With phi(t) = |t - p_xy|^2 + (h(t) - pz)^2, the Hessian of phi / 2 is I + grad h grad h^T
+    + e H with e = h(t) - pz, so its least eigenvalue is at least m = 1 - E C for every t, where
+    |e| <= E = max(G_HMAX - pz, pz - G_HMIN) and C = G_CONVEX bounds ||H||_2 (a sum of
+    gratings' ``curvature_bound``; 0 when no rigorous bound is kept). When
+    m >= CONVEX_MIN (the probe is closer to every point of the surface than its least radius of
+    curvature, roughly), phi / 2 is m-strongly convex on the whole plane: it has one stationary
+    point, the global minimum, and |t - t*| <= |grad phi / 2| / m anywhere (Boyd &
+    Vandenberghe 2004, 9.1.2). Newton from (tx, ty) (p_xy when not finite), the step halved
+    while neither phi nor |grad phi| decreases, stops when |t - t*| <= 1e-15 (1 + |t|) is
+    certified.
+
+    Returns (tx, ty, phi, evaluations, certified); not certified (m too small, or more than
+    CONVEX_EVALS evaluations) means: search the surface instead.
+    """
+    cb = gaux[G_CONVEX]
+    e_max = max(gaux[G_HMAX] - pz, pz - gaux[G_HMIN])
+    m = 1.0 - e_max * cb
+    if cb <= 0.0 or not (m >= CONVEX_MIN):
+        return tx, ty, math.inf, 0, False
+    if not (math.isfinite(tx) and math.isfinite(ty)):
+        tx = px
+        ty = py
+    h, hx, hy, hxx, hxy, hyy = surf_eval(kind, gc, tx, ty)
+    ev = 1
+    e = h - pz
+    f = (tx - px) ** 2 + (ty - py) ** 2 + e * e
+    g0 = (tx - px) + e * hx
+    g1 = (ty - py) + e * hy
+    gn = math.sqrt(g0 * g0 + g1 * g1)
+    while ev < CONVEX_EVALS:
+        if gn <= 1e-15 * (1.0 + math.hypot(tx, ty)) * m:
+            return tx, ty, f, ev, True
+        a = 1.0 + hx * hx + e * hxx
+        b = hx * hy + e * hxy
+        c = 1.0 + hy * hy + e * hyy
+        det = a * c - b * b  # >= m^2 > 0 by the bound, up to rounding
+        sx = -(c * g0 - b * g1) / det
+        sy = -(a * g1 - b * g0) / det
+        while ev < CONVEX_EVALS:
+            nx = tx + sx
+            ny = ty + sy
+            h, hx, hy, hxx, hxy, hyy = surf_eval(kind, gc, nx, ny)
+            ev += 1
+            e = h - pz
+            fn = (nx - px) ** 2 + (ny - py) ** 2 + e * e
+            g0 = (nx - px) + e * hx
+            g1 = (ny - py) + e * hy
+            gm = math.sqrt(g0 * g0 + g1 * g1)
+            if fn <= f or gm < gn:  # phi or its gradient decreases (phi is rounding near its minimum)
+                tx = nx
+                ty = ny
+                f = fn
+                gn = gm
+                break
+            sx *= 0.5
+            sy *= 0.5
+        else:
+            break
+    return tx, ty, f, ev, False
+
+
+@nb.njit(**_JIT)
+def surface_closest_point(kind, gc, gaux, px, py, pz, gx0, gy0, best):
     """Closest point (tx, ty) of z = h(x, y) to p = (px, py, pz) below it.
 
     Branch and bound: the square of half-width W around p_xy (W from the vertical distance
@@ -1310,20 +1381,25 @@ def surface_closest_point(kind, gc, gaux, px, py, pz, best):
     sup||H|| r^2 / 2) (r the cell's half-diagonal) and the sum of each grating's exact range
     over the cell; a cell of half-width <= G_LEAF is refined by projected Newton from the
     best of six samples in it (its centre, its quarters' centres, p_xy clamped into it).
-    ``best`` is scratch of length 4 + 3 * SURF_STACK. Returns (tx, ty, distance, tie, work):
-    tie is 1 when a second local minimum farther than four leaves away lies at the same
-    distance to G_TIE (the medial axis).
+    First, :func:`convex_closest_point` from the guess (gx0, gy0) (NaN: none): where it
+    certifies the minimum, that is the answer. Otherwise the guess's local minimum, when
+    lower, seeds the search's bound. ``best`` is scratch of length 4 + 3 * SURF_STACK.
+    Returns (tx, ty, distance, tie, work): tie is 1 when a second local minimum farther than
+    four leaves away lies at the same distance to G_TIE (the medial axis).
     """
     h0 = surf_eval(kind, gc, px, py)[0]
     dv = h0 - pz
     if dv <= 0.0:
         return px, py, 0.0, 0, 1
+    tx, ty, f, ev, ok = convex_closest_point(kind, gc, gaux, px, py, pz, gx0, gy0)
+    if ok:
+        return tx, ty, math.sqrt(f), 0, 1 + ev
     bf = dv * dv
     btx = px
     bty = py
     second = math.inf
     found = False
-    work = 1
+    work = 1 + ev
     # a first upper bound from the local minimum nearest the vertical point (Newton from it)
     below = max(gaux[G_HMIN] - pz, 0.0)
     half = math.sqrt(max(bf - below * below, 0.0)) * (1.0 + 1e-9) + 1e-300
@@ -1333,6 +1409,13 @@ def surface_closest_point(kind, gc, gaux, px, py, pz, best):
         bf = f
         btx = tx
         bty = ty
+    if math.isfinite(gx0) and math.isfinite(gy0) and abs(gx0 - px) < half and abs(gy0 - py) < half:
+        tx, ty, f, it, _ = _surf_newton(kind, gc, px, py, pz, gx0, gy0, px - half, px + half, py - half, py + half)
+        work += it + 1
+        if f < bf:
+            bf = f
+            btx = tx
+            bty = ty
     leaf = gaux[G_LEAF]
     slope = gaux[G_SLOPE]
     curv = gaux[G_CURV]
@@ -1423,7 +1506,7 @@ def surface_closest_points(kind, gc, gaux, px, py, pz, tx_out, ty_out, d_out, ti
     """Vectorised :func:`surface_closest_point` over flat arrays, in parallel."""
     for i in nb.prange(px.shape[0]):
         scratch = np.empty(4 + 3 * SURF_STACK + 3)
-        tx, ty, d, tie, work = surface_closest_point(kind, gc, gaux, px[i], py[i], pz[i], scratch)
+        tx, ty, d, tie, work = surface_closest_point(kind, gc, gaux, px[i], py[i], pz[i], math.nan, math.nan, scratch)
         tx_out[i] = tx
         ty_out[i] = ty
         d_out[i] = d
@@ -1495,6 +1578,35 @@ def presliding_plane(dx, dy, ddx, ddy, d_max, z_stick, tab):
         nx *= d_max / size
         ny *= d_max / size
     return nx, ny, work
+
+
+@nb.njit(inline="always", **_JIT)
+def _warm_guess3(st, aux):
+    """D's and E's warm start over a surface: the last closest point (st[S_ADH], st[S_ADHY])
+    moved on by its last step (from st[S_LASTX], st[S_LASTY]) when that step was under a
+    thousandth of the shortest wavelength; NaN before the first contact.
+    Only a guess: the search certifies its answer whatever it is."""
+    if st[S_CONTACT] == 0.0:
+        return math.nan, math.nan
+    tx = st[S_ADH]
+    ty = st[S_ADHY]
+    if st[S_CONTACT] == 2.0:
+        sx = tx - st[S_LASTX]
+        sy = ty - st[S_LASTY]
+        if abs(sx) + abs(sy) < 1e6 * aux[G_TIE]:  # G_TIE is 1e-9 of the shortest wavelength
+            tx += sx
+            ty += sy
+    return tx, ty
+
+
+@nb.njit(inline="always", **_JIT)
+def _keep_guess3(st, tx, ty):
+    """Record the closest point (tx, ty) for :func:`_warm_guess3`."""
+    st[S_CONTACT] = 2.0 if st[S_CONTACT] != 0.0 else 1.0
+    st[S_LASTX] = st[S_ADH]
+    st[S_LASTY] = st[S_ADHY]
+    st[S_ADH] = tx
+    st[S_ADHY] = ty
 
 
 @nb.njit(inline="always", **_JIT)
@@ -1571,7 +1683,9 @@ def alg_force3(code, x, y, z, kind, coeffs, prm, aux, st):
         dl = _clamp_depth(d, prm[P_DZMAX])
         return k0 * dl * gx, k0 * dl * gy, -k0 * d
     if kind == SURFACE_GRATINGS or kind == SURFACE_PATCHES:
-        tx, ty, dist, _, work = surface_closest_point(kind, coeffs, aux, x, y, z, st[S_SEARCH:])
+        gx0, gy0 = _warm_guess3(st, aux)
+        tx, ty, dist, _, work = surface_closest_point(kind, coeffs, aux, x, y, z, gx0, gy0, st[S_SEARCH:])
+        _keep_guess3(st, tx, ty)
         th = _height3_only(kind, coeffs, tx, ty)
         work += 1
     else:  # an extruded profile: the profile's search in the plane y = const

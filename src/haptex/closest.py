@@ -386,7 +386,9 @@ def surface_search_data(texture) -> tuple[int, np.ndarray, np.ndarray]:
     gratings: shape (4, n) = amplitudes (m), k_x, k_y (rad/m), phases (rad); a height map: its
     bicubic patches, :meth:`haptex.SampledSurface.patches`), and the constants
     ``_kernels.G_*`` (lowest and highest height, sup |grad h|, sup ||H||, leaf half-width,
-    tie tolerance 1e-9 of the shortest wavelength). Cached on the texture."""
+    tie tolerance 1e-9 of the shortest wavelength; over a sum of gratings, the rigorous bound
+    ``curvature_bound`` >= ||H||_2 of :func:`haptex._kernels.convex_closest_point`'s
+    certificate, 0 otherwise). Cached on the texture."""
     from .surfaces import SampledSurface
 
     cached = texture.__dict__.get("_surface_search")
@@ -403,6 +405,8 @@ def surface_search_data(texture) -> tuple[int, np.ndarray, np.ndarray]:
     gaux[K.G_CURV] = texture.max_curvature
     gaux[K.G_LEAF] = leaf
     gaux[K.G_TIE] = 1e-9 * texture.shortest_period
+    if kind == K.SURFACE_GRATINGS:  # the strong-convexity certificate's rigorous sup ||H||_2
+        gaux[K.G_CONVEX] = texture.curvature_bound
     texture.__dict__["_surface_search"] = (kind, gc, gaux)
     return kind, gc, gaux
 

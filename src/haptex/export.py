@@ -688,9 +688,10 @@ static double smooth_flow(double deflection, double dx)
 
 
 _CLOSEST_SURFACE = """
-/* Closest point on z = h(x, y) for a sum of gratings (D, E over a surface): the quadtree
- * branch and bound of haptex._kernels.surface_closest_point, line for line; bounded work
- * (at most SURF_LEAVES leaves of a few texture evaluations each). */
+/* Closest point on z = h(x, y) for a sum of gratings (D, E over a surface): the certified
+ * convex Newton and the quadtree branch and bound of haptex._kernels.surface_closest_point,
+ * line for line (from a cold start: no warm start is kept); bounded work (at most
+ * CONVEX_EVALS evaluations, then SURF_LEAVES leaves of a few texture evaluations each). */
 #define SURF_STACK 512
 #define SURF_LEAVES 65536
 
@@ -754,10 +755,65 @@ static double surf_newton(const double *p, double *tx, double *ty, double x0, do
     return (*tx - px) * (*tx - px) + (*ty - py) * (*ty - py) + hz * hz;
 }
 
+/* haptex._kernels.convex_closest_point from p_xy: Newton where phi / 2 is certified
+ * m-strongly convex on the whole plane (m = 1 - max(G_HMAX - pz, pz - G_HMIN) G_CONVEX);
+ * returns 1 with the minimum when |grad phi / 2| / m <= 1e-15 (1 + |t|), 0 to search */
+static int cp_convex(const double *p, double *tx, double *ty, double *f)
+{
+    double px = p[0], py = p[1], pz = p[2], t[2], h, g[2], H[4];
+    double m = 1.0 - fmax(G_HMAX - pz, pz - G_HMIN) * G_CONVEX;
+    if (!(G_CONVEX > 0.0) || !(m >= CONVEX_MIN)) return 0;
+    t[0] = *tx = px;
+    t[1] = *ty = py;
+    texture_at(t, &h, g, H);
+    int ev = 1;
+    double e = h - pz;
+    *f = e * e;
+    double g0 = e * g[0], g1 = e * g[1], gn = sqrt(g0 * g0 + g1 * g1);
+    while (ev < CONVEX_EVALS) {
+        if (gn <= 1e-15 * (1.0 + hypot(*tx, *ty)) * m) return 1;
+        double a = 1.0 + g[0] * g[0] + e * H[0], b = g[0] * g[1] + e * H[1], c = 1.0 + g[1] * g[1] + e * H[3];
+        double det = a * c - b * b;
+        double sx = -(c * g0 - b * g1) / det, sy = -(a * g1 - b * g0) / det;
+        int moved = 0;
+        while (ev < CONVEX_EVALS) {
+            t[0] = *tx + sx;
+            t[1] = *ty + sy;
+            texture_at(t, &h, g, H);
+            ev += 1;
+            e = h - pz;
+            double fn = (t[0] - px) * (t[0] - px) + (t[1] - py) * (t[1] - py) + e * e;
+            g0 = (t[0] - px) + e * g[0];
+            g1 = (t[1] - py) + e * g[1];
+            double gm = sqrt(g0 * g0 + g1 * g1);
+            if (fn <= *f || gm < gn) {
+                *tx = t[0];
+                *ty = t[1];
+                *f = fn;
+                gn = gm;
+                moved = 1;
+                break;
+            }
+            sx *= 0.5;
+            sy *= 0.5;
+        }
+        if (!moved) break;
+    }
+    return 0;
+}
+
 /* p below the surface; writes the closest point ph[3] and its distance */
 static void cp_surface(const double *p, double *ph, double *dist)
 {
     double px = p[0], py = p[1], pz = p[2];
+    double ctx, cty, cf;
+    if (cp_convex(p, &ctx, &cty, &cf)) {
+        *dist = sqrt(cf);
+        ph[0] = ctx;
+        ph[1] = cty;
+        ph[2] = grating_h(ctx, cty);
+        return;
+    }
     double bf = grating_h(px, py) - pz, btx = px, bty = py;
     bf = bf * bf;
     double below = fmax(G_HMIN - pz, 0.0);
@@ -915,9 +971,12 @@ def export_c(algorithm: Algorithm, out, max_force: float) -> tuple[Path, Path]:
     work = "one texture evaluation"
     if letter in "DE" and kind == GRATINGS:
         tables += "".join(f"#define {n} ({_num(aux[getattr(_kernels, n)])})\n"
-                          for n in ("G_HMIN", "G_SLOPE", "G_CURV", "G_LEAF", "G_TIE"))
+                          for n in ("G_HMIN", "G_HMAX", "G_SLOPE", "G_CURV", "G_LEAF", "G_TIE", "G_CONVEX"))
+        tables += (f"#define CONVEX_MIN ({_num(_kernels.CONVEX_MIN)})\n"
+                   f"#define CONVEX_EVALS {_kernels.CONVEX_EVALS}\n")
         extra = _CLOSEST_SURFACE
-        work = "the closest-point search on the surface, at most 65536 leaves"
+        work = ("Newton certified by strong convexity (at most CONVEX_EVALS evaluations), else the "
+                "closest-point search on the surface, at most 65536 leaves")
     elif letter in "DE":
         names = ("A_MODE A_START A_PERIOD A_TREELEN A_NLEAF A_STEP A_SLOPE A_CURV A_HMIN A_TMIN A_WCAP A_X0 A_XE "
                  "A_HL A_SL A_HR A_SR A_TIE A_JERK A_TREE").split()

@@ -95,9 +95,13 @@ class Surface(Texture):
         return max(abs(lo), abs(hi))
 
     # -- sups over a cell, by dense sampling and bounded refinement -----------------------
+    def _grid_shape(self) -> list[int]:
+        """Samples along x and y of :meth:`_grid`: 64 a shortest period, 64 to 4096 a side."""
+        return [int(min(max(64 * (b - a) / self.shortest_period, 64), 4096)) for a, b in self.domain]
+
     def _grid(self):
         (x0, x1), (y0, y1) = self.domain
-        n = [int(min(max(64 * (b - a) / self.shortest_period, 64), 4096)) for a, b in ((x0, x1), (y0, y1))]
+        n = self._grid_shape()
         check_count("texture", self, n[0] * n[1], MAX_GRID, "grid points over the periodic cell (a cell of at "
                     "most ~30 shortest periods a side)")
         xs = np.linspace(x0, x1, n[0], endpoint=False)
@@ -249,14 +253,30 @@ class SumOfGratings(Surface):
         return self._sup(lambda p: np.linalg.norm(self.hessian(p), ord=2, axis=(-2, -1)))
 
     @cached_property
+    def curvature_bound(self) -> float:
+        """A rigorous C >= sup ||H||_2 (1/m): sum_k a_k |k_k|^2, or, over a cell, the smaller of
+        that and :attr:`max_curvature` plus its sampling error (||H|| moves at most
+        sum_k a_k |k_k|^3 per metre, and every point lies within half a grid cell's diagonal of
+        a sample)."""
+        k = np.hypot(self._kvec[:, 0], self._kvec[:, 1])
+        total = float(np.sum(self.amplitudes * k ** 2))
+        if self.cell is None:
+            return total
+        (x0, x1), (y0, y1) = self.domain
+        n = self._grid_shape()
+        r = 0.5 * math.hypot((x1 - x0) / n[0], (y1 - y0) / n[1])
+        return min(total, self.max_curvature + float(np.sum(self.amplitudes * k ** 3)) * r)
+
+    @cached_property
     def height_range(self) -> tuple[float, float]:
-        """(min h, max h) (m); the bound (-sum a, sum a) without a cell."""
+        """(min h, max h) (m); the bound (-sum a, sum a) without a cell; over a cell, the sampled
+        extremes padded by their rigorous sampling error (:attr:`curvature_bound`)."""
         total = float(self.amplitudes.sum())
         if self.cell is None:
             return (-total, total)
         pts, (dx, dy) = self._grid()
         h = self.height_at(pts)
-        pad = self.max_curvature * (dx * dx + dy * dy) / 8  # sampling error of an extremum
+        pad = self.curvature_bound * (dx * dx + dy * dy) / 8  # sampling error of an extremum
         return (max(float(h.min()) - pad, -total), min(float(h.max()) + pad, total))
 
     def spectrum(self) -> tuple[np.ndarray, np.ndarray]:
