@@ -13,8 +13,6 @@ import haptex as hx
 from haptex._units import parse_quantity
 from haptex.cli import main
 
-from .conftest import DEKTAK, needs_data
-
 
 @pytest.fixture(scope="module")
 def table_json():
