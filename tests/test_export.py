@@ -282,3 +282,39 @@ def test_export_over_a_surface_at_the_command_line(tmp_path):
     assert "p = [x, y, z] (m)" in (out / "haptex_texture.h").read_text()
     subprocess.run([CC, "-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror", "-c", str(out / "haptex_texture.c"),
                     "-o", str(tmp_path / "t.o")], check=True)
+
+
+def test_the_exported_convex_newton_is_the_librarys(tmp_path):
+    # the C's cp_convex (D and E over gratings, before the quadtree search) is
+    # haptex._kernels.convex_closest_point from p_xy, line for line: on 2,000 probes of the
+    # gentle egg-crate (least radius of curvature 1.01 mm, probes 0-0.4 mm deep) both certify
+    # the same closest point, to 1e-18 m; on the paper's egg-crate (32 um) neither claims one
+    from haptex import _kernels
+    from haptex.closest import surface_search_data
+
+    for tex, certified in ((hx.SumOfGratings.egg_crate(0.1e-3, 2e-3), True), (hx.SumOfGratings.egg_crate(A, L), False)):
+        d = tmp_path / str(certified)  # a library per texture (dlopen keeps the first of a path)
+        d.mkdir()
+        h, c = export_c(hx.algorithm("D", tex, K0), d, 5.0)
+        probe = d / "probe.c"  # the static cp_convex reached from the same translation unit
+        probe.write_text(f'#include "{c.name}"\nint probe_convex(const double *p, double *out)\n'
+                         "{\n    return cp_convex(p, &out[0], &out[1], &out[2]);\n}\n")
+        so = d / "libprobe.so"
+        subprocess.run([CC, "-std=c99", "-O2", "-shared", "-fPIC", "-o", str(so), str(probe), "-lm"], check=True,
+                       capture_output=True, text=True, cwd=d)
+        lib = ctypes.CDLL(str(so))
+        lib.probe_convex.restype = ctypes.c_int
+        kind, gc, gaux = surface_search_data(tex)
+        rng = np.random.default_rng(4)
+        xy = rng.uniform(-2e-3, 2e-3, (2000, 2))
+        z = tex.height_at(xy) - rng.uniform(0.0, 0.4e-3, 2000)
+        p = (ctypes.c_double * 3)()
+        out = (ctypes.c_double * 3)()
+        for (x, y), zz in zip(xy.tolist(), z.tolist()):
+            p[0], p[1], p[2] = x, y, zz
+            ok_c = lib.probe_convex(p, out)
+            tx, ty, f, _, ok = _kernels.convex_closest_point(kind, gc, gaux, x, y, zz, math.nan, math.nan)
+            assert (bool(ok_c), ok, certified) == (certified,) * 3, (x, y, zz, tuple(out), tx, ty, f)
+            if ok:
+                assert abs(out[0] - tx) <= 1e-18 and abs(out[1] - ty) <= 1e-18
+                assert out[2] == pytest.approx(f, rel=1e-14, abs=1e-30)
