@@ -1400,17 +1400,15 @@ def surface_closest_point(kind, gc, gaux, px, py, pz, gx0, gy0, best):
     second = math.inf
     found = False
     work = 1 + ev
-    # a first upper bound from the local minimum nearest the vertical point (Newton from it)
+    # a first upper bound from the local minima nearest the vertical point and the guess
+    # (Newton from each; the guess only when it lies in the search window)
     below = max(gaux[G_HMIN] - pz, 0.0)
     half = math.sqrt(max(bf - below * below, 0.0)) * (1.0 + 1e-9) + 1e-300
-    tx, ty, f, it, _ = _surf_newton(kind, gc, px, py, pz, px, py, px - half, px + half, py - half, py + half)
-    work += it + 1
-    if f < bf:
-        bf = f
-        btx = tx
-        bty = ty
-    if math.isfinite(gx0) and math.isfinite(gy0) and abs(gx0 - px) < half and abs(gy0 - py) < half:
-        tx, ty, f, it, _ = _surf_newton(kind, gc, px, py, pz, gx0, gy0, px - half, px + half, py - half, py + half)
+    guess = math.isfinite(gx0) and math.isfinite(gy0) and abs(gx0 - px) < half and abs(gy0 - py) < half
+    for start in range(2 if guess else 1):
+        sx = px if start == 0 else gx0
+        sy = py if start == 0 else gy0
+        tx, ty, f, it, _ = _surf_newton(kind, gc, px, py, pz, sx, sy, px - half, px + half, py - half, py + half)
         work += it + 1
         if f < bf:
             bf = f
