@@ -1090,8 +1090,8 @@ def alg_force(code, x, z, kind, coeffs, prm, aux, st):
 # ----------------------------------------------------------------------------------------
 # ``gcoeffs`` has shape (4, n): amplitudes a (m), wave-vector components kx, ky (rad/m),
 # phases (rad); h = sum a sin(kx x + ky y + phase). ``gaux``: the search's constants.
-G_HMIN, G_SLOPE, G_CURV, G_LEAF, G_TIE, G_HMAX, G_CONVEX = range(7)
-N_GAUX = 7
+G_HMIN, G_SLOPE, G_CURV, G_LEAF, G_TIE, G_HMAX, G_CONVEX, G_JERK, G_SLOPE_BOUND, G_CURV_BOUND = range(10)
+N_GAUX = 10
 SURFACE_GRATINGS = 3
 SURFACE_PATCHES = 4
 """Surface kinds of the search: a sum of gratings (``sc`` of shape (4, n): a, kx, ky, phase)
@@ -1104,6 +1104,8 @@ SURF_STACK = 512
 """Cells the quadtree search may hold pending (depth-first: 3 per level; far above need)."""
 MAX_SURF_LEAVES = 1 << 16
 """Most leaves one surface search may refine (its work bound: each leaf a local Newton)."""
+MAX_SURF_NODES = 1 << 16
+"""Most cells one surface search may examine by its Taylor model; beyond, cells are leaves."""
 
 
 @nb.njit(**_JIT)
@@ -1299,6 +1301,47 @@ def _surf_newton(kind, gc, px, py, pz, tx, ty, x0, x1, y0, y1):
     return tx, ty, f, it, stationary
 
 
+
+@nb.njit(inline="always", **_JIT)
+def _edge_qp(g, a, w):
+    """min over s in [-w, w] of g s + a s^2 / 2, and its argmin."""
+    if a > 0.0 and abs(g) < a * w:
+        s = -g / a
+        return 0.5 * g * s, s
+    return 0.5 * a * w * w - abs(g) * w, (-w if g > 0.0 else w)
+
+
+@nb.njit(**_JIT)
+def _box_qp(g0, g1, a, b, c, w):
+    """The exact minimum over the square |u_x|, |u_y| <= w of q(u) = g.u + u^T [[a, b], [b, c]]
+    u / 2 (any symmetric matrix), and its argmin: the interior stationary point when the
+    matrix is positive definite and the point inside, else the least of the four edges' 1-D
+    minima. Returns (q_min, u_x, u_y)."""
+    det = a * c - b * b
+    if a > 0.0 and det > 0.0:
+        sx = -(c * g0 - b * g1) / det
+        sy = -(a * g1 - b * g0) / det
+        if abs(sx) <= w and abs(sy) <= w:
+            return 0.5 * (g0 * sx + g1 * sy), sx, sy
+    best = math.inf
+    bx = 0.0
+    by = 0.0
+    for sgn in (-1.0, 1.0):
+        v, s = _edge_qp(g1 + b * sgn * w, c, w)  # the edge u_x = sgn w
+        v += sgn * w * g0 + 0.5 * a * w * w
+        if v < best:
+            best = v
+            bx = sgn * w
+            by = s
+        v, s = _edge_qp(g0 + b * sgn * w, a, w)  # the edge u_y = sgn w
+        v += sgn * w * g1 + 0.5 * c * w * w
+        if v < best:
+            best = v
+            bx = s
+            by = sgn * w
+    return best, bx, by
+
+
 CONVEX_MIN = 0.05
 """Least certified strong convexity of phi / 2 for :func:`convex_closest_point` to be tried."""
 CONVEX_EVALS = 16
@@ -1370,22 +1413,57 @@ def convex_closest_point(kind, gc, gaux, px, py, pz, tx, ty):
     return tx, ty, f, ev, False
 
 
+@nb.njit(inline="always", **_JIT)
+def _offer_point(bf, btx, bty, second, found, tx, ty, f, stationary, sep):
+    """A surface search's candidate (tx, ty) with phi = f: the new best, or the runner-up kept
+    for ties (a stationary point farther than sep from a stationary best). ``found``: the best
+    is a stationary point of phi. Returns the updated (bf, btx, bty, second, found)."""
+    far = math.hypot(tx - btx, ty - bty) > sep
+    if f < bf:
+        if found and bf < second and far:
+            second = bf
+        return f, tx, ty, second, stationary
+    if stationary and not far and f <= bf * (1.0 + 1e-12):
+        found = True  # the best's own local minimum, equal to rounding
+    elif stationary and found and f < second and far:
+        second = f
+    return bf, btx, bty, second, found
+
+
 @nb.njit(**_JIT)
 def surface_closest_point(kind, gc, gaux, px, py, pz, gx0, gy0, best):
     """Closest point (tx, ty) of z = h(x, y) to p = (px, py, pz) below it.
 
-    Branch and bound: the square of half-width W around p_xy (W from the vertical distance
-    and the lowest height, as in the 1-D search) is cut into cells; a cell is pruned when the
-    distance from p to the box [cell] x [h bounds over the cell] is not below the best
-    distance, the bounds being the tighter of h(c) +- min(M r, |grad h(c)| r +
-    sup||H|| r^2 / 2) (r the cell's half-diagonal) and the sum of each grating's exact range
-    over the cell; a cell of half-width <= G_LEAF is refined by projected Newton from the
-    best of six samples in it (its centre, its quarters' centres, p_xy clamped into it).
     First, :func:`convex_closest_point` from the guess (gx0, gy0) (NaN: none): where it
-    certifies the minimum, that is the answer. Otherwise the guess's local minimum, when
-    lower, seeds the search's bound. ``best`` is scratch of length 4 + 3 * SURF_STACK.
-    Returns (tx, ty, distance, tie, work): tie is 1 when a second local minimum farther than
-    four leaves away lies at the same distance to G_TIE (the medial axis).
+    certifies the minimum, that is the answer. Otherwise branch and bound over a quadtree of
+    the square of half-width W around p_xy (W from the vertical distance and the lowest
+    height, as in the 1-D search), its bound first set by Newton from p_xy and from the guess.
+    A cell (centre c, half-width w, half-diagonal r) is pruned when either lower bound of phi
+    = |t - p_xy|^2 + (h(t) - p_z)^2 over it reaches the goal:
+
+    - the box bound: the distance from p to the box [cell] x [h bounds], the bounds the
+      tighter of h(c) +- min(M r, |grad h(c)| r + sup||H|| r^2 / 2) (with the rigorous S and C
+      below where G_JERK > 0) and the sum of each grating's exact range over the cell;
+    - the Taylor bound (when G_JERK > 0, a sum of gratings): phi(c) + 2 min over the cell of
+      the quadratic model g.u + u^T Q u / 2 (:func:`_box_qp`; g and Q the gradient and Hessian
+      of phi / 2 at c) - L r^3 / 3, where L = 3 S C + (|h(c) - p_z| + S r) J bounds the
+      derivative of Q = I + grad h grad h^T + (h - p_z) H over the cell (S, C, J rigorous
+      bounds of |grad h|, ||H||_2 and the third derivatives: G_SLOPE_BOUND, G_CURV_BOUND,
+      G_JERK), so that phi / 2 is at least its quadratic model less L |u|^3 / 6.
+
+    The goal is (d - G_TIE)^2, d the best distance so far; for a cell wholly farther than
+    four leaves from the best point while no runner-up within G_TIE of d is known,
+    (d + G_TIE)^2 (ties on the medial axis). Where the model's least point in a cell is below the best (or, in such a
+    far cell, within G_TIE of it), Newton polishes it to its local minimum, which becomes the
+    best or the runner-up. The result is the global closest point to G_TIE in distance: no
+    point of the surface is closer than d - G_TIE. Without G_JERK (height maps), cells of
+    half-width <= G_LEAF are leaves refined by projected Newton from the best of six samples
+    (their centre, their quarters' centres, p_xy clamped into them): not certified.
+
+    Work is bounded: at most MAX_SURF_NODES cells by the model, MAX_SURF_LEAVES leaves,
+    SURF_STACK pending cells; beyond, cells are leaves. ``best`` is scratch of length 4 + 3 *
+    SURF_STACK. Returns (tx, ty, distance, tie, work): tie is 1 when a second local minimum
+    farther than four leaves away lies at the same distance to G_TIE (the medial axis).
     """
     h0 = surf_eval(kind, gc, px, py)[0]
     dv = h0 - pz
@@ -1400,37 +1478,48 @@ def surface_closest_point(kind, gc, gaux, px, py, pz, gx0, gy0, best):
     second = math.inf
     found = False
     work = 1 + ev
+    leaf = gaux[G_LEAF]
+    sep = 4.0 * leaf
+    tie_eps = gaux[G_TIE]
     # a first upper bound from the local minima nearest the vertical point and the guess
     # (Newton from each; the guess only when it lies in the search window)
     below = max(gaux[G_HMIN] - pz, 0.0)
     half = math.sqrt(max(bf - below * below, 0.0)) * (1.0 + 1e-9) + 1e-300
+    x0 = px - half
+    x1 = px + half
+    y0 = py - half
+    y1 = py + half
     guess = math.isfinite(gx0) and math.isfinite(gy0) and abs(gx0 - px) < half and abs(gy0 - py) < half
     for start in range(2 if guess else 1):
         sx = px if start == 0 else gx0
         sy = py if start == 0 else gy0
-        tx, ty, f, it, _ = _surf_newton(kind, gc, px, py, pz, sx, sy, px - half, px + half, py - half, py + half)
+        tx, ty, f, it, stat = _surf_newton(kind, gc, px, py, pz, sx, sy, x0, x1, y0, y1)
         work += it + 1
-        if f < bf:
-            bf = f
-            btx = tx
-            bty = ty
-    leaf = gaux[G_LEAF]
-    slope = gaux[G_SLOPE]
-    curv = gaux[G_CURV]
-    tie_eps = gaux[G_TIE]
+        bf, btx, bty, second, found = _offer_point(bf, btx, bty, second, found, tx, ty, f, stat, sep)
+    if not found:  # Newton may end on the minimum with its iterations spent: certify it stationary
+        tx, ty, f, it, stat = _surf_newton(kind, gc, px, py, pz, btx, bty, x0, x1, y0, y1)
+        work += it + 1
+        bf, btx, bty, second, found = _offer_point(bf, btx, bty, second, found, tx, ty, f, stat, sep)
+    jerk = gaux[G_JERK]
+    sb = gaux[G_SLOPE_BOUND]
+    model = jerk > 0.0
+    # the box bound with the rigorous sup |grad h| and sup ||H|| where they are kept
+    slope = sb if model else gaux[G_SLOPE]
+    curv = gaux[G_CURV_BOUND] if model else gaux[G_CURV]
+    lip0 = 3.0 * sb * gaux[G_CURV_BOUND]
     stack = best  # (cx, cy, w) triples from index 4
-    sp = 0
     stack[4] = px
     stack[5] = py
     stack[6] = half
     sp = 1
     leaves = 0
+    nodes = 0
     while sp > 0:
         sp -= 1
         cx = stack[4 + 3 * sp]
         cy = stack[5 + 3 * sp]
         w = stack[6 + 3 * sp]
-        h, gx, gy, _, _, _ = surf_eval(kind, gc, cx, cy)
+        h, gx, gy, hxx, hxy, hyy = surf_eval(kind, gc, cx, cy)
         work += 1
         r = w * math.sqrt(2.0)
         spread = min(slope * r, math.sqrt(gx * gx + gy * gy) * r + 0.5 * curv * r * r)
@@ -1445,10 +1534,42 @@ def surface_closest_point(kind, gc, gaux, px, py, pz, gx0, gy0, best):
         dx = max(0.0, abs(px - cx) - w)
         dy = max(0.0, abs(py - cy) - w)
         dz = max(0.0, lo - pz, pz - hi)
-        reach = math.sqrt(bf) + tie_eps
+        d = math.sqrt(bf)
+        far = not model or (second > (d + tie_eps) ** 2 and math.hypot(cx - btx, cy - bty) > sep + r)
+        reach = d + tie_eps if far else max(d - tie_eps, 0.0)
         if dx * dx + dy * dy + dz * dz > reach * reach:
             continue
-        if w <= leaf or leaves >= MAX_SURF_LEAVES or sp + 4 > SURF_STACK:
+        if model:
+            nodes += 1
+            e = h - pz
+            g0 = (cx - px) + e * gx
+            g1 = (cy - py) + e * gy
+            q, ux, uy = _box_qp(g0, g1, 1.0 + gx * gx + e * hxx, gx * gy + e * hxy, 1.0 + gy * gy + e * hyy, w)
+            lb = (cx - px) ** 2 + (cy - py) ** 2 + e * e + 2.0 * q - (lip0 + (abs(e) + sb * r) * jerk) * r * r * r / 3.0
+            if lb > reach * reach:
+                continue
+            # the model's least point: polished to its local minimum when it is below the best
+            # (in a far cell, within G_TIE above it)
+            sx = cx + ux
+            sy = cy + uy
+            ez = _height3_only(kind, gc, sx, sy) - pz
+            fs = (sx - px) ** 2 + (sy - py) ** 2 + ez * ez
+            work += 1
+            if fs < bf or (far and fs <= reach * reach):
+                tx, ty, f, it, stat = _surf_newton(kind, gc, px, py, pz, sx, sy, x0, x1, y0, y1)
+                work += it + 1
+                if f > fs and not stat:  # Newton went astray: keep the model's point (not a local minimum)
+                    tx, ty, f, stat = sx, sy, fs, False
+                bf, btx, bty, second, found = _offer_point(bf, btx, bty, second, found, tx, ty, f, stat, sep)
+                d = math.sqrt(bf)
+                far = second > (d + tie_eps) ** 2 and math.hypot(cx - btx, cy - bty) > sep + r
+                reach = d + tie_eps if far else max(d - tie_eps, 0.0)
+                if lb > reach * reach:
+                    continue
+            leafy = nodes >= MAX_SURF_NODES or w <= 1e-9 * leaf  # (rounding would stop the halving)
+        else:
+            leafy = w <= leaf or leaves >= MAX_SURF_LEAVES
+        if leafy or sp + 4 > SURF_STACK:
             # a leaf: projected Newton from the best of its centre, its four quarter centres and
             # p_xy clamped into it
             sx = min(max(px, cx - w), cx + w)
@@ -1466,16 +1587,7 @@ def surface_closest_point(kind, gc, gaux, px, py, pz, gx0, gy0, best):
             leaves += 1
             tx, ty, f, it, inner = _surf_newton(kind, gc, px, py, pz, sx, sy, cx - w, cx + w, cy - w, cy + w)
             work += it + 1
-            sep = 4.0 * leaf
-            if f < bf:
-                if found and bf < second and math.hypot(tx - btx, ty - bty) > sep:
-                    second = bf
-                bf = f
-                btx = tx
-                bty = ty
-                found = found or inner
-            elif inner and found and f < second and math.hypot(tx - btx, ty - bty) > sep:
-                second = f
+            bf, btx, bty, second, found = _offer_point(bf, btx, bty, second, found, tx, ty, f, inner, sep)
             continue
         hw = 0.5 * w
         # the four children, the one holding p_xy's quadrant last (popped first)

@@ -691,9 +691,11 @@ _CLOSEST_SURFACE = """
 /* Closest point on z = h(x, y) for a sum of gratings (D, E over a surface): the certified
  * convex Newton and the quadtree branch and bound of haptex._kernels.surface_closest_point,
  * line for line (from a cold start: no warm start is kept); bounded work (at most
- * CONVEX_EVALS evaluations, then SURF_LEAVES leaves of a few texture evaluations each). */
+ * CONVEX_EVALS evaluations, then SURF_NODES cells by the Taylor bound, each at most one
+ * Newton polish of 41 texture evaluations; beyond, leaves). */
 #define SURF_STACK 512
-#define SURF_LEAVES 65536
+#define SURF_NODES 65536
+#define SURF_SEP (4.0 * G_LEAF)
 
 static double grating_h(double x, double y)
 {
@@ -724,7 +726,8 @@ static void grating_range(double cx, double cy, double w, double *lo, double *hi
     }
 }
 
-static double surf_newton(const double *p, double *tx, double *ty, double x0, double x1, double y0, double y1)
+static double surf_newton(const double *p, double *tx, double *ty, double x0, double x1, double y0, double y1,
+                          int *stationary)
 {
     double px = p[0], py = p[1], pz = p[2], t[2], h, g[2], H[4];
     for (int it = 1; it <= 40; ++it) {
@@ -751,8 +754,13 @@ static double surf_newton(const double *p, double *tx, double *ty, double x0, do
         *ty = ny;
         if (done) break;
     }
-    double hz = grating_h(*tx, *ty) - pz;
-    return (*tx - px) * (*tx - px) + (*ty - py) * (*ty - py) + hz * hz;
+    t[0] = *tx;
+    t[1] = *ty;
+    texture_at(t, &h, g, H);
+    double hz = h - pz, f = (*tx - px) * (*tx - px) + (*ty - py) * (*ty - py) + hz * hz;
+    /* a stationary point of phi (not a minimum pinned to the cell's edge) */
+    *stationary = hypot((*tx - px) + hz * g[0], (*ty - py) + hz * g[1]) <= 1e-9 * sqrt(f) + 1e-300;
+    return f;
 }
 
 /* haptex._kernels.convex_closest_point from p_xy: Newton where phi / 2 is certified
@@ -802,7 +810,71 @@ static int cp_convex(const double *p, double *tx, double *ty, double *f)
     return 0;
 }
 
-/* p below the surface; writes the closest point ph[3] and its distance */
+/* min over |u_x|, |u_y| <= w of g.u + u^T [[a, b], [b, c]] u / 2, and its argmin
+ * (haptex._kernels._box_qp) */
+static double edge_qp(double g, double a, double w, double *s)
+{
+    if (a > 0.0 && fabs(g) < a * w) {
+        *s = -g / a;
+        return 0.5 * g * *s;
+    }
+    *s = g > 0.0 ? -w : w;
+    return 0.5 * a * w * w - fabs(g) * w;
+}
+
+static double box_qp(double g0, double g1, double a, double b, double c, double w, double *ux, double *uy)
+{
+    double det = a * c - b * b;
+    if (a > 0.0 && det > 0.0) {
+        double sx = -(c * g0 - b * g1) / det, sy = -(a * g1 - b * g0) / det;
+        if (fabs(sx) <= w && fabs(sy) <= w) {
+            *ux = sx;
+            *uy = sy;
+            return 0.5 * (g0 * sx + g1 * sy);
+        }
+    }
+    double best = HUGE_VAL, s, v;
+    *ux = 0.0;
+    *uy = 0.0;
+    for (int k = 0; k < 2; ++k) {
+        double sgn = k == 0 ? -1.0 : 1.0;
+        v = edge_qp(g1 + b * sgn * w, c, w, &s) + sgn * w * g0 + 0.5 * a * w * w;
+        if (v < best) {
+            best = v;
+            *ux = sgn * w;
+            *uy = s;
+        }
+        v = edge_qp(g0 + b * sgn * w, a, w, &s) + sgn * w * g1 + 0.5 * c * w * w;
+        if (v < best) {
+            best = v;
+            *ux = s;
+            *uy = sgn * w;
+        }
+    }
+    return best;
+}
+
+typedef struct { double bf, btx, bty, second; int found; } surf_best;
+
+/* haptex._kernels._offer_point */
+static void offer_point(surf_best *b, double tx, double ty, double f, int stationary)
+{
+    int far = hypot(tx - b->btx, ty - b->bty) > SURF_SEP;
+    if (f < b->bf) {
+        if (b->found && b->bf < b->second && far) b->second = b->bf;
+        b->bf = f;
+        b->btx = tx;
+        b->bty = ty;
+        b->found = stationary;
+    } else if (stationary && !far && f <= b->bf * (1.0 + 1e-12)) {
+        b->found = 1;
+    } else if (stationary && b->found && f < b->second && far) {
+        b->second = f;
+    }
+}
+
+/* p below the surface; writes the closest point ph[3] and its distance: the global closest
+ * point to G_TIE in distance (the Taylor bound of haptex._kernels.surface_closest_point) */
 static void cp_surface(const double *p, double *ph, double *dist)
 {
     double px = p[0], py = p[1], pz = p[2];
@@ -814,20 +886,30 @@ static void cp_surface(const double *p, double *ph, double *dist)
         ph[2] = grating_h(ctx, cty);
         return;
     }
-    double bf = grating_h(px, py) - pz, btx = px, bty = py;
-    bf = bf * bf;
+    surf_best B;
+    B.bf = grating_h(px, py) - pz;
+    B.bf = B.bf * B.bf;
+    B.btx = px;
+    B.bty = py;
+    B.second = HUGE_VAL;
+    B.found = 0;
     double below = fmax(G_HMIN - pz, 0.0);
-    double half = sqrt(fmax(bf - below * below, 0.0)) * (1.0 + 1e-9) + 1e-300;
+    double half = sqrt(fmax(B.bf - below * below, 0.0)) * (1.0 + 1e-9) + 1e-300;
+    double x0 = px - half, x1 = px + half, y0 = py - half, y1 = py + half;
     double tx = px, ty = py;
-    double f = surf_newton(p, &tx, &ty, px - half, px + half, py - half, py + half);
-    if (f < bf) {
-        bf = f;
-        btx = tx;
-        bty = ty;
+    int stat;
+    double f = surf_newton(p, &tx, &ty, x0, x1, y0, y1, &stat);
+    offer_point(&B, tx, ty, f, stat);
+    if (!B.found) {  /* Newton may end on the minimum with its iterations spent: certify it */
+        tx = B.btx;
+        ty = B.bty;
+        f = surf_newton(p, &tx, &ty, x0, x1, y0, y1, &stat);
+        offer_point(&B, tx, ty, f, stat);
     }
+    const double lip0 = 3.0 * G_SLOPE_BOUND * G_CURV_BOUND;
     double stack[3 * SURF_STACK + 3];
     int sp = 1;
-    long leaves = 0;
+    long nodes = 0;
     stack[0] = px;
     stack[1] = py;
     stack[2] = half;
@@ -837,36 +919,60 @@ static void cp_surface(const double *p, double *ph, double *dist)
         double c[2] = {cx, cy}, h, g[2], H[4];
         texture_at(c, &h, g, H);
         double r = w * sqrt(2.0);
-        double spread = fmin(G_SLOPE * r, sqrt(g[0] * g[0] + g[1] * g[1]) * r + 0.5 * G_CURV * r * r);
+        double spread = fmin(G_SLOPE_BOUND * r, sqrt(g[0] * g[0] + g[1] * g[1]) * r + 0.5 * G_CURV_BOUND * r * r);
         double glo, ghi;
         grating_range(cx, cy, w, &glo, &ghi);
         double lo = fmax(h - spread, glo), hi = fmin(h + spread, ghi);
         double dx = fmax(0.0, fabs(px - cx) - w), dy = fmax(0.0, fabs(py - cy) - w);
         double dz = fmax(0.0, fmax(lo - pz, pz - hi));
-        double reach = sqrt(bf) + G_TIE;
+        double d = sqrt(B.bf);
+        int far = B.second > (d + G_TIE) * (d + G_TIE) && hypot(cx - B.btx, cy - B.bty) > SURF_SEP + r;
+        double reach = far ? d + G_TIE : fmax(d - G_TIE, 0.0);
         if (dx * dx + dy * dy + dz * dz > reach * reach) continue;
-        if (w <= G_LEAF || leaves >= SURF_LEAVES || sp + 4 > SURF_STACK) {
-            double sx = fmin(fmax(px, cx - w), cx + w), sy = fmin(fmax(py, cy - w), cy + w);
+        nodes += 1;
+        double e = h - pz;
+        double g0 = (cx - px) + e * g[0], g1 = (cy - py) + e * g[1], ux, uy;
+        double q = box_qp(g0, g1, 1.0 + g[0] * g[0] + e * H[0], g[0] * g[1] + e * H[1], 1.0 + g[1] * g[1] + e * H[3], w, &ux, &uy);
+        double lb = (cx - px) * (cx - px) + (cy - py) * (cy - py) + e * e + 2.0 * q
+                    - (lip0 + (fabs(e) + G_SLOPE_BOUND * r) * G_JERK) * r * r * r / 3.0;
+        if (lb > reach * reach) continue;
+        double sx = cx + ux, sy = cy + uy;
+        double ez = grating_h(sx, sy) - pz;
+        double fs = (sx - px) * (sx - px) + (sy - py) * (sy - py) + ez * ez;
+        if (fs < B.bf || (far && fs <= reach * reach)) {
+            tx = sx;
+            ty = sy;
+            f = surf_newton(p, &tx, &ty, x0, x1, y0, y1, &stat);
+            if (f > fs && !stat) {  /* Newton went astray: keep the model's point */
+                tx = sx;
+                ty = sy;
+                f = fs;
+            }
+            offer_point(&B, tx, ty, f, stat);
+            d = sqrt(B.bf);
+            far = B.second > (d + G_TIE) * (d + G_TIE) && hypot(cx - B.btx, cy - B.bty) > SURF_SEP + r;
+            reach = far ? d + G_TIE : fmax(d - G_TIE, 0.0);
+            if (lb > reach * reach) continue;
+        }
+        if (nodes >= SURF_NODES || w <= 1e-9 * G_LEAF || sp + 4 > SURF_STACK) {
+            /* a leaf: projected Newton from the best of its centre, its quarters' centres and p_xy */
+            sx = fmin(fmax(px, cx - w), cx + w);
+            sy = fmin(fmax(py, cy - w), cy + w);
             double hs = grating_h(sx, sy) - pz;
-            double fs = (sx - px) * (sx - px) + (sy - py) * (sy - py) + hs * hs;
-            for (int q = 0; q < 5; ++q) {
-                double qx = q == 0 ? cx : cx + ((q & 1) ? 0.5 * w : -0.5 * w);
-                double qy = q == 0 ? cy : cy + ((q & 2) ? 0.5 * w : -0.5 * w);
+            double fl = (sx - px) * (sx - px) + (sy - py) * (sy - py) + hs * hs;
+            for (int k = 0; k < 5; ++k) {
+                double qx = k == 0 ? cx : cx + ((k & 1) ? 0.5 * w : -0.5 * w);
+                double qy = k == 0 ? cy : cy + ((k & 2) ? 0.5 * w : -0.5 * w);
                 double hq = grating_h(qx, qy) - pz;
                 double fq = (qx - px) * (qx - px) + (qy - py) * (qy - py) + hq * hq;
-                if (fq < fs) {
-                    fs = fq;
+                if (fq < fl) {
+                    fl = fq;
                     sx = qx;
                     sy = qy;
                 }
             }
-            leaves += 1;
-            f = surf_newton(p, &sx, &sy, cx - w, cx + w, cy - w, cy + w);
-            if (f < bf) {
-                bf = f;
-                btx = sx;
-                bty = sy;
-            }
+            f = surf_newton(p, &sx, &sy, cx - w, cx + w, cy - w, cy + w, &stat);
+            offer_point(&B, sx, sy, f, stat);
             continue;
         }
         double hw = 0.5 * w;
@@ -883,10 +989,10 @@ static void cp_surface(const double *p, double *ph, double *dist)
         stack[3 * sp + 2] = hw;
         sp += 1;
     }
-    *dist = sqrt(bf);
-    ph[0] = btx;
-    ph[1] = bty;
-    ph[2] = grating_h(btx, bty);
+    *dist = sqrt(B.bf);
+    ph[0] = B.btx;
+    ph[1] = B.bty;
+    ph[2] = grating_h(B.btx, B.bty);
 }
 """
 
@@ -971,12 +1077,13 @@ def export_c(algorithm: Algorithm, out, max_force: float) -> tuple[Path, Path]:
     work = "one texture evaluation"
     if letter in "DE" and kind == GRATINGS:
         tables += "".join(f"#define {n} ({_num(aux[getattr(_kernels, n)])})\n"
-                          for n in ("G_HMIN", "G_HMAX", "G_SLOPE", "G_CURV", "G_LEAF", "G_TIE", "G_CONVEX"))
+                          for n in ("G_HMIN", "G_HMAX", "G_LEAF", "G_TIE", "G_CONVEX", "G_JERK", "G_SLOPE_BOUND",
+                                    "G_CURV_BOUND"))
         tables += (f"#define CONVEX_MIN ({_num(_kernels.CONVEX_MIN)})\n"
                    f"#define CONVEX_EVALS {_kernels.CONVEX_EVALS}\n")
         extra = _CLOSEST_SURFACE
         work = ("Newton certified by strong convexity (at most CONVEX_EVALS evaluations), else the "
-                "closest-point search on the surface, at most 65536 leaves")
+                "closest-point search on the surface, at most 65536 cells")
     elif letter in "DE":
         names = ("A_MODE A_START A_PERIOD A_TREELEN A_NLEAF A_STEP A_SLOPE A_CURV A_HMIN A_TMIN A_WCAP A_X0 A_XE "
                  "A_HL A_SL A_HR A_SR A_TIE A_JERK A_TREE").split()
