@@ -1417,7 +1417,8 @@ def convex_closest_point(kind, gc, gaux, px, py, pz, tx, ty):
 def _offer_point(bf, btx, bty, second, found, tx, ty, f, stationary, sep):
     """A surface search's candidate (tx, ty) with phi = f: the new best, or the runner-up kept
     for ties (a stationary point farther than sep from a stationary best). ``found``: the best
-    is a stationary point of phi. Returns the updated (bf, btx, bty, second, found)."""
+    is a stationary point of phi, or one lies within sep of it at the same phi to rounding.
+    Returns the updated (bf, btx, bty, second, found)."""
     far = math.hypot(tx - btx, ty - bty) > sep
     if f < bf:
         if found and bf < second and far:
