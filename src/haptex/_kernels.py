@@ -1431,6 +1431,18 @@ def _offer_point(bf, btx, bty, second, found, tx, ty, f, stationary, sep):
     return bf, btx, bty, second, found
 
 
+@nb.njit(inline="always", **_JIT)
+def _cell_reach(model, bf, second, btx, bty, cx, cy, r, sep, tie_eps):
+    """The distance a surface search's cell (centre (cx, cy), half-diagonal r) must come within
+    to be searched: d - tie_eps, d = sqrt(bf) the best distance so far; d + tie_eps for a cell
+    wholly farther than sep from the best point (btx, bty) while no runner-up within tie_eps
+    of d is known (``second``: its phi), and everywhere without the Taylor bound (``model``
+    False). Returns (far, reach)."""
+    d = math.sqrt(bf)
+    far = not model or (second > (d + tie_eps) ** 2 and math.hypot(cx - btx, cy - bty) > sep + r)
+    return far, (d + tie_eps if far else max(d - tie_eps, 0.0))
+
+
 @nb.njit(**_JIT)
 def surface_closest_point(kind, gc, gaux, px, py, pz, gx0, gy0, best):
     """Closest point (tx, ty) of z = h(x, y) to p = (px, py, pz) below it.
@@ -1535,9 +1547,7 @@ def surface_closest_point(kind, gc, gaux, px, py, pz, gx0, gy0, best):
         dx = max(0.0, abs(px - cx) - w)
         dy = max(0.0, abs(py - cy) - w)
         dz = max(0.0, lo - pz, pz - hi)
-        d = math.sqrt(bf)
-        far = not model or (second > (d + tie_eps) ** 2 and math.hypot(cx - btx, cy - bty) > sep + r)
-        reach = d + tie_eps if far else max(d - tie_eps, 0.0)
+        far, reach = _cell_reach(model, bf, second, btx, bty, cx, cy, r, sep, tie_eps)
         if dx * dx + dy * dy + dz * dz > reach * reach:
             continue
         if model:
@@ -1545,8 +1555,8 @@ def surface_closest_point(kind, gc, gaux, px, py, pz, gx0, gy0, best):
             e = h - pz
             g0 = (cx - px) + e * gx
             g1 = (cy - py) + e * gy
-            q, ux, uy = _box_qp(g0, g1, 1.0 + gx * gx + e * hxx, gx * gy + e * hxy, 1.0 + gy * gy + e * hyy, w)
-            lb = (cx - px) ** 2 + (cy - py) ** 2 + e * e + 2.0 * q - (lip0 + (abs(e) + sb * r) * jerk) * r * r * r / 3.0
+            qmin, ux, uy = _box_qp(g0, g1, 1.0 + gx * gx + e * hxx, gx * gy + e * hxy, 1.0 + gy * gy + e * hyy, w)
+            lb = (cx - px) ** 2 + (cy - py) ** 2 + e * e + 2.0 * qmin - (lip0 + (abs(e) + sb * r) * jerk) * r * r * r / 3.0
             if lb > reach * reach:
                 continue
             # the model's least point: polished to its local minimum when it is below the best
@@ -1562,9 +1572,7 @@ def surface_closest_point(kind, gc, gaux, px, py, pz, gx0, gy0, best):
                 if f > fs and not stat:  # Newton went astray: keep the model's point (not a local minimum)
                     tx, ty, f, stat = sx, sy, fs, False
                 bf, btx, bty, second, found = _offer_point(bf, btx, bty, second, found, tx, ty, f, stat, sep)
-                d = math.sqrt(bf)
-                far = second > (d + tie_eps) ** 2 and math.hypot(cx - btx, cy - bty) > sep + r
-                reach = d + tie_eps if far else max(d - tie_eps, 0.0)
+                far, reach = _cell_reach(model, bf, second, btx, bty, cx, cy, r, sep, tie_eps)
                 if lb > reach * reach:
                     continue
             leafy = nodes >= MAX_SURF_NODES or w <= 1e-9 * leaf  # (rounding would stop the halving)

@@ -873,6 +873,14 @@ static void offer_point(surf_best *b, double tx, double ty, double f, int statio
     }
 }
 
+/* haptex._kernels._cell_reach (with the Taylor bound): the distance a cell must come within */
+static double cell_reach(const surf_best *b, double cx, double cy, double r, int *far)
+{
+    double d = sqrt(b->bf);
+    *far = b->second > (d + G_TIE) * (d + G_TIE) && hypot(cx - b->btx, cy - b->bty) > SURF_SEP + r;
+    return *far ? d + G_TIE : fmax(d - G_TIE, 0.0);
+}
+
 /* p below the surface; writes the closest point ph[3] and its distance: the global closest
  * point to G_TIE in distance (the Taylor bound of haptex._kernels.surface_closest_point) */
 static void cp_surface(const double *p, double *ph, double *dist)
@@ -925,9 +933,8 @@ static void cp_surface(const double *p, double *ph, double *dist)
         double lo = fmax(h - spread, glo), hi = fmin(h + spread, ghi);
         double dx = fmax(0.0, fabs(px - cx) - w), dy = fmax(0.0, fabs(py - cy) - w);
         double dz = fmax(0.0, fmax(lo - pz, pz - hi));
-        double d = sqrt(B.bf);
-        int far = B.second > (d + G_TIE) * (d + G_TIE) && hypot(cx - B.btx, cy - B.bty) > SURF_SEP + r;
-        double reach = far ? d + G_TIE : fmax(d - G_TIE, 0.0);
+        int far;
+        double reach = cell_reach(&B, cx, cy, r, &far);
         if (dx * dx + dy * dy + dz * dz > reach * reach) continue;
         nodes += 1;
         double e = h - pz;
@@ -949,9 +956,7 @@ static void cp_surface(const double *p, double *ph, double *dist)
                 f = fs;
             }
             offer_point(&B, tx, ty, f, stat);
-            d = sqrt(B.bf);
-            far = B.second > (d + G_TIE) * (d + G_TIE) && hypot(cx - B.btx, cy - B.bty) > SURF_SEP + r;
-            reach = far ? d + G_TIE : fmax(d - G_TIE, 0.0);
+            reach = cell_reach(&B, cx, cy, r, &far);
             if (lb > reach * reach) continue;
         }
         if (nodes >= SURF_NODES || w <= 1e-9 * G_LEAF || sp + 4 > SURF_STACK) {
