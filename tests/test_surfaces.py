@@ -661,7 +661,9 @@ def test_the_convexity_certificate_gives_the_searchs_closest_point(name, tex, ce
         runs.append(out)
     (tx, ty, d, tie, work), (rx, ry, rd, rtie, rwork) = runs
     if certified:
-        assert work.max() <= 1 + K.CONVEX_EVALS and np.median(work) < np.median(rwork) / 5  # measured 6; 5 vs 56
+        # measured: at most 6; median 5 against the search's 7 (56 before the search's basin disc,
+        # which covers a convex plane at once)
+        assert work.max() <= 1 + K.CONVEX_EVALS and np.median(work) < np.median(rwork)
         assert np.max(np.hypot(tx - rx, ty - ry)) <= 2e-15 and np.max(np.abs(d - rd)) <= 2e-15  # measured 1e-15, 3e-19
         assert not tie.any() and not rtie.any()  # strictly convex: one minimum
     else:

@@ -1444,6 +1444,41 @@ def _cell_reach(model, bf, second, btx, bty, cx, cy, r, sep, tie_eps):
 
 
 @nb.njit(**_JIT)
+def _basin_radius(kind, gc, gaux, px, py, pz, tx, ty, f):
+    """Radius rho of a disc around the surface search's best point (tx, ty), phi = f, on which
+    phi >= (sqrt(f) - G_TIE)^2: a cell inside it needs no search. By Taylor at t with the
+    cubic remainder, phi / 2 (t + v) >= f / 2 + g.v + v^T Q v / 2 - L |v|^3 / 6 (g, Q the
+    gradient and Hessian of phi / 2 at t; L over the disc as in
+    :func:`surface_closest_point`, from rigorous bounds of |grad h|, ||H||_2 and the third
+    derivatives). Holds for rho with lambda_min(Q) - L rho / 3 >= 0 and |g| rho <= half the
+    tie tolerance. Returns 0.0 where none is certified (one texture evaluation)."""
+    jerk = gaux[G_JERK]
+    cb = gaux[G_CURV_BOUND]
+    sb = gaux[G_SLOPE_BOUND]
+    h, gx, gy, hxx, hxy, hyy = surf_eval(kind, gc, tx, ty)
+    e = h - pz
+    a = 1.0 + gx * gx + e * hxx
+    b = gx * gy + e * hxy
+    c = 1.0 + gy * gy + e * hyy
+    lam = 0.5 * (a + c) - math.hypot(0.5 * (a - c), b)
+    gn = math.hypot((tx - px) + e * gx, (ty - py) + e * gy)
+    d = math.sqrt(f)
+    tol = 0.5 * gaux[G_TIE] * d
+    if not (lam > 0.0 and jerk > 0.0):
+        return 0.0
+    hn = 0.5 * abs(hxx + hyy) + math.hypot(0.5 * (hxx - hyy), hxy)
+    sn = math.hypot(gx, gy)
+    rho = 3.0 * lam / (3.0 * sn * hn + abs(e) * jerk + 1e-300)
+    for _ in range(60):
+        cl = min(cb, hn + jerk * rho)
+        sl = min(sb, sn + cl * rho)
+        if lam - (3.0 * sl * cl + (abs(e) + sl * rho) * jerk) * rho / 3.0 >= 0.0 and gn * rho <= tol:
+            return rho
+        rho *= 0.75
+    return 0.0
+
+
+@nb.njit(**_JIT)
 def surface_closest_point(kind, gc, gaux, px, py, pz, gx0, gy0, best):
     """Closest point (tx, ty) of z = h(x, y) to p = (px, py, pz) below it.
 
@@ -1451,18 +1486,28 @@ def surface_closest_point(kind, gc, gaux, px, py, pz, gx0, gy0, best):
     certifies the minimum, that is the answer. Otherwise branch and bound over a quadtree of
     the square of half-width W around p_xy (W from the vertical distance and the lowest
     height, as in the 1-D search), its bound first set by Newton from p_xy and from the guess.
-    A cell (centre c, half-width w, half-diagonal r) is pruned when either lower bound of phi
+    A cell (centre c, half-width w, half-diagonal r) is pruned when a lower bound of phi
     = |t - p_xy|^2 + (h(t) - p_z)^2 over it reaches the goal:
 
     - the box bound: the distance from p to the box [cell] x [h bounds], the bounds the
-      tighter of h(c) +- min(M r, |grad h(c)| r + sup||H|| r^2 / 2) (with the rigorous S and C
-      below where G_JERK > 0) and the sum of each grating's exact range over the cell;
+      tighter of h(c) +- min(M r, |grad h(c)| r + sup||H|| r^2 / 2) (M and sup||H|| the
+      rigorous G_SLOPE_BOUND and G_CURV_BOUND where G_JERK > 0) and the sum of each
+      grating's exact range over the cell;
     - the Taylor bound (when G_JERK > 0, a sum of gratings): phi(c) + 2 min over the cell of
       the quadratic model g.u + u^T Q u / 2 (:func:`_box_qp`; g and Q the gradient and Hessian
       of phi / 2 at c) - L r^3 / 3, where L = 3 S C + (|h(c) - p_z| + S r) J bounds the
-      derivative of Q = I + grad h grad h^T + (h - p_z) H over the cell (S, C, J rigorous
-      bounds of |grad h|, ||H||_2 and the third derivatives: G_SLOPE_BOUND, G_CURV_BOUND,
-      G_JERK), so that phi / 2 is at least its quadratic model less L |u|^3 / 6.
+      derivative of Q = I + grad h grad h^T + (h - p_z) H over the cell, so that phi / 2 is
+      at least its quadratic model less L |u|^3 / 6. J = G_JERK bounds the third
+      derivatives; C = min(G_CURV_BOUND, ||H(c)||_2 + J r) and S = min(G_SLOPE_BOUND,
+      |grad h(c)| + C r) bound ||H||_2 and |grad h| over the cell (rigorous: H is J-, grad h
+      C-Lipschitz);
+    - the basin disc (when G_JERK > 0 and the best is a stationary point t*): by the same
+      Taylor bound centred at t*, phi reaches the goal on the disc of radius rho around t*
+      where lambda_min(Q(t*)) >= L rho / 3 (:func:`_basin_radius`); a cell inside it is
+      pruned unevaluated. This replaces the tower of ever smaller cells around the minimum.
+
+    Each grating's exact range over the cell (a tighter box bound, two sines a grating) is
+    computed only for cells the cheaper bounds leave.
 
     The goal is (d - G_TIE)^2, d the best distance so far; for a cell wholly farther than
     four leaves from the best point while no runner-up within G_TIE of d is known,
@@ -1519,7 +1564,10 @@ def surface_closest_point(kind, gc, gaux, px, py, pz, gx0, gy0, best):
     # the box bound with the rigorous sup |grad h| and sup ||H|| where they are kept
     slope = sb if model else gaux[G_SLOPE]
     curv = gaux[G_CURV_BOUND] if model else gaux[G_CURV]
-    lip0 = 3.0 * sb * gaux[G_CURV_BOUND]
+    cb = gaux[G_CURV_BOUND]
+    rb = 0.0  # a disc around the best point with phi >= the goal (_basin_radius)
+    rbx = math.nan
+    rby = math.nan
     stack = best  # (cx, cy, w) triples from index 4
     stack[4] = px
     stack[5] = py
@@ -1532,23 +1580,30 @@ def surface_closest_point(kind, gc, gaux, px, py, pz, gx0, gy0, best):
         cx = stack[4 + 3 * sp]
         cy = stack[5 + 3 * sp]
         w = stack[6 + 3 * sp]
+        r = w * math.sqrt(2.0)
+        if model and found and (btx != rbx or bty != rby):
+            rb = _basin_radius(kind, gc, gaux, px, py, pz, btx, bty, bf)
+            rbx = btx
+            rby = bty
+            work += 1
+        if rb > 0.0 and btx == rbx and bty == rby and math.hypot(cx - rbx, cy - rby) + r <= rb:
+            continue
         h, gx, gy, hxx, hxy, hyy = surf_eval(kind, gc, cx, cy)
         work += 1
-        r = w * math.sqrt(2.0)
         spread = min(slope * r, math.sqrt(gx * gx + gy * gy) * r + 0.5 * curv * r * r)
-        if kind == SURFACE_PATCHES:
+        ranged = kind == SURFACE_PATCHES
+        if ranged:
             glo, ghi = _patch_range(gc, gaux, cx, cy, w)
             if glo < gaux[G_HMIN] or ghi > gaux[G_HMAX]:  # beyond the map: the extension's bound only
                 spread = math.inf
-        else:
-            glo, ghi = _grating_range(gc, cx, cy, w)
-        lo = max(h - spread, glo)
-        hi = min(h + spread, ghi)
-        dx = max(0.0, abs(px - cx) - w)
-        dy = max(0.0, abs(py - cy) - w)
-        dz = max(0.0, lo - pz, pz - hi)
+            lo = max(h - spread, glo)
+            hi = min(h + spread, ghi)
+        else:  # each grating's exact range later, where the cheaper bounds leave the cell
+            lo = h - spread
+            hi = h + spread
+        dxy = max(0.0, abs(px - cx) - w) ** 2 + max(0.0, abs(py - cy) - w) ** 2
         far, reach = _cell_reach(model, bf, second, btx, bty, cx, cy, r, sep, tie_eps)
-        if dx * dx + dy * dy + dz * dz > reach * reach:
+        if dxy + max(0.0, lo - pz, pz - hi) ** 2 > reach * reach:
             continue
         if model:
             nodes += 1
@@ -1556,9 +1611,17 @@ def surface_closest_point(kind, gc, gaux, px, py, pz, gx0, gy0, best):
             g0 = (cx - px) + e * gx
             g1 = (cy - py) + e * gy
             qmin, ux, uy = _box_qp(g0, g1, 1.0 + gx * gx + e * hxx, gx * gy + e * hxy, 1.0 + gy * gy + e * hyy, w)
-            lb = (cx - px) ** 2 + (cy - py) ** 2 + e * e + 2.0 * qmin - (lip0 + (abs(e) + sb * r) * jerk) * r * r * r / 3.0
+            # sup ||H||_2 and sup |grad h| over the cell, from their values at c
+            cl = min(cb, 0.5 * abs(hxx + hyy) + math.hypot(0.5 * (hxx - hyy), hxy) + jerk * r)
+            sl = min(sb, math.sqrt(gx * gx + gy * gy) + cl * r)
+            lb = (cx - px) ** 2 + (cy - py) ** 2 + e * e + 2.0 * qmin - (3.0 * sl * cl + (abs(e) + sl * r) * jerk) * r * r * r / 3.0
             if lb > reach * reach:
                 continue
+        if not ranged:
+            glo, ghi = _grating_range(gc, cx, cy, w)
+            if dxy + max(0.0, max(lo, glo) - pz, pz - min(hi, ghi)) ** 2 > reach * reach:
+                continue
+        if model:
             # the model's least point: polished to its local minimum when it is below the best
             # (in a far cell, within G_TIE above it)
             sx = cx + ux

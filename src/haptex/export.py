@@ -881,6 +881,28 @@ static double cell_reach(const surf_best *b, double cx, double cy, double r, int
     return *far ? d + G_TIE : fmax(d - G_TIE, 0.0);
 }
 
+/* haptex._kernels._basin_radius: a disc around the best point (tx, ty), phi = f, on which phi
+ * reaches the goal (Taylor at t, cubic remainder); 0 where none is certified */
+static double basin_radius(const double *p, double tx, double ty, double f)
+{
+    double t[2] = {tx, ty}, h, g[2], H[4];
+    texture_at(t, &h, g, H);
+    double e = h - p[2];
+    double a = 1.0 + g[0] * g[0] + e * H[0], b = g[0] * g[1] + e * H[1], c = 1.0 + g[1] * g[1] + e * H[3];
+    double lam = 0.5 * (a + c) - hypot(0.5 * (a - c), b);
+    double gn = hypot((tx - p[0]) + e * g[0], (ty - p[1]) + e * g[1]);
+    double tol = 0.5 * G_TIE * sqrt(f);
+    if (!(lam > 0.0 && G_JERK > 0.0)) return 0.0;
+    double hn = 0.5 * fabs(H[0] + H[3]) + hypot(0.5 * (H[0] - H[3]), H[1]), sn = hypot(g[0], g[1]);
+    double rho = 3.0 * lam / (3.0 * sn * hn + fabs(e) * G_JERK + 1e-300);
+    for (int k = 0; k < 60; ++k) {
+        double cl = fmin(G_CURV_BOUND, hn + G_JERK * rho), sl = fmin(G_SLOPE_BOUND, sn + cl * rho);
+        if (lam - (3.0 * sl * cl + (fabs(e) + sl * rho) * G_JERK) * rho / 3.0 >= 0.0 && gn * rho <= tol) return rho;
+        rho *= 0.75;
+    }
+    return 0.0;
+}
+
 /* p below the surface; writes the closest point ph[3] and its distance: the global closest
  * point to G_TIE in distance (the Taylor bound of haptex._kernels.surface_closest_point) */
 static void cp_surface(const double *p, double *ph, double *dist)
@@ -914,7 +936,7 @@ static void cp_surface(const double *p, double *ph, double *dist)
         f = surf_newton(p, &tx, &ty, x0, x1, y0, y1, &stat);
         offer_point(&B, tx, ty, f, stat);
     }
-    const double lip0 = 3.0 * G_SLOPE_BOUND * G_CURV_BOUND;
+    double rb = 0.0, rbx = NAN, rby = NAN;  /* a disc around the best point: no search inside */
     double stack[3 * SURF_STACK + 3];
     int sp = 1;
     long nodes = 0;
@@ -924,25 +946,37 @@ static void cp_surface(const double *p, double *ph, double *dist)
     while (sp > 0) {
         sp -= 1;
         double cx = stack[3 * sp], cy = stack[3 * sp + 1], w = stack[3 * sp + 2];
+        double r = w * sqrt(2.0);
+        if (B.found && (B.btx != rbx || B.bty != rby)) {
+            rb = basin_radius(p, B.btx, B.bty, B.bf);
+            rbx = B.btx;
+            rby = B.bty;
+        }
+        if (rb > 0.0 && B.btx == rbx && B.bty == rby && hypot(cx - rbx, cy - rby) + r <= rb) continue;
         double c[2] = {cx, cy}, h, g[2], H[4];
         texture_at(c, &h, g, H);
-        double r = w * sqrt(2.0);
-        double spread = fmin(G_SLOPE_BOUND * r, sqrt(g[0] * g[0] + g[1] * g[1]) * r + 0.5 * G_CURV_BOUND * r * r);
-        double glo, ghi;
-        grating_range(cx, cy, w, &glo, &ghi);
-        double lo = fmax(h - spread, glo), hi = fmin(h + spread, ghi);
-        double dx = fmax(0.0, fabs(px - cx) - w), dy = fmax(0.0, fabs(py - cy) - w);
-        double dz = fmax(0.0, fmax(lo - pz, pz - hi));
+        double gm = sqrt(g[0] * g[0] + g[1] * g[1]);
+        double spread = fmin(G_SLOPE_BOUND * r, gm * r + 0.5 * G_CURV_BOUND * r * r);
+        double lo = h - spread, hi = h + spread;
+        double dx = fmax(0.0, fabs(px - cx) - w), dy = fmax(0.0, fabs(py - cy) - w), dxy = dx * dx + dy * dy;
         int far;
         double reach = cell_reach(&B, cx, cy, r, &far);
-        if (dx * dx + dy * dy + dz * dz > reach * reach) continue;
+        double dz = fmax(0.0, fmax(lo - pz, pz - hi));
+        if (dxy + dz * dz > reach * reach) continue;
         nodes += 1;
         double e = h - pz;
         double g0 = (cx - px) + e * g[0], g1 = (cy - py) + e * g[1], ux, uy;
         double q = box_qp(g0, g1, 1.0 + g[0] * g[0] + e * H[0], g[0] * g[1] + e * H[1], 1.0 + g[1] * g[1] + e * H[3], w, &ux, &uy);
+        /* sup ||H||_2 and sup |grad h| over the cell, from their values at c */
+        double cl = fmin(G_CURV_BOUND, 0.5 * fabs(H[0] + H[3]) + hypot(0.5 * (H[0] - H[3]), H[1]) + G_JERK * r);
+        double sl = fmin(G_SLOPE_BOUND, gm + cl * r);
         double lb = (cx - px) * (cx - px) + (cy - py) * (cy - py) + e * e + 2.0 * q
-                    - (lip0 + (fabs(e) + G_SLOPE_BOUND * r) * G_JERK) * r * r * r / 3.0;
+                    - (3.0 * sl * cl + (fabs(e) + sl * r) * G_JERK) * r * r * r / 3.0;
         if (lb > reach * reach) continue;
+        double glo, ghi;  /* each grating's exact range, where the cheaper bounds leave the cell */
+        grating_range(cx, cy, w, &glo, &ghi);
+        dz = fmax(0.0, fmax(fmax(lo, glo) - pz, pz - fmin(hi, ghi)));
+        if (dxy + dz * dz > reach * reach) continue;
         double sx = cx + ux, sy = cy + uy;
         double ez = grating_h(sx, sy) - pz;
         double fs = (sx - px) * (sx - px) + (sy - py) * (sy - py) + ez * ez;
