@@ -1264,14 +1264,41 @@ def _grating_range(gc, cx, cy, w):
 @nb.njit(**_JIT)
 def _surf_newton(kind, gc, px, py, pz, tx, ty, x0, x1, y0, y1):
     """Projected Newton on phi/2 = (|t - p_xy|^2 + (h(t) - pz)^2) / 2 from (tx, ty), kept in the
-    cell [x0, x1] x [y0, y1] (at most 40 iterations; a gradient step where the Hessian is not
-    positive definite). Returns (tx, ty, phi, iterations, stationary)."""
+    cell [x0, x1] x [y0, y1] and monotone: a step that raises phi (beyond its rounding, 1e-12
+    relative, with a smaller gradient) is halved from the last point that did not. Where the
+    Hessian Q of phi / 2 is not positive definite, the step solves (Q + mu I) s = -grad with
+    Q's least eigenvalue mirrored (mu = -2 lambda_min), at most a quarter of the cell long.
+    At most 40 texture evaluations. Returns (tx, ty, phi, evaluations, stationary): the last
+    accepted point; stationary when |grad phi / 2| <= 1e-9 sqrt(phi) there (not a minimum
+    pinned to the cell's edge)."""
+    ox = tx
+    oy = ty
+    of = math.inf
+    og = math.inf
+    sx = 0.0
+    sy = 0.0
     it = 0
     for it in range(1, 41):
         h, gx, gy, hxx, hxy, hyy = surf_eval(kind, gc, tx, ty)
         e = h - pz
+        f = (tx - px) ** 2 + (ty - py) ** 2 + e * e
         g0 = (tx - px) + e * gx
         g1 = (ty - py) + e * gy
+        gn = math.hypot(g0, g1)
+        # uphill (or not finite): half the step from the last accepted point; at the minimum,
+        # where phi only rounds, a smaller gradient is progress
+        if not (f <= of or (f <= of * (1.0 + 1e-12) and gn < og)):
+            sx *= 0.5
+            sy *= 0.5
+            if abs(sx) <= 1e-15 * (1.0 + abs(ox)) and abs(sy) <= 1e-15 * (1.0 + abs(oy)):
+                break
+            tx = min(max(ox + sx, x0), x1)
+            ty = min(max(oy + sy, y0), y1)
+            continue
+        ox = tx
+        oy = ty
+        of = f
+        og = gn
         a = 1.0 + gx * gx + e * hxx
         b = gx * gy + e * hxy
         c = 1.0 + gy * gy + e * hyy
@@ -1279,26 +1306,31 @@ def _surf_newton(kind, gc, px, py, pz, tx, ty, x0, x1, y0, y1):
         if a > 0.0 and det > 0.0:
             sx = -(c * g0 - b * g1) / det
             sy = -(a * g1 - b * g0) / det
-        else:  # not convex here: a steepest-descent step of the cell's size
-            n = math.sqrt(g0 * g0 + g1 * g1)
-            if n == 0.0:
+        else:  # not convex here: Newton on Q + mu I, its least eigenvalue mirrored (|Q|)
+            if og == 0.0:
                 break
-            step = 0.25 * min(x1 - x0, y1 - y0)
-            sx = -step * g0 / n
-            sy = -step * g1 / n
+            lam = 0.5 * (a + c) - math.hypot(0.5 * (a - c), b)
+            mu = max(-2.0 * lam, 1e-6 * (abs(a) + abs(c)) + 1e-300)
+            a += mu
+            c += mu
+            det = a * c - b * b
+            sx = -(c * g0 - b * g1) / det
+            sy = -(a * g1 - b * g0) / det
+            cap = 0.25 * min(x1 - x0, y1 - y0) / (math.hypot(sx, sy) + 1e-300)
+            if cap < 1.0:
+                sx *= cap
+                sy *= cap
         nx = min(max(tx + sx, x0), x1)
         ny = min(max(ty + sy, y0), y1)
-        done = abs(nx - tx) <= 1e-15 * (1.0 + abs(tx)) and abs(ny - ty) <= 1e-15 * (1.0 + abs(ty))
+        sx = nx - tx  # the projected step, halved from here if it goes uphill
+        sy = ny - ty
+        if abs(sx) <= 1e-15 * (1.0 + abs(tx)) and abs(sy) <= 1e-15 * (1.0 + abs(ty)):
+            break
         tx = nx
         ty = ny
-        if done:
-            break
-    h, gx, gy, _, _, _ = surf_eval(kind, gc, tx, ty)
-    e = h - pz
-    f = (tx - px) ** 2 + (ty - py) ** 2 + e * e
     # a stationary point of phi (not a minimum pinned to the cell's edge): |grad phi/2| ~ 0
-    stationary = math.hypot((tx - px) + e * gx, (ty - py) + e * gy) <= 1e-9 * math.sqrt(f) + 1e-300
-    return tx, ty, f, it, stationary
+    stationary = og <= 1e-9 * math.sqrt(of) + 1e-300
+    return ox, oy, of, it, stationary
 
 
 
@@ -1446,15 +1478,22 @@ def _cell_reach(model, bf, second, btx, bty, cx, cy, r, sep, tie_eps):
 @nb.njit(**_JIT)
 def _basin_radius(kind, gc, gaux, px, py, pz, tx, ty, f):
     """Radius rho of a disc around the surface search's best point (tx, ty), phi = f, on which
-    phi >= (sqrt(f) - G_TIE)^2: a cell inside it needs no search. By Taylor at t with the
-    cubic remainder, phi / 2 (t + v) >= f / 2 + g.v + v^T Q v / 2 - L |v|^3 / 6 (g, Q the
-    gradient and Hessian of phi / 2 at t; L over the disc as in
+    phi >= (sqrt(f) - G_TIE)^2, the search's goal: a cell inside it needs no search.
+
+    By Taylor at t with the cubic remainder, phi / 2 (t + v) >= f / 2 - |g| s + lambda s^2 / 2
+    - L s^3 / 6 for |v| = s <= rho (g, lambda the gradient and least eigenvalue of the
+    Hessian Q of phi / 2 at t; L bounds the derivative of Q over the disc as in
     :func:`surface_closest_point`, from rigorous bounds of |grad h|, ||H||_2 and the third
-    derivatives). Holds for rho with lambda_min(Q) - L rho / 3 >= 0 and |g| rho <= half the
-    tie tolerance. Returns 0.0 where none is certified (one texture evaluation)."""
+    derivatives). The disc holds when |g| rho + max(0, rho^2 (L rho / 6 - lambda / 2)) <=
+    tol = sqrt(f) G_TIE - G_TIE^2 / 2: up to rho = 3 lambda / L by the quadratic growth, and
+    at least a radius of about (6 tol / L)^(1/3) whatever lambda (a degenerate minimum,
+    lambda ~ 0, which a cubic bound alone would refine down to rounding). Returns 0.0 where
+    none is certified (one texture evaluation).
+    """
     jerk = gaux[G_JERK]
     cb = gaux[G_CURV_BOUND]
     sb = gaux[G_SLOPE_BOUND]
+    tie = gaux[G_TIE]
     h, gx, gy, hxx, hxy, hyy = surf_eval(kind, gc, tx, ty)
     e = h - pz
     a = 1.0 + gx * gx + e * hxx
@@ -1462,17 +1501,18 @@ def _basin_radius(kind, gc, gaux, px, py, pz, tx, ty, f):
     c = 1.0 + gy * gy + e * hyy
     lam = 0.5 * (a + c) - math.hypot(0.5 * (a - c), b)
     gn = math.hypot((tx - px) + e * gx, (ty - py) + e * gy)
-    d = math.sqrt(f)
-    tol = 0.5 * gaux[G_TIE] * d
-    if not (lam > 0.0 and jerk > 0.0):
+    tol = math.sqrt(f) * tie - 0.5 * tie * tie
+    if not (jerk > 0.0 and tol > 0.0 and math.isfinite(lam)):
         return 0.0
     hn = 0.5 * abs(hxx + hyy) + math.hypot(0.5 * (hxx - hyy), hxy)
     sn = math.hypot(gx, gy)
-    rho = 3.0 * lam / (3.0 * sn * hn + abs(e) * jerk + 1e-300)
+    l0 = 3.0 * sn * hn + abs(e) * jerk + 1e-300
+    rho = max(3.0 * max(lam, 0.0) / l0, (6.0 * tol / l0) ** (1.0 / 3.0))
     for _ in range(60):
         cl = min(cb, hn + jerk * rho)
         sl = min(sb, sn + cl * rho)
-        if lam - (3.0 * sl * cl + (abs(e) + sl * rho) * jerk) * rho / 3.0 >= 0.0 and gn * rho <= tol:
+        lip = 3.0 * sl * cl + (abs(e) + sl * rho) * jerk
+        if gn * rho + max(0.0, rho * rho * (lip * rho / 6.0 - 0.5 * lam)) <= tol:
             return rho
         rho *= 0.75
     return 0.0
@@ -1552,11 +1592,11 @@ def surface_closest_point(kind, gc, gaux, px, py, pz, gx0, gy0, best):
         sx = px if start == 0 else gx0
         sy = py if start == 0 else gy0
         tx, ty, f, it, stat = _surf_newton(kind, gc, px, py, pz, sx, sy, x0, x1, y0, y1)
-        work += it + 1
+        work += it
         bf, btx, bty, second, found = _offer_point(bf, btx, bty, second, found, tx, ty, f, stat, sep)
     if not found:  # Newton may end on the minimum with its iterations spent: certify it stationary
         tx, ty, f, it, stat = _surf_newton(kind, gc, px, py, pz, btx, bty, x0, x1, y0, y1)
-        work += it + 1
+        work += it
         bf, btx, bty, second, found = _offer_point(bf, btx, bty, second, found, tx, ty, f, stat, sep)
     jerk = gaux[G_JERK]
     sb = gaux[G_SLOPE_BOUND]
@@ -1631,7 +1671,7 @@ def surface_closest_point(kind, gc, gaux, px, py, pz, gx0, gy0, best):
             work += 1
             if fs < bf or (far and fs <= reach * reach):
                 tx, ty, f, it, stat = _surf_newton(kind, gc, px, py, pz, sx, sy, x0, x1, y0, y1)
-                work += it + 1
+                work += it
                 if f > fs and not stat:  # Newton went astray: keep the model's point (not a local minimum)
                     tx, ty, f, stat = sx, sy, fs, False
                 bf, btx, bty, second, found = _offer_point(bf, btx, bty, second, found, tx, ty, f, stat, sep)
@@ -1658,7 +1698,7 @@ def surface_closest_point(kind, gc, gaux, px, py, pz, gx0, gy0, best):
             work += 6
             leaves += 1
             tx, ty, f, it, inner = _surf_newton(kind, gc, px, py, pz, sx, sy, cx - w, cx + w, cy - w, cy + w)
-            work += it + 1
+            work += it
             bf, btx, bty, second, found = _offer_point(bf, btx, bty, second, found, tx, ty, f, inner, sep)
             continue
         hw = 0.5 * w

@@ -729,38 +729,61 @@ static void grating_range(double cx, double cy, double w, double *lo, double *hi
 static double surf_newton(const double *p, double *tx, double *ty, double x0, double x1, double y0, double y1,
                           int *stationary)
 {
+    /* haptex._kernels._surf_newton: projected, monotone Newton on phi / 2 in the cell; |Q|'s
+     * Newton step where Q is not positive definite; at most 40 evaluations */
     double px = p[0], py = p[1], pz = p[2], t[2], h, g[2], H[4];
+    double ox = *tx, oy = *ty, of = HUGE_VAL, og = HUGE_VAL, sx = 0.0, sy = 0.0;
     for (int it = 1; it <= 40; ++it) {
         t[0] = *tx;
         t[1] = *ty;
         texture_at(t, &h, g, H);
         double e = h - pz;
-        double g0 = (*tx - px) + e * g[0], g1 = (*ty - py) + e * g[1];
+        double f = (*tx - px) * (*tx - px) + (*ty - py) * (*ty - py) + e * e;
+        double g0 = (*tx - px) + e * g[0], g1 = (*ty - py) + e * g[1], gn = hypot(g0, g1);
+        if (!(f <= of || (f <= of * (1.0 + 1e-12) && gn < og))) {  /* uphill: half the step */
+            sx *= 0.5;
+            sy *= 0.5;
+            if (fabs(sx) <= 1e-15 * (1.0 + fabs(ox)) && fabs(sy) <= 1e-15 * (1.0 + fabs(oy))) break;
+            *tx = fmin(fmax(ox + sx, x0), x1);
+            *ty = fmin(fmax(oy + sy, y0), y1);
+            continue;
+        }
+        ox = *tx;
+        oy = *ty;
+        of = f;
+        og = gn;
         double a = 1.0 + g[0] * g[0] + e * H[0], b = g[0] * g[1] + e * H[1], c = 1.0 + g[1] * g[1] + e * H[3];
-        double det = a * c - b * b, sx, sy;
+        double det = a * c - b * b;
         if (a > 0.0 && det > 0.0) {
             sx = -(c * g0 - b * g1) / det;
             sy = -(a * g1 - b * g0) / det;
         } else {
-            double n = sqrt(g0 * g0 + g1 * g1);
-            if (n == 0.0) break;
-            double step = 0.25 * fmin(x1 - x0, y1 - y0);
-            sx = -step * g0 / n;
-            sy = -step * g1 / n;
+            if (og == 0.0) break;
+            double lam = 0.5 * (a + c) - hypot(0.5 * (a - c), b);
+            double mu = fmax(-2.0 * lam, 1e-6 * (fabs(a) + fabs(c)) + 1e-300);
+            a += mu;
+            c += mu;
+            det = a * c - b * b;
+            sx = -(c * g0 - b * g1) / det;
+            sy = -(a * g1 - b * g0) / det;
+            double cap = 0.25 * fmin(x1 - x0, y1 - y0) / (hypot(sx, sy) + 1e-300);
+            if (cap < 1.0) {
+                sx *= cap;
+                sy *= cap;
+            }
         }
         double nx = fmin(fmax(*tx + sx, x0), x1), ny = fmin(fmax(*ty + sy, y0), y1);
-        int done = fabs(nx - *tx) <= 1e-15 * (1.0 + fabs(*tx)) && fabs(ny - *ty) <= 1e-15 * (1.0 + fabs(*ty));
+        sx = nx - *tx;
+        sy = ny - *ty;
+        if (fabs(sx) <= 1e-15 * (1.0 + fabs(*tx)) && fabs(sy) <= 1e-15 * (1.0 + fabs(*ty))) break;
         *tx = nx;
         *ty = ny;
-        if (done) break;
     }
-    t[0] = *tx;
-    t[1] = *ty;
-    texture_at(t, &h, g, H);
-    double hz = h - pz, f = (*tx - px) * (*tx - px) + (*ty - py) * (*ty - py) + hz * hz;
+    *tx = ox;
+    *ty = oy;
     /* a stationary point of phi (not a minimum pinned to the cell's edge) */
-    *stationary = hypot((*tx - px) + hz * g[0], (*ty - py) + hz * g[1]) <= 1e-9 * sqrt(f) + 1e-300;
-    return f;
+    *stationary = og <= 1e-9 * sqrt(of) + 1e-300;
+    return of;
 }
 
 /* haptex._kernels.convex_closest_point from p_xy: Newton where phi / 2 is certified
@@ -882,7 +905,8 @@ static double cell_reach(const surf_best *b, double cx, double cy, double r, int
 }
 
 /* haptex._kernels._basin_radius: a disc around the best point (tx, ty), phi = f, on which phi
- * reaches the goal (Taylor at t, cubic remainder); 0 where none is certified */
+ * reaches the goal (Taylor at t, cubic remainder, up to the tie tolerance); 0 where none is
+ * certified */
 static double basin_radius(const double *p, double tx, double ty, double f)
 {
     double t[2] = {tx, ty}, h, g[2], H[4];
@@ -891,13 +915,15 @@ static double basin_radius(const double *p, double tx, double ty, double f)
     double a = 1.0 + g[0] * g[0] + e * H[0], b = g[0] * g[1] + e * H[1], c = 1.0 + g[1] * g[1] + e * H[3];
     double lam = 0.5 * (a + c) - hypot(0.5 * (a - c), b);
     double gn = hypot((tx - p[0]) + e * g[0], (ty - p[1]) + e * g[1]);
-    double tol = 0.5 * G_TIE * sqrt(f);
-    if (!(lam > 0.0 && G_JERK > 0.0)) return 0.0;
+    double tol = sqrt(f) * G_TIE - 0.5 * G_TIE * G_TIE;
+    if (!(G_JERK > 0.0 && tol > 0.0 && isfinite(lam))) return 0.0;
     double hn = 0.5 * fabs(H[0] + H[3]) + hypot(0.5 * (H[0] - H[3]), H[1]), sn = hypot(g[0], g[1]);
-    double rho = 3.0 * lam / (3.0 * sn * hn + fabs(e) * G_JERK + 1e-300);
+    double l0 = 3.0 * sn * hn + fabs(e) * G_JERK + 1e-300;
+    double rho = fmax(3.0 * fmax(lam, 0.0) / l0, pow(6.0 * tol / l0, 1.0 / 3.0));
     for (int k = 0; k < 60; ++k) {
         double cl = fmin(G_CURV_BOUND, hn + G_JERK * rho), sl = fmin(G_SLOPE_BOUND, sn + cl * rho);
-        if (lam - (3.0 * sl * cl + (fabs(e) + sl * rho) * G_JERK) * rho / 3.0 >= 0.0 && gn * rho <= tol) return rho;
+        double lip = 3.0 * sl * cl + (fabs(e) + sl * rho) * G_JERK;
+        if (gn * rho + fmax(0.0, rho * rho * (lip * rho / 6.0 - 0.5 * lam)) <= tol) return rho;
         rho *= 0.75;
     }
     return 0.0;
