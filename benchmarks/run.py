@@ -8,7 +8,7 @@
 3. simulator: simulate_batch samples per second against plain C, N = 1 and 1000
    (benchmarks/run_sim.py);
 4. worst: the maximum Renderer.step latency and work over 10^6 adversarial positions per
-   algorithm and texture (benchmarks/run_worst.py);
+   algorithm and profile, 10^5 per surface (benchmarks/run_worst.py);
 5. export: ns per call of the C99 tick `haptex export` generates (benchmarks/run_export.py);
 6. design: `haptex design` on the raw Dektak scan against the paper's sinusoid, and design()
    on a 10^6-sample profile and a 1024 x 1024 map (benchmarks/run_design.py);
@@ -71,7 +71,7 @@ def main() -> None:
     if args.only in (None, "worst") and not args.json:
         import run_worst
 
-        print("\n# worst-case servo tick (10^6 adversarial calls per algorithm and texture)")
+        print("\n# worst-case servo tick (10^6 adversarial calls per algorithm and profile, 10^5 per surface)")
         sys.argv = sys.argv[:1]
         run_worst.main()
     if args.only in (None, "export") and not args.json:

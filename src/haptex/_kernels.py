@@ -1284,7 +1284,7 @@ def _surf_newton(kind, gc, px, py, pz, tx, ty, x0, x1, y0, y1):
         f = (tx - px) ** 2 + (ty - py) ** 2 + e * e
         g0 = (tx - px) + e * gx
         g1 = (ty - py) + e * gy
-        gn = math.hypot(g0, g1)
+        gn = math.sqrt(g0 * g0 + g1 * g1)
         # uphill (or not finite): half the step from the last accepted point; at the minimum,
         # where phi only rounds, a smaller gradient is progress
         if not (f <= of or (f <= of * (1.0 + 1e-12) and gn < og)):
@@ -1309,14 +1309,14 @@ def _surf_newton(kind, gc, px, py, pz, tx, ty, x0, x1, y0, y1):
         else:  # not convex here: Newton on Q + mu I, its least eigenvalue mirrored (|Q|)
             if og == 0.0:
                 break
-            lam = 0.5 * (a + c) - math.hypot(0.5 * (a - c), b)
+            lam = 0.5 * (a + c) - math.sqrt(0.25 * (a - c) ** 2 + b * b)
             mu = max(-2.0 * lam, 1e-6 * (abs(a) + abs(c)) + 1e-300)
             a += mu
             c += mu
             det = a * c - b * b
             sx = -(c * g0 - b * g1) / det
             sy = -(a * g1 - b * g0) / det
-            cap = 0.25 * min(x1 - x0, y1 - y0) / (math.hypot(sx, sy) + 1e-300)
+            cap = 0.25 * min(x1 - x0, y1 - y0) / (math.sqrt(sx * sx + sy * sy) + 1e-300)
             if cap < 1.0:
                 sx *= cap
                 sy *= cap
@@ -1451,7 +1451,7 @@ def _offer_point(bf, btx, bty, second, found, tx, ty, f, stationary, sep):
     for ties (a stationary point farther than sep from a stationary best). ``found``: the best
     is a stationary point of phi, or one lies within sep of it at the same phi to rounding.
     Returns the updated (bf, btx, bty, second, found)."""
-    far = math.hypot(tx - btx, ty - bty) > sep
+    far = (tx - btx) ** 2 + (ty - bty) ** 2 > sep * sep
     if f < bf:
         if found and bf < second and far:
             second = bf
@@ -1471,7 +1471,7 @@ def _cell_reach(model, bf, second, btx, bty, cx, cy, r, sep, tie_eps):
     of d is known (``second``: its phi), and everywhere without the Taylor bound (``model``
     False). Returns (far, reach)."""
     d = math.sqrt(bf)
-    far = not model or (second > (d + tie_eps) ** 2 and math.hypot(cx - btx, cy - bty) > sep + r)
+    far = not model or (second > (d + tie_eps) ** 2 and (cx - btx) ** 2 + (cy - bty) ** 2 > (sep + r) ** 2)
     return far, (d + tie_eps if far else max(d - tie_eps, 0.0))
 
 
@@ -1626,7 +1626,7 @@ def surface_closest_point(kind, gc, gaux, px, py, pz, gx0, gy0, best):
             rbx = btx
             rby = bty
             work += 1
-        if rb > 0.0 and btx == rbx and bty == rby and math.hypot(cx - rbx, cy - rby) + r <= rb:
+        if rb > 0.0 and btx == rbx and bty == rby and math.sqrt((cx - rbx) ** 2 + (cy - rby) ** 2) + r <= rb:
             continue
         h, gx, gy, hxx, hxy, hyy = surf_eval(kind, gc, cx, cy)
         work += 1
@@ -1652,7 +1652,7 @@ def surface_closest_point(kind, gc, gaux, px, py, pz, gx0, gy0, best):
             g1 = (cy - py) + e * gy
             qmin, ux, uy = _box_qp(g0, g1, 1.0 + gx * gx + e * hxx, gx * gy + e * hxy, 1.0 + gy * gy + e * hyy, w)
             # sup ||H||_2 and sup |grad h| over the cell, from their values at c
-            cl = min(cb, 0.5 * abs(hxx + hyy) + math.hypot(0.5 * (hxx - hyy), hxy) + jerk * r)
+            cl = min(cb, 0.5 * abs(hxx + hyy) + math.sqrt(0.25 * (hxx - hyy) ** 2 + hxy * hxy) + jerk * r)
             sl = min(sb, math.sqrt(gx * gx + gy * gy) + cl * r)
             lb = (cx - px) ** 2 + (cy - py) ** 2 + e * e + 2.0 * qmin - (3.0 * sl * cl + (abs(e) + sl * r) * jerk) * r * r * r / 3.0
             if lb > reach * reach:

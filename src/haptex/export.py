@@ -739,7 +739,7 @@ static double surf_newton(const double *p, double *tx, double *ty, double x0, do
         texture_at(t, &h, g, H);
         double e = h - pz;
         double f = (*tx - px) * (*tx - px) + (*ty - py) * (*ty - py) + e * e;
-        double g0 = (*tx - px) + e * g[0], g1 = (*ty - py) + e * g[1], gn = hypot(g0, g1);
+        double g0 = (*tx - px) + e * g[0], g1 = (*ty - py) + e * g[1], gn = sqrt(g0 * g0 + g1 * g1);
         if (!(f <= of || (f <= of * (1.0 + 1e-12) && gn < og))) {  /* uphill: half the step */
             sx *= 0.5;
             sy *= 0.5;
@@ -759,14 +759,14 @@ static double surf_newton(const double *p, double *tx, double *ty, double x0, do
             sy = -(a * g1 - b * g0) / det;
         } else {
             if (og == 0.0) break;
-            double lam = 0.5 * (a + c) - hypot(0.5 * (a - c), b);
+            double lam = 0.5 * (a + c) - sqrt(0.25 * (a - c) * (a - c) + b * b);
             double mu = fmax(-2.0 * lam, 1e-6 * (fabs(a) + fabs(c)) + 1e-300);
             a += mu;
             c += mu;
             det = a * c - b * b;
             sx = -(c * g0 - b * g1) / det;
             sy = -(a * g1 - b * g0) / det;
-            double cap = 0.25 * fmin(x1 - x0, y1 - y0) / (hypot(sx, sy) + 1e-300);
+            double cap = 0.25 * fmin(x1 - x0, y1 - y0) / (sqrt(sx * sx + sy * sy) + 1e-300);
             if (cap < 1.0) {
                 sx *= cap;
                 sy *= cap;
@@ -882,7 +882,7 @@ typedef struct { double bf, btx, bty, second; int found; } surf_best;
 /* haptex._kernels._offer_point */
 static void offer_point(surf_best *b, double tx, double ty, double f, int stationary)
 {
-    int far = hypot(tx - b->btx, ty - b->bty) > SURF_SEP;
+    int far = (tx - b->btx) * (tx - b->btx) + (ty - b->bty) * (ty - b->bty) > SURF_SEP * SURF_SEP;
     if (f < b->bf) {
         if (b->found && b->bf < b->second && far) b->second = b->bf;
         b->bf = f;
@@ -900,7 +900,7 @@ static void offer_point(surf_best *b, double tx, double ty, double f, int statio
 static double cell_reach(const surf_best *b, double cx, double cy, double r, int *far)
 {
     double d = sqrt(b->bf);
-    *far = b->second > (d + G_TIE) * (d + G_TIE) && hypot(cx - b->btx, cy - b->bty) > SURF_SEP + r;
+    *far = b->second > (d + G_TIE) * (d + G_TIE) && (cx - b->btx) * (cx - b->btx) + (cy - b->bty) * (cy - b->bty) > (SURF_SEP + r) * (SURF_SEP + r);
     return *far ? d + G_TIE : fmax(d - G_TIE, 0.0);
 }
 
@@ -978,7 +978,7 @@ static void cp_surface(const double *p, double *ph, double *dist)
             rbx = B.btx;
             rby = B.bty;
         }
-        if (rb > 0.0 && B.btx == rbx && B.bty == rby && hypot(cx - rbx, cy - rby) + r <= rb) continue;
+        if (rb > 0.0 && B.btx == rbx && B.bty == rby && sqrt((cx - rbx) * (cx - rbx) + (cy - rby) * (cy - rby)) + r <= rb) continue;
         double c[2] = {cx, cy}, h, g[2], H[4];
         texture_at(c, &h, g, H);
         double gm = sqrt(g[0] * g[0] + g[1] * g[1]);
@@ -994,7 +994,7 @@ static void cp_surface(const double *p, double *ph, double *dist)
         double g0 = (cx - px) + e * g[0], g1 = (cy - py) + e * g[1], ux, uy;
         double q = box_qp(g0, g1, 1.0 + g[0] * g[0] + e * H[0], g[0] * g[1] + e * H[1], 1.0 + g[1] * g[1] + e * H[3], w, &ux, &uy);
         /* sup ||H||_2 and sup |grad h| over the cell, from their values at c */
-        double cl = fmin(G_CURV_BOUND, 0.5 * fabs(H[0] + H[3]) + hypot(0.5 * (H[0] - H[3]), H[1]) + G_JERK * r);
+        double cl = fmin(G_CURV_BOUND, 0.5 * fabs(H[0] + H[3]) + sqrt(0.25 * (H[0] - H[3]) * (H[0] - H[3]) + H[1] * H[1]) + G_JERK * r);
         double sl = fmin(G_SLOPE_BOUND, gm + cl * r);
         double lb = (cx - px) * (cx - px) + (cy - py) * (cy - py) + e * e + 2.0 * q
                     - (3.0 * sl * cl + (fabs(e) + sl * r) * G_JERK) * r * r * r / 3.0;
