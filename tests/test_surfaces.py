@@ -717,6 +717,22 @@ def test_the_surface_search_work_stays_bounded_on_random_probes(name, tex):
     assert np.all(np.abs(out[2][:2] - dr) <= gaux[K.G_TIE])
 
 
+@pytest.mark.parametrize("letter", "DE")
+def test_a_surface_tick_far_out_stays_within_its_work_bound(letter):
+    # benchmarks/run_worst.py's adversarial positions over the paper's egg-crate: 700-900 m
+    # along and 850-890 m deep (the renderer accepts +-1 km). There the Taylor bound is useless
+    # (its cubic term grows with the depth times the third derivatives) and cells shrink to
+    # rounding: 627,081 evaluations (60 ms) with the search capped at 2^16 cells; 19,172 and
+    # 18,635 with MAX_SURF_NODES = 2^11 (measured), against at most about 800 elsewhere
+    # (the tests above). The force stays finite and within max_force.
+    r = hx.Renderer(hx.algorithm(letter, hx.SumOfGratings.egg_crate(A, L), K0), max_force=5.0)
+    for p in [(-696.9592084135534, 487.6087906591756, -885.4411927674988),
+              (182.48742636106363, -705.0765725340893, -849.5780309086969)]:
+        f = r.step(p)
+        assert all(math.isfinite(c) for c in f) and math.hypot(*f) <= 5.0 * (1 + 1e-12)
+        assert r.last_work <= 25_000, r.last_work
+
+
 def _brute_force_distance(tex, p, half, step=2e-6):
     """Closest distance from each p (n, 3) to z = h(x, y), independently of the search: phi =
     |t - p_xy|^2 + (h(t) - p_z)^2 on a grid of ``step`` (finer when small) over the square of half-width ``half``

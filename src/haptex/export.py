@@ -694,7 +694,7 @@ _CLOSEST_SURFACE = """
  * CONVEX_EVALS evaluations, then SURF_NODES cells by the Taylor bound, each at most one
  * Newton polish of 41 texture evaluations; beyond, leaves). */
 #define SURF_STACK 512
-#define SURF_NODES 65536
+#define SURF_NODES 2048
 #define SURF_SEP (4.0 * G_LEAF)
 
 static double grating_h(double x, double y)
@@ -1019,7 +1019,7 @@ static void cp_surface(const double *p, double *ph, double *dist)
             reach = cell_reach(&B, cx, cy, r, &far);
             if (lb > reach * reach) continue;
         }
-        if (nodes >= SURF_NODES || w <= 1e-9 * G_LEAF || sp + 4 > SURF_STACK) {
+        if (nodes >= SURF_NODES || w <= fmax(1e-9 * G_LEAF, 1e-15 * (fabs(cx) + fabs(cy))) || sp + 4 > SURF_STACK) {
             /* a leaf: projected Newton from the best of its centre, its quarters' centres and p_xy */
             sx = fmin(fmax(px, cx - w), cx + w);
             sy = fmin(fmax(py, cy - w), cy + w);
