@@ -694,7 +694,7 @@ _CLOSEST_SURFACE = """
  * CONVEX_EVALS evaluations, then SURF_NODES cells by the Taylor bound, each at most one
  * Newton polish of 41 texture evaluations; beyond, leaves). */
 #define SURF_STACK 512
-#define SURF_NODES 2048
+#define SURF_NODES @SURF_NODES@
 #define SURF_SEP (4.0 * G_LEAF)
 
 static double grating_h(double x, double y)
@@ -1146,9 +1146,9 @@ def export_c(algorithm: Algorithm, out, max_force: float) -> tuple[Path, Path]:
                                     "G_CURV_BOUND"))
         tables += (f"#define CONVEX_MIN ({_num(_kernels.CONVEX_MIN)})\n"
                    f"#define CONVEX_EVALS {_kernels.CONVEX_EVALS}\n")
-        extra = _CLOSEST_SURFACE
+        extra = _CLOSEST_SURFACE.replace("@SURF_NODES@", str(_kernels.MAX_SURF_NODES))
         work = ("Newton certified by strong convexity (at most CONVEX_EVALS evaluations), else the "
-                "closest-point search on the surface, at most 65536 cells")
+                f"closest-point search on the surface, at most {_kernels.MAX_SURF_NODES} cells by its Taylor bound")
     elif letter in "DE":
         names = ("A_MODE A_START A_PERIOD A_TREELEN A_NLEAF A_STEP A_SLOPE A_CURV A_HMIN A_TMIN A_WCAP A_X0 A_XE "
                  "A_HL A_SL A_HR A_SR A_TIE A_JERK A_TREE").split()
