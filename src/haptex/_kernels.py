@@ -1545,9 +1545,10 @@ def surface_closest_point(kind, gc, gaux, px, py, pz, gx0, gy0, best):
       |grad h(c)| + C r) bound ||H||_2 and |grad h| over the cell (rigorous: H is J-, grad h
       C-Lipschitz);
     - the basin disc (when G_JERK > 0 and the best is a stationary point t*): by the same
-      Taylor bound centred at t*, phi reaches the goal on the disc of radius rho around t*
-      where lambda_min(Q(t*)) >= L rho / 3 (:func:`_basin_radius`); a cell inside it is
-      pruned unevaluated. This replaces the tower of ever smaller cells around the minimum.
+      Taylor bound centred at t*, phi reaches the goal on a disc around t* (up to radius
+      3 lambda_min(Q(t*)) / L, and to the tie tolerance even at a degenerate minimum:
+      :func:`_basin_radius`); a cell inside it is pruned unevaluated. This replaces the
+      tower of ever smaller cells around the minimum.
 
     Each grating's exact range over the cell (a tighter box bound, two sines a grating) is
     computed only for cells the cheaper bounds leave.
