@@ -25,13 +25,16 @@ DEKTAK = Path(__file__).resolve().parents[2] / "shared" / "data" / "dektak-stylu
 
 
 def inputs(tex, n, rng):
-    x = np.concatenate([rng.uniform(-3e-3, 3e-3, n - n // 10), rng.uniform(-900.0, 900.0, n // 10)])
+    def along():  # within 3 mm, and for a tenth up to 900 m
+        return np.concatenate([rng.uniform(-3e-3, 3e-3, n - n // 10), rng.uniform(-900.0, 900.0, n // 10)])
+
+    x = along()
     if tex.dimension == 1:
         z = tex.height(x) - 10 ** rng.uniform(-9, 3, n)
         pts = list(zip(x.tolist(), z.tolist()))
         bad = [(float("nan"), 0.0), (0.0, float("inf")), (1e300, -1.0), "12", b"12", (1.0, 2.0, 3.0), {0: 1}, None]
     else:
-        y = np.concatenate([rng.uniform(-3e-3, 3e-3, n - n // 10), rng.uniform(-900.0, 900.0, n // 10)])
+        y = along()
         z = tex.height_at(np.column_stack([x, y])) - 10 ** rng.uniform(-9, 3, n)
         pts = list(zip(x.tolist(), y.tolist(), z.tolist()))
         bad = [(float("nan"), 0.0, 0.0), (0.0, 0.0, float("inf")), (1e300, 0.0, -1.0), "12", b"12", (1.0, 2.0), {0: 1},
@@ -66,8 +69,8 @@ def main() -> None:
     for name, tex in textures.items():
         m = n if tex.dimension == 1 else max(n // 10, 1)
         pts = inputs(tex, m, rng)
+        flat = None if tex.dimension == 1 else hx.Flat(dimension=2)
         for letter in "WABCDEFG":
-            flat = None if tex.dimension == 1 else hx.Flat(dimension=2)
             r = hx.Renderer(hx.algorithm(letter, flat if letter == "W" else tex, 1000.0), max_force=5.0)
             step = r.step
             lat = np.empty(m)

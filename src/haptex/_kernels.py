@@ -1675,9 +1675,7 @@ def surface_closest_point(kind, gc, gaux, px, py, pz, gx0, gy0, best):
             work += 1
             if fs < bf or (far and fs <= reach * reach):
                 tx, ty, f, it, stat = _surf_newton(kind, gc, px, py, pz, sx, sy, x0, x1, y0, y1)
-                work += it
-                if f > fs and not stat:  # Newton went astray: keep the model's point (not a local minimum)
-                    tx, ty, f, stat = sx, sy, fs, False
+                work += it  # (monotone from the model's point: f <= fs)
                 bf, btx, bty, second, found = _offer_point(bf, btx, bty, second, found, tx, ty, f, stat, sep)
                 far, reach = _cell_reach(model, bf, second, btx, bty, cx, cy, r, sep, tie_eps)
                 if lb > reach * reach:

@@ -1009,12 +1009,7 @@ static void cp_surface(const double *p, double *ph, double *dist)
         if (fs < B.bf || (far && fs <= reach * reach)) {
             tx = sx;
             ty = sy;
-            f = surf_newton(p, &tx, &ty, x0, x1, y0, y1, &stat);
-            if (f > fs && !stat) {  /* Newton went astray: keep the model's point */
-                tx = sx;
-                ty = sy;
-                f = fs;
-            }
+            f = surf_newton(p, &tx, &ty, x0, x1, y0, y1, &stat);  /* monotone from the model's point */
             offer_point(&B, tx, ty, f, stat);
             reach = cell_reach(&B, cx, cy, r, &far);
             if (lb > reach * reach) continue;
