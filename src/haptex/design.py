@@ -13,6 +13,9 @@ from .devices import Device, critical_stiffness
 from .textures import Texture
 
 LETTERS = "WABCDEFG"
+MIN_CUTOFF_PERIODS = 2.0
+"""A measured texture must span at least this many cut-off periods l_c along every axis to
+be analysed as rendered (chosen: two, so that a rendered period is told from a tilt)."""
 
 
 def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.1, max_penetration: float = 1e-3,
@@ -180,6 +183,8 @@ def _band_limited(texture: Texture, device: Device, speed: float, samples_per_pe
 
     cut = rendering_cutoff(device, speed, samples_per_period)
     sampled = hasattr(texture, "band_limited")
+    if sampled and band_limit:
+        _check_renderable(texture, device, speed, cut)
     raw = {"shortest_period": texture.shortest_period, "max_slope": texture.max_slope,
            "max_curvature": texture.max_curvature, "height_range": list(texture.height_range)}
     rendered, filtered = _rendered(texture, cut.period, band_limit)
@@ -192,7 +197,7 @@ def _band_limited(texture: Texture, device: Device, speed: float, samples_per_pe
         k = np.unravel_index(int(np.argmax(amp)), amp.shape)
         freq = abs(spec[0][k[0]]) if amp.ndim == 1 else float(np.hypot(spec[0][k[0]], spec[1][k[1]]))
         raw["dominant_period"] = float(1.0 / freq) if freq > 0 else None
-        raw["rms_removed"] = float(np.std(h - filtered.h))
+        raw["rms_removed"] = float(np.std(h - filtered.h))  # both the samples as given: one levelling
     return rendered, {
         "cutoff": cut.period, "set_by": list(cut.set_by), "bounds": dict(cut.bounds),
         "applied": rendered is not texture, "filtered": filtered is not texture, "requested": bool(band_limit),
@@ -201,3 +206,44 @@ def _band_limited(texture: Texture, device: Device, speed: float, samples_per_pe
                     "rendered": int(rendered.h.size) if sampled else None},
         "raw": raw,
     }
+
+
+def _spans(texture) -> list[tuple[str, float]]:
+    """(axis, length in m) of a sampled texture's measured extent, per in-plane axis."""
+    dom = texture.domain
+    if texture.dimension == 1:
+        return [("x", dom[1] - dom[0])]
+    return [(a, hi - lo) for a, (lo, hi) in zip("xy", dom)]
+
+
+def _nice(v: float, up: bool) -> str:
+    """v rounded up (or down) to two significant digits, as written on a command line."""
+    e = 10.0 ** (math.floor(math.log10(v)) - 1)
+    return f"{(math.ceil(v / e - 1e-9) if up else math.floor(v / e + 1e-9)) * e:.3g}"
+
+
+def _check_renderable(texture, device: Device, speed: float, cut) -> None:
+    """Refuse, in one line that says what to change, a measured texture shorter than the
+    device's cut-off period l_c along an axis. A scan's longest period is its length: one
+    shorter than l_c holds no period the device renders (band-limiting leaves it flat, and
+    every verdict on it would be about nothing: issue 35's 50 um OPDx scan), and one shorter
+    than ``MIN_CUTOFF_PERIODS`` l_c holds at most one such period, which no analysis can tell
+    from a tilt or a bow of the instrument."""
+    lc = cut.period
+    short = [(a, n) for a, n in _spans(texture) if n < MIN_CUTOFF_PERIODS * lc]
+    if not short:
+        return
+    axis, n = min(short, key=lambda t: t[1])
+    by = " and ".join(cut.set_by)
+    what = "scan" if texture.dimension == 1 else "map"
+    need = MIN_CUTOFF_PERIODS * lc
+    hints = [f"feel it magnified (--scale F,H with F >= {_nice(need / n, True)}; scaled(...) in Python)"]
+    by_speed = ("scanning velocity", "device structural")  # the limits proportional to the speed
+    fixed = max((b for name, b in cut.bounds.items() if name not in by_speed), default=0.0)
+    if set(cut.set_by) <= set(by_speed) and MIN_CUTOFF_PERIODS * fixed < n:  # a slower scan lowers l_c enough
+        hints.append(f"scan it slower (--speed {_nice(speed * n / need, False)} m/s or less)")
+    raise ParameterError(
+        f"texture = {texture.source or repr(texture)!r} is not allowed on {device.name} at {speed:g} m/s: the {what} "
+        f"spans {n * 1e6:.4g} um along {axis}, less than {MIN_CUTOFF_PERIODS:g} of the shortest period the device "
+        f"renders, l_c = {lc * 1e6:.4g} um (set by the {by} limit), so it holds at most one period the device renders; "
+        + ", or ".join(hints) + "; --raw analyses the samples as measured")

@@ -84,32 +84,62 @@ def continuity(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=None
     base = whole("base", base, 8, 4096)
     box = _region_box(algorithm, dmax, x_range)
     (x0, x1), (z0, z1) = box[0], box[-1]
-    z1 = z1 + 0.05 * (x1 - x0)
+    z1 = z1 + min(0.05 * (x1 - x0), dmax)  # the boundary and a margin outside, on the wall's scale
     box[-1] = (z0, z1)
     tex = algorithm.texture
     if not isinstance(tex, Flat):
         # resolve the texture: at least 4 coarse cells per shortest period
         base = int(min(max(int(base), math.ceil(4 * (x1 - x0) / tex.shortest_period)), 256 if surface else 2048))
+    steps0 = _coarse_steps(algorithm, box, (x1 - x0) / int(base), int(levels), dmax)
     spacings, diffs = [], []
     where = (math.nan,) * len(box)
     for lev in range(int(levels)):
-        n = int(base) * 2**lev
-        hstep = (x1 - x0) / n
-        counts = [int(math.ceil((b - a) / hstep)) for a, b in box]
+        steps = [s / 2**lev for s in steps0]
+        counts = [int(math.ceil((b - a) / s)) for (a, b), s in zip(box, steps)]
         # positions, forces and their differences: about 12 float64 a grid point
         check_budget("levels", levels, 12 * 8 * math.prod(c + 1 for c in counts),
                      f"the {' x '.join(str(c + 1) for c in counts)} grid of level {lev}")
-        axes = [a + hstep * np.arange(c + 1) for (a, _), c in zip(box, counts)]
+        axes = [a + s * np.arange(c + 1) for (a, _), s, c in zip(box, steps, counts)]
         F = _static_force(algorithm, np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1))
-        steps = [np.linalg.norm(np.diff(F, axis=k), axis=-1) for k in range(len(box))]
-        k = int(np.argmax([float(d.max()) for d in steps]))
-        spacings.append(hstep)
-        diffs.append(float(steps[k].max()))
-        idx = np.unravel_index(int(np.argmax(steps[k])), steps[k].shape)
-        where = tuple(float(axes[a][idx[a]] + (hstep / 2 if a == k else 0.0)) for a in range(len(box)))
+        jumps = [np.linalg.norm(np.diff(F, axis=k), axis=-1) for k in range(len(box))]
+        k = int(np.argmax([float(d.max()) for d in jumps]))
+        spacings.append(steps[0])
+        diffs.append(float(jumps[k].max()))
+        idx = np.unravel_index(int(np.argmax(jumps[k])), jumps[k].shape)
+        where = tuple(float(axes[a][idx[a]] + (steps[a] / 2 if a == k else 0.0)) for a in range(len(box)))
     d = np.asarray(diffs)
     if np.all(d == 0):
         order = math.inf
     else:
         order = float(np.polyfit(np.log(spacings), np.log(np.maximum(d, 1e-300)), 1)[0])
     return Continuity(order > 0.5, tuple(spacings), tuple(diffs), order, where)
+
+
+MIN_AXIS_CELLS = 8
+"""Fewest grid cells along any axis of the coarsest grid: a step longer than the region is
+deep cannot see a Lipschitz field's differences shrink (W over a 10 um deep region on a
+31 um grid was measured 'not continuous')."""
+MAX_GRID_POINTS = {"direct": 2**21, "distance": 2**18}
+"""Most points of the finest grid over a surface, for fields evaluated directly (about
+4 us a point on a bicubic height map) and through a closest-point search (D, E: tens of
+us a point); chosen so that one continuity test takes seconds. Past it the grid is
+coarsened along the depth only (the in-plane steps resolve the texture)."""
+
+
+def _coarse_steps(algorithm: Algorithm, box, hstep: float, levels: int, depth: float) -> list[float]:
+    """The coarsest grid's step along each axis of ``box`` (m): ``hstep`` everywhere (a
+    square grid), but at most 1/``MIN_AXIS_CELLS`` of each extent and, in depth, of the
+    wall's ``depth`` (m; the field varies on that scale inside it), and over a surface the
+    depth step lengthened until the finest grid holds at most ``MAX_GRID_POINTS`` points
+    (the field is Lipschitz in depth on the texture's scale, not the grid's; a jump is seen
+    across in-plane neighbours too)."""
+    extents = [b - a for a, b in box]
+    steps = [min(hstep, e / MIN_AXIS_CELLS) for e in extents]
+    steps[-1] = min(steps[-1], depth / MIN_AXIS_CELLS)
+    if algorithm.dimension == 3:
+        fine = 2 ** (levels - 1)
+        plane = math.prod(math.ceil(e / s) * fine + 1 for e, s in zip(extents[:-1], steps[:-1]))
+        cap = MAX_GRID_POINTS["distance" if algorithm.penetration_kind == "distance" else "direct"]
+        cells = max(MIN_AXIS_CELLS, cap // plane // fine)
+        steps[-1] = max(steps[-1], min(extents[-1], depth) / cells)
+    return steps
