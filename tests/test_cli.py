@@ -144,7 +144,8 @@ def test_simulate_over_a_surface_on_a_3dof_preset(tmp_path):
 
 @pytest.mark.parametrize("args, fragment", [
     (["simulate", "scan", "--device", "serial-arm"], "--device serial-arm is not allowed over a profile"),
-    (["simulate", "scan", "--surface", "egg-crate:0.3mm,2mm"], "--device pantograph is not allowed with a surface"),
+    (["simulate", "scan", "--surface", "egg-crate:0.3mm,2mm", "--device", "pantograph"],
+     "--device pantograph is not allowed with a surface"),
     (["simulate", "scan", "--surface", "sine:0.3mm,2mm", "--device", "delta"], "surface = 'sine:0.3mm,2mm' is not allowed"),
     (["simulate", "scan", "--surface", "egg-crate:0.3mm,2mm", "--device", "delta", "--amplitude", "1mm"],
      "--amplitude is not allowed with --surface"),

@@ -132,7 +132,8 @@ def _device_options(func):
     """One device syntax for every command: --device pantograph|point-mass with its
     parameters as options (or the shorthand 'point-mass:MASS,DAMPING,PERIOD[,RESOLUTION]')."""
     opts = [
-        click.option("--device", "device_spec", default="pantograph", show_default=True,
+        click.option("--device", "device_spec", default=None, show_default="pantograph over a profile, point-mass "
+                     "(3-DOF) over a surface",
                      help="'pantograph' or 'point-mass' (parameters below), the shorthand "
                           "'point-mass:MASS,DAMPING,PERIOD[,RESOLUTION]', the 3-DOF presets 'serial-arm' and "
                           "'delta' (over a surface), or a TOML device file (FILE.toml; see haptex.device_from_file)."),
@@ -154,6 +155,8 @@ def _build_device(ctx, spec: str, joint_damping, mass, damping, sampling_period,
     point mass is built with ``dimension`` axes (3 for a surface)."""
     from .devices import Device, device_from_file
 
+    if spec is None:  # the default: the paper's planar pantograph, or over a surface a 3-DOF point mass
+        spec = "pantograph" if dimension == 2 else "point-mass"
     if str(spec).lower().endswith(".toml"):
         _refuse_unused(ctx, {"*": {"joint_damping", "mass", "damping", "sampling_period", "delay"}}, spec,
                        "--device", owner="*", what="write it in the device file")

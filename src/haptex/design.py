@@ -185,9 +185,12 @@ def _band_limited(texture: Texture, device: Device, speed: float, samples_per_pe
     sampled = hasattr(texture, "band_limited")
     if sampled and band_limit:
         _check_renderable(texture, device, speed, cut)
-    raw = {"shortest_period": texture.shortest_period, "max_slope": texture.max_slope,
-           "max_curvature": texture.max_curvature, "height_range": list(texture.height_range)}
     rendered, filtered = _rendered(texture, cut.period, band_limit)
+    if rendered is texture:  # analysed as given: its spline's numbers are needed anyway
+        raw = {"shortest_period": texture.shortest_period, "max_slope": texture.max_slope,
+               "max_curvature": texture.max_curvature, "height_range": list(texture.height_range)}
+    else:  # not analysed: the samples' own numbers, at a cost that follows the file, not the spline's sups
+        raw = {"shortest_period": texture.shortest_period, **_sample_numbers(texture)}
     if sampled:
         h = texture.h
         raw["rms"] = float(np.std(h))
@@ -247,3 +250,24 @@ def _check_renderable(texture, device: Device, speed: float, cut) -> None:
         f"spans {n * 1e6:.4g} um along {axis}, less than {MIN_CUTOFF_PERIODS:g} of the shortest period the device "
         f"renders, l_c = {lc * 1e6:.4g} um (set by the {by} limit), so it holds at most one period the device renders; "
         + ", or ".join(hints) + "; --raw analyses the samples as measured")
+
+
+def _sample_numbers(texture) -> dict:
+    """A sampled texture's max slope (1), max curvature (1/m) and height range (m) from its
+    samples by central differences (numpy.gradient): what the instrument measured, in time
+    linear in the samples. The spline through them (what ``--raw`` analyses) can only lie
+    steeper between samples; the rendered texture's numbers are its spline's sups."""
+    import numpy as np
+
+    h = texture.h
+    steps = [texture.dx] if h.ndim == 1 else [texture.dx, texture.dy]
+    g = np.gradient(h, *steps) if h.ndim == 2 else [np.gradient(h, steps[0])]
+    slope = np.sqrt(sum(gi * gi for gi in g))
+    if h.ndim == 1:
+        curv = np.abs(np.gradient(g[0], steps[0]))
+    else:
+        hxx, hxy = np.gradient(g[0], *steps)
+        hyy = np.gradient(g[1], steps[1], axis=1)
+        curv = np.abs(0.5 * (hxx + hyy)) + np.hypot(0.5 * (hxx - hyy), hxy)  # a symmetric 2x2's 2-norm
+    return {"max_slope": float(slope.max()), "max_curvature": float(curv.max()),
+            "height_range": [float(h.min()), float(h.max())]}

@@ -693,9 +693,12 @@ class SampledSurface(Surface):
                 (float(self.y[0]), float(self.y[0] + self._size[1])))
 
     def _grid(self):
-        """Four points a sample interval (fewer if the map is large), for the sups."""
+        """Points for the sups: four a sample interval (fewer if the map is large), but no more
+        than needed for 16 a shortest period (at least one a sample): a map band-limited and
+        resampled at 32 samples a period (what ``design`` analyses) needs no 128."""
         (x0, x1), (y0, y1) = self.domain
-        per = max(1, min(4, int(math.sqrt(MAX_GRID / (self.x.size * self.y.size)))))
+        need = math.ceil(16 * max(self.dx, self.dy) / self._shortest)
+        per = max(1, min(4, need, int(math.sqrt(MAX_GRID / (self.x.size * self.y.size)))))
         n = [self.x.size * per, self.y.size * per]
         xs = np.linspace(x0, x1, n[0], endpoint=self.periodic is False)
         ys = np.linspace(y0, y1, n[1], endpoint=self.periodic is False)
@@ -768,11 +771,13 @@ class SampledSurface(Surface):
             H[np.hypot(fx, fy) > 1.0 / lc] = 0.0
             hf = np.fft.irfft2(H, self.h.shape)
         else:
-            from scipy.signal import butter, sosfiltfilt
+            from scipy.signal import butter
+
+            from .textures import zero_phase_lowpass
 
             hf = self.h
             for axis, step in ((0, self.dx), (1, self.dy)):
-                hf = sosfiltfilt(butter(4, (1.0 / lc) / (0.5 / step), output="sos"), hf, axis=axis)
+                hf = zero_phase_lowpass(butter(4, (1.0 / lc) / (0.5 / step), output="sos"), hf, axis)
         return self._new(hf, shortest=lc)
 
     def band_limited(self, shortest_period: float, samples_per_period: int = SAMPLES_PER_CUTOFF) -> SampledSurface:

@@ -566,10 +566,9 @@ class SampledProfile(Texture):
             H[f > 1.0 / lc] = 0.0
             hf = np.fft.irfft(H, self.h.size)
         else:
-            from scipy.signal import butter, sosfiltfilt
+            from scipy.signal import butter
 
-            sos = butter(4, (1.0 / lc) / (0.5 / self.dx), output="sos")
-            hf = sosfiltfilt(sos, self.h)
+            hf = zero_phase_lowpass(butter(4, (1.0 / lc) / (0.5 / self.dx), output="sos"), self.h, 0)
         return self._new(self.x, hf, shortest=lc)
 
     def band_limited(self, shortest_period: float, samples_per_period: int = SAMPLES_PER_CUTOFF) -> SampledProfile:
@@ -664,6 +663,15 @@ class SampledProfile(Texture):
                                  "it with SampledSurface.from_file (haptex reads it as a surface at the command line) "
                                  "and take one line with .line(y=...) or .line(row=...)")
         return cls(r.x, r.h, periodic=periodic, source=r.source)
+
+
+def zero_phase_lowpass(sos, h: np.ndarray, axis: int) -> np.ndarray:
+    """scipy.signal.sosfiltfilt of ``h`` along ``axis``, its edge padding (3 (2 sections + 1)
+    samples by default) shortened to the samples there are: a short scan (a 5 x 10 NetCDF
+    map, a 10-sample text column) is filtered instead of ending in scipy's 'padlen' error."""
+    from scipy.signal import sosfiltfilt
+
+    return sosfiltfilt(sos, h, axis=axis, padlen=min(3 * (2 * len(sos) + 1), h.shape[axis] - 1))
 
 
 def _band_limited_samples(tex, shortest_period, samples_per_period, steps):

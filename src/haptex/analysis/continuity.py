@@ -88,8 +88,10 @@ def continuity(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=None
     box[-1] = (z0, z1)
     tex = algorithm.texture
     if not isinstance(tex, Flat):
-        # resolve the texture: at least 4 coarse cells per shortest period
-        base = int(min(max(int(base), math.ceil(4 * (x1 - x0) / tex.shortest_period)), 256 if surface else 2048))
+        # resolve the texture: at least 4 coarse cells per shortest period (2 for D and E over a
+        # surface, each point a closest-point search: 8 on the finest of 3 levels)
+        per = 2 if surface and algorithm.penetration_kind == "distance" else 4
+        base = int(min(max(int(base), math.ceil(per * (x1 - x0) / tex.shortest_period)), 256 if surface else 2048))
     steps0 = _coarse_steps(algorithm, box, (x1 - x0) / int(base), int(levels), dmax)
     spacings, diffs = [], []
     where = (math.nan,) * len(box)
