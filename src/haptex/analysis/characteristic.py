@@ -162,7 +162,8 @@ def characteristic_number(
     ranges = _plane_ranges(algorithm, x_range)
     tex = algorithm.texture
     if tex.dimension == 2:  # a surface: a 3-D grid, kept to ~10^6 points (refinement does the rest)
-        nd = max(4, nd // 4)
+        # D and E: every point a closest-point search, and ||J|| monotone along each normal
+        nd = max(4, nd // (8 if algorithm.penetration_kind == "distance" else 4))
         per = SURFACE_GRID_PER_PERIOD["distance" if algorithm.penetration_kind == "distance" else "direct"]
         counts = [int(min(max(32, math.ceil(per * (b - a) / tex.shortest_period)), 256)) for a, b in ranges]
     else:
@@ -285,6 +286,12 @@ def friction_bounds(algorithm, depth: float) -> dict:
             "evaluated_with": {"mu": mu, "presliding": dm, "p_z": P, "pi_A_over_l": K}}
 
 
+F_SURFACE_GRID_POINTS = 2**20
+"""Most points (position x depth x deflection) of q_F's stick grid over a surface before its
+depth and deflection samples are thinned (16 -> 8 depths, 65 -> 17 deflections) and its
+plane grid with them (chosen: over the 14 x 10 cut-off periods of a MetroPro map the full
+grid held 13 million Jacobians, 66 s; a periodic cell of a few periods stays under it)."""
+
 PAPER_Q_F = 8.3
 """q_F reported in Section V-A (kappa_0 = 2000 N/m, l = 1 mm, A = 0.8, mu = 0.8,
 d^x_max = d^z_max = 1 mm)."""
@@ -306,8 +313,21 @@ def _q_friction(alg, dmax, ranges, counts, nd) -> CharacteristicNumber:
         stick = np.linspace(-dm, dm, 33)[:, None]
         slip = np.array([[-dm], [dm]])
     else:
-        ang = np.linspace(0.0, 2 * np.pi, 16, endpoint=False)
-        rad = np.linspace(0.0, dm, 5)
+        n_ang, n_rad = 16, 5
+        if math.prod(c + 1 for c in counts) * nd * (1 + (n_rad - 1) * n_ang) > F_SURFACE_GRID_POINTS:
+            # a map many periods wide: coarser depth and deflection samples (the refinement
+            # polishes all five variables), then a coarser plane grid, not below 4 cells a period
+            nd, n_ang, n_rad = max(4, nd // 2), 8, 3
+            per_point = nd * (1 + (n_rad - 1) * n_ang)
+            shrink = math.sqrt(F_SURFACE_GRID_POINTS / per_point / math.prod(c + 1 for c in counts))
+            floor = [math.ceil(4 * (b - a) / alg.texture.shortest_period) for a, b in ranges]
+            counts = [max(16, f, min(c, int(c * shrink))) for c, f in zip(counts, floor)]
+            axes = [np.linspace(a, b, n + 1) for (a, b), n in zip(ranges, counts)]
+            steps = [(b - a) / n for (a, b), n in zip(ranges, counts)]
+            ds = np.linspace(depth_max / nd, depth_max, nd)
+            dd_ = depth_max / nd
+        ang = np.linspace(0.0, 2 * np.pi, n_ang, endpoint=False)
+        rad = np.linspace(0.0, dm, n_rad)
         stick = np.concatenate([[[0.0, 0.0]], (rad[1:, None, None] * np.stack([np.cos(ang), np.sin(ang)], -1)).reshape(-1, 2)])
         slip = dm * np.stack([np.cos(ang), np.sin(ang)], -1)
 

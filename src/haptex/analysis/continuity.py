@@ -121,7 +121,7 @@ MIN_AXIS_CELLS = 8
 """Fewest grid cells along any axis of the coarsest grid: a step longer than the region is
 deep cannot see a Lipschitz field's differences shrink (W over a 10 um deep region on a
 31 um grid was measured 'not continuous')."""
-MAX_GRID_POINTS = {"direct": 2**21, "distance": 2**18}
+MAX_GRID_POINTS = {"direct": 2**19, "distance": 2**17}
 """Most points of the finest grid over a surface, for fields evaluated directly (about
 4 us a point on a bicubic height map) and through a closest-point search (D, E: tens of
 us a point); chosen so that one continuity test takes seconds. Past it the grid is
