@@ -768,6 +768,7 @@ def _fmt_q(row) -> str:
 
 
 def _print_table(data) -> None:
+    import numpy as np
     from rich import box
     from rich.console import Console
     from rich.table import Table
@@ -800,8 +801,9 @@ def _print_table(data) -> None:
             q = r["characteristic_number"]
             verdict = (f"paper reports {paper}: {'agrees' if math.isclose(q, paper, rel_tol=0.05) else 'differs'}"
                        if paper is not None else "no value reported by the paper for these parameters")
+            d = float(np.linalg.norm(ex["deflection"]))  # a number over a profile, a vector over a surface
             console.print(
-                f"{r['algorithm']}: q numeric {q:.4g} ({ex['phase']}, |d| = {abs(ex['deflection']) * 1e3:.3g} mm); "
+                f"{r['algorithm']}: q numeric {q:.4g} ({ex['phase']}, |d| = {d * 1e3:.3g} mm); "
                 f"eq. 26 bound {ex['bound_eq26']:.4g}; eq. 31 as printed {ex['eq31_as_printed']:.4g}; {verdict}"
             )
 

@@ -192,15 +192,19 @@ def _band_limited(texture: Texture, device: Device, speed: float, samples_per_pe
     else:  # not analysed: the samples' own numbers, at a cost that follows the file, not the spline's sups
         raw = {"shortest_period": texture.shortest_period, **_sample_numbers(texture)}
     if sampled:
-        h = texture.h
-        raw["rms"] = float(np.std(h))
-        spec = texture.spectrum()
+        # RMS and what the cut-off removes, both of the levelled samples (least-squares line or
+        # plane removed): a tilt is neither texture nor removed by a low-pass (issue 35: the
+        # removed RMS exceeded the RMS of two tilted line scans)
+        levelled = texture.leveled()
+        raw["rms"] = float(np.std(levelled.h))
+        spec = levelled.spectrum()
         amp = spec[-1].copy()
         amp.flat[0] = 0.0  # not the mean
         k = np.unravel_index(int(np.argmax(amp)), amp.shape)
         freq = abs(spec[0][k[0]]) if amp.ndim == 1 else float(np.hypot(spec[0][k[0]], spec[1][k[1]]))
         raw["dominant_period"] = float(1.0 / freq) if freq > 0 else None
-        raw["rms_removed"] = float(np.std(h - filtered.h))  # both the samples as given: one levelling
+        raw["rms_removed"] = (float(np.std(levelled.h - levelled.lowpass(cut.period).h))
+                              if filtered is not texture else 0.0)
     return rendered, {
         "cutoff": cut.period, "set_by": list(cut.set_by), "bounds": dict(cut.bounds),
         "applied": rendered is not texture, "filtered": filtered is not texture, "requested": bool(band_limit),
