@@ -3,6 +3,7 @@ ends in one line and exit status 2."""
 
 import json
 import math
+import re
 import subprocess
 import sys
 
@@ -430,3 +431,13 @@ def test_a_bad_device_file_is_one_line_naming_the_key(tmp_path, text, message):
     assert message.replace("'F'", repr(str(path))) in r.stderr
     r = run_cli("simulate", "thrust", "--device", str(path), "--delay", "2")
     assert r.returncode == 2 and "--delay is not allowed with --device" in r.stderr
+
+
+def test_table_over_a_surface_prints_f_and_exits_cleanly():
+    # README's `haptex table --surface egg-crate`: over a surface F's presliding deflection at
+    # the sup is a vector (issue 35: its line ended in a TypeError after the table). Its
+    # length is at most d^x_max = 1 mm (the paper's F parameters).
+    r = run_cli("table", "--surface", "egg-crate")
+    assert r.returncode == 0, r.stderr
+    m = re.search(r"F: q numeric [0-9.]+ \((stick|slip), \|d\| = ([0-9.]+) mm\)", r.stdout)
+    assert m and float(m.group(2)) <= 1.0 + 1e-9, r.stdout

@@ -1,0 +1,210 @@
+"""Measured maps for real (issue 35): `design` on instrument files nobody on this project
+wrote (examples/data, shipped with their licence; the X3P and Nanoscope maps from
+../shared/data, skipped when it is absent), scans too short to render refused in one line
+that says what to change, undefined heights filled only inside the measured region, and
+the continuity test sized to the wall it tests."""
+
+import json
+import math
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import haptex as hx
+from haptex.analysis import rendering_cutoff
+from haptex.design import MIN_CUTOFF_PERIODS, _band_limited, _sample_numbers
+from haptex.textures import zero_phase_lowpass
+
+from .conftest import DATA
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "data"
+K0 = 2000.0
+
+
+def _cli(*args, timeout=300):
+    return subprocess.run([sys.executable, "-m", "haptex", *args], capture_output=True, text=True, timeout=timeout)
+
+
+def _file(name):
+    for where in (EXAMPLES, DATA):
+        if (where / name).exists():
+            return where / name
+    pytest.skip(f"{name} is neither in examples/data nor in ../shared/data beside this checkout")
+
+
+def _span(tex):
+    """The shortest measured extent of a scan or map (m)."""
+    dom = tex.domain
+    return dom[1] - dom[0] if tex.dimension == 1 else min(b - a for a, b in dom)
+
+
+# -- too short to render: one line, what to change --------------------------------------
+@pytest.mark.parametrize("name", ["opdx-3.opdx", "mi-1.mi", "nc-1.nc", "x3p-2.x3p", "di-1.di"])
+def test_a_scan_or_map_spanning_under_two_cutoff_periods_is_refused_with_the_scale_that_renders_it(name):
+    # The longest period a scan holds is its length; at 0.1 m/s the default devices render no
+    # period under l_c (Section II-B: the 3-DOF point mass's scanning-velocity limit alpha v T
+    # = 5 x 0.1 m/s x 100 us = 50 um; the pantograph's structural limit). The sizes are the
+    # files' own (SurfaceTopography's corpus: OPDx 50 um, MI 20 um, Nanoscope 0.5 um, NetCDF
+    # 9 nm, X3P 83 x 204 um). Issue 35: these were analysed as flat textures, or ran out of
+    # memory or time, or ended in a traceback.
+    path = _file(name)
+    tex = hx.load_texture(path)
+    dev = hx.Device.pantograph() if tex.dimension == 1 else hx.Device.point_mass(dimension=3)
+    lc = rendering_cutoff(dev, 0.1).period
+    assert _span(tex) < MIN_CUTOFF_PERIODS * lc
+    r = _cli("design", "--texture", str(path), timeout=120)  # no options: the default device of its kind
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert f"l_c = {lc * 1e6:.4g} um" in r.stderr and f"on {dev.name} at 0.1 m/s" in r.stderr
+    factor = float(re.search(r"--scale F,H with F >= ([0-9.e+]+)", r.stderr).group(1))
+    # the factor it names renders the map (two cut-off periods), and 10 % less would not
+    assert factor * _span(tex) >= MIN_CUTOFF_PERIODS * lc > factor / 1.1 * _span(tex)
+    rendered, band = _band_limited(tex.scaled(factor, 1.0), dev, 0.1, 5, True)
+    assert rendered.shortest_period >= lc * (1 - 1e-12) and np.all(np.isfinite(rendered.h))
+
+
+def test_the_refusal_holds_over_a_neighbourhood_of_speeds_and_lifts_below_the_speed_it_names():
+    # the MI map (19.9 um) on the 3-DOF point mass: l_c = alpha v T is proportional to v, so
+    # 2 l_c <= 19.9 um needs v <= 19.9e-6 / (2 x 5 x 1e-4) = 0.0199 m/s; refused from 0.025
+    # to 0.4 m/s, analysed as rendered at 0.019 m/s and below
+    tex = hx.load_texture(_file("mi-1.mi"))
+    dev = hx.Device.point_mass(dimension=3)
+    for v in (0.025, 0.05, 0.1, 0.2, 0.4):
+        with pytest.raises(hx.ParameterError, match=r"scan it slower \(--speed 0\.019 m/s or less\)"):
+            _band_limited(tex, dev, v, 5, True)
+    for v in (0.019, 0.01):
+        rendered, band = _band_limited(tex, dev, v, 5, True)
+        assert band["cutoff"] == pytest.approx(5 * v * 1e-4)
+
+
+# -- continuity sized to the wall ---------------------------------------------------------
+@pytest.mark.parametrize("dimension", [1, 2])
+def test_the_smooth_wall_is_continuous_however_shallow_the_region(dimension):
+    # W's force kappa_0 max(0, -z) n (eq. 30) is Lipschitz with constant kappa_0: the largest
+    # neighbour difference halves with the grid (order 1) at every depth. Issue 35: over a 10 um
+    # region its 31 um grid step never entered the wall and W was 'not continuous'.
+    alg = hx.algorithm("W", hx.textures.Flat(dimension), K0)
+    for depth in (1e-8, 1e-6, 1e-5, 3e-5, 1e-4, 1e-3):
+        c = hx.continuity(alg, max_penetration=depth, levels=3)
+        assert c.continuous and c.order == pytest.approx(1.0, abs=0.02), (depth, c)
+
+
+def test_d_is_still_discontinuous_under_the_paper_sinusoid():
+    # Remark 6 / Table II: D jumps below the sinusoid's peaks (the resized grid keeps that)
+    c = hx.continuity(hx.algorithm("D", hx.Sinusoid(0.8e-3, 1e-3), K0))
+    assert not c.continuous and c.order < 0.2
+
+
+# -- short scans filter ------------------------------------------------------------------
+def test_the_zero_phase_low_pass_runs_on_a_few_samples_with_unit_dc_gain():
+    # a Butterworth low-pass passes a constant unchanged (scipy.signal.butter normalises the
+    # pass band to 1); on 5 samples scipy's default padding (15) raised 'padlen' (issue 35:
+    # the 5 x 10 NetCDF map and a one-column text profile ended in that traceback)
+    from scipy.signal import butter
+
+    sos = butter(4, 0.3, output="sos")
+    for n in (2, 5, 10, 16, 100):
+        out = zero_phase_lowpass(sos, np.full((n, 3), 2.5e-6), 0)
+        np.testing.assert_allclose(out, 2.5e-6, rtol=1e-9)
+
+
+# -- what the raw scan holds, levelled ----------------------------------------------------
+@pytest.mark.parametrize("name, kw", [("dektak-stylus-profile.csv", {}),
+                                      ("grooves-4mm-profile.mat", {"spacing": "0.5um", "height_unit": "um"})])
+def test_rms_removed_never_exceeds_the_rms_of_the_same_levelled_scan(name, kw):
+    # Issue 35: "RMS removed" exceeded "RMS" on these two line scans: the RMS included the
+    # tilt (16 um over the Dektak scan), the removed part was measured on other data. Both
+    # are now of the levelled samples, the removed part being their high-pass (< the whole)
+    tex = hx.load_texture(_file(name), **kw)
+    _, band = _band_limited(tex, hx.Device.pantograph(), 0.1, 5, True)
+    raw = band["raw"]
+    levelled = tex.leveled().h
+    assert raw["rms"] == pytest.approx(np.std(levelled), rel=1e-12)
+    assert 0 < raw["rms_removed"] < raw["rms"]
+
+
+def test_the_raw_maps_slope_is_its_samples_central_difference():
+    # a grating A sin(k x) sampled at dx: the central difference's largest value is
+    # A sin(k dx) / dx exactly (at the samples where cos(k x) = +-1)
+    A, L, per = 20e-6, 1e-3, 64
+    dx = L / per
+    x = np.arange(4 * per) * dx
+    s = hx.SampledSurface(x, x[:16], A * np.sin(2 * np.pi * x / L)[:, None] * np.ones(16)[None, :])
+    got = _sample_numbers(s)
+    assert got["max_slope"] == pytest.approx(A * math.sin(2 * math.pi * dx / L) / dx, rel=1e-9)
+    assert got["height_range"] == pytest.approx([s.h.min(), s.h.max()], rel=1e-15)
+
+
+# -- undefined heights: interpolated inside, never extrapolated ------------------------------
+def _write_map(path, h, step):
+    from SurfaceTopography import Topography
+
+    Topography(np.ma.masked_invalid(h), (h.shape[0] * step, h.shape[1] * step), unit="m").to_x3p(str(path))
+
+
+def test_undefined_heights_inside_a_map_are_filled_edge_bands_cropped_and_the_fill_reported(tmp_path):
+    # a tilted plane is harmonic, so SurfaceTopography's harmonic interpolation restores it
+    # exactly; 5 whole rows with no measured point at an edge are cropped, not extrapolated
+    step, (nx, ny) = 1e-6, (48, 40)
+    X, Y = np.meshgrid(np.arange(nx) * step, np.arange(ny) * step, indexing="ij")
+    plane = 2e-7 + 0.01 * X - 0.02 * Y
+    h = plane.copy()
+    h[:5] = np.nan
+    h[20:24, 10:13] = np.nan
+    _write_map(tmp_path / "m.x3p", h, step)
+    s = hx.load_texture(tmp_path / "m.x3p", fill_undefined=True)
+    assert s.h.shape == (nx - 5, ny)
+    np.testing.assert_allclose(s.h, plane[5:], rtol=0, atol=1e-6 * np.ptp(plane))
+    assert "5 edge rows and columns (200 samples) with no measured point cropped" in s.source
+    assert "12 undefined samples (0.625 %) filled by interpolation" in s.source
+
+
+def test_an_undefined_height_beyond_the_measured_region_is_refused_not_extrapolated(tmp_path):
+    step = 1e-6
+    h = np.fromfunction(lambda i, j: 1e-7 * np.sin(i / 5.0) * np.cos(j / 7.0), (32, 32))
+    h[10, 0] = np.nan  # on the edge: nothing measured beyond it along its row
+    _write_map(tmp_path / "e.x3p", h, step)
+    with pytest.raises(hx.ParameterError, match=r"1 of its undefined heights lie outside the measured region .* "
+                                                r"the first at sample \(10, 0\)\): filling them would extrapolate"):
+        hx.load_texture(tmp_path / "e.x3p", fill_undefined=True)
+
+
+def test_a_dektak_line_scan_with_undefined_heights_is_filled_by_linear_interpolation(tmp_path):
+    # Issue 35: --fill-undefined failed on Dektak scans (SurfaceTopography's non-uniform line
+    # scan has no interpolation). The reference: the same scan with 10 heights replaced by
+    # 'nan' is the original with those 10 linearly interpolated between their neighbours.
+    src = _file("dektak-stylus-profile.csv")
+    lines = src.read_bytes().decode("latin-1").replace("\r\n", "\n").replace("\r", "\n").split("\n")
+    first = next(k for k, line in enumerate(lines) if line.startswith("Lateral um")) + 1
+    out = list(lines)
+    for k in range(first + 100, first + 110):
+        cells = out[k].split(",")
+        cells[1] = "nan"
+        out[k] = ",".join(cells)
+    f = tmp_path / "dektak-nan.csv"
+    f.write_bytes("\r\n".join(out).encode("latin-1"))
+    whole, filled = hx.load_texture(src), hx.load_texture(f, fill_undefined=True)
+    assert "10 undefined samples (0.104 %) filled by interpolation" in filled.source
+    gap = slice(100, 110)
+    expect = np.interp(whole.x[gap], whole.x[[99, 110]], whole.h[[99, 110]])
+    np.testing.assert_allclose(filled.h[gap], expect, rtol=1e-12)
+    np.testing.assert_array_equal(np.delete(filled.h, np.r_[gap]), np.delete(whole.h, np.r_[gap]))
+
+
+# -- the whole job, as a user types it -------------------------------------------------------
+@pytest.mark.slow
+def test_design_on_the_metropro_map_needs_no_options():
+    # Zygo MetroPro, 640 x 480 points over 0.70 x 0.53 mm: 14 x 10 cut-off periods on the
+    # default 3-DOF point mass. Reference: q_A = sqrt(1 + M^2) (eq. 10, Remark 2) for the
+    # rendered map's own slope M; W is continuous (eq. 30).
+    r = _cli("design", "--texture", str(_file("metropro-1.dat")), "--json", timeout=600)
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout)
+    assert out["device"] == "point mass" and out["band_limit"]["cutoff"] == pytest.approx(50e-6)
+    rows = {row["algorithm"]: row for row in out["rows"]}
+    M = out["texture_numbers"]["max_slope"]
+    assert rows["A"]["q"] == pytest.approx(math.sqrt(1 + M * M), rel=1e-6)
+    assert rows["W"]["continuous"] and rows["W"]["conservative"]
