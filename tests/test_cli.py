@@ -441,3 +441,13 @@ def test_table_over_a_surface_prints_f_and_exits_cleanly():
     assert r.returncode == 0, r.stderr
     m = re.search(r"F: q numeric [0-9.]+ \((stick|slip), \|d\| = ([0-9.]+) mm\)", r.stdout)
     assert m and float(m.group(2)) <= 1.0 + 1e-9, r.stdout
+
+
+@pytest.mark.parametrize("text", ["9**9**9 N/m", "9" * 100_000 + " N/m", "2 kN/m; import os", "1e5000 N/m"])
+def test_a_quantity_is_parsed_by_a_grammar_not_evaluated(text):
+    # issue 33: pint evaluated '9**9**9' (minutes, the explorer's event loop frozen) and
+    # parsed long digit strings in quadratic time; a quantity is now a number and unit names
+    # (the subprocess's timeout is the hang guard), refused in one line naming the parameter
+    r = run_cli("table", "--stiffness", text, timeout=60)
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert "stiffness = " in r.stderr and "is not allowed" in r.stderr

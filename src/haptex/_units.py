@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from functools import lru_cache
 
 from ._validation import ParameterError
@@ -52,10 +53,10 @@ def parse_quantity(text: str, unit: str, name: str, require_unit: bool = False) 
             raise ParameterError(f"{name} = {raw!r} is not allowed: a number without a unit; write the unit, "
                                  f"e.g. '{raw} {unit}' or '{_example(unit)}'")
         return _finite(value, raw, unit, name)
+    number, unit_text = _split(raw, unit, name)
     ureg = _registry()
-    cleaned = raw.replace("µ", "u").replace("μ", "u")
     try:
-        q = ureg.Quantity(cleaned)
+        q = ureg.Quantity(number, ureg.parse_units(unit_text)) if unit_text else ureg.Quantity(number)
         value = float(q.to(unit).magnitude)
         # pint multiplies by the prefix's factor (100 * 1e-6 = 9.999999999999999e-05); a
         # decimal quantity means the decimal number: keep 15 significant digits, within
@@ -71,6 +72,32 @@ def parse_quantity(text: str, unit: str, name: str, require_unit: bool = False) 
             f"(e.g. '{_example(unit)}')"
         ) from None
     return _finite(value, raw, unit, name)
+
+
+MAX_QUANTITY_LENGTH = 80
+"""Longest quantity text accepted (characters): a number of up to 17 significant digits with
+an exponent, and a compound unit such as 'mN*m*s' or 'N*s/m', fit many times over."""
+
+_NUMBER = r"[+-]?(?:\d{1,40}(?:\.\d{0,40})?|\.\d{1,40})(?:[eE][+-]?\d{1,4})?"
+_WORD = r"[A-Za-zµμΩ°_]{1,20}(?:\s*(?:\^|\*\*)\s*[+-]?\d{1,2})?"
+_UNIT = rf"\(?\s*{_WORD}(?:\s*[*/·]?\s*\(?\s*{_WORD}\s*\)?)*\s*\)?"
+_QUANTITY = re.compile(rf"\s*({_NUMBER})\s*({_UNIT})?\s*")
+
+
+def _split(raw: str, unit: str, name: str) -> tuple[float, str]:
+    """(number, unit text) of a quantity, by a grammar: a decimal number (at most 40 digits
+    either side of the point, an exponent of at most 4 digits) and a unit made of unit names
+    joined by '*', '/', '·' or spaces, each with an integer power of at most 2 digits. Pint
+    sees only the unit names, never an expression: '9**9**9 N/m' (which pint evaluates, for
+    minutes) and a megabyte of digits (parsed in quadratic time) are refused at once."""
+    allowed = f"a number with a unit convertible to {unit} (e.g. '{_example(unit)}')"
+    if len(raw) > MAX_QUANTITY_LENGTH:
+        raise ParameterError(f"{name} = {raw[:30]!r}... ({len(raw)} characters) is not allowed: must be {allowed}, "
+                             f"at most {MAX_QUANTITY_LENGTH} characters")
+    m = _QUANTITY.fullmatch(raw)
+    if m is None:
+        raise ParameterError(f"{name} = {raw!r} is not allowed: must be {allowed}")
+    return float(m.group(1)), (m.group(2) or "").replace("µ", "u").replace("μ", "u").replace("·", "*")
 
 
 def _finite(value: float, raw: str, unit: str, name: str) -> float:
