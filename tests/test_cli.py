@@ -451,3 +451,31 @@ def test_a_quantity_is_parsed_by_a_grammar_not_evaluated(text):
     r = run_cli("table", "--stiffness", text, timeout=60)
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1, r.stderr
     assert "stiffness = " in r.stderr and "is not allowed" in r.stderr
+
+
+def test_a_yaml_spec_with_aliases_is_refused_before_it_expands(tmp_path):
+    # issue 33: a 1 KB 'billion laughs' alias bomb in initial_position (9^7 strings once
+    # expanded); a SPEC needs no anchors or aliases, so any is refused from the YAML events
+    lines = ['a: &a ["x","x","x","x","x","x","x","x","x"]']
+    for prev, name in zip("abcdef", "bcdefg"):
+        lines.append(f"{name}: &{name} [{','.join(['*' + prev] * 9)}]")
+    lines.append("initial_position: [" + ",".join(["*g"] * 9) + "]")
+    spec = tmp_path / "bomb.yaml"
+    spec.write_text("\n".join(lines) + "\n")
+    assert len(spec.read_bytes()) < 1200
+    with pytest.raises(hx.ParameterError, match="uses YAML anchors or aliases"):
+        hx.SweepSpec.from_file(spec)
+    r = run_cli("sweep", str(spec), "--out", str(tmp_path / "b.zarr"), timeout=60)
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1, r.stderr
+
+
+@pytest.mark.parametrize("value", ["lots", "1e400", "-5", "nan", "10"])
+def test_an_invalid_memory_budget_is_one_line_naming_it(value):
+    # issue 33: an invalid HAPTEX_MEMORY_BUDGET ended in a traceback with exit 1
+    import os
+
+    env = dict(os.environ, HAPTEX_MEMORY_BUDGET=value)
+    r = subprocess.run([sys.executable, "-m", "haptex", "table", "--json"], capture_output=True, text=True,
+                       timeout=120, env=env)
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert f"HAPTEX_MEMORY_BUDGET = {value!r} is not allowed" in r.stderr

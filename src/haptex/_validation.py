@@ -181,7 +181,15 @@ def memory_budget() -> int:
     quarter of the machine's physical memory (6 GiB on a 24 GiB machine)."""
     env = os.environ.get("HAPTEX_MEMORY_BUDGET")
     if env:
-        return int(float(env))
+        text = env.strip()
+        try:
+            value = float(text) if len(text) <= 30 else math.nan
+        except ValueError:
+            value = math.nan
+        if not (math.isfinite(value) and 2**16 <= value <= 2**60):
+            raise ParameterError(f"HAPTEX_MEMORY_BUDGET = {text[:30]!r} is not allowed: must be a number of bytes "
+                                 "in [2^16, 2^60], e.g. 4e9")
+        return int(value)
     try:
         return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") // 4
     except (ValueError, OSError, AttributeError):  # pragma: no cover - non-POSIX

@@ -80,6 +80,28 @@ class Axis:
     unit: str
 
 
+MAX_SPEC_DEPTH = 16
+"""Deepest nesting of tables and lists a SPEC may have (far more than a SPEC needs)."""
+
+
+def _check_yaml_events(path, events) -> None:
+    """Refuse, before anything is built, a YAML SPEC with anchors or aliases (a 1 KB alias
+    bomb expands to gigabytes: issue 33) or nested deeper than ``MAX_SPEC_DEPTH``."""
+    import yaml
+
+    depth = 0
+    for ev in events:
+        if isinstance(ev, yaml.AliasEvent) or getattr(ev, "anchor", None):
+            raise ParameterError(f"spec = {str(path)!r} is not allowed: it uses YAML anchors or aliases ('&' or '*'), "
+                                 "which a SPEC does not need; write each value out")
+        if isinstance(ev, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):
+            depth += 1
+            if depth > MAX_SPEC_DEPTH:
+                raise ParameterError(f"spec = {str(path)!r} is not allowed: nested deeper than {MAX_SPEC_DEPTH} levels")
+        elif isinstance(ev, (yaml.MappingEndEvent, yaml.SequenceEndEvent)):
+            depth -= 1
+
+
 @dataclass(frozen=True)
 class SweepSpec:
     """A parsed SPEC: what is fixed, what is swept, and how the runs are cut into tasks.
@@ -149,6 +171,7 @@ class SweepSpec:
             import yaml
 
             try:
+                _check_yaml_events(path, yaml.parse(text, Loader=yaml.SafeLoader))
                 data = yaml.safe_load(text)
             except yaml.YAMLError as exc:
                 raise ParameterError(f"spec = {str(path)!r} is not allowed: not a YAML file "
