@@ -208,3 +208,11 @@ def test_design_on_the_metropro_map_needs_no_options():
     M = out["texture_numbers"]["max_slope"]
     assert rows["A"]["q"] == pytest.approx(math.sqrt(1 + M * M), rel=1e-6)
     assert rows["W"]["continuous"] and rows["W"]["conservative"]
+
+
+def test_a_window_over_a_measured_map_must_lie_inside_it():
+    # beyond a measured map there is only the tangent-plane extension of its edge; the
+    # MetroPro map is 0.70 x 0.53 mm (640 x 480 pixels of 1.1 um, its header)
+    r = _cli("design", "--texture", str(_file("metropro-1.dat")), "--window", "0,2mm,0,0.2mm", timeout=120)
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert "must be a rectangle inside the measured map, x in [0, 0.000701783] m" in r.stderr

@@ -115,7 +115,8 @@ def reproduce(stiffness, amplitude, period, max_penetration, friction, preslidin
 def _parse_point(text: str, name: str, d: int = 2):
     parts = [p for p in str(text).replace(";", ",").split(",")]
     if len(parts) != d:
-        what = "two lengths 'x,z', e.g. '0,-20mm'" if d == 2 else "three lengths 'x,y,z', e.g. '0,0,-20mm'"
+        what = {2: "two lengths 'x,z', e.g. '0,-20mm'", 3: "three lengths 'x,y,z', e.g. '0,0,-20mm'",
+                4: "four lengths 'x0,x1,y0,y1', e.g. '0,0.3mm,0,0.3mm'"}[d]
         raise ParameterError(f"{name} = {text!r} is not allowed: must be {what}")
     return [_q(p.strip(), "m", name) for p in parts]
 
@@ -516,7 +517,8 @@ def _check_plot_path(plot: Path) -> None:
 @click.option("--lowpass", type=Quantity("m"), default=None, help="Band-limit the profile to this shortest period.")
 @click.option("--scale", default=None, help="'LENGTH_FACTOR,HEIGHT_FACTOR' to stretch the profile.")
 @click.option("--periodic", is_flag=True, help="Close the profile into a periodic texture.")
-@click.option("--window", default=None, help="'X0,X1' abscissa window to analyse (default: one period or the whole profile).")
+@click.option("--window", default=None, help="'X0,X1' abscissa window to analyse (default: one period or the whole "
+              "profile); over a surface 'X0,X1,Y0,Y1' (default: one periodic cell or the whole map).")
 @click.option("--fill-undefined", is_flag=True,
               help="Fill a measured file's undefined (NaN) heights by interpolation instead of refusing the file.")
 @click.option("--raw", is_flag=True,
@@ -544,9 +546,12 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
         raise ParameterError(f"--raw is not allowed with the synthetic texture {texture_spec!r}: it applies to measured "
                              "textures read from a file")
     dev = _build_device(ctx, device_spec, joint_damping, mass, damping, sampling_period, delay, tex.dimension + 1)
-    if window and tex.dimension != 1:
-        raise ParameterError("--window is not allowed with a surface: the analysis covers one periodic cell")
-    x_range = _parse_point(window, "window") if window else None
+    x_range = None
+    if window and tex.dimension == 1:
+        x_range = _parse_point(window, "window")
+    elif window:
+        x0, x1, y0, y1 = _parse_point(window, "window", 4) if window.count(",") == 3 else _parse_point(window, "window")
+        x_range = ((x0, x1), (y0, y1))
     if report_dir is not None:
         from .report import check_output
 

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from ._validation import ParameterError
 from .algorithms import ALGORITHMS
 from .analysis import (characteristic_number, checked_algorithms, conservativity, continuity, paper_loop, rendering_cutoff,
@@ -89,6 +91,8 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         progress("band-limiting")
     given = texture
     texture, band = _band_limited(texture, device, speed, samples_per_period, band_limit)
+    if x_range is not None and texture.dimension == 2:
+        _check_window(texture, x_range)
     letters = [L for L in LETTERS if texture.dimension == 1 or ALGORITHMS[L].surfaces]
     algs = checked_algorithms(letters, texture, stiffness, max_penetration, friction, presliding)
     rows = []
@@ -142,7 +146,7 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
                   "max_passive_stiffness": "N/m", "max_abs_loop_energy": "J", "limits": "each limit's 'unit'"},
         "texture": repr(given), "rendered_texture": repr(texture), "device": device.name, "stiffness": stiffness, "speed": speed,
         "max_penetration": max_penetration, "friction": friction, "presliding": presliding,
-        "x_range": None if x_range is None else [float(v) for v in x_range],
+        "x_range": None if x_range is None else np.asarray(x_range, dtype=float).tolist(),
         "passivity_limit": device.passivity_limit,
         "wall_stability_limit": wall_limit,
         "texture_numbers": {"shortest_period": texture.shortest_period, "max_slope": texture.max_slope,
@@ -179,8 +183,6 @@ def rendered_texture(texture: Texture, device: Device, speed: float = 0.1, sampl
 
 def _band_limited(texture: Texture, device: Device, speed: float, samples_per_period, band_limit: bool):
     """The texture the device renders, and what band-limiting did (see :func:`design`)."""
-    import numpy as np
-
     cut = rendering_cutoff(device, speed, samples_per_period)
     sampled = hasattr(texture, "band_limited")
     if sampled and band_limit:
@@ -259,10 +261,8 @@ def _check_renderable(texture, device: Device, speed: float, cut) -> None:
 def _sample_numbers(texture) -> dict:
     """A sampled texture's max slope (1), max curvature (1/m) and height range (m) from its
     samples by central differences (numpy.gradient): what the instrument measured, in time
-    linear in the samples. The spline through them (what ``--raw`` analyses) can only lie
-    steeper between samples; the rendered texture's numbers are its spline's sups."""
-    import numpy as np
-
+    linear in the samples. The spline through them (what ``--raw`` analyses) may be steeper
+    between samples; the rendered texture's numbers are its spline's sups."""
     h = texture.h
     steps = [texture.dx] if h.ndim == 1 else [texture.dx, texture.dy]
     g = np.gradient(h, *steps) if h.ndim == 2 else [np.gradient(h, steps[0])]
@@ -275,3 +275,22 @@ def _sample_numbers(texture) -> dict:
         curv = np.abs(0.5 * (hxx + hyy)) + np.hypot(0.5 * (hxx - hyy), hxy)  # a symmetric 2x2's 2-norm
     return {"max_slope": float(slope.max()), "max_curvature": float(curv.max()),
             "height_range": [float(h.min()), float(h.max())]}
+
+
+def _check_window(texture, x_range) -> None:
+    """A window over a measured (non-periodic) map must lie inside the map: beyond it the
+    texture is only the tangent-plane extension of its edge, which nobody measured."""
+    from ._validation import fail
+
+    try:
+        (x0, x1), (y0, y1) = ((float(a), float(b)) for a, b in x_range)
+    except (TypeError, ValueError):
+        raise fail("x_range", x_range, "((x0, x1), (y0, y1)) in metres") from None
+    dom = texture.domain
+    if getattr(texture, "periodic", True) or dom is None:
+        return
+    (a, b), (c, d) = dom
+    tol = 1e-9 * max(b - a, d - c)
+    if not (a - tol <= x0 < x1 <= b + tol and c - tol <= y0 < y1 <= d + tol):
+        raise fail("window", f"{x0:g},{x1:g},{y0:g},{y1:g} m", f"a rectangle inside the measured map, x in "
+                   f"[{a:g}, {b:g}] m and y in [{c:g}, {d:g}] m, with x0 < x1 and y0 < y1")
