@@ -543,6 +543,20 @@ class _Distance(Algorithm):
             j[inside] = ji
         return f, j
 
+    def jacobian_at_closest(self, p, cp) -> np.ndarray:
+        """The Jacobian (N/m), shape (n, k + 1, k + 1), at probe positions inside the wall whose
+        closest points are already known (the analysis finds them to decide where the foot
+        is unique, and need not search again).
+
+        Parameters
+        ----------
+        p : ndarray, shape (n, k + 1)
+            Probe positions below the boundary (m).
+        cp : ClosestPoint
+            :func:`haptex.closest_point` of exactly these positions.
+        """
+        return self._inside(np.asarray(p, dtype=np.float64), cp, True)[1]
+
     def _surface_frame(self, cp):
         """grad h, shape (n, k), and its Hessian, shape (n, k, k), at the closest points."""
         tex = self.texture

@@ -55,7 +55,7 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         Analyse what the device renders (default): a sampled texture (SampledProfile,
         SampledSurface) holding periods shorter than the device's cut-off l_c
         (:func:`~haptex.analysis.rendering_cutoff`: the four period limits of Section II-B
-        at ``speed``) is low-passed to l_c and resampled to 32 samples per l_c
+        at ``speed``) is low-passed to l_c and resampled to 32 samples per l_c (a map to 16)
         (``band_limited``) before any analysis. False analyses the raw samples (slow, and
         often refused: a raw scan's Nyquist period makes the rendering region thousands
         of periods deep). Analytic textures are analysed as they are; the limits table
@@ -92,7 +92,7 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
     given = texture
     texture, band = _band_limited(texture, device, speed, samples_per_period, band_limit)
     if x_range is not None and texture.dimension == 2:
-        _check_window(texture, x_range)
+        _check_window(given, x_range)  # the map as measured, whose extent the user knows
     letters = [L for L in LETTERS if texture.dimension == 1 or ALGORITHMS[L].surfaces]
     algs = checked_algorithms(letters, texture, stiffness, max_penetration, friction, presliding)
     rows = []

@@ -3,6 +3,7 @@ with its closed forms and F's presliding bounds (Campion & Hayward, Sections III
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -11,7 +12,7 @@ from scipy import ndimage, optimize
 
 from .._validation import fail
 from ..algorithms import Algorithm
-from ..closest import closest_point
+from ..closest import ClosestPoint, closest_point
 from ..textures import Flat, Sinusoid, Texture
 from ._region import _plane_ranges, _region_points, check_analysis_scale
 
@@ -490,13 +491,22 @@ def _q_distance_surface(alg, dmax, ranges, counts, nd, closed, x_range, resoluti
     T = np.stack([X, Y], -1)
     P = _surface_normal_point(tex, T, R)
 
-    region = _unique_foot(tex, P, R)
-    norms = np.where(region, spectral_norm(alg.jacobian(P)) / k0, -np.inf)
+    # one closest-point search a grid point: it says where the foot is unique (the region), and
+    # the Jacobian there is evaluated at that closest point (not searched again)
+    cp = closest_point(tex, P)
+    region = (cp.distance >= R * (1 - 1e-9)) & ~cp.tie  # as _unique_foot
+    norms = np.full(R.shape, -np.inf)
+    if np.any(region):
+        found = ClosestPoint(**{f.name: None if getattr(cp, f.name) is None else getattr(cp, f.name)[region]
+                                for f in dataclasses.fields(cp)})
+        norms[region] = spectral_norm(alg.jacobian_at_closest(P[region], found)) / k0
     note = (f"grid {counts[0]}x{counts[1]}x{nd} over the closest point's (x, y) and the distance in (0, {dmax:g}] m, "
             "refined by L-BFGS-B")
     paper_value = None
     if alg.letter == "D":
-        paper_value = float(np.max(np.where(region, spectral_norm(alg.jacobian(P, form="paper")) / k0, -np.inf)))
+        # eq. 18's Jacobian is -kappa_0 n n^T inside the wall, n the unit normal at the
+        # closest point: its norm is kappa_0 wherever the region has a point
+        paper_value = 1.0 if np.any(region) else -math.inf
         # principal curvatures of the graph: H v = kappa W (I + s s^T) v, W = sqrt(1 + |s|^2)
         t = T[..., 0, :]
         s_, hess = tex.gradient(t), tex.hessian(t)
