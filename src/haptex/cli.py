@@ -550,7 +550,7 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
     if window and tex.dimension == 1:
         x_range = _parse_point(window, "window")
     elif window:
-        x0, x1, y0, y1 = _parse_point(window, "window", 4) if window.count(",") == 3 else _parse_point(window, "window")
+        x0, x1, y0, y1 = _parse_point(window, "window", 4)
         x_range = ((x0, x1), (y0, y1))
     if report_dir is not None:
         from .report import check_output

@@ -28,6 +28,7 @@ bicubic height map, growing with the depth) and whose norm varies with the bound
 curvature, which a texture band-limited to that period holds on no shorter scale (chosen:
 over the 14 x 10 cut-off periods of a MetroPro map, 32 made 1.06 million searches)."""
 
+
 def spectral_norm(j) -> np.ndarray:
     """Largest singular value of 2x2 or 3x3 matrices.
 
