@@ -59,6 +59,12 @@ class ClosestPoint:
     work: np.ndarray
     y: np.ndarray | None = None
 
+    def select(self, where) -> ClosestPoint:
+        """The closest points at the positions ``where`` selects (a boolean mask or an index
+        over the probe positions' shape)."""
+        return ClosestPoint(x=self.x[where], z=self.z[where], distance=self.distance[where], tie=self.tie[where],
+                            work=self.work[where], y=None if self.y is None else self.y[where])
+
     @property
     def point(self) -> np.ndarray:
         """The closest points p_h as [x, z] or [x, y, z] (m), shape (..., 2) or (..., 3)."""

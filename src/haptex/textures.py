@@ -668,7 +668,22 @@ class SampledProfile(Texture):
 def zero_phase_lowpass(sos, h: np.ndarray, axis: int) -> np.ndarray:
     """scipy.signal.sosfiltfilt of ``h`` along ``axis``, its edge padding (3 (2 sections + 1)
     samples by default) shortened to the samples there are: a short scan (a 5 x 10 NetCDF
-    map, a 10-sample text column) is filtered instead of ending in scipy's 'padlen' error."""
+    map, a 10-sample text column) is filtered instead of ending in scipy's 'padlen' error.
+
+    Parameters
+    ----------
+    sos : ndarray, shape (n_sections, 6)
+        Second-order sections (scipy.signal.butter(..., output="sos")).
+    h : ndarray
+        Heights (m), at least 2 samples along ``axis``.
+    axis : int
+        The axis filtered.
+
+    Returns
+    -------
+    ndarray
+        Filtered heights (m), the shape of ``h``.
+    """
     from scipy.signal import sosfiltfilt
 
     return sosfiltfilt(sos, h, axis=axis, padlen=min(3 * (2 * len(sos) + 1), h.shape[axis] - 1))

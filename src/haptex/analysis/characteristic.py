@@ -3,7 +3,6 @@ with its closed forms and F's presliding bounds (Campion & Hayward, Sections III
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -403,7 +402,11 @@ def _unique_foot(tex: Texture, points, r):
     """True where the probe positions ``points`` (normal points at distance r, m) have the
     point they were built from as their unique closest point: the distance is r and there
     is no tie (the region where D's and E's Jacobians are defined)."""
-    cp = closest_point(tex, points)
+    return _foot_is_unique(closest_point(tex, points), r)
+
+
+def _foot_is_unique(cp: ClosestPoint, r):
+    """:func:`_unique_foot` on closest points already found: the distance is r and no tie."""
     return (cp.distance >= r * (1 - 1e-9)) & ~cp.tie
 
 
@@ -495,12 +498,10 @@ def _q_distance_surface(alg, dmax, ranges, counts, nd, closed, x_range, resoluti
     # one closest-point search a grid point: it says where the foot is unique (the region), and
     # the Jacobian there is evaluated at that closest point (not searched again)
     cp = closest_point(tex, P)
-    region = (cp.distance >= R * (1 - 1e-9)) & ~cp.tie  # as _unique_foot
+    region = _foot_is_unique(cp, R)
     norms = np.full(R.shape, -np.inf)
     if np.any(region):
-        found = ClosestPoint(**{f.name: None if getattr(cp, f.name) is None else getattr(cp, f.name)[region]
-                                for f in dataclasses.fields(cp)})
-        norms[region] = spectral_norm(alg.jacobian_at_closest(P[region], found)) / k0
+        norms[region] = spectral_norm(alg.jacobian_at_closest(P[region], cp.select(region))) / k0
     note = (f"grid {counts[0]}x{counts[1]}x{nd} over the closest point's (x, y) and the distance in (0, {dmax:g}] m, "
             "refined by L-BFGS-B")
     paper_value = None
