@@ -125,7 +125,157 @@ def test_the_cli_refuses_an_unreachable_scheduler_within_seconds(tmp_path):
     r = subprocess.run([sys.executable, "-m", "haptex", "sweep", str(f), "--out", str(tmp_path / "a.zarr"),
                         "--scheduler", "tcp://127.0.0.1:9"], capture_output=True, text=True, timeout=60)
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
-    assert "no Dask scheduler answered there within 5 s" in r.stderr
+    assert "no Dask scheduler answered there within" in r.stderr
+
+
+def test_a_scheduler_that_accepts_and_never_answers_is_given_up_in_seconds(tmp_path):
+    """Issue 33: a peer that accepts the TCP connection and stays silent held Dask's client
+    past 5 minutes (its connect timeout does not cover the handshake)."""
+    import socket
+    import threading
+    import time
+
+    from haptex.atlas import SCHEDULER_TIMEOUT, _remote
+
+    srv = socket.socket()
+    srv.bind(("127.0.0.1", 0))
+    srv.listen(8)
+    held = []
+    threading.Thread(target=lambda: [held.append(srv.accept()) for _ in range(8)], daemon=True).start()
+    t = time.monotonic()
+    with pytest.raises(hx.ParameterError, match=r"it accepted the connection but sent no handshake"):
+        _remote(f"tcp://127.0.0.1:{srv.getsockname()[1]}")
+    assert time.monotonic() - t < SCHEDULER_TIMEOUT + 5
+    srv.close()
+
+
+@pytest.mark.parametrize("address", ["ucx://127.0.0.1:8786", "tls://127.0.0.1:8786", "inproc://x", "127.0.0.1:8786",
+                                     "tcp://host:99999999", "tcp://a b:1"])
+def test_scheduler_addresses_other_than_tcp_are_one_line(address):
+    """Issue 33: ``ucx://`` and ``tls://`` ended in tracebacks (no UCX build, no certificates)."""
+    from haptex.atlas import _remote
+
+    with pytest.raises(hx.ParameterError, match=r"^scheduler = .* is not allowed: must be a Dask scheduler's address "
+                                                r"tcp://HOST:PORT$"):
+        _remote(address)
+
+
+@pytest.mark.parametrize("axes, pattern", [
+    # an axis of 10^12 steps allocated 7 TiB in np.geomspace before the run count was checked
+    ({"stiffness": "1-2 kN/m, 1000000000000 log steps"}, r"^axes = '1000000000000' is not allowed: must be at most"),
+    # exactly MAX_RUNS runs passed and exhausted memory: the atlas's size is counted first
+    ({"stiffness": "1-2 kN/m, 100000 steps", "damping": "0.1-1 N*s/m, 10000 steps"},
+     r"^axes = '100000 x 10000' is not allowed: the atlas's 1e\+09 runs .* over the memory budget"),
+    ({"stiffness": "1-2 kN/m, 90000000 steps"}, r"^axes = '90000000' is not allowed: .* over the memory budget"),
+])
+def test_a_spec_is_sized_before_any_axis_is_expanded(axes, pattern):
+    import tracemalloc
+
+    tracemalloc.start()
+    with pytest.raises(hx.ParameterError, match=pattern):
+        SweepSpec.from_mapping(wall_spec(axes))
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert peak < 50e6  # nothing the size of an axis was allocated
+
+
+def test_too_many_blocks_are_refused_naming_the_block():
+    spec = wall_spec({"stiffness": "1-2 kN/m, 3000 steps", "damping": "0.1-1 N*s/m, 1000 steps"}, block=1)
+    with pytest.raises(hx.ParameterError, match=r"^block = 1 is not allowed: must be a block size that cuts the 3e\+06 "
+                                                r"runs into at most 1e\+06 blocks"):
+        SweepSpec.from_mapping(spec)
+
+
+@pytest.mark.parametrize("axes, pattern", [
+    ({"stiffness": "-2-2 kN/m, 3 steps"}, r"^axes.stiffness = -2000 is not allowed: must be a finite number > 0"),
+    ({"stiffness": ["1 kN/m"], "mass": ["0.1 kg", "0 kg"]}, r"^axes.mass = .* is not allowed: must be positive definite"),
+    ({"stiffness": ["1 kN/m"], "damping": ["-1 N*s/m"]}, r"^axes.damping = .* is not allowed: must be positive semi-definite"),
+])
+def test_swept_values_are_range_checked_when_the_spec_is_read(axes, pattern):
+    """Issue 33: such values were checked first inside a Dask task, after a worker's traceback."""
+    with pytest.raises(hx.ParameterError, match=pattern):
+        SweepSpec.from_mapping(wall_spec(axes))
+
+
+def test_local_workers_are_capped_by_memory(monkeypatch):
+    from haptex.atlas import WORKER_BYTES, _client
+
+    monkeypatch.setenv("HAPTEX_MEMORY_BUDGET", str(4 * WORKER_BYTES))
+    with pytest.raises(hx.ParameterError, match=r"^workers = 5 is not allowed: 5 local worker processes .* over the "
+                                                r"memory budget"):
+        _client(None, 5)
+
+
+def test_one_writer_per_store_a_second_is_refused_in_one_line(tmp_path):
+    """Issue 33: two sweeps of different SPECs into one new store, 0.2 s apart, both exited 0
+    and left the store labelled with one SPEC and holding the other's data."""
+    from haptex.atlas import _lock
+
+    store = tmp_path / "a.zarr"
+    held = _lock(store)
+    try:
+        spec = wall_spec({"stiffness": "1-2 kN/m, 2 steps"}, duration="0.05 s")
+        with pytest.raises(hx.ParameterError, match=r"^out = .*a.zarr' is not allowed: another haptex sweep is writing it"):
+            sweep(spec, store, workers=1)
+        assert not store.exists()  # nothing was written under another writer's lock
+    finally:
+        held.release()
+    ds = sweep(wall_spec({"stiffness": "1-2 kN/m, 2 steps"}, duration="0.05 s"), store, workers=1)
+    assert bool(ds["done"].all())
+
+
+def test_two_concurrent_sweeps_of_different_specs_never_leave_a_mislabelled_store(tmp_path):
+    """Two processes started together into one new store: exactly one writes it, the other
+    exits 2 in one line; the store's label is the SPEC whose data it holds."""
+    import json
+
+    from haptex.atlas import open_atlas
+
+    files = []
+    for i, k in enumerate(("1-2 kN/m, 3 steps", "5-9 kN/m, 3 steps")):
+        f = tmp_path / f"s{i}.toml"
+        f.write_text('duration = "0.2 s"\n[algorithm]\nletter = "W"\n[device]\npreset = "point-mass"\n'
+                     f'[operator]\nkind = "push"\nforce = "1 N"\n[axes]\nstiffness = "{k}"\n')
+        files.append(f)
+    store = tmp_path / "a.zarr"
+    procs = [subprocess.Popen([sys.executable, "-m", "haptex", "sweep", str(f), "--out", str(store), "--workers", "1",
+                               "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) for f in files]
+    outs = [p.communicate(timeout=120) for p in procs]
+    codes = sorted(p.returncode for p in procs)
+    assert codes == [0, 2] or codes == [0, 0], (codes, [o[1][-300:] for o in outs])
+    for p, (_, err) in zip(procs, outs):
+        if p.returncode == 2:
+            assert len(err.strip().splitlines()) == 1 and "another haptex sweep is writing it" in err
+    ds = open_atlas(store)
+    stored = json.loads(ds.attrs["haptex_spec"])
+    k = dict(stored["axes"])["stiffness"]
+    lo = 1000.0 if k.startswith("1-2") else 5000.0
+    assert ds["stiffness"].values[0] == pytest.approx(lo) and bool(ds["done"].all())
+
+
+@pytest.mark.parametrize("damage", ["label", "chunk"])
+def test_a_corrupt_store_is_one_line(tmp_path, damage):
+    from haptex.atlas import open_atlas
+
+    store = tmp_path / "a.zarr"
+    spec = wall_spec({"stiffness": "1-2 kN/m, 2 steps"}, duration="0.05 s")
+    sweep(spec, store, workers=1)
+    if damage == "label":
+        import zarr
+
+        g = zarr.open_group(str(store), mode="r+")
+        g.attrs["haptex_spec"] = "{not json"
+        pattern = r"not written by haptex sweep \(its 'haptex_spec' label is not a SPEC\)"
+    else:
+        chunks = [p for p in (store / "done").rglob("*") if p.is_file() and p.name != "zarr.json"]
+        assert chunks
+        for p in chunks:
+            p.write_bytes(b"\x00garbage" * 3)
+        pattern = r"(cannot be read|not a Zarr store)"
+    with pytest.raises(hx.ParameterError, match=pattern):
+        open_atlas(store)
+    with pytest.raises(hx.ParameterError, match=pattern if damage == "chunk" else "written by another SPEC"):
+        sweep(spec, store, workers=1)
 
 
 @pytest.mark.slow

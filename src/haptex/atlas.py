@@ -46,19 +46,22 @@ from pathlib import Path
 import numpy as np
 
 from ._units import parse_quantity
-from ._validation import ParameterError, fail, whole
+from ._validation import ParameterError, check_budget, fail, whole
 
 MAX_RUNS = 10**9
 """Largest number of runs one sweep may hold (the grid's product)."""
 MAX_SPEC_BYTES = 1 << 20
 DEFAULT_BLOCK = 512
 """Runs per task by default."""
+MAX_BLOCKS = 10**6
+"""Most blocks a sweep may be cut into (each is a task's unit and a Zarr chunk: about 300
+bytes of bookkeeping a block)."""
 
 _TOP_KEYS = ("duration", "block", "algorithm", "device", "operator", "axes", "initial_position")
 _OPERATORS = {"push": ("force",), "band": ("stiffness", "anchor"), "hand": ("stiffness", "damping", "velocity", "depth")}
 _ALG_QUANTITIES = {"stiffness": "N/m", "friction": "dimensionless", "presliding": "m", "max_penetration": "m"}
 _RANGE = re.compile(r"^\s*(?P<a>[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(?:–|—|-|\.\.|to)\s*"
-                    r"(?P<b>[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(?P<unit>[^,]*?)\s*,\s*(?P<n>\d+)\s*"
+                    r"(?P<b>[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(?P<unit>[^,]*?)\s*,\s*(?P<n>\d{1,15})\s*"
                     r"(?P<log>log\s+)?steps?\s*$")
 
 
@@ -205,11 +208,16 @@ class SweepSpec:
         axes_table = data["axes"]
         if not isinstance(axes_table, dict) or not axes_table:
             raise fail("axes", axes_table, "a table of at least one swept parameter")
+        # the grid's size from the SPEC's text, before any axis is expanded (an axis of 10^12
+        # steps would allocate 7 TiB in np.geomspace: issue 33)
+        steps = [_axis_steps(value) for value in axes_table.values()]
+        runs = math.prod(steps)
+        if runs > MAX_RUNS:
+            raise fail("axes", " x ".join(map(str, steps)), f"at most {MAX_RUNS:.0e} runs in all")
+        check_budget("axes", " x ".join(map(str, steps)), runs * _RUN_BYTES,
+                     f"the atlas's {runs:.3g} runs ({_RUN_BYTES} bytes a run in memory)")
         axes = tuple(_axis(name, value) for name, value in axes_table.items())
         shape = [a.values.size for a in axes]
-        runs = math.prod(shape)
-        if runs > MAX_RUNS:
-            raise fail("axes", " x ".join(map(str, shape)), f"at most {MAX_RUNS:.0e} runs in all")
         block_runs = whole("block", data.get("block", DEFAULT_BLOCK), 1, 10**7, "runs per task")
         block = [1] * len(axes)
         prod = 1
@@ -223,11 +231,34 @@ class SweepSpec:
                 continue
             block[i] = max(1, block_runs // prod)
             break
+        n_blocks = math.prod(-(-n // b) for n, b in zip(shape, block))
+        if n_blocks > MAX_BLOCKS:
+            raise fail("block", block_runs, f"a block size that cuts the {runs:.3g} runs into at most {MAX_BLOCKS:.0e} "
+                       f"blocks (it gives {n_blocks:.3g})")
         spec = cls(dict(data), axes, tuple(block), duration)
         letters = next((a.values for a in axes if a.name == "algorithm"), None)
         for L in ([None] if letters is None else letters):  # every fixed part, checked before any task
-            spec.build(letter=None if L is None else str(L))
+            spec._check_axes(spec.build(letter=None if L is None else str(L)))
         return spec
+
+    def _check_axes(self, built) -> None:
+        """Each swept value's range checked here, not first in a Dask task (where the error
+        came after a worker's traceback: issue 33): every axis's least and greatest value
+        applied alone to the fixed parts, as the run that sweeps them rebuilds them (the
+        checks are ranges, so the extremes stand for the axis)."""
+        from .simulate import _rebuild
+
+        alg, device, op, _ = built
+        for a in self.axes:
+            if a.name == "algorithm" or a.name.startswith("initial_"):
+                continue
+            for v in {float(a.values.min()), float(a.values.max())}:
+                try:
+                    _rebuild(alg, device, op, {a.name: v})
+                except ParameterError as exc:
+                    msg = str(exc)
+                    raise ParameterError(f"axes.{msg}" if msg.startswith(f"{a.name} ") else f"axes.{a.name}: {msg}") \
+                        from None
 
     def build(self, letter: str | None = None):
         """(algorithm, device, operator, initial_position) of the fixed parts."""
@@ -286,6 +317,15 @@ def _quantity(name: str, value, unit: str) -> float:
     if isinstance(value, int | float) and value != 0:
         raise fail(name, value, f"a quantity with its unit, e.g. '{1:g} {unit}' (a bare number is refused)")
     return parse_quantity(str(value), unit, name, require_unit=True)
+
+
+def _axis_steps(value) -> int:
+    """How many values an axis written as ``value`` holds, read from its text alone (a
+    list's length, a range's step count; 1 for anything :func:`_axis` will refuse)."""
+    if isinstance(value, list):
+        return len(value)
+    m = _RANGE.match(value) if isinstance(value, str) else None
+    return int(m["n"]) if m else 1
 
 
 def _axis(name: str, value) -> Axis:
@@ -394,6 +434,11 @@ def _variables(dimension: int) -> dict:
             "energy_balance_error": ("1", "float64", np.nan, "relative closure of the energy balance"),
             "diverged_at": ("samples", "int64", -1, "sample at which the run became non-finite, 0 if never")}
     return out
+
+
+_RUN_BYTES = 2 * (sum(np.dtype(v[1]).itemsize for v in _variables(3).values()) + 1)
+"""Bytes of memory a run of an atlas costs at most: its variables in space and ``done``,
+twice (the results as computed and the Dataset returned)."""
 
 
 @functools.lru_cache(maxsize=8)
@@ -522,71 +567,118 @@ def sweep(spec, out=None, *, scheduler: str | None = None, workers: int | None =
         spec = SweepSpec.from_mapping(spec) if isinstance(spec, dict) else SweepSpec.from_file(spec)
     fixed_device = spec.build(letter=str(spec.axes[0].values[0]) if spec.axes[0].name == "algorithm" else None)[1]
     dimension = fixed_device.dimension
+    _local_workers(workers) if scheduler is None else _scheduler_address(scheduler)  # before any store is made
     blocks = spec.blocks()
     store = None if out is None else Path(out)
-    done_blocks: set = set()
-    if store is not None:
-        if store.exists():
+    lock = None if store is None else _lock(store)
+    try:
+        done_blocks = set() if store is None else _open_store(store, spec, dimension, blocks)
+        results = {} if store is None else None
+        todo = [i for i in range(len(blocks)) if i not in done_blocks]
+        computed = 0
+        if todo:
+            client, cluster, threads = _client(scheduler, workers)
+            bar = _bar(progress, spec.runs, sum(_size(blocks[i]) for i in done_blocks))
             try:
-                old = xr.open_zarr(store, consolidated=False)
-            except Exception as exc:
-                raise ParameterError(f"out = {str(store)!r} is not allowed: it exists and is not a haptex atlas "
-                                     f"({' '.join(str(exc).split())[:120]})") from None
-            if old.attrs.get("haptex_spec") != spec.canonical:
-                raise ParameterError(f"out = {str(store)!r} is not allowed: it was written by another SPEC; give a new "
-                                     "store, or the SPEC that wrote it to resume")
-            missing = sorted((set(_variables(dimension)) | {"done"}) - set(old.data_vars))
-            if missing:
-                raise ParameterError(f"out = {str(store)!r} is not allowed: it lacks the variables {missing} (written by "
-                                     "another version of haptex); give a new store")
-            done = old["done"].values
-            done_blocks = {i for i, b in enumerate(blocks) if bool(done[b].all())}
+                from dask.distributed import as_completed
+
+                n_threads = sum(client.nthreads().values()) or 1
+                steps = round(spec.duration / fixed_device.period)  # samples a run
+                groups = _tasks(todo, max(_size(blocks[i]) for i in todo) * steps, n_threads)
+                futures = {client.submit(_run_blocks, spec.mapping, [blocks[i] for i in g], threads, pure=True,
+                                         retries=3): g for g in groups}
+                for fut in as_completed(futures):
+                    for i, data in zip(futures[fut], fut.result()):
+                        if store is None:
+                            results[i] = data
+                        else:
+                            _write(store, spec, blocks[i], data, dimension)
+                        computed += 1
+                        bar(_size(blocks[i]))
+                        if on_block is not None:
+                            on_block(computed)
+            finally:
+                bar(None)
+                client.close()
+                if cluster is not None:
+                    cluster.close()
+        if store is None:
+            ds = _template(spec, dimension, lazy=False)
+            for i, data in results.items():
+                for k, v in data.items():
+                    ds[k].values[blocks[i]] = v
+                ds["done"].values[blocks[i]] = True
         else:
-            import warnings
-
-            with warnings.catch_warnings():  # zarr 3 flags its string dtype (the algorithm letters) as unstable
-                warnings.filterwarnings("ignore", message=".*does not have a Zarr V3 specification.*")
-                _template(spec, dimension).to_zarr(store, mode="w", compute=False, consolidated=False)
-    results = {} if store is None else None
-    todo = [i for i in range(len(blocks)) if i not in done_blocks]
-    computed = 0
-    if todo:
-        client, cluster, threads = _client(scheduler, workers)
-        bar = _bar(progress, spec.runs, sum(_size(blocks[i]) for i in done_blocks))
-        try:
-            from dask.distributed import as_completed
-
-            n_threads = sum(client.nthreads().values()) or 1
-            steps = round(spec.duration / fixed_device.period)  # samples a run
-            groups = _tasks(todo, max(_size(blocks[i]) for i in todo) * steps, n_threads)
-            futures = {client.submit(_run_blocks, spec.mapping, [blocks[i] for i in g], threads, pure=True,
-                                     retries=3): g for g in groups}
-            for fut in as_completed(futures):
-                for i, data in zip(futures[fut], fut.result()):
-                    if store is None:
-                        results[i] = data
-                    else:
-                        _write(store, spec, blocks[i], data, dimension)
-                    computed += 1
-                    bar(_size(blocks[i]))
-                    if on_block is not None:
-                        on_block(computed)
-        finally:
-            bar(None)
-            client.close()
-            if cluster is not None:
-                cluster.close()
-    if store is None:
-        ds = _template(spec, dimension, lazy=False)
-        for i, data in results.items():
-            for k, v in data.items():
-                ds[k].values[blocks[i]] = v
-            ds["done"].values[blocks[i]] = True
-    else:
-        ds = xr.open_zarr(store, consolidated=False).load()
+            ds = open_atlas(store)
+    finally:
+        if lock is not None:
+            lock.release()
     ds.attrs["blocks_computed"] = computed
     ds.attrs["blocks_skipped"] = len(done_blocks)
     return ds
+
+
+def _lock(store: Path):
+    """The store's lock (``STORE.lock`` beside it, held by this process until the sweep
+    ends; the operating system releases it if the process dies): one writer per atlas. Two
+    sweeps of different SPECs started 0.2 s apart into one new store both exited 0 and left
+    it labelled with one SPEC and holding the other's data (issue 33); now the second is
+    refused in one line."""
+    from filelock import FileLock, Timeout
+
+    lock = FileLock(str(store.parent / (store.name + ".lock")))
+    try:
+        lock.acquire(timeout=0)
+    except Timeout:
+        raise ParameterError(f"out = {str(store)!r} is not allowed: another haptex sweep is writing it (it holds "
+                             f"{lock.lock_file}); wait for it to end, or give another store") from None
+    except OSError as exc:
+        raise ParameterError(f"out = {str(store)!r} is not allowed: its lock file cannot be made "
+                             f"({' '.join(str(exc).split())[:100]})") from None
+    return lock
+
+
+def _open_store(store: Path, spec: SweepSpec, dimension: int, blocks: list) -> set:
+    """The indices of the blocks already done in ``store`` (a resumed sweep), after checking
+    that the store's label is this SPEC's; a new store is made with the label (written with
+    the metadata, before any block). Called with the store's lock held.
+
+    Raises
+    ------
+    ParameterError
+        For a store that is not a haptex atlas, was written by another SPEC or version, or
+        whose ``done`` chunks cannot be read.
+    """
+    import warnings
+
+    import xarray as xr
+
+    if not store.exists():
+        with warnings.catch_warnings():  # zarr 3 flags its string dtype (the algorithm letters) as unstable
+            warnings.filterwarnings("ignore", message=".*does not have a Zarr V3 specification.*")
+            _template(spec, dimension).to_zarr(store, mode="w", compute=False, consolidated=False)
+        return set()
+    try:
+        old = xr.open_zarr(store, consolidated=False)
+    except Exception as exc:  # noqa: BLE001 - any reader error is one line
+        raise ParameterError(f"out = {str(store)!r} is not allowed: it exists and is not a haptex atlas "
+                             f"({' '.join(str(exc).split())[:120]})") from None
+    if old.attrs.get("haptex_spec") != spec.canonical:
+        raise ParameterError(f"out = {str(store)!r} is not allowed: it was written by another SPEC; give a new "
+                             "store, or the SPEC that wrote it to resume")
+    missing = sorted((set(_variables(dimension)) | {"done"}) - set(old.data_vars))
+    if missing:
+        raise ParameterError(f"out = {str(store)!r} is not allowed: it lacks the variables {missing} (written by "
+                             "another version of haptex); give a new store")
+    try:
+        done = np.asarray(old["done"].values, dtype=bool)
+    except Exception as exc:  # noqa: BLE001 - a corrupt chunk
+        raise ParameterError(f"out = {str(store)!r} is not allowed: its 'done' marks cannot be read "
+                             f"({' '.join(str(exc).split())[:120]}); give a new store") from None
+    if done.shape != spec.shape:
+        raise ParameterError(f"out = {str(store)!r} is not allowed: its grid is {done.shape}, the SPEC's "
+                             f"{spec.shape}; give a new store")
+    return {i for i, b in enumerate(blocks) if bool(done[b].all())}
 
 
 def _size(block) -> int:
@@ -604,6 +696,16 @@ def _write(store: Path, spec: SweepSpec, block: tuple, data: dict, dimension: in
     xr.Dataset({"done": (dims, np.ones(shape, dtype=bool))}).to_zarr(store, region=region, consolidated=False)
 
 
+def _local_workers(workers) -> int:
+    """The number of local worker processes: ``workers``, or one a core; refused above 1024
+    or when their memory (:data:`WORKER_BYTES` each) exceeds the budget."""
+    import os
+
+    n = (os.cpu_count() or 1) if workers is None else whole("workers", workers, 1, 1024)
+    check_budget("workers", n, n * WORKER_BYTES, f"{n} local worker processes (about {WORKER_BYTES / 2**20:.0f} MiB each)")
+    return n
+
+
 def _client(scheduler: str | None, workers: int | None):
     """(client, local cluster or None, numba threads per task)."""
     import logging
@@ -612,17 +714,11 @@ def _client(scheduler: str | None, workers: int | None):
     from dask.distributed import Client, LocalCluster
 
     if scheduler is not None:
-        try:
-            return Client(scheduler, timeout="5s"), None, None
-        except (OSError, TimeoutError) as exc:
-            raise ParameterError(f"scheduler = {scheduler!r} is not allowed: no Dask scheduler answered there within "
-                                 f"5 s ({' '.join(str(exc).split())[:100]})") from None
-        except ValueError as exc:
-            raise ParameterError(f"scheduler = {scheduler!r} is not allowed: {exc}") from None
+        return _remote(scheduler), None, None
     import dask
 
     cores = os.cpu_count() or 1
-    n = cores if workers is None else whole("workers", workers, 1, 1024)
+    n = _local_workers(workers)
     # The blocks are alike and independent: the scheduler hands them all out at once
     # (worker saturation "inf"), so that a worker never waits a round trip for its next
     # block; work stealing still rebalances, and a lost worker's blocks are recomputed.
@@ -635,6 +731,49 @@ def _client(scheduler: str | None, workers: int | None):
         cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=n > 1, dashboard_address="127.0.0.1:0",
                                silence_logs=logging.ERROR, **where)
     return Client(cluster), cluster, max(1, cores // n)
+
+
+WORKER_BYTES = 512 * 2**20
+"""Memory a local worker process is counted at: a measured 231 MB at rest (numba and the
+compiled batch loaded), about twice that with a block's arrays and Dask's buffers."""
+SCHEDULER_TIMEOUT = 10.0
+"""Seconds a remote scheduler has to start Dask's handshake once connected (connect: 5 s)."""
+_SCHEDULER = re.compile(r"tcp://(?P<host>[A-Za-z0-9.-]{1,253}|\[[0-9A-Fa-f:.]{2,45}\]):(?P<port>\d{1,5})")
+
+
+def _scheduler_address(scheduler):
+    """``scheduler``'s host and port (a regex match), or one line saying what is allowed."""
+    m = _SCHEDULER.fullmatch(scheduler) if isinstance(scheduler, str) else None
+    if not m or not 0 < int(m["port"]) < 65536:
+        raise fail("scheduler", str(scheduler)[:80], "a Dask scheduler's address tcp://HOST:PORT")
+    return m
+
+
+def _remote(scheduler: str):
+    """A client of the Dask scheduler at ``scheduler`` (``tcp://HOST:PORT``), or one line
+    saying why not: another scheme (``tls://`` needs certificates, ``ucx://`` a UCX build,
+    neither configured by haptex), nothing listening within 5 s, or a peer that accepts and
+    stays silent. A Dask scheduler writes its handshake as soon as it accepts (64 bytes
+    within 0.3 ms, measured); Dask's client has no deadline on that read and waited past
+    5 minutes on a silent peer (issue 33), so the handshake's first byte is awaited here
+    first, for at most :data:`SCHEDULER_TIMEOUT` seconds."""
+    import socket
+
+    from dask.distributed import Client
+
+    m = _scheduler_address(scheduler)
+    try:
+        with socket.create_connection((m["host"].strip("[]"), int(m["port"])), timeout=5) as sock:
+            sock.settimeout(SCHEDULER_TIMEOUT)
+            if not sock.recv(1):
+                raise OSError("it closed the connection")
+        return Client(scheduler, timeout="5s")
+    except TimeoutError:
+        why = "it accepted the connection but sent no handshake"
+    except (OSError, ValueError) as exc:
+        why = " ".join(str(exc).split())[:100] or type(exc).__name__
+    raise ParameterError(f"scheduler = {scheduler!r} is not allowed: no Dask scheduler answered there within "
+                         f"{SCHEDULER_TIMEOUT:g} s ({why})")
 
 
 def _bar(show: bool, total: int, done: int):
@@ -664,13 +803,24 @@ def open_atlas(path):
     if not p.exists():
         raise ParameterError(f"atlas = {str(path)!r} is not allowed: no such store")
     try:
-        ds = xr.open_zarr(p, consolidated=False).load()
-    except Exception as exc:
+        ds = xr.open_zarr(p, consolidated=False)
+    except Exception as exc:  # noqa: BLE001 - any reader error is one line
         raise ParameterError(f"atlas = {str(path)!r} is not allowed: not a Zarr store "
                              f"({' '.join(str(exc).split())[:120]})") from None
-    if "haptex_spec" not in ds.attrs:
-        raise ParameterError(f"atlas = {str(path)!r} is not allowed: not written by haptex sweep")
-    return ds
+    label = ds.attrs.get("haptex_spec")
+    try:
+        stored = json.loads(label) if isinstance(label, str) and len(label) <= MAX_SPEC_BYTES else None
+    except ValueError:
+        stored = None
+    if not (isinstance(stored, dict) and isinstance(stored.get("axes"), list)):
+        raise ParameterError(f"atlas = {str(path)!r} is not allowed: not written by haptex sweep (its "
+                             "'haptex_spec' label is " + ("missing" if label is None else "not a SPEC") + ")")
+    check_budget("atlas", str(path), ds.nbytes, "loading the atlas")
+    try:
+        return ds.load()
+    except Exception as exc:  # noqa: BLE001 - a corrupt chunk
+        raise ParameterError(f"atlas = {str(path)!r} is not allowed: a chunk cannot be read "
+                             f"({' '.join(str(exc).split())[:120]})") from None
 
 
 def select(ds, x: str, y: str, where: dict):
@@ -724,8 +874,13 @@ def analytic_boundary(ds, x: str, y: str, where: dict) -> np.ndarray | None:
     from .devices import critical_stiffness
     from .simulate import _rebuild
 
-    stored = json.loads(ds.attrs["haptex_spec"])
-    spec = SweepSpec.from_mapping(dict(stored, axes=dict(stored["axes"])))  # the axes, in order
+    stored = json.loads(ds.attrs["haptex_spec"])  # checked by open_atlas
+    try:
+        spec = SweepSpec.from_mapping(dict(stored, axes=dict(stored["axes"])))  # the axes, in order
+    except ParameterError:
+        raise
+    except (TypeError, ValueError, AttributeError) as exc:
+        raise ParameterError(f"the atlas's 'haptex_spec' label is not allowed: not a SPEC ({exc})") from None
     out = []
     for yv in ds[y].values:
         params = dict(where) | {y: yv}
