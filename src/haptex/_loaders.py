@@ -87,11 +87,18 @@ def _read_text(path: Path, why: str | None = None) -> str:
     return text.replace("\r\n", "\n").replace("\r", "\n")
 
 
-ST_BYTES_PER_SAMPLE = 64
-"""Bytes of memory per sample while an instrument file is read and turned into a spline
-(SurfaceTopography's masked heights and positions, our copy in metres, the spline's
-coefficients and its knots): an estimate with room to spare, used to refuse a map too
-large for memory before its data are read."""
+ST_BYTES_PER_SAMPLE = 400
+"""Bytes of memory per sample while a file's samples are read, turned into a spline and
+band-limited by ``design`` (the reader's masked heights and positions, our copy in metres,
+the spline's coefficients and knots, the low-pass and the resampled copy): measured peaks of
+339 bytes a sample on a line scan of 10^6 samples and 293 on one of 5 x 10^7, 195 on a
+1024 x 1024 map; used to refuse a file too large for memory before its data are read (a
+4096 x 4096 map needs 6.7 GB)."""
+MAX_ZIP_MEMBERS = 10_000
+"""Most members a zip container (X3P) may list."""
+ZIP_DATA_BYTES_FACTOR = 4
+"""Bytes of memory a zip member's decompressed binary byte takes while it is read (the
+inflated bytes and the array made from them, with room to spare)."""
 
 
 @dataclass(frozen=True)
@@ -139,6 +146,7 @@ def read_topography(path, *, spacing=None, x_unit=None, height_unit=None, variab
     if p.stat().st_size == 0:
         raise ParameterError(f"{p}: the file is empty")
     check_budget("path", str(p), TEXT_BYTES_FACTOR * p.stat().st_size, "reading this file")
+    _check_zip(p)
     if p.suffix.lower() == ".mat":
         return _load_mat(p, spacing, height_unit, variable, x_unit)
     with open(p, "rb") as fh:
@@ -157,7 +165,20 @@ def _first_line(exc: BaseException) -> str:
 
 
 def _open(p: Path):
-    """(SurfaceTopography reader, None), or (None, why) when it recognises no format."""
+    """(SurfaceTopography reader, None), or (None, why) when it recognises no format. The
+    readers' own log records (igor2 logs an ERROR with 1 KB of the file's bytes when it
+    tries a file that is not Igor's) are silenced: the caller's one line says why."""
+    import logging
+    import warnings
+
+    logging.disable(logging.ERROR)
+    try:
+        return _open_quietly(p)
+    finally:
+        logging.disable(logging.NOTSET)
+
+
+def _open_quietly(p: Path):
     import warnings
 
     with warnings.catch_warnings():
@@ -165,6 +186,20 @@ def _open(p: Path):
         from SurfaceTopography import open_topography
         from SurfaceTopography.Exceptions import CannotDetectFileFormat
 
+        from SurfaceTopography.IO import readers
+
+        # the readers that claim the file's extension first: detection alone tries readers in
+        # a fixed order, and its text reader read a 4096 x 4096 X3P's 128 MB as lines for
+        # 37 s before the X3P reader was tried (0.1 s by extension)
+        suffix = p.suffix.lower().lstrip(".")
+        for r in readers:
+            if suffix and suffix in (r.file_extensions() or []):
+                try:
+                    return open_topography(str(p), format=r.format()), None
+                except MemoryError:
+                    raise
+                except Exception:  # noqa: BLE001 - detection below tries every reader and says why
+                    pass
         try:
             return open_topography(str(p)), None
         except CannotDetectFileFormat:
@@ -436,9 +471,95 @@ def _load_columns(p: Path, lines, spacing, x_unit, height_unit, x_column, height
     return x, h
 
 
+def _check_zip(p: Path) -> None:
+    """Refuse, from its central directory and before anything is inflated, a zip container
+    (X3P: ``main.xml`` and the binary data) whose members decompress past the memory
+    budget: text members at :data:`TEXT_BYTES_FACTOR` bytes a byte (the XML is parsed),
+    binary ones at :data:`ZIP_DATA_BYTES_FACTOR` (the samples are then counted against
+    :data:`ST_BYTES_PER_SAMPLE` from the header, before they are read). A 3.2 MB X3P
+    whose ``main.xml`` is 3 GB of spaces drove ``design`` past 6 GB (issue 33). Python's
+    zipfile never inflates a member past the size its directory declares, so the sum is a
+    bound, not a guess."""
+    import zipfile
+
+    with open(p, "rb") as fh:
+        if fh.read(4) != b"PK\x03\x04":
+            return
+    try:
+        with zipfile.ZipFile(p) as z:
+            infos = z.infolist()
+    except (zipfile.BadZipFile, OSError, ValueError) as exc:
+        raise ParameterError(f"{p}: not a readable zip container ({_first_line(exc)})") from None
+    if len(infos) > MAX_ZIP_MEMBERS:
+        raise ParameterError(f"{p}: lists {len(infos)} members, more than the {MAX_ZIP_MEMBERS} a topography container may")
+    text = sum(i.file_size for i in infos if i.filename.lower().endswith((".xml", ".txt", ".json", ".csv", ".ini")))
+    binary = sum(i.file_size for i in infos) - text
+    check_budget("path", str(p), TEXT_BYTES_FACTOR * text + ZIP_DATA_BYTES_FACTOR * binary,
+                 f"its contents ({text / 2**20:.4g} MiB of text and {binary / 2**20:.4g} MiB of data once decompressed)")
+
+
+_MAT_TYPES = {14: "miMATRIX", 15: "miCOMPRESSED"}
+
+
+def _mat_samples(p: Path) -> int:
+    """The number of numbers a MATLAB v5 file's variables hold, from each variable's
+    dimensions (for a compressed variable, the first 128 bytes of its zlib stream are
+    inflated, nothing more): scipy inflates a whole variable even to list it (``whosmat``),
+    and a 389 KB file of 5 x 10^7 compressed zeros took 15 GB through ``design``. 0 when
+    the file is not a v5 MAT file (loadmat then says what it is)."""
+    import struct
+    import zlib
+
+    total = 0
+    with open(p, "rb") as fh:
+        header = fh.read(128)
+        if len(header) < 128 or header[126:128] not in (b"IM", b"MI"):
+            return 0
+        e = "<" if header[126:128] == b"IM" else ">"
+        for _ in range(100_000):
+            tag = fh.read(8)
+            if len(tag) < 8:
+                break
+            typ, nbytes = struct.unpack(e + "II", tag)
+            if typ >> 16:  # a small data element: its data sit in the tag
+                continue
+            start = fh.tell()
+            if typ == 15:
+                inflate = zlib.decompressobj()
+                head = b""
+                while len(head) < 128:
+                    chunk = fh.read(min(4096, start + nbytes - fh.tell()))
+                    if not chunk:
+                        break
+                    try:
+                        head += inflate.decompress(chunk, 128 - len(head))
+                    except zlib.error:
+                        return 0  # loadmat names the corruption
+                    if inflate.unconsumed_tail and len(head) >= 128:
+                        break
+            elif typ == 14:
+                head = tag + fh.read(min(nbytes, 120))
+            else:
+                head = b""
+            if len(head) >= 40 and struct.unpack(e + "I", head[:4])[0] == 14:
+                # miMATRIX: array flags (16 bytes), then the dimensions: an int32 element
+                dtyp, dbytes = struct.unpack(e + "II", head[24:32])
+                if dtyp >> 16:  # one dimension packed in the tag
+                    count = max(struct.unpack(e + "i", head[28:32])[0], 0)
+                else:
+                    n = min(dbytes // 4, (len(head) - 32) // 4)
+                    dims = struct.unpack(e + f"{n}i", head[32:32 + 4 * n])
+                    count = math.prod(max(d, 0) for d in dims)
+                total += count
+            fh.seek(start + nbytes + ((-nbytes) % 8 if typ != 15 else 0))
+    return total
+
+
 def _load_mat(p: Path, spacing, height_unit, variable, x_unit) -> Reading:
     from scipy.io import loadmat
 
+    count = _mat_samples(p)
+    check_budget("path", str(p), ST_BYTES_PER_SAMPLE * count, f"its {count:.3g} numbers")
     try:
         data = loadmat(p)
     except MemoryError:

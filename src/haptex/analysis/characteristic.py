@@ -293,6 +293,9 @@ depth and deflection samples are thinned (16 -> 8 depths, 65 -> 17 deflections) 
 plane grid with them (chosen: over the 14 x 10 cut-off periods of a MetroPro map the full
 grid held 13 million Jacobians, 66 s; a periodic cell of a few periods stays under it)."""
 
+F_GRID_CHUNK = 2**20
+"""Grid points of q_F whose Jacobians are held at once (about 50 MB)."""
+
 PAPER_Q_F = 8.3
 """q_F reported in Section V-A (kappa_0 = 2000 N/m, l = 1 mm, A = 0.8, mu = 0.8,
 d^x_max = d^z_max = 1 mm)."""
@@ -343,13 +346,27 @@ def _q_friction(alg, dmax, ranges, counts, nd) -> CharacteristicNumber:
             return np.asarray(w)
         return w[0] * np.array([math.cos(w[1]), math.sin(w[1])])
 
+    def top(defl, phase, n_best=4):
+        """The ``n_best`` largest norms of the grid and their indices, evaluated in slabs of
+        the first axis of at most :data:`F_GRID_CHUNK` points (the whole grid of a 1 m line
+        scan, 4000 cut-off periods, held 6.7e7 Jacobians: 3.4 GB; the same sup now)."""
+        shape = (*(a.size for a in axes), ds.size, len(defl))
+        rows = max(1, F_GRID_CHUNK // math.prod(shape[1:]))
+        vals, where = [], []
+        for i0 in range(0, shape[0], rows):
+            mesh = np.meshgrid(axes[0][i0:i0 + rows], *axes[1:], ds, np.arange(len(defl)), indexing="ij")
+            xt = np.stack(mesh[:k], -1)
+            norms = spectral_norm(jac(xt, mesh[k], defl[mesh[k + 1]], phase)) / k0
+            for idx in np.argsort(norms, axis=None)[-n_best:]:
+                ijk = np.unravel_index(idx, norms.shape)
+                vals.append(float(norms[ijk]))
+                where.append((ijk[0] + i0, *ijk[1:]))
+        order = np.argsort(vals, kind="stable")[-n_best:]
+        return [(vals[i], where[i]) for i in order]
+
     best, arg = -np.inf, None
     for phase, defl in (("stick", stick), ("slip", slip)):
-        mesh = np.meshgrid(*axes, ds, np.arange(len(defl)), indexing="ij")
-        xt = np.stack(mesh[:k], -1)
-        norms = spectral_norm(jac(xt, mesh[k], defl[mesh[k + 1]], phase)) / k0
-        for idx in np.argsort(norms, axis=None)[-4:]:
-            ijk = np.unravel_index(idx, norms.shape)
+        for value, ijk in top(defl, phase):
             pt = [axes[a][ijk[a]] for a in range(k)] + [ds[ijk[k]]]
             d0 = defl[ijk[k + 1]]
 
@@ -366,7 +383,7 @@ def _q_friction(alg, dmax, ranges, counts, nd) -> CharacteristicNumber:
                 r0, a0 = float(np.linalg.norm(d0)), math.atan2(d0[1], d0[0])
                 w0 = [r0, a0]
                 bounds += [(0.0, dm) if phase == "stick" else (dm, dm), (a0 - np.pi / 8, a0 + np.pi / 8)]
-            val, v = _refine(neg, (*pt, *w0), norms[ijk], bounds)
+            val, v = _refine(neg, (*pt, *w0), value, bounds)
             if val > best:
                 best, arg = val, (v[:k], v[k], deflection(v[k + 1:], phase), phase)
     x0, x1 = ranges[0]

@@ -1,0 +1,128 @@
+"""Issue 33's pinned cases of hostile input to the readers: files that decompress to far
+more than their size (a MAT file of compressed zeros, an X3P whose main.xml is mostly
+spaces) are refused from their headers, before anything is inflated, in one line naming
+the file; the profile and map analyses hold their grids in bounded slabs. The atlas's cases
+(SPEC size, lock, scheduler) are in test_atlas.py."""
+
+import struct
+import subprocess
+import sys
+import tracemalloc
+import zipfile
+import zlib
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.io
+
+import haptex as hx
+from haptex._loaders import ST_BYTES_PER_SAMPLE, _mat_samples
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "data"
+
+
+def _mat_of_zeros(path: Path, n: int) -> None:
+    """A MATLAB v5 file holding one compressed double column of ``n`` zeros, written by
+    streaming through zlib (the test never holds the column): the layout of the MAT-file
+    format (MathWorks, "MAT-File Format", v5: a 128-byte header, then a miCOMPRESSED
+    element whose zlib stream is a miMATRIX with array flags, dimensions, name and data)."""
+    name = b"h"
+    sub = [struct.pack("<II", 6, 8) + struct.pack("<II", 6, 0),  # array flags: mxDOUBLE_CLASS
+           struct.pack("<II", 5, 8) + struct.pack("<ii", n, 1),  # dimensions n x 1
+           struct.pack("<HH", 1, len(name)) + name.ljust(4, b"\0"),  # small element: the name
+           struct.pack("<II", 9, 8 * n)]  # miDOUBLE, then 8 n bytes of data
+    head = b"".join(sub)
+    comp = zlib.compressobj(9)
+    body = [comp.compress(struct.pack("<II", 14, len(head) + 8 * n) + head)]
+    block = bytes(1 << 20)
+    for i in range(0, 8 * n, len(block)):
+        body.append(comp.compress(block[:min(len(block), 8 * n - i)]))
+    body.append(comp.flush())
+    data = b"".join(body)
+    header = b"MATLAB 5.0 MAT-file, written by haptex's tests".ljust(116, b" ") + bytes(8) + struct.pack("<H", 0x0100) + b"IM"
+    path.write_bytes(header + struct.pack("<II", 15, len(data)) + data)
+
+
+def test_a_mat_file_of_compressed_zeros_is_refused_before_it_is_inflated(tmp_path):
+    """Issue 33: a 389 KB .mat of 5e7 compressed zeros drove design past 6 GB (15 GB
+    measured here before the fix)."""
+    f = tmp_path / "zeros.mat"
+    _mat_of_zeros(f, 50_000_000)
+    assert f.stat().st_size < 1_000_000
+    assert scipy.io.whosmat(f.as_posix())[0][1] == (50_000_000, 1)  # scipy reads our file as we meant it
+    tracemalloc.start()
+    with pytest.raises(hx.ParameterError, match=r"^path = .* is not allowed: its 5e\+07 numbers would need .* GiB, "
+                                                r"over the memory budget"):
+        hx.load_texture(f, spacing=1e-6, height_unit="um")
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert peak < 20e6  # refused from the header: 400 MB were never inflated
+
+
+def test_the_mat_count_is_what_scipy_lists(tmp_path):
+    """The header scan against scipy's own listing, compressed and not, several variables."""
+    for compress in (False, True):
+        f = tmp_path / f"m{compress}.mat"
+        scipy.io.savemat(f, {"a": np.zeros((3, 4)), "b": np.ones(7), "c": np.arange(5.0)[None, :]},
+                         do_compression=compress)
+        listed = sum(int(np.prod(shape)) for _, shape, _ in scipy.io.whosmat(f.as_posix()))
+        assert _mat_samples(f) == listed == 24
+    assert _mat_samples(EXAMPLES / "grooves-4mm-profile.mat") == 8000  # the shipped scan: 8000 x 1
+
+
+def test_an_x3p_whose_xml_inflates_is_refused_from_its_directory(tmp_path, monkeypatch):
+    """Issue 33: a 3.2 MB X3P whose main.xml is 3 GB of spaces drove design past 6 GB. Here
+    main.xml carries 20 MB of spaces and the budget is 256 MiB (20 MB x 40 bytes a parsed
+    byte = 800 MB), so the case runs in a second; the rule is the same."""
+    from SurfaceTopography import Topography
+
+    good = tmp_path / "good.x3p"
+    Topography(np.random.default_rng(0).normal(size=(64, 64)) * 1e-6, (64e-6, 64e-6), unit="m").to_x3p(str(good))
+    bad = tmp_path / "bad.x3p"
+    with zipfile.ZipFile(good) as src, zipfile.ZipFile(bad, "w", zipfile.ZIP_DEFLATED) as dst:
+        for info in src.infolist():
+            data = src.read(info.filename)
+            if info.filename.endswith("main.xml"):
+                data = data + b" " * 20_000_000
+            dst.writestr(info.filename, data)
+    assert bad.stat().st_size < 200_000
+    monkeypatch.setenv("HAPTEX_MEMORY_BUDGET", str(256 * 2**20))
+    assert hx.load_texture(good).h.shape == (64, 64)  # the same file without its padding reads
+    with pytest.raises(hx.ParameterError, match=r"^path = .* is not allowed: its contents \(19.0\d MiB of text and "
+                                                r"0.03\d* MiB of data once decompressed\) would need"):
+        hx.load_texture(bad)
+
+
+def test_a_map_past_the_budget_is_refused_from_its_header_at_the_cli(tmp_path):
+    """Issue 35's goal: a 4096 x 4096 map is refused or done within the memory budget. At
+    the measured 400 bytes a sample it would need 6.7 GB: refused in one line, exit 2,
+    before its heights are read."""
+    from SurfaceTopography import Topography
+
+    f = tmp_path / "big.x3p"
+    Topography(np.zeros((4096, 4096)), (4.096e-3, 4.096e-3), unit="m").to_x3p(str(f))
+    r = subprocess.run([sys.executable, "-m", "haptex", "design", "--texture", str(f)], capture_output=True, text=True,
+                       timeout=120, env={**__import__("os").environ, "HAPTEX_MEMORY_BUDGET": str(6 * 2**30)})
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1, r.stderr[-500:]
+    assert "a 4096 x 4096 " in r.stderr and "(X3P) map would need 6.25 GiB, over the memory budget of 6 GiB" in r.stderr
+    assert 4096 * 4096 * ST_BYTES_PER_SAMPLE > 6 * 2**30
+
+
+def test_q_of_f_over_a_long_profile_holds_its_grid_in_slabs():
+    """q_F's sup over a profile 400 cut-off periods long: its grid (about 7e6 Jacobians)
+    is evaluated in slabs of 2^20 points; the sup is the same as over one period of the same
+    sinusoid (a periodic texture's sup does not grow with its length), to the refinement's
+    tolerance, and the peak memory stays under 400 MB (the whole grid held 3.4 GB for a
+    1 m scan)."""
+    from haptex.analysis.characteristic import characteristic_number
+
+    tex = hx.Sinusoid(0.2e-3, 1e-3)
+    alg = hx.algorithm("F", tex, 2000.0, friction=0.5, presliding=1e-3, max_penetration=1e-3)
+    one = characteristic_number(alg, max_penetration=1e-3, x_range=(0.0, 1e-3)).value
+    tracemalloc.start()
+    long = characteristic_number(alg, max_penetration=1e-3, x_range=(0.0, 0.4)).value
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert long == pytest.approx(one, rel=1e-3)
+    assert peak < 400e6
