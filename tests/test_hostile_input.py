@@ -126,3 +126,45 @@ def test_q_of_f_over_a_long_profile_holds_its_grid_in_slabs():
     tracemalloc.stop()
     assert long == pytest.approx(one, rel=1e-3)
     assert peak < 400e6
+
+
+DEKTAK_EX = str(EXAMPLES / "dektak-stylus-profile.csv")
+
+
+@pytest.mark.parametrize("args, name", [
+    # issue 33's inputs that parsed and overflowed later (each ended in a traceback, exit 1)
+    (["design", "--texture", "sine:0.8mm,1e308m"], "period"),
+    (["design", "--texture", "sine:0.8mm,1e-320m"], "period"),
+    (["design", "--texture", "sine:1e-320m,1mm"], "amplitude"),
+    (["design", "--texture", DEKTAK_EX, "--speed", "1e308 m/s"], "speed"),
+    (["design", "--texture", DEKTAK_EX, "--max-penetration", "1e-320m"], "max_penetration"),
+    (["design", "--texture", DEKTAK_EX, "--lowpass", "1e300m"], "lowpass"),
+    (["design", "--texture", DEKTAK_EX, "--window", "0m,1e-320m"], "window"),
+    (["table", "--amplitude", "1e-320m"], "amplitude"),
+    (["simulate", "thrust", "--algorithm", "W", "--duration", "1e308s"], "duration"),
+    # in range, but past what the data hold: a cut-off longer than the scan, a window beyond it
+    (["design", "--texture", DEKTAK_EX, "--lowpass", "1m"], "shortest_period"),
+    (["design", "--texture", DEKTAK_EX, "--window", "0mm,1m"], "window"),
+])
+def test_values_that_would_overflow_are_refused_where_they_are_parsed(args, name, capsys):
+    from haptex.cli import main
+
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "Traceback" not in err, err
+    assert f"{name} = " in err and "is not allowed" in err, err
+
+
+@pytest.mark.parametrize("text, unit", [("1e-12 m", "m"), ("1 km", "m"), ("10 GN/m", "N/m"), ("1 ns", "s"),
+                                        ("0 m", "m"), ("-0.5 mm", "m")])
+def test_the_ranges_admit_what_users_write(text, unit):
+    """The edges of QUANTITY_RANGES (a picometre to a kilometre, ...) and 0 parse; a hair
+    beyond them does not."""
+    from haptex._units import QUANTITY_RANGES, parse_quantity
+
+    v = parse_quantity(text, unit, "x")
+    lo, hi = QUANTITY_RANGES[unit]
+    assert v == 0 or lo <= abs(v) <= hi
+    if v != 0:
+        with pytest.raises(hx.ParameterError, match=r"^x = .* is not allowed: must be 0 or of magnitude"):
+            parse_quantity(f"{abs(v) * (1.01 if abs(v) == hi else 0.99 if abs(v) == lo else 1e30)} {unit}", unit, "x")

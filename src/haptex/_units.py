@@ -100,9 +100,24 @@ def _split(raw: str, unit: str, name: str) -> tuple[float, str]:
     return float(m.group(1)), (m.group(2) or "").replace("µ", "u").replace("μ", "u").replace("·", "*")
 
 
+QUANTITY_RANGES = {
+    "m": (1e-12, 1e3), "m/s": (1e-9, 1e3), "s": (1e-9, 1e7), "N/m": (1e-6, 1e12), "N*s/m": (1e-9, 1e7),
+    "kg": (1e-9, 1e6), "N": (1e-9, 1e6), "kg*m^2": (1e-15, 1e3), "radian": (1e-12, 1e6), "dimensionless": (1e-12, 1e6),
+}
+"""The magnitudes a parsed quantity may have, by SI unit (0 is always allowed; the
+parameter's own check then says whether it may be 0 or negative). Chosen wide: a picometre
+(below any instrument's resolution) to a kilometre (the renderer's workspace bound), a
+nanosecond to 10^7 s, 1 uN/m to 1 TN/m. Outside them a value parses but overflows or
+underflows later (1e308 m or 1e-320 m as a period ended in tracebacks: issue 33), so it is
+refused here, naming the parameter."""
+
+
 def _finite(value: float, raw: str, unit: str, name: str) -> float:
     if value != value or value in (float("inf"), float("-inf")):
         raise ParameterError(f"{name} = {raw!r} is not allowed: must be a finite quantity in {unit}")
+    lo, hi = QUANTITY_RANGES.get(unit, (1e-100, 1e100))
+    if value != 0.0 and not lo <= abs(value) <= hi:
+        raise ParameterError(f"{name} = {raw!r} is not allowed: must be 0 or of magnitude {lo:g} to {hi:g} {unit}")
     return value
 
 

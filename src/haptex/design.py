@@ -91,8 +91,8 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         progress("band-limiting")
     given = texture
     texture, band = _band_limited(texture, device, speed, samples_per_period, band_limit)
-    if x_range is not None and texture.dimension == 2:
-        _check_window(given, x_range)  # the map as measured, whose extent the user knows
+    if x_range is not None:
+        _check_window(given, x_range)  # the scan or map as measured, whose extent the user knows
     letters = [L for L in LETTERS if texture.dimension == 1 or ALGORITHMS[L].surfaces]
     algs = checked_algorithms(letters, texture, stiffness, max_penetration, friction, presliding)
     rows = []
@@ -278,10 +278,23 @@ def _sample_numbers(texture) -> dict:
 
 
 def _check_window(texture, x_range) -> None:
-    """A window over a measured (non-periodic) map must lie inside the map: beyond it the
-    texture is only the tangent-plane extension of its edge, which nobody measured."""
+    """A window over a measured (non-periodic) scan or map must lie inside it: beyond it the
+    texture is only the extension of its edge, which nobody measured."""
     from ._validation import fail
 
+    if texture.dimension == 1:
+        try:
+            x0, x1 = (float(v) for v in x_range)
+        except (TypeError, ValueError):
+            raise fail("x_range", x_range, "(x0, x1) in metres") from None
+        if getattr(texture, "periodic", True) or getattr(texture, "x", None) is None:
+            return
+        a, b = float(texture.x[0]), float(texture.x[-1])
+        tol = float(texture.x[1] - texture.x[0])  # a sample spacing: '0 mm' where the first sample is at 3 nm
+        if not (a - tol <= x0 < x1 <= b + tol):
+            raise fail("window", f"{x0:g},{x1:g} m", f"an interval inside the measured scan, x in [{a:g}, {b:g}] m, "
+                       "with x0 < x1")
+        return
     try:
         (x0, x1), (y0, y1) = ((float(a), float(b)) for a, b in x_range)
     except (TypeError, ValueError):

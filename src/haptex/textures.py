@@ -555,11 +555,13 @@ class SampledProfile(Texture):
         Raises
         ------
         ParameterError
-            If the cut-off is not above the Nyquist period 2 dx.
+            If the cut-off is not above the Nyquist period 2 dx, or is longer than the scan.
         """
         lc = positive("shortest_period", shortest_period, "m")
-        if not lc > 2 * self.dx:
-            raise fail("shortest_period", lc, f"longer than the Nyquist period 2 dx = {2 * self.dx:g} m")
+        length = float(self.x[-1] - self.x[0])
+        if not 2 * self.dx < lc <= length:
+            raise fail("shortest_period", lc, f"longer than the Nyquist period 2 dx = {2 * self.dx:g} m and at most the "
+                       f"scan's length, {length:g} m (a longer cut-off leaves no period of the scan)")
         if self.periodic:
             H = np.fft.rfft(self.h)
             f = np.fft.rfftfreq(self.h.size, self.dx)
