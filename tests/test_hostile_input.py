@@ -168,3 +168,39 @@ def test_the_ranges_admit_what_users_write(text, unit):
     if v != 0:
         with pytest.raises(hx.ParameterError, match=r"^x = .* is not allowed: must be 0 or of magnitude"):
             parse_quantity(f"{abs(v) * (1.01 if abs(v) == hi else 0.99 if abs(v) == lo else 1e30)} {unit}", unit, "x")
+
+
+@pytest.mark.parametrize("args, expected", [
+    (["simulate"], "haptex: error: haptex simulate needs a command: path, scan, thrust (see 'haptex simulate --help')"),
+    (["atlas"], "haptex: error: haptex atlas needs a command: plot (see 'haptex atlas --help')"),
+    (["design"], "haptex: error: Missing option '--texture'. (see 'haptex design --help')"),
+])
+def test_usage_errors_are_one_line_and_a_hint(args, expected, capsys):
+    """Issue 33: a group called without its command printed its whole help as the error."""
+    from haptex.cli import main
+
+    assert main(args) == 2
+    assert capsys.readouterr().err.strip() == expected
+
+
+def test_a_warning_never_precedes_the_one_line_error(monkeypatch, capsys):
+    """Warnings raised on the way to an error are dropped; after a result they are shown."""
+    import warnings
+
+    import haptex.cli as cli
+
+    def warns_then(status):
+        def run(argv):
+            warnings.warn("overflow encountered in multiply", RuntimeWarning)
+            if status:
+                print("haptex: error: x = 1 is not allowed", file=sys.stderr)
+            return status
+        return run
+
+    monkeypatch.setattr(cli, "_run", warns_then(2))
+    with warnings.catch_warnings(record=True) as shown:
+        assert cli.main([]) == 2
+    assert capsys.readouterr().err.strip() == "haptex: error: x = 1 is not allowed" and not shown
+    monkeypatch.setattr(cli, "_run", warns_then(0))
+    with pytest.warns(RuntimeWarning, match="overflow encountered in multiply"):
+        assert cli.main([]) == 0

@@ -820,8 +820,34 @@ def _jsonable(obj):
     return jsonable(obj)
 
 
+def _one_line(exc: click.ClickException) -> str:
+    """A usage error in one line plus a hint: click's message, or for a group called without
+    its command (click raised the whole help as the error) the commands it has; then where
+    the help is."""
+    ctx = getattr(exc, "ctx", None)
+    path = ctx.command_path if ctx is not None else "haptex"
+    msg = exc.format_message()
+    if ctx is not None and isinstance(ctx.command, click.Group) and msg.lstrip().startswith("Usage:"):
+        msg = f"{path} needs a command: {', '.join(ctx.command.list_commands(ctx))}"
+    msg = " ".join(msg.split())
+    return msg + (f" (see '{path} --help')" if isinstance(exc, click.UsageError) else "")
+
+
 def main(argv=None) -> int:
-    """Entry point of the ``haptex`` console script; returns the exit status."""
+    """Entry point of the ``haptex`` console script; returns the exit status. Warnings are
+    held until the command ends: shown after a result, dropped before an error's one line
+    (a warning printed above it read as a second error: issue 33)."""
+    import warnings
+
+    with warnings.catch_warnings(record=True) as held:  # the filters in force are kept
+        status = _run(argv)
+    if status == 0:
+        for w in held:
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+    return status
+
+
+def _run(argv) -> int:
     try:
         cli.main(args=argv, prog_name="haptex", standalone_mode=False)
     except click.exceptions.Exit as exc:
@@ -830,7 +856,7 @@ def main(argv=None) -> int:
         click.echo("haptex: aborted", err=True)
         return 1
     except click.ClickException as exc:
-        click.echo(f"haptex: error: {exc.format_message()}", err=True)
+        click.echo(f"haptex: error: {_one_line(exc)}", err=True)
         return 2
     except ParameterError as exc:
         click.echo(f"haptex: error: {exc}", err=True)
