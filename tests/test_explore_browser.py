@@ -193,3 +193,36 @@ def test_an_areal_texture_shows_its_height_map_and_a_section(page, tmp_path):
     page.screenshot(path=str(tmp_path / "page-areal.png"), full_page=True)
     page.locator("#run-scan").click()
     assert _wait_text(page, "#scan-verdict", lambda t: t != "–")
+
+
+def test_one_sessions_long_computation_never_stalls_another(server, browser, tmp_path):
+    """Issue 33: one session's input must not freeze the server for the others. A band-limited
+    noise 200 mm long under algorithm D takes more than 5 minutes to recompute (measured:
+    model.build and model.views did not end within 300 s); before computations left the
+    event loop, every other session waited for it. Now a new page loads, and shows its q,
+    while the long one runs; and the long session says it is still computing."""
+    import urllib.request
+
+    url, proc = server
+    slow = browser.new_page(viewport={"width": 1500, "height": 1350})
+    slow.goto(url)
+    slow.wait_for_selector("#q-value", timeout=30000)
+    _choose(slow, "algorithm", "D")
+    _wait_text(slow, "#q-value", lambda t: t not in ("5.125", "…"))
+    _choose(slow, "texture", "noise")
+    _type(slow, "noise", "0.05 mm, 0.2 mm, 2 mm, 200 mm")
+    time.sleep(2.0)  # the long computation is under way
+    t = time.monotonic()
+    urllib.request.urlopen(url, timeout=10).read()
+    assert time.monotonic() - t < 1.0  # the server answers a new session's page within 1 s
+    other = browser.new_page(viewport={"width": 1500, "height": 1350})
+    other.goto(url)
+    other.wait_for_selector("#q-value", timeout=30000)
+    assert _wait_text(other, "#q-value", lambda t: t == "5.125", timeout=30.0) == "5.125"
+    _type(other, "stiffness", "-5 kN/m")  # a refusal in the other session is answered too
+    assert "stiffness" in _wait_text(other, "#message-text", lambda t: t != "", timeout=10.0)
+    message = _wait_text(slow, "#message-text", lambda t: "still being computed" in t, timeout=30.0)
+    assert "\n" not in message
+    other.close()
+    slow.close()
+    assert proc.poll() is None

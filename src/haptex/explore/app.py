@@ -11,12 +11,15 @@ Stable element ids (for tests and scripts): ``#algorithm``, ``#texture``, ``#sti
 from __future__ import annotations
 
 import base64
+import dataclasses
+import functools
 import html
 import logging
 import os
 import shutil
 import tempfile
 import time
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -26,6 +29,14 @@ from . import model
 log = logging.getLogger("haptex.explore")
 
 MM = 1e3  # the page draws lengths in mm
+RECOMPUTE_BUDGET = 10.0
+"""Seconds after which a served page says that its computation is still running (the view
+keeps the previous input meanwhile; a Python thread cannot be stopped, so the result then
+replaces it when it ends)."""
+UPLOAD_BYTES = 50 * 2**20
+"""Largest file one upload may carry (the server's websocket messages are sized to it)."""
+SESSION_UPLOAD_BYTES = 200 * 2**20
+"""Most bytes one session may upload in all."""
 
 
 def _span(ident: str, text: str) -> str:
@@ -41,9 +52,13 @@ class ExplorerPage:
         The document to fill (one per browser session).
     settings : model.Settings, optional
         Initial control values; the paper's Section V-A parameters by default.
+    offload : bool, optional
+        Run each computation in the session's own thread and draw its result on the next
+        tick (what :func:`serve` does, so that no session stalls the server); by default
+        each computation runs in the callback (a notebook, a test).
     """
 
-    def __init__(self, doc, settings: model.Settings | None = None):
+    def __init__(self, doc, settings: model.Settings | None = None, offload: bool = False):
         from bokeh.layouts import column, row
         from bokeh.models import (Arrow, Button, ColumnDataSource, Div, FileInput, FreehandDrawTool, Legend,
                                   LinearColorMapper, PolyDrawTool, Range1d, Select, TextInput, VeeHead)
@@ -53,6 +68,15 @@ class ExplorerPage:
         self.doc = doc
         self.settings = settings or model.Settings()
         self.scene = None
+        # served: each computation in this session's own thread, off the server's event loop,
+        # so that one session's work never stalls another's page (issue 33)
+        self.offload = offload
+        self._executor = ThreadPoolExecutor(1, thread_name_prefix="haptex-explore") if offload else None
+        self._running = None  # (what, start time) of the computation in the thread
+        self._pending = None  # the latest request made while it ran: run next (older ones are dropped)
+        self.uploaded = 0
+        if offload:
+            doc.on_session_destroyed(lambda context, ex=self._executor: ex.shutdown(wait=False, cancel_futures=True))
         self.tmpdir = tempfile.mkdtemp(prefix="haptex-explore-")  # uploaded files, removed with the session
         doc.on_session_destroyed(lambda context, d=self.tmpdir: shutil.rmtree(d, ignore_errors=True))
         s = self.settings
@@ -226,12 +250,15 @@ class ExplorerPage:
             self._message(f"texture = {value!r}: choose a file to load (the view shows the previous texture "
                           "until then)")
             return
-        if not self._recompute():
+        def undo():
             setattr(self.settings, name, old)
             if selector is not None:
                 message = self.d_message.text
                 selector.value = old  # re-enters _set with the old value: a no-op
                 self.d_message.text = message
+            self._show_controls()
+
+        self._recompute(on_fail=undo)
         self._show_controls()
 
     def _upload(self) -> None:
@@ -240,47 +267,100 @@ class ExplorerPage:
         except Exception:  # bokeh's UnsetValueError: no name was sent
             name = "upload"
         path = os.path.join(self.tmpdir, name)
+        value = self.w_file.value or ""
+        size = len(value) * 3 // 4  # base64: 4 characters a 3 bytes
+        if size > UPLOAD_BYTES or self.uploaded + size > SESSION_UPLOAD_BYTES:
+            self._message(f"file = {name!r} is not allowed: {size / 2**20:.3g} MiB; an upload may carry at most "
+                          f"{UPLOAD_BYTES / 2**20:.0f} MiB and a session {SESSION_UPLOAD_BYTES / 2**20:.0f} MiB in all "
+                          f"({self.uploaded / 2**20:.3g} MiB so far)")
+            return
         try:
             with open(path, "wb") as fh:
-                fh.write(base64.b64decode(self.w_file.value))
+                fh.write(base64.b64decode(value))
         except (OSError, ValueError) as exc:
             self._message(f"file = {name!r} could not be received: {exc}")
             return
+        self.uploaded += size
         before = (self.settings.file, self.settings.file_name)
         self.settings.file, self.settings.file_name = path, name
-        if not self._recompute():
+
+        def undo():
             self.settings.file, self.settings.file_name = before
+            self._show_controls()
+
+        self._recompute(on_fail=undo)
         self._show_controls()
 
-    def _guard(self, what, fn):
-        """Run one computation; a bad input is one line in the page, never a crash."""
+    @staticmethod
+    def _attempt(what, fn):
+        """Run one computation: ("ok", result) or ("error", the one line to show); never
+        raises (the server must survive anything a control can send)."""
         try:
-            return fn(), True
+            return "ok", fn()
         except ParameterError as exc:
-            self._message(str(exc))
-        except Exception as exc:  # the server must survive anything a control can send
+            return "error", str(exc)
+        except Exception as exc:  # noqa: BLE001
             log.exception("explorer: %s failed", what)
-            self._message(f"{what} failed: {type(exc).__name__}: {exc}")
-        return None, False
+            return "error", f"{what} failed: {type(exc).__name__}: {exc}"
 
-    def _recompute(self, first: bool = False) -> bool:
+    def _run(self, what: str, fn, apply, on_fail=None) -> None:
+        """Compute ``fn()`` and pass its result to ``apply`` (on the document's thread); a
+        refusal is one line in the page, then ``on_fail()``. Offloaded: ``fn`` runs in this
+        session's thread, a request made while another runs waits for it (only the latest
+        such request is kept), and past :data:`RECOMPUTE_BUDGET` the page says so."""
+        if not self.offload:
+            self._finish(what, time.perf_counter(), self._attempt(what, fn), apply, on_fail)
+            return
+        if self._running is not None:
+            self._pending = (what, fn, apply, on_fail)
+            self._message(f"{self._running[0]} is still being computed; then: {what}")
+            return
         t0 = time.perf_counter()
+        self._running = (what, t0)
+        future = self._executor.submit(self._attempt, what, fn)
+        doc = self.doc
+        future.add_done_callback(lambda f: doc.add_next_tick_callback(
+            functools.partial(self._finish, what, t0, f.result(), apply, on_fail)))
+        doc.add_timeout_callback(functools.partial(self._overdue, future, what), int(RECOMPUTE_BUDGET * 1000))
+
+    def _overdue(self, future, what: str) -> None:
+        if not future.done():
+            self._message(f"{what} is still being computed after {RECOMPUTE_BUDGET:g} s; the views show the previous "
+                          "input until it ends")
+
+    def _finish(self, what: str, t0: float, outcome, apply, on_fail) -> None:
+        self._running = None
+        status, value = outcome
+        if status == "ok":
+            self._message("")
+            apply(value)
+            self.d_timing.text = f"{what} in {time.perf_counter() - t0:.2f} s"
+        else:
+            self._message(value)
+            if on_fail is not None:
+                message = self.d_message.text
+                on_fail()
+                self.d_message.text = message
+        if self._pending is not None:
+            pending, self._pending = self._pending, None
+            self._run(*pending)
+
+    def _recompute(self, first: bool = False, on_fail=None) -> None:
+        settings = dataclasses.replace(self.settings)  # what this computation sees, whatever the page does next
 
         def work():
-            scene = model.build(self.settings)
+            scene = model.build(settings)
             return scene, model.views(scene)
 
-        out, ok = self._guard("recompute", work)
-        if not ok:
-            return False
-        scene, v = out
-        self.scene = scene
-        self._draw(scene, v)
-        self._message("")
-        self.d_timing.text = f"recomputed in {time.perf_counter() - t0:.2f} s"
-        if not first:
-            self._clear()
-        return True
+        def apply(out):
+            scene, v = out
+            self.scene = scene
+            self._draw(scene, v)
+            if not first:
+                self._clear()
+            self._show_controls()
+
+        self._run("recompute", work, apply, on_fail)
 
     def _draw(self, scene, v) -> None:
         x0, x1 = float(v.boundary_x[0]), float(v.boundary_x[-1])
@@ -351,20 +431,24 @@ class ExplorerPage:
         if not xs or len(xs[-1]) < 3:
             return
         px, pz = np.asarray(xs[-1], dtype=float) / MM, np.asarray(ys[-1], dtype=float) / MM
-        out, ok = self._guard("loop energy", lambda: model.loop(self.scene, px, pz))
-        if ok:
+        scene = self.scene
+
+        def apply(out):
             energy, polygon = out
             self._show_loop(energy, polygon, source=f"{len(polygon) - 1} vertices, closed")
-            self._message("")
+
+        self._run("loop energy", lambda: model.loop(scene, px, pz), apply)
 
     def _fig3(self) -> None:
         if self.scene is None:
             return
-        out, ok = self._guard("Fig. 3 loop", lambda: model.fig3(self.scene))
-        if ok:
+        scene = self.scene
+
+        def apply(out):
             path, energy, expected, source = out
             self._show_loop(energy, path, expected, source)
-            self._message("")
+
+        self._run("Fig. 3 loop", lambda: model.fig3(scene), apply)
 
     def _clear(self) -> None:
         self._drawing = True
@@ -377,18 +461,17 @@ class ExplorerPage:
     def _scan(self) -> None:
         if self.scene is None:
             return
-        t0 = time.perf_counter()
-        out, ok = self._guard("scan", lambda: model.scan(self.scene))
-        if not ok:
-            return
-        e = out.energy
-        zeros = np.zeros_like(out.time)
-        self.src_energy.data = dict(t=out.time, x=e["x"] * 1e3, y=e.get("y", zeros) * 1e3, z=e["z"] * 1e3)
-        self.d_scan.text = "scan: " + _span("scan-verdict", out.verdict)
-        self.d_timing.text = (f"scan of {self.scene.duration:g} s on the {self.scene.device.name} simulated in "
-                              f"{time.perf_counter() - t0:.2f} s (energy balance error "
-                              f"{out.energy_balance_error:.1g})")
-        self._message("")
+        scene = self.scene
+
+        def apply(out):
+            e = out.energy
+            zeros = np.zeros_like(out.time)
+            self.src_energy.data = dict(t=out.time, x=e["x"] * 1e3, y=e.get("y", zeros) * 1e3, z=e["z"] * 1e3)
+            self.d_scan.text = "scan: " + _span("scan-verdict", out.verdict)
+            self.d_scan.text += html.escape(f" ({scene.duration:g} s on the {scene.device.name}; energy balance error "
+                                            f"{out.energy_balance_error:.1g})")
+
+        self._run("scan", lambda: model.scan(scene), apply)
 
 
 def _colour_bar(mapper, label):
@@ -412,6 +495,11 @@ def app(doc) -> ExplorerPage:
     ExplorerPage
     """
     return ExplorerPage(doc)
+
+
+def _served(doc) -> ExplorerPage:
+    """The page a served session gets: its computations off the server's event loop."""
+    return ExplorerPage(doc, offload=True)
 
 
 def serve(port: int = 5006, address: str = "127.0.0.1", open_browser: bool = True, block: bool = True,
@@ -457,8 +545,9 @@ def serve(port: int = 5006, address: str = "127.0.0.1", open_browser: bool = Tru
             port = probe.getsockname()[1]
     origins = [f"{host}:{port}" for host in ("127.0.0.1", "localhost", address)]
     try:
-        server = Server({"/": Application(FunctionHandler(app))}, port=port, address=address,
-                        allow_websocket_origin=sorted(set(origins)), num_procs=1)
+        server = Server({"/": Application(FunctionHandler(_served))}, port=port, address=address,
+                        allow_websocket_origin=sorted(set(origins)), num_procs=1,
+                        websocket_max_message_size=UPLOAD_BYTES * 4 // 3 + 2**20)  # an upload, base64, and room
     except OSError as exc:
         raise ParameterError(f"port = {port} is not allowed: cannot listen on {address}:{port} "
                              f"({exc.strerror or exc})") from None
