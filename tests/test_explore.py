@@ -166,3 +166,29 @@ def test_serve_refuses_a_port_in_use():
         port = s.getsockname()[1]
         with pytest.raises(hx.ParameterError, match=f"port = {port}"):
             serve(port, open_browser=False, block=False)
+
+
+def test_a_mat_file_is_read_once_its_spacing_and_height_unit_are_given():
+    """Issue 33: the explorer could not load a .mat or a unit-less text file (no controls for
+    the spacing and height unit). The grooved profile shipped in examples/data (8000 samples;
+    examples/data/README.md: --spacing 0.5um --height-unit um) is refused until both are given,
+    then analysed: its q is the library's for the same texture."""
+    from pathlib import Path
+
+    from bokeh.document import Document
+
+    from haptex.explore import app
+
+    mat = Path(__file__).resolve().parents[1] / "examples" / "data" / "grooves-4mm-profile.mat"
+    page = app(Document())
+    page.settings.file, page.settings.file_name = str(mat), mat.name
+    page.w_texture.value = "file"
+    assert "does not state its sample spacing or height unit" in page.d_message.text
+    assert page.w_spacing.visible and page.w_height_unit.visible
+    page.w_spacing.value = "0.5 um"
+    assert "height unit" in page.d_message.text  # still one thing missing
+    page.w_height_unit.value = "um"
+    assert page.d_message.text.endswith("></span>"), page.d_message.text  # no message: loaded
+    tex = hx.load_texture(mat, spacing=0.5e-6, height_unit="um")
+    q = hx.characteristic_number(hx.algorithm("A", tex, K0), max_penetration=1e-3)
+    assert f'<span id="q-value">{q.value:.4g}</span>' in page.d_q.text

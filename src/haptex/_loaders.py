@@ -169,7 +169,6 @@ def _open(p: Path):
     readers' own log records (igor2 logs an ERROR with 1 KB of the file's bytes when it
     tries a file that is not Igor's) are silenced: the caller's one line says why."""
     import logging
-    import warnings
 
     logging.disable(logging.ERROR)
     try:

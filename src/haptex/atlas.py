@@ -558,16 +558,19 @@ def sweep(spec, out=None, *, scheduler: str | None = None, workers: int | None =
     Raises
     ------
     ParameterError
-        For an invalid SPEC, a store written by another SPEC, or an unreachable scheduler
-        (within 5 s).
+        For an invalid SPEC (or one whose atlas would exceed the memory budget), a store
+        written by another SPEC or being written by another sweep (its lock), too many
+        local workers for the memory budget, or a scheduler that is not ``tcp://HOST:PORT``
+        or does not answer (within 5 s to connect, 10 s to start the handshake).
     """
-    import xarray as xr
-
     if not isinstance(spec, SweepSpec):
         spec = SweepSpec.from_mapping(spec) if isinstance(spec, dict) else SweepSpec.from_file(spec)
     fixed_device = spec.build(letter=str(spec.axes[0].values[0]) if spec.axes[0].name == "algorithm" else None)[1]
     dimension = fixed_device.dimension
-    _local_workers(workers) if scheduler is None else _scheduler_address(scheduler)  # before any store is made
+    if scheduler is None:  # workers and address checked before any store is made
+        _local_workers(workers)
+    else:
+        _scheduler_address(scheduler)
     blocks = spec.blocks()
     store = None if out is None else Path(out)
     lock = None if store is None else _lock(store)

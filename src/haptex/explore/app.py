@@ -99,6 +99,9 @@ class ExplorerPage:
         self.w_file = FileInput(title="file (profile, areal map or image)", width=220, html_id="texture-file")
         # the file's name and contents arrive together; read them once both are set
         self.w_file.on_change("value", lambda a, o, n: self.doc.add_next_tick_callback(self._upload))
+        self.w_spacing = text("spacing", "file: sample spacing (if unstated)", s.spacing)
+        self.w_x_unit = text("x_unit", "file: position unit (if unstated)", s.x_unit, "x-unit")
+        self.w_height_unit = text("height_unit", "file: height unit (if unstated)", s.height_unit, "height-unit")
         self.w_pixel = text("pixel_size", "image: pixel size", s.pixel_size)
         self.w_hrange = text("height_range", "image: black-to-white height", s.height_range)
         self.w_algorithm = choice("algorithm", "algorithm", model.ALGORITHM_LABELS)
@@ -191,7 +194,8 @@ class ExplorerPage:
         self.f_heights.add_layout(_colour_bar(self.height_mapper, "h (mm)"), "right")
 
         texture_box = column(self.w_texture, self.w_amplitude, self.w_period, self.w_terms, self.w_noise, self.w_file,
-                             self.w_pixel, self.w_hrange, self.w_section)
+                             self.w_spacing, self.w_x_unit, self.w_height_unit, self.w_pixel, self.w_hrange,
+                             self.w_section)
         controls = column(texture_box, self.w_algorithm, self.w_stiffness, self.w_dmax, self.w_friction,
                           self.w_presliding, self.w_device, self.w_speed, self.w_duration,
                           row(self.b_fig3, self.b_clear), self.b_scan, width=240)
@@ -226,6 +230,7 @@ class ExplorerPage:
         self.w_noise.visible = k == "noise"
         self.w_file.visible = k in ("file", "image")
         self.w_pixel.visible = self.w_hrange.visible = k == "image"
+        self.w_spacing.visible = self.w_x_unit.visible = self.w_height_unit.visible = k == "file"
         self.w_section.visible = self.scene is not None and self.scene.dimension == 3
         self.w_friction.visible = self.w_presliding.visible = letter == "F"
         self.f_heights.visible = self.scene is not None and self.scene.dimension == 3
@@ -251,6 +256,10 @@ class ExplorerPage:
                           "until then)")
             return
         def undo():
+            if name in ("texture", "spacing", "x_unit", "height_unit") and self.settings.texture == "file" \
+                    and "does not state" in self.d_message.text:
+                self._show_controls()  # kept: the file waits for what it does not state, in the boxes shown
+                return
             setattr(self.settings, name, old)
             if selector is not None:
                 message = self.d_message.text
@@ -284,8 +293,9 @@ class ExplorerPage:
         before = (self.settings.file, self.settings.file_name)
         self.settings.file, self.settings.file_name = path, name
 
-        def undo():
-            self.settings.file, self.settings.file_name = before
+        def undo():  # a file that lacks only its spacing or units is kept, for the boxes below it to complete
+            if "does not state" not in self.d_message.text:
+                self.settings.file, self.settings.file_name = before
             self._show_controls()
 
         self._recompute(on_fail=undo)

@@ -57,6 +57,10 @@ class Settings:
         The name the user gave the file (for messages).
     pixel_size, height_range : str
         Image only: a pixel's size and the height from black to white.
+    spacing, x_unit, height_unit : str
+        Measured file only, where the file does not state them (a MATLAB file, a text file
+        of bare numbers): the sample spacing ("0.5 um"), the unit of its positions and of
+        its heights ("um"); blank when the file states them.
     algorithm : str
         W or A–G.
     stiffness : str
@@ -83,6 +87,9 @@ class Settings:
     file_name: str = ""
     pixel_size: str = "10 um"
     height_range: str = "0.2 mm"
+    spacing: str = ""
+    x_unit: str = ""
+    height_unit: str = ""
     algorithm: str = "A"
     stiffness: str = f"{PAPER_PARAMETERS['stiffness'] / 1e3:g} kN/m"
     max_penetration: str = f"{PAPER_PARAMETERS['max_penetration'] * 1e3:g} mm"
@@ -180,8 +187,9 @@ def build(settings: Settings) -> Scene:
             if kind == "image":
                 lo_hi = quantity(s.height_range, "m", "height_range")
                 tex = SampledSurface.from_image(s.file, quantity(s.pixel_size, "m", "pixel_size"), (0.0, lo_hi))
-            else:
-                tex = texture_from_spec(s.file)
+            else:  # what the file does not state (a .mat's spacing, a text file's units); blank: the file says
+                tex = texture_from_spec(s.file, spacing=s.spacing.strip() or None, x_unit=s.x_unit.strip() or None,
+                                        height_unit=s.height_unit.strip() or None)
         except ParameterError as exc:
             raise ParameterError(str(exc).replace(str(s.file), s.file_name or str(s.file))) from None
     else:
