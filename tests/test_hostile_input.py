@@ -204,3 +204,21 @@ def test_a_warning_never_precedes_the_one_line_error(monkeypatch, capsys):
     monkeypatch.setattr(cli, "_run", warns_then(0))
     with pytest.warns(RuntimeWarning, match="overflow encountered in multiply"):
         assert cli.main([]) == 0
+
+
+def test_a_mat_v73_file_is_not_scanned_as_v5(tmp_path):
+    """A MATLAB v7.3 file is HDF5 behind the same 128-byte header (version 0x0200): its
+    bytes are not v5 tags, so the scan counts nothing and loadmat's own refusal is the line
+    (not a count read from HDF5 bytes)."""
+    import h5py
+
+    raw = tmp_path / "raw.h5"
+    with h5py.File(raw, "w", userblock_size=512) as f:
+        f["z"] = np.zeros(10)
+    data = bytearray(raw.read_bytes())
+    data[:128] = b"MATLAB 7.3 MAT-file".ljust(116, b" ") + bytes(8) + struct.pack("<H", 0x0200) + b"IM"
+    f73 = tmp_path / "v73.mat"
+    f73.write_bytes(bytes(data))
+    assert _mat_samples(f73) == 0
+    with pytest.raises(hx.ParameterError, match=r"v73.mat: not a readable MATLAB file \(.*v7.3"):
+        hx.load_texture(f73, spacing=1e-6, height_unit="um")

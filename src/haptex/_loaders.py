@@ -515,6 +515,8 @@ def _mat_samples(p: Path) -> int:
         if len(header) < 128 or header[126:128] not in (b"IM", b"MI"):
             return 0
         e = "<" if header[126:128] == b"IM" else ">"
+        if struct.unpack(e + "H", header[124:126])[0] != 0x0100:  # 0x0200: v7.3, an HDF5 file that loadmat refuses
+            return 0
         for _ in range(100_000):
             tag = fh.read(8)
             if len(tag) < 8:
