@@ -363,8 +363,9 @@ def _simulate(ctx, mode, letter, stiffness, amplitude, period, max_penetration, 
 
 
 class _Steps:
-    """A rich progress bar over the eight algorithms on stderr, shown on a terminal only and
-    never with --json or --quiet; used as ``with _Steps(n, quiet) as step: f(progress=step)``."""
+    """A rich progress bar over the eight algorithms on stderr, with the time elapsed and an
+    estimate of the time left, shown on a terminal only and never with --json or --quiet;
+    used as ``with _Steps(n, quiet) as step: f(progress=step)``."""
 
     def __init__(self, total: int, title: str, quiet: bool):
         from rich.console import Console
@@ -376,10 +377,13 @@ class _Steps:
     def __enter__(self):
         if not self.show:
             return lambda letter: None
-        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+        from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn,
+                                   TimeRemainingColumn)
 
+        # the time left is rich's estimate from the steps done so far (steps differ: D and E
+        # over a measured map take longest), shown once a step has ended
         self.bar = Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                            console=self.console, transient=True)
+                            TextColumn("left"), TimeRemainingColumn(), console=self.console, transient=True)
         self.bar.__enter__()
         self.task = self.bar.add_task(self.title, total=self.total)
         self.started = False
