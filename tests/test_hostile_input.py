@@ -222,3 +222,15 @@ def test_a_mat_v73_file_is_not_scanned_as_v5(tmp_path):
     assert _mat_samples(f73) == 0
     with pytest.raises(hx.ParameterError, match=r"v73.mat: not a readable MATLAB file \(.*v7.3"):
         hx.load_texture(f73, spacing=1e-6, height_unit="um")
+
+
+def test_a_subnormal_amplitude_under_f_is_refused_by_name():
+    """Issue 33: a subnormal amplitude ended in "non-finite position [nan, nan]" under F
+    (its modulation h~ = h / max|h| overflowed). A normal one, however small, and a flat
+    texture are analysed."""
+    with pytest.raises(hx.ParameterError, match=r"^texture = Sinusoid\(amplitude=9.99989e-321.* is not allowed: must "
+                                                r"be a texture whose peak height F can normalise"):
+        hx.algorithm("F", hx.Sinusoid(1e-320, 1e-3), 2000.0)
+    for a in (1e-300, 0.0):
+        alg = hx.algorithm("F", hx.Sinusoid(a, 1e-3), 2000.0, max_penetration=1e-3)
+        assert np.isfinite(hx.characteristic_number(alg, max_penetration=1e-3).value)

@@ -788,6 +788,11 @@ class FrictionModulated(Algorithm):
         if not np.isfinite(peak):
             raise fail("texture", texture, "a texture with finite heights")
         self._scale = self.modulation_depth / peak if peak > 0 else 0.0
+        if not (np.isfinite(self._scale) and np.isfinite(self._scale * float(texture.max_slope))):
+            # a subnormal peak (1e-320 m) overflows h~ = h / max|h| and ended in "non-finite
+            # position [nan, nan]" (issue 33): name the texture's height instead
+            raise fail("texture", texture, f"a texture whose peak height F can normalise (h~ = h / max|h| overflows at "
+                       f"{peak:g} m), or a flat one")
 
     def __repr__(self) -> str:
         extra = "" if self.max_penetration is None else f", max_penetration={self.max_penetration:g}"
