@@ -7,6 +7,8 @@ import sys
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import haptex as hx
 from haptex.atlas import SweepSpec, sweep
@@ -382,3 +384,40 @@ def test_a_3d_atlas_of_the_wall_is_the_planar_one():
     assert np.array_equal(space.growing.values, planar.growing.values) and space.growing.values.any()
     np.testing.assert_allclose(space.energy_rate_z.values, planar.energy_rate_z.values, rtol=1e-12, atol=0)
     assert not space.energy_rate_x.values.any() and not space.energy_rate_y.values.any()
+
+
+_SPEC_VALUES = st.recursive(
+    st.one_of(st.none(), st.booleans(), st.integers(-10**20, 10**20), st.floats(allow_nan=True, allow_infinity=True),
+              st.sampled_from(["1 kN/m", "0.1 kg", "100 us", "5 s", "push", "band", "hand", "W", "A", "D",
+                               "sine:0.8mm,1mm", "egg-crate:0.1mm,2mm", "1-2 kN/m, 3 steps", "0.5-20 kN/m, 60 log steps",
+                               "1e308 m", "-1 N", "9**9**9 N/m", "1-2 kN/m, 99999999999999 steps", "point-mass",
+                               "pantograph", "", "nan", "1e-320 s"]),
+              st.text(max_size=20)),
+    lambda inner: st.one_of(st.lists(inner, max_size=4), st.dictionaries(st.text(max_size=8), inner, max_size=4)),
+    max_leaves=12)
+
+
+@st.composite
+def _specs(draw):
+    base = wall_spec({"stiffness": "1-2 kN/m, 2 steps"}, duration="0.1 s")
+    for key in draw(st.lists(st.sampled_from(["duration", "block", "algorithm", "device", "operator", "axes",
+                                              "initial_position", "extra"]), max_size=3, unique=True)):
+        base[key] = draw(_SPEC_VALUES)
+    if draw(st.booleans()):
+        name = draw(st.sampled_from(["stiffness", "mass", "damping", "delay", "amplitude", "algorithm", "bogus"]))
+        base["axes"] = {name: draw(_SPEC_VALUES)}
+    return base
+
+
+@settings(max_examples=60, deadline=None)
+@given(_specs())
+def test_any_spec_is_a_spec_or_one_parameter_error(spec):
+    """Issue 33's SPEC fuzz: whatever a TOML or YAML file can hold, read as a SPEC, is a
+    valid SweepSpec or a ParameterError (one line naming the key); never another exception,
+    never an axis expanded past the run and memory checks."""
+    try:
+        parsed = SweepSpec.from_mapping(spec)
+    except hx.ParameterError as exc:
+        assert "\n" not in str(exc)
+        return
+    assert parsed.runs <= 10**9 and all(np.all(np.isfinite(a.values)) for a in parsed.axes if a.name != "algorithm")

@@ -293,6 +293,8 @@ class SweepSpec:
             texture = texture_from_spec(str(texture_spec))
         elif texture_spec is not None:
             raise ParameterError("algorithm.texture is not allowed with letter W: the smooth wall has no texture")
+        if not isinstance(self.mapping["device"], dict):
+            raise fail("device", self.mapping["device"], "a table: preset = '...' and the device's keys")
         device = _device_from_table(dict(self.mapping["device"]), "spec [device]")
         if texture is None and device.dimension == 3:
             from .textures import Flat
@@ -340,7 +342,8 @@ def _axis(name: str, value) -> Axis:
             raise fail("axes.algorithm", bad[0], "letters W, A-G")
         return Axis("algorithm", np.array([str(v).upper() for v in letters], dtype=object), "")
     if name not in SWEEP_KEYS:
-        raise ParameterError(f"axes.{name} is not allowed: a swept parameter must be algorithm or one of "
+        shown = f"axes.{name}" if str(name).isidentifier() else f"axes[{str(name)[:40]!r}]"
+        raise ParameterError(f"{shown} is not allowed: a swept parameter must be algorithm or one of "
                              + ", ".join(SWEEP_KEYS))
     unit = SWEEP_UNITS[name]
     label = f"axes.{name}"

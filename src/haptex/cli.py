@@ -862,8 +862,8 @@ def _run(argv) -> int:
     except click.ClickException as exc:
         click.echo(f"haptex: error: {_one_line(exc)}", err=True)
         return 2
-    except ParameterError as exc:
-        click.echo(f"haptex: error: {exc}", err=True)
+    except ParameterError as exc:  # one line, whatever text of the user's the message quotes
+        click.echo("haptex: error: " + str(exc).replace("\r", "\\r").replace("\n", "\\n"), err=True)
         return 2
     except OSError as exc:  # the file system refused: still one line, never a traceback
         click.echo(f"haptex: error: {exc.strerror or exc}: {exc.filename or ''}".rstrip(": "), err=True)
