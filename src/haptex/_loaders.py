@@ -497,9 +497,6 @@ def _check_zip(p: Path) -> None:
                  f"its contents ({text / 2**20:.4g} MiB of text and {binary / 2**20:.4g} MiB of data once decompressed)")
 
 
-_MAT_TYPES = {14: "miMATRIX", 15: "miCOMPRESSED"}
-
-
 def _mat_samples(p: Path) -> int:
     """The number of numbers a MATLAB v5 file's variables hold, from each variable's
     dimensions (for a compressed variable, the first 128 bytes of its zlib stream are
@@ -525,7 +522,7 @@ def _mat_samples(p: Path) -> int:
             if typ >> 16:  # a small data element: its data sit in the tag
                 continue
             start = fh.tell()
-            if typ == 15:
+            if typ == 15:  # miCOMPRESSED: a zlib stream holding a miMATRIX
                 inflate = zlib.decompressobj()
                 head = b""
                 while len(head) < 128:
@@ -536,9 +533,7 @@ def _mat_samples(p: Path) -> int:
                         head += inflate.decompress(chunk, 128 - len(head))
                     except zlib.error:
                         return 0  # loadmat names the corruption
-                    if inflate.unconsumed_tail and len(head) >= 128:
-                        break
-            elif typ == 14:
+            elif typ == 14:  # miMATRIX, uncompressed
                 head = tag + fh.read(min(nbytes, 120))
             else:
                 head = b""
