@@ -843,12 +843,23 @@ def main(argv=None) -> int:
     (a warning printed above it read as a second error: issue 33)."""
     import warnings
 
-    with warnings.catch_warnings(record=True) as held:  # the filters in force are kept
+    held = []
+
+    def hold(message, category, filename, lineno, file=None, line=None):
+        if len(held) < MAX_HELD_WARNINGS:  # bounded: `haptex explore` may run for days
+            held.append((message, category, filename, lineno))
+
+    with warnings.catch_warnings():  # the filters in force are kept; showwarning is restored on exit
+        warnings.showwarning = hold
         status = _run(argv)
     if status == 0:
         for w in held:
-            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+            warnings.showwarning(*w)
     return status
+
+
+MAX_HELD_WARNINGS = 100
+"""Most warnings held until a command ends (the rest are dropped)."""
 
 
 def _run(argv) -> int:
