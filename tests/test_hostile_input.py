@@ -1,8 +1,11 @@
-"""Issue 33's pinned cases of hostile input to the readers: files that decompress to far
-more than their size (a MAT file of compressed zeros, an X3P whose main.xml is mostly
-spaces) are refused from their headers, before anything is inflated, in one line naming
-the file; the profile and map analyses hold their grids in bounded slabs. The atlas's cases
-(SPEC size, lock, scheduler) are in test_atlas.py."""
+"""Issue 33's pinned cases of hostile input: files that decompress to far more than their
+size (a MAT file of compressed zeros, an X3P whose main.xml is mostly spaces) are refused
+from their headers, before anything is inflated, in one line naming the file; a map past
+the memory budget is refused from its header; q_F holds its grid in bounded slabs; values
+that would overflow later are refused where they are parsed; usage errors and warnings
+never make more than one line. The atlas's cases (SPEC size, lock, scheduler, SPEC fuzz)
+are in test_atlas.py, the explorer's in test_explore_fuzz.py, the exported C's in
+test_export.py."""
 
 import struct
 import subprocess
