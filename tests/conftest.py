@@ -44,3 +44,36 @@ DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 DEKTAK = DATA / "dektak-stylus-profile.csv"
 GROOVES = DATA / "grooves-4mm-profile.mat"
 needs_data = pytest.mark.skipif(not DEKTAK.exists(), reason="../shared/data is not beside this checkout")
+
+
+def explorer_process():
+    """``haptex explore`` started on a free port in a subprocess, as a user runs it, once it
+    answers: yields (port, process) and stops it after. Shared by the browser tests and the
+    server's fuzz (a generator for a module-scoped fixture)."""
+    import socket
+    import subprocess
+    import sys
+    import time
+    import urllib.request
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    proc = subprocess.Popen([sys.executable, "-m", "haptex", "explore", "--port", str(port), "--no-browser"],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    deadline = time.monotonic() + 60
+    while True:
+        try:
+            urllib.request.urlopen(f"http://127.0.0.1:{port}/", timeout=2).read(100)
+            break
+        except OSError:
+            if proc.poll() is not None or time.monotonic() > deadline:
+                proc.kill()
+                pytest.fail(f"the explorer did not start: {proc.communicate()[0].decode()[-2000:]}")
+            time.sleep(0.3)
+    yield port, proc
+    proc.terminate()
+    try:
+        proc.wait(10)
+    except subprocess.TimeoutExpired:
+        proc.kill()

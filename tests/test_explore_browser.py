@@ -14,9 +14,6 @@ Screenshots of each view are saved under the test's temporary directory.
 import importlib.util
 import os
 import shutil
-import socket
-import subprocess
-import sys
 import time
 import urllib.request
 
@@ -24,6 +21,8 @@ import pytest
 
 import haptex as hx
 from haptex.explore import model
+
+from .conftest import explorer_process
 
 pytestmark = pytest.mark.browser
 
@@ -42,28 +41,8 @@ def _need_browser():
 @pytest.fixture(scope="module")
 def server():
     _need_browser()
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
-    proc = subprocess.Popen([sys.executable, "-m", "haptex", "explore", "--port", str(port), "--no-browser"],
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
-    url = f"http://127.0.0.1:{port}/"
-    deadline = time.monotonic() + 60
-    while True:
-        try:
-            urllib.request.urlopen(url, timeout=2).read(100)
-            break
-        except OSError:
-            if proc.poll() is not None or time.monotonic() > deadline:
-                proc.kill()
-                pytest.fail(f"the explorer did not start: {proc.communicate()[0].decode()[-2000:]}")
-            time.sleep(0.3)
-    yield url, proc
-    proc.terminate()
-    try:
-        proc.wait(10)
-    except subprocess.TimeoutExpired:
-        proc.kill()
+    for port, proc in explorer_process():
+        yield f"http://127.0.0.1:{port}/", proc
 
 
 @pytest.fixture(scope="module")
@@ -201,7 +180,6 @@ def test_one_sessions_long_computation_never_stalls_another(server, browser, tmp
     model.build and model.views did not end within 300 s); before computations left the
     event loop, every other session waited for it. Now a new page loads, and shows its q,
     while the long one runs; and the long session says it is still computing."""
-    import urllib.request
 
     url, proc = server
     slow = browser.new_page(viewport={"width": 1500, "height": 1350})
