@@ -39,9 +39,11 @@ if "NUMBA_THREADING_LAYER" not in os.environ:
     # fork-safe layer (TBB if installed, else numba's workqueue). A user's explicit choice wins.
     nb.config.THREADING_LAYER = "forksafe"
 
-TEXTURE_FLAT = 0
-TEXTURE_FOURIER = 1
-TEXTURE_SPLINE = 2
+# the codes of the textures, the letters and the parameter slots are the C core's (one
+# definition, in core/hx_core.h), read here while these kernels are being ported to it
+from .core._ext import (ALG_A, ALG_B, ALG_C, ALG_D, ALG_E, ALG_F, ALG_G, ALG_W,  # noqa: E402, F401
+                        N_PARAMS, P_DXMAX, P_DZMAX, P_K0, P_MU, P_SCALE, P_ZSTICK, SURFACE_GRATINGS,
+                        SURFACE_PATCHES, TEXTURE_FLAT, TEXTURE_FOURIER, TEXTURE_SPLINE)  # noqa: F401
 
 _JIT = dict(cache=True, fastmath=False, nogil=True)
 
@@ -804,10 +806,7 @@ def empty_coeffs() -> np.ndarray:
 # ----------------------------------------------------------------------------------------
 # Algorithm force kernels: one scalar entry point for every letter, dispatched by code.
 # ----------------------------------------------------------------------------------------
-ALG_W, ALG_A, ALG_B, ALG_C, ALG_D, ALG_E, ALG_F, ALG_G = 0, 1, 2, 3, 4, 5, 6, 7
-# parameter vector layout (float64[6])
-P_K0, P_DZMAX, P_MU, P_DXMAX, P_SCALE, P_ZSTICK = 0, 1, 2, 3, 4, 5
-N_PARAMS = 6
+# ALG_* and the parameter vector's layout P_* (float64[N_PARAMS]): the C core's, imported above
 # state vector layout: F's adhesion point (D, E over a profile: the last closest point, a
 # warm start), in-contact flag, last x, the work (texture evaluations) of the last call; over
 # a surface F's adhesion y and last y; the height h under the probe that the last call
@@ -1092,8 +1091,7 @@ def alg_force(code, x, z, kind, coeffs, prm, aux, st):
 # phases (rad); h = sum a sin(kx x + ky y + phase). ``gaux``: the search's constants.
 G_HMIN, G_SLOPE, G_CURV, G_LEAF, G_TIE, G_HMAX, G_CONVEX, G_JERK, G_SLOPE_BOUND, G_CURV_BOUND = range(10)
 N_GAUX = 10
-SURFACE_GRATINGS = 3
-SURFACE_PATCHES = 4
+# SURFACE_GRATINGS, SURFACE_PATCHES: the C core's, imported above
 """Surface kinds of the search: a sum of gratings (``sc`` of shape (4, n): a, kx, ky, phase)
 or bicubic patches (``sc`` of shape (1, 8 + 16 n): the header PATCH_* then, per cell in row-major
 order (i along x), the 16 coefficients c[a, b] of s^a t^b, s and t the cell's local

@@ -1,0 +1,41 @@
+"""Build of haptex's C core (``haptex.core._ext``); everything else is in pyproject.toml.
+
+The core's sources are real C99 files under ``src/haptex/core/`` (shipped in the package
+too: ``haptex export`` copies them). A failed build says which compiler and header it needed.
+"""
+
+import sysconfig
+from pathlib import Path
+
+from setuptools import Extension, setup
+from setuptools.command.build_ext import build_ext
+
+CORE = Path("src/haptex/core")
+
+
+class BuildCore(build_ext):
+    """build_ext whose failure names what the C core needs."""
+
+    def run(self):
+        try:
+            super().run()
+        except Exception as exc:  # the compiler's own message is above; this says what to install
+            include = sysconfig.get_paths()["include"]
+            raise SystemExit(
+                f"haptex: building the C core failed ({exc}). It needs a C99 compiler (gcc or clang; on Debian: "
+                f"apt-get install gcc) and Python's headers ({include}/Python.h; on Debian: apt-get install "
+                "python3-dev). Users without a compiler install a prebuilt wheel (see README, 'Wheels')."
+            ) from exc
+
+
+setup(
+    ext_modules=[
+        Extension(
+            "haptex.core._ext",
+            sources=[str(CORE / name) for name in ("_ext.c", "hx_texture.c", "hx_forces.c")],
+            include_dirs=[str(CORE)],
+            extra_compile_args=["-std=c99", "-O2", "-fno-fast-math"],
+        )
+    ],
+    cmdclass={"build_ext": BuildCore},
+)

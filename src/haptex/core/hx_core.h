@@ -1,0 +1,101 @@
+/*
+ * haptex's real-time core: texture evaluation and the force fields of Campion & Hayward,
+ * "On the Synthesis of Haptic Textures" (IEEE Trans. Robotics 24(3), 2008), in C99.
+ *
+ * One implementation, written once over the dimension: a position is always [x, y, z] (m);
+ * a profile h(x) is the y-independent case of a surface h(x, y), and the 2-D entry points
+ * map [x, z] to [x, 0, z]. The model (texture, algorithm, parameters) is constant during a
+ * run; the per-loop state is mutable (the split of MuJoCo's mjModel / mjData).
+ *
+ * No allocation, no I/O, no global state: every function reads only the arrays its model
+ * was checked against by hx_texture_check.
+ */
+#ifndef HX_CORE_H
+#define HX_CORE_H
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* ---- texture kinds (the layout of each kind's coefficients is in hx_texture.c) ---- */
+enum {
+    HX_TEXTURE_FLAT = 0,     /* h = 0 */
+    HX_TEXTURE_FOURIER = 1,  /* profile: rows a (m), k (rad/m), phase (rad) */
+    HX_TEXTURE_SPLINE = 2,   /* profile: uniform cubic spline, 4 rows */
+    HX_SURFACE_GRATINGS = 3, /* surface: rows a (m), kx, ky (rad/m), phase (rad) */
+    HX_SURFACE_PATCHES = 4,  /* surface: bicubic patches of a height map, 1 row */
+    HX_N_KINDS = 5
+};
+
+/* ---- the paper's algorithms, in the order of its letters ---- */
+enum {
+    HX_ALG_W = 0, /* smooth wall, eq. 30 */
+    HX_ALG_A = 1, /* grooved boundary, force normal to the surface, eq. 6-7 */
+    HX_ALG_B = 2, /* grooved boundary, force normal to the groove, eq. 11 */
+    HX_ALG_C = 3, /* change of height, eq. 13-15 */
+    HX_ALG_D = 4, /* god-object, closest point, gradient */
+    HX_ALG_E = 5, /* god-object, closest point, vertical */
+    HX_ALG_F = 6, /* friction modulation with presliding */
+    HX_ALG_G = 7, /* force shading, eq. 28 */
+    HX_N_ALGS = 8
+};
+
+/* ---- the parameter vector of an algorithm (float64[HX_N_PARAMS]) ---- */
+enum {
+    HX_P_K0 = 0,    /* stiffness kappa_0 (N/m) */
+    HX_P_DZMAX = 1, /* max penetration d^z_max of Remark 3 (m), < 0 when none */
+    HX_P_MU = 2,    /* F: Coulomb coefficient; W: virtual damping B (N s/m) */
+    HX_P_DXMAX = 3, /* F: presliding distance (m); W: servo period T (s) */
+    HX_P_SCALE = 4, /* F: modulation scale (1/m) */
+    HX_P_ZSTICK = 5,/* F: smooth presliding's stick limit (m), < 0 for the sharp model */
+    HX_N_PARAMS = 6
+};
+
+/* ---- status codes ---- */
+enum {
+    HX_OK = 0,
+    HX_BAD_KIND = -1,      /* unknown texture kind */
+    HX_BAD_COEFFS = -2,    /* coefficients of the wrong shape or inconsistent header */
+    HX_BAD_ALGORITHM = -3, /* unknown algorithm code */
+    HX_NOT_IN_CORE = -4    /* an algorithm the core does not evaluate yet (D, E, F) */
+};
+
+typedef struct {
+    int kind;          /* HX_TEXTURE_* or HX_SURFACE_* */
+    const double *c;   /* coefficients, row-major, rows x cols */
+    long rows, cols;
+} hx_texture;
+
+typedef struct {
+    int code;                   /* HX_ALG_* */
+    double prm[HX_N_PARAMS];    /* HX_P_* */
+    hx_texture tex;
+} hx_model;
+
+/* h and its derivatives at one point: h (m), gradient (m/m), Hessian (1/m) */
+typedef struct {
+    double h, gx, gy, hxx, hxy, hyy;
+} hx_height;
+
+/* Check that coefficients of shape rows x cols are a valid texture of this kind: every
+ * later read stays inside the array. HX_OK, HX_BAD_KIND or HX_BAD_COEFFS. */
+int hx_texture_check(int kind, const double *c, long rows, long cols);
+
+/* h, grad h and the Hessian at (x, y); a profile ignores y (its y-derivatives are 0). */
+void hx_texture_eval(const hx_texture *t, double x, double y, hx_height *out);
+
+/* h alone at (x, y): no derivative's cosine where only the height is needed. */
+double hx_texture_height(const hx_texture *t, double x, double y);
+
+/* Check a model: its texture and its algorithm code. HX_OK or an HX_BAD_* code. */
+int hx_model_check(const hx_model *m);
+
+/* The memoryless field of algorithm m->code at p = [x, y, z] (m): the force f (N) and, when
+ * jac is not NULL, the Jacobian jac[3 * i + j] = d f_i / d p_j (N/m), row-major 3 x 3; both
+ * zero outside the wall. Returns HX_OK, or HX_NOT_IN_CORE for D, E and F (not yet in C). */
+int hx_field(const hx_model *m, const double p[3], double f[3], double jac[9]);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

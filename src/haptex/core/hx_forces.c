@@ -1,0 +1,202 @@
+/*
+ * The memoryless force fields of the paper, each one function written over [x, y, z], with
+ * its analytic Jacobian, dispatched through one table (no chain of ifs on the letter).
+ *
+ * Notation: s = grad h = (h_x, h_y), H its Hessian, g = (1 + |s|^2)^(-1/2), the unit normal
+ * of the textured surface n = (-s, 1) g, P = I - g^2 s s^T (d(g s)/dx = g P H), d = p^z - h
+ * the vertical penetration (< 0 inside, Table I), and d_l = max(d, -d^z_max) the lateral
+ * depth of Remark 3 ("follows" where d_l = d, so that its derivative is that of d).
+ * Over a profile s_y = 0 and H = [[h'', 0], [0, 0]], and every formula below reduces exactly
+ * to the paper's 2-D one (the tests check both against the NumPy fields).
+ */
+#include "hx_core.h"
+
+#include <math.h>
+#include <stddef.h>
+
+typedef void (*field_fn)(const hx_model *m, const double p[3], double f[3], double jac[9]);
+
+static void zero(double f[3], double jac[9])
+{
+    int i;
+    f[0] = f[1] = f[2] = 0.0;
+    if (jac)
+        for (i = 0; i < 9; i++)
+            jac[i] = 0.0;
+}
+
+/* d_l of Remark 3 and whether it follows d */
+static double lateral(const hx_model *m, double d, int *follows)
+{
+    double dm = m->prm[HX_P_DZMAX];
+    if (dm >= 0.0 && !(d > -dm)) {
+        *follows = 0;
+        return -dm;
+    }
+    *follows = 1;
+    return d;
+}
+
+/* W, eq. 30: f = (0, 0, -kappa_0 p^z) inside; J = diag(0, 0, -kappa_0). (The virtual damper
+ * of Colgate & Schenkel acts in the servo loop, not in the static field.) */
+static void field_w(const hx_model *m, const double p[3], double f[3], double jac[9])
+{
+    double k = m->prm[HX_P_K0];
+    if (p[2] >= 0.0)
+        return;
+    f[2] = -k * p[2];
+    if (jac)
+        jac[8] = -k;
+}
+
+/* A, eq. 6-7: f = (0, 0, -kappa_0 d); the last row of J is kappa_0 (s_x, s_y, -1). */
+static void field_a(const hx_model *m, const double p[3], double f[3], double jac[9])
+{
+    double k = m->prm[HX_P_K0], d;
+    hx_height t;
+    if (jac) {
+        hx_texture_eval(&m->tex, p[0], p[1], &t);
+    } else {
+        t.h = hx_texture_height(&m->tex, p[0], p[1]);
+        t.gx = t.gy = 0.0;
+    }
+    d = p[2] - t.h;
+    if (!(d < 0.0))
+        return;
+    f[2] = -k * d;
+    if (jac) {
+        jac[6] = k * t.gx;
+        jac[7] = k * t.gy;
+        jac[8] = -k;
+    }
+}
+
+/* g P H, row-major 2 x 2 */
+static void normal_derivative(const hx_height *t, double g, double out[4])
+{
+    double g2 = g * g, sx = t->gx, sy = t->gy;
+    double p00 = g2 * (1.0 + sy * sy), p11 = g2 * (1.0 + sx * sx), p01 = -g2 * sx * sy;
+    out[0] = g * (p00 * t->hxx + p01 * t->hxy);
+    out[1] = g * (p00 * t->hxy + p01 * t->hyy);
+    out[2] = g * (p01 * t->hxx + p11 * t->hxy);
+    out[3] = g * (p01 * t->hxy + p11 * t->hyy);
+}
+
+/* B, eq. 11: f = -kappa_0 d n with the lateral part at d_l;
+ * J = kappa_0 [[-lat s s^T + d_l g P H, lat s], [g s^T + d g^3 (H s)^T, -g]], lat = g where
+ * d_l follows d, else 0. */
+static void field_b(const hx_model *m, const double p[3], double f[3], double jac[9])
+{
+    double k = m->prm[HX_P_K0], d, dl, g, lat, gph[4], s[2];
+    int follows, i, j;
+    hx_height t;
+    hx_texture_eval(&m->tex, p[0], p[1], &t);
+    d = p[2] - t.h;
+    if (!(d < 0.0))
+        return;
+    s[0] = t.gx;
+    s[1] = t.gy;
+    g = 1.0 / sqrt(1.0 + s[0] * s[0] + s[1] * s[1]);
+    dl = lateral(m, d, &follows);
+    f[0] = k * dl * g * s[0];
+    f[1] = k * dl * g * s[1];
+    f[2] = -k * d * g;
+    if (!jac)
+        return;
+    lat = follows ? g : 0.0;
+    normal_derivative(&t, g, gph);
+    for (i = 0; i < 2; i++) {
+        for (j = 0; j < 2; j++)
+            jac[3 * i + j] = k * (-lat * s[i] * s[j] + dl * gph[2 * i + j]);
+        jac[3 * i + 2] = k * lat * s[i];
+    }
+    jac[6] = k * (g * s[0] + d * g * g * g * (t.hxx * s[0] + t.hxy * s[1]));
+    jac[7] = k * (g * s[1] + d * g * g * g * (t.hxy * s[0] + t.hyy * s[1]));
+    jac[8] = -k * g;
+}
+
+/* C, eq. 13-15: f = kappa_0 (d_l s_x, d_l s_y, -d), the gradient of -kappa_0 d^2 / 2 when
+ * unclamped; J = kappa_0 [[-lat s s^T + d_l H, lat s], [s^T, -1]], lat = 1 where d_l follows d. */
+static void field_c(const hx_model *m, const double p[3], double f[3], double jac[9])
+{
+    double k = m->prm[HX_P_K0], d, dl, lat, s[2], hs[4];
+    int follows, i, j;
+    hx_height t;
+    hx_texture_eval(&m->tex, p[0], p[1], &t);
+    d = p[2] - t.h;
+    if (!(d < 0.0))
+        return;
+    s[0] = t.gx;
+    s[1] = t.gy;
+    dl = lateral(m, d, &follows);
+    f[0] = k * dl * s[0];
+    f[1] = k * dl * s[1];
+    f[2] = -k * d;
+    if (!jac)
+        return;
+    lat = follows ? 1.0 : 0.0;
+    hs[0] = t.hxx;
+    hs[1] = hs[2] = t.hxy;
+    hs[3] = t.hyy;
+    for (i = 0; i < 2; i++) {
+        for (j = 0; j < 2; j++)
+            jac[3 * i + j] = k * (-lat * s[i] * s[j] + dl * hs[2 * i + j]);
+        jac[3 * i + 2] = k * lat * s[i];
+        jac[6 + i] = k * s[i];
+    }
+    jac[8] = -k;
+}
+
+/* G, eq. 28: f = -kappa_0 p^z n with the lateral part at max(p^z, -d^z_max);
+ * J = kappa_0 [[d_l g P H, lat s], [p^z g^3 (H s)^T, -g]], lat = g where d_l follows p^z. */
+static void field_g(const hx_model *m, const double p[3], double f[3], double jac[9])
+{
+    double k = m->prm[HX_P_K0], d = p[2], dl, g, lat, gph[4], s[2];
+    int follows, i, j;
+    hx_height t;
+    if (!(d < 0.0))
+        return;
+    hx_texture_eval(&m->tex, p[0], p[1], &t);
+    s[0] = t.gx;
+    s[1] = t.gy;
+    g = 1.0 / sqrt(1.0 + s[0] * s[0] + s[1] * s[1]);
+    dl = lateral(m, d, &follows);
+    f[0] = k * dl * g * s[0];
+    f[1] = k * dl * g * s[1];
+    f[2] = -k * d * g;
+    if (!jac)
+        return;
+    lat = follows ? g : 0.0;
+    normal_derivative(&t, g, gph);
+    for (i = 0; i < 2; i++) {
+        for (j = 0; j < 2; j++)
+            jac[3 * i + j] = k * dl * gph[2 * i + j];
+        jac[3 * i + 2] = k * lat * s[i];
+    }
+    jac[6] = k * d * g * g * g * (t.hxx * s[0] + t.hxy * s[1]);
+    jac[7] = k * d * g * g * g * (t.hxy * s[0] + t.hyy * s[1]);
+    jac[8] = -k * g;
+}
+
+/* The letters in the order of HX_ALG_*; NULL: not evaluated by the core yet. */
+static const field_fn FIELDS[HX_N_ALGS] = {field_w, field_a, field_b, field_c, NULL, NULL, NULL, field_g};
+
+int hx_model_check(const hx_model *m)
+{
+    if (m->code < 0 || m->code >= HX_N_ALGS)
+        return HX_BAD_ALGORITHM;
+    return hx_texture_check(m->tex.kind, m->tex.c, m->tex.rows, m->tex.cols);
+}
+
+int hx_field(const hx_model *m, const double p[3], double f[3], double jac[9])
+{
+    field_fn fn;
+    zero(f, jac);
+    if (m->code < 0 || m->code >= HX_N_ALGS)
+        return HX_BAD_ALGORITHM;
+    fn = FIELDS[m->code];
+    if (fn == NULL)
+        return HX_NOT_IN_CORE;
+    fn(m, p, f, jac);
+    return HX_OK;
+}

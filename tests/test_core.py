@@ -1,0 +1,175 @@
+"""The C core (issue 30, first step): texture evaluation and the memoryless fields W, A, B,
+C, G in C, against their oracle, the vectorised NumPy fields of haptex.algorithms, at 10^5
+random points per algorithm and texture, over profiles ([x, z]) and surfaces ([x, y, z]).
+
+References: the fields are the paper's eq. 6-7 (A), 11 (B), 13-15 (C), 28 (G), 30 (W) with
+the Jacobians derived in haptex.algorithms (themselves tested against finite differences in
+test_algorithms.py and test_surfaces.py). The C is written once over [x, y, z]: a profile is
+the y-independent surface, so the 2-D answers are also checked against an extruded profile.
+"""
+
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+import haptex as hx
+from haptex import core
+from haptex.core import _ext
+
+from .conftest import K0
+
+N = 100_000
+RNG = np.random.default_rng(20261123)
+
+
+def _profiles():
+    x = np.linspace(0.0, 8e-3, 97)
+    h = 0.3e-3 * np.sin(2 * np.pi * x / 2e-3) + 0.1e-3 * np.cos(2 * np.pi * x / 0.7e-3)
+    return {
+        "sinusoid (paper)": hx.Sinusoid(0.8e-3, 1e-3),
+        "sum of sinusoids": hx.SumOfSinusoids([0.3e-3, 0.1e-3, 0.05e-3], [2e-3, 0.7e-3, 0.31e-3], [0.1, 1.0, 2.0]),
+        "sampled, open ends": hx.SampledProfile(x, h),
+        "sampled, periodic": hx.SampledProfile(x[:-1], h[:-1], periodic=True),
+    }
+
+
+def _surfaces():
+    n = 48
+    x = np.arange(n) * (8e-3 / n)
+    X, Y = np.meshgrid(x, x, indexing="ij")
+    h = 0.15e-3 * np.sin(2 * np.pi * X / 2e-3) * np.sin(2 * np.pi * Y / 2e-3) + 0.02e-3 * np.cos(2 * np.pi * Y / 1e-3)
+    return {
+        "egg-crate (paper)": hx.SumOfGratings.egg_crate(0.3e-3, 2e-3),
+        "oblique gratings": hx.SumOfGratings([0.2e-3, 0.05e-3], [2e-3, 0.6e-3], [0.3, 2.0], [0.0, 1.0]),
+        "height map, open edges": hx.SampledSurface(x, x, h),
+        "height map, periodic": hx.SampledSurface(x, x, h, periodic=True),
+        "extruded sum of sinusoids": hx.Extruded(_profiles()["sum of sinusoids"]),
+        "extruded sampled profile": hx.Extruded(_profiles()["sampled, open ends"]),
+    }
+
+
+def _points(dim, n=N):
+    """Positions over and beyond the textures' extent (the sampled ones end at 8 mm) and
+    from above the surface to 2 mm deep, so that the outside, the clamp and the map's
+    extensions are all reached."""
+    x = RNG.uniform(-2e-3, 10e-3, n)
+    z = RNG.uniform(-2e-3, 1e-3, n)
+    if dim == 2:
+        return np.column_stack([x, z])
+    return np.column_stack([x, RNG.uniform(-2e-3, 10e-3, n), z])
+
+
+def _algorithms(texture):
+    if texture.dimension == 1:
+        yield hx.algorithm("W", None, K0)
+    for letter in "ABCG":
+        yield hx.algorithm(letter, texture, K0)
+    for letter in "BCG":  # Remark 3's clamped lateral depth
+        yield hx.algorithm(letter, texture, K0, max_penetration=0.5e-3)
+
+
+def _check(alg, p):
+    f0, j0 = alg.force_and_jacobian(p)
+    f1, j1 = core.field(alg, p)
+    # round-off: the C and NumPy evaluate the same formulas in different orders, and a height
+    # map's C reads its bicubic patches (refitted from 4 x 4 samples of the NumPy spline)
+    fs, js = np.abs(f0).max() + 1e-30, np.abs(j0).max() + 1e-30
+    np.testing.assert_allclose(f1, f0, rtol=1e-11, atol=1e-12 * fs, err_msg=repr(alg))
+    np.testing.assert_allclose(j1, j0, rtol=1e-9, atol=1e-10 * js, err_msg=repr(alg))
+    assert np.count_nonzero(f0[..., -1]) > N // 10  # the test reached the inside of the wall
+
+
+@pytest.mark.parametrize("name", list(_profiles()))
+def test_profile_fields_match_numpy(name):
+    tex = _profiles()[name]
+    p = _points(2)
+    for alg in _algorithms(tex):
+        _check(alg, p)
+
+
+@pytest.mark.parametrize("name", list(_surfaces()))
+def test_surface_fields_match_numpy(name):
+    tex = _surfaces()[name]
+    p = _points(3)
+    for alg in _algorithms(tex):
+        _check(alg, p)
+    if name == "egg-crate (paper)":
+        _check(hx.algorithm("W", hx.Flat(2), K0), p)
+
+
+@pytest.mark.parametrize("name", ["sum of sinusoids", "sampled, open ends"])
+def test_profile_is_the_extruded_surface(name):
+    """Written once over the dimension: [x, z] over a profile gives exactly (bit for bit) the
+    x and z rows of [x, y, z] over the same profile extruded along y, for every y."""
+    prof = _profiles()[name]
+    p2 = _points(2, 20_000)
+    p3 = np.column_stack([p2[:, 0], RNG.uniform(-1.0, 1.0, p2.shape[0]), p2[:, 1]])
+    for letter in "ABCG":
+        f2, j2 = core.field(hx.algorithm(letter, prof, K0), p2)
+        f3, j3 = core.field(hx.algorithm(letter, hx.Extruded(prof), K0), p3)
+        np.testing.assert_array_equal(f2, f3[:, [0, 2]])
+        np.testing.assert_array_equal(j2, j3[:, [0, 2]][:, :, [0, 2]])
+        assert not f3[:, 1].any() and not j3[:, 1].any()
+
+
+@pytest.mark.parametrize("name", list(_profiles()) + list(_surfaces()))
+def test_texture_derivatives_match_numpy(name):
+    tex = {**_profiles(), **_surfaces()}[name]
+    xy = _points(3, 20_000)[:, :2]
+    got = core.texture_derivatives(tex, xy)
+    arg = xy[:, 0] if tex.dimension == 1 else xy
+    h = tex.height(arg) if tex.dimension == 1 else tex.height_at(arg)
+    scale = tex.peak_magnitude
+    np.testing.assert_allclose(got[:, 0], h, rtol=1e-11, atol=1e-12 * scale)
+    if tex.dimension == 1:
+        np.testing.assert_allclose(got[:, 1], tex.slope(arg), rtol=1e-10, atol=1e-12 * tex.max_slope)
+        np.testing.assert_allclose(got[:, 3], tex.curvature(arg), rtol=1e-9, atol=1e-11 * tex.max_curvature)
+        assert not got[:, [2, 4, 5]].any()
+    else:
+        hess = tex.hessian(xy)
+        np.testing.assert_allclose(got[:, 1:3], tex.gradient(xy), rtol=1e-10, atol=1e-12 * tex.max_slope)
+        np.testing.assert_allclose(got[:, [3, 4, 5]], hess[:, [0, 0, 1], [0, 1, 1]], rtol=1e-9,
+                                   atol=1e-11 * tex.max_curvature)
+
+
+def test_core_refuses_what_it_does_not_evaluate():
+    with pytest.raises(hx.ParameterError, match="algorithm = 'D'"):
+        core.field(hx.algorithm("D", hx.Sinusoid(1e-4, 1e-3), K0), [[0.0, -1e-4]])
+    with pytest.raises(hx.ParameterError, match="p"):
+        core.field(hx.algorithm("A", hx.Sinusoid(1e-4, 1e-3), K0), [[0.0, np.nan]])
+
+
+def test_core_never_reads_past_its_arrays():
+    """The C checks a texture's shape and header against the array it was given before it
+    reads a coefficient: a header that claims more cells than the array holds is refused."""
+    tex = _surfaces()["height map, open edges"]
+    kind, coeffs = tex.kernel_data()
+    prm = np.zeros(_ext.N_PARAMS)
+    prm[_ext.P_K0] = K0
+    p = np.zeros((1, 3))
+    f = np.empty((1, 3))
+    _ext.field(_ext.ALG_A, prm, kind, coeffs, p, f, None)  # the real one is accepted
+    for cut in (coeffs[:, :-16], coeffs[:, :8]):  # one cell short, header only
+        with pytest.raises(ValueError, match="coefficients"):
+            _ext.field(_ext.ALG_A, prm, kind, np.ascontiguousarray(cut), p, f, None)
+    lying = coeffs.copy()
+    lying[0, 4] *= 2  # nx doubled
+    with pytest.raises(ValueError, match="coefficients"):
+        _ext.field(_ext.ALG_A, prm, kind, lying, p, f, None)
+    spline_kind, spline = _profiles()["sampled, open ends"].kernel_data()
+    with pytest.raises(ValueError, match="coefficients"):
+        _ext.field(_ext.ALG_A, prm, spline_kind, np.ascontiguousarray(spline[:, 3:]), p[:, :2], f[:, :2], None)
+    with pytest.raises(ValueError, match="kind"):
+        _ext.field(_ext.ALG_A, prm, 99, coeffs, p, f, None)
+    with pytest.raises(ValueError, match="float64"):
+        _ext.field(_ext.ALG_A, prm, kind, coeffs.astype(np.float32), p, f, None)
+
+
+@pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc (apt-get install gcc)")
+def test_core_sources_compile_strictly(tmp_path):
+    """The core's files as they ship compile as strict C99 with every warning an error."""
+    for src in sorted(core.SOURCE_DIR.glob("hx_*.c")):
+        subprocess.run(["gcc", "-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror", "-Wconversion", "-c",
+                        str(src), "-o", str(tmp_path / (src.stem + ".o"))], check=True, capture_output=True)
