@@ -15,9 +15,11 @@
 7. atlas: `haptex.sweep` on Dask with 1 and 2 workers, the overhead per task, the largest
    sweep (benchmarks/run_atlas.py);
 8. explore: the explorer's recompute per algorithm, and the browser's round trip from a
-   control change to the new view (Chromium; benchmarks/run_explore.py).
+   control change to the new view (Chromium; benchmarks/run_explore.py);
+9. core: the C core's cost per call across its binding (C API against ctypes) and the
+   throughput of its fields against the NumPy fields (benchmarks/run_core.py).
 
-Options: --only {analysis,renderer,simulator,worst,export,design,atlas,explore}, --points N, --json (analysis only).
+Options: --only {analysis,renderer,simulator,worst,export,design,atlas,explore,core}, --points N, --json (analysis only).
 Never part of the test run; results are reported in benchmarks/README.md. Sections 2 and
 3 need gcc.
 """
@@ -52,7 +54,7 @@ def main() -> None:
     ap.add_argument("--points", type=int, default=1_000_000)
     ap.add_argument("--json", action="store_true")
     ap.add_argument("--only", choices=["analysis", "renderer", "simulator", "worst", "export", "design", "atlas",
-                                       "explore"])
+                                       "explore", "core"])
     args = ap.parse_args()
     if args.only in (None, "analysis"):
         analysis(args)
@@ -94,6 +96,11 @@ def main() -> None:
 
         print("\n# explorer: recompute and browser round trip")
         run_explore.main()
+    if args.only in (None, "core") and not args.json:
+        import run_core
+
+        print("\n# the C core: binding and fields")
+        run_core.main()
 
 
 def analysis(args) -> None:

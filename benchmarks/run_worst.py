@@ -75,7 +75,9 @@ def main() -> None:
             step = r.step
             lat = np.empty(m)
             worst = (-1, None, None, None)
-            st, rs = r._st, r._rs
+            # the C core's ticks (W, A, B, C, G) keep their state in C: one texture evaluation a
+            # tick whatever the input, so the worst input is replayed from a reset renderer
+            st, rs = (r._st, r._rs) if r._core is None else (np.zeros(0), np.zeros(0))
             gc.disable()
             for i, p in enumerate(pts):
                 st0, rs0 = st.copy(), rs.copy()
@@ -88,6 +90,8 @@ def main() -> None:
             lat = (lat - timer) / 1e3
             replay = np.empty(2000)
             for k in range(replay.size):
+                if r._core is not None:
+                    r.reset()
                 st[:], rs[:] = worst[2], worst[3]
                 t0 = time.perf_counter_ns()
                 step(worst[1])

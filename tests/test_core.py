@@ -10,6 +10,7 @@ the y-independent surface, so the 2-D answers are also checked against an extrud
 
 import shutil
 import subprocess
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -173,3 +174,72 @@ def test_core_sources_compile_strictly(tmp_path):
     for src in sorted(core.SOURCE_DIR.glob("hx_*.c")):
         subprocess.run(["gcc", "-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror", "-Wconversion", "-c",
                         str(src), "-o", str(tmp_path / (src.stem + ".o"))], check=True, capture_output=True)
+
+
+@pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc (apt-get install gcc)")
+def test_core_is_clean_under_asan_and_ubsan(tmp_path):
+    """tests/c/core_fuzz.c under -fsanitize=address,undefined: coefficient arrays allocated to
+    their exact size (a read one past is reported), headers that claim more cells than the
+    array holds refused by hx_texture_check, 7 x 10^5 fields at adversarial positions (0,
+    subnormals, cell edges, map ends, +-1 km), all finite; the servo tick over them and NaN
+    and infinite ones: forces finite and <= max force, faults counted. The driver was checked to fail
+    when the cell index is not clamped (a heap-buffer-overflow report)."""
+    probe = tmp_path / "probe.c"
+    probe.write_text("int main(void) { return 0; }\n")
+    ok = subprocess.run(["gcc", "-fsanitize=address,undefined", "-o", str(tmp_path / "probe"), str(probe)],
+                        capture_output=True).returncode == 0
+    if not ok or subprocess.run([str(tmp_path / "probe")], capture_output=True).returncode != 0:
+        pytest.skip("this gcc cannot build with -fsanitize=address,undefined")
+    driver = Path(__file__).parent / "c" / "core_fuzz.c"
+    exe = tmp_path / "core_fuzz"
+    sources = [str(core.SOURCE_DIR / name) for name in ("hx_texture.c", "hx_forces.c", "hx_render.c")]
+    subprocess.run(["gcc", "-std=c99", "-O1", "-g", "-fsanitize=address,undefined", "-fno-sanitize-recover=all",
+                    "-I", str(core.SOURCE_DIR), "-o", str(exe), str(driver), *sources, "-lm"], check=True,
+                   capture_output=True)
+    r = subprocess.run([str(exe)], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert r.stdout.startswith("ok ") and int(r.stdout.split()[1]) > 1_000_000
+
+
+def _trajectory(dim, n=4000, seed=1):
+    """A stroke in and out of the wall with noise, some malformed and far positions."""
+    rng = np.random.default_rng(seed)
+    t = np.linspace(0.0, 1.0, n)
+    x = 4e-3 * t + 2e-5 * rng.standard_normal(n)
+    y = 3e-3 * np.sin(3 * t) + 2e-5 * rng.standard_normal(n)
+    z = -1.2e-3 * np.sin(np.pi * 5 * t) + 2e-4 + 3e-5 * rng.standard_normal(n)
+    pts = [(float(a), float(b), float(c)) if dim == 3 else (float(a), float(c)) for a, b, c in zip(x, y, z)]
+    for k in range(50, n, 397):  # faults: NaN, beyond the workspace, the wrong length
+        pts[k] = (float("nan"),) * dim if k % 2 else (2e3,) * dim
+    pts[123] = (1.0,) * (dim + 1)
+    return pts
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("letter", list("WABCG"))
+def test_the_core_renderer_is_the_numba_renderer(monkeypatch, dim, letter):
+    """While numba keeps the ticks of D, E and F, it is the C tick's oracle for W, A, B, C, G:
+    the same forces (to round-off), faults, clamps, observed energy, controller activity and
+    work along a stroke through the wall with noise and faults, with a max force, the
+    passivity controller (stored reference) and W's virtual damper."""
+    tex = _profiles()["sum of sinusoids"] if dim == 2 else _surfaces()["height map, open edges"]
+    if letter == "W":
+        alg = hx.algorithm("W", None if dim == 2 else hx.Flat(2), K0, damping=3.0, period=1e-3)
+    else:
+        alg = hx.algorithm(letter, tex, K0, **({"max_penetration": 0.5e-3} if letter in "BCG" else {}))
+    kw = dict(max_force=2.0, passivity_controller=hx.PassivityController(5.0), period=1e-3)
+    c_side = hx.Renderer(alg, **kw)
+    monkeypatch.setattr(core, "IN_CORE", frozenset())
+    numba_side = hx.Renderer(alg, **kw)
+    assert c_side._core is not None and numba_side._core is None
+    for p in _trajectory(dim):
+        a, b = c_side.step(p), numba_side.step(p)
+        np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12)
+        assert c_side.last_work == numba_side.last_work
+    for name in ("faults", "clamps", "controller_active", "max_work"):
+        assert getattr(c_side, name) == getattr(numba_side, name), name
+    assert c_side.clamps > 10 and c_side.faults == 11 and c_side.controller_active > 0
+    np.testing.assert_allclose(c_side.energy, numba_side.energy, rtol=1e-10, atol=1e-15)
+    np.testing.assert_allclose(c_side.energy_per_axis, numba_side.energy_per_axis, rtol=1e-10, atol=1e-15)
+    c_side.reset()
+    assert (c_side.faults, c_side.clamps, c_side.energy, c_side.max_work) == (0, 0, 0.0, 0)

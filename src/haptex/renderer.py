@@ -15,6 +15,7 @@ import numpy as np
 from dataclasses import dataclass
 
 from . import _kernels
+from . import core as _core
 from ._kernels import (PC_ACTIVE, PC_ALPHA, PC_BMAX, PC_E, PC_EAX, PC_HAVE, PC_ON, PC_REF, PC_REF_STORED,
                        PC_REF_ZERO, PC_T, RS_CLAMPS, RS_DIM, RS_FAULTS, RS_LIMIT, RS_MAXF, RS_MAXWORK, RS_MONITOR,
                        RS_WORK)
@@ -183,6 +184,16 @@ class Renderer:
         self.passivity_controller = passivity_controller
         self.dimension = algorithm.dimension
         code, prm, kind, coeffs, aux = algorithm.kernel_spec()
+        self._core = None
+        if algorithm.letter in _core.IN_CORE:  # the C core's tick (D, E, F: the numba tick below, until ported)
+            pc = passivity_controller
+            self._core = _core._ext.Renderer(
+                code, prm, kind, coeffs, self.dimension, math.inf if max_force is None else float(max_force),
+                WORKSPACE_LIMIT, bool(energy_monitor), pc is not None, 0.0 if pc is None else pc.max_damping,
+                pc is not None and pc.reference == "stored", 0.0 if T is None else T, self._step_checked)
+            self._search_table = False
+            self.step = self._core.step
+            return
         tabled = _tick_search_data(algorithm, aux)
         self._search_table = tabled is not aux and tabled[_kernels.A_TABLE] != 0.0
         aux = tabled
@@ -212,6 +223,9 @@ class Renderer:
         self.step = _fast_step(self)
 
     def _tick(self, x, y, z):
+        """(fx, fy, fz) (N) at floats (x, y, z) (m), fy = 0 over a profile."""
+        if self._core is not None:
+            return self._core.tick(x, y, z)
         return _render_step(x, y, z, self._mem)
 
     def step(self, p):
@@ -252,15 +266,18 @@ class Renderer:
                             or isinstance(z, bool)):
                         raise TypeError
                     x, z = float(x), float(z)
-                fx, _, fz = _render_step(x, 0.0, z, self._mem)
+                fx, _, fz = self._tick(x, 0.0, z)
                 return fx, fz
             x, y, z = p
             if type(x) is not float or type(y) is not float or type(z) is not float:
                 if not all(isinstance(c, _REAL) and not isinstance(c, bool) for c in (x, y, z)):
                     raise TypeError
                 x, y, z = float(x), float(y), float(z)
-            return _render_step(x, y, z, self._mem)
+            return self._tick(x, y, z)
         except Exception:  # a malformed p: never let it reach the motor loop
+            if self._core is not None:
+                self._core.fault()
+                return (0.0,) * self.dimension
             self._rs[RS_FAULTS] += 1.0
             self._pc[PC_HAVE] = 0.0
             self._rs[RS_WORK] = 0.0
@@ -277,16 +294,19 @@ class Renderer:
     def last_work(self) -> int:
         """Work of the last :meth:`step`, bounded for any input: texture evaluations, plus
         F's presliding table steps (at most 11 + 60) in its smooth variant."""
-        return int(self._rs[RS_WORK])
+        return self._core.last_work if self._core is not None else int(self._rs[RS_WORK])
 
     @property
     def max_work(self) -> int:
         """Largest :attr:`last_work` since construction or :meth:`reset`."""
-        return int(self._rs[RS_MAXWORK])
+        return self._core.max_work if self._core is not None else int(self._rs[RS_MAXWORK])
 
     def reset(self) -> None:
         """Clear the algorithm's state (friction, warm start), the observer, the controller and
         the counters."""
+        if self._core is not None:
+            self._core.reset()
+            return
         self._st[:] = 0.0
         for k in (RS_FAULTS, RS_CLAMPS, RS_WORK, RS_MAXWORK):
             self._rs[k] = 0.0
@@ -297,34 +317,36 @@ class Renderer:
     @property
     def faults(self) -> int:
         """Calls whose position was not finite numbers within +-1 km (zero force returned)."""
-        return int(self._rs[RS_FAULTS])
+        return self._core.faults if self._core is not None else int(self._rs[RS_FAULTS])
 
     @property
     def clamps(self) -> int:
         """Calls whose force was scaled down to ``max_force``."""
-        return int(self._rs[RS_CLAMPS])
+        return self._core.clamps if self._core is not None else int(self._rs[RS_CLAMPS])
 
     @property
     def energy(self) -> float:
         """Passivity observer: energy absorbed by the virtual environment so far (J);
         negative means the rendering has supplied energy. 0 without ``energy_monitor``."""
-        return float(self._pc[PC_E])
+        return self._core.energy if self._core is not None else float(self._pc[PC_E])
 
     @property
     def energy_per_axis(self) -> tuple[float, ...]:
         """(E_x, E_z) or (E_x, E_y, E_z) of the passivity observer (J), the paper's Section
         V-B sums."""
+        if self._core is not None:
+            return self._core.energy_per_axis
         return tuple(float(self._pc[PC_EAX + i]) for i in range(self.dimension))
 
     @property
     def controller_active(self) -> int:
         """Ticks on which the passivity controller added damping."""
-        return int(self._pc[PC_ACTIVE])
+        return self._core.controller_active if self._core is not None else int(self._pc[PC_ACTIVE])
 
     @property
     def controller_damping(self) -> float:
         """The damping alpha the controller added on the last tick (N s/m), 0 if none."""
-        return float(self._pc[PC_ALPHA])
+        return self._core.controller_damping if self._core is not None else float(self._pc[PC_ALPHA])
 
     @property
     def adhesion(self):

@@ -7,6 +7,9 @@
  */
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
+#include <structmember.h>
+#include <stdlib.h>
+#include <string.h>
 
 #include "hx_core.h"
 
@@ -232,6 +235,279 @@ static PyObject *texture(PyObject *self, PyObject *const *args, Py_ssize_t nargs
     Py_RETURN_NONE;
 }
 
+
+/* ---- Renderer: one hx_renderer, its own copy of the coefficients ------------------ */
+
+typedef struct {
+    PyObject_HEAD
+    hx_renderer r;
+    double *coeffs; /* owned copy: the model never points into a Python object */
+    int dim;        /* 2: [x, z]; 3: [x, y, z] */
+    PyObject *fallback; /* called with p when step's fast path does not apply */
+} RendererObject;
+
+static void Renderer_dealloc(RendererObject *self)
+{
+    free(self->coeffs);
+    Py_XDECREF(self->fallback);
+    Py_TYPE(self)->tp_free((PyObject *)self);
+}
+
+static int Renderer_init(RendererObject *self, PyObject *args, PyObject *kwds)
+{
+    static char *kwlist[] = {"code", "prm", "kind", "coeffs", "dim", "max_force", "limit", "monitor",
+                             "controller", "max_damping", "stored_reference", "period", "fallback", NULL};
+    int code, kind, dim, monitor, on, stored, rc, i;
+    double max_force, limit, bmax, T;
+    PyObject *prm_obj, *coeffs_obj, *fallback;
+    Py_buffer prm, coeffs;
+    size_t bytes;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "iOiOiddppdpdO", kwlist, &code, &prm_obj, &kind, &coeffs_obj,
+                                     &dim, &max_force, &limit, &monitor, &on, &bmax, &stored, &T, &fallback))
+        return -1;
+    if (dim != 2 && dim != 3) {
+        PyErr_SetString(PyExc_ValueError, "dim must be 2 or 3");
+        return -1;
+    }
+    if (!PyCallable_Check(fallback)) {
+        PyErr_SetString(PyExc_TypeError, "fallback must be callable");
+        return -1;
+    }
+    if (get_doubles(prm_obj, &prm, 0, 1, "prm") < 0)
+        return -1;
+    if (prm.shape[0] != HX_N_PARAMS) {
+        PyBuffer_Release(&prm);
+        PyErr_Format(PyExc_ValueError, "prm must have %d values", HX_N_PARAMS);
+        return -1;
+    }
+    if (get_doubles(coeffs_obj, &coeffs, 0, -1, "coeffs") < 0 || coeffs.ndim > 2) {
+        if (!PyErr_Occurred()) {
+            PyBuffer_Release(&coeffs);
+            PyErr_SetString(PyExc_ValueError, "coeffs must have at most 2 dimensions");
+        }
+        PyBuffer_Release(&prm);
+        return -1;
+    }
+    memset(&self->r, 0, sizeof self->r);
+    free(self->coeffs);
+    bytes = (size_t)coeffs.len > 0 ? (size_t)coeffs.len : sizeof(double);
+    self->coeffs = malloc(bytes);
+    if (self->coeffs == NULL) {
+        PyBuffer_Release(&coeffs);
+        PyBuffer_Release(&prm);
+        PyErr_NoMemory();
+        return -1;
+    }
+    memcpy(self->coeffs, coeffs.buf, (size_t)coeffs.len);
+    self->r.model.code = code;
+    for (i = 0; i < HX_N_PARAMS; i++)
+        self->r.model.prm[i] = ((const double *)prm.buf)[i];
+    self->r.model.tex.kind = kind;
+    self->r.model.tex.c = self->coeffs;
+    self->r.model.tex.rows = coeffs.ndim == 2 ? (long)coeffs.shape[0] : 1;
+    self->r.model.tex.cols = coeffs.ndim == 2 ? (long)coeffs.shape[1] : (coeffs.ndim == 1 ? (long)coeffs.shape[0] : 0);
+    PyBuffer_Release(&coeffs);
+    PyBuffer_Release(&prm);
+    rc = hx_model_check(&self->r.model);
+    if (rc == HX_OK && (code == HX_ALG_D || code == HX_ALG_E || code == HX_ALG_F))
+        rc = HX_NOT_IN_CORE;
+    if (rc != HX_OK) {
+        core_error(rc);
+        return -1;
+    }
+    self->dim = dim;
+    self->r.max_force = max_force;
+    self->r.limit = limit;
+    self->r.monitor = monitor || on;
+    self->r.pc.on = on;
+    self->r.pc.bmax = bmax;
+    self->r.pc.ref_stored = stored;
+    self->r.pc.T = T;
+    Py_INCREF(fallback);
+    Py_XSETREF(self->fallback, fallback);
+    return 0;
+}
+
+static PyObject *make_tuple(const RendererObject *self, const double f[3])
+{
+    PyObject *t = PyTuple_New(self->dim);
+    int i, k = 0;
+    if (t == NULL)
+        return NULL;
+    for (i = 0; i < 3; i++) {
+        PyObject *v;
+        if (self->dim == 2 && i == 1)
+            continue;
+        v = PyFloat_FromDouble(f[i]);
+        if (v == NULL) {
+            Py_DECREF(t);
+            return NULL;
+        }
+        PyTuple_SET_ITEM(t, k++, v);
+    }
+    return t;
+}
+
+PyDoc_STRVAR(step_doc, "step(p)\n--\n\nThe force (N) for one probe position p (m): the fast path for a tuple or list of "
+                       "plain floats, else the fallback given at construction.");
+
+static PyObject *Renderer_step(RendererObject *self, PyObject *p)
+{
+    PyObject **items;
+    double q[3], f[3];
+    Py_ssize_t n;
+    if (PyTuple_CheckExact(p)) {
+        n = PyTuple_GET_SIZE(p);
+        items = &PyTuple_GET_ITEM(p, 0);
+    } else if (PyList_CheckExact(p)) {
+        n = PyList_GET_SIZE(p);
+        items = PyList_GET_SIZE(p) ? &PyList_GET_ITEM(p, 0) : NULL;
+    } else {
+        return PyObject_CallOneArg(self->fallback, p);
+    }
+    if (n != self->dim || !PyFloat_CheckExact(items[0]) || !PyFloat_CheckExact(items[1]) ||
+        (n == 3 && !PyFloat_CheckExact(items[2])))
+        return PyObject_CallOneArg(self->fallback, p);
+    q[0] = PyFloat_AS_DOUBLE(items[0]);
+    if (n == 3) {
+        q[1] = PyFloat_AS_DOUBLE(items[1]);
+        q[2] = PyFloat_AS_DOUBLE(items[2]);
+    } else {
+        q[1] = 0.0;
+        q[2] = PyFloat_AS_DOUBLE(items[1]);
+    }
+    hx_render_step(&self->r, q[0], q[1], q[2], f);
+    return make_tuple(self, f);
+}
+
+PyDoc_STRVAR(tick_doc, "tick(x, y, z)\n--\n\nThe force (fx, fy, fz) (N) at (x, y, z) (m, floats; y = 0 and fy = 0 "
+                       "over a profile).");
+
+static PyObject *Renderer_tick(RendererObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    double q[3], f[3];
+    int i;
+    if (nargs != 3) {
+        PyErr_SetString(PyExc_TypeError, "tick takes x, y, z");
+        return NULL;
+    }
+    for (i = 0; i < 3; i++) {
+        q[i] = PyFloat_AsDouble(args[i]);
+        if (q[i] == -1.0 && PyErr_Occurred())
+            return NULL;
+    }
+    hx_render_step(&self->r, q[0], q[1], q[2], f);
+    return Py_BuildValue("(ddd)", f[0], f[1], f[2]);
+}
+
+PyDoc_STRVAR(run_doc, "run(points, forces)\n--\n\nTicks over every row of points (float64 (N, dim), m) in "
+                      "order, the forces (N) into forces (float64 (N, dim)); the GIL released.");
+
+static PyObject *Renderer_run(RendererObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    Py_buffer pts, frc;
+    Py_ssize_t i, n;
+    int dim = self->dim;
+    if (nargs != 2) {
+        PyErr_SetString(PyExc_TypeError, "run takes points and forces");
+        return NULL;
+    }
+    if (get_doubles(args[0], &pts, 0, 2, "points") < 0)
+        return NULL;
+    if (get_doubles(args[1], &frc, 1, 2, "forces") < 0) {
+        PyBuffer_Release(&pts);
+        return NULL;
+    }
+    n = pts.shape[0];
+    if (pts.shape[1] != dim || frc.shape[0] != n || frc.shape[1] != dim) {
+        PyBuffer_Release(&frc);
+        PyBuffer_Release(&pts);
+        PyErr_SetString(PyExc_ValueError, "points and forces must both be (N, dim)");
+        return NULL;
+    }
+    Py_BEGIN_ALLOW_THREADS
+    {
+        const double *p = (const double *)pts.buf;
+        double *out = (double *)frc.buf, f[3];
+        for (i = 0; i < n; i++) {
+            const double *q = p + dim * i;
+            if (dim == 3) {
+                hx_render_step(&self->r, q[0], q[1], q[2], out + 3 * i);
+            } else {
+                hx_render_step(&self->r, q[0], 0.0, q[1], f);
+                out[2 * i] = f[0];
+                out[2 * i + 1] = f[2];
+            }
+        }
+    }
+    Py_END_ALLOW_THREADS
+    PyBuffer_Release(&frc);
+    PyBuffer_Release(&pts);
+    Py_RETURN_NONE;
+}
+
+static PyObject *Renderer_fault(RendererObject *self, PyObject *unused)
+{
+    (void)unused;
+    self->r.faults++;
+    self->r.pc.have = 0;
+    self->r.work = 0;
+    Py_RETURN_NONE;
+}
+
+static PyObject *Renderer_reset(RendererObject *self, PyObject *unused)
+{
+    (void)unused;
+    hx_render_reset(&self->r);
+    Py_RETURN_NONE;
+}
+
+static PyObject *Renderer_energy_axis(RendererObject *self, void *closure)
+{
+    (void)closure;
+    return make_tuple(self, self->r.pc.e_axis);
+}
+
+static PyMethodDef Renderer_methods[] = {
+    {"step", (PyCFunction)Renderer_step, METH_O, step_doc},
+    {"tick", (PyCFunction)(void (*)(void))Renderer_tick, METH_FASTCALL, tick_doc},
+    {"run", (PyCFunction)(void (*)(void))Renderer_run, METH_FASTCALL, run_doc},
+    {"fault", (PyCFunction)Renderer_fault, METH_NOARGS, "Count a fault found before the tick (a malformed p)."},
+    {"reset", (PyCFunction)Renderer_reset, METH_NOARGS, "Clear the state, observer sums and counters."},
+    {NULL, NULL, 0, NULL},
+};
+
+static PyMemberDef Renderer_members[] = {
+    {"faults", T_LONG, offsetof(RendererObject, r.faults), READONLY, "faults counted"},
+    {"clamps", T_LONG, offsetof(RendererObject, r.clamps), READONLY, "forces scaled to max_force"},
+    {"last_work", T_LONG, offsetof(RendererObject, r.work), READONLY, "work of the last tick"},
+    {"max_work", T_LONG, offsetof(RendererObject, r.max_work), READONLY, "largest work of a tick"},
+    {"energy", T_DOUBLE, offsetof(RendererObject, r.pc.E), READONLY, "energy absorbed (J)"},
+    {"controller_active", T_LONG, offsetof(RendererObject, r.pc.active), READONLY, "ticks the controller damped"},
+    {"controller_damping", T_DOUBLE, offsetof(RendererObject, r.pc.alpha), READONLY, "last alpha (N s/m)"},
+    {"contact", T_INT, offsetof(RendererObject, r.st.contact), READONLY, "the algorithm's contact flag"},
+    {NULL, 0, 0, 0, NULL},
+};
+
+static PyGetSetDef Renderer_getset[] = {
+    {"energy_per_axis", (getter)Renderer_energy_axis, NULL, "E per axis (J)", NULL},
+    {NULL, NULL, NULL, NULL, NULL},
+};
+
+static PyTypeObject RendererType = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = "haptex.core._ext.Renderer",
+    .tp_basicsize = sizeof(RendererObject),
+    .tp_dealloc = (destructor)Renderer_dealloc,
+    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_doc = "The C core's servo tick: a model, its state, the safety rules and counters (see haptex.Renderer).",
+    .tp_methods = Renderer_methods,
+    .tp_members = Renderer_members,
+    .tp_getset = Renderer_getset,
+    .tp_init = (initproc)Renderer_init,
+    .tp_new = PyType_GenericNew,
+};
+
 static PyMethodDef methods[] = {
     {"field", (PyCFunction)(void (*)(void))field, METH_FASTCALL, field_doc},
     {"texture", (PyCFunction)(void (*)(void))texture, METH_FASTCALL, texture_doc},
@@ -258,6 +534,10 @@ PyMODINIT_FUNC PyInit__ext(void)
     size_t i;
     if (mod == NULL)
         return NULL;
+    if (PyType_Ready(&RendererType) < 0 || PyModule_AddObjectRef(mod, "Renderer", (PyObject *)&RendererType) < 0) {
+        Py_DECREF(mod);
+        return NULL;
+    }
     for (i = 0; i < sizeof consts / sizeof consts[0]; i++) {
         if (PyModule_AddIntConstant(mod, consts[i].name, consts[i].value) < 0) {
             Py_DECREF(mod);

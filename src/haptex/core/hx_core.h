@@ -95,6 +95,63 @@ int hx_model_check(const hx_model *m);
  * zero outside the wall. Returns HX_OK, or HX_NOT_IN_CORE for D, E and F (not yet in C). */
 int hx_field(const hx_model *m, const double p[3], double f[3], double jac[9]);
 
+/* ---- the servo tick ------------------------------------------------------------- */
+
+/* An algorithm's state in a servo loop (mutable; zero it to start). */
+typedef struct {
+    int contact;   /* W: a previous sample exists (its virtual damper's backward difference) */
+    double last_z; /* W: the previous sensed p^z (m) */
+    double pen;    /* the penetration of the last tick (Table I's, >= 0, m) */
+    long work;     /* texture evaluations of the last tick */
+} hx_state;
+
+/* The force of one servo tick (N) at p (m): the field, plus W's virtual damper
+ * (Colgate & Schenkel 1997) from the state; updates the state. HX_OK or HX_NOT_IN_CORE. */
+int hx_tick_force(const hx_model *m, hx_state *s, const double p[3], double f[3]);
+
+/* Time-domain passivity observer and controller (Hannaford & Ryu 2002), over [x, y, z]. */
+typedef struct {
+    int on;           /* the controller acts (else observe only) */
+    int ref_stored;   /* reference energy: kappa_0 pen^2 / 2 (Ryu et al. 2005), else 0 */
+    double bmax;      /* largest damping the controller adds (N s/m) */
+    double T;         /* servo period (s) */
+    double E;         /* energy the virtual environment absorbed (J) */
+    double e_axis[3]; /* E per axis (J) */
+    double alpha;     /* damping added on the last tick (N s/m) */
+    long active;      /* ticks on which the controller added damping */
+    int have;         /* last[] and lastf[] hold the previous tick */
+    double last[3], lastf[3];
+} hx_passivity;
+
+/* Observe the energy of the last tick's force over the displacement since, then (when on)
+ * add the damping -alpha v that covers a deficit below the reference, alpha <= bmax.
+ * Modifies f in place; call hx_passivity_sent with the force actually sent. */
+void hx_passivity_tick(hx_passivity *pc, const double p[3], double f[3], double k0, double pen);
+void hx_passivity_sent(hx_passivity *pc, const double p[3], const double f[3]);
+
+/* Scale f down to magnitude fmax without overflow (infinite components: their directions
+ * kept); 1 when it scaled, 0 otherwise. NaN in, NaN out (the caller counts a fault). */
+int hx_saturate(double f[3], double fmax);
+
+/* A renderer: one model, its state, the safety rules and the counters. */
+typedef struct {
+    hx_model model;
+    double max_force; /* N, +inf for none */
+    double limit;     /* workspace: |coordinate| beyond it is a fault (m) */
+    int monitor;      /* keep the passivity observer */
+    hx_state st;
+    hx_passivity pc;
+    long faults, clamps, work, max_work;
+} hx_renderer;
+
+/* One servo tick at (x, y, z) (m; y is 0 over a profile): the force to command (N), never
+ * NaN, never above max_force; zero for a position not finite or beyond the limit, or a
+ * non-finite force (counted in faults, the observer's memory and the contact reset). */
+void hx_render_step(hx_renderer *r, double x, double y, double z, double f[3]);
+
+/* Clear the state, the observer and controller's sums and the counters (settings kept). */
+void hx_render_reset(hx_renderer *r);
+
 #ifdef __cplusplus
 }
 #endif

@@ -14,7 +14,8 @@
 #include <math.h>
 #include <stddef.h>
 
-typedef void (*field_fn)(const hx_model *m, const double p[3], double f[3], double jac[9]);
+/* a field: force f, Jacobian jac (when not NULL), and *pen, the penetration of Table I (>= 0) */
+typedef void (*field_fn)(const hx_model *m, const double p[3], double f[3], double jac[9], double *pen);
 
 static void zero(double f[3], double jac[9])
 {
@@ -39,9 +40,10 @@ static double lateral(const hx_model *m, double d, int *follows)
 
 /* W, eq. 30: f = (0, 0, -kappa_0 p^z) inside; J = diag(0, 0, -kappa_0). (The virtual damper
  * of Colgate & Schenkel acts in the servo loop, not in the static field.) */
-static void field_w(const hx_model *m, const double p[3], double f[3], double jac[9])
+static void field_w(const hx_model *m, const double p[3], double f[3], double jac[9], double *pen)
 {
     double k = m->prm[HX_P_K0];
+    *pen = p[2] < 0.0 ? -p[2] : 0.0;
     if (p[2] >= 0.0)
         return;
     f[2] = -k * p[2];
@@ -50,7 +52,7 @@ static void field_w(const hx_model *m, const double p[3], double f[3], double ja
 }
 
 /* A, eq. 6-7: f = (0, 0, -kappa_0 d); the last row of J is kappa_0 (s_x, s_y, -1). */
-static void field_a(const hx_model *m, const double p[3], double f[3], double jac[9])
+static void field_a(const hx_model *m, const double p[3], double f[3], double jac[9], double *pen)
 {
     double k = m->prm[HX_P_K0], d;
     hx_height t;
@@ -61,6 +63,7 @@ static void field_a(const hx_model *m, const double p[3], double f[3], double ja
         t.gx = t.gy = 0.0;
     }
     d = p[2] - t.h;
+    *pen = d < 0.0 ? -d : 0.0;
     if (!(d < 0.0))
         return;
     f[2] = -k * d;
@@ -85,13 +88,14 @@ static void normal_derivative(const hx_height *t, double g, double out[4])
 /* B, eq. 11: f = -kappa_0 d n with the lateral part at d_l;
  * J = kappa_0 [[-lat s s^T + d_l g P H, lat s], [g s^T + d g^3 (H s)^T, -g]], lat = g where
  * d_l follows d, else 0. */
-static void field_b(const hx_model *m, const double p[3], double f[3], double jac[9])
+static void field_b(const hx_model *m, const double p[3], double f[3], double jac[9], double *pen)
 {
     double k = m->prm[HX_P_K0], d, dl, g, lat, gph[4], s[2];
     int follows, i, j;
     hx_height t;
     hx_texture_eval(&m->tex, p[0], p[1], &t);
     d = p[2] - t.h;
+    *pen = d < 0.0 ? -d : 0.0;
     if (!(d < 0.0))
         return;
     s[0] = t.gx;
@@ -117,13 +121,14 @@ static void field_b(const hx_model *m, const double p[3], double f[3], double ja
 
 /* C, eq. 13-15: f = kappa_0 (d_l s_x, d_l s_y, -d), the gradient of -kappa_0 d^2 / 2 when
  * unclamped; J = kappa_0 [[-lat s s^T + d_l H, lat s], [s^T, -1]], lat = 1 where d_l follows d. */
-static void field_c(const hx_model *m, const double p[3], double f[3], double jac[9])
+static void field_c(const hx_model *m, const double p[3], double f[3], double jac[9], double *pen)
 {
     double k = m->prm[HX_P_K0], d, dl, lat, s[2], hs[4];
     int follows, i, j;
     hx_height t;
     hx_texture_eval(&m->tex, p[0], p[1], &t);
     d = p[2] - t.h;
+    *pen = d < 0.0 ? -d : 0.0;
     if (!(d < 0.0))
         return;
     s[0] = t.gx;
@@ -149,11 +154,12 @@ static void field_c(const hx_model *m, const double p[3], double f[3], double ja
 
 /* G, eq. 28: f = -kappa_0 p^z n with the lateral part at max(p^z, -d^z_max);
  * J = kappa_0 [[d_l g P H, lat s], [p^z g^3 (H s)^T, -g]], lat = g where d_l follows p^z. */
-static void field_g(const hx_model *m, const double p[3], double f[3], double jac[9])
+static void field_g(const hx_model *m, const double p[3], double f[3], double jac[9], double *pen)
 {
     double k = m->prm[HX_P_K0], d = p[2], dl, g, lat, gph[4], s[2];
     int follows, i, j;
     hx_height t;
+    *pen = d < 0.0 ? -d : 0.0;
     if (!(d < 0.0))
         return;
     hx_texture_eval(&m->tex, p[0], p[1], &t);
@@ -191,12 +197,36 @@ int hx_model_check(const hx_model *m)
 int hx_field(const hx_model *m, const double p[3], double f[3], double jac[9])
 {
     field_fn fn;
+    double pen;
     zero(f, jac);
     if (m->code < 0 || m->code >= HX_N_ALGS)
         return HX_BAD_ALGORITHM;
     fn = FIELDS[m->code];
     if (fn == NULL)
         return HX_NOT_IN_CORE;
-    fn(m, p, f, jac);
+    fn(m, p, f, jac, &pen);
+    return HX_OK;
+}
+
+int hx_tick_force(const hx_model *m, hx_state *s, const double p[3], double f[3])
+{
+    field_fn fn;
+    zero(f, NULL);
+    s->work = 1;
+    if (m->code < 0 || m->code >= HX_N_ALGS || FIELDS[m->code] == NULL)
+        return HX_NOT_IN_CORE;
+    fn = FIELDS[m->code];
+    fn(m, p, f, NULL, &s->pen);
+    if (m->code == HX_ALG_W) {
+        /* Colgate & Schenkel's virtual damper B (HX_P_MU) over the servo period T (HX_P_DXMAX):
+         * the backward difference of the sensed p^z, from the second sample on */
+        double b = m->prm[HX_P_MU];
+        if (p[2] < 0.0 && b != 0.0 && s->contact)
+            f[2] -= b * (p[2] - s->last_z) / m->prm[HX_P_DXMAX];
+        s->last_z = p[2];
+        s->contact = 1;
+    } else if (m->code == HX_ALG_G && !(p[2] < 0.0)) {
+        s->contact = 0;
+    }
     return HX_OK;
 }

@@ -1,0 +1,137 @@
+/*
+ * The servo tick: the renderer's safety rules, the passivity observer/controller and the
+ * force saturation, over [x, y, z] (a profile's tick has y = 0 and f_y = 0, which leaves
+ * every sum and magnitude below the same as in 2-D).
+ */
+#include "hx_core.h"
+
+#include <math.h>
+
+void hx_passivity_tick(hx_passivity *pc, const double p[3], double f[3], double k0, double pen)
+{
+    double v2 = 0.0, ref, deficit;
+    int i;
+    pc->alpha = 0.0;
+    if (!pc->have)
+        return;
+    /* Hannaford & Ryu (2002), eq. 7: the energy absorbed over the last sample is the force
+     * sent then times the displacement sensed since */
+    for (i = 0; i < 3; i++) {
+        double dp = p[i] - pc->last[i], de = pc->lastf[i] * dp;
+        pc->E -= de;
+        pc->e_axis[i] -= de;
+        v2 += dp * dp;
+    }
+    if (!pc->on)
+        return;
+    ref = pc->ref_stored ? 0.5 * k0 * pen * pen : 0.0;
+    deficit = ref - pc->E;
+    if (deficit > 0.0 && v2 > 0.0) {
+        double alpha = deficit * pc->T / v2; /* (E_ref - E) / (T |v|^2), v = dp / T */
+        if (alpha > pc->bmax)
+            alpha = pc->bmax;
+        for (i = 0; i < 3; i++)
+            f[i] -= alpha * (p[i] - pc->last[i]) / pc->T;
+        pc->alpha = alpha;
+        pc->active++;
+    }
+}
+
+void hx_passivity_sent(hx_passivity *pc, const double p[3], const double f[3])
+{
+    int i;
+    for (i = 0; i < 3; i++) {
+        pc->last[i] = p[i];
+        pc->lastf[i] = f[i];
+    }
+    pc->have = 1;
+}
+
+int hx_saturate(double f[3], double fmax)
+{
+    int i, infinite = 0, nan = 0;
+    double mag = 0.0;
+    if (isinf(fmax))
+        return 0;
+    for (i = 0; i < 3; i++) {
+        if (isinf(f[i]))
+            infinite++;
+        else if (isnan(f[i]))
+            nan = 1;
+    }
+    if (infinite) {
+        double r;
+        if (nan)
+            return 0;
+        r = fmax / sqrt((double)infinite);
+        for (i = 0; i < 3; i++)
+            f[i] = isinf(f[i]) ? copysign(r, f[i]) : 0.0;
+        return 1;
+    }
+    for (i = 0; i < 3; i++)
+        mag = hypot(mag, f[i]);
+    if (mag > fmax) {
+        double r = fmax / mag;
+        for (i = 0; i < 3; i++)
+            f[i] *= r;
+        return 1;
+    }
+    return 0;
+}
+
+static int outside(double v, double limit) { return !isfinite(v) || fabs(v) > limit; }
+
+void hx_render_step(hx_renderer *r, double x, double y, double z, double f[3])
+{
+    double p[3];
+    int i, clamped;
+    f[0] = f[1] = f[2] = 0.0;
+    r->work = 0;
+    if (outside(x, r->limit) || outside(y, r->limit) || outside(z, r->limit)) {
+        r->faults++;
+        r->pc.have = 0;
+        return;
+    }
+    p[0] = x;
+    p[1] = y;
+    p[2] = z;
+    if (hx_tick_force(&r->model, &r->st, p, f) != HX_OK) {
+        r->faults++;
+        r->pc.have = 0;
+        f[0] = f[1] = f[2] = 0.0;
+        return;
+    }
+    r->work = r->st.work;
+    if (r->work > r->max_work)
+        r->max_work = r->work;
+    if (r->monitor)
+        hx_passivity_tick(&r->pc, p, f, r->model.prm[HX_P_K0], r->st.pen);
+    clamped = hx_saturate(f, r->max_force);
+    for (i = 0; i < 3; i++) {
+        if (!isfinite(f[i])) {
+            r->faults++;
+            r->pc.have = 0;
+            r->st.contact = 0;
+            f[0] = f[1] = f[2] = 0.0;
+            return;
+        }
+    }
+    if (clamped)
+        r->clamps++;
+    if (r->monitor)
+        hx_passivity_sent(&r->pc, p, f);
+}
+
+void hx_render_reset(hx_renderer *r)
+{
+    hx_passivity keep = r->pc;
+    hx_state zero_state = {0, 0.0, 0.0, 0};
+    hx_passivity zero_pc = {0, 0, 0.0, 0.0, 0.0, {0.0, 0.0, 0.0}, 0.0, 0, 0, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}};
+    r->st = zero_state;
+    r->pc = zero_pc;
+    r->pc.on = keep.on;
+    r->pc.ref_stored = keep.ref_stored;
+    r->pc.bmax = keep.bmax;
+    r->pc.T = keep.T;
+    r->faults = r->clamps = r->work = r->max_work = 0;
+}

@@ -1,0 +1,203 @@
+/*
+ * Fuzz driver of the C core under AddressSanitizer and UndefinedBehaviorSanitizer
+ * (tests/test_core.py compiles and runs it). Every coefficient array is allocated to its
+ * exact size on the heap, so a read one element past it is reported. It checks:
+ *   - hx_texture_check refuses arrays shorter than their header claims (and then nothing
+ *     reads them), and accepts the well-formed ones;
+ *   - every field at adversarial positions (huge, tiny, subnormal, exactly on cell edges and
+ *     map ends, far outside the map) reads only its arrays, and gives finite forces and
+ *     Jacobians for positions within +-1 km (the renderer's workspace limit);
+ *   - the servo tick (hx_render_step) with W's damper, the passivity controller and a max
+ *     force of 5 N over the same positions and NaN/infinite ones: every force finite and at
+ *     most 5 N, exactly the malformed positions counted as faults.
+ * Prints "ok <evaluations>" and exits 0, else prints the failure and exits 1.
+ */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "hx_core.h"
+
+static unsigned long long rng = 88172645463325252ULL;
+
+static double uniform(void)
+{
+    rng ^= rng << 13;
+    rng ^= rng >> 7;
+    rng ^= rng << 17;
+    return (double)(rng >> 11) / 9007199254740992.0;
+}
+
+static double position(int i)
+{
+    static const double special[] = {0.0, -0.0, 1e-320, -1e-320, 1e-3, 8e-3, 8e-3 + 1e-19, -1e-3, 1e3, -1e3,
+                                     999.999999, 2e-3, 1.6666666666666667e-4, 7.999999999999999e-3};
+    if (i % 3 == 0)
+        return special[(unsigned)(uniform() * 14.0) % 14];
+    if (i % 3 == 1)
+        return (uniform() - 0.5) * 2e3;
+    return (uniform() - 0.25) * 12e-3;
+}
+
+static double *fourier(long *rows, long *cols, int surface)
+{
+    long n = 3, i, r = surface ? 4 : 3;
+    double *c = malloc(sizeof(double) * (size_t)(r * n));
+    for (i = 0; i < n; i++) {
+        c[i] = 1e-4 * (1.0 + uniform());
+        c[n + i] = 6283.0 * (1.0 + 3.0 * uniform());
+        c[2 * n + i] = surface ? 3000.0 * uniform() : uniform();
+        if (surface)
+            c[3 * n + i] = uniform();
+    }
+    *rows = r;
+    *cols = n;
+    return c;
+}
+
+static double *spline(long m, int periodic, long *rows, long *cols)
+{
+    long k = m + 2, i;
+    double *c = malloc(sizeof(double) * (size_t)(4 * k));
+    for (i = 0; i < 4 * k; i++)
+        c[i] = 1e-4 * (uniform() - 0.5);
+    c[m] = 0.0;                  /* x0 */
+    c[k + m] = 8e-3 / (double)m; /* dx */
+    c[2 * k + m] = periodic;
+    c[3 * k + m] = (double)m;
+    *rows = 4;
+    *cols = k;
+    return c;
+}
+
+static double *patches(long nx, long ny, int periodic, long cells, long *rows, long *cols)
+{
+    long k = 8 + 16 * cells, i;
+    double *c = malloc(sizeof(double) * (size_t)k);
+    c[0] = 0.0;
+    c[1] = 0.0;
+    c[2] = 8e-3 / (double)nx;
+    c[3] = 8e-3 / (double)ny;
+    c[4] = (double)nx;
+    c[5] = (double)ny;
+    c[6] = periodic;
+    c[7] = 0.0;
+    for (i = 8; i < k; i++)
+        c[i] = 1e-4 * (uniform() - 0.5);
+    *rows = 1;
+    *cols = k;
+    return c;
+}
+
+int main(void)
+{
+    long evaluations = 0;
+    int variant, code, i, j;
+    for (variant = 0; variant < 9; variant++) {
+        long rows = 0, cols = 0;
+        int kind, expect = HX_OK;
+        double *c;
+        hx_model m;
+        switch (variant) {
+        case 0: kind = HX_TEXTURE_FOURIER; c = fourier(&rows, &cols, 0); break;
+        case 1: kind = HX_SURFACE_GRATINGS; c = fourier(&rows, &cols, 1); break;
+        case 2: kind = HX_TEXTURE_SPLINE; c = spline(17, 0, &rows, &cols); break;
+        case 3: kind = HX_TEXTURE_SPLINE; c = spline(1, 1, &rows, &cols); break;
+        case 4: kind = HX_SURFACE_PATCHES; c = patches(7, 5, 0, 35, &rows, &cols); break;
+        case 5: kind = HX_SURFACE_PATCHES; c = patches(1, 1, 1, 1, &rows, &cols); break;
+        case 6: kind = HX_SURFACE_PATCHES; c = patches(7, 5, 0, 34, &rows, &cols); expect = HX_BAD_COEFFS; break;
+        case 7: kind = HX_TEXTURE_SPLINE; c = spline(17, 0, &rows, &cols); cols -= 1; expect = HX_BAD_COEFFS; break;
+        default: kind = HX_TEXTURE_FLAT; c = NULL; break;
+        }
+        m.tex.kind = kind;
+        m.tex.c = c;
+        m.tex.rows = rows;
+        m.tex.cols = cols;
+        for (i = 0; i < HX_N_PARAMS; i++)
+            m.prm[i] = -1.0;
+        m.prm[HX_P_K0] = 2000.0;
+        m.code = HX_ALG_A;
+        if (hx_model_check(&m) != expect) {
+            printf("variant %d: check gave %d, expected %d\n", variant, hx_model_check(&m), expect);
+            return 1;
+        }
+        if (expect != HX_OK) {
+            free(c);
+            continue;
+        }
+        for (code = 0; code < HX_N_ALGS; code++) {
+            m.code = code;
+            m.prm[HX_P_DZMAX] = code % 2 ? 5e-4 : -1.0;
+            for (i = 0; i < 20000; i++) {
+                double p[3], f[3], jac[9];
+                int rc;
+                p[0] = position(i);
+                p[1] = position(i + 1);
+                p[2] = position(i + 2) * (i % 5 == 0 ? 1.0 : 1e-3);
+                rc = hx_field(&m, p, f, i % 2 ? jac : NULL);
+                evaluations++;
+                if (rc == HX_NOT_IN_CORE)
+                    break;
+                if (rc != HX_OK) {
+                    printf("variant %d code %d: rc %d\n", variant, code, rc);
+                    return 1;
+                }
+                for (j = 0; j < 9; j++) {
+                    if ((j < 3 && !isfinite(f[j])) || ((i % 2) && !isfinite(jac[j]))) {
+                        printf("variant %d code %d: non-finite at (%g, %g, %g)\n", variant, code, p[0], p[1], p[2]);
+                        return 1;
+                    }
+                }
+            }
+        }
+        /* the servo tick over the same positions, with NaN and infinities too: never NaN,
+         * never above max force, faults counted */
+        for (code = 0; code < HX_N_ALGS; code++) {
+            hx_renderer r;
+            long faults_expected = 0;
+            memset(&r, 0, sizeof r);
+            r.model = m;
+            r.model.code = code;
+            r.model.prm[HX_P_MU] = code == HX_ALG_W ? 3.0 : -1.0;
+            r.model.prm[HX_P_DXMAX] = 1e-3;
+            r.max_force = 5.0;
+            r.limit = 1e3;
+            r.monitor = 1;
+            r.pc.on = 1;
+            r.pc.ref_stored = code % 2;
+            r.pc.bmax = 5.0;
+            r.pc.T = 1e-3;
+            for (i = 0; i < 20000; i++) {
+                double f[3], p[3];
+                p[0] = position(i);
+                p[1] = position(i + 1);
+                p[2] = position(i + 2) * (i % 5 == 0 ? 1.0 : 1e-3);
+                if (i % 97 == 0)
+                    p[i % 3] = i % 2 ? NAN : -INFINITY;
+                for (j = 0; j < 3; j++)
+                    if (!isfinite(p[j]) || fabs(p[j]) > r.limit) {
+                        faults_expected++;
+                        break;
+                    }
+                hx_render_step(&r, p[0], p[1], p[2], f);
+                evaluations++;
+                if (!isfinite(f[0]) || !isfinite(f[1]) || !isfinite(f[2]) ||
+                    sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]) > 5.0 * (1.0 + 1e-15)) {
+                    printf("variant %d code %d: tick force (%g, %g, %g)\n", variant, code, f[0], f[1], f[2]);
+                    return 1;
+                }
+            }
+            /* D, E and F are not in the core: every tick is a counted fault with zero force */
+            if (code == HX_ALG_D || code == HX_ALG_E || code == HX_ALG_F)
+                faults_expected = 20000;
+            if (r.faults != faults_expected) {
+                printf("variant %d code %d: %ld faults, expected %ld\n", variant, code, r.faults, faults_expected);
+                return 1;
+            }
+        }
+        free(c);
+    }
+    printf("ok %ld\n", evaluations);
+    return 0;
+}
