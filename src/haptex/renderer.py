@@ -185,10 +185,10 @@ class Renderer:
         self.dimension = algorithm.dimension
         code, prm, kind, coeffs, aux = algorithm.kernel_spec()
         self._core = None
-        if algorithm.letter in _core.IN_CORE:  # the C core's tick (D, E, F: the numba tick below, until ported)
+        if algorithm.letter in _core.TICKS_IN_CORE:  # the C core's tick (D, E: the numba tick below, until ported)
             pc = passivity_controller
             self._core = _core._ext.Renderer(
-                code, prm, kind, coeffs, self.dimension, math.inf if max_force is None else float(max_force),
+                code, prm, kind, coeffs, np.require(aux, np.float64, ["C"]), self.dimension, math.inf if max_force is None else float(max_force),
                 WORKSPACE_LIMIT, bool(energy_monitor), pc is not None, 0.0 if pc is None else pc.max_damping,
                 pc is not None and pc.reference == "stored", 0.0 if T is None else T, self._step_checked)
             self._search_table = False
@@ -352,7 +352,14 @@ class Renderer:
     def adhesion(self):
         """F's adhesion point while in contact (m): x over a profile, (x, y) over a surface;
         else None."""
-        if self.algorithm.letter != "F" or self._st[_kernels.S_CONTACT] == 0.0:
+        if self.algorithm.letter != "F":
+            return None
+        if self._core is not None:
+            adh = self._core.adhesion
+            if adh is None:
+                return None
+            return adh if self.dimension == 3 else adh[0]
+        if self._st[_kernels.S_CONTACT] == 0.0:
             return None
         if self.dimension == 3:
             return float(self._st[_kernels.S_ADH]), float(self._st[_kernels.S_ADHY])

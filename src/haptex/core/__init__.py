@@ -5,9 +5,11 @@ compiled at install into :mod:`haptex.core._ext`. This module is the thin Python
 takes an :class:`haptex.Algorithm` (already validated when it was made) and hands its
 kernel arrays (:meth:`haptex.Algorithm.kernel_spec`) to the C.
 
-Implemented so far: texture evaluation of every kind, and the memoryless fields W, A, B, C
-and G (forces and Jacobians) over profiles and surfaces, each written once over the
-dimension. The NumPy fields of :mod:`haptex.algorithms` are their oracle (tests/test_core.py).
+Implemented so far: texture evaluation of every kind, the memoryless fields W, A, B, C and G
+(forces and Jacobians) over profiles and surfaces, each written once over the dimension;
+presliding friction (F); and the servo tick (safety rules, passivity observer/controller,
+saturation, counters) that :class:`haptex.Renderer` runs for W, A, B, C, F and G. The NumPy
+fields of :mod:`haptex.algorithms` are the fields' oracle (tests/test_core.py).
 """
 
 from __future__ import annotations
@@ -23,8 +25,12 @@ SOURCE_DIR = Path(__file__).parent
 """Where the core's C sources are (``haptex export`` copies them from here)."""
 
 IN_CORE = frozenset("WABCG")
-"""The letters whose fields the C core evaluates (D, E and F follow: their searches and
-presliding state are the next steps of the port)."""
+"""The letters whose memoryless fields (force and Jacobian, :func:`field`) the C core
+evaluates (D and E follow with their closest-point searches; F has state, see below)."""
+
+TICKS_IN_CORE = frozenset("WABCFG")
+"""The letters whose servo tick (:class:`haptex.Renderer`) runs in the C core: the fields
+above, and F with its presliding friction (sharp and smooth, isotropic in the plane)."""
 
 
 def field(algorithm, p, jacobian: bool = True) -> tuple[np.ndarray, np.ndarray | None]:

@@ -241,7 +241,8 @@ static PyObject *texture(PyObject *self, PyObject *const *args, Py_ssize_t nargs
 typedef struct {
     PyObject_HEAD
     hx_renderer r;
-    double *coeffs; /* owned copy: the model never points into a Python object */
+    double *coeffs; /* owned copies: the model never points into a Python object */
+    double *aux;
     int dim;        /* 2: [x, z]; 3: [x, y, z] */
     PyObject *fallback; /* called with p when step's fast path does not apply */
 } RendererObject;
@@ -249,21 +250,22 @@ typedef struct {
 static void Renderer_dealloc(RendererObject *self)
 {
     free(self->coeffs);
+    free(self->aux);
     Py_XDECREF(self->fallback);
     Py_TYPE(self)->tp_free((PyObject *)self);
 }
 
 static int Renderer_init(RendererObject *self, PyObject *args, PyObject *kwds)
 {
-    static char *kwlist[] = {"code", "prm", "kind", "coeffs", "dim", "max_force", "limit", "monitor",
+    static char *kwlist[] = {"code", "prm", "kind", "coeffs", "aux", "dim", "max_force", "limit", "monitor",
                              "controller", "max_damping", "stored_reference", "period", "fallback", NULL};
     int code, kind, dim, monitor, on, stored, rc, i;
     double max_force, limit, bmax, T;
-    PyObject *prm_obj, *coeffs_obj, *fallback;
-    Py_buffer prm, coeffs;
+    PyObject *prm_obj, *coeffs_obj, *aux_obj, *fallback;
+    Py_buffer prm, coeffs, aux;
     size_t bytes;
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "iOiOiddppdpdO", kwlist, &code, &prm_obj, &kind, &coeffs_obj,
-                                     &dim, &max_force, &limit, &monitor, &on, &bmax, &stored, &T, &fallback))
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "iOiOOiddppdpdO", kwlist, &code, &prm_obj, &kind, &coeffs_obj,
+                                     &aux_obj, &dim, &max_force, &limit, &monitor, &on, &bmax, &stored, &T, &fallback))
         return -1;
     if (dim != 2 && dim != 3) {
         PyErr_SetString(PyExc_ValueError, "dim must be 2 or 3");
@@ -288,17 +290,29 @@ static int Renderer_init(RendererObject *self, PyObject *args, PyObject *kwds)
         PyBuffer_Release(&prm);
         return -1;
     }
+    if (get_doubles(aux_obj, &aux, 0, 1, "aux") < 0) {
+        PyBuffer_Release(&coeffs);
+        PyBuffer_Release(&prm);
+        return -1;
+    }
     memset(&self->r, 0, sizeof self->r);
     free(self->coeffs);
+    free(self->aux);
     bytes = (size_t)coeffs.len > 0 ? (size_t)coeffs.len : sizeof(double);
     self->coeffs = malloc(bytes);
-    if (self->coeffs == NULL) {
+    self->aux = malloc((size_t)aux.len > 0 ? (size_t)aux.len : sizeof(double));
+    if (self->coeffs == NULL || self->aux == NULL) {
+        PyBuffer_Release(&aux);
         PyBuffer_Release(&coeffs);
         PyBuffer_Release(&prm);
         PyErr_NoMemory();
         return -1;
     }
     memcpy(self->coeffs, coeffs.buf, (size_t)coeffs.len);
+    memcpy(self->aux, aux.buf, (size_t)aux.len);
+    self->r.model.aux = self->aux;
+    self->r.model.naux = (long)aux.shape[0];
+    PyBuffer_Release(&aux);
     self->r.model.code = code;
     for (i = 0; i < HX_N_PARAMS; i++)
         self->r.model.prm[i] = ((const double *)prm.buf)[i];
@@ -309,7 +323,7 @@ static int Renderer_init(RendererObject *self, PyObject *args, PyObject *kwds)
     PyBuffer_Release(&coeffs);
     PyBuffer_Release(&prm);
     rc = hx_model_check(&self->r.model);
-    if (rc == HX_OK && (code == HX_ALG_D || code == HX_ALG_E || code == HX_ALG_F))
+    if (rc == HX_OK && (code == HX_ALG_D || code == HX_ALG_E))
         rc = HX_NOT_IN_CORE;
     if (rc != HX_OK) {
         core_error(rc);
@@ -468,6 +482,14 @@ static PyObject *Renderer_energy_axis(RendererObject *self, void *closure)
     return make_tuple(self, self->r.pc.e_axis);
 }
 
+static PyObject *Renderer_adhesion(RendererObject *self, void *closure)
+{
+    (void)closure;
+    if (self->r.model.code != HX_ALG_F || !self->r.st.contact)
+        Py_RETURN_NONE;
+    return Py_BuildValue("(dd)", self->r.st.adh[0], self->r.st.adh[1]);
+}
+
 static PyMethodDef Renderer_methods[] = {
     {"step", (PyCFunction)Renderer_step, METH_O, step_doc},
     {"tick", (PyCFunction)(void (*)(void))Renderer_tick, METH_FASTCALL, tick_doc},
@@ -491,6 +513,7 @@ static PyMemberDef Renderer_members[] = {
 
 static PyGetSetDef Renderer_getset[] = {
     {"energy_per_axis", (getter)Renderer_energy_axis, NULL, "E per axis (J)", NULL},
+    {"adhesion", (getter)Renderer_adhesion, NULL, "F's adhesion point (x, y) in contact (m), else None", NULL},
     {NULL, NULL, NULL, NULL, NULL},
 };
 

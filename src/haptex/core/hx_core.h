@@ -70,6 +70,8 @@ typedef struct {
     int code;                   /* HX_ALG_* */
     double prm[HX_N_PARAMS];    /* HX_P_* */
     hx_texture tex;
+    const double *aux;          /* F's smooth presliding table (when HX_P_ZSTICK >= 0), else NULL */
+    long naux;
 } hx_model;
 
 /* h and its derivatives at one point: h (m), gradient (m/m), Hessian (1/m) */
@@ -87,7 +89,8 @@ void hx_texture_eval(const hx_texture *t, double x, double y, hx_height *out);
 /* h alone at (x, y): no derivative's cosine where only the height is needed. */
 double hx_texture_height(const hx_texture *t, double x, double y);
 
-/* Check a model: its texture and its algorithm code. HX_OK or an HX_BAD_* code. */
+/* Check a model: its texture, its algorithm code, and F's presliding table (when smooth).
+ * HX_OK or an HX_BAD_* code. */
 int hx_model_check(const hx_model *m);
 
 /* The memoryless field of algorithm m->code at p = [x, y, z] (m): the force f (N) and, when
@@ -95,18 +98,35 @@ int hx_model_check(const hx_model *m);
  * zero outside the wall. Returns HX_OK, or HX_NOT_IN_CORE for D, E and F (not yet in C). */
 int hx_field(const hx_model *m, const double p[3], double f[3], double jac[9]);
 
+/* ---- presliding (F) ------------------------------------------------------------- */
+
+/* Check F's smooth presliding table (haptex.friction.smooth_table) of n_tab values. */
+int hx_presliding_table_check(const double *tab, long n_tab);
+
+/* The smooth model's exact flow: the deflection (m) after the probe moved by dx (m) from
+ * deflection `deflection`; adds its table steps to *work (at most 11 + 60). */
+double hx_smooth_flow(double deflection, double dx, double d_max, double z_stick, const double *tab, long *work);
+
+/* One step of isotropic presliding in the tangent plane: the deflection d (m) after the
+ * in-plane displacement dp (m); z_stick < 0 for the sharp model (tab unused). */
+void hx_presliding_plane(double d[2], const double dp[2], double d_max, double z_stick, const double *tab,
+                         long *work);
+
 /* ---- the servo tick ------------------------------------------------------------- */
 
 /* An algorithm's state in a servo loop (mutable; zero it to start). */
 typedef struct {
-    int contact;   /* W: a previous sample exists (its virtual damper's backward difference) */
+    int contact;   /* W: a previous sample exists; F: in contact (its adhesion point is set) */
     double last_z; /* W: the previous sensed p^z (m) */
+    double adh[2]; /* F: the adhesion point in the plane (m) */
+    double last[2];/* F: the previous in-plane position (m) */
     double pen;    /* the penetration of the last tick (Table I's, >= 0, m) */
     long work;     /* texture evaluations of the last tick */
 } hx_state;
 
 /* The force of one servo tick (N) at p (m): the field, plus W's virtual damper
- * (Colgate & Schenkel 1997) from the state; updates the state. HX_OK or HX_NOT_IN_CORE. */
+ * (Colgate & Schenkel 1997), or F's presliding friction, from the state; updates the state.
+ * HX_OK or HX_NOT_IN_CORE (D, E). */
 int hx_tick_force(const hx_model *m, hx_state *s, const double p[3], double f[3]);
 
 /* Time-domain passivity observer and controller (Hannaford & Ryu 2002), over [x, y, z]. */

@@ -189,9 +189,53 @@ static const field_fn FIELDS[HX_N_ALGS] = {field_w, field_a, field_b, field_c, N
 
 int hx_model_check(const hx_model *m)
 {
+    int rc;
     if (m->code < 0 || m->code >= HX_N_ALGS)
         return HX_BAD_ALGORITHM;
-    return hx_texture_check(m->tex.kind, m->tex.c, m->tex.rows, m->tex.cols);
+    rc = hx_texture_check(m->tex.kind, m->tex.c, m->tex.rows, m->tex.cols);
+    if (rc == HX_OK && m->code == HX_ALG_F) {
+        if (!(m->prm[HX_P_DXMAX] > 0.0) || !isfinite(m->prm[HX_P_DXMAX]))
+            return HX_BAD_COEFFS;
+        if (m->prm[HX_P_ZSTICK] >= 0.0)
+            rc = hx_presliding_table_check(m->aux, m->naux);
+    }
+    return rc;
+}
+
+/* F, eq. 26-27 with presliding (eq. 24): the normal force -kappa_0 p^z and the friction
+ * force -mu kappa_0 d_z (1 - scale h) d / d^x_max in the plane, d the presliding deflection
+ * and d_z the depth, clamped at d^z_max (Remark 3). Contact starts with zero deflection;
+ * leaving the wall resets it. */
+static void tick_f(const hx_model *m, hx_state *s, const double p[3], double f[3])
+{
+    double k = m->prm[HX_P_K0], dmax = m->prm[HX_P_DXMAX], d[2], dp[2], depth, h, c;
+    s->pen = p[2] < 0.0 ? -p[2] : 0.0;
+    if (!(p[2] < 0.0)) {
+        s->contact = 0;
+        return;
+    }
+    if (!s->contact) {
+        s->contact = 1;
+        s->adh[0] = s->last[0] = p[0];
+        s->adh[1] = s->last[1] = p[1];
+    }
+    d[0] = s->last[0] - s->adh[0];
+    d[1] = s->last[1] - s->adh[1];
+    dp[0] = p[0] - s->last[0];
+    dp[1] = p[1] - s->last[1];
+    hx_presliding_plane(d, dp, dmax, m->prm[HX_P_ZSTICK], m->aux, &s->work);
+    s->adh[0] = p[0] - d[0];
+    s->adh[1] = p[1] - d[1];
+    s->last[0] = p[0];
+    s->last[1] = p[1];
+    h = hx_texture_height(&m->tex, p[0], p[1]);
+    depth = -p[2];
+    if (m->prm[HX_P_DZMAX] > 0.0 && depth > m->prm[HX_P_DZMAX])
+        depth = m->prm[HX_P_DZMAX];
+    c = -m->prm[HX_P_MU] * k * depth * (1.0 - m->prm[HX_P_SCALE] * h) / dmax;
+    f[0] = c * d[0];
+    f[1] = c * d[1];
+    f[2] = -k * p[2];
 }
 
 int hx_field(const hx_model *m, const double p[3], double f[3], double jac[9])
@@ -213,6 +257,10 @@ int hx_tick_force(const hx_model *m, hx_state *s, const double p[3], double f[3]
     field_fn fn;
     zero(f, NULL);
     s->work = 1;
+    if (m->code == HX_ALG_F) {
+        tick_f(m, s, p, f);
+        return HX_OK;
+    }
     if (m->code < 0 || m->code >= HX_N_ALGS || FIELDS[m->code] == NULL)
         return HX_NOT_IN_CORE;
     fn = FIELDS[m->code];

@@ -6,6 +6,7 @@
 #include "hx_core.h"
 
 #include <math.h>
+#include <string.h>
 
 void hx_passivity_tick(hx_passivity *pc, const double p[3], double f[3], double k0, double pen)
 {
@@ -125,10 +126,8 @@ void hx_render_step(hx_renderer *r, double x, double y, double z, double f[3])
 void hx_render_reset(hx_renderer *r)
 {
     hx_passivity keep = r->pc;
-    hx_state zero_state = {0, 0.0, 0.0, 0};
-    hx_passivity zero_pc = {0, 0, 0.0, 0.0, 0.0, {0.0, 0.0, 0.0}, 0.0, 0, 0, {0.0, 0.0, 0.0}, {0.0, 0.0, 0.0}};
-    r->st = zero_state;
-    r->pc = zero_pc;
+    memset(&r->st, 0, sizeof r->st);
+    memset(&r->pc, 0, sizeof r->pc);
     r->pc.on = keep.on;
     r->pc.ref_stored = keep.ref_stored;
     r->pc.bmax = keep.bmax;
