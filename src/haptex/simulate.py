@@ -18,7 +18,9 @@ Automatic Control 23(3), 1978, pp. 395–404.
 from __future__ import annotations
 
 import math
+import os
 import warnings
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -32,6 +34,7 @@ from ._kernels import run_batch as _run_batch
 from ._kernels import run_lean as _run_lean
 from ._kernels import run_one as _run
 from ._kernels import tail_amplitudes as _tail_amplitudes
+from . import core as _core
 from ._validation import ParameterError, fail, nonnegative, positions, positive, whole
 from .algorithms import Algorithm
 from .devices import Device
@@ -190,6 +193,48 @@ def _lean(fast: np.ndarray, kinematic: bool, pc_on: bool, delay, delta, fres, fm
            and np.all(np.asarray(delta) == 0.0) and np.all(np.asarray(fres) == 0.0)
            and np.all(np.asarray(fmax) == math.inf) and np.all(np.asarray(fc) == 0.0))
     return (1,) if off else ()
+
+
+def num_threads() -> int:
+    """Threads of the C core's batch loops: ``HAPTEX_NUM_THREADS`` (a whole number >= 1), by
+    default every core of the machine.
+
+    Raises
+    ------
+    ParameterError
+        If ``HAPTEX_NUM_THREADS`` is set to anything but a whole number from 1 to 1024.
+    """
+    raw = os.environ.get("HAPTEX_NUM_THREADS")
+    if raw is None:
+        return max(1, os.cpu_count() or 1)
+    try:
+        n = int(raw)
+    except ValueError:
+        n = 0
+    if not 1 <= n <= 1024:
+        raise fail("HAPTEX_NUM_THREADS", raw, "a whole number from 1 to 1024")
+    return n
+
+
+def _core_lean(code, kind, nominal, n_steps, T, record_every, tail_start, prm, coeffs, aux, fast, M, f0, P0, V0,
+               rec, summary, tail, threads: int = 1) -> None:
+    """Runs of the lean loop in the C core (:func:`haptex.core._ext.run_lean`): every per-run
+    array has a leading run axis; the runs are cut into ``threads`` contiguous slices run on
+    threads, the GIL released."""
+    per_run = [np.ascontiguousarray(a, dtype=np.float64) for a in (prm, coeffs, aux, fast, M, f0, P0, V0)]
+    outs = (rec, summary, tail)  # written in place: already contiguous float64 (made here)
+    N = per_run[0].shape[0]
+    cuts = np.linspace(0, N, min(threads, N) + 1).astype(int) if N else np.zeros(1, dtype=int)
+
+    def one(lo, hi):
+        _core._ext.run_lean(code, kind, nominal, n_steps, T, record_every, tail_start,
+                            *(a[lo:hi] for a in per_run), *(a[lo:hi] for a in outs))
+
+    if len(cuts) <= 2:
+        one(0, N)
+        return
+    with ThreadPoolExecutor(len(cuts) - 1) as pool:
+        list(pool.map(one, cuts[:-1], cuts[1:]))
 
 
 def _mass_inputs(device: Device) -> tuple[np.ndarray, np.ndarray]:
@@ -643,8 +688,13 @@ def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration:
     tail = np.zeros((d, min(n_steps - tail_start, 65536)))
     if _lean(fast, operator.kinematic, pc_on, device.delay, device.position_resolution, device.force_resolution,
              device.max_force, device.coulomb_friction):
-        _run_lean(code, kind, coeffs, prm, aux, nominal, fast, device.mass, operator.force, n_steps, device.period,
-                  p0, v0, record_every, rec, summary, tail_start, tail, (0,) * d)
+        if algorithm.letter in _core.TICKS_IN_CORE:
+            _core_lean(code, kind, nominal, n_steps, device.period, record_every, tail_start, prm[None],
+                       coeffs[None], aux[None], fast[None], device.mass[None], np.asarray(operator.force)[None],
+                       p0[None], v0[None], rec[None], summary[None], tail[None])
+        else:
+            _run_lean(code, kind, coeffs, prm, aux, nominal, fast, device.mass, operator.force, n_steps,
+                      device.period, p0, v0, record_every, rec, summary, tail_start, tail, (0,) * d)
     else:
         _run(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, Binv, fast, *_mass_inputs(device),
              operator.stiffness, operator.damping, operator.force, operator.setpoint_times, operator.setpoint_points,
@@ -1004,6 +1054,8 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     i_tail = next(i for i, (a, _) in enumerate(args) if a is None)
     thresholds = np.array([_threshold(d_) for d_ in dev])[inverse]
     freqs = _frequency_table([_texture_frequencies(a, o) for a, _, o in runs])[inverse]
+    in_core = bool(args[-1][0]) and runs[0][0].letter in _core.TICKS_IN_CORE  # the lean loop, in C
+    threads = num_threads() if in_core else 1
     show = (N * n_steps > 5e7) if progress is None else bool(progress)
     bar = _progress(show, N)
     osc = []
@@ -1013,9 +1065,14 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
             block = tail[:hi - lo]
             if lo:
                 block.fill(0.0)  # a run that diverges leaves the rest of its tail as it found it
-            call = [a[lo:hi] if per_run else a for a, per_run in args]
-            call[i_tail] = block
-            _run_batch(*call)
+            if in_core:
+                _core_lean(code, kind, nominal, n_steps, T, int(record_every), tail_start, prm[lo:hi], coeffs[lo:hi],
+                           aux[lo:hi], fast[lo:hi], M[lo:hi], f0[lo:hi], P0[lo:hi], V0[lo:hi], rec[lo:hi],
+                           summary[lo:hi], block, threads)
+            else:
+                call = [a[lo:hi] if per_run else a for a, per_run in args]
+                call[i_tail] = block
+                _run_batch(*call)
             osc += _oscillations(block, (n_steps - tail_start) * T, _tail_energy(summary[lo:hi]), thresholds[lo:hi],
                                  freqs[lo:hi])
             bar(idx.size)

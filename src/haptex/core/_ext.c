@@ -531,9 +531,102 @@ static PyTypeObject RendererType = {
     .tp_new = PyType_GenericNew,
 };
 
+PyDoc_STRVAR(run_lean_doc,
+"run_lean(code, kind, nominal, n_steps, period, record_every, tail_start, prm, coeffs, aux, fast, mass, f0,\n"
+"         p0, v0, rec, summary, tail)\n--\n\n"
+"The simulator's lean loop (hx_run_lean) for N runs, with the GIL released. Per-run arrays have a leading\n"
+"N axis: prm (N, 6), coeffs (N, rows, cols), aux (N, k), fast (N, 2, n, 7), mass (N, n, n), f0, p0, v0\n"
+"(N, n), rec (N, n_rec, 4n + 4), summary (N, 16), tail (N, n, n_tail); n = 2 or 3.");
+
+static PyObject *run_lean(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    static const int ndims[11] = {2, 3, 2, 4, 3, 2, 2, 2, 3, 2, 3};
+    static const char *names[11] = {"prm", "coeffs", "aux", "fast", "mass", "f0", "p0", "v0", "rec", "summary",
+                                    "tail"};
+    Py_buffer b[11];
+    int code, kind, nominal, got = 0, i, rc = HX_OK, dim;
+    long n_steps, record_every, tail_start;
+    double period;
+    Py_ssize_t N, r;
+    (void)self;
+    if (nargs != 18) {
+        PyErr_SetString(PyExc_TypeError, "run_lean takes 18 arguments");
+        return NULL;
+    }
+    code = (int)PyLong_AsLong(args[0]);
+    kind = (int)PyLong_AsLong(args[1]);
+    nominal = PyObject_IsTrue(args[2]);
+    n_steps = PyLong_AsLong(args[3]);
+    period = PyFloat_AsDouble(args[4]);
+    record_every = PyLong_AsLong(args[5]);
+    tail_start = PyLong_AsLong(args[6]);
+    if (PyErr_Occurred())
+        return NULL;
+    for (got = 0; got < 11; got++)
+        if (get_doubles(args[7 + got], &b[got], got >= 8, ndims[got], names[got]) < 0)
+            goto done;
+    N = b[0].shape[0];
+    dim = (int)b[5].shape[1];
+    for (i = 0; i < 11; i++) {
+        if (b[i].shape[0] != N) {
+            PyErr_Format(PyExc_ValueError, "%s must have %zd runs", names[i], N);
+            goto done;
+        }
+    }
+    if ((dim != 2 && dim != 3) || b[0].shape[1] != HX_N_PARAMS || b[3].shape[1] != 2 || b[3].shape[2] != dim ||
+        b[3].shape[3] != HX_N_FAST || b[4].shape[1] != dim || b[4].shape[2] != dim || b[6].shape[1] != dim ||
+        b[7].shape[1] != dim || b[8].shape[2] != 4 * dim + 4 || b[9].shape[1] != HX_N_SUMMARY ||
+        b[10].shape[1] != dim || n_steps < 0 || record_every < 1 || tail_start < 0 || !(period > 0.0)) {
+        PyErr_SetString(PyExc_ValueError, "run_lean: arrays of inconsistent shapes or invalid counts");
+        goto done;
+    }
+    Py_BEGIN_ALLOW_THREADS
+    for (r = 0; r < N && rc == HX_OK; r++) {
+        hx_model m;
+        hx_lean_run run;
+        long rows = (long)b[1].shape[1], cols = (long)b[1].shape[2], n_rec = (long)b[8].shape[1];
+        m.code = code;
+        for (i = 0; i < HX_N_PARAMS; i++)
+            m.prm[i] = ((const double *)b[0].buf)[r * HX_N_PARAMS + i];
+        m.tex.kind = kind;
+        m.tex.c = (const double *)b[1].buf + r * rows * cols;
+        m.tex.rows = rows;
+        m.tex.cols = cols;
+        m.aux = (const double *)b[2].buf + r * b[2].shape[1];
+        m.naux = (long)b[2].shape[1];
+        run.dim = dim;
+        run.nominal = nominal;
+        run.fast = (const double *)b[3].buf + r * 2 * dim * HX_N_FAST;
+        run.mass = (const double *)b[4].buf + r * dim * dim;
+        run.f0 = (const double *)b[5].buf + r * dim;
+        run.p0 = (const double *)b[6].buf + r * dim;
+        run.v0 = (const double *)b[7].buf + r * dim;
+        run.n_steps = n_steps;
+        run.period = period;
+        run.record_every = record_every;
+        run.n_rec = n_rec;
+        run.rec = (double *)b[8].buf + r * n_rec * (4 * dim + 4);
+        run.summary = (double *)b[9].buf + r * HX_N_SUMMARY;
+        run.tail_start = tail_start;
+        run.n_tail = (long)b[10].shape[2];
+        run.tail = (double *)b[10].buf + r * dim * run.n_tail;
+        rc = hx_run_lean(&m, &run);
+    }
+    Py_END_ALLOW_THREADS
+    if (rc != HX_OK)
+        core_error(rc);
+done:
+    for (i = 0; i < got; i++)
+        PyBuffer_Release(&b[i]);
+    if (PyErr_Occurred())
+        return NULL;
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef methods[] = {
     {"field", (PyCFunction)(void (*)(void))field, METH_FASTCALL, field_doc},
     {"texture", (PyCFunction)(void (*)(void))texture, METH_FASTCALL, texture_doc},
+    {"run_lean", (PyCFunction)(void (*)(void))run_lean, METH_FASTCALL, run_lean_doc},
     {NULL, NULL, 0, NULL},
 };
 

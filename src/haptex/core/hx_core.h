@@ -121,6 +121,7 @@ typedef struct {
     double adh[2]; /* F: the adhesion point in the plane (m) */
     double last[2];/* F: the previous in-plane position (m) */
     double pen;    /* the penetration of the last tick (Table I's, >= 0, m) */
+    double h;      /* the height under the probe the last tick evaluated (m), NaN if none */
     long work;     /* texture evaluations of the last tick */
 } hx_state;
 
@@ -171,6 +172,44 @@ void hx_render_step(hx_renderer *r, double x, double y, double z, double f[3]);
 
 /* Clear the state, the observer and controller's sums and the counters (settings kept). */
 void hx_render_reset(hx_renderer *r);
+
+/* ---- the simulator's lean loop ----------------------------------------------------- */
+
+/* the decoupled per-axis coefficients of one sample, per damping regime and axis: p+ = p +
+ * PV v + PW w, v+ = VV v + VW w (w the held force, N), the damping's dissipation CVV v^2 +
+ * CVW v w + CWW w^2 (J) */
+enum { HX_F_PV, HX_F_PW, HX_F_VV, HX_F_VW, HX_F_CVV, HX_F_CVW, HX_F_CWW, HX_N_FAST };
+
+/* the summary of a run (haptex.simulate reads it) */
+enum {
+    HX_S_EX, HX_S_EZ, HX_S_DAMP, HX_S_OP, HX_S_KE0, HX_S_KE, HX_S_SAT, HX_S_MAXPEN, HX_S_NSAMP,
+    HX_S_TAILSTART_E, HX_S_DIVERGED, HX_S_DIVERGED_WHAT, HX_S_FRIC, HX_S_STUCK, HX_S_EY, HX_S_PC_ACTIVE,
+    HX_N_SUMMARY
+};
+
+/* what became non-finite first in a diverged run */
+enum { HX_DIVERGED_POSITION = 1, HX_DIVERGED_VELOCITY, HX_DIVERGED_FORCE, HX_DIVERGED_ENERGY };
+
+/* One run of the lean loop: its inputs (read) and outputs (written). */
+typedef struct {
+    int dim;                 /* 2: [x, z]; 3: [x, y, z] */
+    int nominal;             /* the algorithm's penetration is p^z (W, F, G), else z < h */
+    const double *fast;      /* [2][dim][HX_N_FAST]: outside, inside the wall */
+    const double *mass;      /* dim x dim (kg), for the kinetic energy */
+    const double *f0;        /* the constant push (N), dim */
+    const double *p0, *v0;   /* the start (m, m/s), dim */
+    long n_steps;
+    double period;           /* T (s) */
+    long record_every, n_rec;
+    double *rec;             /* n_rec x (4 dim + 4): t, p, v, u, E per axis, E_damp, E_op, KE */
+    double *summary;         /* HX_N_SUMMARY */
+    long tail_start, n_tail;
+    double *tail;            /* dim x n_tail: the positions sampled over the tail */
+} hx_lean_run;
+
+/* Run the lean loop of model m. HX_OK; HX_BAD_COEFFS or HX_NOT_IN_CORE (D, E) before any
+ * sample. Stops, flagged in the summary, at the first non-finite state. */
+int hx_run_lean(const hx_model *m, const hx_lean_run *r);
 
 #ifdef __cplusplus
 }

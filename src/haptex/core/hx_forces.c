@@ -14,8 +14,12 @@
 #include <math.h>
 #include <stddef.h>
 
-/* a field: force f, Jacobian jac (when not NULL), and *pen, the penetration of Table I (>= 0) */
-typedef void (*field_fn)(const hx_model *m, const double p[3], double f[3], double jac[9], double *pen);
+/* a field: force f, Jacobian jac (when not NULL), the penetration of Table I (>= 0, m) and
+ * the height under the probe where it evaluated it (else left NaN) */
+typedef struct {
+    double pen, h;
+} field_out;
+typedef void (*field_fn)(const hx_model *m, const double p[3], double f[3], double jac[9], field_out *o);
 
 static void zero(double f[3], double jac[9])
 {
@@ -40,10 +44,10 @@ static double lateral(const hx_model *m, double d, int *follows)
 
 /* W, eq. 30: f = (0, 0, -kappa_0 p^z) inside; J = diag(0, 0, -kappa_0). (The virtual damper
  * of Colgate & Schenkel acts in the servo loop, not in the static field.) */
-static void field_w(const hx_model *m, const double p[3], double f[3], double jac[9], double *pen)
+static void field_w(const hx_model *m, const double p[3], double f[3], double jac[9], field_out *o)
 {
     double k = m->prm[HX_P_K0];
-    *pen = p[2] < 0.0 ? -p[2] : 0.0;
+    o->pen = p[2] < 0.0 ? -p[2] : 0.0;
     if (p[2] >= 0.0)
         return;
     f[2] = -k * p[2];
@@ -52,7 +56,7 @@ static void field_w(const hx_model *m, const double p[3], double f[3], double ja
 }
 
 /* A, eq. 6-7: f = (0, 0, -kappa_0 d); the last row of J is kappa_0 (s_x, s_y, -1). */
-static void field_a(const hx_model *m, const double p[3], double f[3], double jac[9], double *pen)
+static void field_a(const hx_model *m, const double p[3], double f[3], double jac[9], field_out *o)
 {
     double k = m->prm[HX_P_K0], d;
     hx_height t;
@@ -63,7 +67,8 @@ static void field_a(const hx_model *m, const double p[3], double f[3], double ja
         t.gx = t.gy = 0.0;
     }
     d = p[2] - t.h;
-    *pen = d < 0.0 ? -d : 0.0;
+    o->h = t.h;
+    o->pen = d < 0.0 ? -d : 0.0;
     if (!(d < 0.0))
         return;
     f[2] = -k * d;
@@ -88,22 +93,23 @@ static void normal_derivative(const hx_height *t, double g, double out[4])
 /* B, eq. 11: f = -kappa_0 d n with the lateral part at d_l;
  * J = kappa_0 [[-lat s s^T + d_l g P H, lat s], [g s^T + d g^3 (H s)^T, -g]], lat = g where
  * d_l follows d, else 0. */
-static void field_b(const hx_model *m, const double p[3], double f[3], double jac[9], double *pen)
+static void field_b(const hx_model *m, const double p[3], double f[3], double jac[9], field_out *o)
 {
     double k = m->prm[HX_P_K0], d, dl, g, lat, gph[4], s[2];
     int follows, i, j;
     hx_height t;
     hx_texture_eval(&m->tex, p[0], p[1], &t);
     d = p[2] - t.h;
-    *pen = d < 0.0 ? -d : 0.0;
+    o->h = t.h;
+    o->pen = d < 0.0 ? -d : 0.0;
     if (!(d < 0.0))
         return;
     s[0] = t.gx;
     s[1] = t.gy;
     g = 1.0 / sqrt(1.0 + s[0] * s[0] + s[1] * s[1]);
     dl = lateral(m, d, &follows);
-    f[0] = k * dl * g * s[0];
-    f[1] = k * dl * g * s[1];
+    f[0] = k * dl * s[0] * g; /* (the order of the numba kernels: the same rounding) */
+    f[1] = k * dl * s[1] * g;
     f[2] = -k * d * g;
     if (!jac)
         return;
@@ -121,14 +127,15 @@ static void field_b(const hx_model *m, const double p[3], double f[3], double ja
 
 /* C, eq. 13-15: f = kappa_0 (d_l s_x, d_l s_y, -d), the gradient of -kappa_0 d^2 / 2 when
  * unclamped; J = kappa_0 [[-lat s s^T + d_l H, lat s], [s^T, -1]], lat = 1 where d_l follows d. */
-static void field_c(const hx_model *m, const double p[3], double f[3], double jac[9], double *pen)
+static void field_c(const hx_model *m, const double p[3], double f[3], double jac[9], field_out *o)
 {
     double k = m->prm[HX_P_K0], d, dl, lat, s[2], hs[4];
     int follows, i, j;
     hx_height t;
     hx_texture_eval(&m->tex, p[0], p[1], &t);
     d = p[2] - t.h;
-    *pen = d < 0.0 ? -d : 0.0;
+    o->h = t.h;
+    o->pen = d < 0.0 ? -d : 0.0;
     if (!(d < 0.0))
         return;
     s[0] = t.gx;
@@ -154,21 +161,22 @@ static void field_c(const hx_model *m, const double p[3], double f[3], double ja
 
 /* G, eq. 28: f = -kappa_0 p^z n with the lateral part at max(p^z, -d^z_max);
  * J = kappa_0 [[d_l g P H, lat s], [p^z g^3 (H s)^T, -g]], lat = g where d_l follows p^z. */
-static void field_g(const hx_model *m, const double p[3], double f[3], double jac[9], double *pen)
+static void field_g(const hx_model *m, const double p[3], double f[3], double jac[9], field_out *o)
 {
     double k = m->prm[HX_P_K0], d = p[2], dl, g, lat, gph[4], s[2];
     int follows, i, j;
     hx_height t;
-    *pen = d < 0.0 ? -d : 0.0;
+    o->pen = d < 0.0 ? -d : 0.0;
     if (!(d < 0.0))
         return;
     hx_texture_eval(&m->tex, p[0], p[1], &t);
+    o->h = t.h;
     s[0] = t.gx;
     s[1] = t.gy;
     g = 1.0 / sqrt(1.0 + s[0] * s[0] + s[1] * s[1]);
     dl = lateral(m, d, &follows);
-    f[0] = k * dl * g * s[0];
-    f[1] = k * dl * g * s[1];
+    f[0] = k * dl * s[0] * g; /* (the order of the numba kernels: the same rounding) */
+    f[1] = k * dl * s[1] * g;
     f[2] = -k * d * g;
     if (!jac)
         return;
@@ -229,6 +237,7 @@ static void tick_f(const hx_model *m, hx_state *s, const double p[3], double f[3
     s->last[0] = p[0];
     s->last[1] = p[1];
     h = hx_texture_height(&m->tex, p[0], p[1]);
+    s->h = h;
     depth = -p[2];
     if (m->prm[HX_P_DZMAX] > 0.0 && depth > m->prm[HX_P_DZMAX])
         depth = m->prm[HX_P_DZMAX];
@@ -241,22 +250,24 @@ static void tick_f(const hx_model *m, hx_state *s, const double p[3], double f[3
 int hx_field(const hx_model *m, const double p[3], double f[3], double jac[9])
 {
     field_fn fn;
-    double pen;
+    field_out o = {0.0, NAN};
     zero(f, jac);
     if (m->code < 0 || m->code >= HX_N_ALGS)
         return HX_BAD_ALGORITHM;
     fn = FIELDS[m->code];
     if (fn == NULL)
         return HX_NOT_IN_CORE;
-    fn(m, p, f, jac, &pen);
+    fn(m, p, f, jac, &o);
     return HX_OK;
 }
 
 int hx_tick_force(const hx_model *m, hx_state *s, const double p[3], double f[3])
 {
     field_fn fn;
+    field_out o = {0.0, NAN};
     zero(f, NULL);
     s->work = 1;
+    s->h = NAN;
     if (m->code == HX_ALG_F) {
         tick_f(m, s, p, f);
         return HX_OK;
@@ -264,7 +275,9 @@ int hx_tick_force(const hx_model *m, hx_state *s, const double p[3], double f[3]
     if (m->code < 0 || m->code >= HX_N_ALGS || FIELDS[m->code] == NULL)
         return HX_NOT_IN_CORE;
     fn = FIELDS[m->code];
-    fn(m, p, f, NULL, &s->pen);
+    fn(m, p, f, NULL, &o);
+    s->pen = o.pen;
+    s->h = o.h;
     if (m->code == HX_ALG_W) {
         /* Colgate & Schenkel's virtual damper B (HX_P_MU) over the servo period T (HX_P_DXMAX):
          * the backward difference of the sensed p^z, from the second sample on */
