@@ -17,6 +17,13 @@
 extern "C" {
 #endif
 
+/* inlined into every caller: a loop instantiated per letter inlines that letter's field */
+#if defined(__GNUC__) || defined(__clang__)
+#define HX_INLINE static inline __attribute__((always_inline))
+#else
+#define HX_INLINE static inline
+#endif
+
 /* ---- texture kinds (the layout of each kind's coefficients is in hx_texture.c) ---- */
 enum {
     HX_TEXTURE_FLAT = 0,     /* h = 0 */

@@ -8,6 +8,7 @@
  * work, the kinetic energy; the oscillation tail; divergence detection.
  */
 #include "hx_core.h"
+#include "hx_fields.h"
 
 #include <math.h>
 #include <string.h>
@@ -52,9 +53,12 @@ static int diverged(const double *p, const double *v, const double *u, const dou
     return isfinite(ed) && isfinite(eo) ? 0 : HX_DIVERGED_ENERGY;
 }
 
-int hx_run_lean(const hx_model *m, const hx_lean_run *r)
+/* The loop, instantiated below once per letter and dimension with ``code`` and ``n`` constants,
+ * so that the compiler inlines that letter's field into it and drops the other dimension's
+ * branches (numba's loop was compiled likewise). */
+HX_INLINE int lean_loop(const hx_model *m, const hx_lean_run *r, const int code, const int n)
 {
-    const int n = r->dim, three = n == 3, nominal = r->nominal;
+    const int three = n == 3, nominal = r->nominal;
     const double *fast = r->fast; /* [2][n][HX_N_FAST] */
     hx_state st;
     double x = r->p0[0], y = three ? r->p0[1] : 0.0, z = r->p0[n - 1];
@@ -64,10 +68,6 @@ int hx_run_lean(const hx_model *m, const hx_lean_run *r)
     double ke0, e_tail = 0.0, vel[3], *summary = r->summary;
     long n_steps = r->n_steps, k, irec = 0, itail = 0;
     long n_tail = r->n_tail, tail_stride, next_rec, next_tail;
-    if (hx_model_check(m) != HX_OK)
-        return HX_BAD_COEFFS;
-    if (m->code == HX_ALG_D || m->code == HX_ALG_E)
-        return HX_NOT_IN_CORE;
     memset(&st, 0, sizeof st);
     ke0 = 0.5 * quad(r->mass, r->v0, n);
     tail_stride = (n_steps - r->tail_start) / (n_tail > 1 ? n_tail : 1);
@@ -81,7 +81,7 @@ int hx_run_lean(const hx_model *m, const hx_lean_run *r)
         p[0] = x;
         p[1] = y;
         p[2] = z;
-        hx_tick_force(m, &st, p, f);
+        hx__tick_force_of(code, m, &st, p, f);
         ux = f[0];
         uy = f[1];
         uz = f[2];
@@ -192,4 +192,37 @@ int hx_run_lean(const hx_model *m, const hx_lean_run *r)
     summary[HX_S_STUCK] = 0.0;
     summary[HX_S_PC_ACTIVE] = 0.0;
     return HX_OK;
+}
+
+typedef int (*lean_fn)(const hx_model *m, const hx_lean_run *r);
+#define HX_LEAN(name, code, n) \
+    static int name(const hx_model *m, const hx_lean_run *r) { return lean_loop(m, r, code, n); }
+HX_LEAN(lean_w2, HX_ALG_W, 2)
+HX_LEAN(lean_a2, HX_ALG_A, 2)
+HX_LEAN(lean_b2, HX_ALG_B, 2)
+HX_LEAN(lean_c2, HX_ALG_C, 2)
+HX_LEAN(lean_f2, HX_ALG_F, 2)
+HX_LEAN(lean_g2, HX_ALG_G, 2)
+HX_LEAN(lean_w3, HX_ALG_W, 3)
+HX_LEAN(lean_a3, HX_ALG_A, 3)
+HX_LEAN(lean_b3, HX_ALG_B, 3)
+HX_LEAN(lean_c3, HX_ALG_C, 3)
+HX_LEAN(lean_f3, HX_ALG_F, 3)
+HX_LEAN(lean_g3, HX_ALG_G, 3)
+
+/* The letters in the order of HX_ALG_*, per dimension; NULL: not in the core yet (D, E). */
+static const lean_fn LEANS[2][HX_N_ALGS] = {
+    {lean_w2, lean_a2, lean_b2, lean_c2, NULL, NULL, lean_f2, lean_g2},
+    {lean_w3, lean_a3, lean_b3, lean_c3, NULL, NULL, lean_f3, lean_g3},
+};
+
+int hx_run_lean(const hx_model *m, const hx_lean_run *r)
+{
+    lean_fn fn;
+    if (hx_model_check(m) != HX_OK || (r->dim != 2 && r->dim != 3))
+        return HX_BAD_COEFFS;
+    fn = LEANS[r->dim - 2][m->code];
+    if (fn == NULL)
+        return HX_NOT_IN_CORE;
+    return fn(m, r);
 }

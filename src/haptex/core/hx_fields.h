@@ -1,0 +1,270 @@
+/*
+ * The force fields and the servo tick's force, as HX_INLINE functions: compiled into
+ * hx_forces.c (the public hx_field and hx_tick_force) and into hx_sim.c's loops, where a
+ * loop instantiated for one letter inlines its field. Written once, here.
+ */
+#ifndef HX_FIELDS_H
+#define HX_FIELDS_H
+
+#include "hx_core.h"
+#include "hx_texture_eval.h"
+
+#include <math.h>
+#include <stddef.h>
+
+typedef struct {
+    double pen, h;
+} field_out;
+typedef void (*field_fn)(const hx_model *m, const double p[3], double f[3], double jac[9], field_out *o);
+
+HX_INLINE void zero(double f[3], double jac[9])
+{
+    int i;
+    f[0] = f[1] = f[2] = 0.0;
+    if (jac)
+        for (i = 0; i < 9; i++)
+            jac[i] = 0.0;
+}
+
+/* d_l of Remark 3 and whether it follows d */
+HX_INLINE double lateral(const hx_model *m, double d, int *follows)
+{
+    double dm = m->prm[HX_P_DZMAX];
+    if (dm >= 0.0 && !(d > -dm)) {
+        *follows = 0;
+        return -dm;
+    }
+    *follows = 1;
+    return d;
+}
+
+/* W, eq. 30: f = (0, 0, -kappa_0 p^z) inside; J = diag(0, 0, -kappa_0). (The virtual damper
+ * of Colgate & Schenkel acts in the servo loop, not in the static field.) */
+HX_INLINE void field_w(const hx_model *m, const double p[3], double f[3], double jac[9], field_out *o)
+{
+    double k = m->prm[HX_P_K0];
+    o->pen = p[2] < 0.0 ? -p[2] : 0.0;
+    if (p[2] >= 0.0)
+        return;
+    f[2] = -k * p[2];
+    if (jac)
+        jac[8] = -k;
+}
+
+/* A, eq. 6-7: f = (0, 0, -kappa_0 d); the last row of J is kappa_0 (s_x, s_y, -1). */
+HX_INLINE void field_a(const hx_model *m, const double p[3], double f[3], double jac[9], field_out *o)
+{
+    double k = m->prm[HX_P_K0], d;
+    hx_height t;
+    if (jac) {
+        hx__texture_eval(&m->tex, p[0], p[1], &t);
+    } else {
+        t.h = hx__texture_height(&m->tex, p[0], p[1]);
+        t.gx = t.gy = 0.0;
+    }
+    d = p[2] - t.h;
+    o->h = t.h;
+    o->pen = d < 0.0 ? -d : 0.0;
+    if (!(d < 0.0))
+        return;
+    f[2] = -k * d;
+    if (jac) {
+        jac[6] = k * t.gx;
+        jac[7] = k * t.gy;
+        jac[8] = -k;
+    }
+}
+
+/* g P H, row-major 2 x 2 */
+HX_INLINE void normal_derivative(const hx_height *t, double g, double out[4])
+{
+    double g2 = g * g, sx = t->gx, sy = t->gy;
+    double p00 = g2 * (1.0 + sy * sy), p11 = g2 * (1.0 + sx * sx), p01 = -g2 * sx * sy;
+    out[0] = g * (p00 * t->hxx + p01 * t->hxy);
+    out[1] = g * (p00 * t->hxy + p01 * t->hyy);
+    out[2] = g * (p01 * t->hxx + p11 * t->hxy);
+    out[3] = g * (p01 * t->hxy + p11 * t->hyy);
+}
+
+/* B, eq. 11: f = -kappa_0 d n with the lateral part at d_l;
+ * J = kappa_0 [[-lat s s^T + d_l g P H, lat s], [g s^T + d g^3 (H s)^T, -g]], lat = g where
+ * d_l follows d, else 0. */
+HX_INLINE void field_b(const hx_model *m, const double p[3], double f[3], double jac[9], field_out *o)
+{
+    double k = m->prm[HX_P_K0], d, dl, g, lat, gph[4], s[2];
+    int follows, i, j;
+    hx_height t;
+    hx__texture_eval(&m->tex, p[0], p[1], &t);
+    d = p[2] - t.h;
+    o->h = t.h;
+    o->pen = d < 0.0 ? -d : 0.0;
+    if (!(d < 0.0))
+        return;
+    s[0] = t.gx;
+    s[1] = t.gy;
+    g = 1.0 / sqrt(1.0 + s[0] * s[0] + s[1] * s[1]);
+    dl = lateral(m, d, &follows);
+    f[0] = k * dl * s[0] * g; /* (the order of the numba kernels: the same rounding) */
+    f[1] = k * dl * s[1] * g;
+    f[2] = -k * d * g;
+    if (!jac)
+        return;
+    lat = follows ? g : 0.0;
+    normal_derivative(&t, g, gph);
+    for (i = 0; i < 2; i++) {
+        for (j = 0; j < 2; j++)
+            jac[3 * i + j] = k * (-lat * s[i] * s[j] + dl * gph[2 * i + j]);
+        jac[3 * i + 2] = k * lat * s[i];
+    }
+    jac[6] = k * (g * s[0] + d * g * g * g * (t.hxx * s[0] + t.hxy * s[1]));
+    jac[7] = k * (g * s[1] + d * g * g * g * (t.hxy * s[0] + t.hyy * s[1]));
+    jac[8] = -k * g;
+}
+
+/* C, eq. 13-15: f = kappa_0 (d_l s_x, d_l s_y, -d), the gradient of -kappa_0 d^2 / 2 when
+ * unclamped; J = kappa_0 [[-lat s s^T + d_l H, lat s], [s^T, -1]], lat = 1 where d_l follows d. */
+HX_INLINE void field_c(const hx_model *m, const double p[3], double f[3], double jac[9], field_out *o)
+{
+    double k = m->prm[HX_P_K0], d, dl, lat, s[2], hs[4];
+    int follows, i, j;
+    hx_height t;
+    hx__texture_eval(&m->tex, p[0], p[1], &t);
+    d = p[2] - t.h;
+    o->h = t.h;
+    o->pen = d < 0.0 ? -d : 0.0;
+    if (!(d < 0.0))
+        return;
+    s[0] = t.gx;
+    s[1] = t.gy;
+    dl = lateral(m, d, &follows);
+    f[0] = k * dl * s[0];
+    f[1] = k * dl * s[1];
+    f[2] = -k * d;
+    if (!jac)
+        return;
+    lat = follows ? 1.0 : 0.0;
+    hs[0] = t.hxx;
+    hs[1] = hs[2] = t.hxy;
+    hs[3] = t.hyy;
+    for (i = 0; i < 2; i++) {
+        for (j = 0; j < 2; j++)
+            jac[3 * i + j] = k * (-lat * s[i] * s[j] + dl * hs[2 * i + j]);
+        jac[3 * i + 2] = k * lat * s[i];
+        jac[6 + i] = k * s[i];
+    }
+    jac[8] = -k;
+}
+
+/* G, eq. 28: f = -kappa_0 p^z n with the lateral part at max(p^z, -d^z_max);
+ * J = kappa_0 [[d_l g P H, lat s], [p^z g^3 (H s)^T, -g]], lat = g where d_l follows p^z. */
+HX_INLINE void field_g(const hx_model *m, const double p[3], double f[3], double jac[9], field_out *o)
+{
+    double k = m->prm[HX_P_K0], d = p[2], dl, g, lat, gph[4], s[2];
+    int follows, i, j;
+    hx_height t;
+    o->pen = d < 0.0 ? -d : 0.0;
+    if (!(d < 0.0))
+        return;
+    hx__texture_eval(&m->tex, p[0], p[1], &t);
+    o->h = t.h;
+    s[0] = t.gx;
+    s[1] = t.gy;
+    g = 1.0 / sqrt(1.0 + s[0] * s[0] + s[1] * s[1]);
+    dl = lateral(m, d, &follows);
+    f[0] = k * dl * s[0] * g; /* (the order of the numba kernels: the same rounding) */
+    f[1] = k * dl * s[1] * g;
+    f[2] = -k * d * g;
+    if (!jac)
+        return;
+    lat = follows ? g : 0.0;
+    normal_derivative(&t, g, gph);
+    for (i = 0; i < 2; i++) {
+        for (j = 0; j < 2; j++)
+            jac[3 * i + j] = k * dl * gph[2 * i + j];
+        jac[3 * i + 2] = k * lat * s[i];
+    }
+    jac[6] = k * d * g * g * g * (t.hxx * s[0] + t.hxy * s[1]);
+    jac[7] = k * d * g * g * g * (t.hxy * s[0] + t.hyy * s[1]);
+    jac[8] = -k * g;
+}
+
+/* The letters in the order of HX_ALG_*; NULL: not evaluated by the core yet. */
+static const field_fn FIELDS[HX_N_ALGS] = {field_w, field_a, field_b, field_c, NULL, NULL, NULL, field_g};
+
+/* F, eq. 26-27 with presliding (eq. 24): the normal force -kappa_0 p^z and the friction
+ * force -mu kappa_0 d_z (1 - scale h) d / d^x_max in the plane, d the presliding deflection
+ * and d_z the depth, clamped at d^z_max (Remark 3). Contact starts with zero deflection;
+ * leaving the wall resets it. */
+HX_INLINE void tick_f(const hx_model *m, hx_state *s, const double p[3], double f[3])
+{
+    double k = m->prm[HX_P_K0], dmax = m->prm[HX_P_DXMAX], d[2], dp[2], depth, h, c;
+    s->pen = p[2] < 0.0 ? -p[2] : 0.0;
+    if (!(p[2] < 0.0)) {
+        s->contact = 0;
+        return;
+    }
+    if (!s->contact) {
+        s->contact = 1;
+        s->adh[0] = s->last[0] = p[0];
+        s->adh[1] = s->last[1] = p[1];
+    }
+    d[0] = s->last[0] - s->adh[0];
+    d[1] = s->last[1] - s->adh[1];
+    dp[0] = p[0] - s->last[0];
+    dp[1] = p[1] - s->last[1];
+    hx_presliding_plane(d, dp, dmax, m->prm[HX_P_ZSTICK], m->aux, &s->work);
+    s->adh[0] = p[0] - d[0];
+    s->adh[1] = p[1] - d[1];
+    s->last[0] = p[0];
+    s->last[1] = p[1];
+    h = hx__texture_height(&m->tex, p[0], p[1]);
+    s->h = h;
+    depth = -p[2];
+    if (m->prm[HX_P_DZMAX] > 0.0 && depth > m->prm[HX_P_DZMAX])
+        depth = m->prm[HX_P_DZMAX];
+    c = -m->prm[HX_P_MU] * k * depth * (1.0 - m->prm[HX_P_SCALE] * h) / dmax;
+    f[0] = c * d[0];
+    f[1] = c * d[1];
+    f[2] = -k * p[2];
+}
+
+/* The tick's force for algorithm `code` (a constant where a caller instantiates a loop per
+ * letter, code otherwise). */
+HX_INLINE int hx__tick_force_of(const int code, const hx_model *m, hx_state *s, const double p[3],
+                                    double f[3])
+{
+    field_fn fn;
+    field_out o = {0.0, NAN};
+    zero(f, NULL);
+    s->work = 1;
+    s->h = NAN;
+    if (code == HX_ALG_F) {
+        tick_f(m, s, p, f);
+        return HX_OK;
+    }
+    if (code < 0 || code >= HX_N_ALGS || FIELDS[code] == NULL)
+        return HX_NOT_IN_CORE;
+    fn = FIELDS[code];
+    fn(m, p, f, NULL, &o);
+    s->pen = o.pen;
+    s->h = o.h;
+    if (code == HX_ALG_W) {
+        /* Colgate & Schenkel's virtual damper B (HX_P_MU) over the servo period T (HX_P_DXMAX):
+         * the backward difference of the sensed p^z, from the second sample on */
+        double b = m->prm[HX_P_MU];
+        if (p[2] < 0.0 && b != 0.0 && s->contact)
+            f[2] -= b * (p[2] - s->last_z) / m->prm[HX_P_DXMAX];
+        s->last_z = p[2];
+        s->contact = 1;
+    } else if (code == HX_ALG_G && !(p[2] < 0.0)) {
+        s->contact = 0;
+    }
+    return HX_OK;
+}
+
+HX_INLINE int hx__tick_force(const hx_model *m, hx_state *s, const double p[3], double f[3])
+{
+    return hx__tick_force_of(m->code, m, s, p, f);
+}
+
+#endif
