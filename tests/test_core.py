@@ -251,3 +251,44 @@ def test_the_core_renderer_is_the_numba_renderer(monkeypatch, dim, letter):
     np.testing.assert_allclose(c_side.energy_per_axis, numba_side.energy_per_axis, rtol=1e-10, atol=1e-15)
     c_side.reset()
     assert (c_side.faults, c_side.clamps, c_side.energy, c_side.max_work) == (0, 0, 0.0, 0)
+
+
+def _search_profiles():
+    x = np.linspace(0.0, 8e-3, 97)
+    h = 0.3e-3 * np.sin(2 * np.pi * x / 2e-3) + 0.1e-3 * np.cos(2 * np.pi * x / 0.7e-3)
+    return {
+        "sinusoid (paper), periodic tree": hx.Sinusoid(0.8e-3, 1e-3),
+        "commensurate sum, periodic tree": hx.SumOfSinusoids([0.3e-3, 0.1e-3], [2e-3, 0.5e-3], [0.1, 1.0]),
+        "incommensurate sum, open window": hx.SumOfSinusoids([0.3e-3, 0.1e-3], [2e-3, 0.7071e-3 * np.sqrt(2)],
+                                                             [0.1, 1.0]),
+        "sampled, finite with its rays": hx.SampledProfile(x, h),
+        "sampled, periodic": hx.SampledProfile(x[:-1], h[:-1], periodic=True),
+        "flat": hx.Flat(),
+    }
+
+
+@pytest.mark.parametrize("name", list(_search_profiles()))
+def test_the_core_profile_search_is_the_numba_search(name):
+    """While numba keeps the surface searches, it is the oracle of the C profile search (the
+    same branch and bound; closest.closest_point over a profile now runs the C): the same
+    closest point, distance, tie flag and work at 2 x 10^4 probes from 2.5 mm deep to above
+    the texture, beyond a finite profile's ends too. (test_closest.py checks the answers
+    against brute-force minimisation.)"""
+    from haptex import _kernels
+    from haptex.closest import search_data
+
+    tex = _search_profiles()[name]
+    kind, coeffs = tex.kernel_data()
+    aux = search_data(tex)
+    n = 20_000
+    px = RNG.uniform(-3e-3, 11e-3, n)
+    pz = RNG.uniform(-2.5e-3, 0.5e-3, n)
+    t0, d0 = np.empty(n), np.empty(n)
+    tie0, w0 = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64)
+    _kernels.closest_points(kind, np.require(coeffs, np.float64, ["C", "W"]), aux, px, pz, t0, d0, tie0, w0)
+    t1, d1, tie1, w1 = core.closest_profile_points(kind, coeffs, aux, px, pz)
+    np.testing.assert_allclose(d1, d0, rtol=1e-13, atol=1e-18)
+    np.testing.assert_allclose(t1, t0, rtol=0, atol=1e-12 * tex.shortest_period)
+    np.testing.assert_array_equal(tie1, tie0)
+    np.testing.assert_array_equal(w1, w0)
+    assert np.count_nonzero(d1) > n // 3

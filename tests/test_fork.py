@@ -1,5 +1,5 @@
-"""Issue 17, reproducer 9: after haptex has run a parallel kernel, a fork-based
-multiprocessing pool still works (GNU OpenMP's layer killed its workers: "fork() called
+"""Issue 17, reproducer 9: after haptex has run a parallel kernel (numba's, and the C core's
+threaded loops), a fork-based multiprocessing pool still works (GNU OpenMP's layer killed its workers: "fork() called
 from a process already using GNU OpenMP", and pool.map hung)."""
 
 import subprocess
@@ -14,7 +14,9 @@ def test_a_fork_pool_works_after_a_parallel_kernel():
         from haptex import _kernels
         import numba
         tex = hx.Sinusoid(0.8e-3, 1e-3)
-        hx.closest_point(tex, np.column_stack([np.linspace(0, 1e-3, 4000), np.full(4000, -1e-3)]))  # parallel
+        hx.closest_point(tex, np.column_stack([np.linspace(0, 1e-3, 4000), np.full(4000, -1e-3)]))  # C, threads
+        egg = hx.SumOfGratings.egg_crate(0.1e-3, 2e-3)  # numba's parallel surface search
+        hx.closest_point(egg, np.column_stack([np.linspace(0, 1e-3, 400), np.zeros(400), np.full(400, -1e-3)]))
         def work(z):
             return float(hx.algorithm("D", tex, 1000.0).force([[0.0, z]])[0, 1])
         with mp.get_context("fork").Pool(2) as pool:

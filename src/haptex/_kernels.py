@@ -115,10 +115,10 @@ def texture_height(kind, coeffs, x):
 # haptex.closest.search_data: a header, then a binary tree (heap order, node 1 the root) of
 # rigorous lower/upper bounds of h over dyadic sub-intervals of a "core" interval (one
 # period of a periodic texture, the sampled range of a non-periodic profile).
-CP_VERTICAL, CP_PERIODIC, CP_FINITE, CP_OPEN = 0, 1, 2, 3
-(A_MODE, A_START, A_PERIOD, A_TREELEN, A_NLEAF, A_STEP, A_SLOPE, A_CURV, A_HMIN, A_TMIN, A_WCAP,
- A_X0, A_XE, A_HL, A_SL, A_HR, A_SR, A_TIE, A_JERK, A_TABLE) = range(20)
-A_TREE = 20
+# the modes CP_* and the header's slots A_* are the C core's (hx_core.h)
+from .core._ext import (A_CURV, A_HL, A_HMIN, A_HR, A_JERK, A_MODE, A_NLEAF, A_PERIOD, A_SL,  # noqa: E402, F401
+                        A_SLOPE, A_SR, A_START, A_STEP, A_TABLE, A_TIE, A_TMIN, A_TREE, A_TREELEN, A_WCAP, A_X0,
+                        A_XE, CP_FINITE, CP_OPEN, CP_PERIODIC, CP_VERTICAL)  # noqa: F401
 """aux[A_TABLE] is the offset in ``aux`` of a cell table (:func:`build_cell_table`), 0 for none."""
 """lo[i] is aux[A_TREE + i] and hi[i] is aux[A_TREE + 2 n_leaf + i], i = 1 .. 2 n_leaf - 1."""
 MAX_LEAVES = 1 << 22

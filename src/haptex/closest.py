@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import _kernels as K
+from . import core as _core
 from ._validation import ParameterError, positions
 from .textures import SampledProfile, SumOfSinusoids, Texture
 
@@ -145,13 +146,7 @@ def closest_point(texture: Texture, p) -> ClosestPoint:
     flat = arr.reshape(-1, 2)
     kind, coeffs = texture.kernel_data()
     aux = search_data(texture)
-    n = flat.shape[0]
-    t = np.empty(n)
-    d = np.empty(n)
-    tie = np.empty(n, dtype=np.int64)
-    work = np.empty(n, dtype=np.int64)
-    K.closest_points(kind, coeffs, aux, np.ascontiguousarray(flat[:, 0]), np.ascontiguousarray(flat[:, 1]),
-                     t, d, tie, work)
+    t, d, tie, work = _core.closest_profile_points(kind, coeffs, aux, flat[:, 0], flat[:, 1])
     return ClosestPoint(
         x=t.reshape(shape),
         z=texture.height(t).reshape(shape),

@@ -18,7 +18,6 @@ Automatic Control 23(3), 1978, pp. 395–404.
 from __future__ import annotations
 
 import math
-import os
 import warnings
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -193,27 +192,6 @@ def _lean(fast: np.ndarray, kinematic: bool, pc_on: bool, delay, delta, fres, fm
            and np.all(np.asarray(delta) == 0.0) and np.all(np.asarray(fres) == 0.0)
            and np.all(np.asarray(fmax) == math.inf) and np.all(np.asarray(fc) == 0.0))
     return (1,) if off else ()
-
-
-def num_threads() -> int:
-    """Threads of the C core's batch loops: ``HAPTEX_NUM_THREADS`` (a whole number >= 1), by
-    default every core of the machine.
-
-    Raises
-    ------
-    ParameterError
-        If ``HAPTEX_NUM_THREADS`` is set to anything but a whole number from 1 to 1024.
-    """
-    raw = os.environ.get("HAPTEX_NUM_THREADS")
-    if raw is None:
-        return max(1, os.cpu_count() or 1)
-    try:
-        n = int(raw)
-    except ValueError:
-        n = 0
-    if not 1 <= n <= 1024:
-        raise fail("HAPTEX_NUM_THREADS", raw, "a whole number from 1 to 1024")
-    return n
 
 
 def _core_lean(code, kind, nominal, n_steps, T, record_every, tail_start, prm, coeffs, aux, fast, M, f0, P0, V0,
@@ -1055,7 +1033,7 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     thresholds = np.array([_threshold(d_) for d_ in dev])[inverse]
     freqs = _frequency_table([_texture_frequencies(a, o) for a, _, o in runs])[inverse]
     in_core = bool(args[-1][0]) and runs[0][0].letter in _core.TICKS_IN_CORE  # the lean loop, in C
-    threads = num_threads() if in_core else 1
+    threads = _core.num_threads() if in_core else 1
     show = (N * n_steps > 5e7) if progress is None else bool(progress)
     bar = _progress(show, N)
     osc = []

@@ -14,11 +14,13 @@ fields of :mod:`haptex.algorithms` are the fields' oracle (tests/test_core.py).
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
 
-from .._validation import ParameterError
+from .._validation import ParameterError, fail
 from . import _ext
 
 SOURCE_DIR = Path(__file__).parent
@@ -92,3 +94,73 @@ def texture_derivatives(texture, xy) -> np.ndarray:
     out = np.empty((flat.shape[0], 6))
     _ext.texture(kind, np.ascontiguousarray(coeffs, dtype=np.float64), flat, out)
     return out.reshape(pts.shape[:-1] + (6,))
+
+
+def num_threads() -> int:
+    """Threads of the C core's batch loops: ``HAPTEX_NUM_THREADS`` (a whole number >= 1), by
+    default every core of the machine.
+
+    Raises
+    ------
+    ParameterError
+        If ``HAPTEX_NUM_THREADS`` is set to anything but a whole number from 1 to 1024.
+    """
+    raw = os.environ.get("HAPTEX_NUM_THREADS")
+    if raw is None:
+        return max(1, os.cpu_count() or 1)
+    try:
+        n = int(raw)
+    except ValueError:
+        n = 0
+    if not 1 <= n <= 1024:
+        raise fail("HAPTEX_NUM_THREADS", raw, "a whole number from 1 to 1024")
+    return n
+
+
+def in_slices(fn, n: int, threads: int | None = None, least: int = 1024) -> None:
+    """Call ``fn(lo, hi)`` over contiguous slices of range(n), on up to :func:`num_threads`
+    threads (the C releases the GIL); slices of at least ``least`` items (one thread below)."""
+    threads = num_threads() if threads is None else threads
+    parts = max(1, min(threads, n // max(least, 1)))
+    if parts == 1:
+        fn(0, n)
+        return
+    cuts = np.linspace(0, n, parts + 1).astype(int)
+    with ThreadPoolExecutor(parts) as pool:
+        list(pool.map(fn, cuts[:-1], cuts[1:]))
+
+
+def closest_profile_points(kind: int, coeffs: np.ndarray, aux: np.ndarray, px, pz):
+    """Closest points of a profile's boundary to probes (px, pz) (m) by the C core
+    (:func:`haptex.closest.closest_point` over a profile reads this).
+
+    Parameters
+    ----------
+    kind, coeffs : int, ndarray
+        The profile's kernel data (:meth:`haptex.Texture.kernel_data`).
+    aux : ndarray, shape (k,)
+        Its search data (:func:`haptex.closest.search_data`).
+    px, pz : array_like, shape (N,)
+        Probe positions (m).
+
+    Returns
+    -------
+    t, distance : ndarray, shape (N,)
+        The closest point's abscissa and its distance (m), 0 outside the wall.
+    tie, work : ndarray of int64, shape (N,)
+        1 where another local minimum lies at the same distance (the medial axis); the
+        texture evaluations spent.
+    """
+    px = np.ascontiguousarray(px, dtype=np.float64)
+    pz = np.ascontiguousarray(pz, dtype=np.float64)
+    coeffs = np.ascontiguousarray(coeffs, dtype=np.float64)
+    aux = np.ascontiguousarray(aux, dtype=np.float64)
+    n = px.shape[0]
+    t, d = np.empty(n), np.empty(n)
+    tie, work = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64)
+
+    def run(lo, hi):
+        _ext.closest_profile(kind, coeffs, aux, px[lo:hi], pz[lo:hi], t[lo:hi], d[lo:hi], tie[lo:hi], work[lo:hi])
+
+    in_slices(run, n, least=256)
+    return t, d, tie, work

@@ -623,10 +623,110 @@ done:
     Py_RETURN_NONE;
 }
 
+/* an 8-byte signed integer's buffer format ("l" on LP64, "q" elsewhere) */
+static int is_int64(const char *format)
+{
+    return format != NULL && (strcmp(format, "q") == 0 || strcmp(format, "l") == 0);
+}
+
+PyDoc_STRVAR(closest_profile_doc,
+"closest_profile(kind, coeffs, aux, px, pz, t, distance, tie, work)\n--\n\n"
+"The closest point of a profile's boundary (hx_closest_profile) to each probe (px, pz) (float64 (N,), m),\n"
+"into t, distance (float64 (N,), m), tie and work (int64 (N,)); no warm start. The GIL is released.");
+
+static PyObject *closest_profile(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    Py_buffer coeffs, aux, px, pz, t, d, tie, work;
+    hx_texture tex;
+    long kind;
+    int rc;
+    Py_ssize_t i, n;
+    (void)self;
+    if (nargs != 9) {
+        PyErr_SetString(PyExc_TypeError, "closest_profile takes 9 arguments");
+        return NULL;
+    }
+    kind = PyLong_AsLong(args[0]);
+    if (kind == -1 && PyErr_Occurred())
+        return NULL;
+    if (kind != HX_TEXTURE_FLAT && kind != HX_TEXTURE_FOURIER && kind != HX_TEXTURE_SPLINE) {
+        PyErr_SetString(PyExc_ValueError, "closest_profile: kind must be a profile's");
+        return NULL;
+    }
+    if (get_doubles(args[1], &coeffs, 0, -1, "coeffs") < 0)
+        return NULL;
+    if (get_doubles(args[2], &aux, 0, 1, "aux") < 0) {
+        PyBuffer_Release(&coeffs);
+        return NULL;
+    }
+    tex.kind = (int)kind;
+    tex.c = (const double *)coeffs.buf;
+    tex.rows = coeffs.ndim == 2 ? (long)coeffs.shape[0] : 1;
+    tex.cols = coeffs.ndim == 2 ? (long)coeffs.shape[1] : (coeffs.ndim == 1 ? (long)coeffs.shape[0] : 0);
+    rc = coeffs.ndim > 2 ? HX_BAD_COEFFS : hx_texture_check(tex.kind, tex.c, tex.rows, tex.cols);
+    if (rc == HX_OK)
+        rc = hx_closest_aux_check((const double *)aux.buf, (long)aux.shape[0]);
+    if (rc != HX_OK) {
+        PyBuffer_Release(&aux);
+        PyBuffer_Release(&coeffs);
+        return core_error(rc);
+    }
+    if (get_doubles(args[3], &px, 0, 1, "px") < 0)
+        goto fail2;
+    if (get_doubles(args[4], &pz, 0, 1, "pz") < 0)
+        goto fail3;
+    if (get_doubles(args[5], &t, 1, 1, "t") < 0)
+        goto fail4;
+    if (get_doubles(args[6], &d, 1, 1, "distance") < 0)
+        goto fail5;
+    if (PyObject_GetBuffer(args[7], &tie, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | PyBUF_WRITABLE) < 0)
+        goto fail6;
+    if (PyObject_GetBuffer(args[8], &work, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | PyBUF_WRITABLE) < 0)
+        goto fail7;
+    n = px.shape[0];
+    if (tie.itemsize != 8 || work.itemsize != 8 || tie.ndim != 1 || work.ndim != 1 || !is_int64(tie.format) ||
+        !is_int64(work.format) || pz.shape[0] != n || t.shape[0] != n || d.shape[0] != n || tie.shape[0] != n ||
+        work.shape[0] != n) {
+        PyErr_SetString(PyExc_ValueError, "closest_profile: px, pz, t, distance (float64) and tie, work (int64) "
+                                          "must all have N values");
+        goto fail8;
+    }
+    Py_BEGIN_ALLOW_THREADS
+    for (i = 0; i < n; i++) {
+        double x = ((const double *)px.buf)[i], z = ((const double *)pz.buf)[i];
+        hx_closest c = hx_closest_profile(&tex, (const double *)aux.buf, x, z, hx_texture_height(&tex, x, 0.0) - z,
+                                          NAN);
+        ((double *)t.buf)[i] = c.t;
+        ((double *)d.buf)[i] = c.distance;
+        ((long long *)tie.buf)[i] = c.tie;
+        ((long long *)work.buf)[i] = c.work;
+    }
+    Py_END_ALLOW_THREADS
+fail8:
+    PyBuffer_Release(&work);
+fail7:
+    PyBuffer_Release(&tie);
+fail6:
+    PyBuffer_Release(&d);
+fail5:
+    PyBuffer_Release(&t);
+fail4:
+    PyBuffer_Release(&pz);
+fail3:
+    PyBuffer_Release(&px);
+fail2:
+    PyBuffer_Release(&aux);
+    PyBuffer_Release(&coeffs);
+    if (PyErr_Occurred())
+        return NULL;
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef methods[] = {
     {"field", (PyCFunction)(void (*)(void))field, METH_FASTCALL, field_doc},
     {"texture", (PyCFunction)(void (*)(void))texture, METH_FASTCALL, texture_doc},
     {"run_lean", (PyCFunction)(void (*)(void))run_lean, METH_FASTCALL, run_lean_doc},
+    {"closest_profile", (PyCFunction)(void (*)(void))closest_profile, METH_FASTCALL, closest_profile_doc},
     {NULL, NULL, 0, NULL},
 };
 
@@ -646,6 +746,13 @@ PyMODINIT_FUNC PyInit__ext(void)
         {"ALG_D", HX_ALG_D}, {"ALG_E", HX_ALG_E}, {"ALG_F", HX_ALG_F}, {"ALG_G", HX_ALG_G},
         {"N_PARAMS", HX_N_PARAMS}, {"P_K0", HX_P_K0}, {"P_DZMAX", HX_P_DZMAX}, {"P_MU", HX_P_MU},
         {"P_DXMAX", HX_P_DXMAX}, {"P_SCALE", HX_P_SCALE}, {"P_ZSTICK", HX_P_ZSTICK},
+        {"CP_VERTICAL", HX_CP_VERTICAL}, {"CP_PERIODIC", HX_CP_PERIODIC}, {"CP_FINITE", HX_CP_FINITE},
+        {"CP_OPEN", HX_CP_OPEN}, {"A_MODE", HX_A_MODE}, {"A_START", HX_A_START}, {"A_PERIOD", HX_A_PERIOD},
+        {"A_TREELEN", HX_A_TREELEN}, {"A_NLEAF", HX_A_NLEAF}, {"A_STEP", HX_A_STEP}, {"A_SLOPE", HX_A_SLOPE},
+        {"A_CURV", HX_A_CURV}, {"A_HMIN", HX_A_HMIN}, {"A_TMIN", HX_A_TMIN}, {"A_WCAP", HX_A_WCAP},
+        {"A_X0", HX_A_X0}, {"A_XE", HX_A_XE}, {"A_HL", HX_A_HL}, {"A_SL", HX_A_SL}, {"A_HR", HX_A_HR},
+        {"A_SR", HX_A_SR}, {"A_TIE", HX_A_TIE}, {"A_JERK", HX_A_JERK}, {"A_TABLE", HX_A_TABLE},
+        {"A_TREE", HX_A_TREE},
     };
     size_t i;
     if (mod == NULL)

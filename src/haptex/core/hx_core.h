@@ -119,6 +119,33 @@ double hx_smooth_flow(double deflection, double dx, double d_max, double z_stick
 void hx_presliding_plane(double d[2], const double dp[2], double d_max, double z_stick, const double *tab,
                          long *work);
 
+/* ---- closest points (D, E) -------------------------------------------------------- */
+
+/* The search data of a profile (haptex.closest.search_data): a header, then the bound tree,
+ * lo[i] = aux[HX_A_TREE + i] and hi[i] = aux[HX_A_TREE + 2 n_leaf + i], i = 1 .. 2 n_leaf - 1. */
+enum { HX_CP_VERTICAL, HX_CP_PERIODIC, HX_CP_FINITE, HX_CP_OPEN };
+enum {
+    HX_A_MODE, HX_A_START, HX_A_PERIOD, HX_A_TREELEN, HX_A_NLEAF, HX_A_STEP, HX_A_SLOPE, HX_A_CURV, HX_A_HMIN,
+    HX_A_TMIN, HX_A_WCAP, HX_A_X0, HX_A_XE, HX_A_HL, HX_A_SL, HX_A_HR, HX_A_SR, HX_A_TIE, HX_A_JERK, HX_A_TABLE,
+    HX_A_TREE
+};
+
+typedef struct {
+    double t, y;     /* the closest point's in-plane coordinates (m) */
+    double distance; /* its distance to the probe (m); 0 outside the wall */
+    int tie;         /* another local minimum at the same distance to the tie tolerance */
+    long work;       /* texture evaluations */
+} hx_closest;
+
+/* Check a profile's search data of naux values: every read of the search stays inside it. */
+int hx_closest_aux_check(const double *aux, long naux);
+
+/* The closest point of the profile's boundary to (px, pz) below it, given the vertical depth
+ * dv = h(px) - pz (m; <= 0: outside, the probe itself), warm-started from t_guess (NaN: none).
+ * Certified global to the tie tolerance aux[HX_A_TIE]. */
+hx_closest hx_closest_profile(const hx_texture *tex, const double *aux, double px, double pz, double dv,
+                              double t_guess);
+
 /* ---- the servo tick ------------------------------------------------------------- */
 
 /* An algorithm's state in a servo loop (mutable; zero it to start). */

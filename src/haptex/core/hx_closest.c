@@ -1,0 +1,367 @@
+/*
+ * The closest point on a profile's boundary z = h(x) to a probe below it (algorithms D and
+ * E): a bounded branch and bound over a tree of rigorous height bounds built once per
+ * texture (haptex.closest.search_data), with upper bounds from the vertical point, a warm
+ * start, the texture's lowest point and the straight extensions of a finite profile.
+ *
+ * phi(t) = (t - px)^2 + (h(t) - pz)^2 is minimised; g = phi'/2, g' = phi''/2. A node of the
+ * tree (a dyadic sub-interval with bounds lo <= h <= hi) is pruned when the box
+ * [interval] x [lo, hi] is farther than the best distance (plus the tie tolerance); a leaf
+ * is scanned every A_STEP for sign changes of g, each refined by safeguarded Newton, and an
+ * interval on which two minima could hide (|g''| bounded from A_SLOPE, A_CURV, A_JERK) is
+ * sampled 16 times finer. Work (texture evaluations) is counted.
+ */
+#include "hx_core.h"
+#include "hx_texture_eval.h"
+
+#include <math.h>
+#include <stddef.h>
+
+enum { STACK_DEPTH = 64 };
+
+typedef struct {
+    double f, t, second; /* the best phi and its abscissa; the best runner-up's phi */
+    int found;           /* the best is a refined local minimum */
+    long work;
+    double sample[2];    /* a leaf's best sample (t, phi) */
+    long stack[STACK_DEPTH];
+} search;
+
+typedef struct {
+    const hx_texture *tex;
+    const double *aux;
+    double px, pz;
+} problem;
+
+static void dphi(const problem *q, double t, double *f, double *g, double *gp)
+{
+    hx_height e;
+    double dz;
+    hx__texture_eval(q->tex, t, 0.0, &e);
+    dz = e.h - q->pz;
+    *g = (t - q->px) + dz * e.gx;
+    *gp = 1.0 + e.gx * e.gx + dz * e.hxx;
+    *f = (t - q->px) * (t - q->px) + dz * dz;
+}
+
+/* root of g in [a, b] where g(a) <= 0 < g(b): safeguarded Newton, at most 60 iterations */
+static double refine_bracket(const problem *q, double a, double b, long *it_out)
+{
+    double lo = a, hi = b, t = 0.5 * (a + b), f, g, gp, tn;
+    long it;
+    for (it = 1; it <= 60; it++) {
+        dphi(q, t, &f, &g, &gp);
+        if (g > 0.0)
+            hi = t;
+        else
+            lo = t;
+        tn = gp > 0.0 ? t - g / gp : 0.5 * (lo + hi);
+        if (!(lo < tn && tn < hi))
+            tn = 0.5 * (lo + hi);
+        if (fabs(tn - t) <= 1e-15 * (1.0 + fabs(t)) || hi - lo <= 1e-16 * (1.0 + fabs(t))) {
+            *it_out = it;
+            return tn;
+        }
+        t = tn;
+    }
+    *it_out = 60;
+    return t;
+}
+
+/* Newton on g from t, kept inside [a, b], at most 30 iterations */
+static double polish(const problem *q, double t, double a, double b, long *it_out)
+{
+    double f, g, gp, tn;
+    long it;
+    for (it = 1; it <= 30; it++) {
+        dphi(q, t, &f, &g, &gp);
+        if (gp <= 0.0) {
+            *it_out = it;
+            return t;
+        }
+        tn = fmin(fmax(t - g / gp, a), b);
+        if (fabs(tn - t) <= 1e-15 * (1.0 + fabs(t))) {
+            *it_out = it;
+            return tn;
+        }
+        t = tn;
+    }
+    *it_out = 30;
+    return t;
+}
+
+/* a boundary point: an upper bound of the minimum, not a certified local minimum */
+static void bound(search *s, double t, double f)
+{
+    if (f < s->f) {
+        s->f = f;
+        s->t = t;
+    }
+}
+
+/* a refined local minimum: keep the best, and the best runner-up more than sep away */
+static void offer(search *s, double t, double f, double sep)
+{
+    if (f < s->f) {
+        if (s->found && s->f < s->second && fabs(t - s->t) > sep)
+            s->second = s->f;
+        s->f = f;
+        s->t = t;
+        s->found = 1;
+    } else if (s->found && f < s->second && fabs(t - s->t) > sep) {
+        s->second = f;
+    }
+}
+
+/* 0 when phi provably has no local minimum in a sample interval other than the one a - to +
+ * sign change of g reveals: |g''| = |3 h' h'' + (h - pz) h'''| <= G2 with |h - pz| <= dz */
+static int pair_possible(const double *aux, double g0, double g1, double gp0, double gp1, double dz, double dt)
+{
+    double g2 = 3.0 * aux[HX_A_SLOPE] * aux[HX_A_CURV] + dz * aux[HX_A_JERK];
+    if (fmin(gp0, gp1) - g2 * dt > 0.0)
+        return 0;
+    if ((g0 > 0.0) == (g1 > 0.0))
+        return fabs(g0) + fabs(g1) <= (fmax(fabs(gp0), fabs(gp1)) + g2 * dt) * dt;
+    return 1;
+}
+
+static long refine_and_offer(const problem *q, double a, double b, double sep, search *s)
+{
+    long it;
+    double t = refine_bracket(q, a, b, &it), f, g, gp;
+    dphi(q, t, &f, &g, &gp);
+    offer(s, t, f, sep);
+    return it + 1;
+}
+
+static long scan_interval(const problem *q, double a, double b, double g_a, int n, search *s, double best[2])
+{
+    long work = 0;
+    double dt = (b - a) / n, t_prev = a, g_prev = g_a;
+    int k;
+    for (k = 1; k <= n; k++) {
+        double t_k = k == n ? b : a + k * dt, f_k, g_k, gp_k;
+        dphi(q, t_k, &f_k, &g_k, &gp_k);
+        work++;
+        if (f_k < best[1]) {
+            best[0] = t_k;
+            best[1] = f_k;
+        }
+        if (g_prev <= 0.0 && g_k > 0.0)
+            work += refine_and_offer(q, t_prev, t_k, 0.5 * dt, s);
+        t_prev = t_k;
+        g_prev = g_k;
+    }
+    return work;
+}
+
+static void scan_leaf(const problem *q, double u, double w, search *s)
+{
+    const double *aux = q->aux;
+    double steps = ceil(w / aux[HX_A_STEP]), dt, f_prev, g_prev, gp_prev, t_prev = u, t, f, g, gp;
+    long n = steps < 2.0 || !(steps == steps) ? 2 : (steps > 1e6 ? 1000000 : (long)steps), i, it, work = 1;
+    double *best = s->sample;
+    dt = w / (double)n;
+    dphi(q, u, &f_prev, &g_prev, &gp_prev);
+    best[0] = u;
+    best[1] = f_prev;
+    for (i = 1; i <= n; i++) {
+        double t_i = i == n ? u + w : u + (double)i * dt, f_i, g_i, gp_i, dz;
+        dphi(q, t_i, &f_i, &g_i, &gp_i);
+        work++;
+        if (f_i < best[1]) {
+            best[0] = t_i;
+            best[1] = f_i;
+        }
+        dz = sqrt(fmax(f_prev, f_i)) + aux[HX_A_SLOPE] * dt;
+        if (pair_possible(aux, g_prev, g_i, gp_prev, gp_i, dz, dt))
+            work += scan_interval(q, t_prev, t_i, g_prev, 16, s, best);
+        else if (g_prev <= 0.0 && g_i > 0.0)
+            work += refine_and_offer(q, t_prev, t_i, 0.5 * dt, s);
+        t_prev = t_i;
+        f_prev = f_i;
+        g_prev = g_i;
+        gp_prev = gp_i;
+    }
+    t = polish(q, best[0], fmax(u, best[0] - dt), fmin(u + w, best[0] + dt), &it);
+    dphi(q, t, &f, &g, &gp);
+    work += it + 1;
+    if (fabs(g) <= 1e-9 * sqrt(f) || f < s->f) /* a stationary point, or simply better */
+        offer(s, t, f, 0.5 * dt);
+    s->work += work;
+}
+
+static double box_lb(double px, double pz, double u, double w, double lo, double hi)
+{
+    double dx = fmax(0.0, fmax(u - px, px - (u + w))), dz = fmax(0.0, fmax(lo - pz, pz - hi));
+    return dx * dx + dz * dz;
+}
+
+/* depth-first branch and bound over the implicit binary tree on [root_u, root_u + root_w]
+ * with n_leaf leaves; node bounds from the tree in aux (table) or a Taylor bound */
+static void descend(const problem *q, double root_u, double root_w, long n_leaf, int table, search *s)
+{
+    const double *aux = q->aux;
+    long nl = (long)aux[HX_A_NLEAF];
+    int sp = 1;
+    s->stack[0] = 1;
+    while (sp > 0) {
+        long i = s->stack[--sp], j = i, first;
+        int level = 0, first_left;
+        double w, u, lo, hi, reach;
+        while (j > 1) {
+            j >>= 1;
+            level++;
+        }
+        first = 1L << level;
+        w = root_w / (double)first;
+        u = root_u + (double)(i - first) * w;
+        if (table) {
+            lo = aux[HX_A_TREE + i];
+            hi = aux[HX_A_TREE + 2 * nl + i];
+        } else {
+            hx_height e;
+            double spread;
+            hx__texture_eval(q->tex, u + 0.5 * w, 0.0, &e);
+            s->work++;
+            spread = fmin(aux[HX_A_SLOPE] * 0.5 * w, fabs(e.gx) * 0.5 * w + aux[HX_A_CURV] * 0.125 * w * w);
+            lo = e.h - spread;
+            hi = e.h + spread;
+        }
+        reach = sqrt(s->f) + aux[HX_A_TIE];
+        if (box_lb(q->px, q->pz, u, w, lo, hi) > reach * reach)
+            continue;
+        if (i >= n_leaf || sp + 2 > STACK_DEPTH) {
+            scan_leaf(q, u, w, s);
+            continue;
+        }
+        /* the child with the smaller lower bound is popped first */
+        first_left = q->px < u + 0.5 * w;
+        if (table) {
+            double hw = 0.5 * w;
+            double lb_l = box_lb(q->px, q->pz, u, hw, aux[HX_A_TREE + 2 * i], aux[HX_A_TREE + 2 * nl + 2 * i]);
+            double lb_r = box_lb(q->px, q->pz, u + hw, hw, aux[HX_A_TREE + 2 * i + 1],
+                                 aux[HX_A_TREE + 2 * nl + 2 * i + 1]);
+            first_left = lb_l <= lb_r;
+        }
+        s->stack[sp] = first_left ? 2 * i + 1 : 2 * i;
+        s->stack[sp + 1] = first_left ? 2 * i : 2 * i + 1;
+        sp += 2;
+    }
+}
+
+/* the closest point of the straight extension of a non-periodic profile (exact) */
+static void ray(const problem *q, double t_end, double h_end, double s_end, int left, search *s)
+{
+    double t = (q->px + s_end * (q->pz - h_end + s_end * t_end)) / (1.0 + s_end * s_end), f, g, gp;
+    int clamped = (left && t > t_end) || (!left && t < t_end);
+    if (clamped)
+        t = t_end;
+    dphi(q, t, &f, &g, &gp);
+    s->work++;
+    if (clamped)
+        bound(s, t, f);
+    else
+        offer(s, t, f, 0.0);
+}
+
+static void tree_search(const problem *q, double t_guess, int mode, search *s)
+{
+    const double *aux = q->aux;
+    long nl = (long)aux[HX_A_NLEAF];
+    double f, g, gp;
+    if (t_guess == t_guess) {
+        double r = sqrt(s->f), tg;
+        long it;
+        tg = polish(q, t_guess, q->px - r, q->px + r, &it);
+        dphi(q, tg, &f, &g, &gp);
+        s->work += it + 1;
+        bound(s, tg, f);
+    }
+    if (mode == HX_CP_PERIODIC) {
+        double period = aux[HX_A_PERIOD], start = aux[HX_A_START], below, half, k, k_lo, k_hi;
+        double tv = aux[HX_A_TMIN] + period * floor((q->px - aux[HX_A_TMIN]) / period + 0.5);
+        dphi(q, tv, &f, &g, &gp);
+        s->work++;
+        bound(s, tv, f);
+        /* beyond half of px every boundary point is farther than the best: its height is >= hmin */
+        below = fmax(aux[HX_A_HMIN] - q->pz, 0.0);
+        half = sqrt(fmax(s->f - below * below, 0.0)) * (1.0 + 1e-9);
+        k_lo = floor((q->px - half - start) / period);
+        k_hi = floor((q->px + half - start) / period);
+        for (k = k_lo; k <= k_hi; k += 1.0)
+            descend(q, start + k * period, aux[HX_A_TREELEN], nl, 1, s);
+    } else if (mode == HX_CP_FINITE) {
+        dphi(q, aux[HX_A_TMIN], &f, &g, &gp);
+        s->work++;
+        bound(s, aux[HX_A_TMIN], f);
+        ray(q, aux[HX_A_X0], aux[HX_A_HL], aux[HX_A_SL], 1, s);
+        ray(q, aux[HX_A_XE], aux[HX_A_HR], aux[HX_A_SR], 0, s);
+        descend(q, aux[HX_A_START], aux[HX_A_TREELEN], nl, 1, s);
+    } else { /* HX_CP_OPEN: an aperiodic sum, searched on a window capped at A_WCAP */
+        double below = fmax(aux[HX_A_HMIN] - q->pz, 0.0);
+        double half = fmin(sqrt(fmax(s->f - below * below, 0.0)) * (1.0 + 1e-9), aux[HX_A_WCAP]);
+        double leaf = 8.0 * aux[HX_A_STEP];
+        long n = 1;
+        while ((double)n * leaf < 2.0 * half && n < (1L << 40))
+            n *= 2;
+        descend(q, q->px - 0.5 * (double)n * leaf, (double)n * leaf, n, 0, s);
+    }
+}
+
+int hx_closest_aux_check(const double *aux, long naux)
+{
+    double mode, nl;
+    if (aux == NULL || naux < HX_A_TREE)
+        return HX_BAD_COEFFS;
+    mode = aux[HX_A_MODE];
+    if (!(mode == HX_CP_VERTICAL || mode == HX_CP_PERIODIC || mode == HX_CP_FINITE || mode == HX_CP_OPEN))
+        return HX_BAD_COEFFS;
+    if (mode == HX_CP_VERTICAL)
+        return HX_OK;
+    if (!(aux[HX_A_STEP] > 0.0) || !isfinite(aux[HX_A_TIE]) || !isfinite(aux[HX_A_SLOPE]))
+        return HX_BAD_COEFFS;
+    if (mode == HX_CP_OPEN)
+        return isfinite(aux[HX_A_WCAP]) && aux[HX_A_WCAP] >= 0.0 ? HX_OK : HX_BAD_COEFFS;
+    nl = aux[HX_A_NLEAF];
+    if (!(nl >= 1.0 && nl <= (double)(1L << 22) && nl == floor(nl)) || (double)naux < HX_A_TREE + 4.0 * nl)
+        return HX_BAD_COEFFS;
+    if (!(aux[HX_A_TREELEN] > 0.0) || !isfinite(aux[HX_A_START]) ||
+        (mode == HX_CP_PERIODIC && !(aux[HX_A_PERIOD] > 0.0 && isfinite(aux[HX_A_PERIOD]))))
+        return HX_BAD_COEFFS;
+    return HX_OK;
+}
+
+hx_closest hx_closest_profile(const hx_texture *tex, const double *aux, double px, double pz, double dv,
+                              double t_guess)
+{
+    hx_closest out;
+    search s;
+    problem q;
+    int mode = (int)aux[HX_A_MODE];
+    out.t = px;
+    out.y = 0.0;
+    out.distance = 0.0;
+    out.tie = 0;
+    out.work = 1;
+    if (!(dv > 0.0))
+        return out;
+    out.distance = dv;
+    if (mode == HX_CP_VERTICAL) /* flat: the vertical point is the closest */
+        return out;
+    s.f = dv * dv;
+    s.t = px;
+    s.second = HUGE_VAL;
+    s.found = 0;
+    s.work = 1;
+    q.tex = tex;
+    q.aux = aux;
+    q.px = px;
+    q.pz = pz;
+    tree_search(&q, t_guess, mode, &s);
+    out.t = s.t;
+    out.distance = sqrt(s.f);
+    out.tie = s.second < HUGE_VAL && sqrt(s.second) - sqrt(s.f) <= fmin(aux[HX_A_TIE], 1e-9 * sqrt(s.f));
+    out.work = s.work;
+    return out;
+}
