@@ -216,22 +216,29 @@ def _trajectory(dim, n=4000, seed=1):
 
 
 @pytest.mark.parametrize("dim", [2, 3])
-@pytest.mark.parametrize("letter", list("WABCG") + ["F sharp", "F smooth"])
+@pytest.mark.parametrize("letter", list("WABCDEG") + ["F sharp", "F smooth", "D open", "E finite"])
 def test_the_core_renderer_is_the_numba_renderer(monkeypatch, dim, letter):
-    """While numba keeps the ticks of D and E, it is the C tick's oracle for W, A, B, C, F, G:
-    the same forces (to round-off), faults, clamps, observed energy, controller activity,
-    work and F's adhesion along a stroke through the wall with noise and faults, with a max
-    force, the passivity controller (stored reference) and W's virtual damper. (Over a
-    profile the C's presliding is the planar one at y = 0: the same to round-off.)"""
+    """While numba keeps the ticks of D and E over surfaces, its tick is the C tick's oracle
+    for W, A-G (D and E over profiles and extruded profiles: the paper's sinusoid with its cell
+    table, an open sum, a finite sampled profile): the same forces (to round-off), faults,
+    clamps, observed energy, controller activity, work and F's adhesion along a stroke through
+    the wall with noise and faults, with a max force, the passivity controller (stored
+    reference) and W's virtual damper. (Over a profile the C's presliding is the planar one at
+    y = 0: the same to round-off.)"""
     tex = _profiles()["sum of sinusoids"] if dim == 2 else _surfaces()["height map, open edges"]
+    if letter[0] in "DE":  # over profiles: the paper's sinusoid (with the cell table), an open sum, a finite map
+        prof = {"D": hx.Sinusoid(0.8e-3, 1e-3), "E": hx.Sinusoid(0.8e-3, 1e-3), "D open": _profiles()["sum of sinusoids"],
+                "E finite": _profiles()["sampled, open ends"]}[letter]
+        tex = prof if dim == 2 else hx.Extruded(prof)
     if letter == "W":
         alg = hx.algorithm("W", None if dim == 2 else hx.Flat(2), K0, damping=3.0, period=1e-3)
     elif letter.startswith("F"):
         alg = hx.algorithm("F", tex, K0, presliding=2e-5,
                            **({"stick_deflection": 0.5e-5} if letter == "F smooth" else {}))
     else:
-        alg = hx.algorithm(letter, tex, K0, **({"max_penetration": 0.5e-3} if letter in "BCG" else {}))
-    kw = dict(max_force=2.0, passivity_controller=hx.PassivityController(5.0), period=1e-3)
+        alg = hx.algorithm(letter[0], tex, K0, **({"max_penetration": 0.5e-3} if letter in "BCG" else {}))
+    kw = dict(max_force=0.3 if letter[0] in "DE" else 2.0, passivity_controller=hx.PassivityController(5.0),
+              period=1e-3)
     c_side = hx.Renderer(alg, **kw)
     monkeypatch.setattr(core, "TICKS_IN_CORE", frozenset())
     numba_side = hx.Renderer(alg, **kw)
@@ -247,6 +254,7 @@ def test_the_core_renderer_is_the_numba_renderer(monkeypatch, dim, letter):
     for name in ("faults", "clamps", "controller_active", "max_work"):
         assert getattr(c_side, name) == getattr(numba_side, name), name
     assert c_side.clamps > 10 and c_side.faults == 11 and c_side.controller_active > 0
+    assert c_side.search_table == numba_side.search_table
     np.testing.assert_allclose(c_side.energy, numba_side.energy, rtol=1e-10, atol=1e-15)
     np.testing.assert_allclose(c_side.energy_per_axis, numba_side.energy_per_axis, rtol=1e-10, atol=1e-15)
     c_side.reset()

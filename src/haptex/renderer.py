@@ -185,13 +185,15 @@ class Renderer:
         self.dimension = algorithm.dimension
         code, prm, kind, coeffs, aux = algorithm.kernel_spec()
         self._core = None
-        if algorithm.letter in _core.TICKS_IN_CORE:  # the C core's tick (D, E: the numba tick below, until ported)
+        if _core.tick_in_core(algorithm):  # the C core's tick (D, E over surfaces: the numba tick below, until ported)
             pc = passivity_controller
+            tabled = _tick_search_data(algorithm, aux)
+            self._search_table = tabled is not aux and tabled[_kernels.A_TABLE] != 0.0
             self._core = _core._ext.Renderer(
-                code, prm, kind, coeffs, np.require(aux, np.float64, ["C"]), self.dimension, math.inf if max_force is None else float(max_force),
-                WORKSPACE_LIMIT, bool(energy_monitor), pc is not None, 0.0 if pc is None else pc.max_damping,
-                pc is not None and pc.reference == "stored", 0.0 if T is None else T, self._step_checked)
-            self._search_table = False
+                code, prm, kind, coeffs, np.require(tabled, np.float64, ["C"]), self.dimension,
+                math.inf if max_force is None else float(max_force), WORKSPACE_LIMIT, bool(energy_monitor),
+                pc is not None, 0.0 if pc is None else pc.max_damping, pc is not None and pc.reference == "stored",
+                0.0 if T is None else T, self._step_checked)
             self.step = self._core.step
             return
         tabled = _tick_search_data(algorithm, aux)

@@ -666,7 +666,7 @@ def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration:
     tail = np.zeros((d, min(n_steps - tail_start, 65536)))
     if _lean(fast, operator.kinematic, pc_on, device.delay, device.position_resolution, device.force_resolution,
              device.max_force, device.coulomb_friction):
-        if algorithm.letter in _core.TICKS_IN_CORE:
+        if _core.tick_in_core(algorithm):
             _core_lean(code, kind, nominal, n_steps, device.period, record_every, tail_start, prm[None],
                        coeffs[None], aux[None], fast[None], device.mass[None], np.asarray(operator.force)[None],
                        p0[None], v0[None], rec[None], summary[None], tail[None])
@@ -1032,7 +1032,7 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     i_tail = next(i for i, (a, _) in enumerate(args) if a is None)
     thresholds = np.array([_threshold(d_) for d_ in dev])[inverse]
     freqs = _frequency_table([_texture_frequencies(a, o) for a, _, o in runs])[inverse]
-    in_core = bool(args[-1][0]) and runs[0][0].letter in _core.TICKS_IN_CORE  # the lean loop, in C
+    in_core = bool(args[-1][0]) and _core.tick_in_core(runs[0][0])  # the lean loop, in C
     threads = _core.num_threads() if in_core else 1
     show = (N * n_steps > 5e7) if progress is None else bool(progress)
     bar = _progress(show, N)

@@ -30,9 +30,22 @@ IN_CORE = frozenset("WABCG")
 """The letters whose memoryless fields (force and Jacobian, :func:`field`) the C core
 evaluates (D and E follow with their closest-point searches; F has state, see below)."""
 
-TICKS_IN_CORE = frozenset("WABCFG")
-"""The letters whose servo tick (:class:`haptex.Renderer`) runs in the C core: the fields
-above, and F with its presliding friction (sharp and smooth, isotropic in the plane)."""
+TICKS_IN_CORE = frozenset("WABCDEFG")
+"""The letters whose servo tick (:class:`haptex.Renderer`, the simulator's lean loop) runs in
+the C core: the fields above, F with its presliding friction (sharp and smooth, isotropic in
+the plane), and D and E over profiles and extruded profiles (:func:`tick_in_core`)."""
+
+
+def tick_in_core(algorithm) -> bool:
+    """True when ``algorithm``'s servo tick runs in the C core: its letter is in
+    :data:`TICKS_IN_CORE`, and for D and E its texture is a profile or an extruded profile
+    (the closest-point searches over sums of gratings and height maps are still numba's)."""
+    if algorithm.letter not in TICKS_IN_CORE:
+        return False
+    if algorithm.letter in "DE":
+        kind, _ = algorithm.texture.kernel_data()
+        return kind in (_ext.TEXTURE_FLAT, _ext.TEXTURE_FOURIER, _ext.TEXTURE_SPLINE)
+    return True
 
 
 def field(algorithm, p, jacobian: bool = True) -> tuple[np.ndarray, np.ndarray | None]:

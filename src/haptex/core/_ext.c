@@ -323,7 +323,8 @@ static int Renderer_init(RendererObject *self, PyObject *args, PyObject *kwds)
     PyBuffer_Release(&coeffs);
     PyBuffer_Release(&prm);
     rc = hx_model_check(&self->r.model);
-    if (rc == HX_OK && (code == HX_ALG_D || code == HX_ALG_E))
+    if (rc == HX_OK && (code == HX_ALG_D || code == HX_ALG_E) &&
+        (kind == HX_SURFACE_GRATINGS || kind == HX_SURFACE_PATCHES))
         rc = HX_NOT_IN_CORE;
     if (rc != HX_OK) {
         core_error(rc);

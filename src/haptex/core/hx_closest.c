@@ -9,7 +9,9 @@
  * [interval] x [lo, hi] is farther than the best distance (plus the tie tolerance); a leaf
  * is scanned every A_STEP for sign changes of g, each refined by safeguarded Newton, and an
  * interval on which two minima could hide (|g''| bounded from A_SLOPE, A_CURV, A_JERK) is
- * sampled 16 times finer. Work (texture evaluations) is counted.
+ * sampled 16 times finer. Over a periodic profile a servo tick first reads a cell table
+ * (haptex.closest.table_search_data), the same certified answer in a few evaluations. Work
+ * (texture evaluations) is counted.
  */
 #include "hx_core.h"
 #include "hx_texture_eval.h"
@@ -309,6 +311,152 @@ static void tree_search(const problem *q, double t_guess, int mode, search *s)
     }
 }
 
+/* ---- the cell table: a servo tick's search in a few evaluations (periodic profiles) ---- */
+
+/* Table layout from aux[HX_A_TABLE] (haptex.closest.table_search_data): the header T_*, then
+ * per cell (row-major, x fastest) the index in aux of its first piece and its number of
+ * pieces (-1: search the tree), then the pieces (lo, hi, kind, m, G): lo and hi relative to
+ * the start of the cell's period (m); on a convex piece a lower bound m of g' and an upper
+ * bound G of |g''| over it for every probe of the cell. */
+enum { T_X0, T_PERIOD, T_W, T_NX, T_Z0, T_NZ, T_CELLS };
+enum { PIECE = 5, TABLE_FINE = 8 };
+#define PIECE_NEWTON 0.0
+
+/* the minimum of phi over [lo, hi] where g' >= m > 0 and |g''| <= G: Newton from t0 inside a
+ * bracket, an end evaluated only when a step leaves the piece; its error certified below
+ * 1e-15 (1 + |t|) m, or the step itself that small */
+static void convex_min(const problem *q, double lo, double hi, double m, double G, double t0, search *s,
+                       double *t_out, double *f_out)
+{
+    double a = lo, b = hi, t = fmin(fmax(t0, lo), hi), f, g, gp;
+    int a_known = 0, b_known = 0, it;
+    long work = 0;
+    for (it = 0; it < 64; it++) {
+        hx_height e;
+        double dz, tn, err;
+        hx__texture_eval(q->tex, t, 0.0, &e);
+        dz = e.h - q->pz;
+        g = (t - q->px) + dz * e.gx;
+        gp = 1.0 + e.gx * e.gx + dz * e.hxx;
+        work++;
+        if (g > 0.0) {
+            b = t;
+            b_known = 1;
+        } else {
+            a = t;
+            a_known = 1;
+        }
+        tn = gp > 0.0 ? t - g / gp : 0.5 * (a + b);
+        err = g / m;
+        if (lo <= tn && tn <= hi &&
+            (G / (2.0 * gp) * err * err <= 1e-15 * (1.0 + fabs(t)) || fabs(tn - t) <= 1e-15 * (1.0 + fabs(t)))) {
+            double u = tn - t; /* h(tn) by Taylor: its error, A_JERK |u|^3 / 6, is far below rounding */
+            s->work += work;
+            dz = e.h + u * (e.gx + 0.5 * u * e.hxx) - q->pz;
+            *t_out = tn;
+            *f_out = (tn - q->px) * (tn - q->px) + dz * dz;
+            return;
+        }
+        if (tn <= a || tn >= b) {
+            if (tn <= a && !a_known) { /* the minimum may be the piece's left end */
+                double fa, ga, gpa;
+                dphi(q, lo, &fa, &ga, &gpa);
+                work++;
+                if (ga >= 0.0) {
+                    s->work += work;
+                    *t_out = lo;
+                    *f_out = fa;
+                    return;
+                }
+                a_known = 1;
+            } else if (tn >= b && !b_known) {
+                double fb, gb, gpb;
+                dphi(q, hi, &fb, &gb, &gpb);
+                work++;
+                if (gb <= 0.0) {
+                    s->work += work;
+                    *t_out = hi;
+                    *f_out = fb;
+                    return;
+                }
+                b_known = 1;
+            }
+            tn = 0.5 * (a + b);
+        }
+        t = tn;
+        if (b - a <= 1e-16 * (1.0 + fabs(t)))
+            break;
+    }
+    t = fmin(fmax(t, lo), hi);
+    dphi(q, t, &f, &g, &gp);
+    s->work += work + 1;
+    *t_out = t;
+    *f_out = f;
+}
+
+/* the closest point from the cell table: minimise phi on each of the cell's pieces and
+ * offer each minimum; 0, with nothing done, when the probe is outside the table or its cell
+ * has too many pieces (the caller then searches the tree) */
+static int table_search(const problem *q, double t_guess, search *s)
+{
+    const double *aux = q->aux;
+    long o = (long)aux[HX_A_TABLE], nx = (long)aux[o + T_NX], ix, c, n, first, k;
+    double w = aux[o + T_W], jz = floor((q->pz - aux[o + T_Z0]) / w), period, base, u, guess, sep;
+    if (!(jz >= 0.0 && jz < aux[o + T_NZ]))
+        return 0;
+    period = aux[o + T_PERIOD];
+    base = aux[o + T_X0] + period * floor((q->px - aux[o + T_X0]) / period);
+    u = (q->px - base) / w;
+    ix = u > 0.0 ? (u < (double)(nx - 1) ? (long)u : nx - 1) : 0;
+    c = o + T_CELLS + 2 * ((long)jz * nx + ix);
+    n = (long)aux[c + 1];
+    if (n < 0)
+        return 0;
+    first = (long)aux[c];
+    guess = t_guess == t_guess ? t_guess : q->px;
+    sep = w / TABLE_FINE;
+    for (k = 0; k < n; k++) {
+        long p = first + PIECE * k;
+        double lo = base + aux[p], hi = base + aux[p + 1];
+        if (aux[p + 2] == PIECE_NEWTON) {
+            double t, f;
+            convex_min(q, lo, hi, aux[p + 3], aux[p + 4], guess, s, &t, &f);
+            offer(s, t, f, sep);
+        } else {
+            scan_leaf(q, lo, hi - lo, s);
+        }
+    }
+    return 1;
+}
+
+/* the table's layout against the array: every cell's pieces inside it */
+static int table_check(const double *aux, long naux)
+{
+    double off = aux[HX_A_TABLE], nx, nz;
+    long o, cells, i;
+    if (off == 0.0)
+        return HX_OK;
+    if (!(off >= HX_A_TREE && off == floor(off) && off + T_CELLS <= (double)naux) || aux[HX_A_MODE] != HX_CP_PERIODIC)
+        return HX_BAD_COEFFS;
+    o = (long)off;
+    nx = aux[o + T_NX];
+    nz = aux[o + T_NZ];
+    if (!(nx >= 1.0 && nz >= 1.0 && nx == floor(nx) && nz == floor(nz) && nx * nz <= 1e8) || !(aux[o + T_W] > 0.0) ||
+        !(aux[o + T_PERIOD] > 0.0) || !isfinite(aux[o + T_X0]) || !isfinite(aux[o + T_Z0]))
+        return HX_BAD_COEFFS;
+    cells = (long)nx * (long)nz;
+    if ((double)o + T_CELLS + 2.0 * (double)cells > (double)naux)
+        return HX_BAD_COEFFS;
+    for (i = 0; i < cells; i++) {
+        double first = aux[o + T_CELLS + 2 * i], n = aux[o + T_CELLS + 2 * i + 1];
+        if (n < 0.0)
+            continue;
+        if (!(n == floor(n) && first == floor(first) && first >= 0.0 && first + PIECE * n <= (double)naux))
+            return HX_BAD_COEFFS;
+    }
+    return HX_OK;
+}
+
 int hx_closest_aux_check(const double *aux, long naux)
 {
     double mode, nl;
@@ -329,7 +477,7 @@ int hx_closest_aux_check(const double *aux, long naux)
     if (!(aux[HX_A_TREELEN] > 0.0) || !isfinite(aux[HX_A_START]) ||
         (mode == HX_CP_PERIODIC && !(aux[HX_A_PERIOD] > 0.0 && isfinite(aux[HX_A_PERIOD]))))
         return HX_BAD_COEFFS;
-    return HX_OK;
+    return table_check(aux, naux);
 }
 
 hx_closest hx_closest_profile(const hx_texture *tex, const double *aux, double px, double pz, double dv,
@@ -358,7 +506,8 @@ hx_closest hx_closest_profile(const hx_texture *tex, const double *aux, double p
     q.aux = aux;
     q.px = px;
     q.pz = pz;
-    tree_search(&q, t_guess, mode, &s);
+    if (aux[HX_A_TABLE] == 0.0 || !table_search(&q, t_guess, &s))
+        tree_search(&q, t_guess, mode, &s);
     out.t = s.t;
     out.distance = sqrt(s.f);
     out.tie = s.second < HUGE_VAL && sqrt(s.second) - sqrt(s.f) <= fmin(aux[HX_A_TIE], 1e-9 * sqrt(s.f));

@@ -228,6 +228,38 @@ HX_INLINE void tick_f(const hx_model *m, hx_state *s, const double p[3], double 
     f[2] = -k * p[2];
 }
 
+/* D and E over a profile (or a profile extruded along y): the closest point of the boundary
+ * (hx_closest_profile), warm-started from the last one moved on by its last step when that
+ * step was under a thousandth of the shortest period; D pulls the probe towards it, E pushes
+ * along z by the distance (eq. 16-19, physical sign). */
+HX_INLINE void tick_de(const int code, const hx_model *m, hx_state *s, const double p[3], double f[3])
+{
+    double k = m->prm[HX_P_K0], h = hx__texture_height(&m->tex, p[0], p[1]), d = p[2] - h, guess = NAN;
+    hx_closest c;
+    s->h = h;
+    s->pen = d < 0.0 ? -d : 0.0;
+    if (!(d < 0.0))
+        return;
+    if (s->contact) {
+        guess = s->adh[0];
+        if (s->contact == 2 && fabs(guess - s->last[0]) < 1e6 * m->aux[HX_A_TIE])
+            guess += guess - s->last[0];
+    }
+    c = hx_closest_profile(&m->tex, m->aux, p[0], p[2], -d, guess);
+    s->contact = s->contact ? 2 : 1;
+    s->last[0] = s->adh[0];
+    s->adh[0] = c.t;
+    s->work = c.work;
+    s->pen = c.distance;
+    if (code == HX_ALG_D) {
+        f[0] = -k * (p[0] - c.t);
+        f[1] = -k * (p[1] - p[1]);
+        f[2] = -k * (p[2] - hx__texture_height(&m->tex, c.t, 0.0));
+    } else {
+        f[2] = k * c.distance;
+    }
+}
+
 /* The tick's force for algorithm `code` (a constant where a caller instantiates a loop per
  * letter, code otherwise). */
 HX_INLINE int hx__tick_force_of(const int code, const hx_model *m, hx_state *s, const double p[3],
@@ -240,6 +272,12 @@ HX_INLINE int hx__tick_force_of(const int code, const hx_model *m, hx_state *s, 
     s->h = NAN;
     if (code == HX_ALG_F) {
         tick_f(m, s, p, f);
+        return HX_OK;
+    }
+    if (code == HX_ALG_D || code == HX_ALG_E) {
+        if (m->tex.kind == HX_SURFACE_GRATINGS || m->tex.kind == HX_SURFACE_PATCHES)
+            return HX_NOT_IN_CORE; /* the surface searches: still numba's */
+        tick_de(code, m, s, p, f);
         return HX_OK;
     }
     if (code < 0 || code >= HX_N_ALGS || FIELDS[code] == NULL)

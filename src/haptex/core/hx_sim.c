@@ -203,17 +203,21 @@ HX_LEAN(lean_b2, HX_ALG_B, 2)
 HX_LEAN(lean_c2, HX_ALG_C, 2)
 HX_LEAN(lean_f2, HX_ALG_F, 2)
 HX_LEAN(lean_g2, HX_ALG_G, 2)
+HX_LEAN(lean_d2, HX_ALG_D, 2)
+HX_LEAN(lean_e2, HX_ALG_E, 2)
 HX_LEAN(lean_w3, HX_ALG_W, 3)
 HX_LEAN(lean_a3, HX_ALG_A, 3)
 HX_LEAN(lean_b3, HX_ALG_B, 3)
 HX_LEAN(lean_c3, HX_ALG_C, 3)
 HX_LEAN(lean_f3, HX_ALG_F, 3)
 HX_LEAN(lean_g3, HX_ALG_G, 3)
+HX_LEAN(lean_d3, HX_ALG_D, 3)
+HX_LEAN(lean_e3, HX_ALG_E, 3)
 
-/* The letters in the order of HX_ALG_*, per dimension; NULL: not in the core yet (D, E). */
+/* The letters in the order of HX_ALG_*, per dimension. */
 static const lean_fn LEANS[2][HX_N_ALGS] = {
-    {lean_w2, lean_a2, lean_b2, lean_c2, NULL, NULL, lean_f2, lean_g2},
-    {lean_w3, lean_a3, lean_b3, lean_c3, NULL, NULL, lean_f3, lean_g3},
+    {lean_w2, lean_a2, lean_b2, lean_c2, lean_d2, lean_e2, lean_f2, lean_g2},
+    {lean_w3, lean_a3, lean_b3, lean_c3, lean_d3, lean_e3, lean_f3, lean_g3},
 };
 
 int hx_run_lean(const hx_model *m, const hx_lean_run *r)
@@ -221,8 +225,9 @@ int hx_run_lean(const hx_model *m, const hx_lean_run *r)
     lean_fn fn;
     if (hx_model_check(m) != HX_OK || (r->dim != 2 && r->dim != 3))
         return HX_BAD_COEFFS;
+    if ((m->code == HX_ALG_D || m->code == HX_ALG_E) &&
+        (m->tex.kind == HX_SURFACE_GRATINGS || m->tex.kind == HX_SURFACE_PATCHES))
+        return HX_NOT_IN_CORE; /* the surface searches: still numba's */
     fn = LEANS[r->dim - 2][m->code];
-    if (fn == NULL)
-        return HX_NOT_IN_CORE;
     return fn(m, r);
 }
