@@ -15,8 +15,11 @@ def test_a_fork_pool_works_after_a_parallel_kernel():
         import numba
         tex = hx.Sinusoid(0.8e-3, 1e-3)
         hx.closest_point(tex, np.column_stack([np.linspace(0, 1e-3, 4000), np.full(4000, -1e-3)]))  # C, threads
-        egg = hx.SumOfGratings.egg_crate(0.1e-3, 2e-3)  # numba's parallel surface search
+        egg = hx.SumOfGratings.egg_crate(0.1e-3, 2e-3)  # C, threads
         hx.closest_point(egg, np.column_stack([np.linspace(0, 1e-3, 400), np.zeros(400), np.full(400, -1e-3)]))
+        from haptex.operators import ConstantForce  # numba's parallel batch (the general loop: a delay)
+        hx.simulate_batch(hx.algorithm("A", tex, 1000.0), hx.Device.point_mass().replace(delay=1),
+                          ConstantForce([0.0, -1.0]), 0.01, stiffness=[500.0, 1000.0])
         def work(z):
             return float(hx.algorithm("D", tex, 1000.0).force([[0.0, z]])[0, 1])
         with mp.get_context("fork").Pool(2) as pool:

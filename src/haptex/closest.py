@@ -381,11 +381,7 @@ def _closest_point_surface(texture: Texture, p) -> ClosestPoint:
                              "profiles, sums of gratings, height maps and extruded profiles")
     kind, gc, gaux = surface_search_data(texture)
     flat = arr.reshape(-1, 3)
-    n = flat.shape[0]
-    tx, ty, d = np.empty(n), np.empty(n), np.empty(n)
-    tie, work = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64)
-    K.surface_closest_points(kind, gc, gaux, *(np.ascontiguousarray(flat[:, i]) for i in range(3)), tx, ty, d, tie,
-                             work)
+    tx, ty, d, tie, work = _core.closest_surface_points(kind, gc, gaux, flat[:, 0], flat[:, 1], flat[:, 2])
     xy = np.stack([tx, ty], -1)
     return ClosestPoint(x=tx.reshape(shape), z=texture.height_at(xy).reshape(shape), distance=d.reshape(shape),
                         tie=(tie != 0).reshape(shape), work=work.reshape(shape), y=ty.reshape(shape))

@@ -32,20 +32,14 @@ evaluates (D and E follow with their closest-point searches; F has state, see be
 
 TICKS_IN_CORE = frozenset("WABCDEFG")
 """The letters whose servo tick (:class:`haptex.Renderer`, the simulator's lean loop) runs in
-the C core: the fields above, F with its presliding friction (sharp and smooth, isotropic in
-the plane), and D and E over profiles and extruded profiles (:func:`tick_in_core`)."""
+the C core: all eight (F with its presliding friction, D and E with their closest-point
+searches over profiles, extruded profiles, sums of gratings and height maps)."""
 
 
 def tick_in_core(algorithm) -> bool:
-    """True when ``algorithm``'s servo tick runs in the C core: its letter is in
-    :data:`TICKS_IN_CORE`, and for D and E its texture is a profile or an extruded profile
-    (the closest-point searches over sums of gratings and height maps are still numba's)."""
-    if algorithm.letter not in TICKS_IN_CORE:
-        return False
-    if algorithm.letter in "DE":
-        kind, _ = algorithm.texture.kernel_data()
-        return kind in (_ext.TEXTURE_FLAT, _ext.TEXTURE_FOURIER, _ext.TEXTURE_SPLINE)
-    return True
+    """True when ``algorithm``'s servo tick runs in the C core (its letter is in
+    :data:`TICKS_IN_CORE`)."""
+    return algorithm.letter in TICKS_IN_CORE
 
 
 def field(algorithm, p, jacobian: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
@@ -177,3 +171,38 @@ def closest_profile_points(kind: int, coeffs: np.ndarray, aux: np.ndarray, px, p
 
     in_slices(run, n, least=256)
     return t, d, tie, work
+
+
+def closest_surface_points(kind: int, coeffs: np.ndarray, aux: np.ndarray, px, py, pz):
+    """Closest points of a surface (a sum of gratings or a height map) to probes (px, py, pz)
+    (m) by the C core (:func:`haptex.closest.closest_point` over a surface reads this).
+
+    Parameters
+    ----------
+    kind, coeffs : int, ndarray
+        The surface's kernel data (:meth:`haptex.Texture.kernel_data`).
+    aux : ndarray, shape (N_GAUX,)
+        Its search constants (:func:`haptex.closest.surface_search_data`).
+    px, py, pz : array_like, shape (N,)
+        Probe positions (m).
+
+    Returns
+    -------
+    tx, ty, distance : ndarray, shape (N,)
+        The closest point's in-plane coordinates and its distance (m), 0 outside the wall.
+    tie, work : ndarray of int64, shape (N,)
+        1 where another local minimum lies at the same distance; the texture evaluations spent.
+    """
+    px, py, pz = (np.ascontiguousarray(a, dtype=np.float64) for a in (px, py, pz))
+    coeffs = np.ascontiguousarray(coeffs, dtype=np.float64)
+    aux = np.ascontiguousarray(aux, dtype=np.float64)
+    n = px.shape[0]
+    tx, ty, d = np.empty(n), np.empty(n), np.empty(n)
+    tie, work = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64)
+
+    def run(lo, hi):
+        _ext.closest_surface(kind, coeffs, aux, px[lo:hi], py[lo:hi], pz[lo:hi], tx[lo:hi], ty[lo:hi], d[lo:hi],
+                             tie[lo:hi], work[lo:hi])
+
+    in_slices(run, n, least=64)
+    return tx, ty, d, tie, work

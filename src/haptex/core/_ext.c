@@ -323,9 +323,7 @@ static int Renderer_init(RendererObject *self, PyObject *args, PyObject *kwds)
     PyBuffer_Release(&coeffs);
     PyBuffer_Release(&prm);
     rc = hx_model_check(&self->r.model);
-    if (rc == HX_OK && (code == HX_ALG_D || code == HX_ALG_E) &&
-        (kind == HX_SURFACE_GRATINGS || kind == HX_SURFACE_PATCHES))
-        rc = HX_NOT_IN_CORE;
+
     if (rc != HX_OK) {
         core_error(rc);
         return -1;
@@ -723,11 +721,89 @@ fail2:
     Py_RETURN_NONE;
 }
 
+PyDoc_STRVAR(closest_surface_doc,
+"closest_surface(kind, coeffs, aux, px, py, pz, tx, ty, distance, tie, work)\n--\n\n"
+"The closest point of a surface (hx_closest_surface) to each probe (float64 (N,), m), into tx, ty,\n"
+"distance (float64 (N,), m), tie and work (int64 (N,)); no warm start. The GIL is released.");
+
+static PyObject *closest_surface(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    Py_buffer b[10];
+    static const char *names[10] = {"coeffs", "aux", "px", "py", "pz", "tx", "ty", "distance", "tie", "work"};
+    hx_texture tex;
+    long kind;
+    int got, rc, i;
+    Py_ssize_t k, n;
+    (void)self;
+    if (nargs != 11) {
+        PyErr_SetString(PyExc_TypeError, "closest_surface takes 11 arguments");
+        return NULL;
+    }
+    kind = PyLong_AsLong(args[0]);
+    if (kind == -1 && PyErr_Occurred())
+        return NULL;
+    if (kind != HX_SURFACE_GRATINGS && kind != HX_SURFACE_PATCHES) {
+        PyErr_SetString(PyExc_ValueError, "closest_surface: kind must be a surface's");
+        return NULL;
+    }
+    for (got = 0; got < 10; got++) {
+        int ok;
+        if (got < 8) {
+            ok = get_doubles(args[1 + got], &b[got], got >= 5, got == 0 ? -1 : 1, names[got]) == 0;
+        } else {
+            ok = PyObject_GetBuffer(args[1 + got], &b[got], PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | PyBUF_WRITABLE) == 0;
+            if (ok && (b[got].itemsize != 8 || b[got].ndim != 1 || !is_int64(b[got].format))) {
+                PyBuffer_Release(&b[got]);
+                PyErr_Format(PyExc_ValueError, "%s must be a C-contiguous int64 array", names[got]);
+                ok = 0;
+            }
+        }
+        if (!ok)
+            goto done;
+    }
+    tex.kind = (int)kind;
+    tex.c = (const double *)b[0].buf;
+    tex.rows = b[0].ndim == 2 ? (long)b[0].shape[0] : 1;
+    tex.cols = b[0].ndim == 2 ? (long)b[0].shape[1] : (b[0].ndim == 1 ? (long)b[0].shape[0] : 0);
+    rc = b[0].ndim > 2 ? HX_BAD_COEFFS : hx_texture_check(tex.kind, tex.c, tex.rows, tex.cols);
+    if (rc == HX_OK)
+        rc = hx_surface_aux_check((const double *)b[1].buf, (long)b[1].shape[0]);
+    if (rc != HX_OK) {
+        core_error(rc);
+        goto done;
+    }
+    n = b[2].shape[0];
+    for (i = 3; i < 10; i++) {
+        if (b[i].shape[0] != n) {
+            PyErr_SetString(PyExc_ValueError, "closest_surface: every probe array must have N values");
+            goto done;
+        }
+    }
+    Py_BEGIN_ALLOW_THREADS
+    for (k = 0; k < n; k++) {
+        hx_closest c = hx_closest_surface(&tex, (const double *)b[1].buf, ((const double *)b[2].buf)[k],
+                                          ((const double *)b[3].buf)[k], ((const double *)b[4].buf)[k], NAN, NAN);
+        ((double *)b[5].buf)[k] = c.t;
+        ((double *)b[6].buf)[k] = c.y;
+        ((double *)b[7].buf)[k] = c.distance;
+        ((long long *)b[8].buf)[k] = c.tie;
+        ((long long *)b[9].buf)[k] = c.work;
+    }
+    Py_END_ALLOW_THREADS
+done:
+    for (i = 0; i < got; i++)
+        PyBuffer_Release(&b[i]);
+    if (PyErr_Occurred())
+        return NULL;
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef methods[] = {
     {"field", (PyCFunction)(void (*)(void))field, METH_FASTCALL, field_doc},
     {"texture", (PyCFunction)(void (*)(void))texture, METH_FASTCALL, texture_doc},
     {"run_lean", (PyCFunction)(void (*)(void))run_lean, METH_FASTCALL, run_lean_doc},
     {"closest_profile", (PyCFunction)(void (*)(void))closest_profile, METH_FASTCALL, closest_profile_doc},
+    {"closest_surface", (PyCFunction)(void (*)(void))closest_surface, METH_FASTCALL, closest_surface_doc},
     {NULL, NULL, 0, NULL},
 };
 
@@ -753,7 +829,10 @@ PyMODINIT_FUNC PyInit__ext(void)
         {"A_CURV", HX_A_CURV}, {"A_HMIN", HX_A_HMIN}, {"A_TMIN", HX_A_TMIN}, {"A_WCAP", HX_A_WCAP},
         {"A_X0", HX_A_X0}, {"A_XE", HX_A_XE}, {"A_HL", HX_A_HL}, {"A_SL", HX_A_SL}, {"A_HR", HX_A_HR},
         {"A_SR", HX_A_SR}, {"A_TIE", HX_A_TIE}, {"A_JERK", HX_A_JERK}, {"A_TABLE", HX_A_TABLE},
-        {"A_TREE", HX_A_TREE},
+        {"A_TREE", HX_A_TREE}, {"G_HMIN", HX_G_HMIN}, {"G_SLOPE", HX_G_SLOPE}, {"G_CURV", HX_G_CURV},
+        {"G_LEAF", HX_G_LEAF}, {"G_TIE", HX_G_TIE}, {"G_HMAX", HX_G_HMAX}, {"G_CONVEX", HX_G_CONVEX},
+        {"G_JERK", HX_G_JERK}, {"G_SLOPE_BOUND", HX_G_SLOPE_BOUND}, {"G_CURV_BOUND", HX_G_CURV_BOUND},
+        {"N_GAUX", HX_N_GAUX},
     };
     size_t i;
     if (mod == NULL)

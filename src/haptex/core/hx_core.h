@@ -146,6 +146,25 @@ int hx_closest_aux_check(const double *aux, long naux);
 hx_closest hx_closest_profile(const hx_texture *tex, const double *aux, double px, double pz, double dv,
                               double t_guess);
 
+/* The constants of a surface's search (haptex.closest.surface_search_data): lowest and
+ * highest height (m), sup |grad h|, sup ||H|| (1/m), the leaf half-width (m), the tie
+ * tolerance (m); over a sum of gratings rigorous bounds for the convexity certificate and the
+ * Taylor bound (||H||_2, |grad h|, the third derivatives), 0 otherwise. */
+enum {
+    HX_G_HMIN, HX_G_SLOPE, HX_G_CURV, HX_G_LEAF, HX_G_TIE, HX_G_HMAX, HX_G_CONVEX, HX_G_JERK, HX_G_SLOPE_BOUND,
+    HX_G_CURV_BOUND, HX_N_GAUX
+};
+
+/* Check a surface's search constants (HX_N_GAUX values). */
+int hx_surface_aux_check(const double *aux, long naux);
+
+/* The closest point of the surface (a sum of gratings or a height map's patches) to the probe
+ * (px, py, pz), warm-started from (gx0, gy0) (NaN: none). Certified global to aux[HX_G_TIE]
+ * over a sum of gratings; over a height map, leaves of one sample interval are refined by
+ * projected Newton (not certified). Bounded work, counted. */
+hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double px, double py, double pz, double gx0,
+                              double gy0);
+
 /* ---- the servo tick ------------------------------------------------------------- */
 
 /* An algorithm's state in a servo loop (mutable; zero it to start). */

@@ -260,6 +260,45 @@ HX_INLINE void tick_de(const int code, const hx_model *m, hx_state *s, const dou
     }
 }
 
+/* D and E over a sum of gratings or a height map: the closest point of the surface
+ * (hx_closest_surface), warm-started from the last one moved on by its last step when that
+ * step was under a thousandth of the shortest wavelength. */
+HX_INLINE void tick_de_surface(const int code, const hx_model *m, hx_state *s, const double p[3], double f[3])
+{
+    double k = m->prm[HX_P_K0], h = hx__texture_height(&m->tex, p[0], p[1]), d = p[2] - h, gx = NAN, gy = NAN;
+    hx_closest c;
+    s->h = h;
+    s->pen = d < 0.0 ? -d : 0.0;
+    if (!(d < 0.0))
+        return;
+    if (s->contact) {
+        gx = s->adh[0];
+        gy = s->adh[1];
+        if (s->contact == 2) {
+            double sx = gx - s->last[0], sy = gy - s->last[1];
+            if (fabs(sx) + fabs(sy) < 1e6 * m->aux[HX_G_TIE]) {
+                gx += sx;
+                gy += sy;
+            }
+        }
+    }
+    c = hx_closest_surface(&m->tex, m->aux, p[0], p[1], p[2], gx, gy);
+    s->contact = s->contact ? 2 : 1;
+    s->last[0] = s->adh[0];
+    s->last[1] = s->adh[1];
+    s->adh[0] = c.t;
+    s->adh[1] = c.y;
+    s->work = c.work + 1;
+    s->pen = c.distance;
+    if (code == HX_ALG_D) {
+        f[0] = -k * (p[0] - c.t);
+        f[1] = -k * (p[1] - c.y);
+        f[2] = -k * (p[2] - hx__texture_height(&m->tex, c.t, c.y));
+    } else {
+        f[2] = k * c.distance;
+    }
+}
+
 /* The tick's force for algorithm `code` (a constant where a caller instantiates a loop per
  * letter, code otherwise). */
 HX_INLINE int hx__tick_force_of(const int code, const hx_model *m, hx_state *s, const double p[3],
@@ -276,8 +315,9 @@ HX_INLINE int hx__tick_force_of(const int code, const hx_model *m, hx_state *s, 
     }
     if (code == HX_ALG_D || code == HX_ALG_E) {
         if (m->tex.kind == HX_SURFACE_GRATINGS || m->tex.kind == HX_SURFACE_PATCHES)
-            return HX_NOT_IN_CORE; /* the surface searches: still numba's */
-        tick_de(code, m, s, p, f);
+            tick_de_surface(code, m, s, p, f);
+        else
+            tick_de(code, m, s, p, f);
         return HX_OK;
     }
     if (code < 0 || code >= HX_N_ALGS || FIELDS[code] == NULL)

@@ -29,9 +29,12 @@ int hx_model_check(const hx_model *m)
         if (m->prm[HX_P_ZSTICK] >= 0.0)
             rc = hx_presliding_table_check(m->aux, m->naux);
     }
-    if (rc == HX_OK && (m->code == HX_ALG_D || m->code == HX_ALG_E) && m->tex.kind != HX_SURFACE_GRATINGS &&
-        m->tex.kind != HX_SURFACE_PATCHES)
-        rc = hx_closest_aux_check(m->aux, m->naux);
+    if (rc == HX_OK && (m->code == HX_ALG_D || m->code == HX_ALG_E)) {
+        if (m->tex.kind == HX_SURFACE_GRATINGS || m->tex.kind == HX_SURFACE_PATCHES)
+            rc = hx_surface_aux_check(m->aux, m->naux);
+        else
+            rc = hx_closest_aux_check(m->aux, m->naux);
+    }
     return rc;
 }
 

@@ -225,9 +225,6 @@ int hx_run_lean(const hx_model *m, const hx_lean_run *r)
     lean_fn fn;
     if (hx_model_check(m) != HX_OK || (r->dim != 2 && r->dim != 3))
         return HX_BAD_COEFFS;
-    if ((m->code == HX_ALG_D || m->code == HX_ALG_E) &&
-        (m->tex.kind == HX_SURFACE_GRATINGS || m->tex.kind == HX_SURFACE_PATCHES))
-        return HX_NOT_IN_CORE; /* the surface searches: still numba's */
     fn = LEANS[r->dim - 2][m->code];
     return fn(m, r);
 }

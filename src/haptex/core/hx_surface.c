@@ -1,0 +1,564 @@
+/*
+ * The closest point on a surface z = h(x, y) to a probe below it (D and E over a sum of
+ * gratings or a height map's bicubic patches): Newton where phi / 2 is certified strongly
+ * convex on the whole plane, else a branch and bound over a quadtree of the square around
+ * the probe, cells pruned by box bounds of h, and over gratings by a Taylor bound of phi and
+ * a basin disc around the best stationary point (rigorous bounds of |grad h|, ||H|| and the
+ * third derivatives kept in aux). phi(t) = |t - p_xy|^2 + (h(t) - p_z)^2. The result over
+ * gratings is certified global to G_TIE in distance; over a height map, cells of one sample
+ * interval are leaves refined by projected Newton (not certified). Work is bounded (at most
+ * MAX_NODES cells by the model, MAX_LEAVES leaves, STACK pending cells) and counted.
+ */
+#include "hx_core.h"
+#include "hx_texture_eval.h"
+
+#include <math.h>
+#include <stddef.h>
+
+enum { STACK = 512, MAX_LEAVES = 1 << 16, MAX_NODES = 1 << 11, CONVEX_EVALS = 16 };
+#define CONVEX_MIN 0.05
+#define M_PI_VALUE 3.14159265358979323846
+
+typedef struct {
+    const hx_texture *tex;
+    const double *g; /* aux: HX_G_* */
+    double px, py, pz;
+} sproblem;
+
+static void surf(const sproblem *q, double x, double y, hx_height *e) { hx__texture_eval(q->tex, x, y, e); }
+
+/* rigorous (min h, max h) over a square cell of a height map: outside a non-periodic map
+ * the extension's bound from the map's range and slope */
+static void patch_range(const sproblem *q, double cx, double cy, double w, double *lo, double *hi)
+{
+    const double *hd = q->tex->c, *g = q->g;
+    double x0, y0, x1, y1, ox, oy, out;
+    if (hd[6] != 0.0) {
+        *lo = g[HX_G_HMIN];
+        *hi = g[HX_G_HMAX];
+        return;
+    }
+    x0 = hd[0];
+    y0 = hd[1];
+    x1 = x0 + hd[4] * hd[2];
+    y1 = y0 + hd[5] * hd[3];
+    ox = fmax(0.0, fmax(x0 - (cx - w), (cx + w) - x1));
+    oy = fmax(0.0, fmax(y0 - (cy - w), (cy + w) - y1));
+    out = sqrt(ox * ox + oy * oy) * g[HX_G_SLOPE];
+    *lo = g[HX_G_HMIN] - out;
+    *hi = g[HX_G_HMAX] + out;
+}
+
+/* rigorous (min h, max h) over the square cell: each grating's exact range, summed */
+static void grating_range(const sproblem *q, double cx, double cy, double w, double *lo_out, double *hi_out)
+{
+    const hx_texture *t = q->tex;
+    long i, n = t->cols;
+    double lo = 0.0, hi = 0.0;
+    for (i = 0; i < n; i++) {
+        double a = t->c[i], kx = t->c[n + i], ky = t->c[2 * n + i], arg = kx * cx + ky * cy + t->c[3 * n + i];
+        double delta = w * (fabs(kx) + fabs(ky)), s0, s1, tlo, thi;
+        if (delta >= M_PI_VALUE) {
+            lo -= a;
+            hi += a;
+            continue;
+        }
+        s0 = sin(arg - delta);
+        s1 = sin(arg + delta);
+        tlo = fmin(s0, s1);
+        thi = fmax(s0, s1);
+        /* a crest (pi/2 + 2 pi m) or a trough (-pi/2 + 2 pi m) inside the interval */
+        if (floor((arg + delta - 0.5 * M_PI_VALUE) / (2 * M_PI_VALUE)) > floor((arg - delta - 0.5 * M_PI_VALUE) / (2 * M_PI_VALUE)))
+            thi = 1.0;
+        if (floor((arg + delta + 0.5 * M_PI_VALUE) / (2 * M_PI_VALUE)) > floor((arg - delta + 0.5 * M_PI_VALUE) / (2 * M_PI_VALUE)))
+            tlo = -1.0;
+        lo += a * tlo;
+        hi += a * thi;
+    }
+    *lo_out = lo;
+    *hi_out = hi;
+}
+
+/* projected Newton on phi / 2 from (tx, ty), kept in the cell [x0, x1] x [y0, y1] and
+ * monotone (a step that raises phi beyond its rounding, with a smaller gradient, is halved
+ * from the last point that did not); where the Hessian Q of phi / 2 is not positive definite
+ * the step solves (Q + mu I) s = -grad with Q's least eigenvalue mirrored, at most a quarter
+ * of the cell long. At most 40 evaluations. The last accepted point; stationary when
+ * |grad phi / 2| <= 1e-9 sqrt(phi) there. */
+typedef struct {
+    double tx, ty, f;
+    long it;
+    int stationary;
+} newton_out;
+
+static newton_out surf_newton(const sproblem *q, double tx, double ty, double x0, double x1, double y0, double y1)
+{
+    double ox = tx, oy = ty, of = HUGE_VAL, og = HUGE_VAL, sx = 0.0, sy = 0.0;
+    long it = 0;
+    newton_out out;
+    for (it = 1; it <= 40; it++) {
+        hx_height e;
+        double dz, f, g0, g1, gn, a, b, c, det, nx, ny;
+        surf(q, tx, ty, &e);
+        dz = e.h - q->pz;
+        f = (tx - q->px) * (tx - q->px) + (ty - q->py) * (ty - q->py) + dz * dz;
+        g0 = (tx - q->px) + dz * e.gx;
+        g1 = (ty - q->py) + dz * e.gy;
+        gn = sqrt(g0 * g0 + g1 * g1);
+        if (!(f <= of || (f <= of * (1.0 + 1e-12) && gn < og))) {
+            sx *= 0.5;
+            sy *= 0.5;
+            if (fabs(sx) <= 1e-15 * (1.0 + fabs(ox)) && fabs(sy) <= 1e-15 * (1.0 + fabs(oy)))
+                break;
+            tx = fmin(fmax(ox + sx, x0), x1);
+            ty = fmin(fmax(oy + sy, y0), y1);
+            continue;
+        }
+        ox = tx;
+        oy = ty;
+        of = f;
+        og = gn;
+        a = 1.0 + e.gx * e.gx + dz * e.hxx;
+        b = e.gx * e.gy + dz * e.hxy;
+        c = 1.0 + e.gy * e.gy + dz * e.hyy;
+        det = a * c - b * b;
+        if (a > 0.0 && det > 0.0) {
+            sx = -(c * g0 - b * g1) / det;
+            sy = -(a * g1 - b * g0) / det;
+        } else { /* not convex here: Newton on Q + mu I, its least eigenvalue mirrored */
+            double lam, mu, cap;
+            if (og == 0.0)
+                break;
+            lam = 0.5 * (a + c) - sqrt(0.25 * (a - c) * (a - c) + b * b);
+            mu = fmax(-2.0 * lam, 1e-6 * (fabs(a) + fabs(c)) + 1e-300);
+            a += mu;
+            c += mu;
+            det = a * c - b * b;
+            sx = -(c * g0 - b * g1) / det;
+            sy = -(a * g1 - b * g0) / det;
+            cap = 0.25 * fmin(x1 - x0, y1 - y0) / (sqrt(sx * sx + sy * sy) + 1e-300);
+            if (cap < 1.0) {
+                sx *= cap;
+                sy *= cap;
+            }
+        }
+        nx = fmin(fmax(tx + sx, x0), x1);
+        ny = fmin(fmax(ty + sy, y0), y1);
+        sx = nx - tx;
+        sy = ny - ty;
+        if (fabs(sx) <= 1e-15 * (1.0 + fabs(tx)) && fabs(sy) <= 1e-15 * (1.0 + fabs(ty)))
+            break;
+        tx = nx;
+        ty = ny;
+    }
+    if (it > 40)
+        it = 40;
+    out.tx = ox;
+    out.ty = oy;
+    out.f = of;
+    out.it = it;
+    out.stationary = og <= 1e-9 * sqrt(of) + 1e-300;
+    return out;
+}
+
+/* min over s in [-w, w] of g s + a s^2 / 2, and its argmin */
+static double edge_qp(double g, double a, double w, double *s_out)
+{
+    if (a > 0.0 && fabs(g) < a * w) {
+        double s = -g / a;
+        *s_out = s;
+        return 0.5 * g * s;
+    }
+    *s_out = g > 0.0 ? -w : w;
+    return 0.5 * a * w * w - fabs(g) * w;
+}
+
+/* the exact minimum over the square |u_x|, |u_y| <= w of g.u + u^T [[a, b], [b, c]] u / 2 */
+static double box_qp(double g0, double g1, double a, double b, double c, double w, double *ux, double *uy)
+{
+    double det = a * c - b * b, best = HUGE_VAL, bx = 0.0, by = 0.0;
+    int k;
+    if (a > 0.0 && det > 0.0) {
+        double sx = -(c * g0 - b * g1) / det, sy = -(a * g1 - b * g0) / det;
+        if (fabs(sx) <= w && fabs(sy) <= w) {
+            *ux = sx;
+            *uy = sy;
+            return 0.5 * (g0 * sx + g1 * sy);
+        }
+    }
+    for (k = 0; k < 2; k++) {
+        double sgn = k == 0 ? -1.0 : 1.0, s, v;
+        v = edge_qp(g1 + b * sgn * w, c, w, &s); /* the edge u_x = sgn w */
+        v += sgn * w * g0 + 0.5 * a * w * w;
+        if (v < best) {
+            best = v;
+            bx = sgn * w;
+            by = s;
+        }
+        v = edge_qp(g0 + b * sgn * w, a, w, &s); /* the edge u_y = sgn w */
+        v += sgn * w * g1 + 0.5 * c * w * w;
+        if (v < best) {
+            best = v;
+            bx = s;
+            by = sgn * w;
+        }
+    }
+    *ux = bx;
+    *uy = by;
+    return best;
+}
+
+/* the closest point by Newton, certified by global strong convexity of phi / 2 (its Hessian's
+ * least eigenvalue >= 1 - E C everywhere, E bounding |h - pz| and C = G_CONVEX ||H||_2) */
+static int convex_closest(const sproblem *q, double tx, double ty, double *tx_out, double *ty_out, double *f_out,
+                          long *ev_out)
+{
+    const double *g = q->g;
+    double cb = g[HX_G_CONVEX], e_max = fmax(g[HX_G_HMAX] - q->pz, q->pz - g[HX_G_HMIN]), m = 1.0 - e_max * cb;
+    double dz, f, g0, g1, gn;
+    long ev = 1;
+    hx_height e;
+    *ev_out = 0;
+    if (cb <= 0.0 || !(m >= CONVEX_MIN))
+        return 0;
+    if (!(isfinite(tx) && isfinite(ty))) {
+        tx = q->px;
+        ty = q->py;
+    }
+    surf(q, tx, ty, &e);
+    dz = e.h - q->pz;
+    f = (tx - q->px) * (tx - q->px) + (ty - q->py) * (ty - q->py) + dz * dz;
+    g0 = (tx - q->px) + dz * e.gx;
+    g1 = (ty - q->py) + dz * e.gy;
+    gn = sqrt(g0 * g0 + g1 * g1);
+    while (ev < CONVEX_EVALS) {
+        double a, b, c, det, sx, sy;
+        int moved = 0;
+        if (gn <= 1e-15 * (1.0 + hypot(tx, ty)) * m) {
+            *tx_out = tx;
+            *ty_out = ty;
+            *f_out = f;
+            *ev_out = ev;
+            return 1;
+        }
+        a = 1.0 + e.gx * e.gx + dz * e.hxx;
+        b = e.gx * e.gy + dz * e.hxy;
+        c = 1.0 + e.gy * e.gy + dz * e.hyy;
+        det = a * c - b * b;
+        sx = -(c * g0 - b * g1) / det;
+        sy = -(a * g1 - b * g0) / det;
+        while (ev < CONVEX_EVALS) {
+            double nx = tx + sx, ny = ty + sy, fn, gm, ndz, ng0, ng1;
+            hx_height en;
+            surf(q, nx, ny, &en);
+            ev++;
+            ndz = en.h - q->pz;
+            fn = (nx - q->px) * (nx - q->px) + (ny - q->py) * (ny - q->py) + ndz * ndz;
+            ng0 = (nx - q->px) + ndz * en.gx;
+            ng1 = (ny - q->py) + ndz * en.gy;
+            gm = sqrt(ng0 * ng0 + ng1 * ng1);
+            if (fn <= f || gm < gn) {
+                tx = nx;
+                ty = ny;
+                f = fn;
+                gn = gm;
+                e = en;
+                dz = ndz;
+                g0 = ng0;
+                g1 = ng1;
+                moved = 1;
+                break;
+            }
+            sx *= 0.5;
+            sy *= 0.5;
+        }
+        if (!moved)
+            break;
+    }
+    *tx_out = tx;
+    *ty_out = ty;
+    *f_out = f;
+    *ev_out = ev;
+    return 0;
+}
+
+/* the search's best point, its runner-up (for ties on the medial axis) */
+typedef struct {
+    double bf, btx, bty, second;
+    int found;
+} best_t;
+
+/* a candidate (tx, ty) with phi = f: the new best, or the runner-up kept for ties (a
+ * stationary point farther than sep from a stationary best) */
+static void offer_point(best_t *b, double tx, double ty, double f, int stationary, double sep)
+{
+    int far = (tx - b->btx) * (tx - b->btx) + (ty - b->bty) * (ty - b->bty) > sep * sep;
+    if (f < b->bf) {
+        if (b->found && b->bf < b->second && far)
+            b->second = b->bf;
+        b->bf = f;
+        b->btx = tx;
+        b->bty = ty;
+        b->found = stationary;
+        return;
+    }
+    if (stationary && !far && f <= b->bf * (1.0 + 1e-12))
+        b->found = 1; /* the best's own local minimum, equal to rounding */
+    else if (stationary && b->found && f < b->second && far)
+        b->second = f;
+}
+
+/* the distance a cell (centre c, half-diagonal r) must come within to be searched */
+static double cell_reach(int model, const best_t *b, double cx, double cy, double r, double sep, double tie,
+                         int *far_out)
+{
+    double d = sqrt(b->bf);
+    int far = !model || (b->second > (d + tie) * (d + tie) &&
+                         (cx - b->btx) * (cx - b->btx) + (cy - b->bty) * (cy - b->bty) > (sep + r) * (sep + r));
+    *far_out = far;
+    return far ? d + tie : fmax(d - tie, 0.0);
+}
+
+/* radius of a disc around the best point on which phi >= (sqrt(f) - G_TIE)^2 (the search's
+ * goal) by the Taylor bound with the cubic remainder; 0 where none is certified */
+static double basin_radius(const sproblem *q, double tx, double ty, double f)
+{
+    const double *g = q->g;
+    double jerk = g[HX_G_JERK], cb = g[HX_G_CURV_BOUND], sb = g[HX_G_SLOPE_BOUND], tie = g[HX_G_TIE];
+    double dz, a, b, c, lam, gn, tol, hn, sn, l0, rho;
+    int k;
+    hx_height e;
+    surf(q, tx, ty, &e);
+    dz = e.h - q->pz;
+    a = 1.0 + e.gx * e.gx + dz * e.hxx;
+    b = e.gx * e.gy + dz * e.hxy;
+    c = 1.0 + e.gy * e.gy + dz * e.hyy;
+    lam = 0.5 * (a + c) - hypot(0.5 * (a - c), b);
+    gn = hypot((tx - q->px) + dz * e.gx, (ty - q->py) + dz * e.gy);
+    tol = sqrt(f) * tie - 0.5 * tie * tie;
+    if (!(jerk > 0.0 && tol > 0.0 && isfinite(lam)))
+        return 0.0;
+    hn = 0.5 * fabs(e.hxx + e.hyy) + hypot(0.5 * (e.hxx - e.hyy), e.hxy);
+    sn = hypot(e.gx, e.gy);
+    l0 = 3.0 * sn * hn + fabs(dz) * jerk + 1e-300;
+    rho = fmax(3.0 * fmax(lam, 0.0) / l0, pow(6.0 * tol / l0, 1.0 / 3.0));
+    for (k = 0; k < 60; k++) {
+        double cl = fmin(cb, hn + jerk * rho), sl = fmin(sb, sn + cl * rho);
+        double lip = 3.0 * sl * cl + (fabs(dz) + sl * rho) * jerk;
+        if (gn * rho + fmax(0.0, rho * rho * (lip * rho / 6.0 - 0.5 * lam)) <= tol)
+            return rho;
+        rho *= 0.75;
+    }
+    return 0.0;
+}
+
+int hx_surface_aux_check(const double *aux, long naux)
+{
+    int i;
+    if (aux == NULL || naux < HX_N_GAUX)
+        return HX_BAD_COEFFS;
+    for (i = 0; i < HX_N_GAUX; i++)
+        if (!isfinite(aux[i]))
+            return HX_BAD_COEFFS;
+    if (!(aux[HX_G_LEAF] > 0.0) || !(aux[HX_G_TIE] >= 0.0) || aux[HX_G_HMIN] > aux[HX_G_HMAX])
+        return HX_BAD_COEFFS;
+    return HX_OK;
+}
+
+hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double px, double py, double pz, double gx0,
+                              double gy0)
+{
+    sproblem q;
+    hx_closest out;
+    best_t b;
+    hx_height e0;
+    double dv, tx, ty, f, leaf, sep, tie_eps, below, half, x0, x1, y0, y1, slope, curv, cb, jerk, sb;
+    double rb = 0.0, rbx = NAN, rby = NAN, stack[3 * STACK], d;
+    long work, ev, leaves = 0, nodes = 0;
+    int guess, start, model, ranged, sp;
+    q.tex = tex;
+    q.g = aux;
+    q.px = px;
+    q.py = py;
+    q.pz = pz;
+    surf(&q, px, py, &e0);
+    dv = e0.h - pz;
+    out.t = px;
+    out.y = py;
+    out.distance = 0.0;
+    out.tie = 0;
+    out.work = 1;
+    if (dv <= 0.0)
+        return out;
+    if (convex_closest(&q, gx0, gy0, &tx, &ty, &f, &ev)) {
+        out.t = tx;
+        out.y = ty;
+        out.distance = sqrt(f);
+        out.work = 1 + ev;
+        return out;
+    }
+    b.bf = dv * dv;
+    b.btx = px;
+    b.bty = py;
+    b.second = HUGE_VAL;
+    b.found = 0;
+    work = 1 + ev;
+    leaf = aux[HX_G_LEAF];
+    sep = 4.0 * leaf;
+    tie_eps = aux[HX_G_TIE];
+    /* a first upper bound from the local minima nearest the vertical point and the guess */
+    below = fmax(aux[HX_G_HMIN] - pz, 0.0);
+    half = sqrt(fmax(b.bf - below * below, 0.0)) * (1.0 + 1e-9) + 1e-300;
+    x0 = px - half;
+    x1 = px + half;
+    y0 = py - half;
+    y1 = py + half;
+    guess = isfinite(gx0) && isfinite(gy0) && fabs(gx0 - px) < half && fabs(gy0 - py) < half;
+    for (start = 0; start < (guess ? 2 : 1); start++) {
+        newton_out n = surf_newton(&q, start == 0 ? px : gx0, start == 0 ? py : gy0, x0, x1, y0, y1);
+        work += n.it;
+        offer_point(&b, n.tx, n.ty, n.f, n.stationary, sep);
+    }
+    if (!b.found) { /* Newton may end on the minimum with its iterations spent: certify it stationary */
+        newton_out n = surf_newton(&q, b.btx, b.bty, x0, x1, y0, y1);
+        work += n.it;
+        offer_point(&b, n.tx, n.ty, n.f, n.stationary, sep);
+    }
+    jerk = aux[HX_G_JERK];
+    sb = aux[HX_G_SLOPE_BOUND];
+    model = jerk > 0.0;
+    slope = model ? sb : aux[HX_G_SLOPE];
+    curv = model ? aux[HX_G_CURV_BOUND] : aux[HX_G_CURV];
+    cb = aux[HX_G_CURV_BOUND];
+    ranged = tex->kind == HX_SURFACE_PATCHES;
+    stack[0] = px;
+    stack[1] = py;
+    stack[2] = half;
+    sp = 1;
+    while (sp > 0) {
+        double cx, cy, w, r, spread, lo, hi, dxy, reach, glo, ghi, lb = 0.0, ux = 0.0, uy = 0.0, hw;
+        int far, leafy, k;
+        hx_height e;
+        sp--;
+        cx = stack[3 * sp];
+        cy = stack[3 * sp + 1];
+        w = stack[3 * sp + 2];
+        r = w * sqrt(2.0);
+        if (model && b.found && (b.btx != rbx || b.bty != rby)) {
+            rb = basin_radius(&q, b.btx, b.bty, b.bf);
+            rbx = b.btx;
+            rby = b.bty;
+            work++;
+        }
+        if (rb > 0.0 && b.btx == rbx && b.bty == rby && sqrt((cx - rbx) * (cx - rbx) + (cy - rby) * (cy - rby)) + r <= rb)
+            continue;
+        surf(&q, cx, cy, &e);
+        work++;
+        spread = fmin(slope * r, sqrt(e.gx * e.gx + e.gy * e.gy) * r + 0.5 * curv * r * r);
+        if (ranged) {
+            patch_range(&q, cx, cy, w, &glo, &ghi);
+            if (glo < aux[HX_G_HMIN] || ghi > aux[HX_G_HMAX]) /* beyond the map: the extension's bound only */
+                spread = HUGE_VAL;
+            lo = fmax(e.h - spread, glo);
+            hi = fmin(e.h + spread, ghi);
+        } else { /* each grating's exact range later, where the cheaper bounds leave the cell */
+            lo = e.h - spread;
+            hi = e.h + spread;
+        }
+        dxy = fmax(0.0, fabs(px - cx) - w) * fmax(0.0, fabs(px - cx) - w) +
+              fmax(0.0, fabs(py - cy) - w) * fmax(0.0, fabs(py - cy) - w);
+        reach = cell_reach(model, &b, cx, cy, r, sep, tie_eps, &far);
+        {
+            double gap = fmax(0.0, fmax(lo - pz, pz - hi));
+            if (dxy + gap * gap > reach * reach)
+                continue;
+        }
+        if (model) {
+            double dz = e.h - pz, g0 = (cx - px) + dz * e.gx, g1 = (cy - py) + dz * e.gy, qmin, cl, sl;
+            nodes++;
+            qmin = box_qp(g0, g1, 1.0 + e.gx * e.gx + dz * e.hxx, e.gx * e.gy + dz * e.hxy,
+                          1.0 + e.gy * e.gy + dz * e.hyy, w, &ux, &uy);
+            /* sup ||H||_2 and sup |grad h| over the cell, from their values at c */
+            cl = fmin(cb, 0.5 * fabs(e.hxx + e.hyy) + sqrt(0.25 * (e.hxx - e.hyy) * (e.hxx - e.hyy) + e.hxy * e.hxy) +
+                              jerk * r);
+            sl = fmin(sb, sqrt(e.gx * e.gx + e.gy * e.gy) + cl * r);
+            lb = (cx - px) * (cx - px) + (cy - py) * (cy - py) + dz * dz + 2.0 * qmin -
+                 (3.0 * sl * cl + (fabs(dz) + sl * r) * jerk) * r * r * r / 3.0;
+            if (lb > reach * reach)
+                continue;
+        }
+        if (!ranged) {
+            double gap;
+            grating_range(&q, cx, cy, w, &glo, &ghi);
+            gap = fmax(0.0, fmax(fmax(lo, glo) - pz, pz - fmin(hi, ghi)));
+            if (dxy + gap * gap > reach * reach)
+                continue;
+        }
+        if (model) {
+            /* the model's least point: polished to its local minimum when it is below the best
+             * (in a far cell, within G_TIE above it) */
+            double sx = cx + ux, sy = cy + uy, ez = hx__texture_height(tex, sx, sy) - pz;
+            double fs = (sx - px) * (sx - px) + (sy - py) * (sy - py) + ez * ez;
+            work++;
+            if (fs < b.bf || (far && fs <= reach * reach)) {
+                newton_out n = surf_newton(&q, sx, sy, x0, x1, y0, y1);
+                work += n.it;
+                offer_point(&b, n.tx, n.ty, n.f, n.stationary, sep);
+                reach = cell_reach(model, &b, cx, cy, r, sep, tie_eps, &far);
+                if (lb > reach * reach)
+                    continue;
+            }
+            leafy = nodes >= MAX_NODES || w <= fmax(1e-9 * leaf, 1e-15 * (fabs(cx) + fabs(cy)));
+        } else {
+            leafy = w <= leaf || leaves >= MAX_LEAVES;
+        }
+        if (leafy || sp + 4 > STACK) {
+            /* a leaf: projected Newton from the best of its centre, its four quarter centres and
+             * p_xy clamped into it */
+            double sx = fmin(fmax(px, cx - w), cx + w), sy = fmin(fmax(py, cy - w), cy + w), fs, dzs;
+            newton_out n;
+            int qd;
+            dzs = hx__texture_height(tex, sx, sy) - pz;
+            fs = (sx - px) * (sx - px) + (sy - py) * (sy - py) + dzs * dzs;
+            for (qd = 0; qd < 5; qd++) {
+                double qx = qd == 0 ? cx : cx + ((qd & 1) ? 0.5 * w : -0.5 * w);
+                double qy = qd == 0 ? cy : cy + ((qd & 2) ? 0.5 * w : -0.5 * w);
+                double dq = hx__texture_height(tex, qx, qy) - pz;
+                double fq = (qx - px) * (qx - px) + (qy - py) * (qy - py) + dq * dq;
+                if (fq < fs) {
+                    fs = fq;
+                    sx = qx;
+                    sy = qy;
+                }
+            }
+            work += 6;
+            leaves++;
+            n = surf_newton(&q, sx, sy, cx - w, cx + w, cy - w, cy + w);
+            work += n.it;
+            offer_point(&b, n.tx, n.ty, n.f, n.stationary, sep);
+            continue;
+        }
+        hw = 0.5 * w;
+        /* the four children, the one holding p_xy's quadrant last (popped first) */
+        for (k = 0; k < 4; k++) {
+            double qx = cx + ((k & 1) ? hw : -hw), qy = cy + ((k & 2) ? hw : -hw);
+            if ((qx > cx) == (px > cx) && (qy > cy) == (py > cy))
+                continue;
+            stack[3 * sp] = qx;
+            stack[3 * sp + 1] = qy;
+            stack[3 * sp + 2] = hw;
+            sp++;
+        }
+        stack[3 * sp] = cx + (px > cx ? hw : -hw);
+        stack[3 * sp + 1] = cy + (py > cy ? hw : -hw);
+        stack[3 * sp + 2] = hw;
+        sp++;
+    }
+    d = sqrt(b.bf);
+    out.t = b.btx;
+    out.y = b.bty;
+    out.distance = d;
+    out.tie = b.second < HUGE_VAL && sqrt(b.second) - d <= fmax(tie_eps, 1e-9 * d);
+    out.work = work;
+    return out;
+}
