@@ -344,3 +344,80 @@ def test_the_core_surface_search_is_the_numba_search(name):
         np.testing.assert_allclose(ty, out0[1], rtol=0, atol=1e-12 * tex.shortest_period)
         np.testing.assert_array_equal(work, out0[4])
     assert np.count_nonzero(d) > n // 3
+
+
+def _numba_run(alg, dev, op, duration, pc=None, record_every=7):
+    """simulate()'s general loop by numba's run_one, the oracle while it is kept: (rec, summary, tail)."""
+    import sys
+
+    from haptex import _kernels
+
+    SIM = sys.modules["haptex.simulate"]
+    n_steps, p0, v0 = SIM._prepare(alg, dev, op, duration, None, None)
+    pc_on, pc_b, pc_ref = SIM._controller(pc)
+    code, prm, kind, coeffs, aux, nominal, Phi, Wd, Wo, Bs, Binv, fast = SIM._kernel_inputs(alg, dev, op)
+    d = p0.size
+    rec = np.zeros((n_steps // record_every, 4 * d + 4))
+    summary = np.zeros(_kernels.N_SUMMARY)
+    tail_start = int(n_steps * 0.6)
+    tail = np.zeros((d, min(n_steps - tail_start, 65536)))
+    _kernels.run_one(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, Binv, fast, *SIM._mass_inputs(dev),
+                     op.stiffness, op.damping, op.force, op.setpoint_times, op.setpoint_points, op.final_velocity,
+                     op.rest_length, op.kinematic, n_steps, dev.period, dev.delay, dev.position_resolution,
+                     dev.force_resolution, dev.max_force, dev.coulomb_friction, pc_on, pc_b, pc_ref, p0, v0,
+                     record_every, rec, summary, tail_start, tail, (0,) * d)
+    return rec, summary
+
+
+def _general_cases():
+    from haptex.operators import ConstantForce, ElasticBand, KinematicPath, ScanningHand
+
+    sine, egg = hx.Sinusoid(0.2e-3, 2e-3), hx.SumOfGratings.egg_crate(0.2e-3, 2e-3)
+    panto = hx.Device.pantograph(working_point=(0.05, 0.13))
+    cases = {
+        "A, pantograph, delay 1, elastic band (Fig. 5)": (hx.algorithm("A", sine, 2000.0), panto.replace(delay=1),
+                                                          ElasticBand(300.0, [0.0, -2e-3]), 0.05, None),
+        "G, pantograph, delay 1, passivity controller": (hx.algorithm("G", sine, 2000.0), panto.replace(delay=1),
+                                                         ElasticBand(300.0, [0.0, -2e-3]), 0.05,
+                                                         hx.PassivityController(0.5)),
+        "D, scanning hand, quantised, saturated": (hx.algorithm("D", sine, 2000.0),
+                                                   hx.Device.point_mass(position_resolution=1e-5, max_force=1.0),
+                                                   ScanningHand(200.0, 2.0, velocity=0.05, depth=3e-4), 0.05, None),
+        "F, Coulomb friction, force resolution": (hx.algorithm("F", sine, 2000.0, presliding=1e-4),
+                                                  hx.Device.point_mass(coulomb_friction=0.05, force_resolution=1e-3),
+                                                  ScanningHand(300.0, 1.0, velocity=0.03, depth=2e-4), 0.05, None),
+        "B, kinematic path": (hx.algorithm("B", sine, 2000.0), hx.Device.point_mass(),
+                              KinematicPath([[0.0, 1e-4], [2e-3, -3e-4], [4e-3, 1e-4]], 0.1), 0.04, None),
+        "C, structural mode": (hx.algorithm("C", sine, 2000.0),
+                               hx.Device.point_mass(first_resonance=300.0, handle_mass=np.diag([0.02, 0.02])),
+                               ConstantForce([0.1, -1.0]), 0.05, None),
+        "E 3-D, egg-crate, delay 2": (hx.algorithm("E", egg, 2000.0),
+                                      hx.Device.point_mass(mass=np.diag([0.1, 0.1, 0.1]),
+                                                           damping=np.diag([0.5, 0.5, 0.5]), delay=2),
+                                      ScanningHand(200.0, 2.0, velocity=0.05, depth=3e-4, dimension=3), 0.05, None),
+        "W 3-D, damper, saturated": (hx.algorithm("W", hx.Flat(2), 2000.0, damping=2.0, period=1e-4),
+                                     hx.Device.point_mass(mass=np.diag([0.1, 0.1, 0.1]),
+                                                          damping=np.diag([0.5, 0.5, 0.5]), max_force=1.5),
+                                     ConstantForce([0.2, 0.1, -2.0]), 0.05, None),
+    }
+    return cases
+
+
+@pytest.mark.parametrize("name", list(_general_cases()))
+def test_the_core_general_loop_is_the_numba_loop(name):
+    """While numba's run_one is kept, it is the oracle of the C general loop: the same records
+    and summary (to round-off) for the machinery the lean loop leaves out: delay, quantisation,
+    force resolution, saturation, Coulomb friction, a structural mode, the passivity
+    controller, elastic, scanning and kinematic operators, in 2-D and 3-D."""
+    alg, dev, op, duration, pc = _general_cases()[name]
+    rec0, summary0 = _numba_run(alg, dev, op, duration, pc)
+    res = hx.simulate(alg, dev, op, duration, record_every=7, tail_fraction=0.4, passivity_controller=pc)
+    d = alg.dimension
+    scale = np.abs(rec0).max(axis=0) + 1e-300
+    np.testing.assert_allclose(res.position, rec0[:, 1:1 + d], rtol=1e-9, atol=1e-12 * scale[1:1 + d].max())
+    np.testing.assert_allclose(res.force, rec0[:, 1 + 2 * d:1 + 3 * d], rtol=1e-8,
+                               atol=1e-9 * scale[1 + 2 * d:1 + 3 * d].max())
+    assert res.saturations == int(summary0[6]) and res.max_penetration == pytest.approx(summary0[7], rel=1e-9)
+    for key, slot in (("damping_energy", 2), ("operator_work", 3), ("friction_energy", 12)):
+        assert res.totals[key] == pytest.approx(summary0[slot], rel=1e-8, abs=1e-12 * (abs(summary0[2]) + 1e-9)), key
+    assert np.isfinite(res.position).all() and res.diverged_at is None

@@ -100,18 +100,17 @@ def test_the_fast_path_is_the_general_path(monkeypatch, d):
 @pytest.mark.parametrize("d", [2, 3])
 @pytest.mark.parametrize("letter", ["W", "A", "B", "D"])
 def test_the_lean_loop_is_the_fast_path_without_its_machinery(monkeypatch, d, letter):
-    # run_lean (no delay, quantisation, saturation, friction or controller) against run_one on a
+    # the lean loop (no delay, quantisation, saturation, friction or controller) against the general one on a
     # device whose only difference is a force limit it never reaches: the same arithmetic in the
-    # same order, so every recorded sample and every total is equal, not merely close. W, A and
-    # B take the C core's loop (its forces multiplied in the numba kernels' order), D numba's.
+    # same order, so every recorded sample and every total is equal, not merely close (both are
+    # the C core's loops, each instantiated per letter).
     tex = hx.Sinusoid(A, L) if d == 2 else hx.SumOfGratings.egg_crate(A, L)
     alg = hx.algorithm(letter, (None if d == 2 else hx.Flat(dimension=2)) if letter == "W" else tex, K0)
     dev = hx.Device(mass=np.diag([0.1, 0.12, 0.08][:d]), damping=np.diag([0.5, 0.4, 0.6][:d]),
                     damping_outside=np.diag([0.1, 0.2, 0.3][:d]), period=1e-4)
     push = ConstantForce([0.3, -1.2] if d == 2 else [0.3, 0.2, -1.2])
     calls = []
-    lean, core_lean = SIM._run_lean, SIM._core_lean  # the C core's lean loop for W, A, B (numba's for D, until ported)
-    monkeypatch.setattr(SIM, "_run_lean", lambda *a: calls.append(1) or lean(*a))
+    core_lean = SIM._core_lean  # the C core's lean loop
     monkeypatch.setattr(SIM, "_core_lean", lambda *a: calls.append(1) or core_lean(*a))
     duration = 0.05 if letter == "D" else 0.3
     fast = hx.simulate(alg, dev, push, duration)

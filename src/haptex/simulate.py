@@ -29,9 +29,6 @@ from scipy.linalg import expm
 from ._kernels import (DIVERGED_ENERGY, DIVERGED_FORCE, DIVERGED_POSITION, DIVERGED_VELOCITY, N_FAST, N_SUMMARY,
                        PC_REF_STORED, PC_REF_ZERO, S_DAMP, S_DIVERGED, S_DIVERGED_WHAT, S_EX, S_EY, S_EZ, S_FRIC, S_KE,
                        S_KE0, S_MAXPEN, S_OP, S_PC_ACTIVE, S_SAT, S_TAILSTART_E)
-from ._kernels import run_batch as _run_batch
-from ._kernels import run_lean as _run_lean
-from ._kernels import run_one as _run
 from ._kernels import tail_amplitudes as _tail_amplitudes
 from . import core as _core
 from ._validation import ParameterError, fail, nonnegative, positions, positive, whole
@@ -213,6 +210,27 @@ def _core_lean(code, kind, nominal, n_steps, T, record_every, tail_start, prm, c
         return
     with ThreadPoolExecutor(len(cuts) - 1) as pool:
         list(pool.map(one, cuts[:-1], cuts[1:]))
+
+
+def _core_general(code, kind, nominal, kinematic, pc_on, pc_ref, n_steps, T, record_every, tail_start, sp_t, prm,
+                  coeffs, aux, Phi, Wd, Wo, Bs, Binv, fast, M, modal, K, C, f0, sp_p, vend, rest, delay, delta, fres,
+                  fmax, fc, pcb, P0, V0, rec, summary, tail, threads: int = 1) -> None:
+    """Runs of the general loop in the C core (:func:`haptex.core._ext.run_general`): every
+    per-run array has a leading run axis (``sp_t`` is shared); the runs are cut into
+    ``threads`` contiguous slices run on threads, the GIL released."""
+    f64 = lambda a: np.ascontiguousarray(a, dtype=np.float64)  # noqa: E731
+    per_run = [f64(a) for a in (prm, coeffs, aux, Phi, Wd, Wo, Bs, Binv, fast, M, modal, K, C, f0, sp_p, vend, rest)]
+    per_run.append(np.ascontiguousarray(delay, dtype=np.int64))
+    per_run += [f64(a) for a in (delta, fres, fmax, fc, pcb, P0, V0)]
+    outs = (rec, summary, tail)
+    N = per_run[0].shape[0]
+
+    def one(lo, hi):
+        _core._ext.run_general(code, kind, bool(nominal), bool(kinematic), bool(pc_on), pc_ref == PC_REF_STORED,
+                               int(n_steps), float(T), int(record_every), int(tail_start), f64(sp_t),
+                               *(a[lo:hi] for a in per_run), *(a[lo:hi] for a in outs))
+
+    _core.in_slices(one, N, threads, least=1)
 
 
 def _mass_inputs(device: Device) -> tuple[np.ndarray, np.ndarray]:
@@ -666,19 +684,19 @@ def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration:
     tail = np.zeros((d, min(n_steps - tail_start, 65536)))
     if _lean(fast, operator.kinematic, pc_on, device.delay, device.position_resolution, device.force_resolution,
              device.max_force, device.coulomb_friction):
-        if _core.tick_in_core(algorithm):
-            _core_lean(code, kind, nominal, n_steps, device.period, record_every, tail_start, prm[None],
-                       coeffs[None], aux[None], fast[None], device.mass[None], np.asarray(operator.force)[None],
-                       p0[None], v0[None], rec[None], summary[None], tail[None])
-        else:
-            _run_lean(code, kind, coeffs, prm, aux, nominal, fast, device.mass, operator.force, n_steps,
-                      device.period, p0, v0, record_every, rec, summary, tail_start, tail, (0,) * d)
+        _core_lean(code, kind, nominal, n_steps, device.period, record_every, tail_start, prm[None], coeffs[None],
+                   aux[None], fast[None], device.mass[None], np.asarray(operator.force)[None], p0[None], v0[None],
+                   rec[None], summary[None], tail[None])
     else:
-        _run(code, kind, coeffs, prm, aux, nominal, Phi, Wd, Wo, Bs, Binv, fast, *_mass_inputs(device),
-             operator.stiffness, operator.damping, operator.force, operator.setpoint_times, operator.setpoint_points,
-             operator.final_velocity, operator.rest_length, operator.kinematic, n_steps, device.period, device.delay,
-             device.position_resolution, device.force_resolution, device.max_force, device.coulomb_friction, pc_on,
-             pc_b, pc_ref, p0, v0, record_every, rec, summary, tail_start, tail, (0,) * d)
+        M, modal = _mass_inputs(device)
+        one = lambda a: np.asarray(a)[None]  # noqa: E731
+        _core_general(code, kind, nominal, operator.kinematic, pc_on, pc_ref, n_steps, device.period, record_every,
+                      tail_start, operator.setpoint_times, one(prm), one(coeffs), one(aux), one(Phi), one(Wd), one(Wo),
+                      one(Bs), one(Binv), one(fast), one(M), one(modal), one(operator.stiffness),
+                      one(operator.damping), one(operator.force), one(operator.setpoint_points),
+                      one(operator.final_velocity), one(operator.rest_length), one(device.delay),
+                      one(device.position_resolution), one(device.force_resolution), one(device.max_force),
+                      one(device.coulomb_friction), one(pc_b), one(p0), one(v0), rec[None], summary[None], tail[None])
     osc = _oscillations(tail[None], (n_steps - tail_start) * device.period, _tail_energy(summary[None]),
                         np.array([_threshold(device)]), _frequency_table([_texture_frequencies(algorithm, operator)]))
     result = _result(rec, summary, osc[0])
@@ -1021,19 +1039,11 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     per_block = max(1, TAIL_BLOCK // (d * m_tail * 8))  # runs a block: the tail buffer is reused between blocks
     tail = np.zeros((min(N, per_block), d, m_tail))
     T = dev[0].period
-    # (value, True if it has one row per run)
-    args = [(code, False), (kind, False), (coeffs, True), (prm, True), (aux, True), (nominal, False), (Phi, True),
-            (Wd, True), (Wo, True), (Bs, True), (Binv, True), (fast, True), (M, True), (modal, True), (K, True),
-            (C, True), (f0, True), (ops[0].setpoint_times, False), (sp_p, True), (vend, True), (rest, True),
-            (ops[0].kinematic, False), (n_steps, False), (T, False), (delay, True), (delta, True), (fres, True),
-            (fmax, True), (fc, True), (pc_on, False), (pcb, True), (pc_ref, False), (P0, True), (V0, True),
-            (int(record_every), False), (rec, True), (summary, True), (tail_start, False), (None, False),
-            ((0,) * d, False), (_lean(fast, ops[0].kinematic, pc_on, delay, delta, fres, fmax, fc), False)]
-    i_tail = next(i for i, (a, _) in enumerate(args) if a is None)
     thresholds = np.array([_threshold(d_) for d_ in dev])[inverse]
     freqs = _frequency_table([_texture_frequencies(a, o) for a, _, o in runs])[inverse]
-    in_core = bool(args[-1][0]) and _core.tick_in_core(runs[0][0])  # the lean loop, in C
-    threads = _core.num_threads() if in_core else 1
+    # the lean loop where none of its omitted machinery is used, else the general one (both C)
+    in_core = bool(_lean(fast, ops[0].kinematic, pc_on, delay, delta, fres, fmax, fc))
+    threads = _core.num_threads()
     show = (N * n_steps > 5e7) if progress is None else bool(progress)
     bar = _progress(show, N)
     osc = []
@@ -1048,9 +1058,12 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
                            aux[lo:hi], fast[lo:hi], M[lo:hi], f0[lo:hi], P0[lo:hi], V0[lo:hi], rec[lo:hi],
                            summary[lo:hi], block, threads)
             else:
-                call = [a[lo:hi] if per_run else a for a, per_run in args]
-                call[i_tail] = block
-                _run_batch(*call)
+                _core_general(code, kind, nominal, ops[0].kinematic, pc_on, pc_ref, n_steps, T, int(record_every),
+                              tail_start, ops[0].setpoint_times, prm[lo:hi], coeffs[lo:hi], aux[lo:hi], Phi[lo:hi],
+                              Wd[lo:hi], Wo[lo:hi], Bs[lo:hi], Binv[lo:hi], fast[lo:hi], M[lo:hi], modal[lo:hi],
+                              K[lo:hi], C[lo:hi], f0[lo:hi], sp_p[lo:hi], vend[lo:hi], rest[lo:hi], delay[lo:hi],
+                              delta[lo:hi], fres[lo:hi], fmax[lo:hi], fc[lo:hi], pcb[lo:hi], P0[lo:hi], V0[lo:hi],
+                              rec[lo:hi], summary[lo:hi], block, threads)
             osc += _oscillations(block, (n_steps - tail_start) * T, _tail_energy(summary[lo:hi]), thresholds[lo:hi],
                                  freqs[lo:hi])
             bar(idx.size)

@@ -798,10 +798,176 @@ done:
     Py_RETURN_NONE;
 }
 
+PyDoc_STRVAR(run_general_doc,
+"run_general(code, kind, nominal, kinematic, pc_on, pc_ref_stored, n_steps, period, record_every, tail_start,\n"
+"            sp_t, prm, coeffs, aux, Phi, Wd, Wo, Bs, Binv, fast, mass, modal, K, C, f0, sp_p, vend, rest_len,\n"
+"            delay, delta, fres, fmax, fc, pc_bmax, p0, v0, rec, summary, tail)\n--\n\n"
+"The simulator's general loop (hx_run_general) for N runs, the GIL released. sp_t (m,) is shared; every\n"
+"other array has a leading N axis: prm (N, 6), coeffs (N, rows, cols), aux (N, k), Phi, Wd, Wo (N, 2, nz, nz),\n"
+"Bs, Binv (N, 2, n, n), fast (N, 2 or 0, n, 7), mass, K, C (N, n, n), modal (N, 2 or 0, n, n), f0, vend, p0, v0\n"
+"(N, n), sp_p (N, m, n), rest_len, delta, fres, fmax, fc, pc_bmax (N,), delay (N,) int64, rec (N, n_rec, 4n + 4),\n"
+"summary (N, 16), tail (N, n, n_tail).");
+
+static PyObject *run_general(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    enum { NB = 29 };
+    static const int ndims[NB] = {1, 2, 3, 2, 4, 4, 4, 4, 4, 4, 3, 4, 3, 3, 2, 3, 2, 1, 1, 1, 1, 1, 1, 1, 2, 2, 3, 2, 3};
+    static const char *names[NB] = {"sp_t", "prm", "coeffs", "aux", "Phi", "Wd", "Wo", "Bs", "Binv", "fast", "mass",
+                                    "modal", "K", "C", "f0", "sp_p", "vend", "rest_len", "delay", "delta", "fres",
+                                    "fmax", "fc", "pc_bmax", "p0", "v0", "rec", "summary", "tail"};
+    enum { SPT, PRM, COEFFS, AUX, PHI, WD, WO, BS, BINV, FAST, MASS, MODAL, KK, CC, F0, SPP, VEND, REST, DELAY, DELTA,
+           FRES, FMAX, FC, PCB, P0, V0, REC, SUMMARY, TAIL };
+    Py_buffer b[NB];
+    int code, kind, nominal, kinematic, pc_on, pc_ref, got = 0, i, rc = HX_OK, dim;
+    long n_steps, record_every, tail_start, nz, n_fast, n_modal, m_sp;
+    double period;
+    Py_ssize_t N, r;
+    (void)self;
+    if (nargs != 10 + NB) {
+        PyErr_SetString(PyExc_TypeError, "run_general takes 39 arguments");
+        return NULL;
+    }
+    code = (int)PyLong_AsLong(args[0]);
+    kind = (int)PyLong_AsLong(args[1]);
+    nominal = PyObject_IsTrue(args[2]);
+    kinematic = PyObject_IsTrue(args[3]);
+    pc_on = PyObject_IsTrue(args[4]);
+    pc_ref = PyObject_IsTrue(args[5]);
+    n_steps = PyLong_AsLong(args[6]);
+    period = PyFloat_AsDouble(args[7]);
+    record_every = PyLong_AsLong(args[8]);
+    tail_start = PyLong_AsLong(args[9]);
+    if (PyErr_Occurred())
+        return NULL;
+    for (got = 0; got < NB; got++) {
+        int ok;
+        if (got == DELAY) {
+            ok = PyObject_GetBuffer(args[10 + got], &b[got], PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) == 0;
+            if (ok && (b[got].itemsize != 8 || b[got].ndim != 1 || !is_int64(b[got].format))) {
+                PyBuffer_Release(&b[got]);
+                PyErr_SetString(PyExc_ValueError, "delay must be a C-contiguous int64 array");
+                ok = 0;
+            }
+        } else {
+            ok = get_doubles(args[10 + got], &b[got], got >= REC, ndims[got], names[got]) == 0;
+        }
+        if (!ok)
+            goto done;
+    }
+    N = b[PRM].shape[0];
+    dim = (int)b[F0].shape[1];
+    nz = (long)b[PHI].shape[2];
+    n_fast = (long)b[FAST].shape[1];
+    n_modal = (long)b[MODAL].shape[1];
+    m_sp = (long)b[SPT].shape[0];
+    for (i = 1; i < NB; i++) {
+        if (b[i].shape[0] != N) {
+            PyErr_Format(PyExc_ValueError, "%s must have %zd runs", names[i], N);
+            goto done;
+        }
+    }
+    if ((dim != 2 && dim != 3) || b[PRM].shape[1] != HX_N_PARAMS || nz < 5 * dim || nz > 7 * dim ||
+        b[PHI].shape[1] != 2 || b[PHI].shape[3] != nz || b[WD].shape[1] != 2 || b[WD].shape[2] != nz ||
+        b[WD].shape[3] != nz || b[WO].shape[1] != 2 || b[WO].shape[2] != nz || b[WO].shape[3] != nz ||
+        b[BS].shape[1] != 2 || b[BS].shape[2] != dim || b[BS].shape[3] != dim || b[BINV].shape[1] != 2 ||
+        b[BINV].shape[2] != dim || b[BINV].shape[3] != dim || (n_fast != 0 && n_fast != 2) ||
+        b[FAST].shape[2] != dim || b[FAST].shape[3] != HX_N_FAST || b[MASS].shape[1] != dim ||
+        b[MASS].shape[2] != dim || (n_modal != 0 && n_modal != 2) || b[MODAL].shape[2] != dim ||
+        b[MODAL].shape[3] != dim || (n_modal == 2) != (nz == 7 * dim) || b[KK].shape[1] != dim ||
+        b[KK].shape[2] != dim || b[CC].shape[1] != dim || b[CC].shape[2] != dim || m_sp < 1 ||
+        b[SPP].shape[1] != m_sp || b[SPP].shape[2] != dim || b[VEND].shape[1] != dim || b[P0].shape[1] != dim ||
+        b[V0].shape[1] != dim || b[REC].shape[2] != 4 * dim + 4 || b[SUMMARY].shape[1] != HX_N_SUMMARY ||
+        b[TAIL].shape[1] != dim || n_steps < 0 || record_every < 1 || tail_start < 0 || !(period > 0.0)) {
+        PyErr_SetString(PyExc_ValueError, "run_general: arrays of inconsistent shapes or invalid counts");
+        goto done;
+    }
+    for (r = 0; r < N; r++) {
+        long long d = ((const long long *)b[DELAY].buf)[r];
+        if (d < 0 || d > 100000000) {
+            PyErr_SetString(PyExc_ValueError, "run_general: a delay outside [0, 1e8] samples");
+            goto done;
+        }
+    }
+    Py_BEGIN_ALLOW_THREADS
+    for (r = 0; r < N && rc == HX_OK; r++) {
+        hx_model m;
+        hx_general_run run;
+        long rows = (long)b[COEFFS].shape[1], cols = (long)b[COEFFS].shape[2], n_rec = (long)b[REC].shape[1];
+        long d = (long)((const long long *)b[DELAY].buf)[r], dd = dim * dim, zz = nz * nz;
+        m.code = code;
+        for (i = 0; i < HX_N_PARAMS; i++)
+            m.prm[i] = ((const double *)b[PRM].buf)[r * HX_N_PARAMS + i];
+        m.tex.kind = kind;
+        m.tex.c = (const double *)b[COEFFS].buf + r * rows * cols;
+        m.tex.rows = rows;
+        m.tex.cols = cols;
+        m.aux = (const double *)b[AUX].buf + r * b[AUX].shape[1];
+        m.naux = (long)b[AUX].shape[1];
+        run.dim = dim;
+        run.nz = nz;
+        run.nominal = nominal;
+        run.kinematic = kinematic;
+        run.pc_on = pc_on;
+        run.pc_ref_stored = pc_ref;
+        run.Phi = (const double *)b[PHI].buf + r * 2 * zz;
+        run.Wd = (const double *)b[WD].buf + r * 2 * zz;
+        run.Wo = (const double *)b[WO].buf + r * 2 * zz;
+        run.Bs = (const double *)b[BS].buf + r * 2 * dd;
+        run.Binv = (const double *)b[BINV].buf + r * 2 * dd;
+        run.fast = n_fast ? (const double *)b[FAST].buf + r * 2 * dim * HX_N_FAST : NULL;
+        run.mass = (const double *)b[MASS].buf + r * dd;
+        run.modal = n_modal ? (const double *)b[MODAL].buf + r * 2 * dd : NULL;
+        run.K = (const double *)b[KK].buf + r * dd;
+        run.C = (const double *)b[CC].buf + r * dd;
+        run.f0 = (const double *)b[F0].buf + r * dim;
+        run.sp_t = (const double *)b[SPT].buf;
+        run.sp_p = (const double *)b[SPP].buf + r * m_sp * dim;
+        run.n_setpoints = m_sp;
+        run.vend = (const double *)b[VEND].buf + r * dim;
+        run.rest_len = ((const double *)b[REST].buf)[r];
+        run.n_steps = n_steps;
+        run.period = period;
+        run.delay = d;
+        run.delta = ((const double *)b[DELTA].buf)[r];
+        run.fres = ((const double *)b[FRES].buf)[r];
+        run.fmax = ((const double *)b[FMAX].buf)[r];
+        run.fc = ((const double *)b[FC].buf)[r];
+        run.pc_bmax = ((const double *)b[PCB].buf)[r];
+        run.p0 = (const double *)b[P0].buf + r * dim;
+        run.v0 = (const double *)b[V0].buf + r * dim;
+        run.record_every = record_every;
+        run.n_rec = n_rec;
+        run.rec = (double *)b[REC].buf + r * n_rec * (4 * dim + 4);
+        run.summary = (double *)b[SUMMARY].buf + r * HX_N_SUMMARY;
+        run.tail_start = tail_start;
+        run.n_tail = (long)b[TAIL].shape[2];
+        run.tail = (double *)b[TAIL].buf + r * dim * run.n_tail;
+        run.delay_buffer = malloc(sizeof(double) * (size_t)((d + 1) * dim));
+        if (run.delay_buffer == NULL) {
+            rc = HX_NO_MEMORY;
+            break;
+        }
+        rc = hx_run_general(&m, &run);
+        free(run.delay_buffer);
+    }
+    Py_END_ALLOW_THREADS
+    if (rc == HX_NO_MEMORY)
+        PyErr_NoMemory();
+    else if (rc != HX_OK)
+        core_error(rc);
+done:
+    for (i = 0; i < got; i++)
+        PyBuffer_Release(&b[i]);
+    if (PyErr_Occurred())
+        return NULL;
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef methods[] = {
     {"field", (PyCFunction)(void (*)(void))field, METH_FASTCALL, field_doc},
     {"texture", (PyCFunction)(void (*)(void))texture, METH_FASTCALL, texture_doc},
     {"run_lean", (PyCFunction)(void (*)(void))run_lean, METH_FASTCALL, run_lean_doc},
+    {"run_general", (PyCFunction)(void (*)(void))run_general, METH_FASTCALL, run_general_doc},
     {"closest_profile", (PyCFunction)(void (*)(void))closest_profile, METH_FASTCALL, closest_profile_doc},
     {"closest_surface", (PyCFunction)(void (*)(void))closest_surface, METH_FASTCALL, closest_surface_doc},
     {NULL, NULL, 0, NULL},

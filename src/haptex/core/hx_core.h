@@ -64,7 +64,8 @@ enum {
     HX_BAD_KIND = -1,      /* unknown texture kind */
     HX_BAD_COEFFS = -2,    /* coefficients of the wrong shape or inconsistent header */
     HX_BAD_ALGORITHM = -3, /* unknown algorithm code */
-    HX_NOT_IN_CORE = -4    /* an algorithm the core does not evaluate yet (D, E, F) */
+    HX_NOT_IN_CORE = -4,   /* an algorithm the core does not evaluate (here) */
+    HX_NO_MEMORY = -5      /* a binding could not allocate scratch */
 };
 
 typedef struct {
@@ -263,6 +264,44 @@ typedef struct {
 /* Run the lean loop of model m. HX_OK; HX_BAD_COEFFS or HX_NOT_IN_CORE (D, E) before any
  * sample. Stops, flagged in the summary, at the first non-finite state. */
 int hx_run_lean(const hx_model *m, const hx_lean_run *r);
+
+/* One run of the general loop: its inputs (read) and outputs (written). */
+typedef struct {
+    int dim;                 /* n: 2 ([x, z]) or 3 ([x, y, z]) */
+    long nz;                 /* the augmented state's size: 5 n, or 7 n with a structural mode */
+    int nominal;             /* the damping regime from p^z (W, F, G), else from z < h */
+    int kinematic;           /* the operator prescribes the motion (a path) */
+    int pc_on, pc_ref_stored;/* the passivity controller, its reference */
+    const double *Phi, *Wd, *Wo; /* [2][nz][nz]: the sample's exact map, the damping's and the
+                              * operator's energy forms, outside and inside the wall */
+    const double *Bs, *Binv; /* [2][n][n]: the damping matrix, the inverse of the held force's
+                              * map to the end velocity (Coulomb friction) */
+    const double *fast;      /* [2][n][HX_N_FAST] for a diagonal device pushed by a constant force, else NULL */
+    const double *mass;      /* n x n (kg): the motor side's with a structural mode */
+    const double *modal;     /* [2][n][n]: the handle's mass M_h and the mode's stiffness K_s, or NULL */
+    const double *K, *C;     /* n x n: the operator's stiffness (N/m) and damping (N s/m) */
+    const double *f0;        /* the operator's constant force (N), n */
+    const double *sp_t, *sp_p; /* the set-point path: times (s), n_setpoints; points (m), n_setpoints x n */
+    long n_setpoints;
+    const double *vend;      /* the set-point's velocity after its last point (m/s), n */
+    double rest_len;         /* an elastic band's rest length (m), 0 for none */
+    long n_steps;
+    double period;           /* T (s) */
+    long delay;              /* samples of computation delay */
+    double delta, fres, fmax, fc; /* encoder resolution (m), force resolution (N), max force (N), Coulomb (N) */
+    double pc_bmax;          /* the controller's largest damping (N s/m) */
+    const double *p0, *v0;   /* the start (m, m/s), n */
+    long record_every, n_rec;
+    double *rec;             /* n_rec x (4 n + 4) */
+    double *summary;         /* HX_N_SUMMARY */
+    long tail_start, n_tail;
+    double *tail;            /* n x n_tail */
+    double *delay_buffer;    /* scratch of (delay + 1) x n */
+} hx_general_run;
+
+/* Run the general loop of model m. HX_OK, or HX_BAD_COEFFS before any sample. Stops, flagged
+ * in the summary, at the first non-finite state. */
+int hx_run_general(const hx_model *m, const hx_general_run *r);
 
 #ifdef __cplusplus
 }

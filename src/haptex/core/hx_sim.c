@@ -5,7 +5,11 @@
  * of the general loop's optional machinery (delay, quantisation, force resolution,
  * saturation, Coulomb friction, passivity controller, kinematic operator). Energy
  * accounting: the environment's work per axis, the damping's dissipation, the operator's
- * work, the kinetic energy; the oscillation tail; divergence detection.
+ * work, the kinetic energy; the oscillation tail; divergence detection. And the general loop
+ * (hx_run_general): the augmented exact transition over each sample (Van Loan's quadratic
+ * forms for the energies), delay, position quantisation, force resolution, saturation, the
+ * handle's Coulomb friction (a sampled Karnopp model), a structural mode, the passivity
+ * controller, and operators that push, pull through a spring-damper or move on a path.
  */
 #include "hx_core.h"
 #include "hx_fields.h"
@@ -227,4 +231,369 @@ int hx_run_lean(const hx_model *m, const hx_lean_run *r)
         return HX_BAD_COEFFS;
     fn = LEANS[r->dim - 2][m->code];
     return fn(m, r);
+}
+
+/* ---- the general loop ---------------------------------------------------------------- */
+
+static double quad_n(const double *W, const double *z, long n)
+{
+    double acc = 0.0;
+    long i, j;
+    for (i = 0; i < n; i++) {
+        double row = 0.0;
+        for (j = 0; j < n; j++)
+            row += W[n * i + j] * z[j];
+        acc += z[i] * row;
+    }
+    return acc;
+}
+
+static double row_dot(const double *P, long i, const double *z, long nz)
+{
+    double acc = 0.0;
+    long j;
+    for (j = 0; j < nz; j++)
+        acc += P[nz * i + j] * z[j];
+    return acc;
+}
+
+/* the operator's set-point s(t) (m): the polyline (ts, ps), then vend (m/s) */
+static void setpoint(const hx_general_run *r, double t, double *out)
+{
+    long m = r->n_setpoints, lo = 0, hi = m - 1, i, n = r->dim;
+    const double *ts = r->sp_t, *ps = r->sp_p;
+    if (t >= ts[m - 1]) {
+        double dt = t - ts[m - 1];
+        for (i = 0; i < n; i++)
+            out[i] = ps[(m - 1) * n + i] + r->vend[i] * dt;
+        return;
+    }
+    if (t <= ts[0]) {
+        for (i = 0; i < n; i++)
+            out[i] = ps[i];
+        return;
+    }
+    while (hi - lo > 1) {
+        long mid = (lo + hi) / 2;
+        if (ts[mid] <= t)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    {
+        double w = (t - ts[lo]) / (ts[hi] - ts[lo]);
+        for (i = 0; i < n; i++)
+            out[i] = ps[lo * n + i] + w * (ps[hi * n + i] - ps[lo * n + i]);
+    }
+}
+
+/* kinetic energy, plus the structural mode's (J) */
+static double mech_energy(const hx_general_run *r, const double *v, const double *ph, const double *vh,
+                          const double *p)
+{
+    long n = r->dim, i, j;
+    double e = 0.5 * quad_n(r->mass, v, n);
+    if (r->modal != NULL) {
+        e += 0.5 * quad_n(r->modal, vh, n);
+        for (i = 0; i < n; i++)
+            for (j = 0; j < n; j++)
+                e += 0.5 * (p[i] - ph[i]) * r->modal[n * n + n * i + j] * (p[j] - ph[j]);
+    }
+    return e;
+}
+
+/* the handle's Coulomb friction over one sample (a sampled Karnopp model) into out; 1 when the
+ * handle ends the sample at rest by stiction */
+static int coulomb(const double *a, const double *Binv, const double *v, double fc, long n, double *out)
+{
+    double nrm = 0.0, sp = 0.0;
+    long i, j;
+    for (i = 0; i < n; i++) {
+        double acc = 0.0;
+        for (j = 0; j < n; j++)
+            acc -= Binv[n * i + j] * a[j];
+        out[i] = acc;
+        nrm += acc * acc;
+    }
+    nrm = sqrt(nrm);
+    if (nrm <= fc)
+        return 1;
+    for (i = 0; i < n; i++)
+        sp += v[i] * v[i];
+    sp = sqrt(sp);
+    if (sp > 0.0) {
+        for (i = 0; i < n; i++)
+            out[i] = -fc * v[i] / sp;
+    } else {
+        for (i = 0; i < n; i++)
+            out[i] = fc * out[i] / nrm;
+    }
+    return 0;
+}
+
+int hx_run_general(const hx_model *m, const hx_general_run *r)
+{
+    enum { MAXN = 3, MAXZ = 21 };
+    const long n = r->dim, nz = r->nz, last = n - 1;
+    const int mode = r->modal != NULL, use_fast = r->fast != NULL;
+    hx_state st;
+    hx_passivity pc;
+    double z[MAXZ] = {0}, p[MAXN], v[MAXN], ph[MAXN], vh[MAXN], sense[MAXN] = {0}, f[MAXN] = {0}, u[MAXN] = {0};
+    double g[MAXN] = {0}, rr[MAXN] = {0}, a[MAXN] = {0}, ff[MAXN] = {0}, newp[MAXN], newv[MAXN], e[MAXN] = {0};
+    double s0[MAXN] = {0}, s1[MAXN] = {0}, ed = 0.0, eo = 0.0, maxpen = 0.0, ke0, ke_prev, e_tail = 0.0, efr = 0.0;
+    double *buf = r->delay_buffer, *summary = r->summary;
+    long n_steps = r->n_steps, k, i, j, sat = 0, stuck = 0, irec = 0, itail = 0, n_tail = r->n_tail;
+    long tail_stride, next_rec, next_tail, delay = r->delay;
+    if (hx_model_check(m) != HX_OK || (n != 2 && n != 3) || nz > MAXZ || nz < 5 * n)
+        return HX_BAD_COEFFS;
+    memset(&st, 0, sizeof st);
+    memset(&pc, 0, sizeof pc);
+    pc.on = r->pc_on;
+    pc.bmax = r->pc_bmax;
+    pc.ref_stored = r->pc_ref_stored;
+    pc.T = r->period;
+    for (i = 0; i < n; i++) {
+        p[i] = ph[i] = r->p0[i];
+        v[i] = vh[i] = r->v0[i];
+    }
+    for (i = 0; i < (delay + 1) * n; i++)
+        buf[i] = 0.0;
+    ke0 = mech_energy(r, v, ph, vh, p);
+    ke_prev = ke0;
+    tail_stride = (n_steps - r->tail_start) / (n_tail > 1 ? n_tail : 1);
+    if (tail_stride < 1)
+        tail_stride = 1;
+    next_rec = r->n_rec > 0 ? r->record_every : -1;
+    next_tail = n_tail > 0 ? r->tail_start : -1;
+    for (k = 0; k < n_steps; k++) {
+        double t = (double)k * r->period, q3[3], f3[3], pen, check;
+        int inside, reg, rest = 0, held = 0, what = 0;
+        const double *P;
+        if (r->kinematic) {
+            setpoint(r, t, p);
+            setpoint(r, t + r->period, s1);
+            for (i = 0; i < n; i++)
+                v[i] = (s1[i] - p[i]) / r->period;
+        }
+        /* controller: sense, compute, (passivity control), quantise, saturate, delay */
+        for (i = 0; i < n; i++)
+            sense[i] = r->delta > 0.0 ? r->delta * nearbyint(p[i] / r->delta) : p[i];
+        q3[0] = sense[0];
+        q3[1] = n == 3 ? sense[1] : 0.0;
+        q3[2] = sense[last];
+        hx_tick_force(m, &st, q3, f3);
+        if (r->pc_on)
+            hx_passivity_tick(&pc, q3, f3, m->prm[HX_P_K0], st.pen);
+        if (r->fres > 0.0)
+            for (i = 0; i < 3; i++)
+                f3[i] = r->fres * nearbyint(f3[i] / r->fres);
+        if (hx_saturate(f3, r->fmax))
+            sat++;
+        if (r->pc_on)
+            hx_passivity_sent(&pc, q3, f3);
+        f[0] = f3[0];
+        if (n == 3)
+            f[1] = f3[1];
+        f[last] = f3[2];
+        if (delay == 0) {
+            for (i = 0; i < n; i++)
+                u[i] = f[i];
+        } else {
+            long slot = k % (delay + 1), nxt = (k + 1) % (delay + 1);
+            for (i = 0; i < n; i++) {
+                buf[slot * n + i] = f[i];
+                u[i] = k >= delay ? buf[nxt * n + i] : 0.0;
+            }
+        }
+        /* damping regime from the sensed position (brakes on inside the virtual object) */
+        if (r->nominal) {
+            inside = sense[last] < 0.0;
+            pen = -p[last];
+        } else {
+            double h = st.h;
+            if (h != h)
+                h = hx_texture_height(&m->tex, sense[0], n == 3 ? sense[1] : 0.0);
+            inside = sense[last] < h;
+            if (r->delta > 0.0)
+                h = hx_texture_height(&m->tex, p[0], n == 3 ? p[1] : 0.0);
+            pen = h - p[last];
+        }
+        if (pen > maxpen)
+            maxpen = pen;
+        reg = inside ? 1 : 0;
+        if (r->kinematic) {
+            /* prescribed motion: the operator supplies whatever work keeps it on the path */
+            double dd = r->period * quad_n(r->Bs + reg * n * n, v, n), ke_now = 0.5 * quad_n(r->mass, v, n);
+            double step2 = 0.0, work = 0.0, dfr;
+            if (k == 0) {
+                ke0 = ke_now;
+                ke_prev = ke_now;
+            }
+            ed += dd;
+            for (i = 0; i < n; i++) {
+                double dp = s1[i] - p[i];
+                step2 += dp * dp;
+                work += u[i] * dp;
+                e[i] -= u[i] * dp;
+                p[i] = s1[i];
+            }
+            dfr = r->fc * sqrt(step2);
+            efr += dfr;
+            eo += (ke_now - ke_prev) + dd + dfr - work;
+            ke_prev = ke_now;
+        } else {
+            const double *fast = r->fast;
+            if (use_fast) {
+                for (i = 0; i < n; i++) {
+                    const double *c = fast + (reg * n + i) * HX_N_FAST;
+                    g[i] = r->f0[i];
+                    a[i] = c[HX_F_VV] * v[i] + c[HX_F_VW] * (u[i] + g[i]);
+                }
+            } else {
+                setpoint(r, t, s0);
+                setpoint(r, t + r->period, s1);
+                for (i = 0; i < n; i++) {
+                    double acc = r->f0[i], racc = 0.0;
+                    for (j = 0; j < n; j++) {
+                        double sd = (s1[j] - s0[j]) / r->period;
+                        acc += r->K[n * i + j] * s0[j] + r->C[n * i + j] * sd;
+                        racc += r->K[n * i + j] * sd;
+                    }
+                    g[i] = acc;
+                    rr[i] = racc;
+                }
+                if (r->rest_len > 0.0) {
+                    double nrm = 0.0;
+                    for (i = 0; i < n; i++) {
+                        double d_i = (mode ? ph[i] : p[i]) - r->sp_p[i];
+                        nrm += d_i * d_i;
+                    }
+                    nrm = sqrt(nrm);
+                    if (nrm > 0.0)
+                        for (i = 0; i < n; i++)
+                            g[i] += r->K[n * i + i] * r->rest_len * ((mode ? ph[i] : p[i]) - r->sp_p[i]) / nrm;
+                }
+                for (i = 0; i < n; i++) {
+                    z[i] = p[i];
+                    z[n + i] = v[i];
+                    z[2 * n + i] = u[i];
+                    z[3 * n + i] = g[i];
+                    z[4 * n + i] = rr[i];
+                    if (mode) {
+                        z[5 * n + i] = ph[i];
+                        z[6 * n + i] = vh[i];
+                    }
+                }
+                for (i = 0; i < n; i++)
+                    a[i] = row_dot(r->Phi + reg * nz * nz, n + i, z, nz);
+            }
+            for (i = 0; i < n; i++)
+                ff[i] = 0.0;
+            if (r->fc > 0.0) {
+                rest = coulomb(a, r->Binv + reg * n * n, v, r->fc, n, ff);
+                if (rest) {
+                    stuck++;
+                    /* at rest and held by stiction: the handle does not move at all */
+                    held = !mode;
+                    for (i = 0; i < n; i++)
+                        if (v[i] != 0.0)
+                            held = 0;
+                }
+            }
+            for (i = 0; i < n; i++) {
+                newp[i] = p[i];
+                newv[i] = 0.0;
+            }
+            if (!held) {
+                if (use_fast) {
+                    for (i = 0; i < n; i++) {
+                        const double *c = fast + (reg * n + i) * HX_N_FAST;
+                        double w = u[i] + g[i] + ff[i];
+                        newp[i] = p[i] + c[HX_F_PV] * v[i] + c[HX_F_PW] * w;
+                        newv[i] = c[HX_F_VV] * v[i] + c[HX_F_VW] * w;
+                        ed += v[i] * (c[HX_F_CVV] * v[i] + c[HX_F_CVW] * w) + c[HX_F_CWW] * w * w;
+                        eo += g[i] * (newp[i] - p[i]);
+                    }
+                } else {
+                    for (i = 0; i < n; i++)
+                        z[2 * n + i] = u[i] + ff[i];
+                    P = r->Phi + reg * nz * nz;
+                    ed += quad_n(r->Wd + reg * nz * nz, z, nz);
+                    eo += quad_n(r->Wo + reg * nz * nz, z, nz);
+                    for (i = 0; i < n; i++) {
+                        newp[i] = row_dot(P, i, z, nz);
+                        newv[i] = row_dot(P, n + i, z, nz);
+                    }
+                    if (mode)
+                        for (i = 0; i < n; i++) {
+                            ph[i] = row_dot(P, 5 * n + i, z, nz);
+                            vh[i] = row_dot(P, 6 * n + i, z, nz);
+                        }
+                }
+            }
+            for (i = 0; i < n; i++) {
+                double dp = newp[i] - p[i];
+                e[i] -= u[i] * dp;
+                efr -= ff[i] * dp;
+                p[i] = newp[i];
+                v[i] = (r->fc > 0.0 && rest) ? 0.0 : newv[i]; /* stiction: at rest exactly */
+            }
+        }
+        check = ed + eo; /* one test a sample: a non-finite term makes the sum non-finite */
+        for (i = 0; i < n; i++)
+            check += p[i] + v[i] + u[i] + e[i];
+        if (!isfinite(check))
+            what = diverged(p, v, u, e, ed, eo, (int)n);
+        if (what != 0) {
+            summary[HX_S_DIVERGED] = (double)(k + 1);
+            summary[HX_S_DIVERGED_WHAT] = what;
+            n_steps = k + 1;
+            break;
+        }
+        if (k == r->tail_start) {
+            e_tail = 0.0;
+            for (i = 0; i < n; i++)
+                e_tail += e[i];
+        }
+        if (k == next_tail) {
+            if (itail < n_tail) {
+                for (i = 0; i < n; i++)
+                    r->tail[i * n_tail + itail] = p[i];
+                itail++;
+                next_tail += tail_stride;
+            }
+        }
+        if (k + 1 == next_rec) {
+            double *out = r->rec + irec * (4 * n + 4);
+            next_rec += r->record_every;
+            out[0] = t + r->period;
+            for (i = 0; i < n; i++) {
+                out[1 + i] = p[i];
+                out[1 + n + i] = v[i];
+                out[1 + 2 * n + i] = u[i];
+                out[1 + 3 * n + i] = e[i];
+            }
+            out[1 + 4 * n] = ed;
+            out[2 + 4 * n] = eo;
+            out[3 + 4 * n] = mech_energy(r, v, ph, vh, p);
+            irec++;
+            if (irec == r->n_rec)
+                next_rec = -1;
+        }
+    }
+    summary[HX_S_EX] = e[0];
+    summary[HX_S_EZ] = e[n - 1];
+    summary[HX_S_EY] = n == 3 ? e[1] : 0.0;
+    summary[HX_S_DAMP] = ed;
+    summary[HX_S_OP] = eo;
+    summary[HX_S_KE0] = ke0;
+    summary[HX_S_KE] = mech_energy(r, v, ph, vh, p);
+    summary[HX_S_SAT] = (double)sat;
+    summary[HX_S_MAXPEN] = maxpen;
+    summary[HX_S_NSAMP] = (double)n_steps;
+    summary[HX_S_TAILSTART_E] = e_tail;
+    summary[HX_S_FRIC] = efr;
+    summary[HX_S_STUCK] = (double)stuck;
+    summary[HX_S_PC_ACTIVE] = (double)pc.active;
+    return HX_OK;
 }
