@@ -855,8 +855,7 @@ def presliding_step(adhesion, x, d_max):
 # table of the smooth presliding model (built by haptex.friction.smooth_table), in units of
 # d_max: X(e) = distance travelled from the start of the ramp (|d| = z_stick) to e = 1 - |d|/d_max,
 # tabulated with its derivative at e_j = r exp(-j dv), r = 1 - z_stick/d_max
-T_N, T_LOGR, T_DV, T_BETA = range(4)
-T_DATA = 8
+from .core._ext import T_BETA, T_DATA, T_DV, T_LOGR, T_N  # noqa: E402  (the C core's layout)
 
 
 @nb.njit(**_JIT)

@@ -1,8 +1,9 @@
-"""A real-time rendering path: one compiled call per servo tick.
+"""A real-time rendering path: one C call per servo tick.
 
-A :class:`Renderer` holds an algorithm's compiled kernel and its state (F's adhesion
-point; D's and E's last closest point, a warm start) and turns one probe position into
-the force to command. It is meant to be called from a device's servo loop at 1–10 kHz.
+A :class:`Renderer` holds an algorithm's model and state in the C core (F's adhesion point;
+D's and E's last closest point, a warm start; the passivity observer and controller; the
+counters) and turns one probe position into the force to command. It is meant to be called
+from a device's servo loop at 1–10 kHz.
 """
 
 from __future__ import annotations
@@ -185,7 +186,9 @@ class Renderer:
         self.dimension = algorithm.dimension
         code, prm, kind, coeffs, aux = algorithm.kernel_spec()
         self._core = None
-        if _core.tick_in_core(algorithm):  # the C core's tick (D, E over surfaces: the numba tick below, until ported)
+        if _core.tick_in_core(algorithm):  # the C core's tick: every letter
+            # (the numba tick below is kept only as the C tick's oracle in tests/test_core.py,
+            # which selects it by emptying core.TICKS_IN_CORE; it goes with haptex._kernels)
             pc = passivity_controller
             tabled = _tick_search_data(algorithm, aux)
             self._search_table = tabled is not aux and tabled[_kernels.A_TABLE] != 0.0

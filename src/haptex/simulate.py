@@ -29,7 +29,6 @@ from scipy.linalg import expm
 from ._kernels import (DIVERGED_ENERGY, DIVERGED_FORCE, DIVERGED_POSITION, DIVERGED_VELOCITY, N_FAST, N_SUMMARY,
                        PC_REF_STORED, PC_REF_ZERO, S_DAMP, S_DIVERGED, S_DIVERGED_WHAT, S_EX, S_EY, S_EZ, S_FRIC, S_KE,
                        S_KE0, S_MAXPEN, S_OP, S_PC_ACTIVE, S_SAT, S_TAILSTART_E)
-from ._kernels import tail_amplitudes as _tail_amplitudes
 from . import core as _core
 from ._validation import ParameterError, fail, nonnegative, positions, positive, whole
 from .algorithms import Algorithm
@@ -325,12 +324,12 @@ def _axis_verdicts(u: np.ndarray, tail_duration: float, threshold: np.ndarray, t
     place (a view of the simulator's own tail: nothing is copied); ``threshold``
     (N,) in m; ``texture_freqs`` (N, k) the texture rates of each run (Hz, NaN-padded).
     Returns arrays (N,): oscillating, amplitude, decay ratio, frequency, texture driven.
-    The detrending and the half amplitudes are the compiled
-    :func:`haptex._kernels.tail_amplitudes`; the spectrum is taken only for the runs that move."""
+    The detrending and the half amplitudes are the C core's ``hx_tail_amplitudes``; the
+    spectrum is taken only for the runs that move."""
     N, n = u.shape
     a1 = np.empty(N)
     a2 = np.empty(N)
-    _tail_amplitudes(u, a1, a2)
+    _core._ext.tail_amplitudes(u, a1, a2)
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(a1 > 0, a2 / np.where(a1 > 0, a1, 1.0), np.where(a2 > 0, np.inf, 0.0))
     moving = np.flatnonzero(a2 > threshold)

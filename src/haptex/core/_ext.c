@@ -963,11 +963,106 @@ done:
     Py_RETURN_NONE;
 }
 
+PyDoc_STRVAR(tail_amplitudes_doc,
+"tail_amplitudes(u, a1, a2)\n--\n\n"
+"hx_tail_amplitudes on each row of u (float64 (N, m), any strides: a view of the simulator's tail), detrended\n"
+"in place; the half amplitudes of each row's halves into a1, a2 (float64 (N,)).");
+
+static PyObject *tail_amplitudes(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    Py_buffer u, a1, a2;
+    Py_ssize_t r, n, m, rs, cs;
+    (void)self;
+    if (nargs != 3) {
+        PyErr_SetString(PyExc_TypeError, "tail_amplitudes takes 3 arguments");
+        return NULL;
+    }
+    if (PyObject_GetBuffer(args[0], &u, PyBUF_STRIDES | PyBUF_FORMAT | PyBUF_WRITABLE) < 0)
+        return NULL;
+    if (u.itemsize != 8 || u.format == NULL || strcmp(u.format, "d") != 0 || u.ndim != 2 ||
+        u.strides[0] % 8 != 0 || u.strides[1] % 8 != 0 || u.strides[0] < 0 || u.strides[1] < 0) {
+        PyBuffer_Release(&u);
+        PyErr_SetString(PyExc_ValueError, "u must be a 2-D float64 array with non-negative strides");
+        return NULL;
+    }
+    if (get_doubles(args[1], &a1, 1, 1, "a1") < 0) {
+        PyBuffer_Release(&u);
+        return NULL;
+    }
+    if (get_doubles(args[2], &a2, 1, 1, "a2") < 0) {
+        PyBuffer_Release(&a1);
+        PyBuffer_Release(&u);
+        return NULL;
+    }
+    n = u.shape[0];
+    m = u.shape[1];
+    rs = u.strides[0] / 8;
+    cs = u.strides[1] / 8;
+    if (a1.shape[0] != n || a2.shape[0] != n) {
+        PyErr_SetString(PyExc_ValueError, "a1 and a2 must have one value per row of u");
+    } else {
+        Py_BEGIN_ALLOW_THREADS
+        for (r = 0; r < n; r++)
+            hx_tail_amplitudes((double *)u.buf + r * rs, (long)m, (long)cs, (double *)a1.buf + r, (double *)a2.buf + r);
+        Py_END_ALLOW_THREADS
+    }
+    PyBuffer_Release(&a2);
+    PyBuffer_Release(&a1);
+    PyBuffer_Release(&u);
+    if (PyErr_Occurred())
+        return NULL;
+    Py_RETURN_NONE;
+}
+
+PyDoc_STRVAR(presliding_plane_doc,
+"presliding_plane(dx, dy, ddx, ddy, d_max, z_stick, table)\n--\n\n"
+"One step of isotropic presliding in the plane (hx_presliding_plane): the deflection (dx, dy) (m) after the\n"
+"in-plane displacement (ddx, ddy) (m); z_stick < 0 for the sharp model, else the smooth one with its travel\n"
+"table (haptex.friction.smooth_table). Returns (dx, dy, table steps).");
+
+static PyObject *presliding_plane(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    double v[6], d[2], dp[2];
+    Py_buffer tab;
+    long work = 0;
+    int i;
+    (void)self;
+    if (nargs != 7) {
+        PyErr_SetString(PyExc_TypeError, "presliding_plane takes 7 arguments");
+        return NULL;
+    }
+    for (i = 0; i < 6; i++) {
+        v[i] = PyFloat_AsDouble(args[i]);
+        if (v[i] == -1.0 && PyErr_Occurred())
+            return NULL;
+    }
+    if (!(v[4] > 0.0) || !isfinite(v[4])) {
+        PyErr_SetString(PyExc_ValueError, "d_max must be > 0");
+        return NULL;
+    }
+    if (get_doubles(args[6], &tab, 0, 1, "table") < 0)
+        return NULL;
+    if (v[5] >= 0.0 && (v[5] >= v[4] || hx_presliding_table_check((const double *)tab.buf, (long)tab.shape[0]) != HX_OK)) {
+        PyBuffer_Release(&tab);
+        PyErr_SetString(PyExc_ValueError, "a smooth step needs 0 <= z_stick < d_max and its travel table");
+        return NULL;
+    }
+    d[0] = v[0];
+    d[1] = v[1];
+    dp[0] = v[2];
+    dp[1] = v[3];
+    hx_presliding_plane(d, dp, v[4], v[5], (const double *)tab.buf, &work);
+    PyBuffer_Release(&tab);
+    return Py_BuildValue("(ddl)", d[0], d[1], work);
+}
+
 static PyMethodDef methods[] = {
     {"field", (PyCFunction)(void (*)(void))field, METH_FASTCALL, field_doc},
     {"texture", (PyCFunction)(void (*)(void))texture, METH_FASTCALL, texture_doc},
     {"run_lean", (PyCFunction)(void (*)(void))run_lean, METH_FASTCALL, run_lean_doc},
     {"run_general", (PyCFunction)(void (*)(void))run_general, METH_FASTCALL, run_general_doc},
+    {"tail_amplitudes", (PyCFunction)(void (*)(void))tail_amplitudes, METH_FASTCALL, tail_amplitudes_doc},
+    {"presliding_plane", (PyCFunction)(void (*)(void))presliding_plane, METH_FASTCALL, presliding_plane_doc},
     {"closest_profile", (PyCFunction)(void (*)(void))closest_profile, METH_FASTCALL, closest_profile_doc},
     {"closest_surface", (PyCFunction)(void (*)(void))closest_surface, METH_FASTCALL, closest_surface_doc},
     {NULL, NULL, 0, NULL},
@@ -998,7 +1093,8 @@ PyMODINIT_FUNC PyInit__ext(void)
         {"A_TREE", HX_A_TREE}, {"G_HMIN", HX_G_HMIN}, {"G_SLOPE", HX_G_SLOPE}, {"G_CURV", HX_G_CURV},
         {"G_LEAF", HX_G_LEAF}, {"G_TIE", HX_G_TIE}, {"G_HMAX", HX_G_HMAX}, {"G_CONVEX", HX_G_CONVEX},
         {"G_JERK", HX_G_JERK}, {"G_SLOPE_BOUND", HX_G_SLOPE_BOUND}, {"G_CURV_BOUND", HX_G_CURV_BOUND},
-        {"N_GAUX", HX_N_GAUX},
+        {"N_GAUX", HX_N_GAUX}, {"T_N", HX_T_N}, {"T_LOGR", HX_T_LOGR}, {"T_DV", HX_T_DV},
+        {"T_BETA", HX_T_BETA}, {"T_DATA", HX_T_DATA},
     };
     size_t i;
     if (mod == NULL)

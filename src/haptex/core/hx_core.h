@@ -108,6 +108,11 @@ int hx_field(const hx_model *m, const double p[3], double f[3], double jac[9]);
 
 /* ---- presliding (F) ------------------------------------------------------------- */
 
+/* The smooth model's travel table (haptex.friction.smooth_table), in units of d_max: the
+ * header [n, ln r, dv, beta] from HX_T_N, then X_j (n values) and dX/dj (n values) from
+ * HX_T_DATA, at e_j = r exp(-j dv), r = 1 - z_stick / d_max. */
+enum { HX_T_N, HX_T_LOGR, HX_T_DV, HX_T_BETA, HX_T_DATA = 8 };
+
 /* Check F's smooth presliding table (haptex.friction.smooth_table) of n_tab values. */
 int hx_presliding_table_check(const double *tab, long n_tab);
 
@@ -264,6 +269,12 @@ typedef struct {
 /* Run the lean loop of model m. HX_OK; HX_BAD_COEFFS or HX_NOT_IN_CORE (D, E) before any
  * sample. Stops, flagged in the summary, at the first non-finite state. */
 int hx_run_lean(const hx_model *m, const hx_lean_run *r);
+
+/* Remove from the tail u (m samples, `stride` doubles apart) its mean and least-squares
+ * straight line (steady sliding or drift is not an oscillation), in place, and return half
+ * the peak-to-peak of the detrended tail in its first and second halves: the amplitudes of
+ * the oscillation verdict (haptex.simulate). */
+void hx_tail_amplitudes(double *u, long m, long stride, double *a1, double *a2);
 
 /* One run of the general loop: its inputs (read) and outputs (written). */
 typedef struct {

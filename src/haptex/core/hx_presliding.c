@@ -13,7 +13,7 @@
 #include <math.h>
 #include <stddef.h>
 
-enum { T_N, T_LOGR, T_DV, T_BETA, T_DATA = 8 };
+enum { T_N = HX_T_N, T_LOGR = HX_T_LOGR, T_DV = HX_T_DV, T_BETA = HX_T_BETA, T_DATA = HX_T_DATA };
 
 int hx_presliding_table_check(const double *tab, long n_tab)
 {

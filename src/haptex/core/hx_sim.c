@@ -597,3 +597,33 @@ int hx_run_general(const hx_model *m, const hx_general_run *r)
     summary[HX_S_PC_ACTIVE] = (double)pc.active;
     return HX_OK;
 }
+
+/* ---- the oscillation verdict's amplitudes --------------------------------------------- */
+
+void hx_tail_amplitudes(double *u, long m, long stride, double *a1, double *a2)
+{
+    double tm = 0.5 * (double)(m - 1), stt = 0.0, mean = 0.0, sty = 0.0, slope;
+    double lo1 = HUGE_VAL, hi1 = -HUGE_VAL, lo2 = HUGE_VAL, hi2 = -HUGE_VAL;
+    long j;
+    for (j = 0; j < m; j++)
+        stt += ((double)j - tm) * ((double)j - tm);
+    for (j = 0; j < m; j++)
+        mean += u[j * stride];
+    mean /= (double)m;
+    for (j = 0; j < m; j++)
+        sty += ((double)j - tm) * (u[j * stride] - mean);
+    slope = stt > 0.0 ? sty / stt : 0.0;
+    for (j = 0; j < m; j++) {
+        double w = u[j * stride] - mean - slope * ((double)j - tm);
+        u[j * stride] = w;
+        if (j < m / 2) {
+            lo1 = fmin(lo1, w);
+            hi1 = fmax(hi1, w);
+        } else {
+            lo2 = fmin(lo2, w);
+            hi2 = fmax(hi2, w);
+        }
+    }
+    *a1 = m / 2 > 0 ? 0.5 * (hi1 - lo1) : 0.0;
+    *a2 = 0.5 * (hi2 - lo2);
+}
