@@ -59,8 +59,14 @@ def explorer_process():
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
+    # the server's output goes to a file, not a pipe nobody reads (a full pipe would block its
+    # logging, and with it the server); a failing test quotes its tail (server_log)
+    import tempfile
+
+    log = tempfile.NamedTemporaryFile(prefix="haptex-explore-", suffix=".log", delete=False)
     proc = subprocess.Popen([sys.executable, "-m", "haptex", "explore", "--port", str(port), "--no-browser"],
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+                            stdout=log, stderr=subprocess.STDOUT)
+    proc.log_path = log.name
     deadline = time.monotonic() + 60
     while True:
         try:
@@ -69,7 +75,8 @@ def explorer_process():
         except OSError:
             if proc.poll() is not None or time.monotonic() > deadline:
                 proc.kill()
-                pytest.fail(f"the explorer did not start: {proc.communicate()[0].decode()[-2000:]}")
+                proc.wait()
+                pytest.fail(f"the explorer did not start: {server_log(proc)}")
             time.sleep(0.3)
     yield port, proc
     proc.terminate()
@@ -77,3 +84,13 @@ def explorer_process():
         proc.wait(10)
     except subprocess.TimeoutExpired:
         proc.kill()
+    log.close()
+    Path(log.name).unlink(missing_ok=True)
+
+
+def server_log(proc, chars: int = 3000) -> str:
+    """The tail of an :func:`explorer_process` server's output (for a failing test's message)."""
+    try:
+        return Path(proc.log_path).read_text(errors="replace")[-chars:]
+    except OSError as exc:
+        return f"(no log: {exc})"

@@ -17,7 +17,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from .conftest import explorer_process
+from .conftest import explorer_process, server_log
 
 
 @pytest.fixture(scope="module")
@@ -35,8 +35,11 @@ def _answers(port, proc, page: bool = False) -> None:
         assert r.status == 200 and len(r.read()) > 100_000
     assert time.monotonic() - t < 1.0
     if page:
-        with urllib.request.urlopen(f"http://127.0.0.1:{port}/", timeout=10) as r:
-            assert r.status == 200 and b"bokeh" in r.read().lower()
+        try:
+            with urllib.request.urlopen(f"http://127.0.0.1:{port}/", timeout=10) as r:
+                assert r.status == 200 and b"bokeh" in r.read().lower()
+        except OSError as exc:  # (an HTTPError too) the server's own account of it
+            raise AssertionError(f"a new session's page: {exc}; the server said:\n{server_log(proc)}") from exc
 
 
 def _raw(port, data: bytes, read: bool = True) -> bytes:
