@@ -530,6 +530,22 @@ static PyTypeObject RendererType = {
     .tp_new = PyType_GenericNew,
 };
 
+/* Run r's model from a batch's buffers: prm (N, HX_N_PARAMS), coeffs (N, rows, cols), aux (N, k). */
+static void batch_model(hx_model *m, int code, int kind, const Py_buffer *prm, const Py_buffer *coeffs,
+                        const Py_buffer *aux, Py_ssize_t r)
+{
+    long rows = (long)coeffs->shape[1], cols = (long)coeffs->shape[2], i;
+    m->code = code;
+    for (i = 0; i < HX_N_PARAMS; i++)
+        m->prm[i] = ((const double *)prm->buf)[r * HX_N_PARAMS + i];
+    m->tex.kind = kind;
+    m->tex.c = (const double *)coeffs->buf + r * rows * cols;
+    m->tex.rows = rows;
+    m->tex.cols = cols;
+    m->aux = (const double *)aux->buf + r * aux->shape[1];
+    m->naux = (long)aux->shape[1];
+}
+
 PyDoc_STRVAR(run_lean_doc,
 "run_lean(code, kind, nominal, n_steps, period, record_every, tail_start, prm, coeffs, aux, fast, mass, f0,\n"
 "         p0, v0, rec, summary, tail)\n--\n\n"
@@ -583,16 +599,8 @@ static PyObject *run_lean(PyObject *self, PyObject *const *args, Py_ssize_t narg
     for (r = 0; r < N && rc == HX_OK; r++) {
         hx_model m;
         hx_lean_run run;
-        long rows = (long)b[1].shape[1], cols = (long)b[1].shape[2], n_rec = (long)b[8].shape[1];
-        m.code = code;
-        for (i = 0; i < HX_N_PARAMS; i++)
-            m.prm[i] = ((const double *)b[0].buf)[r * HX_N_PARAMS + i];
-        m.tex.kind = kind;
-        m.tex.c = (const double *)b[1].buf + r * rows * cols;
-        m.tex.rows = rows;
-        m.tex.cols = cols;
-        m.aux = (const double *)b[2].buf + r * b[2].shape[1];
-        m.naux = (long)b[2].shape[1];
+        long n_rec = (long)b[8].shape[1];
+        batch_model(&m, code, kind, &b[0], &b[1], &b[2], r);
         run.dim = dim;
         run.nominal = nominal;
         run.fast = (const double *)b[3].buf + r * 2 * dim * HX_N_FAST;
@@ -892,17 +900,9 @@ static PyObject *run_general(PyObject *self, PyObject *const *args, Py_ssize_t n
     for (r = 0; r < N && rc == HX_OK; r++) {
         hx_model m;
         hx_general_run run;
-        long rows = (long)b[COEFFS].shape[1], cols = (long)b[COEFFS].shape[2], n_rec = (long)b[REC].shape[1];
+        long n_rec = (long)b[REC].shape[1];
         long d = (long)((const long long *)b[DELAY].buf)[r], dd = dim * dim, zz = nz * nz;
-        m.code = code;
-        for (i = 0; i < HX_N_PARAMS; i++)
-            m.prm[i] = ((const double *)b[PRM].buf)[r * HX_N_PARAMS + i];
-        m.tex.kind = kind;
-        m.tex.c = (const double *)b[COEFFS].buf + r * rows * cols;
-        m.tex.rows = rows;
-        m.tex.cols = cols;
-        m.aux = (const double *)b[AUX].buf + r * b[AUX].shape[1];
-        m.naux = (long)b[AUX].shape[1];
+        batch_model(&m, code, kind, &b[PRM], &b[COEFFS], &b[AUX], r);
         run.dim = dim;
         run.nz = nz;
         run.nominal = nominal;

@@ -86,22 +86,17 @@ HX_INLINE void normal_derivative(const hx_height *t, double g, double out[4])
     out[3] = g * (p01 * t->hxy + p11 * t->hyy);
 }
 
-/* B, eq. 11: f = -kappa_0 d n with the lateral part at d_l;
- * J = kappa_0 [[-lat s s^T + d_l g P H, lat s], [g s^T + d g^3 (H s)^T, -g]], lat = g where
- * d_l follows d, else 0. */
-HX_INLINE void field_b(const hx_model *m, const double p[3], double f[3], double jac[9], field_out *o)
+/* The force along the textured normal n = (-s, 1) g at depth d < 0 (B: the vertical
+ * penetration d = p^z - h, so that grad d = (-s, 1); G: d = p^z), f = -kappa_0 d n with the
+ * lateral part at d_l (Remark 3), and its Jacobian
+ *   in-plane block kappa_0 (d_l g P H - grooved lat s s^T), in-plane column kappa_0 lat s,
+ *   last row kappa_0 (grooved g s + d g^3 H s, -g), lat = g where d_l follows d. */
+HX_INLINE void normal_field(const hx_model *m, const hx_height *t, double d, int grooved, double f[3], double jac[9])
 {
-    double k = m->prm[HX_P_K0], d, dl, g, lat, gph[4], s[2];
+    double k = m->prm[HX_P_K0], dl, g, lat, gph[4], s[2];
     int follows, i, j;
-    hx_height t;
-    hx__texture_eval(&m->tex, p[0], p[1], &t);
-    d = p[2] - t.h;
-    o->h = t.h;
-    o->pen = d < 0.0 ? -d : 0.0;
-    if (!(d < 0.0))
-        return;
-    s[0] = t.gx;
-    s[1] = t.gy;
+    s[0] = t->gx;
+    s[1] = t->gy;
     g = 1.0 / sqrt(1.0 + s[0] * s[0] + s[1] * s[1]);
     dl = lateral(m, d, &follows);
     f[0] = k * dl * s[0] * g; /* (the order of the numba kernels: the same rounding) */
@@ -110,15 +105,30 @@ HX_INLINE void field_b(const hx_model *m, const double p[3], double f[3], double
     if (!jac)
         return;
     lat = follows ? g : 0.0;
-    normal_derivative(&t, g, gph);
+    normal_derivative(t, g, gph);
     for (i = 0; i < 2; i++) {
         for (j = 0; j < 2; j++)
-            jac[3 * i + j] = k * (-lat * s[i] * s[j] + dl * gph[2 * i + j]);
+            jac[3 * i + j] = k * ((grooved ? -lat * s[i] * s[j] : 0.0) + dl * gph[2 * i + j]);
         jac[3 * i + 2] = k * lat * s[i];
     }
-    jac[6] = k * (g * s[0] + d * g * g * g * (t.hxx * s[0] + t.hxy * s[1]));
-    jac[7] = k * (g * s[1] + d * g * g * g * (t.hxy * s[0] + t.hyy * s[1]));
+    jac[6] = k * ((grooved ? g * s[0] : 0.0) + d * g * g * g * (t->hxx * s[0] + t->hxy * s[1]));
+    jac[7] = k * ((grooved ? g * s[1] : 0.0) + d * g * g * g * (t->hxy * s[0] + t->hyy * s[1]));
     jac[8] = -k * g;
+}
+
+/* B, eq. 11: f = -kappa_0 d n with the lateral part at d_l;
+ * J = kappa_0 [[-lat s s^T + d_l g P H, lat s], [g s^T + d g^3 (H s)^T, -g]], lat = g where
+ * d_l follows d, else 0. */
+HX_INLINE void field_b(const hx_model *m, const double p[3], double f[3], double jac[9], field_out *o)
+{
+    double d;
+    hx_height t;
+    hx__texture_eval(&m->tex, p[0], p[1], &t);
+    d = p[2] - t.h;
+    o->h = t.h;
+    o->pen = d < 0.0 ? -d : 0.0;
+    if (d < 0.0)
+        normal_field(m, &t, d, 1, f, jac);
 }
 
 /* C, eq. 13-15: f = kappa_0 (d_l s_x, d_l s_y, -d), the gradient of -kappa_0 d^2 / 2 when
@@ -159,33 +169,13 @@ HX_INLINE void field_c(const hx_model *m, const double p[3], double f[3], double
  * J = kappa_0 [[d_l g P H, lat s], [p^z g^3 (H s)^T, -g]], lat = g where d_l follows p^z. */
 HX_INLINE void field_g(const hx_model *m, const double p[3], double f[3], double jac[9], field_out *o)
 {
-    double k = m->prm[HX_P_K0], d = p[2], dl, g, lat, gph[4], s[2];
-    int follows, i, j;
     hx_height t;
-    o->pen = d < 0.0 ? -d : 0.0;
-    if (!(d < 0.0))
+    o->pen = p[2] < 0.0 ? -p[2] : 0.0;
+    if (!(p[2] < 0.0))
         return;
     hx__texture_eval(&m->tex, p[0], p[1], &t);
     o->h = t.h;
-    s[0] = t.gx;
-    s[1] = t.gy;
-    g = 1.0 / sqrt(1.0 + s[0] * s[0] + s[1] * s[1]);
-    dl = lateral(m, d, &follows);
-    f[0] = k * dl * s[0] * g; /* (the order of the numba kernels: the same rounding) */
-    f[1] = k * dl * s[1] * g;
-    f[2] = -k * d * g;
-    if (!jac)
-        return;
-    lat = follows ? g : 0.0;
-    normal_derivative(&t, g, gph);
-    for (i = 0; i < 2; i++) {
-        for (j = 0; j < 2; j++)
-            jac[3 * i + j] = k * dl * gph[2 * i + j];
-        jac[3 * i + 2] = k * lat * s[i];
-    }
-    jac[6] = k * d * g * g * g * (t.hxx * s[0] + t.hxy * s[1]);
-    jac[7] = k * d * g * g * g * (t.hxy * s[0] + t.hyy * s[1]);
-    jac[8] = -k * g;
+    normal_field(m, &t, p[2], 0, f, jac);
 }
 
 /* The letters in the order of HX_ALG_*; NULL: not evaluated by the core yet. */

@@ -26,10 +26,12 @@ static void axis_zoh(const double *c, double p, double v, double u, double g, do
     *de = v * (c[HX_F_CVV] * v + c[HX_F_CVW] * w) + c[HX_F_CWW] * w * w;
 }
 
-static double quad(const double *M, const double *v, int n)
+/* v' M v over the first n entries (M row-major n x n): the kinetic energy (halved) and the
+ * Van Loan energy forms */
+static double quad(const double *M, const double *v, long n)
 {
     double acc = 0.0;
-    int i, j;
+    long i, j;
     for (i = 0; i < n; i++) {
         double row = 0.0;
         for (j = 0; j < n; j++)
@@ -235,19 +237,6 @@ int hx_run_lean(const hx_model *m, const hx_lean_run *r)
 
 /* ---- the general loop ---------------------------------------------------------------- */
 
-static double quad_n(const double *W, const double *z, long n)
-{
-    double acc = 0.0;
-    long i, j;
-    for (i = 0; i < n; i++) {
-        double row = 0.0;
-        for (j = 0; j < n; j++)
-            row += W[n * i + j] * z[j];
-        acc += z[i] * row;
-    }
-    return acc;
-}
-
 static double row_dot(const double *P, long i, const double *z, long nz)
 {
     double acc = 0.0;
@@ -292,9 +281,9 @@ static double mech_energy(const hx_general_run *r, const double *v, const double
                           const double *p)
 {
     long n = r->dim, i, j;
-    double e = 0.5 * quad_n(r->mass, v, n);
+    double e = 0.5 * quad(r->mass, v, n);
     if (r->modal != NULL) {
-        e += 0.5 * quad_n(r->modal, vh, n);
+        e += 0.5 * quad(r->modal, vh, n);
         for (i = 0; i < n; i++)
             for (j = 0; j < n; j++)
                 e += 0.5 * (p[i] - ph[i]) * r->modal[n * n + n * i + j] * (p[j] - ph[j]);
@@ -423,7 +412,7 @@ int hx_run_general(const hx_model *m, const hx_general_run *r)
         reg = inside ? 1 : 0;
         if (r->kinematic) {
             /* prescribed motion: the operator supplies whatever work keeps it on the path */
-            double dd = r->period * quad_n(r->Bs + reg * n * n, v, n), ke_now = 0.5 * quad_n(r->mass, v, n);
+            double dd = r->period * quad(r->Bs + reg * n * n, v, n), ke_now = 0.5 * quad(r->mass, v, n);
             double step2 = 0.0, work = 0.0, dfr;
             if (k == 0) {
                 ke0 = ke_now;
@@ -518,8 +507,8 @@ int hx_run_general(const hx_model *m, const hx_general_run *r)
                     for (i = 0; i < n; i++)
                         z[2 * n + i] = u[i] + ff[i];
                     P = r->Phi + reg * nz * nz;
-                    ed += quad_n(r->Wd + reg * nz * nz, z, nz);
-                    eo += quad_n(r->Wo + reg * nz * nz, z, nz);
+                    ed += quad(r->Wd + reg * nz * nz, z, nz);
+                    eo += quad(r->Wo + reg * nz * nz, z, nz);
                     for (i = 0; i < n; i++) {
                         newp[i] = row_dot(P, i, z, nz);
                         newv[i] = row_dot(P, n + i, z, nz);
