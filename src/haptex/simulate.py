@@ -156,7 +156,7 @@ def _diagonal(A: np.ndarray) -> bool:
 
 def _fast_coefficients(device: Device, op: Operator) -> np.ndarray:
     """The decoupled fast path's per-axis closed forms, shape (2, n, N_FAST) (see
-    :func:`haptex._kernels.run_one`), for a rigid device with diagonal mass and damping
+    the C core's ``hx_run_general``), for a rigid device with diagonal mass and damping
     matrices pushed by a constant force; shape (0, n, N_FAST) otherwise (the general path).
 
     Each axis is the 1-DOF mass-damper m dv/dt = w - b v under a held force w: its exact
@@ -179,11 +179,10 @@ def _fast_coefficients(device: Device, op: Operator) -> np.ndarray:
 
 
 def _lean(fast: np.ndarray, kinematic: bool, pc_on: bool, delay, delta, fres, fmax, fc) -> tuple:
-    """``(1,)`` when every run can take :func:`haptex._kernels.run_lean`: the decoupled fast
+    """``(1,)`` when every run can take the C core's lean loop (``hx_run_lean``): the decoupled fast
     path (``fast`` has rows) with none of the machinery that loop leaves out (a kinematic
     operator, the passivity controller, delay, position quantisation, force resolution,
-    saturation, Coulomb friction); ``()`` otherwise (the general :func:`~haptex._kernels.run_one`).
-    The compiled batch reads the tuple's length, a compile-time constant."""
+    saturation, Coulomb friction); ``()`` otherwise (the general loop, ``hx_run_general``)."""
     off = (fast.shape[-3] > 0 and not kinematic and not pc_on and np.all(np.asarray(delay) == 0)
            and np.all(np.asarray(delta) == 0.0) and np.all(np.asarray(fres) == 0.0)
            and np.all(np.asarray(fmax) == math.inf) and np.all(np.asarray(fc) == 0.0))

@@ -1,15 +1,17 @@
-"""haptex's C core: the real-time code the library runs and exports.
+"""haptex's C core: the real-time code the library runs.
 
-The C99 sources beside this file (``hx_core.h``, ``hx_texture.c``, ``hx_forces.c``) are
+The C99 sources beside this file (``hx_core.h`` and the ``hx_*.c`` / ``hx_*.h`` files) are
 compiled at install into :mod:`haptex.core._ext`. This module is the thin Python side: it
 takes an :class:`haptex.Algorithm` (already validated when it was made) and hands its
-kernel arrays (:meth:`haptex.Algorithm.kernel_spec`) to the C.
+kernel arrays (:meth:`haptex.Algorithm.kernel_spec`) to the C, cutting batches into slices
+run on threads (the C releases the GIL).
 
-Implemented so far: texture evaluation of every kind, the memoryless fields W, A, B, C and G
-(forces and Jacobians) over profiles and surfaces, each written once over the dimension;
-presliding friction (F); and the servo tick (safety rules, passivity observer/controller,
-saturation, counters) that :class:`haptex.Renderer` runs for W, A, B, C, F and G. The NumPy
-fields of :mod:`haptex.algorithms` are the fields' oracle (tests/test_core.py).
+In the core: texture evaluation of every kind; the memoryless fields W, A, B, C and G with
+their Jacobians (:func:`field`); every letter's servo tick, with D's and E's closest-point
+searches over profiles and surfaces and F's presliding (:class:`haptex.Renderer`); the
+simulator's lean and general loops (:func:`haptex.simulate`, :func:`haptex.simulate_batch`).
+The NumPy fields of :mod:`haptex.algorithms` are the fields' oracle (tests/test_core.py).
+Not yet: the search-data builders (numba) and ``haptex export`` (C generated from strings).
 """
 
 from __future__ import annotations
@@ -31,7 +33,7 @@ IN_CORE = frozenset("WABCG")
 evaluates (D and E follow with their closest-point searches; F has state, see below)."""
 
 TICKS_IN_CORE = frozenset("WABCDEFG")
-"""The letters whose servo tick (:class:`haptex.Renderer`, the simulator's lean loop) runs in
+"""The letters whose servo tick (:class:`haptex.Renderer`, the simulator's loops) runs in
 the C core: all eight (F with its presliding friction, D and E with their closest-point
 searches over profiles, extruded profiles, sums of gratings and height maps)."""
 
