@@ -422,3 +422,28 @@ def test_the_core_general_loop_is_the_numba_loop(name):
     for key, slot in (("damping_energy", 2), ("operator_work", 3), ("friction_energy", 12)):
         assert res.totals[key] == pytest.approx(summary0[slot], rel=1e-8, abs=1e-12 * (abs(summary0[2]) + 1e-9)), key
     assert np.isfinite(res.position).all() and res.diverged_at is None
+
+
+def test_threads_are_set_per_calling_thread(monkeypatch):
+    """An atlas worker's task runs the C batches on its share of the cores (core.threads), the
+    setting local to its thread; HAPTEX_NUM_THREADS otherwise, refused in one line if absurd."""
+    import threading
+
+    monkeypatch.setenv("HAPTEX_NUM_THREADS", "2")
+    seen = {}
+
+    def other():
+        seen["other"] = core.num_threads()
+
+    with core.threads(1):
+        t = threading.Thread(target=other)
+        t.start()
+        t.join()
+        seen["inside"] = core.num_threads()
+    assert seen == {"inside": 1, "other": 2} and core.num_threads() == 2
+    monkeypatch.setenv("HAPTEX_NUM_THREADS", "0")
+    with pytest.raises(hx.ParameterError, match="HAPTEX_NUM_THREADS"):
+        core.num_threads()
+    with pytest.raises(hx.ParameterError, match="threads"):
+        with core.threads(0):
+            pass

@@ -474,17 +474,19 @@ def _tasks(todo: list, block_samples: int, threads: int) -> list[list]:
     return [todo[i:i + k] for i in range(0, len(todo), k)]
 
 
-def _run_blocks(spec_mapping: dict, blocks: list, numba_threads: int | None = None) -> list[dict]:
-    """One task: :func:`_run_block` on each of ``blocks``, in order."""
-    return [_run_block(spec_mapping, b, numba_threads) for b in blocks]
+def _run_blocks(spec_mapping: dict, blocks: list, threads: int | None = None) -> list[dict]:
+    """One task: :func:`_run_block` on each of ``blocks``, in order, the C core's batch loops on
+    ``threads`` threads (None: :func:`haptex.core.num_threads`)."""
+    from . import core
+
+    if threads is None:
+        return [_run_block(spec_mapping, b) for b in blocks]
+    with core.threads(max(1, int(threads))):
+        return [_run_block(spec_mapping, b) for b in blocks]
 
 
-def _run_block(spec_mapping: dict, block: tuple, numba_threads: int | None = None) -> dict:
+def _run_block(spec_mapping: dict, block: tuple) -> dict:
     """One block: simulate its runs; returns the variables, shaped as the block."""
-    if numba_threads is not None:
-        import numba
-
-        numba.set_num_threads(max(1, min(int(numba_threads), numba.config.NUMBA_NUM_THREADS)))
     from .simulate import simulate_batch
 
     if isinstance(spec_mapping, SweepSpec):
@@ -713,7 +715,7 @@ def _local_workers(workers) -> int:
 
 
 def _client(scheduler: str | None, workers: int | None):
-    """(client, local cluster or None, numba threads per task)."""
+    """(client, local cluster or None, the C core's threads per task)."""
     import logging
     import os
 
@@ -729,7 +731,7 @@ def _client(scheduler: str | None, workers: int | None):
     # (worker saturation "inf"), so that a worker never waits a round trip for its next
     # block; work stealing still rebalances, and a lost worker's blocks are recomputed.
     # A single worker runs in this process (no pickling, no process round trip: about 2 ms a
-    # task instead of 3-5) and its compiled batches use every core; more workers are
+    # task instead of 3-5) and its C batches use every core; more workers are
     # processes, each with its share of the cores (the default, one a core: the fastest
     # on large sweeps, where the client's Zarr writes then take no core from a worker).
     with dask.config.set({"distributed.scheduler.worker-saturation": "inf"}):

@@ -17,7 +17,9 @@ Not yet: the search-data builders (numba) and ``haptex export`` (C generated fro
 from __future__ import annotations
 
 import os
+import threading
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -105,15 +107,41 @@ def texture_derivatives(texture, xy) -> np.ndarray:
     return out.reshape(pts.shape[:-1] + (6,))
 
 
+_LOCAL = threading.local()
+
+
+@contextmanager
+def threads(n: int):
+    """Within the block, the C core's batch loops called from this thread use ``n`` threads
+    (a Dask worker's task: its share of the machine's cores), whatever ``HAPTEX_NUM_THREADS``.
+
+    Raises
+    ------
+    ParameterError
+        If ``n`` is not a whole number from 1 to 1024.
+    """
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= int(n) <= 1024:
+        raise fail("threads", n, "a whole number from 1 to 1024")
+    old = getattr(_LOCAL, "threads", None)
+    _LOCAL.threads = int(n)
+    try:
+        yield
+    finally:
+        _LOCAL.threads = old
+
+
 def num_threads() -> int:
-    """Threads of the C core's batch loops: ``HAPTEX_NUM_THREADS`` (a whole number >= 1), by
-    default every core of the machine.
+    """Threads of the C core's batch loops: set by :func:`threads` for the calling thread, else
+    ``HAPTEX_NUM_THREADS`` (a whole number >= 1), by default every core of the machine.
 
     Raises
     ------
     ParameterError
         If ``HAPTEX_NUM_THREADS`` is set to anything but a whole number from 1 to 1024.
     """
+    local = getattr(_LOCAL, "threads", None)
+    if local is not None:
+        return local
     raw = os.environ.get("HAPTEX_NUM_THREADS")
     if raw is None:
         return max(1, os.cpu_count() or 1)
