@@ -2044,16 +2044,15 @@ def passivity_sent(pc, n, p, f):
 # the simulator's compiled loop (haptex.simulate): positions of n = 2 ([x, z]) or 3 ([x, y, z])
 # ----------------------------------------------------------------------------------------
 # summary slots
-(S_EX, S_EZ, S_DAMP, S_OP, S_KE0, S_KE, S_SAT, S_MAXPEN, S_NSAMP, S_TAILSTART_E, S_DIVERGED,
- S_DIVERGED_WHAT, S_FRIC, S_STUCK, S_EY, S_PC_ACTIVE) = range(16)
-N_SUMMARY = 16
-DIVERGED_POSITION, DIVERGED_VELOCITY, DIVERGED_FORCE, DIVERGED_ENERGY = 1, 2, 3, 4
-"""What became non-finite first in a diverged simulation (summary[S_DIVERGED_WHAT])."""
+# the summary's slots S_*, DIVERGED_* (what became non-finite first in a diverged simulation,
+# summary[S_DIVERGED_WHAT]) and the fast path's coefficients F_*: the C core's (hx_core.h)
+from .core._ext import (DIVERGED_ENERGY, DIVERGED_FORCE, DIVERGED_POSITION, DIVERGED_VELOCITY,  # noqa: E402, F401
+                        F_CVV, F_CVW, F_CWW, F_PV, F_PW, F_VV, F_VW, N_FAST, N_SUMMARY, S_DAMP, S_DIVERGED,
+                        S_DIVERGED_WHAT, S_EX, S_EY, S_EZ, S_FRIC, S_KE, S_KE0, S_MAXPEN, S_NSAMP, S_OP,
+                        S_PC_ACTIVE, S_SAT, S_STUCK, S_TAILSTART_E)  # noqa: F401
 # per-axis coefficients of the decoupled fast path, per damping regime: p+ = p + a_pv v +
 # a_pw w, v+ = a_vv v + a_vw w (w the force held over the sample, N), and the energy the
 # damping dissipates over it, c_vv v^2 + c_vw v w + c_ww w^2 (J)
-F_PV, F_PW, F_VV, F_VW, F_CVV, F_CVW, F_CWW = range(7)
-N_FAST = 7
 
 
 @nb.njit(**_JIT)
