@@ -205,7 +205,15 @@ class ExplorerPage:
         doc.add_root(column(self.d_message, row(controls, views)))
         doc.title = "haptex explore"
         self._show_controls()
-        self._recompute(first=True)
+        if offload:
+            # served: the first computation starts on the session's first tick. Its result is handed
+            # back from the worker thread by doc.add_next_tick_callback, which is safe only once the
+            # session exists: a computation that ended while Bokeh was still making the session
+            # collided with it ("A callback of the same type has already been added with this ID",
+            # HTTP 500 on the page, seen in the fuzz suite once the C core made the first views fast)
+            doc.add_next_tick_callback(lambda: self._recompute(first=True))
+        else:
+            self._recompute(first=True)
 
     # --- building blocks ---------------------------------------------------------------
     def _boundary(self, f, legend: bool = False) -> None:
