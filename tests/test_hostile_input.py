@@ -173,6 +173,47 @@ def test_the_ranges_admit_what_users_write(text, unit):
             parse_quantity(f"{abs(v) * (1.01 if abs(v) == hi else 0.99 if abs(v) == lo else 1e30)} {unit}", unit, "x")
 
 
+def test_threads_parsing_their_first_quantity_together_build_one_unit_registry(monkeypatch):
+    """The explorer's sessions each compute in their own thread; pint's registry costs ~0.3 s
+    of pure Python (holding the GIL against the server's event loop), so threads that ask for
+    it together wait for one build (a stall of 1.2-1.4 s per eight new sessions was measured
+    with py-spy when each built its own)."""
+    import threading
+
+    import pint
+
+    from haptex import _units
+
+    built = []
+    real_init = pint.UnitRegistry.__init__
+
+    def counting_init(self, *args, **kwargs):
+        built.append(threading.current_thread().name)
+        real_init(self, *args, **kwargs)
+
+    monkeypatch.setattr(pint.UnitRegistry, "__init__", counting_init)
+    _units._registry.cache_clear()
+    _units._registry_built.cache_clear()
+    try:
+        barrier = threading.Barrier(4)
+        out = []
+
+        def parse():
+            barrier.wait()
+            out.append(_units.parse_quantity("2 kN/m", "N/m", "stiffness"))
+
+        threads = [threading.Thread(target=parse) for _ in range(4)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+    finally:
+        _units._registry.cache_clear()
+        _units._registry_built.cache_clear()
+    assert out == [2000.0] * 4
+    assert len(built) == 1, built
+
+
 @pytest.mark.parametrize("args, expected", [
     (["simulate"], "haptex: error: haptex simulate needs a command: path, scan, thrust (see 'haptex simulate --help')"),
     (["atlas"], "haptex: error: haptex atlas needs a command: plot (see 'haptex atlas --help')"),

@@ -3,15 +3,27 @@
 from __future__ import annotations
 
 import re
+import threading
 from functools import lru_cache
 
 from ._validation import ParameterError
 
 
+_REGISTRY_LOCK = threading.Lock()
+
+
 @lru_cache(maxsize=1)
 def _registry():
+    # built once per process (~0.3 s of pure Python): threads that ask for it together (the
+    # explorer's sessions) wait for the first instead of each building one
     import pint
 
+    with _REGISTRY_LOCK:
+        return _registry_built(pint)
+
+
+@lru_cache(maxsize=1)
+def _registry_built(pint):
     return pint.UnitRegistry()
 
 

@@ -562,6 +562,9 @@ def serve(port: int = 5006, address: str = "127.0.0.1", open_browser: bool = Tru
             probe.bind((address, 0))
             port = probe.getsockname()[1]
     origins = [f"{host}:{port}" for host in ("127.0.0.1", "localhost", address)]
+    # a first computation before the server listens: its imports and one-time set-up (pint's
+    # registry, ~0.3 s holding the GIL) then never stall the event loop while sessions start
+    model.views(model.build(model.Settings()))
     try:
         server = Server({"/": Application(FunctionHandler(_served))}, port=port, address=address,
                         allow_websocket_origin=sorted(set(origins)), num_procs=1,
