@@ -250,14 +250,10 @@ def test_the_core_renderer_is_the_numba_renderer(monkeypatch, dim, letter):
     monkeypatch.setattr(core, "TICKS_IN_CORE", frozenset())
     numba_side = hx.Renderer(alg, **kw)
     assert c_side._core is not None and numba_side._core is None
-    works = [0, 0]
     for p in _trajectory(dim):
         a, b = c_side.step(p), numba_side.step(p)
         np.testing.assert_allclose(a, b, rtol=1e-10, atol=1e-12)
-        if letter.endswith("map"):  # the C sums a patch's terms in another order: Newton's steps to round-off
-            works[0] += c_side.last_work
-            works[1] += numba_side.last_work
-        else:
+        if not letter.endswith("map"):
             assert c_side.last_work == numba_side.last_work
         if letter.startswith("F"):
             assert (c_side.adhesion is None) == (numba_side.adhesion is None)
@@ -267,7 +263,10 @@ def test_the_core_renderer_is_the_numba_renderer(monkeypatch, dim, letter):
         assert getattr(c_side, name) == getattr(numba_side, name), name
     assert c_side.clamps > 10 and c_side.faults == 11 and c_side.controller_active > 0
     assert c_side.search_table == numba_side.search_table
-    assert abs(works[0] - works[1]) <= 0.05 * works[1]  # (both 0 but over a height map)
+    # (over a height map numba's tick reads the same search constants but applies the Taylor
+    # model beyond the map's edges too, where the tangent-plane extension is only C^1: its work
+    # is no reference there; test_the_core_surface_search_is_the_numba_search compares the C's
+    # work with the former search's)
     np.testing.assert_allclose(c_side.energy, numba_side.energy, rtol=1e-10, atol=1e-15)
     np.testing.assert_allclose(c_side.energy_per_axis, numba_side.energy_per_axis, rtol=1e-10, atol=1e-15)
     c_side.reset()
@@ -330,17 +329,24 @@ def test_the_core_surface_search_is_the_numba_search(name):
     n = 4000
     p = np.column_stack([RNG.uniform(-1e-3, 9e-3, n), RNG.uniform(-1e-3, 9e-3, n), RNG.uniform(-1.5e-3, 0.5e-3, n)])
     out0 = [np.empty(n), np.empty(n), np.empty(n), np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64)]
-    _kernels.surface_closest_points(kind, gc, gaux, *(np.ascontiguousarray(p[:, i]) for i in range(3)), *out0)
-    tx, ty, d, tie, work = core.closest_surface_points(kind, gc, gaux, p[:, 0], p[:, 1], p[:, 2])
-    np.testing.assert_allclose(d, out0[2], rtol=1e-13, atol=1e-18)
-    np.testing.assert_array_equal(tie, out0[3])
+    old = gaux.copy()
     if name.startswith("height map"):
-        # the C sums a bicubic patch's 16 terms in another order than numba (no pow): heights
-        # differ by an ulp, so the Newton iterates by ~1e-15 m and the work by a step or two
-        np.testing.assert_allclose(tx, out0[0], rtol=0, atol=1e-9 * tex.shortest_period)
-        np.testing.assert_allclose(ty, out0[1], rtol=0, atol=1e-9 * tex.shortest_period)
-        assert abs(int(work.sum()) - int(out0[4].sum())) <= 0.05 * out0[4].sum()
+        # numba keeps the former, uncertified search over height maps (leaves of one sample
+        # interval polished by Newton): the oracle is that search, without the Taylor bounds
+        old[[_kernels.G_JERK, _kernels.G_SLOPE_BOUND, _kernels.G_CURV_BOUND, _kernels.G_CONVEX]] = 0.0
+    _kernels.surface_closest_points(kind, gc, old, *(np.ascontiguousarray(p[:, i]) for i in range(3)), *out0)
+    tx, ty, d, tie, work = core.closest_surface_points(kind, gc, gaux, p[:, 0], p[:, 1], p[:, 2])
+    if name.startswith("height map"):
+        # the C's certified search is never farther than the former one, and finds the same
+        # point but where the former stopped at a local minimum or a tie went the other way
+        scale = 1e-9 * tex.shortest_period
+        assert np.all(d <= out0[2] + scale)
+        same = (np.abs(d - out0[2]) <= scale) & (np.hypot(tx - out0[0], ty - out0[1]) <= scale)
+        assert np.mean(same) >= 0.99, np.mean(same)
+        assert work.sum() < out0[4].sum()  # the Taylor bounds prune more than the box bounds
     else:
+        np.testing.assert_allclose(d, out0[2], rtol=1e-13, atol=1e-18)
+        np.testing.assert_array_equal(tie, out0[3])
         np.testing.assert_allclose(tx, out0[0], rtol=0, atol=1e-12 * tex.shortest_period)
         np.testing.assert_allclose(ty, out0[1], rtol=0, atol=1e-12 * tex.shortest_period)
         np.testing.assert_array_equal(work, out0[4])

@@ -4,6 +4,7 @@ wrote (examples/data, shipped with their licence; the X3P and Nanoscope maps fro
 that says what to change, undefined heights filled only inside the measured region, and
 the continuity test sized to the wall it tests."""
 
+import functools
 import json
 import math
 import re
@@ -216,3 +217,86 @@ def test_a_window_over_a_measured_map_must_lie_inside_it():
     r = _cli("design", "--texture", str(_file("metropro-1.dat")), "--window", "0,2mm,0,0.2mm", timeout=120)
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1, r.stderr
     assert "must be a rectangle inside the measured map, x in [0, 0.000701783] m" in r.stderr
+
+
+# -- D and E over a measured map: the search's Taylor bounds ---------------------------------
+@functools.lru_cache(maxsize=1)
+def _rendered_metropro():
+    from haptex.design import _band_limited
+
+    surf = hx.SampledSurface.from_file(_file("metropro-1.dat"))
+    tex, _ = _band_limited(surf, hx.Device.point_mass(0.1, 1.0, 1e-4, dimension=3), 0.1, 5, True)
+    return tex
+
+
+def test_a_maps_derivative_bounds_hold_at_every_point_of_it():
+    """SampledSurface.derivative_bounds (from the bicubic patches' coefficients) bound the
+    spline's slope, curvature and third derivatives over the MetroPro map as rendered (Zygo,
+    MIT, from SurfaceTopography's test corpus): no sample of a dense grid (5 points a sample
+    interval) exceeds them; they are no looser than 4 x the sampled sup (the bounds sum the
+    terms' magnitudes). The third derivatives are sampled by central differences of the
+    Hessian, which the spline's C^2 makes exact to O(step)."""
+    tex = _rendered_metropro()
+    S, C, J = tex.derivative_bounds
+    (x0, x1), (y0, y1) = tex.domain
+    xs = np.linspace(x0, x1, 3 * (tex.x.size - 1) + 1)
+    ys = np.linspace(y0, y1, 3 * (tex.y.size - 1) + 1)
+    pts = np.stack(np.meshgrid(xs, ys, indexing="ij"), -1)
+    slope = np.max(np.linalg.norm(tex.gradient(pts), axis=-1))
+    curv = np.max(np.linalg.norm(tex.hessian(pts), ord=2, axis=(-2, -1)))
+    assert slope <= S <= 4 * slope and curv <= C <= 4 * curv
+    # D^3 h[u, u, u] along 16 directions by differences of H u . u (inner points, step dx/50)
+    step = tex.dx / 50
+    inner = pts[1:-1:3, 1:-1:3].reshape(-1, 2)
+    jerk = 0.0
+    for th in np.linspace(0, np.pi, 16, endpoint=False):
+        u = np.array([np.cos(th), np.sin(th)])
+        quad = [np.einsum("ni,nij,nj->n", np.broadcast_to(u, (len(inner), 2)), tex.hessian(inner + s * step * u),
+                          np.broadcast_to(u, (len(inner), 2))) for s in (-1, 1)]
+        jerk = max(jerk, float(np.max(np.abs(quad[1] - quad[0]) / (2 * step))))
+    assert jerk <= J * (1 + 1e-6) and J <= 4 * jerk * 2.83  # (Cauchy-Schwarz over the cubic form: at most 2.83 x)
+
+
+def test_d_over_a_measured_map_is_the_brute_force_closest_point():
+    """The closest point over the rendered MetroPro map, certified by the Taylor bounds away
+    from the map's edges, against brute force: every bicubic patch within reach sampled on a
+    5 x 5 grid and the best polished by scipy's bounded minimiser. The search is never farther
+    than brute force (to 1e-12 m) and brute force never beats it by more than its tolerance,
+    from 1 um to 1 mm deep."""
+    from scipy.optimize import minimize
+
+    from haptex.closest import closest_point
+
+    tex = _rendered_metropro()
+    (x0, x1), (y0, y1) = tex.domain
+    rng = np.random.default_rng(11)
+    n = 16
+    depth = np.repeat([1e-6, 1e-5, 1e-4, 1e-3], n // 4)
+    xy = np.column_stack([rng.uniform(x0 + 0.3 * (x1 - x0), x1 - 0.3 * (x1 - x0), n),
+                          rng.uniform(y0 + 0.3 * (y1 - y0), y1 - 0.3 * (y1 - y0), n)])
+    p = np.column_stack([xy, tex.height_at(xy) - depth])
+    cp = closest_point(tex, p)
+    f = np.linspace(0, 1, 5)
+    for k in range(n):
+        d = cp.distance[k]
+        lo = np.maximum([x0, y0], p[k, :2] - d)
+        hi = np.minimum([x1, y1], p[k, :2] + d)
+        gx = np.arange(x0, x1, tex.dx)
+        gy = np.arange(y0, y1, tex.dy)
+        gx = gx[(gx >= lo[0] - tex.dx) & (gx <= hi[0])]
+        gy = gy[(gy >= lo[1] - tex.dy) & (gy <= hi[1])]
+        X = (gx[:, None] + f[None, :-1] * tex.dx).ravel()
+        Y = (gy[:, None] + f[None, :-1] * tex.dy).ravel()
+        P = np.stack(np.meshgrid(X, Y, indexing="ij"), -1).reshape(-1, 2)
+        P = P[(P[:, 0] <= x1) & (P[:, 1] <= y1)]
+        dist = np.hypot(np.hypot(P[:, 0] - p[k, 0], P[:, 1] - p[k, 1]), tex.height_at(P) - p[k, 2])
+        start = P[np.argmin(dist)]
+
+        def phi(t, k=k):
+            return float(np.hypot(np.hypot(t[0] - p[k, 0], t[1] - p[k, 1]), tex.height_at(t) - p[k, 2]))
+
+        res = minimize(phi, start, method="L-BFGS-B", bounds=[(x0, x1), (y0, y1)],
+                       options={"ftol": 1e-15, "gtol": 1e-14})
+        bf = min(res.fun, float(dist.min()))
+        assert d <= bf + 1e-12, (k, d, bf)
+        assert bf >= d - 1e-9 * tex.shortest_period - 1e-12, (k, d, bf)

@@ -395,7 +395,10 @@ def surface_search_data(texture) -> tuple[int, np.ndarray, np.ndarray]:
     tie tolerance 1e-9 of the shortest wavelength; over a sum of gratings, rigorous bounds
     for :func:`haptex._kernels.convex_closest_point`'s certificate and the search's Taylor
     bound: ``curvature_bound`` >= ||H||_2, sum a |k| >= |grad h| and sum a |k|^3 >= the third
-    derivatives' norm, 0 otherwise). Cached on the texture."""
+    derivatives' norm; over a height map the patches' bounds
+    :attr:`haptex.SampledSurface.derivative_bounds`, which hold inside the map: the C search
+    applies them to cells wholly inside, and the convexity certificate only to a periodic map).
+    Cached on the texture."""
     from .surfaces import SampledSurface
 
     cached = texture.__dict__.get("_surface_search")
@@ -418,6 +421,12 @@ def surface_search_data(texture) -> tuple[int, np.ndarray, np.ndarray]:
         gaux[K.G_CONVEX] = gaux[K.G_CURV_BOUND] = texture.curvature_bound
         gaux[K.G_SLOPE_BOUND] = float(np.sum(a * k))
         gaux[K.G_JERK] = float(np.sum(a * k ** 3))
+    else:  # a height map: the patches' rigorous bounds, valid inside the map (everywhere if periodic)
+        gaux[K.G_SLOPE_BOUND], gaux[K.G_CURV_BOUND], gaux[K.G_JERK] = texture.derivative_bounds
+        if texture.periodic:  # the convexity certificate needs the bound on the whole plane
+            gaux[K.G_CONVEX] = gaux[K.G_CURV_BOUND]
+        # (a plane has no third derivative: a tiny J keeps it on the Taylor bounds' path)
+        gaux[K.G_JERK] = max(gaux[K.G_JERK], 1e-300)
     texture.__dict__["_surface_search"] = (kind, gc, gaux)
     return kind, gc, gaux
 

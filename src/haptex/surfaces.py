@@ -684,6 +684,37 @@ class SampledSurface(Surface):
         self.__dict__["_patches"] = arr
         return arr
 
+    @cached_property
+    def derivative_bounds(self) -> tuple[float, float, float]:
+        """Rigorous bounds over the sampled rectangle (a periodic map: everywhere) of the
+        spline's slope, curvature and third derivatives, from its patches' coefficients
+        (|s|, |t| <= 1 on a patch, so each derivative is at most the sum of its terms'
+        magnitudes): S >= |grad h| (m/m), C >= ||H||_2 (1/m, the spectral radius of the
+        entries' bounds, which bounds it by Perron-Frobenius) and J >= the norm of the
+        third-derivative tensor (1/m^2; sup over unit u of |D^3 h[u, u, u]|, bounded by
+        Cauchy-Schwarz as sqrt(B_xxx^2 + 3 B_xxy^2 + 3 B_xyy^2 + B_yyy^2)). The spline is C^2,
+        so H is Lipschitz with constant J across patches: the closest-point search's Taylor
+        bound (``_kernels.G_JERK``) holds on any disc or square inside the map."""
+        pat = self.patches()[0, 8:].reshape(-1, 4, 4)
+        a = np.arange(4.0)
+        dx, dy = self.dx, self.dy
+        # the multipliers of |c[a, b]| in each derivative's bound: d^p/ds^p s^a = a!/(a-p)! s^(a-p)
+        fall = [np.ones(4), a, a * (a - 1), a * (a - 1) * (a - 2)]
+        out = np.zeros(3)
+        for i0 in range(0, pat.shape[0], 1 << 16):
+            c = np.abs(pat[i0:i0 + (1 << 16)])
+
+            def bound(p, q):
+                return np.einsum("nab,a,b->n", c, fall[p], fall[q]) / (dx ** p * dy ** q)
+
+            bx, by = bound(1, 0), bound(0, 1)
+            bxx, bxy, byy = bound(2, 0), bound(1, 1), bound(0, 2)
+            out[0] = max(out[0], float(np.max(np.hypot(bx, by))))
+            out[1] = max(out[1], float(np.max(0.5 * (bxx + byy) + np.hypot(0.5 * (bxx - byy), bxy))))
+            out[2] = max(out[2], float(np.max(np.sqrt(bound(3, 0) ** 2 + 3 * bound(2, 1) ** 2 + 3 * bound(1, 2) ** 2
+                                                      + bound(0, 3) ** 2))))
+        return float(out[0]), float(out[1]), float(out[2])
+
     # -- summary numbers -------------------------------------------------------------
     @property
     def shortest_period(self) -> float:

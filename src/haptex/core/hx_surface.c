@@ -5,8 +5,11 @@
  * the probe, cells pruned by box bounds of h, and over gratings by a Taylor bound of phi and
  * a basin disc around the best stationary point (rigorous bounds of |grad h|, ||H|| and the
  * third derivatives kept in aux). phi(t) = |t - p_xy|^2 + (h(t) - p_z)^2. The result over
- * gratings is certified global to G_TIE in distance; over a height map, cells of one sample
- * interval are leaves refined by projected Newton (not certified). Work is bounded (at most
+ * gratings and over a periodic height map is certified global to G_TIE in distance; over a
+ * map with edges, cells wholly inside it are searched with the same Taylor bounds (the bicubic
+ * spline is C^2 there, with the patches' rigorous bounds in aux), while cells reaching past an
+ * edge (where the tangent-plane extension is only C^1) are searched to leaves of one sample
+ * interval refined by projected Newton (not certified). Work is bounded (at most
  * MAX_NODES cells by the model, MAX_LEAVES leaves, STACK pending cells) and counted.
  */
 #include "hx_core.h"
@@ -47,6 +50,22 @@ static void patch_range(const sproblem *q, double cx, double cy, double w, doubl
     out = sqrt(ox * ox + oy * oy) * g[HX_G_SLOPE];
     *lo = g[HX_G_HMIN] - out;
     *hi = g[HX_G_HMAX] + out;
+}
+
+/* the distance from (cx, cy) inward to the edge of a non-periodic height map (negative
+ * outside it); HUGE_VAL where the surface's Taylor model holds everywhere (gratings, a
+ * periodic map). Outside a non-periodic map the tangent-plane extension is only C^1 and its
+ * curvature grows with the distance, so the model's bounds (G_JERK, G_CURV_BOUND) hold only on
+ * discs and squares wholly inside. */
+static double model_margin(const sproblem *q, double cx, double cy)
+{
+    const double *hd = q->tex->c;
+    double x1, y1;
+    if (q->tex->kind != HX_SURFACE_PATCHES || hd[6] != 0.0)
+        return HUGE_VAL;
+    x1 = hd[0] + hd[4] * hd[2];
+    y1 = hd[1] + hd[5] * hd[3];
+    return fmin(fmin(cx - hd[0], x1 - cx), fmin(cy - hd[1], y1 - cy));
 }
 
 /* rigorous (min h, max h) over the square cell: each grating's exact range, summed */
@@ -437,7 +456,7 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
     sp = 1;
     while (sp > 0) {
         double cx, cy, w, r, spread, lo, hi, dxy, reach, glo, ghi, lb = 0.0, ux = 0.0, uy = 0.0, hw;
-        int far, leafy, k;
+        int far, leafy, k, cm;
         hx_height e;
         sp--;
         cx = stack[3 * sp];
@@ -445,7 +464,8 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
         w = stack[3 * sp + 2];
         r = w * sqrt(2.0);
         if (model && b.found && (b.btx != rbx || b.bty != rby)) {
-            rb = basin_radius(&q, b.btx, b.bty, b.bf);
+            double inner = model_margin(&q, b.btx, b.bty);
+            rb = inner > 0.0 ? fmin(basin_radius(&q, b.btx, b.bty, b.bf), inner) : 0.0;
             rbx = b.btx;
             rby = b.bty;
             work++;
@@ -454,7 +474,9 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
             continue;
         surf(&q, cx, cy, &e);
         work++;
-        spread = fmin(slope * r, sqrt(e.gx * e.gx + e.gy * e.gy) * r + 0.5 * curv * r * r);
+        cm = model && model_margin(&q, cx, cy) >= w; /* the model holds on this cell */
+        spread = cm ? fmin(slope * r, sqrt(e.gx * e.gx + e.gy * e.gy) * r + 0.5 * curv * r * r)
+                    : fmin(aux[HX_G_SLOPE] * r, sqrt(e.gx * e.gx + e.gy * e.gy) * r + 0.5 * aux[HX_G_CURV] * r * r);
         if (ranged) {
             patch_range(&q, cx, cy, w, &glo, &ghi);
             if (glo < aux[HX_G_HMIN] || ghi > aux[HX_G_HMAX]) /* beyond the map: the extension's bound only */
@@ -473,7 +495,7 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
             if (dxy + gap * gap > reach * reach)
                 continue;
         }
-        if (model) {
+        if (cm) {
             double dz = e.h - pz, g0 = (cx - px) + dz * e.gx, g1 = (cy - py) + dz * e.gy, qmin, cl, sl;
             nodes++;
             qmin = box_qp(g0, g1, 1.0 + e.gx * e.gx + dz * e.hxx, e.gx * e.gy + dz * e.hxy,
@@ -494,7 +516,7 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
             if (dxy + gap * gap > reach * reach)
                 continue;
         }
-        if (model) {
+        if (cm) {
             /* the model's least point: polished to its local minimum when it is below the best
              * (in a far cell, within G_TIE above it) */
             double sx = cx + ux, sy = cy + uy, ez = hx__texture_height(tex, sx, sy) - pz;
