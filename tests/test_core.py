@@ -337,12 +337,19 @@ def test_the_core_surface_search_is_the_numba_search(name):
     _kernels.surface_closest_points(kind, gc, old, *(np.ascontiguousarray(p[:, i]) for i in range(3)), *out0)
     tx, ty, d, tie, work = core.closest_surface_points(kind, gc, gaux, p[:, 0], p[:, 1], p[:, 2])
     if name.startswith("height map"):
-        # the C's certified search is never farther than the former one, and finds the same
-        # point but where the former stopped at a local minimum or a tie went the other way
+        # the C's certified search is never farther than the former one; over the map it finds
+        # the same minimum (to the tie tolerance; its point, flat to second order, within 1e-4
+        # of the shortest period but where a tie went the other way). Beyond the edges the
+        # former was wrong on some probes (about 5 %: it took the map's lowest height as a
+        # bound there, where the tangent-plane extension dips below it, and had no bound but
+        # leaves): the C is closer there.
         scale = 1e-9 * tex.shortest_period
         assert np.all(d <= out0[2] + scale)
-        same = (np.abs(d - out0[2]) <= scale) & (np.hypot(tx - out0[0], ty - out0[1]) <= scale)
-        assert np.mean(same) >= 0.99, np.mean(same)
+        (xa, xb), (ya, yb) = tex.domain
+        inside = (p[:, 0] > xa) & (p[:, 0] < xb) & (p[:, 1] > ya) & (p[:, 1] < yb)
+        same = np.abs(d - out0[2]) <= scale
+        moved = np.hypot(tx - out0[0], ty - out0[1]) > 1e-4 * tex.shortest_period
+        assert np.all(same[inside]) and not np.any(same & moved & (tie == 0) & (out0[3] == 0))
         assert work.sum() < out0[4].sum()  # the Taylor bounds prune more than the box bounds
     else:
         np.testing.assert_allclose(d, out0[2], rtol=1e-13, atol=1e-18)

@@ -300,3 +300,66 @@ def test_d_over_a_measured_map_is_the_brute_force_closest_point():
         bf = min(res.fun, float(dist.min()))
         assert d <= bf + 1e-12, (k, d, bf)
         assert bf >= d - 1e-9 * tex.shortest_period - 1e-12, (k, d, bf)
+
+
+def test_d_beside_and_beyond_a_measured_maps_edges_is_the_brute_force_closest_point():
+    """Probes within 30 um of the rendered MetroPro map's edges, inside and beyond them (where
+    the map goes on as its edge's tangent plane, C^1 across the edge, and the search cuts its
+    cells at the edge and bounds each side with SampledSurface.edge_bounds), 1 to 100 um deep:
+    never farther than a dense grid (a quarter sample) polished by scipy's bounded minimiser
+    over the box the probe's distance reaches, nor beaten by it beyond the search's tolerance."""
+    from scipy.optimize import minimize
+
+    from haptex.closest import closest_point
+
+    tex = _rendered_metropro()
+    (x0, x1), (y0, y1) = tex.domain
+    rng = np.random.default_rng(12)
+    n = 16
+    side = rng.integers(0, 4, n)
+    along = rng.uniform(0.2, 0.8, n)
+    off = rng.uniform(-30e-6, 30e-6, n)
+    x = np.where(side == 0, x0 + off, np.where(side == 1, x1 + off, x0 + along * (x1 - x0)))
+    y = np.where(side == 2, y0 + off, np.where(side == 3, y1 + off, y0 + along * (y1 - y0)))
+    depth = np.tile([1e-6, 1e-5, 3e-5, 1e-4], n // 4)
+    p = np.column_stack([x, y, tex.height_at(np.column_stack([x, y])) - depth])
+    cp = closest_point(tex, p)
+    for k in range(n):
+        d = cp.distance[k]
+        box = [(p[k, 0] - d, p[k, 0] + d), (p[k, 1] - d, p[k, 1] + d)]
+        gx = np.arange(box[0][0], box[0][1], tex.dx / 4)
+        gy = np.arange(box[1][0], box[1][1], tex.dy / 4)
+        P = np.stack(np.meshgrid(gx, gy, indexing="ij"), -1).reshape(-1, 2)
+        dist = np.hypot(np.hypot(P[:, 0] - p[k, 0], P[:, 1] - p[k, 1]), tex.height_at(P) - p[k, 2])
+
+        def phi(t, k=k):
+            return float(np.hypot(np.hypot(t[0] - p[k, 0], t[1] - p[k, 1]), tex.height_at(t) - p[k, 2]))
+
+        res = minimize(phi, P[np.argmin(dist)], method="L-BFGS-B", bounds=box, options={"ftol": 1e-15, "gtol": 1e-14})
+        bf = min(res.fun, float(dist.min()))
+        assert d <= bf + 1e-12, (k, d, bf)
+        assert bf >= d - 1e-9 * tex.shortest_period - 1e-12, (k, d, bf)
+
+
+def test_a_maps_edge_bounds_hold_on_its_tangent_plane_extension():
+    """SampledSurface.edge_bounds bound the extension beyond each edge of the rendered
+    MetroPro map: sampled 0 to 50 um beyond every edge, |grad h|, ||H||_2 and (by
+    differences of H) the third derivatives stay within the strip's bounds at that distance,
+    as the search uses them (S = hypot(B_n, B_t + B_nt e), C and J likewise)."""
+    tex = _rendered_metropro()
+    (x0, x1), (y0, y1) = tex.domain
+    B = tex.edge_bounds
+    t = np.linspace(0.01, 0.99, 400)
+    e = np.linspace(0.0, 50e-6, 11)[1:]
+    for k in range(4):
+        bn, bt, bnt, btt, bntt, bttt, bnttt = B[k]
+        for ek in e:
+            if k < 2:
+                pts = np.column_stack([np.full(t.size, x0 - ek if k == 0 else x1 + ek), y0 + t * (y1 - y0)])
+            else:
+                pts = np.column_stack([x0 + t * (x1 - x0), np.full(t.size, y0 - ek if k == 2 else y1 + ek)])
+            S = np.hypot(bn, bt + bnt * ek)
+            tt = btt + bntt * ek
+            C = 0.5 * tt + np.sqrt(0.25 * tt * tt + bnt * bnt)
+            assert np.max(np.linalg.norm(tex.gradient(pts), axis=-1)) <= S * (1 + 1e-9)
+            assert np.max(np.linalg.norm(tex.hessian(pts), ord=2, axis=(-2, -1))) <= C * (1 + 1e-9)

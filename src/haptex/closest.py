@@ -425,6 +425,8 @@ def surface_search_data(texture) -> tuple[int, np.ndarray, np.ndarray]:
         gaux[K.G_SLOPE_BOUND], gaux[K.G_CURV_BOUND], gaux[K.G_JERK] = texture.derivative_bounds
         if texture.periodic:  # the convexity certificate needs the bound on the whole plane
             gaux[K.G_CONVEX] = gaux[K.G_CURV_BOUND]
+        else:  # and beyond the edges, the tangent-plane extension's
+            gaux[K.G_EDGE:K.G_EDGE + 4 * K.N_E] = texture.edge_bounds.ravel()
         # (a plane has no third derivative: a tiny J keeps it on the Taylor bounds' path)
         gaux[K.G_JERK] = max(gaux[K.G_JERK], 1e-300)
     texture.__dict__["_surface_search"] = (kind, gc, gaux)

@@ -715,6 +715,33 @@ class SampledSurface(Surface):
                                                       + bound(0, 3) ** 2))))
         return float(out[0]), float(out[1]), float(out[2])
 
+    @cached_property
+    def edge_bounds(self) -> np.ndarray:
+        """Bounds on the derivatives along each edge of a non-periodic map, for the
+        closest-point search's Taylor bounds beyond it (``_kernels.G_EDGE``): beyond an edge
+        the map is extended by its tangent plane, h = H(t) + G(t) e (e the distance beyond,
+        t along the edge; C^1 across the edge, C^2 beside it), whose slope, curvature and
+        third derivatives grow with e at most as these bounds say. Shape (4, 7): the edges
+        x = x0, x = x1, y = y0, y = y1; per edge sup |d^(p+q) h / dn^p dt^q| on it (n the
+        normal's axis, t the edge's) for (p, q) = (1, 0), (0, 1), (1, 1), (0, 2), (1, 2), (0, 3),
+        (1, 3), each the sum of its terms' magnitudes over every patch along the edge."""
+        pat = self.patches()[0, 8:].reshape(self.x.size - 1, self.y.size - 1, 4, 4)
+        a = np.arange(4.0)
+        fall = [np.ones(4), a, a * (a - 1), a * (a - 1) * (a - 2)]
+        pq = [(1, 0), (0, 1), (1, 1), (0, 2), (1, 2), (0, 3), (1, 3)]
+        out = np.zeros((4, 7))
+        # (patches along the edge, c[normal power, tangential power], edge at s = 0 or 1, dn, dt)
+        edges = [(pat[0], 0.0, self.dx, self.dy), (pat[-1], 1.0, self.dx, self.dy),
+                 (pat[:, 0].transpose(0, 2, 1), 0.0, self.dy, self.dx),
+                 (pat[:, -1].transpose(0, 2, 1), 1.0, self.dy, self.dx)]
+        for k, (c, s_edge, dn, dt) in enumerate(edges):
+            for m, (p, q) in enumerate(pq):
+                # d^p/ds^p of s^a at the edge: fall_p(a) s^(a - p), s = 0 or 1
+                at = fall[p] * (s_edge ** np.maximum(a - p, 0) if s_edge else (a == p))
+                v = np.einsum("jab,a->jb", c, at)  # coefficients of t^b of the normal derivative
+                out[k, m] = float(np.max(np.abs(v) @ fall[q])) / (dn ** p * dt ** q)
+        return out
+
     # -- summary numbers -------------------------------------------------------------
     @property
     def shortest_period(self) -> float:

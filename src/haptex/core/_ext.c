@@ -1093,7 +1093,7 @@ PyMODINIT_FUNC PyInit__ext(void)
         {"A_TREE", HX_A_TREE}, {"G_HMIN", HX_G_HMIN}, {"G_SLOPE", HX_G_SLOPE}, {"G_CURV", HX_G_CURV},
         {"G_LEAF", HX_G_LEAF}, {"G_TIE", HX_G_TIE}, {"G_HMAX", HX_G_HMAX}, {"G_CONVEX", HX_G_CONVEX},
         {"G_JERK", HX_G_JERK}, {"G_SLOPE_BOUND", HX_G_SLOPE_BOUND}, {"G_CURV_BOUND", HX_G_CURV_BOUND},
-        {"N_GAUX", HX_N_GAUX}, {"S_EX", HX_S_EX}, {"S_EZ", HX_S_EZ}, {"S_DAMP", HX_S_DAMP}, {"S_OP", HX_S_OP},
+        {"N_GAUX", HX_N_GAUX}, {"G_EDGE", HX_G_EDGE}, {"N_E", HX_N_E}, {"S_EX", HX_S_EX}, {"S_EZ", HX_S_EZ}, {"S_DAMP", HX_S_DAMP}, {"S_OP", HX_S_OP},
         {"S_KE0", HX_S_KE0}, {"S_KE", HX_S_KE}, {"S_SAT", HX_S_SAT}, {"S_MAXPEN", HX_S_MAXPEN},
         {"S_NSAMP", HX_S_NSAMP}, {"S_TAILSTART_E", HX_S_TAILSTART_E}, {"S_DIVERGED", HX_S_DIVERGED},
         {"S_DIVERGED_WHAT", HX_S_DIVERGED_WHAT}, {"S_FRIC", HX_S_FRIC}, {"S_STUCK", HX_S_STUCK}, {"S_EY", HX_S_EY},

@@ -158,8 +158,14 @@ hx_closest hx_closest_profile(const hx_texture *tex, const double *aux, double p
  * Taylor bound (||H||_2, |grad h|, the third derivatives), 0 otherwise. */
 enum {
     HX_G_HMIN, HX_G_SLOPE, HX_G_CURV, HX_G_LEAF, HX_G_TIE, HX_G_HMAX, HX_G_CONVEX, HX_G_JERK, HX_G_SLOPE_BOUND,
-    HX_G_CURV_BOUND, HX_N_GAUX
+    HX_G_CURV_BOUND, HX_G_EDGE, HX_N_GAUX = HX_G_EDGE + 28
 };
+/* A non-periodic height map's edges beyond which h = H(t) + G(t) e (the tangent-plane
+ * extension: e >= 0 the distance beyond the edge, t along it): HX_N_E bounds each, for the
+ * edges x = x0, x = x1, y = y0, y = y1 in this order from aux[HX_G_EDGE]: |d^(p+q) h / dn^p dt^q|
+ * at the edge for (p, q) = (1, 0), (0, 1), (1, 1), (0, 2), (1, 2), (0, 3), (1, 3), n the
+ * outward normal's axis (haptex.SampledSurface.edge_bounds). */
+enum { HX_E_N, HX_E_T, HX_E_NT, HX_E_TT, HX_E_NTT, HX_E_TTT, HX_E_NTTT, HX_N_E };
 
 /* Check a surface's search constants (HX_N_GAUX values). */
 int hx_surface_aux_check(const double *aux, long naux);

@@ -30,9 +30,9 @@ typedef struct {
 
 static void surf(const sproblem *q, double x, double y, hx_height *e) { hx__texture_eval(q->tex, x, y, e); }
 
-/* rigorous (min h, max h) over a square cell of a height map: outside a non-periodic map
- * the extension's bound from the map's range and slope */
-static void patch_range(const sproblem *q, double cx, double cy, double w, double *lo, double *hi)
+/* (min h, max h) over a cell [cx -+ wx] x [cy -+ wy] of a height map: outside a non-periodic
+ * map the extension's bound from the map's range and slope */
+static void patch_range(const sproblem *q, double cx, double cy, double wx, double wy, double *lo, double *hi)
 {
     const double *hd = q->tex->c, *g = q->g;
     double x0, y0, x1, y1, ox, oy, out;
@@ -45,8 +45,8 @@ static void patch_range(const sproblem *q, double cx, double cy, double w, doubl
     y0 = hd[1];
     x1 = x0 + hd[4] * hd[2];
     y1 = y0 + hd[5] * hd[3];
-    ox = fmax(0.0, fmax(x0 - (cx - w), (cx + w) - x1));
-    oy = fmax(0.0, fmax(y0 - (cy - w), (cy + w) - y1));
+    ox = fmax(0.0, fmax(x0 - (cx - wx), (cx + wx) - x1));
+    oy = fmax(0.0, fmax(y0 - (cy - wy), (cy + wy) - y1));
     out = sqrt(ox * ox + oy * oy) * g[HX_G_SLOPE];
     *lo = g[HX_G_HMIN] - out;
     *hi = g[HX_G_HMAX] + out;
@@ -66,6 +66,70 @@ static double model_margin(const sproblem *q, double cx, double cy)
     x1 = hd[0] + hd[4] * hd[2];
     y1 = hd[1] + hd[5] * hd[3];
     return fmin(fmin(cx - hd[0], x1 - cx), fmin(cy - hd[1], y1 - cy));
+}
+
+/* where [lo, hi] lies against the interval [a, b]: 0 inside, 1 below a, 2 above b, -1 across an
+ * end (by more than rounding: a piece cut at an end, its centre and half-width recomputed, may
+ * reach past it by an ulp) */
+static int side(double lo, double hi, double a, double b)
+{
+    double tol = 1e-12 * (fabs(lo) + fabs(hi));
+    if (lo >= a - tol && hi <= b + tol)
+        return 0;
+    if (hi <= a + tol)
+        return 1;
+    if (lo >= b - tol)
+        return 2;
+    return -1;
+}
+
+/* The Taylor model's bounds on the cell [cx -+ wx] x [cy -+ wy]: sup |grad h| in *sb, sup
+ * ||H||_2 in *cb and the third derivatives' norm in *jk. Over gratings and a periodic map the
+ * global bounds (aux). Over a map with edges, by region: inside, the patches' bounds; in an
+ * edge's strip, where h = H(t) + G(t) e (e the distance beyond the edge, t along it), the
+ * strip's bounds at the cell's largest e (aux[HX_G_EDGE...], HX_E_*); in a corner's quadrant a
+ * plane. Returns 0 for a cell across an edge's line, where the extension is only C^1 (no
+ * model: the caller splits it there). */
+static int cell_bounds(const sproblem *q, double cx, double cy, double wx, double wy, double *sb, double *cb,
+                       double *jk)
+{
+    const double *hd = q->tex->c, *g = q->g, *E;
+    double x0, y0, x1, y1, e, t, tt, j3;
+    int rx, ry;
+    *sb = g[HX_G_SLOPE_BOUND];
+    *cb = g[HX_G_CURV_BOUND];
+    *jk = g[HX_G_JERK];
+    if (q->tex->kind != HX_SURFACE_PATCHES || hd[6] != 0.0)
+        return 1;
+    x0 = hd[0];
+    y0 = hd[1];
+    x1 = x0 + hd[4] * hd[2];
+    y1 = y0 + hd[5] * hd[3];
+    rx = side(cx - wx, cx + wx, x0, x1);
+    ry = side(cy - wy, cy + wy, y0, y1);
+    if (rx < 0 || ry < 0)
+        return 0;
+    if (rx == 0 && ry == 0)
+        return 1;
+    if (rx > 0 && ry > 0) { /* a corner: the plane of the corner's tangent */
+        *sb = hypot(g[HX_G_EDGE + (rx - 1) * HX_N_E + HX_E_N], g[HX_G_EDGE + (1 + ry) * HX_N_E + HX_E_N]);
+        *cb = *jk = 0.0;
+        return 1;
+    }
+    if (rx > 0) {
+        E = g + HX_G_EDGE + (rx - 1) * HX_N_E;
+        e = rx == 1 ? x0 - (cx - wx) : (cx + wx) - x1;
+    } else {
+        E = g + HX_G_EDGE + (1 + ry) * HX_N_E;
+        e = ry == 1 ? y0 - (cy - wy) : (cy + wy) - y1;
+    }
+    t = E[HX_E_T] + E[HX_E_NT] * e;
+    tt = E[HX_E_TT] + E[HX_E_NTT] * e;
+    j3 = E[HX_E_TTT] + E[HX_E_NTTT] * e;
+    *sb = hypot(E[HX_E_N], t);
+    *cb = 0.5 * tt + sqrt(0.25 * tt * tt + E[HX_E_NT] * E[HX_E_NT]);
+    *jk = sqrt(3.0 * E[HX_E_NTT] * E[HX_E_NTT] + j3 * j3);
+    return 1;
 }
 
 /* rigorous (min h, max h) over the square cell: each grating's exact range, summed */
@@ -192,14 +256,15 @@ static double edge_qp(double g, double a, double w, double *s_out)
     return 0.5 * a * w * w - fabs(g) * w;
 }
 
-/* the exact minimum over the square |u_x|, |u_y| <= w of g.u + u^T [[a, b], [b, c]] u / 2 */
-static double box_qp(double g0, double g1, double a, double b, double c, double w, double *ux, double *uy)
+/* the exact minimum over the box |u_x| <= wx, |u_y| <= wy of g.u + u^T [[a, b], [b, c]] u / 2 */
+static double box_qp(double g0, double g1, double a, double b, double c, double wx, double wy, double *ux,
+                     double *uy)
 {
     double det = a * c - b * b, best = HUGE_VAL, bx = 0.0, by = 0.0;
     int k;
     if (a > 0.0 && det > 0.0) {
         double sx = -(c * g0 - b * g1) / det, sy = -(a * g1 - b * g0) / det;
-        if (fabs(sx) <= w && fabs(sy) <= w) {
+        if (fabs(sx) <= wx && fabs(sy) <= wy) {
             *ux = sx;
             *uy = sy;
             return 0.5 * (g0 * sx + g1 * sy);
@@ -207,19 +272,19 @@ static double box_qp(double g0, double g1, double a, double b, double c, double 
     }
     for (k = 0; k < 2; k++) {
         double sgn = k == 0 ? -1.0 : 1.0, s, v;
-        v = edge_qp(g1 + b * sgn * w, c, w, &s); /* the edge u_x = sgn w */
-        v += sgn * w * g0 + 0.5 * a * w * w;
+        v = edge_qp(g1 + b * sgn * wx, c, wy, &s); /* the edge u_x = sgn wx */
+        v += sgn * wx * g0 + 0.5 * a * wx * wx;
         if (v < best) {
             best = v;
-            bx = sgn * w;
+            bx = sgn * wx;
             by = s;
         }
-        v = edge_qp(g0 + b * sgn * w, a, w, &s); /* the edge u_y = sgn w */
-        v += sgn * w * g1 + 0.5 * c * w * w;
+        v = edge_qp(g0 + b * sgn * wy, a, wx, &s); /* the edge u_y = sgn wy */
+        v += sgn * wy * g1 + 0.5 * c * wy * wy;
         if (v < best) {
             best = v;
             bx = s;
-            by = sgn * w;
+            by = sgn * wy;
         }
     }
     *ux = bx;
@@ -371,6 +436,71 @@ static double basin_radius(const sproblem *q, double tx, double ty, double f)
     return 0.0;
 }
 
+/* The children of the cell [cx -+ wx] x [cy -+ wy] into out (4 values each: centre, half-widths),
+ * their number returned: its quadrants, or its halves across the longer side when one side is
+ * over twice the other (a cell cut at a map's edge); the child holding p_xy last (popped first). */
+static int split_cell(double cx, double cy, double wx, double wy, double px, double py, double *out)
+{
+    int nx = wy > 2.0 * wx ? 1 : 2, ny = wx > 2.0 * wy ? 1 : 2, i, j, n = 0, last = -1;
+    double hx = nx == 2 ? 0.5 * wx : wx, hy = ny == 2 ? 0.5 * wy : wy;
+    for (j = 0; j < ny; j++)
+        for (i = 0; i < nx; i++) {
+            double qx = nx == 2 ? cx + (i ? hx : -hx) : cx, qy = ny == 2 ? cy + (j ? hy : -hy) : cy;
+            if ((nx == 1 || (qx > cx) == (px > cx)) && (ny == 1 || (qy > cy) == (py > cy))) {
+                last = 2 * i + j;
+                continue;
+            }
+            out[4 * n] = qx;
+            out[4 * n + 1] = qy;
+            out[4 * n + 2] = hx;
+            out[4 * n + 3] = hy;
+            n++;
+        }
+    if (last >= 0) {
+        out[4 * n] = nx == 2 ? cx + ((last >> 1) ? hx : -hx) : cx;
+        out[4 * n + 1] = ny == 2 ? cy + ((last & 1) ? hy : -hy) : cy;
+        out[4 * n + 2] = hx;
+        out[4 * n + 3] = hy;
+        n++;
+    }
+    return n;
+}
+
+/* the cut of [lo, hi] at the first of a, b inside it (by more than rounding, as side()): the
+ * pieces' bounds in cut[], their number (1: no cut) */
+static int cut_at(double lo, double hi, double a, double b, double *cut)
+{
+    double tol = 1e-12 * (fabs(lo) + fabs(hi));
+    double c = lo < a - tol && a + tol < hi ? a : (lo < b - tol && b + tol < hi ? b : NAN);
+    cut[0] = lo;
+    if (isnan(c)) {
+        cut[1] = hi;
+        return 1;
+    }
+    cut[1] = c;
+    cut[2] = hi;
+    return 2;
+}
+
+/* The pieces of a cell across a non-periodic map's edge lines, cut there (each then on one
+ * side of that line), into out; their number. */
+static int split_at_edges(const sproblem *q, double cx, double cy, double wx, double wy, double *out)
+{
+    const double *hd = q->tex->c;
+    double xs[3], ys[3];
+    int nx = cut_at(cx - wx, cx + wx, hd[0], hd[0] + hd[4] * hd[2], xs);
+    int ny = cut_at(cy - wy, cy + wy, hd[1], hd[1] + hd[5] * hd[3], ys), i, j, n = 0;
+    for (i = 0; i < nx; i++)
+        for (j = 0; j < ny; j++) {
+            out[4 * n] = 0.5 * (xs[i] + xs[i + 1]);
+            out[4 * n + 1] = 0.5 * (ys[j] + ys[j + 1]);
+            out[4 * n + 2] = 0.5 * (xs[i + 1] - xs[i]);
+            out[4 * n + 3] = 0.5 * (ys[j + 1] - ys[j]);
+            n++;
+        }
+    return n;
+}
+
 int hx_surface_aux_check(const double *aux, long naux)
 {
     int i;
@@ -391,8 +521,8 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
     hx_closest out;
     best_t b;
     hx_height e0;
-    double dv, tx, ty, f, leaf, sep, tie_eps, below, half, x0, x1, y0, y1, slope, curv, cb, jerk, sb;
-    double rb = 0.0, rbx = NAN, rby = NAN, stack[3 * STACK], d;
+    double dv, tx, ty, f, leaf, sep, tie_eps, below, half, x0, x1, y0, y1, cb, jerk, sb;
+    double rb = 0.0, rbx = NAN, rby = NAN, stack[4 * STACK], d;
     long work, ev, leaves = 0, nodes = 0;
     int guess, start, model, ranged, sp;
     q.tex = tex;
@@ -427,6 +557,8 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
     tie_eps = aux[HX_G_TIE];
     /* a first upper bound from the local minima nearest the vertical point and the guess */
     below = fmax(aux[HX_G_HMIN] - pz, 0.0);
+    if (model_margin(&q, px, py) < sqrt(b.bf)) /* beyond a map's edge its extension may dip below G_HMIN */
+        below = 0.0;
     half = sqrt(fmax(b.bf - below * below, 0.0)) * (1.0 + 1e-9) + 1e-300;
     x0 = px - half;
     x1 = px + half;
@@ -446,23 +578,24 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
     jerk = aux[HX_G_JERK];
     sb = aux[HX_G_SLOPE_BOUND];
     model = jerk > 0.0;
-    slope = model ? sb : aux[HX_G_SLOPE];
-    curv = model ? aux[HX_G_CURV_BOUND] : aux[HX_G_CURV];
     cb = aux[HX_G_CURV_BOUND];
     ranged = tex->kind == HX_SURFACE_PATCHES;
     stack[0] = px;
     stack[1] = py;
-    stack[2] = half;
+    stack[2] = stack[3] = half;
     sp = 1;
     while (sp > 0) {
-        double cx, cy, w, r, spread, lo, hi, dxy, reach, glo, ghi, lb = 0.0, ux = 0.0, uy = 0.0, hw;
-        int far, leafy, k, cm;
+        double cx, cy, wx, wy, w, r, spread, lo, hi, dxy, reach, glo, ghi, lb = 0.0, ux = 0.0, uy = 0.0;
+        double csb = sb, ccb = cb, cj = jerk;
+        int far, leafy, cm, kids;
         hx_height e;
         sp--;
-        cx = stack[3 * sp];
-        cy = stack[3 * sp + 1];
-        w = stack[3 * sp + 2];
-        r = w * sqrt(2.0);
+        cx = stack[4 * sp];
+        cy = stack[4 * sp + 1];
+        wx = stack[4 * sp + 2];
+        wy = stack[4 * sp + 3];
+        w = fmax(wx, wy);
+        r = wx == wy ? wx * sqrt(2.0) : hypot(wx, wy); /* the half-diagonal */
         if (model && b.found && (b.btx != rbx || b.bty != rby)) {
             double inner = model_margin(&q, b.btx, b.bty);
             rb = inner > 0.0 ? fmin(basin_radius(&q, b.btx, b.bty, b.bf), inner) : 0.0;
@@ -474,21 +607,23 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
             continue;
         surf(&q, cx, cy, &e);
         work++;
-        cm = model && model_margin(&q, cx, cy) >= w; /* the model holds on this cell */
-        spread = cm ? fmin(slope * r, sqrt(e.gx * e.gx + e.gy * e.gy) * r + 0.5 * curv * r * r)
+        cm = model && cell_bounds(&q, cx, cy, wx, wy, &csb, &ccb, &cj); /* the model holds on this cell */
+        if (model && !cm)
+            nodes++; /* (a cell across a map's edge: counted with the model's cells, so bounded) */
+        spread = cm ? fmin(csb * r, sqrt(e.gx * e.gx + e.gy * e.gy) * r + 0.5 * ccb * r * r)
                     : fmin(aux[HX_G_SLOPE] * r, sqrt(e.gx * e.gx + e.gy * e.gy) * r + 0.5 * aux[HX_G_CURV] * r * r);
         if (ranged) {
-            patch_range(&q, cx, cy, w, &glo, &ghi);
+            patch_range(&q, cx, cy, wx, wy, &glo, &ghi);
             if (glo < aux[HX_G_HMIN] || ghi > aux[HX_G_HMAX]) /* beyond the map: the extension's bound only */
-                spread = HUGE_VAL;
+                spread = cm ? fmin(csb * r, sqrt(e.gx * e.gx + e.gy * e.gy) * r + 0.5 * ccb * r * r) : HUGE_VAL;
             lo = fmax(e.h - spread, glo);
             hi = fmin(e.h + spread, ghi);
         } else { /* each grating's exact range later, where the cheaper bounds leave the cell */
             lo = e.h - spread;
             hi = e.h + spread;
         }
-        dxy = fmax(0.0, fabs(px - cx) - w) * fmax(0.0, fabs(px - cx) - w) +
-              fmax(0.0, fabs(py - cy) - w) * fmax(0.0, fabs(py - cy) - w);
+        dxy = fmax(0.0, fabs(px - cx) - wx) * fmax(0.0, fabs(px - cx) - wx) +
+              fmax(0.0, fabs(py - cy) - wy) * fmax(0.0, fabs(py - cy) - wy);
         reach = cell_reach(model, &b, cx, cy, r, sep, tie_eps, &far);
         {
             double gap = fmax(0.0, fmax(lo - pz, pz - hi));
@@ -499,13 +634,13 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
             double dz = e.h - pz, g0 = (cx - px) + dz * e.gx, g1 = (cy - py) + dz * e.gy, qmin, cl, sl;
             nodes++;
             qmin = box_qp(g0, g1, 1.0 + e.gx * e.gx + dz * e.hxx, e.gx * e.gy + dz * e.hxy,
-                          1.0 + e.gy * e.gy + dz * e.hyy, w, &ux, &uy);
+                          1.0 + e.gy * e.gy + dz * e.hyy, wx, wy, &ux, &uy);
             /* sup ||H||_2 and sup |grad h| over the cell, from their values at c */
-            cl = fmin(cb, 0.5 * fabs(e.hxx + e.hyy) + sqrt(0.25 * (e.hxx - e.hyy) * (e.hxx - e.hyy) + e.hxy * e.hxy) +
-                              jerk * r);
-            sl = fmin(sb, sqrt(e.gx * e.gx + e.gy * e.gy) + cl * r);
+            cl = fmin(ccb, 0.5 * fabs(e.hxx + e.hyy) + sqrt(0.25 * (e.hxx - e.hyy) * (e.hxx - e.hyy) + e.hxy * e.hxy) +
+                               cj * r);
+            sl = fmin(csb, sqrt(e.gx * e.gx + e.gy * e.gy) + cl * r);
             lb = (cx - px) * (cx - px) + (cy - py) * (cy - py) + dz * dz + 2.0 * qmin -
-                 (3.0 * sl * cl + (fabs(dz) + sl * r) * jerk) * r * r * r / 3.0;
+                 (3.0 * sl * cl + (fabs(dz) + sl * r) * cj) * r * r * r / 3.0;
             if (lb > reach * reach)
                 continue;
         }
@@ -530,21 +665,22 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
                 if (lb > reach * reach)
                     continue;
             }
-            leafy = nodes >= MAX_NODES || w <= fmax(1e-9 * leaf, 1e-15 * (fabs(cx) + fabs(cy)));
-        } else {
-            leafy = w <= leaf || leaves >= MAX_LEAVES;
         }
+        if (model) /* (a cell across a map's edge is split there, below) */
+            leafy = nodes >= MAX_NODES || w <= fmax(1e-9 * leaf, 1e-15 * (fabs(cx) + fabs(cy)));
+        else
+            leafy = w <= leaf || leaves >= MAX_LEAVES;
         if (leafy || sp + 4 > STACK) {
             /* a leaf: projected Newton from the best of its centre, its four quarter centres and
              * p_xy clamped into it */
-            double sx = fmin(fmax(px, cx - w), cx + w), sy = fmin(fmax(py, cy - w), cy + w), fs, dzs;
+            double sx = fmin(fmax(px, cx - wx), cx + wx), sy = fmin(fmax(py, cy - wy), cy + wy), fs, dzs;
             newton_out n;
             int qd;
             dzs = hx__texture_height(tex, sx, sy) - pz;
             fs = (sx - px) * (sx - px) + (sy - py) * (sy - py) + dzs * dzs;
             for (qd = 0; qd < 5; qd++) {
-                double qx = qd == 0 ? cx : cx + ((qd & 1) ? 0.5 * w : -0.5 * w);
-                double qy = qd == 0 ? cy : cy + ((qd & 2) ? 0.5 * w : -0.5 * w);
+                double qx = qd == 0 ? cx : cx + ((qd & 1) ? 0.5 * wx : -0.5 * wx);
+                double qy = qd == 0 ? cy : cy + ((qd & 2) ? 0.5 * wy : -0.5 * wy);
                 double dq = hx__texture_height(tex, qx, qy) - pz;
                 double fq = (qx - px) * (qx - px) + (qy - py) * (qy - py) + dq * dq;
                 if (fq < fs) {
@@ -555,26 +691,14 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
             }
             work += 6;
             leaves++;
-            n = surf_newton(&q, sx, sy, cx - w, cx + w, cy - w, cy + w);
+            n = surf_newton(&q, sx, sy, cx - wx, cx + wx, cy - wy, cy + wy);
             work += n.it;
             offer_point(&b, n.tx, n.ty, n.f, n.stationary, sep);
             continue;
         }
-        hw = 0.5 * w;
-        /* the four children, the one holding p_xy's quadrant last (popped first) */
-        for (k = 0; k < 4; k++) {
-            double qx = cx + ((k & 1) ? hw : -hw), qy = cy + ((k & 2) ? hw : -hw);
-            if ((qx > cx) == (px > cx) && (qy > cy) == (py > cy))
-                continue;
-            stack[3 * sp] = qx;
-            stack[3 * sp + 1] = qy;
-            stack[3 * sp + 2] = hw;
-            sp++;
-        }
-        stack[3 * sp] = cx + (px > cx ? hw : -hw);
-        stack[3 * sp + 1] = cy + (py > cy ? hw : -hw);
-        stack[3 * sp + 2] = hw;
-        sp++;
+        kids = model && !cm ? split_at_edges(&q, cx, cy, wx, wy, stack + 4 * sp)
+                            : split_cell(cx, cy, wx, wy, px, py, stack + 4 * sp);
+        sp += kids;
     }
     d = sqrt(b.bf);
     out.t = b.btx;
