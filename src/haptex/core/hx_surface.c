@@ -68,6 +68,46 @@ static double model_margin(const sproblem *q, double cx, double cy)
     return fmin(fmin(cx - hd[0], x1 - cx), fmin(cy - hd[1], y1 - cy));
 }
 
+/* The half-width of the square around the probe that holds every point closer than d: a
+ * point at lateral distance rho must have rho^2 + (h - p_z)^2 < d^2, and h >= G_HMIN over
+ * gratings and a map; beyond a map's edges its tangent-plane extension descends at most at
+ * the edges' normal slope B (aux[HX_G_EDGE...]) over the distance beyond, which is at most
+ * rho - m (m the probe's distance inside the map, negative beyond it): h - p_z >= below0 -
+ * B max(0, rho - m),
+ * below0 = G_HMIN - p_z. The largest rho that allows it (a convex quadratic in rho once past
+ * m, rho alone once the bound is spent). bf = d^2. */
+static double root_half(const sproblem *q, double bf)
+{
+    const double *hd = q->tex->c, *g = q->g;
+    double below0 = g[HX_G_HMIN] - q->pz, r0, d, m, bx, by, B, c, disc, best, r2;
+    r0 = sqrt(fmax(bf - fmax(below0, 0.0) * fmax(below0, 0.0), 0.0));
+    if (q->tex->kind != HX_SURFACE_PATCHES || hd[6] != 0.0 || below0 <= 0.0)
+        return r0;
+    bx = fmax(g[HX_G_EDGE + HX_E_N], g[HX_G_EDGE + HX_N_E + HX_E_N]);
+    by = fmax(g[HX_G_EDGE + 2 * HX_N_E + HX_E_N], g[HX_G_EDGE + 3 * HX_N_E + HX_E_N]);
+    B = hypot(bx, by); /* (a corner's plane descends at most at hypot of the two) */
+    if (!(B > 0.0))
+        return r0;
+    d = sqrt(bf);
+    m = model_margin(q, q->px, q->py);
+    if (m < 0.0) { /* a probe beyond the map: m = minus its distance from it */
+        double x1 = hd[0] + hd[4] * hd[2], y1 = hd[1] + hd[5] * hd[3];
+        m = -hypot(fmax(0.0, fmax(hd[0] - q->px, q->px - x1)), fmax(0.0, fmax(hd[1] - q->py, q->py - y1)));
+    }
+    best = fmax(0.0, fmin(r0, m));
+    /* past m: (1 + B^2) rho^2 - 2 B c rho + c^2 - d^2 <= 0, c = below0 + B m, while rho <= m + below0 / B */
+    c = below0 + B * m;
+    disc = bf * (1.0 + B * B) - c * c;
+    if (disc >= 0.0) {
+        r2 = (B * c + sqrt(disc)) / (1.0 + B * B);
+        if (r2 >= fmax(m, 0.0))
+            best = fmax(best, fmin(r2, m + below0 / B));
+    }
+    if (m + below0 / B <= d) /* beyond that the bound is spent: rho < d */
+        best = d;
+    return best;
+}
+
 /* where [lo, hi] lies against the interval [a, b]: 0 inside, 1 below a, 2 above b, -1 across an
  * end (by more than rounding: a piece cut at an end, its centre and half-width recomputed, may
  * reach past it by an ulp) */
@@ -521,7 +561,7 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
     hx_closest out;
     best_t b;
     hx_height e0;
-    double dv, tx, ty, f, leaf, sep, tie_eps, below, half, x0, x1, y0, y1, cb, jerk, sb;
+    double dv, tx, ty, f, leaf, sep, tie_eps, half, x0, x1, y0, y1, cb, jerk, sb;
     double rb = 0.0, rbx = NAN, rby = NAN, stack[4 * STACK], d;
     long work, ev, leaves = 0, nodes = 0;
     int guess, start, model, ranged, sp;
@@ -556,10 +596,7 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
     sep = 4.0 * leaf;
     tie_eps = aux[HX_G_TIE];
     /* a first upper bound from the local minima nearest the vertical point and the guess */
-    below = fmax(aux[HX_G_HMIN] - pz, 0.0);
-    if (model_margin(&q, px, py) < sqrt(b.bf)) /* beyond a map's edge its extension may dip below G_HMIN */
-        below = 0.0;
-    half = sqrt(fmax(b.bf - below * below, 0.0)) * (1.0 + 1e-9) + 1e-300;
+    half = root_half(&q, b.bf) * (1.0 + 1e-9) + 1e-300;
     x0 = px - half;
     x1 = px + half;
     y0 = py - half;
