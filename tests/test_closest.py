@@ -141,3 +141,30 @@ def test_a_renderer_ticking_along_a_scan_reads_the_table_in_a_few_evaluations():
     assert np.median(work) <= 4 and np.mean(work <= 4) > 0.9 and work.max() <= 9  # measured: 3, 94 %, 9
     np.testing.assert_allclose(np.array([r.step(p) for p in zip(x[:200].tolist(), z[:200].tolist())]),
                                alg.force(np.column_stack([x[:200], z[:200]])), rtol=1e-10, atol=2000.0 * 1e-14)
+
+
+def test_a_surfaces_closest_points_for_a_large_grid_are_kept_and_read_back_unchanged():
+    """D and E search the same grids of probes (q, continuity): the second search of the same
+    >= CACHE_MIN_PROBES probes reads the first's answer (the same arrays, bit for bit), and a
+    caller writing into what it got does not change what the next one reads."""
+    from haptex import closest as C
+
+    tex = hx.SumOfGratings.egg_crate(0.1e-3, 2e-3)
+    rng = np.random.default_rng(5)
+    p = np.column_stack([rng.uniform(0, 4e-3, C.CACHE_MIN_PROBES), rng.uniform(0, 4e-3, C.CACHE_MIN_PROBES),
+                         rng.uniform(-1e-3, 0, C.CACHE_MIN_PROBES)])
+    first = C.closest_point(tex, p)
+    calls = []
+    real = C._core.closest_surface_points
+    C._core.closest_surface_points = lambda *a: calls.append(1) or real(*a)
+    try:
+        first.x[:] = np.nan  # a caller's own copy
+        again = C.closest_point(tex, p)
+        other = C.closest_point(tex, p + [0, 0, -1e-4])  # other probes: searched
+    finally:
+        C._core.closest_surface_points = real
+    assert len(calls) == 1 and np.all(np.isfinite(again.x))
+    fresh = C.closest_point(hx.SumOfGratings.egg_crate(0.1e-3, 2e-3), p)
+    for name in ("x", "y", "z", "distance", "tie", "work"):
+        np.testing.assert_array_equal(getattr(again, name), getattr(fresh, name))
+    assert not np.array_equal(other.distance, again.distance)

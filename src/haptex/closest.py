@@ -379,12 +379,33 @@ def _closest_point_surface(texture: Texture, p) -> ClosestPoint:
     if not isinstance(texture, SumOfGratings | SampledSurface):
         raise ParameterError(f"texture = {texture!r} is not allowed for D and E: the closest point is searched on "
                              "profiles, sums of gratings, height maps and extruded profiles")
+    flat = np.ascontiguousarray(arr.reshape(-1, 3), dtype=np.float64)
+    key = None
+    if flat.shape[0] >= CACHE_MIN_PROBES:
+        import hashlib
+
+        key = hashlib.blake2b(flat.tobytes(), digest_size=16).digest()
+        hit = texture.__dict__.setdefault("_closest_cache", {}).get(key)
+        if hit is not None:  # (copies: a caller may write into what it gets)
+            return ClosestPoint(**{k: v.copy().reshape(shape) for k, v in hit.items()})
     kind, gc, gaux = surface_search_data(texture)
-    flat = arr.reshape(-1, 3)
     tx, ty, d, tie, work = _core.closest_surface_points(kind, gc, gaux, flat[:, 0], flat[:, 1], flat[:, 2])
-    xy = np.stack([tx, ty], -1)
-    return ClosestPoint(x=tx.reshape(shape), z=texture.height_at(xy).reshape(shape), distance=d.reshape(shape),
-                        tie=(tie != 0).reshape(shape), work=work.reshape(shape), y=ty.reshape(shape))
+    out = {"x": tx, "z": texture.height_at(np.stack([tx, ty], -1)), "distance": d, "tie": tie != 0, "work": work,
+           "y": ty}
+    size = 41 * flat.shape[0]  # bytes kept: five float64 arrays and a bool one
+    if key is not None and size <= CACHE_BYTES:
+        cache = texture.__dict__["_closest_cache"]
+        while cache and sum(41 * v["x"].size for v in cache.values()) + size > CACHE_BYTES:
+            cache.pop(next(iter(cache)))  # the oldest first
+        cache[key] = {k: v.copy() for k, v in out.items()}
+    return ClosestPoint(**{k: v.reshape(shape) for k, v in out.items()})
+
+
+CACHE_MIN_PROBES = 10_000
+CACHE_BYTES = 256 * 2**20
+"""Closest points over a surface for one set of at least CACHE_MIN_PROBES probes are kept on
+the texture, the latest sets up to CACHE_BYTES in all: D and E search the same grids of
+probes in an analysis (q, continuity), and E's are then read, not searched."""
 
 
 def surface_search_data(texture) -> tuple[int, np.ndarray, np.ndarray]:
