@@ -518,6 +518,9 @@ def _grid_axis(name: str, values) -> tuple[np.ndarray, float]:
     return arr, float(d)
 
 
+_NU = [(0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2)]  # SampledSurface._derivatives' order
+
+
 class SampledSurface(Surface):
     """A measured or generated height map h(x, y) on a regular grid, evaluated by a C^2
     bicubic spline (the tensor product of cubic interpolating splines).
@@ -596,8 +599,22 @@ class SampledSurface(Surface):
                 f"periodic={self.periodic}{what})")
 
     # -- evaluation ------------------------------------------------------------------
-    def _eval(self, xt, nu):
-        """Derivative ``nu`` = (i, j) of the spline at in-plane positions (..., 2)."""
+    def _derivatives(self, xt) -> np.ndarray:
+        """h, h_x, h_y, h_xx, h_xy, h_yy at in-plane positions (..., 2): shape (..., 6), by
+        the C core's evaluation of the spline's bicubic patches (the patches are the spline,
+        to round-off); by scipy's spline (:meth:`_spline_eval`, the C's oracle in the tests)
+        where the patches would exceed the memory budget."""
+        from . import core
+        from ._validation import ParameterError
+
+        try:
+            self.patches()
+        except ParameterError:
+            return np.stack([self._spline_eval(xt, nu) for nu in _NU], -1)
+        return core.texture_derivatives(self, plane(xt))
+
+    def _spline_eval(self, xt, nu):
+        """Derivative ``nu`` = (i, j) of the spline at in-plane positions (..., 2), by scipy."""
         p = plane(xt)
         start = np.array([self.x[0], self.y[0]])
         size = np.array(self._size)
@@ -628,16 +645,16 @@ class SampledSurface(Surface):
 
     def height_at(self, xt):
         """h(x, y) (m) at positions of shape (..., 2) (m); shape (...)."""
-        return self._eval(xt, (0, 0))
+        return self._derivatives(xt)[..., 0].copy()
 
     def gradient(self, xt):
         """grad h (m/m), shape (..., 2)."""
-        return np.stack([self._eval(xt, (1, 0)), self._eval(xt, (0, 1))], -1)
+        return self._derivatives(xt)[..., 1:3].copy()
 
     def hessian(self, xt):
         """Hessian of h (1/m), shape (..., 2, 2)."""
-        hxx, hxy, hyy = self._eval(xt, (2, 0)), self._eval(xt, (1, 1)), self._eval(xt, (0, 2))
-        return np.stack([np.stack([hxx, hxy], -1), np.stack([hxy, hyy], -1)], -2)
+        d = self._derivatives(xt)
+        return np.stack([np.stack([d[..., 3], d[..., 4]], -1), np.stack([d[..., 4], d[..., 5]], -1)], -2)
 
     def kernel_data(self) -> tuple[int, np.ndarray]:
         """(``SURFACE_PATCHES``, :meth:`patches`)."""
