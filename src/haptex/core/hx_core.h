@@ -154,8 +154,9 @@ hx_closest hx_closest_profile(const hx_texture *tex, const double *aux, double p
 
 /* The constants of a surface's search (haptex.closest.surface_search_data): lowest and
  * highest height (m), sup |grad h|, sup ||H|| (1/m), the leaf half-width (m), the tie
- * tolerance (m); over a sum of gratings rigorous bounds for the convexity certificate and the
- * Taylor bound (||H||_2, |grad h|, the third derivatives), 0 otherwise. */
+ * tolerance (m); rigorous bounds for the Taylor bound (||H||_2, |grad h|, the third
+ * derivatives; over a map, inside it) and the convexity certificate (gratings, periodic maps;
+ * 0 otherwise); a non-periodic map's edge bounds. */
 enum {
     HX_G_HMIN, HX_G_SLOPE, HX_G_CURV, HX_G_LEAF, HX_G_TIE, HX_G_HMAX, HX_G_CONVEX, HX_G_JERK, HX_G_SLOPE_BOUND,
     HX_G_CURV_BOUND, HX_G_EDGE, HX_N_GAUX = HX_G_EDGE + 28
@@ -172,8 +173,9 @@ int hx_surface_aux_check(const double *aux, long naux);
 
 /* The closest point of the surface (a sum of gratings or a height map's patches) to the probe
  * (px, py, pz), warm-started from (gx0, gy0) (NaN: none). Certified global to aux[HX_G_TIE]
- * over a sum of gratings; over a height map, leaves of one sample interval are refined by
- * projected Newton (not certified). Bounded work, counted. */
+ * by Taylor bounds (aux[HX_G_JERK] > 0): over a height map with edges on both sides of them,
+ * cells cut at the edge lines (aux[HX_G_EDGE...] bound the extension beyond). Bounded work
+ * (past it, leaves refined by projected Newton: not certified), counted. */
 hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double px, double py, double pz, double gx0,
                               double gy0);
 

@@ -651,8 +651,9 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
                     : fmin(aux[HX_G_SLOPE] * r, sqrt(e.gx * e.gx + e.gy * e.gy) * r + 0.5 * aux[HX_G_CURV] * r * r);
         if (ranged) {
             patch_range(&q, cx, cy, wx, wy, &glo, &ghi);
-            if (glo < aux[HX_G_HMIN] || ghi > aux[HX_G_HMAX]) /* beyond the map: the extension's bound only */
-                spread = cm ? fmin(csb * r, sqrt(e.gx * e.gx + e.gy * e.gy) * r + 0.5 * ccb * r * r) : HUGE_VAL;
+            /* beyond the map without the model: the extension's bound only */
+            if (!cm && (glo < aux[HX_G_HMIN] || ghi > aux[HX_G_HMAX]))
+                spread = HUGE_VAL;
             lo = fmax(e.h - spread, glo);
             hi = fmin(e.h + spread, ghi);
         } else { /* each grating's exact range later, where the cheaper bounds leave the cell */
