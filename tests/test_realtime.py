@@ -252,3 +252,45 @@ def test_a_text_file_too_large_for_the_memory_budget_is_refused(tmp_path, monkey
     monkeypatch.setenv("HAPTEX_MEMORY_BUDGET", str(1_000_000))
     with pytest.raises(hx.ParameterError, match=r"^path = .* is not allowed: reading this file would need"):
         hx.SampledProfile.from_file(f, x_unit="m", height_unit="m")
+
+
+@pytest.mark.parametrize("letter", ["D", "E"])
+def test_a_ticks_search_over_a_surface_ends_at_its_evaluation_budget_with_a_point_no_closer_than_the_truth(letter):
+    """Issue 33: D and E over the paper's egg-crate (0.8 mm, 1 mm) took up to 131,247
+    evaluations in one tick at positions inside the +-1 km workspace. With a budget of 1,000 the
+    work of every tick is at most the budget plus 250 (one cell's processing past the check),
+    the ticks it ends are counted in ``cut``, and the point such a tick uses is never closer
+    than the certified closest point (the search only ever keeps points of the surface): its
+    force is at least the unbudgeted renderer's (D: k times the distance)."""
+    from haptex.closest import closest_point
+
+    egg = hx.SumOfGratings.egg_crate(0.8e-3, 1e-3)
+    alg = hx.algorithm(letter, egg, 1000.0)
+    rng = np.random.default_rng(33)
+    n = 20_000  # (1 in 1,000 of these costs over 1,000 evaluations: keep those and 300 others)
+    P = np.column_stack([rng.uniform(-1000, 1000, n), rng.uniform(-1000, 1000, n),
+                         -rng.choice([1e-4, 1e-2, 1.0, 300.0, 1000.0], n)])
+    work = closest_point(egg, P).work
+    P = np.concatenate([P[work > 1000], P[:300]])
+    budgeted = hx.Renderer(alg, max_force=1e9, max_evaluations=1000)
+    free = hx.Renderer(alg, max_force=1e9, max_evaluations=None)
+    cut = 0
+    for p in P:
+        budgeted.reset()
+        free.reset()  # (no warm start: each tick's search from scratch)
+        fb = budgeted.step(tuple(map(float, p)))
+        ff = free.step(tuple(map(float, p)))
+        assert all(math.isfinite(v) for v in fb) and budgeted.last_work <= 1000 + 250
+        if budgeted.cut:
+            cut += 1
+            assert math.hypot(*fb) >= math.hypot(*ff) * (1 - 1e-12)
+        else:  # not cut: the same certified point
+            np.testing.assert_allclose(fb, ff, rtol=1e-12, atol=0)
+    assert cut >= 5 and free.cut == 0  # the adversarial depths do reach the budget
+
+
+def test_the_evaluation_budget_is_checked_where_it_is_given():
+    alg = hx.algorithm("D", hx.SumOfGratings.egg_crate(0.8e-3, 1e-3), 1000.0)
+    for bad in (50, 1.5, True, 10**10):
+        with pytest.raises(hx.ParameterError, match=r"^max_evaluations = .* is not allowed"):
+            hx.Renderer(alg, max_evaluations=bad)

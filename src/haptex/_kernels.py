@@ -1090,7 +1090,7 @@ def alg_force(code, x, z, kind, coeffs, prm, aux, st):
 # phases (rad); h = sum a sin(kx x + ky y + phase). ``gaux``: the search's constants.
 # the search constants' slots G_* are the C core's (hx_core.h)
 from .core._ext import (G_CONVEX, G_CURV, G_CURV_BOUND, G_HMAX, G_HMIN, G_JERK, G_LEAF,  # noqa: E402, F401
-                        G_EDGE, G_SLOPE, G_SLOPE_BOUND, G_TIE, N_E, N_GAUX)  # noqa: F401
+                        G_BUDGET, G_EDGE, G_SLOPE, G_SLOPE_BOUND, G_TIE, N_E, N_GAUX)  # noqa: F401
 # SURFACE_GRATINGS, SURFACE_PATCHES: the C core's, imported above
 """Surface kinds of the search: a sum of gratings (``sc`` of shape (4, n): a, kx, ky, phase)
 or bicubic patches (``sc`` of shape (1, 8 + 16 n): the header PATCH_* then, per cell in row-major

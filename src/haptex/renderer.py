@@ -129,6 +129,11 @@ def _fast_step(renderer: "Renderer"):
     return step
 
 
+MAX_EVALUATIONS = 5000
+"""The default budget of texture evaluations for one tick's closest-point search (D, E over a
+surface; chosen): about 12 times the paper's egg-crate's typical tick (410), about 0.3 ms here."""
+
+
 class Renderer:
     """Compiled force rendering for a servo loop, over a profile ([x, z]) or a surface
     ([x, y, z]).
@@ -151,12 +156,19 @@ class Renderer:
     period : float, optional
         The servo period T (s) at which :meth:`step` is called; required with a
         ``passivity_controller`` (its velocity estimate is dp / T).
+    max_evaluations : int or None, optional
+        D and E over a surface: the texture evaluations one tick's closest-point search may
+        spend (default :data:`MAX_EVALUATIONS`, chosen: 5,000, about 0.3 ms on this project's
+        machine). Past it the search ends with the best point found, not certified global,
+        and the tick is counted in :attr:`cut`; a tick's work is then at most the budget plus
+        250. ``None``: only the search's structural bound (2,048 cells; about 10^5
+        evaluations measured 1 km under the paper's egg-crate).
 
     Raises
     ------
     ParameterError
-        If ``algorithm`` is not a haptex algorithm, ``max_force`` is not > 0, or a
-        controller is given without a period.
+        If ``algorithm`` is not a haptex algorithm, ``max_force`` is not > 0, a controller
+        is given without a period, or ``max_evaluations`` is not None or in [100, 10^9].
 
     Notes
     -----
@@ -172,7 +184,8 @@ class Renderer:
     """
 
     def __init__(self, algorithm: Algorithm, max_force: float | None = None, energy_monitor: bool = False,
-                 passivity_controller: PassivityController | None = None, period: float | None = None):
+                 passivity_controller: PassivityController | None = None, period: float | None = None,
+                 max_evaluations: int | None = MAX_EVALUATIONS):
         if not isinstance(algorithm, Algorithm):
             raise fail("algorithm", algorithm, "a haptex algorithm (haptex.algorithm(...))")
         optional_positive("max_force", max_force, "N")
@@ -181,6 +194,12 @@ class Renderer:
         if passivity_controller is not None and period is None:
             raise fail("period", period, "the servo period in s (> 0) with a passivity_controller")
         T = None if period is None else positive("period", period, "s")
+        if max_evaluations is not None and not (isinstance(max_evaluations, int | np.integer)
+                                                and not isinstance(max_evaluations, bool)
+                                                and 100 <= max_evaluations <= 10**9):
+            raise fail("max_evaluations", max_evaluations, "None or a whole number of texture evaluations in "
+                       "[100, 10^9]")
+        self.max_evaluations = max_evaluations
         self.algorithm = algorithm
         self.passivity_controller = passivity_controller
         self.dimension = algorithm.dimension
@@ -192,6 +211,9 @@ class Renderer:
             pc = passivity_controller
             tabled = _tick_search_data(algorithm, aux)
             self._search_table = tabled is not aux and tabled[_kernels.A_TABLE] != 0.0
+            if code in (_kernels.ALG_D, _kernels.ALG_E) and kind in (_kernels.SURFACE_GRATINGS, _kernels.SURFACE_PATCHES):
+                tabled = tabled.copy()  # (the texture's own constants stay unbudgeted: the analysis certifies)
+                tabled[_kernels.G_BUDGET] = 0.0 if max_evaluations is None else float(max_evaluations)
             self._core = _core._ext.Renderer(
                 code, prm, kind, coeffs, np.require(tabled, np.float64, ["C"]), self.dimension,
                 math.inf if max_force is None else float(max_force), WORKSPACE_LIMIT, bool(energy_monitor),
@@ -300,6 +322,13 @@ class Renderer:
         """Work of the last :meth:`step`, bounded for any input: texture evaluations, plus
         F's presliding table steps (at most 11 + 60) in its smooth variant."""
         return self._core.last_work if self._core is not None else int(self._rs[RS_WORK])
+
+    @property
+    def cut(self) -> int:
+        """Ticks since construction or :meth:`reset` whose closest-point search (D, E over a
+        surface) its ``max_evaluations`` budget ended: their force used the best point found,
+        not the certified closest point."""
+        return self._core.cut if self._core is not None else 0
 
     @property
     def max_work(self) -> int:

@@ -492,6 +492,7 @@ hx_closest hx_closest_profile(const hx_texture *tex, const double *aux, double p
     out.distance = 0.0;
     out.tie = 0;
     out.work = 1;
+    out.cut = 0;
     if (!(dv > 0.0))
         return out;
     out.distance = dv;

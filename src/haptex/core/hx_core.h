@@ -141,6 +141,7 @@ typedef struct {
     double distance; /* its distance to the probe (m); 0 outside the wall */
     int tie;         /* another local minimum at the same distance to the tie tolerance */
     long work;       /* texture evaluations */
+    int cut;         /* the evaluation budget ended the search: the best point found, not certified */
 } hx_closest;
 
 /* Check a profile's search data of naux values: every read of the search stays inside it. */
@@ -156,10 +157,11 @@ hx_closest hx_closest_profile(const hx_texture *tex, const double *aux, double p
  * highest height (m), sup |grad h|, sup ||H|| (1/m), the leaf half-width (m), the tie
  * tolerance (m); rigorous bounds for the Taylor bound (||H||_2, |grad h|, the third
  * derivatives; over a map, inside it) and the convexity certificate (gratings, periodic maps;
- * 0 otherwise); a non-periodic map's edge bounds. */
+ * 0 otherwise); the evaluation budget of one search (0: none but the structure's, MAX_NODES
+ * cells); a non-periodic map's edge bounds. */
 enum {
     HX_G_HMIN, HX_G_SLOPE, HX_G_CURV, HX_G_LEAF, HX_G_TIE, HX_G_HMAX, HX_G_CONVEX, HX_G_JERK, HX_G_SLOPE_BOUND,
-    HX_G_CURV_BOUND, HX_G_EDGE, HX_N_GAUX = HX_G_EDGE + 28
+    HX_G_CURV_BOUND, HX_G_BUDGET, HX_G_EDGE, HX_N_GAUX = HX_G_EDGE + 28
 };
 /* A non-periodic height map's edges beyond which h = H(t) + G(t) e (the tangent-plane
  * extension: e >= 0 the distance beyond the edge, t along it): HX_N_E bounds each, for the
@@ -190,6 +192,7 @@ typedef struct {
     double pen;    /* the penetration of the last tick (Table I's, >= 0, m) */
     double h;      /* the height under the probe the last tick evaluated (m), NaN if none */
     long work;     /* texture evaluations of the last tick */
+    int cut;       /* the last tick's closest-point search was ended by its budget */
 } hx_state;
 
 /* The force of one servo tick (N) at p (m): the field, plus W's virtual damper
@@ -229,7 +232,7 @@ typedef struct {
     int monitor;      /* keep the passivity observer */
     hx_state st;
     hx_passivity pc;
-    long faults, clamps, work, max_work;
+    long faults, clamps, work, max_work, cut; /* cut: ticks whose search its budget ended */
 } hx_renderer;
 
 /* One servo tick at (x, y, z) (m; y is 0 over a profile): the force to command (N), never

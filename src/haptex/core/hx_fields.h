@@ -279,6 +279,7 @@ HX_INLINE void tick_de_surface(const int code, const hx_model *m, hx_state *s, c
     s->adh[0] = c.t;
     s->adh[1] = c.y;
     s->work = c.work + 1;
+    s->cut = c.cut;
     s->pen = c.distance;
     if (code == HX_ALG_D) {
         f[0] = -k * (p[0] - c.t);
@@ -298,6 +299,7 @@ HX_INLINE int hx__tick_force_of(const int code, const hx_model *m, hx_state *s, 
     field_out o = {0.0, NAN};
     zero(f, NULL);
     s->work = 1;
+    s->cut = 0;
     s->h = NAN;
     if (code == HX_ALG_F) {
         tick_f(m, s, p, f);

@@ -105,6 +105,8 @@ void hx_render_step(hx_renderer *r, double x, double y, double z, double f[3])
     r->work = r->st.work;
     if (r->work > r->max_work)
         r->max_work = r->work;
+    if (r->st.cut)
+        r->cut++;
     if (r->monitor)
         hx_passivity_tick(&r->pc, p, f, r->model.prm[HX_P_K0], r->st.pen);
     clamped = hx_saturate(f, r->max_force);
@@ -132,5 +134,5 @@ void hx_render_reset(hx_renderer *r)
     r->pc.ref_stored = keep.ref_stored;
     r->pc.bmax = keep.bmax;
     r->pc.T = keep.T;
-    r->faults = r->clamps = r->work = r->max_work = 0;
+    r->faults = r->clamps = r->work = r->max_work = r->cut = 0;
 }

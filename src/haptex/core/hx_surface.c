@@ -549,7 +549,8 @@ int hx_surface_aux_check(const double *aux, long naux)
     for (i = 0; i < HX_N_GAUX; i++)
         if (!isfinite(aux[i]))
             return HX_BAD_COEFFS;
-    if (!(aux[HX_G_LEAF] > 0.0) || !(aux[HX_G_TIE] >= 0.0) || aux[HX_G_HMIN] > aux[HX_G_HMAX])
+    if (!(aux[HX_G_LEAF] > 0.0) || !(aux[HX_G_TIE] >= 0.0) || aux[HX_G_HMIN] > aux[HX_G_HMAX] ||
+        !(aux[HX_G_BUDGET] >= 0.0))
         return HX_BAD_COEFFS;
     return HX_OK;
 }
@@ -577,6 +578,7 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
     out.distance = 0.0;
     out.tie = 0;
     out.work = 1;
+    out.cut = 0;
     if (dv <= 0.0)
         return out;
     if (convex_closest(&q, gx0, gy0, &tx, &ty, &f, &ev)) {
@@ -626,6 +628,10 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
         double csb = sb, ccb = cb, cj = jerk;
         int far, leafy, cm, kids;
         hx_height e;
+        if (aux[HX_G_BUDGET] > 0.0 && (double)work >= aux[HX_G_BUDGET]) { /* the budget is spent: the best so far */
+            out.cut = 1;
+            break;
+        }
         sp--;
         cx = stack[4 * sp];
         cy = stack[4 * sp + 1];
