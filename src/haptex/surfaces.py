@@ -519,6 +519,9 @@ def _grid_axis(name: str, values) -> tuple[np.ndarray, float]:
 
 
 _NU = [(0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2)]  # SampledSurface._derivatives' order
+# d^p/ds^p s^a = _FALL[p][a] s^(a - p): the multipliers of a bicubic patch's coefficients
+_FALL = [np.ones(4), np.arange(4.0), np.arange(4.0) * np.arange(-1.0, 3.0),
+         np.arange(4.0) * np.arange(-1.0, 3.0) * np.arange(-2.0, 2.0)]
 
 
 class SampledSurface(Surface):
@@ -713,10 +716,8 @@ class SampledSurface(Surface):
         so H is Lipschitz with constant J across patches: the closest-point search's Taylor
         bound (``_kernels.G_JERK``) holds on any disc or square inside the map."""
         pat = self.patches()[0, 8:].reshape(-1, 4, 4)
-        a = np.arange(4.0)
         dx, dy = self.dx, self.dy
-        # the multipliers of |c[a, b]| in each derivative's bound: d^p/ds^p s^a = a!/(a-p)! s^(a-p)
-        fall = [np.ones(4), a, a * (a - 1), a * (a - 1) * (a - 2)]
+        fall = _FALL  # the multipliers of |c[a, b]| in each derivative's bound
         out = np.zeros(3)
         for i0 in range(0, pat.shape[0], 1 << 16):
             c = np.abs(pat[i0:i0 + (1 << 16)])
@@ -741,10 +742,13 @@ class SampledSurface(Surface):
         third derivatives grow with e at most as these bounds say. Shape (4, 7): the edges
         x = x0, x = x1, y = y0, y = y1; per edge sup |d^(p+q) h / dn^p dt^q| on it (n the
         normal's axis, t the edge's) for (p, q) = (1, 0), (0, 1), (1, 1), (0, 2), (1, 2), (0, 3),
-        (1, 3), each the sum of its terms' magnitudes over every patch along the edge."""
+        (1, 3), each the sum of its terms' magnitudes over every patch along the edge. Zeros
+        for a periodic map (it has no edges)."""
+        if self.periodic:
+            return np.zeros((4, 7))
         pat = self.patches()[0, 8:].reshape(self.x.size - 1, self.y.size - 1, 4, 4)
         a = np.arange(4.0)
-        fall = [np.ones(4), a, a * (a - 1), a * (a - 1) * (a - 2)]
+        fall = _FALL
         pq = [(1, 0), (0, 1), (1, 1), (0, 2), (1, 2), (0, 3), (1, 3)]
         out = np.zeros((4, 7))
         # (patches along the edge, c[normal power, tangential power], edge at s = 0 or 1, dn, dt)
