@@ -30,24 +30,47 @@ typedef struct {
 
 static void surf(const sproblem *q, double x, double y, hx_height *e) { hx__texture_eval(q->tex, x, y, e); }
 
+/* phi(t) at t = (tx, ty) with h's derivatives there in *e, h(t) - p_z in *dz and grad phi / 2
+ * in (*g0, *g1) */
+static double phi_at(const sproblem *q, double tx, double ty, hx_height *e, double *dz, double *g0, double *g1)
+{
+    surf(q, tx, ty, e);
+    *dz = e->h - q->pz;
+    *g0 = (tx - q->px) + *dz * e->gx;
+    *g1 = (ty - q->py) + *dz * e->gy;
+    return (tx - q->px) * (tx - q->px) + (ty - q->py) * (ty - q->py) + *dz * *dz;
+}
+
+/* a height map's sampled rectangle [b[0], b[2]] x [b[1], b[3]] (its patch header) */
+static void map_box(const hx_texture *t, double b[4])
+{
+    b[0] = t->c[0];
+    b[1] = t->c[1];
+    b[2] = b[0] + t->c[4] * t->c[2];
+    b[3] = b[1] + t->c[5] * t->c[3];
+}
+
+/* how far the rectangle [cx -+ wx] x [cy -+ wy] reaches beyond the map's box b (0 inside) */
+static double beyond_box(const double b[4], double cx, double cy, double wx, double wy)
+{
+    double ox = fmax(0.0, fmax(b[0] - (cx - wx), (cx + wx) - b[2]));
+    double oy = fmax(0.0, fmax(b[1] - (cy - wy), (cy + wy) - b[3]));
+    return sqrt(ox * ox + oy * oy);
+}
+
 /* (min h, max h) over a cell [cx -+ wx] x [cy -+ wy] of a height map: outside a non-periodic
  * map the extension's bound from the map's range and slope */
 static void patch_range(const sproblem *q, double cx, double cy, double wx, double wy, double *lo, double *hi)
 {
-    const double *hd = q->tex->c, *g = q->g;
-    double x0, y0, x1, y1, ox, oy, out;
-    if (hd[6] != 0.0) {
+    const double *g = q->g;
+    double box[4], out;
+    if (q->tex->c[6] != 0.0) {
         *lo = g[HX_G_HMIN];
         *hi = g[HX_G_HMAX];
         return;
     }
-    x0 = hd[0];
-    y0 = hd[1];
-    x1 = x0 + hd[4] * hd[2];
-    y1 = y0 + hd[5] * hd[3];
-    ox = fmax(0.0, fmax(x0 - (cx - wx), (cx + wx) - x1));
-    oy = fmax(0.0, fmax(y0 - (cy - wy), (cy + wy) - y1));
-    out = sqrt(ox * ox + oy * oy) * g[HX_G_SLOPE];
+    map_box(q->tex, box);
+    out = beyond_box(box, cx, cy, wx, wy) * g[HX_G_SLOPE];
     *lo = g[HX_G_HMIN] - out;
     *hi = g[HX_G_HMAX] + out;
 }
@@ -59,13 +82,11 @@ static void patch_range(const sproblem *q, double cx, double cy, double wx, doub
  * discs and squares wholly inside. */
 static double model_margin(const sproblem *q, double cx, double cy)
 {
-    const double *hd = q->tex->c;
-    double x1, y1;
-    if (q->tex->kind != HX_SURFACE_PATCHES || hd[6] != 0.0)
+    double b[4];
+    if (q->tex->kind != HX_SURFACE_PATCHES || q->tex->c[6] != 0.0)
         return HUGE_VAL;
-    x1 = hd[0] + hd[4] * hd[2];
-    y1 = hd[1] + hd[5] * hd[3];
-    return fmin(fmin(cx - hd[0], x1 - cx), fmin(cy - hd[1], y1 - cy));
+    map_box(q->tex, b);
+    return fmin(fmin(cx - b[0], b[2] - cx), fmin(cy - b[1], b[3] - cy));
 }
 
 /* The half-width of the square around the probe that holds every point closer than d: a
@@ -91,8 +112,9 @@ static double root_half(const sproblem *q, double bf)
     d = sqrt(bf);
     m = model_margin(q, q->px, q->py);
     if (m < 0.0) { /* a probe beyond the map: m = minus its distance from it */
-        double x1 = hd[0] + hd[4] * hd[2], y1 = hd[1] + hd[5] * hd[3];
-        m = -hypot(fmax(0.0, fmax(hd[0] - q->px, q->px - x1)), fmax(0.0, fmax(hd[1] - q->py, q->py - y1)));
+        double box[4];
+        map_box(q->tex, box);
+        m = -beyond_box(box, q->px, q->py, 0.0, 0.0);
     }
     best = fmax(0.0, fmin(r0, m));
     /* past m: (1 + B^2) rho^2 - 2 B c rho + c^2 - d^2 <= 0, c = below0 + B m, while rho <= m + below0 / B */
@@ -133,18 +155,19 @@ static int side(double lo, double hi, double a, double b)
 static int cell_bounds(const sproblem *q, double cx, double cy, double wx, double wy, double *sb, double *cb,
                        double *jk)
 {
-    const double *hd = q->tex->c, *g = q->g, *E;
-    double x0, y0, x1, y1, e, t, tt, j3;
+    const double *g = q->g, *E;
+    double b[4], x0, y0, x1, y1, e, t, tt, j3;
     int rx, ry;
     *sb = g[HX_G_SLOPE_BOUND];
     *cb = g[HX_G_CURV_BOUND];
     *jk = g[HX_G_JERK];
-    if (q->tex->kind != HX_SURFACE_PATCHES || hd[6] != 0.0)
+    if (q->tex->kind != HX_SURFACE_PATCHES || q->tex->c[6] != 0.0)
         return 1;
-    x0 = hd[0];
-    y0 = hd[1];
-    x1 = x0 + hd[4] * hd[2];
-    y1 = y0 + hd[5] * hd[3];
+    map_box(q->tex, b);
+    x0 = b[0];
+    y0 = b[1];
+    x1 = b[2];
+    y1 = b[3];
     rx = side(cx - wx, cx + wx, x0, x1);
     ry = side(cy - wy, cy + wy, y0, y1);
     if (rx < 0 || ry < 0)
@@ -222,11 +245,7 @@ static newton_out surf_newton(const sproblem *q, double tx, double ty, double x0
     for (it = 1; it <= 40; it++) {
         hx_height e;
         double dz, f, g0, g1, gn, a, b, c, det, nx, ny;
-        surf(q, tx, ty, &e);
-        dz = e.h - q->pz;
-        f = (tx - q->px) * (tx - q->px) + (ty - q->py) * (ty - q->py) + dz * dz;
-        g0 = (tx - q->px) + dz * e.gx;
-        g1 = (ty - q->py) + dz * e.gy;
+        f = phi_at(q, tx, ty, &e, &dz, &g0, &g1);
         gn = sqrt(g0 * g0 + g1 * g1);
         if (!(f <= of || (f <= of * (1.0 + 1e-12) && gn < og))) {
             sx *= 0.5;
@@ -349,11 +368,7 @@ static int convex_closest(const sproblem *q, double tx, double ty, double *tx_ou
         tx = q->px;
         ty = q->py;
     }
-    surf(q, tx, ty, &e);
-    dz = e.h - q->pz;
-    f = (tx - q->px) * (tx - q->px) + (ty - q->py) * (ty - q->py) + dz * dz;
-    g0 = (tx - q->px) + dz * e.gx;
-    g1 = (ty - q->py) + dz * e.gy;
+    f = phi_at(q, tx, ty, &e, &dz, &g0, &g1);
     gn = sqrt(g0 * g0 + g1 * g1);
     while (ev < CONVEX_EVALS) {
         double a, b, c, det, sx, sy;
@@ -374,12 +389,8 @@ static int convex_closest(const sproblem *q, double tx, double ty, double *tx_ou
         while (ev < CONVEX_EVALS) {
             double nx = tx + sx, ny = ty + sy, fn, gm, ndz, ng0, ng1;
             hx_height en;
-            surf(q, nx, ny, &en);
+            fn = phi_at(q, nx, ny, &en, &ndz, &ng0, &ng1);
             ev++;
-            ndz = en.h - q->pz;
-            fn = (nx - q->px) * (nx - q->px) + (ny - q->py) * (ny - q->py) + ndz * ndz;
-            ng0 = (nx - q->px) + ndz * en.gx;
-            ng1 = (ny - q->py) + ndz * en.gy;
             gm = sqrt(ng0 * ng0 + ng1 * ng1);
             if (fn <= f || gm < gn) {
                 tx = nx;
@@ -526,10 +537,11 @@ static int cut_at(double lo, double hi, double a, double b, double *cut)
  * side of that line), into out; their number. */
 static int split_at_edges(const sproblem *q, double cx, double cy, double wx, double wy, double *out)
 {
-    const double *hd = q->tex->c;
-    double xs[3], ys[3];
-    int nx = cut_at(cx - wx, cx + wx, hd[0], hd[0] + hd[4] * hd[2], xs);
-    int ny = cut_at(cy - wy, cy + wy, hd[1], hd[1] + hd[5] * hd[3], ys), i, j, n = 0;
+    double b[4], xs[3], ys[3];
+    int nx, ny, i, j, n = 0;
+    map_box(q->tex, b);
+    nx = cut_at(cx - wx, cx + wx, b[0], b[2], xs);
+    ny = cut_at(cy - wy, cy + wy, b[1], b[3], ys);
     for (i = 0; i < nx; i++)
         for (j = 0; j < ny; j++) {
             out[4 * n] = 0.5 * (xs[i] + xs[i + 1]);
