@@ -32,7 +32,7 @@ setup(
     ext_modules=[
         Extension(
             "haptex.core._ext",
-            sources=[str(CORE / name) for name in ("_ext.c", "hx_texture.c", "hx_forces.c", "hx_render.c", "hx_presliding.c", "hx_sim.c", "hx_closest.c", "hx_surface.c")],
+            sources=[str(CORE / "_ext.c"), *(str(c) for c in sorted(CORE.glob("hx_*.c")))],
             include_dirs=[str(CORE)],
             depends=[str(h) for h in sorted(CORE.glob("*.h"))],
             extra_compile_args=["-std=c99", "-O2", "-fno-fast-math"],

@@ -649,13 +649,13 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
 @click.option("--lowpass", type=Quantity("m"), default=None, help="Band-limit the profile to this shortest period.")
 @click.option("--periodic", is_flag=True, help="Close the profile into a periodic texture.")
 @click.option("--out", "out", type=click.Path(file_okay=False, path_type=Path), required=True,
-              help="Directory for haptex_texture.c and haptex_texture.h.")
+              help="Directory for haptex_texture.c, haptex_texture.h and the C core's files.")
 @click.option("--quiet", is_flag=True, help="No progress display.")
 def export(letter, texture_spec, stiffness, max_force, max_penetration, friction, presliding, stick_deflection,
            spacing, x_unit, height_unit, level, lowpass, periodic, out, quiet):
     """C99 source of one algorithm on one texture, for device firmware (<math.h> only)."""
     from .algorithms import algorithm
-    from .export import export_c
+    from .export import TICK_FILES, export_c
 
     letter = str(letter).upper()
     if letter == "W":
@@ -682,7 +682,8 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
     alg = algorithm(letter, tex, stiffness, **params)
     with _Spinner("writing the C source", quiet):
         h_path, c_path = export_c(alg, out, max_force)
-    click.echo(f"wrote {c_path} and {h_path}: {alg!r}, max force {max_force:g} N")
+    click.echo(f"wrote {c_path}, {h_path} and the C core's {len(TICK_FILES)} files beside them: {alg!r}, max force "
+               f"{max_force:g} N (build: cc -std=c99 -O2 {out}/*.c -lm)")
 
 
 @cli.command()

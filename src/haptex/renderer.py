@@ -10,22 +10,17 @@ from __future__ import annotations
 
 import math
 
-import numba
-import numpy as np
-
 from dataclasses import dataclass
 
-from . import _kernels
+import numpy as np
+
 from . import core as _core
-from ._kernels import (PC_ACTIVE, PC_ALPHA, PC_BMAX, PC_E, PC_EAX, PC_HAVE, PC_ON, PC_REF, PC_REF_STORED,
-                       PC_REF_ZERO, PC_T, RS_CLAMPS, RS_DIM, RS_FAULTS, RS_LIMIT, RS_MAXF, RS_MAXWORK, RS_MONITOR,
-                       RS_WORK)
-from ._kernels import render_step as _render_step
+from .core import _ext
 from ._validation import fail, optional_positive, positive
 from .algorithms import Algorithm
 from .closest import table_search_data
 
-__all__ = ["Renderer", "PassivityController", "WORKSPACE_LIMIT"]
+__all__ = ["Renderer", "PassivityController", "WORKSPACE_LIMIT", "MAX_EVALUATIONS", "tick_model"]
 
 _REAL = (int, float, np.integer, np.floating)
 
@@ -81,57 +76,68 @@ class PassivityController:
             raise fail("reference", self.reference, 'one of "stored", "zero"')
 
 
-def _tick_search_data(algorithm: Algorithm, aux: np.ndarray) -> np.ndarray:
-    """D's and E's search data with the cell table a tick reads over a profile (the tree
-    alone over a surface); other algorithms' ``aux`` unchanged."""
-    if algorithm.letter not in ("D", "E"):
-        return aux
-    from .surfaces import Extruded
+def tick_model(algorithm: Algorithm, max_evaluations: int | None = None):
+    """The arrays of one algorithm's servo tick in the C core, as :class:`Renderer` and
+    ``haptex export`` hand them to it.
 
-    tex = algorithm.texture
-    if tex.dimension == 1:
-        return table_search_data(tex)
-    if isinstance(tex, Extruded):
-        return table_search_data(tex.profile)
-    return aux
+    Parameters
+    ----------
+    algorithm : Algorithm
+        W or A-G over a profile or a surface.
+    max_evaluations : int or None
+        D and E over a surface: the tick's evaluation budget (aux[``G_BUDGET``]); None: none.
 
+    Returns
+    -------
+    code : int
+        The algorithm's code (``haptex.core._ext.ALG_*``).
+    prm : ndarray, shape (N_PARAMS,)
+        Its parameters (``P_*``; SI units).
+    kind : int
+        The texture kind (``TEXTURE_*``, ``SURFACE_*``).
+    coeffs : ndarray, shape (rows, cols)
+        The texture's coefficients.
+    aux : ndarray, shape (n,)
+        D's and E's search data (over a periodic profile, or a profile extruded from one, with
+        the cell table :func:`haptex.closest.table_search_data`; over a surface with the
+        budget), F's smooth presliding table, else empty.
+    search_table : bool
+        True when aux holds a cell table.
+    """
+    code, prm, kind, coeffs, aux = algorithm.kernel_spec()
+    table = False
+    if algorithm.letter in ("D", "E"):
+        from .surfaces import Extruded
 
-def _fast_step(renderer: "Renderer"):
-    """:meth:`Renderer.step` for a servo loop: a tuple or list of plain floats goes straight to
-    the compiled tick, through its compiled entry point (numba's type dispatch skipped: the
-    argument types are known), with no attribute lookup; anything else takes the checked path.
-    About 0.2 us less a call than the checked path on the benchmark machine."""
-    mem = renderer._mem
-    checked = renderer._step_checked
-    args = (0.0, 0.0, 0.0, mem)
-    try:
-        tick = _render_step.overloads[tuple(numba.typeof(a) for a in args)].entry_point
-    except (AttributeError, KeyError):  # numba does not expose it: dispatch as usual
-        tick = _render_step
-    if renderer.dimension == 2:
-        def step(p):
-            if type(p) is tuple or type(p) is list:
-                if len(p) == 2:
-                    x, z = p
-                    if type(x) is float and type(z) is float:
-                        fx, _, fz = tick(x, 0.0, z, mem)
-                        return fx, fz
-            return checked(p)
-    else:
-        def step(p):
-            if type(p) is tuple or type(p) is list:
-                if len(p) == 3:
-                    x, y, z = p
-                    if type(x) is float and type(y) is float and type(z) is float:
-                        return tick(x, y, z, mem)
-            return checked(p)
-    step.__doc__ = Renderer.step.__doc__
-    return step
+        tex = algorithm.texture
+        profile = tex if tex.dimension == 1 else (tex.profile if isinstance(tex, Extruded) else None)
+        if profile is not None:
+            tabled = table_search_data(profile)
+            table = tabled[_ext.A_TABLE] != 0.0
+            aux = tabled
+        else:  # (a copy: the texture's own constants stay unbudgeted, the analysis certifies)
+            aux = aux.copy()
+            aux[_ext.G_BUDGET] = 0.0 if max_evaluations is None else float(max_evaluations)
+    return code, prm, kind, coeffs, np.require(aux, np.float64, ["C"]), bool(table)
 
 
 MAX_EVALUATIONS = 5000
 """The default budget of texture evaluations for one tick's closest-point search (D, E over a
 surface; chosen): about 12 times the paper's egg-crate's typical tick (410), about 0.3 ms here."""
+
+
+def evaluation_budget(max_evaluations):
+    """``max_evaluations`` checked: None, or a whole number of texture evaluations in [100, 10^9].
+
+    Raises
+    ------
+    ParameterError
+        For anything else (a bool, a float, a number out of range), naming the parameter."""
+    if max_evaluations is not None and not (isinstance(max_evaluations, int | np.integer)
+                                            and not isinstance(max_evaluations, bool)
+                                            and 100 <= max_evaluations <= 10**9):
+        raise fail("max_evaluations", max_evaluations, "None or a whole number of texture evaluations in [100, 10^9]")
+    return max_evaluations
 
 
 class Renderer:
@@ -194,66 +200,21 @@ class Renderer:
         if passivity_controller is not None and period is None:
             raise fail("period", period, "the servo period in s (> 0) with a passivity_controller")
         T = None if period is None else positive("period", period, "s")
-        if max_evaluations is not None and not (isinstance(max_evaluations, int | np.integer)
-                                                and not isinstance(max_evaluations, bool)
-                                                and 100 <= max_evaluations <= 10**9):
-            raise fail("max_evaluations", max_evaluations, "None or a whole number of texture evaluations in "
-                       "[100, 10^9]")
-        self.max_evaluations = max_evaluations
+        self.max_evaluations = evaluation_budget(max_evaluations)
         self.algorithm = algorithm
         self.passivity_controller = passivity_controller
         self.dimension = algorithm.dimension
-        code, prm, kind, coeffs, aux = algorithm.kernel_spec()
-        self._core = None
-        if _core.tick_in_core(algorithm):  # the C core's tick: every letter
-            # (the numba tick below is kept only as the C tick's oracle in tests/test_core.py,
-            # which selects it by emptying core.TICKS_IN_CORE; it goes with haptex._kernels)
-            pc = passivity_controller
-            tabled = _tick_search_data(algorithm, aux)
-            self._search_table = tabled is not aux and tabled[_kernels.A_TABLE] != 0.0
-            if code in (_kernels.ALG_D, _kernels.ALG_E) and kind in (_kernels.SURFACE_GRATINGS, _kernels.SURFACE_PATCHES):
-                tabled = tabled.copy()  # (the texture's own constants stay unbudgeted: the analysis certifies)
-                tabled[_kernels.G_BUDGET] = 0.0 if max_evaluations is None else float(max_evaluations)
-            self._core = _core._ext.Renderer(
-                code, prm, kind, coeffs, np.require(tabled, np.float64, ["C"]), self.dimension,
-                math.inf if max_force is None else float(max_force), WORKSPACE_LIMIT, bool(energy_monitor),
-                pc is not None, 0.0 if pc is None else pc.max_damping, pc is not None and pc.reference == "stored",
-                0.0 if T is None else T, self._step_checked)
-            self.step = self._core.step
-            return
-        tabled = _tick_search_data(algorithm, aux)
-        self._search_table = tabled is not aux and tabled[_kernels.A_TABLE] != 0.0
-        aux = tabled
-        K = _kernels
-        # one array for the kernel (one argument to unbox a call); views of it for Python
-        self._mem = np.zeros(K.R_DATA + coeffs.size + aux.size)
-        self._mem[[K.H_CODE, K.H_KIND, K.H_ROWS, K.H_COLS, K.H_NAUX]] = (code, kind, *coeffs.shape, aux.size)
-        self._mem[K.R_DATA:K.R_DATA + coeffs.size] = coeffs.ravel()
-        self._mem[K.R_DATA + coeffs.size:] = aux
-        self._prm = self._mem[K.R_PRM:K.R_RS]
-        self._rs = self._mem[K.R_RS:K.R_PC]
-        self._pc = self._mem[K.R_PC:K.R_BUF]
-        self._st = self._mem[K.R_ST:K.R_DATA]
-        self._prm[:] = prm
-        self._rs[RS_MAXF] = math.inf if max_force is None else float(max_force)
-        self._rs[RS_MONITOR] = 1.0 if (energy_monitor or passivity_controller is not None) else 0.0
-        self._rs[RS_LIMIT] = WORKSPACE_LIMIT
-        self._rs[RS_DIM] = self.dimension
-        if passivity_controller is not None:
-            self._pc[PC_ON] = 1.0
-            self._pc[PC_BMAX] = passivity_controller.max_damping
-            self._pc[PC_REF] = PC_REF_STORED if passivity_controller.reference == "stored" else PC_REF_ZERO
-            self._pc[PC_T] = T
-        # compile (or load from the cache) now, not in the servo loop
-        self._tick(0.0, 0.0, 1.0)
-        self.reset()
-        self.step = _fast_step(self)
+        code, prm, kind, coeffs, aux, self._search_table = tick_model(algorithm, max_evaluations)
+        pc = passivity_controller
+        self._core = _core._ext.Renderer(
+            code, prm, kind, coeffs, aux, self.dimension, math.inf if max_force is None else float(max_force),
+            WORKSPACE_LIMIT, bool(energy_monitor), pc is not None, 0.0 if pc is None else pc.max_damping,
+            pc is not None and pc.reference == "stored", 0.0 if T is None else T, self._step_checked)
+        self.step = self._core.step
 
     def _tick(self, x, y, z):
         """(fx, fy, fz) (N) at floats (x, y, z) (m), fy = 0 over a profile."""
-        if self._core is not None:
-            return self._core.tick(x, y, z)
-        return _render_step(x, y, z, self._mem)
+        return self._core.tick(x, y, z)
 
     def step(self, p):
         """Force to command for one probe position.
@@ -302,12 +263,7 @@ class Renderer:
                 x, y, z = float(x), float(y), float(z)
             return self._tick(x, y, z)
         except Exception:  # a malformed p: never let it reach the motor loop
-            if self._core is not None:
-                self._core.fault()
-                return (0.0,) * self.dimension
-            self._rs[RS_FAULTS] += 1.0
-            self._pc[PC_HAVE] = 0.0
-            self._rs[RS_WORK] = 0.0
+            self._core.fault()
             return (0.0,) * self.dimension
 
     @property
@@ -321,66 +277,56 @@ class Renderer:
     def last_work(self) -> int:
         """Work of the last :meth:`step`, bounded for any input: texture evaluations, plus
         F's presliding table steps (at most 11 + 60) in its smooth variant."""
-        return self._core.last_work if self._core is not None else int(self._rs[RS_WORK])
+        return self._core.last_work
 
     @property
     def cut(self) -> int:
         """Ticks since construction or :meth:`reset` whose closest-point search (D, E over a
         surface) its ``max_evaluations`` budget ended: their force used the best point found,
         not the certified closest point."""
-        return self._core.cut if self._core is not None else 0
+        return self._core.cut
 
     @property
     def max_work(self) -> int:
         """Largest :attr:`last_work` since construction or :meth:`reset`."""
-        return self._core.max_work if self._core is not None else int(self._rs[RS_MAXWORK])
+        return self._core.max_work
 
     def reset(self) -> None:
         """Clear the algorithm's state (friction, warm start), the observer, the controller and
         the counters."""
-        if self._core is not None:
-            self._core.reset()
-            return
-        self._st[:] = 0.0
-        for k in (RS_FAULTS, RS_CLAMPS, RS_WORK, RS_MAXWORK):
-            self._rs[k] = 0.0
-        on, bmax, ref, T = (self._pc[k] for k in (PC_ON, PC_BMAX, PC_REF, PC_T))
-        self._pc[:] = 0.0
-        self._pc[PC_ON], self._pc[PC_BMAX], self._pc[PC_REF], self._pc[PC_T] = on, bmax, ref, T
+        self._core.reset()
 
     @property
     def faults(self) -> int:
         """Calls whose position was not finite numbers within +-1 km (zero force returned)."""
-        return self._core.faults if self._core is not None else int(self._rs[RS_FAULTS])
+        return self._core.faults
 
     @property
     def clamps(self) -> int:
         """Calls whose force was scaled down to ``max_force``."""
-        return self._core.clamps if self._core is not None else int(self._rs[RS_CLAMPS])
+        return self._core.clamps
 
     @property
     def energy(self) -> float:
         """Passivity observer: energy absorbed by the virtual environment so far (J);
         negative means the rendering has supplied energy. 0 without ``energy_monitor``."""
-        return self._core.energy if self._core is not None else float(self._pc[PC_E])
+        return self._core.energy
 
     @property
     def energy_per_axis(self) -> tuple[float, ...]:
         """(E_x, E_z) or (E_x, E_y, E_z) of the passivity observer (J), the paper's Section
         V-B sums."""
-        if self._core is not None:
-            return self._core.energy_per_axis
-        return tuple(float(self._pc[PC_EAX + i]) for i in range(self.dimension))
+        return self._core.energy_per_axis
 
     @property
     def controller_active(self) -> int:
         """Ticks on which the passivity controller added damping."""
-        return self._core.controller_active if self._core is not None else int(self._pc[PC_ACTIVE])
+        return self._core.controller_active
 
     @property
     def controller_damping(self) -> float:
         """The damping alpha the controller added on the last tick (N s/m), 0 if none."""
-        return self._core.controller_damping if self._core is not None else float(self._pc[PC_ALPHA])
+        return self._core.controller_damping
 
     @property
     def adhesion(self):
@@ -388,13 +334,7 @@ class Renderer:
         else None."""
         if self.algorithm.letter != "F":
             return None
-        if self._core is not None:
-            adh = self._core.adhesion
-            if adh is None:
-                return None
-            return adh if self.dimension == 3 else adh[0]
-        if self._st[_kernels.S_CONTACT] == 0.0:
+        adh = self._core.adhesion
+        if adh is None:
             return None
-        if self.dimension == 3:
-            return float(self._st[_kernels.S_ADH]), float(self._st[_kernels.S_ADHY])
-        return float(self._st[_kernels.S_ADH])
+        return adh if self.dimension == 3 else adh[0]
