@@ -110,7 +110,7 @@ def analysis(args) -> None:
     n = args.points
     # positions over one period, from 0.2 mm above the peaks to 1 mm below the valleys
     p = np.column_stack([rng.uniform(0, 1e-3, n), rng.uniform(-1.8e-3, 1.0e-3, n)])
-    # warm the compiled kernels (numba compilation or cache load) before timing
+    # warm the search data (built once per texture) before timing
     hx.algorithm("D", tex, 2000).force(p[:10])
     rows = []
     for letter in "WABCDEFG":
@@ -142,7 +142,7 @@ def analysis(args) -> None:
         t_q = best_of(lambda: hx.characteristic_number(alg), repeat=1)
         print(f"{letter:4} {t_f:10.3f} {t_j:13.3f} {t_q:8.2f}")
     # the closest point on a surface: time per point per core (both cores run the search)
-    cores = int(os.environ.get("NUMBA_NUM_THREADS", os.cpu_count() or 1))
+    cores = hx.core.num_threads()
     for name, surf in (("grating (A = 0.8 mm, l = 1 mm, 0.3 rad)", hx.Grating(0.8e-3, 1e-3, 0.3)), ("egg-crate", egg)):
         xy = rng.uniform(0, 1e-3, (n, 2))
         q = np.column_stack([xy, surf.height_at(xy) - rng.uniform(0.0, 1e-3, n)])

@@ -36,7 +36,7 @@ def main() -> None:
     spec = SweepSpec.from_file(WALL)
     samples = spec.runs * round(spec.duration / 1e-4)
     with tempfile.TemporaryDirectory() as tmp:
-        sweep(spec, Path(tmp) / "warm.zarr", workers=2)  # numba cache and imports warm
+        sweep(spec, Path(tmp) / "warm.zarr", workers=2)  # imports warm
         for w in (1, 2):
             wall, _ = timed_sweep(spec, w, Path(tmp) / f"w{w}.zarr")
             print(f"wall atlas, {w} worker(s): {spec.runs} runs in {wall:.2f} s: {spec.runs / wall:.0f} runs/s, "

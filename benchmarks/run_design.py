@@ -1,6 +1,6 @@
 """`haptex design` on raw measured data (issue 13), wall time in one run on this machine:
 
-1. the CLI end to end (a fresh Python each, numba cache warm) on the paper's sinusoid and on
+1. the CLI end to end (a fresh Python each, imports warm) on the paper's sinusoid and on
    the raw Dektak scan with no options, and their ratio (goal <= 4);
 2. design() from Python on a 10^6-sample synthetic profile (a random walk, 1 um a sample,
    levelled) and on a 1024 x 1024 areal map (a grating plus noise, 1 um a pixel, read from
@@ -34,7 +34,7 @@ def cli(*args) -> float:
 
 
 def main() -> None:
-    cli("--texture", "sine:0.2mm,2mm")  # warm the numba cache
+    cli("--texture", "sine:0.2mm,2mm")  # warm the imports' caches
     sine = cli("--texture", "sine:0.2mm,2mm")
     print(f"haptex design --texture sine:0.2mm,2mm            {sine:6.1f} s")
     if DEKTAK.exists():

@@ -1,6 +1,5 @@
 """Renderer latency per algorithm: Renderer.step called from Python (median and 99th
-percentile of single calls), the compiled kernel alone (mean per call in a compiled
-loop), and the same force arithmetic in plain C (gcc -O2) for A and D; over the paper's
+percentile of single calls), the C core's tick alone (mean per call in a C loop), and the same force arithmetic in plain C (gcc -O2) for A and D; over the paper's
 sinusoid ([x, z]), over the egg-crate of the same A and l ([x, y, z], a diagonal scan) and
 over a gentle egg-crate (A = 0.1 mm, l = 2 mm: the probe stays within its least radius of
 curvature, where D's and E's closest point is certified by convexity).
@@ -16,25 +15,14 @@ import math
 import tempfile
 import time
 
-import numba as nb
 import numpy as np
 
 import haptex as hx
-from haptex import _kernels
 
 try:
     from run_sim import build_reference, c_reference
 except ImportError:  # run from the repository root
     from benchmarks.run_sim import build_reference, c_reference
-
-
-@nb.njit  # not cached: a cached copy would keep a stale render_step after _kernels changes
-def _kernel_loop(xs, ys, zs, mem):
-    acc = 0.0
-    for i in range(xs.shape[0]):
-        fx, fy, fz = _kernels.render_step(xs[i], ys[i], zs[i], mem)
-        acc += fx + fy + fz
-    return acc
 
 
 def trajectory(tex, letter, n):
@@ -83,19 +71,11 @@ def main() -> None:
                     lat[i] = time.perf_counter_ns() - t0
                 lat -= timer
                 r.reset()
-                if r._core is not None:  # the C core's tick, looped in C over the stroke
-                    arr = np.ascontiguousarray(np.array(pts, dtype=float))
-                    out = np.empty_like(arr)
-                    t0 = time.perf_counter()
-                    r._core.run(arr, out)
-                    kern = (time.perf_counter() - t0) / n * 1e9
-                else:
-                    args = (r._mem,)
-                    _kernel_loop(xs[:10], ys[:10], zs[:10], *args)
-                    r.reset()
-                    t0 = time.perf_counter()
-                    _kernel_loop(xs, ys, zs, *args)
-                    kern = (time.perf_counter() - t0) / n * 1e9
+                arr = np.ascontiguousarray(np.array(pts, dtype=float))  # the C core's tick, looped in C
+                out = np.empty_like(arr)
+                t0 = time.perf_counter()
+                r._core.run(arr, out)
+                kern = (time.perf_counter() - t0) / n * 1e9
                 c_ns = math.nan
                 if letter in "AD" and d == 2:
                     dev = hx.Device.point_mass()

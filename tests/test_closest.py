@@ -90,8 +90,9 @@ def test_the_cell_table_finds_the_trees_closest_point(name):
     # point that the bound tree gives (itself checked against brute force above), on probes
     # spread over the whole table (one cell is 1/64 of the shortest period) and beyond it;
     # cold starts, as the vectorised search runs them
-    from haptex import _kernels as K
+    from haptex import core
     from haptex.closest import search_data, table_search_data
+    from haptex.core import _ext as K
 
     tex = {"sine": hx.Sinusoid(A, L), "sum": hx.SumOfSinusoids([0.3e-3, 0.1e-3], [1e-3, 0.25e-3], [0.0, 1.0]),
            "spline": _periodic_spline()}[name]
@@ -99,7 +100,7 @@ def test_the_cell_table_finds_the_trees_closest_point(name):
     o = int(table[K.A_TABLE])
     assert o == tree.size and tree[K.A_TABLE] == 0.0  # the table is appended to the tree's data
     assert np.array_equal(np.delete(table[:o], K.A_TABLE), np.delete(tree, K.A_TABLE))
-    z0, z1 = table[o + K.T_Z0], tex.height_range[1]
+    z0, z1 = table[o + K.TB_Z0], tex.height_range[1]
     rng = np.random.default_rng(7)
     n = 40_000
     px = rng.uniform(-3e-3, 3e-3, n)
@@ -107,9 +108,7 @@ def test_the_cell_table_finds_the_trees_closest_point(name):
     kind, coeffs = tex.kernel_data()
     res = []
     for aux in (tree, table):
-        t, d, tie, work = np.empty(n), np.empty(n), np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64)
-        K.closest_points(kind, coeffs, aux, px, pz, t, d, tie, work)
-        res.append((t, d, tie, work))
+        res.append(core.closest_profile_points(kind, coeffs, aux, px, pz))
     (t0, d0, tie0, w0), (t1, d1, tie1, w1) = res
     np.testing.assert_array_equal(tie1, tie0)
     # both are certified within about 1e-15 m of the true closest point

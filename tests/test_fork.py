@@ -1,7 +1,7 @@
 """Issue 17, reproducer 9: after haptex has run its parallel loops (since issue 30 the C core's,
-on Python threads with the GIL released; numba's parallel kernels are no longer run by the
-library), a fork-based multiprocessing pool still works (GNU OpenMP's layer killed its workers: "fork() called
-from a process already using GNU OpenMP", and pool.map hung)."""
+on Python threads with the GIL released; numba, whose GNU OpenMP layer killed forked workers
+with "fork() called from a process already using GNU OpenMP" and hung pool.map, is gone), a
+fork-based multiprocessing pool still works."""
 
 import subprocess
 import sys
@@ -12,7 +12,6 @@ def test_a_fork_pool_works_after_a_parallel_kernel():
     # in a fresh interpreter, so that the threading layer is the one haptex chooses at import
     code = textwrap.dedent("""
         import multiprocessing as mp, numpy as np, haptex as hx
-        from haptex import _kernels
         tex = hx.Sinusoid(0.8e-3, 1e-3)
         hx.closest_point(tex, np.column_stack([np.linspace(0, 1e-3, 4000), np.full(4000, -1e-3)]))  # C, threads
         egg = hx.SumOfGratings.egg_crate(0.1e-3, 2e-3)  # C, threads

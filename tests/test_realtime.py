@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import haptex as hx
-from haptex import _kernels
+from haptex.friction import presliding_step_smooth
 
 from .conftest import DEKTAK, needs_data
 from .test_closest import brute_force_distance
@@ -93,7 +93,7 @@ def test_smooth_F_with_a_huge_jump_is_exact_and_bounded():
     assert fx == pytest.approx(-0.08, rel=1e-6) and fx >= -0.08
     assert fz == pytest.approx(0.1, rel=1e-12)
     # one texture evaluation, at most log2(2048) = 11 bisection steps over the travel table
-    # and 60 Newton steps inverting it (haptex._kernels._smooth_flow); more than the single
+    # and 60 Newton steps inverting it (hx_smooth_flow in the C core); more than the single
     # texture evaluation, so the table steps are counted
     assert 1 < r.last_work <= 1 + 11 + 60
 
@@ -110,7 +110,7 @@ def test_smooth_presliding_is_the_exact_flow_for_any_increment(dx):
     for zs in (dmax - 1e-9, 0.3e-3):
         r = 1.0 - zs / dmax
         d0 = zs - 0.5e-9
-        got = _kernels.presliding_step_smooth(d0, dx, dmax, zs, hx.friction.smooth_table(dmax, zs))
+        got = presliding_step_smooth(d0, dx, dmax, zs, hx.friction.smooth_table(dmax, zs))
         elastic = min(dx, zs - d0)
         if dx <= elastic:
             assert got == d0 + dx
@@ -126,7 +126,7 @@ def test_smooth_presliding_is_the_exact_flow_for_any_increment(dx):
             travel = dmax * quad(integrand, math.log(e1), math.log(e0), epsabs=0.0, epsrel=1e-12, limit=400)[0]
             assert travel == pytest.approx(dx - elastic, rel=1e-8)
     # and the inverse motion is purely elastic (dd/dx = 1 while |d| shrinks)
-    assert _kernels.presliding_step_smooth(0.5e-3, -dx, dmax, 0.3e-3, hx.friction.smooth_table(dmax, 0.3e-3)) \
+    assert presliding_step_smooth(0.5e-3, -dx, dmax, 0.3e-3, hx.friction.smooth_table(dmax, 0.3e-3)) \
         == pytest.approx(0.5e-3 - dx if dx < 0.8e-3 else -dmax, rel=1e-12) or dx >= 0.8e-3
 
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import haptex as hx
-from haptex import _kernels
+from haptex.core import _ext
 from haptex.operators import ConstantForce, ElasticBand, KinematicPath, ScanningHand
 
 A, L, K0 = 0.8e-3, 1e-3, 2000.0  # the paper's Section V-A sinusoid and stiffness
@@ -48,19 +48,19 @@ def test_3d_simulation_of_an_extruded_profile_is_the_2d_simulation(letter):
 
 @pytest.mark.parametrize("letter", list("ABCDEFG"))
 def test_the_compiled_3d_force_is_the_vectorised_field(letter):
-    # alg_force3 (the simulator's and the renderer's kernel) against Algorithm.force over the
+    # the C core's tick (the simulator's and the renderer's) against Algorithm.force over the
     # egg-crate and a sampled height map, at random positions inside and outside
     rng = np.random.default_rng(3)
     x, y = np.meshgrid(np.linspace(0, 2e-3, 24), np.linspace(0, 2e-3, 24), indexing="ij")
     sampled = hx.SampledSurface(x[:, 0], y[0], 0.3e-3 * np.sin(2 * np.pi * x / 1e-3) * np.cos(2 * np.pi * y / 1.5e-3))
     for tex in (hx.SumOfGratings.egg_crate(A, L), sampled):
         alg = hx.algorithm(letter, tex, K0)
-        code, prm, kind, coeffs, aux = alg.kernel_spec()
+        r = hx.Renderer(alg)
         p = np.column_stack([rng.uniform(0.2e-3, 1.8e-3, 60), rng.uniform(0.2e-3, 1.8e-3, 60),
                              rng.uniform(-1.2e-3, 0.9e-3, 60)])
         for pi in p:
-            st = np.zeros(_kernels.N_STATE)  # F from a fresh contact: zero deflection
-            got = _kernels.alg_force3(code, pi[0], pi[1], pi[2], kind, coeffs, prm, aux, st)
+            r.reset()  # F from a fresh contact: zero deflection
+            got = r.step(pi.tolist())
             want = alg.force(pi)
             np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-9 * K0 * 1e-3)
 
@@ -87,9 +87,9 @@ def test_the_fast_path_is_the_general_path(monkeypatch, d):
                     damping_outside=np.diag([0.1, 0.2, 0.3][:d]), period=1e-4, delay=1, position_resolution=1e-6,
                     max_force=1.5, coulomb_friction=0.05)
     push = ConstantForce([0.3, -1.2] if d == 2 else [0.3, 0.2, -1.2])
-    assert SIM._fast_coefficients(dev, push).shape == (2, d, _kernels.N_FAST)
+    assert SIM._fast_coefficients(dev, push).shape == (2, d, _ext.N_FAST)
     fast = hx.simulate(alg, dev, push, 0.3)
-    monkeypatch.setattr(SIM, "_fast_coefficients", lambda device, op: np.zeros((0, device.dimension, _kernels.N_FAST)))
+    monkeypatch.setattr(SIM, "_fast_coefficients", lambda device, op: np.zeros((0, device.dimension, _ext.N_FAST)))
     general = hx.simulate(alg, dev, push, 0.3)
     np.testing.assert_allclose(fast.position, general.position, rtol=0, atol=1e-12)
     for key in ("energy_x", "energy_z", "damping_energy", "operator_work", "friction_energy"):

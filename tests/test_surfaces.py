@@ -10,7 +10,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import haptex as hx
-from haptex import _kernels
+from haptex import core
+from haptex.core import _ext
 
 from .conftest import K0, A, L
 
@@ -644,7 +645,7 @@ def test_the_convexity_certificate_gives_the_searchs_closest_point(name, tex, ce
     # branch and bound's closest point (the independent reference, run with the certificate
     # off) to 1e-15 m in a bounded handful of evaluations; where it is not (the paper's
     # egg-crate, 32 um radius of curvature, 0.4 mm deep), the search is untouched, bit for bit
-    from haptex import _kernels as K
+    K = _ext  # the C core's constants
     from haptex.closest import surface_search_data
 
     kind, gc, gaux = surface_search_data(tex)
@@ -656,9 +657,7 @@ def test_the_convexity_certificate_gives_the_searchs_closest_point(name, tex, ce
     assert np.all(m >= K.CONVEX_MIN) if certified else np.all(m < K.CONVEX_MIN)
     runs = []
     for g in (gaux, np.where(np.arange(K.N_GAUX) == K.G_CONVEX, 0.0, gaux)):
-        out = [np.empty(n) for _ in range(3)] + [np.empty(n, dtype=np.int64) for _ in range(2)]
-        K.surface_closest_points(kind, gc, g, x, y, z, *out)
-        runs.append(out)
+        runs.append(core.closest_surface_points(kind, gc, g, x, y, z))
     (tx, ty, d, tie, work), (rx, ry, rd, rtie, rwork) = runs
     if certified:
         # measured: at most 6; median 5 against the search's 7 (56 before the search's basin disc,
@@ -686,7 +685,7 @@ def test_a_renderer_over_a_gentle_surface_ticks_d_and_e_in_a_few_evaluations(let
         work.append(r.last_work)
     work = np.array(work)
     # the height under p, 1 + 2 evaluations of Newton from the warm start, the height at t
-    assert np.median(work) <= 5 and work.max() <= 2 + _kernels.CONVEX_EVALS  # measured 5 and 6
+    assert np.median(work) <= 5 and work.max() <= 2 + _ext.CONVEX_EVALS  # measured 5 and 6
     np.testing.assert_allclose(np.array(forces), alg.force(p), rtol=1e-12, atol=K0 * 4e-15)
 
 
@@ -698,7 +697,7 @@ def test_the_surface_search_work_stays_bounded_on_random_probes(name, tex):
     # search crept down with cells refined to 1e-13 m: 15 and 8 probes in 200,000 took more
     # than 10^4 evaluations, up to 784,144 and 1,089,158 (measured; the first five below are
     # the worst of them). With the monotone polish: at most 313 and 583 (measured).
-    from haptex import _kernels as K
+    K = _ext  # the C core's constants
     from haptex.closest import surface_search_data
 
     known = {"grating": [[0.00022619186359513577, 0.0004428689315175731, -0.00010865372547514481],
@@ -710,8 +709,7 @@ def test_the_surface_search_work_stays_bounded_on_random_probes(name, tex):
     n = 100_000
     xy = rng.uniform(0, 1e-3, (n, 2))
     p = np.vstack([known, np.column_stack([xy, tex.height_at(xy) - rng.uniform(0.0, 1e-3, n)])])
-    out = [np.empty(len(p)) for _ in range(3)] + [np.empty(len(p), dtype=np.int64) for _ in range(2)]
-    K.surface_closest_points(kind, gc, gaux, p[:, 0].copy(), p[:, 1].copy(), p[:, 2].copy(), *out)
+    out = core.closest_surface_points(kind, gc, gaux, p[:, 0], p[:, 1], p[:, 2])
     assert out[4].max() <= 1000, out[4].max()
     dr = _brute_force_distance(tex, p[:2], 1.05 * out[2][:2])  # and the answer is the closest point
     assert np.all(np.abs(out[2][:2] - dr) <= gaux[K.G_TIE])
@@ -779,7 +777,7 @@ def test_the_surface_search_is_global_on_the_paper_egg_crate(stroke):
     # mirror twin at the same distance, reported as a tie when farther than four leaves (the
     # documented medial-axis test). Work (measured, evaluations a probe, mean / max): 417 / 797
     # against the uncertified search's 570 / 1,100 along the diagonal
-    from haptex import _kernels as K
+    K = _ext  # the C core's constants
     from haptex.closest import surface_search_data
 
     tex = hx.SumOfGratings.egg_crate(A, L)
@@ -796,9 +794,7 @@ def test_the_surface_search_is_global_on_the_paper_egg_crate(stroke):
     for jerk in (gaux[K.G_JERK], 0.0):
         g = gaux.copy()
         g[K.G_JERK] = jerk
-        out = [np.empty(x.size) for _ in range(3)] + [np.empty(x.size, dtype=np.int64) for _ in range(2)]
-        K.surface_closest_points(kind, gc, g, x, y, z, *out)
-        runs.append(out)
+        runs.append(core.closest_surface_points(kind, gc, g, x, y, z))
     (tx, ty, d, tie, work), (_, _, dl, _, workl) = runs
     sub = slice(0, None, 8)
     dr = _brute_force_distance(tex, np.column_stack([x, y, z])[sub], 1.05 * d[sub])

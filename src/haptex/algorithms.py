@@ -17,7 +17,7 @@ import warnings
 
 from scipy import integrate
 
-from . import _kernels
+from .core import _ext
 from ._validation import ParameterError, fail, finite, in_range, nonnegative, optional_positive, positions, positive
 from .closest import closest_point, search_data
 from .friction import PreslidingState, smooth_table, step
@@ -159,9 +159,9 @@ class Algorithm:
         return self.penetration(p) > 0
 
     def kernel_spec(self) -> tuple[int, np.ndarray, int, np.ndarray, np.ndarray]:
-        """What the compiled force kernels :func:`haptex._kernels.alg_force` (positions
-        [x, z] over a profile) and :func:`haptex._kernels.alg_force3` ([x, y, z] over a
-        surface) read.
+        """What the C core reads for this algorithm (:mod:`haptex.core`: its fields, the
+        renderer's tick, the simulator's loops; positions [x, z] over a profile, [x, y, z]
+        over a surface).
 
         Returns
         -------
@@ -175,18 +175,17 @@ class Algorithm:
             (:func:`haptex.friction.smooth_table`), else zeros(1).
         """
         kind, coeffs = self.texture.kernel_data()
-        # writeable C arrays: numba compiles a read-only array (the cached presliding table) as
-        # another type, and so a second copy of every kernel that reads it
         return (_CODES[self.letter], self.kernel_params(), kind, np.require(coeffs, np.float64, ["C", "W"]),
                 np.require(self._aux(), np.float64, ["C", "W"]))
 
     def kernel_params(self) -> np.ndarray:
-        """The algorithm's parameter vector float64[6] of the compiled kernels and the C
-        export (see :meth:`kernel_spec`), for a profile or a surface."""
-        prm = np.zeros(_kernels.N_PARAMS)
-        prm[_kernels.P_K0] = self.stiffness
-        prm[_kernels.P_DZMAX] = -1.0 if self.max_penetration is None else self.max_penetration
-        prm[_kernels.P_ZSTICK] = -1.0
+        """The algorithm's parameter vector float64[6] of the C core (``hx_model.prm``, the
+        slots ``P_*`` of :mod:`haptex.core._ext`; see :meth:`kernel_spec`), for a profile or a
+        surface."""
+        prm = np.zeros(_ext.N_PARAMS)
+        prm[_ext.P_K0] = self.stiffness
+        prm[_ext.P_DZMAX] = -1.0 if self.max_penetration is None else self.max_penetration
+        prm[_ext.P_ZSTICK] = -1.0
         self._fill_kernel_params(prm)
         return prm
 
@@ -351,8 +350,8 @@ class SmoothWall(Algorithm):
                 f"period={self.period:g})")
 
     def _fill_kernel_params(self, prm) -> None:
-        prm[_kernels.P_MU] = self.damping  # W's slots: virtual damping B and servo period T
-        prm[_kernels.P_DXMAX] = 1.0 if self.period is None else self.period
+        prm[_ext.P_MU] = self.damping  # W's slots: virtual damping B and servo period T
+        prm[_ext.P_DXMAX] = 1.0 if self.period is None else self.period
 
     def _evaluate(self, xt, z, jacobian):
         k = self.stiffness
@@ -821,10 +820,10 @@ class FrictionModulated(Algorithm):
         return smooth_table(self.presliding, self.stick_deflection)
 
     def _fill_kernel_params(self, prm) -> None:
-        prm[_kernels.P_MU] = self.friction
-        prm[_kernels.P_DXMAX] = self.presliding
-        prm[_kernels.P_SCALE] = self._scale
-        prm[_kernels.P_ZSTICK] = -1.0 if self.stick_deflection is None else self.stick_deflection
+        prm[_ext.P_MU] = self.friction
+        prm[_ext.P_DXMAX] = self.presliding
+        prm[_ext.P_SCALE] = self._scale
+        prm[_ext.P_ZSTICK] = -1.0 if self.stick_deflection is None else self.stick_deflection
 
     def initial_state(self, x: float) -> PreslidingState:
         """Friction state of a fresh contact at abscissa x (m): zero deflection."""
@@ -1058,8 +1057,7 @@ class FrictionModulated(Algorithm):
         return total, state
 
 
-_CODES = {"W": _kernels.ALG_W, "A": _kernels.ALG_A, "B": _kernels.ALG_B, "C": _kernels.ALG_C,
-          "D": _kernels.ALG_D, "E": _kernels.ALG_E, "F": _kernels.ALG_F, "G": _kernels.ALG_G}
+_CODES = {letter: getattr(_ext, f"ALG_{letter}") for letter in "WABCDEFG"}
 
 ALGORITHMS: dict[str, type[Algorithm]] = {
     "W": SmoothWall,

@@ -1,24 +1,32 @@
 """Closest point on the textured boundary z = h(x) or z = h(x, y), used by algorithms D and E.
 
-The search is compiled (:func:`haptex._kernels.closest_point`); this module builds, once
-per texture, the data it reads (:func:`search_data`: a tree of height bounds), validates,
-flattens and calls it. The reference it is tested against is a brute-force dense search.
+The search is the C core's (``hx_closest_profile``, ``hx_closest_surface``); this module
+builds, once per texture, the data it reads (:func:`search_data`: a tree of height bounds;
+:func:`table_search_data`: a periodic profile's cell table; :func:`surface_search_data`: a
+surface's constants), validates, flattens and calls it. The reference it is tested against
+is a brute-force dense search.
 """
 
 from __future__ import annotations
 
 import math
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
 
-from . import _kernels as K
 from . import core as _core
+from .core import _ext as K
 from ._validation import ParameterError, positions
 from .textures import SampledProfile, SumOfSinusoids, Texture
 
 __all__ = ["ClosestPoint", "closest_point", "search_data", "table_search_data"]
 
+MAX_LEAVES = 1 << 22
+"""Largest bound tree (leaves) a texture may ask for: 2^22 leaves are 128 MiB of bounds (the C
+core's check, ``hx_closest_aux_check``, allows no more)."""
+OPEN_LEAVES = 4096
+"""An aperiodic Fourier sum is searched within +-OPEN_LEAVES leaves of the probe's abscissa."""
 FOURIER_WORK_LIMIT = 4e9
 """Largest number of harmonic evaluations :func:`search_data` may spend on a Fourier texture."""
 TABLE_CELL_DIVISOR = 64
@@ -122,7 +130,7 @@ def closest_point(texture: Texture, p) -> ClosestPoint:
     texture's height range (2 sum a_k) of the true distance.
 
     Over a surface the same argument runs on a quadtree
-    (:func:`haptex._kernels.surface_closest_point`): the square of half-width
+    (``hx_closest_surface``): the square of half-width
     sqrt(best^2 - (min h - p^z)^2) around p_xy is cut into cells, pruned by bounds of h over
     each (Taylor bounds from sup |grad h| and sup ||H||; for gratings also each grating's
     exact range; beyond a non-periodic height map the extension's). Over a sum of gratings a
@@ -130,14 +138,14 @@ def closest_point(texture: Texture, p) -> ClosestPoint:
     exactly over the cell, less a cubic term from rigorous bounds of |grad h|, ||H|| and the
     third derivatives; where the model's least point is below the best, Newton polishes it to
     its local minimum. The result is certified: no point of the surface is closer than the
-    returned distance less 1e-9 of the shortest wavelength. Over a height map, cells of one
-    sample interval are leaves refined by projected Newton from the best of six samples, which
-    is not certified (where phi is not convex over a leaf it can miss the leaf's minimum: the
-    same refinement over the paper's egg-crate, 0.4 mm deep, misses 17 of 4,000 probes along
-    its diagonal by 0.25 um). Over a sum of gratings, where phi / 2 is certified strongly
-    convex on the whole plane (:func:`haptex._kernels.convex_closest_point`), Newton answers
-    first and is exact to
-    1e-15 m. Over ``Extruded(profile)`` the profile's search is exact and p_h^y = p^y.
+    returned distance less 1e-9 of the shortest wavelength. Over a height map the same Taylor
+    bounds come from the bicubic patches (:attr:`haptex.SampledSurface.derivative_bounds`),
+    and beyond a non-periodic map's edges from the extension's
+    (:attr:`haptex.SampledSurface.edge_bounds`), cells cut at the edge lines: certified too.
+    Where phi / 2 is certified strongly convex on the whole plane (a sum of gratings or a
+    periodic map, a probe within the least radius of curvature, roughly), Newton answers first
+    and is exact to 1e-15 m. Over ``Extruded(profile)`` the profile's search is exact and
+    p_h^y = p^y.
     """
     if texture.dimension == 2:
         return _closest_point_surface(texture, p)
@@ -162,13 +170,13 @@ def search_data(texture: Texture) -> np.ndarray:
     Returns
     -------
     ndarray, shape (n,)
-        Header (``haptex._kernels.A_*``) and the bound tree: lower and upper bounds of h (m)
+        Header (``haptex.core._ext.A_*``) and the bound tree: lower and upper bounds of h (m)
         over the 2 n_leaf - 1 dyadic sub-intervals of the core interval.
 
     Raises
     ------
     ParameterError
-        If the tree would need more than ``_kernels.MAX_LEAVES`` leaves (a texture whose
+        If the tree would need more than :data:`MAX_LEAVES` leaves (a texture whose
         period holds more than 500,000 shortest periods) or more than
         ``FOURIER_WORK_LIMIT`` harmonic evaluations to build.
     """
@@ -190,14 +198,15 @@ def table_search_data(texture: Texture) -> np.ndarray:
     boundary that can contain the closest point of *any* probe in the cell, found with the
     1-Lipschitz bound of the distance, each certified either convex for every probe of the
     cell (a Newton solve finds its minimum) or not (it is scanned as a leaf of the tree)
-    (:func:`haptex._kernels.build_cell_table`). A probe outside the table, or in a cell
-    needing more than ``_kernels.TABLE_MAXP`` pieces, is searched by the tree: the result is
-    the same global closest point either way, only the work differs.
+    (the C core's ``hx_table_cell``, rows built on :func:`haptex.core.num_threads` threads). A
+    probe outside the table, or in a cell needing more than ``TABLE_MAXP`` (16) pieces, is
+    searched by the tree: the result is the same global closest point either way, only the
+    work differs.
 
     Returns
     -------
     ndarray, shape (n,)
-        The search data with aux[``_kernels.A_TABLE``] the offset of the table (0: no table,
+        The search data with aux[``A_TABLE``] the offset of the table (0: no table,
         for textures other than periodic profiles).
 
     Raises
@@ -224,21 +233,30 @@ def table_search_data(texture: Texture) -> np.ndarray:
             break
         w *= 1.25
     w = period / nx
-    counts, rows = [], []
-    count = np.empty(nx)
-    out = np.zeros((nx, K.PIECE * K.TABLE_MAXP))
     kind, coeffs = texture.kernel_data()
-    for j in range(nz):  # one row of cells a call: a row's scratch, not the whole table's
-        K.build_cell_table(kind, coeffs, aux, float(aux[K.A_START]), w, nx, z0 + j * w, hmax, count, out)
+    coeffs = np.ascontiguousarray(coeffs, dtype=np.float64)
+    x0 = float(aux[K.A_START])
+
+    def row(j):  # one row of cells a task: a row's scratch, not the whole table's (the C releases the GIL)
+        count = np.empty(nx)
+        out = np.empty((nx, K.PIECE * K.TABLE_MAXP))
+        K.table_cells(kind, coeffs, aux, x0, w, 0, z0 + j * w, hmax, count, out)
         n = count.astype(np.int64)
-        counts.append(n)
-        rows.append(out.reshape(nx, K.TABLE_MAXP, K.PIECE)[np.arange(K.TABLE_MAXP)[None, :] < n[:, None]])
+        return n, out.reshape(nx, K.TABLE_MAXP, K.PIECE)[np.arange(K.TABLE_MAXP)[None, :] < n[:, None]]
+
+    threads = min(_core.num_threads(), nz)
+    if threads > 1:
+        with ThreadPoolExecutor(threads) as pool:
+            built = list(pool.map(row, range(nz)))
+    else:
+        built = [row(j) for j in range(nz)]
+    counts, rows = [b[0] for b in built], [b[1] for b in built]
     count = np.concatenate(counts)
     used = np.maximum(count, 0)
     off = aux.size
-    first = off + K.T_CELLS + 2 * nx * nz + K.PIECE * (np.cumsum(used) - used)
-    head = np.zeros(K.T_CELLS)
-    head[[K.T_X0, K.T_PERIOD, K.T_W, K.T_NX, K.T_Z0, K.T_NZ]] = aux[K.A_START], period, w, nx, z0, nz
+    first = off + K.TB_CELLS + 2 * nx * nz + K.PIECE * (np.cumsum(used) - used)
+    head = np.zeros(K.TB_CELLS)
+    head[[K.TB_X0, K.TB_PERIOD, K.TB_W, K.TB_NX, K.TB_Z0, K.TB_NZ]] = aux[K.A_START], period, w, nx, z0, nz
     table = np.concatenate([aux, head, np.column_stack([first, count]).ravel(), np.concatenate(rows).ravel()])
     table[K.A_TABLE] = off
     texture.__dict__["_table_search_data"] = table
@@ -271,17 +289,17 @@ def _build(texture: Texture) -> np.ndarray:
             head[K.A_MODE] = K.CP_OPEN
             head[K.A_STEP] = step
             head[K.A_HMIN] = -float(np.sum(texture.amplitudes))
-            head[K.A_WCAP] = K.OPEN_LEAVES / 2 * 8.0 * step
+            head[K.A_WCAP] = OPEN_LEAVES / 2 * 8.0 * step
             return head
         return _fourier_tree(texture)
     raise ParameterError(f"texture = {texture!r} is not allowed: D and E need a haptex texture")
 
 
 def _leaves_for(count: float, what: str) -> int:
-    if not count <= K.MAX_LEAVES:
+    if not count <= MAX_LEAVES:
         raise ParameterError(
             f"{what} needs {count:.3g} closest-point leaves, which is not allowed: at most "
-            f"{K.MAX_LEAVES} (use a shorter period or a longer shortest period)")
+            f"{MAX_LEAVES} (use a shorter period or a longer shortest period)")
     n = 1
     while n < count:
         n *= 2
@@ -318,7 +336,8 @@ def _fourier_tree(tex: SumOfSinusoids) -> np.ndarray:
     lo = np.empty(n_leaf)
     hi = np.empty(n_leaf)
     head = _header(tex)
-    tmin, _ = K.fourier_leaf_bounds(tex._coeffs, 0.0, width, n_leaf, 8, head[K.A_JERK], lo, hi)
+    tmin, _ = K.leaf_bounds(K.TEXTURE_FOURIER, np.ascontiguousarray(tex._coeffs, dtype=np.float64), 0.0, width, 8,
+                            float(head[K.A_JERK]), lo, hi)
     pad = 1e-13 * float(np.sum(tex.amplitudes))
     head[K.A_MODE] = K.CP_PERIODIC
     head[K.A_START] = 0.0
@@ -412,9 +431,9 @@ def surface_search_data(texture) -> tuple[int, np.ndarray, np.ndarray]:
     """The compiled surface search's data: the surface kind, its coefficients (a sum of
     gratings: shape (4, n) = amplitudes (m), k_x, k_y (rad/m), phases (rad); a height map: its
     bicubic patches, :meth:`haptex.SampledSurface.patches`), and the constants
-    ``_kernels.G_*`` (lowest and highest height, sup |grad h|, sup ||H||, leaf half-width,
+    ``G_*`` of :mod:`haptex.core._ext` (lowest and highest height, sup |grad h|, sup ||H||, leaf half-width,
     tie tolerance 1e-9 of the shortest wavelength; over a sum of gratings, rigorous bounds
-    for :func:`haptex._kernels.convex_closest_point`'s certificate and the search's Taylor
+    for the strong-convexity certificate (Newton first) and the search's Taylor
     bound: ``curvature_bound`` >= ||H||_2, sum a |k| >= |grad h| and sum a |k|^3 >= the third
     derivatives' norm; over a height map the patches' bounds
     :attr:`haptex.SampledSurface.derivative_bounds`, which hold inside the map: the C search

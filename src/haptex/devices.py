@@ -73,7 +73,7 @@ class Device:
     coulomb_friction : float, optional
         f_c (N), the handle's isotropic Coulomb friction with stiction, default 0. The
         simulator holds it over each sample like the command (a sampled Karnopp model,
-        :func:`haptex._kernels._coulomb`): the handle sticks while the friction needed to
+        the C core's simulator loop, ``hx_sim.c``): the handle sticks while the friction needed to
         stop it within the sample is at most f_c, else slides against f_c. Its dissipation
         enters the energy balance. Abbott & Okamura (IEEE Trans. Robotics 21(5), 2005)
         tie the wall's passivity to it through the encoder resolution.

@@ -26,10 +26,10 @@ import numpy as np
 import scipy.fft
 from scipy.linalg import expm
 
-from ._kernels import (DIVERGED_ENERGY, DIVERGED_FORCE, DIVERGED_POSITION, DIVERGED_VELOCITY, N_FAST, N_SUMMARY,
-                       PC_REF_STORED, PC_REF_ZERO, S_DAMP, S_DIVERGED, S_DIVERGED_WHAT, S_EX, S_EY, S_EZ, S_FRIC, S_KE,
-                       S_KE0, S_MAXPEN, S_OP, S_PC_ACTIVE, S_SAT, S_TAILSTART_E)
 from . import core as _core
+from .core._ext import (DIVERGED_ENERGY, DIVERGED_FORCE, DIVERGED_POSITION, DIVERGED_VELOCITY, N_FAST, N_SUMMARY,
+                        S_DAMP, S_DIVERGED, S_DIVERGED_WHAT, S_EX, S_EY, S_EZ, S_FRIC, S_KE, S_KE0, S_MAXPEN, S_OP,
+                        S_PC_ACTIVE, S_SAT, S_TAILSTART_E)
 from ._validation import ParameterError, fail, nonnegative, positions, positive, whole
 from .algorithms import Algorithm
 from .devices import Device
@@ -224,7 +224,7 @@ def _core_general(code, kind, nominal, kinematic, pc_on, pc_ref, n_steps, T, rec
     N = per_run[0].shape[0]
 
     def one(lo, hi):
-        _core._ext.run_general(code, kind, bool(nominal), bool(kinematic), bool(pc_on), pc_ref == PC_REF_STORED,
+        _core._ext.run_general(code, kind, bool(nominal), bool(kinematic), bool(pc_on), bool(pc_ref),
                                int(n_steps), float(T), int(record_every), int(tail_start), f64(sp_t),
                                *(a[lo:hi] for a in per_run), *(a[lo:hi] for a in outs))
 
@@ -601,13 +601,13 @@ def _kernel_inputs(algorithm, device, operator, memo: dict | None = None):
     return code, prm, kind, coeffs, aux, nominal, Phi, Wd, Wo, Bs, Binv, fast
 
 
-def _controller(pc: PassivityController | None) -> tuple[bool, float, float]:
-    """(on, max damping N s/m, reference code) of the compiled loop."""
+def _controller(pc: PassivityController | None) -> tuple[bool, float, bool]:
+    """(on, max damping N s/m, the stored reference) of the C loop."""
     if pc is None:
-        return False, 0.0, PC_REF_ZERO
+        return False, 0.0, False
     if not isinstance(pc, PassivityController):
         raise fail("passivity_controller", pc, "None or a haptex.PassivityController")
-    return True, pc.max_damping, PC_REF_STORED if pc.reference == "stored" else PC_REF_ZERO
+    return True, pc.max_damping, pc.reference == "stored"
 
 
 def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration: float, initial_position=None,

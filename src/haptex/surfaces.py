@@ -16,7 +16,7 @@ from functools import cached_property
 import numpy as np
 from scipy import optimize
 
-from . import _kernels
+from .core import _ext
 from ._validation import ParameterError, check_count, fail, finite, nonnegative, positive, whole
 from .textures import MAX_HARMONICS, SampledProfile, Texture, _band_limited_samples, _vector, common_period
 
@@ -65,7 +65,7 @@ class Surface(Texture):
     slope = curvature = height
 
     def kernel_data(self) -> tuple[int, np.ndarray]:
-        """(kind, coeffs) of the compiled kernels (:mod:`haptex._kernels`): a sum of gratings
+        """(kind, coeffs) of the compiled kernels (:mod:`haptex.core`): a sum of gratings
         as ``SURFACE_GRATINGS`` with shape (4, n) (amplitudes m, k_x, k_y rad/m, phases
         rad), a height map as ``SURFACE_PATCHES`` (its bicubic patches), an extruded profile
         as its profile's data (h does not depend on y).
@@ -194,7 +194,7 @@ class SumOfGratings(Surface):
 
     def kernel_data(self) -> tuple[int, np.ndarray]:
         """(``SURFACE_GRATINGS``, [amplitudes, k_x, k_y, phases]) of shape (4, n)."""
-        return _kernels.SURFACE_GRATINGS, np.ascontiguousarray(
+        return _ext.SURFACE_GRATINGS, np.ascontiguousarray(
             np.vstack([self.amplitudes, self._kvec[:, 0], self._kvec[:, 1], self.phases]))
 
     def height_at(self, xt):
@@ -661,11 +661,11 @@ class SampledSurface(Surface):
 
     def kernel_data(self) -> tuple[int, np.ndarray]:
         """(``SURFACE_PATCHES``, :meth:`patches`)."""
-        return _kernels.SURFACE_PATCHES, self.patches()
+        return _ext.SURFACE_PATCHES, self.patches()
 
     def patches(self) -> np.ndarray:
         """The spline as bicubic patches for the compiled closest-point search
-        (``haptex._kernels.SURFACE_PATCHES``): shape (1, 8 + 16 n_cells), the header PATCH_*
+        (``haptex.core._ext.SURFACE_PATCHES``): shape (1, 8 + 16 n_cells), the header PATCH_*
         and per cell the coefficients c[a, b] of s^a t^b in the cell's local coordinates
         s, t in [0, 1], found by sampling the spline at 4 x 4 points of each cell (a bicubic
         is fixed by 16 values). Cached.
@@ -678,7 +678,7 @@ class SampledSurface(Surface):
         cached = self.__dict__.get("_patches")
         if cached is not None:
             return cached
-        from . import _kernels as K
+        K = _ext
         from ._validation import check_budget
 
         nx = self.x.size if self.periodic else self.x.size - 1
@@ -714,7 +714,7 @@ class SampledSurface(Surface):
         third-derivative tensor (1/m^2; sup over unit u of |D^3 h[u, u, u]|, bounded by
         Cauchy-Schwarz as sqrt(B_xxx^2 + 3 B_xxy^2 + 3 B_xyy^2 + B_yyy^2)). The spline is C^2,
         so H is Lipschitz with constant J across patches: the closest-point search's Taylor
-        bound (``_kernels.G_JERK``) holds on any disc or square inside the map."""
+        bound (``_ext.G_JERK``) holds on any disc or square inside the map."""
         pat = self.patches()[0, 8:].reshape(-1, 4, 4)
         dx, dy = self.dx, self.dy
         fall = _FALL  # the multipliers of |c[a, b]| in each derivative's bound
@@ -736,7 +736,7 @@ class SampledSurface(Surface):
     @cached_property
     def edge_bounds(self) -> np.ndarray:
         """Bounds on the derivatives along each edge of a non-periodic map, for the
-        closest-point search's Taylor bounds beyond it (``_kernels.G_EDGE``): beyond an edge
+        closest-point search's Taylor bounds beyond it (``_ext.G_EDGE``): beyond an edge
         the map is extended by its tangent plane, h = H(t) + G(t) e (e the distance beyond,
         t along the edge; C^1 across the edge, C^2 beside it), whose slope, curvature and
         third derivatives grow with e at most as these bounds say. Shape (4, 7): the edges

@@ -1,7 +1,7 @@
 """Height profiles h(x) over the nominal surface z = 0.
 
 A texture turns user parameters into the compact arrays that the compiled kernels read
-(see :mod:`haptex._kernels`) and offers vectorised NumPy evaluation of the height, slope
+(see :mod:`haptex.core`) and offers vectorised NumPy evaluation of the height, slope
 and curvature for analysis. All lengths are in metres.
 """
 
@@ -14,7 +14,7 @@ from functools import cached_property
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from . import _kernels
+from .core import _ext
 from ._validation import MAX_LENGTH, ParameterError, check_count, fail, finite, nonnegative, positive, whole
 
 
@@ -149,7 +149,7 @@ class SumOfSinusoids(Texture):
     def kernel_data(self) -> tuple[int, np.ndarray]:
         """(kind, coeffs) for the compiled kernels: ``TEXTURE_FOURIER`` and a (3, n)
         array of amplitudes (m), wavenumbers 2 pi / l (rad/m) and phases (rad)."""
-        return _kernels.TEXTURE_FOURIER, self._coeffs
+        return _ext.TEXTURE_FOURIER, self._coeffs
 
     # -- summary numbers --------------------------------------------------------------
     @property
@@ -474,7 +474,7 @@ class SampledProfile(Texture):
 
     def kernel_data(self) -> tuple[int, np.ndarray]:
         """(``TEXTURE_SPLINE``, coefficients) for the compiled kernels."""
-        return _kernels.TEXTURE_SPLINE, self._coeffs
+        return _ext.TEXTURE_SPLINE, self._coeffs
 
     # -- summary numbers ---------------------------------------------------------------------
     @property
@@ -761,7 +761,7 @@ class Flat(Texture):
 
     def kernel_data(self) -> tuple[int, np.ndarray]:
         """(``TEXTURE_FLAT``, empty coefficients)."""
-        return _kernels.TEXTURE_FLAT, _kernels.empty_coeffs()
+        return _ext.TEXTURE_FLAT, np.zeros((3, 0))
 
     def spectrum(self) -> tuple[np.ndarray, np.ndarray]:
         """Empty: a flat surface has no texture."""

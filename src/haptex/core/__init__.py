@@ -10,8 +10,9 @@ In the core: texture evaluation of every kind; the memoryless fields W, A, B, C 
 their Jacobians (:func:`field`); every letter's servo tick, with D's and E's closest-point
 searches over profiles and surfaces and F's presliding (:class:`haptex.Renderer`); the
 simulator's lean and general loops (:func:`haptex.simulate`, :func:`haptex.simulate_batch`).
-The NumPy fields of :mod:`haptex.algorithms` are the fields' oracle (tests/test_core.py).
-Not yet: the search-data builders (numba) and ``haptex export`` (C generated from strings).
+The builders of D's and E's search data over profiles too (the bound tree's leaf bounds, the
+cell table), and ``haptex export`` copies these files. The NumPy fields of
+:mod:`haptex.algorithms` are the fields' oracle (tests/test_core.py).
 """
 
 from __future__ import annotations
@@ -32,18 +33,8 @@ SOURCE_DIR = Path(__file__).parent
 
 IN_CORE = frozenset("WABCG")
 """The letters whose memoryless fields (force and Jacobian, :func:`field`) the C core
-evaluates (D and E follow with their closest-point searches; F has state, see below)."""
-
-TICKS_IN_CORE = frozenset("WABCDEFG")
-"""The letters whose servo tick (:class:`haptex.Renderer`, the simulator's loops) runs in
-the C core: all eight (F with its presliding friction, D and E with their closest-point
-searches over profiles, extruded profiles, sums of gratings and height maps)."""
-
-
-def tick_in_core(algorithm) -> bool:
-    """True when ``algorithm``'s servo tick runs in the C core (its letter is in
-    :data:`TICKS_IN_CORE`)."""
-    return algorithm.letter in TICKS_IN_CORE
+evaluates (D and E need their closest-point searches, F its presliding state: their forces
+come from the servo tick, :class:`haptex.Renderer`)."""
 
 
 def field(algorithm, p, jacobian: bool = True) -> tuple[np.ndarray, np.ndarray | None]:

@@ -638,6 +638,42 @@ static int is_int64(const char *format)
     return format != NULL && (strcmp(format, "q") == 0 || strcmp(format, "l") == 0);
 }
 
+/* A profile's texture and search data from args (kind, coeffs, aux), both checked (aux: the
+ * search data a closest-point search reads, hx_closest_aux_check); the buffers stay held.
+ * aux NULL: (kind, coeffs) only. */
+static int get_profile(PyObject *const *args, Py_buffer *coeffs, Py_buffer *aux, hx_texture *tex, const char *fn)
+{
+    long kind = PyLong_AsLong(args[0]);
+    int rc;
+    if (kind == -1 && PyErr_Occurred())
+        return -1;
+    if (kind != HX_TEXTURE_FLAT && kind != HX_TEXTURE_FOURIER && kind != HX_TEXTURE_SPLINE) {
+        PyErr_Format(PyExc_ValueError, "%s: kind must be a profile's", fn);
+        return -1;
+    }
+    if (get_doubles(args[1], coeffs, 0, -1, "coeffs") < 0)
+        return -1;
+    if (aux != NULL && get_doubles(args[2], aux, 0, 1, "aux") < 0) {
+        PyBuffer_Release(coeffs);
+        return -1;
+    }
+    tex->kind = (int)kind;
+    tex->c = (const double *)coeffs->buf;
+    tex->rows = coeffs->ndim == 2 ? (long)coeffs->shape[0] : 1;
+    tex->cols = coeffs->ndim == 2 ? (long)coeffs->shape[1] : (coeffs->ndim == 1 ? (long)coeffs->shape[0] : 0);
+    rc = coeffs->ndim > 2 ? HX_BAD_COEFFS : hx_texture_check(tex->kind, tex->c, tex->rows, tex->cols);
+    if (rc == HX_OK && aux != NULL)
+        rc = hx_closest_aux_check((const double *)aux->buf, (long)aux->shape[0]);
+    if (rc != HX_OK) {
+        if (aux != NULL)
+            PyBuffer_Release(aux);
+        PyBuffer_Release(coeffs);
+        core_error(rc);
+        return -1;
+    }
+    return 0;
+}
+
 PyDoc_STRVAR(closest_profile_doc,
 "closest_profile(kind, coeffs, aux, px, pz, t, distance, tie, work)\n--\n\n"
 "The closest point of a profile's boundary (hx_closest_profile) to each probe (px, pz) (float64 (N,), m),\n"
@@ -647,39 +683,14 @@ static PyObject *closest_profile(PyObject *self, PyObject *const *args, Py_ssize
 {
     Py_buffer coeffs, aux, px, pz, t, d, tie, work;
     hx_texture tex;
-    long kind;
-    int rc;
     Py_ssize_t i, n;
     (void)self;
     if (nargs != 9) {
         PyErr_SetString(PyExc_TypeError, "closest_profile takes 9 arguments");
         return NULL;
     }
-    kind = PyLong_AsLong(args[0]);
-    if (kind == -1 && PyErr_Occurred())
+    if (get_profile(args, &coeffs, &aux, &tex, "closest_profile") < 0)
         return NULL;
-    if (kind != HX_TEXTURE_FLAT && kind != HX_TEXTURE_FOURIER && kind != HX_TEXTURE_SPLINE) {
-        PyErr_SetString(PyExc_ValueError, "closest_profile: kind must be a profile's");
-        return NULL;
-    }
-    if (get_doubles(args[1], &coeffs, 0, -1, "coeffs") < 0)
-        return NULL;
-    if (get_doubles(args[2], &aux, 0, 1, "aux") < 0) {
-        PyBuffer_Release(&coeffs);
-        return NULL;
-    }
-    tex.kind = (int)kind;
-    tex.c = (const double *)coeffs.buf;
-    tex.rows = coeffs.ndim == 2 ? (long)coeffs.shape[0] : 1;
-    tex.cols = coeffs.ndim == 2 ? (long)coeffs.shape[1] : (coeffs.ndim == 1 ? (long)coeffs.shape[0] : 0);
-    rc = coeffs.ndim > 2 ? HX_BAD_COEFFS : hx_texture_check(tex.kind, tex.c, tex.rows, tex.cols);
-    if (rc == HX_OK)
-        rc = hx_closest_aux_check((const double *)aux.buf, (long)aux.shape[0]);
-    if (rc != HX_OK) {
-        PyBuffer_Release(&aux);
-        PyBuffer_Release(&coeffs);
-        return core_error(rc);
-    }
     if (get_doubles(args[3], &px, 0, 1, "px") < 0)
         goto fail2;
     if (get_doubles(args[4], &pz, 0, 1, "pz") < 0)
@@ -723,6 +734,128 @@ fail4:
     PyBuffer_Release(&pz);
 fail3:
     PyBuffer_Release(&px);
+fail2:
+    PyBuffer_Release(&aux);
+    PyBuffer_Release(&coeffs);
+    if (PyErr_Occurred())
+        return NULL;
+    Py_RETURN_NONE;
+}
+
+PyDoc_STRVAR(leaf_bounds_doc,
+"leaf_bounds(kind, coeffs, start, width, n_sub, jerk, lo, hi)\n--\n\n"
+"Bounds of a profile h over len(lo) leaves of `width` (m) from `start` (hx_leaf_bounds), each sampled\n"
+"at n_sub + 1 points, jerk bounding the third derivative, into lo and hi (float64 (n,), m). Returns\n"
+"(t, h) of the lowest height found. The GIL is released.");
+
+static PyObject *leaf_bounds(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    Py_buffer coeffs, lo, hi;
+    hx_texture tex;
+    double start, width, jerk, t = 0.0, h = 0.0;
+    long n_sub;
+    (void)self;
+    if (nargs != 8) {
+        PyErr_SetString(PyExc_TypeError, "leaf_bounds takes 8 arguments");
+        return NULL;
+    }
+    start = PyFloat_AsDouble(args[2]);
+    width = PyFloat_AsDouble(args[3]);
+    n_sub = PyLong_AsLong(args[4]);
+    jerk = PyFloat_AsDouble(args[5]);
+    if (PyErr_Occurred())
+        return NULL;
+    if (!(isfinite(start) && width > 0.0 && isfinite(width) && n_sub >= 1 && n_sub <= 4096 && jerk >= 0.0)) {
+        PyErr_SetString(PyExc_ValueError, "leaf_bounds: start finite, width > 0, 1 <= n_sub <= 4096, jerk >= 0");
+        return NULL;
+    }
+    if (get_profile(args, &coeffs, NULL, &tex, "leaf_bounds") < 0)
+        return NULL;
+    if (get_doubles(args[6], &lo, 1, 1, "lo") < 0)
+        goto fail2;
+    if (get_doubles(args[7], &hi, 1, 1, "hi") < 0)
+        goto fail3;
+    if (hi.shape[0] != lo.shape[0]) {
+        PyErr_SetString(PyExc_ValueError, "leaf_bounds: lo and hi must have the same length");
+        goto fail4;
+    }
+    Py_BEGIN_ALLOW_THREADS
+    t = hx_leaf_bounds(&tex, start, width, (long)lo.shape[0], n_sub, jerk, (double *)lo.buf, (double *)hi.buf, &h);
+    Py_END_ALLOW_THREADS
+fail4:
+    PyBuffer_Release(&hi);
+fail3:
+    PyBuffer_Release(&lo);
+fail2:
+    PyBuffer_Release(&coeffs);
+    if (PyErr_Occurred())
+        return NULL;
+    return Py_BuildValue("dd", t, h);
+}
+
+PyDoc_STRVAR(table_cells_doc,
+"table_cells(kind, coeffs, aux, x0, w, i0, zlo, hmax, count, out)\n--\n\n"
+"Cells i0 .. i0 + len(count) - 1 of one row [zlo, zlo + w] of a periodic profile's cell table\n"
+"(hx_table_cell; aux its search data without a table, cell i spanning x0 + [i, i + 1] w): count\n"
+"(float64 (n,)) their numbers of pieces (-1: more than TABLE_MAXP; 0 for a row above hmax) and out\n"
+"(float64 (n, PIECE * TABLE_MAXP)) the pieces. The GIL is released.");
+
+static PyObject *table_cells(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    Py_buffer coeffs, aux, count, out;
+    hx_texture tex;
+    double x0, w, zlo, hmax;
+    long i0;
+    Py_ssize_t k, n;
+    (void)self;
+    if (nargs != 10) {
+        PyErr_SetString(PyExc_TypeError, "table_cells takes 10 arguments");
+        return NULL;
+    }
+    x0 = PyFloat_AsDouble(args[3]);
+    w = PyFloat_AsDouble(args[4]);
+    i0 = PyLong_AsLong(args[5]);
+    zlo = PyFloat_AsDouble(args[6]);
+    hmax = PyFloat_AsDouble(args[7]);
+    if (PyErr_Occurred())
+        return NULL;
+    if (!(isfinite(x0) && w > 0.0 && isfinite(w) && i0 >= 0 && isfinite(zlo) && isfinite(hmax))) {
+        PyErr_SetString(PyExc_ValueError, "table_cells: x0, zlo, hmax finite, w > 0, i0 >= 0");
+        return NULL;
+    }
+    if (get_profile(args, &coeffs, &aux, &tex, "table_cells") < 0)
+        return NULL;
+    if (((const double *)aux.buf)[HX_A_MODE] != HX_CP_PERIODIC || ((const double *)aux.buf)[HX_A_TABLE] != 0.0) {
+        PyErr_SetString(PyExc_ValueError, "table_cells: aux must be a periodic profile's search data without a table");
+        goto fail2;
+    }
+    if (get_doubles(args[8], &count, 1, 1, "count") < 0)
+        goto fail2;
+    if (get_doubles(args[9], &out, 1, 2, "out") < 0)
+        goto fail3;
+    n = count.shape[0];
+    if (out.shape[0] != n || out.shape[1] != HX_PIECE * HX_TABLE_MAXP) {
+        PyErr_SetString(PyExc_ValueError, "table_cells: out must be (len(count), PIECE * TABLE_MAXP)");
+        goto fail4;
+    }
+    Py_BEGIN_ALLOW_THREADS
+    for (k = 0; k < n; k++) {
+        double *c = (double *)count.buf + k;
+        if (zlo > hmax) { /* every probe of the cell is above the boundary */
+            *c = 0.0;
+            continue;
+        }
+        {
+            long np = hx_table_cell(&tex, (const double *)aux.buf, x0, w, x0 + ((double)(i0 + k) + 0.5) * w, zlo,
+                                    zlo + w, (double *)out.buf + (Py_ssize_t)(HX_PIECE * HX_TABLE_MAXP) * k);
+            *c = np <= HX_TABLE_MAXP ? (double)np : -1.0;
+        }
+    }
+    Py_END_ALLOW_THREADS
+fail4:
+    PyBuffer_Release(&out);
+fail3:
+    PyBuffer_Release(&count);
 fail2:
     PyBuffer_Release(&aux);
     PyBuffer_Release(&coeffs);
@@ -1067,6 +1200,8 @@ static PyMethodDef methods[] = {
     {"presliding_plane", (PyCFunction)(void (*)(void))presliding_plane, METH_FASTCALL, presliding_plane_doc},
     {"closest_profile", (PyCFunction)(void (*)(void))closest_profile, METH_FASTCALL, closest_profile_doc},
     {"closest_surface", (PyCFunction)(void (*)(void))closest_surface, METH_FASTCALL, closest_surface_doc},
+    {"leaf_bounds", (PyCFunction)(void (*)(void))leaf_bounds, METH_FASTCALL, leaf_bounds_doc},
+    {"table_cells", (PyCFunction)(void (*)(void))table_cells, METH_FASTCALL, table_cells_doc},
     {NULL, NULL, 0, NULL},
 };
 
@@ -1103,7 +1238,11 @@ PyMODINIT_FUNC PyInit__ext(void)
         {"DIVERGED_VELOCITY", HX_DIVERGED_VELOCITY}, {"DIVERGED_FORCE", HX_DIVERGED_FORCE},
         {"DIVERGED_ENERGY", HX_DIVERGED_ENERGY}, {"F_PV", HX_F_PV}, {"F_PW", HX_F_PW}, {"F_VV", HX_F_VV},
         {"F_VW", HX_F_VW}, {"F_CVV", HX_F_CVV}, {"F_CVW", HX_F_CVW}, {"F_CWW", HX_F_CWW}, {"N_FAST", HX_N_FAST}, {"T_N", HX_T_N}, {"T_LOGR", HX_T_LOGR}, {"T_DV", HX_T_DV},
-        {"T_BETA", HX_T_BETA}, {"T_DATA", HX_T_DATA},
+        {"T_BETA", HX_T_BETA}, {"T_DATA", HX_T_DATA}, {"TB_X0", HX_TB_X0}, {"TB_PERIOD", HX_TB_PERIOD},
+        {"TB_W", HX_TB_W}, {"TB_NX", HX_TB_NX}, {"TB_Z0", HX_TB_Z0}, {"TB_NZ", HX_TB_NZ}, {"TB_CELLS", HX_TB_CELLS},
+        {"PIECE", HX_PIECE}, {"TABLE_MAXP", HX_TABLE_MAXP}, {"PATCH_X0", HX_PATCH_X0}, {"PATCH_Y0", HX_PATCH_Y0},
+        {"PATCH_DX", HX_PATCH_DX}, {"PATCH_DY", HX_PATCH_DY}, {"PATCH_NX", HX_PATCH_NX}, {"PATCH_NY", HX_PATCH_NY},
+        {"PATCH_PERIODIC", HX_PATCH_PERIODIC}, {"PATCH_DATA", HX_PATCH_DATA}, {"CONVEX_EVALS", HX_CONVEX_EVALS},
     };
     size_t i;
     if (mod == NULL)
@@ -1114,6 +1253,15 @@ PyMODINIT_FUNC PyInit__ext(void)
     }
     for (i = 0; i < sizeof consts / sizeof consts[0]; i++) {
         if (PyModule_AddIntConstant(mod, consts[i].name, consts[i].value) < 0) {
+            Py_DECREF(mod);
+            return NULL;
+        }
+    }
+    {
+        PyObject *v = PyFloat_FromDouble(HX_CONVEX_MIN);
+        int rc = v == NULL ? -1 : PyModule_AddObjectRef(mod, "CONVEX_MIN", v);
+        Py_XDECREF(v);
+        if (rc < 0) {
             Py_DECREF(mod);
             return NULL;
         }

@@ -318,9 +318,11 @@ static void tree_search(const problem *q, double t_guess, int mode, search *s)
  * pieces (-1: search the tree), then the pieces (lo, hi, kind, m, G): lo and hi relative to
  * the start of the cell's period (m); on a convex piece a lower bound m of g' and an upper
  * bound G of |g''| over it for every probe of the cell. */
-enum { T_X0, T_PERIOD, T_W, T_NX, T_Z0, T_NZ, T_CELLS };
-enum { PIECE = 5, TABLE_FINE = 8 };
+enum { T_X0 = HX_TB_X0, T_PERIOD = HX_TB_PERIOD, T_W = HX_TB_W, T_NX = HX_TB_NX, T_Z0 = HX_TB_Z0, T_NZ = HX_TB_NZ,
+       T_CELLS = HX_TB_CELLS };
+enum { PIECE = HX_PIECE, TABLE_FINE = 8, TABLE_TOP = 32, TABLE_MAXP = HX_TABLE_MAXP };
 #define PIECE_NEWTON 0.0
+#define PIECE_SCAN 1.0
 
 /* the minimum of phi over [lo, hi] where g' >= m > 0 and |g''| <= G: Newton from t0 inside a
  * bracket, an end evaluated only when a step leaves the piece; its error certified below
@@ -514,4 +516,210 @@ hx_closest hx_closest_profile(const hx_texture *tex, const double *aux, double p
     out.tie = s.second < HUGE_VAL && sqrt(s.second) - sqrt(s.f) <= fmin(aux[HX_A_TIE], 1e-9 * sqrt(s.f));
     out.work = s.work;
     return out;
+}
+
+/* ---- the builders of the search data (haptex.closest) ---------------------------------- */
+
+/* min over u in [0, s] of h + d1 u + d2 u^2 / 2 - jerk u^3 / 6: a lower bound of a function with
+ * value h, slope d1 and curvature d2 at u = 0 and |third derivative| <= jerk */
+static double cubic_floor(double h, double d1, double d2, double jerk, double s)
+{
+    double best = fmin(h, h + s * (d1 + s * (0.5 * d2 - s * jerk / 6.0))), disc;
+    int k;
+    if (!(jerk > 0.0))
+        return best;
+    disc = d2 * d2 + 2.0 * jerk * d1;
+    if (disc < 0.0)
+        return best;
+    for (k = 0; k < 2; k++) {
+        double u = (d2 + (k ? -1.0 : 1.0) * sqrt(disc)) / jerk;
+        if (0.0 < u && u < s)
+            best = fmin(best, h + u * (d1 + u * (0.5 * d2 - u * jerk / 6.0)));
+    }
+    return best;
+}
+
+double hx_leaf_bounds(const hx_texture *tex, double start, double width, long n_leaf, long n_sub, double jerk,
+                      double *lo, double *hi, double *best_h)
+{
+    double s = width / (double)n_sub, best_t = start;
+    long i, k;
+    *best_h = HUGE_VAL;
+    for (i = 0; i < n_leaf; i++) {
+        double u = start + (double)i * width, l, m;
+        hx_height e0, e1;
+        hx__texture_eval(tex, u, 0.0, &e0);
+        l = m = e0.h;
+        if (e0.h < *best_h) {
+            *best_h = e0.h;
+            best_t = u;
+        }
+        for (k = 1; k <= n_sub; k++) {
+            double t1 = u + (double)k * s;
+            hx__texture_eval(tex, t1, 0.0, &e1);
+            l = fmin(l, e1.h);
+            m = fmax(m, e1.h);
+            if (e1.h < *best_h) {
+                *best_h = e1.h;
+                best_t = t1;
+            }
+            if ((e0.gx < 0.0) != (e1.gx < 0.0)) { /* an extremum inside: bracketed Newton on h' */
+                double a = t1 - s, b = t1, t = 0.5 * (a + b), he;
+                int neg_at_a = e0.gx < 0.0, it;
+                for (it = 0; it < 80; it++) {
+                    hx_height e;
+                    double tn;
+                    hx__texture_eval(tex, t, 0.0, &e);
+                    if ((e.gx < 0.0) == neg_at_a)
+                        a = t;
+                    else
+                        b = t;
+                    tn = e.hxx != 0.0 ? t - e.gx / e.hxx : 0.5 * (a + b);
+                    if (!(fmin(a, b) < tn && tn < fmax(a, b)))
+                        tn = 0.5 * (a + b);
+                    if (fabs(tn - t) <= 1e-16 * (1.0 + fabs(t))) {
+                        t = tn;
+                        break;
+                    }
+                    t = tn;
+                }
+                he = hx__texture_height(tex, t, 0.0);
+                l = fmin(l, he);
+                m = fmax(m, he);
+                if (he < *best_h) {
+                    *best_h = he;
+                    best_t = t;
+                }
+            } else { /* monotone: the larger of the two cubic floors from the ends */
+                double fl = fmax(cubic_floor(e0.h, e0.gx, e0.hxx, jerk, s), cubic_floor(e1.h, -e1.gx, e1.hxx, jerk, s));
+                double ce = -fmax(cubic_floor(-e0.h, -e0.gx, -e0.hxx, jerk, s),
+                                  cubic_floor(-e1.h, e1.gx, -e1.hxx, jerk, s));
+                l = fmin(l, fl);
+                m = fmax(m, ce);
+            }
+            e0 = e1;
+        }
+        lo[i] = l;
+        hi[i] = m;
+    }
+    return best_t;
+}
+
+/* one entry of a cell's depth-first stack: level, index, then (d, h, h', h'') at both ends */
+typedef struct {
+    int lev;
+    long idx;
+    double d[2], h[2], s[2], c[2];
+} tb_entry;
+
+long hx_table_cell(const hx_texture *tex, const double *aux, double x0, double w, double cx, double zlo, double zhi,
+                   double *row)
+{
+    enum { MAX_LEVELS = 48 };
+    tb_entry stk[TABLE_TOP + MAX_LEVELS + 2];
+    double S = aux[HX_A_SLOPE], C = aux[HX_A_CURV], J = aux[HX_A_JERK], L = sqrt(1.0 + S * S);
+    double r = 0.5 * w * sqrt(2.0) * (1.0 + 1e-9) + 1e-9 * w, cz = 0.5 * (zlo + zhi);
+    double hc = hx__texture_height(tex, cx, 0.0), period = aux[HX_A_PERIOD], tmin = aux[HX_A_TMIN];
+    double U, tv, reach, R, dt, cur = -1.0;
+    long npc = 0, last = -2, k;
+    int nlev = 0, sp = 0;
+    if (zlo > hc + S * 0.5 * w + 1e-9 * w) /* the whole cell is above the boundary: no probe of it searches */
+        return 0;
+    U = fabs(hc - cz);
+    tv = tmin + period * floor((cx - tmin) / period + 0.5);
+    U = fmin(U, hypot(tv - cx, hx__texture_height(tex, tv, 0.0) - cz));
+    if (cz < hc) { /* the centre's own distance, from the bound tree */
+        hx_closest c = hx_closest_profile(tex, aux, cx, cz, hc - cz, NAN);
+        U = fmin(U, c.distance);
+    } else { /* the best of a few boundary points */
+        for (k = 0; k <= TABLE_TOP; k++) {
+            double t = cx - U + 2.0 * U * (double)k / TABLE_TOP;
+            U = fmin(U, hypot(t - cx, hx__texture_height(tex, t, 0.0) - cz));
+        }
+    }
+    reach = U + 2.0 * r;
+    R = reach;
+    /* dyadic intervals of the window [cx - R, cx + R]: TABLE_TOP at level 0, the finest (at most
+     * w / TABLE_FINE wide) at level nlev; interval (l, i) covers the finest ones i 2^(nlev - l) to
+     * (i + 1) 2^(nlev - l) - 1, of width dt each */
+    while (nlev < MAX_LEVELS && 2.0 * R / ((double)TABLE_TOP * ldexp(1.0, nlev)) > w / TABLE_FINE)
+        nlev++;
+    dt = 2.0 * R / ((double)TABLE_TOP * ldexp(1.0, nlev));
+    { /* the top level, pushed right to left so that the leftmost is popped first */
+        hx_height eb;
+        double db, hb, sb, cb;
+        hx__texture_eval(tex, cx + R, 0.0, &eb);
+        db = hypot(R, eb.h - cz), hb = eb.h, sb = eb.gx, cb = eb.hxx;
+        for (k = TABLE_TOP - 1; k >= 0; k--) {
+            hx_height ea;
+            double ta = cx - R + (double)(k << nlev) * dt, da;
+            tb_entry *e = &stk[sp++];
+            hx__texture_eval(tex, ta, 0.0, &ea);
+            da = hypot(ta - cx, ea.h - cz);
+            e->lev = 0;
+            e->idx = k;
+            e->d[0] = da, e->h[0] = ea.h, e->s[0] = ea.gx, e->c[0] = ea.hxx;
+            e->d[1] = db, e->h[1] = hb, e->s[1] = sb, e->c[1] = cb;
+            db = da, hb = ea.h, sb = ea.gx, cb = ea.hxx;
+        }
+    }
+    while (sp > 0) {
+        tb_entry *e = &stk[--sp];
+        long span = 1L << (nlev - e->lev), first;
+        double width = (double)span * dt, qa0, qa1, qb0, qb1, G, qmin, cls, ta, tb;
+        if (0.5 * (e->d[0] + e->d[1] - L * width) > reach) /* no point of it within reach of the centre */
+            continue;
+        /* classified at most a cell wide (wider, the bounds m and G of a piece would be loose) */
+        qa0 = 1.0 + e->s[0] * e->s[0] + (e->h[0] - zlo) * e->c[0];
+        qa1 = 1.0 + e->s[0] * e->s[0] + (e->h[0] - zhi) * e->c[0];
+        qb0 = 1.0 + e->s[1] * e->s[1] + (e->h[1] - zlo) * e->c[1];
+        qb1 = 1.0 + e->s[1] * e->s[1] + (e->h[1] - zhi) * e->c[1];
+        G = 3.0 * S * C + (fmax(fabs(e->h[0] - zlo), fabs(e->h[0] - zhi)) + S * width) * J;
+        qmin = 0.5 * (fmin(qa0, qa1) + fmin(qb0, qb1) - G * width);
+        if (width <= w && qmin > 0.0) {
+            cls = PIECE_NEWTON;
+        } else if (width <= w && 0.5 * (fmax(qa0, qa1) + fmax(qb0, qb1) + G * width) < 0.0) {
+            continue; /* strictly concave: no minimum inside; its ends belong to its neighbours */
+        } else if (e->lev < nlev) { /* undecided or too wide: split at the midpoint */
+            double tm = cx - R + (double)(2 * e->idx + 1) * (double)(span / 2) * dt, dm;
+            hx_height em;
+            tb_entry *f = &stk[sp + 1];
+            hx__texture_eval(tex, tm, 0.0, &em);
+            dm = hypot(tm - cx, em.h - cz);
+            *f = *e; /* the left half, on top: popped first */
+            f->lev = e->lev + 1;
+            f->idx = 2 * e->idx;
+            f->d[1] = dm, f->h[1] = em.h, f->s[1] = em.gx, f->c[1] = em.hxx;
+            e->lev = e->lev + 1;
+            e->idx = 2 * e->idx + 1;
+            e->d[0] = dm, e->h[0] = em.h, e->s[0] = em.gx, e->c[0] = em.hxx;
+            sp += 2;
+            continue;
+        } else {
+            cls = PIECE_SCAN;
+        }
+        first = e->idx * span;
+        ta = cx - R + (double)first * dt;
+        tb = cx - R + (double)(first + span) * dt;
+        if (cls == cur && first == last + 1) { /* extend the open piece */
+            double *q = row + PIECE * (npc - 1);
+            q[1] = tb - x0;
+            q[3] = fmin(q[3], qmin);
+            q[4] = fmax(q[4], G);
+        } else {
+            double *q;
+            npc++;
+            if (npc > TABLE_MAXP) /* too many: the cell's probes search the tree */
+                return npc;
+            q = row + PIECE * (npc - 1);
+            q[0] = ta - x0;
+            q[1] = tb - x0;
+            q[2] = cls;
+            q[3] = qmin;
+            q[4] = G;
+            cur = cls;
+        }
+        last = first + span - 1;
+    }
+    return npc;
 }

@@ -68,6 +68,9 @@ enum {
     HX_NO_MEMORY = -5      /* a binding could not allocate scratch */
 };
 
+/* a height map's patches (HX_SURFACE_PATCHES): the header, then 16 coefficients a cell */
+enum { HX_PATCH_X0, HX_PATCH_Y0, HX_PATCH_DX, HX_PATCH_DY, HX_PATCH_NX, HX_PATCH_NY, HX_PATCH_PERIODIC, HX_PATCH_DATA = 8 };
+
 typedef struct {
     int kind;          /* HX_TEXTURE_* or HX_SURFACE_* */
     const double *c;   /* coefficients, row-major, rows x cols */
@@ -144,6 +147,33 @@ typedef struct {
     int cut;         /* the evaluation budget ended the search: the best point found, not certified */
 } hx_closest;
 
+/* A periodic profile's cell table, from aux[HX_A_TABLE] (haptex.closest.table_search_data): the
+ * header HX_TB_*, then per cell (row-major, x fastest) the index in aux of its first piece and
+ * its number of pieces (-1: search the tree), then the pieces of HX_PIECE values (lo, hi, kind,
+ * m, G): lo and hi relative to the start of the cell's period (m); kind 0 on a piece certified
+ * convex for every probe of the cell, with a lower bound m of g' and an upper bound G of |g''|
+ * over it (g = phi' / 2), kind 1 on a piece to scan. At most HX_TABLE_MAXP pieces a cell. */
+enum { HX_TB_X0, HX_TB_PERIOD, HX_TB_W, HX_TB_NX, HX_TB_Z0, HX_TB_NZ, HX_TB_CELLS };
+enum { HX_PIECE = 5, HX_TABLE_MAXP = 16 };
+
+/* Bounds of a profile h over n_leaf leaves of `width` from `start` (the bound tree's leaves):
+ * each leaf sampled at n_sub + 1 points; where h' changes sign between two samples the extremum
+ * is located by bracketed Newton, elsewhere h is bounded by the larger of the two cubic floors
+ * from the interval's ends (jerk bounds |h'''|). Fills lo[i], hi[i]; returns the abscissa of the
+ * lowest height found, that height in *best_h. */
+double hx_leaf_bounds(const hx_texture *tex, double start, double width, long n_leaf, long n_sub, double jerk,
+                      double *lo, double *hi, double *best_h);
+
+/* The pieces of one cell [cx - w/2, cx + w/2] x [zlo, zhi] of a periodic profile's cell table
+ * into row (HX_PIECE x HX_TABLE_MAXP values, lo and hi relative to x0), from the profile's search
+ * data aux without a table: the window |t - cx| <= U + 2 r (U a distance from the centre to the
+ * boundary, r the half-diagonal: the distance is 1-Lipschitz) cut in dyadic intervals, each
+ * dropped (out of reach, or strictly concave for every probe), certified convex, or halved down
+ * to w / 8 and kept to scan. Returns their number, 0 for a cell above the boundary, or
+ * HX_TABLE_MAXP + 1 as soon as there are more. */
+long hx_table_cell(const hx_texture *tex, const double *aux, double x0, double w, double cx, double zlo, double zhi,
+                   double *row);
+
 /* Check a profile's search data of naux values: every read of the search stays inside it. */
 int hx_closest_aux_check(const double *aux, long naux);
 
@@ -169,6 +199,12 @@ enum {
  * at the edge for (p, q) = (1, 0), (0, 1), (1, 1), (0, 2), (1, 2), (0, 3), (1, 3), n the
  * outward normal's axis (haptex.SampledSurface.edge_bounds). */
 enum { HX_E_N, HX_E_T, HX_E_NT, HX_E_TT, HX_E_NTT, HX_E_TTT, HX_E_NTTT, HX_N_E };
+
+/* The strong-convexity certificate (gratings, periodic maps): Newton answers first where phi / 2
+ * is certified HX_CONVEX_MIN-strongly convex on the whole plane, in at most HX_CONVEX_EVALS
+ * texture evaluations, then the branch and bound. */
+#define HX_CONVEX_MIN 0.05
+enum { HX_CONVEX_EVALS = 16 };
 
 /* Check a surface's search constants (HX_N_GAUX values). */
 int hx_surface_aux_check(const double *aux, long naux);

@@ -18,8 +18,8 @@
 #include <math.h>
 #include <stddef.h>
 
-enum { STACK = 512, MAX_LEAVES = 1 << 16, MAX_NODES = 1 << 11, CONVEX_EVALS = 16 };
-#define CONVEX_MIN 0.05
+enum { STACK = 512, MAX_LEAVES = 1 << 16, MAX_NODES = 1 << 11, CONVEX_EVALS = HX_CONVEX_EVALS };
+#define CONVEX_MIN HX_CONVEX_MIN
 #define M_PI_VALUE 3.14159265358979323846
 
 typedef struct {

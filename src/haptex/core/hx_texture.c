@@ -56,16 +56,16 @@ int hx_texture_check(int kind, const double *c, long rows, long cols)
     }
     case HX_SURFACE_PATCHES: {
         double nx, ny;
-        if (rows != 1 || cols < PATCH_DATA)
+        if (rows != 1 || cols < HX_PATCH_DATA)
             return HX_BAD_COEFFS;
-        nx = c[PATCH_NX];
-        ny = c[PATCH_NY];
-        if (!isfinite(c[PATCH_X0]) || !isfinite(c[PATCH_Y0]) || !finite_positive(c[PATCH_DX]) ||
-            !finite_positive(c[PATCH_DY]) || !is_count(nx, 1e9) || !is_count(ny, 1e9))
+        nx = c[HX_PATCH_NX];
+        ny = c[HX_PATCH_NY];
+        if (!isfinite(c[HX_PATCH_X0]) || !isfinite(c[HX_PATCH_Y0]) || !finite_positive(c[HX_PATCH_DX]) ||
+            !finite_positive(c[HX_PATCH_DY]) || !is_count(nx, 1e9) || !is_count(ny, 1e9))
             return HX_BAD_COEFFS;
-        if ((double)(cols - PATCH_DATA) != 16.0 * nx * ny)
+        if ((double)(cols - HX_PATCH_DATA) != 16.0 * nx * ny)
             return HX_BAD_COEFFS;
-        for (i = 0; i < PATCH_DATA; i++)
+        for (i = 0; i < HX_PATCH_DATA; i++)
             if (!isfinite(c[i]))
                 return HX_BAD_COEFFS;
         return HX_OK;

@@ -13,8 +13,6 @@
 
 #define AT(t, r, k) ((t)->c[(long)(r) * (t)->cols + (k)])
 
-enum { PATCH_X0, PATCH_Y0, PATCH_DX, PATCH_DY, PATCH_NX, PATCH_NY, PATCH_PERIODIC, PATCH_DATA = 8 };
-
 /* The cell of a coordinate u measured in cells, 0 <= u <= n after a periodic reduction or a
  * clamp: an index in [0, n - 1] whatever round-off did to u (never an out-of-range cast). */
 HX_INLINE long cell_of(double u, long n)
@@ -89,25 +87,25 @@ HX_INLINE void gratings_eval(const hx_texture *t, double x, double y, hx_height 
 HX_INLINE void patch_derivs(const hx_texture *t, double x, double y, double D[4][4], double *cx, double *cy)
 {
     const double *hd = t->c;
-    double dx = hd[PATCH_DX], dy = hd[PATCH_DY];
-    long nx = (long)hd[PATCH_NX], ny = (long)hd[PATCH_NY], i, j;
-    double u = (x - hd[PATCH_X0]) / dx, v = (y - hd[PATCH_Y0]) / dy, s, tt;
+    double dx = hd[HX_PATCH_DX], dy = hd[HX_PATCH_DY];
+    long nx = (long)hd[HX_PATCH_NX], ny = (long)hd[HX_PATCH_NY], i, j;
+    double u = (x - hd[HX_PATCH_X0]) / dx, v = (y - hd[HX_PATCH_Y0]) / dy, s, tt;
     double S[4][4] = {{0}}, T[4][4] = {{0}}, sx = 1.0, sy;
     const double *c;
     int a, b, p, q;
     *cx = x;
     *cy = y;
-    if (hd[PATCH_PERIODIC] != 0.0) {
+    if (hd[HX_PATCH_PERIODIC] != 0.0) {
         u -= (double)nx * floor(u / (double)nx);
         v -= (double)ny * floor(v / (double)ny);
     } else {
         if (!(u >= 0.0 && u <= (double)nx)) {
             u = u < 0.0 ? 0.0 : (double)nx;
-            *cx = hd[PATCH_X0] + u * dx;
+            *cx = hd[HX_PATCH_X0] + u * dx;
         }
         if (!(v >= 0.0 && v <= (double)ny)) {
             v = v < 0.0 ? 0.0 : (double)ny;
-            *cy = hd[PATCH_Y0] + v * dy;
+            *cy = hd[HX_PATCH_Y0] + v * dy;
         }
     }
     i = cell_of(u, nx);
@@ -134,7 +132,7 @@ HX_INLINE void patch_derivs(const hx_texture *t, double x, double y, double D[4]
     T[2][2] = 2.0;
     T[2][3] = 6.0 * tt;
     T[3][3] = 6.0;
-    c = hd + PATCH_DATA + 16 * (i * ny + j);
+    c = hd + HX_PATCH_DATA + 16 * (i * ny + j);
     for (p = 0; p < 4; p++) {
         double row[4];
         for (b = 0; b < 4; b++) {
