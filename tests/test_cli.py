@@ -83,18 +83,6 @@ def test_bad_input_prints_one_line_and_exits_2(args, fragment):
     assert "Traceback" not in r.stderr
 
 
-def test_reproduce_writes_summary_json(tmp_path):
-    out = tmp_path / "report"
-    r = subprocess.run([sys.executable, "-m", "haptex", "reproduce", "--out", str(out)],
-                       capture_output=True, text=True, timeout=300)
-    assert r.returncode == 0, r.stderr
-    summary = json.loads((out / "summary.json").read_text())
-    rows = {row["algorithm"]: row for row in summary["table_ii"]["rows"]}
-    assert rows["A"]["characteristic_number"] == pytest.approx(5.125, abs=1e-3)  # eq. 10 at V-A
-    assert "Table II" in r.stdout
-    assert not [p for p in out.iterdir() if p.name.startswith(".")]  # no temporary file left
-
-
 def run_cli(*args, timeout=300):
     return subprocess.run([sys.executable, "-m", "haptex", *args], capture_output=True, text=True, timeout=timeout)
 

@@ -51,6 +51,25 @@ def objdir(tmp_path_factory):
     return tmp_path_factory.mktemp("core-objects")
 
 
+_LOOP = r"""
+#include "haptex_texture.h"
+/* the test's driver: haptex_step over n positions in C (no ctypes call a tick), each from the
+   state s had on entry (a copy: haptex_init would check the tables again each time) when reset
+   is nonzero; returns the faults */
+long haptex_test_loop(haptex_state *s, const double *p, double *f, long n, int reset)
+{
+    haptex_state fresh = *s;
+    long i;
+    for (i = 0; i < n; i++) {
+        if (reset)
+            *s = fresh;
+        (void)haptex_step(s, p + HAPTEX_DIMENSION * i, f + HAPTEX_DIMENSION * i);
+    }
+    return haptex_faults(s);
+}
+"""
+
+
 class Compiled:
     """The exported tick of one algorithm, loaded from a shared library."""
 
@@ -58,7 +77,8 @@ class Compiled:
         h, c = export_c(alg, tmp_path, max_force, **kw)
         assert '#include "hx_core.h"' in h.read_text() and "haptex_step" in h.read_text()
         so = tmp_path / "libhaptex_texture.so"
-        build(tmp_path, so, tmp_root=objdir)
+        (tmp_path / "loop.c").write_text(_LOOP)
+        build(tmp_path, so, extra=[tmp_path / "loop.c"], tmp_root=objdir)
         self.lib = ctypes.CDLL(str(so))
         self.lib.haptex_step.restype = ctypes.c_int
         for name in ("haptex_faults", "haptex_clamps", "haptex_cut", "haptex_work", "haptex_max_work"):
@@ -72,6 +92,15 @@ class Compiled:
 
     def reset(self):
         assert self.lib.haptex_init(self.state) == 0
+
+    def forces(self, p, reset=False):
+        """haptex_step over the rows of p (shape (n, dim)) in a C loop: the forces (n, dim)."""
+        p = np.ascontiguousarray(p, dtype=np.float64)
+        f = np.empty_like(p)
+        ptr = ctypes.POINTER(ctypes.c_double)
+        self.lib.haptex_test_loop(self.state, p.ctypes.data_as(ptr), f.ctypes.data_as(ptr), ctypes.c_long(len(p)),
+                                  ctypes.c_int(1 if reset else 0))
+        return f
 
     def count(self, what):
         return getattr(self.lib, f"haptex_{what}")(self.state)
@@ -92,8 +121,8 @@ def _stroke_against_the_renderer(alg, tmp_path, objdir):
     t = np.linspace(0.0, 1.0, 20_001)
     x = 3e-3 * np.sin(2 * np.pi * 3 * t)
     z = -0.8e-3 * np.sin(2 * np.pi * 2 * t) + 0.2e-3
-    got = np.array([c.step(a, b)[1] for a, b in zip(x, z)])
-    ref = np.array([r.step((a, b)) for a, b in zip(x, z)])
+    got = c.forces(np.column_stack([x, z]))
+    ref = np.array([r.step((a, b)) for a, b in zip(x.tolist(), z.tolist())])
     return c, r, x, z, got, ref
 
 
@@ -116,7 +145,7 @@ def test_exported_field_equals_the_library_on_1e5_points(tmp_path, objdir, lette
     x = rng.uniform(lo - 0.1 * span, hi + 0.1 * span, 100_000)  # beyond the ends too (a profile extends)
     z = rng.uniform(-2e-3, 1e-3, x.size) + (tex.height(x) if letter in "ABC" else 0.0)
     ref = alg.force(np.column_stack([x, z]))
-    got = np.array([c.step(xi, zi)[1] for xi, zi in zip(x, z)])
+    got = c.forces(np.column_stack([x, z]))
     # 1e-12 relative, or a few rounding errors of h (the C loop sums the harmonics in another
     # order than numpy) times kappa_0 where d = z - h nearly cancels
     hmax = max(abs(v) for v in tex.height_range)
@@ -168,10 +197,8 @@ def test_exported_closest_point_algorithms_equal_the_library_on_1e5_points(tmp_p
     z = tex.height(x) - rng.uniform(0.0, 2e-3, x.size) * rng.uniform(0.0, 1.0, x.size) ** 2
     p = np.column_stack([x, z])
     ref = alg.force(p)
-    got = np.empty_like(ref)
-    for i, (xi, zi) in enumerate(p):
-        c.reset()
-        got[i] = c.step(xi, zi)[1]
+    c.reset()
+    got = c.forces(p, reset=True)
     tie = hx.closest_point(tex, p).tie
     err = np.hypot(*(got - ref).T)
     # the tick reads the cell table over a periodic profile: its Newton's closest point is
@@ -254,10 +281,8 @@ def test_exported_3d_field_equals_the_library(tmp_path, objdir, letter, name, te
     z = rng.uniform(-2e-3, 1e-3, n) + (tex.height_at(xy) if letter in "ABCDE" else 0.0)
     p = np.column_stack([xy, z])
     ref = alg.force(p)
-    got = np.empty_like(ref)
-    for i, q in enumerate(p):
-        c.reset()
-        got[i] = c.step(*q)[1]
+    c.reset()
+    got = c.forces(p, reset=True)
     hmax = max(abs(v) for v in tex.height_range)
     tol = 1e-12 * np.linalg.norm(ref, axis=-1) + 64 * np.finfo(float).eps * K0 * (hmax + 2e-3)
     err = np.linalg.norm(got - ref, axis=-1)

@@ -179,12 +179,17 @@ def test_reproduce_into_the_current_directory(tmp_path):
 def test_a_quick_run_reaches_the_full_runs_verdicts(report, tmp_path):
     # issue 16, stumble 3: --quick flipped a verdict (33 / 9 against 34 / 8) and said nothing;
     # now every claim's verdict at quick resolution equals the full run's
+    # (the suite's one full `haptex reproduce`: it also checks the full run's own output)
     _, quick, _ = report
     r = run_cli("reproduce", "--out", str(tmp_path / "full"))
     assert r.returncode == 0, r.stderr
     full = json.loads((tmp_path / "full" / "summary.json").read_text())
     assert full["quick"] is False
     assert {c["id"]: c["verdict"] for c in quick["claims"]} == {c["id"]: c["verdict"] for c in full["claims"]}
+    rows = {row["algorithm"]: row for row in full["table_ii"]["rows"]}
+    assert rows["A"]["characteristic_number"] == pytest.approx(5.125, abs=1e-3)  # eq. 10 at V-A
+    assert "Table II" in r.stdout
+    assert not [p for p in (tmp_path / "full").iterdir() if p.name.startswith(".")]  # no temporary file left
 
 
 @pytest.mark.slow  # 18 s: a full design report; the report's parts are tested above in the default run
