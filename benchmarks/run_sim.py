@@ -23,8 +23,7 @@ import time
 import numpy as np
 
 import haptex as hx
-from haptex.operators import ScanningHand
-from haptex.operators import ConstantForce
+from haptex.operators import ConstantForce, ScanningHand
 
 simulate_module = __import__("sys").modules["haptex.simulate"]
 
@@ -126,6 +125,32 @@ def haptex_rate(alg, dev, op, n_steps, n_runs):
     return n_steps * n_runs / (time.perf_counter() - t)
 
 
+def setup_share(n_runs=4000, n_steps=10_000):
+    """Issue 30's per-run set-up against a 10^4-sample run: simulate_batch over n_runs distinct
+    stiffnesses (A, point mass, constant push) for 10 samples (set-up and verdicts dominate) and
+    for n_steps samples, on one thread; returns (set-up us a run, run us, share)."""
+    from haptex import core
+
+    tex = hx.Sinusoid(0.8e-3, 1e-3)
+    alg, dev = hx.algorithm("A", tex, 2000.0), hx.Device.point_mass()
+    op = ConstantForce([0.0, -1.0])
+    k = np.linspace(500.0, 5000.0, n_runs)
+    with core.threads(1):
+        hx.simulate_batch(alg, dev, op, 10 * dev.period, stiffness=k[:10], progress=False)
+        short = min(_timed(lambda: hx.simulate_batch(alg, dev, op, 10 * dev.period, stiffness=k, progress=False))
+                    for _ in range(3))
+        full = min(_timed(lambda: hx.simulate_batch(alg, dev, op, n_steps * dev.period, stiffness=k[:200],
+                                                     progress=False)) for _ in range(3))
+    setup, run = short / n_runs * 1e6, full / 200 * 1e6
+    return setup, run, setup / run
+
+
+def _timed(fn):
+    t = time.perf_counter()
+    fn()
+    return time.perf_counter() - t
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--steps-single", type=int, default=2_000_000)
@@ -152,6 +177,9 @@ def main() -> None:
                 h = haptex_rate(alg, dev, op, n_steps, n_runs)
                 c = c_reference(alg, dev, op, n_steps, n_runs, tmp, exe)
                 print(f"{letter:4} {n_runs:5d} {n_steps:8d} {h:19.3g} {c:18.3g} {h / c:6.2f}")
+    setup, run, share = setup_share()
+    print(f"per-run set-up (4000 distinct stiffnesses, 10 samples, one thread): {setup:.1f} us; a 10^4-sample run: "
+          f"{run:.0f} us; set-up / run = {100 * share:.2f} %")
     print(f"cores: {os.cpu_count()} (simulate_batch runs in parallel over them; the C loop uses one)")
 
 

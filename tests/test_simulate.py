@@ -137,6 +137,24 @@ def test_batch_equals_single_runs():
     assert np.all(b.energy_balance_error < 1e-9)
 
 
+def test_a_batch_packing_stiffness_beside_other_keys_equals_single_runs():
+    # issue 30: the stiffness is packed into the parameter vector after the distinct runs of the
+    # other keys are built (no per-run Python for it); crossed with a device key (delay) and an
+    # algorithm key (F's friction), every run equals simulate() with the same values
+    dev = hx.Device.point_mass(0.1, 0.5, 1e-4)
+    op = ElasticBand(200.0, [0.2e-3, -20e-3])
+    k, delay, mu = np.meshgrid([800.0, 3000.0, 9000.0], [0, 1], [0.5, 0.9], indexing="ij")
+    alg = hx.algorithm("F", SINE, 1.0, friction=0.7, presliding=1e-4, max_penetration=1e-3)
+    b = hx.simulate_batch(alg, dev, op, 0.2, initial_position=[0.0, 1e-3], stiffness=k.ravel(), delay=delay.ravel(),
+                          friction=mu.ravel())
+    for i, (ki, di, mi) in enumerate(zip(k.ravel(), delay.ravel(), mu.ravel())):
+        a = hx.algorithm("F", SINE, ki, friction=mi, presliding=1e-4, max_penetration=1e-3)
+        r = hx.simulate(a, dev.replace(delay=int(di)), op, 0.2, initial_position=[0.0, 1e-3])
+        assert b.energy_x[i] == pytest.approx(r.totals["energy_x"], rel=1e-12, abs=1e-18)
+        assert b.energy_z[i] == pytest.approx(r.totals["energy_z"], rel=1e-12, abs=1e-18)
+        assert b.max_penetration[i] == pytest.approx(r.max_penetration, rel=1e-12)
+
+
 def test_pantograph_matrices_follow_from_the_linkage_jacobian():
     dev = hx.Device.pantograph(joint_damping=4.7e-3)
     d = dev.details
