@@ -1057,7 +1057,6 @@ class FrictionModulated(Algorithm):
         return total, state
 
 
-_CODES = {letter: getattr(_ext, f"ALG_{letter}") for letter in "WABCDEFG"}
 
 ALGORITHMS: dict[str, type[Algorithm]] = {
     "W": SmoothWall,
@@ -1069,7 +1068,11 @@ ALGORITHMS: dict[str, type[Algorithm]] = {
     "F": FrictionModulated,
     "G": ForceShading,
 }
-"""Registry of algorithm classes by the paper's letter (Table I)."""
+"""Registry of algorithm classes by the paper's letter (Table I), in the paper's order: the one
+place the letters are known (the CLI, design, tables, the atlas and export read it)."""
+
+_CODES = {letter: getattr(_ext, f"ALG_{letter}") for letter in ALGORITHMS}
+"""Each letter's code in the C core (``hx_core.h``, ``HX_ALG_*``)."""
 
 
 def algorithm(letter: str, texture: Texture | None = None, stiffness: float = 2000.0, **params) -> Algorithm:

@@ -337,7 +337,9 @@ def _axis(name: str, value) -> Axis:
         letters = value if isinstance(value, list) else None
         if not letters:
             raise fail("axes.algorithm", value, "a list of letters, e.g. ['A', 'C']")
-        bad = [v for v in letters if str(v).upper() not in "WABCDEFG" or len(str(v)) != 1]
+        from .algorithms import ALGORITHMS
+
+        bad = [v for v in letters if str(v).upper() not in ALGORITHMS]
         if bad:
             raise fail("axes.algorithm", bad[0], "letters W, A-G")
         return Axis("algorithm", np.array([str(v).upper() for v in letters], dtype=object), "")

@@ -14,7 +14,7 @@ from .analysis import (characteristic_number, checked_algorithms, conservativity
 from .devices import Device, critical_stiffness
 from .textures import Texture
 
-LETTERS = "WABCDEFG"
+LETTERS = "".join(ALGORITHMS)
 MIN_CUTOFF_PERIODS = 2.0
 """A measured texture must span at least this many cut-off periods l_c along every axis to
 be analysed as rendered (chosen: two, so that a rendered period is told from a tilt)."""

@@ -22,11 +22,11 @@ import numpy as np
 
 from . import core as _core
 from ._validation import ParameterError, positive_or_inf
-from .algorithms import Algorithm
+from .algorithms import ALGORITHMS, Algorithm
 from .core import _ext
 from .renderer import MAX_EVALUATIONS, WORKSPACE_LIMIT, evaluation_budget, tick_model
 
-EXPORTABLE = "WABCDEFG"
+EXPORTABLE = "".join(ALGORITHMS)
 """Algorithms :func:`export_c` can write."""
 
 MAX_TABLE = 1_000_000

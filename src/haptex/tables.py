@@ -105,7 +105,7 @@ def table_ii(stiffness: float = PAPER_PARAMETERS["stiffness"], amplitude: float 
     tex = Sinusoid(A, l)
     if surface not in (None, "egg-crate"):
         raise fail("surface", surface, "None or 'egg-crate'")
-    order = [c for c in "WABCDEFG" if c in ALGORITHMS] if letters is None else [c.upper() for c in letters]
+    order = list(ALGORITHMS) if letters is None else [c.upper() for c in letters]
     if surface is not None:
         tex = SumOfGratings.egg_crate(A, l)
         order = [c for c in order if ALGORITHMS[c].surfaces] if letters is None else order
