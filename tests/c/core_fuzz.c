@@ -9,7 +9,8 @@
  *     Jacobians for positions within +-1 km (the renderer's workspace limit);
  *   - the servo tick (hx_render_step) with W's damper, F's sharp presliding, the passivity controller and a max
  *     force of 5 N over the same positions and NaN/infinite ones: every force finite and at
- *     most 5 N, exactly the malformed positions counted as faults.
+ *     most 5 N, exactly the malformed positions counted as faults;
+ *   - the search-data builders (hx_leaf_bounds, hx_table_cell; fuzz_builders below).
  * Prints "ok <evaluations>" and exits 0, else prints the failure and exits 1.
  */
 #include <math.h>
@@ -88,6 +89,97 @@ static double *patches(long nx, long ny, int periodic, long cells, long *rows, l
     *rows = 1;
     *cols = k;
     return c;
+}
+
+/* The search-data builders over a random two-harmonic Fourier profile, one period of 2 mm
+ * (harmonics of 2 mm and 0.5 mm): hx_leaf_bounds' lo and hi bound h at 64 random points of
+ * every leaf; a bound tree and header are assembled from them as haptex.closest does, checked by
+ * hx_closest_aux_check; hx_table_cell on cells from far below the texture to above it returns
+ * at most HX_TABLE_MAXP + 1 and writes only its row (a heap array of exactly HX_PIECE x
+ * HX_TABLE_MAXP values), every piece ordered and within the search window. */
+static int fuzz_builders(long *evaluations)
+{
+    enum { NL = 64, NSUB = 8 };
+    const double period = 2e-3, width = period / NL;
+    double c[6], lo[NL], hi[NL], best_h, tmin, *aux, *row;
+    long naux = HX_A_TREE + 4 * NL, i, k, cell;
+    hx_texture t;
+    c[0] = 3e-4 * (0.5 + uniform());
+    c[1] = 1e-4 * (0.5 + uniform());
+    c[2] = 2.0 * 3.141592653589793 / period;
+    c[3] = 4.0 * c[2];
+    c[4] = 6.3 * uniform();
+    c[5] = 6.3 * uniform();
+    t.kind = HX_TEXTURE_FOURIER;
+    t.c = c;
+    t.rows = 3;
+    t.cols = 2;
+    if (hx_texture_check(t.kind, t.c, t.rows, t.cols) != HX_OK) {
+        printf("builders: the texture was refused\n");
+        return 1;
+    }
+    {
+        double jerk = c[0] * pow(c[2], 3) + c[1] * pow(c[3], 3);
+        tmin = hx_leaf_bounds(&t, 0.0, width, NL, NSUB, jerk, lo, hi, &best_h);
+        for (i = 0; i < NL; i++)
+            for (k = 0; k < 64; k++) {
+                double x = (double)i * width + uniform() * width, h = hx_texture_height(&t, x, 0.0);
+                (*evaluations)++;
+                if (!(lo[i] - 1e-15 <= h && h <= hi[i] + 1e-15)) {
+                    printf("builders: leaf %ld bounds [%g, %g] miss h(%g) = %g\n", i, lo[i], hi[i], x, h);
+                    return 1;
+                }
+            }
+        aux = calloc((size_t)naux, sizeof(double));
+        aux[HX_A_MODE] = HX_CP_PERIODIC;
+        aux[HX_A_PERIOD] = aux[HX_A_TREELEN] = period;
+        aux[HX_A_NLEAF] = NL;
+        aux[HX_A_STEP] = period / 4.0 / 64.0;
+        aux[HX_A_SLOPE] = c[0] * c[2] + c[1] * c[3];
+        aux[HX_A_CURV] = c[0] * c[2] * c[2] + c[1] * c[3] * c[3];
+        aux[HX_A_JERK] = jerk;
+        aux[HX_A_TIE] = 1e-9 * period / 4.0;
+        aux[HX_A_TMIN] = tmin;
+        for (i = 0; i < 2 * NL; i++) { /* heap-ordered min / max tree, leaves from NL */
+            aux[HX_A_TREE + i] = HUGE_VAL;
+            aux[HX_A_TREE + 2 * NL + i] = -HUGE_VAL;
+        }
+        for (i = 0; i < NL; i++) {
+            aux[HX_A_TREE + NL + i] = lo[i];
+            aux[HX_A_TREE + 3 * NL + i] = hi[i];
+        }
+        for (i = NL - 1; i >= 1; i--) {
+            aux[HX_A_TREE + i] = fmin(aux[HX_A_TREE + 2 * i], aux[HX_A_TREE + 2 * i + 1]);
+            aux[HX_A_TREE + 2 * NL + i] = fmax(aux[HX_A_TREE + 2 * NL + 2 * i], aux[HX_A_TREE + 2 * NL + 2 * i + 1]);
+        }
+        aux[HX_A_HMIN] = aux[HX_A_TREE + 1];
+    }
+    if (hx_closest_aux_check(aux, naux) != HX_OK) {
+        printf("builders: the assembled search data was refused\n");
+        free(aux);
+        return 1;
+    }
+    row = malloc(sizeof(double) * HX_PIECE * HX_TABLE_MAXP);
+    for (cell = 0; cell < 4000; cell++) {
+        double w = period / 128.0 * (cell % 7 == 0 ? 16.0 : 1.0), cx = (uniform() - 0.5) * 3.0 * period;
+        double zlo = (uniform() - 0.8) * 6e-3, x0 = floor(cx / period) * period;
+        long n = hx_table_cell(&t, aux, x0, w, cx, zlo, zlo + w, row);
+        (*evaluations)++;
+        if (n < 0 || n > HX_TABLE_MAXP + 1) {
+            printf("builders: cell (%g, %g) gave %ld pieces\n", cx, zlo, n);
+            return 1;
+        }
+        for (k = 0; k < (n <= HX_TABLE_MAXP ? n : 0); k++) {
+            const double *q = row + HX_PIECE * k;
+            if (!(q[0] < q[1]) || !(q[2] == 0.0 || q[2] == 1.0) || !isfinite(q[3]) || !isfinite(q[4])) {
+                printf("builders: cell (%g, %g) piece %ld = [%g, %g] kind %g\n", cx, zlo, k, q[0], q[1], q[2]);
+                return 1;
+            }
+        }
+    }
+    free(row);
+    free(aux);
+    return 0;
 }
 
 int main(void)
@@ -206,6 +298,8 @@ int main(void)
         }
         free(c);
     }
+    if (fuzz_builders(&evaluations))
+        return 1;
     printf("ok %ld\n", evaluations);
     return 0;
 }
