@@ -422,12 +422,17 @@ def _operator(table, dimension: int):
 # -- the task and the Dataset --------------------------------------------------------------
 def _variables(dimension: int) -> dict:
     """name: (unit, dtype, fill, description) of every per-run variable of an atlas."""
+    from .simulate import REGIMES
+
     axes = "xz" if dimension == 2 else "xyz"
     out = {"oscillating": ("1", "bool", False, "the run oscillates on some axis (Oscillation verdict)")}
     for a in axes:
         out[f"oscillating_{a}"] = ("1", "bool", False, f"the verdict along {a}")
     out |= {"growing": ("1", "bool", False, "the motion grows over the tail (decay_ratio > 1, above the rest "
-                                            "threshold): an unstable loop"),
+                                            "threshold)"),
+            "regime": ("1", "int8", -1, "the run's regime (haptex.simulate.regime): " + ", ".join(
+                f"{i} {name}" for i, name in enumerate(REGIMES))),
+            "unstable": ("1", "bool", False, "the loop is unstable: regime limit cycle, growing or diverged"),
             "tail_amplitude": ("m", "float64", np.nan, "tail amplitude of the oscillating (or largest) axis"),
             "tail_frequency": ("Hz", "float64", np.nan, "its frequency"),
             "decay_ratio": ("1", "float64", np.nan, "amplitude of the tail's second half over its first")}
@@ -489,7 +494,7 @@ def _run_blocks(spec_mapping: dict, blocks: list, threads: int | None = None) ->
 
 def _run_block(spec_mapping: dict, block: tuple) -> dict:
     """One block: simulate its runs; returns the variables, shaped as the block."""
-    from .simulate import simulate_batch
+    from .simulate import REGIMES, simulate_batch
 
     if isinstance(spec_mapping, SweepSpec):
         spec_mapping = spec_mapping.mapping
@@ -504,6 +509,7 @@ def _run_block(spec_mapping: dict, block: tuple) -> dict:
     d = device.dimension
     axes = "xz" if d == 2 else "xyz"
     out = {"oscillating": res.oscillating, "growing": res.growing, "decay_ratio": res.decay_ratio,
+           "regime": np.array([REGIMES.index(r) for r in res.regime], dtype=np.int8), "unstable": res.unstable,
            "tail_amplitude": res.amplitude, "tail_frequency": res.frequency,
            "deepest_penetration": res.max_penetration, "saturations": res.saturations,
            "energy_balance_error": res.energy_balance_error, "diverged_at": res.diverged_at}

@@ -316,7 +316,8 @@ def _simulate(ctx, mode, letter, stiffness, amplitude, period, max_penetration, 
     summary = {"units": units, "mode": mode, "algorithm": letter, "stiffness": stiffness, "device": dev.name,
                "sampling_period": dev.period, "duration": duration, **res.totals,
                "energy_balance_error": res.energy_balance_error, "max_penetration": res.max_penetration,
-               "saturations": res.saturations, "oscillating": osc.oscillating, "oscillation_axis": osc.axis,
+               "saturations": res.saturations, "oscillating": osc.oscillating, "regime": res.regime,
+               "oscillation_axis": osc.axis,
                "amplitude": osc.amplitude, "frequency": osc.frequency, "energy_per_cycle": osc.energy_per_cycle,
                "dimension": d}
     if surface_spec is not None:
@@ -354,7 +355,7 @@ def _simulate(ctx, mode, letter, stiffness, amplitude, period, max_penetration, 
             ("operator work (J)", f"{res.totals['operator_work']:.4g}"),
             ("energy balance error (relative)", f"{res.energy_balance_error:.2g}"),
             ("max penetration (mm)", f"{res.max_penetration * 1e3:.4g}"), ("saturations", str(res.saturations)),
-            ("oscillating", "yes" if osc.oscillating else "no"),
+            ("oscillating", "yes" if osc.oscillating else "no"), ("regime", res.regime),
             ("tail amplitude (mm) / frequency (Hz)", f"{osc.amplitude * 1e3:.3g} / {osc.frequency:.4g}"),
             ("energy supplied per cycle (J)", f"{osc.energy_per_cycle:.3g}")]
     for a, b in rows:

@@ -37,7 +37,7 @@ from .operators import Operator
 from .renderer import PassivityController
 
 __all__ = ["SimulationResult", "Oscillation", "simulate", "simulate_batch", "MEMORY_BUDGET", "SimulationWarning",
-           "BALANCE_TOLERANCE"]
+           "BALANCE_TOLERANCE", "REGIMES", "UNSTABLE", "regime"]
 
 BALANCE_TOLERANCE = 1e-6
 """Relative energy-balance error above which a result is flagged (exact runs close to ~1e-12)."""
@@ -302,6 +302,8 @@ class Oscillation:
         The verdict on each axis.
     y : AxisOscillation or None
         The verdict along y in 3-D; None in the plane.
+    cycles : float
+        Cycles of that axis's frequency in the tail (0 at rest).
     """
 
     oscillating: bool
@@ -314,6 +316,54 @@ class Oscillation:
     x: AxisOscillation | None = None
     z: AxisOscillation | None = None
     y: AxisOscillation | None = None
+    cycles: float = 0.0
+
+
+REGIMES = ("decaying", "settling", "driven", "limit cycle", "growing", "diverged")
+"""The regime of a run, from its tail (:func:`regime`), in the order of their codes 0-5."""
+MIN_CYCLES = 3
+"""Cycles a sustained motion must show in the tail to be an oscillation (as ``oscillating``)."""
+UNSTABLE = frozenset(("limit cycle", "growing", "diverged"))
+"""The regimes of an unstable loop: the motion does not die out by itself."""
+REGIME_TOLERANCE = 2e-3
+"""|decay ratio - 1| within which a sustained motion is a limit cycle (chosen). An unstable wall
+bounces off its one-sided contact into a bounded cycle whose decay ratio sits at 1 +- 1e-4
+(measured over the shipped wall atlas, examples/sweeps/wall.toml: 0.9995-1.0001), while the
+stable runs decay: the slowest of that atlas, 1 % below its critical stiffness, has 0.9957."""
+
+
+def regime(decay_ratio, amplitude, threshold, cycles, driven, diverged):
+    """The regime of runs from their tail verdicts, elementwise.
+
+    Parameters
+    ----------
+    decay_ratio, amplitude, threshold, cycles : array_like, shape (N,)
+        The main axis's decay ratio (1), its amplitude in the tail's second half and the rest
+        threshold (m), the cycles of its frequency in the tail (:class:`Oscillation`).
+    driven : array_like of bool, shape (N,)
+        The main axis's sustained motion is the texture traversed during a scan.
+    diverged : array_like of bool, shape (N,)
+        The run became non-finite.
+
+    Returns
+    -------
+    ndarray of str, shape (N,)
+        ``"diverged"``; else ``"decaying"`` at rest (amplitude at most the threshold) or with a
+        decay ratio below 1 - :data:`REGIME_TOLERANCE`; ``"settling"`` for motion of fewer than
+        :data:`MIN_CYCLES` cycles in the tail (a transient still under way: no oscillation to
+        judge, a longer run will tell); ``"driven"`` for motion at the texture's rate;
+        ``"growing"`` above 1 + the tolerance; else ``"limit cycle"``. :data:`UNSTABLE` names
+        the unstable ones.
+    """
+    ratio = np.asarray(decay_ratio, dtype=np.float64)
+    moving = np.asarray(amplitude, dtype=np.float64) > np.asarray(threshold, dtype=np.float64)
+    out = np.full(ratio.shape, "limit cycle", dtype=object)
+    out[ratio > 1.0 + REGIME_TOLERANCE] = "growing"
+    out[moving & (np.asarray(cycles, dtype=np.float64) < MIN_CYCLES)] = "settling"
+    out[~moving | (ratio < 1.0 - REGIME_TOLERANCE)] = "decaying"
+    out[moving & np.asarray(driven, dtype=bool) & (ratio <= 1.0 + REGIME_TOLERANCE)] = "driven"
+    out[np.asarray(diverged, dtype=bool)] = "diverged"
+    return out.astype(str)
 
 
 def _axis_verdicts(u: np.ndarray, tail_duration: float, threshold: np.ndarray, texture_freqs: np.ndarray):
@@ -375,7 +425,8 @@ def _oscillations(tail: np.ndarray, tail_duration: float, e_env_tail: np.ndarray
         cycles = main.frequency * tail_duration
         per_cycle = -float(e_env_tail[r]) / cycles if cycles > 0 else 0.0
         out.append(Oscillation(any(a.oscillating for a in ax.values()), main.amplitude, main.decay_ratio,
-                               main.frequency, per_cycle, float(threshold[r]), key, ax["x"], ax["z"], ax.get("y")))
+                               main.frequency, per_cycle, float(threshold[r]), key, ax["x"], ax["z"], ax.get("y"),
+                               cycles))
     return out
 
 
@@ -467,6 +518,15 @@ class SimulationResult:
     def dimension(self) -> int:
         """2 (positions [x, z]) or 3 ([x, y, z])."""
         return int(self.position.shape[1])
+
+    @property
+    def regime(self) -> str:
+        """The run's regime (:func:`regime`): "decaying", "settling", "driven", "limit cycle",
+        "growing" or "diverged"."""
+        o = self.oscillation
+        main = getattr(o, o.axis, None)
+        return str(regime([o.decay_ratio], [o.amplitude], [o.threshold], [o.cycles],
+                          [bool(main is not None and main.texture_driven)], [self.diverged_at is not None])[0])
 
     @property
     def energy_per_axis(self) -> np.ndarray:
@@ -833,6 +893,11 @@ class BatchResult:
     growing : ndarray of bool
         The motion grows: decay ratio > 1 with an amplitude above the rest threshold, not
         at the rate the texture drives (an unstable loop, before any limit cycle).
+    regime : ndarray of str
+        Each run's regime (:func:`regime`): "decaying", "settling", "driven", "limit cycle",
+        "growing" or "diverged"; an unstable loop is one of :data:`UNSTABLE`, whichever its decay
+        ratio's last digits (``growing`` alone flips between a bounded cycle's 0.9999 and
+        1.0001).
     """
 
     parameters: dict
@@ -855,6 +920,12 @@ class BatchResult:
     oscillating_axes: np.ndarray | None = None
     decay_ratio: np.ndarray | None = None
     growing: np.ndarray | None = None
+    regime: np.ndarray | None = None
+
+    @property
+    def unstable(self) -> np.ndarray:
+        """True where the run's regime is one of :data:`UNSTABLE`, shape (N,)."""
+        return np.isin(self.regime, list(UNSTABLE))
 
 
 def _rebuild(algorithm: Algorithm, device: Device, operator: Operator, values: dict):
@@ -1100,7 +1171,9 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
                                    for o in osc], dtype=bool).reshape(N, d),
         decay_ratio=col(lambda o: o.decay_ratio),
         growing=col(lambda o: bool(o.decay_ratio > 1.0 and o.amplitude > o.threshold
-                                    and not getattr(o, o.axis).texture_driven)))
+                                    and not getattr(o, o.axis).texture_driven)),
+        regime=regime(col(lambda o: o.decay_ratio), col(lambda o: o.amplitude), col(lambda o: o.threshold),
+                      col(lambda o: o.cycles), col(lambda o: getattr(o, o.axis).texture_driven), diverged_at > 0))
 
 
 def _progress(show: bool, total: int, description: str = "simulating", completed: int = 0, columns=(),
