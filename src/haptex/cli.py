@@ -710,8 +710,8 @@ def sweep(spec, out, scheduler, workers, quiet):
     n = parsed.runs
     click.echo(f"{out}: {n} runs ({' x '.join(f'{a.name} {a.values.size}' for a in parsed.axes)}), "
                f"{ds.attrs['blocks_computed']} blocks computed and {ds.attrs['blocks_skipped']} already done, in "
-               f"{_time.perf_counter() - t0:.1f} s; {int(ds['oscillating'].sum())} oscillating, "
-               f"{int(ds['growing'].sum())} growing")
+               f"{_time.perf_counter() - t0:.1f} s; {int(ds['unstable'].sum())} unstable (limit cycle, growing or "
+               f"diverged), {int(ds['oscillating'].sum())} oscillating")
 
 
 @cli.command()

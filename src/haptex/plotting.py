@@ -390,14 +390,18 @@ def plot_atlas(ds, x: str, y: str, where: dict, path) -> Path:
     plt = _pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
     xs, ys = s[x].values, s[y].values
-    verdict = np.where(s["growing"].values, 2, np.where(s["oscillating"].values, 1, 0))
+    if "regime" in s:  # 0-2 stable (decaying, settling, driven), 3 limit cycle, 4-5 growing or diverged
+        code = s["regime"].values
+        verdict = np.where(code >= 4, 2, np.where(code == 3, 1, 0))
+    else:  # a store written before the regime (growing and oscillating alone)
+        verdict = np.where(s["growing"].values, 2, np.where(s["oscillating"].values, 1, 0))
     rate = sum(s[v].values for v in s.data_vars if v.startswith("energy_rate_"))
     xlog = x in ("stiffness", "mass", "damping") and np.all(xs > 0) and xs.max() / xs.min() > 20
     ylog = y in ("stiffness", "mass", "damping") and np.all(ys > 0) and ys.max() / ys.min() > 20
     im0 = axes[0].pcolormesh(xs, ys, verdict, shading="nearest", vmin=-0.5, vmax=2.5,
                              cmap=ListedColormap(["#d9ead3", "#ffe599", "#e06666"]))
     cb = fig.colorbar(im0, ax=axes[0], ticks=[0, 1, 2])
-    cb.ax.set_yticklabels(["decays", "persists", "grows"])
+    cb.ax.set_yticklabels(["stable", "limit cycle", "grows"])
     lim = float(np.nanmax(np.abs(rate))) if np.any(np.isfinite(rate)) else 1.0
     im1 = axes[1].pcolormesh(xs, ys, rate, shading="nearest", cmap="RdBu_r",
                              norm=SymLogNorm(linthresh=max(lim * 1e-6, 1e-12), vmin=-lim, vmax=lim))
