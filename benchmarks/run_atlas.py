@@ -53,8 +53,9 @@ def main() -> None:
             s = SweepSpec.from_mapping(mapping)
             blocks = s.blocks()
             n = runs * round(s.duration / 1e-4)
-            _run_blocks(s.mapping, blocks[:1], 1)
-            client.submit(_run_blocks, s.mapping, blocks[:1], 1, pure=False).result()  # warm the worker
+            whole = [(b, 0, 1) for b in blocks]  # (block, part, parts): each block whole
+            _run_blocks(s.mapping, whole[:1], 1)
+            client.submit(_run_blocks, s.mapping, whole[:1], 1, pure=False).result()  # warm the worker
             alg, device, op, p0 = s.build()
             values = [s.axes[0].values[b[0]] for b in blocks]
 
@@ -63,16 +64,16 @@ def main() -> None:
                     simulate_batch(alg, device, op, s.duration, initial_position=p0, progress=False, stiffness=v)
 
             direct = statistics.median(_time(batch) for _ in range(3))
-            local = statistics.median(_time(lambda: _run_blocks(s.mapping, blocks, 1)) for _ in range(3))
-            remote = statistics.median(_time(lambda: client.gather([client.submit(_run_blocks, s.mapping, [b], 1, pure=False)
-                                                                    for b in blocks])) for _ in range(3))
-            groups = [[blocks[i] for i in g] for g in _tasks(list(range(len(blocks))), n, 1)]
+            local = statistics.median(_time(lambda: _run_blocks(s.mapping, whole, 1)) for _ in range(3))
+            remote = statistics.median(_time(lambda: client.gather([client.submit(_run_blocks, s.mapping, [w], 1, pure=False)
+                                                                    for w in whole])) for _ in range(3))
+            groups = [[(blocks[i], j, k) for i, j, k in g] for g in _tasks(list(range(len(blocks))), n, 1)]
             grouped = statistics.median(_time(lambda: client.gather([client.submit(_run_blocks, s.mapping, g, 1, pure=False)
                                                                      for g in groups])) for _ in range(3))
             print(f"40 blocks of {n:.0e} samples as a sweep sends them ({len(groups)} tasks): {grouped:.3f} s, overhead "
                   f"{100 * (grouped - direct) / direct:.1f} % against simulate_batch "
                   f"({(grouped - direct) / 40 * 1e3:.2f} ms a block)")
-            latency = statistics.median(_time(lambda: client.submit(_run_blocks, s.mapping, blocks[:1], 1,
+            latency = statistics.median(_time(lambda: client.submit(_run_blocks, s.mapping, whole[:1], 1,
                                                                     pure=False).result()) for _ in range(5))
             print(f"40 tasks of {n:.0e} samples (median of 3): simulate_batch directly {direct:.3f} s, the task "
                   f"function in this process {local:.3f} s, through Dask {remote:.3f} s: overhead "

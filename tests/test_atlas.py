@@ -82,10 +82,11 @@ def test_small_blocks_are_gathered_into_tasks_and_give_the_same_atlas(tmp_path):
     from haptex.atlas import TASK_SAMPLES, _tasks
 
     todo = list(range(40))
-    assert _tasks(todo, 100_000, 1) == [todo[i:i + 10] for i in range(0, 40, 10)]  # capped by 4 a thread
-    assert _tasks(todo, 100_000, 2) == [todo[i:i + 5] for i in range(0, 40, 5)]
-    assert _tasks(list(range(400)), 100_000, 1)[0] == list(range(TASK_SAMPLES // 100_000))  # 20 blocks a task
-    assert _tasks(todo, TASK_SAMPLES, 1) == [[i] for i in todo]  # large blocks: one a task
+    blocks = lambda tasks: [[i for i, _, _ in t] for t in tasks]  # noqa: E731
+    assert blocks(_tasks(todo, 100_000, 1)) == [todo[i:i + 10] for i in range(0, 40, 10)]  # capped by 4 a thread
+    assert blocks(_tasks(todo, 100_000, 2)) == [todo[i:i + 5] for i in range(0, 40, 5)]
+    assert blocks(_tasks(list(range(400)), 100_000, 1))[0] == list(range(TASK_SAMPLES // 100_000))  # 20 a task
+    assert _tasks(todo, TASK_SAMPLES, 1) == [[(i, 0, 1)] for i in todo]  # large blocks: one a task, whole
     # the same runs in blocks of 1 (24 blocks, gathered 6 to a task) and of 5: the same atlas
     axes = {"stiffness": "1-30 kN/m, 12 log steps", "delay": [0, 1]}
     fine = sweep(wall_spec(axes, duration="0.3 s", block=1), tmp_path / "fine.zarr", workers=1)
@@ -93,6 +94,31 @@ def test_small_blocks_are_gathered_into_tasks_and_give_the_same_atlas(tmp_path):
     assert fine.attrs["blocks_computed"] == 24 and bool(fine["done"].all())
     for name in coarse.data_vars:
         assert np.array_equal(fine[name].values, coarse[name].values, equal_nan=fine[name].dtype.kind == "f"), name
+
+
+def test_fewer_blocks_than_workers_are_cut_into_parts_and_give_the_same_atlas(tmp_path, monkeypatch):
+    """Issue 30: a sweep has enough tasks for its workers whatever the block size. The shipped
+    wall atlas's 3 blocks (400 runs of 5 s each) give 64 workers 258 tasks (4 a worker), parts
+    of at least PART_SAMPLES samples; and an atlas of one block computed in 8 parts equals the
+    same atlas computed whole, bit for bit (each run's physics is its own)."""
+    from haptex import atlas
+
+    tasks = atlas._tasks([0, 1, 2], 400 * 50_000, 64, 400)
+    assert len(tasks) == 258 and all(len(t) == 1 for t in tasks)
+    assert sorted(i for t in tasks for i, _, _ in t) == [0] * 86 + [1] * 86 + [2] * 86
+    assert atlas._tasks([0], 10 * 1000, 64, 10) == [[(0, 0, 1)]]  # 10^4 samples: no part below PART_SAMPLES
+    spec = wall_spec({"stiffness": "1-30 kN/m, 12 log steps", "delay": [0, 1]}, duration="10 s", block=24)
+    made = []
+    real = atlas._tasks
+    monkeypatch.setattr(atlas, "_tasks", lambda *a: made.append(real(*a)) or made[-1])
+    cut = sweep(spec, tmp_path / "cut.zarr", workers=1)
+    assert max(n for t in made[-1] for _, _, n in t) >= 4  # the one block was cut (4 tasks a worker thread)
+    monkeypatch.setattr(atlas, "PART_SAMPLES", 10**12)  # parts of at least 10^12 samples: the block whole
+    whole = sweep(spec, tmp_path / "whole.zarr", workers=1)
+    assert made[-1] == [[(0, 0, 1)]]
+    assert cut.attrs["blocks_computed"] == whole.attrs["blocks_computed"] == 1
+    for name in whole.data_vars:
+        assert np.array_equal(cut[name].values, whole[name].values, equal_nan=cut[name].dtype.kind == "f"), name
 
 
 def test_one_or_two_workers_write_identical_stores_and_a_resumed_sweep_completes(tmp_path):

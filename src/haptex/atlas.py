@@ -471,38 +471,57 @@ a task costs Dask about 1.7 ms on this project's 2-core machine whatever it does
 tasks, one in-process worker), against about 0.1 s of simulation for 2e6 samples. Dask's own
 advice is tasks of 100 ms or more ("Dask best practices: avoid very small tasks"). The blocks
 (the store's chunks, the unit of resume) keep their size; a sweep still has at least four tasks
-a worker thread, so that the workers share it and a lost worker costs little."""
+a worker thread, so that the workers share it and a lost worker costs little: fewer blocks than
+that are cut into parts of their runs (:func:`_tasks`), assembled again before a block is
+written."""
+PART_SAMPLES = 200_000
+"""The fewest samples a part of a block holds when blocks are cut for the workers (chosen:
+about 10 ms of simulation here, six times a task's cost to Dask)."""
 
 
-def _tasks(todo: list, block_samples: int, threads: int) -> list[list]:
-    """The blocks ``todo`` (indices, in order) gathered into tasks of about
-    :data:`TASK_SAMPLES` samples (``block_samples`` a block), at least 4 tasks a thread."""
-    k = max(1, min(-(-TASK_SAMPLES // max(block_samples, 1)), len(todo) // (4 * max(threads, 1))))
-    return [todo[i:i + k] for i in range(0, len(todo), k)]
+def _tasks(todo: list, block_samples: int, threads: int, block_runs: int = 1) -> list[list]:
+    """The blocks ``todo`` (indices, in order) as tasks of (block, part, parts) items: gathered
+    into tasks of about :data:`TASK_SAMPLES` samples (``block_samples`` a block), at least 4
+    tasks a worker thread (``threads`` in the cluster); when there are fewer blocks than that,
+    each cut into parts of its ``block_runs`` runs, of at least :data:`PART_SAMPLES` samples."""
+    want = 4 * max(threads, 1)
+    if len(todo) < want:
+        parts = max(1, min(-(-want // max(len(todo), 1)), block_runs,
+                           int(block_samples // max(PART_SAMPLES, 1))))
+        return [[(i, j, parts)] for i in todo for j in range(parts)]
+    k = max(1, min(-(-TASK_SAMPLES // max(block_samples, 1)), len(todo) // want))
+    return [[(i, 0, 1) for i in todo[n:n + k]] for n in range(0, len(todo), k)]
 
 
-def _run_blocks(spec_mapping: dict, blocks: list, threads: int | None = None) -> list[dict]:
-    """One task: :func:`_run_block` on each of ``blocks``, in order, the C core's batch loops on
-    ``threads`` threads (None: :func:`haptex.core.num_threads`)."""
+def _run_blocks(spec_mapping: dict, items: list, threads: int | None = None) -> list[dict]:
+    """One task: :func:`_run_block` on each (block, part, parts) of ``items``, in order, the C
+    core's batch loops on ``threads`` threads (None: :func:`haptex.core.num_threads`)."""
     from . import core
 
     if threads is None:
-        return [_run_block(spec_mapping, b) for b in blocks]
+        return [_run_block(spec_mapping, *item) for item in items]
     with core.threads(max(1, int(threads))):
-        return [_run_block(spec_mapping, b) for b in blocks]
+        return [_run_block(spec_mapping, *item) for item in items]
 
 
-def _run_block(spec_mapping: dict, block: tuple) -> dict:
-    """One block: simulate its runs; returns the variables, shaped as the block."""
+def _assemble(block: tuple, pieces: list) -> dict:
+    """A block's variables, shaped as the block, from its parts' flat arrays, in order."""
+    shape = tuple(s.stop - s.start for s in block)
+    return {k: np.concatenate([p[k] for p in pieces]).reshape(shape) for k in pieces[0]}
+
+
+def _run_block(spec_mapping: dict, block: tuple, part: int = 0, parts: int = 1) -> dict:
+    """Part ``part`` of ``parts`` of one block (its runs in grid order, cut evenly): simulate
+    them; returns the variables as flat arrays (:func:`_assemble` shapes a block)."""
     from .simulate import REGIMES, simulate_batch
 
     if isinstance(spec_mapping, SweepSpec):
         spec_mapping = spec_mapping.mapping
     key = json.dumps(spec_mapping)  # insertion order kept: the axes' order is the grid's
     spec = _parsed(key)
-    shape = tuple(s.stop - s.start for s in block)
     grids = np.meshgrid(*[a.values[s] for a, s in zip(spec.axes, block)], indexing="ij")
-    values = {a.name: g.ravel() for a, g in zip(spec.axes, grids)}
+    runs = np.array_split(np.arange(grids[0].size), parts)[part]
+    values = {a.name: g.ravel()[runs] for a, g in zip(spec.axes, grids)}
     letter = values.pop("algorithm", None)
     alg, device, op, p0 = _built(key, None if letter is None else str(letter[0]))
     res = simulate_batch(alg, device, op, spec.duration, initial_position=p0, progress=False, **values)
@@ -517,7 +536,7 @@ def _run_block(spec_mapping: dict, block: tuple) -> dict:
     for i, a in enumerate(axes):
         out[f"oscillating_{a}"] = res.oscillating_axes[:, i]
         out[f"energy_rate_{a}"] = -energies[a] / spec.duration
-    return {k: np.asarray(v).reshape(shape) for k, v in out.items()}
+    return {k: np.asarray(v).ravel() for k, v in out.items()}
 
 
 def _template(spec: SweepSpec, dimension: int, lazy: bool = True):
@@ -600,11 +619,17 @@ def sweep(spec, out=None, *, scheduler: str | None = None, workers: int | None =
 
                 n_threads = sum(client.nthreads().values()) or 1
                 steps = round(spec.duration / fixed_device.period)  # samples a run
-                groups = _tasks(todo, max(_size(blocks[i]) for i in todo) * steps, n_threads)
-                futures = {client.submit(_run_blocks, spec.mapping, [blocks[i] for i in g], threads, pure=True,
-                                         retries=3): g for g in groups}
+                largest = max(_size(blocks[i]) for i in todo)
+                groups = _tasks(todo, largest * steps, n_threads, largest)
+                futures = {client.submit(_run_blocks, spec.mapping, [(blocks[i], j, n) for i, j, n in g], threads,
+                                         pure=True, retries=3): g for g in groups}
+                pending: dict = {}
                 for fut in as_completed(futures):
-                    for i, data in zip(futures[fut], fut.result()):
+                    for (i, j, n), piece in zip(futures[fut], fut.result()):
+                        pending.setdefault(i, [None] * n)[j] = piece
+                        if any(p is None for p in pending[i]):
+                            continue
+                        data = _assemble(blocks[i], pending.pop(i))
                         if store is None:
                             results[i] = data
                         else:
