@@ -615,7 +615,8 @@ typedef struct {
 long hx_table_cell(const hx_texture *tex, const double *aux, double x0, double w, double cx, double zlo, double zhi,
                    double *row)
 {
-    enum { MAX_LEVELS = 48 };
+    enum { MAX_LEVELS = 24 }; /* 32 << 24 intervals: the indices fit a 32-bit long (LLP64); past it the
+                                  * finest intervals stay wider than w / TABLE_FINE and are scanned */
     tb_entry stk[TABLE_TOP + MAX_LEVELS + 2];
     double S = aux[HX_A_SLOPE], C = aux[HX_A_CURV], J = aux[HX_A_JERK], L = sqrt(1.0 + S * S);
     double r = 0.5 * w * sqrt(2.0) * (1.0 + 1e-9) + 1e-9 * w, cz = 0.5 * (zlo + zhi);
