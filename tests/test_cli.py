@@ -282,8 +282,8 @@ def test_terminal_output_fits_80_columns_and_json_has_units():
     # every --json carries its units: design's too (it had none)
     out = json.loads(run_cli("design", "--texture", "sine:0.2mm,2mm", "--json").stdout)
     numbers = {k for k, v in out.items() if isinstance(v, float)} | set(out["rows"][0]) | set(out["texture_numbers"])
-    numbers -= {"algorithm", "name", "q_note", "passive_at_stiffness", "conservative", "almost_conservative",
-                "continuous", "has_paper_loop"}
+    numbers -= {"algorithm", "name", "q_note", "passive_at_stiffness", "stable_at_stiffness", "conservative",
+                "almost_conservative", "continuous", "has_paper_loop"}
     assert numbers <= set(out["units"]), numbers - set(out["units"])
     assert out["units"]["max_passive_stiffness"] == "N/m" and all("unit" in lim for lim in out["limits"])
 

@@ -136,8 +136,10 @@ def _device_options(func):
         click.option("--device", "device_spec", default=None, show_default="pantograph over a profile, point-mass "
                      "(3-DOF) over a surface",
                      help="'pantograph' or 'point-mass' (parameters below), the shorthand "
-                          "'point-mass:MASS,DAMPING,PERIOD[,RESOLUTION]', the 3-DOF presets 'serial-arm' and "
-                          "'delta' (over a surface), or a TOML device file (FILE.toml; see haptex.device_from_file)."),
+                          "'point-mass:MASS,DAMPING,PERIOD[,RESOLUTION]', the generic 3-DOF linkages 'serial-arm' "
+                          "and 'delta' (over a surface), a product preset of 'haptex devices' (touch, falcon, "
+                          "omega-3, ...; over a profile seen in its x-z plane), or a TOML device file (FILE.toml; "
+                          "see haptex.device_from_file)."),
         click.option("--joint-damping", type=Quantity("N*m*s"), default=4.7e-3, show_default="4.7 mN*m*s",
                      help="pantograph: joint damping inside the wall."),
         click.option("--mass", type=Quantity("kg"), default=0.1, show_default="0.1 kg", help="point-mass: mass."),
@@ -188,8 +190,15 @@ def _build_device(ctx, spec: str, joint_damping, mass, damping, sampling_period,
         return Device.point_mass(_q(vals[0], "kg", "mass"), _q(vals[1], "N*s/m", "damping"),
                                  _q(vals[2], "s", "period"), position_resolution=delta, delay=delay,
                                  dimension=dimension)
+    from .catalogue import presets
+
+    if kind in presets() and not rest:
+        _refuse_unused(ctx, {"*": {"joint_damping", "mass", "damping", "sampling_period"}}, kind, "--device",
+                       owner="*", what="the preset gives it (write a TOML device file to change it)")
+        return presets()[kind].device(delay=delay, dimension=dimension)
     raise ParameterError(f"device = {spec!r} is not allowed: must be 'pantograph', 'point-mass', "
-                         "'point-mass:MASS,DAMPING,PERIOD[,RESOLUTION]' or a TOML device file (FILE.toml)")
+                         "'point-mass:MASS,DAMPING,PERIOD[,RESOLUTION]', 'serial-arm', 'delta', a preset of "
+                         f"'haptex devices' ({', '.join(presets())}) or a TOML device file (FILE.toml)")
 
 
 def _sim_common(func):
@@ -528,6 +537,9 @@ def _check_plot_path(plot: Path) -> None:
               help="Fill a measured file's undefined (NaN) heights by interpolation instead of refusing the file.")
 @click.option("--raw", is_flag=True,
               help="Analyse the measured samples as they are, not band-limited to what the device renders.")
+@click.option("--hand", default="light-touch", show_default=True,
+              help="The hand gripping the handle for the stable limits: a hand of 'haptex devices' (none, "
+                   "light-touch, firm-grip).")
 @click.option("--report", "report_dir", type=click.Path(path_type=Path), default=None,
               help="Also write an HTML report (force fields, q maps, limits, recommendation) into this directory.")
 @click.option("--force", is_flag=True, help="With --report: write into an existing directory that is not a haptex report.")
@@ -536,14 +548,16 @@ def _check_plot_path(plot: Path) -> None:
 @click.pass_context
 def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, sampling_period, delay, stiffness, speed,
            max_penetration, spacing, x_unit, height_unit, level, lowpass, scale, periodic, window, fill_undefined, raw,
-           report_dir, force, as_json, quiet):
+           hand, report_dir, force, as_json, quiet):
     """Which algorithm, how stiff, will it be passive, can the device render it?
 
     A measured texture is band-limited to the shortest period the device renders at the
     speed (the four period limits of Section II-B) and analysed as rendered; --raw analyses
     the samples as they are."""
+    from .catalogue import hand as _hand
     from .design import design as run_design
 
+    hand = _hand(hand)  # a misspelt hand before the texture is read
     with _Spinner("reading the texture", quiet or as_json):
         tex = _texture_from_spec(texture_spec, spacing, x_unit, height_unit, level, lowpass, scale, periodic,
                                  fill_undefined)
@@ -568,7 +582,7 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
         raise ParameterError("--force is not allowed without --report: it applies to the report directory")
     with _Steps(9, "design", quiet or as_json) as step:
         data = run_design(tex, dev, stiffness, speed=speed, max_penetration=max_penetration, x_range=x_range,
-                          progress=step, band_limit=not raw)
+                          progress=step, band_limit=not raw, hand=hand)
     if report_dir is not None:
         from .design import rendered_texture
         from .report import write_design_report
@@ -604,17 +618,19 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
     tn = data["texture_numbers"]
     console.print(f"{'rendered ' if bl['applied'] else ''}texture {data['rendered_texture']}: shortest period {tn['shortest_period'] * 1e3:.4g} mm, "
                   f"M = {tn['max_slope']:.4g}, heights {tn['height_range'][0] * 1e3:.4g} to {tn['height_range'][1] * 1e3:.4g} mm")
-    console.print(f"device {data['device']}: sigma_0(B)/(2T) = {data['passivity_limit']:.4g} N/m; sampled wall "
-                  f"stability limit {data['wall_stability_limit']:.4g} N/m")
     from rich import box
 
+    console.print(_limits_table(data["wall_limits"], f"wall limits on {data['device']}"))
+
     t = Table(title=f"at {stiffness:g} N/m", box=box.SIMPLE_HEAD,
-              caption="max passive: largest passive stiffness; cons.: conservative; cont.: continuous")
-    for col in ("alg.", "q", "max passive (N/m)", "passive", "cons.", "max |loop| (J)", "cont."):
+              caption="max passive: Corollary 1 / q; max stable: the wall's stable limit with the hand / q; "
+                      "cons.: conservative; cont.: continuous")
+    for col in ("alg.", "q", "max passive (N/m)", "max stable (N/m)", "passive", "cons.", "max |loop| (J)", "cont."):
         t.add_column(col)
     for r in data["rows"]:
         t.add_row(r["algorithm"], "unbounded" if math.isinf(r["q"]) else f"{r['q']:.4g}",
-                  f"{r['max_passive_stiffness']:.4g}", "yes" if r["passive_at_stiffness"] else "no",
+                  f"{r['max_passive_stiffness']:.4g}", f"{r['max_stable_stiffness']:.4g}",
+                  "yes" if r["passive_at_stiffness"] else "no",
                   "yes" if r["conservative"] else ("almost" if r["almost_conservative"] else "no"),
                   f"{r['max_abs_loop_energy']:.3g}", "yes" if r["continuous"] else "no")
     console.print(t)
@@ -764,6 +780,97 @@ def atlas_plot(store, x, y, selects, out):
             raise ParameterError(f"select {name!r} is not allowed: the atlas's dimensions are {', '.join(ds.sizes)}")
     path = plot_atlas(ds, x, y, where, out)
     click.echo(f"wrote {path}")
+
+
+def _limits_table(wall: dict, title: str):
+    """A rich table of :func:`haptex.limits.wall_limits`'s ``as_dict()``."""
+    from rich import box
+    from rich.table import Table
+
+    t = Table(title=title, box=box.SIMPLE_HEAD,
+              caption=f"passive_stiffness {wall['passive_stiffness']:.4g} N/m; stable_stiffness "
+                      f"{wall['stable_stiffness']:.4g} N/m with the hand {wall['hand']!r}; {wall['note']}")
+    for col in ("limit", "kind", "N/m", "condition", "source"):
+        t.add_column(col)
+    for lim in wall["limits"]:
+        t.add_row(lim["name"], lim["kind"], "n/a" if lim["value"] is None else f"{lim['value']:.4g}",
+                  lim["formula"], lim["source"])
+    return t
+
+
+@cli.group(invoke_without_command=True)
+@click.pass_context
+def devices(ctx):
+    """The device presets, with their sources and wall limits ('haptex devices show NAME')."""
+    if ctx.invoked_subcommand is not None:
+        return
+    from rich import box
+    from rich.console import Console
+    from rich.table import Table
+
+    from .catalogue import DEFAULT_HAND, presets
+    from .limits import wall_limits
+
+    t = Table(title="device presets", box=box.SIMPLE_HEAD,
+              caption=f"passive: Colgate & Schenkel or Abbott & Okamura; stable: closed loop with the hand "
+                      f"{DEFAULT_HAND!r}; rated: the manufacturer's (or CHAI3D's) figure, reported only. "
+                      "'haptex devices show NAME' for every number and its source.")
+    for col in ("name", "DOF", "rate (Hz)", "max force (N)", "passive (N/m)", "stable (N/m)", "rated (N/m)", "device"):
+        t.add_column(col, no_wrap=col != "device")
+    for key, p in presets().items():
+        dev = p.device()
+        w = wall_limits(dev, DEFAULT_HAND, preset=p)
+        t.add_row(key, str(p.dimension), f"{1 / dev.period:g}", f"{dev.max_force:g}", f"{w.passive:.0f}",
+                  f"{w.stable:.0f}", "-" if p.rated_stiffness is None else f"{p.rated_stiffness:.0f}", p.label)
+    Console().print(t)
+
+
+@devices.command("show")
+@click.argument("name")
+@click.option("--hand", default="light-touch", show_default=True, help="none, light-touch or firm-grip.")
+@click.option("--delay", type=int, default=0, show_default=True, help="Whole samples of computation delay.")
+@click.option("--virtual-damping", type=Quantity("N*s/m"), default=0.0, show_default="0 N*s/m",
+              help="The wall's damper B_v.")
+@click.option("--json", "as_json", is_flag=True)
+def devices_show(name, hand, delay, virtual_damping, as_json):
+    """One preset: every number with its status and source, and the wall limits side by side."""
+    from .catalogue import hand as _hand, preset
+    from .limits import wall_limits
+
+    p = preset(name)
+    h = _hand(hand)
+    dev = p.device(delay=delay)
+    w = wall_limits(dev, h, virtual_damping, preset=p)
+    if as_json:
+        out = {"preset": p.key, "label": p.label, "model": p.model, "dimension": p.dimension, "delay": delay,
+               "virtual_damping": virtual_damping, **w.as_dict(),
+               "parameters": {k: f.as_dict() for k, f in p.figures.items()},
+               "hand_parameters": {k: f.as_dict() for k, f in h.figures.items()},
+               "device": {"mass": dev.mass.tolist(), "damping": dev.damping.tolist(), "period": dev.period,
+                          "position_resolution": dev.position_resolution, "max_force": dev.max_force,
+                          "coulomb_friction": dev.coulomb_friction, "delay": dev.delay,
+                          "units": {"mass": "kg", "damping": "N*s/m", "period": "s", "position_resolution": "m",
+                                    "max_force": "N", "coulomb_friction": "N", "delay": "samples"}}}
+        click.echo(json.dumps(_jsonable(out), indent=2))
+        return
+    from rich import box
+    from rich.console import Console
+    from rich.table import Table
+
+    from .catalogue import sources
+
+    console = Console()
+    t = Table(title=f"{p.key}: {p.label} ({p.model}, {p.dimension} DOF)", box=box.SIMPLE_HEAD)
+    for col in ("parameter", "value", "status", "source or reason"):
+        t.add_column(col)
+    for k, f in p.figures.items():
+        t.add_row(k, f.written, f.status, f.source if f.status != "chosen" else f.note)
+    console.print(t)
+    console.print(f"hand {h.key!r}: {h.label}; {h.mass:g} kg, {h.damping:g} N s/m, {h.stiffness:g} N/m")
+    console.print(_limits_table(w.as_dict(), f"wall limits (delay {delay}, B_v {virtual_damping:g} N s/m)"))
+    cited = sorted({f.source for f in (*p.figures.values(), *h.figures.values()) if f.source})
+    for key in cited:
+        console.print(f"[{key}] {sources()[key]}")
 
 
 def _table(stiffness, amplitude, period, max_penetration, friction, presliding, progress=None, surface=None):

@@ -11,7 +11,9 @@ from ._validation import ParameterError
 from .algorithms import ALGORITHMS
 from .analysis import (characteristic_number, checked_algorithms, conservativity, continuity, paper_loop, rendering_cutoff,
                        texture_limits)
-from .devices import Device, critical_stiffness
+from .catalogue import DEFAULT_HAND, presets
+from .devices import Device
+from .limits import stiffness_at, wall_limits
 from .textures import Texture
 
 LETTERS = "".join(ALGORITHMS)
@@ -22,7 +24,7 @@ be analysed as rendered (chosen: two, so that a rendered period is told from a t
 
 def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.1, max_penetration: float = 1e-3,
            samples_per_period=5, friction: float = 0.8, presliding: float = 1e-3, n_loops: int = 4,
-           x_range=None, progress=None, band_limit: bool = True) -> dict:
+           x_range=None, progress=None, band_limit: bool = True, hand=DEFAULT_HAND) -> dict:
     """Analyse every algorithm for one texture on one device and recommend.
 
     Parameters
@@ -60,14 +62,22 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         often refused: a raw scan's Nyquist period makes the rendering region thousands
         of periods deep). Analytic textures are analysed as they are; the limits table
         says whether their shortest period is rendered.
+    hand : str or Hand, optional
+        The hand gripping the handle for the stable limits (:func:`haptex.catalogue.hands`;
+        default :data:`~haptex.catalogue.DEFAULT_HAND`, ``"none"`` for the device alone).
 
     Returns
     -------
     dict
         ``units`` (the SI unit of every number below), ``texture``, ``device``, ``stiffness``, ``limits`` (list of dicts),
         ``wall_stability_limit`` (the sampled wall's critical stiffness along the normal
-        from the closed-loop poles, N/m), ``rows`` (per algorithm: ``q``,
-        ``max_passive_stiffness``, ``passive_at_stiffness``, ``conservative``,
+        from the closed-loop poles, the device alone, N/m), ``wall_limits`` (every limit of
+        :func:`haptex.limits.wall_limits` with the hand, ``passive_stiffness`` and
+        ``stable_stiffness``, and the manufacturer's figure beside, never an input),
+        ``rows`` (per algorithm: ``q``, ``max_passive_stiffness`` (Corollary 1 / q),
+        ``max_stable_stiffness`` (the wall's stable limit with the hand / q: the local
+        stiffness q kappa_0 kept below it, a linearisation), ``passive_at_stiffness``,
+        ``stable_at_stiffness``, ``conservative``,
         ``almost_conservative``, ``max_abs_loop_energy``, ``continuous``, ``q_where``: the
         probe position [x, z] (m) attaining q) and
         ``recommendation`` (text) with ``recommended`` (letters), and ``band_limit``: the
@@ -87,6 +97,7 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         raise ParameterError(f"device = {device.name!r} with dimension = {device.dimension} is not allowed for "
                              f"{texture!r}: a {'surface needs a 3-DOF' if texture.dimension == 2 else 'profile needs a planar'}"
                              " device")
+    wall = wall_limits(device, hand, preset=presets().get(device.details.get("preset")))
     if progress is not None:
         progress("band-limiting")
     given = texture
@@ -101,7 +112,8 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
             progress(L)
         xr = None if L == "W" else x_range
         q = characteristic_number(alg, max_penetration=max_penetration, x_range=xr)
-        kmax = 0.0 if math.isinf(q.value) else device.passivity_limit / q.value
+        kmax = stiffness_at(device.passivity_limit, q.value)
+        kstable = stiffness_at(wall.stable, q.value)
         cons = conservativity(alg, max_penetration=max_penetration, n_random=n_loops, x_range=xr)
         cont = continuity(alg, max_penetration=max_penetration, levels=3, x_range=xr)
         try:
@@ -111,12 +123,12 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         rows.append({
             "algorithm": L, "name": alg.name, "q": q.value, "q_note": q.note, "q_where": list(q.where),
             "max_passive_stiffness": kmax, "passive_at_stiffness": bool(stiffness <= kmax),
+            "max_stable_stiffness": kstable, "stable_at_stiffness": bool(stiffness <= kstable),
             "conservative": cons.conservative, "almost_conservative": cons.almost,
             "max_abs_loop_energy": max((abs(e) for e in cons.random_loop_energies), default=0.0),
             "continuous": cont.continuous, "has_paper_loop": path is not None,
         })
-    m, b = float(device.mass[-1, -1]), float(device.damping[-1, -1])  # along the normal z
-    wall_limit = critical_stiffness(m, b, device.period, device.delay) if b > 0 else 0.0
+    wall_limit = wall["device"].value
     limits = texture_limits(texture, device, speed, stiffness, samples_per_period)
     textured = [r for r in rows if r["algorithm"] != "W"]
     good = [r["algorithm"] for r in textured if r["passive_at_stiffness"] and r["conservative"] and r["continuous"]]
@@ -135,6 +147,10 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
     if softer:
         text.append("conservative and continuous if the stiffness is lowered: " + ", ".join(
             f"{r['algorithm']} up to {r['max_passive_stiffness']:.3g} N/m" for r in softer))
+        held = [r["algorithm"] for r in softer if r["stable_at_stiffness"]]
+        if held and not wall.hand.none:
+            text.append(f"stable but not passive at {stiffness:g} N/m with the hand {wall.hand.key!r}: "
+                        f"{', '.join(held)} (its damping holds the loop; another grip may not)")
     failed = [lim.name for lim in limits if not lim.passed]
     if failed:
         text.append("the device cannot reproduce this texture faithfully: " + ", ".join(failed) + " limit(s) violated")
@@ -143,12 +159,13 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
                   "stiffness": "N/m", "speed": "m/s", "max_penetration": "m", "friction": "1", "presliding": "m",
                   "x_range": "m", "passivity_limit": "N/m", "wall_stability_limit": "N/m", "shortest_period": "m",
                   "max_slope": "1", "max_curvature": "1/m", "height_range": "m", "q": "1", "q_where": "m",
-                  "max_passive_stiffness": "N/m", "max_abs_loop_energy": "J", "limits": "each limit's 'unit'"},
+                  "max_passive_stiffness": "N/m", "max_stable_stiffness": "N/m", "max_abs_loop_energy": "J",
+                  "limits": "each limit's 'unit'", "wall_limits": "N/m"},
         "texture": repr(given), "rendered_texture": repr(texture), "device": device.name, "stiffness": stiffness, "speed": speed,
         "max_penetration": max_penetration, "friction": friction, "presliding": presliding,
         "x_range": None if x_range is None else np.asarray(x_range, dtype=float).tolist(),
         "passivity_limit": device.passivity_limit,
-        "wall_stability_limit": wall_limit,
+        "wall_stability_limit": wall_limit, "wall_limits": wall.as_dict(),
         "texture_numbers": {"shortest_period": texture.shortest_period, "max_slope": texture.max_slope,
                             "max_curvature": texture.max_curvature, "height_range": list(texture.height_range)},
         "limits": [{"name": lim.name, "formula": lim.formula, "lhs": lim.lhs, "rhs": lim.rhs, "unit": lim.unit,

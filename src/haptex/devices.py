@@ -212,8 +212,33 @@ class Device:
         fields["damping_outside"] = None if np.array_equal(self.damping_outside, self.damping) else self.damping_outside
         if "damping" in changes and "damping_outside" not in changes and fields["damping_outside"] is None:
             fields["damping_outside"] = None
+        details = changes.pop("details", self.details)
         fields.update(changes)
-        return Device(**fields, details=self.details)
+        return Device(**fields, details=details)
+
+    def planar(self) -> Device:
+        """A 3-DOF device seen in its x-z plane ([x, z], for profiles), y left free.
+
+        With y free (no force along it), the handle's in-plane acceleration is the x-z block
+        of M^-1 times the force: the planar mass is M_p = ((M^-1)_xz)^-1; the damping's
+        power for in-plane velocities is the x-z block of B. A 2-DOF device is returned as
+        is.
+
+        Returns
+        -------
+        Device
+            Of dimension 2, with the same period, delay, resolutions, limits and friction.
+        """
+        if self.dimension == 2:
+            return self
+        ix = np.ix_([0, 2], [0, 2])
+
+        def mass(M):
+            return None if M is None else np.linalg.inv(np.linalg.inv(M)[ix])
+
+        changes = {"mass": mass(self.mass), "damping": self.damping[ix], "damping_outside": self.damping_outside[ix],
+                   "handle_mass": mass(self.handle_mass), "dimension": 2, "details": {**self.details, "planar": True}}
+        return self.replace(**changes)
 
     # -- presets -----------------------------------------------------------------------
     @classmethod
@@ -594,61 +619,118 @@ def five_bar_jacobian(a1: float, a2: float, base: float, p) -> tuple[np.ndarray,
 
 
 def critical_stiffness(mass: float, damping: float, period: float, delay: int = 0, *, handle_mass: float | None = None,
-                       first_resonance: float | None = None, mode_damping_ratio: float | None = None) -> float:
-    """Largest stable stiffness of a virtual spring on a sampled mass-damper (1 DOF).
+                       first_resonance: float | None = None, mode_damping_ratio: float | None = None,
+                       virtual_damping: float = 0.0, hand=None) -> float:
+    """Largest stable stiffness of a virtual wall on a sampled mass-damper (1 DOF), from the
+    closed-loop poles.
 
-    With ``handle_mass``, ``first_resonance`` and ``mode_damping_ratio`` the device is the
-    two-mass model of :class:`Device` (``mass`` the total, the spring and damping on the
-    motor side, the handle free): the returned kappa is where the largest eigenvalue of
-    the ZOH-discretised closed loop (state [x_m, v_m, x_h, v_h] and ``delay`` held
-    commands) reaches the unit circle.
-
-    The plant 1 / (m s^2 + b s) is discretised with a zero-order hold; the controller
-    applies -kappa x with ``delay`` extra samples of latency. The returned kappa is where
-    the largest closed-loop pole of (z - 1)(z - e^{-bT/m}) z^delay + kappa (n1 z + n0)
-    reaches the unit circle. For small bT/m and no delay it tends to Colgate & Schenkel's
-    2b/T ("Passivity of a class of sampled-data systems", 1997).
+    The device 1 / (m s^2 + b s), or the two-mass model of :class:`Device` (``mass`` the
+    total, the viscous damping and the command on the motor side, the handle on the other
+    side of the mode), is discretised exactly with a zero-order hold. The controller
+    commands u_k = -kappa y_k - B_v (y_k - y_{k-1}) / T from the (motor-side) position y,
+    applied ``delay`` samples later. With ``hand`` = (m_h, b_h, k_h) a hand grips the
+    handle: its mass and damping move with the handle and its stiffness pulls it towards a
+    fixed set-point. The returned kappa is where the largest eigenvalue of the discretised
+    closed loop reaches the unit circle: the exact stability boundary of the linear sampled
+    system (the boundary Gil et al., IEEE Trans. Control Systems Technology 12(4), 2004, and Hulin et al.,
+    IROS 2006, chart). For small bT/m, no delay and no virtual damping it tends to Colgate &
+    Schenkel's 2b/T ("Passivity of a class of sampled-data systems", 1997); with delay d it
+    is near Gil et al.'s (b + B_v) / (T (1/2 + d)).
 
     Parameters
     ----------
     mass : float
-        kg, > 0.
+        m (kg), > 0: the device's apparent mass along the wall's normal.
     damping : float
-        N s/m, > 0.
+        b (N s/m), >= 0: its viscous damping.
     period : float
-        s, > 0.
+        T (s), > 0.
     delay : int
         Whole samples of latency, >= 0.
+    handle_mass, first_resonance, mode_damping_ratio : float, optional
+        The structural mode (kg, Hz, 1), all three or none (see :class:`Device`).
+    virtual_damping : float, optional
+        B_v (N s/m), >= 0: the wall's damper (backward difference of the sensed position).
+    hand : (float, float, float), optional
+        (m_h kg, b_h N s/m, k_h N/m), each >= 0: a linear hand (e.g. ``Hand.impedance``).
 
     Returns
     -------
     float
-        Critical stiffness (N/m).
+        Critical stiffness (N/m); 0.0 when no positive stiffness is stable (no damping at
+        all, or a virtual damper the sampled loop cannot hold).
+
+    Raises
+    ------
+    ParameterError
+        For a non-positive mass or period, negative damping, a non-whole delay, or an
+        incomplete or out-of-range structural mode or hand.
     """
     m = positive("mass", mass, "kg")
-    b = positive("damping", damping, "N s/m")
+    b = nonnegative("damping", damping, "N s/m")
     T = positive("period", period, "s")
     if int(delay) != delay or delay < 0:
         raise fail("delay", delay, "a whole number >= 0")
-    if handle_mass is not None or first_resonance is not None or mode_damping_ratio is not None:
-        return _critical_stiffness_two_mass(m, b, T, int(delay), handle_mass, first_resonance, mode_damping_ratio)
-    a = math.exp(-b * T / m)
-    # ZOH of 1/(s (m s + b)): numerator n1 z + n0
-    n1 = T / b - m / (b * b) * (1 - a)
-    n0 = m / (b * b) * (1 - a) - a * T / b
-    den = np.polymul([1.0, -1.0], [1.0, -a])
-    den = np.polymul(den, np.r_[1.0, np.zeros(int(delay))])
+    bv = nonnegative("virtual_damping", virtual_damping, "N s/m")
+    if hand is None:
+        hm = hb = hk = 0.0
+    else:
+        try:
+            hm, hb, hk = (float(v) for v in hand)
+        except (TypeError, ValueError):
+            raise fail("hand", hand, "(mass kg, damping N s/m, stiffness N/m)") from None
+        hm, hb, hk = (nonnegative(n, v, u) for n, v, u in (("hand mass", hm, "kg"), ("hand damping", hb, "N s/m"),
+                                                          ("hand stiffness", hk, "N/m")))
+    if b + hb + bv == 0.0:
+        return 0.0  # an undamped mass under a sampled spring is unstable at every stiffness
+    mode = (handle_mass, first_resonance, mode_damping_ratio)
+    if any(v is not None for v in mode):
+        if any(v is None for v in mode):
+            raise ParameterError("handle_mass, first_resonance and mode_damping_ratio are allowed only together: "
+                                 "the two-mass model needs all three")
+        A, Bu = _two_mass_plant(m, b, T, *mode, hm, hb, hk)
+    else:
+        M = m + hm
+        A = np.array([[0.0, 1.0], [-hk / M, -(b + hb) / M]])
+        Bu = np.array([0.0, 1.0 / M])
+    Phi, Gam = _zoh(A, Bu, T)
+    n, d = A.shape[0], int(delay)
+    size = n + 1 + d  # plant, the last sensed position, the commands in flight
 
     def radius(k):
-        num = np.r_[np.zeros(len(den) - 2), n1, n0]
-        return float(np.abs(np.roots(den + k * num)).max()) - 1.0
+        L = np.zeros((size, size))
+        L[:n, :n] = Phi
+        u_row = np.zeros(size)
+        u_row[0] = -(k + bv / T)  # the position sensed now (x_0: the motor side)
+        u_row[n] = bv / T
+        if d == 0:
+            L[:n] += np.outer(Gam, u_row)
+        else:
+            L[:n, n + d] = Gam  # the oldest command in flight is applied
+            L[n + 1] = u_row
+            for j in range(2, d + 1):
+                L[n + j, n + j - 1] = 1.0
+        L[n, 0] = 1.0
+        return float(np.abs(np.linalg.eigvals(L)).max()) - 1.0
 
-    return _stability_edge(radius, 2 * b / T)
+    return _stability_edge(radius, 2 * (b + hb + bv) / T)
 
 
-def _critical_stiffness_two_mass(m, b, T, delay, handle_mass, first_resonance, zeta) -> float:
+def _zoh(A: np.ndarray, Bu: np.ndarray, T: float) -> tuple[np.ndarray, np.ndarray]:
+    """(Phi, Gamma): the exact zero-order-hold discretisation of dx/dt = A x + Bu u."""
     from scipy.linalg import expm
 
+    n = A.shape[0]
+    big = np.zeros((n + 1, n + 1))
+    big[:n, :n] = A
+    big[:n, n] = Bu
+    E = expm(big * T)
+    return E[:n, :n], E[:n, n]
+
+
+def _two_mass_plant(m, b, T, handle_mass, first_resonance, zeta, hm, hb, hk):
+    """(A, Bu) of the two-mass device, state [x_m, v_m, x_h, v_h]; the hand (hm, hb, hk) on
+    the handle side."""
     mh = positive("handle_mass", handle_mass, "kg")
     if not mh < m:
         raise fail("handle_mass", handle_mass, f"below the total mass {m:g} kg")
@@ -659,45 +741,29 @@ def _critical_stiffness_two_mass(m, b, T, delay, handle_mass, first_resonance, z
     mm = m - mh
     red = mm * mh / m
     w = 2 * math.pi * f0
-    ks, cs = w * w * red, 2 * zeta * w * red
+    ks, cs = w * w * red, 2 * zeta * w * red  # the device's mode, whoever holds it
+    mh_t = mh + hm
     A = np.array([[0.0, 1.0, 0.0, 0.0],
                   [-ks / mm, -(b + cs) / mm, ks / mm, cs / mm],
                   [0.0, 0.0, 0.0, 1.0],
-                  [ks / mh, cs / mh, -ks / mh, -cs / mh]])
-    big = np.zeros((5, 5))
-    big[:4, :4] = A
-    big[1, 4] = 1.0 / mm  # the command acts on the motor side
-    E = expm(big * T)
-    Phi, Gam = E[:4, :4], E[:4, 4]
-    n = 4 + delay
-
-    def radius(k):
-        L = np.zeros((n, n))
-        L[:4, :4] = Phi
-        if delay == 0:
-            L[:4, 0] -= k * Gam  # u_k = -k x_m,k, held over [kT, (k+1)T)
-        else:
-            L[:4, 4 + delay - 1] = Gam  # the oldest stored command is applied
-            L[4, 0] = -k  # the newest command from this sample's motor position
-            for j in range(1, delay):
-                L[4 + j, 4 + j - 1] = 1.0
-        return float(np.abs(np.linalg.eigvals(L)).max()) - 1.0
-
-    return _stability_edge(radius, 2 * b / T)
+                  [ks / mh_t, cs / mh_t, -(ks + hk) / mh_t, -(cs + hb) / mh_t]])
+    return A, np.array([0.0, 1.0 / mm, 0.0, 0.0])  # the command acts on the motor side
 
 
 def _stability_edge(radius, guess: float) -> float:
-    """The stiffness where ``radius`` (the closed loop's largest pole or eigenvalue modulus
-    minus 1) crosses zero: bracketed by doubling and halving from ``guess`` (N/m), then
-    Brent's method."""
+    """The stiffness where ``radius`` (the closed loop's largest eigenvalue modulus minus 1)
+    crosses zero: bracketed by doubling and halving from ``guess`` (N/m), then Brent's
+    method; 0.0 when even a vanishing stiffness is unstable."""
     from scipy.optimize import brentq
 
     hi = guess
     while radius(hi) < 0:
         hi *= 2
     lo = hi
-    while radius(lo) >= 0 and lo > 1e-12:
+    while radius(lo) >= 0:
         lo /= 2
+        if lo < 1e-9 * guess:
+            return 0.0
     return brentq(radius, lo, hi, xtol=1e-12 * hi, rtol=1e-13)
 
 
@@ -727,7 +793,8 @@ def device_from_file(path) -> Device:
     path : str or Path
         A TOML file, e.g.::
 
-            preset = "pantograph"          # or "point-mass", or "custom" (give mass and damping)
+            preset = "pantograph"          # or "point-mass", "custom" (give mass and damping), or a
+                                           # product of haptex.catalogue.presets() ("falcon", ...)
             name = "our pantograph"
             joint_damping = "4.0 mN*m*s"   # pantograph: per joint, inside the wall
             period = "100 us"
@@ -741,7 +808,9 @@ def device_from_file(path) -> Device:
         and ``handle_mass`` may be 2x2 tables of such strings. ``delay`` is a whole number,
         ``mode_damping_ratio`` a plain number, ``working_point`` (pantograph) a pair of
         lengths. Every other :class:`Device` and :meth:`Device.pantograph` parameter is
-        accepted under its Python name.
+        accepted under its Python name. With a product preset (``"touch"``, ``"falcon"``,
+        ...) the keys given replace the preset's figures (your unit's measured friction,
+        say); ``mass`` and ``damping`` replace the Cartesian matrices at the home pose.
 
     Returns
     -------
@@ -784,9 +853,12 @@ def _device_from_table(spec: dict, where: str) -> Device:
     if unknown:
         raise ParameterError(f"{where}: key {unknown[0]!r} is not allowed: allowed keys are "
                              + ", ".join(_FILE_KEYS))
+    from .catalogue import presets
+
     preset = spec.pop("preset", "custom")
-    if preset not in _PRESETS:
-        raise fail(f"{where}: preset", preset, "one of " + ", ".join(repr(s) for s in _PRESETS))
+    products = [k for k in presets() if k not in _PRESETS]
+    if preset not in _PRESETS and preset not in products:
+        raise fail(f"{where}: preset", preset, "one of " + ", ".join(repr(s) for s in (*_PRESETS, *products)))
     if preset != "pantograph":
         extra = sorted(set(spec) & _PANTOGRAPH_ONLY)
         if extra:
@@ -831,6 +903,9 @@ def _device_from_table(spec: dict, where: str) -> Device:
             kw[key] = arr[0] if kind == "p" else arr
         else:
             kw[key] = quantity(key, value, unit)
+    if preset in products:  # a product preset, with the user's own figures over its chosen ones
+        base = presets()[preset].device(delay=kw.pop("delay", 0), dimension=kw.pop("dimension", None))
+        return base.replace(**kw)
     if preset == "pantograph":
         return Device.pantograph(**kw)
     if preset == "point-mass":

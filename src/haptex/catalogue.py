@@ -1,0 +1,383 @@
+"""Device and hand presets, every number with its status and source.
+
+The numbers live in one data file, ``haptex/data/devices.toml``: each is *published* (a
+manufacturer's specifications sheet or a paper, named), *identified* (measured on the
+device in a paper, named) or *chosen* (not published, or not available to this project,
+with the reason). A manufacturer's recommended stiffness (``rated_stiffness``, and CHAI3D's
+device table) is reported beside haptex's limits, never used as an input.
+
+Kinematic presets get their Cartesian mass and damping from the linkage at a pose
+(:meth:`Device.serial_arm`, :meth:`Device.delta`, :meth:`Device.pantograph`): the inertia
+varies with the pose. Their joint inertias and dampings are scaled so that the home pose
+shows the preset's apparent mass and damping (the mean of the diagonal of M_x and B_x).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from functools import lru_cache
+
+import numpy as np
+
+from ._validation import ParameterError, fail
+from .devices import Device
+
+STATUSES = ("published", "identified", "chosen")
+"""What a preset's number is: stated by its source, measured on the device by its source,
+or chosen by haptex (with the reason)."""
+DEFAULT_HAND = "light-touch"
+"""The hand assumed by the stable limits when none is named: the least stabilising grip
+that still holds a stylus (chosen)."""
+MODELS = ("point-mass", "serial-arm", "delta", "pantograph")
+
+_UNITS = {  # figure: SI unit (None: text)
+    "workspace": None, "period": "s", "max_force": "N", "continuous_force": "N", "position_resolution": "m",
+    "apparent_mass": "kg", "damping": "N*s/m", "coulomb_friction": "N", "link_upper": "m", "link_fore": "m",
+    "rated_stiffness": "N/m", "chai3d_stiffness": "N/m", "rated_damping": "N*s/m", "joint_damping": "N*m*s",
+    "first_resonance": "Hz", "mass": "kg", "stiffness": "N/m",
+}
+TIP_SHARE = 0.2
+"""Share of a serial arm's apparent mass at the tip (gimbal and stylus), the rest reflected
+from the joints (chosen: not published)."""
+EFFECTOR_SHARE = 0.3
+"""Share of a delta's apparent mass in its effector, grip and forearms, the rest reflected
+from the motors and upper arms (chosen: not published)."""
+
+
+@dataclass(frozen=True)
+class Figure:
+    """One number of a preset or hand.
+
+    Attributes
+    ----------
+    name : str
+        The parameter (``period``, ``max_force``, ...).
+    value : float or str
+        In SI units (``unit``), or text (the workspace).
+    unit : str or None
+        The SI unit; None for text.
+    status : str
+        One of :data:`STATUSES`.
+    source : str or None
+        Key of the source in :func:`sources` (published and identified numbers).
+    note : str
+        Why a chosen number was chosen, or what the source's figure means.
+    also : str or None
+        A second source giving the same or a nearby figure.
+    written : str
+        The value as written in the data file, with its unit.
+    """
+
+    name: str
+    value: float | str
+    unit: str | None
+    status: str
+    source: str | None = None
+    note: str = ""
+    also: str | None = None
+    written: str = ""
+
+    def as_dict(self) -> dict:
+        """The figure as JSON-ready data, with its source's full reference."""
+        src = sources()
+        return {"value": self.value, "unit": self.unit, "written": self.written, "status": self.status,
+                "source": src.get(self.source) if self.source else None,
+                "also": src.get(self.also) if self.also else None, "note": self.note}
+
+
+@dataclass(frozen=True)
+class Hand:
+    """A hand gripping the handle: a linear mass-damper-spring (1 DOF per axis, isotropic).
+
+    Attributes
+    ----------
+    key, label : str
+        Its name in :func:`hands` and a description.
+    mass : float
+        m_h (kg) moving with the handle.
+    damping : float
+        b_h (N s/m).
+    stiffness : float
+        k_h (N/m) towards the hand's set-point.
+    figures : dict of str to Figure
+        The three numbers with their sources.
+    """
+
+    key: str
+    label: str
+    mass: float
+    damping: float
+    stiffness: float
+    figures: dict = field(default_factory=dict, compare=False)
+
+    @property
+    def impedance(self) -> tuple[float, float, float]:
+        """(m_h kg, b_h N s/m, k_h N/m), the ``hand`` of :func:`~haptex.critical_stiffness`."""
+        return (self.mass, self.damping, self.stiffness)
+
+    @property
+    def none(self) -> bool:
+        """True for the empty hand (the device alone)."""
+        return self.mass == 0 and self.damping == 0 and self.stiffness == 0
+
+    def attach(self, device: Device) -> Device:
+        """The device with the hand's mass moving with the handle (on every axis; on the
+        handle side of a structural mode): what the simulator moves when this hand holds
+        it. The hand's damping and stiffness act through :meth:`operator`.
+
+        Returns
+        -------
+        Device
+            Named "DEVICE + HAND".
+        """
+        eye = np.eye(device.dimension)
+        changes = {"mass": device.mass + self.mass * eye, "name": f"{device.name} + {self.key}"}
+        if device.handle_mass is not None:
+            changes["handle_mass"] = device.handle_mass + self.mass * eye
+        return device.replace(**changes)
+
+    def operator(self, depth: float = 0.0, velocity: float = 0.0, dimension: int = 2):
+        """The hand's spring and damper towards its set-point: a
+        :func:`~haptex.operators.ScanningHand` pressing ``depth`` (m) below the surface and
+        moving along x at ``velocity`` (m/s); use it with :meth:`attach`.
+
+        Raises
+        ------
+        ParameterError
+            For a negative depth or a non-finite velocity.
+        """
+        from .operators import ScanningHand
+
+        return ScanningHand(self.stiffness, self.damping, velocity=velocity, depth=depth, dimension=dimension)
+
+
+@dataclass(frozen=True)
+class Preset:
+    """A device preset: its sourced figures and the :class:`Device` they make.
+
+    Attributes
+    ----------
+    key, label : str
+        Its name in :func:`presets` and the product's name.
+    model : str
+        One of :data:`MODELS`: how the Cartesian mass and damping are modelled.
+    figures : dict of str to Figure
+        Every number, with its status and source.
+    """
+
+    key: str
+    label: str
+    model: str
+    figures: dict = field(default_factory=dict, compare=False)
+
+    def value(self, name: str, default=None):
+        """A figure's value in SI units, or ``default`` when the preset has none."""
+        f = self.figures.get(name)
+        return default if f is None else f.value
+
+    @property
+    def dimension(self) -> int:
+        """Degrees of freedom of the handle's translation (2: planar, 3)."""
+        return 2 if self.model == "pantograph" else 3
+
+    @property
+    def rated_stiffness(self) -> float | None:
+        """The manufacturer's stiffness figure (N/m), or CHAI3D's when the manufacturer's
+        is missing; None when neither is published. Reported, never an input."""
+        return self.value("rated_stiffness", self.value("chai3d_stiffness"))
+
+    def device(self, delay: int = 0, pose=None, dimension: int | None = None) -> Device:
+        """The device at a pose.
+
+        Parameters
+        ----------
+        delay : int, optional
+            Whole sampling periods of computation delay (the presets' own: 0).
+        pose : array_like, optional
+            Joint angles (rad, 3: serial arm) or the handle's position (m: delta, 3;
+            pantograph, 2) where the mass and damping are evaluated; default the home pose.
+        dimension : int, optional
+            3 (default for 3-DOF devices) or 2: the device in its x-z plane
+            (:meth:`Device.planar`), for profiles.
+
+        Returns
+        -------
+        Device
+            Named after the preset, with ``details["preset"]``.
+
+        Raises
+        ------
+        ParameterError
+            For a pose the linkage cannot reach, a pose given to a point mass, a dimension
+            the device does not have, or an invalid delay.
+        """
+        v = self.value
+        common = {"period": v("period"), "position_resolution": v("position_resolution", 0.0),
+                  "max_force": v("max_force", math.inf), "coulomb_friction": v("coulomb_friction", 0.0),
+                  "delay": delay}
+        if self.model == "point-mass":
+            if pose is not None:
+                raise fail("pose", pose, f"None for {self.key!r}: a point mass has no kinematics")
+            dim = 3 if dimension is None else dimension
+            dev = Device.point_mass(mass=v("apparent_mass"), damping=v("damping"), dimension=dim, name=self.key,
+                                    **common)
+        elif self.model == "pantograph":
+            if dimension not in (None, 2):
+                raise fail("dimension", dimension, f"2 for {self.key!r}: a planar device")
+            kw = {"working_point": pose} if pose is not None else {}
+            dev = Device.pantograph(joint_damping=v("joint_damping"), first_resonance=v("first_resonance", math.inf),
+                                    name=self.key, **common, **kw)
+        else:
+            dev = self._linkage(common, pose)
+            if dimension == 2:
+                dev = dev.planar()
+            elif dimension not in (None, 3):
+                raise fail("dimension", dimension, f"2 or 3 for {self.key!r}")
+        return dev.replace(details={**dev.details, "preset": self.key})
+
+    def _linkage(self, common: dict, pose) -> Device:
+        """A serial arm or a delta whose home pose shows the preset's apparent mass and damping."""
+        m_app, b_app = self.value("apparent_mass"), self.value("damping")
+        if self.model == "serial-arm":
+            shape = np.array([1.0e-3, 6.5e-4, 6.5e-4])  # the base joint heavier (chosen ratios)
+            geo = {"link_upper": self.value("link_upper"), "link_fore": self.value("link_fore")}
+            unit = Device.serial_arm(joint_inertia=shape, tip_mass=0.0, joint_damping=1.0, stiffness_limit=None,
+                                     max_force=math.inf, coulomb_friction=0.0, **geo)
+            k = (1 - TIP_SHARE) * m_app / _mean_diag(unit.mass)
+            jd = b_app / _mean_diag(unit.damping)
+            kw = {"joint_angles": pose} if pose is not None else {}
+            return Device.serial_arm(joint_inertia=k * shape, tip_mass=TIP_SHARE * m_app, joint_damping=jd,
+                                     stiffness_limit=None, name=self.key, **geo, **common, **kw)
+        unit = Device.delta(joint_inertia=1.0, effector_mass=0.0, joint_damping=1.0, max_force=math.inf)
+        k = (1 - EFFECTOR_SHARE) * m_app / _mean_diag(unit.mass)
+        jd = b_app / _mean_diag(unit.damping)
+        kw = {"working_point": pose} if pose is not None else {}
+        return Device.delta(joint_inertia=k, effector_mass=EFFECTOR_SHARE * m_app, joint_damping=jd, name=self.key,
+                            **common, **kw)
+
+    def as_dict(self) -> dict:
+        """The preset as JSON-ready data: every figure with its unit, status and source."""
+        return {"key": self.key, "label": self.label, "model": self.model, "dimension": self.dimension,
+                "figures": {k: f.as_dict() for k, f in self.figures.items()}}
+
+
+def _mean_diag(M: np.ndarray) -> float:
+    return float(np.trace(M) / M.shape[0])
+
+
+@lru_cache(maxsize=1)
+def _data() -> dict:
+    import tomllib
+    from importlib.resources import files
+
+    return tomllib.loads(files("haptex").joinpath("data/devices.toml").read_text(encoding="utf-8"))
+
+
+def sources() -> dict[str, str]:
+    """Every source the presets cite: key to full reference."""
+    return dict(_data()["sources"])
+
+
+def _figures(table: dict, where: str) -> dict[str, Figure]:
+    from ._units import parse_quantity
+
+    out = {}
+    for name, spec in table.items():
+        if name in ("label", "model"):
+            continue
+        if name not in _UNITS:
+            raise ParameterError(f"{where}: figure {name!r} is not allowed: allowed are " + ", ".join(_UNITS))
+        status = spec.get("status")
+        if status not in STATUSES:
+            raise fail(f"{where}: {name}.status", status, "one of " + ", ".join(STATUSES))
+        if status != "chosen" and spec.get("source") not in _data()["sources"]:
+            raise fail(f"{where}: {name}.source", spec.get("source"), "a key of [sources] for a "
+                       f"{status} figure")
+        if status == "chosen" and not spec.get("note"):
+            raise ParameterError(f"{where}: {name} is chosen without a note: say why")
+        unit = _UNITS[name]
+        written = spec["value"]
+        value = written if unit is None else parse_quantity(written, unit, f"{where}: {name}", require_unit=True)
+        out[name] = Figure(name, value, unit, status, spec.get("source"), spec.get("note", ""), spec.get("also"),
+                           written)
+    return out
+
+
+@lru_cache(maxsize=1)
+def presets() -> dict[str, Preset]:
+    """Every device preset, by key (``touch``, ``premium-1-5``, ``falcon``, ``omega-3``,
+    ``delta-3``, ``sigma-7``, ``inverse3``, ``pantograph``, ``point-mass``)."""
+    out = {}
+    for key, table in _data()["presets"].items():
+        if table.get("model") not in MODELS:
+            raise fail(f"preset {key!r}: model", table.get("model"), "one of " + ", ".join(MODELS))
+        out[key] = Preset(key, table["label"], table["model"], _figures(table, f"preset {key!r}"))
+    return out
+
+
+@lru_cache(maxsize=1)
+def hands() -> dict[str, Hand]:
+    """Every hand model, by key (``none``, ``light-touch``, ``firm-grip``)."""
+    out = {}
+    for key, table in _data()["hands"].items():
+        figs = _figures(table, f"hand {key!r}")
+        out[key] = Hand(key, table["label"], figs["mass"].value, figs["damping"].value, figs["stiffness"].value, figs)
+    return out
+
+
+def preset(name: str) -> Preset:
+    """The preset called ``name``.
+
+    Raises
+    ------
+    ParameterError
+        For a name that is not a preset, listing the ones that are.
+    """
+    table = presets()
+    if name not in table:
+        raise fail("device", name, "one of " + ", ".join(table))
+    return table[name]
+
+
+def hand(name) -> Hand:
+    """The hand called ``name`` (a :class:`Hand` is returned as is; None is ``none``).
+
+    Raises
+    ------
+    ParameterError
+        For a name that is not a hand, listing the ones that are.
+    """
+    if isinstance(name, Hand):
+        return name
+    table = hands()
+    if name is None:
+        return table["none"]
+    if name not in table:
+        raise fail("hand", name, "one of " + ", ".join(table))
+    return table[name]
+
+
+def custom_hand(mass: float, damping: float, stiffness: float, name: str = "custom") -> Hand:
+    """A hand of your own identification.
+
+    Parameters
+    ----------
+    mass : float
+        kg, in [0, 10] (a whole arm is a few kg).
+    damping : float
+        N s/m, in [0, 1000].
+    stiffness : float
+        N/m, in [0, 1e5].
+
+    Raises
+    ------
+    ParameterError
+        For a value outside its physical range, naming it.
+    """
+    from ._validation import in_range
+
+    m = in_range("hand mass", mass, 0.0, 10.0, "kg")
+    b = in_range("hand damping", damping, 0.0, 1000.0, "N s/m")
+    k = in_range("hand stiffness", stiffness, 0.0, 1e5, "N/m")
+    return Hand(name, "a hand of the user's identification", m, b, k)

@@ -1,0 +1,208 @@
+"""A virtual wall's stiffness limits on a device, all of them side by side.
+
+Passivity (the wall supplies no energy to any operator) and stability (the closed loop
+with a given operator does not oscillate or diverge) are different questions with
+different answers. A passive wall is stable with every passive operator; a stable wall
+need not be passive. Diolaiti, Niemeyer, Barbagli & Salisbury ("Stability of haptic
+rendering: discretization, quantization, time delay, and Coulomb effects", IEEE Trans.
+Robotics 22(2), 2006) show the region between: stiffnesses above the passivity bound at
+which the device with its hand is still stable, because the hand's damping and the
+device's Coulomb friction dissipate what the sampled wall generates. There the verdict
+holds for the hand it was computed with only: a lighter grip, a longer delay or a
+different operator can turn it into a limit cycle.
+
+Every limit is along the wall's normal (the device's last axis), with the apparent mass
+m = 1 / (M^-1)_zz (the other axes free) and the damping b = B_zz inside the wall.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ._validation import nonnegative
+from .catalogue import DEFAULT_HAND, Hand, Preset, hand as _hand
+from .devices import Device, critical_stiffness
+
+DIOLAITI_NOTE = ("between the passive and the stable limit the wall is stable with this hand but not passive "
+                 "(Diolaiti et al., IEEE Trans. Robotics 22(2), 2006): the hand's damping and the device's friction "
+                 "absorb what the sampled wall generates; a lighter grip, a longer delay or another operator can "
+                 "turn it into a limit cycle")
+
+
+@dataclass(frozen=True)
+class WallLimit:
+    """One limit on a virtual wall's stiffness.
+
+    Attributes
+    ----------
+    key : str
+        ``corollary_1``, ``colgate_schenkel``, ``abbott_okamura``, ``gil``, ``device``,
+        ``hand`` or ``rated``.
+    kind : str
+        ``passive`` (sufficient for passivity), ``stable`` (the closed loop's boundary)
+        or ``rated`` (the manufacturer's figure, reported only).
+    value : float or None
+        The largest stiffness (N/m); None where the limit does not apply (its reason in
+        ``assumes``).
+    name : str
+        What it is, in a few words.
+    formula : str
+        The condition, in the notation of its source.
+    source : str
+        Where it comes from.
+    assumes : str
+        What it takes for granted.
+    """
+
+    key: str
+    kind: str
+    value: float | None
+    name: str
+    formula: str
+    source: str
+    assumes: str
+
+    def as_dict(self) -> dict:
+        return {"key": self.key, "kind": self.kind, "value": self.value, "unit": "N/m", "name": self.name,
+                "formula": self.formula, "source": self.source, "assumes": self.assumes}
+
+
+@dataclass(frozen=True)
+class WallLimits:
+    """Every limit of :func:`wall_limits`, and the two that answer the user.
+
+    Attributes
+    ----------
+    limits : list of WallLimit
+    passive : float
+        ``passive_stiffness`` (N/m): the largest stiffness a sufficient passivity
+        condition for a linear wall grants (Colgate & Schenkel, or Abbott & Okamura with
+        the device's Coulomb friction and quantisation: each suffices alone).
+    stable : float
+        ``stable_stiffness`` (N/m): the exact boundary of the sampled closed loop with the
+        hand (with the device alone for the hand ``none``).
+    hand : Hand
+    """
+
+    limits: list
+    passive: float
+    stable: float
+    hand: Hand
+
+    def __getitem__(self, key: str) -> WallLimit:
+        for lim in self.limits:
+            if lim.key == key:
+                return lim
+        raise KeyError(key)
+
+    def as_dict(self) -> dict:
+        return {"passive_stiffness": self.passive, "stable_stiffness": self.stable, "hand": self.hand.key,
+                "limits": [lim.as_dict() for lim in self.limits], "note": DIOLAITI_NOTE,
+                "units": {"passive_stiffness": "N/m", "stable_stiffness": "N/m"}}
+
+
+def normal_axis(device: Device) -> tuple[float, float, float | None]:
+    """(m, b, m_handle): the apparent mass (kg), damping (N s/m) and handle-side mass of
+    the structural mode (kg, or None) along the wall's normal, the other axes free."""
+    m = 1.0 / float(np.linalg.inv(device.mass)[-1, -1])
+    b = float(device.damping[-1, -1])
+    mh = None if device.handle_mass is None else 1.0 / float(np.linalg.inv(device.handle_mass)[-1, -1])
+    return m, b, mh
+
+
+def wall_limits(device: Device, hand=DEFAULT_HAND, virtual_damping: float = 0.0,
+                preset: Preset | None = None) -> WallLimits:
+    """The limits on a virtual wall's stiffness (N/m) on a device, side by side.
+
+    Parameters
+    ----------
+    device : Device
+        Any device; the wall's normal is its last axis.
+    hand : str or Hand, optional
+        The hand gripping the handle (:func:`haptex.catalogue.hands`); default
+        :data:`~haptex.catalogue.DEFAULT_HAND`. ``"none"``: the device alone.
+    virtual_damping : float, optional
+        B_v (N s/m), the wall's damper: it costs passivity (Colgate & Schenkel) and buys
+        stability (Gil et al.).
+    preset : Preset, optional
+        The device's preset, whose rated stiffness is reported beside (never used).
+
+    Returns
+    -------
+    WallLimits
+        With, in order: ``corollary_1`` sigma_0(B) / (2T) (the paper's eq. (1), for any
+        texture field: passive); ``colgate_schenkel`` 2 (b - B_v) / T (passive, linear
+        wall; Colgate & Schenkel, "Passivity of a class of sampled-data systems: application
+        to haptic interfaces", J. Robotic Systems 14(1), 1997); ``abbott_okamura`` the
+        larger of that and 2 f_c / delta with Coulomb friction f_c and position
+        quantisation delta (passive; J. J. Abbott and A. M. Okamura, "Effects of position
+        quantization and sampling rate on virtual-wall passivity", IEEE Trans. Robotics
+        21(5), 2005: each condition suffices alone, read here as their maximum);
+        ``gil`` (b + B_v) / (T (1/2 + d)) (stable, the device alone, its mass large against
+        bT; J. J. Gil, A. Avello, A. Rubio and J. Florez, "Stability analysis of a 1 DOF
+        haptic interface using the Routh-Hurwitz criterion", IEEE Trans. Control Systems
+        Technology 12(4), 2004); ``device`` the exact boundary of the sampled loop, the
+        device alone (:func:`~haptex.critical_stiffness`: ZOH, delay, virtual damper,
+        structural mode); ``hand`` the same with the hand; ``rated`` the manufacturer's
+        figure when ``preset`` has one.
+
+    Raises
+    ------
+    ParameterError
+        For an unknown hand or a negative virtual damping.
+    """
+    h = _hand(hand)
+    bv = nonnegative("virtual_damping", virtual_damping, "N s/m")
+    m, b, mh = normal_axis(device)
+    T, d = device.period, device.delay
+    fc, delta = device.coulomb_friction, device.position_resolution
+    mode = {}
+    if device.structural_mode:
+        mode = {"handle_mass": mh, "first_resonance": device.first_resonance,
+                "mode_damping_ratio": device.mode_damping_ratio}
+    delay_note = "" if d == 0 else f"; derived without computation delay (the device has {d})"
+    cs = max(0.0, 2 * (b - bv) / T)
+    limits = [
+        WallLimit("corollary_1", "passive", device.passivity_limit, "passive, any texture field (Corollary 1)",
+                  "||J_f||_2 <= sigma_0(B) / (2T)", "Campion & Hayward, eq. (1)",
+                  "viscous damping only; every direction of the damping matrix" + delay_note),
+        WallLimit("colgate_schenkel", "passive", cs, "passive, linear wall (viscous damping)",
+                  "b > K T / 2 + |B_v|", "Colgate & Schenkel 1997", "viscous damping only" + delay_note),
+    ]
+    if fc > 0 and delta > 0:
+        ao, why = max(cs, 2 * fc / delta), f"Coulomb friction {fc:g} N and quantisation {delta:g} m" + delay_note
+    else:
+        ao, why = None, "not applicable: needs Coulomb friction and position quantisation (the device has " + (
+            "no Coulomb friction" if fc == 0 else "exact positions") + ")"
+    limits.append(WallLimit("abbott_okamura", "passive", ao, "passive, linear wall (friction and quantisation)",
+                            "b > K T / 2 + |B_v|, or K <= 2 f_c / delta", "Abbott & Okamura 2005", why))
+    limits.append(WallLimit("gil", "stable", (b + bv) / (T * (0.5 + d)), "stable, device alone (closed form)",
+                            "K < (b + B_v) / (T/2 + t_d)", "Gil et al. 2004",
+                            "rigid device, mass large against b T; no hand"))
+    alone = critical_stiffness(m, b, T, d, virtual_damping=bv, **mode)
+    limits.append(WallLimit("device", "stable", alone, "stable, device alone (exact)",
+                            "largest closed-loop eigenvalue modulus < 1", "haptex.critical_stiffness (ZOH, delay)",
+                            f"apparent mass {m:.4g} kg, damping {b:.4g} N s/m along the normal; no hand, "
+                            "no friction or quantisation (linear)"))
+    with_hand = alone if h.none else critical_stiffness(m, b, T, d, virtual_damping=bv, hand=h.impedance, **mode)
+    limits.append(WallLimit("hand", "stable", with_hand, f"stable, with the hand {h.key!r} (exact)",
+                            "largest closed-loop eigenvalue modulus < 1", "haptex.critical_stiffness (ZOH, delay, hand)",
+                            f"hand {h.mass:g} kg, {h.damping:g} N s/m, {h.stiffness:g} N/m gripping the handle; linear"))
+    if preset is not None and preset.rated_stiffness is not None:
+        fig = preset.figures.get("rated_stiffness") or preset.figures["chai3d_stiffness"]
+        limits.append(WallLimit("rated", "rated", preset.rated_stiffness, "the manufacturer's figure (reported only)",
+                                "-", fig.as_dict()["source"] or "", fig.note or "as published"))
+    passive = max(v for v in (cs, ao) if v is not None)
+    return WallLimits(limits, passive, with_hand, h)
+
+
+def stiffness_at(limit: float, q: float) -> float:
+    """The largest nominal stiffness kappa_0 (N/m) a texture with characteristic number q
+    renders within a wall limit (N/m): limit / q (the paper's gain limit, Section II-B);
+    0 for an infinite q."""
+    if math.isinf(q):
+        return 0.0
+    return math.inf if q <= 0 else limit / q
