@@ -383,6 +383,7 @@ class _Steps:
         self.console = Console(stderr=True)
         self.show = self.console.is_terminal and not quiet
         self.total, self.title = total, title
+        self.weights = {}
 
     def __enter__(self):
         if not self.show:
@@ -396,15 +397,25 @@ class _Steps:
                             TextColumn("left"), TimeRemainingColumn(), console=self.console, transient=True)
         self.bar.__enter__()
         self.task = self.bar.add_task(self.title, total=self.total)
-        self.started = False
+        self.started = None
 
         def step(letter):
-            if self.started:
-                self.bar.advance(self.task)
-            self.started = True
+            if self.started is not None:
+                self.bar.advance(self.task, self.weights.get(self.started, 1.0))
+            self.started = letter
             what = f"algorithm {letter}" if len(letter) == 1 else letter
             self.bar.update(self.task, description=f"{self.title}: {what}")
         return step
+
+    def weigh(self, weights: dict) -> None:
+        """Steps of unequal length: each step's share of the bar (its estimated seconds),
+        the steps not named 1 s each."""
+        if not self.show:
+            return
+        self.weights = dict(weights)
+        done = self.bar.tasks[0].completed
+        rest = self.total - done - (1 if self.started is not None else 0)
+        self.bar.update(self.task, total=done + 1 + sum(self.weights.values()) + max(0, rest - len(self.weights)))
 
     def __exit__(self, *exc):
         if self.show:
@@ -580,9 +591,19 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
         check_output(report_dir, force)  # before the minutes of analysis
     elif force:
         raise ParameterError("--force is not allowed without --report: it applies to the report directory")
-    with _Steps(9, "design", quiet or as_json) as step:
+    steps = _Steps(9, "design", quiet or as_json)
+
+    def announce(est):
+        if not (quiet or as_json):
+            searches = (f"; D and E: {est['searches']:.3g} closest-point searches at "
+                        f"{est['seconds_per_search'] * 1e6:.3g} us" if est["searches"] else "")
+            click.echo(f"estimate: at least {est['seconds']:.3g} s of analysis and {est['peak_bytes'] / 2**20:.3g} MiB "
+                       f"for its largest grid{searches}", err=True)
+        steps.weigh({L: v["seconds"] for L, v in est["algorithms"].items()})
+
+    with steps as step:
         data = run_design(tex, dev, stiffness, speed=speed, max_penetration=max_penetration, x_range=x_range,
-                          progress=step, band_limit=not raw, hand=hand)
+                          progress=step, band_limit=not raw, hand=hand, on_estimate=announce)
     if report_dir is not None:
         from .design import rendered_texture
         from .report import write_design_report

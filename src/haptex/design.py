@@ -24,7 +24,7 @@ be analysed as rendered (chosen: two, so that a rendered period is told from a t
 
 def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.1, max_penetration: float = 1e-3,
            samples_per_period=5, friction: float = 0.8, presliding: float = 1e-3, n_loops: int = 4,
-           x_range=None, progress=None, band_limit: bool = True, hand=DEFAULT_HAND) -> dict:
+           x_range=None, progress=None, band_limit: bool = True, hand=DEFAULT_HAND, on_estimate=None) -> dict:
     """Analyse every algorithm for one texture on one device and recommend.
 
     Parameters
@@ -65,6 +65,9 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
     hand : str or Hand, optional
         The hand gripping the handle for the stable limits (:func:`haptex.catalogue.hands`;
         default :data:`~haptex.catalogue.DEFAULT_HAND`, ``"none"`` for the device alone).
+    on_estimate : callable, optional
+        Called once, after band-limiting and before any analysis, with the ``estimate``
+        below: a command line prints it.
 
     Returns
     -------
@@ -86,7 +89,10 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         ``samples`` raw and rendered, and ``raw``: the given
         texture's own numbers (shortest period, max slope, max curvature, height range, and
         for sampled textures its RMS height, dominant period and the RMS the cut-off
-        removes). The other numbers are those of the rendered texture.
+        removes). The other numbers are those of the rendered texture. ``estimate``: the
+        planned cost (:mod:`haptex.analysis.cost`): ``seconds`` (a floor: grids only),
+        ``peak_bytes``, ``searches`` (closest-point searches of D and E, shared: E reads
+        D's), ``seconds_per_search`` and per algorithm ``evaluations`` and ``seconds``.
 
     Raises
     ------
@@ -106,6 +112,9 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         _check_window(given, x_range)  # the scan or map as measured, whose extent the user knows
     letters = [L for L in LETTERS if texture.dimension == 1 or ALGORITHMS[L].surfaces]
     algs = checked_algorithms(letters, texture, stiffness, max_penetration, friction, presliding)
+    estimate = _estimate(algs, max_penetration, x_range)
+    if on_estimate is not None:
+        on_estimate(estimate)
     rows = []
     for L, alg in algs.items():
         if progress is not None:
@@ -171,7 +180,26 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         "limits": [{"name": lim.name, "formula": lim.formula, "lhs": lim.lhs, "rhs": lim.rhs, "unit": lim.unit,
                     "passed": lim.passed} for lim in limits],
         "rows": rows, "recommended": good + fair, "recommendation": "; ".join(text), "band_limit": band,
+        "estimate": estimate,
     }
+
+
+def _estimate(algs: dict, max_penetration: float, x_range) -> dict:
+    """The planned cost of :func:`design`'s analyses (see its ``estimate``)."""
+    from .analysis.cost import analysis_cost
+
+    per, searched, each_search = {}, 0, 0.0
+    for L, alg in algs.items():
+        xr = None if L == "W" else x_range
+        shared = alg.penetration_kind == "distance" and searched  # E reads the closest points D searched
+        c = analysis_cost(alg, max_penetration, xr, seconds_each=0.0 if shared else None)
+        if c.searches and not shared:
+            searched, each_search = c.evaluations, c.seconds_each
+        per[L] = {"evaluations": c.evaluations, "seconds": c.seconds, "peak_bytes": c.peak_bytes}
+    return {"seconds": sum(v["seconds"] for v in per.values()),
+            "peak_bytes": max((v["peak_bytes"] for v in per.values()), default=0),
+            "searches": searched, "seconds_per_search": each_search, "algorithms": per,
+            "units": {"seconds": "s", "peak_bytes": "B", "seconds_per_search": "s"}}
 
 
 def _rendered(texture: Texture, cutoff: float, band_limit: bool = True):

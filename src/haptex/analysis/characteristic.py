@@ -20,6 +20,64 @@ from ._region import _plane_ranges, _region_points, check_analysis_scale
 # characteristic number
 # ------------------------------------------------------------------------------------
 SURFACE_GRID_PER_PERIOD = {"direct": 32, "distance": 8}
+
+
+def _q_plan(algorithm: Algorithm, x_range, resolution) -> tuple[list, list[int], int]:
+    """(in-plane ranges (m), cells per in-plane axis, depth samples) of the grid
+    :func:`characteristic_number` searches first (F's and D's and E's searches over a surface
+    adapt it further)."""
+    nx, nd = (int(v) for v in resolution)
+    if nx < 8 or nd < 4:
+        raise fail("resolution", resolution, "(n_x, n_depth) with n_x >= 8 and n_depth >= 4")
+    ranges = _plane_ranges(algorithm, x_range)
+    tex = algorithm.texture
+    if tex.dimension == 2:  # a surface: a 3-D grid, kept to ~10^6 points (refinement does the rest)
+        # D and E: every point a closest-point search, and ||J|| monotone along each normal
+        nd = max(4, nd // (8 if algorithm.penetration_kind == "distance" else 4))
+        per = SURFACE_GRID_PER_PERIOD["distance" if algorithm.penetration_kind == "distance" else "direct"]
+        counts = [int(min(max(32, math.ceil(per * (b - a) / tex.shortest_period)), 256)) for a, b in ranges]
+    else:
+        counts = [nx]
+        if not isinstance(tex, Flat):
+            # at least 64 grid cells per shortest period, so every local maximum has its cell
+            counts = [int(min(max(nx, math.ceil(64 * (ranges[0][1] - ranges[0][0]) / tex.shortest_period)), 8192))]
+    return ranges, counts, nd
+
+
+def _friction_plan(alg, ranges, counts, nd) -> tuple[list[int], int, int, int]:
+    """(plane cells, depth samples, deflection angles, radii) of F's grid over a surface
+    (angles and radii unused over a profile: 33 stick deflections and 2 slips)."""
+    n_ang, n_rad = 16, 5
+    if len(ranges) == 2 and math.prod(c + 1 for c in counts) * nd * (1 + (n_rad - 1) * n_ang) > F_SURFACE_GRID_POINTS:
+        # a map many periods wide: coarser depth and deflection samples (the refinement
+        # polishes all five variables), then a coarser plane grid, not below 4 cells a period
+        nd, n_ang, n_rad = max(4, nd // 2), 8, 3
+        per_point = nd * (1 + (n_rad - 1) * n_ang)
+        shrink = math.sqrt(F_SURFACE_GRID_POINTS / per_point / math.prod(c + 1 for c in counts))
+        floor = [math.ceil(4 * (b - a) / alg.texture.shortest_period) for a, b in ranges]
+        counts = [max(16, f, min(c, int(c * shrink))) for c, f in zip(counts, floor)]
+    return counts, nd, n_ang, n_rad
+
+
+def characteristic_points(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=None,
+                          resolution=(256, 64)) -> int:
+    """Field evaluations of the grid :func:`characteristic_number` searches first (its plan,
+    not run; the refinement of the best cells adds a few hundred): what its cost follows.
+
+    Raises
+    ------
+    ParameterError
+        As :func:`characteristic_number`.
+    """
+    check_analysis_scale(algorithm, max_penetration)
+    ranges, counts, nd = _q_plan(algorithm, x_range, resolution)
+    if algorithm.has_memory and algorithm.penetration_kind != "distance":  # F: a deflection per grid point too
+        if algorithm.texture.dimension == 2:
+            counts = [max(16, c // 2) for c in counts]
+        counts, nd, n_ang, n_rad = _friction_plan(algorithm, ranges, counts, nd)
+        per = 35 if len(ranges) == 1 else 1 + (n_rad - 1) * n_ang + n_ang  # stick and slip deflections
+        return math.prod(c + 1 for c in counts) * nd * per
+    return math.prod(c + 1 for c in counts) * nd
 """Grid cells per shortest texture period along x and y of q's search grid over a surface
 (at least 32 a side, at most 256), before the refinement: 32 for fields evaluated directly;
 8 for D and E, whose every grid point is a closest-point search (5-90 us a point over a
@@ -157,21 +215,8 @@ def characteristic_number(
     in ``paper_form_value``.
     """
     dmax = check_analysis_scale(algorithm, max_penetration)
-    nx, nd = (int(v) for v in resolution)
-    if nx < 8 or nd < 4:
-        raise fail("resolution", resolution, "(n_x, n_depth) with n_x >= 8 and n_depth >= 4")
-    ranges = _plane_ranges(algorithm, x_range)
+    ranges, counts, nd = _q_plan(algorithm, x_range, resolution)
     tex = algorithm.texture
-    if tex.dimension == 2:  # a surface: a 3-D grid, kept to ~10^6 points (refinement does the rest)
-        # D and E: every point a closest-point search, and ||J|| monotone along each normal
-        nd = max(4, nd // (8 if algorithm.penetration_kind == "distance" else 4))
-        per = SURFACE_GRID_PER_PERIOD["distance" if algorithm.penetration_kind == "distance" else "direct"]
-        counts = [int(min(max(32, math.ceil(per * (b - a) / tex.shortest_period)), 256)) for a, b in ranges]
-    else:
-        counts = [nx]
-        if not isinstance(tex, Flat):
-            # at least 64 grid cells per shortest period, so every local maximum has its cell
-            counts = [int(min(max(nx, math.ceil(64 * (ranges[0][1] - ranges[0][0]) / tex.shortest_period)), 8192))]
     k0 = algorithm.stiffness
     closed = _closed_form_q(algorithm)
 
@@ -309,6 +354,7 @@ def _q_friction(alg, dmax, ranges, counts, nd) -> CharacteristicNumber:
     dm = alg.presliding
     depth_max = dmax
     k = len(ranges)
+    counts, nd, n_ang, n_rad = _friction_plan(alg, ranges, counts, nd)
     axes = [np.linspace(a, b, n + 1) for (a, b), n in zip(ranges, counts)]
     steps = [(b - a) / n for (a, b), n in zip(ranges, counts)]
     ds = np.linspace(depth_max / nd, depth_max, nd)
@@ -317,19 +363,6 @@ def _q_friction(alg, dmax, ranges, counts, nd) -> CharacteristicNumber:
         stick = np.linspace(-dm, dm, 33)[:, None]
         slip = np.array([[-dm], [dm]])
     else:
-        n_ang, n_rad = 16, 5
-        if math.prod(c + 1 for c in counts) * nd * (1 + (n_rad - 1) * n_ang) > F_SURFACE_GRID_POINTS:
-            # a map many periods wide: coarser depth and deflection samples (the refinement
-            # polishes all five variables), then a coarser plane grid, not below 4 cells a period
-            nd, n_ang, n_rad = max(4, nd // 2), 8, 3
-            per_point = nd * (1 + (n_rad - 1) * n_ang)
-            shrink = math.sqrt(F_SURFACE_GRID_POINTS / per_point / math.prod(c + 1 for c in counts))
-            floor = [math.ceil(4 * (b - a) / alg.texture.shortest_period) for a, b in ranges]
-            counts = [max(16, f, min(c, int(c * shrink))) for c, f in zip(counts, floor)]
-            axes = [np.linspace(a, b, n + 1) for (a, b), n in zip(ranges, counts)]
-            steps = [(b - a) / n for (a, b), n in zip(ranges, counts)]
-            ds = np.linspace(depth_max / nd, depth_max, nd)
-            dd_ = depth_max / nd
         ang = np.linspace(0.0, 2 * np.pi, n_ang, endpoint=False)
         rad = np.linspace(0.0, dm, n_rad)
         stick = np.concatenate([[[0.0, 0.0]], (rad[1:, None, None] * np.stack([np.cos(ang), np.sin(ang)], -1)).reshape(-1, 2)])

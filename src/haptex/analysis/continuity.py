@@ -75,27 +75,10 @@ def continuity(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=None
     ParameterError
         If a parameter is out of range.
     """
-    dmax = check_analysis_scale(algorithm, max_penetration)
-    surface = algorithm.dimension == 3
-    levels = (3 if surface else 4) if levels is None else levels
-    if base is None:  # the closest-point search (D, E) costs ~10 us a point: coarser 3-D grids
-        base = 16 if surface and algorithm.penetration_kind == "distance" else 32
-    levels = whole("levels", levels, 3, 12, "grid refinements; level k has (base 2^k)^2 points")
-    base = whole("base", base, 8, 4096)
-    box = _region_box(algorithm, dmax, x_range)
-    (x0, x1), (z0, z1) = box[0], box[-1]
-    z1 = z1 + min(0.05 * (x1 - x0), dmax)  # the boundary and a margin outside, on the wall's scale
-    box[-1] = (z0, z1)
-    tex = algorithm.texture
-    if not isinstance(tex, Flat):
-        # resolve the texture: at least 4 coarse cells per shortest period (2 for D and E over a
-        # surface, each point a closest-point search: 8 on the finest of 3 levels)
-        per = 2 if surface and algorithm.penetration_kind == "distance" else 4
-        base = int(min(max(int(base), math.ceil(per * (x1 - x0) / tex.shortest_period)), 256 if surface else 2048))
-    steps0 = _coarse_steps(algorithm, box, (x1 - x0) / int(base), int(levels), dmax)
+    box, steps0, levels = _plan(algorithm, max_penetration, x_range, levels, base)
     spacings, diffs = [], []
     where = (math.nan,) * len(box)
-    for lev in range(int(levels)):
+    for lev in range(levels):
         steps = [s / 2**lev for s in steps0]
         counts = [int(math.ceil((b - a) / s)) for (a, b), s in zip(box, steps)]
         # positions, forces and their differences: about 12 float64 a grid point
@@ -115,6 +98,43 @@ def continuity(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=None
     else:
         order = float(np.polyfit(np.log(spacings), np.log(np.maximum(d, 1e-300)), 1)[0])
     return Continuity(order > 0.5, tuple(spacings), tuple(diffs), order, where)
+
+
+def _plan(algorithm: Algorithm, max_penetration: float, x_range, levels, base):
+    """(box, coarsest steps, levels) of :func:`continuity`'s grids (see its parameters)."""
+    dmax = check_analysis_scale(algorithm, max_penetration)
+    surface = algorithm.dimension == 3
+    levels = (3 if surface else 4) if levels is None else levels
+    if base is None:  # the closest-point search (D, E) costs ~10 us a point: coarser 3-D grids
+        base = 16 if surface and algorithm.penetration_kind == "distance" else 32
+    levels = whole("levels", levels, 3, 12, "grid refinements; level k has (base 2^k)^2 points")
+    base = whole("base", base, 8, 4096)
+    box = _region_box(algorithm, dmax, x_range)
+    (x0, x1), (z0, z1) = box[0], box[-1]
+    z1 = z1 + min(0.05 * (x1 - x0), dmax)  # the boundary and a margin outside, on the wall's scale
+    box[-1] = (z0, z1)
+    tex = algorithm.texture
+    if not isinstance(tex, Flat):
+        # resolve the texture: at least 4 coarse cells per shortest period (2 for D and E over a
+        # surface, each point a closest-point search: 8 on the finest of 3 levels)
+        per = 2 if surface and algorithm.penetration_kind == "distance" else 4
+        base = int(min(max(int(base), math.ceil(per * (x1 - x0) / tex.shortest_period)), 256 if surface else 2048))
+    return box, _coarse_steps(algorithm, box, (x1 - x0) / int(base), int(levels), dmax), int(levels)
+
+
+def continuity_points(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=None, levels: int | None = None,
+                      base: int | None = None) -> list[int]:
+    """The number of field evaluations of each grid :func:`continuity` evaluates, coarse to
+    fine (the same plan, not run): what its cost follows.
+
+    Raises
+    ------
+    ParameterError
+        As :func:`continuity`.
+    """
+    box, steps0, levels = _plan(algorithm, max_penetration, x_range, levels, base)
+    return [math.prod(int(math.ceil((b - a) / (s / 2**lev))) + 1 for (a, b), s in zip(box, steps0))
+            for lev in range(levels)]
 
 
 MIN_AXIS_CELLS = 8

@@ -94,7 +94,8 @@ def texture_derivatives(texture, xy) -> np.ndarray:
     pts = np.asarray(xy, dtype=np.float64)
     flat = np.ascontiguousarray(pts.reshape(-1, 2))
     out = np.empty((flat.shape[0], 6))
-    _ext.texture(kind, np.ascontiguousarray(coeffs, dtype=np.float64), flat, out)
+    coeffs = np.ascontiguousarray(coeffs, dtype=np.float64)
+    in_slices(lambda lo, hi: _ext.texture(kind, coeffs, flat[lo:hi], out[lo:hi]), flat.shape[0], least=1 << 14)
     return out.reshape(pts.shape[:-1] + (6,))
 
 

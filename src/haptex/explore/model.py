@@ -35,6 +35,9 @@ ARROW_GRID, MAP_GRID = (23, 19), (121, 121)
 MAX_SCAN_DURATION = 10.0
 #: Most vertices a drawn path may keep (loop work costs up to 20 ms a segment for D and E).
 MAX_PATH_VERTICES = 400
+#: Longest planned computation of the views (s): past it the input is refused before any of
+#: it runs (a Python thread cannot be stopped once started; issue 33).
+MAX_VIEW_SECONDS = 60.0
 
 
 @dataclass
@@ -267,10 +270,36 @@ def heights(scene: Scene, x) -> np.ndarray:
     return tex.height_at(np.stack([x, np.full_like(x, scene.section)], -1))
 
 
+def view_cost(scene: Scene) -> tuple[float, int]:
+    """(seconds, field evaluations) the views of ``scene`` are planned to take: q's grid and
+    the maps' Jacobians (:mod:`haptex.analysis.cost`: the plans and measured evaluation
+    times), and the arrows' and maps' forces."""
+    from ..analysis.characteristic import characteristic_points
+    from ..analysis.cost import evaluation_time
+
+    alg, dmax = scene.algorithm, scene.max_penetration
+    nq = characteristic_points(alg, dmax) + math.prod(MAP_GRID)
+    nf = math.prod(ARROW_GRID) + math.prod(MAP_GRID)
+    return nq * evaluation_time(alg, dmax, jacobian=True) + nf * evaluation_time(alg, dmax), int(nq + nf)
+
+
 def views(scene: Scene) -> Views:
-    """The force arrows, gain and curl maps, q and (over a surface) the height map."""
+    """The force arrows, gain and curl maps, q and (over a surface) the height map.
+
+    Raises
+    ------
+    ParameterError
+        When the views would take longer than :data:`MAX_VIEW_SECONDS` (planned before
+        any of it runs: :func:`view_cost`), saying what to change.
+    """
     from ..analysis import characteristic_number, field_map
 
+    seconds, n = view_cost(scene)
+    if seconds > MAX_VIEW_SECONDS:
+        what = "closest-point searches" if scene.algorithm.penetration_kind == "distance" else "field evaluations"
+        raise ParameterError(f"algorithm = {scene.algorithm.letter!r} on this texture is not allowed here: its views "
+                             f"need about {seconds:.3g} s ({n:.3g} {what}), more than {MAX_VIEW_SECONDS:g} s; choose "
+                             "a smaller map or a shallower max penetration, or run 'haptex design' on it")
     alg, dmax = scene.algorithm, scene.max_penetration
     (x0, x1), yr = window(scene)
     bx = np.linspace(x0, x1, 800)

@@ -1,0 +1,130 @@
+"""What an analysis will cost, before it runs: the field evaluations its grids plan
+(counted, from the analyses' own plans) times the time one evaluation takes over the
+rendering region (measured on a few hundred random probes there).
+
+The grids dominate: :func:`~haptex.analysis.continuity` and the first search of
+:func:`~haptex.analysis.characteristic_number`. The refinement of q's best cells and the
+random loops of :func:`~haptex.analysis.conservativity` are not counted, so the estimate
+is a floor; ``benchmarks/README.md`` compares it with measured times.
+"""
+
+from __future__ import annotations
+
+import functools
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..algorithms import Algorithm
+from ._region import _region_box, _static_force, check_analysis_scale
+from .characteristic import characteristic_points
+from .continuity import continuity_points
+
+CALIBRATION_PROBES = {"direct": 256, "distance": 2048}
+"""Random probes timed to measure one evaluation's cost (chosen: a few ms for a direct
+field; about 0.1 s of closest-point searches, whose cost varies from probe to probe by
+two orders of magnitude)."""
+WARM_UP = 8
+"""Probes evaluated first, untimed: they build what the texture caches once."""
+BYTES_PER_POINT = 12 * 8
+"""Memory of a continuity grid point: positions, forces and differences (float64)."""
+
+
+@dataclass(frozen=True)
+class Cost:
+    """The planned cost of analysing one algorithm.
+
+    Attributes
+    ----------
+    letter : str
+    evaluations : int
+        Field evaluations the grids plan (q's first search and the continuity grids).
+    seconds_each : float
+        Mean measured time of one evaluation over the region (s), forces and Jacobians, on
+        the threads the analyses use.
+    seconds : float
+        ``evaluations * seconds_each`` (s): a floor (the refinement and loops not counted).
+    peak_bytes : int
+        Memory of the largest grid (bytes).
+    searches : bool
+        Each evaluation is a closest-point search (D, E).
+    """
+
+    letter: str
+    evaluations: int
+    seconds_each: float
+    seconds: float
+    peak_bytes: int
+    searches: bool
+
+
+def evaluation_time(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=None,
+                    probes: int | None = None, seed: int = 0, jacobian: bool = False) -> float:
+    """Seconds per field evaluation over the rendering region: ``probes`` random positions
+    (default :data:`CALIBRATION_PROBES`) in its box (in-plane window, depth down to ``max_penetration`` below the lowest valley),
+    evaluated in one batch, as the analyses' grids are.
+
+    Raises
+    ------
+    ParameterError
+        As the analyses (region too large, stiffness out of range).
+    """
+    dmax = check_analysis_scale(algorithm, max_penetration)
+    box = _region_box(algorithm, dmax, x_range)
+    if probes is None:
+        probes = CALIBRATION_PROBES["distance" if algorithm.penetration_kind == "distance" else "direct"]
+    rng = np.random.default_rng(seed)
+    p = np.stack([rng.uniform(a, b, probes + WARM_UP) for a, b in box], -1)
+    if not jacobian:
+        fn = functools.partial(_static_force, algorithm)
+    elif algorithm.has_memory and algorithm.penetration_kind != "distance":  # F, at a full-slip deflection
+        def fn(q):
+            d = np.full(q.shape[:-1], algorithm.presliding) if q.shape[-1] == 2 else np.stack(
+                [np.full(q.shape[:-1], algorithm.presliding), np.zeros(q.shape[:-1])], -1)
+            return algorithm.jacobian(q, d)
+    else:
+        fn = algorithm.jacobian
+    fn(p[:WARM_UP])  # the texture's one-time data (patches, search bounds) built
+    half = probes // 2
+    times = []
+    for lo in (WARM_UP, WARM_UP + half):  # two halves, the faster kept (the first may pay for caches)
+        t = time.perf_counter()
+        fn(p[lo:lo + half])
+        times.append(time.perf_counter() - t)
+    return min(times) / half
+
+
+def analysis_cost(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=None, seconds_each=None) -> Cost:
+    """The planned cost of q and continuity for one algorithm (see the module docstring).
+
+    Parameters
+    ----------
+    algorithm : Algorithm
+    max_penetration : float, optional
+        Depth of the region (m).
+    x_range : optional
+        The analysed window, as the analyses take it.
+    seconds_each : float, optional
+        A measured evaluation time to reuse (s); default :func:`evaluation_time`.
+
+    Returns
+    -------
+    Cost
+
+    Raises
+    ------
+    ParameterError
+        As the analyses.
+    """
+    cont = continuity_points(algorithm, max_penetration, x_range)
+    q = characteristic_points(algorithm, max_penetration, x_range)
+    if seconds_each is None:
+        each = evaluation_time(algorithm, max_penetration, x_range)
+        each_j = evaluation_time(algorithm, max_penetration, x_range, jacobian=True)
+    else:
+        each = each_j = float(seconds_each)
+    n = int(sum(cont) + q)
+    seconds = sum(cont) * each + q * each_j
+    return Cost(algorithm.letter, n, seconds / n, seconds, int(max(cont) * BYTES_PER_POINT),
+                algorithm.penetration_kind == "distance")
