@@ -90,17 +90,35 @@ def test_stable_limit_tends_to_gil_et_al_closed_form(delay, bv):
     assert k == pytest.approx((b + bv) / (T * (0.5 + delay)), rel=2e-3)
 
 
-def test_abbott_okamura_and_colgate_schenkel_closed_forms_in_the_limits():
-    dev = hx.Device.point_mass(0.1, 0.2, 1e-3, coulomb_friction=0.1, position_resolution=1e-5)
+@pytest.mark.parametrize("fc, expected", [(0.1, 300.0), (1e-3, 200.0), (0.0, 0.0)])
+def test_abbott_okamura_and_colgate_schenkel_closed_forms_in_the_limits(fc, expected):
+    # Abbott & Okamura (IEEE T-RO 21(5), 2005): b > KT/2 + B and K <= 2 f_c / delta, both
+    # necessary (instability and active tactile sensations); Colgate & Schenkel: b > KT/2 + B
+    dev = hx.Device.point_mass(0.1, 0.2, 1e-3, coulomb_friction=fc, position_resolution=1e-5)
     w = wall_limits(dev, "none", virtual_damping=0.05)
-    assert w["colgate_schenkel"].value == pytest.approx(2 * (0.2 - 0.05) / 1e-3)  # b > KT/2 + B
-    assert w["abbott_okamura"].value == pytest.approx(2 * 0.1 / 1e-5)  # K <= 2 f_c / delta
+    assert w["colgate_schenkel"].value == pytest.approx(2 * (0.2 - 0.05) / 1e-3)  # 300 N/m
+    assert w["abbott_okamura"].value == pytest.approx(expected)  # min(300, 2 f_c / 1e-5)
     assert w["corollary_1"].value == pytest.approx(0.2 / 2e-3)  # the paper's eq. (1)
     assert w.passive == w["abbott_okamura"].value
     assert w["hand"].value == w["device"].value  # no hand: the device alone
-    # no friction: Abbott & Okamura does not apply, and says why
-    bare = wall_limits(hx.Device.point_mass(0.1, 0.2, 1e-3), "none")
-    assert bare["abbott_okamura"].value is None and "Coulomb" in bare["abbott_okamura"].assumes
+    # exact positions: Abbott & Okamura's quantisation mode does not exist, and it says so
+    bare = wall_limits(hx.Device.point_mass(0.1, 0.2, 1e-3, coulomb_friction=fc), "none")
+    assert bare["abbott_okamura"].value is None and "exact positions" in bare["abbott_okamura"].assumes
+    assert bare.passive == bare["colgate_schenkel"].value
+
+
+def test_wall_map_and_limits_agree_on_what_is_passive():
+    # the report's map of Diolaiti et al.'s plane classifies beta > 1/2 and sigma >= 1/2 as
+    # passive: wall_limits' passive stiffness on the same device says the same at every point
+    from haptex.experiments import WALL_MAP
+
+    p = WALL_MAP
+    K, T, delta = p["stiffness"], p["period"], p["resolution"]
+    for beta in (0.3, 0.49, 0.51, 1.0):
+        for sigma in (0.2, 0.49, 0.51, 2.0):
+            dev = hx.Device.point_mass(p["mass"], beta * K * T, T, position_resolution=delta,
+                                       coulomb_friction=sigma * K * delta)
+            assert (K <= wall_limits(dev, "none").passive) is (beta > 0.5 and sigma >= 0.5), (beta, sigma)
 
 
 @pytest.mark.parametrize("delay", [0, 1, 2])

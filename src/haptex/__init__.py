@@ -29,6 +29,8 @@ from .analysis import (
 )
 from .closest import ClosestPoint, closest_point
 from .devices import Device, critical_stiffness, device_from_file, five_bar_jacobian
+from . import catalogue, limits
+from .limits import wall_limits
 from .renderer import PassivityController, Renderer
 from .simulate import AxisOscillation, BatchResult, Oscillation, SimulationResult, SimulationWarning, simulate, simulate_batch
 from .tables import PAPER_PARAMETERS, table_ii
@@ -59,6 +61,9 @@ __all__ = [
     "Oscillation",
     "SimulationResult",
     "critical_stiffness",
+    "catalogue",
+    "limits",
+    "wall_limits",
     "device_from_file",
     "five_bar_jacobian",
     "operators",

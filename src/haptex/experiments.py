@@ -142,6 +142,35 @@ def _robustness(p: dict, quick: bool) -> dict:
             "w_oscillates": sum(w for w, _, _ in osc)}
 
 
+NEIGHBOURHOOD = {"stiffness": (0.95, 1.0, 1.05), "start": (0.9, 1.0, 1.1), "delay": (0, 1, 2)}
+"""Conditions around each simulated claim of Fig. 5 (issue 31): stiffness +-5 %, start
++-10 %, and the computation delay the paper leaves open (0 to 2 samples): 27 runs."""
+
+
+def _neighbourhood(alg, dev, band, duration: float, start, unstable_expected: bool) -> dict:
+    """A simulated claim judged over :data:`NEIGHBOURHOOD`: in how many conditions the run's
+    regime (:func:`haptex.simulate.regime`) is unstable as claimed (or stable), and where it
+    is bistable (at one stiffness and delay, starts that end in both)."""
+    from .simulate import UNSTABLE
+
+    g = NEIGHBOURHOOD
+    K, S, D = (a.ravel() for a in np.meshgrid(np.array(g["stiffness"]) * alg.stiffness,
+                                              np.array(g["start"]) * start[-1], np.array(g["delay"]), indexing="ij"))
+    b = simulate_batch(alg, dev, band, duration, initial_position=start, stiffness=K, initial_z=S, delay=D)
+    unstable = np.isin(b.regime, list(UNSTABLE))
+    bistable = []
+    for k in np.unique(K):
+        for d in np.unique(D):
+            sel = (K == k) & (D == d)
+            if unstable[sel].any() and not unstable[sel].all():
+                bistable.append({"stiffness": float(k), "delay": int(d),
+                                 "starts": {f"{z * 1e3:.3g} mm": str(r) for z, r in zip(S[sel], b.regime[sel])}})
+    reproduced = int(np.sum(unstable == unstable_expected))
+    return {"conditions": int(K.size), "reproduced": reproduced, "claim": "unstable" if unstable_expected else "stable",
+            "bistable": bistable, "runs": [{"stiffness": float(k), "start_z": float(z), "delay": int(d), "regime": str(r)}
+                                           for k, z, d, r in zip(K, S, D, b.regime)]}
+
+
 def _band(p, stiffness=None, angle_deg=None):
     ang = math.radians(p["band_angle_deg"] if angle_deg is None else angle_deg)
     depth = p["band_depth"]
@@ -177,7 +206,9 @@ def passivity(quick: bool = False) -> dict:
     dict
         ``runs`` (list of :class:`Run`), ``q`` (letter -> computed characteristic
         number), ``critical`` (letter -> smallest oscillating stiffness found, N/m, or
-        None), ``sensitivity`` (list of dicts), ``parameters``.
+        None), ``sensitivity`` (list of dicts), ``parameters``, ``neighbourhoods`` (run
+        label -> each claim judged over :data:`NEIGHBOURHOOD`: ``conditions``,
+        ``reproduced``, ``bistable``, ``runs``).
     """
     p = dict(PASSIVITY)
     dur = 1.0 if quick else p["duration"]
@@ -193,9 +224,14 @@ def passivity(quick: bool = False) -> dict:
         cases += [(L, p["stiffness"], f"{L} at kappa_0"), (L, p["stiffness"] / q[L], f"{L} at kappa_0/q (q = {q[L]:.3g})"),
                   (L, p["stiffness"] / p["paper_q"][L], f"{L} at kappa_0/{p['paper_q'][L]} (paper's q)")]
     cases += [(L, p["stiffness"], f"{L} at kappa_0 (positive control)") for L in "BC"]  # q_B, q_C ~ 30
+    neighbourhoods = {}
     for L, k, label in cases:
         res = simulate(_alg(L, p, k), dev, band, dur, initial_position=start, record_every=5)
         runs.append(Run(label, L, k, res))
+        if label == "W at kappa_0" or (L in "AF" and "paper's q" not in label and "control" not in label):
+            # the claims of Section V-A: W passive, A and F in a limit cycle at kappa_0, passive at kappa_0 / q
+            neighbourhoods[label] = _neighbourhood(_alg(L, p, k), dev, band, dur, start,
+                                                   unstable_expected=label in ("A at kappa_0", "F at kappa_0"))
     # where does each algorithm actually start oscillating? (stiffness sweep)
     ks = np.geomspace(500.0, 64000.0, 8 if quick else 22)
     critical = {}
@@ -228,6 +264,7 @@ def passivity(quick: bool = False) -> dict:
                  "working_point": list(sym.details["working_point"])}
     return {"runs": runs, "q": q, "critical": critical, "critical_sweep": ks.tolist(), "sensitivity": sens,
             "parameters": p, "passivity_limit": dev.passivity_limit, "robustness": _robustness(p, quick),
+            "neighbourhoods": neighbourhoods,
             "decoupled": decoupled, "mode_limits": mode_limits, "device": {"working_point": list(p["working_point"]), "delay": p["delay"],
                                                "mass": dev.mass.tolist(), "damping": dev.damping.tolist()}}
 

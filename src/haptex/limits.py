@@ -78,9 +78,9 @@ class WallLimits:
     ----------
     limits : list of WallLimit
     passive : float
-        ``passive_stiffness`` (N/m): the largest stiffness a sufficient passivity
-        condition for a linear wall grants (Colgate & Schenkel, or Abbott & Okamura with
-        the device's Coulomb friction and quantisation: each suffices alone).
+        ``passive_stiffness`` (N/m): the largest passive stiffness of a linear wall:
+        Abbott & Okamura's necessary and sufficient condition with the device's Coulomb
+        friction and quantisation, Colgate & Schenkel's with exact positions.
     stable : float
         ``stable_stiffness`` (N/m): the exact boundary of the sampled closed loop with the
         hand (with the device alone for the hand ``none``).
@@ -137,10 +137,12 @@ def wall_limits(device: Device, hand=DEFAULT_HAND, virtual_damping: float = 0.0,
         texture field: passive); ``colgate_schenkel`` 2 (b - B_v) / T (passive, linear
         wall; Colgate & Schenkel, "Passivity of a class of sampled-data systems: application
         to haptic interfaces", J. Robotic Systems 14(1), 1997); ``abbott_okamura`` the
-        larger of that and 2 f_c / delta with Coulomb friction f_c and position
-        quantisation delta (passive; J. J. Abbott and A. M. Okamura, "Effects of position
+        smaller of that and 2 f_c / delta with Coulomb friction f_c and position
+        quantisation delta (J. J. Abbott and A. M. Okamura, "Effects of position
         quantization and sampling rate on virtual-wall passivity", IEEE Trans. Robotics
-        21(5), 2005: each condition suffices alone, read here as their maximum);
+        21(5), 2005: necessary and sufficient, its two conditions the two ways the wall
+        turns active, instability and active tactile sensations; 0 with quantisation and
+        no friction, None with exact positions);
         ``gil`` (b + B_v) / (T (1/2 + d)) (stable, the device alone, its mass large against
         bT; J. J. Gil, A. Avello, A. Rubio and J. Florez, "Stability analysis of a 1 DOF
         haptic interface using the Routh-Hurwitz criterion", IEEE Trans. Control Systems
@@ -172,13 +174,16 @@ def wall_limits(device: Device, hand=DEFAULT_HAND, virtual_damping: float = 0.0,
         WallLimit("colgate_schenkel", "passive", cs, "passive, linear wall (viscous damping)",
                   "b > K T / 2 + |B_v|", "Colgate & Schenkel 1997", "viscous damping only" + delay_note),
     ]
-    if fc > 0 and delta > 0:
-        ao, why = max(cs, 2 * fc / delta), f"Coulomb friction {fc:g} N and quantisation {delta:g} m" + delay_note
+    if delta > 0:
+        ao = min(cs, 2 * fc / delta)
+        why = (f"Coulomb friction {fc:g} N and quantisation {delta:g} m; necessary and sufficient for the 1-DOF "
+               "wall" + delay_note)
+        if fc == 0:
+            why = f"quantisation {delta:g} m without Coulomb friction: no stiffness is passive" + delay_note
     else:
-        ao, why = None, "not applicable: needs Coulomb friction and position quantisation (the device has " + (
-            "no Coulomb friction" if fc == 0 else "exact positions") + ")"
+        ao, why = None, "not applicable: exact positions (no quantisation), Colgate & Schenkel's condition holds"
     limits.append(WallLimit("abbott_okamura", "passive", ao, "passive, linear wall (friction and quantisation)",
-                            "b > K T / 2 + |B_v|, or K <= 2 f_c / delta", "Abbott & Okamura 2005", why))
+                            "b > K T / 2 + |B_v| and K <= 2 f_c / delta", "Abbott & Okamura 2005", why))
     limits.append(WallLimit("gil", "stable", (b + bv) / (T * (0.5 + d)), "stable, device alone (closed form)",
                             "K < (b + B_v) / (T/2 + t_d)", "Gil et al. 2004",
                             "rigid device, mass large against b T; no hand"))
@@ -195,7 +200,7 @@ def wall_limits(device: Device, hand=DEFAULT_HAND, virtual_damping: float = 0.0,
         fig = preset.figures.get("rated_stiffness") or preset.figures["chai3d_stiffness"]
         limits.append(WallLimit("rated", "rated", preset.rated_stiffness, "the manufacturer's figure (reported only)",
                                 "-", fig.as_dict()["source"] or "", fig.note or "as published"))
-    passive = max(v for v in (cs, ao) if v is not None)
+    passive = cs if ao is None else ao
     return WallLimits(limits, passive, with_hand, h)
 
 
