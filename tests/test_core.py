@@ -236,25 +236,29 @@ def _play(d, dp, dmax):
     return d * (dmax / n) if n > dmax else d
 
 
-def _reference_stroke(alg, pts, max_force, bmax, T):
+def _reference_stroke(alg, pts, max_force, bmax, T, stored=False):
     """Renderer.step written from its rules in NumPy, the C tick's oracle: the field
     (Algorithm.force; F at the deflection of the sharp play operator, from the adhesion point
     set on entering the wall; W with Colgate & Schenkel's virtual damper on the backward
-    difference of p^z), then the passivity observer E -= f_(k-1) . dp_k and the controller
-    alpha = min((kappa_0 pen^2 / 2 - E) T / |dp|^2, b_max) (Hannaford & Ryu 2002; Ryu et al.
-    2005's stored reference), then the saturation to max_force; a position not finite, beyond
-    1 km or of the wrong length is a fault (zero force, the observer's memory cleared)."""
+    difference of p^z), then the passivity observer E -= f_(k-1) . dp_k (starting, on the
+    first tick, from kappa_0 pen^2 / 2, what the spring stores there) and the controller
+    alpha = min((E_ref - E) T / |dp|^2, b_max) (Hannaford & Ryu 2002: E_ref = 0; with
+    ``stored``, Ryu et al. 2005's kappa_0 pen^2 / 2), then the saturation to max_force; a
+    position not finite, beyond 1 km or of the wrong length is a fault (zero force, the
+    observer's memory cleared)."""
     dim = alg.dimension
     B, Tw = (alg.damping, alg.period) if alg.letter == "W" else (0.0, None)
     forces, faults, clamps, active, E = [], 0, 0, 0, 0.0
     have = contact = False
     last_p = last_f = last_xy = d = last_z = None
-    for p in pts:
+    for k, p in enumerate(pts):
         if len(p) != dim or not all(math.isfinite(c) and abs(c) <= 1e3 for c in p):
             faults += 1
             have = False
             forces.append(np.zeros(dim))
             continue
+        if k == 0:
+            E = 0.5 * alg.stiffness * float(alg.penetration(np.array(p)[None, :])[0]) ** 2
         p = np.array(p)
         pz = p[-1]
         if alg.letter == "F":
@@ -274,7 +278,7 @@ def _reference_stroke(alg, pts, max_force, bmax, T):
             dp = p - last_p
             E -= float(np.dot(last_f, dp))
             pen = float(alg.penetration(p[None, :])[0])
-            deficit = 0.5 * alg.stiffness * pen * pen - E
+            deficit = (0.5 * alg.stiffness * pen * pen if stored else 0.0) - E
             v2 = float(np.dot(dp, dp))
             if deficit > 0.0 and v2 > 0.0:
                 f = f - min(deficit * T / v2, bmax) * dp / T
@@ -453,8 +457,11 @@ run_one (haptex._kernels, the loop the library ran before issue 30 moved it to C
 numba; commit 2aeb472, 2026-11-23), record_every 7, tail fraction 0.4."""
 
 
-@pytest.mark.parametrize("name", list(_general_cases()))
+@pytest.mark.parametrize("name", [n for n in _general_cases() if "passivity controller" not in n])
 def test_the_core_general_loop_is_the_former_numba_loop(name):
+    # (the passivity controller's case is left out since issue 31: the former loop's observer
+    # paired each displacement with the last force computed, not the one that acted over it
+    # under the device's delay; tests/test_stabilisers.py checks the observer against the port)
     """The C general loop against the records of the loop it replaced (GENERAL_REFERENCE,
     numba's run_one, an independent implementation): the same records and summary (to
     round-off) for the machinery the lean loop leaves out: delay, quantisation, force

@@ -319,7 +319,7 @@ def _simulate(ctx, mode, letter, stiffness, amplitude, period, max_penetration, 
     osc = res.oscillation
     units = {"stiffness": "N/m", "sampling_period": "s", "duration": "s", "energy_x": "J", "energy_z": "J",
              "damping_energy": "J", "operator_work": "J", "kinetic_energy": "J", "friction_energy": "J", "energy_y": "J",
-             "passivity_control": "N*s/m", "passivity_control_samples": "samples",
+             "passivity_control": "N*s/m", "passivity_control_samples": "samples", "observed_energy": "J",
              "energy_balance_error": "1 (relative)", "max_penetration": "m", "saturations": "samples",
              "amplitude": "m", "frequency": "Hz", "energy_per_cycle": "J", "angle": "degree"}
     summary = {"units": units, "mode": mode, "algorithm": letter, "stiffness": stiffness, "device": dev.name,
@@ -334,6 +334,7 @@ def _simulate(ctx, mode, letter, stiffness, amplitude, period, max_penetration, 
     if pc is not None:
         summary["passivity_control"] = pc.max_damping
         summary["passivity_control_samples"] = res.passivity_control_samples
+        summary["observed_energy"] = res.observed_energy  # the observer's count; the port's: energy_x + energy_z
     if mode == "thrust":
         summary["angle"] = angle
     if save is not None:

@@ -16,7 +16,7 @@ import numpy as np
 
 from . import core as _core
 from .core import _ext
-from ._validation import fail, optional_positive, positive
+from ._validation import fail, optional_positive, positive, whole
 from .algorithms import Algorithm
 from .closest import table_search_data
 
@@ -28,12 +28,17 @@ WORKSPACE_LIMIT = 1e3
 """Positions with a coordinate beyond +-1 km (m) are treated as faults (zero force)."""
 
 
+MAX_OBSERVER_DELAY = int(_core._ext.PC_RING) - 1
+"""Longest computation delay (ticks) the passivity observer pairs forces over."""
+
+
 @dataclass(frozen=True)
 class PassivityController:
     """A time-domain passivity observer and controller for a servo loop.
 
-    The observer sums the energy the virtual environment absorbs, E = -sum f_{k-1} . dp_k,
-    from the force sent and the displacement sensed (Hannaford & Ryu 2002). When E falls
+    The observer sums the energy the virtual environment absorbs, E = -sum f_{k-1-d} . dp_k,
+    from the force that acted over each sample (sent d = ``delay`` ticks before it) and the
+    displacement sensed (Hannaford & Ryu 2002). When E falls
     below a reference the controller adds a variable damper -alpha v (v the backward
     difference of the sensed positions) that dissipates the deficit within one sample,
     alpha = (E_ref - E) / (T |v|^2), bounded by ``max_damping``.
@@ -44,14 +49,29 @@ class PassivityController:
         Largest damping the controller may add (N s/m), > 0: what the device can render
         without going unstable itself (for a device with viscous damping b and sampling
         period T, a virtual damper is passive up to about b; Colgate & Schenkel 1997).
-    reference : {"stored", "zero"}
-        ``"zero"``: E_ref = 0, the observer of Hannaford & Ryu (2002): the environment may
-        give back all it absorbed. ``"stored"`` (default): E_ref = kappa_0 d^2 / 2, the energy
-        still stored in the algorithm's virtual spring at its own penetration d (Table I):
-        what the environment has absorbed must cover what it can still give back, so energy
-        generated anywhere along a path (a non-conservative field, the zero-order hold) is
-        dissipated as it appears — a reference energy in the style of Ryu, Preusche,
-        Hannaford & Hirzinger (2005).
+    delay : int, optional
+        Ticks between sending a force and its acting on the device (its computation and
+        communication delay), 0 to :data:`MAX_OBSERVER_DELAY`: the observer pairs each
+        displacement with the force that acted over it, sent that many ticks before. A
+        :class:`Renderer` takes it from here (default 0); :func:`haptex.simulate` from the
+        simulated device (a different value here is refused).
+    reference : {"zero", "stored"}
+        ``"zero"`` (default): E_ref = 0, the observer of Hannaford & Ryu (2002): the
+        environment may give back all it absorbed. ``"stored"``: E_ref = kappa_0 d^2 / 2, the
+        energy still stored in the algorithm's virtual spring at its own penetration d
+        (Table I): what the environment has absorbed must cover what it can still give back,
+        so energy generated anywhere along a path is dissipated as it appears (a reference
+        energy in the style of Ryu, Preusche, Hannaford & Hirzinger, 2005). It leaves no
+        margin: on a resting wall the sensor's flicker alone makes it fire (on the Fig. 5
+        device, 2 N spikes on 15 % of ticks), which is why it is not the default.
+
+    Notes
+    -----
+    The observer starts, on its first tick, from the energy the spring stores where the
+    probe starts (kappa_0 d^2 / 2: put in before it watched, and the environment may give it
+    back). With a computation delay it pairs each displacement with the force that acted
+    over it (``delay``); without that pairing, on the Fig. 5 device with one sample of
+    delay, it counted energy absorbed while the port supplied it.
 
     Raises
     ------
@@ -68,12 +88,16 @@ class PassivityController:
     """
 
     max_damping: float
-    reference: str = "stored"
+    reference: str = "zero"
+    delay: int | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "max_damping", positive("max_damping", self.max_damping, "N s/m"))
         if self.reference not in ("stored", "zero"):
             raise fail("reference", self.reference, 'one of "stored", "zero"')
+        if self.delay is not None:
+            object.__setattr__(self, "delay", whole("delay", self.delay, 0, MAX_OBSERVER_DELAY,
+                                                    "ticks between sending a force and its acting"))
 
 
 def tick_model(algorithm: Algorithm, max_evaluations: int | None = None):
@@ -209,7 +233,8 @@ class Renderer:
         self._core = _core._ext.Renderer(
             code, prm, kind, coeffs, aux, self.dimension, math.inf if max_force is None else float(max_force),
             WORKSPACE_LIMIT, bool(energy_monitor), pc is not None, 0.0 if pc is None else pc.max_damping,
-            pc is not None and pc.reference == "stored", 0.0 if T is None else T, self._step_checked)
+            pc is not None and pc.reference == "stored", 0.0 if T is None else T, self._step_checked,
+            0 if pc is None or pc.delay is None else pc.delay)
         self.step = self._core.step
 
     def _tick(self, x, y, z):

@@ -29,7 +29,7 @@ from scipy.linalg import expm
 from . import core as _core
 from .core._ext import (DIVERGED_ENERGY, DIVERGED_FORCE, DIVERGED_POSITION, DIVERGED_VELOCITY, N_FAST, N_SUMMARY,
                         P_K0, S_DAMP, S_DIVERGED, S_DIVERGED_WHAT, S_EX, S_EY, S_EZ, S_FRIC, S_KE, S_KE0, S_MAXPEN, S_OP,
-                        S_PC_ACTIVE, S_SAT, S_TAILSTART_E)
+                        S_PC_ACTIVE, S_PC_ENERGY, S_SAT, S_TAILSTART_E)
 from ._validation import ParameterError, fail, nonnegative, positions, positive, whole
 from .algorithms import Algorithm
 from .devices import Device
@@ -493,6 +493,11 @@ class SimulationResult:
         Which: ``"position"``, ``"velocity"``, ``"force"`` or ``"energy"``.
     passivity_control_samples : int
         Samples on which the passivity controller added damping (0 without one).
+    observed_energy : float
+        The energy the passivity observer counted as absorbed by the virtual environment
+        over the run (J; 0 without a controller), from sensed positions and the forces it
+        paired with them; the port's true energy is ``totals`` ``energy_x`` + ``energy_z``
+        (+ ``energy_y``), from the exact motion under the forces that acted.
     """
 
     time: np.ndarray
@@ -513,6 +518,7 @@ class SimulationResult:
     diverged_quantity: str | None = None
     energy_y: np.ndarray | None = None
     passivity_control_samples: int = 0
+    observed_energy: float = 0.0
 
     @property
     def dimension(self) -> int:
@@ -670,6 +676,23 @@ def _controller(pc: PassivityController | None) -> tuple[bool, float, bool]:
     return True, pc.max_damping, pc.reference == "stored"
 
 
+def _observer_delay(pc: PassivityController | None, delays) -> None:
+    """Refuse a controller whose observer cannot pair the simulated device's delay: one stated
+    otherwise, or longer than it remembers (the simulated observer knows the device's)."""
+    if pc is None:
+        return
+    from .renderer import MAX_OBSERVER_DELAY
+
+    delays = np.atleast_1d(np.asarray(delays, dtype=np.int64))
+    if pc.delay is not None and np.any(delays != pc.delay):
+        raise fail("passivity_controller.delay", pc.delay, f"None or the simulated device's delay "
+                   f"({', '.join(str(d) for d in np.unique(delays)[:4])}): the simulated observer pairs forces "
+                   "over the device's own delay")
+    if delays.max() > MAX_OBSERVER_DELAY:
+        raise fail("delay", int(delays.max()), f"at most {MAX_OBSERVER_DELAY} samples with a passivity controller "
+                   "(the forces its observer remembers)")
+
+
 def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration: float, initial_position=None,
              initial_velocity=None, record_every: int = 1, tail_fraction: float = 0.4,
              passivity_controller: PassivityController | None = None) -> SimulationResult:
@@ -726,6 +749,7 @@ def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration:
     if not 0 < tail_fraction <= 1:
         raise fail("tail_fraction", tail_fraction, "a number in (0, 1]")
     pc_on, pc_b, pc_ref = _controller(passivity_controller)
+    _observer_delay(passivity_controller, device.delay)
     d = p0.size
     width = 4 * d + 4
     n_rec = n_steps // record_every
@@ -836,7 +860,8 @@ def _result(rec, summary, osc: Oscillation) -> SimulationResult:
         initial_kinetic_energy=float(summary[S_KE0]), saturations=int(summary[S_SAT]),
         max_penetration=float(summary[S_MAXPEN]), oscillation=osc, totals=totals, diverged_at=diverged,
         diverged_quantity=None if diverged is None else _DIVERGED_NAMES[int(summary[S_DIVERGED_WHAT])],
-        energy_y=rec[:, E + 1] if d == 3 else None, passivity_control_samples=int(summary[S_PC_ACTIVE]))
+        energy_y=rec[:, E + 1] if d == 3 else None, passivity_control_samples=int(summary[S_PC_ACTIVE]),
+        observed_energy=float(summary[S_PC_ENERGY]))
 
 
 _ALGORITHM_KEYS = ("stiffness", "amplitude", "texture_period", "friction", "presliding", "modulation_depth",
@@ -886,6 +911,9 @@ class BatchResult:
         Full time series, only with ``record=True``.
     passivity_control_samples : ndarray of int
         Samples on which the passivity controller acted, per run.
+    observed_energy : ndarray
+        The passivity observer's energy absorbed per run (J; 0 without a controller): see
+        :attr:`SimulationResult.observed_energy`.
     oscillating_axes : ndarray of bool, shape (N, d)
         The verdict per axis, [x, z] in the plane, [x, y, z] in space.
     decay_ratio : ndarray
@@ -917,6 +945,7 @@ class BatchResult:
     runs: list | None = None
     energy_y: np.ndarray | None = None
     passivity_control_samples: np.ndarray | None = None
+    observed_energy: np.ndarray | None = None
     oscillating_axes: np.ndarray | None = None
     decay_ratio: np.ndarray | None = None
     growing: np.ndarray | None = None
@@ -1104,6 +1133,7 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     rest = by_run([o.rest_length for o in ops])
     delay = by_run([d_.delay for d_ in dev], dtype=np.int64)
     delta = by_run([d_.position_resolution for d_ in dev])
+    _observer_delay(passivity_controller, delay)
     fres = by_run([d_.force_resolution for d_ in dev])
     fmax = by_run([d_.max_force for d_ in dev])
     fc = by_run([d_.coulomb_friction for d_ in dev])
@@ -1167,6 +1197,7 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
         diverged_at=diverged_at, runs=[_result(rec[i], summary[i], osc[i]) for i in range(N)] if record else None,
         energy_y=summary[:, S_EY].copy() if d == 3 else None,
         passivity_control_samples=summary[:, S_PC_ACTIVE].astype(np.int64),
+        observed_energy=summary[:, S_PC_ENERGY].copy(),
         oscillating_axes=np.array([[o.x.oscillating] + ([o.y.oscillating] if d == 3 else []) + [o.z.oscillating]
                                    for o in osc], dtype=bool).reshape(N, d),
         decay_ratio=col(lambda o: o.decay_ratio),

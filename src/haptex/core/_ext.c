@@ -258,15 +258,20 @@ static void Renderer_dealloc(RendererObject *self)
 static int Renderer_init(RendererObject *self, PyObject *args, PyObject *kwds)
 {
     static char *kwlist[] = {"code", "prm", "kind", "coeffs", "aux", "dim", "max_force", "limit", "monitor",
-                             "controller", "max_damping", "stored_reference", "period", "fallback", NULL};
-    int code, kind, dim, monitor, on, stored, rc, i;
+                             "controller", "max_damping", "stored_reference", "period", "fallback", "delay", NULL};
+    int code, kind, dim, monitor, on, stored, rc, i, delay = 0;
     double max_force, limit, bmax, T;
     PyObject *prm_obj, *coeffs_obj, *aux_obj, *fallback;
     Py_buffer prm, coeffs, aux;
     size_t bytes;
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "iOiOOiddppdpdO", kwlist, &code, &prm_obj, &kind, &coeffs_obj,
-                                     &aux_obj, &dim, &max_force, &limit, &monitor, &on, &bmax, &stored, &T, &fallback))
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "iOiOOiddppdpdO|i", kwlist, &code, &prm_obj, &kind, &coeffs_obj,
+                                     &aux_obj, &dim, &max_force, &limit, &monitor, &on, &bmax, &stored, &T, &fallback,
+                                     &delay))
         return -1;
+    if (delay < 0 || delay >= HX_PC_RING) {
+        PyErr_Format(PyExc_ValueError, "delay must be 0 to %d", HX_PC_RING - 1);
+        return -1;
+    }
     if (dim != 2 && dim != 3) {
         PyErr_SetString(PyExc_ValueError, "dim must be 2 or 3");
         return -1;
@@ -336,6 +341,7 @@ static int Renderer_init(RendererObject *self, PyObject *args, PyObject *kwds)
     self->r.pc.bmax = bmax;
     self->r.pc.ref_stored = stored;
     self->r.pc.T = T;
+    self->r.pc.delay = delay;
     Py_INCREF(fallback);
     Py_XSETREF(self->fallback, fallback);
     return 0;
@@ -463,7 +469,7 @@ static PyObject *Renderer_fault(RendererObject *self, PyObject *unused)
 {
     (void)unused;
     self->r.faults++;
-    self->r.pc.have = 0;
+    hx_passivity_skip(&self->r.pc);
     self->r.work = 0;
     Py_RETURN_NONE;
 }
@@ -508,6 +514,8 @@ static PyMemberDef Renderer_members[] = {
     {"energy", T_DOUBLE, offsetof(RendererObject, r.pc.E), READONLY, "energy absorbed (J)"},
     {"controller_active", T_LONG, offsetof(RendererObject, r.pc.active), READONLY, "ticks the controller damped"},
     {"controller_damping", T_DOUBLE, offsetof(RendererObject, r.pc.alpha), READONLY, "last alpha (N s/m)"},
+    {"observer_delay", T_INT, offsetof(RendererObject, r.pc.delay), READONLY,
+     "ticks between a force sent and its acting, as the observer pairs them"},
     {"contact", T_INT, offsetof(RendererObject, r.st.contact), READONLY, "the algorithm's contact flag"},
     {NULL, 0, 0, 0, NULL},
 };
@@ -1234,7 +1242,7 @@ PyMODINIT_FUNC PyInit__ext(void)
         {"S_KE0", HX_S_KE0}, {"S_KE", HX_S_KE}, {"S_SAT", HX_S_SAT}, {"S_MAXPEN", HX_S_MAXPEN},
         {"S_NSAMP", HX_S_NSAMP}, {"S_TAILSTART_E", HX_S_TAILSTART_E}, {"S_DIVERGED", HX_S_DIVERGED},
         {"S_DIVERGED_WHAT", HX_S_DIVERGED_WHAT}, {"S_FRIC", HX_S_FRIC}, {"S_STUCK", HX_S_STUCK}, {"S_EY", HX_S_EY},
-        {"S_PC_ACTIVE", HX_S_PC_ACTIVE}, {"N_SUMMARY", HX_N_SUMMARY}, {"DIVERGED_POSITION", HX_DIVERGED_POSITION},
+        {"S_PC_ACTIVE", HX_S_PC_ACTIVE}, {"S_PC_ENERGY", HX_S_PC_ENERGY}, {"N_SUMMARY", HX_N_SUMMARY}, {"DIVERGED_POSITION", HX_DIVERGED_POSITION},
         {"DIVERGED_VELOCITY", HX_DIVERGED_VELOCITY}, {"DIVERGED_FORCE", HX_DIVERGED_FORCE},
         {"DIVERGED_ENERGY", HX_DIVERGED_ENERGY}, {"F_PV", HX_F_PV}, {"F_PW", HX_F_PW}, {"F_VV", HX_F_VV},
         {"F_VW", HX_F_VW}, {"F_CVV", HX_F_CVV}, {"F_CVW", HX_F_CVW}, {"F_CWW", HX_F_CWW}, {"N_FAST", HX_N_FAST}, {"T_N", HX_T_N}, {"T_LOGR", HX_T_LOGR}, {"T_DV", HX_T_DV},
@@ -1243,6 +1251,7 @@ PyMODINIT_FUNC PyInit__ext(void)
         {"PIECE", HX_PIECE}, {"TABLE_MAXP", HX_TABLE_MAXP}, {"PATCH_X0", HX_PATCH_X0}, {"PATCH_Y0", HX_PATCH_Y0},
         {"PATCH_DX", HX_PATCH_DX}, {"PATCH_DY", HX_PATCH_DY}, {"PATCH_NX", HX_PATCH_NX}, {"PATCH_NY", HX_PATCH_NY},
         {"PATCH_PERIODIC", HX_PATCH_PERIODIC}, {"PATCH_DATA", HX_PATCH_DATA}, {"CONVEX_EVALS", HX_CONVEX_EVALS},
+        {"PC_RING", HX_PC_RING},
     };
     size_t i;
     if (mod == NULL)

@@ -236,25 +236,33 @@ typedef struct {
  * HX_OK or HX_NOT_IN_CORE (D, E). */
 int hx_tick_force(const hx_model *m, hx_state *s, const double p[3], double f[3]);
 
+/* Forces the passivity observer remembers: a computation delay of up to HX_PC_RING - 1 ticks. */
+#define HX_PC_RING 17
+
 /* Time-domain passivity observer and controller (Hannaford & Ryu 2002), over [x, y, z]. */
 typedef struct {
     int on;           /* the controller acts (else observe only) */
     int ref_stored;   /* reference energy: kappa_0 pen^2 / 2 (Ryu et al. 2005), else 0 */
+    int delay;        /* ticks between sending a force and its acting on the device, 0..HX_PC_RING-1 */
     double bmax;      /* largest damping the controller adds (N s/m) */
     double T;         /* servo period (s) */
     double E;         /* energy the virtual environment absorbed (J) */
     double e_axis[3]; /* E per axis (J) */
     double alpha;     /* damping added on the last tick (N s/m) */
     long active;      /* ticks on which the controller added damping */
-    int have;         /* last[] and lastf[] hold the previous tick */
-    double last[3], lastf[3];
+    int have;         /* last[] holds the previous tick's sensed position */
+    long sent;        /* forces sent (zero on a fault) since the start */
+    double last[3];
+    double hist[HX_PC_RING][3]; /* the forces sent, tick sent % HX_PC_RING */
 } hx_passivity;
 
-/* Observe the energy of the last tick's force over the displacement since, then (when on)
- * add the damping -alpha v that covers a deficit below the reference, alpha <= bmax.
- * Modifies f in place; call hx_passivity_sent with the force actually sent. */
+/* Observe the energy of the force that acted over the last sample (sent delay ticks before
+ * it) over the displacement sensed since, then (when on) add the damping -alpha v that covers
+ * a deficit below the reference, alpha <= bmax. Modifies f in place; call hx_passivity_sent
+ * with the force actually sent, or hx_passivity_skip when a fault sends none. */
 void hx_passivity_tick(hx_passivity *pc, const double p[3], double f[3], double k0, double pen);
 void hx_passivity_sent(hx_passivity *pc, const double p[3], const double f[3]);
+void hx_passivity_skip(hx_passivity *pc);
 
 /* Scale f down to magnitude fmax without overflow (infinite components: their directions
  * kept); 1 when it scaled, 0 otherwise. NaN in, NaN out (the caller counts a fault). */
@@ -290,7 +298,7 @@ enum { HX_F_PV, HX_F_PW, HX_F_VV, HX_F_VW, HX_F_CVV, HX_F_CVW, HX_F_CWW, HX_N_FA
 enum {
     HX_S_EX, HX_S_EZ, HX_S_DAMP, HX_S_OP, HX_S_KE0, HX_S_KE, HX_S_SAT, HX_S_MAXPEN, HX_S_NSAMP,
     HX_S_TAILSTART_E, HX_S_DIVERGED, HX_S_DIVERGED_WHAT, HX_S_FRIC, HX_S_STUCK, HX_S_EY, HX_S_PC_ACTIVE,
-    HX_N_SUMMARY
+    HX_S_PC_ENERGY, HX_N_SUMMARY
 };
 
 /* what became non-finite first in a diverged run */

@@ -10,29 +10,42 @@
 
 void hx_passivity_tick(hx_passivity *pc, const double p[3], double f[3], double k0, double pen)
 {
-    double v2 = 0.0, ref, deficit;
+    static const double none[3] = {0.0, 0.0, 0.0};
+    double v2, ref, deficit, dq[3];
+    const double *fa;
     int i;
     pc->alpha = 0.0;
-    if (!pc->have)
+    if (!pc->have) {
+        /* the first tick: the environment already holds what its spring stores where the probe
+         * starts (put in before the observer watched), and may give it back */
+        if (pc->sent == 0)
+            pc->E = 0.5 * k0 * pen * pen;
         return;
+    }
     /* Hannaford & Ryu (2002), eq. 7: the energy absorbed over the last sample is the force
-     * sent then times the displacement sensed since */
+     * that acted over it times the displacement sensed since; with a computation delay d the
+     * force that acted is the one sent d ticks before the last (none before it arrived) */
+    fa = pc->sent > pc->delay ? pc->hist[(pc->sent - 1 - pc->delay) % HX_PC_RING] : none;
     for (i = 0; i < 3; i++) {
-        double dp = p[i] - pc->last[i], de = pc->lastf[i] * dp;
+        double dp = p[i] - pc->last[i], de = fa[i] * dp;
         pc->E -= de;
         pc->e_axis[i] -= de;
-        v2 += dp * dp;
     }
     if (!pc->on)
         return;
     ref = pc->ref_stored ? 0.5 * k0 * pen * pen : 0.0;
     deficit = ref - pc->E;
+    v2 = 0.0;
+    for (i = 0; i < 3; i++) {
+        dq[i] = p[i] - pc->last[i];
+        v2 += dq[i] * dq[i];
+    }
     if (deficit > 0.0 && v2 > 0.0) {
         double alpha = deficit * pc->T / v2; /* (E_ref - E) / (T |v|^2), v = dp / T */
         if (alpha > pc->bmax)
             alpha = pc->bmax;
         for (i = 0; i < 3; i++)
-            f[i] -= alpha * (p[i] - pc->last[i]) / pc->T;
+            f[i] -= alpha * dq[i] / pc->T;
         pc->alpha = alpha;
         pc->active++;
     }
@@ -40,12 +53,22 @@ void hx_passivity_tick(hx_passivity *pc, const double p[3], double f[3], double 
 
 void hx_passivity_sent(hx_passivity *pc, const double p[3], const double f[3])
 {
+    double *h = pc->hist[pc->sent % HX_PC_RING];
     int i;
     for (i = 0; i < 3; i++) {
         pc->last[i] = p[i];
-        pc->lastf[i] = f[i];
+        h[i] = f[i];
     }
+    pc->sent++;
     pc->have = 1;
+}
+
+void hx_passivity_skip(hx_passivity *pc)
+{
+    double *h = pc->hist[pc->sent % HX_PC_RING];
+    h[0] = h[1] = h[2] = 0.0;
+    pc->sent++;
+    pc->have = 0;
 }
 
 int hx_saturate(double f[3], double fmax)
@@ -90,7 +113,7 @@ void hx_render_step(hx_renderer *r, double x, double y, double z, double f[3])
     r->work = 0;
     if (outside(x, r->limit) || outside(y, r->limit) || outside(z, r->limit)) {
         r->faults++;
-        r->pc.have = 0;
+        hx_passivity_skip(&r->pc);
         return;
     }
     p[0] = x;
@@ -98,7 +121,7 @@ void hx_render_step(hx_renderer *r, double x, double y, double z, double f[3])
     p[2] = z;
     if (hx_tick_force(&r->model, &r->st, p, f) != HX_OK) {
         r->faults++;
-        r->pc.have = 0;
+        hx_passivity_skip(&r->pc);
         f[0] = f[1] = f[2] = 0.0;
         return;
     }
@@ -113,7 +136,7 @@ void hx_render_step(hx_renderer *r, double x, double y, double z, double f[3])
     for (i = 0; i < 3; i++) {
         if (!isfinite(f[i])) {
             r->faults++;
-            r->pc.have = 0;
+            hx_passivity_skip(&r->pc);
             r->st.contact = 0;
             f[0] = f[1] = f[2] = 0.0;
             return;
@@ -134,5 +157,6 @@ void hx_render_reset(hx_renderer *r)
     r->pc.ref_stored = keep.ref_stored;
     r->pc.bmax = keep.bmax;
     r->pc.T = keep.T;
+    r->pc.delay = keep.delay;
     r->faults = r->clamps = r->work = r->max_work = r->cut = 0;
 }

@@ -197,6 +197,7 @@ HX_INLINE int lean_loop(const hx_model *m, const hx_lean_run *r, const int code,
     summary[HX_S_FRIC] = 0.0;
     summary[HX_S_STUCK] = 0.0;
     summary[HX_S_PC_ACTIVE] = 0.0;
+    summary[HX_S_PC_ENERGY] = 0.0;
     return HX_OK;
 }
 
@@ -341,6 +342,7 @@ int hx_run_general(const hx_model *m, const hx_general_run *r)
     pc.bmax = r->pc_bmax;
     pc.ref_stored = r->pc_ref_stored;
     pc.T = r->period;
+    pc.delay = delay < HX_PC_RING ? (int)delay : HX_PC_RING - 1; /* (the Python side refuses longer) */
     for (i = 0; i < n; i++) {
         p[i] = ph[i] = r->p0[i];
         v[i] = vh[i] = r->v0[i];
@@ -584,6 +586,7 @@ int hx_run_general(const hx_model *m, const hx_general_run *r)
     summary[HX_S_FRIC] = efr;
     summary[HX_S_STUCK] = (double)stuck;
     summary[HX_S_PC_ACTIVE] = (double)pc.active;
+    summary[HX_S_PC_ENERGY] = pc.E;
     return HX_OK;
 }
 
