@@ -190,3 +190,32 @@ def test_design_on_a_product_preset_reports_passive_and_stable_side_by_side(caps
         assert r["max_stable_stiffness"] == pytest.approx(wall["stable_stiffness"] / r["q"], rel=1e-9)
     rated = [lim for lim in wall["limits"] if lim["key"] == "rated"]
     assert rated and rated[0]["value"] == 3000.0
+
+
+def test_simulate_scan_with_a_hand_model_is_the_python_hand(capsys):
+    # `simulate scan --hand H`: the hand's mass moves with the handle (Hand.attach), its spring
+    # and damper drag it (Hand.operator): the same run as in Python, to round-off
+    assert main(["simulate", "scan", "--hand", "firm-grip", "--duration", "0.2s", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    h = catalogue.hand("firm-grip")
+    dev = h.attach(hx.Device.pantograph())
+    assert out["device"] == dev.name == "pantograph + firm-grip"
+    alg = hx.algorithm("A", hx.Sinusoid(0.8e-3, 1e-3), 2000.0)  # the CLI's defaults, the paper's
+    r = hx.simulate(alg, dev, h.operator(depth=1e-3, velocity=0.01), 0.2, initial_position=[0.0, 0.0])
+    for key in ("energy_x", "energy_z", "operator_work"):
+        assert out[key] == pytest.approx(r.totals[key], rel=1e-9, abs=1e-15), key
+    assert main(["simulate", "scan", "--hand", "none", "--duration", "0.1s"]) == 2
+    assert main(["simulate", "scan", "--hand", "light-touch", "--hand-stiffness", "1 kN/m", "--duration", "0.1s"]) == 2
+    err = capsys.readouterr().err
+    assert "--hand-stiffness is not allowed with --hand light-touch" in err
+
+
+def test_explorer_offers_the_product_presets():
+    from haptex.explore import model
+
+    st = model.Settings()
+    st.device = "falcon"
+    flat = model.build(st)  # a profile: the Falcon in its x-z plane
+    assert flat.device.dimension == 2 and flat.device.details["preset"] == "falcon"
+    st.texture = "egg-crate"
+    assert model.build(st).device.dimension == 3

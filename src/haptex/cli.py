@@ -248,6 +248,9 @@ def thrust(ctx, **kw):
 @click.option("--hand-damping", type=Quantity("N*s/m"), default=1.0, show_default="1 N*s/m", help="Hand damping.")
 @click.option("--velocity", type=Quantity("m/s"), default=0.01, show_default="10 mm/s", help="Set-point speed.")
 @click.option("--depth", type=Quantity("m"), default=1e-3, show_default="1mm", help="Set-point depth.")
+@click.option("--hand", "hand_name", default=None,
+              help="A hand of 'haptex devices' (light-touch, firm-grip) instead of --hand-stiffness and "
+                   "--hand-damping: its spring and damper drag the handle and its mass moves with it.")
 def scan(ctx, **kw):
     """Stroke along the texture with a hand impedance (Figs. 6, 7)."""
     _simulate(ctx, "scan", **kw)
@@ -266,7 +269,7 @@ def _simulate(ctx, mode, letter, stiffness, amplitude, period, max_penetration, 
               joint_damping, mass, damping, sampling_period, delay, duration, plot, save, as_json, quiet=False,
               surface_spec=None,
               passivity_control=None, band_stiffness=100.0, anchor="0,-30mm", angle=10.0, hand_stiffness=300.0,
-              hand_damping=1.0, velocity=0.01, depth=1e-3, path_text=None, speed=1e-3):
+              hand_damping=1.0, velocity=0.01, depth=1e-3, path_text=None, speed=1e-3, hand_name=None):
     from . import operators as ops
     from .algorithms import algorithm
     from .renderer import PassivityController
@@ -305,6 +308,18 @@ def _simulate(ctx, mode, letter, stiffness, amplitude, period, max_penetration, 
         a = [ax + az * math.tan(math.radians(angle)), az]
         op = ops.ElasticBand(band_stiffness, a if d == 2 else [a[0], 0.0, a[1]])
         start = [0.0, 1e-3] if d == 2 else [0.0, 0.0, 1e-3]
+    elif mode == "scan" and hand_name is not None:
+        from .catalogue import hand as _hand
+
+        _refuse_unused(ctx, {"*": {"hand_stiffness", "hand_damping"}}, hand_name, "--hand", owner="*",
+                       what="the hand model gives it")
+        h = _hand(hand_name)
+        if h.none:
+            raise ParameterError(f"hand = {hand_name!r} is not allowed in scan mode: a scan needs a hand that drags "
+                                 "the handle (light-touch, firm-grip)")
+        dev = h.attach(dev)
+        op = h.operator(depth=depth, velocity=velocity, dimension=d)
+        start = [0.0] * d
     elif mode == "scan":
         op = ops.ScanningHand(hand_stiffness, hand_damping, velocity=velocity, depth=depth, dimension=d)
         start = [0.0] * d

@@ -14,6 +14,7 @@ import numpy as np
 
 from .._specs import quantity, texture_from_spec
 from .._validation import ParameterError, fail
+from ..catalogue import presets
 from ..tables import PAPER_PARAMETERS
 
 #: Textures the texture control offers (value, label).
@@ -24,9 +25,13 @@ TEXTURES = [("sine", "sinusoid"), ("sum", "sum of sinusoids"), ("noise", "band-l
 ALGORITHM_LABELS = [("W", "W: smooth wall"), ("A", "A: vertical (grooved)"), ("B", "B: normal (grooved)"),
                     ("C", "C: change of height"), ("D", "D: god-object gradient"), ("E", "E: god-object vertical"),
                     ("F", "F: friction modulated"), ("G", "G: force shading")]
-#: Devices the device control offers (value, label).
+#: Devices the device control offers (value, label): the generic models and the product presets of
+#: :mod:`haptex.catalogue` (over a profile, in their x-z plane).
 DEVICES = [("pantograph", "pantograph (the paper's, planar)"), ("point-mass", "point mass 0.1 kg, 0.5 N s/m"),
-           ("serial-arm", "serial 3-DOF arm (surfaces)"), ("delta", "delta (surfaces)")]
+           ("serial-arm", "serial 3-DOF arm (surfaces)"), ("delta", "delta (surfaces)"),
+           ("touch", "3D Systems Touch"), ("premium-1-5", "Phantom Premium 1.5"), ("falcon", "Novint Falcon"),
+           ("omega-3", "Force Dimension omega.3"), ("delta-3", "Force Dimension delta.3"),
+           ("sigma-7", "Force Dimension sigma.7"), ("inverse3", "Haply Inverse3 (chosen figures)")]
 #: The scanning hand of Section V-B (the CLI's ``simulate scan`` defaults).
 HAND_STIFFNESS, HAND_DAMPING, HAND_DEPTH = 300.0, 1.0, 1e-3
 #: Grid of the arrows and of the maps (points per axis along x, z).
@@ -224,6 +229,8 @@ def build(settings: Settings) -> Scene:
             raise ParameterError(f"device = {dev_kind!r} is not allowed over a profile: it is a 3-DOF device; "
                                  "choose an areal texture, or the pantograph or the point mass")
         dev = Device.serial_arm() if dev_kind == "serial-arm" else Device.delta()
+    elif dev_kind in presets():
+        dev = presets()[dev_kind].device(dimension=d)
     else:
         raise fail("device", dev_kind, "one of " + ", ".join(v for v, _ in DEVICES))
     speed = quantity(s.speed, "m/s", "speed")
