@@ -767,6 +767,113 @@ def sweep(spec, out, scheduler, workers, quiet):
                f"diverged), {int(ds['oscillating'].sum())} oscillating")
 
 
+@cli.command("run")
+@click.option("--device", "device_spec", required=True,
+              help="'simulated:PRESET' (a preset of 'haptex devices', e.g. 'simulated:falcon').")
+@click.option("--texture", "texture_spec", default="sine:0.2mm,2mm", show_default=True,
+              help="A texture spec as for design (a profile is extruded across y on a 3-DOF device).")
+@click.option("--algorithm", "letter", default="A", show_default=True, help="W or A-G.")
+@click.option("--stiffness", type=Quantity("N/m"), default=500.0, show_default="500 N/m", help="kappa_0.")
+@click.option("--max-force", type=Quantity("N"), default=None, help="At most the device's (default: the device's).")
+@click.option("--duration", type=Quantity("s"), default=5.0, show_default="5 s")
+@click.option("--passivity-control", type=Quantity("N*s/m"), default=None,
+              help="A passivity observer/controller with this largest damping (its delay: the device's).")
+@click.option("--hand", default="light-touch", show_default=True, help="simulated: the hand holding the handle.")
+@click.option("--speed", type=Quantity("m/s"), default=0.01, show_default="10 mm/s",
+              help="simulated: the hand's speed along x.")
+@click.option("--fast", is_flag=True, help="simulated: run as fast as the loop goes, not at the device's rate.")
+@click.option("--record", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Write the trace (time, position, force, engaged) to FILE.npz.")
+@click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
+@click.option("--quiet", is_flag=True, help="No live dashboard.")
+def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration, passivity_control, hand, speed, fast,
+               record, as_json, quiet):
+    """Render one texture on one device, with the safety rules of haptex.servo and a live dashboard."""
+    import numpy as np
+
+    from .algorithms import algorithm
+    from .backends import open_backend
+    from .renderer import PassivityController, Renderer
+    from .servo import ServoLoop
+    from .surfaces import Extruded
+
+    if record is not None and record.suffix != ".npz":
+        raise ParameterError(f"record = {str(record)!r} is not allowed: must end in .npz")
+    if record is not None and not (record.parent if str(record.parent) else Path(".")).is_dir():
+        raise ParameterError(f"record = {str(record)!r} is not allowed: its directory does not exist")
+    backend = open_backend(device_spec, hand=hand, speed=speed, realtime=not fast)
+    tex = None
+    letter = letter.upper()
+    if letter != "W":
+        tex = _texture_from_spec(texture_spec, None, None, None, False, None, None, False)
+        if tex.dimension == 1 and backend.dimension == 3:
+            tex = Extruded(tex)
+        elif tex.dimension == 2 and backend.dimension == 2:
+            raise ParameterError(f"texture = {texture_spec!r} is not allowed on {backend.name}: a surface needs a "
+                                 "3-DOF device")
+    elif backend.dimension == 3:
+        from .textures import Flat
+
+        tex = Flat(dimension=2)
+    alg = algorithm(letter, tex, stiffness)
+    dev = backend.device
+    pc = None if passivity_control is None else PassivityController(passivity_control, delay=dev.delay)
+    fmax = backend.max_force if max_force is None else max_force
+    if not fmax <= backend.max_force:
+        raise ParameterError(f"max_force = {fmax:g} N is not allowed: at most the device's {backend.max_force:g} N")
+    renderer = Renderer(alg, max_force=fmax if math.isfinite(fmax) else None, energy_monitor=True,
+                        passivity_controller=pc, period=dev.period)
+    loop = ServoLoop(backend, renderer, max_force=fmax if math.isfinite(fmax) else None)
+    live = None
+    if not (quiet or as_json):
+        from rich.console import Console
+        from rich.live import Live
+
+        console = Console(stderr=True)
+        if console.is_terminal:
+            live = Live(console=console, refresh_per_second=4, transient=True)
+    every = max(1, int(0.1 / dev.period))
+
+    def show(k, st):
+        if live is not None and k % every == 0:
+            live.update(f"{backend.name}  t {k * dev.period:6.2f} s  ticks {st.ticks}  missed {st.missed}  faults "
+                        f"{st.faults}  engaged {'yes' if st.engaged_at is not None else 'no'}  energy observed "
+                        f"{renderer.energy:+.3g} J  max force sent {st.max_force_sent:.3g} N")
+    if live is not None:
+        with live:
+            stats, trace = loop.run(duration, on_tick=show)
+    else:
+        stats, trace = loop.run(duration)
+    dp = np.diff(trace["position"], axis=0)
+    per_axis = -np.sum(trace["force"][:-1] * dp, axis=0) if len(dp) else np.zeros(backend.dimension)
+    axes = "xz" if backend.dimension == 2 else "xyz"
+    summary = {"device": backend.name, "algorithm": letter, "stiffness": stiffness, "max_force": fmax,
+               "duration": stats.ticks * dev.period, "ticks": stats.ticks, "missed_deadlines": stats.missed,
+               "faults": stats.faults, "clamps": stats.clamps,
+               "engaged_at": None if stats.engaged_at is None else stats.engaged_at * dev.period,
+               "max_force_sent": stats.max_force_sent, "energy_observed": renderer.energy,
+               **{f"energy_{a}": float(e) for a, e in zip(axes, per_axis)},
+               "tick_max": stats.tick_seconds[0], "tick_mean": stats.tick_seconds[1],
+               "period_mean": stats.period_seconds[0], "period_std": stats.period_seconds[1],
+               "interrupted": stats.interrupted,
+               "units": {"stiffness": "N/m", "max_force": "N", "duration": "s", "engaged_at": "s",
+                         "max_force_sent": "N", "energy_observed": "J", **{f"energy_{a}": "J" for a in axes},
+                         "tick_max": "s", "tick_mean": "s", "period_mean": "s", "period_std": "s"}}
+    if record is not None:
+        np.savez(record, **trace, period=dev.period, units=np.array(["s", "m", "N", "1"]))
+    if as_json:
+        click.echo(json.dumps(_jsonable(summary), indent=2))
+        return
+    click.echo(f"{backend.name}: {stats.ticks} ticks ({summary['duration']:.3g} s), {stats.missed} missed deadlines, "
+               f"{stats.faults} faults, {stats.clamps} clamps; forces engaged at "
+               f"{'never' if stats.engaged_at is None else format(summary['engaged_at'], '.3g') + ' s'}; "
+               f"largest force sent {stats.max_force_sent:.3g} N; energy observed {renderer.energy:+.3g} J; tick "
+               f"{stats.tick_seconds[1] * 1e6:.3g} us mean, {stats.tick_seconds[0] * 1e6:.3g} us worst"
+               + ("; interrupted (forces zeroed)" if stats.interrupted else ""))
+    if record is not None:
+        click.echo(f"trace: {record}")
+
+
 @cli.command()
 @click.option("--port", type=int, default=5006, show_default=True, help="TCP port (0: any free port).")
 @click.option("--no-browser", is_flag=True, help="Do not open the page in a browser.")
