@@ -632,8 +632,9 @@ def critical_stiffness(mass: float, damping: float, period: float, delay: int = 
     handle: its mass and damping move with the handle and its stiffness pulls it towards a
     fixed set-point. The returned kappa is where the largest eigenvalue of the discretised
     closed loop reaches the unit circle: the exact stability boundary of the linear sampled
-    system (the boundary Gil et al., IEEE Trans. Control Systems Technology 12(4), 2004, and Hulin et al.,
-    IROS 2006, chart). For small bT/m, no delay and no virtual damping it tends to Colgate &
+    system (the boundary Gil et al., IEEE Trans. Control Systems Technology 12(4), 2004,
+    and Hulin et al., IROS 2006, chart). For small bT/m, no delay and no virtual damping it
+    tends to Colgate &
     Schenkel's 2b/T ("Passivity of a class of sampled-data systems", 1997); with delay d it
     is near Gil et al.'s (b + B_v) / (T (1/2 + d)).
 
@@ -753,12 +754,15 @@ def _two_mass_plant(m, b, T, handle_mass, first_resonance, zeta, hm, hb, hk):
 def _stability_edge(radius, guess: float) -> float:
     """The stiffness where ``radius`` (the closed loop's largest eigenvalue modulus minus 1)
     crosses zero: bracketed by doubling and halving from ``guess`` (N/m), then Brent's
-    method; 0.0 when even a vanishing stiffness is unstable."""
+    method; 0.0 when even a vanishing stiffness is unstable, inf when none up to 1e12 times the
+    guess is unstable."""
     from scipy.optimize import brentq
 
     hi = guess
     while radius(hi) < 0:
         hi *= 2
+        if hi > 1e12 * guess:  # (no sampled loop of a mass stays stable that far: a guard)
+            return math.inf
     lo = hi
     while radius(lo) >= 0:
         lo /= 2
