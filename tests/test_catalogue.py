@@ -219,3 +219,28 @@ def test_explorer_offers_the_product_presets():
     assert flat.device.dimension == 2 and flat.device.details["preset"] == "falcon"
     st.texture = "egg-crate"
     assert model.build(st).device.dimension == 3
+
+
+@pytest.mark.parametrize("delay", [0, 1, 2])
+def test_simulated_wall_limit_is_the_closed_loop_one_on_a_linear_device(delay):
+    # without friction, quantisation or saturation the simulated wall held by the hand turns
+    # unstable at the closed-loop boundary (the grid's first unstable stiffness is the boundary
+    # itself, where the loop is marginal, or the next grid point)
+    dev = hx.Device.point_mass(0.05, 0.05, 1e-3, delay=delay, dimension=3)
+    w = wall_limits(dev, "light-touch", simulated=True)
+    k, lin = w["simulated"].value, w["hand"].value
+    from haptex.limits import SIM_GRID
+    ratio = 16.0 ** (1.0 / (SIM_GRID - 1))
+    assert lin * (1 - 1e-9) <= k <= lin * ratio * (1 + 1e-9)
+
+
+def test_simulated_limit_shows_what_the_linear_one_leaves_out():
+    # Abbott & Okamura: quantisation without Coulomb friction makes the wall active, so the
+    # frictionless pantograph (10 um encoder) turns unstable below its linear limit; the Falcon
+    # preset's Coulomb friction (0.1 N, chosen) and 8.9 N saturation hold it well above
+    panto = catalogue.preset("pantograph")
+    w = wall_limits(panto.device(), "light-touch", simulated=True)
+    assert w["simulated"].value < w["hand"].value
+    falcon = catalogue.preset("falcon")
+    w = wall_limits(falcon.device(), "light-touch", simulated=True)
+    assert w["simulated"].value > 2 * w["hand"].value

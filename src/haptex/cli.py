@@ -984,7 +984,7 @@ def devices_show(name, hand, delay, virtual_damping, as_json):
     p = preset(name)
     h = _hand(hand)
     dev = p.device(delay=delay)
-    w = wall_limits(dev, h, virtual_damping, preset=p)
+    w = wall_limits(dev, h, virtual_damping, preset=p, simulated=True)
     if as_json:
         out = {"preset": p.key, "label": p.label, "model": p.model, "dimension": p.dimension, "delay": delay,
                "virtual_damping": virtual_damping, **w.as_dict(),

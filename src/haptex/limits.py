@@ -83,7 +83,8 @@ class WallLimits:
         friction and quantisation, Colgate & Schenkel's with exact positions.
     stable : float
         ``stable_stiffness`` (N/m): the exact boundary of the sampled closed loop with the
-        hand (with the device alone for the hand ``none``).
+        hand (with the device alone for the hand ``none``); with ``simulated``, the smaller
+        of that and the simulated limit (quantisation without friction can lower it).
     hand : Hand
     """
 
@@ -114,7 +115,7 @@ def normal_axis(device: Device) -> tuple[float, float, float | None]:
 
 
 def wall_limits(device: Device, hand=DEFAULT_HAND, virtual_damping: float = 0.0,
-                preset: Preset | None = None) -> WallLimits:
+                preset: Preset | None = None, simulated: bool = False) -> WallLimits:
     """The limits on a virtual wall's stiffness (N/m) on a device, side by side.
 
     Parameters
@@ -129,6 +130,9 @@ def wall_limits(device: Device, hand=DEFAULT_HAND, virtual_damping: float = 0.0,
         stability (Gil et al.).
     preset : Preset, optional
         The device's preset, whose rated stiffness is reported beside (never used).
+    simulated : bool, optional
+        Also ``simulated``: the wall simulated with the hand, nonlinear effects included
+        (:func:`simulated_wall_limit`; a fraction of a second).
 
     Returns
     -------
@@ -200,8 +204,60 @@ def wall_limits(device: Device, hand=DEFAULT_HAND, virtual_damping: float = 0.0,
         fig = preset.figures.get("rated_stiffness") or preset.figures["chai3d_stiffness"]
         limits.append(WallLimit("rated", "rated", preset.rated_stiffness, "the manufacturer's figure (reported only)",
                                 "-", fig.as_dict()["source"] or "", fig.note or "as published"))
+    stable = with_hand
+    if simulated and not h.none:
+        k, step = simulated_wall_limit(device, h, with_hand, virtual_damping)
+        stable = min(stable, k)
+        limits.append(WallLimit("simulated", "stable", k, f"stable, with the hand {h.key!r} (simulated)",
+                                "no limit cycle, growth or divergence",
+                                "haptex.simulate_batch (the C simulator)",
+                                f"the hand pressing with {SIM_PUSH:g} N for {SIM_DURATION:g} s; Coulomb friction, "
+                                f"quantisation, saturation and delay included; a grid {step:.3g} times apart"))
     passive = cs if ao is None else ao
-    return WallLimits(limits, passive, with_hand, h)
+    return WallLimits(limits, passive, stable, h)
+
+
+SIM_PUSH = 1.0
+"""The force the hand presses with in :func:`simulated_wall_limit` (N, chosen: a typical
+exploring force); its set-point is SIM_PUSH / k_h below the wall."""
+SIM_DURATION = 1.0
+"""Length of each run of :func:`simulated_wall_limit` (s, chosen)."""
+SIM_GRID = 41
+"""Stiffnesses of :func:`simulated_wall_limit`'s grid, from a quarter to four times the guess."""
+
+
+def simulated_wall_limit(device: Device, hand, guess: float, virtual_damping: float = 0.0) -> tuple[float, float]:
+    """The smallest stiffness (N/m) at which a virtual wall held by a hand is unstable in the
+    simulator, nonlinear effects included (Coulomb friction, quantisation, saturation, delay,
+    the structural mode), and the grid's ratio.
+
+    W (with the virtual damper ``virtual_damping``) on ``device`` with the hand's mass
+    attached, its spring and damper pressing with :data:`SIM_PUSH`, for
+    :data:`SIM_DURATION` s from rest at the surface, over :data:`SIM_GRID` stiffnesses
+    spaced geometrically from guess / 4 to 4 guess; a run is unstable when its regime is a
+    limit cycle, growth or divergence (:data:`haptex.simulate.UNSTABLE`).
+
+    Returns
+    -------
+    (float, float)
+        The stiffness (N/m; inf when none on the grid is unstable) and the ratio between
+        neighbouring stiffnesses of the grid.
+    """
+    from .algorithms import algorithm
+    from .catalogue import hand as _hand
+    from .simulate import UNSTABLE, simulate_batch
+    from .textures import Flat
+
+    h = _hand(hand)
+    dev = h.attach(device)
+    d = dev.dimension
+    ks = np.geomspace(0.25 * guess, 4.0 * guess, SIM_GRID)
+    alg = algorithm("W", Flat(dimension=2) if d == 3 else None, float(ks[0]), damping=virtual_damping,
+                    period=dev.period)
+    res = simulate_batch(alg, dev, h.operator(depth=SIM_PUSH / h.stiffness, dimension=d), SIM_DURATION,
+                         initial_position=np.zeros(d), stiffness=ks)
+    bad = np.flatnonzero(np.isin(res.regime, list(UNSTABLE)))
+    return (float(ks[bad[0]]) if bad.size else math.inf), float(ks[1] / ks[0])
 
 
 def stiffness_at(limit: float, q: float) -> float:
