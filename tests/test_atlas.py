@@ -472,3 +472,29 @@ def test_any_spec_is_a_spec_or_one_parameter_error(spec):
         assert "\n" not in str(exc)
         return
     assert parsed.runs <= 10**9 and all(np.all(np.isfinite(a.values)) for a in parsed.axes if a.name != "algorithm")
+
+
+def test_a_spec_can_name_a_product_preset_and_a_hand_model():
+    # issue 31, the hand in the atlas: operator kind 'grip' names a hand of haptex.catalogue,
+    # whose mass moves with the handle and whose spring and damper press it; the device table
+    # names a product preset. A run of the sweep is the same run in Python.
+    from haptex import catalogue
+
+    spec = {"duration": "0.3 s", "algorithm": {"letter": "W"}, "device": {"preset": "falcon"},
+            "operator": {"kind": "grip", "hand": "light-touch", "depth": "2 mm", "velocity": "0 m/s"},
+            "axes": {"stiffness": ["1 kN/m", "3 kN/m", "6 kN/m"]}}
+    parsed = SweepSpec.from_mapping(spec)
+    alg, dev, op, _ = parsed.build()
+    falcon = catalogue.preset("falcon").device()
+    assert dev.mass[2, 2] == pytest.approx(falcon.mass[2, 2] + 0.03)
+    ds = sweep(spec, workers=1)
+    h = catalogue.hand("light-touch")
+    for i, k in enumerate((1000.0, 3000.0, 6000.0)):
+        r = hx.simulate(hx.algorithm("W", hx.Flat(dimension=2), k), h.attach(falcon), h.operator(depth=2e-3, dimension=3),
+                        0.3)
+        assert float(ds.deepest_penetration.values[i]) == pytest.approx(r.max_penetration, rel=1e-9)
+        # (the atlas stores the energy the environment supplies per second, -E_z / duration)
+        assert -float(ds.energy_rate_z.values[i]) * 0.3 == pytest.approx(r.totals["energy_z"], rel=1e-6, abs=1e-12)
+    bad = dict(spec, operator={"kind": "grip", "hand": "none", "depth": "2 mm", "velocity": "0 m/s"})
+    with pytest.raises(hx.ParameterError, match="operator.hand"):
+        SweepSpec.from_mapping(bad).build()

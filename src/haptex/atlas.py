@@ -24,8 +24,8 @@ Example SPEC (``examples/sweeps/wall.toml``)::
     period = "100 us"
 
     [operator]
-    kind = "push"                # a constant force into the surface
-    force = "1 N"
+    kind = "push"                # a constant force into the surface ('band', 'hand', or 'grip':
+    force = "1 N"                # hand = "light-touch", depth = "1 mm", velocity = "10 mm/s")
 
     [axes]                       # in this order: the Dataset's dimensions
     stiffness = "0.5-20 kN/m, 60 log steps"
@@ -58,7 +58,8 @@ MAX_BLOCKS = 10**6
 bytes of bookkeeping a block)."""
 
 _TOP_KEYS = ("duration", "block", "algorithm", "device", "operator", "axes", "initial_position")
-_OPERATORS = {"push": ("force",), "band": ("stiffness", "anchor"), "hand": ("stiffness", "damping", "velocity", "depth")}
+_OPERATORS = {"push": ("force",), "band": ("stiffness", "anchor"), "hand": ("stiffness", "damping", "velocity", "depth"),
+              "grip": ("hand", "velocity", "depth")}
 _ALG_QUANTITIES = {"stiffness": "N/m", "friction": "dimensionless", "presliding": "m", "max_penetration": "m"}
 _RANGE = re.compile(r"^\s*(?P<a>[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(?:–|—|-|\.\.|to)\s*"
                     r"(?P<b>[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(?P<unit>[^,]*?)\s*,\s*(?P<n>\d{1,15})\s*"
@@ -302,6 +303,8 @@ class SweepSpec:
             texture = Flat(dimension=2)  # the wall under a 3-DOF device: the plane z = 0
         alg = algorithm(str(L), texture, stiffness, **params)
         op = _operator(self.mapping["operator"], device.dimension)
+        if self.mapping["operator"].get("kind") == "grip":
+            device = _grip(self.mapping["operator"]).attach(device)  # the hand's mass moves with the handle
         start = self.mapping.get("initial_position")
         if start is not None and (not isinstance(start, list) or len(start) != device.dimension):
             raise fail("initial_position", start, f"a list of {device.dimension} lengths, e.g. ['0 mm', '1 mm']")
@@ -388,15 +391,26 @@ def _axis(name: str, value) -> Axis:
     return Axis(name, vals, "samples" if name == "delay" else unit)
 
 
+def _grip(table):
+    """The hand model an operator table of kind 'grip' names (not 'none': a grip holds)."""
+    from .catalogue import hand
+
+    h = hand(table["hand"] if isinstance(table["hand"], str) else repr(table["hand"]))
+    if h.none:
+        raise fail("operator.hand", table["hand"], "a hand that holds the handle (light-touch, firm-grip)")
+    return h
+
+
 def _operator(table, dimension: int):
     from . import operators as ops
 
     if not isinstance(table, dict):
-        raise fail("operator", table, "a table with kind = 'push', 'band' or 'hand'")
+        raise fail("operator", table, "a table with kind = 'push', 'band', 'hand' or 'grip'")
     table = dict(table)
     kind = table.pop("kind", None)
     if kind not in _OPERATORS:
-        raise fail("operator.kind", kind, "'push' (a constant force into the surface), 'band' or 'hand'")
+        raise fail("operator.kind", kind, "'push' (a constant force into the surface), 'band', 'hand' or 'grip' (a hand "
+                   "model of haptex.catalogue)")
     unknown = sorted(set(table) - set(_OPERATORS[kind]))
     if unknown:
         raise ParameterError(f"operator key {unknown[0]!r} is not allowed with kind = {kind!r}: allowed keys are "
@@ -413,6 +427,10 @@ def _operator(table, dimension: int):
             raise fail("operator.anchor", anchor, f"a list of {dimension} lengths")
         return ops.ElasticBand(_quantity("operator.stiffness", table["stiffness"], "N/m"),
                                [_quantity("operator.anchor", v, "m") for v in anchor])
+    if kind == "grip":  # a hand model: its spring and damper here, its mass on the device (_grip)
+        return _grip(table).operator(depth=_quantity("operator.depth", table["depth"], "m"),
+                                     velocity=_quantity("operator.velocity", table["velocity"], "m/s"),
+                                     dimension=dimension)
     return ops.ScanningHand(_quantity("operator.stiffness", table["stiffness"], "N/m"),
                             _quantity("operator.damping", table["damping"], "N*s/m"),
                             velocity=_quantity("operator.velocity", table["velocity"], "m/s"),

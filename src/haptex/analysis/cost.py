@@ -25,6 +25,11 @@ CALIBRATION_PROBES = {"direct": 256, "distance": 2048}
 """Random probes timed to measure one evaluation's cost (chosen: a few ms for a direct
 field; about 0.1 s of closest-point searches, whose cost varies from probe to probe by
 two orders of magnitude)."""
+CALIBRATION_SECONDS = 0.25
+"""Longest the timing takes (s, chosen): on a texture whose searches cost milliseconds it stops
+early, timing fewer probes, so that planning stays cheap beside what it plans."""
+CHUNK = 64
+"""Probes evaluated at once while timing."""
 WARM_UP = 8
 """Probes evaluated first, untimed: they build what the texture caches once."""
 BYTES_PER_POINT = 12 * 8
@@ -87,12 +92,17 @@ def evaluation_time(algorithm: Algorithm, max_penetration: float = 1e-3, x_range
         fn = algorithm.jacobian
     fn(p[:WARM_UP])  # the texture's one-time data (patches, search bounds) built
     half = probes // 2
-    times = []
+    rates = []
     for lo in (WARM_UP, WARM_UP + half):  # two halves, the faster kept (the first may pay for caches)
-        t = time.perf_counter()
-        fn(p[lo:lo + half])
-        times.append(time.perf_counter() - t)
-    return min(times) / half
+        done, t = 0, time.perf_counter()
+        while done < half:  # in chunks, until the half is done or its time is spent
+            step = min(CHUNK, half - done)
+            fn(p[lo + done:lo + done + step])
+            done += step
+            if time.perf_counter() - t > CALIBRATION_SECONDS / 2:
+                break
+        rates.append((time.perf_counter() - t) / done)
+    return min(rates)
 
 
 def analysis_cost(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=None, seconds_each=None) -> Cost:

@@ -29,6 +29,9 @@ from . import model
 log = logging.getLogger("haptex.explore")
 
 MM = 1e3  # the page draws lengths in mm
+SESSION_THREADS = max(1, (os.cpu_count() or 1) - 1)
+"""Threads of one session's computation (the machine's cores but one: the event loop and the
+other sessions keep a core)."""
 RECOMPUTE_BUDGET = 10.0
 """Seconds after which a served page says that its computation is still running (the view
 keeps the previous input meanwhile; a Python thread cannot be stopped, so the result then
@@ -312,9 +315,14 @@ class ExplorerPage:
     @staticmethod
     def _attempt(what, fn):
         """Run one computation: ("ok", result) or ("error", the one line to show); never
-        raises (the server must survive anything a control can send)."""
+        raises (the server must survive anything a control can send). The C core's batch
+        loops run on :data:`SESSION_THREADS` threads within it, so that one session's
+        computation leaves the other cores to the server and the other sessions."""
+        from .. import core
+
         try:
-            return "ok", fn()
+            with core.threads(SESSION_THREADS):
+                return "ok", fn()
         except ParameterError as exc:
             return "error", str(exc)
         except Exception as exc:  # noqa: BLE001
