@@ -17,7 +17,7 @@ tick), and command it through these rules, in order:
 5. **Zero force on every exit**: the end of the run, an exception, Ctrl-C: the last command
    is zero, then the backend is closed.
 
-The loop runs in Python (about 10-30 us a tick on this machine with the simulated backend);
+The loop runs in Python (about 30-50 us a tick on this machine with the simulated backend);
 the C tick inside it does not hold the GIL.
 """
 
