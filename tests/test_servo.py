@@ -148,3 +148,20 @@ def test_haptex_run_on_the_simulated_falcon(tmp_path, capsys):
         assert main(["run", "--device", spec, "--duration", "0.1s", "--fast"]) == 2
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and what in err, err
+
+
+def test_a_trace_is_judged_as_a_simulated_run():
+    # W on the simulated pantograph held by the light-touch hand: its closed-loop limit is
+    # 38 kN/m (haptex.wall_limits); the loop's trace, analysed by the simulator's own verdict,
+    # decays at 0.45 and 0.55 of it and is unstable at 1.5 and 1.7 of it
+    from haptex.servo import analyse_trace
+    from haptex.simulate import UNSTABLE
+
+    limit = hx.wall_limits(hx.catalogue.preset("pantograph").device(), "light-touch")["hand"].value
+    for factor, unstable in ((0.45, False), (0.55, False), (1.5, True), (1.7, True)):
+        b = SimulatedBackend("pantograph", realtime=False)
+        r = hx.Renderer(hx.algorithm("W", None, factor * limit), energy_monitor=True)
+        stats, trace = ServoLoop(b, r).run(2.0)
+        v = analyse_trace(trace, b.period, b.device.position_resolution)
+        assert (v["regime"] in UNSTABLE) is unstable, (factor, v["regime"])
+        assert v["energy"].shape == (2,) and np.all(np.isfinite(v["energy"]))

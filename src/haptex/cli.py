@@ -794,7 +794,7 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
     from .algorithms import algorithm
     from .backends import open_backend
     from .renderer import PassivityController, Renderer
-    from .servo import ServoLoop
+    from .servo import ServoLoop, analyse_trace
     from .surfaces import Extruded
 
     if record is not None and record.suffix != ".npz":
@@ -844,8 +844,8 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
             stats, trace = loop.run(duration, on_tick=show)
     else:
         stats, trace = loop.run(duration)
-    dp = np.diff(trace["position"], axis=0)
-    per_axis = -np.sum(trace["force"][:-1] * dp, axis=0) if len(dp) else np.zeros(backend.dimension)
+    verdict = analyse_trace(trace, dev.period, dev.position_resolution)
+    per_axis, osc = verdict["energy"], verdict["oscillation"]
     axes = "xz" if backend.dimension == 2 else "xyz"
     summary = {"device": backend.name, "algorithm": letter, "stiffness": stiffness, "max_force": fmax,
                "duration": stats.ticks * dev.period, "ticks": stats.ticks, "missed_deadlines": stats.missed,
@@ -855,8 +855,10 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
                **{f"energy_{a}": float(e) for a, e in zip(axes, per_axis)},
                "tick_max": stats.tick_seconds[0], "tick_mean": stats.tick_seconds[1],
                "period_mean": stats.period_seconds[0], "period_std": stats.period_seconds[1],
-               "interrupted": stats.interrupted,
+               "interrupted": stats.interrupted, "regime": verdict["regime"], "oscillating": osc.oscillating,
+               "amplitude": osc.amplitude, "frequency": osc.frequency,
                "units": {"stiffness": "N/m", "max_force": "N", "duration": "s", "engaged_at": "s",
+                         "amplitude": "m", "frequency": "Hz",
                          "max_force_sent": "N", "energy_observed": "J", **{f"energy_{a}": "J" for a in axes},
                          "tick_max": "s", "tick_mean": "s", "period_mean": "s", "period_std": "s"}}
     if record is not None:
@@ -867,7 +869,8 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
     click.echo(f"{backend.name}: {stats.ticks} ticks ({summary['duration']:.3g} s), {stats.missed} missed deadlines, "
                f"{stats.faults} faults, {stats.clamps} clamps; forces engaged at "
                f"{'never' if stats.engaged_at is None else format(summary['engaged_at'], '.3g') + ' s'}; "
-               f"largest force sent {stats.max_force_sent:.3g} N; energy observed {renderer.energy:+.3g} J; tick "
+               f"largest force sent {stats.max_force_sent:.3g} N; energy observed {renderer.energy:+.3g} J; "
+               f"{verdict['regime']}; tick "
                f"{stats.tick_seconds[1] * 1e6:.3g} us mean, {stats.tick_seconds[0] * 1e6:.3g} us worst"
                + ("; interrupted (forces zeroed)" if stats.interrupted else ""))
     if record is not None:

@@ -211,3 +211,49 @@ class ServoLoop:
     def backend_realtime(self) -> bool:
         """Whether the backend paces the loop (the watchdog judges deadlines only then)."""
         return bool(getattr(self.backend, "realtime", True))
+
+
+TAIL_FRACTION = 0.4
+"""The share of a trace whose motion :func:`analyse_trace` judges (as :func:`haptex.simulate`)."""
+
+
+def analyse_trace(trace: dict, period: float, resolution: float = 0.0) -> dict:
+    """A trace of :meth:`ServoLoop.run` analysed as a simulated run: energies and oscillation.
+
+    Parameters
+    ----------
+    trace : dict
+        ``position`` (m) and ``force`` (N), shape (n, d), one row a tick.
+    period : float
+        The servo period (s).
+    resolution : float, optional
+        The position sensor's resolution (m): motion below it counts as rest.
+
+    Returns
+    -------
+    dict
+        ``energy`` per axis (J): -sum f_k . (p_{k+1} - p_k), what the rendering absorbed from
+        the sensed motion under the force sent (< 0: it supplied energy); ``oscillation``
+        (:class:`haptex.Oscillation` of the last :data:`TAIL_FRACTION` of the trace, the
+        simulator's own verdict) and its ``regime`` (:func:`haptex.simulate.regime`).
+
+    Raises
+    ------
+    ParameterError
+        For a non-positive period or a negative resolution.
+    """
+    from ._validation import nonnegative
+    from .simulate import _oscillation, regime
+
+    T = positive("period", period, "s")
+    threshold = max(nonnegative("resolution", resolution, "m"), 1e-7)
+    p = np.asarray(trace["position"], dtype=np.float64)
+    f = np.asarray(trace["force"], dtype=np.float64)
+    n, d = p.shape
+    de = -f[:-1] * np.diff(p, axis=0) if n > 1 else np.zeros((0, d))
+    start = int(n * (1 - TAIL_FRACTION))
+    tail_energy = float(np.sum(de[start:])) if n > 1 else 0.0
+    osc = _oscillation(p[start:], (n - start) * T, tail_energy, threshold)
+    reg = regime([osc.decay_ratio], [osc.amplitude], [threshold], [osc.cycles], [False],
+                 [not np.all(np.isfinite(p))])[0]
+    return {"energy": de.sum(axis=0), "oscillation": osc, "regime": str(reg)}
