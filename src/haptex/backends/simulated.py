@@ -18,18 +18,18 @@ above the overshoot of time.sleep on this machine, 0.05-0.2 ms)."""
 
 class SimulatedBackend:
     """A preset of :mod:`haptex.catalogue` held by a hand, integrated between ticks by the
-    exact zero-order-hold transition (the hand's moving set-point taken at each period's
-    middle: exact to second order in T).
+    simulator's exact transition (:func:`haptex.simulate`'s augmented dynamics: the held
+    force, the hand's moving set-point, a structural mode where the preset has one).
 
-    Between commands the handle obeys M dv/dt = f + K_h (s(t) - p) - C_h v - B v, with M and B
+    Between commands the handle obeys M dv/dt = f + K_h (s(t) - p) + C_h (ds/dt - v) - B v, with M and B
     the preset's Cartesian mass and damping at its home pose (plus the hand's mass), K_h and
     C_h the hand's stiffness and damping, and s(t) the hand's set-point, ``press`` (m) below
     the surface and moving along x at ``speed`` (m/s); the handle starts at rest at height
     ``start`` above the origin. The
     force f is held over each period (zero-order hold) and acts ``delay`` ticks after it is
     commanded (the preset's computation delay); positions are read rounded to the preset's
-    resolution. Coulomb friction and the structural mode are not modelled here (the simulator,
-    :func:`haptex.simulate`, has them).
+    resolution. Coulomb friction and the brakes' switching at the wall are not modelled here
+    (the backend does not know the wall; the simulator, :func:`haptex.simulate`, has them).
 
     Parameters
     ----------
@@ -78,28 +78,24 @@ class SimulatedBackend:
         self.realtime = bool(realtime)
         self._clock, self._sleep = clock, sleep
         n = self.dimension
-        Minv = np.linalg.inv(dev.mass)
-        K = h.stiffness * np.eye(n)
-        C = h.damping * np.eye(n) + dev.damping
-        A = np.zeros((2 * n, 2 * n))
-        A[:n, n:] = np.eye(n)
-        A[n:, :n] = -Minv @ K
-        A[n:, n:] = -Minv @ C
-        Bin = np.zeros((2 * n, n))
-        Bin[n:] = Minv
-        big = np.zeros((3 * n, 3 * n))
-        big[:2 * n, :2 * n] = A
-        big[:2 * n, 2 * n:] = Bin
-        E = expm(big * self.period)
-        self._Phi, self._Gam = E[:2 * n, :2 * n], E[:2 * n, 2 * n:]
-        self._K, self._C = K, h.damping * np.eye(n)
+        # the simulator's own augmented dynamics (haptex.simulate): state [p, v, u, g, r] (and the
+        # handle side [p_h, v_h] of a structural mode), u the held command, g the hand's pull
+        # K s(t) + C ds/dt, r = dg/dt: exact over a period for the set-point's linear motion
+        from ..simulate import _augmented
+
+        self._op = h.operator(depth=self.press, velocity=self.speed, dimension=n)
+        mode = dev.mode_matrices() if dev.structural_mode else None
+        F = _augmented(dev.mass, dev.damping, self._op.stiffness, self._op.damping, mode)
+        self._Phi = expm(F * self.period)
         self._open = False
 
     def open(self) -> None:
         """Start with the handle at rest at height ``start`` above the origin, no force in flight."""
         n = self.dimension
-        self._x = np.zeros(2 * n)
+        self._x = np.zeros(self._Phi.shape[0])
         self._x[n - 1] = self.start
+        if self._x.size > 5 * n:  # the handle side of a structural mode starts there too
+            self._x[6 * n - 1] = self.start
         self._k = 0
         self._queue = [np.zeros(n) for _ in range(self.device.delay)]
         self._last = None
@@ -111,14 +107,6 @@ class SimulatedBackend:
         if self._open:
             self._queue = [np.zeros(self.dimension) for _ in self._queue]
         self._open = False
-
-    def _setpoint(self, t: float):
-        s = np.zeros(self.dimension)
-        s[0] = self.speed * t
-        s[-1] = -self.press
-        v = np.zeros(self.dimension)
-        v[0] = self.speed
-        return s, v
 
     def sample(self) -> Sample:
         """The handle's state at this tick, read through the preset's encoder."""
@@ -154,10 +142,12 @@ class SimulatedBackend:
         if self._queue:
             self._queue.append(f)
             f = self._queue.pop(0)
-        t = self._k * self.period
-        s, sv = self._setpoint(t + 0.5 * self.period)  # the hand's pull over the period, at its middle
-        u = f + self._K @ s + self._C @ sv
-        self._x = self._Phi @ self._x + self._Gam @ u
+        n, op = self.dimension, self._op
+        sv = op.final_velocity
+        self._x[2 * n:3 * n] = f
+        self._x[3 * n:4 * n] = op.stiffness @ op.setpoint(self._k * self.period) + op.damping @ sv
+        self._x[4 * n:5 * n] = op.stiffness @ sv
+        self._x = self._Phi @ self._x
         self._k += 1
         if not np.all(np.isfinite(self._x)):
             raise fail("device", self.name, "a finite state")
