@@ -35,7 +35,7 @@ setup(
             sources=[str(CORE / "_ext.c"), *(str(c) for c in sorted(CORE.glob("hx_*.c")))],
             include_dirs=[str(CORE)],
             depends=[str(h) for h in sorted(CORE.glob("*.h"))],
-            extra_compile_args=["-std=c99", "-O2", "-fno-fast-math"],
+            extra_compile_args=["-std=c99", "-O2", "-fno-fast-math", "-fno-math-errno"],
         )
     ],
     cmdclass={"build_ext": BuildCore},

@@ -437,7 +437,9 @@ def surface_search_data(texture) -> tuple[int, np.ndarray, np.ndarray]:
     bound: ``curvature_bound`` >= ||H||_2, sum a |k| >= |grad h| and sum a |k|^3 >= the third
     derivatives' norm; over a height map the patches' bounds
     :attr:`haptex.SampledSurface.derivative_bounds`, which hold inside the map: the C search
-    applies them to cells wholly inside, and the convexity certificate only to a periodic map).
+    applies them to cells wholly inside, block by block from
+    :meth:`haptex.SampledSurface.bounds_pyramid` (appended after the ``N_GAUX`` constants, their
+    number in ``G_PYRAMID``), and the convexity certificate only to a periodic map).
     Cached on the texture."""
     from .surfaces import SampledSurface
 
@@ -469,6 +471,9 @@ def surface_search_data(texture) -> tuple[int, np.ndarray, np.ndarray]:
             gaux[K.G_EDGE:K.G_EDGE + 4 * K.N_E] = texture.edge_bounds.ravel()
         # (a plane has no third derivative: a tiny J keeps it on the Taylor bounds' path)
         gaux[K.G_JERK] = max(gaux[K.G_JERK], 1e-300)
+        pyramid = texture.bounds_pyramid()  # the same bounds block by block, for cells inside the map
+        gaux[K.G_PYRAMID] = pyramid.size
+        gaux = np.concatenate([gaux, pyramid])
     texture.__dict__["_surface_search"] = (kind, gc, gaux)
     return kind, gc, gaux
 

@@ -520,6 +520,20 @@ def _grid_axis(name: str, values) -> tuple[np.ndarray, float]:
 
 _NU = [(0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2)]  # SampledSurface._derivatives' order
 # d^p/ds^p s^a = _FALL[p][a] s^(a - p): the multipliers of a bicubic patch's coefficients
+PYRAMID_BASE = 1 << 18
+"""A map's bounds pyramid starts from blocks of one patch up to this many patches, else from
+blocks of 2^s patches a side that bring it there (about 14 MB at most)."""
+
+
+def _block_reduce(b: np.ndarray, step: int) -> np.ndarray:
+    """Bounds (..., 5) over blocks of step x step of the first two axes (the last blocks
+    partial): min of min h, max of the others."""
+    ix, iy = np.arange(0, b.shape[0], step), np.arange(0, b.shape[1], step)
+    lo = np.minimum.reduceat(np.minimum.reduceat(b[..., :1], ix, axis=0), iy, axis=1)
+    hi = np.maximum.reduceat(np.maximum.reduceat(b[..., 1:], ix, axis=0), iy, axis=1)
+    return np.concatenate([lo, hi], axis=-1)
+
+
 _FALL = [np.ones(4), np.arange(4.0), np.arange(4.0) * np.arange(-1.0, 3.0),
          np.arange(4.0) * np.arange(-1.0, 3.0) * np.arange(-2.0, 2.0)]
 
@@ -707,31 +721,91 @@ class SampledSurface(Surface):
     @cached_property
     def derivative_bounds(self) -> tuple[float, float, float]:
         """Rigorous bounds over the sampled rectangle (a periodic map: everywhere) of the
-        spline's slope, curvature and third derivatives, from its patches' coefficients
-        (|s|, |t| <= 1 on a patch, so each derivative is at most the sum of its terms'
-        magnitudes): S >= |grad h| (m/m), C >= ||H||_2 (1/m, the spectral radius of the
-        entries' bounds, which bounds it by Perron-Frobenius) and J >= the norm of the
-        third-derivative tensor (1/m^2; sup over unit u of |D^3 h[u, u, u]|, bounded by
-        Cauchy-Schwarz as sqrt(B_xxx^2 + 3 B_xxy^2 + 3 B_xyy^2 + B_yyy^2)). The spline is C^2,
-        so H is Lipschitz with constant J across patches: the closest-point search's Taylor
-        bound (``_ext.G_JERK``) holds on any disc or square inside the map."""
-        pat = self.patches()[0, 8:].reshape(-1, 4, 4)
+        spline's slope, curvature and third derivatives: the largest of
+        :meth:`patch_bounds`' over the patches. S >= |grad h| (m/m), C >= ||H||_2 (1/m) and
+        J >= the norm of the third-derivative tensor (1/m^2). The spline is C^2, so H is
+        Lipschitz with constant J across patches: the closest-point search's Taylor bound
+        (``_ext.G_JERK``) holds on any disc or square inside the map."""
+        b = self.patch_bounds()
+        return float(b[..., 2].max()), float(b[..., 3].max()), float(b[..., 4].max())
+
+    def patch_bounds(self) -> np.ndarray:
+        """Rigorous bounds on each bicubic patch of :meth:`patches`, shape (nx, ny, 5): min h
+        and max h (m; the least and largest of the patch's Bernstein coefficients, which
+        bound a polynomial on its box, widened by 1e-13 of the coefficients' magnitude for
+        rounding), sup |grad h| (m/m), sup ||H||_2 (1/m, the spectral radius of the entries'
+        bounds, which bounds it by Perron-Frobenius) and the third-derivative tensor's norm
+        (1/m^2; sup over unit u of |D^3 h[u, u, u]|, bounded by Cauchy-Schwarz as
+        sqrt(B_xxx^2 + 3 B_xxy^2 + 3 B_xyy^2 + B_yyy^2)), each derivative at most the sum of
+        its terms' magnitudes on the patch (s, t in [0, 1]). Cached.
+
+        Raises
+        ------
+        ParameterError
+            If the patches would take more than the memory budget.
+        """
+        cached = self.__dict__.get("_patch_bounds")
+        if cached is not None:
+            return cached
+        head = self.patches()[0, :_ext.PATCH_DATA]
+        nx, ny = int(head[_ext.PATCH_NX]), int(head[_ext.PATCH_NY])
+        pat = self.patches()[0, _ext.PATCH_DATA:].reshape(-1, 4, 4)
         dx, dy = self.dx, self.dy
         fall = _FALL  # the multipliers of |c[a, b]| in each derivative's bound
-        out = np.zeros(3)
+        bern = np.array([[math.comb(j, a) / math.comb(3, a) if a <= j else 0.0 for a in range(4)] for j in range(4)])
+        out = np.empty((pat.shape[0], 5))
         for i0 in range(0, pat.shape[0], 1 << 16):
-            c = np.abs(pat[i0:i0 + (1 << 16)])
+            raw = pat[i0:i0 + (1 << 16)]
+            c = np.abs(raw)
 
             def bound(p, q):
                 return np.einsum("nab,a,b->n", c, fall[p], fall[q]) / (dx ** p * dy ** q)
 
+            b = (bern @ raw @ bern.T).reshape(raw.shape[0], 16)  # Bernstein coefficients: h's range on the patch
+            slack = 1e-13 * c.sum(axis=(1, 2))
             bx, by = bound(1, 0), bound(0, 1)
             bxx, bxy, byy = bound(2, 0), bound(1, 1), bound(0, 2)
-            out[0] = max(out[0], float(np.max(np.hypot(bx, by))))
-            out[1] = max(out[1], float(np.max(0.5 * (bxx + byy) + np.hypot(0.5 * (bxx - byy), bxy))))
-            out[2] = max(out[2], float(np.max(np.sqrt(bound(3, 0) ** 2 + 3 * bound(2, 1) ** 2 + 3 * bound(1, 2) ** 2
-                                                      + bound(0, 3) ** 2))))
-        return float(out[0]), float(out[1]), float(out[2])
+            o = out[i0:i0 + raw.shape[0]]
+            o[:, 0] = b.min(axis=1) - slack
+            o[:, 1] = b.max(axis=1) + slack
+            o[:, 2] = np.hypot(bx, by)
+            o[:, 3] = 0.5 * (bxx + byy) + np.hypot(0.5 * (bxx - byy), bxy)
+            o[:, 4] = np.sqrt(bound(3, 0) ** 2 + 3 * bound(2, 1) ** 2 + 3 * bound(1, 2) ** 2 + bound(0, 3) ** 2)
+        out = out.reshape(nx, ny, 5)
+        self.__dict__["_patch_bounds"] = out
+        return out
+
+    def bounds_pyramid(self) -> np.ndarray:
+        """:meth:`patch_bounds` gathered over square blocks of patches, coarser level by level
+        (``haptex.core._ext.PY_*``, the C search's layout, ``hx_core.h``): a header (nx, ny
+        patches, the base level's block of 2^s patches a side, the number of levels) then each
+        level's blocks (min h, max h, sup |grad h|, sup ||H||_2, jerk), blocks 2^(s + l) patches
+        a side, from the finest. The base is one patch where the map has at most PYRAMID_BASE
+        patches, else the smallest power of two that brings it there; levels stop once a side
+        has at most two blocks. The closest-point search bounds a cell by the blocks that cover
+        it instead of the whole map's bounds. Cached."""
+        cached = self.__dict__.get("_pyramid")
+        if cached is not None:
+            return cached
+        b = self.patch_bounds()
+        nx, ny = b.shape[:2]
+        shift = 0
+        while -(-nx >> shift) * -(-ny >> shift) > PYRAMID_BASE:
+            shift += 1
+        parts, level, k = [], b, 0
+        while True:
+            step = 1 << (shift if k == 0 else 1)  # the base from the patches, then pairs of blocks
+            if step > 1:
+                level = _block_reduce(level, step)
+            parts.append(level.reshape(-1))
+            k += 1
+            if level.shape[0] <= 2 and level.shape[1] <= 2:
+                break
+        head = np.zeros(_ext.PY_HEAD)
+        head[_ext.PY_NX], head[_ext.PY_NY], head[_ext.PY_SHIFT], head[_ext.PY_LEVELS] = nx, ny, shift, k
+        out = np.concatenate([head, *parts])
+        self.__dict__["_pyramid"] = out
+        return out
 
     @cached_property
     def edge_bounds(self) -> np.ndarray:

@@ -191,8 +191,18 @@ hx_closest hx_closest_profile(const hx_texture *tex, const double *aux, double p
  * cells); a non-periodic map's edge bounds. */
 enum {
     HX_G_HMIN, HX_G_SLOPE, HX_G_CURV, HX_G_LEAF, HX_G_TIE, HX_G_HMAX, HX_G_CONVEX, HX_G_JERK, HX_G_SLOPE_BOUND,
-    HX_G_CURV_BOUND, HX_G_BUDGET, HX_G_EDGE, HX_N_GAUX = HX_G_EDGE + 28
+    HX_G_CURV_BOUND, HX_G_BUDGET, HX_G_EDGE, HX_G_PYRAMID = HX_G_EDGE + 28, HX_N_GAUX
 };
+/* A height map's bounds pyramid (optional: aux[HX_G_PYRAMID] values from aux[HX_N_GAUX], 0 for
+ * none): a header of HX_PY_HEAD values
+ * (the map's patches nx, ny; the base level's block of 2^s patches a side; the number of
+ * levels L; 0 levels: none), then level l = 0 .. L - 1 with blocks of 2^(s + l) patches a side,
+ * ceil(nx / 2^(s + l)) x ceil(ny / 2^(s + l)) of them (row-major in x), HX_PY_N values each:
+ * rigorous min h, max h, sup |grad h|, sup ||H||_2, the third derivatives' norm over the
+ * block (haptex.SampledSurface.bounds_pyramid). The search bounds a cell inside the map by the
+ * blocks that cover it, instead of the map's global bounds. */
+enum { HX_PY_NX, HX_PY_NY, HX_PY_SHIFT, HX_PY_LEVELS, HX_PY_HEAD };
+enum { HX_PY_HMIN, HX_PY_HMAX, HX_PY_SLOPE, HX_PY_CURV, HX_PY_JERK, HX_PY_N };
 /* A non-periodic height map's edges beyond which h = H(t) + G(t) e (the tangent-plane
  * extension: e >= 0 the distance beyond the edge, t along it): HX_N_E bounds each, for the
  * edges x = x0, x = x1, y = y0, y = y1 in this order from aux[HX_G_EDGE]: |d^(p+q) h / dn^p dt^q|
@@ -206,7 +216,8 @@ enum { HX_E_N, HX_E_T, HX_E_NT, HX_E_TT, HX_E_NTT, HX_E_TTT, HX_E_NTTT, HX_N_E }
 #define HX_CONVEX_MIN 0.05
 enum { HX_CONVEX_EVALS = 16 };
 
-/* Check a surface's search constants (HX_N_GAUX values). */
+/* Check a surface's search constants (HX_N_GAUX values, and the bounds pyramid after them
+ * when naux > HX_N_GAUX): every read of the search stays inside naux values. */
 int hx_surface_aux_check(const double *aux, long naux);
 
 /* The closest point of the surface (a sum of gratings or a height map's patches) to the probe

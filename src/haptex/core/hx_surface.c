@@ -22,11 +22,112 @@ enum { STACK = 512, MAX_LEAVES = 1 << 16, MAX_NODES = 1 << 11, CONVEX_EVALS = HX
 #define CONVEX_MIN HX_CONVEX_MIN
 #define M_PI_VALUE 3.14159265358979323846
 
+enum { PY_MAX_LEVELS = 40, PY_SPAN = 2 };
+
+/* a height map's bounds pyramid (HX_PY_*): its data, the level offsets in it; levels 0: none */
+typedef struct {
+    const double *d;
+    long nx, ny, shift, levels, off[PY_MAX_LEVELS];
+    int periodic;
+} pyramid_t;
+
 typedef struct {
     const hx_texture *tex;
     const double *g; /* aux: HX_G_* */
     double px, py, pz;
+    pyramid_t pyr;
 } sproblem;
+
+static long blocks(long n, long k) { return (n + (1L << k) - 1) >> k; }
+
+static long floor_shift(long i, long k) { return i >= 0 ? i >> k : -((-i - 1) >> k) - 1; }
+
+/* the pyramid of aux (checked by hx_surface_aux_check) for this texture's patches, else none */
+static void pyramid_init(sproblem *q)
+{
+    const double *a = q->g + HX_N_GAUX, *c = q->tex->c;
+    pyramid_t *P = &q->pyr;
+    long l, o = HX_PY_HEAD;
+    P->levels = 0;
+    P->periodic = 0;
+    if (q->tex->kind != HX_SURFACE_PATCHES || !(q->g[HX_G_PYRAMID] > 0.0) || a[HX_PY_NX] != c[HX_PATCH_NX] ||
+        a[HX_PY_NY] != c[HX_PATCH_NY])
+        return;
+    P->d = a;
+    P->nx = (long)a[HX_PY_NX];
+    P->ny = (long)a[HX_PY_NY];
+    P->shift = (long)a[HX_PY_SHIFT];
+    P->periodic = c[HX_PATCH_PERIODIC] != 0.0;
+    for (l = 0; l < (long)a[HX_PY_LEVELS]; l++) {
+        P->off[l] = o;
+        o += HX_PY_N * blocks(P->nx, P->shift + l) * blocks(P->ny, P->shift + l);
+    }
+    P->levels = l;
+}
+
+/* the patch indices [*a, *b] the interval [lo, hi] meets along an axis (origin o, step d, n
+ * patches): wrapped later if periodic (0 when it covers them all), else clamped; 0 if none. An
+ * end within 1e-12 of a sample interval of a patch boundary is taken at it: the bound misses at
+ * most slope 1e-12 d of height there, far below the search's tolerance G_TIE = 1e-9 of the
+ * shortest wavelength (> 2 d). */
+static int patch_span(double lo, double hi, double o, double d, long n, int periodic, long *a, long *b)
+{
+    double f0 = (lo - o) / d + 1e-12, f1 = (hi - o) / d - 1e-12;
+    if (!(f0 > -1e15 && f1 < 1e15))
+        return 0;
+    *a = (long)floor(f0);
+    *b = (long)ceil(f1) - 1;
+    if (*b < *a)
+        *b = *a;
+    if (periodic)
+        return *b - *a + 1 < n;
+    *a = *a < 0 ? 0 : (*a > n - 1 ? n - 1 : *a);
+    *b = *b < 0 ? 0 : (*b > n - 1 ? n - 1 : *b);
+    return 1;
+}
+
+/* Rigorous bounds (HX_PY_*) over the cell [cx -+ wx] x [cy -+ wy] from the pyramid's blocks
+ * that cover it (the finest level where it meets at most PY_SPAN + 1 a side); 0 where there is
+ * no pyramid, the cell covers a periodic map's whole period or a block read is not a bound (the
+ * global bounds then). A cell of
+ * a non-periodic map must lie inside the map (its patches clamped). */
+static int pyramid_bounds(const sproblem *q, double cx, double cy, double wx, double wy, double v[HX_PY_N])
+{
+    const pyramid_t *P = &q->pyr;
+    const double *c = q->tex->c;
+    long ia, ib, ja, jb, l, k, nby, i, j;
+    if (P->levels == 0 ||
+        !patch_span(cx - wx, cx + wx, c[HX_PATCH_X0], c[HX_PATCH_DX], P->nx, P->periodic, &ia, &ib) ||
+        !patch_span(cy - wy, cy + wy, c[HX_PATCH_Y0], c[HX_PATCH_DY], P->ny, P->periodic, &ja, &jb))
+        return 0;
+    for (l = 0; l < P->levels; l++) {
+        k = P->shift + l;
+        if (floor_shift(ib, k) - floor_shift(ia, k) <= PY_SPAN && floor_shift(jb, k) - floor_shift(ja, k) <= PY_SPAN)
+            break;
+    }
+    if (l == P->levels)
+        return 0;
+    k = P->shift + l;
+    nby = blocks(P->ny, k);
+    v[HX_PY_HMIN] = HUGE_VAL;
+    v[HX_PY_HMAX] = v[HX_PY_SLOPE] = v[HX_PY_CURV] = v[HX_PY_JERK] = -HUGE_VAL;
+    for (i = ia; i <= ib;) {
+        long wi = P->periodic ? ((i % P->nx) + P->nx) % P->nx : i, bi = wi >> k;
+        for (j = ja; j <= jb;) {
+            long wj = P->periodic ? ((j % P->ny) + P->ny) % P->ny : j, bj = wj >> k, m;
+            const double *b = P->d + P->off[l] + HX_PY_N * (bi * nby + bj);
+            if (!(b[HX_PY_HMIN] <= b[HX_PY_HMAX] && b[HX_PY_SLOPE] >= 0.0 && b[HX_PY_CURV] >= 0.0 &&
+                  b[HX_PY_JERK] >= 0.0))
+                return 0; /* (a block that is not a bound, NaN included: the global bounds) */
+            v[HX_PY_HMIN] = fmin(v[HX_PY_HMIN], b[HX_PY_HMIN]);
+            for (m = HX_PY_HMAX; m < HX_PY_N; m++)
+                v[m] = fmax(v[m], b[m]);
+            j += (((bj + 1) << k) < P->ny ? ((bj + 1) << k) : P->ny) - wj;
+        }
+        i += (((bi + 1) << k) < P->nx ? ((bi + 1) << k) : P->nx) - wi;
+    }
+    return 1;
+}
 
 static void surf(const sproblem *q, double x, double y, hx_height *e) { hx__texture_eval(q->tex, x, y, e); }
 
@@ -58,12 +159,19 @@ static double beyond_box(const double b[4], double cx, double cy, double wx, dou
     return sqrt(ox * ox + oy * oy);
 }
 
-/* (min h, max h) over a cell [cx -+ wx] x [cy -+ wy] of a height map: outside a non-periodic
- * map the extension's bound from the map's range and slope */
-static void patch_range(const sproblem *q, double cx, double cy, double wx, double wy, double *lo, double *hi)
+/* (min h, max h) over a cell [cx -+ wx] x [cy -+ wy] of a height map: the pyramid's pv where the
+ * cell has one, else the map's range; outside a non-periodic map the extension's bound from the
+ * map's range and slope */
+static void patch_range(const sproblem *q, double cx, double cy, double wx, double wy, const double *pv,
+                        double *lo, double *hi)
 {
     const double *g = q->g;
     double box[4], out;
+    if (pv != NULL) { /* a cell inside the map (or periodic): its blocks' range */
+        *lo = pv[HX_PY_HMIN];
+        *hi = pv[HX_PY_HMAX];
+        return;
+    }
     if (q->tex->c[6] != 0.0) {
         *lo = g[HX_G_HMIN];
         *hi = g[HX_G_HMAX];
@@ -147,17 +255,24 @@ static int side(double lo, double hi, double a, double b)
 
 /* The Taylor model's bounds on the cell [cx -+ wx] x [cy -+ wy]: sup |grad h| in *sb, sup
  * ||H||_2 in *cb and the third derivatives' norm in *jk. Over gratings and a periodic map the
- * global bounds (aux). Over a map with edges, by region: inside, the patches' bounds; in an
+ * global bounds (aux), or the pyramid's pv where the cell has one. Over a map with edges, by
+ * region: inside, the patches' bounds (the pyramid's where it has one); in an
  * edge's strip, where h = H(t) + G(t) e (e the distance beyond the edge, t along it), the
  * strip's bounds at the cell's largest e (aux[HX_G_EDGE...], HX_E_*); in a corner's quadrant a
  * plane. Returns 0 for a cell across an edge's line, where the extension is only C^1 (no
  * model: the caller splits it there). */
-static int cell_bounds(const sproblem *q, double cx, double cy, double wx, double wy, double *sb, double *cb,
-                       double *jk)
+static int cell_bounds(const sproblem *q, double cx, double cy, double wx, double wy, const double *pv, double *sb,
+                       double *cb, double *jk)
 {
     const double *g = q->g, *E;
     double b[4], x0, y0, x1, y1, e, t, tt, j3;
     int rx, ry;
+    if (pv != NULL) { /* a cell inside the map (or periodic): its blocks' bounds */
+        *sb = pv[HX_PY_SLOPE];
+        *cb = pv[HX_PY_CURV];
+        *jk = fmax(pv[HX_PY_JERK], 1e-300); /* (as aux's: on the Taylor bounds' path) */
+        return 1;
+    }
     *sb = g[HX_G_SLOPE_BOUND];
     *cb = g[HX_G_CURV_BOUND];
     *jk = g[HX_G_JERK];
@@ -460,7 +575,7 @@ static double basin_radius(const sproblem *q, double tx, double ty, double f)
 {
     const double *g = q->g;
     double jerk = g[HX_G_JERK], cb = g[HX_G_CURV_BOUND], sb = g[HX_G_SLOPE_BOUND], tie = g[HX_G_TIE];
-    double dz, a, b, c, lam, gn, tol, hn, sn, l0, rho;
+    double dz, a, b, c, lam, gn, tol, hn, sn, l0, rho, cap = HUGE_VAL, pv[HX_PY_N];
     int k;
     hx_height e;
     surf(q, tx, ty, &e);
@@ -477,6 +592,17 @@ static double basin_radius(const sproblem *q, double tx, double ty, double f)
     sn = hypot(e.gx, e.gy);
     l0 = 3.0 * sn * hn + fabs(dz) * jerk + 1e-300;
     rho = fmax(3.0 * fmax(lam, 0.0) / l0, pow(6.0 * tol / l0, 1.0 / 3.0));
+    /* the pyramid's bounds on a square of 4 such radii around t (inside the map): the disc is
+     * then sought within it, from its own jerk */
+    if (q->pyr.levels > 0 && (q->pyr.periodic || model_margin(q, tx, ty) >= 4.0 * rho) &&
+        pyramid_bounds(q, tx, ty, 4.0 * rho, 4.0 * rho, pv)) {
+        cap = 4.0 * rho;
+        jerk = fmax(pv[HX_PY_JERK], 1e-300);
+        cb = pv[HX_PY_CURV];
+        sb = pv[HX_PY_SLOPE];
+        l0 = 3.0 * sn * hn + fabs(dz) * jerk + 1e-300;
+        rho = fmin(cap, fmax(3.0 * fmax(lam, 0.0) / l0, pow(6.0 * tol / l0, 1.0 / 3.0)));
+    }
     for (k = 0; k < 60; k++) {
         double cl = fmin(cb, hn + jerk * rho), sl = fmin(sb, sn + cl * rho);
         double lip = 3.0 * sl * cl + (fabs(dz) + sl * rho) * jerk;
@@ -553,6 +679,33 @@ static int split_at_edges(const sproblem *q, double cx, double cy, double wx, do
     return n;
 }
 
+/* the bounds pyramid after aux's constants: its header and its size against naux, in O(levels)
+ * (a search checks each block it reads: see pyramid_bounds) */
+static int pyramid_check(const double *aux, long naux)
+{
+    double n = aux[HX_G_PYRAMID], size = HX_PY_HEAD;
+    const double *a = aux + HX_N_GAUX;
+    long l;
+    int i;
+    if (n == 0.0)
+        return HX_OK;
+    if (!(n >= HX_PY_HEAD && n == floor(n) && (double)HX_N_GAUX + n <= (double)naux))
+        return HX_BAD_COEFFS;
+    for (i = 0; i < HX_PY_HEAD; i++)
+        if (!(a[i] == floor(a[i]) && a[i] >= 0.0 && a[i] <= 1e9))
+            return HX_BAD_COEFFS;
+    if (!(a[HX_PY_NX] >= 1.0 && a[HX_PY_NY] >= 1.0 && a[HX_PY_SHIFT] <= 30.0 && a[HX_PY_LEVELS] >= 1.0 &&
+          a[HX_PY_LEVELS] <= PY_MAX_LEVELS))
+        return HX_BAD_COEFFS;
+    for (l = 0; l < (long)a[HX_PY_LEVELS]; l++) {
+        long k = (long)a[HX_PY_SHIFT] + l;
+        if (k > 40)
+            return HX_BAD_COEFFS;
+        size += (double)HX_PY_N * (double)blocks((long)a[HX_PY_NX], k) * (double)blocks((long)a[HX_PY_NY], k);
+    }
+    return size == n ? HX_OK : HX_BAD_COEFFS;
+}
+
 int hx_surface_aux_check(const double *aux, long naux)
 {
     int i;
@@ -564,7 +717,7 @@ int hx_surface_aux_check(const double *aux, long naux)
     if (!(aux[HX_G_LEAF] > 0.0) || !(aux[HX_G_TIE] >= 0.0) || aux[HX_G_HMIN] > aux[HX_G_HMAX] ||
         !(aux[HX_G_BUDGET] >= 0.0))
         return HX_BAD_COEFFS;
-    return HX_OK;
+    return pyramid_check(aux, naux);
 }
 
 hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double px, double py, double pz, double gx0,
@@ -583,6 +736,8 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
     q.px = px;
     q.py = py;
     q.pz = pz;
+    q.pyr.levels = 0;
+    q.pyr.periodic = 0;
     surf(&q, px, py, &e0);
     dv = e0.h - pz;
     out.t = px;
@@ -626,6 +781,7 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
         work += n.it;
         offer_point(&b, n.tx, n.ty, n.f, n.stationary, sep);
     }
+    pyramid_init(&q);
     jerk = aux[HX_G_JERK];
     sb = aux[HX_G_SLOPE_BOUND];
     model = jerk > 0.0;
@@ -636,8 +792,10 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
     stack[2] = stack[3] = half;
     sp = 1;
     while (sp > 0) {
-        double cx, cy, wx, wy, w, r, spread, lo, hi, dxy, reach, glo, ghi, lb = 0.0, ux = 0.0, uy = 0.0;
-        double csb = sb, ccb = cb, cj = jerk;
+        double cx, cy, wx, wy, w, r, spread, lo, hi, dxy, reach, lb = 0.0, ux = 0.0, uy = 0.0;
+        double glo = -HUGE_VAL, ghi = HUGE_VAL;
+        double csb = sb, ccb = cb, cj = jerk, pvb[HX_PY_N];
+        const double *pv;
         int far, leafy, cm, kids;
         hx_height e;
         if (aux[HX_G_BUDGET] > 0.0 && (double)work >= aux[HX_G_BUDGET]) { /* the budget is spent: the best so far */
@@ -650,7 +808,7 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
         wx = stack[4 * sp + 2];
         wy = stack[4 * sp + 3];
         w = fmax(wx, wy);
-        r = wx == wy ? wx * sqrt(2.0) : hypot(wx, wy); /* the half-diagonal */
+        r = wx == wy ? wx * sqrt(2.0) : sqrt(wx * wx + wy * wy); /* the half-diagonal */
         if (model && b.found && (b.btx != rbx || b.bty != rby)) {
             double inner = model_margin(&q, b.btx, b.bty);
             rb = inner > 0.0 ? fmin(basin_radius(&q, b.btx, b.bty, b.bf), inner) : 0.0;
@@ -660,15 +818,29 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
         }
         if (rb > 0.0 && b.btx == rbx && b.bty == rby && sqrt((cx - rbx) * (cx - rbx) + (cy - rby) * (cy - rby)) + r <= rb)
             continue;
-        surf(&q, cx, cy, &e);
-        work++;
-        cm = model && cell_bounds(&q, cx, cy, wx, wy, &csb, &ccb, &cj); /* the model holds on this cell */
+        /* the pyramid's bounds: over a periodic map, or a cell wholly inside a map with edges */
+        pv = ranged && (q.pyr.periodic || model_margin(&q, cx, cy) >= w) &&
+                     pyramid_bounds(&q, cx, cy, wx, wy, pvb)
+                 ? pvb
+                 : NULL;
+        cm = model && cell_bounds(&q, cx, cy, wx, wy, pv, &csb, &ccb, &cj); /* the model holds on this cell */
         if (model && !cm)
             nodes++; /* (a cell across a map's edge: counted with the model's cells, so bounded) */
+        dxy = fmax(0.0, fabs(px - cx) - wx) * fmax(0.0, fabs(px - cx) - wx) +
+              fmax(0.0, fabs(py - cy) - wy) * fmax(0.0, fabs(py - cy) - wy);
+        reach = cell_reach(model, &b, cx, cy, r, sep, tie_eps, &far);
+        if (ranged) { /* the cell's height range first: a cell too far by it costs no evaluation */
+            double gap;
+            patch_range(&q, cx, cy, wx, wy, pv, &glo, &ghi);
+            gap = fmax(0.0, fmax(glo - pz, pz - ghi));
+            if (dxy + gap * gap > reach * reach)
+                continue;
+        }
+        surf(&q, cx, cy, &e);
+        work++;
         spread = cm ? fmin(csb * r, sqrt(e.gx * e.gx + e.gy * e.gy) * r + 0.5 * ccb * r * r)
                     : fmin(aux[HX_G_SLOPE] * r, sqrt(e.gx * e.gx + e.gy * e.gy) * r + 0.5 * aux[HX_G_CURV] * r * r);
         if (ranged) {
-            patch_range(&q, cx, cy, wx, wy, &glo, &ghi);
             /* beyond the map without the model: the extension's bound only */
             if (!cm && (glo < aux[HX_G_HMIN] || ghi > aux[HX_G_HMAX]))
                 spread = HUGE_VAL;
@@ -678,9 +850,6 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
             lo = e.h - spread;
             hi = e.h + spread;
         }
-        dxy = fmax(0.0, fabs(px - cx) - wx) * fmax(0.0, fabs(px - cx) - wx) +
-              fmax(0.0, fabs(py - cy) - wy) * fmax(0.0, fabs(py - cy) - wy);
-        reach = cell_reach(model, &b, cx, cy, r, sep, tie_eps, &far);
         {
             double gap = fmax(0.0, fmax(lo - pz, pz - hi));
             if (dxy + gap * gap > reach * reach)

@@ -82,9 +82,12 @@ HX_INLINE void gratings_eval(const hx_texture *t, double x, double y, hx_height 
     }
 }
 
-/* All derivatives D[p][q] = d^(p+q) h / dx^p dy^q, p, q <= 3, of the bicubic patch holding
- * (x, y) clamped to the map; (*cx, *cy) receives the clamped point. */
-HX_INLINE void patch_derivs(const hx_texture *t, double x, double y, double D[4][4], double *cx, double *cy)
+/* The derivatives D[p][q] = d^(p+q) h / dx^p dy^q of the bicubic patch holding (x, y) clamped to
+ * the map, for p + q <= order where (x, y) is inside it (order 0: h; 2: h and its first and
+ * second derivatives), all 16 (p, q <= 3) where it is clamped (the tangent-plane extension reads
+ * them); (*cx, *cy) receives the clamped point. The others are left unset. */
+HX_INLINE void patch_derivs(const hx_texture *t, double x, double y, double D[4][4], double *cx, double *cy,
+                            int order)
 {
     const double *hd = t->c;
     double dx = hd[HX_PATCH_DX], dy = hd[HX_PATCH_DY];
@@ -102,10 +105,12 @@ HX_INLINE void patch_derivs(const hx_texture *t, double x, double y, double D[4]
         if (!(u >= 0.0 && u <= (double)nx)) {
             u = u < 0.0 ? 0.0 : (double)nx;
             *cx = hd[HX_PATCH_X0] + u * dx;
+            order = 6;
         }
         if (!(v >= 0.0 && v <= (double)ny)) {
             v = v < 0.0 ? 0.0 : (double)ny;
             *cy = hd[HX_PATCH_Y0] + v * dy;
+            order = 6;
         }
     }
     i = cell_of(u, nx);
@@ -133,7 +138,7 @@ HX_INLINE void patch_derivs(const hx_texture *t, double x, double y, double D[4]
     T[2][3] = 6.0 * tt;
     T[3][3] = 6.0;
     c = hd + HX_PATCH_DATA + 16 * (i * ny + j);
-    for (p = 0; p < 4; p++) {
+    for (p = 0; p < 4 && p <= order; p++) {
         double row[4];
         for (b = 0; b < 4; b++) {
             double acc = 0.0;
@@ -142,7 +147,7 @@ HX_INLINE void patch_derivs(const hx_texture *t, double x, double y, double D[4]
             row[b] = acc;
         }
         sy = 1.0;
-        for (q = 0; q < 4; q++) {
+        for (q = 0; q < 4 && p + q <= order; q++) {
             double acc = 0.0;
             for (b = q; b < 4; b++)
                 acc += row[b] * T[q][b];
@@ -157,7 +162,7 @@ HX_INLINE void patches_eval(const hx_texture *t, double x, double y, hx_height *
 {
     double D[4][4], cx, cy, ex, ey;
     int ox, oy;
-    patch_derivs(t, x, y, D, &cx, &cy);
+    patch_derivs(t, x, y, D, &cx, &cy, 2);
     ex = x - cx;
     ey = y - cy;
     ox = ex != 0.0;
@@ -217,6 +222,13 @@ HX_INLINE double hx__texture_height(const hx_texture *t, double x, double y)
         return h;
     case HX_TEXTURE_FLAT:
         return 0.0;
+    case HX_SURFACE_PATCHES: { /* h alone inside the map; beyond it, the tangent plane's */
+        double D[4][4], cx, cy;
+        patch_derivs(t, x, y, D, &cx, &cy, 0);
+        if (cx == x && cy == y)
+            return D[0][0];
+        return D[0][0] + D[1][0] * (x - cx) + D[0][1] * (y - cy);
+    }
     default:
         hx__texture_eval(t, x, y, &o);
         return o.h;
