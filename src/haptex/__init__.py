@@ -31,6 +31,8 @@ from .closest import ClosestPoint, closest_point
 from .devices import Device, critical_stiffness, device_from_file, five_bar_jacobian
 from . import catalogue, limits
 from .limits import wall_limits
+from . import objects
+from .objects import object_algorithm
 from .renderer import PassivityController, Renderer
 from .simulate import AxisOscillation, BatchResult, Oscillation, SimulationResult, SimulationWarning, simulate, simulate_batch
 from .tables import PAPER_PARAMETERS, table_ii
@@ -63,6 +65,8 @@ __all__ = [
     "critical_stiffness",
     "catalogue",
     "limits",
+    "objects",
+    "object_algorithm",
     "wall_limits",
     "device_from_file",
     "five_bar_jacobian",

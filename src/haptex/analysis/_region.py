@@ -174,7 +174,10 @@ def _plane_ranges(alg: Algorithm, x_range) -> list[tuple[float, float]]:
 
 def _region_points(alg: Algorithm, xt, depth):
     """Probe positions (..., k + 1) at in-plane positions xt (..., k) and depth (...) (m),
-    for the 'vertical' (below h) and 'nominal' (below z = 0) kinds."""
+    for the 'vertical' (below h) and 'nominal' (below z = 0) kinds; over an object
+    (:class:`haptex.objects.ObjectAlgorithm`) xt are surface coordinates mapped onto it."""
+    if hasattr(alg, "region_points"):
+        return alg.region_points(xt, depth)
     z = alg.texture.height_at(xt) - depth if alg.penetration_kind == "vertical" else -depth
     return np.concatenate([xt, np.broadcast_to(z, np.shape(depth))[..., None]], axis=-1)
 

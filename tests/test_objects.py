@@ -1,0 +1,143 @@
+"""Textures on objects (issue 32, first step): A, B, C and G over a plane, a cylinder and a
+sphere whose surface is displaced along its normal by the texture (haptex.objects)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import haptex as hx
+from haptex._validation import ParameterError
+from haptex.analysis.work import loop_energy
+from haptex.objects import Cylinder, Plane, Sphere, object_algorithm
+
+A, L, K0 = 0.2e-3, 2e-3, 2000.0
+EGG = hx.SumOfGratings.egg_crate(A, L)  # the paper's egg-crate scale: 0.2 mm high, 2 mm period
+
+
+def _radius(turns):
+    """A radius whose circumference holds ``turns`` periods of EGG (no seam)."""
+    return turns * L / (2 * math.pi)
+
+
+def _probes(n=300, seed=0):
+    rng = np.random.default_rng(seed)
+    return np.column_stack([rng.uniform(-L, L, n), rng.uniform(-L, L, n), rng.uniform(-0.8e-3, 0.2e-3, n)])
+
+
+@pytest.mark.parametrize("letter", ["A", "B", "C", "G"])
+def test_on_the_plane_the_object_algorithms_are_the_librarys(letter):
+    # the plane base (u = (x, y), e = z) gives the library's plane fields exactly: the object
+    # form (pen = h(u) - e, nu = -grad pen / |grad pen|) is the paper's eq. 6, 11, 14 and 28
+    p = _probes()
+    obj, flat = object_algorithm(letter, EGG, Plane(), K0), hx.algorithm(letter, EGG, K0)
+    np.testing.assert_allclose(obj.force(p), flat.force(p), rtol=0, atol=1e-12 * K0 * 1e-3)
+    np.testing.assert_allclose(obj.jacobian(p), flat.jacobian(p), rtol=0, atol=1e-12 * K0)
+
+
+@pytest.mark.parametrize("base", [Cylinder(_radius(5)), Sphere(_radius(5))], ids=["cylinder", "sphere"])
+@pytest.mark.parametrize("letter", ["A", "B", "C", "G"])
+def test_the_jacobians_are_the_derivatives_of_the_forces(letter, base):
+    # the chain-rule Jacobians through u(p) and e(p) against central differences of the forces
+    # (step 1 nm, error O(step^2 f''') ~ 1e-11 kappa_0), on a base about as curved as the
+    # texture (R = 1.6 mm, 5 periods around; within 37 degrees of the sphere's equator), 5 um
+    # to 0.8 mm deep, away from the wall's boundary where f has a kink
+    o = object_algorithm(letter, EGG, base, K0)
+    rng = np.random.default_rng(1)
+    p = o.region_points(rng.uniform(-L / 2, L / 2, (300, 2)), rng.uniform(5e-6, 0.8e-3, 300))
+    inside = o.penetration(p) > 5e-6
+    assert inside.sum() > 100  # (G measures from the base: its probes are in 'inside' where below it)
+    h = 1e-9
+    num = np.stack([(o.force(p + h * np.eye(3)[j]) - o.force(p - h * np.eye(3)[j])) / (2 * h) for j in range(3)], -1)
+    assert np.max(np.abs(o.jacobian(p) - num)[inside]) <= 1e-8 * K0
+
+
+@pytest.mark.parametrize("base", [Cylinder(_radius(3)), Sphere(_radius(3))], ids=["cylinder", "sphere"])
+def test_c_is_a_gradient_on_a_curved_base(base):
+    # C is -grad(kappa_0 pen^2 / 2) on any base: its Jacobian is symmetric and its work around a
+    # closed loop inside the object vanishes (A's, on the same loop, does not: Remark 1's
+    # non-conservativity carries over to curved bases)
+    c, a = object_algorithm("C", EGG, base, K0), object_algorithm("A", EGG, base, K0)
+    J = c.jacobian(_probes(seed=2))
+    assert np.max(np.abs(J - np.swapaxes(J, -1, -2))) <= 1e-12 * K0
+    uv = np.array([[0.1, 0.2], [0.7, 0.25], [0.8, 0.6], [0.3, 0.9], [0.15, 0.5]]) * L
+    depth = np.array([0.1, 0.5, 0.3, 0.8, 0.4]) * 1e-3
+    e_a = loop_energy(a, a.region_points(uv, depth))
+    e_c = loop_energy(c, c.region_points(uv, depth))
+    assert abs(e_a) > 1e-5  # measured -3.4e-4 J on the sphere
+    assert abs(e_c) <= 1e-10 * abs(e_a)
+
+
+def test_b_pushes_along_the_textured_objects_normal():
+    # "force normal to the groove" on a sphere: at points of the textured surface, B's
+    # direction is orthogonal to the surface's tangents (finite differences of
+    # base.point(u, h(u)) along u1 and u2) and points outward
+    base = Sphere(_radius(20))  # 6.4 mm: u2 within +-L/2 stays within 9 degrees of the equator
+    b = object_algorithm("B", EGG, base, K0)
+    rng = np.random.default_rng(4)
+    uv = rng.uniform(-L / 2, L / 2, (50, 2))
+    on = base.point(uv, EGG.height_at(uv))
+    inside = b.region_points(uv, np.full(50, 1e-9))  # a nanometre in
+    f = b.force(inside)
+    nu = f / np.linalg.norm(f, axis=-1, keepdims=True)
+    h = 1e-8
+    for k in range(2):
+        du = h * np.eye(2)[k]
+        t = base.point(uv + du, EGG.height_at(uv + du)) - base.point(uv - du, EGG.height_at(uv - du))
+        t /= np.linalg.norm(t, axis=-1, keepdims=True)
+        assert np.max(np.abs(np.sum(nu * t, axis=-1))) <= 1e-6
+    outward = (on - np.array([0.0, 0.0, -base.radius])) / np.linalg.norm(on - np.array([0.0, 0.0, -base.radius]),
+                                                                          axis=-1, keepdims=True)
+    # (tilted from the radius by the texture's slope, at most 0.89 here: cos >= 0.74)
+    assert np.all(np.sum(nu * outward, axis=-1) > 0.7)
+
+
+@pytest.mark.parametrize("letter", ["A", "C"])
+def test_the_spheres_numbers_tend_to_the_planes_as_the_radius_grows(letter):
+    # a textured sphere of radius R near its top is the textured plane to O(d/R) (d the depth
+    # analysed, 1 mm, and the texture's 0.2 mm relief against R): q and the work around one
+    # loop approach the plane's values tenfold closer for each tenfold radius from R = 32 mm
+    # (100 periods around) to 3.2 m, and are within 1 % of them from 0.32 m on. The plane's
+    # q_A is its closed form sqrt(1 + sup |grad h|^2) (Remark 2)
+    q0 = hx.characteristic_number(hx.algorithm(letter, EGG, K0)).value
+    if letter == "A":
+        assert q0 == pytest.approx(math.sqrt(1 + EGG.max_slope ** 2), rel=1e-9)
+    uv = np.array([[0.1, 0.2], [0.7, 0.25], [0.8, 0.6], [0.3, 0.9], [0.15, 0.5]]) * L
+    depth = np.array([0.1, 0.5, 0.3, 0.8, 0.4]) * 1e-3
+    flat = object_algorithm("A", EGG, Plane(), K0)
+    w0 = loop_energy(flat, flat.region_points(uv, depth))
+    q_err, w_err = [], []
+    for turns in (100, 1000, 10000):
+        o = object_algorithm(letter, EGG, Sphere(_radius(turns)), K0)
+        q_err.append(abs(hx.characteristic_number(o).value - q0) / q0)
+        if letter == "A":
+            w_err.append(abs(loop_energy(o, o.region_points(uv, depth)) - w0) / abs(w0))
+    for errs in (q_err, w_err):
+        if errs:
+            assert all(7 <= a / b <= 14 for a, b in zip(errs, errs[1:])), errs
+            assert errs[1] <= 0.01
+
+
+@pytest.mark.parametrize("make, message", [
+    (lambda: object_algorithm("A", EGG, Cylinder(1.01e-3), K0), r"^radius = 0\.00101 is not allowed: .*whole number"),
+    (lambda: object_algorithm("A", EGG, Cylinder(0.2e-3), K0), r"period along u1, 0\.002 m, is longer than"),
+    (lambda: object_algorithm("A", hx.SampledSurface(np.arange(8) * 1e-4, np.arange(8) * 1e-4, np.zeros((8, 8))),
+                              Sphere(1.0), K0), r"a closed base needs a texture periodic along u1"),
+    (lambda: object_algorithm("D", EGG, Plane(), K0), r"^algorithm = 'D' is not allowed: must be one of A, B, C, G"),
+    (lambda: Sphere(-1.0), r"^radius = -1 is not allowed"),
+    (lambda: Cylinder(2e3), r"^radius = 2000 is not allowed: must be at most 1000 m"),
+    (lambda: object_algorithm("A", EGG, "sphere", K0), r"^base = 'sphere' is not allowed"),
+    (lambda: object_algorithm("A", EGG, Sphere(_radius(3)), K0).force([0.0, 0.5, -_radius(3)]),
+     r"on the sphere's axis"),
+])
+def test_bad_objects_are_refused_by_name(make, message):
+    with pytest.raises(ParameterError, match=message):
+        make()
+
+
+def test_an_object_is_not_yet_taken_by_the_c_core():
+    # the renderer, simulator and export read kernel_spec: refused in one line, not run wrongly
+    with pytest.raises(ParameterError, match="C core's tick over objects"):
+        object_algorithm("A", EGG, Sphere(_radius(3)), K0).kernel_spec()
