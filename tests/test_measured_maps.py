@@ -350,8 +350,8 @@ def test_the_bounds_pyramid_cuts_the_searchs_work_on_raw_measured_maps(name, rat
     """D's closest point over a raw measured map (no band-limiting) with the bounds pyramid
     against the same search bounded by the map's global bounds only: 400 probes anywhere over
     it, 0.1 % to 30 % of its span deep. The answer is never farther (to the search's tolerance
-    G_TIE) and the evaluations fall under ``ratio`` of the global bounds' (measured 0.17 on the
-    MI map, 0.055 on the MetroPro map; 0.13 and 0.41 on the X3P and Nanoscope maps of
+    G_TIE) and the evaluations fall under ``ratio`` of the global bounds' (measured 0.12 on the
+    MI map, 0.052 on the MetroPro map; 0.13 and 0.41 on the X3P and Nanoscope maps of
     ../shared/data, where the global bounds' search also ran out of cells and missed points
     up to 27 nm closer)."""
     from haptex import core as _core

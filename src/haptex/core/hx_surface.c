@@ -159,28 +159,26 @@ static double beyond_box(const double b[4], double cx, double cy, double wx, dou
     return sqrt(ox * ox + oy * oy);
 }
 
-/* (min h, max h) over a cell [cx -+ wx] x [cy -+ wy] of a height map: the pyramid's pv where the
- * cell has one, else the map's range; outside a non-periodic map the extension's bound from the
- * map's range and slope */
-static void patch_range(const sproblem *q, double cx, double cy, double wx, double wy, const double *pv,
-                        double *lo, double *hi)
+/* (min h, max h) over a cell [cx -+ wx] x [cy -+ wy] of a height map, and in *beyond how far the
+ * cell reaches past a non-periodic map's edges (0 inside): from pr, the pyramid's bounds over
+ * the patches the cell's footprint clamped to the map meets, where it has them, else from the
+ * map's range and slope. Beyond the edges the map goes on as its edge's tangent plane, whose
+ * value at a point is the value at the point clamped to the map (in those patches) plus its
+ * normal slope (at most their slope bound) times the distance beyond. */
+static void patch_range(const sproblem *q, double cx, double cy, double wx, double wy, const double *pr,
+                        double *lo, double *hi, double *beyond)
 {
     const double *g = q->g;
-    double box[4], out;
-    if (pv != NULL) { /* a cell inside the map (or periodic): its blocks' range */
-        *lo = pv[HX_PY_HMIN];
-        *hi = pv[HX_PY_HMAX];
+    double box[4], slope = pr != NULL ? pr[HX_PY_SLOPE] : g[HX_G_SLOPE];
+    *lo = pr != NULL ? pr[HX_PY_HMIN] : g[HX_G_HMIN];
+    *hi = pr != NULL ? pr[HX_PY_HMAX] : g[HX_G_HMAX];
+    *beyond = 0.0;
+    if (q->tex->c[6] != 0.0)
         return;
-    }
-    if (q->tex->c[6] != 0.0) {
-        *lo = g[HX_G_HMIN];
-        *hi = g[HX_G_HMAX];
-        return;
-    }
     map_box(q->tex, box);
-    out = beyond_box(box, cx, cy, wx, wy) * g[HX_G_SLOPE];
-    *lo = g[HX_G_HMIN] - out;
-    *hi = g[HX_G_HMAX] + out;
+    *beyond = beyond_box(box, cx, cy, wx, wy);
+    *lo -= *beyond * slope;
+    *hi += *beyond * slope;
 }
 
 /* the distance from (cx, cy) inward to the edge of a non-periodic height map (negative
@@ -261,8 +259,8 @@ static int side(double lo, double hi, double a, double b)
  * strip's bounds at the cell's largest e (aux[HX_G_EDGE...], HX_E_*); in a corner's quadrant a
  * plane. Returns 0 for a cell across an edge's line, where the extension is only C^1 (no
  * model: the caller splits it there). */
-static int cell_bounds(const sproblem *q, double cx, double cy, double wx, double wy, const double *pv, double *sb,
-                       double *cb, double *jk)
+static int cell_bounds(const sproblem *q, double cx, double cy, double wx, double wy, const double *pv,
+                       const double *pr, double *sb, double *cb, double *jk)
 {
     const double *g = q->g, *E;
     double b[4], x0, y0, x1, y1, e, t, tt, j3;
@@ -291,6 +289,8 @@ static int cell_bounds(const sproblem *q, double cx, double cy, double wx, doubl
         return 1;
     if (rx > 0 && ry > 0) { /* a corner: the plane of the corner's tangent */
         *sb = hypot(g[HX_G_EDGE + (rx - 1) * HX_N_E + HX_E_N], g[HX_G_EDGE + (1 + ry) * HX_N_E + HX_E_N]);
+        if (pr != NULL) /* (its gradient is the corner patch's there) */
+            *sb = fmin(*sb, pr[HX_PY_SLOPE]);
         *cb = *jk = 0.0;
         return 1;
     }
@@ -301,12 +301,27 @@ static int cell_bounds(const sproblem *q, double cx, double cy, double wx, doubl
         E = g + HX_G_EDGE + (1 + ry) * HX_N_E;
         e = ry == 1 ? y0 - (cy - wy) : (cy + wy) - y1;
     }
-    t = E[HX_E_T] + E[HX_E_NT] * e;
-    tt = E[HX_E_TT] + E[HX_E_NTT] * e;
-    j3 = E[HX_E_TTT] + E[HX_E_NTTT] * e;
-    *sb = hypot(E[HX_E_N], t);
-    *cb = 0.5 * tt + sqrt(0.25 * tt * tt + E[HX_E_NT] * E[HX_E_NT]);
-    *jk = sqrt(3.0 * E[HX_E_NTT] * E[HX_E_NTT] + j3 * j3);
+    {
+        /* the edge's derivatives on the cell's stretch of it: the whole edge's (E), or those of
+         * the patches along that stretch (pr: their slope bounds the first derivatives, their
+         * curvature the second, their jerk the third; the fourth, d^4 h / dn dt^3, from E) */
+        double n1 = E[HX_E_N], t1 = E[HX_E_T], nt = E[HX_E_NT], t2 = E[HX_E_TT], nt2 = E[HX_E_NTT];
+        double t3 = E[HX_E_TTT];
+        if (pr != NULL) {
+            n1 = fmin(n1, pr[HX_PY_SLOPE]);
+            t1 = fmin(t1, pr[HX_PY_SLOPE]);
+            nt = fmin(nt, pr[HX_PY_CURV]);
+            t2 = fmin(t2, pr[HX_PY_CURV]);
+            nt2 = fmin(nt2, pr[HX_PY_JERK]);
+            t3 = fmin(t3, pr[HX_PY_JERK]);
+        }
+        t = t1 + nt * e;
+        tt = t2 + nt2 * e;
+        j3 = t3 + E[HX_E_NTTT] * e;
+        *sb = hypot(n1, t);
+        *cb = 0.5 * tt + sqrt(0.25 * tt * tt + nt * nt);
+        *jk = sqrt(3.0 * nt2 * nt2 + j3 * j3);
+    }
     return 1;
 }
 
@@ -793,10 +808,10 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
     sp = 1;
     while (sp > 0) {
         double cx, cy, wx, wy, w, r, spread, lo, hi, dxy, reach, lb = 0.0, ux = 0.0, uy = 0.0;
-        double glo = -HUGE_VAL, ghi = HUGE_VAL;
+        double glo = -HUGE_VAL, ghi = HUGE_VAL, beyond = 0.0;
         double csb = sb, ccb = cb, cj = jerk, pvb[HX_PY_N];
         const double *pv;
-        int far, leafy, cm, kids;
+        int far, leafy, cm, kids, have;
         hx_height e;
         if (aux[HX_G_BUDGET] > 0.0 && (double)work >= aux[HX_G_BUDGET]) { /* the budget is spent: the best so far */
             out.cut = 1;
@@ -818,12 +833,11 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
         }
         if (rb > 0.0 && b.btx == rbx && b.bty == rby && sqrt((cx - rbx) * (cx - rbx) + (cy - rby) * (cy - rby)) + r <= rb)
             continue;
-        /* the pyramid's bounds: over a periodic map, or a cell wholly inside a map with edges */
-        pv = ranged && (q.pyr.periodic || model_margin(&q, cx, cy) >= w) &&
-                     pyramid_bounds(&q, cx, cy, wx, wy, pvb)
-                 ? pvb
-                 : NULL;
-        cm = model && cell_bounds(&q, cx, cy, wx, wy, pv, &csb, &ccb, &cj); /* the model holds on this cell */
+        /* the pyramid's bounds: for the model over a periodic map or a cell wholly inside a map
+         * with edges; for the height range over any cell */
+        have = ranged && pyramid_bounds(&q, cx, cy, wx, wy, pvb); /* (the footprint clamped to the map) */
+        pv = have && (q.pyr.periodic || model_margin(&q, cx, cy) >= w) ? pvb : NULL;
+        cm = model && cell_bounds(&q, cx, cy, wx, wy, pv, have ? pvb : NULL, &csb, &ccb, &cj); /* the model holds on this cell */
         if (model && !cm)
             nodes++; /* (a cell across a map's edge: counted with the model's cells, so bounded) */
         dxy = fmax(0.0, fabs(px - cx) - wx) * fmax(0.0, fabs(px - cx) - wx) +
@@ -831,7 +845,7 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
         reach = cell_reach(model, &b, cx, cy, r, sep, tie_eps, &far);
         if (ranged) { /* the cell's height range first: a cell too far by it costs no evaluation */
             double gap;
-            patch_range(&q, cx, cy, wx, wy, pv, &glo, &ghi);
+            patch_range(&q, cx, cy, wx, wy, have ? pvb : NULL, &glo, &ghi, &beyond);
             gap = fmax(0.0, fmax(glo - pz, pz - ghi));
             if (dxy + gap * gap > reach * reach)
                 continue;
@@ -842,7 +856,7 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
                     : fmin(aux[HX_G_SLOPE] * r, sqrt(e.gx * e.gx + e.gy * e.gy) * r + 0.5 * aux[HX_G_CURV] * r * r);
         if (ranged) {
             /* beyond the map without the model: the extension's bound only */
-            if (!cm && (glo < aux[HX_G_HMIN] || ghi > aux[HX_G_HMAX]))
+            if (!cm && beyond > 0.0)
                 spread = HUGE_VAL;
             lo = fmax(e.h - spread, glo);
             hi = fmin(e.h + spread, ghi);
