@@ -539,6 +539,30 @@ def _check_plot_path(plot: Path) -> None:
         raise ParameterError(f"plot = {str(plot)!r} is not allowed: the directory {str(parent)!r} does not exist")
 
 
+def _object_from_spec(spec, uv_scale):
+    """The base of ``--object`` (None without it): 'plane', 'sphere:RADIUS', 'cylinder:RADIUS'
+    or a mesh file (with ``--uv-scale``)."""
+    from ._units import parse_quantity
+    from .objects import Cylinder, Mesh, Plane, Sphere
+
+    if spec is None:
+        if uv_scale is not None:
+            raise ParameterError("--uv-scale is not allowed without --object: it scales a mesh's texture coordinates")
+        return None
+    kind, _, arg = spec.partition(":")
+    kind = kind.strip().lower()
+    if kind == "plane" and not arg:
+        return Plane()
+    if kind in ("sphere", "cylinder"):
+        radius = parse_quantity(arg, "m", "object", require_unit=True)
+        return (Sphere if kind == "sphere" else Cylinder)(radius)
+    path = Path(spec)
+    if not path.is_file():
+        raise ParameterError(f"object = {spec!r} is not allowed: must be 'plane', 'sphere:RADIUS', 'cylinder:RADIUS' "
+                             "or an existing mesh file")
+    return Mesh(path, uv_scale=uv_scale)
+
+
 @cli.command()
 @click.option("--texture", "texture_spec", required=True,
               help="FILE (a line scan or an areal map in any format SurfaceTopography reads: Dektak, X3P, SDF, "
@@ -567,6 +591,12 @@ def _check_plot_path(plot: Path) -> None:
 @click.option("--hand", default="light-touch", show_default=True,
               help="The hand gripping the handle for the stable limits: a hand of 'haptex devices' (none, "
                    "light-touch, firm-grip).")
+@click.option("--object", "object_spec", default=None,
+              help="Render the texture on an object instead of a plane: 'sphere:RADIUS', 'cylinder:RADIUS' (axis along "
+                   "y), 'plane', or a closed triangle mesh FILE (OBJ, STL, PLY, glTF, ... with texture coordinates; "
+                   "--uv-scale). A, B, C and G are analysed there.")
+@click.option("--uv-scale", type=Quantity("m"), default=None,
+              help="With a mesh: metres per unit of its texture coordinates, e.g. '10mm'.")
 @click.option("--report", "report_dir", type=click.Path(path_type=Path), default=None,
               help="Also write an HTML report (force fields, q maps, limits, recommendation) into this directory.")
 @click.option("--force", is_flag=True, help="With --report: write into an existing directory that is not a haptex report.")
@@ -575,7 +605,7 @@ def _check_plot_path(plot: Path) -> None:
 @click.pass_context
 def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, sampling_period, delay, stiffness, speed,
            max_penetration, spacing, x_unit, height_unit, level, lowpass, scale, periodic, window, fill_undefined, raw,
-           hand, report_dir, force, as_json, quiet):
+           object_spec, uv_scale, hand, report_dir, force, as_json, quiet):
     """Which algorithm, how stiff, will it be passive, can the device render it?
 
     A measured texture is band-limited to the shortest period the device renders at the
@@ -591,7 +621,9 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
     if raw and not hasattr(tex, "band_limited"):
         raise ParameterError(f"--raw is not allowed with the synthetic texture {texture_spec!r}: it applies to measured "
                              "textures read from a file")
-    dev = _build_device(ctx, device_spec, joint_damping, mass, damping, sampling_period, delay, tex.dimension + 1)
+    base = _object_from_spec(object_spec, uv_scale)
+    dev = _build_device(ctx, device_spec, joint_damping, mass, damping, sampling_period, delay,
+                        3 if base is not None else tex.dimension + 1)
     x_range = None
     if window and tex.dimension == 1:
         x_range = _parse_point(window, "window")
@@ -601,6 +633,9 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
     if report_dir is not None:
         from .report import check_output
 
+        if base is not None:
+            raise ParameterError("--report is not allowed with --object yet: the design report draws fields in the "
+                                 "x-z plane of a profile; use --json for an object")
         if tex.dimension != 1:
             raise ParameterError("--report is not allowed with a surface yet: the design report draws fields in the "
                                  "x-z plane of a profile; use --json for a surface")
@@ -619,7 +654,7 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
 
     with steps as step:
         data = run_design(tex, dev, stiffness, speed=speed, max_penetration=max_penetration, x_range=x_range,
-                          progress=step, band_limit=not raw, hand=hand, on_estimate=announce)
+                          progress=step, band_limit=not raw, hand=hand, on_estimate=announce, base=base)
     if report_dir is not None:
         from .design import rendered_texture
         from .report import write_design_report
@@ -659,6 +694,8 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
 
     console.print(_limits_table(data["wall_limits"], f"wall limits on {data['device']}"))
 
+    if data["object"] is not None:
+        console.print(f"on the object {data['object']} (A, B, C, G: penetration along its normal)")
     t = Table(title=f"at {stiffness:g} N/m", box=box.SIMPLE_HEAD,
               caption="max passive: Corollary 1 / q; max stable: the wall's stable limit with the hand / q; "
                       "cons.: conservative; cont.: continuous")

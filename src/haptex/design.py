@@ -24,7 +24,8 @@ be analysed as rendered (chosen: two, so that a rendered period is told from a t
 
 def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.1, max_penetration: float = 1e-3,
            samples_per_period=5, friction: float = 0.8, presliding: float = 1e-3, n_loops: int = 4,
-           x_range=None, progress=None, band_limit: bool = True, hand=DEFAULT_HAND, on_estimate=None) -> dict:
+           x_range=None, progress=None, band_limit: bool = True, hand=DEFAULT_HAND, on_estimate=None,
+           base=None) -> dict:
     """Analyse every algorithm for one texture on one device and recommend.
 
     Parameters
@@ -68,6 +69,11 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
     on_estimate : callable, optional
         Called once, after band-limiting and before any analysis, with the ``estimate``
         below: a command line prints it.
+    base : haptex.objects.Base, optional
+        Render the texture on an object (:mod:`haptex.objects`: a plane, cylinder, sphere or
+        triangle mesh) instead of a plane: the algorithms defined over objects so far (A, B,
+        C, G) are analysed there, their grids and loops laid in the base's coordinates
+        (u1, u2, e). The device must be 3-DOF; a profile is extruded along u2.
 
     Returns
     -------
@@ -97,9 +103,13 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
     Raises
     ------
     ParameterError
-        For invalid parameters, or a device of the wrong dimension.
+        For invalid parameters, a device of the wrong dimension, or a texture that does not
+        fit the base (:func:`haptex.objects.object_algorithm`).
     """
-    if device.dimension != texture.dimension + 1:
+    if base is not None and device.dimension != 3:
+        raise ParameterError(f"device = {device.name!r} with dimension = {device.dimension} is not allowed on an "
+                             "object: it needs a 3-DOF device")
+    if base is None and device.dimension != texture.dimension + 1:
         raise ParameterError(f"device = {device.name!r} with dimension = {device.dimension} is not allowed for "
                              f"{texture!r}: a {'surface needs a 3-DOF' if texture.dimension == 2 else 'profile needs a planar'}"
                              " device")
@@ -110,8 +120,16 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
     texture, band = _band_limited(texture, device, speed, samples_per_period, band_limit)
     if x_range is not None:
         _check_window(given, x_range)  # the scan or map as measured, whose extent the user knows
-    letters = [L for L in LETTERS if texture.dimension == 1 or ALGORITHMS[L].surfaces]
-    algs = checked_algorithms(letters, texture, stiffness, max_penetration, friction, presliding)
+    if base is None:
+        letters = [L for L in LETTERS if texture.dimension == 1 or ALGORITHMS[L].surfaces]
+        algs = checked_algorithms(letters, texture, stiffness, max_penetration, friction, presliding)
+    else:
+        from .analysis import check_analysis_scale
+        from .objects import OBJECT_LETTERS, object_algorithm
+
+        algs = {L: object_algorithm(L, texture, base, stiffness) for L in OBJECT_LETTERS}
+        for alg in algs.values():
+            check_analysis_scale(alg, max_penetration)
     estimate = _estimate(algs, max_penetration, x_range)
     if on_estimate is not None:
         on_estimate(estimate)
@@ -126,7 +144,7 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         cons = conservativity(alg, max_penetration=max_penetration, n_random=n_loops, x_range=xr)
         cont = continuity(alg, max_penetration=max_penetration, levels=3, x_range=xr)
         try:
-            path, _, _ = paper_loop(alg)
+            path = None if base is not None else paper_loop(alg)[0]  # (on a plane only)
         except Exception:  # the Fig. 3 paths are defined for sinusoids only
             path = None
         rows.append({
@@ -180,7 +198,7 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         "limits": [{"name": lim.name, "formula": lim.formula, "lhs": lim.lhs, "rhs": lim.rhs, "unit": lim.unit,
                     "passed": lim.passed} for lim in limits],
         "rows": rows, "recommended": good + fair, "recommendation": "; ".join(text), "band_limit": band,
-        "estimate": estimate,
+        "estimate": estimate, "object": None if base is None else repr(base),
     }
 
 

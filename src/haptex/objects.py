@@ -106,6 +106,12 @@ class Base:
     def check_texture(self, texture: Surface) -> None:
         """Raise ParameterError where the texture does not fit on the base (see subclasses)."""
 
+    def kinks(self, a, b, u, pts) -> list:
+        """Parameters t in (0, 1) where the segment a -> b (sampled at parameters u, points
+        pts) crosses from one smooth piece of the base's coordinates to another: none on the
+        analytic bases."""
+        return []
+
     def __repr__(self) -> str:
         return f"{type(self).__name__}()" if math.isinf(self.radius) else f"{type(self).__name__}({self.radius:g})"
 
@@ -129,9 +135,16 @@ class Plane(Base):
         return np.concatenate([u, e[..., None]], axis=-1)
 
 
+SEAM_TOLERANCE = 1e-6
+"""A closed base's circumference may differ from a whole number of the texture's periods along
+u1 by this fraction of a period: the seam then shifts the texture by at most that much (a radius
+typed to 9 significant digits passes)."""
+
+
 def _closed_period_check(base, texture: Surface, length: float) -> None:
     """The texture must be periodic along u1 with a period that divides the base's closed
-    length (no seam): else a ParameterError naming the radius and the nearest that fits."""
+    length to SEAM_TOLERANCE of a period (no seam): else a ParameterError naming the radius and
+    the nearest that fits."""
     cell = texture.cell
     if cell is None:
         raise ParameterError(f"texture = {texture!r} is not allowed on {base!r}: a closed base needs a texture "
@@ -141,10 +154,10 @@ def _closed_period_check(base, texture: Surface, length: float) -> None:
         raise ParameterError(f"texture = {texture!r} is not allowed on {base!r}: its period along u1, "
                              f"{period:.6g} m, is longer than the base's circumference {length:.6g} m")
     turns = length / period
-    if abs(turns - round(turns)) > 1e-9 * turns:
+    if abs(turns - round(turns)) > SEAM_TOLERANCE:
         fit = round(turns) * period / (2 * math.pi)
         raise fail("radius", base.radius, f"a radius whose circumference holds a whole number of the texture's "
-                   f"{period:.6g} m periods along u1 (no seam), e.g. {fit:.9g} m")
+                   f"{period:.6g} m periods along u1 (no seam), e.g. {fit:.12g} m")
 
 
 class Cylinder(Base):
@@ -265,6 +278,11 @@ class Sphere(Base):
 MAX_TRIANGLES = 2_000_000
 """Largest mesh accepted (triangles)."""
 
+LOCAL_CACHE_MIN = 10_000
+LOCAL_CACHE_BYTES = 256 * 2**20
+"""A mesh keeps its local coordinates of point sets of at least LOCAL_CACHE_MIN points, the
+latest up to LOCAL_CACHE_BYTES: the analyses of A, B, C and G lay the same grids."""
+
 
 class Mesh(Base):
     """A closed triangle mesh (read and queried with trimesh) with a UV map in metres.
@@ -290,10 +308,11 @@ class Mesh(Base):
     Raises
     ------
     ParameterError
-        If the mesh is not closed or not manifold (an edge not shared by exactly two
-        triangles: the first such triangle is named), has a degenerate triangle (named), more
-        than MAX_TRIANGLES triangles, or no UV map; or if ``uv`` has the wrong shape or a
-        non-finite value.
+        If the file is not a mesh trimesh reads or would take more than the memory budget; if
+        the mesh is not closed or not manifold (an edge not shared by exactly two triangles:
+        the first such triangle is named), has a degenerate triangle (named), more than
+        MAX_TRIANGLES triangles, or no UV map; or if ``uv`` has the wrong shape or a non-finite
+        value.
     """
 
     name = "mesh"
@@ -302,6 +321,12 @@ class Mesh(Base):
         import trimesh
 
         if not isinstance(mesh, trimesh.Trimesh):
+            from pathlib import Path
+
+            from ._validation import check_budget
+
+            if Path(str(mesh)).is_file():  # (a text mesh's arrays take about 20 x its bytes, with the queries')
+                check_budget("mesh", str(mesh), 20.0 * Path(str(mesh)).stat().st_size, "reading this mesh")
             try:
                 mesh = trimesh.load(str(mesh), force="mesh", process=False)
             except Exception as exc:  # (trimesh raises many kinds on a bad file)
@@ -378,16 +403,62 @@ class Mesh(Base):
     def __repr__(self) -> str:
         return f"Mesh({len(self._faces)} triangles)"
 
-    def local(self, p):
+    def _closest(self, flat):
+        """(foot, dist, triangle, barycentric) of the closest points of flat (N, 3) (m)."""
         import trimesh
 
+        foot, dist, tid = trimesh.proximity.closest_point(self._query, flat / self._scale)
+        bary = trimesh.triangles.points_to_barycentric(self._tri[tid] / self._scale, foot)
+        return foot * self._scale, dist * self._scale, tid, bary
+
+    def _feature(self, flat):
+        """Which smooth piece each point's coordinates are on: its closest triangle, and which of
+        the triangle's corners carry weight (all three: inside it; two: an edge; one: a vertex)."""
+        _, dist, tid, bary = self._closest(flat)
+        mask = (bary > 1e-9) @ np.array([1, 2, 4])
+        return tid * 8 + np.where(dist == 0.0, 7, mask)
+
+    def kinks(self, a, b, u, pts) -> list:
+        """Parameters where the segment a -> b passes from one triangle's (face, edge or vertex)
+        region to another's, where the base's normal turns (a jump of the force between two
+        facets' regions, a kink between a facet and its edge's): the samples' pieces compared,
+        each change bisected to round-off (60 halvings, all together)."""
+        key = self._feature(np.asarray(pts, dtype=float))
+        idx = np.flatnonzero(key[:-1] != key[1:])
+        lo, hi = u[idx].astype(float), u[idx + 1].astype(float)
+        k_lo = key[idx]
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            live = (lo < mid) & (mid < hi)
+            if not live.any():
+                break
+            same = self._feature(a + mid[:, None] * (b - a)) == k_lo
+            lo = np.where(live & same, mid, lo)
+            hi = np.where(live & ~same, mid, hi)
+        return (0.5 * (lo + hi)).tolist()
+
+    def local(self, p):
         shape = p.shape[:-1]
         flat = p.reshape(-1, 3)
-        foot, dist, tid = trimesh.proximity.closest_point(self._query, flat / self._scale)
+        key = None
+        if flat.shape[0] >= LOCAL_CACHE_MIN:  # the analyses evaluate A, B, C, G on the same grids
+            import hashlib
+
+            key = hashlib.blake2b(flat.tobytes(), digest_size=16).digest()
+            hit = self.__dict__.setdefault("_local_cache", {}).get(key)
+            if hit is not None:
+                return tuple(v.copy().reshape(*shape, *v.shape[1:]) for v in hit)
+        out = self._local(flat)
+        if key is not None and sum(v.nbytes for v in out) <= LOCAL_CACHE_BYTES:
+            cache = self.__dict__["_local_cache"]
+            while cache and sum(v.nbytes for vs in cache.values() for v in vs) > LOCAL_CACHE_BYTES // 2:
+                cache.pop(next(iter(cache)))
+            cache[key] = tuple(v.copy() for v in out)
+        return tuple(v.reshape(*shape, *v.shape[1:]) for v in out)
+
+    def _local(self, flat):
+        foot, dist, tid, bary = self._closest(flat)
         tri = self._tri[tid]
-        bary = trimesh.triangles.points_to_barycentric(tri / self._scale, foot)
-        foot = foot * self._scale
-        dist = dist * self._scale
         tol = 1e-9
         nf = self._normals[tid]
         uvf = self.uv[self._faces[tid]]  # (N, 3, 2)
@@ -401,34 +472,31 @@ class Mesh(Base):
         n_out[face] = nf[face]
         Ju[face] = self._M[tid[face]]
         rest = np.flatnonzero(~face)
-        if rest.size:
-            inside_edge = bary[rest] > tol  # (k, 3): which corners carry weight
-            nz = inside_edge.sum(axis=1)
-            vm = self._vmap[tid[rest]]  # merged vertex ids of the corners
-            for j, i in enumerate(rest):
-                wi = w[i]
-                di = dist[i]
-                corners = np.flatnonzero(inside_edge[j])
-                if nz[j] >= 2:  # on an edge: the two corners
-                    a, b = corners[:2]
-                    va, vb = tri[i, a], tri[i, b]
-                    dv = vb - va
-                    side = a if b == a + 1 else 2  # sides (0, 1), (1, 2), (2, 0)
-                    pair = self._edge_faces[self._side_edge[tid[i], side]]
-                    sign = 1.0 if wi @ self._normals[pair].sum(axis=0) >= 0 else -1.0
-                    dhat = dv / np.linalg.norm(dv)
-                    perp = np.eye(3) - np.outer(dhat, dhat)
-                    Ju[i] = np.outer(uvf[i, b] - uvf[i, a], dv) / (dv @ dv)
-                else:  # at a vertex
-                    k = int(np.argmax(bary[i]))
-                    sign = 1.0 if wi @ self._pseudo[vm[j, k]] >= 0 else -1.0
-                    perp = np.eye(3)
-                ww = wi / di
-                e[i] = sign * di
-                n_out[i] = sign * ww
-                He[i] = sign * (perp - np.outer(ww, ww)) / di
-        return (u.reshape(*shape, 2), Ju.reshape(*shape, 2, 3), np.zeros((*shape, 2, 3, 3)), e.reshape(shape),
-                n_out.reshape(*shape, 3), He.reshape(*shape, 3, 3))
+        if rest.size:  # on an edge (two corners carry weight) or at a vertex (one)
+            ti, wr, dr = tid[rest], w[rest], dist[rest]
+            weight = bary[rest] > tol
+            on_edge = weight.sum(axis=1) >= 2
+            first = np.argmax(weight, axis=1)  # the edge's corners first < second
+            second = np.where((first == 0) & weight[:, 1], 1, 2)
+            side = np.where(second == first + 1, first, 2)  # sides (0, 1), (1, 2), (2, 0)
+            pair = self._edge_faces[self._side_edge[ti, side]]  # the edge's two triangles
+            edge_normal = self._normals[pair[:, 0]] + self._normals[pair[:, 1]]
+            corner = np.argmax(bary[rest], axis=1)
+            vertex_normal = self._pseudo[self._vmap[ti, corner]]
+            pseudo = np.where(on_edge[:, None], edge_normal, vertex_normal)
+            sign = np.where(np.einsum("ij,ij->i", wr, pseudo) >= 0, 1.0, -1.0)
+            va, vb = tri[rest, first], tri[rest, second]
+            dv = vb - va
+            dd = np.einsum("ij,ij->i", dv, dv)
+            dhat = dv / np.sqrt(dd)[:, None]
+            perp = np.eye(3) - np.where(on_edge[:, None, None], dhat[:, :, None] * dhat[:, None, :], 0.0)
+            duv = uvf[rest, second] - uvf[rest, first]
+            Ju[rest] = np.where(on_edge[:, None, None], duv[:, :, None] * dv[:, None, :] / dd[:, None, None], 0.0)
+            ww = wr / dr[:, None]
+            e[rest] = sign * dr
+            n_out[rest] = sign[:, None] * ww
+            He[rest] = sign[:, None, None] * (perp - ww[:, :, None] * ww[:, None, :]) / dr[:, None, None]
+        return u, Ju, np.zeros((len(flat), 2, 3, 3)), e, n_out, He
 
     def point(self, u, e):
         """The probe at surface coordinates u and offset e: the point of the triangle whose UV
@@ -476,12 +544,12 @@ class ObjectAlgorithm(Algorithm):
 
     Probe positions are [x, y, z] (m); forces (N) and Jacobians (N/m) are in that frame.
     ``texture`` is the height h(u) (a surface over u; a profile is extruded along u2).
-    :func:`haptex.characteristic_number` takes it like a plane algorithm: its grid is laid
-    in (u, depth) over one texture cell and mapped onto the object by :meth:`region_points`.
+    The region analyses take it like a plane algorithm: :func:`haptex.characteristic_number`
+    lays its grid in (u, depth) over one texture cell and maps it onto the object by
+    :meth:`region_points`; :func:`haptex.continuity` its grids and
+    :func:`haptex.conservativity` its random polygons' vertices in (u1, u2, e), mapped by
+    :meth:`to_cartesian` (a polygon's sides are straight in space).
     :func:`haptex.analysis.work.loop_energy` takes any closed path on or inside the object.
-    (:func:`haptex.continuity` and :func:`haptex.conservativity` still lay their boxes in
-    Cartesian coordinates: a slab at the base's top, which lies in the object's shell only for
-    a radius much larger than the cell.)
     """
 
     surfaces = True
@@ -524,12 +592,31 @@ class ObjectAlgorithm(Algorithm):
         e = (self.texture.height_at(ut) - depth) if self.penetration_kind == "vertical" else -depth
         return self.base.point(ut, e)
 
+    def to_cartesian(self, q):
+        """Probe positions (..., 3) (m) at plane coordinates ``q`` = [u1, u2, e] (..., 3) (m):
+        the point at surface coordinates u and offset e along the base's normal. The region
+        analyses lay their grids and random loops in these coordinates (the plane's are
+        [x, y, z]) and evaluate the field at the points this gives."""
+        q = np.asarray(q, dtype=float)
+        return self.base.point(q[..., :2], q[..., 2])
+
+    def signed_depth(self, p) -> np.ndarray:
+        """e - h(u) (A, B, C) or e (G) (m), shape (...): negative inside, its zeros the wall's
+        boundary (where the force has a kink: the loop-work quadrature splits its pieces there)."""
+        u, _, _, e, _, _ = self.base.local(self._positions(p))
+        return e if self.penetration_kind == "nominal" else e - self.texture.height_at(u)
+
     def penetration(self, p) -> np.ndarray:
         """h(u) - e (A, B, C) or -e (G) where positive, else 0 (m), shape (...)."""
         arr = self._positions(p)
         u, _, _, e, _, _ = self.base.local(arr)
         pen = -e if self.penetration_kind == "nominal" else self.texture.height_at(u) - e
         return np.maximum(pen, 0.0)
+
+    def kinks(self, a, b, u, pts) -> list:
+        """Where the segment a -> b passes between smooth pieces of the base (a mesh's facets,
+        edges and vertices): breakpoints for the loop-work quadrature."""
+        return self.base.kinks(a, b, u, pts)
 
     def force(self, p) -> np.ndarray:
         return self._object(self._positions(p), False)[0]

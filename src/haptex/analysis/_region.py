@@ -183,7 +183,11 @@ def _region_points(alg: Algorithm, xt, depth):
 
 
 def _static_force(alg: Algorithm, p) -> np.ndarray:
-    """Force over positions; for F in full slip (|d^x| = d^x_max), its largest lateral force."""
+    """Force over positions; for F in full slip (|d^x| = d^x_max), its largest lateral force.
+    Over an object the positions are its plane coordinates [u1, u2, e] (see
+    :meth:`haptex.objects.ObjectAlgorithm.to_cartesian`): the region's grids are laid there."""
+    if hasattr(alg, "to_cartesian"):
+        p = alg.to_cartesian(p)
     if alg.has_memory:
         return alg.force(p, alg.presliding)
     return alg.force(p)

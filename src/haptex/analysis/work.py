@@ -23,6 +23,8 @@ from ._region import _region_box, check_analysis_scale
 def _signed_depths(alg: Algorithm, pts: np.ndarray) -> list[np.ndarray]:
     """Functions whose sign changes mark kinks of the force along a path: the boundary
     and, with max_penetration, the clamp depth."""
+    if hasattr(alg, "signed_depth"):  # an object: measured along its base's normal
+        return [alg.signed_depth(pts)]
     z = pts[..., -1]
     if alg.penetration_kind == "nominal":
         d = z
@@ -50,6 +52,8 @@ def _breakpoints(alg: Algorithm, a: np.ndarray, b: np.ndarray) -> list[float]:
         for i in np.nonzero(sgn[:-1] * sgn[1:] < 0)[0]:
             fn = lambda uu, k=k: float(_signed_depths(alg, (a + uu * (b - a))[None, :])[k][0])  # noqa: E731
             out.append(optimize.brentq(fn, u[i], u[i + 1], xtol=1e-16, rtol=1e-15))
+    if hasattr(alg, "kinks"):  # an object: where the base's coordinates change piece (a mesh's facets)
+        out.extend(alg.kinks(a, b, u, pts))
     if alg.penetration_kind == "distance":
         from ..surfaces import Extruded
 
@@ -498,6 +502,8 @@ def random_loops(algorithm: Algorithm, n: int = 6, vertices: int = 5, max_penetr
                 b = a + span
             cols.append(rng.uniform(a, b, vertices))
         v = np.column_stack(cols)
+        if hasattr(algorithm, "to_cartesian"):  # an object: vertices drawn in its plane coordinates
+            v = algorithm.to_cartesian(v)
         loops.append(np.vstack([v, v[:1]]))
     return loops
 
@@ -538,6 +544,8 @@ def conservativity(algorithm: Algorithm, max_penetration: float = 1e-3, n_random
     size = max(min(b - a, span) if k < len(box) - 1 else b - a for k, (a, b) in enumerate(box))  # a loop's box
     tol = 1e-9 * algorithm.stiffness * size * size
     try:
+        if hasattr(algorithm, "to_cartesian"):  # (the Fig. 3 path is drawn on a plane)
+            raise ParameterError("no paper loop on an object")
         path, _, _ = paper_loop(algorithm)
         e_paper = path_work(algorithm, path)
     except ParameterError:
