@@ -160,11 +160,9 @@ def _closed_period_check(base, texture: Surface, length: float) -> None:
                    f"{period:.6g} m periods along u1 (no seam), e.g. {fit:.12g} m")
 
 
-class Cylinder(Base):
-    """A circular cylinder of radius R (m) whose axis is parallel to y through (0, 0, -R):
-    u1 = R phi (arc length around the axis, phi = atan2(x, z + R), 0 at the top), u2 = y,
-    e = rho - R (rho the distance from the axis). Developable: u is arc length on the base,
-    so the texture keeps its periods there.
+class _Round(Base):
+    """A base of radius R (m) closed along u1 (cylinder, sphere): the radius checked, and the
+    texture's period along u1 checked against the circumference 2 pi R.
 
     Raises
     ------
@@ -172,12 +170,26 @@ class Cylinder(Base):
         If the radius is not in (0, MAX_RADIUS] m.
     """
 
-    name = "cylinder"
-
     def __init__(self, radius: float):
         self.radius = positive("radius", radius, "m")
         if self.radius > MAX_RADIUS:
             raise fail("radius", radius, f"at most {MAX_RADIUS:g} m")
+
+    def check_texture(self, texture: Surface) -> None:
+        """The texture's period along u1 must divide the circumference 2 pi R (to
+        SEAM_TOLERANCE of a period)."""
+        _closed_period_check(self, texture, 2 * math.pi * self.radius)
+
+
+class Cylinder(_Round):
+    """A circular cylinder of radius R (m) whose axis is parallel to y through (0, 0, -R):
+    u1 = R phi (arc length around the axis, phi = atan2(x, z + R), 0 at the top), u2 = y,
+    e = rho - R (rho the distance from the axis). Developable: u is arc length on the base,
+    so the texture keeps its periods there. The radius and the texture are checked as
+    :class:`_Round` says.
+    """
+
+    name = "cylinder"
 
     def local(self, p):
         R = self.radius
@@ -210,30 +222,18 @@ class Cylinder(Base):
         rho = self.radius + e
         return np.stack(np.broadcast_arrays(rho * np.sin(phi), u[..., 1], rho * np.cos(phi) - self.radius), axis=-1)
 
-    def check_texture(self, texture: Surface) -> None:
-        """The texture's period along u1 must divide the circumference 2 pi R."""
-        _closed_period_check(self, texture, 2 * math.pi * self.radius)
 
 
-class Sphere(Base):
+class Sphere(_Round):
     """A sphere of radius R (m) centred at (0, 0, -R), in equirectangular coordinates about the
     great circle y = 0: u1 = R phi (phi = atan2(x, z + R), the longitude, 0 at the top),
     u2 = R lambda (lambda the latitude from that circle), e = r - R. u is arc length along that
     great circle and along the meridians; along u1 a texture is stretched by 1 / cos(lambda)
-    off it (a sphere has no isometric chart), by under 0.5 % within 0.1 R of the top.
-
-    Raises
-    ------
-    ParameterError
-        If the radius is not in (0, MAX_RADIUS] m.
+    off it (a sphere has no isometric chart), by under 0.5 % within 0.1 R of the top. The
+    radius and the texture (its period along the equator) are checked as :class:`_Round` says.
     """
 
     name = "sphere"
-
-    def __init__(self, radius: float):
-        self.radius = positive("radius", radius, "m")
-        if self.radius > MAX_RADIUS:
-            raise fail("radius", radius, f"at most {MAX_RADIUS:g} m")
 
     def local(self, p):
         R = self.radius
@@ -269,10 +269,6 @@ class Sphere(Base):
         return np.stack(np.broadcast_arrays(r * np.cos(lam) * np.sin(phi), r * np.sin(lam),
                                             r * np.cos(lam) * np.cos(phi) - self.radius), axis=-1)
 
-    def check_texture(self, texture: Surface) -> None:
-        """The texture's period along u1 must divide the equator's length 2 pi R, and its
-        extent along u2 stays within the latitudes +-pi R / 2 (the poles) by construction."""
-        _closed_period_check(self, texture, 2 * math.pi * self.radius)
 
 
 MAX_TRIANGLES = 2_000_000
