@@ -318,6 +318,7 @@ def test_design_on_a_mesh_file_from_the_command_line(tmp_path):
     (["--object", "sphere:12"], "object = '12' is not allowed"),
     (["--object", "no-such-mesh.obj"], "object = 'no-such-mesh.obj' is not allowed"),
     (["--uv-scale", "1mm"], "--uv-scale is not allowed without --object"),
+    (["--object", "sphere:12.7323954mm", "--vertex-normals"], "--vertex-normals is not allowed with --object"),
     (["--object", "sphere:12.7323954mm", "--device", "pantograph"], "the pantograph is planar"),
 ])
 def test_bad_objects_on_the_command_line_print_one_line_and_exit_2(args, fragment):
@@ -326,3 +327,66 @@ def test_bad_objects_on_the_command_line_print_one_line_and_exit_2(args, fragmen
     assert r.returncode == 2, r.stderr
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("haptex: error: ") and fragment in lines[0], r.stderr
+
+
+# -- meshes with vertex normals: a smooth base ---------------------------------------------------
+def test_a_mesh_with_vertex_normals_is_a_smooth_base_that_tends_to_the_sphere():
+    # each triangle swept along its vertices' normals into a prism (p = sum b_k (v_k + e N_k)):
+    # u and e continuous across edges, so on the icosphere with its exact (radial) vertex
+    # normals q stays near the sphere's and tends to it (A: 1.2568, 1.2310, 1.2211 for 1,280,
+    # 5,120 and 20,480 triangles against 1.2141; C: 2.4619, 2.4567, 2.4381 against 2.4390),
+    # where the closest-point base's q is 44-48 (pen / |e| beside the convex edges); forces
+    # approach the sphere's to first order (0.120, 0.053, 0.029 N: the offset surfaces'
+    # normals tilt by O(facet / R) inside a prism)
+    from haptex.objects import Mesh
+
+    rng = np.random.default_rng(0)
+    uv = rng.uniform(-L, L, (400, 2))
+    depth = rng.uniform(0.05e-3, 0.8e-3, 400)
+    errs = []
+    for sub in (3, 4, 5):
+        m, faceted, R = _icosphere(sub)
+        smooth = Mesh(m, uv=faceted.uv, normals=(np.asarray(m.vertices) - [0.0, 0.0, -R]) / R)
+        exact = object_algorithm("A", EGG, Sphere(R), K0)
+        p = exact.region_points(uv, depth)
+        errs.append(np.max(np.linalg.norm(object_algorithm("A", EGG, smooth, K0).force(p) - exact.force(p), axis=-1)))
+        for letter in ("A", "C"):
+            q = hx.characteristic_number(object_algorithm(letter, EGG, smooth, K0), resolution=(64, 16)).value
+            q_sphere = hx.characteristic_number(object_algorithm(letter, EGG, Sphere(R), K0),
+                                                resolution=(64, 16)).value
+            assert abs(q - q_sphere) <= {3: 0.05, 4: 0.02, 5: 0.01}[sub] * q_sphere, (sub, letter, q, q_sphere)
+    assert all(1.6 <= a / b <= 2.6 for a, b in zip(errs, errs[1:])), errs
+
+
+@pytest.mark.parametrize("letter", ["A", "B", "C", "G"])
+def test_the_jacobians_on_a_smooth_mesh_are_the_derivatives_of_the_forces(letter):
+    # through the prism map's inverse (implicit differentiation of p = sum b_k (v_k + e N_k)),
+    # against central differences (1 nm) where p and its neighbours lie in one prism;
+    # trimesh's own vertex normals ("vertex")
+    from haptex.objects import Mesh
+
+    m, faceted, R = _icosphere(4)
+    smooth = Mesh(m, uv=faceted.uv, normals="vertex")
+    o = object_algorithm(letter, EGG, smooth, K0)
+    rng = np.random.default_rng(6)
+    p = object_algorithm(letter, EGG, Sphere(R), K0).region_points(rng.uniform(-L, L, (300, 2)),
+                                                                     rng.uniform(5e-6, 0.8e-3, 300))
+    h = 1e-9
+    tid = smooth._solve_prism(p)[0]
+    same = np.all([smooth._solve_prism(p + s * h * np.eye(3)[j])[0] == tid for j in range(3) for s in (1, -1)], axis=0)
+    same &= o.penetration(p) > 5e-6
+    assert same.sum() > 200
+    num = np.stack([(o.force(p + h * np.eye(3)[j]) - o.force(p - h * np.eye(3)[j])) / (2 * h) for j in range(3)], -1)
+    assert np.max(np.abs(o.jacobian(p) - num)[same]) <= 1e-7 * K0
+
+
+def test_bad_vertex_normals_are_refused_by_name():
+    from haptex.objects import Mesh
+
+    m, faceted, R = _icosphere(2)
+    with pytest.raises(ParameterError, match=r"^normals = 'shape \(3, 3\)' is not allowed"):
+        Mesh(m, uv=faceted.uv, normals=np.ones((3, 3)))
+    flipped = (np.asarray(m.vertices) - [0.0, 0.0, -R]) / R
+    flipped[5] = -flipped[5]  # one vertex's normal pointing inward: its prisms would fold
+    with pytest.raises(ParameterError, match=r"^normals = 'triangle \d+' is not allowed: .*must not fold"):
+        Mesh(m, uv=faceted.uv, normals=flipped)

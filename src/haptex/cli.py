@@ -539,18 +539,22 @@ def _check_plot_path(plot: Path) -> None:
         raise ParameterError(f"plot = {str(plot)!r} is not allowed: the directory {str(parent)!r} does not exist")
 
 
-def _object_from_spec(spec, uv_scale):
+def _object_from_spec(spec, uv_scale, vertex_normals=False):
     """The base of ``--object`` (None without it): 'plane', 'sphere:RADIUS', 'cylinder:RADIUS'
-    or a mesh file (with ``--uv-scale``)."""
+    or a mesh file (with ``--uv-scale``, and ``--vertex-normals`` for the smooth base)."""
     from ._units import parse_quantity
     from .objects import Cylinder, Mesh, Plane, Sphere
 
     if spec is None:
         if uv_scale is not None:
             raise ParameterError("--uv-scale is not allowed without --object: it scales a mesh's texture coordinates")
+        if vertex_normals:
+            raise ParameterError("--vertex-normals is not allowed without --object: it applies to a mesh")
         return None
     kind, _, arg = spec.partition(":")
     kind = kind.strip().lower()
+    if vertex_normals and kind in ("plane", "sphere", "cylinder"):
+        raise ParameterError(f"--vertex-normals is not allowed with --object {spec!r}: it applies to a mesh")
     if kind == "plane" and not arg:
         return Plane()
     if kind in ("sphere", "cylinder"):
@@ -560,7 +564,7 @@ def _object_from_spec(spec, uv_scale):
     if not path.is_file():
         raise ParameterError(f"object = {spec!r} is not allowed: must be 'plane', 'sphere:RADIUS', 'cylinder:RADIUS' "
                              "or an existing mesh file")
-    return Mesh(path, uv_scale=uv_scale)
+    return Mesh(path, uv_scale=uv_scale, normals="vertex" if vertex_normals else None)
 
 
 @cli.command()
@@ -597,6 +601,9 @@ def _object_from_spec(spec, uv_scale):
                    "--uv-scale). A, B, C and G are analysed there.")
 @click.option("--uv-scale", type=Quantity("m"), default=None,
               help="With a mesh: metres per unit of its texture coordinates, e.g. '10mm'.")
+@click.option("--vertex-normals", is_flag=True,
+              help="With a mesh: a smooth base swept along its vertex normals (default: the closest point's "
+                   "coordinates, whose normal turns around each edge).")
 @click.option("--report", "report_dir", type=click.Path(path_type=Path), default=None,
               help="Also write an HTML report (force fields, q maps, limits, recommendation) into this directory.")
 @click.option("--force", is_flag=True, help="With --report: write into an existing directory that is not a haptex report.")
@@ -605,7 +612,7 @@ def _object_from_spec(spec, uv_scale):
 @click.pass_context
 def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, sampling_period, delay, stiffness, speed,
            max_penetration, spacing, x_unit, height_unit, level, lowpass, scale, periodic, window, fill_undefined, raw,
-           object_spec, uv_scale, hand, report_dir, force, as_json, quiet):
+           object_spec, uv_scale, vertex_normals, hand, report_dir, force, as_json, quiet):
     """Which algorithm, how stiff, will it be passive, can the device render it?
 
     A measured texture is band-limited to the shortest period the device renders at the
@@ -621,7 +628,7 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
     if raw and not hasattr(tex, "band_limited"):
         raise ParameterError(f"--raw is not allowed with the synthetic texture {texture_spec!r}: it applies to measured "
                              "textures read from a file")
-    base = _object_from_spec(object_spec, uv_scale)
+    base = _object_from_spec(object_spec, uv_scale, vertex_normals)
     dev = _build_device(ctx, device_spec, joint_damping, mass, damping, sampling_period, delay,
                         3 if base is not None else tex.dimension + 1)
     x_range = None

@@ -28,11 +28,12 @@ Hessian, grad pen = Ju^T s - n and hess pen = Ju^T H Ju + sum_k s_k hess u_k - h
 2 x 3 Jacobian of u); d nu / dp = -(I - nu nu^T) hess pen / |grad pen|.
 
 A triangle mesh (:class:`Mesh`, read by trimesh) is a base whose coordinates are the closest
-point's: flat facets, with the normal turning around edges and vertices.
+point's (flat facets, the normal turning around edges and vertices), or, given vertex normals,
+those of the prisms swept along them (continuous across edges).
 
 Not yet here (issue 32's later steps): D and E (the closest point on the textured object),
-F, the proxy algorithm, a mesh base with interpolated vertex normals, the reference algorithms
-of CHAI3D and HAPI, the C core's tick over objects (a bounding-volume hierarchy).
+F, the proxy algorithm, a C^1 mesh base, the reference algorithms of CHAI3D and HAPI, the C
+core's tick over objects (a bounding-volume hierarchy).
 """
 
 from __future__ import annotations
@@ -300,6 +301,15 @@ class Mesh(Base):
         times ``uv_scale``.
     uv_scale : float, optional
         Metres per unit of the file's texture coordinates (required with them).
+    normals : None, "vertex" or array_like of shape (n_vertices, 3), optional
+        None (default): the closest point's coordinates above. ``"vertex"`` (trimesh's
+        vertex normals, on the vertices merged across UV seams) or given unit normals: a
+        smooth base instead, each triangle swept along its vertices' normals into a prism
+        (p = sum_k b_k (v_k + e N_k), b the barycentric coordinates, e the offset; Phong's
+        interpolation of normals made a coordinate system, as in shell maps, Porumbescu et
+        al. 2005): u = sum_k b_k uv_k and e are then continuous across the edges (no pen / |e|
+        growth of q beside them), but their gradients jump across the prisms' faces, so the
+        forces jump there by amounts first order in the facet size.
 
     Raises
     ------
@@ -313,7 +323,7 @@ class Mesh(Base):
 
     name = "mesh"
 
-    def __init__(self, mesh, uv=None, uv_scale: float | None = None):
+    def __init__(self, mesh, uv=None, uv_scale: float | None = None, normals=None):
         import trimesh
 
         if not isinstance(mesh, trimesh.Trimesh):
@@ -380,6 +390,24 @@ class Mesh(Base):
         order = np.argsort(inverse, kind="stable")
         self._edge_faces = (order // 3).reshape(-1, 2)
         self._side_edge = inverse.reshape(-1, 3)
+        self._vn = None
+        if normals is not None:
+            if isinstance(normals, str) and normals == "vertex":
+                vn = np.asarray(merged.vertex_normals, dtype=float)[self._vmap]  # (F, 3, 3): merged across seams
+            else:
+                arr = np.asarray(normals, dtype=float)
+                if arr.shape != (len(mesh.vertices), 3) or not np.all(np.isfinite(arr)):
+                    raise fail("normals", f"shape {arr.shape}", f"'vertex' or finite unit normals, shape "
+                               f"({len(mesh.vertices)}, 3)")
+                vn = arr[faces]
+            vn = vn / np.linalg.norm(vn, axis=-1, keepdims=True)
+            if np.sum(np.einsum("fkj,fj->fk", vn, self._normals) > 0) < vn.shape[0] * 3 * 0.5:
+                vn = -vn  # (given inward: made outward like the triangles')
+            if np.any(np.einsum("fkj,fj->fk", vn, self._normals) <= 0.0):
+                bad = int(np.flatnonzero(np.any(np.einsum("fkj,fj->fk", vn, self._normals) <= 0.0, axis=1))[0])
+                raise fail("normals", f"triangle {bad}", "vertex normals within 90 degrees of each of their "
+                           "triangles' normals (a prism swept along them must not fold)")
+            self._vn = vn
         self.radius = math.inf
 
     def _pseudo_normals(self, merged):
@@ -410,6 +438,8 @@ class Mesh(Base):
     def _feature(self, flat):
         """Which smooth piece each point's coordinates are on: its closest triangle, and which of
         the triangle's corners carry weight (all three: inside it; two: an edge; one: a vertex)."""
+        if self._vn is not None:  # (the prism holding the point: the map is smooth inside one)
+            return self._solve_prism(flat)[0]
         _, dist, tid, bary = self._closest(flat)
         mask = (bary > 1e-9) @ np.array([1, 2, 4])
         return tid * 8 + np.where(dist == 0.0, 7, mask)
@@ -453,6 +483,8 @@ class Mesh(Base):
         return tuple(v.reshape(*shape, *v.shape[1:]) for v in out)
 
     def _local(self, flat):
+        if self._vn is not None:
+            return self._local_smooth(flat)[:6]
         foot, dist, tid, bary = self._closest(flat)
         tri = self._tri[tid]
         tol = 1e-9
@@ -494,9 +526,69 @@ class Mesh(Base):
             He[rest] = sign[:, None, None] * (perp - ww[:, :, None] * ww[:, None, :]) / dr[:, None, None]
         return u, Ju, np.zeros((len(flat), 2, 3, 3)), e, n_out, He
 
+    def _prism(self, tid, b, e):
+        """The prism map's pieces on triangles tid (N,) at barycentric b (N, 3) and offset e (N,):
+        A = dp / d(b1, b2, e) (N, 3, 3) and the derivatives of its columns (N, 3)."""
+        v, vn = self._tri[tid], self._vn[tid]
+        dn1, dn2 = vn[:, 1] - vn[:, 0], vn[:, 2] - vn[:, 0]
+        c1 = v[:, 1] - v[:, 0] + e[:, None] * dn1
+        c2 = v[:, 2] - v[:, 0] + e[:, None] * dn2
+        c3 = vn[:, 0] + b[:, 1, None] * dn1 + b[:, 2, None] * dn2
+        return np.stack([c1, c2, c3], axis=-1), dn1, dn2
+
+    def _solve_prism(self, flat):
+        """(triangle, b, e) with p = sum_k b_k (v_k + e N_k), b in the triangle: Newton on
+        (b1, b2, e) from the closest point's, walking to the neighbour across the edge whose
+        barycentric coordinate goes most negative (at most 32 walks)."""
+        _, dist, tid, bary = self._closest(flat)
+        e = np.einsum("ij,ij->i", flat - np.einsum("nk,nkj->nj", bary, self._tri[tid]), self._normals[tid])
+        b = bary.copy()
+        for _ in range(32):
+            for _ in range(8):
+                v, vn = self._tri[tid], self._vn[tid]
+                pos = np.einsum("nk,nkj->nj", b, v + e[:, None, None] * vn)
+                A, _, _ = self._prism(tid, b, e)
+                step = np.linalg.solve(A, (flat - pos)[..., None])[..., 0]
+                b[:, 1] += step[:, 0]
+                b[:, 2] += step[:, 1]
+                b[:, 0] = 1.0 - b[:, 1] - b[:, 2]
+                e = e + step[:, 2]
+            worst = np.argmin(b, axis=1)
+            out = b[np.arange(len(b)), worst] < -1e-12
+            if not out.any():
+                break
+            side = (worst[out] + 1) % 3  # the side opposite corner k joins corners k+1, k+2
+            pair = self._edge_faces[self._side_edge[tid[out], side]]
+            tid = tid.copy()
+            tid[out] = np.where(pair[:, 0] == tid[out], pair[:, 1], pair[:, 0])
+            # restart from the new triangle's centre at the same offset
+            b[out] = 1.0 / 3.0
+        return tid, b, e
+
+    def _local_smooth(self, flat):
+        tid, b, e = self._solve_prism(flat)
+        A, dn1, dn2 = self._prism(tid, b, e)
+        G = np.linalg.inv(A)  # rows: grad b1, grad b2, grad e
+        uvf = self.uv[self._faces[tid]]
+        duv = np.stack([uvf[:, 1] - uvf[:, 0], uvf[:, 2] - uvf[:, 0]], axis=-1)  # (N, 2, 2): du / d(b1, b2)
+        u = np.einsum("nk,nkj->nj", b, uvf)
+        Ju = duv @ G[:, :2, :]
+        # dA / dp_j = dA/de ge_j + dA/db1 gb1_j + dA/db2 gb2_j; d G / dp_j = -G (dA/dp_j) G
+        zero = np.zeros_like(dn1)
+        dA_de = np.stack([dn1, dn2, zero], axis=-1)
+        dA_db1 = np.stack([zero, zero, dn1], axis=-1)
+        dA_db2 = np.stack([zero, zero, dn2], axis=-1)
+        dA = (dA_de[:, None] * G[:, 2, :, None, None] + dA_db1[:, None] * G[:, 0, :, None, None]
+              + dA_db2[:, None] * G[:, 1, :, None, None])  # (N, j, 3, 3)
+        dG = -np.einsum("nab,njbc,ncd->njad", G, dA, G)  # (N, j, row, col)
+        H = np.swapaxes(dG, 1, 2)  # (N, row, j, col): Hessian of unknown row
+        Hu = np.einsum("nka,najc->nkjc", duv, H[:, :2])
+        return u, Ju, Hu, e, G[:, 2, :], H[:, 2], tid
+
     def point(self, u, e):
         """The probe at surface coordinates u and offset e: the point of the triangle whose UV
-        triangle holds u, moved e along that triangle's normal.
+        triangle holds u, moved e along that triangle's normal (with vertex normals: along the
+        normal interpolated there, sum_k b_k (v_k + e N_k)).
 
         Raises
         ------
@@ -526,8 +618,12 @@ class Mesh(Base):
             lam[ok] = np.linalg.solve(m[ok], (flat[ok] - a[ok])[..., None])[..., 0]
             inside = ok & (lam[:, 0] >= -1e-12) & (lam[:, 1] >= -1e-12) & (lam.sum(axis=1) <= 1 + 1e-12)
             t = self._tri[f[inside]]
-            out[inside] = (t[:, 0] + lam[inside, :1] * (t[:, 1] - t[:, 0]) + lam[inside, 1:] * (t[:, 2] - t[:, 0])
-                           + e.reshape(-1)[inside, None] * self._normals[f[inside]])
+            if self._vn is not None:
+                t = t + e.reshape(-1)[inside, None, None] * self._vn[f[inside]]
+                out[inside] = t[:, 0] + lam[inside, :1] * (t[:, 1] - t[:, 0]) + lam[inside, 1:] * (t[:, 2] - t[:, 0])
+            else:
+                out[inside] = (t[:, 0] + lam[inside, :1] * (t[:, 1] - t[:, 0]) + lam[inside, 1:] * (t[:, 2] - t[:, 0])
+                               + e.reshape(-1)[inside, None] * self._normals[f[inside]])
             found |= inside
         if not np.all(found):
             bad = flat[np.flatnonzero(~found)[0]]
