@@ -543,26 +543,28 @@ class Mesh(Base):
         _, dist, tid, bary = self._closest(flat)
         e = np.einsum("ij,ij->i", flat - np.einsum("nk,nkj->nj", bary, self._tri[tid]), self._normals[tid])
         b = bary.copy()
+        act = np.arange(len(flat))  # the points still solving (walked to another triangle)
         for _ in range(32):
+            ta, ba, ea, pa = tid[act], b[act], e[act], flat[act]
             for _ in range(8):
-                v, vn = self._tri[tid], self._vn[tid]
-                pos = np.einsum("nk,nkj->nj", b, v + e[:, None, None] * vn)
-                A, _, _ = self._prism(tid, b, e)
-                step = np.linalg.solve(A, (flat - pos)[..., None])[..., 0]
-                b[:, 1] += step[:, 0]
-                b[:, 2] += step[:, 1]
-                b[:, 0] = 1.0 - b[:, 1] - b[:, 2]
-                e = e + step[:, 2]
-            worst = np.argmin(b, axis=1)
-            out = b[np.arange(len(b)), worst] < -1e-12
+                pos = np.einsum("nk,nkj->nj", ba, self._tri[ta] + ea[:, None, None] * self._vn[ta])
+                A, _, _ = self._prism(ta, ba, ea)
+                step = np.linalg.solve(A, (pa - pos)[..., None])[..., 0]
+                ba[:, 1] += step[:, 0]
+                ba[:, 2] += step[:, 1]
+                ba[:, 0] = 1.0 - ba[:, 1] - ba[:, 2]
+                ea = ea + step[:, 2]
+            b[act], e[act] = ba, ea
+            worst = np.argmin(ba, axis=1)
+            out = ba[np.arange(len(ba)), worst] < -1e-12
             if not out.any():
                 break
             side = (worst[out] + 1) % 3  # the side opposite corner k joins corners k+1, k+2
-            pair = self._edge_faces[self._side_edge[tid[out], side]]
-            tid = tid.copy()
-            tid[out] = np.where(pair[:, 0] == tid[out], pair[:, 1], pair[:, 0])
-            # restart from the new triangle's centre at the same offset
-            b[out] = 1.0 / 3.0
+            moved = act[out]
+            pair = self._edge_faces[self._side_edge[tid[moved], side]]
+            tid[moved] = np.where(pair[:, 0] == tid[moved], pair[:, 1], pair[:, 0])
+            b[moved] = 1.0 / 3.0  # from the new triangle's centre, at the same offset
+            act = moved
         return tid, b, e
 
     def _local_smooth(self, flat):
@@ -609,6 +611,8 @@ class Mesh(Base):
         out = np.full((len(flat), 3), np.nan)
         found = np.zeros(len(flat), dtype=bool)
         for c in range(k):
+            if found.all():
+                break
             f = cand[:, c]
             a, b, cc = uvf[f, 0], uvf[f, 1], uvf[f, 2]
             m = np.stack([b - a, cc - a], axis=-1)  # (N, 2, 2)
