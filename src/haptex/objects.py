@@ -181,6 +181,20 @@ class _Round(Base):
         SEAM_TOLERANCE of a period)."""
         _closed_period_check(self, texture, 2 * math.pi * self.radius)
 
+    def _around(self, p, where):
+        """x, y, z about the axis through (0, 0, -R) parallel to y; rho = hypot(x, z); the
+        angle phi = atan2(x, z) round that axis with its gradient and Hessian. Raises
+        ParameterError on the axis (``where`` names it)."""
+        x, y, z = p[..., 0], p[..., 1], p[..., 2] + self.radius
+        rho = np.hypot(x, z)
+        if np.any(rho == 0.0):
+            raise ParameterError(f"p is not allowed on {where}")
+        shape = p.shape[:-1]
+        ex, ez = np.zeros((*shape, 3)), np.zeros((*shape, 3))
+        ex[..., 0] = ez[..., 2] = 1.0
+        zero = np.zeros((*shape, 3, 3))
+        return (x, y, z, rho, *_atan2_derivs(x, ex, zero, z, ez, zero))
+
 
 class Cylinder(_Round):
     """A circular cylinder of radius R (m) whose axis is parallel to y through (0, 0, -R):
@@ -194,15 +208,8 @@ class Cylinder(_Round):
 
     def local(self, p):
         R = self.radius
-        x, y, z = p[..., 0], p[..., 1], p[..., 2] + R
         shape = p.shape[:-1]
-        rho = np.hypot(x, z)
-        if np.any(rho == 0.0):
-            raise ParameterError("p is not allowed on the cylinder's axis (its normal is undefined there)")
-        ex, ez = np.zeros((*shape, 3)), np.zeros((*shape, 3))
-        ex[..., 0] = ez[..., 2] = 1.0
-        zero = np.zeros((*shape, 3, 3))
-        phi, gphi, hphi = _atan2_derivs(x, ex, zero, z, ez, zero)
+        x, y, z, rho, phi, gphi, hphi = self._around(p, "the cylinder's axis (its normal is undefined there)")
         n = np.zeros((*shape, 3))
         n[..., 0], n[..., 2] = x / rho, z / rho
         pxz = np.zeros((*shape, 3, 3))
@@ -238,17 +245,13 @@ class Sphere(_Round):
 
     def local(self, p):
         R = self.radius
-        x, y, z = p[..., 0], p[..., 1], p[..., 2] + R
         shape = p.shape[:-1]
-        rho = np.hypot(x, z)
-        if np.any(rho == 0.0):
-            raise ParameterError("p is not allowed on the sphere's axis through its poles (y axis): the "
-                                 "equirectangular coordinates are singular there")
+        x, y, z, rho, phi, gphi, hphi = self._around(p, "the sphere's axis through its poles (y axis): the "
+                                                        "equirectangular coordinates are singular there")
         r = np.sqrt(rho * rho + y * y)
         eye = np.broadcast_to(np.eye(3), (*shape, 3, 3))
-        ex, ey, ez = (np.broadcast_to(np.eye(3)[k], (*shape, 3)) for k in range(3))
+        ey = np.broadcast_to(np.eye(3)[1], (*shape, 3))
         zero = np.zeros((*shape, 3, 3))
-        phi, gphi, hphi = _atan2_derivs(x, ex, zero, z, ez, zero)
         m = np.zeros((*shape, 3))  # grad rho
         m[..., 0], m[..., 2] = x / rho, z / rho
         pxz = eye.copy()
