@@ -390,3 +390,7 @@ def test_bad_vertex_normals_are_refused_by_name():
     flipped[5] = -flipped[5]  # one vertex's normal pointing inward: its prisms would fold
     with pytest.raises(ParameterError, match=r"^normals = 'triangle \d+' is not allowed: .*must not fold"):
         Mesh(m, uv=faceted.uv, normals=flipped)
+    with pytest.raises(ParameterError, match=r"^normals = 'triangle \d+' is not allowed: must be outward"):
+        Mesh(m, uv=faceted.uv, normals=-(np.asarray(m.vertices) - [0.0, 0.0, -R]) / R)  # all inward
+    with pytest.raises(ParameterError, match=r"^normals = 'vertx' is not allowed: must be 'vertex' or an array"):
+        Mesh(m, uv=faceted.uv, normals="vertx")

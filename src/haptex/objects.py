@@ -395,27 +395,31 @@ class Mesh(Base):
         self._side_edge = inverse.reshape(-1, 3)
         self._vn = None
         if normals is not None:
-            if isinstance(normals, str) and normals == "vertex":
+            if isinstance(normals, str):
+                if normals != "vertex":
+                    raise fail("normals", normals, "'vertex' or an array of vertex normals")
                 vn = np.asarray(merged.vertex_normals, dtype=float)[self._vmap]  # (F, 3, 3): merged across seams
+                if np.sum(np.einsum("fkj,fj->fk", vn, self._normals) > 0) < vn.shape[0] * 1.5:
+                    vn = -vn  # (trimesh's follow the winding: oriented outward like the triangles')
             else:
                 arr = np.asarray(normals, dtype=float)
-                if arr.shape != (len(mesh.vertices), 3) or not np.all(np.isfinite(arr)):
-                    raise fail("normals", f"shape {arr.shape}", f"'vertex' or finite unit normals, shape "
+                if arr.shape != (len(mesh.vertices), 3) or not np.all(np.isfinite(arr)) or np.any(
+                        np.linalg.norm(arr, axis=1) == 0.0):
+                    raise fail("normals", f"shape {arr.shape}", f"'vertex' or finite non-zero normals, shape "
                                f"({len(mesh.vertices)}, 3)")
                 vn = arr[faces]
             vn = vn / np.linalg.norm(vn, axis=-1, keepdims=True)
-            if np.sum(np.einsum("fkj,fj->fk", vn, self._normals) > 0) < vn.shape[0] * 3 * 0.5:
-                vn = -vn  # (given inward: made outward like the triangles')
             if np.any(np.einsum("fkj,fj->fk", vn, self._normals) <= 0.0):
                 bad = int(np.flatnonzero(np.any(np.einsum("fkj,fj->fk", vn, self._normals) <= 0.0, axis=1))[0])
-                raise fail("normals", f"triangle {bad}", "vertex normals within 90 degrees of each of their "
-                           "triangles' normals (a prism swept along them must not fold)")
+                raise fail("normals", f"triangle {bad}", "outward vertex normals within 90 degrees of each of "
+                           "their triangles' normals (a prism swept along them must not fold)")
             self._vn = vn
         self.radius = math.inf
 
     def _pseudo_normals(self, merged):
-        """Angle-weighted normals of the vertices and summed normals of the edges (for the
-        sign of e where the closest point is on them), keyed by merged vertex ids."""
+        """Angle-weighted normals of the merged vertices (for the sign of e where the closest
+        point is a vertex; an edge's is the sum of its two triangles' normals); sets _vmap, the
+        triangles' merged vertex ids."""
         tri = self._tri
         ang = np.empty((len(tri), 3))
         for k in range(3):
