@@ -739,10 +739,8 @@ class ObjectAlgorithm(Algorithm):
         pen = h - e
         gpen = np.einsum("...ki,...k->...i", Ju, s) - n
         inside = (pen > 0) if self.penetration_kind == "vertical" else (e < 0)
-        f = np.zeros(p.shape)
-        J = np.zeros((*p.shape, 3)) if jac else None
-        hpen = None
-        if jac or self.letter in ("B", "G"):
+        J = hpen = None
+        if jac:  # (the Hessian of pen: the Jacobians only)
             H = tex.hessian(u)
             hpen = (np.einsum("...ki,...kl,...lj->...ij", Ju, H, Ju) + np.einsum("...k,...kij->...ij", s, Hu) - He)
         L = self.letter
