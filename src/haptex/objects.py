@@ -711,10 +711,7 @@ class ObjectAlgorithm(Algorithm):
 
     def penetration(self, p) -> np.ndarray:
         """h(u) - e (A, B, C) or -e (G) where positive, else 0 (m), shape (...)."""
-        arr = self._positions(p)
-        u, _, _, e, _, _ = self.base.local(arr)
-        pen = -e if self.penetration_kind == "nominal" else self.texture.height_at(u) - e
-        return np.maximum(pen, 0.0)
+        return np.maximum(-self.signed_depth(p), 0.0)
 
     def kinks(self, a, b, u, pts) -> list:
         """Where the segment a -> b passes between smooth pieces of the base (a mesh's facets,

@@ -518,8 +518,6 @@ def _grid_axis(name: str, values) -> tuple[np.ndarray, float]:
     return arr, float(d)
 
 
-_NU = [(0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2)]  # SampledSurface._derivatives' order
-# d^p/ds^p s^a = _FALL[p][a] s^(a - p): the multipliers of a bicubic patch's coefficients
 PYRAMID_BASE = 1 << 18
 """A map's bounds pyramid starts from blocks of one patch up to this many patches, else from
 blocks of 2^s patches a side that bring it there (about 14 MB at most)."""
@@ -534,6 +532,8 @@ def _block_reduce(b: np.ndarray, step: int) -> np.ndarray:
     return np.concatenate([lo, hi], axis=-1)
 
 
+_NU = [(0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2)]  # SampledSurface._derivatives' order
+# d^p/ds^p s^a = _FALL[p][a] s^(a - p): the multipliers of a bicubic patch's coefficients
 _FALL = [np.ones(4), np.arange(4.0), np.arange(4.0) * np.arange(-1.0, 3.0),
          np.arange(4.0) * np.arange(-1.0, 3.0) * np.arange(-2.0, 2.0)]
 
