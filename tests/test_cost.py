@@ -81,3 +81,20 @@ def test_design_reports_its_plan_with_units(capsys):
     assert est["searches"] == sum(continuity_points(alg, 1e-3)) + characteristic_points(alg, 1e-3)
     assert est["algorithms"]["E"]["seconds"] == 0.0
     assert set(est["algorithms"]) == set("WABCDEFG")
+
+
+@pytest.mark.parametrize("letter, texture", [("A", SINE), ("D", SINE), ("D", EGG), ("F", EGG)])
+def test_continuity_reads_the_coarser_grids_points_bit_for_bit(monkeypatch, letter, texture):
+    # each finer grid evaluates only its new points and reads the others from the grid before
+    # (a halved step from the same corner lands on them exactly): the differences it reports
+    # equal those of every grid evaluated in full (the former code), to the last bit
+    import sys
+
+    mod = sys.modules["haptex.analysis.continuity"]
+    alg = hx.algorithm(letter, texture, 2000.0)
+    fast = continuity(alg, 1e-3)
+    monkeypatch.setattr(mod, "_refined_forces", lambda a, axes, coarse: mod._static_force(
+        a, np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)))
+    full = continuity(alg, 1e-3)
+    assert fast.max_differences == full.max_differences and fast.where == full.where
+    assert fast.continuous == full.continuous

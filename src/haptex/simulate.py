@@ -215,7 +215,8 @@ def _core_general(code, kind, nominal, kinematic, pc_on, pc_ref, n_steps, T, rec
                   fmax, fc, pcb, P0, V0, rec, summary, tail, threads: int = 1) -> None:
     """Runs of the general loop in the C core (:func:`haptex.core._ext.run_general`): every
     per-run array has a leading run axis (``sp_t`` is shared); the runs are cut into
-    ``threads`` contiguous slices run on threads, the GIL released."""
+    contiguous slices run on ``threads`` threads (:func:`haptex.core.in_slices`), the GIL
+    released."""
     f64 = lambda a: np.ascontiguousarray(a, dtype=np.float64)  # noqa: E731
     per_run = [f64(a) for a in (prm, coeffs, aux, Phi, Wd, Wo, Bs, Binv, fast, M, modal, K, C, f0, sp_p, vend, rest)]
     per_run.append(np.ascontiguousarray(delay, dtype=np.int64))

@@ -97,11 +97,13 @@ def spectral_norm(j) -> np.ndarray:
     -------
     ndarray, shape (...)
         sigma_max(J), in the units of J: for 2x2 in closed form,
-        sqrt((|J|_F^2 + sqrt(|J|_F^4 - 4 det(J)^2)) / 2); for 3x3 by LAPACK's SVD.
+        sqrt((|J|_F^2 + sqrt(|J|_F^4 - 4 det(J)^2)) / 2); for 3x3 as the square root of
+        the largest eigenvalue of J^T J by LAPACK's symmetric solver (half the time of its
+        SVD; relative error a few ulp, since only the largest is wanted).
     """
     j = np.asarray(j, dtype=np.float64)
     if j.shape[-2:] != (2, 2):
-        return np.linalg.svd(j, compute_uv=False)[..., 0]
+        return np.sqrt(np.maximum(np.linalg.eigvalsh(np.swapaxes(j, -1, -2) @ j)[..., -1], 0.0))
     fro2 = np.sum(j * j, axis=(-2, -1))
     det = j[..., 0, 0] * j[..., 1, 1] - j[..., 0, 1] * j[..., 1, 0]
     disc = np.sqrt(np.maximum(fro2 * fro2 - 4 * det * det, 0.0))

@@ -78,6 +78,7 @@ def continuity(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=None
     box, steps0, levels = _plan(algorithm, max_penetration, x_range, levels, base)
     spacings, diffs = [], []
     where = (math.nan,) * len(box)
+    F = None
     for lev in range(levels):
         steps = [s / 2**lev for s in steps0]
         counts = [int(math.ceil((b - a) / s)) for (a, b), s in zip(box, steps)]
@@ -85,7 +86,7 @@ def continuity(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=None
         check_budget("levels", levels, 12 * 8 * math.prod(c + 1 for c in counts),
                      f"the {' x '.join(str(c + 1) for c in counts)} grid of level {lev}")
         axes = [a + s * np.arange(c + 1) for (a, _), s, c in zip(box, steps, counts)]
-        F = _static_force(algorithm, np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1))
+        F = _refined_forces(algorithm, axes, F)
         jumps = [np.linalg.norm(np.diff(F, axis=k), axis=-1) for k in range(len(box))]
         k = int(np.argmax([float(d.max()) for d in jumps]))
         spacings.append(steps[0])
@@ -98,6 +99,23 @@ def continuity(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=None
     else:
         order = float(np.polyfit(np.log(spacings), np.log(np.maximum(d, 1e-300)), 1)[0])
     return Continuity(order > 0.5, tuple(spacings), tuple(diffs), order, where)
+
+
+def _refined_forces(algorithm: Algorithm, axes, coarse) -> np.ndarray:
+    """The static force on the grid of ``axes``, shape (n_0, ..., n_k, dim) (N). Its points of
+    even index on every axis are the points of the grid before, halved steps from the same
+    corner, bit for bit (a step halved is exact): their forces are read from ``coarse`` (the
+    force on that grid, or None) and only the new points are evaluated, 7/8 of a 3-D grid."""
+    P = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
+    if coarse is None:
+        return _static_force(algorithm, P)
+    even = tuple(slice(0, None, 2) for _ in axes)
+    fresh = np.ones(P.shape[:-1], dtype=bool)
+    fresh[even] = False
+    F = np.empty(P.shape[:-1] + coarse.shape[-1:])
+    F[even] = coarse[tuple(slice(0, n) for n in fresh[even].shape)]
+    F[fresh] = _static_force(algorithm, P[fresh])
+    return F
 
 
 def _plan(algorithm: Algorithm, max_penetration: float, x_range, levels, base):
@@ -124,8 +142,26 @@ def _plan(algorithm: Algorithm, max_penetration: float, x_range, levels, base):
 
 def continuity_points(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=None, levels: int | None = None,
                       base: int | None = None) -> list[int]:
-    """The number of field evaluations of each grid :func:`continuity` evaluates, coarse to
-    fine (the same plan, not run): what its cost follows.
+    """The number of field evaluations :func:`continuity` makes on each grid, coarse to fine
+    (the same plan, not run): what its cost follows. A finer grid evaluates only its points
+    that the grid before does not have; the largest grid holds ``grid_points(...)[-1]``.
+
+    Raises
+    ------
+    ParameterError
+        As :func:`continuity`.
+    """
+    sizes = grid_points(algorithm, max_penetration, x_range, levels, base)
+    box, steps0, levels = _plan(algorithm, max_penetration, x_range, levels, base)
+    evens = [math.prod(int(math.ceil((b - a) / (s / 2**lev))) // 2 + 1 for (a, b), s in zip(box, steps0))
+             for lev in range(1, levels)]
+    return [sizes[0]] + [n - e for n, e in zip(sizes[1:], evens)]
+
+
+def grid_points(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=None, levels: int | None = None,
+                base: int | None = None) -> list[int]:
+    """The number of points of each grid of :func:`continuity`, coarse to fine (the same plan,
+    not run): what its memory follows.
 
     Raises
     ------

@@ -19,7 +19,7 @@ import numpy as np
 from ..algorithms import Algorithm
 from ._region import _region_box, _static_force, check_analysis_scale
 from .characteristic import characteristic_points
-from .continuity import continuity_points
+from .continuity import continuity_points, grid_points
 
 CALIBRATION_PROBES = {"direct": 256, "distance": 2048}
 """Random probes timed to measure one evaluation's cost (chosen: a few ms for a direct
@@ -136,5 +136,6 @@ def analysis_cost(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=N
         each = each_j = float(seconds_each)
     n = int(sum(cont) + q)
     seconds = sum(cont) * each + q * each_j
-    return Cost(algorithm.letter, n, seconds / n, seconds, int(max(cont) * BYTES_PER_POINT),
+    return Cost(algorithm.letter, n, seconds / n, seconds,
+                int(grid_points(algorithm, max_penetration, x_range)[-1] * BYTES_PER_POINT),
                 algorithm.penetration_kind == "distance")
