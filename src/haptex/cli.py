@@ -813,7 +813,9 @@ def sweep(spec, out, scheduler, workers, quiet):
 
 @cli.command("run")
 @click.option("--device", "device_spec", required=True,
-              help="'simulated:PRESET' (a preset of 'haptex devices', e.g. 'simulated:falcon').")
+              help="'simulated:PRESET' (a preset of 'haptex devices', e.g. 'simulated:falcon'); "
+                   "'forcedimension[:PRESET]' (Force Dimension's SDK, pip install 'haptex[forcedimension]'); "
+                   "'openhaptics[:PRESET]' (OpenHaptics, pip install 'haptex[openhaptics]').")
 @click.option("--texture", "texture_spec", default="sine:0.2mm,2mm", show_default=True,
               help="A texture spec as for design (a profile is extruded across y on a 3-DOF device).")
 @click.option("--algorithm", "letter", default="A", show_default=True, help="W or A-G.")
@@ -825,7 +827,8 @@ def sweep(spec, out, scheduler, workers, quiet):
 @click.option("--hand", default="light-touch", show_default=True, help="simulated: the hand holding the handle.")
 @click.option("--speed", type=Quantity("m/s"), default=0.01, show_default="10 mm/s",
               help="simulated: the hand's speed along x.")
-@click.option("--fast", is_flag=True, help="simulated: run as fast as the loop goes, not at the device's rate.")
+@click.option("--fast", is_flag=True, help="simulated, forcedimension: run as fast as the loop goes, not at the "
+              "device's rate.")
 @click.option("--record", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Write the trace (time, position, force, engaged) to FILE.npz.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
@@ -845,7 +848,16 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
         raise ParameterError(f"record = {str(record)!r} is not allowed: must end in .npz")
     if record is not None and not (record.parent if str(record.parent) else Path(".")).is_dir():
         raise ParameterError(f"record = {str(record)!r} is not allowed: its directory does not exist")
-    backend = open_backend(device_spec, hand=hand, speed=speed, realtime=not fast)
+    kind = str(device_spec).partition(":")[0]
+    given = {n for n in ("hand", "speed", "fast")
+             if click.get_current_context().get_parameter_source(n) == click.core.ParameterSource.COMMANDLINE}
+    for name in sorted(given - {"fast"} if kind == "forcedimension" else
+                       given if kind == "openhaptics" else ()):  # (another kind's own error comes first)
+        raise ParameterError(f"--{name} is not allowed with --device {device_spec}: it applies to "
+                             f"{'simulated devices' if name != 'fast' else 'simulated and Force Dimension devices'} only")
+    options = ({"hand": hand, "speed": speed, "realtime": not fast} if kind == "simulated"
+               else {"realtime": not fast} if kind == "forcedimension" else {})
+    backend = open_backend(device_spec, **options)
     tex = None
     letter = letter.upper()
     if letter != "W":

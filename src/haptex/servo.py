@@ -17,8 +17,12 @@ tick), and command it through these rules, in order:
 5. **Zero force on every exit**: the end of the run, an exception, Ctrl-C: the last command
    is zero, then the backend is closed.
 
-The loop runs in Python (about 30-50 us a tick on this machine with the simulated backend);
-the C tick inside it does not hold the GIL.
+The rules are one function of a sample, run once a tick by one of two drivers: this
+thread's loop (``sample``, the rules, ``command``) for polling and lock-step backends, or the
+backend's own servo thread for a backend with ``drive`` (a vendor callback, OpenHaptics'
+scheduler), which calls it inside its callback. The rules run in Python (about 30-50 us a
+tick on this machine with the simulated backend); the C tick inside them does not hold the
+GIL.
 """
 
 from __future__ import annotations
@@ -30,6 +34,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ._validation import fail, positive, whole
+from .backends import Sample
 
 ENGAGE_FORCE = 0.5
 """N: the force below which the loop may engage (chosen: a light touch)."""
@@ -138,61 +143,69 @@ class ServoLoop:
         zero = np.zeros(d)
         st = ServoStats()
         rec_t, rec_p, rec_f, rec_e = [], [], [], []
-        calm, ramp_from = 0, None
-        last_wall = None
-        work_max = work_sum = 0.0
+        state = {"k": 0, "calm": 0, "ramp_from": None, "last_wall": None, "work_max": 0.0, "work_sum": 0.0}
         periods = []
-        self.backend.open()
-        sent = zero
-        try:
-            for k in range(n_ticks):
-                s = self.backend.sample()
-                t0 = time.perf_counter()
-                if last_wall is not None:
-                    periods.append(t0 - last_wall)
-                late = last_wall is not None and self.backend_realtime() and t0 - last_wall > self.deadline * T
-                last_wall = t0
-                p = np.asarray(s.position, dtype=np.float64)
-                f = zero
-                if p.shape != (d,) or not np.all(np.isfinite(p)) or np.linalg.norm(p) > self.backend.workspace:
+        realtime = self.backend_realtime()
+
+        def tick(s: Sample) -> np.ndarray:
+            """Rules 1-4 on one sample: the force to command (the backend sends it)."""
+            k = state["k"]
+            t0 = time.perf_counter()
+            last = state["last_wall"]
+            if last is not None:
+                periods.append(t0 - last)
+            late = last is not None and realtime and t0 - last > self.deadline * T
+            state["last_wall"] = t0
+            p = np.asarray(s.position, dtype=np.float64)
+            f = zero
+            if p.shape != (d,) or not np.all(np.isfinite(p)) or np.linalg.norm(p) > self.backend.workspace:
+                st.faults += 1
+            else:
+                try:
+                    f = np.asarray(self.renderer.step(p), dtype=np.float64)
+                except Exception:  # noqa: BLE001 -- any failure of the tick is a fault: zero force
                     st.faults += 1
-                else:
-                    try:
-                        f = np.asarray(self.renderer.step(p), dtype=np.float64)
-                    except Exception:  # noqa: BLE001 -- any failure of the tick is a fault: zero force
-                        st.faults += 1
-                        f = zero
-                    if not np.all(np.isfinite(f)):
-                        st.faults += 1
-                        f = zero
-                mag = float(np.linalg.norm(f))
-                if st.engaged_at is None:  # rule 3: wait for a calm handle
-                    calm = calm + 1 if mag < self.engage_force else 0
-                    if calm >= self.engage_ticks:
-                        st.engaged_at, ramp_from = k, k
                     f = zero
-                else:
-                    f = f * min(1.0, (k - ramp_from + 1) / self.ramp_ticks)
-                mag = float(np.linalg.norm(f))
-                if mag > self.max_force:  # rule 4, whatever the renderer did
-                    f = f * (self.max_force / mag)
-                    st.clamps += 1
-                if late:  # rule 2: the watchdog
-                    st.missed += 1
+                if f.shape != (d,) or not np.all(np.isfinite(f)):
+                    st.faults += 1
                     f = zero
-                sent = f
-                self.backend.command(sent)
-                st.max_force_sent = max(st.max_force_sent, float(np.linalg.norm(sent)))
-                w = time.perf_counter() - t0
-                work_max, work_sum = max(work_max, w), work_sum + w
-                st.ticks += 1
-                if record:
-                    rec_t.append(s.time)
-                    rec_p.append(p.copy() if p.shape == (d,) else np.full(d, np.nan))
-                    rec_f.append(sent)
-                    rec_e.append(st.engaged_at is not None)
-                if on_tick is not None:
-                    on_tick(k, st)
+            mag = float(np.linalg.norm(f))
+            if st.engaged_at is None:  # rule 3: wait for a calm handle
+                state["calm"] = state["calm"] + 1 if mag < self.engage_force else 0
+                if state["calm"] >= self.engage_ticks:
+                    st.engaged_at = state["ramp_from"] = k
+                f = zero
+            else:
+                f = f * min(1.0, (k - state["ramp_from"] + 1) / self.ramp_ticks)
+            mag = float(np.linalg.norm(f))
+            if mag > self.max_force:  # rule 4, whatever the renderer did
+                f = f * (self.max_force / mag)
+                st.clamps += 1
+            if late:  # rule 2: the watchdog
+                st.missed += 1
+                f = zero
+            st.max_force_sent = max(st.max_force_sent, float(np.linalg.norm(f)))
+            w = time.perf_counter() - t0
+            state["work_max"], state["work_sum"] = max(state["work_max"], w), state["work_sum"] + w
+            st.ticks += 1
+            state["k"] = k + 1
+            if record:
+                rec_t.append(s.time)
+                rec_p.append(p.copy() if p.shape == (d,) else np.full(d, np.nan))
+                rec_f.append(f)
+                rec_e.append(st.engaged_at is not None)
+            if on_tick is not None:
+                on_tick(k, st)
+            return f
+
+        self.backend.open()
+        try:
+            drive = getattr(self.backend, "drive", None)
+            if drive is not None:  # a vendor callback in the servo thread runs each tick
+                drive(tick, n_ticks)
+            else:  # polling and lock-step: this thread runs each tick
+                for _ in range(n_ticks):
+                    self.backend.command(tick(self.backend.sample()))
         except KeyboardInterrupt:
             st.interrupted = True
         finally:  # rule 5: zero force on every exit path
@@ -201,7 +214,7 @@ class ServoLoop:
             finally:
                 self.backend.close()
         st.clamps += self.renderer.clamps
-        st.tick_seconds = [work_max, work_sum / max(st.ticks, 1)]
+        st.tick_seconds = [state["work_max"], state["work_sum"] / max(st.ticks, 1)]
         if periods:
             st.period_seconds = (float(np.mean(periods)), float(np.std(periods)))
         trace = {"time": np.asarray(rec_t), "position": np.asarray(rec_p).reshape(-1, d),

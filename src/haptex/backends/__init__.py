@@ -10,10 +10,17 @@ and a vendor callback in the servo thread (OpenHaptics' scheduler: the callback 
 ``sample``/``command`` pair). The safety rules live above the backend, in
 :class:`haptex.servo.ServoLoop`.
 
-Backends in this version: ``simulated:PRESET`` (:class:`~haptex.backends.simulated.SimulatedBackend`,
-any preset of :mod:`haptex.catalogue` run by the exact sampled-data model with a hand).
-The vendors' backends (OpenHaptics, Force Dimension, Haply) are not written yet: naming one
-is refused in one line that says so.
+Backends in this version:
+
+- ``simulated:PRESET`` (:class:`~haptex.backends.simulated.SimulatedBackend`): any preset of
+  :mod:`haptex.catalogue` run by the exact sampled-data model with a hand;
+- ``forcedimension[:PRESET]`` (:class:`~haptex.backends.forcedimension.ForceDimensionBackend`):
+  Force Dimension's SDK through its binding ``forcedimension-core``, polled;
+- ``openhaptics[:PRESET]`` (:class:`~haptex.backends.openhaptics.OpenHapticsBackend`): 3D
+  Systems' HD API through ``pyOpenHaptics``, driven from HD's scheduler callback.
+
+Haply's (the Inverse Service and the serial API) is not written yet: naming it is refused in
+one line that says so.
 """
 
 from __future__ import annotations
@@ -24,6 +31,21 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 
 from .._validation import ParameterError
+
+
+class DeviceError(ParameterError):
+    """A device, its SDK or its service cannot be used: one line naming what is missing and
+    how to get it (the CLI prints it and exits with status 2, as for a bad parameter)."""
+
+
+def wait_until(due: float, clock, sleep, spin: float) -> None:
+    """Return at ``clock() >= due`` (s): sleep until ``spin`` seconds before, then spin on the
+    clock (a sleep alone overshoots by ~0.1 ms on this machine)."""
+    wait = due - clock()
+    if wait > spin:
+        sleep(wait - spin)
+    while clock() < due:
+        pass
 
 
 @dataclass(frozen=True)
@@ -83,9 +105,14 @@ class DeviceBackend(Protocol):
     def command(self, force) -> None:
         """Send a force (N), shape (d,): it acts until the next command."""
 
+    # A backend whose SDK calls back in its own servo thread also has
+    # ``drive(tick, n_ticks)``: it runs ``n_ticks`` ticks, each calling ``tick(sample)`` inside
+    # the callback and sending the force it returns, then returns with zero force sent
+    # (KeyboardInterrupt included). :class:`haptex.servo.ServoLoop` uses it when present.
+
 
 VENDOR_BACKENDS = {"openhaptics": "openhaptics", "forcedimension": "forcedimension", "haply": "haply"}
-"""Vendors' backends and the pip extra each will need (not written yet)."""
+"""Vendors' backends and the pip extra each needs (``pip install 'haptex[EXTRA]'``)."""
 
 
 def open_backend(spec: str, **options) -> DeviceBackend:
@@ -95,23 +122,46 @@ def open_backend(spec: str, **options) -> DeviceBackend:
     ----------
     spec : str
         ``simulated:PRESET`` (a preset of :func:`haptex.catalogue.presets`, e.g.
-        ``simulated:falcon``).
+        ``simulated:falcon``); ``forcedimension[:PRESET]`` and ``openhaptics[:PRESET]`` (the
+        first device the vendor's SDK finds, modelled by the preset its type or model names,
+        or by PRESET).
     **options
-        Passed to the backend (:class:`~haptex.backends.simulated.SimulatedBackend`'s).
+        Passed to the backend: :class:`~haptex.backends.simulated.SimulatedBackend`'s
+        parameters; ``realtime`` for Force Dimension; ``device_name`` for OpenHaptics.
 
     Raises
     ------
     ParameterError
-        For an unknown kind or preset, or a vendor's backend (not in this version).
+        For an unknown kind or preset, or an option the backend does not take.
+    DeviceError
+        If a vendor's package or SDK is missing or no device answers (one line saying
+        what to install or check).
     """
     kind, _, address = str(spec).partition(":")
     if kind == "simulated":
         from .simulated import SimulatedBackend
 
         return SimulatedBackend(address or "point-mass", **options)
+    if kind == "forcedimension":
+        from .forcedimension import ForceDimensionBackend
+
+        _only(spec, options, {"realtime"})
+        return ForceDimensionBackend(address, **options)
+    if kind == "openhaptics":
+        from .openhaptics import OpenHapticsBackend
+
+        _only(spec, options, {"device_name"})
+        return OpenHapticsBackend(address, **options)
     if kind in VENDOR_BACKENDS:
         raise ParameterError(f"device = {spec!r} is not allowed in this version: the {kind} backend is not written "
-                             f"yet (issue 34; it will need 'pip install haptex[{VENDOR_BACKENDS[kind]}]'); use "
-                             "'simulated:PRESET', e.g. 'simulated:falcon'")
+                             "yet (issue 34); use 'simulated:PRESET', 'forcedimension' or 'openhaptics'")
     raise ParameterError(f"device = {spec!r} is not allowed: must be 'simulated:PRESET' (a preset of 'haptex "
-                         "devices', e.g. 'simulated:falcon')")
+                         "devices', e.g. 'simulated:falcon'), 'forcedimension[:PRESET]' or 'openhaptics[:PRESET]'")
+
+
+def _only(spec: str, options: dict, allowed: set) -> None:
+    """Refuse options a backend does not take, by name."""
+    extra = sorted(set(options) - allowed)
+    if extra:
+        raise ParameterError(f"{extra[0]} = {options[extra[0]]!r} is not allowed with device = {spec!r}: it "
+                             f"takes {', '.join(sorted(allowed)) or 'no options'}")

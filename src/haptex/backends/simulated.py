@@ -9,7 +9,7 @@ import numpy as np
 from scipy.linalg import expm
 
 from .._validation import fail, finite, nonnegative
-from . import Sample
+from . import Sample, wait_until
 
 SPIN = 3e-4
 """Seconds before a tick the real-time backend stops sleeping and spins on the clock (chosen:
@@ -113,13 +113,8 @@ class SimulatedBackend:
         if not self._open:
             raise fail("device", self.name, "opened before it is sampled")
         t = self._k * self.period
-        if self.realtime:  # sleep to just before the tick, then spin: sleep alone overshoots by ~0.1 ms
-            due = self._t0 + t
-            wait = due - self._clock()
-            if wait > SPIN:
-                self._sleep(wait - SPIN)
-            while self._clock() < due:
-                pass
+        if self.realtime:
+            wait_until(self._t0 + t, self._clock, self._sleep, SPIN)
         n = self.dimension
         p = self._x[:n].copy()
         d = self.device.position_resolution

@@ -1,0 +1,160 @@
+"""Force Dimension devices (omega, delta, sigma, lambda; the Novint Falcon where the SDK drives it)
+through the vendor's Python binding, ``forcedimension-core`` (``pip install haptex[forcedimension]``),
+which loads the Force Dimension SDK's ``libdrd`` (found through ``FDSDK``).
+
+The SDK's concurrency model is user polling: :meth:`ForceDimensionBackend.sample` reads the
+handle (``dhdGetPosition``, ``dhdGetLinearVelocity``, ``dhdGetButtonMask``) and
+:meth:`ForceDimensionBackend.command` writes the force (``dhdSetForce``); this backend paces
+the ticks itself on the clock, as :class:`~haptex.backends.simulated.SimulatedBackend` does.
+
+Frames and units: DHD's are SI (m, m/s, N) with x towards the user, y to the right and z up
+(the SDK's user manual), right-handed; haptex's frame is the same (z the wall's outward
+normal, up), so positions and forces pass unchanged.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from . import DeviceError, Sample, wait_until
+from .simulated import SPIN
+
+DEVICE_TYPES = {33: "omega-3", 34: "omega-3", 35: "omega-3", 36: "omega-3", 37: "omega-3", 63: "delta-3",
+                104: "sigma-7", 105: "sigma-7", 206: "sigma-7", 60: "falcon"}
+"""DHD system types (``forcedimension_core.constants.DeviceType``) and the preset of
+:mod:`haptex.catalogue` each is modelled by: the omega.6 and omega.7 by the omega.3 (the same
+translational base), the sigma.3 by the sigma.7 (chosen; their translation stages differ in
+detail). A type not listed needs its preset named: ``forcedimension:PRESET``."""
+
+WORKSPACE = 1.0
+"""m: a reading farther from the device's centre is a sensor fault (chosen: beyond any desktop
+device's reach; the presets' published workspaces are boxes, not radii)."""
+
+
+def _dhd():
+    """The binding's ``dhd`` module, or one line saying what is missing and how to get it."""
+    try:
+        import forcedimension_core  # noqa: F401 -- its import loads libdrd
+        from forcedimension_core import dhd
+    except ModuleNotFoundError as exc:
+        if exc.name is not None and not exc.name.startswith("forcedimension_core"):
+            raise
+        raise DeviceError("device = 'forcedimension' is not available: the Force Dimension binding is not installed "
+                          "(pip install 'haptex[forcedimension]')") from None
+    except ImportError:  # the binding is there but found no libdrd
+        raise DeviceError("device = 'forcedimension' is not available: the binding found no Force Dimension SDK "
+                          "(libdrd 3.16 or later); install the SDK and set FDSDK to its folder") from None
+    for name in ("open", "close", "getSystemType", "enableForce", "getPosition", "getLinearVelocity",
+                 "getButtonMask", "setForce", "errorGetLastStr"):
+        if not hasattr(dhd, name):
+            raise DeviceError(f"device = 'forcedimension' is not available: forcedimension_core has no dhd.{name} "
+                              "(a version this backend does not know; pip install 'haptex[forcedimension]')")
+    return dhd
+
+
+class ForceDimensionBackend:
+    """A Force Dimension device, polled.
+
+    Constructing it connects once to identify the device (its DHD system type, hence its
+    preset: period, maximum force, resolution, model) and disconnects; :meth:`open`
+    connects for the run with forces enabled and zero.
+
+    Parameters
+    ----------
+    preset : str, optional
+        The preset of :func:`haptex.catalogue.presets` to model the device by; default the
+        one of its system type (:data:`DEVICE_TYPES`).
+    realtime : bool, optional
+        Pace the ticks at the preset's period (default); False runs as fast as the loop goes.
+    clock, sleep : callable, optional
+        Time source (s) and sleep function.
+
+    Raises
+    ------
+    DeviceError
+        If the binding or the SDK is missing, no device answers, or its type has no preset
+        and none is named.
+    ParameterError
+        For an unknown preset.
+    """
+
+    def __init__(self, preset: str = "", realtime: bool = True, clock=time.perf_counter, sleep=time.sleep):
+        from ..catalogue import preset as _preset
+
+        self._dhd = dhd = _dhd()
+        ident = dhd.open()
+        if ident < 0:
+            raise DeviceError(f"device = 'forcedimension' is not reachable: no Force Dimension device answered "
+                              f"({dhd.errorGetLastStr()}); check its USB cable, power and permissions (udev rule)")
+        try:
+            kind = int(dhd.getSystemType(ident))
+        finally:
+            dhd.close(ident)
+        key = preset or DEVICE_TYPES.get(kind)
+        if key is None:
+            raise DeviceError(f"device = 'forcedimension' has DHD system type {kind}, which has no preset: name one, "
+                              "e.g. 'forcedimension:omega-3' (see 'haptex devices')")
+        p = _preset(key)
+        if p.dimension != 3:
+            raise DeviceError(f"device = 'forcedimension:{key}' is not allowed: a Force Dimension device is 3-DOF")
+        self.preset, self.system_type = p, kind
+        self.device = p.device()
+        self.name = f"forcedimension:{p.key}"
+        self.dimension = 3
+        self.period = self.device.period
+        self.max_force = self.device.max_force
+        self.workspace = WORKSPACE
+        self.realtime = bool(realtime)
+        self._clock, self._sleep = clock, sleep
+        self._id = None
+        self._p, self._v = np.zeros(3), np.zeros(3)
+
+    def open(self) -> None:
+        """Connect, forces enabled and zero."""
+        dhd = self._dhd
+        ident = dhd.open()
+        if ident < 0:
+            raise DeviceError(f"device = {self.name!r} is not reachable: {dhd.errorGetLastStr()}")
+        self._id = ident
+        if dhd.setForce([0.0, 0.0, 0.0], ident) < 0 or dhd.enableForce(True, ident) < 0:
+            err = dhd.errorGetLastStr()
+            self.close()
+            raise DeviceError(f"device = {self.name!r} refused its forces: {err}")
+        self._k = 0
+        self._t0 = self._clock()
+
+    def close(self) -> None:
+        """Zero force, forces disabled, disconnected; safe to call twice."""
+        if self._id is None:
+            return
+        dhd, ident = self._dhd, self._id
+        self._id = None
+        try:
+            dhd.setForce([0.0, 0.0, 0.0], ident)
+            dhd.enableForce(False, ident)
+        finally:
+            dhd.close(ident)
+
+    def sample(self) -> Sample:
+        """The handle now (at this tick's time when real-time): position (m), velocity (m/s)
+        as the SDK estimates it, buttons."""
+        if self._id is None:
+            raise DeviceError(f"device = {self.name!r} is not open: open it before sampling")
+        t = self._k * self.period
+        if self.realtime:
+            wait_until(self._t0 + t, self._clock, self._sleep, SPIN)
+        dhd = self._dhd
+        if dhd.getPosition(self._p, self._id) < 0 or dhd.getLinearVelocity(self._v, self._id) < 0:
+            raise DeviceError(f"device = {self.name!r} stopped answering: {dhd.errorGetLastStr()}")
+        return Sample(t, self._p.copy(), self._v.copy(), int(dhd.getButtonMask(self._id)))
+
+    def command(self, force) -> None:
+        """Send a force (N), shape (3,), held until the next command."""
+        if self._id is None:
+            return  # (closed: nothing is energised)
+        f = np.asarray(force, dtype=np.float64).reshape(3)
+        if self._dhd.setForce([float(f[0]), float(f[1]), float(f[2])], self._id) < 0:
+            raise DeviceError(f"device = {self.name!r} refused a force: {self._dhd.errorGetLastStr()}")
+        self._k += 1
