@@ -13,6 +13,7 @@ import _thread
 import json
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -27,8 +28,9 @@ from haptex.servo import ServoLoop
 from . import vendor_stubs as vs
 
 SINE = hx.Extruded(hx.Sinusoid(0.2e-3, 2e-3))
-KINDS = ["simulated", "forcedimension", "openhaptics"]
-PRESET = {"simulated": "omega-3", "forcedimension": "omega-3", "openhaptics": "touch"}
+KINDS = ["simulated", "forcedimension", "openhaptics", "haply"]
+VENDORS = KINDS[1:]
+PRESET = {"simulated": "omega-3", "forcedimension": "omega-3", "openhaptics": "touch", "haply": "inverse3"}
 
 needs_cc = pytest.mark.skipif(vs.compiler() is None, reason="no C compiler to build the vendors' stubs")
 
@@ -48,13 +50,17 @@ def stubs(tmp_path_factory):
 class Rig:
     """A backend of one kind on a simulated preset, and what reached the device's motors."""
 
-    def __init__(self, kind, stubs, start=5e-3, press=1e-3, speed=0.01, realtime=False):
+    def __init__(self, kind, stubs, start=5e-3, press=1e-3, speed=0.01, realtime=False, garble=None):
         preset = PRESET[kind]
         self.kind = kind
         self.sim = SimulatedBackend(preset, press=press, speed=speed, start=start, realtime=False)
         if kind == "simulated":
             self.sim.realtime = realtime
             self.backend, self.behind = self.sim, None
+            return
+        if kind == "haply":
+            self.behind = vs.InverseService(self.sim, garble=garble)
+            self.backend = open_backend("haply:" + self.behind.address)
             return
         stub = stubs[kind]
         if kind == "forcedimension":
@@ -69,7 +75,15 @@ class Rig:
 
     def motors(self) -> np.ndarray:
         """Every force that reached the device (N, haptex's frame), one a tick."""
+        if self.kind == "haply" and self.backend._ws is None:
+            self._ended()
         return np.array(self.behind.forces) if self.behind is not None else None
+
+    def _ended(self) -> None:
+        for _ in range(100):  # (the emulator's session ends in its own thread)
+            if not self.behind.connected:
+                break
+            time.sleep(0.01)
 
     def energised(self) -> bool:
         """Whether the device was left with a force after the run (the vendor stubs count a
@@ -78,6 +92,9 @@ class Rig:
             return self.stub.hxstub_energised_after_close() > 0 or self.stub.hxstub_opened() != 0
         if self.kind == "openhaptics":
             return self.stub.hxstub_energised_after_stop() > 0 or self.stub.hxstub_running() != 0
+        if self.kind == "haply":
+            self._ended()
+            return self.behind.energised_after_close > 0 or self.behind.connected
         return bool(np.any(self.sim._x[6:9] != 0.0))  # the held force of the simulated device
 
 
@@ -92,30 +109,36 @@ def test_a_backend_is_a_device_backend_with_its_presets_figures(kind, stubs):
     b = rig.backend
     assert isinstance(b, DeviceBackend) and b.dimension == 3
     p = hx.catalogue.preset(PRESET[kind])
-    assert b.max_force == p.value("max_force") and b.period == p.value("period")  # published figures
+    assert b.max_force == p.value("max_force")
+    if kind == "haply":  # the service paces the loop: its rate is measured (the emulator's
+        # states come at least 1 ms apart, by construction; later on a loaded machine)
+        assert b.period >= 0.999e-3 and b.device.period == b.period
+    else:
+        assert b.period == p.value("period")
     assert b.device.details["preset"] == p.key
 
 
 @needs_cc
-@pytest.mark.parametrize("kind", ["forcedimension", "openhaptics"])
+@pytest.mark.parametrize("kind", VENDORS)
 def test_units_signs_and_frames(kind, stubs):
     # the backend reads the simulator's own position (m, haptex's frame: z up) through the
     # vendor's units and frame, and a force commanded along each axis reaches the device along
     # that axis, in newtons
     rig = Rig(kind, stubs, start=5e-3, press=0.0, speed=0.0)
     b = rig.backend
+    res = rig.sim.device.position_resolution
     b.open()
     try:
+        s = b.sample()
+        assert s.position[2] > 4e-3  # the handle starts 5 mm above the surface: +z is up
         for axis in range(3):
-            s = b.sample()
-            truth = rig.behind.truth
-            res = rig.sim.device.position_resolution
-            assert np.allclose(s.position, truth, atol=res + 1e-12), (s.position, truth)
             f = np.zeros(3)
             f[axis] = 0.25 * (axis + 1)
             b.command(f)
+            s = b.sample()  # (lock-step: the next state comes once the force is applied)
             assert np.allclose(rig.motors()[-1], f, atol=1e-12)
-        assert s.position[2] > 4e-3  # the handle starts 5 mm above the surface: +z is up
+            truth = rig.behind.truth
+            assert np.allclose(s.position, truth, atol=res + 1e-12), (s.position, truth)
     finally:
         b.command(np.zeros(3))
         b.close()
@@ -129,11 +152,11 @@ def test_a_run_pushes_out_of_the_wall_and_ends_unenergised(kind, stubs):
     # the device's maximum, push out of the wall (+z on average once engaged), reach the motors
     # as sent, and the run ends with zero force and the device released
     rig = Rig(kind, stubs)
-    stats, trace = _loop(rig.backend).run(0.6)
+    stats, trace = _loop(rig.backend).run(600 * rig.backend.period)  # (in ticks: a service sets its own rate)
     f = trace["force"]
     assert stats.ticks == len(f) and stats.engaged_at is not None and stats.faults == 0
     assert np.all(np.isfinite(f)) and np.all(np.linalg.norm(f, axis=1) <= rig.backend.max_force * (1 + 1e-12))
-    assert f[stats.engaged_at:, 2].mean() > 0.0 and trace["position"][-1][2] < 0.0
+    assert f[stats.engaged_at:, 2].mean() > 0.0 and trace["position"][:, 2].min() < 0.0  # in contact, pushed out
     if rig.behind is not None:
         m = rig.motors()
         # every tick's force reached the device (DHD: one write a tick plus the zero writes at open
@@ -149,7 +172,7 @@ def test_no_kick_when_the_handle_starts_inside_the_wall(kind, stubs):
     # 3 mm inside a 2 kN/m wall, pressed 5 mm in: the computed force (6-10 N) never falls below
     # the engagement threshold, so nothing but zero ever reaches the motors
     rig = Rig(kind, stubs, start=-3e-3, press=5e-3)
-    stats, trace = _loop(rig.backend, stiffness=2000.0).run(0.4)
+    stats, trace = _loop(rig.backend, stiffness=2000.0).run(400 * rig.backend.period)
     assert stats.engaged_at is None and np.all(trace["force"] == 0.0)
     if rig.behind is not None:
         assert np.all(rig.motors() == 0.0)
@@ -160,7 +183,7 @@ def test_no_kick_when_the_handle_starts_inside_the_wall(kind, stubs):
 @pytest.mark.parametrize("kind", KINDS)
 def test_the_engagement_ramp(kind, stubs):
     rig = Rig(kind, stubs, press=1e-4)
-    stats, trace = _loop(rig.backend, ramp_ticks=300).run(0.8)
+    stats, trace = _loop(rig.backend, ramp_ticks=300).run(800 * rig.backend.period)
     k0 = stats.engaged_at
     sent = np.linalg.norm(trace["force"], axis=1)
     ramp = np.minimum(1.0, (np.arange(len(sent)) - k0 + 1) / 300)
@@ -201,7 +224,7 @@ def test_faults_give_zero_force_within_the_tick_and_the_maximum_holds(kind, stub
     inner = hx.Renderer(hx.algorithm("A", SINE, 500.0), energy_monitor=True)
     r = Faulty(inner, b.period, nan_at={120, 121}, raise_at={160}, huge_at={200})
     # (no watchdog here: a tick late on a loaded machine would send zero for its own reason)
-    stats, trace = _loop(b, renderer=r, ramp_ticks=10, engage_ticks=5, deadline=1e6).run(0.3)
+    stats, trace = _loop(b, renderer=r, ramp_ticks=10, engage_ticks=5, deadline=1e6).run(300 * b.period)
     f = trace["force"]
     for k in (120, 121, 160):  # the faulty tick itself sends zero
         assert np.all(f[k] == 0.0), k
@@ -218,7 +241,7 @@ def test_the_watchdog_zeroes_a_late_tick(kind, stubs):
     rig = Rig(kind, stubs, realtime=True)
     b = rig.backend
     r = Faulty(hx.Renderer(hx.algorithm("A", SINE, 500.0)), b.period, stall_at=150)
-    stats, trace = _loop(b, renderer=r, ramp_ticks=10, engage_ticks=5).run(0.3)
+    stats, trace = _loop(b, renderer=r, ramp_ticks=10, engage_ticks=5).run(300 * b.period)
     assert stats.missed >= 1 and np.all(trace["force"][151] == 0.0)
     assert not rig.energised()
 
@@ -243,7 +266,7 @@ class CtrlC:
 @pytest.mark.parametrize("kind", KINDS)
 def test_ctrl_c_zeroes_the_force_keeps_the_trace_and_releases_the_device(kind, stubs):
     rig = Rig(kind, stubs, realtime=True)
-    stats, trace = _loop(rig.backend, renderer=CtrlC(250)).run(5.0)
+    stats, trace = _loop(rig.backend, renderer=CtrlC(250)).run(5000 * rig.backend.period)
     # polling: the tick it lands in is the last; a servo thread runs on until the waiting main
     # thread wakes (within 0.05 s), then sends zero within a tick
     late = 0 if kind != "openhaptics" else int(0.06 / rig.backend.period)
@@ -317,3 +340,29 @@ def test_a_missing_sdk_or_binding_is_one_line_naming_what_to_install():
 def test_options_a_backend_does_not_take_are_refused_by_name():
     with pytest.raises(hx.ParameterError, match="hand = 'firm-grip' is not allowed with device = 'openhaptics'"):
         open_backend("openhaptics", hand="firm-grip")
+
+
+def test_hostile_messages_from_the_inverse_service_are_faults_answered_with_zero_force():
+    # what a service sends is input: text that is not JSON, a position that is NaN or missing, a
+    # message of another shape; each is a faulty sample (zero force that tick), the run goes on
+    bad = {400: "not json", 401: '{"inverse3": [{"device_id": "inverse3-emulated", "state": '
+                                 '{"cursor_position": {"x": NaN, "y": 0, "z": 0}}}]}',
+           402: '{"inverse3": [{"device_id": "inverse3-emulated", "state": {}}]}', 403: "[]",
+           404: '{"inverse3": [{"device_id": "someone-else", "state": {"cursor_position": {"x": 0, "y": 0, "z": 0}}}]}'}
+    # (the probe's 21 messages come first: the run's ticks are counted from its own session)
+    rig = Rig("haply", None, garble=bad)
+    stats, trace = _loop(rig.backend).run(600 * rig.backend.period)
+    assert stats.faults == 5 and stats.ticks == 600
+    assert np.all(trace["force"][400:405] == 0.0) and np.all(np.isnan(trace["position"][400:405]).any(axis=1))
+    assert not rig.energised()
+
+
+def test_an_inverse_service_without_an_inverse3_or_past_the_message_limit_is_refused():
+    sim = SimulatedBackend("inverse3", realtime=False)
+    with pytest.raises(DeviceError, match="reports no Inverse3"):
+        open_backend("haply:" + vs.InverseService(sim, garble={0: '{"inverse3": []}'}).address)
+    # a message past the 1 MiB limit closes the connection: the device is gone, in one line
+    huge = '{"inverse3": [{"device_id": "x", "pad": "' + "x" * (1 << 20) + '"}]}'
+    with pytest.raises(DeviceError, match="went away") as e:
+        open_backend("haply:" + vs.InverseService(SimulatedBackend("inverse3", realtime=False), garble={0: huge}).address)
+    assert "\n" not in str(e.value)

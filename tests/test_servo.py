@@ -143,11 +143,17 @@ def test_haptex_run_on_the_simulated_falcon(tmp_path, capsys):
     data = np.load(rec)
     assert data["position"].shape == (1000, 3) and data["force"].shape == (1000, 3)
     assert np.all(np.isfinite(data["force"]))
-    for spec, what in (("haply:ws://127.0.0.1:10001", "not written yet"), ("simulated:phantom", "one of"),
+    for spec, what in (("haply-serial:/dev/ttyACM0", "not written yet"), ("haply:ws://127.0.0.1:1", "not reachable"),
+                       ("haply:http://x", "Inverse Service's address"), ("simulated:phantom", "one of"),
                        ("usb:0", "simulated:PRESET")):
-        assert main(["run", "--device", spec, "--duration", "0.1s", "--fast"]) == 2
+        assert main(["run", "--device", spec, "--duration", "0.1s"]) == 2
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and what in err, err
+    # options a device does not take are refused by name
+    assert main(["run", "--device", "haply:ws://127.0.0.1:1", "--fast"]) == 2
+    assert "--fast is not allowed with --device haply" in capsys.readouterr().err
+    assert main(["run", "--device", "openhaptics", "--hand", "firm-grip"]) == 2
+    assert "--hand is not allowed with --device openhaptics" in capsys.readouterr().err
 
 
 def test_a_trace_is_judged_as_a_simulated_run():

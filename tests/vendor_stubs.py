@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import ctypes
 import importlib.util
+import math
 import os
 import platform
 import re
@@ -119,3 +120,85 @@ def load_hd(lib: Path):
 HD_FROM_HAPTEX = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
 """v_HD = R v_haptex: HD's x right, y up, z towards the user; haptex's z up, y away from the
 user (OpenHaptics' programmer's guide for HD's frame)."""
+
+
+class InverseService:
+    """An emulator of Haply's Inverse Service on 127.0.0.1 (a free port): one Inverse3, the
+    device behind it a simulated preset, lock-step at 1 kHz: at each tick it sends the state
+    (m, m/s), waits for the client's command (N) and advances the device one period under it
+    (zero when the answer is not a force for this device). Messages as
+    haptex.backends.haply's docstring gives them.
+
+    ``garble`` maps a tick to a message sent instead of that tick's state (hostile input).
+    A client that disconnects leaves the last force it commanded applied (the worst case: what
+    the real service does then is not documented here), counted in ``energised_after_close``."""
+
+    DEVICE_ID = "inverse3-emulated"
+    PERIOD = 1e-3
+
+    def __init__(self, sim, garble=None, grip=True):
+        import threading
+
+        from websockets.sync.server import serve
+
+        self.sim, self.garble, self.grip = sim, dict(garble or {}), grip
+        self.steps = max(1, round(self.PERIOD / sim.period))
+        sim.open()
+        self.forces, self.connections, self.energised_after_close, self.connected = [], 0, 0, False
+        self._server = serve(self._session, "127.0.0.1", 0, compression=None)
+        self.address = f"ws://127.0.0.1:{self._server.socket.getsockname()[1]}"
+        self._thread = threading.Thread(target=self._server.serve_forever, daemon=True)
+        self._thread.start()
+
+    def _state(self, k):
+        import json
+
+        if k in self.garble:
+            return self.garble[k]
+        self.truth = self.sim._x[:3].copy()  # the handle's true position at the reading (m)
+        s = self.sim.sample()
+        v = np.zeros(3) if s.velocity is None else s.velocity
+        msg = {"inverse3": [{"device_id": self.DEVICE_ID, "state": {
+            "cursor_position": dict(zip("xyz", map(float, s.position))),
+            "cursor_velocity": dict(zip("xyz", map(float, v)))}}]}
+        if self.grip:
+            msg["wireless_verse_grip"] = [{"device_id": "grip", "state": {"buttons": {"a": False, "b": True,
+                                                                                    "c": False}}}]
+        return json.dumps(msg)
+
+    def _session(self, ws):
+        import json
+        import time
+
+        self.connections += 1
+        self.connected = True
+        applied = np.zeros(3)
+        sent, k = -math.inf, 0
+        try:
+            while True:
+                due = sent + self.PERIOD  # (a period after the last state, late or not: no bursts)
+                while time.perf_counter() < due:
+                    time.sleep(min(2e-4, max(0.0, due - time.perf_counter())))
+                sent = time.perf_counter()
+                ws.send(self._state(k))
+                try:
+                    answer = json.loads(ws.recv(timeout=2.0))
+                    cmd = answer["inverse3"][0]
+                    vals = cmd["commands"]["set_cursor_force"]["values"]
+                    f = np.array([float(vals[a]) for a in "xyz"]) if cmd["device_id"] == self.DEVICE_ID else 0 * applied
+                except (ValueError, KeyError, TypeError, IndexError):
+                    f = np.zeros(3)
+                applied = f
+                self.forces.append(f)
+                for _ in range(self.steps):  # the force held over the service's period
+                    self.sim.command(f)
+                k += 1
+        except Exception as exc:  # noqa: BLE001 -- the client closed: the session ends
+            self.ended = exc
+        finally:
+            if np.any(applied != 0.0):
+                self.energised_after_close += 1
+            self.connected = False
+
+    def stop(self):
+        self._server.shutdown()

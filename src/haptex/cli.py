@@ -815,7 +815,8 @@ def sweep(spec, out, scheduler, workers, quiet):
 @click.option("--device", "device_spec", required=True,
               help="'simulated:PRESET' (a preset of 'haptex devices', e.g. 'simulated:falcon'); "
                    "'forcedimension[:PRESET]' (Force Dimension's SDK, pip install 'haptex[forcedimension]'); "
-                   "'openhaptics[:PRESET]' (OpenHaptics, pip install 'haptex[openhaptics]').")
+                   "'openhaptics[:PRESET]' (OpenHaptics, pip install 'haptex[openhaptics]'); "
+                   "'haply[:ws://HOST:PORT]' (the Inverse Service, pip install 'haptex[haply]').")
 @click.option("--texture", "texture_spec", default="sine:0.2mm,2mm", show_default=True,
               help="A texture spec as for design (a profile is extruded across y on a 3-DOF device).")
 @click.option("--algorithm", "letter", default="A", show_default=True, help="W or A-G.")
@@ -852,7 +853,7 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
     given = {n for n in ("hand", "speed", "fast")
              if click.get_current_context().get_parameter_source(n) == click.core.ParameterSource.COMMANDLINE}
     for name in sorted(given - {"fast"} if kind == "forcedimension" else
-                       given if kind == "openhaptics" else ()):  # (another kind's own error comes first)
+                       given if kind in ("openhaptics", "haply") else ()):  # (another kind's own error comes first)
         raise ParameterError(f"--{name} is not allowed with --device {device_spec}: it applies to "
                              f"{'simulated devices' if name != 'fast' else 'simulated and Force Dimension devices'} only")
     options = ({"hand": hand, "speed": speed, "realtime": not fast} if kind == "simulated"

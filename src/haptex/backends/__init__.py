@@ -17,10 +17,12 @@ Backends in this version:
 - ``forcedimension[:PRESET]`` (:class:`~haptex.backends.forcedimension.ForceDimensionBackend`):
   Force Dimension's SDK through its binding ``forcedimension-core``, polled;
 - ``openhaptics[:PRESET]`` (:class:`~haptex.backends.openhaptics.OpenHapticsBackend`): 3D
-  Systems' HD API through ``pyOpenHaptics``, driven from HD's scheduler callback.
+  Systems' HD API through ``pyOpenHaptics``, driven from HD's scheduler callback;
+- ``haply[:ws://HOST:PORT]`` (:class:`~haptex.backends.haply.HaplyBackend`): an Inverse3 through
+  the Inverse Service's WebSocket JSON, lock-step.
 
-Haply's (the Inverse Service and the serial API) is not written yet: naming it is refused in
-one line that says so.
+Haply's serial hardware API (``haply-serial``) is not written yet: naming it is refused in one
+line that says so.
 """
 
 from __future__ import annotations
@@ -111,10 +113,6 @@ class DeviceBackend(Protocol):
     # (KeyboardInterrupt included). :class:`haptex.servo.ServoLoop` uses it when present.
 
 
-VENDOR_BACKENDS = {"openhaptics": "openhaptics", "forcedimension": "forcedimension", "haply": "haply"}
-"""Vendors' backends and the pip extra each needs (``pip install 'haptex[EXTRA]'``)."""
-
-
 def open_backend(spec: str, **options) -> DeviceBackend:
     """The backend a ``--device`` spec names, not yet opened.
 
@@ -124,10 +122,12 @@ def open_backend(spec: str, **options) -> DeviceBackend:
         ``simulated:PRESET`` (a preset of :func:`haptex.catalogue.presets`, e.g.
         ``simulated:falcon``); ``forcedimension[:PRESET]`` and ``openhaptics[:PRESET]`` (the
         first device the vendor's SDK finds, modelled by the preset its type or model names,
-        or by PRESET).
+        or by PRESET); ``haply[:ws://HOST:PORT]`` (the Inverse Service, default
+        ws://127.0.0.1:10001).
     **options
         Passed to the backend: :class:`~haptex.backends.simulated.SimulatedBackend`'s
-        parameters; ``realtime`` for Force Dimension; ``device_name`` for OpenHaptics.
+        parameters; ``realtime`` for Force Dimension; ``device_name`` for OpenHaptics;
+        ``preset`` and ``timeout`` for Haply.
 
     Raises
     ------
@@ -152,11 +152,17 @@ def open_backend(spec: str, **options) -> DeviceBackend:
 
         _only(spec, options, {"device_name"})
         return OpenHapticsBackend(address, **options)
-    if kind in VENDOR_BACKENDS:
-        raise ParameterError(f"device = {spec!r} is not allowed in this version: the {kind} backend is not written "
-                             "yet (issue 34); use 'simulated:PRESET', 'forcedimension' or 'openhaptics'")
+    if kind == "haply":
+        from .haply import HaplyBackend
+
+        _only(spec, options, {"preset", "timeout"})
+        return HaplyBackend(address, **options)
+    if kind == "haply-serial":
+        raise ParameterError(f"device = {spec!r} is not allowed in this version: Haply's serial backend is not "
+                             "written yet (issue 34); use the Inverse Service, 'haply:ws://127.0.0.1:10001'")
     raise ParameterError(f"device = {spec!r} is not allowed: must be 'simulated:PRESET' (a preset of 'haptex "
-                         "devices', e.g. 'simulated:falcon'), 'forcedimension[:PRESET]' or 'openhaptics[:PRESET]'")
+                         "devices', e.g. 'simulated:falcon'), 'forcedimension[:PRESET]', 'openhaptics[:PRESET]' or "
+                         "'haply[:ws://HOST:PORT]'")
 
 
 def _only(spec: str, options: dict, allowed: set) -> None:
