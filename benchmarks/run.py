@@ -17,9 +17,12 @@
 8. explore: the explorer's recompute per algorithm, and the browser's round trip from a
    control change to the new view (Chromium; benchmarks/run_explore.py);
 9. core: the C core's cost per call across its binding (C API against ctypes) and the
-   throughput of its fields against the NumPy fields (benchmarks/run_core.py).
+   throughput of its fields against the NumPy fields (benchmarks/run_core.py);
+10. backends: the servo loop on every backend, missed deadlines and the tick's time, the
+   vendors' bindings on stubs of their libraries (benchmarks/run_backends.py; 60 s each).
 
-Options: --only {analysis,renderer,simulator,worst,export,design,atlas,explore,core}, --points N, --json (analysis only).
+Options: --only {analysis,renderer,simulator,worst,export,design,atlas,explore,core,backends}, --points N, --json
+(analysis only).
 Never part of the test run; results are reported in benchmarks/README.md. Sections 2 and
 3 need gcc.
 """
@@ -54,7 +57,7 @@ def main() -> None:
     ap.add_argument("--points", type=int, default=1_000_000)
     ap.add_argument("--json", action="store_true")
     ap.add_argument("--only", choices=["analysis", "renderer", "simulator", "worst", "export", "design", "atlas",
-                                       "explore", "core"])
+                                       "explore", "core", "backends"])
     args = ap.parse_args()
     if args.only in (None, "analysis"):
         analysis(args)
@@ -101,6 +104,12 @@ def main() -> None:
 
         print("\n# the C core: binding and fields")
         run_core.main()
+    if args.only in (None, "backends") and not args.json:
+        import run_backends
+
+        print("\n# the servo loop on every backend")
+        sys.argv = sys.argv[:1]
+        run_backends.main()
 
 
 def analysis(args) -> None:

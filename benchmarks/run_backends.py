@@ -1,0 +1,74 @@
+"""The servo loop on every backend (issue 34): missed deadlines and the tick's own time.
+
+Each backend renders algorithm A over the paper-style sinusoid extruded across y (0.2 mm, 2 mm,
+500 N/m) for SECONDS (default 60) with the light-touch hand pressing 1 mm in, through
+haptex.servo.ServoLoop (the safety rules in Python around the C tick):
+
+- simulated:falcon, paced by the clock at 1 kHz;
+- forcedimension: the vendor's binding (forcedimension-core) polling a stub of libdrd built
+  by the tests (tests/stubs/dhd_stub.c), the omega.3 preset behind it, paced by the backend at
+  the preset's 4 kHz;
+- openhaptics: the vendor's binding (pyOpenHaptics) on a stub of libHD whose scheduler thread
+  calls the loop's callback at 1 kHz (the tick inside the callback, taking the GIL);
+- haply: the Inverse Service's WebSocket JSON against the emulator of tests/vendor_stubs.py
+  (1 kHz lock-step; the emulator is Python in the same process, so it competes for the GIL).
+
+A deadline is missed when a sample comes more than 1.5 periods after the previous one.
+Options: --seconds S, --only KIND. Needs a C compiler for the two stubs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+from pathlib import Path
+
+import haptex as hx
+from haptex.backends import open_backend
+from haptex.backends.simulated import SimulatedBackend
+from haptex.servo import ServoLoop
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from tests import vendor_stubs as vs  # noqa: E402
+
+SINE = hx.Extruded(hx.Sinusoid(0.2e-3, 2e-3))
+
+
+def backend(kind: str, root: Path, stubs: dict):
+    if kind == "simulated":
+        return open_backend("simulated:falcon"), None
+    if kind == "forcedimension":
+        behind = vs.Behind(SimulatedBackend("omega-3", realtime=False))
+        stubs["dhd"].hxstub_bind(behind.read, behind.write, 33, 1)
+        return open_backend("forcedimension"), behind
+    if kind == "openhaptics":
+        behind = vs.Behind(SimulatedBackend("touch", realtime=False), vs.HD_FROM_HAPTEX, 1e3)
+        stubs["hd"].hxstub_bind(behind.read, behind.write, b"Touch", 3.3, 1)
+        return open_backend("openhaptics"), behind
+    service = vs.InverseService(SimulatedBackend("inverse3", realtime=False))
+    return open_backend("haply:" + service.address), service
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--seconds", type=float, default=60.0)
+    ap.add_argument("--only", choices=["simulated", "forcedimension", "openhaptics", "haply"])
+    args = ap.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        root = Path(tmp)
+        vs.build_dhd(root / "fdsdk")
+        stubs = {"dhd": vs.load_dhd(root / "fdsdk"), "hd": vs.load_hd(vs.build_hd(root / "hd"))}
+        print(f"{'backend':28} {'rate':>7} {'ticks':>7} {'missed':>14} {'period σ':>9} {'tick mean':>10} "
+              f"{'tick worst':>11}")
+        for kind in [args.only] if args.only else ["simulated", "forcedimension", "openhaptics", "haply"]:
+            b, _ = backend(kind, root, stubs)
+            r = hx.Renderer(hx.algorithm("A", SINE, 500.0), max_force=b.max_force, energy_monitor=True)
+            st, _ = ServoLoop(b, r).run(args.seconds, record=False)
+            print(f"{b.name:28} {1 / b.period:6.0f}/s {st.ticks:7d} {st.missed:6d} ({100 * st.missed / st.ticks:5.3f} %)"
+                  f" {st.period_seconds[1] * 1e6:7.0f} us {st.tick_seconds[1] * 1e6:7.1f} us "
+                  f"{st.tick_seconds[0] * 1e6:8.0f} us")
+
+
+if __name__ == "__main__":
+    main()
