@@ -65,7 +65,8 @@ def main() -> None:
             b, _ = backend(kind, root, stubs)
             r = hx.Renderer(hx.algorithm("A", SINE, 500.0), max_force=b.max_force, energy_monitor=True)
             st, _ = ServoLoop(b, r).run(args.seconds, record=False)
-            print(f"{b.name:28} {1 / b.period:6.0f}/s {st.ticks:7d} {st.missed:6d} ({100 * st.missed / st.ticks:5.3f} %)"
+            share = 100 * st.missed / st.ticks
+            print(f"{b.name:28} {1 / b.period:6.0f}/s {st.ticks:7d} {st.missed:6d} ({share:5.3f} %)"
                   f" {st.period_seconds[1] * 1e6:7.0f} us {st.tick_seconds[1] * 1e6:7.1f} us "
                   f"{st.tick_seconds[0] * 1e6:8.0f} us")
 

@@ -14,7 +14,6 @@ import json
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -364,5 +363,6 @@ def test_an_inverse_service_without_an_inverse3_or_past_the_message_limit_is_ref
     # a message past the 1 MiB limit closes the connection: the device is gone, in one line
     huge = '{"inverse3": [{"device_id": "x", "pad": "' + "x" * (1 << 20) + '"}]}'
     with pytest.raises(DeviceError, match="went away") as e:
-        open_backend("haply:" + vs.InverseService(SimulatedBackend("inverse3", realtime=False), garble={0: huge}).address)
+        service = vs.InverseService(SimulatedBackend("inverse3", realtime=False), garble={0: huge})
+        open_backend("haply:" + service.address)
     assert "\n" not in str(e.value)

@@ -854,8 +854,8 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
              if click.get_current_context().get_parameter_source(n) == click.core.ParameterSource.COMMANDLINE}
     for name in sorted(given - {"fast"} if kind == "forcedimension" else
                        given if kind in ("openhaptics", "haply") else ()):  # (another kind's own error comes first)
-        raise ParameterError(f"--{name} is not allowed with --device {device_spec}: it applies to "
-                             f"{'simulated devices' if name != 'fast' else 'simulated and Force Dimension devices'} only")
+        which = "simulated devices" if name != "fast" else "simulated and Force Dimension devices"
+        raise ParameterError(f"--{name} is not allowed with --device {device_spec}: it applies to {which} only")
     options = ({"hand": hand, "speed": speed, "realtime": not fast} if kind == "simulated"
                else {"realtime": not fast} if kind == "forcedimension" else {})
     backend = open_backend(device_spec, **options)

@@ -40,6 +40,34 @@ class DeviceError(ParameterError):
     how to get it (the CLI prints it and exits with status 2, as for a bad parameter)."""
 
 
+VENDOR_WORKSPACE = 1.0
+"""m: a vendor device's reading farther than this from its origin is a sensor fault (chosen:
+beyond any desktop device's reach; the presets' published workspaces are boxes, not radii)."""
+
+
+def model_as(backend, kind: str, key: str, period: float | None = None) -> None:
+    """Model a vendor's 3-DOF device by a preset: set ``backend``'s preset, device (at the
+    preset's period, or ``period`` s where the vendor's service sets its own), name
+    (``KIND:PRESET``), dimension, period, max_force and workspace.
+
+    Raises
+    ------
+    ParameterError
+        For an unknown preset.
+    DeviceError
+        For a preset that is not 3-DOF.
+    """
+    from ..catalogue import preset
+
+    p = preset(key)
+    if p.dimension != 3:
+        raise DeviceError(f"device = '{kind}:{key}' is not allowed: a {kind} device is 3-DOF, {p.key!r} is not")
+    dev = p.device() if period is None else p.device().replace(period=period)
+    backend.preset, backend.device, backend.name = p, dev, f"{kind}:{p.key}"
+    backend.dimension, backend.period, backend.max_force = 3, dev.period, dev.max_force
+    backend.workspace = VENDOR_WORKSPACE
+
+
 def wait_until(due: float, clock, sleep, spin: float) -> None:
     """Return at ``clock() >= due`` (s): sleep until ``spin`` seconds before, then spin on the
     clock (a sleep alone overshoots by ~0.1 ms on this machine)."""

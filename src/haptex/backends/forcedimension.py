@@ -18,7 +18,7 @@ import time
 
 import numpy as np
 
-from . import DeviceError, Sample, wait_until
+from . import DeviceError, Sample, model_as, wait_until
 from .simulated import SPIN
 
 DEVICE_TYPES = {33: "omega-3", 34: "omega-3", 35: "omega-3", 36: "omega-3", 37: "omega-3", 63: "delta-3",
@@ -27,11 +27,6 @@ DEVICE_TYPES = {33: "omega-3", 34: "omega-3", 35: "omega-3", 36: "omega-3", 37: 
 :mod:`haptex.catalogue` each is modelled by: the omega.6 and omega.7 by the omega.3 (the same
 translational base), the sigma.3 by the sigma.7 (chosen; their translation stages differ in
 detail). A type not listed needs its preset named: ``forcedimension:PRESET``."""
-
-WORKSPACE = 1.0
-"""m: a reading farther from the device's centre is a sensor fault (chosen: beyond any desktop
-device's reach; the presets' published workspaces are boxes, not radii)."""
-
 
 def _dhd():
     """The binding's ``dhd`` module, or one line saying what is missing and how to get it."""
@@ -81,8 +76,6 @@ class ForceDimensionBackend:
     """
 
     def __init__(self, preset: str = "", realtime: bool = True, clock=time.perf_counter, sleep=time.sleep):
-        from ..catalogue import preset as _preset
-
         self._dhd = dhd = _dhd()
         ident = dhd.open()
         if ident < 0:
@@ -96,16 +89,8 @@ class ForceDimensionBackend:
         if key is None:
             raise DeviceError(f"device = 'forcedimension' has DHD system type {kind}, which has no preset: name one, "
                               "e.g. 'forcedimension:omega-3' (see 'haptex devices')")
-        p = _preset(key)
-        if p.dimension != 3:
-            raise DeviceError(f"device = 'forcedimension:{key}' is not allowed: a Force Dimension device is 3-DOF")
-        self.preset, self.system_type = p, kind
-        self.device = p.device()
-        self.name = f"forcedimension:{p.key}"
-        self.dimension = 3
-        self.period = self.device.period
-        self.max_force = self.device.max_force
-        self.workspace = WORKSPACE
+        model_as(self, "forcedimension", key)
+        self.system_type = kind
         self.realtime = bool(realtime)
         self._clock, self._sleep = clock, sleep
         self._id = None

@@ -27,7 +27,7 @@ import time
 import numpy as np
 
 from .._validation import fail
-from . import DeviceError, Sample
+from . import DeviceError, Sample, model_as
 
 DEFAULT_ADDRESS = "ws://127.0.0.1:10001"
 """The Inverse Service's default WebSocket address."""
@@ -35,8 +35,6 @@ MAX_MESSAGE = 1 << 20
 """Bytes: the largest message taken from the service (a state message is a few hundred)."""
 TIMEOUT = 1.0
 """s: the longest wait for the service's answer before the device counts as gone."""
-WORKSPACE = 1.0
-"""m: a reading farther from the origin is a sensor fault (as for the other vendors)."""
 PROBE_EXCHANGES = 20
 """Zero-force exchanges with the service when the backend is made, to measure its rate."""
 BUTTONS = ("a", "b", "c")
@@ -91,8 +89,6 @@ class HaplyBackend:
     """
 
     def __init__(self, address: str = "", preset: str = "inverse3", timeout: float = TIMEOUT):
-        from ..catalogue import preset as _preset
-
         self._connect = _client()
         self.address = address or DEFAULT_ADDRESS
         if not self.address.startswith(("ws://", "wss://")):
@@ -100,9 +96,7 @@ class HaplyBackend:
         if not (isinstance(timeout, (int, float)) and 0 < timeout <= 60):
             raise fail("timeout", timeout, "a number of seconds in (0, 60]")
         self.timeout = float(timeout)
-        p = _preset(preset)
-        if p.dimension != 3:
-            raise DeviceError(f"device = 'haply' is not allowed with preset {p.key!r}: an Inverse3 is 3-DOF")
+        model_as(self, "haply", preset)  # (a wrong preset refused before the probe)
         # the probe: the Inverse3's device_id, and the service's rate over a few zero-force
         # exchanges (it paces the loop: the watchdog's period is the one measured here)
         ws = self._dial()
@@ -125,13 +119,7 @@ class HaplyBackend:
         if not 1e-5 <= period <= 0.1:
             raise DeviceError(f"device = 'haply:{self.address}' answers every {period * 1e3:.3g} ms: a servo loop "
                               "needs 0.01 to 100 ms")
-        self.preset = p
-        self.device = p.device().replace(period=period)
-        self.name = f"haply:{p.key}"
-        self.dimension = 3
-        self.period = period
-        self.max_force = self.device.max_force
-        self.workspace = WORKSPACE
+        model_as(self, "haply", preset, period)
         self.realtime = True
         self._ws = None
 

@@ -27,15 +27,12 @@ import time
 
 import numpy as np
 
-from . import DeviceError, Sample
+from . import DeviceError, Sample, model_as
 
 MODELS = (("premium 1.5", "premium-1-5"), ("touch", "touch"), ("omni", "touch"))
 """Substrings of HD's model string (``HD_DEVICE_MODEL_TYPE``, lower case) and the preset each
 is modelled by, the first that matches: the Phantom Omni by the Touch, its successor (chosen).
 A model not listed needs its preset named: ``openhaptics:PRESET``."""
-
-WORKSPACE = 1.0
-"""m: a reading farther from the device's origin is a sensor fault (as for Force Dimension)."""
 
 HD_INVALID_HANDLE = 0xFFFFFFFF
 """hdInitDevice's answer when no device is there (OpenHaptics' hdDefines.h)."""
@@ -54,7 +51,8 @@ def _hd():
                           "(pip install 'haptex[openhaptics]')") from None
     except OSError:  # the binding is there but its CDLL("libHD.so") failed
         raise DeviceError("device = 'openhaptics' is not available: libHD.so was not found; install OpenHaptics "
-                          "and the Touch device driver (3D Systems) and add their lib folder to LD_LIBRARY_PATH") from None
+                          "and the Touch device driver (3D Systems) and add their lib folder to "
+                          "LD_LIBRARY_PATH") from None
     for mod, name in ((hd, "init_device"), (hd, "begin_frame"), (hd, "end_frame"), (hd, "get_transform"),
                       (hd, "set_force"), (hd, "get_buttons"), (hd, "start_scheduler"), (hd, "stop_scheduler"),
                       (hd, "close_device"), (hd, "get_model"), (hd, "enable_force"), (hd, "_get_error"),
@@ -97,8 +95,6 @@ class OpenHapticsBackend:
     """
 
     def __init__(self, preset: str = "", device_name: str = "Default Device"):
-        from ..catalogue import preset as _preset
-
         self._hd, self._cb = _hd()
         self.device_name = str(device_name)
         h = self._init()
@@ -110,16 +106,8 @@ class OpenHapticsBackend:
         if key is None:
             raise DeviceError(f"device = 'openhaptics' is a {model!r}, which has no preset: name one, e.g. "
                               "'openhaptics:touch' (see 'haptex devices')")
-        p = _preset(key)
-        if p.dimension != 3:
-            raise DeviceError(f"device = 'openhaptics:{key}' is not allowed: an OpenHaptics device is 3-DOF")
-        self.preset, self.model = p, model
-        self.device = p.device()
-        self.name = f"openhaptics:{p.key}"
-        self.dimension = 3
-        self.period = self.device.period
-        self.max_force = self.device.max_force
-        self.workspace = WORKSPACE
+        model_as(self, "openhaptics", key)
+        self.model = model
         self.realtime = True
         self._h = None
         self._running = False
