@@ -11,6 +11,7 @@ and tick times are measured by benchmarks/run_backends.py, not asserted here.
 
 import _thread
 import json
+import signal
 import subprocess
 import sys
 import time
@@ -265,7 +266,13 @@ class CtrlC:
 @pytest.mark.parametrize("kind", KINDS)
 def test_ctrl_c_zeroes_the_force_keeps_the_trace_and_releases_the_device(kind, stubs):
     rig = Rig(kind, stubs, realtime=True)
-    stats, trace = _loop(rig.backend, renderer=CtrlC(250)).run(5000 * rig.backend.period)
+    # (a shell that starts the tests in the background leaves SIGINT ignored, and then
+    # interrupt_main does nothing: Python's own handler is put back for this test)
+    old = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        stats, trace = _loop(rig.backend, renderer=CtrlC(250)).run(5000 * rig.backend.period)
+    finally:
+        signal.signal(signal.SIGINT, old)
     # polling: the tick it lands in is the last; a servo thread runs on until the waiting main
     # thread wakes (within 0.05 s), then sends zero within a tick
     late = 0 if kind != "openhaptics" else int(0.06 / rig.backend.period)
