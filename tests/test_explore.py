@@ -116,12 +116,32 @@ def test_model_scan_verdicts_on_the_pantograph():
     assert set(s.energy) == {"x", "z"} and s.energy_balance_error < 1e-9
 
 
+def test_model_scan_with_a_hand_of_the_catalogue_is_the_librarys_run():
+    """Issue 31: the scan's hand control. With the firm grip (van Beek et al. 2015: 0.554 kg,
+    6.45 N s/m, 135 N/m) the page's scan is haptex.simulate with that hand's mass attached to
+    the device and its spring and damper dragging the handle, to the last bit; its heavier,
+    stiffer-damped handle ends the stroke with other energies than Section V-B's hand."""
+    from haptex import operators as ops
+    from haptex.catalogue import hand
+
+    scene = model.build(model.Settings(hand="firm-grip", duration="0.3 s"))
+    s = model.scan(scene)
+    h = hand("firm-grip")
+    (x0, _), _ = model.window(scene)
+    res = hx.simulate(scene.algorithm, h.attach(scene.device),
+                      ops.ScanningHand(h.stiffness, h.damping, velocity=scene.speed, depth=model.HAND_DEPTH, start=x0),
+                      0.3, initial_position=[x0, 0.0], record_every=int(np.ceil(0.3 / scene.device.period / 4000)))
+    assert np.array_equal(s.energy["x"], res.energy_x) and np.array_equal(s.energy["z"], res.energy_z)
+    plain = model.scan(model.build(model.Settings(duration="0.3 s")))
+    assert not np.allclose(plain.energy["z"], s.energy["z"], rtol=1e-3)
+
+
 def test_model_refuses_bad_controls_by_name():
     cases = [({"stiffness": "-5 kN/m"}, "stiffness"), ({"stiffness": "2"}, "stiffness"),
              ({"amplitude": "0.8 s"}, "amplitude"), ({"texture": "egg-crate"}, "pantograph"),
              ({"device": "delta"}, "delta"), ({"duration": "1 h"}, "duration"), ({"speed": "0 m/s"}, "speed"),
              ({"texture": "file"}, "file"), ({"algorithm": "Z"}, "letter"),
-             ({"section": "1 mm"}, "section"), ({"section": "middle"}, "section")]
+             ({"section": "1 mm"}, "section"), ({"section": "middle"}, "section"), ({"hand": "claw"}, "hand")]
     for change, name in cases:
         with pytest.raises(hx.ParameterError, match=name):
             model.build(model.Settings(**change))

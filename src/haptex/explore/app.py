@@ -3,7 +3,7 @@ control change rebuilds a :class:`~haptex.explore.model.Scene` and draws what
 :mod:`haptex.explore.model` computes with the library's functions.
 
 Stable element ids (for tests and scripts): ``#algorithm``, ``#texture``, ``#stiffness``,
-``#device``, ``#q-value``, ``#loop-energy``, ``#fig3-loop``, ``#run-scan``,
+``#device``, ``#hand``, ``#q-value``, ``#loop-energy``, ``#fig3-loop``, ``#run-scan``,
 ``#scan-verdict``, ``#message``, ``#field-view``, ``#gain-view``, ``#curl-view``,
 ``#scan-view``, ``#height-view``.
 """
@@ -114,6 +114,7 @@ class ExplorerPage:
         self.w_presliding = text("presliding", "F: presliding d^x_max", s.presliding)
         self.w_section = text("section", "areal: section at y =", s.section)
         self.w_device = choice("device", "device", model.DEVICES)
+        self.w_hand = choice("hand", "scan: hand", model.HANDS)
         self.w_speed = text("speed", "scan speed", s.speed)
         self.w_duration = text("duration", "scan duration", s.duration)
         self.b_fig3 = Button(label="Fig. 3 loop", width=105, html_id="fig3-loop")
@@ -200,7 +201,7 @@ class ExplorerPage:
                              self.w_spacing, self.w_x_unit, self.w_height_unit, self.w_pixel, self.w_hrange,
                              self.w_section)
         controls = column(texture_box, self.w_algorithm, self.w_stiffness, self.w_dmax, self.w_friction,
-                          self.w_presliding, self.w_device, self.w_speed, self.w_duration,
+                          self.w_presliding, self.w_device, self.w_hand, self.w_speed, self.w_duration,
                           row(self.b_fig3, self.b_clear), self.b_scan, width=240)
         readouts = column(self.d_q, self.d_loop, self.d_scan, self.d_timing)
         views = column(row(self.f_field, self.f_gain), row(self.f_curl, column(readouts, self.f_scan)),
@@ -494,8 +495,9 @@ class ExplorerPage:
             zeros = np.zeros_like(out.time)
             self.src_energy.data = dict(t=out.time, x=e["x"] * 1e3, y=e.get("y", zeros) * 1e3, z=e["z"] * 1e3)
             self.d_scan.text = "scan: " + _span("scan-verdict", out.verdict)
-            self.d_scan.text += html.escape(f" ({scene.duration:g} s on the {scene.device.name}; energy balance error "
-                                            f"{out.energy_balance_error:.1g})")
+            hand = "Section V-B's hand" if scene.hand is None else f"the {scene.hand.key} hand"
+            self.d_scan.text += html.escape(f" ({scene.duration:g} s on the {scene.device.name}, {hand}; energy "
+                                            f"balance error {out.energy_balance_error:.1g})")
 
         self._run("scan", lambda: model.scan(scene), apply)
 

@@ -34,6 +34,11 @@ DEVICES = [("pantograph", "pantograph (the paper's, planar)"), ("point-mass", "p
            ("sigma-7", "Force Dimension sigma.7"), ("inverse3", "Haply Inverse3 (chosen figures)")]
 #: The scanning hand of Section V-B (the CLI's ``simulate scan`` defaults).
 HAND_STIFFNESS, HAND_DAMPING, HAND_DEPTH = 300.0, 1.0, 1e-3
+#: Hands the scan's hand control offers (value, label): Section V-B's spring and damper (no mass),
+#: and the hands of :mod:`haptex.catalogue` (their mass moves with the handle; with sources in
+#: ``haptex devices show NAME``).
+HANDS = [("section-v-b", "Section V-B: 300 N/m, 1 N s/m"), ("light-touch", "light touch (chosen)"),
+         ("firm-grip", "firm grip (van Beek et al. 2015)")]
 #: Grid of the arrows and of the maps (points per axis along x, z).
 ARROW_GRID, MAP_GRID = (23, 19), (121, 121)
 #: Longest scan the page runs (s of simulated time): about 0.3 s of computing at T = 100 us.
@@ -79,6 +84,8 @@ class Settings:
         F's mu and d^x_max.
     device : str
         One of :data:`DEVICES`' values.
+    hand : str
+        One of :data:`HANDS`' values: the hand that drags the handle in the scan.
     speed, duration : str
         The scan's set-point speed and length.
     section : str
@@ -104,6 +111,7 @@ class Settings:
     friction: str = f"{PAPER_PARAMETERS['friction']:g}"
     presliding: str = f"{PAPER_PARAMETERS['presliding'] * 1e3:g} mm"
     device: str = "pantograph"
+    hand: str = "section-v-b"
     speed: str = "10 mm/s"
     duration: str = "1 s"
     section: str = "auto"
@@ -121,6 +129,7 @@ class Scene:
     speed: float
     duration: float
     section: float
+    hand: object = None  # a catalogue Hand, or None for Section V-B's
 
     @property
     def dimension(self) -> int:
@@ -233,6 +242,14 @@ def build(settings: Settings) -> Scene:
         dev = presets()[dev_kind].device(dimension=d)
     else:
         raise fail("device", dev_kind, "one of " + ", ".join(v for v, _ in DEVICES))
+    if s.hand == "section-v-b":
+        hand = None
+    elif s.hand in (v for v, _ in HANDS):
+        from ..catalogue import hand as _hand
+
+        hand = _hand(s.hand)
+    else:
+        raise fail("hand", s.hand, "one of " + ", ".join(v for v, _ in HANDS))
     speed = quantity(s.speed, "m/s", "speed")
     if not 0 < speed <= 1.0:
         raise fail("speed", s.speed, "a scan speed in (0, 1 m/s]")
@@ -244,7 +261,7 @@ def build(settings: Settings) -> Scene:
     if d == 2 and section != 0.0:
         raise fail("section", s.section, "'auto' or 0 over a profile (the section applies to areal textures)")
     scene = Scene(settings=replace(s), texture=tex, algorithm=alg, device=dev, max_penetration=dmax, speed=speed,
-                  duration=duration, section=section)
+                  duration=duration, section=section, hand=hand)
     if auto and d == 3:
         _, (y0, y1) = window(scene)
         scene = replace(scene, section=y0 + (y1 - y0) / 4)
@@ -396,24 +413,28 @@ def fig3(scene: Scene) -> tuple[np.ndarray, float, float | None, str]:
 
 
 def scan(scene: Scene) -> Scan:
-    """A stroke along x on the section: the scanning hand of Section V-B (K = 300 N/m,
-    C = 1 N s/m, pressing 1 mm below the nominal surface) dragged at ``speed`` for
+    """A stroke along x on the section: the scene's hand (Section V-B's, K = 300 N/m,
+    C = 1 N s/m, by default; or a hand of :mod:`haptex.catalogue`, its mass moving with the
+    handle), its set-point 1 mm below the nominal surface, dragged at ``speed`` for
     ``duration`` on the chosen device, simulated by :func:`haptex.simulate`."""
     from .. import operators as ops
     from ..simulate import simulate
 
     d = scene.dimension
     (x0, _), _ = window(scene)
+    h = scene.hand
+    k, c = (HAND_STIFFNESS, HAND_DAMPING) if h is None else (h.stiffness, h.damping)
+    device = scene.device if h is None else h.attach(scene.device)
     if d == 2:  # a constant-velocity set-point: the verdict then knows the texture's own rates v / l
-        op = ops.ScanningHand(HAND_STIFFNESS, HAND_DAMPING, velocity=scene.speed, depth=HAND_DEPTH, start=x0)
+        op = ops.ScanningHand(k, c, velocity=scene.speed, depth=HAND_DEPTH, start=x0)
         start = [x0, 0.0]
     else:  # along x on the section y = section
         end = x0 + scene.speed * scene.duration
-        op = ops.ScanningHand(HAND_STIFFNESS, HAND_DAMPING, path=[[x0, scene.section, 0.0], [end, scene.section, 0.0]],
+        op = ops.ScanningHand(k, c, path=[[x0, scene.section, 0.0], [end, scene.section, 0.0]],
                               speed=scene.speed, depth=HAND_DEPTH, dimension=3)
         start = [x0, scene.section, 0.0]
-    n = scene.duration / scene.device.period
-    res = simulate(scene.algorithm, scene.device, op, scene.duration, initial_position=start,
+    n = scene.duration / device.period
+    res = simulate(scene.algorithm, device, op, scene.duration, initial_position=start,
                    record_every=max(1, int(math.ceil(n / 4000))))
     energy = {"x": res.energy_x, "z": res.energy_z}
     if d == 3:
