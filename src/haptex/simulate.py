@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import math
 import warnings
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -192,22 +191,17 @@ def _lean(fast: np.ndarray, kinematic: bool, pc_on: bool, delay, delta, fres, fm
 def _core_lean(code, kind, nominal, n_steps, T, record_every, tail_start, prm, coeffs, aux, fast, M, f0, P0, V0,
                rec, summary, tail, threads: int = 1) -> None:
     """Runs of the lean loop in the C core (:func:`haptex.core._ext.run_lean`): every per-run
-    array has a leading run axis; the runs are cut into ``threads`` contiguous slices run on
-    threads, the GIL released."""
+    array has a leading run axis; the runs are cut into contiguous slices run on ``threads``
+    threads (:func:`haptex.core.in_slices`), the GIL released."""
     per_run = [np.ascontiguousarray(a, dtype=np.float64) for a in (prm, coeffs, aux, fast, M, f0, P0, V0)]
     outs = (rec, summary, tail)  # written in place: already contiguous float64 (made here)
     N = per_run[0].shape[0]
-    cuts = np.linspace(0, N, min(threads, N) + 1).astype(int) if N else np.zeros(1, dtype=int)
 
     def one(lo, hi):
         _core._ext.run_lean(code, kind, nominal, n_steps, T, record_every, tail_start,
                             *(a[lo:hi] for a in per_run), *(a[lo:hi] for a in outs))
 
-    if len(cuts) <= 2:
-        one(0, N)
-        return
-    with ThreadPoolExecutor(len(cuts) - 1) as pool:
-        list(pool.map(one, cuts[:-1], cuts[1:]))
+    _core.in_slices(one, N, threads, least=1)
 
 
 def _core_general(code, kind, nominal, kinematic, pc_on, pc_ref, n_steps, T, record_every, tail_start, sp_t, prm,
@@ -379,7 +373,8 @@ def _axis_verdicts(u: np.ndarray, tail_duration: float, threshold: np.ndarray, t
     N, n = u.shape
     a1 = np.empty(N)
     a2 = np.empty(N)
-    _core._ext.tail_amplitudes(u, a1, a2)
+    _core.in_slices(lambda lo, hi: _core._ext.tail_amplitudes(u[lo:hi], a1[lo:hi], a2[lo:hi]), N,
+                    least=max(1, (1 << 16) // max(n, 1)))  # (on the batch's threads: the GIL released)
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(a1 > 0, a2 / np.where(a1 > 0, a1, 1.0), np.where(a2 > 0, np.inf, 0.0))
     moving = np.flatnonzero(a2 > threshold)
@@ -694,6 +689,7 @@ def _observer_delay(pc: PassivityController | None, delays) -> None:
                    "(the forces its observer remembers)")
 
 
+@_core.blas_held_to_one_thread
 def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration: float, initial_position=None,
              initial_velocity=None, record_every: int = 1, tail_fraction: float = 0.4,
              passivity_controller: PassivityController | None = None) -> SimulationResult:
@@ -1020,6 +1016,7 @@ def _rebuild(algorithm: Algorithm, device: Device, operator: Operator, values: d
     return algorithm, device, operator
 
 
+@_core.blas_held_to_one_thread
 def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, duration: float, initial_position=None,
                    initial_velocity=None, record: bool = False, record_every: int = 1, tail_fraction: float = 0.4,
                    progress: bool | None = None, passivity_controller: PassivityController | None = None,

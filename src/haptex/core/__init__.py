@@ -154,17 +154,61 @@ cost varies a hundredfold over a region (a closest point 1 um or 1 mm deep), and
 per thread left a core idle for up to a third of a design run."""
 
 
+_BLAS = {"controller": None, "depth": 0, "limiter": None}
+_BLAS_LOCK = threading.Lock()
+
+
+@contextmanager
+def _blas_held_to_one_thread():
+    """While haptex's C loops run on threads, BLAS's own threads are held to one (threadpoolctl):
+    OpenBLAS's idle workers spin for a while after each call, and on 2 cores they took 22 % of
+    a simulate_batch's CPU from its loops (perf). Nested and concurrent uses share one limit,
+    lifted when the last ends."""
+    with _BLAS_LOCK:
+        if _BLAS["depth"] == 0:
+            if _BLAS["controller"] is None:
+                from threadpoolctl import ThreadpoolController
+
+                _BLAS["controller"] = ThreadpoolController()
+            _BLAS["limiter"] = _BLAS["controller"].limit(limits=1, user_api="blas")
+        _BLAS["depth"] += 1
+    try:
+        yield
+    finally:
+        with _BLAS_LOCK:
+            _BLAS["depth"] -= 1
+            if _BLAS["depth"] == 0:
+                _BLAS["limiter"].restore_original_limits()
+                _BLAS["limiter"] = None
+
+
+def blas_held_to_one_thread(fn):
+    """Decorator: ``fn`` runs with BLAS held to one thread (:func:`_blas_held_to_one_thread`):
+    for entry points whose set-up calls BLAS on small matrices just before their C loops run
+    on threads (OpenBLAS's workers would spin through the loops: measured 17-21 % of
+    simulate_batch's rate on 2 cores)."""
+    import functools
+
+    @functools.wraps(fn)
+    def held(*args, **kwargs):
+        with _blas_held_to_one_thread():
+            return fn(*args, **kwargs)
+
+    return held
+
+
 def in_slices(fn, n: int, threads: int | None = None, least: int = 1024) -> None:
     """Call ``fn(lo, hi)`` over contiguous slices of range(n), on up to :func:`num_threads`
     threads (the C releases the GIL); slices of at least ``least`` items (one thread below),
-    up to ``SLICES_PER_THREAD`` a thread, taken by the threads as they come free."""
+    up to ``SLICES_PER_THREAD`` a thread, taken by the threads as they come free; BLAS held to
+    one thread meanwhile."""
     threads = num_threads() if threads is None else threads
     parts = max(1, min(threads * SLICES_PER_THREAD, n // max(least, 1)))
     if parts == 1 or threads == 1:
         fn(0, n)
         return
     cuts = np.linspace(0, n, parts + 1).astype(int)
-    with ThreadPoolExecutor(min(threads, parts)) as pool:
+    with _blas_held_to_one_thread(), ThreadPoolExecutor(min(threads, parts)) as pool:
         list(pool.map(fn, cuts[:-1], cuts[1:]))
 
 
