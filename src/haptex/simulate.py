@@ -398,31 +398,62 @@ def _axis_verdicts(u: np.ndarray, tail_duration: float, threshold: np.ndarray, t
     return osc & ~driven, a2, ratio, freq, driven
 
 
-def _oscillations(tail: np.ndarray, tail_duration: float, e_env_tail: np.ndarray, threshold: np.ndarray,
-                  texture_freqs: np.ndarray) -> list[Oscillation]:
-    """Verdicts of N runs from their tail positions ``tail`` (N, d, m) [x, (y,) z] sampled
-    evenly over ``tail_duration`` (s); ``e_env_tail`` (N,) the change of the summed
+def _oscillation_table(tail: np.ndarray, tail_duration: float, e_env_tail: np.ndarray, threshold: np.ndarray,
+                       texture_freqs: np.ndarray) -> dict:
+    """Verdicts of N runs, as arrays: from their tail positions ``tail`` (N, d, m) [x, (y,) z]
+    sampled evenly over ``tail_duration`` (s); ``e_env_tail`` (N,) the change of the summed
     environment energies over the tail (J); ``threshold`` (N,) m; ``texture_freqs`` (N, k)
-    the rates (Hz, NaN-padded) at which a scan crosses the texture's periods."""
+    the rates (Hz, NaN-padded) at which a scan crosses the texture's periods.
+
+    Returns a dict: ``axes`` (the axis names), per axis name a tuple of (N,) arrays
+    (oscillating, amplitude, decay ratio, frequency, texture driven); and (N,) arrays
+    ``axis`` (the index into ``axes`` of the main axis: the oscillating one of largest
+    amplitude, z first among equals, then y, then x), ``oscillating`` (any axis),
+    ``cycles``, ``energy_per_cycle``, ``threshold``. :func:`_oscillations` makes the objects."""
     N, d, m = tail.shape
     names = "xz" if d == 2 else "xyz"
+    threshold = np.asarray(threshold, dtype=np.float64)
     if m < 8 or tail_duration <= 0:
-        rest = AxisOscillation(False, 0.0, 0.0, 0.0)
-        return [Oscillation(False, 0.0, 0.0, 0.0, 0.0, float(threshold[i]), "z", rest, rest,
-                            rest if d == 3 else None) for i in range(N)]
-    cols = [_axis_verdicts(tail[:, i, :], tail_duration, threshold, texture_freqs)
-            for i in range(d)]
+        z, f = np.zeros(N), np.zeros(N, dtype=bool)
+        cols = {name: (f, z, z, z, f) for name in names}
+    else:
+        cols = {name: _axis_verdicts(tail[:, i, :], tail_duration, threshold, texture_freqs)
+                for i, name in enumerate(names)}
+    order = names[::-1]  # z first among equals, then y, then x (as max over this order)
+    best = np.full(N, len(names) - 1)
+    b_osc, b_amp = cols[order[0]][0].copy(), cols[order[0]][1].copy()
+    for name in order[1:]:
+        osc, amp = cols[name][0], cols[name][1]
+        better = (osc & ~b_osc) | ((osc == b_osc) & (amp > b_amp))
+        best[better] = names.index(name)
+        b_osc, b_amp = np.where(better, osc, b_osc), np.where(better, amp, b_amp)
+    pick = lambda j: np.choose(best, [cols[name][j] for name in names])  # noqa: E731
+    cycles = pick(3) * tail_duration if m >= 8 and tail_duration > 0 else np.zeros(N)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        per_cycle = np.where(cycles > 0, -np.asarray(e_env_tail, dtype=np.float64) / np.where(cycles > 0, cycles, 1.0),
+                             0.0)
+    return {"axes": names, **cols, "axis": best, "oscillating": np.any([cols[n][0] for n in names], axis=0),
+            "amplitude": pick(1), "decay_ratio": pick(2), "frequency": pick(3), "driven": pick(4),
+            "cycles": cycles, "energy_per_cycle": per_cycle, "threshold": threshold}
+
+
+def _oscillations(tail: np.ndarray, tail_duration: float, e_env_tail: np.ndarray, threshold: np.ndarray,
+                  texture_freqs: np.ndarray) -> list[Oscillation]:
+    """The :class:`Oscillation` of each of N runs (see :func:`_oscillation_table`)."""
+    return _oscillation_objects(_oscillation_table(tail, tail_duration, e_env_tail, threshold, texture_freqs))
+
+
+def _oscillation_objects(t: dict, rows=None) -> list[Oscillation]:
+    """The :class:`Oscillation` objects of a table's runs (all, or ``rows``)."""
+    names = t["axes"]
     out = []
-    for r in range(N):
-        ax = {name: AxisOscillation(bool(c[0][r]), float(c[1][r]), float(c[2][r]), float(c[3][r]), bool(c[4][r]))
-              for name, c in zip(names, cols)}
-        key = max(names[::-1], key=lambda k: (ax[k].oscillating, ax[k].amplitude))
-        main = ax[key]
-        cycles = main.frequency * tail_duration
-        per_cycle = -float(e_env_tail[r]) / cycles if cycles > 0 else 0.0
-        out.append(Oscillation(any(a.oscillating for a in ax.values()), main.amplitude, main.decay_ratio,
-                               main.frequency, per_cycle, float(threshold[r]), key, ax["x"], ax["z"], ax.get("y"),
-                               cycles))
+    for r in range(t["axis"].size) if rows is None else rows:
+        ax = {name: AxisOscillation(bool(t[name][0][r]), float(t[name][1][r]), float(t[name][2][r]),
+                                    float(t[name][3][r]), bool(t[name][4][r])) for name in names}
+        main = ax[names[int(t["axis"][r])]]
+        out.append(Oscillation(bool(t["oscillating"][r]), main.amplitude, main.decay_ratio, main.frequency,
+                               float(t["energy_per_cycle"][r]), float(t["threshold"][r]), names[int(t["axis"][r])],
+                               ax["x"], ax["z"], ax.get("y"), float(t["cycles"][r])))
     return out
 
 
@@ -1107,7 +1138,7 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
         raise ParameterError("the runs of a batch must share the algorithm letter, texture shape and sampling period")
     code, kind, nominal = specs[0][0], specs[0][2], specs[0][5]
     st = lambda j: np.ascontiguousarray(np.stack([s[j] for s in specs])[inverse])  # noqa: E731
-    prm, coeffs, Phi, Wd, Wo, Bs, Binv = st(1), st(3), st(6), st(7), st(8), st(9), st(10)
+    prm, coeffs = st(1), st(3)
     if stiffness is not None:
         prm[:, P_K0] = stiffness
     fast = st(11) if len({s[11].shape[0] for s in specs}) == 1 else np.zeros((N, 0, d, N_FAST))
@@ -1122,13 +1153,7 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
         raise ParameterError("the runs of a batch must all have a structural mode or all be rigid")
     by_run = lambda items, **kw: np.ascontiguousarray(np.asarray(items, **kw)[inverse])  # noqa: E731
     M = by_run([_mass_inputs(d_)[0] for d_ in dev])
-    modal = by_run([_mass_inputs(d_)[1] for d_ in dev])
-    K = by_run([o.stiffness for o in ops])
-    C = by_run([o.damping for o in ops])
     f0 = by_run([o.force for o in ops])
-    sp_p = by_run([o.setpoint_points for o in ops])
-    vend = by_run([o.final_velocity for o in ops])
-    rest = by_run([o.rest_length for o in ops])
     delay = by_run([d_.delay for d_ in dev], dtype=np.int64)
     delta = by_run([d_.position_resolution for d_ in dev])
     _observer_delay(passivity_controller, delay)
@@ -1150,12 +1175,21 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     T = dev[0].period
     thresholds = np.array([_threshold(d_) for d_ in dev])[inverse]
     freqs = _frequency_table([_texture_frequencies(a, o) for a, _, o in runs])[inverse]
-    # the lean loop where none of its omitted machinery is used, else the general one (both C)
+    # the lean loop where none of its omitted machinery is used, else the general one (both C),
+    # whose per-run matrices are made only then (N copies of 2 x 10 x 10 maps and forms)
     in_core = bool(_lean(fast, ops[0].kinematic, pc_on, delay, delta, fres, fmax, fc))
+    if not in_core:
+        Phi, Wd, Wo, Bs, Binv = st(6), st(7), st(8), st(9), st(10)
+        modal = by_run([_mass_inputs(d_)[1] for d_ in dev])
+        K = by_run([o.stiffness for o in ops])
+        C = by_run([o.damping for o in ops])
+        sp_p = by_run([o.setpoint_points for o in ops])
+        vend = by_run([o.final_velocity for o in ops])
+        rest = by_run([o.rest_length for o in ops])
     threads = _core.num_threads()
     show = (N * n_steps > 5e7) if progress is None else bool(progress)
     bar = _progress(show, N)
-    osc = []
+    tables = []
     for idx in np.array_split(np.arange(N), max(-(-N // per_block), min(N, 20) if show else 1)):
         if idx.size:
             lo, hi = idx[0], idx[-1] + 1
@@ -1173,8 +1207,8 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
                               K[lo:hi], C[lo:hi], f0[lo:hi], sp_p[lo:hi], vend[lo:hi], rest[lo:hi], delay[lo:hi],
                               delta[lo:hi], fres[lo:hi], fmax[lo:hi], fc[lo:hi], pcb[lo:hi], P0[lo:hi], V0[lo:hi],
                               rec[lo:hi], summary[lo:hi], block, threads)
-            osc += _oscillations(block, (n_steps - tail_start) * T, _tail_energy(summary[lo:hi]), thresholds[lo:hi],
-                                 freqs[lo:hi])
+            tables.append(_oscillation_table(block, (n_steps - tail_start) * T, _tail_energy(summary[lo:hi]),
+                                             thresholds[lo:hi], freqs[lo:hi]))
             bar(idx.size)
     bar(None)
     w_cmd = -(summary[:, S_EX] + summary[:, S_EY] + summary[:, S_EZ])
@@ -1183,26 +1217,27 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     diverged_at = summary[:, S_DIVERGED].astype(np.int64)
     _warn_arrays(diverged_at, balance, [_DIVERGED_NAMES.get(int(w)) for w in summary[:, S_DIVERGED_WHAT]],
                  stacklevel=3)
-    col = lambda f: np.array([f(o) for o in osc])  # noqa: E731
+    # the verdicts as arrays (per-run objects only for the recorded runs)
+    t = {k: (tables[0][k] if k == "axes" else
+             tuple(np.concatenate([tb[k][j] for tb in tables]) for j in range(5)) if k in tables[0]["axes"] else
+             np.concatenate([tb[k] for tb in tables])) for k in tables[0]}
     return BatchResult(
         parameters=values,
         energy_x=summary[:, S_EX].copy(), energy_z=summary[:, S_EZ].copy(), damping_energy=summary[:, S_DAMP].copy(),
         operator_work=summary[:, S_OP].copy(), kinetic_energy=summary[:, S_KE].copy(),
-        energy_balance_error=balance, oscillating=col(lambda o: o.oscillating),
-        amplitude=col(lambda o: o.amplitude), frequency=col(lambda o: o.frequency),
-        energy_per_cycle=col(lambda o: o.energy_per_cycle),
+        energy_balance_error=balance, oscillating=t["oscillating"].astype(bool),
+        amplitude=t["amplitude"].astype(float), frequency=t["frequency"].astype(float),
+        energy_per_cycle=t["energy_per_cycle"].astype(float),
         max_penetration=summary[:, S_MAXPEN].copy(), saturations=summary[:, S_SAT].astype(np.int64),
-        diverged_at=diverged_at, runs=[_result(rec[i], summary[i], osc[i]) for i in range(N)] if record else None,
+        diverged_at=diverged_at,
+        runs=[_result(rec[i], summary[i], o) for i, o in enumerate(_oscillation_objects(t))] if record else None,
         energy_y=summary[:, S_EY].copy() if d == 3 else None,
         passivity_control_samples=summary[:, S_PC_ACTIVE].astype(np.int64),
         observed_energy=summary[:, S_PC_ENERGY].copy(),
-        oscillating_axes=np.array([[o.x.oscillating] + ([o.y.oscillating] if d == 3 else []) + [o.z.oscillating]
-                                   for o in osc], dtype=bool).reshape(N, d),
-        decay_ratio=col(lambda o: o.decay_ratio),
-        growing=col(lambda o: bool(o.decay_ratio > 1.0 and o.amplitude > o.threshold
-                                    and not getattr(o, o.axis).texture_driven)),
-        regime=regime(col(lambda o: o.decay_ratio), col(lambda o: o.amplitude), col(lambda o: o.threshold),
-                      col(lambda o: o.cycles), col(lambda o: getattr(o, o.axis).texture_driven), diverged_at > 0))
+        oscillating_axes=np.column_stack([t[a][0] for a in ("xz" if d == 2 else "xyz")]).astype(bool).reshape(N, d),
+        decay_ratio=t["decay_ratio"].astype(float),
+        growing=(t["decay_ratio"] > 1.0) & (t["amplitude"] > t["threshold"]) & ~t["driven"].astype(bool),
+        regime=regime(t["decay_ratio"], t["amplitude"], t["threshold"], t["cycles"], t["driven"], diverged_at > 0))
 
 
 def _progress(show: bool, total: int, description: str = "simulating", completed: int = 0, columns=(),
