@@ -373,3 +373,42 @@ def test_an_inverse_service_without_an_inverse3_or_past_the_message_limit_is_ref
         service = vs.InverseService(SimulatedBackend("inverse3", realtime=False), garble={0: huge})
         open_backend("haply:" + service.address)
     assert "\n" not in str(e.value)
+
+
+def test_a_device_without_velocity_runs_on_positions():
+    # the bad input: a device that reports no velocity. The Inverse Service's message
+    # without cursor_velocity gives samples without one; the rules need only positions
+    sim = SimulatedBackend("inverse3", realtime=False)
+    service = vs.InverseService(sim, velocity=False)
+    b = open_backend("haply:" + service.address)
+    b.open()
+    try:
+        s = b.sample()
+        assert s.velocity is None and np.all(np.isfinite(s.position))
+        b.command(np.zeros(3))
+    finally:
+        b.close()
+    b = open_backend("haply:" + service.address)
+    stats, trace = _loop(b).run(300 * b.period)
+    assert stats.faults == 0 and stats.ticks == 300
+
+
+def test_a_binding_of_another_version_is_named_in_one_line(monkeypatch):
+    # a forcedimension_core whose dhd lacks a function the backend calls, or a pyOpenHaptics
+    # without one: refused before any device is touched, naming what is missing and the extra
+    import types
+
+    fake = types.ModuleType("forcedimension_core")
+    fake.dhd = types.SimpleNamespace(open=lambda: 0)
+    monkeypatch.setitem(sys.modules, "forcedimension_core", fake)
+    monkeypatch.setitem(sys.modules, "forcedimension_core.dhd", fake.dhd)
+    with pytest.raises(DeviceError, match=r"forcedimension_core has no dhd\.close .*haptex\[forcedimension\]") as e:
+        open_backend("forcedimension")
+    assert "\n" not in str(e.value)
+    oh = types.ModuleType("pyOpenHaptics")
+    oh.hd, oh.hd_callback = types.SimpleNamespace(init_device=lambda name: 0), types.SimpleNamespace()
+    monkeypatch.setitem(sys.modules, "pyOpenHaptics", oh)
+    monkeypatch.setitem(sys.modules, "pyOpenHaptics.hd", oh.hd)
+    monkeypatch.setitem(sys.modules, "pyOpenHaptics.hd_callback", oh.hd_callback)
+    with pytest.raises(DeviceError, match=r"pyOpenHaptics has no begin_frame .*haptex\[openhaptics\]"):
+        open_backend("openhaptics")

@@ -136,12 +136,12 @@ class InverseService:
     DEVICE_ID = "inverse3-emulated"
     PERIOD = 1e-3
 
-    def __init__(self, sim, garble=None, grip=True):
+    def __init__(self, sim, garble=None, grip=True, velocity=True):
         import threading
 
         from websockets.sync.server import serve
 
-        self.sim, self.garble, self.grip = sim, dict(garble or {}), grip
+        self.sim, self.garble, self.grip, self.velocity = sim, dict(garble or {}), grip, velocity
         self.steps = max(1, round(self.PERIOD / sim.period))
         sim.open()
         self.forces, self.connections, self.energised_after_close, self.connected = [], 0, 0, False
@@ -158,9 +158,10 @@ class InverseService:
         self.truth = self.sim._x[:3].copy()  # the handle's true position at the reading (m)
         s = self.sim.sample()
         v = np.zeros(3) if s.velocity is None else s.velocity
-        msg = {"inverse3": [{"device_id": self.DEVICE_ID, "state": {
-            "cursor_position": dict(zip("xyz", map(float, s.position))),
-            "cursor_velocity": dict(zip("xyz", map(float, v)))}}]}
+        state = {"cursor_position": dict(zip("xyz", map(float, s.position)))}
+        if self.velocity:
+            state["cursor_velocity"] = dict(zip("xyz", map(float, v)))
+        msg = {"inverse3": [{"device_id": self.DEVICE_ID, "state": state}]}
         if self.grip:
             msg["wireless_verse_grip"] = [{"device_id": "grip", "state": {"buttons": {"a": False, "b": True,
                                                                                     "c": False}}}]

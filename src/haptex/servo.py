@@ -138,7 +138,8 @@ class ServoLoop:
             The counts and the trace (empty arrays without ``record``).
         """
         T = self.backend.period
-        n_ticks = int(math.ceil(positive("duration", duration, "s") / T))
+        # (a duration within 1e-9 of a whole number of periods is that many: 0.3 s / 1 ms is 300)
+        n_ticks = max(1, int(math.ceil(positive("duration", duration, "s") / T - 1e-9)))
         d = self.backend.dimension
         zero = np.zeros(d)
         st = ServoStats()
