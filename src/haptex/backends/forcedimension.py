@@ -28,6 +28,7 @@ DEVICE_TYPES = {33: "omega-3", 34: "omega-3", 35: "omega-3", 36: "omega-3", 37: 
 translational base), the sigma.3 by the sigma.7 (chosen; their translation stages differ in
 detail). A type not listed needs its preset named: ``forcedimension:PRESET``."""
 
+
 def _dhd():
     """The binding's ``dhd`` module, or one line saying what is missing and how to get it."""
     try:
