@@ -1,0 +1,187 @@
+"""A god-object (proxy) on a textured wall, after Zilles & Salisbury (1995) and Ruspini, Kolarov
+& Khatib (1997): a different algorithm from the paper's D.
+
+D (Campion & Hayward, Table I) pulls the probe towards the **closest** point of the textured
+boundary: a static field, which jumps where the closest point does (Remark 6). A god-object is
+a point kept on or above the boundary that follows the probe **with history**: while the probe
+is inside, the proxy slides on the boundary to the nearest point it can reach by moving
+downhill in distance from where it was, and the force is the spring κ0 (proxy − probe). Below
+a peak it stays on the flank it came from until that flank's local minimum of distance
+disappears, then slides to the other: its force is continuous along any path, but it depends
+on the path (issue 32), so its energy is analysed along paths, not as a field
+(:func:`loop_work`).
+
+What is modelled: the proxy's surface coordinate u (m) is the local minimum of
+φ(u) = |u − p_xy|² + (h(u) − p_z)² reached by a damped Newton descent from the last one
+(steps at most a sixteenth of the texture's shortest period, each decreasing φ); contact starts
+at the probe's vertical foot where it crosses the boundary and ends when the probe is above the
+boundary at its own position. Friction on the proxy (Ruspini's) is not modelled.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ._validation import fail, positive
+from .textures import Texture
+
+MAX_STEPS = 200
+"""Newton steps of one tick's descent at most (chosen; a tick's probe moves a few µm)."""
+STEP_FRACTION = 1 / 16
+"""Longest descent step, as a fraction of the texture's shortest period (chosen: keeps the
+descent in the basin it starts in, the god-object's locality)."""
+
+
+class GodObject:
+    """A god-object on a texture's boundary z = h(x) (a profile) or h(x, y) (a surface).
+
+    Parameters
+    ----------
+    texture : Texture
+        A profile or a surface (heights in m).
+    stiffness : float
+        κ0 (N/m) of the spring between the proxy and the probe.
+
+    Raises
+    ------
+    ParameterError
+        For a texture that is not a :class:`~haptex.textures.Texture`, or a stiffness that is
+        not a finite positive number.
+    """
+
+    def __init__(self, texture: Texture, stiffness: float):
+        if not isinstance(texture, Texture):
+            raise fail("texture", texture, "a haptex texture (a profile or a surface)")
+        self.texture = texture
+        self.stiffness = positive("stiffness", stiffness, "N/m")
+        self.dimension = texture.dimension + 1
+        self._max_step = STEP_FRACTION * float(texture.shortest_period)
+        self.reset()
+
+    def reset(self) -> None:
+        """Out of contact, no history."""
+        self._u = None
+        self._free = None
+
+    @property
+    def proxy(self) -> np.ndarray | None:
+        """The proxy's position on the boundary (m), shape (d,), or None out of contact."""
+        if self._u is None:
+            return None
+        return np.append(self._u, self._h(self._u))
+
+    def _h(self, u) -> float:
+        return float(self.texture.height_at(np.asarray(u, dtype=float)[None, :])[0])
+
+    def _descend(self, u, p) -> np.ndarray:
+        """The local minimum of phi(u) = |u - p_xy|^2 + (h(u) - p_z)^2 reached from u."""
+        tex, pxy, pz = self.texture, p[:-1], p[-1]
+        eye = np.eye(len(u))
+        for _ in range(MAX_STEPS):
+            x = u[None, :]
+            h = float(tex.height_at(x)[0])
+            g_h = tex.gradient(x)[0]
+            dz = h - pz
+            grad = (u - pxy) + dz * g_h
+            H = eye + np.outer(g_h, g_h) + dz * tex.hessian(x)[0]
+            try:
+                s = -np.linalg.solve(H, grad)
+                if grad @ s >= 0:  # not a descent direction (H not positive definite there)
+                    raise np.linalg.LinAlgError
+            except np.linalg.LinAlgError:
+                s = -grad / (1.0 + g_h @ g_h)
+            n = float(np.linalg.norm(s))
+            if n > self._max_step:
+                s *= self._max_step / n
+            phi = float((u - pxy) @ (u - pxy) + dz * dz)
+            for _ in range(40):  # backtrack until phi decreases
+                v = u + s
+                hv = self._h(v)
+                if (v - pxy) @ (v - pxy) + (hv - pz) ** 2 <= phi:
+                    break
+                s = 0.5 * s
+            else:
+                return u
+            u = v
+            if float(np.linalg.norm(s)) <= 1e-15 + 1e-12 * float(np.linalg.norm(u)):
+                return u
+        return u
+
+    def step(self, p) -> np.ndarray:
+        """One tick: the force (N), shape (d,), at the probe position ``p`` (m), shape (d,).
+
+        Raises
+        ------
+        ParameterError
+            For a position of another shape or not finite.
+        """
+        p = np.asarray(p, dtype=float).reshape(-1)
+        if p.shape != (self.dimension,) or not np.all(np.isfinite(p)):
+            raise fail("p", p.tolist(), f"{self.dimension} finite coordinates (m)")
+        pxy = p[:-1]
+        if p[-1] >= self._h(pxy):  # above the boundary at its own position: free
+            self._u, self._free = None, pxy.copy()
+            return np.zeros(self.dimension)
+        start = self._u if self._u is not None else (self._free if self._free is not None else pxy)
+        self._u = self._descend(np.array(start, dtype=float), p)
+        return self.stiffness * (self.proxy - p)
+
+
+def loop_work(texture: Texture, stiffness: float, path, step: float | None = None, start_outside: bool = True) -> dict:
+    """The work the god-object's force does on the hand along a closed path (J): the trapezoid
+    sum of f · dp over the path sampled every ``step``, from a fresh proxy.
+
+    Parameters
+    ----------
+    texture : Texture
+    stiffness : float
+        κ0 (N/m).
+    path : array_like, shape (n, d)
+        Vertices (m) of a closed polyline (the first is appended at the end); the proxy's
+        history is what the path gives it, from its first vertex.
+    step : float, optional
+        Sample spacing along the path (m); default 1/400 of the texture's shortest period.
+    start_outside : bool, optional
+        Require the first vertex above the boundary (default): the proxy's history then
+        starts with no contact, as a hand's does.
+
+    Returns
+    -------
+    dict
+        ``work`` (J; negative: the environment absorbed energy), ``samples``, and
+        ``away_from_closest``: the longest distance between the proxy and the closest point
+        of the boundary over the path (m; 0 where the proxy is D's point).
+
+    Raises
+    ------
+    ParameterError
+        For a path of another dimension, fewer than 3 vertices, a start inside the wall, or a
+        step that is not positive.
+    """
+    g = GodObject(texture, stiffness)
+    v = np.asarray(path, dtype=float)
+    if v.ndim != 2 or v.shape[1] != g.dimension or len(v) < 3 or not np.all(np.isfinite(v)):
+        raise fail("path", np.shape(v), f"at least 3 finite vertices of {g.dimension} coordinates (m)")
+    if start_outside and v[0, -1] < g._h(v[0, :-1]):
+        raise fail("path", v[0].tolist(), "a first vertex above the boundary (start_outside)")
+    h = float(step) if step is not None else float(texture.shortest_period) / 400
+    if not h > 0:
+        raise fail("step", step, "a positive length (m)")
+    v = np.vstack([v, v[:1]])
+    pts = [v[0]]
+    for a, b in zip(v[:-1], v[1:]):
+        n = max(1, int(np.ceil(np.linalg.norm(b - a) / h)))
+        pts.extend(a + (b - a) * (np.arange(1, n + 1) / n)[:, None])
+    pts = np.array(pts)
+    f = np.array([g.step(q) for q in pts])
+    work = float(np.sum(0.5 * (f[1:] + f[:-1]) * np.diff(pts, axis=0)))
+    from .closest import closest_point
+
+    inside = f.any(axis=1)
+    gap = 0.0
+    if inside.any():
+        cp = closest_point(texture, pts[inside])
+        foot = np.column_stack([cp.x] + ([cp.y] if g.dimension == 3 else []) + [cp.z])
+        proxy = pts[inside] + f[inside] / stiffness
+        gap = float(np.max(np.linalg.norm(proxy - foot, axis=1)))
+    return {"work": work, "samples": len(pts), "away_from_closest": gap}

@@ -1,0 +1,94 @@
+"""Issue 32: a god-object (proxy) algorithm after Zilles & Salisbury (1995) / Ruspini et al.
+(1997), stated as a different algorithm from the paper's D: it tracks a local minimum of the
+distance with history. The facts tested: on a flat wall it is the wall W; where the closest
+point is unique and reached without crossing a fold it is D; below a peak it has hysteresis
+(D's jump, Remark 6 of Campion & Hayward, becomes path dependence, the force continuous along
+the path); around a loop through that region it absorbs energy in both directions, where D
+(the gradient of kappa0 d^2/2, a continuous potential) does none."""
+
+import numpy as np
+import pytest
+
+import haptex as hx
+from haptex.proxy import GodObject, loop_work
+
+A, L, K = 0.8e-3, 1e-3, 2000.0  # the paper's Section V-A parameters
+SINE = hx.Sinusoid(A, L)
+PEAK = L / 4
+
+
+def test_on_a_flat_wall_the_proxy_is_the_wall():
+    rng = np.random.default_rng(0)
+    for d, flat in ((2, hx.Flat()), (3, hx.Flat(dimension=2))):
+        g, w = GodObject(flat, K), hx.algorithm("W", None if d == 2 else flat, K)
+        for p in np.column_stack([rng.uniform(-1e-3, 1e-3, (50, d - 1)), rng.uniform(-1e-3, 1e-3, 50)]):
+            assert np.allclose(g.step(p), w.force(p[None])[0], rtol=1e-12, atol=1e-15)
+
+
+# (depths under the least radius of curvature of the boundary, 1 / (A k^2): 32 um for the
+# paper's sinusoid, 0.34 mm for the egg-crate, where the closest point is unique)
+@pytest.mark.parametrize("tex, depth", [(SINE, 2e-5), (hx.SumOfGratings.egg_crate(0.3e-3, 2e-3), 1e-4)])
+def test_where_the_closest_point_is_reached_without_a_fold_the_proxy_is_d(tex, depth):
+    # a probe that enters from above and goes straight down: its proxy descends to the local
+    # minimum of distance it started in, the closest point D pulls to
+    rng = np.random.default_rng(1)
+    d = tex.dimension + 1
+    D = hx.algorithm("D", tex, K)
+    for _ in range(20):
+        xy = rng.uniform(0, 2e-3, d - 1)
+        h = float(tex.height_at(xy[None])[0])
+        g = GodObject(tex, K)
+        g.step(np.append(xy, h + 1e-5))
+        for z in np.linspace(h - 1e-6, h - depth, 20):
+            f = g.step(np.append(xy, z))
+        assert np.allclose(f, D.force(np.append(xy, z)[None])[0], rtol=1e-9, atol=1e-12 * K)
+
+
+def _sweep(xs, depth):
+    g = GodObject(SINE, K)
+    g.step([xs[0], A + 1e-4])  # from above the wall, then along z = A - depth
+    return np.array([g.step([x, A - depth]) for x in xs])
+
+
+def test_below_a_peak_the_proxy_has_hysteresis_where_d_jumps():
+    # 1.2 mm below the crest, 0.05 mm right of it: D pulls to the right flank (the closest
+    # point); a proxy that came from the left is still on the left flank (its local minimum
+    # of distance is still there), one that came from the right is where D is
+    xs = np.linspace(PEAK - 0.3e-3, PEAK + 0.3e-3, 601)
+    right, left = _sweep(xs, 1.2e-3), _sweep(xs[::-1], 1.2e-3)[::-1]
+    i = np.searchsorted(xs, PEAK + 0.05e-3)
+    D = hx.algorithm("D", SINE, K).force(np.array([[xs[i], A - 1.2e-3]]))[0]
+    assert np.allclose(left[i], D, rtol=1e-9)
+    assert right[i][0] < 0 < D[0]  # pulled back to the left flank
+    # along each 1 um step of the sweep the proxy's force changes by under 0.01 N: it stays on
+    # its flank across the crest line, where D's jumps by over 1 N
+    Dall = hx.algorithm("D", SINE, K).force(np.column_stack([xs, np.full_like(xs, A - 1.2e-3)]))
+    assert np.max(np.linalg.norm(np.diff(Dall, axis=0), axis=1)) > 1.0
+    for f in (right, left):
+        assert np.max(np.linalg.norm(np.diff(f, axis=0), axis=1)) < 0.01
+
+
+def test_around_a_loop_through_the_fold_the_proxy_absorbs_energy_both_ways_and_d_none():
+    loop = np.array([[PEAK - 0.3e-3, A + 0.1e-3], [PEAK - 0.3e-3, A - 1.2e-3], [PEAK + 0.3e-3, A - 1.2e-3],
+                     [PEAK + 0.3e-3, A + 0.1e-3]])
+    D = hx.algorithm("D", SINE, K)
+    for path in (loop, loop[::-1]):
+        r = loop_work(SINE, K, path)
+        assert r["work"] < -1e-4  # J: absorbed (the spring's energy, held away from D's point, is
+        # dropped when the probe leaves the wall and the proxy rejoins it)
+        assert r["away_from_closest"] > 1e-4  # m: it was held away from D's point
+        assert abs(hx.loop_energy(D, np.vstack([path, path[:1]]))) < 1e-12  # D is conservative
+    shallow = np.array([[0.0, A + 0.1e-3], [0.0, -A - 0.05e-3], [0.2e-3, -A - 0.05e-3], [0.2e-3, A + 0.1e-3]])
+    r = loop_work(SINE, K, shallow)  # around the valley: no fold, the proxy is D and does no work
+    assert abs(r["work"]) < 1e-9 and r["away_from_closest"] < 1e-9
+
+
+def test_bad_input_is_refused_by_name():
+    with pytest.raises(hx.ParameterError, match="stiffness"):
+        GodObject(SINE, -1.0)
+    with pytest.raises(hx.ParameterError, match="texture"):
+        GodObject("sine", K)
+    with pytest.raises(hx.ParameterError, match="p = "):
+        GodObject(SINE, K).step([0.0, np.nan])
+    with pytest.raises(hx.ParameterError, match="path"):
+        loop_work(SINE, K, [[0.0, -1e-3], [1e-3, -1e-3], [1e-3, 1e-3]])  # starts inside
