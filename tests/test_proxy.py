@@ -92,3 +92,60 @@ def test_bad_input_is_refused_by_name():
         GodObject(SINE, K).step([0.0, np.nan])
     with pytest.raises(hx.ParameterError, match="path"):
         loop_work(SINE, K, [[0.0, -1e-3], [1e-3, -1e-3], [1e-3, 1e-3]])  # starts inside
+    from haptex.objects import Sphere
+
+    with pytest.raises(hx.ParameterError, match="base"):
+        GodObject(SINE, K, Sphere(0.1))  # a profile on a curved base
+    with pytest.raises(hx.ParameterError, match="base"):
+        GodObject(EGG, K, "sphere")
+
+
+EGG = hx.SumOfGratings.egg_crate(0.2e-3, 2e-3)
+
+
+def _pressed(g, xy, depth, above=1e-5, n=30):
+    """The force after pressing straight in from `above` the base to `depth` below it."""
+    for z in np.linspace(above, -depth, n):
+        f = g.step(np.array([xy[0], xy[1], z]))
+    return f
+
+
+def test_over_the_plane_base_the_proxy_is_the_planar_one():
+    from haptex.objects import Plane
+
+    rng = np.random.default_rng(2)
+    for _ in range(5):
+        xy = rng.uniform(0, 2e-3, 2)
+        f0 = _pressed(GodObject(EGG, K), xy, 3e-4)
+        f1 = _pressed(GodObject(EGG, K, Plane()), xy, 3e-4)
+        # (to 1e-7 of the force: over a base, S's Jacobian is taken by central differences)
+        assert np.linalg.norm(f1 - f0) < 1e-7 * np.linalg.norm(f0)
+
+
+def test_on_a_sphere_the_proxy_lies_on_the_textured_surface_and_tends_to_the_planes_as_d_over_r():
+    from haptex.objects import Sphere
+
+    xy = (0.3e-3, 0.2e-3)
+    flat = _pressed(GodObject(EGG, K), xy, 3e-4)
+    errors = []
+    for n_periods in (40, 4000):  # R = 12.7 mm and 1.27 m: the seam takes whole periods
+        base = Sphere(n_periods * 2e-3 / (2 * np.pi))
+        g = GodObject(EGG, K, base)
+        f = _pressed(g, xy, 3e-4)
+        q = g.proxy
+        u, _, _, e, _, _ = base.local(q[None])
+        assert abs(e[0] - EGG.height_at(u)[0]) < 1e-12  # m: on the textured surface
+        # a local minimum of distance: the spring is normal to the surface there
+        eps = 1e-9
+        tangents = [(g._surface(g._u + eps * d) - g._surface(g._u - eps * d)) / (2 * eps) for d in np.eye(2)]
+        assert max(abs(f @ t) / (np.linalg.norm(f) * np.linalg.norm(t)) for t in tangents) < 1e-5
+        errors.append(np.linalg.norm(f - flat) / np.linalg.norm(flat))
+    assert errors[1] < 1e-3 and 50 < errors[0] / errors[1] < 200  # O(d/R): 100 x radius, ~100 x closer
+    # and the loop work over the sphere, along a loop pressed in and out across a crest
+    r = loop_work(EGG, K, [[0.2e-3, 0.5e-3, 3e-4], [0.2e-3, 0.5e-3, -4e-4], [0.8e-3, 0.5e-3, -4e-4],
+                           [0.8e-3, 0.5e-3, 3e-4]], base=Sphere(4000 * 2e-3 / (2 * np.pi)))
+    flat = loop_work(EGG, K, [[0.2e-3, 0.5e-3, 3e-4], [0.2e-3, 0.5e-3, -4e-4], [0.8e-3, 0.5e-3, -4e-4],
+                              [0.8e-3, 0.5e-3, 3e-4]])
+    # both absorb (measured -12.1 and -14.0 uJ at R = 1.27 m: they differ by far more than d/R,
+    # which is not explained yet; only the sign is asserted)
+    assert r["work"] < -1e-6 and flat["work"] < -1e-6

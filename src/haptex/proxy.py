@@ -12,10 +12,11 @@ on the path (issue 32), so its energy is analysed along paths, not as a field
 (:func:`loop_work`).
 
 What is modelled: the proxy's surface coordinate u (m) is the local minimum of
-φ(u) = |u − p_xy|² + (h(u) − p_z)² reached by a damped Newton descent from the last one
-(steps at most a sixteenth of the texture's shortest period, each decreasing φ); contact starts
-at the probe's vertical foot where it crosses the boundary and ends when the probe is above the
-boundary at its own position. Friction on the proxy (Ruspini's) is not modelled.
+φ(u) = |S(u) − p|² reached by a damped descent from the last one (steps at most a sixteenth of
+the texture's shortest period, each decreasing φ), S(u) = (u, h(u)) on a plane, or the textured
+object's point ``base.point(u, h(u))`` over a curved base of :mod:`haptex.objects`; contact
+starts at the probe's foot where it crosses the boundary and ends when the probe is outside the
+boundary at its own foot. Friction on the proxy (Ruspini's) is not modelled.
 """
 
 from __future__ import annotations
@@ -41,20 +42,30 @@ class GodObject:
         A profile or a surface (heights in m).
     stiffness : float
         κ0 (N/m) of the spring between the proxy and the probe.
+    base : haptex.objects.Base, optional
+        A base the surface texture displaces along its normal (a cylinder, a sphere, a
+        mesh); default the plane z = 0. Positions are then [x, y, z] (m).
 
     Raises
     ------
     ParameterError
-        For a texture that is not a :class:`~haptex.textures.Texture`, or a stiffness that is
-        not a finite positive number.
+        For a texture that is not a :class:`~haptex.textures.Texture`, a stiffness that is
+        not a finite positive number, or a base with a profile or a texture it does not take.
     """
 
-    def __init__(self, texture: Texture, stiffness: float):
+    def __init__(self, texture: Texture, stiffness: float, base=None):
         if not isinstance(texture, Texture):
             raise fail("texture", texture, "a haptex texture (a profile or a surface)")
         self.texture = texture
         self.stiffness = positive("stiffness", stiffness, "N/m")
         self.dimension = texture.dimension + 1
+        self.base = base
+        if base is not None:
+            from .objects import Base
+
+            if not isinstance(base, Base) or texture.dimension != 2:
+                raise fail("base", base, "a base of haptex.objects, with a surface texture (u1, u2)")
+            base.check_texture(texture)
         self._max_step = STEP_FRACTION * float(texture.shortest_period)
         self.reset()
 
@@ -68,10 +79,49 @@ class GodObject:
         """The proxy's position on the boundary (m), shape (d,), or None out of contact."""
         if self._u is None:
             return None
-        return np.append(self._u, self._h(self._u))
+        return self._surface(self._u)
 
     def _h(self, u) -> float:
         return float(self.texture.height_at(np.asarray(u, dtype=float)[None, :])[0])
+
+    def _surface(self, u) -> np.ndarray:
+        """S(u): the textured boundary's point at surface coordinates u (m)."""
+        if self.base is None:
+            return np.append(u, self._h(u))
+        return self.base.point(np.asarray(u, dtype=float)[None, :], np.array([self._h(u)]))[0]
+
+    def _foot(self, p):
+        """(u, inside) of the probe: its surface coordinates and whether it is inside."""
+        if self.base is None:
+            return p[:-1].copy(), p[-1] < self._h(p[:-1])
+        u, _, _, e, _, _ = self.base.local(p[None, :])
+        return u[0], e[0] < self._h(u[0])
+
+    def _descend_object(self, u, p) -> np.ndarray:
+        """The local minimum of |S(u) - p|^2 over a curved base reached from u: Gauss-Newton
+        on S's Jacobian by central differences (1e-7 of the shortest period), backtracked."""
+        eps = 1e-7 * float(self.texture.shortest_period)
+        r = self._surface(u) - p
+        phi = float(r @ r)
+        for _ in range(MAX_STEPS):
+            J = np.column_stack([(self._surface(u + eps * e) - self._surface(u - eps * e)) / (2 * eps)
+                                 for e in np.eye(2)])
+            s = -np.linalg.lstsq(J, r, rcond=None)[0]
+            n = float(np.linalg.norm(s))
+            if n > self._max_step:
+                s *= self._max_step / n
+            for _ in range(40):
+                v = u + s
+                rv = self._surface(v) - p
+                if float(rv @ rv) <= phi:
+                    break
+                s = 0.5 * s
+            else:
+                return u
+            u, r, phi = v, rv, float(rv @ rv)
+            if float(np.linalg.norm(s)) <= 1e-15 + 1e-12 * float(np.linalg.norm(u)):
+                return u
+        return u
 
     def _descend(self, u, p) -> np.ndarray:
         """The local minimum of phi(u) = |u - p_xy|^2 + (h(u) - p_z)^2 reached from u."""
@@ -118,16 +168,18 @@ class GodObject:
         p = np.asarray(p, dtype=float).reshape(-1)
         if p.shape != (self.dimension,) or not np.all(np.isfinite(p)):
             raise fail("p", p.tolist(), f"{self.dimension} finite coordinates (m)")
-        pxy = p[:-1]
-        if p[-1] >= self._h(pxy):  # above the boundary at its own position: free
-            self._u, self._free = None, pxy.copy()
+        foot, inside = self._foot(p)
+        if not inside:  # outside the boundary at its own foot: free
+            self._u, self._free = None, foot
             return np.zeros(self.dimension)
-        start = self._u if self._u is not None else (self._free if self._free is not None else pxy)
-        self._u = self._descend(np.array(start, dtype=float), p)
+        start = self._u if self._u is not None else (self._free if self._free is not None else foot)
+        descend = self._descend if self.base is None else self._descend_object
+        self._u = descend(np.array(start, dtype=float), p)
         return self.stiffness * (self.proxy - p)
 
 
-def loop_work(texture: Texture, stiffness: float, path, step: float | None = None, start_outside: bool = True) -> dict:
+def loop_work(texture: Texture, stiffness: float, path, step: float | None = None, start_outside: bool = True,
+              base=None) -> dict:
     """The work the god-object's force does on the hand along a closed path (J): the trapezoid
     sum of f · dp over the path sampled every ``step``, from a fresh proxy.
 
@@ -142,15 +194,18 @@ def loop_work(texture: Texture, stiffness: float, path, step: float | None = Non
     step : float, optional
         Sample spacing along the path (m); default 1/400 of the texture's shortest period.
     start_outside : bool, optional
-        Require the first vertex above the boundary (default): the proxy's history then
+        Require the first vertex outside the boundary (default): the proxy's history then
         starts with no contact, as a hand's does.
+    base : haptex.objects.Base, optional
+        The textured object's base (see :class:`GodObject`); default the plane.
 
     Returns
     -------
     dict
         ``work`` (J; negative: the environment absorbed energy), ``samples``, and
         ``away_from_closest``: the longest distance between the proxy and the closest point
-        of the boundary over the path (m; 0 where the proxy is D's point).
+        of the boundary over the path (m; 0 where the proxy is D's point; None over a curved
+        base, where D is not written yet).
 
     Raises
     ------
@@ -158,12 +213,12 @@ def loop_work(texture: Texture, stiffness: float, path, step: float | None = Non
         For a path of another dimension, fewer than 3 vertices, a start inside the wall, or a
         step that is not positive.
     """
-    g = GodObject(texture, stiffness)
+    g = GodObject(texture, stiffness, base)
     v = np.asarray(path, dtype=float)
     if v.ndim != 2 or v.shape[1] != g.dimension or len(v) < 3 or not np.all(np.isfinite(v)):
         raise fail("path", np.shape(v), f"at least 3 finite vertices of {g.dimension} coordinates (m)")
-    if start_outside and v[0, -1] < g._h(v[0, :-1]):
-        raise fail("path", v[0].tolist(), "a first vertex above the boundary (start_outside)")
+    if start_outside and g._foot(v[0])[1]:
+        raise fail("path", v[0].tolist(), "a first vertex outside the boundary (start_outside)")
     h = float(step) if step is not None else float(texture.shortest_period) / 400
     if not h > 0:
         raise fail("step", step, "a positive length (m)")
@@ -175,6 +230,8 @@ def loop_work(texture: Texture, stiffness: float, path, step: float | None = Non
     pts = np.array(pts)
     f = np.array([g.step(q) for q in pts])
     work = float(np.sum(0.5 * (f[1:] + f[:-1]) * np.diff(pts, axis=0)))
+    if base is not None:
+        return {"work": work, "samples": len(pts), "away_from_closest": None}
     from .closest import closest_point
 
     inside = f.any(axis=1)
