@@ -294,3 +294,38 @@ def test_the_evaluation_budget_is_checked_where_it_is_given():
     for bad in (50, 1.5, True, 10**10):
         with pytest.raises(hx.ParameterError, match=r"^max_evaluations = .* is not allowed"):
             hx.Renderer(alg, max_evaluations=bad)
+
+
+def test_the_lean_loops_block_check_stops_at_the_same_sample_as_the_general_loop():
+    # issue 30: the lean loop checks finiteness once a block of 64 samples and runs a block that
+    # diverged again sample by sample; the general loop checks every sample. A push so large its
+    # energies overflow (10^153.85-10^154.2 N on 0.1 kg) must stop both at the same sample, with
+    # the same finite series before it, wherever the stop falls in a block (found by bisection
+    # on the push: samples 640, 641 and 639, a block's end, the next block's start and before it)
+    import warnings
+
+    from haptex.operators import ConstantForce
+
+    alg = hx.algorithm("A", hx.Sinusoid(0.2e-3, 2e-3), 2000.0)
+
+    def run(e, general):
+        dev = hx.Device.point_mass(0.1, 0.5, 1e-3, max_force=1.7e308 if general else np.inf)  # finite: general
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return hx.simulate(alg, dev, ConstantForce([0.0, 10.0**e]), 2.0, record_every=1)
+
+    pushes = list(np.linspace(153.85, 154.2, 6))
+    for target in (639, 640, 641):
+        lo, hi = 154.1, 154.2  # diverged_at 763 and 545: decreasing in the push
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if run(mid, False).diverged_at > target else (lo, mid)
+        if run(hi, False).diverged_at == target:
+            pushes.append(hi)
+    assert len(pushes) >= 8  # at least two of the three block positions were hit exactly
+    for e in pushes:
+        lean, general = run(e, False), run(e, True)
+        assert lean.diverged_at == general.diverged_at and lean.diverged_quantity == general.diverged_quantity
+        assert lean.time.size == general.time.size == lean.diverged_at - 1
+        assert np.all(np.isfinite(lean.position))
+        assert np.allclose(lean.position, general.position, rtol=1e-9, atol=0)

@@ -59,6 +59,20 @@ static int diverged(const double *p, const double *v, const double *u, const dou
     return isfinite(ed) && isfinite(eo) ? 0 : HX_DIVERGED_ENERGY;
 }
 
+/* Samples between the lean loop's finiteness checks. A non-finite position, velocity or energy
+ * stays non-finite (NaN and infinity propagate through the zero-order hold and the sums), so a
+ * check at a block's end sees any divergence inside it; the block is then run again from its
+ * checkpoint with a check every sample, which stops at the first non-finite sample exactly as a
+ * check every sample would (the same operations in the same order). */
+#define HX_CHECK_BLOCK 64
+
+/* the lean loop's state at a block's start (its checkpoint) */
+typedef struct {
+    double x, y, z, vx, vy, vz, ux, uy, uz, ex, ey, ez, ed, eo, maxpen, e_tail;
+    long k, irec, itail, next_rec, next_tail;
+    hx_state st;
+} lean_ckpt;
+
 /* The loop, instantiated below once per letter and dimension with ``code`` and ``n`` constants,
  * so that the compiler inlines that letter's field into it and drops the other dimension's
  * branches (numba's loop was compiled likewise). */
@@ -81,9 +95,21 @@ HX_INLINE int lean_loop(const hx_model *m, const hx_lean_run *r, const int code,
         tail_stride = 1;
     next_rec = r->n_rec > 0 ? r->record_every : -1;
     next_tail = n_tail > 0 ? r->tail_start : -1;
+    {
+    lean_ckpt ck;
+    int replay = 0;  /* running a block again from its checkpoint, checking every sample */
+    long irec_hi = 0, itail_hi = 0; /* what the block's first pass wrote, to clear past a stop */
+    memset(&ck, 0, sizeof ck); /* (set at k = 0, before any use) */
     for (k = 0; k < n_steps; k++) {
         double p[3], f[3], h, pen, nx, nvx, dx, ny = 0.0, nvy = 0.0, dy, nz, nvz, dz;
         int inside, reg;
+        if (!replay && k % HX_CHECK_BLOCK == 0) {
+            ck.x = x; ck.y = y; ck.z = z; ck.vx = vx; ck.vy = vy; ck.vz = vz;
+            ck.ux = ux; ck.uy = uy; ck.uz = uz; ck.ex = ex; ck.ey = ey; ck.ez = ez;
+            ck.ed = ed; ck.eo = eo; ck.maxpen = maxpen; ck.e_tail = e_tail;
+            ck.k = k; ck.irec = irec; ck.itail = itail; ck.next_rec = next_rec; ck.next_tail = next_tail;
+            ck.st = st;
+        }
         p[0] = x;
         p[1] = y;
         p[2] = z;
@@ -127,8 +153,24 @@ HX_INLINE int lean_loop(const hx_model *m, const hx_lean_run *r, const int code,
         z = nz;
         vz = nvz;
         /* a non-finite state makes this sum NaN or infinite; summed as a tree, not a chain of
-         * 14 dependent additions (a chain measured as the loop's largest cost) */
-        if (!isfinite(((ed + eo) + (x + vx)) + ((ux + ex) + (y + vy)) + (((uy + ey) + (z + vz)) + (uz + ez)))) {
+         * 14 dependent additions (a chain measured as the loop's largest cost); on a replay
+         * every sample, else at a block's end (HX_CHECK_BLOCK) */
+        if (!replay && ((k + 1) % HX_CHECK_BLOCK == 0 || k + 1 == n_steps) &&
+            !isfinite(((ed + eo) + (x + vx)) + ((ux + ex) + (y + vy)) + (((uy + ey) + (z + vz)) + (uz + ez)))) {
+            /* a divergence in this block: run it again from its checkpoint, checking each sample
+             * (the first pass's records past its start are rewritten or cleared) */
+            irec_hi = irec;
+            itail_hi = itail;
+            x = ck.x; y = ck.y; z = ck.z; vx = ck.vx; vy = ck.vy; vz = ck.vz;
+            ux = ck.ux; uy = ck.uy; uz = ck.uz; ex = ck.ex; ey = ck.ey; ez = ck.ez;
+            ed = ck.ed; eo = ck.eo; maxpen = ck.maxpen; e_tail = ck.e_tail;
+            irec = ck.irec; itail = ck.itail; next_rec = ck.next_rec; next_tail = ck.next_tail;
+            st = ck.st;
+            k = ck.k - 1;
+            replay = 1;
+            continue;
+        }
+        if (replay && !isfinite(((ed + eo) + (x + vx)) + ((ux + ex) + (y + vy)) + (((uy + ey) + (z + vz)) + (uz + ez)))) {
             double pp[3] = {x, y, z}, vv[3] = {vx, vy, vz}, uu[3] = {ux, uy, uz}, ee[3] = {ex, ey, ez};
             int what;
             if (!three) {
@@ -139,9 +181,15 @@ HX_INLINE int lean_loop(const hx_model *m, const hx_lean_run *r, const int code,
             }
             what = diverged(pp, vv, uu, ee, ed, eo, n);
             if (what != 0) {
+                long j, a;
                 summary[HX_S_DIVERGED] = (double)(k + 1);
                 summary[HX_S_DIVERGED_WHAT] = what;
                 n_steps = k + 1;
+                for (j = irec; j < irec_hi; j++) /* rows the first pass wrote past the stop */
+                    memset(r->rec + j * (4 * n + 4), 0, (size_t)(4 * n + 4) * sizeof(double));
+                for (j = itail; j < itail_hi; j++)
+                    for (a = 0; a < n; a++)
+                        r->tail[a * n_tail + j] = 0.0;
                 break;
             }
         }
@@ -178,6 +226,9 @@ HX_INLINE int lean_loop(const hx_model *m, const hx_lean_run *r, const int code,
             if (irec == r->n_rec)
                 next_rec = -1;
         }
+        if (replay && (k + 1) % HX_CHECK_BLOCK == 0)
+            replay = 0; /* (not reached: a replayed block stops at its non-finite sample) */
+    }
     }
     summary[HX_S_EX] = ex;
     summary[HX_S_EZ] = ez;
