@@ -227,7 +227,8 @@ HX_INLINE int lean_loop(const hx_model *m, const hx_lean_run *r, const int code,
                 next_rec = -1;
         }
         if (replay && (k + 1) % HX_CHECK_BLOCK == 0)
-            replay = 0; /* (not reached: a replayed block stops at its non-finite sample) */
+            replay = 0; /* a replayed block with no divergence: its sum overflowed from finite
+                         * values (as a check every sample would let pass too) */
     }
     }
     summary[HX_S_EX] = ex;
