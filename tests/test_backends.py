@@ -343,6 +343,18 @@ def test_a_missing_sdk_or_binding_is_one_line_naming_what_to_install():
         assert r.returncode == 2 and f"pip install 'haptex[{k}]'" in r.stderr and r.stderr.count("\n") == 1, r.stderr
 
 
+def test_a_service_that_closes_during_the_probe_is_one_line():
+    # the emulator answers the first state, then its every next message is not a state but the
+    # end of the connection: the probe's send or receive fails, in one line
+    sim = SimulatedBackend("inverse3", realtime=False)
+    service = vs.InverseService(sim, garble={k: None for k in range(1, 30)})
+    with pytest.raises(DeviceError, match="went away|stopped answering") as e:
+        open_backend("haply:" + service.address)
+    assert "\n" not in str(e.value)
+    with pytest.raises(hx.ParameterError, match="timeout"):
+        open_backend("haply:" + service.address, timeout=True)
+
+
 def test_options_a_backend_does_not_take_are_refused_by_name():
     with pytest.raises(hx.ParameterError, match="hand = 'firm-grip' is not allowed with device = 'openhaptics'"):
         open_backend("openhaptics", hand="firm-grip")

@@ -129,7 +129,8 @@ class InverseService:
     (zero when the answer is not a force for this device). Messages as
     haptex.backends.haply's docstring gives them.
 
-    ``garble`` maps a tick to a message sent instead of that tick's state (hostile input).
+    ``garble`` maps a tick to a message sent instead of that tick's state (hostile input), or to
+    None: the service closes the connection there.
     A client that disconnects leaves the last force it commanded applied (the worst case: what
     the real service does then is not documented here), counted in ``energised_after_close``."""
 
@@ -181,7 +182,10 @@ class InverseService:
                 while time.perf_counter() < due:
                     time.sleep(min(2e-4, max(0.0, due - time.perf_counter())))
                 sent = time.perf_counter()
-                ws.send(self._state(k))
+                message = self._state(k)
+                if message is None:
+                    break
+                ws.send(message)
                 try:
                     answer = json.loads(ws.recv(timeout=2.0))
                     cmd = answer["inverse3"][0]

@@ -93,7 +93,7 @@ class HaplyBackend:
         self.address = address or DEFAULT_ADDRESS
         if not self.address.startswith(("ws://", "wss://")):
             raise fail("device", f"haply:{self.address}", "'haply[:ws://HOST:PORT]', the Inverse Service's address")
-        if not (isinstance(timeout, (int, float)) and 0 < timeout <= 60):
+        if isinstance(timeout, bool) or not (isinstance(timeout, (int, float)) and 0 < timeout <= 60):
             raise fail("timeout", timeout, "a number of seconds in (0, 60]")
         self.timeout = float(timeout)
         model_as(self, "haply", preset)  # (a wrong preset refused before the probe)
@@ -110,7 +110,7 @@ class HaplyBackend:
                 raise DeviceError(f"device = 'haply:{self.address}' reports no Inverse3: is it connected and on?")
             self.device_id = found[0]["device_id"]
             for _ in range(PROBE_EXCHANGES):
-                ws.send(self._message(np.zeros(3)))
+                self._send(ws, np.zeros(3))
                 self._receive(ws)
                 stamps.append(time.perf_counter())
         finally:
@@ -200,11 +200,15 @@ class HaplyBackend:
         return json.dumps({"inverse3": [{"device_id": self.device_id,
                                          "commands": {"set_cursor_force": {"values": {"x": x, "y": y, "z": z}}}}]})
 
+    def _send(self, ws, force) -> None:
+        try:
+            ws.send(self._message(force))
+        except Exception as exc:  # noqa: BLE001 -- the connection closed or broke
+            raise DeviceError(f"device = {getattr(self, 'name', 'haply')!r} went away: "
+                              f"{exc.__class__.__name__}") from None
+
     def command(self, force) -> None:
         """Answer the last state with a force (N), shape (3,)."""
         if self._ws is None:
             return  # (closed: the service holds no force of ours)
-        try:
-            self._ws.send(self._message(np.asarray(force, dtype=np.float64).reshape(3)))
-        except Exception as exc:  # noqa: BLE001 -- the connection closed or broke
-            raise DeviceError(f"device = {self.name!r} went away: {exc.__class__.__name__}") from None
+        self._send(self._ws, np.asarray(force, dtype=np.float64).reshape(3))
