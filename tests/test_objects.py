@@ -160,6 +160,16 @@ def _icosphere(subdivisions, turns=40):
     return m, Mesh(m, uv=u), R
 
 
+def _force_error_against_the_sphere(base, R) -> float:
+    """The largest |f| difference (N) of A on ``base`` against A on Sphere(R), over 400 probes
+    0.05-0.8 mm deep within L of the top (the same probes for every base)."""
+    rng = np.random.default_rng(0)
+    uv, depth = rng.uniform(-L, L, (400, 2)), rng.uniform(0.05e-3, 0.8e-3, 400)
+    exact = object_algorithm("A", EGG, Sphere(R), K0)
+    p = exact.region_points(uv, depth)
+    return float(np.max(np.linalg.norm(object_algorithm("A", EGG, base, K0).force(p) - exact.force(p), axis=-1)))
+
+
 def test_a_finely_tessellated_sphere_reproduces_the_analytic_sphere():
     # A on trimesh's icosphere (5,120 / 20,480 / 81,920 triangles, R = 12.7 mm) against A on
     # Sphere(R), 400 probes 0.05-0.8 mm deep within 2 mm of the top. A face lies inside the
@@ -167,15 +177,10 @@ def test_a_finely_tessellated_sphere_reproduces_the_analytic_sphere():
     # normal is off the radius by at most theta = asin(rho / R), so the force differs by at most
     # kappa_0 (delta + (d + A) theta (1 + S) + delta S) (d the depth, A the relief, S the slope):
     # first order in rho, halving with each subdivision (measured 0.058, 0.028, 0.013 N)
-    rng = np.random.default_rng(0)
-    uv = rng.uniform(-L, L, (400, 2))
-    depth = rng.uniform(0.05e-3, 0.8e-3, 400)
     errs = []
     for sub in (4, 5, 6):
         m, base, R = _icosphere(sub)
-        exact = object_algorithm("A", EGG, Sphere(R), K0)
-        p = exact.region_points(uv, depth)
-        err = np.max(np.linalg.norm(object_algorithm("A", EGG, base, K0).force(p) - exact.force(p), axis=-1))
+        err = _force_error_against_the_sphere(base, R)
         t = m.triangles
         a, b, c = (np.linalg.norm(t[:, i] - t[:, j], axis=1) for i, j in ((1, 2), (0, 2), (0, 1)))
         rho = float(np.max(a * b * c / (2 * np.linalg.norm(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]), axis=1))))
@@ -340,16 +345,11 @@ def test_a_mesh_with_vertex_normals_is_a_smooth_base_that_tends_to_the_sphere():
     # normals tilt by O(facet / R) inside a prism)
     from haptex.objects import Mesh
 
-    rng = np.random.default_rng(0)
-    uv = rng.uniform(-L, L, (400, 2))
-    depth = rng.uniform(0.05e-3, 0.8e-3, 400)
     errs = []
     for sub in (3, 4, 5):
         m, faceted, R = _icosphere(sub)
         smooth = Mesh(m, uv=faceted.uv, normals=(np.asarray(m.vertices) - [0.0, 0.0, -R]) / R)
-        exact = object_algorithm("A", EGG, Sphere(R), K0)
-        p = exact.region_points(uv, depth)
-        errs.append(np.max(np.linalg.norm(object_algorithm("A", EGG, smooth, K0).force(p) - exact.force(p), axis=-1)))
+        errs.append(_force_error_against_the_sphere(smooth, R))
         for letter in ("A", "C") if sub != 4 else ():  # (q's grid on a mesh costs seconds)
             q = hx.characteristic_number(object_algorithm(letter, EGG, smooth, K0), resolution=(64, 16)).value
             q_sphere = hx.characteristic_number(object_algorithm(letter, EGG, Sphere(R), K0),
