@@ -17,6 +17,7 @@ cell table), and ``haptex export`` copies these files. The NumPy fields of
 
 from __future__ import annotations
 
+import functools
 import os
 import threading
 from concurrent.futures import ThreadPoolExecutor
@@ -187,7 +188,6 @@ def blas_held_to_one_thread(fn):
     for entry points whose set-up calls BLAS on small matrices just before their C loops run
     on threads (OpenBLAS's workers would spin through the loops: measured 17-21 % of
     simulate_batch's rate on 2 cores)."""
-    import functools
 
     @functools.wraps(fn)
     def held(*args, **kwargs):
