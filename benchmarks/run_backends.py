@@ -2,24 +2,33 @@
 
 Each backend renders algorithm A over the paper-style sinusoid extruded across y (0.2 mm, 2 mm,
 500 N/m) for SECONDS (default 60) with the light-touch hand pressing 1 mm in, through
-haptex.servo.ServoLoop (the safety rules in Python around the C tick):
+haptex.servo.ServoLoop (the safety rules in C, hx_servo.c):
 
 - simulated:falcon, paced by the clock at 1 kHz;
 - forcedimension: the vendor's binding (forcedimension-core) polling a stub of libdrd built
   by the tests (tests/stubs/dhd_stub.c), the omega.3 preset behind it, paced by the backend at
   the preset's 4 kHz;
 - openhaptics: the vendor's binding (pyOpenHaptics) on a stub of libHD whose scheduler thread
-  calls the loop's callback at 1 kHz (the tick inside the callback, taking the GIL);
+  calls the C core's native callback at 1 kHz (sample, rules and tick in C, no GIL), haptex's
+  simulator behind the stub (reached through ctypes callbacks, which take the GIL);
+- openhaptics-c-device: the same with a device in C behind the stub (a 0.1 kg mass held by a
+  200 N/m, 2 N s/m hand 1 mm inside): nothing in the servo thread touches Python;
+- openhaptics-python: the Python callback in HD's thread (takes the GIL each tick), the
+  simulator behind;
 - haply: the Inverse Service's WebSocket JSON against the emulator of tests/vendor_stubs.py
   (1 kHz lock-step; the emulator is Python in the same process, so it competes for the GIL).
 
-A deadline is missed when a sample comes more than 1.5 periods after the previous one.
-Options: --seconds S, --only KIND. Needs a C compiler for the two stubs.
+A deadline is missed when a sample comes more than 1.5 periods after the previous one. The
+first row is the plain C loop of benchmarks/pace_reference.c (a thread waking at 1 kHz and
+doing nothing else), run for as long: what this machine misses with no work at all.
+Options: --seconds S, --only KIND. Needs a C compiler for the two stubs and the reference.
 """
 
 from __future__ import annotations
 
 import argparse
+import ctypes
+import subprocess
 import sys
 import tempfile
 from pathlib import Path
@@ -33,6 +42,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from tests import vendor_stubs as vs  # noqa: E402
 
 SINE = hx.Extruded(hx.Sinusoid(0.2e-3, 2e-3))
+KINDS = ["simulated", "forcedimension", "openhaptics", "openhaptics-c-device", "openhaptics-python", "haply"]
 
 
 def backend(kind: str, root: Path, stubs: dict):
@@ -42,10 +52,15 @@ def backend(kind: str, root: Path, stubs: dict):
         behind = vs.Behind(SimulatedBackend("omega-3", realtime=False))
         stubs["dhd"].hxstub_bind(behind.read, behind.write, 33, 1)
         return open_backend("forcedimension"), behind
-    if kind == "openhaptics":
+    if kind == "openhaptics-c-device":
+        stubs["hd"].hxstub_bind_mass(0.1, 200.0, 2.0, (ctypes.c_double * 3)(0.0, -1.0, 0.0), b"Touch", 3.3)
+        return open_backend("openhaptics"), None
+    if kind.startswith("openhaptics"):
         behind = vs.Behind(SimulatedBackend("touch", realtime=False), vs.HD_FROM_HAPTEX, 1e3)
         stubs["hd"].hxstub_bind(behind.read, behind.write, b"Touch", 3.3, 1)
-        return open_backend("openhaptics"), behind
+        b = open_backend("openhaptics")
+        b.native = kind == "openhaptics"
+        return b, behind
     service = vs.InverseService(SimulatedBackend("inverse3", realtime=False))
     return open_backend("haply:" + service.address), service
 
@@ -53,20 +68,28 @@ def backend(kind: str, root: Path, stubs: dict):
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--seconds", type=float, default=60.0)
-    ap.add_argument("--only", choices=["simulated", "forcedimension", "openhaptics", "haply"])
+    ap.add_argument("--only", choices=KINDS)
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp)
         vs.build_dhd(root / "fdsdk")
         stubs = {"dhd": vs.load_dhd(root / "fdsdk"), "hd": vs.load_hd(vs.build_hd(root / "hd"))}
-        print(f"{'backend':28} {'rate':>7} {'ticks':>7} {'missed':>14} {'period σ':>9} {'tick mean':>10} "
+        print(f"{'kind':21} {'backend':28} {'rate':>7} {'ticks':>7} {'missed':>14} {'period σ':>9} {'tick mean':>10} "
               f"{'tick worst':>11}")
-        for kind in [args.only] if args.only else ["simulated", "forcedimension", "openhaptics", "haply"]:
+        pace = root / "pace"
+        subprocess.run([vs.compiler(), "-std=c99", "-D_POSIX_C_SOURCE=200809L", "-O2", "-o", str(pace),
+                        str(Path(__file__).with_name("pace_reference.c"))], check=True)
+        n, missed, worst = subprocess.run([str(pace), str(args.seconds), "1000"], capture_output=True, text=True,
+                                          check=True).stdout.split()
+        print(f"{'plain C loop':21} {'pace_reference.c':28} {1000:6.0f}/s {int(n):7d} {int(missed):6d} "
+              f"({100 * int(missed) / int(n):5.3f} %) {'':>9} {'':>10} {'':>11}  (worst period "
+              f"{float(worst) * 1e3:.2f} ms)")
+        for kind in [args.only] if args.only else KINDS:
             b, _ = backend(kind, root, stubs)
             r = hx.Renderer(hx.algorithm("A", SINE, 500.0), max_force=b.max_force, energy_monitor=True)
             st, _ = ServoLoop(b, r).run(args.seconds, record=False)
             share = 100 * st.missed / st.ticks
-            print(f"{b.name:28} {1 / b.period:6.0f}/s {st.ticks:7d} {st.missed:6d} ({share:5.3f} %)"
+            print(f"{kind:21} {b.name:28} {1 / b.period:6.0f}/s {st.ticks:7d} {st.missed:6d} ({share:5.3f} %)"
                   f" {st.period_seconds[1] * 1e6:7.0f} us {st.tick_seconds[1] * 1e6:7.1f} us "
                   f"{st.tick_seconds[0] * 1e6:8.0f} us")
 

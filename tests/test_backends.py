@@ -10,10 +10,12 @@ and tick times are measured by benchmarks/run_backends.py, not asserted here.
 """
 
 import _thread
+import ctypes
 import json
 import signal
 import subprocess
 import sys
+import threading
 import time
 
 import numpy as np
@@ -28,9 +30,11 @@ from haptex.servo import ServoLoop
 from . import vendor_stubs as vs
 
 SINE = hx.Extruded(hx.Sinusoid(0.2e-3, 2e-3))
-KINDS = ["simulated", "forcedimension", "openhaptics", "haply"]
-VENDORS = KINDS[1:]
-PRESET = {"simulated": "omega-3", "forcedimension": "omega-3", "openhaptics": "touch", "haply": "inverse3"}
+KINDS = ["simulated", "forcedimension", "openhaptics", "openhaptics-python", "haply"]
+"""openhaptics: the C core's native callback in HD's thread; openhaptics-python: the Python one."""
+VENDORS = ["forcedimension", "openhaptics", "haply"]
+PRESET = {"simulated": "omega-3", "forcedimension": "omega-3", "openhaptics": "touch", "openhaptics-python": "touch",
+          "haply": "inverse3"}
 
 needs_cc = pytest.mark.skipif(vs.compiler() is None, reason="no C compiler to build the vendors' stubs")
 
@@ -52,7 +56,8 @@ class Rig:
 
     def __init__(self, kind, stubs, start=5e-3, press=1e-3, speed=0.01, realtime=False, garble=None):
         preset = PRESET[kind]
-        self.kind = kind
+        python_callback = kind == "openhaptics-python"
+        kind = self.kind = "openhaptics" if python_callback else kind
         self.sim = SimulatedBackend(preset, press=press, speed=speed, start=start, realtime=False)
         if kind == "simulated":
             self.sim.realtime = realtime
@@ -71,6 +76,8 @@ class Rig:
             self.behind = vs.Behind(self.sim, vs.HD_FROM_HAPTEX, 1e3)
             stub.hxstub_bind(self.behind.read, self.behind.write, b"Touch", 3.3, 1)
             self.backend = open_backend("openhaptics")
+            assert self.backend.native
+            self.backend.native = not python_callback
         self.stub = stub
 
     def motors(self) -> np.ndarray:
@@ -275,7 +282,7 @@ def test_ctrl_c_zeroes_the_force_keeps_the_trace_and_releases_the_device(kind, s
         signal.signal(signal.SIGINT, old)
     # polling: the tick it lands in is the last; a servo thread runs on until the waiting main
     # thread wakes (within 0.05 s), then sends zero within a tick
-    late = 0 if kind != "openhaptics" else int(0.06 / rig.backend.period)
+    late = 0 if not kind.startswith("openhaptics") else int(0.06 / rig.backend.period)
     assert stats.interrupted and 249 <= stats.ticks <= 250 + late, stats.ticks
     assert len(trace["time"]) == stats.ticks
     if rig.behind is not None:
@@ -424,3 +431,51 @@ def test_a_binding_of_another_version_is_named_in_one_line(monkeypatch):
     monkeypatch.setitem(sys.modules, "pyOpenHaptics.hd_callback", oh.hd_callback)
     with pytest.raises(DeviceError, match=r"pyOpenHaptics has no begin_frame .*haptex\[openhaptics\]"):
         open_backend("openhaptics")
+
+
+def _hold_the_gil(after: float, hold: float) -> threading.Thread:
+    """A thread that, ``after`` s from now, keeps the GIL for ``hold`` s: pure-Python work with
+    a switch interval longer than that (no other Python thread runs meanwhile)."""
+    def work():
+        time.sleep(after)
+        old = sys.getswitchinterval()
+        sys.setswitchinterval(10.0)
+        try:
+            end = time.perf_counter() + hold
+            while time.perf_counter() < end:
+                pass
+        finally:
+            sys.setswitchinterval(old)
+
+    t = threading.Thread(target=work, daemon=True)
+    t.start()
+    return t
+
+
+@needs_cc
+@pytest.mark.parametrize("native", [True, False])
+def test_the_native_openhaptics_tick_needs_no_gil(native, stubs):
+    # the C core's callback runs in HD's servo thread without Python: while another thread
+    # holds the GIL for 0.3 s, it keeps ticking at 1 kHz; the Python callback waits for the GIL
+    # (one gap of about 0.3 s between samples). The device behind the stub is in C here (a
+    # 0.1 kg mass held by a 200 N/m, 2 N s/m hand 1 mm inside the wall), so nothing else in the
+    # servo thread needs Python.
+    stub = stubs["openhaptics"]
+    stub.hxstub_bind_mass(0.1, 200.0, 2.0, (ctypes.c_double * 3)(0.0, -1.0, 0.0), b"Touch", 3.3)
+    b = open_backend("openhaptics")
+    b.native = native
+    loop = ServoLoop(b, hx.Renderer(hx.algorithm("A", SINE, 500.0), max_force=b.max_force), engage_force=1.0,
+                     engage_ticks=5, ramp_ticks=10)
+    holder = _hold_the_gil(0.3, 0.3)
+    stats, trace = loop.run(1.0)
+    holder.join()
+    gap = np.diff(trace["time"]).max()
+    if native:
+        assert gap < 0.1 and stats.ticks == 1000, (gap, stats.ticks)
+    else:
+        assert gap > 0.2, gap
+    # the physics went through C both ways: engaged, pushed out of the wall (+z), never above the maximum
+    f = trace["force"]
+    assert stats.engaged_at is not None and f[stats.engaged_at + 20:, 2].mean() > 0.0
+    assert np.all(np.linalg.norm(f, axis=1) <= b.max_force * (1 + 1e-12))
+    assert stub.hxstub_energised_after_stop() == 0 and stub.hxstub_running() == 0

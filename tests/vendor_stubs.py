@@ -114,6 +114,9 @@ def load_hd(lib: Path):
     stub = ctypes.CDLL(str(lib), mode=ctypes.RTLD_GLOBAL)
     stub.hxstub_bind.argtypes = [CALLBACK, CALLBACK, ctypes.c_char_p, ctypes.c_double, ctypes.c_int]
     stub.hxstub_frames.restype = stub.hxstub_energised_after_stop.restype = ctypes.c_long
+    stub.hxstub_bind_mass.argtypes = [ctypes.c_double, ctypes.c_double, ctypes.c_double,
+                                      ctypes.POINTER(ctypes.c_double), ctypes.c_char_p, ctypes.c_double]
+    stub.hxstub_mass_position.argtypes = [ctypes.POINTER(ctypes.c_double)]
     return stub
 
 

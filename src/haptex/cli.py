@@ -890,9 +890,11 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
         if console.is_terminal:
             live = Live(console=console, refresh_per_second=4, transient=True)
     every = max(1, int(0.1 / dev.period))
+    shown = [-every]
 
-    def show(k, st):
-        if live is not None and k % every == 0:
+    def show(k, st):  # (every tick from a Python driver, every 50 ms from a native one)
+        if live is not None and k - shown[0] >= every:
+            shown[0] = k
             live.update(f"{backend.name}  t {k * dev.period:6.2f} s  ticks {st.ticks}  missed {st.missed}  faults "
                         f"{st.faults}  engaged {'yes' if st.engaged_at is not None else 'no'}  energy observed "
                         f"{renderer.energy:+.3g} J  max force sent {st.max_force_sent:.3g} N")

@@ -42,9 +42,10 @@ def _num(v: float) -> str:
 
 
 TICK_FILES = ("hx_core.h", "hx_fields.h", "hx_texture_eval.h", "hx_texture.c", "hx_forces.c", "hx_presliding.c",
-              "hx_closest.c", "hx_surface.c", "hx_render.c")
-"""The C core's files a servo tick needs, copied unchanged by :func:`export_c` (the core's
-others: the simulator's loops, hx_sim.c, and the Python binding, _ext.c)."""
+              "hx_closest.c", "hx_surface.c", "hx_render.c", "hx_servo.c")
+"""The C core's files a servo tick needs, copied unchanged by :func:`export_c`, with the servo
+loop's safety rules (hx_servo.c: engagement, ramp, watchdog, ceiling; what ``haptex run``
+runs). The core's others: the simulator's loops, hx_sim.c, and the Python binding, _ext.c."""
 
 _KINDS = ("TEXTURE_FLAT", "TEXTURE_FOURIER", "TEXTURE_SPLINE", "SURFACE_GRATINGS", "SURFACE_PATCHES")
 _PARAMS = ("P_K0", "P_DZMAX", "P_MU", "P_DXMAX", "P_SCALE", "P_ZSTICK")

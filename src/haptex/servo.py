@@ -17,24 +17,31 @@ tick), and command it through these rules, in order:
 5. **Zero force on every exit**: the end of the run, an exception, Ctrl-C: the last command
    is zero, then the backend is closed.
 
-The rules are one function of a sample, run once a tick by one of two drivers: this
-thread's loop (``sample``, the rules, ``command``) for polling and lock-step backends, or the
-backend's own servo thread for a backend with ``drive`` (a vendor callback, OpenHaptics'
-scheduler), which calls it inside its callback. The rules run in Python (about 30-50 us a
-tick on this machine with the simulated backend); the C tick inside them does not hold the
-GIL.
+The rules are one C function of a sample (``hx_servo.c`` in the C core, which ``haptex
+export`` ships too), run once a tick by one of three drivers:
+
+- this thread's loop (``sample``, the rules, ``command``), for polling and lock-step
+  backends: one call into C a tick, which runs a :class:`~haptex.Renderer`'s tick without
+  returning to Python (another renderer object is called back);
+- a vendor callback in the backend's own servo thread (``drive``), which calls the same
+  tick from Python inside the callback, taking the GIL;
+- the native driver (``drive_native``, OpenHaptics' scheduler): the vendor's servo thread
+  calls the C callback directly, sample, rules, renderer and command in C with no GIL and no
+  Python, while this thread waits (and answers Ctrl-C by asking the callback to stop).
+
+Measured per backend in ``benchmarks/run_backends.py``.
 """
 
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._validation import fail, positive, whole
+from ._validation import check_budget, fail, positive, whole
 from .backends import Sample
+from .core import _ext
 
 ENGAGE_FORCE = 0.5
 """N: the force below which the loop may engage (chosen: a light touch)."""
@@ -96,6 +103,10 @@ class ServoLoop:
     engage_force, engage_ticks, ramp_ticks, deadline : optional
         The engagement and watchdog settings (defaults :data:`ENGAGE_FORCE` N,
         :data:`ENGAGE_TICKS`, :data:`RAMP_TICKS`, :data:`DEADLINE` periods).
+    native : bool, optional
+        Use the backend's native driver (the C tick in the vendor's servo thread) when it has
+        one and the renderer is a :class:`~haptex.Renderer` (default True); False runs the
+        Python callback instead (for comparison).
 
     Raises
     ------
@@ -105,7 +116,8 @@ class ServoLoop:
     """
 
     def __init__(self, backend, renderer, max_force: float | None = None, engage_force: float = ENGAGE_FORCE,
-                 engage_ticks: int = ENGAGE_TICKS, ramp_ticks: int = RAMP_TICKS, deadline: float = DEADLINE):
+                 engage_ticks: int = ENGAGE_TICKS, ramp_ticks: int = RAMP_TICKS, deadline: float = DEADLINE,
+                 native: bool = True):
         if renderer.dimension != backend.dimension:
             raise fail("renderer", f"{renderer.dimension}-D", f"of the device's dimension ({backend.dimension}-D)")
         self.max_force = backend.max_force if max_force is None else positive("max_force", max_force, "N")
@@ -118,6 +130,9 @@ class ServoLoop:
         self.deadline = positive("deadline", deadline, "periods")
         if self.deadline < 1.0:
             raise fail("deadline", deadline, ">= 1 period")
+        if not isinstance(native, bool):
+            raise fail("native", native, "True or False")
+        self.native = native
 
     def run(self, duration: float, record: bool = True, on_tick=None) -> tuple[ServoStats, dict]:
         """Run for ``duration`` seconds of the backend's clock.
@@ -128,81 +143,55 @@ class ServoLoop:
             s, > 0.
         record : bool, optional
             Keep the trace: ``time`` (s), ``position`` (m), ``force`` (N, as sent) and
-            ``engaged`` per tick.
+            ``engaged`` per tick (57 bytes a tick in 3-D, allocated before the run starts).
         on_tick : callable, optional
-            Called as ``on_tick(k, stats)`` every tick (a live dashboard).
+            Called as ``on_tick(k, counts)`` every tick of a Python driver, and about every
+            50 ms while a native driver runs (a live dashboard); ``counts`` has the attributes
+            ``ticks``, ``missed``, ``faults``, ``engaged_at`` and ``max_force_sent`` of
+            :class:`ServoStats`, live.
 
         Returns
         -------
         (ServoStats, dict)
             The counts and the trace (empty arrays without ``record``).
+
+        Raises
+        ------
+        ParameterError
+            For a duration that is not > 0, or whose trace would not fit in the memory budget
+            (:func:`haptex._validation.memory_budget`).
         """
         T = self.backend.period
         # (a duration within 1e-9 of a whole number of periods is that many: 0.3 s / 1 ms is 300)
         n_ticks = max(1, int(math.ceil(positive("duration", duration, "s") / T - 1e-9)))
         d = self.backend.dimension
         zero = np.zeros(d)
+        n_rec = n_ticks if record else 0
+        check_budget("duration", duration, n_rec * (8 + 16 * d + 1), "the run's trace")
+        trace = {"time": np.zeros(n_rec), "position": np.zeros((n_rec, d)), "force": np.zeros((n_rec, d)),
+                 "engaged": np.zeros(n_rec, dtype=bool)}
+        servo = _ext.Servo(d, T, float(self.backend.workspace), float(self.max_force), float(self.engage_force),
+                           self.engage_ticks, self.ramp_ticks, float(self.deadline), self.backend_realtime(),
+                           *((trace["time"], trace["position"], trace["force"], trace["engaged"]) if record else ()))
+        core = getattr(self.renderer, "_core", None)
+        step = core if isinstance(core, _ext.Renderer) else self.renderer.step
         st = ServoStats()
-        rec_t, rec_p, rec_f, rec_e = [], [], [], []
-        state = {"k": 0, "calm": 0, "ramp_from": None, "last_wall": None, "work_max": 0.0, "work_sum": 0.0}
-        periods = []
-        realtime = self.backend_realtime()
+        native = self.backend.drive_native if self.native and step is core and getattr(self.backend, "native",
+                                                                                        False) else None
 
-        def tick(s: Sample) -> np.ndarray:
-            """Rules 1-4 on one sample: the force to command (the backend sends it)."""
-            k = state["k"]
-            t0 = time.perf_counter()
-            last = state["last_wall"]
-            if last is not None:
-                periods.append(t0 - last)
-            late = last is not None and realtime and t0 - last > self.deadline * T
-            state["last_wall"] = t0
-            p = np.asarray(s.position, dtype=np.float64)
-            f = zero
-            if p.shape != (d,) or not np.all(np.isfinite(p)) or np.linalg.norm(p) > self.backend.workspace:
-                st.faults += 1
-            else:
-                try:
-                    f = np.asarray(self.renderer.step(p), dtype=np.float64)
-                except Exception:  # noqa: BLE001 -- any failure of the tick is a fault: zero force
-                    st.faults += 1
-                    f = zero
-                if f.shape != (d,) or not np.all(np.isfinite(f)):
-                    st.faults += 1
-                    f = zero
-            mag = float(np.linalg.norm(f))
-            if st.engaged_at is None:  # rule 3: wait for a calm handle
-                state["calm"] = state["calm"] + 1 if mag < self.engage_force else 0
-                if state["calm"] >= self.engage_ticks:
-                    st.engaged_at = state["ramp_from"] = k
-                f = zero
-            else:
-                f = f * min(1.0, (k - state["ramp_from"] + 1) / self.ramp_ticks)
-            mag = float(np.linalg.norm(f))
-            if mag > self.max_force:  # rule 4, whatever the renderer did
-                f = f * (self.max_force / mag)
-                st.clamps += 1
-            if late:  # rule 2: the watchdog
-                st.missed += 1
-                f = zero
-            st.max_force_sent = max(st.max_force_sent, float(np.linalg.norm(f)))
-            w = time.perf_counter() - t0
-            state["work_max"], state["work_sum"] = max(state["work_max"], w), state["work_sum"] + w
-            st.ticks += 1
-            state["k"] = k + 1
-            if record:
-                rec_t.append(s.time)
-                rec_p.append(p.copy() if p.shape == (d,) else np.full(d, np.nan))
-                rec_f.append(f)
-                rec_e.append(st.engaged_at is not None)
+        def tick(s: Sample):
+            """Rules 1-4 on one sample, in C: the force to command (the backend sends it)."""
+            f = servo.tick(s.time, s.position, step)
             if on_tick is not None:
-                on_tick(k, st)
+                on_tick(servo.ticks - 1, servo)
             return f
 
         self.backend.open()
         try:
             drive = getattr(self.backend, "drive", None)
-            if drive is not None:  # a vendor callback in the servo thread runs each tick
+            if native is not None:  # the vendor's servo thread runs the C tick itself, no GIL
+                native(servo, core, n_ticks, on_tick)
+            elif drive is not None:  # a vendor callback in the servo thread runs each tick
                 drive(tick, n_ticks)
             else:  # polling and lock-step: this thread runs each tick
                 for _ in range(n_ticks):
@@ -214,13 +203,14 @@ class ServoLoop:
                 self.backend.command(zero)
             finally:
                 self.backend.close()
-        st.clamps += self.renderer.clamps
-        st.tick_seconds = [state["work_max"], state["work_sum"] / max(st.ticks, 1)]
-        if periods:
-            st.period_seconds = (float(np.mean(periods)), float(np.std(periods)))
-        trace = {"time": np.asarray(rec_t), "position": np.asarray(rec_p).reshape(-1, d),
-                 "force": np.asarray(rec_f).reshape(-1, d), "engaged": np.asarray(rec_e, dtype=bool)}
-        return st, trace
+        st.ticks, st.missed, st.faults = servo.ticks, servo.missed, servo.faults
+        st.clamps = servo.clamps + self.renderer.clamps
+        st.engaged_at, st.max_force_sent = servo.engaged_at, servo.max_force_sent
+        st.tick_seconds = [servo.work_max, servo.work_mean]
+        if servo.periods:
+            st.period_seconds = (servo.period_mean, servo.period_std)
+        n = min(st.ticks, n_rec)
+        return st, {key: value[:n] for key, value in trace.items()}
 
     def backend_realtime(self) -> bool:
         """Whether the backend paces the loop (the watchdog judges deadlines only then)."""

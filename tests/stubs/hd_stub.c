@@ -64,6 +64,44 @@ void hxstub_bind(hxstub_read_fn r, hxstub_write_fn w, const char *model_name, do
     frames = energised_after_stop = 0;
     memset(force, 0, sizeof force);
 }
+/* A device in C behind the stub, for runs whose servo thread must not take the GIL: a point
+ * mass m (kg) held by a hand, a spring kh (N/m) and damper bh (N s/m) to a rest point (mm, HD's
+ * frame), moved by the force each frame sends, held over one 1 ms period (semi-implicit Euler
+ * in 100 sub-steps). */
+static double mass_m, mass_kh, mass_bh, mass_rest[3], mass_p[3], mass_v[3];
+static void mass_read(double *st)
+{
+    int i;
+    for (i = 0; i < 3; i++) {
+        st[i] = mass_p[i];
+        st[3 + i] = mass_v[i];
+    }
+    st[6] = 0.0;
+}
+static void mass_write(const double *f)
+{
+    int i, j;
+    for (j = 0; j < 100; j++)
+        for (i = 0; i < 3; i++) { /* SI inside: mm -> m and back */
+            double a = (f[i] + mass_kh * (mass_rest[i] - mass_p[i]) * 1e-3 - mass_bh * mass_v[i] * 1e-3) / mass_m;
+            mass_v[i] += 1e3 * a * 1e-5;
+            mass_p[i] += mass_v[i] * 1e-5;
+        }
+}
+void hxstub_bind_mass(double m, double kh, double bh, const double *rest_mm, const char *model_name,
+                      double nominal_max_force)
+{
+    int i;
+    mass_m = m;
+    mass_kh = kh;
+    mass_bh = bh;
+    for (i = 0; i < 3; i++) {
+        mass_rest[i] = mass_p[i] = rest_mm[i];
+        mass_v[i] = 0.0;
+    }
+    hxstub_bind(mass_read, mass_write, model_name, nominal_max_force, 1);
+}
+void hxstub_mass_position(double *p_mm) { memcpy(p_mm, mass_p, sizeof mass_p); }
 long hxstub_frames(void) { return frames; }
 long hxstub_energised_after_stop(void) { return energised_after_stop; }
 int hxstub_running(void) { return running; }

@@ -3,10 +3,13 @@
 
 The SDK's concurrency model is a callback in its servo thread: HD's scheduler calls an
 asynchronous callback once a tick (1 kHz), between ``hdBeginFrame`` and ``hdEndFrame``.
-:meth:`OpenHapticsBackend.drive` runs haptex's servo rules inside that callback: the rules
-are Python, so the callback takes the GIL each tick (the documented cost of a Python servo
-loop; measured in ``benchmarks/``). Outside :meth:`~OpenHapticsBackend.drive`, ``sample``
-and ``command`` run one synchronous callback each.
+:meth:`OpenHapticsBackend.drive_native` schedules the C core's own callback
+(``hd_servo_callback`` in ``haptex/core/_ext.c``): it reads the position, runs the servo rules
+and the renderer's tick and sets the force in C, with no Python and no GIL in HD's thread;
+it is handed HD's functions by address from the binding's loaded library.
+:meth:`OpenHapticsBackend.drive` is the Python callback, for a renderer that is not a
+:class:`haptex.Renderer` (it takes the GIL each tick). Both are measured in ``benchmarks/``.
+Outside them, ``sample`` and ``command`` run one synchronous callback each.
 
 Frames and units: HD reports millimetres with x to the right, y up and z towards the user;
 haptex's frame has z up (the wall's outward normal), so p_haptex = (x, -z, y)_HD / 1000 (m),
@@ -38,6 +41,12 @@ HD_INVALID_HANDLE = 0xFFFFFFFF
 """hdInitDevice's answer when no device is there (OpenHaptics' hdDefines.h)."""
 HD_CURRENT_VELOCITY = 0x2051
 """hdGetDoublev's code for the handle's velocity (mm/s; hdDefines.h)."""
+HD_MAX_SCHEDULER_PRIORITY = 0xFFFF
+"""The servo callbacks' priority (hdDefines.h: the highest)."""
+NATIVE_FUNCTIONS = ("hdBeginFrame", "hdEndFrame", "hdGetDoublev", "hdSetDoublev")
+"""The HD functions the native callback calls, by address, in this order."""
+STALLED = 1.0
+"""s: a native run whose callback has not ticked for this long is stopped as a fault."""
 
 
 def _hd():
@@ -114,6 +123,9 @@ class OpenHapticsBackend:
         self._t0 = 0.0
         self._last = np.zeros(3)
         self._keep = []  # the ctypes callbacks in HD's hands: alive until close
+        lib = getattr(self._hd, "_lib_hd", None)  # (the binding's CDLL: the native driver's functions)
+        self._native = None if lib is None or not all(hasattr(lib, n) for n in NATIVE_FUNCTIONS) else lib
+        self.native = self._native is not None
 
     def _init(self) -> int:
         h = _quiet(self._hd.init_device, self.device_name)
@@ -250,3 +262,45 @@ class OpenHapticsBackend:
         self._last = zero
         if failures:
             raise failures[0]
+
+    def drive_native(self, servo, core, n_ticks: int, on_tick=None) -> None:
+        """Run ``n_ticks`` ticks of the C core's callback in HD's scheduler: the sample, the
+        servo rules of ``servo`` (a ``haptex.core._ext.Servo``) and the tick of ``core`` (a
+        :class:`haptex.Renderer`'s core) in C, with no GIL. The callback after the last (or
+        after :meth:`stop <haptex.core._ext.Servo.stop>`) sends zero force and ends. This
+        thread waits, calling ``on_tick(k, servo)`` every 50 ms.
+
+        Raises
+        ------
+        KeyboardInterrupt
+            On Ctrl-C, once the callback has sent zero force (within a tick; one second at most).
+        DeviceError
+            If the device is not open, or HD's scheduler stops calling for :data:`STALLED` s.
+        """
+        if self._h is None or not self._running:
+            raise DeviceError(f"device = {self.name!r} is not open: open it first")
+        lib = self._native
+        fns = [ctypes.cast(getattr(lib, n), ctypes.c_void_p).value for n in NATIVE_FUNCTIONS]
+        cb, data = servo.hd_callback(core, *fns, self._h, int(n_ticks), self._t0)
+        self._keep.append(servo)  # (HD holds its address until close)
+        lib.hdScheduleAsynchronous(ctypes.c_void_p(cb), ctypes.c_void_p(data),
+                                   ctypes.c_ushort(HD_MAX_SCHEDULER_PRIORITY))
+        seen, since = -1, time.monotonic()
+        try:
+            while not servo.done:
+                time.sleep(0.05)
+                if on_tick is not None:
+                    on_tick(servo.ticks - 1, servo)
+                if servo.ticks != seen:
+                    seen, since = servo.ticks, time.monotonic()
+                elif not servo.done and time.monotonic() - since > STALLED:
+                    servo.stop()
+                    raise DeviceError(f"device = {self.name!r}: HD's scheduler stopped calling the servo callback "
+                                      f"after {seen} ticks")
+        except KeyboardInterrupt:
+            servo.stop()
+            end = time.monotonic() + 1.0
+            while not servo.done and time.monotonic() < end:
+                time.sleep(0.001)
+            raise
+        self._last = np.zeros(3)

@@ -10,6 +10,7 @@
 #include <structmember.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "hx_core.h"
 
@@ -537,6 +538,381 @@ static PyTypeObject RendererType = {
     .tp_members = Renderer_members,
     .tp_getset = Renderer_getset,
     .tp_init = (initproc)Renderer_init,
+    .tp_new = PyType_GenericNew,
+};
+
+/* ---- Servo: the servo loop's safety rules (hx_servo), its trace, the native drivers ---- */
+
+
+/* OpenHaptics' HD API, as its hdDefines.h and hd.h declare what the native driver calls */
+typedef unsigned int hd_uint;
+typedef void (*hd_frame_fn)(hd_uint);
+typedef void (*hd_getdv_fn)(hd_uint, double *);
+typedef void (*hd_setdv_fn)(hd_uint, const double *);
+#define HD_CURRENT_POSITION 0x2050
+#define HD_CURRENT_FORCE 0x2700
+#define HD_CALLBACK_DONE 0
+#define HD_CALLBACK_CONTINUE 1
+
+typedef struct {
+    PyObject_HEAD
+    hx_servo s;
+    PyObject *trace[4];  /* the arrays the trace is written into (t, p, f, engaged), or NULL */
+    Py_buffer view[4];
+    int viewed;
+    /* the native driver of OpenHaptics' scheduler: renderer, HD's functions, the run */
+    RendererObject *renderer;
+    hd_frame_fn hd_begin, hd_end;
+    hd_getdv_fn hd_getdv;
+    hd_setdv_fn hd_setdv;
+    hd_uint hd_handle;
+    long n_ticks;
+    double t0;
+    volatile int stop, done;
+} ServoObject;
+
+static double monotonic(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static void Servo_release(ServoObject *self)
+{
+    int i;
+    if (self->viewed)
+        for (i = 0; i < 4; i++)
+            PyBuffer_Release(&self->view[i]);
+    self->viewed = 0;
+    for (i = 0; i < 4; i++)
+        Py_CLEAR(self->trace[i]);
+    self->s.capacity = 0;
+}
+
+static void Servo_dealloc(ServoObject *self)
+{
+    Servo_release(self);
+    Py_XDECREF(self->renderer);
+    Py_TYPE(self)->tp_free((PyObject *)self);
+}
+
+static int Servo_init(ServoObject *self, PyObject *args, PyObject *kwds)
+{
+    static char *kwlist[] = {"dim", "period", "workspace", "max_force", "engage_force", "engage_ticks",
+                             "ramp_ticks", "deadline", "realtime", "t", "p", "f", "engaged", NULL};
+    hx_servo s;
+    PyObject *tr[4] = {Py_None, Py_None, Py_None, Py_None};
+    int i, realtime;
+    memset(&s, 0, sizeof s);
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "iddddlldp|OOOO", kwlist, &s.dim, &s.period, &s.workspace,
+                                     &s.max_force, &s.engage_force, &s.engage_ticks, &s.ramp_ticks, &s.deadline,
+                                     &realtime, &tr[0], &tr[1], &tr[2], &tr[3]))
+        return -1;
+    if ((s.dim != 2 && s.dim != 3) || !(s.period > 0.0) || !(s.workspace > 0.0) || !(s.max_force > 0.0) ||
+        !(s.engage_force > 0.0) || s.engage_ticks < 1 || s.ramp_ticks < 1 || !(s.deadline >= 1.0)) {
+        PyErr_SetString(PyExc_ValueError, "servo settings out of range (checked in haptex.servo first)");
+        return -1;
+    }
+    Servo_release(self);
+    hx_servo_init(&s);
+    s.realtime = realtime;
+    if (tr[0] != Py_None) {
+        Py_ssize_t n;
+        for (i = 0; i < 3; i++)
+            if (get_doubles(tr[i], &self->view[i], 1, i == 0 ? 1 : 2, i == 0 ? "t" : i == 1 ? "p" : "f") < 0) {
+                while (--i >= 0)
+                    PyBuffer_Release(&self->view[i]);
+                return -1;
+            }
+        if (PyObject_GetBuffer(tr[3], &self->view[3], PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | PyBUF_WRITABLE) < 0) {
+            for (i = 0; i < 3; i++)
+                PyBuffer_Release(&self->view[i]);
+            return -1;
+        }
+        n = self->view[0].shape[0];
+        self->viewed = 1;
+        if (self->view[3].itemsize != 1 || self->view[3].ndim != 1 || self->view[3].shape[0] != n ||
+            self->view[1].shape[0] != n || self->view[1].shape[1] != s.dim || self->view[2].shape[0] != n ||
+            self->view[2].shape[1] != s.dim) {
+            Servo_release(self);
+            PyErr_SetString(PyExc_ValueError, "the trace must be t (n,), p and f (n, dim) float64, engaged (n,) bool");
+            return -1;
+        }
+        for (i = 0; i < 4; i++) {
+            Py_INCREF(tr[i]);
+            self->trace[i] = tr[i];
+        }
+        s.capacity = (long)n;
+        s.rec_t = self->view[0].buf;
+        s.rec_p = self->view[1].buf;
+        s.rec_f = self->view[2].buf;
+        s.rec_e = self->view[3].buf;
+    }
+    self->s = s;
+    self->stop = self->done = 0;
+    return 0;
+}
+
+/* dim coordinates of o into q ([x, y, z], y = 0 in the plane): 0, or -1 when o is not dim real
+ * numbers (the error cleared: a fault), or -2 for an error that must propagate (not an
+ * Exception: KeyboardInterrupt, SystemExit) */
+static int read_vector(PyObject *o, int dim, double q[3])
+{
+    double v[3] = {0.0, 0.0, 0.0};
+    int i;
+    if (PyObject_CheckBuffer(o)) {
+        Py_buffer b;
+        if (PyObject_GetBuffer(o, &b, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) == 0) {
+            int ok = b.ndim == 1 && b.shape[0] == dim && b.itemsize == 8 && b.format != NULL &&
+                     strcmp(b.format, "d") == 0;
+            if (ok)
+                memcpy(v, b.buf, (size_t)dim * sizeof(double));
+            PyBuffer_Release(&b);
+            if (!ok)
+                return -1;
+            goto done;
+        }
+        PyErr_Clear();
+    }
+    {
+        PyObject *seq = PySequence_Fast(o, "");
+        if (seq == NULL)
+            goto failed;
+        if (PySequence_Fast_GET_SIZE(seq) != dim) {
+            Py_DECREF(seq);
+            return -1;
+        }
+        for (i = 0; i < dim; i++) {
+            PyObject *c = PySequence_Fast_GET_ITEM(seq, i);
+            if (PyBool_Check(c) || PyComplex_Check(c)) {
+                Py_DECREF(seq);
+                return -1;
+            }
+            v[i] = PyFloat_AsDouble(c);
+            if (v[i] == -1.0 && PyErr_Occurred()) {
+                Py_DECREF(seq);
+                goto failed;
+            }
+        }
+        Py_DECREF(seq);
+    }
+done:
+    q[0] = v[0];
+    q[1] = dim == 3 ? v[1] : 0.0;
+    q[2] = dim == 3 ? v[2] : v[1];
+    return 0;
+failed:
+    if (!PyErr_ExceptionMatches(PyExc_Exception))
+        return -2;
+    PyErr_Clear();
+    return -1;
+}
+
+static PyObject *servo_force(const ServoObject *self, const double f[3])
+{
+    return self->s.dim == 3 ? Py_BuildValue("(ddd)", f[0], f[1], f[2]) : Py_BuildValue("(dd)", f[0], f[2]);
+}
+
+PyDoc_STRVAR(servo_tick_doc, "tick(t, p, step)\n--\n\nOne tick under the rules: the sample's time t (s) and "
+                             "position p (m, dim numbers), step the renderer (a Renderer core, called in C) or a "
+                             "callable p -> force; returns the force to command (N). A failing sample or step is "
+                             "a fault (zero force); an error that is not an Exception (Ctrl-C) propagates.");
+
+static PyObject *Servo_tick(ServoObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    double t, p[3], f[3] = {0.0, 0.0, 0.0};
+    int rc, fault;
+    if (nargs != 3) {
+        PyErr_SetString(PyExc_TypeError, "tick takes t, p and step");
+        return NULL;
+    }
+    t = PyFloat_AsDouble(args[0]);
+    if (t == -1.0 && PyErr_Occurred())
+        return NULL;
+    hx_servo_begin(&self->s, monotonic());
+    rc = read_vector(args[1], self->s.dim, p);
+    if (rc == -2)
+        return NULL;
+    if (rc < 0)
+        p[0] = p[1] = p[2] = NAN;
+    fault = rc < 0 || !hx_servo_usable(&self->s, p);
+    if (!fault) {
+        if (Py_IS_TYPE(args[2], &RendererType)) {
+            hx_render_step(&((RendererObject *)args[2])->r, p[0], p[1], p[2], f);
+        } else {
+            PyObject *out = PyObject_CallOneArg(args[2], args[1]);
+            if (out == NULL) {
+                if (!PyErr_ExceptionMatches(PyExc_Exception))
+                    return NULL;
+                PyErr_Clear();
+                fault = 1;
+            } else {
+                rc = read_vector(out, self->s.dim, f);
+                Py_DECREF(out);
+                if (rc == -2)
+                    return NULL;
+                fault = rc < 0;
+            }
+        }
+    }
+    hx_servo_command(&self->s, t, p, fault, f);
+    hx_servo_end(&self->s, monotonic());
+    return servo_force(self, f);
+}
+
+/* OpenHaptics' scheduler calls this once a tick in its servo thread: no Python, no GIL */
+static hd_uint hd_servo_callback(void *data)
+{
+    ServoObject *self = data;
+    double pos[3], p[3], f[3] = {0.0, 0.0, 0.0}, fd[3] = {0.0, 0.0, 0.0}, wall;
+    self->hd_begin(self->hd_handle);
+    if (self->stop || self->s.k >= self->n_ticks) {
+        self->hd_setdv(HD_CURRENT_FORCE, fd);
+        self->hd_end(self->hd_handle);
+        self->done = 1;
+        return HD_CALLBACK_DONE;
+    }
+    self->hd_getdv(HD_CURRENT_POSITION, pos);
+    /* HD: mm, x right, y up, z towards the user; haptex: m, z up: p = (x, -z, y) / 1000 */
+    p[0] = 1e-3 * pos[0];
+    p[1] = -1e-3 * pos[2];
+    p[2] = 1e-3 * pos[1];
+    wall = monotonic();
+    hx_servo_tick(&self->s, &self->renderer->r, wall, wall - self->t0, p, f);
+    fd[0] = f[0];
+    fd[1] = f[2];
+    fd[2] = -f[1];
+    self->hd_setdv(HD_CURRENT_FORCE, fd);
+    self->hd_end(self->hd_handle);
+    hx_servo_end(&self->s, monotonic());
+    return HD_CALLBACK_CONTINUE;
+}
+
+PyDoc_STRVAR(servo_hd_doc, "hd_callback(renderer, begin, end, getdv, setdv, handle, n_ticks, t0)\n--\n\n"
+                           "Bind the native tick to OpenHaptics' HD functions (their addresses, ints) for n_ticks "
+                           "ticks of renderer (a Renderer core, 3-D) on device handle, sample times from t0 "
+                           "(time.perf_counter's clock, s); returns (callback, data): the addresses to give "
+                           "hdScheduleAsynchronous. The callback sends zero force and ends after n_ticks or stop().");
+
+static void *address(PyObject *o)
+{
+    void *a = PyLong_AsVoidPtr(o);
+    if (a == NULL && !PyErr_Occurred())
+        PyErr_SetString(PyExc_ValueError, "a function's address must not be 0");
+    return a;
+}
+
+static PyObject *Servo_hd_callback(ServoObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    void *fn[4];
+    int i;
+    unsigned long handle;
+    long n;
+    double t0;
+    if (nargs != 8 || !Py_IS_TYPE(args[0], &RendererType) || ((RendererObject *)args[0])->dim != 3 ||
+        self->s.dim != 3) {
+        PyErr_SetString(PyExc_TypeError, "hd_callback takes a 3-D Renderer core, four addresses, handle, n_ticks, t0");
+        return NULL;
+    }
+    for (i = 0; i < 4; i++)
+        if ((fn[i] = address(args[1 + i])) == NULL)
+            return NULL;
+    handle = PyLong_AsUnsignedLong(args[5]);
+    n = PyLong_AsLong(args[6]);
+    t0 = PyFloat_AsDouble(args[7]);
+    if (PyErr_Occurred())
+        return NULL;
+    /* (object pointers to function pointers through memcpy: C99 leaves the cast undefined) */
+    memcpy(&self->hd_begin, &fn[0], sizeof fn[0]);
+    memcpy(&self->hd_end, &fn[1], sizeof fn[1]);
+    memcpy(&self->hd_getdv, &fn[2], sizeof fn[2]);
+    memcpy(&self->hd_setdv, &fn[3], sizeof fn[3]);
+    self->hd_handle = (hd_uint)handle;
+    self->n_ticks = n;
+    self->t0 = t0;
+    self->stop = self->done = 0;
+    Py_INCREF(args[0]);
+    Py_XSETREF(self->renderer, (RendererObject *)args[0]);
+    {
+        hd_uint (*cb)(void *) = hd_servo_callback;
+        void *cbp;
+        memcpy(&cbp, &cb, sizeof cbp);
+        return Py_BuildValue("(NN)", PyLong_FromVoidPtr(cbp), PyLong_FromVoidPtr(self));
+    }
+}
+
+static PyObject *Servo_stop(ServoObject *self, PyObject *unused)
+{
+    (void)unused;
+    self->stop = 1;
+    Py_RETURN_NONE;
+}
+
+static PyObject *Servo_get_done(ServoObject *self, void *closure)
+{
+    (void)closure;
+    return PyBool_FromLong(self->done);
+}
+
+static PyObject *Servo_get_engaged_at(ServoObject *self, void *closure)
+{
+    (void)closure;
+    if (self->s.engaged_at < 0)
+        Py_RETURN_NONE;
+    return PyLong_FromLong(self->s.engaged_at);
+}
+
+static PyObject *Servo_get_period_std(ServoObject *self, void *closure)
+{
+    (void)closure;
+    return PyFloat_FromDouble(self->s.periods > 0 ? sqrt(self->s.period_m2 / (double)self->s.periods) : 0.0);
+}
+
+static PyObject *Servo_get_work_mean(ServoObject *self, void *closure)
+{
+    (void)closure;
+    return PyFloat_FromDouble(self->s.k > 0 ? self->s.work_sum / (double)self->s.k : 0.0);
+}
+
+static PyMethodDef Servo_methods[] = {
+    {"tick", (PyCFunction)(void (*)(void))Servo_tick, METH_FASTCALL, servo_tick_doc},
+    {"hd_callback", (PyCFunction)(void (*)(void))Servo_hd_callback, METH_FASTCALL, servo_hd_doc},
+    {"stop", (PyCFunction)Servo_stop, METH_NOARGS, "Ask the native driver's callback to send zero and end."},
+    {NULL, NULL, 0, NULL},
+};
+
+static PyMemberDef Servo_members[] = {
+    {"ticks", T_LONG, offsetof(ServoObject, s.k), READONLY, "ticks commanded"},
+    {"missed", T_LONG, offsetof(ServoObject, s.missed), READONLY, "late samples (answered with zero force)"},
+    {"faults", T_LONG, offsetof(ServoObject, s.faults), READONLY, "ticks answered with zero for a fault"},
+    {"clamps", T_LONG, offsetof(ServoObject, s.clamps), READONLY, "forces the loop scaled to its maximum"},
+    {"max_force_sent", T_DOUBLE, offsetof(ServoObject, s.max_sent), READONLY, "largest force commanded (N)"},
+    {"work_max", T_DOUBLE, offsetof(ServoObject, s.work_max), READONLY, "longest tick, sample to command (s)"},
+    {"period_mean", T_DOUBLE, offsetof(ServoObject, s.period_mean), READONLY, "mean time between samples (s)"},
+    {"periods", T_LONG, offsetof(ServoObject, s.periods), READONLY, "periods measured"},
+    {NULL, 0, 0, 0, NULL},
+};
+
+static PyGetSetDef Servo_getset[] = {
+    {"done", (getter)Servo_get_done, NULL, "the native driver's callback has ended", NULL},
+    {"engaged_at", (getter)Servo_get_engaged_at, NULL, "the tick forces engaged at, or None", NULL},
+    {"period_std", (getter)Servo_get_period_std, NULL, "standard deviation of the time between samples (s)", NULL},
+    {"work_mean", (getter)Servo_get_work_mean, NULL, "mean time of a tick, sample to command (s)", NULL},
+    {NULL, NULL, NULL, NULL, NULL},
+};
+
+static PyTypeObject ServoType = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = "haptex.core._ext.Servo",
+    .tp_basicsize = sizeof(ServoObject),
+    .tp_dealloc = (destructor)Servo_dealloc,
+    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_doc = "The servo loop's safety rules (hx_servo), its trace and native drivers (see haptex.servo).",
+    .tp_methods = Servo_methods,
+    .tp_members = Servo_members,
+    .tp_getset = Servo_getset,
+    .tp_init = (initproc)Servo_init,
     .tp_new = PyType_GenericNew,
 };
 
@@ -1258,7 +1634,8 @@ PyMODINIT_FUNC PyInit__ext(void)
     size_t i;
     if (mod == NULL)
         return NULL;
-    if (PyType_Ready(&RendererType) < 0 || PyModule_AddObjectRef(mod, "Renderer", (PyObject *)&RendererType) < 0) {
+    if (PyType_Ready(&RendererType) < 0 || PyModule_AddObjectRef(mod, "Renderer", (PyObject *)&RendererType) < 0 ||
+        PyType_Ready(&ServoType) < 0 || PyModule_AddObjectRef(mod, "Servo", (PyObject *)&ServoType) < 0) {
         Py_DECREF(mod);
         return NULL;
     }

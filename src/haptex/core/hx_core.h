@@ -298,6 +298,62 @@ void hx_render_step(hx_renderer *r, double x, double y, double z, double f[3]);
 /* Clear the state, the observer and controller's sums and the counters (settings kept). */
 void hx_render_reset(hx_renderer *r);
 
+/* ---- the servo loop's safety rules (haptex.servo) --------------------------------- */
+
+/* A servo loop around a device: its settings, its state, its counts and an optional trace.
+ * Positions and forces are [x, y, z] (y = 0 in the plane); the trace keeps dim columns. */
+typedef struct {
+    /* settings (set before the first tick) */
+    int dim;             /* 2 ([x, z]) or 3 ([x, y, z]) */
+    double period;       /* the servo period T (s) */
+    double workspace;    /* m: a sample farther than this from the origin is a fault */
+    double max_force;    /* N: the loop's own ceiling, whatever computed the force */
+    double engage_force; /* N: forces engage once the computed force stayed below this ... */
+    long engage_ticks;   /* ... for this many ticks in a row */
+    long ramp_ticks;     /* then ramp in linearly over this many ticks */
+    double deadline;     /* periods: a sample later than this after the previous one is missed */
+    int realtime;        /* the backend paces the loop: deadlines are judged */
+    /* state */
+    long k;              /* ticks commanded */
+    long calm;           /* ticks in a row below engage_force, before engaging */
+    long engaged_at;     /* the tick forces engaged at, -1 before */
+    int have_wall, late;
+    double last_wall, tick_wall; /* s: the previous tick's start, this tick's start */
+    /* counts */
+    long missed, faults, clamps;
+    double max_sent;     /* N: the largest force commanded */
+    double work_max, work_sum;      /* s: the loop's own time a tick, sample to command */
+    long periods;
+    double period_mean, period_m2;  /* s, s^2: the time between samples (Welford's sums) */
+    /* the trace: NULL for none, else capacity rows of t (s), p (m), f (N, as sent), engaged */
+    long capacity;
+    double *rec_t, *rec_p, *rec_f;
+    unsigned char *rec_e;
+} hx_servo;
+
+/* Zero the state, the counts and the trace pointers; the settings are set by the caller. */
+void hx_servo_init(hx_servo *s);
+
+/* Rule 1 on a sample: 1 when p (m) is finite and within the workspace, else 0. */
+int hx_servo_usable(const hx_servo *s, const double p[3]);
+
+/* Start a tick at wall-clock time wall (s, any monotonic origin): the period since the
+ * previous tick is counted, and the tick is late when it exceeds deadline periods. */
+void hx_servo_begin(hx_servo *s, double wall);
+
+/* Rules 1-4 on the force f computed for the sample (t (s), p (m)); fault: the sample or its
+ * computation failed (zero, counted). f becomes the force to command: zero before engaging,
+ * ramped in, never above max_force, zero on a late tick; never NaN. Counts the tick and keeps
+ * it in the trace. */
+void hx_servo_command(hx_servo *s, double t, const double p[3], int fault, double f[3]);
+
+/* End the tick begun at hx_servo_begin at wall-clock time wall (s): its own time counted. */
+void hx_servo_end(hx_servo *s, double wall);
+
+/* One tick of a renderer under the rules: begin at wall, rule 1 on p, hx_render_step, the
+ * rules on its force into f (end it with hx_servo_end). */
+void hx_servo_tick(hx_servo *s, hx_renderer *r, double wall, double t, const double p[3], double f[3]);
+
 /* ---- the simulator's lean loop ----------------------------------------------------- */
 
 /* the decoupled per-axis coefficients of one sample, per damping regime and axis: p+ = p +
