@@ -31,9 +31,14 @@ A triangle mesh (:class:`Mesh`, read by trimesh) is a base whose coordinates are
 point's (flat facets, the normal turning around edges and vertices), or, given vertex normals,
 those of the prisms swept along them (continuous across edges).
 
+The C core's servo tick (:class:`haptex.Renderer`) takes A, B, C and G on every base but the
+prism mesh (hx_object.c): the same coordinates in closed form, and on a mesh the exact closest
+point through a bounding-volume hierarchy built once (the analysis path here queries the same
+hierarchy, :class:`Mesh`).
+
 Not yet here (issue 32's later steps): D and E (the closest point on the textured object),
-F, the proxy algorithm, a C^1 mesh base, the reference algorithms of CHAI3D and HAPI, the C
-core's tick over objects (a bounding-volume hierarchy).
+F, a C^1 mesh base, the reference algorithms of CHAI3D and HAPI, the simulator and the export
+over objects.
 """
 
 from __future__ import annotations
@@ -44,6 +49,7 @@ import numpy as np
 
 from ._validation import ParameterError, fail, positions, positive
 from .algorithms import Algorithm, algorithm
+from .core import _ext, in_slices
 from .surfaces import Extruded, Surface
 from .textures import Texture
 
@@ -113,6 +119,24 @@ class Base:
         analytic bases."""
         return []
 
+    core_kind = -1
+    """The base's kind in the C core (``haptex.core._ext.BASE_*``); -1: none."""
+
+    def core_spec(self):
+        """The base as the C core's renderer takes it: (kind, radius (m), tri, face), tri and
+        face empty but for a mesh (:meth:`Mesh.core_spec`).
+
+        Raises
+        ------
+        ParameterError
+            For a base the C core does not evaluate.
+        """
+        if self.core_kind < 0:
+            raise fail("base", self, "a base the C core evaluates: Plane(), Cylinder(R), Sphere(R) or a faceted Mesh")
+        empty = np.zeros((0, 9))
+        return (self.core_kind, 0.0 if math.isinf(self.radius) else float(self.radius), empty,
+                np.zeros((0, _ext.FACE)))
+
     def __repr__(self) -> str:
         return f"{type(self).__name__}()" if math.isinf(self.radius) else f"{type(self).__name__}({self.radius:g})"
 
@@ -121,6 +145,7 @@ class Plane(Base):
     """The plane z = 0: u = (x, y), e = z (today's textured wall, exactly)."""
 
     name = "plane"
+    core_kind = _ext.BASE_PLANE
 
     def local(self, p):
         shape = p.shape[:-1]
@@ -205,6 +230,7 @@ class Cylinder(_Round):
     """
 
     name = "cylinder"
+    core_kind = _ext.BASE_CYLINDER
 
     def local(self, p):
         R = self.radius
@@ -242,6 +268,7 @@ class Sphere(_Round):
     """
 
     name = "sphere"
+    core_kind = _ext.BASE_SPHERE
 
     def local(self, p):
         R = self.radius
@@ -285,7 +312,9 @@ latest up to LOCAL_CACHE_BYTES: the analyses of A, B, C and G lay the same grids
 
 
 class Mesh(Base):
-    """A closed triangle mesh (read and queried with trimesh) with a UV map in metres.
+    """A closed triangle mesh (read with trimesh) with a UV map in metres; its closest points
+    come from the C core's bounding-volume hierarchy (exact; :class:`haptex.Renderer` ticks
+    through the same search).
 
     The base's coordinates are those of the closest point on the mesh: e is the signed
     distance to it (positive outside, the sign by the angle-weighted pseudo-normal of the
@@ -325,6 +354,7 @@ class Mesh(Base):
     """
 
     name = "mesh"
+    core_kind = _ext.BASE_MESH
 
     def __init__(self, mesh, uv=None, uv_scale: float | None = None, normals=None):
         import trimesh
@@ -371,13 +401,13 @@ class Mesh(Base):
             raise fail("mesh", f"triangle {degenerate[0]}", "triangles of non-zero area (a degenerate one has its "
                        "normal undefined)")
         self.mesh = mesh
-        # trimesh's closest-point query uses absolute tolerances tuned for unit-sized meshes: on a
-        # 1 cm sphere it returned edge points 66 um away for a probe 5.5 um under a face. It is
-        # queried on a copy scaled to unit size (the closest point is scale-invariant)
-        self._scale = float(scale)
-        self._query = trimesh.Trimesh(np.asarray(mesh.vertices, dtype=float) / self._scale, faces, process=False)
         self.uv = uv
         self._tri = tri
+        # closest points by the C core's bounding-volume hierarchy, exact (trimesh's query is
+        # not: its absolute tolerances returned edge points 66 um away on a 1 cm sphere, and on
+        # a unit-scaled copy of an 81,920-triangle sphere still a farther triangle for 5 probes
+        # in 600, 37 nm farther); the renderer's tick runs the same search
+        self._tree = _ext.MeshTree(np.ascontiguousarray(tri.reshape(-1, 9)))
         self._normals = cross / area2[:, None]
         if np.sum(area2 * np.einsum("ij,ij->i", self._normals, tri[:, 0])) < 0:  # (6 x volume < 0: inward)
             self._normals = -self._normals
@@ -434,13 +464,45 @@ class Mesh(Base):
     def __repr__(self) -> str:
         return f"Mesh({len(self._faces)} triangles)"
 
-    def _closest(self, flat):
-        """(foot, dist, triangle, barycentric) of the closest points of flat (N, 3) (m)."""
-        import trimesh
+    def core_spec(self):
+        """The mesh as the C core's renderer takes it: (kind, 0, tri, face), tri (F, 9) the
+        corners (m) and face (F, ``haptex.core._ext.FACE``) each triangle's constants: its
+        normal, its UV map's gradient M, its corners' UV, its sides' and corners' pseudo-normals
+        (``HX_FACE_*`` in hx_core.h). The core builds the bounding-volume hierarchy.
 
-        foot, dist, tid = trimesh.proximity.closest_point(self._query, flat / self._scale)
-        bary = trimesh.triangles.points_to_barycentric(self._tri[tid] / self._scale, foot)
-        return foot * self._scale, dist * self._scale, tid, bary
+        Raises
+        ------
+        ParameterError
+            For a mesh with vertex normals (the prism base is not in the C core yet), or one
+            whose arrays would exceed the memory budget.
+        """
+        from ._validation import check_budget
+
+        if self._vn is not None:
+            raise fail("normals", "given", "None in the renderer: the C core takes the faceted mesh (the prism base "
+                       "swept along vertex normals is not in the C core yet)")
+        F = len(self._faces)
+        check_budget("mesh", f"{F} triangles", F * (2 * (9 + _ext.FACE) + 16) * 8.0, "the renderer's copy of it")
+        face = np.empty((F, _ext.FACE))
+        face[:, _ext.FACE_N:_ext.FACE_N + 3] = self._normals
+        face[:, _ext.FACE_M:_ext.FACE_M + 6] = self._M.reshape(F, 6)
+        face[:, _ext.FACE_UV:_ext.FACE_UV + 6] = self.uv[self._faces].reshape(F, 6)
+        for side in range(3):  # side k joins corners k and k + 1: its two triangles' normals summed
+            pair = self._edge_faces[self._side_edge[:, side]]
+            at = _ext.FACE_EDGE + 3 * side
+            face[:, at:at + 3] = self._normals[pair[:, 0]] + self._normals[pair[:, 1]]
+        face[:, _ext.FACE_VERTEX:_ext.FACE_VERTEX + 9] = self._pseudo[self._vmap].reshape(F, 9)
+        return (self.core_kind, 0.0, np.ascontiguousarray(self._tri.reshape(F, 9)), face)
+
+    def _closest(self, flat):
+        """(foot, dist, triangle, barycentric) of the closest points of flat (N, 3) (m): exact,
+        by the C core's hierarchy (hx_mesh_closest), on the analysis's threads."""
+        n = len(flat)
+        flat = np.ascontiguousarray(flat, dtype=np.float64)
+        tid, bary, d2 = np.zeros(n, dtype=np.int64), np.zeros((n, 3)), np.zeros(n)
+        in_slices(lambda a, b: self._tree.closest(flat[a:b], tid[a:b], bary[a:b], d2[a:b]), n)
+        foot = np.einsum("nk,nkj->nj", bary, self._tri[tid])
+        return foot, np.sqrt(d2), tid, bary
 
     def _feature(self, flat):
         """Which smooth piece each point's coordinates are on: its closest triangle, and which of
@@ -777,8 +839,15 @@ class ObjectAlgorithm(Algorithm):
         return 0.5 * self.stiffness * self.penetration(p) ** 2
 
     def kernel_spec(self):
-        raise ParameterError(f"{self!r} is not allowed in the renderer, simulator or export yet: the C core's tick "
-                             "over objects is issue 32's next step")
+        raise ParameterError(f"{self!r} is not allowed in the simulator or export yet: the C core's tick over "
+                             "objects runs in haptex.Renderer only so far")
+
+    def object_spec(self):
+        """The arrays of this algorithm's servo tick in the C core (:class:`haptex.Renderer`):
+        the plane algorithm's (code, prm, kind, coeffs, aux; :meth:`haptex.Algorithm.kernel_spec`)
+        and the base's (:meth:`Base.core_spec`)."""
+        code, prm, kind, coeffs, aux = algorithm(self.letter, self.texture, self.stiffness).kernel_spec()
+        return code, prm, kind, coeffs, aux, self.base.core_spec()
 
 
 def object_algorithm(letter: str, texture: Texture, base: Base, stiffness: float) -> ObjectAlgorithm:

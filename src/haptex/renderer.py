@@ -172,7 +172,11 @@ class Renderer:
     ----------
     algorithm : Algorithm
         W or A–G, from :func:`haptex.algorithm`; its texture's dimension sets the
-        positions' (2 over a profile, 3 over a surface).
+        positions' (2 over a profile, 3 over a surface). Or A, B, C or G on an object
+        (:func:`haptex.objects.object_algorithm`: a plane, cylinder, sphere or faceted mesh,
+        positions [x, y, z]); on a mesh the tick finds the closest point through a
+        bounding-volume hierarchy built here, exact, its nodes and triangles visited counted in
+        :attr:`last_work`.
     max_force : float, optional
         Largest force magnitude to command (N); larger forces are scaled down to it and
         counted in :attr:`clamps`. ``None``: no limit.
@@ -228,13 +232,18 @@ class Renderer:
         self.algorithm = algorithm
         self.passivity_controller = passivity_controller
         self.dimension = algorithm.dimension
-        code, prm, kind, coeffs, aux, self._search_table = tick_model(algorithm, max_evaluations)
+        base = None
+        if getattr(algorithm, "base", None) is not None:  # a textured object (haptex.objects): A, B, C, G
+            code, prm, kind, coeffs, aux, base = algorithm.object_spec()
+            self._search_table = False
+        else:
+            code, prm, kind, coeffs, aux, self._search_table = tick_model(algorithm, max_evaluations)
         pc = passivity_controller
         self._core = _core._ext.Renderer(
             code, prm, kind, coeffs, aux, self.dimension, math.inf if max_force is None else float(max_force),
             WORKSPACE_LIMIT, bool(energy_monitor), pc is not None, 0.0 if pc is None else pc.max_damping,
             pc is not None and pc.reference == "stored", 0.0 if T is None else T, self._step_checked,
-            0 if pc is None or pc.delay is None else pc.delay)
+            0 if pc is None or pc.delay is None else pc.delay, base)
         self.step = self._core.step
 
     def _tick(self, x, y, z):

@@ -182,6 +182,114 @@ static int fuzz_builders(long *evaluations)
     return 0;
 }
 
+/* An octahedron of half-diagonal 5 mm centred at (0, 0, -5 mm): 8 triangles, its hierarchy
+ * built by hx_bvh_build into arrays of exactly the documented sizes. */
+static const double OCTA_V[6][3] = {{5e-3, 0, -5e-3}, {-5e-3, 0, -5e-3}, {0, 5e-3, -5e-3},
+                                    {0, -5e-3, -5e-3}, {0, 0, 0}, {0, 0, -10e-3}};
+static const int OCTA_F[8][3] = {{0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4},
+                                 {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}};
+
+/* A, B, C and G on the plane, a cylinder, a sphere and the octahedron, ticked at adversarial
+ * positions (NaN, infinities, +-1 km, the round bases' axes): never NaN, never above the
+ * maximum, at least the expected faults. */
+static int fuzz_objects(const hx_model *m0, long *evaluations)
+{
+    int kind, code, i, j, k;
+    long n = 8, n_node;
+    double *tri = malloc(sizeof(double) * 9 * (size_t)n), *face = malloc(sizeof(double) * HX_FACE * (size_t)n);
+    double *box = malloc(sizeof(double) * 12 * (size_t)n);
+    long *node = malloc(sizeof(long) * 4 * (size_t)n), *order = malloc(sizeof(long) * (size_t)n);
+    hx_base b;
+    for (i = 0; i < n; i++) {
+        double e1[3], e2[3], nn[3], len;
+        for (k = 0; k < 3; k++)
+            for (j = 0; j < 3; j++)
+                tri[9 * i + 3 * k + j] = OCTA_V[OCTA_F[i][k]][j];
+        for (j = 0; j < 3; j++) {
+            e1[j] = tri[9 * i + 3 + j] - tri[9 * i + j];
+            e2[j] = tri[9 * i + 6 + j] - tri[9 * i + j];
+        }
+        nn[0] = e1[1] * e2[2] - e1[2] * e2[1];
+        nn[1] = e1[2] * e2[0] - e1[0] * e2[2];
+        nn[2] = e1[0] * e2[1] - e1[1] * e2[0];
+        len = sqrt(nn[0] * nn[0] + nn[1] * nn[1] + nn[2] * nn[2]);
+        for (j = 0; j < HX_FACE; j++)
+            face[HX_FACE * i + j] = 0.0;
+        for (j = 0; j < 3; j++) /* the normal; its sides' and corners' pseudo-normals the same */
+            face[HX_FACE * i + HX_FACE_N + j] = nn[j] / len;
+        for (k = 0; k < 6; k++)
+            for (j = 0; j < 3; j++)
+                face[HX_FACE * i + HX_FACE_EDGE + 3 * k + j] = nn[j] / len;
+        face[HX_FACE * i + HX_FACE_M] = 1.0; /* u1 = x - x0 on every face (any finite map) */
+    }
+    n_node = hx_bvh_build(tri, n, order, box, node);
+    for (kind = 0; kind < HX_N_BASES; kind++) {
+        memset(&b, 0, sizeof b);
+        b.kind = kind;
+        b.radius = 5e-3;
+        if (kind == HX_BASE_MESH) {
+            b.n_tri = n;
+            b.tri = tri;
+            b.face = face;
+            b.n_node = n_node;
+            b.box = box;
+            b.node = node;
+            b.order = order;
+        }
+        for (code = 0; code < HX_N_ALGS; code++) {
+            hx_renderer r;
+            long faults_expected = 0;
+            int defined = code == HX_ALG_A || code == HX_ALG_B || code == HX_ALG_C || code == HX_ALG_G;
+            memset(&r, 0, sizeof r);
+            r.model = *m0;
+            r.model.code = code;
+            r.model.base = &b;
+            r.max_force = 5.0;
+            r.limit = 1e3;
+            if ((hx_model_check(&r.model) == HX_OK) != defined) {
+                printf("base %d code %d: the check gave %d\n", kind, code, hx_model_check(&r.model));
+                return 1;
+            }
+            if (!defined)
+                continue;
+            for (i = 0; i < 5000; i++) {
+                double f[3], p[3];
+                p[0] = position(i) * 1e-2;
+                p[1] = position(i + 1) * 1e-2;
+                p[2] = position(i + 2) * 1e-2 - (i % 7 == 0 ? 5e-3 : 0.0);
+                if (i % 11 == 0) /* on the round bases' axes */
+                    p[0] = 0.0, p[2] = -5e-3;
+                if (i % 97 == 0)
+                    p[i % 3] = i % 2 ? NAN : -INFINITY;
+                if (i % 89 == 0)
+                    p[i % 3] = 2e3;
+                for (j = 0; j < 3; j++)
+                    if (!isfinite(p[j]) || fabs(p[j]) > r.limit) {
+                        faults_expected++;
+                        break;
+                    }
+                hx_render_step(&r, p[0], p[1], p[2], f);
+                (*evaluations)++;
+                if (!isfinite(f[0]) || !isfinite(f[1]) || !isfinite(f[2]) ||
+                    sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]) > 5.0 * (1.0 + 1e-15)) {
+                    printf("base %d code %d: tick force (%g, %g, %g)\n", kind, code, f[0], f[1], f[2]);
+                    return 1;
+                }
+            }
+            if (r.faults < faults_expected) {
+                printf("base %d code %d: %ld faults, expected at least %ld\n", kind, code, r.faults, faults_expected);
+                return 1;
+            }
+        }
+    }
+    free(tri);
+    free(face);
+    free(box);
+    free(node);
+    free(order);
+    return 0;
+}
+
 int main(void)
 {
     long evaluations = 0;
@@ -203,6 +311,7 @@ int main(void)
         default: kind = HX_TEXTURE_FLAT; c = NULL; break;
         }
         m.tex.kind = kind;
+        m.base = NULL; /* the plane; the objects' bases below */
         m.aux = NULL; /* D and E's search data and F's smooth table: none here */
         m.naux = 0;
         m.tex.c = c;
@@ -296,6 +405,8 @@ int main(void)
                 return 1;
             }
         }
+        if (expect == HX_OK && fuzz_objects(&m, &evaluations))
+            return 1;
         free(c);
     }
     if (fuzz_builders(&evaluations))

@@ -65,6 +65,7 @@ static int get_model(PyObject *const *args, hx_model *m, Py_buffer *prm, Py_buff
         return -1;
     }
     m->code = (int)code;
+    m->base = NULL;
     for (i = 0; i < HX_N_PARAMS; i++)
         m->prm[i] = ((const double *)prm->buf)[i];
     m->tex.kind = (int)kind;
@@ -246,10 +247,83 @@ typedef struct {
     double *aux;
     int dim;        /* 2: [x, z]; 3: [x, y, z] */
     PyObject *fallback; /* called with p when step's fast path does not apply */
+    hx_base base;   /* an object's base (model.base points here), owned copies of its arrays */
+    double *btri, *bface, *bbox;
+    long *bnode, *border;
 } RendererObject;
+
+static void free_base(RendererObject *self)
+{
+    free(self->btri);
+    free(self->bface);
+    free(self->bbox);
+    free(self->bnode);
+    free(self->border);
+    self->btri = self->bface = self->bbox = NULL;
+    self->bnode = self->border = NULL;
+}
+
+/* The base of an object from (kind, radius, tri, face): tri (n, 9) and face (n, HX_FACE)
+ * float64 for a mesh (copied; its hierarchy built here), empty otherwise. 0, or -1 with an
+ * exception set. */
+static int set_base(RendererObject *self, PyObject *spec)
+{
+    int kind;
+    double radius;
+    PyObject *tri_obj, *face_obj;
+    Py_buffer tri, face;
+    hx_base *b = &self->base;
+    free_base(self);
+    memset(b, 0, sizeof *b);
+    if (!PyArg_ParseTuple(spec, "idOO", &kind, &radius, &tri_obj, &face_obj))
+        return -1;
+    b->kind = kind;
+    b->radius = radius;
+    if (kind != HX_BASE_MESH)
+        return 0;
+    if (get_doubles(tri_obj, &tri, 0, 2, "tri") < 0)
+        return -1;
+    if (get_doubles(face_obj, &face, 0, 2, "face") < 0) {
+        PyBuffer_Release(&tri);
+        return -1;
+    }
+    if (tri.shape[1] != 9 || face.shape[1] != HX_FACE || face.shape[0] != tri.shape[0] || tri.shape[0] < 1) {
+        PyBuffer_Release(&face);
+        PyBuffer_Release(&tri);
+        PyErr_Format(PyExc_ValueError, "a mesh base needs tri (n, 9) and face (n, %d), n >= 1", HX_FACE);
+        return -1;
+    }
+    b->n_tri = (long)tri.shape[0];
+    self->btri = malloc((size_t)tri.len);
+    self->bface = malloc((size_t)face.len);
+    self->bbox = malloc(sizeof(double) * 12 * (size_t)b->n_tri);
+    self->bnode = malloc(sizeof(long) * 4 * (size_t)b->n_tri);
+    self->border = malloc(sizeof(long) * (size_t)b->n_tri);
+    if (!self->btri || !self->bface || !self->bbox || !self->bnode || !self->border) {
+        PyBuffer_Release(&face);
+        PyBuffer_Release(&tri);
+        free_base(self);
+        PyErr_NoMemory();
+        return -1;
+    }
+    memcpy(self->btri, tri.buf, (size_t)tri.len);
+    memcpy(self->bface, face.buf, (size_t)face.len);
+    PyBuffer_Release(&face);
+    PyBuffer_Release(&tri);
+    Py_BEGIN_ALLOW_THREADS
+    b->n_node = hx_bvh_build(self->btri, b->n_tri, self->border, self->bbox, self->bnode);
+    Py_END_ALLOW_THREADS
+    b->tri = self->btri;
+    b->face = self->bface;
+    b->box = self->bbox;
+    b->node = self->bnode;
+    b->order = self->border;
+    return 0;
+}
 
 static void Renderer_dealloc(RendererObject *self)
 {
+    free_base(self);
     free(self->coeffs);
     free(self->aux);
     Py_XDECREF(self->fallback);
@@ -259,16 +333,21 @@ static void Renderer_dealloc(RendererObject *self)
 static int Renderer_init(RendererObject *self, PyObject *args, PyObject *kwds)
 {
     static char *kwlist[] = {"code", "prm", "kind", "coeffs", "aux", "dim", "max_force", "limit", "monitor",
-                             "controller", "max_damping", "stored_reference", "period", "fallback", "delay", NULL};
+                             "controller", "max_damping", "stored_reference", "period", "fallback", "delay", "base",
+                             NULL};
     int code, kind, dim, monitor, on, stored, rc, i, delay = 0;
     double max_force, limit, bmax, T;
-    PyObject *prm_obj, *coeffs_obj, *aux_obj, *fallback;
+    PyObject *prm_obj, *coeffs_obj, *aux_obj, *fallback, *base = Py_None;
     Py_buffer prm, coeffs, aux;
     size_t bytes;
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "iOiOOiddppdpdO|i", kwlist, &code, &prm_obj, &kind, &coeffs_obj,
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "iOiOOiddppdpdO|iO", kwlist, &code, &prm_obj, &kind, &coeffs_obj,
                                      &aux_obj, &dim, &max_force, &limit, &monitor, &on, &bmax, &stored, &T, &fallback,
-                                     &delay))
+                                     &delay, &base))
         return -1;
+    if (base != Py_None && (dim != 3 || !PyTuple_Check(base))) {
+        PyErr_SetString(PyExc_ValueError, "base must be None or (kind, radius, tri, face), in 3-D");
+        return -1;
+    }
     if (delay < 0 || delay >= HX_PC_RING) {
         PyErr_Format(PyExc_ValueError, "delay must be 0 to %d", HX_PC_RING - 1);
         return -1;
@@ -328,6 +407,11 @@ static int Renderer_init(RendererObject *self, PyObject *args, PyObject *kwds)
     self->r.model.tex.cols = coeffs.ndim == 2 ? (long)coeffs.shape[1] : (coeffs.ndim == 1 ? (long)coeffs.shape[0] : 0);
     PyBuffer_Release(&coeffs);
     PyBuffer_Release(&prm);
+    if (base != Py_None) {
+        if (set_base(self, base) < 0)
+            return -1;
+        self->r.model.base = &self->base;
+    }
     rc = hx_model_check(&self->r.model);
 
     if (rc != HX_OK) {
@@ -538,6 +622,150 @@ static PyTypeObject RendererType = {
     .tp_members = Renderer_members,
     .tp_getset = Renderer_getset,
     .tp_init = (initproc)Renderer_init,
+    .tp_new = PyType_GenericNew,
+};
+
+/* ---- MeshTree: a mesh's bounding-volume hierarchy, for the analysis path's closest points ---- */
+
+typedef struct {
+    PyObject_HEAD
+    hx_base base;
+    double *tri, *box;
+    long *node, *order;
+} MeshTreeObject;
+
+static void MeshTree_dealloc(MeshTreeObject *self)
+{
+    free(self->tri);
+    free(self->box);
+    free(self->node);
+    free(self->order);
+    Py_TYPE(self)->tp_free((PyObject *)self);
+}
+
+static int MeshTree_init(MeshTreeObject *self, PyObject *args, PyObject *kwds)
+{
+    static char *kwlist[] = {"tri", NULL};
+    PyObject *tri_obj;
+    Py_buffer tri;
+    long n;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O", kwlist, &tri_obj))
+        return -1;
+    if (get_doubles(tri_obj, &tri, 0, 2, "tri") < 0)
+        return -1;
+    if (tri.shape[1] != 9 || tri.shape[0] < 1) {
+        PyBuffer_Release(&tri);
+        PyErr_SetString(PyExc_ValueError, "tri must be (n, 9) float64, n >= 1");
+        return -1;
+    }
+    n = (long)tri.shape[0];
+    free(self->tri);
+    free(self->box);
+    free(self->node);
+    free(self->order);
+    self->tri = malloc((size_t)tri.len);
+    self->box = malloc(sizeof(double) * 12 * (size_t)n);
+    self->node = malloc(sizeof(long) * 4 * (size_t)n);
+    self->order = malloc(sizeof(long) * (size_t)n);
+    if (!self->tri || !self->box || !self->node || !self->order) {
+        PyBuffer_Release(&tri);
+        PyErr_NoMemory();
+        return -1;
+    }
+    memcpy(self->tri, tri.buf, (size_t)tri.len);
+    PyBuffer_Release(&tri);
+    memset(&self->base, 0, sizeof self->base);
+    self->base.kind = HX_BASE_MESH;
+    self->base.n_tri = n;
+    Py_BEGIN_ALLOW_THREADS
+    self->base.n_node = hx_bvh_build(self->tri, n, self->order, self->box, self->node);
+    Py_END_ALLOW_THREADS
+    self->base.tri = self->tri;
+    self->base.box = self->box;
+    self->base.node = self->node;
+    self->base.order = self->order;
+    self->base.face = self->tri; /* (unread by the search; hx_base_check wants every array) */
+    if (hx_base_check(&self->base) != HX_OK) {
+        PyErr_SetString(PyExc_ValueError, "the hierarchy failed its check");
+        return -1;
+    }
+    return 0;
+}
+
+PyDoc_STRVAR(mesh_closest_doc, "closest(points, tri, bary, dist2)\n--\n\nThe closest point of the mesh to each row of "
+                               "points (float64 (N, 3), m), exact: its triangle into tri (int64 (N,)), barycentric "
+                               "coordinates into bary (float64 (N, 3)), squared distance (m^2) into dist2 (float64 "
+                               "(N,)); returns the nodes and triangles visited. The GIL is released.");
+
+static PyObject *MeshTree_closest(MeshTreeObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    Py_buffer b[4];
+    Py_ssize_t i, n;
+    long work = 0;
+    int k, ok = 1;
+    if (nargs != 4) {
+        PyErr_SetString(PyExc_TypeError, "closest takes points, tri, bary and dist2");
+        return NULL;
+    }
+    for (k = 0; k < 4; k++) {
+        int rc = k == 1 ? PyObject_GetBuffer(args[1], &b[1], PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | PyBUF_WRITABLE)
+                        : get_doubles(args[k], &b[k], k > 0, k == 3 ? 1 : 2, k == 0 ? "points" : k == 2 ? "bary" : "dist2");
+        if (rc < 0) {
+            while (--k >= 0)
+                PyBuffer_Release(&b[k]);
+            return NULL;
+        }
+    }
+    n = b[0].shape[0];
+    if (b[0].shape[1] != 3 || b[1].ndim != 1 || b[1].itemsize != 8 || b[1].shape[0] != n ||
+        (strcmp(b[1].format, "l") != 0 && strcmp(b[1].format, "q") != 0) || b[2].shape[0] != n ||
+        b[2].shape[1] != 3 || b[3].shape[0] != n)
+        ok = 0;
+    if (ok) {
+        Py_BEGIN_ALLOW_THREADS
+        {
+            const double *p = b[0].buf;
+            long long *tri = b[1].buf;
+            double *bary = b[2].buf, *d2 = b[3].buf;
+            long warm = -1;
+            for (i = 0; i < n; i++) { /* (each point warm-starts the next: neighbours in a grid) */
+                long t;
+                work += hx_mesh_closest(&self->base, p + 3 * i, warm, &t, bary + 3 * i, d2 + i);
+                tri[i] = t;
+                warm = t;
+            }
+        }
+        Py_END_ALLOW_THREADS
+    }
+    for (k = 0; k < 4; k++)
+        PyBuffer_Release(&b[k]);
+    if (!ok) {
+        PyErr_SetString(PyExc_ValueError, "points (N, 3), tri int64 (N,), bary (N, 3), dist2 (N,)");
+        return NULL;
+    }
+    return PyLong_FromLong(work);
+}
+
+static PyMethodDef MeshTree_methods[] = {
+    {"closest", (PyCFunction)(void (*)(void))MeshTree_closest, METH_FASTCALL, mesh_closest_doc},
+    {NULL, NULL, 0, NULL},
+};
+
+static PyMemberDef MeshTree_members[] = {
+    {"nodes", T_LONG, offsetof(MeshTreeObject, base.n_node), READONLY, "nodes of the hierarchy"},
+    {NULL, 0, 0, 0, NULL},
+};
+
+static PyTypeObject MeshTreeType = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = "haptex.core._ext.MeshTree",
+    .tp_basicsize = sizeof(MeshTreeObject),
+    .tp_dealloc = (destructor)MeshTree_dealloc,
+    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_doc = "A triangle mesh's bounding-volume hierarchy (hx_bvh_build) and its exact closest points.",
+    .tp_methods = MeshTree_methods,
+    .tp_members = MeshTree_members,
+    .tp_init = (initproc)MeshTree_init,
     .tp_new = PyType_GenericNew,
 };
 
@@ -922,6 +1150,7 @@ static void batch_model(hx_model *m, int code, int kind, const Py_buffer *prm, c
 {
     long rows = (long)coeffs->shape[1], cols = (long)coeffs->shape[2], i;
     m->code = code;
+    m->base = NULL;
     for (i = 0; i < HX_N_PARAMS; i++)
         m->prm[i] = ((const double *)prm->buf)[r * HX_N_PARAMS + i];
     m->tex.kind = kind;
@@ -1629,13 +1858,16 @@ PyMODINIT_FUNC PyInit__ext(void)
         {"PIECE", HX_PIECE}, {"TABLE_MAXP", HX_TABLE_MAXP}, {"PATCH_X0", HX_PATCH_X0}, {"PATCH_Y0", HX_PATCH_Y0},
         {"PATCH_DX", HX_PATCH_DX}, {"PATCH_DY", HX_PATCH_DY}, {"PATCH_NX", HX_PATCH_NX}, {"PATCH_NY", HX_PATCH_NY},
         {"PATCH_PERIODIC", HX_PATCH_PERIODIC}, {"PATCH_DATA", HX_PATCH_DATA}, {"CONVEX_EVALS", HX_CONVEX_EVALS},
-        {"PC_RING", HX_PC_RING},
+        {"PC_RING", HX_PC_RING}, {"BASE_PLANE", HX_BASE_PLANE}, {"BASE_CYLINDER", HX_BASE_CYLINDER},
+        {"BASE_SPHERE", HX_BASE_SPHERE}, {"BASE_MESH", HX_BASE_MESH}, {"FACE", HX_FACE}, {"FACE_N", HX_FACE_N},
+        {"FACE_M", HX_FACE_M}, {"FACE_UV", HX_FACE_UV}, {"FACE_EDGE", HX_FACE_EDGE}, {"FACE_VERTEX", HX_FACE_VERTEX},
     };
     size_t i;
     if (mod == NULL)
         return NULL;
     if (PyType_Ready(&RendererType) < 0 || PyModule_AddObjectRef(mod, "Renderer", (PyObject *)&RendererType) < 0 ||
-        PyType_Ready(&ServoType) < 0 || PyModule_AddObjectRef(mod, "Servo", (PyObject *)&ServoType) < 0) {
+        PyType_Ready(&ServoType) < 0 || PyModule_AddObjectRef(mod, "Servo", (PyObject *)&ServoType) < 0 ||
+        PyType_Ready(&MeshTreeType) < 0 || PyModule_AddObjectRef(mod, "MeshTree", (PyObject *)&MeshTreeType) < 0) {
         Py_DECREF(mod);
         return NULL;
     }

@@ -77,12 +77,41 @@ typedef struct {
     long rows, cols;
 } hx_texture;
 
+/* ---- bases of textured objects (haptex.objects) ---- */
+enum { HX_BASE_PLANE = 0, HX_BASE_CYLINDER = 1, HX_BASE_SPHERE = 2, HX_BASE_MESH = 3, HX_N_BASES = 4 };
+
+/* A mesh's constants per triangle (HX_FACE values): its outward unit normal; M, the gradient
+ * of its UV map on its plane (2 x 3, row-major: u = uv_0 + M (p - v_0) there); the UV of its
+ * corners (3 x 2); the pseudo-normals of its sides (side k joins corners k and k + 1: the sum
+ * of the two triangles' normals) and of its corners (angle-weighted; Baerentzen & Aanaes
+ * 2005), 3 x 3 each. */
+enum { HX_FACE_N = 0, HX_FACE_M = 3, HX_FACE_UV = 9, HX_FACE_EDGE = 15, HX_FACE_VERTEX = 24, HX_FACE = 33 };
+
+/* The bounding-volume hierarchy's leaves hold at most this many triangles. */
+enum { HX_BVH_LEAF = 4, HX_BVH_STACK = 128 };
+
+/* A base surface the texture displaces along its normal (haptex.objects): a plane (z = 0), a
+ * cylinder or a sphere of radius R with its top at the origin, or a closed triangle mesh with
+ * its bounding-volume hierarchy (hx_bvh_build). */
+typedef struct {
+    int kind;            /* HX_BASE_* */
+    double radius;       /* cylinder, sphere (m) */
+    long n_tri;          /* mesh: triangles */
+    const double *tri;   /* n_tri x 9: the corners (m) */
+    const double *face;  /* n_tri x HX_FACE */
+    long n_node;
+    const double *box;   /* n_node x 6: each node's box, lo then hi (m) */
+    const long *node;    /* n_node x 2: an inner node's children, or a leaf's (-1 - first, count) in order */
+    const long *order;   /* n_tri: triangle ids in the leaves' order */
+} hx_base;
+
 typedef struct {
     int code;                   /* HX_ALG_* */
     double prm[HX_N_PARAMS];    /* HX_P_* */
     hx_texture tex;
     const double *aux;          /* F's smooth presliding table (when HX_P_ZSTICK >= 0), else NULL */
     long naux;
+    const hx_base *base;        /* NULL: the plane of the paper (every letter); else A, B, C, G on it */
 } hx_model;
 
 /* h and its derivatives at one point: h (m), gradient (m/m), Hessian (1/m) */
@@ -238,8 +267,9 @@ typedef struct {
     double last[2];/* F: the previous in-plane position (m) */
     double pen;    /* the penetration of the last tick (Table I's, >= 0, m) */
     double h;      /* the height under the probe the last tick evaluated (m), NaN if none */
-    long work;     /* texture evaluations of the last tick */
+    long work;     /* texture evaluations of the last tick (on a mesh: plus nodes and triangles visited) */
     int cut;       /* the last tick's closest-point search was ended by its budget */
+    long tri;      /* on a mesh: the last tick's closest triangle (its warm start) */
 } hx_state;
 
 /* The force of one servo tick (N) at p (m): the field, plus W's virtual damper
@@ -297,6 +327,39 @@ void hx_render_step(hx_renderer *r, double x, double y, double z, double f[3]);
 
 /* Clear the state, the observer and controller's sums and the counters (settings kept). */
 void hx_render_reset(hx_renderer *r);
+
+/* ---- textured objects (hx_object.c) ------------------------------------------------- */
+
+/* Check a base: its kind, a radius in (0, inf), a mesh's arrays (every node's children and
+ * leaves inside them). HX_OK or HX_BAD_COEFFS. */
+int hx_base_check(const hx_base *b);
+
+/* Build the hierarchy of n triangles tri (n x 9, m) by median splits along the longest axis
+ * of their centroids, into arrays of at least n (order), 2 n x 6 (box), 2 n x 2 (node) values;
+ * returns the number of nodes (at most 2 n - 1), its depth at most log2(n) + 2. */
+long hx_bvh_build(const double *tri, long n, long *order, double *box, long *node);
+
+/* The closest point of the mesh to p (m): its triangle, barycentric coordinates and squared
+ * distance (m^2), starting from triangle warm (its distance bounds the search; -1: none).
+ * Exact (the hierarchy's boxes bound every triangle). Returns the nodes and triangles visited. */
+long hx_mesh_closest(const hx_base *b, const double p[3], long warm, long *tri, double bary[3], double *dist2);
+
+/* The base's coordinates at p (m): the surface coordinates u (m) and their Jacobian ju (2 x 3,
+ * row-major), the signed offset e along the outward normal (m, < 0 inside) and that normal n
+ * (the gradient of e). On a mesh: the closest point's (its triangle's normal inside it, turning
+ * around an edge or a vertex, signed by their pseudo-normals), warm-started from *tri, which
+ * receives the closest triangle; *work receives the nodes and triangles visited. HX_OK, or
+ * HX_BAD_COEFFS where the coordinates are undefined (a cylinder's axis, a sphere's poles'
+ * axis). */
+int hx_base_local(const hx_base *b, const double p[3], long *tri, double u[2], double ju[6], double *e, double n[3],
+                  long *work);
+
+/* The force (N) of A, B, C or G of model m on its base m->base at p (m), as haptex.objects'
+ * fields (pen = h(u) - e; A: kappa_0 pen n, B: kappa_0 pen nu, C: -kappa_0 pen grad pen, G:
+ * -kappa_0 e nu for e < 0, nu = -grad pen / |grad pen|); the state's pen, h, tri and work.
+ * HX_OK, HX_NOT_IN_CORE for another letter, HX_BAD_COEFFS where the base's coordinates are
+ * undefined. */
+int hx_object_force(const hx_model *m, hx_state *s, const double p[3], double f[3]);
 
 /* ---- the servo loop's safety rules (haptex.servo) --------------------------------- */
 

@@ -29,6 +29,12 @@ int hx_model_check(const hx_model *m)
         if (m->prm[HX_P_ZSTICK] >= 0.0)
             rc = hx_presliding_table_check(m->aux, m->naux);
     }
+    if (rc == HX_OK && m->base != NULL) { /* on an object: A, B, C, G so far */
+        rc = hx_base_check(m->base);
+        if (rc == HX_OK && m->code != HX_ALG_A && m->code != HX_ALG_B && m->code != HX_ALG_C && m->code != HX_ALG_G)
+            rc = HX_NOT_IN_CORE;
+        return rc;
+    }
     if (rc == HX_OK && (m->code == HX_ALG_D || m->code == HX_ALG_E)) {
         if (m->tex.kind == HX_SURFACE_GRATINGS || m->tex.kind == HX_SURFACE_PATCHES)
             rc = hx_surface_aux_check(m->aux, m->naux);
@@ -54,5 +60,7 @@ int hx_field(const hx_model *m, const double p[3], double f[3], double jac[9])
 
 int hx_tick_force(const hx_model *m, hx_state *s, const double p[3], double f[3])
 {
+    if (m->base != NULL)
+        return hx_object_force(m, s, p, f);
     return hx__tick_force(m, s, p, f);
 }

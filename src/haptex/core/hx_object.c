@@ -1,0 +1,474 @@
+/*
+ * Textured objects (haptex.objects): a base surface displaced along its normal by the
+ * texture's height, and A, B, C, G on it. The base gives each probe position its surface
+ * coordinates u (m), their Jacobian, its signed offset e along the outward normal and that
+ * normal: in closed form on the plane, the cylinder and the sphere; on a triangle mesh from
+ * the closest point, found exactly through a bounding-volume hierarchy. The NumPy fields of
+ * haptex.objects are the oracle (tests/test_object_core.py).
+ */
+#include "hx_core.h"
+
+#include <math.h>
+#include <stddef.h>
+
+static double dot3(const double *a, const double *b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+static void sub3(double *out, const double *a, const double *b)
+{
+    out[0] = a[0] - b[0];
+    out[1] = a[1] - b[1];
+    out[2] = a[2] - b[2];
+}
+
+/* ---- the hierarchy ------------------------------------------------------------------ */
+
+static double centroid(const double *tri, long t, int axis)
+{
+    const double *v = tri + 9 * t;
+    return v[axis] + v[3 + axis] + v[6 + axis];
+}
+
+/* Reorder a[0 .. n) so that a[k] has the k-th smallest centroid along axis, none smaller
+ * after it, none larger before it (Hoare's selection, median-of-three pivots). */
+static void select_kth(const double *tri, long *a, long n, long k, int axis)
+{
+    long lo = 0, hi = n - 1;
+    while (hi > lo) {
+        double x = centroid(tri, a[lo], axis), y = centroid(tri, a[(lo + hi) / 2], axis),
+               z = centroid(tri, a[hi], axis), pivot;
+        long i = lo, j = hi;
+        pivot = x < y ? (y < z ? y : (x < z ? z : x)) : (x < z ? x : (y < z ? z : y));
+        while (i <= j) {
+            while (centroid(tri, a[i], axis) < pivot)
+                i++;
+            while (centroid(tri, a[j], axis) > pivot)
+                j--;
+            if (i <= j) {
+                long t = a[i];
+                a[i] = a[j];
+                a[j] = t;
+                i++;
+                j--;
+            }
+        }
+        if (k <= j)
+            hi = j;
+        else if (k >= i)
+            lo = i;
+        else
+            break;
+    }
+}
+
+static long build(const double *tri, long *order, double *box, long *node, long first, long count, long *n_node)
+{
+    long id = (*n_node)++, i, mid;
+    double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+    double clo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, chi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+    int axis = 0, j, c;
+    for (i = first; i < first + count; i++) {
+        const double *v = tri + 9 * order[i];
+        for (j = 0; j < 3; j++) {
+            double cj = centroid(tri, order[i], j);
+            for (c = 0; c < 3; c++) {
+                if (v[3 * c + j] < lo[j])
+                    lo[j] = v[3 * c + j];
+                if (v[3 * c + j] > hi[j])
+                    hi[j] = v[3 * c + j];
+            }
+            if (cj < clo[j])
+                clo[j] = cj;
+            if (cj > chi[j])
+                chi[j] = cj;
+        }
+    }
+    for (j = 0; j < 3; j++) {
+        box[6 * id + j] = lo[j];
+        box[6 * id + 3 + j] = hi[j];
+    }
+    if (count <= HX_BVH_LEAF) {
+        node[2 * id] = -1 - first;
+        node[2 * id + 1] = count;
+        return id;
+    }
+    for (j = 1; j < 3; j++)
+        if (chi[j] - clo[j] > chi[axis] - clo[axis])
+            axis = j;
+    mid = count / 2;
+    select_kth(tri, order + first, count, mid, axis);
+    node[2 * id] = build(tri, order, box, node, first, mid, n_node);
+    node[2 * id + 1] = build(tri, order, box, node, first + mid, count - mid, n_node);
+    return id;
+}
+
+long hx_bvh_build(const double *tri, long n, long *order, double *box, long *node)
+{
+    long i, n_node = 0;
+    for (i = 0; i < n; i++)
+        order[i] = i;
+    if (n > 0)
+        build(tri, order, box, node, 0, n, &n_node);
+    return n_node;
+}
+
+/* the depth below node id (1 for a leaf), or -1 for a node out of order (children must come
+ * after their parent: no cycle) or a leaf outside the order array */
+static long depth(const hx_base *b, long id)
+{
+    long l = b->node[2 * id], r = b->node[2 * id + 1], dl, dr;
+    if (l < 0) {
+        long first = -1 - l;
+        return first < b->n_tri && r >= 1 && r <= HX_BVH_LEAF && r <= b->n_tri - first ? 1 : -1;
+    }
+    if (l <= id || r <= id || l >= b->n_node || r >= b->n_node)
+        return -1;
+    dl = depth(b, l);
+    dr = dl < 0 || dl > HX_BVH_STACK ? -1 : depth(b, r);
+    if (dl < 0 || dr < 0)
+        return -1;
+    return 1 + (dl > dr ? dl : dr);
+}
+
+int hx_base_check(const hx_base *b)
+{
+    long i;
+    if (b->kind < 0 || b->kind >= HX_N_BASES)
+        return HX_BAD_COEFFS;
+    if (b->kind == HX_BASE_CYLINDER || b->kind == HX_BASE_SPHERE)
+        return b->radius > 0.0 && isfinite(b->radius) ? HX_OK : HX_BAD_COEFFS;
+    if (b->kind != HX_BASE_MESH)
+        return HX_OK;
+    if (b->n_tri < 1 || b->n_node < 1 || b->n_node > 2 * b->n_tri || b->tri == 0 || b->face == 0 || b->box == 0 ||
+        b->node == 0 || b->order == 0)
+        return HX_BAD_COEFFS;
+    for (i = 0; i < b->n_tri; i++)
+        if (b->order[i] < 0 || b->order[i] >= b->n_tri)
+            return HX_BAD_COEFFS;
+    i = depth(b, 0);
+    return i > 0 && i <= HX_BVH_STACK / 2 ? HX_OK : HX_BAD_COEFFS;
+}
+
+/* ---- closest points on a mesh --------------------------------------------------------- */
+
+/* The closest point of triangle t (9 values) to p: its barycentric coordinates b, exactly 0
+ * on the sides it is not inside of (the Voronoi regions of the corners, sides and face). */
+static void closest_on_triangle(const double *t, const double p[3], double b[3])
+{
+    double ab[3], ac[3], ap[3], bp[3], cp[3], d1, d2, d3, d4, d5, d6, va, vb, vc, v, w;
+    sub3(ab, t + 3, t);
+    sub3(ac, t + 6, t);
+    sub3(ap, p, t);
+    d1 = dot3(ab, ap);
+    d2 = dot3(ac, ap);
+    b[0] = b[1] = b[2] = 0.0;
+    if (d1 <= 0.0 && d2 <= 0.0) { /* corner 0 */
+        b[0] = 1.0;
+        return;
+    }
+    sub3(bp, p, t + 3);
+    d3 = dot3(ab, bp);
+    d4 = dot3(ac, bp);
+    if (d3 >= 0.0 && d4 <= d3) { /* corner 1 */
+        b[1] = 1.0;
+        return;
+    }
+    vc = d1 * d4 - d3 * d2;
+    if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) { /* side 0-1 */
+        v = d1 / (d1 - d3);
+        b[0] = 1.0 - v;
+        b[1] = v;
+        return;
+    }
+    sub3(cp, p, t + 6);
+    d5 = dot3(ab, cp);
+    d6 = dot3(ac, cp);
+    if (d6 >= 0.0 && d5 <= d6) { /* corner 2 */
+        b[2] = 1.0;
+        return;
+    }
+    vb = d5 * d2 - d1 * d6;
+    if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) { /* side 0-2 */
+        w = d2 / (d2 - d6);
+        b[0] = 1.0 - w;
+        b[2] = w;
+        return;
+    }
+    va = d3 * d6 - d5 * d4;
+    if (va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0) { /* side 1-2 */
+        w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        b[1] = 1.0 - w;
+        b[2] = w;
+        return;
+    }
+    v = vb / (va + vb + vc); /* inside the face */
+    w = vc / (va + vb + vc);
+    b[0] = 1.0 - v - w;
+    b[1] = v;
+    b[2] = w;
+}
+
+static double point_distance2(const double *t, const double b[3], const double p[3], double foot[3])
+{
+    double d2 = 0.0;
+    int i;
+    for (i = 0; i < 3; i++) {
+        foot[i] = b[0] * t[i] + b[1] * t[3 + i] + b[2] * t[6 + i];
+        d2 += (p[i] - foot[i]) * (p[i] - foot[i]);
+    }
+    return d2;
+}
+
+static double box_distance2(const double *box, const double p[3])
+{
+    double d2 = 0.0;
+    int i;
+    for (i = 0; i < 3; i++) {
+        double d = box[i] - p[i];
+        if (d < 0.0)
+            d = p[i] - box[3 + i];
+        if (d > 0.0)
+            d2 += d * d;
+    }
+    return d2;
+}
+
+long hx_mesh_closest(const hx_base *b, const double p[3], long warm, long *tri, double bary[3], double *dist2)
+{
+    long stack[HX_BVH_STACK], top = 0, work = 0, best_t = -1, i;
+    double best = HUGE_VAL, bb[3], foot[3];
+    if (warm >= 0 && warm < b->n_tri) {
+        closest_on_triangle(b->tri + 9 * warm, p, bary);
+        best = point_distance2(b->tri + 9 * warm, bary, p, foot);
+        best_t = warm;
+        work++;
+    }
+    stack[top++] = 0;
+    while (top > 0) {
+        long id = stack[--top], l = b->node[2 * id], r = b->node[2 * id + 1];
+        work++;
+        if (l < 0) {
+            for (i = -1 - l; i < -1 - l + r; i++) {
+                long t = b->order[i];
+                double d2;
+                if (t == best_t)
+                    continue;
+                closest_on_triangle(b->tri + 9 * t, p, bb);
+                d2 = point_distance2(b->tri + 9 * t, bb, p, foot);
+                work++;
+                if (d2 < best) {
+                    best = d2;
+                    best_t = t;
+                    bary[0] = bb[0];
+                    bary[1] = bb[1];
+                    bary[2] = bb[2];
+                }
+            }
+        } else { /* the nearer child is searched first: pushed last */
+            double dl = box_distance2(b->box + 6 * l, p), dr = box_distance2(b->box + 6 * r, p);
+            long near = dl <= dr ? l : r, far = dl <= dr ? r : l;
+            double dn = dl <= dr ? dl : dr, df = dl <= dr ? dr : dl;
+            if (df < best)
+                stack[top++] = far;
+            if (dn < best)
+                stack[top++] = near;
+        }
+    }
+    *tri = best_t;
+    *dist2 = best;
+    return work;
+}
+
+/* ---- the bases' coordinates ------------------------------------------------------------- */
+
+#define FACE_TOL 1e-9 /* a barycentric coordinate above this carries weight (haptex.objects.Mesh) */
+
+static int mesh_local(const hx_base *b, const double p[3], long *tri, double u[2], double ju[6], double *e, double n[3],
+                      long *work)
+{
+    double bary[3], d2, foot[3], w[3], dist;
+    const double *t, *fc;
+    long id;
+    int i, k, weight = 0, corners[3], nw = 0;
+    *work = hx_mesh_closest(b, p, *tri, &id, bary, &d2);
+    *tri = id;
+    t = b->tri + 9 * id;
+    fc = b->face + HX_FACE * id;
+    point_distance2(t, bary, p, foot);
+    sub3(w, p, foot);
+    dist = sqrt(d2);
+    for (i = 0; i < 2; i++)
+        u[i] = bary[0] * fc[HX_FACE_UV + i] + bary[1] * fc[HX_FACE_UV + 2 + i] + bary[2] * fc[HX_FACE_UV + 4 + i];
+    for (k = 0; k < 3; k++)
+        if (bary[k] > FACE_TOL) {
+            weight |= 1 << k;
+            corners[nw++] = k;
+        }
+    if (weight == 7 || dist == 0.0) { /* inside the face: its normal, UV affine in p */
+        for (i = 0; i < 3; i++)
+            n[i] = fc[HX_FACE_N + i];
+        for (i = 0; i < 6; i++)
+            ju[i] = fc[HX_FACE_M + i];
+        *e = dot3(w, n);
+        return HX_OK;
+    }
+    {
+        const double *pseudo;
+        double s;
+        for (i = 0; i < 6; i++)
+            ju[i] = 0.0;
+        if (nw >= 2) { /* on a side: corners first < second; u follows the side */
+            int first = corners[0], second = corners[1], side = second == first + 1 ? first : 2;
+            double dv[3], duv[2], dd;
+            pseudo = fc + HX_FACE_EDGE + 3 * side;
+            sub3(dv, t + 3 * second, t + 3 * first);
+            dd = dot3(dv, dv);
+            for (i = 0; i < 2; i++)
+                duv[i] = fc[HX_FACE_UV + 2 * second + i] - fc[HX_FACE_UV + 2 * first + i];
+            for (i = 0; i < 2; i++)
+                for (k = 0; k < 3; k++)
+                    ju[3 * i + k] = duv[i] * dv[k] / dd;
+        } else { /* at a corner: u stays there */
+            int corner = bary[0] >= bary[1] ? (bary[0] >= bary[2] ? 0 : 2) : (bary[1] >= bary[2] ? 1 : 2);
+            pseudo = fc + HX_FACE_VERTEX + 3 * corner;
+        }
+        s = dot3(w, pseudo) >= 0.0 ? 1.0 : -1.0;
+        *e = s * dist;
+        for (i = 0; i < 3; i++)
+            n[i] = s * w[i] / dist;
+    }
+    return HX_OK;
+}
+
+int hx_base_local(const hx_base *b, const double p[3], long *tri, double u[2], double ju[6], double *e, double n[3],
+                  long *work)
+{
+    double R = b->radius, x = p[0], y = p[1], z = p[2] + R, rho, r;
+    int i;
+    *work = 0;
+    for (i = 0; i < 6; i++)
+        ju[i] = 0.0;
+    switch (b->kind) {
+    case HX_BASE_PLANE: /* u = (x, y), e = z */
+        u[0] = p[0];
+        u[1] = p[1];
+        ju[0] = ju[4] = 1.0;
+        *e = p[2];
+        n[0] = n[1] = 0.0;
+        n[2] = 1.0;
+        return HX_OK;
+    case HX_BASE_CYLINDER: /* axis along y through (0, 0, -R): u = (R phi, y), phi = atan2(x, z + R) */
+        rho = hypot(x, z);
+        if (rho == 0.0)
+            return HX_BAD_COEFFS;
+        u[0] = R * atan2(x, z);
+        u[1] = y;
+        ju[0] = R * z / (rho * rho);
+        ju[2] = -R * x / (rho * rho);
+        ju[4] = 1.0;
+        *e = rho - R;
+        n[0] = x / rho;
+        n[1] = 0.0;
+        n[2] = z / rho;
+        return HX_OK;
+    case HX_BASE_SPHERE: /* centre (0, 0, -R): u = (R phi, R lambda), lambda = atan2(y, rho) */
+        rho = hypot(x, z);
+        if (rho == 0.0)
+            return HX_BAD_COEFFS;
+        r = sqrt(rho * rho + y * y);
+        u[0] = R * atan2(x, z);
+        u[1] = R * atan2(y, rho);
+        ju[0] = R * z / (rho * rho);
+        ju[2] = -R * x / (rho * rho);
+        ju[3] = -R * y * x / (rho * r * r);
+        ju[4] = R * rho / (r * r);
+        ju[5] = -R * y * z / (rho * r * r);
+        *e = r - R;
+        n[0] = x / r;
+        n[1] = y / r;
+        n[2] = z / r;
+        return HX_OK;
+    case HX_BASE_MESH:
+        return mesh_local(b, p, tri, u, ju, e, n, work);
+    default:
+        return HX_BAD_COEFFS;
+    }
+}
+
+/* ---- the letters on a base ------------------------------------------------------------- */
+
+/* one letter's force from the base's normal n, the offset e, the penetration pen = h - e and
+ * its gradient gp, inside the wall (kappa_0 = k) */
+typedef void (*object_fn)(double k, double pen, double e, const double n[3], const double gp[3], double f[3]);
+
+static void object_a(double k, double pen, double e, const double n[3], const double gp[3], double f[3])
+{
+    int i;
+    (void)e;
+    (void)gp;
+    for (i = 0; i < 3; i++)
+        f[i] = k * pen * n[i];
+}
+
+static void along_nu(double scale, const double gp[3], double f[3])
+{
+    double g = sqrt(dot3(gp, gp));
+    int i;
+    for (i = 0; i < 3; i++)
+        f[i] = g > 0.0 ? -scale * gp[i] / g : 0.0;
+}
+
+static void object_b(double k, double pen, double e, const double n[3], const double gp[3], double f[3])
+{
+    (void)e;
+    (void)n;
+    along_nu(k * pen, gp, f);
+}
+
+static void object_c(double k, double pen, double e, const double n[3], const double gp[3], double f[3])
+{
+    int i;
+    (void)e;
+    (void)n;
+    for (i = 0; i < 3; i++)
+        f[i] = -k * pen * gp[i];
+}
+
+static void object_g(double k, double pen, double e, const double n[3], const double gp[3], double f[3])
+{
+    (void)pen;
+    (void)n;
+    along_nu(-k * e, gp, f);
+}
+
+/* the letters in the order of HX_ALG_*; NULL: not defined on objects yet */
+static const object_fn OBJECT_FIELDS[HX_N_ALGS] = {NULL, object_a, object_b, object_c, NULL, NULL, NULL, object_g};
+
+int hx_object_force(const hx_model *m, hx_state *s, const double p[3], double f[3])
+{
+    double u[2], ju[6], e, n[3], gp[3], pen;
+    hx_height t;
+    long tri = s->tri, work = 0;
+    int i, rc, inside;
+    object_fn fn = m->code >= 0 && m->code < HX_N_ALGS ? OBJECT_FIELDS[m->code] : NULL;
+    f[0] = f[1] = f[2] = 0.0;
+    s->pen = 0.0;
+    if (fn == NULL)
+        return HX_NOT_IN_CORE;
+    rc = hx_base_local(m->base, p, &tri, u, ju, &e, n, &work);
+    s->work = work;
+    if (rc != HX_OK)
+        return rc;
+    s->tri = tri;
+    hx_texture_eval(&m->tex, u[0], u[1], &t);
+    s->work += 1;
+    s->h = t.h;
+    pen = t.h - e;
+    inside = m->code == HX_ALG_G ? e < 0.0 : pen > 0.0;
+    if (!inside)
+        return HX_OK;
+    s->pen = m->code == HX_ALG_G ? -e : pen;
+    for (i = 0; i < 3; i++)
+        gp[i] = ju[i] * t.gx + ju[3 + i] * t.gy - n[i];
+    fn(m->prm[HX_P_K0], pen, e, n, gp, f);
+    return HX_OK;
+}

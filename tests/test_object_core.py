@@ -1,0 +1,131 @@
+"""Issue 32: the C core's tick over textured objects (hx_object.c) against the NumPy fields of
+haptex.objects (the oracle), and the mesh's bounding-volume hierarchy against brute force."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import haptex as hx
+from haptex._validation import ParameterError
+from haptex.core import _ext
+from haptex.objects import Cylinder, Mesh, Plane, Sphere, object_algorithm
+
+A, L, K0 = 0.2e-3, 2e-3, 2000.0
+EGG = hx.SumOfGratings.egg_crate(A, L)  # the paper's egg-crate scale: 0.2 mm high, 2 mm period
+R = 40 * L / (2 * math.pi)  # 40 periods around: no seam
+
+
+def _probes(n, seed=0):
+    rng = np.random.default_rng(seed)
+    return np.column_stack([rng.uniform(-L, L, n), rng.uniform(-L, L, n), rng.uniform(-0.8e-3, 0.2e-3, n)])
+
+
+def _icosphere(subdivisions):
+    """trimesh's icosphere of radius R, tilted off the y axis and centred at (0, 0, -R) like
+    Sphere(R), with the analytic sphere's (u1, u2) as its UV map (as tests/test_objects.py)."""
+    import trimesh
+
+    m = trimesh.creation.icosphere(subdivisions=subdivisions, radius=R)
+    m.apply_transform(trimesh.transformations.rotation_matrix(0.1234, [1.0, 0.3, 0.0]))
+    m.apply_translation([0.0, 0.0, -R])
+    return m, Mesh(m, uv=Sphere(R).local(np.asarray(m.vertices))[0])
+
+
+def _ticks(alg, p):
+    """The C tick's forces (N) at every row of p, in order (Renderer.run: one C loop)."""
+    r = hx.Renderer(alg)
+    f = np.zeros_like(p)
+    r._core.run(np.ascontiguousarray(p), f)
+    return f, r
+
+
+@pytest.mark.parametrize("base", [Plane(), Cylinder(R), Sphere(R)], ids=["plane", "cylinder", "sphere"])
+@pytest.mark.parametrize("letter", ["A", "B", "C", "G"])
+def test_the_c_tick_on_an_analytic_base_is_the_numpy_field(base, letter):
+    # 10^4 probes within a period of the top, 0.8 mm deep to 0.2 mm above: the closed-form
+    # coordinates (u, e, n, du/dp) in C give haptex.objects' fields to rounding
+    p = _probes(10_000)
+    alg = object_algorithm(letter, EGG, base, K0)
+    f, r = _ticks(alg, p)
+    ref = alg.force(p)
+    assert np.max(np.abs(ref)) > 1.0  # (in contact: forces of newtons)
+    np.testing.assert_allclose(f, ref, rtol=0, atol=1e-12 * K0 * 1e-3)
+    assert r.faults == 0
+
+
+@pytest.mark.parametrize("letter", ["A", "B", "C", "G"])
+def test_the_c_tick_on_a_mesh_is_the_numpy_field(letter):
+    # on trimesh's icosphere (5,120 triangles) the tick finds the closest point through the
+    # hierarchy, warm-started from the last tick's triangle; where the field is continuous
+    # (the six probes 1 nm around p have p's closest triangle) it equals the NumPy field
+    _, base = _icosphere(4)
+    p = _probes(3000, seed=1)
+    alg = object_algorithm(letter, EGG, base, K0)
+    f, r = _ticks(alg, p)
+    tid = [base._closest(p + s * 1e-9 * d)[2] for d in np.eye(3) for s in (-1, 1)]
+    same = np.all([t == base._closest(p)[2] for t in tid], axis=0)
+    assert same.sum() > 2900
+    np.testing.assert_allclose(f[same], alg.force(p)[same], rtol=0, atol=1e-12 * K0 * 1e-3)
+    assert 0 < r.max_work <= 200
+
+
+def _brute_force_distance(tri, q):
+    """The least distance from q (3,) to every triangle of tri (n, 3, 3), each by trimesh's
+    closest point on a triangle (on a unit-sized copy: its tolerances are absolute)."""
+    import trimesh
+
+    scale = np.ptp(tri.reshape(-1, 3), axis=0).max()
+    cp = trimesh.triangles.closest_point(tri / scale, np.repeat(q[None] / scale, len(tri), axis=0))
+    return float(np.min(np.linalg.norm(cp - q / scale, axis=1)) * scale)
+
+
+def test_the_hierarchy_finds_the_closest_triangle_exactly():
+    # 400 probes (near the surface, deep inside, 1 m away, on vertices, at the centre) against
+    # every triangle of a 1,280-triangle icosphere: never a farther triangle than the nearest
+    m, base = _icosphere(3)
+    tri = base._tri
+    rng = np.random.default_rng(7)
+    q = np.concatenate([_probes(300, seed=3), rng.normal(size=(50, 3)) * R * 0.5 + [0, 0, -R],
+                        rng.normal(size=(20, 3)), np.asarray(m.vertices)[:20], [[0.0, 0.0, -R]] * 10])
+    tree = _ext.MeshTree(np.ascontiguousarray(tri.reshape(-1, 9)))
+    tid, bary, d2 = np.zeros(len(q), dtype=np.int64), np.zeros((len(q), 3)), np.zeros(len(q))
+    work = tree.closest(q, tid, bary, d2)
+    assert np.all(np.abs(bary.sum(axis=1) - 1.0) < 1e-12) and np.all(bary >= 0.0)
+    for i in range(len(q)):
+        best = _brute_force_distance(tri, q[i])
+        assert math.sqrt(d2[i]) <= best * (1 + 1e-12) + 1e-18, (i, math.sqrt(d2[i]), best)
+        foot = bary[i] @ tri[tid[i]]
+        assert abs(np.linalg.norm(q[i] - foot) - math.sqrt(d2[i])) <= 1e-12 * R
+    assert work <= len(q) * (tree.nodes + len(tri))  # (the structural bound: every node and triangle once)
+
+
+def test_a_tick_over_a_large_mesh_does_bounded_counted_work():
+    # 81,920 triangles: along a stroke of 10^4 ticks 0.3 mm deep the tick visits at most a few
+    # hundred nodes and triangles (the goal's 10^5-triangle scale; its time is benchmarked)
+    _, base = _icosphere(6)
+    s = np.linspace(-5e-3, 5e-3, 10_000)
+    p = np.column_stack([s, 0.3e-3 * np.sin(500 * s), np.full_like(s, -0.3e-3)])
+    f, r = _ticks(object_algorithm("A", EGG, base, K0), p)
+    assert np.all(np.isfinite(f)) and r.faults == 0 and f[:, 2].mean() > 0.0
+    assert r.max_work <= 400, r.max_work
+
+
+def test_where_the_coordinates_are_undefined_the_tick_is_a_fault_with_zero_force():
+    # on the cylinder's axis its normal is undefined: zero force, counted, never NaN
+    r = hx.Renderer(object_algorithm("A", EGG, Cylinder(R), K0))
+    assert r.step((0.0, 1e-3, -R)) == (0.0, 0.0, 0.0) and r.faults == 1
+    assert r.step((0.0, 0.0, -0.1e-3)) != (0.0, 0.0, 0.0) and r.faults == 1
+
+
+def test_what_the_c_core_does_not_take_yet_is_refused_by_name(tmp_path):
+    _, base = _icosphere(2)
+    smooth = Mesh(base.mesh, uv=base.uv, normals="vertex")
+    with pytest.raises(ParameterError, match="normals"):
+        hx.Renderer(object_algorithm("A", EGG, smooth, K0))
+    from haptex.export import export_c
+
+    with pytest.raises(ParameterError, match="simulator or export"):  # (not run as a plane by mistake)
+        export_c(object_algorithm("A", EGG, Sphere(R), K0), tmp_path, max_force=5.0)
