@@ -19,9 +19,12 @@
 9. core: the C core's cost per call across its binding (C API against ctypes) and the
    throughput of its fields against the NumPy fields (benchmarks/run_core.py);
 10. backends: the servo loop on every backend, missed deadlines and the tick's time, the
-   vendors' bindings on stubs of their libraries (benchmarks/run_backends.py; 60 s each).
+   vendors' bindings on stubs of their libraries (benchmarks/run_backends.py; 60 s each);
+11. objects: the servo tick over textured objects, up to a 327,680-triangle mesh
+   (benchmarks/run_objects.py).
 
-Options: --only {analysis,renderer,simulator,worst,export,design,atlas,explore,core,backends}, --points N, --json
+Options: --only {analysis,renderer,simulator,worst,export,design,atlas,explore,core,backends,objects}, --points N,
+--json
 (analysis only).
 Never part of the test run; results are reported in benchmarks/README.md. Sections 2 and
 3 need gcc.
@@ -57,7 +60,7 @@ def main() -> None:
     ap.add_argument("--points", type=int, default=1_000_000)
     ap.add_argument("--json", action="store_true")
     ap.add_argument("--only", choices=["analysis", "renderer", "simulator", "worst", "export", "design", "atlas",
-                                       "explore", "core", "backends"])
+                                       "explore", "core", "backends", "objects"])
     args = ap.parse_args()
     if args.only in (None, "analysis"):
         analysis(args)
@@ -110,6 +113,12 @@ def main() -> None:
         print("\n# the servo loop on every backend")
         sys.argv = sys.argv[:1]
         run_backends.main()
+    if args.only in (None, "objects") and not args.json:
+        import run_objects
+
+        print("\n# the servo tick over textured objects")
+        sys.argv = sys.argv[:1]
+        run_objects.main()
 
 
 def analysis(args) -> None:
