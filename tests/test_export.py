@@ -461,3 +461,55 @@ def test_the_exported_tick_is_clean_under_asan_and_ubsan(tmp_path, objdir, lette
         (r.stdout, r.stderr[-2000:])
     bad, faults, clamps = (int(v) for v in r.stdout.split())
     assert bad == 0 and faults > 0  # the non-finite and out-of-workspace positions were counted as faults
+
+
+def _icosphere_base(subdivisions, R):
+    """trimesh's icosphere of radius R centred at (0, 0, -R), tilted off the y axis, with the
+    analytic sphere's (u1, u2) as its UV map (as tests/test_objects.py)."""
+    import trimesh
+
+    from haptex.objects import Mesh, Sphere
+
+    m = trimesh.creation.icosphere(subdivisions=subdivisions, radius=R)
+    m.apply_transform(trimesh.transformations.rotation_matrix(0.1234, [1.0, 0.3, 0.0]))
+    m.apply_translation([0.0, 0.0, -R])
+    return m, Mesh(m, uv=Sphere(R).local(np.asarray(m.vertices))[0])
+
+
+@pytest.mark.parametrize("base_name", ["sphere", "cylinder", "mesh"])
+@pytest.mark.parametrize("letter", ["A", "G"])
+def test_an_object_exports_and_ticks_as_the_renderer(tmp_path, objdir, base_name, letter):
+    # issue 32: A and G on the egg-crate on a sphere, a cylinder and a 1,280-triangle mesh
+    # (its corners and per-triangle constants as tables, its hierarchy built by haptex_init):
+    # along a stroke over the object, in and out of it, every tick equals the compiled
+    # Renderer's bit for bit (the same C: hx_object.c), and so do the work counts
+    from haptex.objects import Cylinder, Sphere, object_algorithm
+
+    egg = hx.SumOfGratings.egg_crate(0.2e-3, 2e-3)
+    R = 40 * 2e-3 / (2 * np.pi)
+    base = {"sphere": lambda: Sphere(R), "cylinder": lambda: Cylinder(R),
+            "mesh": lambda: _icosphere_base(3, R)[1]}[base_name]()
+    alg = object_algorithm(letter, egg, base, K0)
+    c = Compiled(alg, tmp_path, objdir, max_force=5.0)
+    assert "HX_BASE_" + base_name.upper() in (tmp_path / "haptex_texture.c").read_text()
+    r = hx.Renderer(alg, max_force=5.0)
+    t = np.linspace(0.0, 1.0, 5_001)
+    p = np.column_stack([6e-3 * np.sin(2 * np.pi * 3 * t), 2e-3 * np.cos(2 * np.pi * 2 * t),
+                         -0.8e-3 * np.sin(2 * np.pi * 5 * t) + 0.1e-3])
+    got = c.forces(p)
+    ref = np.array([r.step(tuple(q)) for q in p.tolist()])
+    assert np.array_equal(got, ref) and np.abs(ref).max() > 1.0
+    assert c.count("max_work") == r.max_work and c.count("clamps") == r.clamps
+
+
+def test_an_object_at_the_command_line_exports(tmp_path):
+    r = subprocess.run(["haptex", "export", "--algorithm", "B", "--texture", "egg-crate:0.2mm,2mm", "--stiffness",
+                        "2 kN/m", "--max-force", "5 N", "--object", "sphere:12.7323954mm", "--out", str(tmp_path)],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert "HX_BASE_SPHERE" in (tmp_path / "haptex_texture.c").read_text()
+    subprocess.run([CC, *STRICT, "-c", str(tmp_path / "haptex_texture.c"), "-o", str(tmp_path / "t.o")], check=True)
+    r = subprocess.run(["haptex", "export", "--algorithm", "D", "--texture", "egg-crate:0.2mm,2mm", "--stiffness",
+                        "2 kN/m", "--max-force", "5 N", "--object", "sphere:12.7323954mm", "--out", str(tmp_path)],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and "algorithm" in r.stderr

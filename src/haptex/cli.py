@@ -746,14 +746,20 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
 @click.option("--level", is_flag=True, help="Remove the profile's best-fit line.")
 @click.option("--lowpass", type=Quantity("m"), default=None, help="Band-limit the profile to this shortest period.")
 @click.option("--periodic", is_flag=True, help="Close the profile into a periodic texture.")
+@click.option("--object", "object_spec", default=None,
+              help="The texture on an object (A, B, C, G): 'sphere:RADIUS', 'cylinder:RADIUS', 'plane' or a closed "
+                   "triangle mesh FILE with texture coordinates (with --uv-scale).")
+@click.option("--uv-scale", type=Quantity("m"), default=None,
+              help="With a mesh FILE: metres per unit of its texture coordinates.")
 @click.option("--out", "out", type=click.Path(file_okay=False, path_type=Path), required=True,
               help="Directory for haptex_texture.c, haptex_texture.h and the C core's files.")
 @click.option("--quiet", is_flag=True, help="No progress display.")
 def export(letter, texture_spec, stiffness, max_force, max_penetration, friction, presliding, stick_deflection,
-           spacing, x_unit, height_unit, level, lowpass, periodic, out, quiet):
+           spacing, x_unit, height_unit, level, lowpass, periodic, object_spec, uv_scale, out, quiet):
     """C99 source of one algorithm on one texture, for device firmware (<math.h> only)."""
     from .algorithms import algorithm
     from .export import TICK_FILES, export_c
+    from .objects import object_algorithm
 
     letter = str(letter).upper()
     if letter == "W":
@@ -777,7 +783,14 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
             if letter != "F":
                 raise ParameterError(f"{flag} is not allowed with --algorithm {letter}: it applies to F only")
             params[name] = value
-    alg = algorithm(letter, tex, stiffness, **params)
+    base = _object_from_spec(object_spec, uv_scale)
+    if base is not None:
+        if params:
+            raise ParameterError(f"--{next(iter(params)).replace('_', '-')} is not allowed with --object: the "
+                                 "algorithms on objects take a stiffness only")
+        alg = object_algorithm(letter, tex, base, stiffness)
+    else:
+        alg = algorithm(letter, tex, stiffness, **params)
     with _Spinner("writing the C source", quiet):
         h_path, c_path = export_c(alg, out, max_force)
     click.echo(f"wrote {c_path}, {h_path} and the C core's {len(TICK_FILES)} files beside them: {alg!r}, max force "

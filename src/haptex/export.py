@@ -70,7 +70,9 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
     algorithm : Algorithm
         Any of W, A-G on any texture the renderer takes: a Fourier series or sampled profile
         (positions [x, z], ``HAPTEX_DIMENSION`` 2), a sum of gratings, a height map or an
-        extruded profile ([x, y, z], ``HAPTEX_DIMENSION`` 3).
+        extruded profile ([x, y, z], ``HAPTEX_DIMENSION`` 3); or A, B, C, G on an object the
+        renderer takes (:func:`haptex.objects.object_algorithm`: [x, y, z]; a mesh's corners and
+        per-triangle constants become tables, its hierarchy is built by ``haptex_init``).
     out : str or Path
         Directory, created if needed; the files of the same names in it are replaced.
     max_force : float
@@ -105,8 +107,18 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
         raise ParameterError(f"algorithm = {algorithm!r} is not allowed: must be a haptex algorithm")
     fmax = positive_or_inf("max_force", max_force, "N")
     evaluation_budget(max_evaluations)
-    code, prm, kind, coeffs, aux, table = tick_model(algorithm, max_evaluations)
+    base = None
+    if getattr(algorithm, "base", None) is not None:  # a textured object: the base's tables too
+        code, prm, kind, coeffs, aux, base = algorithm.object_spec()
+        table = False
+    else:
+        code, prm, kind, coeffs, aux, table = tick_model(algorithm, max_evaluations)
     coeffs = np.asarray(coeffs, dtype=np.float64)
+    n_tri = 0 if base is None else len(base[2])
+    if base is not None and coeffs.size + aux.size + base[2].size + base[3].size > MAX_TABLE:
+        raise ParameterError(f"object = {algorithm.base!r} is not allowed for export: its tables hold "
+                             f"{coeffs.size + aux.size + base[2].size + base[3].size} numbers ({_ext.FACE + 9} a "
+                             f"triangle), more than {MAX_TABLE}; decimate the mesh first")
     if table and coeffs.size + aux.size > MAX_TABLE:  # the tree alone: the same closest points, more work a tick
         aux = aux[:int(aux[_ext.A_TABLE])].copy()
         aux[_ext.A_TABLE] = 0.0
@@ -130,6 +142,10 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
     elif aux.size:
         work = "one texture evaluation and at most 71 steps of the presliding table"
         aux_what = "F's smooth presliding table (haptex.friction.smooth_table)"
+    elif n_tri:
+        work = (f"the closest point on the mesh through its bounding-volume hierarchy (at most its "
+                f"{2 * n_tri - 1} nodes and {n_tri} triangles) and one texture evaluation")
+        aux_what = ""
     else:
         work = "one texture evaluation"
         aux_what = ""
@@ -140,7 +156,11 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
         forces="[f_x, f_z]" if dim == 2 else "[f_x, f_y, f_z]", max_force=_num(fmax),
         workspace=_num(WORKSPACE_LIMIT), work=work, code_name=f"HX_ALG_{letter}", kind_name=kinds[int(kind)],
         params=[("HX_" + n, _num(prm[getattr(_ext, n)])) for n in _PARAMS], rows=rows, cols=cols,
-        coeffs=[_num(v) for v in coeffs.ravel()], aux=[_num(v) for v in aux], aux_what=aux_what)
+        coeffs=[_num(v) for v in coeffs.ravel()], aux=[_num(v) for v in aux], aux_what=aux_what,
+        base=None if base is None else dict(
+            kind=f"HX_BASE_{type(algorithm.base).__name__.upper()}", radius=_num(base[1]), n_tri=n_tri,
+            tri=[_num(v) for v in base[2].ravel()], face=[_num(v) for v in base[3].ravel()],
+            what=repr(algorithm.base)))
     env = _templates()
     out = Path(out)
     try:
