@@ -12,6 +12,7 @@ import haptex as hx
 from haptex._validation import ParameterError
 from haptex.core import _ext
 from haptex.objects import Cylinder, Mesh, Plane, Sphere, object_algorithm
+from haptex.operators import ConstantForce
 
 A, L, K0 = 0.2e-3, 2e-3, 2000.0
 EGG = hx.SumOfGratings.egg_crate(A, L)  # the paper's egg-crate scale: 0.2 mm high, 2 mm period
@@ -120,12 +121,11 @@ def test_where_the_coordinates_are_undefined_the_tick_is_a_fault_with_zero_force
     assert r.step((0.0, 0.0, -0.1e-3)) != (0.0, 0.0, 0.0) and r.faults == 1
 
 
-def test_what_the_c_core_does_not_take_yet_is_refused_by_name(tmp_path):
+def test_what_the_c_core_does_not_take_yet_is_refused_by_name():
     _, base = _icosphere(2)
     smooth = Mesh(base.mesh, uv=base.uv, normals="vertex")
     with pytest.raises(ParameterError, match="normals"):
         hx.Renderer(object_algorithm("A", EGG, smooth, K0))
-    from haptex.export import export_c
-
-    with pytest.raises(ParameterError, match="simulator or export"):  # (not run as a plane by mistake)
-        export_c(object_algorithm("A", EGG, Sphere(R), K0), tmp_path, max_force=5.0)
+    with pytest.raises(ParameterError, match="not allowed in the simulator yet"):  # (not run as a plane)
+        hx.simulate(object_algorithm("A", EGG, Sphere(R), K0), hx.Device.point_mass(dimension=3),
+                    ConstantForce([0.0, 0.0, -1.0]), 0.01)
