@@ -171,3 +171,20 @@ def test_a_trace_is_judged_as_a_simulated_run():
         v = analyse_trace(trace, b.period, b.device.position_resolution)
         assert (v["regime"] in UNSTABLE) is unstable, (factor, v["regime"])
         assert v["energy"].shape == (2,) and np.all(np.isfinite(v["energy"]))
+
+
+def test_haptex_run_renders_a_texture_on_an_object(tmp_path, capsys):
+    # issue 32: the egg-crate on a sphere of 40 periods round, its top at the origin, on the
+    # simulated Falcon pressed 1 mm in by the light-touch hand: the Renderer's C tick over the
+    # object, the same rules; the forces sent push out (+z at the top) and stay under the maximum
+    rec = tmp_path / "trace.npz"
+    assert main(["run", "--device", "simulated:falcon", "--texture", "egg-crate:0.2mm,2mm", "--object",
+                 "sphere:12.7323954mm", "--duration", "1s", "--fast", "--json", "--record", str(rec)]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["object"].startswith("Sphere(") and out["ticks"] == 1000 and out["faults"] == 0
+    data = np.load(rec)
+    f, k0 = data["force"], int(round(out["engaged_at"] / 1e-3))
+    assert np.all(np.isfinite(f)) and f[k0:, 2].mean() > 0.0 and out["max_force_sent"] <= 8.9
+    assert main(["run", "--device", "simulated:pantograph", "--object", "sphere:12.7323954mm", "--duration",
+                 "0.1s"]) == 2
+    assert "3-DOF" in capsys.readouterr().err

@@ -843,12 +843,18 @@ def sweep(spec, out, scheduler, workers, quiet):
               help="simulated: the hand's speed along x.")
 @click.option("--fast", is_flag=True, help="simulated, forcedimension: run as fast as the loop goes, not at the "
               "device's rate.")
+@click.option("--object", "object_spec", default=None,
+              help="The texture on an object (A, B, C, G; a 3-DOF device): 'sphere:RADIUS', 'cylinder:RADIUS', "
+                   "'plane' or a closed triangle mesh FILE with texture coordinates (with --uv-scale), its top at "
+                   "the origin of the device's frame.")
+@click.option("--uv-scale", type=Quantity("m"), default=None,
+              help="With a mesh FILE: metres per unit of its texture coordinates.")
 @click.option("--record", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Write the trace (time, position, force, engaged) to FILE.npz.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
 @click.option("--quiet", is_flag=True, help="No live dashboard.")
 def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration, passivity_control, hand, speed, fast,
-               record, as_json, quiet):
+               object_spec, uv_scale, record, as_json, quiet):
     """Render one texture on one device, with the safety rules of haptex.servo and a live dashboard."""
     import numpy as np
 
@@ -885,7 +891,15 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
         from .textures import Flat
 
         tex = Flat(dimension=2)
-    alg = algorithm(letter, tex, stiffness)
+    base = _object_from_spec(object_spec, uv_scale)
+    if base is not None:
+        from .objects import object_algorithm
+
+        if backend.dimension != 3:
+            raise ParameterError(f"--object is not allowed on {backend.name}: an object needs a 3-DOF device")
+        alg = object_algorithm(letter, tex, base, stiffness)
+    else:
+        alg = algorithm(letter, tex, stiffness)
     dev = backend.device
     pc = None if passivity_control is None else PassivityController(passivity_control, delay=dev.delay)
     fmax = backend.max_force if max_force is None else max_force
@@ -919,7 +933,8 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
     verdict = analyse_trace(trace, dev.period, dev.position_resolution)
     per_axis, osc = verdict["energy"], verdict["oscillation"]
     axes = "xz" if backend.dimension == 2 else "xyz"
-    summary = {"device": backend.name, "algorithm": letter, "stiffness": stiffness, "max_force": fmax,
+    summary = {"device": backend.name, "algorithm": letter, "object": None if base is None else repr(base),
+               "stiffness": stiffness, "max_force": fmax,
                "duration": stats.ticks * dev.period, "ticks": stats.ticks, "missed_deadlines": stats.missed,
                "faults": stats.faults, "clamps": stats.clamps,
                "engaged_at": None if stats.engaged_at is None else stats.engaged_at * dev.period,
