@@ -10,7 +10,6 @@ import pytest
 
 import haptex as hx
 from haptex._validation import ParameterError
-from haptex.core import _ext
 from haptex.objects import Cylinder, Mesh, Plane, Sphere, object_algorithm
 from haptex.operators import ConstantForce
 
@@ -91,7 +90,8 @@ def test_the_hierarchy_finds_the_closest_triangle_exactly():
     rng = np.random.default_rng(7)
     q = np.concatenate([_probes(300, seed=3), rng.normal(size=(50, 3)) * R * 0.5 + [0, 0, -R],
                         rng.normal(size=(20, 3)), np.asarray(m.vertices)[:20], [[0.0, 0.0, -R]] * 10])
-    tree = _ext.MeshTree(np.ascontiguousarray(tri.reshape(-1, 9)))
+    tree = base.core_spec()
+    assert tree.triangles == len(tri) and tree.nodes <= 2 * len(tri) - 1
     tid, bary, d2 = np.zeros(len(q), dtype=np.int64), np.zeros((len(q), 3)), np.zeros(len(q))
     work = tree.closest(q, tid, bary, d2)
     assert np.all(np.abs(bary.sum(axis=1) - 1.0) < 1e-12) and np.all(bary >= 0.0)

@@ -122,9 +122,9 @@ class Base:
     core_kind = -1
     """The base's kind in the C core (``haptex.core._ext.BASE_*``); -1: none."""
 
-    def core_spec(self):
-        """The base as the C core's renderer takes it: (kind, radius (m), tri, face), tri and
-        face empty but for a mesh (:meth:`Mesh.core_spec`).
+    def core_arrays(self):
+        """The base's arrays for the C core: (kind, radius (m), tri, face), tri and face empty
+        but for a mesh (:meth:`Mesh.core_arrays`); ``haptex export`` writes them as tables.
 
         Raises
         ------
@@ -133,9 +133,23 @@ class Base:
         """
         if self.core_kind < 0:
             raise fail("base", self, "a base the C core evaluates: Plane(), Cylinder(R), Sphere(R) or a faceted Mesh")
-        empty = np.zeros((0, 9))
-        return (self.core_kind, 0.0 if math.isinf(self.radius) else float(self.radius), empty,
+        return (self.core_kind, 0.0 if math.isinf(self.radius) else float(self.radius), np.zeros((0, 9)),
                 np.zeros((0, _ext.FACE)))
+
+    def core_spec(self):
+        """The base in the C core (a ``haptex.core._ext.Base``: a mesh's arrays copied and its
+        bounding-volume hierarchy built once, then shared by every renderer and simulation of
+        it), from :meth:`core_arrays`.
+
+        Raises
+        ------
+        ParameterError
+            As :meth:`core_arrays`.
+        """
+        core = self.__dict__.get("_core_base")
+        if core is None:
+            core = self.__dict__["_core_base"] = _ext.Base(*self.core_arrays())
+        return core
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}()" if math.isinf(self.radius) else f"{type(self).__name__}({self.radius:g})"
@@ -403,11 +417,10 @@ class Mesh(Base):
         self.mesh = mesh
         self.uv = uv
         self._tri = tri
-        # closest points by the C core's bounding-volume hierarchy, exact (trimesh's query is
-        # not: its absolute tolerances returned edge points 66 um away on a 1 cm sphere, and on
-        # a unit-scaled copy of an 81,920-triangle sphere still a farther triangle for 5 probes
-        # in 600, 37 nm farther); the renderer's tick runs the same search
-        self._tree = _ext.MeshTree(np.ascontiguousarray(tri.reshape(-1, 9)))
+        # closest points by the C core's bounding-volume hierarchy (the core's Base, built when
+        # first needed), exact: trimesh's query is not (its absolute tolerances returned edge points
+        # 66 um away on a 1 cm sphere, and on a unit-scaled copy of an 81,920-triangle sphere still
+        # a farther triangle for 5 probes in 600, 37 nm farther); the renderer's tick runs the same
         self._normals = cross / area2[:, None]
         if np.sum(area2 * np.einsum("ij,ij->i", self._normals, tri[:, 0])) < 0:  # (6 x volume < 0: inward)
             self._normals = -self._normals
@@ -464,11 +477,11 @@ class Mesh(Base):
     def __repr__(self) -> str:
         return f"Mesh({len(self._faces)} triangles)"
 
-    def core_spec(self):
-        """The mesh as the C core's renderer takes it: (kind, 0, tri, face), tri (F, 9) the
-        corners (m) and face (F, ``haptex.core._ext.FACE``) each triangle's constants: its
-        normal, its UV map's gradient M, its corners' UV, its sides' and corners' pseudo-normals
-        (``HX_FACE_*`` in hx_core.h). The core builds the bounding-volume hierarchy.
+    def core_arrays(self):
+        """The mesh's arrays for the C core: (kind, 0, tri, face), tri (F, 9) the corners (m)
+        and face (F, ``haptex.core._ext.FACE``) each triangle's constants: its normal, its UV
+        map's gradient M, its corners' UV, its sides' and corners' pseudo-normals (``HX_FACE_*``
+        in hx_core.h). The core builds the bounding-volume hierarchy (:meth:`core_spec`).
 
         Raises
         ------
@@ -476,11 +489,26 @@ class Mesh(Base):
             For a mesh with vertex normals (the prism base is not in the C core yet), or one
             whose arrays would exceed the memory budget.
         """
+        if self._vn is not None:
+            raise fail("normals", "given", "None in the C core: it takes the faceted mesh (the prism base swept along "
+                       "vertex normals is not in the C core yet)")
+        return self._arrays()
+
+    def core_spec(self):
+        """The faceted mesh in the C core (:meth:`Base.core_spec`).
+
+        Raises
+        ------
+        ParameterError
+            As :meth:`core_arrays`.
+        """
+        if self._vn is not None:
+            self.core_arrays()  # (raises, naming normals)
+        return super().core_spec()
+
+    def _arrays(self):
         from ._validation import check_budget
 
-        if self._vn is not None:
-            raise fail("normals", "given", "None in the renderer: the C core takes the faceted mesh (the prism base "
-                       "swept along vertex normals is not in the C core yet)")
         F = len(self._faces)
         check_budget("mesh", f"{F} triangles", F * (2 * (9 + _ext.FACE) + 16) * 8.0, "the renderer's copy of it")
         face = np.empty((F, _ext.FACE))
@@ -497,10 +525,13 @@ class Mesh(Base):
     def _closest(self, flat):
         """(foot, dist, triangle, barycentric) of the closest points of flat (N, 3) (m): exact,
         by the C core's hierarchy (hx_mesh_closest), on the analysis's threads."""
+        tree = self.__dict__.get("_core_base")
+        if tree is None:  # (the prism mesh too: its solve starts from the closest point)
+            tree = self.__dict__["_core_base"] = _ext.Base(*self._arrays())
         n = len(flat)
         flat = np.ascontiguousarray(flat, dtype=np.float64)
         tid, bary, d2 = np.zeros(n, dtype=np.int64), np.zeros((n, 3)), np.zeros(n)
-        in_slices(lambda a, b: self._tree.closest(flat[a:b], tid[a:b], bary[a:b], d2[a:b]), n)
+        in_slices(lambda a, b: tree.closest(flat[a:b], tid[a:b], bary[a:b], d2[a:b]), n)
         foot = np.einsum("nk,nkj->nj", bary, self._tri[tid])
         return foot, np.sqrt(d2), tid, bary
 

@@ -238,6 +238,175 @@ static PyObject *texture(PyObject *self, PyObject *const *args, Py_ssize_t nargs
 }
 
 
+/* ---- Base: an object's base surface (hx_base), its arrays owned, a mesh's hierarchy built ---- */
+
+typedef struct {
+    PyObject_HEAD
+    hx_base base;
+    double *tri, *face, *box;
+    long *node, *order;
+} BaseObject;
+
+static void Base_free(BaseObject *self)
+{
+    free(self->tri);
+    free(self->face);
+    free(self->box);
+    free(self->node);
+    free(self->order);
+    self->tri = self->face = self->box = NULL;
+    self->node = self->order = NULL;
+}
+
+static void Base_dealloc(BaseObject *self)
+{
+    Base_free(self);
+    Py_TYPE(self)->tp_free((PyObject *)self);
+}
+
+static int Base_init(BaseObject *self, PyObject *args, PyObject *kwds)
+{
+    static char *kwlist[] = {"kind", "radius", "tri", "face", NULL};
+    int kind;
+    double radius;
+    PyObject *tri_obj, *face_obj;
+    Py_buffer tri, face;
+    hx_base *b = &self->base;
+    long n;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "idOO", kwlist, &kind, &radius, &tri_obj, &face_obj))
+        return -1;
+    Base_free(self);
+    memset(b, 0, sizeof *b);
+    b->kind = kind;
+    b->radius = radius;
+    if (kind == HX_BASE_MESH) {
+        if (get_doubles(tri_obj, &tri, 0, 2, "tri") < 0)
+            return -1;
+        if (get_doubles(face_obj, &face, 0, 2, "face") < 0) {
+            PyBuffer_Release(&tri);
+            return -1;
+        }
+        if (tri.shape[1] != 9 || face.shape[1] != HX_FACE || face.shape[0] != tri.shape[0] || tri.shape[0] < 1) {
+            PyBuffer_Release(&face);
+            PyBuffer_Release(&tri);
+            PyErr_Format(PyExc_ValueError, "a mesh base needs tri (n, 9) and face (n, %d), n >= 1", HX_FACE);
+            return -1;
+        }
+        n = (long)tri.shape[0];
+        self->tri = malloc((size_t)tri.len);
+        self->face = malloc((size_t)face.len);
+        self->box = malloc(sizeof(double) * 12 * (size_t)n);
+        self->node = malloc(sizeof(long) * 4 * (size_t)n);
+        self->order = malloc(sizeof(long) * (size_t)n);
+        if (!self->tri || !self->face || !self->box || !self->node || !self->order) {
+            PyBuffer_Release(&face);
+            PyBuffer_Release(&tri);
+            Base_free(self);
+            PyErr_NoMemory();
+            return -1;
+        }
+        memcpy(self->tri, tri.buf, (size_t)tri.len);
+        memcpy(self->face, face.buf, (size_t)face.len);
+        PyBuffer_Release(&face);
+        PyBuffer_Release(&tri);
+        b->n_tri = n;
+        Py_BEGIN_ALLOW_THREADS
+        b->n_node = hx_bvh_build(self->tri, n, self->order, self->box, self->node);
+        Py_END_ALLOW_THREADS
+        b->tri = self->tri;
+        b->face = self->face;
+        b->box = self->box;
+        b->node = self->node;
+        b->order = self->order;
+    }
+    if (hx_base_check(b) != HX_OK) {
+        PyErr_SetString(PyExc_ValueError, "base: an unknown kind, a radius not in (0, inf), or a hierarchy failing "
+                                          "its check");
+        return -1;
+    }
+    return 0;
+}
+
+PyDoc_STRVAR(base_closest_doc, "closest(points, tri, bary, dist2)\n--\n\nA mesh's closest point to each row of "
+                               "points (float64 (N, 3), m), exact: its triangle into tri (int64 (N,)), barycentric "
+                               "coordinates into bary (float64 (N, 3)), squared distance (m^2) into dist2 (float64 "
+                               "(N,)); returns the nodes and triangles visited. The GIL is released.");
+
+static PyObject *Base_closest(BaseObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    Py_buffer b[4];
+    Py_ssize_t i, n;
+    long work = 0;
+    int k, ok = 1;
+    if (nargs != 4 || self->base.kind != HX_BASE_MESH) {
+        PyErr_SetString(PyExc_TypeError, "closest takes points, tri, bary and dist2, on a mesh");
+        return NULL;
+    }
+    for (k = 0; k < 4; k++) {
+        int rc = k == 1 ? PyObject_GetBuffer(args[1], &b[1], PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | PyBUF_WRITABLE)
+                        : get_doubles(args[k], &b[k], k > 0, k == 3 ? 1 : 2, k == 0 ? "points" : k == 2 ? "bary" : "dist2");
+        if (rc < 0) {
+            while (--k >= 0)
+                PyBuffer_Release(&b[k]);
+            return NULL;
+        }
+    }
+    n = b[0].shape[0];
+    if (b[0].shape[1] != 3 || b[1].ndim != 1 || b[1].itemsize != 8 || b[1].shape[0] != n ||
+        (strcmp(b[1].format, "l") != 0 && strcmp(b[1].format, "q") != 0) || b[2].shape[0] != n ||
+        b[2].shape[1] != 3 || b[3].shape[0] != n)
+        ok = 0;
+    if (ok) {
+        Py_BEGIN_ALLOW_THREADS
+        {
+            const double *p = b[0].buf;
+            long long *tri = b[1].buf;
+            double *bary = b[2].buf, *d2 = b[3].buf;
+            long warm = -1;
+            for (i = 0; i < n; i++) { /* (each point warm-starts the next: neighbours in a grid) */
+                long t;
+                work += hx_mesh_closest(&self->base, p + 3 * i, warm, &t, bary + 3 * i, d2 + i);
+                tri[i] = t;
+                warm = t;
+            }
+        }
+        Py_END_ALLOW_THREADS
+    }
+    for (k = 0; k < 4; k++)
+        PyBuffer_Release(&b[k]);
+    if (!ok) {
+        PyErr_SetString(PyExc_ValueError, "points (N, 3), tri int64 (N,), bary (N, 3), dist2 (N,)");
+        return NULL;
+    }
+    return PyLong_FromLong(work);
+}
+
+static PyMethodDef Base_methods[] = {
+    {"closest", (PyCFunction)(void (*)(void))Base_closest, METH_FASTCALL, base_closest_doc},
+    {NULL, NULL, 0, NULL},
+};
+
+static PyMemberDef Base_members[] = {
+    {"kind", T_INT, offsetof(BaseObject, base.kind), READONLY, "BASE_*"},
+    {"nodes", T_LONG, offsetof(BaseObject, base.n_node), READONLY, "a mesh's hierarchy's nodes"},
+    {"triangles", T_LONG, offsetof(BaseObject, base.n_tri), READONLY, "a mesh's triangles"},
+    {NULL, 0, 0, 0, NULL},
+};
+
+static PyTypeObject BaseType = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = "haptex.core._ext.Base",
+    .tp_basicsize = sizeof(BaseObject),
+    .tp_dealloc = (destructor)Base_dealloc,
+    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_doc = "An object's base surface for the C core: Base(kind, radius, tri, face); a mesh's arrays copied and "
+              "its bounding-volume hierarchy built (hx_bvh_build).",
+    .tp_methods = Base_methods,
+    .tp_members = Base_members,
+    .tp_init = (initproc)Base_init,
+    .tp_new = PyType_GenericNew,
+};
+
 /* ---- Renderer: one hx_renderer, its own copy of the coefficients ------------------ */
 
 typedef struct {
@@ -247,83 +416,12 @@ typedef struct {
     double *aux;
     int dim;        /* 2: [x, z]; 3: [x, y, z] */
     PyObject *fallback; /* called with p when step's fast path does not apply */
-    hx_base base;   /* an object's base (model.base points here), owned copies of its arrays */
-    double *btri, *bface, *bbox;
-    long *bnode, *border;
+    PyObject *base; /* an object's base (a Base; model.base points into it), or NULL */
 } RendererObject;
-
-static void free_base(RendererObject *self)
-{
-    free(self->btri);
-    free(self->bface);
-    free(self->bbox);
-    free(self->bnode);
-    free(self->border);
-    self->btri = self->bface = self->bbox = NULL;
-    self->bnode = self->border = NULL;
-}
-
-/* The base of an object from (kind, radius, tri, face): tri (n, 9) and face (n, HX_FACE)
- * float64 for a mesh (copied; its hierarchy built here), empty otherwise. 0, or -1 with an
- * exception set. */
-static int set_base(RendererObject *self, PyObject *spec)
-{
-    int kind;
-    double radius;
-    PyObject *tri_obj, *face_obj;
-    Py_buffer tri, face;
-    hx_base *b = &self->base;
-    free_base(self);
-    memset(b, 0, sizeof *b);
-    if (!PyArg_ParseTuple(spec, "idOO", &kind, &radius, &tri_obj, &face_obj))
-        return -1;
-    b->kind = kind;
-    b->radius = radius;
-    if (kind != HX_BASE_MESH)
-        return 0;
-    if (get_doubles(tri_obj, &tri, 0, 2, "tri") < 0)
-        return -1;
-    if (get_doubles(face_obj, &face, 0, 2, "face") < 0) {
-        PyBuffer_Release(&tri);
-        return -1;
-    }
-    if (tri.shape[1] != 9 || face.shape[1] != HX_FACE || face.shape[0] != tri.shape[0] || tri.shape[0] < 1) {
-        PyBuffer_Release(&face);
-        PyBuffer_Release(&tri);
-        PyErr_Format(PyExc_ValueError, "a mesh base needs tri (n, 9) and face (n, %d), n >= 1", HX_FACE);
-        return -1;
-    }
-    b->n_tri = (long)tri.shape[0];
-    self->btri = malloc((size_t)tri.len);
-    self->bface = malloc((size_t)face.len);
-    self->bbox = malloc(sizeof(double) * 12 * (size_t)b->n_tri);
-    self->bnode = malloc(sizeof(long) * 4 * (size_t)b->n_tri);
-    self->border = malloc(sizeof(long) * (size_t)b->n_tri);
-    if (!self->btri || !self->bface || !self->bbox || !self->bnode || !self->border) {
-        PyBuffer_Release(&face);
-        PyBuffer_Release(&tri);
-        free_base(self);
-        PyErr_NoMemory();
-        return -1;
-    }
-    memcpy(self->btri, tri.buf, (size_t)tri.len);
-    memcpy(self->bface, face.buf, (size_t)face.len);
-    PyBuffer_Release(&face);
-    PyBuffer_Release(&tri);
-    Py_BEGIN_ALLOW_THREADS
-    b->n_node = hx_bvh_build(self->btri, b->n_tri, self->border, self->bbox, self->bnode);
-    Py_END_ALLOW_THREADS
-    b->tri = self->btri;
-    b->face = self->bface;
-    b->box = self->bbox;
-    b->node = self->bnode;
-    b->order = self->border;
-    return 0;
-}
 
 static void Renderer_dealloc(RendererObject *self)
 {
-    free_base(self);
+    Py_XDECREF(self->base);
     free(self->coeffs);
     free(self->aux);
     Py_XDECREF(self->fallback);
@@ -344,8 +442,8 @@ static int Renderer_init(RendererObject *self, PyObject *args, PyObject *kwds)
                                      &aux_obj, &dim, &max_force, &limit, &monitor, &on, &bmax, &stored, &T, &fallback,
                                      &delay, &base))
         return -1;
-    if (base != Py_None && (dim != 3 || !PyTuple_Check(base))) {
-        PyErr_SetString(PyExc_ValueError, "base must be None or (kind, radius, tri, face), in 3-D");
+    if (base != Py_None && (dim != 3 || !Py_IS_TYPE(base, &BaseType))) {
+        PyErr_SetString(PyExc_ValueError, "base must be None or a Base, in 3-D");
         return -1;
     }
     if (delay < 0 || delay >= HX_PC_RING) {
@@ -407,10 +505,11 @@ static int Renderer_init(RendererObject *self, PyObject *args, PyObject *kwds)
     self->r.model.tex.cols = coeffs.ndim == 2 ? (long)coeffs.shape[1] : (coeffs.ndim == 1 ? (long)coeffs.shape[0] : 0);
     PyBuffer_Release(&coeffs);
     PyBuffer_Release(&prm);
+    Py_CLEAR(self->base);
     if (base != Py_None) {
-        if (set_base(self, base) < 0)
-            return -1;
-        self->r.model.base = &self->base;
+        Py_INCREF(base);
+        self->base = base;
+        self->r.model.base = &((BaseObject *)base)->base;
     }
     rc = hx_model_check(&self->r.model);
 
@@ -622,150 +721,6 @@ static PyTypeObject RendererType = {
     .tp_members = Renderer_members,
     .tp_getset = Renderer_getset,
     .tp_init = (initproc)Renderer_init,
-    .tp_new = PyType_GenericNew,
-};
-
-/* ---- MeshTree: a mesh's bounding-volume hierarchy, for the analysis path's closest points ---- */
-
-typedef struct {
-    PyObject_HEAD
-    hx_base base;
-    double *tri, *box;
-    long *node, *order;
-} MeshTreeObject;
-
-static void MeshTree_dealloc(MeshTreeObject *self)
-{
-    free(self->tri);
-    free(self->box);
-    free(self->node);
-    free(self->order);
-    Py_TYPE(self)->tp_free((PyObject *)self);
-}
-
-static int MeshTree_init(MeshTreeObject *self, PyObject *args, PyObject *kwds)
-{
-    static char *kwlist[] = {"tri", NULL};
-    PyObject *tri_obj;
-    Py_buffer tri;
-    long n;
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O", kwlist, &tri_obj))
-        return -1;
-    if (get_doubles(tri_obj, &tri, 0, 2, "tri") < 0)
-        return -1;
-    if (tri.shape[1] != 9 || tri.shape[0] < 1) {
-        PyBuffer_Release(&tri);
-        PyErr_SetString(PyExc_ValueError, "tri must be (n, 9) float64, n >= 1");
-        return -1;
-    }
-    n = (long)tri.shape[0];
-    free(self->tri);
-    free(self->box);
-    free(self->node);
-    free(self->order);
-    self->tri = malloc((size_t)tri.len);
-    self->box = malloc(sizeof(double) * 12 * (size_t)n);
-    self->node = malloc(sizeof(long) * 4 * (size_t)n);
-    self->order = malloc(sizeof(long) * (size_t)n);
-    if (!self->tri || !self->box || !self->node || !self->order) {
-        PyBuffer_Release(&tri);
-        PyErr_NoMemory();
-        return -1;
-    }
-    memcpy(self->tri, tri.buf, (size_t)tri.len);
-    PyBuffer_Release(&tri);
-    memset(&self->base, 0, sizeof self->base);
-    self->base.kind = HX_BASE_MESH;
-    self->base.n_tri = n;
-    Py_BEGIN_ALLOW_THREADS
-    self->base.n_node = hx_bvh_build(self->tri, n, self->order, self->box, self->node);
-    Py_END_ALLOW_THREADS
-    self->base.tri = self->tri;
-    self->base.box = self->box;
-    self->base.node = self->node;
-    self->base.order = self->order;
-    self->base.face = self->tri; /* (unread by the search; hx_base_check wants every array) */
-    if (hx_base_check(&self->base) != HX_OK) {
-        PyErr_SetString(PyExc_ValueError, "the hierarchy failed its check");
-        return -1;
-    }
-    return 0;
-}
-
-PyDoc_STRVAR(mesh_closest_doc, "closest(points, tri, bary, dist2)\n--\n\nThe closest point of the mesh to each row of "
-                               "points (float64 (N, 3), m), exact: its triangle into tri (int64 (N,)), barycentric "
-                               "coordinates into bary (float64 (N, 3)), squared distance (m^2) into dist2 (float64 "
-                               "(N,)); returns the nodes and triangles visited. The GIL is released.");
-
-static PyObject *MeshTree_closest(MeshTreeObject *self, PyObject *const *args, Py_ssize_t nargs)
-{
-    Py_buffer b[4];
-    Py_ssize_t i, n;
-    long work = 0;
-    int k, ok = 1;
-    if (nargs != 4) {
-        PyErr_SetString(PyExc_TypeError, "closest takes points, tri, bary and dist2");
-        return NULL;
-    }
-    for (k = 0; k < 4; k++) {
-        int rc = k == 1 ? PyObject_GetBuffer(args[1], &b[1], PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | PyBUF_WRITABLE)
-                        : get_doubles(args[k], &b[k], k > 0, k == 3 ? 1 : 2, k == 0 ? "points" : k == 2 ? "bary" : "dist2");
-        if (rc < 0) {
-            while (--k >= 0)
-                PyBuffer_Release(&b[k]);
-            return NULL;
-        }
-    }
-    n = b[0].shape[0];
-    if (b[0].shape[1] != 3 || b[1].ndim != 1 || b[1].itemsize != 8 || b[1].shape[0] != n ||
-        (strcmp(b[1].format, "l") != 0 && strcmp(b[1].format, "q") != 0) || b[2].shape[0] != n ||
-        b[2].shape[1] != 3 || b[3].shape[0] != n)
-        ok = 0;
-    if (ok) {
-        Py_BEGIN_ALLOW_THREADS
-        {
-            const double *p = b[0].buf;
-            long long *tri = b[1].buf;
-            double *bary = b[2].buf, *d2 = b[3].buf;
-            long warm = -1;
-            for (i = 0; i < n; i++) { /* (each point warm-starts the next: neighbours in a grid) */
-                long t;
-                work += hx_mesh_closest(&self->base, p + 3 * i, warm, &t, bary + 3 * i, d2 + i);
-                tri[i] = t;
-                warm = t;
-            }
-        }
-        Py_END_ALLOW_THREADS
-    }
-    for (k = 0; k < 4; k++)
-        PyBuffer_Release(&b[k]);
-    if (!ok) {
-        PyErr_SetString(PyExc_ValueError, "points (N, 3), tri int64 (N,), bary (N, 3), dist2 (N,)");
-        return NULL;
-    }
-    return PyLong_FromLong(work);
-}
-
-static PyMethodDef MeshTree_methods[] = {
-    {"closest", (PyCFunction)(void (*)(void))MeshTree_closest, METH_FASTCALL, mesh_closest_doc},
-    {NULL, NULL, 0, NULL},
-};
-
-static PyMemberDef MeshTree_members[] = {
-    {"nodes", T_LONG, offsetof(MeshTreeObject, base.n_node), READONLY, "nodes of the hierarchy"},
-    {NULL, 0, 0, 0, NULL},
-};
-
-static PyTypeObject MeshTreeType = {
-    PyVarObject_HEAD_INIT(NULL, 0)
-    .tp_name = "haptex.core._ext.MeshTree",
-    .tp_basicsize = sizeof(MeshTreeObject),
-    .tp_dealloc = (destructor)MeshTree_dealloc,
-    .tp_flags = Py_TPFLAGS_DEFAULT,
-    .tp_doc = "A triangle mesh's bounding-volume hierarchy (hx_bvh_build) and its exact closest points.",
-    .tp_methods = MeshTree_methods,
-    .tp_members = MeshTree_members,
-    .tp_init = (initproc)MeshTree_init,
     .tp_new = PyType_GenericNew,
 };
 
@@ -1867,7 +1822,7 @@ PyMODINIT_FUNC PyInit__ext(void)
         return NULL;
     if (PyType_Ready(&RendererType) < 0 || PyModule_AddObjectRef(mod, "Renderer", (PyObject *)&RendererType) < 0 ||
         PyType_Ready(&ServoType) < 0 || PyModule_AddObjectRef(mod, "Servo", (PyObject *)&ServoType) < 0 ||
-        PyType_Ready(&MeshTreeType) < 0 || PyModule_AddObjectRef(mod, "MeshTree", (PyObject *)&MeshTreeType) < 0) {
+        PyType_Ready(&BaseType) < 0 || PyModule_AddObjectRef(mod, "Base", (PyObject *)&BaseType) < 0) {
         Py_DECREF(mod);
         return NULL;
     }
