@@ -137,10 +137,10 @@ def test_bad_objects_are_refused_by_name(make, message):
         make()
 
 
-def test_the_simulator_does_not_take_an_object_yet():
-    # it reads kernel_spec: refused in one line, not run as a plane by mistake (the Renderer and
-    # the export take an object: tests/test_object_core.py, tests/test_export.py)
-    with pytest.raises(ParameterError, match="runs in haptex.Renderer and haptex export only so far"):
+def test_kernel_spec_refuses_an_object():
+    # the plane's kernel arrays are not an object's: refused in one line, never run as a plane by
+    # mistake (the Renderer, simulate and the export take an object: tests/test_object_core.py)
+    with pytest.raises(ParameterError, match="runs in haptex.Renderer, haptex.simulate and haptex export"):
         object_algorithm("A", EGG, Sphere(_radius(3)), K0).kernel_spec()
 
 

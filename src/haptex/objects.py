@@ -37,8 +37,8 @@ point through a bounding-volume hierarchy built once (the analysis path here que
 hierarchy, :class:`Mesh`).
 
 Not yet here (issue 32's later steps): D and E (the closest point on the textured object),
-F, a C^1 mesh base, the reference algorithms of CHAI3D and HAPI, the simulator over objects
-(``haptex export`` writes the renderer's tick over them).
+F, a C^1 mesh base, the reference algorithms of CHAI3D and HAPI, batches and atlases over
+objects (:func:`haptex.simulate` runs one; ``haptex export`` writes the renderer's tick).
 """
 
 from __future__ import annotations
@@ -870,8 +870,8 @@ class ObjectAlgorithm(Algorithm):
         return 0.5 * self.stiffness * self.penetration(p) ** 2
 
     def kernel_spec(self):
-        raise ParameterError(f"{self!r} is not allowed in the simulator yet: the C core's tick over objects runs "
-                             "in haptex.Renderer and haptex export only so far")
+        raise ParameterError(f"{self!r} is not allowed here yet: the C core's tick over objects runs in "
+                             "haptex.Renderer, haptex.simulate and haptex export so far")
 
     def object_spec(self):
         """The arrays of this algorithm's servo tick in the C core (:class:`haptex.Renderer`):

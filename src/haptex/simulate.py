@@ -206,11 +206,11 @@ def _core_lean(code, kind, nominal, n_steps, T, record_every, tail_start, prm, c
 
 def _core_general(code, kind, nominal, kinematic, pc_on, pc_ref, n_steps, T, record_every, tail_start, sp_t, prm,
                   coeffs, aux, Phi, Wd, Wo, Bs, Binv, fast, M, modal, K, C, f0, sp_p, vend, rest, delay, delta, fres,
-                  fmax, fc, pcb, P0, V0, rec, summary, tail, threads: int = 1) -> None:
+                  fmax, fc, pcb, P0, V0, rec, summary, tail, threads: int = 1, base=None) -> None:
     """Runs of the general loop in the C core (:func:`haptex.core._ext.run_general`): every
     per-run array has a leading run axis (``sp_t`` is shared); the runs are cut into
     contiguous slices run on ``threads`` threads (:func:`haptex.core.in_slices`), the GIL
-    released."""
+    released. ``base``: an object's base (``haptex.core._ext.Base``) shared by the runs, or None."""
     f64 = lambda a: np.ascontiguousarray(a, dtype=np.float64)  # noqa: E731
     per_run = [f64(a) for a in (prm, coeffs, aux, Phi, Wd, Wo, Bs, Binv, fast, M, modal, K, C, f0, sp_p, vend, rest)]
     per_run.append(np.ascontiguousarray(delay, dtype=np.int64))
@@ -221,7 +221,7 @@ def _core_general(code, kind, nominal, kinematic, pc_on, pc_ref, n_steps, T, rec
     def one(lo, hi):
         _core._ext.run_general(code, kind, bool(nominal), bool(kinematic), bool(pc_on), bool(pc_ref),
                                int(n_steps), float(T), int(record_every), int(tail_start), f64(sp_t),
-                               *(a[lo:hi] for a in per_run), *(a[lo:hi] for a in outs))
+                               *(a[lo:hi] for a in per_run), *(a[lo:hi] for a in outs), base)
 
     _core.in_slices(one, N, threads, least=1)
 
@@ -672,7 +672,11 @@ def _kernel_inputs(algorithm, device, operator, memo: dict | None = None):
     """Everything the compiled loop reads for one run. ``memo`` shares the discretisation
     (the matrix exponentials) between runs whose device and operator are the same objects, as
     in sweeps of algorithm parameters."""
-    code, prm, kind, coeffs, aux = algorithm.kernel_spec()
+    base = None
+    if getattr(algorithm, "base", None) is not None:  # a textured object (haptex.objects): A, B, C, G on its base
+        code, prm, kind, coeffs, aux, base = algorithm.object_spec()
+    else:
+        code, prm, kind, coeffs, aux = algorithm.kernel_spec()
     if device.structural_mode and operator.kinematic:
         raise ParameterError(f"operator = KinematicPath is not allowed with the structural mode of {device.name}: "
                              "a prescribed path fixes one body and leaves the mode undefined; use a hand or a band")
@@ -691,7 +695,7 @@ def _kernel_inputs(algorithm, device, operator, memo: dict | None = None):
     Phi, Wd, Wo, Binv, fast = disc
     Bs = np.stack([device.damping_outside, device.damping])
     nominal = algorithm.penetration_kind == "nominal"
-    return code, prm, kind, coeffs, aux, nominal, Phi, Wd, Wo, Bs, Binv, fast
+    return code, prm, kind, coeffs, aux, nominal, Phi, Wd, Wo, Bs, Binv, fast, base
 
 
 def _controller(pc: PassivityController | None) -> tuple[bool, float, bool]:
@@ -732,7 +736,10 @@ def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration:
     Parameters
     ----------
     algorithm : Algorithm
-        Any of W, A–G (:func:`haptex.algorithm`).
+        Any of W, A–G (:func:`haptex.algorithm`); or A, B, C, G on a textured object
+        (:func:`haptex.objects.object_algorithm`, [x, y, z]): the general loop with the object's
+        tick (hx_object.c), its damping regime and penetration from the tick's (h(u) - e, or -e
+        for G).
     device : Device
         The sampled-data device, of the algorithm's dimension.
     operator : Operator
@@ -787,13 +794,14 @@ def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration:
             f"{n_rec} samples needs {n_rec * width * 8 / 2**30:.1f} GiB, over the 2 GiB budget; "
             f"use record_every >= {math.ceil(n_steps * width * 8 / MEMORY_BUDGET)}"
         )
-    code, prm, kind, coeffs, aux, nominal, Phi, Wd, Wo, Bs, Binv, fast = _kernel_inputs(algorithm, device, operator)
+    code, prm, kind, coeffs, aux, nominal, Phi, Wd, Wo, Bs, Binv, fast, base = _kernel_inputs(algorithm, device,
+                                                                                               operator)
     rec = np.zeros((n_rec, width))
     summary = np.zeros(N_SUMMARY)
     tail_start = int(n_steps * (1 - tail_fraction))
     tail = np.zeros((d, min(n_steps - tail_start, 65536)))
-    if _lean(fast, operator.kinematic, pc_on, device.delay, device.position_resolution, device.force_resolution,
-             device.max_force, device.coulomb_friction):
+    if base is None and _lean(fast, operator.kinematic, pc_on, device.delay, device.position_resolution,
+                              device.force_resolution, device.max_force, device.coulomb_friction):
         _core_lean(code, kind, nominal, n_steps, device.period, record_every, tail_start, prm[None], coeffs[None],
                    aux[None], fast[None], device.mass[None], np.asarray(operator.force)[None], p0[None], v0[None],
                    rec[None], summary[None], tail[None])
@@ -806,7 +814,8 @@ def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration:
                       one(operator.damping), one(operator.force), one(operator.setpoint_points),
                       one(operator.final_velocity), one(operator.rest_length), one(device.delay),
                       one(device.position_resolution), one(device.force_resolution), one(device.max_force),
-                      one(device.coulomb_friction), one(pc_b), one(p0), one(v0), rec[None], summary[None], tail[None])
+                      one(device.coulomb_friction), one(pc_b), one(p0), one(v0), rec[None], summary[None], tail[None],
+                      base=base)
     osc = _oscillations(tail[None], (n_steps - tail_start) * device.period, _tail_energy(summary[None]),
                         np.array([_threshold(device)]), _frequency_table([_texture_frequencies(algorithm, operator)]))
     result = _result(rec, summary, osc[0])
@@ -1134,6 +1143,9 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     periods = {d_.period for _, d_, _ in runs}
     memo: dict = {}
     specs = [_kernel_inputs(a, d_, o, memo) for a, d_, o in runs]
+    if specs[0][12] is not None:
+        raise ParameterError(f"algorithm = {algorithm!r} is not allowed in simulate_batch yet: textured objects are "
+                             "simulated one run at a time (haptex.simulate)")
     if len(letters) != 1 or len({s[3].shape for s in specs}) != 1 or len(periods) != 1:
         raise ParameterError("the runs of a batch must share the algorithm letter, texture shape and sampling period")
     code, kind, nominal = specs[0][0], specs[0][2], specs[0][5]

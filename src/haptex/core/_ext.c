@@ -1534,9 +1534,17 @@ static PyObject *run_general(PyObject *self, PyObject *const *args, Py_ssize_t n
     double period;
     Py_ssize_t N, r;
     (void)self;
-    if (nargs != 10 + NB) {
-        PyErr_SetString(PyExc_TypeError, "run_general takes 39 arguments");
+    const hx_base *base = NULL;
+    if (nargs != 10 + NB && nargs != 11 + NB) {
+        PyErr_SetString(PyExc_TypeError, "run_general takes 39 arguments, and optionally a Base");
         return NULL;
+    }
+    if (nargs == 11 + NB && args[10 + NB] != Py_None) {
+        if (!Py_IS_TYPE(args[10 + NB], &BaseType)) {
+            PyErr_SetString(PyExc_TypeError, "base must be a Base or None");
+            return NULL;
+        }
+        base = &((BaseObject *)args[10 + NB])->base;
     }
     code = (int)PyLong_AsLong(args[0]);
     kind = (int)PyLong_AsLong(args[1]);
@@ -1606,6 +1614,7 @@ static PyObject *run_general(PyObject *self, PyObject *const *args, Py_ssize_t n
         long n_rec = (long)b[REC].shape[1];
         long d = (long)((const long long *)b[DELAY].buf)[r], dd = dim * dim, zz = nz * nz;
         batch_model(&m, code, kind, &b[PRM], &b[COEFFS], &b[AUX], r);
+        m.base = base;
         run.dim = dim;
         run.nz = nz;
         run.nominal = nominal;

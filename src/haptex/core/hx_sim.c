@@ -449,7 +449,19 @@ int hx_run_general(const hx_model *m, const hx_general_run *r)
             }
         }
         /* damping regime from the sensed position (brakes on inside the virtual object) */
-        if (r->nominal) {
+        if (m->base != NULL) { /* an object: its tick's penetration, at the true position too */
+            inside = st.pen > 0.0;
+            pen = st.pen;
+            if (r->delta > 0.0) {
+                hx_state at = st;
+                double pt[3], ft[3];
+                pt[0] = p[0];
+                pt[1] = n == 3 ? p[1] : 0.0;
+                pt[2] = p[last];
+                hx_object_force(m, &at, pt, ft);
+                pen = at.pen;
+            }
+        } else if (r->nominal) {
             inside = sense[last] < 0.0;
             pen = -p[last];
         } else {
