@@ -1,0 +1,149 @@
+"""Reference algorithms of the haptics libraries users know, in physical units, analysed by
+haptex beside its own (issue 32).
+
+:class:`Chai3dNormalMap` is CHAI3D's normal-map texture on a triangle mesh, as its finger-proxy
+algorithm computes it (CHAI3D 3.3, ``cAlgorithmFingerProxy::updateForce``, BSD licence; read
+from its source, written here from that description):
+
+1. the proxy rests on the mesh (a single contact, no friction: the closest point of the
+   untextured mesh, for a probe inside it), and the spring force is F = kappa_0 (proxy - p);
+2. F is split along the contact triangle's geometric normal n: F_n = (F . n) n, F_t = F - F_n;
+3. the normal map, sampled at the contact's texture coordinates, gives a vector
+   g = (g_x, g_y, g_z) in the texture's frame: an 8-bit map stores a unit normal as
+   127.5 (1 + n), and CHAI3D decodes (c - 128) / 255, so g = n_tex / 2 up to the 8-bit
+   rounding; haptex builds the map from the texture's own slopes s = grad_u h (m/m): n_tex =
+   (-s_1, -s_2, 1) / sqrt(1 + |s|^2), exactly (no 8-bit rounding);
+4. (g_x, g_y) is carried onto the triangle through its texture-coordinate edges: with
+   t_01, t_02 the unit directions of the triangle's edges in texture space, solve
+   [t_01 t_02] c = level (g_x, g_y), then grad = c_1 e_01 / |e_01|^2 + c_2 e_02 / |e_02|^2
+   + g_z n (e_01, e_02 the triangle's edges in space, m);
+5. the new normal is grad / |grad| (turned over if it makes more than 1.57 rad with n), and
+   the force is F_t + |F_n| new normal.
+
+Step 4 divides a dimensionless slope by an edge length in metres: the perturbation's strength
+is level / |e| relative to the normal's g_z, so the same texture feels twice as steep on a mesh
+tessellated twice as finely, and half as steep on the same mesh drawn twice as large. The force
+keeps the magnitude of the proxy's normal force and turns its direction: force shading (the
+paper's G) on the proxy's plane, which haptex shows is not conservative.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ._validation import ParameterError, fail, positive
+from .objects import Mesh, ObjectAlgorithm
+from .textures import Texture
+
+__all__ = ["Chai3dNormalMap", "FLIP_ANGLE"]
+
+FLIP_ANGLE = 1.57
+"""rad: CHAI3D turns the new normal over when it makes more than this with the triangle's."""
+
+JACOBIAN_STEP = 1e-9
+"""m: the central differences of :meth:`Chai3dNormalMap.jacobian` (the model has no closed form
+for it here). On a facet the force is smooth in p; where a stencil straddles a change of facet
+the force jumps and the differences see the jump (1 nm apart), so a characteristic number over
+a region measures those jumps (measured 1.0e5 at level 1e-3 on the 1,280-facet ball), not the
+texture."""
+
+
+class Chai3dNormalMap(ObjectAlgorithm):
+    """CHAI3D's normal-map texture on a mesh, in physical units (see the module docstring).
+
+    Parameters
+    ----------
+    texture : Texture
+        The height h(u) (m) the normal map is made from (its slopes, exactly), over the mesh's
+        UV map in metres; a profile is extruded along u2.
+    base : Mesh
+        A closed triangle mesh with a UV map (:class:`haptex.objects.Mesh`, faceted).
+    stiffness : float
+        kappa_0 of the proxy's spring (N/m), > 0.
+    level : float
+        The material's texture level (CHAI3D's ``cMaterial::setTextureLevel``), > 0,
+        dimensionless as CHAI3D uses it (it multiplies a slope that is then divided by an edge
+        length in metres).
+
+    Raises
+    ------
+    ParameterError
+        If ``base`` is not a faceted :class:`~haptex.objects.Mesh`, or ``stiffness`` or
+        ``level`` is not > 0.
+
+    Notes
+    -----
+    Probe positions are [x, y, z] (m), forces (N). Inside is where the probe is under the
+    untextured mesh (e < 0: the proxy is held on it); the analyses treat it as haptex's G on
+    the object for their regions and breakpoints (the mesh's facets). It is an analysis model:
+    the renderer, the simulator and the export refuse it.
+
+    References
+    ----------
+    CHAI3D 3.3, src/forces/CAlgorithmFingerProxy.cpp (updateForce, the normal map's block),
+    F. Conti et al., www.chai3d.org.
+    """
+
+    def __init__(self, texture: Texture, base: Mesh, stiffness: float, level: float = 1.0):
+        if not isinstance(base, Mesh) or base._vn is not None:
+            raise fail("base", base, "a faceted haptex.objects.Mesh (CHAI3D's normal map lives on a mesh's triangles)")
+        super().__init__("G", texture, base, stiffness)
+        self.level = positive("level", level, "")
+        self.name = "CHAI3D normal map on a proxy"
+        self.reference = "CHAI3D 3.3, cAlgorithmFingerProxy::updateForce (normal map); haptex.reference"
+
+    def __repr__(self) -> str:
+        return (f"Chai3dNormalMap({self.texture!r}, {self.base!r}, stiffness={self.stiffness:g}, "
+                f"level={self.level:g})")
+
+    def _object(self, p, jac: bool):
+        shape = p.shape[:-1]
+        flat = p.reshape(-1, 3)
+        base = self.base
+        foot, _, tid, _ = base._closest(flat)
+        u, _, _, e, _, _ = base.local(flat)
+        inside = e < 0.0
+        F = self.stiffness * (foot - flat)  # the proxy's spring
+        nf = base._normals[tid]
+        Fn = np.einsum("ij,ij->i", F, nf)
+        Ft = F - Fn[:, None] * nf
+        s = self.texture.gradient(u)  # (N, 2): the physical slopes the map encodes
+        g = np.concatenate([-s, np.ones((len(s), 1))], axis=1) / (2.0 * np.sqrt(1.0 + np.sum(s * s, axis=1)))[:, None]
+        faces = base._faces[tid]
+        tc = base.uv[faces]  # (N, 3, 2): the corners' texture coordinates (directions only matter)
+        t01, t02 = tc[:, 1] - tc[:, 0], tc[:, 2] - tc[:, 0]
+        t01 = t01 / np.linalg.norm(t01, axis=1, keepdims=True)
+        t02 = t02 / np.linalg.norm(t02, axis=1, keepdims=True)
+        M = np.stack([t01, t02], axis=-1)  # (N, 2, 2): columns the unit edge directions
+        c = np.linalg.solve(M, self.level * g[:, :2, None])[..., 0]
+        tri = base._tri[tid]
+        e01, e02 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+        grad = (c[:, :1] * e01 / np.sum(e01 * e01, axis=1, keepdims=True)
+                + c[:, 1:] * e02 / np.sum(e02 * e02, axis=1, keepdims=True) + g[:, 2:] * nf)
+        new = grad / np.linalg.norm(grad, axis=1, keepdims=True)
+        turn = np.einsum("ij,ij->i", new, nf) < np.cos(FLIP_ANGLE)
+        new[turn] = -new[turn]
+        f = np.where(inside[:, None], Ft + np.abs(Fn)[:, None] * new, 0.0).reshape(*shape, 3)
+        if not jac:
+            return f, None
+        h = JACOBIAN_STEP
+        cols = [(self._object(p + h * d, False)[0] - self._object(p - h * d, False)[0]) / (2 * h)
+                for d in np.eye(3)]
+        return f, np.stack(cols, axis=-1)
+
+    def tilt(self, p) -> np.ndarray:
+        """The angle (rad) between the force and the contact triangle's normal, shape (...):
+        what the normal map does to the proxy's force (0 without it); NaN outside."""
+        p = self._positions(p)
+        f = self.force(p)
+        _, _, tid, _ = self.base._closest(p.reshape(-1, 3))
+        nf = self.base._normals[tid].reshape(*p.shape[:-1], 3)
+        cos = np.einsum("...j,...j->...", f, nf) / np.linalg.norm(f, axis=-1)
+        with np.errstate(invalid="ignore"):
+            return np.where(np.linalg.norm(f, axis=-1) > 0, np.arccos(np.clip(cos, -1.0, 1.0)), np.nan)
+
+    def kernel_spec(self):
+        raise ParameterError(f"{self!r} is not allowed in the renderer, the simulator or the export: it is a reference "
+                             "model for analysis (haptex's own algorithms render on objects)")
+
+    object_spec = kernel_spec
