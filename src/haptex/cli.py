@@ -129,6 +129,19 @@ def _parse_path(text: str, d: int = 2):
     return pts
 
 
+def _object_options(what: str):
+    """``--object`` and ``--uv-scale``, the same for every command that takes an object (design,
+    export, run); ``what`` says what the command does with A, B, C and G there."""
+    def deco(func):
+        func = click.option("--uv-scale", type=Quantity("m"), default=None,
+                            help="With a mesh: metres per unit of its texture coordinates, e.g. '10mm'.")(func)
+        return click.option("--object", "object_spec", default=None,
+                            help="The texture on an object instead of a plane: 'sphere:RADIUS', 'cylinder:RADIUS' "
+                                 "(axis along y), 'plane', or a closed triangle mesh FILE (OBJ, STL, PLY, glTF, ... "
+                                 f"with texture coordinates; --uv-scale). A, B, C and G are {what} there.")(func)
+    return deco
+
+
 def _device_options(func):
     """One device syntax for every command: --device pantograph|point-mass with its
     parameters as options (or the shorthand 'point-mass:MASS,DAMPING,PERIOD[,RESOLUTION]')."""
@@ -595,12 +608,7 @@ def _object_from_spec(spec, uv_scale, vertex_normals=False):
 @click.option("--hand", default="light-touch", show_default=True,
               help="The hand gripping the handle for the stable limits: a hand of 'haptex devices' (none, "
                    "light-touch, firm-grip).")
-@click.option("--object", "object_spec", default=None,
-              help="Render the texture on an object instead of a plane: 'sphere:RADIUS', 'cylinder:RADIUS' (axis along "
-                   "y), 'plane', or a closed triangle mesh FILE (OBJ, STL, PLY, glTF, ... with texture coordinates; "
-                   "--uv-scale). A, B, C and G are analysed there.")
-@click.option("--uv-scale", type=Quantity("m"), default=None,
-              help="With a mesh: metres per unit of its texture coordinates, e.g. '10mm'.")
+@_object_options("analysed")
 @click.option("--vertex-normals", is_flag=True,
               help="With a mesh: a smooth base swept along its vertex normals (default: the closest point's "
                    "coordinates, whose normal turns around each edge).")
@@ -746,11 +754,7 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
 @click.option("--level", is_flag=True, help="Remove the profile's best-fit line.")
 @click.option("--lowpass", type=Quantity("m"), default=None, help="Band-limit the profile to this shortest period.")
 @click.option("--periodic", is_flag=True, help="Close the profile into a periodic texture.")
-@click.option("--object", "object_spec", default=None,
-              help="The texture on an object (A, B, C, G): 'sphere:RADIUS', 'cylinder:RADIUS', 'plane' or a closed "
-                   "triangle mesh FILE with texture coordinates (with --uv-scale).")
-@click.option("--uv-scale", type=Quantity("m"), default=None,
-              help="With a mesh FILE: metres per unit of its texture coordinates.")
+@_object_options("exported")
 @click.option("--out", "out", type=click.Path(file_okay=False, path_type=Path), required=True,
               help="Directory for haptex_texture.c, haptex_texture.h and the C core's files.")
 @click.option("--quiet", is_flag=True, help="No progress display.")
@@ -843,12 +847,7 @@ def sweep(spec, out, scheduler, workers, quiet):
               help="simulated: the hand's speed along x.")
 @click.option("--fast", is_flag=True, help="simulated, forcedimension: run as fast as the loop goes, not at the "
               "device's rate.")
-@click.option("--object", "object_spec", default=None,
-              help="The texture on an object (A, B, C, G; a 3-DOF device): 'sphere:RADIUS', 'cylinder:RADIUS', "
-                   "'plane' or a closed triangle mesh FILE with texture coordinates (with --uv-scale), its top at "
-                   "the origin of the device's frame.")
-@click.option("--uv-scale", type=Quantity("m"), default=None,
-              help="With a mesh FILE: metres per unit of its texture coordinates.")
+@_object_options("rendered on a 3-DOF device, the object's top at the origin of its frame")
 @click.option("--record", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Write the trace (time, position, force, engaged) to FILE.npz.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
