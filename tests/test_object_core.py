@@ -180,3 +180,17 @@ def test_simulate_batch_refuses_an_object_in_one_line():
     with pytest.raises(ParameterError, match="simulate_batch yet"):
         hx.simulate_batch(object_algorithm("A", EGG, Sphere(R), K0), hx.Device.point_mass(dimension=3), _hand(),
                           0.01, stiffness=[1000.0, 2000.0])
+
+
+def test_a_mesh_pickles_without_its_c_copy_and_gives_the_same_forces():
+    # (Dask and process pools pickle algorithms: the core's Base is rebuilt where next needed)
+    import pickle
+
+    _, base = _icosphere(3)
+    alg = object_algorithm("B", EGG, base, K0)
+    p = _probes(200, seed=4)
+    f = alg.force(p)
+    again = pickle.loads(pickle.dumps(alg))
+    assert "_core_base" not in again.base.__dict__
+    np.testing.assert_array_equal(again.force(p), f)
+    np.testing.assert_array_equal(_ticks(again, p)[0], _ticks(alg, p)[0])

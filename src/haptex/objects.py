@@ -151,6 +151,10 @@ class Base:
             core = self.__dict__["_core_base"] = _ext.Base(*self.core_arrays())
         return core
 
+    def __getstate__(self):
+        """Pickled without the C core's copy (rebuilt where it is next needed)."""
+        return {k: v for k, v in self.__dict__.items() if k != "_core_base"}
+
     def __repr__(self) -> str:
         return f"{type(self).__name__}()" if math.isinf(self.radius) else f"{type(self).__name__}({self.radius:g})"
 
@@ -420,7 +424,7 @@ class Mesh(Base):
         # closest points by the C core's bounding-volume hierarchy (the core's Base, built when
         # first needed), exact: trimesh's query is not (its absolute tolerances returned edge points
         # 66 um away on a 1 cm sphere, and on a unit-scaled copy of an 81,920-triangle sphere still
-        # a farther triangle for 5 probes in 600, 37 nm farther); the renderer's tick runs the same
+        # a farther triangle for 5 probes in 600, 37 nm farther); the renderer's tick runs the same search
         self._normals = cross / area2[:, None]
         if np.sum(area2 * np.einsum("ij,ij->i", self._normals, tri[:, 0])) < 0:  # (6 x volume < 0: inward)
             self._normals = -self._normals
