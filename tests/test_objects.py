@@ -139,8 +139,8 @@ def test_bad_objects_are_refused_by_name(make, message):
 
 def test_kernel_spec_refuses_an_object():
     # the plane's kernel arrays are not an object's: refused in one line, never run as a plane by
-    # mistake (the Renderer, simulate and the export take an object: tests/test_object_core.py)
-    with pytest.raises(ParameterError, match="runs in haptex.Renderer, haptex.simulate and haptex export"):
+    # mistake (the Renderer, the simulators and the export take one: tests/test_object_core.py)
+    with pytest.raises(ParameterError, match="runs in haptex.Renderer, haptex.simulate, haptex.simulate_batch"):
         object_algorithm("A", EGG, Sphere(_radius(3)), K0).kernel_spec()
 
 

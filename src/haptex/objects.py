@@ -37,8 +37,9 @@ point through a bounding-volume hierarchy built once (the analysis path here que
 hierarchy, :class:`Mesh`).
 
 Not yet here (issue 32's later steps): D and E (the closest point on the textured object),
-F, a C^1 mesh base, the reference algorithms of CHAI3D and HAPI, batches and atlases over
-objects (:func:`haptex.simulate` runs one; ``haptex export`` writes the renderer's tick).
+F, a C^1 mesh base, HAPI's reference algorithm (CHAI3D's is :mod:`haptex.reference`), atlases
+and the explorer over objects (:func:`haptex.simulate` and :func:`haptex.simulate_batch` run
+them; ``haptex export`` writes the renderer's tick).
 """
 
 from __future__ import annotations
@@ -875,7 +876,7 @@ class ObjectAlgorithm(Algorithm):
 
     def kernel_spec(self):
         raise ParameterError(f"{self!r} is not allowed here yet: the C core's tick over objects runs in "
-                             "haptex.Renderer, haptex.simulate and haptex export so far")
+                             "haptex.Renderer, haptex.simulate, haptex.simulate_batch and haptex export so far")
 
     def object_spec(self):
         """The arrays of this algorithm's servo tick in the C core (:class:`haptex.Renderer`):

@@ -1066,7 +1066,9 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     Parameters
     ----------
     algorithm, device, operator, duration, initial_position, initial_velocity
-        As for :func:`simulate`; they give the values of everything not swept.
+        As for :func:`simulate`; they give the values of everything not swept. A textured
+        object (:func:`haptex.objects.object_algorithm`) runs in the general loop, its base
+        shared by every run; of the algorithm's parameters only ``stiffness`` is swept there.
     record : bool, optional
         Keep every run's time series (memory: N x samples x 96 bytes in the plane, 128 in
         space, within the 2 GiB budget); default False, summaries only.
@@ -1143,9 +1145,12 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     periods = {d_.period for _, d_, _ in runs}
     memo: dict = {}
     specs = [_kernel_inputs(a, d_, o, memo) for a, d_, o in runs]
-    if specs[0][12] is not None:
-        raise ParameterError(f"algorithm = {algorithm!r} is not allowed in simulate_batch yet: textured objects are "
-                             "simulated one run at a time (haptex.simulate)")
+    base = specs[0][12]  # a textured object's base, shared by every run (the general loop takes it)
+    if base is not None:
+        swept = sorted(k for k in values if k in _ALGORITHM_KEYS and k != "stiffness")
+        if swept:
+            raise ParameterError(f"{swept[0]} is not allowed in a sweep of {algorithm!r}: on an object only the "
+                                 "stiffness, the device and the operator are swept")
     if len(letters) != 1 or len({s[3].shape for s in specs}) != 1 or len(periods) != 1:
         raise ParameterError("the runs of a batch must share the algorithm letter, texture shape and sampling period")
     code, kind, nominal = specs[0][0], specs[0][2], specs[0][5]
@@ -1189,7 +1194,7 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     freqs = _frequency_table([_texture_frequencies(a, o) for a, _, o in runs])[inverse]
     # the lean loop where none of its omitted machinery is used, else the general one (both C),
     # whose per-run matrices are made only then (N copies of 2 x 10 x 10 maps and forms)
-    in_core = bool(_lean(fast, ops[0].kinematic, pc_on, delay, delta, fres, fmax, fc))
+    in_core = base is None and bool(_lean(fast, ops[0].kinematic, pc_on, delay, delta, fres, fmax, fc))
     if not in_core:
         Phi, Wd, Wo, Bs, Binv = st(6), st(7), st(8), st(9), st(10)
         modal = by_run([_mass_inputs(d_)[1] for d_ in dev])
@@ -1218,7 +1223,7 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
                               Wd[lo:hi], Wo[lo:hi], Bs[lo:hi], Binv[lo:hi], fast[lo:hi], M[lo:hi], modal[lo:hi],
                               K[lo:hi], C[lo:hi], f0[lo:hi], sp_p[lo:hi], vend[lo:hi], rest[lo:hi], delay[lo:hi],
                               delta[lo:hi], fres[lo:hi], fmax[lo:hi], fc[lo:hi], pcb[lo:hi], P0[lo:hi], V0[lo:hi],
-                              rec[lo:hi], summary[lo:hi], block, threads)
+                              rec[lo:hi], summary[lo:hi], block, threads, base=base)
             tables.append(_oscillation_table(block, (n_steps - tail_start) * T, _tail_energy(summary[lo:hi]),
                                              thresholds[lo:hi], freqs[lo:hi]))
             bar(idx.size)
