@@ -112,3 +112,41 @@ def texture_from_spec(spec: str, spacing=None, x_unit=None, height_unit=None, le
         except ValueError:
             raise ParameterError(f"scale = {scale!r} is not allowed: must be 'length_factor,height_factor'") from None
     return prof
+
+
+def object_from_spec(spec, uv_scale=None, vertex_normals: bool = False, files: bool = True):
+    """The base of an object spec (None for None): 'plane', 'sphere:RADIUS', 'cylinder:RADIUS'
+    (RADIUS with its unit), or a closed triangle mesh file (with ``uv_scale``, metres per unit
+    of its texture coordinates, and ``vertex_normals`` for the prism base); ``files=False``
+    refuses files (the explorer).
+
+    Raises
+    ------
+    ParameterError
+        For anything else, a radius without its unit or out of range, a mesh that does not
+        read, or ``uv_scale`` / ``vertex_normals`` where they do not apply, naming the option.
+    """
+    from pathlib import Path
+
+    from .objects import Cylinder, Mesh, Plane, Sphere
+
+    if spec is None:
+        if uv_scale is not None:
+            raise ParameterError("--uv-scale is not allowed without --object: it scales a mesh's texture coordinates")
+        if vertex_normals:
+            raise ParameterError("--vertex-normals is not allowed without --object: it applies to a mesh")
+        return None
+    kind, _, arg = str(spec).partition(":")
+    kind = kind.strip().lower()
+    if vertex_normals and kind in ("plane", "sphere", "cylinder"):
+        raise ParameterError(f"--vertex-normals is not allowed with --object {spec!r}: it applies to a mesh")
+    if kind == "plane" and not arg:
+        return Plane()
+    if kind in ("sphere", "cylinder"):
+        radius = parse_quantity(arg, "m", "object", require_unit=True)
+        return (Sphere if kind == "sphere" else Cylinder)(radius)
+    allowed = "'plane', 'sphere:RADIUS', 'cylinder:RADIUS'" + (" or an existing mesh file" if files else "")
+    path = Path(str(spec))
+    if not files or not path.is_file():
+        raise ParameterError(f"object = {str(spec)[:80]!r} is not allowed: must be {allowed}")
+    return Mesh(path, uv_scale=uv_scale, normals="vertex" if vertex_normals else None)

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import click
 
-from ._specs import quantity as _q, split_spec as _split_spec, texture_from_spec as _texture_from_spec
+from ._specs import object_from_spec, quantity as _q, split_spec as _split_spec, texture_from_spec as _texture_from_spec
 from ._validation import ParameterError
 from .tables import PAPER_PARAMETERS
 
@@ -552,34 +552,6 @@ def _check_plot_path(plot: Path) -> None:
         raise ParameterError(f"plot = {str(plot)!r} is not allowed: the directory {str(parent)!r} does not exist")
 
 
-def _object_from_spec(spec, uv_scale, vertex_normals=False):
-    """The base of ``--object`` (None without it): 'plane', 'sphere:RADIUS', 'cylinder:RADIUS'
-    or a mesh file (with ``--uv-scale``, and ``--vertex-normals`` for the smooth base)."""
-    from ._units import parse_quantity
-    from .objects import Cylinder, Mesh, Plane, Sphere
-
-    if spec is None:
-        if uv_scale is not None:
-            raise ParameterError("--uv-scale is not allowed without --object: it scales a mesh's texture coordinates")
-        if vertex_normals:
-            raise ParameterError("--vertex-normals is not allowed without --object: it applies to a mesh")
-        return None
-    kind, _, arg = spec.partition(":")
-    kind = kind.strip().lower()
-    if vertex_normals and kind in ("plane", "sphere", "cylinder"):
-        raise ParameterError(f"--vertex-normals is not allowed with --object {spec!r}: it applies to a mesh")
-    if kind == "plane" and not arg:
-        return Plane()
-    if kind in ("sphere", "cylinder"):
-        radius = parse_quantity(arg, "m", "object", require_unit=True)
-        return (Sphere if kind == "sphere" else Cylinder)(radius)
-    path = Path(spec)
-    if not path.is_file():
-        raise ParameterError(f"object = {spec!r} is not allowed: must be 'plane', 'sphere:RADIUS', 'cylinder:RADIUS' "
-                             "or an existing mesh file")
-    return Mesh(path, uv_scale=uv_scale, normals="vertex" if vertex_normals else None)
-
-
 @cli.command()
 @click.option("--texture", "texture_spec", required=True,
               help="FILE (a line scan or an areal map in any format SurfaceTopography reads: Dektak, X3P, SDF, "
@@ -636,7 +608,7 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
     if raw and not hasattr(tex, "band_limited"):
         raise ParameterError(f"--raw is not allowed with the synthetic texture {texture_spec!r}: it applies to measured "
                              "textures read from a file")
-    base = _object_from_spec(object_spec, uv_scale, vertex_normals)
+    base = object_from_spec(object_spec, uv_scale, vertex_normals)
     dev = _build_device(ctx, device_spec, joint_damping, mass, damping, sampling_period, delay,
                         3 if base is not None else tex.dimension + 1)
     x_range = None
@@ -787,7 +759,7 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
             if letter != "F":
                 raise ParameterError(f"{flag} is not allowed with --algorithm {letter}: it applies to F only")
             params[name] = value
-    base = _object_from_spec(object_spec, uv_scale)
+    base = object_from_spec(object_spec, uv_scale)
     if base is not None:
         if params:
             raise ParameterError(f"--{next(iter(params)).replace('_', '-')} is not allowed with --object: the "
@@ -890,7 +862,7 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
         from .textures import Flat
 
         tex = Flat(dimension=2)
-    base = _object_from_spec(object_spec, uv_scale)
+    base = object_from_spec(object_spec, uv_scale)
     if base is not None:
         from .objects import object_algorithm
 

@@ -113,6 +113,7 @@ class ExplorerPage:
         self.w_friction = text("friction", "F: friction μ", s.friction)
         self.w_presliding = text("presliding", "F: presliding d^x_max", s.presliding)
         self.w_section = text("section", "areal: section at y =", s.section)
+        self.w_object = text("object", "areal: on an object (plane, sphere:R, cylinder:R)", s.object)
         self.w_device = choice("device", "device", model.DEVICES)
         self.w_hand = choice("hand", "scan: hand", model.HANDS)
         self.w_speed = text("speed", "scan speed", s.speed)
@@ -199,7 +200,7 @@ class ExplorerPage:
 
         texture_box = column(self.w_texture, self.w_amplitude, self.w_period, self.w_terms, self.w_noise, self.w_file,
                              self.w_spacing, self.w_x_unit, self.w_height_unit, self.w_pixel, self.w_hrange,
-                             self.w_section)
+                             self.w_section, self.w_object)
         controls = column(texture_box, self.w_algorithm, self.w_stiffness, self.w_dmax, self.w_friction,
                           self.w_presliding, self.w_device, self.w_hand, self.w_speed, self.w_duration,
                           row(self.b_fig3, self.b_clear), self.b_scan, width=240)
@@ -243,7 +244,7 @@ class ExplorerPage:
         self.w_file.visible = k in ("file", "image")
         self.w_pixel.visible = self.w_hrange.visible = k == "image"
         self.w_spacing.visible = self.w_x_unit.visible = self.w_height_unit.visible = k == "file"
-        self.w_section.visible = self.scene is not None and self.scene.dimension == 3
+        self.w_section.visible = self.w_object.visible = self.scene is not None and self.scene.dimension == 3
         self.w_friction.visible = self.w_presliding.visible = letter == "F"
         self.f_heights.visible = self.scene is not None and self.scene.dimension == 3
         axes = "xyz" if self.f_heights.visible else "xz"
@@ -394,7 +395,7 @@ class ExplorerPage:
         z = v.maps.z
         self.x_range.start, self.x_range.end = x0 * MM, x1 * MM
         self.z_range.start, self.z_range.end = float(z[0]) * MM, float(z[-1]) * MM
-        self.src_boundary.data = dict(x=v.boundary_x * MM, h=v.boundary_h * MM, h0=np.zeros_like(v.boundary_x))
+        self.src_boundary.data = dict(x=v.boundary_x * MM, h=v.boundary_h * MM, h0=v.boundary_h0 * MM)
         a = v.arrows
         X, Z = np.meshgrid(a.x, a.z)
         f = a.force

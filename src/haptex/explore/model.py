@@ -91,6 +91,10 @@ class Settings:
     section : str
         Over a surface, the ordinate y of the section shown and scanned; "auto" is a
         quarter of the way across the region shown (through the egg-crate's peaks).
+    object : str
+        Over a surface, the base the texture is on: "plane" (the paper's wall, every
+        letter), "sphere:RADIUS" or "cylinder:RADIUS" (A, B, C and G; its top at the origin,
+        :mod:`haptex.objects`).
     """
 
     texture: str = "sine"
@@ -115,6 +119,7 @@ class Settings:
     speed: str = "10 mm/s"
     duration: str = "1 s"
     section: str = "auto"
+    object: str = "plane"
 
 
 @dataclass(frozen=True)
@@ -144,7 +149,10 @@ class Views:
     Attributes
     ----------
     boundary_x, boundary_h : ndarray, shape (800,)
-        The textured boundary z = h(x) (or h(x, y) on the section).
+        The textured boundary z = h(x) (or h(x, y) on the section; on an object, its
+        textured surface there, :func:`boundary`).
+    boundary_h0 : ndarray, shape (800,)
+        The nominal surface under it (0 on the plane; the object's base).
     arrows : FieldMap
         The force on the coarse grid :data:`ARROW_GRID`.
     maps : FieldMap
@@ -161,6 +169,11 @@ class Views:
     maps: object
     q: object
     heights: tuple | None = None
+    boundary_h0: np.ndarray | None = None
+
+    def __post_init__(self):
+        if self.boundary_h0 is None:  # (the plane's nominal surface)
+            object.__setattr__(self, "boundary_h0", np.zeros_like(self.boundary_x))
 
 
 @dataclass(frozen=True)
@@ -219,7 +232,19 @@ def build(settings: Settings) -> Scene:
         params["friction"] = quantity(s.friction, "dimensionless", "friction")
         params["presliding"] = quantity(s.presliding, "m", "presliding")
     stiffness = quantity(s.stiffness, "N/m", "stiffness")
-    if letter == "W":
+    on_object = str(s.object).strip().lower() != "plane"
+    if on_object:  # a textured object: A, B, C, G on a sphere or a cylinder (haptex.objects)
+        from .._specs import object_from_spec
+        from ..objects import OBJECT_LETTERS, object_algorithm
+
+        base = object_from_spec(s.object, files=False)
+        if tex.dimension != 2:
+            raise fail("object", s.object, "'plane' over a profile (an object carries an areal texture: choose the "
+                       "egg-crate, a grating, a map or an image)")
+        if letter not in OBJECT_LETTERS:
+            raise fail("algorithm", letter, f"one of {', '.join(OBJECT_LETTERS)} on an object (or the object 'plane')")
+        alg = object_algorithm(letter, tex, base, stiffness)
+    elif letter == "W":
         alg = algorithm("W", Flat(dimension=2) if tex.dimension == 2 else None, stiffness)
         tex = alg.texture  # the smooth wall ignores the texture: show the flat boundary it renders
     else:
@@ -294,6 +319,20 @@ def heights(scene: Scene, x) -> np.ndarray:
     return tex.height_at(np.stack([x, np.full_like(x, scene.section)], -1))
 
 
+def boundary(scene: Scene, x) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The textured and the nominal surface on the section shown: (x, z, z0) (m). On the
+    plane z = h(x) and z0 = 0; on an object the surface points at surface coordinates
+    (x, section) on the base, and the base's own (exactly on the section for a cylinder; for a
+    sphere within its sag, (x^2 + y^2) / 2R, of it)."""
+    x = np.asarray(x, dtype=np.float64)
+    base = getattr(scene.algorithm, "base", None)
+    if base is None:
+        return x, heights(scene, x), np.zeros_like(x)
+    u = np.stack([x, np.full_like(x, scene.section)], -1)
+    top = base.point(u, scene.texture.height_at(u))
+    return top[:, 0], top[:, 2], np.interp(top[:, 0], *base.point(u, np.zeros_like(x))[:, ::2].T)
+
+
 def view_cost(scene: Scene) -> tuple[float, int]:
     """(seconds, field evaluations) the views of ``scene`` are planned to take: q's grid and
     the maps' Jacobians (:mod:`haptex.analysis.cost`: the plans and measured evaluation
@@ -326,8 +365,7 @@ def views(scene: Scene) -> Views:
                              "a smaller map or a shallower max penetration, or run 'haptex design' on it")
     alg, dmax = scene.algorithm, scene.max_penetration
     (x0, x1), yr = window(scene)
-    bx = np.linspace(x0, x1, 800)
-    bh = heights(scene, bx)
+    bx, bh, b0 = boundary(scene, np.linspace(x0, x1, 800))
     y = scene.section if scene.dimension == 3 else 0.0
     arrows = field_map(alg, (x0, x1), n=ARROW_GRID, max_penetration=dmax, y=y)
     maps = field_map(alg, (x0, x1), n=MAP_GRID, max_penetration=dmax, y=y)
@@ -338,7 +376,7 @@ def views(scene: Scene) -> Views:
         gx, gy = np.linspace(x0, x1, MAP_GRID[0]), np.linspace(y0, y1, MAP_GRID[1])
         X, Y = np.meshgrid(gx, gy)
         hmap = (gx, gy, scene.texture.height_at(np.stack([X, Y], -1)))
-    return Views(boundary_x=bx, boundary_h=bh, arrows=arrows, maps=maps, q=q, heights=hmap)
+    return Views(boundary_x=bx, boundary_h=bh, arrows=arrows, maps=maps, q=q, heights=hmap, boundary_h0=b0)
 
 
 def section_points(scene: Scene, xs, zs) -> np.ndarray:
