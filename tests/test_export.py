@@ -513,3 +513,22 @@ def test_an_object_at_the_command_line_exports(tmp_path):
                         "2 kN/m", "--max-force", "5 N", "--object", "sphere:12.7323954mm", "--out", str(tmp_path)],
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and "algorithm" in r.stderr
+
+
+@pytest.mark.parametrize("tex", [hx.Sinusoid(A, L), hx.SumOfGratings.egg_crate(0.2e-3, 2e-3)], ids=["sine", "egg"])
+def test_the_god_object_exports_and_ticks_as_the_renderer(tmp_path, objdir, tex):
+    # issue 32: the proxy's C tick (its descent, its history) written for firmware: along a
+    # stroke in and out of the wall, back and forth, every tick equals the compiled Renderer's
+    # bit for bit, and so does the largest work
+    from haptex.proxy import GodObject
+
+    g = GodObject(tex, K0)
+    c = Compiled(g, tmp_path, objdir, max_force=5.0)
+    assert "HX_ALG_PROXY" in (tmp_path / "haptex_texture.c").read_text()
+    r = hx.Renderer(g, max_force=5.0)
+    d = g.dimension
+    p = _stroke3(3001) if d == 3 else _stroke3(3001)[:, ::2]
+    got = c.forces(p)
+    ref = np.array([r.step(tuple(q)) for q in p.tolist()])
+    assert np.array_equal(got, ref) and np.abs(ref).max() > 0.5  # (in contact: forces of newtons)
+    assert c.count("max_work") == r.max_work

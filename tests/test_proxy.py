@@ -149,3 +149,22 @@ def test_on_a_sphere_the_proxy_lies_on_the_textured_surface_and_tends_to_the_pla
     # both absorb (measured -12.1 and -14.0 uJ at R = 1.27 m: they differ by far more than d/R,
     # which is not explained yet; only the sign is asserted)
     assert r["work"] < -1e-6 and flat["work"] < -1e-6
+
+
+@pytest.mark.parametrize("tex", [SINE, EGG], ids=["sine", "egg"])
+def test_the_renderer_runs_the_god_objects_c_tick_with_bounded_counted_work(tex):
+    # the same C tick as GodObject.step, in the servo loop's Renderer (its safety rules around
+    # it): along a stroke in and out of the wall the forces are the god-object's, never above the
+    # maximum, and a tick's work is within the descent's structural bound (200 Newton steps, each
+    # backtracked at most 40 times, one texture evaluation each, and the tick's two)
+    from haptex.core import _ext
+
+    g, ref = GodObject(tex, K), GodObject(tex, K)
+    r = hx.Renderer(g, max_force=50.0)
+    t = np.linspace(0.0, 1.0, 4001)
+    x, y, z = 3e-3 * np.sin(2 * np.pi * 3 * t), 1e-3 * np.sin(2 * np.pi * 5 * t), -1e-3 * np.sin(2 * np.pi * 2 * t)
+    pts = np.column_stack([x, y, z] if g.dimension == 3 else [x, z])
+    f = np.array([r.step(tuple(q)) for q in pts.tolist()])
+    np.testing.assert_array_equal(f, np.array([ref.step(q) for q in pts]))
+    assert np.abs(f).max() > 1.0 and np.linalg.norm(f, axis=1).max() <= 50.0 * (1 + 1e-12)
+    assert 0 < r.max_work <= 3 + _ext.PROXY_STEPS * (1 + _ext.PROXY_HALVINGS)

@@ -188,3 +188,16 @@ def test_haptex_run_renders_a_texture_on_an_object(tmp_path, capsys):
     assert main(["run", "--device", "simulated:pantograph", "--object", "sphere:12.7323954mm", "--duration",
                  "0.1s"]) == 2
     assert "3-DOF" in capsys.readouterr().err
+
+
+def test_haptex_run_renders_the_god_object(capsys):
+    # issue 32: --algorithm proxy runs the god-object's C tick (haptex.proxy.GodObject) on the
+    # simulated Falcon under the same rules: the hand pressed 1 mm in, forces pushing out
+    assert main(["run", "--device", "simulated:falcon", "--algorithm", "proxy", "--duration", "1s", "--fast",
+                 "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["algorithm"] == "PROXY" and out["ticks"] == 1000 and out["faults"] == 0
+    assert 0.0 < out["max_force_sent"] <= 8.9 and out["engaged_at"] is not None
+    assert main(["run", "--device", "simulated:falcon", "--algorithm", "proxy", "--object", "sphere:12.7mm",
+                 "--duration", "0.1s"]) == 2
+    assert "--object is not allowed with --algorithm proxy" in capsys.readouterr().err

@@ -808,7 +808,8 @@ def sweep(spec, out, scheduler, workers, quiet):
                    "'haply[:ws://HOST:PORT]' (the Inverse Service, pip install 'haptex[haply]').")
 @click.option("--texture", "texture_spec", default="sine:0.2mm,2mm", show_default=True,
               help="A texture spec as for design (a profile is extruded across y on a 3-DOF device).")
-@click.option("--algorithm", "letter", default="A", show_default=True, help="W or A-G.")
+@click.option("--algorithm", "letter", default="A", show_default=True,
+              help="W or A-G, or 'proxy': a god-object (haptex.proxy.GodObject, with history).")
 @click.option("--stiffness", type=Quantity("N/m"), default=500.0, show_default="500 N/m", help="kappa_0.")
 @click.option("--max-force", type=Quantity("N"), default=None, help="At most the device's (default: the device's).")
 @click.option("--duration", type=Quantity("s"), default=5.0, show_default="5 s")
@@ -868,7 +869,14 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
 
         if backend.dimension != 3:
             raise ParameterError(f"--object is not allowed on {backend.name}: an object needs a 3-DOF device")
+        if letter == "PROXY":
+            raise ParameterError("--object is not allowed with --algorithm proxy: the proxy's C tick is over the "
+                                 "plane (over an object it is Python, haptex.proxy, for analysis)")
         alg = object_algorithm(letter, tex, base, stiffness)
+    elif letter == "PROXY":
+        from .proxy import GodObject
+
+        alg = GodObject(tex, stiffness)
     else:
         alg = algorithm(letter, tex, stiffness)
     dev = backend.device

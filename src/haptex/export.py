@@ -70,7 +70,8 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
     algorithm : Algorithm
         Any of W, A-G on any texture the renderer takes: a Fourier series or sampled profile
         (positions [x, z], ``HAPTEX_DIMENSION`` 2), a sum of gratings, a height map or an
-        extruded profile ([x, y, z], ``HAPTEX_DIMENSION`` 3); or A, B, C, G on an object the
+        extruded profile ([x, y, z], ``HAPTEX_DIMENSION`` 3); or a god-object over the plane
+        (:class:`haptex.proxy.GodObject`); or A, B, C, G on an object the
         renderer takes (:func:`haptex.objects.object_algorithm`: [x, y, z]; a mesh's corners and
         per-triangle constants become tables, its hierarchy is built by ``haptex_init``).
     out : str or Path
@@ -103,8 +104,10 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
     """
     from importlib.metadata import version
 
-    if not isinstance(algorithm, Algorithm):
-        raise ParameterError(f"algorithm = {algorithm!r} is not allowed: must be a haptex algorithm")
+    from .proxy import GodObject
+
+    if not isinstance(algorithm, (Algorithm, GodObject)):
+        raise ParameterError(f"algorithm = {algorithm!r} is not allowed: must be a haptex algorithm or a GodObject")
     fmax = positive_or_inf("max_force", max_force, "N")
     evaluation_budget(max_evaluations)
     base = None
@@ -132,7 +135,12 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
     dim = algorithm.dimension
     kinds = {int(getattr(_ext, n)): "HX_" + n for n in _KINDS}
     surface = kind in (_ext.SURFACE_GRATINGS, _ext.SURFACE_PATCHES)
-    if letter in "DE" and not surface:
+    if isinstance(algorithm, GodObject):
+        work = (f"the proxy's descent: at most {_ext.PROXY_STEPS} Newton steps, each backtracked at most "
+                f"{_ext.PROXY_HALVINGS} times (one texture evaluation each)")
+        aux = np.zeros(0)
+        aux_what = ""
+    elif letter in "DE" and not surface:
         work = ("the closest-point search, bounded by the texture's bound tree whatever the depth"
                 + (" (first its cell table)" if table else ""))
         aux_what = "the closest-point search's data (haptex.closest.table_search_data)"
@@ -155,7 +163,7 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
         description=f"{algorithm!r}, max force {fmax:g} N".replace("*/", "* /"), version=version("haptex"),
         core_files=TICK_FILES, dim=dim, coords="[x, z]" if dim == 2 else "[x, y, z]",
         forces="[f_x, f_z]" if dim == 2 else "[f_x, f_y, f_z]", max_force=_num(fmax),
-        workspace=_num(WORKSPACE_LIMIT), work=work, code_name=f"HX_ALG_{letter}", kind_name=kinds[int(kind)],
+        workspace=_num(WORKSPACE_LIMIT), work=work, code_name=f"HX_ALG_{letter.upper()}", kind_name=kinds[int(kind)],
         params=[("HX_" + n, _num(prm[getattr(_ext, n)])) for n in _PARAMS], rows=rows, cols=cols,
         coeffs=[_num(v) for v in coeffs.ravel()], aux=[_num(v) for v in aux], aux_what=aux_what,
         base=None if base is None else dict(

@@ -17,6 +17,12 @@ the texture's shortest period, each decreasing φ), S(u) = (u, h(u)) on a plane,
 object's point ``base.point(u, h(u))`` over a curved base of :mod:`haptex.objects`; contact
 starts at the probe's foot where it crosses the boundary and ends when the probe is outside the
 boundary at its own foot. Friction on the proxy (Ruspini's) is not modelled.
+
+Over the plane the tick is the C core's (``tick_proxy`` in hx_fields.h: Newton steps on φ with
+the texture's Hessian, at most 200 of them, each backtracked at most 40 times; its texture
+evaluations counted): :meth:`GodObject.step` runs it, and :class:`haptex.Renderer` takes a
+GodObject like an algorithm, for the servo loop. Over a curved base the descent is Python
+(Gauss-Newton on the base's point map), for analysis only.
 """
 
 from __future__ import annotations
@@ -67,16 +73,58 @@ class GodObject:
                 raise fail("base", base, "a base of haptex.objects, with a surface texture (u1, u2)")
             base.check_texture(texture)
         self._max_step = STEP_FRACTION * float(texture.shortest_period)
+        self._core = None
+        if base is None:  # the C core's tick
+            from .core import _ext
+            from .renderer import WORKSPACE_LIMIT
+
+            code, prm, kind, coeffs, aux = self.kernel_spec()
+            self._core = _ext.Renderer(code, prm, kind, coeffs, aux, self.dimension, np.inf, WORKSPACE_LIMIT, False,
+                                       False, 0.0, False, 0.0, lambda p: (0.0,) * self.dimension, 0)
         self.reset()
+
+    letter = "proxy"
+    name = "god-object (proxy)"
+    surfaces = True
+    penetration_kind = "distance"
+
+    def kernel_spec(self):
+        """What the C core's tick reads (as :meth:`haptex.Algorithm.kernel_spec`): the code
+        ``ALG_PROXY``, the parameters (κ0 in ``P_K0``, the longest descent step in ``P_DXMAX``),
+        the texture's kernel data, no auxiliary data.
+
+        Raises
+        ------
+        ParameterError
+            Over a curved base (its descent is not in the C core).
+        """
+        from .core import _ext
+
+        if self.base is not None:
+            raise fail("base", self.base, "None for the C core's proxy (over a curved base it is Python, for "
+                       "analysis)")
+        prm = np.full(_ext.N_PARAMS, -1.0)
+        prm[_ext.P_K0], prm[_ext.P_DXMAX] = self.stiffness, self._max_step
+        kind, coeffs = self.texture.kernel_data()
+        return (_ext.ALG_PROXY, prm, kind, np.require(coeffs, np.float64, ["C", "W"]), np.zeros(1))
+
+    object_spec = kernel_spec
 
     def reset(self) -> None:
         """Out of contact, no history."""
         self._u = None
         self._free = None
+        if self._core is not None:
+            self._core.reset()
 
     @property
     def proxy(self) -> np.ndarray | None:
         """The proxy's position on the boundary (m), shape (d,), or None out of contact."""
+        if self._core is not None:
+            u = self._core.adhesion
+            if u is None:
+                return None
+            return np.append(u[:self.dimension - 1], self._h(np.array(u[:self.dimension - 1])))
         if self._u is None:
             return None
         return self._surface(self._u)
@@ -123,40 +171,6 @@ class GodObject:
                 return u
         return u
 
-    def _descend(self, u, p) -> np.ndarray:
-        """The local minimum of phi(u) = |u - p_xy|^2 + (h(u) - p_z)^2 reached from u."""
-        tex, pxy, pz = self.texture, p[:-1], p[-1]
-        eye = np.eye(len(u))
-        for _ in range(MAX_STEPS):
-            x = u[None, :]
-            h = float(tex.height_at(x)[0])
-            g_h = tex.gradient(x)[0]
-            dz = h - pz
-            grad = (u - pxy) + dz * g_h
-            H = eye + np.outer(g_h, g_h) + dz * tex.hessian(x)[0]
-            try:
-                s = -np.linalg.solve(H, grad)
-                if grad @ s >= 0:  # not a descent direction (H not positive definite there)
-                    raise np.linalg.LinAlgError
-            except np.linalg.LinAlgError:
-                s = -grad / (1.0 + g_h @ g_h)
-            n = float(np.linalg.norm(s))
-            if n > self._max_step:
-                s *= self._max_step / n
-            phi = float((u - pxy) @ (u - pxy) + dz * dz)
-            for _ in range(40):  # backtrack until phi decreases
-                v = u + s
-                hv = self._h(v)
-                if (v - pxy) @ (v - pxy) + (hv - pz) ** 2 <= phi:
-                    break
-                s = 0.5 * s
-            else:
-                return u
-            u = v
-            if float(np.linalg.norm(s)) <= 1e-15 + 1e-12 * float(np.linalg.norm(u)):
-                return u
-        return u
-
     def step(self, p) -> np.ndarray:
         """One tick: the force (N), shape (d,), at the probe position ``p`` (m), shape (d,).
 
@@ -168,13 +182,15 @@ class GodObject:
         p = np.asarray(p, dtype=float).reshape(-1)
         if p.shape != (self.dimension,) or not np.all(np.isfinite(p)):
             raise fail("p", p.tolist(), f"{self.dimension} finite coordinates (m)")
+        if self._core is not None:  # over the plane: the C core's tick
+            f = self._core.tick(float(p[0]), float(p[1]) if self.dimension == 3 else 0.0, float(p[-1]))
+            return np.array([f[0], f[1], f[2]] if self.dimension == 3 else [f[0], f[2]])
         foot, inside = self._foot(p)
         if not inside:  # outside the boundary at its own foot: free
             self._u, self._free = None, foot
             return np.zeros(self.dimension)
         start = self._u if self._u is not None else (self._free if self._free is not None else foot)
-        descend = self._descend if self.base is None else self._descend_object
-        self._u = descend(np.array(start, dtype=float), p)
+        self._u = self._descend_object(np.array(start, dtype=float), p)
         return self.stiffness * (self.proxy - p)
 
 

@@ -172,7 +172,8 @@ class Renderer:
     ----------
     algorithm : Algorithm
         W or A–G, from :func:`haptex.algorithm`; its texture's dimension sets the
-        positions' (2 over a profile, 3 over a surface). Or A, B, C or G on an object
+        positions' (2 over a profile, 3 over a surface). Or a god-object over the plane
+        (:class:`haptex.proxy.GodObject`: its C tick, with history). Or A, B, C or G on an object
         (:func:`haptex.objects.object_algorithm`: a plane, cylinder, sphere or faceted mesh,
         positions [x, y, z]); on a mesh the tick finds the closest point through a
         bounding-volume hierarchy built here, exact, its nodes and triangles visited counted in
@@ -220,8 +221,10 @@ class Renderer:
     def __init__(self, algorithm: Algorithm, max_force: float | None = None, energy_monitor: bool = False,
                  passivity_controller: PassivityController | None = None, period: float | None = None,
                  max_evaluations: int | None = MAX_EVALUATIONS):
-        if not isinstance(algorithm, Algorithm):
-            raise fail("algorithm", algorithm, "a haptex algorithm (haptex.algorithm(...))")
+        from .proxy import GodObject
+
+        if not isinstance(algorithm, (Algorithm, GodObject)):
+            raise fail("algorithm", algorithm, "a haptex algorithm (haptex.algorithm(...)) or a haptex.proxy.GodObject")
         optional_positive("max_force", max_force, "N")
         if passivity_controller is not None and not isinstance(passivity_controller, PassivityController):
             raise fail("passivity_controller", passivity_controller, "None or a haptex.PassivityController")
@@ -233,7 +236,10 @@ class Renderer:
         self.passivity_controller = passivity_controller
         self.dimension = algorithm.dimension
         base = None
-        if getattr(algorithm, "base", None) is not None:  # a textured object (haptex.objects): A, B, C, G
+        if isinstance(algorithm, GodObject):  # the god-object over the plane (its own C tick)
+            code, prm, kind, coeffs, aux = algorithm.kernel_spec()
+            self._search_table = False
+        elif getattr(algorithm, "base", None) is not None:  # a textured object (haptex.objects): A, B, C, G
             code, prm, kind, coeffs, aux, base = algorithm.object_spec()
             self._search_table = False
         else:

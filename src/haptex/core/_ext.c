@@ -674,7 +674,8 @@ static PyObject *Renderer_energy_axis(RendererObject *self, void *closure)
 static PyObject *Renderer_adhesion(RendererObject *self, void *closure)
 {
     (void)closure;
-    if (self->r.model.code != HX_ALG_F || !self->r.st.contact)
+    if (!(self->r.model.code == HX_ALG_F && self->r.st.contact) &&
+        !(self->r.model.code == HX_ALG_PROXY && self->r.st.contact == 1))
         Py_RETURN_NONE;
     return Py_BuildValue("(dd)", self->r.st.adh[0], self->r.st.adh[1]);
 }
@@ -1796,6 +1797,7 @@ PyMODINIT_FUNC PyInit__ext(void)
         {"SURFACE_PATCHES", HX_SURFACE_PATCHES},
         {"ALG_W", HX_ALG_W}, {"ALG_A", HX_ALG_A}, {"ALG_B", HX_ALG_B}, {"ALG_C", HX_ALG_C},
         {"ALG_D", HX_ALG_D}, {"ALG_E", HX_ALG_E}, {"ALG_F", HX_ALG_F}, {"ALG_G", HX_ALG_G},
+        {"ALG_PROXY", HX_ALG_PROXY}, {"PROXY_STEPS", HX_PROXY_STEPS}, {"PROXY_HALVINGS", HX_PROXY_HALVINGS},
         {"N_PARAMS", HX_N_PARAMS}, {"P_K0", HX_P_K0}, {"P_DZMAX", HX_P_DZMAX}, {"P_MU", HX_P_MU},
         {"P_DXMAX", HX_P_DXMAX}, {"P_SCALE", HX_P_SCALE}, {"P_ZSTICK", HX_P_ZSTICK},
         {"CP_VERTICAL", HX_CP_VERTICAL}, {"CP_PERIODIC", HX_CP_PERIODIC}, {"CP_FINITE", HX_CP_FINITE},

@@ -44,8 +44,14 @@ enum {
     HX_ALG_E = 5, /* god-object, closest point, vertical */
     HX_ALG_F = 6, /* friction modulation with presliding */
     HX_ALG_G = 7, /* force shading, eq. 28 */
-    HX_N_ALGS = 8
+    HX_ALG_PROXY = 8, /* a god-object (Zilles & Salisbury 1995; Ruspini et al. 1997): not a letter of the
+                       * paper; the proxy's longest descent step (m) in HX_P_DXMAX */
+    HX_N_ALGS = 9
 };
+
+/* The god-object's descent: at most this many Newton steps a tick, each backtracked at most
+ * HX_PROXY_HALVINGS times (haptex.proxy). */
+enum { HX_PROXY_STEPS = 200, HX_PROXY_HALVINGS = 40 };
 
 /* ---- the parameter vector of an algorithm (float64[HX_N_PARAMS]) ---- */
 enum {

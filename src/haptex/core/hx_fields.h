@@ -178,8 +178,8 @@ HX_INLINE void field_g(const hx_model *m, const double p[3], double f[3], double
     normal_field(m, &t, p[2], 0, f, jac);
 }
 
-/* The letters in the order of HX_ALG_*; NULL: not evaluated by the core yet. */
-static const field_fn FIELDS[HX_N_ALGS] = {field_w, field_a, field_b, field_c, NULL, NULL, NULL, field_g};
+/* The letters in the order of HX_ALG_*; NULL: not a memoryless field (D, E, F, the proxy). */
+static const field_fn FIELDS[HX_N_ALGS] = {field_w, field_a, field_b, field_c, NULL, NULL, NULL, field_g, NULL};
 
 /* F, eq. 26-27 with presliding (eq. 24): the normal force -kappa_0 p^z and the friction
  * force -mu kappa_0 d_z (1 - scale h) d / d^x_max in the plane, d the presliding deflection
@@ -290,6 +290,101 @@ HX_INLINE void tick_de_surface(const int code, const hx_model *m, hx_state *s, c
     }
 }
 
+/* phi(u) = |u - p_xy|^2 + (h(u) - p_z)^2: the squared distance from the probe to the boundary's
+ * point above u (one texture evaluation, counted) */
+HX_INLINE double proxy_phi(const hx_model *m, const double u[2], const double p[3], long *work)
+{
+    double dz = hx__texture_height(&m->tex, u[0], u[1]) - p[2];
+    (*work)++;
+    return (u[0] - p[0]) * (u[0] - p[0]) + (u[1] - p[1]) * (u[1] - p[1]) + dz * dz;
+}
+
+/* The god-object (haptex.proxy.GodObject, over the plane): a point kept on the boundary that
+ * follows the probe with history. Inside (p_z < h at the probe's own foot) the proxy's surface
+ * coordinates u slide from where they were (the last free foot, or the foot, when contact
+ * starts) to the local minimum of phi reached by damped Newton steps (at most HX_P_DXMAX long,
+ * each backtracked until phi decreases; a step that is not a descent direction falls back to
+ * the scaled gradient); the force is the spring kappa_0 (S(u) - p), S(u) = (u, h(u)). State:
+ * contact 1 in contact (u in adh), 2 free with the last foot in last, 0 no history. */
+HX_INLINE void tick_proxy(const hx_model *m, hx_state *s, const double p[3], double f[3])
+{
+    double k = m->prm[HX_P_K0], lmax = m->prm[HX_P_DXMAX], u[2], phi;
+    hx_height t;
+    int it;
+    long work = 1;
+    double h0 = hx__texture_height(&m->tex, p[0], p[1]);
+    s->h = h0;
+    s->pen = 0.0;
+    if (!(p[2] < h0)) { /* outside at its own foot: free, the foot kept for the next contact */
+        s->contact = 2;
+        s->last[0] = p[0];
+        s->last[1] = p[1];
+        s->work = work;
+        return;
+    }
+    if (s->contact == 1) {
+        u[0] = s->adh[0];
+        u[1] = s->adh[1];
+    } else if (s->contact == 2) {
+        u[0] = s->last[0];
+        u[1] = s->last[1];
+    } else {
+        u[0] = p[0];
+        u[1] = p[1];
+    }
+    phi = proxy_phi(m, u, p, &work);
+    for (it = 0; it < HX_PROXY_STEPS; it++) {
+        double dz, g0, g1, a, b, c, det, st[2], n, v[2], pv;
+        int j;
+        hx__texture_eval(&m->tex, u[0], u[1], &t);
+        work++;
+        dz = t.h - p[2];
+        g0 = (u[0] - p[0]) + dz * t.gx;
+        g1 = (u[1] - p[1]) + dz * t.gy;
+        a = 1.0 + t.gx * t.gx + dz * t.hxx; /* the Hessian of phi / 2 */
+        b = t.gx * t.gy + dz * t.hxy;
+        c = 1.0 + t.gy * t.gy + dz * t.hyy;
+        det = a * c - b * b;
+        st[0] = det != 0.0 ? -(c * g0 - b * g1) / det : 0.0;
+        st[1] = det != 0.0 ? -(a * g1 - b * g0) / det : 0.0;
+        if (!(det != 0.0) || !(g0 * st[0] + g1 * st[1] < 0.0) || !isfinite(st[0]) || !isfinite(st[1])) {
+            double sc = 1.0 + t.gx * t.gx + t.gy * t.gy; /* not a descent direction: the scaled gradient */
+            st[0] = -g0 / sc;
+            st[1] = -g1 / sc;
+        }
+        n = hypot(st[0], st[1]);
+        if (n > lmax) {
+            st[0] *= lmax / n;
+            st[1] *= lmax / n;
+        }
+        for (j = 0; j < HX_PROXY_HALVINGS; j++) { /* backtrack until phi decreases */
+            v[0] = u[0] + st[0];
+            v[1] = u[1] + st[1];
+            pv = proxy_phi(m, v, p, &work);
+            if (pv <= phi)
+                break;
+            st[0] *= 0.5;
+            st[1] *= 0.5;
+        }
+        if (j == HX_PROXY_HALVINGS)
+            break;
+        u[0] = v[0];
+        u[1] = v[1];
+        phi = pv;
+        if (hypot(st[0], st[1]) <= 1e-15 + 1e-12 * hypot(u[0], u[1]))
+            break;
+    }
+    s->contact = 1;
+    s->adh[0] = u[0];
+    s->adh[1] = u[1];
+    s->work = work;
+    s->h = hx__texture_height(&m->tex, u[0], u[1]);
+    s->pen = sqrt(phi);
+    f[0] = k * (u[0] - p[0]);
+    f[1] = k * (u[1] - p[1]);
+    f[2] = k * (s->h - p[2]);
+}
+
 /* The tick's force for algorithm `code` (a constant where a caller instantiates a loop per
  * letter, code otherwise). */
 HX_INLINE int hx__tick_force_of(const int code, const hx_model *m, hx_state *s, const double p[3],
@@ -303,6 +398,10 @@ HX_INLINE int hx__tick_force_of(const int code, const hx_model *m, hx_state *s, 
     s->h = NAN;
     if (code == HX_ALG_F) {
         tick_f(m, s, p, f);
+        return HX_OK;
+    }
+    if (code == HX_ALG_PROXY) {
+        tick_proxy(m, s, p, f);
         return HX_OK;
     }
     if (code == HX_ALG_D || code == HX_ALG_E) {

@@ -441,7 +441,8 @@ static void object_g(double k, double pen, double e, const double n[3], const do
 }
 
 /* the letters in the order of HX_ALG_*; NULL: not defined on objects yet */
-static const object_fn OBJECT_FIELDS[HX_N_ALGS] = {NULL, object_a, object_b, object_c, NULL, NULL, NULL, object_g};
+static const object_fn OBJECT_FIELDS[HX_N_ALGS] = {NULL, object_a, object_b, object_c, NULL, NULL, NULL, object_g,
+                                                   NULL};
 
 int hx_object_force(const hx_model *m, hx_state *s, const double p[3], double f[3])
 {

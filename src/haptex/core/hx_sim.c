@@ -275,8 +275,8 @@ HX_LEAN(lean_e3, HX_ALG_E, 3)
 
 /* The letters in the order of HX_ALG_*, per dimension. */
 static const lean_fn LEANS[2][HX_N_ALGS] = {
-    {lean_w2, lean_a2, lean_b2, lean_c2, lean_d2, lean_e2, lean_f2, lean_g2},
-    {lean_w3, lean_a3, lean_b3, lean_c3, lean_d3, lean_e3, lean_f3, lean_g3},
+    {lean_w2, lean_a2, lean_b2, lean_c2, lean_d2, lean_e2, lean_f2, lean_g2, NULL},
+    {lean_w3, lean_a3, lean_b3, lean_c3, lean_d3, lean_e3, lean_f3, lean_g3, NULL},
 };
 
 int hx_run_lean(const hx_model *m, const hx_lean_run *r)
@@ -285,7 +285,7 @@ int hx_run_lean(const hx_model *m, const hx_lean_run *r)
     if (hx_model_check(m) != HX_OK || (r->dim != 2 && r->dim != 3))
         return HX_BAD_COEFFS;
     fn = LEANS[r->dim - 2][m->code];
-    return fn(m, r);
+    return fn != NULL ? fn(m, r) : HX_NOT_IN_CORE; /* (the proxy: the general loop, or none) */
 }
 
 /* ---- the general loop ---------------------------------------------------------------- */
