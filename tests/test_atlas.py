@@ -498,3 +498,32 @@ def test_a_spec_can_name_a_product_preset_and_a_hand_model():
     bad = dict(spec, operator={"kind": "grip", "hand": "none", "depth": "2 mm", "velocity": "0 m/s"})
     with pytest.raises(hx.ParameterError, match="operator.hand"):
         SweepSpec.from_mapping(bad).build()
+
+
+def test_an_atlas_of_a_texture_on_an_object_is_simulate_batch(tmp_path):
+    # issue 32: algorithm.object names the base; the egg-crate on a sphere of 40 periods round on
+    # a 3-DOF point mass pushed into it, three stiffnesses: the store holds simulate_batch's
+    # verdicts run by run; a planar device and an algorithm parameter beside an object are refused
+    from haptex.objects import Sphere, object_algorithm
+    from haptex.operators import ConstantForce
+
+    spec = {"duration": "0.05 s",
+            "algorithm": {"letter": "B", "texture": "egg-crate:0.2mm,2mm", "object": "sphere:12.7323954mm"},
+            "device": {"preset": "point-mass", "dimension": 3, "mass": "0.1 kg", "damping": "0.5 N*s/m",
+                       "period": "100 us"},
+            "operator": {"kind": "push", "force": "1 N"}, "axes": {"stiffness": [
+                "0.5 kN/m", "2 kN/m", "8 kN/m"]}}
+    ds = sweep(spec, tmp_path / "ball.zarr", workers=1)
+    alg = object_algorithm("B", hx.SumOfGratings.egg_crate(0.2e-3, 2e-3), Sphere(12.7323954e-3), 500.0)
+    dev = hx.Device.point_mass(0.1, 0.5, 1e-4, dimension=3)
+    ref = hx.simulate_batch(alg, dev, ConstantForce([0.0, 0.0, -1.0]), 0.05, stiffness=[500.0, 2000.0, 8000.0])
+    np.testing.assert_allclose(ds.deepest_penetration.values, ref.max_penetration, rtol=1e-12)
+    from haptex.simulate import REGIMES
+
+    assert [REGIMES[int(r)] for r in ds.regime.values] == list(ref.regime)
+    planar = {**spec, "device": {"preset": "pantograph"}}
+    with pytest.raises(hx.ParameterError, match="3-DOF"):
+        SweepSpec.from_mapping(planar).build()
+    extra = {**spec, "algorithm": {**spec["algorithm"], "max_penetration": "1 mm"}}
+    with pytest.raises(hx.ParameterError, match="max_penetration is not allowed with algorithm.object"):
+        SweepSpec.from_mapping(extra).build()

@@ -2,7 +2,9 @@
 Zarr through xarray, resumable and deterministic (issue 14).
 
 A sweep SPEC (TOML or YAML) names the fixed parts (algorithm and texture, device, operator,
-duration) and the axes to sweep. The grid of runs (the Cartesian product of the axes) is cut
+duration) and the axes to sweep. The ``[algorithm]`` table may put the texture on an object:
+``object = "sphere:RADIUS"``, ``"cylinder:RADIUS"``, ``"plane"`` or a mesh file (with
+``uv_scale``), for A, B, C, G on a 3-DOF device (:mod:`haptex.objects`). The grid of runs (the Cartesian product of the axes) is cut
 into blocks; each block is one call of :func:`haptex.simulate_batch` on its runs, and one
 Dask task computes one block or, when the blocks are small and many, a few consecutive ones
 (:data:`TASK_SAMPLES`); the client writes each block into the Zarr store as its task finishes,
@@ -275,11 +277,13 @@ class SweepSpec:
         if L is None:
             raise ParameterError("algorithm.letter is missing: give it, or sweep 'algorithm' in [axes]")
         texture_spec = alg_table.pop("texture", None)
+        object_spec = alg_table.pop("object", None)
+        uv_scale = alg_table.pop("uv_scale", None)
         params = {}
         for key, value in alg_table.items():
             if key not in _ALG_QUANTITIES:
                 raise ParameterError(f"algorithm key {key!r} is not allowed: allowed keys are letter, texture, "
-                                     + ", ".join(_ALG_QUANTITIES))
+                                     "object, uv_scale, " + ", ".join(_ALG_QUANTITIES))
             params[key] = _quantity(f"algorithm.{key}", value, _ALG_QUANTITIES[key])
         swept = {a.name for a in self.axes}
         if "stiffness" not in params and "stiffness" not in swept:
@@ -301,7 +305,23 @@ class SweepSpec:
             from .textures import Flat
 
             texture = Flat(dimension=2)  # the wall under a 3-DOF device: the plane z = 0
-        alg = algorithm(str(L), texture, stiffness, **params)
+        if object_spec is not None:  # a textured object (haptex.objects): A, B, C, G, a 3-DOF device
+            from ._specs import object_from_spec
+            from .objects import object_algorithm
+
+            if params:
+                raise ParameterError(f"algorithm.{next(iter(params))} is not allowed with algorithm.object: on an "
+                                     "object the algorithms take a stiffness only")
+            if device.dimension != 3:
+                raise ParameterError("algorithm.object is not allowed on a planar device: an object needs a 3-DOF "
+                                     "device")
+            scale = None if uv_scale is None else _quantity("algorithm.uv_scale", uv_scale, "m")
+            alg = object_algorithm(str(L), texture, object_from_spec(str(object_spec), scale), stiffness)
+        elif uv_scale is not None:
+            raise ParameterError("algorithm.uv_scale is not allowed without algorithm.object: it scales a mesh's "
+                                 "texture coordinates")
+        else:
+            alg = algorithm(str(L), texture, stiffness, **params)
         op = _operator(self.mapping["operator"], device.dimension)
         if self.mapping["operator"].get("kind") == "grip":
             device = _grip(self.mapping["operator"]).attach(device)  # the hand's mass moves with the handle

@@ -37,9 +37,9 @@ point through a bounding-volume hierarchy built once (the analysis path here que
 hierarchy, :class:`Mesh`).
 
 Not yet here (issue 32's later steps): D and E (the closest point on the textured object),
-F, a C^1 mesh base, HAPI's reference algorithm (CHAI3D's is :mod:`haptex.reference`), atlases
-and the explorer over objects (:func:`haptex.simulate` and :func:`haptex.simulate_batch` run
-them; ``haptex export`` writes the renderer's tick).
+F, a C^1 mesh base, HAPI's reference algorithm (CHAI3D's is :mod:`haptex.reference`), q on the
+object's surface in the explorer (:func:`haptex.simulate`, :func:`haptex.simulate_batch` and
+``haptex sweep`` run objects; ``haptex export`` writes the renderer's tick).
 """
 
 from __future__ import annotations
