@@ -476,22 +476,27 @@ def _icosphere_base(subdivisions, R):
     return m, Mesh(m, uv=Sphere(R).local(np.asarray(m.vertices))[0])
 
 
-@pytest.mark.parametrize("base_name", ["sphere", "cylinder", "mesh"])
+@pytest.mark.parametrize("base_name", ["sphere", "cylinder", "mesh", "prism mesh"])
 @pytest.mark.parametrize("letter", ["A", "G"])
 def test_an_object_exports_and_ticks_as_the_renderer(tmp_path, objdir, base_name, letter):
-    # issue 32: A and G on the egg-crate on a sphere, a cylinder and a 1,280-triangle mesh
-    # (its corners and per-triangle constants as tables, its hierarchy built by haptex_init):
+    # issue 32: A and G on the egg-crate on a sphere, a cylinder and a 1,280-triangle mesh,
+    # faceted or swept into prisms along its vertex normals (its corners and per-triangle
+    # constants as tables, its hierarchy built by haptex_init):
     # along a stroke over the object, in and out of it, every tick equals the compiled
     # Renderer's bit for bit (the same C: hx_object.c), and so do the work counts
     from haptex.objects import Cylinder, Sphere, object_algorithm
 
     egg = hx.SumOfGratings.egg_crate(0.2e-3, 2e-3)
     R = 40 * 2e-3 / (2 * np.pi)
+    from haptex.objects import Mesh
+
     base = {"sphere": lambda: Sphere(R), "cylinder": lambda: Cylinder(R),
-            "mesh": lambda: _icosphere_base(3, R)[1]}[base_name]()
+            "mesh": lambda: _icosphere_base(3, R)[1],
+            "prism mesh": lambda: Mesh(_icosphere_base(3, R)[0], uv=_icosphere_base(3, R)[1].uv,
+                                       normals="vertex")}[base_name]()
     alg = object_algorithm(letter, egg, base, K0)
     c = Compiled(alg, tmp_path, objdir, max_force=5.0)
-    assert "HX_BASE_" + base_name.upper() in (tmp_path / "haptex_texture.c").read_text()
+    assert "HX_BASE_" + base_name.split()[-1].upper() in (tmp_path / "haptex_texture.c").read_text()
     r = hx.Renderer(alg, max_force=5.0)
     t = np.linspace(0.0, 1.0, 5_001)
     p = np.column_stack([6e-3 * np.sin(2 * np.pi * 3 * t), 2e-3 * np.cos(2 * np.pi * 2 * t),

@@ -168,6 +168,7 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
         coeffs=[_num(v) for v in coeffs.ravel()], aux=[_num(v) for v in aux], aux_what=aux_what,
         base=None if base is None else dict(
             kind=f"HX_BASE_{type(algorithm.base).__name__.upper()}", radius=_num(base[1]), n_tri=n_tri,
+            prism=int(bool(base[4])),
             tri=[_num(v) for v in base[2].ravel()], face=[_num(v) for v in base[3].ravel()],
             what=repr(algorithm.base)))
     env = _templates()

@@ -31,9 +31,10 @@ A triangle mesh (:class:`Mesh`, read by trimesh) is a base whose coordinates are
 point's (flat facets, the normal turning around edges and vertices), or, given vertex normals,
 those of the prisms swept along them (continuous across edges).
 
-The C core's servo tick (:class:`haptex.Renderer`) takes A, B, C and G on every base but the
-prism mesh (hx_object.c): the same coordinates in closed form, and on a mesh the exact closest
-point through a bounding-volume hierarchy built once (the analysis path here queries the same
+The C core's servo tick (:class:`haptex.Renderer`) takes A, B, C and G on every base
+(hx_object.c): the same coordinates in closed form, on a faceted mesh the exact closest point
+through a bounding-volume hierarchy built once, on the prism mesh the Newton solve in the prism
+from there (the analysis path here queries the same
 hierarchy, :class:`Mesh`).
 
 Not yet here (issue 32's later steps): D and E (the closest point on the textured object),
@@ -124,8 +125,9 @@ class Base:
     """The base's kind in the C core (``haptex.core._ext.BASE_*``); -1: none."""
 
     def core_arrays(self):
-        """The base's arrays for the C core: (kind, radius (m), tri, face), tri and face empty
-        but for a mesh (:meth:`Mesh.core_arrays`); ``haptex export`` writes them as tables.
+        """The base's arrays for the C core: (kind, radius (m), tri, face, prism), tri and face
+        empty and prism False but for a mesh (:meth:`Mesh.core_arrays`); ``haptex export``
+        writes them as tables.
 
         Raises
         ------
@@ -133,9 +135,9 @@ class Base:
             For a base the C core does not evaluate.
         """
         if self.core_kind < 0:
-            raise fail("base", self, "a base the C core evaluates: Plane(), Cylinder(R), Sphere(R) or a faceted Mesh")
+            raise fail("base", self, "a base the C core evaluates: Plane(), Cylinder(R), Sphere(R) or a Mesh")
         return (self.core_kind, 0.0 if math.isinf(self.radius) else float(self.radius), np.zeros((0, 9)),
-                np.zeros((0, _ext.FACE)))
+                np.zeros((0, _ext.FACE)), False)
 
     def core_spec(self):
         """The base in the C core (a ``haptex.core._ext.Base``: a mesh's arrays copied and its
@@ -483,33 +485,19 @@ class Mesh(Base):
         return f"Mesh({len(self._faces)} triangles)"
 
     def core_arrays(self):
-        """The mesh's arrays for the C core: (kind, 0, tri, face), tri (F, 9) the corners (m)
-        and face (F, ``haptex.core._ext.FACE``) each triangle's constants: its normal, its UV
-        map's gradient M, its corners' UV, its sides' and corners' pseudo-normals (``HX_FACE_*``
-        in hx_core.h). The core builds the bounding-volume hierarchy (:meth:`core_spec`).
+        """The mesh's arrays for the C core: (kind, 0, tri, face, prism), tri (F, 9) the
+        corners (m), face (F, ``haptex.core._ext.FACE``) each triangle's constants (its normal,
+        its UV map's gradient M, its corners' UV, its sides' and corners' pseudo-normals, its
+        corners' unit normals, the triangle across each side: ``HX_FACE_*`` in hx_core.h), and
+        prism: the prism base swept along the vertex normals (else the closest point's). The
+        core builds the bounding-volume hierarchy (:meth:`core_spec`).
 
         Raises
         ------
         ParameterError
-            For a mesh with vertex normals (the prism base is not in the C core yet), or one
-            whose arrays would exceed the memory budget.
+            For a mesh whose arrays would exceed the memory budget.
         """
-        if self._vn is not None:
-            raise fail("normals", "given", "None in the C core: it takes the faceted mesh (the prism base swept along "
-                       "vertex normals is not in the C core yet)")
         return self._arrays()
-
-    def core_spec(self):
-        """The faceted mesh in the C core (:meth:`Base.core_spec`).
-
-        Raises
-        ------
-        ParameterError
-            As :meth:`core_arrays`.
-        """
-        if self._vn is not None:
-            self.core_arrays()  # (raises, naming normals)
-        return super().core_spec()
 
     def _arrays(self):
         from ._validation import check_budget
@@ -525,7 +513,12 @@ class Mesh(Base):
             at = _ext.FACE_EDGE + 3 * side
             face[:, at:at + 3] = self._normals[pair[:, 0]] + self._normals[pair[:, 1]]
         face[:, _ext.FACE_VERTEX:_ext.FACE_VERTEX + 9] = self._pseudo[self._vmap].reshape(F, 9)
-        return (self.core_kind, 0.0, np.ascontiguousarray(self._tri.reshape(F, 9)), face)
+        vn = self._vn if self._vn is not None else np.repeat(self._normals[:, None, :], 3, axis=1)
+        face[:, _ext.FACE_VN:_ext.FACE_VN + 9] = vn.reshape(F, 9)
+        for side in range(3):  # the triangle across each side
+            pair = self._edge_faces[self._side_edge[:, side]]
+            face[:, _ext.FACE_NEXT + side] = np.where(pair[:, 0] == np.arange(F), pair[:, 1], pair[:, 0])
+        return (self.core_kind, 0.0, np.ascontiguousarray(self._tri.reshape(F, 9)), face, self._vn is not None)
 
     def _closest(self, flat):
         """(foot, dist, triangle, barycentric) of the closest points of flat (N, 3) (m): exact,

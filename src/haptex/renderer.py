@@ -174,7 +174,7 @@ class Renderer:
         W or A–G, from :func:`haptex.algorithm`; its texture's dimension sets the
         positions' (2 over a profile, 3 over a surface). Or a god-object over the plane
         (:class:`haptex.proxy.GodObject`: its C tick, with history). Or A, B, C or G on an object
-        (:func:`haptex.objects.object_algorithm`: a plane, cylinder, sphere or faceted mesh,
+        (:func:`haptex.objects.object_algorithm`: a plane, cylinder, sphere or mesh, faceted or prism,
         positions [x, y, z]); on a mesh the tick finds the closest point through a
         bounding-volume hierarchy built here, exact, its nodes and triangles visited counted in
         :attr:`last_work`.

@@ -221,13 +221,27 @@ static int fuzz_objects(const hx_model *m0, long *evaluations)
             for (j = 0; j < 3; j++)
                 face[HX_FACE * i + HX_FACE_EDGE + 3 * k + j] = nn[j] / len;
         face[HX_FACE * i + HX_FACE_M] = 1.0; /* u1 = x - x0 on every face (any finite map) */
+        for (k = 0; k < 3; k++) /* the prism base's corner normals: the octahedron's vertices' directions */
+            for (j = 0; j < 3; j++)
+                face[HX_FACE * i + HX_FACE_VN + 3 * k + j] = (OCTA_V[OCTA_F[i][k]][j] - (j == 2 ? -5e-3 : 0.0)) / 5e-3;
+        for (k = 0; k < 3; k++) { /* the triangle across side k (corners k, k + 1) */
+            int a = OCTA_F[i][k], c = OCTA_F[i][(k + 1) % 3], t;
+            for (t = 0; t < n; t++) {
+                int m2, hits = 0;
+                for (m2 = 0; m2 < 3; m2++)
+                    hits += OCTA_F[t][m2] == a || OCTA_F[t][m2] == c;
+                if (t != i && hits == 2)
+                    face[HX_FACE * i + HX_FACE_NEXT + k] = (double)t;
+            }
+        }
     }
     n_node = hx_bvh_build(tri, n, order, box, node);
-    for (kind = 0; kind < HX_N_BASES; kind++) {
+    for (kind = 0; kind <= HX_N_BASES; kind++) { /* (HX_N_BASES: the mesh again, as the prism base) */
         memset(&b, 0, sizeof b);
-        b.kind = kind;
+        b.kind = kind < HX_N_BASES ? kind : HX_BASE_MESH;
+        b.prism = kind == HX_N_BASES;
         b.radius = 5e-3;
-        if (kind == HX_BASE_MESH) {
+        if (b.kind == HX_BASE_MESH) {
             b.n_tri = n;
             b.tri = tri;
             b.face = face;

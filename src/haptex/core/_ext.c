@@ -266,19 +266,20 @@ static void Base_dealloc(BaseObject *self)
 
 static int Base_init(BaseObject *self, PyObject *args, PyObject *kwds)
 {
-    static char *kwlist[] = {"kind", "radius", "tri", "face", NULL};
-    int kind;
+    static char *kwlist[] = {"kind", "radius", "tri", "face", "prism", NULL};
+    int kind, prism = 0;
     double radius;
     PyObject *tri_obj, *face_obj;
     Py_buffer tri, face;
     hx_base *b = &self->base;
     long n;
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "idOO", kwlist, &kind, &radius, &tri_obj, &face_obj))
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "idOO|p", kwlist, &kind, &radius, &tri_obj, &face_obj, &prism))
         return -1;
     Base_free(self);
     memset(b, 0, sizeof *b);
     b->kind = kind;
     b->radius = radius;
+    b->prism = kind == HX_BASE_MESH && prism;
     if (kind == HX_BASE_MESH) {
         if (get_doubles(tri_obj, &tri, 0, 2, "tri") < 0)
             return -1;
@@ -1827,6 +1828,7 @@ PyMODINIT_FUNC PyInit__ext(void)
         {"PC_RING", HX_PC_RING}, {"BASE_PLANE", HX_BASE_PLANE}, {"BASE_CYLINDER", HX_BASE_CYLINDER},
         {"BASE_SPHERE", HX_BASE_SPHERE}, {"BASE_MESH", HX_BASE_MESH}, {"FACE", HX_FACE}, {"FACE_N", HX_FACE_N},
         {"FACE_M", HX_FACE_M}, {"FACE_UV", HX_FACE_UV}, {"FACE_EDGE", HX_FACE_EDGE}, {"FACE_VERTEX", HX_FACE_VERTEX},
+        {"FACE_VN", HX_FACE_VN}, {"FACE_NEXT", HX_FACE_NEXT},
     };
     size_t i;
     if (mod == NULL)

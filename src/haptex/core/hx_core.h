@@ -90,8 +90,15 @@ enum { HX_BASE_PLANE = 0, HX_BASE_CYLINDER = 1, HX_BASE_SPHERE = 2, HX_BASE_MESH
  * of its UV map on its plane (2 x 3, row-major: u = uv_0 + M (p - v_0) there); the UV of its
  * corners (3 x 2); the pseudo-normals of its sides (side k joins corners k and k + 1: the sum
  * of the two triangles' normals) and of its corners (angle-weighted; Baerentzen & Aanaes
- * 2005), 3 x 3 each. */
-enum { HX_FACE_N = 0, HX_FACE_M = 3, HX_FACE_UV = 9, HX_FACE_EDGE = 15, HX_FACE_VERTEX = 24, HX_FACE = 33 };
+ * 2005), 3 x 3 each; for the prism base, its corners' unit normals (3 x 3) and the triangle
+ * across each side (3 indices, as doubles). */
+enum {
+    HX_FACE_N = 0, HX_FACE_M = 3, HX_FACE_UV = 9, HX_FACE_EDGE = 15, HX_FACE_VERTEX = 24, HX_FACE_VN = 33,
+    HX_FACE_NEXT = 42, HX_FACE = 45
+};
+
+/* The prism base's solve: Newton steps in one prism, walks to a neighbour (haptex.objects.Mesh). */
+enum { HX_PRISM_NEWTON = 8, HX_PRISM_WALKS = 32 };
 
 /* The bounding-volume hierarchy's leaves hold at most this many triangles. */
 enum { HX_BVH_LEAF = 4, HX_BVH_STACK = 128 };
@@ -102,6 +109,7 @@ enum { HX_BVH_LEAF = 4, HX_BVH_STACK = 128 };
 typedef struct {
     int kind;            /* HX_BASE_* */
     double radius;       /* cylinder, sphere (m) */
+    int prism;           /* mesh: the prism base swept along the corners' normals (else the closest point's) */
     long n_tri;          /* mesh: triangles */
     const double *tri;   /* n_tri x 9: the corners (m) */
     const double *face;  /* n_tri x HX_FACE */

@@ -339,6 +339,100 @@ static int mesh_local(const hx_base *b, const double p[3], long *tri, double u[2
     return HX_OK;
 }
 
+/* The prism map's residual r = p - sum_k b_k (v_k + e N_k) and the inverse G of its Jacobian
+ * A = dp / d(b1, b2, e) (rows of G: grad b1, grad b2, grad e) at (b, e); 0 where A is singular. */
+static int prism_inverse(const double *v, const double *vn, const double bb[3], double ee, const double p[3],
+                         double r[3], double G[9])
+{
+    double A[9], det;
+    int i, j;
+    for (i = 0; i < 3; i++) {
+        double pos = 0.0;
+        for (j = 0; j < 3; j++)
+            pos += bb[j] * (v[3 * j + i] + ee * vn[3 * j + i]);
+        r[i] = p[i] - pos;
+        A[3 * i + 0] = v[3 + i] - v[i] + ee * (vn[3 + i] - vn[i]);
+        A[3 * i + 1] = v[6 + i] - v[i] + ee * (vn[6 + i] - vn[i]);
+        A[3 * i + 2] = vn[i] + bb[1] * (vn[3 + i] - vn[i]) + bb[2] * (vn[6 + i] - vn[i]);
+    }
+    G[0] = A[4] * A[8] - A[5] * A[7]; /* the adjugate, then over the determinant */
+    G[1] = A[2] * A[7] - A[1] * A[8];
+    G[2] = A[1] * A[5] - A[2] * A[4];
+    G[3] = A[5] * A[6] - A[3] * A[8];
+    G[4] = A[0] * A[8] - A[2] * A[6];
+    G[5] = A[2] * A[3] - A[0] * A[5];
+    G[6] = A[3] * A[7] - A[4] * A[6];
+    G[7] = A[1] * A[6] - A[0] * A[7];
+    G[8] = A[0] * A[4] - A[1] * A[3];
+    det = A[0] * G[0] + A[1] * G[3] + A[2] * G[6];
+    if (!(det != 0.0) || !isfinite(det))
+        return 0;
+    for (i = 0; i < 9; i++)
+        G[i] /= det;
+    return 1;
+}
+
+/* The prism base (haptex.objects.Mesh with vertex normals): p = sum_k b_k (v_k + e N_k), solved
+ * for (b1, b2, e) by HX_PRISM_NEWTON Newton steps from the closest point's, walking to the
+ * neighbour across the side opposite the most negative barycentric coordinate (at most
+ * HX_PRISM_WALKS walks); u = sum_k b_k uv_k, and the rows of the inverse of dp / d(b1, b2, e)
+ * at the solution give grad b1, grad b2 and n = grad e. HX_BAD_COEFFS where the map is
+ * singular. */
+static int prism_local(const hx_base *b, const double p[3], long *tri, double u[2], double ju[6], double *e, double n[3],
+                       long *work)
+{
+    double bary[3], d2, foot[3], bb[3], ee, G[9], r[3];
+    const double *v, *vn, *uv, *nf;
+    long id;
+    int walk, it, i, j;
+    *work = hx_mesh_closest(b, p, *tri, &id, bary, &d2);
+    point_distance2(b->tri + 9 * id, bary, p, foot);
+    nf = b->face + HX_FACE * id + HX_FACE_N;
+    ee = (p[0] - foot[0]) * nf[0] + (p[1] - foot[1]) * nf[1] + (p[2] - foot[2]) * nf[2];
+    for (i = 0; i < 3; i++)
+        bb[i] = bary[i];
+    for (walk = 0; walk < HX_PRISM_WALKS; walk++) {
+        int worst = 0;
+        v = b->tri + 9 * id;
+        vn = b->face + HX_FACE * id + HX_FACE_VN;
+        for (it = 0; it < HX_PRISM_NEWTON; it++) {
+            if (!prism_inverse(v, vn, bb, ee, p, r, G))
+                return HX_BAD_COEFFS;
+            bb[1] += G[0] * r[0] + G[1] * r[1] + G[2] * r[2];
+            bb[2] += G[3] * r[0] + G[4] * r[1] + G[5] * r[2];
+            bb[0] = 1.0 - bb[1] - bb[2];
+            ee += G[6] * r[0] + G[7] * r[1] + G[8] * r[2];
+        }
+        for (i = 1; i < 3; i++)
+            if (bb[i] < bb[worst])
+                worst = i;
+        if (!(bb[worst] < -1e-12))
+            break;
+        /* the side opposite corner k joins corners k + 1 and k + 2: side (k + 1) % 3 */
+        id = (long)b->face[HX_FACE * id + HX_FACE_NEXT + (worst + 1) % 3];
+        if (id < 0 || id >= b->n_tri)
+            return HX_BAD_COEFFS;
+        bb[0] = bb[1] = bb[2] = 1.0 / 3.0; /* from the new triangle's centre, at the same offset */
+        (*work)++;
+    }
+    v = b->tri + 9 * id;
+    vn = b->face + HX_FACE * id + HX_FACE_VN;
+    if (!prism_inverse(v, vn, bb, ee, p, r, G)) /* (at the solution) */
+        return HX_BAD_COEFFS;
+    uv = b->face + HX_FACE * id + HX_FACE_UV;
+    for (i = 0; i < 2; i++) {
+        double d1 = uv[2 + i] - uv[i], d2u = uv[4 + i] - uv[i]; /* du_i / db1, du_i / db2 */
+        u[i] = bb[0] * uv[i] + bb[1] * uv[2 + i] + bb[2] * uv[4 + i];
+        for (j = 0; j < 3; j++)
+            ju[3 * i + j] = d1 * G[j] + d2u * G[3 + j];
+    }
+    for (j = 0; j < 3; j++)
+        n[j] = G[6 + j];
+    *e = ee;
+    *tri = id;
+    return HX_OK;
+}
+
 int hx_base_local(const hx_base *b, const double p[3], long *tri, double u[2], double ju[6], double *e, double n[3],
                   long *work)
 {
@@ -388,7 +482,7 @@ int hx_base_local(const hx_base *b, const double p[3], long *tri, double u[2], d
         n[2] = z / r;
         return HX_OK;
     case HX_BASE_MESH:
-        return mesh_local(b, p, tri, u, ju, e, n, work);
+        return b->prism ? prism_local(b, p, tri, u, ju, e, n, work) : mesh_local(b, p, tri, u, ju, e, n, work);
     default:
         return HX_BAD_COEFFS;
     }
