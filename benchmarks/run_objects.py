@@ -1,7 +1,8 @@
 """The servo tick over textured objects (issue 32): A on the egg-crate (a Fourier texture,
 0.2 mm high, 2 mm period) on the plane, on a sphere of radius 12.7 mm and on trimesh's
 icosphere of that radius with 5,120, 81,920 and 327,680 triangles (the goal: a 10^5-triangle
-mesh, median <= 5 us, worst case bounded and counted).
+mesh, median <= 5 us, worst case bounded and counted), faceted, and at 5,120 and 81,920
+swept into prisms along its vertex normals.
 
 Per object: Renderer.step from Python (median, 99th percentile and largest single call, the
 timer's own cost subtracted), the C core's tick alone (mean per call in Renderer.run's C
@@ -37,6 +38,11 @@ def icosphere(subdivisions):
     return Mesh(m, uv=Sphere(R).local(np.asarray(m.vertices))[0])
 
 
+def prism(base):
+    """The same mesh swept into prisms along its vertex normals (Mesh(normals="vertex"))."""
+    return Mesh(base.mesh, uv=base.uv, normals="vertex")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--calls", type=int, default=100_000)
@@ -53,7 +59,9 @@ def main() -> None:
     for name, make in (("plane", Plane), ("sphere R = 12.7 mm", lambda: Sphere(R)),
                        ("icosphere, 4 subdivisions", lambda: icosphere(4)),
                        ("icosphere, 6 subdivisions", lambda: icosphere(6)),
-                       ("icosphere, 7 subdivisions", lambda: icosphere(7))):
+                       ("icosphere, 7 subdivisions", lambda: icosphere(7)),
+                       ("prism icosphere, 4 subd.", lambda: prism(icosphere(4))),
+                       ("prism icosphere, 6 subd.", lambda: prism(icosphere(6)))):
         base = make()
         alg = object_algorithm("A", EGG, base, 2000.0)
         ut = np.column_stack([x, 0.3e-3 * np.sin(2 * math.pi * x / 5e-3)])
