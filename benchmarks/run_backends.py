@@ -16,7 +16,9 @@ haptex.servo.ServoLoop (the safety rules in C, hx_servo.c):
 - openhaptics-python: the Python callback in HD's thread (takes the GIL each tick), the
   simulator behind;
 - haply: the Inverse Service's WebSocket JSON against the emulator of tests/vendor_stubs.py
-  (1 kHz lock-step; the emulator is Python in the same process, so it competes for the GIL).
+  (1 kHz lock-step; the emulator is Python in the same process, so it competes for the GIL);
+- haply-process: the same emulator in a process of its own, as the real service is: what the
+  backend's lock-step loop does alone in its process.
 
 A deadline is missed when a sample comes more than 1.5 periods after the previous one. The
 first row is the plain C loop of benchmarks/pace_reference.c (a thread waking at 1 kHz and
@@ -42,7 +44,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from tests import vendor_stubs as vs  # noqa: E402
 
 SINE = hx.Extruded(hx.Sinusoid(0.2e-3, 2e-3))
-KINDS = ["simulated", "forcedimension", "openhaptics", "openhaptics-c-device", "openhaptics-python", "haply"]
+KINDS = ["simulated", "forcedimension", "openhaptics", "openhaptics-c-device", "openhaptics-python", "haply",
+         "haply-process"]
 
 
 def backend(kind: str, root: Path, stubs: dict):
@@ -61,6 +64,13 @@ def backend(kind: str, root: Path, stubs: dict):
         b = open_backend("openhaptics")
         b.native = kind == "openhaptics"
         return b, behind
+    if kind == "haply-process":  # the emulator in its own process: its address on its first line
+        code = ("import sys, time; sys.path.insert(0, %r); from tests import vendor_stubs as vs; "
+                "from haptex.backends.simulated import SimulatedBackend; "
+                "s = vs.InverseService(SimulatedBackend('inverse3', realtime=False)); print(s.address, flush=True); "
+                "time.sleep(3600)") % str(Path(__file__).resolve().parents[1])
+        proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
+        return open_backend("haply:" + proc.stdout.readline().strip()), proc
     service = vs.InverseService(SimulatedBackend("inverse3", realtime=False))
     return open_backend("haply:" + service.address), service
 
@@ -85,9 +95,13 @@ def main() -> None:
               f"({100 * int(missed) / int(n):5.3f} %) {'':>9} {'':>10} {'':>11}  (worst period "
               f"{float(worst) * 1e3:.2f} ms)")
         for kind in [args.only] if args.only else KINDS:
-            b, _ = backend(kind, root, stubs)
+            b, behind = backend(kind, root, stubs)
             r = hx.Renderer(hx.algorithm("A", SINE, 500.0), max_force=b.max_force, energy_monitor=True)
-            st, _ = ServoLoop(b, r).run(args.seconds, record=False)
+            try:
+                st, _ = ServoLoop(b, r).run(args.seconds, record=False)
+            finally:
+                if isinstance(behind, subprocess.Popen):
+                    behind.kill()
             share = 100 * st.missed / st.ticks
             print(f"{kind:21} {b.name:28} {1 / b.period:6.0f}/s {st.ticks:7d} {st.missed:6d} ({share:5.3f} %)"
                   f" {st.period_seconds[1] * 1e6:7.0f} us {st.tick_seconds[1] * 1e6:7.1f} us "
