@@ -231,9 +231,15 @@ def test_the_page_shows_a_texture_on_an_object():
     page.w_texture.value = "egg-crate"
     page.w_amplitude.value, page.w_period.value = "0.2 mm", "2 mm"
     assert page.w_object.visible
+    assert not page.f_surface_q.visible
     page.w_object.value = "sphere:12.7323954mm"
     q = hx.characteristic_number(object_algorithm("A", hx.SumOfGratings.egg_crate(0.2e-3, 2e-3), Sphere(R), K0)).value
     assert f'<span id="q-value">{q:.4g}</span>' in page.d_q.text and page.d_message.text.endswith("></span>")
+    # q on the surface: the largest gain over depth at each surface coordinate, its largest value
+    # q's own (the region grids differ: within 2 %)
+    assert page.f_surface_q.visible
+    surface = page.src_surface_q.data["image"][0]
+    assert surface.shape == model.SURFACE_GRID[::-1] and abs(surface.max() / q - 1) < 0.02
     x, h0 = np.asarray(page.src_boundary.data["x"]) / 1e3, np.asarray(page.src_boundary.data["h0"]) / 1e3
     y = page.scene.section
     np.testing.assert_allclose(-h0, (x ** 2 + y ** 2) / (2 * R), rtol=0.01)

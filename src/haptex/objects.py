@@ -38,9 +38,10 @@ from there (the analysis path here queries the same
 hierarchy, :class:`Mesh`).
 
 Not yet here (issue 32's later steps): D and E (the closest point on the textured object),
-F, a C^1 mesh base, HAPI's reference algorithm (CHAI3D's is :mod:`haptex.reference`), q on the
-object's surface in the explorer (:func:`haptex.simulate`, :func:`haptex.simulate_batch` and
-``haptex sweep`` run objects; ``haptex export`` writes the renderer's tick).
+F, a C^1 mesh base, HAPI's reference algorithm (CHAI3D's is :mod:`haptex.reference`), meshes in
+the explorer (:func:`haptex.simulate`, :func:`haptex.simulate_batch` and ``haptex sweep`` run
+objects; ``haptex export`` writes the renderer's tick; ``haptex explore`` shows spheres and
+cylinders with q on their surface).
 """
 
 from __future__ import annotations

@@ -197,6 +197,15 @@ class ExplorerPage:
         self.f_heights.scatter("x", "y", source=self.src_qmark_xy, marker="star", size=18, fill_color="cyan",
                                line_color="black")
         self.f_heights.add_layout(_colour_bar(self.height_mapper, "h (mm)"), "right")
+        # on an object: q on its surface (the largest gain over depth at each surface coordinate)
+        self.src_surface_q = ColumnDataSource(dict(image=[], x=[], y=[], dw=[], dh=[]))
+        self.f_surface_q = figure(title="on the object: ‖J‖₂/κ0, the largest over depth, at surface coordinates "
+                                  "(u1, u2) (mm)", width=460, height=380, x_axis_label="u1 (mm)",
+                                  y_axis_label="u2 (mm)", tools="pan,wheel_zoom,reset", html_id="surface-q")
+        self.surface_q_mapper = LinearColorMapper(palette=Viridis256, low=0, high=1)
+        self.f_surface_q.image("image", "x", "y", "dw", "dh", source=self.src_surface_q,
+                               color_mapper=self.surface_q_mapper)
+        self.f_surface_q.add_layout(_colour_bar(self.surface_q_mapper, "‖J‖₂/κ0"), "right")
 
         texture_box = column(self.w_texture, self.w_amplitude, self.w_period, self.w_terms, self.w_noise, self.w_file,
                              self.w_spacing, self.w_x_unit, self.w_height_unit, self.w_pixel, self.w_hrange,
@@ -206,7 +215,7 @@ class ExplorerPage:
                           row(self.b_fig3, self.b_clear), self.b_scan, width=240)
         readouts = column(self.d_q, self.d_loop, self.d_scan, self.d_timing)
         views = column(row(self.f_field, self.f_gain), row(self.f_curl, column(readouts, self.f_scan)),
-                       row(self.f_heights))
+                       row(self.f_heights, self.f_surface_q))
         doc.add_root(column(self.d_message, row(controls, views)))
         doc.title = "haptex explore"
         self._show_controls()
@@ -247,6 +256,7 @@ class ExplorerPage:
         self.w_section.visible = self.w_object.visible = self.scene is not None and self.scene.dimension == 3
         self.w_friction.visible = self.w_presliding.visible = letter == "F"
         self.f_heights.visible = self.scene is not None and self.scene.dimension == 3
+        self.f_surface_q.visible = self.scene is not None and getattr(self.scene.algorithm, "base", None) is not None
         axes = "xyz" if self.f_heights.visible else "xz"
         for axis, line in self.scan_lines.items():
             line.visible = axis in axes
@@ -435,6 +445,11 @@ class ExplorerPage:
             self.src_heights.data = dict(image=[h * MM], x=[gx[0] * MM], y=[gy[0] * MM], dw=[(gx[-1] - gx[0]) * MM],
                                          dh=[(gy[-1] - gy[0]) * MM])
             self.src_section.data = dict(x=[gx[0] * MM, gx[-1] * MM], y=[scene.section * MM] * 2)
+        if v.surface_q is not None:
+            gu, gw, g = v.surface_q
+            self.surface_q_mapper.low, self.surface_q_mapper.high = float(g.min()), float(max(g.max(), g.min() + 1e-12))
+            self.src_surface_q.data = dict(image=[g], x=[gu[0] * MM], y=[gw[0] * MM], dw=[(gu[-1] - gu[0]) * MM],
+                                           dh=[(gw[-1] - gw[0]) * MM])
 
     def _show_loop(self, energy: float, polygon: np.ndarray, expected=None, source: str = "") -> None:
         xs, zs = polygon[:, 0] * MM, polygon[:, -1] * MM

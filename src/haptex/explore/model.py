@@ -41,6 +41,9 @@ HANDS = [("section-v-b", "Section V-B: 300 N/m, 1 N s/m"), ("light-touch", "ligh
          ("firm-grip", "firm grip (van Beek et al. 2015)")]
 #: Grid of the arrows and of the maps (points per axis along x, z).
 ARROW_GRID, MAP_GRID = (23, 19), (121, 121)
+#: On an object: q on its surface, on this grid of surface coordinates (u1, u2), each the
+#: largest gain over this many depths (chosen: 41 x 41 x 16, about 0.1 s on a sphere).
+SURFACE_GRID, SURFACE_DEPTHS = (41, 41), 16
 #: Longest scan the page runs (s of simulated time): about 0.3 s of computing at T = 100 us.
 MAX_SCAN_DURATION = 10.0
 #: Most vertices a drawn path may keep (loop work costs up to 20 ms a segment for D and E).
@@ -153,6 +156,10 @@ class Views:
         textured surface there, :func:`boundary`).
     boundary_h0 : ndarray, shape (800,)
         The nominal surface under it (0 on the plane; the object's base).
+    surface_q : (u1, u2, Q) or None
+        On an object, q on its surface: at each surface coordinate of a :data:`SURFACE_GRID`
+        the largest gain ||J||_2 / kappa_0 over :data:`SURFACE_DEPTHS` depths to the max
+        penetration below the textured surface (u1, u2 in m).
     arrows : FieldMap
         The force on the coarse grid :data:`ARROW_GRID`.
     maps : FieldMap
@@ -170,6 +177,7 @@ class Views:
     q: object
     heights: tuple | None = None
     boundary_h0: np.ndarray | None = None
+    surface_q: tuple | None = None
 
     def __post_init__(self):
         if self.boundary_h0 is None:  # (the plane's nominal surface)
@@ -370,13 +378,22 @@ def views(scene: Scene) -> Views:
     arrows = field_map(alg, (x0, x1), n=ARROW_GRID, max_penetration=dmax, y=y)
     maps = field_map(alg, (x0, x1), n=MAP_GRID, max_penetration=dmax, y=y)
     q = characteristic_number(alg, max_penetration=dmax)
-    hmap = None
+    hmap = surface = None
+    if getattr(alg, "base", None) is not None:  # q on the object's surface, depth by depth
+        (u0, u1), (w0, w1) = (x0, x1), yr
+        gu, gw = np.linspace(u0, u1, SURFACE_GRID[0]), np.linspace(w0, w1, SURFACE_GRID[1])
+        depth = np.linspace(dmax / SURFACE_DEPTHS, dmax, SURFACE_DEPTHS)
+        U, W, D = np.meshgrid(gu, gw, depth)
+        pts = alg.region_points(np.stack([U, W], -1), D)
+        gain = np.linalg.norm(alg.jacobian(pts), ord=2, axis=(-2, -1)) / alg.stiffness
+        surface = (gu, gw, gain.max(axis=-1))
     if scene.dimension == 3:
         y0, y1 = yr
         gx, gy = np.linspace(x0, x1, MAP_GRID[0]), np.linspace(y0, y1, MAP_GRID[1])
         X, Y = np.meshgrid(gx, gy)
         hmap = (gx, gy, scene.texture.height_at(np.stack([X, Y], -1)))
-    return Views(boundary_x=bx, boundary_h=bh, arrows=arrows, maps=maps, q=q, heights=hmap, boundary_h0=b0)
+    return Views(boundary_x=bx, boundary_h=bh, arrows=arrows, maps=maps, q=q, heights=hmap, boundary_h0=b0,
+                 surface_q=surface)
 
 
 def section_points(scene: Scene, xs, zs) -> np.ndarray:
