@@ -168,3 +168,22 @@ def test_the_renderer_runs_the_god_objects_c_tick_with_bounded_counted_work(tex)
     np.testing.assert_array_equal(f, np.array([ref.step(q) for q in pts]))
     assert np.abs(f).max() > 1.0 and np.linalg.norm(f, axis=1).max() <= 50.0 * (1 + 1e-12)
     assert 0 < r.max_work <= 3 + _ext.PROXY_STEPS * (1 + _ext.PROXY_HALVINGS)
+
+
+def test_the_simulator_runs_the_god_object():
+    # the exact sampled-data loop with the proxy's C tick (the general loop): on the paper-style
+    # gentle sinusoid (0.2 mm, 2 mm) scanned 1 mm deep by Section V-B's hand the closest point is
+    # unique along the run, so the proxy is D's point and the run is D's to 1e-9 m (measured
+    # 7e-12 m); the energy balance closes; a batch over stiffnesses is simulate run by run
+    from haptex.operators import ScanningHand
+
+    gentle = hx.Sinusoid(0.2e-3, 2e-3)
+    dev, op = hx.Device.point_mass(), ScanningHand(300.0, 1.0, velocity=0.01, depth=1e-3)
+    proxy = hx.simulate(GodObject(gentle, K), dev, op, 1.0)
+    d = hx.simulate(hx.algorithm("D", gentle, K), dev, op, 1.0)
+    assert proxy.energy_balance_ok and proxy.max_penetration > 1e-4
+    np.testing.assert_allclose(proxy.position, d.position, rtol=0, atol=1e-9)
+    batch = hx.simulate_batch(GodObject(gentle, K), dev, op, 0.3, stiffness=[1000.0, 4000.0], record=True)
+    for i, k in enumerate([1000.0, 4000.0]):
+        one = hx.simulate(GodObject(gentle, k), dev, op, 0.3)
+        np.testing.assert_array_equal(batch.runs[i].position, one.position)

@@ -20,8 +20,9 @@ boundary at its own foot. Friction on the proxy (Ruspini's) is not modelled.
 
 Over the plane the tick is the C core's (``tick_proxy`` in hx_fields.h: Newton steps on φ with
 the texture's Hessian, at most 200 of them, each backtracked at most 40 times; its texture
-evaluations counted): :meth:`GodObject.step` runs it, and :class:`haptex.Renderer` takes a
-GodObject like an algorithm, for the servo loop. Over a curved base the descent is Python
+evaluations counted): :meth:`GodObject.step` runs it, and :class:`haptex.Renderer`,
+:func:`haptex.simulate` and :func:`haptex.simulate_batch` (the general loop) and ``haptex
+export`` take a GodObject like an algorithm. Over a curved base the descent is Python
 (Gauss-Newton on the base's point map), for analysis only.
 """
 

@@ -600,8 +600,10 @@ class SimulationResult:
 # public entry points
 # --------------------------------------------------------------------------------------
 def _prepare(algorithm, device, operator, duration, initial_position, initial_velocity):
-    if not isinstance(algorithm, Algorithm):
-        raise fail("algorithm", algorithm, "a haptex algorithm (haptex.algorithm(...))")
+    from .proxy import GodObject
+
+    if not isinstance(algorithm, (Algorithm, GodObject)):
+        raise fail("algorithm", algorithm, "a haptex algorithm (haptex.algorithm(...)) or a haptex.proxy.GodObject")
     if not isinstance(device, Device):
         raise fail("device", device, "a haptex.Device")
     if not isinstance(operator, Operator):
@@ -739,7 +741,8 @@ def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration:
         Any of W, A–G (:func:`haptex.algorithm`); or A, B, C, G on a textured object
         (:func:`haptex.objects.object_algorithm`, [x, y, z]): the general loop with the object's
         tick (hx_object.c), its damping regime and penetration from the tick's (h(u) - e, or -e
-        for G).
+        for G); or a god-object over the plane (:class:`haptex.proxy.GodObject`, the general
+        loop with its C tick, its penetration the distance to the proxy).
     device : Device
         The sampled-data device, of the algorithm's dimension.
     operator : Operator
@@ -800,8 +803,9 @@ def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration:
     summary = np.zeros(N_SUMMARY)
     tail_start = int(n_steps * (1 - tail_fraction))
     tail = np.zeros((d, min(n_steps - tail_start, 65536)))
-    if base is None and _lean(fast, operator.kinematic, pc_on, device.delay, device.position_resolution,
-                              device.force_resolution, device.max_force, device.coulomb_friction):
+    if base is None and code != _core._ext.ALG_PROXY and _lean(
+            fast, operator.kinematic, pc_on, device.delay, device.position_resolution, device.force_resolution,
+            device.max_force, device.coulomb_friction):  # (the proxy and objects: the general loop)
         _core_lean(code, kind, nominal, n_steps, device.period, record_every, tail_start, prm[None], coeffs[None],
                    aux[None], fast[None], device.mass[None], np.asarray(operator.force)[None], p0[None], v0[None],
                    rec[None], summary[None], tail[None])
@@ -1194,7 +1198,8 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     freqs = _frequency_table([_texture_frequencies(a, o) for a, _, o in runs])[inverse]
     # the lean loop where none of its omitted machinery is used, else the general one (both C),
     # whose per-run matrices are made only then (N copies of 2 x 10 x 10 maps and forms)
-    in_core = base is None and bool(_lean(fast, ops[0].kinematic, pc_on, delay, delta, fres, fmax, fc))
+    in_core = base is None and code != _core._ext.ALG_PROXY and bool(
+        _lean(fast, ops[0].kinematic, pc_on, delay, delta, fres, fmax, fc))
     if not in_core:
         Phi, Wd, Wo, Bs, Binv = st(6), st(7), st(8), st(9), st(10)
         modal = by_run([_mass_inputs(d_)[1] for d_ in dev])

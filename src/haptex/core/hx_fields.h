@@ -378,11 +378,10 @@ HX_INLINE void tick_proxy(const hx_model *m, hx_state *s, const double p[3], dou
     s->adh[0] = u[0];
     s->adh[1] = u[1];
     s->work = work;
-    s->h = hx__texture_height(&m->tex, u[0], u[1]);
-    s->pen = sqrt(phi);
+    s->pen = sqrt(phi); /* (s->h stays the height under the probe, h0) */
     f[0] = k * (u[0] - p[0]);
     f[1] = k * (u[1] - p[1]);
-    f[2] = k * (s->h - p[2]);
+    f[2] = k * (hx__texture_height(&m->tex, u[0], u[1]) - p[2]);
 }
 
 /* The tick's force for algorithm `code` (a constant where a caller instantiates a loop per
