@@ -33,6 +33,7 @@ Never part of the test run; results are reported in benchmarks/README.md. Sectio
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import os
 import platform
@@ -55,71 +56,36 @@ def best_of(fn, repeat=3):
     return min(times)
 
 
+SECTIONS = (
+    ("renderer", "renderer"),
+    ("simulator", "simulator"),
+    ("worst", "worst-case servo tick (10^6 adversarial calls per algorithm and profile, 10^5 per surface)"),
+    ("export", "exported C tick"),
+    ("design", "design on raw measured data"),
+    ("atlas", "stability atlas on Dask"),
+    ("explore", "explorer: recompute and browser round trip"),
+    ("core", "the C core: binding and fields"),
+    ("backends", "the servo loop on every backend"),
+    ("objects", "the servo tick over textured objects"),
+)
+"""Sections 2-11 in their order: (--only name, heading); each a module benchmarks/run_NAME.py
+(the simulator's: run_sim.py) with a main()."""
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--points", type=int, default=1_000_000)
     ap.add_argument("--json", action="store_true")
-    ap.add_argument("--only", choices=["analysis", "renderer", "simulator", "worst", "export", "design", "atlas",
-                                       "explore", "core", "backends", "objects"])
+    ap.add_argument("--only", choices=["analysis", *(name for name, _ in SECTIONS)])
     args = ap.parse_args()
     if args.only in (None, "analysis"):
         analysis(args)
-    if args.only in (None, "renderer") and not args.json:
-        import run_renderer
-
-        print("\n# renderer")
-        sys.argv = sys.argv[:1]
-        run_renderer.main()
-    if args.only in (None, "simulator") and not args.json:
-        import run_sim
-
-        print("\n# simulator")
-        sys.argv = sys.argv[:1]
-        run_sim.main()
-    if args.only in (None, "worst") and not args.json:
-        import run_worst
-
-        print("\n# worst-case servo tick (10^6 adversarial calls per algorithm and profile, 10^5 per surface)")
-        sys.argv = sys.argv[:1]
-        run_worst.main()
-    if args.only in (None, "export") and not args.json:
-        import run_export
-
-        print("\n# exported C tick")
-        run_export.main()
-    if args.only in (None, "design") and not args.json:
-        import run_design
-
-        print("\n# design on raw measured data")
-        run_design.main()
-    if args.only in (None, "atlas") and not args.json:
-        import run_atlas
-
-        print("\n# stability atlas on Dask")
-        run_atlas.main()
-    if args.only in (None, "explore") and not args.json:
-        import run_explore
-
-        print("\n# explorer: recompute and browser round trip")
-        run_explore.main()
-    if args.only in (None, "core") and not args.json:
-        import run_core
-
-        print("\n# the C core: binding and fields")
-        run_core.main()
-    if args.only in (None, "backends") and not args.json:
-        import run_backends
-
-        print("\n# the servo loop on every backend")
-        sys.argv = sys.argv[:1]
-        run_backends.main()
-    if args.only in (None, "objects") and not args.json:
-        import run_objects
-
-        print("\n# the servo tick over textured objects")
-        sys.argv = sys.argv[:1]
-        run_objects.main()
-
+    for name, heading in SECTIONS:
+        if args.only in (None, name) and not args.json:
+            module = importlib.import_module(f"run_{name}" if name != "simulator" else "run_sim")
+            print(f"\n# {heading}")
+            sys.argv = sys.argv[:1]  # (each section's own defaults)
+            module.main()
 
 def analysis(args) -> None:
 
