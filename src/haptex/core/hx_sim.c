@@ -658,28 +658,37 @@ int hx_run_general(const hx_model *m, const hx_general_run *r)
 
 void hx_tail_amplitudes(double *u, long m, long stride, double *a1, double *a2)
 {
-    double tm = 0.5 * (double)(m - 1), stt = 0.0, mean = 0.0, sty = 0.0, slope;
+    /* least squares on j - tm: sum (j - tm)^2 = m (m^2 - 1) / 12 in closed form, and the
+     * centred sums in one pass; the detrending and the halves' extremes in a second (plain
+     * comparisons, which skip a NaN as fmin/fmax do and, unlike them, need no library call) */
+    double tm = 0.5 * (double)(m - 1), md = (double)m, stt = md * (md * md - 1.0) / 12.0;
+    double su = 0.0, sju = 0.0, mean, sty, slope;
     double lo1 = HUGE_VAL, hi1 = -HUGE_VAL, lo2 = HUGE_VAL, hi2 = -HUGE_VAL;
-    long j;
-    for (j = 0; j < m; j++)
-        stt += ((double)j - tm) * ((double)j - tm);
-    for (j = 0; j < m; j++)
-        mean += u[j * stride];
-    mean /= (double)m;
-    for (j = 0; j < m; j++)
-        sty += ((double)j - tm) * (u[j * stride] - mean);
-    slope = stt > 0.0 ? sty / stt : 0.0;
+    long j, half = m / 2;
+    if (m <= 0) {
+        *a1 = *a2 = 0.0;
+        return;
+    }
     for (j = 0; j < m; j++) {
+        double x = u[j * stride];
+        su += x;
+        sju += ((double)j - tm) * x;
+    }
+    mean = su / md;
+    sty = sju; /* sum (j - tm) (u_j - mean) = sum (j - tm) u_j, as sum (j - tm) = 0 */
+    slope = stt > 0.0 ? sty / stt : 0.0;
+    for (j = 0; j < half; j++) {
         double w = u[j * stride] - mean - slope * ((double)j - tm);
         u[j * stride] = w;
-        if (j < m / 2) {
-            lo1 = fmin(lo1, w);
-            hi1 = fmax(hi1, w);
-        } else {
-            lo2 = fmin(lo2, w);
-            hi2 = fmax(hi2, w);
-        }
+        lo1 = w < lo1 ? w : lo1;
+        hi1 = w > hi1 ? w : hi1;
     }
-    *a1 = m / 2 > 0 ? 0.5 * (hi1 - lo1) : 0.0;
+    for (j = half; j < m; j++) {
+        double w = u[j * stride] - mean - slope * ((double)j - tm);
+        u[j * stride] = w;
+        lo2 = w < lo2 ? w : lo2;
+        hi2 = w > hi2 ? w : hi2;
+    }
+    *a1 = half > 0 ? 0.5 * (hi1 - lo1) : 0.0;
     *a2 = 0.5 * (hi2 - lo2);
 }
