@@ -33,7 +33,7 @@ from . import catalogue, limits
 from .limits import wall_limits
 from . import objects
 from .objects import object_algorithm
-from .renderer import PassivityController, Renderer
+from .renderer import EnergyBounding, PassiveSetPosition, PassivityController, Renderer, Stabiliser
 from .simulate import AxisOscillation, BatchResult, Oscillation, SimulationResult, SimulationWarning, simulate, simulate_batch
 from .tables import PAPER_PARAMETERS, table_ii
 from .atlas import SweepSpec, open_atlas, sweep
@@ -83,6 +83,9 @@ __all__ = [
     "ParameterError",
     "PreslidingState",
     "PassivityController",
+    "EnergyBounding",
+    "PassiveSetPosition",
+    "Stabiliser",
     "Renderer",
     "Sinusoid",
     "SumOfSinusoids",

@@ -166,6 +166,28 @@ def _device_options(func):
     return func
 
 
+STABILISERS = ("energy-bounding", "set-position")
+"""The stabilisers ``--stabiliser`` names (the passivity controller has ``--passivity-control``)."""
+
+
+def _stabiliser(passivity_control, stabiliser, dev, delay=None):
+    """The stabiliser of ``--passivity-control`` or ``--stabiliser`` (one at a time), or None."""
+    from .renderer import EnergyBounding, PassiveSetPosition, PassivityController
+
+    if passivity_control is not None and stabiliser is not None:
+        raise ParameterError(f"stabiliser = {stabiliser} is not allowed with --passivity-control: one stabiliser at a "
+                             "time")
+    if passivity_control is not None:
+        return PassivityController(passivity_control, delay=delay)
+    if stabiliser is None:
+        return None
+    if not dev.min_damping > 0:
+        raise ParameterError(f"stabiliser = {stabiliser} is not allowed on {dev.name}: its damping is 0, and "
+                             "the stabiliser pays only with the device's own dissipation")
+    cls = EnergyBounding if stabiliser == "energy-bounding" else PassiveSetPosition
+    return cls.for_device(dev, delay)
+
+
 def _build_device(ctx, spec: str, joint_damping, mass, damping, sampling_period, delay, dimension: int = 2):
     """The device an invocation describes, refusing parameters of the other preset; a
     point mass is built with ``dimension`` axes (3 for a surface)."""
@@ -229,6 +251,9 @@ def _sim_common(func):
                           "'grating:AMPLITUDE,PERIOD[,DIRECTION]' (a 3-DOF device: point-mass, serial-arm, delta)."),
         click.option("--passivity-control", type=Quantity("N*s/m"), default=None,
                      help="Add a passivity observer/controller with this largest damping, e.g. '20 N*s/m'."),
+        click.option("--stabiliser", type=click.Choice(STABILISERS), default=None,
+                     help="Instead: energy bounding (after Kim & Ryu) or passive set-position modulation (after Lee "
+                          "& Huang), paid with the device's own damping."),
         click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON."),
         click.option("--quiet", is_flag=True, help="No progress display."),
         click.pass_context,
@@ -281,7 +306,7 @@ def path(ctx, **kw):
 def _simulate(ctx, mode, letter, stiffness, amplitude, period, max_penetration, friction, presliding, device_spec,
               joint_damping, mass, damping, sampling_period, delay, duration, plot, save, as_json, quiet=False,
               surface_spec=None,
-              passivity_control=None, band_stiffness=100.0, anchor="0,-30mm", angle=10.0, hand_stiffness=300.0,
+              passivity_control=None, stabiliser=None, band_stiffness=100.0, anchor="0,-30mm", angle=10.0, hand_stiffness=300.0,
               hand_damping=1.0, velocity=0.01, depth=1e-3, path_text=None, speed=1e-3, hand_name=None):
     from . import operators as ops
     from .algorithms import algorithm
@@ -312,7 +337,7 @@ def _simulate(ctx, mode, letter, stiffness, amplitude, period, max_penetration, 
     else:
         alg = algorithm(letter, None if letter == "W" else Sinusoid(amplitude, period), stiffness, **params)
     dev = _build_device(ctx, device_spec, joint_damping, mass, damping, sampling_period, delay, dimension=d)
-    pc = None if passivity_control is None else PassivityController(passivity_control)
+    pc = _stabiliser(passivity_control, stabiliser, dev)
     start = None
     if mode == "thrust":
         if not -80.0 <= angle <= 80.0:
@@ -360,7 +385,9 @@ def _simulate(ctx, mode, letter, stiffness, amplitude, period, max_penetration, 
     if surface_spec is not None:
         summary["surface"] = surface_spec
     if pc is not None:
-        summary["passivity_control"] = pc.max_damping
+        summary["stabiliser"] = pc.label
+        if isinstance(pc, PassivityController):
+            summary["passivity_control"] = pc.max_damping
         summary["passivity_control_samples"] = res.passivity_control_samples
         summary["observed_energy"] = res.observed_energy  # the observer's count; the port's: energy_x + energy_z
     if mode == "thrust":
@@ -815,6 +842,8 @@ def sweep(spec, out, scheduler, workers, quiet):
 @click.option("--duration", type=Quantity("s"), default=5.0, show_default="5 s")
 @click.option("--passivity-control", type=Quantity("N*s/m"), default=None,
               help="A passivity observer/controller with this largest damping (its delay: the device's).")
+@click.option("--stabiliser", type=click.Choice(STABILISERS), default=None,
+              help="Instead: energy bounding or passive set-position modulation, paid with the device's damping.")
 @click.option("--hand", default="light-touch", show_default=True, help="simulated: the hand holding the handle.")
 @click.option("--speed", type=Quantity("m/s"), default=0.01, show_default="10 mm/s",
               help="simulated: the hand's speed along x.")
@@ -825,14 +854,14 @@ def sweep(spec, out, scheduler, workers, quiet):
               help="Write the trace (time, position, force, engaged) to FILE.npz.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
 @click.option("--quiet", is_flag=True, help="No live dashboard.")
-def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration, passivity_control, hand, speed, fast,
-               object_spec, uv_scale, record, as_json, quiet):
+def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration, passivity_control, stabiliser, hand,
+               speed, fast, object_spec, uv_scale, record, as_json, quiet):
     """Render one texture on one device, with the safety rules of haptex.servo and a live dashboard."""
     import numpy as np
 
     from .algorithms import algorithm
     from .backends import open_backend
-    from .renderer import PassivityController, Renderer
+    from .renderer import Renderer
     from .servo import ServoLoop, analyse_trace
     from .surfaces import Extruded
 
@@ -880,7 +909,7 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
     else:
         alg = algorithm(letter, tex, stiffness)
     dev = backend.device
-    pc = None if passivity_control is None else PassivityController(passivity_control, delay=dev.delay)
+    pc = _stabiliser(passivity_control, stabiliser, dev, delay=dev.delay)
     fmax = backend.max_force if max_force is None else max_force
     if not fmax <= backend.max_force:
         raise ParameterError(f"max_force = {fmax:g} N is not allowed: at most the device's {backend.max_force:g} N")
@@ -923,10 +952,13 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
                "period_mean": stats.period_seconds[0], "period_std": stats.period_seconds[1],
                "interrupted": stats.interrupted, "regime": verdict["regime"], "oscillating": osc.oscillating,
                "amplitude": osc.amplitude, "frequency": osc.frequency,
+               "stabiliser": None if pc is None else pc.label,
+               "stabiliser_ticks": 0 if pc is None else renderer.controller_active,
                "units": {"stiffness": "N/m", "max_force": "N", "duration": "s", "engaged_at": "s",
                          "amplitude": "m", "frequency": "Hz",
                          "max_force_sent": "N", "energy_observed": "J", **{f"energy_{a}": "J" for a in axes},
-                         "tick_max": "s", "tick_mean": "s", "period_mean": "s", "period_std": "s"}}
+                         "tick_max": "s", "tick_mean": "s", "period_mean": "s", "period_std": "s",
+                         "stabiliser_ticks": "ticks"}}
     if record is not None:
         np.savez(record, **trace, period=dev.period, units=np.array(["s", "m", "N", "1"]))
     if as_json:

@@ -502,3 +502,128 @@ def wall_map(quick: bool = False) -> dict:
         points.append({"beta": float(beta), "sigma": float(sigma), "passive": bool(beta > 0.5 and sigma >= 0.5),
                        "behaviour": behaviour, "amplitude": amp, "frequency": float(res.frequency[i])})
     return {"beta": betas.tolist(), "sigma": sigmas.tolist(), "points": points, "parameters": p}
+
+
+# -- stabilisers under delay (issue 31) ------------------------------------------------------
+STABILISERS = {
+    "letters": ("A", "G", "F"),
+    "delay": 1,  # samples of computation delay on every device (Fig. 5's, chosen)
+    "duration": 3.0,  # s (chosen)
+    "presets": ("touch", "falcon"),  # with the default hand (haptex.catalogue.DEFAULT_HAND)
+    "hand_depth": 1e-3,  # m: the hand's set-point below the mean surface (chosen)
+    "hand_velocity": 0.02,  # m/s along x (chosen: a slow stroke)
+    "pc_max_damping_fig5": 20.0,  # N s/m: stops G on the Fig. 5 device (tests/test_stabilisers.py)
+    "felt_band": 300.0,  # Hz: the force spectrum a hand still feels (chosen; the vibrotactile band's top)
+}
+"""The stabiliser comparison: every stabiliser on the same cases. On the presets each renders
+the paper's sinusoid (A = 0.8 mm, l = 1 mm) at the manufacturer's published stiffness; the
+passivity controller's largest damping there is chosen as m / (2 T), m the device's least
+apparent mass (chosen: well inside what the sampled device renders, m / T)."""
+
+STABILISER_NAMES = ("none", "passivity controller", "energy bounding", "set-position modulation")
+
+
+def _stabiliser(name: str, dev: Device, pc_damping: float):
+    from .renderer import EnergyBounding, PassiveSetPosition, PassivityController
+
+    if name == "none":
+        return None
+    if name == "passivity controller":
+        return PassivityController(pc_damping)
+    if name == "energy bounding":
+        return EnergyBounding.for_device(dev)
+    return PassiveSetPosition.for_device(dev)
+
+
+def force_error(alg, res, device: Device, band: float) -> tuple[float, float]:
+    """How far a stabilised run's force is from the uncontrolled rendering along its own path.
+
+    The force that acted over each recorded sample (``res.force``, N, shape (n, d); recorded
+    every sample) against the uncontrolled tick (the C core's, F's presliding state included)
+    replayed over the sensed positions it was computed from, 1 + ``device.delay`` samples
+    before (quantised to ``device.position_resolution``).
+
+    Returns
+    -------
+    rms : float
+        RMS of the difference (N).
+    kept : float
+        The share of the uncontrolled force's spectrum from above 0 Hz to ``band`` (Hz) that
+        the difference leaves: 1 - ||D||_band / ||F - mean F||_band over the rFFT bins; 1 when
+        the stabiliser did not act, below 0 when it changed more than the texture's own force.
+    """
+    from .renderer import Renderer
+
+    lag = 1 + int(device.delay)
+    pos = np.ascontiguousarray(res.position[:-lag], dtype=np.float64)
+    delta = device.position_resolution
+    if delta > 0:
+        pos = np.ascontiguousarray(delta * np.round(pos / delta))
+    field = np.empty_like(pos)
+    Renderer(alg)._core.run(pos, field)
+    diff = res.force[lag:] - field
+    rms = float(np.sqrt(np.mean(np.sum(diff ** 2, axis=1)))) if diff.size else 0.0
+    dt = float(res.time[1] - res.time[0]) if res.time.size > 1 else 1.0
+    freq = np.fft.rfftfreq(diff.shape[0], dt)
+    inband = (freq > 0) & (freq <= band)
+    d = np.abs(np.fft.rfft(diff, axis=0))[inband]
+    f = np.abs(np.fft.rfft(field - field.mean(axis=0), axis=0))[inband]
+    ref = float(np.sqrt(np.sum(f ** 2)))
+    return rms, (1.0 - float(np.sqrt(np.sum(d ** 2))) / ref) if ref > 0 else 1.0
+
+
+def stabilisers(quick: bool = False) -> dict:
+    """Every stabiliser on the same cases: the Fig. 5 device (its elastic band) and two presets
+    held by the default hand, A, G and F, with :data:`STABILISERS`' delay.
+
+    Per case and stabiliser: the energy the port supplied (J, the environment's absorbed
+    energy's negative: the exact motion under the forces that acted), the device damper's
+    dissipation (J), the regime and amplitude (m) of the run, the RMS force error against the
+    uncontrolled field along the run's path (N) and the share of the texture's force spectrum up
+    to 300 Hz kept (:func:`force_error`).
+
+    Parameters
+    ----------
+    quick : bool
+        One second a run (for tests).
+
+    Returns
+    -------
+    dict
+        ``rows`` (list of dicts: ``case``, ``short`` (its name in a figure), ``device``, ``algorithm``, ``stiffness`` N/m,
+        ``stabiliser``, ``label``, ``supplied`` J, ``damping`` J, ``regime``, ``amplitude`` m,
+        ``rms_error`` N, ``kept`` (fraction), ``active`` (ticks the stabiliser acted)),
+        ``parameters``.
+    """
+    from .catalogue import DEFAULT_HAND, hand, preset
+
+    s = dict(STABILISERS)
+    dur = 1.0 if quick else s["duration"]
+    p = dict(PASSIVITY)
+    cases = []
+    dev5 = _device(p["joint_damping"], p["working_point"], s["delay"])
+    for L in s["letters"]:
+        cases.append(("Fig. 5 pantograph, elastic band", "Fig. 5", dev5, _alg(L, p), _band(p), [0.0, 1e-3],
+                      s["pc_max_damping_fig5"]))
+    h = hand(DEFAULT_HAND)
+    for key in s["presets"]:
+        pre = preset(key)
+        dev = h.attach(pre.device(delay=s["delay"], dimension=2))
+        op = h.operator(depth=s["hand_depth"], velocity=s["hand_velocity"])
+        pc_b = float(np.linalg.eigvalsh(dev.mass).min()) / (2 * dev.period)
+        for L in s["letters"]:
+            cases.append((f"{pre.label} + {DEFAULT_HAND} hand", key, dev, _alg(L, p, pre.rated_stiffness), op,
+                          [0.0, -s["hand_depth"]], pc_b))
+    rows = []
+    for case, short, dev, alg, op, start, pc_b in cases:
+        for name in STABILISER_NAMES:
+            stab = _stabiliser(name, dev, pc_b)
+            res = simulate(alg, dev, op, dur, initial_position=start, passivity_controller=stab, record_every=1)
+            port = res.totals["energy_x"] + res.totals["energy_z"]
+            rms, kept = force_error(alg, res, dev, s["felt_band"])
+            rows.append({"case": case, "short": short, "device": dev.name, "algorithm": alg.letter, "stiffness": float(alg.stiffness),
+                         "stabiliser": name, "label": "" if stab is None else stab.label, "supplied": float(-port),
+                         "damping": float(res.totals["damping_energy"]), "regime": res.regime,
+                         "amplitude": float(res.oscillation.amplitude), "rms_error": rms, "kept": kept,
+                         "active": int(res.passivity_control_samples)})
+    return {"rows": rows, "parameters": s}

@@ -361,6 +361,41 @@ def plot_wall_map(wall_map: dict, path) -> Path:
     return _finish(plt, fig, path, "Sampled, quantised virtual wall: passivity and behaviour")
 
 
+def plot_stabilisers(rows: list, path) -> Path:
+    """The stabiliser comparison: per case, the energy the port supplied (J, log scale) and the
+    share of the texture's force spectrum up to 300 Hz each stabiliser kept.
+
+    Parameters
+    ----------
+    rows : list of dict
+        ``stabilisers(...)["rows"]`` of :mod:`haptex.experiments`.
+    path : str or Path
+        PNG file to write.
+    """
+    plt = _pyplot()
+    from .experiments import STABILISER_NAMES
+
+    cases = list(dict.fromkeys((r["case"], r["algorithm"]) for r in rows))
+    short = {r["case"]: r["short"] for r in rows}
+    by = {(r["case"], r["algorithm"], r["stabiliser"]): r for r in rows}
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True)
+    width = 0.8 / len(STABILISER_NAMES)
+    x = np.arange(len(cases))
+    for j, name in enumerate(STABILISER_NAMES):
+        sup = [max(by[(c, a, name)]["supplied"], 1e-6) for c, a in cases]
+        kept = [100 * by[(c, a, name)]["kept"] for c, a in cases]
+        ax1.bar(x + (j - 1.5) * width, sup, width, label=name)
+        ax2.bar(x + (j - 1.5) * width, kept, width, label=name)
+    ax1.set_yscale("log")
+    ax1.set_ylabel("energy the port supplied (J)\n(at least 1e-6 shown)")
+    ax1.legend(fontsize=8, ncol=2)
+    ax2.axhline(0.0, color="k", lw=0.8)
+    ax2.set_ylim(-100, 105)
+    ax2.set_ylabel("texture force kept\nup to 300 Hz (%, clipped at -100)")
+    ax2.set_xticks(x, [f"{short[c]}\n{a}" for c, a in cases], fontsize=8)
+    return _finish(plt, fig, path, "Stabilisers with one sample of delay")
+
+
 def plot_atlas(ds, x: str, y: str, where: dict, path) -> Path:
     """Heat maps of one 2-D slice of a stability atlas: the verdict (decays / persists /
     grows) and the energy the environment supplies per second (W), with the analytic

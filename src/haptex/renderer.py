@@ -20,7 +20,8 @@ from ._validation import fail, optional_positive, positive, whole
 from .algorithms import Algorithm
 from .closest import table_search_data
 
-__all__ = ["Renderer", "PassivityController", "WORKSPACE_LIMIT", "MAX_EVALUATIONS", "tick_model"]
+__all__ = ["Renderer", "Stabiliser", "PassivityController", "EnergyBounding", "PassiveSetPosition", "WORKSPACE_LIMIT",
+           "MAX_EVALUATIONS", "tick_model"]
 
 _REAL = (int, float, np.integer, np.floating)
 
@@ -32,8 +33,44 @@ MAX_OBSERVER_DELAY = int(_core._ext.PC_RING) - 1
 """Longest computation delay (ticks) the passivity observer pairs forces over."""
 
 
+class Stabiliser:
+    """A stabiliser of the servo loop, run by the C core on each tick beside the passivity
+    observer: :class:`PassivityController` (Hannaford & Ryu), :class:`EnergyBounding` (after Kim
+    & Ryu) or :class:`PassiveSetPosition` (after Lee & Huang). Every API that takes a
+    ``passivity_controller`` takes any of them."""
+
+    delay: int | None
+
+    @property
+    def mode(self) -> int:
+        """The C core's code for it (``haptex.core._ext.STAB_*``)."""
+        raise NotImplementedError
+
+    @property
+    def core_damping(self) -> float:
+        """The damping the C core is given (N s/m): the controller's largest for
+        :class:`PassivityController`, the device's physical damping for the others."""
+        raise NotImplementedError
+
+    @property
+    def label(self) -> str:
+        """A short name for tables and summaries."""
+        raise NotImplementedError
+
+
+def _delay(value):
+    return None if value is None else whole("delay", value, 0, MAX_OBSERVER_DELAY,
+                                             "ticks between sending a force and its acting")
+
+
+def _device_damping(device) -> float:
+    """The least damping a device's handle has in contact (N s/m; ``Device.min_damping``): its
+    dissipation over a sample is at least that times |dp|^2 / T."""
+    return device.min_damping
+
+
 @dataclass(frozen=True)
-class PassivityController:
+class PassivityController(Stabiliser):
     """A time-domain passivity observer and controller for a servo loop.
 
     The observer sums the energy the virtual environment absorbs, E = -sum f_{k-1-d} . dp_k,
@@ -95,9 +132,163 @@ class PassivityController:
         object.__setattr__(self, "max_damping", positive("max_damping", self.max_damping, "N s/m"))
         if self.reference not in ("stored", "zero"):
             raise fail("reference", self.reference, 'one of "stored", "zero"')
-        if self.delay is not None:
-            object.__setattr__(self, "delay", whole("delay", self.delay, 0, MAX_OBSERVER_DELAY,
-                                                    "ticks between sending a force and its acting"))
+        object.__setattr__(self, "delay", _delay(self.delay))
+
+    @property
+    def mode(self) -> int:
+        return int(_ext.STAB_PC_STORED if self.reference == "stored" else _ext.STAB_PC)
+
+    @property
+    def core_damping(self) -> float:
+        return self.max_damping
+
+    @property
+    def label(self) -> str:
+        return f"passivity controller ({self.max_damping:g} N s/m, {self.reference} reference)"
+
+
+@dataclass(frozen=True)
+class EnergyBounding(Stabiliser):
+    """Energy bounding in the manner of Kim & Ryu: the energy the sampled force generates is
+    bounded by what the device's own damping dissipates.
+
+    The energy the port supplies over a sample is the force that acted over it (sent ``delay``
+    ticks before) times the displacement sensed. It splits, tick by tick, into the virtual
+    environment's own part, -f_k . dp_k (each force with the displacement it answered), and
+    what the zero-order hold and the delay generate, -(f_k - f_acting) . dp_k. Two reservoirs
+    hold them: the environment's (its absorbed energy, from the spring's stored energy at the
+    start) and the hold's (credited with b |dp_k|^2 / T, a lower bound on the device damper's
+    dissipation over the sample, b v^2 integrated, by Cauchy-Schwarz). Both are linear in f_k .
+    dp_k, so the force's component along the last displacement is moved just enough to keep
+    both >= 0; the rest of the force is untouched. Their sum is the observer's energy plus the
+    credit, so while both hold the port supplies no more than the device's damper dissipates.
+
+    Parameters
+    ----------
+    damping : float
+        The device's physical damping b at the handle in contact (N s/m), > 0: its least (for
+        an anisotropic device, the least singular value of its damping matrix;
+        :meth:`for_device`). Credit for damping the device does not have is credit for energy
+        it cannot dissipate. The credit accrues only on ticks in contact (the algorithm's
+        penetration > 0), so a device whose damper acts only in contact (the paper's
+        pantograph energises its brakes inside, Section V-A) is credited correctly.
+    delay : int, optional
+        Ticks between sending a force and its acting (as :class:`PassivityController`).
+
+    Raises
+    ------
+    ParameterError
+        If ``damping`` is not > 0 or ``delay`` is not None or in [0, :data:`MAX_OBSERVER_DELAY`].
+
+    Notes
+    -----
+    The force is held over the next sample, whose displacement is not known when it is
+    chosen; when the hand moves the handle so that the held force supplies more than the
+    damper dissipates, the reservoirs' sum can go below zero by at most T |f|^2 / (4 b) in
+    that sample, and both then recover before the force may supply energy again. The
+    decomposition and the two reservoirs are haptex's discrete statement of Kim & Ryu's
+    principle; their paper's own inequalities were not available to us.
+
+    References
+    ----------
+    J.-P. Kim and J. Ryu, "Energy bounding algorithm based on passivity theorem for stable
+    haptic interaction control", Proc. 12th Int. Symp. on Haptic Interfaces for Virtual
+    Environment and Teleoperator Systems (HAPTICS), 2004, pp. 351–357; J.-P. Kim and J. Ryu,
+    "Robustly stable haptic interaction control using an energy-bounding algorithm", Int. J.
+    Robotics Research 29(6), 2010, pp. 666–679.
+    """
+
+    damping: float
+    delay: int | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "damping", positive("damping", self.damping, "N s/m"))
+        object.__setattr__(self, "delay", _delay(self.delay))
+
+    @classmethod
+    def for_device(cls, device, delay: int | None = None) -> "EnergyBounding":
+        """With the device's least damping in contact (``Device.min_damping``, the least
+        singular value of its damping matrix). Raises ParameterError if that is 0 (nothing to
+        pay with)."""
+        return cls(_device_damping(device), delay)
+
+    @property
+    def mode(self) -> int:
+        return int(_ext.STAB_EBA)
+
+    @property
+    def core_damping(self) -> float:
+        return self.damping
+
+    @property
+    def label(self) -> str:
+        return f"energy bounding (b = {self.damping:.3g} N s/m)"
+
+
+@dataclass(frozen=True)
+class PassiveSetPosition(Stabiliser):
+    """Passive set-position modulation in the manner of Lee & Huang.
+
+    The algorithm's force is read as a coupling spring of stiffness kappa_0 (the algorithm's)
+    stretched from the handle to a set-position, f = kappa_0 (y - p). Each tick the
+    set-position moves towards the handle, along f, no further than keeps the spring's energy
+    |f|^2 / (2 kappa_0) within a reservoir: the energy the port has absorbed (the passivity
+    observer's, each force paired with the displacement it acted over under ``delay``) plus
+    b |dp|^2 / T a sample (a lower bound on what the device's damper dissipated). The force's
+    direction is kept; only its magnitude is reduced, and only when the reservoir runs short.
+    Without delay the reservoir is Lee & Huang's: it changes by the credit less kappa_0 |dp|^2 / 2
+    (the hold's share over a sample) less what moving the set-position stores in the spring.
+
+    Parameters
+    ----------
+    damping : float
+        The device's physical damping b at the handle in contact (N s/m), > 0, credited on
+        ticks in contact (as :class:`EnergyBounding`; :meth:`for_device`).
+    delay : int, optional
+        Ticks between sending a force and its acting (as :class:`PassivityController`).
+
+    Raises
+    ------
+    ParameterError
+        If ``damping`` is not > 0 or ``delay`` is not None or in [0, :data:`MAX_OBSERVER_DELAY`].
+
+    Notes
+    -----
+    Strictly passive (the port supplies at most the credit) when kappa_0 <= 2 b / T, where the
+    credit covers the hold's share; above it the reservoir can run below zero by (kappa_0 / 2 -
+    b / T) |dp|^2 in a sample, and the force then shrinks to zero until it is repaid. A resting
+    contact costs nothing (no motion, no change of stored energy). haptex's statement of the
+    published scheme; the paper's own equations were not available to us.
+
+    References
+    ----------
+    D. J. Lee and K. Huang, "Passive-set-position-modulation framework for interactive robotic
+    systems", IEEE Trans. Robotics 26(2), 2010, pp. 354–369.
+    """
+
+    damping: float
+    delay: int | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "damping", positive("damping", self.damping, "N s/m"))
+        object.__setattr__(self, "delay", _delay(self.delay))
+
+    @classmethod
+    def for_device(cls, device, delay: int | None = None) -> "PassiveSetPosition":
+        """With the device's least damping in contact (as :meth:`EnergyBounding.for_device`)."""
+        return cls(_device_damping(device), delay)
+
+    @property
+    def mode(self) -> int:
+        return int(_ext.STAB_PSPM)
+
+    @property
+    def core_damping(self) -> float:
+        return self.damping
+
+    @property
+    def label(self) -> str:
+        return f"passive set-position modulation (b = {self.damping:.3g} N s/m)"
 
 
 def tick_model(algorithm: Algorithm, max_evaluations: int | None = None):
@@ -185,9 +376,9 @@ class Renderer:
         Keep the passivity observer of Hannaford & Ryu (2002): the running sum of
         -f . dp, exposed as :attr:`energy` (J). It decreases when the texture supplies
         energy to the hand. Implied by ``passivity_controller``.
-    passivity_controller : PassivityController, optional
-        Add the passivity controller's damping to the force (:class:`PassivityController`);
-        needs ``period``.
+    passivity_controller : Stabiliser, optional
+        A stabiliser acting on the force each tick (:class:`PassivityController`,
+        :class:`EnergyBounding` or :class:`PassiveSetPosition`); needs ``period``.
     period : float, optional
         The servo period T (s) at which :meth:`step` is called; required with a
         ``passivity_controller`` (its velocity estimate is dp / T).
@@ -226,8 +417,9 @@ class Renderer:
         if not isinstance(algorithm, (Algorithm, GodObject)):
             raise fail("algorithm", algorithm, "a haptex algorithm (haptex.algorithm(...)) or a haptex.proxy.GodObject")
         optional_positive("max_force", max_force, "N")
-        if passivity_controller is not None and not isinstance(passivity_controller, PassivityController):
-            raise fail("passivity_controller", passivity_controller, "None or a haptex.PassivityController")
+        if passivity_controller is not None and not isinstance(passivity_controller, Stabiliser):
+            raise fail("passivity_controller", passivity_controller, "None or a haptex stabiliser (PassivityController, "
+                       "EnergyBounding, PassiveSetPosition)")
         if passivity_controller is not None and period is None:
             raise fail("period", period, "the servo period in s (> 0) with a passivity_controller")
         T = None if period is None else positive("period", period, "s")
@@ -247,8 +439,8 @@ class Renderer:
         pc = passivity_controller
         self._core = _core._ext.Renderer(
             code, prm, kind, coeffs, aux, self.dimension, math.inf if max_force is None else float(max_force),
-            WORKSPACE_LIMIT, bool(energy_monitor), pc is not None, 0.0 if pc is None else pc.max_damping,
-            pc is not None and pc.reference == "stored", 0.0 if T is None else T, self._step_checked,
+            WORKSPACE_LIMIT, bool(energy_monitor), pc is not None, 0.0 if pc is None else pc.core_damping,
+            0 if pc is None else pc.mode, 0.0 if T is None else T, self._step_checked,
             0 if pc is None or pc.delay is None else pc.delay, base)
         self.step = self._core.step
 

@@ -98,11 +98,13 @@ def compute(quick: bool = False, progress=None, table_params: dict | None = None
     sur = ex.surface_activity(quick)
     step("the virtual wall's passivity map (beta, sigma)")
     pas["wall_map"] = ex.wall_map(quick)
+    step("stabilisers under delay")
+    stab = ex.stabilisers(quick)
     step("claims")
     extra = _extra_numbers(quick)
     claims = _claims(table, pas, con, sur, extra)
     return {"table_ii": table, "passivity": pas, "conservativity": con, "surface_activity": sur,
-            "extra": extra, "claims": claims, "quick": bool(quick)}
+            "stabilisers": stab, "extra": extra, "claims": claims, "quick": bool(quick)}
 
 
 def _extra_numbers(quick: bool) -> dict:
@@ -494,6 +496,7 @@ def write_report(data: dict, out: Path, force: bool = False, elapsed: float | No
                                                     "Fig. 5: thrust with an elastic band (z and E_x + E_z)")
         figs["wall_map"] = plotting.plot_wall_map(data["passivity"]["wall_map"], tmp / "wall_map.png")
         figs["fig5_robustness"] = plotting.plot_robustness(data["passivity"]["robustness"], tmp / "fig5_robustness.png")
+        figs["stabilisers"] = plotting.plot_stabilisers(data["stabilisers"]["rows"], tmp / "stabilisers.png")
         figs["fig6_speed_sweep"] = plotting.plot_speed_sweep(data["conservativity"]["speed_sweep"],
                                                              tmp / "fig6_speed_sweep.png")
         figs["fig6_conservativity"] = plotting.plot_runs(data["conservativity"]["runs"], tmp / "fig6_conservativity.png",
@@ -714,6 +717,7 @@ def summary_json(data: dict, elapsed: float | None = None) -> dict:
                            "runs": [_run_summary(r) for r in con["runs"]], "sensitivity": con["sensitivity"]},
         "surface_activity": {"parameters": sur["parameters"], "metrics": sur["metrics"],
                              "runs": [_run_summary(r) for r in sur["runs"]], "sensitivity": sur["sensitivity"]},
+        "stabilisers": data["stabilisers"],
         "extra": data["extra"],
         "claims": data["claims"],
     })
@@ -784,6 +788,28 @@ def _g(v, fmt=".4g"):
     if text.startswith("-") and float(text) == 0.0:  # "-0.00": a negative number rounded to zero
         text = text[1:]
     return text
+
+
+def _stabilisers_html(stab: dict, figs: dict) -> str:
+    sp = stab["parameters"]
+    rows = [[r["case"], r["algorithm"], r["stiffness"], r["stabiliser"], r["supplied"], r["damping"], r["regime"],
+             r["amplitude"] * 1e3, r["rms_error"], 100 * r["kept"], r["active"]] for r in stab["rows"]]
+    return (
+        "<h3>Stabilisers under delay</h3><p>Every stabiliser on the same cases, with "
+        f"{sp['delay']} sample of computation delay: the Fig. 5 device with its elastic band, and the presets "
+        f"{', '.join(sp['presets'])} held by the default hand (its set-point {sp['hand_depth'] * 1e3:g} mm deep, moving "
+        f"at {sp['hand_velocity'] * 1e3:g} mm/s) at their manufacturers' published stiffness. <em>Supplied</em> is the "
+        "energy the port gave the hand (the exact motion under the forces that acted, not the observer's estimate); "
+        "<em>damper</em> what the device's own damping dissipated. The force error is against the uncontrolled tick "
+        "replayed over the same sensed positions; <em>kept</em> is the share of that force's spectrum up to "
+        f"{sp['felt_band']:g} Hz the stabiliser left (what the hand still feels of the texture). The passivity "
+        "controller (Hannaford &amp; Ryu) dissipates with an added damper; energy bounding (after Kim &amp; Ryu) and "
+        "set-position modulation (after Lee &amp; Huang) pay only with the device damper's dissipation, so the port "
+        "supplies no more than it (tested), but on devices with little damping they must take the texture away to "
+        "do so, and an energy debt from an active algorithm (G) lets the wall give way until it is repaid.</p>"
+        + _table(["case", "alg", "kappa_0 (N/m)", "stabiliser", "supplied (J)", "damper (J)", "regime",
+                  "amplitude (mm)", "RMS force error (N)", "kept (%)", "ticks acted"], rows)
+        + _img(figs["stabilisers"], "stabiliser comparison"))
 
 
 def _typeset(text: str) -> str:
@@ -909,6 +935,7 @@ def _html(data, figs, summary) -> str:
                                               for k, n in sorted(counts.items())) +
         ". Many non-passive points settle: passivity is sufficient, not necessary, for a stable wall.</p>"
         + _img(figs["wall_map"], "virtual wall map"))
+    parts.append(_stabilisers_html(data["stabilisers"], figs))
     con = data["conservativity"]
     parts.append("<h2>Conservativity (Section V-B, Fig. 6)</h2>" + _setup(con["parameters"]))
     ref_a = abs(con["per_period"]["A"]["energy_z"])

@@ -33,7 +33,7 @@ from ._validation import ParameterError, fail, nonnegative, positions, positive,
 from .algorithms import Algorithm
 from .devices import Device
 from .operators import Operator
-from .renderer import PassivityController
+from .renderer import Stabiliser
 
 __all__ = ["SimulationResult", "Oscillation", "simulate", "simulate_batch", "MEMORY_BUDGET", "SimulationWarning",
            "BALANCE_TOLERANCE", "REGIMES", "UNSTABLE", "regime"]
@@ -219,7 +219,7 @@ def _core_general(code, kind, nominal, kinematic, pc_on, pc_ref, n_steps, T, rec
     N = per_run[0].shape[0]
 
     def one(lo, hi):
-        _core._ext.run_general(code, kind, bool(nominal), bool(kinematic), bool(pc_on), bool(pc_ref),
+        _core._ext.run_general(code, kind, bool(nominal), bool(kinematic), bool(pc_on), int(pc_ref),
                                int(n_steps), float(T), int(record_every), int(tail_start), f64(sp_t),
                                *(a[lo:hi] for a in per_run), *(a[lo:hi] for a in outs), base)
 
@@ -700,16 +700,17 @@ def _kernel_inputs(algorithm, device, operator, memo: dict | None = None):
     return code, prm, kind, coeffs, aux, nominal, Phi, Wd, Wo, Bs, Binv, fast, base
 
 
-def _controller(pc: PassivityController | None) -> tuple[bool, float, bool]:
-    """(on, max damping N s/m, the stored reference) of the C loop."""
+def _controller(pc: Stabiliser | None) -> tuple[bool, float, int]:
+    """(on, its damping N s/m, its mode) of the C loop."""
     if pc is None:
-        return False, 0.0, False
-    if not isinstance(pc, PassivityController):
-        raise fail("passivity_controller", pc, "None or a haptex.PassivityController")
-    return True, pc.max_damping, pc.reference == "stored"
+        return False, 0.0, 0
+    if not isinstance(pc, Stabiliser):
+        raise fail("passivity_controller", pc, "None or a haptex stabiliser (PassivityController, EnergyBounding, "
+                   "PassiveSetPosition)")
+    return True, pc.core_damping, pc.mode
 
 
-def _observer_delay(pc: PassivityController | None, delays) -> None:
+def _observer_delay(pc: Stabiliser | None, delays) -> None:
     """Refuse a controller whose observer cannot pair the simulated device's delay: one stated
     otherwise, or longer than it remembers (the simulated observer knows the device's)."""
     if pc is None:
@@ -729,7 +730,7 @@ def _observer_delay(pc: PassivityController | None, delays) -> None:
 @_core.blas_held_to_one_thread
 def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration: float, initial_position=None,
              initial_velocity=None, record_every: int = 1, tail_fraction: float = 0.4,
-             passivity_controller: PassivityController | None = None) -> SimulationResult:
+             passivity_controller: Stabiliser | None = None) -> SimulationResult:
     """Simulate a device in closed loop with an algorithm, driven by an operator.
 
     In the plane (a profile h(x), positions [x, z]) or in space (a surface h(x, y),
@@ -758,9 +759,11 @@ def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration:
         Record one sample in this many (>= 1).
     tail_fraction : float, optional
         Fraction of the run, at its end, on which the oscillation verdict is decided.
-    passivity_controller : PassivityController, optional
-        A passivity observer and controller in the loop (Hannaford & Ryu 2002), acting on
-        the sensed positions like the :class:`haptex.Renderer`; default none.
+    passivity_controller : Stabiliser, optional
+        A stabiliser in the loop, acting on the sensed positions like the
+        :class:`haptex.Renderer`: :class:`haptex.PassivityController` (Hannaford & Ryu 2002),
+        :class:`haptex.EnergyBounding` (after Kim & Ryu 2004) or
+        :class:`haptex.PassiveSetPosition` (after Lee & Huang 2010); default none.
 
     Returns
     -------
@@ -1063,7 +1066,7 @@ def _rebuild(algorithm: Algorithm, device: Device, operator: Operator, values: d
 @_core.blas_held_to_one_thread
 def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, duration: float, initial_position=None,
                    initial_velocity=None, record: bool = False, record_every: int = 1, tail_fraction: float = 0.4,
-                   progress: bool | None = None, passivity_controller: PassivityController | None = None,
+                   progress: bool | None = None, passivity_controller: Stabiliser | None = None,
                    **sweep) -> BatchResult:
     """Run many simulations that differ in some parameters, in one parallel compiled loop.
 

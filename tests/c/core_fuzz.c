@@ -382,7 +382,7 @@ int main(void)
             r.limit = 1e3;
             r.monitor = 1;
             r.pc.on = 1;
-            r.pc.ref_stored = code % 2;
+            r.pc.mode = code % HX_N_STAB;
             r.pc.bmax = 5.0;
             r.pc.T = 1e-3;
             /* D and E need their search data, built in Python (tests/test_core.py runs them

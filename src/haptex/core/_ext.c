@@ -432,19 +432,23 @@ static void Renderer_dealloc(RendererObject *self)
 static int Renderer_init(RendererObject *self, PyObject *args, PyObject *kwds)
 {
     static char *kwlist[] = {"code", "prm", "kind", "coeffs", "aux", "dim", "max_force", "limit", "monitor",
-                             "controller", "max_damping", "stored_reference", "period", "fallback", "delay", "base",
+                             "controller", "max_damping", "mode", "period", "fallback", "delay", "base",
                              NULL};
-    int code, kind, dim, monitor, on, stored, rc, i, delay = 0;
+    int code, kind, dim, monitor, on, stored, rc, i, delay = 0; /* stored: the stabiliser's mode */
     double max_force, limit, bmax, T;
     PyObject *prm_obj, *coeffs_obj, *aux_obj, *fallback, *base = Py_None;
     Py_buffer prm, coeffs, aux;
     size_t bytes;
-    if (!PyArg_ParseTupleAndKeywords(args, kwds, "iOiOOiddppdpdO|iO", kwlist, &code, &prm_obj, &kind, &coeffs_obj,
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "iOiOOiddppdidO|iO", kwlist, &code, &prm_obj, &kind, &coeffs_obj,
                                      &aux_obj, &dim, &max_force, &limit, &monitor, &on, &bmax, &stored, &T, &fallback,
                                      &delay, &base))
         return -1;
     if (base != Py_None && (dim != 3 || !Py_IS_TYPE(base, &BaseType))) {
         PyErr_SetString(PyExc_ValueError, "base must be None or a Base, in 3-D");
+        return -1;
+    }
+    if (stored < 0 || stored >= HX_N_STAB) {
+        PyErr_SetString(PyExc_ValueError, "mode must be one of the HX_STAB_* codes");
         return -1;
     }
     if (delay < 0 || delay >= HX_PC_RING) {
@@ -524,7 +528,7 @@ static int Renderer_init(RendererObject *self, PyObject *args, PyObject *kwds)
     self->r.monitor = monitor || on;
     self->r.pc.on = on;
     self->r.pc.bmax = bmax;
-    self->r.pc.ref_stored = stored;
+    self->r.pc.mode = stored;
     self->r.pc.T = T;
     self->r.pc.delay = delay;
     Py_INCREF(fallback);
@@ -1512,7 +1516,7 @@ done:
 }
 
 PyDoc_STRVAR(run_general_doc,
-"run_general(code, kind, nominal, kinematic, pc_on, pc_ref_stored, n_steps, period, record_every, tail_start,\n"
+"run_general(code, kind, nominal, kinematic, pc_on, pc_mode, n_steps, period, record_every, tail_start,\n"
 "            sp_t, prm, coeffs, aux, Phi, Wd, Wo, Bs, Binv, fast, mass, modal, K, C, f0, sp_p, vend, rest_len,\n"
 "            delay, delta, fres, fmax, fc, pc_bmax, p0, v0, rec, summary, tail)\n--\n\n"
 "The simulator's general loop (hx_run_general) for N runs, the GIL released. sp_t (m,) is shared; every\n"
@@ -1531,7 +1535,7 @@ static PyObject *run_general(PyObject *self, PyObject *const *args, Py_ssize_t n
     enum { SPT, PRM, COEFFS, AUX, PHI, WD, WO, BS, BINV, FAST, MASS, MODAL, KK, CC, F0, SPP, VEND, REST, DELAY, DELTA,
            FRES, FMAX, FC, PCB, P0, V0, REC, SUMMARY, TAIL };
     Py_buffer b[NB];
-    int code, kind, nominal, kinematic, pc_on, pc_ref, got = 0, i, rc = HX_OK, dim;
+    int code, kind, nominal, kinematic, pc_on, pc_ref /* its mode */, got = 0, i, rc = HX_OK, dim;
     long n_steps, record_every, tail_start, nz, n_fast, n_modal, m_sp;
     double period;
     Py_ssize_t N, r;
@@ -1553,7 +1557,12 @@ static PyObject *run_general(PyObject *self, PyObject *const *args, Py_ssize_t n
     nominal = PyObject_IsTrue(args[2]);
     kinematic = PyObject_IsTrue(args[3]);
     pc_on = PyObject_IsTrue(args[4]);
-    pc_ref = PyObject_IsTrue(args[5]);
+    pc_ref = (int)PyLong_AsLong(args[5]);
+    if (pc_ref < 0 || pc_ref >= HX_N_STAB) {
+        if (!PyErr_Occurred())
+            PyErr_SetString(PyExc_ValueError, "pc_mode must be one of the HX_STAB_* codes");
+        return NULL;
+    }
     n_steps = PyLong_AsLong(args[6]);
     period = PyFloat_AsDouble(args[7]);
     record_every = PyLong_AsLong(args[8]);
@@ -1622,7 +1631,7 @@ static PyObject *run_general(PyObject *self, PyObject *const *args, Py_ssize_t n
         run.nominal = nominal;
         run.kinematic = kinematic;
         run.pc_on = pc_on;
-        run.pc_ref_stored = pc_ref;
+        run.pc_mode = pc_ref;
         run.Phi = (const double *)b[PHI].buf + r * 2 * zz;
         run.Wd = (const double *)b[WD].buf + r * 2 * zz;
         run.Wo = (const double *)b[WO].buf + r * 2 * zz;
@@ -1825,7 +1834,8 @@ PyMODINIT_FUNC PyInit__ext(void)
         {"PIECE", HX_PIECE}, {"TABLE_MAXP", HX_TABLE_MAXP}, {"PATCH_X0", HX_PATCH_X0}, {"PATCH_Y0", HX_PATCH_Y0},
         {"PATCH_DX", HX_PATCH_DX}, {"PATCH_DY", HX_PATCH_DY}, {"PATCH_NX", HX_PATCH_NX}, {"PATCH_NY", HX_PATCH_NY},
         {"PATCH_PERIODIC", HX_PATCH_PERIODIC}, {"PATCH_DATA", HX_PATCH_DATA}, {"CONVEX_EVALS", HX_CONVEX_EVALS},
-        {"PC_RING", HX_PC_RING}, {"BASE_PLANE", HX_BASE_PLANE}, {"BASE_CYLINDER", HX_BASE_CYLINDER},
+        {"PC_RING", HX_PC_RING}, {"STAB_PC", HX_STAB_PC}, {"STAB_PC_STORED", HX_STAB_PC_STORED},
+        {"STAB_EBA", HX_STAB_EBA}, {"STAB_PSPM", HX_STAB_PSPM}, {"BASE_PLANE", HX_BASE_PLANE}, {"BASE_CYLINDER", HX_BASE_CYLINDER},
         {"BASE_SPHERE", HX_BASE_SPHERE}, {"BASE_MESH", HX_BASE_MESH}, {"FACE", HX_FACE}, {"FACE_N", HX_FACE_N},
         {"FACE_M", HX_FACE_M}, {"FACE_UV", HX_FACE_UV}, {"FACE_EDGE", HX_FACE_EDGE}, {"FACE_VERTEX", HX_FACE_VERTEX},
         {"FACE_VN", HX_FACE_VN}, {"FACE_NEXT", HX_FACE_NEXT},

@@ -294,17 +294,30 @@ int hx_tick_force(const hx_model *m, hx_state *s, const double p[3], double f[3]
 /* Forces the passivity observer remembers: a computation delay of up to HX_PC_RING - 1 ticks. */
 #define HX_PC_RING 17
 
-/* Time-domain passivity observer and controller (Hannaford & Ryu 2002), over [x, y, z]. */
+/* The stabilisers (hx_passivity.mode): the time-domain passivity controller of Hannaford &
+ * Ryu (2002) with a zero reference, or with the energy stored at the algorithm's penetration
+ * as reference (Ryu et al. 2005); energy bounding after Kim & Ryu (2004); passive
+ * set-position modulation after Lee & Huang (2010). */
+#define HX_STAB_PC 0
+#define HX_STAB_PC_STORED 1
+#define HX_STAB_EBA 2
+#define HX_STAB_PSPM 3
+#define HX_N_STAB 4
+
+/* The passivity observer over [x, y, z] and a stabiliser acting on what it sees. */
 typedef struct {
-    int on;           /* the controller acts (else observe only) */
-    int ref_stored;   /* reference energy: kappa_0 pen^2 / 2 (Ryu et al. 2005), else 0 */
+    int on;           /* the stabiliser acts (else observe only) */
+    int mode;         /* HX_STAB_* */
     int delay;        /* ticks between sending a force and its acting on the device, 0..HX_PC_RING-1 */
-    double bmax;      /* largest damping the controller adds (N s/m) */
+    double bmax;      /* PC: the largest damping it adds; EBA, PSPM: the device's physical damping b
+                       * whose dissipation, at least b |dp|^2 / T a sample, pays for energy (N s/m) */
     double T;         /* servo period (s) */
-    double E;         /* energy the virtual environment absorbed (J) */
+    double E;         /* energy the virtual environment absorbed at the port (J) */
     double e_axis[3]; /* E per axis (J) */
-    double alpha;     /* damping added on the last tick (N s/m) */
-    long active;      /* ticks on which the controller added damping */
+    double credit;    /* EBA, PSPM: the dissipation credited so far, sum b |dp|^2 / T over the
+                       * ticks in contact (penetration > 0) (J) */
+    double alpha;     /* PC: damping added on the last tick (N s/m); EBA, PSPM: the force removed (N) */
+    long active;      /* ticks on which the stabiliser changed the force */
     int have;         /* last[] holds the previous tick's sensed position */
     long sent;        /* forces sent (zero on a fault) since the start */
     double last[3];
@@ -312,9 +325,13 @@ typedef struct {
 } hx_passivity;
 
 /* Observe the energy of the force that acted over the last sample (sent delay ticks before
- * it) over the displacement sensed since, then (when on) add the damping -alpha v that covers
- * a deficit below the reference, alpha <= bmax. Modifies f in place; call hx_passivity_sent
- * with the force actually sent, or hx_passivity_skip when a fault sends none. */
+ * it) over the displacement sensed since; then, when on, the stabiliser of `mode` changes f
+ * in place: PC adds the damping -alpha v that covers a deficit below its reference, alpha <=
+ * bmax; EBA scales f so that the observer's energy plus the credit covers the most that f and
+ * the forces still in flight can generate, T |f|^2 / (4 b) each; PSPM scales f so that a
+ * coupling spring of stiffness k0 holding it stores no more than the observer's energy plus
+ * the credit. Call hx_passivity_sent with the force
+ * actually sent, or hx_passivity_skip when a fault sends none. */
 void hx_passivity_tick(hx_passivity *pc, const double p[3], double f[3], double k0, double pen);
 void hx_passivity_sent(hx_passivity *pc, const double p[3], const double f[3]);
 void hx_passivity_skip(hx_passivity *pc);
@@ -481,7 +498,7 @@ typedef struct {
     long nz;                 /* the augmented state's size: 5 n, or 7 n with a structural mode */
     int nominal;             /* the damping regime from p^z (W, F, G), else from z < h */
     int kinematic;           /* the operator prescribes the motion (a path) */
-    int pc_on, pc_ref_stored;/* the passivity controller, its reference */
+    int pc_on, pc_mode;      /* the stabiliser acts, which one (HX_STAB_*) */
     const double *Phi, *Wd, *Wo; /* [2][nz][nz]: the sample's exact map, the damping's and the
                               * operator's energy forms, outside and inside the wall */
     const double *Bs, *Binv; /* [2][n][n]: the damping matrix, the inverse of the held force's
@@ -499,7 +516,7 @@ typedef struct {
     double period;           /* T (s) */
     long delay;              /* samples of computation delay */
     double delta, fres, fmax, fc; /* encoder resolution (m), force resolution (N), max force (N), Coulomb (N) */
-    double pc_bmax;          /* the controller's largest damping (N s/m) */
+    double pc_bmax;          /* PC: its largest damping; EBA, PSPM: the device's damping (N s/m) */
     const double *p0, *v0;   /* the start (m, m/s), n */
     long record_every, n_rec;
     double *rec;             /* n_rec x (4 n + 4) */

@@ -8,40 +8,24 @@
 #include <math.h>
 #include <string.h>
 
-void hx_passivity_tick(hx_passivity *pc, const double p[3], double f[3], double k0, double pen)
+/* the force that acted over the last sample: sent delay ticks before the last one (none
+ * before it arrived) */
+static const double *acting(const hx_passivity *pc)
 {
     static const double none[3] = {0.0, 0.0, 0.0};
-    double v2, ref, deficit, dq[3];
-    const double *fa;
+    return pc->sent > pc->delay ? pc->hist[(pc->sent - 1 - pc->delay) % HX_PC_RING] : none;
+}
+
+static double dot3(const double *a, const double *b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+/* Hannaford & Ryu (2002): the damping -alpha v, v = dq / T, that dissipates within one sample
+ * the deficit of the observer's energy below the reference, alpha <= bmax */
+static void controller_pc(hx_passivity *pc, const double dq[3], double v2, double f[3], double k0, double pen)
+{
+    double ref = pc->mode == HX_STAB_PC_STORED ? 0.5 * k0 * pen * pen : 0.0, deficit = ref - pc->E;
     int i;
-    pc->alpha = 0.0;
-    if (!pc->have) {
-        /* the first tick: the environment already holds what its spring stores where the probe
-         * starts (put in before the observer watched), and may give it back */
-        if (pc->sent == 0)
-            pc->E = 0.5 * k0 * pen * pen;
-        return;
-    }
-    /* Hannaford & Ryu (2002), eq. 7: the energy absorbed over the last sample is the force
-     * that acted over it times the displacement sensed since; with a computation delay d the
-     * force that acted is the one sent d ticks before the last (none before it arrived) */
-    fa = pc->sent > pc->delay ? pc->hist[(pc->sent - 1 - pc->delay) % HX_PC_RING] : none;
-    for (i = 0; i < 3; i++) {
-        double dp = p[i] - pc->last[i], de = fa[i] * dp;
-        pc->E -= de;
-        pc->e_axis[i] -= de;
-    }
-    if (!pc->on)
-        return;
-    ref = pc->ref_stored ? 0.5 * k0 * pen * pen : 0.0;
-    deficit = ref - pc->E;
-    v2 = 0.0;
-    for (i = 0; i < 3; i++) {
-        dq[i] = p[i] - pc->last[i];
-        v2 += dq[i] * dq[i];
-    }
     if (deficit > 0.0 && v2 > 0.0) {
-        double alpha = deficit * pc->T / v2; /* (E_ref - E) / (T |v|^2), v = dp / T */
+        double alpha = deficit * pc->T / v2; /* (E_ref - E) / (T |v|^2) */
         if (alpha > pc->bmax)
             alpha = pc->bmax;
         for (i = 0; i < 3; i++)
@@ -51,10 +35,99 @@ void hx_passivity_tick(hx_passivity *pc, const double p[3], double f[3], double 
     }
 }
 
+/* Energy bounding after Kim & Ryu (2004): the energy a held force f can generate over one
+ * sample beyond what the device's damper b dissipates in it is at most
+ * max over dp of (f . dp - b |dp|^2 / T) = T |f|^2 / (4 b). The reservoir (the energy the port
+ * absorbed, the observer's E, plus the damper's credit) must cover that worst case for every
+ * force that has still to act: the new one and the `delay` sent before it, so |f| is scaled
+ * down to what is left. By induction the reservoir then never goes below zero in contact. */
+static void controller_eba(hx_passivity *pc, double f[3])
+{
+    double budget = pc->E + pc->credit, m2 = dot3(f, f), cap2;
+    long j;
+    for (j = 0; j < pc->delay && j < pc->sent; j++) {
+        const double *g = pc->hist[(pc->sent - 1 - j) % HX_PC_RING];
+        budget -= pc->T * dot3(g, g) / (4.0 * pc->bmax);
+    }
+    cap2 = budget > 0.0 ? 4.0 * pc->bmax * budget / pc->T : 0.0;
+    if (m2 > cap2) {
+        double scale = sqrt(cap2 / m2);
+        int i;
+        for (i = 0; i < 3; i++)
+            f[i] *= scale;
+        pc->alpha = (1.0 - scale) * sqrt(m2);
+        pc->active++;
+    }
+}
+
+/* Passive set-position modulation after Lee & Huang (2010): the force is a coupling spring of
+ * stiffness k0 stretched from the device to a set-position, which moves (towards the device,
+ * along f) no further than keeps the spring's energy |f|^2 / (2 k0) within the reservoir: the
+ * energy the port absorbed (the observer's E) plus the device's dissipation (credit). */
+static void controller_pspm(hx_passivity *pc, double f[3], double k0)
+{
+    double budget = pc->E + pc->credit, cap2 = budget > 0.0 ? 2.0 * k0 * budget : 0.0, m2 = dot3(f, f);
+    int i;
+    if (m2 > cap2) {
+        double scale = sqrt(cap2 / m2);
+        for (i = 0; i < 3; i++)
+            f[i] *= scale;
+        pc->alpha = (1.0 - scale) * sqrt(m2);
+        pc->active++;
+    }
+}
+
+void hx_passivity_tick(hx_passivity *pc, const double p[3], double f[3], double k0, double pen)
+{
+    double v2 = 0.0, dq[3];
+    const double *fa;
+    int i;
+    pc->alpha = 0.0;
+    if (!pc->have) {
+        /* the first tick: the environment already holds what its spring stores where the probe
+         * starts (put in before the observer watched), and may give it back */
+        if (pc->sent == 0)
+            pc->E = 0.5 * k0 * pen * pen;
+        if (pc->on && pc->mode == HX_STAB_PSPM)
+            controller_pspm(pc, f, k0);
+        else if (pc->on && pc->mode == HX_STAB_EBA)
+            controller_eba(pc, f);
+        return;
+    }
+    /* Hannaford & Ryu (2002), eq. 7: the energy absorbed over the last sample is the force
+     * that acted over it times the displacement sensed since; with a computation delay d the
+     * force that acted is the one sent d ticks before the last */
+    fa = acting(pc);
+    for (i = 0; i < 3; i++) {
+        double de;
+        dq[i] = p[i] - pc->last[i];
+        de = fa[i] * dq[i];
+        pc->E -= de;
+        pc->e_axis[i] -= de;
+        v2 += dq[i] * dq[i];
+    }
+    if ((pc->mode == HX_STAB_EBA || pc->mode == HX_STAB_PSPM) && pen > 0.0)
+        pc->credit += pc->bmax * v2 / pc->T; /* in contact, where the damper acts: at most the work
+                                              * of b v over the sample (Cauchy-Schwarz) */
+    if (!pc->on)
+        return;
+    switch (pc->mode) {
+    case HX_STAB_EBA:
+        controller_eba(pc, f);
+        break;
+    case HX_STAB_PSPM:
+        controller_pspm(pc, f, k0);
+        break;
+    default:
+        controller_pc(pc, dq, v2, f, k0, pen);
+    }
+}
+
 void hx_passivity_sent(hx_passivity *pc, const double p[3], const double f[3])
 {
-    double *h = pc->hist[pc->sent % HX_PC_RING];
+    double *h;
     int i;
+    h = pc->hist[pc->sent % HX_PC_RING];
     for (i = 0; i < 3; i++) {
         pc->last[i] = p[i];
         h[i] = f[i];
@@ -154,7 +227,7 @@ void hx_render_reset(hx_renderer *r)
     memset(&r->st, 0, sizeof r->st);
     memset(&r->pc, 0, sizeof r->pc);
     r->pc.on = keep.on;
-    r->pc.ref_stored = keep.ref_stored;
+    r->pc.mode = keep.mode;
     r->pc.bmax = keep.bmax;
     r->pc.T = keep.T;
     r->pc.delay = keep.delay;

@@ -392,7 +392,7 @@ int hx_run_general(const hx_model *m, const hx_general_run *r)
     memset(&pc, 0, sizeof pc);
     pc.on = r->pc_on;
     pc.bmax = r->pc_bmax;
-    pc.ref_stored = r->pc_ref_stored;
+    pc.mode = r->pc_mode;
     pc.T = r->period;
     pc.delay = delay < HX_PC_RING ? (int)delay : HX_PC_RING - 1; /* (the Python side refuses longer) */
     for (i = 0; i < n; i++) {
