@@ -374,7 +374,8 @@ def _simulate(ctx, mode, letter, stiffness, amplitude, period, max_penetration, 
              "damping_energy": "J", "operator_work": "J", "kinetic_energy": "J", "friction_energy": "J", "energy_y": "J",
              "passivity_control": "N*s/m", "passivity_control_samples": "samples", "observed_energy": "J",
              "energy_balance_error": "1 (relative)", "max_penetration": "m", "saturations": "samples",
-             "amplitude": "m", "frequency": "Hz", "energy_per_cycle": "J", "angle": "degree"}
+             "amplitude": "m", "frequency": "Hz", "energy_per_cycle": "J", "angle": "degree",
+             "buzz_db": "dB above the detection threshold", "buzz_frequency": "Hz"}
     summary = {"units": units, "mode": mode, "algorithm": letter, "stiffness": stiffness, "device": dev.name,
                "sampling_period": dev.period, "duration": duration, **res.totals,
                "energy_balance_error": res.energy_balance_error, "max_penetration": res.max_penetration,
@@ -382,6 +383,9 @@ def _simulate(ctx, mode, letter, stiffness, amplitude, period, max_penetration, 
                "oscillation_axis": osc.axis,
                "amplitude": osc.amplitude, "frequency": osc.frequency, "energy_per_cycle": osc.energy_per_cycle,
                "dimension": d}
+    bz = res.buzz
+    if bz is not None:
+        summary["buzz_db"], summary["buzz_frequency"] = bz.margin_db, bz.frequency
     if surface_spec is not None:
         summary["surface"] = surface_spec
     if pc is not None:
@@ -954,11 +958,14 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
                "amplitude": osc.amplitude, "frequency": osc.frequency,
                "stabiliser": None if pc is None else pc.label,
                "stabiliser_ticks": 0 if pc is None else renderer.controller_active,
+               "buzz_db": None if verdict["buzz"] is None else verdict["buzz"].margin_db,
+               "buzz_frequency": None if verdict["buzz"] is None else verdict["buzz"].frequency,
                "units": {"stiffness": "N/m", "max_force": "N", "duration": "s", "engaged_at": "s",
                          "amplitude": "m", "frequency": "Hz",
                          "max_force_sent": "N", "energy_observed": "J", **{f"energy_{a}": "J" for a in axes},
                          "tick_max": "s", "tick_mean": "s", "period_mean": "s", "period_std": "s",
-                         "stabiliser_ticks": "ticks"}}
+                         "stabiliser_ticks": "ticks", "buzz_db": "dB above the detection threshold",
+                         "buzz_frequency": "Hz"}}
     if record is not None:
         np.savez(record, **trace, period=dev.period, units=np.array(["s", "m", "N", "1"]))
     if as_json:

@@ -579,8 +579,8 @@ def stabilisers(quick: bool = False) -> dict:
     Per case and stabiliser: the energy the port supplied (J, the environment's absorbed
     energy's negative: the exact motion under the forces that acted), the device damper's
     dissipation (J), the regime and amplitude (m) of the run, the RMS force error against the
-    uncontrolled field along the run's path (N) and the share of the texture's force spectrum up
-    to 300 Hz kept (:func:`force_error`).
+    uncontrolled field along the run's path (N), the share of the texture's force spectrum up
+    to 300 Hz kept (:func:`force_error`), and the buzz (:mod:`haptex.perception`).
 
     Parameters
     ----------
@@ -590,9 +590,12 @@ def stabilisers(quick: bool = False) -> dict:
     Returns
     -------
     dict
-        ``rows`` (list of dicts: ``case``, ``short`` (its name in a figure), ``device``, ``algorithm``, ``stiffness`` N/m,
+        ``rows`` (list of dicts: ``case``, ``short`` (its name in a figure), ``device``, ``algorithm``,
+        ``stiffness`` N/m,
         ``stabiliser``, ``label``, ``supplied`` J, ``damping`` J, ``regime``, ``amplitude`` m,
-        ``rms_error`` N, ``kept`` (fraction), ``active`` (ticks the stabiliser acted)),
+        ``rms_error`` N, ``kept`` (fraction), ``active`` (ticks the stabiliser acted), ``buzz_db`` and
+        ``buzz_frequency`` (Hz): the handle's vibration over the run's second half against the
+        hand's detection threshold, :attr:`SimulationResult.buzz`),
         ``parameters``.
     """
     from .catalogue import DEFAULT_HAND, hand, preset
@@ -621,9 +624,12 @@ def stabilisers(quick: bool = False) -> dict:
             res = simulate(alg, dev, op, dur, initial_position=start, passivity_controller=stab, record_every=1)
             port = res.totals["energy_x"] + res.totals["energy_z"]
             rms, kept = force_error(alg, res, dev, s["felt_band"])
-            rows.append({"case": case, "short": short, "device": dev.name, "algorithm": alg.letter, "stiffness": float(alg.stiffness),
-                         "stabiliser": name, "label": "" if stab is None else stab.label, "supplied": float(-port),
-                         "damping": float(res.totals["damping_energy"]), "regime": res.regime,
+            bz = res.buzz
+            rows.append({"case": case, "short": short, "device": dev.name, "algorithm": alg.letter,
+                         "stiffness": float(alg.stiffness), "stabiliser": name,
+                         "label": "" if stab is None else stab.label,
+                         "supplied": float(-port), "damping": float(res.totals["damping_energy"]), "regime": res.regime,
                          "amplitude": float(res.oscillation.amplitude), "rms_error": rms, "kept": kept,
-                         "active": int(res.passivity_control_samples)})
+                         "active": int(res.passivity_control_samples), "buzz_db": bz.margin_db,
+                         "buzz_frequency": bz.frequency})
     return {"rows": rows, "parameters": s}

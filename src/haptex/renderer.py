@@ -418,8 +418,8 @@ class Renderer:
             raise fail("algorithm", algorithm, "a haptex algorithm (haptex.algorithm(...)) or a haptex.proxy.GodObject")
         optional_positive("max_force", max_force, "N")
         if passivity_controller is not None and not isinstance(passivity_controller, Stabiliser):
-            raise fail("passivity_controller", passivity_controller, "None or a haptex stabiliser (PassivityController, "
-                       "EnergyBounding, PassiveSetPosition)")
+            raise fail("passivity_controller", passivity_controller,
+                       "None or a haptex stabiliser (PassivityController, EnergyBounding, PassiveSetPosition)")
         if passivity_controller is not None and period is None:
             raise fail("period", period, "the servo period in s (> 0) with a passivity_controller")
         T = None if period is None else positive("period", period, "s")

@@ -793,7 +793,8 @@ def _g(v, fmt=".4g"):
 def _stabilisers_html(stab: dict, figs: dict) -> str:
     sp = stab["parameters"]
     rows = [[r["case"], r["algorithm"], r["stiffness"], r["stabiliser"], r["supplied"], r["damping"], r["regime"],
-             r["amplitude"] * 1e3, r["rms_error"], 100 * r["kept"], r["active"]] for r in stab["rows"]]
+             r["amplitude"] * 1e3, r["rms_error"], 100 * r["kept"], r["active"], r["buzz_db"],
+             r["buzz_frequency"]] for r in stab["rows"]]
     return (
         "<h3>Stabilisers under delay</h3><p>Every stabiliser on the same cases, with "
         f"{sp['delay']} sample of computation delay: the Fig. 5 device with its elastic band, and the presets "
@@ -806,9 +807,12 @@ def _stabilisers_html(stab: dict, figs: dict) -> str:
         "controller (Hannaford &amp; Ryu) dissipates with an added damper; energy bounding (after Kim &amp; Ryu) and "
         "set-position modulation (after Lee &amp; Huang) pay only with the device damper's dissipation, so the port "
         "supplies no more than it (tested), but on devices with little damping they must take the texture away to "
-        "do so, and an energy debt from an active algorithm (G) lets the wall give way until it is repaid.</p>"
+        "do so, and an energy debt from an active algorithm (G) lets the wall give way until it is repaid. "
+        "<em>Buzz</em> is the handle's largest vibration component over the run's second half, above 20 Hz and off "
+        "the texture's own rates, in dB above the detection threshold of the most sensitive hands grasping a handle "
+        "(haptex.perception: Verrillo 1963's shape, Brisben et al. 1999's minimum); above 0 dB it can be felt.</p>"
         + _table(["case", "alg", "kappa_0 (N/m)", "stabiliser", "supplied (J)", "damper (J)", "regime",
-                  "amplitude (mm)", "RMS force error (N)", "kept (%)", "ticks acted"], rows)
+                  "amplitude (mm)", "RMS force error (N)", "kept (%)", "ticks acted", "buzz (dB)", "at (Hz)"], rows)
         + _img(figs["stabilisers"], "stabiliser comparison"))
 
 

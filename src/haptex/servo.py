@@ -239,7 +239,9 @@ def analyse_trace(trace: dict, period: float, resolution: float = 0.0) -> dict:
         ``energy`` per axis (J): -sum f_k . (p_{k+1} - p_k), what the rendering absorbed from
         the sensed motion under the force sent (< 0: it supplied energy); ``oscillation``
         (:class:`haptex.Oscillation` of the last :data:`TAIL_FRACTION` of the trace, the
-        simulator's own verdict) and its ``regime`` (:func:`haptex.simulate.regime`).
+        simulator's own verdict) and its ``regime`` (:func:`haptex.simulate.regime`); ``buzz``
+        (:class:`haptex.perception.Buzz` of the same tail, the handle's vibration against the
+        hand's detection threshold; None for fewer than 16 ticks or a non-finite position).
 
     Raises
     ------
@@ -260,4 +262,10 @@ def analyse_trace(trace: dict, period: float, resolution: float = 0.0) -> dict:
     osc = _oscillation(p[start:], (n - start) * T, tail_energy, threshold)
     reg = regime([osc.decay_ratio], [osc.amplitude], [threshold], [osc.cycles], [False],
                  [not np.all(np.isfinite(p))])[0]
-    return {"energy": de.sum(axis=0), "oscillation": osc, "regime": str(reg)}
+    tail = p[start:]
+    bz = None
+    if tail.shape[0] >= 16 and np.all(np.isfinite(tail)):
+        from .perception import buzz
+
+        bz = buzz(tail, T)
+    return {"energy": de.sum(axis=0), "oscillation": osc, "regime": str(reg), "buzz": bz}

@@ -525,6 +525,9 @@ class SimulationResult:
         over the run (J; 0 without a controller), from sensed positions and the forces it
         paired with them; the port's true energy is ``totals`` ``energy_x`` + ``energy_z``
         (+ ``energy_y``), from the exact motion under the forces that acted.
+    texture_rates : tuple of float
+        Rates (Hz) at which a constant-velocity scan crosses the texture's periods (empty
+        otherwise): motion there is the texture, not buzz.
     """
 
     time: np.ndarray
@@ -546,6 +549,22 @@ class SimulationResult:
     energy_y: np.ndarray | None = None
     passivity_control_samples: int = 0
     observed_energy: float = 0.0
+    texture_rates: tuple = ()
+
+    @property
+    def buzz(self):
+        """Whether the handle's vibration is perceptible: its displacement spectrum over the
+        second half of the run against the hand's vibrotactile detection threshold, the
+        texture's own rates (:attr:`texture_rates`) excepted (:func:`haptex.perception.buzz`).
+        None when fewer than 32 samples are recorded or the run diverged. Up to the recorded
+        rate's Nyquist frequency: record every sample (``record_every=1``) to see all of it."""
+        from .perception import buzz
+
+        n = self.time.size
+        if n < 32 or self.diverged:
+            return None
+        half = self.position[n // 2:]
+        return buzz(half, float(self.time[1] - self.time[0]), exclude=self.texture_rates)
 
     @property
     def dimension(self) -> int:
@@ -826,6 +845,7 @@ def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration:
     osc = _oscillations(tail[None], (n_steps - tail_start) * device.period, _tail_energy(summary[None]),
                         np.array([_threshold(device)]), _frequency_table([_texture_frequencies(algorithm, operator)]))
     result = _result(rec, summary, osc[0])
+    object.__setattr__(result, "texture_rates", _texture_frequencies(algorithm, operator))
     _warn_health([result])
     return result
 
