@@ -477,9 +477,9 @@ def _icosphere_base(subdivisions, R):
 
 
 @pytest.mark.parametrize("base_name", ["sphere", "cylinder", "mesh", "prism mesh"])
-@pytest.mark.parametrize("letter", ["A", "G"])
+@pytest.mark.parametrize("letter", ["A", "G", "F"])
 def test_an_object_exports_and_ticks_as_the_renderer(tmp_path, objdir, base_name, letter):
-    # issue 32: A and G on the egg-crate on a sphere, a cylinder and a 1,280-triangle mesh,
+    # issue 32: A, G and F (its presliding state in the surface coordinates) on the egg-crate on a sphere, a cylinder and a 1,280-triangle mesh,
     # faceted or swept into prisms along its vertex normals (its corners and per-triangle
     # constants as tables, its hierarchy built by haptex_init):
     # along a stroke over the object, in and out of it, every tick equals the compiled

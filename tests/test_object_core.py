@@ -212,3 +212,77 @@ def test_a_mesh_pickles_without_its_c_copy_and_gives_the_same_forces():
     assert "_core_base" not in again.base.__dict__
     np.testing.assert_array_equal(again.force(p), f)
     np.testing.assert_array_equal(_ticks(again, p)[0], _ticks(alg, p)[0])
+
+
+# -- F on objects: presliding friction in the local tangent plane ------------------------------
+
+F_PARAMS = dict(friction=0.5, presliding=0.2e-3)
+
+
+def _stroke(base, u1_centre, n=801):
+    """A wavy stroke across the surface coordinates, 0.5 mm below the base (inside F's wall)."""
+    t = np.linspace(-3e-3, 3e-3, n)
+    ut = np.column_stack([u1_centre + t, 0.3e-3 * np.sin(t * 2000.0)])
+    return base.point(ut, np.full(n, -0.5e-3))
+
+
+@pytest.mark.parametrize("base", [Plane(), Sphere(R), Cylinder(R)], ids=repr)
+def test_f_on_a_base_is_its_static_field_at_the_ticks_deflection(base):
+    # the C tick steps F's presliding state (the adhesion point in the surface coordinates); at
+    # each tick its force equals the NumPy field at the deflection d = u - w it holds, to 1e-12
+    # N, and |d| never exceeds d_max (eq. 24), across the seam of the closed bases too (the
+    # stroke crosses u1 = pi R there)
+    alg = object_algorithm("F", EGG, base, K0, **F_PARAMS)
+    r = hx.Renderer(alg)
+    centre = 0.0 if isinstance(base, Plane) else math.pi * R
+    worst, slid = 0.0, 0.0
+    for p in _stroke(base, centre):
+        f = np.array(r.step(p))
+        d = base.local(p[None])[0][0] - np.array(r.adhesion)
+        if not isinstance(base, Plane):
+            d[0] = (d[0] + math.pi * R) % (2 * math.pi * R) - math.pi * R
+        assert np.linalg.norm(d) <= F_PARAMS["presliding"] * (1 + 1e-12)
+        slid = max(slid, np.linalg.norm(d))
+        worst = max(worst, np.abs(f - alg.force(p, deflection=d)).max())
+    assert worst <= 1e-12 and slid == pytest.approx(F_PARAMS["presliding"])
+
+
+def test_f_on_the_plane_base_is_the_papers_f():
+    # Plane() is the paper's plane: the same forces as F over the surface, bit for bit up to
+    # rounding, along a stroke in and out of the wall
+    a = hx.Renderer(object_algorithm("F", EGG, Plane(), K0, **F_PARAMS))
+    b = hx.Renderer(hx.algorithm("F", EGG, K0, **F_PARAMS))
+    t = np.linspace(0.0, 1.0, 2001)
+    pts = np.column_stack([4e-3 * np.sin(2 * np.pi * 2 * t), 2e-3 * np.cos(2 * np.pi * 3 * t),
+                           -0.6e-3 * np.sin(2 * np.pi * 5 * t)])
+    for p in pts:
+        np.testing.assert_allclose(a.step(p), b.step(p), rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("base", [Sphere(R), Cylinder(R)], ids=repr)
+def test_f_sliding_on_a_curved_base_dissipates(base):
+    # Section IV-F-4: sliding is dissipative. Round a closed loop in the surface coordinates at
+    # constant depth under the base (so the wall's normal force does no work): the friction
+    # absorbs energy on every lap, at least mu kappa_0 z (1 - depth) (perimeter - 4 d_max) in
+    # slip; the observer's energy grows lap after lap
+    alg = object_algorithm("F", EGG, base, K0, **F_PARAMS)
+    r = hx.Renderer(alg, energy_monitor=True)
+    s = np.linspace(0.0, 2 * np.pi, 2001)[:-1]
+    loop = base.point(np.column_stack([2e-3 * np.cos(s), 2e-3 * np.sin(s)]), np.full(s.size, -0.5e-3))
+    laps = []
+    for _ in range(3):
+        for p in loop:
+            r.step(p)
+        laps.append(r.energy)
+    per_lap = np.diff([0.0] + laps)
+    floor = 0.5 * K0 * 0.5e-3 * (1 - 0.8) * (2 * np.pi * 2e-3 * 0.9 - 4 * F_PARAMS["presliding"])
+    assert np.all(per_lap[1:] > floor), (per_lap, floor)
+
+
+def test_simulate_f_on_a_sphere_balances_its_energy():
+    # the general loop with F's state on a sphere: a hand scanning across it, the energy balance
+    # closed (the friction's work in the environment's energies) and the run finite
+    dev = hx.Device.point_mass(dimension=3)
+    res = hx.simulate(object_algorithm("F", EGG, Sphere(R), K0, **F_PARAMS), dev, _hand(), 0.3)
+    assert res.energy_balance_ok and not res.diverged and res.max_penetration > 0.0
+    assert res.totals["energy_x"] + res.totals["energy_y"] > 0.0  # the sliding absorbed energy

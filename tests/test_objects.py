@@ -125,12 +125,19 @@ def test_the_spheres_numbers_tend_to_the_planes_as_the_radius_grows(letter):
     (lambda: object_algorithm("A", EGG, Cylinder(0.2e-3), K0), r"period along u1, 0\.002 m, is longer than"),
     (lambda: object_algorithm("A", hx.SampledSurface(np.arange(8) * 1e-4, np.arange(8) * 1e-4, np.zeros((8, 8))),
                               Sphere(1.0), K0), r"a closed base needs a texture periodic along u1"),
-    (lambda: object_algorithm("D", EGG, Plane(), K0), r"^algorithm = 'D' is not allowed: must be one of A, B, C, G"),
+    (lambda: object_algorithm("D", EGG, Plane(), K0), r"^algorithm = 'D' is not allowed: must be one of A, B, C, F, G"),
     (lambda: Sphere(-1.0), r"^radius = -1 is not allowed"),
     (lambda: Cylinder(2e3), r"^radius = 2000 is not allowed: must be at most 1000 m"),
     (lambda: object_algorithm("A", EGG, "sphere", K0), r"^base = 'sphere' is not allowed"),
     (lambda: object_algorithm("A", EGG, Sphere(_radius(3)), K0).force([0.0, 0.5, -_radius(3)]),
      r"on the sphere's axis"),
+    (lambda: object_algorithm("A", EGG, Plane(), K0, friction=0.5), r"^params = \['friction'\] is not allowed"),
+    (lambda: object_algorithm("F", EGG, Plane(), K0, presliding=-1.0), r"^presliding = -1 is not allowed"),
+    (lambda: object_algorithm("F", EGG, Plane(), K0).jacobian([0.0, 0.0, -1e-4]), r"^algorithm = 'F' is not allowed"),
+    (lambda: object_algorithm("F", EGG, Plane(), K0).force([0.0, 0.0, -1e-4], deflection=[1.0, 0.0]),
+     r"^deflection = 1 is not allowed"),
+    (lambda: object_algorithm("A", EGG, Plane(), K0).force([0.0, 0.0, -1e-4], deflection=1e-4),
+     r"^deflection = 0.0001 is not allowed"),
 ])
 def test_bad_objects_are_refused_by_name(make, message):
     with pytest.raises(ParameterError, match=message):

@@ -31,14 +31,17 @@ A triangle mesh (:class:`Mesh`, read by trimesh) is a base whose coordinates are
 point's (flat facets, the normal turning around edges and vertices), or, given vertex normals,
 those of the prisms swept along them (continuous across edges).
 
-The C core's servo tick (:class:`haptex.Renderer`) takes A, B, C and G on every base
+The C core's servo tick (:class:`haptex.Renderer`) takes A, B, C, F and G on every base
 (hx_object.c): the same coordinates in closed form, on a faceted mesh the exact closest point
 through a bounding-volume hierarchy built once, on the prism mesh the Newton solve in the prism
 from there (the analysis path here queries the same
-hierarchy, :class:`Mesh`).
+hierarchy, :class:`Mesh`). F is the base as a flat wall, kappa_0 |e| n inside (e < 0), with the
+presliding friction of eq. 22-24 in the surface coordinates u (the local tangent plane to first
+order), its force J_u^T f_u; it has memory, so the region analyses (q, continuity, loop work)
+take A, B, C and G (:data:`OBJECT_LETTERS`) and F gives its static force at a deflection.
 
 Not yet here (issue 32's later steps): D and E (the closest point on the textured object),
-F, a C^1 mesh base, HAPI's reference algorithm (CHAI3D's is :mod:`haptex.reference`), meshes in
+F's region analyses, a C^1 mesh base, HAPI's reference algorithm (CHAI3D's is :mod:`haptex.reference`), meshes in
 the explorer (:func:`haptex.simulate`, :func:`haptex.simulate_batch` and ``haptex sweep`` run
 objects; ``haptex export`` writes the renderer's tick; ``haptex explore`` shows spheres and
 cylinders with q on their surface).
@@ -56,9 +59,15 @@ from .core import _ext, in_slices
 from .surfaces import Extruded, Surface
 from .textures import Texture
 
-__all__ = ["Base", "Plane", "Cylinder", "Sphere", "Mesh", "ObjectAlgorithm", "object_algorithm", "OBJECT_LETTERS"]
+__all__ = ["Base", "Plane", "Cylinder", "Sphere", "Mesh", "ObjectAlgorithm", "object_algorithm", "OBJECT_LETTERS",
+           "OBJECT_TICK_LETTERS"]
 
 OBJECT_LETTERS = ("A", "B", "C", "G")
+"""The letters on objects with their fields' analyses (q, continuity, loop work)."""
+
+OBJECT_TICK_LETTERS = ("A", "B", "C", "F", "G")
+"""The letters the C core renders on objects: F (with memory) too, its static field given its
+deflection (:meth:`ObjectAlgorithm.force`)."""
 """The algorithms defined over a curved base so far (penetration along the base's normal)."""
 
 MAX_RADIUS = 1e3
@@ -735,7 +744,7 @@ class Mesh(Base):
 
 
 class ObjectAlgorithm(Algorithm):
-    """One of A, B, C, G over a textured object (see the module's docstring for the fields).
+    """One of A, B, C, F, G over a textured object (see the module's docstring for the fields).
 
     Probe positions are [x, y, z] (m); forces (N) and Jacobians (N/m) are in that frame.
     ``texture`` is the height h(u) (a surface over u; a profile is extruded along u2).
@@ -750,26 +759,34 @@ class ObjectAlgorithm(Algorithm):
     surfaces = True
     penetration_kind = "vertical"
 
-    def __init__(self, letter: str, texture: Texture, base: Base, stiffness: float):
-        if letter not in OBJECT_LETTERS:
-            raise fail("algorithm", letter, f"one of {', '.join(OBJECT_LETTERS)} on an object so far (D, E, F and the "
-                       "proxy algorithm over objects are not written yet)")
+    def __init__(self, letter: str, texture: Texture, base: Base, stiffness: float, **params):
+        if letter not in OBJECT_TICK_LETTERS:
+            raise fail("algorithm", letter, f"one of {', '.join(OBJECT_TICK_LETTERS)} on an object so far (D, E and "
+                       "the proxy algorithm over objects are not written yet)")
+        if params and letter != "F":
+            raise fail("params", sorted(params), f"none for {letter} on an object (F takes friction, presliding, "
+                       "modulation_depth, max_penetration, stick_deflection)")
         if not isinstance(base, Base):
             raise fail("base", base, "a haptex.objects base: Plane(), Cylinder(R), Sphere(R) or Mesh(...)")
         if texture.dimension == 1:
             texture = Extruded(texture)
         base.check_texture(texture)
-        super().__init__(texture, stiffness)
+        plane = algorithm(letter, texture, stiffness, **params)
+        super().__init__(texture, stiffness, getattr(plane, "max_penetration", None))
         self.letter = letter
         self.base = base
-        plane = algorithm(letter, texture, stiffness)
         self.name = plane.name
         self.reference = plane.reference + "; on a base: haptex.objects"
         self.penetration_kind = plane.penetration_kind
         self.is_gradient = letter == "C"
+        self.has_memory = letter == "F"
+        self._plane = plane
+        self._params = dict(params)
 
     def __repr__(self) -> str:
-        return f"object_algorithm({self.letter!r}, {self.texture!r}, {self.base!r}, stiffness={self.stiffness:g})"
+        extra = "".join(f", {k}={v!r}" for k, v in sorted(self._params.items()))
+        return (f"object_algorithm({self.letter!r}, {self.texture!r}, {self.base!r}, stiffness={self.stiffness:g}"
+                f"{extra})")
 
     @property
     def dimension(self) -> int:
@@ -810,13 +827,47 @@ class ObjectAlgorithm(Algorithm):
         edges and vertices): breakpoints for the loop-work quadrature."""
         return self.base.kinks(a, b, u, pts)
 
-    def force(self, p) -> np.ndarray:
+    def force(self, p, deflection=0.0) -> np.ndarray:
+        """The force (N), shape (..., 3), at positions p (..., 3) (m).
+
+        For F, ``deflection`` is the presliding deflection d = u - w in the surface coordinates
+        (m), broadcastable to (..., 2), |d| <= d_max (a scalar: along u1): the wall's normal
+        force kappa_0 |e| n inside (e < 0) plus J_u^T f_u, f_u = -mu kappa_0 z_c (1 - h~(u)) d /
+        d_max (eq. 22 in the local tangent plane; the C core's tick, which steps d, is tested
+        against this). The other letters take no deflection.
+
+        Raises
+        ------
+        ParameterError
+            For malformed positions, or a deflection given to another letter or out of range.
+        """
+        if self.letter == "F":
+            return self._friction(self._positions(p), deflection)
+        if not (np.isscalar(deflection) and deflection == 0.0):
+            raise fail("deflection", deflection, f"none for {self.letter} (only F has a presliding deflection)")
         return self._object(self._positions(p), False)[0]
 
+    def _friction(self, p, deflection):
+        F = self._plane
+        u, Ju, _, e, n, _ = self.base.local(p)
+        d = F._deflection(deflection, e.shape)
+        depth = -e
+        zc = depth if F.max_penetration is None else np.minimum(depth, F.max_penetration)
+        c = -F.friction * self.stiffness * zc * (1.0 - F._scale * self.texture.height_at(u)) / F.presliding
+        f = (self.stiffness * depth)[..., None] * n + np.einsum("...ki,...k->...i", Ju, c[..., None] * d)
+        return np.where((e < 0)[..., None], f, 0.0)
+
+    def _no_memory(self):
+        if self.letter == "F":
+            raise fail("algorithm", "F", "A, B, C or G for an object's Jacobian and the analyses built on it (F on an "
+                       "object renders in the C core and has its static force, ObjectAlgorithm.force(p, deflection))")
+
     def jacobian(self, p) -> np.ndarray:
+        self._no_memory()
         return self._object(self._positions(p), True)[1]
 
     def force_and_jacobian(self, p):
+        self._no_memory()
         return self._object(self._positions(p), True)
 
     def _object(self, p, jac: bool):
@@ -876,16 +927,19 @@ class ObjectAlgorithm(Algorithm):
         """The arrays of this algorithm's servo tick in the C core (:class:`haptex.Renderer`):
         the plane algorithm's (code, prm, kind, coeffs, aux; :meth:`haptex.Algorithm.kernel_spec`)
         and the base's (:meth:`Base.core_spec`)."""
-        code, prm, kind, coeffs, aux = algorithm(self.letter, self.texture, self.stiffness).kernel_spec()
+        code, prm, kind, coeffs, aux = self._plane.kernel_spec()
         return code, prm, kind, coeffs, aux, self.base.core_spec()
 
 
-def object_algorithm(letter: str, texture: Texture, base: Base, stiffness: float) -> ObjectAlgorithm:
-    """Algorithm ``letter`` (A, B, C or G) rendering ``texture`` on ``base``.
+def object_algorithm(letter: str, texture: Texture, base: Base, stiffness: float, **params) -> ObjectAlgorithm:
+    """Algorithm ``letter`` (A, B, C, F or G) rendering ``texture`` on ``base``.
 
     Parameters
     ----------
-    letter : {"A", "B", "C", "G"}
+    letter : {"A", "B", "C", "F", "G"}
+        F renders in the C core (its presliding friction in the surface coordinates, the local
+        tangent plane; :meth:`ObjectAlgorithm.force` gives its static force at a deflection);
+        the region analyses take A, B, C and G (:data:`OBJECT_LETTERS`).
     texture : Texture
         Height h(u) over the base's surface coordinates u (m): a surface, or a profile
         (extruded along u2).
@@ -893,6 +947,9 @@ def object_algorithm(letter: str, texture: Texture, base: Base, stiffness: float
         :class:`Plane`, :class:`Cylinder` or :class:`Sphere`.
     stiffness : float
         kappa_0 (N/m).
+    **params
+        F's: ``friction``, ``presliding``, ``modulation_depth``, ``max_penetration``,
+        ``stick_deflection`` (:class:`haptex.algorithms.FrictionModulated`); none for the others.
 
     Returns
     -------
@@ -901,8 +958,9 @@ def object_algorithm(letter: str, texture: Texture, base: Base, stiffness: float
     Raises
     ------
     ParameterError
-        For another letter, a non-positive stiffness, or a texture that does not fit a closed
+        For another letter, a non-positive stiffness, parameters the letter does not take, or
+        a texture that does not fit a closed
         base (not periodic along u1, a period longer than its circumference, or one that
         leaves a seam: the nearest radius without one is named).
     """
-    return ObjectAlgorithm(letter, texture, base, stiffness)
+    return ObjectAlgorithm(letter, texture, base, stiffness, **params)

@@ -562,8 +562,8 @@ class Renderer:
 
     @property
     def adhesion(self):
-        """F's adhesion point while in contact (m): x over a profile, (x, y) over a surface;
-        else None."""
+        """F's adhesion point while in contact (m): x over a profile, (x, y) over a surface,
+        (u1, u2) in an object's surface coordinates; else None."""
         if self.algorithm.letter != "F":
             return None
         adh = self._core.adhesion

@@ -31,9 +31,10 @@ int hx_model_check(const hx_model *m)
     }
     if (rc == HX_OK && m->code == HX_ALG_PROXY && !(m->prm[HX_P_DXMAX] > 0.0 && isfinite(m->prm[HX_P_DXMAX])))
         return HX_BAD_COEFFS; /* the proxy's longest step */
-    if (rc == HX_OK && m->base != NULL) { /* on an object: A, B, C, G so far */
+    if (rc == HX_OK && m->base != NULL) { /* on an object: A, B, C, F, G so far */
         rc = hx_base_check(m->base);
-        if (rc == HX_OK && m->code != HX_ALG_A && m->code != HX_ALG_B && m->code != HX_ALG_C && m->code != HX_ALG_G)
+        if (rc == HX_OK && m->code != HX_ALG_A && m->code != HX_ALG_B && m->code != HX_ALG_C && m->code != HX_ALG_F &&
+            m->code != HX_ALG_G)
             rc = HX_NOT_IN_CORE;
         return rc;
     }

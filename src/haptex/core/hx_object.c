@@ -538,6 +538,54 @@ static void object_g(double k, double pen, double e, const double n[3], const do
 static const object_fn OBJECT_FIELDS[HX_N_ALGS] = {NULL, object_a, object_b, object_c, NULL, NULL, NULL, object_g,
                                                    NULL};
 
+/* F on a base: the flat base as the wall (its normal force kappa_0 |e| n inside, e < 0, as
+ * -kappa_0 p^z on the plane) and the presliding friction of eq. 22-24 in the surface
+ * coordinates u (m), which are the local tangent plane's to first order: the adhesion point
+ * in u (s->adh), the deflection d = u - w, the tangential force f_u = -mu kappa_0 z_c (1 - h~)
+ * d / d_max mapped to space by J_u^T (J_u = du/dp, rows in ju), so that f_u . du is its work.
+ * On a cylinder or sphere u1 wraps at +-pi R: a step across the seam is unwrapped. On a mesh
+ * u is the UV map's: across a UV seam the step is what the map says (the deflection stays
+ * within d_max, as in any slip). */
+static int object_f(const hx_model *m, hx_state *s, const double u[2], const double ju[6], double e,
+                    const double n[3], double h, double f[3])
+{
+    double k = m->prm[HX_P_K0], dmax = m->prm[HX_P_DXMAX], d[2], dp[2], depth, c;
+    int i;
+    s->pen = e < 0.0 ? -e : 0.0;
+    if (!(e < 0.0)) {
+        s->contact = 0;
+        return HX_OK;
+    }
+    if (!s->contact) {
+        s->contact = 1;
+        s->adh[0] = s->last[0] = u[0];
+        s->adh[1] = s->last[1] = u[1];
+    }
+    d[0] = s->last[0] - s->adh[0];
+    d[1] = s->last[1] - s->adh[1];
+    dp[0] = u[0] - s->last[0];
+    dp[1] = u[1] - s->last[1];
+    if (m->base->kind == HX_BASE_CYLINDER || m->base->kind == HX_BASE_SPHERE) {
+        double turn = 6.283185307179586 * m->base->radius; /* 2 pi R */
+        if (dp[0] > 0.5 * turn)
+            dp[0] -= turn;
+        else if (dp[0] < -0.5 * turn)
+            dp[0] += turn;
+    }
+    hx_presliding_plane(d, dp, dmax, m->prm[HX_P_ZSTICK], m->aux, &s->work);
+    s->adh[0] = u[0] - d[0];
+    s->adh[1] = u[1] - d[1];
+    s->last[0] = u[0];
+    s->last[1] = u[1];
+    depth = -e;
+    if (m->prm[HX_P_DZMAX] > 0.0 && depth > m->prm[HX_P_DZMAX])
+        depth = m->prm[HX_P_DZMAX];
+    c = -m->prm[HX_P_MU] * k * depth * (1.0 - m->prm[HX_P_SCALE] * h) / dmax;
+    for (i = 0; i < 3; i++)
+        f[i] = -k * e * n[i] + ju[i] * c * d[0] + ju[3 + i] * c * d[1];
+    return HX_OK;
+}
+
 int hx_object_force(const hx_model *m, hx_state *s, const double p[3], double f[3])
 {
     double u[2], ju[6], e, n[3], gp[3], pen;
@@ -547,7 +595,7 @@ int hx_object_force(const hx_model *m, hx_state *s, const double p[3], double f[
     object_fn fn = m->code >= 0 && m->code < HX_N_ALGS ? OBJECT_FIELDS[m->code] : NULL;
     f[0] = f[1] = f[2] = 0.0;
     s->pen = 0.0;
-    if (fn == NULL)
+    if (fn == NULL && m->code != HX_ALG_F)
         return HX_NOT_IN_CORE;
     rc = hx_base_local(m->base, p, &tri, u, ju, &e, n, &work);
     s->work = work;
@@ -557,6 +605,8 @@ int hx_object_force(const hx_model *m, hx_state *s, const double p[3], double f[
     hx_texture_eval(&m->tex, u[0], u[1], &t);
     s->work += 1;
     s->h = t.h;
+    if (m->code == HX_ALG_F)
+        return object_f(m, s, u, ju, e, n, t.h, f);
     pen = t.h - e;
     inside = m->code == HX_ALG_G ? e < 0.0 : pen > 0.0;
     if (!inside)
