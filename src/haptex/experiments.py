@@ -633,3 +633,42 @@ def stabilisers(quick: bool = False) -> dict:
                          "active": int(res.passivity_control_samples), "buzz_db": bz.margin_db,
                          "buzz_frequency": bz.frequency})
     return {"rows": rows, "parameters": s}
+
+
+CLEAN_STIFFNESS = {
+    "preset": "touch",  # with the default hand
+    "texture": (0.2e-3, 2e-3),  # m: a sinusoid's amplitude and period (chosen: a fine texture)
+    "hand_depth": 1e-3,  # m
+    "hand_velocity": 0.02,  # m/s
+    "rates": (500.0, 1000.0, 2000.0, 5000.0),  # Hz
+    "stiffness": (100.0, 6400.0, 13),  # N/m: a geometric grid, lowest, highest, points
+    "duration": 2.0,  # s
+}
+"""The clean-stiffness experiment (chosen values): A on a fine sinusoid, stroked by the default
+hand on the 3D Systems Touch preset, at four servo rates."""
+
+
+def clean_stiffness_by_rate(quick: bool = False) -> dict:
+    """The largest texture stiffness that does not buzz, against the servo rate
+    (:func:`haptex.perception.clean_stiffness` on :data:`CLEAN_STIFFNESS`).
+
+    Returns
+    -------
+    dict
+        ``rows`` (one dict a rate: ``rate`` Hz, ``clean`` and ``buzzing`` N/m, ``margin_db``
+        and ``frequency`` lists over ``stiffness``), ``stiffness`` (the grid, N/m),
+        ``parameters``.
+    """
+    from .catalogue import DEFAULT_HAND, hand, preset
+    from .perception import clean_stiffness
+
+    s = dict(CLEAN_STIFFNESS)
+    lo, hi, n = s["stiffness"]
+    ks = np.geomspace(lo, hi, 7 if quick else n)
+    h = hand(DEFAULT_HAND)
+    dev = h.attach(preset(s["preset"]).device(dimension=2))
+    op = h.operator(depth=s["hand_depth"], velocity=s["hand_velocity"])
+    alg = algorithm("A", Sinusoid(*s["texture"]), float(ks[0]))
+    rows = clean_stiffness(alg, dev, op, s["rates"], ks, 1.0 if quick else s["duration"],
+                           initial_position=[0.0, -s["hand_depth"]])
+    return {"rows": rows, "stiffness": ks.tolist(), "parameters": s, "device": dev.name}

@@ -100,6 +100,7 @@ def compute(quick: bool = False, progress=None, table_params: dict | None = None
     pas["wall_map"] = ex.wall_map(quick)
     step("stabilisers under delay")
     stab = ex.stabilisers(quick)
+    stab["clean_stiffness"] = ex.clean_stiffness_by_rate(quick)
     step("claims")
     extra = _extra_numbers(quick)
     claims = _claims(table, pas, con, sur, extra)
@@ -813,7 +814,21 @@ def _stabilisers_html(stab: dict, figs: dict) -> str:
         "(haptex.perception: Verrillo 1963's shape, Brisben et al. 1999's minimum); above 0 dB it can be felt.</p>"
         + _table(["case", "alg", "kappa_0 (N/m)", "stabiliser", "supplied (J)", "damper (J)", "regime",
                   "amplitude (mm)", "RMS force error (N)", "kept (%)", "ticks acted", "buzz (dB)", "at (Hz)"], rows)
-        + _img(figs["stabilisers"], "stabiliser comparison"))
+        + _img(figs["stabilisers"], "stabiliser comparison") + _clean_html(stab["clean_stiffness"]))
+
+
+def _clean_html(clean: dict) -> str:
+    cp = clean["parameters"]
+    rows = [[r["rate"], r["clean"], r["buzzing"], max(r["margin_db"]) if r["margin_db"] else None]
+            for r in clean["rows"]]
+    return (
+        "<h3>Buzz against the servo rate</h3><p>The question of Choi &amp; Tan (perceived instability of virtual "
+        "haptic texture): how stiff can a texture be before it buzzes, and how does that move with the update rate? "
+        f"A on a sinusoid of {cp['texture'][0] * 1e3:g} mm and {cp['texture'][1] * 1e3:g} mm, {clean['device']} stroked "
+        f"at {cp['hand_velocity'] * 1e3:g} mm/s, {len(clean['stiffness'])} stiffnesses from {clean['stiffness'][0]:g} "
+        f"to {clean['stiffness'][-1]:g} N/m; <em>clean</em> is the largest below the first that buzzes "
+        "(haptex.perception.clean_stiffness).</p>"
+        + _table(["rate (Hz)", "clean up to (N/m)", "first buzzing (N/m)", "loudest buzz (dB)"], rows))
 
 
 def _typeset(text: str) -> str:
