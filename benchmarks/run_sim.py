@@ -23,6 +23,7 @@ import time
 import numpy as np
 
 import haptex as hx
+from haptex import core
 from haptex.operators import ConstantForce, ScanningHand
 
 simulate_module = __import__("sys").modules["haptex.simulate"]
@@ -162,12 +163,15 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         fexe = build_reference(tmp, "fast_reference")
         print("fast path: A, point mass, constant push, 1000 runs x 10^4 samples (samples/s)")
-        print(f"{'d':2} {'haptex':>10} {'C -O2 (1 thread)':>17} {'NumPy':>10} {'haptex/C':>9} {'haptex/NumPy':>13}")
+        print(f"{'d':2} {'haptex':>10} {'1 thread':>10} {'C -O2 (1 thread)':>17} {'NumPy':>10} {'haptex/C':>9} "
+              f"{'1 thread/C':>11} {'haptex/NumPy':>13}")
         for d in (2, 3):
             h = max(fast_haptex(d, 10_000, 1000) for _ in range(3))
+            with core.threads(1):
+                h1 = max(fast_haptex(d, 10_000, 1000) for _ in range(3))
             c = max(fast_c(d, 10_000, 1000, tmp, fexe) for _ in range(3))
             npy = fast_numpy(d, 10_000, 1000)
-            print(f"{d:2d} {h:10.3g} {c:17.3g} {npy:10.3g} {h / c:9.2f} {h / npy:13.2f}")
+            print(f"{d:2d} {h:10.3g} {h1:10.3g} {c:17.3g} {npy:10.3g} {h / c:9.2f} {h1 / c:11.2f} {h / npy:13.2f}")
         print()
         exe = build_reference(tmp)
         print(f"{'alg':4} {'N':>5} {'steps':>8} {'haptex (samples/s)':>19} {'C -O2 (samples/s)':>18} {'ratio':>6}")
