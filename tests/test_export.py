@@ -479,7 +479,8 @@ def _icosphere_base(subdivisions, R):
 @pytest.mark.parametrize("base_name", ["sphere", "cylinder", "mesh", "prism mesh"])
 @pytest.mark.parametrize("letter", ["A", "G", "F"])
 def test_an_object_exports_and_ticks_as_the_renderer(tmp_path, objdir, base_name, letter):
-    # issue 32: A, G and F (its presliding state in the surface coordinates) on the egg-crate on a sphere, a cylinder and a 1,280-triangle mesh,
+    # issue 32: A, G and F (its presliding state in the surface coordinates) on the egg-crate on
+    # a sphere, a cylinder and a 1,280-triangle mesh,
     # faceted or swept into prisms along its vertex normals (its corners and per-triangle
     # constants as tables, its hierarchy built by haptex_init):
     # along a stroke over the object, in and out of it, every tick equals the compiled
@@ -518,6 +519,28 @@ def test_an_object_at_the_command_line_exports(tmp_path):
                         "2 kN/m", "--max-force", "5 N", "--object", "sphere:12.7323954mm", "--out", str(tmp_path)],
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and "algorithm" in r.stderr
+
+
+@pytest.mark.parametrize("base_name", ["sphere", "cylinder"])
+def test_the_god_object_on_a_curved_base_exports_and_ticks_as_the_renderer(tmp_path, objdir, base_name):
+    # the proxy's C tick over an analytic base (Gauss-Newton on the surface's closed-form
+    # Jacobian): the exported tick equals the compiled Renderer's bit for bit along a stroke over
+    # the object, in and out of it
+    from haptex.objects import Cylinder, Sphere
+    from haptex.proxy import GodObject
+
+    R = 40 * 2e-3 / (2 * np.pi)
+    g = GodObject(hx.SumOfGratings.egg_crate(0.2e-3, 2e-3), K0, Sphere(R) if base_name == "sphere" else Cylinder(R))
+    c = Compiled(g, tmp_path, objdir, max_force=5.0)
+    assert "HX_ALG_PROXY" in (tmp_path / "haptex_texture.c").read_text()
+    r = hx.Renderer(g, max_force=5.0)
+    t = np.linspace(0.0, 1.0, 3001)
+    p = np.column_stack([6e-3 * np.sin(2 * np.pi * 3 * t), 2e-3 * np.cos(2 * np.pi * 2 * t),
+                         -0.8e-3 * np.sin(2 * np.pi * 5 * t) + 0.1e-3])
+    got = c.forces(p)
+    ref = np.array([r.step(tuple(q)) for q in p.tolist()])
+    assert np.array_equal(got, ref) and np.abs(ref).max() > 0.5
+    assert c.count("max_work") == r.max_work
 
 
 @pytest.mark.parametrize("tex", [hx.Sinusoid(A, L), hx.SumOfGratings.egg_crate(0.2e-3, 2e-3)], ids=["sine", "egg"])

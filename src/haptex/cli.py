@@ -903,9 +903,16 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
         if backend.dimension != 3:
             raise ParameterError(f"--object is not allowed on {backend.name}: an object needs a 3-DOF device")
         if letter == "PROXY":
-            raise ParameterError("--object is not allowed with --algorithm proxy: the proxy's C tick is over the "
-                                 "plane (over an object it is Python, haptex.proxy, for analysis)")
-        alg = object_algorithm(letter, tex, base, stiffness)
+            from .objects import Mesh
+            from .proxy import GodObject
+
+            if isinstance(base, Mesh):
+                raise ParameterError("--object is not allowed with --algorithm proxy on a mesh: the proxy's C tick "
+                                     "is over the plane, a cylinder or a sphere (over a mesh it is Python, "
+                                     "haptex.proxy, for analysis)")
+            alg = GodObject(tex, stiffness, base)
+        else:
+            alg = object_algorithm(letter, tex, base, stiffness)
     elif letter == "PROXY":
         from .proxy import GodObject
 

@@ -70,8 +70,8 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
     algorithm : Algorithm
         Any of W, A-G on any texture the renderer takes: a Fourier series or sampled profile
         (positions [x, z], ``HAPTEX_DIMENSION`` 2), a sum of gratings, a height map or an
-        extruded profile ([x, y, z], ``HAPTEX_DIMENSION`` 3); or a god-object over the plane
-        (:class:`haptex.proxy.GodObject`); or A, B, C, G on an object the
+        extruded profile ([x, y, z], ``HAPTEX_DIMENSION`` 3); or a god-object over the plane, a
+        cylinder or a sphere (:class:`haptex.proxy.GodObject`); or A, B, C, F, G on an object the
         renderer takes (:func:`haptex.objects.object_algorithm`: [x, y, z]; a mesh's corners and
         per-triangle constants become tables, its hierarchy is built by ``haptex_init``).
     out : str or Path

@@ -22,8 +22,10 @@ Over the plane the tick is the C core's (``tick_proxy`` in hx_fields.h: Newton s
 the texture's Hessian, at most 200 of them, each backtracked at most 40 times; its texture
 evaluations counted): :meth:`GodObject.step` runs it, and :class:`haptex.Renderer`,
 :func:`haptex.simulate` and :func:`haptex.simulate_batch` (the general loop) and ``haptex
-export`` take a GodObject like an algorithm. Over a curved base the descent is Python
-(Gauss-Newton on the base's point map), for analysis only.
+export`` take a GodObject like an algorithm. Over a cylinder or a sphere the tick is the C core's
+too (``object_proxy`` in hx_object.c: Gauss-Newton on the surface's Jacobian in closed form,
+the same bounds); over a mesh, whose point at surface coordinates has no closed form, the
+descent is Python (Gauss-Newton on the base's point map by central differences), for analysis.
 """
 
 from __future__ import annotations
@@ -75,14 +77,23 @@ class GodObject:
             base.check_texture(texture)
         self._max_step = STEP_FRACTION * float(texture.shortest_period)
         self._core = None
-        if base is None:  # the C core's tick
+        if self.in_core:  # the C core's tick
             from .core import _ext
             from .renderer import WORKSPACE_LIMIT
 
-            code, prm, kind, coeffs, aux = self.kernel_spec()
+            code, prm, kind, coeffs, aux, core_base = (self.kernel_spec() + (None,)) if base is None \
+                else self.object_spec()
             self._core = _ext.Renderer(code, prm, kind, coeffs, aux, self.dimension, np.inf, WORKSPACE_LIMIT, False,
-                                       False, 0.0, False, 0.0, lambda p: (0.0,) * self.dimension, 0)
+                                       False, 0.0, 0, 0.0, lambda p: (0.0,) * self.dimension, 0, core_base)
         self.reset()
+
+    @property
+    def in_core(self) -> bool:
+        """Its tick is the C core's: over the plane, a cylinder or a sphere (over a mesh, whose
+        points at surface coordinates have no closed form, it is Python, for analysis)."""
+        from .objects import Mesh
+
+        return not isinstance(self.base, Mesh)
 
     letter = "proxy"
     name = "god-object (proxy)"
@@ -97,19 +108,35 @@ class GodObject:
         Raises
         ------
         ParameterError
-            Over a curved base (its descent is not in the C core).
+            Over a base (:meth:`object_spec`).
         """
+        if self.base is not None:
+            raise fail("base", self.base, "None for the plane's proxy tick (over a base: object_spec)")
+        return self._spec()
+
+    def _spec(self):
         from .core import _ext
 
-        if self.base is not None:
-            raise fail("base", self.base, "None for the C core's proxy (over a curved base it is Python, for "
-                       "analysis)")
         prm = np.full(_ext.N_PARAMS, -1.0)
         prm[_ext.P_K0], prm[_ext.P_DXMAX] = self.stiffness, self._max_step
         kind, coeffs = self.texture.kernel_data()
         return (_ext.ALG_PROXY, prm, kind, np.require(coeffs, np.float64, ["C", "W"]), np.zeros(1))
 
-    object_spec = kernel_spec
+    def object_spec(self):
+        """Over a base: the arrays of :meth:`kernel_spec` and the base's
+        (:meth:`haptex.objects.Base.core_spec`), as :meth:`haptex.objects.ObjectAlgorithm.object_spec`.
+        The C core's proxy over a base descends by Gauss-Newton on the surface's Jacobian in
+        closed form (this class's Python descent, over a mesh, by central differences).
+
+        Raises
+        ------
+        ParameterError
+            Without a base, or over a mesh (not in the C core).
+        """
+        if self.base is None or not self.in_core:
+            raise fail("base", self.base, "a plane, cylinder or sphere base for the C core's proxy over an object "
+                       "(over a mesh it is Python, for analysis)")
+        return self._spec() + (self.base.core_spec(),)
 
     def reset(self) -> None:
         """Out of contact, no history."""
@@ -119,16 +146,21 @@ class GodObject:
             self._core.reset()
 
     @property
-    def proxy(self) -> np.ndarray | None:
-        """The proxy's position on the boundary (m), shape (d,), or None out of contact."""
+    def surface_coordinates(self) -> np.ndarray | None:
+        """The proxy's surface coordinates u (m), shape (d - 1,): x over a profile, (x, y) over a
+        surface, (u1, u2) on a base; None out of contact."""
         if self._core is not None:
             u = self._core.adhesion
-            if u is None:
-                return None
-            return np.append(u[:self.dimension - 1], self._h(np.array(u[:self.dimension - 1])))
-        if self._u is None:
+            return None if u is None else np.array(u[:self.dimension - 1], dtype=float)
+        return None if self._u is None else np.array(self._u, dtype=float)
+
+    @property
+    def proxy(self) -> np.ndarray | None:
+        """The proxy's position on the boundary (m), shape (d,), or None out of contact."""
+        u = self.surface_coordinates
+        if u is None:
             return None
-        return self._surface(self._u)
+        return np.append(u, self._h(u)) if self.base is None else self._surface(u)
 
     def _h(self, u) -> float:
         return float(self.texture.height_at(np.asarray(u, dtype=float)[None, :])[0])
@@ -183,7 +215,7 @@ class GodObject:
         p = np.asarray(p, dtype=float).reshape(-1)
         if p.shape != (self.dimension,) or not np.all(np.isfinite(p)):
             raise fail("p", p.tolist(), f"{self.dimension} finite coordinates (m)")
-        if self._core is not None:  # over the plane: the C core's tick
+        if self._core is not None:  # the C core's tick
             f = self._core.tick(float(p[0]), float(p[1]) if self.dimension == 3 else 0.0, float(p[-1]))
             return np.array([f[0], f[1], f[2]] if self.dimension == 3 else [f[0], f[2]])
         foot, inside = self._foot(p)

@@ -363,8 +363,8 @@ class Renderer:
     ----------
     algorithm : Algorithm
         W or A–G, from :func:`haptex.algorithm`; its texture's dimension sets the
-        positions' (2 over a profile, 3 over a surface). Or a god-object over the plane
-        (:class:`haptex.proxy.GodObject`: its C tick, with history). Or A, B, C or G on an object
+        positions' (2 over a profile, 3 over a surface). Or a god-object over the plane, a
+        cylinder or a sphere (:class:`haptex.proxy.GodObject`: its C tick, with history). Or A, B, C, F or G on an object
         (:func:`haptex.objects.object_algorithm`: a plane, cylinder, sphere or mesh, faceted or prism,
         positions [x, y, z]); on a mesh the tick finds the closest point through a
         bounding-volume hierarchy built here, exact, its nodes and triangles visited counted in
@@ -428,8 +428,11 @@ class Renderer:
         self.passivity_controller = passivity_controller
         self.dimension = algorithm.dimension
         base = None
-        if isinstance(algorithm, GodObject):  # the god-object over the plane (its own C tick)
-            code, prm, kind, coeffs, aux = algorithm.kernel_spec()
+        if isinstance(algorithm, GodObject):  # the god-object (its own C tick), over the plane or a base
+            if algorithm.base is None:
+                code, prm, kind, coeffs, aux = algorithm.kernel_spec()
+            else:
+                code, prm, kind, coeffs, aux, base = algorithm.object_spec()
             self._search_table = False
         elif getattr(algorithm, "base", None) is not None:  # a textured object (haptex.objects): A, B, C, G
             code, prm, kind, coeffs, aux, base = algorithm.object_spec()

@@ -761,8 +761,9 @@ def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration:
         Any of W, A–G (:func:`haptex.algorithm`); or A, B, C, G on a textured object
         (:func:`haptex.objects.object_algorithm`, [x, y, z]): the general loop with the object's
         tick (hx_object.c), its damping regime and penetration from the tick's (h(u) - e, or -e
-        for G); or a god-object over the plane (:class:`haptex.proxy.GodObject`, the general
-        loop with its C tick, its penetration the distance to the proxy).
+        for G); or a god-object over the plane, a cylinder or a sphere
+        (:class:`haptex.proxy.GodObject`, the general loop with its C tick, its penetration the
+        distance to the proxy).
     device : Device
         The sampled-data device, of the algorithm's dimension.
     operator : Operator

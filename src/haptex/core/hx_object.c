@@ -586,6 +586,156 @@ static int object_f(const hx_model *m, hx_state *s, const double u[2], const dou
     return HX_OK;
 }
 
+/* S(u) = the point at surface coordinates u and offset e = h(u) on an analytic base, and its
+ * Jacobian dS/du (3 x 2, column j in js[j * 3 .. j * 3 + 2]) from the base's closed forms:
+ * dS/du_j = dP/du_j + n dh/du_j. 0 on a mesh (no closed form: not in the core). */
+static int analytic_surface(const hx_base *b, const hx_texture *tex, const double u[2], double S[3], double js[6],
+                            long *work)
+{
+    double R = b->radius, phi, lam, r, sp, cp, sl, cl, n[3], dp[6];
+    hx_height t;
+    int i;
+    hx_texture_eval(tex, u[0], u[1], &t);
+    (*work)++;
+    switch (b->kind) {
+    case HX_BASE_PLANE:
+        S[0] = u[0];
+        S[1] = u[1];
+        S[2] = t.h;
+        n[0] = n[1] = 0.0;
+        n[2] = 1.0;
+        dp[0] = 1.0, dp[1] = 0.0, dp[2] = 0.0, dp[3] = 0.0, dp[4] = 1.0, dp[5] = 0.0;
+        break;
+    case HX_BASE_CYLINDER: /* ((R + e) sin phi, u2, (R + e) cos phi - R), phi = u1 / R */
+        phi = u[0] / R;
+        r = R + t.h;
+        sp = sin(phi);
+        cp = cos(phi);
+        S[0] = r * sp;
+        S[1] = u[1];
+        S[2] = r * cp - R;
+        n[0] = sp, n[1] = 0.0, n[2] = cp;
+        dp[0] = r / R * cp, dp[1] = 0.0, dp[2] = -r / R * sp;
+        dp[3] = 0.0, dp[4] = 1.0, dp[5] = 0.0;
+        break;
+    case HX_BASE_SPHERE: /* r (cos lam sin phi, sin lam, cos lam cos phi) - (0, 0, R), phi = u1 / R, lam = u2 / R */
+        phi = u[0] / R;
+        lam = u[1] / R;
+        r = R + t.h;
+        sp = sin(phi);
+        cp = cos(phi);
+        sl = sin(lam);
+        cl = cos(lam);
+        n[0] = cl * sp, n[1] = sl, n[2] = cl * cp;
+        for (i = 0; i < 3; i++)
+            S[i] = r * n[i];
+        S[2] -= R;
+        dp[0] = r / R * cl * cp, dp[1] = 0.0, dp[2] = -r / R * cl * sp;
+        dp[3] = -r / R * sl * sp, dp[4] = r / R * cl, dp[5] = -r / R * sl * cp;
+        break;
+    default:
+        return 0;
+    }
+    for (i = 0; i < 3; i++) {
+        js[i] = dp[i] + n[i] * t.gx;
+        js[3 + i] = dp[3 + i] + n[i] * t.gy;
+    }
+    return 1;
+}
+
+static double sq_dist(const double a[3], const double b[3])
+{
+    return (a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]);
+}
+
+/* The god-object over an analytic base (haptex.proxy.GodObject with a base): inside (e < h(u)
+ * at the probe's own coordinates) the proxy's surface coordinates slide from where they were
+ * (the last contact's, else the last free foot's, else the foot's) to the local minimum of
+ * |S(u) - p|^2 reached by Gauss-Newton steps on S's Jacobian (at most HX_P_DXMAX long, halved
+ * until the distance decreases, at most HX_PROXY_STEPS of them); the force is the spring
+ * kappa_0 (S(u) - p). State as over the plane: contact 1 in contact (u in adh), 2 free (the
+ * foot in last), 0 no history. */
+static int object_proxy(const hx_model *m, hx_state *s, const double p[3], const double foot[2], double e, double h,
+                        double f[3])
+{
+    double k = m->prm[HX_P_K0], lmax = m->prm[HX_P_DXMAX], u[2], S[3], js[6], phi;
+    long work = s->work;
+    int it, i;
+    s->pen = 0.0;
+    if (!(e < h)) {
+        s->contact = 2;
+        s->last[0] = foot[0];
+        s->last[1] = foot[1];
+        return HX_OK;
+    }
+    if (s->contact == 1) {
+        u[0] = s->adh[0];
+        u[1] = s->adh[1];
+    } else if (s->contact == 2) {
+        u[0] = s->last[0];
+        u[1] = s->last[1];
+    } else {
+        u[0] = foot[0];
+        u[1] = foot[1];
+    }
+    if (!analytic_surface(m->base, &m->tex, u, S, js, &work))
+        return HX_NOT_IN_CORE;
+    phi = sq_dist(S, p);
+    for (it = 0; it < HX_PROXY_STEPS; it++) {
+        double r[3], a = 0.0, b = 0.0, c = 0.0, g0 = 0.0, g1 = 0.0, det, st[2], nrm, v[2], Sv[3], jv[6], pv = 0.0;
+        int j;
+        for (i = 0; i < 3; i++) {
+            r[i] = S[i] - p[i];
+            a += js[i] * js[i];
+            b += js[i] * js[3 + i];
+            c += js[3 + i] * js[3 + i];
+            g0 += js[i] * r[i];
+            g1 += js[3 + i] * r[i];
+        }
+        det = a * c - b * b; /* J^T J, positive definite where the base is regular */
+        if (!(det > 0.0))
+            break;
+        st[0] = -(c * g0 - b * g1) / det;
+        st[1] = -(a * g1 - b * g0) / det;
+        nrm = hypot(st[0], st[1]);
+        if (!isfinite(nrm))
+            break;
+        if (nrm > lmax) {
+            st[0] *= lmax / nrm;
+            st[1] *= lmax / nrm;
+        }
+        for (j = 0; j < HX_PROXY_HALVINGS; j++) { /* halve until the distance decreases */
+            v[0] = u[0] + st[0];
+            v[1] = u[1] + st[1];
+            analytic_surface(m->base, &m->tex, v, Sv, jv, &work);
+            pv = sq_dist(Sv, p);
+            if (pv <= phi)
+                break;
+            st[0] *= 0.5;
+            st[1] *= 0.5;
+        }
+        if (j == HX_PROXY_HALVINGS)
+            break;
+        u[0] = v[0];
+        u[1] = v[1];
+        for (i = 0; i < 3; i++)
+            S[i] = Sv[i];
+        for (i = 0; i < 6; i++)
+            js[i] = jv[i];
+        phi = pv;
+        if (hypot(st[0], st[1]) <= 1e-15 + 1e-12 * hypot(u[0], u[1]))
+            break;
+    }
+    s->contact = 1;
+    s->adh[0] = u[0];
+    s->adh[1] = u[1];
+    s->work = work;
+    s->pen = sqrt(phi);
+    for (i = 0; i < 3; i++)
+        f[i] = k * (S[i] - p[i]);
+    return HX_OK;
+}
+
 int hx_object_force(const hx_model *m, hx_state *s, const double p[3], double f[3])
 {
     double u[2], ju[6], e, n[3], gp[3], pen;
@@ -595,7 +745,7 @@ int hx_object_force(const hx_model *m, hx_state *s, const double p[3], double f[
     object_fn fn = m->code >= 0 && m->code < HX_N_ALGS ? OBJECT_FIELDS[m->code] : NULL;
     f[0] = f[1] = f[2] = 0.0;
     s->pen = 0.0;
-    if (fn == NULL && m->code != HX_ALG_F)
+    if (fn == NULL && m->code != HX_ALG_F && !(m->code == HX_ALG_PROXY && m->base->kind != HX_BASE_MESH))
         return HX_NOT_IN_CORE;
     rc = hx_base_local(m->base, p, &tri, u, ju, &e, n, &work);
     s->work = work;
@@ -607,6 +757,8 @@ int hx_object_force(const hx_model *m, hx_state *s, const double p[3], double f[
     s->h = t.h;
     if (m->code == HX_ALG_F)
         return object_f(m, s, u, ju, e, n, t.h, f);
+    if (m->code == HX_ALG_PROXY)
+        return object_proxy(m, s, p, u, e, t.h, f);
     pen = t.h - e;
     inside = m->code == HX_ALG_G ? e < 0.0 : pen > 0.0;
     if (!inside)
