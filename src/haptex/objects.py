@@ -41,7 +41,8 @@ order), its force J_u^T f_u; it has memory, so the region analyses (q, continuit
 take A, B, C and G (:data:`OBJECT_LETTERS`) and F gives its static force at a deflection.
 
 Not yet here (issue 32's later steps): D and E (the closest point on the textured object),
-F's region analyses, a C^1 mesh base, HAPI's reference algorithm (CHAI3D's is :mod:`haptex.reference`), meshes in
+F's region analyses, a C^1 mesh base, HAPI's reference on objects (on the plane, and CHAI3D's, are
+:mod:`haptex.reference`), meshes in
 the explorer (:func:`haptex.simulate`, :func:`haptex.simulate_batch` and ``haptex sweep`` run
 objects; ``haptex export`` writes the renderer's tick; ``haptex explore`` shows spheres and
 cylinders with q on their surface).

@@ -1,5 +1,6 @@
 """Reference algorithms of the haptics libraries users know, in physical units, analysed by
-haptex beside its own (issue 32).
+haptex beside its own (issue 32): CHAI3D's normal map (:class:`Chai3dNormalMap`) and H3D/HAPI's
+depth-map surface (:class:`HapiDepthMap`).
 
 :class:`Chai3dNormalMap` is CHAI3D's normal-map texture on a triangle mesh, as its finger-proxy
 algorithm computes it (CHAI3D 3.3, ``cAlgorithmFingerProxy::updateForce``, BSD licence; read
@@ -35,7 +36,7 @@ from ._validation import ParameterError, fail, positive
 from .objects import Mesh, ObjectAlgorithm
 from .textures import Texture
 
-__all__ = ["Chai3dNormalMap", "FLIP_ANGLE"]
+__all__ = ["Chai3dNormalMap", "FLIP_ANGLE", "HapiDepthMap", "HAPI_MAX_ITERATIONS", "HAPI_EPSILON"]
 
 FLIP_ANGLE = 1.57
 """rad: CHAI3D turns the new normal over when it makes more than this with the triangle's."""
@@ -145,5 +146,185 @@ class Chai3dNormalMap(ObjectAlgorithm):
     def kernel_spec(self):
         raise ParameterError(f"{self!r} is not allowed in the renderer, the simulator or the export: it is a reference "
                              "model for analysis (haptex's own algorithms render on objects)")
+
+    object_spec = kernel_spec
+
+
+# -- H3D/HAPI's depth-map surface --------------------------------------------------------------
+
+HAPI_MAX_ITERATIONS = 35
+"""The simplex search's iteration cap: HAPIVariableDepthSurface's default ``max_iterations``
+(published: HAPI's HAPIVariableDepthSurface.h, SenseGraphics, GPL)."""
+
+HAPI_EPSILON = 1e-4
+"""The simplex search's tolerance: HAPIVariableDepthSurface's default ``minimization_epsilon``
+(published: the same header)."""
+
+
+class HapiDepthMap:
+    """H3D/HAPI's depth-map surface on a plane (``HAPIVariableDepthSurface`` without friction),
+    in physical units: a god-object found by a local derivative-free search, not a certified
+    closest point.
+
+    HAPI renders a depth map on a primitive (here the plane z = max h, the texture's top: a
+    depth map sinks into the surface) with its proxy-based renderer. While the probe is under
+    the primitive the proxy w stays on it; each tick (read from HAPI's source,
+    HAPIVariableDepthSurface.cpp, and written here from that description):
+
+    1. in the local frame at the proxy, the probe's lateral offset is m = p_xy - w;
+    2. a downhill simplex (Nelder & Mead) minimises the squared distance from the probe to the
+       displaced surface's point over the lateral move v, f(v) = |(w + v, h(w + v)) - p|^2,
+       from the simplex {0, m, m/2 + (m_y, -m_x)/2}, for at most ``max_iterations`` iterations
+       or until the relative spread of f over the simplex is below ``epsilon``;
+    3. the proxy moves to w + v*, and the force is the spring kappa_0 (S(w) - p), S(w) = (w,
+       h(w)), where the probe is below the displaced surface at the proxy (zero above it, the
+       contact with the primitive kept).
+
+    The search starts where the proxy was and spans the probe's lateral offset: it finds a
+    local minimum of the distance near the proxy, possibly not the closest point (haptex's D),
+    and stops at the iteration cap wherever it is. Both are measured by :meth:`step`'s
+    counters and analysed in tests/test_reference.py.
+
+    Parameters
+    ----------
+    texture : Texture
+        A surface h(x, y) (m); a profile is extruded along y.
+    stiffness : float
+        kappa_0 of the proxy's spring (N/m), > 0.
+    max_iterations : int, optional
+        Default :data:`HAPI_MAX_ITERATIONS` (HAPI's).
+    epsilon : float, optional
+        Default :data:`HAPI_EPSILON` (HAPI's): the simplex stops when 2 |f_max - f_min| /
+        (|f_max| + |f_min|) is below it, the fractional tolerance of the textbook amoeba
+        (Press et al., Numerical Recipes; H3DUtil's own implementation was not available to
+        us, so its stopping rule and what counts as an iteration, here one reflection step,
+        are chosen).
+
+    Raises
+    ------
+    ParameterError
+        For a texture that is not a haptex texture, a stiffness not > 0, ``max_iterations`` not
+        a whole number >= 1, or ``epsilon`` not > 0.
+
+    Notes
+    -----
+    Positions [x, y, z] (m), forces (N). It is an analysis model with history: :meth:`step`
+    one tick at a time, :meth:`reset` to forget the contact. The renderer, the simulator and
+    the export do not take it.
+
+    References
+    ----------
+    H3D API / HAPI 1.x, src/HAPIVariableDepthSurface.cpp (getProxyMovement, getForces) and
+    include/HAPI/HAPIVariableDepthSurface.h, SenseGraphics AB, www.h3dapi.org; J. A. Nelder and
+    R. Mead, "A simplex method for function minimization", Computer Journal 7, 1965, pp. 308–313.
+    """
+
+    letter = "HAPI"
+    name = "HAPI depth-map surface (local simplex search)"
+    dimension = 3
+
+    def __init__(self, texture: Texture, stiffness: float, max_iterations: int = HAPI_MAX_ITERATIONS,
+                 epsilon: float = HAPI_EPSILON):
+        from ._validation import whole
+        from .surfaces import Extruded
+
+        if not isinstance(texture, Texture):
+            raise fail("texture", texture, "a haptex texture (a profile or a surface)")
+        self.texture = Extruded(texture) if texture.dimension == 1 else texture
+        self.stiffness = positive("stiffness", stiffness, "N/m")
+        self.max_iterations = whole("max_iterations", max_iterations, 1, 10 ** 6, "simplex iterations")
+        self.epsilon = positive("epsilon", epsilon, "")
+        self.top = float(self.texture.height_range[1])
+        self.reset()
+
+    def __repr__(self) -> str:
+        return (f"HapiDepthMap({self.texture!r}, stiffness={self.stiffness:g}, max_iterations={self.max_iterations}, "
+                f"epsilon={self.epsilon:g})")
+
+    def reset(self) -> None:
+        """No contact, no history; the counters cleared."""
+        self.proxy_xy = None
+        self.last_iterations = 0
+        self.capped = 0
+        self.evaluations = 0
+
+    def _h(self, xy) -> float:
+        self.evaluations += 1
+        return float(self.texture.height_at(np.asarray(xy, dtype=float)[None, :])[0])
+
+    @property
+    def contact_point(self) -> np.ndarray | None:
+        """S(w): the displaced surface's point at the proxy (m), shape (3,), or None out of contact."""
+        if self.proxy_xy is None:
+            return None
+        return np.append(self.proxy_xy, self._h(self.proxy_xy))
+
+    def _simplex(self, w, p):
+        """The local simplex search of step 2: the lateral move v* (m) and its iterations."""
+        def f(v):
+            q = w + v
+            dz = self._h(q) - p[2]
+            return float((q[0] - p[0]) ** 2 + (q[1] - p[1]) ** 2 + dz * dz)
+
+        m = p[:2] - w
+        half = 0.5 * m
+        pts = np.array([[0.0, 0.0], m, half + np.array([half[1], -half[0]])])
+        vals = np.array([f(v) for v in pts])
+        it = 0
+        while True:
+            order = np.argsort(vals)
+            pts, vals = pts[order], vals[order]
+            lo, hi = vals[0], vals[-1]
+            if 2.0 * abs(hi - lo) <= self.epsilon * (abs(hi) + abs(lo)) + 1e-300 or it >= self.max_iterations:
+                break
+            it += 1
+            centroid = pts[:-1].mean(axis=0)
+            r = centroid + (centroid - pts[-1])  # reflect the worst through the others' centroid
+            fr = f(r)
+            if fr < vals[0]:
+                e = centroid + 2.0 * (centroid - pts[-1])  # expand
+                fe = f(e)
+                pts[-1], vals[-1] = (e, fe) if fe < fr else (r, fr)
+            elif fr < vals[-2]:
+                pts[-1], vals[-1] = r, fr
+            else:
+                c = centroid + 0.5 * (pts[-1] - centroid)  # contract towards the centroid
+                fc = f(c)
+                if fc < vals[-1]:
+                    pts[-1], vals[-1] = c, fc
+                else:  # shrink towards the best
+                    pts[1:] = pts[0] + 0.5 * (pts[1:] - pts[0])
+                    vals[1:] = [f(v) for v in pts[1:]]
+        return pts[0], it
+
+    def step(self, p) -> np.ndarray:
+        """One tick: the force (N), shape (3,), at the probe position ``p`` (m), shape (3,).
+
+        Raises
+        ------
+        ParameterError
+            For a position that is not 3 finite coordinates.
+        """
+        p = np.asarray(p, dtype=float).reshape(-1)
+        if p.shape != (3,) or not np.all(np.isfinite(p)):
+            raise fail("p", p.tolist(), "3 finite coordinates [x, y, z] (m)")
+        self.last_iterations = 0
+        if not p[2] < self.top:  # above the primitive: no contact
+            self.proxy_xy = None
+            return np.zeros(3)
+        if self.proxy_xy is None:  # contact starts where the probe crossed the primitive
+            self.proxy_xy = p[:2].copy()
+        move, it = self._simplex(self.proxy_xy, p)
+        self.last_iterations = it
+        self.capped += it >= self.max_iterations
+        self.proxy_xy = self.proxy_xy + move
+        s = self.contact_point
+        if not p[2] < s[2]:  # above the depth at the proxy: no force
+            return np.zeros(3)
+        return self.stiffness * (s - p)
+
+    def kernel_spec(self):
+        raise ParameterError(f"{self!r} is not allowed in the renderer, the simulator or the export: it is a reference "
+                             "model for analysis (haptex's own D and proxy render)")
 
     object_spec = kernel_spec
