@@ -198,6 +198,18 @@ def test_haptex_run_renders_the_god_object(capsys):
     out = json.loads(capsys.readouterr().out)
     assert out["algorithm"] == "PROXY" and out["ticks"] == 1000 and out["faults"] == 0
     assert 0.0 < out["max_force_sent"] <= 8.9 and out["engaged_at"] is not None
-    assert main(["run", "--device", "simulated:falcon", "--algorithm", "proxy", "--object", "sphere:12.7mm",
-                 "--duration", "0.1s"]) == 2
-    assert "--object is not allowed with --algorithm proxy" in capsys.readouterr().err
+    # over a sphere the proxy's tick is the C core's too (Gauss-Newton on its closed form)
+    assert main(["run", "--device", "simulated:falcon", "--algorithm", "proxy", "--object", "sphere:12.7323954mm",
+                 "--duration", "0.3s", "--fast", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["object"].startswith("Sphere") and out["faults"] == 0 and 0.0 < out["max_force_sent"] <= 8.9
+
+
+def test_haptex_run_refuses_the_proxy_over_a_mesh(tmp_path, capsys):
+    # over a mesh the proxy is Python (haptex.proxy, for analysis): refused by name, in one line
+    from .test_objects import _ball_obj
+
+    path, scale = _ball_obj(tmp_path, subdivisions=1)
+    assert main(["run", "--device", "simulated:falcon", "--algorithm", "proxy", "--object", str(path),
+                 "--uv-scale", f"{scale} m", "--duration", "0.1s"]) == 2
+    assert "--object is not allowed with --algorithm proxy on a mesh" in capsys.readouterr().err
