@@ -143,8 +143,8 @@ def test_hapis_tolerance_makes_its_loops_dissipative():
     egg = hx.SumOfGratings.egg_crate(0.2e-3, 2e-3)
     corners = np.array([[0, 0], [1.2e-3, 0], [1.2e-3, 0.8e-3], [0, 0.8e-3], [0, 0]]) + [0.2e-3, 0.1e-3]
     for z in (-0.25e-3,):
-        s = np.arange(400) / 400
-        loop = np.vstack([np.column_stack([a + np.outer(s, b - a), np.full(400, z)])
+        s = np.arange(250) / 250
+        loop = np.vstack([np.column_stack([a + np.outer(s, b - a), np.full(250, z)])
                           for a, b in zip(corners[:-1], corners[1:])])
         loop = np.vstack([loop, loop[:1]])
 
