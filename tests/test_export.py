@@ -518,7 +518,34 @@ def test_an_object_at_the_command_line_exports(tmp_path):
     r = subprocess.run(["haptex", "export", "--algorithm", "D", "--texture", "egg-crate:0.2mm,2mm", "--stiffness",
                         "2 kN/m", "--max-force", "5 N", "--object", "sphere:12.7323954mm", "--out", str(tmp_path)],
                        capture_output=True, text=True, timeout=120)
-    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and "algorithm" in r.stderr
+    assert r.returncode == 0, r.stderr  # D on a sphere: the object's closest-point search
+    assert "HX_ALG_D" in (tmp_path / "haptex_texture.c").read_text()
+    from .test_objects import _ball_obj
+
+    ball, scale = _ball_obj(tmp_path, subdivisions=1)
+    r = subprocess.run(["haptex", "export", "--algorithm", "D", "--texture", "egg-crate:0.2mm,2mm", "--stiffness",
+                        "2 kN/m", "--max-force", "5 N", "--object", str(ball), "--uv-scale", f"{scale} m",
+                        "--out", str(tmp_path / "mesh")], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and "base = " in r.stderr, r.stderr
+
+
+@pytest.mark.parametrize("letter", ["D", "E"])
+def test_d_and_e_on_a_sphere_export_and_tick_as_the_renderer(tmp_path, objdir, letter):
+    # the closest point of the textured object (hx_object.c's search, its budget in the tables):
+    # the exported tick equals the compiled Renderer's bit for bit along a stroke in and out
+    from haptex.objects import Sphere, object_algorithm
+
+    R = 40 * 2e-3 / (2 * np.pi)
+    alg = object_algorithm(letter, hx.SumOfGratings.egg_crate(0.2e-3, 2e-3), Sphere(R), K0)
+    c = Compiled(alg, tmp_path, objdir, max_force=5.0)
+    r = hx.Renderer(alg, max_force=5.0)
+    t = np.linspace(0.0, 1.0, 1501)
+    p = np.column_stack([6e-3 * np.sin(2 * np.pi * 3 * t), 2e-3 * np.cos(2 * np.pi * 2 * t),
+                         -0.8e-3 * np.sin(2 * np.pi * 5 * t) + 0.1e-3])
+    got = c.forces(p)
+    ref = np.array([r.step(tuple(q)) for q in p.tolist()])
+    assert np.array_equal(got, ref) and np.abs(ref).max() > 0.5
+    assert c.count("max_work") == r.max_work
 
 
 @pytest.mark.parametrize("base_name", ["sphere", "cylinder"])

@@ -112,7 +112,7 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
     evaluation_budget(max_evaluations)
     base = None
     if getattr(algorithm, "base", None) is not None:  # a textured object: the base's tables too
-        code, prm, kind, coeffs, aux, _ = algorithm.object_spec()
+        code, prm, kind, coeffs, aux, _ = algorithm.object_spec(max_evaluations)
         base = algorithm.base.core_arrays()
         table = False
     else:

@@ -39,9 +39,16 @@ hierarchy, :class:`Mesh`). F is the base as a flat wall, kappa_0 |e| n inside (e
 presliding friction of eq. 22-24 in the surface coordinates u (the local tangent plane to first
 order), its force J_u^T f_u; it has memory, so the region analyses (q, continuity, loop work)
 take A, B, C and G (:data:`OBJECT_LETTERS`) and F gives its static force at a deflection.
+D and E on a plane, cylinder or sphere take the closest point of the textured object S(u) =
+P(u, h(u)): Gauss-Newton from the probe's foot and the last closest point, then a branch and
+bound over the surface coordinates that can hold a nearer point (a band the base's geometry
+bounds), cells pruned by a second-order lower bound of |S(u) - p|^2 (the texture's rigorous
+slope and curvature bounds, the base's radius), cells of the plane search's leaf size polished
+by Gauss-Newton; never farther than an exhaustive grid (tested), equal in distance to the plane's
+certified search on Plane(). :meth:`ObjectAlgorithm.force` runs the same C search.
 
-Not yet here (issue 32's later steps): D and E (the closest point on the textured object),
-F's region analyses, a C^1 mesh base, HAPI's reference on objects (on the plane, and CHAI3D's, are
+Not yet here (issue 32's later steps): D and E on meshes, the region analyses of D, E and F,
+a C^1 mesh base, HAPI's reference on objects (on the plane, and CHAI3D's, are
 :mod:`haptex.reference`), meshes in
 the explorer (:func:`haptex.simulate`, :func:`haptex.simulate_batch` and ``haptex sweep`` run
 objects; ``haptex export`` writes the renderer's tick; ``haptex explore`` shows spheres and
@@ -57,7 +64,7 @@ import numpy as np
 from ._validation import ParameterError, fail, positions, positive
 from .algorithms import Algorithm, algorithm
 from .core import _ext, in_slices
-from .surfaces import Extruded, Surface
+from .surfaces import Extruded, SumOfGratings, Surface
 from .textures import Texture
 
 __all__ = ["Base", "Plane", "Cylinder", "Sphere", "Mesh", "ObjectAlgorithm", "object_algorithm", "OBJECT_LETTERS",
@@ -66,9 +73,10 @@ __all__ = ["Base", "Plane", "Cylinder", "Sphere", "Mesh", "ObjectAlgorithm", "ob
 OBJECT_LETTERS = ("A", "B", "C", "G")
 """The letters on objects with their fields' analyses (q, continuity, loop work)."""
 
-OBJECT_TICK_LETTERS = ("A", "B", "C", "F", "G")
+OBJECT_TICK_LETTERS = ("A", "B", "C", "D", "E", "F", "G")
 """The letters the C core renders on objects: F (with memory) too, its static field given its
-deflection (:meth:`ObjectAlgorithm.force`)."""
+deflection (:meth:`ObjectAlgorithm.force`), and D and E (the closest point of the textured
+object, certified) on a plane, cylinder or sphere."""
 """The algorithms defined over a curved base so far (penetration along the base's normal)."""
 
 MAX_RADIUS = 1e3
@@ -745,7 +753,8 @@ class Mesh(Base):
 
 
 class ObjectAlgorithm(Algorithm):
-    """One of A, B, C, F, G over a textured object (see the module's docstring for the fields).
+    """One of A-G over a textured object (see the module's docstring for the fields; D and E on
+    a plane, cylinder or sphere).
 
     Probe positions are [x, y, z] (m); forces (N) and Jacobians (N/m) are in that frame.
     ``texture`` is the height h(u) (a surface over u; a profile is extruded along u2).
@@ -769,6 +778,17 @@ class ObjectAlgorithm(Algorithm):
                        "modulation_depth, max_penetration, stick_deflection)")
         if not isinstance(base, Base):
             raise fail("base", base, "a haptex.objects base: Plane(), Cylinder(R), Sphere(R) or Mesh(...)")
+        if letter in "DE" and isinstance(base, Mesh):
+            raise fail("base", base, f"a plane, cylinder or sphere for {letter} (the closest point of a textured "
+                       "mesh is not written yet)")
+        if letter in "DE" and texture.dimension == 1:  # a Fourier profile as gratings along u1 (the surface search)
+            from .textures import SumOfSinusoids
+
+            if not isinstance(texture, SumOfSinusoids):
+                raise fail("texture", texture, f"a surface, or a Fourier profile, for {letter} on an object (its "
+                           "closest-point search is the surface's)")
+            texture = SumOfGratings(texture.amplitudes, texture.periods, np.zeros_like(texture.amplitudes),
+                                    texture.phases)
         if texture.dimension == 1:
             texture = Extruded(texture)
         base.check_texture(texture)
@@ -780,7 +800,7 @@ class ObjectAlgorithm(Algorithm):
         self.reference = plane.reference + "; on a base: haptex.objects"
         self.penetration_kind = plane.penetration_kind
         self.is_gradient = letter == "C"
-        self.has_memory = letter == "F"
+        self.has_memory = letter in "DEF"  # (D and E: the last closest point, a warm start only)
         self._plane = plane
         self._params = dict(params)
 
@@ -846,6 +866,8 @@ class ObjectAlgorithm(Algorithm):
             return self._friction(self._positions(p), deflection)
         if not (np.isscalar(deflection) and deflection == 0.0):
             raise fail("deflection", deflection, f"none for {self.letter} (only F has a presliding deflection)")
+        if self.letter in "DE":
+            return self._closest_field(self._positions(p))
         return self._object(self._positions(p), False)[0]
 
     def _friction(self, p, deflection):
@@ -858,10 +880,23 @@ class ObjectAlgorithm(Algorithm):
         f = (self.stiffness * depth)[..., None] * n + np.einsum("...ki,...k->...i", Ju, c[..., None] * d)
         return np.where((e < 0)[..., None], f, 0.0)
 
+    def _closest_field(self, p):
+        """D's or E's force at positions (..., 3): the C core's certified closest point of the
+        textured object (hx_object.c, the renderer's tick run over the points in C)."""
+        from .core import _ext
+
+        flat = np.ascontiguousarray(p.reshape(-1, 3), dtype=np.float64)
+        code, prm, kind, coeffs, aux, base = self.object_spec()
+        core = _ext.Renderer(code, prm, kind, coeffs, aux, 3, np.inf, 1e3, False, False, 0.0, 0, 0.0,
+                             lambda q: (0.0, 0.0, 0.0), 0, base)
+        out = np.empty_like(flat)
+        core.run(flat, out)
+        return out.reshape(p.shape)
+
     def _no_memory(self):
-        if self.letter == "F":
-            raise fail("algorithm", "F", "A, B, C or G for an object's Jacobian and the analyses built on it (F on an "
-                       "object renders in the C core and has its static force, ObjectAlgorithm.force(p, deflection))")
+        if self.letter in "DEF":
+            raise fail("algorithm", self.letter, "A, B, C or G for an object's Jacobian and the analyses built on it "
+                       f"({self.letter} on an object renders in the C core and has its force, ObjectAlgorithm.force)")
 
     def jacobian(self, p) -> np.ndarray:
         self._no_memory()
@@ -924,21 +959,29 @@ class ObjectAlgorithm(Algorithm):
         raise ParameterError(f"{self!r} is not allowed here yet: the C core's tick over objects runs in "
                              "haptex.Renderer, haptex.simulate, haptex.simulate_batch and haptex export so far")
 
-    def object_spec(self):
+    def object_spec(self, max_evaluations: int | None = None):
         """The arrays of this algorithm's servo tick in the C core (:class:`haptex.Renderer`):
         the plane algorithm's (code, prm, kind, coeffs, aux; :meth:`haptex.Algorithm.kernel_spec`)
-        and the base's (:meth:`Base.core_spec`)."""
+        and the base's (:meth:`Base.core_spec`). For D and E, ``max_evaluations`` is the
+        closest-point search's budget a tick (None: only its cell bound)."""
         code, prm, kind, coeffs, aux = self._plane.kernel_spec()
+        if self.letter in "DE" and max_evaluations is not None:
+            from .core import _ext
+
+            aux = np.array(aux, dtype=np.float64)
+            aux[_ext.G_BUDGET] = float(max_evaluations)
         return code, prm, kind, coeffs, aux, self.base.core_spec()
 
 
 def object_algorithm(letter: str, texture: Texture, base: Base, stiffness: float, **params) -> ObjectAlgorithm:
-    """Algorithm ``letter`` (A, B, C, F or G) rendering ``texture`` on ``base``.
+    """Algorithm ``letter`` (A-G) rendering ``texture`` on ``base``.
 
     Parameters
     ----------
-    letter : {"A", "B", "C", "F", "G"}
-        F renders in the C core (its presliding friction in the surface coordinates, the local
+    letter : {"A", "B", "C", "D", "E", "F", "G"}
+        D and E (a plane, cylinder or sphere; a surface or Fourier-profile texture) take the
+        closest point of the textured object, in the C core. F renders in the C core (its
+        presliding friction in the surface coordinates, the local
         tangent plane; :meth:`ObjectAlgorithm.force` gives its static force at a deflection);
         the region analyses take A, B, C and G (:data:`OBJECT_LETTERS`).
     texture : Texture

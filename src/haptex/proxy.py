@@ -122,9 +122,10 @@ class GodObject:
         kind, coeffs = self.texture.kernel_data()
         return (_ext.ALG_PROXY, prm, kind, np.require(coeffs, np.float64, ["C", "W"]), np.zeros(1))
 
-    def object_spec(self):
-        """Over a base: the arrays of :meth:`kernel_spec` and the base's
-        (:meth:`haptex.objects.Base.core_spec`), as :meth:`haptex.objects.ObjectAlgorithm.object_spec`.
+    def object_spec(self, max_evaluations=None):
+        """Over a base (``max_evaluations``: unused, the descent is bounded by its steps): the
+        arrays of :meth:`kernel_spec` and the base's (:meth:`haptex.objects.Base.core_spec`), as
+        :meth:`haptex.objects.ObjectAlgorithm.object_spec`.
         The C core's proxy over a base descends by Gauss-Newton on the surface's Jacobian in
         closed form (this class's Python descent, over a mesh, by central differences).
 

@@ -143,7 +143,7 @@ class Chai3dNormalMap(ObjectAlgorithm):
         with np.errstate(invalid="ignore"):
             return np.where(np.linalg.norm(f, axis=-1) > 0, np.arccos(np.clip(cos, -1.0, 1.0)), np.nan)
 
-    def kernel_spec(self):
+    def kernel_spec(self, *_):
         raise ParameterError(f"{self!r} is not allowed in the renderer, the simulator or the export: it is a reference "
                              "model for analysis (haptex's own algorithms render on objects)")
 
@@ -323,7 +323,7 @@ class HapiDepthMap:
             return np.zeros(3)
         return self.stiffness * (s - p)
 
-    def kernel_spec(self):
+    def kernel_spec(self, *_):
         raise ParameterError(f"{self!r} is not allowed in the renderer, the simulator or the export: it is a reference "
                              "model for analysis (haptex's own D and proxy render)")
 

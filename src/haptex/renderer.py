@@ -364,7 +364,8 @@ class Renderer:
     algorithm : Algorithm
         W or A–G, from :func:`haptex.algorithm`; its texture's dimension sets the
         positions' (2 over a profile, 3 over a surface). Or a god-object over the plane, a
-        cylinder or a sphere (:class:`haptex.proxy.GodObject`: its C tick, with history). Or A, B, C, F or G on an object
+        cylinder or a sphere (:class:`haptex.proxy.GodObject`: its C tick, with history). Or A-G
+        on an object (D and E on a plane, cylinder or sphere)
         (:func:`haptex.objects.object_algorithm`: a plane, cylinder, sphere or mesh, faceted or prism,
         positions [x, y, z]); on a mesh the tick finds the closest point through a
         bounding-volume hierarchy built here, exact, its nodes and triangles visited counted in
@@ -432,10 +433,10 @@ class Renderer:
             if algorithm.base is None:
                 code, prm, kind, coeffs, aux = algorithm.kernel_spec()
             else:
-                code, prm, kind, coeffs, aux, base = algorithm.object_spec()
+                code, prm, kind, coeffs, aux, base = algorithm.object_spec(self.max_evaluations)
             self._search_table = False
-        elif getattr(algorithm, "base", None) is not None:  # a textured object (haptex.objects): A, B, C, G
-            code, prm, kind, coeffs, aux, base = algorithm.object_spec()
+        elif getattr(algorithm, "base", None) is not None:  # a textured object (haptex.objects)
+            code, prm, kind, coeffs, aux, base = algorithm.object_spec(self.max_evaluations)
             self._search_table = False
         else:
             code, prm, kind, coeffs, aux, self._search_table = tick_model(algorithm, max_evaluations)

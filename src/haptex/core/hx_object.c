@@ -648,39 +648,16 @@ static double sq_dist(const double a[3], const double b[3])
     return (a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]);
 }
 
-/* The god-object over an analytic base (haptex.proxy.GodObject with a base): inside (e < h(u)
- * at the probe's own coordinates) the proxy's surface coordinates slide from where they were
- * (the last contact's, else the last free foot's, else the foot's) to the local minimum of
- * |S(u) - p|^2 reached by Gauss-Newton steps on S's Jacobian (at most HX_P_DXMAX long, halved
- * until the distance decreases, at most HX_PROXY_STEPS of them); the force is the spring
- * kappa_0 (S(u) - p). State as over the plane: contact 1 in contact (u in adh), 2 free (the
- * foot in last), 0 no history. */
-static int object_proxy(const hx_model *m, hx_state *s, const double p[3], const double foot[2], double e, double h,
-                        double f[3])
+/* Gauss-Newton on |S(u) - p|^2 from u (its S and phi = |S(u) - p|^2 given) on an analytic
+ * base: steps at most lmax long, halved until the distance decreases (HX_PROXY_HALVINGS at
+ * most), HX_PROXY_STEPS of them at most; u, S and phi updated in place, the evaluations counted. */
+static void descend(const hx_model *m, const double p[3], double lmax, double u[2], double S[3], double *phi,
+                    long *work)
 {
-    double k = m->prm[HX_P_K0], lmax = m->prm[HX_P_DXMAX], u[2], S[3], js[6], phi;
-    long work = s->work;
+    double js[6];
     int it, i;
-    s->pen = 0.0;
-    if (!(e < h)) {
-        s->contact = 2;
-        s->last[0] = foot[0];
-        s->last[1] = foot[1];
-        return HX_OK;
-    }
-    if (s->contact == 1) {
-        u[0] = s->adh[0];
-        u[1] = s->adh[1];
-    } else if (s->contact == 2) {
-        u[0] = s->last[0];
-        u[1] = s->last[1];
-    } else {
-        u[0] = foot[0];
-        u[1] = foot[1];
-    }
-    if (!analytic_surface(m->base, &m->tex, u, S, js, &work))
-        return HX_NOT_IN_CORE;
-    phi = sq_dist(S, p);
+    analytic_surface(m->base, &m->tex, u, S, js, work);
+    *phi = sq_dist(S, p);
     for (it = 0; it < HX_PROXY_STEPS; it++) {
         double r[3], a = 0.0, b = 0.0, c = 0.0, g0 = 0.0, g1 = 0.0, det, st[2], nrm, v[2], Sv[3], jv[6], pv = 0.0;
         int j;
@@ -707,9 +684,9 @@ static int object_proxy(const hx_model *m, hx_state *s, const double p[3], const
         for (j = 0; j < HX_PROXY_HALVINGS; j++) { /* halve until the distance decreases */
             v[0] = u[0] + st[0];
             v[1] = u[1] + st[1];
-            analytic_surface(m->base, &m->tex, v, Sv, jv, &work);
+            analytic_surface(m->base, &m->tex, v, Sv, jv, work);
             pv = sq_dist(Sv, p);
-            if (pv <= phi)
+            if (pv <= *phi)
                 break;
             st[0] *= 0.5;
             st[1] *= 0.5;
@@ -722,10 +699,44 @@ static int object_proxy(const hx_model *m, hx_state *s, const double p[3], const
             S[i] = Sv[i];
         for (i = 0; i < 6; i++)
             js[i] = jv[i];
-        phi = pv;
+        *phi = pv;
         if (hypot(st[0], st[1]) <= 1e-15 + 1e-12 * hypot(u[0], u[1]))
             break;
     }
+}
+
+/* The god-object over an analytic base (haptex.proxy.GodObject with a base): inside (e < h(u)
+ * at the probe's own coordinates) the proxy's surface coordinates slide from where they were
+ * (the last contact's, else the last free foot's, else the foot's) to the local minimum of
+ * |S(u) - p|^2 reached by Gauss-Newton steps on S's Jacobian (descend: at most HX_P_DXMAX
+ * long); the force is the spring kappa_0 (S(u) - p). State as over the plane: contact 1 in
+ * contact (u in adh), 2 free (the foot in last), 0 no history. */
+static int object_proxy(const hx_model *m, hx_state *s, const double p[3], const double foot[2], double e, double h,
+                        double f[3])
+{
+    double k = m->prm[HX_P_K0], u[2], S[3], phi;
+    long work = s->work;
+    int i;
+    s->pen = 0.0;
+    if (!(e < h)) {
+        s->contact = 2;
+        s->last[0] = foot[0];
+        s->last[1] = foot[1];
+        return HX_OK;
+    }
+    if (s->contact == 1) {
+        u[0] = s->adh[0];
+        u[1] = s->adh[1];
+    } else if (s->contact == 2) {
+        u[0] = s->last[0];
+        u[1] = s->last[1];
+    } else {
+        u[0] = foot[0];
+        u[1] = foot[1];
+    }
+    if (m->base->kind == HX_BASE_MESH)
+        return HX_NOT_IN_CORE;
+    descend(m, p, m->prm[HX_P_DXMAX], u, S, &phi, &work);
     s->contact = 1;
     s->adh[0] = u[0];
     s->adh[1] = u[1];
@@ -733,6 +744,229 @@ static int object_proxy(const hx_model *m, hx_state *s, const double p[3], const
     s->pen = sqrt(phi);
     for (i = 0; i < 3; i++)
         f[i] = k * (S[i] - p[i]);
+    return HX_OK;
+}
+
+/* Cells the closest-point search over an analytic base may hold at once and visit in all. */
+#define HX_OBJ_STACK 512
+#define HX_OBJ_CELLS 20000
+
+typedef struct {
+    double c[2], half[2];
+} obj_cell;
+
+/* The u-rectangle that holds every point of the textured object within distance d of p:
+ * |S(u) - p| >= 2 r sin(theta / 2), theta the angle at the base's axis or centre between S(u)
+ * and p, r the least of their radii (R + h_min, and p's own), so theta <= 2 asin(d / (2 r)); on a
+ * sphere a latitude band of that half-width and, unless it reaches a pole, the longitudes
+ * asin(sin theta / cos lambda_p) either side; the plane's |u - p_xy| <= d. */
+static void search_region(const hx_base *b, const double p[3], const double up[2], double hmin, double d,
+                          double lo[2], double hi[2])
+{
+    double R = b->radius, x = p[0], y = p[1], z = p[2] + R, rp, rmin, th;
+    if (b->kind == HX_BASE_PLANE) {
+        lo[0] = up[0] - d, hi[0] = up[0] + d;
+        lo[1] = up[1] - d, hi[1] = up[1] + d;
+        return;
+    }
+    rp = b->kind == HX_BASE_CYLINDER ? hypot(x, z) : sqrt(x * x + y * y + z * z);
+    rmin = R + hmin < rp ? R + hmin : rp;
+    th = rmin > 0.0 && d < 2.0 * rmin ? 2.0 * asin(d / (2.0 * rmin)) : 3.141592653589793;
+    if (b->kind == HX_BASE_CYLINDER) {
+        lo[0] = up[0] - R * th, hi[0] = up[0] + R * th;
+        lo[1] = up[1] - d, hi[1] = up[1] + d;
+        return;
+    }
+    {
+        double lam = up[1] / R, la = lam - th, lb = lam + th, dphi;
+        if (la < -1.5707963267948966)
+            la = -1.5707963267948966;
+        if (lb > 1.5707963267948966)
+            lb = 1.5707963267948966;
+        if (fabs(lam) + th < 1.5707963267948966 && sin(th) < cos(lam))
+            dphi = asin(sin(th) / cos(lam));
+        else
+            dphi = 3.141592653589793;
+        lo[0] = up[0] - R * dphi, hi[0] = up[0] + R * dphi;
+        lo[1] = R * la, hi[1] = R * lb;
+    }
+}
+
+/* The closest point of the textured object S(u) = P(u, h(u)) (an analytic base) to a probe p
+ * inside it, whose foot has coordinates up and vertical penetration dv = h(up) - e > 0:
+ * Gauss-Newton from the foot and from the last closest point (guess, NaN: none) gives the best
+ * so far; then a branch and bound over the u-rectangle that can hold anything nearer
+ * (search_region) prunes a cell of half-diagonal rho when phi(c) - |grad phi(c)| rho - H rho^2
+ * / 2, a lower bound of phi = |S(u) - p|^2 over it (H >= ||Hess phi||: 2 (L^2 + (|S(c) - p| +
+ * L rho) K2), L >= ||dS/du||, K2 >= the second derivatives' norm, from the texture's rigorous
+ * slope and curvature bounds and the base's radius), reaches the best phi less the tie
+ * tolerance (aux[HX_G_TIE] in distance); cells whose half-diagonal is below the leaf size are
+ * polished by Gauss-Newton from their centre (aux[HX_G_LEAF], the plane search's leaf). Work:
+ * the evaluations, at most HX_OBJ_CELLS cells and the budget aux[HX_G_BUDGET] (> 0; cut past
+ * either: the best point found, not certified). Returns the point's coordinates, its distance
+ * and the work. */
+static hx_closest object_closest(const hx_model *m, const double p[3], const double up[2], double dv,
+                                 const double guess[2], double ubest[2])
+{
+    const double *aux = m->aux;
+    const hx_base *b = m->base;
+    double R = b->kind == HX_BASE_PLANE ? HUGE_VAL : b->radius, hmin = aux[HX_G_HMIN], hmax = aux[HX_G_HMAX];
+    double M = aux[HX_G_SLOPE_BOUND] > 0.0 ? aux[HX_G_SLOPE_BOUND] : aux[HX_G_SLOPE];
+    double C = aux[HX_G_CURV_BOUND] > 0.0 ? aux[HX_G_CURV_BOUND] : aux[HX_G_CURV];
+    double tie = aux[HX_G_TIE], leaf = aux[HX_G_LEAF], lmax = 4.0 * leaf, budget = aux[HX_G_BUDGET], scale, L, K2;
+    double phi, S[3], lo[2], hi[2];
+    double u[2];
+    long work = 0, visited = 0;
+    int top = 0, i, j, n0[2];
+    obj_cell stack[HX_OBJ_STACK];
+    hx_closest out;
+    out.tie = 0;
+    out.cut = 0;
+    /* |dP/du| <= (R + h_max) / R per column, |n grad h| <= M: L bounds ||dS/du||_2 by its
+     * columns' norms; the second derivatives: n's and P's turning (1 / R), h's curvature */
+    scale = isinf(R) ? 1.0 : (R + (hmax > 0.0 ? hmax : 0.0)) / R;
+    L = 1.4142135623730951 * (scale + M);
+    K2 = 2.0 * (C + (isinf(R) ? 0.0 : (2.0 * M + scale) / R));
+    u[0] = up[0];
+    u[1] = up[1];
+    descend(m, p, lmax, u, S, &phi, &work);
+    ubest[0] = u[0], ubest[1] = u[1];
+    out.distance = sqrt(phi);
+    if (guess[0] == guess[0]) {
+        double v[2], Sv[3], pv;
+        v[0] = guess[0], v[1] = guess[1];
+        descend(m, p, lmax, v, Sv, &pv, &work);
+        if (pv < phi) {
+            phi = pv;
+            ubest[0] = v[0], ubest[1] = v[1];
+        }
+    }
+    (void)dv;
+    search_region(b, p, up, hmin, sqrt(phi), lo, hi);
+    /* the first cells: about a quarter of the leaf scale's 16 times, at most 16 x 16 */
+    for (j = 0; j < 2; j++) {
+        double span = hi[j] - lo[j];
+        n0[j] = (int)ceil(span / (16.0 * leaf));
+        if (n0[j] < 1)
+            n0[j] = 1;
+        if (n0[j] > 16)
+            n0[j] = 16;
+    }
+    for (i = 0; i < n0[0]; i++)
+        for (j = 0; j < n0[1] && top < HX_OBJ_STACK; j++) {
+            obj_cell *c = &stack[top++];
+            c->half[0] = 0.5 * (hi[0] - lo[0]) / n0[0];
+            c->half[1] = 0.5 * (hi[1] - lo[1]) / n0[1];
+            c->c[0] = lo[0] + (2 * i + 1) * c->half[0];
+            c->c[1] = lo[1] + (2 * j + 1) * c->half[1];
+        }
+    while (top > 0) {
+        obj_cell c = stack[--top];
+        double Sc[3], js[6], g0 = 0.0, g1 = 0.0, r[3], rho, phic, H, bound, gtie;
+        if (++visited > HX_OBJ_CELLS || (budget > 0.0 && (double)work > budget)) {
+            out.cut = 1; /* the best point found, not certified */
+            break;
+        }
+        analytic_surface(b, &m->tex, c.c, Sc, js, &work);
+        for (i = 0; i < 3; i++) {
+            r[i] = Sc[i] - p[i];
+            g0 += 2.0 * js[i] * r[i];
+            g1 += 2.0 * js[3 + i] * r[i];
+        }
+        phic = sq_dist(Sc, p);
+        if (phic < phi) {
+            phi = phic;
+            ubest[0] = c.c[0], ubest[1] = c.c[1];
+        }
+        rho = hypot(c.half[0], c.half[1]);
+        {
+            /* ||dS/du|| over the cell: at its centre (Frobenius, >= the 2-norm) plus the
+             * second derivatives' bound over the half-diagonal, at most the global L */
+            double jf = 0.0, lc;
+            for (i = 0; i < 6; i++)
+                jf += js[i] * js[i];
+            lc = sqrt(jf) + 2.0 * K2 * rho;
+            if (lc > L)
+                lc = L;
+            H = 2.0 * (lc * lc + (sqrt(phic) + lc * rho) * K2);
+        }
+        bound = phic - hypot(g0, g1) * rho - 0.5 * H * rho * rho;
+        gtie = sqrt(phi) - tie;
+        if (gtie <= 0.0 || bound >= gtie * gtie)
+            continue; /* nothing in it nearer than the best, to the tie tolerance */
+        if (rho <= leaf || top + 4 > HX_OBJ_STACK) {
+            double v[2], Sv[3], pv;
+            v[0] = c.c[0], v[1] = c.c[1];
+            descend(m, p, c.half[0] + c.half[1], v, Sv, &pv, &work);
+            if (pv < phi) {
+                phi = pv;
+                ubest[0] = v[0], ubest[1] = v[1];
+            }
+            if (rho > leaf)
+                out.cut = 1; /* (the stack was full: not subdivided) */
+            continue;
+        }
+        for (i = 0; i < 2; i++)
+            for (j = 0; j < 2; j++) {
+                obj_cell *d = &stack[top++];
+                d->half[0] = 0.5 * c.half[0];
+                d->half[1] = 0.5 * c.half[1];
+                d->c[0] = c.c[0] + (i ? 0.5 : -0.5) * c.half[0];
+                d->c[1] = c.c[1] + (j ? 0.5 : -0.5) * c.half[1];
+            }
+    }
+    /* the best cell centre polished */
+    {
+        double v[2], Sv[3], pv;
+        v[0] = ubest[0], v[1] = ubest[1];
+        descend(m, p, lmax, v, Sv, &pv, &work);
+        if (pv <= phi) {
+            phi = pv;
+            ubest[0] = v[0], ubest[1] = v[1];
+        }
+    }
+    out.t = ubest[0];
+    out.y = ubest[1];
+    out.distance = sqrt(phi);
+    out.work = work;
+    return out;
+}
+
+/* D and E over an analytic base: inside (e < h(u) at the probe's foot), the certified closest
+ * point of the textured object (object_closest, warm-started from the last one, s->adh); D
+ * pulls the probe to it, kappa_0 (S(u*) - p); E pushes along the base's normal at the probe by
+ * the distance, kappa_0 |S(u*) - p| n. */
+static int object_de(const hx_model *m, hx_state *s, const double p[3], const double up[2], double e, double h,
+                     const double n[3], double f[3])
+{
+    double k = m->prm[HX_P_K0], guess[2], ub[2], S[3], js[6];
+    long work = s->work;
+    hx_closest c;
+    int i;
+    s->pen = 0.0;
+    if (!(e < h)) {
+        s->contact = 0;
+        return HX_OK;
+    }
+    if (m->base->kind == HX_BASE_MESH)
+        return HX_NOT_IN_CORE;
+    guess[0] = s->contact ? s->adh[0] : NAN;
+    guess[1] = s->contact ? s->adh[1] : NAN;
+    c = object_closest(m, p, up, h - e, guess, ub);
+    s->contact = 1;
+    s->adh[0] = ub[0];
+    s->adh[1] = ub[1];
+    s->work = work + c.work;
+    s->cut = c.cut;
+    s->pen = c.distance;
+    if (m->code == HX_ALG_D) {
+        analytic_surface(m->base, &m->tex, ub, S, js, &s->work);
+        for (i = 0; i < 3; i++)
+            f[i] = k * (S[i] - p[i]);
+    } else {
+        for (i = 0; i < 3; i++)
+            f[i] = k * c.distance * n[i];
+    }
     return HX_OK;
 }
 
@@ -745,7 +979,8 @@ int hx_object_force(const hx_model *m, hx_state *s, const double p[3], double f[
     object_fn fn = m->code >= 0 && m->code < HX_N_ALGS ? OBJECT_FIELDS[m->code] : NULL;
     f[0] = f[1] = f[2] = 0.0;
     s->pen = 0.0;
-    if (fn == NULL && m->code != HX_ALG_F && !(m->code == HX_ALG_PROXY && m->base->kind != HX_BASE_MESH))
+    if (fn == NULL && m->code != HX_ALG_F &&
+        !((m->code == HX_ALG_PROXY || m->code == HX_ALG_D || m->code == HX_ALG_E) && m->base->kind != HX_BASE_MESH))
         return HX_NOT_IN_CORE;
     rc = hx_base_local(m->base, p, &tri, u, ju, &e, n, &work);
     s->work = work;
@@ -759,6 +994,8 @@ int hx_object_force(const hx_model *m, hx_state *s, const double p[3], double f[
         return object_f(m, s, u, ju, e, n, t.h, f);
     if (m->code == HX_ALG_PROXY)
         return object_proxy(m, s, p, u, e, t.h, f);
+    if (m->code == HX_ALG_D || m->code == HX_ALG_E)
+        return object_de(m, s, p, u, e, t.h, n, f);
     pen = t.h - e;
     inside = m->code == HX_ALG_G ? e < 0.0 : pen > 0.0;
     if (!inside)
