@@ -253,11 +253,30 @@ static int fuzz_objects(const hx_model *m0, long *evaluations)
         for (code = 0; code < HX_N_ALGS; code++) {
             hx_renderer r;
             long faults_expected = 0;
-            int defined = code == HX_ALG_A || code == HX_ALG_B || code == HX_ALG_C || code == HX_ALG_G;
+            int surface = m0->tex.kind == HX_SURFACE_GRATINGS || m0->tex.kind == HX_SURFACE_PATCHES;
+            int defined = code == HX_ALG_A || code == HX_ALG_B || code == HX_ALG_C || code == HX_ALG_G ||
+                          code == HX_ALG_F || (code == HX_ALG_PROXY && b.kind != HX_BASE_MESH) ||
+                          ((code == HX_ALG_D || code == HX_ALG_E) && b.kind != HX_BASE_MESH && surface);
+            /* D and E's search constants over an object: bounds that need not hold for this
+             * texture (the search then is not certified, but must stay finite, bounded and in
+             * bounds), a budget of 2,000 evaluations */
+            double gaux[HX_N_GAUX];
+            memset(gaux, 0, sizeof gaux);
+            gaux[HX_G_HMIN] = -1e-3, gaux[HX_G_HMAX] = 1e-3;
+            gaux[HX_G_SLOPE] = gaux[HX_G_SLOPE_BOUND] = 10.0;
+            gaux[HX_G_CURV] = gaux[HX_G_CURV_BOUND] = 1e4;
+            gaux[HX_G_JERK] = 1e8, gaux[HX_G_LEAF] = 5e-5, gaux[HX_G_TIE] = 1e-12, gaux[HX_G_BUDGET] = 2000.0;
             memset(&r, 0, sizeof r);
             r.model = *m0;
             r.model.code = code;
             r.model.base = &b;
+            r.model.prm[HX_P_DXMAX] = 1e-4; /* F's presliding, the proxy's longest step */
+            r.model.prm[HX_P_MU] = 0.5;
+            r.model.prm[HX_P_SCALE] = 0.5;
+            if (code == HX_ALG_D || code == HX_ALG_E) {
+                r.model.aux = gaux;
+                r.model.naux = HX_N_GAUX;
+            }
             r.max_force = 5.0;
             r.limit = 1e3;
             if ((hx_model_check(&r.model) == HX_OK) != defined) {

@@ -844,13 +844,9 @@ static hx_closest object_closest(const hx_model *m, const double p[3], const dou
     (void)dv;
     search_region(b, p, up, hmin, sqrt(phi), lo, hi);
     /* the first cells: about a quarter of the leaf scale's 16 times, at most 16 x 16 */
-    for (j = 0; j < 2; j++) {
-        double span = hi[j] - lo[j];
-        n0[j] = (int)ceil(span / (16.0 * leaf));
-        if (n0[j] < 1)
-            n0[j] = 1;
-        if (n0[j] > 16)
-            n0[j] = 16;
+    for (j = 0; j < 2; j++) { /* (clamped as a double: a span of a kilometre over a leaf is no int) */
+        double cells = ceil((hi[j] - lo[j]) / (16.0 * leaf));
+        n0[j] = cells >= 16.0 ? 16 : (cells >= 1.0 ? (int)cells : 1);
     }
     for (i = 0; i < n0[0]; i++)
         for (j = 0; j < n0[1] && top < HX_OBJ_STACK; j++) {
