@@ -88,6 +88,34 @@ def main() -> None:
               f"{np.percentile(times, 99) / 1e3:5.2f} us {times.max() / 1e3:5.1f} us {tick * 1e6:5.2f} us "
               f"{int(np.median(work)):8d} / {int(work.max())}")
 
+    # the other letters on the sphere, along the same stroke (D and E: the closest point of the
+    # textured object, certified, the renderer's default budget; the proxy: its descent)
+    from haptex.proxy import GodObject
+
+    m = min(n, 20_000)
+    base = Sphere(R)
+    ut = np.column_stack([x[:m], 0.3e-3 * np.sin(2 * math.pi * x[:m] / 5e-3)])
+    pts = np.ascontiguousarray(object_algorithm("A", EGG, base, 2000.0).region_points(ut, np.full(m, 0.3e-3)))
+    print(f"\n{'on the sphere':28} {'step median':>12} {'p99':>8} {'max':>8} {'C tick':>8} {'work median / max':>18}"
+          f" {'cut':>5}")
+    for letter in ("A", "F", "D", "E", "proxy"):
+        alg = GodObject(EGG, 2000.0, base) if letter == "proxy" else object_algorithm(letter, EGG, base, 2000.0)
+        r = hx.Renderer(alg)
+        times, work = np.empty(m), np.empty(m, dtype=np.int64)
+        for i, p in enumerate(tuple(q) for q in pts.tolist()):
+            t0 = time.perf_counter_ns()
+            r.step(p)
+            times[i] = time.perf_counter_ns() - t0 - timer
+            work[i] = r.last_work
+        cut = r.cut
+        out = np.zeros_like(pts)
+        r.reset()
+        t0 = time.perf_counter()
+        r._core.run(pts, out)
+        tick = (time.perf_counter() - t0) / m
+        print(f"{letter:28} {np.median(times) / 1e3:9.2f} us {np.percentile(times, 99) / 1e3:5.2f} us "
+              f"{times.max() / 1e3:5.1f} us {tick * 1e6:5.2f} us {int(np.median(work)):8d} / {int(work.max())} {cut:5d}")
+
 
 if __name__ == "__main__":
     main()
