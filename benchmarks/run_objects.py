@@ -114,7 +114,8 @@ def main() -> None:
         r._core.run(pts, out)
         tick = (time.perf_counter() - t0) / m
         print(f"{letter:28} {np.median(times) / 1e3:9.2f} us {np.percentile(times, 99) / 1e3:5.2f} us "
-              f"{times.max() / 1e3:5.1f} us {tick * 1e6:5.2f} us {int(np.median(work)):8d} / {int(work.max())} {cut:5d}")
+              f"{times.max() / 1e3:5.1f} us {tick * 1e6:5.2f} us {int(np.median(work)):8d} / {int(work.max())} "
+              f"{cut:5d}")
 
 
 if __name__ == "__main__":
