@@ -529,39 +529,24 @@ def test_an_object_at_the_command_line_exports(tmp_path):
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and "base = " in r.stderr, r.stderr
 
 
-@pytest.mark.parametrize("letter", ["D", "E"])
-def test_d_and_e_on_a_sphere_export_and_tick_as_the_renderer(tmp_path, objdir, letter):
-    # the closest point of the textured object (hx_object.c's search, its budget in the tables):
-    # the exported tick equals the compiled Renderer's bit for bit along a stroke in and out
-    from haptex.objects import Sphere, object_algorithm
-
-    R = 40 * 2e-3 / (2 * np.pi)
-    alg = object_algorithm(letter, hx.SumOfGratings.egg_crate(0.2e-3, 2e-3), Sphere(R), K0)
-    c = Compiled(alg, tmp_path, objdir, max_force=5.0)
-    r = hx.Renderer(alg, max_force=5.0)
-    t = np.linspace(0.0, 1.0, 1501)
-    p = np.column_stack([6e-3 * np.sin(2 * np.pi * 3 * t), 2e-3 * np.cos(2 * np.pi * 2 * t),
-                         -0.8e-3 * np.sin(2 * np.pi * 5 * t) + 0.1e-3])
-    got = c.forces(p)
-    ref = np.array([r.step(tuple(q)) for q in p.tolist()])
-    assert np.array_equal(got, ref) and np.abs(ref).max() > 0.5
-    assert c.count("max_work") == r.max_work
-
-
-@pytest.mark.parametrize("base_name", ["sphere", "cylinder"])
-def test_the_god_object_on_a_curved_base_exports_and_ticks_as_the_renderer(tmp_path, objdir, base_name):
-    # the proxy's C tick over an analytic base (Gauss-Newton on the surface's closed-form
-    # Jacobian): the exported tick equals the compiled Renderer's bit for bit along a stroke over
-    # the object, in and out of it
-    from haptex.objects import Cylinder, Sphere
+@pytest.mark.parametrize("letter, base_name", [("D", "sphere"), ("E", "sphere"), ("proxy", "sphere"),
+                                               ("proxy", "cylinder")])
+def test_the_closest_point_and_the_proxy_on_a_curved_base_export_and_tick_as_the_renderer(tmp_path, objdir, letter,
+                                                                                          base_name):
+    # D and E (the closest point of the textured object: hx_object.c's search, its budget in the
+    # tables) and the proxy (Gauss-Newton on the surface's closed-form Jacobian) over an analytic
+    # base: the exported tick equals the compiled Renderer's bit for bit along a stroke over the
+    # object, in and out of it, and so does the largest work
+    from haptex.objects import Cylinder, Sphere, object_algorithm
     from haptex.proxy import GodObject
 
     R = 40 * 2e-3 / (2 * np.pi)
-    g = GodObject(hx.SumOfGratings.egg_crate(0.2e-3, 2e-3), K0, Sphere(R) if base_name == "sphere" else Cylinder(R))
-    c = Compiled(g, tmp_path, objdir, max_force=5.0)
-    assert "HX_ALG_PROXY" in (tmp_path / "haptex_texture.c").read_text()
-    r = hx.Renderer(g, max_force=5.0)
-    t = np.linspace(0.0, 1.0, 3001)
+    egg, base = hx.SumOfGratings.egg_crate(0.2e-3, 2e-3), Sphere(R) if base_name == "sphere" else Cylinder(R)
+    alg = GodObject(egg, K0, base) if letter == "proxy" else object_algorithm(letter, egg, base, K0)
+    c = Compiled(alg, tmp_path, objdir, max_force=5.0)
+    assert f"HX_ALG_{letter.upper()}" in (tmp_path / "haptex_texture.c").read_text()
+    r = hx.Renderer(alg, max_force=5.0)
+    t = np.linspace(0.0, 1.0, 1501)
     p = np.column_stack([6e-3 * np.sin(2 * np.pi * 3 * t), 2e-3 * np.cos(2 * np.pi * 2 * t),
                          -0.8e-3 * np.sin(2 * np.pi * 5 * t) + 0.1e-3])
     got = c.forces(p)

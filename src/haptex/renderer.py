@@ -148,7 +148,40 @@ class PassivityController(Stabiliser):
 
 
 @dataclass(frozen=True)
-class EnergyBounding(Stabiliser):
+class _PaidByTheDamper(Stabiliser):
+    """A stabiliser paid with the device damper's dissipation (its damping b and the delay)."""
+
+    damping: float
+    delay: int | None = None
+    _code = ""
+    _name = ""
+
+    def __post_init__(self):
+        object.__setattr__(self, "damping", positive("damping", self.damping, "N s/m"))
+        object.__setattr__(self, "delay", _delay(self.delay))
+
+    @classmethod
+    def for_device(cls, device, delay: int | None = None):
+        """With the device's least damping in contact (``Device.min_damping``, the least
+        singular value of its damping matrix). Raises ParameterError if that is 0 (nothing to
+        pay with)."""
+        return cls(_device_damping(device), delay)
+
+    @property
+    def mode(self) -> int:
+        return int(getattr(_ext, self._code))
+
+    @property
+    def core_damping(self) -> float:
+        return self.damping
+
+    @property
+    def label(self) -> str:
+        return f"{self._name} (b = {self.damping:.3g} N s/m)"
+
+
+@dataclass(frozen=True)
+class EnergyBounding(_PaidByTheDamper):
     """Energy bounding in the manner of Kim & Ryu: the energy the sampled force generates is
     bounded by what the device's own damping dissipates.
 
@@ -198,35 +231,12 @@ class EnergyBounding(Stabiliser):
     Robotics Research 29(6), 2010, pp. 666–679.
     """
 
-    damping: float
-    delay: int | None = None
-
-    def __post_init__(self):
-        object.__setattr__(self, "damping", positive("damping", self.damping, "N s/m"))
-        object.__setattr__(self, "delay", _delay(self.delay))
-
-    @classmethod
-    def for_device(cls, device, delay: int | None = None) -> "EnergyBounding":
-        """With the device's least damping in contact (``Device.min_damping``, the least
-        singular value of its damping matrix). Raises ParameterError if that is 0 (nothing to
-        pay with)."""
-        return cls(_device_damping(device), delay)
-
-    @property
-    def mode(self) -> int:
-        return int(_ext.STAB_EBA)
-
-    @property
-    def core_damping(self) -> float:
-        return self.damping
-
-    @property
-    def label(self) -> str:
-        return f"energy bounding (b = {self.damping:.3g} N s/m)"
+    _code = "STAB_EBA"
+    _name = "energy bounding"
 
 
 @dataclass(frozen=True)
-class PassiveSetPosition(Stabiliser):
+class PassiveSetPosition(_PaidByTheDamper):
     """Passive set-position modulation in the manner of Lee & Huang.
 
     The algorithm's force is read as a coupling spring of stiffness kappa_0 (the algorithm's)
@@ -266,29 +276,8 @@ class PassiveSetPosition(Stabiliser):
     systems", IEEE Trans. Robotics 26(2), 2010, pp. 354–369.
     """
 
-    damping: float
-    delay: int | None = None
-
-    def __post_init__(self):
-        object.__setattr__(self, "damping", positive("damping", self.damping, "N s/m"))
-        object.__setattr__(self, "delay", _delay(self.delay))
-
-    @classmethod
-    def for_device(cls, device, delay: int | None = None) -> "PassiveSetPosition":
-        """With the device's least damping in contact (as :meth:`EnergyBounding.for_device`)."""
-        return cls(_device_damping(device), delay)
-
-    @property
-    def mode(self) -> int:
-        return int(_ext.STAB_PSPM)
-
-    @property
-    def core_damping(self) -> float:
-        return self.damping
-
-    @property
-    def label(self) -> str:
-        return f"passive set-position modulation (b = {self.damping:.3g} N s/m)"
+    _code = "STAB_PSPM"
+    _name = "passive set-position modulation"
 
 
 def tick_model(algorithm: Algorithm, max_evaluations: int | None = None):

@@ -286,6 +286,45 @@ typedef struct {
     long tri;      /* on a mesh: the last tick's closest triangle (its warm start) */
 } hx_state;
 
+/* F's presliding state stepped to the coordinates q (m: the plane's (x, y), an object's u):
+ * contact starts with the adhesion point at q; the step from the last coordinates (less `turn`,
+ * the period of a closed coordinate, across its seam; 0: none) moves the deflection d = q - w by
+ * the presliding model (hx_presliding_plane, eq. 24); d returned, the adhesion point and the last
+ * coordinates updated. */
+HX_INLINE void hx__presliding_step(const hx_model *m, hx_state *s, const double q[2], double turn, double d[2])
+{
+    double dp[2];
+    if (!s->contact) {
+        s->contact = 1;
+        s->adh[0] = s->last[0] = q[0];
+        s->adh[1] = s->last[1] = q[1];
+    }
+    d[0] = s->last[0] - s->adh[0];
+    d[1] = s->last[1] - s->adh[1];
+    dp[0] = q[0] - s->last[0];
+    dp[1] = q[1] - s->last[1];
+    if (turn > 0.0) {
+        if (dp[0] > 0.5 * turn)
+            dp[0] -= turn;
+        else if (dp[0] < -0.5 * turn)
+            dp[0] += turn;
+    }
+    hx_presliding_plane(d, dp, m->prm[HX_P_DXMAX], m->prm[HX_P_ZSTICK], m->aux, &s->work);
+    s->adh[0] = q[0] - d[0];
+    s->adh[1] = q[1] - d[1];
+    s->last[0] = q[0];
+    s->last[1] = q[1];
+}
+
+/* F's friction gain -mu kappa_0 d_z (1 - scale h) / d^x_max (eq. 22), d_z the depth clamped at
+ * d^z_max (Remark 3): the friction force is this times the deflection. */
+HX_INLINE double hx__friction_gain(const hx_model *m, double depth, double h)
+{
+    if (m->prm[HX_P_DZMAX] > 0.0 && depth > m->prm[HX_P_DZMAX])
+        depth = m->prm[HX_P_DZMAX];
+    return -m->prm[HX_P_MU] * m->prm[HX_P_K0] * depth * (1.0 - m->prm[HX_P_SCALE] * h) / m->prm[HX_P_DXMAX];
+}
+
 /* The force of one servo tick (N) at p (m): the field, plus W's virtual damper
  * (Colgate & Schenkel 1997), or F's presliding friction, from the state; updates the state.
  * HX_OK or HX_NOT_IN_CORE (D, E). */

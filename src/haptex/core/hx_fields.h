@@ -187,32 +187,16 @@ static const field_fn FIELDS[HX_N_ALGS] = {field_w, field_a, field_b, field_c, N
  * leaving the wall resets it. */
 HX_INLINE void tick_f(const hx_model *m, hx_state *s, const double p[3], double f[3])
 {
-    double k = m->prm[HX_P_K0], dmax = m->prm[HX_P_DXMAX], d[2], dp[2], depth, h, c;
+    double k = m->prm[HX_P_K0], d[2], h, c;
     s->pen = p[2] < 0.0 ? -p[2] : 0.0;
     if (!(p[2] < 0.0)) {
         s->contact = 0;
         return;
     }
-    if (!s->contact) {
-        s->contact = 1;
-        s->adh[0] = s->last[0] = p[0];
-        s->adh[1] = s->last[1] = p[1];
-    }
-    d[0] = s->last[0] - s->adh[0];
-    d[1] = s->last[1] - s->adh[1];
-    dp[0] = p[0] - s->last[0];
-    dp[1] = p[1] - s->last[1];
-    hx_presliding_plane(d, dp, dmax, m->prm[HX_P_ZSTICK], m->aux, &s->work);
-    s->adh[0] = p[0] - d[0];
-    s->adh[1] = p[1] - d[1];
-    s->last[0] = p[0];
-    s->last[1] = p[1];
+    hx__presliding_step(m, s, p, 0.0, d);
     h = hx__texture_height(&m->tex, p[0], p[1]);
     s->h = h;
-    depth = -p[2];
-    if (m->prm[HX_P_DZMAX] > 0.0 && depth > m->prm[HX_P_DZMAX])
-        depth = m->prm[HX_P_DZMAX];
-    c = -m->prm[HX_P_MU] * k * depth * (1.0 - m->prm[HX_P_SCALE] * h) / dmax;
+    c = hx__friction_gain(m, -p[2], h);
     f[0] = c * d[0];
     f[1] = c * d[1];
     f[2] = -k * p[2];

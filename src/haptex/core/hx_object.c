@@ -549,38 +549,17 @@ static const object_fn OBJECT_FIELDS[HX_N_ALGS] = {NULL, object_a, object_b, obj
 static int object_f(const hx_model *m, hx_state *s, const double u[2], const double ju[6], double e,
                     const double n[3], double h, double f[3])
 {
-    double k = m->prm[HX_P_K0], dmax = m->prm[HX_P_DXMAX], d[2], dp[2], depth, c;
+    double k = m->prm[HX_P_K0], d[2], c, turn = 0.0;
     int i;
     s->pen = e < 0.0 ? -e : 0.0;
     if (!(e < 0.0)) {
         s->contact = 0;
         return HX_OK;
     }
-    if (!s->contact) {
-        s->contact = 1;
-        s->adh[0] = s->last[0] = u[0];
-        s->adh[1] = s->last[1] = u[1];
-    }
-    d[0] = s->last[0] - s->adh[0];
-    d[1] = s->last[1] - s->adh[1];
-    dp[0] = u[0] - s->last[0];
-    dp[1] = u[1] - s->last[1];
-    if (m->base->kind == HX_BASE_CYLINDER || m->base->kind == HX_BASE_SPHERE) {
-        double turn = 6.283185307179586 * m->base->radius; /* 2 pi R */
-        if (dp[0] > 0.5 * turn)
-            dp[0] -= turn;
-        else if (dp[0] < -0.5 * turn)
-            dp[0] += turn;
-    }
-    hx_presliding_plane(d, dp, dmax, m->prm[HX_P_ZSTICK], m->aux, &s->work);
-    s->adh[0] = u[0] - d[0];
-    s->adh[1] = u[1] - d[1];
-    s->last[0] = u[0];
-    s->last[1] = u[1];
-    depth = -e;
-    if (m->prm[HX_P_DZMAX] > 0.0 && depth > m->prm[HX_P_DZMAX])
-        depth = m->prm[HX_P_DZMAX];
-    c = -m->prm[HX_P_MU] * k * depth * (1.0 - m->prm[HX_P_SCALE] * h) / dmax;
+    if (m->base->kind == HX_BASE_CYLINDER || m->base->kind == HX_BASE_SPHERE)
+        turn = 6.283185307179586 * m->base->radius; /* 2 pi R: u1 wraps */
+    hx__presliding_step(m, s, u, turn, d);
+    c = hx__friction_gain(m, -e, h);
     for (i = 0; i < 3; i++)
         f[i] = -k * e * n[i] + ju[i] * c * d[0] + ju[3 + i] * c * d[1];
     return HX_OK;
