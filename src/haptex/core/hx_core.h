@@ -316,6 +316,15 @@ HX_INLINE void hx__presliding_step(const hx_model *m, hx_state *s, const double 
     s->last[1] = q[1];
 }
 
+/* Where the god-object's descent starts: the proxy's coordinates in contact (s->contact 1), the
+ * last free foot (2), else the probe's own foot. */
+HX_INLINE void hx__proxy_start(const hx_state *s, const double foot[2], double u[2])
+{
+    const double *from = s->contact == 1 ? s->adh : (s->contact == 2 ? s->last : foot);
+    u[0] = from[0];
+    u[1] = from[1];
+}
+
 /* F's friction gain -mu kappa_0 d_z (1 - scale h) / d^x_max (eq. 22), d_z the depth clamped at
  * d^z_max (Remark 3): the friction force is this times the deflection. */
 HX_INLINE double hx__friction_gain(const hx_model *m, double depth, double h)

@@ -306,16 +306,7 @@ HX_INLINE void tick_proxy(const hx_model *m, hx_state *s, const double p[3], dou
         s->work = work;
         return;
     }
-    if (s->contact == 1) {
-        u[0] = s->adh[0];
-        u[1] = s->adh[1];
-    } else if (s->contact == 2) {
-        u[0] = s->last[0];
-        u[1] = s->last[1];
-    } else {
-        u[0] = p[0];
-        u[1] = p[1];
-    }
+    hx__proxy_start(s, p, u);
     phi = proxy_phi(m, u, p, &work);
     for (it = 0; it < HX_PROXY_STEPS; it++) {
         double dz, g0, g1, a, b, c, det, st[2], n, v[2], pv;

@@ -703,16 +703,7 @@ static int object_proxy(const hx_model *m, hx_state *s, const double p[3], const
         s->last[1] = foot[1];
         return HX_OK;
     }
-    if (s->contact == 1) {
-        u[0] = s->adh[0];
-        u[1] = s->adh[1];
-    } else if (s->contact == 2) {
-        u[0] = s->last[0];
-        u[1] = s->last[1];
-    } else {
-        u[0] = foot[0];
-        u[1] = foot[1];
-    }
+    hx__proxy_start(s, foot, u);
     if (m->base->kind == HX_BASE_MESH)
         return HX_NOT_IN_CORE;
     descend(m, p, m->prm[HX_P_DXMAX], u, S, &phi, &work);
