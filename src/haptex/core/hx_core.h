@@ -378,8 +378,8 @@ typedef struct {
  * bmax; EBA scales f so that the observer's energy plus the credit covers the most that f and
  * the forces still in flight can generate, T |f|^2 / (4 b) each; PSPM scales f so that a
  * coupling spring of stiffness k0 holding it stores no more than the observer's energy plus
- * the credit. Call hx_passivity_sent with the force
- * actually sent, or hx_passivity_skip when a fault sends none. */
+ * the credit. Call hx_passivity_sent with the force actually sent, or hx_passivity_skip when a
+ * fault sends none. */
 void hx_passivity_tick(hx_passivity *pc, const double p[3], double f[3], double k0, double pen);
 void hx_passivity_sent(hx_passivity *pc, const double p[3], const double f[3]);
 void hx_passivity_skip(hx_passivity *pc);

@@ -125,9 +125,8 @@ void hx_passivity_tick(hx_passivity *pc, const double p[3], double f[3], double 
 
 void hx_passivity_sent(hx_passivity *pc, const double p[3], const double f[3])
 {
-    double *h;
+    double *h = pc->hist[pc->sent % HX_PC_RING];
     int i;
-    h = pc->hist[pc->sent % HX_PC_RING];
     for (i = 0; i < 3; i++) {
         pc->last[i] = p[i];
         h[i] = f[i];
