@@ -306,7 +306,8 @@ def path(ctx, **kw):
 def _simulate(ctx, mode, letter, stiffness, amplitude, period, max_penetration, friction, presliding, device_spec,
               joint_damping, mass, damping, sampling_period, delay, duration, plot, save, as_json, quiet=False,
               surface_spec=None,
-              passivity_control=None, stabiliser=None, band_stiffness=100.0, anchor="0,-30mm", angle=10.0, hand_stiffness=300.0,
+              passivity_control=None, stabiliser=None, band_stiffness=100.0, anchor="0,-30mm", angle=10.0,
+              hand_stiffness=300.0,
               hand_damping=1.0, velocity=0.01, depth=1e-3, path_text=None, speed=1e-3, hand_name=None):
     from . import operators as ops
     from .algorithms import algorithm

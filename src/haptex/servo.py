@@ -241,7 +241,8 @@ def analyse_trace(trace: dict, period: float, resolution: float = 0.0) -> dict:
         (:class:`haptex.Oscillation` of the last :data:`TAIL_FRACTION` of the trace, the
         simulator's own verdict) and its ``regime`` (:func:`haptex.simulate.regime`); ``buzz``
         (:class:`haptex.perception.Buzz` of the same tail, the handle's vibration against the
-        hand's detection threshold; None for fewer than 16 ticks or a non-finite position).
+        hand's detection threshold; None for fewer than 16 ticks or a non-finite position; a
+        texture's own rates are not left out, as the hand's speed on a device is not known).
 
     Raises
     ------
