@@ -204,12 +204,11 @@ def clean_stiffness(algorithm, device, operator, rates, stiffness, duration: flo
         For a rate or stiffness not finite and > 0, candidates not ascending, or what
         :func:`haptex.simulate` refuses.
     """
-    from .simulate import _texture_frequencies, simulate_batch
+    from .simulate import simulate_batch
 
     ks = np.asarray(stiffness, dtype=np.float64)
     if ks.ndim != 1 or ks.size == 0 or not np.all(np.isfinite(ks) & (ks > 0)) or np.any(np.diff(ks) <= 0):
         raise fail("stiffness", ks.tolist() if ks.size < 8 else "an array", "finite stiffnesses > 0 (N/m), ascending")
-    exclude = _texture_frequencies(algorithm, operator)
     out = []
     for rate in np.atleast_1d(np.asarray(rates, dtype=np.float64)):
         rate = positive("rate", float(rate), "Hz")
@@ -218,8 +217,7 @@ def clean_stiffness(algorithm, device, operator, rates, stiffness, duration: flo
                                record=True, record_every=1, progress=False)
         margins, freqs = [], []
         for res in batch.runs:
-            n = res.time.size
-            b = None if n < 32 or res.diverged else buzz(res.position[n // 2:], dev.period, exclude=exclude)
+            b = res.buzz
             margins.append(float("inf") if b is None else b.margin_db)
             freqs.append(0.0 if b is None else b.frequency)
         loud = [i for i, m in enumerate(margins) if m > 0]

@@ -843,10 +843,10 @@ def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration:
                       one(device.position_resolution), one(device.force_resolution), one(device.max_force),
                       one(device.coulomb_friction), one(pc_b), one(p0), one(v0), rec[None], summary[None], tail[None],
                       base=base)
+    rates = _texture_frequencies(algorithm, operator)
     osc = _oscillations(tail[None], (n_steps - tail_start) * device.period, _tail_energy(summary[None]),
-                        np.array([_threshold(device)]), _frequency_table([_texture_frequencies(algorithm, operator)]))
-    result = _result(rec, summary, osc[0])
-    object.__setattr__(result, "texture_rates", _texture_frequencies(algorithm, operator))
+                        np.array([_threshold(device)]), _frequency_table([rates]))
+    result = _result(rec, summary, osc[0], rates)
     _warn_health([result])
     return result
 
@@ -907,7 +907,7 @@ def _texture_frequencies(algorithm, operator) -> tuple:
     return tuple(float(v / p) for p in np.atleast_1d(periods))
 
 
-def _result(rec, summary, osc: Oscillation) -> SimulationResult:
+def _result(rec, summary, osc: Oscillation, texture_rates: tuple = ()) -> SimulationResult:
     d = (rec.shape[1] - 4) // 4
     diverged = int(summary[S_DIVERGED]) or None
     if diverged is not None:  # rows are written in order and their time is > 0
@@ -926,7 +926,7 @@ def _result(rec, summary, osc: Oscillation) -> SimulationResult:
         max_penetration=float(summary[S_MAXPEN]), oscillation=osc, totals=totals, diverged_at=diverged,
         diverged_quantity=None if diverged is None else _DIVERGED_NAMES[int(summary[S_DIVERGED_WHAT])],
         energy_y=rec[:, E + 1] if d == 3 else None, passivity_control_samples=int(summary[S_PC_ACTIVE]),
-        observed_energy=float(summary[S_PC_ENERGY]))
+        observed_energy=float(summary[S_PC_ENERGY]), texture_rates=tuple(texture_rates))
 
 
 _ALGORITHM_KEYS = ("stiffness", "amplitude", "texture_period", "friction", "presliding", "modulation_depth",
@@ -1219,7 +1219,8 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     tail = np.zeros((min(N, per_block), d, m_tail))
     T = dev[0].period
     thresholds = np.array([_threshold(d_) for d_ in dev])[inverse]
-    freqs = _frequency_table([_texture_frequencies(a, o) for a, _, o in runs])[inverse]
+    rates = [_texture_frequencies(a, o) for a, _, o in runs]  # per distinct run
+    freqs = _frequency_table(rates)[inverse]
     # the lean loop where none of its omitted machinery is used, else the general one (both C),
     # whose per-run matrices are made only then (N copies of 2 x 10 x 10 maps and forms)
     in_core = base is None and code != _core._ext.ALG_PROXY and bool(
@@ -1276,7 +1277,8 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
         energy_per_cycle=t["energy_per_cycle"].astype(float),
         max_penetration=summary[:, S_MAXPEN].copy(), saturations=summary[:, S_SAT].astype(np.int64),
         diverged_at=diverged_at,
-        runs=[_result(rec[i], summary[i], o) for i, o in enumerate(_oscillation_objects(t))] if record else None,
+        runs=[_result(rec[i], summary[i], o, rates[inverse[i]]) for i, o in enumerate(_oscillation_objects(t))]
+        if record else None,
         energy_y=summary[:, S_EY].copy() if d == 3 else None,
         passivity_control_samples=summary[:, S_PC_ACTIVE].astype(np.int64),
         observed_energy=summary[:, S_PC_ENERGY].copy(),
