@@ -63,12 +63,6 @@ def _delay(value):
                                              "ticks between sending a force and its acting")
 
 
-def _device_damping(device) -> float:
-    """The least damping a device's handle has in contact (N s/m; ``Device.min_damping``): its
-    dissipation over a sample is at least that times |dp|^2 / T."""
-    return device.min_damping
-
-
 @dataclass(frozen=True)
 class PassivityController(Stabiliser):
     """A time-domain passivity observer and controller for a servo loop.
@@ -165,7 +159,7 @@ class _PaidByTheDamper(Stabiliser):
         """With the device's least damping in contact (``Device.min_damping``, the least
         singular value of its damping matrix). Raises ParameterError if that is 0 (nothing to
         pay with)."""
-        return cls(_device_damping(device), delay)
+        return cls(device.min_damping, delay)
 
     @property
     def mode(self) -> int:
