@@ -476,6 +476,18 @@ def _icosphere_base(subdivisions, R):
     return m, Mesh(m, uv=Sphere(R).local(np.asarray(m.vertices))[0])
 
 
+def _exported_and_renderer_on_a_stroke(alg, tmp_path, objdir, n):
+    """The exported tick compiled and haptex.Renderer (both with a 5 N ceiling), and their forces
+    along n samples of a stroke over an object at the origin, in and out of it, back and forth:
+    (compiled, renderer, exported forces, renderer forces)."""
+    c = Compiled(alg, tmp_path, objdir, max_force=5.0)
+    r = hx.Renderer(alg, max_force=5.0)
+    t = np.linspace(0.0, 1.0, n)
+    p = np.column_stack([6e-3 * np.sin(2 * np.pi * 3 * t), 2e-3 * np.cos(2 * np.pi * 2 * t),
+                         -0.8e-3 * np.sin(2 * np.pi * 5 * t) + 0.1e-3])
+    return c, r, c.forces(p), np.array([r.step(tuple(q)) for q in p.tolist()])
+
+
 @pytest.mark.parametrize("base_name", ["sphere", "cylinder", "mesh", "prism mesh"])
 @pytest.mark.parametrize("letter", ["A", "G", "F"])
 def test_an_object_exports_and_ticks_as_the_renderer(tmp_path, objdir, base_name, letter):
@@ -496,14 +508,8 @@ def test_an_object_exports_and_ticks_as_the_renderer(tmp_path, objdir, base_name
             "prism mesh": lambda: Mesh(_icosphere_base(3, R)[0], uv=_icosphere_base(3, R)[1].uv,
                                        normals="vertex")}[base_name]()
     alg = object_algorithm(letter, egg, base, K0)
-    c = Compiled(alg, tmp_path, objdir, max_force=5.0)
+    c, r, got, ref = _exported_and_renderer_on_a_stroke(alg, tmp_path, objdir, 5_001)
     assert "HX_BASE_" + base_name.split()[-1].upper() in (tmp_path / "haptex_texture.c").read_text()
-    r = hx.Renderer(alg, max_force=5.0)
-    t = np.linspace(0.0, 1.0, 5_001)
-    p = np.column_stack([6e-3 * np.sin(2 * np.pi * 3 * t), 2e-3 * np.cos(2 * np.pi * 2 * t),
-                         -0.8e-3 * np.sin(2 * np.pi * 5 * t) + 0.1e-3])
-    got = c.forces(p)
-    ref = np.array([r.step(tuple(q)) for q in p.tolist()])
     assert np.array_equal(got, ref) and np.abs(ref).max() > 1.0
     assert c.count("max_work") == r.max_work and c.count("clamps") == r.clamps
 
@@ -543,14 +549,8 @@ def test_the_closest_point_and_the_proxy_on_a_curved_base_export_and_tick_as_the
     R = 40 * 2e-3 / (2 * np.pi)
     egg, base = hx.SumOfGratings.egg_crate(0.2e-3, 2e-3), Sphere(R) if base_name == "sphere" else Cylinder(R)
     alg = GodObject(egg, K0, base) if letter == "proxy" else object_algorithm(letter, egg, base, K0)
-    c = Compiled(alg, tmp_path, objdir, max_force=5.0)
+    c, r, got, ref = _exported_and_renderer_on_a_stroke(alg, tmp_path, objdir, 1501)
     assert f"HX_ALG_{letter.upper()}" in (tmp_path / "haptex_texture.c").read_text()
-    r = hx.Renderer(alg, max_force=5.0)
-    t = np.linspace(0.0, 1.0, 1501)
-    p = np.column_stack([6e-3 * np.sin(2 * np.pi * 3 * t), 2e-3 * np.cos(2 * np.pi * 2 * t),
-                         -0.8e-3 * np.sin(2 * np.pi * 5 * t) + 0.1e-3])
-    got = c.forces(p)
-    ref = np.array([r.step(tuple(q)) for q in p.tolist()])
     assert np.array_equal(got, ref) and np.abs(ref).max() > 0.5
     assert c.count("max_work") == r.max_work
 
