@@ -762,8 +762,22 @@ static void search_region(const hx_base *b, const double p[3], const double up[2
     }
 }
 
+/* Gauss-Newton from `start` (steps at most lmax); the point it reaches replaces the best (ubest,
+ * its squared distance *phi) when nearer, or as near with `ties`. */
+static void polish(const hx_model *m, const double p[3], double lmax, const double start[2], int ties, double *phi,
+                   double ubest[2], long *work)
+{
+    double v[2], Sv[3], pv;
+    v[0] = start[0], v[1] = start[1];
+    descend(m, p, lmax, v, Sv, &pv, work);
+    if (pv < *phi || (ties && pv == *phi)) {
+        *phi = pv;
+        ubest[0] = v[0], ubest[1] = v[1];
+    }
+}
+
 /* The closest point of the textured object S(u) = P(u, h(u)) (an analytic base) to a probe p
- * inside it, whose foot has coordinates up and vertical penetration dv = h(up) - e > 0:
+ * inside it, whose foot has coordinates up:
  * Gauss-Newton from the foot and from the last closest point (guess, NaN: none) gives the best
  * so far; then a branch and bound over the u-rectangle that can hold anything nearer
  * (search_region) prunes a cell of half-diagonal rho when phi(c) - |grad phi(c)| rho - H rho^2
@@ -775,8 +789,8 @@ static void search_region(const hx_base *b, const double p[3], const double up[2
  * the evaluations, at most HX_OBJ_CELLS cells and the budget aux[HX_G_BUDGET] (> 0; cut past
  * either: the best point found, not certified). Returns the point's coordinates, its distance
  * and the work. */
-static hx_closest object_closest(const hx_model *m, const double p[3], const double up[2], double dv,
-                                 const double guess[2], double ubest[2])
+static hx_closest object_closest(const hx_model *m, const double p[3], const double up[2], const double guess[2],
+                                 double ubest[2])
 {
     const double *aux = m->aux;
     const hx_base *b = m->base;
@@ -801,17 +815,8 @@ static hx_closest object_closest(const hx_model *m, const double p[3], const dou
     u[1] = up[1];
     descend(m, p, lmax, u, S, &phi, &work);
     ubest[0] = u[0], ubest[1] = u[1];
-    out.distance = sqrt(phi);
-    if (guess[0] == guess[0]) {
-        double v[2], Sv[3], pv;
-        v[0] = guess[0], v[1] = guess[1];
-        descend(m, p, lmax, v, Sv, &pv, &work);
-        if (pv < phi) {
-            phi = pv;
-            ubest[0] = v[0], ubest[1] = v[1];
-        }
-    }
-    (void)dv;
+    if (guess[0] == guess[0])
+        polish(m, p, lmax, guess, 0, &phi, ubest, &work);
     search_region(b, p, up, hmin, sqrt(phi), lo, hi);
     /* the first cells: about a quarter of the leaf scale's 16 times, at most 16 x 16 */
     for (j = 0; j < 2; j++) { /* (clamped as a double: a span of a kilometre over a leaf is no int) */
@@ -861,13 +866,7 @@ static hx_closest object_closest(const hx_model *m, const double p[3], const dou
         if (gtie <= 0.0 || bound >= gtie * gtie)
             continue; /* nothing in it nearer than the best, to the tie tolerance */
         if (rho <= leaf || top + 4 > HX_OBJ_STACK) {
-            double v[2], Sv[3], pv;
-            v[0] = c.c[0], v[1] = c.c[1];
-            descend(m, p, c.half[0] + c.half[1], v, Sv, &pv, &work);
-            if (pv < phi) {
-                phi = pv;
-                ubest[0] = v[0], ubest[1] = v[1];
-            }
+            polish(m, p, c.half[0] + c.half[1], c.c, 0, &phi, ubest, &work);
             if (rho > leaf)
                 out.cut = 1; /* (the stack was full: not subdivided) */
             continue;
@@ -881,16 +880,7 @@ static hx_closest object_closest(const hx_model *m, const double p[3], const dou
                 d->c[1] = c.c[1] + (j ? 0.5 : -0.5) * c.half[1];
             }
     }
-    /* the best cell centre polished */
-    {
-        double v[2], Sv[3], pv;
-        v[0] = ubest[0], v[1] = ubest[1];
-        descend(m, p, lmax, v, Sv, &pv, &work);
-        if (pv <= phi) {
-            phi = pv;
-            ubest[0] = v[0], ubest[1] = v[1];
-        }
-    }
+    polish(m, p, lmax, ubest, 1, &phi, ubest, &work); /* the best cell centre polished (start read first) */
     out.t = ubest[0];
     out.y = ubest[1];
     out.distance = sqrt(phi);
@@ -918,7 +908,7 @@ static int object_de(const hx_model *m, hx_state *s, const double p[3], const do
         return HX_NOT_IN_CORE;
     guess[0] = s->contact ? s->adh[0] : NAN;
     guess[1] = s->contact ? s->adh[1] : NAN;
-    c = object_closest(m, p, up, h - e, guess, ub);
+    c = object_closest(m, p, up, guess, ub);
     s->contact = 1;
     s->adh[0] = ub[0];
     s->adh[1] = ub[1];
