@@ -10,6 +10,7 @@ import pytest
 
 import haptex as hx
 from haptex._validation import ParameterError
+from haptex.closest import ClosestPoint
 from haptex.analysis.work import loop_energy
 from haptex.objects import Cylinder, Plane, Sphere, object_algorithm
 
@@ -427,3 +428,86 @@ def test_bad_vertex_normals_are_refused_by_name():
         Mesh(m, uv=faceted.uv, normals=-(np.asarray(m.vertices) - [0.0, 0.0, -R]) / R)  # all inward
     with pytest.raises(ParameterError, match=r"^normals = 'vertx' is not allowed: must be 'vertex' or an array"):
         Mesh(m, uv=faceted.uv, normals="vertx")
+
+
+# ---- D and E: their Jacobians and the region analyses on objects ----------------------------
+
+@pytest.mark.parametrize("letter", ["D", "E"])
+def test_on_the_plane_the_d_and_e_jacobians_are_the_papers(letter):
+    # Plane() gives the plane's D and E: the projection's derivative T (I + r K)^-1 T^T, K the
+    # level set's shape operator, is V G^-1 V^T of the plane's D (eq. 17 with the boundary's
+    # curvature), and E's kappa_0 (p - c)^T / r row (eq. 20-21, sign corrected). Both are taken
+    # at the object's closest points (the plane's search agrees with it to 2e-8 m where the
+    # distance is flat about its minimum); to 1e-7 kappa_0 (measured 3.6e-8: the formulas read
+    # the distance as r / |grad pen| and as h(c) - p_z, equal to the search's ~1e-12 m)
+    p = _probes(seed=5)
+    obj, flat = object_algorithm(letter, EGG, Plane(), K0), hx.algorithm(letter, EGG, K0)
+    c, r = obj.closest_points(p)
+    inside = r > 1e-6
+    assert inside.sum() > 100
+    cp = ClosestPoint(x=c[inside, 0], y=c[inside, 1], z=c[inside, 2], distance=r[inside],
+                      tie=np.zeros(inside.sum(), bool), work=np.zeros(inside.sum(), int))
+    np.testing.assert_allclose(obj.jacobian(p)[inside], flat.jacobian_at_closest(p[inside], cp), rtol=0,
+                               atol=1e-7 * K0)
+
+
+@pytest.mark.parametrize("base", [Cylinder(_radius(5)), Sphere(_radius(5))], ids=["cylinder", "sphere"])
+@pytest.mark.parametrize("letter", ["D", "E"])
+def test_the_d_and_e_jacobians_are_the_derivatives_of_the_c_ticks_forces(letter, base):
+    # against central differences of the C core's certified search (step 0.1 um: its closest
+    # point is good to about 1e-12 m, so the differences carry ~1e-5 kappa_0 of noise; measured
+    # 1e-4 kappa_0 at worst, near centres of curvature where ||J|| reaches 23 kappa_0)
+    o = object_algorithm(letter, EGG, base, K0)
+    rng = np.random.default_rng(6)
+    p = o.region_points(rng.uniform(-L / 2, L / 2, (200, 2)), rng.uniform(5e-6, 0.3e-3, 200))
+    inside = o.penetration(p) > 5e-6
+    assert inside.sum() > 150
+    h = 1e-7
+    num = np.stack([(o.force(p + h * np.eye(3)[j]) - o.force(p - h * np.eye(3)[j])) / (2 * h) for j in range(3)], -1)
+    J = o.jacobian(p)
+    scale = np.maximum(K0, np.linalg.norm(J, 2, axis=(-2, -1)))
+    assert np.max((np.max(np.abs(J - num), axis=(-2, -1)) / scale)[inside]) <= 2e-4
+
+
+def test_the_spheres_q_of_d_and_e_tends_to_the_planes():
+    # D's q approaches the plane's tenfold closer for each tenfold radius (O(d/R): the base's
+    # curvature adds to the boundary's in the projection's derivative; 4.5e-2 and 4.0e-3 measured
+    # at R = 32 mm and 0.32 m, 0.3 mm deep); E's stays within d/R of its closed form 1 (eq. 21:
+    # kappa_0 (n (p - c)^T / r + r hess e), hess e of norm 1/R on the sphere)
+    dmax = 0.3e-3
+    q0 = hx.characteristic_number(hx.algorithm("D", EGG, K0), dmax).value
+    errs = [abs(hx.characteristic_number(object_algorithm("D", EGG, Sphere(_radius(t)), K0), dmax).value - q0) / q0
+            for t in (100, 1000)]
+    assert 7 <= errs[0] / errs[1] <= 14 and errs[1] <= 0.01, errs
+    for t in (100, 1000):
+        q = hx.characteristic_number(object_algorithm("E", EGG, Sphere(_radius(t)), K0), dmax).value
+        assert 1.0 <= q <= 1.0 + dmax / _radius(t), (t, q)
+
+
+def test_d_on_a_small_sphere_is_unbounded_at_a_centre_of_curvature():
+    # on a sphere as curved as the texture (R = 1.6 mm) a point of the textured surface is convex
+    # up with a radius of curvature below 0.3 mm: D's Jacobian grows without bound towards its
+    # centre (Remark 6 on an object), which is reported with its depth; the plane's is bounded there
+    o = object_algorithm("D", EGG, Sphere(_radius(5)), K0)
+    q = hx.characteristic_number(o, 0.3e-3)
+    assert math.isinf(q.value) and "unbounded" in q.note
+    rho = float(q.note.split(" at ")[1].split(" m")[0])
+    assert 0.0 < rho <= 0.3e-3
+    assert o.penetration(np.array([q.where]))[0] == pytest.approx(rho, rel=1e-3)  # (the note gives 4 digits)
+    assert math.isfinite(hx.characteristic_number(hx.algorithm("D", EGG, K0), 0.3e-3).value)
+
+
+def test_d_is_a_gradient_on_a_sphere_and_e_is_not():
+    # D is -grad(kappa_0 r^2 / 2), r the distance to the textured object (eq. 16 on any base): its
+    # Jacobian is symmetric and its work around a closed loop inside vanishes; E's does not
+    # (measured 1e-12 and 1.3e-5 J on this loop)
+    base = Sphere(_radius(100))
+    d, e = object_algorithm("D", EGG, base, K0), object_algorithm("E", EGG, base, K0)
+    J = d.jacobian(d.region_points(np.random.default_rng(7).uniform(-L, L, (100, 2)), np.full(100, 0.2e-3)))
+    assert np.max(np.abs(J - np.swapaxes(J, -1, -2))) <= 1e-9 * K0
+    uv = np.array([[0.1, 0.2], [0.7, 0.25], [0.8, 0.6], [0.3, 0.9], [0.15, 0.5]]) * L
+    depth = np.array([0.1, 0.25, 0.15, 0.3, 0.2]) * 1e-3
+    e_e = loop_energy(e, e.region_points(uv, depth))
+    e_d = loop_energy(d, d.region_points(uv, depth))
+    assert abs(e_e) > 1e-6
+    assert abs(e_d) <= 1e-6 * abs(e_e)

@@ -125,9 +125,9 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         algs = checked_algorithms(letters, texture, stiffness, max_penetration, friction, presliding)
     else:
         from .analysis import check_analysis_scale
-        from .objects import OBJECT_LETTERS, object_algorithm
+        from .objects import OBJECT_DESIGN_LETTERS, object_algorithm
 
-        algs = {L: object_algorithm(L, texture, base, stiffness) for L in OBJECT_LETTERS}
+        algs = {L: object_algorithm(L, texture, base, stiffness) for L in OBJECT_DESIGN_LETTERS}
         for alg in algs.values():
             check_analysis_scale(alg, max_penetration)
     estimate = _estimate(algs, max_penetration, x_range)

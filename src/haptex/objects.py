@@ -38,16 +38,22 @@ from there (the analysis path here queries the same
 hierarchy, :class:`Mesh`). F is the base as a flat wall, kappa_0 |e| n inside (e < 0), with the
 presliding friction of eq. 22-24 in the surface coordinates u (the local tangent plane to first
 order), its force J_u^T f_u; it has memory, so the region analyses (q, continuity, loop work)
-take A, B, C and G (:data:`OBJECT_LETTERS`) and F gives its static force at a deflection.
+take A-E and G (:data:`OBJECT_LETTERS`) and F gives its static force at a deflection.
 D and E on a plane, cylinder or sphere take the closest point of the textured object S(u) =
 P(u, h(u)): Gauss-Newton from the probe's foot and the last closest point, then a branch and
 bound over the surface coordinates that can hold a nearer point (a band the base's geometry
 bounds), cells pruned by a second-order lower bound of |S(u) - p|^2 (the texture's rigorous
 slope and curvature bounds, the base's radius), cells of the plane search's leaf size polished
 by Gauss-Newton; never farther than an exhaustive grid (tested), equal in distance to the plane's
-certified search on Plane(). :meth:`ObjectAlgorithm.force` runs the same C search.
+certified search on Plane(). :meth:`ObjectAlgorithm.force` runs the same C search. Their
+Jacobians come from the closest-point projection's derivative T (I + r K)^-1 T^T at the closest
+point c (r the distance, T a basis of the tangent plane, K = T^T hess pen T / |grad pen| the
+shape operator of the level set pen = 0, which holds the base's curvature with the texture's):
+D's kappa_0 (dc/dp - I), symmetric (D is -grad kappa_0 r^2 / 2 on any base, eq. 16), unbounded
+towards a centre of curvature (:meth:`ObjectAlgorithm.focal_points`); E's kappa_0 (n (p - c)^T / r
++ r hess e). On Plane() both are the plane's exactly (tested).
 
-Not yet here (issue 32's later steps): D and E on meshes, the region analyses of D, E and F,
+Not yet here (issue 32's later steps): D and E on meshes, the region analyses of F,
 a C^1 mesh base, HAPI's reference on objects (on the plane, and CHAI3D's, are
 :mod:`haptex.reference`), meshes in
 the explorer (:func:`haptex.simulate`, :func:`haptex.simulate_batch` and ``haptex sweep`` run
@@ -68,16 +74,21 @@ from .surfaces import Extruded, SumOfGratings, Surface
 from .textures import Texture
 
 __all__ = ["Base", "Plane", "Cylinder", "Sphere", "Mesh", "ObjectAlgorithm", "object_algorithm", "OBJECT_LETTERS",
-           "OBJECT_TICK_LETTERS"]
+           "OBJECT_DESIGN_LETTERS", "OBJECT_TICK_LETTERS"]
 
-OBJECT_LETTERS = ("A", "B", "C", "G")
-"""The letters on objects with their fields' analyses (q, continuity, loop work)."""
+OBJECT_LETTERS = ("A", "B", "C", "D", "E", "G")
+"""The letters on objects with their fields' analyses (q, continuity, loop work); D and E on a
+plane, cylinder or sphere."""
+
+OBJECT_DESIGN_LETTERS = ("A", "B", "C", "G")
+"""The letters ``haptex design`` and ``haptex explore`` analyse on an object: D and E are left out
+there (chosen) because their every field value is a closest-point search over the object, 0.1-0.3 ms
+a point in the C core, which makes a design's continuity grids take about 10 s a letter."""
 
 OBJECT_TICK_LETTERS = ("A", "B", "C", "D", "E", "F", "G")
 """The letters the C core renders on objects: F (with memory) too, its static field given its
 deflection (:meth:`ObjectAlgorithm.force`), and D and E (the closest point of the textured
 object, certified) on a plane, cylinder or sphere."""
-"""The algorithms defined over a curved base so far (penetration along the base's normal)."""
 
 MAX_RADIUS = 1e3
 """Largest base radius accepted (m): 1 km, the library's workspace scale."""
@@ -752,6 +763,15 @@ class Mesh(Base):
         return out.reshape(*u.shape[:-1], 3)
 
 
+def _tangents(nu):
+    """An orthonormal basis (..., 3, 2) of the plane orthogonal to unit vectors nu (..., 3): the
+    coordinate axis least aligned with nu made orthogonal to it, and nu x that."""
+    axis = np.eye(3)[np.argmin(np.abs(nu), axis=-1)]
+    t1 = axis - np.sum(axis * nu, axis=-1)[..., None] * nu
+    t1 /= np.linalg.norm(t1, axis=-1)[..., None]
+    return np.stack([t1, np.cross(nu, t1)], axis=-1)
+
+
 class ObjectAlgorithm(Algorithm):
     """One of A-G over a textured object (see the module's docstring for the fields; D and E on
     a plane, cylinder or sphere).
@@ -764,6 +784,9 @@ class ObjectAlgorithm(Algorithm):
     :func:`haptex.conservativity` its random polygons' vertices in (u1, u2, e), mapped by
     :meth:`to_cartesian` (a polygon's sides are straight in space).
     :func:`haptex.analysis.work.loop_energy` takes any closed path on or inside the object.
+    D's and E's region is laid by the closest point and the distance to it (the depth along the
+    textured surface's inward normal at S(u)); q of D is ``inf`` when a centre of curvature lies
+    within the depth analysed.
     """
 
     surfaces = True
@@ -799,8 +822,9 @@ class ObjectAlgorithm(Algorithm):
         self.name = plane.name
         self.reference = plane.reference + "; on a base: haptex.objects"
         self.penetration_kind = plane.penetration_kind
-        self.is_gradient = letter == "C"
-        self.has_memory = letter in "DEF"  # (D and E: the last closest point, a warm start only)
+        self.is_gradient = letter in "CD"
+        # (D and E keep the last closest point in the tick, a warm start only: their fields are memoryless)
+        self.has_memory = letter == "F"
         self._plane = plane
         self._params = dict(params)
 
@@ -822,8 +846,44 @@ class ObjectAlgorithm(Algorithm):
         along the base's normal (A, B, C) or below the base (G)."""
         ut = np.asarray(ut, dtype=float)
         depth = np.asarray(depth, dtype=float)
+        if self.penetration_kind == "distance":  # D, E: along the textured surface's inward normal at S(u)
+            S = self.base.point(ut, self.texture.height_at(ut))
+            g = self._level_set(S, False)[1]
+            return S + (depth / np.linalg.norm(g, axis=-1))[..., None] * g
         e = (self.texture.height_at(ut) - depth) if self.penetration_kind == "vertical" else -depth
         return self.base.point(ut, e)
+
+    def focal_points(self, ut):
+        """D's focal points below the textured surface: where its Jacobian is unbounded.
+
+        At S(u) the closest-point projection's derivative is T (I + r K)^-1 T^T (see
+        :meth:`jacobian`), K the level set's shape operator; it is singular at the distance
+        rho = 1 / |kappa| below a point whose principal curvature kappa < 0 (convex up, a peak
+        of the texture or the base's own convexity), the centre of curvature.
+
+        Parameters
+        ----------
+        ut : array_like, shape (..., 2)
+            Surface coordinates (m).
+
+        Returns
+        -------
+        rho : ndarray, shape (...)
+            The least such distance (m); inf where the surface is nowhere convex up.
+        points : ndarray, shape (..., 3)
+            The centres of curvature S(u) + rho nu (m), nu the inward unit normal (NaN where
+            rho is inf).
+        """
+        ut = np.asarray(ut, dtype=float)
+        S = self.base.point(ut, self.texture.height_at(ut))
+        _, g, H, *_ = self._level_set(S, True)
+        gn = np.linalg.norm(g, axis=-1)
+        nu = g / gn[..., None]
+        T = _tangents(nu)
+        kappa = np.linalg.eigvalsh(np.swapaxes(T, -1, -2) @ H @ T) / gn[..., None]
+        with np.errstate(divide="ignore"):
+            rho = np.where(kappa < 0, -1.0 / np.where(kappa < 0, kappa, -1.0), np.inf).min(axis=-1)
+        return rho, S + np.where(np.isfinite(rho), rho, np.nan)[..., None] * nu
 
     def to_cartesian(self, q):
         """Probe positions (..., 3) (m) at plane coordinates ``q`` = [u1, u2, e] (..., 3) (m):
@@ -840,7 +900,10 @@ class ObjectAlgorithm(Algorithm):
         return e if self.penetration_kind == "nominal" else e - self.texture.height_at(u)
 
     def penetration(self, p) -> np.ndarray:
-        """h(u) - e (A, B, C) or -e (G) where positive, else 0 (m), shape (...)."""
+        """h(u) - e (A, B, C), -e (G) or the distance to the closest point of the textured
+        object (D, E) where positive, else 0 (m), shape (...)."""
+        if self.penetration_kind == "distance":
+            return self.closest_points(p)[1]
         return np.maximum(-self.signed_depth(p), 0.0)
 
     def kinks(self, a, b, u, pts) -> list:
@@ -866,8 +929,6 @@ class ObjectAlgorithm(Algorithm):
             return self._friction(self._positions(p), deflection)
         if not (np.isscalar(deflection) and deflection == 0.0):
             raise fail("deflection", deflection, f"none for {self.letter} (only F has a presliding deflection)")
-        if self.letter in "DE":
-            return self._closest_field(self._positions(p))
         return self._object(self._positions(p), False)[0]
 
     def _friction(self, p, deflection):
@@ -880,25 +941,103 @@ class ObjectAlgorithm(Algorithm):
         f = (self.stiffness * depth)[..., None] * n + np.einsum("...ki,...k->...i", Ju, c[..., None] * d)
         return np.where((e < 0)[..., None], f, 0.0)
 
-    def _closest_field(self, p):
-        """D's or E's force at positions (..., 3): the C core's certified closest point of the
-        textured object (hx_object.c, the renderer's tick run over the points in C)."""
-        from .core import _ext
+    def closest_points(self, p):
+        """D's and E's closest point of the textured object and its distance, at positions p.
 
+        The C core's certified search (hx_object.c, the renderer's tick run over the points in
+        C: Gauss-Newton from the probe's foot, then a branch and bound over the surface
+        coordinates that can hold a nearer point), the same the servo tick runs.
+
+        Parameters
+        ----------
+        p : array_like, shape (..., 3)
+            Probe positions (m).
+
+        Returns
+        -------
+        closest : ndarray, shape (..., 3)
+            The closest point S(u*) of the textured object (m) where the probe is inside it
+            (pen > 0 at its foot); p itself outside.
+        distance : ndarray, shape (...)
+            |S(u*) - p| (m) inside, 0 outside.
+
+        Raises
+        ------
+        ParameterError
+            For a letter other than D and E, or malformed positions.
+        """
+        if self.letter not in "DE":
+            raise fail("algorithm", self.letter, "D or E for closest points (the other letters measure along the "
+                       "base's normal)")
+        p = self._positions(p)
         flat = np.ascontiguousarray(p.reshape(-1, 3), dtype=np.float64)
-        code, prm, kind, coeffs, aux, base = self.object_spec()
-        core = _ext.Renderer(code, prm, kind, coeffs, aux, 3, np.inf, 1e3, False, False, 0.0, 0, 0.0,
-                             lambda q: (0.0, 0.0, 0.0), 0, base)
-        out = np.empty_like(flat)
-        core.run(flat, out)
-        return out.reshape(p.shape)
+        _, prm, kind, coeffs, aux, base = self.object_spec()  # (E's search is D's: the closest point)
+        f = np.empty_like(flat)
+
+        def run(lo, hi):  # (a renderer a slice, on the threads: each warm-starts from its last point)
+            _ext.Renderer(_ext.ALG_D, prm, kind, coeffs, aux, 3, np.inf, 1e3, False, False, 0.0, 0, 0.0,
+                          lambda q: (0.0, 0.0, 0.0), 0, base).run(flat[lo:hi], f[lo:hi])
+
+        in_slices(run, len(flat), least=64)
+        f = f.reshape(p.shape)
+        return p + f / self.stiffness, np.linalg.norm(f, axis=-1) / self.stiffness
+
+    def _distance(self, p, jac: bool):
+        """D's or E's force (..., 3) and, with ``jac``, Jacobian (..., 3, 3) (else None).
+
+        D: f = kappa_0 (c - p), c the closest point at distance r; E: f = kappa_0 r n, n the
+        base's normal at p. With nu the textured surface's inward unit normal at c (grad pen /
+        |grad pen|), T an orthonormal basis of its tangent plane and K = T^T hess pen T /
+        |grad pen| (the shape operator of the level set pen = 0), dc/dp = T (I + r K)^-1 T^T
+        (the closest-point projection's derivative; on the plane it is V G^-1 V^T of
+        :class:`haptex.algorithms.GodObjectGradient`): J_D = kappa_0 (dc/dp - I), and J_E =
+        kappa_0 (n (p - c)^T / r + r hess e) (eq. 20-21 with the base's turning normal).
+        """
+        k = self.stiffness
+        c, r = self.closest_points(p)
+        inside = r > 0
+        if self.letter == "D":
+            f = k * (c - p)
+        else:
+            _, _, _, _, n, He = self.base.local(p)
+            f = (k * r)[..., None] * n
+        if not jac:
+            return f, None
+        J = np.zeros(p.shape + (3,))
+        if not np.any(inside):
+            return f, J
+        pi, ci, ri = p[inside], c[inside], r[inside]
+        if self.letter == "D":
+            _, g, H, *_ = self._level_set(ci, True)
+            gn = np.linalg.norm(g, axis=-1)
+            T = _tangents(g / gn[:, None])
+            A = np.eye(2) + (ri / gn)[:, None, None] * (np.swapaxes(T, -1, -2) @ H @ T)
+            with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+                det = A[:, 0, 0] * A[:, 1, 1] - A[:, 0, 1] * A[:, 1, 0]
+                adj = np.stack([np.stack([A[:, 1, 1], -A[:, 0, 1]], -1), np.stack([-A[:, 1, 0], A[:, 0, 0]], -1)], -2)
+                dc = T @ (adj / det[:, None, None]) @ np.swapaxes(T, -1, -2)
+            J[inside] = k * (dc - np.eye(3))
+        else:
+            n, He = n[inside], He[inside]
+            J[inside] = k * (n[:, :, None] * ((pi - ci) / ri[:, None])[:, None, :] + ri[:, None, None] * He)
+        return f, J
 
     def _no_memory(self):
-        if self.letter in "DEF":
-            raise fail("algorithm", self.letter, "A, B, C or G for an object's Jacobian and the analyses built on it "
-                       f"({self.letter} on an object renders in the C core and has its force, ObjectAlgorithm.force)")
+        if self.letter == "F":
+            raise fail("algorithm", self.letter, "A, B, C, D, E or G for an object's Jacobian and the analyses built "
+                       "on it (F on an object renders in the C core and has its static force, ObjectAlgorithm.force)")
 
     def jacobian(self, p) -> np.ndarray:
+        """The Jacobian (N/m), shape (..., 3, 3), at positions p (..., 3) (m): by the chain rule
+        through u(p) and e(p) (A, B, C, G), from the closest-point projection's derivative (D,
+        E; see the module's docstring); 0 outside the object. D's is unbounded at a centre of
+        curvature (:meth:`focal_points`) and undefined where two closest points tie.
+
+        Raises
+        ------
+        ParameterError
+            For F (it has memory: :meth:`force` gives its static force), or malformed positions.
+        """
         self._no_memory()
         return self._object(self._positions(p), True)[1]
 
@@ -906,20 +1045,29 @@ class ObjectAlgorithm(Algorithm):
         self._no_memory()
         return self._object(self._positions(p), True)
 
-    def _object(self, p, jac: bool):
-        k = self.stiffness
+    def _level_set(self, p, hessian: bool):
+        """pen = h(u) - e at positions p (..., 3), its gradient (..., 3) and, if ``hessian``, its
+        Hessian (..., 3, 3) (else None) by the chain rule through the base's u(p) and e(p);
+        and the base's e and n = grad e there."""
         u, Ju, Hu, e, n, He = self.base.local(p)
         tex = self.texture
-        h = tex.height_at(u)
         s = tex.gradient(u)
-        pen = h - e
+        pen = tex.height_at(u) - e
         gpen = np.einsum("...ki,...k->...i", Ju, s) - n
-        inside = (pen > 0) if self.penetration_kind == "vertical" else (e < 0)
-        J = hpen = None
-        if jac:  # (the Hessian of pen: the Jacobians only)
-            H = tex.hessian(u)
-            hpen = (np.einsum("...ki,...kl,...lj->...ij", Ju, H, Ju) + np.einsum("...k,...kij->...ij", s, Hu) - He)
+        hpen = None
+        if hessian:
+            hpen = (np.einsum("...ki,...kl,...lj->...ij", Ju, tex.hessian(u), Ju)
+                    + np.einsum("...k,...kij->...ij", s, Hu) - He)
+        return pen, gpen, hpen, e, n, He
+
+    def _object(self, p, jac: bool):
         L = self.letter
+        if L in "DE":
+            return self._distance(p, jac)
+        k = self.stiffness
+        pen, gpen, hpen, e, n, He = self._level_set(p, jac)
+        inside = (pen > 0) if self.penetration_kind == "vertical" else (e < 0)
+        J = None
         if L == "A":
             f = (k * pen)[..., None] * n
             if jac:
@@ -944,14 +1092,15 @@ class ObjectAlgorithm(Algorithm):
         return f, J
 
     def potential(self, p):
-        """C's stored energy kappa_0 pen^2 / 2 inside, 0 outside (J), shape (...).
+        """C's and D's stored energy kappa_0 pen^2 / 2 inside, 0 outside (J), shape (...) (pen
+        D's distance to the closest point: eq. 16 on the object).
 
         Raises
         ------
         TypeError
-            For A, B and G (not gradient fields).
+            For A, B, E, F and G (not gradient fields).
         """
-        if self.letter != "C":
+        if self.letter not in "CD":
             raise TypeError(f"algorithm {self.letter} on an object is not a gradient field: it has no potential")
         return 0.5 * self.stiffness * self.penetration(p) ** 2
 
@@ -983,7 +1132,7 @@ def object_algorithm(letter: str, texture: Texture, base: Base, stiffness: float
         closest point of the textured object, in the C core. F renders in the C core (its
         presliding friction in the surface coordinates, the local
         tangent plane; :meth:`ObjectAlgorithm.force` gives its static force at a deflection);
-        the region analyses take A, B, C and G (:data:`OBJECT_LETTERS`).
+        the region analyses take A-E and G (:data:`OBJECT_LETTERS`).
     texture : Texture
         Height h(u) over the base's surface coordinates u (m): a surface, or a profile
         (extruded along u2).

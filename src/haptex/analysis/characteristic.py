@@ -222,7 +222,8 @@ def characteristic_number(
     k0 = algorithm.stiffness
     closed = _closed_form_q(algorithm)
 
-    if algorithm.penetration_kind == "distance":
+    on_object = hasattr(algorithm, "region_points")
+    if algorithm.penetration_kind == "distance" and not on_object:
         if tex.dimension == 2:
             return _q_distance_surface(algorithm, dmax, ranges, counts, nd, closed, x_range, resolution)
         return _q_distance(algorithm, dmax, *ranges[0], counts[0], nd, closed)
@@ -235,6 +236,14 @@ def characteristic_number(
     ds = np.linspace(dmax / nd, dmax, nd)
     mesh = np.meshgrid(*axes, ds, indexing="ij")
     plane_pts = np.stack(mesh[:-1], axis=-1)
+    if on_object and algorithm.letter == "D":
+        focus = _object_focus(algorithm, plane_pts[..., 0, :], dmax)
+        if focus is not None:
+            rho, point = focus
+            return CharacteristicNumber(
+                "D", math.inf, closed, tuple(float(v) for v in point), dmax,
+                f"unbounded: ||J|| -> inf approaching the centre of curvature at {rho:.4g} m below a convex-up "
+                f"point of the textured object (< max_penetration {dmax:g} m)")
     norms = spectral_norm(algorithm.jacobian(_region_points(algorithm, plane_pts, mesh[-1]))) / k0
     steps = [(b - a) / n for (a, b), n in zip(ranges, counts)]
     dd = dmax / nd
@@ -264,6 +273,32 @@ def characteristic_number(
         max_penetration=dmax,
         note=f"grid {grid} over {extent} and depth in (0, {dmax:g}] m, refined by L-BFGS-B",
     )
+
+
+def _object_focus(alg, ut, dmax: float):
+    """D over an object: (rho, centre) of the nearest centre of curvature within ``dmax``
+    below the textured surface over the grid ``ut`` (n1, n2, 2) of surface coordinates whose
+    surface point is still the closest point there (D's Jacobian is unbounded approaching it);
+    None if there is none. rho is minimised from the grid's local minima within a grid step."""
+    rho = alg.focal_points(ut)[0]
+    steps = [float(ut[1, 0, 0] - ut[0, 0, 0]), float(ut[0, 1, 1] - ut[0, 0, 1])]
+
+    def rho_at(v):  # (a finite stand-in where nothing is convex up, for the minimiser)
+        r = float(alg.focal_points(np.asarray(v)[None, :])[0][0])
+        return r if math.isfinite(r) else 1.0
+
+    for idx in _candidates(-rho):
+        i, j = np.unravel_index(idx, rho.shape)
+        if not rho[i, j] <= 2.0 * dmax:  # (candidates come nearest first)
+            break
+        start = ut[i, j]
+        r = optimize.minimize(rho_at, x0=start, method="L-BFGS-B",
+                              bounds=[(v - h, v + h) for v, h in zip(start, steps)])
+        u_min = r.x if r.fun < rho[i, j] else start
+        value, point = alg.focal_points(u_min[None, :])
+        if value[0] <= dmax and alg.closest_points(point)[1][0] >= value[0] * (1 - 1e-6):
+            return float(value[0]), point[0]
+    return None
 
 
 def _refine(neg, start, value: float, bounds) -> tuple[float, tuple]:

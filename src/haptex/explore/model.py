@@ -243,14 +243,15 @@ def build(settings: Settings) -> Scene:
     on_object = str(s.object).strip().lower() != "plane"
     if on_object:  # a textured object: A, B, C, G on a sphere or a cylinder (haptex.objects)
         from .._specs import object_from_spec
-        from ..objects import OBJECT_LETTERS, object_algorithm
+        from ..objects import OBJECT_DESIGN_LETTERS, object_algorithm
 
         base = object_from_spec(s.object, files=False)
         if tex.dimension != 2:
             raise fail("object", s.object, "'plane' over a profile (an object carries an areal texture: choose the "
                        "egg-crate, a grating, a map or an image)")
-        if letter not in OBJECT_LETTERS:
-            raise fail("algorithm", letter, f"one of {', '.join(OBJECT_LETTERS)} on an object (or the object 'plane')")
+        if letter not in OBJECT_DESIGN_LETTERS:
+            raise fail("algorithm", letter,
+                       f"one of {', '.join(OBJECT_DESIGN_LETTERS)} on an object (or the object 'plane')")
         alg = object_algorithm(letter, tex, base, stiffness)
     elif letter == "W":
         alg = algorithm("W", Flat(dimension=2) if tex.dimension == 2 else None, stiffness)
