@@ -250,4 +250,4 @@ def test_the_page_shows_a_texture_on_an_object():
         assert word in page.d_message.text and f"{q:.4g}" in page.d_q.text
     page.w_object.value = "sphere:12.7323954mm"
     page.w_algorithm.value = "D"
-    assert "A, B, C, G on an object" in page.d_message.text and page.w_algorithm.value == "A"
+    assert "A, B, C, F, G on an object" in page.d_message.text and page.w_algorithm.value == "A"

@@ -131,14 +131,14 @@ def _parse_path(text: str, d: int = 2):
 
 def _object_options(what: str):
     """``--object`` and ``--uv-scale``, the same for every command that takes an object (design,
-    export, run); ``what`` says what the command does with A, B, C and G there."""
+    export, run); ``what`` says which letters the command takes there and what it does with them."""
     def deco(func):
         func = click.option("--uv-scale", type=Quantity("m"), default=None,
                             help="With a mesh: metres per unit of its texture coordinates, e.g. '10mm'.")(func)
         return click.option("--object", "object_spec", default=None,
                             help="The texture on an object instead of a plane: 'sphere:RADIUS', 'cylinder:RADIUS' "
                                  "(axis along y), 'plane', or a closed triangle mesh FILE (OBJ, STL, PLY, glTF, ... "
-                                 f"with texture coordinates; --uv-scale). A, B, C and G are {what} there.")(func)
+                                 f"with texture coordinates; --uv-scale). {what}")(func)
     return deco
 
 
@@ -612,7 +612,7 @@ def _check_plot_path(plot: Path) -> None:
 @click.option("--hand", default="light-touch", show_default=True,
               help="The hand gripping the handle for the stable limits: a hand of 'haptex devices' (none, "
                    "light-touch, firm-grip).")
-@_object_options("analysed")
+@_object_options("A, B, C, F and G are analysed there (D and E in Python: haptex.objects).")
 @click.option("--vertex-normals", is_flag=True,
               help="With a mesh: a smooth base swept along its vertex normals (default: the closest point's "
                    "coordinates, whose normal turns around each edge).")
@@ -758,7 +758,7 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
 @click.option("--level", is_flag=True, help="Remove the profile's best-fit line.")
 @click.option("--lowpass", type=Quantity("m"), default=None, help="Band-limit the profile to this shortest period.")
 @click.option("--periodic", is_flag=True, help="Close the profile into a periodic texture.")
-@_object_options("exported")
+@_object_options("A-G are exported there (D and E on a plane, cylinder or sphere).")
 @click.option("--out", "out", type=click.Path(file_okay=False, path_type=Path), required=True,
               help="Directory for haptex_texture.c, haptex_texture.h and the C core's files.")
 @click.option("--quiet", is_flag=True, help="No progress display.")
@@ -854,7 +854,8 @@ def sweep(spec, out, scheduler, workers, quiet):
               help="simulated: the hand's speed along x.")
 @click.option("--fast", is_flag=True, help="simulated, forcedimension: run as fast as the loop goes, not at the "
               "device's rate.")
-@_object_options("rendered on a 3-DOF device, the object's top at the origin of its frame")
+@_object_options("A-G and the proxy are rendered there on a 3-DOF device (D, E and the proxy on a plane, "
+                 "cylinder or sphere), the object's top at the origin of its frame.")
 @click.option("--record", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Write the trace (time, position, force, engaged) to FILE.npz.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")

@@ -127,7 +127,9 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         from .analysis import check_analysis_scale
         from .objects import OBJECT_DESIGN_LETTERS, object_algorithm
 
-        algs = {L: object_algorithm(L, texture, base, stiffness) for L in OBJECT_DESIGN_LETTERS}
+        algs = {L: object_algorithm(L, texture, base, stiffness,
+                                    **({"friction": friction, "presliding": presliding} if L == "F" else {}))
+                for L in OBJECT_DESIGN_LETTERS}
         for alg in algs.values():
             check_analysis_scale(alg, max_penetration)
     estimate = _estimate(algs, max_penetration, x_range)

@@ -37,8 +37,10 @@ through a bounding-volume hierarchy built once, on the prism mesh the Newton sol
 from there (the analysis path here queries the same
 hierarchy, :class:`Mesh`). F is the base as a flat wall, kappa_0 |e| n inside (e < 0), with the
 presliding friction of eq. 22-24 in the surface coordinates u (the local tangent plane to first
-order), its force J_u^T f_u; it has memory, so the region analyses (q, continuity, loop work)
-take A-E and G (:data:`OBJECT_LETTERS`) and F gives its static force at a deflection.
+order), its force J_u^T f_u; it has memory: its force and Jacobian are given at a deflection and
+phase (stick, slip; eq. 23 and 26 through the surface coordinates), its loop work with the state
+stepped by the C tick (:meth:`ObjectAlgorithm.path_work`), and the region analyses take every
+letter (:data:`OBJECT_LETTERS`).
 D and E on a plane, cylinder or sphere take the closest point of the textured object S(u) =
 P(u, h(u)): Gauss-Newton from the probe's foot and the last closest point, then a branch and
 bound over the surface coordinates that can hold a nearer point (a band the base's geometry
@@ -53,7 +55,7 @@ D's kappa_0 (dc/dp - I), symmetric (D is -grad kappa_0 r^2 / 2 on any base, eq. 
 towards a centre of curvature (:meth:`ObjectAlgorithm.focal_points`); E's kappa_0 (n (p - c)^T / r
 + r hess e). On Plane() both are the plane's exactly (tested).
 
-Not yet here (issue 32's later steps): D and E on meshes, the region analyses of F,
+Not yet here (issue 32's later steps): D and E on meshes,
 a C^1 mesh base, HAPI's reference on objects (on the plane, and CHAI3D's, are
 :mod:`haptex.reference`), meshes in
 the explorer (:func:`haptex.simulate`, :func:`haptex.simulate_batch` and ``haptex sweep`` run
@@ -76,14 +78,14 @@ from .textures import Texture
 __all__ = ["Base", "Plane", "Cylinder", "Sphere", "Mesh", "ObjectAlgorithm", "object_algorithm", "OBJECT_LETTERS",
            "OBJECT_DESIGN_LETTERS", "OBJECT_TICK_LETTERS"]
 
-OBJECT_LETTERS = ("A", "B", "C", "D", "E", "G")
+OBJECT_LETTERS = ("A", "B", "C", "D", "E", "F", "G")
 """The letters on objects with their fields' analyses (q, continuity, loop work); D and E on a
-plane, cylinder or sphere."""
+plane, cylinder or sphere; F at a deflection and phase, its loop work with its state stepped."""
 
-OBJECT_DESIGN_LETTERS = ("A", "B", "C", "G")
-"""The letters ``haptex design`` and ``haptex explore`` analyse on an object: D and E are left out
-there (chosen) because their every field value is a closest-point search over the object, 0.1-0.3 ms
-a point in the C core, which makes a design's continuity grids take about 10 s a letter."""
+OBJECT_DESIGN_LETTERS = ("A", "B", "C", "F", "G")
+"""The letters ``haptex design`` analyses on an object: D and E are left out there (chosen)
+because their every field value is a closest-point search over the object, 0.1-0.3 ms a point in
+the C core, which makes a design's continuity grids take about 10 s a letter."""
 
 OBJECT_TICK_LETTERS = ("A", "B", "C", "D", "E", "F", "G")
 """The letters the C core renders on objects: F (with memory) too, its static field given its
@@ -827,6 +829,10 @@ class ObjectAlgorithm(Algorithm):
         self.has_memory = letter == "F"
         self._plane = plane
         self._params = dict(params)
+        if letter == "F":  # (the analyses read F's parameters off the algorithm, as on the plane)
+            self.friction, self.presliding = plane.friction, plane.presliding
+            self.modulation_depth, self.stick_deflection = plane.modulation_depth, plane.stick_deflection
+            self.modulation_max_slope = plane.modulation_max_slope  # (1/m, over u)
 
     def __repr__(self) -> str:
         extra = "".join(f", {k}={v!r}" for k, v in sorted(self._params.items()))
@@ -926,20 +932,88 @@ class ObjectAlgorithm(Algorithm):
             For malformed positions, or a deflection given to another letter or out of range.
         """
         if self.letter == "F":
-            return self._friction(self._positions(p), deflection)
+            return self._friction(self._positions(p), deflection)[0]
         if not (np.isscalar(deflection) and deflection == 0.0):
             raise fail("deflection", deflection, f"none for {self.letter} (only F has a presliding deflection)")
         return self._object(self._positions(p), False)[0]
 
-    def _friction(self, p, deflection):
+    def _friction(self, p, deflection, phase=None):
+        """F's force (..., 3) at a deflection d in the surface coordinates and, with ``phase``,
+        its Jacobian (..., 3, 3) (else None). With depth = -e, z_c = min(depth, d^z_max), m =
+        1 - h~(u), c = -mu kappa_0 z_c m / d_max and D = dd/du (I in stick, I - v v^T in slip, v =
+        d / |d|): f = kappa_0 depth n + J_u^T c d, and
+
+            J = kappa_0 (depth hess e - n n^T) + c sum_k d_k hess u_k + J_u^T d grad c^T
+                + c J_u^T D J_u,
+
+        grad c = -mu kappa_0 (m grad z_c - z_c grad h~) / d_max, grad z_c = -n where depth <
+        d^z_max (else 0), grad h~ = J_u^T grad_u h~ (eq. 23 and 26 in the local tangent plane; on
+        the plane, the paper's)."""
         F = self._plane
-        u, Ju, _, e, n, _ = self.base.local(p)
+        k = self.stiffness
+        u, Ju, Hu, e, n, He = self.base.local(p)
         d = F._deflection(deflection, e.shape)
+        inside = e < 0
         depth = -e
         zc = depth if F.max_penetration is None else np.minimum(depth, F.max_penetration)
-        c = -F.friction * self.stiffness * zc * (1.0 - F._scale * self.texture.height_at(u)) / F.presliding
-        f = (self.stiffness * depth)[..., None] * n + np.einsum("...ki,...k->...i", Ju, c[..., None] * d)
-        return np.where((e < 0)[..., None], f, 0.0)
+        m = 1.0 - F._scale * self.texture.height_at(u)
+        c = -F.friction * k * zc * m / F.presliding
+        f = (k * depth)[..., None] * n + np.einsum("...ki,...k->...i", Ju, c[..., None] * d)
+        f = np.where(inside[..., None], f, 0.0)
+        if phase is None:
+            return f, None
+        if phase not in ("stick", "slip"):
+            raise fail("phase", phase, 'one of "stick", "slip"')
+        eye = np.broadcast_to(np.eye(2), d.shape + (2,))
+        if phase == "stick":
+            D = eye
+        else:
+            size = np.linalg.norm(d, axis=-1)
+            v = np.divide(d, size[..., None], out=np.zeros_like(d), where=size[..., None] > 0)
+            D = np.where((size > 0)[..., None, None], eye - v[..., :, None] * v[..., None, :], 0.0)
+        follows = np.ones_like(inside) if F.max_penetration is None else depth < F.max_penetration
+        gzc = np.where(follows[..., None], -n, 0.0)
+        gmod = F._scale * np.einsum("...ki,...k->...i", Ju, self.texture.gradient(u))  # grad h~
+        gc = -F.friction * k * (m[..., None] * gzc - zc[..., None] * gmod) / F.presliding
+        Jud = np.einsum("...ki,...k->...i", Ju, d)
+        J = (k * (depth[..., None, None] * He - n[..., :, None] * n[..., None, :])
+             + c[..., None, None] * np.einsum("...k,...kij->...ij", d, Hu)
+             + Jud[..., :, None] * gc[..., None, :]
+             + c[..., None, None] * np.einsum("...ki,...kl,...lj->...ij", Ju, D, Ju))
+        return f, np.where(inside[..., None, None], J, 0.0)
+
+    def path_work(self, pts, steps: int = 4000) -> float:
+        """F's work (J) along a polyline of shape (N, 3) (m), its friction state stepped.
+
+        Each side is cut into ``steps`` equal sub-steps and the C core's tick gives the force
+        at each point (the presliding deflection stepped by the surface coordinates' change,
+        from rest where the path enters the object and reset where it leaves, as in the servo
+        loop); the work sum f . dp by the trapezoidal rule (first order in the sub-step where
+        the deflection turns, as :meth:`haptex.algorithms.FrictionModulated.path_work` over a
+        surface).
+
+        Raises
+        ------
+        ParameterError
+            For a letter other than F.
+        """
+        if self.letter != "F":
+            raise fail("algorithm", self.letter, "F for a path's work with its friction state (the other letters "
+                       "are fields: haptex.analysis.work.path_work)")
+        pts = np.asarray(pts, dtype=np.float64)
+        us = np.linspace(0.0, 1.0, steps + 1)[1:]
+        path = np.concatenate([pts[:1]] + [a + us[:, None] * (b - a) for a, b in zip(pts[:-1], pts[1:])])
+        f = np.empty_like(path)
+        self._core(self.letter).run(np.ascontiguousarray(path), f)
+        dp = np.diff(path, axis=0)
+        return float(np.sum(0.5 * (f[1:] + f[:-1]) * dp))
+
+    def _core(self, letter: str):
+        """A C core renderer of this object's tick for ``letter`` (D's, for E's closest points),
+        without the renderer's safety rules (no force limit): the analysis reads the field."""
+        _, prm, kind, coeffs, aux, base = self.object_spec()
+        return _ext.Renderer(getattr(_ext, f"ALG_{letter}"), prm, kind, coeffs, aux, 3, np.inf, 1e3, False, False,
+                             0.0, 0, 0.0, lambda q: (0.0, 0.0, 0.0), 0, base)
 
     def closest_points(self, p):
         """D's and E's closest point of the textured object and its distance, at positions p.
@@ -971,12 +1045,10 @@ class ObjectAlgorithm(Algorithm):
                        "base's normal)")
         p = self._positions(p)
         flat = np.ascontiguousarray(p.reshape(-1, 3), dtype=np.float64)
-        _, prm, kind, coeffs, aux, base = self.object_spec()  # (E's search is D's: the closest point)
-        f = np.empty_like(flat)
+        f = np.empty_like(flat)  # (E's search is D's: the closest point)
 
         def run(lo, hi):  # (a renderer a slice, on the threads: each warm-starts from its last point)
-            _ext.Renderer(_ext.ALG_D, prm, kind, coeffs, aux, 3, np.inf, 1e3, False, False, 0.0, 0, 0.0,
-                          lambda q: (0.0, 0.0, 0.0), 0, base).run(flat[lo:hi], f[lo:hi])
+            self._core("D").run(flat[lo:hi], f[lo:hi])
 
         in_slices(run, len(flat), least=64)
         f = f.reshape(p.shape)
@@ -1022,27 +1094,32 @@ class ObjectAlgorithm(Algorithm):
             J[inside] = k * (n[:, :, None] * ((pi - ci) / ri[:, None])[:, None, :] + ri[:, None, None] * He)
         return f, J
 
-    def _no_memory(self):
-        if self.letter == "F":
-            raise fail("algorithm", self.letter, "A, B, C, D, E or G for an object's Jacobian and the analyses built "
-                       "on it (F on an object renders in the C core and has its static force, ObjectAlgorithm.force)")
-
-    def jacobian(self, p) -> np.ndarray:
+    def jacobian(self, p, deflection=0.0, phase: str = "stick") -> np.ndarray:
         """The Jacobian (N/m), shape (..., 3, 3), at positions p (..., 3) (m): by the chain rule
         through u(p) and e(p) (A, B, C, G), from the closest-point projection's derivative (D,
-        E; see the module's docstring); 0 outside the object. D's is unbounded at a centre of
-        curvature (:meth:`focal_points`) and undefined where two closest points tie.
+        E; see the module's docstring), at a presliding deflection and phase (F, as
+        :meth:`haptex.algorithms.FrictionModulated.jacobian`, in the surface coordinates); 0
+        outside the object. D's is unbounded at a centre of curvature (:meth:`focal_points`)
+        and undefined where two closest points tie.
 
         Raises
         ------
         ParameterError
-            For F (it has memory: :meth:`force` gives its static force), or malformed positions.
+            For malformed positions, a deflection out of range, a phase other than "stick" and
+            "slip", or a deflection or phase given to a letter other than F.
         """
-        self._no_memory()
+        if self.letter == "F":
+            return self._friction(self._positions(p), deflection, phase)[1]
+        if not (np.isscalar(deflection) and deflection == 0.0):
+            raise fail("deflection", deflection, f"none for {self.letter} (only F has a presliding deflection)")
+        if phase != "stick":
+            raise fail("phase", phase, f"none for {self.letter} (only F has a friction phase)")
         return self._object(self._positions(p), True)[1]
 
     def force_and_jacobian(self, p):
-        self._no_memory()
+        if self.letter == "F":
+            raise fail("algorithm", "F", "A-E or G for a force and Jacobian without a deflection (F's: jacobian(p, "
+                       "deflection, phase))")
         return self._object(self._positions(p), True)
 
     def _level_set(self, p, hessian: bool):
@@ -1132,7 +1209,7 @@ def object_algorithm(letter: str, texture: Texture, base: Base, stiffness: float
         closest point of the textured object, in the C core. F renders in the C core (its
         presliding friction in the surface coordinates, the local
         tangent plane; :meth:`ObjectAlgorithm.force` gives its static force at a deflection);
-        the region analyses take A-E and G (:data:`OBJECT_LETTERS`).
+        the region analyses take every letter (:data:`OBJECT_LETTERS`).
     texture : Texture
         Height h(u) over the base's surface coordinates u (m): a surface, or a profile
         (extruded along u2).

@@ -406,8 +406,7 @@ def _q_friction(alg, dmax, ranges, counts, nd) -> CharacteristicNumber:
         slip = dm * np.stack([np.cos(ang), np.sin(ang)], -1)
 
     def jac(xt, depth, d, phase):
-        p = np.concatenate([xt, -depth[..., None]], axis=-1)
-        return alg.jacobian(p, d[..., 0] if k == 1 else d, phase)
+        return alg.jacobian(_region_points(alg, xt, depth), d[..., 0] if k == 1 else d, phase)
 
     def deflection(w, phase):
         """The deflection of the refinement's last variables: d itself over a profile; over
@@ -473,8 +472,8 @@ def _q_friction(alg, dmax, ranges, counts, nd) -> CharacteristicNumber:
     if paper_case:
         extra["paper_reported"] = PAPER_Q_F
         note += f"; Section V-A reports {PAPER_Q_F} for these parameters"
-    return CharacteristicNumber("F", best, None, (*(float(v) for v in arg[0]), -float(arg[1])), dmax, note, None,
-                                extra)
+    where = _region_points(alg, np.asarray(arg[0], dtype=float)[None, :], np.array([float(arg[1])]))[0]
+    return CharacteristicNumber("F", best, None, tuple(float(v) for v in where), dmax, note, None, extra)
 
 
 def _normal_point(tex: Texture, t, r):

@@ -96,7 +96,7 @@ class Settings:
         quarter of the way across the region shown (through the egg-crate's peaks).
     object : str
         Over a surface, the base the texture is on: "plane" (the paper's wall, every
-        letter), "sphere:RADIUS" or "cylinder:RADIUS" (A, B, C and G; its top at the origin,
+        letter), "sphere:RADIUS" or "cylinder:RADIUS" (A, B, C, F and G; its top at the origin,
         :mod:`haptex.objects`).
     """
 
@@ -241,7 +241,7 @@ def build(settings: Settings) -> Scene:
         params["presliding"] = quantity(s.presliding, "m", "presliding")
     stiffness = quantity(s.stiffness, "N/m", "stiffness")
     on_object = str(s.object).strip().lower() != "plane"
-    if on_object:  # a textured object: A, B, C, G on a sphere or a cylinder (haptex.objects)
+    if on_object:  # a textured object: A, B, C, F, G on a sphere or a cylinder (haptex.objects)
         from .._specs import object_from_spec
         from ..objects import OBJECT_DESIGN_LETTERS, object_algorithm
 
