@@ -200,7 +200,9 @@ def test_core_is_clean_under_asan_and_ubsan(tmp_path):
         pytest.skip("this gcc cannot build with -fsanitize=address,undefined")
     driver = Path(__file__).parent / "c" / "core_fuzz.c"
     exe = tmp_path / "core_fuzz"
-    sources = [str(src) for src in sorted(core.SOURCE_DIR.glob("hx_*.c"))]
+    # every source the driver calls into: the simulator's loops (hx_sim.c), which it does not
+    # drive, are left out (instrumented, they took 17 of the build's 41 s at -O1)
+    sources = [str(src) for src in sorted(core.SOURCE_DIR.glob("hx_*.c")) if src.name != "hx_sim.c"]
     subprocess.run(["gcc", "-std=c99", "-O1", "-g", "-fsanitize=address,undefined", "-fno-sanitize-recover=all",
                     "-I", str(core.SOURCE_DIR), "-o", str(exe), str(driver), *sources, "-lm"], check=True,
                    capture_output=True)
