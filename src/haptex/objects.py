@@ -55,9 +55,10 @@ D's kappa_0 (dc/dp - I), symmetric (D is -grad kappa_0 r^2 / 2 on any base, eq. 
 towards a centre of curvature (:meth:`ObjectAlgorithm.focal_points`); E's kappa_0 (n (p - c)^T / r
 + r hess e). On Plane() both are the plane's exactly (tested).
 
-Not yet here (issue 32's later steps): D and E on meshes,
-a C^1 mesh base, HAPI's reference on objects (on the plane, and CHAI3D's, are
-:mod:`haptex.reference`), meshes in
+The reference models of CHAI3D (on meshes) and HAPI (on the plane and on these bases) are
+:mod:`haptex.reference`.
+
+Not yet here (issue 32's later steps): D and E on meshes, a C^1 mesh base, meshes in
 the explorer (:func:`haptex.simulate`, :func:`haptex.simulate_batch` and ``haptex sweep`` run
 objects; ``haptex export`` writes the renderer's tick; ``haptex explore`` shows spheres and
 cylinders with q on their surface).

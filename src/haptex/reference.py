@@ -162,23 +162,26 @@ HAPI_EPSILON = 1e-4
 
 
 class HapiDepthMap:
-    """H3D/HAPI's depth-map surface on a plane (``HAPIVariableDepthSurface`` without friction),
-    in physical units: a god-object found by a local derivative-free search, not a certified
-    closest point.
+    """H3D/HAPI's depth-map surface (``HAPIVariableDepthSurface`` without friction) on a plane or
+    on an object's base, in physical units: a god-object found by a local derivative-free
+    search, not a certified closest point.
 
-    HAPI renders a depth map on a primitive (here the plane z = max h, the texture's top: a
-    depth map sinks into the surface) with its proxy-based renderer. While the probe is under
-    the primitive the proxy w stays on it; each tick (read from HAPI's source,
-    HAPIVariableDepthSurface.cpp, and written here from that description):
+    HAPI renders a depth map on a primitive (here the base offset to the texture's top, e = max
+    h: a depth map sinks into the surface; on the plane z = max h) with its proxy-based renderer.
+    While the probe is under the primitive the proxy w (surface coordinates, m) stays on it;
+    each tick (read from HAPI's source, HAPIVariableDepthSurface.cpp, and written here from that
+    description):
 
-    1. in the local frame at the proxy, the probe's lateral offset is m = p_xy - w;
+    1. in the local frame at the proxy, the probe's lateral offset is m = u(p) - w (on the
+       plane u(p) = p_xy; on a base, the probe's surface coordinates, :mod:`haptex.objects`);
     2. a downhill simplex (Nelder & Mead) minimises the squared distance from the probe to the
-       displaced surface's point over the lateral move v, f(v) = |(w + v, h(w + v)) - p|^2,
-       from the simplex {0, m, m/2 + (m_y, -m_x)/2}, for at most ``max_iterations`` iterations
-       or until the relative spread of f over the simplex is below ``epsilon``;
-    3. the proxy moves to w + v*, and the force is the spring kappa_0 (S(w) - p), S(w) = (w,
-       h(w)), where the probe is below the displaced surface at the proxy (zero above it, the
-       contact with the primitive kept).
+       displaced surface's point over the lateral move v, f(v) = |S(w + v) - p|^2, S(u) the
+       point at offset h(u) along the base's normal at u (on the plane (u, h(u))), from the
+       simplex {0, m, m/2 + (m_y, -m_x)/2}, for at most ``max_iterations`` iterations or until
+       the relative spread of f over the simplex is below ``epsilon``;
+    3. the proxy moves to w + v*, and the force is the spring kappa_0 (S(w) - p) where the probe
+       is below the displaced surface at the proxy, e(p) < h(w) (zero above it, the contact with
+       the primitive kept).
 
     The search starts where the proxy was and spans the probe's lateral offset: it finds a
     local minimum of the distance near the proxy, possibly not the closest point (haptex's D),
@@ -191,6 +194,10 @@ class HapiDepthMap:
         A surface h(x, y) (m); a profile is extruded along y.
     stiffness : float
         kappa_0 of the proxy's spring (N/m), > 0.
+    base : haptex.objects.Base, optional
+        The base the depth map is on: None (default) the plane, or a
+        :class:`haptex.objects.Plane`, ``Cylinder`` or ``Sphere`` (a closed base needs the
+        texture to fit it, as :func:`haptex.objects.object_algorithm`).
     max_iterations : int, optional
         Default :data:`HAPI_MAX_ITERATIONS` (HAPI's).
     epsilon : float, optional
@@ -204,7 +211,8 @@ class HapiDepthMap:
     ------
     ParameterError
         For a texture that is not a haptex texture, a stiffness not > 0, ``max_iterations`` not
-        a whole number >= 1, or ``epsilon`` not > 0.
+        a whole number >= 1, ``epsilon`` not > 0, or a base that is not a plane, cylinder or
+        sphere or that the texture does not fit.
 
     Notes
     -----
@@ -224,8 +232,9 @@ class HapiDepthMap:
     dimension = 3
 
     def __init__(self, texture: Texture, stiffness: float, max_iterations: int = HAPI_MAX_ITERATIONS,
-                 epsilon: float = HAPI_EPSILON):
+                 epsilon: float = HAPI_EPSILON, base=None):
         from ._validation import whole
+        from .objects import Cylinder, Plane, Sphere
         from .surfaces import Extruded
 
         if not isinstance(texture, Texture):
@@ -234,12 +243,18 @@ class HapiDepthMap:
         self.stiffness = positive("stiffness", stiffness, "N/m")
         self.max_iterations = whole("max_iterations", max_iterations, 1, 10 ** 6, "simplex iterations")
         self.epsilon = positive("epsilon", epsilon, "")
+        if base is not None and not isinstance(base, Plane | Cylinder | Sphere):
+            raise fail("base", base, "None (the plane), or a haptex.objects Plane(), Cylinder(R) or Sphere(R)")
+        if base is not None:
+            base.check_texture(self.texture)
+        self.base = None if isinstance(base, Plane) else base  # (the plane's own fast path)
         self.top = float(self.texture.height_range[1])
         self.reset()
 
     def __repr__(self) -> str:
+        on = "" if self.base is None else f", base={self.base!r}"
         return (f"HapiDepthMap({self.texture!r}, stiffness={self.stiffness:g}, max_iterations={self.max_iterations}, "
-                f"epsilon={self.epsilon:g})")
+                f"epsilon={self.epsilon:g}{on})")
 
     def reset(self) -> None:
         """No contact, no history; the counters cleared."""
@@ -252,21 +267,29 @@ class HapiDepthMap:
         self.evaluations += 1
         return float(self.texture.height_at(np.asarray(xy, dtype=float)[None, :])[0])
 
+    def _surface(self, u, h=None) -> np.ndarray:
+        """S(u) (m), shape (3,): the displaced surface's point at surface coordinates u (its
+        height h(u) given, or evaluated)."""
+        h = self._h(u) if h is None else h
+        if self.base is None:
+            return np.array([u[0], u[1], h])
+        return self.base.point(np.asarray(u, dtype=float)[None, :], np.array([h]))[0]
+
     @property
     def contact_point(self) -> np.ndarray | None:
         """S(w): the displaced surface's point at the proxy (m), shape (3,), or None out of contact."""
         if self.proxy_xy is None:
             return None
-        return np.append(self.proxy_xy, self._h(self.proxy_xy))
+        return self._surface(self.proxy_xy)
 
-    def _simplex(self, w, p):
-        """The local simplex search of step 2: the lateral move v* (m) and its iterations."""
+    def _simplex(self, w, p, up):
+        """The local simplex search of step 2 from the proxy w toward the probe's coordinates
+        up: the lateral move v* (m) and its iterations."""
         def f(v):
-            q = w + v
-            dz = self._h(q) - p[2]
-            return float((q[0] - p[0]) ** 2 + (q[1] - p[1]) ** 2 + dz * dz)
+            d = self._surface(w + v) - p
+            return float(d @ d)
 
-        m = p[:2] - w
+        m = up - w
         half = 0.5 * m
         pts = np.array([[0.0, 0.0], m, half + np.array([half[1], -half[0]])])
         vals = np.array([f(v) for v in pts])
@@ -309,19 +332,24 @@ class HapiDepthMap:
         if p.shape != (3,) or not np.all(np.isfinite(p)):
             raise fail("p", p.tolist(), "3 finite coordinates [x, y, z] (m)")
         self.last_iterations = 0
-        if not p[2] < self.top:  # above the primitive: no contact
+        if self.base is None:
+            up, e = p[:2].copy(), p[2]
+        else:
+            local = self.base.local(p[None, :])
+            up, e = local[0][0], float(local[3][0])
+        if not e < self.top:  # above the primitive: no contact
             self.proxy_xy = None
             return np.zeros(3)
         if self.proxy_xy is None:  # contact starts where the probe crossed the primitive
-            self.proxy_xy = p[:2].copy()
-        move, it = self._simplex(self.proxy_xy, p)
+            self.proxy_xy = up
+        move, it = self._simplex(self.proxy_xy, p, up)
         self.last_iterations = it
         self.capped += it >= self.max_iterations
         self.proxy_xy = self.proxy_xy + move
-        s = self.contact_point
-        if not p[2] < s[2]:  # above the depth at the proxy: no force
+        h = self._h(self.proxy_xy)
+        if not e < h:  # above the depth at the proxy: no force
             return np.zeros(3)
-        return self.stiffness * (s - p)
+        return self.stiffness * (self._surface(self.proxy_xy, h) - p)
 
     def kernel_spec(self, *_):
         raise ParameterError(f"{self!r} is not allowed in the renderer, the simulator or the export: it is a reference "
