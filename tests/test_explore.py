@@ -251,3 +251,76 @@ def test_the_page_shows_a_texture_on_an_object():
     page.w_object.value = "sphere:12.7323954mm"
     page.w_algorithm.value = "D"
     assert "A, B, C, F, G on an object" in page.d_message.text and page.w_algorithm.value == "A"
+
+
+def _ball_file(tmp_path):
+    """The 1,280-facet icosphere of radius R = 40 periods / 2 pi written by trimesh as an OBJ with
+    the analytic sphere's (u1, u2) as texture coordinates, in units of 4 pi R; that scale (m)."""
+    import trimesh
+
+    from .test_object_core import R, _icosphere
+
+    m, base = _icosphere(3)
+    m.visual = trimesh.visual.TextureVisuals(uv=base.uv / (4 * math.pi * R))
+    m.export(tmp_path / "ball.obj")
+    return tmp_path / "ball.obj", 4 * math.pi * R
+
+
+def test_a_mesh_is_placed_with_the_windows_centre_on_top(tmp_path):
+    # the explorer's frame: the mesh's point at the texture window's centre u_c moved to (u_c, 0),
+    # its outward normal there +z and u1's direction +x, so the section y = const cuts the mesh
+    # where the window lies (a sphere's top is at the origin, u = 0 there, likewise)
+    path, scale = _ball_file(tmp_path)
+    placed = model.placed_mesh(path, scale, (1e-3, 1e-3))
+    u, Ju, _, e, n, _ = placed.local(np.array([[1e-3, 1e-3, 0.0]]))
+    np.testing.assert_allclose(u[0], [1e-3, 1e-3], atol=1e-12)
+    assert abs(e[0]) < 1e-15 and n[0] @ [0.0, 0.0, 1.0] > 1 - 1e-12
+    assert Ju[0, 0] @ [0.0, 1.0, 0.0] == pytest.approx(0.0, abs=1e-9) and Ju[0, 0, 0] > 0
+    with pytest.raises(hx.ParameterError, match="UV map .* holds the texture window's centre"):
+        model.placed_mesh(path, scale / 100, (1e-3, 1e-3))
+
+
+def test_the_page_shows_a_texture_on_a_mesh(tmp_path):
+    # 'on an object: mesh' with a mesh file: q, the section and q on the surface, computed on
+    # the placed mesh; the 1,280-facet ball's A is near the analytic sphere's (1.186 against
+    # 1.214: its facets, README); no mesh, a mesh that is not one, a scale whose UV map misses the
+    # window: one line each, the view kept
+    from bokeh.document import Document
+
+    from haptex.explore import app
+    from haptex.objects import object_algorithm
+
+    path, scale = _ball_file(tmp_path)
+    page = app(Document())
+    page.w_device.value = "point-mass"
+    page.w_texture.value = "egg-crate"
+    page.w_amplitude.value, page.w_period.value = "0.2 mm", "2 mm"
+    q_plane = page.d_q.text
+    assert not page.w_mesh.visible
+    page.w_object.value = "mesh"
+    assert "choose a mesh file" in page.d_message.text and page.w_mesh.visible and page.w_uv_scale.visible
+    assert page.d_q.text == q_plane
+    page.w_uv_scale.value = f"{scale * 1e3:.12g} mm"
+    bad = tmp_path / "bad.obj"
+    bad.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    page.settings.object_file, page.settings.object_file_name = str(bad), "bad.obj"
+    page._recompute(on_fail=lambda: None)
+    assert "bad.obj" in page.d_message.text and page.d_q.text == q_plane
+    page.settings.object_file, page.settings.object_file_name = str(path), "ball.obj"
+    page._recompute(on_fail=lambda: None)
+    egg = hx.SumOfGratings.egg_crate(0.2e-3, 2e-3)
+    q = hx.characteristic_number(object_algorithm("A", egg, model.placed_mesh(path, scale, (1e-3, 1e-3)), K0)).value
+    assert f'<span id="q-value">{q:.4g}</span>' in page.d_q.text and page.d_message.text.endswith("></span>")
+    assert 1.17 < q < 1.214 and page.f_surface_q.visible
+    # the section's nominal surface drawn is the placed mesh's own (its offset at the drawn points
+    # by the hierarchy's search, not the UV map the drawing used: the line u2 = y drawn on the x-z
+    # plane, off the section plane by the mesh's turning, 0.41 um measured), its sag under the
+    # window's centre within the facets' (up to 43 um: edges to 2.1 mm on R = 12.7 mm) of the sphere's
+    x, h0 = np.asarray(page.src_boundary.data["x"]) / 1e3, np.asarray(page.src_boundary.data["h0"]) / 1e3
+    y = page.scene.section
+    e = page.scene.algorithm.base.local(np.column_stack([x, np.full_like(x, y), h0]))[3]
+    assert np.max(np.abs(e)) < 1e-6
+    R = scale / (4 * math.pi)
+    np.testing.assert_allclose(-h0, ((x - 1e-3) ** 2 + (y - 1e-3) ** 2) / (2 * R), rtol=0, atol=2 * 43e-6)
+    page.w_uv_scale.value = "0.1 mm"
+    assert "uv" in page.d_message.text.lower() and f"{q:.4g}" in page.d_q.text

@@ -204,3 +204,35 @@ def test_one_sessions_long_computation_never_stalls_another(server, browser, tmp
     other.close()
     slow.close()
     assert proc.poll() is None
+
+
+def test_a_mesh_uploaded_in_the_page_carries_the_texture(page, tmp_path):
+    # 'on an object: mesh', its scale, then the file through the page's mesh input (uploaded over
+    # the websocket): q is the library's on the placed mesh (tests/test_explore.py checks the
+    # placement and the views); a file that is not a mesh is one line naming it, the view kept
+    import math
+
+    from haptex.objects import object_algorithm
+
+    from .test_explore import _ball_file
+
+    path, scale = _ball_file(tmp_path)
+    _choose(page, "device", "point-mass")
+    _choose(page, "texture", "egg-crate")
+    _type(page, "amplitude", "0.2 mm")
+    _type(page, "period", "2 mm")
+    egg = hx.SumOfGratings.egg_crate(0.2e-3, 2e-3)
+    flat = f"{hx.characteristic_number(hx.algorithm('A', egg, K0)).value:.4g}"
+    _wait_text(page, "#q-value", lambda t: t == flat)
+    _type(page, "object", "mesh")
+    _wait_text(page, "#message-text", lambda t: "choose a mesh file" in t)
+    _type(page, "uv-scale", f"{scale * 1e3:.12g} mm")
+    bad = tmp_path / "cup.stl"
+    bad.write_bytes(b"solid nothing\nendsolid nothing\n")
+    page.locator("#mesh-file input").set_input_files(str(bad))
+    message = _wait_text(page, "#message-text", lambda t: "cup.stl" in t)
+    assert "\n" not in message and _text(page, "#q-value") == flat
+    page.locator("#mesh-file input").set_input_files(str(path))
+    q = hx.characteristic_number(object_algorithm("A", egg, model.placed_mesh(path, scale, (1e-3, 1e-3)), K0)).value
+    assert _wait_text(page, "#q-value", lambda t: t != flat) == f"{q:.4g}" and math.isfinite(q)
+    page.screenshot(path=str(tmp_path / "page-mesh.png"), full_page=True)

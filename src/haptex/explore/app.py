@@ -101,7 +101,8 @@ class ExplorerPage:
         self.w_noise = text("noise", "noise: rms, shortest, longest, length[, seed]", s.noise)
         self.w_file = FileInput(title="file (profile, areal map or image)", width=220, html_id="texture-file")
         # the file's name and contents arrive together; read them once both are set
-        self.w_file.on_change("value", lambda a, o, n: self.doc.add_next_tick_callback(self._upload))
+        self.w_file.on_change("value", lambda a, o, n: self.doc.add_next_tick_callback(
+            lambda: self._upload(self.w_file, "file", "file_name")))
         self.w_spacing = text("spacing", "file: sample spacing (if unstated)", s.spacing)
         self.w_x_unit = text("x_unit", "file: position unit (if unstated)", s.x_unit, "x-unit")
         self.w_height_unit = text("height_unit", "file: height unit (if unstated)", s.height_unit, "height-unit")
@@ -113,7 +114,12 @@ class ExplorerPage:
         self.w_friction = text("friction", "F: friction μ", s.friction)
         self.w_presliding = text("presliding", "F: presliding d^x_max", s.presliding)
         self.w_section = text("section", "areal: section at y =", s.section)
-        self.w_object = text("object", "areal: on an object (plane, sphere:R, cylinder:R)", s.object)
+        self.w_object = text("object", "areal: on an object (plane, sphere:R, cylinder:R, mesh)", s.object)
+        self.w_mesh = FileInput(title="mesh file (OBJ, STL, PLY, glTF; with texture coordinates)", width=220,
+                                html_id="mesh-file")
+        self.w_mesh.on_change("value", lambda a, o, n: self.doc.add_next_tick_callback(
+            lambda: self._upload(self.w_mesh, "object_file", "object_file_name")))
+        self.w_uv_scale = text("uv_scale", "mesh: metres per texture-coordinate unit", s.uv_scale, "uv-scale")
         self.w_device = choice("device", "device", model.DEVICES)
         self.w_hand = choice("hand", "scan: hand", model.HANDS)
         self.w_speed = text("speed", "scan speed", s.speed)
@@ -209,7 +215,7 @@ class ExplorerPage:
 
         texture_box = column(self.w_texture, self.w_amplitude, self.w_period, self.w_terms, self.w_noise, self.w_file,
                              self.w_spacing, self.w_x_unit, self.w_height_unit, self.w_pixel, self.w_hrange,
-                             self.w_section, self.w_object)
+                             self.w_section, self.w_object, self.w_mesh, self.w_uv_scale)
         controls = column(texture_box, self.w_algorithm, self.w_stiffness, self.w_dmax, self.w_friction,
                           self.w_presliding, self.w_device, self.w_hand, self.w_speed, self.w_duration,
                           row(self.b_fig3, self.b_clear), self.b_scan, width=240)
@@ -254,6 +260,8 @@ class ExplorerPage:
         self.w_pixel.visible = self.w_hrange.visible = k == "image"
         self.w_spacing.visible = self.w_x_unit.visible = self.w_height_unit.visible = k == "file"
         self.w_section.visible = self.w_object.visible = self.scene is not None and self.scene.dimension == 3
+        self.w_mesh.visible = self.w_uv_scale.visible = (self.w_object.visible
+                                                         and str(self.settings.object).strip().lower() == "mesh")
         self.w_friction.visible = self.w_presliding.visible = letter == "F"
         self.f_heights.visible = self.scene is not None and self.scene.dimension == 3
         self.f_surface_q.visible = self.scene is not None and getattr(self.scene.algorithm, "base", None) is not None
@@ -278,6 +286,12 @@ class ExplorerPage:
             self._message(f"texture = {value!r}: choose a file to load (the view shows the previous texture "
                           "until then)")
             return
+        if name in ("object", "uv_scale") and str(self.settings.object).strip().lower() == "mesh" \
+                and not self.settings.object_file:
+            self._show_controls()  # wait for the mesh (its scale kept for it), keeping the view
+            self._message("object = 'mesh': choose a mesh file with texture coordinates and give its scale (the view "
+                          "shows the previous object until then)")
+            return
         def undo():
             if name in ("texture", "spacing", "x_unit", "height_unit") and self.settings.texture == "file" \
                     and "does not state" in self.d_message.text:
@@ -293,13 +307,16 @@ class ExplorerPage:
         self._recompute(on_fail=undo)
         self._show_controls()
 
-    def _upload(self) -> None:
+    def _upload(self, widget, field: str, name_field: str) -> None:
+        """A file arrived in ``widget``: saved under the session's directory (within the upload
+        budgets) and set as the settings' ``field`` (its name as ``name_field``): the texture's
+        file, or the object's mesh."""
         try:
-            name = os.path.basename(self.w_file.filename or "upload")
+            name = os.path.basename(widget.filename or "upload")
         except Exception:  # bokeh's UnsetValueError: no name was sent
             name = "upload"
-        path = os.path.join(self.tmpdir, name)
-        value = self.w_file.value or ""
+        path = os.path.join(self.tmpdir, ("mesh-" if field == "object_file" else "") + name)
+        value = widget.value or ""
         size = len(value) * 3 // 4  # base64: 4 characters a 3 bytes
         if size > UPLOAD_BYTES or self.uploaded + size > SESSION_UPLOAD_BYTES:
             self._message(f"file = {name!r} is not allowed: {size / 2**20:.3g} MiB; an upload may carry at most "
@@ -313,12 +330,14 @@ class ExplorerPage:
             self._message(f"file = {name!r} could not be received: {exc}")
             return
         self.uploaded += size
-        before = (self.settings.file, self.settings.file_name)
-        self.settings.file, self.settings.file_name = path, name
+        before = (getattr(self.settings, field), getattr(self.settings, name_field))
+        setattr(self.settings, field, path)
+        setattr(self.settings, name_field, name)
 
         def undo():  # a file that lacks only its spacing or units is kept, for the boxes below it to complete
             if "does not state" not in self.d_message.text:
-                self.settings.file, self.settings.file_name = before
+                setattr(self.settings, field, before[0])
+                setattr(self.settings, name_field, before[1])
             self._show_controls()
 
         self._recompute(on_fail=undo)

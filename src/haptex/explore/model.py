@@ -97,7 +97,15 @@ class Settings:
     object : str
         Over a surface, the base the texture is on: "plane" (the paper's wall, every
         letter), "sphere:RADIUS" or "cylinder:RADIUS" (A, B, C, F and G; its top at the origin,
-        :mod:`haptex.objects`).
+        :mod:`haptex.objects`), or "mesh": the closed triangle mesh in ``object_file``
+        (:func:`placed_mesh`).
+    object_file : str or None
+        Path on the server of the uploaded mesh (OBJ, STL, PLY, glTF, ... with texture
+        coordinates).
+    object_file_name : str
+        The name the user gave the mesh file (for messages).
+    uv_scale : str
+        The mesh's metres per unit of its texture coordinates (e.g. "10 mm").
     """
 
     texture: str = "sine"
@@ -123,6 +131,9 @@ class Settings:
     duration: str = "1 s"
     section: str = "auto"
     object: str = "plane"
+    object_file: str | None = None
+    object_file_name: str = ""
+    uv_scale: str = "10 mm"
 
 
 @dataclass(frozen=True)
@@ -241,14 +252,27 @@ def build(settings: Settings) -> Scene:
         params["presliding"] = quantity(s.presliding, "m", "presliding")
     stiffness = quantity(s.stiffness, "N/m", "stiffness")
     on_object = str(s.object).strip().lower() != "plane"
-    if on_object:  # a textured object: A, B, C, F, G on a sphere or a cylinder (haptex.objects)
+    if on_object:  # a textured object: A, B, C, F, G on a sphere, a cylinder or a mesh (haptex.objects)
         from .._specs import object_from_spec
         from ..objects import OBJECT_DESIGN_LETTERS, object_algorithm
 
-        base = object_from_spec(s.object, files=False)
+        mesh = str(s.object).strip().lower() == "mesh"
+        base = None if mesh else object_from_spec(s.object, files=False)
         if tex.dimension != 2:
             raise fail("object", s.object, "'plane' over a profile (an object carries an areal texture: choose the "
                        "egg-crate, a grating, a map or an image)")
+        if mesh:
+            if not s.object_file:
+                raise ParameterError("object = 'mesh' is not allowed without a mesh file: choose one (OBJ, STL, PLY, "
+                                     "glTF, ... with texture coordinates)")
+            (x0, x1), (y0, y1) = _texture_window(tex)
+            try:
+                base = placed_mesh(s.object_file, quantity(s.uv_scale, "m", "uv_scale"),
+                                   (0.5 * (x0 + x1), 0.5 * (y0 + y1)))
+            except ParameterError as exc:
+                name = s.object_file_name or "the mesh"
+                msg = str(exc).replace(str(s.object_file), name)
+                raise ParameterError(msg if name in msg else f"mesh file {name!r}: {msg}") from None
         if letter not in OBJECT_DESIGN_LETTERS:
             raise fail("algorithm", letter,
                        f"one of {', '.join(OBJECT_DESIGN_LETTERS)} on an object (or the object 'plane')")
@@ -308,7 +332,11 @@ def window(scene: Scene) -> tuple[tuple[float, float], tuple[float, float] | Non
     returns ((x0, x1), (y0, y1)) over a surface and ((x0, x1), None) over a profile."""
     from ..analysis import default_window
 
-    tex = scene.texture
+    return _texture_window(scene.texture)
+
+
+def _texture_window(tex):
+    """:func:`window` of a texture."""
     dom = getattr(tex, "domain", None)
     if tex.dimension == 2:
         if dom is None:
@@ -317,6 +345,41 @@ def window(scene: Scene) -> tuple[tuple[float, float], tuple[float, float] | Non
     if dom is None:
         return default_window(tex), None
     return (float(dom[0]), float(dom[1])), None
+
+
+def placed_mesh(path, uv_scale: float, anchor):
+    """The closed triangle mesh read from ``path`` (``uv_scale`` metres per unit of its texture
+    coordinates) moved rigidly into the explorer's frame: its point at surface coordinates
+    ``anchor`` (m, shape (2,): the texture window's centre) to (anchor, 0), the mesh's outward
+    normal there along +z and the direction of u1 there along +x, so that near it x, y follow
+    u1, u2 and the section y = const cuts the mesh where the window lies (a sphere's top is at
+    the origin with u = 0 there, likewise).
+
+    Raises
+    ------
+    ParameterError
+        As :class:`haptex.objects.Mesh` (a file that is not a closed manifold mesh with
+        texture coordinates, past the memory budget, ...), or where the mesh's UV map does not
+        hold ``anchor``.
+    """
+    import trimesh
+
+    from ..objects import Mesh
+
+    base = Mesh(path, uv_scale=uv_scale)
+    anchor = np.asarray(anchor, dtype=float)
+    try:
+        p = base.point(anchor[None, :], np.zeros(1))[0]
+    except ParameterError:
+        raise fail("object", str(path), f"a mesh whose UV map ({uv_scale:g} m per unit) holds the texture window's "
+                   f"centre, u = ({anchor[0]:g}, {anchor[1]:g}) m: change uv_scale") from None
+    _, Ju, _, _, n, _ = base.local(p[None, :])
+    n = n[0]
+    t = Ju[0, 0] - (Ju[0, 0] @ n) * n
+    t /= np.linalg.norm(t)
+    R = np.stack([t, np.cross(n, t), n])  # rows: the new x, y, z axes
+    verts = (np.asarray(base.mesh.vertices, dtype=float) - p) @ R.T + np.array([anchor[0], anchor[1], 0.0])
+    return Mesh(trimesh.Trimesh(verts, np.asarray(base.mesh.faces), process=False), uv=base.uv)
 
 
 def heights(scene: Scene, x) -> np.ndarray:
