@@ -330,13 +330,13 @@ def window(scene: Scene) -> tuple[tuple[float, float], tuple[float, float] | Non
     """The region shown (m): the texture's ``domain``, the region its analysis (q) covers
     by default (one period or cell, a sampled texture's extent), else x in [0, 1 mm];
     returns ((x0, x1), (y0, y1)) over a surface and ((x0, x1), None) over a profile."""
-    from ..analysis import default_window
-
     return _texture_window(scene.texture)
 
 
 def _texture_window(tex):
     """:func:`window` of a texture."""
+    from ..analysis import default_window
+
     dom = getattr(tex, "domain", None)
     if tex.dimension == 2:
         if dom is None:
