@@ -854,8 +854,8 @@ def sweep(spec, out, scheduler, workers, quiet):
               help="simulated: the hand's speed along x.")
 @click.option("--fast", is_flag=True, help="simulated, forcedimension: run as fast as the loop goes, not at the "
               "device's rate.")
-@_object_options("A-G and the proxy are rendered there on a 3-DOF device (D, E and the proxy on a plane, "
-                 "cylinder or sphere), the object's top at the origin of its frame.")
+@_object_options("A-G and the proxy are rendered there on a 3-DOF device (D and E on a plane, cylinder or "
+                 "sphere), the object's top at the origin of its frame.")
 @click.option("--record", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Write the trace (time, position, force, engaged) to FILE.npz.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
@@ -905,13 +905,8 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
         if backend.dimension != 3:
             raise ParameterError(f"--object is not allowed on {backend.name}: an object needs a 3-DOF device")
         if letter == "PROXY":
-            from .objects import Mesh
             from .proxy import GodObject
 
-            if isinstance(base, Mesh):
-                raise ParameterError("--object is not allowed with --algorithm proxy on a mesh: the proxy's C tick "
-                                     "is over the plane, a cylinder or a sphere (over a mesh it is Python, "
-                                     "haptex.proxy, for analysis)")
             alg = GodObject(tex, stiffness, base)
         else:
             alg = object_algorithm(letter, tex, base, stiffness)

@@ -58,8 +58,7 @@ towards a centre of curvature (:meth:`ObjectAlgorithm.focal_points`); E's kappa_
 The reference models of CHAI3D (on meshes) and HAPI (on the plane and on these bases) are
 :mod:`haptex.reference`.
 
-Not yet here (issue 32's later steps): D and E on meshes, a C^1 mesh base, the proxy over
-meshes in the C core (:func:`haptex.simulate`, :func:`haptex.simulate_batch` and ``haptex
+Not yet here (issue 32's later steps): D and E on meshes, a C^1 mesh base (:func:`haptex.simulate`, :func:`haptex.simulate_batch` and ``haptex
 sweep`` run objects; ``haptex export`` writes the renderer's tick; ``haptex explore`` shows
 spheres, cylinders and uploaded meshes with q on their surface).
 """

@@ -22,10 +22,12 @@ Over the plane the tick is the C core's (``tick_proxy`` in hx_fields.h: Newton s
 the texture's Hessian, at most 200 of them, each backtracked at most 40 times; its texture
 evaluations counted): :meth:`GodObject.step` runs it, and :class:`haptex.Renderer`,
 :func:`haptex.simulate` and :func:`haptex.simulate_batch` (the general loop) and ``haptex
-export`` take a GodObject like an algorithm. Over a cylinder or a sphere the tick is the C core's
-too (``object_proxy`` in hx_object.c: Gauss-Newton on the surface's Jacobian in closed form,
-the same bounds); over a mesh, whose point at surface coordinates has no closed form, the
-descent is Python (Gauss-Newton on the base's point map by central differences), for analysis.
+export`` take a GodObject like an algorithm. Over a cylinder, a sphere or a mesh the tick is the
+C core's too (``object_proxy`` in hx_object.c: Gauss-Newton on the surface's Jacobian, in closed
+form on the analytic bases, through the UV map on a mesh: the triangle holding u found by a walk
+across the triangles' sides from the probe's closest one, the point and its Jacobian affine in u
+there; the same bounds). The Python descent (Gauss-Newton on the base's point map by central
+differences) is its oracle (``_core = None``).
 """
 
 from __future__ import annotations
@@ -89,11 +91,8 @@ class GodObject:
 
     @property
     def in_core(self) -> bool:
-        """Its tick is the C core's: over the plane, a cylinder or a sphere (over a mesh, whose
-        points at surface coordinates have no closed form, it is Python, for analysis)."""
-        from .objects import Mesh
-
-        return not isinstance(self.base, Mesh)
+        """Its tick is the C core's (over the plane and every base)."""
+        return True
 
     letter = "proxy"
     name = "god-object (proxy)"
@@ -126,17 +125,17 @@ class GodObject:
         """Over a base (``max_evaluations``: unused, the descent is bounded by its steps): the
         arrays of :meth:`kernel_spec` and the base's (:meth:`haptex.objects.Base.core_spec`), as
         :meth:`haptex.objects.ObjectAlgorithm.object_spec`.
-        The C core's proxy over a base descends by Gauss-Newton on the surface's Jacobian in
-        closed form (this class's Python descent, over a mesh, by central differences).
+        The C core's proxy over a base descends by Gauss-Newton on the surface's Jacobian (in
+        closed form, or through a mesh's UV map; this class's Python descent, by central
+        differences, is its oracle).
 
         Raises
         ------
         ParameterError
-            Without a base, or over a mesh (not in the C core).
+            Without a base.
         """
-        if self.base is None or not self.in_core:
-            raise fail("base", self.base, "a plane, cylinder or sphere base for the C core's proxy over an object "
-                       "(over a mesh it is Python, for analysis)")
+        if self.base is None:
+            raise fail("base", self.base, "a base of haptex.objects for the C core's proxy over an object")
         return self._spec() + (self.base.core_spec(),)
 
     def reset(self) -> None:

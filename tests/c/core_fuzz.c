@@ -189,7 +189,8 @@ static const double OCTA_V[6][3] = {{5e-3, 0, -5e-3}, {-5e-3, 0, -5e-3}, {0, 5e-
 static const int OCTA_F[8][3] = {{0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4},
                                  {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}};
 
-/* A, B, C and G on the plane, a cylinder, a sphere and the octahedron, ticked at adversarial
+/* A-G and the proxy where defined on the plane, a cylinder, a sphere and the octahedron (faceted
+ * and prism; the proxy's walk through its UV map too), ticked at adversarial
  * positions (NaN, infinities, +-1 km, the round bases' axes): never NaN, never above the
  * maximum, at least the expected faults. */
 static int fuzz_objects(const hx_model *m0, long *evaluations)
@@ -221,6 +222,9 @@ static int fuzz_objects(const hx_model *m0, long *evaluations)
             for (j = 0; j < 3; j++)
                 face[HX_FACE * i + HX_FACE_EDGE + 3 * k + j] = nn[j] / len;
         face[HX_FACE * i + HX_FACE_M] = 1.0; /* u1 = x - x0 on every face (any finite map) */
+        for (k = 0; k < 3; k++) /* the corners' UV: their (x, y) (the two pyramids' charts overlap) */
+            for (j = 0; j < 2; j++)
+                face[HX_FACE * i + HX_FACE_UV + 2 * k + j] = OCTA_V[OCTA_F[i][k]][j];
         for (k = 0; k < 3; k++) /* the prism base's corner normals: the octahedron's vertices' directions */
             for (j = 0; j < 3; j++)
                 face[HX_FACE * i + HX_FACE_VN + 3 * k + j] = (OCTA_V[OCTA_F[i][k]][j] - (j == 2 ? -5e-3 : 0.0)) / 5e-3;
@@ -255,7 +259,7 @@ static int fuzz_objects(const hx_model *m0, long *evaluations)
             long faults_expected = 0;
             int surface = m0->tex.kind == HX_SURFACE_GRATINGS || m0->tex.kind == HX_SURFACE_PATCHES;
             int defined = code == HX_ALG_A || code == HX_ALG_B || code == HX_ALG_C || code == HX_ALG_G ||
-                          code == HX_ALG_F || (code == HX_ALG_PROXY && b.kind != HX_BASE_MESH) ||
+                          code == HX_ALG_F || code == HX_ALG_PROXY ||
                           ((code == HX_ALG_D || code == HX_ALG_E) && b.kind != HX_BASE_MESH && surface);
             /* D and E's search constants over an object: bounds that need not hold for this
              * texture (the search then is not certified, but must stay finite, bounded and in

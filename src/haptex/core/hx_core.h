@@ -325,6 +325,15 @@ HX_INLINE void hx__proxy_start(const hx_state *s, const double foot[2], double u
     u[1] = from[1];
 }
 
+/* Whether the core's tick takes algorithm `code` on a base of `kind` (HX_BASE_*): A, B, C, F, G
+ * and the proxy on every base, D and E on the analytic ones (the closest point of a textured mesh
+ * is not written yet). */
+HX_INLINE int hx__on_base(int code, int kind)
+{
+    return code == HX_ALG_A || code == HX_ALG_B || code == HX_ALG_C || code == HX_ALG_F || code == HX_ALG_G ||
+           code == HX_ALG_PROXY || ((code == HX_ALG_D || code == HX_ALG_E) && kind != HX_BASE_MESH);
+}
+
 /* F's friction gain -mu kappa_0 d_z (1 - scale h) / d^x_max (eq. 22), d_z the depth clamped at
  * d^z_max (Remark 3): the friction force is this times the deflection. */
 HX_INLINE double hx__friction_gain(const hx_model *m, double depth, double h)

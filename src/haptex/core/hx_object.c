@@ -622,6 +622,96 @@ static int analytic_surface(const hx_base *b, const hx_texture *tex, const doubl
     return 1;
 }
 
+/* Steps the walk to the triangle whose UV triangle holds u may take (a proxy moves a little a
+ * tick: its walks are short; a UV seam or the map's edge ends one). */
+#define HX_UV_WALKS 64
+
+/* The triangle of a mesh whose UV triangle holds u, walked from *t across the side beyond which
+ * u's barycentric coordinates put it (the triangle across, HX_FACE_NEXT), at most HX_UV_WALKS
+ * steps; its barycentric coordinates in lam and their gradients in u (dlam[2 k + j] = d lam_k /
+ * d u_j). 0 where the walk ends outside (a UV seam, the map's edge: the neighbour in space is
+ * elsewhere in UV) or at a degenerate UV triangle. */
+static int uv_locate(const hx_base *b, const double u[2], long *t, double lam[3], double dlam[6], long *work)
+{
+    long id = *t;
+    int step;
+    for (step = 0; step < HX_UV_WALKS; step++) {
+        const double *uv = b->face + HX_FACE * id + HX_FACE_UV;
+        double a0 = uv[2] - uv[0], a1 = uv[4] - uv[0], b0 = uv[3] - uv[1], b1 = uv[5] - uv[1];
+        double det = a0 * b1 - a1 * b0, r0 = u[0] - uv[0], r1 = u[1] - uv[1], worst;
+        long next;
+        int k, side = 0;
+        (*work)++;
+        if (!(det != 0.0) || !isfinite(det))
+            return 0;
+        lam[1] = (r0 * b1 - a1 * r1) / det;
+        lam[2] = (a0 * r1 - b0 * r0) / det;
+        lam[0] = 1.0 - lam[1] - lam[2];
+        worst = -1e-12;
+        for (k = 0; k < 3; k++)
+            if (lam[k] < worst) {
+                worst = lam[k];
+                side = (k + 1) % 3; /* the side opposite corner k joins corners k + 1 and k + 2 */
+            }
+        if (worst == -1e-12) {
+            dlam[2] = b1 / det, dlam[3] = -a1 / det;
+            dlam[4] = -b0 / det, dlam[5] = a0 / det;
+            dlam[0] = -dlam[2] - dlam[4], dlam[1] = -dlam[3] - dlam[5];
+            *t = id;
+            return 1;
+        }
+        next = (long)b->face[HX_FACE * id + HX_FACE_NEXT + side];
+        if (next < 0 || next >= b->n_tri)
+            return 0;
+        id = next;
+    }
+    return 0;
+}
+
+/* S(u) on a mesh and its Jacobian dS/du (as analytic_surface): the point of the triangle whose
+ * UV triangle holds u (uv_locate from *hint, updated), offset h(u) along the triangle's normal,
+ * or on the prism base along the corners' normals interpolated, sum_k lam_k (v_k + h N_k)
+ * (haptex.objects.Mesh.point). 0 where no triangle holds u. */
+static int mesh_surface(const hx_base *b, const hx_texture *tex, const double u[2], double S[3], double js[6],
+                        long *hint, long *work)
+{
+    double lam[3], dlam[6], nn[3] = {0.0, 0.0, 0.0};
+    const double *v, *fc;
+    hx_height t;
+    long id = *hint >= 0 && *hint < b->n_tri ? *hint : 0;
+    int i, k, j;
+    if (!uv_locate(b, u, &id, lam, dlam, work))
+        return 0;
+    *hint = id;
+    v = b->tri + 9 * id;
+    fc = b->face + HX_FACE * id;
+    hx_texture_eval(tex, u[0], u[1], &t);
+    (*work)++;
+    for (i = 0; i < 3; i++) {
+        S[i] = 0.0;
+        js[i] = js[3 + i] = 0.0;
+        for (k = 0; k < 3; k++) {
+            double nk = b->prism ? fc[HX_FACE_VN + 3 * k + i] : fc[HX_FACE_N + i], vk = v[3 * k + i] + t.h * nk;
+            S[i] += lam[k] * vk;
+            nn[i] += lam[k] * nk;
+            for (j = 0; j < 2; j++)
+                js[3 * j + i] += dlam[2 * k + j] * vk;
+        }
+        js[i] += nn[i] * t.gx;
+        js[3 + i] += nn[i] * t.gy;
+    }
+    return 1;
+}
+
+/* S(u) and dS/du on any base: in closed form on an analytic one, through the UV map on a mesh
+ * (*hint: the triangle to walk from, updated). */
+static int surface_at(const hx_model *m, const double u[2], double S[3], double js[6], long *hint, long *work)
+{
+    if (m->base->kind == HX_BASE_MESH)
+        return mesh_surface(m->base, &m->tex, u, S, js, hint, work);
+    return analytic_surface(m->base, &m->tex, u, S, js, work);
+}
+
 static double sq_dist(const double a[3], const double b[3])
 {
     return (a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]);
@@ -630,12 +720,13 @@ static double sq_dist(const double a[3], const double b[3])
 /* Gauss-Newton on |S(u) - p|^2 from u (its S and phi = |S(u) - p|^2 given) on an analytic
  * base: steps at most lmax long, halved until the distance decreases (HX_PROXY_HALVINGS at
  * most), HX_PROXY_STEPS of them at most; u, S and phi updated in place, the evaluations counted. */
-static void descend(const hx_model *m, const double p[3], double lmax, double u[2], double S[3], double *phi,
-                    long *work)
+static int descend(const hx_model *m, const double p[3], double lmax, double u[2], double S[3], double *phi,
+                   long *hint, long *work)
 {
     double js[6];
     int it, i;
-    analytic_surface(m->base, &m->tex, u, S, js, work);
+    if (!surface_at(m, u, S, js, hint, work))
+        return 0;
     *phi = sq_dist(S, p);
     for (it = 0; it < HX_PROXY_STEPS; it++) {
         double r[3], a = 0.0, b = 0.0, c = 0.0, g0 = 0.0, g1 = 0.0, det, st[2], nrm, v[2], Sv[3], jv[6], pv = 0.0;
@@ -661,12 +752,16 @@ static void descend(const hx_model *m, const double p[3], double lmax, double u[
             st[1] *= lmax / nrm;
         }
         for (j = 0; j < HX_PROXY_HALVINGS; j++) { /* halve until the distance decreases */
+            long h2 = *hint;
             v[0] = u[0] + st[0];
             v[1] = u[1] + st[1];
-            analytic_surface(m->base, &m->tex, v, Sv, jv, work);
-            pv = sq_dist(Sv, p);
-            if (pv <= *phi)
-                break;
+            if (surface_at(m, v, Sv, jv, &h2, work)) {
+                pv = sq_dist(Sv, p);
+                if (pv <= *phi) {
+                    *hint = h2;
+                    break;
+                }
+            }
             st[0] *= 0.5;
             st[1] *= 0.5;
         }
@@ -682,19 +777,22 @@ static void descend(const hx_model *m, const double p[3], double lmax, double u[
         if (hypot(st[0], st[1]) <= 1e-15 + 1e-12 * hypot(u[0], u[1]))
             break;
     }
+    return 1;
 }
 
-/* The god-object over an analytic base (haptex.proxy.GodObject with a base): inside (e < h(u)
- * at the probe's own coordinates) the proxy's surface coordinates slide from where they were
- * (the last contact's, else the last free foot's, else the foot's) to the local minimum of
- * |S(u) - p|^2 reached by Gauss-Newton steps on S's Jacobian (descend: at most HX_P_DXMAX
- * long); the force is the spring kappa_0 (S(u) - p). State as over the plane: contact 1 in
- * contact (u in adh), 2 free (the foot in last), 0 no history. */
+/* The god-object over a base (haptex.proxy.GodObject with a base): inside (e < h(u) at the
+ * probe's own coordinates) the proxy's surface coordinates slide from where they were (the last
+ * contact's, else the last free foot's, else the foot's) to the local minimum of |S(u) - p|^2
+ * reached by Gauss-Newton steps on S's Jacobian (descend: at most HX_P_DXMAX long; on a mesh S
+ * through its UV map, mesh_surface); the force is the spring kappa_0 (S(u) - p). Where a mesh's
+ * UV map does not hold the proxy's coordinates (a seam) the descent restarts from the foot; where
+ * it cannot, the tick is a fault (zero force). State as over the plane: contact 1 in contact (u
+ * in adh), 2 free (the foot in last), 0 no history. */
 static int object_proxy(const hx_model *m, hx_state *s, const double p[3], const double foot[2], double e, double h,
                         double f[3])
 {
     double k = m->prm[HX_P_K0], u[2], S[3], phi;
-    long work = s->work;
+    long work = s->work, hint = s->tri; /* (on a mesh: the UV walk starts at the probe's closest triangle) */
     int i;
     s->pen = 0.0;
     if (!(e < h)) {
@@ -704,9 +802,15 @@ static int object_proxy(const hx_model *m, hx_state *s, const double p[3], const
         return HX_OK;
     }
     hx__proxy_start(s, foot, u);
-    if (m->base->kind == HX_BASE_MESH)
-        return HX_NOT_IN_CORE;
-    descend(m, p, m->prm[HX_P_DXMAX], u, S, &phi, &work);
+    if (!descend(m, p, m->prm[HX_P_DXMAX], u, S, &phi, &hint, &work)) {
+        /* (on a mesh, where the UV map does not hold the proxy's coordinates: a seam) */
+        u[0] = foot[0], u[1] = foot[1];
+        hint = s->tri;
+        if (!descend(m, p, m->prm[HX_P_DXMAX], u, S, &phi, &hint, &work)) {
+            s->work = work;
+            return HX_BAD_COEFFS; /* (a fault: zero force, as where the coordinates are undefined) */
+        }
+    }
     s->contact = 1;
     s->adh[0] = u[0];
     s->adh[1] = u[1];
@@ -768,8 +872,9 @@ static void polish(const hx_model *m, const double p[3], double lmax, const doub
                    double ubest[2], long *work)
 {
     double v[2], Sv[3], pv;
+    long hint = 0; /* (an analytic base: no triangle) */
     v[0] = start[0], v[1] = start[1];
-    descend(m, p, lmax, v, Sv, &pv, work);
+    descend(m, p, lmax, v, Sv, &pv, &hint, work);
     if (pv < *phi || (ties && pv == *phi)) {
         *phi = pv;
         ubest[0] = v[0], ubest[1] = v[1];
@@ -800,7 +905,7 @@ static hx_closest object_closest(const hx_model *m, const double p[3], const dou
     double tie = aux[HX_G_TIE], leaf = aux[HX_G_LEAF], lmax = 4.0 * leaf, budget = aux[HX_G_BUDGET], scale, L, K2;
     double phi, S[3], lo[2], hi[2];
     double u[2];
-    long work = 0, visited = 0;
+    long work = 0, visited = 0, hint = 0; /* (an analytic base: no triangle) */
     int top = 0, i, j, n0[2];
     obj_cell stack[HX_OBJ_STACK];
     hx_closest out;
@@ -813,7 +918,7 @@ static hx_closest object_closest(const hx_model *m, const double p[3], const dou
     K2 = 2.0 * (C + (isinf(R) ? 0.0 : (2.0 * M + scale) / R));
     u[0] = up[0];
     u[1] = up[1];
-    descend(m, p, lmax, u, S, &phi, &work);
+    descend(m, p, lmax, u, S, &phi, &hint, &work);
     ubest[0] = u[0], ubest[1] = u[1];
     if (guess[0] == guess[0])
         polish(m, p, lmax, guess, 0, &phi, ubest, &work);
@@ -935,8 +1040,7 @@ int hx_object_force(const hx_model *m, hx_state *s, const double p[3], double f[
     object_fn fn = m->code >= 0 && m->code < HX_N_ALGS ? OBJECT_FIELDS[m->code] : NULL;
     f[0] = f[1] = f[2] = 0.0;
     s->pen = 0.0;
-    if (fn == NULL && m->code != HX_ALG_F &&
-        !((m->code == HX_ALG_PROXY || m->code == HX_ALG_D || m->code == HX_ALG_E) && m->base->kind != HX_BASE_MESH))
+    if (!hx__on_base(m->code, m->base->kind))
         return HX_NOT_IN_CORE;
     rc = hx_base_local(m->base, p, &tri, u, ju, &e, n, &work);
     s->work = work;
