@@ -2,7 +2,8 @@
 0.2 mm high, 2 mm period) on the plane, on a sphere of radius 12.7 mm and on trimesh's
 icosphere of that radius with 5,120, 81,920 and 327,680 triangles (the goal: a 10^5-triangle
 mesh, median <= 5 us, worst case bounded and counted), faceted, and at 5,120 and 81,920
-swept into prisms along its vertex normals.
+swept into prisms along its vertex normals; then A, F, D, E and the proxy on the sphere, and the
+proxy on the meshes.
 
 Per object: Renderer.step from Python (median, 99th percentile and largest single call, the
 timer's own cost subtracted), the C core's tick alone (mean per call in Renderer.run's C
@@ -89,16 +90,22 @@ def main() -> None:
               f"{int(np.median(work)):8d} / {int(work.max())}")
 
     # the other letters on the sphere, along the same stroke (D and E: the closest point of the
-    # textured object, certified, the renderer's default budget; the proxy: its descent)
+    # textured object, certified, the renderer's default budget; the proxy: its descent), and the
+    # proxy on the meshes (its descent through their UV maps)
     from haptex.proxy import GodObject
 
     m = min(n, 20_000)
-    base = Sphere(R)
+    sphere = Sphere(R)
     ut = np.column_stack([x[:m], 0.3e-3 * np.sin(2 * math.pi * x[:m] / 5e-3)])
-    pts = np.ascontiguousarray(object_algorithm("A", EGG, base, 2000.0).region_points(ut, np.full(m, 0.3e-3)))
-    print(f"\n{'on the sphere':28} {'step median':>12} {'p99':>8} {'max':>8} {'C tick':>8} {'work median / max':>18}"
+    pts = np.ascontiguousarray(object_algorithm("A", EGG, sphere, 2000.0).region_points(ut, np.full(m, 0.3e-3)))
+    print(f"\n{'letter, object':28} {'step median':>12} {'p99':>8} {'max':>8} {'C tick':>8} {'work median / max':>18}"
           f" {'cut':>5}")
-    for letter in ("A", "F", "D", "E", "proxy"):
+    cases = [(L, "sphere", lambda: sphere) for L in ("A", "F", "D", "E", "proxy")]
+    cases += [("proxy", "icosphere, 4 subd.", lambda: icosphere(4)),
+              ("proxy", "icosphere, 6 subd.", lambda: icosphere(6)),
+              ("proxy", "prism icosphere, 4 subd.", lambda: prism(icosphere(4)))]
+    for letter, where, make in cases:
+        base = make()
         alg = GodObject(EGG, 2000.0, base) if letter == "proxy" else object_algorithm(letter, EGG, base, 2000.0)
         r = hx.Renderer(alg)
         times, work = np.empty(m), np.empty(m, dtype=np.int64)
@@ -113,7 +120,7 @@ def main() -> None:
         t0 = time.perf_counter()
         r._core.run(pts, out)
         tick = (time.perf_counter() - t0) / m
-        print(f"{letter:28} {np.median(times) / 1e3:9.2f} us {np.percentile(times, 99) / 1e3:5.2f} us "
+        print(f"{letter + ', ' + where:28} {np.median(times) / 1e3:9.2f} us {np.percentile(times, 99) / 1e3:5.2f} us "
               f"{times.max() / 1e3:5.1f} us {tick * 1e6:5.2f} us {int(np.median(work)):8d} / {int(work.max())} "
               f"{cut:5d}")
 
