@@ -264,8 +264,8 @@ def test_the_c_proxy_on_a_mesh_follows_the_python_descent(normals):
     # on the prism base (S smooth within the prisms, continuous across them) the forces agree to
     # 1e-6 N (measured 2.3e-8 N); on the faceted base S(u) has creases along the UV edges where
     # the two descents can stop at different points of one (measured on 1 tick in 601: 2.7e-3 N,
-    # the C's point 3e-5 relatively farther, the next tick equal again). 18 us a tick in C against
-    # 11-14 ms in Python (measured)
+    # the C's point 3e-5 relatively farther, the next tick equal again). 18 us a GodObject.step
+    # in C against 11-14 ms in Python (measured)
     import math
 
     import trimesh
