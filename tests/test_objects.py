@@ -330,7 +330,8 @@ def test_design_on_a_mesh_file_from_the_command_line(tmp_path):
              f"{scale * 1e3:.12g}mm", "--device", "point-mass", "--json", "--quiet")
     assert r.returncode == 0, r.stderr
     data = json.loads(r.stdout)
-    assert data["object"].startswith("Mesh(") and [row["algorithm"] for row in data["rows"]] == ["A", "B", "C", "F", "G"]
+    assert data["object"].startswith("Mesh(")
+    assert [row["algorithm"] for row in data["rows"]] == ["A", "B", "C", "F", "G"]
     py = design(EGG, hx.Device.point_mass(dimension=3), 2000.0, base=Mesh(path, uv_scale=scale))
     assert [row["q"] for row in data["rows"]] == pytest.approx([row["q"] for row in py["rows"]], rel=1e-9)
 
@@ -592,3 +593,41 @@ def test_the_spheres_q_of_f_tends_to_the_planes():
     errs = [abs(hx.characteristic_number(object_algorithm("F", EGG, Sphere(_radius(t)), K0, **kw)).value - q0) / q0
             for t in (100, 1000, 10000)]
     assert all(7 <= a / b <= 14 for a, b in zip(errs, errs[1:])) and errs[1] <= 0.01, errs
+
+
+def test_design_analyses_the_algorithms_asked_for(tmp_path):
+    # --algorithms: on the sphere G and A only (the rows in the library's order, A's q the
+    # library's); a letter not defined there, D on a mesh (its closest point is not written yet),
+    # an empty list: one line naming --algorithms' value, exit 2
+    import json
+
+    r = _cli("design", "--texture", "egg-crate:0.2mm,2mm", "--object", "sphere:12.7323954mm", "--device",
+             "point-mass", "--algorithms", "g, a", "--max-penetration", "0.5mm", "--json", "--quiet")
+    assert r.returncode == 0, r.stderr
+    rows = {row["algorithm"]: row for row in json.loads(r.stdout)["rows"]}
+    assert list(rows) == ["A", "G"] and not rows["A"]["conservative"]
+    o = object_algorithm("A", EGG, Sphere(12.7323954e-3), 2000.0)
+    assert rows["A"]["q"] == pytest.approx(hx.characteristic_number(o, 0.5e-3).value, rel=1e-12)
+    path, scale = _ball_obj(tmp_path, subdivisions=1)
+    for extra, allowed in ((["--object", "sphere:12.7323954mm", "--algorithms", "A,X"], "A, B, C, D, E, F, G"),
+                           (["--object", str(path), "--uv-scale", f"{scale} m", "--algorithms", "D"], "A, B, C, F, G"),
+                           (["--algorithms", ","], "W, A, B, C, D, E, F, G")):
+        r = _cli("design", "--texture", "egg-crate:0.2mm,2mm", "--device", "point-mass", *extra)
+        assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1, r.stderr
+        assert "algorithms = " in r.stderr and allowed in r.stderr, r.stderr
+
+
+@pytest.mark.slow
+def test_design_takes_d_and_e_on_a_sphere_when_asked():
+    # D and E on the sphere by request (about 40 s at 0.3 mm: each field value a closest-point
+    # search): D conservative (a gradient) but not continuous (the closest point jumps, Remark
+    # 6), E continuous but not conservative, E's q within d/R of eq. 21's 1
+    from haptex.design import design
+
+    data = design(EGG, hx.Device.point_mass(dimension=3), 2000.0, max_penetration=0.3e-3,
+                  base=Sphere(12.7323954e-3), algorithms="DE")
+    rows = {row["algorithm"]: row for row in data["rows"]}
+    assert list(rows) == ["D", "E"]
+    assert rows["D"]["conservative"] and not rows["D"]["continuous"]
+    assert rows["E"]["continuous"] and not rows["E"]["conservative"]
+    assert 1.0 <= rows["E"]["q"] <= 1.0 + 0.3e-3 / 12.7323954e-3

@@ -612,7 +612,10 @@ def _check_plot_path(plot: Path) -> None:
 @click.option("--hand", default="light-touch", show_default=True,
               help="The hand gripping the handle for the stable limits: a hand of 'haptex devices' (none, "
                    "light-touch, firm-grip).")
-@_object_options("A, B, C, F and G are analysed there (D and E in Python: haptex.objects).")
+@_object_options("A, B, C, F and G are analysed there (D and E on a plane, cylinder or sphere with --algorithms).")
+@click.option("--algorithms", default=None,
+              help="The algorithms to analyse, e.g. 'A,F' (default: every one defined for the texture; on an object "
+                   "A, B, C, F, G: D and E, about 10 s each, on request).")
 @click.option("--vertex-normals", is_flag=True,
               help="With a mesh: a smooth base swept along its vertex normals (default: the closest point's "
                    "coordinates, whose normal turns around each edge).")
@@ -624,7 +627,7 @@ def _check_plot_path(plot: Path) -> None:
 @click.pass_context
 def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, sampling_period, delay, stiffness, speed,
            max_penetration, spacing, x_unit, height_unit, level, lowpass, scale, periodic, window, fill_undefined, raw,
-           object_spec, uv_scale, vertex_normals, hand, report_dir, force, as_json, quiet):
+           object_spec, uv_scale, vertex_normals, algorithms, hand, report_dir, force, as_json, quiet):
     """Which algorithm, how stiff, will it be passive, can the device render it?
 
     A measured texture is band-limited to the shortest period the device renders at the
@@ -673,7 +676,8 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
 
     with steps as step:
         data = run_design(tex, dev, stiffness, speed=speed, max_penetration=max_penetration, x_range=x_range,
-                          progress=step, band_limit=not raw, hand=hand, on_estimate=announce, base=base)
+                          progress=step, band_limit=not raw, hand=hand, on_estimate=announce, base=base,
+                          algorithms=None if algorithms is None else [v for v in algorithms.split(",") if v.strip()])
     if report_dir is not None:
         from .design import rendered_texture
         from .report import write_design_report

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from ._validation import ParameterError
+from ._validation import ParameterError, fail
 from .algorithms import ALGORITHMS
 from .analysis import (characteristic_number, checked_algorithms, conservativity, continuity, paper_loop, rendering_cutoff,
                        texture_limits)
@@ -22,10 +22,22 @@ MIN_CUTOFF_PERIODS = 2.0
 be analysed as rendered (chosen: two, so that a rendered period is told from a tilt)."""
 
 
+def _chosen(algorithms, defined, default, where: str) -> list[str]:
+    """The letters to analyse, in ``defined``'s order: ``default`` for None, else those given
+    (each one of ``defined``, the algorithms defined ``where``)."""
+    if algorithms is None:
+        return [L for L in defined if L in default]
+    given = [str(v).strip().upper() for v in algorithms]
+    if not given or any(v not in defined for v in given):
+        raise fail("algorithms", ",".join(given) or algorithms, f"one or more of {', '.join(defined)} (the algorithms "
+                   f"defined {where})")
+    return [L for L in defined if L in given]
+
+
 def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.1, max_penetration: float = 1e-3,
            samples_per_period=5, friction: float = 0.8, presliding: float = 1e-3, n_loops: int = 4,
            x_range=None, progress=None, band_limit: bool = True, hand=DEFAULT_HAND, on_estimate=None,
-           base=None) -> dict:
+           base=None, algorithms=None) -> dict:
     """Analyse every algorithm for one texture on one device and recommend.
 
     Parameters
@@ -74,6 +86,12 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         triangle mesh) instead of a plane: the algorithms defined over objects so far (A, B,
         C, G) are analysed there, their grids and loops laid in the base's coordinates
         (u1, u2, e). The device must be 3-DOF; a profile is extruded along u2.
+    algorithms : iterable of str, optional
+        The letters to analyse (e.g. "DE" or ["A", "F"]), in the library's order. Default:
+        every letter defined for the texture on the plane; on an object A, B, C, F and G
+        (:data:`haptex.objects.OBJECT_DESIGN_LETTERS`), and D and E on a plane, cylinder or
+        sphere on request (each of their field values is a closest-point search over the
+        object: about 10 s a letter at 1 mm).
 
     Returns
     -------
@@ -103,8 +121,9 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
     Raises
     ------
     ParameterError
-        For invalid parameters, a device of the wrong dimension, or a texture that does not
-        fit the base (:func:`haptex.objects.object_algorithm`).
+        For invalid parameters, a device of the wrong dimension, a texture that does not fit
+        the base (:func:`haptex.objects.object_algorithm`), or ``algorithms`` naming one not
+        defined there.
     """
     if base is not None and device.dimension != 3:
         raise ParameterError(f"device = {device.name!r} with dimension = {device.dimension} is not allowed on an "
@@ -121,15 +140,17 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
     if x_range is not None:
         _check_window(given, x_range)  # the scan or map as measured, whose extent the user knows
     if base is None:
-        letters = [L for L in LETTERS if texture.dimension == 1 or ALGORITHMS[L].surfaces]
-        algs = checked_algorithms(letters, texture, stiffness, max_penetration, friction, presliding)
+        defined = [L for L in LETTERS if texture.dimension == 1 or ALGORITHMS[L].surfaces]
+        algs = checked_algorithms(_chosen(algorithms, defined, defined, "for this texture"), texture, stiffness,
+                                  max_penetration, friction, presliding)
     else:
         from .analysis import check_analysis_scale
-        from .objects import OBJECT_DESIGN_LETTERS, object_algorithm
+        from .objects import OBJECT_DESIGN_LETTERS, OBJECT_LETTERS, Mesh, object_algorithm
 
+        defined = [L for L in OBJECT_LETTERS if not (L in "DE" and isinstance(base, Mesh))]
         algs = {L: object_algorithm(L, texture, base, stiffness,
                                     **({"friction": friction, "presliding": presliding} if L == "F" else {}))
-                for L in OBJECT_DESIGN_LETTERS}
+                for L in _chosen(algorithms, defined, OBJECT_DESIGN_LETTERS, f"on {base!r}")}
         for alg in algs.values():
             check_analysis_scale(alg, max_penetration)
     estimate = _estimate(algs, max_penetration, x_range)

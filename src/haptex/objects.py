@@ -83,9 +83,10 @@ OBJECT_LETTERS = ("A", "B", "C", "D", "E", "F", "G")
 plane, cylinder or sphere; F at a deflection and phase, its loop work with its state stepped."""
 
 OBJECT_DESIGN_LETTERS = ("A", "B", "C", "F", "G")
-"""The letters ``haptex design`` analyses on an object: D and E are left out there (chosen)
-because their every field value is a closest-point search over the object, 0.1-0.3 ms a point in
-the C core, which makes a design's continuity grids take about 10 s a letter."""
+"""The letters ``haptex design`` analyses on an object by default and ``haptex explore`` takes
+there: D and E are left out (chosen; ``design --algorithms D,E`` asks for them) because their
+every field value is a closest-point search over the object, 0.1-0.3 ms a point in the C core,
+which makes a design's continuity grids take about 10 s a letter."""
 
 OBJECT_TICK_LETTERS = ("A", "B", "C", "D", "E", "F", "G")
 """The letters the C core renders on objects: F (with memory) too, its static field given its
