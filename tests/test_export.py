@@ -536,20 +536,25 @@ def test_an_object_at_the_command_line_exports(tmp_path):
 
 
 @pytest.mark.parametrize("letter, base_name", [("D", "sphere"), ("E", "sphere"), ("proxy", "sphere"),
-                                               ("proxy", "cylinder"), ("proxy", "mesh")])
+                                               ("proxy", "cylinder"), ("proxy", "mesh"), ("D", "prism mesh")])
 def test_the_closest_point_and_the_proxy_on_a_curved_base_export_and_tick_as_the_renderer(tmp_path, objdir, letter,
                                                                                           base_name):
     # D and E (the closest point of the textured object: hx_object.c's search, its budget in the
-    # tables) and the proxy (Gauss-Newton on the surface's closed-form Jacobian; on a 1,280-facet
-    # mesh through its UV map) over a base: the exported tick equals the compiled Renderer's bit
-    # for bit along a stroke over the object, in and out of it, and so does the largest work
+    # tables; on the prism mesh its search over the prisms) and the proxy (Gauss-Newton on the
+    # surface's closed-form Jacobian; on a 1,280-facet mesh through its UV map) over a base: the
+    # exported tick equals the compiled Renderer's bit for bit along a stroke over the object, in
+    # and out of it, and so does the largest work
     from haptex.objects import Cylinder, Sphere, object_algorithm
     from haptex.proxy import GodObject
 
     R = 40 * 2e-3 / (2 * np.pi)
     egg = hx.SumOfGratings.egg_crate(0.2e-3, 2e-3)
+    from haptex.objects import Mesh
+
     base = {"sphere": lambda: Sphere(R), "cylinder": lambda: Cylinder(R),
-            "mesh": lambda: _icosphere_base(3, R)[1]}[base_name]()
+            "mesh": lambda: _icosphere_base(3, R)[1],
+            "prism mesh": lambda: Mesh(_icosphere_base(3, R)[0], uv=_icosphere_base(3, R)[1].uv,
+                                       normals="vertex")}[base_name]()
     alg = GodObject(egg, K0, base) if letter == "proxy" else object_algorithm(letter, egg, base, K0)
     c, r, got, ref = _exported_and_renderer_on_a_stroke(alg, tmp_path, objdir, 1501)
     assert f"HX_ALG_{letter.upper()}" in (tmp_path / "haptex_texture.c").read_text()

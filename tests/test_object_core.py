@@ -356,7 +356,7 @@ def test_d_on_a_sphere_in_the_renderer_does_bounded_counted_work():
 
 def test_d_and_e_on_objects_refuse_what_they_cannot_search():
     _, mesh = _icosphere(2)
-    with pytest.raises(ParameterError, match="^base = .*closest point of a textured mesh"):
+    with pytest.raises(ParameterError, match="^base = .*textured faceted mesh is not written: give Mesh"):
         object_algorithm("D", EGG, mesh, K0)
     x = np.linspace(0.0, 2 * math.pi * R, 801)
     measured = hx.SampledProfile(x, A * np.sin(2 * math.pi * x / L) ** 3, periodic=True)
@@ -366,3 +366,35 @@ def test_d_and_e_on_objects_refuse_what_they_cannot_search():
     a = object_algorithm("E", hx.Sinusoid(A, L), Sphere(R), K0)
     u = np.array([[0.3e-3, 0.1e-3], [1.1e-3, -0.4e-3]])
     np.testing.assert_allclose(a.texture.height_at(u), hx.Sinusoid(A, L).height(u[:, 0]), rtol=0, atol=1e-18)
+
+
+def test_d_and_e_on_a_prism_mesh_find_the_closest_point():
+    # D and E on a mesh swept along its vertex normals (1,280 prisms round the sphere's R): the
+    # C core's search (the prisms the hierarchy's inflated boxes leave, each by a branch and bound
+    # over its UV triangle with second-order bounds, leaves polished through the UV map) never
+    # gives a point farther than a dense 20 um grid of S(u) around the probe (it is nearer, by up
+    # to 1.3 um, where the grid misses the minimum: measured on 100 probes), its point lies on the
+    # textured surface, and E's force is kappa_0 r along the base's normal at the probe
+    m, faceted = _icosphere(3)
+    mesh = Mesh(m, uv=faceted.uv, normals="vertex")
+    d, e = object_algorithm("D", EGG, mesh, K0), object_algorithm("E", EGG, mesh, K0)
+    rng = np.random.default_rng(3)
+    u0, depth = rng.uniform(-3e-3, 3e-3, (40, 2)), rng.uniform(0.0, 0.8e-3, 40)
+    pts = mesh.point(u0, EGG.height_at(u0) - depth)
+    c, r = d.closest_points(pts)
+    g = np.linspace(-1.2e-3, 1.2e-3, 121)
+    for p, u, dist in zip(pts, u0, r):
+        U = np.stack(np.meshgrid(u[0] + g, u[1] + g, indexing="ij"), -1).reshape(-1, 2)
+        assert dist <= np.min(np.linalg.norm(mesh.point(U, EGG.height_at(U)) - p, axis=1)) + 1e-12
+    uc, _, _, ec, _, _ = mesh.local(c)
+    np.testing.assert_allclose(ec, EGG.height_at(uc), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(d.force(pts), K0 * (c - pts), rtol=0, atol=1e-9)
+    n = mesh.local(pts)[4]
+    np.testing.assert_allclose(e.force(pts), K0 * r[:, None] * n, rtol=0, atol=1e-9)
+    rd = hx.Renderer(d, max_force=5.0, max_evaluations=3000)
+    for p in pts:
+        f = np.array(rd.step(p))
+        assert np.all(np.isfinite(f)) and np.linalg.norm(f) <= 5.0 * (1 + 1e-12)
+    # (the budget is checked before each cell: a tick may pass it by one cell's leaf polish)
+    assert rd.faults == 0 and rd.max_work <= 3000 + 200 * 41
+

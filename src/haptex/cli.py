@@ -612,7 +612,7 @@ def _check_plot_path(plot: Path) -> None:
 @click.option("--hand", default="light-touch", show_default=True,
               help="The hand gripping the handle for the stable limits: a hand of 'haptex devices' (none, "
                    "light-touch, firm-grip).")
-@_object_options("A, B, C, F and G are analysed there (D and E on a plane, cylinder or sphere with --algorithms).")
+@_object_options("A, B, C, F and G are analysed there (D and E with --algorithms, but on a faceted mesh).")
 @click.option("--algorithms", default=None,
               help="The algorithms to analyse, e.g. 'A,F' (default: every one defined for the texture; on an object "
                    "A, B, C, F, G: D and E, about 10 s each, on request).")
@@ -762,7 +762,7 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
 @click.option("--level", is_flag=True, help="Remove the profile's best-fit line.")
 @click.option("--lowpass", type=Quantity("m"), default=None, help="Band-limit the profile to this shortest period.")
 @click.option("--periodic", is_flag=True, help="Close the profile into a periodic texture.")
-@_object_options("A-G are exported there (D and E on a plane, cylinder or sphere).")
+@_object_options("A-G are exported there (D and E but on a faceted mesh: give --vertex-normals).")
 @click.option("--out", "out", type=click.Path(file_okay=False, path_type=Path), required=True,
               help="Directory for haptex_texture.c, haptex_texture.h and the C core's files.")
 @click.option("--quiet", is_flag=True, help="No progress display.")
@@ -858,8 +858,8 @@ def sweep(spec, out, scheduler, workers, quiet):
               help="simulated: the hand's speed along x.")
 @click.option("--fast", is_flag=True, help="simulated, forcedimension: run as fast as the loop goes, not at the "
               "device's rate.")
-@_object_options("A-G and the proxy are rendered there on a 3-DOF device (D and E on a plane, cylinder or "
-                 "sphere), the object's top at the origin of its frame.")
+@_object_options("A-G and the proxy are rendered there on a 3-DOF device (D and E but on a faceted mesh: give "
+                 "--vertex-normals), the object's top at the origin of its frame.")
 @click.option("--record", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Write the trace (time, position, force, engaged) to FILE.npz.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")

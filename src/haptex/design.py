@@ -89,8 +89,8 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
     algorithms : iterable of str, optional
         The letters to analyse (e.g. "DE" or ["A", "F"]), in the library's order. Default:
         every letter defined for the texture on the plane; on an object A, B, C, F and G
-        (:data:`haptex.objects.OBJECT_DESIGN_LETTERS`), and D and E on a plane, cylinder or
-        sphere on request (each of their field values is a closest-point search over the
+        (:data:`haptex.objects.OBJECT_DESIGN_LETTERS`), and D and E on request (not on a
+        faceted mesh) (each of their field values is a closest-point search over the
         object: about 10 s a letter at 1 mm).
 
     Returns
@@ -147,7 +147,7 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         from .analysis import check_analysis_scale
         from .objects import OBJECT_DESIGN_LETTERS, OBJECT_LETTERS, Mesh, object_algorithm
 
-        defined = [L for L in OBJECT_LETTERS if not (L in "DE" and isinstance(base, Mesh))]
+        defined = [L for L in OBJECT_LETTERS if not (L in "DE" and isinstance(base, Mesh) and base._vn is None)]
         algs = {L: object_algorithm(L, texture, base, stiffness,
                                     **({"friction": friction, "presliding": presliding} if L == "F" else {}))
                 for L in _chosen(algorithms, defined, OBJECT_DESIGN_LETTERS, f"on {base!r}")}

@@ -58,9 +58,19 @@ towards a centre of curvature (:meth:`ObjectAlgorithm.focal_points`); E's kappa_
 The reference models of CHAI3D (on meshes) and HAPI (on the plane and on these bases) are
 :mod:`haptex.reference`.
 
-Not yet here (issue 32's later steps): D and E on meshes, a C^1 mesh base (:func:`haptex.simulate`, :func:`haptex.simulate_batch` and ``haptex
-sweep`` run objects; ``haptex export`` writes the renderer's tick; ``haptex explore`` shows
-spheres, cylinders and uploaded meshes with q on their surface).
+D and E on a mesh with vertex normals (the prism base, continuous across its triangles) take
+the closest point of S(u) = sum_k lam_k(u) (v_k + h(u) N_k) on the triangle whose UV triangle
+holds u: Gauss-Newton through the UV map from the foot and the last closest point, then every
+prism the hierarchy's boxes (inflated by max |h|) leave within reach, each by a branch and bound
+over its UV triangle cut in four (a cell pruned by the distance to its flat triangle less max
+|h|, then by the second-order bound from the triangle's own constants), leaves polished; never
+farther than a dense grid of S (tested). A faceted mesh's textured surface is not a patch over u
+(its wedges at the edges and corners): D and E are refused there.
+
+Not yet here (issue 32's later steps): a C^1 mesh base. (:func:`haptex.simulate`,
+:func:`haptex.simulate_batch` and ``haptex sweep`` run objects; ``haptex export`` writes the
+renderer's tick; ``haptex explore`` shows spheres, cylinders and uploaded meshes with q on their
+surface.)
 """
 
 from __future__ import annotations
@@ -80,7 +90,8 @@ __all__ = ["Base", "Plane", "Cylinder", "Sphere", "Mesh", "ObjectAlgorithm", "ob
 
 OBJECT_LETTERS = ("A", "B", "C", "D", "E", "F", "G")
 """The letters on objects with their fields' analyses (q, continuity, loop work); D and E on a
-plane, cylinder or sphere; F at a deflection and phase, its loop work with its state stepped."""
+plane, cylinder, sphere or prism mesh; F at a deflection and phase, its loop work with its state
+stepped."""
 
 OBJECT_DESIGN_LETTERS = ("A", "B", "C", "F", "G")
 """The letters ``haptex design`` analyses on an object by default and ``haptex explore`` takes
@@ -91,7 +102,7 @@ which makes a design's continuity grids take about 10 s a letter."""
 OBJECT_TICK_LETTERS = ("A", "B", "C", "D", "E", "F", "G")
 """The letters the C core renders on objects: F (with memory) too, its static field given its
 deflection (:meth:`ObjectAlgorithm.force`), and D and E (the closest point of the textured
-object, certified) on a plane, cylinder or sphere."""
+object) on a plane, cylinder, sphere or prism mesh (a mesh with vertex normals)."""
 
 MAX_RADIUS = 1e3
 """Largest base radius accepted (m): 1 km, the library's workspace scale."""
@@ -777,7 +788,7 @@ def _tangents(nu):
 
 class ObjectAlgorithm(Algorithm):
     """One of A-G over a textured object (see the module's docstring for the fields; D and E on
-    a plane, cylinder or sphere).
+    a plane, cylinder, sphere or prism mesh).
 
     Probe positions are [x, y, z] (m); forces (N) and Jacobians (N/m) are in that frame.
     ``texture`` is the height h(u) (a surface over u; a profile is extruded along u2).
@@ -804,9 +815,9 @@ class ObjectAlgorithm(Algorithm):
                        "modulation_depth, max_penetration, stick_deflection)")
         if not isinstance(base, Base):
             raise fail("base", base, "a haptex.objects base: Plane(), Cylinder(R), Sphere(R) or Mesh(...)")
-        if letter in "DE" and isinstance(base, Mesh):
-            raise fail("base", base, f"a plane, cylinder or sphere for {letter} (the closest point of a textured "
-                       "mesh is not written yet)")
+        if letter in "DE" and isinstance(base, Mesh) and base._vn is None:
+            raise fail("base", base, f"a plane, cylinder, sphere or a mesh with vertex normals for {letter} (the "
+                       "closest point of a textured faceted mesh is not written: give Mesh(..., normals='vertex'))")
         if letter in "DE" and texture.dimension == 1:  # a Fourier profile as gratings along u1 (the surface search)
             from .textures import SumOfSinusoids
 
@@ -1206,8 +1217,8 @@ def object_algorithm(letter: str, texture: Texture, base: Base, stiffness: float
     Parameters
     ----------
     letter : {"A", "B", "C", "D", "E", "F", "G"}
-        D and E (a plane, cylinder or sphere; a surface or Fourier-profile texture) take the
-        closest point of the textured object, in the C core. F renders in the C core (its
+        D and E (a plane, cylinder, sphere or prism mesh; a surface or Fourier-profile
+        texture) take the closest point of the textured object, in the C core. F renders in the C core (its
         presliding friction in the surface coordinates, the local
         tangent plane; :meth:`ObjectAlgorithm.force` gives its static force at a deflection);
         the region analyses take every letter (:data:`OBJECT_LETTERS`).

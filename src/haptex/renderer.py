@@ -346,9 +346,9 @@ class Renderer:
     ----------
     algorithm : Algorithm
         W or A–G, from :func:`haptex.algorithm`; its texture's dimension sets the
-        positions' (2 over a profile, 3 over a surface). Or a god-object over the plane, a
-        cylinder or a sphere (:class:`haptex.proxy.GodObject`: its C tick, with history). Or A-G
-        on an object (D and E on a plane, cylinder or sphere)
+        positions' (2 over a profile, 3 over a surface). Or a god-object over the plane or any
+        base (:class:`haptex.proxy.GodObject`: its C tick, with history). Or A-G
+        on an object (D and E but on a faceted mesh)
         (:func:`haptex.objects.object_algorithm`: a plane, cylinder, sphere or mesh, faceted or prism,
         positions [x, y, z]); on a mesh the tick finds the closest point through a
         bounding-volume hierarchy built here, exact, its nodes and triangles visited counted in

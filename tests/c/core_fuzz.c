@@ -260,7 +260,7 @@ static int fuzz_objects(const hx_model *m0, long *evaluations)
             int surface = m0->tex.kind == HX_SURFACE_GRATINGS || m0->tex.kind == HX_SURFACE_PATCHES;
             int defined = code == HX_ALG_A || code == HX_ALG_B || code == HX_ALG_C || code == HX_ALG_G ||
                           code == HX_ALG_F || code == HX_ALG_PROXY ||
-                          ((code == HX_ALG_D || code == HX_ALG_E) && b.kind != HX_BASE_MESH && surface);
+                          ((code == HX_ALG_D || code == HX_ALG_E) && (b.kind != HX_BASE_MESH || b.prism) && surface);
             /* D and E's search constants over an object: bounds that need not hold for this
              * texture (the search then is not certified, but must stay finite, bounded and in
              * bounds), a budget of 2,000 evaluations */

@@ -325,13 +325,13 @@ HX_INLINE void hx__proxy_start(const hx_state *s, const double foot[2], double u
     u[1] = from[1];
 }
 
-/* Whether the core's tick takes algorithm `code` on a base of `kind` (HX_BASE_*): A, B, C, F, G
- * and the proxy on every base, D and E on the analytic ones (the closest point of a textured mesh
- * is not written yet). */
-HX_INLINE int hx__on_base(int code, int kind)
+/* Whether the core's tick takes algorithm `code` on base b: A, B, C, F, G and the proxy on every
+ * base, D and E on the analytic ones and on the prism mesh (a faceted mesh's textured surface is
+ * not a patch over u: not written). */
+HX_INLINE int hx__on_base(int code, const hx_base *b)
 {
     return code == HX_ALG_A || code == HX_ALG_B || code == HX_ALG_C || code == HX_ALG_F || code == HX_ALG_G ||
-           code == HX_ALG_PROXY || ((code == HX_ALG_D || code == HX_ALG_E) && kind != HX_BASE_MESH);
+           code == HX_ALG_PROXY || ((code == HX_ALG_D || code == HX_ALG_E) && (b->kind != HX_BASE_MESH || b->prism));
 }
 
 /* F's friction gain -mu kappa_0 d_z (1 - scale h) / d^x_max (eq. 22), d_z the depth clamped at

@@ -31,9 +31,9 @@ int hx_model_check(const hx_model *m)
     }
     if (rc == HX_OK && m->code == HX_ALG_PROXY && !(m->prm[HX_P_DXMAX] > 0.0 && isfinite(m->prm[HX_P_DXMAX])))
         return HX_BAD_COEFFS; /* the proxy's longest step */
-    if (rc == HX_OK && m->base != NULL) { /* on an object: A, B, C, F, G, the proxy; D and E on the analytic bases */
+    if (rc == HX_OK && m->base != NULL) { /* on an object: A, B, C, F, G, the proxy; D and E but on a faceted mesh */
         rc = hx_base_check(m->base);
-        if (rc == HX_OK && !hx__on_base(m->code, m->base->kind))
+        if (rc == HX_OK && !hx__on_base(m->code, m->base))
             rc = HX_NOT_IN_CORE;
         if (rc == HX_OK && (m->code == HX_ALG_D || m->code == HX_ALG_E)) /* a surface's search constants */
             rc = (m->tex.kind == HX_SURFACE_GRATINGS || m->tex.kind == HX_SURFACE_PATCHES)

@@ -622,6 +622,24 @@ static int analytic_surface(const hx_base *b, const hx_texture *tex, const doubl
     return 1;
 }
 
+/* The barycentric coordinates of u in triangle t's UV triangle (its affine extension outside)
+ * and their gradients in u (dlam[2 k + j] = d lam_k / d u_j); 0 for a degenerate UV triangle. */
+static int uv_barycentric(const hx_base *b, long t, const double u[2], double lam[3], double dlam[6])
+{
+    const double *uv = b->face + HX_FACE * t + HX_FACE_UV;
+    double a0 = uv[2] - uv[0], a1 = uv[4] - uv[0], b0 = uv[3] - uv[1], b1 = uv[5] - uv[1];
+    double det = a0 * b1 - a1 * b0, r0 = u[0] - uv[0], r1 = u[1] - uv[1];
+    if (!(det != 0.0) || !isfinite(det))
+        return 0;
+    lam[1] = (r0 * b1 - a1 * r1) / det;
+    lam[2] = (a0 * r1 - b0 * r0) / det;
+    lam[0] = 1.0 - lam[1] - lam[2];
+    dlam[2] = b1 / det, dlam[3] = -a1 / det;
+    dlam[4] = -b0 / det, dlam[5] = a0 / det;
+    dlam[0] = -dlam[2] - dlam[4], dlam[1] = -dlam[3] - dlam[5];
+    return 1;
+}
+
 /* Steps the walk to the triangle whose UV triangle holds u may take (a proxy moves a little a
  * tick: its walks are short; a UV seam or the map's edge ends one). */
 #define HX_UV_WALKS 64
@@ -636,27 +654,18 @@ static int uv_locate(const hx_base *b, const double u[2], long *t, double lam[3]
     long id = *t;
     int step;
     for (step = 0; step < HX_UV_WALKS; step++) {
-        const double *uv = b->face + HX_FACE * id + HX_FACE_UV;
-        double a0 = uv[2] - uv[0], a1 = uv[4] - uv[0], b0 = uv[3] - uv[1], b1 = uv[5] - uv[1];
-        double det = a0 * b1 - a1 * b0, r0 = u[0] - uv[0], r1 = u[1] - uv[1], worst;
+        double worst = -1e-12;
         long next;
         int k, side = 0;
         (*work)++;
-        if (!(det != 0.0) || !isfinite(det))
+        if (!uv_barycentric(b, id, u, lam, dlam))
             return 0;
-        lam[1] = (r0 * b1 - a1 * r1) / det;
-        lam[2] = (a0 * r1 - b0 * r0) / det;
-        lam[0] = 1.0 - lam[1] - lam[2];
-        worst = -1e-12;
         for (k = 0; k < 3; k++)
             if (lam[k] < worst) {
                 worst = lam[k];
                 side = (k + 1) % 3; /* the side opposite corner k joins corners k + 1 and k + 2 */
             }
         if (worst == -1e-12) {
-            dlam[2] = b1 / det, dlam[3] = -a1 / det;
-            dlam[4] = -b0 / det, dlam[5] = a0 / det;
-            dlam[0] = -dlam[2] - dlam[4], dlam[1] = -dlam[3] - dlam[5];
             *t = id;
             return 1;
         }
@@ -668,39 +677,47 @@ static int uv_locate(const hx_base *b, const double u[2], long *t, double lam[3]
     return 0;
 }
 
-/* S(u) on a mesh and its Jacobian dS/du (as analytic_surface): the point of the triangle whose
- * UV triangle holds u (uv_locate from *hint, updated), offset h(u) along the triangle's normal,
- * or on the prism base along the corners' normals interpolated, sum_k lam_k (v_k + h N_k)
- * (haptex.objects.Mesh.point). 0 where no triangle holds u. */
-static int mesh_surface(const hx_base *b, const hx_texture *tex, const double u[2], double S[3], double js[6],
-                        long *hint, long *work)
+/* S(u) and dS/du on triangle t of a mesh (its affine extension in u): the point at offset h(u)
+ * along the triangle's normal, or on the prism base along the corners' normals interpolated,
+ * sum_k lam_k (v_k + h N_k) (haptex.objects.Mesh.point). 0 for a degenerate UV triangle. */
+static int mesh_patch(const hx_base *b, const hx_texture *tex, long t, const double u[2], double S[3], double js[6],
+                      long *work)
 {
     double lam[3], dlam[6], nn[3] = {0.0, 0.0, 0.0};
-    const double *v, *fc;
-    hx_height t;
-    long id = *hint >= 0 && *hint < b->n_tri ? *hint : 0;
+    const double *v = b->tri + 9 * t, *fc = b->face + HX_FACE * t;
+    hx_height e;
     int i, k, j;
-    if (!uv_locate(b, u, &id, lam, dlam, work))
+    if (!uv_barycentric(b, t, u, lam, dlam))
         return 0;
-    *hint = id;
-    v = b->tri + 9 * id;
-    fc = b->face + HX_FACE * id;
-    hx_texture_eval(tex, u[0], u[1], &t);
+    hx_texture_eval(tex, u[0], u[1], &e);
     (*work)++;
     for (i = 0; i < 3; i++) {
         S[i] = 0.0;
         js[i] = js[3 + i] = 0.0;
         for (k = 0; k < 3; k++) {
-            double nk = b->prism ? fc[HX_FACE_VN + 3 * k + i] : fc[HX_FACE_N + i], vk = v[3 * k + i] + t.h * nk;
+            double nk = b->prism ? fc[HX_FACE_VN + 3 * k + i] : fc[HX_FACE_N + i], vk = v[3 * k + i] + e.h * nk;
             S[i] += lam[k] * vk;
             nn[i] += lam[k] * nk;
             for (j = 0; j < 2; j++)
                 js[3 * j + i] += dlam[2 * k + j] * vk;
         }
-        js[i] += nn[i] * t.gx;
-        js[3 + i] += nn[i] * t.gy;
+        js[i] += nn[i] * e.gx;
+        js[3 + i] += nn[i] * e.gy;
     }
     return 1;
+}
+
+/* S(u) on a mesh and its Jacobian dS/du (as analytic_surface): mesh_patch on the triangle whose
+ * UV triangle holds u (uv_locate from *hint, updated). 0 where no triangle holds u. */
+static int mesh_surface(const hx_base *b, const hx_texture *tex, const double u[2], double S[3], double js[6],
+                        long *hint, long *work)
+{
+    double lam[3], dlam[6];
+    long id = *hint >= 0 && *hint < b->n_tri ? *hint : 0;
+    if (!uv_locate(b, u, &id, lam, dlam, work))
+        return 0;
+    *hint = id;
+    return mesh_patch(b, tex, id, u, S, js, work);
 }
 
 /* S(u) and dS/du on any base: in closed form on an analytic one, through the UV map on a mesh
@@ -993,6 +1010,184 @@ static hx_closest object_closest(const hx_model *m, const double p[3], const dou
     return out;
 }
 
+/* Sub-triangles of one triangle's UV domain the textured mesh's search may hold at once. */
+#define HX_MESH_STACK 256
+
+typedef struct {
+    double c[6]; /* its UV corners (m) */
+} uv_cell;
+
+/* The closest point of a textured prism mesh (haptex.objects.Mesh with vertex normals) to a
+ * probe p inside it, whose foot has coordinates up on triangle *tri: Gauss-Newton through the UV
+ * map from the foot and from the last closest point (guess, NaN: none) gives the best so far;
+ * then every triangle whose prism can hold a nearer point (the hierarchy's boxes inflated by
+ * max |h|: the patch sum_k lam_k (v_k + h N_k) lies within |h| of the flat triangle) is searched
+ * by a branch and bound over its UV triangle, cut in four at the midpoints: a cell of
+ * circumradius rho about its centroid c is pruned when phi(c) - |grad phi(c)| rho - H rho^2 / 2,
+ * a lower bound of phi = |S(u) - p|^2 over it (H >= ||Hess phi||: 2 (L^2 + (|S(c) - p| + L rho)
+ * K2), L >= ||dS/du|| and K2 >= ||d2S/du2|| over the triangle: S is affine in u but for h, so
+ * d2S = 2 sym(G_N grad h) + N hess h, G_N = sum_k N_k grad lam_k), reaches the best phi less the
+ * tie tolerance; cells smaller than the leaf are polished by Gauss-Newton. Work: the evaluations,
+ * at most HX_OBJ_CELLS cells and the budget (cut past either: the best point found). Returns the
+ * point's coordinates (ubest), its triangle (*tri), its distance and the work. */
+static hx_closest mesh_closest_textured(const hx_model *m, const double p[3], const double up[2],
+                                        const double guess[2], long *tri, double ubest[2])
+{
+    const double *aux = m->aux;
+    const hx_base *b = m->base;
+    double M = aux[HX_G_SLOPE_BOUND] > 0.0 ? aux[HX_G_SLOPE_BOUND] : aux[HX_G_SLOPE];
+    double C = aux[HX_G_CURV_BOUND] > 0.0 ? aux[HX_G_CURV_BOUND] : aux[HX_G_CURV];
+    double delta = fmax(fabs(aux[HX_G_HMIN]), fabs(aux[HX_G_HMAX])), tie = aux[HX_G_TIE], leaf = aux[HX_G_LEAF];
+    double budget = aux[HX_G_BUDGET], phi = HUGE_VAL, S[3], u[2];
+    long work = 0, visited = 0, stack[HX_BVH_STACK], top = 0, hint, best_tri = *tri;
+    hx_closest out;
+    out.tie = 0;
+    out.cut = 0;
+    ubest[0] = up[0], ubest[1] = up[1];
+    { /* the descents: an upper bound */
+        int start;
+        for (start = 0; start < 2; start++) {
+            double pv;
+            if (start == 1 && !(guess[0] == guess[0]))
+                break;
+            u[0] = start ? guess[0] : up[0];
+            u[1] = start ? guess[1] : up[1];
+            hint = *tri;
+            if (descend(m, p, 4.0 * leaf, u, S, &pv, &hint, &work) && pv < phi) {
+                phi = pv;
+                ubest[0] = u[0], ubest[1] = u[1];
+                best_tri = hint;
+            }
+        }
+    }
+    stack[top++] = 0;
+    while (top > 0 && !out.cut) {
+        long id = stack[--top], l = b->node[2 * id], r = b->node[2 * id + 1], i;
+        double reach = sqrt(phi) + delta;
+        work++;
+        if (l >= 0) {
+            if (top + 2 <= HX_BVH_STACK) {
+                if (box_distance2(b->box + 6 * l, p) < reach * reach)
+                    stack[top++] = l;
+                if (box_distance2(b->box + 6 * r, p) < reach * reach)
+                    stack[top++] = r;
+            }
+            continue;
+        }
+        for (i = -1 - l; i < -1 - l + r && !out.cut; i++) {
+            long t = b->order[i];
+            const double *fc = b->face + HX_FACE * t, *v = b->tri + 9 * t;
+            double bb[3], foot[3], lam[3], dlam[6], L = 0.0, gn = 0.0, K2, flat;
+            int sp = 0, k, j, q;
+            uv_cell cells[HX_MESH_STACK];
+            closest_on_triangle(v, p, bb);
+            flat = sqrt(point_distance2(v, bb, p, foot)) - delta;
+            work++;
+            if (flat > 0.0 && flat * flat >= phi)
+                continue; /* its prism lies farther than the best */
+            if (!uv_barycentric(b, t, fc + HX_FACE_UV, lam, dlam))
+                continue; /* (a degenerate UV triangle holds no surface coordinates) */
+            /* L >= ||dS/du||_2 over the triangle (Frobenius norms): the corners' moves, the
+             * normals' turning times |h| <= delta, and |grad h| <= M; G_N's norm gn */
+            for (j = 0; j < 2; j++)
+                for (q = 0; q < 3; q++) {
+                    double ev = 0.0, nv = 0.0;
+                    for (k = 0; k < 3; k++) {
+                        double nk = b->prism ? fc[HX_FACE_VN + 3 * k + q] : fc[HX_FACE_N + q];
+                        ev += dlam[2 * k + j] * v[3 * k + q];
+                        nv += dlam[2 * k + j] * nk;
+                    }
+                    L += ev * ev;
+                    gn += nv * nv;
+                }
+            gn = sqrt(gn);
+            L = sqrt(L) + delta * gn + M;
+            K2 = 2.0 * gn * M + C;
+            for (k = 0; k < 6; k++)
+                cells[0].c[k] = fc[HX_FACE_UV + k];
+            sp = 1;
+            while (sp > 0) {
+                uv_cell c = cells[--sp];
+                double cu[2], Sc[3], js[6], g0 = 0.0, g1 = 0.0, rho = 0.0, phic, H, bound, gtie;
+                if (++visited > HX_OBJ_CELLS || (budget > 0.0 && (double)work > budget)) {
+                    out.cut = 1;
+                    break;
+                }
+                cu[0] = (c.c[0] + c.c[2] + c.c[4]) / 3.0;
+                cu[1] = (c.c[1] + c.c[3] + c.c[5]) / 3.0;
+                for (k = 0; k < 3; k++)
+                    rho = fmax(rho, hypot(c.c[2 * k] - cu[0], c.c[2 * k + 1] - cu[1]));
+                { /* first, without evaluating the texture: the cell's patch lies within delta of
+                   * the flat triangle its UV corners map to */
+                    double ft[9], fb[3], ff[3], fd;
+                    for (k = 0; k < 3; k++) {
+                        uv_barycentric(b, t, c.c + 2 * k, lam, dlam);
+                        for (q = 0; q < 3; q++)
+                            ft[3 * k + q] = lam[0] * v[q] + lam[1] * v[3 + q] + lam[2] * v[6 + q];
+                    }
+                    closest_on_triangle(ft, p, fb);
+                    fd = sqrt(point_distance2(ft, fb, p, ff)) - delta;
+                    gtie = sqrt(phi) - tie;
+                    if (gtie <= 0.0 || (fd > 0.0 && fd * fd >= gtie * gtie))
+                        continue;
+                }
+                if (!mesh_patch(b, &m->tex, t, cu, Sc, js, &work))
+                    break;
+                for (q = 0; q < 3; q++) {
+                    g0 += 2.0 * js[q] * (Sc[q] - p[q]);
+                    g1 += 2.0 * js[3 + q] * (Sc[q] - p[q]);
+                }
+                phic = sq_dist(Sc, p);
+                if (phic < phi) {
+                    phi = phic;
+                    ubest[0] = cu[0], ubest[1] = cu[1];
+                    best_tri = t;
+                }
+                H = 2.0 * (L * L + (sqrt(phic) + L * rho) * K2);
+                bound = phic - hypot(g0, g1) * rho - 0.5 * H * rho * rho;
+                gtie = sqrt(phi) - tie;
+                if (gtie <= 0.0 || bound >= gtie * gtie)
+                    continue; /* nothing in it nearer than the best, to the tie tolerance */
+                if (rho <= leaf || sp + 4 > HX_MESH_STACK) {
+                    double w[2], Sw[3], pw;
+                    long h2 = t;
+                    w[0] = cu[0], w[1] = cu[1];
+                    if (descend(m, p, rho, w, Sw, &pw, &h2, &work) && pw < phi) {
+                        phi = pw;
+                        ubest[0] = w[0], ubest[1] = w[1];
+                        best_tri = h2;
+                    }
+                    if (rho > leaf)
+                        out.cut = 1; /* (the stack was full: not subdivided) */
+                    continue;
+                }
+                { /* the four sub-triangles: the corners' and the midpoints' */
+                    double mid[6];
+                    for (k = 0; k < 3; k++) {
+                        mid[2 * k] = 0.5 * (c.c[2 * k] + c.c[(2 * k + 2) % 6]);
+                        mid[2 * k + 1] = 0.5 * (c.c[2 * k + 1] + c.c[(2 * k + 3) % 6]);
+                    }
+                    for (k = 0; k < 3; k++) { /* corner k with the midpoints of its two sides */
+                        uv_cell *d = &cells[sp++];
+                        d->c[0] = c.c[2 * k], d->c[1] = c.c[2 * k + 1];
+                        d->c[2] = mid[2 * k], d->c[3] = mid[2 * k + 1];
+                        d->c[4] = mid[(2 * k + 4) % 6], d->c[5] = mid[(2 * k + 5) % 6];
+                    }
+                    for (k = 0; k < 6; k++)
+                        cells[sp].c[k] = mid[k];
+                    sp++;
+                }
+            }
+        }
+    }
+    *tri = best_tri;
+    out.t = ubest[0];
+    out.y = ubest[1];
+    out.distance = sqrt(phi);
+    out.work = work;
+    return out;
+}
+
 /* D and E over an analytic base: inside (e < h(u) at the probe's foot), the certified closest
  * point of the textured object (object_closest, warm-started from the last one, s->adh); D
  * pulls the probe to it, kappa_0 (S(u*) - p); E pushes along the base's normal at the probe by
@@ -1001,7 +1196,7 @@ static int object_de(const hx_model *m, hx_state *s, const double p[3], const do
                      const double n[3], double f[3])
 {
     double k = m->prm[HX_P_K0], guess[2], ub[2], S[3], js[6];
-    long work = s->work;
+    long work = s->work, tri = s->tri;
     hx_closest c;
     int i;
     s->pen = 0.0;
@@ -1009,11 +1204,15 @@ static int object_de(const hx_model *m, hx_state *s, const double p[3], const do
         s->contact = 0;
         return HX_OK;
     }
-    if (m->base->kind == HX_BASE_MESH)
-        return HX_NOT_IN_CORE;
     guess[0] = s->contact ? s->adh[0] : NAN;
     guess[1] = s->contact ? s->adh[1] : NAN;
-    c = object_closest(m, p, up, guess, ub);
+    if (m->base->kind == HX_BASE_MESH) {
+        c = mesh_closest_textured(m, p, up, guess, &tri, ub);
+        if (!(c.distance < HUGE_VAL))
+            return HX_BAD_COEFFS; /* (no point found: a fault, zero force) */
+    } else {
+        c = object_closest(m, p, up, guess, ub);
+    }
     s->contact = 1;
     s->adh[0] = ub[0];
     s->adh[1] = ub[1];
@@ -1021,7 +1220,10 @@ static int object_de(const hx_model *m, hx_state *s, const double p[3], const do
     s->cut = c.cut;
     s->pen = c.distance;
     if (m->code == HX_ALG_D) {
-        analytic_surface(m->base, &m->tex, ub, S, js, &s->work);
+        if (m->base->kind == HX_BASE_MESH)
+            mesh_patch(m->base, &m->tex, tri, ub, S, js, &s->work);
+        else
+            analytic_surface(m->base, &m->tex, ub, S, js, &s->work);
         for (i = 0; i < 3; i++)
             f[i] = k * (S[i] - p[i]);
     } else {
@@ -1040,7 +1242,7 @@ int hx_object_force(const hx_model *m, hx_state *s, const double p[3], double f[
     object_fn fn = m->code >= 0 && m->code < HX_N_ALGS ? OBJECT_FIELDS[m->code] : NULL;
     f[0] = f[1] = f[2] = 0.0;
     s->pen = 0.0;
-    if (!hx__on_base(m->code, m->base->kind))
+    if (!hx__on_base(m->code, m->base))
         return HX_NOT_IN_CORE;
     rc = hx_base_local(m->base, p, &tri, u, ju, &e, n, &work);
     s->work = work;
