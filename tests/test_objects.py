@@ -12,7 +12,7 @@ import haptex as hx
 from haptex._validation import ParameterError
 from haptex.closest import ClosestPoint
 from haptex.analysis.work import loop_energy
-from haptex.objects import Cylinder, Plane, Sphere, object_algorithm
+from haptex.objects import Cylinder, Mesh, Plane, Sphere, object_algorithm
 
 A, L, K0 = 0.2e-3, 2e-3, 2000.0
 EGG = hx.SumOfGratings.egg_crate(A, L)  # the paper's egg-crate scale: 0.2 mm high, 2 mm period
@@ -460,12 +460,20 @@ def test_on_the_plane_the_d_and_e_jacobians_are_the_papers(letter):
                                atol=1e-7 * K0)
 
 
-@pytest.mark.parametrize("base", [Cylinder(_radius(5)), Sphere(_radius(5))], ids=["cylinder", "sphere"])
+@pytest.mark.parametrize("base", ["cylinder", "sphere", "prism mesh"])
 @pytest.mark.parametrize("letter", ["D", "E"])
 def test_the_d_and_e_jacobians_are_the_derivatives_of_the_c_ticks_forces(letter, base):
-    # against central differences of the C core's certified search (step 0.1 um: its closest
-    # point is good to about 1e-12 m, so the differences carry ~1e-5 kappa_0 of noise; measured
-    # 1e-4 kappa_0 at worst, near centres of curvature where ||J|| reaches 23 kappa_0)
+    # against central differences of the C core's search (step 0.1 um: its closest point is good
+    # to about 1e-12 m, so the differences carry ~1e-5 kappa_0 of noise; measured 1e-4 kappa_0 at
+    # worst, near centres of curvature where ||J|| reaches 23 kappa_0; on the 1,280-prism ball,
+    # whose R is 40 periods round, 1.5e-5)
+    if base == "prism mesh":
+        from .test_object_core import _icosphere
+
+        m, faceted = _icosphere(3)
+        base = Mesh(m, uv=faceted.uv, normals="vertex")
+    else:
+        base = {"cylinder": Cylinder, "sphere": Sphere}[base](_radius(5))
     o = object_algorithm(letter, EGG, base, K0)
     rng = np.random.default_rng(6)
     p = o.region_points(rng.uniform(-L / 2, L / 2, (200, 2)), rng.uniform(5e-6, 0.3e-3, 200))
