@@ -883,6 +883,17 @@ static void search_region(const hx_base *b, const double p[3], const double up[2
     }
 }
 
+/* Whether a cell of half-diagonal rho about c holds nothing nearer than the best (phi_best =
+ * its squared distance) to the tie tolerance: phi(c) - |grad phi(c)| rho - H rho^2 / 2 bounds
+ * phi = |S(u) - p|^2 over the cell from below, H = 2 (lc^2 + (|S(c) - p| + lc rho) K2) >=
+ * ||Hess phi|| there (lc >= ||dS/du||, K2 >= ||d2S/du2|| over the cell). */
+static int cell_pruned(double phic, double g0, double g1, double rho, double lc, double K2, double phi_best,
+                       double tie)
+{
+    double H = 2.0 * (lc * lc + (sqrt(phic) + lc * rho) * K2), gtie = sqrt(phi_best) - tie;
+    return gtie <= 0.0 || phic - hypot(g0, g1) * rho - 0.5 * H * rho * rho >= gtie * gtie;
+}
+
 /* Gauss-Newton from `start` (steps at most lmax); the point it reaches replaces the best (ubest,
  * its squared distance *phi) when nearer, or as near with `ties`. */
 static void polish(const hx_model *m, const double p[3], double lmax, const double start[2], int ties, double *phi,
@@ -955,7 +966,7 @@ static hx_closest object_closest(const hx_model *m, const double p[3], const dou
         }
     while (top > 0) {
         obj_cell c = stack[--top];
-        double Sc[3], js[6], g0 = 0.0, g1 = 0.0, r[3], rho, phic, H, bound, gtie;
+        double Sc[3], js[6], g0 = 0.0, g1 = 0.0, r[3], rho, phic;
         if (++visited > HX_OBJ_CELLS || (budget > 0.0 && (double)work > budget)) {
             out.cut = 1; /* the best point found, not certified */
             break;
@@ -979,14 +990,9 @@ static hx_closest object_closest(const hx_model *m, const double p[3], const dou
             for (i = 0; i < 6; i++)
                 jf += js[i] * js[i];
             lc = sqrt(jf) + 2.0 * K2 * rho;
-            if (lc > L)
-                lc = L;
-            H = 2.0 * (lc * lc + (sqrt(phic) + lc * rho) * K2);
+            if (cell_pruned(phic, g0, g1, rho, lc < L ? lc : L, K2, phi, tie))
+                continue; /* nothing in it nearer than the best, to the tie tolerance */
         }
-        bound = phic - hypot(g0, g1) * rho - 0.5 * H * rho * rho;
-        gtie = sqrt(phi) - tie;
-        if (gtie <= 0.0 || bound >= gtie * gtie)
-            continue; /* nothing in it nearer than the best, to the tie tolerance */
         if (rho <= leaf || top + 4 > HX_OBJ_STACK) {
             polish(m, p, c.half[0] + c.half[1], c.c, 0, &phi, ubest, &work);
             if (rho > leaf)
@@ -1108,7 +1114,7 @@ static hx_closest mesh_closest_textured(const hx_model *m, const double p[3], co
             sp = 1;
             while (sp > 0) {
                 uv_cell c = cells[--sp];
-                double cu[2], Sc[3], js[6], g0 = 0.0, g1 = 0.0, rho = 0.0, phic, H, bound, gtie;
+                double cu[2], Sc[3], js[6], g0 = 0.0, g1 = 0.0, rho = 0.0, phic, gtie;
                 if (++visited > HX_OBJ_CELLS || (budget > 0.0 && (double)work > budget)) {
                     out.cut = 1;
                     break;
@@ -1143,10 +1149,7 @@ static hx_closest mesh_closest_textured(const hx_model *m, const double p[3], co
                     ubest[0] = cu[0], ubest[1] = cu[1];
                     best_tri = t;
                 }
-                H = 2.0 * (L * L + (sqrt(phic) + L * rho) * K2);
-                bound = phic - hypot(g0, g1) * rho - 0.5 * H * rho * rho;
-                gtie = sqrt(phi) - tie;
-                if (gtie <= 0.0 || bound >= gtie * gtie)
+                if (cell_pruned(phic, g0, g1, rho, L, K2, phi, tie))
                     continue; /* nothing in it nearer than the best, to the tie tolerance */
                 if (rho <= leaf || sp + 4 > HX_MESH_STACK) {
                     double w[2], Sw[3], pw;
