@@ -2,8 +2,8 @@
 0.2 mm high, 2 mm period) on the plane, on a sphere of radius 12.7 mm and on trimesh's
 icosphere of that radius with 5,120, 81,920 and 327,680 triangles (the goal: a 10^5-triangle
 mesh, median <= 5 us, worst case bounded and counted), faceted, and at 5,120 and 81,920
-swept into prisms along its vertex normals; then A, F, D, E and the proxy on the sphere, and the
-proxy on the meshes.
+swept into prisms along its vertex normals; then A, F, D, E and the proxy on the sphere, the
+proxy on the meshes and D on the prism mesh.
 
 Per object: Renderer.step from Python (median, 99th percentile and largest single call, the
 timer's own cost subtracted), the C core's tick alone (mean per call in Renderer.run's C
@@ -103,7 +103,8 @@ def main() -> None:
     cases = [(L, "sphere", lambda: sphere) for L in ("A", "F", "D", "E", "proxy")]
     cases += [("proxy", "icosphere, 4 subd.", lambda: icosphere(4)),
               ("proxy", "icosphere, 6 subd.", lambda: icosphere(6)),
-              ("proxy", "prism icosphere, 4 subd.", lambda: prism(icosphere(4)))]
+              ("proxy", "prism icosphere, 4 subd.", lambda: prism(icosphere(4))),
+              ("D", "prism icosphere, 4 subd.", lambda: prism(icosphere(4)))]
     for letter, where, make in cases:
         base = make()
         alg = GodObject(EGG, 2000.0, base) if letter == "proxy" else object_algorithm(letter, EGG, base, 2000.0)

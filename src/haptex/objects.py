@@ -1030,9 +1030,10 @@ class ObjectAlgorithm(Algorithm):
     def closest_points(self, p):
         """D's and E's closest point of the textured object and its distance, at positions p.
 
-        The C core's certified search (hx_object.c, the renderer's tick run over the points in
-        C: Gauss-Newton from the probe's foot, then a branch and bound over the surface
-        coordinates that can hold a nearer point), the same the servo tick runs.
+        The C core's search (hx_object.c, the renderer's tick run over the points in C:
+        Gauss-Newton from the probe's foot, then a branch and bound over the surface coordinates
+        that can hold a nearer point; on a prism mesh over each prism within reach), the same
+        the servo tick runs.
 
         Parameters
         ----------

@@ -734,9 +734,11 @@ static double sq_dist(const double a[3], const double b[3])
     return (a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]);
 }
 
-/* Gauss-Newton on |S(u) - p|^2 from u (its S and phi = |S(u) - p|^2 given) on an analytic
- * base: steps at most lmax long, halved until the distance decreases (HX_PROXY_HALVINGS at
- * most), HX_PROXY_STEPS of them at most; u, S and phi updated in place, the evaluations counted. */
+/* Gauss-Newton on |S(u) - p|^2 from u on any base (S by surface_at; *hint: a mesh's triangle to
+ * walk from, updated): steps at most lmax long, halved until the distance decreases
+ * (HX_PROXY_HALVINGS at most; a step off a mesh's UV map counts as no decrease), HX_PROXY_STEPS
+ * of them at most; u, S and phi = |S(u) - p|^2 set, the evaluations counted. 0 where S is not
+ * defined at the start (off a mesh's UV map). */
 static int descend(const hx_model *m, const double p[3], double lmax, double u[2], double S[3], double *phi,
                    long *hint, long *work)
 {
@@ -1191,8 +1193,9 @@ static hx_closest mesh_closest_textured(const hx_model *m, const double p[3], co
     return out;
 }
 
-/* D and E over an analytic base: inside (e < h(u) at the probe's foot), the certified closest
- * point of the textured object (object_closest, warm-started from the last one, s->adh); D
+/* D and E over an analytic base or a prism mesh: inside (e < h(u) at the probe's foot), the
+ * closest point of the textured object (object_closest, mesh_closest_textured; warm-started from
+ * the last one, s->adh); where a mesh's search finds no point, a fault (zero force); D
  * pulls the probe to it, kappa_0 (S(u*) - p); E pushes along the base's normal at the probe by
  * the distance, kappa_0 |S(u*) - p| n. */
 static int object_de(const hx_model *m, hx_state *s, const double p[3], const double up[2], double e, double h,
