@@ -324,3 +324,17 @@ def test_the_page_shows_a_texture_on_a_mesh(tmp_path):
     np.testing.assert_allclose(-h0, ((x - 1e-3) ** 2 + (y - 1e-3) ** 2) / (2 * R), rtol=0, atol=2 * 43e-6)
     page.w_uv_scale.value = "0.1 mm"
     assert "uv" in page.d_message.text.lower() and f"{q:.4g}" in page.d_q.text
+
+
+def test_f_on_an_object_takes_the_pages_friction_and_presliding():
+    # the F controls apply on an object as on the plane (they were ignored there)
+    from haptex.objects import Sphere, object_algorithm
+
+    s = model.Settings(texture="egg-crate", amplitude="0.2 mm", period="2 mm", algorithm="F",
+                       object="sphere:12.7323954mm", device="point-mass", friction="0.3", presliding="0.5 mm")
+    alg = model.build(s).algorithm
+    assert (alg.friction, alg.presliding, alg.max_penetration) == (0.3, 0.5e-3, 1e-3)
+    ref = object_algorithm("F", hx.SumOfGratings.egg_crate(0.2e-3, 2e-3), Sphere(12.7323954e-3), K0, friction=0.3,
+                           presliding=0.5e-3, max_penetration=1e-3)
+    p = np.array([[0.3e-3, 0.2e-3, -0.4e-3]])
+    np.testing.assert_array_equal(alg.force(p, 0.2e-3), ref.force(p, 0.2e-3))

@@ -44,8 +44,8 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
     ----------
     texture : Texture
         Any profile (Sinusoid, SumOfSinusoids, BandLimitedNoise, SampledProfile) or surface
-        (SumOfGratings, BandLimitedNoise2D, SampledSurface, Extruded); over a surface the
-        algorithms defined there (W, A, B, C, G) are analysed.
+        (SumOfGratings, BandLimitedNoise2D, SampledSurface, Extruded); the algorithms defined
+        for it are analysed (``algorithms``).
     device : Device
         Of the texture's dimension plus one (3-DOF over a surface).
     stiffness : float
@@ -83,9 +83,9 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         below: a command line prints it.
     base : haptex.objects.Base, optional
         Render the texture on an object (:mod:`haptex.objects`: a plane, cylinder, sphere or
-        triangle mesh) instead of a plane: the algorithms defined over objects so far (A, B,
-        C, G) are analysed there, their grids and loops laid in the base's coordinates
-        (u1, u2, e). The device must be 3-DOF; a profile is extruded along u2.
+        triangle mesh) instead of a plane: A, B, C, F and G by default (``algorithms``) are
+        analysed there, their grids and loops laid in the base's coordinates (u1, u2, e). The
+        device must be 3-DOF; a profile is extruded along u2.
     algorithms : iterable of str, optional
         The letters to analyse (e.g. "DE" or ["A", "F"]), in the library's order. Default:
         every letter defined for the texture on the plane; on an object A, B, C, F and G

@@ -276,7 +276,7 @@ def build(settings: Settings) -> Scene:
         if letter not in OBJECT_DESIGN_LETTERS:
             raise fail("algorithm", letter,
                        f"one of {', '.join(OBJECT_DESIGN_LETTERS)} on an object (or the object 'plane')")
-        alg = object_algorithm(letter, tex, base, stiffness)
+        alg = object_algorithm(letter, tex, base, stiffness, **(params if letter == "F" else {}))
     elif letter == "W":
         alg = algorithm("W", Flat(dimension=2) if tex.dimension == 2 else None, stiffness)
         tex = alg.texture  # the smooth wall ignores the texture: show the flat boundary it renders
