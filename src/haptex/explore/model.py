@@ -82,7 +82,8 @@ class Settings:
     stiffness : str
         kappa_0 (e.g. "2 kN/m").
     max_penetration : str
-        d^z_max of B, C, F, G and the depth of the analysed region for all.
+        d^z_max of B, C, F, G and the depth of the analysed region for all (on an object
+        d^z_max of F only: B, C and G over objects have no clamp yet).
     friction, presliding : str
         F's mu and d^x_max.
     device : str
