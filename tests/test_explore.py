@@ -218,7 +218,8 @@ def test_the_page_shows_a_texture_on_an_object():
     """Issue 32's object view: the egg-crate on a sphere of 40 periods round, its top at the
     origin: q is the library's for the object (1.214, the plane's 1.181), the section y = y0 shows
     the sphere sagging under the plane by (x^2 + y0^2) / 2R (within 1 %), the scan runs
-    on it; a mesh file, D, and an object under a profile are refused by name."""
+    on it; B takes the page's depth as its d^z_max; a mesh file, D, and an object under a profile
+    are refused by name."""
     from bokeh.document import Document
 
     from haptex.explore import app
@@ -249,8 +250,11 @@ def test_the_page_shows_a_texture_on_an_object():
         page.w_object.value = value
         assert word in page.d_message.text and f"{q:.4g}" in page.d_q.text
     page.w_object.value = "sphere:12.7323954mm"
+    page.w_algorithm.value = "B"  # the page's depth is B's d^z_max on the object, as on the plane
+    page.w_dmax.value = "0.7 mm"
+    assert page.scene.algorithm.letter == "B" and page.scene.algorithm.max_penetration == 0.7e-3
     page.w_algorithm.value = "D"
-    assert "A, B, C, F, G on an object" in page.d_message.text and page.w_algorithm.value == "A"
+    assert "A, B, C, F, G on an object" in page.d_message.text and page.w_algorithm.value == "B"
 
 
 def _ball_file(tmp_path):

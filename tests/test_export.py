@@ -516,10 +516,11 @@ def test_an_object_exports_and_ticks_as_the_renderer(tmp_path, objdir, base_name
 
 def test_an_object_at_the_command_line_exports(tmp_path):
     r = subprocess.run(["haptex", "export", "--algorithm", "B", "--texture", "egg-crate:0.2mm,2mm", "--stiffness",
-                        "2 kN/m", "--max-force", "5 N", "--object", "sphere:12.7323954mm", "--out", str(tmp_path)],
-                       capture_output=True, text=True, timeout=120)
-    assert r.returncode == 0, r.stderr
+                        "2 kN/m", "--max-force", "5 N", "--object", "sphere:12.7323954mm", "--max-penetration", "0.3mm",
+                        "--out", str(tmp_path)], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr  # (B's d^z_max on the object: Remark 3 on the base)
     assert "HX_BASE_SPHERE" in (tmp_path / "haptex_texture.c").read_text()
+    assert "max_penetration=0.0003" in r.stdout
     subprocess.run([CC, *STRICT, "-c", str(tmp_path / "haptex_texture.c"), "-o", str(tmp_path / "t.o")], check=True)
     r = subprocess.run(["haptex", "export", "--algorithm", "D", "--texture", "egg-crate:0.2mm,2mm", "--stiffness",
                         "2 kN/m", "--max-force", "5 N", "--object", "sphere:12.7323954mm", "--out", str(tmp_path)],

@@ -43,12 +43,16 @@ def _ticks(alg, p):
 
 
 @pytest.mark.parametrize("base", [Plane(), Cylinder(R), Sphere(R)], ids=["plane", "cylinder", "sphere"])
-@pytest.mark.parametrize("letter", ["A", "B", "C", "G"])
-def test_the_c_tick_on_an_analytic_base_is_the_numpy_field(base, letter):
+@pytest.mark.parametrize("letter, params", [("A", {}), ("B", {}), ("C", {}), ("G", {}),
+                                            ("B", {"max_penetration": 0.3e-3}), ("C", {"max_penetration": 0.3e-3}),
+                                            ("G", {"max_penetration": 0.3e-3})],
+                         ids=["A", "B", "C", "G", "B-clamped", "C-clamped", "G-clamped"])
+def test_the_c_tick_on_an_analytic_base_is_the_numpy_field(base, letter, params):
     # 10^4 probes within a period of the top, 0.8 mm deep to 0.2 mm above: the closed-form
-    # coordinates (u, e, n, du/dp) in C give haptex.objects' fields to rounding
+    # coordinates (u, e, n, du/dp) in C give haptex.objects' fields to rounding, with d^z_max
+    # (0.3 mm, Remark 3 on the base) as without
     p = _probes(10_000)
-    alg = object_algorithm(letter, EGG, base, K0)
+    alg = object_algorithm(letter, EGG, base, K0, **params)
     f, r = _ticks(alg, p)
     ref = alg.force(p)
     assert np.max(np.abs(ref)) > 1.0  # (in contact: forces of newtons)
@@ -123,13 +127,13 @@ def test_where_the_coordinates_are_undefined_the_tick_is_a_fault_with_zero_force
 
 @pytest.mark.parametrize("letter", ["A", "B", "C", "G"])
 def test_the_c_tick_on_the_prism_mesh_is_the_numpy_field(letter):
-    # the prism base (each triangle swept along its vertices' normals, Mesh(normals="vertex")):
-    # the C tick's Newton solve in the prism, walking across sides, against the NumPy one on
-    # 3,000 probes (measured 1.7e-15 N); its work stays within a few dozen visits
+    # the prism base (each triangle swept along its vertices' normals, Mesh(normals="vertex")),
+    # B, C and G clamped at d^z_max = 0.3 mm: the C tick's Newton solve in the prism, walking
+    # across sides, against the NumPy one on 3,000 probes (measured 1.7e-15 N); its work stays within a few dozen visits
     m, base = _icosphere(4)
     smooth = Mesh(m, uv=base.uv, normals="vertex")
     p = _probes(3000, seed=2)
-    alg = object_algorithm(letter, EGG, smooth, K0)
+    alg = object_algorithm(letter, EGG, smooth, K0, **({} if letter == "A" else {"max_penetration": 0.3e-3}))
     f, r = _ticks(alg, p)
     np.testing.assert_allclose(f, alg.force(p), rtol=0, atol=1e-12 * K0 * 1e-3)
     assert r.faults == 0 and 0 < r.max_work <= 200

@@ -28,12 +28,16 @@ def _probes(n=300, seed=0):
     return np.column_stack([rng.uniform(-L, L, n), rng.uniform(-L, L, n), rng.uniform(-0.8e-3, 0.2e-3, n)])
 
 
-@pytest.mark.parametrize("letter", ["A", "B", "C", "G"])
-def test_on_the_plane_the_object_algorithms_are_the_librarys(letter):
+@pytest.mark.parametrize("letter, params", [("A", {}), ("B", {}), ("C", {}), ("G", {}),
+                                            ("B", {"max_penetration": 0.3e-3}), ("C", {"max_penetration": 0.3e-3}),
+                                            ("G", {"max_penetration": 0.3e-3})])
+def test_on_the_plane_the_object_algorithms_are_the_librarys(letter, params):
     # the plane base (u = (x, y), e = z) gives the library's plane fields exactly: the object
-    # form (pen = h(u) - e, nu = -grad pen / |grad pen|) is the paper's eq. 6, 11, 14 and 28
+    # form (pen = h(u) - e, nu = -grad pen / |grad pen|) is the paper's eq. 6, 11, 14 and 28,
+    # and with d^z_max the clamp of the texture's part is Remark 3's clamp of the lateral part
+    # (the probes reach 0.8 mm, past the 0.3 mm clamp)
     p = _probes()
-    obj, flat = object_algorithm(letter, EGG, Plane(), K0), hx.algorithm(letter, EGG, K0)
+    obj, flat = object_algorithm(letter, EGG, Plane(), K0, **params), hx.algorithm(letter, EGG, K0, **params)
     np.testing.assert_allclose(obj.force(p), flat.force(p), rtol=0, atol=1e-12 * K0 * 1e-3)
     np.testing.assert_allclose(obj.jacobian(p), flat.jacobian(p), rtol=0, atol=1e-12 * K0)
 
@@ -53,6 +57,26 @@ def test_the_jacobians_are_the_derivatives_of_the_forces(letter, base):
     h = 1e-9
     num = np.stack([(o.force(p + h * np.eye(3)[j]) - o.force(p - h * np.eye(3)[j])) / (2 * h) for j in range(3)], -1)
     assert np.max(np.abs(o.jacobian(p) - num)[inside]) <= 1e-8 * K0
+
+
+@pytest.mark.parametrize("letter", ["B", "C", "G"])
+def test_the_clamped_jacobians_on_a_sphere_are_the_derivatives_of_the_forces(letter):
+    # with d^z_max = 0.3 mm (Remark 3 on the base) the Jacobian against central differences as
+    # above, away from the clamp's kink (the scale within 5 um of d^z_max); deeper than d^z_max
+    # the texture's part no longer grows with depth: its derivative along the normal is only the
+    # base's curvature's
+    o = object_algorithm(letter, EGG, Sphere(_radius(5)), K0, max_penetration=0.3e-3)
+    rng = np.random.default_rng(4)
+    p = o.region_points(rng.uniform(-L / 2, L / 2, (300, 2)), rng.uniform(5e-6, 0.8e-3, 300))
+    scale = o.penetration(p)
+    ok = (scale > 5e-6) & (np.abs(scale - 0.3e-3) > 5e-6)
+    assert ok.sum() > 100 and (scale[ok] > 0.3e-3).sum() > 50
+    h = 1e-9
+    num = np.stack([(o.force(p + h * np.eye(3)[j]) - o.force(p - h * np.eye(3)[j])) / (2 * h) for j in range(3)], -1)
+    assert np.max(np.abs(o.jacobian(p) - num)[ok]) <= 1e-8 * K0
+    assert o.is_gradient is False
+    with pytest.raises(TypeError, match="not a gradient"):
+        o.potential(p)
 
 
 @pytest.mark.parametrize("base", [Cylinder(_radius(3)), Sphere(_radius(3))], ids=["cylinder", "sphere"])

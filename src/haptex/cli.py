@@ -797,9 +797,6 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
             params[name] = value
     base = object_from_spec(object_spec, uv_scale)
     if base is not None:
-        if params and letter != "F":
-            raise ParameterError(f"--{next(iter(params)).replace('_', '-')} is not allowed with --object and "
-                                 f"--algorithm {letter}: on objects only F takes parameters beside the stiffness")
         alg = object_algorithm(letter, tex, base, stiffness, **params)
     else:
         alg = algorithm(letter, tex, stiffness, **params)

@@ -141,18 +141,13 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         _check_window(given, x_range)  # the scan or map as measured, whose extent the user knows
     if base is None:
         defined = [L for L in LETTERS if texture.dimension == 1 or ALGORITHMS[L].surfaces]
-        algs = checked_algorithms(_chosen(algorithms, defined, defined, "for this texture"), texture, stiffness,
-                                  max_penetration, friction, presliding)
+        letters = _chosen(algorithms, defined, defined, "for this texture")
     else:
-        from .analysis import check_analysis_scale
-        from .objects import OBJECT_DESIGN_LETTERS, OBJECT_LETTERS, Mesh, object_algorithm
+        from .objects import OBJECT_DESIGN_LETTERS, OBJECT_LETTERS, Mesh
 
         defined = [L for L in OBJECT_LETTERS if not (L in "DE" and isinstance(base, Mesh) and base._vn is None)]
-        algs = {L: object_algorithm(L, texture, base, stiffness,
-                                    **({"friction": friction, "presliding": presliding} if L == "F" else {}))
-                for L in _chosen(algorithms, defined, OBJECT_DESIGN_LETTERS, f"on {base!r}")}
-        for alg in algs.values():
-            check_analysis_scale(alg, max_penetration)
+        letters = _chosen(algorithms, defined, OBJECT_DESIGN_LETTERS, f"on {base!r}")
+    algs = checked_algorithms(letters, texture, stiffness, max_penetration, friction, presliding, base=base)
     estimate = _estimate(algs, max_penetration, x_range)
     if on_estimate is not None:
         on_estimate(estimate)

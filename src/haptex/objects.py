@@ -19,6 +19,12 @@ no approximation of the base:
   its loop work vanishes on every closed path);
 * G (force shading, eq. 28): f = -kappa_0 e nu for e < 0 (penetration of the nominal surface).
 
+With ``max_penetration`` (d^z_max, Remark 3) B, C and G clamp their scale s (pen, or -e for G)
+at d^z_max in the texture's part of the force only: writing grad pen = a - n, a = Ju^T s the
+texture's part, f = kappa_0 (s n - min(s, d^z_max) a), divided by |grad pen| for B and G; on the
+plane a is the lateral part [s_x, s_y, 0], so this is the paper's clamp of the lateral force
+exactly. C is then no longer a gradient.
+
 On the plane (u = (x, y), e = z) these are the library's A, B, C and G exactly. Each base sits
 with its top at the origin, outward normal +z there and u = 0 at the top, so a textured sphere
 or cylinder of radius R tends to the textured plane near the origin as R grows.
@@ -810,9 +816,10 @@ class ObjectAlgorithm(Algorithm):
         if letter not in OBJECT_TICK_LETTERS:
             raise fail("algorithm", letter, f"one of {', '.join(OBJECT_TICK_LETTERS)} on an object so far (D, E and "
                        "the proxy algorithm over objects are not written yet)")
-        if params and letter != "F":
-            raise fail("params", sorted(params), f"none for {letter} on an object (F takes friction, presliding, "
-                       "modulation_depth, max_penetration, stick_deflection)")
+        if params and letter not in "BCFG":
+            raise fail("params", sorted(params), f"none for {letter} on an object (B, C and G take "
+                       "max_penetration; F friction, presliding, modulation_depth, max_penetration, "
+                       "stick_deflection)")
         if not isinstance(base, Base):
             raise fail("base", base, "a haptex.objects base: Plane(), Cylinder(R), Sphere(R) or Mesh(...)")
         if letter in "DE" and isinstance(base, Mesh) and base._vn is None:
@@ -836,7 +843,7 @@ class ObjectAlgorithm(Algorithm):
         self.name = plane.name
         self.reference = plane.reference + "; on a base: haptex.objects"
         self.penetration_kind = plane.penetration_kind
-        self.is_gradient = letter in "CD"
+        self.is_gradient = letter == "D" or (letter == "C" and self.max_penetration is None)
         # (D and E keep the last closest point in the tick, a warm start only: their fields are memoryless)
         self.has_memory = letter == "F"
         self._plane = plane
@@ -1162,20 +1169,29 @@ class ObjectAlgorithm(Algorithm):
             f = (k * pen)[..., None] * n
             if jac:
                 J = k * (n[..., :, None] * gpen[..., None, :] + pen[..., None, None] * He)
-        elif L == "C":
-            f = -(k * pen)[..., None] * gpen
+        else:  # B, C, G: f = kappa_0 (s n - s_l a) (/ |grad pen| for B and G: along the textured normal)
+            # a = J_u^T grad h, the texture's part of grad pen = a - n; s = pen (B, C) or -e (G), and
+            # s_l = min(s, d^z_max) in the texture's part (Remark 3 on the base: the plane's lateral part)
+            a = gpen + n
+            scale, dscale = (-e, -n) if L == "G" else (pen, gpen)
+            dm = self.max_penetration
+            sl = scale if dm is None else np.minimum(scale, dm)
+            follows = True if dm is None else (scale < dm)[..., None, None]
+            v = scale[..., None] * n - sl[..., None] * a
             if jac:
-                J = -k * (gpen[..., :, None] * gpen[..., None, :] + pen[..., None, None] * hpen)
-        else:  # B, G: the textured surface's normal nu = -grad pen / |grad pen|
-            gn = np.linalg.norm(gpen, axis=-1)
-            nu = -gpen / gn[..., None]
-            scale = pen if L == "B" else -e
-            f = (k * scale)[..., None] * nu
-            if jac:
-                eye = np.eye(3)
-                dnu = -(eye - nu[..., :, None] * nu[..., None, :]) @ hpen / gn[..., None, None]
-                dscale = gpen if L == "B" else -n
-                J = k * (nu[..., :, None] * dscale[..., None, :] + scale[..., None, None] * dnu)
+                dv = (n[..., :, None] * dscale[..., None, :] + scale[..., None, None] * He
+                      - np.where(follows, a[..., :, None] * dscale[..., None, :], 0.0)
+                      - sl[..., None, None] * (hpen + He))
+            if L == "C":
+                f = k * v
+                if jac:
+                    J = k * dv
+            else:
+                gn = np.linalg.norm(gpen, axis=-1)[..., None]
+                f = k * v / gn
+                if jac:
+                    hg = np.einsum("...ij,...j->...i", hpen, gpen)
+                    J = k * (dv / gn[..., None] - v[..., :, None] * hg[..., None, :] / gn[..., None] ** 3)
         f = np.where(inside[..., None], f, 0.0)
         if jac:
             J = np.where(inside[..., None, None], J, 0.0)
@@ -1188,9 +1204,9 @@ class ObjectAlgorithm(Algorithm):
         Raises
         ------
         TypeError
-            For A, B, E, F and G (not gradient fields).
+            For A, B, E, F and G, and C with ``max_penetration`` (not gradient fields).
         """
-        if self.letter not in "CD":
+        if not self.is_gradient:
             raise TypeError(f"algorithm {self.letter} on an object is not a gradient field: it has no potential")
         return 0.5 * self.stiffness * self.penetration(p) ** 2
 
@@ -1227,12 +1243,14 @@ def object_algorithm(letter: str, texture: Texture, base: Base, stiffness: float
         Height h(u) over the base's surface coordinates u (m): a surface, or a profile
         (extruded along u2).
     base : Base
-        :class:`Plane`, :class:`Cylinder` or :class:`Sphere`.
+        :class:`Plane`, :class:`Cylinder`, :class:`Sphere` or :class:`Mesh`.
     stiffness : float
         kappa_0 (N/m).
     **params
-        F's: ``friction``, ``presliding``, ``modulation_depth``, ``max_penetration``,
-        ``stick_deflection`` (:class:`haptex.algorithms.FrictionModulated`); none for the others.
+        B's, C's and G's: ``max_penetration`` (d^z_max, m: the texture's part of the force is
+        clamped at that depth, Remark 3 on the base). F's: ``friction``, ``presliding``,
+        ``modulation_depth``, ``max_penetration``, ``stick_deflection``
+        (:class:`haptex.algorithms.FrictionModulated`). None for A, D and E.
 
     Returns
     -------

@@ -87,9 +87,9 @@ def check_analysis_scale(algorithm: Algorithm, max_penetration) -> float:
 
 
 def checked_algorithms(letters, texture: Texture, stiffness: float, max_penetration: float, friction: float,
-                       presliding: float) -> dict:
+                       presliding: float, base=None) -> dict:
     """The algorithms of ``letters`` on one texture, each checked by :func:`check_analysis_scale`
-    before anything is computed (Table II, ``design``).
+    before anything is computed (Table II, ``design``), on the plane or on ``base``.
 
     Parameters
     ----------
@@ -103,6 +103,9 @@ def checked_algorithms(letters, texture: Texture, stiffness: float, max_penetrat
         Depth of the analysed region (m); also F's d^z_max.
     friction, presliding : float
         F's mu and d^x_max (m).
+    base : haptex.objects.Base, optional
+        Build each letter over this base (:func:`haptex.objects.object_algorithm`, A-G) instead
+        of the plane.
 
     Returns
     -------
@@ -118,8 +121,15 @@ def checked_algorithms(letters, texture: Texture, stiffness: float, max_penetrat
 
     algs = {}
     for letter in letters:
-        kw = {"friction": friction, "presliding": presliding, "max_penetration": max_penetration} if letter == "F" else {}
-        algs[letter] = algorithm(letter, Flat(texture.dimension) if letter == "W" else texture, stiffness, **kw)
+        kw = {}
+        if letter == "F":
+            kw = {"friction": friction, "presliding": presliding, "max_penetration": max_penetration}
+        if base is not None:
+            from ..objects import object_algorithm
+
+            algs[letter] = object_algorithm(letter, texture, base, stiffness, **kw)
+        else:
+            algs[letter] = algorithm(letter, Flat(texture.dimension) if letter == "W" else texture, stiffness, **kw)
         check_analysis_scale(algs[letter], max_penetration)
     return algs
 

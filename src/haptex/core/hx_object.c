@@ -492,50 +492,41 @@ int hx_base_local(const hx_base *b, const double p[3], long *tri, double u[2], d
 
 /* one letter's force from the base's normal n, the offset e, the penetration pen = h - e and
  * its gradient gp, inside the wall (kappa_0 = k) */
-typedef void (*object_fn)(double k, double pen, double e, const double n[3], const double gp[3], double f[3]);
+/* A, B, C, G on a base: f = kappa_0 (s n - s_l a), divided by |a - n| = |grad pen| for B and G
+ * (along the textured surface's normal), kappa_0 s n for A. n is the base's normal, a = J_u^T
+ * grad h the texture's part of grad pen = a - n, s the scale (pen, or -e for G) and s_l = min(s,
+ * d^z_max) (Remark 3 on the base: on the plane a is the lateral part and this is the paper's clamp). */
+typedef void (*object_fn)(double k, double s, double sl, const double n[3], const double a[3], double f[3]);
 
-static void object_a(double k, double pen, double e, const double n[3], const double gp[3], double f[3])
+static void object_a(double k, double s, double sl, const double n[3], const double a[3], double f[3])
 {
     int i;
-    (void)e;
-    (void)gp;
+    (void)sl;
+    (void)a;
     for (i = 0; i < 3; i++)
-        f[i] = k * pen * n[i];
+        f[i] = k * s * n[i];
 }
 
-static void along_nu(double scale, const double gp[3], double f[3])
+static void object_c(double k, double s, double sl, const double n[3], const double a[3], double f[3])
 {
-    double g = sqrt(dot3(gp, gp));
     int i;
     for (i = 0; i < 3; i++)
-        f[i] = g > 0.0 ? -scale * gp[i] / g : 0.0;
+        f[i] = k * (s * n[i] - sl * a[i]);
 }
 
-static void object_b(double k, double pen, double e, const double n[3], const double gp[3], double f[3])
+static void object_bg(double k, double s, double sl, const double n[3], const double a[3], double f[3])
 {
-    (void)e;
-    (void)n;
-    along_nu(k * pen, gp, f);
-}
-
-static void object_c(double k, double pen, double e, const double n[3], const double gp[3], double f[3])
-{
+    double gp[3], g;
     int i;
-    (void)e;
-    (void)n;
     for (i = 0; i < 3; i++)
-        f[i] = -k * pen * gp[i];
-}
-
-static void object_g(double k, double pen, double e, const double n[3], const double gp[3], double f[3])
-{
-    (void)pen;
-    (void)n;
-    along_nu(-k * e, gp, f);
+        gp[i] = a[i] - n[i];
+    g = sqrt(dot3(gp, gp));
+    for (i = 0; i < 3; i++)
+        f[i] = g > 0.0 ? k * (s * n[i] - sl * a[i]) / g : 0.0;
 }
 
 /* the letters in the order of HX_ALG_*; NULL: not defined on objects yet */
-static const object_fn OBJECT_FIELDS[HX_N_ALGS] = {NULL, object_a, object_b, object_c, NULL, NULL, NULL, object_g,
+static const object_fn OBJECT_FIELDS[HX_N_ALGS] = {NULL, object_a, object_bg, object_c, NULL, NULL, NULL, object_bg,
                                                    NULL};
 
 /* F on a base: the flat base as the wall (its normal force kappa_0 |e| n inside, e < 0, as
@@ -1241,7 +1232,7 @@ static int object_de(const hx_model *m, hx_state *s, const double p[3], const do
 
 int hx_object_force(const hx_model *m, hx_state *s, const double p[3], double f[3])
 {
-    double u[2], ju[6], e, n[3], gp[3], pen;
+    double u[2], ju[6], e, n[3], a[3], pen, dm;
     hx_height t;
     long tri = s->tri, work = 0;
     int i, rc, inside;
@@ -1269,8 +1260,9 @@ int hx_object_force(const hx_model *m, hx_state *s, const double p[3], double f[
     if (!inside)
         return HX_OK;
     s->pen = m->code == HX_ALG_G ? -e : pen;
+    dm = m->prm[HX_P_DZMAX];
     for (i = 0; i < 3; i++)
-        gp[i] = ju[i] * t.gx + ju[3 + i] * t.gy - n[i];
-    fn(m->prm[HX_P_K0], pen, e, n, gp, f);
+        a[i] = ju[i] * t.gx + ju[3 + i] * t.gy;
+    fn(m->prm[HX_P_K0], s->pen, dm >= 0.0 && !(s->pen < dm) ? dm : s->pen, n, a, f);
     return HX_OK;
 }

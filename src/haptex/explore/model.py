@@ -82,8 +82,8 @@ class Settings:
     stiffness : str
         kappa_0 (e.g. "2 kN/m").
     max_penetration : str
-        d^z_max of B, C, F, G and the depth of the analysed region for all (on an object
-        d^z_max of F only: B, C and G over objects have no clamp yet).
+        d^z_max of B, C, F, G and the depth of the analysed region for all (on an object too:
+        Remark 3 on the base, :mod:`haptex.objects`).
     friction, presliding : str
         F's mu and d^x_max.
     device : str
@@ -277,7 +277,7 @@ def build(settings: Settings) -> Scene:
         if letter not in OBJECT_DESIGN_LETTERS:
             raise fail("algorithm", letter,
                        f"one of {', '.join(OBJECT_DESIGN_LETTERS)} on an object (or the object 'plane')")
-        alg = object_algorithm(letter, tex, base, stiffness, **(params if letter == "F" else {}))
+        alg = object_algorithm(letter, tex, base, stiffness, **params)
     elif letter == "W":
         alg = algorithm("W", Flat(dimension=2) if tex.dimension == 2 else None, stiffness)
         tex = alg.texture  # the smooth wall ignores the texture: show the flat boundary it renders
