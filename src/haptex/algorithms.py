@@ -15,7 +15,6 @@ import numpy as np
 
 import warnings
 
-from scipy import integrate
 
 from .core import _ext
 from ._validation import ParameterError, fail, finite, in_range, nonnegative, optional_positive, positions, positive
@@ -1019,6 +1018,8 @@ class FrictionModulated(Algorithm):
         return total
 
     def _piece_work(self, a, delta, u0, u1, state, rtol):
+        from scipy import integrate
+
         def fz_work(u, d):
             return float(self.force((a + u * delta)[None, :], d)[0] @ delta)
 

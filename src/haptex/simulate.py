@@ -22,8 +22,6 @@ import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.fft
-from scipy.linalg import expm
 
 from . import core as _core
 from .core._ext import (DIVERGED_ENERGY, DIVERGED_FORCE, DIVERGED_POSITION, DIVERGED_VELOCITY, N_FAST, N_SUMMARY,
@@ -104,6 +102,8 @@ def _van_loan(F: np.ndarray, Q: np.ndarray, T: float) -> tuple[np.ndarray, np.nd
     big[:n, :n] = -F.T
     big[:n, n:] = Q
     big[n:, n:] = F
+    from scipy.linalg import expm
+
     E = expm(big * T)
     Phi = E[n:, n:]
     W = Phi.T @ E[:n, n:]
@@ -380,6 +380,8 @@ def _axis_verdicts(u: np.ndarray, tail_duration: float, threshold: np.ndarray, t
     moving = np.flatnonzero(a2 > threshold)
     freq = np.zeros(N)
     if moving.size:
+        import scipy.fft
+
         window = np.hanning(n)
         step = max(1, (1 << 16) // n)  # blocks of 512 KiB: their temporaries are reused, not faulted in afresh
         for lo in range(0, moving.size, step):

@@ -14,7 +14,6 @@ import math
 from functools import cached_property
 
 import numpy as np
-from scipy import optimize
 
 from .core import _ext
 from ._validation import ParameterError, check_count, fail, finite, nonnegative, positive, whole
@@ -116,6 +115,8 @@ class Surface(Texture):
         best = float(vals.max())
         flat = vals.ravel()
         scale = np.array([dx, dy])
+        from scipy import optimize
+
         for idx in np.argsort(flat)[-8:]:
             start = pts.reshape(-1, 2)[idx]
 

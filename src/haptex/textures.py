@@ -12,7 +12,6 @@ from fractions import Fraction
 from functools import cached_property
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 
 from .core import _ext
 from ._validation import MAX_LENGTH, ParameterError, check_count, fail, finite, nonnegative, positive, whole
@@ -175,6 +174,8 @@ class SumOfSinusoids(Texture):
         y = np.abs(fun(x))
         dx = period / n
         best = float(y.max())
+        from scipy.optimize import minimize_scalar
+
         for i in np.argsort(y)[-8:]:
             r = minimize_scalar(
                 lambda t: -abs(float(fun(np.array([t]))[0])),

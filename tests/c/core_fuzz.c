@@ -193,7 +193,7 @@ static const int OCTA_F[8][3] = {{0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4},
  * and prism; the proxy's walk through its UV map too), ticked at adversarial
  * positions (NaN, infinities, +-1 km, the round bases' axes): never NaN, never above the
  * maximum, at least the expected faults. */
-static int fuzz_objects(const hx_model *m0, long *evaluations)
+static int fuzz_objects(const hx_model *m0, long *evaluations, int scale)
 {
     int kind, code, i, j, k;
     long n = 8, n_node;
@@ -291,7 +291,7 @@ static int fuzz_objects(const hx_model *m0, long *evaluations)
                 continue;
             /* (D and E on the prism mesh: fewer ticks, each up to its budget of 2,000 evaluations
              * over several prisms, the slowest under the sanitizers) */
-            for (i = 0; i < ((code == HX_ALG_D || code == HX_ALG_E) && b.kind == HX_BASE_MESH ? 1500 : 5000); i++) {
+            for (i = 0; i < ((code == HX_ALG_D || code == HX_ALG_E) && b.kind == HX_BASE_MESH ? 600 : 2000) * scale; i++) {
                 double f[3], p[3];
                 p[0] = position(i) * 1e-2;
                 p[1] = position(i + 1) * 1e-2;
@@ -329,10 +329,15 @@ static int fuzz_objects(const hx_model *m0, long *evaluations)
     return 0;
 }
 
-int main(void)
+/* argv[1]: a multiple of the default counts (the slow suite runs 5x) */
+int main(int argc, char **argv)
 {
     long evaluations = 0;
-    int variant, code, i, j;
+    int variant, code, i, j, scale = argc > 1 ? atoi(argv[1]) : 1;
+    if (scale < 1 || scale > 100) {
+        printf("scale %d: give 1 to 100\n", scale);
+        return 2;
+    }
     for (variant = 0; variant < 9; variant++) {
         long rows = 0, cols = 0;
         int kind, expect = HX_OK;
@@ -371,7 +376,7 @@ int main(void)
         for (code = 0; code < HX_N_ALGS; code++) {
             m.code = code;
             m.prm[HX_P_DZMAX] = code % 2 ? 5e-4 : -1.0;
-            for (i = 0; i < 20000; i++) {
+            for (i = 0; i < 8000 * scale; i++) {
                 double p[3], f[3], jac[9];
                 int rc;
                 p[0] = position(i);
@@ -419,7 +424,7 @@ int main(void)
                 }
                 continue;
             }
-            for (i = 0; i < 20000; i++) {
+            for (i = 0; i < 8000 * scale; i++) {
                 double f[3], p[3];
                 p[0] = position(i);
                 p[1] = position(i + 1);
@@ -444,7 +449,7 @@ int main(void)
                 return 1;
             }
         }
-        if (expect == HX_OK && fuzz_objects(&m, &evaluations))
+        if (expect == HX_OK && fuzz_objects(&m, &evaluations, scale))
             return 1;
         free(c);
     }

@@ -7,7 +7,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import ndimage, optimize
 
 from .._validation import fail
 from ..algorithms import Algorithm
@@ -287,6 +286,8 @@ def _object_focus(alg, ut, dmax: float):
         r = float(alg.focal_points(np.asarray(v)[None, :])[0][0])
         return r if math.isfinite(r) else 1.0
 
+    from scipy import optimize
+
     for idx in _candidates(-rho):
         i, j = np.unravel_index(idx, rho.shape)
         if not rho[i, j] <= 2.0 * dmax:  # (candidates come nearest first)
@@ -304,6 +305,8 @@ def _object_focus(alg, ut, dmax: float):
 def _refine(neg, start, value: float, bounds) -> tuple[float, tuple]:
     """Bounded L-BFGS-B maximisation from a grid point: (value, point), the grid's own if
     the refinement finds nothing larger."""
+    from scipy import optimize
+
     r = optimize.minimize(neg, x0=list(start), method="L-BFGS-B", bounds=bounds,
                           options={"ftol": 1e-15, "gtol": 1e-12})
     if -r.fun > value:
@@ -313,6 +316,8 @@ def _refine(neg, start, value: float, bounds) -> tuple[float, tuple]:
 
 def _candidates(values: np.ndarray, count: int = 8) -> np.ndarray:
     """Flat indices of the ``count`` largest local maxima of a 2-D or 3-D grid, best first."""
+    from scipy import ndimage
+
     finite = np.where(np.isfinite(values), values, -np.inf)
     peaks = (ndimage.maximum_filter(finite, size=3, mode="nearest") == finite) & np.isfinite(finite)
     labels, n = ndimage.label(peaks, structure=np.ones((3,) * values.ndim))
@@ -657,6 +662,8 @@ def _unbounded_focus(tex: Texture, dmax: float, x0: float, x1: float):
         return (1 + ss * ss) ** 1.5 / abs(cc) if cc < 0 else np.inf
 
     dxs = xs[1] - xs[0]
+    from scipy import optimize
+
     r = optimize.minimize_scalar(rho_at, bounds=(xs[i] - dxs, xs[i] + dxs), method="bounded",
                                  options={"xatol": 1e-14})
     t = float(r.x)

@@ -8,7 +8,6 @@ import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import integrate, optimize
 
 from .._validation import ParameterError, check_count, fail, in_range, positions, positive, whole
 from ..algorithms import Algorithm
@@ -46,6 +45,8 @@ def _breakpoints(alg: Algorithm, a: np.ndarray, b: np.ndarray) -> list[float]:
     u = np.linspace(0.0, 1.0, n + 1)
     pts = a + u[:, None] * (b - a)
     out: list[float] = []
+    from scipy import optimize
+
     for k, vals in enumerate(_signed_depths(alg, pts)):
         sgn = np.sign(vals)
         out.extend(float(u[i]) for i in np.nonzero(sgn[1:-1] == 0)[0] + 1)  # a sample on the kink
@@ -273,6 +274,8 @@ def path_work(algorithm: Algorithm, path, rtol: float = 1e-12) -> float:
             if not done:
                 # a weak singularity inside the piece (a centre of curvature on the path):
                 # QUADPACK's extrapolating QAGS converges where plain refinement is slow
+                from scipy import integrate
+
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore", integrate.IntegrationWarning)
                     val = integrate.quad(lambda uu: float(integrand(np.array([uu]))[0]), u0, u1,
