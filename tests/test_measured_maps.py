@@ -21,6 +21,7 @@ from haptex.design import MIN_CUTOFF_PERIODS, _band_limited, _sample_numbers
 from haptex.textures import zero_phase_lowpass
 
 from .conftest import DATA
+from .test_cli import run_main
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "data"
 K0 = 2000.0
@@ -57,7 +58,7 @@ def test_a_scan_or_map_spanning_under_two_cutoff_periods_is_refused_with_the_sca
     dev = hx.Device.pantograph() if tex.dimension == 1 else hx.Device.point_mass(dimension=3)
     lc = rendering_cutoff(dev, 0.1).period
     assert _span(tex) < MIN_CUTOFF_PERIODS * lc
-    r = _cli("design", "--texture", str(path), timeout=120)  # no options: the default device of its kind
+    r = run_main("design", "--texture", str(path))  # no options: the default device of its kind
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1, r.stderr
     assert f"l_c = {lc * 1e6:.4g} um" in r.stderr and f"on {dev.name} at 0.1 m/s" in r.stderr
     factor = float(re.search(r"--scale F,H with F >= ([0-9.e+]+)", r.stderr).group(1))
@@ -214,7 +215,7 @@ def test_design_on_the_metropro_map_needs_no_options():
 def test_a_window_over_a_measured_map_must_lie_inside_it():
     # beyond a measured map there is only the tangent-plane extension of its edge; the
     # MetroPro map is 0.70 x 0.53 mm (640 x 480 pixels of 1.1 um, its header)
-    r = _cli("design", "--texture", str(_file("metropro-1.dat")), "--window", "0,2mm,0,0.2mm", timeout=120)
+    r = run_main("design", "--texture", str(_file("metropro-1.dat")), "--window", "0,2mm,0,0.2mm")
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1, r.stderr
     assert "must be a rectangle inside the measured map, x in [0, 0.000701783] m" in r.stderr
 

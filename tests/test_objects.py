@@ -14,6 +14,8 @@ from haptex.closest import ClosestPoint
 from haptex.analysis.work import loop_energy
 from haptex.objects import Cylinder, Mesh, Plane, Sphere, object_algorithm
 
+from .test_cli import run_main
+
 A, L, K0 = 0.2e-3, 2e-3, 2000.0
 EGG = hx.SumOfGratings.egg_crate(A, L)  # the paper's egg-crate scale: 0.2 mm high, 2 mm period
 
@@ -335,7 +337,7 @@ def _ball_obj(tmp_path, subdivisions=3):
 
 def test_a_mesh_file_without_its_uv_scale_is_refused_on_the_command_line(tmp_path):
     path, _ = _ball_obj(tmp_path, 2)
-    r = _cli("design", "--texture", "egg-crate:0.2mm,2mm", "--object", str(path), "--device", "point-mass")
+    r = run_main("design", "--texture", "egg-crate:0.2mm,2mm", "--object", str(path), "--device", "point-mass")
     assert r.returncode == 2 and r.stderr.strip().splitlines() == [
         "haptex: error: uv_scale = None is not allowed: must be metres per unit of the mesh's texture coordinates"]
 
@@ -395,7 +397,7 @@ def test_above_a_convex_edge_the_jacobian_grows_as_pen_over_e(letter):
 ])
 def test_bad_objects_on_the_command_line_print_one_line_and_exit_2(args, fragment):
     base = ["design", "--texture", "egg-crate:0.2mm,2mm"]
-    r = _cli(*base, *(args if "--device" in args else [*args, "--device", "point-mass"]))
+    r = run_main(*base, *(args if "--device" in args else [*args, "--device", "point-mass"]))
     assert r.returncode == 2, r.stderr
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("haptex: error: ") and fragment in lines[0], r.stderr
@@ -641,8 +643,8 @@ def test_design_analyses_the_algorithms_asked_for(tmp_path):
     assert list(rows) == ["A", "G"] and not rows["A"]["conservative"]
     o = object_algorithm("A", EGG, Sphere(12.7323954e-3), 2000.0)
     assert rows["A"]["q"] == pytest.approx(hx.characteristic_number(o, 0.5e-3).value, rel=1e-12)
-    r = _cli("design", "--texture", "egg-crate:0.2mm,2mm", "--device", "point-mass", "--object",
-             "sphere:12.7323954mm", "--algorithms", "A,X")
+    r = run_main("design", "--texture", "egg-crate:0.2mm,2mm", "--device", "point-mass", "--object",
+                 "sphere:12.7323954mm", "--algorithms", "A,X")
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1, r.stderr
     assert "algorithms = 'A,X' is not allowed" in r.stderr and "A, B, C, D, E, F, G" in r.stderr, r.stderr
     from haptex.design import design
