@@ -115,9 +115,12 @@ MAX_RADIUS = 1e3
 
 
 def _atan2_derivs(a, ga, ha, b, gb, hb):
-    """atan2(a, b), its gradient (..., 3) and Hessian (..., 3, 3) from those of a and b."""
+    """atan2(a, b), its gradient (..., 3) and Hessian (..., 3, 3) from those of a and b (None
+    for the Hessian when ha is None: the forces need none)."""
     r2 = a * a + b * b
     g = (b[..., None] * ga - a[..., None] * gb) / r2[..., None]
+    if ha is None:
+        return np.arctan2(a, b), g, None
     num_h = (gb[..., :, None] * ga[..., None, :] - ga[..., :, None] * gb[..., None, :]
              + b[..., None, None] * ha - a[..., None, None] * hb)
     # d/dp of (b ga - a gb) is gb ga^T + b ha - ga gb^T - a hb (rows: the component, columns: d/dp_j)
@@ -137,8 +140,11 @@ class Base:
     name = "base"
     radius = math.inf
 
-    def local(self, p):
+    def local(self, p, hessian: bool = True):
         """Local coordinates of probes ``p`` (..., 3) (m).
+
+        With ``hessian`` False the analytic bases give None for Hu and He (the forces need
+        only u, Ju, e and n; a mesh gives them all the same).
 
         Returns
         -------
@@ -218,12 +224,14 @@ class Plane(Base):
     name = "plane"
     core_kind = _ext.BASE_PLANE
 
-    def local(self, p):
+    def local(self, p, hessian: bool = True):
         shape = p.shape[:-1]
         Ju = np.zeros((*shape, 2, 3))
         Ju[..., 0, 0] = Ju[..., 1, 1] = 1.0
         n = np.zeros((*shape, 3))
         n[..., 2] = 1.0
+        if not hessian:
+            return p[..., :2].copy(), Ju, None, p[..., 2].copy(), n, None
         return p[..., :2].copy(), Ju, np.zeros((*shape, 2, 3, 3)), p[..., 2].copy(), n, np.zeros((*shape, 3, 3))
 
     def point(self, u, e):
@@ -277,19 +285,27 @@ class _Round(Base):
         SEAM_TOLERANCE of a period)."""
         _closed_period_check(self, texture, 2 * math.pi * self.radius)
 
-    def _around(self, p, where):
+    def _around(self, p, where, hessian: bool = True):
         """x, y, z about the axis through (0, 0, -R) parallel to y; rho = hypot(x, z); the
-        angle phi = atan2(x, z) round that axis with its gradient and Hessian. Raises
-        ParameterError on the axis (``where`` names it)."""
+        angle phi = atan2(x, z) round that axis with its gradient and Hessian (None without
+        ``hessian``). Raises ParameterError on the axis (``where`` names it)."""
         x, y, z = p[..., 0], p[..., 1], p[..., 2] + self.radius
         rho = np.hypot(x, z)
         if np.any(rho == 0.0):
             raise ParameterError(f"p is not allowed on {where}")
+        # phi = atan2(x, z): grad (z, 0, -x) / rho^2; Hessian -2xz, 2xz (xx, zz) and x^2 - z^2 (xz) / rho^4
         shape = p.shape[:-1]
-        ex, ez = np.zeros((*shape, 3)), np.zeros((*shape, 3))
-        ex[..., 0] = ez[..., 2] = 1.0
-        zero = np.zeros((*shape, 3, 3))
-        return (x, y, z, rho, *_atan2_derivs(x, ex, zero, z, ez, zero))
+        r2 = rho * rho
+        g = np.zeros((*shape, 3))
+        g[..., 0], g[..., 2] = z / r2, -x / r2
+        h = None
+        if hessian:
+            h = np.zeros((*shape, 3, 3))
+            r4 = r2 * r2
+            h[..., 0, 0] = -2.0 * x * z / r4
+            h[..., 2, 2] = -h[..., 0, 0]
+            h[..., 0, 2] = h[..., 2, 0] = (x * x - z * z) / r4
+        return x, y, z, rho, np.arctan2(x, z), g, h
 
 
 class Cylinder(_Round):
@@ -303,19 +319,22 @@ class Cylinder(_Round):
     name = "cylinder"
     core_kind = _ext.BASE_CYLINDER
 
-    def local(self, p):
+    def local(self, p, hessian: bool = True):
         R = self.radius
         shape = p.shape[:-1]
-        x, y, z, rho, phi, gphi, hphi = self._around(p, "the cylinder's axis (its normal is undefined there)")
+        x, y, z, rho, phi, gphi, hphi = self._around(p, "the cylinder's axis (its normal is undefined there)",
+                                                     hessian)
         n = np.zeros((*shape, 3))
         n[..., 0], n[..., 2] = x / rho, z / rho
-        pxz = np.zeros((*shape, 3, 3))
-        pxz[..., 0, 0] = pxz[..., 2, 2] = 1.0
-        He = (pxz - n[..., :, None] * n[..., None, :]) / rho[..., None, None]
         u = np.stack([R * phi, y], axis=-1)
         Ju = np.zeros((*shape, 2, 3))
         Ju[..., 0, :] = R * gphi
         Ju[..., 1, 1] = 1.0
+        if not hessian:
+            return u, Ju, None, rho - R, n, None
+        pxz = np.zeros((*shape, 3, 3))
+        pxz[..., 0, 0] = pxz[..., 2, 2] = 1.0
+        He = (pxz - n[..., :, None] * n[..., None, :]) / rho[..., None, None]
         Hu = np.zeros((*shape, 2, 3, 3))
         Hu[..., 0, :, :] = R * hphi
         return u, Ju, Hu, rho - R, n, He
@@ -341,22 +360,26 @@ class Sphere(_Round):
     name = "sphere"
     core_kind = _ext.BASE_SPHERE
 
-    def local(self, p):
+    def local(self, p, hessian: bool = True):
         R = self.radius
         shape = p.shape[:-1]
         x, y, z, rho, phi, gphi, hphi = self._around(p, "the sphere's axis through its poles (y axis): the "
-                                                        "equirectangular coordinates are singular there")
+                                                        "equirectangular coordinates are singular there", hessian)
         r = np.sqrt(rho * rho + y * y)
-        eye = np.broadcast_to(np.eye(3), (*shape, 3, 3))
         ey = np.broadcast_to(np.eye(3)[1], (*shape, 3))
-        zero = np.zeros((*shape, 3, 3))
         m = np.zeros((*shape, 3))  # grad rho
         m[..., 0], m[..., 2] = x / rho, z / rho
+        n = np.stack([x, y, z], axis=-1) / r[..., None]
+        if not hessian:
+            lam, glam, _ = _atan2_derivs(y, ey, None, rho, m, None)
+            return (np.stack([R * phi, R * lam], axis=-1), np.stack([R * gphi, R * glam], axis=-2), None, r - R, n,
+                    None)
+        eye = np.broadcast_to(np.eye(3), (*shape, 3, 3))
+        zero = np.zeros((*shape, 3, 3))
         pxz = eye.copy()
         pxz[..., 1, 1] = 0.0
         hrho = (pxz - m[..., :, None] * m[..., None, :]) / rho[..., None, None]
         lam, glam, hlam = _atan2_derivs(y, ey, zero, rho, m, hrho)
-        n = np.stack([x, y, z], axis=-1) / r[..., None]
         He = (eye - n[..., :, None] * n[..., None, :]) / r[..., None, None]
         u = np.stack([R * phi, R * lam], axis=-1)
         Ju = np.stack([R * gphi, R * glam], axis=-2)
@@ -611,7 +634,7 @@ class Mesh(Base):
             hi = np.where(live & ~same, mid, hi)
         return (0.5 * (lo + hi)).tolist()
 
-    def local(self, p):
+    def local(self, p, hessian: bool = True):
         shape = p.shape[:-1]
         flat = p.reshape(-1, 3)
         key = None
@@ -921,7 +944,7 @@ class ObjectAlgorithm(Algorithm):
     def signed_depth(self, p) -> np.ndarray:
         """e - h(u) (A, B, C) or e (G) (m), shape (...): negative inside, its zeros the wall's
         boundary (where the force has a kink: the loop-work quadrature splits its pieces there)."""
-        u, _, _, e, _, _ = self.base.local(self._positions(p))
+        u, _, _, e, _, _ = self.base.local(self._positions(p), False)
         return e if self.penetration_kind == "nominal" else e - self.texture.height_at(u)
 
     def penetration(self, p) -> np.ndarray:
@@ -970,7 +993,7 @@ class ObjectAlgorithm(Algorithm):
         the plane, the paper's)."""
         F = self._plane
         k = self.stiffness
-        u, Ju, Hu, e, n, He = self.base.local(p)
+        u, Ju, Hu, e, n, He = self.base.local(p, phase is not None)
         d = F._deflection(deflection, e.shape)
         inside = e < 0
         depth = -e
@@ -1146,7 +1169,7 @@ class ObjectAlgorithm(Algorithm):
         """pen = h(u) - e at positions p (..., 3), its gradient (..., 3) and, if ``hessian``, its
         Hessian (..., 3, 3) (else None) by the chain rule through the base's u(p) and e(p);
         and the base's e and n = grad e there."""
-        u, Ju, Hu, e, n, He = self.base.local(p)
+        u, Ju, Hu, e, n, He = self.base.local(p, hessian)
         tex = self.texture
         s = tex.gradient(u)
         pen = tex.height_at(u) - e
