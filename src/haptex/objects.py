@@ -773,9 +773,10 @@ class Mesh(Base):
         u = np.asarray(u, dtype=float)
         e = np.broadcast_to(np.asarray(e, dtype=float), u.shape[:-1])
         flat = u.reshape(-1, 2)
-        uvf = self.uv[self._faces]  # (F, 3, 2)
         if "_uv_tree" not in self.__dict__:
-            self._uv_tree = cKDTree(uvf.mean(axis=1))
+            self._uvf = self.uv[self._faces]  # (F, 3, 2)
+            self._uv_tree = cKDTree(self._uvf.mean(axis=1))
+        uvf = self._uvf
         k = min(32, len(self._faces))
         _, cand = self._uv_tree.query(flat, k=k)
         cand = np.asarray(cand).reshape(len(flat), k)
