@@ -178,10 +178,15 @@ def test_core_never_reads_past_its_arrays():
 
 @pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc (apt-get install gcc)")
 def test_core_sources_compile_strictly(tmp_path):
-    """The core's files as they ship compile as strict C99 with every warning an error."""
+    """The core's files as they ship are strict C99 with every warning an error, -Wconversion
+    too: checked by the compiler's front end (-fsyntax-only, 0.2 s against 4 s with code
+    generation at -O0, whose warnings are the front end's); the warnings of the optimiser
+    (-Wmaybe-uninitialized, ...) are errors in tests/test_export.py, which compiles the tick's
+    files with -O2 -Wall -Wextra -pedantic -Werror."""
     for src in sorted(core.SOURCE_DIR.glob("hx_*.c")):
-        subprocess.run(["gcc", "-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror", "-Wconversion", "-c",
-                        str(src), "-o", str(tmp_path / (src.stem + ".o"))], check=True, capture_output=True)
+        r = subprocess.run(["gcc", "-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror", "-Wconversion",
+                            "-fsyntax-only", str(src)], capture_output=True, text=True)
+        assert r.returncode == 0, r.stderr
 
 
 def _asan_fuzz(tmp_path, scale: int):

@@ -1030,10 +1030,11 @@ class FrictionModulated(Algorithm):
                 val = integrate.quad(lambda u: fz_work(u, d), u0, u1, epsabs=1e-15 * scale, epsrel=rtol, limit=200)[0]
                 return val, state
             us = np.linspace(u0, u1, 4001)
-            vals = np.empty_like(us)
-            for i, u in enumerate(us):
+            ds = np.empty_like(us)
+            for i, u in enumerate(us):  # the state stepped in order; the forces at once below
                 d, state = step(state, float(a[0] + u * delta[0])) if i else (state.deflection, state)
-                vals[i] = fz_work(u, d)
+                ds[i] = d
+            vals = self.force(a + us[:, None] * delta, ds) @ delta
             return float(np.trapezoid(vals, us)), state
         direction = 1.0 if delta[0] > 0 else -1.0
         dm = self.presliding
