@@ -285,18 +285,18 @@ def _width(text: str) -> int:
     return max(len(line) for line in text.splitlines())
 
 
-def test_terminal_output_fits_80_columns_and_json_has_units():
+def test_terminal_output_fits_80_columns_and_json_has_units(monkeypatch):
     # Issue 16, stumble 7: tables were 140-160 columns wide; stumble 5: simulate --json had no units
-    env = {**__import__("os").environ, "COLUMNS": "80"}
+    monkeypatch.setenv("COLUMNS", "80")  # (rich reads it when the command makes its console)
     for args in (["table"], ["simulate", "thrust", "--duration", "0.2s"],
                  ["design", "--texture", "sine:0.2mm,2mm", "--stiffness", "500 N/m"]):
-        r = subprocess.run([sys.executable, "-m", "haptex", *args], capture_output=True, text=True, timeout=300, env=env)
+        r = run_main(*args)
         assert r.returncode == 0, r.stderr
         assert _width(r.stdout) <= 80, args
-    out = json.loads(run_cli("simulate", "thrust", "--duration", "0.2s", "--json").stdout)
+    out = json.loads(run_main("simulate", "thrust", "--duration", "0.2s", "--json").stdout)
     assert out["units"]["energy_x"] == "J" and out["units"]["amplitude"] == "m" and out["units"]["frequency"] == "Hz"
     # every --json carries its units: design's too (it had none)
-    out = json.loads(run_cli("design", "--texture", "sine:0.2mm,2mm", "--json").stdout)
+    out = json.loads(run_main("design", "--texture", "sine:0.2mm,2mm", "--json").stdout)
     numbers = {k for k, v in out.items() if isinstance(v, float)} | set(out["rows"][0]) | set(out["texture_numbers"])
     numbers -= {"algorithm", "name", "q_note", "passive_at_stiffness", "stable_at_stiffness", "conservative",
                 "almost_conservative", "continuous", "has_paper_loop"}
@@ -384,16 +384,17 @@ def test_one_device_syntax_and_help_per_subcommand():
     # `simulate --help` printed one page for three subcommands
     for cmd in (["design", "--texture", "sine:0.2mm,2mm", "--stiffness", "500 N/m"],
                 ["simulate", "thrust", "--duration", "0.05s"]):
-        a = json.loads(run_cli(*cmd, "--device", "point-mass", "--mass", "100g", "--damping", "0.5 N*s/m",
-                               "--sampling-period", "100us", "--json").stdout)
-        b = json.loads(run_cli(*cmd, "--device", "point-mass:0.1kg,0.5N*s/m,100us", "--json").stdout)
+        a = json.loads(run_main(*cmd, "--device", "point-mass", "--mass", "100g", "--damping", "0.5 N*s/m",
+                                "--sampling-period", "100us", "--json").stdout)
+        b = json.loads(run_main(*cmd, "--device", "point-mass:0.1kg,0.5N*s/m,100us", "--json").stdout)
         for out in (a, b):  # (design's cost estimate holds measured times)
             out.pop("estimate", None)
         assert a == b  # the two spellings are the same device
-    r = run_cli("design", "--texture", "sine:0.2mm,2mm", "--device", "point-mass:0.1kg,0.5N*s/m,100us", "--mass", "1kg")
+    r = run_main("design", "--texture", "sine:0.2mm,2mm", "--device", "point-mass:0.1kg,0.5N*s/m,100us", "--mass",
+                 "1kg")
     assert r.returncode == 2 and "--mass is not allowed with --device point-mass:0.1kg,0.5N*s/m,100us" in r.stderr
-    thrust_help = run_cli("simulate", "thrust", "--help").stdout
-    scan_help = run_cli("simulate", "scan", "--help").stdout
+    thrust_help = run_main("simulate", "thrust", "--help").stdout
+    scan_help = run_main("simulate", "scan", "--help").stdout
     assert "--band-stiffness" in thrust_help and "--hand-stiffness" not in thrust_help
     assert "--hand-stiffness" in scan_help and "--band-stiffness" not in scan_help
 
@@ -439,10 +440,27 @@ def test_a_bad_device_file_is_one_line_naming_the_key(tmp_path, text, message):
     assert r.returncode == 2 and "--delay is not allowed with --device" in r.stderr
 
 
+def test_table_over_a_surface_prints_f():
+    # over a surface F's presliding deflection at the sup is a vector (issue 35: its line ended
+    # in a TypeError after the table). Its length is at most d^x_max = 1 mm (the paper's F
+    # parameters). F's row alone, printed by the command's own printer (the whole command,
+    # 16 s: the slow test below)
+    import contextlib
+    import io
+
+    from haptex.cli import _print_table
+    from haptex.tables import table_ii
+
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        _print_table(table_ii(surface="egg-crate", letters=["F"]))
+    m = re.search(r"F: q numeric [0-9.]+ \((stick|slip), \|d\| = ([0-9.]+) mm\)", out.getvalue())
+    assert m and float(m.group(2)) <= 1.0 + 1e-9, out.getvalue()
+
+
+@pytest.mark.slow
 def test_table_over_a_surface_prints_f_and_exits_cleanly():
-    # README's `haptex table --surface egg-crate`: over a surface F's presliding deflection at
-    # the sup is a vector (issue 35: its line ended in a TypeError after the table). Its
-    # length is at most d^x_max = 1 mm (the paper's F parameters).
+    # README's `haptex table --surface egg-crate`, the whole command
     r = run_cli("table", "--surface", "egg-crate")
     assert r.returncode == 0, r.stderr
     m = re.search(r"F: q numeric [0-9.]+ \((stick|slip), \|d\| = ([0-9.]+) mm\)", r.stdout)
