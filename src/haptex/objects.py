@@ -51,9 +51,10 @@ D and E on a plane, cylinder or sphere take the closest point of the textured ob
 P(u, h(u)): Gauss-Newton from the probe's foot and the last closest point, then a branch and
 bound over the surface coordinates that can hold a nearer point (a band the base's geometry
 bounds), cells pruned by a second-order lower bound of |S(u) - p|^2 (the texture's rigorous
-slope and curvature bounds, the base's radius), cells of the plane search's leaf size polished
-by Gauss-Newton; never farther than an exhaustive grid (tested), equal in distance to the plane's
-certified search on Plane(). :meth:`ObjectAlgorithm.force` runs the same C search. Their
+slope and curvature bounds, the base's radius) or by its Taylor bound about the cell's centre
+(the exact gradient and Hessian there, the third derivatives bounded through the texture's jerk
+bound), cells of the plane search's leaf size polished by Gauss-Newton and Newton; never farther
+than an exhaustive grid (tested), equal in distance to the plane's certified search on Plane(). :meth:`ObjectAlgorithm.force` runs the same C search. Their
 Jacobians come from the closest-point projection's derivative T (I + r K)^-1 T^T at the closest
 point c (r the distance, T a basis of the tangent plane, K = T^T hess pen T / |grad pen| the
 shape operator of the level set pen = 0, which holds the base's curvature with the texture's):

@@ -559,8 +559,8 @@ static int object_f(const hx_model *m, hx_state *s, const double u[2], const dou
 /* S(u) = the point at surface coordinates u and offset e = h(u) on an analytic base, and its
  * Jacobian dS/du (3 x 2, column j in js[j * 3 .. j * 3 + 2]) from the base's closed forms:
  * dS/du_j = dP/du_j + n dh/du_j. 0 on a mesh (no closed form: not in the core). */
-static int analytic_surface(const hx_base *b, const hx_texture *tex, const double u[2], double S[3], double js[6],
-                            long *work)
+static int analytic_surface_h(const hx_base *b, const hx_texture *tex, const double u[2], double S[3], double js[6],
+                              long *work, hx_height *tout)
 {
     double R = b->radius, phi, lam, r, sp, cp, sl, cl, n[3], dp[6];
     hx_height t;
@@ -610,7 +610,16 @@ static int analytic_surface(const hx_base *b, const hx_texture *tex, const doubl
         js[i] = dp[i] + n[i] * t.gx;
         js[3 + i] = dp[3 + i] + n[i] * t.gy;
     }
+    if (tout)
+        *tout = t;
     return 1;
+}
+
+/* analytic_surface_h without the texture's values */
+static int analytic_surface(const hx_base *b, const hx_texture *tex, const double u[2], double S[3], double js[6],
+                            long *work)
+{
+    return analytic_surface_h(b, tex, u, S, js, work, NULL);
 }
 
 /* The barycentric coordinates of u in triangle t's UV triangle (its affine extension outside)
@@ -876,6 +885,69 @@ static void search_region(const hx_base *b, const double p[3], const double up[2
     }
 }
 
+/* S's second derivatives at u on an analytic base (s2: d2S/du1^2, d2S/du1 du2, d2S/du2^2, 3
+ * values each) from the texture's values t there: S = (R + h) w - R e_z with w the unit radial
+ * (the plane: S = (u, h), w = e_z), so S_ij = h_ij w + h_i w_j + h_j w_i + (R + h) w_ij. */
+static void analytic_second(const hx_base *b, const double u[2], const hx_height *t, double s2[9])
+{
+    double R = b->radius, w[3] = {0.0, 0.0, 1.0}, w1[3] = {0.0, 0.0, 0.0}, w2[3] = {0.0, 0.0, 0.0};
+    double w11[3] = {0.0, 0.0, 0.0}, w12[3] = {0.0, 0.0, 0.0}, w22[3] = {0.0, 0.0, 0.0}, r = 0.0;
+    double sp, cp, sl, cl, R2;
+    int i;
+    if (b->kind == HX_BASE_CYLINDER) {
+        sp = sin(u[0] / R), cp = cos(u[0] / R), R2 = R * R, r = R + t->h;
+        w[0] = sp, w[1] = 0.0, w[2] = cp;
+        w1[0] = cp / R, w1[2] = -sp / R;
+        w11[0] = -sp / R2, w11[2] = -cp / R2;
+    } else if (b->kind == HX_BASE_SPHERE) {
+        sp = sin(u[0] / R), cp = cos(u[0] / R), sl = sin(u[1] / R), cl = cos(u[1] / R), R2 = R * R;
+        r = R + t->h;
+        w[0] = cl * sp, w[1] = sl, w[2] = cl * cp;
+        w1[0] = cl * cp / R, w1[2] = -cl * sp / R;
+        w2[0] = -sl * sp / R, w2[1] = cl / R, w2[2] = -sl * cp / R;
+        w11[0] = -cl * sp / R2, w11[2] = -cl * cp / R2;
+        w12[0] = -sl * cp / R2, w12[2] = sl * sp / R2;
+        for (i = 0; i < 3; i++)
+            w22[i] = -w[i] / R2;
+    }
+    for (i = 0; i < 3; i++) {
+        s2[i] = t->hxx * w[i] + 2.0 * t->gx * w1[i] + r * w11[i];
+        s2[3 + i] = t->hxy * w[i] + t->gx * w2[i] + t->gy * w1[i] + r * w12[i];
+        s2[6 + i] = t->hyy * w[i] + 2.0 * t->gy * w2[i] + r * w22[i];
+    }
+}
+
+/* The least of q(d) = g.d + d^T H d / 2 over the box |d1| <= a, |d2| <= b (H symmetric: h11,
+ * h12, h22): the interior minimum when H is positive definite and it lies inside, else the least
+ * over the four sides (each a quadratic in one variable: its ends and its stationary point). */
+static double box_quadratic_min(double g1, double g2, double h11, double h12, double h22, double a, double b)
+{
+    double best = HUGE_VAL, det = h11 * h22 - h12 * h12, s, x, y, v;
+    int side, k;
+    if (h11 > 0.0 && det > 0.0) {
+        x = -(h22 * g1 - h12 * g2) / det;
+        y = -(h11 * g2 - h12 * g1) / det;
+        if (fabs(x) <= a && fabs(y) <= b)
+            return g1 * x + g2 * y + 0.5 * (h11 * x * x + 2.0 * h12 * x * y + h22 * y * y);
+    }
+    for (side = 0; side < 4; side++) {
+        for (k = 0; k < 3; k++) {
+            s = side & 1 ? 1.0 : -1.0;
+            if (side < 2) { /* d1 = s a, d2 free in [-b, b] */
+                x = s * a;
+                y = k == 0 ? -b : (k == 1 ? b : (h22 > 0.0 ? fmax(-b, fmin(b, -(g2 + h12 * x) / h22)) : b));
+            } else { /* d2 = s b */
+                y = s * b;
+                x = k == 0 ? -a : (k == 1 ? a : (h11 > 0.0 ? fmax(-a, fmin(a, -(g1 + h12 * y) / h11)) : a));
+            }
+            v = g1 * x + g2 * y + 0.5 * (h11 * x * x + 2.0 * h12 * x * y + h22 * y * y);
+            if (v < best)
+                best = v;
+        }
+    }
+    return best;
+}
+
 /* Whether a cell of half-diagonal rho about c holds nothing nearer than the best (phi_best =
  * its squared distance) to the tie tolerance: phi(c) - |grad phi(c)| rho - H rho^2 / 2 bounds
  * phi = |S(u) - p|^2 over the cell from below, H = 2 (lc^2 + (|S(c) - p| + lc rho) K2) >=
@@ -887,15 +959,77 @@ static int cell_pruned(double phic, double g0, double g1, double rho, double lc,
     return gtie <= 0.0 || phic - hypot(g0, g1) * rho - 0.5 * H * rho * rho >= gtie * gtie;
 }
 
-/* Gauss-Newton from `start` (steps at most lmax); the point it reaches replaces the best (ubest,
- * its squared distance *phi) when nearer, or as near with `ties`. */
+/* Newton on phi = |S(u) - p|^2 from u (an analytic base, whose Hessian of phi is exact here:
+ * analytic_second), *phi its value there: at most 8 steps, each at most lmax and halved (up to 4
+ * times) until phi decreases; it stops where the Hessian is not positive definite or the step
+ * vanishes. Gauss-Newton alone (descend) converges slowly where the distance is flat around its
+ * minimum (towards a centre of curvature: J^T J over-estimates the Hessian there). */
+static void newton(const hx_model *m, const double p[3], double lmax, double u[2], double *phi, long *work)
+{
+    double S[3], js[6];
+    hx_height t;
+    int it, k, i;
+    if (!analytic_surface_h(m->base, &m->tex, u, S, js, work, &t))
+        return;
+    for (it = 0; it < 8; it++) {
+        double s2[9], r, g0 = 0.0, g1 = 0.0, h11 = 0.0, h12 = 0.0, h22 = 0.0, det, st[2], nrm;
+        analytic_second(m->base, u, &t, s2);
+        for (i = 0; i < 3; i++) {
+            r = S[i] - p[i];
+            g0 += js[i] * r;
+            g1 += js[3 + i] * r;
+            h11 += js[i] * js[i] + r * s2[i];
+            h12 += js[i] * js[3 + i] + r * s2[3 + i];
+            h22 += js[3 + i] * js[3 + i] + r * s2[6 + i];
+        }
+        det = h11 * h22 - h12 * h12;
+        if (!(h11 > 0.0 && det > 0.0))
+            return;
+        st[0] = -(h22 * g0 - h12 * g1) / det;
+        st[1] = -(h11 * g1 - h12 * g0) / det;
+        nrm = hypot(st[0], st[1]);
+        if (!(isfinite(nrm) && nrm > 1e-16 * (fabs(u[0]) + fabs(u[1]) + 1e-300)))
+            return;
+        if (nrm > lmax) {
+            st[0] *= lmax / nrm;
+            st[1] *= lmax / nrm;
+        }
+        for (k = 0; k < 4; k++) {
+            double w[2], Sw[3], jw[6], pw;
+            hx_height tw;
+            w[0] = u[0] + st[0], w[1] = u[1] + st[1];
+            if (!analytic_surface_h(m->base, &m->tex, w, Sw, jw, work, &tw))
+                return;
+            pw = sq_dist(Sw, p);
+            if (pw < *phi) {
+                u[0] = w[0], u[1] = w[1];
+                *phi = pw;
+                for (i = 0; i < 3; i++)
+                    S[i] = Sw[i];
+                for (i = 0; i < 6; i++)
+                    js[i] = jw[i];
+                t = tw;
+                break;
+            }
+            st[0] *= 0.5;
+            st[1] *= 0.5;
+        }
+        if (k == 4)
+            return;
+    }
+}
+
+/* Gauss-Newton from `start` (steps at most lmax), then Newton; the point it reaches replaces the
+ * best (ubest, its squared distance *phi) when nearer, or as near with `ties`. */
 static void polish(const hx_model *m, const double p[3], double lmax, const double start[2], int ties, double *phi,
                    double ubest[2], long *work)
 {
     double v[2], Sv[3], pv;
     long hint = 0; /* (an analytic base: no triangle) */
     v[0] = start[0], v[1] = start[1];
-    descend(m, p, lmax, v, Sv, &pv, &hint, work);
+    if (!descend(m, p, lmax, v, Sv, &pv, &hint, work))
+        return;
+    newton(m, p, lmax, v, &pv, work);
     if (pv < *phi || (ties && pv == *phi)) {
         *phi = pv;
         ubest[0] = v[0], ubest[1] = v[1];
@@ -910,8 +1044,13 @@ static void polish(const hx_model *m, const double p[3], double lmax, const doub
  * / 2, a lower bound of phi = |S(u) - p|^2 over it (H >= ||Hess phi||: 2 (L^2 + (|S(c) - p| +
  * L rho) K2), L >= ||dS/du||, K2 >= the second derivatives' norm, from the texture's rigorous
  * slope and curvature bounds and the base's radius), reaches the best phi less the tie
- * tolerance (aux[HX_G_TIE] in distance); cells whose half-diagonal is below the leaf size are
- * polished by Gauss-Newton from their centre (aux[HX_G_LEAF], the plane search's leaf). Work:
+ * tolerance (aux[HX_G_TIE] in distance), or when the second-order bound does: phi(c) plus the
+ * least over the cell of g.d + d^T H(c) d / 2 (phi's exact gradient and Hessian at c) less the
+ * third derivatives' bound times rho^3 / 6 (K3, from the texture's jerk bound: the Taylor bound
+ * of the plane search, which prunes the cells around the minimum the first cannot); cells whose
+ * half-diagonal is below the leaf size are polished from their centre by Gauss-Newton and then
+ * Newton (aux[HX_G_LEAF], the plane search's leaf; Newton converges where the distance is flat
+ * around its minimum, towards a centre of curvature, where Gauss-Newton crawls). Work:
  * the evaluations, at most HX_OBJ_CELLS cells and the budget aux[HX_G_BUDGET] (> 0; cut past
  * either: the best point found, not certified). Returns the point's coordinates, its distance
  * and the work. */
@@ -924,6 +1063,7 @@ static hx_closest object_closest(const hx_model *m, const double p[3], const dou
     double M = aux[HX_G_SLOPE_BOUND] > 0.0 ? aux[HX_G_SLOPE_BOUND] : aux[HX_G_SLOPE];
     double C = aux[HX_G_CURV_BOUND] > 0.0 ? aux[HX_G_CURV_BOUND] : aux[HX_G_CURV];
     double tie = aux[HX_G_TIE], leaf = aux[HX_G_LEAF], lmax = 4.0 * leaf, budget = aux[HX_G_BUDGET], scale, L, K2;
+    double K3;
     double phi, S[3], lo[2], hi[2];
     double u[2];
     long work = 0, visited = 0, hint = 0; /* (an analytic base: no triangle) */
@@ -937,6 +1077,15 @@ static hx_closest object_closest(const hx_model *m, const double p[3], const dou
     scale = isinf(R) ? 1.0 : (R + (hmax > 0.0 ? hmax : 0.0)) / R;
     L = 1.4142135623730951 * (scale + M);
     K2 = 2.0 * (C + (isinf(R) ? 0.0 : (2.0 * M + scale) / R));
+    /* the third derivatives along a unit direction in u: S = (R + h) w - R e_z, each partial
+     * derivative of the unit radial w in (phi, lambda) has norm <= 1, so its k-th along a unit
+     * u-direction is at most 2^(k/2) / R^k, and |S3| <= |h3| + 3 sqrt(2) |h2| / R + 6 |h1| / R^2 +
+     * 2 sqrt(2) (R + h) / R^3 (hk: h's k-th derivative along it, bounded by the texture's jerk,
+     * curvature and slope bounds; the cylinder's and the plane's are smaller); K3 is twice that,
+     * as K2 is for the second; 0 (no second-order pruning) without the texture's jerk bound */
+    K3 = aux[HX_G_JERK] > 0.0 ? 2.0 * aux[HX_G_JERK] : 0.0;
+    if (K3 > 0.0 && !isinf(R))
+        K3 += 2.0 * (4.242640687119285 * C / R + (6.0 * M + 2.8284271247461903 * scale) / (R * R));
     u[0] = up[0];
     u[1] = up[1];
     descend(m, p, lmax, u, S, &phi, &hint, &work);
@@ -960,11 +1109,12 @@ static hx_closest object_closest(const hx_model *m, const double p[3], const dou
     while (top > 0) {
         obj_cell c = stack[--top];
         double Sc[3], js[6], g0 = 0.0, g1 = 0.0, r[3], rho, phic;
+        hx_height tc;
         if (++visited > HX_OBJ_CELLS || (budget > 0.0 && (double)work > budget)) {
             out.cut = 1; /* the best point found, not certified */
             break;
         }
-        analytic_surface(b, &m->tex, c.c, Sc, js, &work);
+        analytic_surface_h(b, &m->tex, c.c, Sc, js, &work, &tc);
         for (i = 0; i < 3; i++) {
             r[i] = Sc[i] - p[i];
             g0 += 2.0 * js[i] * r[i];
@@ -983,8 +1133,29 @@ static hx_closest object_closest(const hx_model *m, const double p[3], const dou
             for (i = 0; i < 6; i++)
                 jf += js[i] * js[i];
             lc = sqrt(jf) + 2.0 * K2 * rho;
-            if (cell_pruned(phic, g0, g1, rho, lc < L ? lc : L, K2, phi, tie))
+            if (lc > L)
+                lc = L;
+            if (cell_pruned(phic, g0, g1, rho, lc, K2, phi, tie))
                 continue; /* nothing in it nearer than the best, to the tie tolerance */
+            if (K3 > 0.0 && phi > tie * tie) {
+                /* the second-order bound: phi(c + d) >= phi(c) + g.d + d^T H d / 2 - B |d|^3 / 6
+                 * with H phi's Hessian at c (2 (J^T J + sum_k r_k d2S_k/du2), exact) and B >= the
+                 * third derivative of phi along any unit direction over the cell, 2 (3 S1.S2 +
+                 * r.S3) (S1, S2, S3 S's along it): B = 2 (3 lc K2 + (|r(c)| + lc rho) K3); the
+                 * quadratic's least over the cell's box */
+                double s2[9], h11 = 0.0, h12 = 0.0, h22 = 0.0, B, gt = sqrt(phi) - tie;
+                analytic_second(b, c.c, &tc, s2);
+                for (i = 0; i < 3; i++) {
+                    h11 += js[i] * js[i] + r[i] * s2[i];
+                    h12 += js[i] * js[3 + i] + r[i] * s2[3 + i];
+                    h22 += js[3 + i] * js[3 + i] + r[i] * s2[6 + i];
+                }
+                B = 2.0 * (3.0 * lc * K2 + (sqrt(phic) + lc * rho) * K3);
+                if (phic + box_quadratic_min(g0, g1, 2.0 * h11, 2.0 * h12, 2.0 * h22, c.half[0], c.half[1]) -
+                        B * rho * rho * rho / 6.0 >=
+                    gt * gt)
+                    continue; /* likewise, by the second-order bound */
+            }
         }
         if (rho <= leaf || top + 4 > HX_OBJ_STACK) {
             polish(m, p, c.half[0] + c.half[1], c.c, 0, &phi, ubest, &work);
