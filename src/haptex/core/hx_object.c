@@ -680,8 +680,8 @@ static int uv_locate(const hx_base *b, const double u[2], long *t, double lam[3]
 /* S(u) and dS/du on triangle t of a mesh (its affine extension in u): the point at offset h(u)
  * along the triangle's normal, or on the prism base along the corners' normals interpolated,
  * sum_k lam_k (v_k + h N_k) (haptex.objects.Mesh.point). 0 for a degenerate UV triangle. */
-static int mesh_patch(const hx_base *b, const hx_texture *tex, long t, const double u[2], double S[3], double js[6],
-                      long *work)
+static int mesh_patch_h(const hx_base *b, const hx_texture *tex, long t, const double u[2], double S[3], double js[6],
+                        long *work, hx_height *eo, double no[3])
 {
     double lam[3], dlam[6], nn[3] = {0.0, 0.0, 0.0};
     const double *v = b->tri + 9 * t, *fc = b->face + HX_FACE * t;
@@ -704,7 +704,19 @@ static int mesh_patch(const hx_base *b, const hx_texture *tex, long t, const dou
         js[i] += nn[i] * e.gx;
         js[3 + i] += nn[i] * e.gy;
     }
+    if (eo) {
+        *eo = e;
+        for (i = 0; i < 3; i++)
+            no[i] = nn[i];
+    }
     return 1;
+}
+
+/* mesh_patch_h without the texture's values and the normal */
+static int mesh_patch(const hx_base *b, const hx_texture *tex, long t, const double u[2], double S[3], double js[6],
+                      long *work)
+{
+    return mesh_patch_h(b, tex, t, u, S, js, work, NULL, NULL);
 }
 
 /* S(u) on a mesh and its Jacobian dS/du (as analytic_surface): mesh_patch on the triangle whose
@@ -1180,6 +1192,76 @@ static hx_closest object_closest(const hx_model *m, const double p[3], const dou
     return out;
 }
 
+/* Newton on phi = |S(u) - p|^2 from u within triangle t of a prism mesh (as newton: at most 8
+ * steps, each at most lmax, halved until phi decreases), S's second derivatives exact there
+ * (h_ij N + h_i N_j + h_j N_i); a step that leaves the triangle's UV domain ends it. */
+static void mesh_newton(const hx_model *m, const double p[3], long t, double lmax, double u[2], double *phi,
+                        long *work)
+{
+    const hx_base *b = m->base;
+    const double *fc = b->face + HX_FACE * t;
+    double S[3], js[6], nn[3], lam[3], dlam[6], gnm[6];
+    hx_height e;
+    int it, k, i, j;
+    if (!uv_barycentric(b, t, u, lam, dlam))
+        return;
+    for (j = 0; j < 2; j++) /* G_N = dN/du: the corners' normals moved by the barycentric gradients */
+        for (i = 0; i < 3; i++) {
+            gnm[3 * j + i] = 0.0;
+            for (k = 0; k < 3; k++)
+                gnm[3 * j + i] += dlam[2 * k + j] * (b->prism ? fc[HX_FACE_VN + 3 * k + i] : 0.0);
+        }
+    if (!mesh_patch_h(b, &m->tex, t, u, S, js, work, &e, nn))
+        return;
+    for (it = 0; it < 8; it++) {
+        double g0 = 0.0, g1 = 0.0, h11 = 0.0, h12 = 0.0, h22 = 0.0, det, st[2], nrm;
+        for (i = 0; i < 3; i++) {
+            double r = S[i] - p[i];
+            g0 += js[i] * r;
+            g1 += js[3 + i] * r;
+            h11 += js[i] * js[i] + r * (e.hxx * nn[i] + 2.0 * e.gx * gnm[i]);
+            h12 += js[i] * js[3 + i] + r * (e.hxy * nn[i] + e.gx * gnm[3 + i] + e.gy * gnm[i]);
+            h22 += js[3 + i] * js[3 + i] + r * (e.hyy * nn[i] + 2.0 * e.gy * gnm[3 + i]);
+        }
+        det = h11 * h22 - h12 * h12;
+        if (!(h11 > 0.0 && det > 0.0))
+            return;
+        st[0] = -(h22 * g0 - h12 * g1) / det;
+        st[1] = -(h11 * g1 - h12 * g0) / det;
+        nrm = hypot(st[0], st[1]);
+        if (!(isfinite(nrm) && nrm > 1e-16 * (fabs(u[0]) + fabs(u[1]) + 1e-300)))
+            return;
+        if (nrm > lmax) {
+            st[0] *= lmax / nrm;
+            st[1] *= lmax / nrm;
+        }
+        for (k = 0; k < 4; k++) {
+            double w[2], Sw[3], jw[6], nw[3], pw;
+            hx_height ew;
+            w[0] = u[0] + st[0], w[1] = u[1] + st[1];
+            if (!uv_barycentric(b, t, w, lam, dlam) || lam[0] < -1e-12 || lam[1] < -1e-12 || lam[2] < -1e-12)
+                return; /* (out of the triangle: its neighbour's patch holds that u) */
+            if (!mesh_patch_h(b, &m->tex, t, w, Sw, jw, work, &ew, nw))
+                return;
+            pw = sq_dist(Sw, p);
+            if (pw < *phi) {
+                u[0] = w[0], u[1] = w[1];
+                *phi = pw;
+                for (i = 0; i < 3; i++)
+                    S[i] = Sw[i], nn[i] = nw[i];
+                for (i = 0; i < 6; i++)
+                    js[i] = jw[i];
+                e = ew;
+                break;
+            }
+            st[0] *= 0.5;
+            st[1] *= 0.5;
+        }
+        if (k == 4)
+            return;
+    }
+}
+
 /* Sub-triangles of one triangle's UV domain the textured mesh's search may hold at once. */
 #define HX_MESH_STACK 256
 
@@ -1197,7 +1279,10 @@ typedef struct {
  * a lower bound of phi = |S(u) - p|^2 over it (H >= ||Hess phi||: 2 (L^2 + (|S(c) - p| + L rho)
  * K2), L >= ||dS/du|| and K2 >= ||d2S/du2|| over the triangle: S is affine in u but for h, so
  * d2S = 2 sym(G_N grad h) + N hess h, G_N = sum_k N_k grad lam_k), reaches the best phi less the
- * tie tolerance; cells smaller than the leaf are polished by Gauss-Newton. Work: the evaluations,
+ * tie tolerance, or when the second-order bound over the cell's disc does (phi's exact Hessian at
+ * c, the third derivatives bounded by the texture's jerk and curvature bounds: as on the analytic
+ * bases); cells smaller than the leaf are polished by Gauss-Newton and Newton in the triangle
+ * the descent ends on (mesh_newton). Work: the evaluations,
  * at most HX_OBJ_CELLS cells and the budget (cut past either: the best point found). Returns the
  * point's coordinates (ubest), its triangle (*tri), its distance and the work. */
 static hx_closest mesh_closest_textured(const hx_model *m, const double p[3], const double up[2],
@@ -1247,7 +1332,7 @@ static hx_closest mesh_closest_textured(const hx_model *m, const double p[3], co
         for (i = -1 - l; i < -1 - l + r && !out.cut; i++) {
             long t = b->order[i];
             const double *fc = b->face + HX_FACE * t, *v = b->tri + 9 * t;
-            double bb[3], foot[3], lam[3], dlam[6], L = 0.0, gn = 0.0, K2, flat;
+            double bb[3], foot[3], lam[3], dlam[6], L = 0.0, gn = 0.0, K2, K3, flat, gnm[6];
             int sp = 0, k, j, q;
             uv_cell cells[HX_MESH_STACK];
             closest_on_triangle(v, p, bb);
@@ -1269,16 +1354,22 @@ static hx_closest mesh_closest_textured(const hx_model *m, const double p[3], co
                     }
                     L += ev * ev;
                     gn += nv * nv;
+                    gnm[3 * j + q] = nv;
                 }
             gn = sqrt(gn);
             L = sqrt(L) + delta * gn + M;
             K2 = 2.0 * gn * M + C;
+            /* S = V(u) + h(u) N(u), V and N affine on the triangle (|N| <= 1 inside it): along a
+             * unit direction S2 = h'' N + 2 h' N' (K2) and S3 = h''' N + 3 h'' N': |S3| <= jerk +
+             * 3 C gn; 0 (no second-order pruning) without the texture's jerk bound */
+            K3 = aux[HX_G_JERK] > 0.0 ? aux[HX_G_JERK] + 3.0 * C * gn : 0.0;
             for (k = 0; k < 6; k++)
                 cells[0].c[k] = fc[HX_FACE_UV + k];
             sp = 1;
             while (sp > 0) {
                 uv_cell c = cells[--sp];
-                double cu[2], Sc[3], js[6], g0 = 0.0, g1 = 0.0, rho = 0.0, phic, gtie;
+                double cu[2], Sc[3], js[6], g0 = 0.0, g1 = 0.0, rho = 0.0, phic, gtie, nc[3];
+                hx_height ec;
                 if (++visited > HX_OBJ_CELLS || (budget > 0.0 && (double)work > budget)) {
                     out.cut = 1;
                     break;
@@ -1301,7 +1392,7 @@ static hx_closest mesh_closest_textured(const hx_model *m, const double p[3], co
                     if (gtie <= 0.0 || (fd > 0.0 && fd * fd >= gtie * gtie))
                         continue;
                 }
-                if (!mesh_patch(b, &m->tex, t, cu, Sc, js, &work))
+                if (!mesh_patch_h(b, &m->tex, t, cu, Sc, js, &work, &ec, nc))
                     break;
                 for (q = 0; q < 3; q++) {
                     g0 += 2.0 * js[q] * (Sc[q] - p[q]);
@@ -1315,11 +1406,39 @@ static hx_closest mesh_closest_textured(const hx_model *m, const double p[3], co
                 }
                 if (cell_pruned(phic, g0, g1, rho, L, K2, phi, tie))
                     continue; /* nothing in it nearer than the best, to the tie tolerance */
+                if (K3 > 0.0) {
+                    /* the second-order bound over the cell's disc of radius rho: phi(c + d) >= phi(c)
+                     * + g.d + d^T H d / 2 - B rho^3 / 6, H phi's exact Hessian at c (2 (J^T J + sum_k
+                     * r_k d2S_k), d2S_ij = h_ij N + h_i N_j + h_j N_i), B = 2 (3 L K2 + (|r(c)| + L
+                     * rho) K3) >= the third derivative of phi along any direction; the quadratic's
+                     * least over the disc from H's least eigenvalue */
+                    double h11 = 0.0, h12 = 0.0, h22 = 0.0, lmin, gl = hypot(g0, g1), ql, B;
+                    for (q = 0; q < 3; q++) {
+                        double rq = Sc[q] - p[q];
+                        double s11 = ec.hxx * nc[q] + 2.0 * ec.gx * gnm[q];
+                        double s12 = ec.hxy * nc[q] + ec.gx * gnm[3 + q] + ec.gy * gnm[q];
+                        double s22 = ec.hyy * nc[q] + 2.0 * ec.gy * gnm[3 + q];
+                        h11 += 2.0 * (js[q] * js[q] + rq * s11);
+                        h12 += 2.0 * (js[q] * js[3 + q] + rq * s12);
+                        h22 += 2.0 * (js[3 + q] * js[3 + q] + rq * s22);
+                    }
+                    lmin = 0.5 * (h11 + h22) - hypot(0.5 * (h11 - h22), h12);
+                    if (lmin > 0.0 && gl <= lmin * rho)
+                        ql = -0.5 * gl * gl / lmin;
+                    else
+                        ql = -gl * rho + 0.5 * lmin * rho * rho;
+                    B = 2.0 * (3.0 * L * K2 + (sqrt(phic) + L * rho) * K3);
+                    gtie = sqrt(phi) - tie; /* (phi may have just fallen to phic) */
+                    if (phic + ql - B * rho * rho * rho / 6.0 >= gtie * gtie)
+                        continue; /* likewise, by the second-order bound */
+                }
                 if (rho <= leaf || sp + 4 > HX_MESH_STACK) {
-                    double w[2], Sw[3], pw;
+                    double w[2], Sw[3], pw = HUGE_VAL;
                     long h2 = t;
                     w[0] = cu[0], w[1] = cu[1];
-                    if (descend(m, p, rho, w, Sw, &pw, &h2, &work) && pw < phi) {
+                    if (descend(m, p, rho, w, Sw, &pw, &h2, &work))
+                        mesh_newton(m, p, h2, rho, w, &pw, &work);
+                    if (pw < phi) {
                         phi = pw;
                         ubest[0] = w[0], ubest[1] = w[1];
                         best_tri = h2;
