@@ -70,7 +70,8 @@ the closest point of S(u) = sum_k lam_k(u) (v_k + h(u) N_k) on the triangle whos
 holds u: Gauss-Newton through the UV map from the foot and the last closest point, then every
 prism the hierarchy's boxes (inflated by max |h|) leave within reach, each by a branch and bound
 over its UV triangle cut in four (a cell pruned by the distance to its flat triangle less max
-|h|, then by the second-order bound from the triangle's own constants), leaves polished; never
+|h|, then by the second-order bound from the triangle's own constants, then by the Taylor bound
+about the cell's centre with its exact Hessian), leaves polished by Gauss-Newton and Newton; never
 farther than a dense grid of S (tested). A faceted mesh's textured surface is not a patch over u
 (its wedges at the edges and corners): D and E are refused there.
 
