@@ -971,34 +971,87 @@ static int cell_pruned(double phic, double g0, double g1, double rho, double lc,
     return gtie <= 0.0 || phic - hypot(g0, g1) * rho - 0.5 * H * rho * rho >= gtie * gtie;
 }
 
-/* Newton on phi = |S(u) - p|^2 from u (an analytic base, whose Hessian of phi is exact here:
- * analytic_second), *phi its value there: at most 8 steps, each at most lmax and halved (up to 4
- * times) until phi decreases; it stops where the Hessian is not positive definite or the step
- * vanishes. Gauss-Newton alone (descend) converges slowly where the distance is flat around its
- * minimum (towards a centre of curvature: J^T J over-estimates the Hessian there). */
-static void newton(const hx_model *m, const double p[3], double lmax, double u[2], double *phi, long *work)
+/* phi = |S(u) - p|^2's gradient g = 2 J^T r and Hessian h = 2 (J^T J + sum_k r_k d2S_k) (h11, h12,
+ * h22) at u, from S, J (js) and S's second derivatives (s2) there; r = S - p. */
+static void phi_derivatives(const double S[3], const double js[6], const double s2[9], const double p[3],
+                            double g[2], double h[3])
 {
-    double S[3], js[6];
-    hx_height t;
+    int i;
+    g[0] = g[1] = h[0] = h[1] = h[2] = 0.0;
+    for (i = 0; i < 3; i++) {
+        double r = S[i] - p[i];
+        g[0] += 2.0 * js[i] * r;
+        g[1] += 2.0 * js[3 + i] * r;
+        h[0] += 2.0 * (js[i] * js[i] + r * s2[i]);
+        h[1] += 2.0 * (js[i] * js[3 + i] + r * s2[3 + i]);
+        h[2] += 2.0 * (js[3 + i] * js[3 + i] + r * s2[6 + i]);
+    }
+}
+
+/* S(u), dS/du and S's second derivatives (s2: d2S/du1^2, d2S/du1 du2, d2S/du2^2) on a smooth
+ * piece of the object: on an analytic base (t unused), or on triangle t of a prism mesh, u
+ * inside its UV triangle; 0 where not (newton's steps stop there). */
+typedef int (*piece_fn)(const hx_model *m, long t, const double u[2], double S[3], double js[6], double s2[9],
+                        long *work);
+
+static int analytic_piece(const hx_model *m, long t, const double u[2], double S[3], double js[6], double s2[9],
+                          long *work)
+{
+    hx_height e;
+    (void)t;
+    if (!analytic_surface_h(m->base, &m->tex, u, S, js, work, &e))
+        return 0;
+    analytic_second(m->base, u, &e, s2);
+    return 1;
+}
+
+/* On a prism, S = V(u) + h(u) N(u) with V and N affine: d2S_ij = h_ij N + h_i N_j + h_j N_i, N_j
+ * = G_N's column j = sum_k N_k d lam_k / du_j. */
+static int prism_piece(const hx_model *m, long t, const double u[2], double S[3], double js[6], double s2[9],
+                       long *work)
+{
+    const hx_base *b = m->base;
+    const double *fc = b->face + HX_FACE * t;
+    double lam[3], dlam[6], nn[3], gn[6];
+    hx_height e;
+    int i, j, k;
+    if (!uv_barycentric(b, t, u, lam, dlam) || lam[0] < -1e-12 || lam[1] < -1e-12 || lam[2] < -1e-12 ||
+        !mesh_patch_h(b, &m->tex, t, u, S, js, work, &e, nn))
+        return 0;
+    for (j = 0; j < 2; j++)
+        for (i = 0; i < 3; i++) {
+            gn[3 * j + i] = 0.0;
+            for (k = 0; k < 3; k++)
+                gn[3 * j + i] += dlam[2 * k + j] * (b->prism ? fc[HX_FACE_VN + 3 * k + i] : 0.0);
+        }
+    for (i = 0; i < 3; i++) {
+        s2[i] = e.hxx * nn[i] + 2.0 * e.gx * gn[i];
+        s2[3 + i] = e.hxy * nn[i] + e.gx * gn[3 + i] + e.gy * gn[i];
+        s2[6 + i] = e.hyy * nn[i] + 2.0 * e.gy * gn[3 + i];
+    }
+    return 1;
+}
+
+/* Newton on phi = |S(u) - p|^2 from u on one smooth piece (piece: exact second derivatives
+ * there), *phi its value at u: at most 8 steps, each at most lmax and halved (up to 4 times)
+ * until phi decreases; it stops where the Hessian is not positive definite, the step vanishes
+ * or leaves the piece. Gauss-Newton alone (descend) converges slowly where the distance is flat
+ * around its minimum (towards a centre of curvature: J^T J over-estimates the Hessian there). */
+static void newton(const hx_model *m, const double p[3], piece_fn piece, long t, double lmax, double u[2],
+                   double *phi, long *work)
+{
+    double S[3], js[6], s2[9];
     int it, k, i;
-    if (!analytic_surface_h(m->base, &m->tex, u, S, js, work, &t))
+    if (!piece(m, t, u, S, js, s2, work))
         return;
     for (it = 0; it < 8; it++) {
-        double s2[9], r, g0 = 0.0, g1 = 0.0, h11 = 0.0, h12 = 0.0, h22 = 0.0, det, st[2], nrm;
-        analytic_second(m->base, u, &t, s2);
-        for (i = 0; i < 3; i++) {
-            r = S[i] - p[i];
-            g0 += js[i] * r;
-            g1 += js[3 + i] * r;
-            h11 += js[i] * js[i] + r * s2[i];
-            h12 += js[i] * js[3 + i] + r * s2[3 + i];
-            h22 += js[3 + i] * js[3 + i] + r * s2[6 + i];
-        }
-        det = h11 * h22 - h12 * h12;
-        if (!(h11 > 0.0 && det > 0.0))
+        double g[2], h[3], det, st[2], nrm;
+        phi_derivatives(S, js, s2, p, g, h);
+        det = h[0] * h[2] - h[1] * h[1];
+        if (!(h[0] > 0.0 && det > 0.0))
             return;
-        st[0] = -(h22 * g0 - h12 * g1) / det;
-        st[1] = -(h11 * g1 - h12 * g0) / det;
+        st[0] = -(h[2] * g[0] - h[1] * g[1]) / det;
+        st[1] = -(h[0] * g[1] - h[1] * g[0]) / det;
         nrm = hypot(st[0], st[1]);
         if (!(isfinite(nrm) && nrm > 1e-16 * (fabs(u[0]) + fabs(u[1]) + 1e-300)))
             return;
@@ -1007,10 +1060,9 @@ static void newton(const hx_model *m, const double p[3], double lmax, double u[2
             st[1] *= lmax / nrm;
         }
         for (k = 0; k < 4; k++) {
-            double w[2], Sw[3], jw[6], pw;
-            hx_height tw;
+            double w[2], Sw[3], jw[6], s2w[9], pw;
             w[0] = u[0] + st[0], w[1] = u[1] + st[1];
-            if (!analytic_surface_h(m->base, &m->tex, w, Sw, jw, work, &tw))
+            if (!piece(m, t, w, Sw, jw, s2w, work))
                 return;
             pw = sq_dist(Sw, p);
             if (pw < *phi) {
@@ -1020,7 +1072,8 @@ static void newton(const hx_model *m, const double p[3], double lmax, double u[2
                     S[i] = Sw[i];
                 for (i = 0; i < 6; i++)
                     js[i] = jw[i];
-                t = tw;
+                for (i = 0; i < 9; i++)
+                    s2[i] = s2w[i];
                 break;
             }
             st[0] *= 0.5;
@@ -1041,7 +1094,7 @@ static void polish(const hx_model *m, const double p[3], double lmax, const doub
     v[0] = start[0], v[1] = start[1];
     if (!descend(m, p, lmax, v, Sv, &pv, &hint, work))
         return;
-    newton(m, p, lmax, v, &pv, work);
+    newton(m, p, analytic_piece, 0, lmax, v, &pv, work);
     if (pv < *phi || (ties && pv == *phi)) {
         *phi = pv;
         ubest[0] = v[0], ubest[1] = v[1];
@@ -1120,18 +1173,13 @@ static hx_closest object_closest(const hx_model *m, const double p[3], const dou
         }
     while (top > 0) {
         obj_cell c = stack[--top];
-        double Sc[3], js[6], g0 = 0.0, g1 = 0.0, r[3], rho, phic;
-        hx_height tc;
+        double Sc[3], js[6], s2[9], g[2], h[3], rho, phic;
         if (++visited > HX_OBJ_CELLS || (budget > 0.0 && (double)work > budget)) {
             out.cut = 1; /* the best point found, not certified */
             break;
         }
-        analytic_surface_h(b, &m->tex, c.c, Sc, js, &work, &tc);
-        for (i = 0; i < 3; i++) {
-            r[i] = Sc[i] - p[i];
-            g0 += 2.0 * js[i] * r[i];
-            g1 += 2.0 * js[3 + i] * r[i];
-        }
+        analytic_piece(m, 0, c.c, Sc, js, s2, &work);
+        phi_derivatives(Sc, js, s2, p, g, h);
         phic = sq_dist(Sc, p);
         if (phic < phi) {
             phi = phic;
@@ -1147,7 +1195,7 @@ static hx_closest object_closest(const hx_model *m, const double p[3], const dou
             lc = sqrt(jf) + 2.0 * K2 * rho;
             if (lc > L)
                 lc = L;
-            if (cell_pruned(phic, g0, g1, rho, lc, K2, phi, tie))
+            if (cell_pruned(phic, g[0], g[1], rho, lc, K2, phi, tie))
                 continue; /* nothing in it nearer than the best, to the tie tolerance */
             if (K3 > 0.0 && phi > tie * tie) {
                 /* the second-order bound: phi(c + d) >= phi(c) + g.d + d^T H d / 2 - B |d|^3 / 6
@@ -1155,15 +1203,8 @@ static hx_closest object_closest(const hx_model *m, const double p[3], const dou
                  * third derivative of phi along any unit direction over the cell, 2 (3 S1.S2 +
                  * r.S3) (S1, S2, S3 S's along it): B = 2 (3 lc K2 + (|r(c)| + lc rho) K3); the
                  * quadratic's least over the cell's box */
-                double s2[9], h11 = 0.0, h12 = 0.0, h22 = 0.0, B, gt = sqrt(phi) - tie;
-                analytic_second(b, c.c, &tc, s2);
-                for (i = 0; i < 3; i++) {
-                    h11 += js[i] * js[i] + r[i] * s2[i];
-                    h12 += js[i] * js[3 + i] + r[i] * s2[3 + i];
-                    h22 += js[3 + i] * js[3 + i] + r[i] * s2[6 + i];
-                }
-                B = 2.0 * (3.0 * lc * K2 + (sqrt(phic) + lc * rho) * K3);
-                if (phic + box_quadratic_min(g0, g1, 2.0 * h11, 2.0 * h12, 2.0 * h22, c.half[0], c.half[1]) -
+                double B = 2.0 * (3.0 * lc * K2 + (sqrt(phic) + lc * rho) * K3), gt = sqrt(phi) - tie;
+                if (phic + box_quadratic_min(g[0], g[1], h[0], h[1], h[2], c.half[0], c.half[1]) -
                         B * rho * rho * rho / 6.0 >=
                     gt * gt)
                     continue; /* likewise, by the second-order bound */
@@ -1192,76 +1233,6 @@ static hx_closest object_closest(const hx_model *m, const double p[3], const dou
     return out;
 }
 
-/* Newton on phi = |S(u) - p|^2 from u within triangle t of a prism mesh (as newton: at most 8
- * steps, each at most lmax, halved until phi decreases), S's second derivatives exact there
- * (h_ij N + h_i N_j + h_j N_i); a step that leaves the triangle's UV domain ends it. */
-static void mesh_newton(const hx_model *m, const double p[3], long t, double lmax, double u[2], double *phi,
-                        long *work)
-{
-    const hx_base *b = m->base;
-    const double *fc = b->face + HX_FACE * t;
-    double S[3], js[6], nn[3], lam[3], dlam[6], gnm[6];
-    hx_height e;
-    int it, k, i, j;
-    if (!uv_barycentric(b, t, u, lam, dlam))
-        return;
-    for (j = 0; j < 2; j++) /* G_N = dN/du: the corners' normals moved by the barycentric gradients */
-        for (i = 0; i < 3; i++) {
-            gnm[3 * j + i] = 0.0;
-            for (k = 0; k < 3; k++)
-                gnm[3 * j + i] += dlam[2 * k + j] * (b->prism ? fc[HX_FACE_VN + 3 * k + i] : 0.0);
-        }
-    if (!mesh_patch_h(b, &m->tex, t, u, S, js, work, &e, nn))
-        return;
-    for (it = 0; it < 8; it++) {
-        double g0 = 0.0, g1 = 0.0, h11 = 0.0, h12 = 0.0, h22 = 0.0, det, st[2], nrm;
-        for (i = 0; i < 3; i++) {
-            double r = S[i] - p[i];
-            g0 += js[i] * r;
-            g1 += js[3 + i] * r;
-            h11 += js[i] * js[i] + r * (e.hxx * nn[i] + 2.0 * e.gx * gnm[i]);
-            h12 += js[i] * js[3 + i] + r * (e.hxy * nn[i] + e.gx * gnm[3 + i] + e.gy * gnm[i]);
-            h22 += js[3 + i] * js[3 + i] + r * (e.hyy * nn[i] + 2.0 * e.gy * gnm[3 + i]);
-        }
-        det = h11 * h22 - h12 * h12;
-        if (!(h11 > 0.0 && det > 0.0))
-            return;
-        st[0] = -(h22 * g0 - h12 * g1) / det;
-        st[1] = -(h11 * g1 - h12 * g0) / det;
-        nrm = hypot(st[0], st[1]);
-        if (!(isfinite(nrm) && nrm > 1e-16 * (fabs(u[0]) + fabs(u[1]) + 1e-300)))
-            return;
-        if (nrm > lmax) {
-            st[0] *= lmax / nrm;
-            st[1] *= lmax / nrm;
-        }
-        for (k = 0; k < 4; k++) {
-            double w[2], Sw[3], jw[6], nw[3], pw;
-            hx_height ew;
-            w[0] = u[0] + st[0], w[1] = u[1] + st[1];
-            if (!uv_barycentric(b, t, w, lam, dlam) || lam[0] < -1e-12 || lam[1] < -1e-12 || lam[2] < -1e-12)
-                return; /* (out of the triangle: its neighbour's patch holds that u) */
-            if (!mesh_patch_h(b, &m->tex, t, w, Sw, jw, work, &ew, nw))
-                return;
-            pw = sq_dist(Sw, p);
-            if (pw < *phi) {
-                u[0] = w[0], u[1] = w[1];
-                *phi = pw;
-                for (i = 0; i < 3; i++)
-                    S[i] = Sw[i], nn[i] = nw[i];
-                for (i = 0; i < 6; i++)
-                    js[i] = jw[i];
-                e = ew;
-                break;
-            }
-            st[0] *= 0.5;
-            st[1] *= 0.5;
-        }
-        if (k == 4)
-            return;
-    }
-}
-
 /* Sub-triangles of one triangle's UV domain the textured mesh's search may hold at once. */
 #define HX_MESH_STACK 256
 
@@ -1282,7 +1253,7 @@ typedef struct {
  * tie tolerance, or when the second-order bound over the cell's disc does (phi's exact Hessian at
  * c, the third derivatives bounded by the texture's jerk and curvature bounds: as on the analytic
  * bases); cells smaller than the leaf are polished by Gauss-Newton and Newton in the triangle
- * the descent ends on (mesh_newton). Work: the evaluations,
+ * the descent ends on (newton over prism_piece). Work: the evaluations,
  * at most HX_OBJ_CELLS cells and the budget (cut past either: the best point found). Returns the
  * point's coordinates (ubest), its triangle (*tri), its distance and the work. */
 static hx_closest mesh_closest_textured(const hx_model *m, const double p[3], const double up[2],
@@ -1332,7 +1303,7 @@ static hx_closest mesh_closest_textured(const hx_model *m, const double p[3], co
         for (i = -1 - l; i < -1 - l + r && !out.cut; i++) {
             long t = b->order[i];
             const double *fc = b->face + HX_FACE * t, *v = b->tri + 9 * t;
-            double bb[3], foot[3], lam[3], dlam[6], L = 0.0, gn = 0.0, K2, K3, flat, gnm[6];
+            double bb[3], foot[3], lam[3], dlam[6], L = 0.0, gn = 0.0, K2, K3, flat;
             int sp = 0, k, j, q;
             uv_cell cells[HX_MESH_STACK];
             closest_on_triangle(v, p, bb);
@@ -1354,7 +1325,6 @@ static hx_closest mesh_closest_textured(const hx_model *m, const double p[3], co
                     }
                     L += ev * ev;
                     gn += nv * nv;
-                    gnm[3 * j + q] = nv;
                 }
             gn = sqrt(gn);
             L = sqrt(L) + delta * gn + M;
@@ -1368,8 +1338,7 @@ static hx_closest mesh_closest_textured(const hx_model *m, const double p[3], co
             sp = 1;
             while (sp > 0) {
                 uv_cell c = cells[--sp];
-                double cu[2], Sc[3], js[6], g0 = 0.0, g1 = 0.0, rho = 0.0, phic, gtie, nc[3];
-                hx_height ec;
+                double cu[2], Sc[3], js[6], s2[9], g[2], h[3], rho = 0.0, phic, gtie;
                 if (++visited > HX_OBJ_CELLS || (budget > 0.0 && (double)work > budget)) {
                     out.cut = 1;
                     break;
@@ -1392,19 +1361,16 @@ static hx_closest mesh_closest_textured(const hx_model *m, const double p[3], co
                     if (gtie <= 0.0 || (fd > 0.0 && fd * fd >= gtie * gtie))
                         continue;
                 }
-                if (!mesh_patch_h(b, &m->tex, t, cu, Sc, js, &work, &ec, nc))
+                if (!prism_piece(m, t, cu, Sc, js, s2, &work))
                     break;
-                for (q = 0; q < 3; q++) {
-                    g0 += 2.0 * js[q] * (Sc[q] - p[q]);
-                    g1 += 2.0 * js[3 + q] * (Sc[q] - p[q]);
-                }
+                phi_derivatives(Sc, js, s2, p, g, h);
                 phic = sq_dist(Sc, p);
                 if (phic < phi) {
                     phi = phic;
                     ubest[0] = cu[0], ubest[1] = cu[1];
                     best_tri = t;
                 }
-                if (cell_pruned(phic, g0, g1, rho, L, K2, phi, tie))
+                if (cell_pruned(phic, g[0], g[1], rho, L, K2, phi, tie))
                     continue; /* nothing in it nearer than the best, to the tie tolerance */
                 if (K3 > 0.0) {
                     /* the second-order bound over the cell's disc of radius rho: phi(c + d) >= phi(c)
@@ -1412,17 +1378,8 @@ static hx_closest mesh_closest_textured(const hx_model *m, const double p[3], co
                      * r_k d2S_k), d2S_ij = h_ij N + h_i N_j + h_j N_i), B = 2 (3 L K2 + (|r(c)| + L
                      * rho) K3) >= the third derivative of phi along any direction; the quadratic's
                      * least over the disc from H's least eigenvalue */
-                    double h11 = 0.0, h12 = 0.0, h22 = 0.0, lmin, gl = hypot(g0, g1), ql, B;
-                    for (q = 0; q < 3; q++) {
-                        double rq = Sc[q] - p[q];
-                        double s11 = ec.hxx * nc[q] + 2.0 * ec.gx * gnm[q];
-                        double s12 = ec.hxy * nc[q] + ec.gx * gnm[3 + q] + ec.gy * gnm[q];
-                        double s22 = ec.hyy * nc[q] + 2.0 * ec.gy * gnm[3 + q];
-                        h11 += 2.0 * (js[q] * js[q] + rq * s11);
-                        h12 += 2.0 * (js[q] * js[3 + q] + rq * s12);
-                        h22 += 2.0 * (js[3 + q] * js[3 + q] + rq * s22);
-                    }
-                    lmin = 0.5 * (h11 + h22) - hypot(0.5 * (h11 - h22), h12);
+                    double lmin = 0.5 * (h[0] + h[2]) - hypot(0.5 * (h[0] - h[2]), h[1]), gl = hypot(g[0], g[1]);
+                    double ql, B;
                     if (lmin > 0.0 && gl <= lmin * rho)
                         ql = -0.5 * gl * gl / lmin;
                     else
@@ -1437,7 +1394,7 @@ static hx_closest mesh_closest_textured(const hx_model *m, const double p[3], co
                     long h2 = t;
                     w[0] = cu[0], w[1] = cu[1];
                     if (descend(m, p, rho, w, Sw, &pw, &h2, &work))
-                        mesh_newton(m, p, h2, rho, w, &pw, &work);
+                        newton(m, p, prism_piece, h2, rho, w, &pw, &work);
                     if (pw < phi) {
                         phi = pw;
                         ubest[0] = w[0], ubest[1] = w[1];
