@@ -47,20 +47,21 @@ order), its force J_u^T f_u; it has memory: its force and Jacobian are given at 
 phase (stick, slip; eq. 23 and 26 through the surface coordinates), its loop work with the state
 stepped by the C tick (:meth:`ObjectAlgorithm.path_work`), and the region analyses take every
 letter (:data:`OBJECT_LETTERS`).
-D and E on a plane, cylinder or sphere take the closest point of the textured object S(u) =
-P(u, h(u)): Gauss-Newton from the probe's foot and the last closest point, then a branch and
-bound over the surface coordinates that can hold a nearer point (a band the base's geometry
-bounds), cells pruned by a second-order lower bound of |S(u) - p|^2 (the texture's rigorous
-slope and curvature bounds, the base's radius) or by its Taylor bound about the cell's centre
-(the exact gradient and Hessian there, the third derivatives bounded through the texture's jerk
-bound), cells of the plane search's leaf size polished by Gauss-Newton and Newton; never farther
-than an exhaustive grid (tested), equal in distance to the plane's certified search on Plane(). :meth:`ObjectAlgorithm.force` runs the same C search. Their
-Jacobians come from the closest-point projection's derivative T (I + r K)^-1 T^T at the closest
-point c (r the distance, T a basis of the tangent plane, K = T^T hess pen T / |grad pen| the
-shape operator of the level set pen = 0, which holds the base's curvature with the texture's):
-D's kappa_0 (dc/dp - I), symmetric (D is -grad kappa_0 r^2 / 2 on any base, eq. 16), unbounded
-towards a centre of curvature (:meth:`ObjectAlgorithm.focal_points`); E's kappa_0 (n (p - c)^T / r
-+ r hess e). On Plane() both are the plane's exactly (tested).
+D and E on a plane, cylinder or sphere take the closest point of the textured object S(u) = P(u,
+h(u)): Gauss-Newton from the probe's foot and the last closest point, then a branch and bound
+over the surface coordinates that can hold a nearer point (a band the base's geometry bounds),
+cells pruned by a second-order lower bound of |S(u) - p|^2 (the texture's rigorous slope and
+curvature bounds, the base's radius) or by its Taylor bound about the cell's centre (the exact
+gradient and Hessian there, the third derivatives bounded through the texture's jerk bound),
+cells of the plane search's leaf size polished by Gauss-Newton and Newton; never farther than an
+exhaustive grid (tested), equal in distance to the plane's certified search on Plane().
+:meth:`ObjectAlgorithm.force` runs the same C search. Their Jacobians come from the
+closest-point projection's derivative T (I + r K)^-1 T^T at the closest point c (r the distance,
+T a basis of the tangent plane, K = T^T hess pen T / |grad pen| the shape operator of the level
+set pen = 0, which holds the base's curvature with the texture's): D's kappa_0 (dc/dp - I),
+symmetric (D is -grad kappa_0 r^2 / 2 on any base, eq. 16), unbounded towards a centre of
+curvature (:meth:`ObjectAlgorithm.focal_points`); E's kappa_0 (n (p - c)^T / r + r hess e). On
+Plane() both are the plane's exactly (tested).
 
 The reference models of CHAI3D (on meshes) and HAPI (on the plane and on these bases) are
 :mod:`haptex.reference`.

@@ -558,7 +558,8 @@ static int object_f(const hx_model *m, hx_state *s, const double u[2], const dou
 
 /* S(u) = the point at surface coordinates u and offset e = h(u) on an analytic base, and its
  * Jacobian dS/du (3 x 2, column j in js[j * 3 .. j * 3 + 2]) from the base's closed forms:
- * dS/du_j = dP/du_j + n dh/du_j. 0 on a mesh (no closed form: not in the core). */
+ * dS/du_j = dP/du_j + n dh/du_j; the texture's values there in *tout when given. 0 on a mesh (no
+ * closed form: not in the core). */
 static int analytic_surface_h(const hx_base *b, const hx_texture *tex, const double u[2], double S[3], double js[6],
                               long *work, hx_height *tout)
 {
@@ -679,7 +680,8 @@ static int uv_locate(const hx_base *b, const double u[2], long *t, double lam[3]
 
 /* S(u) and dS/du on triangle t of a mesh (its affine extension in u): the point at offset h(u)
  * along the triangle's normal, or on the prism base along the corners' normals interpolated,
- * sum_k lam_k (v_k + h N_k) (haptex.objects.Mesh.point). 0 for a degenerate UV triangle. */
+ * sum_k lam_k (v_k + h N_k) (haptex.objects.Mesh.point); the texture's values and the normal
+ * interpolated there in *eo and no when given. 0 for a degenerate UV triangle. */
 static int mesh_patch_h(const hx_base *b, const hx_texture *tex, long t, const double u[2], double S[3], double js[6],
                         long *work, hx_height *eo, double no[3])
 {
