@@ -87,7 +87,7 @@ def run_cli(*args, timeout=300):
     return subprocess.run([sys.executable, "-m", "haptex", *args], capture_output=True, text=True, timeout=timeout)
 
 
-def run_main(*args, timeout=None):
+def run_main(*args):
     """haptex's entry point (haptex.cli.main, what the console script calls) in this process,
     its output captured: as run_cli without a new interpreter (0.9 s a call), for the many
     bad-input cases. An exception that escapes main fails the test, as a traceback would
