@@ -7,8 +7,20 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, settings
 from hypothesis import strategies as st
+from threadpoolctl import threadpool_limits
 
 import haptex as hx
+
+# BLAS on one thread in the tests: pytest-xdist runs one worker per core, and each worker's
+# OpenBLAS (numpy's and scipy's) otherwise starts a thread per core that spins after each call,
+# taking the other worker's core (measured: test_core.py and test_surfaces.py on two workers,
+# 91 s with BLAS's default threads, 69 s with one). Set before the workers and the CLI's
+# subprocesses start, which inherit it; the libraries already loaded (numpy, by pytest's
+# plugins) are held by threadpoolctl. The tests assert results, never BLAS's speed.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+threadpool_limits(1)
 
 settings.register_profile(
     "haptex",
@@ -94,3 +106,9 @@ def server_log(proc, chars: int = 3000) -> str:
         return Path(proc.log_path).read_text(errors="replace")[-chars:]
     except OSError as exc:
         return f"(no log: {exc})"
+
+
+@pytest.fixture(scope="session")
+def objdir(tmp_path_factory):
+    """Where tests/cbuild.py compiles the C core's objects, once per flag set in a process."""
+    return tmp_path_factory.mktemp("core-objects")

@@ -20,6 +20,7 @@ import haptex as hx
 from haptex import core
 from haptex.core import _ext
 
+from .cbuild import GROUP
 from .conftest import K0
 
 N = 100_000
@@ -189,31 +190,28 @@ def test_core_sources_compile_strictly(tmp_path):
         assert r.returncode == 0, r.stderr
 
 
-def _asan_fuzz(tmp_path, scale: int):
-    """Builds tests/c/core_fuzz.c under -fsanitize=address,undefined and runs it at ``scale``
+def _asan_fuzz(tmp_path, objdir, scale: int):
+    """Builds tests/c/core_fuzz.c under -fsanitize=address,undefined (tests/cbuild.py's flags,
+    with the core's objects the exported ticks' sanitizer fuzz links) and runs it at ``scale``
     times its default counts: its stdout (skips where gcc cannot build with the sanitizers)."""
-    probe = tmp_path / "probe.c"
-    probe.write_text("int main(void) { return 0; }\n")
-    ok = subprocess.run(["gcc", "-fsanitize=address,undefined", "-o", str(tmp_path / "probe"), str(probe)],
-                        capture_output=True).returncode == 0
-    if not ok or subprocess.run([str(tmp_path / "probe")], capture_output=True).returncode != 0:
-        pytest.skip("this gcc cannot build with -fsanitize=address,undefined")
+    from .cbuild import CC, SANITIZE, STRICT, core_objects, sanitizers_work
+
+    if CC is None or not sanitizers_work(tmp_path):
+        pytest.skip("this compiler cannot build with -fsanitize=address,undefined")
     driver = Path(__file__).parent / "c" / "core_fuzz.c"
     exe = tmp_path / "core_fuzz"
     # every source the driver calls into: the simulator's loops (hx_sim.c), which it does not
-    # drive, are left out (instrumented, they took 17 of the build's 41 s at -O1); without -g
-    # (it took 5 of the 16 s left; a report still names the function: add -g by hand for lines)
-    sources = [str(src) for src in sorted(core.SOURCE_DIR.glob("hx_*.c")) if src.name != "hx_sim.c"]
-    subprocess.run(["gcc", "-std=c99", "-O1", "-fsanitize=address,undefined", "-fno-sanitize-recover=all",
-                    "-I", str(core.SOURCE_DIR), "-o", str(exe), str(driver), *sources, "-lm"], check=True,
-                   capture_output=True)
+    # drive, are left out (instrumented, they took 17 of the build's 41 s at -O1)
+    objs = core_objects(objdir, STRICT + SANITIZE)
+    subprocess.run([CC, *STRICT, *SANITIZE, "-I", str(core.SOURCE_DIR), "-o", str(exe), str(driver), *objs, "-lm"],
+                   check=True, capture_output=True)
     r = subprocess.run([str(exe), str(scale)], capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stdout + r.stderr
     return r.stdout
 
 
-@pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc (apt-get install gcc)")
-def test_core_is_clean_under_asan_and_ubsan(tmp_path):
+@pytest.mark.xdist_group(GROUP)  # (the exported ticks' sanitizer fuzz builds the same objects)
+def test_core_is_clean_under_asan_and_ubsan(tmp_path, objdir):
     """tests/c/core_fuzz.c under -fsanitize=address,undefined: coefficient arrays allocated to
     their exact size (a read one past is reported), headers that claim more cells than the
     array holds refused by hx_texture_check, 4.3 x 10^5 fields at adversarial positions (0,
@@ -222,15 +220,14 @@ def test_core_is_clean_under_asan_and_ubsan(tmp_path):
     mesh): forces finite and <= max force, faults counted. The driver was checked to fail when
     the cell index is not clamped (a heap-buffer-overflow report). 1.1 x 10^6 calls in all;
     test_the_core_fuzz_runs_deep_under_asan_and_ubsan runs five times as many (slow)."""
-    out = _asan_fuzz(tmp_path, 1)
+    out = _asan_fuzz(tmp_path, objdir, 1)
     assert out.startswith("ok ") and int(out.split()[1]) > 1_000_000
 
 
 @pytest.mark.slow
-@pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc (apt-get install gcc)")
-def test_the_core_fuzz_runs_deep_under_asan_and_ubsan(tmp_path):
+def test_the_core_fuzz_runs_deep_under_asan_and_ubsan(tmp_path, objdir):
     """The same driver at five times its counts (5.6 x 10^6 calls)."""
-    out = _asan_fuzz(tmp_path, 5)
+    out = _asan_fuzz(tmp_path, objdir, 5)
     assert out.startswith("ok ") and int(out.split()[1]) > 5_000_000
 
 

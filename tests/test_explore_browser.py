@@ -24,7 +24,7 @@ from haptex.explore import model
 
 from .conftest import explorer_process
 
-pytestmark = pytest.mark.browser
+pytestmark = [pytest.mark.browser, pytest.mark.xdist_group("explorer-browser")]  # (one server, one Chromium)
 
 K0, A, L = 2000.0, 0.8e-3, 1e-3
 CHROMIUM = os.environ.get("HAPTEX_CHROMIUM") or shutil.which("chromium") or shutil.which("chromium-browser")

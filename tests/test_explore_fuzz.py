@@ -19,6 +19,8 @@ from hypothesis import strategies as st
 
 from .conftest import explorer_process, server_log
 
+pytestmark = pytest.mark.xdist_group("explorer-fuzz")  # (one server for the module)
+
 
 @pytest.fixture(scope="module")
 def server():

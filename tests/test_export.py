@@ -5,9 +5,7 @@ against the library's NumPy fields (the oracle, 10^5 points) and, being the same
 the compiled Renderer bit for bit."""
 
 import ctypes
-import functools
 import math
-import shutil
 import subprocess
 
 import numpy as np
@@ -17,38 +15,19 @@ import haptex as hx
 from haptex import core
 from haptex.export import TICK_FILES, export_c
 
+from .cbuild import CC, GROUP, SANITIZE, STRICT, core_objects, sanitizers_work
 from .conftest import DEKTAK, K0, A, L
 
-CC = shutil.which("cc") or shutil.which("gcc")
-pytestmark = pytest.mark.skipif(CC is None, reason="no C compiler on this machine")
-STRICT = ["-std=c99", "-Wall", "-Wextra", "-pedantic", "-Werror"]
-
-
-@functools.lru_cache(maxsize=None)
-def _core_objects(tmp_root, flags: tuple) -> tuple:
-    """The core's tick files compiled once per flag set (every export copies them unchanged,
-    which test_the_export_is_the_core checks): object paths."""
-    out = []
-    for name in TICK_FILES:
-        if name.endswith(".c"):
-            obj = tmp_root / f"{name[:-2]}{abs(hash(flags))}.o"
-            subprocess.run([CC, *flags, "-c", "-o", str(obj), str(core.SOURCE_DIR / name)], check=True,
-                           capture_output=True, text=True)
-            out.append(str(obj))
-    return tuple(out)
+pytestmark = [pytest.mark.skipif(CC is None, reason="no C compiler on this machine"), pytest.mark.xdist_group(GROUP)]
+STRICT = list(STRICT)
 
 
 def build(out, target, flags=("-O2", "-fPIC"), extra=(), shared=True, tmp_root=None):
     """Compile an export in ``out`` (its generated source, ``extra`` sources, the core's objects)."""
-    objs = _core_objects(tmp_root or out.parent, tuple(STRICT) + tuple(flags))
+    objs = core_objects(tmp_root or out.parent, tuple(STRICT) + tuple(flags))
     subprocess.run([CC, *STRICT, *flags, *(["-shared"] if shared else []), "-I", str(out), "-o", str(target),
                     str(out / "haptex_texture.c"), *map(str, extra), *objs, "-lm"], check=True, capture_output=True,
                    text=True)
-
-
-@pytest.fixture(scope="session")
-def objdir(tmp_path_factory):
-    return tmp_path_factory.mktemp("core-objects")
 
 
 _LOOP = r"""
@@ -428,14 +407,6 @@ int main(int argc, char **argv)
 """
 
 
-def _sanitizers_work(tmp_path) -> bool:
-    probe = tmp_path / "probe.c"
-    probe.write_text("int main(void) { return 0; }\n")
-    r = subprocess.run([CC, "-fsanitize=address,undefined", "-o", str(tmp_path / "probe"), str(probe)],
-                       capture_output=True)
-    return r.returncode == 0 and subprocess.run([str(tmp_path / "probe")], capture_output=True).returncode == 0
-
-
 @pytest.mark.parametrize("letter, texture", [(L, "sine") for L in "WABCDEFG"] + [(L, "egg") for L in "ABDEF"])
 def test_the_exported_tick_is_clean_under_asan_and_ubsan(tmp_path, objdir, letter, texture):
     """Issue 33's fuzz suite, the exported C: 2e5 adversarial positions (5e4 for D and E over
@@ -443,7 +414,7 @@ def test_the_exported_tick_is_clean_under_asan_and_ubsan(tmp_path, objdir, lette
     exponent, and positions near the texture -- into haptex_step compiled with
     -fsanitize=address,undefined and -fno-sanitize-recover=all: no sanitizer report, every
     force finite and at most max_force (the safety rules README states for the tick)."""
-    if not _sanitizers_work(tmp_path):
+    if not sanitizers_work(tmp_path):
         pytest.skip("this compiler cannot build with -fsanitize=address,undefined")
     tex = hx.Sinusoid(A, L) if texture == "sine" else hx.SumOfGratings.egg_crate(A, L)
     if letter == "W":
@@ -453,9 +424,7 @@ def test_the_exported_tick_is_clean_under_asan_and_ubsan(tmp_path, objdir, lette
     export_c(alg, out, 5.0)
     (tmp_path / "fuzz.c").write_text(_FUZZ_DRIVER)
     exe = tmp_path / "fuzz"
-    # (without -g: the core's objects build in a third less time, and a report still names the function)
-    build(out, exe, flags=("-O1", "-fsanitize=address,undefined", "-fno-sanitize-recover=all",
-                           "-fno-omit-frame-pointer"), extra=[tmp_path / "fuzz.c"], shared=False, tmp_root=objdir)
+    build(out, exe, flags=SANITIZE, extra=[tmp_path / "fuzz.c"], shared=False, tmp_root=objdir)
     n = 50_000 if (letter in "DE" and texture == "egg") else 200_000  # the certified 3-D search: 60 us a tick here
     r = subprocess.run([str(exe), "5.0", str(n)], capture_output=True, text=True, timeout=300)
     assert r.returncode == 0 and "runtime error" not in r.stderr and "AddressSanitizer" not in r.stderr, \

@@ -9,6 +9,8 @@ import sys
 import numpy as np
 import pytest
 
+pytestmark = pytest.mark.xdist_group("report")  # (one `reproduce --quick` for the module, not one per worker)
+
 EXPECTED_CLAIMS = {
     # Section IV (and its remarks) and Table II
     "IV-A.1", "IV-A.2", "IV-A.nc", "IV-B.nc", "IV-E.nc", "IV-G.nc", "IV-B.1", "IV-C.c", "IV-D.c", "IV-C.1",
