@@ -355,6 +355,103 @@ static void grating_range(const sproblem *q, double cx, double cy, double w, dou
     *hi_out = hi;
 }
 
+/* A sum of at most ROT_GRATINGS gratings is searched without a sine or cosine a cell: a cell's
+ * sines and cosines of the gratings' phases at its centre come from its parent's by the
+ * angle-sum formulas (the quadtree's cells are squares, a child's centre its parent's moved by
+ * (+-w, +-w), w the child's half-width, so a phase moves by w (+-k_x +- k_y)), and each
+ * grating's range over the cell from them and the sine and cosine of w (|k_x| + |k_y|). The
+ * search is depth first, so the pending cells of one depth are the children of the last cell
+ * split one depth up: rot_t keeps that cell for each depth, and each depth's steps (their sines
+ * and cosines, computed once a search). A chain of rotations from the root, which is evaluated,
+ * adds a few units of rounding a depth: measured against sin and cos of the phase computed at
+ * each cell's centre, at most 9.4e-14 over the benchmarks' stroke on the paper's egg-crate
+ * (20,000 ticks, 13 depths, phases to 125 rad, where a unit of the phase's own rounding is
+ * 1.4e-14) and 4.6e-14 over 4,000 random probes of each of five sums of gratings; in h, at most
+ * 3.7e-17 m, against a tie tolerance G_TIE of 1e-9 of the shortest wavelength (7e-13 m there).
+ * The distances found there were those of the search that evaluates every cell to 5.2e-18 m
+ * (the points too, but where two are tied within G_TIE: the stroke runs on the diagonal, a
+ * mirror line of the egg-crate, where either of two is the closest). */
+enum { ROT_GRATINGS = 4, ROT_LEVELS = 64 };
+
+typedef struct {
+    int on;
+    double w[ROT_LEVELS];                     /* the depth's half-width; 0: its steps not yet computed */
+    double step[ROT_LEVELS][ROT_GRATINGS][6]; /* cos, sin of w (k_x + k_y), w (k_x - k_y), w (|k_x| + |k_y|) */
+    double sc[ROT_LEVELS][2 * ROT_GRATINGS];  /* the last cell split at the depth: sin, cos at its centre */
+    double cx[ROT_LEVELS], cy[ROT_LEVELS];
+    int split[ROT_LEVELS];                    /* whether a cell was split at the depth */
+} rot_t;
+
+/* the cell at depth L < ROT_LEVELS (half-width w, centre (cx, cy)): h and its derivatives at the
+ * centre in *e and the phases' sines and cosines in sc, from its parent's where it has one (else
+ * evaluated: the root) */
+static void rot_cell(const sproblem *q, rot_t *R, int L, double cx, double cy, double w, hx_height *e, double *sc)
+{
+    const hx_texture *t = q->tex;
+    long i, n = t->cols;
+    e->h = e->gx = e->gy = e->hxx = e->hxy = e->hyy = 0.0;
+    if (R->w[L] != w) {
+        for (i = 0; i < n; i++) {
+            double kx = AT(t, 1, i), ky = AT(t, 2, i), *st = R->step[L][i];
+            st[0] = cos(w * (kx + ky));
+            st[1] = sin(w * (kx + ky));
+            st[2] = cos(w * (kx - ky));
+            st[3] = sin(w * (kx - ky));
+            st[4] = cos(w * (fabs(kx) + fabs(ky)));
+            st[5] = sin(w * (fabs(kx) + fabs(ky)));
+        }
+        R->w[L] = w;
+    }
+    if (L > 0 && R->split[L - 1]) {
+        const double *p = R->sc[L - 1];
+        double sx = cx > R->cx[L - 1] ? 1.0 : -1.0, sy = cy > R->cy[L - 1] ? 1.0 : -1.0;
+        for (i = 0; i < n; i++) {
+            const double *st = R->step[L][i];
+            double c = sx == sy ? st[0] : st[2], s = sx * (sx == sy ? st[1] : st[3]);
+            sc[2 * i] = p[2 * i] * c + p[2 * i + 1] * s;
+            sc[2 * i + 1] = p[2 * i + 1] * c - p[2 * i] * s;
+            hx__grating_add(t, i, sc[2 * i], sc[2 * i + 1], e);
+        }
+        return;
+    }
+    for (i = 0; i < n; i++) {
+        double arg = AT(t, 1, i) * cx + AT(t, 2, i) * cy + AT(t, 3, i);
+        sc[2 * i] = sin(arg);
+        sc[2 * i + 1] = cos(arg);
+        hx__grating_add(t, i, sc[2 * i], sc[2 * i + 1], e);
+    }
+}
+
+/* (min h, max h) over the square cell at depth L from its phases' sines and cosines sc at its
+ * centre: each grating's exact range, summed, as grating_range. A crest lies within delta of
+ * the phase when the distance to it, whose cosine is sin(phase), is at most delta (< pi). */
+static void rot_range(const hx_texture *t, const rot_t *R, int L, const double *sc, double *lo_out, double *hi_out)
+{
+    long i, n = t->cols;
+    double lo = 0.0, hi = 0.0;
+    for (i = 0; i < n; i++) {
+        const double *st = R->step[L][i];
+        double a = AT(t, 0, i), sn = sc[2 * i], cs = sc[2 * i + 1], s0, s1, tlo, thi;
+        if (R->w[L] * (fabs(AT(t, 1, i)) + fabs(AT(t, 2, i))) >= M_PI_VALUE) {
+            lo -= fabs(a);
+            hi += fabs(a);
+            continue;
+        }
+        s0 = sn * st[4] - cs * st[5]; /* sin(phase - delta) */
+        s1 = sn * st[4] + cs * st[5];
+        tlo = fmin(s0, s1);
+        thi = fmax(s0, s1);
+        if (sn >= st[4])
+            thi = 1.0;
+        if (-sn >= st[4])
+            tlo = -1.0;
+        lo += a >= 0.0 ? a * tlo : a * thi;
+        hi += a >= 0.0 ? a * thi : a * tlo;
+    }
+    *lo_out = lo;
+    *hi_out = hi;
+}
+
 /* projected Newton on phi / 2 from (tx, ty), kept in the cell [x0, x1] x [y0, y1] and
  * monotone (a step that raises phi beyond its rounding, with a smaller gradient, is halved
  * from the last point that did not); where the Hessian Q of phi / 2 is not positive definite
@@ -745,7 +842,8 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
     double dv, tx, ty, f, leaf, sep, tie_eps, half, x0, x1, y0, y1, cb, jerk, sb;
     double rb = 0.0, rbx = NAN, rby = NAN, stack[4 * STACK], d;
     long work, ev, leaves = 0, nodes = 0;
-    int guess, start, model, ranged, sp;
+    int guess, start, model, ranged, sp, depth[STACK];
+    rot_t rot;
     q.tex = tex;
     q.g = aux;
     q.px = px;
@@ -802,16 +900,25 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
     model = jerk > 0.0;
     cb = aux[HX_G_CURV_BOUND];
     ranged = tex->kind == HX_SURFACE_PATCHES;
+    rot.on = tex->kind == HX_SURFACE_GRATINGS && tex->cols <= ROT_GRATINGS;
+    if (rot.on) {
+        int l;
+        for (l = 0; l < ROT_LEVELS; l++) {
+            rot.w[l] = 0.0;
+            rot.split[l] = 0;
+        }
+    }
     stack[0] = px;
     stack[1] = py;
     stack[2] = stack[3] = half;
+    depth[0] = 0;
     sp = 1;
     while (sp > 0) {
         double cx, cy, wx, wy, w, r, spread, lo, hi, dxy, reach, lb = 0.0, ux = 0.0, uy = 0.0;
-        double glo = -HUGE_VAL, ghi = HUGE_VAL, beyond = 0.0;
+        double glo = -HUGE_VAL, ghi = HUGE_VAL, beyond = 0.0, sc[2 * ROT_GRATINGS];
         double csb = sb, ccb = cb, cj = jerk, pvb[HX_PY_N];
         const double *pv;
-        int far, leafy, cm, kids, have;
+        int far, leafy, cm, kids, have, L, rotated;
         hx_height e;
         if (aux[HX_G_BUDGET] > 0.0 && (double)work >= aux[HX_G_BUDGET]) { /* the budget is spent: the best so far */
             out.cut = 1;
@@ -822,6 +929,8 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
         cy = stack[4 * sp + 1];
         wx = stack[4 * sp + 2];
         wy = stack[4 * sp + 3];
+        L = depth[sp];
+        rotated = rot.on && L < ROT_LEVELS;
         w = fmax(wx, wy);
         r = wx == wy ? wx * sqrt(2.0) : sqrt(wx * wx + wy * wy); /* the half-diagonal */
         if (model && b.found && (b.btx != rbx || b.bty != rby)) {
@@ -833,6 +942,11 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
         }
         if (rb > 0.0 && b.btx == rbx && b.bty == rby && sqrt((cx - rbx) * (cx - rbx) + (cy - rby) * (cy - rby)) + r <= rb)
             continue;
+        dxy = fmax(0.0, fabs(px - cx) - wx) * fmax(0.0, fabs(px - cx) - wx) +
+              fmax(0.0, fabs(py - cy) - wy) * fmax(0.0, fabs(py - cy) - wy);
+        reach = cell_reach(model, &b, cx, cy, r, sep, tie_eps, &far);
+        if (dxy > reach * reach)
+            continue; /* too far across alone: no evaluation */
         /* the pyramid's bounds: for the model over a periodic map or a cell wholly inside a map
          * with edges; for the height range over any cell */
         have = ranged && pyramid_bounds(&q, cx, cy, wx, wy, pvb); /* (the footprint clamped to the map) */
@@ -840,9 +954,6 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
         cm = model && cell_bounds(&q, cx, cy, wx, wy, pv, have ? pvb : NULL, &csb, &ccb, &cj); /* the model holds on this cell */
         if (model && !cm)
             nodes++; /* (a cell across a map's edge: counted with the model's cells, so bounded) */
-        dxy = fmax(0.0, fabs(px - cx) - wx) * fmax(0.0, fabs(px - cx) - wx) +
-              fmax(0.0, fabs(py - cy) - wy) * fmax(0.0, fabs(py - cy) - wy);
-        reach = cell_reach(model, &b, cx, cy, r, sep, tie_eps, &far);
         if (ranged) { /* the cell's height range first: a cell too far by it costs no evaluation */
             double gap;
             patch_range(&q, cx, cy, wx, wy, have ? pvb : NULL, &glo, &ghi, &beyond);
@@ -850,7 +961,10 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
             if (dxy + gap * gap > reach * reach)
                 continue;
         }
-        surf(&q, cx, cy, &e);
+        if (rotated)
+            rot_cell(&q, &rot, L, cx, cy, w, &e, sc);
+        else
+            surf(&q, cx, cy, &e);
         work++;
         spread = cm ? fmin(csb * r, sqrt(e.gx * e.gx + e.gy * e.gy) * r + 0.5 * ccb * r * r)
                     : fmin(aux[HX_G_SLOPE] * r, sqrt(e.gx * e.gx + e.gy * e.gy) * r + 0.5 * aux[HX_G_CURV] * r * r);
@@ -885,7 +999,10 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
         }
         if (!ranged) {
             double gap;
-            grating_range(&q, cx, cy, w, &glo, &ghi);
+            if (rotated)
+                rot_range(tex, &rot, L, sc, &glo, &ghi);
+            else
+                grating_range(&q, cx, cy, w, &glo, &ghi);
             gap = fmax(0.0, fmax(fmax(lo, glo) - pz, pz - fmin(hi, ghi)));
             if (dxy + gap * gap > reach * reach)
                 continue;
@@ -937,7 +1054,16 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
         }
         kids = model && !cm ? split_at_edges(&q, cx, cy, wx, wy, stack + 4 * sp)
                             : split_cell(cx, cy, wx, wy, px, py, stack + 4 * sp);
-        sp += kids;
+        if (rotated) { /* the parent of the kids, for rot_cell */
+            int i;
+            for (i = 0; i < 2 * ROT_GRATINGS && i < 2 * tex->cols; i++)
+                rot.sc[L][i] = sc[i];
+            rot.cx[L] = cx;
+            rot.cy[L] = cy;
+            rot.split[L] = 1;
+        }
+        for (; kids > 0; kids--)
+            depth[sp++] = L + 1;
     }
     d = sqrt(b.bf);
     out.t = b.btx;

@@ -67,18 +67,24 @@ HX_INLINE void spline_eval(const hx_texture *t, double x, hx_height *o)
 
 /* ---- surfaces ---------------------------------------------------------------------- */
 
+/* grating i's part of h and its derivatives, from the sine and cosine of its phase at the point */
+HX_INLINE void hx__grating_add(const hx_texture *t, long i, double sn, double cs, hx_height *o)
+{
+    double a = AT(t, 0, i), kx = AT(t, 1, i), ky = AT(t, 2, i);
+    o->h += a * sn;
+    o->gx += a * kx * cs;
+    o->gy += a * ky * cs;
+    o->hxx -= a * kx * kx * sn;
+    o->hxy -= a * kx * ky * sn;
+    o->hyy -= a * ky * ky * sn;
+}
+
 HX_INLINE void gratings_eval(const hx_texture *t, double x, double y, hx_height *o)
 {
     long i, n = t->cols;
     for (i = 0; i < n; i++) {
-        double a = AT(t, 0, i), kx = AT(t, 1, i), ky = AT(t, 2, i);
-        double arg = kx * x + ky * y + AT(t, 3, i), sn = sin(arg), cs = cos(arg);
-        o->h += a * sn;
-        o->gx += a * kx * cs;
-        o->gy += a * ky * cs;
-        o->hxx -= a * kx * kx * sn;
-        o->hxy -= a * kx * ky * sn;
-        o->hyy -= a * ky * ky * sn;
+        double arg = AT(t, 1, i) * x + AT(t, 2, i) * y + AT(t, 3, i);
+        hx__grating_add(t, i, sin(arg), cos(arg), o);
     }
 }
 
