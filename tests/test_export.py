@@ -327,7 +327,8 @@ def test_the_export_is_the_core(tmp_path, objdir):
     generated = (tmp_path / "a" / "haptex_texture.c").read_text()
     assert "hx_closest_surface" not in generated and "sin(" not in generated
     p = _stroke3()
-    for letter, kw in (("D", {}), ("E", {"max_evaluations": 300}), ("F", {})):
+    # (E's budget: the stroke's searches take at most 276 evaluations, so 150 ends 44 of them)
+    for letter, kw in (("D", {}), ("E", {"max_evaluations": 150}), ("F", {})):
         alg = hx.algorithm(letter, egg, K0, **({"friction": 0.8, "presliding": 0.3e-3} if letter == "F" else {}))
         d = tmp_path / letter
         c = Compiled(alg, d, objdir, max_force=5.0, **kw)
@@ -337,7 +338,7 @@ def test_the_export_is_the_core(tmp_path, objdir):
             assert f == r.step(q) and c.count("work") == r.last_work, (letter, q)
         assert (c.count("max_work"), c.count("cut"), c.count("clamps")) == (r.max_work, r.cut, r.clamps)
         if letter == "E":
-            assert r.cut > 0  # the budget of 300 evaluations ended some searches, in both
+            assert r.cut > 0  # the budget of 150 evaluations ended some searches, in both
 
 
 def test_a_measured_map_exports(tmp_path, objdir):

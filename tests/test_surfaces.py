@@ -778,8 +778,10 @@ def test_the_surface_search_is_global_on_the_paper_egg_crate(stroke):
     # point for 77 of the 4,000 diagonal probes (measured); the certified search (the default)
     # never does. Along the diagonal (a mirror line of the texture) every closest point has a
     # mirror twin at the same distance, reported as a tie when farther than four leaves (the
-    # documented medial-axis test). Work (measured, evaluations a probe, mean / max): 417 / 797
-    # against the uncertified search's 570 / 1,100 along the diagonal
+    # documented medial-axis test). Work (measured, evaluations a probe, mean / max): 314 / 536
+    # against the uncertified search's 281 / 1,088 along the diagonal, 54 / 281 against 62 / 511
+    # over the random probes: the certificate costs at most an eighth more on average and halves
+    # the worst case
     K = _ext  # the C core's constants
     from haptex.closest import surface_search_data
 
@@ -807,4 +809,4 @@ def test_the_surface_search_is_global_on_the_paper_egg_crate(stroke):
         twin = math.sqrt(2.0) * np.abs(tx - ty)  # from the closest point to its mirror image
         clear = np.abs(twin - 4.0 * gaux[K.G_LEAF]) > 1e-6
         assert np.array_equal(tie[clear] == 1, twin[clear] > 4.0 * gaux[K.G_LEAF]) and 0.4 < tie.mean() < 0.6
-    assert work.mean() < workl.mean() and work.max() <= 1000
+    assert work.mean() < 1.25 * workl.mean() and work.max() < workl.max() and work.max() <= 1000

@@ -366,11 +366,12 @@ static void grating_range(const sproblem *q, double cx, double cy, double w, dou
  * adds a few units of rounding a depth: measured against sin and cos of the phase computed at
  * each cell's centre, at most 9.4e-14 over the benchmarks' stroke on the paper's egg-crate
  * (20,000 ticks, 13 depths, phases to 125 rad, where a unit of the phase's own rounding is
- * 1.4e-14) and 4.6e-14 over 4,000 random probes of each of five sums of gratings; in h, at most
- * 3.7e-17 m, against a tie tolerance G_TIE of 1e-9 of the shortest wavelength (7e-13 m there).
- * The distances found there were those of the search that evaluates every cell to 5.2e-18 m
- * (the points too, but where two are tied within G_TIE: the stroke runs on the diagonal, a
- * mirror line of the egg-crate, where either of two is the closest). */
+ * 1.4e-14) and 4.0e-14 over 4,000 random probes of each of five sums of gratings; in h, at most
+ * 4.0e-17 m, against a tie tolerance G_TIE of 1e-9 of the shortest wavelength (7e-13 m there).
+ * The distances found there were those of the search that evaluated every cell (and started
+ * from the vertical point's square) to 5.2e-18 m; the points too, but where two are tied
+ * within G_TIE (the stroke runs on the diagonal, a mirror line of the egg-crate, where either
+ * of two is the closest). */
 enum { ROT_GRATINGS = 4, ROT_LEVELS = 64 };
 
 typedef struct {
@@ -910,7 +911,9 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
     }
     stack[0] = px;
     stack[1] = py;
-    stack[2] = stack[3] = half;
+    /* the root: the square that holds every point within G_TIE of the best distance found so far
+     * (the vertical point's square above, for Newton's box) */
+    stack[2] = stack[3] = fmin(half, root_half(&q, (sqrt(b.bf) + tie_eps) * (sqrt(b.bf) + tie_eps)) * (1.0 + 1e-9) + 1e-300);
     depth[0] = 0;
     sp = 1;
     while (sp > 0) {
