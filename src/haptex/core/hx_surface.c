@@ -913,7 +913,8 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
     stack[1] = py;
     /* the root: the square that holds every point within G_TIE of the best distance found so far
      * (the vertical point's square above, for Newton's box) */
-    stack[2] = stack[3] = fmin(half, root_half(&q, (sqrt(b.bf) + tie_eps) * (sqrt(b.bf) + tie_eps)) * (1.0 + 1e-9) + 1e-300);
+    d = sqrt(b.bf) + tie_eps;
+    stack[2] = stack[3] = fmin(half, root_half(&q, d * d) * (1.0 + 1e-9) + 1e-300);
     depth[0] = 0;
     sp = 1;
     while (sp > 0) {
