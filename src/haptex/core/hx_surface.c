@@ -325,6 +325,31 @@ static int cell_bounds(const sproblem *q, double cx, double cy, double wx, doubl
     return 1;
 }
 
+/* Add grating a sin(phase)'s exact range over a cell to [*lo, *hi]: the phase at the cell's
+ * centre has sine sn and cosine cs and moves by at most delta over the cell (cd, sd: delta's
+ * cosine and sine). For delta < pi, sin(phase -+ delta) by the angle sums, and a crest within
+ * delta of the phase when the distance to it, whose cosine is sn, is at most delta (a trough
+ * likewise with -sn). */
+static void grating_piece(double a, double sn, double cs, double delta, double cd, double sd, double *lo, double *hi)
+{
+    double s0, s1, tlo, thi;
+    if (delta >= M_PI_VALUE) {
+        *lo -= fabs(a);
+        *hi += fabs(a);
+        return;
+    }
+    s0 = sn * cd - cs * sd;
+    s1 = sn * cd + cs * sd;
+    tlo = fmin(s0, s1);
+    thi = fmax(s0, s1);
+    if (sn >= cd)
+        thi = 1.0;
+    if (-sn >= cd)
+        tlo = -1.0;
+    *lo += a >= 0.0 ? a * tlo : a * thi;
+    *hi += a >= 0.0 ? a * thi : a * tlo;
+}
+
 /* rigorous (min h, max h) over the square cell: each grating's exact range, summed */
 static void grating_range(const sproblem *q, double cx, double cy, double w, double *lo_out, double *hi_out)
 {
@@ -332,24 +357,9 @@ static void grating_range(const sproblem *q, double cx, double cy, double w, dou
     long i, n = t->cols;
     double lo = 0.0, hi = 0.0;
     for (i = 0; i < n; i++) {
-        double a = t->c[i], kx = t->c[n + i], ky = t->c[2 * n + i], arg = kx * cx + ky * cy + t->c[3 * n + i];
-        double delta = w * (fabs(kx) + fabs(ky)), s0, s1, tlo, thi;
-        if (delta >= M_PI_VALUE) {
-            lo -= a;
-            hi += a;
-            continue;
-        }
-        s0 = sin(arg - delta);
-        s1 = sin(arg + delta);
-        tlo = fmin(s0, s1);
-        thi = fmax(s0, s1);
-        /* a crest (pi/2 + 2 pi m) or a trough (-pi/2 + 2 pi m) inside the interval */
-        if (floor((arg + delta - 0.5 * M_PI_VALUE) / (2 * M_PI_VALUE)) > floor((arg - delta - 0.5 * M_PI_VALUE) / (2 * M_PI_VALUE)))
-            thi = 1.0;
-        if (floor((arg + delta + 0.5 * M_PI_VALUE) / (2 * M_PI_VALUE)) > floor((arg - delta + 0.5 * M_PI_VALUE) / (2 * M_PI_VALUE)))
-            tlo = -1.0;
-        lo += a * tlo;
-        hi += a * thi;
+        double kx = t->c[n + i], ky = t->c[2 * n + i], arg = kx * cx + ky * cy + t->c[3 * n + i];
+        double delta = w * (fabs(kx) + fabs(ky));
+        grating_piece(t->c[i], sin(arg), cos(arg), delta, cos(delta), sin(delta), &lo, &hi);
     }
     *lo_out = lo;
     *hi_out = hi;
@@ -424,30 +434,15 @@ static void rot_cell(const sproblem *q, rot_t *R, int L, double cx, double cy, d
 }
 
 /* (min h, max h) over the square cell at depth L from its phases' sines and cosines sc at its
- * centre: each grating's exact range, summed, as grating_range. A crest lies within delta of
- * the phase when the distance to it, whose cosine is sin(phase), is at most delta (< pi). */
+ * centre: each grating's exact range (grating_piece), summed, as grating_range */
 static void rot_range(const hx_texture *t, const rot_t *R, int L, const double *sc, double *lo_out, double *hi_out)
 {
     long i, n = t->cols;
     double lo = 0.0, hi = 0.0;
     for (i = 0; i < n; i++) {
         const double *st = R->step[L][i];
-        double a = AT(t, 0, i), sn = sc[2 * i], cs = sc[2 * i + 1], s0, s1, tlo, thi;
-        if (R->w[L] * (fabs(AT(t, 1, i)) + fabs(AT(t, 2, i))) >= M_PI_VALUE) {
-            lo -= fabs(a);
-            hi += fabs(a);
-            continue;
-        }
-        s0 = sn * st[4] - cs * st[5]; /* sin(phase - delta) */
-        s1 = sn * st[4] + cs * st[5];
-        tlo = fmin(s0, s1);
-        thi = fmax(s0, s1);
-        if (sn >= st[4])
-            thi = 1.0;
-        if (-sn >= st[4])
-            tlo = -1.0;
-        lo += a >= 0.0 ? a * tlo : a * thi;
-        hi += a >= 0.0 ? a * thi : a * tlo;
+        grating_piece(AT(t, 0, i), sc[2 * i], sc[2 * i + 1], R->w[L] * (fabs(AT(t, 1, i)) + fabs(AT(t, 2, i))), st[4],
+                      st[5], &lo, &hi);
     }
     *lo_out = lo;
     *hi_out = hi;
