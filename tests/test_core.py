@@ -530,3 +530,27 @@ def test_threads_are_set_per_calling_thread(monkeypatch):
     with pytest.raises(hx.ParameterError, match="threads"):
         with core.threads(0):
             pass
+
+
+def test_blas_is_held_to_one_thread_in_every_library_the_set_up_calls():
+    """While the C loops run on threads, every BLAS haptex's set-up calls is held to one thread:
+    numpy's OpenBLAS and scipy.linalg's, a library of its own, whose LU solve inside ``expm``
+    starts OpenBLAS's workers even on a 4 x 4 matrix (found with gdb on ``exec_blas``). A limit
+    made before scipy.linalg was loaded missed it, and its workers spun through the loops
+    (20-30 % of simulate_batch's rate on 2 cores). Run in a fresh process, where importing
+    haptex loads no scipy.linalg, with OpenBLAS asked for two threads."""
+    import os
+    import sys
+
+    code = (
+        "from haptex import core\n"
+        "with core._blas_held_to_one_thread():\n"
+        "    import scipy.linalg\n"
+        "    from threadpoolctl import threadpool_info\n"
+        "    blas = [i for i in threadpool_info() if i['user_api'] == 'blas']\n"
+        "    print(len({i['filepath'] for i in blas}), max(i['num_threads'] for i in blas))\n"
+    )
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": "2"}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout
+    libraries, most = map(int, out.split())
+    assert libraries >= 1 and most == 1, out

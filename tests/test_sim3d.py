@@ -111,7 +111,7 @@ def test_the_lean_loop_is_the_fast_path_without_its_machinery(monkeypatch, d, le
     push = ConstantForce([0.3, -1.2] if d == 2 else [0.3, 0.2, -1.2])
     calls = []
     core_lean = SIM._core_lean  # the C core's lean loop
-    monkeypatch.setattr(SIM, "_core_lean", lambda *a: calls.append(1) or core_lean(*a))
+    monkeypatch.setattr(SIM, "_core_lean", lambda *a, **k: calls.append(1) or core_lean(*a, **k))
     duration = 0.05 if letter == "D" else 0.3
     fast = hx.simulate(alg, dev, push, duration)
     assert calls == [1]

@@ -189,10 +189,11 @@ def _lean(fast: np.ndarray, kinematic: bool, pc_on: bool, delay, delta, fres, fm
 
 
 def _core_lean(code, kind, nominal, n_steps, T, record_every, tail_start, prm, coeffs, aux, fast, M, f0, P0, V0,
-               rec, summary, tail, threads: int = 1) -> None:
+               rec, summary, tail, threads: int = 1, after=None) -> None:
     """Runs of the lean loop in the C core (:func:`haptex.core._ext.run_lean`): every per-run
     array has a leading run axis; the runs are cut into contiguous slices run on ``threads``
-    threads (:func:`haptex.core.in_slices`), the GIL released."""
+    threads (:func:`haptex.core.in_slices`), the GIL released. ``after(lo, hi)``, if given, is
+    called in the same thread once a slice's runs are done (the slice's verdicts)."""
     per_run = [np.ascontiguousarray(a, dtype=np.float64) for a in (prm, coeffs, aux, fast, M, f0, P0, V0)]
     outs = (rec, summary, tail)  # written in place: already contiguous float64 (made here)
     N = per_run[0].shape[0]
@@ -200,17 +201,22 @@ def _core_lean(code, kind, nominal, n_steps, T, record_every, tail_start, prm, c
     def one(lo, hi):
         _core._ext.run_lean(code, kind, nominal, n_steps, T, record_every, tail_start,
                             *(a[lo:hi] for a in per_run), *(a[lo:hi] for a in outs))
+        if after is not None:
+            after(lo, hi)
 
-    _core.in_slices(one, N, threads, least=1)
+    # two slices a thread: the lean loop's runs cost the same (the same samples, the same
+    # arithmetic), and each slice's verdicts cost some Python of their own
+    _core.in_slices(one, N, threads, least=1, per_thread=2)
 
 
 def _core_general(code, kind, nominal, kinematic, pc_on, pc_ref, n_steps, T, record_every, tail_start, sp_t, prm,
                   coeffs, aux, Phi, Wd, Wo, Bs, Binv, fast, M, modal, K, C, f0, sp_p, vend, rest, delay, delta, fres,
-                  fmax, fc, pcb, P0, V0, rec, summary, tail, threads: int = 1, base=None) -> None:
+                  fmax, fc, pcb, P0, V0, rec, summary, tail, threads: int = 1, base=None, after=None) -> None:
     """Runs of the general loop in the C core (:func:`haptex.core._ext.run_general`): every
     per-run array has a leading run axis (``sp_t`` is shared); the runs are cut into
     contiguous slices run on ``threads`` threads (:func:`haptex.core.in_slices`), the GIL
-    released. ``base``: an object's base (``haptex.core._ext.Base``) shared by the runs, or None."""
+    released. ``base``: an object's base (``haptex.core._ext.Base``) shared by the runs, or None.
+    ``after(lo, hi)``, if given, is called in the same thread once a slice's runs are done."""
     f64 = lambda a: np.ascontiguousarray(a, dtype=np.float64)  # noqa: E731
     per_run = [f64(a) for a in (prm, coeffs, aux, Phi, Wd, Wo, Bs, Binv, fast, M, modal, K, C, f0, sp_p, vend, rest)]
     per_run.append(np.ascontiguousarray(delay, dtype=np.int64))
@@ -222,6 +228,8 @@ def _core_general(code, kind, nominal, kinematic, pc_on, pc_ref, n_steps, T, rec
         _core._ext.run_general(code, kind, bool(nominal), bool(kinematic), bool(pc_on), int(pc_ref),
                                int(n_steps), float(T), int(record_every), int(tail_start), f64(sp_t),
                                *(a[lo:hi] for a in per_run), *(a[lo:hi] for a in outs), base)
+        if after is not None:
+            after(lo, hi)
 
     _core.in_slices(one, N, threads, least=1)
 
@@ -361,19 +369,20 @@ def regime(decay_ratio, amplitude, threshold, cycles, driven, diverged):
     return out.astype(str)
 
 
-def _axis_verdicts(u: np.ndarray, tail_duration: float, threshold: np.ndarray, texture_freqs: np.ndarray):
+def _axis_verdicts(u: np.ndarray, tail_duration: float, threshold: np.ndarray, texture_freqs: np.ndarray,
+                   threads: int | None = None):
     """The verdict of :class:`AxisOscillation` on N runs at once.
 
     ``u`` (N, m) is one axis's tail, sampled evenly over ``tail_duration`` (s), detrended in
     place (a view of the simulator's own tail: nothing is copied); ``threshold``
     (N,) in m; ``texture_freqs`` (N, k) the texture rates of each run (Hz, NaN-padded).
     Returns arrays (N,): oscillating, amplitude, decay ratio, frequency, texture driven.
-    The detrending and the half amplitudes are the C core's ``hx_tail_amplitudes``; the
-    spectrum is taken only for the runs that move."""
+    The detrending and the half amplitudes are the C core's ``hx_tail_amplitudes`` (on
+    ``threads`` threads, default all); the spectrum is taken only for the runs that move."""
     N, n = u.shape
     a1 = np.empty(N)
     a2 = np.empty(N)
-    _core.in_slices(lambda lo, hi: _core._ext.tail_amplitudes(u[lo:hi], a1[lo:hi], a2[lo:hi]), N,
+    _core.in_slices(lambda lo, hi: _core._ext.tail_amplitudes(u[lo:hi], a1[lo:hi], a2[lo:hi]), N, threads,
                     least=max(1, (1 << 16) // max(n, 1)))  # (on the batch's threads: the GIL released)
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(a1 > 0, a2 / np.where(a1 > 0, a1, 1.0), np.where(a2 > 0, np.inf, 0.0))
@@ -401,11 +410,12 @@ def _axis_verdicts(u: np.ndarray, tail_duration: float, threshold: np.ndarray, t
 
 
 def _oscillation_table(tail: np.ndarray, tail_duration: float, e_env_tail: np.ndarray, threshold: np.ndarray,
-                       texture_freqs: np.ndarray) -> dict:
+                       texture_freqs: np.ndarray, threads: int | None = None) -> dict:
     """Verdicts of N runs, as arrays: from their tail positions ``tail`` (N, d, m) [x, (y,) z]
     sampled evenly over ``tail_duration`` (s); ``e_env_tail`` (N,) the change of the summed
     environment energies over the tail (J); ``threshold`` (N,) m; ``texture_freqs`` (N, k)
-    the rates (Hz, NaN-padded) at which a scan crosses the texture's periods.
+    the rates (Hz, NaN-padded) at which a scan crosses the texture's periods; ``threads``
+    for the C core's part (default all).
 
     Returns a dict: ``axes`` (the axis names), per axis name a tuple of (N,) arrays
     (oscillating, amplitude, decay ratio, frequency, texture driven); and (N,) arrays
@@ -419,7 +429,7 @@ def _oscillation_table(tail: np.ndarray, tail_duration: float, e_env_tail: np.nd
         z, f = np.zeros(N), np.zeros(N, dtype=bool)
         cols = {name: (f, z, z, z, f) for name in names}
     else:
-        cols = {name: _axis_verdicts(tail[:, i, :], tail_duration, threshold, texture_freqs)
+        cols = {name: _axis_verdicts(tail[:, i, :], tail_duration, threshold, texture_freqs, threads)
                 for i, name in enumerate(names)}
     order = names[::-1]  # z first among equals, then y, then x (as max over this order)
     best = np.full(N, len(names) - 1)
@@ -1245,19 +1255,25 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
             block = tail[:hi - lo]
             if lo:
                 block.fill(0.0)  # a run that diverges leaves the rest of its tail as it found it
+            parts = {}
+
+            def verdicts(a, b, lo=lo, block=block):  # a slice's verdicts, in its worker thread once its runs are done
+                rows = slice(lo + a, lo + b)
+                parts[a] = _oscillation_table(block[a:b], (n_steps - tail_start) * T, _tail_energy(summary[rows]),
+                                              thresholds[rows], freqs[rows], threads=1)
+
             if in_core:
                 _core_lean(code, kind, nominal, n_steps, T, int(record_every), tail_start, prm[lo:hi], coeffs[lo:hi],
                            aux[lo:hi], fast[lo:hi], M[lo:hi], f0[lo:hi], P0[lo:hi], V0[lo:hi], rec[lo:hi],
-                           summary[lo:hi], block, threads)
+                           summary[lo:hi], block, threads, after=verdicts)
             else:
                 _core_general(code, kind, nominal, ops[0].kinematic, pc_on, pc_ref, n_steps, T, int(record_every),
                               tail_start, ops[0].setpoint_times, prm[lo:hi], coeffs[lo:hi], aux[lo:hi], Phi[lo:hi],
                               Wd[lo:hi], Wo[lo:hi], Bs[lo:hi], Binv[lo:hi], fast[lo:hi], M[lo:hi], modal[lo:hi],
                               K[lo:hi], C[lo:hi], f0[lo:hi], sp_p[lo:hi], vend[lo:hi], rest[lo:hi], delay[lo:hi],
                               delta[lo:hi], fres[lo:hi], fmax[lo:hi], fc[lo:hi], pcb[lo:hi], P0[lo:hi], V0[lo:hi],
-                              rec[lo:hi], summary[lo:hi], block, threads, base=base)
-            tables.append(_oscillation_table(block, (n_steps - tail_start) * T, _tail_energy(summary[lo:hi]),
-                                             thresholds[lo:hi], freqs[lo:hi]))
+                              rec[lo:hi], summary[lo:hi], block, threads, base=base, after=verdicts)
+            tables += [parts[a] for a in sorted(parts)]
             bar(idx.size)
     bar(None)
     w_cmd = -(summary[:, S_EX] + summary[:, S_EY] + summary[:, S_EZ])

@@ -164,10 +164,16 @@ def _blas_held_to_one_thread():
     """While haptex's C loops run on threads, BLAS's own threads are held to one (threadpoolctl):
     OpenBLAS's idle workers spin for a while after each call, and on 2 cores they took 22 % of
     a simulate_batch's CPU from its loops (perf). Nested and concurrent uses share one limit,
-    lifted when the last ends."""
+    lifted when the last ends.
+
+    The controller sees only the libraries loaded when it is made, so scipy.linalg (whose
+    OpenBLAS is not numpy's, and whose LU solve inside ``expm`` starts OpenBLAS's threads even
+    on 4 x 4 matrices) is loaded first: made before it, the limit missed that library, and its
+    spinning workers took 20-30 % of simulate_batch's rate on 2 cores (perf, gdb on exec_blas)."""
     with _BLAS_LOCK:
         if _BLAS["depth"] == 0:
             if _BLAS["controller"] is None:
+                import scipy.linalg  # noqa: F401  (its BLAS loaded before the controller looks)
                 from threadpoolctl import ThreadpoolController
 
                 _BLAS["controller"] = ThreadpoolController()
@@ -197,13 +203,14 @@ def blas_held_to_one_thread(fn):
     return held
 
 
-def in_slices(fn, n: int, threads: int | None = None, least: int = 1024) -> None:
+def in_slices(fn, n: int, threads: int | None = None, least: int = 1024, per_thread: int | None = None) -> None:
     """Call ``fn(lo, hi)`` over contiguous slices of range(n), on up to :func:`num_threads`
     threads (the C releases the GIL); slices of at least ``least`` items (one thread below),
-    up to ``SLICES_PER_THREAD`` a thread, taken by the threads as they come free; BLAS held to
-    one thread meanwhile."""
+    up to ``per_thread`` (default ``SLICES_PER_THREAD``) a thread, taken by the threads as they
+    come free; BLAS held to one thread meanwhile."""
     threads = num_threads() if threads is None else threads
-    parts = max(1, min(threads * SLICES_PER_THREAD, n // max(least, 1)))
+    per_thread = SLICES_PER_THREAD if per_thread is None else per_thread
+    parts = max(1, min(threads * per_thread, n // max(least, 1)))
     if parts == 1 or threads == 1:
         fn(0, n)
         return
