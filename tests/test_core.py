@@ -554,3 +554,33 @@ def test_blas_is_held_to_one_thread_in_every_library_the_set_up_calls():
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout
     libraries, most = map(int, out.split())
     assert libraries >= 1 and most == 1, out
+
+
+def test_every_exact_discretisation_runs_with_blas_on_one_thread(monkeypatch):
+    """The simulator's discretisation, the devices' stability limit with a structural mode and
+    the simulated backend's all take e^{AT} through haptex.core.expm, with BLAS held to one
+    thread: scipy's expm hands even a 4 x 4 LU solve to OpenBLAS's workers, which then spin
+    for about 0.1 s (measured after a simulated backend was made) beside a servo loop about to
+    start. Checked with BLAS set to two threads around the calls, each expm recording the
+    threads BLAS had when it ran."""
+    import scipy.linalg
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    from haptex.backends import open_backend
+    from haptex.operators import ConstantForce
+
+    seen = []
+    real = scipy.linalg.expm
+
+    def recording(a, *args, **kwargs):
+        seen.append(max(i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"))
+        return real(a, *args, **kwargs)
+
+    monkeypatch.setattr(scipy.linalg, "expm", recording)
+    with threadpool_limits(limits=2, user_api="blas"):
+        assert max(i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas") == 2
+        open_backend("simulated:falcon")
+        hx.simulate(hx.algorithm("A", hx.Sinusoid(0.8e-3, 1e-3), K0), hx.Device.point_mass(),
+                    ConstantForce([0.0, -1.0]), 0.01)
+        hx.critical_stiffness(0.1, 0.5, 1e-3, handle_mass=0.02, first_resonance=200.0, mode_damping_ratio=0.05)
+    assert len(seen) >= 3 and set(seen) == {1}, seen

@@ -719,7 +719,7 @@ def critical_stiffness(mass: float, damping: float, period: float, delay: int = 
 
 def _zoh(A: np.ndarray, Bu: np.ndarray, T: float) -> tuple[np.ndarray, np.ndarray]:
     """(Phi, Gamma): the exact zero-order-hold discretisation of dx/dt = A x + Bu u."""
-    from scipy.linalg import expm
+    from .core import expm
 
     n = A.shape[0]
     big = np.zeros((n + 1, n + 1))

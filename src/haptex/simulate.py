@@ -7,7 +7,7 @@ the algorithm's force, quantises and saturates it, and holds it (zero-order hold
 the operator's springs and dampers form a linear system that is integrated exactly with
 the matrix exponential of an augmented system; the energy dissipated by the damping and
 the operator's work over each interval are exact quadratic forms of the state at the
-sampling instant (Van Loan's integrals, computed once with scipy's expm).
+sampling instant (Van Loan's integrals, computed once with scipy's expm, haptex.core.expm).
 
 References
 ----------
@@ -102,9 +102,7 @@ def _van_loan(F: np.ndarray, Q: np.ndarray, T: float) -> tuple[np.ndarray, np.nd
     big[:n, :n] = -F.T
     big[:n, n:] = Q
     big[n:, n:] = F
-    from scipy.linalg import expm
-
-    E = expm(big * T)
+    E = _core.expm(big * T)
     Phi = E[n:, n:]
     W = Phi.T @ E[:n, n:]
     return Phi, 0.5 * (W + W.T)

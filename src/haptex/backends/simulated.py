@@ -80,8 +80,7 @@ class SimulatedBackend:
         # the simulator's own augmented dynamics (haptex.simulate): state [p, v, u, g, r] (and the
         # handle side [p_h, v_h] of a structural mode), u the held command, g the hand's pull
         # K s(t) + C ds/dt, r = dg/dt: exact over a period for the set-point's linear motion
-        from scipy.linalg import expm
-
+        from ..core import expm
         from ..simulate import _augmented
 
         self._op = h.operator(depth=self.press, velocity=self.speed, dimension=n)

@@ -203,6 +203,33 @@ def blas_held_to_one_thread(fn):
     return held
 
 
+def expm(a: np.ndarray) -> np.ndarray:
+    """The matrix exponential e^A (scipy.linalg.expm) with BLAS held to one thread.
+
+    Parameters
+    ----------
+    a : ndarray, shape (n, n)
+        A square matrix (haptex's: the continuous-time dynamics times the sampling period,
+        n from 2 to 14).
+
+    Returns
+    -------
+    ndarray, shape (n, n)
+
+    Notes
+    -----
+    scipy's expm solves its Pade system by OpenBLAS's LU (getrs), which hands even a 4 x 4
+    solve to OpenBLAS's worker threads; they then spin for about 0.1 s (measured: 0.10 s of CPU
+    on the other core after a simulated backend was made), beside a servo loop about to start
+    or C loops about to run on every core. Every exact discretisation in haptex (the
+    simulator's, the devices' limits, the simulated backend's) goes through here.
+    """
+    from scipy.linalg import expm as _expm
+
+    with _blas_held_to_one_thread():
+        return _expm(a)
+
+
 def in_slices(fn, n: int, threads: int | None = None, least: int = 1024, per_thread: int | None = None) -> None:
     """Call ``fn(lo, hi)`` over contiguous slices of range(n), on up to :func:`num_threads`
     threads (the C releases the GIL); slices of at least ``least`` items (one thread below),
