@@ -181,6 +181,79 @@ def test_a_batch_packing_stiffness_beside_other_keys_equals_single_runs():
         assert b.max_penetration[i] == pytest.approx(r.max_penetration, rel=1e-12)
 
 
+def test_the_fast_paths_closed_forms_are_the_exact_zero_order_hold():
+    # the decoupled fast path's per-axis coefficients (haptex.simulate._axis_coefficients) against
+    # the mass-damper's exact response v(t) = e^-at v + (1 - e^-at) w / b (a = b / m) integrated
+    # by mpmath's quadrature at 40 digits: p+ - p = int v, int b v^2 dt; over b T / m from 0 (no
+    # damping) to 15 (the simulator's limit, MAX_DAMPING_RATIO). The general path's Van Loan
+    # integrals (scipy's expm) agree to 1e-11 where its elements are not tiny (x <= 1); beyond,
+    # expm is accurate only normwise (e^-15 came out 5e-6 off, measured).
+    import mpmath as mp
+
+    sim = __import__("sys").modules["haptex.simulate"]
+    mp.mp.dps = 40
+    m, T = 0.1, 1e-4
+    for x in [0.0, 1e-9, 1e-6, 1e-4, 0.01, 0.3, 0.4999, 0.5, 0.7, 1.0, 2.0, 5.0, 15.0]:
+        b = x * m / T
+        got = sim._axis_coefficients(m, b, T)
+        a, B, Tm = mp.mpf(b) / m, mp.mpf(b), mp.mpf(T)
+        free = (lambda t: mp.e ** (-a * t)) if b else (lambda t: mp.mpf(1))  # the response to v
+        forced = (lambda t: (1 - mp.e ** (-a * t)) / B) if b else (lambda t: t / mp.mpf(m))  # to w
+        want = [mp.quad(free, [0, Tm]), mp.quad(forced, [0, Tm]), free(Tm), forced(Tm),
+                B * mp.quad(lambda t: free(t) ** 2, [0, Tm]), 2 * B * mp.quad(lambda t: free(t) * forced(t), [0, Tm]),
+                B * mp.quad(lambda t: forced(t) ** 2, [0, Tm])]
+        for j, w in enumerate(want):
+            assert abs(got[j] - float(w)) <= 4e-15 * abs(float(w)), (x, j, got[j], float(w))
+        if 0 < x <= 1.0:
+            F = sim._augmented(np.array([[m]]), np.array([[b]]), np.zeros((1, 1)), np.zeros((1, 1)))
+            Q = np.zeros((5, 5))
+            Q[1, 1] = b
+            Phi, W = sim._van_loan(F, Q, T)
+            vl = [Phi[0, 1], Phi[0, 2], Phi[1, 1], Phi[1, 2], W[1, 1], 2 * W[1, 2], W[2, 2]]
+            np.testing.assert_allclose(got, vl, rtol=1e-11, err_msg=str(x))
+
+
+@pytest.mark.parametrize("d", [2, 3])
+@pytest.mark.parametrize("key, values", [("mass", [0.05, 0.1, 0.31]), ("damping", [0.0, 0.5, 3.0]),
+                                         ("damping_outside", [0.0, 0.2, 1.0])])
+def test_a_lean_batch_packing_mass_and_damping_equals_single_runs(monkeypatch, key, values, d):
+    # issue 30: a sweep of the mass or the damping of a rigid diagonal device under a constant
+    # push is packed per run (its closed forms and mass matrix made for all runs at once, no
+    # device built a run); crossed with the stiffness, every run equals simulate() with the
+    # device those values make (Device.replace), to the last bit: the same closed forms. In 3-D
+    # over the egg-crate, on a device whose axes differ.
+    if d == 2:
+        dev, tex, op = hx.Device.point_mass(0.1, 0.5, 1e-4, damping_outside=0.1), SINE, ConstantForce([0.2, -1.0])
+    else:
+        dev = hx.Device(mass=np.diag([0.1, 0.12, 0.08]), damping=np.diag([0.5, 0.4, 0.6]),
+                        damping_outside=np.diag([0.1, 0.2, 0.3]), period=1e-4)
+        tex, op = hx.SumOfGratings.egg_crate(A, L), ConstantForce([0.2, 0.1, -1.0])
+    k, v = (a.ravel() for a in np.meshgrid([800.0, 9000.0], values, indexing="ij"))
+    sim, built = __import__("sys").modules["haptex.simulate"], []
+    rebuild = sim._rebuild
+    monkeypatch.setattr(sim, "_rebuild", lambda *a: built.append(1) or rebuild(*a))
+    b = hx.simulate_batch(hx.algorithm("A", tex, 1.0), dev, op, 0.2, stiffness=k, **{key: v})
+    assert len(built) == 1  # one run built, not one per value
+    for i in range(k.size):
+        r = hx.simulate(hx.algorithm("A", tex, k[i]), dev.replace(**{key: v[i]}), op, 0.2)
+        got = (b.energy_x[i], b.energy_z[i], b.damping_energy[i], b.kinetic_energy[i], b.max_penetration[i],
+               b.amplitude[i], b.frequency[i])
+        want = (r.totals["energy_x"], r.totals["energy_z"], r.totals["damping_energy"], r.totals["kinetic_energy"],
+                r.max_penetration, r.oscillation.amplitude, r.oscillation.frequency)
+        assert got == want, (key, v[i], k[i])
+    assert np.all(b.energy_balance_error < 1e-9)
+
+
+def test_a_packed_mass_or_damping_sweep_refuses_what_the_device_refuses():
+    dev, op, alg = hx.Device.point_mass(0.1, 0.5, 1e-4), ConstantForce([0.0, -1.0]), hx.algorithm("A", SINE, K0)
+    with pytest.raises(hx.ParameterError, match="mass.*positive definite"):
+        hx.simulate_batch(alg, dev, op, 0.01, mass=[0.1, 0.0])
+    with pytest.raises(hx.ParameterError, match="damping.*no negative damping"):
+        hx.simulate_batch(alg, dev, op, 0.01, damping=[0.5, -0.1])
+    with pytest.raises(hx.ParameterError, match="damping x period / mass = 20"):  # b T / m = 2000 * 1e-4 / 0.01
+        hx.simulate_batch(alg, dev, op, 0.01, mass=[0.1, 0.01], damping=[0.5, 2000.0])
+
+
 def test_pantograph_matrices_follow_from_the_linkage_jacobian():
     dev = hx.Device.pantograph(joint_damping=4.7e-3)
     d = dev.details
