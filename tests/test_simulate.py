@@ -244,6 +244,36 @@ def test_a_lean_batch_packing_mass_and_damping_equals_single_runs(monkeypatch, k
     assert np.all(b.energy_balance_error < 1e-9)
 
 
+def test_a_batch_packing_the_devices_scalars_and_the_push_equals_single_runs(monkeypatch):
+    # issue 30: the device's delay, resolutions, force limit and Coulomb friction and the constant
+    # push are only read by the loops: a batch packs them per run (one run built, one
+    # discretisation), and each run equals simulate() with the device and push those values make
+    dev, alg = hx.Device.point_mass(0.1, 0.5, 1e-4), hx.algorithm("A", SINE, K0)
+    grid = np.meshgrid([0, 2], [0.0, 2e-6], [0.0, 5e-3], [1.5, 100.0], [0.0, 0.05], [0.0, 0.3], indexing="ij")
+    names = ("delay", "position_resolution", "force_resolution", "max_force", "coulomb_friction", "push_x")
+    sweep = {n: g.ravel() for n, g in zip(names, grid)}
+    sim, built = __import__("sys").modules["haptex.simulate"], []
+    rebuild = sim._rebuild
+    monkeypatch.setattr(sim, "_rebuild", lambda *a: built.append(1) or rebuild(*a))
+    b = hx.simulate_batch(alg, dev, ConstantForce([0.0, -1.0]), 0.05, **sweep)
+    assert len(built) == 1 and b.energy_x.size == 64
+    for i in range(0, 64, 3):
+        v = {n: sweep[n][i] for n in names}
+        r = hx.simulate(alg, dev.replace(**{n: (int(v[n]) if n == "delay" else v[n]) for n in names[:5]}),
+                        ConstantForce([v["push_x"], -1.0]), 0.05)
+        got = (b.energy_x[i], b.energy_z[i], b.damping_energy[i], b.operator_work[i], b.saturations[i],
+               b.max_penetration[i], b.amplitude[i])
+        want = (r.totals["energy_x"], r.totals["energy_z"], r.totals["damping_energy"], r.totals["operator_work"],
+                r.saturations, r.max_penetration, r.oscillation.amplitude)
+        assert got == want, v
+    # the force limit and the push did act: runs differing only in push_x (the last axis) differ
+    assert b.saturations.max() > 0 and np.all(b.operator_work[1::2] != b.operator_work[0::2])
+    for bad, match in (({"delay": [0, 1.5]}, "delay = 1.5"), ({"position_resolution": [0, 1e-17]}, "0 \\(ideal\\)"),
+                       ({"max_force": [1.0, 0.0]}, "max_force = 0"), ({"push_y": [0.0, 1.0]}, "push_y")):
+        with pytest.raises(hx.ParameterError, match=match):
+            hx.simulate_batch(alg, dev, ConstantForce([0.0, -1.0]), 0.01, **bad)
+
+
 def test_a_packed_mass_or_damping_sweep_refuses_what_the_device_refuses():
     dev, op, alg = hx.Device.point_mass(0.1, 0.5, 1e-4), ConstantForce([0.0, -1.0]), hx.algorithm("A", SINE, K0)
     with pytest.raises(hx.ParameterError, match="mass.*positive definite"):

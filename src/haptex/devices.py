@@ -18,7 +18,7 @@ from ._validation import ParameterError, fail, matrix2, nonnegative, positive, p
 def _matrix(name: str, value, allow_zero: bool, dim: int = 2) -> np.ndarray:
     """A dim x dim symmetric matrix from a scalar (isotropic) or an array; checks definiteness."""
     arr = matrix2(name, value, f"{dim}x{dim} symmetric matrix", dim)
-    if not np.allclose(arr, arr.T, rtol=1e-12, atol=0.0):
+    if not np.all(np.abs(arr - arr.T) <= 1e-12 * np.abs(arr.T)):  # np.allclose(rtol=1e-12, atol=0), finite entries
         raise fail(name, arr.tolist(), f"a symmetric {dim}x{dim} matrix")
     eig = np.linalg.eigvalsh(arr)
     if allow_zero:
@@ -27,6 +27,32 @@ def _matrix(name: str, value, allow_zero: bool, dim: int = 2) -> np.ndarray:
     elif eig.min() <= 0:
         raise fail(name, arr.tolist(), "positive definite")
     return arr
+
+
+SCALAR_FIELDS = ("delay", "position_resolution", "force_resolution", "max_force", "coulomb_friction")
+"""The device's scalar fields that only the simulator's loops read, per run (a sweep packs them)."""
+
+
+def scalar_field(name: str, value):
+    """One of :data:`SCALAR_FIELDS` checked as a :class:`Device` checks it: ``delay`` a whole
+    number of sampling periods in [0, 10000]; a resolution 0 (ideal) or >= 1e-15 (m or N: finer
+    than any sensor is a typo, and x / delta overflows); ``max_force`` > 0 or inf (N);
+    ``coulomb_friction`` >= 0 (N). Returns the value (int for the delay, else float).
+
+    Raises
+    ------
+    ParameterError
+        Naming the field, its value and what is allowed.
+    """
+    if name == "delay":
+        return whole("delay", value, 0, 10_000, "sampling periods")
+    if name == "max_force":
+        return positive_or_inf("max_force", value, "N")
+    unit = "m" if name == "position_resolution" else "N"
+    v = nonnegative(name, value, unit)
+    if name != "coulomb_friction" and 0.0 < v < 1e-15:
+        raise fail(name, v, f"0 (ideal) or >= 1e-15 {unit}")
+    return v
 
 
 @dataclass(frozen=True)
@@ -133,15 +159,9 @@ class Device:
         out = self.damping if self.damping_outside is None else self.damping_outside
         object.__setattr__(self, "damping_outside", _matrix("damping_outside", out, allow_zero=True, dim=dim))
         object.__setattr__(self, "period", positive("period", self.period, "s"))
-        object.__setattr__(self, "delay", whole("delay", self.delay, 0, 10_000, "sampling periods"))
-        for name, unit, smallest in (("position_resolution", "m", 1e-15), ("force_resolution", "N", 1e-15)):
-            v = nonnegative(name, getattr(self, name), unit)
-            if 0.0 < v < smallest:  # finer than any sensor: a typo, and x / v overflows
-                raise fail(name, v, f"0 (ideal) or >= {smallest:g} {unit}")
-            object.__setattr__(self, name, v)
-        object.__setattr__(self, "max_force", positive_or_inf("max_force", self.max_force, "N"))
+        for name in SCALAR_FIELDS:
+            object.__setattr__(self, name, scalar_field(name, getattr(self, name)))
         object.__setattr__(self, "first_resonance", positive_or_inf("first_resonance", self.first_resonance, "Hz"))
-        object.__setattr__(self, "coulomb_friction", nonnegative("coulomb_friction", self.coulomb_friction, "N"))
         if self.handle_mass is not None:
             object.__setattr__(self, "handle_mass", _matrix("handle_mass", self.handle_mass, allow_zero=False, dim=dim))
         if self.mode_damping_ratio is not None:

@@ -29,7 +29,7 @@ from .core._ext import (DIVERGED_ENERGY, DIVERGED_FORCE, DIVERGED_POSITION, DIVE
                         S_PC_ACTIVE, S_PC_ENERGY, S_SAT, S_TAILSTART_E)
 from ._validation import ParameterError, fail, nonnegative, positions, positive, whole
 from .algorithms import Algorithm
-from .devices import Device, _matrix
+from .devices import SCALAR_FIELDS, Device, _matrix, scalar_field
 from .operators import Operator
 from .renderer import Stabiliser
 
@@ -749,10 +749,21 @@ def _check_conditioning(device: Device, operator: Operator) -> None:
             f"precision); use a larger mass, a smaller damping or a shorter sampling period")
 
 
+def _discretisation_key(device: Device, operator: Operator) -> tuple:
+    """What the discretisation of a run (:func:`_discretise`, :func:`_fast_coefficients`,
+    :func:`_check_conditioning`) reads of its device and operator: runs with equal keys share it."""
+    arrays = (device.mass, device.damping, device.damping_outside, operator.stiffness, operator.damping)
+    mode = (device.handle_mass.tobytes() if device.handle_mass is not None else None, device.first_resonance,
+            device.mode_damping_ratio)
+    return (device.dimension, tuple(np.asarray(a, dtype=np.float64).tobytes() for a in arrays), device.period, mode,
+            operator.constant_push, operator.rest_length)
+
+
 def _kernel_inputs(algorithm, device, operator, memo: dict | None = None):
     """Everything the compiled loop reads for one run. ``memo`` shares the discretisation
-    (the matrix exponentials) between runs whose device and operator are the same objects, as
-    in sweeps of algorithm parameters."""
+    (the matrix exponentials) between runs whose devices and operators have the same dynamics
+    (:func:`_discretisation_key`), as in sweeps of algorithm parameters or of an operator's
+    set-point."""
     base = None
     if getattr(algorithm, "base", None) is not None:  # a textured object (haptex.objects): A, B, C, G on its base
         code, prm, kind, coeffs, aux, base = algorithm.object_spec()
@@ -765,7 +776,7 @@ def _kernel_inputs(algorithm, device, operator, memo: dict | None = None):
     if T_alg is not None and not math.isclose(T_alg, device.period, rel_tol=1e-12):
         raise ParameterError(f"period = {T_alg:g} s of {algorithm!r} is not allowed on {device.name}: its virtual "
                              f"damper's backward difference must use the device's sampling period {device.period:g} s")
-    key = (id(device), id(operator))
+    key = _discretisation_key(device, operator)
     if memo is None or key not in memo:
         _check_conditioning(device, operator)
         disc = _discretise(device, operator) + (_fast_coefficients(device, operator),)
@@ -905,15 +916,16 @@ def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration:
                       base=base)
     rates = _texture_frequencies(algorithm, operator)
     osc = _oscillations(tail[None], (n_steps - tail_start) * device.period, _tail_energy(summary[None]),
-                        np.array([_threshold(device)]), _frequency_table([rates]))
+                        np.array([_threshold(device.position_resolution)]), _frequency_table([rates]))
     result = _result(rec, summary, osc[0], rates)
     _warn_health([result])
     return result
 
 
-def _threshold(device: Device) -> float:
-    """Amplitude below which motion counts as rest (m): the encoder's resolution, >= 0.1 um."""
-    return max(device.position_resolution, 1e-7)
+def _threshold(position_resolution):
+    """Amplitude below which motion counts as rest (m), elementwise: the encoder's resolution
+    ``position_resolution`` (m), >= 0.1 um."""
+    return np.maximum(position_resolution, 1e-7)
 
 
 def _tail_energy(summary: np.ndarray) -> np.ndarray:
@@ -1082,6 +1094,12 @@ class BatchResult:
         return np.isin(self.regime, list(UNSTABLE))
 
 
+def _plane_keys(d: int, keys) -> None:
+    """Refuse the sweep keys of a y axis over a profile (d = 2)."""
+    if d == 2 and ("push_y" in keys or "anchor_y" in keys):
+        raise ParameterError("push_y and anchor_y are not allowed in the plane (a profile): they sweep 3-D operators")
+
+
 def _rebuild(algorithm: Algorithm, device: Device, operator: Operator, values: dict):
     """The algorithm, device and operator of one run of a sweep."""
     from .algorithms import algorithm as make
@@ -1115,8 +1133,7 @@ def _rebuild(algorithm: Algorithm, device: Device, operator: Operator, values: d
     ov = {k: values[k] for k in _OPERATOR_KEYS if k in values}
     if ov:
         d = operator.dimension
-        if d == 2 and ("push_y" in ov or "anchor_y" in ov):
-            raise ParameterError("push_y and anchor_y are not allowed in the plane (a profile): they sweep 3-D operators")
+        _plane_keys(d, ov)
         K, C, f = operator.stiffness.copy(), operator.damping.copy(), operator.force.copy()
         pts = operator.setpoint_points.copy()
         vend = operator.final_velocity.copy()
@@ -1144,6 +1161,25 @@ def _rebuild(algorithm: Algorithm, device: Device, operator: Operator, values: d
     return algorithm, device, operator
 
 
+_PACKED_KEYS = SCALAR_FIELDS + ("push_x", "push_y", "push_z")
+"""Sweep keys every batch packs per run, lean or general: the device's scalar fields (its
+delay, resolutions, force limit and Coulomb friction) and the constant push, which only the
+loops read (no device or operator is built for them, no discretisation made again)."""
+
+
+def _packed_scalars(values: dict) -> dict:
+    """The swept :data:`_PACKED_KEYS`, each checked as the device checks it
+    (:func:`haptex.devices.scalar_field`, once per distinct value)."""
+    out = {}
+    for key in _PACKED_KEYS:
+        if key in values:
+            if key in SCALAR_FIELDS:
+                for v in np.unique(values[key]):
+                    scalar_field(key, float(v))
+            out[key] = values[key].astype(np.int64) if key == "delay" else values[key]
+    return out
+
+
 _PACKED_DEVICE_KEYS = ("mass", "damping", "damping_outside")
 """Device keys a lean batch packs per run (the mass and the damping set only its per-axis
 closed forms and its mass matrix), as the stiffness is packed into the parameter vector."""
@@ -1156,7 +1192,8 @@ def _packed_device(algorithm, device: Device, operator: Operator, values: dict, 
     built one by one (another device or operator key swept, a structural mode, the loop's
     omitted machinery: delay, quantisation, saturation, friction, a controller). A bad value
     is refused with the error the device itself gives it."""
-    swept = set(values) - {"stiffness", *_START_KEYS, *_ALGORITHM_KEYS, "push_x", "push_y", "push_z"}
+    swept = set(values) - {"stiffness", *_START_KEYS, *_ALGORITHM_KEYS, "push_x", "push_y", "push_z"}  # (and no
+    # SCALAR_FIELDS: the lean loop runs only without them)
     if (not swept & set(_PACKED_DEVICE_KEYS) or swept - set(_PACKED_DEVICE_KEYS)
             or getattr(algorithm, "base", None) is not None or getattr(algorithm, "letter", None) == "proxy"
             or pc_on or not _fast_path(device, operator) or device.delay != 0 or device.position_resolution != 0.0
@@ -1266,11 +1303,14 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     stiffness = values.get("stiffness")
     if stiffness is not None and not np.all(stiffness > 0.0):
         positive("stiffness", float(stiffness[~(stiffness > 0.0)][0]), "N/m")
-    # the mass and damping of a lean batch are packed per run too (_packed_device)
+    # the device's scalar fields and the push are packed per run (_packed_scalars), and the mass
+    # and damping of a lean batch (_packed_device)
+    _plane_keys(d, values)
+    scalars = _packed_scalars(values)
     dense = _packed_device(algorithm, device, operator, values, pc_on) if values else None
-    # runs that differ only in their start, stiffness (and packed mass and damping) share
-    # everything else: build each distinct run once
-    keys = [k for k in values if not k.startswith("initial_") and k != "stiffness"
+    # runs that differ only in their start, stiffness and packed keys share everything else:
+    # build each distinct run once
+    keys = [k for k in values if not k.startswith("initial_") and k != "stiffness" and k not in scalars
             and not (dense is not None and k in _PACKED_DEVICE_KEYS)]
     if keys:
         _, first, inverse = np.unique(np.column_stack([values[k] for k in keys]), axis=0, return_index=True,
@@ -1309,12 +1349,14 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     by_run = lambda items, **kw: np.ascontiguousarray(np.asarray(items, **kw)[inverse])  # noqa: E731
     M = by_run([_mass_inputs(d_)[0] for d_ in dev])
     f0 = by_run([o.force for o in ops])
-    delay = by_run([d_.delay for d_ in dev], dtype=np.int64)
-    delta = by_run([d_.position_resolution for d_ in dev])
+    for axis, i in (("x", 0), ("y", 1), ("z", d - 1)):
+        if f"push_{axis}" in scalars:
+            f0[:, i] = scalars[f"push_{axis}"]
+    fields = {name: scalars[name] if name in scalars else by_run([getattr(d_, name) for d_ in dev],
+                                                                  dtype=np.int64 if name == "delay" else np.float64)
+              for name in SCALAR_FIELDS}
+    delay, delta, fres, fmax, fc = (np.ascontiguousarray(fields[name]) for name in SCALAR_FIELDS)
     _observer_delay(passivity_controller, delay)
-    fres = by_run([d_.force_resolution for d_ in dev])
-    fmax = by_run([d_.max_force for d_ in dev])
-    fc = by_run([d_.coulomb_friction for d_ in dev])
     pcb = np.full(N, pc_b)
     P0 = np.tile(p0, (N, 1))
     for axis, i in (("x", 0), ("y", 1), ("z", d - 1)):
@@ -1328,7 +1370,7 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     per_block = max(1, TAIL_BLOCK // (d * m_tail * 8))  # runs a block: the tail buffer is reused between blocks
     tail = np.zeros((min(N, per_block), d, m_tail))
     T = dev[0].period
-    thresholds = np.array([_threshold(d_) for d_ in dev])[inverse]
+    thresholds = _threshold(delta)
     rates = [_texture_frequencies(a, o) for a, _, o in runs]  # per distinct run
     freqs = _frequency_table(rates)[inverse]
     # the lean loop where none of its omitted machinery is used, else the general one (both C),
