@@ -146,6 +146,36 @@ def setup_share(n_runs=4000, n_steps=10_000):
     return setup, run, setup / run
 
 
+def setup_by_key(n_runs=1000):
+    """Per-run set-up (us) of a sweep of each key over n_runs distinct values, 10 samples a run,
+    one thread: on the lean loop (A, point mass, constant push), the general loop (the same with
+    a delay of one sample) and a scanning hand. Returns {case: {key: us}}."""
+    from haptex import core
+
+    tex = hx.Sinusoid(0.8e-3, 1e-3)
+    alg = hx.algorithm("A", tex, 2000.0)
+    n = n_runs
+    keys = {"stiffness": np.linspace(500, 5000, n), "mass": np.linspace(0.05, 0.2, n),
+            "damping": np.linspace(0.1, 1.0, n), "max_force": np.linspace(1, 10, n),
+            "position_resolution": np.linspace(1e-7, 1e-5, n), "coulomb_friction": np.linspace(0, 0.1, n),
+            "push_x": np.linspace(0, 0.5, n), "amplitude": np.linspace(0.1e-3, 1e-3, n),
+            "hand_stiffness": np.linspace(100, 500, n)}
+    cases = {"lean": (hx.Device.point_mass(), ConstantForce([0.0, -1.0])),
+             "general (delay 1)": (hx.Device.point_mass().replace(delay=1), ConstantForce([0.0, -1.0])),
+             "scanning hand": (hx.Device.point_mass(), ScanningHand(300.0, 1.0, velocity=0.01, depth=1e-3))}
+    out = {}
+    with core.threads(1):
+        for case, (dev, op) in cases.items():
+            out[case] = {}
+            for key, vals in keys.items():
+                if key == "hand_stiffness" and case != "scanning hand":
+                    continue
+                run = lambda v: hx.simulate_batch(alg, dev, op, 10 * dev.period, progress=False, **{key: v})  # noqa: E731
+                run(vals[:10])
+                out[case][key] = min(_timed(lambda: run(vals)) for _ in range(2)) / n * 1e6
+    return out
+
+
 def _timed(fn):
     t = time.perf_counter()
     fn()
@@ -184,6 +214,9 @@ def main() -> None:
     setup, run, share = setup_share()
     print(f"per-run set-up (4000 distinct stiffnesses, 10 samples, one thread): {setup:.1f} us; a 10^4-sample run: "
           f"{run:.0f} us; set-up / run = {100 * share:.2f} %")
+    for case, row in setup_by_key().items():
+        print(f"per-run set-up by swept key, {case} (1000 distinct values, us a run): "
+              + ", ".join(f"{k} {v:.1f}" for k, v in row.items()))
     print(f"cores: {os.cpu_count()} (simulate_batch runs in parallel over them; the C loop uses one)")
 
 
