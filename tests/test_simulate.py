@@ -213,21 +213,25 @@ def test_the_fast_paths_closed_forms_are_the_exact_zero_order_hold():
             np.testing.assert_allclose(got, vl, rtol=1e-11, err_msg=str(x))
 
 
+@pytest.mark.parametrize("loop", ["lean", "general"])
 @pytest.mark.parametrize("d", [2, 3])
 @pytest.mark.parametrize("key, values", [("mass", [0.05, 0.1, 0.31]), ("damping", [0.0, 0.5, 3.0]),
                                          ("damping_outside", [0.0, 0.2, 1.0])])
-def test_a_lean_batch_packing_mass_and_damping_equals_single_runs(monkeypatch, key, values, d):
+def test_a_batch_packing_mass_and_damping_equals_single_runs(monkeypatch, key, values, d, loop):
     # issue 30: a sweep of the mass or the damping of a rigid diagonal device under a constant
-    # push is packed per run (its closed forms and mass matrix made for all runs at once, no
-    # device built a run); crossed with the stiffness, every run equals simulate() with the
-    # device those values make (Device.replace), to the last bit: the same closed forms. In 3-D
-    # over the egg-crate, on a device whose axes differ.
+    # push is packed per run (its closed forms, mass, damping and friction matrices made for all
+    # runs at once, no device built a run); crossed with the stiffness, every run equals
+    # simulate() with the device those values make (Device.replace), to the last bit: the same
+    # closed forms. On the lean loop, and on the general one (a delay, a force limit and Coulomb
+    # friction); in 3-D over the egg-crate, on a device whose axes differ.
     if d == 2:
         dev, tex, op = hx.Device.point_mass(0.1, 0.5, 1e-4, damping_outside=0.1), SINE, ConstantForce([0.2, -1.0])
     else:
         dev = hx.Device(mass=np.diag([0.1, 0.12, 0.08]), damping=np.diag([0.5, 0.4, 0.6]),
                         damping_outside=np.diag([0.1, 0.2, 0.3]), period=1e-4)
         tex, op = hx.SumOfGratings.egg_crate(A, L), ConstantForce([0.2, 0.1, -1.0])
+    if loop == "general":
+        dev = dev.replace(delay=1, max_force=1.2, coulomb_friction=0.05)
     k, v = (a.ravel() for a in np.meshgrid([800.0, 9000.0], values, indexing="ij"))
     sim, built = __import__("sys").modules["haptex.simulate"], []
     rebuild = sim._rebuild

@@ -193,14 +193,15 @@ def _axis_coefficients(m, b, T: float) -> np.ndarray:
     m, b = np.broadcast_arrays(np.asarray(m, dtype=np.float64), np.asarray(b, dtype=np.float64))
     x = b * T / m
     g1, g2, g3, g12 = _g_functions(x)
+    ext = _core._ext
     out = np.empty(m.shape + (N_FAST,))
-    out[..., 0] = T * g1
-    out[..., 1] = T * T * g2 / m
-    out[..., 2] = np.exp(-x)
-    out[..., 3] = T * g1 / m
-    out[..., 4] = b * T * g12
-    out[..., 5] = T * x * g1 * g1
-    out[..., 6] = T * T * x * g3 / m
+    out[..., ext.F_PV] = T * g1
+    out[..., ext.F_PW] = T * T * g2 / m
+    out[..., ext.F_VV] = np.exp(-x)
+    out[..., ext.F_VW] = T * g1 / m
+    out[..., ext.F_CVV] = b * T * g12
+    out[..., ext.F_CVW] = T * x * g1 * g1
+    out[..., ext.F_CWW] = T * T * x * g3 / m
     return out
 
 
@@ -779,7 +780,17 @@ def _kernel_inputs(algorithm, device, operator, memo: dict | None = None):
     key = _discretisation_key(device, operator)
     if memo is None or key not in memo:
         _check_conditioning(device, operator)
-        disc = _discretise(device, operator) + (_fast_coefficients(device, operator),)
+        fast = _fast_coefficients(device, operator)
+        if fast.shape[0]:
+            # the fast path: both loops read only its per-axis closed forms, and the general loop's
+            # Coulomb friction the inverse of the held force's map to the end velocity, diagonal
+            # (1 / VW); the augmented transition and its energy forms are not made (4 matrix
+            # exponentials a distinct device)
+            nz = 5 * device.dimension
+            zeros = np.zeros((2, nz, nz))
+            disc = (zeros, zeros, zeros, np.stack([np.diag(1.0 / fast[reg, :, _core._ext.F_VW]) for reg in (0, 1)]), fast)
+        else:
+            disc = _discretise(device, operator) + (fast,)
         if memo is not None:
             memo[key] = disc
     else:
@@ -1181,23 +1192,21 @@ def _packed_scalars(values: dict) -> dict:
 
 
 _PACKED_DEVICE_KEYS = ("mass", "damping", "damping_outside")
-"""Device keys a lean batch packs per run (the mass and the damping set only its per-axis
-closed forms and its mass matrix), as the stiffness is packed into the parameter vector."""
+"""Device keys a batch on the fast path packs per run (the mass and the damping set only its
+per-axis closed forms and its mass and damping matrices), as the stiffness is packed into the
+parameter vector."""
 
 
-def _packed_device(algorithm, device: Device, operator: Operator, values: dict, pc_on: bool):
-    """(M (N, d, d), fast (N, 2, d, N_FAST)) of a sweep of the mass and the damping (isotropic
-    values, kg and N s/m) of a rigid device with diagonal matrices pushed by a constant force
-    on the lean loop, made per run without building a device; None where the runs must be
-    built one by one (another device or operator key swept, a structural mode, the loop's
-    omitted machinery: delay, quantisation, saturation, friction, a controller). A bad value
-    is refused with the error the device itself gives it."""
-    swept = set(values) - {"stiffness", *_START_KEYS, *_ALGORITHM_KEYS, "push_x", "push_y", "push_z"}  # (and no
-    # SCALAR_FIELDS: the lean loop runs only without them)
-    if (not swept & set(_PACKED_DEVICE_KEYS) or swept - set(_PACKED_DEVICE_KEYS)
-            or getattr(algorithm, "base", None) is not None or getattr(algorithm, "letter", None) == "proxy"
-            or pc_on or not _fast_path(device, operator) or device.delay != 0 or device.position_resolution != 0.0
-            or device.force_resolution != 0.0 or device.max_force != math.inf or device.coulomb_friction != 0.0):
+def _packed_device(device: Device, operator: Operator, values: dict):
+    """(M, Bs, Binv, fast) per run of a sweep of the mass and the damping (isotropic values, kg
+    and N s/m) of a rigid device with diagonal matrices pushed by a constant force (the fast
+    path, on the lean loop or the general one), made for all runs at once: M (N, d, d); Bs and
+    Binv (N, 2, d, d), the damping outside and inside the wall and the inverse of the held
+    force's map to the end velocity (diagonal: 1 / VW); fast (N, 2, d, N_FAST). None where the
+    runs must be built one by one (another key of the device or operator swept, a structural
+    mode, another operator). A bad value is refused with the error the device itself gives it."""
+    swept = set(values) - {"stiffness", *_START_KEYS, *_ALGORITHM_KEYS, *_PACKED_KEYS}
+    if not swept & set(_PACKED_DEVICE_KEYS) or swept - set(_PACKED_DEVICE_KEYS) or not _fast_path(device, operator):
         return None
     d, T = device.dimension, device.period
     N = len(next(iter(values.values())))
@@ -1222,7 +1231,10 @@ def _packed_device(algorithm, device: Device, operator: Operator, values: dict, 
         i = int(np.flatnonzero(~(worst <= MAX_DAMPING_RATIO))[0])
         _check_conditioning(device.replace(**{k: float(values[k][i]) for k in _PACKED_DEVICE_KEYS if k in values}),
                             operator)  # raises, naming the ratio
-    return m[:, :, None] * np.eye(d), _axis_coefficients(m[:, None, :], np.stack([b_out, b_in], axis=1), T)
+    eye = np.eye(d)
+    b = np.stack([b_out, b_in], axis=1)  # (N, 2, d)
+    fast = _axis_coefficients(m[:, None, :], b, T)
+    return m[:, :, None] * eye, b[..., None] * eye, (1.0 / fast[..., _core._ext.F_VW])[..., None] * eye, fast
 
 
 @_core.blas_held_to_one_thread
@@ -1304,10 +1316,10 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     if stiffness is not None and not np.all(stiffness > 0.0):
         positive("stiffness", float(stiffness[~(stiffness > 0.0)][0]), "N/m")
     # the device's scalar fields and the push are packed per run (_packed_scalars), and the mass
-    # and damping of a lean batch (_packed_device)
+    # and damping on the fast path (_packed_device)
     _plane_keys(d, values)
     scalars = _packed_scalars(values)
-    dense = _packed_device(algorithm, device, operator, values, pc_on) if values else None
+    dense = _packed_device(device, operator, values) if values else None
     # runs that differ only in their start, stiffness and packed keys share everything else:
     # build each distinct run once
     keys = [k for k in values if not k.startswith("initial_") and k != "stiffness" and k not in scalars
@@ -1377,10 +1389,8 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     # whose per-run matrices are made only then (N copies of 2 x 10 x 10 maps and forms)
     in_core = base is None and code != _core._ext.ALG_PROXY and bool(
         _lean(fast, ops[0].kinematic, pc_on, delay, delta, fres, fmax, fc))
-    if dense is not None:
-        if not in_core:  # never: _packed_device admits only batches the lean loop runs
-            raise RuntimeError("a packed mass or damping sweep reached the general loop, which would not read it")
-        M, fast = (np.ascontiguousarray(a) for a in dense)
+    if dense is not None:  # (the base's Phi, Wd, Wo are not made on the fast path: _kernel_inputs)
+        M, fast = (np.ascontiguousarray(dense[j]) for j in (0, 3))
     if not in_core:
         Phi, Wd, Wo, Bs, Binv = st(6), st(7), st(8), st(9), st(10)
         modal = by_run([_mass_inputs(d_)[1] for d_ in dev])
@@ -1389,6 +1399,8 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
         sp_p = by_run([o.setpoint_points for o in ops])
         vend = by_run([o.final_velocity for o in ops])
         rest = by_run([o.rest_length for o in ops])
+        if dense is not None:
+            Bs, Binv = (np.ascontiguousarray(dense[j]) for j in (1, 2))
     threads = _core.num_threads()
     show = (N * n_steps > 5e7) if progress is None else bool(progress)
     bar = _progress(show, N)
