@@ -788,7 +788,8 @@ def _kernel_inputs(algorithm, device, operator, memo: dict | None = None):
             # exponentials a distinct device)
             nz = 5 * device.dimension
             zeros = np.zeros((2, nz, nz))
-            disc = (zeros, zeros, zeros, np.stack([np.diag(1.0 / fast[reg, :, _core._ext.F_VW]) for reg in (0, 1)]), fast)
+            binv = np.stack([np.diag(1.0 / fast[reg, :, _core._ext.F_VW]) for reg in (0, 1)])
+            disc = (zeros, zeros, zeros, binv, fast)
         else:
             disc = _discretise(device, operator) + (fast,)
         if memo is not None:
