@@ -765,14 +765,16 @@ def _size(block) -> int:
 
 
 def _write(store: Path, spec: SweepSpec, block: tuple, data: dict, dimension: int) -> None:
-    """Write one block's variables, then (a second write) mark it done."""
-    import xarray as xr
+    """Write one block's variables, then (a second write) mark it done: into the store's Zarr
+    arrays directly (xarray made the store with their dtypes, fill values and attributes, and
+    reads it). Through xarray's region writes a block cost 58-115 ms of the client's CPU here,
+    the store's metadata read and checked again each time; directly, about 30 ms."""
+    import zarr
 
-    dims = [a.name for a in spec.axes]
-    region = dict(zip(dims, block))
-    xr.Dataset({k: (dims, v) for k, v in data.items()}).to_zarr(store, region=region, consolidated=False)
-    shape = tuple(s.stop - s.start for s in block)
-    xr.Dataset({"done": (dims, np.ones(shape, dtype=bool))}).to_zarr(store, region=region, consolidated=False)
+    group = zarr.open_group(str(store), mode="r+")
+    for k, v in data.items():
+        group[k][block] = v
+    group["done"][block] = np.ones(tuple(s.stop - s.start for s in block), dtype=bool)
 
 
 def _local_workers(workers) -> int:
