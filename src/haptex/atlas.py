@@ -650,6 +650,7 @@ def sweep(spec, out=None, *, scheduler: str | None = None, workers: int | None =
         todo = [i for i in range(len(blocks)) if i not in done_blocks]
         computed = 0
         if todo:
+            arrays = None if store is None else _store_arrays(store, dimension)
             client, cluster, threads = _client(scheduler, workers)
             bar = _bar(progress, spec.runs, sum(_size(blocks[i]) for i in done_blocks))
             try:
@@ -671,7 +672,7 @@ def sweep(spec, out=None, *, scheduler: str | None = None, workers: int | None =
                         if store is None:
                             results[i] = data
                         else:
-                            _write(store, spec, blocks[i], data, dimension)
+                            _write(arrays, blocks[i], data)
                         computed += 1
                         bar(_size(blocks[i]))
                         if on_block is not None:
@@ -764,17 +765,22 @@ def _size(block) -> int:
     return int(np.prod([s.stop - s.start for s in block]))
 
 
-def _write(store: Path, spec: SweepSpec, block: tuple, data: dict, dimension: int) -> None:
-    """Write one block's variables, then (a second write) mark it done: into the store's Zarr
-    arrays directly (xarray made the store with their dtypes, fill values and attributes, and
-    reads it). Through xarray's region writes a block cost 58-115 ms of the client's CPU here,
-    the store's metadata read and checked again each time; directly, about 30 ms."""
+def _store_arrays(store: Path, dimension: int) -> dict:
+    """The store's Zarr arrays a sweep writes (its variables and ``done``), opened once."""
     import zarr
 
     group = zarr.open_group(str(store), mode="r+")
+    return {k: group[k] for k in (*_variables(dimension), "done")}
+
+
+def _write(arrays: dict, block: tuple, data: dict) -> None:
+    """Write one block's variables, then (a second write) mark it done: into the store's Zarr
+    arrays directly (:func:`_store_arrays`; xarray made the store with their dtypes, fill
+    values and attributes, and reads it). Through xarray's region writes a block cost 58-115 ms
+    of the client's CPU here, the store's metadata read and checked again each time."""
     for k, v in data.items():
-        group[k][block] = v
-    group["done"][block] = np.ones(tuple(s.stop - s.start for s in block), dtype=bool)
+        arrays[k][block] = v
+    arrays["done"][block] = np.ones(tuple(s.stop - s.start for s in block), dtype=bool)
 
 
 def _local_workers(workers) -> int:
