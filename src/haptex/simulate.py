@@ -777,7 +777,10 @@ def _kernel_inputs(algorithm, device, operator, memo: dict | None = None):
     if T_alg is not None and not math.isclose(T_alg, device.period, rel_tol=1e-12):
         raise ParameterError(f"period = {T_alg:g} s of {algorithm!r} is not allowed on {device.name}: its virtual "
                              f"damper's backward difference must use the device's sampling period {device.period:g} s")
-    key = _discretisation_key(device, operator)
+    same = (id(device), id(operator))  # the same objects (sweeps of the algorithm's keys): no key to make
+    key = memo[same] if memo is not None and same in memo else _discretisation_key(device, operator)
+    if memo is not None:
+        memo[same] = key  # (the objects stay alive in the batch's runs: their ids are not reused)
     if memo is None or key not in memo:
         _check_conditioning(device, operator)
         fast = _fast_coefficients(device, operator)
