@@ -983,15 +983,22 @@ def _warn_arrays(diverged_at: np.ndarray, balance: np.ndarray, quantities, stack
                       SimulationWarning, stacklevel=stacklevel)
 
 
+def _scan_speed(algorithm, operator) -> float | None:
+    """|v| (m/s) of a constant-velocity scan over a profile with a line spectrum, else None."""
+    v = abs(float(operator.final_velocity[0]))
+    if (getattr(algorithm.texture, "periods", None) is None or algorithm.dimension != 2 or operator.kinematic
+            or operator.setpoint_times.size != 1 or v == 0.0):
+        return None
+    return v
+
+
 def _texture_frequencies(algorithm, operator) -> tuple:
     """Rates (Hz) at which a constant-velocity scan crosses the texture's periods, v / l_k; empty
     for other operators and for textures without a line spectrum (measured profiles, surfaces)."""
-    periods = getattr(algorithm.texture, "periods", None)
-    v = abs(float(operator.final_velocity[0]))
-    if (periods is None or algorithm.dimension != 2 or operator.kinematic or operator.setpoint_times.size != 1
-            or v == 0.0):
+    v = _scan_speed(algorithm, operator)
+    if v is None:
         return ()
-    return tuple(float(v / p) for p in np.atleast_1d(periods))
+    return tuple(float(v / p) for p in np.atleast_1d(algorithm.texture.periods))
 
 
 def _result(rec, summary, osc: Oscillation, texture_rates: tuple = ()) -> SimulationResult:
@@ -1195,6 +1202,34 @@ def _packed_scalars(values: dict) -> dict:
     return out
 
 
+_PACKED_TEXTURE_KEYS = ("amplitude", "texture_period")
+"""A Sinusoid's keys a batch of A, B, C or G packs per run: the C core reads their texture only
+through its coefficients (amplitude, wavenumber, phase), and nothing else of theirs depends on it."""
+
+
+def _packed_texture(algorithm, values: dict):
+    """The Sinusoid's coefficients per run, shape (N, 3, 1), of a sweep of its amplitude (m)
+    and period (m) under A, B, C or G, made for all runs at once as the Sinusoid makes them;
+    None otherwise (another texture or letter: each value built). A bad value is refused with
+    the error the Sinusoid itself gives it."""
+    from .textures import Sinusoid
+
+    if (not any(k in values for k in _PACKED_TEXTURE_KEYS) or type(algorithm.texture) is not Sinusoid
+            or algorithm.letter not in ("A", "B", "C", "G") or getattr(algorithm, "base", None) is not None):
+        return None
+    tex = algorithm.texture
+    amp = values.get("amplitude", np.full(len(next(iter(values.values()))), tex.amplitude))
+    per = values.get("texture_period", np.full(amp.shape, tex.period))
+    bad = ~((amp >= 0.0) & (per > 0.0))
+    if np.any(bad):
+        i = int(np.flatnonzero(bad)[0])
+        Sinusoid(float(amp[i]), float(per[i]), tex.phases[0])  # raises the Sinusoid's own error
+    coeffs = np.repeat(tex.kernel_data()[1][None], amp.size, axis=0)
+    coeffs[:, 0, 0] = amp
+    coeffs[:, 1, 0] = 2 * np.pi / per
+    return coeffs
+
+
 _PACKED_DEVICE_KEYS = ("mass", "damping", "damping_outside")
 """Device keys a batch on the fast path packs per run (the mass and the damping set only its
 per-axis closed forms and its mass and damping matrices), as the stiffness is packed into the
@@ -1326,10 +1361,12 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     _plane_keys(d, values)
     scalars = _packed_scalars(values)
     dense = _packed_device(device, operator, values) if values else None
+    texture = _packed_texture(algorithm, values) if values else None
     # runs that differ only in their start, stiffness and packed keys share everything else:
     # build each distinct run once
     keys = [k for k in values if not k.startswith("initial_") and k != "stiffness" and k not in scalars
-            and not (dense is not None and k in _PACKED_DEVICE_KEYS)]
+            and not (dense is not None and k in _PACKED_DEVICE_KEYS)
+            and not (texture is not None and k in _PACKED_TEXTURE_KEYS)]
     if keys:
         _, first, inverse = np.unique(np.column_stack([values[k] for k in keys]), axis=0, return_index=True,
                                       return_inverse=True)
@@ -1354,6 +1391,8 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     prm, coeffs = st(1), st(3)
     if stiffness is not None:
         prm[:, P_K0] = stiffness
+    if texture is not None:
+        coeffs = texture
     fast = st(11) if len({s[11].shape[0] for s in specs}) == 1 else np.zeros((N, 0, d, N_FAST))
     n_aux = max(s[4].size for s in specs)  # bound trees of different sizes: pad (the header says the size)
     aux = np.zeros((len(specs), n_aux))
@@ -1391,6 +1430,9 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     thresholds = _threshold(delta)
     rates = [_texture_frequencies(a, o) for a, _, o in runs]  # per distinct run
     freqs = _frequency_table(rates)[inverse]
+    if texture is not None and "texture_period" in values and freqs.shape[1]:  # a scan: v / l per run
+        speed = np.array([_scan_speed(a, o) for a, _, o in runs])[inverse]
+        freqs[:, 0] = speed / values["texture_period"]
     # the lean loop where none of its omitted machinery is used, else the general one (both C),
     # whose per-run matrices are made only then (N copies of 2 x 10 x 10 maps and forms)
     in_core = base is None and code != _core._ext.ALG_PROXY and bool(
@@ -1457,7 +1499,8 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
         energy_per_cycle=t["energy_per_cycle"].astype(float),
         max_penetration=summary[:, S_MAXPEN].copy(), saturations=summary[:, S_SAT].astype(np.int64),
         diverged_at=diverged_at,
-        runs=[_result(rec[i], summary[i], o, rates[inverse[i]]) for i, o in enumerate(_oscillation_objects(t))]
+        runs=[_result(rec[i], summary[i], o, tuple(float(f) for f in freqs[i] if f == f))
+              for i, o in enumerate(_oscillation_objects(t))]
         if record else None,
         energy_y=summary[:, S_EY].copy() if d == 3 else None,
         passivity_control_samples=summary[:, S_PC_ACTIVE].astype(np.int64),
