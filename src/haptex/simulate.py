@@ -1322,9 +1322,10 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     (vectorised over the runs), so a batch of short runs is not dominated by Python. Runs are
     built once per distinct combination of the swept values other than those packed per run
     without building anything: the start; the stiffness (into the parameter vector); the
-    device's delay, resolutions, force limit and Coulomb friction and the push; and, on the fast
-    path (a rigid diagonal device under a constant push), the mass and the damping, as their
-    per-axis closed forms. A sweep of 1,000 values of any of these costs 1-6 us a run besides
+    device's delay, resolutions, force limit and Coulomb friction and the push; a Sinusoid's
+    amplitude and period under A, B, C and G (as its coefficients); and, on the fast path (a
+    rigid diagonal device under a constant push), the mass and the damping, as their per-axis
+    closed forms. A sweep of 1,000 values of any of these costs 1-6 us a run besides
     the loop (a 10^4-sample run of the lean loop takes about 190 us on one thread here), where
     building a device a value cost 0.3-0.7 ms; runs with the same dynamics share one
     discretisation.
