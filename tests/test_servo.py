@@ -217,3 +217,42 @@ def test_haptex_run_renders_the_proxy_over_a_mesh(tmp_path, capsys):
     assert out["object"].startswith("Mesh") and out["faults"] == 0 and 0.0 < out["max_force_sent"] <= 8.9
 
 
+
+
+def test_no_blas_worker_is_woken_by_a_runs_set_up(monkeypatch, capsys):
+    # a BLAS call with OpenBLAS's workers on wakes them, and they spin for 0.1 s on the other core
+    # (measured after making a simulated backend, and a D, E or F renderer over the egg-crate:
+    # a surface's slope bound by L-BFGS-B), beside a servo loop about to start. `haptex run` holds
+    # BLAS to one thread through its set-up and loop; a surface's slope bound holds it wherever it
+    # is made. Checked with BLAS set to two threads, every L-BFGS-B solve and the renderer's
+    # construction recording the threads BLAS had.
+    import scipy.optimize
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    import haptex.renderer
+
+    def blas():
+        return max(i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas")
+
+    seen = []
+    minimize, init = scipy.optimize.minimize, haptex.renderer.Renderer.__init__
+
+    def recording(*a, **k):
+        seen.append(("minimize", blas()))
+        return minimize(*a, **k)
+
+    def made(self, *a, **k):
+        seen.append(("renderer", blas()))
+        return init(self, *a, **k)
+
+    monkeypatch.setattr(scipy.optimize, "minimize", recording)
+    monkeypatch.setattr(haptex.renderer.Renderer, "__init__", made)
+    with threadpool_limits(limits=2, user_api="blas"):
+        assert blas() == 2
+        hx.algorithm("F", hx.SumOfGratings.egg_crate(0.2e-3, 2e-3), 2000.0, friction=0.5, presliding=1e-4)
+        assert main(["run", "--device", "simulated:falcon", "--texture", "egg-crate:0.3mm,3mm", "--algorithm", "D",
+                     "--duration", "0.05s", "--fast", "--json"]) == 0
+        assert blas() == 2  # (lifted again afterwards)
+    capsys.readouterr()
+    kinds = {k for k, _ in seen}
+    assert kinds == {"minimize", "renderer"} and {n for _, n in seen} == {1}, seen

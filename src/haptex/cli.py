@@ -14,6 +14,7 @@ import click
 
 from ._specs import object_from_spec, quantity as _q, split_spec as _split_spec, texture_from_spec as _texture_from_spec
 from ._validation import ParameterError
+from .core import blas_held_to_one_thread as _core_blas_held
 from .tables import PAPER_PARAMETERS
 
 
@@ -861,6 +862,7 @@ def sweep(spec, out, scheduler, workers, quiet):
               help="Write the trace (time, position, force, engaged) to FILE.npz.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
 @click.option("--quiet", is_flag=True, help="No live dashboard.")
+@_core_blas_held  # BLAS in the set-up (a preset's matrices, a slope bound) wakes no worker to spin beside the loop
 def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration, passivity_control, stabiliser, hand,
                speed, fast, object_spec, uv_scale, record, as_json, quiet):
     """Render one texture on one device, with the safety rules of haptex.servo and a live dashboard."""

@@ -41,6 +41,7 @@ import numpy as np
 
 from ._validation import check_budget, fail, positive, whole
 from .backends import Sample
+from . import core as _core
 from .core import _ext
 
 ENGAGE_FORCE = 0.5
@@ -134,6 +135,7 @@ class ServoLoop:
             raise fail("native", native, "True or False")
         self.native = native
 
+    @_core.blas_held_to_one_thread  # no BLAS worker spins beside the servo loop
     def run(self, duration: float, record: bool = True, on_tick=None) -> tuple[ServoStats, dict]:
         """Run for ``duration`` seconds of the backend's clock.
 

@@ -15,6 +15,7 @@ from functools import cached_property
 
 import numpy as np
 
+from . import core as _core
 from .core import _ext
 from ._validation import ParameterError, check_count, fail, finite, nonnegative, positive, whole
 from .textures import MAX_HARMONICS, SampledProfile, Texture, _band_limited_samples, _vector, common_period
@@ -108,8 +109,11 @@ class Surface(Texture):
         X, Y = np.meshgrid(xs, ys, indexing="ij")
         return np.stack([X, Y], -1), ((x1 - x0) / n[0], (y1 - y0) / n[1])
 
+    @_core.blas_held_to_one_thread
     def _sup(self, fun) -> float:
-        """sup over the cell of fun(xy) >= 0, fun vectorised over (..., 2)."""
+        """sup over the cell of fun(xy) >= 0, fun vectorised over (..., 2). (BLAS held to one
+        thread: L-BFGS-B's triangular solves woke OpenBLAS's workers, which then spun for 0.1 s
+        beside whatever came next, a servo loop included.)"""
         pts, (dx, dy) = self._grid()
         vals = fun(pts)
         best = float(vals.max())
