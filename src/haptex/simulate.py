@@ -1362,12 +1362,12 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     _plane_keys(d, values)
     scalars = _packed_scalars(values)
     dense = _packed_device(device, operator, values) if values else None
-    texture = _packed_texture(algorithm, values) if values else None
+    sine = _packed_texture(algorithm, values) if values else None  # a Sinusoid's coefficients per run
     # runs that differ only in their start, stiffness and packed keys share everything else:
     # build each distinct run once
     keys = [k for k in values if not k.startswith("initial_") and k != "stiffness" and k not in scalars
             and not (dense is not None and k in _PACKED_DEVICE_KEYS)
-            and not (texture is not None and k in _PACKED_TEXTURE_KEYS)]
+            and not (sine is not None and k in _PACKED_TEXTURE_KEYS)]
     if keys:
         _, first, inverse = np.unique(np.column_stack([values[k] for k in keys]), axis=0, return_index=True,
                                       return_inverse=True)
@@ -1392,8 +1392,8 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     prm, coeffs = st(1), st(3)
     if stiffness is not None:
         prm[:, P_K0] = stiffness
-    if texture is not None:
-        coeffs = texture
+    if sine is not None:
+        coeffs = sine
     fast = st(11) if len({s[11].shape[0] for s in specs}) == 1 else np.zeros((N, 0, d, N_FAST))
     n_aux = max(s[4].size for s in specs)  # bound trees of different sizes: pad (the header says the size)
     aux = np.zeros((len(specs), n_aux))
@@ -1431,7 +1431,7 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     thresholds = _threshold(delta)
     rates = [_texture_frequencies(a, o) for a, _, o in runs]  # per distinct run
     freqs = _frequency_table(rates)[inverse]
-    if texture is not None and "texture_period" in values and freqs.shape[1]:  # a scan: v / l per run
+    if sine is not None and "texture_period" in values and freqs.shape[1]:  # a scan: v / l per run
         speed = np.array([_scan_speed(a, o) for a, _, o in runs])[inverse]
         freqs[:, 0] = speed / values["texture_period"]
     # the lean loop where none of its omitted machinery is used, else the general one (both C),
