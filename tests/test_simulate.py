@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import haptex as hx
 from haptex.operators import ConstantForce, ElasticBand, KinematicPath, ScanningHand
@@ -619,3 +621,44 @@ def test_a_scan_crossing_the_texture_is_not_an_oscillation_and_rest_has_no_frequ
     assert r.oscillation.z.frequency == pytest.approx(0.01 / L, abs=1.5 / 0.8)  # v / l, within the bins
     w = hx.simulate(wall(K0), dev, hand, 2.0)
     assert w.oscillation.z.amplitude < dev.position_resolution and w.oscillation.z.frequency == 0.0
+
+
+@given(data=st.data())
+@settings(max_examples=12, deadline=None)
+def test_any_packed_sweep_equals_its_single_runs(data):
+    # issue 30: whatever keys a batch packs per run (the stiffness, the device's mass, damping and
+    # scalar fields, the push, a Sinusoid's amplitude and period) and whichever loop runs them
+    # (lean, or general with a delay, a force limit or friction), each run equals simulate() of
+    # the algorithm, device and push its values make, to the last bit; drawn by hypothesis
+    d = data.draw(st.sampled_from([2, 3]), "d")
+    letter = data.draw(st.sampled_from(["A", "B", "C", "G"]), "letter")
+    pick = lambda name, lo, hi: data.draw(st.lists(st.floats(lo, hi), min_size=2, max_size=2), name)  # noqa: E731
+    keys = data.draw(st.sets(st.sampled_from(["stiffness", "mass", "damping", "damping_outside", "delay",
+                                              "max_force", "coulomb_friction", "push_x", "amplitude"]),
+                             min_size=1, max_size=4), "keys")
+    ranges = {"stiffness": (200.0, 5000.0), "mass": (0.05, 0.3), "damping": (0.0, 2.0), "damping_outside": (0.0, 2.0),
+              "max_force": (0.5, 5.0), "coulomb_friction": (0.0, 0.1), "push_x": (-0.5, 0.5),
+              "amplitude": (0.0, 1e-3)}
+    sweep = {k: ([0, data.draw(st.integers(0, 2), "delay")] if k == "delay" else pick(k, *ranges[k])) for k in keys}
+    if d == 3:
+        sweep.pop("amplitude", None)  # (a Sinusoid is a profile)
+    if not sweep:
+        return
+    tex = SINE if d == 2 else hx.SumOfGratings.egg_crate(A, L)
+    kw = {} if letter == "A" else {"max_penetration": 1e-3}
+    dev = hx.Device.point_mass(0.1, 0.5, 1e-4, damping_outside=0.2, dimension=d)
+    push = [0.1, -1.0] if d == 2 else [0.1, 0.0, -1.0]
+    b = hx.simulate_batch(hx.algorithm(letter, tex, K0, **kw), dev, ConstantForce(push), 0.02, **sweep)
+    for i in range(2):
+        v = {k: sweep[k][i] for k in sweep}
+        t = hx.Sinusoid(v["amplitude"], L) if "amplitude" in v else tex
+        p = list(push)
+        if "push_x" in v:
+            p[0] = v["push_x"]
+        dv = {k: (int(v[k]) if k == "delay" else v[k]) for k in v if k not in ("stiffness", "amplitude", "push_x")}
+        r = hx.simulate(hx.algorithm(letter, t, v.get("stiffness", K0), **kw), dev.replace(**dv), ConstantForce(p), 0.02)
+        got = (b.energy_x[i], b.energy_z[i], b.damping_energy[i], b.operator_work[i], b.kinetic_energy[i],
+               b.max_penetration[i], b.saturations[i])
+        want = (r.totals["energy_x"], r.totals["energy_z"], r.totals["damping_energy"], r.totals["operator_work"],
+                r.totals["kinetic_energy"], r.max_penetration, r.saturations)
+        assert got == want, (letter, d, v)
