@@ -656,7 +656,8 @@ def test_any_packed_sweep_equals_its_single_runs(data):
         if "push_x" in v:
             p[0] = v["push_x"]
         dv = {k: (int(v[k]) if k == "delay" else v[k]) for k in v if k not in ("stiffness", "amplitude", "push_x")}
-        r = hx.simulate(hx.algorithm(letter, t, v.get("stiffness", K0), **kw), dev.replace(**dv), ConstantForce(p), 0.02)
+        alg = hx.algorithm(letter, t, v.get("stiffness", K0), **kw)
+        r = hx.simulate(alg, dev.replace(**dv), ConstantForce(p), 0.02)
         got = (b.energy_x[i], b.energy_z[i], b.damping_energy[i], b.operator_work[i], b.kinetic_energy[i],
                b.max_penetration[i], b.saturations[i])
         want = (r.totals["energy_x"], r.totals["energy_z"], r.totals["damping_energy"], r.totals["operator_work"],
