@@ -21,12 +21,33 @@ def _matrix(name: str, value, allow_zero: bool, dim: int = 2) -> np.ndarray:
     if not np.all(np.abs(arr - arr.T) <= 1e-12 * np.abs(arr.T)):  # np.allclose(rtol=1e-12, atol=0), finite entries
         raise fail(name, arr.tolist(), f"a symmetric {dim}x{dim} matrix")
     eig = np.linalg.eigvalsh(arr)
-    if allow_zero:
-        if eig.min() < -1e-12 * max(1.0, abs(eig.max())):
-            raise fail(name, arr.tolist(), "positive semi-definite (no negative damping)")
-    elif eig.min() <= 0:
-        raise fail(name, arr.tolist(), "positive definite")
+    if not definite(eig.min(), eig.max(), allow_zero):
+        raise fail(name, arr.tolist(), "positive semi-definite (no negative damping)" if allow_zero else
+                   "positive definite")
     return arr
+
+
+def definite(lowest, highest, allow_zero: bool):
+    """Whether a symmetric matrix is a mass or a damping matrix, from its extreme eigenvalues.
+
+    Parameters
+    ----------
+    lowest, highest : float or array_like
+        Its smallest and largest eigenvalues (kg or N s/m), elementwise over arrays (an
+        isotropic matrix v I has both equal to v).
+    allow_zero : bool
+        False for a mass (positive definite); True for a damping (positive semi-definite, to
+        a round-off of 1e-12 of the largest eigenvalue).
+
+    Returns
+    -------
+    bool or ndarray of bool
+        The shape of ``lowest`` broadcast with ``highest``.
+    """
+    lowest = np.asarray(lowest)
+    if allow_zero:
+        return lowest >= -1e-12 * np.maximum(1.0, np.abs(highest))
+    return lowest > 0
 
 
 SCALAR_FIELDS = ("delay", "position_resolution", "force_resolution", "max_force", "coulomb_friction")

@@ -29,7 +29,7 @@ from .core._ext import (DIVERGED_ENERGY, DIVERGED_FORCE, DIVERGED_POSITION, DIVE
                         S_PC_ACTIVE, S_PC_ENERGY, S_SAT, S_TAILSTART_E)
 from ._validation import ParameterError, fail, nonnegative, positions, positive, whole
 from .algorithms import Algorithm
-from .devices import SCALAR_FIELDS, Device, _matrix, scalar_field
+from .devices import SCALAR_FIELDS, Device, _matrix, definite, scalar_field
 from .operators import Operator
 from .renderer import Stabiliser
 
@@ -1254,7 +1254,7 @@ def _packed_device(device: Device, operator: Operator, values: dict):
     for key in _PACKED_DEVICE_KEYS:
         if key in values:
             v = values[key]
-            bad = ~(v > 0.0) if key == "mass" else v < -1e-12 * np.maximum(1.0, np.abs(v))
+            bad = ~definite(v, v, key != "mass")  # (the device's own rule, isotropic: both eigenvalues v)
             if np.any(bad):
                 _matrix(key, float(v[bad][0]), key != "mass", d)  # raises the device's own error
     if "mass" in values:
