@@ -1359,8 +1359,9 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     stiffness = values.get("stiffness")
     if stiffness is not None and not np.all(stiffness > 0.0):
         positive("stiffness", float(stiffness[~(stiffness > 0.0)][0]), "N/m")
-    # the device's scalar fields and the push are packed per run (_packed_scalars), and the mass
-    # and damping on the fast path (_packed_device)
+    # packed per run, nothing built a value: the device's scalar fields and the push
+    # (_packed_scalars), the mass and damping on the fast path (_packed_device), a Sinusoid's
+    # amplitude and period under A, B, C and G (_packed_texture)
     _plane_keys(d, values)
     scalars = _packed_scalars(values)
     dense = _packed_device(device, operator, values) if values else None
