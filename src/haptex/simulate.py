@@ -226,6 +226,13 @@ def _fast_coefficients(device: Device, op: Operator) -> np.ndarray:
     return _axis_coefficients(m, np.stack([np.diag(device.damping_outside), np.diag(device.damping)]), device.period)
 
 
+def _fast_binv(fast: np.ndarray) -> np.ndarray:
+    """The inverse of the held force's map to the end velocity, which the general loop's Coulomb
+    friction reads, on the fast path: diagonal, 1 / VW an axis; ``fast`` (..., d, N_FAST) gives
+    (..., d, d)."""
+    return (1.0 / fast[..., _core._ext.F_VW])[..., None] * np.eye(fast.shape[-2])
+
+
 def _lean(fast: np.ndarray, kinematic: bool, pc_on: bool, delay, delta, fres, fmax, fc) -> tuple:
     """``(1,)`` when every run can take the C core's lean loop (``hx_run_lean``): the decoupled fast
     path (``fast`` has rows) with none of the machinery that loop leaves out (a kinematic
@@ -796,8 +803,7 @@ def _kernel_inputs(algorithm, device, operator, memo: dict | None = None):
             # exponentials a distinct device)
             nz = 5 * device.dimension
             zeros = np.zeros((2, nz, nz))
-            binv = np.stack([np.diag(1.0 / fast[reg, :, _core._ext.F_VW]) for reg in (0, 1)])
-            disc = (zeros, zeros, zeros, binv, fast)
+            disc = (zeros, zeros, zeros, _fast_binv(fast), fast)
         else:
             disc = _discretise(device, operator) + (fast,)
         if memo is not None:
@@ -1225,14 +1231,8 @@ def _packed_texture(algorithm, values: dict):
     tex = algorithm.texture
     amp = values.get("amplitude", np.full(len(next(iter(values.values()))), tex.amplitude))
     per = values.get("texture_period", np.full(amp.shape, tex.period))
-    bad = ~((amp >= 0.0) & (per > 0.0))
-    if np.any(bad):
-        i = int(np.flatnonzero(bad)[0])
-        Sinusoid(float(amp[i]), float(per[i]), tex.phases[0])  # raises the Sinusoid's own error
-    coeffs = np.repeat(tex.kernel_data()[1][None], amp.size, axis=0)
-    coeffs[:, 0, 0] = amp
-    coeffs[:, 1, 0] = 2 * np.pi / per
-    return coeffs
+    Sinusoid(float(amp.min()), float(per.min()), tex.phases[0])  # its checks are lower bounds: the least of each
+    return tex.coefficients(amp[:, None], per[:, None], tex.phases[0])
 
 
 _PACKED_DEVICE_KEYS = ("mass", "damping", "damping_outside")
@@ -1275,7 +1275,7 @@ def _packed_device(device: Device, operator: Operator, values: dict):
     eye = np.eye(d)
     b = np.stack([b_out, b_in], axis=1)  # (N, 2, d)
     fast = _axis_coefficients(m[:, None, :], b, T)
-    return m[:, :, None] * eye, b[..., None] * eye, (1.0 / fast[..., _core._ext.F_VW])[..., None] * eye, fast
+    return m[:, :, None] * eye, b[..., None] * eye, _fast_binv(fast), fast
 
 
 @_core.blas_held_to_one_thread

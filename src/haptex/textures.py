@@ -113,7 +113,16 @@ class SumOfSinusoids(Texture):
         self.amplitudes = a
         self.periods = l
         self.phases = ph
-        self._coeffs = np.ascontiguousarray(np.vstack([a, 2 * np.pi / l, ph]))
+        self._coeffs = np.ascontiguousarray(self.coefficients(a, l, ph))
+
+    @staticmethod
+    def coefficients(amplitudes, periods, phases) -> np.ndarray:
+        """The compiled kernels' coefficients (:meth:`kernel_data`) of sums of sinusoids,
+        elementwise over leading axes: amplitudes a_k (m), periods l_k (m) and phases (rad),
+        each of shape (..., n), give shape (..., 3, n): a_k, the wavenumbers 2 pi / l_k
+        (rad/m) and the phases. No checks (the constructor's)."""
+        a, per, ph = np.broadcast_arrays(*(np.asarray(v, dtype=np.float64) for v in (amplitudes, periods, phases)))
+        return np.stack([a, 2 * np.pi / per, ph], axis=-2)
 
     def __repr__(self) -> str:
         return (
