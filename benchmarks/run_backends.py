@@ -18,7 +18,10 @@ haptex.servo.ServoLoop (the safety rules in C, hx_servo.c):
 - haply: the Inverse Service's WebSocket JSON against the emulator of tests/vendor_stubs.py
   (1 kHz lock-step; the emulator is Python in the same process, so it competes for the GIL);
 - haply-process: the same emulator in a process of its own, as the real service is: what the
-  backend's lock-step loop does alone in its process.
+  backend's lock-step loop does alone in its process;
+- haply-serial: Haply's own package (HaplyHardwareAPI) on a pseudo-terminal whose far end is the
+  serial emulator of tests/vendor_stubs.py (1 kHz lock-step, Python in the same process);
+- haply-serial-process: the same emulator in a process of its own, as a device is.
 
 A deadline is missed when a sample comes more than 1.5 periods after the previous one. The
 first row is the plain C loop of benchmarks/pace_reference.c (a thread waking at 1 kHz and
@@ -45,7 +48,7 @@ from tests import vendor_stubs as vs  # noqa: E402
 
 SINE = hx.Extruded(hx.Sinusoid(0.2e-3, 2e-3))
 KINDS = ["simulated", "forcedimension", "openhaptics", "openhaptics-c-device", "openhaptics-python", "haply",
-         "haply-process"]
+         "haply-process", "haply-serial", "haply-serial-process"]
 
 
 def backend(kind: str, root: Path, stubs: dict):
@@ -64,13 +67,18 @@ def backend(kind: str, root: Path, stubs: dict):
         b = open_backend("openhaptics")
         b.native = kind == "openhaptics"
         return b, behind
-    if kind == "haply-process":  # the emulator in its own process: its address on its first line
+    if kind.endswith("-process"):  # the emulator in its own process: its address on its first line
+        emulator, where, spec = (("InverseSerial", "port", "haply-serial:") if kind.startswith("haply-serial") else
+                                 ("InverseService", "address", "haply:"))
         code = ("import sys, time; sys.path.insert(0, %r); from tests import vendor_stubs as vs; "
                 "from haptex.backends.simulated import SimulatedBackend; "
-                "s = vs.InverseService(SimulatedBackend('inverse3', realtime=False)); print(s.address, flush=True); "
-                "time.sleep(3600)") % str(Path(__file__).resolve().parents[1])
+                "s = vs.%s(SimulatedBackend('inverse3', realtime=False)); print(s.%s, flush=True); "
+                "time.sleep(3600)") % (str(Path(__file__).resolve().parents[1]), emulator, where)
         proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
-        return open_backend("haply:" + proc.stdout.readline().strip()), proc
+        return open_backend(spec + proc.stdout.readline().strip()), proc
+    if kind == "haply-serial":
+        emulator = vs.InverseSerial(SimulatedBackend("inverse3", realtime=False))
+        return open_backend("haply-serial:" + emulator.port), emulator
     service = vs.InverseService(SimulatedBackend("inverse3", realtime=False))
     return open_backend("haply:" + service.address), service
 

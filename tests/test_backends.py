@@ -30,11 +30,11 @@ from haptex.servo import ServoLoop
 from . import vendor_stubs as vs
 
 SINE = hx.Extruded(hx.Sinusoid(0.2e-3, 2e-3))
-KINDS = ["simulated", "forcedimension", "openhaptics", "openhaptics-python", "haply"]
+KINDS = ["simulated", "forcedimension", "openhaptics", "openhaptics-python", "haply", "haply-serial"]
 """openhaptics: the C core's native callback in HD's thread; openhaptics-python: the Python one."""
-VENDORS = ["forcedimension", "openhaptics", "haply"]
+VENDORS = ["forcedimension", "openhaptics", "haply", "haply-serial"]
 PRESET = {"simulated": "omega-3", "forcedimension": "omega-3", "openhaptics": "touch", "openhaptics-python": "touch",
-          "haply": "inverse3"}
+          "haply": "inverse3", "haply-serial": "inverse3"}
 
 needs_cc = pytest.mark.skipif(vs.compiler() is None, reason="no C compiler to build the vendors' stubs")
 
@@ -66,6 +66,12 @@ class Rig:
         if kind == "haply":
             self.behind = vs.InverseService(self.sim, garble=garble)
             self.backend = open_backend("haply:" + self.behind.address)
+            return
+        if kind == "haply-serial":
+            pytest.importorskip("HaplyHardwareAPI", reason="Haply's package has wheels for a few platforms only")
+            self.behind = vs.InverseSerial(self.sim, garble=garble)
+            # (the Inverse Service's 1 s: the default 0.1 s is tested below, a loaded machine may stall that long)
+            self.backend = open_backend("haply-serial:" + self.behind.port, timeout=1.0)
             return
         stub = stubs[kind]
         if kind == "forcedimension":
@@ -99,7 +105,7 @@ class Rig:
             return self.stub.hxstub_energised_after_close() > 0 or self.stub.hxstub_opened() != 0
         if self.kind == "openhaptics":
             return self.stub.hxstub_energised_after_stop() > 0 or self.stub.hxstub_running() != 0
-        if self.kind == "haply":
+        if self.kind.startswith("haply"):
             self._ended()
             return self.behind.energised_after_close > 0 or self.behind.connected
         return bool(np.any(self.sim._x[6:9] != 0.0))  # the held force of the simulated device
@@ -117,8 +123,8 @@ def test_a_backend_is_a_device_backend_with_its_presets_figures(kind, stubs):
     assert isinstance(b, DeviceBackend) and b.dimension == 3
     p = hx.catalogue.preset(PRESET[kind])
     assert b.max_force == p.value("max_force")
-    if kind == "haply":  # the service paces the loop: its rate is measured (the emulator's
-        # states come at least 1 ms apart, by construction; later on a loaded machine)
+    if kind.startswith("haply"):  # the service or device paces the loop: its rate is measured
+        # (the emulators' states come at least 1 ms apart, by construction; later on a loaded machine)
         assert b.period >= 0.999e-3 and b.device.period == b.period
     else:
         assert b.period == p.value("period")
@@ -168,8 +174,13 @@ def test_a_run_pushes_out_of_the_wall_and_ends_unenergised(kind, stubs):
         m = rig.motors()
         # every tick's force reached the device (DHD: one write a tick plus the zero writes at open
         # and close; HD: one frame a tick plus the synchronous zero frames)
-        sent = {tuple(x) for x in f}
-        assert {tuple(x) for x in m} >= sent and np.all(m[-1] == 0.0)
+        if kind == "haply-serial":  # float32 on the wire: each force as sent to 2^-23 relative, never larger
+            d = np.abs(m[None, :, :] - f[:, None, :])
+            near = np.all((d <= 2.0 ** -23 * np.abs(f[:, None, :])) & (np.abs(m[None]) <= np.abs(f[:, None])), axis=2)
+            assert near.any(axis=1).all() and np.all(m[-1] == 0.0)
+        else:
+            sent = {tuple(x) for x in f}
+            assert {tuple(x) for x in m} >= sent and np.all(m[-1] == 0.0)
     assert not rig.energised()
 
 
@@ -345,7 +356,8 @@ def test_a_missing_sdk_or_binding_is_one_line_naming_what_to_install():
     # and without the bindings: the extra to install is named
     code = ("import sys; sys.modules['{m}'] = None\n"
             "from haptex.cli import main; sys.exit(main(['run', '--device', '{k}']))")
-    for m, k in (("forcedimension_core", "forcedimension"), ("pyOpenHaptics", "openhaptics")):
+    for m, k in (("forcedimension_core", "forcedimension"), ("pyOpenHaptics", "openhaptics"),
+                 ("HaplyHardwareAPI", "haply-serial")):
         r = _fresh_python(code.format(m=m, k=k))
         assert r.returncode == 2 and f"pip install 'haptex[{k}]'" in r.stderr and r.stderr.count("\n") == 1, r.stderr
 
@@ -412,6 +424,106 @@ def test_a_device_without_velocity_runs_on_positions():
     assert stats.faults == 0 and stats.ticks == 300
 
 
+def _inverse_serial(garble=None):
+    pytest.importorskip("HaplyHardwareAPI", reason="Haply's package has wheels for a few platforms only")
+    return vs.InverseSerial(SimulatedBackend("inverse3", realtime=False), garble=garble)
+
+
+def test_the_inverse3s_wakeup_comes_through_haplys_own_package():
+    # the id, model number, versions and UUID the emulator sends are what the vendor's package
+    # reads (the exchange in haptex.backends.haply_serial's docstring); the rate is measured
+    import uuid
+
+    emu = _inverse_serial()
+    b = open_backend("haply-serial:" + emu.port)
+    assert b.info == {"device_id": 0x1234, "device_model_number": 7, "hardware_version": 3, "firmware_version": 12,
+                      "device_id_ext": str(uuid.UUID(bytes=bytes(range(16))))}
+    assert emu.wakeups == 1 and emu.commands == 20 and b.period >= 0.999e-3 and b.name == "haply-serial:inverse3"
+    assert np.all(np.array(emu.forces) == 0.0)  # the probe commands nothing
+    emu.stop()
+
+
+def test_hostile_answers_on_the_serial_port_are_faults_or_a_device_gone():
+    import struct
+
+    # the 20 exchanges of the probe and the open's come first: tick k's command is exchange 21 + k,
+    # and its answer is tick k + 1's sample
+    nan, inf = float("nan"), float("inf")
+    bad = {420: b"\x2b" + struct.pack("<6f", nan, 0, 0, 0, 0, 0), 421: b"\x2b" + struct.pack("<6f", 0, 0, inf, 0, 0, 0)}
+    emu = _inverse_serial(garble=bad)
+    b = open_backend("haply-serial:" + emu.port, timeout=1.0)
+    stats, trace = _loop(b).run(600 * b.period)
+    assert stats.faults == 2 and stats.ticks == 600
+    assert np.all(trace["force"][400:402] == 0.0) and not np.all(np.isfinite(trace["position"][400:402]))
+    assert emu.energised_after_close == 0 and np.all(emu.forces[-1] == 0.0)
+    # an answer with another header, or none: the package times out and returns zeros; the
+    # backend calls the device gone, in one line, and the run's last command is still zero
+    for answer in (b"\x0a" + bytes(24), None):
+        emu = _inverse_serial(garble={321: answer})
+        b = open_backend("haply-serial:" + emu.port)
+        with pytest.raises(DeviceError, match="stopped answering: no answer in 100 ms") as e:
+            _loop(b).run(600 * b.period)
+        assert "\n" not in str(e.value) and np.all(emu.forces[-1] == 0.0)
+        for _ in range(100):
+            if not emu.connected:
+                break
+            time.sleep(0.01)
+        assert emu.energised_after_close == 0 and not emu.connected
+
+
+def test_a_wrong_serial_port_is_one_line_naming_what_to_check(tmp_path, capfd, monkeypatch):
+    import os
+    import pty
+
+    H = pytest.importorskip("HaplyHardwareAPI", reason="Haply's package has wheels for a few platforms only")
+    (tmp_path / "file").write_text("")
+    master, slave = pty.openpty()  # a serial port with nothing behind it
+    cases = [(str(tmp_path / "nothing"), "no such port"), (str(tmp_path / "file"), "not a serial port"),
+             (os.ttyname(slave), "no Inverse3 answered the wakeup in 1 s")]
+    for port, what in cases:
+        with pytest.raises(DeviceError, match=what) as e:
+            open_backend("haply-serial:" + port)
+        assert "\n" not in str(e.value)
+    assert "[err]" not in capfd.readouterr().err  # the package's own complaints are held
+    os.close(master)
+    os.close(slave)
+    monkeypatch.setattr(H, "detect_inverse3s", lambda: [])
+    with pytest.raises(DeviceError, match="no Inverse3 found on a serial port.*'haply-serial:/dev/ttyACM0'"):
+        open_backend("haply-serial")
+    with pytest.raises(hx.ParameterError, match="timeout = 5 is not allowed"):
+        open_backend("haply-serial:/dev/null", timeout=5)
+
+
+def test_forces_cross_the_serial_port_as_float32_never_larger():
+    # float32 rounds 1/3 N up in x and down in z; the device gets each component no larger than asked
+    emu = _inverse_serial()
+    b = open_backend("haply-serial:" + emu.port)
+    b.open()
+    try:
+        asked = np.array([1 / 3, -1 / 3, 2 / 3])
+        b.command(asked)
+        got = emu.forces[-1]
+        assert np.all(np.abs(got) <= np.abs(asked)) and np.all(np.abs(got - asked) <= 2.0 ** -23 * np.abs(asked))
+        assert np.any(np.float32(asked).astype(float) != got)  # (rounding to nearest would be larger here)
+    finally:
+        b.close()
+    assert np.all(emu.forces[-1] == 0.0) and emu.energised_after_close == 0
+    emu.stop()
+
+
+def test_haptex_run_on_an_inverse3_through_haplys_serial_package(capsys, tmp_path):
+    emu = _inverse_serial()
+    rec = tmp_path / "trace.npz"
+    assert main(["run", "--device", "haply-serial:" + emu.port, "--duration", "0.3s", "--json",
+                 "--record", str(rec)]) == 0
+    out = json.loads(capsys.readouterr().out)
+    p = hx.catalogue.preset("inverse3")
+    assert out["device"] == "haply-serial:inverse3" and np.load(rec)["force"].shape == (out["ticks"], 3)
+    assert out["faults"] == 0 and out["max_force_sent"] <= p.value("max_force")
+    assert np.all(emu.forces[-1] == 0.0)
+    emu.stop()
+
+
 def test_a_binding_of_another_version_is_named_in_one_line(monkeypatch):
     # a forcedimension_core whose dhd lacks a function the backend calls, or a pyOpenHaptics
     # without one: refused before any device is touched, naming what is missing and the extra
@@ -431,6 +543,14 @@ def test_a_binding_of_another_version_is_named_in_one_line(monkeypatch):
     monkeypatch.setitem(sys.modules, "pyOpenHaptics.hd_callback", oh.hd_callback)
     with pytest.raises(DeviceError, match=r"pyOpenHaptics has no begin_frame .*haptex\[openhaptics\]"):
         open_backend("openhaptics")
+    # a HaplyHardwareAPI before 0.1.13 (no read timeout: a silent device would look like one at the origin)
+    hh = types.ModuleType("HaplyHardwareAPI")
+    hh.SerialStream, hh.detect_inverse3s = object, list
+    hh.Inverse3 = type("Inverse3", (), {"device_wakeup_dict": None, "end_effector_force": None})
+    monkeypatch.setitem(sys.modules, "HaplyHardwareAPI", hh)
+    with pytest.raises(DeviceError, match=r"HaplyHardwareAPI \S+ has no Inverse3.set_read_timeout .*0\.1\.13 or later; "
+                       r"pip install 'haptex\[haply-serial\]'"):
+        open_backend("haply-serial:/dev/ttyACM0")
 
 
 def _hold_the_gil(after: float, hold: float) -> threading.Thread:

@@ -143,7 +143,7 @@ def test_haptex_run_on_the_simulated_falcon(tmp_path, capsys):
     data = np.load(rec)
     assert data["position"].shape == (1000, 3) and data["force"].shape == (1000, 3)
     assert np.all(np.isfinite(data["force"]))
-    for spec, what in (("haply-serial:/dev/ttyACM0", "not written yet"), ("haply:ws://127.0.0.1:1", "not reachable"),
+    for spec, what in (("haply-serial:/no/such/ttyACM0", "no such port"), ("haply:ws://127.0.0.1:1", "not reachable"),
                        ("haply:http://x", "Inverse Service's address"), ("simulated:phantom", "one of"),
                        ("usb:0", "simulated:PRESET")):
         assert main(["run", "--device", spec, "--duration", "0.1s"]) == 2

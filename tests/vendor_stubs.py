@@ -210,3 +210,105 @@ class InverseService:
 
     def stop(self):
         self._server.shutdown()
+
+
+class InverseSerial:
+    """An emulator of an Inverse3 on a serial port: a pseudo-terminal whose far end answers
+    Haply's hardware API (HaplyHardwareAPI) as haptex.backends.haply_serial's docstring gives
+    the exchanges: the wakeup 0x0A answered with 0x0B and the device's info; a force command
+    0x2A + 3 float32 (N) answered, a period after the previous answer, with 0x2B + position (m)
+    and velocity (m/s) as 6 float32, the device behind it a simulated preset advanced one period
+    under the force (lock-step at 1 kHz, like :class:`InverseService`).
+
+    ``garble`` maps a force command's index (counted over the emulator's life) to bytes sent
+    instead of that command's answer (hostile input), or to None: no answer at all (a device
+    gone). A client that closes the port leaves the last force applied (the worst case),
+    counted in ``energised_after_close``."""
+
+    PERIOD = 1e-3
+    INFO = (0x1234, 7, 3, 12)  # device id, model number, hardware and firmware versions (chosen)
+    UUID = bytes(range(16))
+
+    def __init__(self, sim, garble=None):
+        import pty
+        import threading
+        import tty
+
+        self.sim, self.garble = sim, dict(garble or {})
+        self.steps = max(1, round(self.PERIOD / sim.period))
+        sim.open()
+        self.forces, self.wakeups, self.commands, self.energised_after_close = [], 0, 0, 0
+        self.applied = np.zeros(3)
+        self._open, self._sent = False, -math.inf
+        self._master, slave = pty.openpty()
+        tty.setraw(slave)
+        self.port = os.ttyname(slave)
+        os.close(slave)  # (the backend opens the port by its path; EIO on the master: no one has it open)
+        self._running = True
+        self._thread = threading.Thread(target=self._serve, daemon=True)
+        self._thread.start()
+
+    @property
+    def connected(self) -> bool:
+        return self._open
+
+    def _answer(self, payload: bytes) -> None:
+        import time
+
+        due = self._sent + self.PERIOD  # (a period after the last answer, late or not: no bursts)
+        while time.perf_counter() < due:
+            time.sleep(min(2e-4, max(0.0, due - time.perf_counter())))
+        self._sent = time.perf_counter()
+        os.write(self._master, payload)
+
+    def _serve(self) -> None:
+        import select
+        import struct
+        import time
+
+        buf, idle = b"", 1e-3
+        while self._running:
+            r, _, _ = select.select([self._master], [], [], 0.01)
+            if not r:
+                continue
+            try:
+                data = os.read(self._master, 4096)
+            except OSError:  # EIO: the port is closed at the other end (polled ever less often, to 50 ms)
+                if self._open and np.any(self.applied != 0.0):
+                    self.energised_after_close += 1
+                self._open, buf = False, b""
+                time.sleep(idle)
+                idle = min(0.05, 2 * idle)
+                continue
+            self._open, idle = True, 1e-3
+            buf += data
+            while buf:
+                if buf[0] == 0x0A:
+                    buf = buf[1:]
+                    self.wakeups += 1
+                    self._answer(b"\x0b" + struct.pack("<HBBB", *self.INFO) + self.UUID)
+                elif buf[0] == 0x2A:
+                    if len(buf) < 13:
+                        break
+                    f = np.array(struct.unpack("<3f", buf[1:13]), dtype=np.float64)
+                    buf = buf[13:]
+                    k, self.commands = self.commands, self.commands + 1
+                    self.applied = f
+                    self.forces.append(f)
+                    for _ in range(self.steps):  # the force held over the device's period
+                        self.sim.command(f)
+                    if k in self.garble:
+                        if self.garble[k] is not None:
+                            self._answer(self.garble[k])
+                        continue
+                    self.truth = self.sim._x[:3].copy()  # the handle's true position at the reading (m)
+                    s = self.sim.sample()
+                    v = np.zeros(3) if s.velocity is None else s.velocity
+                    self._answer(b"\x2b" + struct.pack("<6f", *s.position, *v))
+                else:  # not a request this emulator knows: dropped
+                    buf = buf[1:]
+
+    def stop(self) -> None:
+        self._running = False
+        self._thread.join()
+        os.close(self._master)

@@ -839,7 +839,9 @@ def sweep(spec, out, scheduler, workers, quiet):
               help="'simulated:PRESET' (a preset of 'haptex devices', e.g. 'simulated:falcon'); "
                    "'forcedimension[:PRESET]' (Force Dimension's SDK, pip install 'haptex[forcedimension]'); "
                    "'openhaptics[:PRESET]' (OpenHaptics, pip install 'haptex[openhaptics]'); "
-                   "'haply[:ws://HOST:PORT]' (the Inverse Service, pip install 'haptex[haply]').")
+                   "'haply[:ws://HOST:PORT]' (the Inverse Service, pip install 'haptex[haply]'); "
+                   "'haply-serial[:PORT]' (Haply's hardware API on a serial port, pip install "
+                   "'haptex[haply-serial]').")
 @click.option("--texture", "texture_spec", default="sine:0.2mm,2mm", show_default=True,
               help="A texture spec as for design (a profile is extruded across y on a 3-DOF device).")
 @click.option("--algorithm", "letter", default="A", show_default=True,
@@ -881,8 +883,8 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
     kind = str(device_spec).partition(":")[0]
     given = {n for n in ("hand", "speed", "fast")
              if click.get_current_context().get_parameter_source(n) == click.core.ParameterSource.COMMANDLINE}
-    for name in sorted(given - {"fast"} if kind == "forcedimension" else
-                       given if kind in ("openhaptics", "haply") else ()):  # (another kind's own error comes first)
+    vendors = ("openhaptics", "haply", "haply-serial")  # (another kind's own error comes first)
+    for name in sorted(given - {"fast"} if kind == "forcedimension" else given if kind in vendors else ()):
         which = "simulated devices" if name != "fast" else "simulated and Force Dimension devices"
         raise ParameterError(f"--{name} is not allowed with --device {device_spec}: it applies to {which} only")
     options = ({"hand": hand, "speed": speed, "realtime": not fast} if kind == "simulated"

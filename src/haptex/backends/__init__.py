@@ -19,10 +19,9 @@ Backends in this version:
 - ``openhaptics[:PRESET]`` (:class:`~haptex.backends.openhaptics.OpenHapticsBackend`): 3D
   Systems' HD API through ``pyOpenHaptics``, driven from HD's scheduler callback;
 - ``haply[:ws://HOST:PORT]`` (:class:`~haptex.backends.haply.HaplyBackend`): an Inverse3 through
-  the Inverse Service's WebSocket JSON, lock-step.
-
-Haply's serial hardware API (``haply-serial``) is not written yet: naming it is refused in one
-line that says so.
+  the Inverse Service's WebSocket JSON, lock-step;
+- ``haply-serial[:PORT]`` (:class:`~haptex.backends.haply_serial.HaplySerialBackend`): an
+  Inverse3 on its USB serial port through Haply's hardware API, ``HaplyHardwareAPI``, lock-step.
 """
 
 from __future__ import annotations
@@ -66,6 +65,26 @@ def model_as(backend, kind: str, key: str, period: float | None = None) -> None:
     backend.preset, backend.device, backend.name = p, dev, f"{kind}:{p.key}"
     backend.dimension, backend.period, backend.max_force = 3, dev.period, dev.max_force
     backend.workspace = VENDOR_WORKSPACE
+
+
+PROBE_EXCHANGES = 20
+"""Zero-force exchanges a lock-step backend makes when it is made, to measure the rate of the
+device or service that paces it."""
+
+
+def probed_period(stamps, spec: str) -> float:
+    """The median interval (s) between a lock-step probe's answers, received at ``stamps`` (s).
+
+    Raises
+    ------
+    DeviceError
+        If it is not 0.01 to 100 ms (``spec`` names the device).
+    """
+    period = float(np.median(np.diff(stamps)))
+    if not 1e-5 <= period <= 0.1:
+        raise DeviceError(f"device = {spec!r} answers every {period * 1e3:.3g} ms: a servo loop needs 0.01 to "
+                          "100 ms")
+    return period
 
 
 def wait_until(due: float, clock, sleep, spin: float) -> None:
@@ -155,7 +174,7 @@ def open_backend(spec: str, **options) -> DeviceBackend:
     **options
         Passed to the backend: :class:`~haptex.backends.simulated.SimulatedBackend`'s
         parameters; ``realtime`` for Force Dimension; ``device_name`` for OpenHaptics;
-        ``preset`` and ``timeout`` for Haply.
+        ``preset`` and ``timeout`` for Haply (either way).
 
     Raises
     ------
@@ -186,11 +205,13 @@ def open_backend(spec: str, **options) -> DeviceBackend:
         _only(spec, options, {"preset", "timeout"})
         return HaplyBackend(address, **options)
     if kind == "haply-serial":
-        raise ParameterError(f"device = {spec!r} is not allowed in this version: Haply's serial backend is not "
-                             "written yet (issue 34); use the Inverse Service, 'haply:ws://127.0.0.1:10001'")
+        from .haply_serial import HaplySerialBackend
+
+        _only(spec, options, {"preset", "timeout"})
+        return HaplySerialBackend(address, **options)
     raise ParameterError(f"device = {spec!r} is not allowed: must be 'simulated:PRESET' (a preset of 'haptex "
-                         "devices', e.g. 'simulated:falcon'), 'forcedimension[:PRESET]', 'openhaptics[:PRESET]' or "
-                         "'haply[:ws://HOST:PORT]'")
+                         "devices', e.g. 'simulated:falcon'), 'forcedimension[:PRESET]', 'openhaptics[:PRESET]', "
+                         "'haply[:ws://HOST:PORT]' or 'haply-serial[:PORT]'")
 
 
 def _only(spec: str, options: dict, allowed: set) -> None:

@@ -27,7 +27,7 @@ import time
 import numpy as np
 
 from .._validation import fail
-from . import DeviceError, Sample, model_as
+from . import PROBE_EXCHANGES, DeviceError, Sample, model_as, probed_period
 
 DEFAULT_ADDRESS = "ws://127.0.0.1:10001"
 """The Inverse Service's default WebSocket address."""
@@ -35,8 +35,6 @@ MAX_MESSAGE = 1 << 20
 """Bytes: the largest message taken from the service (a state message is a few hundred)."""
 TIMEOUT = 1.0
 """s: the longest wait for the service's answer before the device counts as gone."""
-PROBE_EXCHANGES = 20
-"""Zero-force exchanges with the service when the backend is made, to measure its rate."""
 BUTTONS = ("a", "b", "c")
 """The VerseGrip's buttons, bits 0, 1, 2 of :attr:`Sample.buttons`."""
 
@@ -65,7 +63,7 @@ class HaplyBackend:
     """An Inverse3 through the Inverse Service, lock-step.
 
     Constructing it connects once to find the Inverse3 (its ``device_id``) and to measure the
-    service's rate (the median interval of :data:`PROBE_EXCHANGES` zero-force exchanges: the
+    service's rate (the median interval of :data:`~haptex.backends.PROBE_EXCHANGES` zero-force exchanges: the
     backend's ``period``, and the modelled device's), then disconnects; :meth:`open`
     connects for the run.
 
@@ -115,11 +113,7 @@ class HaplyBackend:
                 stamps.append(time.perf_counter())
         finally:
             ws.close()
-        period = float(np.median(np.diff(stamps)))
-        if not 1e-5 <= period <= 0.1:
-            raise DeviceError(f"device = 'haply:{self.address}' answers every {period * 1e3:.3g} ms: a servo loop "
-                              "needs 0.01 to 100 ms")
-        model_as(self, "haply", preset, period)
+        model_as(self, "haply", preset, probed_period(stamps, f"haply:{self.address}"))
         self.realtime = True
         self._ws = None
 
