@@ -26,7 +26,12 @@ haptex.servo.ServoLoop (the safety rules in C, hx_servo.c):
 A deadline is missed when a sample comes more than 1.5 periods after the previous one. The
 first row is the plain C loop of benchmarks/pace_reference.c (a thread waking at 1 kHz and
 doing nothing else), run for as long: what this machine misses with no work at all.
-Options: --seconds S, --only KIND. Needs a C compiler for the two stubs and the reference.
+
+--every instead runs the simulated backend on every preset (at the preset's own rate: 1, 4 or
+10 kHz) with every algorithm, W, A-G and the god-object proxy, for --seconds each (default 10
+there), between two runs of the plain C loop at 1 kHz.
+Options: --seconds S, --only KIND, --every. Needs a C compiler for the two stubs and the
+reference.
 """
 
 from __future__ import annotations
@@ -83,25 +88,68 @@ def backend(kind: str, root: Path, stubs: dict):
     return open_backend("haply:" + service.address), service
 
 
+def plain_loop(folder: Path, seconds: float) -> str:
+    """The row of the plain C loop at 1 kHz for ``seconds``."""
+    pace = folder / "pace"
+    if not pace.exists():
+        subprocess.run([vs.compiler(), "-std=c99", "-D_POSIX_C_SOURCE=200809L", "-O2", "-o", str(pace),
+                        str(Path(__file__).with_name("pace_reference.c"))], check=True)
+    n, missed, worst = subprocess.run([str(pace), str(seconds), "1000"], capture_output=True, text=True,
+                                      check=True).stdout.split()
+    return (f"{'plain C loop':21} {'pace_reference.c':28} {1000:6.0f}/s {int(n):7d} {int(missed):6d} "
+            f"({100 * int(missed) / int(n):5.3f} %) {'':>9} {'':>10} {'':>11}  (worst period "
+            f"{float(worst) * 1e3:.2f} ms)")
+
+
+def every(seconds: float) -> None:
+    """Every preset x every algorithm on the simulated backend (the light-touch hand, 1 mm in)."""
+    from haptex.catalogue import presets
+    from haptex.proxy import GodObject
+    from haptex.textures import Flat
+
+    with tempfile.TemporaryDirectory() as tmp:
+        print(f"{'preset / algorithm':21} {'backend':28} {'rate':>7} {'ticks':>7} {'missed':>14} {'period σ':>9} "
+              f"{'tick mean':>10} {'tick worst':>11}")
+        print(plain_loop(Path(tmp), seconds))
+        total = [0, 0]
+        for key, p in presets().items():
+            b = open_backend(f"simulated:{key}")
+            tex = hx.Sinusoid(0.2e-3, 2e-3) if b.dimension == 2 else SINE
+            for letter in ("W", *"ABCDEFG", "proxy"):
+                if letter == "W":
+                    alg = hx.algorithm("W", None if b.dimension == 2 else Flat(dimension=2), 500.0)
+                elif letter == "proxy":
+                    alg = GodObject(tex, 500.0)
+                else:
+                    alg = hx.algorithm(letter, tex, 500.0)
+                r = hx.Renderer(alg, max_force=b.max_force, energy_monitor=True)
+                st, _ = ServoLoop(b, r).run(seconds, record=False)
+                total[0] += st.missed
+                total[1] += st.ticks
+                print(f"{key + ' ' + letter:21} {b.name:28} {1 / b.period:6.0f}/s {st.ticks:7d} {st.missed:6d} "
+                      f"({100 * st.missed / st.ticks:5.3f} %) {st.period_seconds[1] * 1e6:7.0f} us "
+                      f"{st.tick_seconds[1] * 1e6:7.1f} us {st.tick_seconds[0] * 1e6:8.0f} us", flush=True)
+        print(f"{'all':21} {'':28} {'':>7} {total[1]:7d} {total[0]:6d} ({100 * total[0] / total[1]:5.3f} %)")
+        print(plain_loop(Path(tmp), seconds))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--seconds", type=float, default=60.0)
+    ap.add_argument("--seconds", type=float, default=None)
     ap.add_argument("--only", choices=KINDS)
+    ap.add_argument("--every", action="store_true")
     args = ap.parse_args()
+    if args.every:
+        every(args.seconds or 10.0)
+        return
+    args.seconds = args.seconds or 60.0
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp)
         vs.build_dhd(root / "fdsdk")
         stubs = {"dhd": vs.load_dhd(root / "fdsdk"), "hd": vs.load_hd(vs.build_hd(root / "hd"))}
         print(f"{'kind':21} {'backend':28} {'rate':>7} {'ticks':>7} {'missed':>14} {'period σ':>9} {'tick mean':>10} "
               f"{'tick worst':>11}")
-        pace = root / "pace"
-        subprocess.run([vs.compiler(), "-std=c99", "-D_POSIX_C_SOURCE=200809L", "-O2", "-o", str(pace),
-                        str(Path(__file__).with_name("pace_reference.c"))], check=True)
-        n, missed, worst = subprocess.run([str(pace), str(args.seconds), "1000"], capture_output=True, text=True,
-                                          check=True).stdout.split()
-        print(f"{'plain C loop':21} {'pace_reference.c':28} {1000:6.0f}/s {int(n):7d} {int(missed):6d} "
-              f"({100 * int(missed) / int(n):5.3f} %) {'':>9} {'':>10} {'':>11}  (worst period "
-              f"{float(worst) * 1e3:.2f} ms)")
+        print(plain_loop(root, args.seconds))
         for kind in [args.only] if args.only else KINDS:
             b, behind = backend(kind, root, stubs)
             r = hx.Renderer(hx.algorithm("A", SINE, 500.0), max_force=b.max_force, energy_monitor=True)
