@@ -30,7 +30,7 @@ doing nothing else), run for as long: what this machine misses with no work at a
 --every instead runs the simulated backend on every preset (at the preset's own rate: 1, 4 or
 10 kHz) with every algorithm, W, A-G and the god-object proxy, for --seconds each (default 10
 there), between two runs of the plain C loop at 1 kHz.
-Options: --seconds S, --only KIND, --every. Needs a C compiler for the two stubs and the
+Options: --seconds S, --only KIND, --every [--presets A,B]. Needs a C compiler for the two stubs and the
 reference.
 """
 
@@ -101,8 +101,11 @@ def plain_loop(folder: Path, seconds: float) -> str:
             f"{float(worst) * 1e3:.2f} ms)")
 
 
-def every(seconds: float) -> None:
-    """Every preset x every algorithm on the simulated backend (the light-touch hand, 1 mm in)."""
+def every(seconds: float, only: str | None = None) -> None:
+    """Every preset (or those of the comma-separated ``only``) x every algorithm on the simulated
+    backend (the light-touch hand, 1 mm in)."""
+    import math
+
     from haptex.catalogue import presets
     from haptex.proxy import GodObject
     from haptex.textures import Flat
@@ -112,7 +115,9 @@ def every(seconds: float) -> None:
               f"{'tick mean':>10} {'tick worst':>11}")
         print(plain_loop(Path(tmp), seconds))
         total = [0, 0]
-        for key, p in presets().items():
+        for key in presets():
+            if only and key not in only.split(","):
+                continue
             b = open_backend(f"simulated:{key}")
             tex = hx.Sinusoid(0.2e-3, 2e-3) if b.dimension == 2 else SINE
             for letter in ("W", *"ABCDEFG", "proxy"):
@@ -122,7 +127,8 @@ def every(seconds: float) -> None:
                     alg = GodObject(tex, 500.0)
                 else:
                     alg = hx.algorithm(letter, tex, 500.0)
-                r = hx.Renderer(alg, max_force=b.max_force, energy_monitor=True)
+                r = hx.Renderer(alg, max_force=b.max_force if math.isfinite(b.max_force) else None,
+                                energy_monitor=True)
                 st, _ = ServoLoop(b, r).run(seconds, record=False)
                 total[0] += st.missed
                 total[1] += st.ticks
@@ -138,9 +144,10 @@ def main() -> None:
     ap.add_argument("--seconds", type=float, default=None)
     ap.add_argument("--only", choices=KINDS)
     ap.add_argument("--every", action="store_true")
+    ap.add_argument("--presets", help="with --every: these presets only (comma-separated)")
     args = ap.parse_args()
     if args.every:
-        every(args.seconds or 10.0)
+        every(args.seconds or 10.0, args.presets)
         return
     args.seconds = args.seconds or 60.0
     with tempfile.TemporaryDirectory() as tmp:
