@@ -174,7 +174,7 @@ def open_backend(spec: str, **options) -> DeviceBackend:
     **options
         Passed to the backend: :class:`~haptex.backends.simulated.SimulatedBackend`'s
         parameters; ``realtime`` for Force Dimension; ``device_name`` for OpenHaptics;
-        ``preset`` and ``timeout`` for Haply (either way).
+        ``preset`` and ``timeout`` for both Haply backends.
 
     Raises
     ------

@@ -63,9 +63,9 @@ class HaplyBackend:
     """An Inverse3 through the Inverse Service, lock-step.
 
     Constructing it connects once to find the Inverse3 (its ``device_id``) and to measure the
-    service's rate (the median interval of :data:`~haptex.backends.PROBE_EXCHANGES` zero-force exchanges: the
-    backend's ``period``, and the modelled device's), then disconnects; :meth:`open`
-    connects for the run.
+    service's rate (the median interval of :data:`~haptex.backends.PROBE_EXCHANGES` zero-force
+    exchanges: the backend's ``period``, and the modelled device's), then disconnects;
+    :meth:`open` connects for the run.
 
     Parameters
     ----------
