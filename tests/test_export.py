@@ -216,6 +216,50 @@ def test_what_cannot_be_exported_is_refused(tmp_path):
         export_c(hx.algorithm("A", hx.Sinusoid(A, L), K0), tmp_path, -1.0)
 
 
+def _stabilisers():
+    from haptex.renderer import EnergyBounding, PassiveSetPosition, PassivityController
+
+    return [("pc", PassivityController(20.0)), ("pc-stored", PassivityController(20.0, reference="stored", delay=1)),
+            ("eba", EnergyBounding(2.0, delay=1)), ("pspm", PassiveSetPosition(2.0))]
+
+
+@pytest.mark.parametrize("name, stab", _stabilisers(), ids=[n for n, _ in _stabilisers()])
+def test_an_exported_stabiliser_ticks_as_the_renderers(tmp_path, objdir, name, stab):
+    # the export with a stabiliser set by haptex_init (its mode, damping, period and delay in the
+    # generated configuration) is the Renderer with that stabiliser: along a stroke in and out of
+    # the wall at 1 kHz every tick's force is the same to the bit, so are the observed energy
+    # and the ticks the stabiliser acted (which it does here: the test would pass vacuously
+    # otherwise)
+    T = 1e-3
+    alg = hx.algorithm("B", hx.Sinusoid(A, L), K0, max_penetration=1e-3)
+    c = Compiled(alg, tmp_path, objdir, max_force=5.0, passivity_controller=stab, period=T)
+    r = hx.Renderer(alg, max_force=5.0, passivity_controller=stab, period=T)
+    t = np.linspace(0.0, 1.0, 4001)
+    p = np.column_stack([3e-3 * np.sin(2 * np.pi * 3 * t), -0.8e-3 * np.sin(2 * np.pi * 2 * t) + 0.2e-3])
+    got = c.forces(p)
+    ref = np.array([r.step(tuple(q)) for q in p.tolist()])
+    assert np.array_equal(got, ref)
+    c.lib.haptex_energy.restype = ctypes.c_double
+    c.lib.haptex_controller_active.restype = ctypes.c_long
+    assert c.lib.haptex_energy(c.state) == r.energy
+    assert c.lib.haptex_controller_active(c.state) == r.controller_active > 0
+    text = (tmp_path / "haptex_texture.c").read_text()
+    assert f"r->pc.T = {T!r};" in text and f"r->pc.delay = {stab.delay or 0};" in text
+
+
+def test_an_export_without_a_stabiliser_observes_nothing(tmp_path, objdir):
+    c = Compiled(hx.algorithm("B", hx.Sinusoid(A, L), K0, max_penetration=1e-3), tmp_path, objdir, max_force=5.0)
+    c.lib.haptex_energy.restype = ctypes.c_double
+    c.forces(np.column_stack([np.linspace(0, 3e-3, 500), np.full(500, -0.3e-3)]))
+    assert c.lib.haptex_energy(c.state) == 0.0 and "r->pc" not in (tmp_path / "haptex_texture.c").read_text()
+    from haptex.renderer import PassivityController
+
+    with pytest.raises(hx.ParameterError, match="period = None is not allowed"):
+        export_c(hx.algorithm("W", None, K0), tmp_path / "x", 5.0, passivity_controller=PassivityController(20.0))
+    with pytest.raises(hx.ParameterError, match="passivity_controller = 20 is not allowed: must be None or a haptex stabiliser"):
+        export_c(hx.algorithm("W", None, K0), tmp_path / "x", 5.0, passivity_controller=20.0, period=1e-3)
+
+
 def test_haptex_export_at_the_command_line_writes_code_that_compiles(tmp_path):
     # the CLI's output compiles warning-free and takes units like every other command
     out = tmp_path / "fw"
@@ -230,6 +274,21 @@ def test_haptex_export_at_the_command_line_writes_code_that_compiles(tmp_path):
     r = subprocess.run(["haptex", "export", "--algorithm", "A", "--texture", "sine:0.8mm,1mm", "--stiffness", "2000",
                         "--max-force", "5 N", "--out", str(out)], capture_output=True, text=True, timeout=120)
     assert r.returncode == 2 and "stiffness = '2000' is not allowed: a number without a unit" in r.stderr
+    # a stabiliser for the device the firmware runs on: its period, delay and damping from the preset
+    r = subprocess.run(["haptex", "export", "--algorithm", "B", "--texture", "sine:0.8mm,1mm", "--stiffness", "2 kN/m",
+                        "--max-force", "5 N", "--passivity-control", "20 N*s/m", "--device", "pantograph", "--out",
+                        str(out)], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0 and "passivity controller (20 N s/m" in r.stdout, r.stderr
+    text = (out / "haptex_texture.c").read_text()
+    assert "r->pc.mode = HX_STAB_PC;" in text and "r->pc.bmax = 20.0;" in text and "r->pc.T = 0.0001;" in text
+    subprocess.run([CC, *STRICT, "-o", str(tmp_path / "t"), *map(str, out.glob("*.c")), "-lm", "-Wl,-e,haptex_init",
+                    "-nostartfiles"], check=True)
+    for args, what in ((["--stabiliser", "energy-bounding"], "--stabiliser needs --device"),
+                       (["--device", "falcon"], "--device is not allowed without --passivity-control")):
+        r = subprocess.run(["haptex", "export", "--algorithm", "B", "--texture", "sine:0.8mm,1mm", "--stiffness",
+                            "2 kN/m", "--max-force", "5 N", *args, "--out", str(out)], capture_output=True, text=True,
+                           timeout=120)
+        assert r.returncode == 2 and what in r.stderr and r.stderr.count("\n") == 1, r.stderr
 
 
 def _surfaces():

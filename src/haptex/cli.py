@@ -764,11 +764,20 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
 @click.option("--lowpass", type=Quantity("m"), default=None, help="Band-limit the profile to this shortest period.")
 @click.option("--periodic", is_flag=True, help="Close the profile into a periodic texture.")
 @_object_options("A-G are exported there (D and E but on a faceted mesh: give --vertex-normals).")
+@click.option("--passivity-control", type=Quantity("N*s/m"), default=None,
+              help="Export a passivity observer/controller with this largest damping (needs --device).")
+@click.option("--stabiliser", type=click.Choice(STABILISERS), default=None,
+              help="Instead: energy bounding or passive set-position modulation, paid with the device's damping "
+                   "(needs --device).")
+@click.option("--device", "device_spec", default=None,
+              help="With a stabiliser: the device the firmware runs on (a preset of 'haptex devices' or FILE.toml): "
+                   "its period, delay and damping.")
 @click.option("--out", "out", type=click.Path(file_okay=False, path_type=Path), required=True,
               help="Directory for haptex_texture.c, haptex_texture.h and the C core's files.")
 @click.option("--quiet", is_flag=True, help="No progress display.")
 def export(letter, texture_spec, stiffness, max_force, max_penetration, friction, presliding, stick_deflection,
-           spacing, x_unit, height_unit, level, lowpass, periodic, object_spec, uv_scale, out, quiet):
+           spacing, x_unit, height_unit, level, lowpass, periodic, object_spec, uv_scale, passivity_control, stabiliser,
+           device_spec, out, quiet):
     """C99 source of one algorithm on one texture, for device firmware (<math.h> only)."""
     from .algorithms import algorithm
     from .export import TICK_FILES, export_c
@@ -801,10 +810,29 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
         alg = object_algorithm(letter, tex, base, stiffness, **params)
     else:
         alg = algorithm(letter, tex, stiffness, **params)
+    pc = period = None
+    if passivity_control is not None or stabiliser is not None:
+        if device_spec is None:
+            raise ParameterError(f"--{'passivity-control' if stabiliser is None else 'stabiliser'} needs --device: the "
+                                 "device's period, delay and damping set the stabiliser")
+        from .catalogue import presets
+        from .devices import device_from_file
+
+        if str(device_spec).lower().endswith(".toml"):
+            dev = device_from_file(device_spec)
+        elif device_spec in presets():
+            dev = presets()[device_spec].device(dimension=alg.dimension)
+        else:
+            raise ParameterError(f"device = {device_spec!r} is not allowed: must be a preset of 'haptex devices' "
+                                 f"({', '.join(presets())}) or a TOML device file (FILE.toml)")
+        pc, period = _stabiliser(passivity_control, stabiliser, dev, delay=dev.delay), dev.period
+    elif device_spec is not None:
+        raise ParameterError("--device is not allowed without --passivity-control or --stabiliser: the exported "
+                             "tick reads nothing else of the device")
     with _Spinner("writing the C source", quiet):
-        h_path, c_path = export_c(alg, out, max_force)
+        h_path, c_path = export_c(alg, out, max_force, passivity_controller=pc, period=period)
     click.echo(f"wrote {c_path}, {h_path} and the C core's {len(TICK_FILES)} files beside them: {alg!r}, max force "
-               f"{max_force:g} N (build: cc -std=c99 -O2 {out}/*.c -lm)")
+               f"{max_force:g} N{'' if pc is None else ', ' + pc.label} (build: cc -std=c99 -O2 {out}/*.c -lm)")
 
 
 @cli.command()

@@ -24,7 +24,7 @@ from . import core as _core
 from ._validation import ParameterError, positive_or_inf
 from .algorithms import ALGORITHMS, Algorithm
 from .core import _ext
-from .renderer import MAX_EVALUATIONS, WORKSPACE_LIMIT, evaluation_budget, tick_model
+from .renderer import MAX_EVALUATIONS, WORKSPACE_LIMIT, Stabiliser, evaluation_budget, stabiliser_period, tick_model
 
 EXPORTABLE = "".join(ALGORITHMS)
 """Algorithms :func:`export_c` can write."""
@@ -49,6 +49,7 @@ runs). The core's others: the simulator's loops, hx_sim.c, and the Python bindin
 
 _KINDS = ("TEXTURE_FLAT", "TEXTURE_FOURIER", "TEXTURE_SPLINE", "SURFACE_GRATINGS", "SURFACE_PATCHES")
 _PARAMS = ("P_K0", "P_DZMAX", "P_MU", "P_DXMAX", "P_SCALE", "P_ZSTICK")
+_STABS = ("STAB_PC", "STAB_PC_STORED", "STAB_EBA", "STAB_PSPM")
 
 
 def _templates():
@@ -58,8 +59,8 @@ def _templates():
                               keep_trailing_newline=True, autoescape=False)
 
 
-def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int | None = MAX_EVALUATIONS
-             ) -> tuple[Path, Path]:
+def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int | None = MAX_EVALUATIONS,
+             passivity_controller: Stabiliser | None = None, period: float | None = None) -> tuple[Path, Path]:
     """Write a servo tick for device firmware into ``out``: the C core's files the tick needs
     (:data:`TICK_FILES`, copied unchanged: the code :class:`haptex.Renderer` runs) and
     ``haptex_texture.h`` / ``haptex_texture.c``, this algorithm's tables and entry points,
@@ -81,6 +82,15 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
     max_evaluations : int or None, optional
         D and E over a surface: the evaluation budget of one tick's closest-point search, as
         :class:`haptex.Renderer`'s (default :data:`haptex.renderer.MAX_EVALUATIONS`).
+    passivity_controller : Stabiliser, optional
+        A stabiliser the exported tick runs on each tick with the passivity observer, as
+        :class:`haptex.Renderer` does: :class:`~haptex.renderer.PassivityController` (Hannaford
+        & Ryu 2002), :class:`~haptex.renderer.EnergyBounding` or
+        :class:`~haptex.renderer.PassiveSetPosition`, set in ``haptex_init``; the observed
+        energy is ``haptex_energy`` (J). Default none (and no observer).
+    period : float, optional
+        The servo period (s, > 0), required with ``passivity_controller``: the tick's velocity
+        estimate is dp / period.
 
     Returns
     -------
@@ -91,12 +101,14 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
     ------
     ParameterError
         For tables (texture coefficients and D's, E's or F's search data) above
-        :data:`MAX_TABLE` numbers, a bad ``max_force`` or ``max_evaluations``, or an
+        :data:`MAX_TABLE` numbers, a bad ``max_force`` or ``max_evaluations``, a
+        ``passivity_controller`` that is not a stabiliser or comes without a ``period``, or an
         unwritable ``out``.
 
     Notes
     -----
-    ``haptex_step`` is :meth:`haptex.Renderer.step` without the energy observer: the same
+    ``haptex_step`` is :meth:`haptex.Renderer.step` (without the energy observer unless a
+    stabiliser is given, then with it and the stabiliser): the same
     C function (``hx_render_step``) on the same arrays (:func:`haptex.renderer.tick_model`),
     so the same safety rules: a non-finite coordinate or one beyond the workspace is a fault
     (zero force, return 1), the force is saturated to ``max_force``, a non-finite force is a
@@ -110,6 +122,8 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
         raise ParameterError(f"algorithm = {algorithm!r} is not allowed: must be a haptex algorithm or a GodObject")
     fmax = positive_or_inf("max_force", max_force, "N")
     evaluation_budget(max_evaluations)
+    pc = passivity_controller
+    T = stabiliser_period(pc, period)
     base = None
     if getattr(algorithm, "base", None) is not None:  # a textured object: the base's tables too
         code, prm, kind, coeffs, aux, _ = algorithm.object_spec(max_evaluations)
@@ -170,7 +184,11 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
             kind=f"HX_BASE_{type(algorithm.base).__name__.upper()}", radius=_num(base[1]), n_tri=n_tri,
             prism=int(bool(base[4])),
             tri=[_num(v) for v in base[2].ravel()], face=[_num(v) for v in base[3].ravel()],
-            what=repr(algorithm.base)))
+            what=repr(algorithm.base)),
+        stabiliser=None if pc is None else dict(
+            label=pc.label.replace("*/", "* /"),
+            mode="HX_" + next(n for n in _STABS if int(getattr(_ext, n)) == pc.mode),
+            damping=_num(pc.core_damping), period=_num(T), delay=0 if pc.delay is None else int(pc.delay)))
     env = _templates()
     out = Path(out)
     try:

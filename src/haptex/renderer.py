@@ -33,6 +33,24 @@ MAX_OBSERVER_DELAY = int(_core._ext.PC_RING) - 1
 """Longest computation delay (ticks) the passivity observer pairs forces over."""
 
 
+def stabiliser_period(passivity_controller, period) -> float | None:
+    """The servo period (s) a tick with ``passivity_controller`` runs at, checked (the
+    renderer's and the export's one rule): None without a period.
+
+    Raises
+    ------
+    ParameterError
+        For a ``passivity_controller`` that is not None or a :class:`Stabiliser`, one without a
+        ``period``, or a period that is not > 0.
+    """
+    if passivity_controller is not None and not isinstance(passivity_controller, Stabiliser):
+        raise fail("passivity_controller", passivity_controller,
+                   "None or a haptex stabiliser (PassivityController, EnergyBounding, PassiveSetPosition)")
+    if passivity_controller is not None and period is None:
+        raise fail("period", period, "the servo period in s (> 0) with a passivity_controller")
+    return None if period is None else positive("period", period, "s")
+
+
 class Stabiliser:
     """A stabiliser of the servo loop, run by the C core on each tick beside the passivity
     observer: :class:`PassivityController` (Hannaford & Ryu), :class:`EnergyBounding` (after Kim
@@ -401,12 +419,7 @@ class Renderer:
         if not isinstance(algorithm, (Algorithm, GodObject)):
             raise fail("algorithm", algorithm, "a haptex algorithm (haptex.algorithm(...)) or a haptex.proxy.GodObject")
         optional_positive("max_force", max_force, "N")
-        if passivity_controller is not None and not isinstance(passivity_controller, Stabiliser):
-            raise fail("passivity_controller", passivity_controller,
-                       "None or a haptex stabiliser (PassivityController, EnergyBounding, PassiveSetPosition)")
-        if passivity_controller is not None and period is None:
-            raise fail("period", period, "the servo period in s (> 0) with a passivity_controller")
-        T = None if period is None else positive("period", period, "s")
+        T = stabiliser_period(passivity_controller, period)
         self.max_evaluations = evaluation_budget(max_evaluations)
         self.algorithm = algorithm
         self.passivity_controller = passivity_controller
