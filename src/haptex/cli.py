@@ -189,17 +189,30 @@ def _stabiliser(passivity_control, stabiliser, dev, delay=None):
     return cls.for_device(dev, delay)
 
 
+def _catalogued_device(spec: str, dimension: int, delay: int = 0):
+    """The device of a preset of 'haptex devices' (with ``delay`` whole periods of computation
+    delay) or a TOML device file (FILE.toml), or None for any other spec."""
+    from .catalogue import presets
+    from .devices import device_from_file
+
+    if str(spec).lower().endswith(".toml"):
+        return device_from_file(spec)
+    if spec in presets():
+        return presets()[spec].device(delay=delay, dimension=dimension)
+    return None
+
+
 def _build_device(ctx, spec: str, joint_damping, mass, damping, sampling_period, delay, dimension: int = 2):
     """The device an invocation describes, refusing parameters of the other preset; a
     point mass is built with ``dimension`` axes (3 for a surface)."""
-    from .devices import Device, device_from_file
+    from .devices import Device
 
     if spec is None:  # the default: the paper's planar pantograph, or over a surface a 3-DOF point mass
         spec = "pantograph" if dimension == 2 else "point-mass"
     if str(spec).lower().endswith(".toml"):
         _refuse_unused(ctx, {"*": {"joint_damping", "mass", "damping", "sampling_period", "delay"}}, spec,
                        "--device", owner="*", what="write it in the device file")
-        return device_from_file(spec)
+        return _catalogued_device(spec, dimension)
     kind, _, rest = str(spec).partition(":")
     if kind in ("serial-arm", "delta") and not rest:
         if dimension != 3:
@@ -231,7 +244,7 @@ def _build_device(ctx, spec: str, joint_damping, mass, damping, sampling_period,
     if kind in presets() and not rest:
         _refuse_unused(ctx, {"*": {"joint_damping", "mass", "damping", "sampling_period"}}, kind, "--device",
                        owner="*", what="the preset gives it (write a TOML device file to change it)")
-        return presets()[kind].device(delay=delay, dimension=dimension)
+        return _catalogued_device(kind, dimension, delay)
     raise ParameterError(f"device = {spec!r} is not allowed: must be 'pantograph', 'point-mass', "
                          "'point-mass:MASS,DAMPING,PERIOD[,RESOLUTION]', 'serial-arm', 'delta', a preset of "
                          f"'haptex devices' ({', '.join(presets())}) or a TOML device file (FILE.toml)")
@@ -816,13 +829,9 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
             raise ParameterError(f"--{'passivity-control' if stabiliser is None else 'stabiliser'} needs --device: the "
                                  "device's period, delay and damping set the stabiliser")
         from .catalogue import presets
-        from .devices import device_from_file
 
-        if str(device_spec).lower().endswith(".toml"):
-            dev = device_from_file(device_spec)
-        elif device_spec in presets():
-            dev = presets()[device_spec].device(dimension=alg.dimension)
-        else:
+        dev = _catalogued_device(device_spec, alg.dimension)
+        if dev is None:
             raise ParameterError(f"device = {device_spec!r} is not allowed: must be a preset of 'haptex devices' "
                                  f"({', '.join(presets())}) or a TOML device file (FILE.toml)")
         pc, period = _stabiliser(passivity_control, stabiliser, dev, delay=dev.delay), dev.period
