@@ -125,6 +125,16 @@ HD_FROM_HAPTEX = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
 user (OpenHaptics' programmer's guide for HD's frame)."""
 
 
+def _paced(due: float) -> float:
+    """Wait, in sleeps of at most 0.2 ms, until ``time.perf_counter() >= due``; returns the
+    time it returns at (s): an emulator's clock, one message a period."""
+    import time
+
+    while time.perf_counter() < due:
+        time.sleep(min(2e-4, max(0.0, due - time.perf_counter())))
+    return time.perf_counter()
+
+
 class InverseService:
     """An emulator of Haply's Inverse Service on 127.0.0.1 (a free port): one Inverse3, the
     device behind it a simulated preset, lock-step at 1 kHz: at each tick it sends the state
@@ -173,7 +183,6 @@ class InverseService:
 
     def _session(self, ws):
         import json
-        import time
 
         self.connections += 1
         self.connected = True
@@ -181,10 +190,7 @@ class InverseService:
         sent, k = -math.inf, 0
         try:
             while True:
-                due = sent + self.PERIOD  # (a period after the last state, late or not: no bursts)
-                while time.perf_counter() < due:
-                    time.sleep(min(2e-4, max(0.0, due - time.perf_counter())))
-                sent = time.perf_counter()
+                sent = _paced(sent + self.PERIOD)  # (a period after the last state, late or not: no bursts)
                 message = self._state(k)
                 if message is None:
                     break
@@ -253,12 +259,7 @@ class InverseSerial:
         return self._open
 
     def _answer(self, payload: bytes) -> None:
-        import time
-
-        due = self._sent + self.PERIOD  # (a period after the last answer, late or not: no bursts)
-        while time.perf_counter() < due:
-            time.sleep(min(2e-4, max(0.0, due - time.perf_counter())))
-        self._sent = time.perf_counter()
+        self._sent = _paced(self._sent + self.PERIOD)  # (a period after the last answer, late or not: no bursts)
         os.write(self._master, payload)
 
     def _serve(self) -> None:
