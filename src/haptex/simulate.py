@@ -130,6 +130,9 @@ def _discretise(device: Device, op: Operator) -> tuple[np.ndarray, np.ndarray, n
     Phi, Wd, Wo = (np.empty((2, nz, nz)) for _ in range(3))
     Binv = np.empty((2, n, n))
     for reg, B in enumerate((device.damping_outside, device.damping)):
+        if reg == 1 and np.array_equal(B, device.damping_outside):  # one regime (most devices): made once
+            Phi[1], Wd[1], Wo[1], Binv[1] = Phi[0], Wd[0], Wo[0], Binv[0]
+            break
         F = _augmented(device.mass, B, K, C, mode)
         Qd = np.zeros((nz, nz))  # dissipation: v' B v, and the mode's damper on v - v_h
         Qd[V, V] = B
@@ -747,7 +750,8 @@ def _check_conditioning(device: Device, operator: Operator) -> None:
     """Refuse a device/operator pair whose exact discretisation is ill-conditioned."""
     minv = np.linalg.inv(device.mass)
     worst = 0.0
-    for b in (device.damping, device.damping_outside):
+    same = np.array_equal(device.damping, device.damping_outside)
+    for b in (device.damping,) if same else (device.damping, device.damping_outside):
         eig = np.linalg.eigvals(minv @ (b + operator.damping)) * device.period
         worst = max(worst, float(np.max(np.abs(eig))))
     _check_damping_ratio(worst)
