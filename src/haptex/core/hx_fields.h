@@ -359,49 +359,86 @@ HX_INLINE void tick_proxy(const hx_model *m, hx_state *s, const double p[3], dou
     f[2] = k * (hx__texture_height(&m->tex, u[0], u[1]) - p[2]);
 }
 
+/* A memoryless field's tick: the field, with its penetration and height kept in the state. */
+HX_INLINE void tick_field(field_fn fn, const hx_model *m, hx_state *s, const double p[3], double f[3])
+{
+    field_out o = {0.0, NAN};
+    fn(m, p, f, NULL, &o);
+    s->pen = o.pen;
+    s->h = o.h;
+}
+
+/* W with Colgate & Schenkel's virtual damper B (HX_P_MU) over the servo period T (HX_P_DXMAX):
+ * the backward difference of the sensed p^z, from the second sample on. */
+HX_INLINE void tick_w(const hx_model *m, hx_state *s, const double p[3], double f[3])
+{
+    double b = m->prm[HX_P_MU];
+    tick_field(field_w, m, s, p, f);
+    if (p[2] < 0.0 && b != 0.0 && s->contact)
+        f[2] -= b * (p[2] - s->last_z) / m->prm[HX_P_DXMAX];
+    s->last_z = p[2];
+    s->contact = 1;
+}
+
+HX_INLINE void tick_a(const hx_model *m, hx_state *s, const double p[3], double f[3])
+{
+    tick_field(field_a, m, s, p, f);
+}
+
+HX_INLINE void tick_b(const hx_model *m, hx_state *s, const double p[3], double f[3])
+{
+    tick_field(field_b, m, s, p, f);
+}
+
+HX_INLINE void tick_c(const hx_model *m, hx_state *s, const double p[3], double f[3])
+{
+    tick_field(field_c, m, s, p, f);
+}
+
+/* D and E: over a profile (the cell table or tree, hx_closest_profile) or over a surface (the
+ * certified quadtree, hx_closest_surface), by the texture's kind */
+HX_INLINE void tick_d(const hx_model *m, hx_state *s, const double p[3], double f[3])
+{
+    if (m->tex.kind == HX_SURFACE_GRATINGS || m->tex.kind == HX_SURFACE_PATCHES)
+        tick_de_surface(HX_ALG_D, m, s, p, f);
+    else
+        tick_de(HX_ALG_D, m, s, p, f);
+}
+
+HX_INLINE void tick_e(const hx_model *m, hx_state *s, const double p[3], double f[3])
+{
+    if (m->tex.kind == HX_SURFACE_GRATINGS || m->tex.kind == HX_SURFACE_PATCHES)
+        tick_de_surface(HX_ALG_E, m, s, p, f);
+    else
+        tick_de(HX_ALG_E, m, s, p, f);
+}
+
+/* G: force shading's field; leaving the wall ends the contact */
+HX_INLINE void tick_g(const hx_model *m, hx_state *s, const double p[3], double f[3])
+{
+    tick_field(field_g, m, s, p, f);
+    if (!(p[2] < 0.0))
+        s->contact = 0;
+}
+
+typedef void (*tick_fn)(const hx_model *m, hx_state *s, const double p[3], double f[3]);
+/* A servo tick's force, one function a letter in the order of HX_ALG_* (and the proxy), all of
+ * one signature: the one table the tick dispatches through (a loop instantiated for one letter
+ * indexes it with a constant, and the compiler inlines that letter's tick). */
+static const tick_fn TICKS[HX_N_ALGS] = {tick_w, tick_a, tick_b, tick_c, tick_d, tick_e, tick_f, tick_g, tick_proxy};
+
 /* The tick's force for algorithm `code` (a constant where a caller instantiates a loop per
  * letter, code otherwise). */
 HX_INLINE int hx__tick_force_of(const int code, const hx_model *m, hx_state *s, const double p[3],
                                     double f[3])
 {
-    field_fn fn;
-    field_out o = {0.0, NAN};
     zero(f, NULL);
     s->work = 1;
     s->cut = 0;
     s->h = NAN;
-    if (code == HX_ALG_F) {
-        tick_f(m, s, p, f);
-        return HX_OK;
-    }
-    if (code == HX_ALG_PROXY) {
-        tick_proxy(m, s, p, f);
-        return HX_OK;
-    }
-    if (code == HX_ALG_D || code == HX_ALG_E) {
-        if (m->tex.kind == HX_SURFACE_GRATINGS || m->tex.kind == HX_SURFACE_PATCHES)
-            tick_de_surface(code, m, s, p, f);
-        else
-            tick_de(code, m, s, p, f);
-        return HX_OK;
-    }
-    if (code < 0 || code >= HX_N_ALGS || FIELDS[code] == NULL)
+    if (code < 0 || code >= HX_N_ALGS)
         return HX_NOT_IN_CORE;
-    fn = FIELDS[code];
-    fn(m, p, f, NULL, &o);
-    s->pen = o.pen;
-    s->h = o.h;
-    if (code == HX_ALG_W) {
-        /* Colgate & Schenkel's virtual damper B (HX_P_MU) over the servo period T (HX_P_DXMAX):
-         * the backward difference of the sensed p^z, from the second sample on */
-        double b = m->prm[HX_P_MU];
-        if (p[2] < 0.0 && b != 0.0 && s->contact)
-            f[2] -= b * (p[2] - s->last_z) / m->prm[HX_P_DXMAX];
-        s->last_z = p[2];
-        s->contact = 1;
-    } else if (code == HX_ALG_G && !(p[2] < 0.0)) {
-        s->contact = 0;
-    }
+    TICKS[code](m, s, p, f);
     return HX_OK;
 }
 

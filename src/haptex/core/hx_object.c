@@ -525,9 +525,6 @@ static void object_bg(double k, double s, double sl, const double n[3], const do
         f[i] = g > 0.0 ? k * (s * n[i] - sl * a[i]) / g : 0.0;
 }
 
-/* the letters in the order of HX_ALG_*; NULL: not defined on objects yet */
-static const object_fn OBJECT_FIELDS[HX_N_ALGS] = {NULL, object_a, object_bg, object_c, NULL, NULL, NULL, object_bg,
-                                                   NULL};
 
 /* F on a base: the flat base as the wall (its normal force kappa_0 |e| n inside, e < 0, as
  * -kappa_0 p^z on the plane) and the presliding friction of eq. 22-24 in the surface
@@ -1479,39 +1476,93 @@ static int object_de(const hx_model *m, hx_state *s, const double p[3], const do
     return HX_OK;
 }
 
+/* Where the probe is on its base: the base's coordinates u (m), the rows of du/dp (ju), the
+ * signed distance e to the base along its normal n (m, < 0 inside), and the texture at u. */
+typedef struct {
+    double u[2], ju[6], e, n[3];
+    hx_height t;
+} object_at;
+
+/* A memoryless field on a base (A, B, C, G): inside, the field's force from the penetration
+ * (G: the base's depth -e; the others h(u) - e), its lateral depth (clamped at d^z_max,
+ * Remark 3) and the texture's gradient mapped to space (a = J_u^T grad h). */
+static int object_field(object_fn fn, int by_base, const hx_model *m, hx_state *s, const object_at *at, double f[3])
+{
+    double pen = at->t.h - at->e, a[3], dm = m->prm[HX_P_DZMAX];
+    int i;
+    if (!(by_base ? at->e < 0.0 : pen > 0.0))
+        return HX_OK;
+    s->pen = by_base ? -at->e : pen;
+    for (i = 0; i < 3; i++)
+        a[i] = at->ju[i] * at->t.gx + at->ju[3 + i] * at->t.gy;
+    fn(m->prm[HX_P_K0], s->pen, dm >= 0.0 && !(s->pen < dm) ? dm : s->pen, at->n, a, f);
+    return HX_OK;
+}
+
+typedef int (*object_tick_fn)(const hx_model *m, hx_state *s, const double p[3], const object_at *at, double f[3]);
+
+static int object_tick_a(const hx_model *m, hx_state *s, const double p[3], const object_at *at, double f[3])
+{
+    (void)p;
+    return object_field(object_a, 0, m, s, at, f);
+}
+
+static int object_tick_b(const hx_model *m, hx_state *s, const double p[3], const object_at *at, double f[3])
+{
+    (void)p;
+    return object_field(object_bg, 0, m, s, at, f);
+}
+
+static int object_tick_c(const hx_model *m, hx_state *s, const double p[3], const object_at *at, double f[3])
+{
+    (void)p;
+    return object_field(object_c, 0, m, s, at, f);
+}
+
+static int object_tick_g(const hx_model *m, hx_state *s, const double p[3], const object_at *at, double f[3])
+{
+    (void)p;
+    return object_field(object_bg, 1, m, s, at, f);
+}
+
+static int object_tick_de(const hx_model *m, hx_state *s, const double p[3], const object_at *at, double f[3])
+{
+    return object_de(m, s, p, at->u, at->e, at->t.h, at->n, f);
+}
+
+static int object_tick_f(const hx_model *m, hx_state *s, const double p[3], const object_at *at, double f[3])
+{
+    (void)p;
+    return object_f(m, s, at->u, at->ju, at->e, at->n, at->t.h, f);
+}
+
+static int object_tick_proxy(const hx_model *m, hx_state *s, const double p[3], const object_at *at, double f[3])
+{
+    return object_proxy(m, s, p, at->u, at->e, at->t.h, f);
+}
+
+/* A tick on a base, one function a letter in the order of HX_ALG_* (and the proxy), all of one
+ * signature (W has none on objects: hx__on_base refuses it first). */
+static const object_tick_fn OBJECT_TICKS[HX_N_ALGS] = {NULL, object_tick_a, object_tick_b, object_tick_c,
+                                                       object_tick_de, object_tick_de, object_tick_f, object_tick_g,
+                                                       object_tick_proxy};
+
 int hx_object_force(const hx_model *m, hx_state *s, const double p[3], double f[3])
 {
-    double u[2], ju[6], e, n[3], a[3], pen, dm;
-    hx_height t;
+    object_at at;
     long tri = s->tri, work = 0;
-    int i, rc, inside;
-    object_fn fn = m->code >= 0 && m->code < HX_N_ALGS ? OBJECT_FIELDS[m->code] : NULL;
+    int rc;
     f[0] = f[1] = f[2] = 0.0;
     s->pen = 0.0;
-    if (!hx__on_base(m->code, m->base))
+    if (!hx__on_base(m->code, m->base) || OBJECT_TICKS[m->code] == NULL)
         return HX_NOT_IN_CORE;
-    rc = hx_base_local(m->base, p, &tri, u, ju, &e, n, &work);
+    rc = hx_base_local(m->base, p, &tri, at.u, at.ju, &at.e, at.n, &work);
     s->work = work;
     if (rc != HX_OK)
         return rc;
     s->tri = tri;
-    hx_texture_eval(&m->tex, u[0], u[1], &t);
+    hx_texture_eval(&m->tex, at.u[0], at.u[1], &at.t);
     s->work += 1;
-    s->h = t.h;
-    if (m->code == HX_ALG_F)
-        return object_f(m, s, u, ju, e, n, t.h, f);
-    if (m->code == HX_ALG_PROXY)
-        return object_proxy(m, s, p, u, e, t.h, f);
-    if (m->code == HX_ALG_D || m->code == HX_ALG_E)
-        return object_de(m, s, p, u, e, t.h, n, f);
-    pen = t.h - e;
-    inside = m->code == HX_ALG_G ? e < 0.0 : pen > 0.0;
-    if (!inside)
-        return HX_OK;
-    s->pen = m->code == HX_ALG_G ? -e : pen;
-    dm = m->prm[HX_P_DZMAX];
-    for (i = 0; i < 3; i++)
-        a[i] = ju[i] * t.gx + ju[3 + i] * t.gy;
-    fn(m->prm[HX_P_K0], s->pen, dm >= 0.0 && !(s->pen < dm) ? dm : s->pen, n, a, f);
-    return HX_OK;
+    s->h = at.t.h;
+    return OBJECT_TICKS[m->code](m, s, p, &at, f);
 }
