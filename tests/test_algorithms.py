@@ -304,3 +304,19 @@ def test_a_s_spring_energy_is_its_vertical_stretch():
     # no potential: at x = l/4 (a peak, h = A) and 0.3 mm below it, 2000 * (0.3e-3)^2 / 2 J
     alg = make("A", hx.Sinusoid(A, L))
     assert alg.spring_energy([[L / 4, A - 0.3e-3]])[0] == pytest.approx(0.5 * K0 * 0.3e-3**2, rel=1e-12)
+
+
+def test_the_registry_says_what_each_letters_constructor_takes():
+    # Algorithm.parameters is what the CLI, the explorer, sweeps and objects read to learn which
+    # letter takes what: it must be exactly each class's keyword parameters besides the texture
+    # and the stiffness, and W alone takes no texture
+    import inspect
+
+    from haptex.algorithms import ALGORITHMS, taking
+
+    for letter, cls in ALGORITHMS.items():
+        names = [n for n in inspect.signature(cls.__init__).parameters if n not in ("self", "texture", "stiffness")]
+        assert tuple(names) == cls.parameters, letter
+        assert cls.textured == (letter != "W")
+    assert taking("max_penetration") == ["B", "C", "F", "G"]  # Remark 3's d^z_max
+    assert taking("friction") == ["F"] and taking("damping") == ["W"]

@@ -503,3 +503,40 @@ def test_an_invalid_memory_budget_is_one_line_naming_it(value):
                        timeout=120, env=env)
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1, r.stderr
     assert f"HAPTEX_MEMORY_BUDGET = {value!r} is not allowed" in r.stderr
+
+
+def test_simulate_gives_b_c_and_g_remark_3s_clamp():
+    # Remark 3: B, C and G take d^z_max as F does (the registry: Algorithm.parameters); it was
+    # refused for them at the CLI. G's lateral force is kappa_0 d_l g h' (eq. 28) with d_l the
+    # depth clamped at d^z_max: along a horizontal stroke 0.9 mm deep, clamped at 0.3 mm, its
+    # lateral work is exactly a third of the unclamped one; B's and C's lateral work shrinks too
+    def work(letter, *extra):
+        r = run_cli("simulate", "path", "--algorithm", letter, "--path", "0,-0.9mm;0.75mm,-0.9mm", "--speed",
+                    "1 mm/s", "--duration", "0.8s", "--json", *extra)
+        assert r.returncode == 0, r.stderr
+        return json.loads(r.stdout)["energy_x"]
+
+    assert work("G", "--max-penetration", "0.3mm") == pytest.approx(work("G") / 3, rel=1e-9)
+    for letter in "BC":
+        free, clamped = work(letter), work(letter, "--max-penetration", "0.3mm")
+        assert free < 0.7 * free < clamped < 0  # (measured: B 0.60, C 0.55 of the free work)
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (["simulate", "path", "--algorithm", "A", "--max-penetration", "0.3mm"],
+     "--max-penetration is not allowed with --algorithm A: it applies to B, C, F, G"),
+    (["simulate", "path", "--algorithm", "B", "--friction", "0.3"],
+     "--friction is not allowed with --algorithm B: it applies to F"),
+    (["export", "--algorithm", "A", "--texture", "sine:0.8mm,1mm", "--stiffness", "2kN/m", "--max-force", "5N",
+      "--max-penetration", "0.3mm"],
+     "--max-penetration is not allowed with --algorithm A: it applies to B, C, F, G"),
+    (["export", "--algorithm", "G", "--texture", "sine:0.8mm,1mm", "--stiffness", "2kN/m", "--max-force", "5N",
+      "--presliding", "1mm"],
+     "--presliding is not allowed with --algorithm G: it applies to F"),
+])
+def test_a_parameter_the_letter_does_not_take_is_refused_naming_the_letters_that_do(args, fragment, tmp_path):
+    out = tmp_path / "exported"
+    r = run_main(*args, *(["--path", "0,0;1mm,0", "--duration", "0.01s"] if args[0] == "simulate" else
+                          ["--out", str(out)]))
+    assert r.returncode == 2 and fragment in r.stderr and "Traceback" not in r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1 and not out.exists()

@@ -48,9 +48,18 @@ class Algorithm:
         :func:`haptex.analysis.conservativity`.
     has_memory : bool
         False for every algorithm but F.
+    parameters : tuple of str
+        The keyword parameters :func:`algorithm` takes for this letter besides the texture and
+        the stiffness (``max_penetration``, d^z_max of Remark 3, for B, C, F and G; F's friction
+        and presliding; W's virtual damper): the one place the CLI, the explorer, the sweeps and
+        objects learn which letter takes what.
+    textured : bool
+        False for W only (the smooth wall takes no texture).
     """
 
     letter: str = "?"
+    parameters: tuple[str, ...] = ()
+    textured: bool = True
     name: str = ""
     penetration_kind: str = "vertical"
     is_gradient: bool = False
@@ -325,6 +334,8 @@ class SmoothWall(Algorithm):
 
     letter = "W"
     name = "smooth wall"
+    parameters = ("damping", "period")
+    textured = False
     penetration_kind = "nominal"
     is_gradient = True
     reference = "eq. 30"
@@ -434,6 +445,7 @@ class GroovedNormal(_Vertical):
 
     letter = "B"
     name = "grooved boundary, force normal to groove"
+    parameters = ("max_penetration",)
     reference = "eq. 11, 12; Choi & Tan (2004) [19]"
 
     def _fill(self, d, s, hess, f, j):
@@ -468,6 +480,7 @@ class ChangeOfHeight(_Vertical):
 
     letter = "C"
     name = "change of height"
+    parameters = ("max_penetration",)
     reference = "eq. 13–15; Minsky (1995) [16]"
 
     @property
@@ -708,6 +721,7 @@ class ForceShading(Algorithm):
 
     letter = "G"
     name = "force shading"
+    parameters = ("max_penetration",)
     penetration_kind = "nominal"
     reference = "eq. 28, 29; Morgenbesser & Srinivasan (1996) [29]"
 
@@ -770,6 +784,7 @@ class FrictionModulated(Algorithm):
 
     letter = "F"
     name = "flat wall with modulated lateral friction"
+    parameters = ("friction", "presliding", "modulation_depth", "max_penetration", "stick_deflection")
     penetration_kind = "nominal"
     has_memory = True
     reference = "eq. 22–27, 31; Hayward & Armstrong (2000) [32]"
@@ -1112,7 +1127,7 @@ def algorithm(letter: str, texture: Texture | None = None, stiffness: float = 20
         allowed = ", ".join(sorted(ALGORITHMS, key=lambda c: (c != "W", c)))
         raise fail("letter", letter, f"one of {allowed}")
     cls = ALGORITHMS[key]
-    if key != "W" and texture is None:
+    if cls.textured and texture is None:
         raise ParameterError(f"texture = None is not allowed for algorithm {key}: pass a Texture")
     if texture is not None and not isinstance(texture, Texture):
         raise fail("texture", texture, "a haptex Texture (e.g. haptex.Sinusoid(0.8e-3, 1e-3))")
@@ -1129,10 +1144,11 @@ def algorithm(letter: str, texture: Texture | None = None, stiffness: float = 20
 
 
 def _accepted(key: str) -> str:
-    if key in ("B", "C", "G"):
-        return "it accepts max_penetration"
-    if key == "W":
-        return "it accepts damping and period (a virtual damper)"
-    if key == "F":
-        return "it accepts friction, presliding, modulation_depth, max_penetration, stick_deflection"
-    return "it accepts no extra parameter"
+    names = ALGORITHMS[key].parameters
+    return f"it accepts {', '.join(names)}" if names else "it accepts no extra parameter"
+
+
+def taking(name: str) -> list[str]:
+    """The letters whose algorithm takes the keyword parameter ``name`` (:attr:`Algorithm.parameters`),
+    in the paper's order."""
+    return [letter for letter, cls in ALGORITHMS.items() if name in cls.parameters]

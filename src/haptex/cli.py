@@ -45,7 +45,8 @@ def _paper_options(func):
         click.option("--period", type=Quantity("m"), default=PAPER_PARAMETERS["period"],
                      show_default="1mm", help="Texture spatial period l, e.g. '1mm'."),
         click.option("--max-penetration", type=Quantity("m"), default=PAPER_PARAMETERS["max_penetration"],
-                     show_default="1mm", help="Depth of the analysed region, d^z_max."),
+                     show_default="1mm", help="d^z_max: the depth of the analysed region; in a simulation, "
+                     "Remark 3's clamp of F (this default) and of B, C and G (only when given)."),
         click.option("--friction", type=Quantity("dimensionless"), default=PAPER_PARAMETERS["friction"],
                      show_default="0.8", help="Algorithm F's friction coefficient mu."),
         click.option("--presliding", type=Quantity("m"), default=PAPER_PARAMETERS["presliding"],
@@ -324,13 +325,12 @@ def _simulate(ctx, mode, letter, stiffness, amplitude, period, max_penetration, 
               hand_stiffness=300.0,
               hand_damping=1.0, velocity=0.01, depth=1e-3, path_text=None, speed=1e-3, hand_name=None):
     from . import operators as ops
-    from .algorithms import algorithm
+    from .algorithms import ALGORITHMS, algorithm
     from .renderer import PassivityController
     from .simulate import simulate as run
     from .textures import Flat, Sinusoid
 
-    if str(letter).upper() != "F":
-        _refuse_unused(ctx, {"F": {"friction", "presliding", "max_penetration"}}, str(letter).upper(), "--algorithm")
+    given = _given_for_letter(ctx, letter, ("friction", "presliding", "max_penetration"))
     if str(letter).upper() == "W":
         _refuse_unused(ctx, {"*": {"amplitude", "period"}}, "W", "--algorithm", owner="*")
     if plot is not None:
@@ -338,7 +338,11 @@ def _simulate(ctx, mode, letter, stiffness, amplitude, period, max_penetration, 
     if save is not None:
         _check_save_path(save)
     letter = letter.upper()
-    params = {"friction": friction, "presliding": presliding, "max_penetration": max_penetration} if letter == "F" else {}
+    # F takes its friction, presliding and d^z_max (the paper's 1 mm by default); B, C and G their
+    # d^z_max (Remark 3) when it is given, else none (unclamped, as haptex.algorithm makes them)
+    takes = getattr(ALGORITHMS.get(letter), "parameters", ())
+    options = (("friction", friction), ("presliding", presliding), ("max_penetration", max_penetration))
+    params = {k: v for k, v in options if k in given or ("friction" in takes and k in takes)}
     d = 2
     if surface_spec is not None:
         _refuse_unused(ctx, {"*": {"amplitude", "period"}}, repr(surface_spec), "--surface", owner="*",
@@ -528,6 +532,24 @@ class _Spinner:
     def __exit__(self, *exc):
         self.prog.__exit__(*exc)
         return False
+
+
+def _given_for_letter(ctx, letter: str, names) -> set:
+    """The options of ``names`` (keyword parameters of :func:`haptex.algorithm`) given on the
+    command line; one that the letter's algorithm does not take (the registry's
+    :attr:`haptex.algorithms.Algorithm.parameters`) is refused in one line, naming the letters
+    that take it. An unknown letter is left to :func:`haptex.algorithm` to refuse."""
+    from click.core import ParameterSource
+
+    from .algorithms import ALGORITHMS, taking
+
+    key = str(letter).strip().upper()
+    given = {n for n in names if ctx.get_parameter_source(n) == ParameterSource.COMMANDLINE}
+    for name in sorted(given):
+        if key in ALGORITHMS and name not in ALGORITHMS[key].parameters:
+            raise ParameterError(f"--{name.replace('_', '-')} is not allowed with --algorithm {key}: it applies to "
+                                 f"{', '.join(taking(name))}")
+    return given
 
 
 def _refuse_unused(ctx, groups: dict, chosen: str, by: str = "mode", owner: str | None = None,
@@ -792,12 +814,13 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
            spacing, x_unit, height_unit, level, lowpass, periodic, object_spec, uv_scale, passivity_control, stabiliser,
            device_spec, out, quiet):
     """C99 source of one algorithm on one texture, for device firmware (<math.h> only)."""
-    from .algorithms import algorithm
+    from .algorithms import ALGORITHMS, algorithm, taking
     from .export import TICK_FILES, export_c
     from .objects import object_algorithm
 
     letter = str(letter).upper()
-    if letter == "W":
+    takes = ALGORITHMS[letter].parameters if letter in ALGORITHMS else ()
+    if letter in ALGORITHMS and not ALGORITHMS[letter].textured:
         if texture_spec is not None:
             raise ParameterError("--texture is not allowed with --algorithm W: the smooth wall has no texture")
         tex = None
@@ -807,16 +830,12 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
         with _Spinner("reading the texture", quiet):
             tex = _texture_from_spec(texture_spec, spacing, x_unit, height_unit, level, lowpass, None, periodic)
     params = {}
-    if max_penetration is not None:
-        if letter not in "BCGF":
-            raise ParameterError(f"--max-penetration is not allowed with --algorithm {letter}: it applies to B, C, "
-                                 "G and F")
-        params["max_penetration"] = max_penetration
-    for flag, name, value in (("--friction", "friction", friction), ("--presliding", "presliding", presliding),
-                              ("--stick-deflection", "stick_deflection", stick_deflection)):
+    for name, value in (("max_penetration", max_penetration), ("friction", friction), ("presliding", presliding),
+                        ("stick_deflection", stick_deflection)):
         if value is not None:
-            if letter != "F":
-                raise ParameterError(f"{flag} is not allowed with --algorithm {letter}: it applies to F only")
+            if name not in takes:
+                raise ParameterError(f"--{name.replace('_', '-')} is not allowed with --algorithm {letter}: it "
+                                     f"applies to {', '.join(taking(name))}")
             params[name] = value
     base = object_from_spec(object_spec, uv_scale)
     if base is not None:

@@ -89,7 +89,7 @@ import math
 import numpy as np
 
 from ._validation import ParameterError, fail, positions, positive
-from .algorithms import Algorithm, algorithm
+from .algorithms import ALGORITHMS, Algorithm, algorithm
 from .core import _ext, in_slices
 from .surfaces import Extruded, SumOfGratings, Surface
 from .textures import Texture
@@ -843,10 +843,10 @@ class ObjectAlgorithm(Algorithm):
         if letter not in OBJECT_TICK_LETTERS:
             raise fail("algorithm", letter, f"one of {', '.join(OBJECT_TICK_LETTERS)} on an object so far (D, E and "
                        "the proxy algorithm over objects are not written yet)")
-        if params and letter not in "BCFG":
-            raise fail("params", sorted(params), f"none for {letter} on an object (B, C and G take "
-                       "max_penetration; F friction, presliding, modulation_depth, max_penetration, "
-                       "stick_deflection)")
+        if params and not getattr(ALGORITHMS.get(letter), "parameters", ()):  # (the registry)
+            takers = "; ".join(f"{L} takes {', '.join(c.parameters)}" for L, c in ALGORITHMS.items()
+                               if c.textured and c.parameters)
+            raise fail("params", sorted(params), f"none for {letter} on an object ({takers})")
         if not isinstance(base, Base):
             raise fail("base", base, "a haptex.objects base: Plane(), Cylinder(R), Sphere(R) or Mesh(...)")
         if letter in "DE" and isinstance(base, Mesh) and base._vn is None:

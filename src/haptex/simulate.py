@@ -1148,20 +1148,13 @@ def _rebuild(algorithm: Algorithm, device: Device, operator: Operator, values: d
             if not isinstance(tex, Sinusoid):
                 raise ParameterError("amplitude and texture_period sweeps are not allowed for a texture that is not a Sinusoid")
             tex = Sinusoid(values.get("amplitude", tex.amplitude), values.get("texture_period", tex.period), tex.phases[0])
-        kw = {}
-        if algorithm.letter in ("B", "C", "G", "F"):
-            kw["max_penetration"] = values.get("max_penetration", algorithm.max_penetration)
-        elif "max_penetration" in values:
+        takes = type(algorithm).parameters  # (the registry: haptex.algorithms.Algorithm.parameters)
+        if "max_penetration" in values and "max_penetration" not in takes:
             raise ParameterError(f"max_penetration is not allowed in a sweep of algorithm {algorithm.letter}")
-        if algorithm.letter == "F":
-            kw.update(friction=values.get("friction", algorithm.friction),
-                      presliding=values.get("presliding", algorithm.presliding),
-                      modulation_depth=values.get("modulation_depth", algorithm.modulation_depth),
-                      stick_deflection=algorithm.stick_deflection)
-        elif any(k in values for k in ("friction", "presliding", "modulation_depth")):
+        if any(k in values and k not in takes for k in ("friction", "presliding", "modulation_depth")):
             raise ParameterError(f"friction parameters are not allowed in a sweep of algorithm {algorithm.letter}")
-        algorithm = make(algorithm.letter, None if algorithm.letter == "W" else tex,
-                         values.get("stiffness", algorithm.stiffness), **kw)
+        kw = {k: values.get(k, getattr(algorithm, k)) for k in takes}  # (W keeps its virtual damper)
+        algorithm = make(algorithm.letter, tex, values.get("stiffness", algorithm.stiffness), **kw)
     dv = {k: values[k] for k in _DEVICE_KEYS if k in values}
     if "delay" in dv:
         dv["delay"] = whole("delay", dv["delay"], 0, 10_000, "sampling periods")
@@ -1381,17 +1374,17 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
         inverse = inverse.ravel()
     else:
         first, inverse = np.zeros(1, dtype=np.intp), np.zeros(N, dtype=np.intp)
+    if getattr(algorithm, "base", None) is not None:  # a textured object: its algorithm is not rebuilt
+        swept = sorted(k for k in values if k in _ALGORITHM_KEYS and k != "stiffness")
+        if swept:
+            raise ParameterError(f"{swept[0]} is not allowed in a sweep of {algorithm!r}: on an object only the "
+                                 "stiffness, the device and the operator are swept")
     runs = [_rebuild(algorithm, device, operator, {k: float(values[k][i]) for k in keys}) for i in first]
     letters = {a.letter for a, _, _ in runs}
     periods = {d_.period for _, d_, _ in runs}
     memo: dict = {}
     specs = [_kernel_inputs(a, d_, o, memo) for a, d_, o in runs]
     base = specs[0][12]  # a textured object's base, shared by every run (the general loop takes it)
-    if base is not None:
-        swept = sorted(k for k in values if k in _ALGORITHM_KEYS and k != "stiffness")
-        if swept:
-            raise ParameterError(f"{swept[0]} is not allowed in a sweep of {algorithm!r}: on an object only the "
-                                 "stiffness, the device and the operator are swept")
     if len(letters) != 1 or len({s[3].shape for s in specs}) != 1 or len(periods) != 1:
         raise ParameterError("the runs of a batch must share the algorithm letter, texture shape and sampling period")
     code, kind, nominal = specs[0][0], specs[0][2], specs[0][5]

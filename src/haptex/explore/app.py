@@ -24,6 +24,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from .._validation import ParameterError
+from ..algorithms import ALGORITHMS
 from . import model
 
 log = logging.getLogger("haptex.explore")
@@ -262,7 +263,9 @@ class ExplorerPage:
         self.w_section.visible = self.w_object.visible = self.scene is not None and self.scene.dimension == 3
         self.w_mesh.visible = self.w_uv_scale.visible = (self.w_object.visible
                                                          and str(self.settings.object).strip().lower() == "mesh")
-        self.w_friction.visible = self.w_presliding.visible = letter == "F"
+        takes = getattr(ALGORITHMS.get(str(letter).strip().upper()), "parameters", ())  # (the registry)
+        self.w_friction.visible = "friction" in takes
+        self.w_presliding.visible = "presliding" in takes
         self.f_heights.visible = self.scene is not None and self.scene.dimension == 3
         self.f_surface_q.visible = self.scene is not None and getattr(self.scene.algorithm, "base", None) is not None
         axes = "xyz" if self.f_heights.visible else "xz"

@@ -216,7 +216,7 @@ def build(settings: Settings) -> Scene:
     ParameterError
         Naming the control whose text is wrong, its value and what is allowed.
     """
-    from ..algorithms import algorithm
+    from ..algorithms import ALGORITHMS, algorithm
     from ..devices import Device
     from ..surfaces import SampledSurface
     from ..textures import Flat
@@ -245,11 +245,13 @@ def build(settings: Settings) -> Scene:
     else:
         raise fail("texture", kind, "one of " + ", ".join(v for v, _ in TEXTURES))
     dmax = quantity(s.max_penetration, "m", "max_penetration")
+    takes = getattr(ALGORITHMS.get(letter), "parameters", ())  # (the registry)
     params = {}
-    if letter in ("B", "C", "F", "G"):
+    if "max_penetration" in takes:
         params["max_penetration"] = dmax
-    if letter == "F":
+    if "friction" in takes:
         params["friction"] = quantity(s.friction, "dimensionless", "friction")
+    if "presliding" in takes:
         params["presliding"] = quantity(s.presliding, "m", "presliding")
     stiffness = quantity(s.stiffness, "N/m", "stiffness")
     on_object = str(s.object).strip().lower() != "plane"
@@ -278,8 +280,8 @@ def build(settings: Settings) -> Scene:
             raise fail("algorithm", letter,
                        f"one of {', '.join(OBJECT_DESIGN_LETTERS)} on an object (or the object 'plane')")
         alg = object_algorithm(letter, tex, base, stiffness, **params)
-    elif letter == "W":
-        alg = algorithm("W", Flat(dimension=2) if tex.dimension == 2 else None, stiffness)
+    elif letter in ALGORITHMS and not ALGORITHMS[letter].textured:
+        alg = algorithm(letter, Flat(dimension=2) if tex.dimension == 2 else None, stiffness)
         tex = alg.texture  # the smooth wall ignores the texture: show the flat boundary it renders
     else:
         alg = algorithm(letter, tex, stiffness, **params)
