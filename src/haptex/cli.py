@@ -341,6 +341,7 @@ def _simulate(ctx, mode, letter, stiffness, amplitude, period, max_penetration, 
     # F takes its friction, presliding and d^z_max (the paper's 1 mm by default); B, C and G their
     # d^z_max (Remark 3) when it is given, else none (unclamped, as haptex.algorithm makes them)
     takes = getattr(ALGORITHMS.get(letter), "parameters", ())
+    textured = getattr(ALGORITHMS.get(letter), "textured", True)  # (an unknown letter: haptex.algorithm refuses it)
     options = (("friction", friction), ("presliding", presliding), ("max_penetration", max_penetration))
     params = {k: v for k, v in options if k in given or ("friction" in takes and k in takes)}
     d = 2
@@ -352,9 +353,9 @@ def _simulate(ctx, mode, letter, stiffness, amplitude, period, max_penetration, 
             raise ParameterError(f"surface = {surface_spec!r} is not allowed: must be 'egg-crate:AMPLITUDE,PERIOD' or "
                                  "'grating:AMPLITUDE,PERIOD[,DIRECTION]'")
         d = 3
-        alg = algorithm(letter, Flat(dimension=2) if letter == "W" else tex, stiffness, **params)
+        alg = algorithm(letter, tex if textured else Flat(dimension=2), stiffness, **params)
     else:
-        alg = algorithm(letter, None if letter == "W" else Sinusoid(amplitude, period), stiffness, **params)
+        alg = algorithm(letter, Sinusoid(amplitude, period) if textured else None, stiffness, **params)
     dev = _build_device(ctx, device_spec, joint_damping, mass, damping, sampling_period, delay, dimension=d)
     pc = _stabiliser(passivity_control, stabiliser, dev)
     start = None

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .algorithms import algorithm
+from .algorithms import ALGORITHMS, algorithm
 from .analysis import characteristic_number
 from .devices import Device, critical_stiffness
 from .operators import ElasticBand, ScanningHand
@@ -93,10 +93,9 @@ SURFACE_ACTIVITY = {
 def _alg(letter, p, stiffness=None):
     k = p["stiffness"] if stiffness is None else stiffness
     tex = Sinusoid(p["amplitude"], p["period"])
-    if letter == "F":
-        return algorithm("F", tex, k, friction=p["friction"], presliding=p["presliding"],
-                         max_penetration=p["max_penetration"])
-    return algorithm(letter, None if letter == "W" else tex, k)
+    cls = ALGORITHMS[letter]  # (the registry: F's friction, presliding and d^z_max from Section V-C)
+    kw = {k: p[k] for k in ("friction", "presliding", "max_penetration") if "friction" in cls.parameters}
+    return algorithm(letter, tex if cls.textured else None, k, **kw)
 
 
 def _device(joint_damping, working_point=(0.0, 0.15), delay=0):

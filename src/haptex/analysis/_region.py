@@ -117,19 +117,21 @@ def checked_algorithms(letters, texture: Texture, stiffness: float, max_penetrat
     ParameterError
         If an algorithm cannot be built or is outside the analysis' scale.
     """
-    from ..algorithms import algorithm
+    from ..algorithms import ALGORITHMS, algorithm
 
     algs = {}
     for letter in letters:
+        cls = ALGORITHMS.get(str(letter).strip().upper())  # (the registry; an unknown letter: algorithm() refuses it)
         kw = {}
-        if letter == "F":
+        if cls is not None and "friction" in cls.parameters:
             kw = {"friction": friction, "presliding": presliding, "max_penetration": max_penetration}
         if base is not None:
             from ..objects import object_algorithm
 
             algs[letter] = object_algorithm(letter, texture, base, stiffness, **kw)
         else:
-            algs[letter] = algorithm(letter, Flat(texture.dimension) if letter == "W" else texture, stiffness, **kw)
+            algs[letter] = algorithm(letter, texture if cls is None or cls.textured else Flat(texture.dimension),
+                                     stiffness, **kw)
         check_analysis_scale(algs[letter], max_penetration)
     return algs
 
