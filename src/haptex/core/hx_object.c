@@ -1501,29 +1501,17 @@ static int object_field(object_fn fn, int by_base, const hx_model *m, hx_state *
 
 typedef int (*object_tick_fn)(const hx_model *m, hx_state *s, const double p[3], const object_at *at, double f[3]);
 
-static int object_tick_a(const hx_model *m, hx_state *s, const double p[3], const object_at *at, double f[3])
-{
-    (void)p;
-    return object_field(object_a, 0, m, s, at, f);
-}
-
-static int object_tick_b(const hx_model *m, hx_state *s, const double p[3], const object_at *at, double f[3])
-{
-    (void)p;
-    return object_field(object_bg, 0, m, s, at, f);
-}
-
-static int object_tick_c(const hx_model *m, hx_state *s, const double p[3], const object_at *at, double f[3])
-{
-    (void)p;
-    return object_field(object_c, 0, m, s, at, f);
-}
-
-static int object_tick_g(const hx_model *m, hx_state *s, const double p[3], const object_at *at, double f[3])
-{
-    (void)p;
-    return object_field(object_bg, 1, m, s, at, f);
-}
+/* A, B, C and G's ticks on a base: the field function of each, and whether the depth is the base's (G) */
+#define HX_OBJECT_FIELD_TICK(name, fn, by_base)                                                              \
+    static int name(const hx_model *m, hx_state *s, const double p[3], const object_at *at, double f[3])     \
+    {                                                                                                        \
+        (void)p;                                                                                             \
+        return object_field(fn, by_base, m, s, at, f);                                                       \
+    }
+HX_OBJECT_FIELD_TICK(object_tick_a, object_a, 0)
+HX_OBJECT_FIELD_TICK(object_tick_b, object_bg, 0)
+HX_OBJECT_FIELD_TICK(object_tick_c, object_c, 0)
+HX_OBJECT_FIELD_TICK(object_tick_g, object_bg, 1)
 
 static int object_tick_de(const hx_model *m, hx_state *s, const double p[3], const object_at *at, double f[3])
 {
