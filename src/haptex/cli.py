@@ -542,15 +542,23 @@ def _given_for_letter(ctx, letter: str, names) -> set:
     that take it. An unknown letter is left to :func:`haptex.algorithm` to refuse."""
     from click.core import ParameterSource
 
-    from .algorithms import ALGORITHMS, taking
+    from .algorithms import ALGORITHMS
 
     key = str(letter).strip().upper()
     given = {n for n in names if ctx.get_parameter_source(n) == ParameterSource.COMMANDLINE}
     for name in sorted(given):
         if key in ALGORITHMS and name not in ALGORITHMS[key].parameters:
-            raise ParameterError(f"--{name.replace('_', '-')} is not allowed with --algorithm {key}: it applies to "
-                                 f"{', '.join(taking(name))}")
+            raise _not_taken(name, key)
     return given
+
+
+def _not_taken(name: str, letter: str) -> ParameterError:
+    """The one-line refusal of the option for keyword parameter ``name`` with a letter that does
+    not take it, naming the letters that do (the registry)."""
+    from .algorithms import taking
+
+    return ParameterError(f"--{name.replace('_', '-')} is not allowed with --algorithm {letter}: it applies to "
+                          f"{', '.join(taking(name))}")
 
 
 def _refuse_unused(ctx, groups: dict, chosen: str, by: str = "mode", owner: str | None = None,
@@ -815,7 +823,7 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
            spacing, x_unit, height_unit, level, lowpass, periodic, object_spec, uv_scale, passivity_control, stabiliser,
            device_spec, out, quiet):
     """C99 source of one algorithm on one texture, for device firmware (<math.h> only)."""
-    from .algorithms import ALGORITHMS, algorithm, taking
+    from .algorithms import ALGORITHMS, algorithm
     from .export import TICK_FILES, export_c
     from .objects import object_algorithm
 
@@ -835,8 +843,7 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
                         ("stick_deflection", stick_deflection)):
         if value is not None:
             if name not in takes:
-                raise ParameterError(f"--{name.replace('_', '-')} is not allowed with --algorithm {letter}: it "
-                                     f"applies to {', '.join(taking(name))}")
+                raise _not_taken(name, letter)
             params[name] = value
     base = object_from_spec(object_spec, uv_scale)
     if base is not None:

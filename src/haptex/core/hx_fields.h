@@ -397,20 +397,22 @@ HX_INLINE void tick_c(const hx_model *m, hx_state *s, const double p[3], double 
 
 /* D and E: over a profile (the cell table or tree, hx_closest_profile) or over a surface (the
  * certified quadtree, hx_closest_surface), by the texture's kind */
-HX_INLINE void tick_d(const hx_model *m, hx_state *s, const double p[3], double f[3])
+HX_INLINE void tick_de_any(const int code, const hx_model *m, hx_state *s, const double p[3], double f[3])
 {
     if (m->tex.kind == HX_SURFACE_GRATINGS || m->tex.kind == HX_SURFACE_PATCHES)
-        tick_de_surface(HX_ALG_D, m, s, p, f);
+        tick_de_surface(code, m, s, p, f);
     else
-        tick_de(HX_ALG_D, m, s, p, f);
+        tick_de(code, m, s, p, f);
+}
+
+HX_INLINE void tick_d(const hx_model *m, hx_state *s, const double p[3], double f[3])
+{
+    tick_de_any(HX_ALG_D, m, s, p, f);
 }
 
 HX_INLINE void tick_e(const hx_model *m, hx_state *s, const double p[3], double f[3])
 {
-    if (m->tex.kind == HX_SURFACE_GRATINGS || m->tex.kind == HX_SURFACE_PATCHES)
-        tick_de_surface(HX_ALG_E, m, s, p, f);
-    else
-        tick_de(HX_ALG_E, m, s, p, f);
+    tick_de_any(HX_ALG_E, m, s, p, f);
 }
 
 /* G: force shading's field; leaving the wall ends the contact */
