@@ -380,21 +380,6 @@ HX_INLINE void tick_w(const hx_model *m, hx_state *s, const double p[3], double 
     s->contact = 1;
 }
 
-HX_INLINE void tick_a(const hx_model *m, hx_state *s, const double p[3], double f[3])
-{
-    tick_field(field_a, m, s, p, f);
-}
-
-HX_INLINE void tick_b(const hx_model *m, hx_state *s, const double p[3], double f[3])
-{
-    tick_field(field_b, m, s, p, f);
-}
-
-HX_INLINE void tick_c(const hx_model *m, hx_state *s, const double p[3], double f[3])
-{
-    tick_field(field_c, m, s, p, f);
-}
-
 /* D and E: over a profile (the cell table or tree, hx_closest_profile) or over a surface (the
  * certified quadtree, hx_closest_surface), by the texture's kind */
 HX_INLINE void tick_de_any(const int code, const hx_model *m, hx_state *s, const double p[3], double f[3])
@@ -405,15 +390,17 @@ HX_INLINE void tick_de_any(const int code, const hx_model *m, hx_state *s, const
         tick_de(code, m, s, p, f);
 }
 
-HX_INLINE void tick_d(const hx_model *m, hx_state *s, const double p[3], double f[3])
-{
-    tick_de_any(HX_ALG_D, m, s, p, f);
-}
-
-HX_INLINE void tick_e(const hx_model *m, hx_state *s, const double p[3], double f[3])
-{
-    tick_de_any(HX_ALG_E, m, s, p, f);
-}
+/* A, B and C's ticks (their fields), D's and E's (the closest point): one line each */
+#define HX_TICK_BY(name, call)                                                                               \
+    HX_INLINE void name(const hx_model *m, hx_state *s, const double p[3], double f[3])                        \
+    {                                                                                                        \
+        call;                                                                                                \
+    }
+HX_TICK_BY(tick_a, tick_field(field_a, m, s, p, f))
+HX_TICK_BY(tick_b, tick_field(field_b, m, s, p, f))
+HX_TICK_BY(tick_c, tick_field(field_c, m, s, p, f))
+HX_TICK_BY(tick_d, tick_de_any(HX_ALG_D, m, s, p, f))
+HX_TICK_BY(tick_e, tick_de_any(HX_ALG_E, m, s, p, f))
 
 /* G: force shading's field; leaving the wall ends the contact */
 HX_INLINE void tick_g(const hx_model *m, hx_state *s, const double p[3], double f[3])
