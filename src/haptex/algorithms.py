@@ -1149,6 +1149,18 @@ def _accepted(key: str) -> str:
 
 
 def taking(name: str) -> list[str]:
-    """The letters whose algorithm takes the keyword parameter ``name`` (:attr:`Algorithm.parameters`),
-    in the paper's order."""
+    """The letters whose algorithm takes a keyword parameter, from the registry.
+
+    Parameters
+    ----------
+    name : str
+        A keyword parameter of :func:`algorithm`, e.g. ``"max_penetration"`` (d^z_max of
+        Remark 3).
+
+    Returns
+    -------
+    list of str
+        The letters whose :attr:`Algorithm.parameters` hold ``name``, in the paper's order
+        (Table I, W first); empty for a name no letter takes.
+    """
     return [letter for letter, cls in ALGORITHMS.items() if name in cls.parameters]
