@@ -236,3 +236,29 @@ def test_a_mesh_uploaded_in_the_page_carries_the_texture(page, tmp_path):
     q = hx.characteristic_number(object_algorithm("A", egg, model.placed_mesh(path, scale, (1e-3, 1e-3)), K0)).value
     assert _wait_text(page, "#q-value", lambda t: t != flat) == f"{q:.4g}" and math.isfinite(q)
     page.screenshot(path=str(tmp_path / "page-mesh.png"), full_page=True)
+
+
+def test_the_server_leaves_no_worker_and_no_folder_behind(browser):
+    """Issue 56: each served session computes in a worker process of its own, and the sessions'
+    temporary folders live in one folder of the server's (27 empty ones were left behind after
+    one run when each session made its own). Stopped as the test fixtures stop it (SIGTERM),
+    the server ends its workers and removes its folder; while it serves, both exist."""
+    import glob
+    import tempfile
+
+    import psutil
+
+    for port, proc in explorer_process():
+        pg = browser.new_page(viewport={"width": 1500, "height": 1350})
+        pg.goto(f"http://127.0.0.1:{port}/")
+        pg.wait_for_selector("#q-value", timeout=30000)
+        assert _wait_text(pg, "#q-value", lambda t: t == "5.125") == "5.125"  # computed by a worker
+        folders = glob.glob(os.path.join(tempfile.gettempdir(), f"haptex-explore-{proc.pid}-*"))
+        assert len(folders) == 1 and os.listdir(folders[0])  # the session's folder inside the server's
+        children = psutil.Process(proc.pid).children(recursive=True)
+        assert len(children) >= 2  # the forkserver and the session's worker (at least)
+        pg.close()
+    assert proc.returncode is not None
+    assert not glob.glob(os.path.join(tempfile.gettempdir(), f"haptex-explore-{proc.pid}-*"))
+    gone, alive = psutil.wait_procs(children, timeout=10)
+    assert alive == []

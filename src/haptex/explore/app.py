@@ -10,16 +10,20 @@ Stable element ids (for tests and scripts): ``#algorithm``, ``#texture``, ``#sti
 
 from __future__ import annotations
 
+import atexit
 import base64
 import dataclasses
 import functools
 import html
 import logging
+import multiprocessing
 import os
 import shutil
+import signal
 import tempfile
 import time
-from concurrent.futures import ThreadPoolExecutor
+import weakref
+from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
@@ -35,12 +39,100 @@ SESSION_THREADS = max(1, (os.cpu_count() or 1) - 1)
 other sessions keep a core)."""
 RECOMPUTE_BUDGET = 10.0
 """Seconds after which a served page says that its computation is still running (the view
-keeps the previous input meanwhile; a Python thread cannot be stopped, so the result then
-replaces it when it ends)."""
+keeps the previous input meanwhile; the result then replaces it when it ends, unless the
+session closes first, which stops its worker process)."""
 UPLOAD_BYTES = 50 * 2**20
 """Largest file one upload may carry (the server's websocket messages are sized to it)."""
 SESSION_UPLOAD_BYTES = 200 * 2**20
 """Most bytes one session may upload in all."""
+
+_WORKERS: weakref.WeakSet = weakref.WeakSet()  # the served sessions' live workers (stopped at exit)
+_ROOT: list[str] = []  # this process's temporary folder of the explorer (the sessions' folders are inside it)
+
+
+def _root() -> str:
+    """This process's temporary folder of the explorer, made at its first session and removed
+    at exit (and when :func:`serve` ends), whatever became of the sessions."""
+    if not _ROOT:
+        _ROOT.append(tempfile.mkdtemp(prefix=f"haptex-explore-{os.getpid()}-"))
+    return _ROOT[0]
+
+
+def _context():
+    """Workers are forked from a forkserver: a clean single-threaded process that imported the
+    library and computed the default views once (:mod:`._warm`), so that a session's first
+    computation neither re-imports the library nor inherits the server's threads."""
+    ctx = multiprocessing.get_context("forkserver")
+    ctx.set_forkserver_preload(["haptex.explore._warm"])
+    return ctx
+
+
+class _Worker:
+    """One served session's computations, in a process of its own (started at its first
+    computation), so that no computation holds the server's GIL (issue 56: a thread of the
+    server's process took the GIL from its event loop under load). :meth:`stop` kills the
+    process: a closed session's computation, however long, ends with it."""
+
+    def __init__(self):
+        self._executor = None
+        _WORKERS.add(self)
+
+    def submit(self, fn, *args):
+        if self._executor is None:
+            self._executor = ProcessPoolExecutor(1, mp_context=_context())
+        return self._executor.submit(fn, *args)
+
+    def stop(self) -> None:
+        executor, self._executor = self._executor, None
+        if executor is None:
+            return
+        processes = list((getattr(executor, "_processes", None) or {}).values())
+        executor.shutdown(wait=False, cancel_futures=True)
+        for process in processes:
+            if process.is_alive():
+                process.kill()
+
+
+def _stop_all() -> None:
+    """Stop every session's worker and remove this process's temporary folder."""
+    for worker in list(_WORKERS):
+        worker.stop()
+    while _ROOT:
+        shutil.rmtree(_ROOT.pop(), ignore_errors=True)
+
+
+atexit.register(_stop_all)
+
+
+def _attempt(what, fn):
+    """Run one computation: ("ok", result) or ("error", the one line to show); never raises
+    (the server must survive anything a control can send). The C core's batch loops run on
+    :data:`SESSION_THREADS` threads within it, so that one session's computation leaves the
+    other cores to the server and the other sessions."""
+    from .. import core
+
+    try:
+        with core.threads(SESSION_THREADS):
+            return "ok", fn()
+    except ParameterError as exc:
+        return "error", str(exc)
+    except Exception as exc:  # noqa: BLE001
+        log.exception("explorer: %s failed", what)
+        return "error", f"{what} failed: {type(exc).__name__}: {exc}"
+
+
+def _outcome(what, future):
+    """A finished future's outcome; a worker that was stopped or died is one line too."""
+    try:
+        return future.result()
+    except BaseException as exc:  # noqa: BLE001 (the pool's BrokenProcessPool, a cancellation)
+        return "error", f"{what} stopped: its worker process ended ({type(exc).__name__})"
+
+
+def _build_views(settings):
+    """The scene of ``settings`` and its views (a worker's recomputation)."""
+    scene = model.build(settings)
+    return scene, model.views(scene)
 
 
 def _span(ident: str, text: str) -> str:
@@ -57,9 +149,9 @@ class ExplorerPage:
     settings : model.Settings, optional
         Initial control values; the paper's Section V-A parameters by default.
     offload : bool, optional
-        Run each computation in the session's own thread and draw its result on the next
-        tick (what :func:`serve` does, so that no session stalls the server); by default
-        each computation runs in the callback (a notebook, a test).
+        Run each computation in the session's own worker process and draw its result on the
+        next tick (what :func:`serve` does, so that no session stalls the server); by
+        default each computation runs in the callback (a notebook, a test).
     """
 
     def __init__(self, doc, settings: model.Settings | None = None, offload: bool = False):
@@ -72,16 +164,17 @@ class ExplorerPage:
         self.doc = doc
         self.settings = settings or model.Settings()
         self.scene = None
-        # served: each computation in this session's own thread, off the server's event loop,
-        # so that one session's work never stalls another's page (issue 33)
+        # served: each computation in this session's own worker process, off the server's event
+        # loop and its GIL, so that one session's work never stalls another's page (issues 33, 56)
         self.offload = offload
-        self._executor = ThreadPoolExecutor(1, thread_name_prefix="haptex-explore") if offload else None
-        self._running = None  # (what, start time) of the computation in the thread
+        self._worker = _Worker() if offload else None
+        self._running = None  # (what, start time) of the computation in the worker
         self._pending = None  # the latest request made while it ran: run next (older ones are dropped)
         self.uploaded = 0
         if offload:
-            doc.on_session_destroyed(lambda context, ex=self._executor: ex.shutdown(wait=False, cancel_futures=True))
-        self.tmpdir = tempfile.mkdtemp(prefix="haptex-explore-")  # uploaded files, removed with the session
+            doc.on_session_destroyed(lambda context, w=self._worker: w.stop())
+        # uploaded files, removed with the session (and, served, with the server's folder at its exit)
+        self.tmpdir = tempfile.mkdtemp(prefix="session-", dir=_root())
         doc.on_session_destroyed(lambda context, d=self.tmpdir: shutil.rmtree(d, ignore_errors=True))
         s = self.settings
 
@@ -346,30 +439,14 @@ class ExplorerPage:
         self._recompute(on_fail=undo)
         self._show_controls()
 
-    @staticmethod
-    def _attempt(what, fn):
-        """Run one computation: ("ok", result) or ("error", the one line to show); never
-        raises (the server must survive anything a control can send). The C core's batch
-        loops run on :data:`SESSION_THREADS` threads within it, so that one session's
-        computation leaves the other cores to the server and the other sessions."""
-        from .. import core
-
-        try:
-            with core.threads(SESSION_THREADS):
-                return "ok", fn()
-        except ParameterError as exc:
-            return "error", str(exc)
-        except Exception as exc:  # noqa: BLE001
-            log.exception("explorer: %s failed", what)
-            return "error", f"{what} failed: {type(exc).__name__}: {exc}"
-
     def _run(self, what: str, fn, apply, on_fail=None) -> None:
         """Compute ``fn()`` and pass its result to ``apply`` (on the document's thread); a
         refusal is one line in the page, then ``on_fail()``. Offloaded: ``fn`` runs in this
         session's thread, a request made while another runs waits for it (only the latest
-        such request is kept), and past :data:`RECOMPUTE_BUDGET` the page says so."""
+        such request is kept), and past :data:`RECOMPUTE_BUDGET` the page says so. Offloaded,
+        ``fn`` and its result cross to the worker process by pickle."""
         if not self.offload:
-            self._finish(what, time.perf_counter(), self._attempt(what, fn), apply, on_fail)
+            self._finish(what, time.perf_counter(), _attempt(what, fn), apply, on_fail)
             return
         if self._running is not None:
             self._pending = (what, fn, apply, on_fail)
@@ -377,10 +454,16 @@ class ExplorerPage:
             return
         t0 = time.perf_counter()
         self._running = (what, t0)
-        future = self._executor.submit(self._attempt, what, fn)
+        future = self._worker.submit(_attempt, what, fn)
         doc = self.doc
-        future.add_done_callback(lambda f: doc.add_next_tick_callback(
-            functools.partial(self._finish, what, t0, f.result(), apply, on_fail)))
+
+        def done(f):
+            try:
+                doc.add_next_tick_callback(functools.partial(self._finish, what, t0, _outcome(what, f), apply, on_fail))
+            except Exception:  # noqa: BLE001 (the session closed meanwhile: nothing to draw)
+                pass
+
+        future.add_done_callback(done)
         doc.add_timeout_callback(functools.partial(self._overdue, future, what), int(RECOMPUTE_BUDGET * 1000))
 
     def _overdue(self, future, what: str) -> None:
@@ -408,10 +491,6 @@ class ExplorerPage:
     def _recompute(self, first: bool = False, on_fail=None) -> None:
         settings = dataclasses.replace(self.settings)  # what this computation sees, whatever the page does next
 
-        def work():
-            scene = model.build(settings)
-            return scene, model.views(scene)
-
         def apply(out):
             scene, v = out
             self.scene = scene
@@ -420,7 +499,7 @@ class ExplorerPage:
                 self._clear()
             self._show_controls()
 
-        self._run("recompute", work, apply, on_fail)
+        self._run("recompute", functools.partial(_build_views, settings), apply, on_fail)
 
     def _draw(self, scene, v) -> None:
         x0, x1 = float(v.boundary_x[0]), float(v.boundary_x[-1])
@@ -502,7 +581,7 @@ class ExplorerPage:
             energy, polygon = out
             self._show_loop(energy, polygon, source=f"{len(polygon) - 1} vertices, closed")
 
-        self._run("loop energy", lambda: model.loop(scene, px, pz), apply)
+        self._run("loop energy", functools.partial(model.loop, scene, px, pz), apply)
 
     def _fig3(self) -> None:
         if self.scene is None:
@@ -513,7 +592,7 @@ class ExplorerPage:
             path, energy, expected, source = out
             self._show_loop(energy, path, expected, source)
 
-        self._run("Fig. 3 loop", lambda: model.fig3(scene), apply)
+        self._run("Fig. 3 loop", functools.partial(model.fig3, scene), apply)
 
     def _clear(self) -> None:
         self._drawing = True
@@ -537,7 +616,7 @@ class ExplorerPage:
             self.d_scan.text += html.escape(f" ({scene.duration:g} s on the {scene.device.name}, {hand}; energy "
                                             f"balance error {out.energy_balance_error:.1g})")
 
-        self._run("scan", lambda: model.scan(scene), apply)
+        self._run("scan", functools.partial(model.scan, scene), apply)
 
 
 def _colour_bar(mapper, label):
@@ -610,9 +689,12 @@ def serve(port: int = 5006, address: str = "127.0.0.1", open_browser: bool = Tru
             probe.bind((address, 0))
             port = probe.getsockname()[1]
     origins = [f"{host}:{port}" for host in ("127.0.0.1", "localhost", address)]
-    # a first computation before the server listens: its imports and one-time set-up (pint's
-    # registry, ~0.3 s holding the GIL) then never stall the event loop while sessions start
-    model.views(model.build(model.Settings()))
+    # the workers' forkserver started (and warmed: the library's imports and one-time set-up)
+    # before the server listens, so that no session waits for it
+    from multiprocessing import forkserver
+
+    _context()
+    forkserver.ensure_running()
     try:
         server = Server({"/": Application(FunctionHandler(_served))}, port=port, address=address,
                         allow_websocket_origin=sorted(set(origins)), num_procs=1,
@@ -626,10 +708,16 @@ def serve(port: int = 5006, address: str = "127.0.0.1", open_browser: bool = Tru
     if open_browser:
         server.io_loop.add_callback(server.show, "/")
     if block:
+        def terminate(signum, frame):  # SIGTERM ends the server as Ctrl-C does: workers stopped, folders removed
+            raise KeyboardInterrupt
+
+        previous = signal.signal(signal.SIGTERM, terminate)
         try:
             server.io_loop.start()
         except KeyboardInterrupt:
             pass
         finally:
+            signal.signal(signal.SIGTERM, previous)
             server.stop()
+            _stop_all()
     return server
