@@ -257,6 +257,7 @@ def test_the_server_leaves_no_worker_and_no_folder_behind(browser):
         assert len(folders) == 1 and os.listdir(folders[0])  # the session's folder inside the server's
         children = psutil.Process(proc.pid).children(recursive=True)
         assert len(children) >= 2  # the forkserver and the session's worker (at least)
+        assert max(c.nice() for c in children) == os.nice(0) + 10  # the worker yields to the server
         pg.close()
     assert proc.returncode is not None
     assert not glob.glob(os.path.join(tempfile.gettempdir(), f"haptex-explore-{proc.pid}-*"))

@@ -270,7 +270,7 @@ def _matvec(m, v):
 
 
 def _unit_scale(s):
-    """g = (1 + |s|^2)^(-1/2) for gradients s of shape (..., k): shape (...)."""
+    """g = (1 + ‖s‖^2)^(-1/2) for gradients s of shape (..., k): shape (...)."""
     sq = s[..., 0] * s[..., 0] if s.shape[-1] == 1 else np.sum(s * s, axis=-1)
     return 1.0 / np.sqrt(1.0 + sq)
 
@@ -281,7 +281,7 @@ def _matmul(a, b):
 
 
 def _normal_projector(s, g):
-    """P = I - g^2 s s^T with g = (1 + |s|^2)^(-1/2), shape (..., k, k): the derivative of the
+    """P = I - g^2 s s^T with g = (1 + ‖s‖^2)^(-1/2), shape (..., k, k): the derivative of the
     unit normal's in-plane part, d(g s)/dx = g P H. Written without cancellation (for
     k = 2, P = g^2 [[1 + s_y^2, -s_x s_y], [-s_x s_y, 1 + s_x^2]]; for k = 1, P = g^2)."""
     g2 = g * g
@@ -408,7 +408,7 @@ class GroovedVertical(_Vertical):
 
     Over a surface (3-D): f = [0, 0, -kappa_0 d^z], d^z = p^z - h(p^x, p^y); the
     Jacobian's last row is kappa_0 [h_x, h_y, -1], the others zero, so
-    q_A = sqrt(1 + sup |grad h|^2) (Remark 2 with the gradient's norm).
+    q_A = sqrt(1 + sup ‖grad h‖^2) (Remark 2 with the gradient's norm).
     """
 
     letter = "A"
@@ -435,8 +435,8 @@ class GroovedNormal(_Vertical):
 
         J = kappa_0 [[-s^2 g + d c g^3,  s g], [s g + d s c g^3,  -g]].
 
-    Over a surface (3-D) n is the textured normal (-grad h, 1) / sqrt(1 + |grad h|^2); with
-    s = grad h, H its Hessian, g = (1 + |s|^2)^(-1/2) and P = I - g^2 s s^T, the in-plane
+    Over a surface (3-D) n is the textured normal (-grad h, 1) / sqrt(1 + ‖grad h‖^2); with
+    s = grad h, H its Hessian, g = (1 + ‖s‖^2)^(-1/2) and P = I - g^2 s s^T, the in-plane
     block is kappa_0 (-g s s^T + d g P H), the in-plane column kappa_0 g s, the last row
     kappa_0 [g s + d g^3 H s, -g].
 
@@ -712,7 +712,7 @@ class ForceShading(Algorithm):
 
         J = kappa_0 [[p^z c g^3,  s g], [p^z s c g^3,  -g]].
 
-    Over a surface (3-D) n is the textured normal (-grad h, 1) / sqrt(1 + |grad h|^2):
+    Over a surface (3-D) n is the textured normal (-grad h, 1) / sqrt(1 + ‖grad h‖^2):
     f = -kappa_0 p^z n, J's in-plane block kappa_0 p^z g P H, in-plane column kappa_0 g s,
     last row kappa_0 [p^z g^3 H s, -g] (s = grad h, H its Hessian, g and P as for B).
 

@@ -431,10 +431,10 @@ def surface_search_data(texture) -> tuple[int, np.ndarray, np.ndarray]:
     """The compiled surface search's data: the surface kind, its coefficients (a sum of
     gratings: shape (4, n) = amplitudes (m), k_x, k_y (rad/m), phases (rad); a height map: its
     bicubic patches, :meth:`haptex.SampledSurface.patches`), and the constants
-    ``G_*`` of :mod:`haptex.core._ext` (lowest and highest height, sup |grad h|, sup ||H||, leaf half-width,
+    ``G_*`` of :mod:`haptex.core._ext` (lowest and highest height, sup ‖grad h‖, sup ‖H‖, leaf half-width,
     tie tolerance 1e-9 of the shortest wavelength; over a sum of gratings, rigorous bounds
     for the strong-convexity certificate (Newton first) and the search's Taylor
-    bound: ``curvature_bound`` >= ||H||_2, sum a |k| >= |grad h| and sum a |k|^3 >= the third
+    bound: ``curvature_bound`` >= ||H||_2, sum a ‖k‖ >= ‖grad h‖ and sum a ‖k‖^3 >= the third
     derivatives' norm; over a height map the patches' bounds
     :attr:`haptex.SampledSurface.derivative_bounds`, which hold inside the map: the C search
     applies them to cells wholly inside, block by block from

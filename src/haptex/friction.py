@@ -18,7 +18,7 @@ and dd/dx = 1 while |d| shrinks, with the blend
     alpha(d) = 1                                                    |d| >= d_max
 
 This is the breakaway function of the single-state elasto-plastic model of Dupont,
-Hayward, Armstrong & Altpeter (2002), written time-free as in Hayward & Armstrong (2000).
+Hayward, Armstrong & Altpeter (2002) [2]_, written time-free as in Hayward & Armstrong (2000) [32]_.
 Its increments are the exact flow of that equation with bounded work for any step: the
 elastic part in closed form, the travel X(e) = int de / rate along the ramp tabulated
 once per z_stick / d_max (:func:`smooth_table`, relative error < 1e-10) and inverted, and

@@ -12,7 +12,7 @@ on the path (issue 32), so its energy is analysed along paths, not as a field
 (:func:`loop_work`).
 
 What is modelled: the proxy's surface coordinate u (m) is the local minimum of
-φ(u) = |S(u) − p|² reached by a damped descent from the last one (steps at most a sixteenth of
+φ(u) = ‖S(u) − p‖² reached by a damped descent from the last one (steps at most a sixteenth of
 the texture's shortest period, each decreasing φ), S(u) = (u, h(u)) on a plane, or the textured
 object's point ``base.point(u, h(u))`` over a curved base of :mod:`haptex.objects`; contact
 starts at the probe's foot where it crosses the boundary and ends when the probe is outside the
@@ -179,7 +179,7 @@ class GodObject:
         return u[0], e[0] < self._h(u[0])
 
     def _descend_object(self, u, p) -> np.ndarray:
-        """The local minimum of |S(u) - p|^2 over a curved base reached from u: Gauss-Newton
+        """The local minimum of ‖S(u) - p‖^2 over a curved base reached from u: Gauss-Newton
         on S's Jacobian by central differences (1e-7 of the shortest period), backtracked."""
         eps = 1e-7 * float(self.texture.shortest_period)
         r = self._surface(u) - p

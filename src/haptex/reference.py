@@ -13,16 +13,16 @@ from its source, written here from that description):
    g = (g_x, g_y, g_z) in the texture's frame: an 8-bit map stores a unit normal as
    127.5 (1 + n), and CHAI3D decodes (c - 128) / 255, so g = n_tex / 2 up to the 8-bit
    rounding; haptex builds the map from the texture's own slopes s = grad_u h (m/m): n_tex =
-   (-s_1, -s_2, 1) / sqrt(1 + |s|^2), exactly (no 8-bit rounding);
+   (-s_1, -s_2, 1) / sqrt(1 + ‖s‖^2), exactly (no 8-bit rounding);
 4. (g_x, g_y) is carried onto the triangle through its texture-coordinate edges: with
    t_01, t_02 the unit directions of the triangle's edges in texture space, solve
-   [t_01 t_02] c = level (g_x, g_y), then grad = c_1 e_01 / |e_01|^2 + c_2 e_02 / |e_02|^2
+   [t_01 t_02] c = level (g_x, g_y), then grad = c_1 e_01 / ‖e_01‖^2 + c_2 e_02 / ‖e_02‖^2
    + g_z n (e_01, e_02 the triangle's edges in space, m);
-5. the new normal is grad / |grad| (turned over if it makes more than 1.57 rad with n), and
-   the force is F_t + |F_n| new normal.
+5. the new normal is grad / ‖grad‖ (turned over if it makes more than 1.57 rad with n), and
+   the force is F_t + ‖F_n‖ new normal.
 
 Step 4 divides a dimensionless slope by an edge length in metres: the perturbation's strength
-is level / |e| relative to the normal's g_z, so the same texture feels twice as steep on a mesh
+is level / ‖e‖ relative to the normal's g_z, so the same texture feels twice as steep on a mesh
 tessellated twice as finely, and half as steep on the same mesh drawn twice as large. The force
 keeps the magnitude of the proxy's normal force and turns its direction: force shading (the
 paper's G) on the proxy's plane, which haptex shows is not conservative.
@@ -175,7 +175,7 @@ class HapiDepthMap:
     1. in the local frame at the proxy, the probe's lateral offset is m = u(p) - w (on the
        plane u(p) = p_xy; on a base, the probe's surface coordinates, :mod:`haptex.objects`);
     2. a downhill simplex (Nelder & Mead) minimises the squared distance from the probe to the
-       displaced surface's point over the lateral move v, f(v) = |S(w + v) - p|^2, S(u) the
+       displaced surface's point over the lateral move v, f(v) = ‖S(w + v) - p‖^2, S(u) the
        point at offset h(u) along the base's normal at u (on the plane (u, h(u))), from the
        simplex {0, m, m/2 + (m_y, -m_x)/2}, for at most ``max_iterations`` iterations or until
        the relative spread of f over the simplex is below ``epsilon``;
@@ -201,8 +201,8 @@ class HapiDepthMap:
     max_iterations : int, optional
         Default :data:`HAPI_MAX_ITERATIONS` (HAPI's).
     epsilon : float, optional
-        Default :data:`HAPI_EPSILON` (HAPI's): the simplex stops when 2 |f_max - f_min| /
-        (|f_max| + |f_min|) is below it, the fractional tolerance of the textbook amoeba
+        Default :data:`HAPI_EPSILON` (HAPI's): the simplex stops when 2 ‖f_max - f_min‖ /
+        (‖f_max‖ + ‖f_min‖) is below it, the fractional tolerance of the textbook amoeba
         (Press et al., Numerical Recipes; H3DUtil's own implementation was not available to
         us, so its stopping rule and what counts as an iteration, here one reflection step,
         are chosen).

@@ -90,7 +90,7 @@ class PassivityController(Stabiliser):
     displacement sensed (Hannaford & Ryu 2002). When E falls
     below a reference the controller adds a variable damper -alpha v (v the backward
     difference of the sensed positions) that dissipates the deficit within one sample,
-    alpha = (E_ref - E) / (T |v|^2), bounded by ``max_damping``.
+    alpha = (E_ref - E) / (T ‖v‖^2), bounded by ``max_damping``.
 
     Parameters
     ----------
@@ -202,7 +202,7 @@ class EnergyBounding(_PaidByTheDamper):
     environment's own part, -f_k . dp_k (each force with the displacement it answered), and
     what the zero-order hold and the delay generate, -(f_k - f_acting) . dp_k. Two reservoirs
     hold them: the environment's (its absorbed energy, from the spring's stored energy at the
-    start) and the hold's (credited with b |dp_k|^2 / T, a lower bound on the device damper's
+    start) and the hold's (credited with b ‖dp_k‖^2 / T, a lower bound on the device damper's
     dissipation over the sample, b v^2 integrated, by Cauchy-Schwarz). Both are linear in f_k .
     dp_k, so the force's component along the last displacement is moved just enough to keep
     both >= 0; the rest of the force is untouched. Their sum is the observer's energy plus the
@@ -229,7 +229,7 @@ class EnergyBounding(_PaidByTheDamper):
     -----
     The force is held over the next sample, whose displacement is not known when it is
     chosen; when the hand moves the handle so that the held force supplies more than the
-    damper dissipates, the reservoirs' sum can go below zero by at most T |f|^2 / (4 b) in
+    damper dissipates, the reservoirs' sum can go below zero by at most T ‖f‖^2 / (4 b) in
     that sample, and both then recover before the force may supply energy again. The
     decomposition and the two reservoirs are haptex's discrete statement of Kim & Ryu's
     principle; their paper's own inequalities were not available to us.
@@ -254,11 +254,11 @@ class PassiveSetPosition(_PaidByTheDamper):
     The algorithm's force is read as a coupling spring of stiffness kappa_0 (the algorithm's)
     stretched from the handle to a set-position, f = kappa_0 (y - p). Each tick the
     set-position moves towards the handle, along f, no further than keeps the spring's energy
-    |f|^2 / (2 kappa_0) within a reservoir: the energy the port has absorbed (the passivity
+    ‖f‖^2 / (2 kappa_0) within a reservoir: the energy the port has absorbed (the passivity
     observer's, each force paired with the displacement it acted over under ``delay``) plus
-    b |dp|^2 / T a sample (a lower bound on what the device's damper dissipated). The force's
+    b ‖dp‖^2 / T a sample (a lower bound on what the device's damper dissipated). The force's
     direction is kept; only its magnitude is reduced, and only when the reservoir runs short.
-    Without delay the reservoir is Lee & Huang's: it changes by the credit less kappa_0 |dp|^2 / 2
+    Without delay the reservoir is Lee & Huang's: it changes by the credit less kappa_0 ‖dp‖^2 / 2
     (the hold's share over a sample) less what moving the set-position stores in the spring.
 
     Parameters
@@ -278,7 +278,7 @@ class PassiveSetPosition(_PaidByTheDamper):
     -----
     Strictly passive (the port supplies at most the credit) when kappa_0 <= 2 b / T, where the
     credit covers the hold's share; above it the reservoir can run below zero by (kappa_0 / 2 -
-    b / T) |dp|^2 in a sample, and the force then shrinks to zero until it is repaid. A resting
+    b / T) ‖dp‖^2 in a sample, and the force then shrinks to zero until it is repaid. A resting
     contact costs nothing (no motion, no change of stored energy). haptex's statement of the
     published scheme; the paper's own equations were not available to us.
 

@@ -23,7 +23,7 @@ from .textures import MAX_HARMONICS, SampledProfile, Texture, _band_limited_samp
 __all__ = ["Surface", "SumOfGratings", "Grating", "BandLimitedNoise2D", "Extruded", "SampledSurface"]
 
 MAX_GRID = 4_000_000
-"""Most points of the dense grid on which a surface's sup |grad h|, sup ||H|| and height
+"""Most points of the dense grid on which a surface's sup ‖grad h‖, sup ||H|| and height
 range are searched before refinement."""
 
 
@@ -52,7 +52,7 @@ class Surface(Texture):
     Subclasses provide ``height_at``, ``gradient`` and ``hessian`` on positions of shape
     (..., 2), and :attr:`shortest_period` (the shortest wavelength over all directions),
     :attr:`cell` (a periodic cell (L_x, L_y) in m, or None), :attr:`max_slope`
-    (sup |grad h|), :attr:`max_curvature` (sup of the Hessian's 2-norm) and
+    (sup ‖grad h‖), :attr:`max_curvature` (sup of the Hessian's 2-norm) and
     :attr:`height_range`.
     """
 
@@ -155,7 +155,7 @@ class SumOfGratings(Surface):
 
     Notes
     -----
-    The areal form of Remark 2's sums: :attr:`max_slope` is sup |grad h| over a periodic
+    The areal form of Remark 2's sums: :attr:`max_slope` is sup ‖grad h‖ over a periodic
     cell when the gratings share one (each wave vector's components commensurate, ratio
     denominators <= 1000), else the rigorous bound sum_k 2 pi a_k / l_k
     (:attr:`max_slope_is_exact` says which).
@@ -245,7 +245,7 @@ class SumOfGratings(Surface):
 
     @cached_property
     def max_slope(self) -> float:
-        """M = sup |grad h| (m/m) over the plane (Remark 2 with the gradient's norm)."""
+        """M = sup ‖grad h‖ (m/m) over the plane (Remark 2 with the gradient's norm)."""
         if self.cell is None:
             return float(np.sum(self.amplitudes * 2 * np.pi / self.periods))
         return math.sqrt(self._sup(lambda p: np.sum(self.gradient(p) ** 2, axis=-1)))  # smooth at the sup
@@ -259,9 +259,9 @@ class SumOfGratings(Surface):
 
     @cached_property
     def curvature_bound(self) -> float:
-        """A rigorous C >= sup ||H||_2 (1/m): sum_k a_k |k_k|^2, or, over a cell, the smaller of
+        """A rigorous C >= sup ||H||_2 (1/m): sum_k a_k ‖k_k‖^2, or, over a cell, the smaller of
         that and :attr:`max_curvature` plus its sampling error (||H|| moves at most
-        sum_k a_k |k_k|^3 per metre, and every point lies within half a grid cell's diagonal of
+        sum_k a_k ‖k_k‖^3 per metre, and every point lies within half a grid cell's diagonal of
         a sample)."""
         k = np.hypot(self._kvec[:, 0], self._kvec[:, 1])
         total = float(np.sum(self.amplitudes * k ** 2))
@@ -292,7 +292,7 @@ class SumOfGratings(Surface):
     def egg_crate(cls, amplitude: float, period: float) -> SumOfGratings:
         """h = A sin(2 pi x / l) sin(2 pi y / l): the isotropic 'egg-crate' of the paper's
         A and l, written as the two gratings (A/2) [cos(k(x - y)) - cos(k(x + y))] of
-        wavelength l / sqrt(2) at -45 and +45 degrees. Its sup |grad h| is 2 pi A / l (at
+        wavelength l / sqrt(2) at -45 and +45 degrees. Its sup ‖grad h‖ is 2 pi A / l (at
         x = 0, y = l/4), the same as the profile's.
 
         Raises
@@ -727,7 +727,7 @@ class SampledSurface(Surface):
     def derivative_bounds(self) -> tuple[float, float, float]:
         """Rigorous bounds over the sampled rectangle (a periodic map: everywhere) of the
         spline's slope, curvature and third derivatives: the largest of
-        :meth:`patch_bounds`' over the patches. S >= |grad h| (m/m), C >= ||H||_2 (1/m) and
+        :meth:`patch_bounds`' over the patches. S >= ‖grad h‖ (m/m), C >= ||H||_2 (1/m) and
         J >= the norm of the third-derivative tensor (1/m^2). The spline is C^2, so H is
         Lipschitz with constant J across patches: the closest-point search's Taylor bound
         (``_ext.G_JERK``) holds on any disc or square inside the map."""
@@ -738,9 +738,9 @@ class SampledSurface(Surface):
         """Rigorous bounds on each bicubic patch of :meth:`patches`, shape (nx, ny, 5): min h
         and max h (m; the least and largest of the patch's Bernstein coefficients, which
         bound a polynomial on its box, widened by 1e-13 of the coefficients' magnitude for
-        rounding), sup |grad h| (m/m), sup ||H||_2 (1/m, the spectral radius of the entries'
+        rounding), sup ‖grad h‖ (m/m), sup ||H||_2 (1/m, the spectral radius of the entries'
         bounds, which bounds it by Perron-Frobenius) and the third-derivative tensor's norm
-        (1/m^2; sup over unit u of |D^3 h[u, u, u]|, bounded by Cauchy-Schwarz as
+        (1/m^2; sup over unit u of ‖D^3 h[u, u, u]‖, bounded by Cauchy-Schwarz as
         sqrt(B_xxx^2 + 3 B_xxy^2 + 3 B_xyy^2 + B_yyy^2)), each derivative at most the sum of
         its terms' magnitudes on the patch (s, t in [0, 1]). Cached.
 
@@ -756,7 +756,7 @@ class SampledSurface(Surface):
         nx, ny = int(head[_ext.PATCH_NX]), int(head[_ext.PATCH_NY])
         pat = self.patches()[0, _ext.PATCH_DATA:].reshape(-1, 4, 4)
         dx, dy = self.dx, self.dy
-        fall = _FALL  # the multipliers of |c[a, b]| in each derivative's bound
+        fall = _FALL  # the multipliers of ‖c[a, b]‖ in each derivative's bound
         bern = np.array([[math.comb(j, a) / math.comb(3, a) if a <= j else 0.0 for a in range(4)] for j in range(4)])
         out = np.empty((pat.shape[0], 5))
         for i0 in range(0, pat.shape[0], 1 << 16):
@@ -784,7 +784,7 @@ class SampledSurface(Surface):
         """:meth:`patch_bounds` gathered over square blocks of patches, coarser level by level
         (``haptex.core._ext.PY_*``, the C search's layout, ``hx_core.h``): a header (nx, ny
         patches, the base level's block of 2^s patches a side, the number of levels) then each
-        level's blocks (min h, max h, sup |grad h|, sup ||H||_2, jerk), blocks 2^(s + l) patches
+        level's blocks (min h, max h, sup ‖grad h‖, sup ||H||_2, jerk), blocks 2^(s + l) patches
         a side, from the finest. The base is one patch where the map has at most PYRAMID_BASE
         patches, else the smallest power of two that brings it there; levels stop once a side
         has at most two blocks. The closest-point search bounds a cell by the blocks that cover
@@ -819,7 +819,7 @@ class SampledSurface(Surface):
         the map is extended by its tangent plane, h = H(t) + G(t) e (e the distance beyond,
         t along the edge; C^1 across the edge, C^2 beside it), whose slope, curvature and
         third derivatives grow with e at most as these bounds say. Shape (4, 7): the edges
-        x = x0, x = x1, y = y0, y = y1; per edge sup |d^(p+q) h / dn^p dt^q| on it (n the
+        x = x0, x = x1, y = y0, y = y1; per edge sup ‖d^(p+q) h / dn^p dt^q‖ on it (n the
         normal's axis, t the edge's) for (p, q) = (1, 0), (0, 1), (1, 1), (0, 2), (1, 2), (0, 3),
         (1, 3), each the sum of its terms' magnitudes over every patch along the edge. Zeros
         for a periodic map (it has no edges)."""
@@ -875,7 +875,7 @@ class SampledSurface(Surface):
 
     @cached_property
     def max_slope(self) -> float:
-        """M = sup |grad h| of the spline over the map (m/m): a dense grid (4 points a
+        """M = sup ‖grad h‖ of the spline over the map (m/m): a dense grid (4 points a
         sample interval) refined by bounded quasi-Newton steps."""
         return math.sqrt(self._sup(lambda p: np.sum(self.gradient(p) ** 2, axis=-1)))
 
@@ -917,7 +917,7 @@ class SampledSurface(Surface):
     def lowpass(self, shortest_period: float) -> SampledSurface:
         """Band-limit the map to wavelengths >= ``shortest_period`` (m) in every direction.
 
-        Periodic maps: the 2-D FFT components with |f| > 1 / shortest_period are removed
+        Periodic maps: the 2-D FFT components with ‖f‖ > 1 / shortest_period are removed
         (an isotropic cut). Others: a zero-phase 4th-order Butterworth filter along x and
         then along y (scipy.signal.sosfiltfilt), cut-off 1 / shortest_period on each axis.
 

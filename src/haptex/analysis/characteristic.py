@@ -96,7 +96,7 @@ def spectral_norm(j) -> np.ndarray:
     -------
     ndarray, shape (...)
         sigma_max(J), in the units of J: for 2x2 in closed form,
-        sqrt((|J|_F^2 + sqrt(|J|_F^4 - 4 det(J)^2)) / 2); for 3x3 as the square root of
+        sqrt((‖J‖_F^2 + sqrt(‖J‖_F^4 - 4 det(J)^2)) / 2); for 3x3 as the square root of
         the largest eigenvalue of J^T J by LAPACK's symmetric solver (half the time of its
         SVD; relative error a few ulp, since only the largest is wanted).
     """
@@ -342,7 +342,7 @@ def friction_bounds(algorithm, depth: float) -> dict:
     algorithm : Algorithm
         Algorithm F.
     depth : float
-        |p^z| at which the bounds are evaluated (m), the paper's d^z_max.
+        ‖p^z‖ at which the bounds are evaluated (m), the paper's d^z_max.
 
     Returns
     -------
@@ -390,7 +390,7 @@ d^x_max = d^z_max = 1 mm)."""
 
 def _q_friction(alg, dmax, ranges, counts, nd) -> CharacteristicNumber:
     """Characteristic number of F: sup over the in-plane position, depth, deflection and
-    both phases. Over a surface the deflection is a vector in the disk |d| <= d^x_max
+    both phases. Over a surface the deflection is a vector in the disk ‖d‖ <= d^x_max
     (stick: magnitudes and directions; slip: directions at d^x_max)."""
     k0 = alg.stiffness
     dm = alg.presliding
@@ -566,7 +566,7 @@ def _surface_normal_point(tex, t, r):
 def _q_distance_surface(alg, dmax, ranges, counts, nd, closed, x_range, resolution) -> CharacteristicNumber:
     """Characteristic number of D and E over a surface: the region parametrised by the
     closest point t and the distance r, p = (t, h(t)) + r n_in(t), kept where t is the unique
-    closest point of p. D is unbounded when a focal point (a centre of curvature 1/|kappa|
+    closest point of p. D is unbounded when a focal point (a centre of curvature 1/‖kappa‖
     below a convex-up point, kappa a principal curvature) lies within max_penetration; on
     ``Extruded(profile)`` the profile's q (the same Jacobians, embedded)."""
     from ..algorithms import algorithm as make
@@ -606,7 +606,7 @@ def _q_distance_surface(alg, dmax, ranges, counts, nd, closed, x_range, resoluti
         w = np.sqrt(1.0 + np.sum(s_ * s_, axis=-1))
         metric = np.eye(2) + s_[..., :, None] * s_[..., None, :]
         kappa = np.linalg.eigvals(np.linalg.solve(metric, hess)).real / w[..., None]
-        focal = np.where(kappa < 0, -1.0 / np.where(kappa < 0, kappa, -1.0), np.inf).min(axis=-1)  # 1/|kappa|
+        focal = np.where(kappa < 0, -1.0 / np.where(kappa < 0, kappa, -1.0), np.inf).min(axis=-1)  # 1/‖kappa‖
         for idx in np.argsort(focal, axis=None)[:8]:
             rho = float(focal.ravel()[idx])
             if not rho <= dmax:

@@ -29,6 +29,9 @@ import numpy as np
 from .._validation import ParameterError, fail
 from . import _ext
 
+__all__ = ["SOURCE_DIR", "IN_CORE", "field", "texture_derivatives", "threads", "num_threads", "blas_held_to_one_thread",
+           "expm", "in_slices", "closest_profile_points", "closest_surface_points"]
+
 SOURCE_DIR = Path(__file__).parent
 """Where the core's C sources are (``haptex export`` copies them from here)."""
 

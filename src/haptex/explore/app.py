@@ -67,6 +67,19 @@ def _context():
     return ctx
 
 
+WORKER_NICENESS = 10
+"""How much lower than the server's a worker process's scheduling priority is (``os.nice``):
+under load, the server's event loop answers a new page before any session's computation
+gets the core (chosen; 10 of Linux's 0-19)."""
+
+
+def _lower_priority() -> None:
+    try:
+        os.nice(WORKER_NICENESS)
+    except (OSError, AttributeError):  # no nice() on this platform: the same priority as the server
+        pass
+
+
 class _Worker:
     """One served session's computations, in a process of its own (started at its first
     computation), so that no computation holds the server's GIL (issue 56: a thread of the
@@ -79,7 +92,7 @@ class _Worker:
 
     def submit(self, fn, *args):
         if self._executor is None:
-            self._executor = ProcessPoolExecutor(1, mp_context=_context())
+            self._executor = ProcessPoolExecutor(1, mp_context=_context(), initializer=_lower_priority)
         return self._executor.submit(fn, *args)
 
     def stop(self) -> None:
