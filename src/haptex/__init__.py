@@ -1,7 +1,7 @@
 """haptex: synthesis and energy analysis of haptic textures.
 
 Implements the smooth wall W and the texture algorithms A–G of Campion & Hayward,
-"On the Synthesis of Haptic Textures" (IEEE Trans. Haptics, 2008), their Jacobians,
+"On the Synthesis of Haptic Textures" (IEEE Transactions on Robotics 24(3), 527–536, 2008), their Jacobians,
 characteristic numbers and loop energies. SI units throughout (m, N, s).
 """
 

@@ -1121,6 +1121,17 @@ def algorithm(letter: str, texture: Texture | None = None, stiffness: float = 20
     ParameterError
         If the letter is unknown, a texture is missing (or given to W), a parameter is
         not accepted by that algorithm, or a value is out of range.
+
+    Examples
+    --------
+    The paper's algorithm A over its sinusoid (A = 0.8 mm, l = 1 mm) at 2 kN/m, the probe
+    0.2 mm below the nominal surface:
+
+    >>> alg = hx.algorithm("A", hx.Sinusoid(0.8e-3, 1e-3), 2000.0)
+    >>> alg.force([[0.0, -0.2e-3]])
+    array([[0. , 0.4]])
+    >>> alg.jacobian([[0.0, -0.2e-3]]).shape
+    (1, 2, 2)
     """
     key = str(letter).strip().upper()
     if key not in ALGORITHMS:

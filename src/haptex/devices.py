@@ -707,6 +707,14 @@ def critical_stiffness(mass: float, damping: float, period: float, delay: int = 
     ParameterError
         For a non-positive mass or period, negative damping, a non-whole delay, or an
         incomplete or out-of-range structural mode or hand.
+
+    Examples
+    --------
+    A 0.1 kg point mass with 0.5 N s/m of damping sampled at 10 kHz: the wall's limit is close to
+    Colgate & Schenkel's 2 b / T = 10 kN/m:
+
+    >>> round(hx.critical_stiffness(mass=0.1, damping=0.5, period=1e-4))
+    10001
     """
     m = positive("mass", mass, "kg")
     b = nonnegative("damping", damping, "N s/m")

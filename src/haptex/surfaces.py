@@ -295,10 +295,27 @@ class SumOfGratings(Surface):
         wavelength l / sqrt(2) at -45 and +45 degrees. Its sup ‖grad h‖ is 2 pi A / l (at
         x = 0, y = l/4), the same as the profile's.
 
+        Parameters
+        ----------
+        amplitude : float
+            A (m), >= 0.
+        period : float
+            l (m), > 0.
+
+        Returns
+        -------
+        SumOfGratings
+
         Raises
         ------
         ParameterError
             If the amplitude is negative or the period not > 0.
+
+        Examples
+        --------
+        >>> egg = hx.SumOfGratings.egg_crate(0.8e-3, 1e-3)
+        >>> egg.dimension, egg.height_at([[0.25e-3, 0.25e-3]])
+        (2, array([0.0008]))
         """
         a = nonnegative("amplitude", amplitude, "m")
         lp = positive("period", period, "m")

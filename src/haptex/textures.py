@@ -260,6 +260,14 @@ class Sinusoid(SumOfSinusoids):
     -----
     ``max_slope`` is 2 pi A / l exactly (Section IV-A, eq. 10) and ``max_curvature`` is
     4 pi^2 A / l^2.
+
+    Examples
+    --------
+    >>> tex = hx.Sinusoid(amplitude=0.8e-3, period=1e-3)
+    >>> round(tex.max_slope, 4)  # 2 pi A / l
+    5.0265
+    >>> float(tex.height(0.25e-3))  # a crest
+    0.0008
     """
 
     def __init__(self, amplitude, period, phase=0.0):

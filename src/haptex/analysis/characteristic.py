@@ -214,6 +214,14 @@ def characteristic_number(
     therefore infinite; ``value`` is ``inf`` and ``where`` is that centre of curvature.
     The paper's value 1 is the sup of the flat-boundary linearisation eq. 18, reported
     in ``paper_form_value``.
+
+    Examples
+    --------
+    Algorithm A's closed form sqrt(1 + (2 pi A / l)^2) (Section IV-A):
+
+    >>> q = hx.characteristic_number(hx.algorithm("A", hx.Sinusoid(0.8e-3, 1e-3), 2000.0))
+    >>> round(q.value, 4), round(q.closed_form, 4)
+    (5.1251, 5.1251)
     """
     dmax = check_analysis_scale(algorithm, max_penetration)
     ranges, counts, nd = _q_plan(algorithm, x_range, resolution)

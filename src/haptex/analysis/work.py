@@ -233,6 +233,14 @@ def path_work(algorithm: Algorithm, path, rtol: float = 1e-12) -> float:
     bisection. The force is smooth on each piece, which is integrated by composite
     16-point Gauss–Legendre quadrature on sub-intervals of at most 1/8 of the shortest
     texture period, halved until two successive results agree to ``rtol``.
+
+    Examples
+    --------
+    Around the paper's Fig. 3 loop, algorithm A supplies kappa_0 A^2 / 2:
+
+    >>> alg = hx.algorithm("A", hx.Sinusoid(0.8e-3, 1e-3), 2000.0)
+    >>> round(hx.path_work(alg, hx.paper_loop(alg)[0]), 8)
+    0.00064
     """
     n = algorithm.dimension
     pts = positions(path, "path", dim=n)
@@ -344,6 +352,13 @@ def paper_loop(algorithm: Algorithm, depth: float | None = None) -> tuple[np.nda
     ------
     ParameterError
         If the texture is not a Sinusoid (the paths are defined for one).
+
+    Examples
+    --------
+    >>> alg = hx.algorithm("A", hx.Sinusoid(0.8e-3, 1e-3), 2000.0)
+    >>> path, expected, source = hx.paper_loop(alg)
+    >>> path.shape, expected  # the Fig. 3 rectangle; kappa_0 A^2 / 2 (J)
+    ((5, 2), 0.00064)
     """
     k0 = algorithm.stiffness
     letter = algorithm.letter
