@@ -485,3 +485,82 @@ def test_every_instrument_file_truncated_anywhere_loads_or_is_one_line(name, tmp
         if getattr(tex, "h", None) is not None and getattr(whole, "h", None) is not None \
                 and np.shape(tex.h) == np.shape(whole.h):
             np.testing.assert_array_equal(tex.h, whole.h)
+
+
+# -- the measured part of a map: --crop (issues 57 and 58) ----------------------------------
+def _brute_largest(ok):
+    best = 0
+    for a in range(ok.shape[0]):
+        for b in range(a + 1, ok.shape[0] + 1):
+            for c in range(ok.shape[1]):
+                for d in range(c + 1, ok.shape[1] + 1):
+                    if ok[a:b, c:d].all():
+                        best = max(best, (b - a) * (d - c))
+    return best
+
+
+def test_the_largest_measured_rectangle_is_the_brute_force_ones():
+    # the maximal-rectangle algorithm against every rectangle of 200 random masks
+    from haptex._loaders import largest_rectangle
+
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        ok = rng.random((int(rng.integers(1, 8)), int(rng.integers(1, 8)))) > 0.3
+        i0, i1, j0, j1 = largest_rectangle(ok)
+        assert ok[i0:i1, j0:j1].all() and (i1 - i0) * (j1 - j0) == _brute_largest(ok)
+
+
+def test_a_partly_measured_map_refused_names_crop_auto_and_following_it_gives_a_result(tmp_path):
+    # the refusal that sent users to a crop that did not exist (issue 57) now names --crop auto and
+    # the rectangle it takes; following it gives the map's largest measured part, whole: 22 of the
+    # 32 rows (an undefined band of rows 10-19 at the first column's side: rows 20-31 hold 12 x 32)
+    step = 1e-6
+    h = np.fromfunction(lambda i, j: 1e-7 * np.sin(i / 5.0) * np.cos(j / 7.0), (32, 32))
+    h[10:20, 0:6] = np.nan
+    _write_map(tmp_path / "part.x3p", h, step)
+    with pytest.raises(hx.ParameterError, match=r"crop to the measured part first \(--crop auto at the command line, "
+                                                r"crop='auto' in Python, takes 32 x 26 samples: --crop "
+                                                r"0,31um,6um,31um\)"):
+        hx.load_texture(tmp_path / "part.x3p", fill_undefined=True)
+    s = hx.load_texture(tmp_path / "part.x3p", crop="auto")
+    assert s.h.shape == (32, 26) and np.isfinite(s.h).all()
+    np.testing.assert_array_equal(s.h, h[:, 6:])
+    assert "cropped to 32 x 26 samples" in s.source
+    # the bounds it printed, typed back (in metres here), give the same map
+    same = hx.load_texture(tmp_path / "part.x3p", crop=(0.0, 31e-6, 6e-6, 31e-6))
+    np.testing.assert_array_equal(same.h, s.h)
+
+
+@pytest.mark.parametrize("crop, message", [
+    ((0.0, 31e-6, 0.0, 31e-6), r"it holds 60 undefined heights, the first at sample \(10, 0\); crop within the "
+                               r"measured part \(--crop auto"),
+    ((40e-6, 50e-6, 0.0, 31e-6), r"x in \[4e-05, 5e-05\] m lies outside the data's x in \[0, 3.1e-05\] m"),
+    ((10.5e-6, 12.5e-6, 0.0, 31e-6), r"it keeps 2 samples along x; at least 4 are needed"),
+    ((20e-6, 10e-6, 0.0, 31e-6), r"each range must be increasing"),
+    ((0.0, 31e-6), r"a map is cropped by \(x0, x1, y0, y1\)"),
+    ((0.0, float("nan"), 0.0, 1.0), r"finite"),
+    ("half", r"must be 'auto', \(x0, x1\) for a line scan or \(x0, x1, y0, y1\) for a map"),
+])
+def test_a_bad_crop_is_one_line_naming_what_is_allowed(tmp_path, crop, message):
+    h = np.fromfunction(lambda i, j: 1e-7 * np.sin(i / 5.0) * np.cos(j / 7.0), (32, 32))
+    h[10:20, 0:6] = np.nan
+    _write_map(tmp_path / "part.x3p", h, 1e-6)
+    with pytest.raises(hx.ParameterError, match=message):
+        hx.load_texture(tmp_path / "part.x3p", crop=crop)
+
+
+def test_crop_at_the_command_line(tmp_path):
+    from .test_cli import run_main
+
+    h = np.fromfunction(lambda i, j: 2e-6 * np.sin(i / 3.0) * np.cos(j / 4.0), (40, 40))
+    h[12:20, 0:5] = np.nan
+    _write_map(tmp_path / "part.x3p", h, 25e-6)
+    r = run_main("design", "--texture", str(tmp_path / "part.x3p"), "--crop", "auto", "--json",
+                 "--algorithms", "W,A", "--speed", "10mm/s")
+    assert r.returncode == 0, r.stderr
+    assert "cropped to 40 x 35 samples" in json.loads(r.stdout)["texture"]
+    r = run_main("design", "--texture", str(tmp_path / "part.x3p"), "--crop", "0.1mm,0.9mm", "--algorithms", "W")
+    assert r.returncode == 2 and "a map is cropped by (x0, x1, y0, y1)" in r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1
+    r = run_main("design", "--texture", "sine:0.1mm,1mm", "--crop", "auto")
+    assert r.returncode == 2 and "--crop is not allowed with the synthetic texture" in r.stderr

@@ -77,7 +77,7 @@ def test_csv_columns_with_units_from_the_caller(tmp_path):
 
 @pytest.mark.parametrize("text, pattern", [
     ("0,1\n1,2\n2,nan\n3,4\n4,5\n", r"p.csv: 1 of 5 heights are undefined \(NaN: the instrument lost them\), the "
-                                       r"first at sample 2; crop them, or fill them by interpolation \(--fill-undefined"),
+                                       r"first at sample 2; crop to the measured part \(.*\), or fill them by interpolation \(--fill-undefined"),
     ("0,1\n1,2\n1,3\n3,4\n4,5\n", r"p.csv, sample 2: x = 1e-06 does not increase"),
     ("0,1\n1,2\n2,3\n", r"p.csv: 3 samples, which is not allowed: at least 4"),
     ("0,1\n1,2\n2,x3\n3,4\n", r"p.csv, line 3: '2,x3' is not numbers"),

@@ -111,7 +111,7 @@ def test_undefined_regions_of_a_map_are_refused_or_filled_on_request(tmp_path):
     f = tmp_path / "holes.x3p"
     _topography(np.ma.masked_invalid(h), x, y).to_x3p(str(f))
     with pytest.raises(hx.ParameterError, match=r"holes.x3p: 12 of 4096 heights are undefined \(NaN: the instrument lost "
-                                                r"them\), the first at sample \(40, 3\); crop them, or fill them"):
+                                                r"them\), the first at sample \(40, 3\); crop to the measured part \(--crop auto .*\), or fill them"):
         hx.SampledSurface.from_file(f)
     s = hx.SampledSurface.from_file(f, fill_undefined=True)
     # a harmonic fill of a 4 x 3 hole in a grating of amplitude A stays within the hole's

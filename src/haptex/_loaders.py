@@ -134,8 +134,10 @@ class Reading:
 
 
 def read_topography(path, *, spacing=None, x_unit=None, height_unit=None, variable=None, x_column=0,
-                    height_column=1, fill_undefined=False) -> Reading:
-    """Read a line scan or an areal map from a file; see ``SampledProfile.from_file``."""
+                    height_column=1, fill_undefined=False, crop=None) -> Reading:
+    """Read a line scan or an areal map from a file; see ``SampledProfile.from_file`` and, for
+    ``crop``, :func:`crop_region`."""
+    crop = _checked_crop(crop)
     p = Path(path)
     if p.is_dir():
         raise ParameterError(f"path = {str(p)!r} is not allowed: it is a directory, not a topography file")
@@ -148,15 +150,15 @@ def read_topography(path, *, spacing=None, x_unit=None, height_unit=None, variab
     check_budget("path", str(p), TEXT_BYTES_FACTOR * p.stat().st_size, "reading this file")
     _check_zip(p)
     if p.suffix.lower() == ".mat":
-        return _load_mat(p, spacing, height_unit, variable, x_unit)
+        return _cropped(p, _load_mat(p, spacing, height_unit, variable, x_unit), crop)
     with open(p, "rb") as fh:
         bom = fh.read(3) == b"\xef\xbb\xbf"
     if (x_column, height_column) != (0, 1) or bom:  # see the module's docstring
-        return _read_text_columns(p, spacing, x_unit, height_unit, x_column, height_column, None)
+        return _cropped(p, _read_text_columns(p, spacing, x_unit, height_unit, x_column, height_column, None), crop)
     reader, why = _open(p)
     if reader is None:
-        return _read_text_columns(p, spacing, x_unit, height_unit, x_column, height_column, why)
-    return _read_st(p, reader, spacing, x_unit, height_unit, variable, fill_undefined)
+        return _cropped(p, _read_text_columns(p, spacing, x_unit, height_unit, x_column, height_column, why), crop)
+    return _read_st(p, reader, spacing, x_unit, height_unit, variable, fill_undefined, crop)
 
 
 def _first_line(exc: BaseException) -> str:
@@ -218,7 +220,7 @@ def _read_text_columns(p: Path, spacing, x_unit, height_unit, x_column, height_c
     return Reading(x, None, h, p.name, "haptex: text columns")
 
 
-def _read_st(p: Path, reader, spacing, x_unit, height_unit, variable, fill_undefined) -> Reading:
+def _read_st(p: Path, reader, spacing, x_unit, height_unit, variable, fill_undefined, crop=None) -> Reading:
     import warnings
 
     fmt = type(reader).name()
@@ -275,20 +277,13 @@ def _read_st(p: Path, reader, spacing, x_unit, height_unit, variable, fill_undef
     except Exception as exc:  # truncated or corrupt data after a valid header
         raise ParameterError(f"{p}: SurfaceTopography's {fmt} reader cannot read it ({_first_line(exc)})") from None
     mask = mask | ~np.isfinite(heights)
-    undefined = int(mask.sum())
-    if undefined and not fill_undefined:
-        first = np.unravel_index(int(np.argmax(mask.ravel())), mask.shape)
-        where = f"sample {first[0]}" if heights.ndim == 1 else f"sample {tuple(int(v) for v in first)}"
-        raise ParameterError(
-            f"{p}: {undefined} of {mask.size} heights are undefined (NaN: the instrument lost them), the first at "
-            f"{where}; crop them, or fill them by interpolation (--fill-undefined at the command line, "
-            "fill_undefined=True in Python)")
-    if undefined == mask.size:
-        raise ParameterError(f"{p}: every height is undefined (NaN); there is nothing to fill from")
+    if not mask.any() and crop is None:
+        mask = None
     h = heights * hf
     line = heights.ndim == 1 or min(heights.shape) == 1
     if line:
-        h, mask = h.ravel(), mask.ravel()
+        h = h.ravel()
+        mask = None if mask is None else mask.ravel()
         n = h.size
         if step is not None:
             x = step * np.arange(n)
@@ -297,31 +292,197 @@ def _read_st(p: Path, reader, spacing, x_unit, height_unit, variable, fill_undef
             x = (size / n) * np.arange(n) * xf
         else:
             x = _rounded_uniform(np.asarray(topo.positions(), dtype=np.float64)) * xf
-        source = p.name
-        if undefined:
-            x, h, source = _fill_line(p, x, h, mask)
-        _check(p, x, h)
-        return Reading(x, None, h, source, f"SurfaceTopography: {fmt}", undefined)
-    if step is not None:
+        y = None
+    elif step is not None:
         x, y = step * np.arange(h.shape[0]), step * np.arange(h.shape[1])
     else:
         (sx, sy) = (float(s) for s in sizes)
         x = (sx / h.shape[0]) * np.arange(h.shape[0]) * xf
         y = (sy / h.shape[1]) * np.arange(h.shape[1]) * xf
     source = p.name
+    if crop is not None:
+        x, y, h, mask, source = _apply_crop(p, x, y, h, mask, crop, fill_undefined)
+    undefined = 0 if mask is None else int(mask.sum())
+    if undefined and not fill_undefined:
+        first = np.unravel_index(int(np.argmax(mask.ravel())), mask.shape)
+        where = f"sample {first[0]}" if h.ndim == 1 else f"sample {tuple(int(v) for v in first)}"
+        auto = _auto_note(x, y, mask)
+        raise ParameterError(
+            f"{p}: {undefined} of {mask.size} heights are undefined (NaN: the instrument lost them), the first at "
+            f"{where}; crop to the measured part ({auto}), or fill them by interpolation (--fill-undefined at the "
+            "command line, fill_undefined=True in Python)")
+    if undefined == h.size:
+        raise ParameterError(f"{p}: every height is undefined (NaN); there is nothing to fill from")
+    if y is None:
+        if undefined:
+            x, h, source = _fill_line(p, x, h, mask, source)
+        _check(p, x, h)
+        return Reading(x, None, h, source, f"SurfaceTopography: {fmt}", undefined)
     if undefined:
-        x, y, h, source = _fill_map(p, x, y, h, mask)
+        x, y, h, source = _fill_map(p, x, y, h, mask, source)
     return Reading(x, y, h, source, f"SurfaceTopography: {fmt}", undefined)
 
 
-def _filled_note(p: Path, total: int, cropped: str, filled: int) -> str:
-    """The texture's source, saying what filling did (shown wherever the texture is)."""
+CROP_AUTO = "auto"
+"""``crop="auto"``: the largest measured part (see :func:`crop_region`)."""
+
+
+def _checked_crop(crop):
+    """``crop`` as None, "auto" or a tuple of 2 or 4 finite floats (m), or ParameterError."""
+    if crop is None or (isinstance(crop, str) and crop.strip().lower() == CROP_AUTO):
+        return None if crop is None else CROP_AUTO
+    try:
+        values = tuple(float(v) for v in crop)
+    except (TypeError, ValueError):
+        raise ParameterError(f"crop = {crop!r} is not allowed: must be 'auto', (x0, x1) for a line scan or "
+                             "(x0, x1, y0, y1) for a map, in metres") from None
+    if len(values) not in (2, 4) or not all(np.isfinite(values)):
+        raise ParameterError(f"crop = {crop!r} is not allowed: must be 'auto', (x0, x1) for a line scan or "
+                             "(x0, x1, y0, y1) for a map, finite, in metres")
+    if values[1] <= values[0] or (len(values) == 4 and values[3] <= values[2]):
+        raise ParameterError(f"crop = {crop!r} is not allowed: each range must be increasing (x0 < x1, y0 < y1)")
+    return values
+
+
+def _largest_run(ok: np.ndarray) -> tuple[int, int]:
+    """The longest run of True in a 1-D mask: [start, stop)."""
+    best, start = (0, 0), None
+    for i, v in enumerate(np.append(ok, False)):
+        if v and start is None:
+            start = i
+        elif not v and start is not None:
+            if i - start > best[1] - best[0]:
+                best = (start, i)
+            start = None
+    return best
+
+
+def largest_rectangle(ok: np.ndarray) -> tuple[int, int, int, int]:
+    """The largest axis-aligned rectangle of True in a 2-D mask, as index ranges
+    ``(i0, i1, j0, j1)`` (stops exclusive): the standard maximal-rectangle algorithm, each row
+    a histogram of the columns' runs of True ending there, its largest rectangle found with a
+    stack; O(rows x columns) time and O(columns) memory.
+
+    Raises
+    ------
+    ParameterError
+        If ``ok`` is not 2-D.
+    """
+    ok = np.asarray(ok, dtype=bool)
+    if ok.ndim != 2:
+        raise ParameterError(f"mask of shape {ok.shape} is not allowed: must be 2-D")
+    heights = np.zeros(ok.shape[1] + 1, dtype=np.int64)  # a zero sentinel at the end
+    best, best_area = (0, 0, 0, 0), 0
+    for i in range(ok.shape[0]):
+        heights[:-1] = np.where(ok[i], heights[:-1] + 1, 0)
+        stack = []
+        for j, hj in enumerate(heights):
+            start = j
+            while stack and stack[-1][1] >= hj:
+                s_j, s_h = stack.pop()
+                if s_h * (j - s_j) > best_area:
+                    best_area, best = s_h * (j - s_j), (i - s_h + 1, i + 1, s_j, j)
+                start = s_j
+            stack.append((start, hj))
+    return best
+
+
+def crop_region(x, y, mask, crop):
+    """The index ranges a crop keeps: ``(slice,)`` for a line scan, ``(slice, slice)`` for a map.
+
+    ``crop="auto"`` takes the largest measured part: a line's longest run of defined samples,
+    a map's largest axis-aligned rectangle without undefined points (:func:`largest_rectangle`).
+    Bounds ``(x0, x1)`` or ``(x0, x1, y0, y1)`` (m) keep the samples within them.
+
+    Raises
+    ------
+    ParameterError
+        For bounds of the wrong count, outside the data, or holding fewer than 4 samples a side.
+    """
+    areal = y is not None
+    if crop == CROP_AUTO:
+        ok = np.ones(np.shape(x) if not areal else (len(x), len(y)), dtype=bool) if mask is None else ~mask
+        if not areal:
+            i0, i1 = _largest_run(ok)
+            return (slice(i0, i1),)
+        i0, i1, j0, j1 = largest_rectangle(ok)
+        return slice(i0, i1), slice(j0, j1)
+    need = 4 if areal else 2
+    if len(crop) != need:
+        raise ParameterError(f"crop = {crop!r} is not allowed: a {'map' if areal else 'line scan'} is cropped by "
+                             f"{'(x0, x1, y0, y1)' if areal else '(x0, x1)'} in metres, or 'auto'")
+    out = []
+    for axis, pos, (a, b) in (("x", x, crop[:2]), ("y", y, crop[2:])) if areal else (("x", x, crop[:2]),):
+        lo, hi = float(pos[0]), float(pos[-1])
+        if b < lo or a > hi:
+            raise ParameterError(f"crop = {tuple(crop)!r} is not allowed: {axis} in [{a:g}, {b:g}] m lies outside the "
+                                 f"data's {axis} in [{lo:g}, {hi:g}] m")
+        keep = np.flatnonzero((pos >= a) & (pos <= b))
+        if keep.size < 4:
+            raise ParameterError(f"crop = {tuple(crop)!r} is not allowed: it keeps {keep.size} samples along {axis}; "
+                                 "at least 4 are needed")
+        out.append(slice(int(keep[0]), int(keep[-1]) + 1))
+    return tuple(out)
+
+
+def _extent(x, y, region) -> str:
+    """A crop region in the units people read (mm or µm), as ``--crop`` takes it."""
+    def fmt(v):
+        return "0" if v == 0 else f"{v * 1e3:.6g}mm" if abs(v) >= 1e-3 else f"{v * 1e6:.6g}um"
+    parts = [x[region[0]][0], x[region[0]][-1]]
+    if y is not None:
+        parts += [y[region[1]][0], y[region[1]][-1]]
+    return ",".join(fmt(float(v)) for v in parts)
+
+
+def _auto_note(x, y, mask) -> str:
+    region = crop_region(x, y, mask, CROP_AUTO)
+    n = [r.stop - r.start for r in region]
+    if min(n) < 4:
+        return "no measured part of 4 samples a side lies without undefined points"
+    return (f"--crop auto at the command line, crop='auto' in Python, takes {' x '.join(map(str, n))} samples: "
+            f"--crop {_extent(x, y, region)}")
+
+
+def _apply_crop(p: Path, x, y, h, mask, crop, fill_undefined):
+    """The reading cropped; bounds given by hand must hold no undefined point unless they are
+    to be filled (the first is named)."""
+    region = crop_region(x, y, mask, crop)
+    if min(r.stop - r.start for r in region) < 4:
+        raise ParameterError(f"{p}: crop = 'auto' finds no measured part of at least 4 samples a side")
+    x = x[region[0]]
+    y = None if y is None else y[region[1]]
+    h = h[region]
+    mask = None if mask is None else mask[region]
+    if mask is not None and mask.any() and crop != CROP_AUTO and not fill_undefined:
+        first = tuple(int(v) + r.start for v, r in zip(np.unravel_index(int(np.argmax(mask.ravel())), mask.shape),
+                                                      region))
+        raise ParameterError(f"crop = {tuple(crop)!r} is not allowed: it holds {int(mask.sum())} undefined heights, the "
+                             f"first at sample {first[0] if len(first) == 1 else first}; crop within the measured part "
+                             f"({_auto_note(x, y, mask)}) or add --fill-undefined")
+    size = " x ".join(str(r.stop - r.start) for r in region)
+    return x, y, h, mask, f"{p.name} (cropped to {size} samples: {_extent(x, y, tuple(slice(None) for _ in region))})"
+
+
+def _cropped(p: Path, reading: Reading, crop) -> Reading:
+    """A reading of haptex's own readers (MAT, text columns: no undefined points) cropped."""
+    if crop is None:
+        return reading
+    x, y, h, _, source = _apply_crop(p, reading.x, reading.y, reading.h, None, crop, False)
+    if y is None:
+        _check(p, x, h)
+    return Reading(x, y, h, source, reading.reader, reading.filled)
+
+
+def _filled_note(p: Path, total: int, cropped: str, filled: int, source: str | None = None) -> str:
+    """The texture's source, saying what cropping and filling did (shown wherever the texture is)."""
     parts = ([f"{cropped} with no measured point cropped"] if cropped else []) + (
         [f"{filled} undefined samples ({100 * filled / total:.3g} %) filled by interpolation"] if filled else [])
-    return f"{p.name} ({'; '.join(parts)})"
+    base = source if source and source != p.name else p.name
+    return f"{base} ({'; '.join(parts)})"
 
 
-def _fill_line(p: Path, x, h, mask):
+def _fill_line(p: Path, x, h, mask, source: str | None = None):
     """A line scan's undefined samples: those before its first and after its last measured
     sample are cropped (nothing measured lies beyond them to interpolate from), the others
     interpolated linearly in x between their measured neighbours (any reader, uniform or not)."""
@@ -333,10 +494,10 @@ def _fill_line(p: Path, x, h, mask):
     x, h, mask = x[keep], h[keep].copy(), mask[keep]
     h[mask] = np.interp(x[mask], x[~mask], h[~mask])
     return x, h, _filled_note(p, x.size + cropped, f"{cropped} samples at the ends" if cropped else "",
-                              int(mask.sum()))
+                              int(mask.sum()), source)
 
 
-def _fill_map(p: Path, x, y, h, mask):
+def _fill_map(p: Path, x, y, h, mask, source: str | None = None):
     """An areal map's undefined samples: whole rows and columns at its edges with no measured
     point are cropped; every other undefined sample must lie inside the measured region (a
     measured sample on both sides along its row and along its column) and is filled by
@@ -368,7 +529,7 @@ def _fill_map(p: Path, x, y, h, mask):
         raise ParameterError(
             f"{p}: {int(outside.sum())} of its undefined heights lie outside the measured region (no measured sample "
             f"beyond them along a row or a column, the first at sample ({i + rows[0]}, {j + cols[0]})): filling them "
-            "would extrapolate; crop the map to its measured part first")
+            f"would extrapolate; crop to the measured part first ({_auto_note(x, y, mask)})")
     filled = int(mask.sum())
     try:
         with warnings.catch_warnings():
@@ -378,7 +539,7 @@ def _fill_map(p: Path, x, y, h, mask):
             h = np.ma.getdata(topo.interpolate_undefined_data().heights()).astype(np.float64)
     except Exception as exc:
         raise ParameterError(f"{p}: its undefined heights cannot be filled ({_first_line(exc)})") from None
-    return x, y, h, _filled_note(p, total, cropped, filled)
+    return x, y, h, _filled_note(p, total, cropped, filled, source)
 
 
 def _rounded_uniform(x: np.ndarray) -> np.ndarray:

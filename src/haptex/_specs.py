@@ -27,7 +27,7 @@ def split_spec(text: str, name: str, kind: str, count: tuple[int, int]):
 
 
 def texture_from_spec(spec: str, spacing=None, x_unit=None, height_unit=None, level=False, lowpass=None, scale=None,
-                      periodic=False, fill_undefined=False):
+                      periodic=False, fill_undefined=False, crop=None):
     """The texture a spec names.
 
     Parameters
@@ -40,6 +40,8 @@ def texture_from_spec(spec: str, spacing=None, x_unit=None, height_unit=None, le
         ("0.8mm"); anything else is a file read by :func:`haptex.load_texture`.
     spacing, x_unit, height_unit, periodic, fill_undefined
         As :func:`haptex.load_texture` takes them; files only.
+    crop : str, optional
+        ``"auto"`` or ``"X0,X1"`` / ``"X0,X1,Y0,Y1"``, each length with its unit (files only).
     level : bool
         Remove the least-squares line (files only).
     lowpass : float, optional
@@ -64,7 +66,8 @@ def texture_from_spec(spec: str, spacing=None, x_unit=None, height_unit=None, le
     if kind in ("sine", "sum", "noise", "egg-crate", "grating") and rest:
         given = [flag for flag, v in (("--spacing", spacing), ("--x-unit", x_unit), ("--height-unit", height_unit),
                                       ("--level", level), ("--lowpass", lowpass), ("--scale", scale),
-                                      ("--periodic", periodic), ("--fill-undefined", fill_undefined))
+                                      ("--periodic", periodic), ("--fill-undefined", fill_undefined),
+                                      ("--crop", crop))
                  if v not in (None, False)]
         if given:
             raise ParameterError(f"{given[0]} is not allowed with the synthetic texture {kind + ':' + rest!r}: "
@@ -99,8 +102,14 @@ def texture_from_spec(spec: str, spacing=None, x_unit=None, height_unit=None, le
                                      "must be a whole number in [0, 2^64)")
             seed = int(vals[4])
         return BandLimitedNoise(*q, seed=seed)
+    if crop is not None and str(crop).strip().lower() != "auto":
+        parts = [v.strip() for v in str(crop).split(",")]
+        if len(parts) not in (2, 4):
+            raise ParameterError(f"crop = {str(crop)[:80]!r} is not allowed: give 'auto', X0,X1 (a line scan) or "
+                                 "X0,X1,Y0,Y1 (a map), each length with its unit, e.g. 0.1mm,0.9mm")
+        crop = tuple(quantity(v, "m", "crop") for v in parts)
     prof = load_texture(spec, spacing=spacing, x_unit=x_unit, height_unit=height_unit, periodic=periodic,
-                        fill_undefined=fill_undefined)
+                        fill_undefined=fill_undefined, crop=crop)
     if level:
         prof = prof.leveled()
     if lowpass is not None:

@@ -449,7 +449,7 @@ def _simulate(ctx, mode, letter, stiffness, amplitude, period, max_penetration, 
             ("energy supplied per cycle (J)", f"{osc.energy_per_cycle:.3g}")]
     for a, b in rows:
         t.add_row(a, b)
-    Console().print(t)
+    Console().print(_fitted(t))
 
 
 class _Steps:
@@ -652,6 +652,9 @@ def _check_plot_path(plot: Path) -> None:
               "profile); over a surface 'X0,X1,Y0,Y1' (default: one periodic cell or the whole map).")
 @click.option("--fill-undefined", is_flag=True,
               help="Fill a measured file's undefined (NaN) heights by interpolation instead of refusing the file.")
+@click.option("--crop", default=None,
+              help="The part of a measured file kept: 'auto' (the largest part without undefined points) or "
+                   "'X0,X1' (a line scan) / 'X0,X1,Y0,Y1' (a map), each with its unit, e.g. '0.1mm,0.9mm,0,0.5mm'.")
 @click.option("--raw", is_flag=True,
               help="Analyse the measured samples as they are, not band-limited to what the device renders.")
 @click.option("--hand", default="light-touch", show_default=True,
@@ -671,8 +674,8 @@ def _check_plot_path(plot: Path) -> None:
 @click.option("--quiet", is_flag=True, help="No progress display.")
 @click.pass_context
 def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, sampling_period, delay, stiffness, speed,
-           max_penetration, spacing, x_unit, height_unit, level, lowpass, scale, periodic, window, fill_undefined, raw,
-           object_spec, uv_scale, vertex_normals, algorithms, hand, report_dir, force, as_json, quiet):
+           max_penetration, spacing, x_unit, height_unit, level, lowpass, scale, periodic, window, fill_undefined, crop,
+           raw, object_spec, uv_scale, vertex_normals, algorithms, hand, report_dir, force, as_json, quiet):
     """Which algorithm, how stiff, will it be passive, can the device render it?
 
     A measured texture is band-limited to the shortest period the device renders at the
@@ -684,7 +687,7 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
     hand = _hand(hand)  # a misspelt hand before the texture is read
     with _Spinner("reading the texture", quiet or as_json):
         tex = _texture_from_spec(texture_spec, spacing, x_unit, height_unit, level, lowpass, scale, periodic,
-                                 fill_undefined)
+                                 fill_undefined, crop)
     if raw and not hasattr(tex, "band_limited"):
         raise ParameterError(f"--raw is not allowed with the synthetic texture {texture_spec!r}: it applies to measured "
                              "textures read from a file")
@@ -775,7 +778,7 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
                   "yes" if r["passive_at_stiffness"] else "no",
                   "yes" if r["conservative"] else ("almost" if r["almost_conservative"] else "no"),
                   f"{r['max_abs_loop_energy']:.3g}", "yes" if r["continuous"] else "no")
-    console.print(t)
+    console.print(_fitted(t))
     lt = Table(title="rendering limits (Section II-B)", box=box.SIMPLE_HEAD)
     for col in ("limit", "condition", "value", "bound", "ok"):
         lt.add_column(col)
@@ -783,7 +786,7 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
         unit = "" if lim["unit"] == "1" else " " + lim["unit"]
         lt.add_row(lim["name"], lim["formula"], f"{lim['lhs']:.4g}{unit}", f"{lim['rhs']:.4g}{unit}",
                    "yes" if lim["passed"] else "NO")
-    console.print(lt)
+    console.print(_fitted(lt))
     console.print("recommendation: " + data["recommendation"])
     if report_dir is not None:
         console.print(f"report: {report_dir / 'index.html'}")
@@ -1107,6 +1110,42 @@ def atlas_plot(store, x, y, selects, out):
     click.echo(f"wrote {path}")
 
 
+def _fitted(table, width: int | None = None):
+    """``table`` laid out to keep every word whole in the terminal's width (issue 57: at 80
+    columns names and numbers were cut to '…'): each column gets at least its longest word,
+    header included, and at most its longest cell; the room between is shared in proportion to
+    what each column would still take; text wraps at spaces. The caption is printed below as a
+    paragraph (a caption wider than the table lost its ends). A table whose words alone are wider
+    than the terminal keeps them whole and is wider."""
+    from rich.console import Console, Group
+    from rich.padding import Padding
+    from rich.text import Text
+
+    width = Console().width if width is None else width
+    lows, highs = [], []
+    for col in table.columns:
+        cells = [str(cell) for cell in col.cells]
+        low = max((len(w) for text in (str(col.header), *cells) for w in text.split()), default=1)
+        lows.append(low)
+        highs.append(max([low, *(len(text) for text in cells)]))
+    n = len(lows)
+    table.collapse_padding, table.pad_edge = True, False  # one space between columns, none at the edges
+    _, right, _, left = Padding.unpack(table.padding)
+    rules = (2 if table.box and table.show_edge else 0) + (n - 1 if table.box else 0)  # (rich counts them)
+    room = width - (n - 1) * max(left, right) - rules
+    spare, wanted = room - sum(lows), sum(h - lo for lo, h in zip(lows, highs))
+    if spare >= wanted:
+        widths = highs
+    else:
+        widths = [lo + (h - lo) * max(spare, 0) // max(wanted, 1) for lo, h in zip(lows, highs)]
+    for col, w in zip(table.columns, widths):
+        col.width = w
+        col.no_wrap = False
+        col.overflow = "fold"
+    caption, table.caption = table.caption, None
+    return Group(table, Text(str(caption))) if caption else table
+
+
 def _limits_table(wall: dict, title: str):
     """A rich table of :func:`haptex.limits.wall_limits`'s ``as_dict()``."""
     from rich import box
@@ -1120,12 +1159,13 @@ def _limits_table(wall: dict, title: str):
     for lim in wall["limits"]:
         t.add_row(lim["name"], lim["kind"], "n/a" if lim["value"] is None else f"{lim['value']:.4g}",
                   lim["formula"], lim["source"])
-    return t
+    return _fitted(t)
 
 
 @cli.group(invoke_without_command=True)
+@click.option("--wide", is_flag=True, help="Also the product's name and description (a wide terminal).")
 @click.pass_context
-def devices(ctx):
+def devices(ctx, wide):
     """The device presets, with their sources and wall limits ('haptex devices show NAME')."""
     if ctx.invoked_subcommand is not None:
         return
@@ -1139,15 +1179,17 @@ def devices(ctx):
     t = Table(title="device presets", box=box.SIMPLE_HEAD,
               caption=f"passive: Colgate & Schenkel or Abbott & Okamura; stable: closed loop with the hand "
                       f"{DEFAULT_HAND!r}; rated: the manufacturer's (or CHAI3D's) figure, reported only. "
-                      "'haptex devices show NAME' for every number and its source.")
-    for col in ("name", "DOF", "rate (Hz)", "max force (N)", "passive (N/m)", "stable (N/m)", "rated (N/m)", "device"):
-        t.add_column(col, no_wrap=col != "device")
+                      "'haptex devices show NAME' for every number and its source; --wide adds each product's name.")
+    columns = ("name", "DOF", "rate (Hz)", "max force (N)", "passive (N/m)", "stable (N/m)", "rated (N/m)")
+    for col in columns + (("device",) if wide else ()):
+        t.add_column(col)
     for key, p in presets().items():
         dev = p.device()
         w = wall_limits(dev, DEFAULT_HAND, preset=p)
         t.add_row(key, str(p.dimension), f"{1 / dev.period:g}", f"{dev.max_force:g}", f"{w.passive:.0f}",
-                  f"{w.stable:.0f}", "-" if p.rated_stiffness is None else f"{p.rated_stiffness:.0f}", p.label)
-    Console().print(t)
+                  f"{w.stable:.0f}", "-" if p.rated_stiffness is None else f"{p.rated_stiffness:.0f}",
+                  *((p.label,) if wide else ()))
+    Console().print(_fitted(t))
 
 
 @devices.command("show")
@@ -1190,7 +1232,7 @@ def devices_show(name, hand, delay, virtual_damping, as_json):
         t.add_column(col)
     for k, f in p.figures.items():
         t.add_row(k, f.written, f.status, f.source if f.status != "chosen" else f.note)
-    console.print(t)
+    console.print(_fitted(t))
     console.print(f"hand {h.key!r}: {h.label}; {h.mass:g} kg, {h.damping:g} N s/m, {h.stiffness:g} N/m")
     console.print(_limits_table(w.as_dict(), f"wall limits (delay {delay}, B_v {virtual_damping:g} N s/m)"))
     cited = sorted({f.source for f in (*p.figures.values(), *h.figures.values()) if f.source})
@@ -1236,7 +1278,7 @@ def _print_table(data) -> None:
             ("yes" if r["continuous"] else "no") + " / " + r["paper"]["continuous"],
         )
     console = Console()
-    console.print(t)
+    console.print(_fitted(t))
     for r in data["rows"]:
         ex = r.get("characteristic_number_extra") or {}
         if "bound_eq26" in ex:

@@ -1023,7 +1023,7 @@ class SampledSurface(Surface):
 
     @classmethod
     def from_file(cls, path, *, spacing=None, x_unit=None, height_unit=None, variable=None, periodic: bool = False,
-                  fill_undefined: bool = False) -> SampledSurface:
+                  fill_undefined: bool = False, crop=None) -> SampledSurface:
         """Load a measured areal height map: every format SurfaceTopography reads (X3P, SDF,
         Gwyddion, Zygo, Wyko, Digital Surf, Keyence, Olympus, Sensofar, NPY, ...) with its
         stated physical size and unit, and MATLAB matrices (rows along y, as an image).
@@ -1044,6 +1044,11 @@ class SampledSurface(Surface):
         fill_undefined : bool, optional
             Fill undefined (NaN) heights by SurfaceTopography's harmonic interpolation;
             by default such a map is refused, naming how many and where.
+        crop : "auto" or (float, float, float, float), optional
+            The part of the map kept, before any filling: ``"auto"``, the largest axis-aligned
+            rectangle without undefined points (the maximal-rectangle algorithm on the mask), or
+            ``(x0, x1, y0, y1)`` in metres (bounds given by hand must hold no undefined point
+            unless ``fill_undefined``).
 
         Returns
         -------
@@ -1059,7 +1064,7 @@ class SampledSurface(Surface):
         from ._loaders import read_topography
 
         r = read_topography(path, spacing=spacing, x_unit=x_unit, height_unit=height_unit, variable=variable,
-                            fill_undefined=fill_undefined)
+                            fill_undefined=fill_undefined, crop=crop)
         if not r.areal:
             raise ParameterError(f"{path}: holds a line scan ({r.x.size} samples), not an areal map: read it with "
                                  "SampledProfile.from_file, or extrude it with Extruded(...)")
@@ -1100,7 +1105,7 @@ class SampledSurface(Surface):
 
         if pixel_size is None:
             raise ParameterError("pixel_size = None is not allowed: an image does not state its pixel size; give it "
-                                 "in metres (e.g. 10e-6, or --pixel-size 10um at the command line)")
+                                 "in metres (e.g. 10e-6; in the explorer, the image's pixel size box, e.g. 10um)")
         if height_range is None:
             raise ParameterError("height_range = None is not allowed: an image does not state its heights; give "
                                  "(black, white) in metres (e.g. (0, 50e-6))")
@@ -1131,17 +1136,19 @@ class SampledSurface(Surface):
 
 
 def load_texture(path, *, spacing=None, x_unit=None, height_unit=None, variable=None, periodic: bool = False,
-                 fill_undefined: bool = False) -> SampledProfile | SampledSurface:
+                 fill_undefined: bool = False, crop=None) -> SampledProfile | SampledSurface:
     """A measured texture from any file haptex reads, as the file holds it: a line scan
     becomes a :class:`~haptex.textures.SampledProfile`, an areal map a
     :class:`SampledSurface` (what ``--texture FILE`` does at the command line).
 
-    Parameters and errors are those of :meth:`SampledSurface.from_file`.
+    Parameters and errors are those of :meth:`SampledSurface.from_file`; ``crop`` takes
+    ``"auto"``, ``(x0, x1)`` for a line scan or ``(x0, x1, y0, y1)`` for a map, in metres
+    (``--crop`` at the command line).
     """
     from ._loaders import read_topography
 
     r = read_topography(path, spacing=spacing, x_unit=x_unit, height_unit=height_unit, variable=variable,
-                        fill_undefined=fill_undefined)
+                        fill_undefined=fill_undefined, crop=crop)
     if r.areal:
         return SampledSurface(r.x, r.y, r.h, periodic=periodic, source=r.source)
     return SampledProfile(r.x, r.h, periodic=periodic, source=r.source)

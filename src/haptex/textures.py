@@ -633,7 +633,7 @@ class SampledProfile(Texture):
 
     @classmethod
     def from_file(cls, path, *, spacing=None, x_unit=None, height_unit=None, variable=None, x_column=0,
-                  height_column=1, periodic: bool = False, fill_undefined: bool = False) -> SampledProfile:
+                  height_column=1, periodic: bool = False, fill_undefined: bool = False, crop=None) -> SampledProfile:
         """Load a measured line scan.
 
         Every format SurfaceTopography reads (some 40 instrument formats: Dektak CSV and
@@ -665,6 +665,9 @@ class SampledProfile(Texture):
         fill_undefined : bool, optional
             Fill undefined (NaN) heights by SurfaceTopography's interpolation; by default a
             file with undefined heights is refused, naming how many and where.
+        crop : "auto" or (float, float), optional
+            The part of the scan kept: ``"auto"``, its longest run of defined samples, or
+            ``(x0, x1)`` in metres.
 
         Raises
         ------
@@ -677,7 +680,7 @@ class SampledProfile(Texture):
         from ._loaders import read_topography
 
         r = read_topography(path, spacing=spacing, x_unit=x_unit, height_unit=height_unit, variable=variable,
-                            x_column=x_column, height_column=height_column, fill_undefined=fill_undefined)
+                            x_column=x_column, height_column=height_column, fill_undefined=fill_undefined, crop=crop)
         if r.areal:
             raise ParameterError(f"{path}: holds an areal map ({r.x.size} x {r.y.size} samples), not a line scan: read "
                                  "it with SampledSurface.from_file (haptex reads it as a surface at the command line) "
