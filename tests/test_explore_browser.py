@@ -22,7 +22,7 @@ import pytest
 import haptex as hx
 from haptex.explore import model
 
-from .conftest import explorer_process
+from .conftest import explorer_process, server_log
 
 pytestmark = [pytest.mark.browser, pytest.mark.xdist_group("explorer-browser")]  # (one server, one Chromium)
 
@@ -199,7 +199,10 @@ def test_one_sessions_long_computation_never_stalls_another(server, browser, tmp
     assert _wait_text(other, "#q-value", lambda t: t == "5.125", timeout=30.0) == "5.125"
     _type(other, "stiffness", "-5 kN/m")  # a refusal in the other session is answered too
     assert "stiffness" in _wait_text(other, "#message-text", lambda t: t != "", timeout=10.0)
-    message = _wait_text(slow, "#message-text", lambda t: "still being computed" in t, timeout=30.0)
+    try:
+        message = _wait_text(slow, "#message-text", lambda t: "still being computed" in t, timeout=30.0)
+    except AssertionError as exc:
+        raise AssertionError(f"{exc}; the server's log: {server_log(proc)}") from None
     assert "\n" not in message
     other.close()
     slow.close()

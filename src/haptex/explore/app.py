@@ -91,6 +91,8 @@ class _Worker:
         _WORKERS.add(self)
 
     def submit(self, fn, *args):
+        if self._executor is not None and getattr(self._executor, "_broken", False):
+            self.stop()  # its process died (killed, out of memory): the next computation gets a new one
         if self._executor is None:
             self._executor = ProcessPoolExecutor(1, mp_context=_context(), initializer=_lower_priority)
         return self._executor.submit(fn, *args)
@@ -467,7 +469,12 @@ class ExplorerPage:
             return
         t0 = time.perf_counter()
         self._running = (what, t0)
-        future = self._worker.submit(_attempt, what, fn)
+        try:
+            future = self._worker.submit(_attempt, what, fn)
+        except Exception as exc:  # noqa: BLE001 (no worker could be started: say so, keep the view)
+            self._running = None
+            self._message(f"{what} could not start: {type(exc).__name__}: {exc}")
+            return
         doc = self.doc
 
         def done(f):
