@@ -65,6 +65,9 @@ def page(server, browser):
     pg.on("console", lambda m: errors.append(f"console {m.type}: {m.text}") if m.type == "error" else None)
     pg.goto(url)
     pg.wait_for_selector("#q-value", timeout=30000)
+    # The session's first views are computed in its worker: until they are drawn, the plots'
+    # ranges are placeholders, and a point placed on them lands elsewhere once they arrive.
+    _wait_text(pg, "#q-value", lambda t: t not in ("", "…"), timeout=60.0)
     yield pg
     pg.close()
     assert proc.poll() is None, "the server stopped"
