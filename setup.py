@@ -9,6 +9,7 @@ import sysconfig
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
+import numpy
 from setuptools import Extension, setup
 from setuptools.command.build_ext import build_ext
 
@@ -49,7 +50,7 @@ setup(
         Extension(
             "haptex.core._ext",
             sources=[str(CORE / "_ext.c"), *(str(c) for c in sorted(CORE.glob("hx_*.c")))],
-            include_dirs=[str(CORE)],
+            include_dirs=[str(CORE), numpy.get_include()],  # NumPy's C API: Renderer.step reads a row in place
             depends=[str(h) for h in sorted(CORE.glob("*.h"))],
             extra_compile_args=["-std=c99", "-O2", "-fno-fast-math", "-fno-math-errno"],
         )

@@ -1,5 +1,5 @@
 """Renderer latency per algorithm: Renderer.step called from Python (median and 99th
-percentile of single calls), the C core's tick alone (mean per call in a C loop), and the same force arithmetic in plain C (gcc -O2) for A and D; over the paper's
+percentile of single calls from a tuple; the median from a row of a NumPy array), the C core's tick alone (mean per call in a C loop), and the same force arithmetic in plain C (gcc -O2) for A and D; over the paper's
 sinusoid ([x, z]), over the egg-crate of the same A and l ([x, y, z], a diagonal scan) and
 over a gentle egg-crate (A = 0.1 mm, l = 2 mm: the probe stays within its least radius of
 curvature, where D's and E's closest point is certified by convexity).
@@ -72,6 +72,14 @@ def main() -> None:
                 lat -= timer
                 r.reset()
                 arr = np.ascontiguousarray(np.array(pts, dtype=float))  # the C core's tick, looped in C
+                lat_np = np.empty(n)  # the same positions as rows of a NumPy array (the buffer path)
+                for i in range(n):
+                    row = arr[i]
+                    t0 = time.perf_counter_ns()
+                    step(row)
+                    lat_np[i] = time.perf_counter_ns() - t0
+                lat_np -= timer
+                r.reset()
                 out = np.empty_like(arr)
                 t0 = time.perf_counter()
                 r._core.run(arr, out)
@@ -80,13 +88,14 @@ def main() -> None:
                 if letter in "AD" and d == 2:
                     dev = hx.Device.point_mass()
                     c_ns = c_reference(alg, dev, hx.operators.ConstantForce([0.0, 0.0]), n, 1, tmp, exe, render=True)
-                rows.append((name, letter, np.median(lat) / 1e3, np.percentile(lat, 99) / 1e3, kern, c_ns))
+                rows.append((name, letter, np.median(lat) / 1e3, np.percentile(lat, 99) / 1e3, np.median(lat_np) / 1e3, kern,
+                             c_ns))
     print(f"timer overhead subtracted: {timer:.0f} ns")
-    print(f"{'texture':17} {'alg':4} {'step median (us)':>17} {'step p99 (us)':>14} {'kernel (ns/call)':>17} "
-          f"{'C -O2 (ns/call)':>16}")
-    for name, letter, med, p99, kern, c_ns in rows:
+    print(f"{'texture':17} {'alg':4} {'step median (us)':>17} {'step p99 (us)':>14} {'NumPy row (us)':>15} "
+          f"{'kernel (ns/call)':>17} {'C -O2 (ns/call)':>16}")
+    for name, letter, med, p99, med_np, kern, c_ns in rows:
         c_txt = "" if math.isnan(c_ns) else f"{c_ns:16.0f}"
-        print(f"{name:17} {letter:4} {med:17.2f} {p99:14.2f} {kern:17.0f} {c_txt}")
+        print(f"{name:17} {letter:4} {med:17.2f} {p99:14.2f} {med_np:15.2f} {kern:17.0f} {c_txt}")
 
 
 if __name__ == "__main__":

@@ -202,8 +202,14 @@ def test_one_sessions_long_computation_never_stalls_another(server, browser, tmp
     assert _wait_text(other, "#q-value", lambda t: t == "5.125", timeout=30.0) == "5.125"
     _type(other, "stiffness", "-5 kN/m")  # a refusal in the other session is answered too
     assert "stiffness" in _wait_text(other, "#message-text", lambda t: t != "", timeout=10.0)
+    # The long session answers in one line: that it is still computing (a request waiting for
+    # the one before it, or past RECOMPUTE_BUDGET), or the cost planner's refusal. Which one is
+    # shown when depends on the machine's load: the planner alone took 6.8 s here idle and 83 s
+    # beside two CPU hogs (the worker runs at nice 10); the default noise before it was refused
+    # in 0.5 s idle, and computed for about 20 s in a loaded run of the suite.
     try:
-        message = _wait_text(slow, "#message-text", lambda t: "still being computed" in t, timeout=30.0)
+        message = _wait_text(slow, "#message-text", lambda t: "still being computed" in t or "not allowed here" in t,
+                             timeout=150.0)
     except AssertionError as exc:
         raise AssertionError(f"{exc}; the server's log: {server_log(proc)}") from None
     assert "\n" not in message

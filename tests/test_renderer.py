@@ -115,3 +115,27 @@ def test_bad_construction():
         hx.Renderer(make("A"), max_force=0)
     with pytest.raises(hx.ParameterError, match=r"^algorithm = "):
         hx.Renderer("A")
+
+
+def test_a_numpy_row_is_the_tuple_and_anything_else_the_checked_path():
+    """Issue 56: ``step`` reads a float64 row of the right length through the buffer protocol
+    (contiguous, strided or read-only) exactly as a tuple of the same floats, and hands any
+    other array (another dtype, shape or length) to the checked path, which answers as it did
+    before: the same force, and a fault counted where the position is refused."""
+    alg = make("A")
+    fast, checked = hx.Renderer(alg, max_force=5.0), hx.Renderer(alg, max_force=5.0)
+    rng = np.random.default_rng(5)
+    grid = np.column_stack([rng.uniform(-1e-3, 2e-3, 200), np.zeros(200), rng.uniform(-1.9e-3, 1e-3, 200)])
+    ro = grid[:, [0, 2]].copy()
+    ro.flags.writeable = False
+    for i in range(len(grid)):
+        want = fast.step((float(grid[i, 0]), float(grid[i, 2])))
+        assert fast.step(grid[i, ::2]) == want  # a strided view
+        assert fast.step(ro[i]) == want  # read-only
+        assert fast.step(np.ascontiguousarray(ro[i])) == want
+    others = [np.array([1e-4, -2e-4], dtype=np.float32), np.array([0, 0]), np.array([True, False]),
+              np.array([1e-4 + 0j, -2e-4]), np.array([[1e-4, -2e-4]]), np.array([1e-4, -2e-4, 0.0]),
+              np.array([np.nan, 0.0]), np.array([2e3, 0.0]), np.array([1e-4, -2e-4]).astype(">f8")]
+    for p in others:
+        assert fast.step(p) == checked._step_checked(p)
+    assert fast.faults == checked.faults >= 5  # complex, bool, 2-D, the wrong length, NaN, 2 km

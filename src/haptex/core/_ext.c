@@ -12,6 +12,9 @@
 #include <string.h>
 #include <time.h>
 
+#define NPY_NO_DEPRECATED_API NPY_1_22_API_VERSION
+#include <numpy/arrayobject.h> /* step's fast path for a NumPy row (its data read in place) */
+
 #include "hx_core.h"
 
 static PyObject *core_error(int code)
@@ -559,6 +562,29 @@ static PyObject *make_tuple(const RendererObject *self, const double f[3])
 PyDoc_STRVAR(step_doc, "step(p)\n--\n\nThe force (N) for one probe position p (m): the fast path for a tuple or list of "
                        "plain floats, else the fallback given at construction.");
 
+/* step's fast path for a NumPy row: exactly dim float64 in native byte order, one dimension, any
+   stride; any other array (another dtype, shape or length) goes to the checked path. */
+static PyObject *step_array(RendererObject *self, PyArrayObject *a)
+{
+    double q[3] = {0.0, 0.0, 0.0}, f[3];
+    const char *b;
+    npy_intp st;
+    if (PyArray_TYPE(a) != NPY_DOUBLE || PyArray_NDIM(a) != 1 || PyArray_DIM(a, 0) != self->dim ||
+        !PyArray_ISNOTSWAPPED(a))
+        return PyObject_CallOneArg(self->fallback, (PyObject *)a);
+    b = (const char *)PyArray_DATA(a);
+    st = PyArray_STRIDE(a, 0);
+    q[0] = *(const double *)b;
+    if (self->dim == 3) {
+        q[1] = *(const double *)(b + st);
+        q[2] = *(const double *)(b + 2 * st);
+    } else {
+        q[2] = *(const double *)(b + st);
+    }
+    hx_render_step(&self->r, q[0], q[1], q[2], f);
+    return make_tuple(self, f);
+}
+
 static PyObject *Renderer_step(RendererObject *self, PyObject *p)
 {
     PyObject **items;
@@ -570,6 +596,8 @@ static PyObject *Renderer_step(RendererObject *self, PyObject *p)
     } else if (PyList_CheckExact(p)) {
         n = PyList_GET_SIZE(p);
         items = PyList_GET_SIZE(p) ? &PyList_GET_ITEM(p, 0) : NULL;
+    } else if (PyArray_Check(p)) {
+        return step_array(self, (PyArrayObject *)p);
     } else {
         return PyObject_CallOneArg(self->fallback, p);
     }
@@ -1800,7 +1828,9 @@ static struct PyModuleDef module = {
 
 PyMODINIT_FUNC PyInit__ext(void)
 {
-    PyObject *mod = PyModule_Create(&module);
+    PyObject *mod;
+    import_array(); /* NumPy's C API (returns NULL with NumPy's error when it cannot be imported) */
+    mod = PyModule_Create(&module);
     struct { const char *name; int value; } consts[] = {
         {"TEXTURE_FLAT", HX_TEXTURE_FLAT}, {"TEXTURE_FOURIER", HX_TEXTURE_FOURIER},
         {"TEXTURE_SPLINE", HX_TEXTURE_SPLINE}, {"SURFACE_GRATINGS", HX_SURFACE_GRATINGS},
