@@ -1058,6 +1058,87 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
         click.echo(f"trace: {record}")
 
 
+@cli.command("fit")
+@click.argument("recording", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("-o", "--out", type=click.Path(dir_okay=False, path_type=Path), required=True,
+              help="Model file to write (haptex's JSON).")
+@click.option("--sample-rate", type=Quantity("Hz"), default=None,
+              help="The recording's rate, e.g. '10 kHz', when it has no time_s column.")
+@click.option("--rate", type=Quantity("Hz"), default=None, show_default="the recording's",
+              help="The models' rate: the renderer's servo rate, e.g. '1 kHz'.")
+@click.option("--order", type=int, default=None, show_default="chosen by BIC", help="AR order p.")
+@click.option("--ma-order", type=int, default=0, show_default=True, help="MA order q (0: AR models).")
+@click.option("--segment", type=Quantity("s"), default=0.2, show_default="0.2 s",
+              help="Windows in which speed and force are judged steady.")
+@click.option("--highpass", type=Quantity("Hz"), default=20.0, show_default="20 Hz",
+              help="Cut-off of the high-pass that removes the hand's motion.")
+def fit_cmd(recording, out, sample_rate, rate, order, ma_order, segment, highpass):
+    """Fit ARMA vibration models over (speed, force) to a recording (CSV: time_s, acc_m_s2 or
+    acc_x/y/z_m_s2, speed_m_s, force_n), and write them."""
+    from .datadriven import read_recording
+
+    if not out.parent.is_dir():
+        raise ParameterError(f"--out = '{out}' is not allowed: must be a file in an existing folder")
+    rec = read_recording(recording, sample_rate=sample_rate)
+    models = rec.fit(rate=rate, order=order, ma_order=ma_order, segment=segment, highpass=highpass,
+                     name=recording.stem)
+    models.write(out)
+    r = models.report
+    click.echo(f"{len(models.models)} ARMA{r.order} models at {r.sample_rate:g} Hz from {r.segments} steady windows "
+               f"of {r.windows} (order: {r.criterion}); written to {out}")
+
+
+@cli.command()
+@click.argument("models", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--speed", type=Quantity("m/s"), required=True, help="Tangential speed, e.g. '50 mm/s'.")
+@click.option("--force", type=Quantity("N"), required=True, help="Normal force, e.g. '1 N'.")
+@click.option("--plot", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Write the spectrum's figure (PNG or SVG).")
+@click.option("--json", "as_json", is_flag=True, help="Print JSON instead of text.")
+def vibration(models, speed, force, plot, as_json):
+    """The vibration a model set gives at one speed and force: the interpolated model, its
+    power and its spectrum (HaTT's XML or haptex's JSON)."""
+    import numpy as np
+
+    from .datadriven import read_models
+
+    if plot is not None:
+        _check_plot_path(plot)
+    s = read_models(models)
+    idx, lam, clamped = s.weights(speed, force)
+    m = s.model_at(speed, force)
+    f = np.linspace(0.0, s.sample_rate / 2, 512)
+    psd = m.psd(f)
+    rms = math.sqrt(m.output_variance())
+    peak = float(f[int(np.argmax(psd))])
+    if as_json:
+        click.echo(json.dumps({"models": str(models), "speed": speed, "force": force, "order": list(m.order),
+                               "weights": [{"model": int(i) + 1, "weight": float(w)} for i, w in zip(idx, lam)], "clamped_to_hull": clamped,
+                               "rms_acceleration": rms, "peak_frequency": peak, "sample_rate": s.sample_rate,
+                               "units": {"speed": "m/s", "force": "N", "rms_acceleration": "m/s^2",
+                                         "peak_frequency": "Hz", "sample_rate": "Hz"}}, indent=2))
+    else:
+        click.echo(repr(s))
+        where = " (outside the hull: its closest point)" if clamped else ""
+        click.echo(f"at {speed * 1e3:g} mm/s, {force:g} N{where}: ARMA{m.order}, weights "
+                   + ", ".join(f"model {int(i) + 1}: {w:.3f}" for i, w in zip(idx, lam)))
+        click.echo(f"rms acceleration {rms:.4g} m/s^2; spectrum's peak at {peak:.4g} Hz")
+    if plot is not None:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots(figsize=(6, 3.5))
+        ax.semilogy(f[1:], psd[1:])
+        ax.set_xlabel("frequency (Hz)")
+        ax.set_ylabel("PSD ((m/s²)²/Hz)")
+        ax.set_title(f"{s.name or models.name}: {speed * 1e3:g} mm/s, {force:g} N")
+        fig.tight_layout()
+        fig.savefig(plot)
+        plt.close(fig)
+
+
 @cli.command()
 @click.option("--port", type=int, default=5006, show_default=True, help="TCP port (0: any free port).")
 @click.option("--no-browser", is_flag=True, help="Do not open the page in a browser.")

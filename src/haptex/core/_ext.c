@@ -1807,8 +1807,144 @@ static PyObject *presliding_plane(PyObject *self, PyObject *const *args, Py_ssiz
     return Py_BuildValue("(ddl)", d[0], d[1], work);
 }
 
+static int lsf_valid(const double *w, int n);
+
+PyDoc_STRVAR(vibration_doc, "vibration(v, speed, force, out, seed)\n--\n\nThe data-driven vibration (m/s^2) of "
+                            "model set v (hx_vibration.c's layout) at each sample's speed (m/s) and force (N) into out "
+                            "(float64 (N,) each), from a fresh state seeded with seed; the GIL released. Returns "
+                            "(clamped, faults, largest work of a sample).");
+
+static PyObject *vibration(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    Py_buffer v, sp, fo, out;
+    hx_vib_state st;
+    unsigned long long seed;
+    long maxw = 0;
+    Py_ssize_t i, n;
+    int rc;
+    (void)self;
+    if (nargs != 5) {
+        PyErr_SetString(PyExc_TypeError, "vibration takes v, speed, force, out, seed");
+        return NULL;
+    }
+    seed = PyLong_AsUnsignedLongLongMask(args[4]);
+    if (PyErr_Occurred())
+        return NULL;
+    if (get_doubles(args[0], &v, 0, 1, "v") < 0)
+        return NULL;
+    if (get_doubles(args[1], &sp, 0, 1, "speed") < 0) {
+        PyBuffer_Release(&v);
+        return NULL;
+    }
+    if (get_doubles(args[2], &fo, 0, 1, "force") < 0) {
+        PyBuffer_Release(&v);
+        PyBuffer_Release(&sp);
+        return NULL;
+    }
+    if (get_doubles(args[3], &out, 1, 1, "out") < 0) {
+        PyBuffer_Release(&v);
+        PyBuffer_Release(&sp);
+        PyBuffer_Release(&fo);
+        return NULL;
+    }
+    n = out.shape[0];
+    rc = hx_vib_check((const double *)v.buf, (long)v.shape[0]);
+    if (rc == HX_OK && (sp.shape[0] != n || fo.shape[0] != n)) {
+        PyErr_SetString(PyExc_ValueError, "speed, force and out must have the same length");
+        rc = -1;
+    } else if (rc != HX_OK) {
+        core_error(rc);
+    }
+    if (rc == HX_OK) {
+        const double *vv = (const double *)v.buf, *s = (const double *)sp.buf, *f = (const double *)fo.buf;
+        double *o = (double *)out.buf;
+        Py_BEGIN_ALLOW_THREADS
+        hx_vib_reset(&st, seed);
+        for (i = 0; i < n; i++) {
+            o[i] = hx_vib_step(vv, &st, s[i], f[i]);
+            if (st.work > maxw)
+                maxw = st.work;
+        }
+        Py_END_ALLOW_THREADS
+    }
+    PyBuffer_Release(&v);
+    PyBuffer_Release(&sp);
+    PyBuffer_Release(&fo);
+    PyBuffer_Release(&out);
+    if (rc != HX_OK)
+        return NULL;
+    return Py_BuildValue("(lll)", st.clamped, st.faults, maxw);
+}
+
+PyDoc_STRVAR(normal_doc, "normal(seed, out)\n--\n\nThe core's N(0, 1) samples 0, 1, ... of seed into out (float64 "
+                         "(N,)): what the vibration's noise is before its standard deviation.");
+
+static PyObject *normal(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    Py_buffer out;
+    unsigned long long seed;
+    Py_ssize_t i;
+    (void)self;
+    if (nargs != 2) {
+        PyErr_SetString(PyExc_TypeError, "normal takes seed, out");
+        return NULL;
+    }
+    seed = PyLong_AsUnsignedLongLongMask(args[0]);
+    if (PyErr_Occurred())
+        return NULL;
+    if (get_doubles(args[1], &out, 1, 1, "out") < 0)
+        return NULL;
+    for (i = 0; i < out.shape[0]; i++)
+        ((double *)out.buf)[i] = hx_normal(seed, (unsigned long long)i);
+    PyBuffer_Release(&out);
+    Py_RETURN_NONE;
+}
+
+PyDoc_STRVAR(lsf_to_poly_doc, "lsf_to_poly(w, a)\n--\n\nThe polynomial [1, a_1, ..., a_p] (a, float64 (p + 1,)) "
+                              "of the ascending line spectral frequencies w (rad, float64 (p,), checked).");
+
+static PyObject *lsf_to_poly(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    Py_buffer w, a;
+    Py_ssize_t p;
+    (void)self;
+    if (nargs != 2) {
+        PyErr_SetString(PyExc_TypeError, "lsf_to_poly takes w, a");
+        return NULL;
+    }
+    if (get_doubles(args[0], &w, 0, 1, "w") < 0)
+        return NULL;
+    if (get_doubles(args[1], &a, 1, 1, "a") < 0) {
+        PyBuffer_Release(&w);
+        return NULL;
+    }
+    p = w.shape[0];
+    if (a.shape[0] != p + 1 || p > HX_VIB_MAX_ORDER || !lsf_valid((const double *)w.buf, (int)p)) {
+        PyBuffer_Release(&w);
+        PyBuffer_Release(&a);
+        PyErr_SetString(PyExc_ValueError, "w must ascend in (0, pi), at most HX_VIB_MAX_ORDER of them, a be p + 1 long");
+        return NULL;
+    }
+    hx_lsf_to_poly((const double *)w.buf, (int)p, (double *)a.buf);
+    PyBuffer_Release(&w);
+    PyBuffer_Release(&a);
+    Py_RETURN_NONE;
+}
+
+static int lsf_valid(const double *w, int n)
+{
+    int k;
+    for (k = 0; k < n; k++)
+        if (!(w[k] > 0.0 && w[k] < 3.14159265358979323846) || (k > 0 && !(w[k] > w[k - 1])))
+            return 0;
+    return 1;
+}
+
 static PyMethodDef methods[] = {
     {"field", (PyCFunction)(void (*)(void))field, METH_FASTCALL, field_doc},
+    {"vibration", (PyCFunction)(void (*)(void))vibration, METH_FASTCALL, vibration_doc},
+    {"normal", (PyCFunction)(void (*)(void))normal, METH_FASTCALL, normal_doc},
+    {"lsf_to_poly", (PyCFunction)(void (*)(void))lsf_to_poly, METH_FASTCALL, lsf_to_poly_doc},
     {"texture", (PyCFunction)(void (*)(void))texture, METH_FASTCALL, texture_doc},
     {"run_lean", (PyCFunction)(void (*)(void))run_lean, METH_FASTCALL, run_lean_doc},
     {"run_general", (PyCFunction)(void (*)(void))run_general, METH_FASTCALL, run_general_doc},

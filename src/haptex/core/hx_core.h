@@ -587,6 +587,29 @@ typedef struct {
  * in the summary, at the first non-finite state. */
 int hx_run_general(const hx_model *m, const hx_general_run *r);
 
+/* ---- data-driven vibration (hx_vibration.c): ARMA models over (speed, force) ---- */
+enum { HX_VIB_MAX_ORDER = 64, HX_VIB_MAX_MODELS = 512 };
+enum {
+    HX_V_N = 0, HX_V_NTRI = 1, HX_V_P = 2, HX_V_Q = 3, HX_V_FS = 4, /* models, triangles, orders, rate (Hz) */
+    HX_V_SSCALE = 5, HX_V_FSCALE = 6, /* speed (m/s) and force (N) scales of the triangulation */
+    HX_V_HEAD = 8,
+    HX_V_ROW = 4 /* a model's row: speed, force, variance, gain, then its p + q LSF */
+};
+typedef struct {
+    double y[HX_VIB_MAX_ORDER]; /* past outputs (m/s^2), most recent first */
+    double e[HX_VIB_MAX_ORDER]; /* past noise samples */
+    unsigned long long seed, count; /* the generator's seed and the next sample's index */
+    long tri;     /* the triangle of the last tick (the first one tested) */
+    long clamped; /* ticks whose operating point was moved to the hull */
+    long faults;  /* ticks with a non-finite operating point (0 returned) */
+    long work;    /* triangles and edges tested on the last tick */
+} hx_vib_state;
+int hx_vib_check(const double *v, long nv);
+void hx_vib_reset(hx_vib_state *st, unsigned long long seed);
+double hx_vib_step(const double *v, hx_vib_state *st, double speed, double force);
+void hx_lsf_to_poly(const double *w, int order, double *a);
+double hx_normal(unsigned long long seed, unsigned long long index);
+
 #ifdef __cplusplus
 }
 #endif
