@@ -824,7 +824,7 @@ def dft321(acceleration) -> np.ndarray:
 class FitReport:
     """What :func:`fit` did: the choices it made and what it kept.
 
-    Attributes
+    Parameters
     ----------
     order : tuple of int
         (p, q): the AR and MA orders.
@@ -1062,7 +1062,7 @@ RECORDING_COLUMNS = {
 class Recording:
     """A tool's acceleration, speed and normal force, sampled together.
 
-    Attributes
+    Parameters
     ----------
     acceleration : numpy.ndarray, shape (n,) or (n, 3)
         Acceleration (m/s²).
@@ -1080,7 +1080,17 @@ class Recording:
     sample_rate: float
 
     def fit(self, **kwargs) -> ModelSet:
-        """:func:`fit` on this recording (keyword arguments as :func:`fit`'s)."""
+        """Fit a model set to this recording.
+
+        Parameters
+        ----------
+        **kwargs
+            :func:`fit`'s keyword arguments (``rate``, ``order``, ``ma_order``, ...).
+
+        Returns
+        -------
+        ModelSet
+        """
         return fit(self.acceleration, self.speed, self.normal_force, self.sample_rate, **kwargs)
 
     def write(self, path) -> Path:
@@ -1094,6 +1104,11 @@ class Recording:
         Returns
         -------
         pathlib.Path
+
+        Raises
+        ------
+        ParameterError
+            If the folder does not exist.
         """
         path = Path(path)
         if not path.parent.is_dir():
