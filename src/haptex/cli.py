@@ -655,6 +655,9 @@ def _check_plot_path(plot: Path) -> None:
 @click.option("--crop", default=None,
               help="The part of a measured file kept: 'auto' (the largest part without undefined points) or "
                    "'X0,X1' (a line scan) / 'X0,X1,Y0,Y1' (a map), each with its unit, e.g. '0.1mm,0.9mm,0,0.5mm'.")
+@click.option("--tip-radius", type=Quantity("m"), default=0.0, show_default="0: a point probe",
+              help="Radius of the ball the texture is touched with, e.g. '0.5mm': the texture it feels (the map "
+                   "dilated by the ball) is analysed.")
 @click.option("--raw", is_flag=True,
               help="Analyse the measured samples as they are, not band-limited to what the device renders.")
 @click.option("--hand", default="light-touch", show_default=True,
@@ -675,7 +678,7 @@ def _check_plot_path(plot: Path) -> None:
 @click.pass_context
 def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, sampling_period, delay, stiffness, speed,
            max_penetration, spacing, x_unit, height_unit, level, lowpass, scale, periodic, window, fill_undefined, crop,
-           raw, object_spec, uv_scale, vertex_normals, algorithms, hand, report_dir, force, as_json, quiet):
+           tip_radius, raw, object_spec, uv_scale, vertex_normals, algorithms, hand, report_dir, force, as_json, quiet):
     """Which algorithm, how stiff, will it be passive, can the device render it?
 
     A measured texture is band-limited to the shortest period the device renders at the
@@ -691,6 +694,13 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
     if raw and not hasattr(tex, "band_limited"):
         raise ParameterError(f"--raw is not allowed with the synthetic texture {texture_spec!r}: it applies to measured "
                              "textures read from a file")
+    felt = None
+    if tip_radius:
+        with _Spinner(f"rolling a ball of {tip_radius * 1e3:g} mm over the texture", quiet or as_json):
+            point = tex
+            tex = tex.felt_by(tip_radius)
+        felt = {"tip_radius": tip_radius, "max_slope_point_probe": float(point.max_slope),
+                "max_slope_felt": float(tex.max_slope), "source": tex.source}
     base = object_from_spec(object_spec, uv_scale, vertex_normals)
     dev = _build_device(ctx, device_spec, joint_damping, mass, damping, sampling_period, delay,
                         3 if base is not None else tex.dimension + 1)
@@ -732,12 +742,15 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
 
         write_design_report(data, rendered_texture(tex, dev, speed, band_limit=not raw), report_dir, force)
     if as_json:
-        click.echo(json.dumps(_jsonable(data), indent=2))
+        click.echo(json.dumps(_jsonable(dict(data, felt_by_tip=felt)), indent=2))
         return
     from rich.console import Console
     from rich.table import Table
 
     console = Console()
+    if felt is not None:
+        console.print(f"felt by a ball of r = {tip_radius * 1e3:g} mm: M = {felt['max_slope_point_probe']:.4g} for a point "
+                      f"probe, {felt['max_slope_felt']:.4g} felt; the felt texture is analysed below")
     bl = data["band_limit"]
     rn = bl["raw"]
     if bl["sampled"]:

@@ -62,6 +62,31 @@ class Texture:
     def kernel_data(self) -> tuple[int, np.ndarray]:  # pragma: no cover - abstract
         raise NotImplementedError
 
+    def felt_by(self, tip_radius: float, *, spacing: float | None = None) -> "Texture":
+        """The texture a ball of radius ``tip_radius`` (m) feels: :func:`haptex.probe.felt_by`.
+
+        Parameters
+        ----------
+        tip_radius : float
+            The ball's radius r (m), >= 0 (0: the paper's point probe, this texture itself).
+        spacing : float, optional
+            Grid spacing (m) for an analytic texture (see :func:`haptex.probe.felt_by`).
+
+        Returns
+        -------
+        Texture
+            A :class:`SampledProfile` (or :class:`~haptex.SampledSurface`) of the heights (m)
+            of the ball's lowest point resting on this texture.
+
+        Raises
+        ------
+        ParameterError
+            As :func:`haptex.probe.felt_by`.
+        """
+        from .probe import felt_by
+
+        return felt_by(self, tip_radius, spacing=spacing)
+
     @property
     def peak_magnitude(self) -> float:
         """max |h(x)| (m)."""

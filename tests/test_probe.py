@@ -1,0 +1,113 @@
+"""haptex.probe: the texture a ball of radius r feels (the map dilated by the ball, minus r).
+
+References: the ball's centre path c(x) = max_|u|<=r [h(x + u) + sqrt(r^2 - u^2)] (grey-scale
+dilation by a non-flat ball: Serra 1982; Villarrubia, J. Res. NIST 102(4), 1997), checked
+against its definition by dense sampling of u; below the troughs' radius of curvature
+l^2 / (4 pi^2 A) the ball touches everywhere and the felt profile is the offset curve
+(x - r h' / sqrt(1 + h'^2), h + r / sqrt(1 + h'^2) - r); far above it the ball rests on the
+crests only and the felt slope is at most (l/2) / sqrt(r^2 - l^2/4), so that q_A =
+sqrt(1 + M^2) (Section IV-A) follows that closed form.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+import haptex as hx
+from haptex import ParameterError
+
+A, L = 0.1e-3, 2e-3  # a sinusoid whose troughs have a 1.01 mm radius of curvature
+SINE = hx.Sinusoid(A, L)
+
+
+def _centre_path(tex, x, r, n=400_001):
+    u = np.linspace(-r, r, n)
+    return np.array([np.max(tex.height(xi + u) + np.sqrt(np.maximum(r * r - u * u, 0.0))) - r for xi in x])
+
+
+@pytest.mark.parametrize("r", [0.3e-3, 0.5e-3, 0.9e-3, 3e-3])
+def test_the_felt_profile_is_the_balls_centre_path_on_its_grid(r):
+    felt = SINE.felt_by(r)
+    x = felt.x[::7]
+    # on the grid, the discrete maximum over offsets k dx misses the continuous one by at most
+    # (dx/2)^2 / 2 times the curvature of h(x + u) + sqrt(r^2 - u^2) in u, <= max|h''| + 1/r
+    bound = felt.dx**2 / 8 * ((2 * math.pi / L) ** 2 * A + 1 / r) + 1e-12
+    assert np.max(np.abs(felt.h[::7] - _centre_path(SINE, x, r))) <= bound
+
+
+def test_below_the_troughs_curvature_the_felt_profile_is_the_offset_curve():
+    r = 0.5e-3
+    assert r < L**2 / (4 * math.pi**2 * A)
+    s = np.linspace(0, L, 2001)
+    h, hp = SINE.height(s), SINE.slope(s)
+    g = 1 / np.sqrt(1 + hp**2)
+    xo, zo = s - r * hp * g, h + r * g - r
+    felt = SINE.felt_by(r)
+    # the grid's discrete maximum (as above), and as much again for the spline between its points
+    bound = 2 * felt.dx**2 / 8 * ((2 * math.pi / L) ** 2 * A + 1 / r)
+    np.testing.assert_allclose(felt.height(xo), zo, rtol=0, atol=bound)
+    assert felt.max_slope == pytest.approx(SINE.max_slope, rel=1e-3)  # the offset curve keeps the normals
+
+
+@pytest.mark.parametrize("r", [4e-3, 6e-3, 10e-3])
+def test_a_ball_on_the_crests_lowers_q_a_as_the_closed_form_says(r):
+    felt = SINE.felt_by(r)
+    m = (L / 2) / math.sqrt(r * r - L * L / 4)
+    q = hx.characteristic_number(hx.algorithm("A", felt, 2000.0)).value
+    q0 = hx.characteristic_number(hx.algorithm("A", SINE, 2000.0)).value
+    assert q == pytest.approx(math.sqrt(1 + m * m), rel=0.01) and q < q0
+
+
+def test_a_point_probe_is_the_texture_itself_and_bad_radii_are_refused():
+    assert SINE.felt_by(0.0) is SINE
+    for bad in (-1e-3, math.nan, math.inf):
+        with pytest.raises(ParameterError, match="tip_radius"):
+            SINE.felt_by(bad)
+    prof = hx.SampledProfile(np.arange(100) * 1e-6, np.zeros(100))
+    with pytest.raises(ParameterError, match=r"tip_radius = 0.001 is not allowed: must be at most the profile's length"):
+        prof.felt_by(1e-3)
+
+
+def test_a_surface_is_dilated_as_its_definition_says():
+    rng = np.random.default_rng(3)
+    x, y = np.arange(24) * 10e-6, np.arange(30) * 15e-6
+    h = rng.normal(size=(24, 30)) * 5e-6
+    surf = hx.SampledSurface(x, y, h, periodic=True)
+    r = 40e-6
+    felt = surf.felt_by(r)
+    ref = np.full_like(h, -np.inf)
+    for a in range(-4, 5):
+        for b in range(-2, 3):
+            u2 = (a * 10e-6) ** 2 + (b * 15e-6) ** 2
+            if u2 <= r * r:
+                ref = np.maximum(ref, np.roll(h, (-a, -b), axis=(0, 1)) + math.sqrt(r * r - u2) - r)
+    np.testing.assert_allclose(felt.h, ref, rtol=0, atol=1e-18)
+    egg = hx.SumOfGratings.egg_crate(0.1e-3, 2e-3).felt_by(0.5e-3)
+    assert egg.max_slope < hx.SumOfGratings.egg_crate(0.1e-3, 2e-3).max_slope * 1.01
+
+
+def test_a_measured_stylus_scan_felt_by_a_phantom_ball():
+    # the Dektak scan of examples/data (1.5 mm, 9600 samples): a 0.5 mm ball bridges its fine
+    # roughness; the felt slope falls, and never exceeds the point probe's anywhere
+    from pathlib import Path
+
+    level = hx.load_texture(Path(__file__).parents[1] / "examples" / "data" / "dektak-stylus-profile.csv").leveled()
+    felt = level.felt_by(0.5e-3)
+    assert np.all(felt.h >= level.h - 1e-15)  # the ball's lowest point never goes below the surface
+    assert felt.max_slope < 0.5 * level.max_slope
+
+
+def test_design_takes_a_tip_radius_at_the_command_line():
+    import json
+
+    from click.testing import CliRunner
+
+    from haptex.cli import cli, main
+
+    r = CliRunner().invoke(cli, ["design", "--texture", "sine:0.1mm,2mm", "--device", "omega-3", "--tip-radius", "5mm",
+                                 "--algorithms", "A", "--json", "--quiet"])
+    assert r.exit_code == 0, r.output
+    felt = json.loads(r.stdout)["felt_by_tip"]
+    assert felt["tip_radius"] == 5e-3 and felt["max_slope_felt"] < felt["max_slope_point_probe"]
+    assert main(["design", "--texture", "sine:0.1mm,2mm", "--tip-radius", "0.5"]) == 2  # a radius needs its unit
