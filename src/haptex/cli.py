@@ -5,6 +5,7 @@ Every bad input ends as one line on stderr (``haptex: error: ...``) and exit sta
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import sys
@@ -1107,16 +1108,30 @@ def fit_cmd(recording, out, sample_rate, rate, order, ma_order, segment, highpas
 @click.option("--force", type=Quantity("N"), required=True, help="Normal force, e.g. '1 N'.")
 @click.option("--plot", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Write the spectrum's figure (PNG or SVG).")
+@click.option("--device", "device_spec", default=None,
+              help="A preset of 'haptex devices' (or FILE.toml) to display the vibration on, as a force "
+                   "(its mass x the acceleration, along x): the power it supplies at the port is reported.")
+@click.option("--hand", default="light-touch", show_default=True,
+              help="With --device: the hand holding the handle (none, light-touch, firm-grip).")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON instead of text.")
-def vibration(models, speed, force, plot, as_json):
+def vibration(models, speed, force, plot, device_spec, hand, as_json):
     """The vibration a model set gives at one speed and force: the interpolated model, its
-    power and its spectrum (HaTT's XML or haptex's JSON)."""
+    power and its spectrum (HaTT's XML or haptex's JSON); with --device, the energy it
+    supplies at the device's port."""
     import numpy as np
 
-    from .datadriven import read_models
+    from .catalogue import hand as _hand
+    from .datadriven import port_energy, read_models
 
     if plot is not None:
         _check_plot_path(plot)
+    grip = _hand(hand)
+    dev = None
+    if device_spec is not None:
+        dev = _catalogued_device(device_spec, 2)
+        if dev is None:
+            raise ParameterError(f"--device = {device_spec!r} is not allowed: must be a preset of 'haptex devices' or "
+                                 "a device file FILE.toml")
     s = read_models(models)
     idx, lam, clamped = s.weights(speed, force)
     m = s.model_at(speed, force)
@@ -1124,18 +1139,33 @@ def vibration(models, speed, force, plot, as_json):
     psd = m.psd(f)
     rms = math.sqrt(m.output_variance())
     peak = float(f[int(np.argmax(psd))])
+    port = None if dev is None else port_energy(m, dev, None if grip.key == "none" else grip)
     if as_json:
         click.echo(json.dumps({"models": str(models), "speed": speed, "force": force, "order": list(m.order),
                                "weights": [{"model": int(i) + 1, "weight": float(w)} for i, w in zip(idx, lam)], "clamped_to_hull": clamped,
                                "rms_acceleration": rms, "peak_frequency": peak, "sample_rate": s.sample_rate,
+                               "port": None if port is None else {"device": device_spec, "hand": grip.key,
+                                                                  **dataclasses.asdict(port)},
                                "units": {"speed": "m/s", "force": "N", "rms_acceleration": "m/s^2",
-                                         "peak_frequency": "Hz", "sample_rate": "Hz"}}, indent=2))
+                                         "peak_frequency": "Hz", "sample_rate": "Hz", "power": "W", "to_hand": "W",
+                                         "to_device": "W", "rms_force": "N", "effective_mass": "kg",
+                                         "period": "s"}}, indent=2))
     else:
-        click.echo(repr(s))
+        import shutil
+        import textwrap
+
+        width = shutil.get_terminal_size((80, 24)).columns
+        echo = lambda text: click.echo(textwrap.fill(text, width, subsequent_indent="  "))  # noqa: E731
+        echo(repr(s))
         where = " (outside the hull: its closest point)" if clamped else ""
-        click.echo(f"at {speed * 1e3:g} mm/s, {force:g} N{where}: ARMA{m.order}, weights "
+        echo(f"at {speed * 1e3:g} mm/s, {force:g} N{where}: ARMA{m.order}, weights "
                    + ", ".join(f"model {int(i) + 1}: {w:.3f}" for i, w in zip(idx, lam)))
-        click.echo(f"rms acceleration {rms:.4g} m/s^2; spectrum's peak at {peak:.4g} Hz")
+        echo(f"rms acceleration {rms:.4g} m/s^2; spectrum's peak at {peak:.4g} Hz")
+        if port is not None:
+            echo(f"on {device_spec} held by the hand {grip.key!r}: {port.rms_force:.3g} N rms "
+                       f"({port.effective_mass:.3g} kg x the acceleration) supplies {port.power * 1e3:.3g} mW at the "
+                       f"port ({port.to_hand * 1e3:.3g} mW into the hand, {port.to_device * 1e3:.3g} mW into the "
+                       "device's damping)")
     if plot is not None:
         import matplotlib
 

@@ -1222,3 +1222,130 @@ def spectral_difference(recorded, synthesized, sample_rate: float, band=(20.0, 4
     _, py = welch(y, fs, nperseg=nper)
     sel = (f >= lo) & (f <= hi)
     return float(np.mean(np.abs(10 * np.log10(np.maximum(py[sel], 1e-300) / np.maximum(px[sel], 1e-300)))))
+
+
+# ---------------------------------------------------------------------------------------
+# energy at the port
+# ---------------------------------------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True)
+class VibrationEnergy:
+    """The mean power a vibration channel supplies at a device's port.
+
+    Parameters
+    ----------
+    power : float
+        Mean power (W) the vibration force supplies to the handle and the hand holding it
+        (> 0: the channel is an active source).
+    to_hand : float
+        The part (W) dissipated in the hand's damping.
+    to_device : float
+        The part (W) dissipated in the device's own damping.
+    rms_force : float
+        RMS of the vibration force (N).
+    effective_mass : float
+        Mass (kg) by which the acceleration is turned into a force.
+    period : float
+        The servo period (s): the force is held over each (zero-order hold).
+    """
+
+    power: float
+    to_hand: float
+    to_device: float
+    rms_force: float
+    effective_mass: float
+    period: float
+
+    def gain_for(self, budget: float) -> float:
+        """The factor on the vibration that keeps its mean power within ``budget``.
+
+        Parameters
+        ----------
+        budget : float
+            Power (W) the channel may supply, >= 0.
+
+        Returns
+        -------
+        float
+            min(1, sqrt(budget / power)): the power scales with the gain squared.
+
+        Raises
+        ------
+        ParameterError
+            If the budget is negative or not finite.
+        """
+        from ._validation import nonnegative
+
+        b = nonnegative("budget", budget, "W")
+        return 1.0 if self.power <= b else math.sqrt(b / self.power)
+
+
+def port_energy(model: ArmaModel, device, hand=None, *, axis: int = 0, mass: float | None = None) -> VibrationEnergy:
+    """The mean power a vibration supplies when displayed as a force on a device held by a hand.
+
+    Parameters
+    ----------
+    model : ArmaModel
+        The vibration (acceleration, m/s²), at the device's servo rate.
+    device : Device
+        The device (:class:`haptex.Device`, e.g. a preset's); its mass and damping along
+        ``axis`` are the handle's.
+    hand : Hand, optional
+        The hand holding the handle (:func:`haptex.catalogue.hand`): its mass, damping and
+        stiffness act on the handle; default none (a free handle).
+    axis : int, optional
+        The device axis the force acts along (the direction of motion).
+    mass : float, optional
+        Effective mass (kg) turning acceleration into force (HaTT's display on a Phantom:
+        force = mass x acceleration); default the device's own mass along ``axis``.
+
+    Returns
+    -------
+    VibrationEnergy
+
+    Raises
+    ------
+    ParameterError
+        If the model's rate is not the device's servo rate (to 1e-6), the axis is out of
+        range, or the mass is not > 0.
+
+    Notes
+    -----
+    Exact for the sampled system: the force sequence f_k (one-sided PSD S_f = m² S_a) is held
+    over each period T on the handle and hand, M = m_d + m_h, B = b_d + b_h, K = k_h, whose
+    zero-order-hold transfer from f_k to x_k is H(z) (:func:`scipy.signal.cont2discrete`).
+    The work of f_k over its period is f_k (x_{k+1} - x_k), so the mean power is
+
+        P = (1 / T) ∫_0^{1/(2T)} S_f(f) Re[(e^{j2πfT} - 1) H(e^{j2πfT})] df,
+
+    and, the stored energy being stationary, it is dissipated in the two dampers in the ratio
+    b_h : b_d. This is the energy an energy-based stabiliser (a passivity observer,
+    Hannaford & Ryu 2002; energy bounding, Kim & Ryu 2004) sees as supplied at the port.
+    """
+    from scipy.signal import cont2discrete, freqz
+
+    T = float(device.period)
+    if abs(model.sample_rate * T - 1.0) > 1e-6:
+        raise fail("model", f"{model.sample_rate:g} Hz", f"a model at the device's servo rate, {1 / T:g} Hz "
+                   "(fit with rate=, or haptex fit --rate)")
+    dim = np.atleast_2d(device.mass).shape[0]
+    if not (isinstance(axis, int | np.integer) and 0 <= axis < dim):
+        raise fail("axis", axis, f"an axis of the device, 0 to {dim - 1}")
+    md = float(np.atleast_2d(device.mass)[axis, axis])
+    bd = float(np.atleast_2d(device.damping)[axis, axis])
+    m_eff = md if mass is None else positive("mass", mass, "kg")
+    mh = bh = kh = 0.0
+    if hand is not None:
+        mh, bh, kh = float(hand.mass), float(hand.damping), float(hand.stiffness)
+    M, B, K = md + mh, bd + bh, kh
+    num, den, _ = cont2discrete(([1.0], [M, B, K]), T, method="zoh")
+    n = 1 << 15  # the midpoint rule: no sample at f = 0, where a free handle's H has its pole (z = 1)
+    df = 0.5 / T / n
+    f = (np.arange(n) + 0.5) * df
+    _, h = freqz(np.ravel(num), den, worN=f, fs=1.0 / T)
+    g = np.real((np.exp(2j * np.pi * f * T) - 1.0) * h)
+    s_f = m_eff**2 * model.psd(f)
+    power = float(np.sum(s_f * g) * df / T)
+    share = (lambda b: power * b / B) if B > 0 else (lambda b: 0.0)
+    return VibrationEnergy(power, share(bh), share(bd), m_eff * math.sqrt(model.output_variance()), m_eff, T)
