@@ -371,3 +371,37 @@ def test_a_model_at_another_rate_than_the_devices_is_refused():
     dev = preset("omega-3").device(dimension=2)  # 4 kHz
     with pytest.raises(ParameterError, match=r"a model at the device's servo rate, 4000 Hz"):
         dd.port_energy(_set().models[0], dev)
+
+
+# ---- layered on the servo tick ----------------------------------------------------------------
+
+
+@pytest.mark.parametrize("tau", [0.0, 0.01])
+def test_the_renderer_adds_the_sets_vibration_along_the_motion(tau):
+    # a stroke along x at 50 mm/s, 0.5 mm inside A's wall, one tick a millisecond (the set's
+    # rate): the force is A's plus mass x the set's synthesis at the tick's operating point
+    # (the tangential speed, filtered as the renderer says, and A's own f_z), along x; the
+    # first tick has no velocity yet and adds nothing
+    import haptex as hx
+
+    fs = 1000.0
+    ms = [dd.ArmaModel(_ar((100, 0.95), (250, 0.9)), [1.0], v, 1.0, fs, s, f)
+          for (s, f), v in zip(((0.02, 0.5), (0.1, 0.5), (0.02, 2.0), (0.1, 2.0)), (1.0, 2.0, 3.0, 4.0))]
+    models = dd.ModelSet(ms)
+    alg = hx.algorithm("A", hx.Sinusoid(0.1e-3, 2e-3), 2000.0)
+    r = hx.Renderer(alg, max_force=50.0, vibration=models, vibration_mass=0.2, velocity_filter=tau, seed=5)
+    n, v = 1500, 0.05
+    p = np.column_stack([np.arange(n) * v / fs, np.full(n, -0.5e-3)])
+    got = np.array([r.step(row) for row in p])
+    plain = alg.force(p)
+    np.testing.assert_allclose(got[:, 1], plain[:, 1], rtol=1e-12)  # along z: the texture alone
+    speed = np.diff(p[:, 0]) * fs
+    if tau > 0:
+        speed = sg.lfilter([1 - np.exp(-1 / fs / tau)], [1, -np.exp(-1 / fs / tau)], speed)
+    want = 0.2 * models.synthesize(speed, plain[1:, 1], seed=5)
+    assert got[0, 0] == plain[0, 0]
+    np.testing.assert_allclose(got[1:, 0] - plain[1:, 0], want, rtol=1e-9, atol=1e-9 * np.std(want))
+    assert r.vibration_force == pytest.approx(want[-1], rel=1e-9)
+    assert r.clamps == 0 and r.faults == 0
+    with pytest.raises(ParameterError, match="vibration_mass"):
+        hx.Renderer(alg, vibration=models)

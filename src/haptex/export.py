@@ -42,7 +42,7 @@ def _num(v: float) -> str:
 
 
 TICK_FILES = ("hx_core.h", "hx_fields.h", "hx_texture_eval.h", "hx_texture.c", "hx_forces.c", "hx_presliding.c",
-              "hx_closest.c", "hx_surface.c", "hx_object.c", "hx_render.c", "hx_servo.c")
+              "hx_closest.c", "hx_surface.c", "hx_object.c", "hx_vibration.c", "hx_render.c", "hx_servo.c")
 """The C core's files a servo tick needs, copied unchanged by :func:`export_c`, with the servo
 loop's safety rules (hx_servo.c: engagement, ramp, watchdog, ceiling; what ``haptex run``
 runs). The core's others: the simulator's loops, hx_sim.c, and the Python binding, _ext.c."""

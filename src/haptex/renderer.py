@@ -391,12 +391,31 @@ class Renderer:
         and the tick is counted in :attr:`cut`; a tick's work is then at most the budget plus
         250. ``None``: only the search's structural bound (2,048 cells; about 10^5
         evaluations measured 1 km under the paper's egg-crate).
+    vibration : haptex.datadriven.ModelSet, optional
+        Data-driven vibration layered on the texture (the C core's ``hx_vibration.c``): in
+        contact and moving, ``vibration_mass`` x its acceleration (m/s²) along the tangential
+        velocity, at the operating point (the tangential speed, filtered with time constant
+        ``velocity_filter``; the algorithm's normal force f_z). :meth:`step` must then be
+        called at the set's rate (its velocity estimate is dp times that rate).
+    vibration_mass : float, optional
+        Effective mass (kg) turning acceleration into force (HaTT's display on a Phantom);
+        required with ``vibration`` (a device preset's mass along x:
+        ``preset.device().mass[0, 0]``).
+    vibration_gain : float, optional
+        Factor on the vibration, >= 0 (:meth:`haptex.datadriven.VibrationEnergy.gain_for`
+        gives the one that keeps its mean power within a budget).
+    velocity_filter : float, optional
+        Time constant (s) of the first-order filter on the tangential velocity, >= 0
+        (chosen: 10 ms; 0: the raw difference).
+    seed : int, optional
+        Seed of the vibration's noise (the same seed, the same run).
 
     Raises
     ------
     ParameterError
         If ``algorithm`` is not a haptex algorithm, ``max_force`` is not > 0, a controller
-        is given without a period, or ``max_evaluations`` is not None or in [100, 10^9].
+        is given without a period, ``max_evaluations`` is not None or in [100, 10^9], or a
+        vibration is given without its mass or with a gain, filter or seed out of range.
 
     Notes
     -----
@@ -413,7 +432,8 @@ class Renderer:
 
     def __init__(self, algorithm: Algorithm, max_force: float | None = None, energy_monitor: bool = False,
                  passivity_controller: PassivityController | None = None, period: float | None = None,
-                 max_evaluations: int | None = MAX_EVALUATIONS):
+                 max_evaluations: int | None = MAX_EVALUATIONS, *, vibration=None, vibration_mass: float | None = None,
+                 vibration_gain: float = 1.0, velocity_filter: float = 0.01, seed: int = 0):
         from .proxy import GodObject
 
         if not isinstance(algorithm, (Algorithm, GodObject)):
@@ -443,6 +463,28 @@ class Renderer:
             0 if pc is None else pc.mode, 0.0 if T is None else T, self._step_checked,
             0 if pc is None or pc.delay is None else pc.delay, base)
         self.step = self._core.step
+        self.vibration = vibration
+        if vibration is not None:
+            from .datadriven import ModelSet
+            from ._validation import nonnegative, positive
+
+            if not isinstance(vibration, ModelSet):
+                raise fail("vibration", vibration, "a haptex.datadriven.ModelSet (read_models, read_hatt or fit)")
+            if vibration_mass is None:
+                raise fail("vibration_mass", None, "a mass (kg) turning the vibration's acceleration into force, e.g. "
+                           "the device's own: preset(NAME).device().mass[0, 0]")
+            if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**64:
+                raise fail("seed", seed, "an integer in [0, 2**64)")
+            self._core.set_vibration(vibration._packed, positive("vibration_mass", vibration_mass, "kg"),
+                                     nonnegative("vibration_gain", vibration_gain), nonnegative("velocity_filter",
+                                                                                                 velocity_filter, "s"),
+                                     seed)
+
+    @property
+    def vibration_force(self) -> float:
+        """The vibration's force on the last tick (N, signed, along the tangential velocity); 0
+        without a vibration, out of contact or at rest."""
+        return self._core.vibration_force
 
     def _tick(self, x, y, z):
         """(fx, fy, fz) (N) at floats (x, y, z) (m), fy = 0 over a profile."""

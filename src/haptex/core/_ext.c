@@ -421,11 +421,13 @@ typedef struct {
     int dim;        /* 2: [x, z]; 3: [x, y, z] */
     PyObject *fallback; /* called with p when step's fast path does not apply */
     PyObject *base; /* an object's base (a Base; model.base points into it), or NULL */
+    double *vib;    /* an owned copy of the vibration's model set (r.vib points into it), or NULL */
 } RendererObject;
 
 static void Renderer_dealloc(RendererObject *self)
 {
     Py_XDECREF(self->base);
+    free(self->vib);
     free(self->coeffs);
     free(self->aux);
     Py_XDECREF(self->fallback);
@@ -713,7 +715,68 @@ static PyObject *Renderer_adhesion(RendererObject *self, void *closure)
     return Py_BuildValue("(dd)", self->r.st.adh[0], self->r.st.adh[1]);
 }
 
+PyDoc_STRVAR(set_vibration_doc, "set_vibration(v, mass, gain, tau, seed)\n--\n\nLayer the data-driven vibration "
+                                "of model set v (hx_vibration.c's layout, checked; copied) on the texture: mass (kg) x "
+                                "gain x its acceleration along the filtered tangential velocity (time constant tau, s), "
+                                "its noise seeded with seed; v = None removes it.");
+
+static PyObject *Renderer_set_vibration(RendererObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    Py_buffer v;
+    double mass, gain, tau;
+    unsigned long long seed;
+    double *copy;
+    int rc;
+    if (nargs != 5) {
+        PyErr_SetString(PyExc_TypeError, "set_vibration takes v, mass, gain, tau, seed");
+        return NULL;
+    }
+    if (args[0] == Py_None) {
+        self->r.vib = NULL;
+        free(self->vib);
+        self->vib = NULL;
+        Py_RETURN_NONE;
+    }
+    mass = PyFloat_AsDouble(args[1]);
+    gain = PyFloat_AsDouble(args[2]);
+    tau = PyFloat_AsDouble(args[3]);
+    seed = PyLong_AsUnsignedLongLongMask(args[4]);
+    if (PyErr_Occurred())
+        return NULL;
+    if (!(mass > 0.0 && isfinite(mass)) || !(gain >= 0.0 && isfinite(gain)) || !(tau >= 0.0 && isfinite(tau))) {
+        PyErr_SetString(PyExc_ValueError, "mass > 0, gain >= 0 and tau >= 0 must be finite");
+        return NULL;
+    }
+    if (get_doubles(args[0], &v, 0, 1, "v") < 0)
+        return NULL;
+    rc = hx_vib_check((const double *)v.buf, (long)v.shape[0]);
+    if (rc != HX_OK) {
+        PyBuffer_Release(&v);
+        return core_error(rc);
+    }
+    copy = (double *)malloc((size_t)v.shape[0] * sizeof(double));
+    if (copy == NULL) {
+        PyBuffer_Release(&v);
+        return PyErr_NoMemory();
+    }
+    memcpy(copy, v.buf, (size_t)v.shape[0] * sizeof(double));
+    PyBuffer_Release(&v);
+    self->r.vib = NULL;
+    free(self->vib);
+    self->vib = copy;
+    self->r.vib = copy;
+    self->r.vib_mass = mass;
+    self->r.vib_gain = gain;
+    self->r.vib_tau = tau;
+    hx_vib_reset(&self->r.vs, seed);
+    self->r.vib_have = 0;
+    self->r.vib_v[0] = self->r.vib_v[1] = self->r.vib_v[2] = 0.0;
+    self->r.vib_force = 0.0;
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef Renderer_methods[] = {
+    {"set_vibration", (PyCFunction)(void (*)(void))Renderer_set_vibration, METH_FASTCALL, set_vibration_doc},
     {"step", (PyCFunction)Renderer_step, METH_O, step_doc},
     {"tick", (PyCFunction)(void (*)(void))Renderer_tick, METH_FASTCALL, tick_doc},
     {"run", (PyCFunction)(void (*)(void))Renderer_run, METH_FASTCALL, run_doc},
@@ -724,6 +787,10 @@ static PyMethodDef Renderer_methods[] = {
 
 static PyMemberDef Renderer_members[] = {
     {"faults", T_LONG, offsetof(RendererObject, r.faults), READONLY, "faults counted"},
+    {"vibration_clamped", T_LONG, offsetof(RendererObject, r.vs.clamped), READONLY,
+     "vibration ticks whose operating point was moved to the model set's hull"},
+    {"vibration_force", T_DOUBLE, offsetof(RendererObject, r.vib_force), READONLY,
+     "the vibration's force on the last tick (N, along the tangential velocity)"},
     {"clamps", T_LONG, offsetof(RendererObject, r.clamps), READONLY, "forces scaled to max_force"},
     {"last_work", T_LONG, offsetof(RendererObject, r.work), READONLY, "work of the last tick"},
     {"max_work", T_LONG, offsetof(RendererObject, r.max_work), READONLY, "largest work of a tick"},

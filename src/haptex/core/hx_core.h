@@ -397,6 +397,29 @@ void hx_passivity_skip(hx_passivity *pc);
  * kept); 1 when it scaled, 0 otherwise. NaN in, NaN out (the caller counts a fault). */
 int hx_saturate(double f[3], double fmax);
 
+/* ---- data-driven vibration (hx_vibration.c): ARMA models over (speed, force) ---- */
+enum { HX_VIB_MAX_ORDER = 64, HX_VIB_MAX_MODELS = 512 };
+enum {
+    HX_V_N = 0, HX_V_NTRI = 1, HX_V_P = 2, HX_V_Q = 3, HX_V_FS = 4, /* models, triangles, orders, rate (Hz) */
+    HX_V_SSCALE = 5, HX_V_FSCALE = 6, /* speed (m/s) and force (N) scales of the triangulation */
+    HX_V_HEAD = 8,
+    HX_V_ROW = 4 /* a model's row: speed, force, variance, gain, then its p + q LSF */
+};
+typedef struct {
+    double y[HX_VIB_MAX_ORDER]; /* past outputs (m/s^2), most recent first */
+    double e[HX_VIB_MAX_ORDER]; /* past noise samples */
+    unsigned long long seed, count; /* the generator's seed and the next sample's index */
+    long tri;     /* the triangle of the last tick (the first one tested) */
+    long clamped; /* ticks whose operating point was moved to the hull */
+    long faults;  /* ticks with a non-finite operating point (0 returned) */
+    long work;    /* triangles and edges tested on the last tick */
+} hx_vib_state;
+int hx_vib_check(const double *v, long nv);
+void hx_vib_reset(hx_vib_state *st, unsigned long long seed);
+double hx_vib_step(const double *v, hx_vib_state *st, double speed, double force);
+void hx_lsf_to_poly(const double *w, int order, double *a);
+double hx_normal(unsigned long long seed, unsigned long long index);
+
 /* A renderer: one model, its state, the safety rules and the counters. */
 typedef struct {
     hx_model model;
@@ -406,6 +429,16 @@ typedef struct {
     hx_state st;
     hx_passivity pc;
     long faults, clamps, work, max_work, cut; /* cut: ticks whose search its budget ended */
+    /* data-driven vibration layered on the texture (hx_vibration.c), or vib == NULL: in contact,
+     * vib_gain * vib_mass * y_n along the direction of the tangential velocity, the operating
+     * point the filtered tangential speed (first order, time constant vib_tau) and the
+     * algorithm's normal force f_z; the tick's period is the set's (1 / its rate) */
+    const double *vib;
+    double vib_mass, vib_gain, vib_tau; /* kg, 1, s */
+    hx_vib_state vs;
+    double vib_last[3], vib_v[3]; /* the last position (m), the filtered velocity (m/s) */
+    int vib_have;                 /* vib_last holds a position */
+    double vib_force;             /* the vibration's force on the last tick (N, signed along its direction) */
 } hx_renderer;
 
 /* One servo tick at (x, y, z) (m; y is 0 over a profile): the force to command (N), never
@@ -587,28 +620,6 @@ typedef struct {
  * in the summary, at the first non-finite state. */
 int hx_run_general(const hx_model *m, const hx_general_run *r);
 
-/* ---- data-driven vibration (hx_vibration.c): ARMA models over (speed, force) ---- */
-enum { HX_VIB_MAX_ORDER = 64, HX_VIB_MAX_MODELS = 512 };
-enum {
-    HX_V_N = 0, HX_V_NTRI = 1, HX_V_P = 2, HX_V_Q = 3, HX_V_FS = 4, /* models, triangles, orders, rate (Hz) */
-    HX_V_SSCALE = 5, HX_V_FSCALE = 6, /* speed (m/s) and force (N) scales of the triangulation */
-    HX_V_HEAD = 8,
-    HX_V_ROW = 4 /* a model's row: speed, force, variance, gain, then its p + q LSF */
-};
-typedef struct {
-    double y[HX_VIB_MAX_ORDER]; /* past outputs (m/s^2), most recent first */
-    double e[HX_VIB_MAX_ORDER]; /* past noise samples */
-    unsigned long long seed, count; /* the generator's seed and the next sample's index */
-    long tri;     /* the triangle of the last tick (the first one tested) */
-    long clamped; /* ticks whose operating point was moved to the hull */
-    long faults;  /* ticks with a non-finite operating point (0 returned) */
-    long work;    /* triangles and edges tested on the last tick */
-} hx_vib_state;
-int hx_vib_check(const double *v, long nv);
-void hx_vib_reset(hx_vib_state *st, unsigned long long seed);
-double hx_vib_step(const double *v, hx_vib_state *st, double speed, double force);
-void hx_lsf_to_poly(const double *w, int order, double *a);
-double hx_normal(unsigned long long seed, unsigned long long index);
 
 #ifdef __cplusplus
 }

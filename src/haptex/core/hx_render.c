@@ -177,6 +177,32 @@ int hx_saturate(double f[3], double fmax)
 
 static int outside(double v, double limit) { return !isfinite(v) || fabs(v) > limit; }
 
+/* The data-driven vibration on this tick (hx_renderer's vib): the tangential velocity by a
+ * first-order filter of the position's differences, the model set's step at (its magnitude,
+ * f_z) while in contact and moving, added to f along that velocity. Its work is counted. */
+static void vibrate(hx_renderer *r, const double p[3], double f[3])
+{
+    double T = 1.0 / r->vib[HX_V_FS], a = r->vib_tau > 0.0 ? 1.0 - exp(-T / r->vib_tau) : 1.0, speed, y;
+    int i;
+    r->vib_force = 0.0;
+    if (r->vib_have) {
+        for (i = 0; i < 3; i++)
+            r->vib_v[i] += a * ((p[i] - r->vib_last[i]) / T - r->vib_v[i]);
+    }
+    for (i = 0; i < 3; i++)
+        r->vib_last[i] = p[i];
+    speed = hypot(r->vib_v[0], r->vib_v[1]);
+    if (!r->vib_have || !(f[2] > 0.0) || !(speed > 0.0) || !isfinite(speed)) {
+        r->vib_have = 1;
+        return;
+    }
+    y = hx_vib_step(r->vib, &r->vs, speed, f[2]);
+    r->work += r->vs.work;
+    r->vib_force = r->vib_gain * r->vib_mass * y;
+    f[0] += r->vib_force * r->vib_v[0] / speed;
+    f[1] += r->vib_force * r->vib_v[1] / speed;
+}
+
 void hx_render_step(hx_renderer *r, double x, double y, double z, double f[3])
 {
     double p[3];
@@ -198,10 +224,12 @@ void hx_render_step(hx_renderer *r, double x, double y, double z, double f[3])
         return;
     }
     r->work = r->st.work;
-    if (r->work > r->max_work)
-        r->max_work = r->work;
     if (r->st.cut)
         r->cut++;
+    if (r->vib != 0)
+        vibrate(r, p, f);
+    if (r->work > r->max_work)
+        r->max_work = r->work;
     if (r->monitor)
         hx_passivity_tick(&r->pc, p, f, r->model.prm[HX_P_K0], r->st.pen);
     clamped = hx_saturate(f, r->max_force);
@@ -231,4 +259,8 @@ void hx_render_reset(hx_renderer *r)
     r->pc.T = keep.T;
     r->pc.delay = keep.delay;
     r->faults = r->clamps = r->work = r->max_work = r->cut = 0;
+    hx_vib_reset(&r->vs, r->vs.seed);
+    r->vib_have = 0;
+    r->vib_v[0] = r->vib_v[1] = r->vib_v[2] = 0.0;
+    r->vib_force = 0.0;
 }
