@@ -139,3 +139,20 @@ def test_a_numpy_row_is_the_tuple_and_anything_else_the_checked_path():
     for p in others:
         assert fast.step(p) == checked._step_checked(p)
     assert fast.faults == checked.faults >= 5  # complex, bool, 2-D, the wrong length, NaN, 2 km
+
+
+def test_a_batch_of_positions_is_the_same_ticks_in_order():
+    """Issue 56: step_many runs the rows through the C tick in order, state carried (F's
+    friction is path dependent), exactly as step on each row; faulty rows give zero force and
+    count; a wrong shape is one line."""
+    alg = make("F")
+    one, many = hx.Renderer(alg, max_force=5.0), hx.Renderer(alg, max_force=5.0)
+    x = np.linspace(0, 3e-3, 500)
+    p = np.column_stack([x, SINE.height(x) - 0.3e-3 + 0.1e-3 * np.sin(30 * x / L)])
+    p[100] = [np.nan, 0.0]
+    want = np.array([one.step(row) for row in p])
+    got = many.step_many(p)
+    assert np.array_equal(got, want) and many.faults == one.faults == 1
+    assert np.array_equal(many.step_many(np.empty((0, 2))), np.empty((0, 2)))
+    with pytest.raises(hx.ParameterError, match=r"points = 'shape \(3, 3\)"):
+        many.step_many(np.zeros((3, 3)))

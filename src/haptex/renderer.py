@@ -565,6 +565,40 @@ class Renderer:
         """Largest :attr:`last_work` since construction or :meth:`reset`."""
         return self._core.max_work
 
+    def step_many(self, points) -> np.ndarray:
+        """Forces for consecutive probe positions: one tick each, in order, in the C core's loop.
+
+        Parameters
+        ----------
+        points : array_like, shape (n, dimension)
+            Probe positions (m), real numbers: rows ``[x, z]`` over a profile, ``[x, y, z]``
+            over a surface, as :meth:`step` takes one.
+
+        Returns
+        -------
+        numpy.ndarray, shape (n, dimension)
+            The forces (N) :meth:`step` would return for each row in turn, with its state
+            (friction, warm starts, the observer, a vibration) carried from row to row; a row
+            that is not finite within +-1 km gives zero force and is counted in :attr:`faults`.
+
+        Raises
+        ------
+        ParameterError
+            If ``points`` is not an (n, dimension) array of real numbers.
+
+        Notes
+        -----
+        The loop runs with the GIL released (other Python threads go on).
+        """
+        arr = np.asarray(points)
+        if arr.ndim != 2 or arr.shape[1] != self.dimension or arr.dtype.kind not in "iuf":
+            raise fail("points", f"shape {arr.shape}, dtype {arr.dtype}",
+                       f"an (n, {self.dimension}) array of real numbers (m)")
+        pts = np.ascontiguousarray(arr, dtype=np.float64)
+        out = np.empty_like(pts)
+        self._core.run(pts, out)
+        return out
+
     def reset(self) -> None:
         """Clear the algorithm's state (friction, warm start), the observer, the controller and
         the counters."""
