@@ -34,7 +34,7 @@ def model_set(p: int) -> dd.ModelSet:
         for j, f in enumerate((0.5, 1.2, 2.0)):
             roots = []
             for k in range(p // 2):
-                z = (0.85 + 0.01 * k) * np.exp(2j * np.pi * (60 + 40 * k + 10 * i + 5 * j) / FS)
+                z = (0.85 + 0.005 * k) * np.exp(2j * np.pi * (30 + 22 * k + 3 * i + 2 * j) / FS)
                 roots += [z, np.conj(z)]
             if p % 2:
                 roots.append(0.5)
@@ -58,8 +58,8 @@ def main() -> None:
     ap.add_argument("--calls", type=int, default=200_000)
     n = ap.parse_args().calls
     alg = hx.algorithm("A", hx.Sinusoid(0.8e-3, 1e-3), 2000.0)
-    x = np.arange(n) * 0.05 / FS  # 50 mm/s at 1 kHz, 0.2 mm inside the wall
-    pts = np.ascontiguousarray(np.column_stack([x, alg.texture.height(x) - 0.2e-3]))
+    x = np.arange(n) * 0.05 / FS  # 50 mm/s at 1 kHz, 0.6 mm inside the wall: f_z = 1.2 N, inside the set's hull
+    pts = np.ascontiguousarray(np.column_stack([x, alg.texture.height(x) - 0.6e-3]))
     with tempfile.TemporaryDirectory() as tmp:
         exe = build_reference(tmp)
         c_ns = c_reference(alg, hx.Device.point_mass(), hx.operators.ConstantForce([0.0, 0.0]), n, 1, tmp, exe,
