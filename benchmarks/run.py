@@ -67,8 +67,9 @@ SECTIONS = (
     ("core", "the C core: binding and fields"),
     ("backends", "the servo loop on every backend"),
     ("objects", "the servo tick over textured objects"),
+    ("vibration", "the data-driven vibration in the tick"),
 )
-"""Sections 2-11 in their order: (--only name, heading); each a module benchmarks/run_NAME.py
+"""Sections 2-12 in their order: (--only name, heading); each a module benchmarks/run_NAME.py
 (the simulator's: run_sim.py) with a main()."""
 
 
