@@ -111,3 +111,18 @@ def test_design_takes_a_tip_radius_at_the_command_line():
     felt = json.loads(r.stdout)["felt_by_tip"]
     assert felt["tip_radius"] == 5e-3 and felt["max_slope_felt"] < felt["max_slope_point_probe"]
     assert main(["design", "--texture", "sine:0.1mm,2mm", "--tip-radius", "0.5"]) == 2  # a radius needs its unit
+
+
+def test_export_and_run_take_the_tip_radius_too(tmp_path):
+    # the felt texture is what the exported tick renders (its source names the ball), and a run
+    # on the simulated device takes it; the smooth wall has no texture to feel
+    from haptex.cli import main
+
+    out = tmp_path / "fw"
+    assert main(["export", "--algorithm", "A", "--texture", "sine:0.1mm,2mm", "--stiffness", "1 kN/m", "--max-force",
+                 "5 N", "--tip-radius", "5mm", "--out", str(out), "--quiet"]) == 0
+    assert "felt by a ball of r = 5 mm" in (out / "haptex_texture.c").read_text()
+    assert main(["export", "--algorithm", "W", "--stiffness", "1 kN/m", "--max-force", "5 N", "--tip-radius", "1mm",
+                 "--out", str(tmp_path / "w")]) == 2
+    assert main(["run", "--device", "simulated:falcon", "--duration", "0.2s", "--fast", "--tip-radius", "0.5mm",
+                 "--json", "--quiet"]) == 0

@@ -27,7 +27,17 @@ def split_spec(text: str, name: str, kind: str, count: tuple[int, int]):
 
 
 def texture_from_spec(spec: str, spacing=None, x_unit=None, height_unit=None, level=False, lowpass=None, scale=None,
-                      periodic=False, fill_undefined=False, crop=None):
+                      periodic=False, fill_undefined=False, crop=None, tip_radius=0.0):
+    """The texture a spec names (felt by a ball of ``tip_radius``, m, when it is > 0).
+
+    ``tip_radius`` applies to every kind (:func:`haptex.probe.felt_by`); the other
+    parameters are :func:`_texture_from_spec`'s."""
+    tex = _texture_from_spec(spec, spacing, x_unit, height_unit, level, lowpass, scale, periodic, fill_undefined, crop)
+    return tex.felt_by(tip_radius) if tip_radius else tex
+
+
+def _texture_from_spec(spec: str, spacing=None, x_unit=None, height_unit=None, level=False, lowpass=None, scale=None,
+                       periodic=False, fill_undefined=False, crop=None):
     """The texture a spec names.
 
     Parameters

@@ -833,12 +833,18 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
 @click.option("--device", "device_spec", default=None,
               help="With a stabiliser: the device the firmware runs on (a preset of 'haptex devices' or FILE.toml): "
                    "its period, delay and damping.")
+@click.option("--tip-radius", type=Quantity("m"), default=0.0, show_default="0: a point probe",
+              help="Radius of the ball the texture is touched with, e.g. '0.5mm': the texture it feels (the map "
+                   "dilated by the ball) is rendered.")
+@click.option("--crop", default=None,
+              help="The part of a measured file kept: 'auto' (the largest part without undefined points) or "
+                   "'X0,X1' (a line scan) / 'X0,X1,Y0,Y1' (a map), each with its unit.")
 @click.option("--out", "out", type=click.Path(file_okay=False, path_type=Path), required=True,
               help="Directory for haptex_texture.c, haptex_texture.h and the C core's files.")
 @click.option("--quiet", is_flag=True, help="No progress display.")
 def export(letter, texture_spec, stiffness, max_force, max_penetration, friction, presliding, stick_deflection,
            spacing, x_unit, height_unit, level, lowpass, periodic, object_spec, uv_scale, passivity_control, stabiliser,
-           device_spec, out, quiet):
+           device_spec, tip_radius, crop, out, quiet):
     """C99 source of one algorithm on one texture, for device firmware (<math.h> only)."""
     from .algorithms import ALGORITHMS, algorithm
     from .export import TICK_FILES, export_c
@@ -849,12 +855,16 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
     if letter in ALGORITHMS and not ALGORITHMS[letter].textured:
         if texture_spec is not None:
             raise ParameterError("--texture is not allowed with --algorithm W: the smooth wall has no texture")
+        for flag, value in (("--tip-radius", tip_radius), ("--crop", crop)):
+            if value:
+                raise ParameterError(f"{flag} is not allowed with --algorithm W: the smooth wall has no texture")
         tex = None
     elif texture_spec is None:
         raise ParameterError(f"--texture is required with --algorithm {letter}: give a file, 'sine:...' or 'noise:...'")
     else:
         with _Spinner("reading the texture", quiet):
-            tex = _texture_from_spec(texture_spec, spacing, x_unit, height_unit, level, lowpass, None, periodic)
+            tex = _texture_from_spec(texture_spec, spacing, x_unit, height_unit, level, lowpass, None, periodic,
+                                     crop=crop, tip_radius=tip_radius)
     params = {}
     for name, value in (("max_penetration", max_penetration), ("friction", friction), ("presliding", presliding),
                         ("stick_deflection", stick_deflection)):
@@ -941,13 +951,19 @@ def sweep(spec, out, scheduler, workers, quiet):
               "device's rate.")
 @_object_options("A-G and the proxy are rendered there on a 3-DOF device (D and E but on a faceted mesh: give "
                  "--vertex-normals), the object's top at the origin of its frame.")
+@click.option("--tip-radius", type=Quantity("m"), default=0.0, show_default="0: a point probe",
+              help="Radius of the ball the texture is touched with, e.g. '0.5mm': the texture it feels (the map "
+                   "dilated by the ball) is rendered.")
+@click.option("--crop", default=None,
+              help="The part of a measured file kept: 'auto' (the largest part without undefined points) or "
+                   "'X0,X1' (a line scan) / 'X0,X1,Y0,Y1' (a map), each with its unit.")
 @click.option("--record", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Write the trace (time, position, force, engaged) to FILE.npz.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
 @click.option("--quiet", is_flag=True, help="No live dashboard.")
 @_core_blas_held  # BLAS in the set-up (a preset's matrices, a slope bound) wakes no worker to spin beside the loop
 def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration, passivity_control, stabiliser, hand,
-               speed, fast, object_spec, uv_scale, record, as_json, quiet):
+               speed, fast, object_spec, uv_scale, tip_radius, crop, record, as_json, quiet):
     """Render one texture on one device, with the safety rules of haptex.servo and a live dashboard."""
     import numpy as np
 
@@ -974,7 +990,8 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
     tex = None
     letter = letter.upper()
     if letter != "W":
-        tex = _texture_from_spec(texture_spec, None, None, None, False, None, None, False)
+        tex = _texture_from_spec(texture_spec, None, None, None, False, None, None, False, crop=crop,
+                                 tip_radius=tip_radius)
         if tex.dimension == 1 and backend.dimension == 3:
             tex = Extruded(tex)
         elif tex.dimension == 2 and backend.dimension == 2:
