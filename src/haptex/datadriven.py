@@ -940,6 +940,13 @@ def fit(acceleration, speed, normal_force, sample_rate: float, *, rate: float | 
         raise fail("max_order", max_order, f"an integer in [1, {MAX_ORDER}]")
     if order is not None and (not 1 <= order <= MAX_ORDER or int(order) != order):
         raise fail("order", order, f"an integer in [1, {MAX_ORDER}]")
+    if isinstance(grid, bool) or not isinstance(grid, int | np.integer) or not 1 <= grid <= 100:
+        raise fail("grid", grid, "an integer in [1, 100] (cells a side)")
+    from ._validation import in_range, nonnegative
+
+    in_range("steadiness", steadiness, 0.0, 1.0)
+    nonnegative("min_speed", min_speed, "m/s")
+    nonnegative("min_force", min_force, "N")
     hp = positive("highpass", highpass, "Hz")
     if hp >= out_fs / 2:
         raise fail("highpass", hp, f"below the models' Nyquist frequency, {out_fs / 2:g} Hz")
