@@ -302,6 +302,7 @@ def _cli(*args):
     return subprocess.run([sys.executable, "-m", "haptex", *args], capture_output=True, text=True, timeout=300)
 
 
+@pytest.mark.slow  # 12-17 s; design on objects is tested in-process by test_design_analyses_the_algorithms_asked_for (the suite under 10 minutes on a cold clone: 633 s measured before; run with -m slow)
 def test_design_on_a_sphere_from_the_command_line():
     # 'haptex design --object sphere:R': A, B, C, F, G analysed on the sphere (R = 40 periods
     # around); A's q is characteristic_number's; C is conservative there (a gradient), A
@@ -404,6 +405,7 @@ def test_bad_objects_on_the_command_line_print_one_line_and_exit_2(args, fragmen
 
 
 # -- meshes with vertex normals: a smooth base ---------------------------------------------------
+@pytest.mark.slow  # 10-13 s (the suite under 10 minutes on a cold clone: 633 s measured before; run with -m slow)
 def test_a_mesh_with_vertex_normals_is_a_smooth_base_that_tends_to_the_sphere():
     # each triangle swept along its vertices' normals into a prism (p = sum b_k (v_k + e N_k)):
     # u and e continuous across edges, so on the icosphere with its exact (radial) vertex
