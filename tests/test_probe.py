@@ -126,3 +126,22 @@ def test_export_and_run_take_the_tip_radius_too(tmp_path):
                  "--out", str(tmp_path / "w")]) == 2
     assert main(["run", "--device", "simulated:falcon", "--duration", "0.2s", "--fast", "--tip-radius", "0.5mm",
                  "--json", "--quiet"]) == 0
+
+
+def test_a_ball_too_wide_for_a_fine_map_names_a_spacing_that_works(monkeypatch):
+    # the cap on a dilation's work (2e9 operations, 13 s here) lowered to 1e7 for the test: 200 x
+    # 200 samples 1 um apart under a 30 um ball (2,821 footprint points, 1.1e8 operations) are
+    # refused, and the spacing the refusal names resamples the map by its spline within the cap
+    import re
+
+    import haptex.probe
+
+    monkeypatch.setattr(haptex.probe, "MAX_DILATION_WORK", 1e7)
+    rng = np.random.default_rng(0)
+    x = np.arange(200) * 1e-6
+    surf = hx.SampledSurface(x, x, rng.normal(size=(200, 200)) * 1e-7)
+    with pytest.raises(ParameterError, match=r"tip_radius = 3e-05 is not allowed here: .* spacing=S\) with S >= ") as e:
+        surf.felt_by(30e-6)
+    s = float(re.search(r"S >= ([0-9.e+-]+) m", str(e.value)).group(1))
+    felt = surf.felt_by(30e-6, spacing=s * 1.01)
+    assert felt.x[1] - felt.x[0] == pytest.approx(s * 1.01) and "resampled" in felt.source

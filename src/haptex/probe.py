@@ -23,8 +23,9 @@ import numpy as np
 from ._validation import ParameterError, fail, nonnegative
 
 MAX_DILATION_WORK = 2e9
-"""Most (samples x footprint points) one dilation may cost (about 10 s here): beyond it the
-call is refused, naming a coarser spacing that fits."""
+"""Most (samples x footprint points) one dilation may cost (13 s measured here at the cap, a
+1024 x 1024 map resampled under a 50 um ball): beyond it the call is refused, naming a coarser
+spacing that fits."""
 
 MAX_SAMPLES = 4_000_000
 """Most samples an analytic texture is sampled on before its dilation."""
@@ -44,7 +45,8 @@ def felt_by(texture, tip_radius: float, *, spacing: float | None = None):
     spacing : float, optional
         Grid spacing (m) on which an analytic texture is sampled; default the finer of a 256th
         of its shortest period and a 32nd of r (a 16th of each over a surface). A sampled
-        texture keeps its own grid.
+        texture keeps its own grid unless ``spacing`` is given: then it is resampled onto that
+        grid by its own spline (what a refusal for work suggests for a fine map and a large ball).
 
     Returns
     -------
@@ -95,7 +97,13 @@ def _profile_grid(texture, r, spacing):
     if isinstance(texture, SampledProfile):
         if not texture.periodic and r > (texture.x[-1] - texture.x[0]):
             raise fail("tip_radius", r, f"at most the profile's length, {(texture.x[-1] - texture.x[0]) * 1e3:g} mm")
-        return texture.x, texture.h, texture.periodic, texture.source or "profile"
+        if spacing is None:
+            return texture.x, texture.h, texture.periodic, texture.source or "profile"
+        dx = _spacing(texture, r, spacing, 256, 32)  # resampled by its spline onto a coarser grid
+        span = (texture.x[-1] - texture.x[0]) + (texture.dx if texture.periodic else 0.0)
+        n = max(4, int(math.floor(span / dx)) + (0 if texture.periodic else 1))
+        x = texture.x[0] + np.arange(n) * dx
+        return x, texture.height(x), texture.periodic, f"{texture.source or 'profile'} resampled at {dx * 1e6:.3g} um"
     period = texture.period
     if period is None:
         raise fail("texture", texture, "a periodic or sampled profile for a ball to roll on (sample it: "
@@ -116,7 +124,19 @@ def _surface_grid(texture, r, spacing):
         ext = min(x[-1] - x[0], y[-1] - y[0])
         if not texture.periodic and r > ext:
             raise fail("tip_radius", r, f"at most the map's shorter side, {ext * 1e3:g} mm")
-        return x, y, texture.h, texture.periodic, texture.source or "map"
+        if spacing is None:
+            return x, y, texture.h, texture.periodic, texture.source or "map"
+        d = _spacing(texture, r, spacing, 16, 16)  # resampled by its spline onto a coarser grid
+        grids = []
+        for axis in (x, y):
+            step = axis[1] - axis[0]
+            span = (axis[-1] - axis[0]) + (step if texture.periodic else 0.0)
+            grids.append(axis[0] + np.arange(max(4, int(math.floor(span / d)) + (0 if texture.periodic else 1))) * d)
+        if grids[0].size * grids[1].size > MAX_SAMPLES:
+            raise fail("spacing", d, f"a spacing giving at most {MAX_SAMPLES} samples over the map")
+        X, Y = np.meshgrid(*grids, indexing="ij")
+        h = texture.height_at(np.stack([X, Y], axis=-1))
+        return grids[0], grids[1], h, texture.periodic, f"{texture.source or 'map'} resampled at {d * 1e6:.3g} um"
     cell = getattr(texture, "cell", None)
     if cell is None:
         raise fail("texture", texture, "a surface with a periodic cell, or a height map, for a ball to roll on")
@@ -145,6 +165,6 @@ def _dilate(h: np.ndarray, steps, r: float, periodic: bool, name: str, value) ->
         raise ParameterError(
             f"{name} = {value:g} is not allowed here: the ball covers {int(inside.sum())} grid points, "
             f"{work:.3g} operations over {h.size} samples, more than {MAX_DILATION_WORK:.3g}; a smaller radius, a "
-            f"cropped map, or a spacing of at least {max(steps) * scale:.3g} m (spacing=)")
+            f"cropped map, or a coarser grid: felt_by(r, spacing=S) with S >= {max(steps) * scale:.3g} m")
     structure = np.where(inside, np.sqrt(np.maximum(r * r - u2, 0.0)) - r, 0.0)
     return grey_dilation(h, footprint=inside, structure=structure, mode="wrap" if periodic else "nearest")
