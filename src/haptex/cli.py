@@ -1159,8 +1159,8 @@ def vibration(models, speed, force, plot, device_spec, hand, as_json):
     port = None if dev is None else port_energy(m, dev, None if grip.key == "none" else grip)
     if as_json:
         click.echo(json.dumps({"models": str(models), "speed": speed, "force": force, "order": list(m.order),
-                               "weights": [{"model": int(i) + 1, "weight": float(w)} for i, w in zip(idx, lam)], "clamped_to_hull": clamped,
-                               "rms_acceleration": rms, "peak_frequency": peak, "sample_rate": s.sample_rate,
+                               "weights": [{"model": int(i) + 1, "weight": float(w)} for i, w in zip(idx, lam)],
+                               "clamped_to_hull": clamped, "rms_acceleration": rms, "peak_frequency": peak, "sample_rate": s.sample_rate,
                                "port": None if port is None else {"device": device_spec, "hand": grip.key,
                                                                   **dataclasses.asdict(port)},
                                "units": {"speed": "m/s", "force": "N", "rms_acceleration": "m/s^2",
@@ -1176,13 +1176,13 @@ def vibration(models, speed, force, plot, device_spec, hand, as_json):
         echo(repr(s))
         where = " (outside the hull: its closest point)" if clamped else ""
         echo(f"at {speed * 1e3:g} mm/s, {force:g} N{where}: ARMA{m.order}, weights "
-                   + ", ".join(f"model {int(i) + 1}: {w:.3f}" for i, w in zip(idx, lam)))
+             + ", ".join(f"model {int(i) + 1}: {w:.3f}" for i, w in zip(idx, lam)))
         echo(f"rms acceleration {rms:.4g} m/s^2; spectrum's peak at {peak:.4g} Hz")
         if port is not None:
             echo(f"on {device_spec} held by the hand {grip.key!r}: {port.rms_force:.3g} N rms "
-                       f"({port.effective_mass:.3g} kg x the acceleration) supplies {port.power * 1e3:.3g} mW at the "
-                       f"port ({port.to_hand * 1e3:.3g} mW into the hand, {port.to_device * 1e3:.3g} mW into the "
-                       "device's damping)")
+                 f"({port.effective_mass:.3g} kg x the acceleration) supplies {port.power * 1e3:.3g} mW at the "
+                 f"port ({port.to_hand * 1e3:.3g} mW into the hand, {port.to_device * 1e3:.3g} mW into the "
+                 "device's damping)")
     if plot is not None:
         import matplotlib
 
