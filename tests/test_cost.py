@@ -72,6 +72,27 @@ def test_explorer_refuses_a_view_planned_past_its_budget_before_computing_it(mon
     assert not called
 
 
+def test_the_plans_time_is_the_works_not_the_machines_wait(monkeypatch):
+    # The calibration is timed by the calling thread's CPU clock: a wait inside each chunk (here
+    # 5 ms of sleep, as a niced process waits for the CPU beside busy ones) adds nothing. By the
+    # wall clock it would add 5 ms / 64 probes = 78 us to each evaluation of A, whose own cost
+    # is a few us (A's field is one NumPy expression); CI refused the explorer's view of D on the
+    # default noise (planned 8.6 s idle) when the wall clock timed it past the 60 s budget.
+    import time
+
+    from haptex.analysis import cost
+
+    alg = hx.algorithm("A", SINE, 2000.0)
+    real = cost._static_force
+
+    def waiting(a, p, *args, **kw):
+        time.sleep(0.005)
+        return real(a, p, *args, **kw)
+    monkeypatch.setattr(cost, "_static_force", waiting)
+    each = cost.evaluation_time(alg, 1e-3)
+    assert 0 < each < 20e-6
+
+
 def test_design_reports_its_plan_with_units(capsys):
     assert main(["design", "--texture", "sine:0.2mm,2mm", "--json", "--quiet"]) == 0
     est = json.loads(capsys.readouterr().out)["estimate"]

@@ -1,6 +1,9 @@
 """What an analysis will cost, before it runs: the field evaluations its grids plan
 (counted, from the analyses' own plans) times the time one evaluation takes over the
-rendering region (measured on a few hundred random probes there).
+rendering region (measured on a few hundred random probes there, in CPU time of the calling
+thread: the plan is the work's, not the machine's load at the moment it is made; a niced worker
+beside two busy processes timed 7-20 times slower by the wall clock, and was refused work it
+would have been given idle).
 
 The grids dominate: :func:`~haptex.analysis.continuity` and the first search of
 :func:`~haptex.analysis.characteristic_number`. The refinement of q's best cells and the
@@ -26,7 +29,7 @@ CALIBRATION_PROBES = {"direct": 256, "distance": 2048}
 field; about 0.1 s of closest-point searches, whose cost varies from probe to probe by
 two orders of magnitude)."""
 CALIBRATION_SECONDS = 0.25
-"""Longest the timing takes (s, chosen): on a texture whose searches cost milliseconds it stops
+"""Most CPU time the timing takes (s, chosen): on a texture whose searches cost milliseconds it stops
 early, timing fewer probes, so that planning stays cheap beside what it plans."""
 CHUNK = 64
 """Probes evaluated at once while timing."""
@@ -46,8 +49,8 @@ class Cost:
     evaluations : int
         Field evaluations the grids plan (q's first search and the continuity grids).
     seconds_each : float
-        Mean measured time of one evaluation over the region (s), forces and Jacobians, on
-        the threads the analyses use.
+        Mean measured CPU time of one evaluation over the region on one thread (s), forces
+        and Jacobians.
     seconds : float
         ``evaluations * seconds_each`` (s): a floor (the refinement and loops not counted).
     peak_bytes : int
@@ -68,7 +71,9 @@ def evaluation_time(algorithm: Algorithm, max_penetration: float = 1e-3, x_range
                     probes: int | None = None, seed: int = 0, jacobian: bool = False) -> float:
     """Seconds per field evaluation over the rendering region: ``probes`` random positions
     (default :data:`CALIBRATION_PROBES`) in its box (in-plane window, depth down to ``max_penetration`` below the lowest valley),
-    evaluated in one batch, as the analyses' grids are.
+    evaluated in chunks of :data:`CHUNK` on the calling thread, timed by that thread's CPU
+    clock (:func:`time.thread_time`), so that the figure does not grow with the machine's
+    other load; on an idle machine it equals the wall-clock time.
 
     Raises
     ------
@@ -94,14 +99,14 @@ def evaluation_time(algorithm: Algorithm, max_penetration: float = 1e-3, x_range
     half = probes // 2
     rates = []
     for lo in (WARM_UP, WARM_UP + half):  # two halves, the faster kept (the first may pay for caches)
-        done, t = 0, time.perf_counter()
-        while done < half:  # in chunks, until the half is done or its time is spent
+        done, t = 0, time.thread_time()
+        while done < half:  # in chunks, until the half is done or its CPU time is spent
             step = min(CHUNK, half - done)
             fn(p[lo + done:lo + done + step])
             done += step
-            if time.perf_counter() - t > CALIBRATION_SECONDS / 2:
+            if time.thread_time() - t > CALIBRATION_SECONDS / 2:
                 break
-        rates.append((time.perf_counter() - t) / done)
+        rates.append((time.thread_time() - t) / done)
     return min(rates)
 
 
