@@ -958,12 +958,16 @@ def sweep(spec, out, scheduler, workers, quiet):
               help="The part of a measured file kept: 'auto' (the largest part without undefined points) or "
                    "'X0,X1' (a line scan) / 'X0,X1,Y0,Y1' (a map), each with its unit.")
 @click.option("--record", type=click.Path(dir_okay=False, path_type=Path), default=None,
-              help="Write the trace (time, position, force, engaged) to FILE.npz.")
+              help="Write the run log (time, position, force, engaged) to FILE.csv (the columns of the file formats "
+                   "page, read by 'haptex identify') or FILE.npz.")
+@click.option("--identify", "identify_run", is_flag=True,
+              help="Instead of a texture: the identification program (steps and a chirp along x at 20% of the "
+                   "device's max force, a 50 N/m centering spring), the handle free; needs --record.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
 @click.option("--quiet", is_flag=True, help="No live dashboard.")
 @_core_blas_held  # BLAS in the set-up (a preset's matrices, a slope bound) wakes no worker to spin beside the loop
 def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration, passivity_control, stabiliser, hand,
-               speed, fast, object_spec, uv_scale, tip_radius, crop, record, as_json, quiet):
+               speed, fast, object_spec, uv_scale, tip_radius, crop, record, identify_run, as_json, quiet):
     """Render one texture on one device, with the safety rules of haptex.servo and a live dashboard."""
     import numpy as np
 
@@ -973,13 +977,27 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
     from .servo import ServoLoop, analyse_trace
     from .surfaces import Extruded
 
-    if record is not None and record.suffix != ".npz":
-        raise ParameterError(f"record = {str(record)!r} is not allowed: must end in .npz")
+    if record is not None and record.suffix.lower() not in (".npz", ".csv"):
+        raise ParameterError(f"record = {str(record)!r} is not allowed: must end in .csv or .npz")
     if record is not None and not (record.parent if str(record.parent) else Path(".")).is_dir():
         raise ParameterError(f"record = {str(record)!r} is not allowed: its directory does not exist")
+    ctx = click.get_current_context()
+    if identify_run:
+        if record is None:
+            raise ParameterError("--identify is not allowed without --record FILE.csv: the run's log is what "
+                                 "'haptex identify' reads")
+        texture_given = [n for n in ("texture_spec", "letter", "stiffness", "passivity_control", "stabiliser",
+                                     "object_spec", "tip_radius", "crop", "speed")
+                         if ctx.get_parameter_source(n) == click.core.ParameterSource.COMMANDLINE]
+        if texture_given:
+            opt = next(o for o in ctx.command.params if o.name == texture_given[0]).opts[-1]
+            raise ParameterError(f"{opt} is not allowed with --identify: the identification run renders no "
+                                 "texture (the handle is free)")
+        if ctx.get_parameter_source("hand") != click.core.ParameterSource.COMMANDLINE:
+            hand = "none"  # the handle free: the log then describes the device alone
     kind = str(device_spec).partition(":")[0]
     given = {n for n in ("hand", "speed", "fast")
-             if click.get_current_context().get_parameter_source(n) == click.core.ParameterSource.COMMANDLINE}
+             if ctx.get_parameter_source(n) == click.core.ParameterSource.COMMANDLINE}
     vendors = ("openhaptics", "haply", "haply-serial")  # (another kind's own error comes first)
     for name in sorted(given - {"fast"} if kind == "forcedimension" else given if kind in vendors else ()):
         which = "simulated devices" if name != "fast" else "simulated and Force Dimension devices"
@@ -1020,10 +1038,19 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
     else:
         alg = algorithm(letter, tex, stiffness)
     dev = backend.device
-    pc = _stabiliser(passivity_control, stabiliser, dev, delay=dev.delay)
+    pc = None if identify_run else _stabiliser(passivity_control, stabiliser, dev, delay=dev.delay)
     fmax = backend.max_force if max_force is None else max_force
     if not fmax <= backend.max_force:
         raise ParameterError(f"max_force = {fmax:g} N is not allowed: at most the device's {backend.max_force:g} N")
+    if identify_run:
+        from .identify import FRACTION, IdentificationProgram
+
+        if not math.isfinite(fmax):
+            raise ParameterError(f"--identify is not allowed on {backend.name} without --max-force: the program "
+                                 "is a share of the largest force")
+        renderer = IdentificationProgram(backend.dimension, dev.period, duration, FRACTION * fmax)
+        renderer.energy = 0.0
+        return _identification_run(backend, renderer, fmax, duration, record, as_json)
     renderer = Renderer(alg, max_force=fmax if math.isfinite(fmax) else None, energy_monitor=True,
                         passivity_controller=pc, period=dev.period)
     loop = ServoLoop(backend, renderer, max_force=fmax if math.isfinite(fmax) else None)
@@ -1074,7 +1101,7 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
                          "stabiliser_ticks": "ticks", "buzz_db": "dB above the detection threshold",
                          "buzz_frequency": "Hz"}}
     if record is not None:
-        np.savez(record, **trace, period=dev.period, units=np.array(["s", "m", "N", "1"]))
+        _write_record(record, trace, dev.period)
     if as_json:
         click.echo(json.dumps(_jsonable(summary), indent=2))
         return
@@ -1087,6 +1114,73 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
                + ("; interrupted (forces zeroed)" if stats.interrupted else ""))
     if record is not None:
         click.echo(f"trace: {record}")
+
+
+def _write_record(record: Path, trace: dict, period: float) -> None:
+    """The run's log: CSV (haptex.identify.LOG_COLUMNS) or the trace's arrays in .npz."""
+    import numpy as np
+
+    if record.suffix.lower() == ".csv":
+        from .identify import write_log
+
+        write_log(record, trace["time"], trace["position"], trace["force"], trace["engaged"])
+    else:
+        np.savez(record, **trace, period=period, units=np.array(["s", "m", "N", "1"]))
+
+
+def _identification_run(backend, program, fmax: float, duration: float, record: Path, as_json: bool) -> None:
+    """``haptex run --identify``: the program under the servo's rules (zero force at every exit),
+    the log written."""
+    from .servo import ServoLoop
+
+    loop = ServoLoop(backend, program, max_force=fmax)
+    stats, trace = loop.run(duration)
+    _write_record(record, trace, backend.period)
+    summary = {"device": backend.name, "program": "identification", "amplitude": program.program.max(),
+               "duration": stats.ticks * backend.period, "ticks": stats.ticks, "missed_deadlines": stats.missed,
+               "faults": stats.faults, "max_force_sent": stats.max_force_sent, "log": str(record),
+               "interrupted": stats.interrupted,
+               "units": {"amplitude": "N", "duration": "s", "max_force_sent": "N"}}
+    if as_json:
+        click.echo(json.dumps(_jsonable(summary), indent=2))
+        return
+    click.echo(f"{backend.name}: identification run, {stats.ticks} ticks ({summary['duration']:.3g} s), "
+               f"{stats.missed} missed deadlines, {stats.faults} faults; largest force sent "
+               f"{stats.max_force_sent:.3g} N" + ("; interrupted (forces zeroed)" if stats.interrupted else ""))
+    click.echo(f"log: {record} (next: haptex identify {record} -o mydevice.toml)")
+
+
+@cli.command("identify")
+@click.argument("log", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("-o", "--out", type=click.Path(dir_okay=False, path_type=Path), required=True,
+              help="Device file to write (TOML, usable as --device FILE.toml).")
+@click.option("--axis", type=click.Choice(["x", "y", "z", "all"]), default="x", show_default=True,
+              help="The log's axes fitted (the identification run excites x).")
+@click.option("--max-delay", type=click.IntRange(0, 1000), default=10, show_default=True,
+              help="Largest delay searched (whole periods).")
+@click.option("--json", "as_json", is_flag=True, help="Print the figures as JSON.")
+def identify_command(log, out, axis, max_delay, as_json):
+    """Fit a device model (mass, damping, Coulomb friction, encoder step, delay) to a run log."""
+    from .identify import AXES, identify, read_log
+
+    if not (out.parent if str(out.parent) else Path(".")).is_dir():
+        raise ParameterError(f"out = {str(out)!r} is not allowed: its directory does not exist")
+    lg = read_log(log)
+    d = lg.position.shape[1]
+    if axis == "all":
+        cols = list(range(d))
+    elif axis not in AXES[d]:
+        raise ParameterError(f"axis = {axis!r} is not allowed: the log's axes are {', '.join(AXES[d])} (or all)")
+    else:
+        cols = [AXES[d].index(axis)]
+    res = identify(time=lg.time, position=lg.position[:, cols], force=lg.force[:, cols], max_delay=max_delay,
+                   source=str(log))
+    res.to_toml(out)
+    if as_json:
+        click.echo(json.dumps(_jsonable({**res.to_dict(), "device_file": str(out)}), indent=2))
+        return
+    click.echo(res.report())
+    click.echo(f"device file: {out} (use it as --device {out})")
 
 
 @cli.command("fit")

@@ -1150,32 +1150,17 @@ def read_recording(path, *, sample_rate: float | None = None) -> Recording:
         or unknown, a value is not a number, the times are not uniform, or neither times nor
         a sample rate are given.
     """
-    from ._validation import check_budget
+    from ._loaders import read_csv_columns
 
-    p = Path(os.fspath(path))
-    if not p.is_file():
-        raise fail("path", str(path), "an existing recording (CSV)")
-    size = p.stat().st_size
-    check_budget("path", str(path), 4.0 * size, "reading this recording")  # text to float64 and its copies
-    with p.open("r", encoding="utf-8", errors="replace") as fh:
-        header = [h.strip() for h in fh.readline().split(",")]
-    known = set(RECORDING_COLUMNS) | {"acc_x_m_s2", "acc_y_m_s2", "acc_z_m_s2"}
-    unknown = [h for h in header if h not in known]
-    if unknown:
-        raise fail("column", unknown[0], f"one of {sorted(known)} (see the file formats page)")
+    known = dict(RECORDING_COLUMNS, acc_x_m_s2="x", acc_y_m_s2="y", acc_z_m_s2="z")
+    col = read_csv_columns(Path(os.fspath(path)), known, "recording")
+    header = list(col)
     for need in ("speed_m_s", "force_n"):
         if need not in header:
             raise fail("column", f"{need} missing", f"a header with {need} ({RECORDING_COLUMNS[need]})")
     axes = [c for c in ("acc_x_m_s2", "acc_y_m_s2", "acc_z_m_s2") if c in header]
     if not ("acc_m_s2" in header) ^ (len(axes) == 3) or (axes and len(axes) != 3):
         raise fail("column", "acceleration", "acc_m_s2, or acc_x_m_s2, acc_y_m_s2 and acc_z_m_s2 (not both)")
-    try:
-        data = np.loadtxt(p, delimiter=",", skiprows=1, ndmin=2)
-    except ValueError as exc:
-        raise fail("path", str(path), f"numbers in every row ({str(exc).splitlines()[0]})") from None
-    if data.shape[1] != len(header):
-        raise fail("path", str(path), f"{len(header)} values a row, as its header")
-    col = {h: data[:, k] for k, h in enumerate(header)}
     if "time_s" in header:
         dt = np.diff(col["time_s"])
         if dt.size < 1 or not np.all(np.isfinite(dt)) or dt.min() <= 0 or dt.max() - dt.min() > 1e-6 * dt.mean():

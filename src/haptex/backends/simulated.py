@@ -35,7 +35,8 @@ class SimulatedBackend:
     preset : str
         A preset of :func:`haptex.catalogue.presets`.
     hand : str, optional
-        A hand of :func:`haptex.catalogue.hands` other than ``none``; default light-touch.
+        A hand of :func:`haptex.catalogue.hands`; default light-touch; ``none`` leaves the
+        handle free (an identification run, ``haptex run --identify``).
     press : float, optional
         Depth of the hand's set-point below the surface (m), default 1 mm.
     speed : float, optional
@@ -52,8 +53,7 @@ class SimulatedBackend:
     Raises
     ------
     ParameterError
-        For an unknown preset or hand, the hand ``none`` (no one holds the handle), a
-        negative press, or a non-finite speed or start.
+        For an unknown preset or hand, a negative press, or a non-finite speed or start.
     """
 
     def __init__(self, preset: str, hand: str = "light-touch", press: float = 1e-3, speed: float = 0.01,
@@ -62,8 +62,6 @@ class SimulatedBackend:
 
         p = _preset(preset)
         h = _hand(hand)
-        if h.none:
-            raise fail("hand", hand, "a hand that holds the handle (light-touch, firm-grip)")
         dev = h.attach(p.device())
         self.name = f"simulated:{p.key}"
         self.preset, self.hand, self.device = p, h, dev

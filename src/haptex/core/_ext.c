@@ -1832,6 +1832,65 @@ static PyObject *tail_amplitudes(PyObject *self, PyObject *const *args, Py_ssize
     Py_RETURN_NONE;
 }
 
+PyDoc_STRVAR(free_run_doc,
+"free_run(c, fc, force, p0, v0, pos)\n--\n\n"
+"hx_free_run, the GIL released: a free rigid handle under held forces, in windows. c float64 (n, N_FAST) the\n"
+"axes' zero-order-hold coefficients; fc the isotropic Coulomb friction (N); force (W, S, n) (N); p0, v0 (W, n)\n"
+"(m, m/s), each window's start, overwritten with its end state; pos (W, S, n) written (m), n in 1..3.");
+
+static PyObject *free_run(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    Py_buffer c, f, p0, v0, pos;
+    double fc;
+    long n, w, s;
+    int ok = 0;
+    (void)self;
+    if (nargs != 6) {
+        PyErr_SetString(PyExc_TypeError, "free_run takes 6 arguments");
+        return NULL;
+    }
+    fc = PyFloat_AsDouble(args[1]);
+    if (fc == -1.0 && PyErr_Occurred())
+        return NULL;
+    if (get_doubles(args[0], &c, 0, 2, "c") < 0)
+        return NULL;
+    if (get_doubles(args[2], &f, 0, 3, "force") < 0)
+        goto c_done;
+    if (get_doubles(args[3], &p0, 1, 2, "p0") < 0)
+        goto f_done;
+    if (get_doubles(args[4], &v0, 1, 2, "v0") < 0)
+        goto p0_done;
+    if (get_doubles(args[5], &pos, 1, 3, "pos") < 0)
+        goto v0_done;
+    n = (long)c.shape[0];
+    w = (long)f.shape[0];
+    s = (long)f.shape[1];
+    if (n < 1 || n > 3 || c.shape[1] != HX_N_FAST || f.shape[2] != n || p0.shape[0] != w || p0.shape[1] != n ||
+        v0.shape[0] != w || v0.shape[1] != n || pos.shape[0] != w || pos.shape[1] != s || pos.shape[2] != n ||
+        !(fc >= 0.0)) {
+        PyErr_SetString(PyExc_ValueError, "free_run: shapes c (n, N_FAST), force and pos (W, S, n), p0 and v0 (W, n), "
+                                          "n in 1..3, fc >= 0");
+    } else {
+        Py_BEGIN_ALLOW_THREADS
+        hx_free_run(n, (const double *)c.buf, fc, w, s, (const double *)f.buf, (double *)p0.buf,
+                    (double *)v0.buf, (double *)pos.buf);
+        Py_END_ALLOW_THREADS
+        ok = 1;
+    }
+    PyBuffer_Release(&pos);
+v0_done:
+    PyBuffer_Release(&v0);
+p0_done:
+    PyBuffer_Release(&p0);
+f_done:
+    PyBuffer_Release(&f);
+c_done:
+    PyBuffer_Release(&c);
+    if (!ok)
+        return NULL;
+    Py_RETURN_NONE;
+}
+
 PyDoc_STRVAR(presliding_plane_doc,
 "presliding_plane(dx, dy, ddx, ddy, d_max, z_stick, table)\n--\n\n"
 "One step of isotropic presliding in the plane (hx_presliding_plane): the deflection (dx, dy) (m) after the\n"
@@ -2016,6 +2075,7 @@ static PyMethodDef methods[] = {
     {"run_lean", (PyCFunction)(void (*)(void))run_lean, METH_FASTCALL, run_lean_doc},
     {"run_general", (PyCFunction)(void (*)(void))run_general, METH_FASTCALL, run_general_doc},
     {"tail_amplitudes", (PyCFunction)(void (*)(void))tail_amplitudes, METH_FASTCALL, tail_amplitudes_doc},
+    {"free_run", (PyCFunction)(void (*)(void))free_run, METH_FASTCALL, free_run_doc},
     {"presliding_plane", (PyCFunction)(void (*)(void))presliding_plane, METH_FASTCALL, presliding_plane_doc},
     {"closest_profile", (PyCFunction)(void (*)(void))closest_profile, METH_FASTCALL, closest_profile_doc},
     {"closest_surface", (PyCFunction)(void (*)(void))closest_surface, METH_FASTCALL, closest_surface_doc},

@@ -619,6 +619,9 @@ typedef struct {
 /* Run the general loop of model m. HX_OK, or HX_BAD_COEFFS before any sample. Stops, flagged
  * in the summary, at the first non-finite state. */
 int hx_run_general(const hx_model *m, const hx_general_run *r);
+/* a free rigid handle under a program of held forces, in windows (haptex.identify's model) */
+void hx_free_run(long n, const double *c, double fc, long windows, long steps, const double *force,
+                 double *p0, double *v0, double *pos);
 
 
 #ifdef __cplusplus

@@ -692,3 +692,58 @@ void hx_tail_amplitudes(double *u, long m, long stride, double *a1, double *a2)
     *a1 = half > 0 ? 0.5 * (hi1 - lo1) : 0.0;
     *a2 = 0.5 * (hi2 - lo2);
 }
+
+/* A free rigid handle (no wall, no hand) under a program of held forces, in windows: the
+ * identification's model (haptex.identify). Each axis is the exact zero-order hold of
+ * m dv/dt = w - b v (axis_zoh, coefficients c[HX_N_FAST] an axis, diagonal mass and
+ * damping), with the isotropic Coulomb friction of the general loop (coulomb: a sampled
+ * Karnopp model; at rest and held by stiction the handle does not move). Window k starts at
+ * p0[k], v0[k] (n values each) and runs `steps` samples under force[k][s] (n values a
+ * sample, already delayed by the caller); pos[k][s] is the position read at sample s (the
+ * start of its hold), so pos[k][0] = p0[k]; p0[k] and v0[k] end as the window's state after
+ * its last sample (a caller steps on from there). */
+void hx_free_run(long n, const double *c, double fc, long windows, long steps, const double *force,
+                 double *p0, double *v0, double *pos)
+{
+    double Binv[9], a[3], ff[3], p[3], v[3], np_, nv, de;
+    long k, s, i, j;
+    for (i = 0; i < n; i++)
+        for (j = 0; j < n; j++)
+            Binv[n * i + j] = i == j ? 1.0 / c[i * HX_N_FAST + HX_F_VW] : 0.0;
+    for (k = 0; k < windows; k++) {
+        for (i = 0; i < n; i++) {
+            p[i] = p0[k * n + i];
+            v[i] = v0[k * n + i];
+        }
+        for (s = 0; s < steps; s++) {
+            const double *u = force + (k * steps + s) * n;
+            int rest = 0, held = 0;
+            for (i = 0; i < n; i++) {
+                pos[(k * steps + s) * n + i] = p[i];
+                a[i] = c[i * HX_N_FAST + HX_F_VV] * v[i] + c[i * HX_N_FAST + HX_F_VW] * u[i];
+                ff[i] = 0.0;
+            }
+            if (fc > 0.0) {
+                rest = coulomb(a, Binv, v, fc, n, ff);
+                held = rest;
+                for (i = 0; i < n; i++)
+                    if (v[i] != 0.0)
+                        held = 0;
+            }
+            for (i = 0; i < n; i++) {
+                if (held)
+                    continue;
+                axis_zoh(c + i * HX_N_FAST, p[i], v[i], u[i], ff[i], &np_, &nv, &de);
+                p[i] = np_;
+                v[i] = rest ? 0.0 : nv;
+            }
+            if (held)
+                for (i = 0; i < n; i++)
+                    v[i] = 0.0;
+        }
+        for (i = 0; i < n; i++) {
+            p0[k * n + i] = p[i];
+            v0[k * n + i] = v[i];
+        }
+    }
+}

@@ -1,0 +1,709 @@
+"""Your device, identified: its model fitted from a logged run.
+
+A run log holds, at each servo tick, the time, the sensed position and the force commanded
+(:data:`LOG_COLUMNS`; ``haptex run --record FILE.csv`` writes it). :func:`identify` fits the
+device model haptex simulates to it: a rigid handle of mass m and viscous damping b on each
+axis, isotropic Coulomb friction f_c (a sampled Karnopp model), the force held over each
+period (zero-order hold) and applied ``delay`` whole periods after it was commanded, the
+positions read on an encoder's lattice of step delta.
+
+The method is output-error identification over windows (Ljung, *System Identification:
+Theory for the User*, 2nd ed., 1999, Sections 4.2 and 7.3, the output-error model; the
+windows are the multiple-shooting of Bock's parameter estimation, each window's initial
+position and velocity estimated with the device's figures): the model's positions, simulated
+by the C core's exact sampled-data step (:func:`haptex.core` ``free_run``, the Coulomb step of
+the simulator's general loop), are fitted to the logged ones by ``scipy.optimize.least_squares``;
+one standard deviation of each figure from the Jacobian at the optimum (the Gauss-Newton
+covariance, s^2 (J^T J)^-1). The delay is the whole number of periods whose fit leaves the
+smallest residual, searched around the force-to-acceleration lag of an equation-error
+regression (the positions' Savitzky-Golay derivatives). The encoder step is the lattice the
+positions lie on (the greatest common step of their increments), when they lie on one.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ._validation import ParameterError, fail, positive, whole
+
+LOG_COLUMNS = {
+    "time_s": "the tick's time (s), increasing at the servo period",
+    "x_m": "sensed position along x (m)",
+    "y_m": "sensed position along y (m), 3-D logs",
+    "z_m": "sensed position along z (m), 2-D and 3-D logs",
+    "fx_n": "force commanded along x (N), as sent to the device",
+    "fy_n": "force commanded along y (N), 3-D logs",
+    "fz_n": "force commanded along z (N), 2-D and 3-D logs",
+    "engaged": "1 where the servo's forces were engaged, else 0 (optional)",
+}
+"""The run log's CSV columns (a header row names them; SI units, in the names)."""
+AXES = {1: "x", 2: "xz", 3: "xyz"}
+"""The axes a log of each dimension has (a planar device's plane is x-z, as haptex's)."""
+WINDOW = 0.2
+"""Length of one output-error window (s, chosen): long enough that the mass and damping
+shape the motion (0.2 s is 200 samples at 1 kHz), short enough that the model's error does
+not accumulate over the whole log."""
+MIN_WINDOWS = 5
+"""Fewest windows a log must fill (so 1 s at the default window)."""
+MAX_DELAY = 10
+"""Largest delay searched (periods, chosen: haptic devices' computation delays are 0-2)."""
+MAX_SAMPLES = 2_000_000
+"""Most samples identified at once (chosen: 33 min at 1 kHz; least squares holds a few
+copies of them)."""
+
+
+@dataclass(frozen=True)
+class RunLog:
+    """A run log read from a file (:func:`read_log`).
+
+    Attributes
+    ----------
+    time : numpy.ndarray, shape (n,)
+        s.
+    position : numpy.ndarray, shape (n, d)
+        m, axes :data:`AXES` [d].
+    force : numpy.ndarray, shape (n, d)
+        N, as commanded.
+    engaged : numpy.ndarray of bool, shape (n,) or None
+    path : str
+    """
+
+    time: np.ndarray
+    position: np.ndarray
+    force: np.ndarray
+    engaged: np.ndarray | None
+    path: str
+
+
+def _columns(d: int) -> list[str]:
+    axes = AXES[d]
+    return ["time_s"] + [f"{a}_m" for a in axes] + [f"f{a}_n" for a in axes]
+
+
+def write_log(path, time, position, force, engaged=None) -> Path:
+    """Write a run log (CSV, :data:`LOG_COLUMNS`, 17 significant digits: exact round trip).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    time : array_like, shape (n,)
+        s.
+    position, force : array_like, shape (n,) or (n, d), d in 1..3
+        m and N.
+    engaged : array_like of bool, shape (n,), optional
+
+    Returns
+    -------
+    pathlib.Path
+
+    Raises
+    ------
+    ParameterError
+        For arrays of different lengths or a dimension other than 1-3.
+    """
+    t = np.asarray(time, dtype=np.float64).reshape(-1)
+    p = np.asarray(position, dtype=np.float64)
+    f = np.asarray(force, dtype=np.float64)
+    p = p[:, None] if p.ndim == 1 else p
+    f = f[:, None] if f.ndim == 1 else f
+    if p.ndim != 2 or p.shape[1] not in AXES or f.shape != p.shape or len(t) != len(p):
+        raise fail("position", f"shape {p.shape} with force {f.shape} and time {t.shape}",
+                   "(n,) or (n, d) positions and forces of one shape, d in 1..3, and n times")
+    cols = _columns(p.shape[1])
+    data = [t[:, None], p, f]
+    if engaged is not None:
+        cols.append("engaged")
+        data.append(np.asarray(engaged, dtype=np.float64).reshape(-1, 1))
+    out = Path(os.fspath(path))
+    np.savetxt(out, np.hstack(data), delimiter=",", header=",".join(cols), comments="", fmt="%.17g")
+    return out
+
+
+def read_log(path) -> RunLog:
+    """Read a run log (CSV with a header of :data:`LOG_COLUMNS`, or the ``.npz`` that
+    ``haptex run --record FILE.npz`` writes).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+
+    Returns
+    -------
+    RunLog
+
+    Raises
+    ------
+    ParameterError
+        If the file is missing or too large for the memory budget, a column is unknown or
+        missing (the axes of one dimension: x; x, z; or x, y, z), or a value is not a number.
+    """
+    from ._loaders import read_csv_columns
+
+    p = Path(os.fspath(path))
+    if p.suffix.lower() == ".npz":
+        if not p.is_file():
+            raise fail("log", str(path), "an existing run log (CSV or the .npz of haptex run --record)")
+        with np.load(p, allow_pickle=False) as z:
+            missing = [k for k in ("time", "position", "force") if k not in z.files]
+            if missing:
+                raise fail("log", str(path), f"a trace of haptex run --record (no {missing[0]!r} in it)")
+            return RunLog(np.asarray(z["time"], float), np.asarray(z["position"], float),
+                          np.asarray(z["force"], float), np.asarray(z["engaged"], bool) if "engaged" in z.files
+                          else None, str(path))
+    col = read_csv_columns(p, LOG_COLUMNS, "run log")
+    d = {("x",): 1, ("x", "z"): 2, ("x", "y", "z"): 3}.get(tuple(a for a in "xyz" if f"{a}_m" in col))
+    if d is None or any(f"f{a}_n" not in col for a in AXES[d]) or any(
+            f"f{a}_n" in col for a in "xyz" if a not in AXES[d]) or "time_s" not in col:
+        raise fail("log", str(path), "the columns time_s and, for the axes x; x, z; or x, y, z, each "
+                   "position (x_m ...) with its force (fx_n ...)")
+    axes = AXES[d]
+    return RunLog(col["time_s"], np.column_stack([col[f"{a}_m"] for a in axes]),
+                  np.column_stack([col[f"f{a}_n"] for a in axes]),
+                  col["engaged"].astype(bool) if "engaged" in col else None, str(path))
+
+
+@dataclass(frozen=True)
+class Identification:
+    """A device model fitted to a run log (:func:`identify`).
+
+    Attributes
+    ----------
+    device : haptex.Device
+        The identified device: ``mass`` and ``damping`` (diagonal, one figure an axis),
+        ``coulomb_friction``, ``position_resolution``, ``delay`` (periods) and ``period``.
+    uncertainty : dict
+        One standard deviation of each of ``mass``, ``damping`` (kg and N s/m: the axes'
+        largest), ``coulomb_friction`` (N), ``position_resolution`` (m), ``delay`` (0: a
+        whole number, chosen by the residual; see ``delay_residuals``) and ``period`` (s,
+        the ticks' jitter).
+    axes : dict
+        ``mass`` and ``damping`` an axis (kg, N s/m), with their standard deviations.
+    residual_rms : float
+        RMS difference of the model's positions from the logged ones (m).
+    delay_residuals : dict
+        Residual RMS (m) of the fit at each delay tried.
+    samples : int
+    windows : int
+    source : str
+        The log's path, or ``"arrays"``.
+    """
+
+    device: object
+    uncertainty: dict
+    axes: dict
+    residual_rms: float
+    delay_residuals: dict
+    samples: int
+    windows: int
+    source: str = "arrays"
+    notes: list = field(default_factory=list)
+
+    def to_dict(self) -> dict:
+        """JSON-ready figures, SI units, each with its standard deviation."""
+        dev = self.device
+        return {"source": self.source, "samples": self.samples, "windows": self.windows,
+                "period_s": dev.period, "delay_periods": dev.delay,
+                "mass_kg": self.axes["mass"], "damping_n_s_m": self.axes["damping"],
+                "mass_sd_kg": self.axes["mass_sd"], "damping_sd_n_s_m": self.axes["damping_sd"],
+                "coulomb_friction_n": dev.coulomb_friction,
+                "coulomb_friction_sd_n": self.uncertainty["coulomb_friction"],
+                "position_resolution_m": dev.position_resolution,
+                "position_resolution_sd_m": self.uncertainty["position_resolution"],
+                "residual_rms_m": self.residual_rms,
+                "delay_residuals_m": {str(k): v for k, v in self.delay_residuals.items()}, "notes": list(self.notes)}
+
+    def to_toml(self, path=None) -> str:
+        """The identified device as a TOML device file (:func:`haptex.devices.device_from_file`'s
+        format, usable wherever a preset is: ``--device FILE.toml``), each figure with its
+        standard deviation and the log it came from in a comment; written to ``path`` when given.
+        """
+        dev = self.device
+        d = dev.dimension
+
+        def q(v, unit):
+            return f'"{v:.6g} {unit}"'
+
+        def matrix(vals, unit):
+            if d == 1 or len(set(np.round(vals, 12))) == 1:
+                return q(vals[0], unit)
+            rows = [[q(vals[i], unit) if i == j else f'"0 {unit}"' for j in range(d)] for i in range(d)]
+            return "[" + ", ".join("[" + ", ".join(r) + "]" for r in rows) + "]"
+
+        ax = self.axes
+        sd = ", ".join(f"{a} {s:.2g}" for a, s in zip(AXES[len(ax['mass'])], ax["mass_sd"]))
+        sdb = ", ".join(f"{a} {s:.2g}" for a, s in zip(AXES[len(ax['damping'])], ax["damping_sd"]))
+        u = self.uncertainty
+        lines = [
+            f"# status = identified, from the run log {self.source} ({self.samples} samples, {self.windows} windows)",
+            "# by haptex.identify (output-error identification); one standard deviation after each figure",
+            'preset = "custom"',
+            f'name = "identified from {Path(self.source).name}"',
+            f"dimension = {max(d, 2)}",
+            f"mass = {matrix(ax['mass'], 'kg')}  # identified; sd (kg): {sd}",
+            f"damping = {matrix(ax['damping'], 'N*s/m')}  # identified; sd (N*s/m): {sdb}",
+            f"period = {q(dev.period, 's')}  # identified: the ticks' median interval; jitter sd {u['period']:.2g} s",
+            f"delay = {dev.delay}  # identified: whole periods, the smallest residual of those tried",
+            f"coulomb_friction = {q(dev.coulomb_friction, 'N')}  # identified; sd {u['coulomb_friction']:.2g} N",
+            f"position_resolution = {q(dev.position_resolution, 'm')}  # identified: the positions' lattice; "
+            f"sd {u['position_resolution']:.2g} m",
+        ]
+        text = "\n".join(lines) + "\n"
+        if path is not None:
+            Path(os.fspath(path)).write_text(text, encoding="utf-8")
+        return text
+
+    def report(self) -> str:
+        """A plain-text summary, one figure a line with its standard deviation."""
+        dev, ax, u = self.device, self.axes, self.uncertainty
+        out = [f"identified from {self.source}: {self.samples} samples at {1 / dev.period:g} Hz, "
+               f"{self.windows} windows of output error"]
+        for a, m, sm, b, sb in zip(AXES[len(ax["mass"])], ax["mass"], ax["mass_sd"], ax["damping"], ax["damping_sd"]):
+            out.append(f"  {a}: mass {m * 1e3:.4g} ± {sm * 1e3:.2g} g, damping {b:.4g} ± {sb:.2g} N*s/m")
+        out.append(f"  Coulomb friction {dev.coulomb_friction * 1e3:.4g} ± {u['coulomb_friction'] * 1e3:.2g} mN")
+        res = dev.position_resolution
+        out.append(f"  encoder step {res * 1e6:.4g} ± {u['position_resolution'] * 1e6:.2g} µm" if res > 0 else
+                   "  encoder step: none found (the positions lie on no lattice)")
+        tried = ", ".join(f"{k}: {v * 1e6:.3g} µm" for k, v in sorted(self.delay_residuals.items()))
+        out.append(f"  delay {dev.delay} periods (residual RMS by delay: {tried})")
+        out.append(f"  residual RMS {self.residual_rms * 1e6:.3g} µm")
+        out.extend(f"  note: {n}" for n in self.notes)
+        return "\n".join(out)
+
+
+def _checked(time, position, force):
+    t = np.asarray(time, dtype=np.float64)
+    p = np.asarray(position, dtype=np.float64)
+    f = np.asarray(force, dtype=np.float64)
+    p = p[:, None] if p.ndim == 1 else p
+    f = f[:, None] if f.ndim == 1 else f
+    if t.ndim != 1 or p.ndim != 2 or p.shape[1] not in AXES or f.shape != p.shape or len(t) != len(p):
+        raise fail("position", f"shape {p.shape} with force {f.shape} and time {t.shape}",
+                   "(n,) or (n, d) positions (m) and forces (N) of one shape, d in 1..3, with n times (s)")
+    if len(t) > MAX_SAMPLES:
+        raise fail("time", f"{len(t)} samples", f"at most {MAX_SAMPLES} (identify a part of the log)")
+    for name, a in (("time", t), ("position", p), ("force", f)):
+        bad = np.flatnonzero(~np.isfinite(a.reshape(len(a), -1)).all(axis=1))
+        if bad.size:
+            raise fail(name, f"{a.reshape(len(a), -1)[bad[0]].tolist()} at sample {bad[0]}",
+                       "finite numbers in every sample (cut the log before it)")
+    dt = np.diff(t)
+    if dt.size and dt.min() <= 0:
+        k = int(np.argmin(dt))
+        raise fail("time", f"{t[k + 1]:g} s after {t[k]:g} s at sample {k + 1}", "increasing")
+    return t, p, f
+
+
+def _lattice(p: np.ndarray) -> tuple[float, float]:
+    """(step, its standard deviation) of the lattice the positions of one axis lie on, or
+    (0, 0) when they lie on none (a continuous or noisy sensor)."""
+    inc = np.abs(np.diff(p))
+    scale = max(float(np.max(np.abs(p))), 1e-300)
+    nz = inc[inc > 1e-9 * scale]
+    if nz.size < 10:
+        return 0.0, 0.0
+    d0 = float(np.min(nz))
+    k = np.round(nz / d0)
+    if np.max(np.abs(nz / d0 - k)) > 0.01:
+        return 0.0, 0.0
+    step = float(np.sum(nz * k) / np.sum(k * k))
+    # the residual is rounding in the log (17 digits: none), so the spread is from the positions' magnitude
+    sd = float(np.std(nz - k * step) / math.sqrt(np.sum(k * k) / nz.size) / math.sqrt(nz.size))
+    return step, sd
+
+
+def _derivatives(p: np.ndarray, T: float) -> tuple[np.ndarray, np.ndarray]:
+    """Velocity and acceleration of each axis by a Savitzky-Golay filter (cubic, 21 ms)."""
+    from scipy.signal import savgol_filter
+
+    w = max(7, 2 * round(0.0105 / T) + 1)
+    w = min(w, (len(p) // 2) * 2 - 1)
+    v = savgol_filter(p, w, 3, deriv=1, delta=T, axis=0)
+    a = savgol_filter(p, w, 3, deriv=2, delta=T, axis=0)
+    return v, a
+
+
+def _equation_error(p, f, T, max_delay):
+    """For each delay: least-squares m, b, f_c an axis from u(k - D) = m a + b v + f_c sign(v),
+    and the residual; the delay with the smallest residual first."""
+    v, a = _derivatives(p, T)
+    n, d = p.shape
+    out = {}
+    for D in range(max_delay + 1):
+        rows = slice(D + 20, n - 20)
+        res, est = 0.0, []
+        for j in range(d):
+            u = f[rows.start - D:rows.stop - D, j]
+            vj, aj = v[rows, j], a[rows, j]
+            X = np.column_stack([aj, vj, np.sign(vj)])
+            coef, *_ = np.linalg.lstsq(X, u, rcond=None)
+            res += float(np.sum((X @ coef - u) ** 2))
+            est.append(coef)
+        out[D] = (res, np.array(est))
+    return out, v
+
+
+def _fit(p, f, T, D, H, init, res_sd):
+    """Output-error fit at delay D: (x, cost, J, windows)."""
+    from scipy.optimize import least_squares
+    from scipy.sparse import lil_matrix
+
+    from .core import _ext
+    from .simulate import _axis_coefficients
+
+    n, d = p.shape
+    W = (n - D) // H
+    starts = D + H * np.arange(W)
+    idx = starts[:, None] + np.arange(H)[None, :]
+    meas = p[idx]  # (W, H, d)
+    force = np.ascontiguousarray(f[idx - D])  # u(k) = f(k - D)
+    v_est = init["v"]
+    m0, b0, fc0 = init["m"], init["b"], init["fc"]
+    x0 = np.concatenate([m0, b0, [fc0], p[starts].ravel(), v_est[starts].ravel()])
+    ng = 2 * d + 1
+    lo = np.concatenate([np.full(d, 1e-6), np.zeros(d), [0.0], np.full(2 * W * d, -np.inf)])
+    hi = np.full(x0.size, np.inf)
+    x0 = np.clip(x0, lo, hi)
+    x0[:d] = np.maximum(x0[:d], 1e-3)
+    pos = np.empty((W, H, d))
+
+    def model(x):
+        c = np.ascontiguousarray(_axis_coefficients(x[:d], x[d:2 * d], T))
+        p0 = x[ng:ng + W * d].reshape(W, d).copy()  # (free_run ends them at the windows' end states)
+        v0 = x[ng + W * d:].reshape(W, d).copy()
+        _ext.free_run(c, float(x[2 * d]), force, p0, v0, pos)
+        return pos
+
+    def residual(x):
+        return ((model(x) - meas) / res_sd).ravel()
+
+    sp = lil_matrix((W * H * d, x0.size), dtype=int)
+    sp[:, :ng] = 1
+    for w in range(W):
+        r0, r1 = w * H * d, (w + 1) * H * d
+        sp[r0:r1, ng + w * d:ng + (w + 1) * d] = 1
+        sp[r0:r1, ng + W * d + w * d:ng + W * d + (w + 1) * d] = 1
+    scale = np.concatenate([np.maximum(np.abs(x0[:ng]), 1e-3), np.full(W * d, res_sd),
+                            np.full(W * d, max(res_sd / T / H, 1e-6))])
+    sol = least_squares(residual, x0, bounds=(lo, hi), jac_sparsity=sp, x_scale=scale, method="trf",
+                        xtol=1e-8, ftol=1e-8, max_nfev=100)
+    return sol, W
+
+
+def identify(*, time, position, force, max_delay: int = MAX_DELAY, window: float = WINDOW,
+             position_resolution: float | None = None, source: str = "arrays") -> Identification:
+    """Fit the device model haptex simulates to a run log (see the module docstring).
+
+    Parameters
+    ----------
+    time : array_like, shape (n,)
+        The ticks' times (s), increasing; the period is their median interval.
+    position : array_like, shape (n,) or (n, d), d in 1..3
+        Sensed positions (m), axes :data:`AXES` [d].
+    force : array_like, shape of ``position``
+        Forces commanded at each tick (N), as sent: the excitation must move the handle on
+        every axis, through zero velocity (the friction) and over the band the mass and
+        damping shape (``haptex run --identify``'s program, or :func:`excitation`).
+    max_delay : int, optional
+        Largest delay searched (periods), default :data:`MAX_DELAY`.
+    window : float, optional
+        Output-error window (s), default :data:`WINDOW`.
+    position_resolution : float, optional
+        The encoder's step (m) when known; default None: found from the positions' lattice
+        (0 when they lie on none).
+    source : str, optional
+        Where the log came from (the identification says so).
+
+    Returns
+    -------
+    Identification
+
+    Raises
+    ------
+    ParameterError
+        For arrays of different shapes, a non-finite value (naming the column and sample),
+        times that do not increase or ticks whose interval strays more than 10 % from the
+        median (missed ticks: cut the log), a log shorter than :data:`MIN_WINDOWS` windows,
+        a constant force or position on an axis (nothing to identify), or settings out of
+        range.
+
+    Notes
+    -----
+    Verified on logs simulated by haptex's own sampled-data model (mass, damping, Coulomb
+    friction, encoder step and delay recovered within 5 %, the delay exactly, from 10 s:
+    ``tests/test_identify.py``) and on logs of ``haptex run --identify`` on the simulated
+    backend, whose exact transition is computed independently (scipy's expm).
+    """
+    from .devices import Device
+
+    t, p, f = _checked(time, position, force)
+    max_delay = whole("max_delay", max_delay, 0, 1000)
+    window = positive("window", window, "s")
+    n, d = p.shape
+    if n < 3:
+        raise fail("time", f"{n} samples", f"at least {MIN_WINDOWS} windows of {window:g} s")
+    dt = np.diff(t)
+    T = float(np.median(dt))
+    far = np.flatnonzero(np.abs(dt - T) > 0.1 * T)
+    if far.size:
+        k = int(far[0])
+        raise fail("time", f"an interval of {dt[k]:.3g} s at sample {k + 1}",
+                   f"ticks at one period (the median, {T:.3g} s, within 10 %): a missed tick; identify the log "
+                   "before or after it")
+    H = max(20, int(round(window / T)))
+    if n - max_delay < MIN_WINDOWS * H:
+        raise fail("time", f"{n} samples ({n * T:.3g} s)",
+                   f"at least {MIN_WINDOWS} windows of {H} samples after the delay searched ({max_delay}): "
+                   f"{(MIN_WINDOWS * H + max_delay) * T:.3g} s")
+    for name, a in (("force", f), ("position", p)):
+        flat = [AXES[d][j] for j in range(d) if np.ptp(a[:, j]) == 0]
+        if flat:
+            raise fail(name, f"constant along {flat[0]}", "a signal that varies on every axis (nothing to identify "
+                       "on a still axis: excite it, e.g. with haptex run --identify)")
+    notes = []
+    if position_resolution is None:
+        steps = [_lattice(p[:, j]) for j in range(d)]
+        delta = max(s[0] for s in steps)
+        delta_sd = max(s[1] for s in steps)
+        if any(s[0] == 0 for s in steps) and delta > 0:
+            notes.append("the positions of some axes lie on no lattice; the step is the others'")
+        elif len({round(s[0], 15) for s in steps}) > 1:
+            notes.append("the axes' steps differ: " + ", ".join(f"{a} {s[0]:.4g} m" for a, s in zip(AXES[d], steps))
+                         + "; the largest is kept")
+    else:
+        delta = float(position_resolution)
+        if not (math.isfinite(delta) and delta >= 0):
+            raise fail("position_resolution", position_resolution, "None or a finite number >= 0 (m)")
+        delta_sd = 0.0
+    ee, v = _equation_error(p, f, T, max_delay)
+    order = sorted(ee, key=lambda D: ee[D][0])
+    best = order[0]
+    res_sd = max(delta / math.sqrt(12.0), 1e-6)  # the residuals' scale (m): the rounding, or 1 µm
+    fits = {}
+    for D in range(max(0, best - 2), min(max_delay, best + 2) + 1):  # around the equation error's lag
+        coef = ee[D][1]
+        init = {"m": np.maximum(coef[:, 0], 1e-3), "b": np.maximum(coef[:, 1], 0.0),
+                "fc": float(max(np.mean(coef[:, 2]), 0.0)), "v": v}
+        sol, W = _fit(p, f, T, D, H, init, res_sd)
+        fits[D] = (sol, W)
+    rms = {D: float(np.sqrt(np.mean(s.fun ** 2))) * res_sd for D, (s, W) in fits.items()}
+    D = min(rms, key=rms.get)
+    sol, W = fits[D]
+    x = sol.x
+    ng = 2 * d + 1
+    J = sol.jac.toarray() if hasattr(sol.jac, "toarray") else np.asarray(sol.jac)
+    dof = max(sol.fun.size - x.size, 1)
+    # the residuals of one window are correlated (an encoder's rounding error persists while the
+    # handle moves slowly): the variance is inflated by (1 + rho) / (1 - rho), rho their lag-1
+    # autocorrelation along the windows (the effective sample size of an AR(1) error)
+    e = sol.fun.reshape(W, -1, d)
+    rho = float(np.sum(e[:, 1:] * e[:, :-1]) / max(np.sum(e * e), 1e-300))
+    rho = min(max(rho, 0.0), 0.99)
+    s2 = float(np.sum(sol.fun ** 2)) / dof * (1 + rho) / (1 - rho)
+    try:
+        norm = np.linalg.norm(J, axis=0)
+        norm[norm == 0] = 1.0
+        Jn = J / norm  # columns of one scale: pinv's cut-off must not drop the figures' own directions
+        cov = np.linalg.pinv(Jn.T @ Jn) / np.outer(norm, norm) * s2
+        sd = np.sqrt(np.maximum(np.diag(cov)[:ng], 0.0))
+    except np.linalg.LinAlgError:  # pragma: no cover (pinv converges on any finite matrix)
+        sd = np.full(ng, np.nan)
+    m, b, fc = x[:d], x[d:2 * d], float(x[2 * d])
+    if not sol.success:
+        notes.append(f"least squares stopped: {sol.message}")
+    dim = max(d, 2)
+    mass = np.diag(np.resize(m, dim)) if d > 1 else float(m[0])
+    damp = np.diag(np.resize(b, dim)) if d > 1 else float(b[0])
+    try:
+        dev = Device(mass=mass, damping=damp, period=T, delay=D, position_resolution=delta, coulomb_friction=fc,
+                     name=f"identified from {Path(source).name}", dimension=dim)
+    except ParameterError as exc:
+        raise ParameterError(f"log = {source!r} is not allowed: the fitted model is not a device ({exc})") from None
+    if d == 1:
+        notes.append("a one-axis log: the device's second axis copies the first")
+    unc = {"mass": float(np.max(sd[:d])), "damping": float(np.max(sd[d:2 * d])), "coulomb_friction": float(sd[2 * d]),
+           "position_resolution": delta_sd, "delay": 0.0, "period": float(np.std(dt))}
+    axes = {"mass": m.tolist(), "damping": b.tolist(), "mass_sd": sd[:d].tolist(), "damping_sd": sd[d:2 * d].tolist()}
+    return Identification(dev, unc, axes, rms[D], rms, n, W, source, notes)
+
+
+def identify_log(path, **options) -> Identification:
+    """:func:`identify` on a log file (:func:`read_log`); the samples where the servo had not
+    engaged its forces are kept (their force, zero, was sent too)."""
+    log = read_log(path)
+    return identify(time=log.time, position=log.position, force=log.force, source=log.path, **options)
+
+
+def excitation(period: float, duration: float = 10.0, amplitude: float = 1.0, seed: int = 0) -> np.ndarray:
+    """A free-space force program for identification: steps of random sign and length (0.05-0.3 s,
+    half the amplitude) plus a logarithmic chirp from 2 to 50 Hz (half the amplitude), on one axis.
+
+    Parameters
+    ----------
+    period : float
+        Servo period (s).
+    duration : float, optional
+        s, default 10.
+    amplitude : float, optional
+        Largest force (N), default 1; choose a stated fraction of the device's maximum.
+    seed : int, optional
+
+    Returns
+    -------
+    numpy.ndarray, shape (n,)
+        N, one a tick (n = duration / period).
+
+    Raises
+    ------
+    ParameterError
+        For a non-positive period, duration or amplitude.
+    """
+    from scipy.signal import chirp
+
+    T = positive("period", period, "s")
+    n = int(round(positive("duration", duration, "s") / T))
+    A = positive("amplitude", amplitude, "N")
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) * T
+    steps = np.empty(n)
+    k = 0
+    sign = 1.0
+    while k < n:
+        length = int(rng.uniform(0.05, 0.3) / T)
+        steps[k:k + length] = sign
+        sign = -sign if rng.random() < 0.8 else sign
+        k += max(length, 1)
+    return 0.5 * A * steps + 0.5 * A * chirp(t, 2.0, max(t[-1], T), 50.0, method="logarithmic")
+
+
+CENTERING = (50.0, 5.0)
+"""Stiffness (N/m) and damping (N s/m) of the spring-damper that keeps a free handle in its
+workspace during an identification run, pulling the sensed position to where it started
+(chosen: at 50 N/m a 1 N force moves the handle 2 cm; 5 N s/m damps a 0.2 kg handle on it at a
+damping ratio of 0.8, so the chirp's low end does not ring it up. Its force is logged with the
+rest: the identification reads the force sent, whatever made it)."""
+
+
+def simulated_log(device, duration: float = 10.0, amplitude: float = 1.0, noise: float = 0.0, seed: int = 0):
+    """The log of an identification run (:class:`IdentificationProgram`) on a model device: the
+    program's force on the sensed position, applied ``device.delay`` ticks later and held over
+    the period, the handle free (no wall, no hand) with its Coulomb friction, the positions read
+    on the encoder's lattice (after Gaussian ``noise``). The first axis only: a one-axis log.
+
+    The motion is the C core's (``free_run``, one period at a time: the step of
+    :func:`identify`'s model, the Coulomb step of :func:`haptex.simulate`'s general loop).
+
+    Parameters
+    ----------
+    device : haptex.Device
+        Rigid; its first axis's mass and damping are used.
+    duration : float, optional
+        s, default 10 (after :data:`QUIET` s of rest).
+    amplitude : float, optional
+        The program's largest force (N), default 1.
+    noise : float, optional
+        Standard deviation of the position sensor's noise (m), default 0.
+    seed : int, optional
+        The program's steps and the noise.
+
+    Returns
+    -------
+    (time, position, force) : numpy.ndarray, each of shape (n,)
+        s, m, N (the force as commanded).
+
+    Raises
+    ------
+    ParameterError
+        For a device with a structural mode, a negative noise, or as :func:`excitation`.
+    """
+    from ._validation import nonnegative
+    from .core import _ext
+    from .simulate import _axis_coefficients
+
+    if device.structural_mode:
+        raise fail("device", device.name, "a rigid device (the identification's model has no structural mode)")
+    sigma = nonnegative("noise", noise, "m")
+    T, D, delta = device.period, device.delay, device.position_resolution
+    program = IdentificationProgram(1, T, duration, amplitude, seed)
+    c = np.ascontiguousarray(_axis_coefficients(device.mass[0, 0], device.damping[0, 0], T).reshape(1, -1))
+    rng = np.random.default_rng(seed + 1)
+    n = program.program.size
+    pos, force = np.empty(n), np.empty(n)
+    p0, v0 = np.zeros((1, 1)), np.zeros((1, 1))
+    queue = [0.0] * D
+    one, held = np.empty((1, 1, 1)), np.zeros((1, 1, 1))
+    for k in range(n):
+        x = p0[0, 0] + (sigma * rng.standard_normal() if sigma else 0.0)
+        sensed = delta * round(x / delta) if delta > 0 else x
+        cmd = float(program.step(np.array([sensed]))[0])
+        pos[k], force[k] = sensed, cmd
+        queue.append(cmd)
+        held[0, 0, 0] = queue.pop(0)
+        _ext.free_run(c, float(device.coulomb_friction), held, p0, v0, one)  # p0, v0: the state a period on
+    return np.arange(n) * T, pos, force
+
+
+VELOCITY_SPAN = 10
+"""Ticks the centering damper's velocity is differenced over (chosen: an encoder step over 10
+ticks, not one, so that the damper's force carries a tenth of the rounding; at one tick that
+rounding, fed back, biased the fitted damping by 23 % at 4 kHz, the error-in-variables of
+closed-loop identification)."""
+QUIET = 0.3
+"""Seconds of zero program force at the start of an identification run (chosen: the servo
+engages its forces after 50 ms below 0.5 N and ramps them in over 0.2 s)."""
+FRACTION = 0.2
+"""The share of the device's largest force the identification program uses (chosen: a light
+hold; a Falcon's 8.9 N gives 1.8 N)."""
+
+
+class IdentificationProgram:
+    """The force program of an identification run, as a renderer the servo loop calls
+    (``haptex run --identify``): :func:`excitation` along x after :data:`QUIET` s of rest,
+    plus the :data:`CENTERING` spring to the first sensed position on every axis (which
+    keeps a free handle in the workspace); the log records the force as sent.
+
+    Parameters
+    ----------
+    dimension : int
+        The device's (2 or 3).
+    period : float
+        s.
+    duration : float
+        s.
+    amplitude : float
+        N, the program's largest force (:data:`FRACTION` of the device's maximum).
+    seed : int, optional
+
+    Raises
+    ------
+    ParameterError
+        As :func:`excitation`.
+    """
+
+    def __init__(self, dimension: int, period: float, duration: float, amplitude: float, seed: int = 0):
+        quiet = int(round(QUIET / period))
+        self.program = np.concatenate([np.zeros(quiet), excitation(period, duration, amplitude, seed)])
+        self.dimension = int(dimension)
+        self.period = float(period)
+        self.clamps = 0
+        self._k = 0
+        self._home = None
+        self._past = None
+
+    def step(self, position):
+        """The force (N, shape (dimension,)) for the sensed ``position`` (m)."""
+        p = np.asarray(position, dtype=np.float64)
+        if self._home is None:
+            self._home = p.copy()
+            self._past = np.tile(p, (VELOCITY_SPAN, 1))
+        kc, bc = CENTERING
+        v = (p - self._past[self._k % VELOCITY_SPAN]) / (VELOCITY_SPAN * self.period)
+        self._past[self._k % VELOCITY_SPAN] = p
+        f = -kc * (p - self._home) - bc * v
+        f[0] += self.program[min(self._k, self.program.size - 1)] if self._k < self.program.size else 0.0
+        self._k += 1
+        return f

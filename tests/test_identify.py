@@ -1,0 +1,156 @@
+"""Issue 55: a device model identified from a logged run.
+
+References: the free mass-damper's closed form under a held force, m dv/dt = u - b v:
+v(t) = u/b + (v0 - u/b) e^(-b t/m) (any dynamics text); Coulomb friction subtracts f_c from
+the drive while the handle slides one way, and holds it at rest while |u| <= f_c (the Karnopp
+model the simulator implements, devices.Device's docstring). The recovered figures are those
+the logs were simulated with; the simulated backend's transition is scipy's expm of the
+augmented dynamics (haptex.backends.simulated), an implementation independent of the C step
+the identification fits with.
+"""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+import haptex as hx
+from haptex import identify as I
+from haptex.cli import main
+from haptex.core import _ext
+from haptex.simulate import _axis_coefficients
+
+
+def _free(m, b, fc, u, v0=0.0, steps=50, T=1e-3):
+    c = np.ascontiguousarray(_axis_coefficients(m, b, T).reshape(1, -1))
+    force = np.full((1, steps, 1), u)
+    p0, vv = np.zeros((1, 1)), np.full((1, 1), v0)
+    pos = np.empty((1, steps, 1))
+    _ext.free_run(c, fc, force, p0, vv, pos)
+    return pos[0, :, 0], float(p0[0, 0]), float(vv[0, 0])
+
+
+@pytest.mark.parametrize("m, b", [(0.1, 0.5), (0.3, 2.0), (0.05, 0.0)])
+@pytest.mark.parametrize("fc", [0.0, 0.1])
+def test_the_models_step_is_the_mass_dampers_closed_form(m, b, fc):
+    u, T, n = 1.0, 1e-3, 50
+    pos, p_end, v_end = _free(m, b, fc, u, steps=n, T=T)
+    w = u - fc  # sliding one way from rest: the drive less the friction
+    t = np.arange(n + 1) * T
+    if b > 0:
+        v = w / b * (1 - np.exp(-b * t / m))
+        p = w / b * (t - m / b * (1 - np.exp(-b * t / m)))
+    else:
+        v, p = w / m * t, w / (2 * m) * t * t
+    np.testing.assert_allclose(pos, p[:n], rtol=1e-9, atol=1e-15)
+    assert p_end == pytest.approx(p[n], rel=1e-9) and v_end == pytest.approx(v[n], rel=1e-9)
+
+
+@pytest.mark.parametrize("u", [0.05, 0.099, -0.099])
+def test_stiction_holds_a_handle_at_rest_below_the_friction(u):
+    pos, p_end, v_end = _free(0.1, 0.5, 0.1, u)
+    assert np.all(pos == 0) and p_end == 0 and v_end == 0
+
+
+CASES = [  # a light stylus, a Falcon-like grip (its encoder step), a heavier delayed device, a continuous sensor
+    dict(mass=0.12, damping=0.8, period=1e-3, delay=1, position_resolution=20e-6, coulomb_friction=0.05),
+    dict(mass=0.3, damping=2.0, period=1e-3, delay=0, position_resolution=63.5e-6, coulomb_friction=0.2),
+    dict(mass=0.05, damping=0.4, period=0.25e-3, delay=2, position_resolution=5e-6, coulomb_friction=0.01),
+    dict(mass=0.12, damping=0.8, period=1e-3, delay=3, position_resolution=0.0, coulomb_friction=0.05),
+]
+
+
+@pytest.mark.parametrize("case", range(len(CASES)))
+@pytest.mark.parametrize("noise", [0.0, 1e-6])
+def test_identify_recovers_a_known_device_within_5_percent_from_10_s(case, noise):
+    # issue 55's goal: each figure within 5 %, the delay exactly, from 10 s of a simulated log
+    # (sensor noise of 1 um before the encoder's rounding in half the cases)
+    kw = CASES[case]
+    dev = hx.Device(**kw)
+    t, p, f = I.simulated_log(dev, 10.0, 1.0, noise=noise, seed=1)
+    r = I.identify(time=t, position=p, force=f)
+    d = r.device
+    assert d.delay == kw["delay"] and d.period == pytest.approx(kw["period"], rel=1e-12)
+    assert d.mass[0, 0] == pytest.approx(kw["mass"], rel=0.05)
+    assert d.damping[0, 0] == pytest.approx(kw["damping"], rel=0.05)
+    assert d.coulomb_friction == pytest.approx(kw["coulomb_friction"], rel=0.05)
+    assert d.position_resolution == pytest.approx(kw["position_resolution"], rel=1e-6)
+    assert all(math.isfinite(v) and v >= 0 for v in r.uncertainty.values())
+
+
+def test_an_identification_run_on_the_simulated_falcon_gives_back_its_preset(tmp_path):
+    # 'haptex run --identify' on the simulated backend (the exact transition by expm, no
+    # friction), then 'haptex identify': the preset's x mass and damping at its home pose,
+    # its encoder step and delay; the device file loads wherever a preset does
+    from haptex.catalogue import preset
+    from haptex.devices import device_from_file
+
+    log, out = tmp_path / "log.csv", tmp_path / "falcon.toml"
+    assert main(["run", "--device", "simulated:falcon", "--identify", "--record", str(log), "--duration", "6s",
+                 "--fast", "--quiet"]) == 0
+    assert main(["identify", str(log), "-o", str(out)]) == 0
+    dev = device_from_file(out)
+    ref = preset("falcon").device()
+    assert dev.mass[0, 0] == pytest.approx(ref.mass[0, 0], rel=0.01)
+    assert dev.damping[0, 0] == pytest.approx(ref.damping[0, 0], rel=0.05)
+    assert dev.position_resolution == pytest.approx(ref.position_resolution, rel=1e-6)
+    assert dev.delay == ref.delay and dev.coulomb_friction < 0.01 * ref.max_force
+    assert "status = identified" in out.read_text() and "log.csv" in out.read_text()
+    logged = I.read_log(log)
+    assert np.max(np.abs(logged.force)) <= ref.max_force  # the program's share, never past the device's
+    assert np.all(logged.force[-1] == 0) or logged.engaged is not None
+
+
+def test_a_log_round_trips_exactly(tmp_path):
+    rng = np.random.default_rng(0)
+    t = np.arange(100) * 1e-3
+    p, f = rng.normal(size=(100, 2)) * 1e-3, rng.normal(size=(100, 2))
+    I.write_log(tmp_path / "a.csv", t, p, f, engaged=np.arange(100) > 10)
+    back = I.read_log(tmp_path / "a.csv")
+    assert np.array_equal(back.time, t) and np.array_equal(back.position, p) and np.array_equal(back.force, f)
+    assert back.engaged.sum() == 89
+
+
+def _log(n=3000, T=1e-3):
+    dev = hx.Device(mass=0.1, damping=0.5, period=T, position_resolution=10e-6)
+    return I.simulated_log(dev, n * T - I.QUIET, 1.0)
+
+
+@pytest.mark.parametrize("what, change, match", [
+    ("position", lambda t, p, f: (t, np.where(np.arange(p.size) == 7, np.nan, p), f), r"position = .* at sample 7"),
+    ("time", lambda t, p, f: (t[::-1], p, f), r"time = .* increasing"),
+    ("time", lambda t, p, f: (np.where(np.arange(t.size) >= 500, t + 0.01, t), p, f), r"interval of 0.011 s"),
+    ("force", lambda t, p, f: (t, p, np.ones_like(f)), r"force = 'constant along x'"),
+    ("short", lambda t, p, f: (t[:400], p[:400], f[:400]), r"time = '400 samples"),
+])
+def test_a_bad_log_is_refused_in_one_line_naming_it(what, change, match):
+    t, p, f = change(*_log())
+    with pytest.raises(hx.ParameterError, match=match) as exc:
+        I.identify(time=t, position=p, force=f)
+    assert "\n" not in str(exc.value)
+
+
+def test_the_command_line_refuses_in_one_line(tmp_path, capsys):
+    bad = tmp_path / "bad.csv"
+    bad.write_text("time_s,x_m,speed\n0,0,0\n")
+    assert main(["identify", str(bad), "-o", str(tmp_path / "d.toml")]) == 2
+    assert main(["run", "--device", "simulated:falcon", "--identify", "--duration", "1s"]) == 2  # no --record
+    assert main(["run", "--device", "simulated:falcon", "--identify", "--record", str(tmp_path / "l.csv"),
+                 "--algorithm", "C"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 3 and "--record" in err[1] and "--algorithm" in err[2]
+    assert not (tmp_path / "d.toml").exists()
+
+
+def test_the_json_names_units_and_uncertainties(tmp_path):
+    t, p, f = _log(5000)
+    I.write_log(tmp_path / "l.csv", t, p, f)
+    from click.testing import CliRunner
+
+    from haptex.cli import cli
+
+    r = CliRunner().invoke(cli, ["identify", str(tmp_path / "l.csv"), "-o", str(tmp_path / "d.toml"), "--json"])
+    out = json.loads(r.stdout)
+    assert r.exit_code == 0 and out["mass_kg"][0] == pytest.approx(0.1, rel=0.05)
+    assert {"mass_sd_kg", "damping_sd_n_s_m", "coulomb_friction_sd_n", "delay_periods"} <= set(out)
