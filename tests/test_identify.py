@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import haptex as hx
-from haptex import identify as I
+from haptex import identification as I
 from haptex.cli import main
 from haptex.core import _ext
 from haptex.simulate import _axis_coefficients

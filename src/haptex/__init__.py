@@ -31,6 +31,7 @@ from .closest import ClosestPoint, closest_point
 from .devices import Device, critical_stiffness, device_from_file, five_bar_jacobian
 from . import catalogue, limits
 from .limits import wall_limits
+from .identification import Identification, identify
 from . import objects
 from .objects import object_algorithm
 from .renderer import EnergyBounding, PassiveSetPosition, PassivityController, Renderer, Stabiliser
@@ -59,6 +60,8 @@ __all__ = [
     "SimulationWarning",
     "BatchResult",
     "Device",
+    "Identification",
+    "identify",
     "AxisOscillation",
     "Oscillation",
     "SimulationResult",

@@ -1043,7 +1043,7 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
     if not fmax <= backend.max_force:
         raise ParameterError(f"max_force = {fmax:g} N is not allowed: at most the device's {backend.max_force:g} N")
     if identify_run:
-        from .identify import FRACTION, IdentificationProgram
+        from .identification import FRACTION, IdentificationProgram
 
         if not math.isfinite(fmax):
             raise ParameterError(f"--identify is not allowed on {backend.name} without --max-force: the program "
@@ -1121,7 +1121,7 @@ def _write_record(record: Path, trace: dict, period: float) -> None:
     import numpy as np
 
     if record.suffix.lower() == ".csv":
-        from .identify import write_log
+        from .identification import write_log
 
         write_log(record, trace["time"], trace["position"], trace["force"], trace["engaged"])
     else:
@@ -1161,7 +1161,7 @@ def _identification_run(backend, program, fmax: float, duration: float, record: 
 @click.option("--json", "as_json", is_flag=True, help="Print the figures as JSON.")
 def identify_command(log, out, axis, max_delay, as_json):
     """Fit a device model (mass, damping, Coulomb friction, encoder step, delay) to a run log."""
-    from .identify import AXES, identify, read_log
+    from .identification import AXES, identify, read_log
 
     if not (out.parent if str(out.parent) else Path(".")).is_dir():
         raise ParameterError(f"out = {str(out)!r} is not allowed: its directory does not exist")

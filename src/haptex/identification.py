@@ -1,4 +1,4 @@
-"""Your device, identified: its model fitted from a logged run.
+"""Your device, identified: its model fitted from a logged run (``haptex.identify``).
 
 A run log holds, at each servo tick, the time, the sensed position and the force commanded
 (:data:`LOG_COLUMNS`; ``haptex run --record FILE.csv`` writes it). :func:`identify` fits the
@@ -11,7 +11,7 @@ The method is output-error identification over windows (Ljung, *System Identific
 Theory for the User*, 2nd ed., 1999, Sections 4.2 and 7.3, the output-error model; the
 windows are the multiple-shooting of Bock's parameter estimation, each window's initial
 position and velocity estimated with the device's figures): the model's positions, simulated
-by the C core's exact sampled-data step (:func:`haptex.core` ``free_run``, the Coulomb step of
+by the C core's exact sampled-data step (the core's ``free_run``, the Coulomb step of
 the simulator's general loop), are fitted to the logged ones by ``scipy.optimize.least_squares``;
 one standard deviation of each figure from the Jacobian at the optimum (the Gauss-Newton
 covariance, s^2 (J^T J)^-1). The delay is the whole number of periods whose fit leaves the
@@ -61,7 +61,7 @@ copies of them)."""
 class RunLog:
     """A run log read from a file (:func:`read_log`).
 
-    Attributes
+    Parameters
     ----------
     time : numpy.ndarray, shape (n,)
         s.
@@ -171,7 +171,7 @@ def read_log(path) -> RunLog:
 class Identification:
     """A device model fitted to a run log (:func:`identify`).
 
-    Attributes
+    Parameters
     ----------
     device : haptex.Device
         The identified device: ``mass`` and ``damping`` (diagonal, one figure an axis),
@@ -191,6 +191,8 @@ class Identification:
     windows : int
     source : str
         The log's path, or ``"arrays"``.
+    notes : list of str
+        What the fit noticed (an axis without a lattice, least squares stopped early).
     """
 
     device: object
@@ -221,6 +223,16 @@ class Identification:
         """The identified device as a TOML device file (:func:`haptex.devices.device_from_file`'s
         format, usable wherever a preset is: ``--device FILE.toml``), each figure with its
         standard deviation and the log it came from in a comment; written to ``path`` when given.
+
+        Parameters
+        ----------
+        path : str or os.PathLike, optional
+            The file to write.
+
+        Returns
+        -------
+        str
+            The file's text.
         """
         dev = self.device
         d = dev.dimension
@@ -533,7 +545,24 @@ def identify(*, time, position, force, max_delay: int = MAX_DELAY, window: float
 
 def identify_log(path, **options) -> Identification:
     """:func:`identify` on a log file (:func:`read_log`); the samples where the servo had not
-    engaged its forces are kept (their force, zero, was sent too)."""
+    engaged its forces are kept (their force, zero, was sent too).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A run log (CSV or .npz).
+    **options
+        :func:`identify`'s ``max_delay``, ``window`` and ``position_resolution``.
+
+    Returns
+    -------
+    Identification
+
+    Raises
+    ------
+    ParameterError
+        As :func:`read_log` and :func:`identify`.
+    """
     log = read_log(path)
     return identify(time=log.time, position=log.position, force=log.force, source=log.path, **options)
 
@@ -695,7 +724,18 @@ class IdentificationProgram:
         self._past = None
 
     def step(self, position):
-        """The force (N, shape (dimension,)) for the sensed ``position`` (m)."""
+        """The force to command for the sensed position.
+
+        Parameters
+        ----------
+        position : array_like, shape (dimension,)
+            m.
+
+        Returns
+        -------
+        numpy.ndarray, shape (dimension,)
+            N.
+        """
         p = np.asarray(position, dtype=np.float64)
         if self._home is None:
             self._home = p.copy()
