@@ -98,8 +98,9 @@ def test_an_identification_run_on_the_simulated_falcon_gives_back_its_preset(tmp
     assert dev.delay == ref.delay and dev.coulomb_friction < 0.01 * ref.max_force
     assert "status = identified" in out.read_text() and "log.csv" in out.read_text()
     logged = I.read_log(log)
-    assert np.max(np.abs(logged.force)) <= ref.max_force  # the program's share, never past the device's
-    assert np.all(logged.force[-1] == 0) or logged.engaged is not None
+    # the program is 20 % of the largest force (steps and chirp) plus the centering spring: sent
+    # within the device's maximum, never clamped to it (measured 2.98 N of 8.9 N on 10 s)
+    assert 0.2 * ref.max_force < np.max(np.abs(logged.force)) < 0.5 * ref.max_force
 
 
 def test_a_log_round_trips_exactly(tmp_path):
