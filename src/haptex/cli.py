@@ -132,6 +132,20 @@ def _parse_path(text: str, d: int = 2):
     return pts
 
 
+def _felt_options(verb: str):
+    """``--crop`` and ``--tip-radius``, the same for every command that takes a measured texture
+    (design, export, run); ``verb`` says what the command does with the texture it feels."""
+    def deco(func):
+        func = click.option("--tip-radius", type=Quantity("m"), default=0.0, show_default="0: a point probe",
+                            help="Radius of the ball the texture is touched with, e.g. '0.5mm': the texture it feels "
+                                 f"(the map dilated by the ball) is {verb}.")(func)
+        return click.option("--crop", default=None,
+                            help="The part of a measured file kept: 'auto' (the largest part without undefined "
+                                 "points) or 'X0,X1' (a line scan) / 'X0,X1,Y0,Y1' (a map), each with its unit, e.g. "
+                                 "'0.1mm,0.9mm,0,0.5mm'.")(func)
+    return deco
+
+
 def _object_options(what: str):
     """``--object`` and ``--uv-scale``, the same for every command that takes an object (design,
     export, run); ``what`` says which letters the command takes there and what it does with them."""
@@ -653,12 +667,7 @@ def _check_plot_path(plot: Path) -> None:
               "profile); over a surface 'X0,X1,Y0,Y1' (default: one periodic cell or the whole map).")
 @click.option("--fill-undefined", is_flag=True,
               help="Fill a measured file's undefined (NaN) heights by interpolation instead of refusing the file.")
-@click.option("--crop", default=None,
-              help="The part of a measured file kept: 'auto' (the largest part without undefined points) or "
-                   "'X0,X1' (a line scan) / 'X0,X1,Y0,Y1' (a map), each with its unit, e.g. '0.1mm,0.9mm,0,0.5mm'.")
-@click.option("--tip-radius", type=Quantity("m"), default=0.0, show_default="0: a point probe",
-              help="Radius of the ball the texture is touched with, e.g. '0.5mm': the texture it feels (the map "
-                   "dilated by the ball) is analysed.")
+@_felt_options("analysed")
 @click.option("--raw", is_flag=True,
               help="Analyse the measured samples as they are, not band-limited to what the device renders.")
 @click.option("--hand", default="light-touch", show_default=True,
@@ -833,12 +842,7 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
 @click.option("--device", "device_spec", default=None,
               help="With a stabiliser: the device the firmware runs on (a preset of 'haptex devices' or FILE.toml): "
                    "its period, delay and damping.")
-@click.option("--tip-radius", type=Quantity("m"), default=0.0, show_default="0: a point probe",
-              help="Radius of the ball the texture is touched with, e.g. '0.5mm': the texture it feels (the map "
-                   "dilated by the ball) is rendered.")
-@click.option("--crop", default=None,
-              help="The part of a measured file kept: 'auto' (the largest part without undefined points) or "
-                   "'X0,X1' (a line scan) / 'X0,X1,Y0,Y1' (a map), each with its unit.")
+@_felt_options("rendered")
 @click.option("--out", "out", type=click.Path(file_okay=False, path_type=Path), required=True,
               help="Directory for haptex_texture.c, haptex_texture.h and the C core's files.")
 @click.option("--quiet", is_flag=True, help="No progress display.")
@@ -951,12 +955,7 @@ def sweep(spec, out, scheduler, workers, quiet):
               "device's rate.")
 @_object_options("A-G and the proxy are rendered there on a 3-DOF device (D and E but on a faceted mesh: give "
                  "--vertex-normals), the object's top at the origin of its frame.")
-@click.option("--tip-radius", type=Quantity("m"), default=0.0, show_default="0: a point probe",
-              help="Radius of the ball the texture is touched with, e.g. '0.5mm': the texture it feels (the map "
-                   "dilated by the ball) is rendered.")
-@click.option("--crop", default=None,
-              help="The part of a measured file kept: 'auto' (the largest part without undefined points) or "
-                   "'X0,X1' (a line scan) / 'X0,X1,Y0,Y1' (a map), each with its unit.")
+@_felt_options("rendered")
 @click.option("--record", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Write the run log (time, position, force, engaged) to FILE.csv (the columns of the file formats "
                    "page, read by 'haptex identify') or FILE.npz.")
@@ -1005,6 +1004,18 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
     options = ({"hand": hand, "speed": speed, "realtime": not fast} if kind == "simulated"
                else {"realtime": not fast} if kind == "forcedimension" else {})
     backend = open_backend(device_spec, **options)
+    dev = backend.device
+    fmax = backend.max_force if max_force is None else max_force
+    if not fmax <= backend.max_force:
+        raise ParameterError(f"max_force = {fmax:g} N is not allowed: at most the device's {backend.max_force:g} N")
+    if identify_run:  # no texture: the program instead, the handle free
+        from .identification import FRACTION, IdentificationProgram
+
+        if not math.isfinite(fmax):
+            raise ParameterError(f"--identify is not allowed on {backend.name} without --max-force: the program "
+                                 "is a share of the largest force")
+        program = IdentificationProgram(backend.dimension, dev.period, duration, FRACTION * fmax)
+        return _identification_run(backend, program, fmax, duration, record, as_json)
     tex = None
     letter = letter.upper()
     if letter != "W":
@@ -1037,20 +1048,8 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
         alg = GodObject(tex, stiffness)
     else:
         alg = algorithm(letter, tex, stiffness)
-    dev = backend.device
-    pc = None if identify_run else _stabiliser(passivity_control, stabiliser, dev, delay=dev.delay)
-    fmax = backend.max_force if max_force is None else max_force
-    if not fmax <= backend.max_force:
-        raise ParameterError(f"max_force = {fmax:g} N is not allowed: at most the device's {backend.max_force:g} N")
-    if identify_run:
-        from .identification import FRACTION, IdentificationProgram
+    pc = _stabiliser(passivity_control, stabiliser, dev, delay=dev.delay)
 
-        if not math.isfinite(fmax):
-            raise ParameterError(f"--identify is not allowed on {backend.name} without --max-force: the program "
-                                 "is a share of the largest force")
-        renderer = IdentificationProgram(backend.dimension, dev.period, duration, FRACTION * fmax)
-        renderer.energy = 0.0
-        return _identification_run(backend, renderer, fmax, duration, record, as_json)
     renderer = Renderer(alg, max_force=fmax if math.isfinite(fmax) else None, energy_monitor=True,
                         passivity_controller=pc, period=dev.period)
     loop = ServoLoop(backend, renderer, max_force=fmax if math.isfinite(fmax) else None)

@@ -106,14 +106,7 @@ def write_log(path, time, position, force, engaged=None) -> Path:
     ParameterError
         For arrays of different lengths or a dimension other than 1-3.
     """
-    t = np.asarray(time, dtype=np.float64).reshape(-1)
-    p = np.asarray(position, dtype=np.float64)
-    f = np.asarray(force, dtype=np.float64)
-    p = p[:, None] if p.ndim == 1 else p
-    f = f[:, None] if f.ndim == 1 else f
-    if p.ndim != 2 or p.shape[1] not in AXES or f.shape != p.shape or len(t) != len(p):
-        raise fail("position", f"shape {p.shape} with force {f.shape} and time {t.shape}",
-                   "(n,) or (n, d) positions and forces of one shape, d in 1..3, and n times")
+    t, p, f = _shaped(time, position, force)
     cols = _columns(p.shape[1])
     data = [t[:, None], p, f]
     if engaged is not None:
@@ -287,7 +280,9 @@ class Identification:
         return "\n".join(out)
 
 
-def _checked(time, position, force):
+def _shaped(time, position, force):
+    """(time (n,), position (n, d), force (n, d)) as float64, one axis made a column; refused
+    unless the shapes agree and d is 1-3."""
     t = np.asarray(time, dtype=np.float64)
     p = np.asarray(position, dtype=np.float64)
     f = np.asarray(force, dtype=np.float64)
@@ -296,6 +291,11 @@ def _checked(time, position, force):
     if t.ndim != 1 or p.ndim != 2 or p.shape[1] not in AXES or f.shape != p.shape or len(t) != len(p):
         raise fail("position", f"shape {p.shape} with force {f.shape} and time {t.shape}",
                    "(n,) or (n, d) positions (m) and forces (N) of one shape, d in 1..3, with n times (s)")
+    return t, p, f
+
+
+def _checked(time, position, force):
+    t, p, f = _shaped(time, position, force)
     if len(t) > MAX_SAMPLES:
         raise fail("time", f"{len(t)} samples", f"at most {MAX_SAMPLES} (identify a part of the log)")
     for name, a in (("time", t), ("position", p), ("force", f)):
