@@ -108,7 +108,7 @@ class Rig:
         if self.kind.startswith("haply"):
             self._ended()
             return self.behind.energised_after_close > 0 or self.behind.connected
-        return bool(np.any(self.sim._x[6:9] != 0.0))  # the held force of the simulated device
+        return bool(np.any(self.sim.state[6:9] != 0.0))  # the held force of the simulated device
 
 
 def _loop(backend, stiffness=500.0, renderer=None, **kw):
@@ -599,3 +599,118 @@ def test_the_native_openhaptics_tick_needs_no_gil(native, stubs):
     assert stats.engaged_at is not None and f[stats.engaged_at + 20:, 2].mean() > 0.0
     assert np.all(np.linalg.norm(f, axis=1) <= b.max_force * (1 + 1e-12))
     assert stub.hxstub_energised_after_stop() == 0 and stub.hxstub_running() == 0
+
+
+# ---- the C core's native servo thread (issue 56) ----
+
+@pytest.mark.parametrize("preset", ["omega-3", "falcon", "touch"])
+def test_the_native_thread_runs_the_same_ticks_as_the_python_loop(preset):
+    # the same device (the C core's hx_plant), the same rules and the same renderer's tick, once
+    # from the C thread and once from Python's loop: the same trace to the bit (not paced:
+    # nothing depends on the clock); the three presets span 1 and 4 kHz, delays 0-1, encoders
+    sim = SimulatedBackend(preset, realtime=False)
+    traces = []
+    for native in (True, False):
+        r = hx.Renderer(hx.algorithm("A", SINE, 500.0), max_force=sim.max_force)
+        stats, trace = ServoLoop(sim, r, native=native).run(800 * sim.period)
+        assert stats.driver == ("native thread" if native else "python loop")
+        traces.append((stats, trace))
+    (a, ta), (b, tb) = traces
+    assert a.ticks == b.ticks == 800 and a.engaged_at == b.engaged_at is not None
+    for key in ("time", "position", "force", "engaged"):
+        assert np.array_equal(ta[key], tb[key]), key
+    assert ta["force"][a.engaged_at:, 2].mean() > 0.0  # (in contact: the comparison is not of zeros)
+
+
+def test_a_stalled_python_side_never_delays_the_native_thread():
+    # while a Python thread holds the GIL for 0.3 s (a dashboard, a plot, a collection), the
+    # native thread keeps its 1 kHz: the largest gap between samples stays far below the
+    # stall; the Python loop on the same device waits for the GIL (a gap of about 0.3 s)
+    gaps = {}
+    for native in (True, False):
+        sim = SimulatedBackend("falcon", realtime=True)
+        loop = ServoLoop(sim, hx.Renderer(hx.algorithm("A", SINE, 500.0), max_force=sim.max_force), native=native)
+        holder = _hold_the_gil(0.3, 0.3)
+        stats, trace = loop.run(1.0)
+        holder.join()
+        gaps[native] = np.diff(trace["time"]).max(), stats
+    gap, stats = gaps[True]
+    # (a tick's time is its schedule's, k T: its wall-clock gaps are counted in the jitter)
+    assert stats.ticks == 1000 and stats.jitter_seconds[0] < 0.1, stats.jitter_seconds
+    assert gaps[False][1].jitter_seconds[0] > 0.2, gaps[False][1].jitter_seconds
+    assert stats.fifo in (True, False) and stats.tick_p999 <= stats.tick_seconds[0] + 1e-12
+
+
+def test_a_dashboard_that_stalls_does_not_stall_the_native_thread():
+    # the live dashboard's callback (on_tick) takes 0.3 s holding the GIL once: the thread
+    # runs on; its ticks reach the callback through the counts and the seqlock's snapshot
+    sim = SimulatedBackend("falcon", realtime=True)
+    seen = []
+
+    def on_tick(k, servo):
+        seen.append(servo.snapshot())
+        if len(seen) == 3:
+            end = time.perf_counter() + 0.3
+            while time.perf_counter() < end:
+                pass
+
+    stats, trace = ServoLoop(sim, hx.Renderer(hx.algorithm("A", SINE, 500.0))).run(1.0, on_tick=on_tick)
+    assert stats.ticks == 1000 and stats.jitter_seconds[0] < 0.1, stats.jitter_seconds
+    ks = [s[0] for s in seen]
+    assert ks == sorted(ks) and ks[-1] > 0
+    for k, t, p, f in seen:  # each snapshot is one tick's, whole: its time and force as traced
+        if 0 < k <= len(trace["time"]):
+            assert t == trace["time"][k - 1] and tuple(trace["force"][k - 1]) == f
+
+
+@needs_cc
+def test_the_native_force_dimension_thread_needs_no_gil(stubs):
+    # DHD's functions called from the C core's thread by address: the device behind the stub in
+    # C too (a 0.1 kg mass held 1 mm inside the wall by a 200 N/m, 2 N s/m hand), so nothing
+    # in the thread needs Python; it keeps ticking while the GIL is held for 0.3 s
+    stub = stubs["forcedimension"]
+    stub.hxstub_bind_mass(0.1, 200.0, 2.0, 1e-3, (ctypes.c_double * 3)(0.0, 0.0, -1e-3), 33)
+    b = open_backend("forcedimension:falcon")
+    assert b.native
+    loop = ServoLoop(b, hx.Renderer(hx.algorithm("A", SINE, 500.0), max_force=b.max_force), engage_force=1.0,
+                     engage_ticks=5, ramp_ticks=10)
+    holder = _hold_the_gil(0.3, 0.3)
+    stats, trace = loop.run(1.0)
+    holder.join()
+    assert stats.driver == "native thread" and stats.ticks == 1000 and stats.jitter_seconds[0] < 0.1
+    f = trace["force"]
+    assert stats.engaged_at is not None and f[stats.engaged_at + 20:, 2].mean() > 0.0
+    assert np.all(np.linalg.norm(f, axis=1) <= b.max_force * (1 + 1e-12))
+    assert stub.hxstub_energised_after_close() == 0 and stub.hxstub_opened() == 0
+
+
+@needs_cc
+def test_a_device_that_stops_answering_stops_the_native_thread_with_zero_force(stubs):
+    stub = stubs["forcedimension"]
+    stub.hxstub_bind_mass(0.1, 200.0, 2.0, 1e-3, (ctypes.c_double * 3)(0.0, 0.0, -1e-3), 33)
+    stub.hxstub_faults(300, -1, 0.0)  # unplugged after 300 forces (the zero of open is one)
+    b = open_backend("forcedimension:falcon", realtime=False)
+    with pytest.raises(DeviceError, match=r"stopped answering: a position read failed at tick 299; zero force") as e:
+        _loop(b).run(1.0)
+    assert "\n" not in str(e.value)
+    assert stub.hxstub_energised_after_close() == 0 and stub.hxstub_opened() == 0
+
+
+@needs_cc
+def test_the_native_watchdog_zeroes_the_tick_after_a_slow_device(stubs):
+    # one read takes 6 periods: the next sample is late, and its tick sends zero (rule 2)
+    stub = stubs["forcedimension"]
+    stub.hxstub_bind_mass(0.1, 200.0, 2.0, 1e-3, (ctypes.c_double * 3)(0.0, 0.0, -1e-3), 33)
+    b = open_backend("forcedimension:falcon")
+    stub.hxstub_faults(-1, 151, 6 * b.period)  # tick 150's read (after open's zero and 150 forces)
+    stats, trace = _loop(b, ramp_ticks=10, engage_ticks=5, engage_force=1.0).run(300 * b.period)
+    f = np.linalg.norm(trace["force"], axis=1)
+    assert stats.missed >= 1 and stats.overruns >= 1 and stats.jitter_seconds[0] >= 4 * b.period
+    assert f[150] > 0.0 and f[151] == 0.0  # the tick after the slow read
+    assert stub.hxstub_energised_after_close() == 0
+
+
+def test_a_priority_out_of_range_is_refused_by_name():
+    sim = SimulatedBackend("falcon", realtime=False)
+    with pytest.raises(hx.ParameterError, match="priority = 120 is not allowed"):
+        ServoLoop(sim, hx.Renderer(hx.algorithm("A", SINE, 500.0)), priority=120)

@@ -74,13 +74,13 @@ def test_the_simulated_backend_is_a_device_backend():
     # a held force accelerates the free handle as its mass says: dz = f T^2 / (2 m) from rest
     # (the hand's pull over one tick is second order in T: below 2 % here)
     b.command(np.array([0.0, 0.0, 0.0]))
-    z0 = b._x[2]
+    z0 = b.state[2]
     b2 = open_backend("simulated:falcon", realtime=False)
     b2.open()
     b2.sample()
     b2.command(np.array([0.0, 0.0, 1.0]))
     m = b.device.mass[2, 2]
-    assert b2._x[2] - z0 == pytest.approx(1.0 * b.period ** 2 / (2 * m), rel=0.02)
+    assert b2.state[2] - z0 == pytest.approx(1.0 * b.period ** 2 / (2 * m), rel=0.02)
 
 
 def test_forces_are_finite_bounded_and_zero_on_every_fault():

@@ -84,7 +84,7 @@ class Behind:
         sim.open()
 
     def _read(self, st):
-        self.truth = self.sim._x[:3].copy()  # the handle's true position at the reading (m)
+        self.truth = self.sim.state[:3].copy()  # the handle's true position at the reading (m)
         s = self.sim.sample()
         p = self.R @ s.position * self.scale
         v = self.R @ (np.zeros(3) if s.velocity is None else s.velocity) * self.scale
@@ -104,6 +104,9 @@ def load_dhd(fdsdk: Path):
     lib = next((fdsdk / "lib" / "release").glob("*/libdrd.so.*"))
     stub = ctypes.CDLL(str(lib))
     stub.hxstub_bind.argtypes = [CALLBACK, CALLBACK, ctypes.c_int, ctypes.c_int]
+    stub.hxstub_bind_mass.argtypes = [ctypes.c_double, ctypes.c_double, ctypes.c_double, ctypes.c_double,
+                                      ctypes.POINTER(ctypes.c_double), ctypes.c_int]
+    stub.hxstub_faults.argtypes = [ctypes.c_long, ctypes.c_long, ctypes.c_double]
     stub.hxstub_applied.argtypes = [ctypes.POINTER(ctypes.c_double)]
     stub.hxstub_writes.restype = stub.hxstub_energised_after_close.restype = ctypes.c_long
     return stub
@@ -169,7 +172,7 @@ class InverseService:
 
         if k in self.garble:
             return self.garble[k]
-        self.truth = self.sim._x[:3].copy()  # the handle's true position at the reading (m)
+        self.truth = self.sim.state[:3].copy()  # the handle's true position at the reading (m)
         s = self.sim.sample()
         v = np.zeros(3) if s.velocity is None else s.velocity
         state = {"cursor_position": dict(zip("xyz", map(float, s.position)))}
@@ -302,7 +305,7 @@ class InverseSerial:
                         if self.garble[k] is not None:
                             self._answer(self.garble[k])
                         continue
-                    self.truth = self.sim._x[:3].copy()  # the handle's true position at the reading (m)
+                    self.truth = self.sim.state[:3].copy()  # the handle's true position at the reading (m)
                     s = self.sim.sample()
                     v = np.zeros(3) if s.velocity is None else s.velocity
                     self._answer(b"\x2b" + struct.pack("<6f", *s.position, *v))

@@ -1085,8 +1085,11 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
                "engaged_at": None if stats.engaged_at is None else stats.engaged_at * dev.period,
                "max_force_sent": stats.max_force_sent, "energy_observed": renderer.energy,
                **{f"energy_{a}": float(e) for a, e in zip(axes, per_axis)},
-               "tick_max": stats.tick_seconds[0], "tick_mean": stats.tick_seconds[1],
+               "tick_max": stats.tick_seconds[0], "tick_mean": stats.tick_seconds[1], "tick_p999": stats.tick_p999,
                "period_mean": stats.period_seconds[0], "period_std": stats.period_seconds[1],
+               "jitter_max": stats.jitter_seconds[0], "jitter_p999": stats.jitter_seconds[1],
+               "overruns": stats.overruns, "driver": stats.driver, "fifo": stats.fifo,
+               "memory_locked": stats.memory_locked,
                "interrupted": stats.interrupted, "regime": verdict["regime"], "oscillating": osc.oscillating,
                "amplitude": osc.amplitude, "frequency": osc.frequency,
                "stabiliser": None if pc is None else pc.label,
@@ -1096,11 +1099,15 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
                "units": {"stiffness": "N/m", "max_force": "N", "duration": "s", "engaged_at": "s",
                          "amplitude": "m", "frequency": "Hz",
                          "max_force_sent": "N", "energy_observed": "J", **{f"energy_{a}": "J" for a in axes},
-                         "tick_max": "s", "tick_mean": "s", "period_mean": "s", "period_std": "s",
+                         "tick_max": "s", "tick_mean": "s", "tick_p999": "s", "period_mean": "s",
+                         "period_std": "s", "jitter_max": "s", "jitter_p999": "s",
                          "stabiliser_ticks": "ticks", "buzz_db": "dB above the detection threshold",
                          "buzz_frequency": "Hz"}}
     if record is not None:
         _write_record(record, trace, dev.period)
+    if stats.driver == "native thread" and loop.priority and not stats.fifo and getattr(backend, "realtime", True):
+        click.echo("notice: the servo thread ran at normal priority: SCHED_FIFO needs CAP_SYS_NICE or a real-time "
+                   "limit (ulimit -r, /etc/security/limits.conf)", err=True)
     if as_json:
         click.echo(json.dumps(_jsonable(summary), indent=2))
         return
@@ -1109,7 +1116,9 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
                f"{'never' if stats.engaged_at is None else format(summary['engaged_at'], '.3g') + ' s'}; "
                f"largest force sent {stats.max_force_sent:.3g} N; energy observed {renderer.energy:+.3g} J; "
                f"{verdict['regime']}; tick "
-               f"{stats.tick_seconds[1] * 1e6:.3g} us mean, {stats.tick_seconds[0] * 1e6:.3g} us worst"
+               f"{stats.tick_seconds[1] * 1e6:.3g} us mean, {stats.tick_p999 * 1e6:.3g} us at 99.9 %, "
+               f"{stats.tick_seconds[0] * 1e6:.3g} us worst; jitter {stats.jitter_seconds[0] * 1e6:.3g} us worst; "
+               f"{stats.driver}{' at SCHED_FIFO' if stats.fifo else ''}"
                + ("; interrupted (forces zeroed)" if stats.interrupted else ""))
     if record is not None:
         click.echo(f"trace: {record}")

@@ -18,18 +18,26 @@ tick), and command it through these rules, in order:
    is zero, then the backend is closed.
 
 The rules are one C function of a sample (``hx_servo.c`` in the C core, which ``haptex
-export`` ships too), run once a tick by one of three drivers:
+export`` ships too), run once a tick by one of four drivers:
 
-- this thread's loop (``sample``, the rules, ``command``), for polling and lock-step
-  backends: one call into C a tick, which runs a :class:`~haptex.Renderer`'s tick without
-  returning to Python (another renderer object is called back);
+- the C core's **native servo thread** (``drive_native`` of the simulated and Force Dimension
+  backends; ``hx_thread.c``): a POSIX thread woken on an absolute deadline of the monotonic
+  clock once a period, at SCHED_FIFO priority :data:`haptex.backends.PRIORITY` with its memory
+  locked where the user's rights allow (a plain thread otherwise, said in
+  :attr:`ServoStats.fifo`), that samples the device, runs the rules and the renderer's tick
+  and commands the force with no Python and no GIL. Python reads its last tick through a
+  seqlock (``Servo.snapshot``) and its counts, never blocking it;
+- the vendor's servo thread calling the C callback (``drive_native`` of OpenHaptics, HD's
+  scheduler), likewise without Python;
 - a vendor callback in the backend's own servo thread (``drive``), which calls the same
   tick from Python inside the callback, taking the GIL;
-- the native driver (``drive_native``, OpenHaptics' scheduler): the vendor's servo thread
-  calls the C callback directly, sample, rules, renderer and command in C with no GIL and no
-  Python, while this thread waits (and answers Ctrl-C by asking the callback to stop).
+- this thread's loop (``sample``, the rules, ``command``), for the lock-step backends (Haply's
+  Inverse Service and serial port) and for a renderer that is not a :class:`~haptex.Renderer`:
+  one call into C a tick.
 
-Measured per backend in ``benchmarks/run_backends.py``.
+Every driver counts the same figures (:class:`ServoStats`): late samples (the watchdog's
+missed ticks), overruns, the worst and 99.9th percentile of each tick's work and of the
+period's jitter. Measured per backend, idle and under load, in ``benchmarks/run_backends.py``.
 """
 
 from __future__ import annotations
@@ -40,7 +48,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ._validation import check_budget, fail, positive, whole
-from .backends import Sample
+from .backends import PRIORITY, Sample
 from . import core as _core
 from .core import _ext
 
@@ -77,6 +85,17 @@ class ServoStats:
         Mean and standard deviation of the time between samples (s): rate and jitter.
     interrupted : bool
         The run ended on Ctrl-C (forces zeroed, trace kept).
+    tick_p999 : float
+        The 99.9th percentile of a tick's work (s, to 100 ns).
+    jitter_seconds : tuple of float
+        Worst and 99.9th percentile of |dt - T| (s), dt the time between samples.
+    overruns : int
+        Ticks whose force left after the next tick was due (native thread only: the Python
+        drivers' late samples are in ``missed``).
+    driver : str
+        ``native thread``, ``native callback``, ``vendor callback`` or ``python loop``.
+    fifo, memory_locked : bool
+        The native thread ran at SCHED_FIFO, with its memory locked (what it was granted).
     """
 
     ticks: int = 0
@@ -88,6 +107,12 @@ class ServoStats:
     tick_seconds: list = field(default_factory=lambda: [0.0, 0.0])
     period_seconds: tuple = (0.0, 0.0)
     interrupted: bool = False
+    tick_p999: float = 0.0
+    jitter_seconds: tuple = (0.0, 0.0)
+    overruns: int = 0
+    driver: str = "python loop"
+    fifo: bool = False
+    memory_locked: bool = False
 
 
 class ServoLoop:
@@ -105,9 +130,12 @@ class ServoLoop:
         The engagement and watchdog settings (defaults :data:`ENGAGE_FORCE` N,
         :data:`ENGAGE_TICKS`, :data:`RAMP_TICKS`, :data:`DEADLINE` periods).
     native : bool, optional
-        Use the backend's native driver (the C tick in the vendor's servo thread) when it has
-        one and the renderer is a :class:`~haptex.Renderer` (default True); False runs the
-        Python callback instead (for comparison).
+        Use the backend's native driver (the C core's servo thread, or the C tick in the
+        vendor's servo thread) when it has one and the renderer is a :class:`~haptex.Renderer`
+        (default True); False runs the Python loop or callback instead (for comparison).
+    priority : int, optional
+        The SCHED_FIFO priority the native servo thread asks for, 1-99, or 0 for a plain
+        thread; default :data:`haptex.backends.PRIORITY`.
 
     Raises
     ------
@@ -118,7 +146,7 @@ class ServoLoop:
 
     def __init__(self, backend, renderer, max_force: float | None = None, engage_force: float = ENGAGE_FORCE,
                  engage_ticks: int = ENGAGE_TICKS, ramp_ticks: int = RAMP_TICKS, deadline: float = DEADLINE,
-                 native: bool = True):
+                 native: bool = True, priority: int = PRIORITY):
         if renderer.dimension != backend.dimension:
             raise fail("renderer", f"{renderer.dimension}-D", f"of the device's dimension ({backend.dimension}-D)")
         self.max_force = backend.max_force if max_force is None else positive("max_force", max_force, "N")
@@ -134,6 +162,7 @@ class ServoLoop:
         if not isinstance(native, bool):
             raise fail("native", native, "True or False")
         self.native = native
+        self.priority = whole("priority", priority, 0, 99)
 
     @_core.blas_held_to_one_thread  # no BLAS worker spins beside the servo loop
     def run(self, duration: float, record: bool = True, on_tick=None) -> tuple[ServoStats, dict]:
@@ -189,13 +218,15 @@ class ServoLoop:
             return f
 
         self.backend.open()
+        drive = getattr(self.backend, "drive", None)
+        st.driver = ("native callback" if drive is not None else "native thread") if native is not None else (
+            "vendor callback" if drive is not None else "python loop")
         try:
-            drive = getattr(self.backend, "drive", None)
-            if native is not None:  # the vendor's servo thread runs the C tick itself, no GIL
-                native(servo, core, n_ticks, on_tick)
+            if native is not None:  # the C core's servo thread, or the vendor's, runs the C tick: no GIL
+                native(servo, core, n_ticks, on_tick, priority=self.priority)
             elif drive is not None:  # a vendor callback in the servo thread runs each tick
                 drive(tick, n_ticks)
-            else:  # polling and lock-step: this thread runs each tick
+            else:  # lock-step, or a renderer in Python: this thread runs each tick
                 for _ in range(n_ticks):
                     self.backend.command(tick(self.backend.sample()))
         except KeyboardInterrupt:
@@ -209,6 +240,11 @@ class ServoLoop:
         st.clamps = servo.clamps + self.renderer.clamps
         st.engaged_at, st.max_force_sent = servo.engaged_at, servo.max_force_sent
         st.tick_seconds = [servo.work_max, servo.work_mean]
+        timing = servo.timing()
+        st.tick_p999 = timing["work_p999"]
+        st.jitter_seconds = (timing["jitter_max"], timing["jitter_p999"])
+        st.overruns = timing["overruns"]
+        st.fifo, st.memory_locked = timing["fifo"], timing["locked"]
         if servo.periods:
             st.period_seconds = (servo.period_mean, servo.period_std)
         n = min(st.ticks, n_rec)

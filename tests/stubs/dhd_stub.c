@@ -8,8 +8,10 @@
  * in m/s, forces in N, device frame x towards the user, y right, z up; dhdOpen returns the
  * device ID or -1; forces reach the motors only while force mode is enabled (dhdEnableForce);
  * dhdClose leaves no force applied. */
+#define _POSIX_C_SOURCE 200809L
 #include <stdbool.h>
 #include <string.h>
+#include <time.h>
 
 typedef void (*hxstub_read_fn)(double *state); /* p[3] (m), v[3] (m/s), buttons */
 typedef void (*hxstub_write_fn)(const double *force);
@@ -19,6 +21,8 @@ static hxstub_write_fn wr;
 static int present = 1, system_type = 33, opened = 0, force_on = 0, last_error = 0, fresh = 0;
 static double state[7], applied[3];
 static long writes = 0, energised_after_close = 0;
+static long fail_at = -1, stall_at = -1; /* the test's faults: a read that fails, one that stalls */
+static double stall_seconds = 0.0;
 
 static const char *error_text(int e)
 {
@@ -40,6 +44,52 @@ void hxstub_bind(hxstub_read_fn r, hxstub_write_fn w, int device_type, int devic
     opened = force_on = fresh = 0;
     memset(applied, 0, sizeof applied);
     writes = energised_after_close = 0;
+    fail_at = stall_at = -1;
+}
+/* A device in C behind the stub, for runs whose servo thread must not take the GIL: a point
+ * mass m (kg) held by a hand, a spring kh (N/m) and damper bh (N s/m) to a rest point (m),
+ * moved by each force, held over one period of T s (semi-implicit Euler in 100 sub-steps). */
+static double mass_m, mass_kh, mass_bh, mass_T, mass_rest[3], mass_p[3], mass_v[3];
+static void mass_read(double *st)
+{
+    int i;
+    for (i = 0; i < 3; i++) {
+        st[i] = mass_p[i];
+        st[3 + i] = mass_v[i];
+    }
+    st[6] = 0.0;
+}
+static void mass_write(const double *f)
+{
+    int i, j;
+    double h = mass_T / 100.0;
+    for (j = 0; j < 100; j++)
+        for (i = 0; i < 3; i++) {
+            double a = (f[i] + mass_kh * (mass_rest[i] - mass_p[i]) - mass_bh * mass_v[i]) / mass_m;
+            mass_v[i] += a * h;
+            mass_p[i] += mass_v[i] * h;
+        }
+}
+void hxstub_bind_mass(double m, double kh, double bh, double T, const double *rest, int device_type)
+{
+    int i;
+    mass_m = m;
+    mass_kh = kh;
+    mass_bh = bh;
+    mass_T = T;
+    for (i = 0; i < 3; i++) {
+        mass_rest[i] = mass_p[i] = rest[i];
+        mass_v[i] = 0.0;
+    }
+    hxstub_bind(mass_read, mass_write, device_type, 1);
+}
+/* after `writes` forces, the reads fail (the device unplugged); at write `at`, the next read
+ * takes `seconds` (a device slow to answer once); -1: never */
+void hxstub_faults(long fail_after, long at, double seconds)
+{
+    fail_at = fail_after;
+    stall_at = at;
+    stall_seconds = seconds;
 }
 int hxstub_unsupported(void) { last_error = 10; return -1; }
 long hxstub_writes(void) { return writes; }
@@ -99,6 +149,12 @@ int dhdEnableForce(bool on, char id)
 }
 static void refresh(void)
 {
+    if (!fresh && writes == stall_at) {
+        struct timespec ts;
+        ts.tv_sec = (time_t)stall_seconds;
+        ts.tv_nsec = (long)((stall_seconds - (double)ts.tv_sec) * 1e9);
+        nanosleep(&ts, 0);
+    }
     if (!fresh) {
         rd(state);
         fresh = 1;
@@ -108,6 +164,10 @@ int dhdGetPosition(double *x, double *y, double *z, char id)
 {
     if (check(id))
         return -1;
+    if (fail_at >= 0 && writes >= fail_at) {
+        last_error = 5;
+        return -1;
+    }
     refresh();
     *x = state[0];
     *y = state[1];

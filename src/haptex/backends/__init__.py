@@ -26,6 +26,7 @@ Backends in this version:
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
@@ -97,6 +98,58 @@ def wait_until(due: float, clock, sleep, spin: float) -> None:
         pass
 
 
+PRIORITY = 80
+"""The SCHED_FIFO priority the native servo thread asks for (chosen: above the kernel's
+interrupt threads at 50, below the watchdogs at 99, as robot-control loops run; Linux
+grants it with CAP_SYS_NICE or an rtprio limit in /etc/security/limits.conf, else the thread
+runs at normal priority and ``haptex run`` says so in one line)."""
+STALLED = 1.0
+"""s: a native run whose tick count has not moved for this long is stopped as a fault."""
+
+
+def wait_native(servo, name: str, on_tick=None, thread: bool = True) -> None:
+    """Wait here while a native driver (the C servo thread, or a vendor's servo thread calling
+    the C callback) runs ``servo`` (a ``haptex.core._ext.Servo``), calling ``on_tick(k,
+    servo)`` about every 50 ms (a live dashboard: it reads counts, never blocks a tick).
+
+    Raises
+    ------
+    KeyboardInterrupt
+        On Ctrl-C, once the driver has sent zero force (within a tick; one second at most).
+    DeviceError
+        If the ticks stop for :data:`STALLED` s, or the device failed a read or a write
+        (zero force sent, the thread ended).
+    """
+    seen, since, nap = -1, time.monotonic(), 1e-3
+    try:
+        while not servo.done:
+            time.sleep(nap)
+            nap = min(0.05, 2 * nap)  # (a short run that is not paced ends in milliseconds)
+            if on_tick is not None:
+                on_tick(servo.ticks - 1, servo)
+            if servo.ticks != seen:
+                seen, since = servo.ticks, time.monotonic()
+            elif not servo.done and time.monotonic() - since > STALLED:
+                servo.stop()
+                raise DeviceError(f"device = {name!r}: the servo loop stopped ticking after {seen} ticks (the device "
+                                  "or its driver stopped answering); zero force was requested")
+    except KeyboardInterrupt:
+        servo.stop()
+        end = time.monotonic() + 1.0
+        while not servo.done and time.monotonic() < end:
+            time.sleep(0.001)
+        raise
+    finally:
+        if thread and servo.done:
+            servo.join()
+    if thread:
+        err = servo.timing()
+        if err["io_error"]:
+            which = "a position read" if err["io_error"] == 1 else "a force command"
+            raise DeviceError(f"device = {name!r} stopped answering: {which} failed at tick {err['io_error_tick']}; "
+                              "zero force was sent and the servo thread ended")
+
+
 @dataclass(frozen=True)
 class Sample:
     """One reading of the handle.
@@ -158,6 +211,9 @@ class DeviceBackend(Protocol):
     # ``drive(tick, n_ticks)``: it runs ``n_ticks`` ticks, each calling ``tick(sample)`` inside
     # the callback and sending the force it returns, then returns with zero force sent
     # (KeyboardInterrupt included). :class:`haptex.servo.ServoLoop` uses it when present.
+    # A backend with ``native = True`` also has ``drive_native(servo, core, n_ticks, on_tick,
+    # priority)``: the C core runs the ticks (its own servo thread, or the vendor's) with no
+    # Python and no GIL, and this thread waits (:func:`wait_native`).
 
 
 def open_backend(spec: str, **options) -> DeviceBackend:

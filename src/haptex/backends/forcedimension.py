@@ -2,10 +2,13 @@
 through the vendor's Python binding, ``forcedimension-core`` (``pip install haptex[forcedimension]``),
 which loads the Force Dimension SDK's ``libdrd`` (found through ``FDSDK``).
 
-The SDK's concurrency model is user polling: :meth:`ForceDimensionBackend.sample` reads the
-handle (``dhdGetPosition``, ``dhdGetLinearVelocity``, ``dhdGetButtonMask``) and
-:meth:`ForceDimensionBackend.command` writes the force (``dhdSetForce``); this backend paces
-the ticks itself on the clock, as :class:`~haptex.backends.simulated.SimulatedBackend` does.
+The SDK's concurrency model is user polling. :meth:`ForceDimensionBackend.drive_native` hands
+``dhdGetPosition`` and ``dhdSetForce`` (their addresses in the library the binding loaded) to the
+C core's native servo thread, which polls the device once a period with no Python and no GIL
+(``hx_thread.c``). Outside it, :meth:`ForceDimensionBackend.sample` reads the handle
+(``dhdGetPosition``, ``dhdGetLinearVelocity``, ``dhdGetButtonMask``) and
+:meth:`ForceDimensionBackend.command` writes the force (``dhdSetForce``), paced on the clock by
+this backend, as :class:`~haptex.backends.simulated.SimulatedBackend` does.
 
 Frames and units: DHD's are SI (m, m/s, N) with x towards the user, y to the right and z up
 (the SDK's user manual), right-handed; haptex's frame is the same (z the wall's outward
@@ -14,12 +17,18 @@ normal, up), so positions and forces pass unchanged.
 
 from __future__ import annotations
 
+import ctypes
 import time
 
 import numpy as np
 
-from . import DeviceError, Sample, model_as, wait_until
+from . import PRIORITY, DeviceError, Sample, model_as, wait_native, wait_until
 from .simulated import SPIN
+
+NATIVE_FUNCTIONS = ("dhdGetPosition", "dhdSetForce")
+"""The DHD functions the native servo thread calls, by address: ``int dhdGetPosition(double *px,
+double *py, double *pz, char ID)`` and ``int dhdSetForce(double fx, double fy, double fz, char
+ID)`` (the SDK's dhdc.h)."""
 
 DEVICE_TYPES = {33: "omega-3", 34: "omega-3", 35: "omega-3", 36: "omega-3", 37: "omega-3", 63: "delta-3",
                 104: "sigma-7", 105: "sigma-7", 206: "sigma-7", 60: "falcon"}
@@ -96,6 +105,15 @@ class ForceDimensionBackend:
         self._clock, self._sleep = clock, sleep
         self._id = None
         self._p, self._v = np.zeros(3), np.zeros(3)
+        try:
+            from forcedimension_core import runtime
+
+            lib = runtime._libdhd
+            self._native = [ctypes.cast(getattr(lib, n), ctypes.c_void_p).value for n in NATIVE_FUNCTIONS]
+        except (ImportError, AttributeError):  # a binding that does not expose its library: the Python loop
+            self._native = None
+        self.native = self._native is not None
+        """The C core's servo thread can drive it (:meth:`drive_native`)."""
 
     def open(self) -> None:
         """Connect, forces enabled and zero."""
@@ -144,3 +162,24 @@ class ForceDimensionBackend:
         if self._dhd.setForce([float(f[0]), float(f[1]), float(f[2])], self._id) < 0:
             raise DeviceError(f"device = {self.name!r} refused a force: {self._dhd.errorGetLastStr()}")
         self._k += 1
+
+    def drive_native(self, servo, core, n_ticks: int, on_tick=None, priority: int = PRIORITY) -> None:
+        """Run ``n_ticks`` ticks in the C core's servo thread: ``dhdGetPosition``, the servo rules
+        of ``servo`` (a ``haptex.core._ext.Servo``), the tick of ``core`` (a
+        :class:`haptex.Renderer`'s core) and ``dhdSetForce``, in C with no GIL, once a period
+        on the clock (as fast as it goes when not real-time). The thread sends zero force at
+        its end; this thread waits (:func:`haptex.backends.wait_native`).
+
+        Raises
+        ------
+        KeyboardInterrupt
+            On Ctrl-C, once the thread has sent zero force.
+        DeviceError
+            If the device is not open, or a DHD call fails during the run (zero force sent).
+        """
+        if self._id is None:
+            raise DeviceError(f"device = {self.name!r} is not open: open it first")
+        get_position, set_force = self._native
+        servo.start(core, ("dhd", get_position, set_force, int(self._id)), int(n_ticks), self.realtime,
+                    int(priority) if self.realtime else 0, self.realtime, SPIN)
+        wait_native(servo, self.name, on_tick)

@@ -30,7 +30,7 @@ import time
 
 import numpy as np
 
-from . import DeviceError, Sample, model_as
+from . import DeviceError, Sample, model_as, wait_native
 
 MODELS = (("premium 1.5", "premium-1-5"), ("touch", "touch"), ("omni", "touch"))
 """Substrings of HD's model string (``HD_DEVICE_MODEL_TYPE``, lower case) and the preset each
@@ -45,8 +45,6 @@ HD_MAX_SCHEDULER_PRIORITY = 0xFFFF
 """The servo callbacks' priority (hdDefines.h: the highest)."""
 NATIVE_FUNCTIONS = ("hdBeginFrame", "hdEndFrame", "hdGetDoublev", "hdSetDoublev")
 """The HD functions the native callback calls, by address, in this order."""
-STALLED = 1.0
-"""s: a native run whose callback has not ticked for this long is stopped as a fault."""
 
 
 def _hd():
@@ -263,19 +261,21 @@ class OpenHapticsBackend:
         if failures:
             raise failures[0]
 
-    def drive_native(self, servo, core, n_ticks: int, on_tick=None) -> None:
+    def drive_native(self, servo, core, n_ticks: int, on_tick=None, priority: int = 0) -> None:
         """Run ``n_ticks`` ticks of the C core's callback in HD's scheduler: the sample, the
         servo rules of ``servo`` (a ``haptex.core._ext.Servo``) and the tick of ``core`` (a
         :class:`haptex.Renderer`'s core) in C, with no GIL. The callback after the last (or
         after :meth:`stop <haptex.core._ext.Servo.stop>`) sends zero force and ends. This
-        thread waits, calling ``on_tick(k, servo)`` every 50 ms.
+        thread waits, calling ``on_tick(k, servo)`` every 50 ms (:func:`haptex.backends.wait_native`).
+        ``priority`` is not used: HD's scheduler sets its own thread's.
 
         Raises
         ------
         KeyboardInterrupt
             On Ctrl-C, once the callback has sent zero force (within a tick; one second at most).
         DeviceError
-            If the device is not open, or HD's scheduler stops calling for :data:`STALLED` s.
+            If the device is not open, or HD's scheduler stops calling for
+            :data:`haptex.backends.STALLED` s.
         """
         if self._h is None or not self._running:
             raise DeviceError(f"device = {self.name!r} is not open: open it first")
@@ -285,22 +285,5 @@ class OpenHapticsBackend:
         self._keep.append(servo)  # (HD holds its address until close)
         lib.hdScheduleAsynchronous(ctypes.c_void_p(cb), ctypes.c_void_p(data),
                                    ctypes.c_ushort(HD_MAX_SCHEDULER_PRIORITY))
-        seen, since = -1, time.monotonic()
-        try:
-            while not servo.done:
-                time.sleep(0.05)
-                if on_tick is not None:
-                    on_tick(servo.ticks - 1, servo)
-                if servo.ticks != seen:
-                    seen, since = servo.ticks, time.monotonic()
-                elif not servo.done and time.monotonic() - since > STALLED:
-                    servo.stop()
-                    raise DeviceError(f"device = {self.name!r}: HD's scheduler stopped calling the servo callback "
-                                      f"after {seen} ticks")
-        except KeyboardInterrupt:
-            servo.stop()
-            end = time.monotonic() + 1.0
-            while not servo.done and time.monotonic() < end:
-                time.sleep(0.001)
-            raise
+        wait_native(servo, self.name, on_tick, thread=False)
         self._last = np.zeros(3)

@@ -1,5 +1,9 @@
 """A device preset run by the exact sampled-data model, one tick at a time: the backend that
-works on any machine (``haptex run --device simulated:falcon``)."""
+works on any machine (``haptex run --device simulated:falcon``).
+
+The device itself is the C core's ``hx_plant`` (one implementation): :meth:`SimulatedBackend.sample`
+and :meth:`~SimulatedBackend.command` call it from Python, and
+:meth:`~SimulatedBackend.drive_native` hands it to the C core's native servo thread."""
 
 from __future__ import annotations
 
@@ -8,7 +12,8 @@ import time
 import numpy as np
 
 from .._validation import fail, finite, nonnegative
-from . import Sample, wait_until
+from ..core import _ext
+from . import PRIORITY, Sample, wait_native, wait_until
 
 SPIN = 3e-4
 """Seconds before a tick the real-time backend stops sleeping and spins on the clock (chosen:
@@ -46,7 +51,8 @@ class SimulatedBackend:
         negative starts it inside the wall.
     realtime : bool, optional
         Wait for the clock: each :meth:`sample` returns at its tick's time (a real device's
-        pace). False runs as fast as the loop goes (tests, batch use).
+        pace), and the native servo thread ticks once a period. False runs as fast as the loop
+        goes (tests, batch use).
     clock, sleep : callable, optional
         Time source (s) and sleep function, for tests.
 
@@ -81,21 +87,29 @@ class SimulatedBackend:
         from ..core import expm
         from ..simulate import _augmented
 
-        self._op = h.operator(depth=self.press, velocity=self.speed, dimension=n)
+        op = h.operator(depth=self.press, velocity=self.speed, dimension=n)
         mode = dev.mode_matrices() if dev.structural_mode else None
-        F = _augmented(dev.mass, dev.damping, self._op.stiffness, self._op.damping, mode)
-        self._Phi = expm(F * self.period)
+        F = _augmented(dev.mass, dev.damping, op.stiffness, op.damping, mode)
+        # the hand's set-point s(t) = s(0) + (ds/dt) t: the scan at constant speed
+        K, C = (np.ascontiguousarray(a, dtype=np.float64) for a in (op.stiffness, op.damping))
+        s0 = np.ascontiguousarray(op.setpoint(0.0), dtype=np.float64)
+        self._plant = _ext.Plant(np.ascontiguousarray(expm(F * self.period)), K, C, s0,
+                                 np.ascontiguousarray(op.final_velocity, dtype=np.float64), n, int(dev.delay),
+                                 float(self.period), float(dev.position_resolution), float(self.max_force))
         self._open = False
+        self.native = True
+        """The C core's servo thread can drive it (:meth:`drive_native`)."""
+
+    @property
+    def state(self) -> np.ndarray:
+        """The simulated device's state (SI), shape (5 d,) or (7 d,): [p, v, u, g, r] of
+        :func:`haptex.simulate`'s augmented dynamics (u the force acting, g the hand's pull),
+        then the handle side [p_h, v_h] of a structural mode."""
+        return np.array(self._plant.state)
 
     def open(self) -> None:
         """Start with the handle at rest at height ``start`` above the origin, no force in flight."""
-        n = self.dimension
-        self._x = np.zeros(self._Phi.shape[0])
-        self._x[n - 1] = self.start
-        if self._x.size > 5 * n:  # the handle side of a structural mode starts there too
-            self._x[6 * n - 1] = self.start
-        self._k = 0
-        self._queue = [np.zeros(n) for _ in range(self.device.delay)]
+        self._plant.reset(self.start)
         self._last = None
         self._t0 = self._clock()
         self._open = True
@@ -103,44 +117,48 @@ class SimulatedBackend:
     def close(self) -> None:
         """Zero force (nothing is in flight afterwards)."""
         if self._open:
-            self._queue = [np.zeros(self.dimension) for _ in self._queue]
+            self._plant.release()
         self._open = False
 
     def sample(self) -> Sample:
         """The handle's state at this tick, read through the preset's encoder."""
         if not self._open:
             raise fail("device", self.name, "opened before it is sampled")
-        t = self._k * self.period
+        t = self._plant.k * self.period
         if self.realtime:
             wait_until(self._t0 + t, self._clock, self._sleep, SPIN)
-        n = self.dimension
-        p = self._x[:n].copy()
-        d = self.device.position_resolution
-        if d > 0:
-            p = d * np.round(p / d)
+        p = np.array(self._plant.read())
         v = None if self._last is None else (p - self._last) / self.period
         self._last = p
         return Sample(t, p, v, 0)
 
     def command(self, force) -> None:
-        """Hold ``force`` (N) over the next period (after the preset's delay) and advance."""
+        """Hold ``force`` (N) over the next period (after the preset's delay) and advance; a
+        force above the device's maximum is scaled to it, as real amplifiers clip."""
         if not self._open:
             raise fail("device", self.name, "opened before it is commanded")
         f = np.asarray(force, dtype=np.float64).reshape(self.dimension)
         if not np.all(np.isfinite(f)):
             raise fail("force", f.tolist(), "finite newtons (the servo loop never sends anything else)")
-        mag = float(np.linalg.norm(f))
-        if mag > self.max_force * (1 + 1e-12):  # the device's own limit, as real amplifiers clip
-            f = f * (self.max_force / mag)
-        if self._queue:
-            self._queue.append(f)
-            f = self._queue.pop(0)
-        n, op = self.dimension, self._op
-        sv = op.final_velocity
-        self._x[2 * n:3 * n] = f
-        self._x[3 * n:4 * n] = op.stiffness @ op.setpoint(self._k * self.period) + op.damping @ sv
-        self._x[4 * n:5 * n] = op.stiffness @ sv
-        self._x = self._Phi @ self._x
-        self._k += 1
-        if not np.all(np.isfinite(self._x)):
-            raise fail("device", self.name, "a finite state")
+        try:
+            self._plant.write(f)
+        except ValueError:
+            raise fail("device", self.name, "a finite state") from None
+
+    def drive_native(self, servo, core, n_ticks: int, on_tick=None, priority: int = PRIORITY) -> None:
+        """Run ``n_ticks`` ticks in the C core's servo thread: the device, the servo rules of
+        ``servo`` (a ``haptex.core._ext.Servo``) and the tick of ``core`` (a
+        :class:`haptex.Renderer`'s core) in C, with no GIL, once a period on the clock (or as
+        fast as it goes when not real-time). The thread sends zero force at its end; this
+        thread waits (:func:`haptex.backends.wait_native`).
+
+        Raises
+        ------
+        KeyboardInterrupt
+            On Ctrl-C, once the thread has sent zero force.
+        """
+        if not self._open:
+            raise fail("device", self.name, "opened before it is driven")
+        servo.start(core, self._plant, int(n_ticks), self.realtime, int(priority) if self.realtime else 0,
+                    self.realtime, SPIN)
+        wait_native(servo, self.name, on_tick)

@@ -16,6 +16,7 @@
 #include <numpy/arrayobject.h> /* step's fast path for a NumPy row (its data read in place) */
 
 #include "hx_core.h"
+#include "hx_host.h"
 
 static PyObject *core_error(int code)
 {
@@ -825,6 +826,152 @@ static PyTypeObject RendererType = {
     .tp_new = PyType_GenericNew,
 };
 
+/* ---- Plant: the simulated device (hx_plant) ---- */
+
+static int read_vector(PyObject *o, int dim, double q[3]);
+
+typedef struct {
+    PyObject_HEAD
+    hx_plant d;
+} PlantObject;
+
+/* a float64 array of exactly count numbers into out */
+static int copy_doubles(PyObject *o, double *out, Py_ssize_t count, const char *what)
+{
+    Py_buffer v;
+    if (get_doubles(o, &v, 0, -1, what) < 0)
+        return -1;
+    if (v.len != count * (Py_ssize_t)sizeof(double)) {
+        PyErr_Format(PyExc_ValueError, "%s must hold %zd numbers", what, count);
+        PyBuffer_Release(&v);
+        return -1;
+    }
+    memcpy(out, v.buf, (size_t)v.len);
+    PyBuffer_Release(&v);
+    return 0;
+}
+
+static int Plant_init(PlantObject *self, PyObject *args, PyObject *kwds)
+{
+    static char *kwlist[] = {"phi", "K", "C", "s0", "sv", "dim", "delay", "period", "resolution", "max_force",
+                             NULL};
+    PyObject *phi, *K, *C, *s0, *sv;
+    Py_buffer v;
+    hx_plant d;
+    int m;
+    memset(&d, 0, sizeof d);
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OOOOOiiddd", kwlist, &phi, &K, &C, &s0, &sv, &d.n, &d.delay,
+                                     &d.period, &d.resolution, &d.max_force))
+        return -1;
+    if ((d.n != 2 && d.n != 3) || d.delay < 0 || d.delay > HX_PLANT_MAXDELAY || !(d.period > 0.0) ||
+        !(d.resolution >= 0.0) || !(d.max_force > 0.0)) {
+        PyErr_SetString(PyExc_ValueError, "plant settings out of range (checked in haptex.backends first)");
+        return -1;
+    }
+    if (get_doubles(phi, &v, 0, 2, "phi") < 0)
+        return -1;
+    m = (int)v.shape[0];
+    if (v.shape[1] != m || (m != 5 * d.n && m != 7 * d.n)) {
+        PyBuffer_Release(&v);
+        PyErr_SetString(PyExc_ValueError, "phi must be (5 d, 5 d) or (7 d, 7 d)");
+        return -1;
+    }
+    memcpy(d.phi, v.buf, (size_t)m * (size_t)m * sizeof(double));
+    PyBuffer_Release(&v);
+    d.m = m;
+    if (copy_doubles(K, d.K, d.n * d.n, "K") < 0 || copy_doubles(C, d.C, d.n * d.n, "C") < 0 ||
+        copy_doubles(s0, d.s0, d.n, "s0") < 0 || copy_doubles(sv, d.sv, d.n, "sv") < 0)
+        return -1;
+    hx_plant_reset(&d, 0.0);
+    self->d = d;
+    return 0;
+}
+
+static PyObject *Plant_reset(PlantObject *self, PyObject *arg)
+{
+    double start = PyFloat_AsDouble(arg);
+    if (start == -1.0 && PyErr_Occurred())
+        return NULL;
+    hx_plant_reset(&self->d, start);
+    Py_RETURN_NONE;
+}
+
+static PyObject *Plant_release(PlantObject *self, PyObject *unused)
+{
+    (void)unused;
+    hx_plant_release(&self->d);
+    Py_RETURN_NONE;
+}
+
+static PyObject *Plant_read(PlantObject *self, PyObject *unused)
+{
+    double p[3];
+    (void)unused;
+    hx_plant_read(&self->d, p);
+    return self->d.n == 3 ? Py_BuildValue("(ddd)", p[0], p[1], p[2]) : Py_BuildValue("(dd)", p[0], p[2]);
+}
+
+static PyObject *Plant_write(PlantObject *self, PyObject *arg)
+{
+    double f[3];
+    int rc = read_vector(arg, self->d.n, f);
+    if (rc == -2)
+        return NULL;
+    if (rc < 0) {
+        PyErr_Format(PyExc_ValueError, "the force must be %d numbers", self->d.n);
+        return NULL;
+    }
+    if (hx_plant_write(&self->d, f) != 0) {
+        PyErr_SetString(PyExc_ValueError, "the force or the device's state is not finite");
+        return NULL;
+    }
+    Py_RETURN_NONE;
+}
+
+static PyObject *Plant_get_state(PlantObject *self, void *closure)
+{
+    PyObject *out = PyList_New(self->d.m);
+    int i;
+    (void)closure;
+    if (out == NULL)
+        return NULL;
+    for (i = 0; i < self->d.m; i++)
+        PyList_SET_ITEM(out, i, PyFloat_FromDouble(self->d.x[i]));
+    return out;
+}
+
+static PyMethodDef Plant_methods[] = {
+    {"reset", (PyCFunction)Plant_reset, METH_O, "reset(start): the handle at rest at height start (m), nothing in flight."},
+    {"release", (PyCFunction)Plant_release, METH_NOARGS, "No force acting or in flight; the motion kept."},
+    {"read", (PyCFunction)Plant_read, METH_NOARGS, "The handle's position as its encoder reads it (m, dim numbers)."},
+    {"write", (PyCFunction)Plant_write, METH_O,
+     "write(f): hold f (N, dim numbers) over the next period (after the delay) and advance one period."},
+    {NULL, NULL, 0, NULL},
+};
+
+static PyMemberDef Plant_members[] = {
+    {"k", T_LONG, offsetof(PlantObject, d.k), READONLY, "periods advanced"},
+    {NULL, 0, 0, 0, NULL},
+};
+
+static PyGetSetDef Plant_getset[] = {
+    {"state", (getter)Plant_get_state, NULL, "the state [p, v, u, g, r (, p_h, v_h)] (list of floats)", NULL},
+    {NULL, NULL, NULL, NULL, NULL},
+};
+
+static PyTypeObject PlantType = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = "haptex.core._ext.Plant",
+    .tp_basicsize = sizeof(PlantObject),
+    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_doc = "The simulated device (hx_plant): a preset held by a hand, one exact period a write.",
+    .tp_methods = Plant_methods,
+    .tp_members = Plant_members,
+    .tp_getset = Plant_getset,
+    .tp_init = (initproc)Plant_init,
+    .tp_new = PyType_GenericNew,
+};
+
 /* ---- Servo: the servo loop's safety rules (hx_servo), its trace, the native drivers ---- */
 
 
@@ -853,13 +1000,34 @@ typedef struct {
     long n_ticks;
     double t0;
     volatile int stop, done;
+    /* what every driver counts beyond hx_servo: tick work and period jitter (hx_ticks) */
+    hx_ticks ticks;
+    /* the native servo thread (hx_thread) and the device it drives: a Plant, or DHD's functions */
+    hx_thread th;
+    int threaded;          /* the thread was started and not yet joined */
+    PyObject *device;      /* the Plant driven, kept alive while the thread runs */
+    int (*dhd_get_position)(double *, double *, double *, char);
+    int (*dhd_set_force)(double, double, double, char);
+    char dhd_id;
 } ServoObject;
 
-static double monotonic(void)
+static double monotonic(void) { return hx_now(); }
+
+/* one tick of a Python or callback driver counted: its start and end (s), the previous start */
+static void count_tick(ServoObject *self, double begin, double prev, double end)
 {
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+    hx_ticks_count(&self->ticks, end - begin, prev < 0.0 ? -1.0 : fabs(begin - prev - self->s.period));
+}
+
+static void Servo_join(ServoObject *self)
+{
+    if (self->threaded) {
+        self->th.stop = 1;
+        Py_BEGIN_ALLOW_THREADS
+        hx_thread_join(&self->th);
+        Py_END_ALLOW_THREADS
+        self->threaded = 0;
+    }
 }
 
 static void Servo_release(ServoObject *self)
@@ -876,6 +1044,10 @@ static void Servo_release(ServoObject *self)
 
 static void Servo_dealloc(ServoObject *self)
 {
+    Servo_join(self); /* (never free what a running thread reads) */
+    Py_XDECREF(self->device);
+    free(self->ticks.work);
+    free(self->ticks.jitter);
     Servo_release(self);
     Py_XDECREF(self->renderer);
     Py_TYPE(self)->tp_free((PyObject *)self);
@@ -898,9 +1070,25 @@ static int Servo_init(ServoObject *self, PyObject *args, PyObject *kwds)
         PyErr_SetString(PyExc_ValueError, "servo settings out of range (checked in haptex.servo first)");
         return -1;
     }
+    if (self->threaded) {
+        PyErr_SetString(PyExc_RuntimeError, "the servo's native thread is running: join it first");
+        return -1;
+    }
     Servo_release(self);
     hx_servo_init(&s);
     s.realtime = realtime;
+    if (self->ticks.work == NULL)
+        self->ticks.work = malloc((HX_HIST_BINS + 1) * sizeof(unsigned int));
+    if (self->ticks.jitter == NULL)
+        self->ticks.jitter = malloc((HX_HIST_BINS + 1) * sizeof(unsigned int));
+    if (self->ticks.work == NULL || self->ticks.jitter == NULL) {
+        PyErr_NoMemory();
+        return -1;
+    }
+    memset(self->ticks.work, 0, (HX_HIST_BINS + 1) * sizeof(unsigned int));
+    memset(self->ticks.jitter, 0, (HX_HIST_BINS + 1) * sizeof(unsigned int));
+    self->ticks.work_max = self->ticks.jitter_max = 0.0;
+    self->ticks.overruns = 0;
     if (tr[0] != Py_None) {
         Py_ssize_t n;
         for (i = 0; i < 3; i++)
@@ -1005,7 +1193,7 @@ PyDoc_STRVAR(servo_tick_doc, "tick(t, p, step)\n--\n\nOne tick under the rules: 
 
 static PyObject *Servo_tick(ServoObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    double t, p[3], f[3] = {0.0, 0.0, 0.0};
+    double t, p[3], f[3] = {0.0, 0.0, 0.0}, prev, begin, end;
     int rc, fault;
     if (nargs != 3) {
         PyErr_SetString(PyExc_TypeError, "tick takes t, p and step");
@@ -1014,7 +1202,9 @@ static PyObject *Servo_tick(ServoObject *self, PyObject *const *args, Py_ssize_t
     t = PyFloat_AsDouble(args[0]);
     if (t == -1.0 && PyErr_Occurred())
         return NULL;
-    hx_servo_begin(&self->s, monotonic());
+    prev = self->s.have_wall ? self->s.last_wall : -1.0;
+    begin = monotonic();
+    hx_servo_begin(&self->s, begin);
     rc = read_vector(args[1], self->s.dim, p);
     if (rc == -2)
         return NULL;
@@ -1041,7 +1231,9 @@ static PyObject *Servo_tick(ServoObject *self, PyObject *const *args, Py_ssize_t
         }
     }
     hx_servo_command(&self->s, t, p, fault, f);
-    hx_servo_end(&self->s, monotonic());
+    end = monotonic();
+    hx_servo_end(&self->s, end);
+    count_tick(self, begin, prev, end);
     return servo_force(self, f);
 }
 
@@ -1049,7 +1241,7 @@ static PyObject *Servo_tick(ServoObject *self, PyObject *const *args, Py_ssize_t
 static hd_uint hd_servo_callback(void *data)
 {
     ServoObject *self = data;
-    double pos[3], p[3], f[3] = {0.0, 0.0, 0.0}, fd[3] = {0.0, 0.0, 0.0}, wall;
+    double pos[3], p[3], f[3] = {0.0, 0.0, 0.0}, fd[3] = {0.0, 0.0, 0.0}, wall, prev, end;
     self->hd_begin(self->hd_handle);
     if (self->stop || self->s.k >= self->n_ticks) {
         self->hd_setdv(HD_CURRENT_FORCE, fd);
@@ -1062,6 +1254,7 @@ static hd_uint hd_servo_callback(void *data)
     p[0] = 1e-3 * pos[0];
     p[1] = -1e-3 * pos[2];
     p[2] = 1e-3 * pos[1];
+    prev = self->s.have_wall ? self->s.last_wall : -1.0;
     wall = monotonic();
     hx_servo_tick(&self->s, &self->renderer->r, wall, wall - self->t0, p, f);
     fd[0] = f[0];
@@ -1069,7 +1262,9 @@ static hd_uint hd_servo_callback(void *data)
     fd[2] = -f[1];
     self->hd_setdv(HD_CURRENT_FORCE, fd);
     self->hd_end(self->hd_handle);
-    hx_servo_end(&self->s, monotonic());
+    end = monotonic();
+    hx_servo_end(&self->s, end);
+    count_tick(self, wall, prev, end);
     return HD_CALLBACK_CONTINUE;
 }
 
@@ -1130,13 +1325,165 @@ static PyObject *Servo_stop(ServoObject *self, PyObject *unused)
 {
     (void)unused;
     self->stop = 1;
+    self->th.stop = 1;
     Py_RETURN_NONE;
 }
 
 static PyObject *Servo_get_done(ServoObject *self, void *closure)
 {
     (void)closure;
+    if (self->threaded)
+        return PyBool_FromLong(__atomic_load_n(&self->th.done, __ATOMIC_ACQUIRE));
     return PyBool_FromLong(self->done);
+}
+
+/* ---- the native servo thread's devices ---- */
+
+static int plant_read(void *ctx, double p[3])
+{
+    hx_plant_read(ctx, p);
+    return 0;
+}
+
+static int plant_write(void *ctx, const double f[3]) { return hx_plant_write(ctx, f) != 0; }
+
+/* DHD (Force Dimension's SDK): SI units and haptex's own frame (x towards the user, z up) */
+static int dhd_read(void *ctx, double p[3])
+{
+    ServoObject *self = ctx;
+    return self->dhd_get_position(&p[0], &p[1], &p[2], self->dhd_id) < 0;
+}
+
+static int dhd_write(void *ctx, const double f[3])
+{
+    ServoObject *self = ctx;
+    return self->dhd_set_force(f[0], f[1], f[2], self->dhd_id) < 0;
+}
+
+PyDoc_STRVAR(servo_start_doc,
+             "start(renderer, device, n_ticks, paced, priority, lock_memory, spin)\n--\n\n"
+             "Start the native servo thread: n_ticks ticks of renderer (a Renderer core) under the rules, on device: a "
+             "Plant (the simulated device) or ('dhd', dhdGetPosition's address, dhdSetForce's address, device id) "
+             "(3-D). paced: one tick a period on the clock (else as fast as it goes); priority: SCHED_FIFO priority "
+             "to ask for (0: none); lock_memory: mlockall for the run where allowed; spin (s): sleep until this long "
+             "before a tick, then read the clock. Returns at once; the thread "
+             "sends zero force at its end, on stop(), or when the device fails. join() waits for it.");
+
+static PyObject *Servo_start(ServoObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    RendererObject *r;
+    long n;
+    int paced, priority, lock, rc;
+    double spin;
+    if (nargs != 7 || !Py_IS_TYPE(args[0], &RendererType)) {
+        PyErr_SetString(PyExc_TypeError,
+                        "start takes a Renderer core, a device, n_ticks, paced, priority, lock_memory, spin");
+        return NULL;
+    }
+    if (self->threaded) {
+        PyErr_SetString(PyExc_RuntimeError, "the servo's native thread is running: join it first");
+        return NULL;
+    }
+    r = (RendererObject *)args[0];
+    n = PyLong_AsLong(args[2]);
+    paced = PyObject_IsTrue(args[3]);
+    priority = (int)PyLong_AsLong(args[4]);
+    lock = PyObject_IsTrue(args[5]);
+    spin = PyFloat_AsDouble(args[6]);
+    if (PyErr_Occurred())
+        return NULL;
+    if (n < 0 || priority < 0 || priority > 99 || r->dim != self->s.dim || !(spin >= 0.0 && spin <= 0.01)) {
+        PyErr_SetString(PyExc_ValueError,
+                        "n_ticks >= 0, priority 0-99, spin 0-10 ms and a renderer of the servo's dimension");
+        return NULL;
+    }
+    memset(&self->th, 0, sizeof self->th);
+    if (Py_IS_TYPE(args[1], &PlantType)) {
+        hx_plant *d = &((PlantObject *)args[1])->d;
+        if (d->n != self->s.dim) {
+            PyErr_SetString(PyExc_ValueError, "the plant's dimension is not the servo's");
+            return NULL;
+        }
+        self->th.io.read = plant_read;
+        self->th.io.write = plant_write;
+        self->th.io.ctx = d;
+    } else if (PyTuple_Check(args[1]) && PyTuple_GET_SIZE(args[1]) == 4 && self->s.dim == 3 &&
+               PyUnicode_Check(PyTuple_GET_ITEM(args[1], 0)) &&
+               PyUnicode_CompareWithASCIIString(PyTuple_GET_ITEM(args[1], 0), "dhd") == 0) {
+        void *g = address(PyTuple_GET_ITEM(args[1], 1)), *f;
+        long id;
+        if (g == NULL || (f = address(PyTuple_GET_ITEM(args[1], 2))) == NULL)
+            return NULL;
+        id = PyLong_AsLong(PyTuple_GET_ITEM(args[1], 3));
+        if (id == -1 && PyErr_Occurred())
+            return NULL;
+        memcpy(&self->dhd_get_position, &g, sizeof g);
+        memcpy(&self->dhd_set_force, &f, sizeof f);
+        self->dhd_id = (char)id;
+        self->th.io.read = dhd_read;
+        self->th.io.write = dhd_write;
+        self->th.io.ctx = self;
+    } else {
+        PyErr_SetString(PyExc_TypeError, "device must be a Plant or ('dhd', get_position, set_force, id) (3-D)");
+        return NULL;
+    }
+    self->th.servo = &self->s;
+    self->th.renderer = &r->r;
+    self->th.ticks = &self->ticks;
+    self->th.n_ticks = n;
+    self->th.paced = paced;
+    self->th.priority = priority;
+    self->th.lock_memory = lock;
+    self->th.spin = fmin(spin, 0.5 * self->s.period); /* (never a spin all period long: a FIFO spin starves the core) */
+    Py_INCREF(args[0]);
+    Py_XSETREF(self->renderer, r);
+    Py_INCREF(args[1]);
+    Py_XSETREF(self->device, args[1]);
+    self->stop = 0;
+    rc = hx_thread_start(&self->th);
+    if (rc != 0) {
+        errno = rc;
+        return PyErr_SetFromErrno(PyExc_OSError);
+    }
+    self->threaded = 1;
+    Py_RETURN_NONE;
+}
+
+static PyObject *Servo_join_method(ServoObject *self, PyObject *unused)
+{
+    (void)unused;
+    if (self->threaded) {
+        Py_BEGIN_ALLOW_THREADS
+        hx_thread_join(&self->th);
+        Py_END_ALLOW_THREADS
+        self->threaded = 0;
+    }
+    Py_RETURN_NONE;
+}
+
+static PyObject *Servo_snapshot(ServoObject *self, PyObject *unused)
+{
+    hx_snapshot sn;
+    (void)unused;
+    hx_thread_snapshot(&self->th, &sn);
+    return Py_BuildValue("(ld(ddd)(ddd))", sn.k, sn.t, sn.p[0], sn.p[1], sn.p[2], sn.f[0], sn.f[1], sn.f[2]);
+}
+
+PyDoc_STRVAR(servo_timing_doc, "timing()\n--\n\nThe ticks' timing as counted by every driver: a dict of work_max, "
+                               "work_p999, jitter_max, jitter_p999 (s; jitter |dt - T|, dt the time between samples; "
+                               "quantiles to 100 ns), overruns; and for the native thread fifo, locked (what it got) "
+                               "and io_error (0, 1 the device's read failed, 2 its write) at io_error_tick.");
+
+static PyObject *Servo_timing(ServoObject *self, PyObject *unused)
+{
+    (void)unused;
+    return Py_BuildValue("{s:d,s:d,s:d,s:d,s:l,s:O,s:O,s:i,s:l}", "work_max", self->ticks.work_max, "work_p999",
+                         fmin(hx_ticks_quantile(self->ticks.work, 0.999), self->ticks.work_max), "jitter_max",
+                         self->ticks.jitter_max, "jitter_p999",
+                         fmin(hx_ticks_quantile(self->ticks.jitter, 0.999), self->ticks.jitter_max), "overruns",
+                         self->ticks.overruns, "fifo", self->th.fifo ? Py_True : Py_False, "locked",
+                         self->th.locked ? Py_True : Py_False, "io_error", self->th.io_error, "io_error_tick",
+                         self->th.io_error_tick);
 }
 
 static PyObject *Servo_get_engaged_at(ServoObject *self, void *closure)
@@ -1162,7 +1509,12 @@ static PyObject *Servo_get_work_mean(ServoObject *self, void *closure)
 static PyMethodDef Servo_methods[] = {
     {"tick", (PyCFunction)(void (*)(void))Servo_tick, METH_FASTCALL, servo_tick_doc},
     {"hd_callback", (PyCFunction)(void (*)(void))Servo_hd_callback, METH_FASTCALL, servo_hd_doc},
-    {"stop", (PyCFunction)Servo_stop, METH_NOARGS, "Ask the native driver's callback to send zero and end."},
+    {"stop", (PyCFunction)Servo_stop, METH_NOARGS, "Ask the native driver (callback or thread) to send zero and end."},
+    {"start", (PyCFunction)(void (*)(void))Servo_start, METH_FASTCALL, servo_start_doc},
+    {"join", (PyCFunction)Servo_join_method, METH_NOARGS, "Wait for the native thread's end (the GIL released)."},
+    {"snapshot", (PyCFunction)Servo_snapshot, METH_NOARGS,
+     "The native thread's last tick, read without blocking it (a seqlock): (k, t, p, f)."},
+    {"timing", (PyCFunction)Servo_timing, METH_NOARGS, servo_timing_doc},
     {NULL, NULL, 0, NULL},
 };
 
@@ -2138,7 +2490,8 @@ PyMODINIT_FUNC PyInit__ext(void)
         return NULL;
     if (PyType_Ready(&RendererType) < 0 || PyModule_AddObjectRef(mod, "Renderer", (PyObject *)&RendererType) < 0 ||
         PyType_Ready(&ServoType) < 0 || PyModule_AddObjectRef(mod, "Servo", (PyObject *)&ServoType) < 0 ||
-        PyType_Ready(&BaseType) < 0 || PyModule_AddObjectRef(mod, "Base", (PyObject *)&BaseType) < 0) {
+        PyType_Ready(&BaseType) < 0 || PyModule_AddObjectRef(mod, "Base", (PyObject *)&BaseType) < 0 ||
+        PyType_Ready(&PlantType) < 0 || PyModule_AddObjectRef(mod, "Plant", (PyObject *)&PlantType) < 0) {
         Py_DECREF(mod);
         return NULL;
     }

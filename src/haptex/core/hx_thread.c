@@ -1,0 +1,201 @@
+/*
+ * The native servo thread (haptex.servo documents the rules it runs): a POSIX thread that
+ * wakes on an absolute deadline of CLOCK_MONOTONIC once a period (clock_nanosleep until spin
+ * seconds before it, then the clock read until it is due: a sleep alone wakes up to ~0.3 ms late
+ * on a machine without a real-time kernel), samples
+ * the device, runs the servo rules and the renderer's tick (hx_servo_tick), commands the
+ * force, counts its own time, and publishes the tick to a seqlock that Python reads without
+ * ever blocking it. It runs at SCHED_FIFO with its memory locked where the user's rights allow
+ * (and says what it got); it allocates nothing on the tick and never touches Python.
+ *
+ * A tick that ends after the next one was due is an overrun: the schedule skips the periods
+ * already past (no burst of catch-up ticks), and the next sample, late, is answered with zero
+ * force by the watchdog (hx_servo's rule 2). Zero force is commanded on every exit: the end,
+ * stop, a failed device.
+ */
+#define _GNU_SOURCE
+#include "hx_host.h"
+
+#include <errno.h>
+#include <math.h>
+#include <pthread.h>
+#include <sched.h>
+#include <string.h>
+#include <sys/mman.h>
+#include <time.h>
+
+/* the thread's handle lives in hx_thread's opaque bytes */
+typedef char hx_pthread_fits[sizeof(pthread_t) <= sizeof(((hx_thread *)0)->handle) ? 1 : -1];
+
+double hx_now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+void hx_ticks_count(hx_ticks *c, double work, double jitter)
+{
+    long b;
+    if (work > c->work_max)
+        c->work_max = work;
+    if (c->work != NULL) {
+        b = work < 0.0 ? 0 : (long)(work / HX_HIST_STEP);
+        c->work[b < HX_HIST_BINS ? b : HX_HIST_BINS]++;
+    }
+    if (jitter < 0.0)
+        return;
+    if (jitter > c->jitter_max)
+        c->jitter_max = jitter;
+    if (c->jitter != NULL) {
+        b = (long)(jitter / HX_HIST_STEP);
+        c->jitter[b < HX_HIST_BINS ? b : HX_HIST_BINS]++;
+    }
+}
+
+double hx_ticks_quantile(const unsigned int *hist, double q)
+{
+    double total = 0.0, need, acc = 0.0;
+    long b;
+    if (hist == NULL)
+        return 0.0;
+    for (b = 0; b <= HX_HIST_BINS; b++)
+        total += hist[b];
+    if (total <= 0.0)
+        return 0.0;
+    need = q * total;
+    for (b = 0; b <= HX_HIST_BINS; b++) {
+        acc += hist[b];
+        if (acc >= need)
+            break;
+    }
+    if (b > HX_HIST_BINS)
+        b = HX_HIST_BINS;
+    return (double)(b + 1) * HX_HIST_STEP;
+}
+
+static void publish(hx_thread *th, double t, const double p[3], const double f[3])
+{
+    /* seqlock: odd while writing; the reader retries on odd or changed */
+    __atomic_store_n(&th->seq, th->seq + 1, __ATOMIC_RELAXED);
+    __atomic_thread_fence(__ATOMIC_RELEASE);
+    th->snap.k = th->servo->k;
+    th->snap.t = t;
+    memcpy(th->snap.p, p, 3 * sizeof p[0]);
+    memcpy(th->snap.f, f, 3 * sizeof f[0]);
+    __atomic_store_n(&th->seq, th->seq + 1, __ATOMIC_RELEASE);
+}
+
+void hx_thread_snapshot(const hx_thread *th, hx_snapshot *out)
+{
+    unsigned long a, b;
+    do {
+        a = __atomic_load_n(&th->seq, __ATOMIC_ACQUIRE);
+        memcpy(out, (const void *)&th->snap, sizeof *out);
+        __atomic_thread_fence(__ATOMIC_ACQUIRE);
+        b = __atomic_load_n(&th->seq, __ATOMIC_RELAXED);
+    } while ((a & 1UL) || a != b);
+}
+
+static void add(struct timespec *ts, double s)
+{
+    long ns = (long)llround(s * 1e9);
+    ts->tv_sec += ns / 1000000000L;
+    ts->tv_nsec += ns % 1000000000L;
+    if (ts->tv_nsec >= 1000000000L) {
+        ts->tv_sec++;
+        ts->tv_nsec -= 1000000000L;
+    } else if (ts->tv_nsec < 0) {
+        ts->tv_sec--;
+        ts->tv_nsec += 1000000000L;
+    }
+}
+
+static double seconds(const struct timespec *ts) { return (double)ts->tv_sec + 1e-9 * (double)ts->tv_nsec; }
+
+static void *loop(void *arg)
+{
+    hx_thread *th = arg;
+    hx_servo *s = th->servo;
+    const double T = s->period, zero[3] = {0.0, 0.0, 0.0};
+    double p[3], f[3], prev = -1.0;
+    struct timespec due;
+    long k;
+    if (th->lock_memory)
+        th->locked = mlockall(MCL_CURRENT | MCL_FUTURE) == 0;
+    clock_gettime(CLOCK_MONOTONIC, &due);
+    for (k = 0; k < th->n_ticks && !th->stop; k++) {
+        double wake, end, due_s;
+        if (k > 0) {
+            add(&due, T);
+            if (th->paced) {
+                struct timespec early = due;
+                add(&early, -th->spin);
+                while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &early, NULL) == EINTR)
+                    ;
+                while (hx_now() < seconds(&due)) /* the last spin seconds on the clock */
+                    ;
+            }
+        }
+        due_s = seconds(&due);
+        wake = hx_now();
+        if (th->io.read(th->io.ctx, p)) {
+            th->io_error = 1;
+            th->io_error_tick = k;
+            break;
+        }
+        hx_servo_tick(s, th->renderer, wake, (double)k * T, p, f);
+        if (th->io.write(th->io.ctx, f)) {
+            th->io_error = 2;
+            th->io_error_tick = k;
+            break;
+        }
+        end = hx_now();
+        hx_servo_end(s, end);
+        hx_ticks_count(th->ticks, end - wake, prev < 0.0 ? -1.0 : fabs(wake - prev - T));
+        prev = wake;
+        publish(th, (double)k * T, p, f);
+        if (th->paced && end > due_s + T) { /* an overrun: skip the periods already past */
+            long behind = (long)floor((end - due_s) / T);
+            th->ticks->overruns++;
+            add(&due, (double)(behind - 1) * T);
+        }
+    }
+    th->io.write(th->io.ctx, zero); /* zero force on every exit: the end, stop, a failed device */
+    if (th->locked)
+        munlockall();
+    __atomic_store_n(&th->done, 1, __ATOMIC_RELEASE);
+    return NULL;
+}
+
+int hx_thread_start(hx_thread *th)
+{
+    pthread_t *tid = (pthread_t *)(void *)th->handle;
+    pthread_attr_t attr;
+    int rc = -1;
+    th->stop = th->done = 0;
+    th->fifo = th->locked = th->io_error = 0;
+    th->io_error_tick = -1;
+    th->seq = 0;
+    memset(&th->snap, 0, sizeof th->snap);
+    if (th->priority > 0 && pthread_attr_init(&attr) == 0) { /* a real-time thread, where allowed */
+        struct sched_param sp;
+        sp.sched_priority = th->priority;
+        if (pthread_attr_setinheritsched(&attr, PTHREAD_EXPLICIT_SCHED) == 0 &&
+            pthread_attr_setschedpolicy(&attr, SCHED_FIFO) == 0 && pthread_attr_setschedparam(&attr, &sp) == 0)
+            rc = pthread_create(tid, &attr, loop, th);
+        pthread_attr_destroy(&attr);
+        th->fifo = rc == 0;
+    }
+    if (rc != 0) /* refused (EPERM without the rights) or not asked: a plain thread */
+        rc = pthread_create(tid, NULL, loop, th);
+    th->started = rc == 0;
+    return rc;
+}
+
+void hx_thread_join(hx_thread *th)
+{
+    if (th->started)
+        pthread_join(*(pthread_t *)(void *)th->handle, NULL);
+    th->started = 0;
+}
