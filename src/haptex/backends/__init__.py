@@ -112,6 +112,19 @@ def wait_native(servo, name: str, on_tick=None, thread: bool = True) -> None:
     the C callback) runs ``servo`` (a ``haptex.core._ext.Servo``), calling ``on_tick(k,
     servo)`` about every 50 ms (a live dashboard: it reads counts, never blocks a tick).
 
+    Parameters
+    ----------
+    servo : haptex.core._ext.Servo
+        The servo whose native driver was started.
+    name : str
+        The device's name, for the messages.
+    on_tick : callable, optional
+        ``on_tick(k, servo)``: ``k`` the last tick commanded; ``servo.snapshot()`` gives that
+        tick's (k, t, position, force), read through the thread's seqlock.
+    thread : bool, optional
+        The driver is the C core's servo thread (True: joined at its end, its device errors
+        raised), not a vendor's thread calling the C callback.
+
     Raises
     ------
     KeyboardInterrupt

@@ -170,6 +170,20 @@ class ForceDimensionBackend:
         on the clock (as fast as it goes when not real-time). The thread sends zero force at
         its end; this thread waits (:func:`haptex.backends.wait_native`).
 
+        Parameters
+        ----------
+        servo : haptex.core._ext.Servo
+            The rules, their counts and the trace (:class:`haptex.servo.ServoLoop` makes it).
+        core : haptex.core._ext.Renderer
+            The renderer's C core (``Renderer._core``), of dimension 3.
+        n_ticks : int
+            Ticks to run.
+        on_tick : callable, optional
+            The dashboard, ``on_tick(k, servo)`` about every 50 ms.
+        priority : int, optional
+            The SCHED_FIFO priority to ask for (0: a plain thread), default
+            :data:`haptex.backends.PRIORITY`; not asked when not real-time.
+
         Raises
         ------
         KeyboardInterrupt
