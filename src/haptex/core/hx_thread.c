@@ -121,8 +121,16 @@ static void *loop(void *arg)
     double p[3], f[3], prev = -1.0;
     struct timespec due;
     long k;
-    if (th->lock_memory)
-        th->locked = mlockall(MCL_CURRENT | MCL_FUTURE) == 0;
+    if (th->lock_memory) {
+        /* the pages the process has, and those it touches from now on, stay in memory; on
+         * fault only: the untouched reservations of a Python process (hundreds of MB of
+         * thread stacks and arenas) are not made resident for it */
+        int flags = MCL_CURRENT | MCL_FUTURE;
+#ifdef MCL_ONFAULT
+        flags |= MCL_ONFAULT;
+#endif
+        th->locked = mlockall(flags) == 0;
+    }
     clock_gettime(CLOCK_MONOTONIC, &due);
     for (k = 0; k < th->n_ticks && !th->stop; k++) {
         double wake, end, due_s;
