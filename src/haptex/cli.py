@@ -959,6 +959,10 @@ def sweep(spec, out, scheduler, workers, quiet):
 @click.option("--record", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Write the run log (time, position, force, engaged) to FILE.csv (the columns of the file formats "
                    "page, read by 'haptex identify') or FILE.npz.")
+@click.option("--find-limit", "find_limit_run", is_flag=True,
+              help="Instead of a texture: a smooth wall whose stiffness rises by 10% every 0.5 s while the handle "
+                   "rests on it, stopped (force zero) at the first step that oscillates; from --stiffness when "
+                   "given, else a quarter of the predicted stable limit with --hand, up to four times that limit.")
 @click.option("--identify", "identify_run", is_flag=True,
               help="Instead of a texture: the identification program (steps and a chirp along x at 20% of the "
                    "device's max force, a 50 N/m centering spring), the handle free; needs --record.")
@@ -966,7 +970,8 @@ def sweep(spec, out, scheduler, workers, quiet):
 @click.option("--quiet", is_flag=True, help="No live dashboard.")
 @_core_blas_held  # BLAS in the set-up (a preset's matrices, a slope bound) wakes no worker to spin beside the loop
 def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration, passivity_control, stabiliser, hand,
-               speed, fast, object_spec, uv_scale, tip_radius, crop, record, identify_run, as_json, quiet):
+               speed, fast, object_spec, uv_scale, tip_radius, crop, record, find_limit_run, identify_run, as_json,
+               quiet):
     """Render one texture on one device, with the safety rules of haptex.servo and a live dashboard."""
     import numpy as np
 
@@ -981,6 +986,18 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
     if record is not None and not (record.parent if str(record.parent) else Path(".")).is_dir():
         raise ParameterError(f"record = {str(record)!r} is not allowed: its directory does not exist")
     ctx = click.get_current_context()
+    if find_limit_run:
+        if identify_run:
+            raise ParameterError("--find-limit is not allowed with --identify: one program a run")
+        given = [n for n in ("texture_spec", "letter", "passivity_control", "stabiliser", "object_spec", "tip_radius",
+                             "crop", "speed", "duration")
+                 if ctx.get_parameter_source(n) == click.core.ParameterSource.COMMANDLINE]
+        if given:
+            opt = next(o for o in ctx.command.params if o.name == given[0]).opts[-1]
+            raise ParameterError(f"{opt} is not allowed with --find-limit: the run is a smooth wall, its stiffness "
+                                 "in steps, the handle resting on it, as long as the steps take")
+        start = stiffness if ctx.get_parameter_source("stiffness") == click.core.ParameterSource.COMMANDLINE else None
+        return _find_limit_run(device_spec, start, max_force, hand, fast, record, as_json, quiet)
     if identify_run:
         if record is None:
             raise ParameterError("--identify is not allowed without --record FILE.csv: the run's log is what "
@@ -1075,7 +1092,9 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
             stats, trace = loop.run(duration, on_tick=show)
     else:
         stats, trace = loop.run(duration)
-    verdict = analyse_trace(trace, dev.period, dev.position_resolution)
+    periods = getattr(getattr(tex, "profile", tex), "periods", None) if tex is not None else None
+    verdict = analyse_trace(trace, dev.period, dev.position_resolution, () if periods is None else periods,
+                            speed=abs(backend.speed) if kind == "simulated" else None)
     per_axis, osc = verdict["energy"], verdict["oscillation"]
     axes = "xz" if backend.dimension == 2 else "xyz"
     summary = {"device": backend.name, "algorithm": letter, "object": None if base is None else repr(base),
@@ -1094,8 +1113,11 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
                "amplitude": osc.amplitude, "frequency": osc.frequency,
                "stabiliser": None if pc is None else pc.label,
                "stabiliser_ticks": 0 if pc is None else renderer.controller_active,
-               "buzz_db": None if verdict["buzz"] is None else verdict["buzz"].margin_db,
-               "buzz_frequency": None if verdict["buzz"] is None else verdict["buzz"].frequency,
+               # (None: no component above the encoder's floor, nothing to judge)
+               "buzz_db": None if verdict["buzz"] is None or verdict["buzz"].margin_db == -math.inf
+               else verdict["buzz"].margin_db,
+               "buzz_frequency": None if verdict["buzz"] is None or verdict["buzz"].margin_db == -math.inf
+               else verdict["buzz"].frequency,
                "units": {"stiffness": "N/m", "max_force": "N", "duration": "s", "engaged_at": "s",
                          "amplitude": "m", "frequency": "Hz",
                          "max_force_sent": "N", "energy_observed": "J", **{f"energy_{a}": "J" for a in axes},
@@ -1134,6 +1156,62 @@ def _write_record(record: Path, trace: dict, period: float) -> None:
         write_log(record, trace["time"], trace["position"], trace["force"], trace["engaged"])
     else:
         np.savez(record, **trace, period=period, units=np.array(["s", "m", "N", "1"]))
+
+
+def _find_limit_run(device_spec, start, max_force, hand, fast, record, as_json, quiet) -> None:
+    """``haptex run --find-limit``: the stiffness ladder on the device (haptex.limits.find_limit)."""
+    from .backends import open_backend
+    from .catalogue import hand as _hand
+    from .limits import FIND_RATIO, FIND_SPAN, FIND_STEP, SIM_PUSH, find_limit, wall_limits
+
+    kind = str(device_spec).partition(":")[0]
+    h = _hand(hand)
+    if kind == "simulated":  # the hand rests on the wall: pressing with SIM_PUSH, not scanning
+        if h.none:
+            raise ParameterError("hand = 'none' is not allowed with --find-limit on a simulated device: a hand rests "
+                                 "the handle on the wall (light-touch, or another of 'haptex devices --hands')")
+        backend = open_backend(device_spec, hand=hand, speed=0.0, press=SIM_PUSH / h.stiffness, realtime=not fast)
+    else:
+        backend = open_backend(device_spec, **({"realtime": not fast} if kind == "forcedimension" else {}))
+    dev = backend.device
+    fmax = backend.max_force if max_force is None else max_force
+    if not fmax <= backend.max_force:
+        raise ParameterError(f"max_force = {fmax:g} N is not allowed: at most the device's {backend.max_force:g} N")
+    # the predicted limit with the hand (the simulated device's mass has the hand's attached: its preset's has not)
+    predicted = wall_limits(backend.preset.device() if kind == "simulated" else dev, h).stable
+    k0 = predicted / FIND_SPAN if start is None else start
+    top = predicted * FIND_SPAN if start is None else max(predicted * FIND_SPAN, start * FIND_RATIO ** 10)
+    if not quiet and not as_json:
+        click.echo(f"{backend.name}: lift the handle above the wall (z > 0), then rest it on the wall; the stiffness "
+                   f"rises from {k0:.4g} to at most {top:.4g} N/m, by {FIND_RATIO:g}x every "
+                   f"{FIND_STEP:g} s (Ctrl-C stops with zero force)", err=True)
+
+    def show(step):
+        if not quiet and not as_json:
+            buzz = "" if step["buzz_db"] is None else f", buzz {step['buzz_db']:+.1f} dB at {step['buzz_frequency']:.4g} Hz"
+            click.echo(f"  {step['stiffness']:9.4g} N/m  {step['regime']}{buzz}", err=True)
+    res = find_limit(backend, k0, top, max_force=fmax if math.isfinite(fmax) else None, on_step=show)
+    if record is not None:
+        _write_record(record, res.trace, backend.period)
+    summary = {"device": backend.name, "program": "find-limit", "hand": h.key, "predicted_stable": predicted,
+               **res.as_dict(), "ticks": res.stats.ticks, "missed_deadlines": res.stats.missed,
+               "faults": res.stats.faults, "max_force_sent": res.stats.max_force_sent, "driver": res.stats.driver,
+               "overruns": res.stats.overruns}
+    summary["units"] = {**summary["units"], "predicted_stable": "N/m", "max_force_sent": "N"}
+    if as_json:
+        click.echo(json.dumps(_jsonable(summary), indent=2))
+        return
+    found = ("no step was held: the forces never engaged (start with the handle above the wall)"
+             if res.reason == "not engaged" else
+             f"the first step oscillated ({res.oscillating:.4g} N/m): start lower with --stiffness"
+             if res.clean is None else
+             f"clean up to {res.clean:.4g} N/m" + ("" if res.oscillating is None else
+                                                   f", oscillating at {res.oscillating:.4g} N/m"))
+    click.echo(f"{backend.name}: {found}; {len(res.steps)} steps, ended by {res.reason}; predicted stable limit "
+               f"with the hand {h.key!r}: {predicted:.4g} N/m; largest force sent {res.stats.max_force_sent:.3g} N, "
+               f"{res.stats.missed} missed deadlines, {res.stats.faults} faults; force zero at the end")
+    if record is not None:
+        click.echo(f"trace: {record}")
 
 
 def _identification_run(backend, program, fmax: float, duration: float, record: Path, as_json: bool) -> None:

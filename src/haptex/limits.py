@@ -267,3 +267,216 @@ def stiffness_at(limit: float, q: float) -> float:
     if math.isinf(q):
         return 0.0
     return math.inf if q <= 0 else limit / q
+
+
+# --------------------------------------------------------------------------------------
+# the wall limit found on the device
+# --------------------------------------------------------------------------------------
+FIND_RATIO = 1.1
+"""Ratio between neighbouring stiffnesses of :func:`find_limit`'s ladder (chosen: the limit is
+then bracketed within 10 %)."""
+FIND_STEP = 0.5
+"""Seconds each stiffness of :func:`find_limit` is held (chosen: the verdict reads its last
+:data:`haptex.servo.TAIL_FRACTION`, 0.2 s, 200 ticks at 1 kHz: three cycles down to 15 Hz)."""
+FIND_SPAN = 4.0
+"""By default :func:`find_limit` climbs from the predicted stable limit over this factor to
+that limit times it (chosen, as :func:`simulated_wall_limit`'s grid)."""
+
+
+@dataclass(frozen=True)
+class LimitSearch:
+    """What :func:`find_limit` found on a device.
+
+    Parameters
+    ----------
+    clean : float or None
+        The largest stiffness (N/m) held without oscillating: the step before the first that
+        oscillated, or the ladder's last; None when the first step oscillated.
+    oscillating : float or None
+        The first stiffness (N/m) whose step oscillated (the run stopped there); None when
+        none did.
+    reason : str
+        Why the run ended: ``oscillation``, ``ladder end`` (no step oscillated),
+        ``interrupted`` (Ctrl-C) or ``not engaged`` (the forces never engaged: nothing rested
+        on the wall).
+    steps : list of dict
+        One per step held: ``stiffness`` (N/m), ``start`` (s), ``regime``, ``oscillating``,
+        ``amplitude`` (m), ``frequency`` (Hz), ``buzz_db`` (dB above the hand's detection
+        threshold, None when nothing above the encoder's floor moved), ``buzz_frequency``
+        (Hz).
+    stopped_at : float or None
+        The time the run was stopped at (s), None at the ladder's end.
+    stats : haptex.servo.ServoStats
+        The run's counts (zero force sent at its end, as on every exit).
+    trace : dict
+        ``time``, ``position``, ``force``, ``engaged`` per tick (:meth:`haptex.servo.ServoLoop.run`).
+    """
+
+    clean: float | None
+    oscillating: float | None
+    reason: str
+    steps: list
+    stopped_at: float | None
+    stats: object
+    trace: dict
+
+    def as_dict(self) -> dict:
+        """The search as JSON-ready data, with a ``units`` table (``haptex run --find-limit --json``)."""
+        return {"clean_stiffness": self.clean, "oscillating_stiffness": self.oscillating, "reason": self.reason,
+                "stopped_at": self.stopped_at, "steps": self.steps,
+                "units": {"clean_stiffness": "N/m", "oscillating_stiffness": "N/m", "stopped_at": "s",
+                          "stiffness": "N/m", "start": "s", "amplitude": "m", "frequency": "Hz",
+                          "buzz_db": "dB above the detection threshold", "buzz_frequency": "Hz"}}
+
+
+def stiffness_ladder(start: float, stop: float, ratio: float = FIND_RATIO) -> np.ndarray:
+    """The stiffnesses :func:`find_limit` climbs: start, start r, start r^2, ... up to stop (N/m).
+
+    Parameters
+    ----------
+    start, stop : float
+        The first stiffness and the largest allowed (N/m), finite and > 0.
+    ratio : float, optional
+        r, between neighbouring steps, in (1, 2]; default :data:`FIND_RATIO`.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        N/m, ascending, the last at most ``stop``.
+
+    Raises
+    ------
+    ParameterError
+        For a start or stop not finite and > 0, a stop below the start, a ratio not in
+        (1, 2], or more than 200 steps.
+    """
+    from ._validation import fail, positive
+
+    k0 = positive("start", start, "N/m")
+    k1 = positive("stop", stop, "N/m")
+    r = positive("ratio", ratio)
+    if not 1.0 < r <= 2.0:
+        raise fail("ratio", r, "in (1, 2]: the bracket a step leaves around the limit")
+    if k1 < k0:
+        raise fail("stop", f"{k1:g} N/m", f"at least the start, {k0:g} N/m")
+    n = int(math.floor(math.log(k1 / k0) / math.log(r) + 1e-9)) + 1
+    if n > 200:
+        raise fail("ratio", r, f"a ladder of at most 200 steps from {k0:g} to {k1:g} N/m (this one has {n}): "
+                   "a larger ratio or a narrower span")
+    return k0 * r ** np.arange(n)
+
+
+def find_limit(backend, start: float, stop: float, ratio: float = FIND_RATIO, step_duration: float = FIND_STEP,
+               max_force: float | None = None, native: bool = True, on_step=None) -> LimitSearch:
+    """Find the stiffest virtual wall a device holds without oscillating, on the device.
+
+    A smooth wall W (z < 0 inside) is rendered while the user rests the handle on it; its
+    stiffness rises in steps (:func:`stiffness_ladder`), each held ``step_duration`` s and
+    handed to the running tick between ticks (:meth:`haptex.Renderer.set_stiffness`).
+    Each step is judged on its last :data:`haptex.servo.TAIL_FRACTION` by the detectors of
+    :func:`haptex.servo.analyse_trace` (the handle's motion with the encoder's staircase
+    removed): at the first step whose regime is a limit cycle, growth or divergence the run
+    is stopped, the force zero from the next tick (the servo's rule 5), and the step before
+    it is the answer. Every step's buzz is reported beside. The servo's safety rules hold
+    throughout (engagement, the maximum force, the watchdog, zero force on every exit). The
+    steps start once the forces are engaged and ramped in.
+
+    The question every user of a new device asks ("how stiff can my wall be"), answered as
+    they answer it by hand, raising the stiffness until it buzzes, but with the verdict
+    measured and the force cut within a tick. The result holds for the grip the user had:
+    the hand is part of the loop (:func:`wall_limits`, Diolaiti et al. 2006).
+
+    Parameters
+    ----------
+    backend : DeviceBackend
+        Not yet opened (:func:`haptex.backends.open_backend`); the run opens and closes it.
+    start, stop : float
+        The ladder's first and largest stiffness (N/m); no stiffness above ``stop`` is ever
+        sent.
+    ratio : float, optional
+        Between neighbouring steps, in (1, 2]; default :data:`FIND_RATIO`.
+    step_duration : float, optional
+        s a step is held, at least 0.1 s; default :data:`FIND_STEP`.
+    max_force : float, optional
+        N, at most the device's; default the device's.
+    native : bool, optional
+        Run the native servo thread where the backend has one (default; the steps then change
+        on the first check after their time, about every 50 ms, and each step's start is the
+        tick that took it); False runs the Python loop, whose steps change at their tick.
+    on_step : callable, optional
+        Called as ``on_step(step)`` with each step's dict as it is judged (a progress display).
+
+    Returns
+    -------
+    LimitSearch
+
+    Raises
+    ------
+    ParameterError
+        For a ladder or durations out of range (:func:`stiffness_ladder`).
+    DeviceError
+        If the device stops answering (zero force sent first).
+    """
+    from ._validation import fail, positive
+    from .algorithms import algorithm
+    from .renderer import Renderer
+    from .servo import TAIL_FRACTION, ServoLoop, analyse_trace
+    from .textures import Flat
+
+    ladder = stiffness_ladder(start, stop, ratio)
+    tau = positive("step_duration", step_duration, "s")
+    if tau < 0.1:
+        raise fail("step_duration", f"{tau:g} s", "at least 0.1 s: a step's verdict needs cycles to read")
+    d, T = backend.dimension, backend.period
+    n_step = int(round(tau / T))
+    alg = algorithm("W", Flat(dimension=2) if d == 3 else None, float(ladder[0]))
+    renderer = Renderer(alg, max_force=max_force)
+    # engaged on the first tick outside the wall (the user starts with the handle lifted; inside
+    # it, the servo's rule 3 still waits), then ramped in as ever; the native thread only where
+    # the clock paces it (run as fast as it goes, its ticks would outrun the steps' checks)
+    native = native and bool(getattr(backend, "realtime", True))
+    loop = ServoLoop(backend, renderer, max_force=max_force, native=native, engage_ticks=1)
+    resolution = float(getattr(backend.device, "position_resolution", 0.0) or 0.0)
+    state = {"i": 0, "from": None, "reason": None, "oscillating": None, "stopped": None}
+    steps: list = []
+
+    def watch(k, servo):
+        if state["reason"] is not None or servo.engaged_at is None:
+            return
+        if state["from"] is None:  # the first step: once the forces are ramped in
+            state["from"] = servo.engaged_at + loop.ramp_ticks
+        lo = state["from"]
+        if k + 1 - lo < n_step:
+            return
+        window = {name: loop.trace[name][lo:k + 1] for name in ("position", "force")}
+        v = analyse_trace(window, T, resolution, speed=0.0)
+        b = v["buzz"]
+        osc = v["oscillation"]
+        step = {"stiffness": float(ladder[state["i"]]), "start": lo * T, "regime": v["regime"],
+                "oscillating": bool(osc.oscillating or v["regime"] == "diverged"), "amplitude": osc.amplitude,
+                "frequency": osc.frequency, "buzz_db": None if b is None or b.margin_db == -math.inf else b.margin_db,
+                "buzz_frequency": None if b is None or b.margin_db == -math.inf else b.frequency}
+        steps.append(step)
+        if on_step is not None:
+            on_step(step)
+        if step["oscillating"]:
+            servo.stop()  # zero force from the next tick: rule 5
+            state.update(reason="oscillation", oscillating=step["stiffness"], stopped=(k + 1) * T)
+        elif state["i"] + 1 == ladder.size:
+            servo.stop()
+            state.update(reason="ladder end")
+        else:
+            state["i"] += 1
+            renderer.set_stiffness(float(ladder[state["i"]]), limit=float(ladder[-1]))
+            state["from"] = k + 1
+
+    # the ladder's time, the engagement (the handle let down onto the wall) and a margin
+    duration = (ladder.size + 1) * n_step * T + (loop.engage_ticks + loop.ramp_ticks) * T + 5.0
+    stats, trace = loop.run(duration, on_tick=watch)
+    reason = "interrupted" if stats.interrupted else state["reason"] or ("not engaged" if stats.engaged_at is None
+                                                                           else "ladder end")
+    clean = None
+    judged = [s for s in steps if not s["oscillating"]]
+    if judged:
+        clean = judged[-1]["stiffness"]
+    return LimitSearch(clean, state["oscillating"], reason, steps, state["stopped"], stats, trace)

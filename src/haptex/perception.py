@@ -33,7 +33,7 @@ import numpy as np
 
 from ._validation import fail, positive
 
-__all__ = ["THRESHOLD", "detection_threshold", "Buzz", "buzz", "clean_stiffness"]
+__all__ = ["THRESHOLD", "detection_threshold", "Buzz", "buzz", "clean_stiffness", "dequantise"]
 
 THRESHOLD = {
     "minimum": 1e-8,  # m peak: Brisben et al. 1999, "< 0.01 um in some subjects" (published)
@@ -96,6 +96,9 @@ class Buzz:
         Its peak displacement amplitude (m), on its axis.
     axis : int
         Its axis (0: x, last: the normal).
+    floor : float
+        The smallest amplitude the positions can show (m): components at or below it were not
+        judged (0 for exact positions; half an encoder step for sensed ones).
     """
 
     perceptible: bool
@@ -103,9 +106,65 @@ class Buzz:
     frequency: float
     amplitude: float
     axis: int
+    floor: float = 0.0
 
 
-def buzz(position, period: float, exclude=()) -> Buzz:
+def dequantise(position, resolution: float) -> np.ndarray:
+    """The motion behind an encoder's staircase, rebuilt from its transitions.
+
+    A position read on a lattice of step ``resolution`` changes only when the true position
+    crosses the boundary between two levels; at each change the true position is, to within
+    the tick, the mid-level between the two readings. The positions returned interpolate
+    linearly through those crossing points (placed half a tick before the reading that shows
+    them) and hold the first and last ones flat: a constant velocity is returned as the
+    straight line it is, where the staircase adds a sawtooth at v / resolution and its
+    harmonics that no hand feels. This is the fixed-position principle of velocity estimation
+    from encoders (the time between transitions, not the count per tick: R. H. Brown, S. C.
+    Schneider and M. G. Mulligan, "Analysis of algorithms for velocity estimation from
+    discrete position versus time data", IEEE Trans. Industrial Electronics 39(1), 1992).
+    Motion within one step (a dither between two levels) returns as the mid-level: it is below
+    what the encoder resolves.
+
+    Parameters
+    ----------
+    position : array_like, shape (n, d)
+        Sensed positions (m), one row a tick.
+    resolution : float
+        The encoder's step (m), >= 0; 0 returns the positions unchanged (exact positions).
+
+    Returns
+    -------
+    ndarray, shape (n, d)
+        m.
+
+    Raises
+    ------
+    ParameterError
+        For positions that are not a finite (n, d) array, or a resolution not finite and >= 0.
+    """
+    from ._validation import nonnegative
+
+    delta = nonnegative("resolution", resolution, "m")
+    p = np.asarray(position, dtype=np.float64)
+    if p.ndim != 2:
+        raise fail("position", f"an array of shape {p.shape}", "shape (n, d)")
+    if not np.all(np.isfinite(p)):
+        raise fail("position", "an array with non-finite values", "finite positions (m)")
+    if delta == 0 or p.shape[0] < 2:
+        return p.copy()
+    out = np.empty_like(p)
+    k = np.arange(p.shape[0], dtype=np.float64)
+    for a in range(p.shape[1]):
+        u = p[:, a]
+        moved = np.flatnonzero(u[1:] != u[:-1]) + 1  # the ticks whose reading changed
+        if moved.size == 0:
+            out[:, a] = u
+            continue
+        out[:, a] = np.interp(k, moved - 0.5, 0.5 * (u[moved] + u[moved - 1]))
+    return out
+
+
+def buzz(position, period: float, exclude=(), floor: float = 0.0) -> Buzz:
     """How far above the hand's detection threshold the handle vibrates.
 
     Parameters
@@ -117,6 +176,10 @@ def buzz(position, period: float, exclude=()) -> Buzz:
     exclude : sequence of float, optional
         Rates (Hz) the rendering is meant to have (a scan crossing the texture's periods): every
         harmonic of them, +-1.5 bins, is the texture, not buzz.
+    floor : float, optional
+        m, >= 0: components of at most this amplitude are not judged, as the positions cannot
+        show them (for sensed positions, half the encoder's step after :func:`dequantise`;
+        default 0, exact positions).
 
     Returns
     -------
@@ -125,7 +188,8 @@ def buzz(position, period: float, exclude=()) -> Buzz:
     Raises
     ------
     ParameterError
-        For fewer than 16 positions, non-finite positions or a period not > 0.
+        For fewer than 16 positions, non-finite positions, a period not > 0 or a floor not
+    finite and >= 0.
 
     Notes
     -----
@@ -133,7 +197,10 @@ def buzz(position, period: float, exclude=()) -> Buzz:
     amplitude is 2 |X_k| / sum(w), exact for a sinusoid at a bin. The frequency resolution is
     1 / (n T): a run of 1 s resolves 1 Hz.
     """
+    from ._validation import nonnegative
+
     T = positive("period", period, "s")
+    floor = nonnegative("floor", floor, "m")
     p = np.asarray(position, dtype=np.float64)
     if p.ndim != 2 or p.shape[0] < 16:
         raise fail("position", f"an array of shape {p.shape}", "shape (n, d) with n >= 16 samples")
@@ -153,13 +220,16 @@ def buzz(position, period: float, exclude=()) -> Buzz:
             h = np.maximum(np.round(freq / rate), 1.0)  # the nearest harmonic of each bin
             keep &= np.abs(freq - h * rate) > 1.5 * res
     if not np.any(keep):
-        return Buzz(False, -np.inf, 0.0, 0.0, p.shape[1] - 1)
+        return Buzz(False, -np.inf, 0.0, 0.0, p.shape[1] - 1, floor)
     thr = detection_threshold(freq[keep])
+    a_keep = amp[keep]
     with np.errstate(divide="ignore"):
-        margin = 20 * np.log10(amp[keep] / thr[:, None])
+        margin = np.where(a_keep > floor, 20 * np.log10(a_keep / thr[:, None]), -np.inf)
     k, a = np.unravel_index(int(np.argmax(margin)), margin.shape)
     m = float(margin[k, a])
-    return Buzz(bool(m > 0), m, float(freq[keep][k]), float(amp[keep][k, a]), int(a))
+    if m == -np.inf:
+        return Buzz(False, -np.inf, 0.0, 0.0, p.shape[1] - 1, floor)
+    return Buzz(bool(m > 0), m, float(freq[keep][k]), float(a_keep[k, a]), int(a), floor)
 
 
 def clean_stiffness(algorithm, device, operator, rates, stiffness, duration: float = 2.0,

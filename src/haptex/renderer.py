@@ -599,6 +599,43 @@ class Renderer:
         self._core.run(pts, out)
         return out
 
+    def set_stiffness(self, stiffness: float, limit: float | None = None) -> None:
+        """Change the nominal stiffness kappa_0 while the renderer runs, between ticks.
+
+        The parameter block of the C core's renderer: the value waits beside the model and
+        the next tick takes it before it computes, never in the middle of one, whichever
+        thread ticks (the native servo thread included); a second call before that tick
+        replaces the first. Every force of W and A-G is proportional to kappa_0, so this
+        scales the rendering; the observer and stabilisers read the new value from that tick.
+
+        Parameters
+        ----------
+        stiffness : float
+            kappa_0 (N/m), finite and > 0.
+        limit : float, optional
+            The largest stiffness the caller allows on this device (N/m): a larger one is
+            refused before it reaches the tick (a change that would be unsafe mid-run).
+
+        Raises
+        ------
+        ParameterError
+            For a stiffness not finite and > 0, or above ``limit``.
+        """
+        k = positive("stiffness", stiffness, "N/m")
+        if limit is not None and k > positive("limit", limit, "N/m"):
+            raise fail("stiffness", f"{k:g} N/m", f"at most {limit:g} N/m, the limit set for this run")
+        self._core.set_stiffness(k)
+
+    @property
+    def stiffness(self) -> float:
+        """kappa_0 (N/m) the ticks use now (a :meth:`set_stiffness` waits for the next tick)."""
+        return self._core.stiffness
+
+    @property
+    def stiffness_changes(self) -> int:
+        """Stiffnesses the ticks have taken from :meth:`set_stiffness`."""
+        return self._core.stiffness_changes
+
     def reset(self) -> None:
         """Clear the algorithm's state (friction, warm start), the observer, the controller and
         the counters."""

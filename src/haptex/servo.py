@@ -179,7 +179,9 @@ class ServoLoop:
             Called as ``on_tick(k, counts)`` every tick of a Python driver, and about every
             50 ms while a native driver runs (a live dashboard); ``counts`` has the attributes
             ``ticks``, ``missed``, ``faults``, ``engaged_at`` and ``max_force_sent`` of
-            :class:`ServoStats`, live.
+            :class:`ServoStats`, live, and ``stop()``, which ends the run with zero force from
+            the next tick (every driver). The trace so far is :attr:`trace`'s rows up to
+            ``counts.ticks``.
 
         Returns
         -------
@@ -201,6 +203,9 @@ class ServoLoop:
         check_budget("duration", duration, n_rec * (8 + 16 * d + 1), "the run's trace")
         trace = {"time": np.zeros(n_rec), "position": np.zeros((n_rec, d)), "force": np.zeros((n_rec, d)),
                  "engaged": np.zeros(n_rec, dtype=bool)}
+        for a in trace.values():  # written once now: no page is first touched by a tick
+            a.fill(0)
+        self.trace = trace  # (read while it runs by on_tick, up to servo.ticks: haptex.limits.find_limit)
         servo = _ext.Servo(d, T, float(self.backend.workspace), float(self.max_force), float(self.engage_force),
                            self.engage_ticks, self.ramp_ticks, float(self.deadline), self.backend_realtime(),
                            *((trace["time"], trace["position"], trace["force"], trace["engaged"]) if record else ()))
@@ -229,6 +234,8 @@ class ServoLoop:
             else:  # lock-step, or a renderer in Python: this thread runs each tick
                 for _ in range(n_ticks):
                     self.backend.command(tick(self.backend.sample()))
+                    if servo.stopping:  # asked by on_tick (servo.stop()): zero force next, below
+                        break
         except KeyboardInterrupt:
             st.interrupted = True
         finally:  # rule 5: zero force on every exit path
@@ -255,12 +262,27 @@ class ServoLoop:
         return bool(getattr(self.backend, "realtime", True))
 
 
+REST_STEPS = 0.75
+"""Encoder steps of half peak-to-peak motion (rebuilt, :func:`haptex.perception.dequantise`) below
+which :func:`analyse_trace` counts a handle at rest (chosen: the rebuilt motion of a dither over
+two, three, four levels has 0, 1/2, 1 step; 3/4 lies between, so no verdict flips on one count)."""
 TAIL_FRACTION = 0.4
 """The share of a trace whose motion :func:`analyse_trace` judges (as :func:`haptex.simulate`)."""
 
 
-def analyse_trace(trace: dict, period: float, resolution: float = 0.0) -> dict:
-    """A trace of :meth:`ServoLoop.run` analysed as a simulated run: energies and oscillation.
+def analyse_trace(trace: dict, period: float, resolution: float = 0.0, texture_periods=(),
+                  speed: float | None = None) -> dict:
+    """A trace of :meth:`ServoLoop.run` analysed as a simulated run: energies, oscillation, buzz.
+
+    The verdicts read the handle's motion, not the encoder's staircase: the sensed positions are
+    first rid of it (:func:`haptex.perception.dequantise`), so a hand sliding at v over an
+    encoder of step delta is not a vibration at v / delta. Buzz counts no component of half a
+    step or less (the encoder cannot show it); the oscillation verdict counts a motion as
+    moving above :data:`REST_STEPS` steps (the encoder reads it over at least four levels), and
+    as sustained when its two halves' amplitudes differ by at most half a step beyond the
+    simulator's tolerance (they are multiples of half a step). The
+    texture's own rates, the scan speed over its periods and their harmonics, are the texture,
+    not an oscillation of the loop nor buzz.
 
     Parameters
     ----------
@@ -269,7 +291,13 @@ def analyse_trace(trace: dict, period: float, resolution: float = 0.0) -> dict:
     period : float
         The servo period (s).
     resolution : float, optional
-        The position sensor's resolution (m): motion below it counts as rest.
+        The position sensor's step (m); 0 for exact positions.
+    texture_periods : sequence of float, optional
+        The rendered texture's spatial periods (m) where it has a line spectrum
+        (``texture.periods``); empty otherwise.
+    speed : float, optional
+        The hand's speed over the texture (m/s) when known (a simulated hand); default the
+        median tangential speed of the judged motion (the positions' axes but the last).
 
     Returns
     -------
@@ -277,34 +305,51 @@ def analyse_trace(trace: dict, period: float, resolution: float = 0.0) -> dict:
         ``energy`` per axis (J): -sum f_k . (p_{k+1} - p_k), what the rendering absorbed from
         the sensed motion under the force sent (< 0: it supplied energy); ``oscillation``
         (:class:`haptex.Oscillation` of the last :data:`TAIL_FRACTION` of the trace, the
-        simulator's own verdict) and its ``regime`` (:func:`haptex.simulate.regime`); ``buzz``
-        (:class:`haptex.perception.Buzz` of the same tail, the handle's vibration against the
-        hand's detection threshold; None for fewer than 16 ticks or a non-finite position; a
-        texture's own rates are not left out, as the hand's speed on a device is not known).
+        simulator's own verdict, its rest threshold :data:`REST_STEPS` sensor steps) and its ``regime`` (:func:`haptex.simulate.regime`;
+        ``oscillation.oscillating`` exactly when the regime is a limit cycle or growth);
+        ``buzz`` (:class:`haptex.perception.Buzz` of the same tail against the hand's
+        detection threshold, its floor half the sensor's step; None for fewer than 16 ticks or
+        a non-finite position); ``texture_rates`` (Hz) left out of both; ``speed`` (m/s) they
+        were computed with.
 
     Raises
     ------
     ParameterError
-        For a non-positive period or a negative resolution.
+        For a non-positive period, a negative resolution, a speed not finite and >= 0, or
+        texture periods not finite and > 0.
     """
     from ._validation import nonnegative
+    from .perception import buzz, dequantise
     from .simulate import _oscillation, regime
 
     T = positive("period", period, "s")
-    threshold = max(nonnegative("resolution", resolution, "m"), 1e-7)
+    delta = nonnegative("resolution", resolution, "m")
+    # a motion the encoder reads over at least four levels: the rebuilt motion's half peak-to-peak
+    # is a multiple of half a step, so 3/4 of one lies between its values (no verdict flips on a count)
+    threshold = max(REST_STEPS * delta, 1e-7)
+    periods = np.atleast_1d(np.asarray(texture_periods, dtype=np.float64))
+    if periods.size and not np.all(np.isfinite(periods) & (periods > 0)):
+        raise fail("texture_periods", periods.tolist(), "finite periods > 0 (m)")
     p = np.asarray(trace["position"], dtype=np.float64)
     f = np.asarray(trace["force"], dtype=np.float64)
     n, d = p.shape
     de = -f[:-1] * np.diff(p, axis=0) if n > 1 else np.zeros((0, d))
     start = int(n * (1 - TAIL_FRACTION))
     tail_energy = float(np.sum(de[start:])) if n > 1 else 0.0
-    osc = _oscillation(p[start:], (n - start) * T, tail_energy, threshold)
-    reg = regime([osc.decay_ratio], [osc.amplitude], [threshold], [osc.cycles], [False],
-                 [not np.all(np.isfinite(p))])[0]
-    tail = p[start:]
+    finite = bool(np.all(np.isfinite(p)))
+    tail = dequantise(p[start:], delta) if finite else p[start:]
+    if speed is None:
+        v = np.diff(tail[:, :-1], axis=0) / T if finite and tail.shape[0] > 1 and d > 1 else np.zeros((0, 1))
+        speed = float(np.median(np.linalg.norm(v, axis=1))) if v.shape[0] else 0.0
+    else:
+        speed = nonnegative("speed", speed, "m/s")
+    rates = tuple(float(speed / lam) for lam in periods) if speed > 0 else ()
+    osc = _oscillation(tail, (n - start) * T, tail_energy, threshold, rates, slack=0.5 * delta)
+    main = getattr(osc, osc.axis)
+    reg = str(regime([osc.decay_ratio], [osc.amplitude], [threshold], [osc.cycles],
+                     [False if main is None else main.texture_driven], [not finite], slack=0.5 * delta)[0])
     bz = None
-    if tail.shape[0] >= 16 and np.all(np.isfinite(tail)):
-        from .perception import buzz
-
-        bz = buzz(tail, T)
-    return {"energy": de.sum(axis=0), "oscillation": osc, "regime": str(reg), "buzz": bz}
+    if tail.shape[0] >= 16 and finite:
+        bz = buzz(tail, T, exclude=rates, floor=0.5 * delta)
+    return {"energy": de.sum(axis=0), "oscillation": osc, "regime": reg, "buzz": bz, "texture_rates": rates,
+            "speed": speed}

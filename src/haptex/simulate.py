@@ -315,8 +315,10 @@ class AxisOscillation:
     oscillating : bool
         True when the half peak-to-peak motion along this axis in the second half of the
         tail, after removing the tail's straight-line trend (steady sliding or drift), is
-        above the threshold and at least 0.9 times that of the first half (sustained or
-        growing), over at least 3 cycles.
+        above the threshold and at least 1 - :data:`REGIME_TOLERANCE` times that of the
+        first half (sustained or growing), over at least :data:`MIN_CYCLES` cycles, and not
+        the texture traversed: exactly when the axis's regime (:func:`regime`) is a limit
+        cycle or growth, so the two never disagree.
     amplitude : float
         Half the detrended peak-to-peak motion in the second half of the tail (m).
     decay_ratio : float
@@ -394,7 +396,7 @@ bounces off its one-sided contact into a bounded cycle whose decay ratio sits at
 stable runs decay: the slowest of that atlas, 1 % below its critical stiffness, has 0.9957."""
 
 
-def regime(decay_ratio, amplitude, threshold, cycles, driven, diverged):
+def regime(decay_ratio, amplitude, threshold, cycles, driven, diverged, slack=0.0):
     """The regime of runs from their tail verdicts, elementwise.
 
     Parameters
@@ -406,6 +408,10 @@ def regime(decay_ratio, amplitude, threshold, cycles, driven, diverged):
         The main axis's sustained motion is the texture traversed during a scan.
     diverged : array_like of bool, shape (N,)
         The run became non-finite.
+    slack : float or array_like, optional
+        m, >= 0: how much the two halves' amplitudes may differ beyond the tolerance and still
+        count as sustained (and must differ by more to count as growth): half a sensor step for
+        sensed positions, whose amplitudes are multiples of it (default 0, exact positions).
 
     Returns
     -------
@@ -413,23 +419,41 @@ def regime(decay_ratio, amplitude, threshold, cycles, driven, diverged):
         ``"diverged"``; else ``"decaying"`` at rest (amplitude at most the threshold) or with a
         decay ratio below 1 - :data:`REGIME_TOLERANCE`; ``"settling"`` for motion of fewer than
         :data:`MIN_CYCLES` cycles in the tail (a transient still under way: no oscillation to
-        judge, a longer run will tell); ``"driven"`` for motion at the texture's rate;
+        judge, a longer run will tell); ``"driven"`` for sustained motion at the texture's rate
+        (the scan's response, even while it still grows: a loop's instability has a frequency
+        of its own);
         ``"growing"`` above 1 + the tolerance; else ``"limit cycle"``. :data:`UNSTABLE` names
         the unstable ones.
     """
     ratio = np.asarray(decay_ratio, dtype=np.float64)
-    moving = np.asarray(amplitude, dtype=np.float64) > np.asarray(threshold, dtype=np.float64)
+    a2 = np.asarray(amplitude, dtype=np.float64)
+    moving = a2 > np.asarray(threshold, dtype=np.float64)
+    sustained, growing = _sustained(a2, ratio, slack)
     out = np.full(ratio.shape, "limit cycle", dtype=object)
-    out[ratio > 1.0 + REGIME_TOLERANCE] = "growing"
+    out[growing] = "growing"
     out[moving & (np.asarray(cycles, dtype=np.float64) < MIN_CYCLES)] = "settling"
-    out[~moving | (ratio < 1.0 - REGIME_TOLERANCE)] = "decaying"
-    out[moving & np.asarray(driven, dtype=bool) & (ratio <= 1.0 + REGIME_TOLERANCE)] = "driven"
+    out[~moving | ~sustained] = "decaying"
+    # at the texture's own rate: the scan's response, settling or not (a loop's instability has its own frequency)
+    out[moving & np.asarray(driven, dtype=bool)] = "driven"
     out[np.asarray(diverged, dtype=bool)] = "diverged"
     return out.astype(str)
 
 
+def _sustained(a2, ratio, slack=0.0):
+    """(sustained, growing) of motions whose tail's second half has amplitude ``a2`` and ratio
+    ``ratio`` to the first: within :data:`REGIME_TOLERANCE` (and ``slack`` m) of the first, or
+    above it by more."""
+    slack = np.asarray(slack, dtype=np.float64)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a1 = np.where(ratio > 0, a2 / np.where(ratio > 0, ratio, 1.0), 0.0)
+    a1 = np.where(np.isfinite(ratio), a1, 0.0)
+    sustained = (ratio >= 1.0 - REGIME_TOLERANCE) | (a2 + slack >= a1 * (1.0 - REGIME_TOLERANCE))
+    growing = (ratio > 1.0 + REGIME_TOLERANCE) & (a2 - slack > a1 * (1.0 + REGIME_TOLERANCE))
+    return sustained, growing
+
+
 def _axis_verdicts(u: np.ndarray, tail_duration: float, threshold: np.ndarray, texture_freqs: np.ndarray,
-                   threads: int | None = None):
+                   threads: int | None = None, slack=0.0):
     """The verdict of :class:`AxisOscillation` on N runs at once.
 
     ``u`` (N, m) is one axis's tail, sampled evenly over ``tail_duration`` (s), detrended in
@@ -458,7 +482,8 @@ def _axis_verdicts(u: np.ndarray, tail_duration: float, threshold: np.ndarray, t
             spec[:, 0] = 0.0
             peak = np.argmax(spec, axis=1)
             freq[rows] = np.where(spec[np.arange(rows.size), peak] > 0, peak / tail_duration, 0.0)
-    osc = (a2 > threshold) & (ratio >= 0.9) & (freq * tail_duration >= 3)
+    # the regime's own thresholds (regime()): sustained within its tolerance, MIN_CYCLES cycles
+    osc = (a2 > threshold) & _sustained(a2, ratio, slack)[0] & (freq * tail_duration >= MIN_CYCLES)
     driven = np.zeros_like(osc)
     if texture_freqs.shape[1]:
         harmonics = texture_freqs[:, :, None] * np.arange(1, 4)
@@ -469,7 +494,7 @@ def _axis_verdicts(u: np.ndarray, tail_duration: float, threshold: np.ndarray, t
 
 
 def _oscillation_table(tail: np.ndarray, tail_duration: float, e_env_tail: np.ndarray, threshold: np.ndarray,
-                       texture_freqs: np.ndarray, threads: int | None = None) -> dict:
+                       texture_freqs: np.ndarray, threads: int | None = None, slack=0.0) -> dict:
     """Verdicts of N runs, as arrays: from their tail positions ``tail`` (N, d, m) [x, (y,) z]
     sampled evenly over ``tail_duration`` (s); ``e_env_tail`` (N,) the change of the summed
     environment energies over the tail (J); ``threshold`` (N,) m; ``texture_freqs`` (N, k)
@@ -488,7 +513,7 @@ def _oscillation_table(tail: np.ndarray, tail_duration: float, e_env_tail: np.nd
         z, f = np.zeros(N), np.zeros(N, dtype=bool)
         cols = {name: (f, z, z, z, f) for name in names}
     else:
-        cols = {name: _axis_verdicts(tail[:, i, :], tail_duration, threshold, texture_freqs, threads)
+        cols = {name: _axis_verdicts(tail[:, i, :], tail_duration, threshold, texture_freqs, threads, slack)
                 for i, name in enumerate(names)}
     order = names[::-1]  # z first among equals, then y, then x (as max over this order)
     best = np.full(N, len(names) - 1)
@@ -509,9 +534,10 @@ def _oscillation_table(tail: np.ndarray, tail_duration: float, e_env_tail: np.nd
 
 
 def _oscillations(tail: np.ndarray, tail_duration: float, e_env_tail: np.ndarray, threshold: np.ndarray,
-                  texture_freqs: np.ndarray) -> list[Oscillation]:
+                  texture_freqs: np.ndarray, slack=0.0) -> list[Oscillation]:
     """The :class:`Oscillation` of each of N runs (see :func:`_oscillation_table`)."""
-    return _oscillation_objects(_oscillation_table(tail, tail_duration, e_env_tail, threshold, texture_freqs))
+    return _oscillation_objects(_oscillation_table(tail, tail_duration, e_env_tail, threshold, texture_freqs,
+                                                   slack=slack))
 
 
 def _oscillation_objects(t: dict, rows=None) -> list[Oscillation]:
@@ -529,11 +555,11 @@ def _oscillation_objects(t: dict, rows=None) -> list[Oscillation]:
 
 
 def _oscillation(tail: np.ndarray, tail_duration: float, e_env_tail: float, threshold: float,
-                 texture_freqs=()) -> Oscillation:
+                 texture_freqs=(), slack: float = 0.0) -> Oscillation:
     """The verdict of one run from its tail positions (m, d) (see :func:`_oscillations`)."""
     tail = np.array(np.asarray(tail, dtype=np.float64).T)  # detrended in place: a copy, (d, m)
     freqs = np.asarray(texture_freqs, dtype=np.float64).reshape(1, -1)
-    return _oscillations(tail[None], tail_duration, np.array([e_env_tail]), np.array([threshold]), freqs)[0]
+    return _oscillations(tail[None], tail_duration, np.array([e_env_tail]), np.array([threshold]), freqs, slack)[0]
 
 
 def _balance_error(ke, ke0, w_cmd, w_op, e_damp, e_fr):

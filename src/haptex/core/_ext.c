@@ -694,6 +694,27 @@ static PyObject *Renderer_fault(RendererObject *self, PyObject *unused)
     Py_RETURN_NONE;
 }
 
+static PyObject *Renderer_set_stiffness(RendererObject *self, PyObject *arg)
+{
+    double k0 = PyFloat_AsDouble(arg);
+    if (k0 == -1.0 && PyErr_Occurred())
+        return NULL;
+    if (!isfinite(k0) || !(k0 > 0.0)) {
+        PyErr_SetString(PyExc_ValueError, "stiffness must be finite and > 0 (N/m)");
+        return NULL;
+    }
+    hx_render_set_stiffness(&self->r, k0);
+    Py_RETURN_NONE;
+}
+
+static PyObject *Renderer_get_stiffness(RendererObject *self, void *closure)
+{
+    double k0;
+    (void)closure;
+    __atomic_load(&self->r.model.prm[HX_P_K0], &k0, __ATOMIC_RELAXED);
+    return PyFloat_FromDouble(k0);
+}
+
 static PyObject *Renderer_reset(RendererObject *self, PyObject *unused)
 {
     (void)unused;
@@ -783,11 +804,15 @@ static PyMethodDef Renderer_methods[] = {
     {"run", (PyCFunction)(void (*)(void))Renderer_run, METH_FASTCALL, run_doc},
     {"fault", (PyCFunction)Renderer_fault, METH_NOARGS, "Count a fault found before the tick (a malformed p)."},
     {"reset", (PyCFunction)Renderer_reset, METH_NOARGS, "Clear the state, observer sums and counters."},
+    {"set_stiffness", (PyCFunction)Renderer_set_stiffness, METH_O,
+     "set_stiffness(k0): kappa_0 (N/m) for the next tick on, taken between ticks (any thread)."},
     {NULL, NULL, 0, NULL},
 };
 
 static PyMemberDef Renderer_members[] = {
     {"faults", T_LONG, offsetof(RendererObject, r.faults), READONLY, "faults counted"},
+    {"stiffness_changes", T_LONG, offsetof(RendererObject, r.k0_changes), READONLY,
+     "stiffnesses taken from set_stiffness (between ticks)"},
     {"vibration_clamped", T_LONG, offsetof(RendererObject, r.vs.clamped), READONLY,
      "vibration ticks whose operating point was moved to the model set's hull"},
     {"vibration_force", T_DOUBLE, offsetof(RendererObject, r.vib_force), READONLY,
@@ -808,6 +833,7 @@ static PyMemberDef Renderer_members[] = {
 
 static PyGetSetDef Renderer_getset[] = {
     {"energy_per_axis", (getter)Renderer_energy_axis, NULL, "E per axis (J)", NULL},
+    {"stiffness", (getter)Renderer_get_stiffness, NULL, "kappa_0 the ticks use (N/m)", NULL},
     {"adhesion", (getter)Renderer_adhesion, NULL, "F's adhesion point (x, y) in contact (m), else None", NULL},
     {NULL, NULL, NULL, NULL, NULL},
 };
@@ -1520,6 +1546,7 @@ static PyMethodDef Servo_methods[] = {
 
 static PyMemberDef Servo_members[] = {
     {"ticks", T_LONG, offsetof(ServoObject, s.k), READONLY, "ticks commanded"},
+    {"stopping", T_INT, offsetof(ServoObject, stop), READONLY, "stop() was asked (every driver ends at it)"},
     {"missed", T_LONG, offsetof(ServoObject, s.missed), READONLY, "late samples (answered with zero force)"},
     {"faults", T_LONG, offsetof(ServoObject, s.faults), READONLY, "ticks answered with zero for a fault"},
     {"clamps", T_LONG, offsetof(ServoObject, s.clamps), READONLY, "forces the loop scaled to its maximum"},

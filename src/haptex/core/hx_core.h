@@ -439,7 +439,17 @@ typedef struct {
     double vib_last[3], vib_v[3]; /* the last position (m), the filtered velocity (m/s) */
     int vib_have;                 /* vib_last holds a position */
     double vib_force;             /* the vibration's force on the last tick (N, signed along its direction) */
+    /* the parameter block: a stiffness written by another thread (hx_render_set_stiffness)
+     * waits here and is taken at the start of the next tick, never in the middle of one */
+    double k0_next;  /* N/m */
+    int k0_pending;  /* 1 while k0_next waits (atomic) */
+    long k0_changes; /* stiffnesses taken */
 } hx_renderer;
+
+/* Hand the renderer a new stiffness kappa_0 (N/m, finite and > 0: the caller checks) from any
+ * thread; the next tick takes it before it computes (lock-free: an atomic flag over the value,
+ * a later call before that tick replaces it). */
+void hx_render_set_stiffness(hx_renderer *r, double k0);
 
 /* One servo tick at (x, y, z) (m; y is 0 over a profile): the force to command (N), never
  * NaN, never above max_force; zero for a position not finite or beyond the limit, or a

@@ -209,6 +209,10 @@ void hx_render_step(hx_renderer *r, double x, double y, double z, double f[3])
     int i, clamped;
     f[0] = f[1] = f[2] = 0.0;
     r->work = 0;
+    if (__atomic_exchange_n(&r->k0_pending, 0, __ATOMIC_ACQ_REL)) { /* between ticks only */
+        __atomic_load(&r->k0_next, &r->model.prm[HX_P_K0], __ATOMIC_RELAXED);
+        r->k0_changes++;
+    }
     if (outside(x, r->limit) || outside(y, r->limit) || outside(z, r->limit)) {
         r->faults++;
         hx_passivity_skip(&r->pc);
@@ -246,6 +250,12 @@ void hx_render_step(hx_renderer *r, double x, double y, double z, double f[3])
         r->clamps++;
     if (r->monitor)
         hx_passivity_sent(&r->pc, p, f);
+}
+
+void hx_render_set_stiffness(hx_renderer *r, double k0)
+{
+    __atomic_store(&r->k0_next, &k0, __ATOMIC_RELAXED);
+    __atomic_store_n(&r->k0_pending, 1, __ATOMIC_RELEASE);
 }
 
 void hx_render_reset(hx_renderer *r)
