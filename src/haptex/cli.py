@@ -959,6 +959,11 @@ def sweep(spec, out, scheduler, workers, quiet):
 @click.option("--record", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Write the run log (time, position, force, engaged) to FILE.csv (the columns of the file formats "
                    "page, read by 'haptex identify') or FILE.npz.")
+@click.option("--vibration", "vibration_models", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="A data-driven vibration layered on the texture (haptex's JSON or HaTT's XML, at the device's "
+                   "servo rate): the device's mass along x times its acceleration, along the motion.")
+@click.option("--vibration-budget", type=Quantity("W"), default=None,
+              help="With --vibration: the power it may supply, spent from an energy tank in the tick (e.g. '2 mW').")
 @click.option("--find-limit", "find_limit_run", is_flag=True,
               help="Instead of a texture: a smooth wall whose stiffness rises by 10% every 0.5 s while the handle "
                    "rests on it, stopped (force zero) at the first step that oscillates; from --stiffness when "
@@ -970,8 +975,8 @@ def sweep(spec, out, scheduler, workers, quiet):
 @click.option("--quiet", is_flag=True, help="No live dashboard.")
 @_core_blas_held  # BLAS in the set-up (a preset's matrices, a slope bound) wakes no worker to spin beside the loop
 def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration, passivity_control, stabiliser, hand,
-               speed, fast, object_spec, uv_scale, tip_radius, crop, record, find_limit_run, identify_run, as_json,
-               quiet):
+               speed, fast, object_spec, uv_scale, tip_radius, crop, record, vibration_models, vibration_budget,
+               find_limit_run, identify_run, as_json, quiet):
     """Render one texture on one device, with the safety rules of haptex.servo and a live dashboard."""
     import numpy as np
 
@@ -990,7 +995,7 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
         if identify_run:
             raise ParameterError("--find-limit is not allowed with --identify: one program a run")
         given = [n for n in ("texture_spec", "letter", "passivity_control", "stabiliser", "object_spec", "tip_radius",
-                             "crop", "speed", "duration")
+                             "crop", "speed", "duration", "vibration_models", "vibration_budget")
                  if ctx.get_parameter_source(n) == click.core.ParameterSource.COMMANDLINE]
         if given:
             opt = next(o for o in ctx.command.params if o.name == given[0]).opts[-1]
@@ -1003,7 +1008,8 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
             raise ParameterError("--identify is not allowed without --record FILE.csv: the run's log is what "
                                  "'haptex identify' reads")
         texture_given = [n for n in ("texture_spec", "letter", "stiffness", "passivity_control", "stabiliser",
-                                     "object_spec", "tip_radius", "crop", "speed")
+                                     "object_spec", "tip_radius", "crop", "speed", "vibration_models",
+                                     "vibration_budget")
                          if ctx.get_parameter_source(n) == click.core.ParameterSource.COMMANDLINE]
         if texture_given:
             opt = next(o for o in ctx.command.params if o.name == texture_given[0]).opts[-1]
@@ -1067,8 +1073,22 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
         alg = algorithm(letter, tex, stiffness)
     pc = _stabiliser(passivity_control, stabiliser, dev, delay=dev.delay)
 
+    vib = {}
+    if vibration_budget is not None and vibration_models is None:
+        raise ParameterError("--vibration-budget is not allowed without --vibration MODELS: it is the vibration's")
+    if vibration_models is not None:
+        from .datadriven import read_models
+
+        models = read_models(vibration_models)
+        if abs(models.sample_rate * dev.period - 1.0) > 1e-6:
+            raise ParameterError(f"vibration = {str(vibration_models)!r} is not allowed on {backend.name}: its models "
+                                 f"run at {models.sample_rate:g} Hz, the device's servo at {1 / dev.period:g} Hz (fit "
+                                 f"them at that rate: haptex fit RECORDING --rate '{1 / dev.period:g} Hz')")
+        # the device's own mass along x turns acceleration into force (a simulated device's has the hand's added)
+        own = backend.preset.device() if kind == "simulated" else dev
+        vib = {"vibration": models, "vibration_mass": float(own.mass[0, 0]), "vibration_budget": vibration_budget}
     renderer = Renderer(alg, max_force=fmax if math.isfinite(fmax) else None, energy_monitor=True,
-                        passivity_controller=pc, period=dev.period)
+                        passivity_controller=pc, period=dev.period, **vib)
     loop = ServoLoop(backend, renderer, max_force=fmax if math.isfinite(fmax) else None)
     live = None
     if not (quiet or as_json):
@@ -1118,13 +1138,16 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
                else verdict["buzz"].margin_db,
                "buzz_frequency": None if verdict["buzz"] is None or verdict["buzz"].margin_db == -math.inf
                else verdict["buzz"].frequency,
+               **({"vibration_supplied": renderer.vibration_supplied, "vibration_cut": renderer.vibration_cut,
+                   "vibration_budget": vibration_budget} if vib else {}),
                "units": {"stiffness": "N/m", "max_force": "N", "duration": "s", "engaged_at": "s",
                          "amplitude": "m", "frequency": "Hz",
                          "max_force_sent": "N", "energy_observed": "J", **{f"energy_{a}": "J" for a in axes},
                          "tick_max": "s", "tick_mean": "s", "tick_p999": "s", "period_mean": "s",
                          "period_std": "s", "jitter_max": "s", "jitter_p999": "s",
                          "stabiliser_ticks": "ticks", "buzz_db": "dB above the detection threshold",
-                         "buzz_frequency": "Hz"}}
+                         "buzz_frequency": "Hz", "vibration_supplied": "J", "vibration_cut": "ticks",
+                         "vibration_budget": "W"}}
     if record is not None:
         _write_record(record, trace, dev.period)
     if stats.driver == "native thread" and loop.priority and not stats.fifo and getattr(backend, "realtime", True):
@@ -1161,7 +1184,7 @@ def _write_record(record: Path, trace: dict, period: float) -> None:
 def _find_limit_run(device_spec, start, max_force, hand, fast, record, as_json, quiet) -> None:
     """``haptex run --find-limit``: the stiffness ladder on the device (haptex.limits.find_limit)."""
     from .backends import open_backend
-    from .catalogue import hand as _hand
+    from .catalogue import hand as _hand, hands
     from .limits import FIND_RATIO, FIND_SPAN, FIND_STEP, SIM_PUSH, find_limit, wall_limits
 
     kind = str(device_spec).partition(":")[0]
@@ -1169,7 +1192,7 @@ def _find_limit_run(device_spec, start, max_force, hand, fast, record, as_json, 
     if kind == "simulated":  # the hand rests on the wall: pressing with SIM_PUSH, not scanning
         if h.none:
             raise ParameterError("hand = 'none' is not allowed with --find-limit on a simulated device: a hand rests "
-                                 "the handle on the wall (light-touch, or another of 'haptex devices --hands')")
+                                 "the handle on the wall (" + ", ".join(k for k in hands() if k != "none") + ")")
         backend = open_backend(device_spec, hand=hand, speed=0.0, press=SIM_PUSH / h.stiffness, realtime=not fast)
     else:
         backend = open_backend(device_spec, **({"realtime": not fast} if kind == "forcedimension" else {}))

@@ -21,12 +21,13 @@ from .algorithms import Algorithm
 from .closest import table_search_data
 
 __all__ = ["Renderer", "Stabiliser", "PassivityController", "EnergyBounding", "PassiveSetPosition", "WORKSPACE_LIMIT",
-           "MAX_EVALUATIONS", "tick_model"]
+           "MAX_EVALUATIONS", "VIBRATION_RESERVE_TIME", "tick_model"]
 
 _REAL = (int, float, np.integer, np.floating)
 
 WORKSPACE_LIMIT = 1e3
 """Positions with a coordinate beyond +-1 km (m) are treated as faults (zero force)."""
+
 
 
 MAX_OBSERVER_DELAY = int(_core._ext.PC_RING) - 1
@@ -356,6 +357,11 @@ def evaluation_budget(max_evaluations):
     return max_evaluations
 
 
+VIBRATION_RESERVE_TIME = 0.05
+"""s: the budgeted vibration's tank, by default, holds this long of its budget (chosen: a burst of
+50 ms, a few cycles of the 100-400 Hz band of texture vibrations)."""
+
+
 class Renderer:
     """Compiled force rendering for a servo loop, over a profile ([x, z]) or a surface
     ([x, y, z]).
@@ -409,13 +415,29 @@ class Renderer:
         (chosen: 10 ms; 0: the raw difference).
     seed : int, optional
         Seed of the vibration's noise (the same seed, the same run).
+    vibration_budget : float, optional
+        W, >= 0: the **budgeted vibration**. The channel spends only from an energy tank that
+        this power refills every tick, up to ``vibration_reserve``; the vibration's work on
+        the sensed motion (its force held over each period) drains it, and a vibration force
+        whose work over the next period, at the filtered speed, would exceed what the tank
+        holds is scaled down to it (counted in :attr:`vibration_cut`). So the energy it
+        supplies over any time t is at most ``vibration_budget`` t + ``vibration_reserve``,
+        give or take one period's misprediction of the motion. Default None: no budget (the
+        energy supplied is still counted, :attr:`vibration_supplied`). The energy-tank idea of
+        passivity-based control (Franken, Stramigioli, Misra, Secchi & Macchelli, "Bilateral
+        telemanipulation with time delays: a two-layer approach combining passivity and
+        transparency", IEEE Trans. Robotics 27(4), 2011), here for a vibration channel.
+    vibration_reserve : float, optional
+        J, >= 0: the tank's size and its content at the start; default the budget over
+        :data:`VIBRATION_RESERVE_TIME`.
 
     Raises
     ------
     ParameterError
         If ``algorithm`` is not a haptex algorithm, ``max_force`` is not > 0, a controller
         is given without a period, ``max_evaluations`` is not None or in [100, 10^9], or a
-        vibration is given without its mass or with a gain, filter or seed out of range.
+        vibration is given without its mass or with a gain, filter, seed, budget or reserve out of
+        range (or a budget without a vibration).
 
     Notes
     -----
@@ -433,7 +455,8 @@ class Renderer:
     def __init__(self, algorithm: Algorithm, max_force: float | None = None, energy_monitor: bool = False,
                  passivity_controller: PassivityController | None = None, period: float | None = None,
                  max_evaluations: int | None = MAX_EVALUATIONS, *, vibration=None, vibration_mass: float | None = None,
-                 vibration_gain: float = 1.0, velocity_filter: float = 0.01, seed: int = 0):
+                 vibration_gain: float = 1.0, velocity_filter: float = 0.01, seed: int = 0,
+                 vibration_budget: float | None = None, vibration_reserve: float | None = None):
         from .proxy import GodObject
 
         if not isinstance(algorithm, (Algorithm, GodObject)):
@@ -475,16 +498,40 @@ class Renderer:
                            "the device's own: preset(NAME).device().mass[0, 0]")
             if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**64:
                 raise fail("seed", seed, "an integer in [0, 2**64)")
+            budget = None if vibration_budget is None else nonnegative("vibration_budget", vibration_budget, "W")
+            if vibration_reserve is not None and budget is None:
+                raise fail("vibration_reserve", vibration_reserve, "given with a vibration_budget (W), whose tank it is")
+            reserve = (0.0 if budget is None else budget * VIBRATION_RESERVE_TIME) if vibration_reserve is None \
+                else nonnegative("vibration_reserve", vibration_reserve, "J")
             self._core.set_vibration(vibration._packed, positive("vibration_mass", vibration_mass, "kg"),
                                      nonnegative("vibration_gain", vibration_gain), nonnegative("velocity_filter",
                                                                                                  velocity_filter, "s"),
-                                     seed)
+                                     seed, budget, reserve)
+        elif vibration_budget is not None or vibration_reserve is not None:
+            raise fail("vibration_budget", vibration_budget, "given with a vibration (a haptex.datadriven.ModelSet)")
 
     @property
     def vibration_force(self) -> float:
         """The vibration's force on the last tick (N, signed, along the tangential velocity); 0
         without a vibration, out of contact or at rest."""
         return self._core.vibration_force
+
+    @property
+    def vibration_supplied(self) -> float:
+        """The vibration's work on the sensed motion so far (J): the sum of its force, held over
+        each period, times the displacement; > 0 is energy supplied to the hand. 0 without a
+        vibration."""
+        return self._core.vibration_supplied
+
+    @property
+    def vibration_cut(self) -> int:
+        """Ticks whose vibration force the energy budget scaled down."""
+        return self._core.vibration_cut
+
+    @property
+    def vibration_tank(self) -> float:
+        """What the vibration's energy budget holds now (J)."""
+        return self._core.vibration_tank
 
     def _tick(self, x, y, z):
         """(fx, fy, fz) (N) at floats (x, y, z) (m), fy = 0 over a profile."""

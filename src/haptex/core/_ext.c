@@ -745,12 +745,12 @@ PyDoc_STRVAR(set_vibration_doc, "set_vibration(v, mass, gain, tau, seed)\n--\n\n
 static PyObject *Renderer_set_vibration(RendererObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     Py_buffer v;
-    double mass, gain, tau;
+    double mass, gain, tau, budget = -1.0, reserve = 0.0;
     unsigned long long seed;
     double *copy;
     int rc;
-    if (nargs != 5) {
-        PyErr_SetString(PyExc_TypeError, "set_vibration takes v, mass, gain, tau, seed");
+    if (nargs != 5 && nargs != 7) {
+        PyErr_SetString(PyExc_TypeError, "set_vibration takes v, mass, gain, tau, seed[, budget, reserve]");
         return NULL;
     }
     if (args[0] == Py_None) {
@@ -763,8 +763,16 @@ static PyObject *Renderer_set_vibration(RendererObject *self, PyObject *const *a
     gain = PyFloat_AsDouble(args[2]);
     tau = PyFloat_AsDouble(args[3]);
     seed = PyLong_AsUnsignedLongLongMask(args[4]);
+    if (nargs == 7) {
+        budget = args[5] == Py_None ? -1.0 : PyFloat_AsDouble(args[5]);
+        reserve = PyFloat_AsDouble(args[6]);
+    }
     if (PyErr_Occurred())
         return NULL;
+    if (!(reserve >= 0.0 && isfinite(reserve)) || !isfinite(budget)) {
+        PyErr_SetString(PyExc_ValueError, "budget (W, None for none) and reserve >= 0 (J) must be finite");
+        return NULL;
+    }
     if (!(mass > 0.0 && isfinite(mass)) || !(gain >= 0.0 && isfinite(gain)) || !(tau >= 0.0 && isfinite(tau))) {
         PyErr_SetString(PyExc_ValueError, "mass > 0, gain >= 0 and tau >= 0 must be finite");
         return NULL;
@@ -790,6 +798,13 @@ static PyObject *Renderer_set_vibration(RendererObject *self, PyObject *const *a
     self->r.vib_mass = mass;
     self->r.vib_gain = gain;
     self->r.vib_tau = tau;
+    self->r.vib_budgeted = budget >= 0.0;
+    self->r.vib_budget = budget >= 0.0 ? budget : 0.0;
+    self->r.vib_reserve = reserve;
+    self->r.vib_tank = reserve;
+    self->r.vib_supplied = 0.0;
+    self->r.vib_cut = 0;
+    self->r.vib_prev[0] = self->r.vib_prev[1] = self->r.vib_prev[2] = 0.0;
     hx_vib_reset(&self->r.vs, seed);
     self->r.vib_have = 0;
     self->r.vib_v[0] = self->r.vib_v[1] = self->r.vib_v[2] = 0.0;
@@ -815,6 +830,12 @@ static PyMemberDef Renderer_members[] = {
      "stiffnesses taken from set_stiffness (between ticks)"},
     {"vibration_clamped", T_LONG, offsetof(RendererObject, r.vs.clamped), READONLY,
      "vibration ticks whose operating point was moved to the model set's hull"},
+    {"vibration_supplied", T_DOUBLE, offsetof(RendererObject, r.vib_supplied), READONLY,
+     "the vibration's work on the sensed motion so far (J, > 0: supplied to the hand)"},
+    {"vibration_tank", T_DOUBLE, offsetof(RendererObject, r.vib_tank), READONLY,
+     "what the vibration's energy budget holds now (J)"},
+    {"vibration_cut", T_LONG, offsetof(RendererObject, r.vib_cut), READONLY,
+     "ticks whose vibration the energy budget scaled down"},
     {"vibration_force", T_DOUBLE, offsetof(RendererObject, r.vib_force), READONLY,
      "the vibration's force on the last tick (N, along the tangential velocity)"},
     {"clamps", T_LONG, offsetof(RendererObject, r.clamps), READONLY, "forces scaled to max_force"},

@@ -439,6 +439,15 @@ typedef struct {
     double vib_last[3], vib_v[3]; /* the last position (m), the filtered velocity (m/s) */
     int vib_have;                 /* vib_last holds a position */
     double vib_force;             /* the vibration's force on the last tick (N, signed along its direction) */
+    /* the vibration's energy budget, a tank: when vib_budgeted, vib_budget W refill it every tick up
+     * to vib_reserve J, the vibration's work on the sensed motion drains it, and a vibration force
+     * whose work over the next period (at the filtered speed) would exceed what it holds is scaled
+     * down to it (vib_cut counts those ticks); what the vibration supplied is vib_supplied either way */
+    int vib_budgeted;
+    double vib_budget, vib_reserve, vib_tank; /* W, J, J */
+    double vib_supplied;                      /* J: sum of the vibration force . dp (> 0: supplied) */
+    double vib_prev[3];                       /* the vibration force of the last tick (N) */
+    long vib_cut;
     /* the parameter block: a stiffness written by another thread (hx_render_set_stiffness)
      * waits here and is taken at the start of the next tick, never in the middle of one */
     double k0_next;  /* N/m */

@@ -186,11 +186,25 @@ static void vibrate(hx_renderer *r, const double p[3], double f[3])
     int i;
     r->vib_force = 0.0;
     if (r->vib_have) {
-        for (i = 0; i < 3; i++)
+        /* the last tick's vibration force held over the displacement since: its work on the handle */
+        double w = 0.0;
+        for (i = 0; i < 3; i++) {
+            w += r->vib_prev[i] * (p[i] - r->vib_last[i]);
             r->vib_v[i] += a * ((p[i] - r->vib_last[i]) / T - r->vib_v[i]);
+        }
+        if (isfinite(w)) {
+            r->vib_supplied += w;
+            if (r->vib_budgeted) {
+                r->vib_tank += r->vib_budget * T - w;
+                if (r->vib_tank > r->vib_reserve)
+                    r->vib_tank = r->vib_reserve;
+            }
+        }
     }
-    for (i = 0; i < 3; i++)
+    for (i = 0; i < 3; i++) {
         r->vib_last[i] = p[i];
+        r->vib_prev[i] = 0.0;
+    }
     speed = hypot(r->vib_v[0], r->vib_v[1]);
     if (!r->vib_have || !(f[2] > 0.0) || !(speed > 0.0) || !isfinite(speed)) {
         r->vib_have = 1;
@@ -199,8 +213,17 @@ static void vibrate(hx_renderer *r, const double p[3], double f[3])
     y = hx_vib_step(r->vib, &r->vs, speed, f[2]);
     r->work += r->vs.work;
     r->vib_force = r->vib_gain * r->vib_mass * y;
-    f[0] += r->vib_force * r->vib_v[0] / speed;
-    f[1] += r->vib_force * r->vib_v[1] / speed;
+    if (r->vib_budgeted) {
+        double spend = r->vib_force * speed * T; /* its work over the next period, along the motion */
+        if (spend > r->vib_tank) {
+            r->vib_force = r->vib_tank > 0.0 ? r->vib_force * (r->vib_tank / spend) : 0.0;
+            r->vib_cut++;
+        }
+    }
+    r->vib_prev[0] = r->vib_force * r->vib_v[0] / speed;
+    r->vib_prev[1] = r->vib_force * r->vib_v[1] / speed;
+    f[0] += r->vib_prev[0];
+    f[1] += r->vib_prev[1];
 }
 
 void hx_render_step(hx_renderer *r, double x, double y, double z, double f[3])
@@ -272,5 +295,9 @@ void hx_render_reset(hx_renderer *r)
     hx_vib_reset(&r->vs, r->vs.seed);
     r->vib_have = 0;
     r->vib_v[0] = r->vib_v[1] = r->vib_v[2] = 0.0;
+    r->vib_prev[0] = r->vib_prev[1] = r->vib_prev[2] = 0.0;
     r->vib_force = 0.0;
+    r->vib_tank = r->vib_reserve;
+    r->vib_supplied = 0.0;
+    r->vib_cut = 0;
 }
