@@ -448,7 +448,7 @@ def test_table_over_a_surface_prints_f():
     import contextlib
     import io
 
-    from haptex.cli import _print_table
+    from haptex.cli.paper import _print_table
     from haptex.tables import table_ii
 
     out = io.StringIO()

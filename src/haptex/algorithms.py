@@ -25,6 +25,162 @@ from .textures import Flat, Texture
 __all__ = ["Algorithm", "algorithm", "ALGORITHMS"]
 
 
+# ------------------------------------------------------------------------------------
+# where a segment's force has kinks: the boundary, a clamp depth, the closest point's jumps
+# (used by F's contact pieces here and by haptex.analysis.work's path integrals)
+# ------------------------------------------------------------------------------------
+def _signed_depths(alg: Algorithm, pts: np.ndarray) -> list[np.ndarray]:
+    """Functions whose sign changes mark kinks of the force along a path: the boundary
+    and, with max_penetration, the clamp depth."""
+    if hasattr(alg, "signed_depth"):  # an object: measured along its base's normal
+        return [alg.signed_depth(pts)]
+    z = pts[..., -1]
+    if alg.penetration_kind == "nominal":
+        d = z
+    else:
+        d = z - alg.texture.height_at(pts[..., :-1])
+    out = [d]
+    dm = getattr(alg, "max_penetration", None)
+    if dm is not None:
+        out.append(d + dm)
+    return out
+
+
+def _breakpoints(alg: Algorithm, a: np.ndarray, b: np.ndarray) -> list[float]:
+    """Parameters u in (0, 1) where the segment a->b crosses the boundary or a clamp depth."""
+    length = float(np.linalg.norm(b - a))
+    tex = alg.texture
+    scale = tex.shortest_period if not isinstance(tex, Flat) else length
+    n = int(min(max(64, 64 * length / scale), 20000))
+    u = np.linspace(0.0, 1.0, n + 1)
+    pts = a + u[:, None] * (b - a)
+    out: list[float] = []
+    from scipy import optimize
+
+    for k, vals in enumerate(_signed_depths(alg, pts)):
+        sgn = np.sign(vals)
+        out.extend(float(u[i]) for i in np.nonzero(sgn[1:-1] == 0)[0] + 1)  # a sample on the kink
+        for i in np.nonzero(sgn[:-1] * sgn[1:] < 0)[0]:
+            fn = lambda uu, k=k: float(_signed_depths(alg, (a + uu * (b - a))[None, :])[k][0])  # noqa: E731
+            out.append(optimize.brentq(fn, u[i], u[i + 1], xtol=1e-16, rtol=1e-15))
+    if hasattr(alg, "kinks"):  # an object: where the base's coordinates change piece (a mesh's facets)
+        out.extend(alg.kinks(a, b, u, pts))
+    if alg.penetration_kind == "distance":
+        from .surfaces import Extruded
+
+        if isinstance(tex, Extruded):  # the profile's search, on the segment seen in the x-z plane
+            keep = [0, 2]
+            out.extend(_closest_point_jumps(tex.profile, a[keep], b[keep], u, pts[:, keep], length / n))
+        else:
+            out.extend(_closest_point_jumps(tex, a, b, u, pts, length / n))
+    return sorted(out)
+
+
+def _closest_point_jumps(tex: Texture, a, b, u, pts, spacing) -> list[float]:
+    """Parameters where the closest boundary point jumps along the segment a->b (the
+    probe crosses the medial axis, Remark 6), located by bisection to round-off (all
+    brackets bisected together, one vectorised closest-point call per halving)."""
+    cp = closest_point(tex, pts)
+    inside = cp.distance > 0
+
+    def foot(c):  # the closest points' in-plane coordinates, shape (n, k)
+        return np.stack([c.x] if c.y is None else [c.x, c.y], axis=-1)
+
+    t_all = foot(cp)
+    dt = np.linalg.norm(np.diff(t_all, axis=0), axis=-1)
+    out = _tie_changes(tex, a, b, u, cp.tie)
+    idx = np.nonzero((dt > 2 * spacing) & inside[:-1] & inside[1:])[0]
+    per_u = 2 * spacing / (u[1] - u[0])  # the closest point's smooth motion allowed per unit of u
+    slack = 1e-12 * tex.shortest_period
+    lo, hi = u[idx].copy(), u[idx + 1].copy()
+    t_lo, t_hi = t_all[idx].copy(), t_all[idx + 1].copy()
+
+    def gap(p, q):
+        return np.linalg.norm(p - q, axis=-1)
+
+    for _ in range(8):  # a bracket may hold several jumps (a thin branch of the medial axis)
+        if lo.size == 0:
+            break
+        lo0, hi0, t_lo0, t_hi0 = lo.copy(), hi.copy(), t_lo.copy(), t_hi.copy()
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            live = (lo < mid) & (mid < hi)
+            if not live.any():
+                break
+            t_mid = foot(closest_point(tex, a + mid[:, None] * (b - a)))
+            left = gap(t_mid, t_lo) >= gap(t_hi, t_mid)
+            hi = np.where(live & left, mid, hi)
+            t_hi = np.where((live & left)[:, None], t_mid, t_hi)
+            lo = np.where(live & ~left, mid, lo)
+            t_lo = np.where((live & ~left)[:, None], t_mid, t_lo)
+        jump = gap(t_hi, t_lo) > per_u * (hi - lo) + slack
+        out += (0.5 * (lo + hi))[jump].tolist()
+        # what is left on either side of the jump found: another jump if the closest point
+        # moved more there than smooth motion allows
+        left_more = jump & (gap(t_lo, t_lo0) > per_u * (lo - lo0) + slack)
+        right_more = jump & (gap(t_hi0, t_hi) > per_u * (hi0 - hi) + slack)
+        lo, hi = np.r_[lo0[left_more], hi[right_more]], np.r_[lo[left_more], hi0[right_more]]
+        t_lo, t_hi = (np.concatenate([t_lo0[left_more], t_hi[right_more]]),
+                      np.concatenate([t_lo[left_more], t_hi0[right_more]]))
+    return out
+
+
+def _tie_changes(tex: Texture, a, b, u, tie) -> list[float]:
+    """Parameters where the segment enters or leaves the medial axis (a centre of
+    curvature: the force is continuous there but not smooth), by bisection."""
+    idx = np.nonzero(tie[:-1] != tie[1:])[0]
+    if idx.size == 0:
+        return []
+    lo, hi = u[idx].copy(), u[idx + 1].copy()
+    lo_tie = tie[idx].copy()
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        live = (lo < mid) & (mid < hi)
+        if not live.any():
+            break
+        same = closest_point(tex, a + mid[:, None] * (b - a)).tie == lo_tie
+        lo = np.where(live & same, mid, lo)
+        hi = np.where(live & ~same, mid, hi)
+    # the flag flips where the two minima are closer than the search can tell apart, a
+    # little off the centre of curvature itself: solve p(u) = (t, h) + (1 + h'^2) (-h', 1) / h''
+    # for (t, u) from there (Newton), and keep the exact crossing when it is close by
+    if tex.dimension == 2:  # over a surface the bisected parameter itself
+        return (0.5 * (lo + hi)).tolist()
+    out = []
+    for u0 in 0.5 * (lo + hi):
+        t0 = float(closest_point(tex, (a + u0 * (b - a))[None, :]).x[0])
+        out.append(_focal_crossing(tex, a, b, t0, float(u0)))
+    return out
+
+
+def _focal_crossing(tex: Texture, a, b, t0: float, u0: float) -> float:
+    """Parameter u where the segment a->b crosses the centre of curvature of the boundary
+    near abscissa t0 (Newton on (t, u)); u0 if Newton does not converge nearby."""
+    d = b - a
+    t, u = t0, u0
+    for _ in range(30):
+        h, s, c = (float(f(np.array(t))) for f in (tex.height, tex.slope, tex.curvature))
+        if c == 0.0:
+            return u0
+        q = 1.0 + s * s
+        third = (float(tex.curvature(np.array(t + 1e-9 * tex.shortest_period))) - c) / (1e-9 * tex.shortest_period)
+        res = np.array([t - s * q / c - (a[0] + u * d[0]), h + q / c - (a[1] + u * d[1])])
+        # d/dt of the centre: x: 1 - (c q + 2 s^2 c) / c^2 + s q c' / c^2 ; z: s + 2 s c / c - q c' / c^2
+        jx = 1.0 - (q + 2 * s * s) + s * q * third / (c * c)
+        jz = s + 2 * s - q * third / (c * c)
+        jac = np.array([[jx, -d[0]], [jz, -d[1]]])
+        try:
+            step = np.linalg.solve(jac, -res)
+        except np.linalg.LinAlgError:
+            return u0
+        t += step[0]
+        u += step[1]
+        if abs(step[1]) <= 1e-15 and abs(step[0]) <= 1e-15 * tex.shortest_period:
+            break
+    ok = np.isfinite(u) and abs(u - u0) <= 1e-3 and abs(t - t0) <= 0.05 * tex.shortest_period
+    return float(u) if ok else u0
+
+
 class Algorithm:
     """Base class of the memoryless force fields W, A–E and G.
 
@@ -990,8 +1146,6 @@ class FrictionModulated(Algorithm):
         """The smooth pieces of a polyline, in order: (a, delta, u0, u1) for the piece
         a + u delta, u in [u0, u1], inside the wall, None for a piece outside it (where the
         friction state resets). Segments are cut where they cross z = 0 or d^z_max."""
-        from .analysis.work import _breakpoints
-
         for a, b in zip(pts[:-1], pts[1:]):
             delta = b - a
             if not np.any(delta):

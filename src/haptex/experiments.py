@@ -649,7 +649,7 @@ hand on the 3D Systems Touch preset, at four servo rates."""
 
 def clean_stiffness_by_rate(quick: bool = False) -> dict:
     """The largest texture stiffness that does not buzz, against the servo rate
-    (:func:`haptex.perception.clean_stiffness` on :data:`CLEAN_STIFFNESS`).
+    (:func:`haptex.limits.clean_stiffness` on :data:`CLEAN_STIFFNESS`).
 
     Returns
     -------
@@ -659,7 +659,7 @@ def clean_stiffness_by_rate(quick: bool = False) -> dict:
         ``parameters``.
     """
     from .catalogue import DEFAULT_HAND, hand, preset
-    from .perception import clean_stiffness
+    from .limits import clean_stiffness
 
     s = dict(CLEAN_STIFFNESS)
     lo, hi, n = s["stiffness"]

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._validation import nonnegative
+from ._validation import fail, nonnegative, positive
 from .catalogue import DEFAULT_HAND, Hand, Preset, hand as _hand
 from .devices import Device, critical_stiffness
 
@@ -269,6 +269,72 @@ def stiffness_at(limit: float, q: float) -> float:
     return math.inf if q <= 0 else limit / q
 
 
+def clean_stiffness(algorithm, device, operator, rates, stiffness, duration: float = 2.0,
+                    initial_position=None) -> list:
+    """The largest stiffness a rendering can have without buzz, at each update rate.
+
+    The question Choi & Tan asked of their users ("Perceived instability of virtual haptic
+    texture", Presence 13(4), 2004, and its sequels): how stiff a texture can be before it buzzes,
+    and how that limit moves with the servo rate. Here the hand is a model and the verdict is
+    :func:`haptex.perception.buzz` on the exact sampled-data simulation: for each rate the device's period is
+    1 / rate (everything else kept), and each candidate stiffness is simulated for ``duration``.
+    A run that diverges counts as buzzing.
+
+    Parameters
+    ----------
+    algorithm : Algorithm
+        The rendering; each candidate stiffness replaces its kappa_0 (a
+        :func:`haptex.simulate_batch` sweep, every sample recorded).
+    device : Device
+        With the hand's mass attached where a hand holds it (:meth:`haptex.catalogue.Hand.attach`).
+    operator : Operator
+        The hand's action (a :class:`haptex.operators.ScanningHand` for a stroke).
+    rates : sequence of float
+        Servo rates (Hz), > 0.
+    stiffness : sequence of float
+        Candidate stiffnesses kappa_0 (N/m), > 0, ascending.
+    duration : float, optional
+        s, > 0; the verdict reads the second half of each run.
+    initial_position : array_like, optional
+        As :func:`haptex.simulate`.
+
+    Returns
+    -------
+    list of dict
+        Per rate: ``rate`` (Hz), ``clean`` (the largest candidate below the first that buzzes,
+        N/m; None when the smallest buzzes), ``buzzing`` (the first that buzzes, or None),
+        ``margin_db`` (list, one per candidate) and ``frequency`` (Hz, list).
+
+    Raises
+    ------
+    ParameterError
+        For a rate or stiffness not finite and > 0, candidates not ascending, or what
+        :func:`haptex.simulate` refuses.
+    """
+    from .simulate import simulate_batch
+
+    ks = np.asarray(stiffness, dtype=np.float64)
+    if ks.ndim != 1 or ks.size == 0 or not np.all(np.isfinite(ks) & (ks > 0)) or np.any(np.diff(ks) <= 0):
+        raise fail("stiffness", ks.tolist() if ks.size < 8 else "an array", "finite stiffnesses > 0 (N/m), ascending")
+    out = []
+    for rate in np.atleast_1d(np.asarray(rates, dtype=np.float64)):
+        rate = positive("rate", float(rate), "Hz")
+        dev = device.replace(period=1.0 / rate)
+        batch = simulate_batch(algorithm, dev, operator, duration, initial_position=initial_position, stiffness=ks,
+                               record=True, record_every=1, progress=False)
+        margins, freqs = [], []
+        for res in batch.runs:
+            b = res.buzz
+            margins.append(float("inf") if b is None else b.margin_db)
+            freqs.append(0.0 if b is None else b.frequency)
+        loud = [i for i, m in enumerate(margins) if m > 0]
+        first = loud[0] if loud else None
+        clean = None if first == 0 else float(ks[(ks.size if first is None else first) - 1])
+        out.append({"rate": rate, "clean": clean, "buzzing": None if first is None else float(ks[first]),
+                    "margin_db": margins, "frequency": freqs})
+    return out
+
+
 # --------------------------------------------------------------------------------------
 # the wall limit found on the device
 # --------------------------------------------------------------------------------------
@@ -350,8 +416,6 @@ def stiffness_ladder(start: float, stop: float, ratio: float = FIND_RATIO) -> np
         For a start or stop not finite and > 0, a stop below the start, a ratio not in
         (1, 2], or more than 200 steps.
     """
-    from ._validation import fail, positive
-
     k0 = positive("start", start, "N/m")
     k1 = positive("stop", stop, "N/m")
     r = positive("ratio", ratio)
@@ -417,10 +481,9 @@ def find_limit(backend, start: float, stop: float, ratio: float = FIND_RATIO, st
     DeviceError
         If the device stops answering (zero force sent first).
     """
-    from ._validation import fail, positive
     from .algorithms import algorithm
     from .renderer import Renderer
-    from .servo import TAIL_FRACTION, ServoLoop, analyse_trace
+    from .servo import ServoLoop, analyse_trace
     from .textures import Flat
 
     ladder = stiffness_ladder(start, stop, ratio)

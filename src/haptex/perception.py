@@ -33,7 +33,7 @@ import numpy as np
 
 from ._validation import fail, positive
 
-__all__ = ["THRESHOLD", "detection_threshold", "Buzz", "buzz", "clean_stiffness", "dequantise"]
+__all__ = ["THRESHOLD", "detection_threshold", "Buzz", "buzz", "dequantise"]
 
 THRESHOLD = {
     "minimum": 1e-8,  # m peak: Brisben et al. 1999, "< 0.01 um in some subjects" (published)
@@ -230,69 +230,3 @@ def buzz(position, period: float, exclude=(), floor: float = 0.0) -> Buzz:
     if m == -np.inf:
         return Buzz(False, -np.inf, 0.0, 0.0, p.shape[1] - 1, floor)
     return Buzz(bool(m > 0), m, float(freq[keep][k]), float(a_keep[k, a]), int(a), floor)
-
-
-def clean_stiffness(algorithm, device, operator, rates, stiffness, duration: float = 2.0,
-                    initial_position=None) -> list:
-    """The largest stiffness a rendering can have without buzz, at each update rate.
-
-    The question Choi & Tan asked of their users ("Perceived instability of virtual haptic
-    texture", Presence 13(4), 2004, and its sequels): how stiff a texture can be before it buzzes,
-    and how that limit moves with the servo rate. Here the hand is a model and the verdict is
-    :func:`buzz` on the exact sampled-data simulation: for each rate the device's period is
-    1 / rate (everything else kept), and each candidate stiffness is simulated for ``duration``.
-    A run that diverges counts as buzzing.
-
-    Parameters
-    ----------
-    algorithm : Algorithm
-        The rendering; each candidate stiffness replaces its kappa_0 (a
-        :func:`haptex.simulate_batch` sweep, every sample recorded).
-    device : Device
-        With the hand's mass attached where a hand holds it (:meth:`haptex.catalogue.Hand.attach`).
-    operator : Operator
-        The hand's action (a :class:`haptex.operators.ScanningHand` for a stroke).
-    rates : sequence of float
-        Servo rates (Hz), > 0.
-    stiffness : sequence of float
-        Candidate stiffnesses kappa_0 (N/m), > 0, ascending.
-    duration : float, optional
-        s, > 0; the verdict reads the second half of each run.
-    initial_position : array_like, optional
-        As :func:`haptex.simulate`.
-
-    Returns
-    -------
-    list of dict
-        Per rate: ``rate`` (Hz), ``clean`` (the largest candidate below the first that buzzes,
-        N/m; None when the smallest buzzes), ``buzzing`` (the first that buzzes, or None),
-        ``margin_db`` (list, one per candidate) and ``frequency`` (Hz, list).
-
-    Raises
-    ------
-    ParameterError
-        For a rate or stiffness not finite and > 0, candidates not ascending, or what
-        :func:`haptex.simulate` refuses.
-    """
-    from .simulate import simulate_batch
-
-    ks = np.asarray(stiffness, dtype=np.float64)
-    if ks.ndim != 1 or ks.size == 0 or not np.all(np.isfinite(ks) & (ks > 0)) or np.any(np.diff(ks) <= 0):
-        raise fail("stiffness", ks.tolist() if ks.size < 8 else "an array", "finite stiffnesses > 0 (N/m), ascending")
-    out = []
-    for rate in np.atleast_1d(np.asarray(rates, dtype=np.float64)):
-        rate = positive("rate", float(rate), "Hz")
-        dev = device.replace(period=1.0 / rate)
-        batch = simulate_batch(algorithm, dev, operator, duration, initial_position=initial_position, stiffness=ks,
-                               record=True, record_every=1, progress=False)
-        margins, freqs = [], []
-        for res in batch.runs:
-            b = res.buzz
-            margins.append(float("inf") if b is None else b.margin_db)
-            freqs.append(0.0 if b is None else b.frequency)
-        loud = [i for i, m in enumerate(margins) if m > 0]
-        first = loud[0] if loud else None
-        clean = None if first == 0 else float(ks[(ks.size if first is None else first) - 1])
-        out.append({"rate": rate, "clean": clean, "buzzing": None if first is None else float(ks[first]),
-                    "margin_db": margins, "frequency": freqs})
-    return out

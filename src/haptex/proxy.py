@@ -80,8 +80,7 @@ class GodObject:
         self._max_step = STEP_FRACTION * float(texture.shortest_period)
         self._core = None
         if self.in_core:  # the C core's tick
-            from .core import _ext
-            from .renderer import WORKSPACE_LIMIT
+            from .core import WORKSPACE_LIMIT, _ext
 
             code, prm, kind, coeffs, aux, core_base = (self.kernel_spec() + (None,)) if base is None \
                 else self.object_spec()

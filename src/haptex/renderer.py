@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import core as _core
-from .core import _ext
+from .core import WORKSPACE_LIMIT, _ext
 from ._validation import fail, optional_positive, positive, whole
 from .algorithms import Algorithm
 from .closest import table_search_data
@@ -24,9 +24,6 @@ __all__ = ["Renderer", "Stabiliser", "PassivityController", "EnergyBounding", "P
            "MAX_EVALUATIONS", "VIBRATION_RESERVE_TIME", "tick_model"]
 
 _REAL = (int, float, np.integer, np.floating)
-
-WORKSPACE_LIMIT = 1e3
-"""Positions with a coordinate beyond +-1 km (m) are treated as faults (zero force)."""
 
 
 

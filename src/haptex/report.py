@@ -829,7 +829,7 @@ def _clean_html(clean: dict) -> str:
         f"A on a sinusoid of {cp['texture'][0] * 1e3:g} mm and {cp['texture'][1] * 1e3:g} mm, {clean['device']} stroked "
         f"at {cp['hand_velocity'] * 1e3:g} mm/s, {len(clean['stiffness'])} stiffnesses from {clean['stiffness'][0]:g} "
         f"to {clean['stiffness'][-1]:g} N/m; <em>clean</em> is the largest below the first that buzzes "
-        "(haptex.perception.clean_stiffness).</p>"
+        "(haptex.limits.clean_stiffness).</p>"
         + _table(["rate (Hz)", "clean up to (N/m)", "first buzzing (N/m)", "loudest buzz (dB)"], rows))
 
 

@@ -29,11 +29,15 @@ import numpy as np
 from .._validation import ParameterError, fail
 from . import _ext
 
-__all__ = ["SOURCE_DIR", "IN_CORE", "field", "texture_derivatives", "threads", "num_threads", "blas_held_to_one_thread",
+__all__ = ["SOURCE_DIR", "IN_CORE", "WORKSPACE_LIMIT", "field", "texture_derivatives", "threads", "num_threads", "blas_held_to_one_thread",
            "expm", "in_slices", "closest_profile_points", "closest_surface_points"]
 
 SOURCE_DIR = Path(__file__).parent
 """Where the core's C sources are (``haptex export`` copies them from here)."""
+
+WORKSPACE_LIMIT = 1e3
+"""Positions with a coordinate beyond +-1 km (m) are faults of the tick (zero force): the
+renderer's and the god-object's (re-exported as :data:`haptex.renderer.WORKSPACE_LIMIT`)."""
 
 IN_CORE = frozenset("WABCG")
 """The letters whose memoryless fields (force and Jacobian, :func:`field`) the C core

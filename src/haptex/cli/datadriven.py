@@ -1,0 +1,123 @@
+"""``haptex fit`` and ``haptex vibration``: data-driven vibration models."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from pathlib import Path
+
+import click
+
+from .._validation import ParameterError
+from ._common import Quantity, _catalogued_device, _check_plot_path
+
+
+@click.command("fit")
+@click.argument("recording", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("-o", "--out", type=click.Path(dir_okay=False, path_type=Path), required=True,
+              help="Model file to write (haptex's JSON).")
+@click.option("--sample-rate", type=Quantity("Hz"), default=None,
+              help="The recording's rate, e.g. '10 kHz', when it has no time_s column.")
+@click.option("--rate", type=Quantity("Hz"), default=None, show_default="the recording's",
+              help="The models' rate: the renderer's servo rate, e.g. '1 kHz'.")
+@click.option("--order", type=int, default=None, show_default="chosen by BIC", help="AR order p.")
+@click.option("--ma-order", type=int, default=0, show_default=True, help="MA order q (0: AR models).")
+@click.option("--segment", type=Quantity("s"), default=0.2, show_default="0.2 s",
+              help="Windows in which speed and force are judged steady.")
+@click.option("--highpass", type=Quantity("Hz"), default=20.0, show_default="20 Hz",
+              help="Cut-off of the high-pass that removes the hand's motion.")
+def fit_cmd(recording, out, sample_rate, rate, order, ma_order, segment, highpass):
+    """Fit ARMA vibration models over (speed, force) to a recording (CSV: time_s, acc_m_s2 or
+    acc_x/y/z_m_s2, speed_m_s, force_n), and write them."""
+    from ..datadriven import read_recording
+
+    if not out.parent.is_dir():
+        raise ParameterError(f"--out = '{out}' is not allowed: must be a file in an existing folder")
+    rec = read_recording(recording, sample_rate=sample_rate)
+    models = rec.fit(rate=rate, order=order, ma_order=ma_order, segment=segment, highpass=highpass,
+                     name=recording.stem)
+    models.write(out)
+    r = models.report
+    click.echo(f"{len(models.models)} ARMA{r.order} models at {r.sample_rate:g} Hz from {r.segments} steady windows "
+               f"of {r.windows} (order: {r.criterion}); written to {out}")
+
+
+@click.command()
+@click.argument("models", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--speed", type=Quantity("m/s"), required=True, help="Tangential speed, e.g. '50 mm/s'.")
+@click.option("--force", type=Quantity("N"), required=True, help="Normal force, e.g. '1 N'.")
+@click.option("--plot", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Write the spectrum's figure (PNG or SVG).")
+@click.option("--device", "device_spec", default=None,
+              help="A preset of 'haptex devices' (or FILE.toml) to display the vibration on, as a force "
+                   "(its mass x the acceleration, along x): the power it supplies at the port is reported.")
+@click.option("--hand", default="light-touch", show_default=True,
+              help="With --device: the hand holding the handle (none, light-touch, firm-grip).")
+@click.option("--json", "as_json", is_flag=True, help="Print JSON instead of text.")
+def vibration(models, speed, force, plot, device_spec, hand, as_json):
+    """The vibration a model set gives at one speed and force: the interpolated model, its
+    power and its spectrum (HaTT's XML or haptex's JSON); with --device, the energy it
+    supplies at the device's port."""
+    import numpy as np
+
+    from ..catalogue import hand as _hand
+    from ..datadriven import port_energy, read_models
+
+    if plot is not None:
+        _check_plot_path(plot)
+    grip = _hand(hand)
+    dev = None
+    if device_spec is not None:
+        dev = _catalogued_device(device_spec, 2)
+        if dev is None:
+            raise ParameterError(f"--device = {device_spec!r} is not allowed: must be a preset of 'haptex devices' or "
+                                 "a device file FILE.toml")
+    s = read_models(models)
+    idx, lam, clamped = s.weights(speed, force)
+    m = s.model_at(speed, force)
+    f = np.linspace(0.0, s.sample_rate / 2, 512)
+    psd = m.psd(f)
+    rms = math.sqrt(m.output_variance())
+    peak = float(f[int(np.argmax(psd))])
+    port = None if dev is None else port_energy(m, dev, None if grip.key == "none" else grip)
+    if as_json:
+        click.echo(json.dumps({"models": str(models), "speed": speed, "force": force, "order": list(m.order),
+                               "weights": [{"model": int(i) + 1, "weight": float(w)} for i, w in zip(idx, lam)],
+                               "clamped_to_hull": clamped, "rms_acceleration": rms, "peak_frequency": peak, "sample_rate": s.sample_rate,
+                               "port": None if port is None else {"device": device_spec, "hand": grip.key,
+                                                                  **dataclasses.asdict(port)},
+                               "units": {"speed": "m/s", "force": "N", "rms_acceleration": "m/s^2",
+                                         "peak_frequency": "Hz", "sample_rate": "Hz", "power": "W", "to_hand": "W",
+                                         "to_device": "W", "rms_force": "N", "effective_mass": "kg",
+                                         "period": "s"}}, indent=2))
+    else:
+        import shutil
+        import textwrap
+
+        width = shutil.get_terminal_size((80, 24)).columns
+        echo = lambda text: click.echo(textwrap.fill(text, width, subsequent_indent="  "))  # noqa: E731
+        echo(repr(s))
+        where = " (outside the hull: its closest point)" if clamped else ""
+        echo(f"at {speed * 1e3:g} mm/s, {force:g} N{where}: ARMA{m.order}, weights "
+             + ", ".join(f"model {int(i) + 1}: {w:.3f}" for i, w in zip(idx, lam)))
+        echo(f"rms acceleration {rms:.4g} m/s^2; spectrum's peak at {peak:.4g} Hz")
+        if port is not None:
+            echo(f"on {device_spec} held by the hand {grip.key!r}: {port.rms_force:.3g} N rms "
+                 f"({port.effective_mass:.3g} kg x the acceleration) supplies {port.power * 1e3:.3g} mW at the "
+                 f"port ({port.to_hand * 1e3:.3g} mW into the hand, {port.to_device * 1e3:.3g} mW into the "
+                 "device's damping)")
+    if plot is not None:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots(figsize=(6, 3.5))
+        ax.semilogy(f[1:], psd[1:])
+        ax.set_xlabel("frequency (Hz)")
+        ax.set_ylabel("PSD ((m/s²)²/Hz)")
+        ax.set_title(f"{s.name or models.name}: {speed * 1e3:g} mm/s, {force:g} N")
+        fig.tight_layout()
+        fig.savefig(plot)
+        plt.close(fig)

@@ -1,0 +1,187 @@
+"""``haptex design``: which algorithm, how stiff, for a texture on a device."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import click
+
+from .._specs import object_from_spec, texture_from_spec as _texture_from_spec
+from .._validation import ParameterError
+from ..tables import PAPER_PARAMETERS
+from ._common import (
+    Quantity, _Spinner, _Steps, _build_device, _device_options, _felt_options, _fitted, _jsonable,
+    _limits_table, _object_options, _parse_point)
+
+
+@click.command()
+@click.option("--texture", "texture_spec", required=True,
+              help="FILE (a line scan or an areal map in any format SurfaceTopography reads: Dektak, X3P, SDF, "
+                   "Gwyddion, Zygo, Wyko, Keyence, NPY, text, ...; or .mat), 'sine:AMPLITUDE,PERIOD', "
+                   "'sum:A1,L1;A2,L2', 'noise:RMS,SHORTEST,LONGEST,LENGTH[,SEED]', "
+                   "or a surface: 'egg-crate:AMPLITUDE,PERIOD', 'grating:AMPLITUDE,PERIOD[,DIRECTION]'.")
+@_device_options
+@click.option("--stiffness", type=Quantity("N/m"), default=PAPER_PARAMETERS["stiffness"], show_default="2000 N/m",
+              help="The stiffness you want to render at.")
+@click.option("--speed", type=Quantity("m/s"), default=0.1, show_default="0.1 m/s", help="Scanning speed.")
+@click.option("--max-penetration", type=Quantity("m"), default=1e-3, show_default="1mm", help="Rendering depth.")
+@click.option("--spacing", type=Quantity("m"), default=None,
+              help="Sample spacing when the file does not state it, e.g. '0.5um'.")
+@click.option("--x-unit", default=None, help="Unit of the file's x column when it does not state it.")
+@click.option("--height-unit", default=None, help="Unit of the file's heights when it does not state it.")
+@click.option("--level", is_flag=True, help="Remove the profile's best-fit line.")
+@click.option("--lowpass", type=Quantity("m"), default=None, help="Band-limit the profile to this shortest period.")
+@click.option("--scale", default=None, help="'LENGTH_FACTOR,HEIGHT_FACTOR' to stretch the profile.")
+@click.option("--periodic", is_flag=True, help="Close the profile into a periodic texture.")
+@click.option("--window", default=None, help="'X0,X1' abscissa window to analyse (default: one period or the whole "
+              "profile); over a surface 'X0,X1,Y0,Y1' (default: one periodic cell or the whole map).")
+@click.option("--fill-undefined", is_flag=True,
+              help="Fill a measured file's undefined (NaN) heights by interpolation instead of refusing the file.")
+@_felt_options("analysed")
+@click.option("--raw", is_flag=True,
+              help="Analyse the measured samples as they are, not band-limited to what the device renders.")
+@click.option("--hand", default="light-touch", show_default=True,
+              help="The hand gripping the handle for the stable limits: a hand of 'haptex devices' (none, "
+                   "light-touch, firm-grip).")
+@_object_options("A, B, C, F and G are analysed there (D and E with --algorithms, but on a faceted mesh).")
+@click.option("--algorithms", default=None,
+              help="The algorithms to analyse, e.g. 'A,F' (default: every one defined for the texture; on an object "
+                   "A, B, C, F, G: D and E, about 10 s each, on request).")
+@click.option("--vertex-normals", is_flag=True,
+              help="With a mesh: a smooth base swept along its vertex normals (default: the closest point's "
+                   "coordinates, whose normal turns around each edge).")
+@click.option("--report", "report_dir", type=click.Path(path_type=Path), default=None,
+              help="Also write an HTML report (force fields, q maps, limits, recommendation) into this directory.")
+@click.option("--force", is_flag=True, help="With --report: write into an existing directory that is not a haptex report.")
+@click.option("--json", "as_json", is_flag=True)
+@click.option("--quiet", is_flag=True, help="No progress display.")
+@click.pass_context
+def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, sampling_period, delay, stiffness, speed,
+           max_penetration, spacing, x_unit, height_unit, level, lowpass, scale, periodic, window, fill_undefined, crop,
+           tip_radius, raw, object_spec, uv_scale, vertex_normals, algorithms, hand, report_dir, force, as_json, quiet):
+    """Which algorithm, how stiff, will it be passive, can the device render it?
+
+    A measured texture is band-limited to the shortest period the device renders at the
+    speed (the four period limits of Section II-B) and analysed as rendered; --raw analyses
+    the samples as they are."""
+    from ..catalogue import hand as _hand
+    from ..design import design as run_design
+
+    hand = _hand(hand)  # a misspelt hand before the texture is read
+    with _Spinner("reading the texture", quiet or as_json):
+        tex = _texture_from_spec(texture_spec, spacing, x_unit, height_unit, level, lowpass, scale, periodic,
+                                 fill_undefined, crop)
+    if raw and not hasattr(tex, "band_limited"):
+        raise ParameterError(f"--raw is not allowed with the synthetic texture {texture_spec!r}: it applies to measured "
+                             "textures read from a file")
+    felt = None
+    if tip_radius:
+        with _Spinner(f"rolling a ball of {tip_radius * 1e3:g} mm over the texture", quiet or as_json):
+            point = tex
+            tex = tex.felt_by(tip_radius)
+        felt = {"tip_radius": tip_radius, "max_slope_point_probe": float(point.max_slope),
+                "max_slope_felt": float(tex.max_slope), "source": tex.source}
+    base = object_from_spec(object_spec, uv_scale, vertex_normals)
+    dev = _build_device(ctx, device_spec, joint_damping, mass, damping, sampling_period, delay,
+                        3 if base is not None else tex.dimension + 1)
+    x_range = None
+    if window and tex.dimension == 1:
+        x_range = _parse_point(window, "window")
+    elif window:
+        x0, x1, y0, y1 = _parse_point(window, "window", 4)
+        x_range = ((x0, x1), (y0, y1))
+    if report_dir is not None:
+        from ..report import check_output
+
+        if base is not None:
+            raise ParameterError("--report is not allowed with --object yet: the design report draws fields in the "
+                                 "x-z plane of a profile; use --json for an object")
+        if tex.dimension != 1:
+            raise ParameterError("--report is not allowed with a surface yet: the design report draws fields in the "
+                                 "x-z plane of a profile; use --json for a surface")
+        check_output(report_dir, force)  # before the minutes of analysis
+    elif force:
+        raise ParameterError("--force is not allowed without --report: it applies to the report directory")
+    steps = _Steps(9, "design", quiet or as_json)
+
+    def announce(est):
+        if not (quiet or as_json):
+            searches = (f"; D and E: {est['searches']:.3g} closest-point searches at "
+                        f"{est['seconds_per_search'] * 1e6:.3g} us" if est["searches"] else "")
+            click.echo(f"estimate: at least {est['seconds']:.3g} s of analysis and {est['peak_bytes'] / 2**20:.3g} MiB "
+                       f"for its largest grid{searches}", err=True)
+        steps.weigh({L: v["seconds"] for L, v in est["algorithms"].items()})
+
+    with steps as step:
+        data = run_design(tex, dev, stiffness, speed=speed, max_penetration=max_penetration, x_range=x_range,
+                          progress=step, band_limit=not raw, hand=hand, on_estimate=announce, base=base,
+                          algorithms=None if algorithms is None else [v for v in algorithms.split(",") if v.strip()])
+    if report_dir is not None:
+        from ..design import rendered_texture
+        from ..report import write_design_report
+
+        write_design_report(data, rendered_texture(tex, dev, speed, band_limit=not raw), report_dir, force)
+    if as_json:
+        click.echo(json.dumps(_jsonable(dict(data, felt_by_tip=felt)), indent=2))
+        return
+    from rich.console import Console
+    from rich.table import Table
+
+    console = Console()
+    if felt is not None:
+        console.print(f"felt by a ball of r = {tip_radius * 1e3:g} mm: M = {felt['max_slope_point_probe']:.4g} for a point "
+                      f"probe, {felt['max_slope_felt']:.4g} felt; the felt texture is analysed below")
+    bl = data["band_limit"]
+    rn = bl["raw"]
+    if bl["sampled"]:
+        dom = "" if rn["dominant_period"] is None else f", dominant period {rn['dominant_period'] * 1e3:.4g} mm"
+        console.print(f"measured {data['texture']}: {bl['samples']['raw']} samples, RMS {rn['rms'] * 1e6:.4g} um{dom}, "
+                      f"M = {rn['max_slope']:.4g}, max curvature {rn['max_curvature']:.4g} 1/m")
+    names = bl["set_by"]
+    by = names[0] + " limit" if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1] + " limits"
+    cut = f"the device renders periods >= {bl['cutoff'] * 1e3:.4g} mm at {speed:g} m/s (set by the {by})"
+    n_out = bl["samples"]["rendered"]
+    if bl["filtered"]:
+        console.print(f"{cut}: band-limited to it ({rn['rms_removed'] * 1e6:.3g} um RMS removed) and resampled to "
+                      f"{n_out} samples; analysed as rendered (--raw: as measured)")
+    elif bl["applied"]:
+        console.print(f"{cut}: the texture holds no shorter period (its shortest: "
+                      f"{rn['shortest_period'] * 1e3:.4g} mm); resampled to {n_out} samples")
+    elif bl["sampled"] and not bl["requested"]:
+        console.print(f"{cut}; --raw: analysed as measured, not as rendered")
+    else:
+        console.print(cut)
+    tn = data["texture_numbers"]
+    console.print(f"{'rendered ' if bl['applied'] else ''}texture {data['rendered_texture']}: shortest period {tn['shortest_period'] * 1e3:.4g} mm, "
+                  f"M = {tn['max_slope']:.4g}, heights {tn['height_range'][0] * 1e3:.4g} to {tn['height_range'][1] * 1e3:.4g} mm")
+    from rich import box
+
+    console.print(_limits_table(data["wall_limits"], f"wall limits on {data['device']}"))
+
+    if data["object"] is not None:
+        console.print(f"on the object {data['object']} (A, B, C, G: penetration along its normal)")
+    t = Table(title=f"at {stiffness:g} N/m", box=box.SIMPLE_HEAD,
+              caption="max passive: Corollary 1 / q; max stable: the wall's stable limit with the hand / q; "
+                      "cons.: conservative; cont.: continuous")
+    for col in ("alg.", "q", "max passive (N/m)", "max stable (N/m)", "passive", "cons.", "max |loop| (J)", "cont."):
+        t.add_column(col)
+    for r in data["rows"]:
+        t.add_row(r["algorithm"], "unbounded" if math.isinf(r["q"]) else f"{r['q']:.4g}",
+                  f"{r['max_passive_stiffness']:.4g}", f"{r['max_stable_stiffness']:.4g}",
+                  "yes" if r["passive_at_stiffness"] else "no",
+                  "yes" if r["conservative"] else ("almost" if r["almost_conservative"] else "no"),
+                  f"{r['max_abs_loop_energy']:.3g}", "yes" if r["continuous"] else "no")
+    console.print(_fitted(t))
+    lt = Table(title="rendering limits (Section II-B)", box=box.SIMPLE_HEAD)
+    for col in ("limit", "condition", "value", "bound", "ok"):
+        lt.add_column(col)
+    for lim in data["limits"]:
+        unit = "" if lim["unit"] == "1" else " " + lim["unit"]
+        lt.add_row(lim["name"], lim["formula"], f"{lim['lhs']:.4g}{unit}", f"{lim['rhs']:.4g}{unit}",
+                   "yes" if lim["passed"] else "NO")
+    console.print(_fitted(lt))
+    console.print("recommendation: " + data["recommendation"])
+    if report_dir is not None:
+        console.print(f"report: {report_dir / 'index.html'}")

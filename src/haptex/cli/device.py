@@ -1,0 +1,378 @@
+"""``haptex run`` (a texture, the identification program or the wall-limit ladder on a device) and
+``haptex identify`` (a device model fitted to a run log)."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import click
+
+from .._specs import object_from_spec, texture_from_spec as _texture_from_spec
+from .._validation import ParameterError
+from ..core import blas_held_to_one_thread as _core_blas_held
+from ._common import Quantity, STABILISERS, _felt_options, _jsonable, _object_options, _stabiliser
+
+
+@click.command("run")
+@click.option("--device", "device_spec", required=True,
+              help="'simulated:PRESET' (a preset of 'haptex devices', e.g. 'simulated:falcon'); "
+                   "'forcedimension[:PRESET]' (Force Dimension's SDK, pip install 'haptex[forcedimension]'); "
+                   "'openhaptics[:PRESET]' (OpenHaptics, pip install 'haptex[openhaptics]'); "
+                   "'haply[:ws://HOST:PORT]' (the Inverse Service, pip install 'haptex[haply]'); "
+                   "'haply-serial[:PORT]' (Haply's hardware API on a serial port, pip install "
+                   "'haptex[haply-serial]').")
+@click.option("--texture", "texture_spec", default="sine:0.2mm,2mm", show_default=True,
+              help="A texture spec as for design (a profile is extruded across y on a 3-DOF device).")
+@click.option("--algorithm", "letter", default="A", show_default=True,
+              help="W or A-G, or 'proxy': a god-object (haptex.proxy.GodObject, with history).")
+@click.option("--stiffness", type=Quantity("N/m"), default=500.0, show_default="500 N/m", help="kappa_0.")
+@click.option("--max-force", type=Quantity("N"), default=None, help="At most the device's (default: the device's).")
+@click.option("--duration", type=Quantity("s"), default=5.0, show_default="5 s")
+@click.option("--passivity-control", type=Quantity("N*s/m"), default=None,
+              help="A passivity observer/controller with this largest damping (its delay: the device's).")
+@click.option("--stabiliser", type=click.Choice(STABILISERS), default=None,
+              help="Instead: energy bounding or passive set-position modulation, paid with the device's damping.")
+@click.option("--hand", default="light-touch", show_default=True, help="simulated: the hand holding the handle.")
+@click.option("--speed", type=Quantity("m/s"), default=0.01, show_default="10 mm/s",
+              help="simulated: the hand's speed along x.")
+@click.option("--fast", is_flag=True, help="simulated, forcedimension: run as fast as the loop goes, not at the "
+              "device's rate.")
+@_object_options("A-G and the proxy are rendered there on a 3-DOF device (D and E but on a faceted mesh: give "
+                 "--vertex-normals), the object's top at the origin of its frame.")
+@_felt_options("rendered")
+@click.option("--record", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Write the run log (time, position, force, engaged) to FILE.csv (the columns of the file formats "
+                   "page, read by 'haptex identify') or FILE.npz.")
+@click.option("--vibration", "vibration_models", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="A data-driven vibration layered on the texture (haptex's JSON or HaTT's XML, at the device's "
+                   "servo rate): the device's mass along x times its acceleration, along the motion.")
+@click.option("--vibration-budget", type=Quantity("W"), default=None,
+              help="With --vibration: the power it may supply, spent from an energy tank in the tick (e.g. '2 mW').")
+@click.option("--find-limit", "find_limit_run", is_flag=True,
+              help="Instead of a texture: a smooth wall whose stiffness rises by 10% every 0.5 s while the handle "
+                   "rests on it, stopped (force zero) at the first step that oscillates; from --stiffness when "
+                   "given, else a quarter of the predicted stable limit with --hand, up to four times that limit.")
+@click.option("--identify", "identify_run", is_flag=True,
+              help="Instead of a texture: the identification program (steps and a chirp along x at 20% of the "
+                   "device's max force, a 50 N/m centering spring), the handle free; needs --record.")
+@click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
+@click.option("--quiet", is_flag=True, help="No live dashboard.")
+@_core_blas_held  # BLAS in the set-up (a preset's matrices, a slope bound) wakes no worker to spin beside the loop
+def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration, passivity_control, stabiliser, hand,
+               speed, fast, object_spec, uv_scale, tip_radius, crop, record, vibration_models, vibration_budget,
+               find_limit_run, identify_run, as_json, quiet):
+    """Render one texture on one device, with the safety rules of haptex.servo and a live dashboard."""
+
+    from ..algorithms import algorithm
+    from ..backends import open_backend
+    from ..renderer import Renderer
+    from ..servo import ServoLoop, analyse_trace
+    from ..surfaces import Extruded
+
+    if record is not None and record.suffix.lower() not in (".npz", ".csv"):
+        raise ParameterError(f"record = {str(record)!r} is not allowed: must end in .csv or .npz")
+    if record is not None and not (record.parent if str(record.parent) else Path(".")).is_dir():
+        raise ParameterError(f"record = {str(record)!r} is not allowed: its directory does not exist")
+    ctx = click.get_current_context()
+    if find_limit_run:
+        if identify_run:
+            raise ParameterError("--find-limit is not allowed with --identify: one program a run")
+        given = [n for n in ("texture_spec", "letter", "passivity_control", "stabiliser", "object_spec", "tip_radius",
+                             "crop", "speed", "duration", "vibration_models", "vibration_budget")
+                 if ctx.get_parameter_source(n) == click.core.ParameterSource.COMMANDLINE]
+        if given:
+            opt = next(o for o in ctx.command.params if o.name == given[0]).opts[-1]
+            raise ParameterError(f"{opt} is not allowed with --find-limit: the run is a smooth wall, its stiffness "
+                                 "in steps, the handle resting on it, as long as the steps take")
+        start = stiffness if ctx.get_parameter_source("stiffness") == click.core.ParameterSource.COMMANDLINE else None
+        return _find_limit_run(device_spec, start, max_force, hand, fast, record, as_json, quiet)
+    if identify_run:
+        if record is None:
+            raise ParameterError("--identify is not allowed without --record FILE.csv: the run's log is what "
+                                 "'haptex identify' reads")
+        texture_given = [n for n in ("texture_spec", "letter", "stiffness", "passivity_control", "stabiliser",
+                                     "object_spec", "tip_radius", "crop", "speed", "vibration_models",
+                                     "vibration_budget")
+                         if ctx.get_parameter_source(n) == click.core.ParameterSource.COMMANDLINE]
+        if texture_given:
+            opt = next(o for o in ctx.command.params if o.name == texture_given[0]).opts[-1]
+            raise ParameterError(f"{opt} is not allowed with --identify: the identification run renders no "
+                                 "texture (the handle is free)")
+        if ctx.get_parameter_source("hand") != click.core.ParameterSource.COMMANDLINE:
+            hand = "none"  # the handle free: the log then describes the device alone
+    kind = str(device_spec).partition(":")[0]
+    given = {n for n in ("hand", "speed", "fast")
+             if ctx.get_parameter_source(n) == click.core.ParameterSource.COMMANDLINE}
+    vendors = ("openhaptics", "haply", "haply-serial")  # (another kind's own error comes first)
+    for name in sorted(given - {"fast"} if kind == "forcedimension" else given if kind in vendors else ()):
+        which = "simulated devices" if name != "fast" else "simulated and Force Dimension devices"
+        raise ParameterError(f"--{name} is not allowed with --device {device_spec}: it applies to {which} only")
+    options = ({"hand": hand, "speed": speed, "realtime": not fast} if kind == "simulated"
+               else {"realtime": not fast} if kind == "forcedimension" else {})
+    backend = open_backend(device_spec, **options)
+    dev = backend.device
+    fmax = backend.max_force if max_force is None else max_force
+    if not fmax <= backend.max_force:
+        raise ParameterError(f"max_force = {fmax:g} N is not allowed: at most the device's {backend.max_force:g} N")
+    if identify_run:  # no texture: the program instead, the handle free
+        from ..identification import FRACTION, IdentificationProgram
+
+        if not math.isfinite(fmax):
+            raise ParameterError(f"--identify is not allowed on {backend.name} without --max-force: the program "
+                                 "is a share of the largest force")
+        program = IdentificationProgram(backend.dimension, dev.period, duration, FRACTION * fmax)
+        return _identification_run(backend, program, fmax, duration, record, as_json)
+    tex = None
+    letter = letter.upper()
+    if letter != "W":
+        tex = _texture_from_spec(texture_spec, None, None, None, False, None, None, False, crop=crop,
+                                 tip_radius=tip_radius)
+        if tex.dimension == 1 and backend.dimension == 3:
+            tex = Extruded(tex)
+        elif tex.dimension == 2 and backend.dimension == 2:
+            raise ParameterError(f"texture = {texture_spec!r} is not allowed on {backend.name}: a surface needs a "
+                                 "3-DOF device")
+    elif backend.dimension == 3:
+        from ..textures import Flat
+
+        tex = Flat(dimension=2)
+    base = object_from_spec(object_spec, uv_scale)
+    if base is not None:
+        from ..objects import object_algorithm
+
+        if backend.dimension != 3:
+            raise ParameterError(f"--object is not allowed on {backend.name}: an object needs a 3-DOF device")
+        if letter == "PROXY":
+            from ..proxy import GodObject
+
+            alg = GodObject(tex, stiffness, base)
+        else:
+            alg = object_algorithm(letter, tex, base, stiffness)
+    elif letter == "PROXY":
+        from ..proxy import GodObject
+
+        alg = GodObject(tex, stiffness)
+    else:
+        alg = algorithm(letter, tex, stiffness)
+    pc = _stabiliser(passivity_control, stabiliser, dev, delay=dev.delay)
+
+    vib = {}
+    if vibration_budget is not None and vibration_models is None:
+        raise ParameterError("--vibration-budget is not allowed without --vibration MODELS: it is the vibration's")
+    if vibration_models is not None:
+        from ..datadriven import read_models
+
+        models = read_models(vibration_models)
+        if abs(models.sample_rate * dev.period - 1.0) > 1e-6:
+            raise ParameterError(f"vibration = {str(vibration_models)!r} is not allowed on {backend.name}: its models "
+                                 f"run at {models.sample_rate:g} Hz, the device's servo at {1 / dev.period:g} Hz (fit "
+                                 f"them at that rate: haptex fit RECORDING --rate '{1 / dev.period:g} Hz')")
+        # the device's own mass along x turns acceleration into force (a simulated device's has the hand's added)
+        own = backend.preset.device() if kind == "simulated" else dev
+        vib = {"vibration": models, "vibration_mass": float(own.mass[0, 0]), "vibration_budget": vibration_budget}
+    renderer = Renderer(alg, max_force=fmax if math.isfinite(fmax) else None, energy_monitor=True,
+                        passivity_controller=pc, period=dev.period, **vib)
+    loop = ServoLoop(backend, renderer, max_force=fmax if math.isfinite(fmax) else None)
+    live = None
+    if not (quiet or as_json):
+        from rich.console import Console
+        from rich.live import Live
+
+        console = Console(stderr=True)
+        if console.is_terminal:
+            live = Live(console=console, refresh_per_second=4, transient=True)
+    every = max(1, int(0.1 / dev.period))
+    shown = [-every]
+
+    def show(k, st):  # (every tick from a Python driver, every 50 ms from a native one)
+        if live is not None and k - shown[0] >= every:
+            shown[0] = k
+            live.update(f"{backend.name}  t {k * dev.period:6.2f} s  ticks {st.ticks}  missed {st.missed}  faults "
+                        f"{st.faults}  engaged {'yes' if st.engaged_at is not None else 'no'}  energy observed "
+                        f"{renderer.energy:+.3g} J  max force sent {st.max_force_sent:.3g} N")
+    if live is not None:
+        with live:
+            stats, trace = loop.run(duration, on_tick=show)
+    else:
+        stats, trace = loop.run(duration)
+    periods = getattr(getattr(tex, "profile", tex), "periods", None) if tex is not None else None
+    verdict = analyse_trace(trace, dev.period, dev.position_resolution, () if periods is None else periods,
+                            speed=abs(backend.speed) if kind == "simulated" else None)
+    per_axis, osc = verdict["energy"], verdict["oscillation"]
+    axes = "xz" if backend.dimension == 2 else "xyz"
+    summary = {"device": backend.name, "algorithm": letter, "object": None if base is None else repr(base),
+               "stiffness": stiffness, "max_force": fmax,
+               "duration": stats.ticks * dev.period, "ticks": stats.ticks, "missed_deadlines": stats.missed,
+               "faults": stats.faults, "clamps": stats.clamps,
+               "engaged_at": None if stats.engaged_at is None else stats.engaged_at * dev.period,
+               "max_force_sent": stats.max_force_sent, "energy_observed": renderer.energy,
+               **{f"energy_{a}": float(e) for a, e in zip(axes, per_axis)},
+               "tick_max": stats.tick_seconds[0], "tick_mean": stats.tick_seconds[1], "tick_p999": stats.tick_p999,
+               "period_mean": stats.period_seconds[0], "period_std": stats.period_seconds[1],
+               "jitter_max": stats.jitter_seconds[0], "jitter_p999": stats.jitter_seconds[1],
+               "overruns": stats.overruns, "driver": stats.driver, "fifo": stats.fifo,
+               "memory_locked": stats.memory_locked,
+               "interrupted": stats.interrupted, "regime": verdict["regime"], "oscillating": osc.oscillating,
+               "amplitude": osc.amplitude, "frequency": osc.frequency,
+               "stabiliser": None if pc is None else pc.label,
+               "stabiliser_ticks": 0 if pc is None else renderer.controller_active,
+               # (None: no component above the encoder's floor, nothing to judge)
+               "buzz_db": None if verdict["buzz"] is None or verdict["buzz"].margin_db == -math.inf
+               else verdict["buzz"].margin_db,
+               "buzz_frequency": None if verdict["buzz"] is None or verdict["buzz"].margin_db == -math.inf
+               else verdict["buzz"].frequency,
+               **({"vibration_supplied": renderer.vibration_supplied, "vibration_cut": renderer.vibration_cut,
+                   "vibration_budget": vibration_budget} if vib else {}),
+               "units": {"stiffness": "N/m", "max_force": "N", "duration": "s", "engaged_at": "s",
+                         "amplitude": "m", "frequency": "Hz",
+                         "max_force_sent": "N", "energy_observed": "J", **{f"energy_{a}": "J" for a in axes},
+                         "tick_max": "s", "tick_mean": "s", "tick_p999": "s", "period_mean": "s",
+                         "period_std": "s", "jitter_max": "s", "jitter_p999": "s",
+                         "stabiliser_ticks": "ticks", "buzz_db": "dB above the detection threshold",
+                         "buzz_frequency": "Hz", "vibration_supplied": "J", "vibration_cut": "ticks",
+                         "vibration_budget": "W"}}
+    if record is not None:
+        _write_record(record, trace, dev.period)
+    if stats.driver == "native thread" and loop.priority and not stats.fifo and getattr(backend, "realtime", True):
+        click.echo("notice: the servo thread ran at normal priority: SCHED_FIFO needs CAP_SYS_NICE or a real-time "
+                   "limit (ulimit -r, /etc/security/limits.conf)", err=True)
+    if as_json:
+        click.echo(json.dumps(_jsonable(summary), indent=2))
+        return
+    click.echo(f"{backend.name}: {stats.ticks} ticks ({summary['duration']:.3g} s), {stats.missed} missed deadlines, "
+               f"{stats.faults} faults, {stats.clamps} clamps; forces engaged at "
+               f"{'never' if stats.engaged_at is None else format(summary['engaged_at'], '.3g') + ' s'}; "
+               f"largest force sent {stats.max_force_sent:.3g} N; energy observed {renderer.energy:+.3g} J; "
+               f"{verdict['regime']}; tick "
+               f"{stats.tick_seconds[1] * 1e6:.3g} us mean, {stats.tick_p999 * 1e6:.3g} us at 99.9 %, "
+               f"{stats.tick_seconds[0] * 1e6:.3g} us worst; jitter {stats.jitter_seconds[0] * 1e6:.3g} us worst; "
+               f"{stats.driver}{' at SCHED_FIFO' if stats.fifo else ''}"
+               + ("; interrupted (forces zeroed)" if stats.interrupted else ""))
+    if record is not None:
+        click.echo(f"trace: {record}")
+
+
+def _write_record(record: Path, trace: dict, period: float) -> None:
+    """The run's log: CSV (haptex.identify.LOG_COLUMNS) or the trace's arrays in .npz."""
+    import numpy as np
+
+    if record.suffix.lower() == ".csv":
+        from ..identification import write_log
+
+        write_log(record, trace["time"], trace["position"], trace["force"], trace["engaged"])
+    else:
+        np.savez(record, **trace, period=period, units=np.array(["s", "m", "N", "1"]))
+
+
+def _find_limit_run(device_spec, start, max_force, hand, fast, record, as_json, quiet) -> None:
+    """``haptex run --find-limit``: the stiffness ladder on the device (haptex.limits.find_limit)."""
+    from ..backends import open_backend
+    from ..catalogue import hand as _hand, hands
+    from ..limits import FIND_RATIO, FIND_SPAN, FIND_STEP, SIM_PUSH, find_limit, wall_limits
+
+    kind = str(device_spec).partition(":")[0]
+    h = _hand(hand)
+    if kind == "simulated":  # the hand rests on the wall: pressing with SIM_PUSH, not scanning
+        if h.none:
+            raise ParameterError("hand = 'none' is not allowed with --find-limit on a simulated device: a hand rests "
+                                 "the handle on the wall (" + ", ".join(k for k in hands() if k != "none") + ")")
+        backend = open_backend(device_spec, hand=hand, speed=0.0, press=SIM_PUSH / h.stiffness, realtime=not fast)
+    else:
+        backend = open_backend(device_spec, **({"realtime": not fast} if kind == "forcedimension" else {}))
+    dev = backend.device
+    fmax = backend.max_force if max_force is None else max_force
+    if not fmax <= backend.max_force:
+        raise ParameterError(f"max_force = {fmax:g} N is not allowed: at most the device's {backend.max_force:g} N")
+    # the predicted limit with the hand (the simulated device's mass has the hand's attached: its preset's has not)
+    predicted = wall_limits(backend.preset.device() if kind == "simulated" else dev, h).stable
+    k0 = predicted / FIND_SPAN if start is None else start
+    top = predicted * FIND_SPAN if start is None else max(predicted * FIND_SPAN, start * FIND_RATIO ** 10)
+    if not quiet and not as_json:
+        click.echo(f"{backend.name}: lift the handle above the wall (z > 0), then rest it on the wall; the stiffness "
+                   f"rises from {k0:.4g} to at most {top:.4g} N/m, by {FIND_RATIO:g}x every "
+                   f"{FIND_STEP:g} s (Ctrl-C stops with zero force)", err=True)
+
+    def show(step):
+        if not quiet and not as_json:
+            buzz = ("" if step["buzz_db"] is None
+                    else f", buzz {step['buzz_db']:+.1f} dB at {step['buzz_frequency']:.4g} Hz")
+            click.echo(f"  {step['stiffness']:9.4g} N/m  {step['regime']}{buzz}", err=True)
+    res = find_limit(backend, k0, top, max_force=fmax if math.isfinite(fmax) else None, on_step=show)
+    if record is not None:
+        _write_record(record, res.trace, backend.period)
+    summary = {"device": backend.name, "program": "find-limit", "hand": h.key, "predicted_stable": predicted,
+               **res.as_dict(), "ticks": res.stats.ticks, "missed_deadlines": res.stats.missed,
+               "faults": res.stats.faults, "max_force_sent": res.stats.max_force_sent, "driver": res.stats.driver,
+               "overruns": res.stats.overruns}
+    summary["units"] = {**summary["units"], "predicted_stable": "N/m", "max_force_sent": "N"}
+    if as_json:
+        click.echo(json.dumps(_jsonable(summary), indent=2))
+        return
+    found = ("no step was held: the forces never engaged (start with the handle above the wall)"
+             if res.reason == "not engaged" else
+             f"the first step oscillated ({res.oscillating:.4g} N/m): start lower with --stiffness"
+             if res.clean is None else
+             f"clean up to {res.clean:.4g} N/m" + ("" if res.oscillating is None else
+                                                   f", oscillating at {res.oscillating:.4g} N/m"))
+    click.echo(f"{backend.name}: {found}; {len(res.steps)} steps, ended by {res.reason}; predicted stable limit "
+               f"with the hand {h.key!r}: {predicted:.4g} N/m; largest force sent {res.stats.max_force_sent:.3g} N, "
+               f"{res.stats.missed} missed deadlines, {res.stats.faults} faults; force zero at the end")
+    if record is not None:
+        click.echo(f"trace: {record}")
+
+
+def _identification_run(backend, program, fmax: float, duration: float, record: Path, as_json: bool) -> None:
+    """``haptex run --identify``: the program under the servo's rules (zero force at every exit),
+    the log written."""
+    from ..servo import ServoLoop
+
+    loop = ServoLoop(backend, program, max_force=fmax)
+    stats, trace = loop.run(duration)
+    _write_record(record, trace, backend.period)
+    summary = {"device": backend.name, "program": "identification", "amplitude": program.program.max(),
+               "duration": stats.ticks * backend.period, "ticks": stats.ticks, "missed_deadlines": stats.missed,
+               "faults": stats.faults, "max_force_sent": stats.max_force_sent, "log": str(record),
+               "interrupted": stats.interrupted,
+               "units": {"amplitude": "N", "duration": "s", "max_force_sent": "N"}}
+    if as_json:
+        click.echo(json.dumps(_jsonable(summary), indent=2))
+        return
+    click.echo(f"{backend.name}: identification run, {stats.ticks} ticks ({summary['duration']:.3g} s), "
+               f"{stats.missed} missed deadlines, {stats.faults} faults; largest force sent "
+               f"{stats.max_force_sent:.3g} N" + ("; interrupted (forces zeroed)" if stats.interrupted else ""))
+    click.echo(f"log: {record} (next: haptex identify {record} -o mydevice.toml)")
+
+
+@click.command("identify")
+@click.argument("log", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("-o", "--out", type=click.Path(dir_okay=False, path_type=Path), required=True,
+              help="Device file to write (TOML, usable as --device FILE.toml).")
+@click.option("--axis", type=click.Choice(["x", "y", "z", "all"]), default="x", show_default=True,
+              help="The log's axes fitted (the identification run excites x).")
+@click.option("--max-delay", type=click.IntRange(0, 1000), default=10, show_default=True,
+              help="Largest delay searched (whole periods).")
+@click.option("--json", "as_json", is_flag=True, help="Print the figures as JSON.")
+def identify_command(log, out, axis, max_delay, as_json):
+    """Fit a device model (mass, damping, Coulomb friction, encoder step, delay) to a run log."""
+    from ..identification import AXES, identify, read_log
+
+    if not (out.parent if str(out.parent) else Path(".")).is_dir():
+        raise ParameterError(f"out = {str(out)!r} is not allowed: its directory does not exist")
+    lg = read_log(log)
+    d = lg.position.shape[1]
+    if axis == "all":
+        cols = list(range(d))
+    elif axis not in AXES[d]:
+        raise ParameterError(f"axis = {axis!r} is not allowed: the log's axes are {', '.join(AXES[d])} (or all)")
+    else:
+        cols = [AXES[d].index(axis)]
+    res = identify(time=lg.time, position=lg.position[:, cols], force=lg.force[:, cols], max_delay=max_delay,
+                   source=str(log))
+    res.to_toml(out)
+    if as_json:
+        click.echo(json.dumps(_jsonable({**res.to_dict(), "device_file": str(out)}), indent=2))
+        return
+    click.echo(res.report())
+    click.echo(f"device file: {out} (use it as --device {out})")

@@ -1,0 +1,99 @@
+"""``haptex export``: the C tick and its model for firmware."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from .._specs import object_from_spec, texture_from_spec as _texture_from_spec
+from .._validation import ParameterError
+from ._common import (
+    Quantity, STABILISERS, _Spinner, _catalogued_device, _felt_options, _not_taken, _object_options, _stabiliser)
+
+
+@click.command()
+@click.option("--algorithm", "letter", required=True, help="W or A-G.")
+@click.option("--texture", "texture_spec", default=None,
+              help="FILE, 'sine:AMPLITUDE,PERIOD', 'sum:A1,L1;A2,L2' or 'noise:RMS,SHORTEST,LONGEST,LENGTH[,SEED]' "
+                   "(not for W).")
+@click.option("--stiffness", type=Quantity("N/m"), required=True, help="kappa_0, e.g. '2 kN/m'.")
+@click.option("--max-force", type=Quantity("N"), required=True, help="Force saturation, e.g. '5 N'.")
+@click.option("--max-penetration", type=Quantity("m"), default=None, help="B, C, G, F: d^z_max (Remark 3).")
+@click.option("--friction", type=Quantity("dimensionless"), default=None, help="F: mu (default 0.8).")
+@click.option("--presliding", type=Quantity("m"), default=None, help="F: d^x_max (default 1 mm).")
+@click.option("--stick-deflection", type=Quantity("m"), default=None,
+              help="F: the smooth presliding model's elastic range z_stick (default: the sharp model).")
+@click.option("--spacing", type=Quantity("m"), default=None, help="Sample spacing when the file does not state it.")
+@click.option("--x-unit", default=None, help="Unit of the file's x column when it does not state it.")
+@click.option("--height-unit", default=None, help="Unit of the file's heights when it does not state it.")
+@click.option("--level", is_flag=True, help="Remove the profile's best-fit line.")
+@click.option("--lowpass", type=Quantity("m"), default=None, help="Band-limit the profile to this shortest period.")
+@click.option("--periodic", is_flag=True, help="Close the profile into a periodic texture.")
+@_object_options("A-G are exported there (D and E but on a faceted mesh: give --vertex-normals).")
+@click.option("--passivity-control", type=Quantity("N*s/m"), default=None,
+              help="Export a passivity observer/controller with this largest damping (needs --device).")
+@click.option("--stabiliser", type=click.Choice(STABILISERS), default=None,
+              help="Instead: energy bounding or passive set-position modulation, paid with the device's damping "
+                   "(needs --device).")
+@click.option("--device", "device_spec", default=None,
+              help="With a stabiliser: the device the firmware runs on (a preset of 'haptex devices' or FILE.toml): "
+                   "its period, delay and damping.")
+@_felt_options("rendered")
+@click.option("--out", "out", type=click.Path(file_okay=False, path_type=Path), required=True,
+              help="Directory for haptex_texture.c, haptex_texture.h and the C core's files.")
+@click.option("--quiet", is_flag=True, help="No progress display.")
+def export(letter, texture_spec, stiffness, max_force, max_penetration, friction, presliding, stick_deflection,
+           spacing, x_unit, height_unit, level, lowpass, periodic, object_spec, uv_scale, passivity_control, stabiliser,
+           device_spec, tip_radius, crop, out, quiet):
+    """C99 source of one algorithm on one texture, for device firmware (<math.h> only)."""
+    from ..algorithms import ALGORITHMS, algorithm
+    from ..export import TICK_FILES, export_c
+    from ..objects import object_algorithm
+
+    letter = str(letter).upper()
+    takes = ALGORITHMS[letter].parameters if letter in ALGORITHMS else ()
+    if letter in ALGORITHMS and not ALGORITHMS[letter].textured:
+        if texture_spec is not None:
+            raise ParameterError("--texture is not allowed with --algorithm W: the smooth wall has no texture")
+        for flag, value in (("--tip-radius", tip_radius), ("--crop", crop)):
+            if value:
+                raise ParameterError(f"{flag} is not allowed with --algorithm W: the smooth wall has no texture")
+        tex = None
+    elif texture_spec is None:
+        raise ParameterError(f"--texture is required with --algorithm {letter}: give a file, 'sine:...' or 'noise:...'")
+    else:
+        with _Spinner("reading the texture", quiet):
+            tex = _texture_from_spec(texture_spec, spacing, x_unit, height_unit, level, lowpass, None, periodic,
+                                     crop=crop, tip_radius=tip_radius)
+    params = {}
+    for name, value in (("max_penetration", max_penetration), ("friction", friction), ("presliding", presliding),
+                        ("stick_deflection", stick_deflection)):
+        if value is not None:
+            if name not in takes:
+                raise _not_taken(name, letter)
+            params[name] = value
+    base = object_from_spec(object_spec, uv_scale)
+    if base is not None:
+        alg = object_algorithm(letter, tex, base, stiffness, **params)
+    else:
+        alg = algorithm(letter, tex, stiffness, **params)
+    pc = period = None
+    if passivity_control is not None or stabiliser is not None:
+        if device_spec is None:
+            raise ParameterError(f"--{'passivity-control' if stabiliser is None else 'stabiliser'} needs --device: the "
+                                 "device's period, delay and damping set the stabiliser")
+        from ..catalogue import presets
+
+        dev = _catalogued_device(device_spec, alg.dimension)
+        if dev is None:
+            raise ParameterError(f"device = {device_spec!r} is not allowed: must be a preset of 'haptex devices' "
+                                 f"({', '.join(presets())}) or a TOML device file (FILE.toml)")
+        pc, period = _stabiliser(passivity_control, stabiliser, dev, delay=dev.delay), dev.period
+    elif device_spec is not None:
+        raise ParameterError("--device is not allowed without --passivity-control or --stabiliser: the exported "
+                             "tick reads nothing else of the device")
+    with _Spinner("writing the C source", quiet):
+        h_path, c_path = export_c(alg, out, max_force, passivity_controller=pc, period=period)
+    click.echo(f"wrote {c_path}, {h_path} and the C core's {len(TICK_FILES)} files beside them: {alg!r}, max force "
+               f"{max_force:g} N{'' if pc is None else ', ' + pc.label} (build: cc -std=c99 -O2 {out}/*.c -lm)")
