@@ -17,6 +17,8 @@ import pytest
 import haptex as hx
 from haptex import ParameterError
 
+from .conftest import DEKTAK, needs_data
+
 A, L = 0.1e-3, 2e-3  # a sinusoid whose troughs have a 1.01 mm radius of curvature
 SINE = hx.Sinusoid(A, L)
 
@@ -145,3 +147,72 @@ def test_a_ball_too_wide_for_a_fine_map_names_a_spacing_that_works(monkeypatch):
     s = float(re.search(r"S >= ([0-9.e+-]+) m", str(e.value)).group(1))
     felt = surf.felt_by(30e-6, spacing=s * 1.01)
     assert felt.x[1] - felt.x[0] == pytest.approx(s * 1.01) and "resampled" in felt.source
+
+
+# ---- the instrument's own tip (issue 58) ----------------------------------------------
+def _sine_map(A, period, n=4096, periods=8):
+    x = np.arange(n) * (periods * period / n)
+    return hx.SampledProfile(x, A * np.sin(2 * np.pi * x / period), periodic=True)
+
+
+def test_a_tip_finer_than_the_crests_leaves_the_map_reliable_and_a_blunt_one_does_not():
+    # a sinusoid of amplitude A and period l has its sharpest curvature 4 pi^2 A / l^2 at the
+    # crests and troughs: a tip whose radius is well below that curvature radius follows it and
+    # leaves no scale unreliable (SurfaceTopography's analysis, Sanner et al. 2022: curvature
+    # against -1/(2R)); one well above it does, the cutoff growing with the radius (measured:
+    # 295, 323, 344 um at 5, 10, 20 times the curvature radius: beyond the 200 um period, the
+    # whole sinusoid is then the tip's shape)
+    from haptex.probe import reliability_cutoff
+
+    A, period = 10e-6, 200e-6
+    rho = period**2 / (4 * math.pi**2 * A)  # 101 um
+    tex = _sine_map(A, period)
+    for f in (0.05, 0.1, 0.2):
+        assert reliability_cutoff(tex, f * rho) is None, f
+    cuts = [reliability_cutoff(tex, f * rho) for f in (5.0, 10.0, 20.0)]
+    assert all(c is not None and 0 < c < 8 * period for c in cuts) and cuts[0] < cuts[1] < cuts[2], cuts
+    with pytest.raises(ParameterError, match="instrument_tip"):
+        reliability_cutoff(tex, 0.0)
+    with pytest.raises(ParameterError, match="instrument_tip"):
+        reliability_cutoff(hx.Sinusoid(A, period), 1e-6)
+
+
+def test_design_renders_nothing_finer_than_the_instruments_reliability():
+    # design on a measured profile with a blunt instrument: the reliability cutoff joins the band
+    # limit's bounds, and where it is the largest it sets the cut-off, the rendered texture holding
+    # no shorter period; a sharp instrument changes nothing
+    from haptex.design import design
+    from haptex.probe import reliability_cutoff
+
+    A, period = 0.1e-3, 1e-3
+    x = np.arange(8192) * (8e-3 / 8192)
+    tex = hx.SampledProfile(x, A * np.sin(2 * np.pi * x / period) + 5e-6 * np.sin(2 * np.pi * x / 0.05e-3))
+    dev = hx.catalogue.preset("pantograph").device()
+    plain = design(tex, dev, 1000.0, speed=0.01, algorithms="A")["band_limit"]
+    blunt = 0.05
+    rc = reliability_cutoff(tex, blunt)
+    assert rc is not None and rc > plain["cutoff"]
+    got = design(tex, dev, 1000.0, speed=0.01, algorithms="A", instrument_tip=blunt)
+    band = got["band_limit"]
+    assert band["set_by"] == ["instrument tip"] and band["cutoff"] == pytest.approx(rc)
+    assert band["instrument_tip"] == blunt and band["reliability_cutoff"] == pytest.approx(rc)
+    assert got["texture_numbers"]["shortest_period"] >= rc * (1 - 1e-9)
+    sharp = design(tex, dev, 1000.0, speed=0.01, algorithms="A", instrument_tip=1e-9)["band_limit"]
+    assert sharp["cutoff"] == plain["cutoff"] and sharp["reliability_cutoff"] is None
+
+
+@needs_data
+def test_the_dektak_file_states_its_stylus_and_design_reports_it(capsys):
+    # the Dektak scan's header gives its stylus radius, 2.5 um (../shared/data/README.md): read,
+    # reported, and its reliability cutoff (1.6 um, SurfaceTopography's) far below any device's
+    from haptex.cli import main
+
+    tex = hx.load_texture(str(DEKTAK))
+    assert tex.instrument_tip == pytest.approx(2.5e-6)
+    assert main(["design", "--texture", str(DEKTAK), "--device", "falcon", "--algorithms", "A", "--level"]) == 0
+    out = capsys.readouterr().out
+    assert "measured with a tip of r = 2.5 um (the file states it)" in out and "below 1.5" in out
+    assert main(["design", "--texture", str(DEKTAK), "--device", "falcon", "--instrument-tip", "0um"]) == 2
+    assert "instrument_tip" in capsys.readouterr().err
+    assert main(["design", "--texture", "sine:0.2mm,2mm", "--device", "pantograph", "--instrument-tip", "2um"]) == 2
+    assert "--instrument-tip is not allowed with the synthetic texture" in capsys.readouterr().err

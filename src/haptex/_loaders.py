@@ -119,6 +119,8 @@ class Reading:
         Which reader read it (``SurfaceTopography: <format>`` or ``haptex: <format>``).
     filled : int
         How many undefined (NaN) samples were filled by interpolation (0 unless asked).
+    instrument_tip : float or None
+        The measuring tip's radius (m) where the file states it, else None.
     """
 
     x: np.ndarray
@@ -127,6 +129,7 @@ class Reading:
     source: str
     reader: str
     filled: int = 0
+    instrument_tip: float | None = None
 
     @property
     def areal(self) -> bool:
@@ -277,6 +280,7 @@ def _read_st(p: Path, reader, spacing, x_unit, height_unit, variable, fill_undef
     except Exception as exc:  # truncated or corrupt data after a valid header
         raise ParameterError(f"{p}: SurfaceTopography's {fmt} reader cannot read it ({_first_line(exc)})") from None
     mask = mask | ~np.isfinite(heights)
+    tip = _stated_tip(p, getattr(topo, "info", {}) or {})
     if not mask.any() and crop is None:
         mask = None
     h = heights * hf
@@ -317,10 +321,22 @@ def _read_st(p: Path, reader, spacing, x_unit, height_unit, variable, fill_undef
         if undefined:
             x, h, source = _fill_line(p, x, h, mask, source)
         _check(p, x, h)
-        return Reading(x, None, h, source, f"SurfaceTopography: {fmt}", undefined)
+        return Reading(x, None, h, source, f"SurfaceTopography: {fmt}", undefined, tip)
     if undefined:
         x, y, h, source = _fill_map(p, x, y, h, mask, source)
-    return Reading(x, y, h, source, f"SurfaceTopography: {fmt}", undefined)
+    return Reading(x, y, h, source, f"SurfaceTopography: {fmt}", undefined, tip)
+
+
+def _stated_tip(p: Path, info: dict) -> float | None:
+    """The measuring tip's radius (m) a file states (SurfaceTopography's
+    ``info['instrument']['parameters']['tip_radius']``), None where it states none or none that
+    is a finite length > 0."""
+    try:
+        tip = info["instrument"]["parameters"]["tip_radius"]
+        r = float(tip["value"]) * _unit_factor(str(tip["unit"]), "tip_radius", str(p))
+    except (KeyError, TypeError, ValueError, ParameterError):
+        return None
+    return r if np.isfinite(r) and r > 0 else None
 
 
 CROP_AUTO = "auto"
@@ -471,7 +487,7 @@ def _cropped(p: Path, reading: Reading, crop) -> Reading:
     x, y, h, _, source = _apply_crop(p, reading.x, reading.y, reading.h, None, crop, False)
     if y is None:
         _check(p, x, h)
-    return Reading(x, y, h, source, reading.reader, reading.filled)
+    return Reading(x, y, h, source, reading.reader, reading.filled, reading.instrument_tip)
 
 
 def _filled_note(p: Path, total: int, cropped: str, filled: int, source: str | None = None) -> str:

@@ -120,10 +120,12 @@ def _texture_from_spec(spec: str, spacing=None, x_unit=None, height_unit=None, l
         crop = tuple(quantity(v, "m", "crop") for v in parts)
     prof = load_texture(spec, spacing=spacing, x_unit=x_unit, height_unit=height_unit, periodic=periodic,
                         fill_undefined=fill_undefined, crop=crop)
+    tip = prof.instrument_tip  # (the file's own tip: still the map's after levelling or a low-pass, not a scaling)
     if level:
         prof = prof.leveled()
     if lowpass is not None:
         prof = prof.lowpass(lowpass)
+    prof.instrument_tip = tip
     if scale is not None:
         lf, hf = split_spec(scale, "scale", "scale", (2, 2))
         try:

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from ._validation import ParameterError, fail
+from ._validation import ParameterError, fail, positive
 from .algorithms import ALGORITHMS
 from .analysis import (characteristic_number, checked_algorithms, conservativity, continuity, paper_loop, rendering_cutoff,
                        texture_limits)
@@ -37,7 +37,8 @@ def _chosen(algorithms, defined, default, where: str) -> list[str]:
 def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.1, max_penetration: float = 1e-3,
            samples_per_period=5, friction: float = 0.8, presliding: float = 1e-3, n_loops: int = 4,
            x_range=None, progress=None, band_limit: bool = True, hand=DEFAULT_HAND, on_estimate=None,
-           base=None, algorithms=None) -> dict:
+           base=None, algorithms=None, instrument_tip: float | None = None,
+           reliability_cutoff: float | None = None) -> dict:
     """Analyse every algorithm for one texture on one device and recommend.
 
     Parameters
@@ -93,6 +94,18 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         faceted mesh) (each of their field values is a closest-point search over the
         object: about 10 s a letter at 1 mm).
 
+    instrument_tip : float, optional
+        The radius (m) of the tip that measured a sampled texture: below its reliability
+        cutoff (:func:`haptex.probe.reliability_cutoff`) the map is the tip's shape, so the
+        rendered texture holds no shorter period (the cutoff is one more bound of the band
+        limit, ``instrument tip``). Default the file's own, where it gives one
+        (``texture.instrument_tip``), else none.
+    reliability_cutoff : float, optional
+        That scale (m) itself, computed by the caller on the map as measured
+        (:func:`haptex.probe.reliability_cutoff`), as it must be when ``texture`` is a tip's
+        felt surface of it (``haptex design --tip-radius --instrument-tip``); the tip is then
+        only reported.
+
     Returns
     -------
     dict
@@ -110,7 +123,8 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         ``recommendation`` (text) with ``recommended`` (letters), and ``band_limit``: the
         cut-off ``cutoff`` (m), the limit(s) ``set_by`` it, each limit's ``bounds`` (m),
         whether it was ``applied`` (and the texture ``filtered``, not only resampled),
-        ``samples`` raw and rendered, and ``raw``: the given
+        ``samples`` raw and rendered, ``instrument_tip`` (m, or None) and its
+        ``reliability_cutoff`` (m, or None), and ``raw``: the given
         texture's own numbers (shortest period, max slope, max curvature, height range, and
         for sampled textures its RMS height, dominant period and the RMS the cut-off
         removes). The other numbers are those of the rendered texture. ``estimate``: the
@@ -136,7 +150,8 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
     if progress is not None:
         progress("band-limiting")
     given = texture
-    texture, band = _band_limited(texture, device, speed, samples_per_period, band_limit)
+    texture, band = _band_limited(texture, device, speed, samples_per_period, band_limit, instrument_tip,
+                                  reliability_cutoff)
     if x_range is not None:
         _check_window(given, x_range)  # the scan or map as measured, whose extent the user knows
     if base is None:
@@ -200,7 +215,7 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
     if failed:
         text.append("the device cannot reproduce this texture faithfully: " + ", ".join(failed) + " limit(s) violated")
     return {
-        "units": {"cutoff": "m", "bounds": "m", "rms": "m", "rms_removed": "m", "dominant_period": "m",
+        "units": {"cutoff": "m", "bounds": "m", "instrument_tip": "m", "reliability_cutoff": "m", "rms": "m", "rms_removed": "m", "dominant_period": "m",
                   "stiffness": "N/m", "speed": "m/s", "max_penetration": "m", "friction": "1", "presliding": "m",
                   "x_range": "m", "passivity_limit": "N/m", "wall_stability_limit": "N/m", "shortest_period": "m",
                   "max_slope": "1", "max_curvature": "1/m", "height_range": "m", "q": "1", "q_where": "m",
@@ -262,10 +277,24 @@ def rendered_texture(texture: Texture, device: Device, speed: float = 0.1, sampl
     return _rendered(texture, rendering_cutoff(device, speed, samples_per_period).period, band_limit)[0]
 
 
-def _band_limited(texture: Texture, device: Device, speed: float, samples_per_period, band_limit: bool):
+def _band_limited(texture: Texture, device: Device, speed: float, samples_per_period, band_limit: bool,
+                  instrument_tip: float | None = None, reliable: float | None = None):
     """The texture the device renders, and what band-limiting did (see :func:`design`)."""
     cut = rendering_cutoff(device, speed, samples_per_period)
     sampled = hasattr(texture, "band_limited")
+    tip = getattr(texture, "instrument_tip", None) if instrument_tip is None else instrument_tip
+    if reliable is not None:
+        reliable = positive("reliability_cutoff", reliable, "m")
+    elif tip is not None:
+        from .probe import reliability_cutoff
+
+        reliable = reliability_cutoff(texture, tip)
+    if reliable is not None:  # one more bound: the map is the tip's shape below it
+        from .analysis.passivity import Cutoff
+
+        bounds = {**cut.bounds, "instrument tip": reliable}
+        lc = max(bounds.values())
+        cut = Cutoff(lc, tuple(name for name, b in bounds.items() if b >= lc * (1 - 1e-12)), bounds)
     if sampled and band_limit:
         _check_renderable(texture, device, speed, cut)
     rendered, filtered = _rendered(texture, cut.period, band_limit)
@@ -291,7 +320,7 @@ def _band_limited(texture: Texture, device: Device, speed: float, samples_per_pe
     return rendered, {
         "cutoff": cut.period, "set_by": list(cut.set_by), "bounds": dict(cut.bounds),
         "applied": rendered is not texture, "filtered": filtered is not texture, "requested": bool(band_limit),
-        "sampled": sampled,
+        "sampled": sampled, "instrument_tip": tip, "reliability_cutoff": reliable,
         "samples": {"raw": int(texture.h.size) if sampled else None,
                     "rendered": int(rendered.h.size) if sampled else None},
         "raw": raw,

@@ -168,3 +168,56 @@ def _dilate(h: np.ndarray, steps, r: float, periodic: bool, name: str, value) ->
             f"cropped map, or a coarser grid: felt_by(r, spacing=S) with S >= {max(steps) * scale:.3g} m")
     structure = np.where(inside, np.sqrt(np.maximum(r * r - u2, 0.0)) - r, 0.0)
     return grey_dilation(h, footprint=inside, structure=structure, mode="wrap" if periodic else "nearest")
+
+
+def reliability_cutoff(texture, instrument_tip: float) -> float | None:
+    """The length scale below which a measured map cannot be trusted, given the instrument's tip.
+
+    A scanning probe (a stylus profilometer, an AFM) of tip radius R cannot follow features whose
+    curvature is sharper than its own: below some scale the measured heights are the tip's shape,
+    not the surface's. SurfaceTopography finds that scale from the map itself: the scale below
+    which the scale-dependent curvature drops under -1 / (2 R) (its
+    ``scanning_probe_reliability_cutoff``; L. Sanner, W. Nöhring, A. Thimons, T. Jacobs and
+    L. Pastewka, "Scale-dependent roughness parameters for topography analysis", Applied Surface
+    Science Advances 7, 100190, 2022). :func:`haptex.design` keeps the rendered texture above it.
+
+    Parameters
+    ----------
+    texture : SampledProfile or SampledSurface
+        A measured texture: heights (m) on a uniform grid (m).
+    instrument_tip : float
+        The measuring tip's radius R (m), finite and > 0.
+
+    Returns
+    -------
+    float or None
+        The scale (m); None where no scale of the map is affected.
+
+    Raises
+    ------
+    ParameterError
+        For a radius not finite and > 0, or a texture that was not measured (an analytic one has
+        no instrument).
+    """
+    from SurfaceTopography import Topography, UniformLineScan
+
+    from ._validation import positive
+    from .surfaces import SampledSurface
+    from .textures import SampledProfile
+
+    r = positive("instrument_tip", instrument_tip, "m")
+    if isinstance(texture, SampledProfile):
+        dx = float(texture.x[1] - texture.x[0])
+        topo = UniformLineScan(np.asarray(texture.h, dtype=np.float64), dx * texture.h.size,
+                               periodic=bool(texture.periodic), unit="m")
+    elif isinstance(texture, SampledSurface):
+        dx, dy = float(texture.x[1] - texture.x[0]), float(texture.y[1] - texture.y[0])
+        nx, ny = texture.h.shape
+        topo = Topography(np.asarray(texture.h, dtype=np.float64), (dx * nx, dy * ny),
+                          periodic=bool(texture.periodic), unit="m")
+    else:
+        raise fail("instrument_tip", r, "given for a measured texture (SampledProfile or SampledSurface): "
+                   f"{type(texture).__name__} was not measured by an instrument")
+    cut = topo.scanning_probe_reliability_cutoff(r)
+    return None if cut is None else float(cut)
+

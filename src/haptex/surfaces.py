@@ -1149,6 +1149,7 @@ def load_texture(path, *, spacing=None, x_unit=None, height_unit=None, variable=
 
     r = read_topography(path, spacing=spacing, x_unit=x_unit, height_unit=height_unit, variable=variable,
                         fill_undefined=fill_undefined, crop=crop)
-    if r.areal:
-        return SampledSurface(r.x, r.y, r.h, periodic=periodic, source=r.source)
-    return SampledProfile(r.x, r.h, periodic=periodic, source=r.source)
+    out = (SampledSurface(r.x, r.y, r.h, periodic=periodic, source=r.source) if r.areal
+           else SampledProfile(r.x, r.h, periodic=periodic, source=r.source))
+    out.instrument_tip = r.instrument_tip
+    return out

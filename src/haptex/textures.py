@@ -32,10 +32,13 @@ class Texture:
     on abscissae of any shape, and :meth:`kernel_data` for the compiled kernels. Analysis
     code relies on :attr:`max_slope` (the Lipschitz bound M = sup |grad h| of Remark 2 in
     Campion & Hayward), :attr:`shortest_period`, :attr:`period` (``None`` when the
-    texture is not periodic) and :attr:`height_range`.
+    texture is not periodic) and :attr:`height_range`. A texture read from a file whose
+    instrument states its tip has that radius (m) in ``instrument_tip`` (a Dektak's stylus;
+    :func:`haptex.probe.reliability_cutoff`), else None.
     """
 
     dimension = 1
+    instrument_tip: float | None = None  # the measuring tip's radius (m), where a file states it
 
     def height_at(self, xt):
         """h at in-plane positions ``xt`` of shape (..., dimension) (m); shape (...)."""
@@ -710,7 +713,9 @@ class SampledProfile(Texture):
             raise ParameterError(f"{path}: holds an areal map ({r.x.size} x {r.y.size} samples), not a line scan: read "
                                  "it with SampledSurface.from_file (haptex reads it as a surface at the command line) "
                                  "and take one line with .line(y=...) or .line(row=...)")
-        return cls(r.x, r.h, periodic=periodic, source=r.source)
+        out = cls(r.x, r.h, periodic=periodic, source=r.source)
+        out.instrument_tip = r.instrument_tip
+        return out
 
 
 def zero_phase_lowpass(sos, h: np.ndarray, axis: int) -> np.ndarray:

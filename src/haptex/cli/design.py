@@ -40,6 +40,9 @@ from ._common import (
 @click.option("--fill-undefined", is_flag=True,
               help="Fill a measured file's undefined (NaN) heights by interpolation instead of refusing the file.")
 @_felt_options("analysed")
+@click.option("--instrument-tip", type=Quantity("m"), default=None,
+              help="Radius of the tip that measured the file, e.g. '2um': the map is not trusted below its "
+                   "reliability cutoff (SurfaceTopography), and the rendered texture holds nothing shorter.")
 @click.option("--raw", is_flag=True,
               help="Analyse the measured samples as they are, not band-limited to what the device renders.")
 @click.option("--hand", default="light-touch", show_default=True,
@@ -60,7 +63,7 @@ from ._common import (
 @click.pass_context
 def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, sampling_period, delay, stiffness, speed,
            max_penetration, spacing, x_unit, height_unit, level, lowpass, scale, periodic, window, fill_undefined, crop,
-           tip_radius, raw, object_spec, uv_scale, vertex_normals, algorithms, hand, report_dir, force, as_json, quiet):
+           tip_radius, instrument_tip, raw, object_spec, uv_scale, vertex_normals, algorithms, hand, report_dir, force, as_json, quiet):
     """Which algorithm, how stiff, will it be passive, can the device render it?
 
     A measured texture is band-limited to the shortest period the device renders at the
@@ -76,6 +79,16 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
     if raw and not hasattr(tex, "band_limited"):
         raise ParameterError(f"--raw is not allowed with the synthetic texture {texture_spec!r}: it applies to measured "
                              "textures read from a file")
+    reliable = None
+    if instrument_tip is None:
+        instrument_tip = tex.instrument_tip  # the file's own, where it states one
+    if instrument_tip is not None:  # on the map as measured, before a ball rolls over it
+        from ..probe import reliability_cutoff
+
+        if not hasattr(tex, "band_limited"):
+            raise ParameterError(f"--instrument-tip is not allowed with the synthetic texture {texture_spec!r}: it "
+                                 "applies to measured textures read from a file")
+        reliable = reliability_cutoff(tex, instrument_tip)
     felt = None
     if tip_radius:
         with _Spinner(f"rolling a ball of {tip_radius * 1e3:g} mm over the texture", quiet or as_json):
@@ -117,7 +130,8 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
     with steps as step:
         data = run_design(tex, dev, stiffness, speed=speed, max_penetration=max_penetration, x_range=x_range,
                           progress=step, band_limit=not raw, hand=hand, on_estimate=announce, base=base,
-                          algorithms=None if algorithms is None else [v for v in algorithms.split(",") if v.strip()])
+                          algorithms=None if algorithms is None else [v for v in algorithms.split(",") if v.strip()],
+                          instrument_tip=instrument_tip, reliability_cutoff=reliable)
     if report_dir is not None:
         from ..design import rendered_texture
         from ..report import write_design_report
@@ -142,6 +156,13 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
     names = bl["set_by"]
     by = names[0] + " limit" if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1] + " limits"
     cut = f"the device renders periods >= {bl['cutoff'] * 1e3:.4g} mm at {speed:g} m/s (set by the {by})"
+    if instrument_tip is not None:
+        rc = bl["reliability_cutoff"]
+        console.print(f"measured with a tip of r = {instrument_tip * 1e6:g} um"
+                      f"{' (the file states it)' if instrument_tip == tex.instrument_tip else ''}: " + (
+            "no scale of the map is affected (SurfaceTopography's reliability analysis)" if rc is None else
+            f"the map is the tip's shape below {rc * 1e6:.4g} um (SurfaceTopography's reliability cutoff); the "
+            "rendered texture holds nothing shorter"))
     n_out = bl["samples"]["rendered"]
     if bl["filtered"]:
         console.print(f"{cut}: band-limited to it ({rn['rms_removed'] * 1e6:.3g} um RMS removed) and resampled to "
