@@ -215,7 +215,8 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
     if failed:
         text.append("the device cannot reproduce this texture faithfully: " + ", ".join(failed) + " limit(s) violated")
     return {
-        "units": {"cutoff": "m", "bounds": "m", "instrument_tip": "m", "reliability_cutoff": "m", "rms": "m", "rms_removed": "m", "dominant_period": "m",
+        "units": {"cutoff": "m", "bounds": "m", "instrument_tip": "m", "reliability_cutoff": "m", "rms": "m",
+                  "rms_removed": "m", "dominant_period": "m",
                   "stiffness": "N/m", "speed": "m/s", "max_penetration": "m", "friction": "1", "presliding": "m",
                   "x_range": "m", "passivity_limit": "N/m", "wall_stability_limit": "N/m", "shortest_period": "m",
                   "max_slope": "1", "max_curvature": "1/m", "height_range": "m", "q": "1", "q_where": "m",

@@ -305,8 +305,9 @@ def analyse_trace(trace: dict, period: float, resolution: float = 0.0, texture_p
         ``energy`` per axis (J): -sum f_k . (p_{k+1} - p_k), what the rendering absorbed from
         the sensed motion under the force sent (< 0: it supplied energy); ``oscillation``
         (:class:`haptex.Oscillation` of the last :data:`TAIL_FRACTION` of the trace, the
-        simulator's own verdict, its rest threshold :data:`REST_STEPS` sensor steps) and its ``regime`` (:func:`haptex.simulate.regime`;
-        ``oscillation.oscillating`` exactly when the regime is a limit cycle or growth);
+        simulator's own verdict, its rest threshold :data:`REST_STEPS` sensor steps) and its
+        ``regime`` (:func:`haptex.simulate.regime`; ``oscillation.oscillating`` exactly when
+        the regime is a limit cycle or growth);
         ``buzz`` (:class:`haptex.perception.Buzz` of the same tail against the hand's
         detection threshold, its floor half the sensor's step; None for fewer than 16 ticks or
         a non-finite position); ``texture_rates`` (Hz) left out of both; ``speed`` (m/s) they
