@@ -293,9 +293,7 @@ def _band_limited(texture: Texture, device: Device, speed: float, samples_per_pe
     if reliable is not None:  # one more bound: the map is the tip's shape below it
         from .analysis.passivity import Cutoff
 
-        bounds = {**cut.bounds, "instrument tip": reliable}
-        lc = max(bounds.values())
-        cut = Cutoff(lc, tuple(name for name, b in bounds.items() if b >= lc * (1 - 1e-12)), bounds)
+        cut = Cutoff.from_bounds({**cut.bounds, "instrument tip": reliable})
     if sampled and band_limit:
         _check_renderable(texture, device, speed, cut)
     rendered, filtered = _rendered(texture, cut.period, band_limit)

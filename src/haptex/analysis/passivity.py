@@ -141,6 +141,22 @@ class Cutoff:
     set_by: tuple[str, ...]
     bounds: dict
 
+    @classmethod
+    def from_bounds(cls, bounds: dict) -> Cutoff:
+        """The cut-off of named bounds on the period: the largest, and the names attaining it.
+
+        Parameters
+        ----------
+        bounds : dict of str to float
+            Each limit's bound on the shortest rendered period (m), as in ``bounds``.
+
+        Returns
+        -------
+        Cutoff
+        """
+        lc = max(bounds.values())
+        return cls(lc, tuple(name for name, b in bounds.items() if b >= lc * (1 - 1e-12)), dict(bounds))
+
 
 def rendering_cutoff(device, speed: float, samples_per_period=5) -> Cutoff:
     """The shortest texture period a device can render at a scanning speed: the largest of
@@ -173,9 +189,7 @@ def rendering_cutoff(device, speed: float, samples_per_period=5) -> Cutoff:
     """
     v = positive("speed", speed, "m/s")
     alpha, beta, _ = _samples_per_period(samples_per_period)
-    bounds = _period_bounds(device, v, alpha, beta)
-    lc = max(bounds.values())
-    return Cutoff(lc, tuple(name for name, b in bounds.items() if b >= lc * (1 - 1e-12)), bounds)
+    return Cutoff.from_bounds(_period_bounds(device, v, alpha, beta))
 
 
 @dataclass(frozen=True)

@@ -63,7 +63,8 @@ from ._common import (
 @click.pass_context
 def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, sampling_period, delay, stiffness, speed,
            max_penetration, spacing, x_unit, height_unit, level, lowpass, scale, periodic, window, fill_undefined, crop,
-           tip_radius, instrument_tip, raw, object_spec, uv_scale, vertex_normals, algorithms, hand, report_dir, force, as_json, quiet):
+           tip_radius, instrument_tip, raw, object_spec, uv_scale, vertex_normals, algorithms, hand, report_dir, force,
+           as_json, quiet):
     """Which algorithm, how stiff, will it be passive, can the device render it?
 
     A measured texture is band-limited to the shortest period the device renders at the
@@ -82,12 +83,12 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
     reliable = None
     if instrument_tip is None:
         instrument_tip = tex.instrument_tip  # the file's own, where it states one
-    if instrument_tip is not None:  # on the map as measured, before a ball rolls over it
+    if instrument_tip is not None and not hasattr(tex, "band_limited"):
+        raise ParameterError(f"--instrument-tip is not allowed with the synthetic texture {texture_spec!r}: it "
+                             "applies to measured textures read from a file")
+    if instrument_tip is not None and tip_radius:  # on the map as measured, before the ball rolls (else design's)
         from ..probe import reliability_cutoff
 
-        if not hasattr(tex, "band_limited"):
-            raise ParameterError(f"--instrument-tip is not allowed with the synthetic texture {texture_spec!r}: it "
-                                 "applies to measured textures read from a file")
         reliable = reliability_cutoff(tex, instrument_tip)
     felt = None
     if tip_radius:

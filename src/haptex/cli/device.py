@@ -113,9 +113,7 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
                else {"realtime": not fast} if kind == "forcedimension" else {})
     backend = open_backend(device_spec, **options)
     dev = backend.device
-    fmax = backend.max_force if max_force is None else max_force
-    if not fmax <= backend.max_force:
-        raise ParameterError(f"max_force = {fmax:g} N is not allowed: at most the device's {backend.max_force:g} N")
+    fmax = _max_force(backend, max_force)
     if identify_run:  # no texture: the program instead, the handle free
         from ..identification import FRACTION, IdentificationProgram
 
@@ -254,6 +252,14 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
         click.echo(f"trace: {record}")
 
 
+def _max_force(backend, max_force) -> float:
+    """The largest force a run sends (N): --max-force, at most the device's; default the device's."""
+    fmax = backend.max_force if max_force is None else max_force
+    if not fmax <= backend.max_force:
+        raise ParameterError(f"max_force = {fmax:g} N is not allowed: at most the device's {backend.max_force:g} N")
+    return fmax
+
+
 def _write_record(record: Path, trace: dict, period: float) -> None:
     """The run's log: CSV (haptex.identify.LOG_COLUMNS) or the trace's arrays in .npz."""
     import numpy as np
@@ -282,9 +288,7 @@ def _find_limit_run(device_spec, start, max_force, hand, fast, record, as_json, 
     else:
         backend = open_backend(device_spec, **({"realtime": not fast} if kind == "forcedimension" else {}))
     dev = backend.device
-    fmax = backend.max_force if max_force is None else max_force
-    if not fmax <= backend.max_force:
-        raise ParameterError(f"max_force = {fmax:g} N is not allowed: at most the device's {backend.max_force:g} N")
+    fmax = _max_force(backend, max_force)
     # the predicted limit with the hand (the simulated device's mass has the hand's attached: its preset's has not)
     predicted = wall_limits(backend.preset.device() if kind == "simulated" else dev, h).stable
     k0 = predicted / FIND_SPAN if start is None else start

@@ -232,7 +232,9 @@ void hx_render_step(hx_renderer *r, double x, double y, double z, double f[3])
     int i, clamped;
     f[0] = f[1] = f[2] = 0.0;
     r->work = 0;
-    if (__atomic_exchange_n(&r->k0_pending, 0, __ATOMIC_ACQ_REL)) { /* between ticks only */
+    /* between ticks only; a plain load first, so a tick without a change pays no locked exchange */
+    if (__atomic_load_n(&r->k0_pending, __ATOMIC_ACQUIRE)
+        && __atomic_exchange_n(&r->k0_pending, 0, __ATOMIC_ACQ_REL)) {
         __atomic_load(&r->k0_next, &r->model.prm[HX_P_K0], __ATOMIC_RELAXED);
         r->k0_changes++;
     }
