@@ -84,7 +84,7 @@ def test_an_identification_run_on_the_simulated_falcon_gives_back_its_preset(tmp
     # friction), then 'haptex identify': the preset's x mass and damping at its home pose,
     # its encoder step and delay; the device file loads wherever a preset does
     from haptex.catalogue import preset
-    from haptex.devices import device_from_file
+    from haptex.catalogue import device_from_file
 
     log, out = tmp_path / "log.csv", tmp_path / "falcon.toml"
     assert main(["run", "--device", "simulated:falcon", "--identify", "--record", str(log), "--duration", "6s",

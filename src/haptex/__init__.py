@@ -28,8 +28,9 @@ from .analysis import (
     spectral_norm,
 )
 from .closest import ClosestPoint, closest_point
-from .devices import Device, critical_stiffness, device_from_file, five_bar_jacobian
+from .devices import Device, critical_stiffness, five_bar_jacobian
 from . import catalogue, limits
+from .catalogue import device_from_file
 from .limits import wall_limits
 from .identification import Identification, identify
 from . import objects

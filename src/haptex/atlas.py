@@ -266,7 +266,7 @@ class SweepSpec:
     def build(self, letter: str | None = None):
         """(algorithm, device, operator, initial_position) of the fixed parts."""
         from .algorithms import algorithm
-        from .devices import _device_from_table
+        from .catalogue import _device_from_table
 
         alg_table = self.mapping.get("algorithm", {})
         if not isinstance(alg_table, dict):

@@ -20,7 +20,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from ._validation import ParameterError, fail
+from ._validation import ParameterError, fail, whole
 from .devices import Device
 
 STATUSES = ("published", "identified", "chosen")
@@ -381,3 +381,147 @@ def custom_hand(mass: float, damping: float, stiffness: float, name: str = "cust
     b = in_range("hand damping", damping, 0.0, 1000.0, "N s/m")
     k = in_range("hand stiffness", stiffness, 0.0, 1e5, "N/m")
     return Hand(name, "a hand of the user's identification", m, b, k)
+
+
+# -- device files ---------------------------------------------------------------------
+_FILE_KEYS = {  # key: (SI unit, kind) -- kind: q quantity, m quantity or 2x2 matrix, i whole, x number, s text, p point
+    "preset": (None, "s"), "name": (None, "s"),
+    "mass": ("kg", "m"), "damping": ("N*s/m", "m"), "damping_outside": ("N*s/m", "m"), "period": ("s", "q"),
+    "delay": (None, "i"), "position_resolution": ("m", "q"), "force_resolution": ("N", "q"),
+    "max_force": ("N", "q"), "first_resonance": ("Hz", "q"), "coulomb_friction": ("N", "q"),
+    "mode_damping_ratio": (None, "x"), "handle_mass": ("kg", "m"), "stiffness_limit": ("N/m", "q"),
+    "joint_damping": ("N*m*s", "q"), "joint_damping_outside": ("N*m*s", "q"), "link_proximal": ("m", "q"),
+    "link_distal": ("m", "q"), "base": ("m", "q"), "rotor_inertia": ("kg*m^2", "q"), "link_mass": ("kg", "q"),
+    "working_point": ("m", "p"), "dimension": (None, "i"),
+}
+_PANTOGRAPH_ONLY = {"joint_damping", "joint_damping_outside", "link_proximal", "link_distal", "base",
+                    "rotor_inertia", "link_mass", "working_point"}
+_PRESETS = ("point-mass", "pantograph", "custom")
+MAX_DEVICE_FILE = 1 << 20
+"""Largest device file read (bytes): a device is a few lines."""
+
+
+def device_from_file(path) -> Device:
+    """A device described in a TOML file, every dimensional value with its unit.
+
+    Parameters
+    ----------
+    path : str or Path
+        A TOML file, e.g.::
+
+            preset = "pantograph"          # or "point-mass", "custom" (give mass and damping), or a
+                                           # product of haptex.catalogue.presets() ("falcon", ...)
+            name = "our pantograph"
+            joint_damping = "4.0 mN*m*s"   # pantograph: per joint, inside the wall
+            period = "100 us"
+            delay = 1                      # whole sampling periods
+            coulomb_friction = "20 mN"
+            first_resonance = "400 Hz"
+            mode_damping_ratio = 0.05
+
+        Quantities are strings with a unit ("50 g", "0.5 N*s/m"), the command line's rule:
+        a bare number is refused unless it is 0. ``mass``, ``damping``, ``damping_outside``
+        and ``handle_mass`` may be 2x2 tables of such strings. ``delay`` is a whole number,
+        ``mode_damping_ratio`` a plain number, ``working_point`` (pantograph) a pair of
+        lengths. Every other :class:`Device` and :meth:`Device.pantograph` parameter is
+        accepted under its Python name. With a product preset (``"touch"``, ``"falcon"``,
+        ...) the keys given replace the preset's figures (your unit's measured friction,
+        say); ``mass`` and ``damping`` replace the Cartesian matrices at the home pose.
+
+    Returns
+    -------
+    Device
+
+    Raises
+    ------
+    ParameterError
+        If the file is missing, too large, not TOML, names an unknown key (or a pantograph
+        key for another preset), or a value is missing its unit, has the wrong dimension or
+        is out of range (the :class:`Device` checks).
+    """
+    import tomllib
+    from pathlib import Path
+
+    p = Path(path)
+    if not p.is_file():
+        raise ParameterError(f"device = {str(path)!r} is not allowed: "
+                             f"{'a directory' if p.is_dir() else 'no such file'} (a TOML device file)")
+    if p.stat().st_size > MAX_DEVICE_FILE:
+        raise fail("device", str(path), f"a TOML device file of at most {MAX_DEVICE_FILE} bytes")
+    try:
+        spec = tomllib.loads(p.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise ParameterError(f"device = {str(path)!r} is not allowed: not a TOML file ({exc})") from None
+    if not isinstance(spec, dict):
+        raise ParameterError(f"device = {str(path)!r} is not allowed: a TOML table of device keys")
+    return _device_from_table(spec, f"device file {str(path)!r}")
+
+
+def _device_from_table(spec: dict, where: str) -> Device:
+    """The device a table of :func:`device_from_file`'s keys describes (``where`` names it
+    in errors: a device file, a sweep SPEC's [device] table)."""
+    from ._units import parse_quantity
+
+    if not isinstance(spec, dict):
+        raise fail(where, spec, "a table of device keys (preset, mass, damping, period, ...)")
+    spec = dict(spec)
+    unknown = sorted(set(spec) - set(_FILE_KEYS))
+    if unknown:
+        raise ParameterError(f"{where}: key {unknown[0]!r} is not allowed: allowed keys are "
+                             + ", ".join(_FILE_KEYS))
+    preset = spec.pop("preset", "custom")
+    products = [k for k in presets() if k not in _PRESETS]
+    if preset not in _PRESETS and preset not in products:
+        raise fail(f"{where}: preset", preset, "one of " + ", ".join(repr(s) for s in (*_PRESETS, *products)))
+    if preset != "pantograph":
+        extra = sorted(set(spec) & _PANTOGRAPH_ONLY)
+        if extra:
+            raise ParameterError(f"{where}: key {extra[0]!r} is not allowed with preset = "
+                                 f"{preset!r}: it belongs to the pantograph preset")
+    if preset == "custom" and not {"mass", "damping", "period"} <= set(spec):
+        missing = sorted({"mass", "damping", "period"} - set(spec))
+        raise ParameterError(f"{where}: key {missing[0]!r} is missing: a custom device needs "
+                             "mass, damping and period (or preset = 'point-mass' or 'pantograph')")
+
+    def quantity(key, value, unit):
+        if isinstance(value, bool) or not isinstance(value, str | int | float):
+            raise fail(f"{where}: {key}", value, f"a quantity in {unit} written as a string, "
+                       "e.g. '50 g'")
+        return parse_quantity(str(value), unit, f"{where}: {key}", require_unit=True)
+
+    kw = {}
+    for key, value in spec.items():
+        unit, kind = _FILE_KEYS[key]
+        if kind == "s":
+            if not isinstance(value, str):
+                raise fail(f"{where}: {key}", value, "a string")
+            kw[key] = value
+        elif kind == "i":
+            kw[key] = value if isinstance(value, int) and not isinstance(value, bool) else whole(f"{where}: {key}", value, 0)
+        elif kind == "x":
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise fail(f"{where}: {key}", value, "a plain number")
+            kw[key] = float(value)
+        elif kind == "q":
+            kw[key] = quantity(key, value, unit)
+        elif kind == "p" or (kind == "m" and isinstance(value, list)):
+            rows = value if kind == "m" else [value]
+            size = 2 if kind == "p" else len(rows) if isinstance(rows, list) else 0
+            if not isinstance(rows, list) or len(rows) != (1 if kind == "p" else size) or size not in (2, 3) or any(
+                    not isinstance(r, list) or len(r) != size for r in rows):
+                raise fail(f"{where}: {key}", value,
+                           "a pair of quantities" if kind == "p" else "a quantity or a 2x2 or 3x3 table of quantities")
+            arr = np.array([[quantity(key, v, unit) for v in r] for r in rows])
+            if kind == "m" and arr.shape[0] != arr.shape[1]:
+                raise fail(f"{where}: {key}", value, "a square table of quantities")
+            kw[key] = arr[0] if kind == "p" else arr
+        else:
+            kw[key] = quantity(key, value, unit)
+    if preset in products:  # a product preset, with the user's own figures over its chosen ones
+        base = presets()[preset].device(delay=kw.pop("delay", 0), dimension=kw.pop("dimension", None))
+        return base.replace(**kw)
+    if preset == "pantograph":
+        return Device.pantograph(**kw)
+    if preset == "point-mass":
+        return Device.point_mass(**kw)
+    return Device(**kw)

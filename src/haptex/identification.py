@@ -213,7 +213,7 @@ class Identification:
                 "delay_residuals_m": {str(k): v for k, v in self.delay_residuals.items()}, "notes": list(self.notes)}
 
     def to_toml(self, path=None) -> str:
-        """The identified device as a TOML device file (:func:`haptex.devices.device_from_file`'s
+        """The identified device as a TOML device file (:func:`haptex.catalogue.device_from_file`'s
         format, usable wherever a preset is: ``--device FILE.toml``), each figure with its
         standard deviation and the log it came from in a comment; written to ``path`` when given.
 

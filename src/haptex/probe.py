@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from ._validation import ParameterError, fail, nonnegative
+from ._validation import ParameterError, fail, positive
 
 MAX_DILATION_WORK = 2e9
 """Most (samples x footprint points) one dilation may cost (13 s measured here at the cap, a
@@ -59,7 +59,7 @@ def felt_by(texture, tip_radius: float, *, spacing: float | None = None):
     Raises
     ------
     ParameterError
-        If r is negative or not finite, larger than a non-periodic map's extent, the texture
+        If ``texture`` is not a texture, r is negative or not finite, larger than a non-periodic map's extent, the texture
         has no period and is not sampled, or the dilation would exceed
         :data:`MAX_DILATION_WORK` (the message names a spacing that fits).
 
@@ -68,87 +68,15 @@ def felt_by(texture, tip_radius: float, *, spacing: float | None = None):
     The grid's error: the felt heights are exact at the grid's points; between them the
     felt texture is the spline through them, as any sampled map.
     """
-    from .surfaces import SampledSurface, Surface
-    from .textures import Flat, SampledProfile
-
-    r = nonnegative("tip_radius", tip_radius, "m")
-    if r == 0.0 or isinstance(texture, Flat):
-        return texture
-    if isinstance(texture, Surface):
-        x, y, h, periodic, source = _surface_grid(texture, r, spacing)
-        hf = _dilate(h, (x[1] - x[0], y[1] - y[0]), r, periodic, "tip_radius", r)
-        return SampledSurface(x, y, hf, periodic=periodic, source=f"{source} felt by a ball of r = {r * 1e3:g} mm")
-    x, h, periodic, source = _profile_grid(texture, r, spacing)
-    hf = _dilate(h, (x[1] - x[0],), r, periodic, "tip_radius", r)
-    return SampledProfile(x, hf, periodic=periodic, source=f"{source} felt by a ball of r = {r * 1e3:g} mm")
+    if not callable(getattr(texture, "felt_by", None)):
+        raise fail("texture", texture, "a haptex profile or surface (a Texture)")
+    return texture.felt_by(tip_radius, spacing=spacing)
 
 
 def _spacing(texture, r, spacing, per_period: int, per_radius: int) -> float:
     if spacing is not None:
-        from ._validation import positive
-
         return positive("spacing", spacing, "m")
     return min(texture.shortest_period / per_period, r / per_radius)
-
-
-def _profile_grid(texture, r, spacing):
-    from .textures import SampledProfile
-
-    if isinstance(texture, SampledProfile):
-        if not texture.periodic and r > (texture.x[-1] - texture.x[0]):
-            raise fail("tip_radius", r, f"at most the profile's length, {(texture.x[-1] - texture.x[0]) * 1e3:g} mm")
-        if spacing is None:
-            return texture.x, texture.h, texture.periodic, texture.source or "profile"
-        dx = _spacing(texture, r, spacing, 256, 32)  # resampled by its spline onto a coarser grid
-        span = (texture.x[-1] - texture.x[0]) + (texture.dx if texture.periodic else 0.0)
-        n = max(4, int(math.floor(span / dx)) + (0 if texture.periodic else 1))
-        x = texture.x[0] + np.arange(n) * dx
-        return x, texture.height(x), texture.periodic, f"{texture.source or 'profile'} resampled at {dx * 1e6:.3g} um"
-    period = texture.period
-    if period is None:
-        raise fail("texture", texture, "a periodic or sampled profile for a ball to roll on (sample it: "
-                   "SampledProfile(x, texture.height(x)))")
-    dx = _spacing(texture, r, spacing, 256, 32)
-    n = int(math.ceil(period / dx))
-    if n > MAX_SAMPLES:
-        raise fail("spacing", dx, f"at least {period / MAX_SAMPLES:g} m ({MAX_SAMPLES} samples a period)")
-    x = np.arange(n) * (period / n)
-    return x, texture.height(x), True, f"{type(texture).__name__} sampled at {period / n * 1e6:.3g} um"
-
-
-def _surface_grid(texture, r, spacing):
-    from .surfaces import SampledSurface
-
-    if isinstance(texture, SampledSurface):
-        x, y = texture.x, texture.y
-        ext = min(x[-1] - x[0], y[-1] - y[0])
-        if not texture.periodic and r > ext:
-            raise fail("tip_radius", r, f"at most the map's shorter side, {ext * 1e3:g} mm")
-        if spacing is None:
-            return x, y, texture.h, texture.periodic, texture.source or "map"
-        d = _spacing(texture, r, spacing, 16, 16)  # resampled by its spline onto a coarser grid
-        grids = []
-        for axis in (x, y):
-            step = axis[1] - axis[0]
-            span = (axis[-1] - axis[0]) + (step if texture.periodic else 0.0)
-            grids.append(axis[0] + np.arange(max(4, int(math.floor(span / d)) + (0 if texture.periodic else 1))) * d)
-        if grids[0].size * grids[1].size > MAX_SAMPLES:
-            raise fail("spacing", d, f"a spacing giving at most {MAX_SAMPLES} samples over the map")
-        X, Y = np.meshgrid(*grids, indexing="ij")
-        h = texture.height_at(np.stack([X, Y], axis=-1))
-        return grids[0], grids[1], h, texture.periodic, f"{texture.source or 'map'} resampled at {d * 1e6:.3g} um"
-    cell = getattr(texture, "cell", None)
-    if cell is None:
-        raise fail("texture", texture, "a surface with a periodic cell, or a height map, for a ball to roll on")
-    d = _spacing(texture, r, spacing, 16, 16)
-    nx, ny = (int(math.ceil(c / d)) for c in cell)
-    if nx * ny > MAX_SAMPLES:
-        raise fail("spacing", d, f"a spacing giving at most {MAX_SAMPLES} samples over the cell "
-                   f"({cell[0] * 1e3:g} x {cell[1] * 1e3:g} mm)")
-    x, y = np.arange(nx) * (cell[0] / nx), np.arange(ny) * (cell[1] / ny)
-    X, Y = np.meshgrid(x, y, indexing="ij")
-    h = texture.height_at(np.stack([X, Y], axis=-1))
-    return x, y, h, True, f"{type(texture).__name__} sampled at {cell[0] / nx * 1e6:.3g} um"
 
 
 def _dilate(h: np.ndarray, steps, r: float, periodic: bool, name: str, value) -> np.ndarray:
@@ -201,16 +129,13 @@ def reliability_cutoff(texture, instrument_tip: float) -> float | None:
     """
     from SurfaceTopography import Topography, UniformLineScan
 
-    from ._validation import positive
-    from .surfaces import SampledSurface
-    from .textures import SampledProfile
-
     r = positive("instrument_tip", instrument_tip, "m")
-    if isinstance(texture, SampledProfile):
+    h = getattr(texture, "h", None)  # a measured texture's heights on its grid
+    if h is not None and h.ndim == 1:
         dx = float(texture.x[1] - texture.x[0])
         topo = UniformLineScan(np.asarray(texture.h, dtype=np.float64), dx * texture.h.size,
                                periodic=bool(texture.periodic), unit="m")
-    elif isinstance(texture, SampledSurface):
+    elif h is not None and h.ndim == 2:
         dx, dy = float(texture.x[1] - texture.x[0]), float(texture.y[1] - texture.y[0])
         nx, ny = texture.h.shape
         topo = Topography(np.asarray(texture.h, dtype=np.float64), (dx * nx, dy * ny),

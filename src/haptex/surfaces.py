@@ -18,6 +18,7 @@ import numpy as np
 from . import core as _core
 from .core import _ext
 from ._validation import ParameterError, check_count, fail, finite, nonnegative, positive, whole
+from .probe import MAX_SAMPLES as MAX_PROBE_SAMPLES, _dilate, _spacing
 from .textures import MAX_HARMONICS, SampledProfile, Texture, _band_limited_samples, _vector, common_period
 
 __all__ = ["Surface", "SumOfGratings", "Grating", "BandLimitedNoise2D", "Extruded", "SampledSurface"]
@@ -63,6 +64,12 @@ class Surface(Texture):
         raise ParameterError(f"texture = {self!r} is a surface h(x, y): evaluate it with height_at([x, y])")
 
     slope = curvature = height
+
+    def _felt(self, r: float, spacing: float | None) -> "SampledSurface":
+        """A surface's felt texture (a ball of radius r > 0, m): the grid's heights dilated."""
+        x, y, h, periodic, source = _surface_grid(self, r, spacing)
+        hf = _dilate(h, (x[1] - x[0], y[1] - y[0]), r, periodic, "tip_radius", r)
+        return SampledSurface(x, y, hf, periodic=periodic, source=f"{source} felt by a ball of r = {r * 1e3:g} mm")
 
     def kernel_data(self) -> tuple[int, np.ndarray]:
         """(kind, coeffs) of the compiled kernels (:mod:`haptex.core`): a sum of gratings
@@ -1153,3 +1160,36 @@ def load_texture(path, *, spacing=None, x_unit=None, height_unit=None, variable=
            else SampledProfile(r.x, r.h, periodic=periodic, source=r.source))
     out.instrument_tip = r.instrument_tip
     return out
+
+
+def _surface_grid(texture, r, spacing):
+    if isinstance(texture, SampledSurface):
+        x, y = texture.x, texture.y
+        ext = min(x[-1] - x[0], y[-1] - y[0])
+        if not texture.periodic and r > ext:
+            raise fail("tip_radius", r, f"at most the map's shorter side, {ext * 1e3:g} mm")
+        if spacing is None:
+            return x, y, texture.h, texture.periodic, texture.source or "map"
+        d = _spacing(texture, r, spacing, 16, 16)  # resampled by its spline onto a coarser grid
+        grids = []
+        for axis in (x, y):
+            step = axis[1] - axis[0]
+            span = (axis[-1] - axis[0]) + (step if texture.periodic else 0.0)
+            grids.append(axis[0] + np.arange(max(4, int(math.floor(span / d)) + (0 if texture.periodic else 1))) * d)
+        if grids[0].size * grids[1].size > MAX_PROBE_SAMPLES:
+            raise fail("spacing", d, f"a spacing giving at most {MAX_PROBE_SAMPLES} samples over the map")
+        X, Y = np.meshgrid(*grids, indexing="ij")
+        h = texture.height_at(np.stack([X, Y], axis=-1))
+        return grids[0], grids[1], h, texture.periodic, f"{texture.source or 'map'} resampled at {d * 1e6:.3g} um"
+    cell = getattr(texture, "cell", None)
+    if cell is None:
+        raise fail("texture", texture, "a surface with a periodic cell, or a height map, for a ball to roll on")
+    d = _spacing(texture, r, spacing, 16, 16)
+    nx, ny = (int(math.ceil(c / d)) for c in cell)
+    if nx * ny > MAX_PROBE_SAMPLES:
+        raise fail("spacing", d, f"a spacing giving at most {MAX_PROBE_SAMPLES} samples over the cell "
+                   f"({cell[0] * 1e3:g} x {cell[1] * 1e3:g} mm)")
+    x, y = np.arange(nx) * (cell[0] / nx), np.arange(ny) * (cell[1] / ny)
+    X, Y = np.meshgrid(x, y, indexing="ij")
+    h = texture.height_at(np.stack([X, Y], axis=-1))
+    return x, y, h, True, f"{type(texture).__name__} sampled at {cell[0] / nx * 1e6:.3g} um"

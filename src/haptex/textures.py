@@ -14,6 +14,7 @@ from functools import cached_property
 import numpy as np
 
 from .core import _ext
+from .probe import MAX_SAMPLES as MAX_PROBE_SAMPLES, _dilate, _spacing
 from ._validation import MAX_LENGTH, ParameterError, check_count, fail, finite, nonnegative, positive, whole
 
 
@@ -86,9 +87,14 @@ class Texture:
         ParameterError
             As :func:`haptex.probe.felt_by`.
         """
-        from .probe import felt_by
+        r = nonnegative("tip_radius", tip_radius, "m")
+        return self if r == 0.0 else self._felt(r, spacing)
 
-        return felt_by(self, tip_radius, spacing=spacing)
+    def _felt(self, r: float, spacing: float | None) -> "Texture":
+        """A profile's felt texture (a ball of radius r > 0, m): the grid's heights dilated."""
+        x, h, periodic, source = _profile_grid(self, r, spacing)
+        hf = _dilate(h, (x[1] - x[0],), r, periodic, "tip_radius", r)
+        return SampledProfile(x, hf, periodic=periodic, source=f"{source} felt by a ball of r = {r * 1e3:g} mm")
 
     @property
     def peak_magnitude(self) -> float:
@@ -795,6 +801,9 @@ class Flat(Texture):
     def __repr__(self) -> str:
         return "Flat()" if self.dimension == 1 else "Flat(dimension=2)"
 
+    def _felt(self, r: float, spacing: float | None) -> "Flat":
+        return self  # a ball rests on a plane at the plane
+
     def height(self, x):
         """h(x) = 0 (m)."""
         return np.zeros(np.shape(x))
@@ -843,3 +852,26 @@ def _vector(name: str, values) -> np.ndarray:
     if not np.all(np.isfinite(arr)):
         raise fail(name, values, "a 1-D sequence of finite numbers (no NaN or inf)")
     return np.ascontiguousarray(arr)
+
+
+def _profile_grid(texture, r, spacing):
+    if isinstance(texture, SampledProfile):
+        if not texture.periodic and r > (texture.x[-1] - texture.x[0]):
+            raise fail("tip_radius", r, f"at most the profile's length, {(texture.x[-1] - texture.x[0]) * 1e3:g} mm")
+        if spacing is None:
+            return texture.x, texture.h, texture.periodic, texture.source or "profile"
+        dx = _spacing(texture, r, spacing, 256, 32)  # resampled by its spline onto a coarser grid
+        span = (texture.x[-1] - texture.x[0]) + (texture.dx if texture.periodic else 0.0)
+        n = max(4, int(math.floor(span / dx)) + (0 if texture.periodic else 1))
+        x = texture.x[0] + np.arange(n) * dx
+        return x, texture.height(x), texture.periodic, f"{texture.source or 'profile'} resampled at {dx * 1e6:.3g} um"
+    period = texture.period
+    if period is None:
+        raise fail("texture", texture, "a periodic or sampled profile for a ball to roll on (sample it: "
+                   "SampledProfile(x, texture.height(x)))")
+    dx = _spacing(texture, r, spacing, 256, 32)
+    n = int(math.ceil(period / dx))
+    if n > MAX_PROBE_SAMPLES:
+        raise fail("spacing", dx, f"at least {period / MAX_PROBE_SAMPLES:g} m ({MAX_PROBE_SAMPLES} samples a period)")
+    x = np.arange(n) * (period / n)
+    return x, texture.height(x), True, f"{type(texture).__name__} sampled at {period / n * 1e6:.3g} um"

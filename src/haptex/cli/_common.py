@@ -145,7 +145,7 @@ def _catalogued_device(spec: str, dimension: int, delay: int = 0):
     """The device of a preset of 'haptex devices' (with ``delay`` whole periods of computation
     delay) or a TOML device file (FILE.toml), or None for any other spec."""
     from ..catalogue import presets
-    from ..devices import device_from_file
+    from ..catalogue import device_from_file
 
     if str(spec).lower().endswith(".toml"):
         return device_from_file(spec)
