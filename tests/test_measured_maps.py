@@ -82,6 +82,28 @@ def test_the_refusal_holds_over_a_neighbourhood_of_speeds_and_lifts_below_the_sp
         assert band["cutoff"] == pytest.approx(5 * v * 1e-4)
 
 
+@pytest.mark.parametrize("name", ["mi-1.mi", "nc-1.nc", "x3p-2.x3p", "di-1.di"])
+def test_every_remedy_of_a_too_short_map_works_when_followed(name):
+    # Issue 57: "following a remedy must not lead to a refusal the first message could have
+    # foreseen". A slower scan lowers l_c and with it the deepest region analysed (1000 shortest
+    # periods, MAX_REGION_PERIODS): the 0.5 um Nanoscope map at its named speed was refused
+    # again for the default 1 mm depth, so the first message names the depth with the speed.
+    # Each remedy is followed as written (A alone, the algorithm whose analysis every row shares).
+    r = run_main("design", "--texture", str(_file(name)))
+    assert r.returncode == 2, r.stderr
+    scale = re.search(r"--scale F,H with F >= ([0-9.e+]+)", r.stderr).group(1)
+    slower = re.search(r"--speed ([0-9.e+-]+) m/s( with --max-penetration ([0-9.e+-]+)mm)?", r.stderr)
+    remedies = [["--scale", f"{scale},1"]]
+    if slower:
+        remedies.append(["--speed", f"{slower.group(1)}m/s"]
+                        + (["--max-penetration", f"{slower.group(3)}mm"] if slower.group(2) else []))
+    # 1000 periods of l_c = span / 2 are under the 1 mm default only for the sub-micrometre maps
+    assert slower is not None and bool(slower.group(2)) == (name in ("nc-1.nc", "di-1.di")), r.stderr
+    for remedy in remedies:
+        done = run_main("design", "--texture", str(_file(name)), "--algorithms", "A", *remedy)
+        assert done.returncode == 0, (remedy, done.stderr[-400:])
+
+
 # -- continuity sized to the wall ---------------------------------------------------------
 @pytest.mark.parametrize("dimension", [1, 2])
 def test_the_smooth_wall_is_continuous_however_shallow_the_region(dimension):

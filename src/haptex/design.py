@@ -151,7 +151,7 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         progress("band-limiting")
     given = texture
     texture, band = _band_limited(texture, device, speed, samples_per_period, band_limit, instrument_tip,
-                                  reliability_cutoff)
+                                  reliability_cutoff, max_penetration)
     if x_range is not None:
         _check_window(given, x_range)  # the scan or map as measured, whose extent the user knows
     if base is None:
@@ -279,7 +279,8 @@ def rendered_texture(texture: Texture, device: Device, speed: float = 0.1, sampl
 
 
 def _band_limited(texture: Texture, device: Device, speed: float, samples_per_period, band_limit: bool,
-                  instrument_tip: float | None = None, reliable: float | None = None):
+                  instrument_tip: float | None = None, reliable: float | None = None,
+                  max_penetration: float | None = None):
     """The texture the device renders, and what band-limiting did (see :func:`design`)."""
     cut = rendering_cutoff(device, speed, samples_per_period)
     sampled = hasattr(texture, "band_limited")
@@ -295,7 +296,7 @@ def _band_limited(texture: Texture, device: Device, speed: float, samples_per_pe
 
         cut = Cutoff.from_bounds({**cut.bounds, "instrument tip": reliable})
     if sampled and band_limit:
-        _check_renderable(texture, device, speed, cut)
+        _check_renderable(texture, device, speed, cut, max_penetration)
     rendered, filtered = _rendered(texture, cut.period, band_limit)
     if rendered is texture:  # analysed as given: its spline's numbers are needed anyway
         raw = {"shortest_period": texture.shortest_period, "max_slope": texture.max_slope,
@@ -340,13 +341,15 @@ def _nice(v: float, up: bool) -> str:
     return f"{(math.ceil(v / e - 1e-9) if up else math.floor(v / e + 1e-9)) * e:.3g}"
 
 
-def _check_renderable(texture, device: Device, speed: float, cut) -> None:
+def _check_renderable(texture, device: Device, speed: float, cut, max_penetration: float | None = None) -> None:
     """Refuse, in one line that says what to change, a measured texture shorter than the
     device's cut-off period l_c along an axis. A scan's longest period is its length: one
     shorter than l_c holds no period the device renders (band-limiting leaves it flat, and
     every verdict on it would be about nothing: issue 35's 50 um OPDx scan), and one shorter
     than ``MIN_CUTOFF_PERIODS`` l_c holds at most one such period, which no analysis can tell
-    from a tilt or a bow of the instrument."""
+    from a tilt or a bow of the instrument. The remedies named are complete: a slower scan
+    lowers l_c, and with it the deepest region the analysis takes (``MAX_REGION_PERIODS``
+    shortest periods), so the depth that works at that speed is named with it."""
     lc = cut.period
     short = [(a, n) for a, n in _spans(texture) if n < MIN_CUTOFF_PERIODS * lc]
     if not short:
@@ -359,7 +362,15 @@ def _check_renderable(texture, device: Device, speed: float, cut) -> None:
     by_speed = ("scanning velocity", "device structural")  # the limits proportional to the speed
     fixed = max((b for name, b in cut.bounds.items() if name not in by_speed), default=0.0)
     if set(cut.set_by) <= set(by_speed) and MIN_CUTOFF_PERIODS * fixed < n:  # a slower scan lowers l_c enough
-        hints.append(f"scan it slower (--speed {_nice(speed * n / need, False)} m/s or less)")
+        from .analysis._region import MAX_REGION_PERIODS
+
+        v = float(_nice(speed * n / need, False))
+        deepest = MAX_REGION_PERIODS * lc * v / speed  # the analysis's depth bound at the l_c of speed v
+        slower = f"--speed {v:g} m/s or less"
+        if max_penetration is not None and max_penetration > deepest:
+            slower = (f"--speed {v:g} m/s with --max-penetration {_nice(deepest * 1e3, False)}mm or less, "
+                      f"the deepest region analysed being {MAX_REGION_PERIODS:g} of the shortest periods")
+        hints.append(f"scan it slower ({slower})")
     raise ParameterError(
         f"texture = {texture.source or repr(texture)!r} is not allowed on {device.name} at {speed:g} m/s: the {what} "
         f"spans {n * 1e6:.4g} um along {axis}, less than {MIN_CUTOFF_PERIODS:g} of the shortest period the device "
