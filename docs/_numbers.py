@@ -65,6 +65,25 @@ def _hands():
     return out
 
 
+def _limits():
+    """Each preset's wall limits at the home pose (N/m), and what its rated figure implies."""
+    from haptex import catalogue
+    from haptex.limits import wall_limits
+
+    out = []
+    for key, p in catalogue.presets().items():
+        dev = p.device()
+        w = wall_limits(dev, "light-touch", preset=p)
+        rows = {lim.key: lim.value for lim in w.limits}
+        late = wall_limits(p.device(delay=1), "light-touch").stable
+        out.append({"key": key, "rate": _g(1 / dev.period), "corollary_1": _g(rows["corollary_1"], 3),
+                    "colgate_schenkel": _g(rows["colgate_schenkel"], 3), "abbott_okamura": _g(rows["abbott_okamura"], 3),
+                    "encoder": _g(rows.get("encoder"), 3), "device": _g(rows["device"], 3),
+                    "hand": _g(w.stable, 4), "delay_1": _g(late, 4), "rated": _g(p.rated_stiffness, 4),
+                    "ratio": _g(w.rated_ratio, 2), "grip": _g(w.rated_hand_damping, 2), "gap": bool(p.rated_gap)})
+    return out
+
+
 def _registry():
     from haptex.algorithms import ALGORITHMS
 
@@ -83,6 +102,11 @@ def context(docname: str) -> dict:
         ctx.update(parameters=params, rows=rows, registry=_registry())
     if docname == "explanation/validation":
         ctx.update(modules=_validation())
+    if docname == "guides/devices-and-stability":
+        rows = _limits()
+        grips = [float(r["grip"]) for r in rows if r["grip"] != "–"]
+        ctx.update(limits=rows, by_key={r["key"]: r for r in rows}, grip_low=_g(min(grips), 2),
+                   grip_high=_g(max(grips), 2))
     if docname == "reference/presets":
         ctx.update(presets=_presets(), hands=_hands())
     return ctx

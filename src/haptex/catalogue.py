@@ -164,12 +164,16 @@ class Preset:
         One of :data:`MODELS`: how the Cartesian mass and damping are modelled.
     figures : dict of str to Figure
         Every number, with its status and source.
+    rated_gap : str
+        Why the predicted wall limit sits more than
+        :data:`haptex.limits.RATED_RATIO` times from the rated figure ("" when it does not).
     """
 
     key: str
     label: str
     model: str
     figures: dict = field(default_factory=dict, compare=False)
+    rated_gap: str = ""
 
     def value(self, name: str, default=None):
         """A figure's value in SI units, or ``default`` when the preset has none."""
@@ -284,7 +288,7 @@ def _figures(table: dict, where: str) -> dict[str, Figure]:
 
     out = {}
     for name, spec in table.items():
-        if name in ("label", "model"):
+        if name in ("label", "model", "rated_gap"):
             continue
         if name not in _UNITS:
             raise ParameterError(f"{where}: figure {name!r} is not allowed: allowed are " + ", ".join(_UNITS))
@@ -312,7 +316,8 @@ def presets() -> dict[str, Preset]:
     for key, table in _data()["presets"].items():
         if table.get("model") not in MODELS:
             raise fail(f"preset {key!r}: model", table.get("model"), "one of " + ", ".join(MODELS))
-        out[key] = Preset(key, table["label"], table["model"], _figures(table, f"preset {key!r}"))
+        out[key] = Preset(key, table["label"], table["model"], _figures(table, f"preset {key!r}"),
+                          table.get("rated_gap", ""))
     return out
 
 

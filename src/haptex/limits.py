@@ -39,8 +39,8 @@ class WallLimit:
     Attributes
     ----------
     key : str
-        ``corollary_1``, ``colgate_schenkel``, ``abbott_okamura``, ``gil``, ``device``,
-        ``hand`` or ``rated``.
+        ``corollary_1``, ``colgate_schenkel``, ``abbott_okamura``, ``encoder``, ``gil``,
+        ``device``, ``hand``, ``rigid``, ``rated`` or ``simulated``.
     kind : str
         ``passive`` (sufficient for passivity), ``stable`` (the closed loop's boundary)
         or ``rated`` (the manufacturer's figure, reported only).
@@ -86,12 +86,20 @@ class WallLimits:
         hand (with the device alone for the hand ``none``); with ``simulated``, the smaller
         of that and the simulated limit (quantisation without friction can lower it).
     hand : Hand
+    rated_ratio : float or None
+        ``stable`` over the preset's rated figure (None without one).
+    rated_hand_damping : float or None
+        The hand damping (N s/m) at which the rated figure is the exact stable limit
+        (:func:`rated_hand_damping`), the hand's mass and stiffness kept (the default hand's
+        for the hand ``none``).
     """
 
     limits: list
     passive: float
     stable: float
     hand: Hand
+    rated_ratio: float | None = None
+    rated_hand_damping: float | None = None
 
     def __getitem__(self, key: str) -> WallLimit:
         for lim in self.limits:
@@ -101,8 +109,9 @@ class WallLimits:
 
     def as_dict(self) -> dict:
         return {"passive_stiffness": self.passive, "stable_stiffness": self.stable, "hand": self.hand.key,
+                "rated_ratio": self.rated_ratio, "rated_hand_damping": self.rated_hand_damping,
                 "limits": [lim.as_dict() for lim in self.limits], "note": DIOLAITI_NOTE,
-                "units": {"passive_stiffness": "N/m", "stable_stiffness": "N/m"}}
+                "units": {"passive_stiffness": "N/m", "stable_stiffness": "N/m", "rated_hand_damping": "N*s/m"}}
 
 
 def normal_axis(device: Device) -> tuple[float, float, float | None]:
@@ -146,14 +155,17 @@ def wall_limits(device: Device, hand=DEFAULT_HAND, virtual_damping: float = 0.0,
         quantization and sampling rate on virtual-wall passivity", IEEE Trans. Robotics
         21(5), 2005: necessary and sufficient, its two conditions the two ways the wall
         turns active, instability and active tactile sensations; 0 with quantisation and
-        no friction, None with exact positions);
+        no friction, None with exact positions); ``encoder`` 2 f_c / delta alone (with
+        quantisation: what the encoder step and the friction set, the viscous damping apart);
         ``gil`` (b + B_v) / (T (1/2 + d)) (stable, the device alone, its mass large against
         bT; J. J. Gil, A. Avello, A. Rubio and J. Florez, "Stability analysis of a 1 DOF
         haptic interface using the Routh-Hurwitz criterion", IEEE Trans. Control Systems
         Technology 12(4), 2004); ``device`` the exact boundary of the sampled loop, the
         device alone (:func:`~haptex.critical_stiffness`: ZOH, delay, virtual damper,
-        structural mode); ``hand`` the same with the hand; ``rated`` the manufacturer's
-        figure when ``preset`` has one.
+        structural mode); ``hand`` the same with the hand; ``rigid`` the same without the
+        structural mode (a device with one: what the mode changes); ``rated`` the
+        manufacturer's figure when ``preset`` has one, with the prediction's ratio to it and
+        the hand damping it implies (:func:`rated_hand_damping`) in its ``assumes``.
 
     Raises
     ------
@@ -188,6 +200,12 @@ def wall_limits(device: Device, hand=DEFAULT_HAND, virtual_damping: float = 0.0,
         ao, why = None, "not applicable: exact positions (no quantisation), Colgate & Schenkel's condition holds"
     limits.append(WallLimit("abbott_okamura", "passive", ao, "passive, linear wall (friction and quantisation)",
                             "b > K T / 2 + |B_v| and K <= 2 f_c / delta", "Abbott & Okamura 2005", why))
+    if delta > 0:
+        limits.append(WallLimit("encoder", "passive", 2 * fc / delta, "passive against the encoder step (friction)",
+                                "K <= 2 f_c / delta", "Abbott & Okamura 2005",
+                                f"the energy a {delta * 1e6:.3g} um encoder step supplies dissipated by {fc:g} N of "
+                                "Coulomb friction; the second half of the row above, the device's own (viscous "
+                                "damping and hand apart)"))
     limits.append(WallLimit("gil", "stable", (b + bv) / (T * (0.5 + d)), "stable, device alone (closed form)",
                             "K < (b + B_v) / (T/2 + t_d)", "Gil et al. 2004",
                             "rigid device, mass large against b T; no hand"))
@@ -200,10 +218,28 @@ def wall_limits(device: Device, hand=DEFAULT_HAND, virtual_damping: float = 0.0,
     limits.append(WallLimit("hand", "stable", with_hand, f"stable, with the hand {h.key!r} (exact)",
                             "largest closed-loop eigenvalue modulus < 1", "haptex.critical_stiffness (ZOH, delay, hand)",
                             f"hand {h.mass:g} kg, {h.damping:g} N s/m, {h.stiffness:g} N/m gripping the handle; linear"))
+    if mode:
+        rigid = critical_stiffness(m, b, T, d, virtual_damping=bv, hand=None if h.none else h.impedance)
+        limits.append(WallLimit("rigid", "stable", rigid, f"stable, with the hand {h.key!r}, the device rigid",
+                                "largest closed-loop eigenvalue modulus < 1",
+                                "haptex.critical_stiffness (ZOH, delay, hand)",
+                                f"the structural mode at {device.first_resonance:g} Hz left out: the row above against "
+                                "this one is what the mode changes (Gil, Puerto, Diaz & Sanchez, IROS 2010)"))
+    ratio = implied = None
     if preset is not None and preset.rated_stiffness is not None:
         fig = preset.figures.get("rated_stiffness") or preset.figures["chai3d_stiffness"]
-        limits.append(WallLimit("rated", "rated", preset.rated_stiffness, "the manufacturer's figure (reported only)",
-                                "-", fig.as_dict()["source"] or "", fig.note or "as published"))
+        rated = preset.rated_stiffness
+        ratio = with_hand / rated
+        grip = _hand(DEFAULT_HAND) if h.none else h
+        implied = rated_hand_damping(m, b, T, d, rated, grip, virtual_damping=bv, **mode)
+        said = (f"{fig.note or 'as published'}; the hand {h.key!r} predicts {ratio:.2g} times the figure; the "
+                f"figure is the exact limit with the hand {grip.key!r} at a damping of "
+                + ("any (the device alone reaches it)" if implied == 0 else
+                   "none up to 1000 N s/m" if implied is None else f"{implied:.2g} N s/m"))
+        if preset.rated_gap:
+            said += f"; {preset.rated_gap}"
+        limits.append(WallLimit("rated", "rated", rated, "the manufacturer's figure (reported only)",
+                                "-", fig.as_dict()["source"] or "", said))
     stable = with_hand
     if simulated and not h.none:
         k, step = simulated_wall_limit(device, h, with_hand, virtual_damping)
@@ -214,7 +250,71 @@ def wall_limits(device: Device, hand=DEFAULT_HAND, virtual_damping: float = 0.0,
                                 f"the hand pressing with {SIM_PUSH:g} N for {SIM_DURATION:g} s; Coulomb friction, "
                                 f"quantisation, saturation and delay included; a grid {step:.3g} times apart"))
     passive = cs if ao is None else ao
-    return WallLimits(limits, passive, stable, h)
+    return WallLimits(limits, passive, stable, h, ratio, implied)
+
+
+RATED_RATIO = 2.0
+"""The factor within which a predicted wall limit should meet a preset's rated figure
+(issue 55's goal); a preset outside it says why (``Preset.rated_gap``)."""
+MAX_HAND_DAMPING = 1e3
+"""The largest hand damping :func:`rated_hand_damping` searches (N s/m, chosen: a hundred
+times the firm grip's)."""
+
+
+def rated_hand_damping(mass: float, damping: float, period: float, delay: int, rated: float, hand=DEFAULT_HAND,
+                       virtual_damping: float = 0.0, **mode) -> float | None:
+    """The hand damping at which a rated stiffness is the exact stable limit: the hand a
+    manufacturer's figure implies.
+
+    Manufacturers publish a stiffness without the hand it assumes. Keeping ``hand``'s mass
+    and stiffness, this is the damping b_h (N s/m) for which the exact boundary of the
+    sampled loop (:func:`~haptex.critical_stiffness`, ZOH, delay, structural mode) equals
+    ``rated``: the figure read as a grip.
+
+    Parameters
+    ----------
+    mass, damping : float
+        The device's apparent mass (kg) and viscous damping (N s/m) along the wall's normal.
+    period : float
+        T (s).
+    delay : int
+        Whole samples of latency.
+    rated : float
+        The rated stiffness (N/m), > 0.
+    hand : str or Hand, optional
+        The grip whose mass and stiffness are kept; default
+        :data:`~haptex.catalogue.DEFAULT_HAND`.
+    virtual_damping : float, optional
+        B_v (N s/m), the wall's damper.
+    **mode
+        ``handle_mass``, ``first_resonance``, ``mode_damping_ratio`` of a structural mode.
+
+    Returns
+    -------
+    float or None
+        b_h (N s/m); 0.0 when the device with the hand's mass and stiffness alone reaches
+        ``rated``; None when no damping up to :data:`MAX_HAND_DAMPING` does.
+
+    Raises
+    ------
+    ParameterError
+        For a rated stiffness that is not positive, or an unknown hand.
+    """
+    from scipy.optimize import brentq
+
+    positive("rated", rated, "N/m")
+    h = _hand(hand)
+
+    def gap(bh: float) -> float:
+        k = critical_stiffness(mass, damping, period, delay, virtual_damping=virtual_damping,
+                               hand=(h.mass, bh, h.stiffness), **mode)
+        return math.log(k / rated) if k > 0 else -math.inf
+
+    if gap(0.0) >= 0:
+        return 0.0
+    if gap(MAX_HAND_DAMPING) < 0:
+        return None
+    return float(brentq(gap, 0.0, MAX_HAND_DAMPING, xtol=1e-6, rtol=1e-6))
 
 
 SIM_PUSH = 1.0

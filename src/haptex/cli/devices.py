@@ -10,7 +10,7 @@ from ._common import Quantity, _fitted, _jsonable, _limits_table
 
 
 @click.group(invoke_without_command=True)
-@click.option("--wide", is_flag=True, help="Also the product's name and description (a wide terminal).")
+@click.option("--wide", is_flag=True, help="Also each product's name, in a second table.")
 @click.pass_context
 def devices(ctx, wide):
     """The device presets, with their sources and wall limits ('haptex devices show NAME')."""
@@ -24,19 +24,33 @@ def devices(ctx, wide):
     from ..limits import wall_limits
 
     t = Table(title="device presets", box=box.SIMPLE_HEAD,
-              caption=f"passive: Colgate & Schenkel or Abbott & Okamura; stable: closed loop with the hand "
-                      f"{DEFAULT_HAND!r}; rated: the manufacturer's (or CHAI3D's) figure, reported only. "
-                      "'haptex devices show NAME' for every number and its source; --wide adds each product's name.")
-    columns = ("name", "DOF", "rate (Hz)", "max force (N)", "passive (N/m)", "stable (N/m)", "rated (N/m)")
-    for col in columns + (("device",) if wide else ()):
+              caption=f"passive: Colgate & Schenkel or Abbott & Okamura; encoder: 2 f_c / delta, what the encoder step "
+                      f"and the friction allow (Abbott & Okamura); stable: closed loop with the hand {DEFAULT_HAND!r}; "
+                      "rated: the manufacturer's (or CHAI3D's) figure, reported only; its grip: the hand damping at "
+                      f"which the rated figure is the exact limit (the hand {DEFAULT_HAND!r}'s mass and stiffness). "
+                      "'haptex devices show NAME' for every number and its source; --wide adds each product's "
+                      "name below. Every preset is 3-D but the one marked 2D.")
+    columns = ("name", "rate (Hz)", "max force (N)", "passive (N/m)", "encoder (N/m)", "stable (N/m)",
+               "rated (N/m)", "its grip (N s/m)")
+    for col in columns:
         t.add_column(col)
     for key, p in presets().items():
         dev = p.device()
         w = wall_limits(dev, DEFAULT_HAND, preset=p)
-        t.add_row(key, str(p.dimension), f"{1 / dev.period:g}", f"{dev.max_force:g}", f"{w.passive:.0f}",
-                  f"{w.stable:.0f}", "-" if p.rated_stiffness is None else f"{p.rated_stiffness:.0f}",
-                  *((p.label,) if wide else ()))
+        enc = next((lim.value for lim in w.limits if lim.key == "encoder"), None)
+        grip = w.rated_hand_damping
+        t.add_row(f"{key} ({p.dimension}D)" if p.dimension != 3 else key, f"{1 / dev.period:g}", f"{dev.max_force:g}", f"{w.passive:.0f}",
+                  "-" if enc is None else f"{enc:.0f}", f"{w.stable:.0f}",
+                  "-" if p.rated_stiffness is None else f"{p.rated_stiffness:.0f}",
+                  "-" if grip is None else f"{grip:.2g}")
     Console().print(_fitted(t))
+    if wide:
+        names = Table(title="the products", box=box.SIMPLE_HEAD)
+        for col in ("name", "device"):
+            names.add_column(col)
+        for key, p in presets().items():
+            names.add_row(key, p.label)
+        Console().print(_fitted(names))
 
 
 @devices.command("show")
