@@ -6,7 +6,9 @@
    levelled) and on a 1024 x 1024 areal map (a grating plus noise, 1 um a pixel, read from
    an X3P file SurfaceTopography wrote), each band-limited to what the pantograph (or the
    serial arm, over the map) renders at 0.1 m/s;
-3. the CLI on a 1024 x 1024 map of rough band-limited noise (issue 35's goal: within 60 s).
+3. the CLI on a 1024 x 1024 map of rough band-limited noise (issue 35's goal: within 60 s);
+4. that map felt by a ball (``felt_by``, scipy.ndimage's grey dilation) of 5, 10 and 20 um
+   (issue 58's goal: within 5 s).
 """
 
 from __future__ import annotations
@@ -82,6 +84,11 @@ def main() -> None:
         Topography(hn, (m * 1e-6, m * 1e-6), unit="m").to_x3p(str(f))
         noise = cli("--texture", str(f))
         print(f"haptex design --texture noise.x3p (1024 x 1024)   {noise:6.1f} s")
+        rough = hx.SampledSurface.from_file(f)
+        for r in (5e-6, 10e-6, 20e-6):
+            t = time.perf_counter()
+            rough.felt_by(r)
+            print(f"felt_by({r * 1e6:g} um), 1024 x 1024 map             {time.perf_counter() - t:6.2f} s")
 
 
 if __name__ == "__main__":

@@ -33,6 +33,7 @@ def test_continuity_plan_counts_the_points_it_evaluates(monkeypatch, letter, tex
     import sys
 
     mod = sys.modules["haptex.analysis.continuity"]
+    monkeypatch.setattr(mod, "SLAB_POINTS", 1 << 40)  # one slab a grid: one evaluation a grid
     alg = hx.algorithm(letter, texture, 2000.0)
     plan = continuity_points(alg, 1e-3)
     sizes = _counting(monkeypatch, mod, "_static_force")
@@ -107,15 +108,60 @@ def test_design_reports_its_plan_with_units(capsys):
 @pytest.mark.parametrize("letter, texture", [("A", SINE), ("D", SINE), ("D", EGG), ("F", EGG)])
 def test_continuity_reads_the_coarser_grids_points_bit_for_bit(monkeypatch, letter, texture):
     # each finer grid evaluates only its new points and reads the others from the grid before
-    # (a halved step from the same corner lands on them exactly): the differences it reports
-    # equal those of every grid evaluated in full (the former code), to the last bit
+    # (a halved step from the same corner lands on them exactly), in slabs along x with only the
+    # forces the next grid reads held (issue 58: a 1025 x 1025 map's grid needed 7.4 GB held
+    # whole): the differences it reports, and where, equal those of every grid evaluated in full
+    # and at once (the former code), to the last bit, whatever the slab (one row to the grid)
     import sys
 
     mod = sys.modules["haptex.analysis.continuity"]
     alg = hx.algorithm(letter, texture, 2000.0)
     fast = continuity(alg, 1e-3)
-    monkeypatch.setattr(mod, "_refined_forces", lambda a, axes, coarse: mod._static_force(
-        a, np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)))
+
+    def whole(a, axes, coarse, keep=True):
+        F = mod._static_force(a, np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1))
+        jumps = [np.linalg.norm(np.diff(F, axis=k), axis=-1) for k in range(len(axes))]
+        k = int(np.argmax([float(d.max()) for d in jumps]))
+        idx = np.unravel_index(int(np.argmax(jumps[k])), jumps[k].shape)
+        return F, (k, float(jumps[k].max()), tuple(int(i) for i in idx))
+
+    for slab in (1, 700):  # a row or less a slab; a few rows
+        monkeypatch.setattr(mod, "SLAB_POINTS", slab)
+        sliced = continuity(alg, 1e-3)
+        assert sliced.max_differences == fast.max_differences and sliced.where == fast.where
+    monkeypatch.setattr(mod, "_refined_forces", whole)
     full = continuity(alg, 1e-3)
     assert fast.max_differences == full.max_differences and fast.where == full.where
     assert fast.continuous == full.continuous
+
+
+@pytest.mark.parametrize("letter", ["A", "D"])
+def test_continuity_holds_only_the_forces_the_next_grid_reads(monkeypatch, letter):
+    # Issue 58: "a map of a megabyte must not need gigabytes": a 1025 x 1025 map's finest grid
+    # held whole took 7.4 GB (RSS). Now the last grid is streamed in slabs and a grid's forces
+    # are held only for the next: the traced peak of the analysis stays within its plan
+    # (peak_bytes, which the memory budget checks), and for A the plan is under 0.6 of what
+    # the former whole-grid count took. A budget below the plan is refused by name, before any
+    # work (the same plan, checked grid by grid).
+    import tracemalloc
+
+    from haptex._validation import ParameterError
+    from haptex.analysis.continuity import grid_points, peak_bytes
+
+    alg = hx.algorithm(letter, EGG, 2000.0)
+    sizes = grid_points(alg, 1e-3)
+    plan = peak_bytes(sizes)
+    if letter == "A":
+        assert plan < 0.6 * 12 * 8 * sizes[-1]
+    continuity(alg, 1e-3)  # warm: what the texture caches once
+    tracemalloc.start()
+    try:
+        continuity(alg, 1e-3)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak <= plan, (peak, plan)
+    monkeypatch.setenv("HAPTEX_MEMORY_BUDGET", str(int(0.9 * plan)))
+    with pytest.raises(ParameterError, match=r"^levels = 3 is not allowed: the .* grid of level 2 \(its forces "
+                                             r"streamed"):
+        continuity(alg, 1e-3)

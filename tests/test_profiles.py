@@ -46,8 +46,8 @@ def test_dektak_export_is_read_through_surfacetopography_with_its_units():
 @needs_data
 def test_mat_file_needs_spacing_and_unit_and_never_guesses():
     with pytest.raises(hx.ParameterError, match=r"grooves-4mm-profile.mat does not state its sample spacing or height "
-                                                r"unit: give --spacing 0.5um at the command line, spacing='0.5um' in Python and "
-                                                r"--height-unit mm"):
+                                                r"unit: give --spacing 0.5um --height-unit mm at the command line, "
+                                                r"spacing='0.5um', height_unit='mm' in Python$"):
         hx.SampledProfile.from_file(GROOVES)
     with pytest.raises(hx.ParameterError, match="give --height-unit mm at the command line, height_unit='mm'"):
         hx.SampledProfile.from_file(GROOVES, spacing="0.5um")
@@ -67,7 +67,7 @@ def test_csv_columns_with_units_from_the_caller(tmp_path):
     rows = "\n".join(f"{a:.1f},{1000 * math.sin(a / 5):.6f}" for a in x)
     f = write(tmp_path, "p.csv", "x (um),h (nm)\n" + rows + "\n", newline="\r\n")
     with pytest.raises(hx.ParameterError, match=r"does not state its height unit or lateral unit: give --height-unit um "
-                                                r"at the command line, height_unit='um' in Python and --x-unit um"):
+                                                r"--x-unit um at the command line, height_unit='um', x_unit='um' in Python$"):
         hx.SampledProfile.from_file(f)
     with pytest.raises(hx.ParameterError, match="does not state its lateral unit: give --x-unit um at the command line, x_unit='um' in Python"):
         hx.SampledProfile.from_file(f, height_unit="nm")

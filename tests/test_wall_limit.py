@@ -11,7 +11,7 @@ import pytest
 import haptex as hx
 from haptex.backends.simulated import SimulatedBackend
 from haptex.cli import main
-from haptex.limits import SIM_PUSH, find_limit, simulated_wall_limit, stiffness_ladder, wall_limits
+from haptex.limits import SIM_PUSH, find_limit, stiffness_ladder, wall_limits
 from haptex.perception import buzz, dequantise
 from haptex.servo import ServoLoop, analyse_trace
 from haptex.simulate import UNSTABLE

@@ -51,7 +51,14 @@ def _unit_factor(unit: str, name: str, where: str) -> float:
 
 def _hint(name: str, example: str) -> str:
     """How to give a missing value, in both of haptex's syntaxes."""
-    return f"--{name.replace('_', '-')} {example} at the command line, {name}='{example}' in Python"
+    return _hints([(name, example)])
+
+
+def _hints(pairs) -> str:
+    """How to give missing values (name, example), in both of haptex's syntaxes, once each."""
+    cli = " ".join(f"--{n.replace('_', '-')} {e}" for n, e in pairs)
+    py = ", ".join(f"{n}='{e}'" for n, e in pairs)
+    return f"{cli} at the command line, {py} in Python"
 
 
 def _spacing(spacing, where: str) -> float:
@@ -262,7 +269,7 @@ def _read_st(p: Path, reader, spacing, x_unit, height_unit, variable, fill_undef
     if missing:
         raise ParameterError(f"{p} ({fmt}) does not state its " + " or ".join(
             {"height_unit": "height unit", "spacing": "sample spacing", "x_unit": "lateral unit"}[n] for n, _ in missing)
-            + ": give " + " and ".join(_hint(n, e) for n, e in missing))
+            + ": give " + _hints(missing))
     hf = _unit_factor(unit if stated else height_unit, "unit" if stated else "height_unit", str(p))
     xf = hf if stated else (None if x_unit is None else _unit_factor(x_unit, "x_unit", str(p)))
     step = None if sizes is not None else _spacing(spacing, str(p))
@@ -756,7 +763,7 @@ def _load_mat(p: Path, spacing, height_unit, variable, x_unit) -> Reading:
     missing = [n for n, v in (("spacing", spacing), ("height_unit", height_unit)) if v is None]
     if missing:
         raise ParameterError(f"{p} does not state its sample spacing or height unit: give "
-                             + " and ".join(_hint(m, examples[m]) for m in missing))
+                             + _hints([(m, examples[m]) for m in missing]))
     h = arr * _unit_factor(height_unit, "height_unit", str(p))
     step = _spacing(spacing, str(p))
     if h.ndim == 2:  # a MATLAB matrix: rows are y, columns x (as an image), h[i, j] at (x_i, y_j)

@@ -79,19 +79,21 @@ def continuity(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=None
     spacings, diffs = [], []
     where = (math.nan,) * len(box)
     F = None
+    previous = 0
     for lev in range(levels):
         steps = [s / 2**lev for s in steps0]
         counts = [int(math.ceil((b - a) / s)) for (a, b), s in zip(box, steps)]
-        # positions, forces and their differences: about 12 float64 a grid point
-        check_budget("levels", levels, 12 * 8 * math.prod(c + 1 for c in counts),
-                     f"the {' x '.join(str(c + 1) for c in counts)} grid of level {lev}")
+        n = math.prod(c + 1 for c in counts)
+        keep = lev < levels - 1  # the next grid reads this one's forces; the last is streamed
+        check_budget("levels", levels, FORCE_BYTES * (n * keep + previous) + SLAB_POINT_BYTES * min(n, SLAB_POINTS),
+                     f"the {' x '.join(str(c + 1) for c in counts)} grid of level {lev}"
+                     + ("" if keep else f" (its forces streamed, the {previous:.3g} points "
+                                        "of the grid before held)"))
         axes = [a + s * np.arange(c + 1) for (a, _), s, c in zip(box, steps, counts)]
-        F = _refined_forces(algorithm, axes, F)
-        jumps = [np.linalg.norm(np.diff(F, axis=k), axis=-1) for k in range(len(box))]
-        k = int(np.argmax([float(d.max()) for d in jumps]))
+        F, (k, jump, idx) = _refined_forces(algorithm, axes, F, keep)
+        previous = n
         spacings.append(steps[0])
-        diffs.append(float(jumps[k].max()))
-        idx = np.unravel_index(int(np.argmax(jumps[k])), jumps[k].shape)
+        diffs.append(jump)
         where = tuple(float(axes[a][idx[a]] + (steps[a] / 2 if a == k else 0.0)) for a in range(len(box)))
     d = np.asarray(diffs)
     if np.all(d == 0):
@@ -101,21 +103,85 @@ def continuity(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=None
     return Continuity(order > 0.5, tuple(spacings), tuple(diffs), order, where)
 
 
-def _refined_forces(algorithm: Algorithm, axes, coarse) -> np.ndarray:
-    """The static force on the grid of ``axes``, shape (n_0, ..., n_k, dim) (N). Its points of
-    even index on every axis are the points of the grid before, halved steps from the same
-    corner, bit for bit (a step halved is exact): their forces are read from ``coarse`` (the
-    force on that grid, or None) and only the new points are evaluated, 7/8 of a 3-D grid."""
-    P = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
-    if coarse is None:
-        return _static_force(algorithm, P)
-    even = tuple(slice(0, None, 2) for _ in axes)
-    fresh = np.ones(P.shape[:-1], dtype=bool)
-    fresh[even] = False
-    F = np.empty(P.shape[:-1] + coarse.shape[-1:])
-    F[even] = coarse[tuple(slice(0, n) for n in fresh[even].shape)]
-    F[fresh] = _static_force(algorithm, P[fresh])
-    return F
+SLAB_POINTS = 1 << 18
+"""Grid points a slab of :func:`continuity`'s grid holds at most (chosen: its positions,
+forces, differences and the field's own temporaries, some 50 MiB: :data:`SLAB_POINT_BYTES`)."""
+SLAB_POINT_BYTES = 24 * 8
+"""The memory a slab's point may take (B): about 24 float64 a point, the closest-point
+search's temporaries included (measured on D over a 1025 x 1025 map: 7.4 GB for a grid held
+whole whose 12 float64 a point were counted as 5.2 GiB)."""
+FORCE_BYTES = 3 * 8
+"""The memory of a grid point's force held for the next grid (B)."""
+
+
+def peak_bytes(sizes) -> int:
+    """The most memory (B) :func:`continuity` takes over grids of ``sizes`` points, coarse to
+    fine (:func:`grid_points`): the forces of a grid held for the next one, those of the grid
+    before, and one slab; the last grid is streamed."""
+    last = len(sizes) - 1
+    held = [FORCE_BYTES * (n * (i < last) + (sizes[i - 1] if i else 0)) + SLAB_POINT_BYTES * min(n, SLAB_POINTS)
+            for i, n in enumerate(sizes)]
+    return int(max(held, default=0))
+
+
+def _refined_forces(algorithm: Algorithm, axes, coarse, keep: bool = True):
+    """The static force on the grid of ``axes`` (shape (n_0, ..., n_k, dim), N; None unless
+    ``keep``) and its largest neighbour difference (axis, value in N, index of the pair's first
+    point), evaluated in slabs along the first axis of at most :data:`SLAB_POINTS` points, so
+    that only the forces kept take memory in proportion to the grid. Its points of even index
+    on every axis are the points of the grid before, halved steps from the same corner, bit for
+    bit (a step halved is exact): their forces are read from ``coarse`` (the force on that grid,
+    or None) and only the new points are evaluated, 7/8 of a 3-D grid. The difference and its
+    place are those of the whole grid: the first largest in C order, axis by axis."""
+    n0 = len(axes[0])
+    plane = math.prod(len(a) for a in axes[1:])
+    rows = max(1, SLAB_POINTS // max(plane, 1))
+    F = None
+    best = [(-1.0, None)] * len(axes)  # (value, index) per axis
+    last = None  # the forces of the row before the slab
+    for i0 in range(0, n0, rows):
+        i1 = min(n0, i0 + rows)
+        P = np.stack(np.meshgrid(axes[0][i0:i1], *axes[1:], indexing="ij"), axis=-1)
+        if coarse is None:
+            Fs = _static_force(algorithm, P)
+        else:
+            even = (slice(i0 % 2, None, 2),) + tuple(slice(0, None, 2) for _ in axes[1:])
+            fresh = np.ones(P.shape[:-1], dtype=bool)
+            fresh[even] = False
+            Fs = np.empty(P.shape[:-1] + coarse.shape[-1:])
+            shape = fresh[even].shape
+            first = (i0 + i0 % 2) // 2
+            Fs[even] = coarse[(slice(first, first + shape[0]),) + tuple(slice(0, m) for m in shape[1:])]
+            Fs[fresh] = _static_force(algorithm, P[fresh])
+        del P
+        for k in range(len(axes)):
+            if k == 0 and last is not None:  # the pair across the slab's edge comes first in C order
+                edge = np.linalg.norm(Fs[0] - last, axis=-1)
+                _better(best, 0, edge, (i0 - 1,), edge.shape)
+            if Fs.shape[k] > 1:
+                jumps = np.linalg.norm(np.diff(Fs, axis=k), axis=-1)
+                _better(best, k, jumps, (i0,), jumps.shape)
+        last = Fs[-1].copy()
+        if keep:
+            if F is None:
+                F = np.empty((n0,) + Fs.shape[1:])
+            F[i0:i1] = Fs
+    k = int(np.argmax([v for v, _ in best]))
+    return F, (k, float(best[k][0]), best[k][1])
+
+
+def _better(best: list, k: int, jumps: np.ndarray, offset: tuple, shape) -> None:
+    """Keep in ``best[k]`` the larger of it and the first largest of ``jumps``, whose first
+    axis starts at ``offset[0]`` of the grid (or which is one row there, shape of a plane)."""
+    i = int(np.argmax(jumps))
+    v = float(jumps.flat[i])
+    if v > best[k][0]:
+        idx = np.unravel_index(i, shape)
+        if len(shape) == len(best) - 1:  # a row across the edge: the plane's index after the row
+            idx = (offset[0],) + tuple(idx)
+        else:
+            idx = (offset[0] + idx[0],) + tuple(idx[1:])
+        best[k] = (v, tuple(int(j) for j in idx))
 
 
 def _plan(algorithm: Algorithm, max_penetration: float, x_range, levels, base):

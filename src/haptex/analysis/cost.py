@@ -22,7 +22,7 @@ import numpy as np
 from ..algorithms import Algorithm
 from ._region import _region_box, _static_force, check_analysis_scale
 from .characteristic import characteristic_points
-from .continuity import continuity_points, grid_points
+from .continuity import continuity_points, grid_points, peak_bytes
 
 CALIBRATION_PROBES = {"direct": 256, "distance": 2048}
 """Random probes timed to measure one evaluation's cost (chosen: a few ms for a direct
@@ -35,8 +35,6 @@ CHUNK = 64
 """Probes evaluated at once while timing."""
 WARM_UP = 8
 """Probes evaluated first, untimed: they build what the texture caches once."""
-BYTES_PER_POINT = 12 * 8
-"""Memory of a continuity grid point: positions, forces and differences (float64)."""
 
 
 @dataclass(frozen=True)
@@ -142,5 +140,5 @@ def analysis_cost(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=N
     n = int(sum(cont) + q)
     seconds = sum(cont) * each + q * each_j
     return Cost(algorithm.letter, n, seconds / n, seconds,
-                int(grid_points(algorithm, max_penetration, x_range)[-1] * BYTES_PER_POINT),
+                peak_bytes(grid_points(algorithm, max_penetration, x_range)),
                 algorithm.penetration_kind == "distance")

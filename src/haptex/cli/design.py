@@ -16,6 +16,11 @@ from ._common import (
     _limits_table, _object_options, _parse_point)
 
 
+LONG_ANALYSIS = 180.0
+"""An analysis planned longer than this (s, chosen: three minutes) is told how long it takes
+without D and E, whose closest-point searches dominate on large maps."""
+
+
 @click.command()
 @click.option("--texture", "texture_spec", required=True,
               help="FILE (a line scan or an areal map in any format SurfaceTopography reads: Dektak, X3P, SDF, "
@@ -124,6 +129,10 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
         if not (quiet or as_json):
             searches = (f"; D and E: {est['searches']:.3g} closest-point searches at "
                         f"{est['seconds_per_search'] * 1e6:.3g} us" if est["searches"] else "")
+            others = {L: v["seconds"] for L, v in est["algorithms"].items() if L not in "DE"}
+            if est["searches"] and est["seconds"] > LONG_ANALYSIS and others:
+                searches += (f"; without D and E, about {sum(others.values()):.3g} s "
+                             f"(--algorithms {','.join(others)})")
             click.echo(f"estimate: at least {est['seconds']:.3g} s of analysis and {est['peak_bytes'] / 2**20:.3g} MiB "
                        f"for its largest grid{searches}", err=True)
         steps.weigh({L: v["seconds"] for L, v in est["algorithms"].items()})
