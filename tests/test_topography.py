@@ -58,7 +58,8 @@ def test_an_npy_map_states_no_size_and_needs_spacing_and_unit(tmp_path):
     f = tmp_path / "map.npy"
     np.save(f, h / 1e-6)  # heights in micrometres, as a user's script would save them
     with pytest.raises(hx.ParameterError, match=r"map.npy \(NumPy array \(NPY\)\) does not state its height unit or "
-                                                r"sample spacing: give --height-unit um .* and --spacing 0.5um"):
+                                                r"sample spacing: give --height-unit um --spacing 0.5um at the command line, "
+                                                r"height_unit='um', spacing='0.5um' in Python$"):
         hx.SampledSurface.from_file(f)
     s = hx.SampledSurface.from_file(f, spacing=f"{float(x[1] - x[0]) * 1e6!r}um", height_unit="um")
     assert np.max(np.abs(s.h - h)) <= 1e-15 and s.x[-1] == pytest.approx(x[-1], rel=1e-12)
