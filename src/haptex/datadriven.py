@@ -1217,6 +1217,140 @@ def spectral_difference(recorded, synthesized, sample_rate: float, band=(20.0, 4
 
 
 # ---------------------------------------------------------------------------------------
+# a surface from a recording
+# ---------------------------------------------------------------------------------------
+
+SURFACE_BAND = (40.0, 450.0)
+"""The vibration band (Hz) :func:`height_spectrum` reads by default (chosen: from twice
+:func:`fit`'s 20 Hz high-pass, where that zero-phase filter takes under 0.04 dB, to the HaTT
+papers' 450 Hz)."""
+MAX_SURFACE_SAMPLES = 1 << 24
+"""Most samples :func:`surface_from` synthesises (a 16 M-sample profile, 128 MiB)."""
+
+
+def height_spectrum(models: ModelSet, wavenumber, *, band=SURFACE_BAND) -> np.ndarray:
+    """The height spectrum of the surface whose scanning would give the models' vibration.
+
+    A point following a profile h(x) at speed v has the acceleration a(t) = v² h''(vt),
+    whose one-sided power spectral density is S_a(f) = (2 pi f)^4 S_h(f / v) / v, S_h the
+    profile's one-sided height spectrum over the wavenumber k (cycles/m). Each model at a
+    speed v > 0 thus gives S_h(k) = v S_a(k v) / (2 pi k v)^4 where k v lies in ``band``.
+    Noise in the recording only adds power, so each model's value is an upper bound: the
+    least over the models that cover k is returned.
+
+    Parameters
+    ----------
+    models : ModelSet
+        Fitted or read models; their forces are not used (a point follower's vibration does not
+        depend on how hard it presses).
+    wavenumber : array_like, shape (n,)
+        Spatial frequencies k (cycles/m), > 0.
+    band : (float, float), optional
+        The vibration band (Hz) trusted, within (0, sample_rate / 2]; default
+        :data:`SURFACE_BAND`.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n,)
+        S_h(k) (m² per cycle/m, i.e. m³; its integral over k is the height's variance); NaN
+        where no model's band covers k.
+
+    Raises
+    ------
+    ParameterError
+        If a wavenumber is not positive and finite, the band is outside (0, sample_rate / 2],
+        or no model has a positive speed.
+    """
+    k = np.asarray(wavenumber, dtype=float)
+    if not np.all(np.isfinite(k) & (k > 0)):
+        raise fail("wavenumber", wavenumber, "finite spatial frequencies > 0 (cycles/m)")
+    lo, hi = (float(b) for b in band)
+    fs = models.sample_rate
+    if not 0 < lo < hi <= fs / 2:
+        raise fail("band", band, f"(low, high) with 0 < low < high <= {fs / 2:g} Hz, the models' Nyquist frequency")
+    moving = [m for m in models.models if m.speed > 0]
+    if not moving:
+        raise fail("models", models, "a model set with at least one model at a speed > 0")
+    logs, count = np.zeros(k.shape), np.zeros(k.shape)
+    for m in moving:
+        f = k * m.speed
+        inside = (f >= lo) & (f <= hi)
+        if inside.any():
+            sh = m.speed * m.psd(f[inside]) / (2 * np.pi * f[inside]) ** 4
+            logs[inside] += np.log(np.maximum(sh, 1e-300))
+            count[inside] += 1
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(count > 0, np.exp(logs / np.maximum(count, 1)), np.nan)
+
+
+def surface_from(models: ModelSet, length: float, spacing: float | None = None, *, band=SURFACE_BAND,
+                 seed: int = 0):
+    """A profile whose scanning gives the models' vibration: the data-driven texture as a
+    geometric one, which the conservative algorithms render passively.
+
+    The profile's height spectrum is :func:`height_spectrum` on the harmonics of 1/length
+    (zero where no model covers them: the recording says nothing there), with independent
+    phases uniform in [0, 2 pi) from ``numpy.random.default_rng(seed)``; its amplitudes are
+    exact, sqrt(2 S_h(k) / length) a harmonic, so its variance is the spectrum's integral.
+    A point following it at any speed v has the acceleration spectrum
+    (2 pi f)^4 S_h(f / v) / v: the speed scales the vibration, which interpolating models
+    between speeds does not do (compare them at speeds held out of the fit).
+
+    Parameters
+    ----------
+    models : ModelSet
+        The vibration models (fitted from a recording or read).
+    length : float
+        The profile's length (m), periodic over it; its longest wavelength.
+    spacing : float, optional
+        Sample spacing (m); default a tenth of the shortest wavelength the models cover
+        (the slowest model's speed over the band's top; chosen so that the profile's spline
+        gives h'' within a few per cent there).
+    band : (float, float), optional
+        As :func:`height_spectrum`.
+    seed : int, optional
+        Seed of the phases.
+
+    Returns
+    -------
+    SampledProfile
+        Periodic over ``length``, heights in m.
+
+    Raises
+    ------
+    ParameterError
+        For a non-positive length or spacing, more than :data:`MAX_SURFACE_SAMPLES` samples,
+        a spectrum that no model covers at any harmonic, or as :func:`height_spectrum`.
+    """
+    from .textures import SampledProfile
+
+    L = positive("length", length, "m")
+    moving = [m.speed for m in models.models if m.speed > 0]
+    if not moving:
+        raise fail("models", models, "a model set with at least one model at a speed > 0")
+    dx = min(moving) / float(band[1]) / 10 if spacing is None else positive("spacing", spacing, "m")
+    n = int(math.ceil(L / dx))
+    if n > MAX_SURFACE_SAMPLES:
+        raise fail("spacing", dx, f"at least {L / MAX_SURFACE_SAMPLES:.3g} m for a {L:g} m profile (at most "
+                                  f"{MAX_SURFACE_SAMPLES} samples)")
+    n += n % 2
+    k = np.arange(1, n // 2) / L
+    sh = height_spectrum(models, k, band=band)
+    covered = np.isfinite(sh)
+    if not covered.any():
+        raise fail("length", L, f"a profile whose harmonics of 1/length reach the band the models cover "
+                                f"({band[0]:g}-{band[1]:g} Hz at {min(moving):g}-{max(moving):g} m/s)")
+    amp = np.where(covered, np.sqrt(2 * np.nan_to_num(sh) / L), 0.0)
+    phase = np.random.default_rng(seed).uniform(0.0, 2 * np.pi, k.size)
+    spec = np.zeros(n // 2 + 1, dtype=complex)
+    spec[1:n // 2] = 0.5 * n * amp * np.exp(1j * phase)
+    h = np.fft.irfft(spec, n)
+    x = np.arange(n) * (L / n)
+    return SampledProfile(x, h, periodic=True, source=f"surface from {models.name or 'a model set'} "
+                                                      f"({band[0]:g}-{band[1]:g} Hz)")
+
+
+# ---------------------------------------------------------------------------------------
 # energy at the port
 # ---------------------------------------------------------------------------------------
 
