@@ -12,7 +12,6 @@ with energy bounding (Kim & Ryu 2004): the energy the texture supplied at the po
 """
 
 import matplotlib.pyplot as plt
-import numpy as np
 
 import haptex as hx
 from haptex.catalogue import hand, preset

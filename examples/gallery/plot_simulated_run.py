@@ -11,7 +11,6 @@ its simulated time; a real device is paced by its own clock.
 """
 
 import matplotlib.pyplot as plt
-import numpy as np
 
 import haptex as hx
 from haptex.backends import open_backend

@@ -128,7 +128,7 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         texture's own numbers (shortest period, max slope, max curvature, height range, and
         for sampled textures its RMS height, dominant period and the RMS the cut-off
         removes). The other numbers are those of the rendered texture. ``estimate``: the
-        planned cost (:mod:`haptex.analysis.cost`): ``seconds`` (a floor: grids only),
+        planned cost (:mod:`haptex.analysis.cost`): ``seconds`` (the grids only, at one core's time an evaluation),
         ``peak_bytes``, ``searches`` (closest-point searches of D and E, shared: E reads
         D's), ``seconds_per_search`` and per algorithm ``evaluations`` and ``seconds``.
 

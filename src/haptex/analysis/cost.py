@@ -8,7 +8,9 @@ would have been given idle).
 The grids dominate: :func:`~haptex.analysis.continuity` and the first search of
 :func:`~haptex.analysis.characteristic_number`. The refinement of q's best cells and the
 random loops of :func:`~haptex.analysis.conservativity` are not counted, so the estimate
-is a floor; ``benchmarks/README.md`` compares it with measured times.
+counts the grids' work at one thread's CPU time an evaluation. The searches of D and E run on
+every core, so on a multi-core machine the wall time can be shorter than planned (a 1025 x 1025
+map: 75 s planned, 41 s taken on 2 cores); the uncounted work can make it longer.
 """
 
 from __future__ import annotations

@@ -133,7 +133,7 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
             if est["searches"] and est["seconds"] > LONG_ANALYSIS and others:
                 searches += (f"; without D and E, about {sum(others.values()):.3g} s "
                              f"(--algorithms {','.join(others)})")
-            click.echo(f"estimate: at least {est['seconds']:.3g} s of analysis and {est['peak_bytes'] / 2**20:.3g} MiB "
+            click.echo(f"estimate: {est['seconds']:.3g} s of analysis (one core's time) and {est['peak_bytes'] / 2**20:.3g} MiB "
                        f"for its largest grid{searches}", err=True)
         steps.weigh({L: v["seconds"] for L, v in est["algorithms"].items()})
 
