@@ -162,3 +162,12 @@ def test_the_examples_in_the_docstrings_run():
             runner.run(test)
     assert runner.failures == 0
     assert examples >= 10  # the public docstrings carry examples (issue 57)
+
+
+def test_the_build_runs_on_one_worker_with_the_browser_tests(request):
+    # The site is built once, on the worker that runs the explorer's browser tests (the group
+    # above): with pytest 9.2.0 and pytest-xdist 3.8.0 --dist loadgroup stopped grouping
+    # (pytest-dev/pytest-xdist#1386) and both workers built it, 80 s more of the suite.
+    # pyproject pins pytest below 9.2; this says so if grouping is lost again.
+    if os.environ.get("PYTEST_XDIST_WORKER") and getattr(request.config.option, "loadgroup", False):
+        assert request.node.nodeid.endswith("@explorer-browser"), request.node.nodeid

@@ -87,7 +87,8 @@ class WallLimits:
         of that and the simulated limit (quantisation without friction can lower it).
     hand : Hand
     rated_ratio : float or None
-        ``stable`` over the preset's rated figure (None without one).
+        The exact stable limit with the hand (the ``hand`` row) over the preset's rated
+        figure (None without one).
     rated_hand_damping : float or None
         The hand damping (N s/m) at which the rated figure is the exact stable limit
         (:func:`rated_hand_damping`), the hand's mass and stiffness kept (the default hand's
@@ -257,7 +258,7 @@ RATED_RATIO = 2.0
 """The factor within which a predicted wall limit should meet a preset's rated figure
 (issue 55's goal); a preset outside it says why (``Preset.rated_gap``)."""
 MAX_HAND_DAMPING = 1e3
-"""The largest hand damping :func:`rated_hand_damping` searches (N s/m, chosen: a hundred
+"""The largest hand damping :func:`rated_hand_damping` searches (N s/m, chosen: about 150
 times the firm grip's)."""
 
 

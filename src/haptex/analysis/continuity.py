@@ -85,7 +85,8 @@ def continuity(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=None
         counts = [int(math.ceil((b - a) / s)) for (a, b), s in zip(box, steps)]
         n = math.prod(c + 1 for c in counts)
         keep = lev < levels - 1  # the next grid reads this one's forces; the last is streamed
-        check_budget("levels", levels, FORCE_BYTES * (n * keep + previous) + SLAB_POINT_BYTES * min(n, SLAB_POINTS),
+        slab = min(n, max(SLAB_POINTS, n // (counts[0] + 1)))  # a slab holds one row at least
+        check_budget("levels", levels, FORCE_BYTES * (n * keep + previous) + SLAB_POINT_BYTES * slab,
                      f"the {' x '.join(str(c + 1) for c in counts)} grid of level {lev}"
                      + ("" if keep else f" (its forces streamed, the {previous:.3g} points "
                                         "of the grid before held)"))
@@ -117,7 +118,8 @@ FORCE_BYTES = 3 * 8
 def peak_bytes(sizes) -> int:
     """The most memory (B) :func:`continuity` takes over grids of ``sizes`` points, coarse to
     fine (:func:`grid_points`): the forces of a grid held for the next one, those of the grid
-    before, and one slab; the last grid is streamed."""
+    before, and one slab; the last grid is streamed. (A grid whose rows across x exceed
+    :data:`SLAB_POINTS` takes a row a slab: :func:`continuity` checks that larger slab.)"""
     last = len(sizes) - 1
     held = [FORCE_BYTES * (n * (i < last) + (sizes[i - 1] if i else 0)) + SLAB_POINT_BYTES * min(n, SLAB_POINTS)
             for i, n in enumerate(sizes)]
