@@ -613,3 +613,68 @@ def test_the_god_object_exports_and_ticks_as_the_renderer(tmp_path, objdir, tex)
     ref = np.array([r.step(tuple(q)) for q in p.tolist()])
     assert np.array_equal(got, ref) and np.abs(ref).max() > 0.5  # (in contact: forces of newtons)
     assert c.count("max_work") == r.max_work
+
+
+@pytest.mark.parametrize("budget", [None, 2e-4])
+def test_an_exported_vibration_ticks_as_the_renderers(tmp_path, objdir, budget):
+    # Issue 54: the data-driven vibration in the exported C (`haptex_init` sets the model set's
+    # tables, mass, gain, filter, seed and budget through hx_render_set_vibration, the function
+    # the Renderer's binding calls): along a stroke in contact at the set's rate every tick's
+    # force equals the Renderer's to the bit, with and without an energy budget; the vibration
+    # acts (its force is not zero), and the budget cuts it (or the test would pass vacuously).
+    from .test_datadriven import FS, _set
+
+    models = _set()
+    alg = hx.algorithm("A", hx.Sinusoid(A, L), K0)
+    kw = dict(vibration=models, vibration_mass=0.1, seed=7, vibration_budget=budget)
+    c = Compiled(alg, tmp_path, objdir, max_force=5.0, **kw)
+    r = hx.Renderer(alg, max_force=5.0, **kw)
+    n = 4000
+    t = np.arange(n) / FS
+    p = np.column_stack([0.05 * t, np.full(n, -0.5e-3) + 0.1e-3 * np.sin(2 * np.pi * 3 * t)])
+    got = c.forces(p)
+    ref, vib = [], []
+    for q in p.tolist():
+        ref.append(r.step(tuple(q)))
+        vib.append(r.vibration_force)
+    assert np.array_equal(got, np.array(ref))
+    assert np.max(np.abs(vib)) > 0.01
+    if budget is not None:
+        assert r.vibration_cut > 0
+    text = (tmp_path / "haptex_texture.c").read_text()
+    assert "hx_render_set_vibration(r, VIB" in text and "7ULL" in text
+    with pytest.raises(hx.ParameterError, match=r"^vibration_mass = None is not allowed"):
+        export_c(alg, tmp_path / "x", 5.0, vibration=models)
+
+
+def test_haptex_export_takes_a_vibration_for_its_device(tmp_path):
+    # --vibration MODELS with --device: the device's mass along x and its servo rate (the models
+    # must run at it, as `haptex run --vibration` requires); the output compiles warning-free
+    from haptex import datadriven as dd
+
+    from .test_datadriven import _ar
+    from .test_cli import run_main
+
+    def models(rate):
+        return dd.ModelSet([dd.ArmaModel(_ar((60, 0.97)), [1.0], 1.0, 1.0, rate, v, f)
+                            for v, f in ((0.02, 0.5), (0.1, 0.5), (0.06, 2.0))])
+
+    at_1k, at_2k = tmp_path / "m1k.json", tmp_path / "m2k.json"
+    models(1000.0).write(at_1k)
+    models(2000.0).write(at_2k)
+    out = tmp_path / "fw"
+    args = ["export", "--algorithm", "A", "--texture", "sine:0.2mm,2mm", "--stiffness", "500 N/m", "--max-force", "5 N",
+            "--out", str(out)]
+    r = run_main(*args, "--device", "falcon", "--vibration", str(at_1k), "--vibration-budget", "2 mW")
+    assert r.returncode == 0 and "a data-driven vibration" in r.stdout, r.stderr
+    text = (out / "haptex_texture.c").read_text()
+    mass = float(hx.catalogue.preset("falcon").device(dimension=2).mass[0, 0])
+    assert f"hx_render_set_vibration(r, VIB, {mass!r}, 1.0, 0.01," in text and "0.002, " in text
+    subprocess.run([CC, *STRICT, "-o", str(tmp_path / "t"), *map(str, out.glob("*.c")), "-lm", "-Wl,-e,haptex_init",
+                    "-nostartfiles"], check=True)
+    for extra, what in ((["--vibration", str(at_1k)], "--vibration needs --device"),
+                        (["--device", "falcon", "--vibration", str(at_2k)], "its models run at 2000 Hz, the device's "
+                                                                             "servo at 1000 Hz"),
+                        (["--vibration-budget", "2 mW"], "--vibration-budget is not allowed without --vibration")):
+        r = run_main(*args, *extra)
+        assert r.returncode == 2 and what in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr

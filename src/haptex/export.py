@@ -21,10 +21,11 @@ from pathlib import Path
 import numpy as np
 
 from . import core as _core
-from ._validation import ParameterError, positive_or_inf
+from ._validation import ParameterError, fail, positive_or_inf
 from .algorithms import ALGORITHMS, Algorithm
 from .core import _ext
-from .renderer import MAX_EVALUATIONS, WORKSPACE_LIMIT, Stabiliser, evaluation_budget, stabiliser_period, tick_model
+from .renderer import (MAX_EVALUATIONS, WORKSPACE_LIMIT, Stabiliser, evaluation_budget, stabiliser_period, tick_model,
+                       vibration_settings)
 
 EXPORTABLE = "".join(ALGORITHMS)
 """Algorithms :func:`export_c` can write."""
@@ -60,7 +61,10 @@ def _templates():
 
 
 def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int | None = MAX_EVALUATIONS,
-             passivity_controller: Stabiliser | None = None, period: float | None = None) -> tuple[Path, Path]:
+             passivity_controller: Stabiliser | None = None, period: float | None = None, *, vibration=None,
+             vibration_mass: float | None = None, vibration_gain: float = 1.0, velocity_filter: float = 0.01,
+             seed: int = 0, vibration_budget: float | None = None,
+             vibration_reserve: float | None = None) -> tuple[Path, Path]:
     """Write a servo tick for device firmware into ``out``: the C core's files the tick needs
     (:data:`TICK_FILES`, copied unchanged: the code :class:`haptex.Renderer` runs) and
     ``haptex_texture.h`` / ``haptex_texture.c``, this algorithm's tables and entry points,
@@ -91,6 +95,11 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
     period : float, optional
         The servo period (s, > 0), required with ``passivity_controller``: the tick's velocity
         estimate is dp / period.
+    vibration, vibration_mass, vibration_gain, velocity_filter, seed, vibration_budget, vibration_reserve
+        A data-driven vibration layered on the tick, set by ``haptex_init`` with its model set's
+        tables, as :class:`haptex.Renderer` takes them (``hx_render_set_vibration``: the same
+        synthesis, noise and budget, so the exported tick is the Renderer's to the bit).
+        ``haptex_step`` must then be called at the set's rate.
 
     Returns
     -------
@@ -102,8 +111,9 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
     ParameterError
         For tables (texture coefficients and D's, E's or F's search data) above
         :data:`MAX_TABLE` numbers, a bad ``max_force`` or ``max_evaluations``, a
-        ``passivity_controller`` that is not a stabiliser or comes without a ``period``, or an
-        unwritable ``out``.
+        ``passivity_controller`` that is not a stabiliser or comes without a ``period``, a
+        vibration refused as :class:`haptex.Renderer` refuses it (or whose tables exceed
+        :data:`MAX_TABLE`), or an unwritable ``out``.
 
     Notes
     -----
@@ -124,6 +134,11 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
     evaluation_budget(max_evaluations)
     pc = passivity_controller
     T = stabiliser_period(pc, period)
+    vib = vibration_settings(vibration, vibration_mass, vibration_gain, velocity_filter, seed, vibration_budget,
+                             vibration_reserve)
+    if vib is not None and vib[0].size > MAX_TABLE:
+        raise fail("vibration", vibration, f"a model set whose packed tables hold at most {MAX_TABLE} numbers "
+                                           f"(this one: {vib[0].size})")
     base = None
     if getattr(algorithm, "base", None) is not None:  # a textured object: the base's tables too
         code, prm, kind, coeffs, aux, _ = algorithm.object_spec(max_evaluations)
@@ -188,7 +203,11 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
         stabiliser=None if pc is None else dict(
             label=pc.label.replace("*/", "* /"),
             mode="HX_" + next(n for n in _STABS if int(getattr(_ext, n)) == pc.mode),
-            damping=_num(pc.core_damping), period=_num(T), delay=0 if pc.delay is None else int(pc.delay)))
+            damping=_num(pc.core_damping), period=_num(T), delay=0 if pc.delay is None else int(pc.delay)),
+        vibration=None if vib is None else dict(
+            what=f"{vibration!r}".replace("*/", "* /"), values=[_num(v) for v in vib[0]], mass=_num(vib[1]),
+            gain=_num(vib[2]), tau=_num(vib[3]), seed=f"{vib[4]}ULL", budget=_num(-1.0 if vib[5] is None else vib[5]),
+            reserve=_num(vib[6])))
     env = _templates()
     out = Path(out)
     try:

@@ -359,6 +359,54 @@ VIBRATION_RESERVE_TIME = 0.05
 50 ms, a few cycles of the 100-400 Hz band of texture vibrations)."""
 
 
+
+def vibration_settings(vibration, vibration_mass=None, vibration_gain=1.0, velocity_filter=0.01, seed=0,
+                       vibration_budget=None, vibration_reserve=None):
+    """The data-driven vibration's settings as the C core takes them (``hx_render_set_vibration``),
+    checked once for :class:`Renderer` and :func:`haptex.export.export_c`.
+
+    Parameters
+    ----------
+    vibration, vibration_mass, vibration_gain, velocity_filter, seed, vibration_budget, vibration_reserve
+        As :class:`Renderer`'s.
+
+    Returns
+    -------
+    tuple or None
+        (packed models, shape (n,); mass kg; gain; filter s; seed; budget W or None; reserve
+        J), or None without a vibration.
+
+    Raises
+    ------
+    ParameterError
+        For a vibration that is not a model set, no mass, a negative gain, filter, budget or
+        reserve, a seed outside [0, 2**64), or a budget or reserve without a vibration (or a
+        reserve without a budget).
+    """
+    from ._validation import nonnegative, positive
+
+    if vibration is None:
+        if vibration_budget is not None or vibration_reserve is not None:
+            raise fail("vibration_budget", vibration_budget, "given with a vibration (a haptex.datadriven.ModelSet)")
+        return None
+    from .datadriven import ModelSet
+
+    if not isinstance(vibration, ModelSet):
+        raise fail("vibration", vibration, "a haptex.datadriven.ModelSet (read_models, read_hatt or fit)")
+    if vibration_mass is None:
+        raise fail("vibration_mass", None, "a mass (kg) turning the vibration's acceleration into force, e.g. "
+                   "the device's own: preset(NAME).device().mass[0, 0]")
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**64:
+        raise fail("seed", seed, "an integer in [0, 2**64)")
+    budget = None if vibration_budget is None else nonnegative("vibration_budget", vibration_budget, "W")
+    if vibration_reserve is not None and budget is None:
+        raise fail("vibration_reserve", vibration_reserve, "given with a vibration_budget (W), whose tank it is")
+    reserve = (0.0 if budget is None else budget * VIBRATION_RESERVE_TIME) if vibration_reserve is None \
+        else nonnegative("vibration_reserve", vibration_reserve, "J")
+    return (vibration._packed, positive("vibration_mass", vibration_mass, "kg"),
+            nonnegative("vibration_gain", vibration_gain), nonnegative("velocity_filter", velocity_filter, "s"),
+            seed, budget, reserve)
+
 class Renderer:
     """Compiled force rendering for a servo loop, over a profile ([x, z]) or a surface
     ([x, y, z]).
@@ -484,28 +532,10 @@ class Renderer:
             0 if pc is None or pc.delay is None else pc.delay, base)
         self.step = self._core.step
         self.vibration = vibration
-        if vibration is not None:
-            from .datadriven import ModelSet
-            from ._validation import nonnegative, positive
-
-            if not isinstance(vibration, ModelSet):
-                raise fail("vibration", vibration, "a haptex.datadriven.ModelSet (read_models, read_hatt or fit)")
-            if vibration_mass is None:
-                raise fail("vibration_mass", None, "a mass (kg) turning the vibration's acceleration into force, e.g. "
-                           "the device's own: preset(NAME).device().mass[0, 0]")
-            if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**64:
-                raise fail("seed", seed, "an integer in [0, 2**64)")
-            budget = None if vibration_budget is None else nonnegative("vibration_budget", vibration_budget, "W")
-            if vibration_reserve is not None and budget is None:
-                raise fail("vibration_reserve", vibration_reserve, "given with a vibration_budget (W), whose tank it is")
-            reserve = (0.0 if budget is None else budget * VIBRATION_RESERVE_TIME) if vibration_reserve is None \
-                else nonnegative("vibration_reserve", vibration_reserve, "J")
-            self._core.set_vibration(vibration._packed, positive("vibration_mass", vibration_mass, "kg"),
-                                     nonnegative("vibration_gain", vibration_gain), nonnegative("velocity_filter",
-                                                                                                 velocity_filter, "s"),
-                                     seed, budget, reserve)
-        elif vibration_budget is not None or vibration_reserve is not None:
-            raise fail("vibration_budget", vibration_budget, "given with a vibration (a haptex.datadriven.ModelSet)")
+        settings = vibration_settings(vibration, vibration_mass, vibration_gain, velocity_filter, seed,
+                                      vibration_budget, vibration_reserve)
+        if settings is not None:
+            self._core.set_vibration(*settings)
 
     @property
     def vibration_force(self) -> float:

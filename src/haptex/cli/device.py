@@ -12,7 +12,7 @@ import click
 from .._specs import object_from_spec, texture_from_spec as _texture_from_spec
 from .._validation import ParameterError
 from ..core import blas_held_to_one_thread as _core_blas_held
-from ._common import Quantity, STABILISERS, _felt_options, _jsonable, _object_options, _stabiliser
+from ._common import Quantity, STABILISERS, _felt_options, _jsonable, _object_options, _stabiliser, _vibration
 
 
 @click.command("run")
@@ -160,16 +160,9 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
     if vibration_budget is not None and vibration_models is None:
         raise ParameterError("--vibration-budget is not allowed without --vibration MODELS: it is the vibration's")
     if vibration_models is not None:
-        from ..datadriven import read_models
-
-        models = read_models(vibration_models)
-        if abs(models.sample_rate * dev.period - 1.0) > 1e-6:
-            raise ParameterError(f"vibration = {str(vibration_models)!r} is not allowed on {backend.name}: its models "
-                                 f"run at {models.sample_rate:g} Hz, the device's servo at {1 / dev.period:g} Hz (fit "
-                                 f"them at that rate: haptex fit RECORDING --rate '{1 / dev.period:g} Hz')")
         # the device's own mass along x turns acceleration into force (a simulated device's has the hand's added)
         own = backend.preset.device() if kind == "simulated" else dev
-        vib = {"vibration": models, "vibration_mass": float(own.mass[0, 0]), "vibration_budget": vibration_budget}
+        vib = _vibration(vibration_models, dev.period, own.mass[0, 0], vibration_budget, backend.name)
     renderer = Renderer(alg, max_force=fmax if math.isfinite(fmax) else None, energy_monitor=True,
                         passivity_controller=pc, period=dev.period, **vib)
     loop = ServoLoop(backend, renderer, max_force=fmax if math.isfinite(fmax) else None)

@@ -9,7 +9,8 @@ import click
 from .._specs import object_from_spec, texture_from_spec as _texture_from_spec
 from .._validation import ParameterError
 from ._common import (
-    Quantity, STABILISERS, _Spinner, _catalogued_device, _felt_options, _not_taken, _object_options, _stabiliser)
+    Quantity, STABILISERS, _Spinner, _catalogued_device, _felt_options, _not_taken, _object_options, _stabiliser,
+    _vibration)
 
 
 @click.command()
@@ -37,15 +38,20 @@ from ._common import (
               help="Instead: energy bounding or passive set-position modulation, paid with the device's damping "
                    "(needs --device).")
 @click.option("--device", "device_spec", default=None,
-              help="With a stabiliser: the device the firmware runs on (a preset of 'haptex devices' or FILE.toml): "
-                   "its period, delay and damping.")
+              help="With a stabiliser or a vibration: the device the firmware runs on (a preset of 'haptex devices' "
+                   "or FILE.toml): its period, delay and damping; its mass along x for the vibration.")
+@click.option("--vibration", "vibration_models", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="A data-driven vibration layered on the tick (haptex's JSON or HaTT's XML, at the device's rate; "
+                   "needs --device).")
+@click.option("--vibration-budget", type=Quantity("W"), default=None,
+              help="With --vibration: the power it may supply, spent from an energy tank in the tick (e.g. '2 mW').")
 @_felt_options("rendered")
 @click.option("--out", "out", type=click.Path(file_okay=False, path_type=Path), required=True,
               help="Directory for haptex_texture.c, haptex_texture.h and the C core's files.")
 @click.option("--quiet", is_flag=True, help="No progress display.")
 def export(letter, texture_spec, stiffness, max_force, max_penetration, friction, presliding, stick_deflection,
            spacing, x_unit, height_unit, level, lowpass, periodic, object_spec, uv_scale, passivity_control, stabiliser,
-           device_spec, tip_radius, crop, out, quiet):
+           device_spec, vibration_models, vibration_budget, tip_radius, crop, out, quiet):
     """C99 source of one algorithm on one texture, for device firmware (<math.h> only)."""
     from ..algorithms import ALGORITHMS, algorithm
     from ..export import TICK_FILES, export_c
@@ -78,22 +84,33 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
         alg = object_algorithm(letter, tex, base, stiffness, **params)
     else:
         alg = algorithm(letter, tex, stiffness, **params)
-    pc = period = None
-    if passivity_control is not None or stabiliser is not None:
-        if device_spec is None:
-            raise ParameterError(f"--{'passivity-control' if stabiliser is None else 'stabiliser'} needs --device: the "
-                                 "device's period, delay and damping set the stabiliser")
+    dev = None
+    if device_spec is not None:
+        if passivity_control is None and stabiliser is None and vibration_models is None:
+            raise ParameterError("--device is not allowed without --passivity-control, --stabiliser or --vibration: "
+                                 "the exported tick reads nothing else of the device")
         from ..catalogue import presets
 
         dev = _catalogued_device(device_spec, alg.dimension)
         if dev is None:
             raise ParameterError(f"device = {device_spec!r} is not allowed: must be a preset of 'haptex devices' "
                                  f"({', '.join(presets())}) or a TOML device file (FILE.toml)")
+    pc = period = None
+    if passivity_control is not None or stabiliser is not None:
+        if dev is None:
+            raise ParameterError(f"--{'passivity-control' if stabiliser is None else 'stabiliser'} needs --device: the "
+                                 "device's period, delay and damping set the stabiliser")
         pc, period = _stabiliser(passivity_control, stabiliser, dev, delay=dev.delay), dev.period
-    elif device_spec is not None:
-        raise ParameterError("--device is not allowed without --passivity-control or --stabiliser: the exported "
-                             "tick reads nothing else of the device")
+    if vibration_budget is not None and vibration_models is None:
+        raise ParameterError("--vibration-budget is not allowed without --vibration MODELS: it is the vibration's")
+    vib = {}
+    if vibration_models is not None:
+        if dev is None:
+            raise ParameterError("--vibration needs --device: the device's mass along x turns the vibration's "
+                                 "acceleration into force, and its servo rate must be the models'")
+        vib = _vibration(vibration_models, dev.period, dev.mass[0, 0], vibration_budget, dev.name)
     with _Spinner("writing the C source", quiet):
-        h_path, c_path = export_c(alg, out, max_force, passivity_controller=pc, period=period)
+        h_path, c_path = export_c(alg, out, max_force, passivity_controller=pc, period=period, **vib)
     click.echo(f"wrote {c_path}, {h_path} and the C core's {len(TICK_FILES)} files beside them: {alg!r}, max force "
-               f"{max_force:g} N{'' if pc is None else ', ' + pc.label} (build: cc -std=c99 -O2 {out}/*.c -lm)")
+               f"{max_force:g} N{'' if pc is None else ', ' + pc.label}{'' if not vib else ', a data-driven vibration'} "
+               f"(build: cc -std=c99 -O2 {out}/*.c -lm)")

@@ -794,21 +794,7 @@ static PyObject *Renderer_set_vibration(RendererObject *self, PyObject *const *a
     self->r.vib = NULL;
     free(self->vib);
     self->vib = copy;
-    self->r.vib = copy;
-    self->r.vib_mass = mass;
-    self->r.vib_gain = gain;
-    self->r.vib_tau = tau;
-    self->r.vib_budgeted = budget >= 0.0;
-    self->r.vib_budget = budget >= 0.0 ? budget : 0.0;
-    self->r.vib_reserve = reserve;
-    self->r.vib_tank = reserve;
-    self->r.vib_supplied = 0.0;
-    self->r.vib_cut = 0;
-    self->r.vib_prev[0] = self->r.vib_prev[1] = self->r.vib_prev[2] = 0.0;
-    hx_vib_reset(&self->r.vs, seed);
-    self->r.vib_have = 0;
-    self->r.vib_v[0] = self->r.vib_v[1] = self->r.vib_v[2] = 0.0;
-    self->r.vib_force = 0.0;
+    hx_render_set_vibration(&self->r, copy, mass, gain, tau, seed, budget, reserve);
     Py_RETURN_NONE;
 }
 

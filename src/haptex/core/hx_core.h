@@ -467,6 +467,11 @@ void hx_render_step(hx_renderer *r, double x, double y, double z, double f[3]);
 
 /* Clear the state, the observer and controller's sums and the counters (settings kept). */
 void hx_render_reset(hx_renderer *r);
+/* The data-driven vibration of model set v (hx_vib_check'd, kept by the caller; NULL: none), its
+ * force vib_gain * mass * y_n (mass kg, gain >= 0), the operating point's filter tau (s), the noise
+ * from seed; budget W (< 0: unbudgeted) refilling a tank of reserve J; its state cleared. */
+void hx_render_set_vibration(hx_renderer *r, const double *v, double mass, double gain, double tau,
+                             unsigned long long seed, double budget, double reserve);
 
 /* ---- textured objects (hx_object.c) ------------------------------------------------- */
 

@@ -283,6 +283,32 @@ void hx_render_set_stiffness(hx_renderer *r, double k0)
     __atomic_store_n(&r->k0_pending, 1, __ATOMIC_RELEASE);
 }
 
+/* the vibration's state back to its start: its noise from the seed, its tank full */
+static void vib_clear(hx_renderer *r, unsigned long long seed)
+{
+    hx_vib_reset(&r->vs, seed);
+    r->vib_have = 0;
+    r->vib_v[0] = r->vib_v[1] = r->vib_v[2] = 0.0;
+    r->vib_prev[0] = r->vib_prev[1] = r->vib_prev[2] = 0.0;
+    r->vib_force = 0.0;
+    r->vib_tank = r->vib_reserve;
+    r->vib_supplied = 0.0;
+    r->vib_cut = 0;
+}
+
+void hx_render_set_vibration(hx_renderer *r, const double *v, double mass, double gain, double tau,
+                             unsigned long long seed, double budget, double reserve)
+{
+    r->vib = v;
+    r->vib_mass = mass;
+    r->vib_gain = gain;
+    r->vib_tau = tau;
+    r->vib_budgeted = budget >= 0.0;
+    r->vib_budget = budget >= 0.0 ? budget : 0.0;
+    r->vib_reserve = reserve;
+    vib_clear(r, seed);
+}
+
 void hx_render_reset(hx_renderer *r)
 {
     hx_passivity keep = r->pc;
@@ -294,12 +320,5 @@ void hx_render_reset(hx_renderer *r)
     r->pc.T = keep.T;
     r->pc.delay = keep.delay;
     r->faults = r->clamps = r->work = r->max_work = r->cut = 0;
-    hx_vib_reset(&r->vs, r->vs.seed);
-    r->vib_have = 0;
-    r->vib_v[0] = r->vib_v[1] = r->vib_v[2] = 0.0;
-    r->vib_prev[0] = r->vib_prev[1] = r->vib_prev[2] = 0.0;
-    r->vib_force = 0.0;
-    r->vib_tank = r->vib_reserve;
-    r->vib_supplied = 0.0;
-    r->vib_cut = 0;
+    vib_clear(r, r->vs.seed);
 }
