@@ -82,6 +82,19 @@ def _felt_options(verb: str):
     return deco
 
 
+def _vibration_options(func):
+    """``--vibration`` and ``--vibration-budget``, the same for the commands that layer a
+    data-driven vibration on a device's tick (run, export)."""
+    func = click.option("--vibration-budget", type=Quantity("W"), default=None,
+                        help="With --vibration: the power it may supply, spent from an energy tank in the tick "
+                             "(e.g. '2 mW').")(func)
+    return click.option("--vibration", "vibration_models", type=click.Path(dir_okay=False, path_type=Path),
+                        default=None,
+                        help="A data-driven vibration layered on the texture (haptex's JSON or HaTT's XML, at the "
+                             "device's servo rate): the device's mass along x times its acceleration, along the "
+                             "motion.")(func)
+
+
 def _object_options(what: str):
     """``--object`` and ``--uv-scale``, the same for every command that takes an object (design,
     export, run); ``what`` says which letters the command takes there and what it does with them."""

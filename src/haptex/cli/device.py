@@ -12,7 +12,8 @@ import click
 from .._specs import object_from_spec, texture_from_spec as _texture_from_spec
 from .._validation import ParameterError
 from ..core import blas_held_to_one_thread as _core_blas_held
-from ._common import Quantity, STABILISERS, _felt_options, _jsonable, _object_options, _stabiliser, _vibration
+from ._common import (Quantity, STABILISERS, _felt_options, _jsonable, _object_options, _stabiliser, _vibration,
+                      _vibration_options)
 
 
 @click.command("run")
@@ -45,11 +46,7 @@ from ._common import Quantity, STABILISERS, _felt_options, _jsonable, _object_op
 @click.option("--record", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Write the run log (time, position, force, engaged) to FILE.csv (the columns of the file formats "
                    "page, read by 'haptex identify') or FILE.npz.")
-@click.option("--vibration", "vibration_models", type=click.Path(dir_okay=False, path_type=Path), default=None,
-              help="A data-driven vibration layered on the texture (haptex's JSON or HaTT's XML, at the device's "
-                   "servo rate): the device's mass along x times its acceleration, along the motion.")
-@click.option("--vibration-budget", type=Quantity("W"), default=None,
-              help="With --vibration: the power it may supply, spent from an energy tank in the tick (e.g. '2 mW').")
+@_vibration_options
 @click.option("--find-limit", "find_limit_run", is_flag=True,
               help="Instead of a texture: a smooth wall whose stiffness rises by 10% every 0.5 s while the handle "
                    "rests on it, stopped (force zero) at the first step that oscillates; from --stiffness when "

@@ -10,7 +10,7 @@ from .._specs import object_from_spec, texture_from_spec as _texture_from_spec
 from .._validation import ParameterError
 from ._common import (
     Quantity, STABILISERS, _Spinner, _catalogued_device, _felt_options, _not_taken, _object_options, _stabiliser,
-    _vibration)
+    _vibration, _vibration_options)
 
 
 @click.command()
@@ -40,11 +40,7 @@ from ._common import (
 @click.option("--device", "device_spec", default=None,
               help="With a stabiliser or a vibration: the device the firmware runs on (a preset of 'haptex devices' "
                    "or FILE.toml): its period, delay and damping; its mass along x for the vibration.")
-@click.option("--vibration", "vibration_models", type=click.Path(dir_okay=False, path_type=Path), default=None,
-              help="A data-driven vibration layered on the tick (haptex's JSON or HaTT's XML, at the device's rate; "
-                   "needs --device).")
-@click.option("--vibration-budget", type=Quantity("W"), default=None,
-              help="With --vibration: the power it may supply, spent from an energy tank in the tick (e.g. '2 mW').")
+@_vibration_options
 @_felt_options("rendered")
 @click.option("--out", "out", type=click.Path(file_okay=False, path_type=Path), required=True,
               help="Directory for haptex_texture.c, haptex_texture.h and the C core's files.")
