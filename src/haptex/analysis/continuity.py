@@ -86,7 +86,7 @@ def continuity(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=None
         n = math.prod(c + 1 for c in counts)
         keep = lev < levels - 1  # the next grid reads this one's forces; the last is streamed
         slab = min(n, max(SLAB_POINTS, n // (counts[0] + 1)))  # a slab holds one row at least
-        check_budget("levels", levels, FORCE_BYTES * (n * keep + previous) + SLAB_POINT_BYTES * slab,
+        check_budget("levels", levels, _held_bytes(n, previous, keep, slab),
                      f"the {' x '.join(str(c + 1) for c in counts)} grid of level {lev}"
                      + ("" if keep else f" (its forces streamed, the {previous:.3g} points "
                                         "of the grid before held)"))
@@ -121,9 +121,14 @@ def peak_bytes(sizes) -> int:
     before, and one slab; the last grid is streamed. (A grid whose rows across x exceed
     :data:`SLAB_POINTS` takes a row a slab: :func:`continuity` checks that larger slab.)"""
     last = len(sizes) - 1
-    held = [FORCE_BYTES * (n * (i < last) + (sizes[i - 1] if i else 0)) + SLAB_POINT_BYTES * min(n, SLAB_POINTS)
-            for i, n in enumerate(sizes)]
-    return int(max(held, default=0))
+    return int(max((_held_bytes(n, sizes[i - 1] if i else 0, i < last, min(n, SLAB_POINTS))
+                    for i, n in enumerate(sizes)), default=0))
+
+
+def _held_bytes(n: int, previous: int, keep: bool, slab: int) -> int:
+    """The memory (B) of one grid of ``n`` points: its forces when ``keep`` (the next grid reads
+    them), the ``previous`` grid's forces it reads, and a slab of ``slab`` points."""
+    return FORCE_BYTES * (n * keep + previous) + SLAB_POINT_BYTES * slab
 
 
 def _refined_forces(algorithm: Algorithm, axes, coarse, keep: bool = True):
@@ -158,11 +163,10 @@ def _refined_forces(algorithm: Algorithm, axes, coarse, keep: bool = True):
         del P
         for k in range(len(axes)):
             if k == 0 and last is not None:  # the pair across the slab's edge comes first in C order
-                edge = np.linalg.norm(Fs[0] - last, axis=-1)
-                _better(best, 0, edge, (i0 - 1,), edge.shape)
+                _better(best, 0, np.linalg.norm(Fs[:1] - last, axis=-1), i0 - 1)
             if Fs.shape[k] > 1:
                 jumps = np.linalg.norm(np.diff(Fs, axis=k), axis=-1)
-                _better(best, k, jumps, (i0,), jumps.shape)
+                _better(best, k, jumps, i0)
         last = Fs[-1].copy()
         if keep:
             if F is None:
@@ -172,18 +176,14 @@ def _refined_forces(algorithm: Algorithm, axes, coarse, keep: bool = True):
     return F, (k, float(best[k][0]), best[k][1])
 
 
-def _better(best: list, k: int, jumps: np.ndarray, offset: tuple, shape) -> None:
+def _better(best: list, k: int, jumps: np.ndarray, row: int) -> None:
     """Keep in ``best[k]`` the larger of it and the first largest of ``jumps``, whose first
-    axis starts at ``offset[0]`` of the grid (or which is one row there, shape of a plane)."""
+    axis starts at the grid's row ``row``."""
     i = int(np.argmax(jumps))
     v = float(jumps.flat[i])
     if v > best[k][0]:
-        idx = np.unravel_index(i, shape)
-        if len(shape) == len(best) - 1:  # a row across the edge: the plane's index after the row
-            idx = (offset[0],) + tuple(idx)
-        else:
-            idx = (offset[0] + idx[0],) + tuple(idx[1:])
-        best[k] = (v, tuple(int(j) for j in idx))
+        idx = np.unravel_index(i, jumps.shape)
+        best[k] = (v, (row + int(idx[0]),) + tuple(int(j) for j in idx[1:]))
 
 
 def _plan(algorithm: Algorithm, max_penetration: float, x_range, levels, base):
