@@ -268,6 +268,21 @@ def test_fit_recovers_known_ar_processes_spectra(seed):
         assert d < 1.5, (s, f, d)
 
 
+def test_a_steady_operating_point_is_one_model_even_on_a_grid_edge():
+    # three speeds held in turn (20, 50, 80 mm/s at 1 N), each window's mean speed scattering by
+    # 0.01 % around its point as a simulated or measured scan does: one model each. The former
+    # fixed grid (6 equal cells over 20-80 mm/s) has an edge at exactly 50 mm/s and split that
+    # point into two models 0.01 % apart, whose sliver triangles then mixed other speeds into it
+    rng = np.random.default_rng(3)
+    n = int(10.0 * FS)
+    speeds = [0.02, 0.05, 0.08]
+    sp = np.concatenate([np.full(n, s) * (1 + 1e-4 * rng.standard_normal(n)) for s in speeds])
+    fo = np.ones(sp.size)
+    fitted = dd.fit(_set(ma=(1.0,)).synthesize(sp, fo, seed=1), sp, fo, FS)
+    moving = sorted(round(m.speed, 4) for m in fitted.models if m.speed > 0)
+    assert moving == speeds and fitted.report.cells == 3
+
+
 def test_dft321_keeps_the_sum_of_the_axes_power():
     rng = np.random.default_rng(1)
     a = rng.normal(size=(4096, 3)) * [1.0, 2.0, 0.5]
@@ -492,6 +507,101 @@ def test_haptex_run_layers_a_vibration_on_the_device(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "2000 Hz, the device's servo at 1000 Hz" in err and "--rate '1000 Hz'" in err
     assert main(["run", "--device", "simulated:falcon", "--vibration-budget", "1 mW", "--duration", "1s"]) == 2
+    assert "--vibration-budget is not allowed without --vibration" in capsys.readouterr().err
+
+
+# -- the vibration in the simulator (issue 54) ------------------------------------------------------
+def _models_1khz():
+    fs = 1000.0
+    return dd.ModelSet([dd.ArmaModel(np.real(np.poly([0.95 * np.exp(2j * np.pi * f0 / fs),
+                                                      0.95 * np.exp(-2j * np.pi * f0 / fs)])), [1.0], var, 1.0, fs, s, f)
+                        for (s, f), var, f0 in zip(((0.005, 0.2), (0.05, 0.2), (0.005, 3.0), (0.05, 3.0)),
+                                                   (1.0, 2.0, 3.0, 4.0), (120.0, 150.0, 180.0, 220.0))], name="1 kHz")
+
+
+def test_the_simulator_runs_the_renderers_vibration_tick_for_tick():
+    # issue 54: simulate's controller runs the C core's one vibration channel (hx_vibration.c), so
+    # a Renderer replayed over the simulated (sensed) positions gives the same forces bit for bit,
+    # its count of the vibration's work equals the simulator's, the energy balance still closes to
+    # round-off (the vibration is a force like any other), and a batch's run is the single run
+    import haptex as hx
+    from haptex.catalogue import hand
+
+    models = _models_1khz()
+    h = hand("light-touch")
+    dev = hx.Device(mass=0.2, damping=1.0, period=1e-3)
+    alg = hx.algorithm("A", hx.Sinusoid(0.05e-3, 2e-3), 2000.0)
+    kw = dict(vibration=models, vibration_mass=0.2, vibration_gain=0.2, seed=7)
+    res = hx.simulate(alg, h.attach(dev), h.operator(depth=1e-3, velocity=0.03), 2.0, **kw)
+    ren = hx.Renderer(alg, **kw)
+    sensed = np.vstack([[0.0, 0.0], res.position[:-1]])  # each force from the position one period before
+    replay = np.array([ren.step(p) for p in sensed])
+    assert np.array_equal(replay, res.force)
+    assert res.vibration_supplied == ren.vibration_supplied != 0.0
+    plain = hx.simulate(alg, h.attach(dev), h.operator(depth=1e-3, velocity=0.03), 2.0)
+    assert np.max(np.abs(res.force[:, 0] - plain.force[:, 0])) > 0.05  # the vibration acted (N)
+    assert res.energy_balance_error < 1e-9 and res.regime == "driven"
+    batch = hx.simulate_batch(alg, h.attach(dev), h.operator(depth=1e-3, velocity=0.03), 2.0, record=True,
+                              hand_damping=[h.damping, 2 * h.damping], **kw)
+    assert np.array_equal(batch.runs[0].force, res.force)
+    assert batch.vibration_supplied[0] == res.vibration_supplied
+
+
+def test_the_simulators_budgeted_vibration_stays_within_its_budget():
+    # issue 54: the same budget rule in the simulator: over time t the vibration's work is at most
+    # B t + reserve (+ one period's misprediction of the motion), for budgets of a fifth and a half
+    # of what it supplies unbudgeted, and the budget acts (samples cut)
+    import haptex as hx
+    from haptex.catalogue import hand
+
+    h = hand("light-touch")
+    dev, op = h.attach(hx.Device(mass=0.2, damping=1.0, period=1e-3)), h.operator(depth=1e-3, velocity=0.03)
+    alg = hx.algorithm("A", hx.Sinusoid(0.05e-3, 2e-3), 2000.0)
+    kw = dict(vibration=_models_1khz(), vibration_mass=0.2, vibration_gain=0.2)
+    free = hx.simulate(alg, dev, op, 2.0, **kw).vibration_supplied
+    assert free > 0
+    for share in (0.2, 0.5):
+        budget = share * free / 2.0
+        r = hx.simulate(alg, dev, op, 2.0, vibration_budget=budget, **kw)
+        reserve = budget * hx.renderer.VIBRATION_RESERVE_TIME
+        assert r.vibration_supplied <= budget * 2.0 + reserve + 1e-6, share
+        assert r.vibration_cut > 0
+
+
+def test_a_simulated_vibration_at_another_rate_or_without_its_mass_is_refused():
+    import haptex as hx
+
+    alg = hx.algorithm("A", hx.Sinusoid(0.05e-3, 2e-3), 2000.0)
+    dev, op = hx.Device(mass=0.2, damping=1.0, period=1e-3), hx.operators.ScanningHand(300.0, 1.0, velocity=0.01)
+    with pytest.raises(ParameterError, match=r"vibration = .*2000 Hz.*1000 Hz.*rate=1000"):
+        hx.simulate(alg, dev, op, 0.1, vibration=_set(), vibration_mass=0.2)
+    with pytest.raises(ParameterError, match="vibration_mass"):
+        hx.simulate(alg, dev, op, 0.1, vibration=_models_1khz())
+    with pytest.raises(ParameterError, match="vibration_budget"):
+        hx.simulate(alg, dev, op, 0.1, vibration_budget=1e-3)
+
+
+def test_haptex_simulate_takes_a_vibration(tmp_path, capsys):
+    # --vibration on haptex simulate scan: the preset's own mass (not the hand's) displays it, its
+    # work and mean power are reported in the JSON with their units, within a budget when given
+    import json
+
+    from haptex.cli import main
+    from haptex.catalogue import preset
+
+    path = _models_1khz().write(tmp_path / "models.json")
+    args = ["simulate", "scan", "--device", "falcon", "--hand", "light-touch", "--velocity", "30 mm/s",
+            "--vibration", str(path), "--json"]
+    assert main(args) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["vibration_mass"] == pytest.approx(preset("falcon").device().mass[0, 0])
+    assert out["units"]["vibration_power"] == "W" and out["vibration_supplied"] > 0
+    assert out["vibration_power"] == pytest.approx(out["vibration_supplied"] / 2.0)
+    budget = 0.2 * out["vibration_power"]
+    assert main(args + ["--vibration-budget", f"{budget * 1e3:.6f} mW"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["vibration_supplied"] <= budget * (2.0 + 0.05) + 1e-6 and out["vibration_cut"] > 0
+    assert main(["simulate", "scan", "--vibration-budget", "1 mW"]) == 2
     assert "--vibration-budget is not allowed without --vibration" in capsys.readouterr().err
 
 

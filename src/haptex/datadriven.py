@@ -1032,10 +1032,24 @@ def fit(acceleration, speed, normal_force, sample_rate: float, *, rate: float | 
 
 
 def _cells(x: np.ndarray, grid: int) -> np.ndarray:
+    """Cell labels of the windows' mean operating points ``x`` along one axis: in order of value,
+    a new cell where the next value is more than half a grid width (the range / ``grid``) past the
+    last, or a grid width past the cell's first. Equal-width cells for values spread over the
+    range; one cell for each of a few discrete operating points (a window's mean scatters a
+    little around each: a fixed grid's edge could fall among them and split one point in two)."""
     lo, hi = float(x.min()), float(x.max())
     if hi - lo <= 1e-9 * max(abs(hi), 1e-300):
         return np.zeros(x.size, dtype=int)
-    return np.minimum(((x - lo) / (hi - lo) * grid).astype(int), grid - 1)
+    width = (hi - lo) / grid
+    order = np.argsort(x, kind="stable")
+    xs = x[order]
+    labels = np.empty(x.size, dtype=int)
+    cell, first = 0, xs[0]
+    for i, value in enumerate(xs):
+        if i and (value - xs[i - 1] > 0.5 * width or value - first > width):
+            cell, first = cell + 1, value
+        labels[order[i]] = cell
+    return labels
 
 
 def _arma_cell(x: np.ndarray, p: int, q: int, fs: float, v: float, f: float) -> ArmaModel:

@@ -26,7 +26,8 @@ import numpy as np
 from . import core as _core
 from .core._ext import (DIVERGED_ENERGY, DIVERGED_FORCE, DIVERGED_POSITION, DIVERGED_VELOCITY, N_FAST, N_SUMMARY,
                         P_K0, S_DAMP, S_DIVERGED, S_DIVERGED_WHAT, S_EX, S_EY, S_EZ, S_FRIC, S_KE, S_KE0, S_MAXPEN, S_OP,
-                        S_PC_ACTIVE, S_PC_ENERGY, S_SAT, S_TAILSTART_E)
+                        S_PC_ACTIVE, S_PC_ENERGY, S_SAT, S_TAILSTART_E, S_VIB_CLAMPED, S_VIB_CUT,
+                        S_VIB_SUPPLIED)
 from ._validation import ParameterError, fail, nonnegative, positions, positive, whole
 from .algorithms import Algorithm
 from .devices import SCALAR_FIELDS, Device, _matrix, definite, scalar_field
@@ -270,12 +271,15 @@ def _core_lean(code, kind, nominal, n_steps, T, record_every, tail_start, prm, c
 
 def _core_general(code, kind, nominal, kinematic, pc_on, pc_ref, n_steps, T, record_every, tail_start, sp_t, prm,
                   coeffs, aux, Phi, Wd, Wo, Bs, Binv, fast, M, modal, K, C, f0, sp_p, vend, rest, delay, delta, fres,
-                  fmax, fc, pcb, P0, V0, rec, summary, tail, threads: int = 1, base=None, after=None) -> None:
+                  fmax, fc, pcb, P0, V0, rec, summary, tail, threads: int = 1, base=None, after=None,
+                  vibration=None) -> None:
     """Runs of the general loop in the C core (:func:`haptex.core._ext.run_general`): every
     per-run array has a leading run axis (``sp_t`` is shared); the runs are cut into
     contiguous slices run on ``threads`` threads (:func:`haptex.core.in_slices`), the GIL
     released. ``base``: an object's base (``haptex.core._ext.Base``) shared by the runs, or None.
-    ``after(lo, hi)``, if given, is called in the same thread once a slice's runs are done."""
+    ``after(lo, hi)``, if given, is called in the same thread once a slice's runs are done.
+    ``vibration``: :func:`haptex.renderer.vibration_settings`'s tuple, or None; each run's channel
+    starts from its seed."""
     f64 = lambda a: np.ascontiguousarray(a, dtype=np.float64)  # noqa: E731
     per_run = [f64(a) for a in (prm, coeffs, aux, Phi, Wd, Wo, Bs, Binv, fast, M, modal, K, C, f0, sp_p, vend, rest)]
     per_run.append(np.ascontiguousarray(delay, dtype=np.int64))
@@ -286,7 +290,7 @@ def _core_general(code, kind, nominal, kinematic, pc_on, pc_ref, n_steps, T, rec
     def one(lo, hi):
         _core._ext.run_general(code, kind, bool(nominal), bool(kinematic), bool(pc_on), int(pc_ref),
                                int(n_steps), float(T), int(record_every), int(tail_start), f64(sp_t),
-                               *(a[lo:hi] for a in per_run), *(a[lo:hi] for a in outs), base)
+                               *(a[lo:hi] for a in per_run), *(a[lo:hi] for a in outs), base, vibration)
         if after is not None:
             after(lo, hi)
 
@@ -625,6 +629,15 @@ class SimulationResult:
     texture_rates : tuple of float
         Rates (Hz) at which a constant-velocity scan crosses the texture's periods (empty
         otherwise): motion there is the texture, not buzz.
+    vibration_supplied : float
+        With a data-driven vibration: its work on the sensed motion (J, > 0: supplied at the
+        port; the vibration force held over each period times the sensed displacement), the
+        share of the port's energy that is the vibration's; 0 without one.
+    vibration_cut : int
+        Samples whose vibration force the energy budget scaled down (0 without a budget).
+    vibration_clamped : int
+        Samples whose operating point (speed, force) lay outside the model set's hull and was
+        moved to it.
     """
 
     time: np.ndarray
@@ -647,6 +660,9 @@ class SimulationResult:
     passivity_control_samples: int = 0
     observed_energy: float = 0.0
     texture_rates: tuple = ()
+    vibration_supplied: float = 0.0
+    vibration_cut: int = 0
+    vibration_clamped: int = 0
 
     @property
     def buzz(self):
@@ -671,11 +687,14 @@ class SimulationResult:
     @property
     def regime(self) -> str:
         """The run's regime (:func:`regime`): "decaying", "settling", "driven", "limit cycle",
-        "growing" or "diverged"."""
+        "growing" or "diverged". With a data-driven vibration that acted, sustained motion is
+        "driven": the vibration is a broadband source the tail cannot be told apart from (judge
+        the loop's own stability without it)."""
         o = self.oscillation
         main = getattr(o, o.axis, None)
         return str(regime([o.decay_ratio], [o.amplitude], [o.threshold], [o.cycles],
-                          [bool(main is not None and main.texture_driven)], [self.diverged_at is not None])[0])
+                          [bool(main is not None and main.texture_driven) or self.vibration_supplied != 0.0],
+                          [self.diverged_at is not None])[0])
 
     @property
     def energy_per_axis(self) -> np.ndarray:
@@ -873,10 +892,30 @@ def _observer_delay(pc: Stabiliser | None, delays) -> None:
                    "(the forces its observer remembers)")
 
 
+
+def _vibration_inputs(device: Device, vibration, vibration_mass, vibration_gain, velocity_filter, seed,
+                      vibration_budget, vibration_reserve):
+    """The data-driven vibration's settings for the C loop (``renderer.vibration_settings``, the
+    Renderer's own check); None without one. The models must run at the device's servo rate:
+    the channel's tick is one sample of the set."""
+    from .renderer import vibration_settings
+
+    if vibration is not None:
+        rate = getattr(vibration, "sample_rate", None)
+        if rate is not None and abs(rate * device.period - 1.0) > 1e-6:
+            raise fail("vibration", f"a model set at {rate:g} Hz", f"models at the device's servo rate, "
+                       f"{1 / device.period:g} Hz (fit them at that rate: haptex.datadriven.fit(..., rate="
+                       f"{1 / device.period:g}), or haptex fit RECORDING --rate '{1 / device.period:g} Hz')")
+    return vibration_settings(vibration, vibration_mass, vibration_gain, velocity_filter, seed, vibration_budget,
+                              vibration_reserve)
+
+
 @_core.blas_held_to_one_thread
 def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration: float, initial_position=None,
              initial_velocity=None, record_every: int = 1, tail_fraction: float = 0.4,
-             passivity_controller: Stabiliser | None = None) -> SimulationResult:
+             passivity_controller: Stabiliser | None = None, *, vibration=None, vibration_mass: float | None = None,
+             vibration_gain: float = 1.0, velocity_filter: float = 0.01, seed: int = 0,
+             vibration_budget: float | None = None, vibration_reserve: float | None = None) -> SimulationResult:
     """Simulate a device in closed loop with an algorithm, driven by an operator.
 
     In the plane (a profile h(x), positions [x, z]) or in space (a surface h(x, y),
@@ -911,6 +950,21 @@ def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration:
         :class:`haptex.Renderer`: :class:`haptex.PassivityController` (Hannaford & Ryu 2002),
         :class:`haptex.EnergyBounding` (after Kim & Ryu 2004) or
         :class:`haptex.PassiveSetPosition` (after Lee & Huang 2010); default none.
+    vibration : haptex.datadriven.ModelSet, optional
+        A data-driven vibration on the controller's tick, the C core's channel that
+        :class:`haptex.Renderer` runs (``hx_vibration.c``): in contact and moving,
+        ``vibration_mass`` x its acceleration (m/s²) along the filtered tangential velocity,
+        at the operating point (that speed, the algorithm's normal force f_z), before the
+        stabiliser, quantisation and saturation. Its models must run at the device's servo
+        rate. Its work at the port is :attr:`SimulationResult.vibration_supplied`.
+    vibration_mass : float, optional
+        kg, required with ``vibration``: the mass turning its acceleration into force (HaTT's
+        display on a Phantom: the handle's; a preset's own, ``preset(NAME).device().mass[0, 0]``,
+        not that of the device with a hand attached).
+    vibration_gain, velocity_filter, seed, vibration_budget, vibration_reserve
+        As :class:`haptex.Renderer`'s: a factor >= 0, the speed filter's time constant (s),
+        the noise's seed (the same seed, the same run), and the budgeted vibration's power (W)
+        and tank (J).
 
     Returns
     -------
@@ -919,9 +973,10 @@ def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration:
     Raises
     ------
     ParameterError
-        For invalid inputs, dimensions that disagree, or a recording that would exceed
-        :data:`MEMORY_BUDGET` (2 GiB; 96 bytes a recorded sample in the plane, 128 in
-        space) — record fewer samples with ``record_every``.
+        For invalid inputs, dimensions that disagree, a vibration whose models do not run at
+        the device's servo rate, or a recording that would exceed :data:`MEMORY_BUDGET`
+        (2 GiB; 96 bytes a recorded sample in the plane, 128 in space) — record fewer
+        samples with ``record_every``.
 
     Notes
     -----
@@ -938,6 +993,8 @@ def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration:
         raise fail("tail_fraction", tail_fraction, "a number in (0, 1]")
     pc_on, pc_b, pc_ref = _controller(passivity_controller)
     _observer_delay(passivity_controller, device.delay)
+    vib = _vibration_inputs(device, vibration, vibration_mass, vibration_gain, velocity_filter, seed,
+                            vibration_budget, vibration_reserve)
     d = p0.size
     width = 4 * d + 4
     n_rec = n_steps // record_every
@@ -953,9 +1010,9 @@ def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration:
     summary = np.zeros(N_SUMMARY)
     tail_start = int(n_steps * (1 - tail_fraction))
     tail = np.zeros((d, min(n_steps - tail_start, 65536)))
-    if base is None and code != _core._ext.ALG_PROXY and _lean(
+    if base is None and code != _core._ext.ALG_PROXY and vib is None and _lean(
             fast, operator.kinematic, pc_on, device.delay, device.position_resolution, device.force_resolution,
-            device.max_force, device.coulomb_friction):  # (the proxy and objects: the general loop)
+            device.max_force, device.coulomb_friction):  # (the proxy, objects, a vibration: the general loop)
         _core_lean(code, kind, nominal, n_steps, device.period, record_every, tail_start, prm[None], coeffs[None],
                    aux[None], fast[None], device.mass[None], np.asarray(operator.force)[None], p0[None], v0[None],
                    rec[None], summary[None], tail[None])
@@ -969,7 +1026,7 @@ def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration:
                       one(operator.final_velocity), one(operator.rest_length), one(device.delay),
                       one(device.position_resolution), one(device.force_resolution), one(device.max_force),
                       one(device.coulomb_friction), one(pc_b), one(p0), one(v0), rec[None], summary[None], tail[None],
-                      base=base)
+                      base=base, vibration=vib)
     rates = _texture_frequencies(algorithm, operator)
     osc = _oscillations(tail[None], (n_steps - tail_start) * device.period, _tail_energy(summary[None]),
                         np.array([_threshold(device.position_resolution)]), _frequency_table([rates]))
@@ -1061,7 +1118,9 @@ def _result(rec, summary, osc: Oscillation, texture_rates: tuple = ()) -> Simula
         max_penetration=float(summary[S_MAXPEN]), oscillation=osc, totals=totals, diverged_at=diverged,
         diverged_quantity=None if diverged is None else _DIVERGED_NAMES[int(summary[S_DIVERGED_WHAT])],
         energy_y=rec[:, E + 1] if d == 3 else None, passivity_control_samples=int(summary[S_PC_ACTIVE]),
-        observed_energy=float(summary[S_PC_ENERGY]), texture_rates=tuple(texture_rates))
+        observed_energy=float(summary[S_PC_ENERGY]), texture_rates=tuple(texture_rates),
+        vibration_supplied=float(summary[S_VIB_SUPPLIED]), vibration_cut=int(summary[S_VIB_CUT]),
+        vibration_clamped=int(summary[S_VIB_CLAMPED]))
 
 
 _ALGORITHM_KEYS = ("stiffness", "amplitude", "texture_period", "friction", "presliding", "modulation_depth",
@@ -1126,6 +1185,10 @@ class BatchResult:
         "growing" or "diverged"; an unstable loop is one of :data:`UNSTABLE`, whichever its decay
         ratio's last digits (``growing`` alone flips between a bounded cycle's 0.9999 and
         1.0001).
+    vibration_supplied : ndarray of float
+        With a data-driven vibration: its work on the sensed motion per run (J); zeros without.
+    vibration_cut : ndarray of int
+        Samples whose vibration the energy budget scaled down, per run.
     """
 
     parameters: dict
@@ -1150,6 +1213,8 @@ class BatchResult:
     decay_ratio: np.ndarray | None = None
     growing: np.ndarray | None = None
     regime: np.ndarray | None = None
+    vibration_supplied: np.ndarray | None = None
+    vibration_cut: np.ndarray | None = None
 
     @property
     def unstable(self) -> np.ndarray:
@@ -1305,7 +1370,9 @@ def _packed_device(device: Device, operator: Operator, values: dict):
 def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, duration: float, initial_position=None,
                    initial_velocity=None, record: bool = False, record_every: int = 1, tail_fraction: float = 0.4,
                    progress: bool | None = None, passivity_controller: Stabiliser | None = None,
-                   **sweep) -> BatchResult:
+                   vibration=None, vibration_mass: float | None = None, vibration_gain: float = 1.0,
+                   velocity_filter: float = 0.01, seed: int = 0, vibration_budget: float | None = None,
+                   vibration_reserve: float | None = None, **sweep) -> BatchResult:
     """Run many simulations that differ in some parameters, in one parallel compiled loop.
 
     Parameters
@@ -1319,6 +1386,10 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
         space, within the 2 GiB budget); default False, summaries only.
     record_every, tail_fraction, passivity_controller
         As for :func:`simulate`.
+    vibration, vibration_mass, vibration_gain, velocity_filter, seed, vibration_budget, vibration_reserve
+        As for :func:`simulate`: the same data-driven vibration on every run, each run's noise
+        from ``seed`` (the general loop; the channel's work per run in
+        :attr:`BatchResult.vibration_supplied`).
     progress : bool, optional
         Show a progress bar; default: when the batch has more than 5e7 samples in all.
     **sweep : array_like, shape (N,) or scalar
@@ -1363,6 +1434,8 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     if d == 2 and "initial_y" in sweep:
         raise ParameterError("initial_y is not allowed in the plane (a profile): it sweeps 3-D starts")
     pc_on, pc_b, pc_ref = _controller(passivity_controller)
+    vib = _vibration_inputs(device, vibration, vibration_mass, vibration_gain, velocity_filter, seed,
+                            vibration_budget, vibration_reserve)
     try:
         arrays = np.broadcast_arrays(*[np.atleast_1d(np.asarray(v, dtype=np.float64)) for v in sweep.values()]) if sweep else []
     except ValueError:
@@ -1462,7 +1535,7 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
         freqs[:, 0] = speed / values["texture_period"]
     # the lean loop where none of its omitted machinery is used, else the general one (both C),
     # whose per-run matrices are made only then (N copies of 2 x 10 x 10 maps and forms)
-    in_core = base is None and code != _core._ext.ALG_PROXY and bool(
+    in_core = base is None and code != _core._ext.ALG_PROXY and vib is None and bool(
         _lean(fast, ops[0].kinematic, pc_on, delay, delta, fres, fmax, fc))
     if dense is not None:  # (the base's Phi, Wd, Wo are not made on the fast path: _kernel_inputs)
         M, fast = (np.ascontiguousarray(dense[j]) for j in (0, 3))
@@ -1503,7 +1576,8 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
                               Wd[lo:hi], Wo[lo:hi], Bs[lo:hi], Binv[lo:hi], fast[lo:hi], M[lo:hi], modal[lo:hi],
                               K[lo:hi], C[lo:hi], f0[lo:hi], sp_p[lo:hi], vend[lo:hi], rest[lo:hi], delay[lo:hi],
                               delta[lo:hi], fres[lo:hi], fmax[lo:hi], fc[lo:hi], pcb[lo:hi], P0[lo:hi], V0[lo:hi],
-                              rec[lo:hi], summary[lo:hi], block, threads, base=base, after=verdicts)
+                              rec[lo:hi], summary[lo:hi], block, threads, base=base, after=verdicts,
+                              vibration=vib)
             tables += [parts[a] for a in sorted(parts)]
             bar(idx.size)
     bar(None)
@@ -1535,7 +1609,9 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
         oscillating_axes=np.column_stack([t[a][0] for a in ("xz" if d == 2 else "xyz")]).astype(bool).reshape(N, d),
         decay_ratio=t["decay_ratio"].astype(float),
         growing=(t["decay_ratio"] > 1.0) & (t["amplitude"] > t["threshold"]) & ~t["driven"].astype(bool),
-        regime=regime(t["decay_ratio"], t["amplitude"], t["threshold"], t["cycles"], t["driven"], diverged_at > 0))
+        regime=regime(t["decay_ratio"], t["amplitude"], t["threshold"], t["cycles"],
+                      t["driven"].astype(bool) | (summary[:, S_VIB_SUPPLIED] != 0.0), diverged_at > 0),
+        vibration_supplied=summary[:, S_VIB_SUPPLIED].copy(), vibration_cut=summary[:, S_VIB_CUT].astype(np.int64))
 
 
 def _progress(show: bool, total: int, description: str = "simulating", completed: int = 0, columns=(),

@@ -13,7 +13,7 @@ from .._validation import ParameterError
 from ._common import (
     Quantity, STABILISERS, _Spinner, _build_device, _check_plot_path, _check_save_path, _device_options,
     _fitted, _given_for_letter, _jsonable, _paper_options, _parse_path, _parse_point, _refuse_unused,
-    _stabiliser)
+    _stabiliser, _vibration, _vibration_options)
 
 
 def _sim_common(func):
@@ -34,6 +34,7 @@ def _sim_common(func):
         click.option("--stabiliser", type=click.Choice(STABILISERS), default=None,
                      help="Instead: energy bounding (after Kim & Ryu) or passive set-position modulation (after Lee "
                           "& Huang), paid with the device's own damping."),
+        _vibration_options,
         click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON."),
         click.option("--quiet", is_flag=True, help="No progress display."),
         click.pass_context,
@@ -88,7 +89,8 @@ def _simulate(ctx, mode, letter, stiffness, amplitude, period, max_penetration, 
               surface_spec=None,
               passivity_control=None, stabiliser=None, band_stiffness=100.0, anchor="0,-30mm", angle=10.0,
               hand_stiffness=300.0,
-              hand_damping=1.0, velocity=0.01, depth=1e-3, path_text=None, speed=1e-3, hand_name=None):
+              hand_damping=1.0, velocity=0.01, depth=1e-3, path_text=None, speed=1e-3, hand_name=None,
+              vibration_models=None, vibration_budget=None):
     from .. import operators as ops
     from ..algorithms import ALGORITHMS, algorithm
     from ..renderer import PassivityController
@@ -123,6 +125,11 @@ def _simulate(ctx, mode, letter, stiffness, amplitude, period, max_penetration, 
         alg = algorithm(letter, Sinusoid(amplitude, period) if textured else None, stiffness, **params)
     dev = _build_device(ctx, device_spec, joint_damping, mass, damping, sampling_period, delay, dimension=d)
     pc = _stabiliser(passivity_control, stabiliser, dev)
+    if vibration_budget is not None and vibration_models is None:
+        raise ParameterError("--vibration-budget is not allowed without --vibration MODELS: it is the vibration's")
+    # the vibration's mass: the device's own along x (a hand's mass, attached below, is not the display's)
+    vib = {} if vibration_models is None else _vibration(vibration_models, dev.period, dev.mass[0, 0],
+                                                         vibration_budget, dev.name)
     start = None
     if mode == "thrust":
         if not -80.0 <= angle <= 80.0:
@@ -153,14 +160,16 @@ def _simulate(ctx, mode, letter, stiffness, amplitude, period, max_penetration, 
         op = ops.KinematicPath(_parse_path(path_text, d), speed)
     with _Spinner(f"simulating {duration:g} s at T = {dev.period:g} s", quiet or as_json):
         res = run(alg, dev, op, duration, initial_position=start,
-                  record_every=max(1, int(round(duration / dev.period / 20000))), passivity_controller=pc)
+                  record_every=max(1, int(round(duration / dev.period / 20000))), passivity_controller=pc, **vib)
     osc = res.oscillation
     units = {"stiffness": "N/m", "sampling_period": "s", "duration": "s", "energy_x": "J", "energy_z": "J",
              "damping_energy": "J", "operator_work": "J", "kinetic_energy": "J", "friction_energy": "J", "energy_y": "J",
              "passivity_control": "N*s/m", "passivity_control_samples": "samples", "observed_energy": "J",
              "energy_balance_error": "1 (relative)", "max_penetration": "m", "saturations": "samples",
              "amplitude": "m", "frequency": "Hz", "energy_per_cycle": "J", "angle": "degree",
-             "buzz_db": "dB above the detection threshold", "buzz_frequency": "Hz"}
+             "buzz_db": "dB above the detection threshold", "buzz_frequency": "Hz", "vibration_supplied": "J",
+             "vibration_power": "W", "vibration_budget": "W", "vibration_cut": "samples",
+             "vibration_clamped": "samples", "vibration_mass": "kg"}
     summary = {"units": units, "mode": mode, "algorithm": letter, "stiffness": stiffness, "device": dev.name,
                "sampling_period": dev.period, "duration": duration, **res.totals,
                "energy_balance_error": res.energy_balance_error, "max_penetration": res.max_penetration,
@@ -179,6 +188,11 @@ def _simulate(ctx, mode, letter, stiffness, amplitude, period, max_penetration, 
             summary["passivity_control"] = pc.max_damping
         summary["passivity_control_samples"] = res.passivity_control_samples
         summary["observed_energy"] = res.observed_energy  # the observer's count; the port's: energy_x + energy_z
+    if vib:
+        summary.update(vibration=str(vibration_models), vibration_mass=vib["vibration_mass"],
+                       vibration_supplied=res.vibration_supplied, vibration_power=res.vibration_supplied / duration,
+                       vibration_cut=res.vibration_cut, vibration_clamped=res.vibration_clamped,
+                       vibration_budget=vibration_budget)
     if mode == "thrust":
         summary["angle"] = angle
     if save is not None:
@@ -212,6 +226,11 @@ def _simulate(ctx, mode, letter, stiffness, amplitude, period, max_penetration, 
             ("oscillating", "yes" if osc.oscillating else "no"), ("regime", res.regime),
             ("tail amplitude (mm) / frequency (Hz)", f"{osc.amplitude * 1e3:.3g} / {osc.frequency:.4g}"),
             ("energy supplied per cycle (J)", f"{osc.energy_per_cycle:.3g}")]
+    if vib:
+        rows += [("vibration: supplied (J) / mean power (mW)",
+                  f"{res.vibration_supplied:.3g} / {res.vibration_supplied / duration * 1e3:.3g}"),
+                 ("vibration: samples cut by its budget / off its models",
+                  f"{res.vibration_cut} / {res.vibration_clamped}")]
     for a, b in rows:
         t.add_row(a, b)
     Console().print(_fitted(t))

@@ -742,48 +742,62 @@ PyDoc_STRVAR(set_vibration_doc, "set_vibration(v, mass, gain, tau, seed)\n--\n\n
                                 "gain x its acceleration along the filtered tangential velocity (time constant tau, s), "
                                 "its noise seeded with seed; v = None removes it.");
 
+/* A vibration's settings from a (v, mass, gain, tau, seed[, budget, reserve]) argument list of
+ * nargs (5 or 7) objects: v's buffer (checked by hx_vib_check; the caller releases it) and the
+ * numbers checked; 0, or -1 with an exception set. */
+static int vib_settings(PyObject *const *args, Py_ssize_t nargs, Py_buffer *v, double *mass, double *gain,
+                        double *tau, unsigned long long *seed, double *budget, double *reserve)
+{
+    int rc;
+    *budget = -1.0;
+    *reserve = 0.0;
+    if (nargs != 5 && nargs != 7) {
+        PyErr_SetString(PyExc_TypeError, "a vibration takes v, mass, gain, tau, seed[, budget, reserve]");
+        return -1;
+    }
+    *mass = PyFloat_AsDouble(args[1]);
+    *gain = PyFloat_AsDouble(args[2]);
+    *tau = PyFloat_AsDouble(args[3]);
+    *seed = PyLong_AsUnsignedLongLongMask(args[4]);
+    if (nargs == 7) {
+        *budget = args[5] == Py_None ? -1.0 : PyFloat_AsDouble(args[5]);
+        *reserve = PyFloat_AsDouble(args[6]);
+    }
+    if (PyErr_Occurred())
+        return -1;
+    if (!(*reserve >= 0.0 && isfinite(*reserve)) || !isfinite(*budget)) {
+        PyErr_SetString(PyExc_ValueError, "budget (W, None for none) and reserve >= 0 (J) must be finite");
+        return -1;
+    }
+    if (!(*mass > 0.0 && isfinite(*mass)) || !(*gain >= 0.0 && isfinite(*gain)) || !(*tau >= 0.0 && isfinite(*tau))) {
+        PyErr_SetString(PyExc_ValueError, "mass > 0, gain >= 0 and tau >= 0 must be finite");
+        return -1;
+    }
+    if (get_doubles(args[0], v, 0, 1, "v") < 0)
+        return -1;
+    rc = hx_vib_check((const double *)v->buf, (long)v->shape[0]);
+    if (rc != HX_OK) {
+        PyBuffer_Release(v);
+        core_error(rc);
+        return -1;
+    }
+    return 0;
+}
+
 static PyObject *Renderer_set_vibration(RendererObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     Py_buffer v;
-    double mass, gain, tau, budget = -1.0, reserve = 0.0;
+    double mass, gain, tau, budget, reserve;
     unsigned long long seed;
     double *copy;
-    int rc;
-    if (nargs != 5 && nargs != 7) {
-        PyErr_SetString(PyExc_TypeError, "set_vibration takes v, mass, gain, tau, seed[, budget, reserve]");
-        return NULL;
-    }
-    if (args[0] == Py_None) {
-        self->r.vib = NULL;
+    if (nargs >= 1 && args[0] == Py_None) {
+        self->r.vib.set = NULL;
         free(self->vib);
         self->vib = NULL;
         Py_RETURN_NONE;
     }
-    mass = PyFloat_AsDouble(args[1]);
-    gain = PyFloat_AsDouble(args[2]);
-    tau = PyFloat_AsDouble(args[3]);
-    seed = PyLong_AsUnsignedLongLongMask(args[4]);
-    if (nargs == 7) {
-        budget = args[5] == Py_None ? -1.0 : PyFloat_AsDouble(args[5]);
-        reserve = PyFloat_AsDouble(args[6]);
-    }
-    if (PyErr_Occurred())
+    if (vib_settings(args, nargs, &v, &mass, &gain, &tau, &seed, &budget, &reserve) < 0)
         return NULL;
-    if (!(reserve >= 0.0 && isfinite(reserve)) || !isfinite(budget)) {
-        PyErr_SetString(PyExc_ValueError, "budget (W, None for none) and reserve >= 0 (J) must be finite");
-        return NULL;
-    }
-    if (!(mass > 0.0 && isfinite(mass)) || !(gain >= 0.0 && isfinite(gain)) || !(tau >= 0.0 && isfinite(tau))) {
-        PyErr_SetString(PyExc_ValueError, "mass > 0, gain >= 0 and tau >= 0 must be finite");
-        return NULL;
-    }
-    if (get_doubles(args[0], &v, 0, 1, "v") < 0)
-        return NULL;
-    rc = hx_vib_check((const double *)v.buf, (long)v.shape[0]);
-    if (rc != HX_OK) {
-        PyBuffer_Release(&v);
-        return core_error(rc);
-    }
     copy = (double *)malloc((size_t)v.shape[0] * sizeof(double));
     if (copy == NULL) {
         PyBuffer_Release(&v);
@@ -791,7 +805,7 @@ static PyObject *Renderer_set_vibration(RendererObject *self, PyObject *const *a
     }
     memcpy(copy, v.buf, (size_t)v.shape[0] * sizeof(double));
     PyBuffer_Release(&v);
-    self->r.vib = NULL;
+    self->r.vib.set = NULL;
     free(self->vib);
     self->vib = copy;
     hx_render_set_vibration(&self->r, copy, mass, gain, tau, seed, budget, reserve);
@@ -814,15 +828,15 @@ static PyMemberDef Renderer_members[] = {
     {"faults", T_LONG, offsetof(RendererObject, r.faults), READONLY, "faults counted"},
     {"stiffness_changes", T_LONG, offsetof(RendererObject, r.k0_changes), READONLY,
      "stiffnesses taken from set_stiffness (between ticks)"},
-    {"vibration_clamped", T_LONG, offsetof(RendererObject, r.vs.clamped), READONLY,
+    {"vibration_clamped", T_LONG, offsetof(RendererObject, r.vib.vs.clamped), READONLY,
      "vibration ticks whose operating point was moved to the model set's hull"},
-    {"vibration_supplied", T_DOUBLE, offsetof(RendererObject, r.vib_supplied), READONLY,
+    {"vibration_supplied", T_DOUBLE, offsetof(RendererObject, r.vib.supplied), READONLY,
      "the vibration's work on the sensed motion so far (J, > 0: supplied to the hand)"},
-    {"vibration_tank", T_DOUBLE, offsetof(RendererObject, r.vib_tank), READONLY,
+    {"vibration_tank", T_DOUBLE, offsetof(RendererObject, r.vib.tank), READONLY,
      "what the vibration's energy budget holds now (J)"},
-    {"vibration_cut", T_LONG, offsetof(RendererObject, r.vib_cut), READONLY,
+    {"vibration_cut", T_LONG, offsetof(RendererObject, r.vib.cut), READONLY,
      "ticks whose vibration the energy budget scaled down"},
-    {"vibration_force", T_DOUBLE, offsetof(RendererObject, r.vib_force), READONLY,
+    {"vibration_force", T_DOUBLE, offsetof(RendererObject, r.vib.force), READONLY,
      "the vibration's force on the last tick (N, along the tangential velocity)"},
     {"clamps", T_LONG, offsetof(RendererObject, r.clamps), READONLY, "forces scaled to max_force"},
     {"last_work", T_LONG, offsetof(RendererObject, r.work), READONLY, "work of the last tick"},
@@ -2004,7 +2018,8 @@ PyDoc_STRVAR(run_general_doc,
 "other array has a leading N axis: prm (N, 6), coeffs (N, rows, cols), aux (N, k), Phi, Wd, Wo (N, 2, nz, nz),\n"
 "Bs, Binv (N, 2, n, n), fast (N, 2 or 0, n, 7), mass, K, C (N, n, n), modal (N, 2 or 0, n, n), f0, vend, p0, v0\n"
 "(N, n), sp_p (N, m, n), rest_len, delta, fres, fmax, fc, pc_bmax (N,), delay (N,) int64, rec (N, n_rec, 4n + 4),\n"
-"summary (N, 16), tail (N, n, n_tail).");
+"summary (N, N_SUMMARY), tail (N, n, n_tail); then optionally base (a Base or None) and a vibration, the tuple\n"
+"(v, mass, gain, tau, seed, budget, reserve) of Renderer.set_vibration or None, each run's from its seed.");
 
 static PyObject *run_general(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
@@ -2022,8 +2037,12 @@ static PyObject *run_general(PyObject *self, PyObject *const *args, Py_ssize_t n
     Py_ssize_t N, r;
     (void)self;
     const hx_base *base = NULL;
-    if (nargs != 10 + NB && nargs != 11 + NB) {
-        PyErr_SetString(PyExc_TypeError, "run_general takes 39 arguments, and optionally a Base");
+    Py_buffer vb;
+    int have_vib = 0;
+    double vmass = 0.0, vgain = 0.0, vtau = 0.0, vbudget = -1.0, vreserve = 0.0;
+    unsigned long long vseed = 0;
+    if (nargs < 10 + NB || nargs > 12 + NB) {
+        PyErr_SetString(PyExc_TypeError, "run_general takes 39 arguments, and optionally a Base and a vibration");
         return NULL;
     }
     if (nargs == 11 + NB && args[10 + NB] != Py_None) {
@@ -2050,6 +2069,17 @@ static PyObject *run_general(PyObject *self, PyObject *const *args, Py_ssize_t n
     tail_start = PyLong_AsLong(args[9]);
     if (PyErr_Occurred())
         return NULL;
+    if (nargs == 12 + NB && args[11 + NB] != Py_None) {
+        PyObject *t = args[11 + NB];
+        if (!PyTuple_Check(t)) {
+            PyErr_SetString(PyExc_TypeError, "vibration must be a tuple (v, mass, gain, tau, seed, budget, reserve)");
+            return NULL;
+        }
+        if (vib_settings(&PyTuple_GET_ITEM(t, 0), PyTuple_GET_SIZE(t), &vb, &vmass, &vgain, &vtau, &vseed, &vbudget,
+                         &vreserve) < 0)
+            return NULL;
+        have_vib = 1;
+    }
     for (got = 0; got < NB; got++) {
         int ok;
         if (got == DELAY) {
@@ -2103,6 +2133,7 @@ static PyObject *run_general(PyObject *self, PyObject *const *args, Py_ssize_t n
     for (r = 0; r < N && rc == HX_OK; r++) {
         hx_model m;
         hx_general_run run;
+        hx_vib_channel vib;
         long n_rec = (long)b[REC].shape[1];
         long d = (long)((const long long *)b[DELAY].buf)[r], dd = dim * dim, zz = nz * nz;
         batch_model(&m, code, kind, &b[PRM], &b[COEFFS], &b[AUX], r);
@@ -2146,6 +2177,11 @@ static PyObject *run_general(PyObject *self, PyObject *const *args, Py_ssize_t n
         run.tail_start = tail_start;
         run.n_tail = (long)b[TAIL].shape[2];
         run.tail = (double *)b[TAIL].buf + r * dim * run.n_tail;
+        run.vib = NULL;
+        if (have_vib) {
+            hx_vib_channel_set(&vib, (const double *)vb.buf, vmass, vgain, vtau, vseed, vbudget, vreserve);
+            run.vib = &vib;
+        }
         run.delay_buffer = malloc(sizeof(double) * (size_t)((d + 1) * dim));
         if (run.delay_buffer == NULL) {
             rc = HX_NO_MEMORY;
@@ -2162,6 +2198,8 @@ static PyObject *run_general(PyObject *self, PyObject *const *args, Py_ssize_t n
 done:
     for (i = 0; i < got; i++)
         PyBuffer_Release(&b[i]);
+    if (have_vib)
+        PyBuffer_Release(&vb);
     if (PyErr_Occurred())
         return NULL;
     Py_RETURN_NONE;
@@ -2504,7 +2542,7 @@ PyMODINIT_FUNC PyInit__ext(void)
         {"S_KE0", HX_S_KE0}, {"S_KE", HX_S_KE}, {"S_SAT", HX_S_SAT}, {"S_MAXPEN", HX_S_MAXPEN},
         {"S_NSAMP", HX_S_NSAMP}, {"S_TAILSTART_E", HX_S_TAILSTART_E}, {"S_DIVERGED", HX_S_DIVERGED},
         {"S_DIVERGED_WHAT", HX_S_DIVERGED_WHAT}, {"S_FRIC", HX_S_FRIC}, {"S_STUCK", HX_S_STUCK}, {"S_EY", HX_S_EY},
-        {"S_PC_ACTIVE", HX_S_PC_ACTIVE}, {"S_PC_ENERGY", HX_S_PC_ENERGY}, {"N_SUMMARY", HX_N_SUMMARY}, {"DIVERGED_POSITION", HX_DIVERGED_POSITION},
+        {"S_PC_ACTIVE", HX_S_PC_ACTIVE}, {"S_PC_ENERGY", HX_S_PC_ENERGY}, {"S_VIB_SUPPLIED", HX_S_VIB_SUPPLIED}, {"S_VIB_CUT", HX_S_VIB_CUT}, {"S_VIB_CLAMPED", HX_S_VIB_CLAMPED}, {"N_SUMMARY", HX_N_SUMMARY}, {"DIVERGED_POSITION", HX_DIVERGED_POSITION},
         {"DIVERGED_VELOCITY", HX_DIVERGED_VELOCITY}, {"DIVERGED_FORCE", HX_DIVERGED_FORCE},
         {"DIVERGED_ENERGY", HX_DIVERGED_ENERGY}, {"F_PV", HX_F_PV}, {"F_PW", HX_F_PW}, {"F_VV", HX_F_VV},
         {"F_VW", HX_F_VW}, {"F_CVV", HX_F_CVV}, {"F_CVW", HX_F_CVW}, {"F_CWW", HX_F_CWW}, {"N_FAST", HX_N_FAST}, {"T_N", HX_T_N}, {"T_LOGR", HX_T_LOGR}, {"T_DV", HX_T_DV},

@@ -420,6 +420,36 @@ double hx_vib_step(const double *v, hx_vib_state *st, double speed, double force
 void hx_lsf_to_poly(const double *w, int order, double *a);
 double hx_normal(unsigned long long seed, unsigned long long index);
 
+/* The vibration channel of a tick (the renderer's and the simulator's): model set `set` (or
+ * NULL), in contact, gain * mass * y_n along the direction of the tangential velocity, the
+ * operating point the filtered tangential speed (first order, time constant tau) and the
+ * algorithm's normal force f_z; the tick's period is the set's (1 / its rate).
+ * Its energy budget, a tank: when budgeted, `budget` W refill it every tick up to `reserve` J,
+ * the vibration's work on the sensed motion drains it, and a vibration force whose work over the
+ * next period (at the filtered speed) would exceed what it holds is scaled down to it (`cut`
+ * counts those ticks); what the vibration supplied is `supplied` either way. */
+typedef struct {
+    const double *set;
+    double mass, gain, tau; /* kg, 1, s */
+    hx_vib_state vs;
+    double last[3], v[3]; /* the last position (m), the filtered velocity (m/s) */
+    int have;             /* last holds a position */
+    double force;         /* the vibration's force on the last tick (N, signed along its direction) */
+    int budgeted;
+    double budget, reserve, tank; /* W, J, J */
+    double supplied;              /* J: sum of the vibration force . dp (> 0: supplied) */
+    double prev[3];               /* the vibration force of the last tick (N) */
+    long cut;
+} hx_vib_channel;
+/* Set the channel (v hx_vib_check'd and kept by the caller; NULL: none) and clear its state. */
+void hx_vib_channel_set(hx_vib_channel *c, const double *v, double mass, double gain, double tau,
+                        unsigned long long seed, double budget, double reserve);
+/* Its state back to its start: the noise from its seed, the tank full, the sums zero. */
+void hx_vib_channel_clear(hx_vib_channel *c);
+/* One tick at the sensed position p (m): adds the vibration's force to f (N; f[2] is the
+ * algorithm's normal force); returns the triangles and edges its search tested. */
+long hx_vib_channel_tick(hx_vib_channel *c, const double p[3], double f[3]);
+
 /* A renderer: one model, its state, the safety rules and the counters. */
 typedef struct {
     hx_model model;
@@ -429,25 +459,8 @@ typedef struct {
     hx_state st;
     hx_passivity pc;
     long faults, clamps, work, max_work, cut; /* cut: ticks whose search its budget ended */
-    /* data-driven vibration layered on the texture (hx_vibration.c), or vib == NULL: in contact,
-     * vib_gain * vib_mass * y_n along the direction of the tangential velocity, the operating
-     * point the filtered tangential speed (first order, time constant vib_tau) and the
-     * algorithm's normal force f_z; the tick's period is the set's (1 / its rate) */
-    const double *vib;
-    double vib_mass, vib_gain, vib_tau; /* kg, 1, s */
-    hx_vib_state vs;
-    double vib_last[3], vib_v[3]; /* the last position (m), the filtered velocity (m/s) */
-    int vib_have;                 /* vib_last holds a position */
-    double vib_force;             /* the vibration's force on the last tick (N, signed along its direction) */
-    /* the vibration's energy budget, a tank: when vib_budgeted, vib_budget W refill it every tick up
-     * to vib_reserve J, the vibration's work on the sensed motion drains it, and a vibration force
-     * whose work over the next period (at the filtered speed) would exceed what it holds is scaled
-     * down to it (vib_cut counts those ticks); what the vibration supplied is vib_supplied either way */
-    int vib_budgeted;
-    double vib_budget, vib_reserve, vib_tank; /* W, J, J */
-    double vib_supplied;                      /* J: sum of the vibration force . dp (> 0: supplied) */
-    double vib_prev[3];                       /* the vibration force of the last tick (N) */
-    long vib_cut;
+    /* data-driven vibration layered on the texture (hx_vibration.c): vib.set == NULL for none */
+    hx_vib_channel vib;
     /* the parameter block: a stiffness written by another thread (hx_render_set_stiffness)
      * waits here and is taken at the start of the next tick, never in the middle of one */
     double k0_next;  /* N/m */
@@ -573,7 +586,7 @@ enum { HX_F_PV, HX_F_PW, HX_F_VV, HX_F_VW, HX_F_CVV, HX_F_CVW, HX_F_CWW, HX_N_FA
 enum {
     HX_S_EX, HX_S_EZ, HX_S_DAMP, HX_S_OP, HX_S_KE0, HX_S_KE, HX_S_SAT, HX_S_MAXPEN, HX_S_NSAMP,
     HX_S_TAILSTART_E, HX_S_DIVERGED, HX_S_DIVERGED_WHAT, HX_S_FRIC, HX_S_STUCK, HX_S_EY, HX_S_PC_ACTIVE,
-    HX_S_PC_ENERGY, HX_N_SUMMARY
+    HX_S_PC_ENERGY, HX_S_VIB_SUPPLIED, HX_S_VIB_CUT, HX_S_VIB_CLAMPED, HX_N_SUMMARY
 };
 
 /* what became non-finite first in a diverged run */
@@ -638,6 +651,8 @@ typedef struct {
     long tail_start, n_tail;
     double *tail;            /* n x n_tail */
     double *delay_buffer;    /* scratch of (delay + 1) x n */
+    hx_vib_channel *vib;     /* a data-driven vibration on the controller's tick (its set's rate the
+                              * period's; cleared at the start), or NULL */
 } hx_general_run;
 
 /* Run the general loop of model m. HX_OK, or HX_BAD_COEFFS before any sample. Stops, flagged

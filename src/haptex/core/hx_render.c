@@ -177,55 +177,6 @@ int hx_saturate(double f[3], double fmax)
 
 static int outside(double v, double limit) { return !isfinite(v) || fabs(v) > limit; }
 
-/* The data-driven vibration on this tick (hx_renderer's vib): the tangential velocity by a
- * first-order filter of the position's differences, the model set's step at (its magnitude,
- * f_z) while in contact and moving, added to f along that velocity. Its work is counted. */
-static void vibrate(hx_renderer *r, const double p[3], double f[3])
-{
-    double T = 1.0 / r->vib[HX_V_FS], a = r->vib_tau > 0.0 ? 1.0 - exp(-T / r->vib_tau) : 1.0, speed, y;
-    int i;
-    r->vib_force = 0.0;
-    if (r->vib_have) {
-        /* the last tick's vibration force held over the displacement since: its work on the handle */
-        double w = 0.0;
-        for (i = 0; i < 3; i++) {
-            w += r->vib_prev[i] * (p[i] - r->vib_last[i]);
-            r->vib_v[i] += a * ((p[i] - r->vib_last[i]) / T - r->vib_v[i]);
-        }
-        if (isfinite(w)) {
-            r->vib_supplied += w;
-            if (r->vib_budgeted) {
-                r->vib_tank += r->vib_budget * T - w;
-                if (r->vib_tank > r->vib_reserve)
-                    r->vib_tank = r->vib_reserve;
-            }
-        }
-    }
-    for (i = 0; i < 3; i++) {
-        r->vib_last[i] = p[i];
-        r->vib_prev[i] = 0.0;
-    }
-    speed = hypot(r->vib_v[0], r->vib_v[1]);
-    if (!r->vib_have || !(f[2] > 0.0) || !(speed > 0.0) || !isfinite(speed)) {
-        r->vib_have = 1;
-        return;
-    }
-    y = hx_vib_step(r->vib, &r->vs, speed, f[2]);
-    r->work += r->vs.work;
-    r->vib_force = r->vib_gain * r->vib_mass * y;
-    if (r->vib_budgeted) {
-        double spend = r->vib_force * speed * T; /* its work over the next period, along the motion */
-        if (spend > r->vib_tank) {
-            r->vib_force = r->vib_tank > 0.0 ? r->vib_force * (r->vib_tank / spend) : 0.0;
-            r->vib_cut++;
-        }
-    }
-    r->vib_prev[0] = r->vib_force * r->vib_v[0] / speed;
-    r->vib_prev[1] = r->vib_force * r->vib_v[1] / speed;
-    f[0] += r->vib_prev[0];
-    f[1] += r->vib_prev[1];
-}
-
 void hx_render_step(hx_renderer *r, double x, double y, double z, double f[3])
 {
     double p[3];
@@ -255,8 +206,8 @@ void hx_render_step(hx_renderer *r, double x, double y, double z, double f[3])
     r->work = r->st.work;
     if (r->st.cut)
         r->cut++;
-    if (r->vib != 0)
-        vibrate(r, p, f);
+    if (r->vib.set != 0)
+        r->work += hx_vib_channel_tick(&r->vib, p, f);
     if (r->work > r->max_work)
         r->max_work = r->work;
     if (r->monitor)
@@ -283,30 +234,10 @@ void hx_render_set_stiffness(hx_renderer *r, double k0)
     __atomic_store_n(&r->k0_pending, 1, __ATOMIC_RELEASE);
 }
 
-/* the vibration's state back to its start: its noise from the seed, its tank full */
-static void vib_clear(hx_renderer *r, unsigned long long seed)
-{
-    hx_vib_reset(&r->vs, seed);
-    r->vib_have = 0;
-    r->vib_v[0] = r->vib_v[1] = r->vib_v[2] = 0.0;
-    r->vib_prev[0] = r->vib_prev[1] = r->vib_prev[2] = 0.0;
-    r->vib_force = 0.0;
-    r->vib_tank = r->vib_reserve;
-    r->vib_supplied = 0.0;
-    r->vib_cut = 0;
-}
-
 void hx_render_set_vibration(hx_renderer *r, const double *v, double mass, double gain, double tau,
                              unsigned long long seed, double budget, double reserve)
 {
-    r->vib = v;
-    r->vib_mass = mass;
-    r->vib_gain = gain;
-    r->vib_tau = tau;
-    r->vib_budgeted = budget >= 0.0;
-    r->vib_budget = budget >= 0.0 ? budget : 0.0;
-    r->vib_reserve = reserve;
-    vib_clear(r, seed);
+    hx_vib_channel_set(&r->vib, v, mass, gain, tau, seed, budget, reserve);
 }
 
 void hx_render_reset(hx_renderer *r)
@@ -320,5 +251,5 @@ void hx_render_reset(hx_renderer *r)
     r->pc.T = keep.T;
     r->pc.delay = keep.delay;
     r->faults = r->clamps = r->work = r->max_work = r->cut = 0;
-    vib_clear(r, r->vs.seed);
+    hx_vib_channel_clear(&r->vib);
 }

@@ -250,6 +250,7 @@ HX_INLINE int lean_loop(const hx_model *m, const hx_lean_run *r, const int code,
     summary[HX_S_STUCK] = 0.0;
     summary[HX_S_PC_ACTIVE] = 0.0;
     summary[HX_S_PC_ENERGY] = 0.0;
+    summary[HX_S_VIB_SUPPLIED] = summary[HX_S_VIB_CUT] = summary[HX_S_VIB_CLAMPED] = 0.0;
     return HX_OK;
 }
 
@@ -401,6 +402,8 @@ int hx_run_general(const hx_model *m, const hx_general_run *r)
     }
     for (i = 0; i < (delay + 1) * n; i++)
         buf[i] = 0.0;
+    if (r->vib != NULL)
+        hx_vib_channel_clear(r->vib);
     ke0 = mech_energy(r, v, ph, vh, p);
     ke_prev = ke0;
     tail_stride = (n_steps - r->tail_start) / (n_tail > 1 ? n_tail : 1);
@@ -425,6 +428,8 @@ int hx_run_general(const hx_model *m, const hx_general_run *r)
         q3[1] = n == 3 ? sense[1] : 0.0;
         q3[2] = sense[last];
         hx_tick_force(m, &st, q3, f3);
+        if (r->vib != NULL)
+            hx_vib_channel_tick(r->vib, q3, f3);
         if (r->pc_on)
             hx_passivity_tick(&pc, q3, f3, m->prm[HX_P_K0], st.pen);
         if (r->fres > 0.0)
@@ -651,6 +656,9 @@ int hx_run_general(const hx_model *m, const hx_general_run *r)
     summary[HX_S_STUCK] = (double)stuck;
     summary[HX_S_PC_ACTIVE] = (double)pc.active;
     summary[HX_S_PC_ENERGY] = pc.E;
+    summary[HX_S_VIB_SUPPLIED] = r->vib != NULL ? r->vib->supplied : 0.0;
+    summary[HX_S_VIB_CUT] = r->vib != NULL ? (double)r->vib->cut : 0.0;
+    summary[HX_S_VIB_CLAMPED] = r->vib != NULL ? (double)r->vib->vs.clamped : 0.0;
     return HX_OK;
 }
 

@@ -303,3 +303,78 @@ void hx_vib_reset(hx_vib_state *st, unsigned long long seed)
     st->faults = 0;
     st->work = 0;
 }
+
+/* ---- the channel: the set's step at the tick's operating point, as a force ------------ */
+
+void hx_vib_channel_clear(hx_vib_channel *c)
+{
+    int i;
+    hx_vib_reset(&c->vs, c->vs.seed);
+    c->have = 0;
+    for (i = 0; i < 3; i++)
+        c->last[i] = c->v[i] = c->prev[i] = 0.0;
+    c->force = 0.0;
+    c->tank = c->reserve;
+    c->supplied = 0.0;
+    c->cut = 0;
+}
+
+void hx_vib_channel_set(hx_vib_channel *c, const double *v, double mass, double gain, double tau,
+                        unsigned long long seed, double budget, double reserve)
+{
+    c->set = v;
+    c->mass = mass;
+    c->gain = gain;
+    c->tau = tau;
+    c->budgeted = budget >= 0.0;
+    c->budget = budget >= 0.0 ? budget : 0.0;
+    c->reserve = reserve;
+    c->vs.seed = seed;
+    hx_vib_channel_clear(c);
+}
+
+long hx_vib_channel_tick(hx_vib_channel *c, const double p[3], double f[3])
+{
+    double T = 1.0 / c->set[HX_V_FS], a = c->tau > 0.0 ? 1.0 - exp(-T / c->tau) : 1.0, speed, y;
+    int i;
+    c->force = 0.0;
+    if (c->have) {
+        /* the last tick's vibration force held over the displacement since: its work on the handle */
+        double w = 0.0;
+        for (i = 0; i < 3; i++) {
+            w += c->prev[i] * (p[i] - c->last[i]);
+            c->v[i] += a * ((p[i] - c->last[i]) / T - c->v[i]);
+        }
+        if (isfinite(w)) {
+            c->supplied += w;
+            if (c->budgeted) {
+                c->tank += c->budget * T - w;
+                if (c->tank > c->reserve)
+                    c->tank = c->reserve;
+            }
+        }
+    }
+    for (i = 0; i < 3; i++) {
+        c->last[i] = p[i];
+        c->prev[i] = 0.0;
+    }
+    speed = hypot(c->v[0], c->v[1]);
+    if (!c->have || !(f[2] > 0.0) || !(speed > 0.0) || !isfinite(speed)) {
+        c->have = 1;
+        return 0;
+    }
+    y = hx_vib_step(c->set, &c->vs, speed, f[2]);
+    c->force = c->gain * c->mass * y;
+    if (c->budgeted) {
+        double spend = c->force * speed * T; /* its work over the next period, along the motion */
+        if (spend > c->tank) {
+            c->force = c->tank > 0.0 ? c->force * (c->tank / spend) : 0.0;
+            c->cut++;
+        }
+    }
+    c->prev[0] = c->force * c->v[0] / speed;
+    c->prev[1] = c->force * c->v[1] / speed;
+    f[0] += c->prev[0];
+    f[1] += c->prev[1];
+    return c->vs.work;
+}
