@@ -109,7 +109,23 @@ def context(docname: str) -> dict:
                    grip_high=_g(max(grips), 2))
     if docname == "reference/presets":
         ctx.update(presets=_presets(), hands=_hands())
+    if docname == "guides/data-driven-textures":
+        ctx.update(vib=_vibration_stabilisers())
     return ctx
+
+
+def _vibration_stabilisers():
+    """The vibration under each stabiliser (haptex.experiments.vibration_under_stabilisers), as
+    the guide's table shows it."""
+    from haptex.experiments import vibration_under_stabilisers
+
+    d = vibration_under_stabilisers()
+    rows = [{"name": r["name"], "vib_mw": _g(r["vibration_power"] * 1e3, 3), "port_mw": _g(r["port_power"] * 1e3, 3),
+             "felt_rms": _g(r["felt_rms"], 3), "felt": f"{r['felt']:.3g}", "alone": f"{r['felt_alone']:.3g}",
+             "shape": _g(r["shape_db"], 3), "active": r["active"], "cut": r["cut"]} for r in d["rows"]]
+    by = {r["name"]: r for r in d["rows"]}
+    return {"rows": rows, "device": d["device"], "stiffness": _g(d["stiffness"], 4),
+            "pc": by["passivity controller"]["label"], "by": by}
 
 
 def _validation():

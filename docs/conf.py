@@ -113,7 +113,8 @@ html_sidebars = {"index": [], "reference/generated/*": []}  # the API pages: the
 # (the sidebar's tree, rendered on each of the ~380 generated pages, was 31 of the build's 103 s, profiled)
 
 # --- pages whose numbers the build computes ------------------------------------------------
-COMPUTED = {"explanation/paper", "reference/presets", "guides/devices-and-stability", "explanation/algorithms", "explanation/validation"}
+COMPUTED = {"explanation/paper", "reference/presets", "guides/devices-and-stability", "explanation/algorithms", "explanation/validation",
+            "guides/data-driven-textures"}
 
 
 def _render(app, docname, source):

@@ -666,3 +666,24 @@ def test_a_surface_from_a_recording_predicts_speeds_held_out_of_the_fit_better_t
         assert felt < 1.5 and felt < interpolated, (v, felt, interpolated)
     with pytest.raises(ParameterError, match=r"^spacing = .* is not allowed"):
         dd.surface_from(models, 1e3, 1e-6)
+
+
+def test_the_stabilisers_cut_the_vibration_and_a_budget_bounds_it():
+    # issue 54's table (haptex.experiments.vibration_under_stabilisers, on 1.5 s runs): energy
+    # bounding and passive set-position modulation see the vibration as active and cut its felt
+    # power (set-position modulation below 1 %); each budgeted run supplies at most its budget
+    # times the run plus its reserve, and still keeps a fifth of the felt power
+    from haptex.experiments import VIBRATION_STABILISERS, vibration_under_stabilisers
+    from haptex.renderer import VIBRATION_RESERVE_TIME
+
+    d = vibration_under_stabilisers(quick=True)
+    by = {r["name"]: r for r in d["rows"]}
+    ref = by["none"]
+    assert ref["felt"] == 1.0 and ref["felt_alone"] < 1e-3  # the felt band is the vibration's
+    assert by["energy bounding"]["felt"] < 0.9 and by["energy bounding"]["active"] > 0
+    assert by["set-position modulation"]["felt"] < 0.01
+    for share in VIBRATION_STABILISERS["budgets"]:
+        r = by[f"budget {share:.0%}"]
+        budget = share * ref["vibration_power"]
+        assert r["vibration_power"] <= budget * (1 + VIBRATION_RESERVE_TIME / 1.5) + 1e-6
+        assert r["cut"] > 0 and r["felt"] > 0.2

@@ -634,6 +634,118 @@ def stabilisers(quick: bool = False) -> dict:
     return {"rows": rows, "parameters": s}
 
 
+VIBRATION_STABILISERS = {
+    "preset": "falcon",  # 1 kHz (published), with the default hand (haptex.catalogue.DEFAULT_HAND)
+    "hand_depth": 2e-3,  # m: the hand's set-point below the wall (chosen)
+    "hand_velocity": 0.03,  # m/s along x (chosen)
+    "duration": 3.0,  # s (chosen); the first second is left out of the felt spectrum (the stroke's start)
+    "settle": 1.0,  # s
+    "band": (20.0, 450.0),  # Hz: the HaTT papers' band
+    "budgets": (0.5, 0.1),  # shares of the unstabilised vibration's mean power (chosen)
+    # four AR(4) models at 1 kHz over 10-100 mm/s x 0.1-1 N: resonances (Hz) at radii 0.95 and 0.9 and
+    # the noise variance ((m/s^2)^2), 0.9-1.6 m/s^2 rms (chosen: a texture felt on a 0.17 kg handle)
+    "models": ((120.0, 300.0, 0.2, 0.01, 0.1), (150.0, 350.0, 0.5, 0.1, 0.1), (100.0, 250.0, 0.3, 0.01, 1.0),
+               (180.0, 400.0, 0.8, 0.1, 1.0)),
+}
+"""The vibration under each stabiliser (chosen values): the wall W at the preset's rated stiffness
+stroked by the default hand, with a data-driven vibration of the models given (resonance 1 (Hz),
+resonance 2 (Hz), variance, speed (m/s), force (N)) displayed by the preset's own mass along x."""
+
+
+def vibration_models():
+    """The model set of :data:`VIBRATION_STABILISERS` (AR(4) at 1 kHz, chosen).
+
+    Returns
+    -------
+    haptex.datadriven.ModelSet
+    """
+    from .datadriven import ArmaModel, ModelSet
+
+    fs = 1000.0
+
+    def ar(*resonances):
+        return np.real(np.poly([r * np.exp(s * 2j * np.pi * f / fs) for f, r in resonances for s in (1, -1)]))
+
+    return ModelSet([ArmaModel(ar((f1, 0.95), (f2, 0.9)), [1.0], var, 1.0, fs, v, f)
+                     for f1, f2, var, v, f in VIBRATION_STABILISERS["models"]], name="chosen: four AR(4) at 1 kHz")
+
+
+def vibration_under_stabilisers(quick: bool = False) -> dict:
+    """What each stabiliser does to a data-driven vibration, and what a budget does instead.
+
+    The wall W at the preset's rated stiffness, stroked by the default hand, a vibration
+    (:func:`vibration_models`) layered on the tick; each stabiliser of :data:`STABILISER_NAMES`
+    (the passivity controller's largest damping m / (2 T), as :func:`stabilisers`), then no
+    stabiliser and a budgeted vibration at each share of :data:`VIBRATION_STABILISERS`'
+    ``budgets`` of the unstabilised vibration's mean power. The felt vibration is the handle's
+    acceleration along the stroke (its velocity's differences over each period, exact for the
+    sampled motion) after the first ``settle`` seconds, its power in ``band``.
+
+    Parameters
+    ----------
+    quick : bool
+        1.5 s a run (for tests).
+
+    Returns
+    -------
+    dict
+        ``rows`` (list of dicts: ``name``, ``label``, ``vibration_power`` W (the vibration's mean
+        work rate at the port, :attr:`SimulationResult.vibration_supplied` over the run),
+        ``port_power`` W (what the port supplied in all, -(E_x + E_z) / t), ``felt`` (the felt
+        band power over that of the unstabilised run with the vibration), ``felt_alone`` (the same
+        run without the vibration, over the same reference: what the stabiliser adds of its own),
+        ``shape_db`` (:func:`haptex.datadriven.spectral_difference` of the felt acceleration to the
+        unstabilised one), ``active`` (ticks the stabiliser acted), ``cut`` (ticks the budget cut),
+        ``regime``), ``parameters``, ``device``, ``stiffness`` (N/m).
+    """
+    from scipy.signal import welch
+
+    from .catalogue import DEFAULT_HAND, hand, preset
+    from .datadriven import spectral_difference
+
+    s = dict(VIBRATION_STABILISERS)
+    dur = 1.5 if quick else s["duration"]
+    settle = min(s["settle"], dur / 3)
+    pre = preset(s["preset"])
+    own = pre.device(dimension=2)
+    h = hand(DEFAULT_HAND)
+    dev = h.attach(own)
+    op = h.operator(depth=s["hand_depth"], velocity=s["hand_velocity"])
+    alg = algorithm("W", None, pre.rated_stiffness)
+    models = vibration_models()
+    fs = 1.0 / dev.period
+    lo, hi = s["band"]
+    pc_b = float(np.linalg.eigvalsh(dev.mass).min()) / (2 * dev.period)
+    start = [0.0, -s["hand_depth"] / 2]
+
+    def run(stab=None, **vib):
+        r = simulate(alg, dev, op, dur, initial_position=start, passivity_controller=stab, record_every=1, **vib)
+        a = np.diff(r.velocity[:, 0]) * fs
+        a = a[int(round(settle * fs)):]
+        f, p = welch(a, fs, nperseg=int(min(a.size, round(0.1 * fs))))
+        band = (f >= lo) & (f <= hi)
+        return r, a, float(np.sum(p[band]) * (f[1] - f[0]))
+
+    vib = {"vibration": models, "vibration_mass": float(own.mass[0, 0])}
+    rows, ref = [], None
+    cases = [(name, _stabiliser(name, dev, pc_b), None) for name in STABILISER_NAMES]
+    for share in s["budgets"]:
+        cases.append((f"budget {share:.0%}", None, share))
+    for name, stab, share in cases:
+        extra = {} if share is None else {"vibration_budget": share * ref[2]}
+        r, a, power = run(stab, **vib, **extra)
+        if ref is None:  # the unstabilised run: the reference
+            ref = (a, power, r.vibration_supplied / dur)
+        _, _, alone = run(stab)
+        rows.append({"name": name, "label": "" if stab is None else stab.label,
+                     "vibration_power": r.vibration_supplied / dur,
+                     "port_power": -(r.totals["energy_x"] + r.totals["energy_z"]) / dur,
+                     "felt_rms": math.sqrt(power), "felt": power / ref[1], "felt_alone": alone / ref[1],
+                     "shape_db": spectral_difference(ref[0], a, fs, band=s["band"]),
+                     "active": int(r.passivity_control_samples), "cut": int(r.vibration_cut), "regime": r.regime})
+    return {"rows": rows, "parameters": s, "device": dev.name, "stiffness": float(pre.rated_stiffness)}
+
+
 CLEAN_STIFFNESS = {
     "preset": "touch",  # with the default hand
     "texture": (0.2e-3, 2e-3),  # m: a sinusoid's amplitude and period (chosen: a fine texture)
