@@ -25,9 +25,13 @@ haptex.servo.ServoLoop (the safety rules in C, hx_servo.c):
   (1 kHz lock-step; the emulator is Python in the same process, so it competes for the GIL);
 - haply-process: the same emulator in a process of its own, as the real service is: what the
   backend's lock-step loop does alone in its process;
-- haply-serial: Haply's own package (HaplyHardwareAPI) on a pseudo-terminal whose far end is the
-  serial emulator of tests/vendor_stubs.py (1 kHz lock-step, Python in the same process);
-- haply-serial-process: the same emulator in a process of its own, as a device is.
+- haply-serial: the C core's native servo thread speaking the Inverse3's serial exchanges itself
+  (hx_haply.c) on a pseudo-terminal whose far end is the serial emulator of
+  tests/vendor_stubs.py (1 kHz lock-step, Python in the same process: the device's answers take
+  the GIL there, not in the servo thread);
+- haply-serial-process: the same emulator in a process of its own, as a device is;
+- haply-serial-python: Haply's own package (HaplyHardwareAPI) from Python's loop, the emulator in
+  its own process.
 
 A deadline is missed when a sample comes more than 1.5 periods after the previous one. The
 first rows are the plain C loop of benchmarks/pace_reference.c (a thread waking at 1 and 4 kHz
@@ -67,7 +71,7 @@ from tests import vendor_stubs as vs  # noqa: E402
 SINE = hx.Extruded(hx.Sinusoid(0.2e-3, 2e-3))
 KINDS = ["simulated", "simulated-python", "forcedimension", "forcedimension-c-device", "forcedimension-python",
          "openhaptics", "openhaptics-c-device", "openhaptics-python", "haply", "haply-process", "haply-serial",
-         "haply-serial-process"]
+         "haply-serial-process", "haply-serial-python"]
 
 
 def backend(kind: str, root: Path, stubs: dict):
@@ -89,7 +93,7 @@ def backend(kind: str, root: Path, stubs: dict):
         b = open_backend("openhaptics")
         b.native = kind == "openhaptics"
         return b, behind
-    if kind.endswith("-process"):  # the emulator in its own process: its address on its first line
+    if kind.endswith("-process") or kind == "haply-serial-python":  # the emulator in its own process: its address
         emulator, where, spec = (("InverseSerial", "port", "haply-serial:") if kind.startswith("haply-serial") else
                                  ("InverseService", "address", "haply:"))
         code = ("import sys, time; sys.path.insert(0, %r); from tests import vendor_stubs as vs; "

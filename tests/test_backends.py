@@ -453,22 +453,42 @@ def test_hostile_answers_on_the_serial_port_are_faults_or_a_device_gone():
     emu = _inverse_serial(garble=bad)
     b = open_backend("haply-serial:" + emu.port, timeout=1.0)
     stats, trace = _loop(b).run(600 * b.period)
-    assert stats.faults == 2 and stats.ticks == 600
+    assert stats.driver == "native thread" and stats.faults == 2 and stats.ticks == 600
     assert np.all(trace["force"][400:402] == 0.0) and not np.all(np.isfinite(trace["position"][400:402]))
     assert emu.energised_after_close == 0 and np.all(emu.forces[-1] == 0.0)
-    # an answer with another header, or none: the package times out and returns zeros; the
-    # backend calls the device gone, in one line, and the run's last command is still zero
-    for answer in (b"\x0a" + bytes(24), None):
+    # an answer with another header, or none: the native thread (hx_haply.c) names which, the
+    # Python loop (through the package, which times out and returns zeros) calls the device gone;
+    # in one line, and the run's last command is still zero
+    for answer, native, what in ((b"\x0a" + bytes(24), True, r"an answer that is not the device's state \(at "
+                                  r"tick \d+\); zero force"), (None, True, r"no answer in 100 ms \(at tick \d+\)"),
+                                 (b"\x0a" + bytes(24), False, "no answer in 100 ms"), (None, False, "no answer in 100 ms")):
         emu = _inverse_serial(garble={321: answer})
         b = open_backend("haply-serial:" + emu.port)
-        with pytest.raises(DeviceError, match="stopped answering: no answer in 100 ms") as e:
-            _loop(b).run(600 * b.period)
+        with pytest.raises(DeviceError, match="stopped answering: " + what) as e:
+            _loop(b, native=native).run(600 * b.period)
         assert "\n" not in str(e.value) and np.all(emu.forces[-1] == 0.0)
         for _ in range(100):
             if not emu.connected:
                 break
             time.sleep(0.01)
         assert emu.energised_after_close == 0 and not emu.connected
+
+
+def test_the_native_thread_speaks_the_inverse3s_serial_exchanges():
+    # issue 56: the C core's thread (hx_haply.c) drives the emulated Inverse3 lock-step, paced by
+    # its answers: every tick's force reached the device as float32 rounded towards zero (never
+    # larger), the wall engaged and pushed back, and the thread's last command was zero. (Not
+    # compared with the Python loop's trace: the native run wakes the device on its own raw port,
+    # one exchange more, so the device's state is a period further on.)
+    emu = _inverse_serial()
+    b = open_backend("haply-serial:" + emu.port, timeout=1.0)
+    stats, trace = _loop(b, engage_ticks=5, engage_force=0.5, ramp_ticks=10).run(400 * b.period)
+    assert stats.driver == "native thread" and stats.ticks == 400 and stats.faults == 0
+    sent, f = np.array(emu.forces[-401:-1]), trace["force"]  # the run's 400 commands, before the closing zero
+    assert np.all(np.abs(sent) <= np.abs(f)) and np.all(np.abs(sent - f) <= 2.0 ** -23 * np.abs(f))
+    assert stats.engaged_at is not None and f[stats.engaged_at + 20:, 2].mean() > 0.0
+    assert np.all(emu.forces[-1] == 0.0) and emu.energised_after_close == 0
+    emu.stop()
 
 
 def test_a_wrong_serial_port_is_one_line_naming_what_to_check(tmp_path, capfd, monkeypatch):

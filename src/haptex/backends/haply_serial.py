@@ -8,6 +8,13 @@ velocity (m/s). :meth:`HaplySerialBackend.command` sends the force and keeps the
 :meth:`HaplySerialBackend.sample` returns it. The device's rate is measured when the backend
 is made, as the Inverse Service's is.
 
+The run itself, :meth:`HaplySerialBackend.drive_native`, goes through the C core's native servo
+thread (``hx_thread.c``), which speaks the same exchanges on the port itself (``hx_haply.c``):
+the package lets go of the port, the port is opened raw, the C core wakes the device, and each
+tick's force command and its answer are one exchange in C with no Python and no GIL, paced by
+the device's answers. The package stays the backend's way in and out (the wakeup's info, the
+probe of the rate, :meth:`~HaplySerialBackend.open` and :meth:`~HaplySerialBackend.close`).
+
 The package, as it behaves over a pseudo-terminal (version 0.1.13, C++ library 0.2.8; Haply
 does not publish the wire format, so this is what the package itself sends and accepts,
 probed here, not a specification):
@@ -40,7 +47,7 @@ import time
 import numpy as np
 
 from .._validation import fail
-from . import PROBE_EXCHANGES, DeviceError, Sample, model_as, probed_period
+from . import PRIORITY, PROBE_EXCHANGES, DeviceError, Sample, model_as, probed_period, wait_native
 
 PACKAGE_VERSION = "0.1.13"
 """The least HaplyHardwareAPI version taken (the first with ``set_read_timeout``)."""
@@ -186,6 +193,8 @@ class HaplySerialBackend:
         model_as(self, "haply-serial", preset, probed_period(stamps, f"haply-serial:{port}"))
         self.realtime = True
         self._last = None
+        self.native = os.name == "posix"
+        """The C core's servo thread can drive it (:meth:`drive_native`; POSIX serial ports)."""
 
     def _connect(self) -> None:
         """Open the port and wake the device up (the package sends forces only after that)."""
@@ -240,6 +249,73 @@ class HaplySerialBackend:
             pass
         finally:
             self._disconnect()
+
+    def drive_native(self, servo, core, n_ticks: int, on_tick=None, priority: int = PRIORITY) -> None:
+        """Run ``n_ticks`` ticks in the C core's servo thread, which speaks the Inverse3's serial
+        exchanges itself (``hx_haply.c``): the package lets go of the port, the port is opened
+        raw, the device woken and its state read with zero force, then each tick's force command
+        (float32, rounded towards zero) and its answer are one exchange in C with no GIL, paced
+        by the device's answers. The thread sends zero force at its end; this thread waits
+        (:func:`haptex.backends.wait_native`).
+
+        Parameters
+        ----------
+        servo : haptex.core._ext.Servo
+            The rules, their counts and the trace (:class:`haptex.servo.ServoLoop` makes it).
+        core : haptex.core._ext.Renderer
+            The renderer's C core (``Renderer._core``), of dimension 3.
+        n_ticks : int
+            Ticks to run.
+        on_tick : callable, optional
+            The dashboard, ``on_tick(k, servo)`` about every 50 ms.
+        priority : int, optional
+            The SCHED_FIFO priority to ask for (0: a plain thread), default
+            :data:`haptex.backends.PRIORITY`.
+
+        Raises
+        ------
+        KeyboardInterrupt
+            On Ctrl-C, once the thread has sent zero force.
+        DeviceError
+            If the device is not open, the port cannot be reopened, the device does not answer
+            the wakeup or a force command within the timeout, or answers with another message
+            (zero force sent, the thread ended; one line naming which).
+        """
+        import termios
+        import tty
+
+        from ..core import _ext
+
+        if self._dev is None:
+            raise DeviceError(f"device = {self.name!r} is not open: open it first")
+        self._disconnect()  # (the package closes the port with its last reference)
+        try:
+            fd = os.open(self.port, os.O_RDWR | os.O_NOCTTY)
+        except OSError as exc:
+            raise DeviceError(f"device = {self.name!r} went away: {self.port} cannot be reopened ({exc.strerror})") \
+                from None
+        try:
+            try:
+                tty.setraw(fd)
+                termios.tcflush(fd, termios.TCIOFLUSH)
+                _ext.haply_wakeup(fd, WAKEUP_TIMEOUT)
+                servo.start(core, ("haply", fd, self.timeout), int(n_ticks), False, int(priority), True, 0.0)
+            except (OSError, termios.error) as exc:
+                why = exc.args[-1] if exc.args else exc
+                raise DeviceError(f"device = {self.name!r} stopped answering: {why}; no force was sent") from None
+            try:
+                wait_native(servo, self.name, on_tick)
+            except DeviceError as exc:
+                why = servo.timing()["device_error"]
+                if not why:
+                    raise
+                if why == "no answer within the timeout":
+                    why = f"no answer in {self.timeout * 1e3:g} ms"
+                raise DeviceError(f"device = {self.name!r} stopped answering: {why} (at tick "
+                                  f"{servo.timing()['io_error_tick']}); zero force was sent and the servo thread "
+                                  "ended") from exc
+        finally:
+            os.close(fd)
 
     def sample(self) -> Sample:
         """The Inverse3's state in its last answer: position (m), velocity (m/s)."""

@@ -1056,6 +1056,7 @@ typedef struct {
     int (*dhd_get_position)(double *, double *, double *, char);
     int (*dhd_set_force)(double, double, double, char);
     char dhd_id;
+    hx_haply haply; /* an Inverse3 on its serial port (hx_haply.c), driven by the thread */
 } ServoObject;
 
 static double monotonic(void) { return hx_now(); }
@@ -1407,11 +1408,29 @@ static int dhd_write(void *ctx, const double f[3])
     return self->dhd_set_force(f[0], f[1], f[2], self->dhd_id) < 0;
 }
 
+static const char *haply_error(int rc)
+{
+    switch (rc) {
+    case 0:
+        return "";
+    case HX_HAPLY_EWRITE:
+        return "the port refused a write";
+    case HX_HAPLY_EREAD:
+        return "the port failed a read";
+    case HX_HAPLY_ETIMEOUT:
+        return "no answer within the timeout";
+    default:
+        return "an answer that is not the device's state";
+    }
+}
+
 PyDoc_STRVAR(servo_start_doc,
              "start(renderer, device, n_ticks, paced, priority, lock_memory, spin)\n--\n\n"
              "Start the native servo thread: n_ticks ticks of renderer (a Renderer core) under the rules, on device: a "
-             "Plant (the simulated device) or ('dhd', dhdGetPosition's address, dhdSetForce's address, device id) "
-             "(3-D). paced: one tick a period on the clock (else as fast as it goes); priority: SCHED_FIFO priority "
+             "Plant (the simulated device), ('dhd', dhdGetPosition's address, dhdSetForce's address, device id) "
+             "(3-D) or ('haply', fd, timeout): an Inverse3 woken on the raw serial port fd, answering each force "
+             "command within timeout s (3-D; a first zero-force exchange reads its state before the thread "
+             "starts, OSError if it fails). paced: one tick a period on the clock (else as fast as it goes); priority: SCHED_FIFO priority "
              "to ask for (0: none); lock_memory: mlockall for the run where allowed; spin (s): sleep until this long "
              "before a tick, then read the clock. Returns at once; the thread "
              "sends zero force at its end, on stop(), or when the device fails. join() waits for it.");
@@ -1470,8 +1489,33 @@ static PyObject *Servo_start(ServoObject *self, PyObject *const *args, Py_ssize_
         self->th.io.read = dhd_read;
         self->th.io.write = dhd_write;
         self->th.io.ctx = self;
+    } else if (PyTuple_Check(args[1]) && PyTuple_GET_SIZE(args[1]) == 3 && self->s.dim == 3 &&
+               PyUnicode_Check(PyTuple_GET_ITEM(args[1], 0)) &&
+               PyUnicode_CompareWithASCIIString(PyTuple_GET_ITEM(args[1], 0), "haply") == 0) {
+        const double zero[3] = {0.0, 0.0, 0.0};
+        long fd = PyLong_AsLong(PyTuple_GET_ITEM(args[1], 1));
+        double timeout = PyFloat_AsDouble(PyTuple_GET_ITEM(args[1], 2));
+        int xrc;
+        if (PyErr_Occurred())
+            return NULL;
+        if (fd < 0 || fd > 1L << 30 || !(timeout > 0.0 && timeout <= 1.0)) {
+            PyErr_SetString(PyExc_ValueError, "haply: a file descriptor >= 0 and a timeout in (0, 1] s");
+            return NULL;
+        }
+        memset(&self->haply, 0, sizeof self->haply);
+        self->haply.fd = (int)fd;
+        self->haply.timeout = timeout;
+        Py_BEGIN_ALLOW_THREADS
+        xrc = hx_haply_exchange(&self->haply, zero);
+        Py_END_ALLOW_THREADS
+        if (xrc != 0)
+            return PyErr_Format(PyExc_OSError, "haply: the first zero-force exchange failed (%s)", haply_error(xrc));
+        self->th.io.read = hx_haply_read;
+        self->th.io.write = hx_haply_write;
+        self->th.io.ctx = &self->haply;
     } else {
-        PyErr_SetString(PyExc_TypeError, "device must be a Plant or ('dhd', get_position, set_force, id) (3-D)");
+        PyErr_SetString(PyExc_TypeError,
+                        "device must be a Plant, ('dhd', get_position, set_force, id) or ('haply', fd, timeout) (3-D)");
         return NULL;
     }
     self->th.servo = &self->s;
@@ -1519,18 +1563,19 @@ static PyObject *Servo_snapshot(ServoObject *self, PyObject *unused)
 PyDoc_STRVAR(servo_timing_doc, "timing()\n--\n\nThe ticks' timing as counted by every driver: a dict of work_max, "
                                "work_p999, jitter_max, jitter_p999 (s; jitter |dt - T|, dt the time between samples; "
                                "quantiles to 100 ns), overruns; and for the native thread fifo, locked (what it got) "
-                               "and io_error (0, 1 the device's read failed, 2 its write) at io_error_tick.");
+                               "and io_error (0, 1 the device's read failed, 2 its write) at io_error_tick; device_error: an Inverse3's "
+                               "failure in words ('' for none or another device).");
 
 static PyObject *Servo_timing(ServoObject *self, PyObject *unused)
 {
     (void)unused;
-    return Py_BuildValue("{s:d,s:d,s:d,s:d,s:l,s:O,s:O,s:i,s:l}", "work_max", self->ticks.work_max, "work_p999",
+    return Py_BuildValue("{s:d,s:d,s:d,s:d,s:l,s:O,s:O,s:i,s:l,s:s}", "work_max", self->ticks.work_max, "work_p999",
                          fmin(hx_ticks_quantile(self->ticks.work, 0.999), self->ticks.work_max), "jitter_max",
                          self->ticks.jitter_max, "jitter_p999",
                          fmin(hx_ticks_quantile(self->ticks.jitter, 0.999), self->ticks.jitter_max), "overruns",
                          self->ticks.overruns, "fifo", self->th.fifo ? Py_True : Py_False, "locked",
                          self->th.locked ? Py_True : Py_False, "io_error", self->th.io_error, "io_error_tick",
-                         self->th.io_error_tick);
+                         self->th.io_error_tick, "device_error", haply_error(self->haply.error));
 }
 
 static PyObject *Servo_get_engaged_at(ServoObject *self, void *closure)
@@ -2359,6 +2404,41 @@ static PyObject *presliding_plane(PyObject *self, PyObject *const *args, Py_ssiz
 
 static int lsf_valid(const double *w, int n);
 
+PyDoc_STRVAR(haply_wakeup_doc, "haply_wakeup(fd, timeout)\n--\n\nWake the Inverse3 on the raw serial port fd "
+                               "(hx_haply.c): 0x0A sent, and the 21 bytes after its 0x0B answer returned (id uint16, "
+                               "model, hardware, firmware uint8, a 16-byte UUID); OSError naming the failure when no "
+                               "answer comes within timeout s (0-10) or it is not the wakeup's. The GIL is released.");
+
+static PyObject *haply_wakeup(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    hx_haply h;
+    unsigned char info[21];
+    long fd;
+    double timeout;
+    int rc;
+    (void)self;
+    if (nargs != 2) {
+        PyErr_SetString(PyExc_TypeError, "haply_wakeup takes fd, timeout");
+        return NULL;
+    }
+    fd = PyLong_AsLong(args[0]);
+    timeout = PyFloat_AsDouble(args[1]);
+    if (PyErr_Occurred())
+        return NULL;
+    if (fd < 0 || fd > 1L << 30 || !(timeout > 0.0 && timeout <= 10.0)) {
+        PyErr_SetString(PyExc_ValueError, "haply_wakeup: a file descriptor >= 0 and a timeout in (0, 10] s");
+        return NULL;
+    }
+    memset(&h, 0, sizeof h);
+    h.fd = (int)fd;
+    Py_BEGIN_ALLOW_THREADS
+    rc = hx_haply_wakeup(&h, timeout, info);
+    Py_END_ALLOW_THREADS
+    if (rc != 0)
+        return PyErr_Format(PyExc_OSError, "haply: the wakeup failed (%s)", haply_error(rc));
+    return PyBytes_FromStringAndSize((const char *)info, sizeof info);
+}
+
 PyDoc_STRVAR(vibration_doc, "vibration(v, speed, force, out, seed)\n--\n\nThe data-driven vibration (m/s^2) of "
                             "model set v (hx_vibration.c's layout) at each sample's speed (m/s) and force (N) into out "
                             "(float64 (N,) each), from a fresh state seeded with seed; the GIL released. Returns "
@@ -2493,6 +2573,7 @@ static int lsf_valid(const double *w, int n)
 static PyMethodDef methods[] = {
     {"field", (PyCFunction)(void (*)(void))field, METH_FASTCALL, field_doc},
     {"vibration", (PyCFunction)(void (*)(void))vibration, METH_FASTCALL, vibration_doc},
+    {"haply_wakeup", (PyCFunction)(void (*)(void))haply_wakeup, METH_FASTCALL, haply_wakeup_doc},
     {"normal", (PyCFunction)(void (*)(void))normal, METH_FASTCALL, normal_doc},
     {"lsf_to_poly", (PyCFunction)(void (*)(void))lsf_to_poly, METH_FASTCALL, lsf_to_poly_doc},
     {"texture", (PyCFunction)(void (*)(void))texture, METH_FASTCALL, texture_doc},

@@ -50,6 +50,29 @@ void hx_plant_read(const hx_plant *d, double p[3]);
  * 0, or -1 for a force that is not finite or a state that is no longer finite. */
 int hx_plant_write(hx_plant *d, const double f[3]);
 
+/* ---- Haply's Inverse3 over its serial port (hx_haply.c) ------------------------------- */
+
+enum { HX_HAPLY_EWRITE = 1, HX_HAPLY_EREAD = 2, HX_HAPLY_ETIMEOUT = 3, HX_HAPLY_EGARBLED = 4 };
+
+typedef struct {
+    int fd;              /* the port, opened raw by the caller */
+    double timeout;      /* s: the longest wait for an answer */
+    double p[3], v[3];   /* the last answer's position (m) and velocity (m/s) */
+    double sent[3];      /* the last force sent (N, as float32 rounded towards zero) */
+    long exchanges;      /* force commands answered */
+    int error;           /* the last failure (HX_HAPLY_E*), 0: none */
+} hx_haply;
+
+/* float32 of f rounded towards zero (0 for a non-finite f): never larger than asked. */
+float hx_haply_f32(double f);
+/* The wakeup: 0, its answer's 21 bytes after 0x0B in info; or HX_HAPLY_E*. */
+int hx_haply_wakeup(hx_haply *h, double timeout, unsigned char info[21]);
+/* One force command (N) and its answer, kept in p and v: 0 or HX_HAPLY_E* (also in error). */
+int hx_haply_exchange(hx_haply *h, const double f[3]);
+/* hx_io's read and write over an hx_haply (ctx): the last answer's position; an exchange. */
+int hx_haply_read(void *ctx, double p[3]);
+int hx_haply_write(void *ctx, const double f[3]);
+
 /* ---- the native servo thread ---------------------------------------------------------- */
 
 /* a device as the thread sees it: read the position (m, haptex's frame [x, y, z]) and write

@@ -1,0 +1,184 @@
+/*
+ * Haply's Inverse3 over its serial port, for the native servo thread (hx_thread): the
+ * exchanges haptex.backends.haply_serial documents, as Haply's own package (HaplyHardwareAPI)
+ * sends and accepts them (probed over a pseudo-terminal: Haply does not publish the format):
+ *
+ *   wakeup:         0x0A                      -> 0x0B, id (uint16), model, hardware, firmware
+ *                                                (uint8 each), a 16-byte UUID
+ *   force command:  0x2A, f_x, f_y, f_z (float32, N) -> 0x2B, position (3 float32, m),
+ *                                                        velocity (3 float32, m/s)
+ *
+ * little-endian. Lock-step: each command is answered with the device's state, so a tick's
+ * write is one exchange and its next read is that answer. An answer that does not come within
+ * the timeout, or that starts with another byte, fails the exchange (the thread then stops and
+ * commands zero); a state that is not finite is passed on (the servo's rules count the fault
+ * and send zero). Forces are rounded towards zero to float32 (never larger than asked). The
+ * port is the caller's (opened raw); nothing here allocates.
+ */
+#define _GNU_SOURCE
+#include "hx_host.h"
+
+#include <errno.h>
+#include <math.h>
+#include <poll.h>
+#include <stdint.h>
+#include <string.h>
+#include <unistd.h>
+
+enum { HX_HAPLY_WAKE = 0x0A, HX_HAPLY_AWAKE = 0x0B, HX_HAPLY_FORCE = 0x2A, HX_HAPLY_STATE = 0x2B };
+
+static int is_little_endian(void)
+{
+    const uint16_t one = 1;
+    return *(const unsigned char *)&one == 1;
+}
+
+static void put_f32(unsigned char *out, float v)
+{
+    unsigned char b[4];
+    memcpy(b, &v, 4);
+    if (!is_little_endian()) {
+        unsigned char t = b[0];
+        b[0] = b[3];
+        b[3] = t;
+        t = b[1];
+        b[1] = b[2];
+        b[2] = t;
+    }
+    memcpy(out, b, 4);
+}
+
+static float get_f32(const unsigned char *in)
+{
+    unsigned char b[4];
+    float v;
+    memcpy(b, in, 4);
+    if (!is_little_endian()) {
+        unsigned char t = b[0];
+        b[0] = b[3];
+        b[3] = t;
+        t = b[1];
+        b[1] = b[2];
+        b[2] = t;
+    }
+    memcpy(&v, b, 4);
+    return v;
+}
+
+float hx_haply_f32(double f)
+{
+    float g;
+    if (!isfinite(f))
+        return 0.0f;
+    g = (float)f;
+    if (fabs((double)g) > fabs(f))
+        g = nextafterf(g, 0.0f);
+    return g;
+}
+
+/* write all n bytes, or fail */
+static int send_all(int fd, const unsigned char *b, size_t n)
+{
+    while (n > 0) {
+        ssize_t w = write(fd, b, n);
+        if (w < 0) {
+            if (errno == EINTR || errno == EAGAIN)
+                continue;
+            return HX_HAPLY_EWRITE;
+        }
+        b += w;
+        n -= (size_t)w;
+    }
+    return 0;
+}
+
+/* read exactly n bytes before the deadline (monotonic s), or fail */
+static int recv_all(int fd, unsigned char *b, size_t n, double deadline)
+{
+    while (n > 0) {
+        struct pollfd pfd;
+        double left = deadline - hx_now();
+        ssize_t r;
+        int rc;
+        if (left <= 0.0)
+            return HX_HAPLY_ETIMEOUT;
+        pfd.fd = fd;
+        pfd.events = POLLIN;
+        pfd.revents = 0;
+        rc = poll(&pfd, 1, (int)ceil(left * 1e3));
+        if (rc < 0) {
+            if (errno == EINTR)
+                continue;
+            return HX_HAPLY_EREAD;
+        }
+        if (rc == 0)
+            continue; /* (the deadline is checked above) */
+        if (pfd.revents & (POLLERR | POLLNVAL))
+            return HX_HAPLY_EREAD;
+        r = read(fd, b, n);
+        if (r < 0) {
+            if (errno == EINTR || errno == EAGAIN)
+                continue;
+            return HX_HAPLY_EREAD;
+        }
+        if (r == 0) { /* hung up: nothing more will come */
+            if (pfd.revents & POLLHUP)
+                return HX_HAPLY_EREAD;
+            continue;
+        }
+        b += r;
+        n -= (size_t)r;
+    }
+    return 0;
+}
+
+int hx_haply_wakeup(hx_haply *h, double timeout, unsigned char info[21])
+{
+    unsigned char wake = HX_HAPLY_WAKE, head;
+    int rc = send_all(h->fd, &wake, 1);
+    double deadline = hx_now() + timeout;
+    if (rc != 0)
+        return rc;
+    if ((rc = recv_all(h->fd, &head, 1, deadline)) != 0)
+        return rc;
+    if (head != HX_HAPLY_AWAKE)
+        return HX_HAPLY_EGARBLED;
+    return recv_all(h->fd, info, 21, deadline);
+}
+
+int hx_haply_exchange(hx_haply *h, const double f[3])
+{
+    unsigned char cmd[13], ans[25];
+    int i, rc;
+    double deadline;
+    cmd[0] = HX_HAPLY_FORCE;
+    for (i = 0; i < 3; i++) {
+        float g = hx_haply_f32(f[i]);
+        h->sent[i] = (double)g;
+        put_f32(cmd + 1 + 4 * i, g);
+    }
+    if ((rc = send_all(h->fd, cmd, sizeof cmd)) != 0)
+        return h->error = rc;
+    deadline = hx_now() + h->timeout;
+    if ((rc = recv_all(h->fd, ans, 1, deadline)) != 0)
+        return h->error = rc;
+    if (ans[0] != HX_HAPLY_STATE)
+        return h->error = HX_HAPLY_EGARBLED;
+    if ((rc = recv_all(h->fd, ans + 1, 24, deadline)) != 0)
+        return h->error = rc;
+    for (i = 0; i < 3; i++) {
+        h->p[i] = (double)get_f32(ans + 1 + 4 * i);
+        h->v[i] = (double)get_f32(ans + 13 + 4 * i);
+    }
+    h->exchanges++; /* (a non-finite state is passed on: the servo's rules count it a fault, zero force) */
+    return 0;
+}
+
+int hx_haply_read(void *ctx, double p[3])
+{
+    hx_haply *h = ctx;
+    memcpy(p, h->p, sizeof h->p);
+    return h->exchanges > 0 ? 0 : HX_HAPLY_EREAD; /* (a state must have been answered) */
+}
+
+int hx_haply_write(void *ctx, const double f[3]) { return hx_haply_exchange(ctx, f); }
