@@ -342,3 +342,37 @@ def test_f_on_an_object_takes_the_pages_friction_and_presliding():
                            presliding=0.5e-3, max_penetration=1e-3)
     p = np.array([[0.3e-3, 0.2e-3, -0.4e-3]])
     np.testing.assert_array_equal(alg.force(p, 0.2e-3), ref.force(p, 0.2e-3))
+
+
+def test_the_page_shows_a_model_sets_spectrum_where_picked(tmp_path):
+    """Issue 54's explorer view of a data-driven texture: the example set's four operating points
+    and two triangles drawn; a click on the (speed, force) plane draws the library's interpolated
+    model's spectrum (ModelSet.model_at(...).psd, in dB) and its rms; a click outside the hull is
+    moved to it and said; an uploaded file replaces the set, a broken one is one line and the
+    previous set stays."""
+    import base64
+
+    from bokeh.document import Document
+
+    from haptex import datadriven as dd
+    from haptex.explore import app
+    from haptex.experiments import vibration_models
+
+    page = app(Document())
+    ms = vibration_models()
+    assert len(page.src_vib_points.data["speed"]) == 4 and len(page.src_vib_edges.data["xs"]) == 2
+    page._vibration_pick(0.03, 0.4)  # (what a Tap at 30 mm/s, 0.4 N calls)
+    want = 10 * np.log10(ms.model_at(0.03, 0.4).psd(page.src_vib_psd.data["f"]))
+    np.testing.assert_allclose(page.src_vib_psd.data["db"], want, rtol=1e-12)
+    rms = math.sqrt(ms.model_at(0.03, 0.4).output_variance())
+    assert f"{rms:.3g} m/s² rms" in page.d_vibration.text and "hull" not in page.d_vibration.text
+    page._vibration_pick(0.3, 0.4)  # 300 mm/s: beyond the set's 100 mm/s
+    assert "moved to the hull of the models" in page.d_vibration.text and page.vibration_pick[0] == pytest.approx(0.1)
+    # an upload: a set of two models on one line (no triangles), then a file that is not a model set
+    one = dd.ModelSet([dd.ArmaModel([1.0, -0.5], [1.0], 1.0, 1.0, 1000.0, s, 1.0) for s in (0.01, 0.2)], name="line")
+    data = one.write(tmp_path / "line.json").read_bytes()
+    page._vibration_file("line.json", base64.b64encode(data).decode())  # (what the file widget's change calls)
+    assert page.vibration_models.name == "line" and len(page.src_vib_points.data["speed"]) == 2
+    assert "line: at" in page.d_vibration.text and page.d_message.text.endswith("></span>")
+    page._vibration_file("notes.txt", base64.b64encode(b"not a model set").decode())
+    assert "not allowed" in page.d_message.text and page.vibration_models.name == "line"

@@ -254,6 +254,26 @@ def test_a_mesh_uploaded_in_the_page_carries_the_texture(page, tmp_path):
     page.screenshot(path=str(tmp_path / "page-mesh.png"), full_page=True)
 
 
+def test_a_click_on_the_model_sets_plane_shows_its_spectrum(page, tmp_path):
+    # issue 54: the example model set's view; a click at 30 mm/s, 0.4 N (mapped through the
+    # plot's own scales) picks that operating point: the readout gives the library's rms there
+    import math
+
+    from haptex.experiments import vibration_models
+
+    assert "at 50 mm/s, 0.5 N" in _text(page, "#vibration-readout")
+    page.locator("#vibration-models").scroll_into_view_if_needed()
+    (x, y), = page.evaluate(_TO_SCREEN, ["vibration-models", [[30.0, 0.4]]])
+    page.mouse.click(x, y)
+    shown = _wait_text(page, "#vibration-readout", lambda t: "at 50 mm/s" not in t)
+    import re
+
+    speed, force, rms = (float(v) for v in re.search(r"at ([\d.]+) mm/s, ([\d.]+) N: ([\d.]+) m/s", shown).groups())
+    assert speed == pytest.approx(30.0, abs=1.5) and force == pytest.approx(0.4, abs=0.03)
+    assert rms == pytest.approx(math.sqrt(vibration_models().model_at(speed / 1e3, force).output_variance()), rel=0.01)
+    page.locator("#vibration-spectrum").screenshot(path=str(tmp_path / "vibration-spectrum.png"))
+
+
 def test_the_server_leaves_no_worker_and_no_folder_behind(browser):
     """Issue 56: each served session computes in a worker process of its own, and the sessions'
     temporary folders live in one folder of the server's (27 empty ones were left behind after

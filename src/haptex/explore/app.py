@@ -5,7 +5,9 @@ control change rebuilds a :class:`~haptex.explore.model.Scene` and draws what
 Stable element ids (for tests and scripts): ``#algorithm``, ``#texture``, ``#stiffness``,
 ``#device``, ``#hand``, ``#q-value``, ``#loop-energy``, ``#fig3-loop``, ``#run-scan``,
 ``#scan-verdict``, ``#message``, ``#field-view``, ``#gain-view``, ``#curl-view``,
-``#scan-view``, ``#height-view``.
+``#scan-view``, ``#height-view``; the data-driven texture's ``#vibration-file``,
+``#vibration-models`` (its operating points: click to pick one), ``#vibration-spectrum`` and
+``#vibration-readout``.
 """
 
 from __future__ import annotations
@@ -171,6 +173,7 @@ class ExplorerPage:
 
     def __init__(self, doc, settings: model.Settings | None = None, offload: bool = False):
         from bokeh.layouts import column, row
+        from bokeh.events import Tap
         from bokeh.models import (Arrow, Button, ColumnDataSource, Div, FileInput, FreehandDrawTool, Legend,
                                   LinearColorMapper, PolyDrawTool, Range1d, Select, TextInput, VeeHead)
         from bokeh.palettes import Magma256, RdBu11, Viridis256, interp_palette
@@ -322,18 +325,46 @@ class ExplorerPage:
                                color_mapper=self.surface_q_mapper)
         self.f_surface_q.add_layout(_colour_bar(self.surface_q_mapper, "‖J‖₂/κ0"), "right")
 
+        # --- a data-driven texture: a model set over (speed, force), its spectrum where picked ---
+        self.vibration_models = model.example_models()
+        self.vibration_pick = (0.05, 0.5)  # m/s, N (chosen: inside the example set)
+        self.w_vibration = FileInput(title="vibration models (haptex JSON, HaTT XML)", width=220,
+                                     html_id="vibration-file")
+        self.w_vibration.on_change("value", lambda a, o, n: self.doc.add_next_tick_callback(self._vibration_upload))
+        self.src_vib_points = ColumnDataSource(dict(speed=[], force=[]))
+        self.src_vib_edges = ColumnDataSource(dict(xs=[], ys=[]))
+        self.src_vib_pick = ColumnDataSource(dict(speed=[], force=[]))
+        self.src_vib_psd = ColumnDataSource(dict(f=[], db=[]))
+        self.f_vib_models = figure(title="vibration models: operating points (click to pick one)", width=460,
+                                   height=300, x_axis_label="speed (mm/s)", y_axis_label="normal force (N)",
+                                   tools="pan,wheel_zoom,reset", html_id="vibration-models", name="vibration-models")
+        self.f_vib_models.multi_line("xs", "ys", source=self.src_vib_edges, color="#999", line_width=1)
+        self.f_vib_models.scatter("speed", "force", source=self.src_vib_points, size=8, color="#1f77b4")
+        self.f_vib_models.scatter("speed", "force", source=self.src_vib_pick, marker="cross", size=16,
+                                  line_width=3, color="#d62728")
+        self.f_vib_models.on_event(Tap, lambda event: self._vibration_pick(event.x / MM, event.y))
+        self.f_vib_spectrum = figure(title="the interpolated model's spectrum", width=460, height=300,
+                                     x_axis_label="frequency (Hz)", y_axis_label="PSD (dB re 1 (m/s²)²/Hz)",
+                                     tools="pan,wheel_zoom,reset", html_id="vibration-spectrum",
+                                     name="vibration-spectrum")
+        self.f_vib_spectrum.line("f", "db", source=self.src_vib_psd, line_width=2, color="#1f77b4")
+        self.d_vibration = Div(text="vibration: " + _span("vibration-readout", "–"), width=460,
+                               html_id="vibration-box")
+
         texture_box = column(self.w_texture, self.w_amplitude, self.w_period, self.w_terms, self.w_noise, self.w_file,
                              self.w_spacing, self.w_x_unit, self.w_height_unit, self.w_pixel, self.w_hrange,
                              self.w_section, self.w_object, self.w_mesh, self.w_uv_scale)
         controls = column(texture_box, self.w_algorithm, self.w_stiffness, self.w_dmax, self.w_friction,
                           self.w_presliding, self.w_device, self.w_hand, self.w_speed, self.w_duration,
-                          row(self.b_fig3, self.b_clear), self.b_scan, width=240)
+                          row(self.b_fig3, self.b_clear), self.b_scan, self.w_vibration, width=240)
         readouts = column(self.d_q, self.d_loop, self.d_scan, self.d_timing)
         views = column(row(self.f_field, self.f_gain), row(self.f_curl, column(readouts, self.f_scan)),
-                       row(self.f_heights, self.f_surface_q))
+                       row(self.f_heights, self.f_surface_q), self.d_vibration,
+                       row(self.f_vib_models, self.f_vib_spectrum))
         doc.add_root(column(self.d_message, row(controls, views)))
         doc.title = "haptex explore"
         self._show_controls()
+        self._vibration_pick(*self.vibration_pick)
         if offload:
             # served: the first computation starts on the session's first tick. Its result is handed
             # back from the worker thread by doc.add_next_tick_callback, which is safe only once the
@@ -453,6 +484,62 @@ class ExplorerPage:
 
         self._recompute(on_fail=undo)
         self._show_controls()
+
+    def _vibration_pick(self, speed: float, force: float) -> None:
+        """Draw the model set and the spectrum of its model at (``speed`` m/s, ``force`` N), the
+        point moved to the set's hull when outside it (said in the readout); cheap enough to
+        compute in the callback (one interpolation and 512 values of a spectrum)."""
+        try:
+            v = model.vibration(self.vibration_models, speed, force)
+        except ParameterError as exc:
+            self._message(str(exc))
+            return
+        self.vibration_pick = (v.speed, v.force)
+        self.src_vib_points.data = dict(speed=v.speeds * MM, force=v.forces)
+        self.src_vib_edges.data = dict(xs=[e[0] * MM for e in v.edges], ys=[e[1] for e in v.edges])
+        self.src_vib_pick.data = dict(speed=[v.speed * MM], force=[v.force])
+        self.src_vib_psd.data = dict(f=v.frequency, db=10 * np.log10(np.maximum(v.psd, 1e-300)))
+        where = " (moved to the hull of the models)" if v.clamped else ""
+        text = (f"{v.name or 'model set'}: at {v.speed * MM:.4g} mm/s, {v.force:.4g} N{where}: "
+                f"{v.rms:.3g} m/s² rms")
+        self.d_vibration.text = "vibration: " + _span("vibration-readout", text)
+
+    def _vibration_upload(self) -> None:
+        """The model file's widget changed: its name and contents to :meth:`_vibration_file`."""
+        w = self.w_vibration
+        try:
+            name = w.filename or "upload"
+        except Exception:  # bokeh's UnsetValueError: no name was sent
+            name = "upload"
+        self._vibration_file(name, w.value or "")
+
+    def _vibration_file(self, name: str, value: str) -> None:
+        """A model file arrived (``value`` its base64 contents): read it
+        (:func:`haptex.datadriven.read_models`), within the upload budgets, and show it at the
+        pick (moved into its hull); a refused file is one line, the previous set kept."""
+        from ..datadriven import read_models
+
+        name = os.path.basename(name) or "upload"
+        size = len(value) * 3 // 4
+        if size > UPLOAD_BYTES or self.uploaded + size > SESSION_UPLOAD_BYTES:
+            self._message(f"file = {name!r} is not allowed: {size / 2**20:.3g} MiB; an upload may carry at most "
+                          f"{UPLOAD_BYTES / 2**20:.0f} MiB and a session {SESSION_UPLOAD_BYTES / 2**20:.0f} MiB in all")
+            return
+        path = os.path.join(self.tmpdir, "models-" + name)
+        try:
+            with open(path, "wb") as fh:
+                fh.write(base64.b64decode(value))
+            self.uploaded += size
+            models = read_models(path)
+        except ParameterError as exc:
+            self._message(str(exc))
+            return
+        except (OSError, ValueError) as exc:
+            self._message(f"file = {name!r} could not be received: {exc}")
+            return
+        self.vibration_models = models
+        self._message("")
+        self._vibration_pick(*self.vibration_pick)
 
     def _run(self, what: str, fn, apply, on_fail=None) -> None:
         """Compute ``fn()`` and pass its result to ``apply`` (on the document's thread); a

@@ -574,3 +574,80 @@ def scan(scene: Scene) -> Scan:
         verdict = f"not oscillating (tail amplitude {osc.amplitude * 1e3:.3g} mm, decay ratio {osc.decay_ratio:.3g})"
     return Scan(time=res.time, energy=energy, oscillation=osc, energy_balance_error=res.energy_balance_error,
                 verdict=verdict)
+
+
+# --- a data-driven texture: a model set over (speed, force) ------------------------------
+VIBRATION_POINTS = 512
+"""Frequencies at which the picked model's spectrum is drawn, 0 to the set's Nyquist rate."""
+
+
+@dataclass
+class Vibration:
+    """What the explorer draws of a model set: its operating points and triangles, and the
+    spectrum of the model interpolated at the picked (speed, force).
+
+    Attributes
+    ----------
+    speeds, forces : ndarray, shape (n,)
+        The models' operating points (m/s, N).
+    edges : list of (ndarray, ndarray)
+        Each triangle's closed outline (speed m/s, force N), or the polyline of a set on one line.
+    speed, force : float
+        The picked operating point (m/s, N), moved to the hull when outside it.
+    clamped : bool
+        The pick lay outside the hull.
+    frequency, psd : ndarray, shape (VIBRATION_POINTS,)
+        Hz, and the one-sided PSD ((m/s²)²/Hz) of :meth:`haptex.datadriven.ModelSet.model_at`.
+    rms : float
+        The interpolated model's RMS acceleration (m/s²).
+    name : str
+        The set's name.
+    """
+
+    speeds: np.ndarray
+    forces: np.ndarray
+    edges: list
+    speed: float
+    force: float
+    clamped: bool
+    frequency: np.ndarray
+    psd: np.ndarray
+    rms: float
+    name: str
+
+
+def vibration(models, speed: float, force: float) -> Vibration:
+    """The model set's view at (``speed`` m/s, ``force`` N): the library's interpolation
+    (:meth:`haptex.datadriven.ModelSet.weights` and ``model_at``) and the model's spectrum
+    (:meth:`haptex.datadriven.ArmaModel.psd`).
+
+    Raises
+    ------
+    ParameterError
+        For a speed or force that is not finite.
+    """
+    s = float(speed)
+    f = float(force)
+    if not (math.isfinite(s) and math.isfinite(f)):
+        raise fail("speed", f"{speed}, force = {force}", "a finite speed (m/s) and force (N): click on the plane")
+    speeds = np.array([m.speed for m in models.models])
+    forces = np.array([m.force for m in models.models])
+    idx, lam, clamped = models.weights(s, f)
+    at_s, at_f = float(np.dot(lam, speeds[idx])), float(np.dot(lam, forces[idx]))
+    model = models.model_at(s, f)
+    tri = models.triangles
+    if tri is not None and len(tri):
+        edges = [(speeds[list(t) + [t[0]]], forces[list(t) + [t[0]]]) for t in np.asarray(tri)]
+    else:
+        edges = [(speeds, forces)]
+    freq = np.linspace(0.0, models.sample_rate / 2, VIBRATION_POINTS)
+    return Vibration(speeds, forces, edges, at_s, at_f, bool(clamped), freq, model.psd(freq),
+                     math.sqrt(model.output_variance()), models.name)
+
+
+def example_models():
+    """The explorer's model set until one is loaded: :func:`haptex.experiments.vibration_models`
+    (four AR(4) models at 1 kHz, chosen)."""
+    from ..experiments import vibration_models
+
+    return vibration_models()
