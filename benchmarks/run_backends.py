@@ -30,6 +30,11 @@ haptex.servo.ServoLoop (the safety rules in C, hx_servo.c):
   tests/vendor_stubs.py (1 kHz lock-step, Python in the same process: the device's answers take
   the GIL there, not in the servo thread);
 - haply-serial-process: the same emulator in a process of its own, as a device is;
+- haply-serial-c-device: the native thread against an Inverse3 in C behind the pseudo-terminal
+  (tests/stubs/inverse3_stub.c, its own process: a 0.1 kg mass held by a 200 N/m, 2 N s/m hand
+  1 mm inside, each answer a period after the last on the monotonic clock, at SCHED_FIFO where
+  allowed: a device is hardware the host's load does not slow): nothing on either side of the
+  port is Python;
 - haply-serial-python: Haply's own package (HaplyHardwareAPI) from Python's loop, the emulator in
   its own process.
 
@@ -71,7 +76,7 @@ from tests import vendor_stubs as vs  # noqa: E402
 SINE = hx.Extruded(hx.Sinusoid(0.2e-3, 2e-3))
 KINDS = ["simulated", "simulated-python", "forcedimension", "forcedimension-c-device", "forcedimension-python",
          "openhaptics", "openhaptics-c-device", "openhaptics-python", "haply", "haply-process", "haply-serial",
-         "haply-serial-process", "haply-serial-python"]
+         "haply-serial-process", "haply-serial-c-device", "haply-serial-python"]
 
 
 def backend(kind: str, root: Path, stubs: dict):
@@ -93,6 +98,18 @@ def backend(kind: str, root: Path, stubs: dict):
         b = open_backend("openhaptics")
         b.native = kind == "openhaptics"
         return b, behind
+    if kind == "haply-serial-c-device":  # the Inverse3 in C, its port on its first line
+        exe = root / "inverse3"
+        subprocess.run([vs.compiler(), "-std=c99", "-O2", "-o", str(exe), str(Path(__file__).resolve().parents[1] / "tests"
+                        / "stubs" / "inverse3_stub.c")], check=True)
+        proc = subprocess.Popen([str(exe)], stdout=subprocess.PIPE, text=True)
+        try:  # a device is its own hardware, which the host's load does not slow: the stub at SCHED_FIFO
+            import os
+
+            os.sched_setscheduler(proc.pid, os.SCHED_FIFO, os.sched_param(70))
+        except (AttributeError, PermissionError, OSError):
+            print("(the Inverse3 stub runs at normal priority: SCHED_FIFO was refused)", flush=True)
+        return open_backend("haply-serial:" + proc.stdout.readline().strip()), proc
     if kind.endswith("-process") or kind == "haply-serial-python":  # the emulator in its own process: its address
         emulator, where, spec = (("InverseSerial", "port", "haply-serial:") if kind.startswith("haply-serial") else
                                  ("InverseService", "address", "haply:"))
