@@ -984,10 +984,12 @@ def fit(acceleration, speed, normal_force, sample_rate: float, *, rate: float | 
                    f"at most {steadiness:.0%} (or a larger steadiness)")
     idx = np.flatnonzero(steady)
     gs, gf = _cells(mv[idx], grid), _cells(mf[idx], grid)
+    held_v, held_f = _held(mv[idx], gs), _held(mf[idx], gf)
     cells = {}
     for k, c in zip(idx, zip(gs, gf)):
         cells.setdefault(c, []).append(k)
     groups = [np.array(ks) for ks in cells.values()]
+    labels = list(cells)
     p_max = int(max_order if order is None else order)
     shortest = min(len(g) * w for g in groups)
     if shortest < 10 * p_max:
@@ -1018,8 +1020,11 @@ def fit(acceleration, speed, normal_force, sample_rate: float, *, rate: float | 
         p = p_max
         crit = "given"
     models = []
-    for g, (s, phi, m) in zip(groups, sig):
-        op_v, op_f = float(mv[g].mean()), float(mf[g].mean())
+    for (cv, cf), g, (s, phi, m) in zip(labels, groups, sig):
+        # a held speed or force is the same for every model at it (the triangles then have no
+        # slivers); otherwise the cell's own mean
+        op_v = held_v.get(cv, float(mv[g].mean()))
+        op_f = held_f.get(cf, float(mf[g].mean()))
         if ma_order == 0:
             ar = np.concatenate([[1.0], -phi[1 : p + 1, p]])  # statsmodels: column p holds order p's coefficients
             models.append(ArmaModel(ar, [1.0], float(s[p - 1]), 1.0, out_fs, op_v, op_f))
@@ -1050,6 +1055,25 @@ def _cells(x: np.ndarray, grid: int) -> np.ndarray:
             cell, first = cell + 1, value
         labels[order[i]] = cell
     return labels
+
+
+HELD = 0.02
+"""Largest spread of a cell's window means, relative to their mean, for :func:`fit` to take its
+speed (or force) as held: the models at it share one value, the mean over all its windows
+(chosen: the windows of a held speed scatter by 0.01-0.3 % in haptex's scans; a hand's free
+strokes spread over a cell's width, a tenth of the range or more)."""
+
+
+def _held(x: np.ndarray, labels: np.ndarray) -> dict:
+    """The cells of :func:`_cells` whose window means ``x`` lie within :data:`HELD` of their mean:
+    {label: that mean}."""
+    out = {}
+    for c in np.unique(labels):
+        v = x[labels == c]
+        mean = float(v.mean())
+        if float(v.max() - v.min()) <= HELD * abs(mean):
+            out[int(c)] = mean
+    return out
 
 
 def _arma_cell(x: np.ndarray, p: int, q: int, fs: float, v: float, f: float) -> ArmaModel:

@@ -586,18 +586,24 @@ class Vibration:
     """What the explorer draws of a model set: its operating points and triangles, and the
     spectrum of the model interpolated at the picked (speed, force).
 
-    Attributes
+    Parameters
     ----------
-    speeds, forces : ndarray, shape (n,)
-        The models' operating points (m/s, N).
+    speeds : ndarray, shape (n,)
+        The models' speeds (m/s).
+    forces : ndarray, shape (n,)
+        The models' forces (N).
     edges : list of (ndarray, ndarray)
         Each triangle's closed outline (speed m/s, force N), or the polyline of a set on one line.
-    speed, force : float
-        The picked operating point (m/s, N), moved to the hull when outside it.
+    speed : float
+        The picked speed (m/s), moved to the hull when outside it.
+    force : float
+        The picked force (N), likewise.
     clamped : bool
         The pick lay outside the hull.
-    frequency, psd : ndarray, shape (VIBRATION_POINTS,)
-        Hz, and the one-sided PSD ((m/s²)²/Hz) of :meth:`haptex.datadriven.ModelSet.model_at`.
+    frequency : ndarray, shape (VIBRATION_POINTS,)
+        Hz, 0 to the set's Nyquist rate.
+    psd : ndarray, shape (VIBRATION_POINTS,)
+        The one-sided PSD ((m/s²)²/Hz) of :meth:`haptex.datadriven.ModelSet.model_at` there.
     rms : float
         The interpolated model's RMS acceleration (m/s²).
     name : str
@@ -620,6 +626,19 @@ def vibration(models, speed: float, force: float) -> Vibration:
     """The model set's view at (``speed`` m/s, ``force`` N): the library's interpolation
     (:meth:`haptex.datadriven.ModelSet.weights` and ``model_at``) and the model's spectrum
     (:meth:`haptex.datadriven.ArmaModel.psd`).
+
+    Parameters
+    ----------
+    models : haptex.datadriven.ModelSet
+        The set shown.
+    speed : float
+        The picked tangential speed (m/s).
+    force : float
+        The picked normal force (N).
+
+    Returns
+    -------
+    Vibration
 
     Raises
     ------
@@ -646,8 +665,13 @@ def vibration(models, speed: float, force: float) -> Vibration:
 
 
 def example_models():
-    """The explorer's model set until one is loaded: :func:`haptex.experiments.vibration_models`
-    (four AR(4) models at 1 kHz, chosen)."""
+    """The explorer's model set until one is loaded.
+
+    Returns
+    -------
+    haptex.datadriven.ModelSet
+        :func:`haptex.experiments.vibration_models` (four AR(4) models at 1 kHz, chosen).
+    """
     from ..experiments import vibration_models
 
     return vibration_models()
