@@ -2090,7 +2090,7 @@ static PyObject *run_general(PyObject *self, PyObject *const *args, Py_ssize_t n
         PyErr_SetString(PyExc_TypeError, "run_general takes 39 arguments, and optionally a Base and a vibration");
         return NULL;
     }
-    if (nargs == 11 + NB && args[10 + NB] != Py_None) {
+    if (nargs >= 11 + NB && args[10 + NB] != Py_None) {
         if (!Py_IS_TYPE(args[10 + NB], &BaseType)) {
             PyErr_SetString(PyExc_TypeError, "base must be a Base or None");
             return NULL;
