@@ -11,6 +11,7 @@ the core's own noise (the oracle).
 """
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -709,3 +710,46 @@ def test_the_stabilisers_cut_the_vibration_and_a_budget_bounds_it():
         budget = share * ref["vibration_power"]
         assert r["vibration_power"] <= budget * (1 + VIBRATION_RESERVE_TIME / 1.5) + 1e-6
         assert r["cut"] > 0 and r["felt"] > 0.2
+
+
+def test_a_geometric_texture_as_the_vibration_a_following_tip_records():
+    # a = v^2 h''(v t): the sinusoid A = 0.1 mm, l = 1 mm at 100 mm/s is a 100 Hz line of
+    # acceleration amplitude (2 pi 100)^2 A, rms that over sqrt 2, its displacement A against the
+    # hand's detection threshold there; the same sinusoid sampled (one period, periodic) gives it
+    # through the periodogram to 0.1 %; a measured scan resolves the band from v / its span
+    import haptex as hx
+    from haptex.perception import detection_threshold
+
+    A, l, v = 0.1e-3, 1e-3, 0.1
+    exact = dd.follower_vibration(hx.Sinusoid(A, l), v)
+    assert exact.rms == pytest.approx((2 * np.pi * v / l) ** 2 * A / np.sqrt(2), rel=1e-12)
+    assert exact.peak_frequency == pytest.approx(100.0) and exact.share == 1.0
+    assert exact.margin_db == pytest.approx(20 * np.log10(A / detection_threshold(np.array([100.0]))[0]), rel=1e-12)
+    x = np.arange(512) * l / 512
+    sampled = dd.follower_vibration(hx.SampledProfile(x, A * np.sin(2 * np.pi * x / l), periodic=True), v)
+    assert sampled.rms == pytest.approx(exact.rms, rel=1e-3) and sampled.peak_frequency == pytest.approx(100.0)
+    assert dd.follower_vibration(hx.Sinusoid(A, 10e-3), v).rms == 0.0  # 10 Hz: below the band
+    scan = hx.load_texture(Path(__file__).resolve().parents[1] / "examples" / "data" / "dektak-stylus-profile.csv")
+    d = dd.follower_vibration(scan, v)
+    assert d.covered[0] == pytest.approx(v / (scan.x[-1] - scan.x[0]), rel=1e-9) and d.covered[1] == 450.0
+    assert 0 < d.rms < exact.rms
+    with pytest.raises(ParameterError, match="speed"):
+        dd.follower_vibration(scan, 0.0)
+
+
+def test_design_says_what_the_texture_is_as_a_vibration(capsys):
+    # issue 54's data-driven section of design: its report holds the rendered texture's
+    # follower vibration at the design's speed, and the command line says it in one line
+    import haptex as hx
+    from haptex.cli import main
+
+    tex = hx.Sinusoid(0.1e-3, 1e-3)
+    dev = hx.Device.pantograph()
+    from haptex.design import design
+
+    data = design(tex, dev, 500.0, speed=0.05, algorithms=["A"], n_loops=1)
+    want = dd.follower_vibration(tex, 0.05)
+    assert data["vibration"]["rms"] == pytest.approx(want.rms) and data["units"]["vibration"].startswith("speed m/s")
+    assert main(["design", "--texture", "sine:0.1mm,1mm", "--algorithms", "A", "--speed", "50 mm/s", "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "as a vibration (a tip following it at 0.05 m/s; 20-450 Hz" in " ".join(out.split())

@@ -1391,6 +1391,161 @@ def surface_from(models: ModelSet, length: float, spacing: float | None = None, 
 
 
 # ---------------------------------------------------------------------------------------
+# a geometric texture as a vibration: what a point following it records
+# ---------------------------------------------------------------------------------------
+
+VIBRATION_BAND = (20.0, 450.0)
+"""Hz: the band of the HaTT papers' spectra (:func:`spectral_difference`'s default)."""
+MAX_FOLLOWER_SAMPLES = 1 << 20
+"""Most height samples :func:`follower_vibration` reads along x (8 MiB)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class FollowerVibration:
+    """The vibration a point following a texture along x at a constant speed records.
+
+    Parameters
+    ----------
+    speed : float
+        The scan's speed (m/s).
+    band : tuple of float
+        (low, high): the vibration band (Hz).
+    rms : float
+        RMS acceleration in the band (m/s²): a = v² h''(v t).
+    wavelengths : tuple of float
+        (v / high, v / low): the texture's wavelengths (m) the band holds at this speed.
+    covered : tuple of float or None
+        The part of the band (Hz) the texture's sampled extent resolves (a wavelength up to
+        the span analysed, down to two samples); None when it resolves none of it.
+    share : float
+        The share of the texture's height variance in the band (0-1).
+    peak_frequency : float or None
+        The frequency (Hz) of the in-band component furthest above the hand's vibrotactile
+        detection threshold; None without one.
+    margin_db : float or None
+        20 log10(displacement amplitude / :func:`haptex.perception.detection_threshold`) there
+        (dB; > 0: above threshold, for a tip that follows the surface rigidly).
+    """
+
+    speed: float
+    band: tuple
+    rms: float
+    wavelengths: tuple
+    covered: tuple | None
+    share: float
+    peak_frequency: float | None
+    margin_db: float | None
+
+    def as_dict(self) -> dict:
+        """The figures as a JSON-ready dict (SI units).
+
+        Returns
+        -------
+        dict
+        """
+        return {k: (list(v) if isinstance(v, tuple) else v) for k, v in dataclasses.asdict(self).items()}
+
+
+FOLLOWER_LINES = 16
+"""Lines along x, evenly across its domain in y, over which :func:`follower_vibration` averages a
+surface's spectrum when no line is named (chosen)."""
+
+
+def _line_spectrum(texture, y) -> tuple[np.ndarray, np.ndarray, float, bool]:
+    """(wavenumbers 1/m, peak amplitudes m, the span analysed m, exact) of the heights along x:
+    a sum of sinusoids' own lines, else a periodogram of its samples over its domain (a
+    surface's averaged over :data:`FOLLOWER_LINES` lines across it, or on the line ``y``)."""
+    from scipy.signal import periodogram
+
+    if getattr(texture, "periods", None) is not None and texture.dimension == 1:
+        k = 1.0 / np.atleast_1d(np.asarray(texture.periods, dtype=float))
+        a = np.abs(np.atleast_1d(np.asarray(texture.amplitudes, dtype=float)))
+        return k, a, math.inf, True
+    dom = texture.domain
+    if dom is None:
+        raise fail("texture", repr(texture), "a texture with a domain (a sampled texture or a periodic one)")
+    (x0, x1) = dom if texture.dimension == 1 else dom[0]
+    span = float(x1 - x0)
+    short = float(texture.shortest_period) if texture.shortest_period else span / 1024
+    n = int(min(MAX_FOLLOWER_SAMPLES, max(4096, math.ceil(8 * span / short))))
+    periodic = bool(getattr(texture, "periodic", True))  # (an analytic texture's domain is a period)
+    x = x0 + span * np.arange(n) / n if periodic else np.linspace(x0, x1, n)
+    if texture.dimension == 1:
+        rows = [texture.height(x)]
+    else:
+        (y0, y1) = dom[1]
+        ys = [float(y)] if y is not None else list(y0 + (y1 - y0) * (np.arange(FOLLOWER_LINES) + 0.5) / FOLLOWER_LINES)
+        rows = [texture.height_at(np.column_stack([x, np.full(n, yi)])) for yi in ys]
+    dx = x[1] - x[0]
+    p = 0.0
+    for h in rows:
+        k, pr = periodogram(h, fs=1.0 / dx, window="boxcar" if periodic else "hann",
+                            detrend="constant" if periodic else "linear", scaling="spectrum")
+        p = p + pr / len(rows)
+    return k[1:], np.sqrt(2.0 * p[1:]), span, False
+
+
+def follower_vibration(texture, speed: float, *, band=VIBRATION_BAND, y: float | None = None) -> FollowerVibration:
+    """The vibration a point following ``texture`` along x at ``speed`` records, in a band.
+
+    A geometric texture in the data-driven language: a tip that follows h(x) at speed v has
+    the acceleration a(t) = v² h''(v t), each height component of wavenumber k (1/m) and peak
+    amplitude A a vibration at f = v k of amplitude (2 pi f)² A. Its displacement is A, which
+    :func:`haptex.perception.detection_threshold` says whether a hand feels.
+
+    Parameters
+    ----------
+    texture : Texture
+        A profile, or a surface read along x; a sum of sinusoids by its own lines, any other
+        over its domain (one period, or the sampled range), by a periodogram of its heights
+        (:func:`scipy.signal.periodogram`: a Hann window and a linear detrend unless it is
+        periodic).
+    speed : float
+        m/s, > 0.
+    band : tuple of float, optional
+        (low, high) in Hz, 0 < low < high.
+    y : float, optional
+        On a surface, the line along x read (m); default the average over
+        :data:`FOLLOWER_LINES` lines evenly across its domain in y.
+
+    Returns
+    -------
+    FollowerVibration
+
+    Raises
+    ------
+    ParameterError
+        For a speed that is not > 0, a band that is not (low, high) with 0 < low < high, or a
+        texture without a domain (an aperiodic sum over a surface).
+    """
+    from .perception import detection_threshold
+
+    v = positive("speed", speed, "m/s")
+    lo, hi = (float(b) for b in band)
+    if not 0 < lo < hi or not math.isfinite(hi):
+        raise fail("band", band, "(low, high) in Hz with 0 < low < high")
+    k, a, span, exact = _line_spectrum(texture, y)
+    f = v * k
+    inside = (f >= lo) & (f <= hi) & (a > 1e-15 * max(float(a.max(initial=0.0)), 1e-300))
+    acc = (2 * np.pi * f[inside]) ** 2 * a[inside]
+    total = float(np.sum(a**2))
+    covered = None
+    if exact:
+        covered = (lo, hi)
+    else:
+        dx = span / max(1, k.size * 2)
+        c_lo, c_hi = max(lo, v / span), min(hi, v / (2 * dx))
+        covered = (c_lo, c_hi) if c_lo < c_hi else None
+    peak = margin = None
+    if inside.any():
+        m = 20 * np.log10(a[inside] / detection_threshold(f[inside]))
+        i = int(np.argmax(m))
+        peak, margin = float(f[inside][i]), float(m[i])
+    return FollowerVibration(v, (lo, hi), float(np.sqrt(np.sum(acc**2) / 2)), (v / hi, v / lo), covered,
+                             float(np.sum(a[inside] ** 2) / total) if total > 0 else 0.0, peak, margin)
+
+
+# ---------------------------------------------------------------------------------------
 # energy at the port
 # ---------------------------------------------------------------------------------------
 

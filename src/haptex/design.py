@@ -131,6 +131,9 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         planned cost (:mod:`haptex.analysis.cost`): ``seconds`` (the grids only, at one core's time an evaluation),
         ``peak_bytes``, ``searches`` (closest-point searches of D and E, shared: E reads
         D's), ``seconds_per_search`` and per algorithm ``evaluations`` and ``seconds``.
+        ``vibration``: the rendered texture in the data-driven language, what a tip following it
+        along x at ``speed`` records in 20-450 Hz
+        (:meth:`haptex.datadriven.FollowerVibration.as_dict`), or ``unavailable`` with why.
 
     Raises
     ------
@@ -190,6 +193,12 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         })
     wall_limit = wall["device"].value
     limits = texture_limits(texture, device, speed, stiffness, samples_per_period)
+    from .datadriven import follower_vibration
+
+    try:  # the rendered texture in the data-driven language: what a tip following it records
+        vibration = follower_vibration(texture, speed).as_dict()
+    except ParameterError as exc:
+        vibration = {"unavailable": str(exc)}
     textured = [r for r in rows if r["algorithm"] != "W"]
     good = [r["algorithm"] for r in textured if r["passive_at_stiffness"] and r["conservative"] and r["continuous"]]
     fair = [r["algorithm"] for r in textured if r["passive_at_stiffness"] and r["continuous"]
@@ -221,7 +230,9 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
                   "x_range": "m", "passivity_limit": "N/m", "wall_stability_limit": "N/m", "shortest_period": "m",
                   "max_slope": "1", "max_curvature": "1/m", "height_range": "m", "q": "1", "q_where": "m",
                   "max_passive_stiffness": "N/m", "max_stable_stiffness": "N/m", "max_abs_loop_energy": "J",
-                  "limits": "each limit's 'unit'", "wall_limits": "N/m"},
+                  "limits": "each limit's 'unit'", "wall_limits": "N/m",
+                  "vibration": "speed m/s, band Hz, rms m/s^2, wavelengths m, covered Hz, share 1, "
+                               "peak_frequency Hz, margin_db dB"},
         "texture": repr(given), "rendered_texture": repr(texture), "device": device.name, "stiffness": stiffness, "speed": speed,
         "max_penetration": max_penetration, "friction": friction, "presliding": presliding,
         "x_range": None if x_range is None else np.asarray(x_range, dtype=float).tolist(),
@@ -232,7 +243,7 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         "limits": [{"name": lim.name, "formula": lim.formula, "lhs": lim.lhs, "rhs": lim.rhs, "unit": lim.unit,
                     "passed": lim.passed} for lim in limits],
         "rows": rows, "recommended": good + fair, "recommendation": "; ".join(text), "band_limit": band,
-        "estimate": estimate, "object": None if base is None else repr(base),
+        "estimate": estimate, "object": None if base is None else repr(base), "vibration": vibration,
     }
 
 

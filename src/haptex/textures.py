@@ -728,6 +728,11 @@ def zero_phase_lowpass(sos, h: np.ndarray, axis: int) -> np.ndarray:
     """scipy.signal.sosfiltfilt of ``h`` along ``axis``, its edge padding (3 (2 sections + 1)
     samples by default) shortened to the samples there are: a short scan (a 5 x 10 NetCDF
     map, a 10-sample text column) is filtered instead of ending in scipy's 'padlen' error.
+    Each line's least-squares straight line along ``axis`` is taken out before and put back
+    after: a tilted scan's ramp would otherwise start the filter's transient at each end, which
+    at a cut-off of thousands of samples spans most of the scan (the Dektak scan of
+    ``examples/data``, tilted by 16 um: its 1.5 mm component 2.6 times and its 0.4 mm one 5-7
+    times the measured, where levelled the filter keeps them).
 
     Parameters
     ----------
@@ -745,7 +750,14 @@ def zero_phase_lowpass(sos, h: np.ndarray, axis: int) -> np.ndarray:
     """
     from scipy.signal import sosfiltfilt
 
-    return sosfiltfilt(sos, h, axis=axis, padlen=min(3 * (2 * len(sos) + 1), h.shape[axis] - 1))
+    n = h.shape[axis]
+    shape = [1] * h.ndim
+    shape[axis] = n
+    t = np.linspace(-1.0, 1.0, n).reshape(shape)
+    mean = h.mean(axis=axis, keepdims=True)
+    slope = np.sum(t * (h - mean), axis=axis, keepdims=True) / np.sum(t * t)
+    trend = mean + slope * t
+    return sosfiltfilt(sos, h - trend, axis=axis, padlen=min(3 * (2 * len(sos) + 1), n - 1)) + trend
 
 
 def _band_limited_samples(tex, shortest_period, samples_per_period, steps):

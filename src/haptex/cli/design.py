@@ -187,6 +187,20 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
     tn = data["texture_numbers"]
     console.print(f"{'rendered ' if bl['applied'] else ''}texture {data['rendered_texture']}: shortest period {tn['shortest_period'] * 1e3:.4g} mm, "
                   f"M = {tn['max_slope']:.4g}, heights {tn['height_range'][0] * 1e3:.4g} to {tn['height_range'][1] * 1e3:.4g} mm")
+    vib = data["vibration"]
+    if "unavailable" not in vib:
+        lo, hi = vib["band"]
+        text = (f"as a vibration (a tip following it at {speed:g} m/s; {lo:g}-{hi:g} Hz, wavelengths "
+                f"{vib['wavelengths'][0] * 1e3:.3g}-{vib['wavelengths'][1] * 1e3:.3g} mm): {vib['rms']:.3g} m/s² rms, "
+                f"{vib['share']:.0%} of its height variance")
+        if vib["covered"] is None:
+            text += "; its extent resolves none of the band"
+        elif tuple(vib["covered"]) != (lo, hi):
+            text += f"; its extent resolves {vib['covered'][0]:.3g}-{vib['covered'][1]:.3g} Hz"
+        if vib["margin_db"] is not None:
+            text += (f"; strongest {abs(vib['margin_db']):.3g} dB {'above' if vib['margin_db'] >= 0 else 'below'} "
+                     f"the hand's detection threshold, at {vib['peak_frequency']:.4g} Hz")
+        console.print(text)
     from rich import box
 
     console.print(_limits_table(data["wall_limits"], f"wall limits on {data['device']}"))
