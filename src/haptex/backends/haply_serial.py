@@ -315,6 +315,8 @@ class HaplySerialBackend:
                                   f"{servo.timing()['io_error_tick']}); zero force was sent and the servo thread "
                                   "ended") from exc
         finally:
+            servo.stop()  # (the thread has ended here, but for a Ctrl-C it outlived: never close its port under it)
+            servo.join()
             os.close(fd)
 
     def sample(self) -> Sample:
