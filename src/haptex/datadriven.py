@@ -1324,7 +1324,7 @@ def height_spectrum(models: ModelSet, wavenumber, *, band=SURFACE_BAND) -> np.nd
 
 
 def surface_from(models: ModelSet, length: float, spacing: float | None = None, *, band=SURFACE_BAND,
-                 seed: int = 0):
+                 seed: int = 0, areal: bool = False):
     """A profile whose scanning gives the models' vibration: the data-driven texture as a
     geometric one, which the conservative algorithms render passively.
 
@@ -1350,17 +1350,27 @@ def surface_from(models: ModelSet, length: float, spacing: float | None = None, 
         As :func:`height_spectrum`.
     seed : int, optional
         Seed of the phases.
+    areal : bool, optional
+        An isotropic surface on the square cell ``length`` x ``length`` instead (chosen: a
+        recording along one line cannot show how the surface varies across it; the models,
+        like HaTT's, are the same in every direction). Its 2-D spectrum is the isotropic one
+        whose lines along x have, averaged over the lines, the profile's spectrum: a line of
+        an isotropic surface also collects the oblique components of shorter wavelengths, so
+        the radial spectrum is found by non-negative least squares
+        (:func:`scipy.optimize.nnls`, relative errors) over the harmonics the models cover;
+        exact amplitudes and uniform phases, as the profile's.
 
     Returns
     -------
-    SampledProfile
-        Periodic over ``length``, heights in m.
+    SampledProfile or SampledSurface
+        Periodic over ``length`` (and across it when ``areal``), heights in m.
 
     Raises
     ------
     ParameterError
-        For a non-positive length or spacing, more than :data:`MAX_SURFACE_SAMPLES` samples,
-        a spectrum that no model covers at any harmonic, or as :func:`height_spectrum`.
+        For a non-positive length or spacing, more than :data:`MAX_SURFACE_SAMPLES` samples
+        (an areal surface: more than :data:`MAX_AREAL_SIDE` a side), a spectrum that no model
+        covers at any harmonic, or as :func:`height_spectrum`.
     """
     from .textures import SampledProfile
 
@@ -1370,6 +1380,9 @@ def surface_from(models: ModelSet, length: float, spacing: float | None = None, 
         raise fail("models", models, "a model set with at least one model at a speed > 0")
     dx = min(moving) / float(band[1]) / 10 if spacing is None else positive("spacing", spacing, "m")
     n = int(math.ceil(L / dx))
+    if areal and n > MAX_AREAL_SIDE:
+        raise fail("spacing", dx, f"at least {L / MAX_AREAL_SIDE:.3g} m for a {L:g} m square surface (at most "
+                                  f"{MAX_AREAL_SIDE} samples a side), or a shorter length")
     if n > MAX_SURFACE_SAMPLES:
         raise fail("spacing", dx, f"at least {L / MAX_SURFACE_SAMPLES:.3g} m for a {L:g} m profile (at most "
                                   f"{MAX_SURFACE_SAMPLES} samples)")
@@ -1380,6 +1393,9 @@ def surface_from(models: ModelSet, length: float, spacing: float | None = None, 
     if not covered.any():
         raise fail("length", L, f"a profile whose harmonics of 1/length reach the band the models cover "
                                 f"({band[0]:g}-{band[1]:g} Hz at {min(moving):g}-{max(moving):g} m/s)")
+    if areal:
+        return _isotropic_surface(np.where(covered, sh / L, np.nan), n, L, seed,
+                                  f"surface from {models.name or 'a model set'} ({band[0]:g}-{band[1]:g} Hz, isotropic)")
     amp = np.where(covered, np.sqrt(2 * np.nan_to_num(sh) / L), 0.0)
     phase = np.random.default_rng(seed).uniform(0.0, 2 * np.pi, k.size)
     spec = np.zeros(n // 2 + 1, dtype=complex)
@@ -1388,6 +1404,66 @@ def surface_from(models: ModelSet, length: float, spacing: float | None = None, 
     x = np.arange(n) * (L / n)
     return SampledProfile(x, h, periodic=True, source=f"surface from {models.name or 'a model set'} "
                                                       f"({band[0]:g}-{band[1]:g} Hz)")
+
+
+MAX_AREAL_SIDE = 1024
+"""Most samples a side of :func:`surface_from`'s areal surface (8 MiB of heights)."""
+
+
+def _isotropic_radial(line: np.ndarray) -> tuple[np.ndarray, float]:
+    """The radial spectrum g (variance a 2-D harmonic, at integer radii 1..m) of the isotropic
+    surface whose lines along x hold ``line`` (variance a harmonic i = 1..m, NaN where nothing
+    is asked), and the mean |dB| by which the fit misses the asked harmonics. A line at i
+    collects every (i, j): line[i] = sum_j g(sqrt(i^2 + j^2)), g linear between integer radii."""
+    from scipy.optimize import nnls
+
+    m = line.size
+    asked = np.isfinite(line) & (line > 0)
+    top = int(np.flatnonzero(asked).max()) + 1  # no radius beyond the highest harmonic asked
+    i, j = np.meshgrid(np.arange(1, m + 1), np.arange(-m, m + 1), indexing="ij")
+    rho = np.hypot(i, j)
+    inside = rho <= top
+    r0 = np.floor(rho[inside]).astype(int)
+    t = rho[inside] - r0
+    M = np.zeros((m, top))
+    rows = (i[inside] - 1)
+    np.add.at(M, (rows, r0 - 1), 1.0 - t)
+    more = (t > 0) & (r0 < top)
+    np.add.at(M, (rows[more], r0[more]), t[more])
+    A = M[asked] / line[asked][:, None]
+    g, _ = nnls(A, np.ones(int(asked.sum())), maxiter=50 * top)
+    got = M[asked] @ g
+    miss = float(np.mean(np.abs(10 * np.log10(np.maximum(got, 1e-300) / line[asked]))))
+    return np.concatenate([g, np.zeros(m - top)]), miss
+
+
+def _isotropic_surface(line: np.ndarray, n: int, L: float, seed: int, source: str):
+    """A periodic n x n map on the cell L x L whose lines along x have, on average, the per-harmonic
+    variances ``line`` (i = 1..n/2 - 1): its radial spectrum by :func:`_isotropic_radial`, exact
+    amplitudes, phases uniform in [0, 2 pi) from ``seed``."""
+    from .surfaces import SampledSurface
+
+    m = n // 2 - 1
+    g, miss = _isotropic_radial(line[:m])
+    iy = np.fft.fftfreq(n, 1.0 / n)  # the y harmonics, signed
+    ix = np.arange(n // 2 + 1)
+    rho = np.hypot(iy[:, None], ix[None, :])
+    r0 = np.floor(rho).astype(int)
+    t = rho - r0
+    gg = np.concatenate([[0.0], g, [0.0, 0.0]])  # radius 0 and beyond m: nothing
+    r0c = np.minimum(r0, m + 1)
+    V = (1.0 - t) * gg[r0c] + t * gg[np.minimum(r0c + 1, m + 1)]
+    V[:, 0] = 0.0  # (the pure-y column and the Nyquist ones: no line along x sees them)
+    V[:, n // 2] = 0.0
+    V[n // 2, :] = 0.0
+    V[rho > m] = 0.0
+    phase = np.random.default_rng(seed).uniform(0.0, 2 * np.pi, V.shape)
+    Z = 0.5 * n * n * np.sqrt(2.0 * V) * np.exp(1j * phase)
+    h = np.fft.irfft2(Z, s=(n, n)).T  # [x, y]
+    x = np.arange(n) * (L / n)
+    out = SampledSurface(x, x.copy(), h, periodic=True, source=source)
+    out.isotropic_fit_db = miss
+    return out
 
 
 # ---------------------------------------------------------------------------------------
