@@ -693,11 +693,11 @@ def test_a_surface_from_a_recording_predicts_speeds_held_out_of_the_fit_better_t
 
 def test_an_areal_surface_from_a_recording_is_isotropic_and_keeps_the_lines_spectrum():
     # surface_from(..., areal=True): the recording's models (a stylus at four speeds over the
-    # band-limited profile of the test above) as an isotropic 8 mm square map. Its lines along x
+    # band-limited profile of the test above) as an isotropic 6 mm square map. Its lines along x
     # have, averaged over the lines, the profile's spectrum where the models speak (1000-4000
     # 1/m: within 1 dB at every harmonic, 0.3 dB on average); its lines along y the same (the
     # isotropy, which a line recording cannot show and the models assume); and a tip following it
-    # at 30-100 mm/s records the profile's vibration within 10 % rms
+    # at 30 and 100 mm/s records the profile's vibration within 10 % rms
     import haptex as hx
 
     truth = hx.BandLimitedNoise(5e-6, 0.2e-3, 2e-3, length=0.25, seed=3)
@@ -706,10 +706,10 @@ def test_an_areal_surface_from_a_recording_is_isotropic_and_keeps_the_lines_spec
     acc = np.concatenate([v**2 * truth.curvature(v * t) + np.random.default_rng(int(v * 1e4)).normal(0, 0.05, t.size)
                           for v in speeds])
     models = dd.fit(acc, np.repeat(speeds, t.size), np.ones(acc.size), FS)
-    L, dx = 8e-3, 10e-6
+    L, dx = 6e-3, 12e-6
     surf = dd.surface_from(models, L, dx, areal=True, seed=1)
     prof = dd.surface_from(models, L, dx, seed=1)
-    assert isinstance(surf, hx.SampledSurface) and surf.periodic and surf.h.shape == (800, 800)
+    assert isinstance(surf, hx.SampledSurface) and surf.periodic and surf.h.shape == (500, 500)
     n = surf.h.shape[0]
     k = np.arange(n // 2 + 1) / L
     band = (k >= 1000) & (k <= 4000)
@@ -718,7 +718,7 @@ def test_an_areal_surface_from_a_recording_is_isotropic_and_keeps_the_lines_spec
     for axis in (0, 1):
         db = 10 * np.log10(along(surf.h, axis)[band] / ref[band])
         assert np.max(np.abs(db)) < 1.0 and np.mean(np.abs(db)) < 0.3, (axis, db)
-    for v in (0.03, 0.06, 0.1):
+    for v in (0.03, 0.1):
         assert dd.follower_vibration(surf, v).rms == pytest.approx(dd.follower_vibration(prof, v).rms, rel=0.1)
     with pytest.raises(ParameterError, match=r"^spacing = .* is not allowed: must be at least .* a side"):
         dd.surface_from(models, L, 1e-6, areal=True)
