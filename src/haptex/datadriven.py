@@ -1410,10 +1410,10 @@ MAX_AREAL_SIDE = 1024
 """Most samples a side of :func:`surface_from`'s areal surface (8 MiB of heights)."""
 
 
-def _isotropic_radial(line: np.ndarray) -> tuple[np.ndarray, float]:
+def _isotropic_radial(line: np.ndarray) -> np.ndarray:
     """The radial spectrum g (variance a 2-D harmonic, at integer radii 1..m) of the isotropic
     surface whose lines along x hold ``line`` (variance a harmonic i = 1..m, NaN where nothing
-    is asked), and the mean |dB| by which the fit misses the asked harmonics. A line at i
+    is asked). A line at i
     collects every (i, j): line[i] = sum_j g(sqrt(i^2 + j^2)), g linear between integer radii."""
     from scipy.optimize import nnls
 
@@ -1432,9 +1432,7 @@ def _isotropic_radial(line: np.ndarray) -> tuple[np.ndarray, float]:
     np.add.at(M, (rows[more], r0[more]), t[more])
     A = M[asked] / line[asked][:, None]
     g, _ = nnls(A, np.ones(int(asked.sum())), maxiter=50 * top)
-    got = M[asked] @ g
-    miss = float(np.mean(np.abs(10 * np.log10(np.maximum(got, 1e-300) / line[asked]))))
-    return np.concatenate([g, np.zeros(m - top)]), miss
+    return np.concatenate([g, np.zeros(m - top)])
 
 
 def _isotropic_surface(line: np.ndarray, n: int, L: float, seed: int, source: str):
@@ -1444,7 +1442,7 @@ def _isotropic_surface(line: np.ndarray, n: int, L: float, seed: int, source: st
     from .surfaces import SampledSurface
 
     m = n // 2 - 1
-    g, miss = _isotropic_radial(line[:m])
+    g = _isotropic_radial(line[:m])
     iy = np.fft.fftfreq(n, 1.0 / n)  # the y harmonics, signed
     ix = np.arange(n // 2 + 1)
     rho = np.hypot(iy[:, None], ix[None, :])
@@ -1461,9 +1459,7 @@ def _isotropic_surface(line: np.ndarray, n: int, L: float, seed: int, source: st
     Z = 0.5 * n * n * np.sqrt(2.0 * V) * np.exp(1j * phase)
     h = np.fft.irfft2(Z, s=(n, n)).T  # [x, y]
     x = np.arange(n) * (L / n)
-    out = SampledSurface(x, x.copy(), h, periodic=True, source=source)
-    out.isotropic_fit_db = miss
-    return out
+    return SampledSurface(x, x.copy(), h, periodic=True, source=source)
 
 
 # ---------------------------------------------------------------------------------------

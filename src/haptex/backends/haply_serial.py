@@ -306,14 +306,15 @@ class HaplySerialBackend:
             try:
                 wait_native(servo, self.name, on_tick)
             except DeviceError as exc:
-                why = servo.timing()["device_error"]
+                timing = servo.timing()
+                why = timing["device_error"]
                 if not why:
                     raise
                 if why == "no answer within the timeout":
                     why = f"no answer in {self.timeout * 1e3:g} ms"
                 raise DeviceError(f"device = {self.name!r} stopped answering: {why} (at tick "
-                                  f"{servo.timing()['io_error_tick']}); zero force was sent and the servo thread "
-                                  "ended") from exc
+                                  f"{timing['io_error_tick']}); zero force was sent and the servo thread ended") \
+                    from exc
         finally:
             servo.stop()  # (the thread has ended here, but for a Ctrl-C it outlived: never close its port under it)
             servo.join()

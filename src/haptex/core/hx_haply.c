@@ -27,40 +27,27 @@
 
 enum { HX_HAPLY_WAKE = 0x0A, HX_HAPLY_AWAKE = 0x0B, HX_HAPLY_FORCE = 0x2A, HX_HAPLY_STATE = 0x2B };
 
-static int is_little_endian(void)
+/* 4 bytes copied in little-endian order (the wire's): reversed on a big-endian host */
+static void copy_le32(unsigned char *dst, const unsigned char *src)
 {
     const uint16_t one = 1;
-    return *(const unsigned char *)&one == 1;
+    int k, little = *(const unsigned char *)&one == 1;
+    for (k = 0; k < 4; k++)
+        dst[k] = src[little ? k : 3 - k];
 }
 
 static void put_f32(unsigned char *out, float v)
 {
     unsigned char b[4];
     memcpy(b, &v, 4);
-    if (!is_little_endian()) {
-        unsigned char t = b[0];
-        b[0] = b[3];
-        b[3] = t;
-        t = b[1];
-        b[1] = b[2];
-        b[2] = t;
-    }
-    memcpy(out, b, 4);
+    copy_le32(out, b);
 }
 
 static float get_f32(const unsigned char *in)
 {
     unsigned char b[4];
     float v;
-    memcpy(b, in, 4);
-    if (!is_little_endian()) {
-        unsigned char t = b[0];
-        b[0] = b[3];
-        b[3] = t;
-        t = b[1];
-        b[1] = b[2];
-        b[2] = t;
-    }
+    copy_le32(b, in);
     memcpy(&v, b, 4);
     return v;
 }
