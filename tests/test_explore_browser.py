@@ -178,11 +178,19 @@ def test_an_areal_texture_shows_its_height_map_and_a_section(page, tmp_path):
 
 
 def test_one_sessions_long_computation_never_stalls_another(server, browser, tmp_path):
-    """Issue 33: one session's input must not freeze the server for the others. A band-limited
-    noise 200 mm long under algorithm D takes more than 5 minutes to recompute (measured:
-    model.build and model.views did not end within 300 s); before computations left the
-    event loop, every other session waited for it. Now a new page loads, and shows its q,
-    while the long one runs; and the long session says it is still computing."""
+    """Issues 33 and 56: one session's input must not freeze the server for the others. A
+    band-limited noise 200 mm long under algorithm D takes more than 5 minutes to recompute
+    (measured: model.build and model.views did not end within 300 s); before computations left
+    the event loop, every other session waited for it, and while they ran in a thread of the
+    server's process they took its GIL. Now a new page loads, shows its q and answers a refusal
+    while the long computation is still under way (the order is checked, not a wall-clock
+    bound: building a page is 0.45 s of Bokeh's own CPU time in the event loop and serialising
+    it 0.2-0.3 s, idle, which the machine's load stretches; benchmarks/run_explore.py measures
+    it), and that computation runs in a worker process at the lower priority, not in the
+    server's."""
+    import psutil
+
+    from haptex.explore.app import WORKER_NICENESS
 
     url, proc = server
     slow = browser.new_page(viewport={"width": 1500, "height": 1350})
@@ -191,22 +199,37 @@ def test_one_sessions_long_computation_never_stalls_another(server, browser, tmp
     _wait_text(slow, "#q-value", lambda t: t not in ("", "…"), timeout=60.0)  # A's first views drawn
     _choose(slow, "algorithm", "D")
     _wait_text(slow, "#q-value", lambda t: t not in ("", "5.125", "…"), timeout=60.0)
+    before = _wait_text(slow, "#timing-text", lambda t: "recompute in" in t, timeout=30.0)  # D's views drawn
     # D on the default noise: planned 8.6 s (idle; 9.8 s by CPU time beside two busy processes,
     # where the wall clock once timed it past the 60 s budget and the page undid the choice), so
     # it is accepted, and computes for about 20 s idle; the noise's box shows meanwhile
     _choose(slow, "texture", "noise")
     slow.locator("#noise input").wait_for(state="visible", timeout=30000)
     _type(slow, "noise", "0.05 mm, 0.2 mm, 2 mm, 200 mm")
-    time.sleep(2.0)  # the long computation is under way
-    t = time.monotonic()
-    urllib.request.urlopen(url, timeout=10).read()
-    assert time.monotonic() - t < 1.0  # the server answers a new session's page within 1 s
+    _wait_text(slow, "#message-text", lambda t: "still being computed; then" in t, timeout=30.0)
+
+    def workers_cpu():  # CPU seconds of the server's worker processes (its forkserver's children)
+        total = 0.0
+        for child in psutil.Process(proc.pid).children(recursive=True):
+            try:
+                if child.nice() == WORKER_NICENESS:
+                    total += sum(child.cpu_times()[:2])
+            except psutil.NoSuchProcess:
+                pass
+        return total
+
+    cpu0 = workers_cpu()
+    urllib.request.urlopen(url, timeout=120).read()  # a new session's page (a hang guard, not a bound)
     other = browser.new_page(viewport={"width": 1500, "height": 1350})
     other.goto(url)
     other.wait_for_selector("#q-value", timeout=30000)
     assert _wait_text(other, "#q-value", lambda t: t == "5.125", timeout=30.0) == "5.125"
     _type(other, "stiffness", "-5 kN/m")  # a refusal in the other session is answered too
     assert "stiffness" in _wait_text(other, "#message-text", lambda t: t != "", timeout=10.0)
+    # ... all while the long computation ran: the slow page still shows the timing of the views
+    # before it, and its worker process (not the server) spent CPU time meanwhile
+    assert _text(slow, "#timing-text") == before, "the other session was served only after the long computation"
+    assert workers_cpu() > cpu0
     # The long session answers in one line: that it is still computing (the 200 mm noise waits
     # for the default one, or is past RECOMPUTE_BUDGET), then the cost planner's refusal of it
     # (1250 s planned). Which one is read depends on the machine's load: the planning alone

@@ -449,29 +449,45 @@ class ExplorerPage:
         self._recompute(on_fail=undo)
         self._show_controls()
 
-    def _upload(self, widget, field: str, name_field: str) -> None:
-        """A file arrived in ``widget``: saved under the session's directory (within the upload
-        budgets) and set as the settings' ``field`` (its name as ``name_field``): the texture's
-        file, or the object's mesh."""
+    @staticmethod
+    def _received(widget) -> tuple[str, str]:
+        """A file widget's (name, base64 contents)."""
         try:
-            name = os.path.basename(widget.filename or "upload")
+            name = widget.filename or "upload"
         except Exception:  # bokeh's UnsetValueError: no name was sent
             name = "upload"
-        path = os.path.join(self.tmpdir, ("mesh-" if field == "object_file" else "") + name)
-        value = widget.value or ""
+        return name, widget.value or ""
+
+    def _save(self, name: str, value: str, prefix: str = "") -> str | None:
+        """An uploaded file (``value`` its base64 contents) saved under the session's directory
+        as ``prefix`` + its name, within the upload budgets: its path, or None with the refusal
+        in one line."""
+        name = os.path.basename(name) or "upload"
+        path = os.path.join(self.tmpdir, prefix + name)
         size = len(value) * 3 // 4  # base64: 4 characters a 3 bytes
         if size > UPLOAD_BYTES or self.uploaded + size > SESSION_UPLOAD_BYTES:
             self._message(f"file = {name!r} is not allowed: {size / 2**20:.3g} MiB; an upload may carry at most "
                           f"{UPLOAD_BYTES / 2**20:.0f} MiB and a session {SESSION_UPLOAD_BYTES / 2**20:.0f} MiB in all "
                           f"({self.uploaded / 2**20:.3g} MiB so far)")
-            return
+            return None
         try:
             with open(path, "wb") as fh:
                 fh.write(base64.b64decode(value))
         except (OSError, ValueError) as exc:
             self._message(f"file = {name!r} could not be received: {exc}")
-            return
+            return None
         self.uploaded += size
+        return path
+
+    def _upload(self, widget, field: str, name_field: str) -> None:
+        """A file arrived in ``widget``: saved under the session's directory (within the upload
+        budgets) and set as the settings' ``field`` (its name as ``name_field``): the texture's
+        file, or the object's mesh."""
+        name, value = self._received(widget)
+        name = os.path.basename(name) or "upload"
+        path = self._save(name, value, "mesh-" if field == "object_file" else "")
+        if path is None:
+            return
         before = (getattr(self.settings, field), getattr(self.settings, name_field))
         setattr(self.settings, field, path)
         setattr(self.settings, name_field, name)
@@ -506,12 +522,7 @@ class ExplorerPage:
 
     def _vibration_upload(self) -> None:
         """The model file's widget changed: its name and contents to :meth:`_vibration_file`."""
-        w = self.w_vibration
-        try:
-            name = w.filename or "upload"
-        except Exception:  # bokeh's UnsetValueError: no name was sent
-            name = "upload"
-        self._vibration_file(name, w.value or "")
+        self._vibration_file(*self._received(self.w_vibration))
 
     def _vibration_file(self, name: str, value: str) -> None:
         """A model file arrived (``value`` its base64 contents): read it
@@ -519,23 +530,13 @@ class ExplorerPage:
         pick (moved into its hull); a refused file is one line, the previous set kept."""
         from ..datadriven import read_models
 
-        name = os.path.basename(name) or "upload"
-        size = len(value) * 3 // 4
-        if size > UPLOAD_BYTES or self.uploaded + size > SESSION_UPLOAD_BYTES:
-            self._message(f"file = {name!r} is not allowed: {size / 2**20:.3g} MiB; an upload may carry at most "
-                          f"{UPLOAD_BYTES / 2**20:.0f} MiB and a session {SESSION_UPLOAD_BYTES / 2**20:.0f} MiB in all")
+        path = self._save(name, value, "models-")
+        if path is None:
             return
-        path = os.path.join(self.tmpdir, "models-" + name)
         try:
-            with open(path, "wb") as fh:
-                fh.write(base64.b64decode(value))
-            self.uploaded += size
             models = read_models(path)
         except ParameterError as exc:
             self._message(str(exc))
-            return
-        except (OSError, ValueError) as exc:
-            self._message(f"file = {name!r} could not be received: {exc}")
             return
         self.vibration_models = models
         self._message("")
@@ -584,7 +585,7 @@ class ExplorerPage:
         if status == "ok":
             self._message("")
             apply(value)
-            self.d_timing.text = f"{what} in {time.perf_counter() - t0:.2f} s"
+            self.d_timing.text = _span("timing-text", f"{what} in {time.perf_counter() - t0:.2f} s")
         else:
             self._message(value)
             if on_fail is not None:
