@@ -431,6 +431,7 @@ double hx_normal(unsigned long long seed, unsigned long long index);
 typedef struct {
     const double *set;
     double mass, gain, tau; /* kg, 1, s */
+    double period, alpha;   /* the set's period (s), the speed filter's gain a tick (1 - exp(-T / tau)) */
     hx_vib_state vs;
     double last[3], v[3]; /* the last position (m), the filtered velocity (m/s) */
     int have;             /* last holds a position */
