@@ -49,10 +49,15 @@ and worst, and the driver (native thread, with F when it got SCHED_FIFO).
 process, a Python thread allocating and freeing 6.4 MB a round (the garbage a plot or a
 browser session makes), started before the rows and stopped after.
 
+--keep-awake runs the rows of the C core's own servo thread (simulated, forcedimension,
+forcedimension-c-device, haply-serial*, not -python) with ServoLoop(keep_awake=True): the thread
+pinned to the last core, a companion spinning below it there so that the core never halts
+(driver "thread F+awake").
+
 --every instead runs the simulated backend on every preset (at the preset's own rate: 1, 4 or
 10 kHz) with every algorithm, W, A-G and the god-object proxy, for --seconds each (default 10
 there), between two runs of the plain C loop at 1 kHz.
-Options: --seconds S, --only KIND[,KIND], --load, --every [--presets A,B]. Needs a C compiler for the two stubs and the
+Options: --seconds S, --only KIND[,KIND], --load, --keep-awake, --every [--presets A,B]. Needs a C compiler for the two stubs and the
 reference.
 """
 
@@ -170,7 +175,8 @@ def row(kind: str, b, st) -> str:
     """One backend's row: rate, ticks, missed, overruns, jitter and work at 99.9 % and worst, driver."""
     share = 100 * st.missed / max(st.ticks, 1)
     driver = {"native thread": "thread", "native callback": "C callback", "vendor callback": "Py callback",
-              "python loop": "Python"}[st.driver] + (" F" if st.fifo else "")
+              "python loop": "Python"}[st.driver] + (" F" if st.fifo else "") + (
+              "+awake" if st.awake_core is not None else "")
     return (f"{kind:24} {1 / b.period:6.0f}/s {st.ticks:7d} {st.missed:6d} ({share:6.3f} %) {st.overruns:5d} "
             f"{st.jitter_seconds[1] * 1e6:8.1f} {st.jitter_seconds[0] * 1e6:8.0f} {st.tick_p999 * 1e6:7.1f} "
             f"{st.tick_seconds[0] * 1e6:7.0f}  {driver}")
@@ -223,6 +229,7 @@ def main() -> None:
     ap.add_argument("--seconds", type=float, default=None)
     ap.add_argument("--only", help="comma-separated kinds: " + ", ".join(KINDS))
     ap.add_argument("--load", action="store_true", help="every row under load (see above)")
+    ap.add_argument("--keep-awake", action="store_true", help="the native thread's rows with keep_awake (see above)")
     ap.add_argument("--every", action="store_true")
     ap.add_argument("--presets", help="with --every: these presets only (comma-separated)")
     args = ap.parse_args()
@@ -240,16 +247,18 @@ def main() -> None:
         root = Path(tmp)
         vs.build_dhd(root / "fdsdk")
         stubs = {"dhd": vs.load_dhd(root / "fdsdk"), "hd": vs.load_hd(vs.build_hd(root / "hd"))}
-        print(f"{'under load' if args.load else 'idle'}: {args.seconds:g} s a row", flush=True)
+        print(f"{'under load' if args.load else 'idle'}: {args.seconds:g} s a row"
+              f"{', the native thread keeping its core awake' if args.keep_awake else ''}", flush=True)
         print(HEADER)
         for rate in (1000.0, 4000.0):
             print(plain_loop(root, args.seconds, rate), flush=True)
         for kind in kinds:
             b, behind = backend(kind, root, stubs)
             r = hx.Renderer(hx.algorithm("A", SINE, 500.0), max_force=b.max_force, energy_monitor=True)
+            native = not kind.endswith("-python") or kind.startswith("openhaptics")
+            awake = args.keep_awake and native and kind.startswith(("simulated", "forcedimension", "haply-serial"))
             try:
-                st, _ = ServoLoop(b, r, native=not kind.endswith("-python") or kind.startswith("openhaptics")).run(
-                    args.seconds, record=False)
+                st, _ = ServoLoop(b, r, native=native, keep_awake=awake).run(args.seconds, record=False)
             finally:
                 if isinstance(behind, subprocess.Popen):
                     behind.kill()

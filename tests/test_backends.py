@@ -12,6 +12,7 @@ and tick times are measured by benchmarks/run_backends.py, not asserted here.
 import _thread
 import ctypes
 import json
+import os
 import signal
 import subprocess
 import sys
@@ -681,6 +682,64 @@ def test_a_dashboard_that_stalls_does_not_stall_the_native_thread():
     for k, t, p, f in seen:  # each snapshot is one tick's, whole: its time and force as traced
         if 0 < k <= len(trace["time"]):
             assert t == trace["time"][k - 1] and tuple(trace["force"][k - 1]) == f
+
+
+def _threads() -> dict:
+    """This process's threads: {tid: the cores it may run on}."""
+    out = {}
+    for tid in os.listdir("/proc/self/task"):
+        try:
+            out[int(tid)] = frozenset(os.sched_getaffinity(int(tid)))
+        except OSError:  # (ended meanwhile)
+            pass
+    return out
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux") or len(os.sched_getaffinity(0)) < 2,
+                    reason="keeping a core awake needs Linux and two cores")
+def test_keep_awake_pins_the_thread_and_a_companion_to_one_core_and_leaves_nothing_running():
+    # keep_awake (issue 56): while the run goes, two new threads (the servo thread and its
+    # spinning companion) are pinned to the same single core, the last of the process's; the
+    # run's ticks are the plain run's to the bit (not paced: nothing depends on the clock), and
+    # when it returns both threads have ended
+    before = _threads()
+    during = []
+
+    def on_tick(k, servo):
+        if not during:
+            during.append({t: c for t, c in _threads().items() if t not in before})
+
+    traces = []
+    for awake in (True, False):
+        sim = SimulatedBackend("falcon", realtime=awake)  # (paced when kept awake: the dashboard is called)
+        r = hx.Renderer(hx.algorithm("A", SINE, 500.0), max_force=sim.max_force)
+        stats, trace = ServoLoop(sim, r, keep_awake=awake).run(400 * sim.period, on_tick=on_tick if awake else None)
+        traces.append((stats, trace))
+    (a, ta), (b, tb) = traces
+    core = max(os.sched_getaffinity(0))
+    assert a.awake_core == core and b.awake_core is None
+    new = during[0]
+    assert len(new) == 2 and set(new.values()) == {frozenset({core})}, new
+    assert set(_threads()) <= set(before)  # both ended with the run
+    assert a.ticks == b.ticks == 400 and a.engaged_at == b.engaged_at is not None
+    for key in ("position", "force", "engaged"):  # the simulated device runs the same ticks
+        assert np.array_equal(ta[key], tb[key]), key
+
+
+@pytest.mark.parametrize("case", ["python renderer", "python loop", "openhaptics"])
+def test_keep_awake_is_refused_where_no_native_thread_runs(case, stubs):
+    # nothing is silently ignored: a Python renderer, native=False, or OpenHaptics' own
+    # scheduler has no thread of the C core's to keep on a core
+    class PythonRenderer:  # a renderer whose tick is Python's
+        dimension, clamps = 3, 0
+
+        def step(self, p):
+            return (0.0, 0.0, 0.0)
+
+    backend = Rig("openhaptics", stubs).backend if case == "openhaptics" else SimulatedBackend("falcon", realtime=False)
+    renderer = PythonRenderer() if case == "python renderer" else hx.Renderer(hx.algorithm("A", SINE, 500.0))
+    with pytest.raises(hx.ParameterError, match=r"^keep_awake = True is not allowed: must be a "):
+        ServoLoop(backend, renderer, native=case != "python loop", keep_awake=True).run(0.01)
 
 
 @needs_cc

@@ -154,6 +154,12 @@ def test_haptex_run_on_the_simulated_falcon(tmp_path, capsys):
     assert "--fast is not allowed with --device haply" in capsys.readouterr().err
     assert main(["run", "--device", "openhaptics", "--hand", "firm-grip"]) == 2
     assert "--hand is not allowed with --device openhaptics" in capsys.readouterr().err
+    for spec in ("openhaptics", "haply:ws://127.0.0.1:1"):  # no thread of the C core's to keep awake there
+        assert main(["run", "--device", spec, "--keep-awake"]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and f"--keep-awake is not allowed with --device {spec}" in err, err
+    assert main(["run", "--device", "simulated:falcon", "--find-limit", "--keep-awake"]) == 2
+    assert "--keep-awake is not allowed with --find-limit" in capsys.readouterr().err
 
 
 def test_a_trace_is_judged_as_a_simulated_run():

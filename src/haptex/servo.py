@@ -96,6 +96,8 @@ class ServoStats:
         ``native thread``, ``native callback``, ``vendor callback`` or ``python loop``.
     fifo, memory_locked : bool
         The native thread ran at SCHED_FIFO, with its memory locked (what it was granted).
+    awake_core : int or None
+        The core the native thread was pinned to and kept awake (``keep_awake``), or None.
     """
 
     ticks: int = 0
@@ -113,6 +115,7 @@ class ServoStats:
     driver: str = "python loop"
     fifo: bool = False
     memory_locked: bool = False
+    awake_core: int | None = None
 
 
 class ServoLoop:
@@ -136,6 +139,13 @@ class ServoLoop:
     priority : int, optional
         The SCHED_FIFO priority the native servo thread asks for, 1-99, or 0 for a plain
         thread; default :data:`haptex.backends.PRIORITY`.
+    keep_awake : bool, optional
+        Pin the native servo thread to one core and keep that core from halting: a companion
+        thread spins there at SCHED_OTHER and nice 19, below every other task, until the run
+        ends (Linux, two cores or more; chosen off by default: it spends that core's whole
+        time). On a virtual machine an idle virtual CPU halts and is woken late for the next
+        tick; this is what Linux's ``idle=poll`` does for a whole machine. Measured on this
+        project's 2-core VM: benchmarks/README.md, "The native servo thread".
 
     Raises
     ------
@@ -146,7 +156,7 @@ class ServoLoop:
 
     def __init__(self, backend, renderer, max_force: float | None = None, engage_force: float = ENGAGE_FORCE,
                  engage_ticks: int = ENGAGE_TICKS, ramp_ticks: int = RAMP_TICKS, deadline: float = DEADLINE,
-                 native: bool = True, priority: int = PRIORITY):
+                 native: bool = True, priority: int = PRIORITY, keep_awake: bool = False):
         if renderer.dimension != backend.dimension:
             raise fail("renderer", f"{renderer.dimension}-D", f"of the device's dimension ({backend.dimension}-D)")
         self.max_force = backend.max_force if max_force is None else positive("max_force", max_force, "N")
@@ -163,6 +173,13 @@ class ServoLoop:
             raise fail("native", native, "True or False")
         self.native = native
         self.priority = whole("priority", priority, 0, 99)
+        if not isinstance(keep_awake, bool):
+            raise fail("keep_awake", keep_awake, "True or False")
+        if keep_awake and not (native and getattr(backend, "native", False) and getattr(backend, "drive", None) is None):
+            raise fail("keep_awake", keep_awake, "a backend whose servo loop is the C core's own thread (simulated, "
+                       "Force Dimension, Haply's serial port) with native=True; OpenHaptics' scheduler owns its thread, "
+                       "and a Python loop cannot be kept on one core")
+        self.keep_awake = keep_awake
 
     @_core.blas_held_to_one_thread  # no BLAS worker spins beside the servo loop
     def run(self, duration: float, record: bool = True, on_tick=None) -> tuple[ServoStats, dict]:
@@ -214,6 +231,9 @@ class ServoLoop:
         st = ServoStats()
         native = self.backend.drive_native if self.native and step is core and getattr(self.backend, "native",
                                                                                         False) else None
+        if self.keep_awake and native is None:
+            raise fail("keep_awake", True, "a haptex.Renderer, whose C core the native thread runs (this renderer's "
+                       "ticks run in Python)")
 
         def tick(s: Sample):
             """Rules 1-4 on one sample, in C: the force to command (the backend sends it)."""
@@ -228,7 +248,10 @@ class ServoLoop:
             "vendor callback" if drive is not None else "python loop")
         try:
             if native is not None:  # the C core's servo thread, or the vendor's, runs the C tick: no GIL
-                native(servo, core, n_ticks, on_tick, priority=self.priority)
+                if self.keep_awake:
+                    native(servo, core, n_ticks, on_tick, priority=self.priority, keep_awake=True)
+                else:
+                    native(servo, core, n_ticks, on_tick, priority=self.priority)
             elif drive is not None:  # a vendor callback in the servo thread runs each tick
                 drive(tick, n_ticks)
             else:  # lock-step, or a renderer in Python: this thread runs each tick
@@ -252,6 +275,7 @@ class ServoLoop:
         st.jitter_seconds = (timing["jitter_max"], timing["jitter_p999"])
         st.overruns = timing["overruns"]
         st.fifo, st.memory_locked = timing["fifo"], timing["locked"]
+        st.awake_core = timing["awake"] - 1 if timing["awake"] else None
         if servo.periods:
             st.period_seconds = (servo.period_mean, servo.period_std)
         n = min(st.ticks, n_rec)

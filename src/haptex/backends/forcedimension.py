@@ -163,7 +163,8 @@ class ForceDimensionBackend:
             raise DeviceError(f"device = {self.name!r} refused a force: {self._dhd.errorGetLastStr()}")
         self._k += 1
 
-    def drive_native(self, servo, core, n_ticks: int, on_tick=None, priority: int = PRIORITY) -> None:
+    def drive_native(self, servo, core, n_ticks: int, on_tick=None, priority: int = PRIORITY,
+                     keep_awake: bool = False) -> None:
         """Run ``n_ticks`` ticks in the C core's servo thread: ``dhdGetPosition``, the servo rules
         of ``servo`` (a ``haptex.core._ext.Servo``), the tick of ``core`` (a
         :class:`haptex.Renderer`'s core) and ``dhdSetForce``, in C with no GIL, once a period
@@ -183,6 +184,10 @@ class ForceDimensionBackend:
         priority : int, optional
             The SCHED_FIFO priority to ask for (0: a plain thread), default
             :data:`haptex.backends.PRIORITY`; not asked when not real-time.
+        keep_awake : bool, optional
+            Pin the thread to one core and keep that core from halting with a companion
+            thread spinning below it (:class:`haptex.servo.ServoLoop`'s ``keep_awake``);
+            default False.
 
         Raises
         ------
@@ -195,5 +200,5 @@ class ForceDimensionBackend:
             raise DeviceError(f"device = {self.name!r} is not open: open it first")
         get_position, set_force = self._native
         servo.start(core, ("dhd", get_position, set_force, int(self._id)), int(n_ticks), self.realtime,
-                    int(priority) if self.realtime else 0, self.realtime, SPIN)
+                    int(priority) if self.realtime else 0, self.realtime, SPIN, bool(keep_awake))
         wait_native(servo, self.name, on_tick)

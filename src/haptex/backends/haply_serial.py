@@ -250,7 +250,8 @@ class HaplySerialBackend:
         finally:
             self._disconnect()
 
-    def drive_native(self, servo, core, n_ticks: int, on_tick=None, priority: int = PRIORITY) -> None:
+    def drive_native(self, servo, core, n_ticks: int, on_tick=None, priority: int = PRIORITY,
+                     keep_awake: bool = False) -> None:
         """Run ``n_ticks`` ticks in the C core's servo thread, which speaks the Inverse3's serial
         exchanges itself (``hx_haply.c``): the package lets go of the port, the port is opened
         raw, the device woken and its state read with zero force, then each tick's force command
@@ -271,6 +272,10 @@ class HaplySerialBackend:
         priority : int, optional
             The SCHED_FIFO priority to ask for (0: a plain thread), default
             :data:`haptex.backends.PRIORITY`.
+        keep_awake : bool, optional
+            Pin the thread to one core and keep that core from halting with a companion
+            thread spinning below it (:class:`haptex.servo.ServoLoop`'s ``keep_awake``);
+            default False.
 
         Raises
         ------
@@ -299,7 +304,8 @@ class HaplySerialBackend:
                 tty.setraw(fd)
                 termios.tcflush(fd, termios.TCIOFLUSH)
                 _ext.haply_wakeup(fd, WAKEUP_TIMEOUT)
-                servo.start(core, ("haply", fd, self.timeout), int(n_ticks), False, int(priority), True, 0.0)
+                servo.start(core, ("haply", fd, self.timeout), int(n_ticks), False, int(priority), True, 0.0,
+                            bool(keep_awake))
             except (OSError, termios.error) as exc:
                 why = exc.args[-1] if exc.args else exc
                 raise DeviceError(f"device = {self.name!r} stopped answering: {why}; no force was sent") from None

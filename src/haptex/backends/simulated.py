@@ -145,7 +145,8 @@ class SimulatedBackend:
         except ValueError:
             raise fail("device", self.name, "a finite state") from None
 
-    def drive_native(self, servo, core, n_ticks: int, on_tick=None, priority: int = PRIORITY) -> None:
+    def drive_native(self, servo, core, n_ticks: int, on_tick=None, priority: int = PRIORITY,
+                     keep_awake: bool = False) -> None:
         """Run ``n_ticks`` ticks in the C core's servo thread: the device, the servo rules of
         ``servo`` (a ``haptex.core._ext.Servo``) and the tick of ``core`` (a
         :class:`haptex.Renderer`'s core) in C, with no GIL, once a period on the clock (or as
@@ -165,6 +166,10 @@ class SimulatedBackend:
         priority : int, optional
             The SCHED_FIFO priority to ask for (0: a plain thread), default
             :data:`haptex.backends.PRIORITY`; not asked when not real-time.
+        keep_awake : bool, optional
+            Pin the thread to one core and keep that core from halting with a companion
+            thread spinning below it (:class:`haptex.servo.ServoLoop`'s ``keep_awake``);
+            default False.
 
         Raises
         ------
@@ -174,5 +179,5 @@ class SimulatedBackend:
         if not self._open:
             raise fail("device", self.name, "opened before it is driven")
         servo.start(core, self._plant, int(n_ticks), self.realtime, int(priority) if self.realtime else 0,
-                    self.realtime, SPIN)
+                    self.realtime, SPIN, bool(keep_awake))
         wait_native(servo, self.name, on_tick)

@@ -54,12 +54,16 @@ from ._common import (Quantity, STABILISERS, _felt_options, _jsonable, _object_o
 @click.option("--identify", "identify_run", is_flag=True,
               help="Instead of a texture: the identification program (steps and a chirp along x at 20% of the "
                    "device's max force, a 50 N/m centering spring), the handle free; needs --record.")
+@click.option("--keep-awake", is_flag=True,
+              help="simulated, forcedimension, haply-serial: pin the native servo thread to one core and keep that "
+                   "core from halting (a thread spinning there below every other task; it spends the core): fewer "
+                   "late ticks on a virtual machine or a CPU with deep idle states.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
 @click.option("--quiet", is_flag=True, help="No live dashboard.")
 @_core_blas_held  # BLAS in the set-up (a preset's matrices, a slope bound) wakes no worker to spin beside the loop
 def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration, passivity_control, stabiliser, hand,
                speed, fast, object_spec, uv_scale, tip_radius, crop, record, vibration_models, vibration_budget,
-               find_limit_run, identify_run, as_json, quiet):
+               find_limit_run, identify_run, keep_awake, as_json, quiet):
     """Render one texture on one device, with the safety rules of haptex.servo and a live dashboard."""
 
     from ..algorithms import algorithm
@@ -77,7 +81,7 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
         if identify_run:
             raise ParameterError("--find-limit is not allowed with --identify: one program a run")
         given = [n for n in ("texture_spec", "letter", "passivity_control", "stabiliser", "object_spec", "tip_radius",
-                             "crop", "speed", "duration", "vibration_models", "vibration_budget")
+                             "crop", "speed", "duration", "vibration_models", "vibration_budget", "keep_awake")
                  if ctx.get_parameter_source(n) == click.core.ParameterSource.COMMANDLINE]
         if given:
             opt = next(o for o in ctx.command.params if o.name == given[0]).opts[-1]
@@ -91,7 +95,7 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
                                  "'haptex identify' reads")
         texture_given = [n for n in ("texture_spec", "letter", "stiffness", "passivity_control", "stabiliser",
                                      "object_spec", "tip_radius", "crop", "speed", "vibration_models",
-                                     "vibration_budget")
+                                     "vibration_budget", "keep_awake")
                          if ctx.get_parameter_source(n) == click.core.ParameterSource.COMMANDLINE]
         if texture_given:
             opt = next(o for o in ctx.command.params if o.name == texture_given[0]).opts[-1]
@@ -106,6 +110,10 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
     for name in sorted(given - {"fast"} if kind == "forcedimension" else given if kind in vendors else ()):
         which = "simulated devices" if name != "fast" else "simulated and Force Dimension devices"
         raise ParameterError(f"--{name} is not allowed with --device {device_spec}: it applies to {which} only")
+    if keep_awake and kind not in ("simulated", "forcedimension", "haply-serial"):
+        raise ParameterError(f"--keep-awake is not allowed with --device {device_spec}: it keeps the core of the C "
+                             "core's own servo thread awake (simulated, forcedimension, haply-serial); OpenHaptics' "
+                             "scheduler owns its thread, and Haply's service is driven from Python")
     options = ({"hand": hand, "speed": speed, "realtime": not fast} if kind == "simulated"
                else {"realtime": not fast} if kind == "forcedimension" else {})
     backend = open_backend(device_spec, **options)
@@ -162,7 +170,7 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
         vib = _vibration(vibration_models, dev.period, own.mass[0, 0], vibration_budget, backend.name)
     renderer = Renderer(alg, max_force=fmax if math.isfinite(fmax) else None, energy_monitor=True,
                         passivity_controller=pc, period=dev.period, **vib)
-    loop = ServoLoop(backend, renderer, max_force=fmax if math.isfinite(fmax) else None)
+    loop = ServoLoop(backend, renderer, max_force=fmax if math.isfinite(fmax) else None, keep_awake=keep_awake)
     live = None
     if not (quiet or as_json):
         from rich.console import Console
@@ -201,7 +209,7 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
                "period_mean": stats.period_seconds[0], "period_std": stats.period_seconds[1],
                "jitter_max": stats.jitter_seconds[0], "jitter_p999": stats.jitter_seconds[1],
                "overruns": stats.overruns, "driver": stats.driver, "fifo": stats.fifo,
-               "memory_locked": stats.memory_locked,
+               "memory_locked": stats.memory_locked, "awake_core": stats.awake_core,
                "interrupted": stats.interrupted, "regime": verdict["regime"], "oscillating": osc.oscillating,
                "amplitude": osc.amplitude, "frequency": osc.frequency,
                "stabiliser": None if pc is None else pc.label,
@@ -226,6 +234,9 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
     if stats.driver == "native thread" and loop.priority and not stats.fifo and getattr(backend, "realtime", True):
         click.echo("notice: the servo thread ran at normal priority: SCHED_FIFO needs CAP_SYS_NICE or a real-time "
                    "limit (ulimit -r, /etc/security/limits.conf)", err=True)
+    if keep_awake and stats.awake_core is None:
+        click.echo("notice: the servo thread's core was not kept awake: it needs Linux and two cores or more",
+                   err=True)
     if as_json:
         click.echo(json.dumps(_jsonable(summary), indent=2))
         return
@@ -237,6 +248,7 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
                f"{stats.tick_seconds[1] * 1e6:.3g} us mean, {stats.tick_p999 * 1e6:.3g} us at 99.9 %, "
                f"{stats.tick_seconds[0] * 1e6:.3g} us worst; jitter {stats.jitter_seconds[0] * 1e6:.3g} us worst; "
                f"{stats.driver}{' at SCHED_FIFO' if stats.fifo else ''}"
+               f"{f', core {stats.awake_core} kept awake' if stats.awake_core is not None else ''}"
                + ("; interrupted (forces zeroed)" if stats.interrupted else ""))
     if record is not None:
         click.echo(f"trace: {record}")

@@ -1425,25 +1425,26 @@ static const char *haply_error(int rc)
 }
 
 PyDoc_STRVAR(servo_start_doc,
-             "start(renderer, device, n_ticks, paced, priority, lock_memory, spin)\n--\n\n"
+             "start(renderer, device, n_ticks, paced, priority, lock_memory, spin, keep_awake)\n--\n\n"
              "Start the native servo thread: n_ticks ticks of renderer (a Renderer core) under the rules, on device: a "
              "Plant (the simulated device), ('dhd', dhdGetPosition's address, dhdSetForce's address, device id) "
              "(3-D) or ('haply', fd, timeout): an Inverse3 woken on the raw serial port fd, answering each force "
              "command within timeout s (3-D; a first zero-force exchange reads its state before the thread "
              "starts, OSError if it fails). paced: one tick a period on the clock (else as fast as it goes); priority: SCHED_FIFO priority "
              "to ask for (0: none); lock_memory: mlockall for the run where allowed; spin (s): sleep until this long "
-             "before a tick, then read the clock. Returns at once; the thread "
+             "before a tick, then read the clock; keep_awake: pin the thread to one core and keep that core from halting with a "
+             "spinning companion below it (Linux, 2 cores or more). Returns at once; the thread "
              "sends zero force at its end, on stop(), or when the device fails. join() waits for it.");
 
 static PyObject *Servo_start(ServoObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     RendererObject *r;
     long n;
-    int paced, priority, lock, rc;
+    int paced, priority, lock, awake, rc;
     double spin;
-    if (nargs != 7 || !Py_IS_TYPE(args[0], &RendererType)) {
+    if (nargs != 8 || !Py_IS_TYPE(args[0], &RendererType)) {
         PyErr_SetString(PyExc_TypeError,
-                        "start takes a Renderer core, a device, n_ticks, paced, priority, lock_memory, spin");
+                        "start takes a Renderer core, a device, n_ticks, paced, priority, lock_memory, spin, keep_awake");
         return NULL;
     }
     if (self->threaded) {
@@ -1456,7 +1457,8 @@ static PyObject *Servo_start(ServoObject *self, PyObject *const *args, Py_ssize_
     priority = (int)PyLong_AsLong(args[4]);
     lock = PyObject_IsTrue(args[5]);
     spin = PyFloat_AsDouble(args[6]);
-    if (PyErr_Occurred())
+    awake = PyObject_IsTrue(args[7]);
+    if (PyErr_Occurred() || awake < 0)
         return NULL;
     if (n < 0 || priority < 0 || priority > 99 || r->dim != self->s.dim || !(spin >= 0.0 && spin <= 0.01)) {
         PyErr_SetString(PyExc_ValueError,
@@ -1525,6 +1527,7 @@ static PyObject *Servo_start(ServoObject *self, PyObject *const *args, Py_ssize_
     self->th.paced = paced;
     self->th.priority = priority;
     self->th.lock_memory = lock;
+    self->th.keep_awake = awake;
     self->th.spin = fmin(spin, 0.5 * self->s.period); /* (never a spin all period long: a FIFO spin starves the core) */
     Py_INCREF(args[0]);
     Py_XSETREF(self->renderer, r);
@@ -1562,19 +1565,21 @@ static PyObject *Servo_snapshot(ServoObject *self, PyObject *unused)
 
 PyDoc_STRVAR(servo_timing_doc, "timing()\n--\n\nThe ticks' timing as counted by every driver: a dict of work_max, "
                                "work_p999, jitter_max, jitter_p999 (s; jitter |dt - T|, dt the time between samples; "
-                               "quantiles to 100 ns), overruns; and for the native thread fifo, locked (what it got) "
+                               "quantiles to 100 ns), overruns; and for the native thread fifo, locked, awake (what it got; awake: "
+                               "the core kept awake, its number + 1, or 0) "
                                "and io_error (0, 1 the device's read failed, 2 its write) at io_error_tick; device_error: an Inverse3's "
                                "failure in words ('' for none or another device).");
 
 static PyObject *Servo_timing(ServoObject *self, PyObject *unused)
 {
     (void)unused;
-    return Py_BuildValue("{s:d,s:d,s:d,s:d,s:l,s:O,s:O,s:i,s:l,s:s}", "work_max", self->ticks.work_max, "work_p999",
+    return Py_BuildValue("{s:d,s:d,s:d,s:d,s:l,s:O,s:O,s:i,s:i,s:l,s:s}", "work_max", self->ticks.work_max, "work_p999",
                          fmin(hx_ticks_quantile(self->ticks.work, 0.999), self->ticks.work_max), "jitter_max",
                          self->ticks.jitter_max, "jitter_p999",
                          fmin(hx_ticks_quantile(self->ticks.jitter, 0.999), self->ticks.jitter_max), "overruns",
                          self->ticks.overruns, "fifo", self->th.fifo ? Py_True : Py_False, "locked",
-                         self->th.locked ? Py_True : Py_False, "io_error", self->th.io_error, "io_error_tick",
+                         self->th.locked ? Py_True : Py_False, "awake", self->th.awake, "io_error", self->th.io_error,
+                         "io_error_tick",
                          self->th.io_error_tick, "device_error", haply_error(self->haply.error));
 }
 

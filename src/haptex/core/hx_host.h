@@ -122,16 +122,18 @@ struct hx_thread {
     double spin;    /* s: sleep until this long before a tick is due, then read the clock until it is */
     int priority;   /* SCHED_FIFO priority to ask for (1-99), 0: a plain thread */
     int lock_memory;/* mlockall for the run, where allowed */
+    int keep_awake; /* pin the thread to one core and keep that core busy below it (hx_thread.c) */
     /* results, written by the thread */
     volatile int stop, done;
     int fifo, locked;       /* what the thread got */
+    int awake;              /* the core was kept awake (Linux, 2 cores or more): its number + 1, else 0 */
     int io_error;           /* the device failed (read 1, write 2) */
     long io_error_tick;
     /* the seqlock */
     volatile unsigned long seq;
     hx_snapshot snap;
-    /* the thread's handle (pthread_t, kept opaque here) */
-    unsigned char handle[64];
+    /* the thread's handle and its companion's (pthread_t, kept opaque here) */
+    unsigned char handle[64], companion[64];
     int started;
 };
 
