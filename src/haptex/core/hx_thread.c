@@ -213,7 +213,7 @@ static int awake_core(void)
     if (sched_getaffinity(0, sizeof set, &set) != 0)
         return -1;
     for (c = 0; c < CPU_SETSIZE; c++)
-        if (CPU_ISSET(c, &set)) {
+        if (CPU_ISSET((size_t)c, &set)) {
             n++;
             last = c;
         }
@@ -241,7 +241,7 @@ int hx_thread_start(hx_thread *th)
     if (core >= 0) { /* pinned to the core its companion keeps awake */
         cpu_set_t one;
         CPU_ZERO(&one);
-        CPU_SET(core, &one);
+        CPU_SET((size_t)core, &one);
         if (pthread_attr_setaffinity_np(&attr, sizeof one, &one) != 0)
             core = -1;
     }
@@ -266,7 +266,7 @@ int hx_thread_start(hx_thread *th)
     if (rc == 0 && core >= 0 && pthread_attr_init(&attr) == 0) {
         cpu_set_t one;
         CPU_ZERO(&one);
-        CPU_SET(core, &one);
+        CPU_SET((size_t)core, &one);
         if (pthread_attr_setaffinity_np(&attr, sizeof one, &one) == 0 &&
             pthread_create((pthread_t *)(void *)th->companion, &attr, companion, th) == 0)
             th->awake = core + 1;
