@@ -84,12 +84,12 @@ fig.tight_layout()
 # Between two ticks an idle core halts, and on a virtual machine the host wakes it late for the
 # next one. ``keep_awake=True`` (``haptex run --keep-awake``) pins the native thread to one core
 # and spins a companion there below it, so that the core never halts, at the cost of that
-# core's time. Two seconds each way, alternated; ``awake_core`` says which core was kept.
+# core's time. One second each way, alternated; ``awake_core`` says which core was kept.
 
 for awake in (False, True, False, True):
     backend = SimulatedBackend("falcon", realtime=True)
     renderer = hx.Renderer(hx.algorithm("A", texture, 500.0), max_force=backend.max_force)
-    stats, _ = ServoLoop(backend, renderer, keep_awake=awake).run(2.0, record=False)
+    stats, _ = ServoLoop(backend, renderer, keep_awake=awake).run(1.0, record=False)
     print(f"keep_awake={awake!s:5}  missed {stats.missed:2d} of {stats.ticks}, jitter "
           f"{stats.jitter_seconds[1] * 1e6:7.1f} us at 99.9 %, {stats.jitter_seconds[0] * 1e6:8.1f} us worst; "
           f"core kept awake: {stats.awake_core}")
