@@ -742,6 +742,45 @@ def test_keep_awake_is_refused_where_no_native_thread_runs(case, stubs):
         ServoLoop(backend, renderer, native=case != "python loop", keep_awake=True).run(0.01)
 
 
+def test_a_texture_changed_mid_run_is_taken_between_two_ticks_of_the_native_thread():
+    # Renderer.set_algorithm (issue 56's parameter block, a whole model): the dashboard hands
+    # the native thread another algorithm and texture once, about 0.4 s in; every force sent
+    # after the ramp is, to the bit, the first renderer's at that tick's position up to one
+    # tick and the second's from it on (both stateless: A and B), and the renderer took it once
+    sim = SimulatedBackend("falcon", realtime=True)
+    first, second = hx.algorithm("A", SINE, 500.0), hx.algorithm("B", hx.Extruded(hx.Sinusoid(0.3e-3, 1e-3)), 800.0)
+    r = hx.Renderer(first, max_force=sim.max_force)
+
+    def on_tick(k, servo):
+        if k > 400 and r.algorithm is first:
+            r.set_algorithm(second, limit=1000.0)
+
+    loop = ServoLoop(sim, r)
+    stats, trace = loop.run(1.0, on_tick=on_tick)
+    assert stats.driver == "native thread" and r.algorithm_changes == 1 and r.stiffness == 800.0
+    start = stats.engaged_at + loop.ramp_ticks + 1
+    ra, rb = hx.Renderer(first, max_force=sim.max_force), hx.Renderer(second, max_force=sim.max_force)
+    which = []  # at every tick where the two renderers differ: whose force was sent (a, b or neither)
+    for k in range(start, stats.ticks):
+        p, sent = tuple(trace["position"][k]), trace["force"][k].tolist()
+        fa, fb = list(ra.step(p)), list(rb.step(p))
+        if fa != fb and any(sent):  # (a zero sent: the watchdog's answer to a late sample)
+            which.append("a" if sent == fa else "b" if sent == fb else "?")
+    text = "".join(which)
+    assert "?" not in text and text.count("a") > 20 and text.count("b") > 20, text
+    assert text == "a" * text.count("a") + "b" * text.count("b"), text  # one change, between two ticks
+
+
+def test_an_unsafe_or_mismatched_algorithm_is_refused_before_it_reaches_the_tick():
+    r = hx.Renderer(hx.algorithm("A", SINE, 500.0))
+    with pytest.raises(hx.ParameterError, match=r"^stiffness = '5000 N/m' is not allowed: must be at most 1000 N/m"):
+        r.set_algorithm(hx.algorithm("A", SINE, 5000.0), limit=1000.0)
+    with pytest.raises(hx.ParameterError, match=r"^algorithm = .* is not allowed: must be of this renderer's dimension"):
+        r.set_algorithm(hx.algorithm("A", hx.Sinusoid(0.2e-3, 2e-3), 500.0))
+    assert r.step((0.0, 0.0, -1e-4)) == hx.Renderer(hx.algorithm("A", SINE, 500.0)).step((0.0, 0.0, -1e-4))
+    assert r.algorithm_changes == 0
+
+
 @needs_cc
 def test_the_native_force_dimension_thread_needs_no_gil(stubs):
     # DHD's functions called from the C core's thread by address: the device behind the stub in

@@ -700,6 +700,49 @@ class Renderer:
             raise fail("stiffness", f"{k:g} N/m", f"at most {limit:g} N/m, the limit set for this run")
         self._core.set_stiffness(k)
 
+    def set_algorithm(self, algorithm: Algorithm, limit: float | None = None) -> None:
+        """Change the texture or the algorithm while the renderer runs, between ticks.
+
+        The parameter block of the C core's renderer, for a whole model: ``algorithm`` is
+        packed (as this constructor packs one, with this renderer's evaluation budget) and
+        waits beside the model; the next tick takes it before it computes, never in the middle
+        of one, whichever thread ticks (the native servo thread included), and starts it with
+        its state cleared (friction's adhesion point, the proxy's position, a closest-point
+        warm start belong to the old model). The observer, the stabiliser, the vibration, the
+        force ceiling and the servo rules go on. A second call before that tick replaces the
+        first, which is never used; a stiffness waiting from :meth:`set_stiffness` gives way
+        to the new model's own.
+
+        Parameters
+        ----------
+        algorithm : Algorithm or haptex.proxy.GodObject
+            Of this renderer's dimension: W or A-G on a texture or an object, or the
+            god-object.
+        limit : float, optional
+            The largest stiffness the caller allows on this device (N/m): an algorithm whose
+            kappa_0 is larger is refused before it reaches the tick (a change that would be
+            unsafe mid-run).
+
+        Raises
+        ------
+        ParameterError
+            For an algorithm of another dimension, one the constructor refuses, or a
+            stiffness above ``limit``.
+        """
+        if getattr(algorithm, "dimension", None) != self.dimension:
+            raise fail("algorithm", algorithm, f"of this renderer's dimension ({self.dimension}-D)")
+        k = float(getattr(algorithm, "stiffness", math.nan))
+        if limit is not None and not k <= positive("limit", limit, "N/m"):
+            raise fail("stiffness", f"{k:g} N/m", f"at most {limit:g} N/m, the limit set for this run")
+        packed = Renderer(algorithm, max_evaluations=self.max_evaluations)  # (its model's arrays, kept by the core)
+        self._core.set_model(packed._core)
+        self.algorithm = algorithm
+
+    @property
+    def algorithm_changes(self) -> int:
+        """Models the ticks have taken from :meth:`set_algorithm`."""
+        return self._core.model_changes
+
     @property
     def stiffness(self) -> float:
         """kappa_0 (N/m) the ticks use now (a :meth:`set_stiffness` waits for the next tick)."""

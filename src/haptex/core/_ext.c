@@ -423,10 +423,16 @@ typedef struct {
     PyObject *fallback; /* called with p when step's fast path does not apply */
     PyObject *base; /* an object's base (a Base; model.base points into it), or NULL */
     double *vib;    /* an owned copy of the vibration's model set (r.vib points into it), or NULL */
+    PyObject *model_current; /* the Renderer whose arrays the model set by set_model uses, or NULL */
+    PyObject *model_next;    /* the one whose model waits for the next tick, or NULL (set_model) */
 } RendererObject;
+
+static PyTypeObject RendererType; /* (defined below) */
 
 static void Renderer_dealloc(RendererObject *self)
 {
+    Py_XDECREF(self->model_current);
+    Py_XDECREF(self->model_next);
     Py_XDECREF(self->base);
     free(self->vib);
     free(self->coeffs);
@@ -707,6 +713,26 @@ static PyObject *Renderer_set_stiffness(RendererObject *self, PyObject *arg)
     Py_RETURN_NONE;
 }
 
+static PyObject *Renderer_set_model(RendererObject *self, PyObject *arg)
+{
+    RendererObject *o = (RendererObject *)arg;
+    int withdrawn;
+    if (!Py_IS_TYPE(arg, &RendererType) || arg == (PyObject *)self || o->dim != self->dim) {
+        PyErr_SetString(PyExc_ValueError, "set_model takes another Renderer core of the same dimension");
+        return NULL;
+    }
+    /* with the GIL held: one writer at a time (it waits at most for a tick's copy of a struct) */
+    withdrawn = hx_render_set_model(&self->r, &o->r.model);
+    /* the arrays in use: the last model handed, if a tick took it (else it was withdrawn unused) */
+    if (self->model_next != NULL && !withdrawn)
+        Py_XSETREF(self->model_current, self->model_next);
+    else
+        Py_XDECREF(self->model_next);
+    Py_INCREF(arg);
+    self->model_next = arg;
+    Py_RETURN_NONE;
+}
+
 static PyObject *Renderer_get_stiffness(RendererObject *self, void *closure)
 {
     double k0;
@@ -819,6 +845,10 @@ static PyMethodDef Renderer_methods[] = {
     {"run", (PyCFunction)(void (*)(void))Renderer_run, METH_FASTCALL, run_doc},
     {"fault", (PyCFunction)Renderer_fault, METH_NOARGS, "Count a fault found before the tick (a malformed p)."},
     {"reset", (PyCFunction)Renderer_reset, METH_NOARGS, "Clear the state, observer sums and counters."},
+    {"set_model", (PyCFunction)Renderer_set_model, METH_O,
+     "set_model(other)\n--\n\nHand this renderer other's model (another Renderer core of its dimension: its texture, "
+     "algorithm and parameters) for the next tick, which takes it before it computes, the algorithm's state cleared "
+     "(hx_render_set_model); other is kept alive while its model may be in use."},
     {"set_stiffness", (PyCFunction)Renderer_set_stiffness, METH_O,
      "set_stiffness(k0): kappa_0 (N/m) for the next tick on, taken between ticks (any thread)."},
     {NULL, NULL, 0, NULL},
@@ -826,6 +856,8 @@ static PyMethodDef Renderer_methods[] = {
 
 static PyMemberDef Renderer_members[] = {
     {"faults", T_LONG, offsetof(RendererObject, r.faults), READONLY, "faults counted"},
+    {"model_changes", T_LONG, offsetof(RendererObject, r.model_changes), READONLY,
+     "models the ticks have taken from set_model"},
     {"stiffness_changes", T_LONG, offsetof(RendererObject, r.k0_changes), READONLY,
      "stiffnesses taken from set_stiffness (between ticks)"},
     {"vibration_clamped", T_LONG, offsetof(RendererObject, r.vib.vs.clamped), READONLY,

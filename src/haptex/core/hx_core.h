@@ -467,12 +467,26 @@ typedef struct {
     double k0_next;  /* N/m */
     int k0_pending;  /* 1 while k0_next waits (atomic) */
     long k0_changes; /* stiffnesses taken */
+    /* and a whole model (another texture or algorithm, hx_render_set_model): 0 none waits,
+     * 1 model_next waits, 2 the tick is copying it (atomic) */
+    hx_model model_next;
+    int model_pending;
+    long model_changes; /* models taken */
 } hx_renderer;
 
 /* Hand the renderer a new stiffness kappa_0 (N/m, finite and > 0: the caller checks) from any
  * thread; the next tick takes it before it computes (lock-free: an atomic flag over the value,
  * a later call before that tick replaces it). */
 void hx_render_set_stiffness(hx_renderer *r, double k0);
+
+/* Hand the renderer a new model m (hx_model_check'd; its arrays kept alive by the caller until
+ * a later model has replaced it) from any one thread; the next tick takes it before it computes,
+ * with the algorithm's state cleared (its friction, contact and warm start belong to the old
+ * model), the observer, the stabiliser and the vibration going on. A model still waiting is
+ * withdrawn (returns 1: it was never used) or, while a tick copies it, waited for (a copy's
+ * time); returns 0 when the last model handed was taken or none was waiting. A stiffness still
+ * waiting is withdrawn: m's own is the one. */
+int hx_render_set_model(hx_renderer *r, const hx_model *m);
 
 /* One servo tick at (x, y, z) (m; y is 0 over a profile): the force to command (N), never
  * NaN, never above max_force; zero for a position not finite or beyond the limit, or a

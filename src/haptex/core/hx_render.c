@@ -184,6 +184,15 @@ void hx_render_step(hx_renderer *r, double x, double y, double z, double f[3])
     f[0] = f[1] = f[2] = 0.0;
     r->work = 0;
     /* between ticks only; a plain load first, so a tick without a change pays no locked exchange */
+    if (__atomic_load_n(&r->model_pending, __ATOMIC_ACQUIRE) == 1) {
+        int one = 1;
+        if (__atomic_compare_exchange_n(&r->model_pending, &one, 2, 0, __ATOMIC_ACQ_REL, __ATOMIC_ACQUIRE)) {
+            r->model = r->model_next;
+            memset(&r->st, 0, sizeof r->st);
+            r->model_changes++;
+            __atomic_store_n(&r->model_pending, 0, __ATOMIC_RELEASE);
+        }
+    }
     if (__atomic_load_n(&r->k0_pending, __ATOMIC_ACQUIRE)
         && __atomic_exchange_n(&r->k0_pending, 0, __ATOMIC_ACQ_REL)) {
         __atomic_load(&r->k0_next, &r->model.prm[HX_P_K0], __ATOMIC_RELAXED);
@@ -232,6 +241,26 @@ void hx_render_set_stiffness(hx_renderer *r, double k0)
 {
     __atomic_store(&r->k0_next, &k0, __ATOMIC_RELAXED);
     __atomic_store_n(&r->k0_pending, 1, __ATOMIC_RELEASE);
+}
+
+int hx_render_set_model(hx_renderer *r, const hx_model *m)
+{
+    int withdrawn = 0;
+    for (;;) {
+        int v = __atomic_load_n(&r->model_pending, __ATOMIC_ACQUIRE), one = 1;
+        if (v == 0)
+            break;
+        if (v == 1 && __atomic_compare_exchange_n(&r->model_pending, &one, 0, 0, __ATOMIC_ACQ_REL,
+                                                  __ATOMIC_ACQUIRE)) {
+            withdrawn = 1; /* never taken: no tick reads it */
+            break;
+        }
+        /* 2: a tick is copying it (a struct's copy): wait */
+    }
+    r->model_next = *m;
+    __atomic_store_n(&r->k0_pending, 0, __ATOMIC_RELEASE); /* the model's own stiffness, not a waiting one */
+    __atomic_store_n(&r->model_pending, 1, __ATOMIC_RELEASE);
+    return withdrawn;
 }
 
 void hx_render_set_vibration(hx_renderer *r, const double *v, double mass, double gain, double tau,
