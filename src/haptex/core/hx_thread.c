@@ -253,9 +253,8 @@ int hx_thread_start(hx_thread *th)
             pthread_attr_setschedpolicy(&attr, SCHED_FIFO) == 0 && pthread_attr_setschedparam(&attr, &sp) == 0)
             rc = pthread_create(tid, &attr, loop, th);
         th->fifo = rc == 0;
-        if (rc != 0) { /* refused (EPERM without the rights): a plain thread, still pinned */
+        if (rc != 0) /* refused (EPERM without the rights): a plain thread, still pinned */
             pthread_attr_setinheritsched(&attr, PTHREAD_INHERIT_SCHED);
-        }
     }
     if (rc != 0) /* refused, or not asked: a plain thread */
         rc = pthread_create(tid, &attr, loop, th);
@@ -265,9 +264,14 @@ int hx_thread_start(hx_thread *th)
 #ifdef __linux__
     if (rc == 0 && core >= 0 && pthread_attr_init(&attr) == 0) {
         cpu_set_t one;
+        struct sched_param sp;
+        sp.sched_priority = 0;
         CPU_ZERO(&one);
         CPU_SET((size_t)core, &one);
-        if (pthread_attr_setaffinity_np(&attr, sizeof one, &one) == 0 &&
+        /* SCHED_OTHER whatever the caller's policy: a real-time spinner would starve the core */
+        if (pthread_attr_setinheritsched(&attr, PTHREAD_EXPLICIT_SCHED) == 0 &&
+            pthread_attr_setschedpolicy(&attr, SCHED_OTHER) == 0 && pthread_attr_setschedparam(&attr, &sp) == 0 &&
+            pthread_attr_setaffinity_np(&attr, sizeof one, &one) == 0 &&
             pthread_create((pthread_t *)(void *)th->companion, &attr, companion, th) == 0)
             th->awake = core + 1;
         pthread_attr_destroy(&attr);
