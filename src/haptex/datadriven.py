@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._validation import ParameterError, fail, positive
+from ._validation import ParameterError, _fmt, fail, positive
 
 FORMAT = "haptex-arma-models"
 """The ``format`` field of haptex's own model files (:meth:`ModelSet.write`)."""
@@ -1674,6 +1674,43 @@ class VibrationEnergy:
         return 1.0 if self.power <= b else math.sqrt(b / self.power)
 
 
+def require_servo_rate(models, period: float, name: str = "vibration", value=None, on: str | None = None) -> None:
+    """Refuse models that do not run at a device's servo rate.
+
+    The vibration channel's tick is one sample of the set (Culbertson et al. 2014 resample
+    HaTT's 10 kHz models for this reason), so a set, or a model, must run at 1 / ``period``:
+    :func:`port_energy`, :func:`haptex.simulate`, and ``haptex run``, ``export`` and
+    ``simulate`` with ``--vibration`` check it here.
+
+    Parameters
+    ----------
+    models : ModelSet or ArmaModel
+        Its ``sample_rate`` (Hz) is checked.
+    period : float
+        The device's servo period (s).
+    name, value : str, object, optional
+        The parameter the refusal names, and its value (default: the models' rate).
+    on : str, optional
+        The device the refusal names.
+
+    Raises
+    ------
+    ParameterError
+        If ``models.sample_rate * period`` is not 1 within 1e-6; the message names both
+        rates and the fit that gives the device's (``fit(..., rate=)``, ``haptex fit --rate``).
+    """
+    rate = float(models.sample_rate)
+    if abs(rate * period - 1.0) <= 1e-6:
+        return
+    servo = 1.0 / period
+    shown = f"{rate:g} Hz" if value is None else value
+    shown = repr(shown) if isinstance(shown, str) else _fmt(shown)  # (a file's path whole)
+    raise ParameterError(f"{name} = {shown} is not allowed{f' on {on}' if on else ''}: must be a model at the "
+                         f"device's servo rate, {servo:g} Hz: its models run at {rate:g} Hz, the device's servo at "
+                         f"{servo:g} Hz (fit them at that rate: haptex.datadriven.fit(..., rate={servo:g}), or "
+                         f"haptex fit RECORDING --rate '{servo:g} Hz')")
+
+
 def port_energy(model: ArmaModel, device, hand=None, *, axis: int = 0, mass: float | None = None) -> VibrationEnergy:
     """The mean power a vibration supplies when displayed as a force on a device held by a hand.
 
@@ -1719,9 +1756,7 @@ def port_energy(model: ArmaModel, device, hand=None, *, axis: int = 0, mass: flo
     from scipy.signal import cont2discrete, freqz
 
     T = float(device.period)
-    if abs(model.sample_rate * T - 1.0) > 1e-6:
-        raise fail("model", f"{model.sample_rate:g} Hz", f"a model at the device's servo rate, {1 / T:g} Hz "
-                   "(fit with rate=, or haptex fit --rate)")
+    require_servo_rate(model, T, "model")
     dim = np.atleast_2d(device.mass).shape[0]
     if not (isinstance(axis, int | np.integer) and 0 <= axis < dim):
         raise fail("axis", axis, f"an axis of the device, 0 to {dim - 1}")

@@ -898,14 +898,11 @@ def _vibration_inputs(device: Device, vibration, vibration_mass, vibration_gain,
     """The data-driven vibration's settings for the C loop (``renderer.vibration_settings``, the
     Renderer's own check); None without one. The models must run at the device's servo rate:
     the channel's tick is one sample of the set."""
+    from .datadriven import require_servo_rate
     from .renderer import vibration_settings
 
-    if vibration is not None:
-        rate = getattr(vibration, "sample_rate", None)
-        if rate is not None and abs(rate * device.period - 1.0) > 1e-6:
-            raise fail("vibration", f"a model set at {rate:g} Hz", f"models at the device's servo rate, "
-                       f"{1 / device.period:g} Hz (fit them at that rate: haptex.datadriven.fit(..., rate="
-                       f"{1 / device.period:g}), or haptex fit RECORDING --rate '{1 / device.period:g} Hz')")
+    if getattr(vibration, "sample_rate", None) is not None:  # (anything else is vibration_settings' to refuse)
+        require_servo_rate(vibration, device.period, "vibration", f"a model set at {vibration.sample_rate:g} Hz")
     return vibration_settings(vibration, vibration_mass, vibration_gain, velocity_filter, seed, vibration_budget,
                               vibration_reserve)
 

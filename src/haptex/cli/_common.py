@@ -158,13 +158,10 @@ def _vibration(path, period: float, mass: float, budget, on: str) -> dict:
     """The Renderer's (and export_c's) vibration keywords for ``--vibration MODELS`` on a device
     of servo ``period`` (s) whose mass along x (kg) turns acceleration into force; the models
     must run at the device's rate."""
-    from ..datadriven import read_models
+    from ..datadriven import read_models, require_servo_rate
 
     models = read_models(path)
-    if abs(models.sample_rate * period - 1.0) > 1e-6:
-        raise ParameterError(f"vibration = {str(path)!r} is not allowed on {on}: its models run at "
-                             f"{models.sample_rate:g} Hz, the device's servo at {1 / period:g} Hz (fit them at that "
-                             f"rate: haptex fit RECORDING --rate '{1 / period:g} Hz')")
+    require_servo_rate(models, period, "vibration", str(path), on)
     return {"vibration": models, "vibration_mass": float(mass), "vibration_budget": budget}
 
 
