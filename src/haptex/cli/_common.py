@@ -154,6 +154,12 @@ def _stabiliser(passivity_control, stabiliser, dev, delay=None):
     return cls.for_device(dev, delay)
 
 
+def _budget_needs_models(models, budget) -> None:
+    """Refuse --vibration-budget without --vibration MODELS (run, export, simulate)."""
+    if budget is not None and models is None:
+        raise ParameterError("--vibration-budget is not allowed without --vibration MODELS: it is the vibration's")
+
+
 def _vibration(path, period: float, mass: float, budget, on: str) -> dict:
     """The Renderer's (and export_c's) vibration keywords for ``--vibration MODELS`` on a device
     of servo ``period`` (s) whose mass along x (kg) turns acceleration into force; the models

@@ -12,8 +12,8 @@ import click
 from .._specs import object_from_spec, texture_from_spec as _texture_from_spec
 from .._validation import ParameterError
 from ..core import blas_held_to_one_thread as _core_blas_held
-from ._common import (Quantity, STABILISERS, _felt_options, _jsonable, _object_options, _stabiliser, _vibration,
-                      _vibration_options)
+from ._common import (Quantity, STABILISERS, _budget_needs_models, _felt_options, _jsonable, _object_options,
+                      _stabiliser, _vibration, _vibration_options)
 
 
 @click.command("run")
@@ -162,8 +162,7 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
     pc = _stabiliser(passivity_control, stabiliser, dev, delay=dev.delay)
 
     vib = {}
-    if vibration_budget is not None and vibration_models is None:
-        raise ParameterError("--vibration-budget is not allowed without --vibration MODELS: it is the vibration's")
+    _budget_needs_models(vibration_models, vibration_budget)
     if vibration_models is not None:
         # the device's own mass along x turns acceleration into force (a simulated device's has the hand's added)
         own = backend.preset.device() if kind == "simulated" else dev

@@ -10,7 +10,7 @@ from .._specs import object_from_spec, texture_from_spec as _texture_from_spec
 from .._validation import ParameterError
 from ._common import (
     Quantity, STABILISERS, _Spinner, _catalogued_device, _felt_options, _not_taken, _object_options, _stabiliser,
-    _vibration, _vibration_options)
+    _budget_needs_models, _vibration, _vibration_options)
 
 
 @click.command()
@@ -97,8 +97,7 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
             raise ParameterError(f"--{'passivity-control' if stabiliser is None else 'stabiliser'} needs --device: the "
                                  "device's period, delay and damping set the stabiliser")
         pc, period = _stabiliser(passivity_control, stabiliser, dev, delay=dev.delay), dev.period
-    if vibration_budget is not None and vibration_models is None:
-        raise ParameterError("--vibration-budget is not allowed without --vibration MODELS: it is the vibration's")
+    _budget_needs_models(vibration_models, vibration_budget)
     vib = {}
     if vibration_models is not None:
         if dev is None:

@@ -13,7 +13,7 @@ from .._validation import ParameterError
 from ._common import (
     Quantity, STABILISERS, _Spinner, _build_device, _check_plot_path, _check_save_path, _device_options,
     _fitted, _given_for_letter, _jsonable, _paper_options, _parse_path, _parse_point, _refuse_unused,
-    _stabiliser, _vibration, _vibration_options)
+    _budget_needs_models, _stabiliser, _vibration, _vibration_options)
 
 
 def _sim_common(func):
@@ -125,8 +125,7 @@ def _simulate(ctx, mode, letter, stiffness, amplitude, period, max_penetration, 
         alg = algorithm(letter, Sinusoid(amplitude, period) if textured else None, stiffness, **params)
     dev = _build_device(ctx, device_spec, joint_damping, mass, damping, sampling_period, delay, dimension=d)
     pc = _stabiliser(passivity_control, stabiliser, dev)
-    if vibration_budget is not None and vibration_models is None:
-        raise ParameterError("--vibration-budget is not allowed without --vibration MODELS: it is the vibration's")
+    _budget_needs_models(vibration_models, vibration_budget)
     # the vibration's mass: the device's own along x (a hand's mass, attached below, is not the display's)
     vib = {} if vibration_models is None else _vibration(vibration_models, dev.period, dev.mass[0, 0],
                                                          vibration_budget, dev.name)
