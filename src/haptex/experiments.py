@@ -727,7 +727,7 @@ def vibration_under_stabilisers(quick: bool = False) -> dict:
         return r, a, float(np.sum(p[band]) * (f[1] - f[0]))
 
     vib = {"vibration": models, "vibration_mass": float(own.mass[0, 0])}
-    rows, ref = [], None
+    rows, ref, alone_of = [], None, {}  # alone_of: the felt power without the vibration, a stabiliser's
     cases = [(name, _stabiliser(name, dev, pc_b), None) for name in STABILISER_NAMES]
     for share in s["budgets"]:
         cases.append((f"budget {share:.0%}", None, share))
@@ -736,7 +736,10 @@ def vibration_under_stabilisers(quick: bool = False) -> dict:
         r, a, power = run(stab, **vib, **extra)
         if ref is None:  # the unstabilised run: the reference
             ref = (a, power, r.vibration_supplied / dur)
-        _, _, alone = run(stab)
+        key = None if stab is None else name  # (the budget rows share the unstabilised run)
+        if key not in alone_of:
+            alone_of[key] = run(stab)[2]
+        alone = alone_of[key]
         rows.append({"name": name, "label": "" if stab is None else stab.label,
                      "vibration_power": r.vibration_supplied / dur,
                      "port_power": -(r.totals["energy_x"] + r.totals["energy_z"]) / dur,
