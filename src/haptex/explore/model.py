@@ -649,8 +649,7 @@ def vibration(models, speed: float, force: float) -> Vibration:
     f = float(force)
     if not (math.isfinite(s) and math.isfinite(f)):
         raise fail("speed", f"{speed}, force = {force}", "a finite speed (m/s) and force (N): click on the plane")
-    speeds = np.array([m.speed for m in models.models])
-    forces = np.array([m.force for m in models.models])
+    speeds, forces = models.speeds, models.forces
     idx, lam, clamped = models.weights(s, f)
     at_s, at_f = float(np.dot(lam, speeds[idx])), float(np.dot(lam, forces[idx]))
     model = models.model_at(s, f)
