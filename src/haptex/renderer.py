@@ -407,6 +407,14 @@ def vibration_settings(vibration, vibration_mass=None, vibration_gain=1.0, veloc
             nonnegative("vibration_gain", vibration_gain), nonnegative("velocity_filter", velocity_filter, "s"),
             seed, budget, reserve)
 
+
+def _within_limit(stiffness: float, limit: float | None) -> None:
+    """Refuse a stiffness (N/m) above the run's ``limit`` before it reaches the tick
+    (:meth:`Renderer.set_stiffness`, :meth:`Renderer.set_algorithm`)."""
+    if limit is not None and not stiffness <= positive("limit", limit, "N/m"):
+        raise fail("stiffness", f"{stiffness:g} N/m", f"at most {limit:g} N/m, the limit set for this run")
+
+
 class Renderer:
     """Compiled force rendering for a servo loop, over a profile ([x, z]) or a surface
     ([x, y, z]).
@@ -696,8 +704,7 @@ class Renderer:
             For a stiffness not finite and > 0, or above ``limit``.
         """
         k = positive("stiffness", stiffness, "N/m")
-        if limit is not None and k > positive("limit", limit, "N/m"):
-            raise fail("stiffness", f"{k:g} N/m", f"at most {limit:g} N/m, the limit set for this run")
+        _within_limit(k, limit)
         self._core.set_stiffness(k)
 
     def set_algorithm(self, algorithm: Algorithm, limit: float | None = None) -> None:
@@ -731,9 +738,7 @@ class Renderer:
         """
         if getattr(algorithm, "dimension", None) != self.dimension:
             raise fail("algorithm", algorithm, f"of this renderer's dimension ({self.dimension}-D)")
-        k = float(getattr(algorithm, "stiffness", math.nan))
-        if limit is not None and not k <= positive("limit", limit, "N/m"):
-            raise fail("stiffness", f"{k:g} N/m", f"at most {limit:g} N/m, the limit set for this run")
+        _within_limit(float(getattr(algorithm, "stiffness", math.nan)), limit)
         packed = Renderer(algorithm, max_evaluations=self.max_evaluations)  # (its model's arrays, kept by the core)
         self._core.set_model(packed._core)
         self.algorithm = algorithm
