@@ -343,6 +343,7 @@ class ModelSet:
             self.triangles = self._triangulate(pts, triangles)
         self.last_counts = {"clamped": 0, "faults": 0, "max_work": 0}
         self.report: FitReport | None = None  # set by fit()
+        self.ignored: tuple[str, ...] = ()  # set by read_hatt: the file's tags read past on purpose
         self._packed = self._pack()
 
     def _triangulate(self, pts, triangles):
@@ -567,6 +568,114 @@ class ModelSet:
                 f"speed 0-{self.speeds.max():g} m/s, force 0-{self.forces.max():g} N, {len(self.triangles)} triangles)")
 
 
+@dataclasses.dataclass(frozen=True)
+class SetCheck:
+    """What :func:`check_models` found on one model set.
+
+    Parameters
+    ----------
+    name : str
+        The set's name (HaTT's ``<material>``).
+    models, triangles : int
+        Its counts.
+    speed_range : tuple of float
+        Smallest and largest operating speed (m/s).
+    force_range : tuple of float
+        Smallest and largest operating force (N).
+    order : tuple of int
+        (p, q).
+    points : int
+        Random operating points drawn in the rectangle of the ranges.
+    unstable : int
+        Of those, the interpolated models with an AR root on or outside the unit circle
+        (by :func:`numpy.roots`, not by the LSF algebra).
+    max_root : float
+        The largest AR root modulus met.
+    middle : tuple of float
+        The set's middle operating point (m/s, N): half its largest speed and force.
+    rms_model : float
+        The model's stationary rms acceleration there (m/s²): sqrt(variance · gain² · Σh²),
+        h the impulse response of B/A by :func:`scipy.signal.dimpulse`.
+    rms_synthesis : float
+        The rms of the C core's synthesis there (m/s²), after its first second.
+    seconds : float
+        Length of that synthesis (s).
+    """
+
+    name: str
+    models: int
+    triangles: int
+    speed_range: tuple[float, float]
+    force_range: tuple[float, float]
+    order: tuple[int, int]
+    points: int
+    unstable: int
+    max_root: float
+    middle: tuple[float, float]
+    rms_model: float
+    rms_synthesis: float
+    seconds: float
+
+    @property
+    def rms_error(self) -> float:
+        """Relative difference of the synthesis's rms from the model's (NaN where both are 0)."""
+        if self.rms_model == 0:
+            return 0.0 if self.rms_synthesis == 0 else math.inf
+        return self.rms_synthesis / self.rms_model - 1.0
+
+
+def check_models(models: ModelSet, *, points: int = 1000, seconds: float = 20.0, seed: int = 0) -> SetCheck:
+    """Check a model set on its own terms: every interpolated model stable, synthesis at its power.
+
+    Parameters
+    ----------
+    models : ModelSet
+        The set (a HaTT file read by :func:`read_hatt`, or a fit).
+    points : int, optional
+        Random operating points, uniform over [0, largest speed] x [0, largest force]; a point
+        outside the triangulation is interpolated at its closest point, as the renderer does.
+    seconds : float, optional
+        Length (s) of the synthesis at the set's middle operating point; its first second
+        (the filter's start from rest) is left out of the rms.
+    seed : int, optional
+        Seed of the points and the synthesis's noise.
+
+    Returns
+    -------
+    SetCheck
+
+    Raises
+    ------
+    ParameterError
+        If ``points`` is not an integer in [1, 10^6] or ``seconds`` not in (1, 3600] s.
+
+    Notes
+    -----
+    The oracle shares nothing with the interpolation: the stability is judged from the roots of
+    the interpolated AR polynomial, and the expected rms from the impulse response (scipy),
+    while the set interpolates LSF (Culbertson et al. 2014) and synthesises in the C core.
+    """
+    if isinstance(points, bool) or not isinstance(points, int | np.integer) or not 1 <= points <= 10**6:
+        raise fail("points", points, "an integer in [1, 1000000]")
+    t = positive("seconds", seconds, "s")
+    if not 1.0 < t <= 3600.0:
+        raise fail("seconds", seconds, "a length in (1, 3600] s")
+    rng = np.random.default_rng(seed)
+    vmax, fmax = float(models.speeds.max()), float(models.forces.max())
+    unstable, worst = 0, 0.0
+    for v, f in zip(rng.uniform(0, vmax, points), rng.uniform(0, fmax, points)):
+        m = models.model_at(v, f)
+        r = float(np.max(np.abs(np.roots(m.ar)))) if m.order[0] else 0.0
+        worst = max(worst, r)
+        unstable += r >= 1.0
+    mid = (vmax / 2, fmax / 2)
+    m = models.model_at(*mid)
+    y = models.synthesize(mid[0], mid[1], t, seed=seed)[int(models.sample_rate):]
+    return SetCheck(models.name, len(models.models), len(models.triangles), (float(models.speeds.min()), vmax),
+                    (float(models.forces.min()), fmax), models.models[0].order, int(points), int(unstable), worst, mid,
+                    math.sqrt(m.output_variance()), float(np.sqrt(np.mean(y * y))), t)
+
+
 def _collinear(pts: np.ndarray) -> bool:
     """Whether scaled operating points lie on one line (to 1e-9 of their spread)."""
     if len(pts) < 3:
@@ -659,48 +768,78 @@ def _parse_json(data: bytes, path) -> ModelSet:
                     mu=d.get("mu"), name=d.get("name", ""))
 
 
-def read_hatt(path, *, acceleration_unit: str = "m/s^2") -> ModelSet:
-    """Read a model set in the Penn Haptic Texture Toolkit's XML format.
+_HATT_IGNORED = {
+    "htmlPicture": "a picture of the material (a path on the authors' Windows machine)",
+    "htmlLinuxPicture": "the same picture's path on Linux",
+    "renderPicture": "the texture image HaTT's demo draws on its sphere",
+    "DTpicture": "a picture of the triangulation (Windows path)",
+    "LinuxDTpicture": "the same picture's path on Linux",
+}
+"""The tags of HaTT's files that :func:`read_hatt` ignores on purpose, with what they hold:
+pictures for HaTT's own viewer, none of them part of the models."""
+
+_SPEED_UNITS = {"mm/s": 1e-3, "m/s": 1.0}
+_FORCE_UNITS = {"N": 1.0}
+
+
+def read_hatt(path, *, acceleration_unit: str | None = None) -> ModelSet:
+    """Read a model set in the Penn Haptic Texture Toolkit's XML format, as HaTT publishes it.
 
     Parameters
     ----------
     path : str or os.PathLike
-        A HaTT model file (``<modelSet>``; Culbertson, Lopez Delgado & Kuchenbecker 2014).
-        HaTT's files are licensed for non-profit research without redistribution: haptex
-        ships none; tests write sets in the same schema.
+        A HaTT model file (``Models_<material>.xml``; Culbertson, Lopez Delgado &
+        Kuchenbecker 2014). HaTT's files are licensed for non-profit research without
+        redistribution: haptex ships none; its tests write sets in the same layout.
     acceleration_unit : {"m/s^2", "g"}, optional
-        The unit of the recorded acceleration the models were fitted to; the variances are
-        scaled to (m/s²)².
+        The unit of the recorded acceleration the models were fitted to, for a file without
+        ``<AccelUnits>`` (every published file has it: ``m/s^2``); the variances are scaled to
+        (m/s²)². Given for a file whose ``<AccelUnits>`` says otherwise, it is refused.
 
     Returns
     -------
     ModelSet
-        Speeds converted from the file's mm/s to m/s, forces in N, its own triangles
-        (``tri``, 1-based in the file), its ``mu`` and its ``SampleRate`` (Hz).
+        Speeds converted from the file's ``<SpeedUnits>`` (mm/s) to m/s, forces in N, its own
+        triangles (``<tri>``, 1-based in the file), its ``mu`` (the material's kinetic
+        friction coefficient), its ``SampleRate`` (Hz), named by its ``<material>``; its
+        ``ignored`` lists the tags read past on purpose (:data:`_HATT_IGNORED`: pictures).
 
     Raises
     ------
     ParameterError
-        If a tag is missing, a count (``numMod``, ``numTri``) disagrees with its lists, a
-        triangle's index is out of range, a model is unstable or not finite, its ``ARlsf``
-        or ``MAlsf`` disagree with its coefficients, or the XML declares entities (an
-        entity-expansion bomb is refused by defusedxml before anything is expanded).
+        If a tag is missing or not a number, a count (``numMod``, ``numTri``,
+        ``numARCoeff``, ``numMACoeff``) disagrees with what it counts, a ``<tri>`` has other
+        than three vertices or one out of range, ``maxSpeed``/``maxForce`` are not the lists'
+        largest, ``mu`` is negative, a unit is not one HaTT uses, a model is unstable or not
+        finite, its ``ARlsf`` or ``MAlsf`` disagree with its coefficients, or the XML declares
+        entities (an entity-expansion bomb is refused by defusedxml before anything is
+        expanded). The message names the tag, and the triangle's or model's number.
 
     Notes
     -----
-    The schema, as HaTT documents it: ``<modelSet>`` holds ``SampleRate``, ``mu``, ``numMod``,
-    ``numTri``, ``maxSpeed``, ``maxForce``, ``speedList``, ``forceList``, ``tri`` and one
-    ``<model>`` a vertex with ``ARcoeff``, ``MAcoeff`` (each with its leading 1), ``ARlsf``,
-    ``MAlsf``, ``var``, ``gain``, ``speedMod`` and ``forceMod``. A list is read from its
-    child elements' text, or from its own text (numbers separated by spaces or commas).
+    The layout of the 100 published files (checked against each of them; see the data-driven
+    guide): ``<modelSet texture="N">`` holds ``material``, ``AccelUnits``, ``SpeedUnits``,
+    ``ForceUnits``, ``SampleRate``, ``mu``, ``numMod``, ``numTri``, ``maxSpeed``, ``maxForce``,
+    ``speedList`` and ``forceList`` (one ``<value>`` a model), **one** ``<tri type="array">``
+    **element per triangle** (three ``<value>`` vertex numbers, 1-based), ``numARCoeff``,
+    ``numMACoeff`` and one ``<model>`` a vertex with ``modNum``, ``ARcoeff``, ``MAcoeff``
+    (each with its leading 1), ``ARlsf``, ``MAlsf`` (rad), ``var``, ``gain``, ``speedMod`` and
+    ``forceMod``; and the picture paths of :data:`_HATT_IGNORED`. Tags beyond these are listed
+    in ``ignored`` too.
     """
-    unit = _ACC_UNITS.get(str(acceleration_unit).strip())
-    if unit is None:
-        raise fail("acceleration_unit", acceleration_unit, "'m/s^2' or 'g'")
+    unit = None
+    if acceleration_unit is not None:
+        unit = _ACC_UNITS.get(str(acceleration_unit).strip())
+        if unit is None:
+            raise fail("acceleration_unit", acceleration_unit, "'m/s^2' or 'g'")
     return _parse_hatt(_read_bytes(path), path, unit)
 
 
-def _parse_hatt(data: bytes, path, unit: float = 1.0) -> ModelSet:
+_HATT_READ = {"material", "AccelUnits", "SpeedUnits", "ForceUnits", "SampleRate", "mu", "numMod", "numTri",
+              "maxSpeed", "maxForce", "speedList", "forceList", "tri", "numARCoeff", "numMACoeff", "model"}
+
+
+def _parse_hatt(data: bytes, path, unit: float | None = None) -> ModelSet:
     import defusedxml.ElementTree as ET
     from defusedxml import DefusedXmlException
 
@@ -716,19 +855,21 @@ def _parse_hatt(data: bytes, path, unit: float = 1.0) -> ModelSet:
     def child(el, tag, where):
         c = el.find(tag)
         if c is None:
-            raise fail(f"{where}<{tag}>", "missing", "present (HaTT's schema)")
+            raise fail(f"{where}<{tag}>", "missing", "present (HaTT's layout)")
         return c
 
-    def numbers(el, tag, where):
-        c = child(el, tag, where)
+    def values(c, name):
         texts = [e.text or "" for e in c] if len(c) else [(c.text or "").replace(",", " ")]
         try:
             v = np.array([float(x) for t in texts for x in t.split()], dtype=float)
         except ValueError:
-            raise fail(f"{where}<{tag}>", (c.text or "")[:40], "numbers") from None
+            raise fail(name, " ".join(texts).strip()[:40], "numbers") from None
         if not np.all(np.isfinite(v)):
-            raise fail(f"{where}<{tag}>", v, "finite numbers")
+            raise fail(name, np.round(v, 6).tolist() if v.size <= 8 else "non-finite values", "finite numbers")
         return v
+
+    def numbers(el, tag, where):
+        return values(child(el, tag, where), f"{where}<{tag}>")
 
     def number(el, tag, where):
         v = numbers(el, tag, where)
@@ -736,31 +877,77 @@ def _parse_hatt(data: bytes, path, unit: float = 1.0) -> ModelSet:
             raise fail(f"{where}<{tag}>", v, "one number")
         return float(v[0])
 
+    def text(tag, default, allowed):
+        c = root.find(tag)
+        if c is None:
+            return default
+        t = (c.text or "").strip()
+        if t not in allowed:
+            raise fail(f"<{tag}>", t, " or ".join(repr(a) for a in allowed) + " (the units HaTT's files use)")
+        return t
+
+    acc = text("AccelUnits", None, tuple(_ACC_UNITS))
+    if acc is not None and unit is not None and _ACC_UNITS[acc] != unit:
+        raise fail("acceleration_unit", f"{unit:g} m/s^2", f"the file's own <AccelUnits> ({acc!r}), or left out")
+    unit = _ACC_UNITS[acc] if acc is not None else (1.0 if unit is None else unit)
+    v_unit = _SPEED_UNITS[text("SpeedUnits", "mm/s", tuple(_SPEED_UNITS))]
+    text("ForceUnits", "N", tuple(_FORCE_UNITS))
+
     fs = number(root, "SampleRate", "")
     if not fs > 0:
         raise fail("<SampleRate>", fs, "a rate > 0 (Hz)")
     mu = number(root, "mu", "")
+    if mu < 0:
+        raise fail("<mu>", mu, "a kinetic friction coefficient >= 0")
     n_mod = number(root, "numMod", "")
     n_tri = number(root, "numTri", "")
-    speeds = numbers(root, "speedList", "") * 1e-3
+    speeds = numbers(root, "speedList", "") * v_unit
     forces = numbers(root, "forceList", "")
-    tri = numbers(root, "tri", "")
+    tri_els = root.findall("tri")
+    if not tri_els:
+        raise fail("<tri>", "missing", "present (HaTT's layout: one <tri> element per triangle)")
+    tris = []
+    for k, el in enumerate(tri_els):
+        t = values(el, f"<tri> {k + 1}")
+        if t.size != 3:
+            raise fail(f"<tri> {k + 1}", t.tolist(), "three vertex indices (one <tri> element per triangle, as "
+                       "HaTT's files have)")
+        tris.append(t)
+    tri = np.array(tris)
     model_els = root.findall("model")
-    for tag, count, what in (("numMod", n_mod, len(model_els)), ("numMod", n_mod, speeds.size),
-                             ("numMod", n_mod, forces.size), ("numTri", n_tri, tri.size / 3)):
+    for tag, count, what, of in (("numMod", n_mod, len(model_els), "<model> elements"),
+                                 ("numMod", n_mod, speeds.size, "<speedList> values"),
+                                 ("numMod", n_mod, forces.size, "<forceList> values"),
+                                 ("numTri", n_tri, len(tri), "<tri> elements")):
         if count != what:
-            raise fail(f"<{tag}>", count, f"{what:g}, the count of its list(s) (<model>, speedList, forceList, tri)")
-    if np.any(tri != np.round(tri)) or np.any(tri < 1) or np.any(tri > n_mod):
-        k = int(np.argmax((tri != np.round(tri)) | (tri < 1) | (tri > n_mod)))
-        raise fail("<tri>", tri[k], f"vertex indices in [1, {n_mod:g}] (1-based)")
+            raise fail(f"<{tag}>", count, f"{what:g}, the count of its {of}")
+    bad = (tri != np.round(tri)) | (tri < 1) | (tri > n_mod)
+    if bad.any():
+        k, j = divmod(int(np.argmax(bad)), 3)
+        raise fail(f"<tri> {k + 1}", tri[k, j], f"vertex indices in [1, {n_mod:g}] (1-based)")
+    for tag, lst in (("maxSpeed", speeds / v_unit), ("maxForce", forces)):
+        if root.find(tag) is not None:
+            given = number(root, tag, "")
+            if lst.size and abs(given - lst.max()) > 1e-6 * max(1.0, abs(given)):
+                raise fail(f"<{tag}>", given, f"the largest of its list ({lst.max():g})")
+    orders = {}
+    for tag in ("numARCoeff", "numMACoeff"):
+        if root.find(tag) is not None:
+            orders[tag] = number(root, tag, "")
     models = []
     for k, el in enumerate(model_els):
         where = f"<model> {k + 1}: "
+        if el.find("modNum") is not None and number(el, "modNum", where) != k + 1:
+            raise fail(f"{where}<modNum>", number(el, "modNum", where), f"{k + 1}, its place in the file")
         ar, ma = numbers(el, "ARcoeff", where), numbers(el, "MAcoeff", where)
-        s, f = number(el, "speedMod", where) * 1e-3, number(el, "forceMod", where)
+        for tag, poly in (("numARCoeff", ar), ("numMACoeff", ma)):
+            if tag in orders and poly.size - 1 != orders[tag]:
+                raise fail(f"{where}<{'AR' if tag == 'numARCoeff' else 'MA'}coeff>", f"{poly.size} values",
+                           f"{orders[tag]:g} coefficients after the leading 1 (<{tag}>)")
+        s, f = number(el, "speedMod", where) * v_unit, number(el, "forceMod", where)
         if abs(s - speeds[k]) > 1e-9 * max(1.0, abs(s)) or abs(f - forces[k]) > 1e-9 * max(1.0, abs(f)):
-            raise fail(f"{where}<speedMod>, <forceMod>", (s * 1e3, f), f"the set's lists' entry {k + 1}: "
-                       f"{speeds[k] * 1e3:g} mm/s, {forces[k]:g} N")
+            raise fail(f"{where}<speedMod>, <forceMod>", (s / v_unit, f), f"the set's lists' entry {k + 1}: "
+                       f"{speeds[k] / v_unit:g}, {forces[k]:g}")
         try:
             m = ArmaModel(ar, ma, number(el, "var", where) * unit**2, number(el, "gain", where), fs, s, f)
         except ParameterError as exc:
@@ -771,7 +958,14 @@ def _parse_hatt(data: bytes, path, unit: float = 1.0) -> ModelSet:
                 raise fail(f"{where}<{tag}>", given, f"the LSF of its coefficients ({np.round(ours, 4).tolist()} rad, "
                            "or the same in Hz or as fractions of pi)")
         models.append(m)
-    return ModelSet(models, tri.reshape(-1, 3).astype(np.int64) - 1, mu=mu, name=Path(os.fspath(path)).stem)
+    material = root.find("material")
+    name = (material.text or "").strip() if material is not None else ""
+    try:
+        out = ModelSet(models, tri.astype(np.int64) - 1, mu=mu, name=name or Path(os.fspath(path)).stem)
+    except ParameterError as exc:
+        raise ParameterError(f"<modelSet>: {exc}") from None
+    out.ignored = tuple(dict.fromkeys(c.tag for c in root if c.tag not in _HATT_READ))
+    return out
 
 
 def _lsf_agree(given: np.ndarray, ours: np.ndarray, fs: float) -> bool:
@@ -788,36 +982,69 @@ def _lsf_agree(given: np.ndarray, ours: np.ndarray, fs: float) -> bool:
 # ---------------------------------------------------------------------------------------
 
 
-def dft321(acceleration) -> np.ndarray:
+def dft321(acceleration, block: int | None = None) -> np.ndarray:
     """Reduce a three-axis acceleration to one axis, keeping its spectrum (DFT321).
 
     Parameters
     ----------
     acceleration : array_like, shape (n, 3)
         Acceleration (m/s²) along three orthogonal axes.
+    block : int, optional
+        Reduce the signal block by block, each of ``block`` samples: half-overlapping blocks
+        under a square-root Hann window, each reduced on its own and overlap-added under the
+        same window (weighted overlap-add: the squared windows sum to 1, so a signal along one
+        fixed direction comes back unchanged and the power of two blocks of different
+        directions is kept through their overlap). Default: the whole signal as one block. A
+        recording whose direction of vibration changes from stroke to stroke is reduced block
+        by block, as Landin et al. do over short windows: over the whole of it, each
+        frequency's magnitude pools every stroke's and its phase is the sum's, which spreads
+        one stroke's power over the others (:func:`fit` reduces over blocks of its windows'
+        length).
 
     Returns
     -------
     numpy.ndarray, shape (n,)
-        The signal whose DFT has, at each frequency, the magnitude sqrt(|A_x|² + |A_y|² + |A_z|²)
-        and the phase of A_x + A_y + A_z (Landin, Romano, McMahan & Kuchenbecker, "Dimensional
-        reduction of high-frequency accelerations for haptic rendering", EuroHaptics 2010): its
-        power spectrum is the sum of the three axes'.
+        The signal whose DFT has, in each block and at each frequency, the magnitude
+        sqrt(|A_x|² + |A_y|² + |A_z|²) and the phase of A_x + A_y + A_z (Landin, Romano,
+        McMahan & Kuchenbecker, "Dimensional reduction of high-frequency accelerations for
+        haptic rendering", EuroHaptics 2010): its power spectrum is the sum of the three axes'.
 
     Raises
     ------
     ParameterError
-        If the array is not (n, 3) with n >= 2, or not finite.
+        If the array is not (n, 3) with n >= 2, not finite, or ``block`` is not an integer
+        >= 4.
     """
     a = np.asarray(acceleration, dtype=float)
     if a.ndim != 2 or a.shape[1] != 3 or a.shape[0] < 2:
         raise fail("acceleration", f"shape {a.shape}", "an (n, 3) array (three axes, m/s^2)")
     if not np.all(np.isfinite(a)):
         raise fail("acceleration", "non-finite samples", "finite numbers (m/s^2)")
-    spec = np.fft.rfft(a, axis=0)
-    mag = np.sqrt(np.sum(np.abs(spec) ** 2, axis=1))
-    phase = np.angle(spec.sum(axis=1))
-    return np.fft.irfft(mag * np.exp(1j * phase), n=a.shape[0])
+    n = a.shape[0]
+    if block is None:
+        return _dft321_rows(a[None])[0]
+    if isinstance(block, bool) or not isinstance(block, int | np.integer) or block < 4:
+        raise fail("block", block, "an integer >= 4 (samples)")
+    hop = min(int(block), n + n % 2) // 2
+    L = 2 * hop
+    w = np.sqrt(0.5 - 0.5 * np.cos(2 * np.pi * np.arange(L) / L))  # sqrt of the periodic Hann window
+    k = -(-n // hop)  # blocks of hop samples holding the signal, then one on each side
+    xp = np.zeros(((k + 2) * hop, 3))
+    xp[hop : hop + n] = a
+    frames = np.lib.stride_tricks.sliding_window_view(xp, L, axis=0)[::hop]  # (k + 1, 3, L)
+    y = _dft321_rows(np.swapaxes(frames, 1, 2) * w[None, :, None]) * w  # (k + 1, L)
+    out = np.zeros(xp.shape[0])
+    out[: (k + 1) * hop] += y[:, :hop].ravel()
+    out[hop : (k + 2) * hop] += y[:, hop:].ravel()
+    return out[hop : hop + n]
+
+
+def _dft321_rows(a: np.ndarray) -> np.ndarray:
+    """DFT321 of each block: ``a`` of shape (k, m, 3) -> (k, m)."""
+    spec = np.fft.rfft(a, axis=1)
+    mag = np.sqrt(np.sum(np.abs(spec) ** 2, axis=2))
+    phase = np.angle(spec.sum(axis=2))
+    return np.fft.irfft(mag * np.exp(1j * phase), n=a.shape[1], axis=1)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -840,6 +1067,10 @@ class FitReport:
         Rate (Hz) of the models.
     highpass : float
         Cut-off (Hz) of the high-pass that removed the hand's motion.
+    axes : int, optional
+        Axes of the recorded acceleration (3: reduced by :func:`dft321` over each window).
+    notes : tuple of str, optional
+        What the fit could not settle and what to do (the order at its cap).
     """
 
     order: tuple[int, int]
@@ -849,6 +1080,8 @@ class FitReport:
     cells: int
     sample_rate: float
     highpass: float
+    axes: int = 1
+    notes: tuple[str, ...] = ()
 
 
 def fit(acceleration, speed, normal_force, sample_rate: float, *, rate: float | None = None,
@@ -860,7 +1093,9 @@ def fit(acceleration, speed, normal_force, sample_rate: float, *, rate: float | 
     Parameters
     ----------
     acceleration : array_like, shape (n,) or (n, 3)
-        The tool's acceleration (m/s²); three axes are reduced to one by :func:`dft321`.
+        The tool's acceleration (m/s²); three axes are reduced to one by :func:`dft321` over
+        each window of ``segment`` seconds (after the high-pass and the resampling), so that
+        strokes in different directions are each reduced along their own.
     speed : array_like, shape (n,)
         Tangential speed (m/s), >= 0.
     normal_force : array_like, shape (n,)
@@ -917,19 +1152,20 @@ def fit(acceleration, speed, normal_force, sample_rate: float, *, rate: float | 
 
     fs = positive("sample_rate", sample_rate, "Hz")
     acc = np.asarray(acceleration, dtype=float)
-    if acc.ndim == 2:
-        acc = dft321(acc)
-    if acc.ndim != 1:
+    if not (acc.ndim == 1 or (acc.ndim == 2 and acc.shape[1] == 3)):
         raise fail("acceleration", f"shape {np.shape(acceleration)}", "an (n,) or (n, 3) array (m/s^2)")
-    n = acc.size
+    n = acc.shape[0]
     v = np.asarray(speed, dtype=float)
     F = np.asarray(normal_force, dtype=float)
     for nm, arr, unit in (("acceleration", acc, "m/s^2"), ("speed", v, "m/s"), ("normal_force", F, "N")):
-        if arr.shape != (n,):
+        if arr.shape[:1] != (n,) or (arr is not acc and arr.ndim != 1):
             raise fail(nm, f"shape {arr.shape}", f"({n},): one value per sample of acceleration")
         bad = ~np.isfinite(arr)
+        if bad.ndim == 2:
+            bad = bad.any(axis=1)
         if bad.any():
-            raise fail(nm, f"{arr[int(np.argmax(bad))]} at sample {int(np.argmax(bad))}", f"finite numbers ({unit})")
+            k = int(np.argmax(bad))
+            raise fail(nm, f"{arr[k] if arr.ndim == 1 else arr[k].tolist()} at sample {k}", f"finite numbers ({unit})")
     if np.any(v < 0):
         k = int(np.argmax(v < 0))
         raise fail("speed", f"{v[k]:g} m/s at sample {k}", "speeds >= 0 (m/s; the tangential speed's magnitude)")
@@ -954,7 +1190,7 @@ def fit(acceleration, speed, normal_force, sample_rate: float, *, rate: float | 
     # the texture band, then the models' rate
     if n < 64:
         raise fail("acceleration", f"{n} samples", "a recording of at least 64 samples")
-    acc = sosfiltfilt(butter(4, hp, "highpass", fs=fs, output="sos"), acc)
+    acc = sosfiltfilt(butter(4, hp, "highpass", fs=fs, output="sos"), acc, axis=0)
     if out_fs != fs:
         from fractions import Fraction
 
@@ -962,15 +1198,17 @@ def fit(acceleration, speed, normal_force, sample_rate: float, *, rate: float | 
         if abs(float(r) - out_fs / fs) > 1e-6 * out_fs / fs:
             raise fail("rate", out_fs, f"a rate in a ratio of integers up to 1000 to {fs:g} Hz")
         t_in = np.arange(n) / fs
-        acc = resample_poly(acc, r.numerator, r.denominator)
-        t_out = np.arange(acc.size) / out_fs
+        acc = resample_poly(acc, r.numerator, r.denominator, axis=0)
+        t_out = np.arange(acc.shape[0]) / out_fs
         v, F = np.interp(t_out, t_in, v), np.interp(t_out, t_in, F)
     w = int(round(seg * out_fs))
     if w < 16:
         raise fail("segment", seg, f"at least {16 / out_fs:g} s (16 samples at {out_fs:g} Hz)")
-    nwin = acc.size // w
+    nwin = acc.shape[0] // w
     if nwin < 1:
-        raise fail("acceleration", f"{acc.size / out_fs:g} s", f"a recording longer than one segment ({seg:g} s)")
+        raise fail("acceleration", f"{acc.shape[0] / out_fs:g} s", f"a recording longer than one segment ({seg:g} s)")
+    if acc.ndim == 2:  # three axes: DFT321 over each window, where the stroke's direction holds
+        acc = dft321(acc[: nwin * w], block=w)
     A = acc[: nwin * w].reshape(nwin, w)
     V = v[: nwin * w].reshape(nwin, w)
     FF = F[: nwin * w].reshape(nwin, w)
@@ -997,6 +1235,7 @@ def fit(acceleration, speed, normal_force, sample_rate: float, *, rate: float | 
                    f"(the shortest has {shortest}): longer segments, a lower order or a coarser grid")
     from statsmodels.tsa.stattools import acovf, levinson_durbin
 
+    notes = []
     sig = []  # innovation variance of each cell at orders 1..p_max
     for g in groups:
         # the cell's runs of consecutive windows, each one stretch of signal: the biased
@@ -1016,6 +1255,11 @@ def fit(acceleration, speed, normal_force, sample_rate: float, *, rate: float | 
             bic += m * np.log(np.maximum(s, 1e-300)) + np.arange(1, p_max + 1) * np.log(m)
         p = int(np.argmin(bic)) + 1
         crit = f"BIC summed over the cells, p = 1 to {p_max}"
+        if p == p_max:
+            notes.append(f"the order reached its cap (p = {p_max}): the information criterion still fell there, so "
+                         "a higher order may fit better (max_order up to "
+                         f"{MAX_ORDER}, --order); a high-pass at or inside the texture band (here {hp:g} Hz) is "
+                         "itself a steep edge that takes many poles: a lower --highpass lowers the order")
     else:
         p = p_max
         crit = "given"
@@ -1030,7 +1274,8 @@ def fit(acceleration, speed, normal_force, sample_rate: float, *, rate: float | 
             models.append(ArmaModel(ar, [1.0], float(s[p - 1]), 1.0, out_fs, op_v, op_f))
         else:
             models.append(_arma_cell(A[g], p, int(ma_order), out_fs, op_v, op_f))
-    report = FitReport((p, int(ma_order)), crit, int(idx.size), int(nwin), len(models), out_fs, hp)
+    report = FitReport((p, int(ma_order)), crit, int(idx.size), int(nwin), len(models), out_fs, hp,
+                       3 if np.ndim(acceleration) == 2 else 1, tuple(notes))
     s = ModelSet(models, name=name)
     s.report = report
     return s

@@ -58,7 +58,9 @@ MAX_HELD_WARNINGS = 100
 
 def _run(argv) -> int:
     try:
-        cli.main(args=argv, prog_name="haptex", standalone_mode=False)
+        status = cli.main(args=argv, prog_name="haptex", standalone_mode=False)
+        if isinstance(status, int) and status:  # a command's own status (click returns an Exit's code)
+            return status
     except click.exceptions.Exit as exc:
         return exc.exit_code
     except click.exceptions.Abort:

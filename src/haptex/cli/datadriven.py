@@ -41,12 +41,20 @@ def fit_cmd(recording, out, sample_rate, rate, order, ma_order, segment, highpas
     r = models.report
     click.echo(f"{len(models.models)} ARMA{r.order} models at {r.sample_rate:g} Hz from {r.segments} steady windows "
                f"of {r.windows} (order: {r.criterion}); written to {out}")
+    for note in r.notes:
+        click.echo(f"note: {note}")
 
 
 @click.command()
-@click.argument("models", type=click.Path(dir_okay=False, path_type=Path))
-@click.option("--speed", type=Quantity("m/s"), required=True, help="Tangential speed, e.g. '50 mm/s'.")
-@click.option("--force", type=Quantity("N"), required=True, help="Normal force, e.g. '1 N'.")
+@click.argument("models", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.option("--speed", type=Quantity("m/s"), default=None,
+              help="Tangential speed, e.g. '50 mm/s' (default: half the set's largest).")
+@click.option("--force", type=Quantity("N"), default=None,
+              help="Normal force, e.g. '1 N' (default: half the set's largest).")
+@click.option("--check", is_flag=True,
+              help="Check each set: interpolated models stable at --points random operating points (their AR "
+                   "roots), and 20 s of synthesis at the middle point against the model's rms.")
+@click.option("--points", type=int, default=1000, show_default=True, help="With --check: operating points drawn.")
 @click.option("--plot", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Write the spectrum's figure (PNG or SVG).")
 @click.option("--device", "device_spec", default=None,
@@ -55,10 +63,26 @@ def fit_cmd(recording, out, sample_rate, rate, order, ma_order, segment, highpas
 @click.option("--hand", default="light-touch", show_default=True,
               help="With --device: the hand holding the handle (none, light-touch, firm-grip).")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON instead of text.")
-def vibration(models, speed, force, plot, device_spec, hand, as_json):
+def vibration(models, speed, force, check, points, plot, device_spec, hand, as_json):
     """The vibration a model set gives at one speed and force: the interpolated model, its
     power and its spectrum (HaTT's XML or haptex's JSON); with --device, the energy it
-    supplies at the device's port."""
+    supplies at the device's port. Given several files or a folder (HaTT's library), one line
+    each: material, models, triangles, speed and force range, rms at the operating point."""
+    files = _model_files(models)
+    if len(files) != 1 or models[0].is_dir() or check:
+        for name, given in (("--plot", plot), ("--device", device_spec)):
+            if given is not None:
+                raise ParameterError(f"{name} = {given!r} is not allowed with several model files or --check: "
+                                     "must be given with one file")
+        _library(files, speed, force, check, points, as_json)
+        return
+    models = files[0]
+    if speed is None or force is None:
+        from ..datadriven import read_models
+
+        s = read_models(models)
+        speed = float(s.speeds.max()) / 2 if speed is None else speed
+        force = float(s.forces.max()) / 2 if force is None else force
     import numpy as np
 
     from ..catalogue import hand as _hand
@@ -121,3 +145,72 @@ def vibration(models, speed, force, plot, device_spec, hand, as_json):
         fig.tight_layout()
         fig.savefig(plot)
         plt.close(fig)
+
+
+def _model_files(paths) -> list[Path]:
+    out = []
+    for p in paths:
+        if p.is_dir():
+            found = sorted(q for q in p.iterdir() if q.suffix.lower() in (".xml", ".json") and q.is_file())
+            if not found:
+                raise ParameterError(f"MODELS = '{p}' is not allowed: must be a model file or a folder holding "
+                                     "model files (*.xml: HaTT's; *.json: haptex's)")
+            out += found
+        elif p.is_file():
+            out.append(p)
+        else:
+            raise ParameterError(f"MODELS = '{p}' is not allowed: must be an existing model file or folder")
+    return out
+
+
+def _library(files, speed, force, check, points, as_json) -> None:
+    """One line a model set; a refused file is one line too, and the exit status is then 2."""
+    import time
+
+    from ..datadriven import check_models, read_models
+
+    if check and not 1 <= points <= 10**6:
+        raise ParameterError(f"--points = {points} is not allowed: must be an integer in [1, 1000000]")
+    rows, refused = [], 0
+    t0 = time.perf_counter()
+    for f in files:
+        try:
+            s = read_models(f)
+        except ParameterError as exc:
+            refused += 1
+            rows.append({"file": str(f), "error": str(exc)})
+            if not as_json:
+                click.echo(f"{f.name}: refused: {exc}")
+            continue
+        v = float(s.speeds.max()) / 2 if speed is None else speed
+        fo = float(s.forces.max()) / 2 if force is None else force
+        rms = math.sqrt(s.model_at(v, fo).output_variance())
+        row = {"file": str(f), "material": s.name, "models": len(s.models), "triangles": len(s.triangles),
+               "order": list(s.models[0].order), "sample_rate": s.sample_rate,
+               "speed_range": [float(s.speeds.min()), float(s.speeds.max())],
+               "force_range": [float(s.forces.min()), float(s.forces.max())], "mu": s.mu,
+               "at": [v, fo], "rms_acceleration": rms}
+        line = (f"{s.name}: {len(s.models)} models, {len(s.triangles)} triangles, ARMA{s.models[0].order} at "
+                f"{s.sample_rate:g} Hz, {s.speeds.min() * 1e3:.0f}-{s.speeds.max() * 1e3:.0f} mm/s, "
+                f"{s.forces.min():.2g}-{s.forces.max():.3g} N" + ("" if s.mu is None else f", mu {s.mu:.3g}")
+                + f"; {rms:.3g} m/s^2 rms at {v * 1e3:.0f} mm/s, {fo:.3g} N")
+        if check:
+            c = check_models(s, points=points)
+            row["check"] = {"points": c.points, "unstable": c.unstable, "max_root": c.max_root,
+                            "rms_model": c.rms_model, "rms_synthesis": c.rms_synthesis, "seconds": c.seconds}
+            line += (f"; {c.points - c.unstable} of {c.points} points stable (largest AR root {c.max_root:.4f}); "
+                     f"{c.seconds:g} s of synthesis at the middle {100 * c.rms_error:+.1f} % of the model's rms")
+            refused += c.unstable > 0
+        rows.append(row)
+        if not as_json:
+            click.echo(line)
+    took = time.perf_counter() - t0
+    if as_json:
+        click.echo(json.dumps({"sets": rows, "refused": refused, "seconds": took,
+                               "units": {"speed_range": "m/s", "force_range": "N", "at": "m/s, N",
+                                         "rms_acceleration": "m/s^2", "sample_rate": "Hz"}}, indent=2))
+    else:
+        click.echo(f"{len(files) - refused} of {len(files)} model files read"
+                   + (" and checked" if check else "") + f" in {took:.1f} s")
+    if refused:
+        raise click.exceptions.Exit(2)
