@@ -79,6 +79,100 @@ def test_identify_recovers_a_known_device_within_5_percent_from_10_s(case, noise
     assert all(math.isfinite(v) and v >= 0 for v in r.uncertainty.values())
 
 
+def _oracle_log(m, b, fc, delta, D, T, prog, noise=0.0, seed=1, sub=400, kp=50.0, kd=5.0):
+    """A logged run simulated by code that shares nothing with the C core: semi-implicit Euler on
+    Python floats at T / sub, continuous-time Coulomb friction (the handle sticks where its
+    velocity crosses zero while |u| <= f_c), the force held over each period and applied D
+    periods after the tick that read the position, the position read after Gaussian noise and
+    rounded to the encoder's step; the force commanded is the program plus a centering
+    spring-damper on the sensed position (closed loop, as haptex run --identify logs)."""
+    rng = np.random.default_rng(seed)
+    h, x, v = T / sub, 0.0, 0.0
+    queue, hist = [0.0] * D, [0.0] * 11
+    pos, cmd = np.empty(prog.size), np.empty(prog.size)
+    for k in range(prog.size):
+        xs = x + (noise * rng.standard_normal() if noise else 0.0)
+        sensed = delta * round(xs / delta) if delta > 0 else xs
+        hist.append(sensed)
+        hist.pop(0)
+        f = float(prog[k]) - kp * sensed - kd * (hist[-1] - hist[0]) / (10 * T)
+        pos[k], cmd[k] = sensed, f
+        queue.append(f)
+        u = queue.pop(0)
+        for _ in range(sub):
+            if v == 0.0 and abs(u) <= fc:
+                continue
+            a = (u - b * v - math.copysign(fc, v if v != 0.0 else u)) / m
+            vn = v + a * h
+            v = 0.0 if v != 0.0 and vn * v < 0.0 else vn
+            x += v * h
+    return np.arange(prog.size) * T, pos, cmd
+
+
+def _program(T, seconds, kind, seed=0):
+    """4 s of force steps then a 0.3 N logarithmic chirp from 5 Hz to 0.2 f_s (scipy), or random
+    forces (numpy's normal through a 2nd-order Butterworth low-pass at 0.02 f_s, 0.5 N rms)."""
+    from scipy.signal import chirp
+
+    n = int(round(seconds / T))
+    rng = np.random.default_rng(seed)
+    if kind == "random":  # band-limited to 0.2 f_s by scipy's Butterworth, 0.5 N rms
+        from scipy.signal import butter, sosfilt
+
+        x = sosfilt(butter(2, 0.2 / T / 2 * 0.2, fs=1 / T, output="sos"), rng.normal(size=n))
+        return 0.5 * x / np.std(x)
+    out, k, sign = np.zeros(n), 0, 1.0
+    while k < int(0.4 * n):
+        length = int(rng.uniform(0.05, 0.3) / T)
+        out[k:k + length] = 0.3 * sign
+        sign, k = -sign, k + length
+    out[int(0.4 * n):] = 0
+    tc = np.arange(n - int(0.4 * n)) * T
+    out[int(0.4 * n):] = 0.3 * chirp(tc, 5.0, tc[-1], 0.2 / T, method="logarithmic")
+    return out
+
+
+ORACLE_CASES = [  # issue 65: the cases haptex's own logs did not catch, and the ranges it names
+    dict(m=0.2, b=0.35, fc=0.15, delta=7.5e-6, D=2, T=1e-3, noise=0.0, kind="steps+chirp"),  # was D 4, b +66 %
+    dict(m=0.05, b=3.0, fc=0.0, delta=0.0, D=4, T=0.25e-3, noise=0.0, kind="steps+chirp"),
+    dict(m=0.5, b=0.5, fc=0.2, delta=60e-6, D=0, T=1e-3, noise=1e-6, kind="random"),
+]
+
+
+@pytest.mark.parametrize("case", range(len(ORACLE_CASES)))
+def test_identify_recovers_an_independent_simulators_device(case):
+    # the truth is the independent simulator's (above), never haptex's step. Stop 62's
+    # identification, on the first case: delay 4 for 2, damping +66 % (its model kept the
+    # friction's sign over a whole period, and searched the delay only near the equation
+    # error's lag); now within 1 %. (The reported deviations are the Gauss-Newton ones: on the
+    # first case the damping's 0.7-1 % error is 3-6 of them; issue 65 keeps that open.)
+    kw = ORACLE_CASES[case]
+    t, p, f = _oracle_log(kw["m"], kw["b"], kw["fc"], kw["delta"], kw["D"], kw["T"],
+                          _program(kw["T"], 10.0, kw["kind"]), noise=kw["noise"])
+    r = I.identify(time=t, position=p, force=f)
+    d = r.device
+    assert d.delay == kw["D"]
+    assert d.position_resolution == pytest.approx(kw["delta"], rel=1e-6, abs=1e-12)
+    for name, got, want in (("mass", d.mass[0, 0], kw["m"]), ("damping", d.damping[0, 0], kw["b"]),
+                            ("coulomb_friction", d.coulomb_friction, kw["fc"])):
+        assert got == pytest.approx(want, rel=0.05, abs=0.002), name
+    assert "runner-up" in " ".join(r.notes)
+
+
+def test_what_a_log_cannot_tell_is_said_not_guessed():
+    # a 0.5 kg handle with 0.2 N of friction under white forces of 0.3 N rms, read by a 60 um
+    # encoder: it moves over 2 steps (the independent simulator), and the figures that motion
+    # cannot carry are reported as not determined, with why (stop 62 gave a 33 kg mass)
+    rng = np.random.default_rng(0)
+    prog = 0.6 * np.clip(rng.normal(size=10000) / 2, -1, 1)
+    t, p, f = _oracle_log(0.5, 0.1, 0.2, 60e-6, 0, 1e-3, prog, noise=1e-6)
+    assert np.ptp(p) / 60e-6 < 5
+    r = I.identify(time=t, position=p, force=f)
+    assert set(r.undetermined) == {"mass", "damping", "coulomb_friction", "delay"}
+    assert "the motion spans 2 encoder steps of 60 µm, fewer than 20" in r.undetermined["mass"]
+    assert "mass: not determined (the motion spans" in r.report() and r.to_dict()["not_determined"]
+
+
 def test_an_identification_run_on_the_simulated_falcon_gives_back_its_preset(tmp_path):
     # 'haptex run --identify' on the simulated backend (the exact transition by expm, no
     # friction), then 'haptex identify': the preset's x mass and damping at its home pose,

@@ -11,13 +11,18 @@ The method is output-error identification over windows (Ljung, *System Identific
 Theory for the User*, 2nd ed., 1999, Sections 4.2 and 7.3, the output-error model; the
 windows are the multiple-shooting of Bock's parameter estimation, each window's initial
 position and velocity estimated with the device's figures): the model's positions, simulated
-by the C core's exact sampled-data step (the core's ``free_run``, the Coulomb step of
-the simulator's general loop), are fitted to the logged ones by ``scipy.optimize.least_squares``;
-one standard deviation of each figure from the Jacobian at the optimum (the Gauss-Newton
-covariance, s^2 (J^T J)^-1). The delay is the whole number of periods whose fit leaves the
-smallest residual, searched around the force-to-acceleration lag of an equation-error
-regression (the positions' Savitzky-Golay derivatives). The encoder step is the lattice the
-positions lie on (the greatest common step of their increments), when they lie on one.
+by the C core's exact sampled-data step (the core's ``free_run``: on one axis the exact
+continuous-time stick-slip, each period split where the velocity reaches zero; on two or three
+axes the sampled Karnopp step of the simulator's general loop), are fitted to the logged ones
+by ``scipy.optimize.least_squares``; one standard deviation of each figure from the Jacobian at
+the optimum (the Gauss-Newton covariance, s^2 (J^T J)^-1). The delay is the whole number of
+periods whose fit leaves the smallest residual: every delay from 0 to ``max_delay`` is fitted
+to its own optimum on :data:`SCREEN_WINDOWS` windows spread over the log, from
+:data:`SCREEN_STARTS` (an equation-error regression's figures, the positions' Savitzky-Golay
+derivatives), and the best is fitted on every window; the runner-up's residual is reported.
+The encoder step is the lattice the positions lie on (the greatest common step of their
+increments), when they lie on one. What the log cannot tell (a motion over too few encoder
+steps, two delays that fit alike) is reported as not determined.
 """
 
 from __future__ import annotations
@@ -52,6 +57,21 @@ MIN_WINDOWS = 5
 """Fewest windows a log must fill (so 1 s at the default window)."""
 MAX_DELAY = 10
 """Largest delay searched (periods, chosen: haptic devices' computation delays are 0-2)."""
+MIN_STEPS = 20
+"""Fewest encoder steps the motion must span for mass, damping, friction and delay to be told
+(chosen: over fewer, the rounding is the motion)."""
+DELAY_MARGIN = 0.01
+"""Least relative difference between the best delay's residual and the runner-up's for the
+delay to count as determined (chosen)."""
+SCREEN_WINDOWS = 8
+"""Windows (spread over the log) on which every delay of the range is fitted before the best
+are fitted on all (chosen: 2.4 s at the default window, enough to rank the delays)."""
+SCREEN_STARTS = (1.0, 0.1)
+"""Factors on the equation error's damping from which each delay's screening fit starts (chosen:
+on closed-loop logs with friction the equation error's damping is 2-6 times the truth)."""
+SCREEN_NFEV = 40
+"""Most residual evaluations of one screening fit (chosen: ranking needs no last digit)."""
+"""Delays fitted on every window: the best screened ones (the runner-up's residual is reported)."""
 MAX_SAMPLES = 2_000_000
 """Most samples identified at once (chosen: 33 min at 1 kHz; least squares holds a few
 copies of them)."""
@@ -179,13 +199,21 @@ class Identification:
     residual_rms : float
         RMS difference of the model's positions from the logged ones (m).
     delay_residuals : dict
-        Residual RMS (m) of the fit at each delay tried.
+        Residual RMS (m) of the fit at each delay of the range, each at its own optimum on the
+        same :data:`SCREEN_WINDOWS` windows (the chosen delay's and the runner-up's on every
+        window are in ``notes``).
     samples : int
     windows : int
     source : str
         The log's path, or ``"arrays"``.
     notes : list of str
-        What the fit noticed (an axis without a lattice, least squares stopped early).
+        What the fit noticed (an axis without a lattice, least squares stopped early, the
+        runner-up delay's residual).
+    undetermined : dict
+        The figures the log cannot tell (``mass``, ``damping``, ``coulomb_friction``,
+        ``delay``), each with why: the motion spans fewer than :data:`MIN_STEPS` steps of the
+        encoder, or two delays' residuals differ by less than :data:`DELAY_MARGIN`. Their numbers
+        are the fit's, not to be relied on.
     """
 
     device: object
@@ -197,6 +225,7 @@ class Identification:
     windows: int
     source: str = "arrays"
     notes: list = field(default_factory=list)
+    undetermined: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """JSON-ready figures, SI units, each with its standard deviation."""
@@ -210,7 +239,8 @@ class Identification:
                 "position_resolution_m": dev.position_resolution,
                 "position_resolution_sd_m": self.uncertainty["position_resolution"],
                 "residual_rms_m": self.residual_rms,
-                "delay_residuals_m": {str(k): v for k, v in self.delay_residuals.items()}, "notes": list(self.notes)}
+                "delay_residuals_m": {str(k): v for k, v in self.delay_residuals.items()}, "notes": list(self.notes),
+                "not_determined": dict(self.undetermined)}
 
     def to_toml(self, path=None) -> str:
         """The identified device as a TOML device file (:func:`haptex.catalogue.device_from_file`'s
@@ -276,6 +306,7 @@ class Identification:
         tried = ", ".join(f"{k}: {v * 1e6:.3g} µm" for k, v in sorted(self.delay_residuals.items()))
         out.append(f"  delay {dev.delay} periods (residual RMS by delay: {tried})")
         out.append(f"  residual RMS {self.residual_rms * 1e6:.3g} µm")
+        out.extend(f"  {name.replace('_', ' ')}: not determined ({why})" for name, why in self.undetermined.items())
         out.extend(f"  note: {n}" for n in self.notes)
         return "\n".join(out)
 
@@ -359,8 +390,8 @@ def _equation_error(p, f, T, max_delay):
     return out, v
 
 
-def _fit(p, f, T, D, H, init, res_sd):
-    """Output-error fit at delay D: (x, cost, J, windows)."""
+def _fit(p, f, T, D, H, init, res_sd, every: int = 1, max_nfev: int = 100):
+    """Output-error fit at delay D over every ``every``-th window: (least-squares result, windows)."""
     from scipy.optimize import least_squares
     from scipy.sparse import lil_matrix
 
@@ -368,8 +399,8 @@ def _fit(p, f, T, D, H, init, res_sd):
     from .simulate import _axis_coefficients
 
     n, d = p.shape
-    W = (n - D) // H
-    starts = D + H * np.arange(W)
+    starts = D + H * np.arange((n - D) // H)[::every]
+    W = starts.size
     idx = starts[:, None] + np.arange(H)[None, :]
     meas = p[idx]  # (W, H, d)
     force = np.ascontiguousarray(f[idx - D])  # u(k) = f(k - D)
@@ -402,7 +433,7 @@ def _fit(p, f, T, D, H, init, res_sd):
     scale = np.concatenate([np.maximum(np.abs(x0[:ng]), 1e-3), np.full(W * d, res_sd),
                             np.full(W * d, max(res_sd / T / H, 1e-6))])
     sol = least_squares(residual, x0, bounds=(lo, hi), jac_sparsity=sp, x_scale=scale, method="trf",
-                        xtol=1e-8, ftol=1e-8, max_nfev=100)
+                        xtol=1e-8, ftol=1e-8, max_nfev=max_nfev)
     return sol, W
 
 
@@ -445,10 +476,13 @@ def identify(*, time, position, force, max_delay: int = MAX_DELAY, window: float
 
     Notes
     -----
-    Verified on logs simulated by haptex's own sampled-data model (mass, damping, Coulomb
-    friction, encoder step and delay recovered within 5 %, the delay exactly, from 10 s:
-    ``tests/test_identify.py``) and on logs of ``haptex run --identify`` on the simulated
-    backend, whose exact transition is computed independently (scipy's expm).
+    Verified on logs of an independent simulator (semi-implicit Euler at T/400 in plain
+    Python, continuous-time Coulomb friction, closed-loop centering, steps and a chirp to
+    0.2 f_s or band-limited random forces, 1 and 4 kHz, delays 0-4: mass, damping and friction
+    within 1-3 %, the delay and encoder step exact), on logs simulated by haptex's own
+    sampled-data model (within 5 %), and on logs of ``haptex run --identify`` on the simulated
+    backend, whose exact transition is computed independently (scipy's expm):
+    ``tests/test_identify.py``.
     """
     from .devices import Device
 
@@ -492,19 +526,32 @@ def identify(*, time, position, force, max_delay: int = MAX_DELAY, window: float
             raise fail("position_resolution", position_resolution, "None or a finite number >= 0 (m)")
         delta_sd = 0.0
     ee, v = _equation_error(p, f, T, max_delay)
-    order = sorted(ee, key=lambda D: ee[D][0])
-    best = order[0]
     res_sd = max(delta / math.sqrt(12.0), 1e-6)  # the residuals' scale (m): the rounding, or 1 µm
-    fits = {}
-    for D in range(max(0, best - 2), min(max_delay, best + 2) + 1):  # around the equation error's lag
+    # Every delay of the range is fitted to its own optimum on a subset of the windows (the same
+    # for every delay, so their residuals compare), each from SCREEN_STARTS: the equation error's
+    # figures with its damping scaled (closed-loop logs bias the equation error's damping several
+    # times over, and from there the output error stops in a local minimum). The delay with the
+    # least screened residual is then fitted on every window from its screened optimum.
+    W_all = (n - max_delay) // H
+    every = max(1, W_all // SCREEN_WINDOWS)
+    screened = {}
+    for D in range(max_delay + 1):
         coef = ee[D][1]
-        init = {"m": np.maximum(coef[:, 0], 1e-3), "b": np.maximum(coef[:, 1], 0.0),
-                "fc": float(max(np.mean(coef[:, 2]), 0.0)), "v": v}
-        sol, W = _fit(p, f, T, D, H, init, res_sd)
-        fits[D] = (sol, W)
-    rms = {D: float(np.sqrt(np.mean(s.fun ** 2))) * res_sd for D, (s, W) in fits.items()}
-    D = min(rms, key=rms.get)
-    sol, W = fits[D]
+        best = None
+        for k in SCREEN_STARTS:
+            init = {"m": np.maximum(coef[:, 0], 1e-3), "b": np.maximum(coef[:, 1], 0.0) * k,
+                    "fc": float(max(np.mean(coef[:, 2]), 0.0)), "v": v}
+            sol, W = _fit(p, f, T, D, H, init, res_sd, every, SCREEN_NFEV)
+            if best is None or sol.cost < best.cost:
+                best = sol
+        screened[D] = best
+    screen_rms = {D: float(np.sqrt(np.mean(sol.fun ** 2))) * res_sd for D, sol in screened.items()}
+    ranked = sorted(screen_rms, key=screen_rms.get)
+    D = ranked[0]
+    runner = ranked[1] if len(ranked) > 1 else None
+    x0 = screened[D].x
+    sol, W = _fit(p, f, T, D, H, {"m": x0[:d], "b": x0[d:2 * d], "fc": float(x0[2 * d]), "v": v}, res_sd)
+    rms = {D: float(np.sqrt(np.mean(sol.fun ** 2))) * res_sd}
     x = sol.x
     ng = 2 * d + 1
     J = sol.jac.toarray() if hasattr(sol.jac, "toarray") else np.asarray(sol.jac)
@@ -540,7 +587,21 @@ def identify(*, time, position, force, max_delay: int = MAX_DELAY, window: float
     unc = {"mass": float(np.max(sd[:d])), "damping": float(np.max(sd[d:2 * d])), "coulomb_friction": float(sd[2 * d]),
            "position_resolution": delta_sd, "delay": 0.0, "period": float(np.std(dt))}
     axes = {"mass": m.tolist(), "damping": b.tolist(), "mass_sd": sd[:d].tolist(), "damping_sd": sd[d:2 * d].tolist()}
-    return Identification(dev, unc, axes, rms[D], rms, n, W, source, notes)
+    undetermined = {}
+    if runner is not None:
+        notes.append(f"delay {D} periods: residual RMS {screen_rms[D] * 1e6:.3g} µm on the screening windows; the "
+                     f"runner-up, delay {runner}, {screen_rms[runner] * 1e6:.3g} µm")
+        if screen_rms[runner] < screen_rms[D] * (1.0 + DELAY_MARGIN):
+            undetermined["delay"] = (f"delays {D} and {runner} fit within {100 * DELAY_MARGIN:g} % of each other: the "
+                                     "excitation has no power where the delay shows (add faster force changes)")
+    if delta > 0:
+        span = float(np.max(np.ptp(p, axis=0))) / delta
+        if span < MIN_STEPS:
+            why = (f"the motion spans {span:.0f} encoder steps of {delta * 1e6:.3g} µm, fewer than {MIN_STEPS}: "
+                   "a larger force (or a finer encoder) moves the handle over more of them")
+            for name in ("mass", "damping", "coulomb_friction", "delay"):
+                undetermined.setdefault(name, why)
+    return Identification(dev, unc, axes, rms[D], screen_rms, n, W, source, notes, undetermined)
 
 
 def identify_log(path, **options) -> Identification:

@@ -710,9 +710,80 @@ void hx_tail_amplitudes(double *u, long m, long stride, double *a1, double *a2)
  * sample, already delayed by the caller); pos[k][s] is the position read at sample s (the
  * start of its hold), so pos[k][0] = p0[k]; p0[k] and v0[k] end as the window's state after
  * its last sample (a caller steps on from there). */
+/* m dv/dt = w - b v from (p, v) over a time tau, in closed form (lam = b / m; lam = 0: no damping) */
+static void slide(double m, double lam, double w, double tau, double *p, double *v)
+{
+    if (lam > 0.0) {
+        double vinf = w / (lam * m), e = exp(-lam * tau);
+        *p += vinf * tau + (*v - vinf) * (-expm1(-lam * tau)) / lam;
+        *v = vinf + (*v - vinf) * e;
+    } else {
+        *p += *v * tau + 0.5 * w / m * tau * tau;
+        *v += w / m * tau;
+    }
+}
+
+/* One axis over one period T under the held force u with Coulomb friction fc, exactly: the
+ * period is split where the velocity reaches zero (in closed form), where the handle sticks
+ * if |u| <= fc and otherwise slides on the other way (continuous-time Coulomb friction, the
+ * model of a real handle; the sampled Karnopp model of coulomb() keeps the friction's sign
+ * over the whole period, a velocity error of up to 2 fc T / m at each reversal) */
+static void coulomb_exact_1d(double m, double lam, double T, double fc, double u, double *p, double *v)
+{
+    double left = T;
+    int piece;
+    for (piece = 0; piece < 3 && left > 0.0; piece++) {
+        double s, w, tau = left;
+        if (*v == 0.0) {
+            if (fabs(u) <= fc)
+                return; /* held by stiction */
+            s = u > 0.0 ? 1.0 : -1.0;
+        } else {
+            s = *v > 0.0 ? 1.0 : -1.0;
+        }
+        w = u - fc * s;
+        if (s * w < 0.0) { /* decelerating: the velocity reaches zero at tau0 */
+            double tau0;
+            if (lam > 0.0) {
+                double vinf = w / (lam * m);
+                tau0 = log((*v - vinf) / (-vinf)) / lam;
+            } else {
+                tau0 = -*v * m / w;
+            }
+            if (tau0 < left) {
+                slide(m, lam, w, tau0, p, v);
+                *v = 0.0;
+                left -= tau0;
+                continue;
+            }
+        }
+        slide(m, lam, w, tau, p, v);
+        left = 0.0;
+    }
+}
+
 void hx_free_run(long n, const double *c, double fc, long windows, long steps, const double *force,
                  double *p0, double *v0, double *pos)
 {
+    if (n == 1 && fc > 0.0) {
+        /* one axis: the exact stick-slip step; m, b and T from the axis's coefficients
+         * (VW / PV = 1 / m, VV = exp(-b T / m), PV = T g1(b T / m), g1(x) = (1 - e^-x) / x) */
+        double x = -log(c[HX_F_VV]), m = c[HX_F_PV] / c[HX_F_VW];
+        double g1 = x > 1e-8 ? -expm1(-x) / x : 1.0 - 0.5 * x;
+        double T = c[HX_F_PV] / g1, lam = x / T;
+        long k, s;
+        for (k = 0; k < windows; k++) {
+            double p = p0[k], v = v0[k];
+            for (s = 0; s < steps; s++) {
+                pos[k * steps + s] = p;
+                coulomb_exact_1d(m, lam, T, fc, force[k * steps + s], &p, &v);
+            }
+            p0[k] = p;
+            v0[k] = v;
+        }
+        return;
+    }
+    {
     double Binv[9], a[3], ff[3], p[3], v[3], np_, nv, de;
     long k, s, i, j;
     for (i = 0; i < n; i++)
@@ -753,5 +824,6 @@ void hx_free_run(long n, const double *c, double fc, long windows, long steps, c
             p0[k * n + i] = p[i];
             v0[k * n + i] = v[i];
         }
+    }
     }
 }
