@@ -784,46 +784,46 @@ void hx_free_run(long n, const double *c, double fc, long windows, long steps, c
         return;
     }
     {
-    double Binv[9], a[3], ff[3], p[3], v[3], np_, nv, de;
-    long k, s, i, j;
-    for (i = 0; i < n; i++)
-        for (j = 0; j < n; j++)
-            Binv[n * i + j] = i == j ? 1.0 / c[i * HX_N_FAST + HX_F_VW] : 0.0;
-    for (k = 0; k < windows; k++) {
-        for (i = 0; i < n; i++) {
-            p[i] = p0[k * n + i];
-            v[i] = v0[k * n + i];
-        }
-        for (s = 0; s < steps; s++) {
-            const double *u = force + (k * steps + s) * n;
-            int rest = 0, held = 0;
+        double Binv[9], a[3], ff[3], p[3], v[3], np_, nv, de;
+        long k, s, i, j;
+        for (i = 0; i < n; i++)
+            for (j = 0; j < n; j++)
+                Binv[n * i + j] = i == j ? 1.0 / c[i * HX_N_FAST + HX_F_VW] : 0.0;
+        for (k = 0; k < windows; k++) {
             for (i = 0; i < n; i++) {
-                pos[(k * steps + s) * n + i] = p[i];
-                a[i] = c[i * HX_N_FAST + HX_F_VV] * v[i] + c[i * HX_N_FAST + HX_F_VW] * u[i];
-                ff[i] = 0.0;
+                p[i] = p0[k * n + i];
+                v[i] = v0[k * n + i];
             }
-            if (fc > 0.0) {
-                rest = coulomb(a, Binv, v, fc, n, ff);
-                held = rest;
-                for (i = 0; i < n; i++)
-                    if (v[i] != 0.0)
-                        held = 0;
-            }
-            for (i = 0; i < n; i++) {
+            for (s = 0; s < steps; s++) {
+                const double *u = force + (k * steps + s) * n;
+                int rest = 0, held = 0;
+                for (i = 0; i < n; i++) {
+                    pos[(k * steps + s) * n + i] = p[i];
+                    a[i] = c[i * HX_N_FAST + HX_F_VV] * v[i] + c[i * HX_N_FAST + HX_F_VW] * u[i];
+                    ff[i] = 0.0;
+                }
+                if (fc > 0.0) {
+                    rest = coulomb(a, Binv, v, fc, n, ff);
+                    held = rest;
+                    for (i = 0; i < n; i++)
+                        if (v[i] != 0.0)
+                            held = 0;
+                }
+                for (i = 0; i < n; i++) {
+                    if (held)
+                        continue;
+                    axis_zoh(c + i * HX_N_FAST, p[i], v[i], u[i], ff[i], &np_, &nv, &de);
+                    p[i] = np_;
+                    v[i] = rest ? 0.0 : nv;
+                }
                 if (held)
-                    continue;
-                axis_zoh(c + i * HX_N_FAST, p[i], v[i], u[i], ff[i], &np_, &nv, &de);
-                p[i] = np_;
-                v[i] = rest ? 0.0 : nv;
+                    for (i = 0; i < n; i++)
+                        v[i] = 0.0;
             }
-            if (held)
-                for (i = 0; i < n; i++)
-                    v[i] = 0.0;
+            for (i = 0; i < n; i++) {
+                p0[k * n + i] = p[i];
+                v0[k * n + i] = v[i];
+            }
         }
-        for (i = 0; i < n; i++) {
-            p0[k * n + i] = p[i];
-            v0[k * n + i] = v[i];
-        }
-    }
     }
 }
