@@ -87,15 +87,21 @@ def _dilate(h: np.ndarray, steps, r: float, periodic: bool, name: str, value) ->
     grids = np.meshgrid(*axes, indexing="ij")
     u2 = sum(g * g for g in grids)
     inside = u2 <= r * r
-    work = float(h.size) * float(inside.sum())
+    _check_work(h.size, int(inside.sum()), steps, name, value)
+    structure = np.where(inside, np.sqrt(np.maximum(r * r - u2, 0.0)) - r, 0.0)
+    return grey_dilation(h, footprint=inside, structure=structure, mode="wrap" if periodic else "nearest")
+
+
+def _check_work(samples: int, footprint: int, steps, name: str, value) -> None:
+    """Refuse a dilation of more than MAX_DILATION_WORK (samples x footprint points), naming a
+    spacing that fits."""
+    work = float(samples) * float(footprint)
     if work > MAX_DILATION_WORK:
         scale = (work / MAX_DILATION_WORK) ** (1.0 / len(steps))
         raise ParameterError(
-            f"{name} = {value:g} is not allowed here: the ball covers {int(inside.sum())} grid points, "
-            f"{work:.3g} operations over {h.size} samples, more than {MAX_DILATION_WORK:.3g}; a smaller radius, a "
+            f"{name} = {value:g} is not allowed here: the ball covers {footprint} grid points, "
+            f"{work:.3g} operations over {samples} samples, more than {MAX_DILATION_WORK:.3g}; a smaller radius, a "
             f"cropped map, or a coarser grid: felt_by(r, spacing=S) with S >= {max(steps) * scale:.3g} m")
-    structure = np.where(inside, np.sqrt(np.maximum(r * r - u2, 0.0)) - r, 0.0)
-    return grey_dilation(h, footprint=inside, structure=structure, mode="wrap" if periodic else "nearest")
 
 
 def reliability_cutoff(texture, instrument_tip: float) -> float | None:

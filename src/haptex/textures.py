@@ -14,7 +14,7 @@ from functools import cached_property
 import numpy as np
 
 from .core import _ext
-from .probe import MAX_SAMPLES as MAX_PROBE_SAMPLES, _dilate, _spacing
+from .probe import MAX_SAMPLES as MAX_PROBE_SAMPLES, _check_work, _dilate, _spacing
 from ._validation import MAX_LENGTH, ParameterError, check_count, fail, finite, nonnegative, positive, whole
 
 
@@ -91,10 +91,16 @@ class Texture:
         return self if r == 0.0 else self._felt(r, spacing)
 
     def _felt(self, r: float, spacing: float | None) -> "Texture":
-        """A profile's felt texture (a ball of radius r > 0, m): the grid's heights dilated."""
+        """A profile's felt texture (a ball of radius r > 0, m): the ball's centre path at each grid
+        point, its contact point found on the grid and refined on this texture itself, and the
+        path's slope there the contact's (the envelope theorem), so that a kink where the ball
+        bridges a trough is a slope jump between two points and not an overshoot of a spline."""
         x, h, periodic, source = _profile_grid(self, r, spacing)
-        hf = _dilate(h, (x[1] - x[0],), r, periodic, "tip_radius", r)
-        return SampledProfile(x, hf, periodic=periodic, source=f"{source} felt by a ball of r = {r * 1e3:g} mm")
+        hf, sf, kinks = _contact_path(self, x, h, r, periodic)
+        out = SampledProfile(x, hf, periodic=periodic, slopes=sf,
+                             source=f"{source} felt by a ball of r = {r * 1e3:g} mm")
+        out.kinks = kinks
+        return out
 
     @property
     def peak_magnitude(self) -> float:
@@ -415,6 +421,20 @@ class SampledProfile(Texture):
     shortest_period : float, optional
         The shortest period present (m); default the Nyquist period 2 dx. ``lowpass`` sets
         it to its cut-off.
+    source : str, optional
+        Where the heights came from (a file, a construction).
+    slopes : array_like, shape (n,) or (m, 2), optional
+        The slope at each sample (dimensionless), when it is known exactly: the profile is
+        then the cubic Hermite interpolant through heights and slopes instead of the C^2
+        spline. Shape (m, 2), one row an interval (m = n periodic, n - 1 otherwise): the
+        slopes at its start and end, which may differ from the neighbouring interval's (a
+        kink at a sample: a felt texture's ball path). Needs a uniform grid.
+
+    Attributes
+    ----------
+    kinks : numpy.ndarray, shape (k, 2)
+        For a felt texture, the places (m) where the ball's contact jumps across a trough and
+        the slope jump there (dimensionless): D and E see a discontinuity there. Empty otherwise.
 
     Raises
     ------
@@ -429,7 +449,8 @@ class SampledProfile(Texture):
     derivative is quadratic and its second derivative linear on each interval.
     """
 
-    def __init__(self, x, h, periodic: bool = False, shortest_period: float | None = None, source: str = ""):
+    def __init__(self, x, h, periodic: bool = False, shortest_period: float | None = None, source: str = "",
+                 slopes=None):
         x = _vector("x", x)
         h = _vector("h", h)
         if x.size != h.size:
@@ -460,7 +481,24 @@ class SampledProfile(Texture):
         self.dx = float(dx)
         self.periodic = bool(periodic)
         self.source = source
-        if self.periodic:
+        self.kinks = np.zeros((0, 2))
+        if slopes is not None:
+            from scipy.interpolate import PPoly
+
+            sl = np.asarray(slopes, dtype=float)
+            m_int = h.size if self.periodic else h.size - 1
+            if sl.shape == (h.size,):
+                sl = np.column_stack([sl, np.r_[sl[1:], sl[:1]]])[:m_int]
+            if sl.shape != (m_int, 2) or self.resampled or not np.all(np.isfinite(sl)):
+                raise fail("slopes", f"shape {np.shape(slopes)}", f"({h.size},) or ({m_int}, 2) finite slopes on a "
+                           "uniform grid")
+            he = np.r_[h, h[0]] if self.periodic else h
+            xe = np.r_[x, x[-1] + dx] if self.periodic else x
+            d = np.diff(he) / dx  # the cubic Hermite segment of each interval, its end slopes sl[i]
+            c = np.array([(sl[:, 0] + sl[:, 1] - 2 * d) / dx**2, (3 * d - 2 * sl[:, 0] - sl[:, 1]) / dx, sl[:, 0],
+                          he[:-1]])
+            spline = PPoly(c, xe)
+        elif self.periodic:
             xe = np.r_[x, x[-1] + dx]
             spline = CubicSpline(xe, np.r_[h, h[0]], bc_type="periodic")
         else:
@@ -864,6 +902,91 @@ def _vector(name: str, values) -> np.ndarray:
     if not np.all(np.isfinite(arr)):
         raise fail(name, values, "a 1-D sequence of finite numbers (no NaN or inf)")
     return np.ascontiguousarray(arr)
+
+
+GOLDEN_STEPS = 48
+"""Golden-section steps refining each contact point within two grid intervals (chosen: the
+bracket shrinks by 0.618^48 ~ 1e-10, far below any grid)."""
+
+
+def _contact_path(texture, x, h, r, periodic):
+    """The ball's centre path c(x) - r and its slope on the grid x, and the kinks.
+
+    c(x) = max over |u| <= r of [H(x + u) + sqrt(r^2 - u^2)], H the texture's own height: the
+    maximum over the grid's offsets first (each grid point's arg-max contact), then refined by
+    golden-section search on H within one interval either side of it; the slope is H' at the
+    contact (the envelope theorem: the path's normal is the contact's). A kink is a pair of
+    neighbouring points whose contacts lie more than two intervals apart (the ball bridging a
+    trough), with the slope jump between them."""
+    n = x.size
+    dx = float(x[1] - x[0])
+    k = int(math.floor(r / dx))
+    _check_work(n, 2 * k + 1, (dx,), "tip_radius", r)
+    idx = np.arange(n)
+    best = np.full(n, -np.inf)
+    arg = np.zeros(n, dtype=np.int64)
+    for j in range(-k, k + 1):
+        src = np.mod(idx + j, n) if periodic else np.clip(idx + j, 0, n - 1)
+        val = h[src] + math.sqrt(max(r * r - (j * dx) ** 2, 0.0))
+        better = val > best
+        best[better] = val[better]
+        arg[better] = j
+    if periodic:
+        u0 = arg * dx
+        lo, hi = np.maximum(u0 - dx, -r), np.minimum(u0 + dx, r)
+    else:  # the contact stays on the sampled range (beyond it the grid repeats its end heights)
+        u0 = (np.clip(idx + arg, 0, n - 1) - idx) * dx
+        lo = np.maximum(np.maximum(u0 - dx, -r), x[0] - x)
+        hi = np.minimum(np.minimum(u0 + dx, r), x[-1] - x)
+
+    def g(u):
+        return texture.height(x + u) + np.sqrt(np.maximum(r * r - u * u, 0.0))
+
+    phi = (math.sqrt(5.0) - 1.0) / 2.0
+    a, b = lo.copy(), hi.copy()
+    c1, c2 = b - phi * (b - a), a + phi * (b - a)
+    g1, g2 = g(c1), g(c2)
+    for _ in range(GOLDEN_STEPS):
+        left = g1 > g2
+        b = np.where(left, c2, b)
+        a = np.where(left, a, c1)
+        c2n = np.where(left, c1, a + phi * (b - a))
+        c1n = np.where(left, b - phi * (b - a), c2)
+        gn = g(np.where(left, c1n, c2n))
+        g2, g1 = np.where(left, g1, gn), np.where(left, gn, g2)
+        c1, c2 = c1n, c2n
+    u = 0.5 * (a + b)
+    gu = g(u)
+    grid = g(u0)
+    keep = grid > gu  # never below the grid's own maximum
+    u = np.where(keep, u0, u)
+    c = np.where(keep, grid, gu)
+    slope = texture.slope(x + u)
+    contact = u + x
+    m = n if periodic else n - 1
+    nxt = (np.arange(m) + 1) % n
+    ahead = contact[nxt] + (n * dx if periodic else 0.0) * (nxt == 0)
+    at = np.flatnonzero(np.abs(ahead - contact[:m]) > 3 * dx)
+    ends = np.column_stack([slope[:m], slope[nxt]])
+    # In an interval where the contact jumps (the ball bridging a trough, or leaving a crest for
+    # the next), the path is two branches meeting at a kink inside it; a cubic through both
+    # exact end slopes overshoots them (by 40 % when the kink sits a sixth from one end). There
+    # the segment is the quadratic whose slope runs linearly between the end slopes with the
+    # interval's mean: one end keeps its exact slope, the other is moved within the two, so
+    # that the slope never leaves them; the kink sits at a sample to within an interval.
+    hh = c - r
+    delta = (np.r_[hh, hh[0]][1:m + 1] - hh[:m]) / dx
+    for i in at:
+        s0, s1, dl = ends[i, 0], ends[i, 1], delta[i]
+        lo_, hi_ = min(s0, s1, dl), max(s0, s1, dl)
+        if lo_ <= 2 * dl - s1 <= hi_:
+            ends[i, 0] = 2 * dl - s1
+        elif lo_ <= 2 * dl - s0 <= hi_:
+            ends[i, 1] = 2 * dl - s0
+        else:  # the kink at a sample itself: the interval is one branch, straight at its mean
+            ends[i] = dl
+    kinks = np.column_stack([x[at] + 0.5 * dx, slope[nxt[at]] - slope[at]]) if at.size else np.zeros((0, 2))
+    return hh, ends, kinks
 
 
 def _profile_grid(texture, r, spacing):

@@ -100,8 +100,13 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
         with _Spinner(f"rolling a ball of {tip_radius * 1e3:g} mm over the texture", quiet or as_json):
             point = tex
             tex = tex.felt_by(tip_radius)
+        import numpy as np
+
+        kinks = np.asarray(getattr(tex, "kinks", np.zeros((0, 2))))
         felt = {"tip_radius": tip_radius, "max_slope_point_probe": float(point.max_slope),
-                "max_slope_felt": float(tex.max_slope), "source": tex.source}
+                "max_slope_felt": float(tex.max_slope), "source": tex.source,
+                "kinks": [{"x": float(k[0]), "slope_jump": float(k[1])} for k in kinks[:100]],
+                "kink_count": int(len(kinks))}
     base = object_from_spec(object_spec, uv_scale, vertex_normals)
     dev = _build_device(ctx, device_spec, joint_damping, mass, damping, sampling_period, delay,
                         3 if base is not None else tex.dimension + 1)
@@ -157,6 +162,11 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
     if felt is not None:
         console.print(f"felt by a ball of r = {tip_radius * 1e3:g} mm: M = {felt['max_slope_point_probe']:.4g} for a point "
                       f"probe, {felt['max_slope_felt']:.4g} felt; the felt texture is analysed below")
+        if felt["kink_count"]:
+            worst = max(felt["kinks"], key=lambda k: abs(k["slope_jump"]))
+            console.print(f"the ball bridges troughs: {felt['kink_count']} kink{'s' if felt['kink_count'] != 1 else ''} of "
+                          "its path (slope jumps; D and E see a "
+                          f"discontinuity there), the largest {worst['slope_jump']:+.3g} at x = {worst['x'] * 1e3:.4g} mm")
     bl = data["band_limit"]
     rn = bl["raw"]
     if bl["sampled"]:
