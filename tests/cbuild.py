@@ -19,18 +19,24 @@ GROUP = "c-core-objects"
 
 
 @functools.lru_cache(maxsize=None)
-def core_objects(tmp_root, flags: tuple) -> tuple:
-    """The core's tick files compiled with ``flags`` into ``tmp_root``, once per flag set in
-    this process (every export copies them unchanged, which test_the_export_is_the_core
-    checks): the objects' paths."""
-    out = []
-    for name in TICK_FILES:
-        if name.endswith(".c"):
-            obj = tmp_root / f"{name[:-2]}{abs(hash(flags))}.o"
-            subprocess.run([CC, *flags, "-c", "-o", str(obj), str(core.SOURCE_DIR / name)], check=True,
-                           capture_output=True, text=True)
-            out.append(str(obj))
-    return tuple(out)
+def core_objects(tmp_root, flags: tuple, cc: str | None = None) -> tuple:
+    """The core's tick files compiled with ``flags`` (by ``cc``, default the host's) into
+    ``tmp_root``, once per compiler and flag set in this process, two at a time (every export
+    copies them unchanged, which test_the_export_is_the_core checks): the objects' paths."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    cc = cc or CC
+    tag = abs(hash((cc, flags)))
+
+    def one(name):
+        obj = tmp_root / f"{name[:-2]}{tag}.o"
+        r = subprocess.run([cc, *flags, "-c", "-o", str(obj), str(core.SOURCE_DIR / name)], capture_output=True,
+                           text=True)
+        assert r.returncode == 0, f"{cc} {' '.join(flags)} {name}:\n{r.stderr}"
+        return str(obj)
+
+    with ThreadPoolExecutor(2) as pool:
+        return tuple(pool.map(one, [n for n in TICK_FILES if n.endswith(".c")]))
 
 
 def sanitizers_work(tmp_path) -> bool:

@@ -18,6 +18,7 @@
 
 #include <math.h>
 #include <stddef.h>
+#include <stdint.h>
 
 enum { STACK_DEPTH = 64 };
 
@@ -26,7 +27,7 @@ typedef struct {
     int found;           /* the best is a refined local minimum */
     long work;
     double sample[2];    /* a leaf's best sample (t, phi) */
-    long stack[STACK_DEPTH];
+    int64_t stack[STACK_DEPTH]; /* heap indices of the tree's nodes: past 2^31 on an open window */
 } search;
 
 typedef struct {
@@ -201,21 +202,21 @@ static double box_lb(double px, double pz, double u, double w, double lo, double
 
 /* depth-first branch and bound over the implicit binary tree on [root_u, root_u + root_w]
  * with n_leaf leaves; node bounds from the tree in aux (table) or a Taylor bound */
-static void descend(const problem *q, double root_u, double root_w, long n_leaf, int table, search *s)
+static void descend(const problem *q, double root_u, double root_w, int64_t n_leaf, int table, search *s)
 {
     const double *aux = q->aux;
-    long nl = (long)aux[HX_A_NLEAF];
+    int64_t nl = (int64_t)aux[HX_A_NLEAF];
     int sp = 1;
     s->stack[0] = 1;
     while (sp > 0) {
-        long i = s->stack[--sp], j = i, first;
+        int64_t i = s->stack[--sp], j = i, first;
         int level = 0, first_left;
         double w, u, lo, hi, reach;
         while (j > 1) {
             j >>= 1;
             level++;
         }
-        first = 1L << level;
+        first = (int64_t)1 << level;
         w = root_w / (double)first;
         u = root_u + (double)(i - first) * w;
         if (table) {
@@ -270,7 +271,7 @@ static void ray(const problem *q, double t_end, double h_end, double s_end, int 
 static void tree_search(const problem *q, double t_guess, int mode, search *s)
 {
     const double *aux = q->aux;
-    long nl = (long)aux[HX_A_NLEAF];
+    int64_t nl = (int64_t)aux[HX_A_NLEAF];
     double f, g, gp;
     if (t_guess == t_guess) {
         double r = sqrt(s->f), tg;
@@ -304,8 +305,8 @@ static void tree_search(const problem *q, double t_guess, int mode, search *s)
         double below = fmax(aux[HX_A_HMIN] - q->pz, 0.0);
         double half = fmin(sqrt(fmax(s->f - below * below, 0.0)) * (1.0 + 1e-9), aux[HX_A_WCAP]);
         double leaf = 8.0 * aux[HX_A_STEP];
-        long n = 1;
-        while ((double)n * leaf < 2.0 * half && n < (1L << 40))
+        int64_t n = 1; /* up to 2^40 leaves: 64 bits on every target (long has 32 on LLP64 and Cortex-M) */
+        while ((double)n * leaf < 2.0 * half && n < ((int64_t)1 << 40))
             n *= 2;
         descend(q, q->px - 0.5 * (double)n * leaf, (double)n * leaf, n, 0, s);
     }

@@ -464,8 +464,8 @@ typedef struct {
     hx_vib_channel vib;
     /* the parameter block: a stiffness written by another thread (hx_render_set_stiffness)
      * waits here and is taken at the start of the next tick, never in the middle of one */
-    double k0_next;  /* N/m */
-    int k0_pending;  /* 1 while k0_next waits (atomic) */
+    double k0_next;  /* N/m, plain: the flag below says who may touch it */
+    int k0_pending;  /* 0 none waits, 1 k0_next waits, 2 a writer or the tick holds it (atomic) */
     long k0_changes; /* stiffnesses taken */
     /* and a whole model (another texture or algorithm, hx_render_set_model): 0 none waits,
      * 1 model_next waits, 2 the tick is copying it (atomic) */

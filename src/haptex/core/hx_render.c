@@ -193,10 +193,13 @@ void hx_render_step(hx_renderer *r, double x, double y, double z, double f[3])
             __atomic_store_n(&r->model_pending, 0, __ATOMIC_RELEASE);
         }
     }
-    if (__atomic_load_n(&r->k0_pending, __ATOMIC_ACQUIRE)
-        && __atomic_exchange_n(&r->k0_pending, 0, __ATOMIC_ACQ_REL)) {
-        __atomic_load(&r->k0_next, &r->model.prm[HX_P_K0], __ATOMIC_RELAXED);
-        r->k0_changes++;
+    if (__atomic_load_n(&r->k0_pending, __ATOMIC_ACQUIRE) == 1) {
+        int one = 1; /* 1 -> 2 (the tick copies it) -> 0; a writer never writes k0_next at 2 */
+        if (__atomic_compare_exchange_n(&r->k0_pending, &one, 2, 0, __ATOMIC_ACQ_REL, __ATOMIC_ACQUIRE)) {
+            r->model.prm[HX_P_K0] = r->k0_next;
+            r->k0_changes++;
+            __atomic_store_n(&r->k0_pending, 0, __ATOMIC_RELEASE);
+        }
     }
     if (outside(x, r->limit) || outside(y, r->limit) || outside(z, r->limit)) {
         r->faults++;
@@ -237,9 +240,25 @@ void hx_render_step(hx_renderer *r, double x, double y, double z, double f[3])
         hx_passivity_sent(&r->pc, p, f);
 }
 
+/* the writer's side of k0_pending: claim it (0 or 1 -> 2, waiting while a tick copies at 2),
+ * so that k0_next is written by no one else and read by no tick meanwhile; the flag is an int
+ * (32-bit atomics: every target has them, where a double's 64-bit ones are missing on
+ * Cortex-M). On a single-core microcontroller the tick runs in an interrupt over the writer:
+ * it finds 2 and takes the value at the next tick; the writer never waits on the tick there,
+ * since the tick's own 2 is over before the writer runs again. */
+static void k0_claim(hx_renderer *r)
+{
+    for (;;) {
+        int v = __atomic_load_n(&r->k0_pending, __ATOMIC_ACQUIRE);
+        if (v != 2 && __atomic_compare_exchange_n(&r->k0_pending, &v, 2, 0, __ATOMIC_ACQ_REL, __ATOMIC_ACQUIRE))
+            return;
+    }
+}
+
 void hx_render_set_stiffness(hx_renderer *r, double k0)
 {
-    __atomic_store(&r->k0_next, &k0, __ATOMIC_RELAXED);
+    k0_claim(r);
+    r->k0_next = k0;
     __atomic_store_n(&r->k0_pending, 1, __ATOMIC_RELEASE);
 }
 
@@ -258,6 +277,7 @@ int hx_render_set_model(hx_renderer *r, const hx_model *m)
         /* 2: a tick is copying it (a struct's copy): wait */
     }
     r->model_next = *m;
+    k0_claim(r);
     __atomic_store_n(&r->k0_pending, 0, __ATOMIC_RELEASE); /* the model's own stiffness, not a waiting one */
     __atomic_store_n(&r->model_pending, 1, __ATOMIC_RELEASE);
     return withdrawn;

@@ -1,0 +1,99 @@
+"""Issue 66, firmware as firmware: every algorithm's export cross-compiled for a Cortex-M4F and
+a Cortex-M7 (Debian's arm-none-eabi-gcc, -std=c99 -Wall -Wextra -Werror, newlib's libm), linked
+for QEMU's MPS2 boards (mps2-an386, mps2-an500: tests/firmware/startup.c and mps2.ld) and run
+there with semihosting: the forces along a stroke in and out of the wall, back and forth over
+the texture, against haptex.Renderer on the host (the same C compiled by another compiler for
+another machine: the oracle is the host's run, to 1e-12 relative; newlib's sin and cos may
+differ from glibc's by an ulp). .ci/run installs the toolchain (gcc-arm-none-eabi,
+libnewlib-arm-none-eabi, qemu-system-arm); where it is missing the tests skip, except under CI,
+where they fail."""
+
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import haptex as hx
+from haptex.export import export_c
+
+from .cbuild import core_objects
+from .conftest import K0, A, L
+
+ARM_CC = shutil.which("arm-none-eabi-gcc")
+QEMU = shutil.which("qemu-system-arm")
+HERE = Path(__file__).parent / "firmware"
+if (ARM_CC is None or QEMU is None) and os.environ.get("CI") == "true":
+    raise RuntimeError("CI installs arm-none-eabi-gcc and qemu-system-arm (.ci/run): one is missing")
+pytestmark = pytest.mark.xdist_group("firmware")
+needs_arm = pytest.mark.skipif(ARM_CC is None or QEMU is None, reason="no arm-none-eabi-gcc or qemu-system-arm")
+
+STRICT = ("-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-ffunction-sections", "-fdata-sections")
+TARGETS = {  # the float ABI each board's FPU takes: the M4F's single precision, the M7's double
+    "cortex-m4": (("-mcpu=cortex-m4", "-mthumb", "-mfpu=fpv4-sp-d16", "-mfloat-abi=hard"), "mps2-an386"),
+    "cortex-m7": (("-mcpu=cortex-m7", "-mthumb", "-mfpu=fpv5-d16", "-mfloat-abi=hard"), "mps2-an500"),
+}
+KW = {"B": dict(max_penetration=0.5e-3), "C": dict(max_penetration=0.5e-3), "G": dict(max_penetration=0.5e-3),
+      "F": dict(friction=0.8, presliding=1e-3, max_penetration=1e-3)}
+
+
+def _stroke(n=2000):
+    t = np.linspace(0.0, 1.0, n)
+    return np.column_stack([3e-3 * np.sin(2 * np.pi * 3 * t), -0.8e-3 * np.sin(2 * np.pi * 2 * t) + 0.2e-3])
+
+
+def firmware(alg, out: Path, target: str, objdir: Path, p: np.ndarray) -> Path:
+    """The export of ``alg`` in ``out``, with the stroke ``p`` and tests/firmware's start, linked
+    for ``target`` against the core's objects (compiled once per target): the ELF's path."""
+    flags = TARGETS[target][0] + STRICT
+    export_c(alg, out, 5.0)
+    rows = ",\n".join("{%r, %r, 0.0}" % (float(a), float(b)) for a, b in p)
+    (out / "stroke.h").write_text(f"#define STROKE_N {len(p)}\nstatic const double stroke[STROKE_N][3] = {{\n{rows}}};\n")
+    objs = core_objects(objdir, flags, ARM_CC)
+    elf = out / "fw.elf"
+    r = subprocess.run([ARM_CC, *flags, "-nostartfiles", "-T", str(HERE / "mps2.ld"), "-Wl,--gc-sections", "-I", str(out),
+                        "-o", str(elf), str(out / "haptex_texture.c"), str(HERE / "main.c"), str(HERE / "startup.c"),
+                        *objs, "-lm", "-lc", "-lnosys"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    return elf
+
+
+def run(elf: Path, target: str) -> np.ndarray:
+    """The ELF run on the target's QEMU board: the forces its semihosting printed, (n, 2)."""
+    r = subprocess.run([QEMU, "-M", TARGETS[target][1], "-nographic", "-monitor", "none", "-serial", "none",
+                        "-semihosting-config", "enable=on,target=native", "-kernel", str(elf)],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr[-2000:]
+    lines = [ln.split() for ln in (r.stdout + r.stderr).splitlines() if ln.strip()]
+    return np.array([[np.frombuffer(bytes.fromhex(v)[::-1], dtype="<f8")[0] for v in ln] for ln in lines])
+
+
+@needs_arm
+@pytest.mark.parametrize("target", list(TARGETS))
+@pytest.mark.parametrize("letter", list("WABCDEFG"))
+def test_the_exported_tick_runs_on_a_cortex_m_as_on_the_host(tmp_path, tmp_path_factory, letter, target):
+    alg = hx.algorithm(letter, None if letter == "W" else hx.Sinusoid(A, L), K0, **KW.get(letter, {}))
+    p = _stroke()
+    elf = firmware(alg, tmp_path, target, tmp_path_factory.getbasetemp(), p)
+    got = run(elf, target)
+    r = hx.Renderer(alg, max_force=5.0)
+    ref = np.array([r.step((a, b)) for a, b in p.tolist()])
+    assert got.shape == ref.shape
+    tol = 1e-12 * np.hypot(ref[:, 0], ref[:, 1]) + 16 * np.finfo(float).eps * K0 * A
+    err = np.hypot(*(got - ref).T)
+    assert np.all(err <= tol), (float(np.max(err / tol)), int(np.argmax(err / tol)))
+    assert np.any(np.hypot(*ref.T) > 0.1)  # the stroke presses into the wall
+
+
+MINGW = shutil.which("x86_64-w64-mingw32-gcc")
+
+
+@pytest.mark.skipif(MINGW is None and os.environ.get("CI") != "true", reason="no x86_64-w64-mingw32-gcc")
+def test_the_tick_compiles_for_windows_without_a_warning(tmp_path):
+    # LLP64 (long has 32 bits on Windows, as on a Cortex-M): the aperiodic window search's
+    # 2^40 leaves were 1L << 40 (gcc: "left shift count >= width of type"); now int64_t
+    assert MINGW is not None, "CI installs gcc-mingw-w64-x86-64 (.ci/run)"
+    objs = core_objects(tmp_path, ("-std=c99", "-O2", "-Wall", "-Wextra", "-pedantic", "-Werror"), MINGW)
+    assert len(objs) == 9  # the C files of haptex.export.TICK_FILES
