@@ -308,6 +308,54 @@ def test_an_entity_expansion_bomb_is_refused_before_expansion(tmp_path):
         dd.read_hatt(tmp_path / "bomb.xml")
 
 
+@pytest.mark.parametrize("kind", ["csv", "npz", "h5"])
+def test_a_recording_as_the_rig_wrote_it(tmp_path, kind):
+    # a rig's recording: its own names and units (time in ms, acceleration in g, positions in
+    # mm, force in N), no speed, and a column haptex has no use for. The truth is closed form:
+    # a stroke at a constant 40 mm/s along a direction at 30 degrees, the speed derived from
+    # the positions must be 40 mm/s (a Savitzky-Golay derivative of a line is exact)
+    n, fs = 4000, 2000.0
+    t = np.arange(n) / fs
+    rng = np.random.default_rng(0)
+    az = rng.normal(size=n) * 0.5  # g
+    cols = {"t": t * 1e3, "az": az, "fz": np.full(n, 1.2), "x": 40.0 * np.cos(np.pi / 6) * t,
+            "y": 40.0 * np.sin(np.pi / 6) * t, "temp": np.full(n, 21.5)}
+    path = tmp_path / f"rec.{kind}"
+    if kind == "csv":
+        np.savetxt(path, np.column_stack(list(cols.values())), delimiter=",", header=",".join(cols), comments="")
+    elif kind == "npz":
+        np.savez(path, **cols)
+    else:
+        h5py = pytest.importorskip("h5py")
+        with h5py.File(path, "w") as f:
+            for k, v in cols.items():
+                f.create_dataset(f"run1/{k}", data=v)
+        cols = {f"run1/{k}": v for k, v in cols.items()}
+    p = "run1/" if kind == "h5" else ""
+    rec = dd.read_recording(path, columns=[f"time={p}t:ms", f"acceleration={p}az:g", f"force={p}fz:N",
+                                           f"position={p}x,{p}y:mm"])
+    assert rec.sample_rate == pytest.approx(fs, rel=1e-9)
+    np.testing.assert_allclose(rec.acceleration, az * 9.80665, rtol=1e-12)
+    np.testing.assert_allclose(rec.speed, 0.040, rtol=1e-9)
+    assert rec.ignored == (f"{p}temp",) and "Savitzky-Golay" in rec.speed_source
+    with pytest.raises(ParameterError, match=r"--column = 'force=f_z' is not allowed: must be a column of the "
+                                             r"recording: .*fz"):
+        dd.read_recording(path, columns=[f"time={p}t:ms", f"acceleration={p}az:g", "force=f_z",
+                                         f"position={p}x:mm"])
+    with pytest.raises(ParameterError, match=r"--column acceleration = '1 kg' is not allowed"):
+        dd.read_recording(path, columns=[f"acceleration={p}az:kg"])
+
+
+def test_haptexs_own_recording_with_a_column_more_reads_and_lists_it(tmp_path):
+    # issue 64: time_s,acc_m_s2,speed_m_s,force_n,pos_m was refused by its fifth column's name
+    n = 1000
+    data = np.column_stack([np.arange(n) / 1e3, np.sin(np.arange(n)), np.full(n, 0.05), np.ones(n),
+                            np.arange(n) * 5e-5])
+    np.savetxt(tmp_path / "r.csv", data, delimiter=",", header="time_s,acc_m_s2,speed_m_s,force_n,pos_m", comments="")
+    rec = dd.read_recording(tmp_path / "r.csv")
+    assert rec.ignored == ("pos_m",) and rec.sample_rate == pytest.approx(1e3) and rec.speed[0] == 0.05
+
+
 def test_a_folder_of_hatt_files_is_one_line_each(tmp_path, capsys):
     # HaTT's library is a folder of Models_<material>.xml: one line each, a refused file one line
     # too (exit status 2), and --check judges stability by numpy's roots and the synthesis's rms

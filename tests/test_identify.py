@@ -159,6 +159,29 @@ def test_identify_recovers_an_independent_simulators_device(case):
     assert "runner-up" in " ".join(r.notes)
 
 
+def test_a_log_written_by_another_program_is_read_by_its_columns(tmp_path, capsys):
+    # a CHAI3D-style log: time in ms, positions in mm on three axes, forces in N, and a button
+    # column; the identification runs on it through --column and lists what it ignored. The
+    # truth is the independent simulator's (x only moves; y and z are still, so x is fitted)
+    t, p, f = _oracle_log(0.2, 0.35, 0.06, 0.0, 1, 1e-3, _program(1e-3, 6.0, "steps+chirp"))
+    data = np.column_stack([t * 1e3, p * 1e3, np.zeros_like(p), np.zeros_like(p), f, np.zeros_like(f),
+                            np.zeros_like(f), np.ones_like(t)])
+    path = tmp_path / "chai3d.csv"
+    np.savetxt(path, data, delimiter=",", header="t,px,py,pz,fx,fy,fz,button", comments="")
+    cols = ["time=t:ms", "position=px,py,pz:mm", "force=fx,fy,fz:N"]
+    lg = I.read_log(path, cols)
+    np.testing.assert_allclose(lg.position[:, 0], p, rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(lg.time, t, rtol=1e-12, atol=1e-15)
+    assert lg.ignored == ("button",) and lg.position.shape == (t.size, 3)
+    out = tmp_path / "dev.toml"
+    assert main(["identify", str(path), "-o", str(out), *sum((["--column", c] for c in cols), [])]) == 0
+    text = capsys.readouterr().out
+    assert "ignored columns: button" in text and "delay 1 periods" in text
+    assert main(["identify", str(path), "-o", str(out), *sum((["--column", c] for c in cols[:2]), []),
+                 "--column", "force=fx,fy,fz:kg"]) == 2  # a mass is no force
+    assert "--column force = '1 kg' is not allowed" in capsys.readouterr().err
+
+
 def test_what_a_log_cannot_tell_is_said_not_guessed():
     # a 0.5 kg handle with 0.2 N of friction under white forces of 0.3 N rms, read by a 60 um
     # encoder: it moves over 2 steps (the independent simulator), and the figures that motion

@@ -90,7 +90,11 @@ class RunLog:
     force : numpy.ndarray, shape (n, d)
         N, as commanded.
     engaged : numpy.ndarray of bool, shape (n,) or None
+        Where the servo's forces were engaged, when the log says.
     path : str
+        The file.
+    ignored : tuple of str, optional
+        The file's columns no quantity was read from.
     """
 
     time: np.ndarray
@@ -98,6 +102,7 @@ class RunLog:
     force: np.ndarray
     engaged: np.ndarray | None
     path: str
+    ignored: tuple = ()
 
 
 def _columns(d: int) -> list[str]:
@@ -137,13 +142,25 @@ def write_log(path, time, position, force, engaged=None) -> Path:
     return out
 
 
-def read_log(path) -> RunLog:
-    """Read a run log (CSV with a header of :data:`LOG_COLUMNS`, or the ``.npz`` that
-    ``haptex run --record FILE.npz`` writes).
+LOG_QUANTITIES = {"time": "s", "position": "m", "force": "N", "engaged": "1"}
+"""The quantities a run log's columns may be named for (``--column QUANTITY=COLS:UNIT``), with
+their SI units: ``position`` and ``force`` one to three columns each, in the same order of
+axes (x; x, z; or x, y, z), ``engaged`` optional."""
+
+
+def read_log(path, columns=None) -> RunLog:
+    """Read a run log: haptex's (CSV with a header of :data:`LOG_COLUMNS`, or the ``.npz`` that
+    ``haptex run --record FILE.npz`` writes), or another program's, its columns named.
 
     Parameters
     ----------
     path : str or os.PathLike
+        CSV (a header row), NPZ or HDF5 (:func:`haptex._columns.read_table`).
+    columns : sequence of str, optional
+        Column specs ``QUANTITY=COL[,COL...][:UNIT]`` (:data:`LOG_QUANTITIES`), e.g.
+        ``["position=px,py,pz:mm", "force=fx,fy,fz:N", "time=t:ms"]`` for a CHAI3D or
+        vendor-SDK loop's log. A quantity not given is taken from haptex's own names when the
+        file has them; the file's other columns are ignored and listed in ``RunLog.ignored``.
 
     Returns
     -------
@@ -152,32 +169,34 @@ def read_log(path) -> RunLog:
     Raises
     ------
     ParameterError
-        If the file is missing or too large for the memory budget, a column is unknown or
-        missing (the axes of one dimension: x; x, z; or x, y, z), or a value is not a number.
+        If the file is missing or too large for the memory budget, a named column is missing
+        (the file's columns are listed), time, position or force is missing, position and
+        force have different numbers of axes, or a value is not a finite number.
     """
-    from ._loaders import read_csv_columns
+    from ._columns import ColumnSpec, parse_column, read_table, take
 
-    p = Path(os.fspath(path))
-    if p.suffix.lower() == ".npz":
-        if not p.is_file():
-            raise fail("log", str(path), "an existing run log (CSV or the .npz of haptex run --record)")
-        with np.load(p, allow_pickle=False) as z:
-            missing = [k for k in ("time", "position", "force") if k not in z.files]
-            if missing:
-                raise fail("log", str(path), f"a trace of haptex run --record (no {missing[0]!r} in it)")
-            return RunLog(np.asarray(z["time"], float), np.asarray(z["position"], float),
-                          np.asarray(z["force"], float), np.asarray(z["engaged"], bool) if "engaged" in z.files
-                          else None, str(path))
-    col = read_csv_columns(p, LOG_COLUMNS, "run log")
-    d = {("x",): 1, ("x", "z"): 2, ("x", "y", "z"): 3}.get(tuple(a for a in "xyz" if f"{a}_m" in col))
-    if d is None or any(f"f{a}_n" not in col for a in AXES[d]) or any(
-            f"f{a}_n" in col for a in "xyz" if a not in AXES[d]) or "time_s" not in col:
-        raise fail("log", str(path), "the columns time_s and, for the axes x; x, z; or x, y, z, each "
-                   "position (x_m ...) with its force (fx_n ...)")
-    axes = AXES[d]
-    return RunLog(col["time_s"], np.column_stack([col[f"{a}_m"] for a in axes]),
-                  np.column_stack([col[f"f{a}_n"] for a in axes]),
-                  col["engaged"].astype(bool) if "engaged" in col else None, str(path))
+    table = read_table(path, "run log")
+    given = [parse_column(c, LOG_QUANTITIES) for c in (columns or ())]
+    named = {c.quantity for c in given}
+    if len(named) != len(given):
+        raise fail("--column", [c.quantity for c in given], "each quantity once")
+    axes = next((AXES[d] for d in (3, 2, 1) if all(f"{a}_m" in table for a in AXES[d])), None)
+    own = {"time": ("time_s",) if "time_s" in table else ("time",),
+           "position": tuple(f"{a}_m" for a in axes) if axes else ("position",),
+           "force": tuple(f"f{a}_n" for a in axes) if axes else ("force",), "engaged": ("engaged",)}
+    for q, cols in own.items():
+        if q not in named and all(c in table for c in cols):
+            given.append(ColumnSpec(q, cols, LOG_QUANTITIES[q], 1.0))
+    got, ignored = take(table, given, "run log")
+    for q in ("time", "position", "force"):
+        if q not in got:
+            raise fail("log", str(path), f"a {q} column: haptex's (time_s; x_m ... with fx_n ...) or named with "
+                       f"--column {q}=COLUMN[:UNIT]")
+    if got["position"].shape[1] not in (1, 2, 3) or got["force"].shape[1] != got["position"].shape[1]:
+        raise fail("--column", f"{got['position'].shape[1]} position and {got['force'].shape[1]} force columns",
+                   "one to three positions and as many forces, in the same order of axes")
+    eng = got["engaged"][:, 0].astype(bool) if "engaged" in got else None
+    return RunLog(got["time"][:, 0], got["position"], got["force"], eng, str(path), tuple(ignored))
 
 
 @dataclass(frozen=True)

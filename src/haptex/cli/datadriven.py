@@ -27,14 +27,23 @@ from ._common import Quantity, _catalogued_device, _check_plot_path
               help="Windows in which speed and force are judged steady.")
 @click.option("--highpass", type=Quantity("Hz"), default=20.0, show_default="20 Hz",
               help="Cut-off of the high-pass that removes the hand's motion.")
-def fit_cmd(recording, out, sample_rate, rate, order, ma_order, segment, highpass):
-    """Fit ARMA vibration models over (speed, force) to a recording (CSV: time_s, acc_m_s2 or
-    acc_x/y/z_m_s2, speed_m_s, force_n), and write them."""
+@click.option("--column", "columns", multiple=True, metavar="QUANTITY=COL[,COL...][:UNIT]",
+              help="The recording's own columns for a quantity (acceleration, force, speed, position, time), "
+                   "e.g. 'acceleration=az:g', 'position=x,y:mm' (the speed is then derived), 'time=t:ms'. "
+                   "Repeat for each; other columns are ignored and listed.")
+def fit_cmd(recording, out, sample_rate, rate, order, ma_order, segment, highpass, columns):
+    """Fit ARMA vibration models over (speed, force) to a recording (CSV, NPZ or HDF5: haptex's
+    columns time_s, acc_m_s2 or acc_x/y/z_m_s2, speed_m_s, force_n, or the rig's own with
+    --column), and write them."""
     from ..datadriven import read_recording
 
     if not out.parent.is_dir():
         raise ParameterError(f"--out = '{out}' is not allowed: must be a file in an existing folder")
-    rec = read_recording(recording, sample_rate=sample_rate)
+    rec = read_recording(recording, sample_rate=sample_rate, columns=columns)
+    if rec.ignored:
+        click.echo(f"ignored columns: {', '.join(rec.ignored)}")
+    if rec.speed_source != "the file's speed":
+        click.echo(f"speed: {rec.speed_source}")
     models = rec.fit(rate=rate, order=order, ma_order=ma_order, segment=segment, highpass=highpass,
                      name=recording.stem)
     models.write(out)

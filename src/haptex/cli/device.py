@@ -359,13 +359,21 @@ def _identification_run(backend, program, fmax: float, duration: float, record: 
 @click.option("--max-delay", type=click.IntRange(0, 1000), default=10, show_default=True,
               help="Largest delay searched (whole periods).")
 @click.option("--json", "as_json", is_flag=True, help="Print the figures as JSON.")
-def identify_command(log, out, axis, max_delay, as_json):
-    """Fit a device model (mass, damping, Coulomb friction, encoder step, delay) to a run log."""
+@click.option("--column", "columns", multiple=True, metavar="QUANTITY=COL[,COL...][:UNIT]",
+              help="The log's own columns for a quantity (time, position, force, engaged), e.g. "
+                   "'position=px,py,pz:mm', 'force=fx,fy,fz:N', 'time=t:ms'. Repeat for each; other columns "
+                   "are ignored and listed.")
+def identify_command(log, out, axis, max_delay, as_json, columns):
+    """Fit a device model (mass, damping, Coulomb friction, encoder step, delay) to a run log
+    (haptex's CSV or NPZ, or another program's CSV, NPZ or HDF5 with its columns named by
+    --column)."""
     from ..identification import AXES, identify, read_log
 
     if not (out.parent if str(out.parent) else Path(".")).is_dir():
         raise ParameterError(f"out = {str(out)!r} is not allowed: its directory does not exist")
-    lg = read_log(log)
+    lg = read_log(log, columns)
+    if lg.ignored and not as_json:
+        click.echo(f"ignored columns: {', '.join(lg.ignored)}")
     d = lg.position.shape[1]
     if axis == "all":
         cols = list(range(d))

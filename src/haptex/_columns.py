@@ -1,0 +1,244 @@
+"""Tables as rigs write them: columns named by the user, with their units, from CSV, NPZ or HDF5.
+
+A recording (:func:`haptex.datadriven.read_recording`) or a run log
+(:func:`haptex.identification.read_log`) written by another program has its own column names,
+its own units and columns haptex has no use for. A *column spec* names, for one quantity, the
+file's columns and their unit::
+
+    position=px,py,pz:mm     force=fz:N     time=t:ms     acceleration=az:g
+
+The columns are read, converted to SI (pint; ``g`` for an acceleration is standard gravity), and
+every other column is ignored and listed, never refused.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from pathlib import Path
+
+import numpy as np
+
+from ._validation import ParameterError, check_budget, fail
+
+G = 9.80665
+"""Standard gravity (m/s²): the unit ``g`` of an acceleration column."""
+
+TABLE_SUFFIXES = {".csv": "CSV", ".txt": "CSV", ".npz": "NPZ", ".h5": "HDF5", ".hdf5": "HDF5", ".hdf": "HDF5"}
+"""The file kinds :func:`read_table` reads, by suffix (anything else is read as CSV)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class ColumnSpec:
+    """One quantity's columns in a file and the factor that takes them to SI.
+
+    Parameters
+    ----------
+    quantity : str
+        What they hold (``position``, ``force``, ``time``, ...).
+    columns : tuple of str
+        The file's column names (a CSV header's, an NPZ key, an HDF5 dataset's path).
+    unit : str
+        Their unit as written (``mm``, ``N``, ``ms``, ``g``).
+    factor : float
+        SI value of one ``unit``.
+    """
+
+    quantity: str
+    columns: tuple[str, ...]
+    unit: str
+    factor: float
+
+
+def unit_factor(unit: str, si: str, name: str) -> float:
+    """The SI value of one ``unit`` of a quantity whose SI unit is ``si``.
+
+    Parameters
+    ----------
+    unit : str
+        The unit as written, e.g. ``"mm"``, ``"ms"``, ``"g"``.
+    si : str
+        The quantity's SI unit, e.g. ``"m"``, ``"s"``, ``"m/s^2"``.
+    name : str
+        The parameter named in an error.
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    ParameterError
+        If the unit is not one pint knows, or not of the quantity's dimension.
+    """
+    from ._units import parse_quantity
+
+    u = unit.strip()
+    if u == "g" and si == "m/s^2":
+        return G
+    return parse_quantity(f"1 {u}", si, name)
+
+
+def parse_column(spec: str, quantities: dict, name: str = "--column") -> ColumnSpec:
+    """Parse ``QUANTITY=COL[,COL...][:UNIT]`` (e.g. ``position=px,py,pz:mm``).
+
+    Parameters
+    ----------
+    spec : str
+        The spec as the user wrote it; the unit defaults to the quantity's SI unit.
+    quantities : dict
+        The quantities allowed, each with its SI unit (``{"position": "m", ...}``).
+    name : str, optional
+        The parameter named in an error.
+
+    Returns
+    -------
+    ColumnSpec
+
+    Raises
+    ------
+    ParameterError
+        If the spec has no ``=``, names an unknown quantity, no column, or a unit of another
+        dimension.
+    """
+    text = str(spec).strip()
+    if "=" not in text:
+        raise fail(name, text, "QUANTITY=COLUMN[,COLUMN...][:UNIT], e.g. 'position=px,py:mm', with QUANTITY one of "
+                   + ", ".join(quantities))
+    q, rest = (s.strip() for s in text.split("=", 1))
+    if q not in quantities:
+        raise fail(name, text, "a quantity among " + ", ".join(quantities))
+    cols, unit = (rest.rsplit(":", 1) if ":" in rest else (rest, quantities[q]))
+    columns = tuple(c.strip() for c in cols.split(",") if c.strip())
+    if not columns:
+        raise fail(name, text, f"at least one column after '{q}='")
+    return ColumnSpec(q, columns, unit.strip(), unit_factor(unit, quantities[q], f"{name} {q}"))
+
+
+def read_table(path, what: str) -> dict:
+    """Every column of a table file: ``{name: float64 array of shape (n,) or (n, k)}``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A CSV file with a header row naming its columns, an ``.npz`` (each array a column, a
+        2-D one (n, k) a group of k), or an HDF5 file (``.h5``, ``.hdf5``; each dataset by its
+        path, read with h5py).
+    what : str
+        What the file is (named in errors).
+
+    Returns
+    -------
+    dict
+
+    Raises
+    ------
+    ParameterError
+        If the file is missing, larger than the memory budget allows, not of its kind, holds a
+        value that is not a number, or columns of different lengths.
+    """
+    p = Path(os.fspath(path))
+    if not p.is_file():
+        raise fail("path", str(path), f"an existing {what} (CSV, NPZ or HDF5)")
+    kind = TABLE_SUFFIXES.get(p.suffix.lower(), "CSV")
+    if kind == "NPZ":
+        out = {}
+        try:
+            with np.load(p, allow_pickle=False) as z:
+                for k in z.files:
+                    check_budget("path", str(path), 8.0 * z[k].size, f"reading this {what}")
+                    out[k] = np.asarray(z[k], dtype=float)
+        except (ValueError, OSError) as exc:
+            raise fail("path", str(path), f"a readable .npz of numbers ({exc})") from None
+    elif kind == "HDF5":
+        out = _read_hdf5(p, what)
+    else:
+        out = _read_csv(p, what)
+    lengths = {k: len(v) for k, v in out.items() if np.ndim(v) >= 1}
+    out = {k: v for k, v in out.items() if np.ndim(v) in (1, 2)}
+    if not out:
+        raise fail("path", str(path), f"a {what} with named columns")
+    n = max(lengths.values())
+    short = [k for k, v in out.items() if len(v) != n]
+    if short:
+        raise fail("column", f"{short[0]} has {len(out[short[0]])} rows", f"{n} rows, as the file's other columns")
+    return out
+
+
+def _read_csv(p: Path, what: str) -> dict:
+    check_budget("path", str(p), 4.0 * p.stat().st_size, f"reading this {what}")  # text to float64, copies
+    with p.open("r", encoding="utf-8", errors="replace") as fh:
+        header = [h.strip() for h in fh.readline().split(",")]
+    if len(set(header)) != len(header) or not all(header):
+        raise fail("path", str(p), f"a {what} whose header row names each column once")
+    try:
+        data = np.loadtxt(p, delimiter=",", skiprows=1, ndmin=2)
+    except ValueError as exc:
+        raise fail("path", str(p), f"numbers in every row ({str(exc).splitlines()[0]})") from None
+    if data.shape[1] != len(header):
+        raise fail("path", str(p), f"{len(header)} values a row, as its header")
+    return {h: data[:, k] for k, h in enumerate(header)}
+
+
+def _read_hdf5(p: Path, what: str) -> dict:
+    try:
+        import h5py
+    except ImportError:  # pragma: no cover (a dependency)
+        raise fail("path", str(p), "CSV or NPZ: reading HDF5 needs h5py (pip install h5py)") from None
+    out = {}
+    try:
+        with h5py.File(p, "r") as f:
+            def visit(name, obj):
+                if isinstance(obj, h5py.Dataset) and obj.dtype.kind in "iuf" and obj.ndim in (1, 2):
+                    check_budget("path", str(p), 8.0 * obj.size, f"reading this {what}")
+                    out[name] = np.asarray(obj[...], dtype=float)
+
+            f.visititems(visit)
+    except OSError as exc:
+        raise fail("path", str(p), f"a readable HDF5 file ({exc})") from None
+    return out
+
+
+def take(table: dict, specs, what: str) -> tuple[dict, list]:
+    """The quantities the specs name, in SI, and the columns left over.
+
+    Parameters
+    ----------
+    table : dict
+        :func:`read_table`'s columns.
+    specs : iterable of ColumnSpec
+        One a quantity.
+    what : str
+        What the file is (named in errors).
+
+    Returns
+    -------
+    values : dict
+        ``{quantity: float64 array of shape (n, k)}``, each column times its spec's factor.
+    ignored : list of str
+        The table's columns no spec names, in the file's order.
+
+    Raises
+    ------
+    ParameterError
+        If a spec names a column the table does not have (the table's columns are listed), or
+        holds a value that is not finite.
+    """
+    values, used = {}, set()
+    for s in specs:
+        parts = []
+        for c in s.columns:
+            if c not in table:
+                have = ", ".join(list(table)[:12]) + (", ..." if len(table) > 12 else "")
+                raise fail("--column", f"{s.quantity}={c}", f"a column of the {what}: {have}")
+            v = np.asarray(table[c], dtype=float)
+            parts.append(v.reshape(len(v), -1))
+            used.add(c)
+        arr = np.concatenate(parts, axis=1) * s.factor
+        bad = ~np.isfinite(arr)
+        if bad.any():
+            k = int(np.argmax(bad.any(axis=1)))
+            raise ParameterError(f"{s.quantity} = {arr[k].tolist()} at row {k} is not allowed: must be finite numbers "
+                                 f"(columns {', '.join(s.columns)})")
+        values[s.quantity] = arr
+    return values, [c for c in table if c not in used]
