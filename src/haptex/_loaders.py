@@ -802,32 +802,3 @@ def _mat_array(p: Path, variable: str, value) -> np.ndarray:
                              "a profile must be a real numeric vector, a height map a real numeric matrix")
     return value.astype(np.float64).squeeze()
 
-
-def read_csv_columns(path, known: dict, what: str) -> dict:
-    """The columns of a CSV file whose header row names them (the run logs' and recordings'
-    format): ``{name: float64 array}``. ``known`` maps each allowed name to its meaning.
-
-    Raises
-    ------
-    ParameterError
-        If the file is missing or larger than the memory budget allows, a column is not in
-        ``known``, a value is not a number, or a row has another length than the header.
-    """
-    from ._validation import fail
-
-    p = Path(path)
-    if not p.is_file():
-        raise fail("path", str(path), f"an existing {what} (CSV)")
-    check_budget("path", str(path), 4.0 * p.stat().st_size, f"reading this {what}")  # text to float64, copies
-    with p.open("r", encoding="utf-8", errors="replace") as fh:
-        header = [h.strip() for h in fh.readline().split(",")]
-    unknown = [h for h in header if h not in known]
-    if unknown:
-        raise fail("column", unknown[0], f"one of {sorted(known)} (see the file formats page)")
-    try:
-        data = np.loadtxt(p, delimiter=",", skiprows=1, ndmin=2)
-    except ValueError as exc:
-        raise fail("path", str(path), f"numbers in every row ({str(exc).splitlines()[0]})") from None
-    if data.shape[1] != len(header):
-        raise fail("path", str(path), f"{len(header)} values a row, as its header")
-    return {h: data[:, k] for k, h in enumerate(header)}
