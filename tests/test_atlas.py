@@ -121,6 +121,7 @@ def test_fewer_blocks_than_workers_are_cut_into_parts_and_give_the_same_atlas(tm
         assert np.array_equal(cut[name].values, whole[name].values, equal_nan=cut[name].dtype.kind == "f"), name
 
 
+@pytest.mark.long  # Dask clusters started and killed: 6-14 s (issue 68)
 def test_one_or_two_workers_write_identical_stores_and_a_resumed_sweep_completes(tmp_path):
     spec = wall_spec({"stiffness": "1-30 kN/m, 12 log steps", "delay": [0, 1]}, duration="0.3 s", block=5)
     one = sweep(spec, tmp_path / "one.zarr", workers=1)
@@ -282,6 +283,7 @@ def test_one_writer_per_store_a_second_is_refused_in_one_line(tmp_path):
     assert bool(ds["done"].all())
 
 
+@pytest.mark.long  # Dask clusters started and killed: 6-14 s (issue 68)
 def test_two_concurrent_sweeps_of_different_specs_never_leave_a_mislabelled_store(tmp_path):
     """Two processes started together into one new store: exactly one writes it, the other
     exits 2 in one line; the store's label is the SPEC whose data it holds."""
@@ -353,6 +355,7 @@ def test_atlas_plot_at_the_command_line_needs_every_other_dimension_fixed(tmp_pa
         assert im.width > 2 * im.height
 
 
+@pytest.mark.long  # Dask clusters started and killed: 6-14 s (issue 68)
 def test_a_real_deployment_loses_nothing_when_a_worker_is_killed(tmp_path):
     # a `dask scheduler` and two `dask worker` processes on 127.0.0.1, as on a cluster; one
     # worker is killed (SIGKILL, no nanny to restart it) once the first block is written,

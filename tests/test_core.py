@@ -210,6 +210,7 @@ def _asan_fuzz(tmp_path, objdir, scale: int):
     return r.stdout
 
 
+@pytest.mark.long  # the core built with sanitizers: 20 s (issue 68)
 @pytest.mark.xdist_group(GROUP)  # (the exported ticks' sanitizer fuzz builds the same objects)
 def test_core_is_clean_under_asan_and_ubsan(tmp_path, objdir):
     """tests/c/core_fuzz.c under -fsanitize=address,undefined: coefficient arrays allocated to

@@ -24,7 +24,7 @@ import haptex
 ROOT = Path(__file__).resolve().parent.parent
 # the build shares a worker with the explorer's browser tests, never running beside them: both
 # are the suite's heaviest users of the machine, and the explorer's tests bound a page's latency
-pytestmark = pytest.mark.xdist_group("explorer-browser")
+pytestmark = [pytest.mark.xdist_group("explorer-browser"), pytest.mark.long]  # the docs build: 70 s (issue 68)
 
 
 def _need_sphinx():

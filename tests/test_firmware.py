@@ -27,7 +27,7 @@ QEMU = shutil.which("qemu-system-arm")
 HERE = Path(__file__).parent / "firmware"
 if (ARM_CC is None or QEMU is None) and os.environ.get("CI") == "true":
     raise RuntimeError("CI installs arm-none-eabi-gcc and qemu-system-arm (.ci/run): one is missing")
-pytestmark = pytest.mark.xdist_group("firmware")
+pytestmark = [pytest.mark.xdist_group("firmware"), pytest.mark.long]  # cross-compiled core: 20 s (issue 68)
 needs_arm = pytest.mark.skipif(ARM_CC is None or QEMU is None, reason="no arm-none-eabi-gcc or qemu-system-arm")
 
 STRICT = ("-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-ffunction-sections", "-fdata-sections")

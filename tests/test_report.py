@@ -9,7 +9,8 @@ import sys
 import numpy as np
 import pytest
 
-pytestmark = pytest.mark.xdist_group("report")  # (one `reproduce --quick` for the module, not one per worker)
+pytestmark = [pytest.mark.xdist_group("report"),  # (one `reproduce --quick` for the module, not one per worker)
+              pytest.mark.long]  # two reproduce runs: 60 s (issue 68)
 
 EXPECTED_CLAIMS = {
     # Section IV (and its remarks) and Table II
