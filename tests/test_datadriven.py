@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 import scipy.signal as sg
 
+import haptex as hx
 from haptex import ParameterError
 from haptex import datadriven as dd
 from haptex.core import _ext
@@ -587,6 +588,29 @@ def test_fit_and_vibration_at_the_command_line(tmp_path):
     port = json.loads(r.stdout)["port"]
     assert r.exit_code == 0 and port["power"] > 0 and port["to_hand"] + port["to_device"] == pytest.approx(port["power"])
     assert main(["fit", str(tmp_path / "none.csv"), "-o", str(out)]) == 2
+
+
+def test_the_material_friction_dissipates_mu_fn_times_the_path():
+    # HaTT's friction beside its vibration: mu f_z against the motion. On a stroke at 50 mm/s
+    # (above the 5 mm/s viscous band) pressed 0.5 mm into a 2 kN/m wall (f_z = 1 N), the energy
+    # it dissipates is mu f_z times the path, the closed form of Coulomb friction's work
+    s = _set(ma=(1.0,))
+    s.mu = 0.5
+    alg = hx.algorithm("W", None, 2000.0)
+    r = hx.Renderer(alg, max_force=10.0, vibration=s, vibration_mass=0.1, vibration_gain=0.0)
+    x = 0.05 * np.arange(4000) / FS
+    f = np.array([r.step((xi, -0.5e-3)) for xi in x])
+    assert r.friction == (0.5, hx.renderer.FRICTION_THRESHOLD)
+    assert r.friction_dissipated == pytest.approx(0.5 * 1.0 * (x[-1] - x[0]), rel=0.01)
+    assert f[-1, 0] == pytest.approx(-0.5, rel=1e-9)  # mu f_z, against the motion
+    off = hx.Renderer(alg, vibration=s, vibration_mass=0.1, vibration_gain=0.0, friction=False)
+    for xi in x[:100]:
+        off.step((xi, -0.5e-3))
+    assert off.friction is None and off.friction_dissipated == 0.0
+    s.mu = None
+    with pytest.raises(ParameterError, match=r"friction = True is not allowed: must be given with a vibration whose "
+                                             r"model set has a mu"):
+        hx.Renderer(alg, vibration=s, vibration_mass=0.1, friction=True)
 
 
 # ---- energy at the port ---------------------------------------------------------------------

@@ -615,8 +615,8 @@ def test_the_god_object_exports_and_ticks_as_the_renderer(tmp_path, objdir, tex)
     assert c.count("max_work") == r.max_work
 
 
-@pytest.mark.parametrize("budget", [None, 2e-4])
-def test_an_exported_vibration_ticks_as_the_renderers(tmp_path, objdir, budget):
+@pytest.mark.parametrize("budget, mu", [(None, None), (2e-4, None), (None, 0.5)])
+def test_an_exported_vibration_ticks_as_the_renderers(tmp_path, objdir, budget, mu):
     # Issue 54: the data-driven vibration in the exported C (`haptex_init` sets the model set's
     # tables, mass, gain, filter, seed and budget through hx_render_set_vibration, the function
     # the Renderer's binding calls): along a stroke in contact at the set's rate every tick's
@@ -625,6 +625,7 @@ def test_an_exported_vibration_ticks_as_the_renderers(tmp_path, objdir, budget):
     from .test_datadriven import FS, _set
 
     models = _set()
+    models.mu = mu  # (a HaTT set's material friction, on by default where the set has one)
     alg = hx.algorithm("A", hx.Sinusoid(A, L), K0)
     kw = dict(vibration=models, vibration_mass=0.1, seed=7, vibration_budget=budget)
     c = Compiled(alg, tmp_path, objdir, max_force=5.0, **kw)
@@ -641,7 +642,10 @@ def test_an_exported_vibration_ticks_as_the_renderers(tmp_path, objdir, budget):
     assert np.max(np.abs(vib)) > 0.01
     if budget is not None:
         assert r.vibration_cut > 0
+    if mu is not None:
+        assert r.friction == (0.5, 0.005) and r.friction_dissipated > 0
     text = (tmp_path / "haptex_texture.c").read_text()
+    assert ("hx_vib_channel_set_friction(&r->vib, 0.5, 0.005)" in text) == (mu is not None)
     assert "hx_render_set_vibration(r, VIB" in text and "7ULL" in text
     with pytest.raises(hx.ParameterError, match=r"^vibration_mass = None is not allowed"):
         export_c(alg, tmp_path / "x", 5.0, vibration=models)
@@ -675,6 +679,7 @@ def test_haptex_export_takes_a_vibration_for_its_device(tmp_path):
     for extra, what in ((["--vibration", str(at_1k)], "--vibration needs --device"),
                         (["--device", "falcon", "--vibration", str(at_2k)], "its models run at 2000 Hz, the device's "
                                                                              "servo at 1000 Hz"),
-                        (["--vibration-budget", "2 mW"], "--vibration-budget is not allowed without --vibration")):
+                        (["--vibration-budget", "2 mW"], "--vibration-budget is not allowed without --vibration"),
+                        (["--no-material-friction"], "--no-material-friction is not allowed without --vibration")):
         r = run_main(*args, *extra)
         assert r.returncode == 2 and what in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr

@@ -24,8 +24,8 @@ from . import core as _core
 from ._validation import ParameterError, fail, positive_or_inf
 from .algorithms import ALGORITHMS, Algorithm
 from .core import _ext
-from .renderer import (MAX_EVALUATIONS, WORKSPACE_LIMIT, Stabiliser, evaluation_budget, stabiliser_period, tick_model,
-                       vibration_settings)
+from .renderer import (FRICTION_THRESHOLD, MAX_EVALUATIONS, WORKSPACE_LIMIT, Stabiliser, evaluation_budget,
+                       friction_settings, stabiliser_period, tick_model, vibration_settings)
 
 EXPORTABLE = "".join(ALGORITHMS)
 """Algorithms :func:`export_c` can write."""
@@ -64,7 +64,8 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
              passivity_controller: Stabiliser | None = None, period: float | None = None, *, vibration=None,
              vibration_mass: float | None = None, vibration_gain: float = 1.0, velocity_filter: float = 0.01,
              seed: int = 0, vibration_budget: float | None = None,
-             vibration_reserve: float | None = None) -> tuple[Path, Path]:
+             vibration_reserve: float | None = None, friction: bool | None = None,
+             friction_threshold: float = FRICTION_THRESHOLD) -> tuple[Path, Path]:
     """Write a servo tick for device firmware into ``out``: the C core's files the tick needs
     (:data:`TICK_FILES`, copied unchanged: the code :class:`haptex.Renderer` runs) and
     ``haptex_texture.h`` / ``haptex_texture.c``, this algorithm's tables and entry points,
@@ -100,6 +101,9 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
         tables, as :class:`haptex.Renderer` takes them (``hx_render_set_vibration``: the same
         synthesis, noise and budget, so the exported tick is the Renderer's to the bit).
         ``haptex_step`` must then be called at the set's rate.
+    friction, friction_threshold
+        The material's kinetic friction beside the vibration, as :class:`haptex.Renderer`
+        takes it (``hx_vib_channel_set_friction``; on by default for a set with a mu).
 
     Returns
     -------
@@ -136,6 +140,7 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
     T = stabiliser_period(pc, period)
     vib = vibration_settings(vibration, vibration_mass, vibration_gain, velocity_filter, seed, vibration_budget,
                              vibration_reserve)
+    fric = friction_settings(vibration, friction, friction_threshold)
     if vib is not None and vib[0].size > MAX_TABLE:
         raise fail("vibration", vibration, f"a model set whose packed tables hold at most {MAX_TABLE} numbers "
                                            f"(this one: {vib[0].size})")
@@ -207,7 +212,7 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
         vibration=None if vib is None else dict(
             what=f"{vibration!r}".replace("*/", "* /"), values=[_num(v) for v in vib[0]], mass=_num(vib[1]),
             gain=_num(vib[2]), tau=_num(vib[3]), seed=f"{vib[4]}ULL", budget=_num(-1.0 if vib[5] is None else vib[5]),
-            reserve=_num(vib[6])))
+            reserve=_num(vib[6]), friction=None if fric is None else dict(mu=_num(fric[0]), threshold=_num(fric[1]))))
     env = _templates()
     out = Path(out)
     try:

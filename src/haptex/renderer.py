@@ -360,6 +360,49 @@ VIBRATION_RESERVE_TIME = 0.05
 
 
 
+FRICTION_THRESHOLD = 0.005
+"""Speed (m/s) below which a material's friction is viscous, in proportion to the speed
+(chosen: 5 mm/s, below a hand's stroking speeds, so that a stroke meets the Coulomb friction
+mu f_z; HaTT's published renderer switches at mu / 0.004 mm/s with a viscous slope of 0.004 mu f_z
+per mm/s, which is mu^2 f_z at its threshold and mu f_z above it: a jump haptex does not copy)."""
+
+
+def friction_settings(vibration, friction=None, threshold=FRICTION_THRESHOLD):
+    """The material friction's (mu, threshold) for the C core, or None when off.
+
+    Parameters
+    ----------
+    vibration : haptex.datadriven.ModelSet or None
+        The vibration whose set carries the material's ``mu``.
+    friction : bool or None
+        On, off, or None: on when the set has a mu.
+    threshold : float
+        m/s, > 0.
+
+    Returns
+    -------
+    tuple of float or None
+
+    Raises
+    ------
+    ParameterError
+        If friction is asked for without a vibration or with a set that has no mu, or the
+        threshold is not > 0.
+    """
+    from ._validation import positive
+
+    v_th = positive("friction_threshold", threshold, "m/s")
+    mu = None if vibration is None else getattr(vibration, "mu", None)
+    if friction is None:
+        friction = mu is not None and mu > 0
+    if not friction:
+        return None
+    if mu is None:
+        raise fail("friction", friction, "given with a vibration whose model set has a mu (HaTT's <mu>): "
+                   f"{'no vibration' if vibration is None else 'this set has none'}")
+    return float(mu), v_th
+
+
 def vibration_settings(vibration, vibration_mass=None, vibration_gain=1.0, velocity_filter=0.01, seed=0,
                        vibration_budget=None, vibration_reserve=None):
     """The data-driven vibration's settings as the C core takes them (``hx_render_set_vibration``),
@@ -483,6 +526,15 @@ class Renderer:
     vibration_reserve : float, optional
         J, >= 0: the tank's size and its content at the start; default the budget over
         :data:`VIBRATION_RESERVE_TIME`.
+    friction : bool, optional
+        The material's kinetic friction beside the vibration, as HaTT's renderer applies it
+        (Culbertson et al. 2014): mu f_z against the filtered tangential velocity, mu the model
+        set's (HaTT's ``<mu>``), in proportion to the speed below ``friction_threshold`` (so
+        continuous there). Default: on when the vibration's set has a mu, off otherwise; what
+        it dissipates is :attr:`friction_dissipated`.
+    friction_threshold : float, optional
+        m/s, > 0: the speed below which the friction is viscous (default
+        :data:`FRICTION_THRESHOLD`).
 
     Raises
     ------
@@ -509,7 +561,8 @@ class Renderer:
                  passivity_controller: PassivityController | None = None, period: float | None = None,
                  max_evaluations: int | None = MAX_EVALUATIONS, *, vibration=None, vibration_mass: float | None = None,
                  vibration_gain: float = 1.0, velocity_filter: float = 0.01, seed: int = 0,
-                 vibration_budget: float | None = None, vibration_reserve: float | None = None):
+                 vibration_budget: float | None = None, vibration_reserve: float | None = None,
+                 friction: bool | None = None, friction_threshold: float = FRICTION_THRESHOLD):
         from .proxy import GodObject
 
         if not isinstance(algorithm, (Algorithm, GodObject)):
@@ -544,6 +597,9 @@ class Renderer:
                                       vibration_budget, vibration_reserve)
         if settings is not None:
             self._core.set_vibration(*settings)
+        self.friction = friction_settings(vibration, friction, friction_threshold)
+        if self.friction is not None:
+            self._core.set_friction(*self.friction)
 
     @property
     def vibration_force(self) -> float:
@@ -557,6 +613,13 @@ class Renderer:
         each period, times the displacement; > 0 is energy supplied to the hand. 0 without a
         vibration."""
         return self._core.vibration_supplied
+
+    @property
+    def friction_dissipated(self) -> float:
+        """The material friction's work on the sensed motion so far, negated (J, >= 0 while it
+        opposes the motion): its force held over each period times the displacement since. 0
+        without friction."""
+        return self._core.friction_dissipated
 
     @property
     def vibration_cut(self) -> int:

@@ -82,9 +82,12 @@ def _felt_options(verb: str):
     return deco
 
 
-def _vibration_options(func):
+def _vibration_options(func, friction: bool = True):
     """``--vibration`` and ``--vibration-budget``, the same for the commands that layer a
-    data-driven vibration on a device's tick (run, export)."""
+    data-driven vibration on a device's tick (run, export; with ``friction``, the tick's
+    ``--no-material-friction`` too: the simulator does not render the material's friction)."""
+    if friction:
+        func = _friction_option(func)
     func = click.option("--vibration-budget", type=Quantity("W"), default=None,
                         help="With --vibration: the power it may supply, spent from an energy tank in the tick "
                              "(e.g. '2 mW').")(func)
@@ -93,6 +96,16 @@ def _vibration_options(func):
                         help="A data-driven vibration layered on the texture (haptex's JSON or HaTT's XML, at the "
                              "device's servo rate): the device's mass along x times its acceleration, along the "
                              "motion.")(func)
+
+
+def _friction_option(func):
+    return click.option("--no-material-friction", "no_material_friction", is_flag=True,
+                        help="With --vibration: leave out the material's kinetic friction (mu f_z against the "
+                             "motion, mu from the model set, HaTT's <mu>), which is on when the set has a mu.")(func)
+
+
+def _vibration_options_no_friction(func):
+    return _vibration_options(func, friction=False)
 
 
 def _object_options(what: str):
@@ -154,13 +167,17 @@ def _stabiliser(passivity_control, stabiliser, dev, delay=None):
     return cls.for_device(dev, delay)
 
 
-def _budget_needs_models(models, budget) -> None:
-    """Refuse --vibration-budget without --vibration MODELS (run, export, simulate)."""
+def _budget_needs_models(models, budget, no_friction: bool = False) -> None:
+    """Refuse --vibration-budget (or --no-material-friction) without --vibration MODELS (run,
+    export, simulate)."""
     if budget is not None and models is None:
         raise ParameterError("--vibration-budget is not allowed without --vibration MODELS: it is the vibration's")
+    if no_friction and models is None:
+        raise ParameterError("--no-material-friction is not allowed without --vibration MODELS: the friction is the "
+                             "vibration's material's")
 
 
-def _vibration(path, period: float, mass: float, budget, on: str) -> dict:
+def _vibration(path, period: float, mass: float, budget, on: str, friction: bool | None = None) -> dict:
     """The Renderer's (and export_c's) vibration keywords for ``--vibration MODELS`` on a device
     of servo ``period`` (s) whose mass along x (kg) turns acceleration into force; the models
     must run at the device's rate."""
@@ -168,7 +185,8 @@ def _vibration(path, period: float, mass: float, budget, on: str) -> dict:
 
     models = read_models(path)
     require_servo_rate(models, period, "vibration", str(path), on)
-    return {"vibration": models, "vibration_mass": float(mass), "vibration_budget": budget}
+    return {"vibration": models, "vibration_mass": float(mass), "vibration_budget": budget,
+            **({} if friction is None else {"friction": friction})}
 
 
 def _catalogued_device(spec: str, dimension: int, delay: int = 0):

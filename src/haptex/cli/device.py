@@ -63,7 +63,7 @@ from ._common import (Quantity, STABILISERS, _budget_needs_models, _felt_options
 @_core_blas_held  # BLAS in the set-up (a preset's matrices, a slope bound) wakes no worker to spin beside the loop
 def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration, passivity_control, stabiliser, hand,
                speed, fast, object_spec, uv_scale, tip_radius, crop, record, vibration_models, vibration_budget,
-               find_limit_run, identify_run, keep_awake, as_json, quiet):
+               no_material_friction, find_limit_run, identify_run, keep_awake, as_json, quiet):
     """Render one texture on one device, with the safety rules of haptex.servo and a live dashboard."""
 
     from ..algorithms import algorithm
@@ -81,7 +81,8 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
         if identify_run:
             raise ParameterError("--find-limit is not allowed with --identify: one program a run")
         given = [n for n in ("texture_spec", "letter", "passivity_control", "stabiliser", "object_spec", "tip_radius",
-                             "crop", "speed", "duration", "vibration_models", "vibration_budget", "keep_awake")
+                             "crop", "speed", "duration", "vibration_models", "vibration_budget",
+                             "no_material_friction", "keep_awake")
                  if ctx.get_parameter_source(n) == click.core.ParameterSource.COMMANDLINE]
         if given:
             opt = next(o for o in ctx.command.params if o.name == given[0]).opts[-1]
@@ -95,7 +96,7 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
                                  "'haptex identify' reads")
         texture_given = [n for n in ("texture_spec", "letter", "stiffness", "passivity_control", "stabiliser",
                                      "object_spec", "tip_radius", "crop", "speed", "vibration_models",
-                                     "vibration_budget", "keep_awake")
+                                     "vibration_budget", "no_material_friction", "keep_awake")
                          if ctx.get_parameter_source(n) == click.core.ParameterSource.COMMANDLINE]
         if texture_given:
             opt = next(o for o in ctx.command.params if o.name == texture_given[0]).opts[-1]
@@ -162,11 +163,12 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
     pc = _stabiliser(passivity_control, stabiliser, dev, delay=dev.delay)
 
     vib = {}
-    _budget_needs_models(vibration_models, vibration_budget)
+    _budget_needs_models(vibration_models, vibration_budget, no_material_friction)
     if vibration_models is not None:
         # the device's own mass along x turns acceleration into force (a simulated device's has the hand's added)
         own = backend.preset.device() if kind == "simulated" else dev
-        vib = _vibration(vibration_models, dev.period, own.mass[0, 0], vibration_budget, backend.name)
+        vib = _vibration(vibration_models, dev.period, own.mass[0, 0], vibration_budget, backend.name,
+                         False if no_material_friction else None)
     renderer = Renderer(alg, max_force=fmax if math.isfinite(fmax) else None, energy_monitor=True,
                         passivity_controller=pc, period=dev.period, **vib)
     loop = ServoLoop(backend, renderer, max_force=fmax if math.isfinite(fmax) else None, keep_awake=keep_awake)
@@ -219,7 +221,9 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
                "buzz_frequency": None if verdict["buzz"] is None or verdict["buzz"].margin_db == -math.inf
                else verdict["buzz"].frequency,
                **({"vibration_supplied": renderer.vibration_supplied, "vibration_cut": renderer.vibration_cut,
-                   "vibration_budget": vibration_budget} if vib else {}),
+                   "vibration_budget": vibration_budget,
+                   "friction_mu": None if renderer.friction is None else renderer.friction[0],
+                   "friction_dissipated": renderer.friction_dissipated} if vib else {}),
                "units": {"stiffness": "N/m", "max_force": "N", "duration": "s", "engaged_at": "s",
                          "amplitude": "m", "frequency": "Hz",
                          "max_force_sent": "N", "energy_observed": "J", **{f"energy_{a}": "J" for a in axes},
@@ -227,7 +231,7 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
                          "period_std": "s", "jitter_max": "s", "jitter_p999": "s",
                          "stabiliser_ticks": "ticks", "buzz_db": "dB above the detection threshold",
                          "buzz_frequency": "Hz", "vibration_supplied": "J", "vibration_cut": "ticks",
-                         "vibration_budget": "W"}}
+                         "vibration_budget": "W", "friction_mu": "1", "friction_dissipated": "J"}}
     if record is not None:
         _write_record(record, trace, dev.period)
     if stats.driver == "native thread" and loop.priority and not stats.fifo and getattr(backend, "realtime", True):
@@ -249,6 +253,10 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
                f"{stats.driver}{' at SCHED_FIFO' if stats.fifo else ''}"
                f"{f', core {stats.awake_core} kept awake' if stats.awake_core is not None else ''}"
                + ("; interrupted (forces zeroed)" if stats.interrupted else ""))
+    if vib:
+        fr = ("no material friction" if renderer.friction is None else
+              f"the material's friction (mu {renderer.friction[0]:.3g}) dissipated {renderer.friction_dissipated:.3g} J")
+        click.echo(f"vibration: supplied {renderer.vibration_supplied:+.3g} J; {fr}")
     if record is not None:
         click.echo(f"trace: {record}")
 

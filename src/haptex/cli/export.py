@@ -47,7 +47,7 @@ from ._common import (
 @click.option("--quiet", is_flag=True, help="No progress display.")
 def export(letter, texture_spec, stiffness, max_force, max_penetration, friction, presliding, stick_deflection,
            spacing, x_unit, height_unit, level, lowpass, periodic, object_spec, uv_scale, passivity_control, stabiliser,
-           device_spec, vibration_models, vibration_budget, tip_radius, crop, out, quiet):
+           device_spec, vibration_models, vibration_budget, no_material_friction, tip_radius, crop, out, quiet):
     """C99 source of one algorithm on one texture, for device firmware (<math.h> only)."""
     from ..algorithms import ALGORITHMS, algorithm
     from ..export import TICK_FILES, export_c
@@ -97,13 +97,14 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
             raise ParameterError(f"--{'passivity-control' if stabiliser is None else 'stabiliser'} needs --device: the "
                                  "device's period, delay and damping set the stabiliser")
         pc, period = _stabiliser(passivity_control, stabiliser, dev, delay=dev.delay), dev.period
-    _budget_needs_models(vibration_models, vibration_budget)
+    _budget_needs_models(vibration_models, vibration_budget, no_material_friction)
     vib = {}
     if vibration_models is not None:
         if dev is None:
             raise ParameterError("--vibration needs --device: the device's mass along x turns the vibration's "
                                  "acceleration into force, and its servo rate must be the models'")
-        vib = _vibration(vibration_models, dev.period, dev.mass[0, 0], vibration_budget, dev.name)
+        vib = _vibration(vibration_models, dev.period, dev.mass[0, 0], vibration_budget, dev.name,
+                         False if no_material_friction else None)
     with _Spinner("writing the C source", quiet):
         h_path, c_path = export_c(alg, out, max_force, passivity_controller=pc, period=period, **vib)
     click.echo(f"wrote {c_path}, {h_path} and the C core's {len(TICK_FILES)} files beside them: {alg!r}, max force "

@@ -13,7 +13,7 @@ from .._validation import ParameterError
 from ._common import (
     Quantity, STABILISERS, _Spinner, _build_device, _check_plot_path, _check_save_path, _device_options,
     _fitted, _given_for_letter, _jsonable, _paper_options, _parse_path, _parse_point, _refuse_unused,
-    _budget_needs_models, _stabiliser, _vibration, _vibration_options)
+    _budget_needs_models, _stabiliser, _vibration, _vibration_options_no_friction)
 
 
 def _sim_common(func):
@@ -34,7 +34,7 @@ def _sim_common(func):
         click.option("--stabiliser", type=click.Choice(STABILISERS), default=None,
                      help="Instead: energy bounding (after Kim & Ryu) or passive set-position modulation (after Lee "
                           "& Huang), paid with the device's own damping."),
-        _vibration_options,
+        _vibration_options_no_friction,
         click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON."),
         click.option("--quiet", is_flag=True, help="No progress display."),
         click.pass_context,

@@ -838,8 +838,31 @@ static PyObject *Renderer_set_vibration(RendererObject *self, PyObject *const *a
     Py_RETURN_NONE;
 }
 
+static PyObject *Renderer_set_friction(RendererObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    double mu, vth;
+    if (nargs != 2) {
+        PyErr_SetString(PyExc_TypeError, "set_friction takes 2 arguments (mu, v_threshold)");
+        return NULL;
+    }
+    mu = PyFloat_AsDouble(args[0]);
+    vth = PyFloat_AsDouble(args[1]);
+    if (PyErr_Occurred())
+        return NULL;
+    if (!(isfinite(mu) && mu >= 0.0 && isfinite(vth) && vth > 0.0)) {
+        PyErr_SetString(PyExc_ValueError, "set_friction: mu >= 0 and v_threshold > 0, finite");
+        return NULL;
+    }
+    hx_vib_channel_set_friction(&self->r.vib, mu, vth);
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef Renderer_methods[] = {
     {"set_vibration", (PyCFunction)(void (*)(void))Renderer_set_vibration, METH_FASTCALL, set_vibration_doc},
+    {"set_friction", (PyCFunction)(void (*)(void))Renderer_set_friction, METH_FASTCALL,
+     "set_friction(mu, v_threshold)\n--\n\nThe material's kinetic friction beside the vibration "
+     "(hx_vib_channel_set_friction): mu f_z against the tangential velocity, viscous below v_threshold (m/s); "
+     "after set_vibration, which turns it off."},
     {"step", (PyCFunction)Renderer_step, METH_O, step_doc},
     {"tick", (PyCFunction)(void (*)(void))Renderer_tick, METH_FASTCALL, tick_doc},
     {"run", (PyCFunction)(void (*)(void))Renderer_run, METH_FASTCALL, run_doc},
@@ -864,6 +887,8 @@ static PyMemberDef Renderer_members[] = {
      "vibration ticks whose operating point was moved to the model set's hull"},
     {"vibration_supplied", T_DOUBLE, offsetof(RendererObject, r.vib.supplied), READONLY,
      "the vibration's work on the sensed motion so far (J, > 0: supplied to the hand)"},
+    {"friction_dissipated", T_DOUBLE, offsetof(RendererObject, r.vib.dissipated), READONLY,
+     "the material friction's work on the sensed motion so far, negated (J, > 0: dissipated)"},
     {"vibration_tank", T_DOUBLE, offsetof(RendererObject, r.vib.tank), READONLY,
      "what the vibration's energy budget holds now (J)"},
     {"vibration_cut", T_LONG, offsetof(RendererObject, r.vib.cut), READONLY,

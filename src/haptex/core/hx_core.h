@@ -441,10 +441,20 @@ typedef struct {
     double supplied;              /* J: sum of the vibration force . dp (> 0: supplied) */
     double prev[3];               /* the vibration force of the last tick (N) */
     long cut;
+    /* the material's kinetic friction (HaTT's renderer beside its vibration): mu f_z against the
+     * filtered tangential velocity, viscous (in proportion to the speed) below v_friction;
+     * mu = 0: none. Its force held over each period times the displacement since is summed,
+     * negated, in dissipated (J, >= 0 for a friction that opposes the motion) */
+    double mu, v_friction;
+    double dissipated;
+    double fprev[3];
 } hx_vib_channel;
 /* Set the channel (v hx_vib_check'd and kept by the caller; NULL: none) and clear its state. */
 void hx_vib_channel_set(hx_vib_channel *c, const double *v, double mass, double gain, double tau,
                         unsigned long long seed, double budget, double reserve);
+/* Turn the material's friction on (mu > 0, v_threshold > 0 m/s) or off (mu = 0), after
+ * hx_vib_channel_set (which turns it off). */
+void hx_vib_channel_set_friction(hx_vib_channel *c, double mu, double v_threshold);
 /* Its state back to its start: the noise from its seed, the tank full, the sums zero. */
 void hx_vib_channel_clear(hx_vib_channel *c);
 /* One tick at the sensed position p (m): adds the vibration's force to f (N; f[2] is the

@@ -335,11 +335,18 @@ void hx_vib_channel_clear(hx_vib_channel *c)
     hx_vib_reset(&c->vs, c->vs.seed);
     c->have = 0;
     for (i = 0; i < 3; i++)
-        c->last[i] = c->v[i] = c->prev[i] = 0.0;
+        c->last[i] = c->v[i] = c->prev[i] = c->fprev[i] = 0.0;
     c->force = 0.0;
     c->tank = c->reserve;
     c->supplied = 0.0;
+    c->dissipated = 0.0;
     c->cut = 0;
+}
+
+void hx_vib_channel_set_friction(hx_vib_channel *c, double mu, double v_threshold)
+{
+    c->mu = mu > 0.0 && v_threshold > 0.0 ? mu : 0.0;
+    c->v_friction = v_threshold > 0.0 ? v_threshold : 0.0;
 }
 
 void hx_vib_channel_set(hx_vib_channel *c, const double *v, double mass, double gain, double tau,
@@ -355,6 +362,8 @@ void hx_vib_channel_set(hx_vib_channel *c, const double *v, double mass, double 
     c->budget = budget >= 0.0 ? budget : 0.0;
     c->reserve = reserve;
     c->vs.seed = seed;
+    c->mu = 0.0;
+    c->v_friction = 0.0;
     hx_vib_channel_clear(c);
 }
 
@@ -365,11 +374,14 @@ long hx_vib_channel_tick(hx_vib_channel *c, const double p[3], double f[3])
     c->force = 0.0;
     if (c->have) {
         /* the last tick's vibration force held over the displacement since: its work on the handle */
-        double w = 0.0;
+        double w = 0.0, wf = 0.0;
         for (i = 0; i < 3; i++) {
             w += c->prev[i] * (p[i] - c->last[i]);
+            wf += c->fprev[i] * (p[i] - c->last[i]);
             c->v[i] += a * ((p[i] - c->last[i]) / T - c->v[i]);
         }
+        if (isfinite(wf))
+            c->dissipated -= wf;
         if (isfinite(w)) {
             c->supplied += w;
             if (c->budgeted) {
@@ -381,12 +393,19 @@ long hx_vib_channel_tick(hx_vib_channel *c, const double p[3], double f[3])
     }
     for (i = 0; i < 3; i++) {
         c->last[i] = p[i];
-        c->prev[i] = 0.0;
+        c->prev[i] = c->fprev[i] = 0.0;
     }
     speed = hypot(c->v[0], c->v[1]);
     if (!c->have || !(f[2] > 0.0) || !(speed > 0.0) || !isfinite(speed)) {
         c->have = 1;
         return 0;
+    }
+    if (c->mu > 0.0) { /* Coulomb above v_friction, viscous below it: continuous at v_friction */
+        double ff = c->mu * f[2] * (speed < c->v_friction ? speed / c->v_friction : 1.0);
+        c->fprev[0] = -ff * c->v[0] / speed;
+        c->fprev[1] = -ff * c->v[1] / speed;
+        f[0] += c->fprev[0];
+        f[1] += c->fprev[1];
     }
     y = hx_vib_step(c->set, &c->vs, speed, f[2]);
     c->force = c->gain * c->mass * y;
