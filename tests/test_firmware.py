@@ -1,6 +1,6 @@
 """Issue 66, firmware as firmware: every algorithm's export cross-compiled for a Cortex-M4F and
 a Cortex-M7 (Debian's arm-none-eabi-gcc, -std=c99 -Wall -Wextra -Werror, newlib's libm), linked
-for QEMU's MPS2 boards (mps2-an386, mps2-an500: tests/firmware/startup.c and mps2.ld) and run
+for QEMU's MPS2 boards (mps2-an386, mps2-an500: the export's startup.c and mps2.ld) and run
 there with semihosting: the forces along a stroke in and out of the wall, back and forth over
 the texture, against haptex.Renderer on the host (the same C compiled by another compiler for
 another machine: the oracle is the host's run, to 1e-12 relative; newlib's sin and cos may
@@ -17,24 +17,20 @@ import numpy as np
 import pytest
 
 import haptex as hx
-from haptex.export import export_c
+from haptex.export import FIRMWARE_FLAGS, TARGETS, export_c
 
 from .cbuild import core_objects
 from .conftest import K0, A, L
 
 ARM_CC = shutil.which("arm-none-eabi-gcc")
 QEMU = shutil.which("qemu-system-arm")
-HERE = Path(__file__).parent / "firmware"
+HERE = Path(__file__).parent / "firmware"  # the test's main: the stroke's forces printed
 if (ARM_CC is None or QEMU is None) and os.environ.get("CI") == "true":
     raise RuntimeError("CI installs arm-none-eabi-gcc and qemu-system-arm (.ci/run): one is missing")
 pytestmark = [pytest.mark.xdist_group("firmware"), pytest.mark.long]  # cross-compiled core: 20 s (issue 68)
 needs_arm = pytest.mark.skipif(ARM_CC is None or QEMU is None, reason="no arm-none-eabi-gcc or qemu-system-arm")
 
-STRICT = ("-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-ffunction-sections", "-fdata-sections")
-TARGETS = {  # the float ABI each board's FPU takes: the M4F's single precision, the M7's double
-    "cortex-m4": (("-mcpu=cortex-m4", "-mthumb", "-mfpu=fpv4-sp-d16", "-mfloat-abi=hard"), "mps2-an386"),
-    "cortex-m7": (("-mcpu=cortex-m7", "-mthumb", "-mfpu=fpv5-d16", "-mfloat-abi=hard"), "mps2-an500"),
-}
+BOARDS = [t for t in TARGETS if t != "host"]
 KW = {"B": dict(max_penetration=0.5e-3), "C": dict(max_penetration=0.5e-3), "G": dict(max_penetration=0.5e-3),
       "F": dict(friction=0.8, presliding=1e-3, max_penetration=1e-3)}
 
@@ -47,14 +43,14 @@ def _stroke(n=2000):
 def firmware(alg, out: Path, target: str, objdir: Path, p: np.ndarray) -> Path:
     """The export of ``alg`` in ``out``, with the stroke ``p`` and tests/firmware's start, linked
     for ``target`` against the core's objects (compiled once per target): the ELF's path."""
-    flags = TARGETS[target][0] + STRICT
-    export_c(alg, out, 5.0)
+    flags = tuple(TARGETS[target]["flags"]) + FIRMWARE_FLAGS
+    export_c(alg, out, 5.0, target=target)
     rows = ",\n".join("{%r, %r, 0.0}" % (float(a), float(b)) for a, b in p)
     (out / "stroke.h").write_text(f"#define STROKE_N {len(p)}\nstatic const double stroke[STROKE_N][3] = {{\n{rows}}};\n")
     objs = core_objects(objdir, flags, ARM_CC)
     elf = out / "fw.elf"
-    r = subprocess.run([ARM_CC, *flags, "-nostartfiles", "-T", str(HERE / "mps2.ld"), "-Wl,--gc-sections", "-I", str(out),
-                        "-o", str(elf), str(out / "haptex_texture.c"), str(HERE / "main.c"), str(HERE / "startup.c"),
+    r = subprocess.run([ARM_CC, *flags, "-nostartfiles", "-T", str(out / "mps2.ld"), "-Wl,--gc-sections", "-I", str(out),
+                        "-o", str(elf), str(out / "haptex_texture.c"), str(HERE / "main.c"), str(out / "startup.c"),
                         *objs, "-lm", "-lc", "-lnosys"], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     return elf
@@ -62,7 +58,7 @@ def firmware(alg, out: Path, target: str, objdir: Path, p: np.ndarray) -> Path:
 
 def run(elf: Path, target: str) -> np.ndarray:
     """The ELF run on the target's QEMU board: the forces its semihosting printed, (n, 2)."""
-    r = subprocess.run([QEMU, "-M", TARGETS[target][1], "-nographic", "-monitor", "none", "-serial", "none",
+    r = subprocess.run([QEMU, "-M", TARGETS[target]["qemu"], "-nographic", "-monitor", "none", "-serial", "none",
                         "-semihosting-config", "enable=on,target=native", "-kernel", str(elf)],
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stderr[-2000:]
@@ -71,7 +67,7 @@ def run(elf: Path, target: str) -> np.ndarray:
 
 
 @needs_arm
-@pytest.mark.parametrize("target", list(TARGETS))
+@pytest.mark.parametrize("target", BOARDS)
 @pytest.mark.parametrize("letter", list("WABCDEFG"))
 def test_the_exported_tick_runs_on_a_cortex_m_as_on_the_host(tmp_path, tmp_path_factory, letter, target):
     alg = hx.algorithm(letter, None if letter == "W" else hx.Sinusoid(A, L), K0, **KW.get(letter, {}))
@@ -97,3 +93,22 @@ def test_the_tick_compiles_for_windows_without_a_warning(tmp_path):
     assert MINGW is not None, "CI installs gcc-mingw-w64-x86-64 (.ci/run)"
     objs = core_objects(tmp_path, ("-std=c99", "-O2", "-Wall", "-Wextra", "-pedantic", "-Werror"), MINGW)
     assert len(objs) == 9  # the C files of haptex.export.TICK_FILES
+
+
+@needs_arm
+@pytest.mark.parametrize("target", BOARDS)
+def test_haptex_export_for_a_cortex_m_builds_its_example_and_reports_its_size(tmp_path, target):
+    # --target: the header states the flags, the bare-metal start and the example main are
+    # written beside, built with them (-Werror) and sized; the example runs 1000 ticks on the
+    # board's QEMU and returns its faults (0) by semihosting
+    from haptex.cli import main
+
+    out = tmp_path / "fw"
+    assert main(["export", "--algorithm", "A", "--texture", "sine:0.8mm,1mm", "--stiffness", "2 kN/m",
+                 "--max-force", "5 N", "--out", str(out), "--target", target]) == 0
+    header = (out / "haptex_texture.h").read_text()
+    assert f"Target: {target}" in header and " ".join(TARGETS[target]["flags"]) in header
+    r = subprocess.run([QEMU, "-M", TARGETS[target]["qemu"], "-nographic", "-monitor", "none", "-serial", "none",
+                        "-semihosting-config", "enable=on,target=native", "-kernel", str(out / "haptex.elf")],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr[-2000:]

@@ -48,6 +48,62 @@ TICK_FILES = ("hx_core.h", "hx_fields.h", "hx_texture_eval.h", "hx_texture.c", "
 loop's safety rules (hx_servo.c: engagement, ramp, watchdog, ceiling; what ``haptex run``
 runs). The core's others: the simulator's loops, hx_sim.c, and the Python binding, _ext.c."""
 
+TARGETS = {
+    "host": {"cc": "cc", "flags": ()},
+    "cortex-m4": {"cc": "arm-none-eabi-gcc", "flags": ("-mcpu=cortex-m4", "-mthumb", "-mfpu=fpv4-sp-d16",
+                                                        "-mfloat-abi=hard"),
+                  "qemu": "mps2-an386", "fpu": "single precision: the core's doubles in libgcc's software routines"},
+    "cortex-m7": {"cc": "arm-none-eabi-gcc", "flags": ("-mcpu=cortex-m7", "-mthumb", "-mfpu=fpv5-d16",
+                                                        "-mfloat-abi=hard"),
+                  "qemu": "mps2-an500", "fpu": "double precision"},
+}
+"""What :func:`export_c` writes for: the host's C compiler, or a Cortex-M4F or M7 (Debian's
+arm-none-eabi-gcc and newlib; the hard-float ABI of each one's FPU; ``qemu`` the QEMU board the
+tests run each on)."""
+
+FIRMWARE_FLAGS = ("-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-ffunction-sections", "-fdata-sections")
+"""The flags every exported file compiles with for a Cortex-M (each function and datum in its
+own section, so that ``--gc-sections`` links only what is reached)."""
+
+BOARD_FILES = ("startup.c", "mps2.ld", "main.c")
+"""The bare-metal start, memory map and example main written beside a Cortex-M export."""
+
+
+def firmware_command(out, target: str, *, relative: bool = False, elf: str = "haptex.elf") -> list:
+    """The command that builds an export in ``out`` for ``target``.
+
+    Parameters
+    ----------
+    out : str or Path
+        The export's directory.
+    target : str
+        A key of :data:`TARGETS`.
+    relative : bool, optional
+        Name the files relative to ``out`` (as the header states the command).
+    elf : str, optional
+        The output's name (a Cortex-M's ELF).
+
+    Returns
+    -------
+    list of str
+        The compiler and its arguments; ``*.c`` stands for the export's C files (expand it, or
+        run the command in a shell).
+
+    Raises
+    ------
+    ParameterError
+        For an unknown target.
+    """
+    if target not in TARGETS:
+        raise fail("target", target, " or ".join(repr(t) for t in TARGETS))
+    t = TARGETS[target]
+    d = Path(".") if relative else Path(out)
+    if target == "host":
+        return [t["cc"], "-std=c99", "-O2", "-o", str(d / "tick"), "your_loop.c", str(d / "*.c"), "-lm"]
+    return [t["cc"], *t["flags"], *FIRMWARE_FLAGS, "-nostartfiles", "-T", str(d / "mps2.ld"), "-Wl,--gc-sections",
+            "-o", str(d / elf), str(d / "*.c"), "-lm", "-lc", "-lnosys"]
+
+
 _KINDS = ("TEXTURE_FLAT", "TEXTURE_FOURIER", "TEXTURE_SPLINE", "SURFACE_GRATINGS", "SURFACE_PATCHES")
 _PARAMS = ("P_K0", "P_DZMAX", "P_MU", "P_DXMAX", "P_SCALE", "P_ZSTICK")
 _STABS = ("STAB_PC", "STAB_PC_STORED", "STAB_EBA", "STAB_PSPM")
@@ -65,7 +121,7 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
              vibration_mass: float | None = None, vibration_gain: float = 1.0, velocity_filter: float = 0.01,
              seed: int = 0, vibration_budget: float | None = None,
              vibration_reserve: float | None = None, friction: bool | None = None,
-             friction_threshold: float = FRICTION_THRESHOLD) -> tuple[Path, Path]:
+             friction_threshold: float = FRICTION_THRESHOLD, target: str = "host") -> tuple[Path, Path]:
     """Write a servo tick for device firmware into ``out``: the C core's files the tick needs
     (:data:`TICK_FILES`, copied unchanged: the code :class:`haptex.Renderer` runs) and
     ``haptex_texture.h`` / ``haptex_texture.c``, this algorithm's tables and entry points,
@@ -104,6 +160,11 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
     friction, friction_threshold
         The material's kinetic friction beside the vibration, as :class:`haptex.Renderer`
         takes it (``hx_vib_channel_set_friction``; on by default for a set with a mu).
+    target : {"host", "cortex-m4", "cortex-m7"}, optional
+        What the files are compiled for (:data:`TARGETS`): the header states the compiler's
+        flags (the float ABI among them); for a Cortex-M, a bare-metal start (``startup.c``,
+        ``mps2.ld``: QEMU's MPS2 boards' memory map, to adapt to a board's) and an example
+        ``main.c`` are written beside (:func:`firmware_command` builds them).
 
     Returns
     -------
@@ -117,7 +178,7 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
         :data:`MAX_TABLE` numbers, a bad ``max_force`` or ``max_evaluations``, a
         ``passivity_controller`` that is not a stabiliser or comes without a ``period``, a
         vibration refused as :class:`haptex.Renderer` refuses it (or whose tables exceed
-        :data:`MAX_TABLE`), or an unwritable ``out``.
+        :data:`MAX_TABLE`), an unknown ``target``, or an unwritable ``out``.
 
     Notes
     -----
@@ -141,6 +202,8 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
     vib = vibration_settings(vibration, vibration_mass, vibration_gain, velocity_filter, seed, vibration_budget,
                              vibration_reserve)
     fric = friction_settings(vibration, friction, friction_threshold)
+    if target not in TARGETS:
+        raise fail("target", target, " or ".join(repr(t) for t in TARGETS))
     if vib is not None and vib[0].size > MAX_TABLE:
         raise fail("vibration", vibration, f"a model set whose packed tables hold at most {MAX_TABLE} numbers "
                                            f"(this one: {vib[0].size})")
@@ -194,6 +257,7 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
         aux_what = ""
     rows, cols = coeffs.shape if coeffs.ndim == 2 else (1, coeffs.size)
     fields = dict(
+        target=target, build=" ".join(firmware_command(Path("."), target, relative=True)),
         description=f"{algorithm!r}, max force {fmax:g} N".replace("*/", "* /"), version=version("haptex"),
         core_files=TICK_FILES, dim=dim, coords="[x, z]" if dim == 2 else "[x, y, z]",
         forces="[f_x, f_z]" if dim == 2 else "[f_x, f_y, f_z]", max_force=_num(fmax),
@@ -219,6 +283,9 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
         out.mkdir(parents=True, exist_ok=True)
         for name in TICK_FILES:
             shutil.copyfile(_core.SOURCE_DIR / name, out / name)
+        if target != "host":
+            for name in BOARD_FILES:
+                shutil.copyfile(Path(__file__).parent / "templates" / "board" / name, out / name)
         h_path, c_path = out / "haptex_texture.h", out / "haptex_texture.c"
         h_path.write_text(env.get_template("haptex_texture.h.j2").render(**fields))
         c_path.write_text(env.get_template("haptex_texture.c.j2").render(**fields))

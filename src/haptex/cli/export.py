@@ -44,13 +44,17 @@ from ._common import (
 @_felt_options("rendered")
 @click.option("--out", "out", type=click.Path(file_okay=False, path_type=Path), required=True,
               help="Directory for haptex_texture.c, haptex_texture.h and the C core's files.")
+@click.option("--target", type=click.Choice(["host", "cortex-m4", "cortex-m7"]), default="host", show_default=True,
+              help="What the source is compiled for: the host's cc, or a Cortex-M4F or M7 (arm-none-eabi-gcc, the "
+                   "hard-float ABI; a bare-metal start, memory map and example main.c written beside; built and its "
+                   "flash and RAM reported when arm-none-eabi-gcc is installed).")
 @click.option("--quiet", is_flag=True, help="No progress display.")
 def export(letter, texture_spec, stiffness, max_force, max_penetration, friction, presliding, stick_deflection,
            spacing, x_unit, height_unit, level, lowpass, periodic, object_spec, uv_scale, passivity_control, stabiliser,
-           device_spec, vibration_models, vibration_budget, no_material_friction, tip_radius, crop, out, quiet):
+           device_spec, vibration_models, vibration_budget, no_material_friction, tip_radius, crop, out, target, quiet):
     """C99 source of one algorithm on one texture, for device firmware (<math.h> only)."""
     from ..algorithms import ALGORITHMS, algorithm
-    from ..export import TICK_FILES, export_c
+    from ..export import TICK_FILES, export_c, firmware_command
     from ..objects import object_algorithm
 
     letter = str(letter).upper()
@@ -106,7 +110,32 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
         vib = _vibration(vibration_models, dev.period, dev.mass[0, 0], vibration_budget, dev.name,
                          False if no_material_friction else None)
     with _Spinner("writing the C source", quiet):
-        h_path, c_path = export_c(alg, out, max_force, passivity_controller=pc, period=period, **vib)
-    click.echo(f"wrote {c_path}, {h_path} and the C core's {len(TICK_FILES)} files beside them: {alg!r}, max force "
+        h_path, c_path = export_c(alg, out, max_force, passivity_controller=pc, period=period, target=target, **vib)
+    command = firmware_command(out, target)
+    click.echo(f"wrote {c_path}, {h_path} and the C core's {len(TICK_FILES)} files beside them"
+               f"{'' if target == 'host' else ' (and startup.c, mps2.ld, main.c)'}: {alg!r}, max force "
                f"{max_force:g} N{'' if pc is None else ', ' + pc.label}{'' if not vib else ', a data-driven vibration'} "
-               f"(build: cc -std=c99 -O2 {out}/*.c -lm)")
+               f"(build: {' '.join(command)})")
+    if target != "host":
+        _report_firmware(out, command, target)
+
+
+def _report_firmware(out: Path, command: list, target: str) -> None:
+    """Build a Cortex-M export with its example main when arm-none-eabi-gcc is installed, and
+    report its flash and static RAM (arm-none-eabi-size); otherwise say how."""
+    import shutil
+    import subprocess
+
+    if shutil.which(command[0]) is None or shutil.which("arm-none-eabi-size") is None:
+        click.echo(f"{command[0]} is not installed (Debian: apt-get install gcc-arm-none-eabi "
+                   "libnewlib-arm-none-eabi): not built")
+        return
+    args = [x for a in command for x in (sorted(str(p) for p in out.glob("*.c")) if a.endswith("*.c") else [a])]
+    r = subprocess.run(args, capture_output=True, text=True)
+    if r.returncode != 0:
+        raise ParameterError(f"--target = {target!r} is not allowed here: the build failed "
+                             f"({(r.stderr.strip().splitlines() or ['?'])[-1][:200]})")
+    size = subprocess.run(["arm-none-eabi-size", str(out / "haptex.elf")], capture_output=True, text=True)
+    text, data, bss = (int(v) for v in size.stdout.splitlines()[1].split()[:3])
+    click.echo(f"built {out / 'haptex.elf'} for {target} with the example main: flash {text + data} bytes "
+               f"(text + data), static RAM {data + bss} bytes (data + bss; the stack comes on top)")
