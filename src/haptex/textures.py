@@ -42,16 +42,48 @@ class Texture:
     instrument_tip: float | None = None  # the measuring tip's radius (m), where a file states it
 
     def height_at(self, xt):
-        """h at in-plane positions ``xt`` of shape (..., dimension) (m); shape (...)."""
+        """The height h at in-plane positions (m).
+
+        Parameters
+        ----------
+        xt : array_like, shape (..., dimension)
+            In-plane positions (m): [x] on a profile, [x, y] on a surface.
+
+        Returns
+        -------
+        numpy.ndarray
+            shape (...): h (m).
+        """
         return self.height(xt[..., 0])
 
     def gradient(self, xt):
-        """grad h at ``xt`` of shape (..., dimension) (m); shape (..., dimension), m/m."""
+        """The gradient of h at in-plane positions.
+
+        Parameters
+        ----------
+        xt : array_like, shape (..., dimension)
+            In-plane positions (m): [x] on a profile, [x, y] on a surface.
+
+        Returns
+        -------
+        numpy.ndarray
+            shape (..., dimension): grad h (m/m).
+        """
         return self.slope(xt[..., 0])[..., None]
 
     def hessian(self, xt):
-        """Hessian of h at ``xt`` of shape (..., dimension) (m); shape (..., dimension,
-        dimension), 1/m."""
+        """The Hessian of h at in-plane positions.
+
+        Parameters
+        ----------
+        xt : array_like, shape (..., dimension)
+            In-plane positions (m): [x] on a profile, [x, y] on a surface.
+
+        Returns
+        -------
+        numpy.ndarray
+            shape (..., dimension, dimension): the second derivatives of h (1/m).
+        """
         return self.curvature(xt[..., 0])[..., None, None]
 
     def height(self, x):  # pragma: no cover - abstract
@@ -158,9 +190,22 @@ class SumOfSinusoids(Texture):
     @staticmethod
     def coefficients(amplitudes, periods, phases) -> np.ndarray:
         """The compiled kernels' coefficients (:meth:`kernel_data`) of sums of sinusoids,
-        elementwise over leading axes: amplitudes a_k (m), periods l_k (m) and phases (rad),
-        each of shape (..., n), give shape (..., 3, n): a_k, the wavenumbers 2 pi / l_k
-        (rad/m) and the phases. No checks (the constructor's)."""
+        elementwise over leading axes. No checks (the constructor's).
+
+        Parameters
+        ----------
+        amplitudes : array_like, shape (..., n)
+            a_k (m).
+        periods : array_like, shape (..., n)
+            l_k (m), > 0.
+        phases : array_like, shape (..., n)
+            phi_k (rad).
+
+        Returns
+        -------
+        numpy.ndarray, shape (..., 3, n)
+            a_k, the wavenumbers 2 pi / l_k (rad/m) and the phases.
+        """
         a, per, ph = np.broadcast_arrays(*(np.asarray(v, dtype=np.float64) for v in (amplitudes, periods, phases)))
         return np.stack([a, 2 * np.pi / per, ph], axis=-2)
 
@@ -183,15 +228,48 @@ class SumOfSinusoids(Texture):
         return out.reshape(x.shape)
 
     def height(self, x):
-        """Height h(x) (m) for x of any shape (m); returns the same shape."""
+        """The height h(x) = sum_k a_k sin(2 pi x / l_k + phi_k).
+
+        Parameters
+        ----------
+        x : array_like
+            Positions along the profile (m), any shape.
+
+        Returns
+        -------
+        numpy.ndarray
+            The same shape: h(x) (m).
+        """
         return self._series(x, np.sin, self.amplitudes)
 
     def slope(self, x):
-        """Slope h'(x) (dimensionless) for x of any shape (m)."""
+        """The slope h'(x).
+
+        Parameters
+        ----------
+        x : array_like
+            Positions along the profile (m), any shape.
+
+        Returns
+        -------
+        numpy.ndarray
+            The same shape: h'(x) (dimensionless).
+        """
         return self._series(x, np.cos, self.amplitudes * self._coeffs[1])
 
     def curvature(self, x):
-        """Second derivative h''(x) (1/m) for x of any shape (m)."""
+        """The second derivative h''(x).
+
+        Parameters
+        ----------
+        x : array_like
+            Positions along the profile (m), any shape.
+
+        Returns
+        -------
+        numpy.ndarray
+            The same shape: h''(x) (1/m).
+        """
         return -self._series(x, np.sin, self.amplitudes * self._coeffs[1] ** 2)
 
     def kernel_data(self) -> tuple[int, np.ndarray]:
@@ -321,22 +399,27 @@ class Sinusoid(SumOfSinusoids):
 
     @property
     def period(self) -> float:  # type: ignore[override]
+        """l (m)."""
         return self.period_
 
     @property
     def max_slope(self) -> float:  # type: ignore[override]
+        """2 pi A / l, exactly (Section IV-A's M)."""
         return 2 * np.pi * self.amplitude / self.period_
 
     @property
     def max_slope_is_exact(self) -> bool:  # type: ignore[override]
+        """True: :attr:`max_slope` is the closed form."""
         return True
 
     @property
     def max_curvature(self) -> float:  # type: ignore[override]
+        """4 pi^2 A / l^2 (1/m), exactly."""
         return 4 * np.pi**2 * self.amplitude / self.period_**2
 
     @property
     def height_range(self) -> tuple[float, float]:  # type: ignore[override]
+        """(-A, A) (m)."""
         return (-self.amplitude, self.amplitude)
 
 
@@ -395,6 +478,7 @@ class BandLimitedNoise(SumOfSinusoids):
 
     @property
     def period(self) -> float:  # type: ignore[override]
+        """The length (m) over which the noise repeats."""
         return self.length
 
 
@@ -551,15 +635,48 @@ class SampledProfile(Texture):
         return val
 
     def height(self, x):
-        """h(x) (m) for x of any shape (m)."""
+        """h(x), the spline's (or the Hermite interpolant's) value.
+
+        Parameters
+        ----------
+        x : array_like
+            Positions along the profile (m), any shape.
+
+        Returns
+        -------
+        numpy.ndarray
+            The same shape: h(x) (m).
+        """
         return self._eval(x, 0)
 
     def slope(self, x):
-        """h'(x) (dimensionless)."""
+        """h'(x).
+
+        Parameters
+        ----------
+        x : array_like
+            Positions along the profile (m), any shape.
+
+        Returns
+        -------
+        numpy.ndarray
+            The same shape: h'(x) (dimensionless).
+        """
         return self._eval(x, 1)
 
     def curvature(self, x):
-        """h''(x) (1/m); 0 on the straight extensions of a non-periodic profile."""
+        """h''(x); 0 on the straight extensions of a non-periodic profile.
+
+        Parameters
+        ----------
+        x : array_like
+            Positions along the profile (m), any shape.
+
+        Returns
+        -------
+        numpy.ndarray
+            The same shape: h''(x) (1/m).
+        """
         return self._eval(x, 2)
 
     def kernel_data(self) -> tuple[int, np.ndarray]:
@@ -833,9 +950,18 @@ def _decimated(h: np.ndarray, axis: int, step: float, lc: float, periodic: bool,
 
 
 class Flat(Texture):
-    """The untextured nominal surface h = 0 (used by algorithm W): a profile
-    (``dimension=1``, positions [x, z]) or a surface (``dimension=2``, positions
-    [x, y, z])."""
+    """The untextured nominal surface h = 0 (used by algorithm W).
+
+    Parameters
+    ----------
+    dimension : {1, 2}, optional
+        1: a profile (positions [x, z]); 2: a surface (positions [x, y, z]).
+
+    Raises
+    ------
+    ParameterError
+        For another dimension.
+    """
 
     period = None
     domain = None
@@ -855,19 +981,79 @@ class Flat(Texture):
         return self  # a ball rests on a plane at the plane
 
     def height(self, x):
-        """h(x) = 0 (m)."""
+        """h(x) = 0.
+
+        Parameters
+        ----------
+        x : array_like
+            Positions along the profile (m), any shape.
+
+        Returns
+        -------
+        numpy.ndarray
+            The same shape: zeros (m).
+        """
+        return np.zeros(np.shape(x))
+
+    def slope(self, x):
+        """h'(x) = 0.
+
+        Parameters
+        ----------
+        x : array_like
+            Positions along the profile (m), any shape.
+
+        Returns
+        -------
+        numpy.ndarray
+            The same shape: zeros (dimensionless).
+        """
+        return np.zeros(np.shape(x))
+
+    def curvature(self, x):
+        """h''(x) = 0.
+
+        Parameters
+        ----------
+        x : array_like
+            Positions along the profile (m), any shape.
+
+        Returns
+        -------
+        numpy.ndarray
+            The same shape: zeros (1/m).
+        """
         return np.zeros(np.shape(x))
 
     def gradient(self, xt):
-        """0, shape (..., dimension)."""
+        """grad h = 0.
+
+        Parameters
+        ----------
+        xt : array_like, shape (..., dimension)
+            In-plane positions (m): [x] on a profile, [x, y] on a surface.
+
+        Returns
+        -------
+        numpy.ndarray
+            zeros, shape (..., dimension).
+        """
         return np.zeros(np.shape(xt)[:-1] + (self.dimension,))
 
     def hessian(self, xt):
-        """0, shape (..., dimension, dimension)."""
-        return np.zeros(np.shape(xt)[:-1] + (self.dimension, self.dimension))
+        """The Hessian of h = 0.
 
-    slope = height
-    curvature = height
+        Parameters
+        ----------
+        xt : array_like, shape (..., dimension)
+            In-plane positions (m): [x] on a profile, [x, y] on a surface.
+
+        Returns
+        -------
+        numpy.ndarray
+            zeros, shape (..., dimension, dimension).
+        """
+        return np.zeros(np.shape(xt)[:-1] + (self.dimension, self.dimension))
 
     def kernel_data(self) -> tuple[int, np.ndarray]:
         """(``TEXTURE_FLAT``, empty coefficients)."""
@@ -879,8 +1065,19 @@ class Flat(Texture):
 
 
 def common_period(periods) -> float | None:
-    """The least common multiple of positive periods (m), or None when two of them are not
-    commensurate with a ratio of denominator <= 1000 (to 1e-9 relative)."""
+    """The least common multiple of positive periods.
+
+    Parameters
+    ----------
+    periods : array_like, shape (n,)
+        Periods (m), > 0.
+
+    Returns
+    -------
+    float or None
+        The common period (m), or None when two of them are not commensurate with a ratio of
+        denominator <= 1000 (to 1e-9 relative).
+    """
     base = float(np.min(periods))
     num, den = 1, 0
     for p in periods:
