@@ -63,7 +63,7 @@ tests run each on)."""
 
 FIRMWARE_FLAGS = ("-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-ffunction-sections", "-fdata-sections")
 """The flags every exported file compiles with for a Cortex-M (each function and datum in its
-own section, so that ``--gc-sections`` links only what is reached)."""
+own section, so that the linker's garbage collection of sections keeps only what is reached)."""
 
 BOARD_FILES = ("startup.c", "mps2.ld", "main.c")
 """The bare-metal start, memory map and example main written beside a Cortex-M export."""
