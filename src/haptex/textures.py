@@ -981,7 +981,7 @@ class Flat(Texture):
         return self  # a ball rests on a plane at the plane
 
     def height(self, x):
-        """h(x) = 0.
+        """h(x) = 0, as are h'(x) and h''(x) (``slope`` and ``curvature`` are this method).
 
         Parameters
         ----------
@@ -991,39 +991,12 @@ class Flat(Texture):
         Returns
         -------
         numpy.ndarray
-            The same shape: zeros (m).
+            The same shape: zeros (m, dimensionless, 1/m).
         """
         return np.zeros(np.shape(x))
 
-    def slope(self, x):
-        """h'(x) = 0.
-
-        Parameters
-        ----------
-        x : array_like
-            Positions along the profile (m), any shape.
-
-        Returns
-        -------
-        numpy.ndarray
-            The same shape: zeros (dimensionless).
-        """
-        return np.zeros(np.shape(x))
-
-    def curvature(self, x):
-        """h''(x) = 0.
-
-        Parameters
-        ----------
-        x : array_like
-            Positions along the profile (m), any shape.
-
-        Returns
-        -------
-        numpy.ndarray
-            The same shape: zeros (1/m).
-        """
-        return np.zeros(np.shape(x))
+    slope = height
+    curvature = height
 
     def gradient(self, xt):
         """grad h = 0.
