@@ -76,6 +76,10 @@ def unit_factor(unit: str, si: str, name: str) -> float:
     u = unit.strip()
     if u == "g" and si == "m/s^2":
         return G
+    if si == "1":  # a pure number (a flag, a count): no unit to convert
+        if u not in ("", "1"):
+            raise fail(name, u, "no unit (a pure number)")
+        return 1.0
     return parse_quantity(f"1 {u}", si, name)
 
 

@@ -71,7 +71,6 @@ SCREEN_STARTS = (1.0, 0.1)
 on closed-loop logs with friction the equation error's damping is 2-6 times the truth)."""
 SCREEN_NFEV = 40
 """Most residual evaluations of one screening fit (chosen: ranking needs no last digit)."""
-"""Delays fitted on every window: the best screened ones (the runner-up's residual is reported)."""
 MAX_SAMPLES = 2_000_000
 """Most samples identified at once (chosen: 33 min at 1 kHz; least squares holds a few
 copies of them)."""
