@@ -177,6 +177,10 @@ def test_a_log_written_by_another_program_is_read_by_its_columns(tmp_path, capsy
     assert main(["identify", str(path), "-o", str(out), *sum((["--column", c] for c in cols), [])]) == 0
     text = capsys.readouterr().out
     assert "ignored columns: button" in text and "delay 1 periods" in text
+    assert "mass: half its information from" in text  # where each figure came from in the log
+    png = tmp_path / "fit.png"
+    assert main(["identify", str(path), "-o", str(out), "--plot", str(png), *sum((["--column", c] for c in cols), [])]) == 0
+    assert png.stat().st_size > 10_000
     assert main(["identify", str(path), "-o", str(out), *sum((["--column", c] for c in cols[:2]), []),
                  "--column", "force=fx,fy,fz:kg"]) == 2  # a mass is no force
     assert "--column force = '1 kg' is not allowed" in capsys.readouterr().err

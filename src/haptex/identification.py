@@ -232,6 +232,13 @@ class Identification:
         ``delay``), each with why: the motion spans fewer than :data:`MIN_STEPS` steps of the
         encoder, or two delays' residuals differ by less than :data:`DELAY_MARGIN`. Their numbers
         are the fit's, not to be relied on.
+    sources : dict
+        Where ``mass``, ``damping`` and ``coulomb_friction`` came from in the log: the windows
+        (and their seconds) carrying half of each one's information (its squared Jacobian
+        column, window by window) and the band holding 10-90 % of the force's power there.
+    trace : dict
+        The fitted windows' ``time`` (s), ``measured`` and ``model`` positions (m) of the
+        first axis, shape (windows x samples,), for a plot (``haptex identify --plot``).
     """
 
     device: object
@@ -244,6 +251,8 @@ class Identification:
     source: str = "arrays"
     notes: list = field(default_factory=list)
     undetermined: dict = field(default_factory=dict)
+    sources: dict = field(default_factory=dict)
+    trace: dict = field(default_factory=dict, repr=False)
 
     def to_dict(self) -> dict:
         """JSON-ready figures, SI units, each with its standard deviation."""
@@ -258,7 +267,7 @@ class Identification:
                 "position_resolution_sd_m": self.uncertainty["position_resolution"],
                 "residual_rms_m": self.residual_rms,
                 "delay_residuals_m": {str(k): v for k, v in self.delay_residuals.items()}, "notes": list(self.notes),
-                "not_determined": dict(self.undetermined)}
+                "not_determined": dict(self.undetermined), "sources": dict(self.sources)}
 
     def to_toml(self, path=None) -> str:
         """The identified device as a TOML device file (:func:`haptex.catalogue.device_from_file`'s
@@ -318,6 +327,7 @@ class Identification:
         for a, m, sm, b, sb in zip(AXES[len(ax["mass"])], ax["mass"], ax["mass_sd"], ax["damping"], ax["damping_sd"]):
             out.append(f"  {a}: mass {m * 1e3:.4g} ± {sm * 1e3:.2g} g, damping {b:.4g} ± {sb:.2g} N*s/m")
         out.append(f"  Coulomb friction {dev.coulomb_friction * 1e3:.4g} ± {u['coulomb_friction'] * 1e3:.2g} mN")
+        out.extend(f"    {name.replace('_', ' ')}: {src}" for name, src in self.sources.items())
         res = dev.position_resolution
         out.append(f"  encoder step {res * 1e6:.4g} ± {u['position_resolution'] * 1e6:.2g} µm" if res > 0 else
                    "  encoder step: none found (the positions lie on no lattice)")
@@ -619,7 +629,28 @@ def identify(*, time, position, force, max_delay: int = MAX_DELAY, window: float
                    "a larger force (or a finer encoder) moves the handle over more of them")
             for name in ("mass", "damping", "coulomb_friction", "delay"):
                 undetermined.setdefault(name, why)
-    return Identification(dev, unc, axes, rms[D], screen_rms, n, W, source, notes, undetermined)
+    # where each figure came from: the windows carrying half of its information (the squared
+    # Jacobian column, window by window) and the band holding 10-90 % of the force's power there
+    H_ = sol.fun.size // (W * d)
+    starts = D + H_ * np.arange(W)
+    idx = starts[:, None] + np.arange(H_)[None, :]
+    sources = {}
+    for name, col in (("mass", 0), ("damping", d), ("coulomb_friction", 2 * d)):
+        info = np.sum(J[:, col].reshape(W, H_ * d) ** 2, axis=1)
+        if not np.any(info > 0):
+            continue
+        order = np.argsort(info)[::-1]
+        top = np.sort(order[:int(np.searchsorted(np.cumsum(info[order]) / np.sum(info), 0.5)) + 1])
+        u = f[idx[top] - D, 0].ravel()
+        spec = np.abs(np.fft.rfft(u - u.mean())) ** 2
+        freq = np.fft.rfftfreq(u.size, T)
+        cum = np.cumsum(spec) / max(np.sum(spec), 1e-300)
+        lo, hi = freq[int(np.searchsorted(cum, 0.1))], freq[min(int(np.searchsorted(cum, 0.9)), freq.size - 1)]
+        sources[name] = (f"half its information from {len(top)} of {W} windows, {t[idx[top[0], 0]] - t[0]:.3g}-"
+                         f"{t[idx[top[-1], -1]] - t[0]:.3g} s, force band {lo:.3g}-{hi:.3g} Hz")
+    model = p[idx] + sol.fun.reshape(W, H_, d) * res_sd
+    trace = {"time": t[idx].ravel(), "measured": p[idx][..., 0].ravel(), "model": model[..., 0].ravel()}
+    return Identification(dev, unc, axes, rms[D], screen_rms, n, W, source, notes, undetermined, sources, trace)
 
 
 def identify_log(path, **options) -> Identification:

@@ -12,8 +12,8 @@ import click
 from .._specs import object_from_spec, texture_from_spec as _texture_from_spec
 from .._validation import ParameterError
 from ..core import blas_held_to_one_thread as _core_blas_held
-from ._common import (Quantity, STABILISERS, _budget_needs_models, _felt_options, _jsonable, _object_options,
-                      _stabiliser, _vibration, _vibration_options)
+from ._common import (Quantity, STABILISERS, _budget_needs_models, _check_plot_path, _felt_options, _jsonable,
+                      _object_options, _stabiliser, _vibration, _vibration_options)
 
 
 @click.command("run")
@@ -367,11 +367,13 @@ def _identification_run(backend, program, fmax: float, duration: float, record: 
 @click.option("--max-delay", type=click.IntRange(0, 1000), default=10, show_default=True,
               help="Largest delay searched (whole periods).")
 @click.option("--json", "as_json", is_flag=True, help="Print the figures as JSON.")
+@click.option("--plot", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="Write a figure (PNG or SVG) of the measured and the model's positions and their residual.")
 @click.option("--column", "columns", multiple=True, metavar="QUANTITY=COL[,COL...][:UNIT]",
               help="The log's own columns for a quantity (time, position, force, engaged), e.g. "
                    "'position=px,py,pz:mm', 'force=fx,fy,fz:N', 'time=t:ms'. Repeat for each; other columns "
                    "are ignored and listed.")
-def identify_command(log, out, axis, max_delay, as_json, columns):
+def identify_command(log, out, axis, max_delay, as_json, plot, columns):
     """Fit a device model (mass, damping, Coulomb friction, encoder step, delay) to a run log
     (haptex's CSV or NPZ, or another program's CSV, NPZ or HDF5 with its columns named by
     --column)."""
@@ -379,6 +381,8 @@ def identify_command(log, out, axis, max_delay, as_json, columns):
 
     if not (out.parent if str(out.parent) else Path(".")).is_dir():
         raise ParameterError(f"out = {str(out)!r} is not allowed: its directory does not exist")
+    if plot is not None:
+        _check_plot_path(plot)
     lg = read_log(log, columns)
     if lg.ignored and not as_json:
         click.echo(f"ignored columns: {', '.join(lg.ignored)}")
@@ -392,8 +396,38 @@ def identify_command(log, out, axis, max_delay, as_json, columns):
     res = identify(time=lg.time, position=lg.position[:, cols], force=lg.force[:, cols], max_delay=max_delay,
                    source=str(log))
     res.to_toml(out)
+    if plot is not None:
+        _plot_identification(res, plot)
     if as_json:
         click.echo(json.dumps(_jsonable({**res.to_dict(), "device_file": str(out)}), indent=2))
         return
     click.echo(res.report())
     click.echo(f"device file: {out} (use it as --device {out})")
+
+
+def _plot_identification(res, path: Path) -> None:
+    """The measured and the model's positions over the fitted windows, and their residual."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    tr = res.trace
+    t, meas, model = tr["time"], tr["measured"], tr["model"]
+    fig, (ax, rx) = plt.subplots(2, 1, figsize=(8, 5), sharex=True, gridspec_kw={"height_ratios": [2, 1]})
+    ax.plot(t, meas * 1e3, ".", ms=1.5, color="0.3", label="measured")
+    ax.plot(t, model * 1e3, "-", lw=0.8, color="C0", label="model (each window from its own start)")
+    ax.set_ylabel("position (mm)")
+    ax.legend(loc="upper right", fontsize=8)
+    rx.plot(t, (model - meas) * 1e6, "-", lw=0.6, color="C3")
+    step = res.device.position_resolution
+    if step > 0:
+        rx.axhline(step / 2 * 1e6, color="0.6", lw=0.6, ls="--")
+        rx.axhline(-step / 2 * 1e6, color="0.6", lw=0.6, ls="--")
+    rx.set_ylabel("residual (µm)")
+    rx.set_xlabel("time (s)")
+    ax.set_title(f"{Path(res.source).name}: residual RMS {res.residual_rms * 1e6:.3g} µm"
+                 f"{'' if step <= 0 else f', encoder step {step * 1e6:.3g} µm (dashed: half of it)'}", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
