@@ -29,7 +29,18 @@ range are searched before refinement."""
 
 
 def plane(xy, name: str = "xy") -> np.ndarray:
-    """In-plane positions as float64 of shape (..., 2) = [x, y] (m).
+    """In-plane positions as float64 of shape (..., 2) = [x, y] (m), checked.
+
+    Parameters
+    ----------
+    xy : array_like, shape (..., 2)
+        Positions [x, y] (m).
+    name : str, optional
+        The parameter named in an error.
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., 2)
 
     Raises
     ------
@@ -98,6 +109,7 @@ class Surface(Texture):
 
     @property
     def peak_magnitude(self) -> float:
+        """max |h| (m) over the surface."""
         lo, hi = self.height_range
         return max(abs(lo), abs(hi))
 
@@ -210,15 +222,48 @@ class SumOfGratings(Surface):
             np.vstack([self.amplitudes, self._kvec[:, 0], self._kvec[:, 1], self.phases]))
 
     def height_at(self, xt):
-        """h(x, y) (m) at positions of shape (..., 2) (m); shape (...)."""
+        """The height h(x, y) = sum_k a_k sin(k_k . [x, y] + phi_k).
+
+        Parameters
+        ----------
+        xt : array_like, shape (..., 2)
+            In-plane positions [x, y] (m).
+
+        Returns
+        -------
+        numpy.ndarray
+            shape (...): h (m).
+        """
         return self._series(xt, np.sin, self.amplitudes)
 
     def gradient(self, xt):
-        """grad h = [h_x, h_y] (m/m) at positions of shape (..., 2); shape (..., 2)."""
+        """The gradient grad h = [h_x, h_y].
+
+        Parameters
+        ----------
+        xt : array_like, shape (..., 2)
+            In-plane positions [x, y] (m).
+
+        Returns
+        -------
+        numpy.ndarray
+            shape (..., 2): grad h (m/m).
+        """
         return self._series(xt, np.cos, self._grad_w)
 
     def hessian(self, xt):
-        """Hessian [[h_xx, h_xy], [h_xy, h_yy]] (1/m), shape (..., 2, 2)."""
+        """The Hessian [[h_xx, h_xy], [h_xy, h_yy]].
+
+        Parameters
+        ----------
+        xt : array_like, shape (..., 2)
+            In-plane positions [x, y] (m).
+
+        Returns
+        -------
+        numpy.ndarray
+            shape (..., 2, 2): the Hessian (1/m).
+        """
         return self._series(xt, np.sin, self._hess_w).reshape(np.shape(xt)[:-1] + (2, 2))
 
     @property
@@ -372,6 +417,7 @@ class Grating(SumOfGratings):
 
     @property
     def height_range(self) -> tuple[float, float]:  # type: ignore[override]
+        """(-A, A) (m), exact."""
         a = float(self.amplitudes[0])
         return (-a, a)
 
@@ -470,15 +516,51 @@ class Extruded(Surface):
         return self.profile.kernel_data()
 
     def height_at(self, xt):
+        """The profile's height at x, whatever y.
+
+        Parameters
+        ----------
+        xt : array_like, shape (..., 2)
+            In-plane positions [x, y] (m).
+
+        Returns
+        -------
+        numpy.ndarray
+            shape (...): h (m).
+        """
         return self.profile.height(plane(xt)[..., 0])
 
     def gradient(self, xt):
+        """[h'(x), 0].
+
+        Parameters
+        ----------
+        xt : array_like, shape (..., 2)
+            In-plane positions [x, y] (m).
+
+        Returns
+        -------
+        numpy.ndarray
+            shape (..., 2): grad h (m/m).
+        """
         x = plane(xt)[..., 0]
         out = np.zeros(x.shape + (2,))
         out[..., 0] = self.profile.slope(x)
         return out
 
     def hessian(self, xt):
+        """[[h''(x), 0], [0, 0]].
+
+        Parameters
+        ----------
+        xt : array_like, shape (..., 2)
+            In-plane positions [x, y] (m).
+
+        Returns
+        -------
+        numpy.ndarray
+            shape (..., 2, 2): the Hessian (1/m).
+        """
         x = plane(xt)[..., 0]
         out = np.zeros(x.shape + (2, 2))
         out[..., 0, 0] = self.profile.curvature(x)
@@ -496,6 +578,8 @@ class Extruded(Surface):
 
     @property
     def domain(self):
+        """((x0, x1), (0, the profile's shortest period)) in m: the profile's domain along x,
+        one shortest period along y (invariant there), or None."""
         dom = self.profile.domain
         return None if dom is None else ((float(dom[0]), float(dom[1])), (0.0, self.profile.shortest_period))
 
@@ -690,15 +774,48 @@ class SampledSurface(Surface):
         return np.where(m == 0, out + extra, np.where(m == 1, out, 0.0))
 
     def height_at(self, xt):
-        """h(x, y) (m) at positions of shape (..., 2) (m); shape (...)."""
+        """The spline's height h(x, y).
+
+        Parameters
+        ----------
+        xt : array_like, shape (..., 2)
+            In-plane positions [x, y] (m).
+
+        Returns
+        -------
+        numpy.ndarray
+            shape (...): h (m).
+        """
         return self._derivatives(xt)[..., 0].copy()
 
     def gradient(self, xt):
-        """grad h (m/m), shape (..., 2)."""
+        """The spline's gradient.
+
+        Parameters
+        ----------
+        xt : array_like, shape (..., 2)
+            In-plane positions [x, y] (m).
+
+        Returns
+        -------
+        numpy.ndarray
+            shape (..., 2): grad h (m/m).
+        """
         return self._derivatives(xt)[..., 1:3].copy()
 
     def hessian(self, xt):
-        """Hessian of h (1/m), shape (..., 2, 2)."""
+        """The spline's Hessian.
+
+        Parameters
+        ----------
+        xt : array_like, shape (..., 2)
+            In-plane positions [x, y] (m).
+
+        Returns
+        -------
+        numpy.ndarray
+            shape (..., 2, 2): the Hessian (1/m).
+        """
         d = self._derivatives(xt)
         return np.stack([np.stack([d[..., 3], d[..., 4]], -1), np.stack([d[..., 4], d[..., 5]], -1)], -2)
 
@@ -945,6 +1062,15 @@ class SampledSurface(Surface):
         (an isotropic cut). Others: a zero-phase 4th-order Butterworth filter along x and
         then along y (scipy.signal.sosfiltfilt), cut-off 1 / shortest_period on each axis.
 
+        Parameters
+        ----------
+        shortest_period : float
+            The cut-off wavelength (m).
+
+        Returns
+        -------
+        SampledSurface
+
         Raises
         ------
         ParameterError
@@ -977,6 +1103,17 @@ class SampledSurface(Surface):
         samples per shortest period (default 16, half a profile's: see
         ``SURFACE_SAMPLES_PER_CUTOFF``); see :meth:`SampledProfile.band_limited`.
 
+        Parameters
+        ----------
+        shortest_period : float
+            The cut-off wavelength (m).
+        samples_per_period : int, optional
+            Samples per shortest period along x and y, >= 4.
+
+        Returns
+        -------
+        SampledSurface
+
         Raises
         ------
         ParameterError
@@ -989,7 +1126,24 @@ class SampledSurface(Surface):
                               self.periodic, surf._shortest, self.source)
 
     def scaled(self, length_factor: float = 1.0, height_factor: float = 1.0) -> SampledSurface:
-        """Stretch the map: x and y by ``length_factor``, h by ``height_factor``."""
+        """Stretch the map: x and y by ``length_factor``, h by ``height_factor``.
+
+        Parameters
+        ----------
+        length_factor : float, optional
+            Factor on x and y, > 0.
+        height_factor : float, optional
+            Factor on the heights, finite.
+
+        Returns
+        -------
+        SampledSurface
+
+        Raises
+        ------
+        ParameterError
+            For a length factor not > 0 or a height factor not finite.
+        """
         from ._validation import finite
 
         lf = positive("length_factor", length_factor)

@@ -759,6 +759,15 @@ class SampledProfile(Texture):
         Periodic profiles: the FFT components above the cut-off frequency are removed.
         Others: a zero-phase 4th-order Butterworth filter (scipy.signal.sosfiltfilt).
 
+        Parameters
+        ----------
+        shortest_period : float
+            The cut-off period (m).
+
+        Returns
+        -------
+        SampledProfile
+
         Raises
         ------
         ParameterError
@@ -815,7 +824,24 @@ class SampledProfile(Texture):
 
     def scaled(self, length_factor: float = 1.0, height_factor: float = 1.0) -> SampledProfile:
         """Stretch the profile: x by ``length_factor`` and h by ``height_factor``
-        (a 1.5 mm scan can be felt as a 15 mm texture)."""
+        (a 1.5 mm scan can be felt as a 15 mm texture).
+
+        Parameters
+        ----------
+        length_factor : float, optional
+            Factor on x, > 0.
+        height_factor : float, optional
+            Factor on the heights, finite.
+
+        Returns
+        -------
+        SampledProfile
+
+        Raises
+        ------
+        ParameterError
+            For a length factor not > 0 or a height factor not finite.
+        """
         lf = positive("length_factor", length_factor)
         hf = finite("height_factor", height_factor)
         return self._new(self.x * lf, self.h * hf, shortest=self._shortest * lf)
