@@ -471,6 +471,7 @@ int main(int argc, char **argv)
 # surface search; F: presliding in the plane), the others slow (a build under the sanitizers each)
 @pytest.mark.parametrize("letter, texture", [(L, "sine") for L in "WABCDEFG"] + [
     pytest.param(L, "egg", marks=pytest.mark.slow) if L in "AB" else (L, "egg") for L in "ABDEF"])
+@pytest.mark.long  # a sanitizer build: 14 s (issue 68)
 def test_the_exported_tick_is_clean_under_asan_and_ubsan(tmp_path, objdir, letter, texture):
     """Issue 33's fuzz suite, the exported C: 2e5 adversarial positions (5e4 for D and E over
     the egg-crate) -- NaN, infinities, subnormals, the workspace's edge at 1 km, any
