@@ -618,7 +618,8 @@ class SetCheck:
 
     @property
     def rms_error(self) -> float:
-        """Relative difference of the synthesis's rms from the model's (NaN where both are 0)."""
+        """Relative difference of the synthesis's rms from the model's (0 where both are 0; inf
+        where the model's is 0 and the synthesis's is not)."""
         if self.rms_model == 0:
             return 0.0 if self.rms_synthesis == 0 else math.inf
         return self.rms_synthesis / self.rms_model - 1.0

@@ -14,7 +14,7 @@ from functools import cached_property
 import numpy as np
 
 from .core import _ext
-from .probe import MAX_SAMPLES as MAX_PROBE_SAMPLES, _check_work, _dilate, _spacing
+from .probe import MAX_SAMPLES as MAX_PROBE_SAMPLES, _check_work, _spacing
 from ._validation import MAX_LENGTH, ParameterError, check_count, fail, finite, nonnegative, positive, whole
 
 
