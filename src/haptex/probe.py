@@ -9,9 +9,13 @@ contact allows: its centre follows the height map dilated by the ball,
 and the surface it feels is c - r (a grey-scale morphological dilation with a non-flat
 structuring element: Serra, "Image Analysis and Mathematical Morphology", 1982; the probe-tip
 model of Villarrubia, J. Res. NIST 102(4), 1997). It removes exactly the steep, narrow
-features that drive q up. The dilation is scipy.ndimage's :func:`~scipy.ndimage.grey_dilation`,
-exact on the map's grid; an analytic texture is first sampled on a grid fine against its
-shortest period and the ball (the grid is stated in the felt texture's ``source``).
+features that drive q up. On a profile, each grid point's contact is found over the grid's
+offsets and refined on the texture itself, and the path's slope is the texture's at the contact
+(the envelope theorem), so the felt profile keeps the kinks where the ball bridges a trough
+(``kinks``); on an areal map the dilation is scipy.ndimage's
+:func:`~scipy.ndimage.grey_dilation`, exact on the map's grid. An analytic texture is first
+sampled on a grid fine against its shortest period and the ball (the grid is stated in the felt
+texture's ``source``).
 """
 
 from __future__ import annotations
@@ -65,8 +69,12 @@ def felt_by(texture, tip_radius: float, *, spacing: float | None = None):
 
     Notes
     -----
-    The grid's error: the felt heights are exact at the grid's points; between them the
-    felt texture is the spline through them, as any sampled map.
+    On a profile the felt heights and slopes are exact at the grid's points (the contact refined
+    to 1e-10 of an interval by golden-section search on the texture); between them the profile is
+    the cubic through heights and slopes, and an interval holding a kink the quadratic between its
+    end slopes, so the slope never leaves the contacts' (``kinks`` lists each kink's place and
+    slope jump). On an areal map the heights are exact at the grid's points and the map is the
+    spline through them.
     """
     if not callable(getattr(texture, "felt_by", None)):
         raise fail("texture", texture, "a haptex profile or surface (a Texture)")
