@@ -1,0 +1,235 @@
+"""Recordings, read as the rig wrote them, and the spectral difference."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+from .._validation import fail, positive
+from .fitting import fit
+from .models import ModelSet
+
+# ---------------------------------------------------------------------------------------
+# recordings
+# ---------------------------------------------------------------------------------------
+
+RECORDING_COLUMNS = {
+    "time_s": "time (s), uniformly sampled; or give the sample rate",
+    "acc_m_s2": "acceleration along one axis (m/s²); or the three columns acc_x_m_s2, acc_y_m_s2, acc_z_m_s2",
+    "speed_m_s": "tangential speed (m/s), >= 0",
+    "force_n": "normal force (N)",
+}
+"""The columns of a recording's CSV file (header row, one sample a row)."""
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Recording:
+    """A tool's acceleration, speed and normal force, sampled together.
+
+    Parameters
+    ----------
+    acceleration : numpy.ndarray, shape (n,) or (n, 3)
+        Acceleration (m/s²).
+    speed : numpy.ndarray, shape (n,)
+        Tangential speed (m/s).
+    normal_force : numpy.ndarray, shape (n,)
+        Normal force (N).
+    sample_rate : float
+        Rate (Hz).
+    ignored : tuple of str, optional
+        The file's columns no quantity was read from (:func:`read_recording`).
+    speed_source : str, optional
+        Where the speed came from: the file's column, or the positions' derivative.
+    """
+
+    acceleration: np.ndarray
+    speed: np.ndarray
+    normal_force: np.ndarray
+    sample_rate: float
+    ignored: tuple = ()
+    speed_source: str = "given"
+
+    def fit(self, **kwargs) -> ModelSet:
+        """Fit a model set to this recording.
+
+        Parameters
+        ----------
+        **kwargs
+            :func:`fit`'s keyword arguments (``rate``, ``order``, ``ma_order``, ...).
+
+        Returns
+        -------
+        ModelSet
+        """
+        return fit(self.acceleration, self.speed, self.normal_force, self.sample_rate, **kwargs)
+
+    def write(self, path) -> Path:
+        """Write the recording as CSV with :data:`RECORDING_COLUMNS` (17 significant digits).
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            The file (``.csv``); its folder must exist.
+
+        Returns
+        -------
+        pathlib.Path
+
+        Raises
+        ------
+        ParameterError
+            If the folder does not exist.
+        """
+        path = Path(path)
+        if not path.parent.is_dir():
+            raise fail("path", str(path), "a file in an existing folder")
+        a = np.asarray(self.acceleration)
+        acc_cols = ["acc_m_s2"] if a.ndim == 1 else ["acc_x_m_s2", "acc_y_m_s2", "acc_z_m_s2"]
+        t = np.arange(len(self.speed)) / self.sample_rate
+        data = np.column_stack([t, a.reshape(len(t), -1), self.speed, self.normal_force])
+        np.savetxt(path, data, delimiter=",", fmt="%.17g", header=",".join(["time_s", *acc_cols, "speed_m_s", "force_n"]),
+                   comments="")
+        return path
+
+
+RECORDING_QUANTITIES = {"time": "s", "acceleration": "m/s^2", "speed": "m/s", "force": "N", "position": "m"}
+"""The quantities a recording's columns may be named for (``--column QUANTITY=COLS:UNIT``), with
+their SI units: ``acceleration`` one or three columns, ``force`` the normal force, ``speed``
+the tangential speed, or ``position`` one to three columns along the surface (the speed is then
+derived: :data:`SPEED_FILTER`), ``time`` (else a sample rate)."""
+
+SPEED_FILTER = (0.021, 3)
+"""The Savitzky-Golay filter (window in s, polynomial order) whose first derivative of the
+positions gives the speed when a recording has positions and no speed (chosen: 21 ms, cubic,
+as the identification's derivatives; it passes the hand's motion, < 10 Hz, within 0.1 %)."""
+
+
+def read_recording(path, *, sample_rate: float | None = None, columns=None) -> Recording:
+    """Read a recording: CSV, NPZ or HDF5, with haptex's column names or the rig's own.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A CSV file with a header row naming its columns (any order), an ``.npz`` or an HDF5
+        file (``.h5``/``.hdf5``): :func:`haptex._columns.read_table`.
+    sample_rate : float, optional
+        Rate (Hz), when the file has no time column.
+    columns : sequence of str, optional
+        Column specs ``QUANTITY=COL[,COL...][:UNIT]`` (:data:`RECORDING_QUANTITIES`), e.g.
+        ``["acceleration=az:g", "force=fz:N", "position=x,y:mm", "time=t:ms"]``. A quantity
+        not given is taken from haptex's own names (:data:`RECORDING_COLUMNS`) when the file
+        has them. Columns named by neither are ignored and listed in ``Recording.ignored``.
+
+    Returns
+    -------
+    Recording
+
+    Raises
+    ------
+    ParameterError
+        If the file is missing or larger than the memory budget allows, a named column is
+        missing (the file's columns are listed), a quantity is missing (acceleration, force,
+        and speed or position), a value is not a finite number, the times are not uniform,
+        or neither times nor a sample rate are given.
+
+    Notes
+    -----
+    Without a speed, the speed along the surface is the norm of the positions' first
+    derivative by a Savitzky-Golay filter (:data:`SPEED_FILTER`; Savitzky & Golay, Anal. Chem.
+    36(8), 1964), computed on the recording's own samples.
+    """
+    from scipy.signal import savgol_filter
+
+    from .._columns import ColumnSpec, parse_column, read_table, take
+
+    table = read_table(path, "recording")
+    given = [parse_column(c, RECORDING_QUANTITIES) for c in (columns or ())]
+    named = {c.quantity for c in given}
+    if len(named) != len(given):
+        raise fail("--column", [c.quantity for c in given], "each quantity once")
+    own = {"time": ("time_s",), "speed": ("speed_m_s",), "force": ("force_n",)}
+    own["acceleration"] = (("acc_m_s2",) if "acc_m_s2" in table else
+                           ("acc_x_m_s2", "acc_y_m_s2", "acc_z_m_s2"))
+    for q, cols in own.items():
+        if q not in named and all(c in table for c in cols):
+            given.append(ColumnSpec(q, cols, RECORDING_QUANTITIES[q], 1.0))
+    got, ignored = take(table, given, "recording")
+    for q in ("acceleration", "force"):
+        if q not in got:
+            raise fail("column", f"{q} missing", f"--column {q}=COLUMN[:UNIT], or haptex's {own[q][0]} "
+                       f"({RECORDING_COLUMNS.get(own[q][0], '')})")
+    if "speed" not in got and "position" not in got:
+        raise fail("column", "speed missing", "--column speed=COLUMN[:UNIT] or --column position=X[,Y]:UNIT "
+                   "(the speed is then derived), or haptex's speed_m_s")
+    acc, force = got["acceleration"], got["force"]
+    if acc.shape[1] not in (1, 3):
+        raise fail("--column", f"acceleration with {acc.shape[1]} columns", "one column or three (x, y, z)")
+    if force.shape[1] != 1:
+        raise fail("--column", f"force with {force.shape[1]} columns", "one column: the normal force")
+    if "time" in got:
+        dt = np.diff(got["time"][:, 0])
+        if dt.size < 1 or dt.min() <= 0 or dt.max() - dt.min() > 1e-6 * dt.mean():
+            raise fail("time", "non-uniform or not increasing", "uniformly sampled times (s), increasing")
+        fs = 1.0 / float(dt.mean())
+        if sample_rate is not None and abs(fs - float(sample_rate)) > 1e-6 * fs:
+            raise fail("sample_rate", sample_rate, f"None or {fs:g} Hz (the file's times)")
+    elif sample_rate is None:
+        raise fail("sample_rate", None, "a rate (Hz) for a recording without a time column")
+    else:
+        fs = positive("sample_rate", sample_rate, "Hz")
+    if "speed" in got:
+        speed, source = got["speed"][:, 0], "the file's speed"
+    else:
+        pos = got["position"]
+        window = max(5, 2 * int(round(SPEED_FILTER[0] * fs / 2)) + 1)
+        if window > len(pos):
+            raise fail("position", f"{len(pos)} samples", f"at least {window} samples to derive the speed")
+        vel = savgol_filter(pos, window, SPEED_FILTER[1], deriv=1, delta=1.0 / fs, axis=0)
+        speed = np.sqrt(np.sum(vel * vel, axis=1))
+        source = (f"the positions' derivative ({pos.shape[1]} axes; Savitzky-Golay, {window} samples, "
+                  f"order {SPEED_FILTER[1]})")
+    return Recording(acc[:, 0] if acc.shape[1] == 1 else acc, speed, force[:, 0], fs, tuple(ignored), source)
+
+
+def spectral_difference(recorded, synthesized, sample_rate: float, band=(20.0, 450.0)) -> float:
+    """Mean absolute difference (dB) of two signals' power spectra over a band.
+
+    Parameters
+    ----------
+    recorded, synthesized : array_like, shape (n,) and (m,)
+        Accelerations (m/s²) at ``sample_rate``.
+    sample_rate : float
+        Rate (Hz).
+    band : tuple of float, optional
+        (low, high) frequencies (Hz) compared.
+
+    Returns
+    -------
+    float
+        mean over the band of |10 log10(P_synth / P_rec)| (dB), each spectrum estimated by
+        :func:`scipy.signal.welch` (Hann windows of 0.1 s or the signal, half overlapping):
+        the spectral measure of the HaTT papers (Culbertson et al. 2014).
+
+    Raises
+    ------
+    ParameterError
+        If the band is not within (0, sample_rate / 2) or a signal is shorter than 64 samples.
+    """
+    from scipy.signal import welch
+
+    fs = positive("sample_rate", sample_rate, "Hz")
+    lo, hi = (float(b) for b in band)
+    if not 0 < lo < hi <= fs / 2:
+        raise fail("band", band, f"(low, high) with 0 < low < high <= {fs / 2:g} Hz")
+    x, y = np.asarray(recorded, dtype=float), np.asarray(synthesized, dtype=float)
+    if x.size < 64 or y.size < 64:
+        raise fail("recorded", f"{min(x.size, y.size)} samples", "signals of at least 64 samples")
+    nper = int(min(max(64, round(0.1 * fs)), x.size, y.size))
+    f, px = welch(x, fs, nperseg=nper)
+    _, py = welch(y, fs, nperseg=nper)
+    sel = (f >= lo) & (f <= hi)
+    return float(np.mean(np.abs(10 * np.log10(np.maximum(py[sel], 1e-300) / np.maximum(px[sel], 1e-300)))))
+
+
