@@ -211,6 +211,22 @@ class Algorithm:
         objects learn which letter takes what.
     textured : bool
         False for W only (the smooth wall takes no texture).
+
+    Parameters
+    ----------
+    texture : Texture
+        The height profile or surface h (m).
+    stiffness : float
+        Nominal wall stiffness kappa_0 (N/m), > 0.
+    max_penetration : float, optional
+        d^z_max of Remark 3 (m), > 0: the depth at which the lateral force stops growing;
+        default none.
+
+    Raises
+    ------
+    ParameterError
+        For a stiffness not > 0, a max_penetration not > 0, or a surface where the algorithm
+        takes profiles only.
     """
 
     letter: str = "?"
@@ -295,7 +311,18 @@ class Algorithm:
 
     def force_and_jacobian(self, p) -> tuple[np.ndarray, np.ndarray]:
         """Both :meth:`force` (shape (..., n), N) and :meth:`jacobian` (shape (..., n, n), N/m),
-        n = :attr:`dimension`."""
+        n = :attr:`dimension`.
+
+        Parameters
+        ----------
+        p : array_like, shape (..., 2) or (..., 3)
+            Probe positions [x, z] over a profile, [x, y, z] over a surface (m).
+
+        Returns
+        -------
+        (numpy.ndarray, numpy.ndarray)
+            The force, shape (..., n) (N), and the Jacobian, shape (..., n, n) (N/m).
+        """
         arr = self._positions(p)
         return self._evaluate(arr[..., :-1], arr[..., -1], jacobian=True)
 
@@ -304,6 +331,16 @@ class Algorithm:
 
         ``h(p^x) - p^z`` for A, B, C (h(p^x, p^y) - p^z over a surface); the distance to
         the textured surface for D, E; ``-p^z`` for W, F, G (Table I); 0 outside the wall.
+
+        Parameters
+        ----------
+        p : array_like, shape (..., 2) or (..., 3)
+            Probe positions [x, z] over a profile, [x, y, z] over a surface (m).
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape (...): the depth (m), >= 0.
 
         Raises
         ------
@@ -319,7 +356,18 @@ class Algorithm:
         return closest_point(self.texture, arr).distance
 
     def inside(self, p) -> np.ndarray:
-        """True where the probe is inside the wall (penetration > 0), shape (...)."""
+        """True where the probe is inside the wall (penetration > 0), shape (...).
+
+        Parameters
+        ----------
+        p : array_like, shape (..., 2) or (..., 3)
+            Probe positions [x, z] over a profile, [x, y, z] over a surface (m).
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape (...), bool.
+        """
         return self.penetration(p) > 0
 
     def kernel_spec(self) -> tuple[int, np.ndarray, int, np.ndarray, np.ndarray]:
@@ -371,6 +419,16 @@ class Algorithm:
         without a clamp); for A, B, E, F, G it is the spring's stretch energy, not a
         potential of the field (those fields have none).
 
+        Parameters
+        ----------
+        p : array_like, shape (..., 2) or (..., 3)
+            Probe positions [x, z] over a profile, [x, y, z] over a surface (m).
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape (...): the energy (J).
+
         Raises
         ------
         ParameterError
@@ -383,6 +441,16 @@ class Algorithm:
 
         The paper writes the potential with the opposite sign, U = -V (eqs. 13, 16), so
         that f = grad U.
+
+        Parameters
+        ----------
+        p : array_like, shape (..., 2) or (..., 3)
+            Probe positions [x, z] over a profile, [x, y, z] over a surface (m).
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape (...): V (J).
 
         Raises
         ------
@@ -529,7 +597,18 @@ class SmoothWall(Algorithm):
         return f, j
 
     def potential(self, p):
-        """Stored energy V = kappa_0 (p^z)^2 / 2 inside, 0 outside (J), shape (...)."""
+        """Stored energy V = kappa_0 (p^z)^2 / 2 inside, 0 outside (J), shape (...).
+
+        Parameters
+        ----------
+        p : array_like, shape (..., 2) or (..., 3)
+            Probe positions (m).
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape (...): V (J).
+        """
         z = self._positions(p)[..., -1]
         return np.where(z < 0, 0.5 * self.stiffness * z**2, 0.0)
 
@@ -565,6 +644,19 @@ class GroovedVertical(_Vertical):
     Over a surface (3-D): f = [0, 0, -kappa_0 d^z], d^z = p^z - h(p^x, p^y); the
     Jacobian's last row is kappa_0 [h_x, h_y, -1], the others zero, so
     q_A = sqrt(1 + sup ‖grad h‖^2) (Remark 2 with the gradient's norm).
+
+    Parameters
+    ----------
+    texture : Texture
+        The height profile or surface h (m).
+    stiffness : float
+        Nominal wall stiffness kappa_0 (N/m), > 0.
+
+    Raises
+    ------
+    ParameterError
+        For a stiffness not > 0, a max_penetration not > 0, or a surface where the algorithm
+        takes profiles only.
     """
 
     letter = "A"
@@ -597,6 +689,22 @@ class GroovedNormal(_Vertical):
     kappa_0 [g s + d g^3 H s, -g].
 
     With ``max_penetration`` the lateral component uses max(d, -d_max^z) (Remark 3).
+
+    Parameters
+    ----------
+    texture : Texture
+        The height profile or surface h (m).
+    stiffness : float
+        Nominal wall stiffness kappa_0 (N/m), > 0.
+    max_penetration : float, optional
+        d^z_max of Remark 3 (m), > 0: the depth at which the lateral force stops growing;
+        default none.
+
+    Raises
+    ------
+    ParameterError
+        For a stiffness not > 0, a max_penetration not > 0, or a surface where the algorithm
+        takes profiles only.
     """
 
     letter = "B"
@@ -632,6 +740,22 @@ class ChangeOfHeight(_Vertical):
 
     With ``max_penetration`` the lateral component uses max(d, -d_max^z) (Remark 3); the
     field is then no longer a gradient below that depth.
+
+    Parameters
+    ----------
+    texture : Texture
+        The height profile or surface h (m).
+    stiffness : float
+        Nominal wall stiffness kappa_0 (N/m), > 0.
+    max_penetration : float, optional
+        d^z_max of Remark 3 (m), > 0: the depth at which the lateral force stops growing;
+        default none.
+
+    Raises
+    ------
+    ParameterError
+        For a stiffness not > 0, a max_penetration not > 0, or a surface where the algorithm
+        takes profiles only.
     """
 
     letter = "C"
@@ -641,6 +765,7 @@ class ChangeOfHeight(_Vertical):
 
     @property
     def is_gradient(self) -> bool:  # type: ignore[override]
+        """True without ``max_penetration``: C is then the gradient of kappa_0 (d^z)^2 / 2."""
         return self.max_penetration is None
 
     def _fill(self, d, s, hess, f, j):
@@ -657,6 +782,16 @@ class ChangeOfHeight(_Vertical):
 
     def potential(self, p):
         """Stored energy V = kappa_0 (d^z)^2 / 2 inside, 0 outside (J), shape (...).
+
+        Parameters
+        ----------
+        p : array_like, shape (..., 2) or (..., 3)
+            Probe positions (m).
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape (...): V (J).
 
         Raises
         ------
@@ -754,6 +889,19 @@ class GodObjectGradient(_Distance):
     V = [I; s^T] and G = I + s s^T + (h(t) - p^z) H (the shape operator's part),
     dp_h/dp = V G^-1 V^T and J = -kappa_0 (I - V G^-1 V^T), which for a profile is the
     formula above; eq. 18's form is -kappa_0 n n^T, n the unit normal at p_h.
+
+    Parameters
+    ----------
+    texture : Texture
+        The height profile or surface h (m).
+    stiffness : float
+        Nominal wall stiffness kappa_0 (N/m), > 0.
+
+    Raises
+    ------
+    ParameterError
+        For a stiffness not > 0, a max_penetration not > 0, or a surface where the algorithm
+        takes profiles only.
     """
 
     letter = "D"
@@ -820,7 +968,18 @@ class GodObjectGradient(_Distance):
         return f, j
 
     def potential(self, p):
-        """Stored energy V = kappa_0 (d^min)^2 / 2 inside, 0 outside (J), shape (...)."""
+        """Stored energy V = kappa_0 (d^min)^2 / 2 inside, 0 outside (J), shape (...).
+
+        Parameters
+        ----------
+        p : array_like, shape (..., 2) or (..., 3)
+            Probe positions (m).
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape (...): V (J).
+        """
         d = self.penetration(p)
         return 0.5 * self.stiffness * d**2
 
@@ -837,6 +996,19 @@ class GodObjectVertical(_Distance):
     whose 2-norm is kappa_0 wherever the closest point is unique (eq. 21). Over a surface
     (3-D) f = [0, 0, kappa_0 d^min] and J's last row is kappa_0 (p - p_h)^T / d^min (the
     distance's gradient), of norm kappa_0.
+
+    Parameters
+    ----------
+    texture : Texture
+        The height profile or surface h (m).
+    stiffness : float
+        Nominal wall stiffness kappa_0 (N/m), > 0.
+
+    Raises
+    ------
+    ParameterError
+        For a stiffness not > 0, a max_penetration not > 0, or a surface where the algorithm
+        takes profiles only.
     """
 
     letter = "E"
@@ -873,6 +1045,22 @@ class ForceShading(Algorithm):
     last row kappa_0 [p^z g^3 H s, -g] (s = grad h, H its Hessian, g and P as for B).
 
     With ``max_penetration`` the lateral component uses max(p^z, -d_max^z) (Remark 3).
+
+    Parameters
+    ----------
+    texture : Texture
+        The height profile or surface h (m).
+    stiffness : float
+        Nominal wall stiffness kappa_0 (N/m), > 0.
+    max_penetration : float, optional
+        d^z_max of Remark 3 (m), > 0: the depth at which the lateral force stops growing;
+        default none.
+
+    Raises
+    ------
+    ParameterError
+        For a stiffness not > 0, a max_penetration not > 0, or a surface where the algorithm
+        takes profiles only.
     """
 
     letter = "G"
@@ -936,6 +1124,31 @@ class FrictionModulated(Algorithm):
     The field has memory: evaluate it statically with an explicit deflection
     (``force(p, deflection)``, ``jacobian(p, deflection, phase)``, eqs. 23, 25, 26), or
     along a path with :func:`haptex.path_work`, which steps the friction state.
+
+    Parameters
+    ----------
+    texture : Texture
+        The height profile or surface h (m).
+    stiffness : float
+        Nominal wall stiffness kappa_0 (N/m), > 0.
+    friction : float, optional
+        Coulomb friction coefficient mu, >= 0 (default 0.8).
+    presliding : float, optional
+        Presliding deflection d^x_max (m), > 0 (default 1 mm).
+    modulation_depth : float, optional
+        Depth of the texture's modulation of the friction, in [0, 1] (default 0.8).
+    max_penetration : float, optional
+        d^z_max of Remark 3 (m), > 0: the depth at which the lateral force stops growing;
+        default none.
+    stick_deflection : float, optional
+        The smooth presliding model's elastic range z_stick (m), below ``presliding``;
+        default none (the sharp model).
+
+    Raises
+    ------
+    ParameterError
+        For a stiffness not > 0, a max_penetration not > 0, or a surface where the algorithm
+        takes profiles only.
     """
 
     letter = "F"
@@ -972,8 +1185,19 @@ class FrictionModulated(Algorithm):
 
     # -- modulation --------------------------------------------------------------------
     def modulation(self, x) -> np.ndarray:
-        """Modulation 1 - h~ (dimensionless): at abscissae x of any shape (m) over a
-        profile, at in-plane positions of shape (..., 2) (m) over a surface."""
+        """Modulation 1 - h~ (dimensionless) of the friction.
+
+        Parameters
+        ----------
+        x : array_like
+            Abscissae of any shape (m) over a profile; in-plane positions of shape (..., 2)
+            (m) over a surface.
+
+        Returns
+        -------
+        numpy.ndarray
+            The modulation, shape (...).
+        """
         x = np.asarray(x, dtype=np.float64)
         if self.texture.dimension == 1:
             return 1.0 - self._scale * self.texture.height(x)
@@ -996,7 +1220,17 @@ class FrictionModulated(Algorithm):
         prm[_ext.P_ZSTICK] = -1.0 if self.stick_deflection is None else self.stick_deflection
 
     def initial_state(self, x: float) -> PreslidingState:
-        """Friction state of a fresh contact at abscissa x (m): zero deflection."""
+        """Friction state of a fresh contact: zero deflection.
+
+        Parameters
+        ----------
+        x : float
+            The abscissa of the contact (m).
+
+        Returns
+        -------
+        PreslidingState
+        """
         return PreslidingState.at(x, self.presliding, self.stick_deflection)
 
     # -- static evaluation ---------------------------------------------------------------
@@ -1126,6 +1360,18 @@ class FrictionModulated(Algorithm):
         affine along each segment, so each stick and slip piece is integrated by
         adaptive quadrature; the smooth variant is stepped on 4000 sub-steps a piece and
         integrated by the trapezoidal rule.
+
+        Parameters
+        ----------
+        pts : array_like, shape (N, 2) or (N, 3)
+            The polyline's vertices (m).
+        rtol : float, optional
+            Relative tolerance of the adaptive quadrature (sharp model).
+
+        Returns
+        -------
+        float
+            The work the field does on the probe along the path (J).
         """
         if self.texture.dimension == 2:
             return self._path_work_plane(pts)
