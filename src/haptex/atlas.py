@@ -72,7 +72,7 @@ _RANGE = re.compile(r"^\s*(?P<a>[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(?:
 class Axis:
     """One swept parameter.
 
-    Attributes
+    Parameters
     ----------
     name : str
         A key of :data:`haptex.simulate.SWEEP_KEYS`, or ``algorithm`` (letters).
@@ -112,7 +112,7 @@ def _check_yaml_events(path, events) -> None:
 class SweepSpec:
     """A parsed SPEC: what is fixed, what is swept, and how the runs are cut into tasks.
 
-    Attributes
+    Parameters
     ----------
     mapping : dict
         The SPEC as read (its canonical JSON identifies the store it may write into).

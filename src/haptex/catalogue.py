@@ -49,7 +49,7 @@ from the motors and upper arms (chosen: not published)."""
 class Figure:
     """One number of a preset or hand.
 
-    Attributes
+    Parameters
     ----------
     name : str
         The parameter (``period``, ``max_force``, ...).
@@ -90,7 +90,7 @@ class Figure:
 class Hand:
     """A hand gripping the handle: a linear mass-damper-spring (1 DOF per axis, isotropic).
 
-    Attributes
+    Parameters
     ----------
     key, label : str
         Its name in :func:`hands` and a description.
@@ -156,7 +156,7 @@ class Hand:
 class Preset:
     """A device preset: its sourced figures and the :class:`Device` they make.
 
-    Attributes
+    Parameters
     ----------
     key, label : str
         Its name in :func:`presets` and the product's name.

@@ -40,7 +40,7 @@ TABLE_MAX_CELLS = 1 << 18
 class ClosestPoint:
     """Closest boundary points for an array of probe positions.
 
-    Attributes
+    Parameters
     ----------
     x : ndarray, shape (...)
         Abscissa p_h^x of the closest point (m); equal to the probe's x where the probe

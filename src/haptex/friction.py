@@ -163,7 +163,7 @@ def _table(ratio: float) -> np.ndarray:
 class PreslidingState:
     """State of the presliding friction model (Hayward & Armstrong [32]).
 
-    Attributes
+    Parameters
     ----------
     adhesion : float
         Adhesion point w (m).

@@ -36,7 +36,7 @@ DIOLAITI_NOTE = ("between the passive and the stable limit the wall is stable wi
 class WallLimit:
     """One limit on a virtual wall's stiffness.
 
-    Attributes
+    Parameters
     ----------
     key : str
         ``corollary_1``, ``colgate_schenkel``, ``abbott_okamura``, ``encoder``, ``gil``,
@@ -74,7 +74,7 @@ class WallLimit:
 class WallLimits:
     """Every limit of :func:`wall_limits`, and the two that answer the user.
 
-    Attributes
+    Parameters
     ----------
     limits : list of WallLimit
     passive : float

@@ -40,7 +40,7 @@ def _impedance(name: str, value, dim: int = 2) -> np.ndarray:
 class Operator:
     """Linear operator description read by the simulator (see module docstring).
 
-    Attributes
+    Parameters
     ----------
     stiffness : ndarray, shape (d, d)
         K (N/m); d = 2 ([x, z]) or 3 ([x, y, z]), the operator's :attr:`dimension`.

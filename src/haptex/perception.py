@@ -82,7 +82,7 @@ def detection_threshold(frequency) -> np.ndarray:
 class Buzz:
     """The buzz verdict of a handle's motion.
 
-    Attributes
+    Parameters
     ----------
     perceptible : bool
         Some component from :data:`LOWEST_FREQUENCY` to the Nyquist frequency, not at a

@@ -66,7 +66,7 @@ DEADLINE = 1.5
 class ServoStats:
     """What a run did, counted.
 
-    Attributes
+    Parameters
     ----------
     ticks : int
     missed : int

@@ -314,7 +314,7 @@ def _mass_inputs(device: Device) -> tuple[np.ndarray, np.ndarray]:
 class AxisOscillation:
     """The oscillation verdict on one axis of the tail of a run.
 
-    Attributes
+    Parameters
     ----------
     oscillating : bool
         True when the half peak-to-peak motion along this axis in the second half of the
@@ -348,7 +348,7 @@ class Oscillation:
     """Verdict on the last part of a run, on both axes: sustained limit cycle or decaying
     transient.
 
-    Attributes
+    Parameters
     ----------
     oscillating : bool
         True when any axis oscillates (:class:`AxisOscillation`): a lateral limit cycle
@@ -583,7 +583,7 @@ class SimulationResult:
     Arrays have one row per recorded sample (every ``record_every`` samples), at the end
     of each sampling interval.
 
-    Attributes
+    Parameters
     ----------
     time : ndarray, shape (n,)
         s.
@@ -1143,7 +1143,7 @@ SWEEP_UNITS = {"stiffness": "N/m", "amplitude": "m", "texture_period": "m", "fri
 class BatchResult:
     """Per-run summaries of :func:`simulate_batch`; every array has shape (N,).
 
-    Attributes
+    Parameters
     ----------
     parameters : dict of ndarray
         The swept values, broadcast to N runs.

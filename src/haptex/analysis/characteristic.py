@@ -113,7 +113,7 @@ def spectral_norm(j) -> np.ndarray:
 class CharacteristicNumber:
     """Result of :func:`characteristic_number`.
 
-    Attributes
+    Parameters
     ----------
     letter : str
         Algorithm letter.

@@ -17,7 +17,7 @@ from ._region import _region_box, _static_force, check_analysis_scale
 class Continuity:
     """Result of :func:`continuity`.
 
-    Attributes
+    Parameters
     ----------
     continuous : bool
         True when the largest force difference between grid neighbours shrinks with

@@ -43,7 +43,7 @@ WARM_UP = 8
 class Cost:
     """The planned cost of analysing one algorithm.
 
-    Attributes
+    Parameters
     ----------
     letter : str
     evaluations : int

@@ -24,7 +24,7 @@ MAX_MAP_POINTS = 1001
 class FieldMap:
     """A field sampled on a grid over the vertical section y = ``y`` (x right, z up).
 
-    Attributes
+    Parameters
     ----------
     x : ndarray, shape (nx,)
         Abscissae (m).

@@ -21,7 +21,7 @@ from .characteristic import CharacteristicNumber, characteristic_number
 class Limit:
     """One inequality of Section II-B: ``lhs < rhs`` must hold.
 
-    Attributes
+    Parameters
     ----------
     name : str
     formula : str
@@ -127,7 +127,7 @@ def _period_bounds(device, v: float, alpha: float, beta: float) -> dict[str, flo
 class Cutoff:
     """Result of :func:`rendering_cutoff`.
 
-    Attributes
+    Parameters
     ----------
     period : float
         l_c (m): the shortest period the device renders faithfully at the speed.
@@ -196,7 +196,7 @@ def rendering_cutoff(device, speed: float, samples_per_period=5) -> Cutoff:
 class PassivityCondition:
     """Result of :func:`passivity_condition` (Corollary 1, eq. 1).
 
-    Attributes
+    Parameters
     ----------
     holds : bool
         sup ||J||_2 <= sigma_0(B) / (2T) over the rendering region.

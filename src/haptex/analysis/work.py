@@ -291,7 +291,7 @@ def curl_of_jacobian(j: np.ndarray) -> np.ndarray:
 class Conservativity:
     """Result of :func:`conservativity`.
 
-    Attributes
+    Parameters
     ----------
     conservative : bool
         True when every loop energy is zero to ``tolerance``.

@@ -167,7 +167,7 @@ def wait_native(servo, name: str, on_tick=None, thread: bool = True) -> None:
 class Sample:
     """One reading of the handle.
 
-    Attributes
+    Parameters
     ----------
     time : float
         Seconds since :meth:`DeviceBackend.open` (the backend's clock).

@@ -57,7 +57,7 @@ MAX_VIEW_SECONDS = 60.0
 class Settings:
     """What the controls say, as the user typed it (quantities with their units).
 
-    Attributes
+    Parameters
     ----------
     texture : str
         One of :data:`TEXTURES`' values.
@@ -161,7 +161,7 @@ class Scene:
 class Views:
     """Everything the page draws for one scene (lengths in m, forces in N).
 
-    Attributes
+    Parameters
     ----------
     boundary_x, boundary_h : ndarray, shape (800,)
         The textured boundary z = h(x) (or h(x, y) on the section; on an object, its
