@@ -63,6 +63,22 @@ def characteristic_points(algorithm: Algorithm, max_penetration: float = 1e-3, x
     """Field evaluations of the grid :func:`characteristic_number` searches first (its plan,
     not run; the refinement of the best cells adds a few hundred): what its cost follows.
 
+    Parameters
+    ----------
+    algorithm : Algorithm
+        Any of W, A-G.
+    max_penetration : float, optional
+        Depth of the rendering region below the lowest valley (m), default 1 mm.
+    x_range : (float, float), optional
+        The region along x (m) instead of one period (or the texture's domain).
+    resolution : (int, int), optional
+        The search grid's points along x and z.
+
+    Returns
+    -------
+    int
+        Field evaluations.
+
     Raises
     ------
     ParameterError

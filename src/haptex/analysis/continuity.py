@@ -214,6 +214,24 @@ def continuity_points(algorithm: Algorithm, max_penetration: float = 1e-3, x_ran
     (the same plan, not run): what its cost follows. A finer grid evaluates only its points
     that the grid before does not have; the largest grid holds ``grid_points(...)[-1]``.
 
+    Parameters
+    ----------
+    algorithm : Algorithm
+        Any of W, A-G.
+    max_penetration : float, optional
+        Depth of the rendering region below the lowest valley (m), default 1 mm.
+    x_range : (float, float), optional
+        The region along x (m) instead of one period (or the texture's domain).
+    levels : int, optional
+        Grids, coarse to fine (default :func:`continuity`'s).
+    base : int, optional
+        The coarsest grid's points a side (default :func:`continuity`'s).
+
+    Returns
+    -------
+    list of int
+        Evaluations on each grid.
+
     Raises
     ------
     ParameterError
@@ -230,6 +248,24 @@ def grid_points(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=Non
                 base: int | None = None) -> list[int]:
     """The number of points of each grid of :func:`continuity`, coarse to fine (the same plan,
     not run): what its memory follows.
+
+    Parameters
+    ----------
+    algorithm : Algorithm
+        Any of W, A-G.
+    max_penetration : float, optional
+        Depth of the rendering region below the lowest valley (m), default 1 mm.
+    x_range : (float, float), optional
+        The region along x (m) instead of one period (or the texture's domain).
+    levels : int, optional
+        Grids, coarse to fine (default :func:`continuity`'s).
+    base : int, optional
+        The coarsest grid's points a side (default :func:`continuity`'s).
+
+    Returns
+    -------
+    list of int
+        Points of each grid.
 
     Raises
     ------

@@ -75,6 +75,26 @@ def evaluation_time(algorithm: Algorithm, max_penetration: float = 1e-3, x_range
     clock (:func:`time.thread_time`), so that the figure does not grow with the machine's
     other load; on an idle machine it equals the wall-clock time.
 
+    Parameters
+    ----------
+    algorithm : Algorithm
+        Any of W, A-G.
+    max_penetration : float, optional
+        Depth of the rendering region below the lowest valley (m), default 1 mm.
+    x_range : (float, float), optional
+        The region along x (m) instead of one period (or the texture's domain).
+    probes : int, optional
+        Random positions evaluated (default :data:`CALIBRATION_PROBES`).
+    seed : int, optional
+        Seed of the positions.
+    jacobian : bool, optional
+        Time the force and its Jacobian instead of the force alone.
+
+    Returns
+    -------
+    float
+        Seconds per evaluation.
+
     Raises
     ------
     ParameterError

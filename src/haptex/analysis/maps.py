@@ -55,8 +55,21 @@ class FieldMap:
 
 
 def default_window(texture, x_range=None) -> tuple[float, float]:
-    """The abscissa window a map shows (m): ``x_range`` if given, else one texture period
-    from 0 (1 mm for a texture without one)."""
+    """The abscissa window a map shows: ``x_range`` if given, else one texture period from 0
+    (1 mm for a texture without one).
+
+    Parameters
+    ----------
+    texture : Texture or None
+        The texture mapped.
+    x_range : (float, float), optional
+        The window (m), taken as it is.
+
+    Returns
+    -------
+    (float, float)
+        The window (m).
+    """
     if x_range is not None:
         return float(x_range[0]), float(x_range[1])
     period = getattr(texture, "period", None) if texture is not None else None

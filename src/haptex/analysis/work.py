@@ -273,15 +273,32 @@ def curl(algorithm: Algorithm, p) -> np.ndarray:
 
     Parameters
     ----------
+    algorithm : Algorithm
+        The field.
     p : array_like, shape (..., 2) or (..., 3)
         Probe positions [x, z] or [x, y, z] (m).
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (...) over a profile, (..., 3) over a surface (N/m).
     """
     return curl_of_jacobian(algorithm.jacobian(p))
 
 
 def curl_of_jacobian(j: np.ndarray) -> np.ndarray:
-    """The curl of a field from its Jacobian j, shape (..., 2, 2) or (..., 3, 3) (N/m):
-    as :func:`curl` returns it (a scalar in the plane, a vector in space)."""
+    """The curl of a field from its Jacobian, as :func:`curl` returns it.
+
+    Parameters
+    ----------
+    j : numpy.ndarray, shape (..., 2, 2) or (..., 3, 3)
+        The Jacobian (N/m).
+
+    Returns
+    -------
+    numpy.ndarray
+        A scalar in the plane, shape (...); a vector in space, shape (..., 3) (N/m).
+    """
     if j.shape[-1] == 2:
         return j[..., 1, 0] - j[..., 0, 1]
     return np.stack([j[..., 2, 1] - j[..., 1, 2], j[..., 0, 2] - j[..., 2, 0], j[..., 1, 0] - j[..., 0, 1]], -1)
@@ -334,6 +351,8 @@ def random_loops(algorithm: Algorithm, n: int = 6, vertices: int = 5, max_penetr
 
     Parameters
     ----------
+    algorithm : Algorithm
+        The field whose region (one period, the wall's depth) the polygons lie in.
     n : int
         Number of polygons.
     vertices : int
@@ -342,6 +361,8 @@ def random_loops(algorithm: Algorithm, n: int = 6, vertices: int = 5, max_penetr
         The box reaches this far (m) below the lowest valley.
     seed : int
         Seed of numpy's default generator (reproducible).
+    x_range : (float, float), optional
+        The region along x (m) instead of one period (or the texture's domain).
 
     Returns
     -------
@@ -395,6 +416,8 @@ def conservativity(algorithm: Algorithm, max_penetration: float = 1e-3, n_random
         Number of random closed polygons, default 6.
     seed : int, optional
         Seed of the random polygons.
+    x_range : (float, float), optional
+        The region along x (m) instead of one period (or the texture's domain).
 
     Returns
     -------
