@@ -203,15 +203,22 @@ def _read_hdf5(p: Path, what: str) -> dict:
     return out
 
 
-def take(table: dict, specs, what: str) -> tuple[dict, list]:
-    """The quantities the specs name, in SI, and the columns left over.
+def take(table: dict, columns, quantities: dict, defaults: dict, what: str) -> tuple[dict, list]:
+    """The quantities the user's column specs name, or haptex's own names where the user named
+    none and the file has them, in SI, and the columns left over.
 
     Parameters
     ----------
     table : dict
         :func:`read_table`'s columns.
-    specs : iterable of ColumnSpec
-        One a quantity.
+    columns : sequence of str or None
+        The user's specs ``QUANTITY=COL[,COL...][:UNIT]`` (:func:`parse_column`), each quantity
+        once.
+    quantities : dict
+        The quantities allowed, each with its SI unit.
+    defaults : dict
+        For a quantity, haptex's own column names (in SI), taken when the user named none for
+        it and the table has them all.
     what : str
         What the file is (named in errors).
 
@@ -225,9 +232,15 @@ def take(table: dict, specs, what: str) -> tuple[dict, list]:
     Raises
     ------
     ParameterError
-        If a spec names a column the table does not have (the table's columns are listed), or
-        holds a value that is not finite.
+        If a spec is malformed or names a quantity twice, names a column the table does not
+        have (the table's columns are listed), or holds a value that is not finite.
     """
+    specs = [parse_column(c, quantities) for c in (columns or ())]
+    named = {s.quantity for s in specs}
+    if len(named) != len(specs):
+        raise fail("--column", [s.quantity for s in specs], "each quantity once")
+    specs += [ColumnSpec(q, cols, quantities[q], 1.0) for q, cols in defaults.items()
+              if q not in named and all(c in table for c in cols)]
     values, used = {}, set()
     for s in specs:
         parts = []

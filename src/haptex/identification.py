@@ -172,21 +172,14 @@ def read_log(path, columns=None) -> RunLog:
         (the file's columns are listed), time, position or force is missing, position and
         force have different numbers of axes, or a value is not a finite number.
     """
-    from ._columns import ColumnSpec, parse_column, read_table, take
+    from ._columns import read_table, take
 
     table = read_table(path, "run log")
-    given = [parse_column(c, LOG_QUANTITIES) for c in (columns or ())]
-    named = {c.quantity for c in given}
-    if len(named) != len(given):
-        raise fail("--column", [c.quantity for c in given], "each quantity once")
     axes = next((AXES[d] for d in (3, 2, 1) if all(f"{a}_m" in table for a in AXES[d])), None)
     own = {"time": ("time_s",) if "time_s" in table else ("time",),
            "position": tuple(f"{a}_m" for a in axes) if axes else ("position",),
            "force": tuple(f"f{a}_n" for a in axes) if axes else ("force",), "engaged": ("engaged",)}
-    for q, cols in own.items():
-        if q not in named and all(c in table for c in cols):
-            given.append(ColumnSpec(q, cols, LOG_QUANTITIES[q], 1.0))
-    got, ignored = take(table, given, "run log")
+    got, ignored = take(table, columns, LOG_QUANTITIES, own, "run log")
     for q in ("time", "position", "force"):
         if q not in got:
             raise fail("log", str(path), f"a {q} column: haptex's (time_s; x_m ... with fx_n ...) or named with "
@@ -631,12 +624,10 @@ def identify(*, time, position, force, max_delay: int = MAX_DELAY, window: float
                 undetermined.setdefault(name, why)
     # where each figure came from: the windows carrying half of its information (the squared
     # Jacobian column, window by window) and the band holding 10-90 % of the force's power there
-    H_ = sol.fun.size // (W * d)
-    starts = D + H_ * np.arange(W)
-    idx = starts[:, None] + np.arange(H_)[None, :]
+    idx = (D + H * np.arange(W))[:, None] + np.arange(H)[None, :]  # the full fit's windows
     sources = {}
     for name, col in (("mass", 0), ("damping", d), ("coulomb_friction", 2 * d)):
-        info = np.sum(J[:, col].reshape(W, H_ * d) ** 2, axis=1)
+        info = np.sum(J[:, col].reshape(W, H * d) ** 2, axis=1)
         if not np.any(info > 0):
             continue
         order = np.argsort(info)[::-1]
@@ -648,7 +639,7 @@ def identify(*, time, position, force, max_delay: int = MAX_DELAY, window: float
         lo, hi = freq[int(np.searchsorted(cum, 0.1))], freq[min(int(np.searchsorted(cum, 0.9)), freq.size - 1)]
         sources[name] = (f"half its information from {len(top)} of {W} windows, {t[idx[top[0], 0]] - t[0]:.3g}-"
                          f"{t[idx[top[-1], -1]] - t[0]:.3g} s, force band {lo:.3g}-{hi:.3g} Hz")
-    model = p[idx] + sol.fun.reshape(W, H_, d) * res_sd
+    model = p[idx] + sol.fun.reshape(W, H, d) * res_sd
     trace = {"time": t[idx].ravel(), "measured": p[idx][..., 0].ravel(), "model": model[..., 0].ravel()}
     return Identification(dev, unc, axes, rms[D], screen_rms, n, W, source, notes, undetermined, sources, trace)
 

@@ -42,7 +42,7 @@ def fit_cmd(recording, out, sample_rate, rate, order, ma_order, segment, highpas
     rec = read_recording(recording, sample_rate=sample_rate, columns=columns)
     if rec.ignored:
         click.echo(f"ignored columns: {', '.join(rec.ignored)}")
-    if rec.speed_source != "the file's speed":
+    if rec.speed_source != "given":
         click.echo(f"speed: {rec.speed_source}")
     models = rec.fit(rate=rate, order=order, ma_order=ma_order, segment=segment, highpass=highpass,
                      name=recording.stem)

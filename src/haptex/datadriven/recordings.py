@@ -41,7 +41,8 @@ class Recording:
     ignored : tuple of str, optional
         The file's columns no quantity was read from (:func:`read_recording`).
     speed_source : str, optional
-        Where the speed came from: the file's column, or the positions' derivative.
+        Where the speed came from: ``"given"`` (a speed column or array), or the positions'
+        derivative and its filter.
     """
 
     acceleration: np.ndarray
@@ -142,20 +143,13 @@ def read_recording(path, *, sample_rate: float | None = None, columns=None) -> R
     """
     from scipy.signal import savgol_filter
 
-    from .._columns import ColumnSpec, parse_column, read_table, take
+    from .._columns import read_table, take
 
     table = read_table(path, "recording")
-    given = [parse_column(c, RECORDING_QUANTITIES) for c in (columns or ())]
-    named = {c.quantity for c in given}
-    if len(named) != len(given):
-        raise fail("--column", [c.quantity for c in given], "each quantity once")
     own = {"time": ("time_s",), "speed": ("speed_m_s",), "force": ("force_n",)}
     own["acceleration"] = (("acc_m_s2",) if "acc_m_s2" in table else
                            ("acc_x_m_s2", "acc_y_m_s2", "acc_z_m_s2"))
-    for q, cols in own.items():
-        if q not in named and all(c in table for c in cols):
-            given.append(ColumnSpec(q, cols, RECORDING_QUANTITIES[q], 1.0))
-    got, ignored = take(table, given, "recording")
+    got, ignored = take(table, columns, RECORDING_QUANTITIES, own, "recording")
     for q in ("acceleration", "force"):
         if q not in got:
             raise fail("column", f"{q} missing", f"--column {q}=COLUMN[:UNIT], or haptex's {own[q][0]} "
@@ -180,7 +174,7 @@ def read_recording(path, *, sample_rate: float | None = None, columns=None) -> R
     else:
         fs = positive("sample_rate", sample_rate, "Hz")
     if "speed" in got:
-        speed, source = got["speed"][:, 0], "the file's speed"
+        speed, source = got["speed"][:, 0], "given"
     else:
         pos = got["position"]
         window = max(5, 2 * int(round(SPEED_FILTER[0] * fs / 2)) + 1)
