@@ -15,7 +15,8 @@ by the C core's exact sampled-data step (the core's ``free_run``: on one axis th
 continuous-time stick-slip, each period split where the velocity reaches zero; on two or three
 axes the sampled Karnopp step of the simulator's general loop), are fitted to the logged ones
 by ``scipy.optimize.least_squares``; one standard deviation of each figure from the Jacobian at
-the optimum (the Gauss-Newton covariance, s^2 (J^T J)^-1). The delay is the whole number of
+the optimum: the larger of the Gauss-Newton covariance's, s^2 (J^T J)^-1, and the
+window-clustered sandwich's (the residuals of one window may be correlated in any way). The delay is the whole number of
 periods whose fit leaves the smallest residual: every delay from 0 to ``max_delay`` is fitted
 to its own optimum on :data:`SCREEN_WINDOWS` windows spread over the log, from
 :data:`SCREEN_STARTS` (an equation-error regression's figures, the positions' Savitzky-Golay
@@ -584,12 +585,21 @@ def identify(*, time, position, force, max_delay: int = MAX_DELAY, window: float
     rho = float(np.sum(e[:, 1:] * e[:, :-1]) / max(np.sum(e * e), 1e-300))
     rho = min(max(rho, 0.0), 0.99)
     s2 = float(np.sum(sol.fun ** 2)) / dof * (1 + rho) / (1 - rho)
+    # Each standard deviation is the larger of two: the Gauss-Newton one above, and the
+    # window-clustered sandwich (Huber-White; Cameron & Miller 2015, J. Human Resources 50(2)),
+    # (J^T J)^-1 (sum_w J_w^T r_w r_w^T J_w) (J^T J)^-1, which takes any correlation of the
+    # residuals within a window (an encoder's rounding error is a function of the motion, not
+    # an AR(1) noise). On the independent simulator's logs with a 7.5 µm encoder the damping's
+    # error was 3.4-5.1 Gauss-Newton deviations and is 2.5 clustered ones; on noise-free logs
+    # the Gauss-Newton one is the larger.
     try:
         norm = np.linalg.norm(J, axis=0)
         norm[norm == 0] = 1.0
         Jn = J / norm  # columns of one scale: pinv's cut-off must not drop the figures' own directions
-        cov = np.linalg.pinv(Jn.T @ Jn) / np.outer(norm, norm) * s2
-        sd = np.sqrt(np.maximum(np.diag(cov)[:ng], 0.0))
+        bread = np.linalg.pinv(Jn.T @ Jn) / np.outer(norm, norm)
+        scores = np.einsum("wri,wr->wi", J.reshape(W, -1, J.shape[1]), sol.fun.reshape(W, -1))
+        sandwich = bread @ (scores.T @ scores * (W / max(W - 1, 1))) @ bread
+        sd = np.sqrt(np.maximum(np.maximum(np.diag(bread)[:ng] * s2, np.diag(sandwich)[:ng]), 0.0))
     except np.linalg.LinAlgError:  # pragma: no cover (pinv converges on any finite matrix)
         sd = np.full(ng, np.nan)
     m, b, fc = x[:d], x[d:2 * d], float(x[2 * d])
