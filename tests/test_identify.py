@@ -136,10 +136,13 @@ ORACLE_CASES = [  # issue 65: the cases haptex's own logs did not catch, and the
     dict(m=0.2, b=0.35, fc=0.15, delta=7.5e-6, D=2, T=1e-3, noise=0.0, kind="steps+chirp"),  # was D 4, b +66 %
     dict(m=0.05, b=3.0, fc=0.0, delta=0.0, D=4, T=0.25e-3, noise=0.0, kind="steps+chirp"),
     dict(m=0.5, b=0.5, fc=0.2, delta=60e-6, D=0, T=1e-3, noise=1e-6, kind="random"),
+    # a 5 s time constant on a coarse encoder: at the 0.2 s window alone, damping +24-28 %
+    # (seeds 1-2); identify then fits 1 s windows too and keeps them: +0.8-1.3 %
+    dict(m=0.5, b=0.1, fc=0.2, delta=60e-6, D=1, T=1e-3, noise=0.0, kind="random"),
 ]
 
 
-@pytest.mark.parametrize("case", range(len(ORACLE_CASES)))
+@pytest.mark.parametrize("case", [0, 1, 2, pytest.param(3, marks=pytest.mark.long)])  # (3: two fits, 8-10 s)
 def test_identify_recovers_an_independent_simulators_device(case):
     # the truth is the independent simulator's (above), never haptex's step. Stop 62's
     # identification, on the first case: delay 4 for 2, damping +66 % (its model kept the
