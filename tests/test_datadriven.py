@@ -221,6 +221,39 @@ def _hatt_xml(s: dd.ModelSet, *, drop=None, tri_offset=1, num_mod=None, num_tri=
     return "\n".join(x for x in parts if x)
 
 
+def test_write_hatt_writes_the_published_layout_tag_for_tag(tmp_path):
+    # the oracle is the published layout (the test's own writer above, read off HaTT's files),
+    # not haptex's reader: the same elements in the same order and nesting, pictures aside
+    # (haptex writes none), the same attributes; then the numbers are the set's own
+    import xml.etree.ElementTree as ET
+
+    s = _set(ma=(1.0, 0.3))
+    s.mu = 0.4
+    out = dd.write_hatt(s, tmp_path / "Models_Test.xml")
+    pictures = {"htmlPicture", "htmlLinuxPicture", "renderPicture", "DTpicture", "LinuxDTpicture"}
+
+    def shape(el):
+        return [(el.tag, dict(el.attrib))] + [x for c in el if c.tag not in pictures for x in shape(c)]
+
+    want = ET.fromstring(_hatt_xml(s, mu=0.4))
+    got = ET.parse(out).getroot()
+    assert shape(got)[1:] == shape(want)[1:] and got.tag == "modelSet" and "texture" in got.attrib
+    assert float(got.find("mu").text) == 0.4 and got.find("AccelUnits").text == "m/s^2"
+    np.testing.assert_allclose([float(v.text) for v in got.find("speedList")], s.speeds * 1e3, rtol=1e-15)
+    tris = np.array([[int(v.text) for v in t] for t in got.findall("tri")])
+    assert np.array_equal(tris, s.triangles + 1)  # 1-based, one element each
+    for el, m in zip(got.findall("model"), s.models):
+        np.testing.assert_array_equal([float(v.text) for v in el.find("ARcoeff")], m.ar)  # shortest repr: exact
+        np.testing.assert_array_equal([float(v.text) for v in el.find("MAcoeff")], m.ma)
+        assert float(el.find("var").text) == m.variance
+    back = dd.read_hatt(out)
+    assert back.mu == 0.4 and np.array_equal(back.triangles, s.triangles)
+    with pytest.raises(ParameterError, match="models = 'list' is not allowed"):
+        dd.write_hatt([], tmp_path / "x.xml")
+    with pytest.raises(ParameterError, match="path = .* is not allowed"):
+        dd.write_hatt(s, tmp_path / "no" / "x.xml")
+
+
 def test_a_hatt_file_is_read_in_si(tmp_path):
     # the published layout: one <tri> element per triangle (the reader of stop 62 read only the first)
     s = _set()

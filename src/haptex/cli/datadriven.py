@@ -16,7 +16,7 @@ from ._common import Quantity, _catalogued_device, _check_plot_path
 @click.command("fit")
 @click.argument("recording", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("-o", "--out", type=click.Path(dir_okay=False, path_type=Path), required=True,
-              help="Model file to write (haptex's JSON).")
+              help="Model file to write: haptex's JSON, or HaTT's XML layout for a name ending .xml.")
 @click.option("--sample-rate", type=Quantity("Hz"), default=None,
               help="The recording's rate, e.g. '10 kHz', when it has no time_s column.")
 @click.option("--rate", type=Quantity("Hz"), default=None, show_default="the recording's",
@@ -46,7 +46,12 @@ def fit_cmd(recording, out, sample_rate, rate, order, ma_order, segment, highpas
         click.echo(f"speed: {rec.speed_source}")
     models = rec.fit(rate=rate, order=order, ma_order=ma_order, segment=segment, highpass=highpass,
                      name=recording.stem)
-    models.write(out)
+    if out.suffix.lower() == ".xml":
+        from ..datadriven import write_hatt
+
+        write_hatt(models, out)
+    else:
+        models.write(out)
     r = models.report
     click.echo(f"{len(models.models)} ARMA{r.order} models at {r.sample_rate:g} Hz from {r.segments} steady windows "
                f"of {r.windows} (order: {r.criterion}); written to {out}")

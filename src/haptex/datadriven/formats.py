@@ -294,3 +294,94 @@ def _lsf_agree(given: np.ndarray, ours: np.ndarray, fs: float) -> bool:
     return any(np.allclose(g * s, ours, rtol=1e-3, atol=1e-4) for s in (1.0, np.pi, 2 * np.pi / fs))
 
 
+
+
+# ---------------------------------------------------------------------------------------
+# writing
+# ---------------------------------------------------------------------------------------
+
+
+def write_hatt(models: ModelSet, path, *, texture: int = 1) -> Path:
+    """Write a model set in the Penn Haptic Texture Toolkit's XML layout, for HaTT's renderer
+    and the tools that read its library.
+
+    Parameters
+    ----------
+    models : ModelSet
+        The set (haptex's own, fitted by :func:`fit`, or one read from HaTT).
+    path : str or os.PathLike
+        File to write (``Models_<material>.xml``); its folder must exist.
+    texture : int, optional
+        The ``<modelSet texture="N">`` number (HaTT numbers its 100 materials; default 1).
+
+    Returns
+    -------
+    pathlib.Path
+        The file written: the tags and order of :func:`read_hatt`'s Notes (one ``<tri>``
+        element a triangle, 1-based; speeds in mm/s to 12 digits, ``AccelUnits`` m/s^2,
+        every other number with Python's shortest round-tripping representation where HaTT
+        prints six decimals, so that :func:`read_hatt` gives the set back to rounding), ``mu`` the
+        set's (0 when it has none). No picture paths: HaTT's own renderer shows a
+        ``renderPicture`` beside the texture; add one by hand for it.
+
+    Raises
+    ------
+    ParameterError
+        If ``models`` is not a :class:`ModelSet`, ``texture`` is not a whole number >= 0,
+        or the folder does not exist.
+    """
+    import xml.etree.ElementTree as ET  # writing: defusedxml guards parsing only
+
+    if not isinstance(models, ModelSet):
+        raise fail("models", type(models).__name__, "a ModelSet (haptex.datadriven.fit or read_models)")
+    if isinstance(texture, bool) or not isinstance(texture, int | np.integer) or texture < 0:
+        raise fail("texture", texture, "a whole number >= 0")
+    path = Path(os.fspath(path))
+    if not path.parent.is_dir():
+        raise fail("path", str(path), "a file in an existing folder")
+    p, q = models.models[0].order
+
+    def num(x) -> str:
+        return repr(float(x))
+
+    root = ET.Element("modelSet", texture=str(int(texture)))
+
+    def one(tag, text, parent=root):
+        ET.SubElement(parent, tag).text = text
+
+    def lst(tag, values, parent=root, array=True):
+        el = ET.SubElement(parent, tag, {"type": "array"} if array else {})
+        for v in values:
+            ET.SubElement(el, "value").text = v
+
+    speeds_mm = [num(float(f"{s * 1e3:.12g}")) for s in models.speeds]  # 0.03 m/s as 30.0, not 30.00000000000001
+    one("material", models.name or path.stem)
+    one("AccelUnits", "m/s^2")
+    one("SpeedUnits", "mm/s")
+    one("ForceUnits", "N")
+    one("SampleRate", num(models.sample_rate))
+    one("mu", num(models.mu or 0.0))
+    one("numMod", str(len(models.models)))
+    one("numTri", str(len(models.triangles)))
+    one("maxSpeed", max(speeds_mm, key=float))
+    one("maxForce", num(models.forces.max()))
+    lst("speedList", speeds_mm)
+    lst("forceList", [num(f) for f in models.forces])
+    for t in models.triangles:
+        lst("tri", [str(int(v) + 1) for v in t])
+    one("numARCoeff", str(p))
+    one("numMACoeff", str(q))
+    for k, (m, s_mm) in enumerate(zip(models.models, speeds_mm)):
+        el = ET.SubElement(root, "model")
+        one("modNum", str(k + 1), el)
+        lst("ARcoeff", [num(c) for c in m.ar], el, False)
+        lst("ARlsf", [num(c) for c in m.ar_lsf], el, False)
+        lst("MAcoeff", [num(c) for c in m.ma], el, False)
+        lst("MAlsf", [num(c) for c in m.ma_lsf], el, False)
+        one("var", num(m.variance), el)
+        one("gain", num(m.gain), el)
+        one("speedMod", s_mm, el)
+        one("forceMod", num(m.force), el)
+    ET.indent(root, space="   ")
+    path.write_bytes(ET.tostring(root, encoding="utf-8", xml_declaration=True) + b"\n")
+    return path
