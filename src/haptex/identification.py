@@ -422,7 +422,7 @@ def _equation_error(p, f, T, max_delay):
     return out, v
 
 
-def _fit(p, f, T, D, H, init, res_sd, every: int = 1, max_nfev: int = 100):
+def _fit(p, f, T, D, H, init, res_sd, every: int = 1, max_nfev: int = 100, lsmr_tol: float = 1e-8):
     """Output-error fit at delay D over every ``every``-th window: (least-squares result, windows)."""
     from scipy.optimize import least_squares
     from scipy.sparse import lil_matrix
@@ -468,7 +468,7 @@ def _fit(p, f, T, D, H, init, res_sd, every: int = 1, max_nfev: int = 100):
     # Gauss-Newton's and the fit stopped early (the independent simulator's 7.5 µm encoder log:
     # damping +0.73 %, at 1e-8 +0.09 %; a 4 kHz log: 8.4 s, at 1e-8 2.8 s and exact)
     sol = least_squares(residual, x0, bounds=(lo, hi), jac_sparsity=sp, x_scale=scale, method="trf",
-                        xtol=1e-8, ftol=1e-8, max_nfev=max_nfev, tr_options={"atol": 1e-8, "btol": 1e-8})
+                        xtol=1e-8, ftol=1e-8, max_nfev=max_nfev, tr_options={"atol": lsmr_tol, "btol": lsmr_tol})
     return sol, W
 
 
@@ -600,7 +600,7 @@ def identify(*, time, position, force, max_delay: int = MAX_DELAY, window: float
         for k in SCREEN_STARTS:
             init = {"m": np.maximum(coef[:, 0], 1e-3), "b": np.maximum(coef[:, 1], 0.0) * k,
                     "fc": float(max(np.mean(coef[:, 2]), 0.0)), "v": v}
-            sol, W = _fit(p, f, T, D, H, init, res_sd, every, SCREEN_NFEV)
+            sol, W = _fit(p, f, T, D, H, init, res_sd, every, SCREEN_NFEV, 1e-6)  # ranking: scipy's tolerance
             if best is None or sol.cost < best.cost:
                 best = sol
         screened[D] = best
