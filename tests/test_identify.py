@@ -139,10 +139,13 @@ ORACLE_CASES = [  # issue 65: the cases haptex's own logs did not catch, and the
     # a 5 s time constant on a coarse encoder: at the 0.2 s window alone, damping +24-29 %
     # (seeds 1-2); identify then fits 1 s windows too and keeps them: -1.6 to +1.0 %
     dict(m=0.5, b=0.1, fc=0.2, delta=60e-6, D=1, T=1e-3, noise=0.0, kind="random"),
+    # a light, barely damped handle under random forces: the true delay's screening fit stopped
+    # far from its optimum (residual 1.4 mm against 1 µm) and the delay came back one off
+    dict(m=0.05, b=0.1, fc=0.0, delta=0.0, D=0, T=1e-3, noise=0.0, kind="random"),
 ]
 
 
-@pytest.mark.parametrize("case", [0, 1, 2, pytest.param(3, marks=pytest.mark.long)])  # (3: two fits, 6 s)
+@pytest.mark.parametrize("case", [0, 1, 2, *(pytest.param(k, marks=pytest.mark.long) for k in (3, 4))])  # (4-6 s each)
 def test_identify_recovers_an_independent_simulators_device(case):
     # the truth is the independent simulator's (above), never haptex's step. Stop 62's
     # identification, on the first case: delay 4 for 2, damping +66 % (its model kept the
@@ -161,7 +164,11 @@ def test_identify_recovers_an_independent_simulators_device(case):
     for name, got, want in (("mass", d.mass[0, 0], kw["m"]), ("damping", d.damping[0, 0], kw["b"]),
                             ("coulomb_friction", d.coulomb_friction, kw["fc"])):
         assert got == pytest.approx(want, rel=0.05, abs=0.002), name
-        assert abs(got - want) <= 3 * r.uncertainty[name], (name, got, want, r.uncertainty[name])
+        if kw["noise"] or kw["delta"]:  # a measured log: the truth within 3 reported deviations
+            assert abs(got - want) <= 3 * r.uncertainty[name], (name, got, want, r.uncertainty[name])
+        else:  # noise-free: the residual is the two simulators' disagreement (the oracle's Euler
+            # step at T/400 against the exact hold, 5e-5 of the mass on case 4), not a measurement's
+            assert got == pytest.approx(want, rel=1e-3, abs=1e-4), name
     assert "runner-up" in " ".join(r.notes)
 
 
