@@ -105,7 +105,7 @@ def run_main(*args):
 
 def test_simulate_path_json_reports_the_loop_energy_of_A():
     # Fig. 3's loop for A driven kinematically: the environment absorbs -kappa_0 A^2/2 = -0.64 mJ
-    r = run_cli("simulate", "path", "--algorithm", "A", "--path", "0,0;0.25mm,0;0.25mm,0.8mm;0,0.8mm;0,0",
+    r = run_main("simulate", "path", "--algorithm", "A", "--path", "0,0;0.25mm,0;0.25mm,0.8mm;0,0.8mm;0,0",
                 "--speed", "1 mm/s", "--duration", "2.2s", "--json")
     assert r.returncode == 0, r.stderr
     out = json.loads(r.stdout)
@@ -114,7 +114,7 @@ def test_simulate_path_json_reports_the_loop_energy_of_A():
 
 def test_simulate_thrust_writes_a_plot(tmp_path):
     png = tmp_path / "thrust.png"
-    r = run_cli("simulate", "thrust", "--algorithm", "W", "--duration", "0.3s", "--plot", str(png), "--json")
+    r = run_main("simulate", "thrust", "--algorithm", "W", "--duration", "0.3s", "--plot", str(png), "--json")
     assert r.returncode == 0, r.stderr
     out = json.loads(r.stdout)
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
@@ -130,7 +130,7 @@ def test_simulate_over_a_surface_on_a_3dof_preset(tmp_path):
     import numpy as np
 
     f = tmp_path / "run.npz"
-    r = run_cli("simulate", "scan", "--surface", "egg-crate:0.3mm,2mm", "--device", "serial-arm", "--duration", "0.2s",
+    r = run_main("simulate", "scan", "--surface", "egg-crate:0.3mm,2mm", "--device", "serial-arm", "--duration", "0.2s",
                 "--save", str(f), "--passivity-control", "5 N*s/m", "--json")
     assert r.returncode == 0, r.stderr
     out = json.loads(r.stdout)
@@ -139,7 +139,7 @@ def test_simulate_over_a_surface_on_a_3dof_preset(tmp_path):
     d = np.load(f)
     assert {"y", "vy", "fy", "energy_y"} <= set(d.files) and list(d["units"][:4]) == ["s", "m", "m", "m"]
     assert d["energy_y"][-1] == pytest.approx(out["energy_y"], rel=1e-12, abs=1e-18)
-    loop = run_cli("simulate", "path", "--algorithm", "A", "--surface", "egg-crate:0.8mm,1mm", "--device",
+    loop = run_main("simulate", "path", "--algorithm", "A", "--surface", "egg-crate:0.8mm,1mm", "--device",
                    "point-mass", "--path", "0,0.25mm,0;0.25mm,0.25mm,0;0.25mm,0.25mm,0.8mm;0,0.25mm,0.8mm;0,0.25mm,0",
                    "--speed", "1 mm/s", "--duration", "2.2s", "--json")
     assert loop.returncode == 0, loop.stderr
@@ -309,8 +309,8 @@ def test_thrust_angle_makes_the_texture_felt():
     # was never felt; --angle (default 10 degrees, as in Fig. 5's experiment) pulls it sideways
     import numpy as np
 
-    straight = json.loads(run_cli("simulate", "thrust", "--angle", "0deg", "--duration", "0.5s", "--json").stdout)
-    tilted = json.loads(run_cli("simulate", "thrust", "--duration", "0.5s", "--json").stdout)
+    straight = json.loads(run_main("simulate", "thrust", "--angle", "0deg", "--duration", "0.5s", "--json").stdout)
+    tilted = json.loads(run_main("simulate", "thrust", "--duration", "0.5s", "--json").stdout)
     assert straight["angle"] == 0.0 and tilted["angle"] == 10.0
     # straight down, A's vertical spring only stores energy (E_z > 0, x fixed); pulled 10 degrees
     # off the normal the handle slides across the bumps and A's non-conservative field supplies
@@ -344,7 +344,7 @@ def test_simulate_saves_its_trace_with_units(tmp_path, suffix):
     import numpy as np
 
     f = tmp_path / f"run{suffix}"
-    out = json.loads(run_cli("simulate", "thrust", "--algorithm", "W", "--duration", "0.05s", "--save", str(f),
+    out = json.loads(run_main("simulate", "thrust", "--algorithm", "W", "--duration", "0.05s", "--save", str(f),
                              "--json").stdout)
     if suffix == ".csv":
         header = f.read_text().splitlines()[0]
@@ -405,8 +405,8 @@ def test_a_toml_device_file_is_the_same_device_as_the_options(tmp_path):
     f = tmp_path / "rig.toml"
     f.write_text('preset = "pantograph"\njoint_damping = "4.0 mN*m*s"\nperiod = "100 us"\ndelay = 1\n')
     cmd = ["simulate", "thrust", "--duration", "0.05s", "--json"]
-    a = json.loads(run_cli(*cmd, "--device", str(f)).stdout)
-    b = json.loads(run_cli(*cmd, "--device", "pantograph", "--joint-damping", "4mN*m*s", "--delay", "1").stdout)
+    a = json.loads(run_main(*cmd, "--device", str(f)).stdout)
+    b = json.loads(run_main(*cmd, "--device", "pantograph", "--joint-damping", "4mN*m*s", "--delay", "1").stdout)
     assert a == b
     # a custom device with a 2x2 mass table, every value with its unit
     g = tmp_path / "custom.toml"
@@ -511,7 +511,7 @@ def test_simulate_gives_b_c_and_g_remark_3s_clamp():
     # depth clamped at d^z_max: along a horizontal stroke 0.9 mm deep, clamped at 0.3 mm, its
     # lateral work is exactly a third of the unclamped one; B's and C's lateral work shrinks too
     def work(letter, *extra):
-        r = run_cli("simulate", "path", "--algorithm", letter, "--path", "0,-0.9mm;0.75mm,-0.9mm", "--speed",
+        r = run_main("simulate", "path", "--algorithm", letter, "--path", "0,-0.9mm;0.75mm,-0.9mm", "--speed",
                     "1 mm/s", "--duration", "0.8s", "--json", *extra)
         assert r.returncode == 0, r.stderr
         return json.loads(r.stdout)["energy_x"]

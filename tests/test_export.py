@@ -17,6 +17,7 @@ from haptex.export import TICK_FILES, export_c
 
 from .cbuild import CC, GROUP, SANITIZE, STRICT, core_objects, sanitizers_work
 from .conftest import DEKTAK, K0, A, L
+from .test_cli import run_main
 
 pytestmark = [pytest.mark.skipif(CC is None, reason="no C compiler on this machine"), pytest.mark.xdist_group(GROUP)]
 STRICT = list(STRICT)
@@ -263,21 +264,20 @@ def test_an_export_without_a_stabiliser_observes_nothing(tmp_path, objdir):
 def test_haptex_export_at_the_command_line_writes_code_that_compiles(tmp_path):
     # the CLI's output compiles warning-free and takes units like every other command
     out = tmp_path / "fw"
-    r = subprocess.run(["haptex", "export", "--algorithm", "G", "--texture", "sine:0.8mm,1mm", "--stiffness",
-                        "2 kN/m", "--max-force", "5 N", "--max-penetration", "0.5mm", "--out", str(out)],
-                       capture_output=True, text=True, timeout=120)
+    r = run_main("export", "--algorithm", "G", "--texture", "sine:0.8mm,1mm", "--stiffness",
+                 "2 kN/m", "--max-force", "5 N", "--max-penetration", "0.5mm", "--out", str(out))
     assert r.returncode == 0, r.stderr
     subprocess.run([CC, *STRICT, "-o", str(tmp_path / "t"), *map(str, out.glob("*.c")), "-lm", "-Wl,-e,haptex_init",
                     "-nostartfiles"], check=True)
     text = (out / "haptex_texture.c").read_text()
     assert "r->model.prm[HX_P_DZMAX] = 0.0005;" in text and "r->model.prm[HX_P_K0] = 2000.0;" in text
-    r = subprocess.run(["haptex", "export", "--algorithm", "A", "--texture", "sine:0.8mm,1mm", "--stiffness", "2000",
-                        "--max-force", "5 N", "--out", str(out)], capture_output=True, text=True, timeout=120)
+    r = run_main("export", "--algorithm", "A", "--texture", "sine:0.8mm,1mm", "--stiffness", "2000",
+                 "--max-force", "5 N", "--out", str(out))
     assert r.returncode == 2 and "stiffness = '2000' is not allowed: a number without a unit" in r.stderr
     # a stabiliser for the device the firmware runs on: its period, delay and damping from the preset
-    r = subprocess.run(["haptex", "export", "--algorithm", "B", "--texture", "sine:0.8mm,1mm", "--stiffness", "2 kN/m",
-                        "--max-force", "5 N", "--passivity-control", "20 N*s/m", "--device", "pantograph", "--out",
-                        str(out)], capture_output=True, text=True, timeout=120)
+    r = run_main("export", "--algorithm", "B", "--texture", "sine:0.8mm,1mm", "--stiffness", "2 kN/m",
+                 "--max-force", "5 N", "--passivity-control", "20 N*s/m", "--device", "pantograph", "--out",
+                 str(out))
     assert r.returncode == 0 and "passivity controller (20 N s/m" in r.stdout, r.stderr
     text = (out / "haptex_texture.c").read_text()
     assert "r->pc.mode = HX_STAB_PC;" in text and "r->pc.bmax = 20.0;" in text and "r->pc.T = 0.0001;" in text
@@ -285,9 +285,8 @@ def test_haptex_export_at_the_command_line_writes_code_that_compiles(tmp_path):
                     "-nostartfiles"], check=True)
     for args, what in ((["--stabiliser", "energy-bounding"], "--stabiliser needs --device"),
                        (["--device", "falcon"], "--device is not allowed without --passivity-control")):
-        r = subprocess.run(["haptex", "export", "--algorithm", "B", "--texture", "sine:0.8mm,1mm", "--stiffness",
-                            "2 kN/m", "--max-force", "5 N", *args, "--out", str(out)], capture_output=True, text=True,
-                           timeout=120)
+        r = run_main("export", "--algorithm", "B", "--texture", "sine:0.8mm,1mm", "--stiffness",
+                     "2 kN/m", "--max-force", "5 N", *args, "--out", str(out))
         assert r.returncode == 2 and what in r.stderr and r.stderr.count("\n") == 1, r.stderr
 
 
@@ -360,8 +359,8 @@ def test_exported_3d_f_drags_its_adhesion_point_like_the_library(tmp_path, objdi
 
 def test_export_over_a_surface_at_the_command_line(tmp_path):
     out = tmp_path / "fw3"
-    r = subprocess.run(["haptex", "export", "--algorithm", "B", "--texture", "egg-crate:0.8mm,1mm", "--stiffness",
-                        "2 kN/m", "--max-force", "5 N", "--out", str(out)], capture_output=True, text=True, timeout=120)
+    r = run_main("export", "--algorithm", "B", "--texture", "egg-crate:0.8mm,1mm", "--stiffness",
+                 "2 kN/m", "--max-force", "5 N", "--out", str(out))
     assert r.returncode == 0, r.stderr
     assert "#define HAPTEX_DIMENSION 3" in (out / "haptex_texture.h").read_text()
     assert "p = [x, y, z] (m)" in (out / "haptex_texture.h").read_text()
@@ -549,24 +548,23 @@ def test_an_object_exports_and_ticks_as_the_renderer(tmp_path, objdir, base_name
 
 
 def test_an_object_at_the_command_line_exports(tmp_path):
-    r = subprocess.run(["haptex", "export", "--algorithm", "B", "--texture", "egg-crate:0.2mm,2mm", "--stiffness",
-                        "2 kN/m", "--max-force", "5 N", "--object", "sphere:12.7323954mm", "--max-penetration", "0.3mm",
-                        "--out", str(tmp_path)], capture_output=True, text=True, timeout=120)
+    r = run_main("export", "--algorithm", "B", "--texture", "egg-crate:0.2mm,2mm", "--stiffness",
+                 "2 kN/m", "--max-force", "5 N", "--object", "sphere:12.7323954mm", "--max-penetration", "0.3mm",
+                 "--out", str(tmp_path))
     assert r.returncode == 0, r.stderr  # (B's d^z_max on the object: Remark 3 on the base)
     assert "HX_BASE_SPHERE" in (tmp_path / "haptex_texture.c").read_text()
     assert "max_penetration=0.0003" in r.stdout
     subprocess.run([CC, *STRICT, "-c", str(tmp_path / "haptex_texture.c"), "-o", str(tmp_path / "t.o")], check=True)
-    r = subprocess.run(["haptex", "export", "--algorithm", "D", "--texture", "egg-crate:0.2mm,2mm", "--stiffness",
-                        "2 kN/m", "--max-force", "5 N", "--object", "sphere:12.7323954mm", "--out", str(tmp_path)],
-                       capture_output=True, text=True, timeout=120)
+    r = run_main("export", "--algorithm", "D", "--texture", "egg-crate:0.2mm,2mm", "--stiffness",
+                 "2 kN/m", "--max-force", "5 N", "--object", "sphere:12.7323954mm", "--out", str(tmp_path))
     assert r.returncode == 0, r.stderr  # D on a sphere: the object's closest-point search
     assert "HX_ALG_D" in (tmp_path / "haptex_texture.c").read_text()
     from .test_objects import _ball_obj
 
     ball, scale = _ball_obj(tmp_path, subdivisions=1)
-    r = subprocess.run(["haptex", "export", "--algorithm", "D", "--texture", "egg-crate:0.2mm,2mm", "--stiffness",
-                        "2 kN/m", "--max-force", "5 N", "--object", str(ball), "--uv-scale", f"{scale} m",
-                        "--out", str(tmp_path / "mesh")], capture_output=True, text=True, timeout=120)
+    r = run_main("export", "--algorithm", "D", "--texture", "egg-crate:0.2mm,2mm", "--stiffness",
+                 "2 kN/m", "--max-force", "5 N", "--object", str(ball), "--uv-scale", f"{scale} m",
+                 "--out", str(tmp_path / "mesh"))
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and "base = " in r.stderr, r.stderr
 
 
@@ -658,7 +656,6 @@ def test_haptex_export_takes_a_vibration_for_its_device(tmp_path):
     from haptex import datadriven as dd
 
     from .test_datadriven import _ar
-    from .test_cli import run_main
 
     def models(rate):
         return dd.ModelSet([dd.ArmaModel(_ar((60, 0.97)), [1.0], 1.0, 1.0, rate, v, f)
