@@ -24,7 +24,10 @@ from haptex.explore import model
 
 from .conftest import explorer_process, server_log
 
-pytestmark = [pytest.mark.browser, pytest.mark.xdist_group("explorer-browser")]  # (one server, one Chromium)
+# (one server, one Chromium; a real browser's start and page loads are what cost, 24 tests in
+# 60-70 s, so they run in the long set after the README's command (issue 68); the server's
+# protocol and the page's model are tested without a browser in test_explore.py)
+pytestmark = [pytest.mark.browser, pytest.mark.xdist_group("explorer-browser"), pytest.mark.long]
 
 K0, A, L = 2000.0, 0.8e-3, 1e-3
 CHROMIUM = os.environ.get("HAPTEX_CHROMIUM") or shutil.which("chromium") or shutil.which("chromium-browser")

@@ -475,8 +475,7 @@ def _fit(p, f, T, D, H, init, res_sd, every: int = 1, max_nfev: int = 100, lsmr_
 
 
 def identify(*, time, position, force, max_delay: int = MAX_DELAY, window: float | None = None,
-             position_resolution: float | None = None, source: str = "arrays", _delay: int | None = None
-             ) -> Identification:
+             position_resolution: float | None = None, source: str = "arrays") -> Identification:
     """Fit the device model haptex simulates to a run log (see the module docstring).
 
     Parameters
@@ -525,22 +524,28 @@ def identify(*, time, position, force, max_delay: int = MAX_DELAY, window: float
     backend, whose exact transition is computed independently (scipy's expm):
     ``tests/test_identify.py``.
     """
+    return _identify(time=time, position=position, force=force, max_delay=max_delay, window=window,
+                     position_resolution=position_resolution, source=source, delay=None)
+
+
+def _identify(*, time, position, force, max_delay, window, position_resolution, source, delay):
+    """:func:`identify`, with ``delay`` (an int) fitted alone instead of the screened range."""
     if window is None:
         kw = dict(time=time, position=position, force=force, max_delay=max_delay,
                   position_resolution=position_resolution, source=source)
-        first = identify(window=WINDOW, **kw)
+        first = _identify(window=WINDOW, delay=None, **kw)
         rel = _damping_spread(first)
         T = first.device.period
         if (rel <= LONG_WINDOW_TRIGGER or "damping" in first.undetermined
                 or first.samples - max_delay < MIN_WINDOWS * round(LONG_WINDOW / T)):
             return first  # (a motion over too few encoder steps is not helped by longer windows)
         # the delay is the first fit's (searched on the short windows, where it shows best)
-        second = identify(window=LONG_WINDOW, _delay=first.device.delay, **kw)
+        second = _identify(window=LONG_WINDOW, delay=first.device.delay, **kw)
         second = dataclasses.replace(second, delay_residuals=first.delay_residuals, undetermined={
             **{k: v for k, v in first.undetermined.items() if k == "delay"}, **second.undetermined},
             notes=[n for n in first.notes if n.startswith("delay ")] + second.notes)
         rel2 = _damping_spread(second)
-        keep, other = (second, first) if rel2 < rel else (first, second)
+        keep = second if rel2 < rel else first
         keep.notes.append(f"window {LONG_WINDOW if keep is second else WINDOW:g} s: the damping's relative deviation "
                           f"was {rel:.2g} at {WINDOW:g} s and {rel2:.2g} at {LONG_WINDOW:g} s (the time constant "
                           f"m/b, {_time_constant(keep):.3g} s, is long beside a short window)")
@@ -596,7 +601,7 @@ def identify(*, time, position, force, max_delay: int = MAX_DELAY, window: float
     W_all = (n - max_delay) // H
     every = max(1, W_all // SCREEN_WINDOWS)
     screened = {}
-    for D in (range(max_delay + 1) if _delay is None else (_delay,)):
+    for D in (range(max_delay + 1) if delay is None else (delay,)):
         coef = ee[D][1]
         best = None
         for k in SCREEN_STARTS:
