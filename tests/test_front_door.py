@@ -5,10 +5,7 @@ References: the options are the click commands' own (``haptex.cli.cli``); a tabl
 those it prints in a terminal wide enough for every cell on one line (400 columns)."""
 
 import ast
-import os
 import re
-import subprocess
-import sys
 from collections import Counter
 from pathlib import Path
 
@@ -60,11 +57,13 @@ def _words(text: str) -> Counter:
     ("design", "--texture", "sine:0.2mm,2mm", "--algorithms", "W,A,C", "--quiet"),
     ("simulate", "thrust", "--algorithm", "A", "--stiffness", "2kN/m", "--duration", "0.1s"),
 ], ids=lambda a: " ".join(a[:3]))
-def test_tables_fit_80_columns_and_keep_every_word_whole(args):
-    def run(columns):
-        env = dict(os.environ, COLUMNS=str(columns), TERM="dumb")
-        r = subprocess.run([sys.executable, "-m", "haptex", *args], capture_output=True, text=True, env=env,
-                           timeout=300)
+def test_tables_fit_80_columns_and_keep_every_word_whole(args, monkeypatch):
+    from .test_cli import run_main
+
+    def run(columns):  # (in this process: rich reads the environment when a command makes its console)
+        monkeypatch.setenv("COLUMNS", str(columns))
+        monkeypatch.setenv("TERM", "dumb")
+        r = run_main(*args)
         assert r.returncode == 0, r.stderr
         return r.stdout
 
