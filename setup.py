@@ -14,6 +14,11 @@ from setuptools import Extension, setup
 from setuptools.command.build_ext import build_ext
 
 CORE = Path("src/haptex/core")
+GCC_FLAGS = ("-std=c99", "-O2", "-fno-fast-math", "-fno-math-errno")
+"""gcc's, clang's and mingw-w64's flags for the core (IEEE arithmetic: the NumPy oracle's)."""
+MSVC_FLAGS = ("/O2", "/fp:precise", "/std:c11")
+"""MSVC's (untried here: the core's atomics are gcc's and clang's __atomic builtins, which MSVC
+lacks; see the firmware guide's 'Where it runs')."""
 
 
 class BuildCore(build_ext):
@@ -21,6 +26,12 @@ class BuildCore(build_ext):
     cores (setuptools compiles an extension's sources one after another: 8.6 s here, 4.6 s on 2)."""
 
     def build_extension(self, ext):
+        # flags by compiler: MSVC takes its own spelling (its C is C11/C17; /fp:precise is its
+        # default IEEE behaviour, -fno-fast-math's); gcc, clang and mingw-w64 take gcc's
+        if self.compiler.compiler_type == "msvc":
+            ext.extra_compile_args = list(MSVC_FLAGS)
+        else:
+            ext.extra_compile_args = list(GCC_FLAGS)
         serial = self.compiler.compile
 
         def compile_each(sources, *args, **kwargs):  # one compiler process a source, on a pool of threads
@@ -52,7 +63,7 @@ setup(
             sources=[str(CORE / "_ext.c"), *(str(c) for c in sorted(CORE.glob("hx_*.c")))],
             include_dirs=[str(CORE), numpy.get_include()],  # NumPy's C API: Renderer.step reads a row in place
             depends=[str(h) for h in sorted(CORE.glob("*.h"))],
-            extra_compile_args=["-std=c99", "-O2", "-fno-fast-math", "-fno-math-errno"],
+            extra_compile_args=list(GCC_FLAGS),  # (MSVC's set by BuildCore)
         )
     ],
     cmdclass={"build_ext": BuildCore},

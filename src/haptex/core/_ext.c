@@ -1562,7 +1562,7 @@ static PyObject *Servo_start(ServoObject *self, PyObject *const *args, Py_ssize_
             return NULL;
         }
         memset(&self->haply, 0, sizeof self->haply);
-        self->haply.fd = (int)fd;
+        self->haply.fd = (intptr_t)fd;
         self->haply.timeout = timeout;
         Py_BEGIN_ALLOW_THREADS
         xrc = hx_haply_exchange(&self->haply, zero);
@@ -2492,7 +2492,7 @@ static PyObject *haply_wakeup(PyObject *self, PyObject *const *args, Py_ssize_t 
         return NULL;
     }
     memset(&h, 0, sizeof h);
-    h.fd = (int)fd;
+    h.fd = (intptr_t)fd;
     Py_BEGIN_ALLOW_THREADS
     rc = hx_haply_wakeup(&h, timeout, info);
     Py_END_ALLOW_THREADS

@@ -14,16 +14,24 @@
  * commands zero); a state that is not finite is passed on (the servo's rules count the fault
  * and send zero). Forces are rounded towards zero to float32 (never larger than asked). The
  * port is the caller's (opened raw); nothing here allocates.
+ *
+ * On Windows the port is a COM port's HANDLE (hx_haply_open: CreateFile, 8N1, no flow control,
+ * buffers purged): writes by WriteFile, reads by ReadFile under COMMTIMEOUTS that return at the
+ * first byte there is or after the time left to the deadline (the same deadline as poll's).
  */
 #define _GNU_SOURCE
 #include "hx_host.h"
 
 #include <errno.h>
 #include <math.h>
-#include <poll.h>
 #include <stdint.h>
 #include <string.h>
+#ifdef _WIN32
+#include <windows.h>
+#else
+#include <poll.h>
 #include <unistd.h>
+#endif
 
 enum { HX_HAPLY_WAKE = 0x0A, HX_HAPLY_AWAKE = 0x0B, HX_HAPLY_FORCE = 0x2A, HX_HAPLY_STATE = 0x2B };
 
@@ -63,9 +71,84 @@ float hx_haply_f32(double f)
     return g;
 }
 
+#ifdef _WIN32
 /* write all n bytes, or fail */
-static int send_all(int fd, const unsigned char *b, size_t n)
+static int send_all(intptr_t port, const unsigned char *b, size_t n)
 {
+    while (n > 0) {
+        DWORD w = 0;
+        if (!WriteFile((HANDLE)port, b, (DWORD)n, &w, NULL) || w == 0)
+            return HX_HAPLY_EWRITE;
+        b += w;
+        n -= (size_t)w;
+    }
+    return 0;
+}
+
+/* read exactly n bytes before the deadline (monotonic s), or fail */
+static int recv_all(intptr_t port, unsigned char *b, size_t n, double deadline)
+{
+    while (n > 0) {
+        double left = deadline - hx_now();
+        COMMTIMEOUTS to;
+        DWORD got = 0;
+        if (left <= 0.0)
+            return HX_HAPLY_ETIMEOUT;
+        memset(&to, 0, sizeof to);
+        to.ReadIntervalTimeout = MAXDWORD; /* with the multiplier MAXDWORD: return at the first byte */
+        to.ReadTotalTimeoutMultiplier = MAXDWORD;
+        to.ReadTotalTimeoutConstant = (DWORD)ceil(left * 1e3);
+        if (!SetCommTimeouts((HANDLE)port, &to) || !ReadFile((HANDLE)port, b, (DWORD)n, &got, NULL))
+            return HX_HAPLY_EREAD;
+        b += got; /* (none: the deadline is checked above) */
+        n -= (size_t)got;
+    }
+    return 0;
+}
+
+int hx_haply_open(const char *name, intptr_t *port)
+{
+    char path[64];
+    HANDLE h;
+    DCB dcb;
+    /* COM10 and above need the device namespace; it serves COM1-9 as well */
+    if (strlen(name) + 5 > sizeof path)
+        return HX_HAPLY_EREAD;
+    strcpy(path, "\\\\.\\");
+    strcat(path, name);
+    h = CreateFileA(path, GENERIC_READ | GENERIC_WRITE, 0, NULL, OPEN_EXISTING, 0, NULL);
+    if (h == INVALID_HANDLE_VALUE)
+        return HX_HAPLY_EREAD;
+    memset(&dcb, 0, sizeof dcb);
+    dcb.DCBlength = sizeof dcb;
+    if (!GetCommState(h, &dcb)) {
+        CloseHandle(h);
+        return HX_HAPLY_EREAD;
+    }
+    dcb.BaudRate = CBR_115200; /* (a USB CDC port ignores it) */
+    dcb.ByteSize = 8;
+    dcb.Parity = NOPARITY;
+    dcb.StopBits = ONESTOPBIT;
+    dcb.fBinary = TRUE;
+    dcb.fOutxCtsFlow = dcb.fOutxDsrFlow = FALSE;
+    dcb.fOutX = dcb.fInX = FALSE;
+    dcb.fDtrControl = DTR_CONTROL_ENABLE;
+    dcb.fRtsControl = RTS_CONTROL_ENABLE;
+    if (!SetCommState(h, &dcb)) {
+        CloseHandle(h);
+        return HX_HAPLY_EREAD;
+    }
+    PurgeComm(h, PURGE_RXCLEAR | PURGE_TXCLEAR);
+    *port = (intptr_t)h;
+    return 0;
+}
+
+void hx_haply_close(intptr_t port) { CloseHandle((HANDLE)port); }
+#else
+/* write all n bytes, or fail */
+static int send_all(intptr_t port, const unsigned char *b, size_t n)
+{
+    int fd = (int)port;
     while (n > 0) {
         ssize_t w = write(fd, b, n);
         if (w < 0) {
@@ -80,8 +163,9 @@ static int send_all(int fd, const unsigned char *b, size_t n)
 }
 
 /* read exactly n bytes before the deadline (monotonic s), or fail */
-static int recv_all(int fd, unsigned char *b, size_t n, double deadline)
+static int recv_all(intptr_t port, unsigned char *b, size_t n, double deadline)
 {
+    int fd = (int)port;
     while (n > 0) {
         struct pollfd pfd;
         double left = deadline - hx_now();
@@ -118,6 +202,7 @@ static int recv_all(int fd, unsigned char *b, size_t n, double deadline)
     }
     return 0;
 }
+#endif
 
 int hx_haply_wakeup(hx_haply *h, double timeout, unsigned char info[21])
 {

@@ -13,6 +13,8 @@
 
 #include "hx_core.h"
 
+#include <stdint.h>
+
 /* ---- the simulated device ------------------------------------------------------------ */
 
 #define HX_PLANT_MAXSTATE 21 /* 5 d of the augmented dynamics plus 2 d of a structural mode, d <= 3 */
@@ -55,7 +57,7 @@ int hx_plant_write(hx_plant *d, const double f[3]);
 enum { HX_HAPLY_EWRITE = 1, HX_HAPLY_EREAD = 2, HX_HAPLY_ETIMEOUT = 3, HX_HAPLY_EGARBLED = 4 };
 
 typedef struct {
-    int fd;              /* the port, opened raw by the caller */
+    intptr_t fd;         /* the port, opened raw by the caller: a file descriptor; on Windows a HANDLE */
     double timeout;      /* s: the longest wait for an answer */
     double p[3], v[3];   /* the last answer's position (m) and velocity (m/s) */
     double sent[3];      /* the last force sent (N, as float32 rounded towards zero) */
@@ -72,6 +74,12 @@ int hx_haply_exchange(hx_haply *h, const double f[3]);
 /* hx_io's read and write over an hx_haply (ctx): the last answer's position; an exchange. */
 int hx_haply_read(void *ctx, double p[3]);
 int hx_haply_write(void *ctx, const double f[3]);
+#ifdef _WIN32
+/* Open a COM port by name ("COM3") for hx_haply: raw 8N1, no flow control, buffers purged;
+ * 0 and its HANDLE in port, or HX_HAPLY_EREAD. */
+int hx_haply_open(const char *name, intptr_t *port);
+void hx_haply_close(intptr_t port);
+#endif
 
 /* ---- the native servo thread ---------------------------------------------------------- */
 
