@@ -635,3 +635,30 @@ def test_a_tilted_scan_is_band_limited_as_its_levelled_self_plus_its_tilt():
         return math.sqrt(2 * p[1])
 
     assert fundamental(tilted.h) == pytest.approx(fundamental(t.h), rel=0.05)
+
+
+def test_a_remedy_taken_exactly_at_its_stated_bound_is_not_refused_again():
+    # issue 67: a 20 um AFM map refused at 0.1 m/s named '--speed 0.02 m/s or less', and at
+    # 0.02 m/s it was refused again (20 um < 2 l_c = 2 x 10.000000000000002 um): the bound was
+    # named by one computation and checked by another. Walked over a neighbourhood of spans
+    # (profiles of 5-60 um, 1 um apart, and the issue's 20 um map; a point mass, whose l_c is the
+    # scanning velocity's, v x 0.5 ms): both remedies the refusal names, each taken exactly at
+    # its bound, give a design (before: 37 of 56 speeds refused again)
+    from haptex.design import design
+
+    cases = []
+    for n_um in range(5, 61):
+        x = np.linspace(0.0, n_um * 1e-6, 33)
+        cases.append((hx.SampledProfile(x, 1e-8 * np.sin(2 * np.pi * 3 * x / x[-1])), hx.Device.point_mass()))
+    x = np.linspace(0.0, 20e-6, 17)
+    cases.append((hx.SampledSurface(x, x, 1e-8 * np.sin(2 * np.pi * 3 * x / x[-1])[:, None] * np.ones(x.size)),
+                  hx.Device.point_mass(dimension=3)))
+    for tex, dev in cases:
+        with pytest.raises(hx.ParameterError) as refused:
+            design(tex, dev, 500.0, speed=0.1, algorithms="W")
+        msg = str(refused.value)
+        speed = re.search(r"--speed ([0-9.e+-]+) m/s or less", msg)
+        scale = re.search(r"--scale F,H with F >= ([0-9.e+]+)", msg)
+        assert speed and scale, msg
+        design(tex, dev, 500.0, speed=float(speed.group(1)), algorithms="W")
+        design(tex.scaled(float(scale.group(1))), dev, 500.0, speed=0.1, algorithms="W")
