@@ -154,6 +154,11 @@ class SweepSpec:
     def from_file(cls, path) -> SweepSpec:
         """Read a SPEC from a ``.toml``, ``.yaml`` or ``.yml`` file.
 
+        Parameters
+        ----------
+        path : str or os.PathLike
+            The SPEC file (``.toml``, ``.yaml`` or ``.yml``).
+
         Raises
         ------
         ParameterError
@@ -191,6 +196,11 @@ class SweepSpec:
     @classmethod
     def from_mapping(cls, data: dict) -> SweepSpec:
         """Validate a SPEC given as a mapping (what TOML or YAML gives).
+
+        Parameters
+        ----------
+        data : dict
+            The SPEC's keys and values, as TOML or YAML gives them (the atlases guide lists them).
 
         Raises
         ------
@@ -264,7 +274,14 @@ class SweepSpec:
                         from None
 
     def build(self, letter: str | None = None):
-        """(algorithm, device, operator, initial_position) of the fixed parts."""
+        """(algorithm, device, operator, initial_position) of the fixed parts.
+
+        Parameters
+        ----------
+        letter : str, optional
+            An algorithm's letter (W, A-G) to build instead of the SPEC's own (the atlas's
+            ``letter`` axis); default the SPEC's.
+        """
         from .algorithms import algorithm
         from .catalogue import _device_from_table
 
@@ -880,6 +897,11 @@ def _bar(show: bool, total: int, done: int):
 def open_atlas(path):
     """An atlas written by :func:`sweep`, loaded into memory.
 
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The Zarr store ``haptex sweep --out`` wrote.
+
     Raises
     ------
     ParameterError
@@ -914,6 +936,17 @@ def open_atlas(path):
 def select(ds, x: str, y: str, where: dict):
     """The 2-D slice (y, x) of an atlas: every other dimension fixed by ``where`` (name:
     value, the nearest coordinate) or of length 1.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        An atlas (:func:`open_atlas`).
+    x : str
+        The dimension along the slice's columns.
+    y : str
+        The dimension along the slice's rows.
+    where : dict
+        Every other dimension of length > 1, name: value (the nearest coordinate is taken).
 
     Raises
     ------
@@ -955,6 +988,17 @@ def analytic_boundary(ds, x: str, y: str, where: dict) -> np.ndarray | None:
     eq. 1), i.e. kappa = sigma_0(B) / (2 T q) with q the characteristic number of the run's
     texture (no delay). Every parameter on the y axis or in ``where`` is applied to the
     SPEC's algorithm and device as the sweep does (``simulate_batch``'s rebuilding).
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        An atlas (:func:`open_atlas`).
+    x : str
+        The dimension along the plot's x axis: the limit is drawn only when it is ``stiffness``.
+    y : str
+        The dimension along the plot's y axis (its coordinates are the rows of the result).
+    where : dict
+        The other dimensions' values (name: value), as :func:`select` takes them.
     """
     if x != "stiffness":
         return None

@@ -126,6 +126,11 @@ class Hand:
         handle side of a structural mode): what the simulator moves when this hand holds
         it. The hand's damping and stiffness act through :meth:`operator`.
 
+        Parameters
+        ----------
+        device : Device
+            The device the hand holds.
+
         Returns
         -------
         Device
@@ -141,6 +146,15 @@ class Hand:
         """The hand's spring and damper towards its set-point: a
         :func:`~haptex.operators.ScanningHand` pressing ``depth`` (m) below the surface and
         moving along x at ``velocity`` (m/s); use it with :meth:`attach`.
+
+        Parameters
+        ----------
+        depth : float, optional
+            How far (m, >= 0) below the surface the set-point presses.
+        velocity : float, optional
+            The set-point's speed along x (m/s).
+        dimension : int, optional
+            2 ([x, z]) or 3 ([x, y, z]).
 
         Raises
         ------
@@ -176,7 +190,15 @@ class Preset:
     rated_gap: str = ""
 
     def value(self, name: str, default=None):
-        """A figure's value in SI units, or ``default`` when the preset has none."""
+        """A figure's value in SI units, or ``default`` when the preset has none.
+
+        Parameters
+        ----------
+        name : str
+            The figure's name, as the preset's table has it (e.g. ``max_force``, ``damping``).
+        default : optional
+            What to return when the preset gives no such figure.
+        """
         f = self.figures.get(name)
         return default if f is None else f.value
 
@@ -334,6 +356,11 @@ def hands() -> dict[str, Hand]:
 def preset(name: str) -> Preset:
     """The preset called ``name``.
 
+    Parameters
+    ----------
+    name : str
+        A preset of ``haptex devices`` (``touch``, ``falcon``, ``omega-3``, ...).
+
     Raises
     ------
     ParameterError
@@ -347,6 +374,12 @@ def preset(name: str) -> Preset:
 
 def hand(name) -> Hand:
     """The hand called ``name`` (a :class:`Hand` is returned as is; None is ``none``).
+
+    Parameters
+    ----------
+    name : str, Hand or None
+        A hand of ``haptex devices`` (``none``, ``light-touch``, ``firm-grip``), a :class:`Hand`
+        (returned as is) or None (``none``).
 
     Raises
     ------

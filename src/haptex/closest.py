@@ -70,7 +70,13 @@ class ClosestPoint:
 
     def select(self, where) -> ClosestPoint:
         """The closest points at the positions ``where`` selects (a boolean mask or an index
-        over the probe positions' shape)."""
+        over the probe positions' shape).
+
+        Parameters
+        ----------
+        where : array_like of bool or int
+            A boolean mask over the probe positions' shape, or an index into it.
+        """
         return ClosestPoint(x=self.x[where], z=self.z[where], distance=self.distance[where], tie=self.tie[where],
                             work=self.work[where], y=None if self.y is None else self.y[where])
 
@@ -167,6 +173,11 @@ def closest_point(texture: Texture, p) -> ClosestPoint:
 def search_data(texture: Texture) -> np.ndarray:
     """The closest-point search's data for a texture (built once, cached on the texture).
 
+    Parameters
+    ----------
+    texture : Texture
+        A profile (a sum of sinusoids or a sampled profile).
+
     Returns
     -------
     ndarray, shape (n,)
@@ -202,6 +213,11 @@ def table_search_data(texture: Texture) -> np.ndarray:
     probe outside the table, or in a cell needing more than ``TABLE_MAXP`` (16) pieces, is
     searched by the tree: the result is the same global closest point either way, only the
     work differs.
+
+    Parameters
+    ----------
+    texture : Texture
+        A profile (the table is built for periodic ones).
 
     Returns
     -------
@@ -440,7 +456,13 @@ def surface_search_data(texture) -> tuple[int, np.ndarray, np.ndarray]:
     applies them to cells wholly inside, block by block from
     :meth:`haptex.SampledSurface.bounds_pyramid` (appended after the ``N_GAUX`` constants, their
     number in ``G_PYRAMID``), and the convexity certificate only to a periodic map).
-    Cached on the texture."""
+    Cached on the texture.
+
+    Parameters
+    ----------
+    texture : Surface
+        A sum of gratings or a height map (:class:`haptex.SampledSurface`).
+    """
     from .surfaces import SampledSurface
 
     cached = texture.__dict__.get("_surface_search")

@@ -281,6 +281,19 @@ def rendered_texture(texture: Texture, device: Device, speed: float = 0.1, sampl
     cut-off at ``speed`` and resampled (see ``band_limit`` there); the texture itself
     otherwise.
 
+    Parameters
+    ----------
+    texture : Texture
+        The texture (a sampled one is band-limited; another is returned as is).
+    device : Device
+        The device it is rendered on (its cut-off period at ``speed``).
+    speed : float, optional
+        Scanning speed (m/s), > 0.
+    samples_per_period : float, optional
+        Samples a cut-off period the scanning-velocity limit asks for (the paper's alpha).
+    band_limit : bool, optional
+        False: the texture as given.
+
     Raises
     ------
     ParameterError

@@ -60,6 +60,13 @@ def scalar_field(name: str, value):
     than any sensor is a typo, and x / delta overflows); ``max_force`` > 0 or inf (N);
     ``coulomb_friction`` >= 0 (N). Returns the value (int for the delay, else float).
 
+    Parameters
+    ----------
+    name : str
+        One of :data:`SCALAR_FIELDS`.
+    value : float or int
+        Its value (SI units; periods for the delay).
+
     Raises
     ------
     ParameterError
@@ -245,7 +252,14 @@ class Device:
         return self.passivity_limit if self.stiffness_limit is None else self.stiffness_limit
 
     def replace(self, **changes) -> Device:
-        """A copy with some parameters changed (validated again)."""
+        """A copy with some parameters changed (validated again).
+
+        Parameters
+        ----------
+        **changes
+            Constructor parameters (``mass``, ``damping``, ``period``, ``delay``, ...) and their
+            new values, in SI units.
+        """
         fields = {k: getattr(self, k) for k in ("mass", "damping", "period", "delay", "position_resolution",
                                                 "force_resolution", "max_force", "first_resonance",
                                                 "coulomb_friction", "mode_damping_ratio", "handle_mass", "name",
@@ -549,6 +563,15 @@ def serial_arm_kinematics(l1: float, l2: float, q) -> tuple[np.ndarray, np.ndarr
     """Forward kinematics of :meth:`Device.serial_arm`: the handle position p (m), shape (3,),
     and J = dp/dq (m/rad), shape (3, 3), at joint angles q (rad).
 
+    Parameters
+    ----------
+    l1 : float
+        Upper-arm length (m).
+    l2 : float
+        Forearm length (m).
+    q : array_like, shape (3,)
+        Joint angles (rad): base yaw, shoulder, elbow.
+
     Raises
     ------
     ParameterError
@@ -571,6 +594,19 @@ def delta_kinematics(R: float, r: float, a: float, b: float, p) -> tuple[np.ndar
     :meth:`Device.delta` at effector position p (m): arm i at azimuth phi_i = 2 pi i / 3,
     its elbow e_i = (R + a cos theta_i) u_i - a sin theta_i z (theta_i > 0 down), its forearm
     end p + r u_i.
+
+    Parameters
+    ----------
+    R : float
+        Base radius (m): the motors' distance from the axis.
+    r : float
+        Effector radius (m): the forearms' ends' distance from the effector's centre.
+    a : float
+        Upper-arm length (m).
+    b : float
+        Forearm length (m).
+    p : array_like, shape (3,)
+        Effector position (m).
 
     Raises
     ------

@@ -117,7 +117,13 @@ class WallLimits:
 
 def normal_axis(device: Device) -> tuple[float, float, float | None]:
     """(m, b, m_handle): the apparent mass (kg), damping (N s/m) and handle-side mass of
-    the structural mode (kg, or None) along the wall's normal, the other axes free."""
+    the structural mode (kg, or None) along the wall's normal, the other axes free.
+
+    Parameters
+    ----------
+    device : Device
+        The device; the wall's normal is its last axis (z).
+    """
     m = 1.0 / float(np.linalg.inv(device.mass)[-1, -1])
     b = float(device.damping[-1, -1])
     mh = None if device.handle_mass is None else 1.0 / float(np.linalg.inv(device.handle_mass)[-1, -1])
@@ -338,6 +344,17 @@ def simulated_wall_limit(device: Device, hand, guess: float, virtual_damping: fl
     spaced geometrically from guess / 4 to 4 guess; a run is unstable when its regime is a
     limit cycle, growth or divergence (:data:`haptex.simulate.UNSTABLE`).
 
+    Parameters
+    ----------
+    device : Device
+        The device.
+    hand : Hand
+        The hand holding it (:func:`haptex.catalogue.hand`).
+    guess : float
+        A stiffness (N/m) near the limit (the analytic one): the grid spans guess / 4 to 4 guess.
+    virtual_damping : float, optional
+        W's virtual damper (N s/m).
+
     Returns
     -------
     (float, float)
@@ -364,7 +381,15 @@ def simulated_wall_limit(device: Device, hand, guess: float, virtual_damping: fl
 def stiffness_at(limit: float, q: float) -> float:
     """The largest nominal stiffness kappa_0 (N/m) a texture with characteristic number q
     renders within a wall limit (N/m): limit / q (the paper's gain limit, Section II-B);
-    0 for an infinite q."""
+    0 for an infinite q.
+
+    Parameters
+    ----------
+    limit : float
+        The wall limit (N/m).
+    q : float
+        The texture's characteristic number (>= 1, or inf).
+    """
     if math.isinf(q):
         return 0.0
     return math.inf if q <= 0 else limit / q

@@ -83,7 +83,13 @@ class Operator:
         return not self.kinematic and not np.any(self.stiffness) and not np.any(self.damping)
 
     def setpoint(self, t) -> np.ndarray:
-        """Set-point position s(t) (m), shape (..., d), for times t (s)."""
+        """Set-point position s(t) (m), shape (..., d), for times t (s).
+
+        Parameters
+        ----------
+        t : float or array_like, shape (...)
+            Times (s).
+        """
         t = np.asarray(t, dtype=np.float64)
         ts, ps = self.setpoint_times, self.setpoint_points
         after = np.maximum(t - ts[-1], 0.0)
@@ -251,5 +257,11 @@ def _timed_path(path, speed, dim: int = 2):
 
 
 def path_duration(op: Operator) -> float:
-    """Time (s) the set-point takes to reach the end of its polyline."""
+    """Time (s) the set-point takes to reach the end of its polyline.
+
+    Parameters
+    ----------
+    op : Operator
+        A path operator (:func:`KinematicPath`): its polyline and speed.
+    """
     return float(op.setpoint_times[-1]) if math.isfinite(op.setpoint_times[-1]) else math.inf

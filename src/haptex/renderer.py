@@ -35,6 +35,13 @@ def stabiliser_period(passivity_controller, period) -> float | None:
     """The servo period (s) a tick with ``passivity_controller`` runs at, checked (the
     renderer's and the export's one rule): None without a period.
 
+    Parameters
+    ----------
+    passivity_controller : Stabiliser or None
+        The tick's stabiliser.
+    period : float or None
+        The servo period (s) it is given with, or None (then the stabiliser's own).
+
     Raises
     ------
     ParameterError
@@ -342,6 +349,11 @@ surface; chosen): about 12 times the paper's egg-crate's typical tick (410), abo
 
 def evaluation_budget(max_evaluations):
     """``max_evaluations`` checked: None, or a whole number of texture evaluations in [100, 10^9].
+
+    Parameters
+    ----------
+    max_evaluations : int or None
+        The budget to check.
 
     Raises
     ------

@@ -388,6 +388,13 @@ def _is_previous_report(path: Path) -> bool:
 def check_output(out: Path, force: bool) -> None:
     """Refuse an output directory that exists and is not a previous haptex report.
 
+    Parameters
+    ----------
+    out : pathlib.Path
+        The report's directory.
+    force : bool
+        Overwrite a directory that is not a previous report.
+
     Raises
     ------
     ParameterError
@@ -428,7 +435,13 @@ def _scratch_prefix(target: Path, what: str) -> str:
 def remove_stale_scratch(target: Path) -> list[Path]:
     """Remove the hidden ``.DIR.tmp-PID-*``, ``.DIR.old-PID-*`` and ``.DIR.probe-PID-*``
     directories that a killed run left beside ``target``; a directory whose process still
-    runs is kept. Returns the paths removed."""
+    runs is kept. Returns the paths removed.
+
+    Parameters
+    ----------
+    target : pathlib.Path
+        The report's directory, beside which the scratch directories lie.
+    """
     removed = []
     stem = f".{target.name or 'root'}."
     try:
@@ -678,7 +691,13 @@ def _umask() -> int:
 
 def jsonable(obj):
     """A JSON-ready copy: dict keys as strings, tuples as lists, NumPy scalars as Python
-    numbers, and non-finite floats as the strings "inf", "-inf", "nan" (an unbounded q)."""
+    numbers, and non-finite floats as the strings "inf", "-inf", "nan" (an unbounded q).
+
+    Parameters
+    ----------
+    obj : object
+        Dicts, lists, tuples, NumPy and Python numbers, strings and None, nested.
+    """
     if isinstance(obj, dict):
         return {str(k): jsonable(v) for k, v in obj.items()}
     if isinstance(obj, list | tuple):
@@ -700,7 +719,15 @@ def _run_summary(run) -> dict:
 
 
 def summary_json(data: dict, elapsed: float | None = None) -> dict:
-    """The report's numbers as plain JSON-able data (energies J, lengths m, stiffness N/m)."""
+    """The report's numbers as plain JSON-able data (energies J, lengths m, stiffness N/m).
+
+    Parameters
+    ----------
+    data : dict
+        The report's computed results (:func:`compute`'s).
+    elapsed : float, optional
+        The run's wall-clock time (s), recorded when given.
+    """
     pas, con, sur = data["passivity"], data["conservativity"], data["surface_activity"]
     return jsonable({
         "generator": MARKER,

@@ -50,6 +50,17 @@ def model_as(backend, kind: str, key: str, period: float | None = None) -> None:
     preset's period, or ``period`` s where the vendor's service sets its own), name
     (``KIND:PRESET``), dimension, period, max_force and workspace.
 
+    Parameters
+    ----------
+    backend : DeviceBackend
+        The backend whose model is set (its attributes are written).
+    kind : str
+        The backend's kind, the part of the name before the colon (``forcedimension``, ...).
+    key : str
+        A 3-DOF preset of ``haptex devices``.
+    period : float, optional
+        The servo period (s) where the vendor's service sets its own; default the preset's.
+
     Raises
     ------
     ParameterError
@@ -76,6 +87,13 @@ device or service that paces it."""
 def probed_period(stamps, spec: str) -> float:
     """The median interval (s) between a lock-step probe's answers, received at ``stamps`` (s).
 
+    Parameters
+    ----------
+    stamps : array_like, shape (n,)
+        The times (s, a monotonic clock) the probe's answers were received, n >= 2.
+    spec : str
+        The device's name, for the error.
+
     Raises
     ------
     DeviceError
@@ -90,7 +108,19 @@ def probed_period(stamps, spec: str) -> float:
 
 def wait_until(due: float, clock, sleep, spin: float) -> None:
     """Return at ``clock() >= due`` (s): sleep until ``spin`` seconds before, then spin on the
-    clock (a sleep alone overshoots by ~0.1 ms on this machine)."""
+    clock (a sleep alone overshoots by ~0.1 ms on this machine).
+
+    Parameters
+    ----------
+    due : float
+        The time to return at (s, on ``clock``).
+    clock : callable
+        A monotonic clock, ``clock() -> float`` (s).
+    sleep : callable
+        ``sleep(seconds)``, which may wake late.
+    spin : float
+        Seconds before ``due`` at which the sleep ends and the spin on the clock begins.
+    """
     wait = due - clock()
     if wait > spin:
         sleep(wait - spin)
@@ -218,7 +248,13 @@ class DeviceBackend(Protocol):
         """The handle's state now."""
 
     def command(self, force) -> None:
-        """Send a force (N), shape (d,): it acts until the next command."""
+        """Send a force (N), shape (d,): it acts until the next command.
+
+        Parameters
+        ----------
+        force : array_like, shape (d,)
+            The force (N), d the backend's dimension (2: [x, z], 3: [x, y, z]).
+        """
 
     # A backend whose SDK calls back in its own servo thread also has
     # ``drive(tick, n_ticks)``: it runs ``n_ticks`` ticks, each calling ``tick(sample)`` inside

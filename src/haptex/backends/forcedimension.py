@@ -155,7 +155,13 @@ class ForceDimensionBackend:
         return Sample(t, self._p.copy(), self._v.copy(), int(dhd.getButtonMask(self._id)))
 
     def command(self, force) -> None:
-        """Send a force (N), shape (3,), held until the next command."""
+        """Send a force (N), shape (3,), held until the next command.
+
+        Parameters
+        ----------
+        force : array_like, shape (3,)
+            The force (N), in haptex's frame [x, y, z].
+        """
         if self._id is None:
             return  # (closed: nothing is energised)
         f = np.asarray(force, dtype=np.float64).reshape(3)

@@ -202,7 +202,13 @@ class HaplyBackend:
                               f"{exc.__class__.__name__}") from None
 
     def command(self, force) -> None:
-        """Answer the last state with a force (N), shape (3,)."""
+        """Answer the last state with a force (N), shape (3,).
+
+        Parameters
+        ----------
+        force : array_like, shape (3,)
+            The force (N), in haptex's frame [x, y, z].
+        """
         if self._ws is None:
             return  # (closed: the service holds no force of ours)
         self._send(self._ws, np.asarray(force, dtype=np.float64).reshape(3))

@@ -334,7 +334,13 @@ class HaplySerialBackend:
 
     def command(self, force) -> None:
         """Send a force (N), shape (3,), as float32 rounded towards zero; the answer is the next
-        sample."""
+        sample.
+
+        Parameters
+        ----------
+        force : array_like, shape (3,)
+            The force (N), in haptex's frame [x, y, z].
+        """
         if self._dev is None:
             return  # (closed: the device holds no force of ours)
         self._exchange(_float32_towards_zero(force))

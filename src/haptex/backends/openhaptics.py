@@ -220,7 +220,13 @@ class OpenHapticsBackend:
 
     def command(self, force) -> None:
         """Send a force (N), shape (3,), in one synchronous callback; nothing when closed
-        (HD's output stops with its scheduler)."""
+        (HD's output stops with its scheduler).
+
+        Parameters
+        ----------
+        force : array_like, shape (3,)
+            The force (N), in haptex's frame [x, y, z].
+        """
         f = np.asarray(force, dtype=np.float64).reshape(3).copy()
         self._last = f
         if self._h is None or not self._running:

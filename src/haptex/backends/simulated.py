@@ -134,7 +134,13 @@ class SimulatedBackend:
 
     def command(self, force) -> None:
         """Hold ``force`` (N) over the next period (after the preset's delay) and advance; a
-        force above the device's maximum is scaled to it, as real amplifiers clip."""
+        force above the device's maximum is scaled to it, as real amplifiers clip.
+
+        Parameters
+        ----------
+        force : array_like, shape (3,)
+            The force (N), in haptex's frame [x, y, z].
+        """
         if not self._open:
             raise fail("device", self.name, "opened before it is commanded")
         f = np.asarray(force, dtype=np.float64).reshape(self.dimension)

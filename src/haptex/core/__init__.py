@@ -115,6 +115,11 @@ def threads(n: int):
     """Within the block, the C core's batch loops called from this thread use ``n`` threads
     (a Dask worker's task: its share of the machine's cores), whatever ``HAPTEX_NUM_THREADS``.
 
+    Parameters
+    ----------
+    n : int
+        Threads the C core's batch loops use within the block, 1 to 1024.
+
     Raises
     ------
     ParameterError
@@ -200,7 +205,13 @@ def blas_held_to_one_thread(fn):
     """Decorator: ``fn`` runs with BLAS held to one thread (:func:`_blas_held_to_one_thread`):
     for entry points whose set-up calls BLAS on small matrices just before their C loops run
     on threads (OpenBLAS's workers would spin through the loops: measured 17-21 % of
-    simulate_batch's rate on 2 cores)."""
+    simulate_batch's rate on 2 cores).
+
+    Parameters
+    ----------
+    fn : callable
+        The function wrapped.
+    """
 
     @functools.wraps(fn)
     def held(*args, **kwargs):
@@ -241,7 +252,21 @@ def in_slices(fn, n: int, threads: int | None = None, least: int = 1024, per_thr
     """Call ``fn(lo, hi)`` over contiguous slices of range(n), on up to :func:`num_threads`
     threads (the C releases the GIL); slices of at least ``least`` items (one thread below),
     up to ``per_thread`` (default ``SLICES_PER_THREAD``) a thread, taken by the threads as they
-    come free; BLAS held to one thread meanwhile."""
+    come free; BLAS held to one thread meanwhile.
+
+    Parameters
+    ----------
+    fn : callable
+        ``fn(lo, hi)``: the work on items lo to hi - 1 (it releases the GIL in C).
+    n : int
+        The number of items.
+    threads : int, optional
+        Most threads; default :func:`num_threads`.
+    least : int, optional
+        Fewest items a slice (below it one thread does all).
+    per_thread : int, optional
+        Slices a thread (their count is threads x per_thread).
+    """
     threads = num_threads() if threads is None else threads
     per_thread = SLICES_PER_THREAD if per_thread is None else per_thread
     parts = max(1, min(threads * per_thread, n // max(least, 1)))
