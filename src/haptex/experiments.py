@@ -179,7 +179,19 @@ def _band(p, stiffness=None, angle_deg=None):
 @dataclass(frozen=True)
 class Run:
     """One named simulation run of an experiment: its label, algorithm letter, stiffness
-    (N/m) and :class:`~haptex.simulate.SimulationResult`."""
+    (N/m) and :class:`~haptex.simulate.SimulationResult`.
+
+    Parameters
+    ----------
+    label : str
+        The run's name in the figure's legend.
+    letter : str
+        The algorithm's letter (W, A-G).
+    stiffness : float
+        The nominal stiffness kappa_0 (N/m).
+    result : SimulationResult
+        The run (:func:`haptex.simulate`).
+    """
 
     label: str
     letter: str
@@ -274,6 +286,11 @@ def activity_while_passive(quick: bool = False) -> dict:
     the environment every period (Sections III-C and V-C: non-conservative fields feel
     'alive' although the system is passive).
 
+    Parameters
+    ----------
+    quick : bool, optional
+        Coarser grids and shorter runs (``haptex reproduce --quick``).
+
     Returns
     -------
     dict
@@ -297,6 +314,11 @@ def conservativity(quick: bool = False) -> dict:
 
     Algorithms A, G, D and F; the per-axis energies E_x, E_z over time, and the final
     values under a sweep of the hand's stiffness and set-point depth.
+
+    Parameters
+    ----------
+    quick : bool, optional
+        Coarser grids and shorter runs (``haptex reproduce --quick``).
 
     Returns
     -------
@@ -368,13 +390,28 @@ def _steady_stroke(alg, dev, p: dict, velocity: float, duration: float):
 
 
 def bump_path(p: dict, n: int = 400) -> np.ndarray:
-    """Set-point polyline following the enlarged bump h(x) at ``depth`` below it (m)."""
+    """Polyline along the enlarged bump's surface, [x, h(x)] (m), shape (n, 2).
+
+    Parameters
+    ----------
+    p : dict
+        The bump's parameters (Fig. 7's): ``amplitude`` and ``period`` (m) of the sinusoid
+        it is a part of, and ``length`` (m), the polyline's extent from the trough at
+        x = -period / 4.
+    n : int, optional
+        Vertices of the polyline.
+    """
     x = np.linspace(-0.25 * p["period"], -0.25 * p["period"] + p["length"], n)
     return np.column_stack([x, Sinusoid(p["amplitude"], p["period"]).height(x)])
 
 
 def surface_activity(quick: bool = False) -> dict:
     """Section V-C: a hand explores the enlarged bump (Fig. 7) with A, B, E and D.
+
+    Parameters
+    ----------
+    quick : bool, optional
+        Coarser grids and shorter runs (``haptex reproduce --quick``).
 
     Returns
     -------
@@ -471,6 +508,11 @@ def wall_map(quick: bool = False) -> dict:
     oscillation, amplitude > 10 Delta), ``limit cycle`` (a sustained oscillation within
     10 Delta) or ``rest``.
 
+    Parameters
+    ----------
+    quick : bool, optional
+        Coarser grids and shorter runs (``haptex reproduce --quick``).
+
     Returns
     -------
     dict
@@ -541,6 +583,17 @@ def force_error(alg, res, device: Device, band: float) -> tuple[float, float]:
     every sample) against the uncontrolled tick (the C core's, F's presliding state included)
     replayed over the sensed positions it was computed from, 1 + ``device.delay`` samples
     before (quantised to ``device.position_resolution``).
+
+    Parameters
+    ----------
+    alg : Algorithm
+        The algorithm the run rendered.
+    res : SimulationResult
+        The stabilised run, its force recorded every sample.
+    device : Device
+        Its device (the delay between a sample and the force computed from it).
+    band : float
+        The frequency (Hz) below which the error is measured.
 
     Returns
     -------
@@ -765,6 +818,11 @@ hand on the 3D Systems Touch preset, at four servo rates."""
 def clean_stiffness_by_rate(quick: bool = False) -> dict:
     """The largest texture stiffness that does not buzz, against the servo rate
     (:func:`haptex.limits.clean_stiffness` on :data:`CLEAN_STIFFNESS`).
+
+    Parameters
+    ----------
+    quick : bool, optional
+        Coarser grids and shorter runs (``haptex reproduce --quick``).
 
     Returns
     -------

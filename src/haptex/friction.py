@@ -200,7 +200,18 @@ class PreslidingState:
 
     @classmethod
     def at(cls, x: float, max_deflection: float = 1e-3, stick_deflection: float | None = None) -> PreslidingState:
-        """A fresh contact at position x (m): adhesion at x, zero deflection."""
+        """A fresh contact at position x (m): adhesion at x, zero deflection.
+
+        Parameters
+        ----------
+        x : float
+            The contact's position (m): the adhesion point.
+        max_deflection : float, optional
+            d^x_max (m), the presliding range (eq. 24).
+        stick_deflection : float, optional
+            z_stick (m), 0 <= z_stick < d_max, for the smooth stick-to-slip variant; None
+            (default) for the sharp model of eq. 24.
+        """
         return cls(adhesion=x, max_deflection=max_deflection, stick_deflection=stick_deflection, position=x)
 
     @property
@@ -254,7 +265,17 @@ def step(state: PreslidingState, x: float) -> tuple[float, PreslidingState]:
 
 
 def phase_of(deflection: float, max_deflection: float, rtol: float = 1e-12) -> str:
-    """``"slip"`` when |d| = d_max (to ``rtol``), else ``"stick"`` (eq. 24)."""
+    """``"slip"`` when |d| = d_max (to ``rtol``), else ``"stick"`` (eq. 24).
+
+    Parameters
+    ----------
+    deflection : float
+        The presliding deflection d (m).
+    max_deflection : float
+        d^x_max (m).
+    rtol : float, optional
+        Relative tolerance of |d| = d_max.
+    """
     return "slip" if abs(deflection) >= max_deflection * (1 - rtol) else "stick"
 
 

@@ -128,6 +128,12 @@ class GodObject:
         closed form, or through a mesh's UV map; this class's Python descent, by central
         differences, is its oracle).
 
+        Parameters
+        ----------
+        max_evaluations : int, optional
+            Unused (the descent is bounded by its steps); the argument of
+            :meth:`haptex.objects.ObjectAlgorithm.object_spec`.
+
         Raises
         ------
         ParameterError
@@ -205,6 +211,11 @@ class GodObject:
 
     def step(self, p) -> np.ndarray:
         """One tick: the force (N), shape (d,), at the probe position ``p`` (m), shape (d,).
+
+        Parameters
+        ----------
+        p : array_like, shape (d,)
+            The probe's position (m).
 
         Raises
         ------

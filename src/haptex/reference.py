@@ -134,7 +134,13 @@ class Chai3dNormalMap(ObjectAlgorithm):
 
     def tilt(self, p) -> np.ndarray:
         """The angle (rad) between the force and the contact triangle's normal, shape (...):
-        what the normal map does to the proxy's force (0 without it); NaN outside."""
+        what the normal map does to the proxy's force (0 without it); NaN outside.
+
+        Parameters
+        ----------
+        p : array_like, shape (..., 3)
+            Probe positions (m).
+        """
         p = self._positions(p)
         f = self.force(p)
         _, _, tid, _ = self.base._closest(p.reshape(-1, 3))
@@ -322,6 +328,11 @@ class HapiDepthMap:
 
     def step(self, p) -> np.ndarray:
         """One tick: the force (N), shape (3,), at the probe position ``p`` (m), shape (3,).
+
+        Parameters
+        ----------
+        p : array_like, shape (3,)
+            The probe's position (m).
 
         Raises
         ------

@@ -153,14 +153,17 @@ class PassivityController(Stabiliser):
 
     @property
     def mode(self) -> int:
+        """The C core's code: ``STAB_PC``, or ``STAB_PC_STORED`` for the stored-energy reference."""
         return int(_ext.STAB_PC_STORED if self.reference == "stored" else _ext.STAB_PC)
 
     @property
     def core_damping(self) -> float:
+        """The controller's largest damping (N s/m), ``max_damping``."""
         return self.max_damping
 
     @property
     def label(self) -> str:
+        """``passivity controller (B N s/m, REFERENCE reference)``."""
         return f"passivity controller ({self.max_damping:g} N s/m, {self.reference} reference)"
 
 

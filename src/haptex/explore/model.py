@@ -139,7 +139,29 @@ class Settings:
 
 @dataclass(frozen=True)
 class Scene:
-    """The objects the settings describe (SI units)."""
+    """The objects the settings describe (SI units).
+
+    Parameters
+    ----------
+    settings : Settings
+        The page's controls, as text.
+    texture : Texture
+        The texture.
+    algorithm : Algorithm
+        The algorithm on it.
+    device : Device
+        The device.
+    max_penetration : float
+        d^z_max (m).
+    speed : float
+        The stroke's speed (m/s).
+    duration : float
+        The stroke's duration (s).
+    section : float
+        The y (m) of the section shown over a surface.
+    hand : Hand, optional
+        A hand of :mod:`haptex.catalogue`; default Section V-B's spring and damper.
+    """
 
     settings: Settings
     texture: object
@@ -199,7 +221,21 @@ class Views:
 @dataclass(frozen=True)
 class Scan:
     """A simulated stroke: time (s), energies per axis absorbed by the environment (J),
-    the oscillation verdict (:class:`haptex.Oscillation`) and the energy balance error."""
+    the oscillation verdict (:class:`haptex.Oscillation`) and the energy balance error.
+
+    Parameters
+    ----------
+    time : ndarray, shape (n,)
+        Sample times (s).
+    energy : dict
+        Axis name -> energy absorbed by the environment over time (J), shape (n,) each.
+    oscillation : Oscillation, optional
+        The oscillation verdict (:class:`haptex.Oscillation`).
+    energy_balance_error : float, optional
+        The simulator's energy balance error (relative).
+    verdict : str, optional
+        One line for the page.
+    """
 
     time: np.ndarray
     energy: dict = field(default_factory=dict)
@@ -210,6 +246,11 @@ class Scan:
 
 def build(settings: Settings) -> Scene:
     """The texture, algorithm and device the settings describe.
+
+    Parameters
+    ----------
+    settings : Settings
+        The page's controls.
 
     Raises
     ------
@@ -332,7 +373,13 @@ def build(settings: Settings) -> Scene:
 def window(scene: Scene) -> tuple[tuple[float, float], tuple[float, float] | None]:
     """The region shown (m): the texture's ``domain``, the region its analysis (q) covers
     by default (one period or cell, a sampled texture's extent), else x in [0, 1 mm];
-    returns ((x0, x1), (y0, y1)) over a surface and ((x0, x1), None) over a profile."""
+    returns ((x0, x1), (y0, y1)) over a surface and ((x0, x1), None) over a profile.
+
+    Parameters
+    ----------
+    scene : Scene
+        What the page shows.
+    """
     return _texture_window(scene.texture)
 
 
@@ -357,6 +404,16 @@ def placed_mesh(path, uv_scale: float, anchor):
     normal there along +z and the direction of u1 there along +x, so that near it x, y follow
     u1, u2 and the section y = const cuts the mesh where the window lies (a sphere's top is at
     the origin with u = 0 there, likewise).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A closed triangle mesh with texture coordinates (OBJ, PLY, ...; what
+        :class:`haptex.objects.Mesh` reads).
+    uv_scale : float
+        Metres per unit of its texture coordinates.
+    anchor : array_like, shape (2,)
+        The surface coordinates (m) placed at the explorer's origin.
 
     Raises
     ------
@@ -386,7 +443,15 @@ def placed_mesh(path, uv_scale: float, anchor):
 
 
 def heights(scene: Scene, x) -> np.ndarray:
-    """h(x) on the section shown (m), shape like ``x``."""
+    """h(x) on the section shown (m), shape like ``x``.
+
+    Parameters
+    ----------
+    scene : Scene
+        What the page shows.
+    x : array_like
+        Positions along the section (m).
+    """
     tex = scene.texture
     x = np.asarray(x, dtype=np.float64)
     if tex.dimension == 1:
@@ -398,7 +463,15 @@ def boundary(scene: Scene, x) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The textured and the nominal surface on the section shown: (x, z, z0) (m). On the
     plane z = h(x) and z0 = 0; on an object the surface points at surface coordinates
     (x, section) on the base, and the base's own (exactly on the section for a cylinder; for a
-    sphere within its sag, (x^2 + y^2) / 2R, of it)."""
+    sphere within its sag, (x^2 + y^2) / 2R, of it).
+
+    Parameters
+    ----------
+    scene : Scene
+        What the page shows.
+    x : array_like, shape (n,)
+        Positions along the section (m).
+    """
     x = np.asarray(x, dtype=np.float64)
     base = getattr(scene.algorithm, "base", None)
     if base is None:
@@ -411,7 +484,13 @@ def boundary(scene: Scene, x) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def view_cost(scene: Scene) -> tuple[float, int]:
     """(seconds, field evaluations) the views of ``scene`` are planned to take: q's grid and
     the maps' Jacobians (:mod:`haptex.analysis.cost`: the plans and measured evaluation
-    times), and the arrows' and maps' forces."""
+    times), and the arrows' and maps' forces.
+
+    Parameters
+    ----------
+    scene : Scene
+        What the page shows.
+    """
     from ..analysis.characteristic import characteristic_points
     from ..analysis.cost import evaluation_time
 
@@ -423,6 +502,11 @@ def view_cost(scene: Scene) -> tuple[float, int]:
 
 def views(scene: Scene) -> Views:
     """The force arrows, gain and curl maps, q and (over a surface) the height map.
+
+    Parameters
+    ----------
+    scene : Scene
+        What the page shows.
 
     Raises
     ------
@@ -464,7 +548,17 @@ def views(scene: Scene) -> Views:
 
 
 def section_points(scene: Scene, xs, zs) -> np.ndarray:
-    """Positions (m) of points drawn on the section: [x, z], or [x, y, z] at y = section."""
+    """Positions (m) of points drawn on the section: [x, z], or [x, y, z] at y = section.
+
+    Parameters
+    ----------
+    scene : Scene
+        What the page shows.
+    xs : array_like, shape (N,)
+        The points' x (m).
+    zs : array_like, shape (N,)
+        Their z (m).
+    """
     xs, zs = np.asarray(xs, dtype=np.float64), np.asarray(zs, dtype=np.float64)
     if scene.dimension == 2:
         return np.stack([xs, zs], -1)
@@ -474,7 +568,13 @@ def section_points(scene: Scene, xs, zs) -> np.ndarray:
 def simplify(points: np.ndarray) -> np.ndarray:
     """Drop vertices that lie on the straight line through their neighbours (to rounding),
     so that a path dragged with the mouse costs one quadrature per straight piece; the
-    path itself is unchanged."""
+    path itself is unchanged.
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, d)
+        A closed or open polyline's vertices (m).
+    """
     p = np.asarray(points, dtype=np.float64)
     if len(p) < 3:
         return p
@@ -495,6 +595,15 @@ def simplify(points: np.ndarray) -> np.ndarray:
 def loop(scene: Scene, xs, zs) -> tuple[float, np.ndarray]:
     """Loop energy (J) of the closed path through the drawn points (m), and the polygon
     used, shape (N + 1, d), closed (last vertex = first).
+
+    Parameters
+    ----------
+    scene : Scene
+        What the page shows.
+    xs : array_like, shape (N,)
+        The drawn points' x (m).
+    zs : array_like, shape (N,)
+        Their z (m).
 
     Raises
     ------
@@ -523,6 +632,11 @@ def fig3(scene: Scene) -> tuple[np.ndarray, float, float | None, str]:
     (m), its loop energy by :func:`haptex.loop_energy` (J), the paper's value (J) and
     where the path comes from.
 
+    Parameters
+    ----------
+    scene : Scene
+        What the page shows (a sinusoid).
+
     Raises
     ------
     ParameterError
@@ -538,7 +652,13 @@ def scan(scene: Scene) -> Scan:
     """A stroke along x on the section: the scene's hand (Section V-B's, K = 300 N/m,
     C = 1 N s/m, by default; or a hand of :mod:`haptex.catalogue`, its mass moving with the
     handle), its set-point 1 mm below the nominal surface, dragged at ``speed`` for
-    ``duration`` on the chosen device, simulated by :func:`haptex.simulate`."""
+    ``duration`` on the chosen device, simulated by :func:`haptex.simulate`.
+
+    Parameters
+    ----------
+    scene : Scene
+        What the page shows.
+    """
     from .. import operators as ops
     from ..simulate import simulate
 
