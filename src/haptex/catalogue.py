@@ -407,6 +407,8 @@ def custom_hand(mass: float, damping: float, stiffness: float, name: str = "cust
         N s/m, in [0, 1000].
     stiffness : float
         N/m, in [0, 1e5].
+    name : str, optional
+        Its name in tables and device names.
 
     Raises
     ------

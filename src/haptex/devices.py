@@ -141,6 +141,9 @@ class Device:
         2 (planar, positions [x, z]) or 3 (positions [x, y, z]); default: that of the
         matrices given, 2 when all are scalars. A 3-DOF device is analysed (Corollary 1
         with a 3x3 damping matrix), simulated and rendered over surfaces.
+    details : dict, optional
+        What a preset's model was built from (link lengths, rotor inertias, ...), for
+        reports; not compared.
 
     Raises
     ------

@@ -149,6 +149,13 @@ class Base:
         With ``hessian`` False the analytic bases give None for Hu and He (the forces need
         only u, Ju, e and n; a mesh gives them all the same).
 
+        Parameters
+        ----------
+        p : array_like, shape (..., 3)
+            Probe positions (m).
+        hessian : bool, optional
+            Also Hu and He (None from the analytic bases when False).
+
         Returns
         -------
         u : ndarray, shape (..., 2)
@@ -168,16 +175,42 @@ class Base:
 
     def point(self, u, e):
         """The probe position (..., 3) (m) at surface coordinates ``u`` (..., 2) and offset
-        ``e`` (...) (m)."""
+        ``e`` (...) (m).
+
+        Parameters
+        ----------
+        u : array_like, shape (..., 2)
+            Surface coordinates (m).
+        e : array_like, shape (...)
+            Offset along the base's outward normal (m).
+        """
         raise NotImplementedError
 
     def check_texture(self, texture: Surface) -> None:
-        """Raise ParameterError where the texture does not fit on the base (see subclasses)."""
+        """Raise ParameterError where the texture does not fit on the base (see subclasses).
+
+        Parameters
+        ----------
+        texture : Surface
+            The texture to lay on the base.
+        """
 
     def kinks(self, a, b, u, pts) -> list:
         """Parameters t in (0, 1) where the segment a -> b (sampled at parameters u, points
         pts) crosses from one smooth piece of the base's coordinates to another: none on the
-        analytic bases."""
+        analytic bases.
+
+        Parameters
+        ----------
+        a : array_like, shape (3,)
+            The segment's start (m).
+        b : array_like, shape (3,)
+            Its end (m).
+        u : ndarray, shape (k,)
+            The parameters in [0, 1] at which it was sampled.
+        pts : ndarray, shape (k, 3)
+            The samples a + u (b - a) (m).
+        """
         return []
 
     core_kind = -1
@@ -317,6 +350,11 @@ class Cylinder(_Round):
     e = rho - R (rho the distance from the axis). Developable: u is arc length on the base,
     so the texture keeps its periods there. The radius and the texture are checked as
     :class:`_Round` says.
+
+    Parameters
+    ----------
+    radius : float
+        R (m), > 0.
     """
 
     name = "cylinder"
@@ -358,6 +396,11 @@ class Sphere(_Round):
     great circle and along the meridians; along u1 a texture is stretched by 1 / cos(lambda)
     off it (a sphere has no isometric chart), by under 0.5 % within 0.1 R of the top. The
     radius and the texture (its period along the equator) are checked as :class:`_Round` says.
+
+    Parameters
+    ----------
+    radius : float
+        R (m), > 0.
     """
 
     name = "sphere"
@@ -622,7 +665,19 @@ class Mesh(Base):
         """Parameters where the segment a -> b passes from one triangle's (face, edge or vertex)
         region to another's, where the base's normal turns (a jump of the force between two
         facets' regions, a kink between a facet and its edge's): the samples' pieces compared,
-        each change bisected to round-off (60 halvings, all together)."""
+        each change bisected to round-off (60 halvings, all together).
+
+        Parameters
+        ----------
+        a : array_like, shape (3,)
+            The segment's start (m).
+        b : array_like, shape (3,)
+            Its end (m).
+        u : ndarray, shape (k,)
+            The parameters in [0, 1] at which it was sampled.
+        pts : ndarray, shape (k, 3)
+            The samples a + u (b - a) (m).
+        """
         key = self._feature(np.asarray(pts, dtype=float))
         idx = np.flatnonzero(key[:-1] != key[1:])
         lo, hi = u[idx].astype(float), u[idx + 1].astype(float)
@@ -766,6 +821,13 @@ class Mesh(Base):
         triangle holds u, moved e along that triangle's normal (with vertex normals: along the
         normal interpolated there, sum_k b_k (v_k + e N_k)).
 
+        Parameters
+        ----------
+        u : array_like, shape (..., 2)
+            Surface coordinates (m, the UV map's times ``uv_scale``).
+        e : array_like, shape (...)
+            Offset along the normal (m).
+
         Raises
         ------
         ParameterError
@@ -834,6 +896,20 @@ class ObjectAlgorithm(Algorithm):
     D's and E's region is laid by the closest point and the distance to it (the depth along the
     textured surface's inward normal at S(u)); q of D is ``inf`` when a centre of curvature lies
     within the depth analysed.
+
+    Parameters
+    ----------
+    letter : str
+        A, B, C, D, E, F or G (:data:`OBJECT_TICK_LETTERS`).
+    texture : Texture
+        The height h(u) (m): a surface over u, or a profile (extruded along u2).
+    base : Base
+        :class:`Plane`, :class:`Cylinder`, :class:`Sphere` or :class:`Mesh`.
+    stiffness : float
+        kappa_0 (N/m).
+    **params
+        The letter's own parameters, as :func:`haptex.algorithm` takes them (``max_penetration``
+        for B, C, F, G; ``friction``, ``presliding``, ... for F).
     """
 
     surfaces = True
@@ -887,6 +963,7 @@ class ObjectAlgorithm(Algorithm):
 
     @property
     def dimension(self) -> int:
+        """3: probe positions and forces are [x, y, z]."""
         return 3
 
     def _positions(self, p) -> np.ndarray:
@@ -895,7 +972,15 @@ class ObjectAlgorithm(Algorithm):
     def region_points(self, ut, depth):
         """Probe positions (..., 3) (m) at surface coordinates ``ut`` (..., 2) and penetration
         ``depth`` (...) (m), measured as the algorithm measures it: below the textured surface
-        along the base's normal (A, B, C) or below the base (G)."""
+        along the base's normal (A, B, C) or below the base (G).
+
+        Parameters
+        ----------
+        ut : array_like, shape (..., 2)
+            Surface coordinates (m).
+        depth : array_like, shape (...)
+            Penetration (m), >= 0.
+        """
         ut = np.asarray(ut, dtype=float)
         depth = np.asarray(depth, dtype=float)
         if self.penetration_kind == "distance":  # D, E: along the textured surface's inward normal at S(u)
@@ -941,26 +1026,56 @@ class ObjectAlgorithm(Algorithm):
         """Probe positions (..., 3) (m) at plane coordinates ``q`` = [u1, u2, e] (..., 3) (m):
         the point at surface coordinates u and offset e along the base's normal. The region
         analyses lay their grids and random loops in these coordinates (the plane's are
-        [x, y, z]) and evaluate the field at the points this gives."""
+        [x, y, z]) and evaluate the field at the points this gives.
+
+        Parameters
+        ----------
+        q : array_like, shape (..., 3)
+            Plane coordinates [u1, u2, e] (m).
+        """
         q = np.asarray(q, dtype=float)
         return self.base.point(q[..., :2], q[..., 2])
 
     def signed_depth(self, p) -> np.ndarray:
         """e - h(u) (A, B, C) or e (G) (m), shape (...): negative inside, its zeros the wall's
-        boundary (where the force has a kink: the loop-work quadrature splits its pieces there)."""
+        boundary (where the force has a kink: the loop-work quadrature splits its pieces there).
+
+        Parameters
+        ----------
+        p : array_like, shape (..., 3)
+            Probe positions (m).
+        """
         u, _, _, e, _, _ = self.base.local(self._positions(p), False)
         return e if self.penetration_kind == "nominal" else e - self.texture.height_at(u)
 
     def penetration(self, p) -> np.ndarray:
         """h(u) - e (A, B, C), -e (G) or the distance to the closest point of the textured
-        object (D, E) where positive, else 0 (m), shape (...)."""
+        object (D, E) where positive, else 0 (m), shape (...).
+
+        Parameters
+        ----------
+        p : array_like, shape (..., 3)
+            Probe positions (m).
+        """
         if self.penetration_kind == "distance":
             return self.closest_points(p)[1]
         return np.maximum(-self.signed_depth(p), 0.0)
 
     def kinks(self, a, b, u, pts) -> list:
         """Where the segment a -> b passes between smooth pieces of the base (a mesh's facets,
-        edges and vertices): breakpoints for the loop-work quadrature."""
+        edges and vertices): breakpoints for the loop-work quadrature.
+
+        Parameters
+        ----------
+        a : array_like, shape (3,)
+            The segment's start (m).
+        b : array_like, shape (3,)
+            Its end (m).
+        u : ndarray, shape (k,)
+            The parameters in [0, 1] at which it was sampled.
+        pts : ndarray, shape (k, 3)
+            The samples a + u (b - a) (m).
+        """
         return self.base.kinks(a, b, u, pts)
 
     def force(self, p, deflection=0.0) -> np.ndarray:
@@ -971,6 +1086,13 @@ class ObjectAlgorithm(Algorithm):
         force kappa_0 |e| n inside (e < 0) plus J_u^T f_u, f_u = -mu kappa_0 z_c (1 - h~(u)) d /
         d_max (eq. 22 in the local tangent plane; the C core's tick, which steps d, is tested
         against this). The other letters take no deflection.
+
+        Parameters
+        ----------
+        p : array_like, shape (..., 3)
+            Probe positions (m).
+        deflection : float or array_like, shape (..., 2), optional
+            F's presliding deflection d = u - w (m), |d| <= d_max; a scalar is along u1.
 
         Raises
         ------
@@ -1037,6 +1159,13 @@ class ObjectAlgorithm(Algorithm):
         loop); the work sum f . dp by the trapezoidal rule (first order in the sub-step where
         the deflection turns, as :meth:`haptex.algorithms.FrictionModulated.path_work` over a
         surface).
+
+        Parameters
+        ----------
+        pts : array_like, shape (N, 3)
+            The polyline's vertices (m).
+        steps : int, optional
+            Sub-steps a side.
 
         Raises
         ------
@@ -1149,6 +1278,15 @@ class ObjectAlgorithm(Algorithm):
         outside the object. D's is unbounded at a centre of curvature (:meth:`focal_points`)
         and undefined where two closest points tie.
 
+        Parameters
+        ----------
+        p : array_like, shape (..., 3)
+            Probe positions (m).
+        deflection : float or array_like, shape (..., 2), optional
+            F's presliding deflection (m).
+        phase : {"stick", "slip"}, optional
+            F's phase (eq. 24).
+
         Raises
         ------
         ParameterError
@@ -1228,6 +1366,11 @@ class ObjectAlgorithm(Algorithm):
         """C's and D's stored energy kappa_0 pen^2 / 2 inside, 0 outside (J), shape (...) (pen
         D's distance to the closest point: eq. 16 on the object).
 
+        Parameters
+        ----------
+        p : array_like, shape (..., 3)
+            Probe positions (m).
+
         Raises
         ------
         TypeError
@@ -1245,7 +1388,14 @@ class ObjectAlgorithm(Algorithm):
         """The arrays of this algorithm's servo tick in the C core (:class:`haptex.Renderer`):
         the plane algorithm's (code, prm, kind, coeffs, aux; :meth:`haptex.Algorithm.kernel_spec`)
         and the base's (:meth:`Base.core_spec`). For D and E, ``max_evaluations`` is the
-        closest-point search's budget a tick (None: only its cell bound)."""
+        closest-point search's budget a tick (None: only its cell bound).
+
+        Parameters
+        ----------
+        max_evaluations : int, optional
+            D's and E's closest-point search budget (texture evaluations a tick); default the
+            renderer's.
+        """
         code, prm, kind, coeffs, aux = self._plane.kernel_spec()
         if self.letter in "DE" and max_evaluations is not None:
             from .core import _ext
@@ -1292,3 +1442,17 @@ def object_algorithm(letter: str, texture: Texture, base: Base, stiffness: float
         leaves a seam: the nearest radius without one is named).
     """
     return ObjectAlgorithm(letter, texture, base, stiffness, **params)
+
+
+# the bases' own local and point, and the object algorithm's force_and_jacobian and
+# kernel_spec, say what their parents' say (numpydoc reads an object's own docstring)
+for _cls in (Plane, Cylinder, Sphere, Mesh):
+    for _name in ("local", "point"):
+        _f = _cls.__dict__.get(_name)
+        if _f is not None and not _f.__doc__:
+            _f.__doc__ = getattr(Base, _name).__doc__
+for _name in ("force_and_jacobian", "kernel_spec"):
+    _f = ObjectAlgorithm.__dict__.get(_name)
+    if _f is not None and not _f.__doc__:
+        _f.__doc__ = getattr(Algorithm, _name).__doc__
+del _cls, _name, _f

@@ -150,6 +150,18 @@ class Chai3dNormalMap(ObjectAlgorithm):
             return np.where(np.linalg.norm(f, axis=-1) > 0, np.arccos(np.clip(cos, -1.0, 1.0)), np.nan)
 
     def kernel_spec(self, *_):
+        """Refused: a reference model runs in Python for analysis, never in the C core.
+
+        Parameters
+        ----------
+        *_
+            Ignored (the signature of :meth:`haptex.Algorithm.kernel_spec` and ``object_spec``).
+
+        Raises
+        ------
+        ParameterError
+            Always, naming the model and what renders instead.
+        """
         raise ParameterError(f"{self!r} is not allowed in the renderer, the simulator or the export: it is a reference "
                              "model for analysis (haptex's own algorithms render on objects)")
 
@@ -363,6 +375,18 @@ class HapiDepthMap:
         return self.stiffness * (self._surface(self.proxy_xy, h) - p)
 
     def kernel_spec(self, *_):
+        """Refused: a reference model runs in Python for analysis, never in the C core.
+
+        Parameters
+        ----------
+        *_
+            Ignored (the signature of :meth:`haptex.Algorithm.kernel_spec` and ``object_spec``).
+
+        Raises
+        ------
+        ParameterError
+            Always, naming the model and what renders instead.
+        """
         raise ParameterError(f"{self!r} is not allowed in the renderer, the simulator or the export: it is a reference "
                              "model for analysis (haptex's own D and proxy render)")
 

@@ -1302,9 +1302,36 @@ def load_texture(path, *, spacing=None, x_unit=None, height_unit=None, variable=
     becomes a :class:`~haptex.textures.SampledProfile`, an areal map a
     :class:`SampledSurface` (what ``--texture FILE`` does at the command line).
 
-    Parameters and errors are those of :meth:`SampledSurface.from_file`; ``crop`` takes
-    ``"auto"``, ``(x0, x1)`` for a line scan or ``(x0, x1, y0, y1)`` for a map, in metres
-    (``--crop`` at the command line).
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file (every format of :meth:`SampledSurface.from_file` and of
+        :meth:`~haptex.textures.SampledProfile.from_file`).
+    spacing : float or str, optional
+        Sample or pixel size ("1um" or metres), for a file that states none; never guessed.
+    x_unit : str, optional
+        Unit of the positions, for a file that does not state it.
+    height_unit : str, optional
+        Unit of the heights, for a file that does not state it.
+    variable : str, optional
+        A .mat variable or an instrument file's channel.
+    periodic : bool, optional
+        Close the texture periodically.
+    fill_undefined : bool, optional
+        Fill undefined heights by interpolation instead of refusing them.
+    crop : "auto" or tuple of float, optional
+        ``"auto"``, ``(x0, x1)`` for a line scan or ``(x0, x1, y0, y1)`` for a map, in
+        metres (``--crop`` at the command line).
+
+    Returns
+    -------
+    SampledProfile or SampledSurface
+
+    Raises
+    ------
+    ParameterError
+        As :meth:`SampledSurface.from_file`: a file that cannot be read, a unit or size it
+        does not state and that is not given, undefined heights not filled, a bad crop.
     """
     from ._loaders import read_topography
 

@@ -219,6 +219,12 @@ class Sample:
 class DeviceBackend(Protocol):
     """What haptex needs of a device.
 
+    Parameters
+    ----------
+    *args, **kwargs
+        None: a protocol, not a class to make; a backend is made by
+        :func:`haptex.backends.open_backend`.
+
     Attributes
     ----------
     name : str

@@ -238,6 +238,14 @@ class OpenHapticsBackend:
         callback's frame; the callback after the last (or after Ctrl-C, or after an exception in
         ``tick``) sends zero force and ends. Waits for it here.
 
+        Parameters
+        ----------
+        tick : callable
+            ``tick(sample) -> force``: the sample (:class:`haptex.backends.Sample`) in, the force
+            (N), shape (3,), out.
+        n_ticks : int
+            Ticks to run.
+
         Raises
         ------
         KeyboardInterrupt
@@ -274,6 +282,20 @@ class OpenHapticsBackend:
         after :meth:`stop <haptex.core._ext.Servo.stop>`) sends zero force and ends. This
         thread waits, calling ``on_tick(k, servo)`` every 50 ms (:func:`haptex.backends.wait_native`).
         ``priority`` is not used: HD's scheduler sets its own thread's.
+
+        Parameters
+        ----------
+        servo : haptex.core._ext.Servo
+            The servo rules' state (``haptex.servo``).
+        core : object
+            A :class:`haptex.Renderer`'s core.
+        n_ticks : int
+            Ticks to run.
+        on_tick : callable, optional
+            ``on_tick(k, servo)``, called from Python every 50 ms while the ticks run (the
+            dashboard; :func:`haptex.backends.wait_native`).
+        priority : int, optional
+            Unused by HD's scheduler, which sets its own (the other backends' argument).
 
         Raises
         ------
