@@ -17,6 +17,11 @@ from .limits import stiffness_at, wall_limits
 from .textures import Texture
 
 LETTERS = "".join(ALGORITHMS)
+TIME_BUDGET = 120.0
+"""The planned analysis time (s, one core's, :mod:`haptex.analysis.cost`'s estimate) within which
+:func:`design` analyses by default (chosen: with the reading and band-limiting, a result within
+the 180 s issue 67 asks of every instrument file); beyond it the costliest algorithms are left
+out, and said."""
 MIN_CUTOFF_PERIODS = 2.0
 """A measured texture must span at least this many cut-off periods l_c along every axis to
 be analysed as rendered (chosen: two, so that a rendered period is told from a tilt)."""
@@ -38,7 +43,7 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
            samples_per_period=5, friction: float = 0.8, presliding: float = 1e-3, n_loops: int = 4,
            x_range=None, progress=None, band_limit: bool = True, hand=DEFAULT_HAND, on_estimate=None,
            base=None, algorithms=None, instrument_tip: float | None = None,
-           reliability_cutoff: float | None = None) -> dict:
+           reliability_cutoff: float | None = None, time_budget: float | None = TIME_BUDGET) -> dict:
     """Analyse every algorithm for one texture on one device and recommend.
 
     Parameters
@@ -105,6 +110,12 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         (:func:`haptex.probe.reliability_cutoff`), as it must be when ``texture`` is a tip's
         felt surface of it (``haptex design --tip-radius --instrument-tip``); the tip is then
         only reported.
+    time_budget : float or None, optional
+        The planned analysis time (s, one core's) allowed, default :data:`TIME_BUDGET`; None
+        for no limit. When the plan of the default algorithms exceeds it, the costliest are
+        left out one by one until it fits (``estimate["left_out"]``: each one's planned
+        seconds, said in the recommendation); with ``algorithms`` given, a plan over it is
+        refused.
 
     Returns
     -------
@@ -130,7 +141,8 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         removes). The other numbers are those of the rendered texture. ``estimate``: the
         planned cost (:mod:`haptex.analysis.cost`): ``seconds`` (the grids only, at one core's time an evaluation),
         ``peak_bytes``, ``searches`` (closest-point searches of D and E, shared: E reads
-        D's), ``seconds_per_search`` and per algorithm ``evaluations`` and ``seconds``.
+        D's), ``seconds_per_search`` and per algorithm ``evaluations`` and ``seconds``;
+        ``time_budget`` (s) and ``left_out`` (letter: planned seconds).
         ``vibration``: the rendered texture in the data-driven language, what a tip following it
         along x at ``speed`` records in 20-450 Hz
         (:meth:`haptex.datadriven.FollowerVibration.as_dict`), or ``unavailable`` with why.
@@ -139,9 +151,12 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
     ------
     ParameterError
         For invalid parameters, a device of the wrong dimension, a texture that does not fit
-        the base (:func:`haptex.objects.object_algorithm`), or ``algorithms`` naming one not
-        defined there.
+        the base (:func:`haptex.objects.object_algorithm`), ``algorithms`` naming one not
+        defined there, a ``time_budget`` that is not > 0, or ``algorithms`` given whose plan
+        exceeds ``time_budget`` (naming each one's seconds).
     """
+    if time_budget is not None:
+        time_budget = positive("time_budget", time_budget, "s")
     if base is not None and device.dimension != 3:
         raise ParameterError(f"device = {device.name!r} with dimension = {device.dimension} is not allowed on an "
                              "object: it needs a 3-DOF device")
@@ -167,6 +182,24 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         letters = _chosen(algorithms, defined, OBJECT_DESIGN_LETTERS, f"on {base!r}")
     algs = checked_algorithms(letters, texture, stiffness, max_penetration, friction, presliding, base=base)
     estimate = _estimate(algs, max_penetration, x_range)
+    left_out = {}
+    if time_budget is not None and estimate["seconds"] > time_budget:
+        costs = ", ".join(f"{L} {v['seconds']:.3g} s" for L, v in estimate["algorithms"].items())
+        if algorithms is not None:
+            raise fail("time_budget", f"{time_budget:g} s", f"at least the plan of the algorithms asked for, "
+                       f"{estimate['seconds']:.3g} s ({costs}): give a larger --time-budget (time_budget=), or "
+                       "fewer --algorithms")
+        while estimate["seconds"] > time_budget and len(algs) > 1:
+            # the costliest first (E's planned time counts D's searches once D is out)
+            worst = max(estimate["algorithms"], key=lambda L: estimate["algorithms"][L]["seconds"])
+            left_out[worst] = estimate["algorithms"][worst]["seconds"]
+            del algs[worst]
+            estimate = _estimate(algs, max_penetration, x_range)
+        if estimate["seconds"] > time_budget:
+            raise fail("time_budget", f"{time_budget:g} s", f"at least the cheapest algorithm's plan, "
+                       f"{estimate['seconds']:.3g} s ({costs}): give a larger --time-budget (time_budget=)")
+    estimate["time_budget"] = time_budget
+    estimate["left_out"] = left_out
     if on_estimate is not None:
         on_estimate(estimate)
     rows = []
@@ -220,6 +253,11 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         if held and not wall.hand.none:
             text.append(f"stable but not passive at {stiffness:g} N/m with the hand {wall.hand.key!r}: "
                         f"{', '.join(held)} (its damping holds the loop; another grip may not)")
+    if left_out:
+        text.append(f"left out for the time budget of {time_budget:g} s: " + ", ".join(
+            f"{L} (planned {v:.3g} s)" for L, v in left_out.items())
+            # (a quarter more than the plan: its evaluation times are measured, and vary)
+            + f"; --time-budget {_nice(1.25 * (time_budget + sum(left_out.values())), True)}s analyses them")
     failed = [lim.name for lim in limits if not lim.passed]
     if failed:
         text.append("the device cannot reproduce this texture faithfully: " + ", ".join(failed) + " limit(s) violated")
@@ -230,7 +268,7 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
                   "x_range": "m", "passivity_limit": "N/m", "wall_stability_limit": "N/m", "shortest_period": "m",
                   "max_slope": "1", "max_curvature": "1/m", "height_range": "m", "q": "1", "q_where": "m",
                   "max_passive_stiffness": "N/m", "max_stable_stiffness": "N/m", "max_abs_loop_energy": "J",
-                  "limits": "each limit's 'unit'", "wall_limits": "N/m",
+                  "limits": "each limit's 'unit'", "wall_limits": "N/m", "time_budget": "s", "left_out": "s",
                   "vibration": "speed m/s, band Hz, rms m/s^2, wavelengths m, covered Hz, share 1, "
                                "peak_frequency Hz, margin_db dB"},
         "texture": repr(given), "rendered_texture": repr(texture), "device": device.name, "stiffness": stiffness, "speed": speed,

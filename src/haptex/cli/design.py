@@ -10,6 +10,7 @@ import click
 
 from .._specs import object_from_spec, texture_from_spec as _texture_from_spec
 from .._validation import ParameterError
+from ..design import TIME_BUDGET
 from ..tables import PAPER_PARAMETERS
 from ._common import (
     Quantity, _Spinner, _Steps, _build_device, _device_options, _felt_options, _fitted, _jsonable,
@@ -57,6 +58,9 @@ without D and E, whose closest-point searches dominate on large maps."""
 @click.option("--algorithms", default=None,
               help="The algorithms to analyse, e.g. 'A,F' (default: every one defined for the texture; on an object "
                    "A, B, C, F, G: D and E, about 10 s each, on request).")
+@click.option("--time-budget", type=Quantity("s"), default=TIME_BUDGET, show_default=f"{TIME_BUDGET:g} s",
+              help="The planned analysis time (one core's) allowed: beyond it the costliest algorithms are left "
+                   "out and named with their planned time (with --algorithms, a plan over it is refused).")
 @click.option("--vertex-normals", is_flag=True,
               help="With a mesh: a smooth base swept along its vertex normals (default: the closest point's "
                    "coordinates, whose normal turns around each edge).")
@@ -68,8 +72,8 @@ without D and E, whose closest-point searches dominate on large maps."""
 @click.pass_context
 def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, sampling_period, delay, stiffness, speed,
            max_penetration, spacing, x_unit, height_unit, level, lowpass, scale, periodic, window, fill_undefined, crop,
-           tip_radius, instrument_tip, raw, object_spec, uv_scale, vertex_normals, algorithms, hand, report_dir, force,
-           as_json, quiet):
+           tip_radius, instrument_tip, raw, object_spec, uv_scale, vertex_normals, algorithms, time_budget, hand,
+           report_dir, force, as_json, quiet):
     """Which algorithm, how stiff, will it be passive, can the device render it?
 
     A measured texture is band-limited to the shortest period the device renders at the
@@ -140,13 +144,16 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
                              f"(--algorithms {','.join(others)})")
             click.echo(f"estimate: {est['seconds']:.3g} s of analysis (one core's time) and {est['peak_bytes'] / 2**20:.3g} MiB "
                        f"for its largest grid{searches}", err=True)
+            if est["left_out"]:
+                click.echo(f"left out for the time budget of {est['time_budget']:g} s: " + ", ".join(
+                    f"{L} (planned {v:.3g} s)" for L, v in est["left_out"].items()) + " (--time-budget)", err=True)
         steps.weigh({L: v["seconds"] for L, v in est["algorithms"].items()})
 
     with steps as step:
         data = run_design(tex, dev, stiffness, speed=speed, max_penetration=max_penetration, x_range=x_range,
                           progress=step, band_limit=not raw, hand=hand, on_estimate=announce, base=base,
                           algorithms=None if algorithms is None else [v for v in algorithms.split(",") if v.strip()],
-                          instrument_tip=instrument_tip, reliability_cutoff=reliable)
+                          instrument_tip=instrument_tip, reliability_cutoff=reliable, time_budget=time_budget)
     if report_dir is not None:
         from ..design import rendered_texture
         from ..report import write_design_report
