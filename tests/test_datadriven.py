@@ -252,6 +252,9 @@ def test_write_hatt_writes_the_published_layout_tag_for_tag(tmp_path):
         dd.write_hatt([], tmp_path / "x.xml")
     with pytest.raises(ParameterError, match="path = .* is not allowed"):
         dd.write_hatt(s, tmp_path / "no" / "x.xml")
+    line = dd.ModelSet(s.models[:2])  # two operating points: no triangle, which HaTT's layout needs
+    with pytest.raises(ParameterError, match="a set with triangles"):
+        dd.write_hatt(line, tmp_path / "line.xml")
 
 
 def test_a_hatt_file_is_read_in_si(tmp_path):

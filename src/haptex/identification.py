@@ -16,8 +16,8 @@ continuous-time stick-slip, each period split where the velocity reaches zero; o
 axes the sampled Karnopp step of the simulator's general loop), are fitted to the logged ones
 by ``scipy.optimize.least_squares``; one standard deviation of each figure from the Jacobian at
 the optimum: the larger of the Gauss-Newton covariance's, s^2 (J^T J)^-1, and the
-window-clustered sandwich's (the residuals of one window may be correlated in any way). The delay is the whole number of
-periods whose fit leaves the smallest residual: every delay from 0 to ``max_delay`` is fitted
+window-clustered sandwich's (the residuals of one window may be correlated in any way). The
+delay is the whole number of periods whose fit leaves the smallest residual: every delay from 0 to ``max_delay`` is fitted
 to its own optimum on :data:`SCREEN_WINDOWS` windows spread over the log, from
 :data:`SCREEN_STARTS` (an equation-error regression's figures, the positions' Savitzky-Golay
 derivatives), and the best is fitted on every window; the runner-up's residual is reported.
@@ -59,7 +59,7 @@ LONG_WINDOW = 1.0
 """The longer window (s, chosen) :func:`identify` also fits when the damping's relative
 deviation at :data:`WINDOW` passes :data:`LONG_WINDOW_TRIGGER`: a handle whose time constant m/b
 is seconds long (500 g, 0.1 N·s/m: 5 s) loses little speed to its damping inside 0.2 s, and on a
-60 µm encoder's log the damping came back 24-28 % high at 0.2 s, 0.8-1.3 % at 1 s."""
+60 µm encoder's log the damping came back 24-29 % high at 0.2 s, -1.6 to +1.0 % at 1 s."""
 LONG_WINDOW_TRIGGER = 0.05
 """The damping's relative standard deviation at :data:`WINDOW` above which :func:`identify`
 also fits :data:`LONG_WINDOW` and keeps the fit whose damping is the better determined (chosen:
@@ -520,8 +520,8 @@ def identify(*, time, position, force, max_delay: int = MAX_DELAY, window: float
     Python, continuous-time Coulomb friction, closed-loop centering, steps and a chirp to
     0.2 f_s or band-limited random forces, 1 and 4 kHz, delays 0-4: mass and friction within
     0.1 %, damping within 2.4 %, the delay and encoder step exact), on logs simulated by
-    haptex's own sampled-data model (within 0.2 %), and on logs of ``haptex run --identify`` on the simulated
-    backend, whose exact transition is computed independently (scipy's expm):
+    haptex's own sampled-data model (within 0.2 %), and on logs of ``haptex run --identify``
+    on the simulated backend, whose exact transition is computed independently (scipy's expm):
     ``tests/test_identify.py``.
     """
     return _identify(time=time, position=position, force=force, max_delay=max_delay, window=window,

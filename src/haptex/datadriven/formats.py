@@ -327,13 +327,17 @@ def write_hatt(models: ModelSet, path, *, texture: int = 1) -> Path:
     Raises
     ------
     ParameterError
-        If ``models`` is not a :class:`ModelSet`, ``texture`` is not a whole number >= 0,
-        or the folder does not exist.
+        If ``models`` is not a :class:`ModelSet` or has no triangles (a set on one line),
+        ``texture`` is not a whole number >= 0, or the folder does not exist.
     """
     import xml.etree.ElementTree as ET  # writing: defusedxml guards parsing only
 
     if not isinstance(models, ModelSet):
         raise fail("models", type(models).__name__, "a ModelSet (haptex.datadriven.fit or read_models)")
+    if len(models.triangles) == 0:
+        raise fail("models", repr(models), "a set with triangles (a HaTT file holds its Delaunay triangulation "
+                   "and HaTT interpolates over it; a set on one line of speeds or forces has none): "
+                   "haptex's JSON (ModelSet.write) keeps it")
     if isinstance(texture, bool) or not isinstance(texture, int | np.integer) or texture < 0:
         raise fail("texture", texture, "a whole number >= 0")
     path = Path(os.fspath(path))
