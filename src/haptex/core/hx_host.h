@@ -128,13 +128,13 @@ struct hx_thread {
     long n_ticks;
     int paced;      /* 1: one tick a period on the clock; 0: as fast as it goes (tests, batch) */
     double spin;    /* s: sleep until this long before a tick is due, then read the clock until it is */
-    int priority;   /* SCHED_FIFO priority to ask for (1-99), 0: a plain thread */
+    int priority;   /* SCHED_FIFO priority to ask for (1-99; on Windows any > 0: time-critical), 0: a plain thread */
     int lock_memory;/* mlockall for the run, where allowed */
     int keep_awake; /* pin the thread to one core and keep that core busy below it (hx_thread.c) */
     /* results, written by the thread */
     volatile int stop, done;
     int fifo, locked;       /* what the thread got */
-    int awake;              /* the core was kept awake (Linux, 2 cores or more): its number + 1, else 0 */
+    int awake;              /* the core was kept awake (Linux or Windows, not Wine; 2 cores or more): its number + 1, else 0 */
     int io_error;           /* the device failed (read 1, write 2) */
     long io_error_tick;
     /* the seqlock */
