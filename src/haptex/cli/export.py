@@ -54,7 +54,7 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
            device_spec, vibration_models, vibration_budget, no_material_friction, tip_radius, crop, out, target, quiet):
     """C99 source of one algorithm on one texture, for device firmware (<math.h> only)."""
     from ..algorithms import ALGORITHMS, algorithm
-    from ..export import TICK_FILES, export_c, firmware_command
+    from ..export import TICK_FILES, build_defines, export_c, firmware_command
     from ..objects import object_algorithm
 
     letter = str(letter).upper()
@@ -111,7 +111,7 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
                          False if no_material_friction else None)
     with _Spinner("writing the C source", quiet):
         h_path, c_path = export_c(alg, out, max_force, passivity_controller=pc, period=period, target=target, **vib)
-    command = firmware_command(out, target)
+    command = firmware_command(out, target, defines=build_defines(alg))
     click.echo(f"wrote {c_path}, {h_path} and the C core's {len(TICK_FILES)} files beside them"
                f"{'' if target == 'host' else ' (and startup.c, mps2.ld, main.c)'}: {alg!r}, max force "
                f"{max_force:g} N{'' if pc is None else ', ' + pc.label}{'' if not vib else ', a data-driven vibration'} "

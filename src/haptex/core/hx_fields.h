@@ -411,10 +411,60 @@ HX_INLINE void tick_g(const hx_model *m, hx_state *s, const double p[3], double 
 }
 
 typedef void (*tick_fn)(const hx_model *m, hx_state *s, const double p[3], double f[3]);
+/* An export for one algorithm (haptex export compiles with -DHX_ONLY_ALG=<its HX_ALG_* value>)
+ * keeps only that letter's tick in the table below; the others are NULL, never compiled, and the
+ * closest-point searches, presliding tables and proxy they alone reach are dropped by the
+ * linker's garbage collection of sections. Without it, every letter's. */
+#if defined(HX_ONLY_ALG) && HX_ONLY_ALG != 0
+#define HX_TICK_0 NULL
+#else
+#define HX_TICK_0 tick_w
+#endif
+#if defined(HX_ONLY_ALG) && HX_ONLY_ALG != 1
+#define HX_TICK_1 NULL
+#else
+#define HX_TICK_1 tick_a
+#endif
+#if defined(HX_ONLY_ALG) && HX_ONLY_ALG != 2
+#define HX_TICK_2 NULL
+#else
+#define HX_TICK_2 tick_b
+#endif
+#if defined(HX_ONLY_ALG) && HX_ONLY_ALG != 3
+#define HX_TICK_3 NULL
+#else
+#define HX_TICK_3 tick_c
+#endif
+#if defined(HX_ONLY_ALG) && HX_ONLY_ALG != 4
+#define HX_TICK_4 NULL
+#else
+#define HX_TICK_4 tick_d
+#endif
+#if defined(HX_ONLY_ALG) && HX_ONLY_ALG != 5
+#define HX_TICK_5 NULL
+#else
+#define HX_TICK_5 tick_e
+#endif
+#if defined(HX_ONLY_ALG) && HX_ONLY_ALG != 6
+#define HX_TICK_6 NULL
+#else
+#define HX_TICK_6 tick_f
+#endif
+#if defined(HX_ONLY_ALG) && HX_ONLY_ALG != 7
+#define HX_TICK_7 NULL
+#else
+#define HX_TICK_7 tick_g
+#endif
+#if defined(HX_ONLY_ALG) && HX_ONLY_ALG != 8
+#define HX_TICK_8 NULL
+#else
+#define HX_TICK_8 tick_proxy
+#endif
 /* A servo tick's force, one function a letter in the order of HX_ALG_* (and the proxy), all of
  * one signature: the one table the tick dispatches through (a loop instantiated for one letter
  * indexes it with a constant, and the compiler inlines that letter's tick). */
-static const tick_fn TICKS[HX_N_ALGS] = {tick_w, tick_a, tick_b, tick_c, tick_d, tick_e, tick_f, tick_g, tick_proxy};
+static const tick_fn TICKS[HX_N_ALGS] = {HX_TICK_0, HX_TICK_1, HX_TICK_2, HX_TICK_3, HX_TICK_4, HX_TICK_5,
+                                         HX_TICK_6, HX_TICK_7, HX_TICK_8};
 
 /* The tick's force for algorithm `code` (a constant where a caller instantiates a loop per
  * letter, code otherwise). */
@@ -427,6 +477,10 @@ HX_INLINE int hx__tick_force_of(const int code, const hx_model *m, hx_state *s, 
     s->h = NAN;
     if (code < 0 || code >= HX_N_ALGS)
         return HX_NOT_IN_CORE;
+#ifdef HX_ONLY_ALG
+    if (TICKS[code] == NULL) /* another letter than the export's */
+        return HX_NOT_IN_CORE;
+#endif
     TICKS[code](m, s, p, f);
     return HX_OK;
 }

@@ -22,16 +22,25 @@ int hx_model_check(const hx_model *m)
     int rc;
     if (m->code < 0 || m->code >= HX_N_ALGS)
         return HX_BAD_ALGORITHM;
+#ifdef HX_ONLY_ALG /* an export for one letter (hx_fields.h) */
+    if (m->code != HX_ONLY_ALG)
+        return HX_NOT_IN_CORE;
+#endif
     rc = hx_texture_check(m->tex.kind, m->tex.c, m->tex.rows, m->tex.cols);
+#if !defined(HX_ONLY_ALG) || HX_ONLY_ALG == 6
     if (rc == HX_OK && m->code == HX_ALG_F) {
         if (!(m->prm[HX_P_DXMAX] > 0.0) || !isfinite(m->prm[HX_P_DXMAX]))
             return HX_BAD_COEFFS;
         if (m->prm[HX_P_ZSTICK] >= 0.0)
             rc = hx_presliding_table_check(m->aux, m->naux);
     }
+#endif
     if (rc == HX_OK && m->code == HX_ALG_PROXY && !(m->prm[HX_P_DXMAX] > 0.0 && isfinite(m->prm[HX_P_DXMAX])))
         return HX_BAD_COEFFS; /* the proxy's longest step */
     if (rc == HX_OK && m->base != NULL) { /* on an object: A, B, C, F, G, the proxy; D and E but on a faceted mesh */
+#ifdef HX_NO_OBJECTS /* an export on the plane (haptex export): the objects' code is not linked */
+        return HX_NOT_IN_CORE;
+#else
         rc = hx_base_check(m->base);
         if (rc == HX_OK && !hx__on_base(m->code, m->base))
             rc = HX_NOT_IN_CORE;
@@ -39,13 +48,16 @@ int hx_model_check(const hx_model *m)
             rc = (m->tex.kind == HX_SURFACE_GRATINGS || m->tex.kind == HX_SURFACE_PATCHES)
                      ? hx_surface_aux_check(m->aux, m->naux) : HX_BAD_COEFFS;
         return rc;
+#endif
     }
+#if !defined(HX_ONLY_ALG) || HX_ONLY_ALG == 4 || HX_ONLY_ALG == 5
     if (rc == HX_OK && (m->code == HX_ALG_D || m->code == HX_ALG_E)) {
         if (m->tex.kind == HX_SURFACE_GRATINGS || m->tex.kind == HX_SURFACE_PATCHES)
             rc = hx_surface_aux_check(m->aux, m->naux);
         else
             rc = hx_closest_aux_check(m->aux, m->naux);
     }
+#endif
     return rc;
 }
 
@@ -66,6 +78,10 @@ int hx_field(const hx_model *m, const double p[3], double f[3], double jac[9])
 int hx_tick_force(const hx_model *m, hx_state *s, const double p[3], double f[3])
 {
     if (m->base != NULL)
+#ifdef HX_NO_OBJECTS
+        return HX_NOT_IN_CORE;
+#else
         return hx_object_force(m, s, p, f);
+#endif
     return hx__tick_force(m, s, p, f);
 }
