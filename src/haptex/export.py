@@ -82,7 +82,7 @@ def build_defines(algorithm) -> tuple[str, ...]:
     tuple of str
         ``-DHX_ONLY_ALG=N`` (N its ``HX_ALG_*`` code: the tick's table keeps only its letter,
         the core's ``hx_fields.h``), and ``-DHX_NO_OBJECTS`` on the plane (the objects' code
-        unreached). With ``-ffunction-sections`` and the linker's ``--gc-sections``, the rest of
+        unreached). With ``-ffunction-sections`` and ``-Wl,--gc-sections`` at the link, the rest of
         the core is dropped: A on a Cortex-M4F 157 kB -> 24 kB of flash. Without them the
         same files build every letter, with the same forces.
 
