@@ -119,7 +119,13 @@ def peak_bytes(sizes) -> int:
     """The most memory (B) :func:`continuity` takes over grids of ``sizes`` points, coarse to
     fine (:func:`grid_points`): the forces of a grid held for the next one, those of the grid
     before, and one slab; the last grid is streamed. (A grid whose rows across x exceed
-    :data:`SLAB_POINTS` takes a row a slab: :func:`continuity` checks that larger slab.)"""
+    :data:`SLAB_POINTS` takes a row a slab: :func:`continuity` checks that larger slab.)
+
+    Parameters
+    ----------
+    sizes : sequence of int
+        The grids' point counts, coarse to fine.
+    """
     last = len(sizes) - 1
     return int(max((_held_bytes(n, sizes[i - 1] if i else 0, i < last, min(n, SLAB_POINTS))
                     for i, n in enumerate(sizes)), default=0))

@@ -34,7 +34,13 @@ def _one_line(exc: click.ClickException) -> str:
 def main(argv=None) -> int:
     """Entry point of the ``haptex`` console script; returns the exit status. Warnings are
     held until the command ends: shown after a result, dropped before an error's one line
-    (a warning printed above it read as a second error: issue 33)."""
+    (a warning printed above it read as a second error: issue 33).
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The command line's arguments after ``haptex``; default ``sys.argv[1:]``.
+    """
     import warnings
 
     held = []
