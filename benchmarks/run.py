@@ -21,9 +21,12 @@
 10. backends: the servo loop on every backend, missed deadlines and the tick's time, the
    vendors' bindings on stubs of their libraries (benchmarks/run_backends.py; 60 s each);
 11. objects: the servo tick over textured objects, up to a 327,680-triangle mesh
-   (benchmarks/run_objects.py).
+   (benchmarks/run_objects.py);
+12. vibration: the data-driven vibration in the tick (benchmarks/run_vibration.py);
+13. identify: haptex.identify on 10 s logs, one core (benchmarks/run_identify.py).
 
-Options: --only {analysis,renderer,simulator,worst,export,design,atlas,explore,core,backends,objects}, --points N,
+Options: --only {analysis,renderer,simulator,worst,export,design,atlas,explore,core,backends,objects,vibration,
+identify}, --points N,
 --json
 (analysis only).
 Never part of the test run; results are reported in benchmarks/README.md. Sections 2 and
@@ -68,8 +71,9 @@ SECTIONS = (
     ("backends", "the servo loop on every backend"),
     ("objects", "the servo tick over textured objects"),
     ("vibration", "the data-driven vibration in the tick"),
+    ("identify", "identification of a device from a 10 s log"),
 )
-"""Sections 2-12 in their order: (--only name, heading); each a module benchmarks/run_NAME.py
+"""Sections 2-13 in their order: (--only name, heading); each a module benchmarks/run_NAME.py
 (the simulator's: run_sim.py) with a main()."""
 
 
