@@ -49,7 +49,32 @@ a region measures those jumps (measured 1.0e5 at level 1e-3 on the 1,280-facet b
 texture."""
 
 
-class Chai3dNormalMap(ObjectAlgorithm):
+class _AnalysisOnly:
+    """The reference models' refusal of the C core: they run in Python for analysis only."""
+
+    _renders_instead = ""
+    """What renders in haptex instead (named in the refusal)."""
+
+    def kernel_spec(self, *_):
+        """Refused: a reference model runs in Python for analysis, never in the C core.
+
+        Parameters
+        ----------
+        *_
+            Ignored (the signature of :meth:`haptex.Algorithm.kernel_spec` and ``object_spec``).
+
+        Raises
+        ------
+        ParameterError
+            Always, naming the model and what renders instead.
+        """
+        raise ParameterError(f"{self!r} is not allowed in the renderer, the simulator or the export: it is a reference "
+                             f"model for analysis ({self._renders_instead})")
+
+    object_spec = kernel_spec
+
+
+class Chai3dNormalMap(_AnalysisOnly, ObjectAlgorithm):
     """CHAI3D's normal-map texture on a mesh, in physical units (see the module docstring).
 
     Parameters
@@ -84,6 +109,8 @@ class Chai3dNormalMap(ObjectAlgorithm):
     CHAI3D 3.3, src/forces/CAlgorithmFingerProxy.cpp (updateForce, the normal map's block),
     F. Conti et al., www.chai3d.org.
     """
+
+    _renders_instead = "haptex's own algorithms render on objects"
 
     def __init__(self, texture: Texture, base: Mesh, stiffness: float, level: float = 1.0):
         if not isinstance(base, Mesh) or base._vn is not None:
@@ -149,23 +176,6 @@ class Chai3dNormalMap(ObjectAlgorithm):
         with np.errstate(invalid="ignore"):
             return np.where(np.linalg.norm(f, axis=-1) > 0, np.arccos(np.clip(cos, -1.0, 1.0)), np.nan)
 
-    def kernel_spec(self, *_):
-        """Refused: a reference model runs in Python for analysis, never in the C core.
-
-        Parameters
-        ----------
-        *_
-            Ignored (the signature of :meth:`haptex.Algorithm.kernel_spec` and ``object_spec``).
-
-        Raises
-        ------
-        ParameterError
-            Always, naming the model and what renders instead.
-        """
-        raise ParameterError(f"{self!r} is not allowed in the renderer, the simulator or the export: it is a reference "
-                             "model for analysis (haptex's own algorithms render on objects)")
-
-    object_spec = kernel_spec
 
 
 # -- H3D/HAPI's depth-map surface --------------------------------------------------------------
@@ -179,7 +189,7 @@ HAPI_EPSILON = 1e-4
 (published: the same header)."""
 
 
-class HapiDepthMap:
+class HapiDepthMap(_AnalysisOnly):
     """H3D/HAPI's depth-map surface (``HAPIVariableDepthSurface`` without friction) on a plane or
     on an object's base, in physical units: a god-object found by a local derivative-free
     search, not a certified closest point.
@@ -244,6 +254,8 @@ class HapiDepthMap:
     include/HAPI/HAPIVariableDepthSurface.h, SenseGraphics AB, www.h3dapi.org; J. A. Nelder and
     R. Mead, "A simplex method for function minimization", Computer Journal 7, 1965, pp. 308–313.
     """
+
+    _renders_instead = "haptex's own D and proxy render"
 
     letter = "HAPI"
     name = "HAPI depth-map surface (local simplex search)"
@@ -374,20 +386,3 @@ class HapiDepthMap:
             return np.zeros(3)
         return self.stiffness * (self._surface(self.proxy_xy, h) - p)
 
-    def kernel_spec(self, *_):
-        """Refused: a reference model runs in Python for analysis, never in the C core.
-
-        Parameters
-        ----------
-        *_
-            Ignored (the signature of :meth:`haptex.Algorithm.kernel_spec` and ``object_spec``).
-
-        Raises
-        ------
-        ParameterError
-            Always, naming the model and what renders instead.
-        """
-        raise ParameterError(f"{self!r} is not allowed in the renderer, the simulator or the export: it is a reference "
-                             "model for analysis (haptex's own D and proxy render)")
-
-    object_spec = kernel_spec
