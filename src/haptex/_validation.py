@@ -39,6 +39,17 @@ def fail(name: str, value, allowed: str) -> ParameterError:
     return ParameterError(f"{name} = {_fmt(value)} is not allowed: must be {allowed}")
 
 
+def out_file(name: str, path):
+    """``path`` as a :class:`pathlib.Path` to write, refused (naming ``name``) unless its folder
+    exists."""
+    from pathlib import Path
+
+    out = Path(os.fspath(path))
+    if not out.parent.is_dir():
+        raise fail(name, str(out), "a file in an existing folder")
+    return out
+
+
 def positive(name: str, value, unit: str = "") -> float:
     """Return ``value`` as float if it is finite and > 0, else raise ParameterError."""
     v = _scalar(name, value, f"a finite number > 0{_u(unit)}")

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._validation import ParameterError, fail
+from .._validation import ParameterError, fail, out_file
 from .models import _ACC_UNITS, FORMAT, FORMAT_VERSION, ArmaModel, ModelSet
 
 # ---------------------------------------------------------------------------------------
@@ -340,9 +340,7 @@ def write_hatt(models: ModelSet, path, *, texture: int = 1) -> Path:
                    "haptex's JSON (ModelSet.write) keeps it")
     if isinstance(texture, bool) or not isinstance(texture, int | np.integer) or texture < 0:
         raise fail("texture", texture, "a whole number >= 0")
-    path = Path(os.fspath(path))
-    if not path.parent.is_dir():
-        raise fail("path", str(path), "a file in an existing folder")
+    path = out_file("path", path)
     p, q = models.models[0].order
 
     def num(x) -> str:

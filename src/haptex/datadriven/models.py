@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._validation import ParameterError, fail, positive
+from .._validation import ParameterError, fail, out_file, positive
 from .lsf import MAX_ORDER, lsf_to_poly, poly_to_lsf
 
 FORMAT = "haptex-arma-models"
@@ -454,9 +454,7 @@ class ModelSet:
         ParameterError
             If the folder does not exist.
         """
-        path = Path(path)
-        if not path.parent.is_dir():
-            raise fail("path", str(path), "a file in an existing folder")
+        path = out_file("path", path)
         path.write_text(json.dumps(self.to_dict(), indent=1) + "\n")
         return path
 

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._validation import fail, positive
+from .._validation import fail, out_file, positive
 from .fitting import fit
 from .models import ModelSet
 
@@ -83,9 +83,7 @@ class Recording:
         ParameterError
             If the folder does not exist.
         """
-        path = Path(path)
-        if not path.parent.is_dir():
-            raise fail("path", str(path), "a file in an existing folder")
+        path = out_file("path", path)
         a = np.asarray(self.acceleration)
         acc_cols = ["acc_m_s2"] if a.ndim == 1 else ["acc_x_m_s2", "acc_y_m_s2", "acc_z_m_s2"]
         t = np.arange(len(self.speed)) / self.sample_rate
