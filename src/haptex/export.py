@@ -96,7 +96,7 @@ def build_defines(algorithm) -> tuple[str, ...]:
     if not isinstance(algorithm, (Algorithm, GodObject)):
         raise ParameterError(f"algorithm = {algorithm!r} is not allowed: must be a haptex algorithm or a GodObject")
     on_object = getattr(algorithm, "base", None) is not None
-    code = int((algorithm.object_spec if on_object else algorithm.kernel_spec)()[0])
+    code = int(getattr(_ext, f"ALG_{algorithm.letter.upper()}"))  # (the template's HX_ALG_<letter>)
     return (f"-DHX_ONLY_ALG={code}",) + (() if on_object else ("-DHX_NO_OBJECTS",))
 
 
