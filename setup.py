@@ -26,8 +26,9 @@ class BuildCore(build_ext):
     cores (setuptools compiles an extension's sources one after another: 8.6 s here, 4.6 s on 2)."""
 
     def build_extension(self, ext):
-        # flags by compiler: MSVC takes its own spelling (its C is C11/C17; /fp:precise is its
-        # default IEEE behaviour, -fno-fast-math's); gcc, clang and mingw-w64 take gcc's
+        # flags by compiler, set here only: MSVC takes its own spelling (its C is C11/C17;
+        # /fp:precise is its default IEEE behaviour, -fno-fast-math's); gcc, clang and mingw-w64
+        # take gcc's
         if self.compiler.compiler_type == "msvc":
             ext.extra_compile_args = list(MSVC_FLAGS)
         else:
@@ -63,7 +64,6 @@ setup(
             sources=[str(CORE / "_ext.c"), *(str(c) for c in sorted(CORE.glob("hx_*.c")))],
             include_dirs=[str(CORE), numpy.get_include()],  # NumPy's C API: Renderer.step reads a row in place
             depends=[str(h) for h in sorted(CORE.glob("*.h"))],
-            extra_compile_args=list(GCC_FLAGS),  # (MSVC's set by BuildCore)
         )
     ],
     cmdclass={"build_ext": BuildCore},
