@@ -25,7 +25,7 @@ import haptex as hx
 from haptex.cli import main
 
 from .conftest import DEKTAK, needs_data
-from .test_realtime import NOISE, SINE, WORK_BOUND
+from .test_realtime import NOISE, NOISE_TABLE, SINE, WORK_BOUND
 
 # ---------------------------------------------------------------------------------------
 # the command line
@@ -209,7 +209,10 @@ def renderer(letter, texture_name):
     return RENDERERS[key]
 
 
-@pytest.mark.parametrize("texture_name", ["sine", "noise", pytest.param("dektak", marks=needs_data)])
+# the noise texture's D and E share one cell table (3 s to build, cached on the texture): the
+# tests that tick them share a worker (NOISE_TABLE), so that it is built once
+@pytest.mark.parametrize("texture_name", ["sine", pytest.param("noise", marks=pytest.mark.xdist_group(NOISE_TABLE)),
+                                          pytest.param("dektak", marks=needs_data)])
 @pytest.mark.parametrize("letter", list("WABCDEFG"))
 @settings(max_examples=15)
 @given(st.lists(position, min_size=1, max_size=40))

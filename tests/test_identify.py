@@ -148,7 +148,9 @@ ORACLE_CASES = [  # issue 65: the cases haptex's own logs did not catch, and the
 ]
 
 
-@pytest.mark.parametrize("case", [0, 1, 2, *(pytest.param(k, marks=pytest.mark.long) for k in (3, 4))])  # (4-6 s each)
+# cases 0 and 2 (1 kHz: steps and a chirp; random forces) in the contributor's loop; the 4 kHz
+# case (40,000 samples, 8 s) and the two slow handles run after it, in .ci/run's long set
+@pytest.mark.parametrize("case", [0, 2, *(pytest.param(k, marks=pytest.mark.long) for k in (1, 3, 4))])
 def test_identify_recovers_an_independent_simulators_device(case):
     # the truth is the independent simulator's (above), never haptex's step. Stop 62's
     # identification, on the first case: delay 4 for 2, damping +66 % (its model kept the
@@ -190,8 +192,8 @@ def test_a_log_written_by_another_program_is_read_by_its_columns(tmp_path, capsy
     np.testing.assert_allclose(lg.time, t, rtol=1e-12, atol=1e-15)
     assert lg.ignored == ("button",) and lg.position.shape == (t.size, 3)
     out, png = tmp_path / "dev.toml", tmp_path / "fit.png"
-    assert main(["identify", str(path), "-o", str(out), "--plot", str(png),
-                 *sum((["--column", c] for c in cols), [])]) == 0
+    assert main(["identify", str(path), "-o", str(out), "--plot", str(png), "--max-delay", "3",  # (the columns
+                 *sum((["--column", c] for c in cols), [])]) == 0  # are the test, not the delay's range)
     text = capsys.readouterr().out
     assert "ignored columns: button" in text and "delay 1 periods" in text
     assert "mass: half its information from" in text  # where each figure came from in the log

@@ -296,10 +296,7 @@ def test_bad_meshes_are_refused_by_name(tmp_path):
 
 # -- haptex design --object -------------------------------------------------------------------
 def _cli(*args):
-    import subprocess
-    import sys
-
-    return subprocess.run([sys.executable, "-m", "haptex", *args], capture_output=True, text=True, timeout=300)
+    return run_main(*args)  # the entry point in this process (test_cli.run_main)
 
 
 @pytest.mark.slow  # 12-17 s; design on objects is tested in-process by test_design_analyses_the_algorithms_asked_for (the suite under 10 minutes on a cold clone: 633 s measured before; run with -m slow)

@@ -600,6 +600,11 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
     # least screened residual is then fitted on every window from its screened optimum.
     W_all = (n - max_delay) // H
     every = max(1, W_all // SCREEN_WINDOWS)
+    span = float(np.max(np.ptp(p, axis=0))) / delta if delta > 0 else math.inf
+    if delay is None and span < MIN_STEPS:
+        # a motion over too few encoder steps tells no delay (nor the rest, said below): the
+        # screening's fits of every delay are skipped, the equation error's best delay is fitted
+        delay = min(ee, key=lambda k: ee[k][0])
     screened = {}
     for D in (range(max_delay + 1) if delay is None else (delay,)):
         coef = ee[D][1]
@@ -681,13 +686,11 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
         if screen_rms[runner] < screen_rms[D] * (1.0 + DELAY_MARGIN):
             undetermined["delay"] = (f"delays {D} and {runner} fit within {100 * DELAY_MARGIN:g} % of each other: the "
                                      "excitation has no power where the delay shows (add faster force changes)")
-    if delta > 0:
-        span = float(np.max(np.ptp(p, axis=0))) / delta
-        if span < MIN_STEPS:
-            why = (f"the motion spans {span:.0f} encoder steps of {delta * 1e6:.3g} µm, fewer than {MIN_STEPS}: "
-                   "a larger force (or a finer encoder) moves the handle over more of them")
-            for name in ("mass", "damping", "coulomb_friction", "delay"):
-                undetermined.setdefault(name, why)
+    if span < MIN_STEPS:
+        why = (f"the motion spans {span:.0f} encoder steps of {delta * 1e6:.3g} µm, fewer than {MIN_STEPS}: "
+               "a larger force (or a finer encoder) moves the handle over more of them")
+        for name in ("mass", "damping", "coulomb_friction", "delay"):
+            undetermined.setdefault(name, why)
     # where each figure came from: the windows carrying half of its information (the squared
     # Jacobian column, window by window) and the band holding 10-90 % of the force's power there
     idx = (D + H * np.arange(W))[:, None] + np.arange(H)[None, :]  # the full fit's windows

@@ -140,7 +140,7 @@ class Surface(Texture):
         scale = np.array([dx, dy])
         from scipy import optimize
 
-        for idx in np.argsort(flat)[-8:]:
+        for idx in np.argpartition(flat, -8)[-8:] if flat.size > 8 else range(flat.size):  # the 8 largest
             start = pts.reshape(-1, 2)[idx]
 
             def neg(u):  # in grid steps about the sample, so that the problem is well scaled
@@ -150,6 +150,14 @@ class Surface(Texture):
                                   options={"ftol": 1e-16, "gtol": 1e-13})
             best = max(best, -float(r.fun) * max(best, 1e-300))
         return best
+
+
+def _symmetric_2x2_norm(H: np.ndarray) -> np.ndarray:
+    """The 2-norm (largest |eigenvalue|) of symmetric 2 x 2 matrices H, shape (..., 2, 2), in
+    closed form: |a + c| / 2 + sqrt(((a - c) / 2)^2 + b^2) (numpy's SVD per matrix took 3 s on a
+    640 x 480 map's 4.9 million grid points; this, 0.1 s). Shape (...)."""
+    a, b, c = H[..., 0, 0], 0.5 * (H[..., 0, 1] + H[..., 1, 0]), H[..., 1, 1]
+    return 0.5 * np.abs(a + c) + np.hypot(0.5 * (a - c), b)
 
 
 class SumOfGratings(Surface):
@@ -307,7 +315,7 @@ class SumOfGratings(Surface):
         """sup of the Hessian's 2-norm (1/m); the bound sum_k a_k k_k^2 without a cell."""
         if self.cell is None:
             return float(np.sum(self.amplitudes * (2 * np.pi / self.periods) ** 2))
-        return self._sup(lambda p: np.linalg.norm(self.hessian(p), ord=2, axis=(-2, -1)))
+        return self._sup(lambda p: _symmetric_2x2_norm(self.hessian(p)))
 
     @cached_property
     def curvature_bound(self) -> float:
@@ -1023,7 +1031,7 @@ class SampledSurface(Surface):
     @cached_property
     def max_curvature(self) -> float:
         """sup of the Hessian's 2-norm over the map (1/m), found like :attr:`max_slope`."""
-        return self._sup(lambda p: np.linalg.norm(self.hessian(p), ord=2, axis=(-2, -1)))
+        return self._sup(lambda p: _symmetric_2x2_norm(self.hessian(p)))
 
     @cached_property
     def height_range(self) -> tuple[float, float]:
