@@ -172,6 +172,7 @@ def test_a_spec_must_give_or_sweep_the_stiffness_and_its_start_must_fit_the_devi
         SweepSpec.from_mapping(spec)
 
 
+@pytest.mark.long  # (.ci/run's long set: waits out a real connection timeout in a new interpreter)
 def test_the_cli_refuses_an_unreachable_scheduler_within_seconds(tmp_path):
     f = tmp_path / "s.toml"
     f.write_text('duration = "0.1 s"\n[algorithm]\nletter = "W"\n[device]\npreset = "point-mass"\n'
@@ -182,6 +183,7 @@ def test_the_cli_refuses_an_unreachable_scheduler_within_seconds(tmp_path):
     assert "no Dask scheduler answered there within" in r.stderr
 
 
+@pytest.mark.long  # (.ci/run's long set: waits out a real scheduler's timeout)
 def test_a_scheduler_that_accepts_and_never_answers_is_given_up_in_seconds(tmp_path, monkeypatch):
     """Issue 33: a peer that accepts the TCP connection and stays silent held Dask's client
     past 5 minutes (its connect timeout does not cover the handshake). The timeout is set to

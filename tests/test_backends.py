@@ -348,6 +348,7 @@ def _fresh_python(code: str, env_drop=("FDSDK", "FORCEDIM_SDK")) -> subprocess.C
     return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
 
 
+@pytest.mark.long  # (.ci/run's long set: five fresh interpreters)
 def test_a_missing_sdk_or_binding_is_one_line_naming_what_to_install():
     # a fresh Python without the SDKs' libraries (the bindings are installed: pyproject's test extra)
     r = _fresh_python("from haptex.cli import main; import sys; sys.exit(main(['run', '--device', 'forcedimension']))")
@@ -444,6 +445,7 @@ def test_the_inverse3s_wakeup_comes_through_haplys_own_package():
     emu.stop()
 
 
+@pytest.mark.long  # (.ci/run's long set: four 100 ms no-answer timeouts and five 600-tick runs in real time)
 def test_hostile_answers_on_the_serial_port_are_faults_or_a_device_gone():
     import struct
 
@@ -492,6 +494,7 @@ def test_the_native_thread_speaks_the_inverse3s_serial_exchanges():
     emu.stop()
 
 
+@pytest.mark.long  # (.ci/run's long set: waits out the 1 s wakeup of a silent port)
 def test_a_wrong_serial_port_is_one_line_naming_what_to_check(tmp_path, capfd, monkeypatch):
     import os
     import pty
@@ -643,6 +646,7 @@ def test_the_native_thread_runs_the_same_ticks_as_the_python_loop(preset):
     assert ta["force"][a.engaged_at:, 2].mean() > 0.0  # (in contact: the comparison is not of zeros)
 
 
+@pytest.mark.long  # (.ci/run's long set: a 2 s real-time run)
 def test_a_stalled_python_side_never_delays_the_native_thread():
     # while a Python thread holds the GIL for 0.3 s (a dashboard, a plot, a collection), the
     # native thread keeps its 1 kHz: the largest gap between samples stays far below the
@@ -662,6 +666,7 @@ def test_a_stalled_python_side_never_delays_the_native_thread():
     assert stats.fifo in (True, False) and stats.tick_p999 <= stats.tick_seconds[0] + 1e-12
 
 
+@pytest.mark.long  # (.ci/run's long set: a 1 s real-time run)
 def test_a_dashboard_that_stalls_does_not_stall_the_native_thread():
     # the live dashboard's callback (on_tick) takes 0.3 s holding the GIL once: the thread
     # runs on; its ticks reach the callback through the counts and the seqlock's snapshot

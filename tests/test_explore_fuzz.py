@@ -19,7 +19,8 @@ from hypothesis import strategies as st
 
 from .conftest import explorer_process, server_log
 
-pytestmark = pytest.mark.xdist_group("explorer-fuzz")  # (one server for the module)
+# (one server for the module; a real server process under fuzz, 10 s: .ci/run's long set)
+pytestmark = [pytest.mark.xdist_group("explorer-fuzz"), pytest.mark.long]
 
 
 @pytest.fixture(scope="module")

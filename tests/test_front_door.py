@@ -58,7 +58,20 @@ def _words(text: str) -> Counter:
     ("simulate", "thrust", "--algorithm", "A", "--stiffness", "2kN/m", "--duration", "0.1s"),
 ], ids=lambda a: " ".join(a[:3]))
 def test_tables_fit_80_columns_and_keep_every_word_whole(args, monkeypatch):
+    import haptex.tables
+
     from .test_cli import run_main
+
+    # Table II computed once for both widths (the layout is the test; 1.4 s a computation)
+    table_ii, memo = haptex.tables.table_ii, {}
+
+    def once(*a, **k):
+        key = repr((a, k))
+        if key not in memo:
+            memo[key] = table_ii(*a, **k)
+        return memo[key]
+
+    monkeypatch.setattr(haptex.tables, "table_ii", once)
 
     def run(columns):  # (in this process: rich reads the environment when a command makes its console)
         monkeypatch.setenv("COLUMNS", str(columns))

@@ -97,6 +97,7 @@ def test_an_x3p_whose_xml_inflates_is_refused_from_its_directory(tmp_path, monke
         hx.load_texture(bad)
 
 
+@pytest.mark.long  # (.ci/run's long set: writes a 4096 x 4096 map, 128 MB)
 def test_a_map_past_the_budget_is_refused_from_its_header_at_the_cli(tmp_path):
     """Issue 35's goal: a 4096 x 4096 map is refused or done within the memory budget. At
     the measured 400 bytes a sample it would need 6.7 GB: refused in one line, exit 2,

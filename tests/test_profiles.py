@@ -16,6 +16,7 @@ from haptex import core
 from haptex.design import design
 
 from .conftest import DEKTAK, GROOVES, needs_data
+from .test_cli import run_main
 
 
 
@@ -261,8 +262,7 @@ def test_design_cli_on_the_dektak_file():
 
 @needs_data
 def test_design_cli_refuses_a_mat_file_without_units():
-    r = subprocess.run([sys.executable, "-m", "haptex", "design", "--texture", str(GROOVES)], capture_output=True,
-                       text=True, timeout=120)
+    r = run_main("design", "--texture", str(GROOVES))
     assert r.returncode == 2
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and "grooves-4mm-profile.mat does not state its sample spacing" in lines[0]

@@ -414,11 +414,9 @@ def test_design_on_an_areal_texture():
     assert rows["C"]["conservative"] and not rows["A"]["conservative"]
     with pytest.raises(hx.ParameterError, match="a surface needs a 3-DOF device"):
         design(egg, hx.Device.point_mass(), 1000.0)
-    import subprocess
-    import sys
+    from .test_cli import run_main
 
-    r = subprocess.run([sys.executable, "-m", "haptex", "design", "--texture", "egg-crate:0.2mm,2mm", "--device",
-                        "point-mass", "--report", "rep"], capture_output=True, text=True, timeout=120)
+    r = run_main("design", "--texture", "egg-crate:0.2mm,2mm", "--device", "point-mass", "--report", "rep")
     assert r.returncode == 2 and r.stderr.strip() == ("haptex: error: --report is not allowed with a surface yet: the "
                                                       "design report draws fields in the x-z plane of a profile; use "
                                                       "--json for a surface")
@@ -458,7 +456,8 @@ def test_smooth_presliding_along_any_tangent_direction_is_the_1d_model(direction
     assert hx.path_work(a3, p3) == pytest.approx(hx.path_work(a2, path), rel=1e-9)
 
 
-@pytest.mark.parametrize("direction", [0.0, 0.4, 2.0, -2.5])
+@pytest.mark.parametrize("direction", [pytest.param(0.0, marks=pytest.mark.long), 0.4,  # (1.5 s each: two
+                                       pytest.param(2.0, marks=pytest.mark.long), -2.5])  # in .ci/run's long set)
 def test_eq_27_along_any_tangent_direction(direction):
     # Issue 11: eq. 27's path (down to -a, slide d^x_max, down to -d^z_max, back, up) laid along
     # any direction of the tangent plane over a grating turned the same way does the 2-D work;

@@ -15,6 +15,7 @@ from haptex.analysis import rendering_cutoff
 from haptex.design import design
 
 from .conftest import DEKTAK, GROOVES, needs_data
+from .test_cli import run_main
 
 K0 = 2000.0
 
@@ -211,8 +212,7 @@ def test_design_cli_reads_an_areal_map_as_a_surface(tmp_path):
     x, y, h, A, L = _grating_map(periods=2, per=32, A=20e-6, L=2e-3, rows=32)
     f = tmp_path / "g.x3p"
     _topography(h, x, y).to_x3p(str(f))
-    r = subprocess.run([sys.executable, "-m", "haptex", "design", "--texture", str(f), "--device", "pantograph"],
-                       capture_output=True, text=True, timeout=120)
+    r = run_main("design", "--texture", str(f), "--device", "pantograph")
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
     assert "--device pantograph is not allowed with a surface: the pantograph is planar" in r.stderr
 
