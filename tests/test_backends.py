@@ -33,6 +33,9 @@ from . import vendor_stubs as vs
 SINE = hx.Extruded(hx.Sinusoid(0.2e-3, 2e-3))
 KINDS = ["simulated", "forcedimension", "openhaptics", "openhaptics-python", "haply", "haply-serial"]
 """openhaptics: the C core's native callback in HD's thread; openhaptics-python: the Python one."""
+RUN_KINDS = [pytest.param(k, marks=pytest.mark.long) if k in ("openhaptics-python", "haply") else k for k in KINDS]
+"""KINDS for the whole runs in real time (0.4-1 s each): the Python callback's and the Haply
+service's twins of the native ones in .ci/run's long set."""
 VENDORS = ["forcedimension", "openhaptics", "haply", "haply-serial"]
 PRESET = {"simulated": "omega-3", "forcedimension": "omega-3", "openhaptics": "touch", "openhaptics-python": "touch",
           "haply": "inverse3", "haply-serial": "inverse3"}
@@ -160,7 +163,7 @@ def test_units_signs_and_frames(kind, stubs):
 
 
 @needs_cc
-@pytest.mark.parametrize("kind", KINDS)
+@pytest.mark.parametrize("kind", RUN_KINDS)
 def test_a_run_pushes_out_of_the_wall_and_ends_unenergised(kind, stubs):
     # the hand presses the handle 1 mm below the surface: the forces sent are finite, at most
     # the device's maximum, push out of the wall (+z on average once engaged), reach the motors
@@ -186,7 +189,7 @@ def test_a_run_pushes_out_of_the_wall_and_ends_unenergised(kind, stubs):
 
 
 @needs_cc
-@pytest.mark.parametrize("kind", KINDS)
+@pytest.mark.parametrize("kind", RUN_KINDS)
 def test_no_kick_when_the_handle_starts_inside_the_wall(kind, stubs):
     # 3 mm inside a 2 kN/m wall, pressed 5 mm in: the computed force (6-10 N) never falls below
     # the engagement threshold, so nothing but zero ever reaches the motors
@@ -199,7 +202,7 @@ def test_no_kick_when_the_handle_starts_inside_the_wall(kind, stubs):
 
 
 @needs_cc
-@pytest.mark.parametrize("kind", KINDS)
+@pytest.mark.parametrize("kind", RUN_KINDS)
 def test_the_engagement_ramp(kind, stubs):
     rig = Rig(kind, stubs, press=1e-4)
     stats, trace = _loop(rig.backend, ramp_ticks=300).run(800 * rig.backend.period)

@@ -146,7 +146,8 @@ def test_design_within_its_time_budget_leaves_out_the_costliest_and_says_so(caps
         design(tex, dev, 500.0, time_budget=-1)
 
 
-@pytest.mark.parametrize("letter, texture", [("A", SINE), ("D", SINE), ("D", EGG), ("F", EGG)])
+@pytest.mark.parametrize("letter, texture", [("A", SINE), ("D", SINE), pytest.param("D", EGG, marks=pytest.mark.long),
+                                             ("F", EGG)])  # (D over the egg-crate, 3 s: .ci/run's long set)
 def test_continuity_reads_the_coarser_grids_points_bit_for_bit(monkeypatch, letter, texture):
     # each finer grid evaluates only its new points and reads the others from the grid before
     # (a halved step from the same corner lands on them exactly), in slabs along x with only the

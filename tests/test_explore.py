@@ -284,6 +284,7 @@ def test_a_mesh_is_placed_with_the_windows_centre_on_top(tmp_path):
         model.placed_mesh(path, scale / 100, (1e-3, 1e-3))
 
 
+@pytest.mark.long  # (.ci/run's long set: 3 s; the page on an analytic object stays in the loop)
 def test_the_page_shows_a_texture_on_a_mesh(tmp_path):
     # 'on an object: mesh' with a mesh file: q, the section and q on the surface, computed on
     # the placed mesh; the 1,280-facet ball's A is near the analytic sphere's (1.186 against

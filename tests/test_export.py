@@ -5,6 +5,7 @@ against the library's NumPy fields (the oracle, 10^5 points) and, being the same
 the compiled Renderer bit for bit."""
 
 import ctypes
+import functools
 import math
 import subprocess
 
@@ -106,10 +107,16 @@ def _stroke_against_the_renderer(alg, tmp_path, objdir):
     return c, r, x, z, got, ref
 
 
+@functools.lru_cache(maxsize=1)
+def _dektak():
+    """The leveled Dektak profile, read once in a test process (0.5 s a read)."""
+    return hx.SampledProfile.from_file(DEKTAK).leveled()
+
+
 def _textures():
     out = [("sine", hx.Sinusoid(A, L)), ("sum", hx.SumOfSinusoids([0.3e-3, 0.1e-3], [1e-3, 0.25e-3], [0.0, 1.0]))]
     if DEKTAK.exists():
-        out.append(("dektak", hx.SampledProfile.from_file(DEKTAK).leveled()))
+        out.append(("dektak", _dektak()))
     return out
 
 
@@ -162,8 +169,11 @@ def test_exported_tick_keeps_the_renderers_safety_rules(tmp_path, objdir):
     assert code == 1 and f == (0.0, 0.0) and c.count("faults") == 1
 
 
-@pytest.mark.parametrize("letter", list("DE"))
-@pytest.mark.parametrize("name, tex", _textures())
+# D on the sinusoid and E on the Dektak profile (its sampled spline) in the contributor's loop; the
+# other four pairs (1-2 s each) in .ci/run's long set
+@pytest.mark.parametrize("name, tex, letter", [
+    pytest.param(name, tex, letter, marks=() if (name, letter) in (("sine", "D"), ("dektak", "E")) else pytest.mark.long)
+    for name, tex in _textures() for letter in "DE"])
 def test_exported_closest_point_algorithms_equal_the_library_on_1e5_points(tmp_path, objdir, letter, name, tex):
     # D and E carry the bounded closest-point search into C (issue 16): from a cold start (as
     # the vectorised field computes) every force equals Algorithm.force to 1e-12 relative, away
@@ -295,7 +305,7 @@ def _surfaces():
            ("gentle-egg", hx.SumOfGratings.egg_crate(0.1e-3, 2e-3)),  # the convexity certificate's regime
            ("gratings", hx.SumOfGratings([0.2e-3, 0.05e-3], [1e-3, 0.3e-3], [0.3, 2.0], [0.0, 1.0]))]
     if DEKTAK.exists():
-        out.append(("extruded-dektak", hx.Extruded(hx.SampledProfile.from_file(DEKTAK).leveled())))
+        out.append(("extruded-dektak", hx.Extruded(_dektak())))
     return out
 
 

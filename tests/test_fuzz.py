@@ -209,11 +209,19 @@ def renderer(letter, texture_name):
     return RENDERERS[key]
 
 
-# the noise texture's D and E share one cell table (3 s to build, cached on the texture): the
-# tests that tick them share a worker (NOISE_TABLE), so that it is built once
-@pytest.mark.parametrize("texture_name", ["sine", pytest.param("noise", marks=pytest.mark.xdist_group(NOISE_TABLE)),
-                                          pytest.param("dektak", marks=needs_data)])
-@pytest.mark.parametrize("letter", list("WABCDEFG"))
+def _fuzz_cases():
+    """(letter, texture) for every algorithm on the three textures. The noise texture's D and E
+    share one cell table (3 s to build, cached on the texture): they run in .ci/run's long set,
+    beside test_realtime's D and E on it (one worker, NOISE_TABLE: built once)."""
+    for name in ("sine", "noise", "dektak"):
+        for letter in "WABCDEFG":
+            marks = [needs_data] if name == "dektak" else []
+            if name == "noise" and letter in "DE":
+                marks += [pytest.mark.long, pytest.mark.xdist_group(NOISE_TABLE)]
+            yield pytest.param(letter, name, marks=marks, id=f"{letter}-{name}")
+
+
+@pytest.mark.parametrize("letter, texture_name", list(_fuzz_cases()))
 @settings(max_examples=15)
 @given(st.lists(position, min_size=1, max_size=40))
 def test_the_renderer_never_raises_never_nan_never_over_max_and_bounded_work(letter, texture_name, positions):

@@ -113,6 +113,7 @@ def test_a_map_past_the_budget_is_refused_from_its_header_at_the_cli(tmp_path):
     assert 4096 * 4096 * ST_BYTES_PER_SAMPLE > 6 * 2**30
 
 
+@pytest.mark.long  # (.ci/run's long set: a slab's memory bound shows only on a long profile: 3.5e6 Jacobians, 5 s)
 def test_q_of_f_over_a_long_profile_holds_its_grid_in_slabs():
     """q_F's sup over a profile 200 periods long: its grid (about 3.5e6 Jacobians) is
     evaluated in slabs of 2^20 points; the sup is the same as over one period of the same

@@ -355,31 +355,31 @@ def test_d_over_a_measured_map_is_the_brute_force_closest_point():
 
 def test_the_bounds_pyramid_holds_on_a_raw_measured_map():
     """SampledSurface.patch_bounds and bounds_pyramid over the raw MI map (Agilent, MIT, from
-    SurfaceTopography's test corpus; 256 x 256, no band-limiting): at 7 x 7 points of every
+    SurfaceTopography's test corpus; 256 x 256, no band-limiting): at 5 x 5 points of every
     patch, the spline's height, slope and curvature lie within its patch's bounds and within
     the bounds of the block holding the patch at every level of the pyramid (blocks of
     2^(s + l) patches, min of the mins, max of the rest). The Bernstein range is near the
     patch's own: past the sampled extremes by a median 3 % of the patch's sampled height span
-    (a bicubic's Bernstein hull is not tight: at most 1.19 spans on this map)."""
+    (a bicubic's Bernstein hull is not tight: at most 1.24 spans on this map)."""
     from haptex.core import _ext as K
 
     tex = hx.load_texture(_file("mi-1.mi"))
     b = tex.patch_bounds()
     nx, ny = b.shape[:2]
-    f = np.linspace(0.0, 1.0, 7)
+    f = np.linspace(0.0, 1.0, 5)  # (7 x 7 took 3.2 s for the same verdicts: median 0.029, max 1.19)
     X = tex.x[0] + (np.arange(nx)[:, None] + f[None, :]) * tex.dx  # (nx, 7)
     Y = tex.y[0] + (np.arange(ny)[:, None] + f[None, :]) * tex.dy
-    pts = np.stack(np.broadcast_arrays(X[:, None, :, None], Y[None, :, None, :]), -1)  # (nx, ny, 7, 7, 2)
+    pts = np.stack(np.broadcast_arrays(X[:, None, :, None], Y[None, :, None, :]), -1)  # (nx, ny, 5, 5, 2)
     flat = pts.reshape(-1, 2)
-    h = tex.height_at(flat).reshape(nx, ny, 49)
-    slope = np.linalg.norm(tex.gradient(flat), axis=-1).reshape(nx, ny, 49).max(-1)
-    curv = np.linalg.norm(tex.hessian(flat), ord=2, axis=(-2, -1)).reshape(nx, ny, 49).max(-1)
+    h = tex.height_at(flat).reshape(nx, ny, 25)
+    slope = np.linalg.norm(tex.gradient(flat), axis=-1).reshape(nx, ny, 25).max(-1)
+    curv = np.linalg.norm(tex.hessian(flat), ord=2, axis=(-2, -1)).reshape(nx, ny, 25).max(-1)
     lo, hi = h.min(-1), h.max(-1)
     rnd = 1e-12 * np.abs(h).max()
     assert np.all(b[..., 0] <= lo + rnd) and np.all(hi <= b[..., 1] + rnd)
     assert np.all(slope <= b[..., 2] * (1 + 1e-9)) and np.all(curv <= b[..., 3] * (1 + 1e-9))
     slack = np.maximum(lo - b[..., 0], b[..., 1] - hi) / (hi - lo)
-    assert np.median(slack) <= 0.05 and slack.max() <= 1.5  # measured 0.029 and 1.19
+    assert np.median(slack) <= 0.05 and slack.max() <= 1.5  # measured 0.030 and 1.24
     pyr = tex.bounds_pyramid()
     shift, levels = int(pyr[K.PY_SHIFT]), int(pyr[K.PY_LEVELS])
     assert (int(pyr[K.PY_NX]), int(pyr[K.PY_NY])) == (nx, ny) and shift == 0 and levels >= 7
@@ -396,7 +396,7 @@ def test_the_bounds_pyramid_holds_on_a_raw_measured_map():
     assert off == pyr.size
 
 
-@pytest.mark.parametrize("name, ratio", [("mi-1.mi", 0.3), ("metropro-1.dat", 0.15)])
+@pytest.mark.parametrize("name, ratio", [("mi-1.mi", 0.3), pytest.param("metropro-1.dat", 0.15, marks=pytest.mark.long)])  # (3 s)
 def test_the_bounds_pyramid_cuts_the_searchs_work_on_raw_measured_maps(name, ratio):
     """D's closest point over a raw measured map (no band-limiting) with the bounds pyramid
     against the same search bounded by the map's global bounds only: 400 probes anywhere over

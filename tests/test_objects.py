@@ -511,6 +511,7 @@ def test_the_d_and_e_jacobians_are_the_derivatives_of_the_c_ticks_forces(letter,
     assert np.max((np.max(np.abs(J - num), axis=(-2, -1)) / scale)[inside]) <= 2e-4
 
 
+@pytest.mark.long  # (.ci/run's long set: q of D and E on five spheres, 4 s; A's and C's limits stay in the loop)
 def test_the_spheres_q_of_d_and_e_tends_to_the_planes():
     # D's q approaches the plane's tenfold closer for each tenfold radius (O(d/R): the base's
     # curvature adds to the boundary's in the projection's derivative; 4.5e-2 and 4.0e-3 measured

@@ -256,8 +256,8 @@ def test_the_proxy_on_a_sphere_runs_in_the_renderer_and_the_simulator():
     assert res.energy_balance_ok and res.max_penetration > 0.0
 
 
-@pytest.mark.parametrize("normals", [None, "vertex"], ids=["faceted", "prism"])
-def test_the_c_proxy_on_a_mesh_follows_the_python_descent(normals):
+@pytest.mark.parametrize("normals", [pytest.param(None, marks=pytest.mark.long), "vertex"], ids=["faceted", "prism"])
+def test_the_c_proxy_on_a_mesh_follows_the_python_descent(normals):  # (faceted, 3 s: .ci/run's long set)
     # over a mesh the C tick descends through the UV map (the triangle holding u found by a walk
     # across sides, S and dS/du affine in u there); the Python descent (central differences over
     # Mesh.point) is its oracle. Along a stroke in and out of a 1,280-facet ball, back and forth:

@@ -67,7 +67,9 @@ def test_E_scan_over_a_tiny_sinusoid_has_finite_energies():
     assert res.energy_balance_error < 1e-9
 
 
-@pytest.mark.parametrize("name", ["sine", "dektak", pytest.param("noise", marks=pytest.mark.xdist_group(NOISE_TABLE))])
+# (noise: its cell table takes 3 s to build; with the fuzz's D and E on it, in .ci/run's long set)
+@pytest.mark.parametrize("name", ["sine", "dektak", pytest.param("noise", marks=[pytest.mark.xdist_group(NOISE_TABLE),
+                                                                                 pytest.mark.long])])
 @pytest.mark.parametrize("letter", ["D", "E"])
 def test_D_and_E_work_is_bounded_for_any_position(name, letter):
     # reproducer 2: cost grew with depth (170 ms at 249 m, 3.7 s at 115 m on noise)

@@ -182,11 +182,8 @@ def test_the_comparison_replays_the_uncontrolled_tick_exactly():
 
 def test_cli_runs_a_stabiliser_and_refuses_two_or_one_without_damping():
     import json
-    import subprocess
-    import sys
 
-    def cli(*args):
-        return subprocess.run([sys.executable, "-m", "haptex", *args], capture_output=True, text=True, timeout=300)
+    from .test_cli import run_main as cli  # (the entry point in this process)
 
     # G on the default (Fig. 5 style) device thrust by the band, set-position modulation paid with
     # the pantograph's damping: the port supplies no more than the damper dissipated

@@ -456,8 +456,8 @@ def test_smooth_presliding_along_any_tangent_direction_is_the_1d_model(direction
     assert hx.path_work(a3, p3) == pytest.approx(hx.path_work(a2, path), rel=1e-9)
 
 
-@pytest.mark.parametrize("direction", [pytest.param(0.0, marks=pytest.mark.long), 0.4,  # (1.5 s each: two
-                                       pytest.param(2.0, marks=pytest.mark.long), -2.5])  # in .ci/run's long set)
+@pytest.mark.parametrize("direction", [pytest.param(0.0, marks=pytest.mark.long), 0.4,  # (1.5 s each: three
+                                       *(pytest.param(d, marks=pytest.mark.long) for d in (2.0, -2.5))])  # long)
 def test_eq_27_along_any_tangent_direction(direction):
     # Issue 11: eq. 27's path (down to -a, slide d^x_max, down to -d^z_max, back, up) laid along
     # any direction of the tangent plane over a grating turned the same way does the 2-D work;
