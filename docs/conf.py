@@ -50,7 +50,7 @@ numpydoc_attributes_as_param_list = False
 #   PR01 a parameter not documented, PR02 a documented parameter that does not exist,
 #   GL08 no docstring at all, SS01 no summary line, RT01 a function that returns without
 #   saying what (not for properties and classes).
-numpydoc_validation_checks = {"PR01", "PR02", "GL08", "SS01"}
+numpydoc_validation_checks = {"PR01", "PR02", "GL08", "SS01", "RT01"}
 import re as _re
 
 numpydoc_validation_exclude = {

@@ -393,7 +393,14 @@ class Algorithm:
     def kernel_params(self) -> np.ndarray:
         """The algorithm's parameter vector float64[6] of the C core (``hx_model.prm``, the
         slots ``P_*`` of :mod:`haptex.core._ext`; see :meth:`kernel_spec`), for a profile or a
-        surface."""
+        surface.
+
+        Returns
+        -------
+        numpy.ndarray, shape (6,)
+            float64 parameters in the C core's slots ``P_*`` (SI units: stiffness N/m,
+            lengths m).
+        """
         prm = np.zeros(_ext.N_PARAMS)
         prm[_ext.P_K0] = self.stiffness
         prm[_ext.P_DZMAX] = -1.0 if self.max_penetration is None else self.max_penetration
@@ -922,6 +929,11 @@ class GodObjectGradient(_Distance):
         form : {"exact", "paper"}
             ``"exact"``: the derivative of -kappa_0 (p - p_h) including the boundary's
             curvature. ``"paper"``: eq. 18 (flat-boundary linearisation, ||J|| = kappa_0).
+
+        Returns
+        -------
+        numpy.ndarray, shape (..., 2, 2) or (..., 3, 3)
+            dF/dp (N/m) at each position.
 
         Raises
         ------

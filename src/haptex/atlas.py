@@ -145,7 +145,13 @@ class SweepSpec:
         return json.dumps(m, sort_keys=True, separators=(",", ":"))
 
     def blocks(self) -> list[tuple[slice, ...]]:
-        """Every task's block as slices into the grid, in C order."""
+        """Every task's block as slices into the grid, in C order.
+
+        Returns
+        -------
+        list of tuple of slice
+            One tuple of slices (one a grid dimension) per task, in C order.
+        """
         starts = [range(0, n, b) for n, b in zip(self.shape, self.block)]
         return [tuple(slice(i, min(i + b, n)) for i, b, n in zip(idx, self.block, self.shape))
                 for idx in itertools.product(*starts)]
@@ -281,6 +287,13 @@ class SweepSpec:
         letter : str, optional
             An algorithm's letter (W, A-G) to build instead of the SPEC's own (the atlas's
             ``letter`` axis); default the SPEC's.
+
+        Returns
+        -------
+        tuple
+            (algorithm, device, operator, initial_position): an :class:`~haptex.Algorithm`,
+            a :class:`~haptex.Device`, an :class:`~haptex.operators.Operator` and the start
+            position (m), shape (d,).
         """
         from .algorithms import algorithm
         from .catalogue import _device_from_table
@@ -902,6 +915,12 @@ def open_atlas(path):
     path : str or os.PathLike
         The Zarr store ``haptex sweep --out`` wrote.
 
+    Returns
+    -------
+    xarray.Dataset
+        The atlas: one variable a recorded figure over the sweep's dimensions, each coordinate
+        with its ``units`` attribute.
+
     Raises
     ------
     ParameterError
@@ -947,6 +966,11 @@ def select(ds, x: str, y: str, where: dict):
         The dimension along the slice's rows.
     where : dict
         Every other dimension of length > 1, name: value (the nearest coordinate is taken).
+
+    Returns
+    -------
+    xarray.Dataset
+        The slice, dimensions (y, x).
 
     Raises
     ------
@@ -999,6 +1023,11 @@ def analytic_boundary(ds, x: str, y: str, where: dict) -> np.ndarray | None:
         The dimension along the plot's y axis (its coordinates are the rows of the result).
     where : dict
         The other dimensions' values (name: value), as :func:`select` takes them.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n_y,), or None
+        The limiting stiffness (N/m) at each y coordinate; None where no closed form applies.
     """
     if x != "stiffness":
         return None

@@ -79,7 +79,14 @@ class Figure:
     written: str = ""
 
     def as_dict(self) -> dict:
-        """The figure as JSON-ready data, with its source's full reference."""
+        """The figure as JSON-ready data, with its source's full reference.
+
+        Returns
+        -------
+        dict
+            Value (SI), unit, status (published, identified or chosen) and the source's full
+            reference.
+        """
         src = sources()
         return {"value": self.value, "unit": self.unit, "written": self.written, "status": self.status,
                 "source": src.get(self.source) if self.source else None,
@@ -156,6 +163,12 @@ class Hand:
         dimension : int, optional
             2 ([x, z]) or 3 ([x, y, z]).
 
+        Returns
+        -------
+        Operator
+            A :func:`~haptex.operators.ScanningHand` with this hand's stiffness (N/m) and
+            damping (N s/m).
+
         Raises
         ------
         ParameterError
@@ -198,6 +211,11 @@ class Preset:
             The figure's name, as the preset's table has it (e.g. ``max_force``, ``damping``).
         default : optional
             What to return when the preset gives no such figure.
+
+        Returns
+        -------
+        float or object
+            The figure's value (SI units), or ``default``.
         """
         f = self.figures.get(name)
         return default if f is None else f.value
@@ -283,7 +301,14 @@ class Preset:
                             **common, **kw)
 
     def as_dict(self) -> dict:
-        """The preset as JSON-ready data: every figure with its unit, status and source."""
+        """The preset as JSON-ready data: every figure with its unit, status and source.
+
+        Returns
+        -------
+        dict
+            The preset's name, kind and figures, each with its value (SI), unit, status and
+            source.
+        """
         return {"key": self.key, "label": self.label, "model": self.model, "dimension": self.dimension,
                 "figures": {k: f.as_dict() for k, f in self.figures.items()}}
 
@@ -301,7 +326,13 @@ def _data() -> dict:
 
 
 def sources() -> dict[str, str]:
-    """Every source the presets cite: key to full reference."""
+    """Every source the presets cite: key to full reference.
+
+    Returns
+    -------
+    dict of str to str
+        Each source's key and its full reference.
+    """
     return dict(_data()["sources"])
 
 
@@ -361,6 +392,11 @@ def preset(name: str) -> Preset:
     name : str
         A preset of ``haptex devices`` (``touch``, ``falcon``, ``omega-3``, ...).
 
+    Returns
+    -------
+    Preset
+        The preset.
+
     Raises
     ------
     ParameterError
@@ -380,6 +416,11 @@ def hand(name) -> Hand:
     name : str, Hand or None
         A hand of ``haptex devices`` (``none``, ``light-touch``, ``firm-grip``), a :class:`Hand`
         (returned as is) or None (``none``).
+
+    Returns
+    -------
+    Hand
+        The hand.
 
     Raises
     ------
@@ -409,6 +450,11 @@ def custom_hand(mass: float, damping: float, stiffness: float, name: str = "cust
         N/m, in [0, 1e5].
     name : str, optional
         Its name in tables and device names.
+
+    Returns
+    -------
+    Hand
+        The hand (mass kg, damping N s/m, stiffness N/m), described as of your identification.
 
     Raises
     ------

@@ -76,6 +76,11 @@ class ClosestPoint:
         ----------
         where : array_like of bool or int
             A boolean mask over the probe positions' shape, or an index into it.
+
+        Returns
+        -------
+        ClosestPoint
+            The selected closest points, each array indexed by ``where``.
         """
         return ClosestPoint(x=self.x[where], z=self.z[where], distance=self.distance[where], tie=self.tie[where],
                             work=self.work[where], y=None if self.y is None else self.y[where])
@@ -462,6 +467,12 @@ def surface_search_data(texture) -> tuple[int, np.ndarray, np.ndarray]:
     ----------
     texture : Surface
         A sum of gratings or a height map (:class:`haptex.SampledSurface`).
+
+    Returns
+    -------
+    tuple of (int, numpy.ndarray, numpy.ndarray)
+        (kind, coefficients, auxiliary data) as the C search reads them; the auxiliary array's
+        slots are ``haptex.core._ext.G_*``.
     """
     from .surfaces import SampledSurface
 

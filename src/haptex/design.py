@@ -332,6 +332,11 @@ def rendered_texture(texture: Texture, device: Device, speed: float = 0.1, sampl
     band_limit : bool, optional
         False: the texture as given.
 
+    Returns
+    -------
+    Texture
+        The band-limited, resampled texture, or ``texture`` itself.
+
     Raises
     ------
     ParameterError

@@ -67,6 +67,11 @@ def scalar_field(name: str, value):
     value : float or int
         Its value (SI units; periods for the delay).
 
+    Returns
+    -------
+    float or int
+        The value, checked: ``delay`` an int (sampling periods), the others floats in SI units.
+
     Raises
     ------
     ParameterError
@@ -224,6 +229,11 @@ class Device:
         the mode's stiffness (N/m) and damping (N s/m) matrices, each shape (n, n),
         n = :attr:`dimension`.
 
+        Returns
+        -------
+        tuple of numpy.ndarray
+            (M_m, M_h, K_s, C_s), each shape (n, n): kg, kg, N/m, N s/m.
+
         Raises
         ------
         ParameterError
@@ -262,6 +272,11 @@ class Device:
         **changes
             Constructor parameters (``mass``, ``damping``, ``period``, ``delay``, ...) and their
             new values, in SI units.
+
+        Returns
+        -------
+        Device
+            The new device.
         """
         fields = {k: getattr(self, k) for k in ("mass", "damping", "period", "delay", "position_resolution",
                                                 "force_resolution", "max_force", "first_resonance",
@@ -575,6 +590,11 @@ def serial_arm_kinematics(l1: float, l2: float, q) -> tuple[np.ndarray, np.ndarr
     q : array_like, shape (3,)
         Joint angles (rad): base yaw, shoulder, elbow.
 
+    Returns
+    -------
+    tuple of numpy.ndarray
+        p (m), shape (3,), and J = dp/dq (m/rad), shape (3, 3).
+
     Raises
     ------
     ParameterError
@@ -610,6 +630,11 @@ def delta_kinematics(R: float, r: float, a: float, b: float, p) -> tuple[np.ndar
         Forearm length (m).
     p : array_like, shape (3,)
         Effector position (m).
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        J = dp/dtheta (m/rad), shape (3, 3), and the motor angles theta (rad), shape (3,).
 
     Raises
     ------

@@ -400,6 +400,11 @@ def bump_path(p: dict, n: int = 400) -> np.ndarray:
         x = -period / 4.
     n : int, optional
         Vertices of the polyline.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n, 2)
+        The polyline's vertices [x, h(x)] (m).
     """
     x = np.linspace(-0.25 * p["period"], -0.25 * p["period"] + p["length"], n)
     return np.column_stack([x, Sinusoid(p["amplitude"], p["period"]).height(x)])

@@ -275,6 +275,11 @@ def phase_of(deflection: float, max_deflection: float, rtol: float = 1e-12) -> s
         d^x_max (m).
     rtol : float, optional
         Relative tolerance of |d| = d_max.
+
+    Returns
+    -------
+    str
+        ``"slip"`` or ``"stick"``.
     """
     return "slip" if abs(deflection) >= max_deflection * (1 - rtol) else "stick"
 

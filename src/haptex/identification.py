@@ -261,7 +261,14 @@ class Identification:
     trace: dict = field(default_factory=dict, repr=False)
 
     def to_dict(self) -> dict:
-        """JSON-ready figures, SI units, each with its standard deviation."""
+        """JSON-ready figures, SI units, each with its standard deviation.
+
+        Returns
+        -------
+        dict
+            Each figure (SI units) with its standard deviation, the figures not determined
+            and why, and the notes.
+        """
         dev = self.device
         return {"source": self.source, "samples": self.samples, "windows": self.windows,
                 "period_s": dev.period, "delay_periods": dev.delay,
@@ -326,7 +333,13 @@ class Identification:
         return text
 
     def report(self) -> str:
-        """A plain-text summary, one figure a line with its standard deviation."""
+        """A plain-text summary, one figure a line with its standard deviation.
+
+        Returns
+        -------
+        str
+            The summary, lines separated by newlines.
+        """
         dev, ax, u = self.device, self.axes, self.uncertainty
         out = [f"identified from {self.source}: {self.samples} samples at {1 / dev.period:g} Hz, "
                f"{self.windows} windows of output error"]

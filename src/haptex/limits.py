@@ -123,6 +123,11 @@ def normal_axis(device: Device) -> tuple[float, float, float | None]:
     ----------
     device : Device
         The device; the wall's normal is its last axis (z).
+
+    Returns
+    -------
+    tuple of (float, float, float or None)
+        (m (kg), b (N s/m), m_handle (kg) or None).
     """
     m = 1.0 / float(np.linalg.inv(device.mass)[-1, -1])
     b = float(device.damping[-1, -1])
@@ -389,6 +394,11 @@ def stiffness_at(limit: float, q: float) -> float:
         The wall limit (N/m).
     q : float
         The texture's characteristic number (>= 1, or inf).
+
+    Returns
+    -------
+    float
+        limit / q (N/m); 0 for an infinite q.
     """
     if math.isinf(q):
         return 0.0
@@ -513,7 +523,13 @@ class LimitSearch:
     trace: dict
 
     def as_dict(self) -> dict:
-        """The search as JSON-ready data, with a ``units`` table (``haptex run --find-limit --json``)."""
+        """The search as JSON-ready data, with a ``units`` table (``haptex run --find-limit --json``).
+
+        Returns
+        -------
+        dict
+            The search's steps and verdicts, with a ``units`` table.
+        """
         return {"clean_stiffness": self.clean, "oscillating_stiffness": self.oscillating, "reason": self.reason,
                 "stopped_at": self.stopped_at, "steps": self.steps,
                 "units": {"clean_stiffness": "N/m", "oscillating_stiffness": "N/m", "stopped_at": "s",

@@ -183,6 +183,11 @@ class Base:
             Surface coordinates (m).
         e : array_like, shape (...)
             Offset along the base's outward normal (m).
+
+        Returns
+        -------
+        numpy.ndarray, shape (..., 3)
+            Probe positions (m).
         """
         raise NotImplementedError
 
@@ -210,6 +215,11 @@ class Base:
             The parameters in [0, 1] at which it was sampled.
         pts : ndarray, shape (k, 3)
             The samples a + u (b - a) (m).
+
+        Returns
+        -------
+        list of float
+            Parameters t in (0, 1), ascending; empty on the analytic bases.
         """
         return []
 
@@ -220,6 +230,11 @@ class Base:
         """The base's arrays for the C core: (kind, radius (m), tri, face, prism), tri and face
         empty and prism False but for a mesh (:meth:`Mesh.core_arrays`); ``haptex export``
         writes them as tables.
+
+        Returns
+        -------
+        tuple
+            (kind (int), radius (m), tri (F, 9) (m), face (F, FACE), prism (bool)).
 
         Raises
         ------
@@ -235,6 +250,11 @@ class Base:
         """The base in the C core (a ``haptex.core._ext.Base``: a mesh's arrays copied and its
         bounding-volume hierarchy built once, then shared by every renderer and simulation of
         it), from :meth:`core_arrays`.
+
+        Returns
+        -------
+        haptex.core._ext.Base
+            The base in the C core, shared by every tick over it.
 
         Raises
         ------
@@ -611,6 +631,11 @@ class Mesh(Base):
         prism: the prism base swept along the vertex normals (else the closest point's). The
         core builds the bounding-volume hierarchy (:meth:`core_spec`).
 
+        Returns
+        -------
+        tuple
+            (kind (int), 0.0, tri (F, 9) (m), face (F, FACE), prism (bool)).
+
         Raises
         ------
         ParameterError
@@ -677,6 +702,11 @@ class Mesh(Base):
             The parameters in [0, 1] at which it was sampled.
         pts : ndarray, shape (k, 3)
             The samples a + u (b - a) (m).
+
+        Returns
+        -------
+        list of float
+            Parameters t in (0, 1), ascending.
         """
         key = self._feature(np.asarray(pts, dtype=float))
         idx = np.flatnonzero(key[:-1] != key[1:])
@@ -827,6 +857,11 @@ class Mesh(Base):
             Surface coordinates (m, the UV map's times ``uv_scale``).
         e : array_like, shape (...)
             Offset along the normal (m).
+
+        Returns
+        -------
+        numpy.ndarray, shape (..., 3)
+            Probe positions (m).
 
         Raises
         ------
@@ -980,6 +1015,11 @@ class ObjectAlgorithm(Algorithm):
             Surface coordinates (m).
         depth : array_like, shape (...)
             Penetration (m), >= 0.
+
+        Returns
+        -------
+        numpy.ndarray, shape (..., 3)
+            Probe positions (m).
         """
         ut = np.asarray(ut, dtype=float)
         depth = np.asarray(depth, dtype=float)
@@ -1032,6 +1072,11 @@ class ObjectAlgorithm(Algorithm):
         ----------
         q : array_like, shape (..., 3)
             Plane coordinates [u1, u2, e] (m).
+
+        Returns
+        -------
+        numpy.ndarray, shape (..., 3)
+            Probe positions (m).
         """
         q = np.asarray(q, dtype=float)
         return self.base.point(q[..., :2], q[..., 2])
@@ -1044,6 +1089,11 @@ class ObjectAlgorithm(Algorithm):
         ----------
         p : array_like, shape (..., 3)
             Probe positions (m).
+
+        Returns
+        -------
+        numpy.ndarray, shape (...)
+            The signed depth (m), negative inside.
         """
         u, _, _, e, _, _ = self.base.local(self._positions(p), False)
         return e if self.penetration_kind == "nominal" else e - self.texture.height_at(u)
@@ -1056,6 +1106,11 @@ class ObjectAlgorithm(Algorithm):
         ----------
         p : array_like, shape (..., 3)
             Probe positions (m).
+
+        Returns
+        -------
+        numpy.ndarray, shape (...)
+            The penetration (m), >= 0.
         """
         if self.penetration_kind == "distance":
             return self.closest_points(p)[1]
@@ -1075,6 +1130,11 @@ class ObjectAlgorithm(Algorithm):
             The parameters in [0, 1] at which it was sampled.
         pts : ndarray, shape (k, 3)
             The samples a + u (b - a) (m).
+
+        Returns
+        -------
+        list of float
+            Parameters t in (0, 1) of the segment, ascending.
         """
         return self.base.kinks(a, b, u, pts)
 
@@ -1093,6 +1153,11 @@ class ObjectAlgorithm(Algorithm):
             Probe positions (m).
         deflection : float or array_like, shape (..., 2), optional
             F's presliding deflection d = u - w (m), |d| <= d_max; a scalar is along u1.
+
+        Returns
+        -------
+        numpy.ndarray, shape (..., 3)
+            The force (N).
 
         Raises
         ------
@@ -1166,6 +1231,11 @@ class ObjectAlgorithm(Algorithm):
             The polyline's vertices (m).
         steps : int, optional
             Sub-steps a side.
+
+        Returns
+        -------
+        float
+            The work (J) the force does on the probe along the polyline.
 
         Raises
         ------
@@ -1287,6 +1357,11 @@ class ObjectAlgorithm(Algorithm):
         phase : {"stick", "slip"}, optional
             F's phase (eq. 24).
 
+        Returns
+        -------
+        numpy.ndarray, shape (..., 3, 3)
+            dF/dp (N/m).
+
         Raises
         ------
         ParameterError
@@ -1371,6 +1446,11 @@ class ObjectAlgorithm(Algorithm):
         p : array_like, shape (..., 3)
             Probe positions (m).
 
+        Returns
+        -------
+        numpy.ndarray, shape (...)
+            The stored energy (J).
+
         Raises
         ------
         TypeError
@@ -1395,6 +1475,12 @@ class ObjectAlgorithm(Algorithm):
         max_evaluations : int, optional
             D's and E's closest-point search budget (texture evaluations a tick); default the
             renderer's.
+
+        Returns
+        -------
+        tuple
+            The plane algorithm's (code, prm, kind, coeffs, aux) and the base's
+            :class:`haptex.core._ext.Base`.
         """
         code, prm, kind, coeffs, aux = self._plane.kernel_spec()
         if self.letter in "DE" and max_evaluations is not None:

@@ -89,6 +89,11 @@ class Operator:
         ----------
         t : float or array_like, shape (...)
             Times (s).
+
+        Returns
+        -------
+        numpy.ndarray, shape (..., d)
+            s(t) (m).
         """
         t = np.asarray(t, dtype=np.float64)
         ts, ps = self.setpoint_times, self.setpoint_points
@@ -110,6 +115,11 @@ def ConstantForce(force) -> Operator:
     ----------
     force : array_like, shape (2,) or (3,)
         [f_x, f_z] or [f_x, f_y, f_z] (N).
+
+    Returns
+    -------
+    Operator
+        The operator: its force (N), shape (d,), at every time.
 
     Raises
     ------
@@ -135,6 +145,11 @@ def ElasticBand(stiffness: float, anchor, rest_length: float = 0.0) -> Operator:
         linear and integrated exactly; with L0 > 0 the term k L0 (p - a)/|p - a| is held
         over each sample at its value at the sampling instant (a zero-order hold of the
         band's direction, exact to O(T |v| / |p - a|)).
+
+    Returns
+    -------
+    Operator
+        The operator: the band's force (N) on the handle.
 
     Raises
     ------
@@ -178,6 +193,11 @@ def ScanningHand(stiffness, damping, velocity: float | None = None, depth: float
     dimension : int, optional
         2 ([x, z]) or 3 ([x, y, z]); default: that of ``path`` or of the matrices given, 2
         when all are scalars.
+
+    Returns
+    -------
+    Operator
+        The operator: the hand's spring-damper force (N) towards its moving set-point.
 
     Raises
     ------
@@ -232,6 +252,11 @@ def KinematicPath(path, speed: float) -> Operator:
     speed : float
         m/s, > 0.
 
+    Returns
+    -------
+    Operator
+        The operator: it imposes the position (m) on the polyline at each time.
+
     Raises
     ------
     ParameterError
@@ -263,5 +288,10 @@ def path_duration(op: Operator) -> float:
     ----------
     op : Operator
         A path operator (:func:`KinematicPath`): its polyline and speed.
+
+    Returns
+    -------
+    float
+        The time (s).
     """
     return float(op.setpoint_times[-1]) if math.isfinite(op.setpoint_times[-1]) else math.inf

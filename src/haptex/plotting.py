@@ -94,6 +94,11 @@ def plot_force_field(alg, path, n: int = 23, max_penetration: float = 1e-3, vmax
     x_range : (float, float), optional
         Abscissa window (m); default one texture period from 0 (1 mm for an aperiodic
         texture).
+
+    Returns
+    -------
+    pathlib.Path
+        The figure written.
     """
     from .analysis import field_map
 
@@ -145,6 +150,11 @@ def plot_q_map(alg, path, q, max_penetration: float = 1e-3, x_range=None, n: int
         Abscissa window (m), as in :func:`plot_force_field`.
     n : int
         Grid points per axis.
+
+    Returns
+    -------
+    pathlib.Path
+        The figure written.
     """
     from .analysis import field_map
 
@@ -176,6 +186,11 @@ def plot_loop_energies(rows, path) -> Path:
     rows : list of dict
         Table II rows (``algorithm``, ``loop_energy``, ``loop_energy_closed_form``).
     path : str or Path
+
+    Returns
+    -------
+    pathlib.Path
+        The figure written.
     """
     plt = _pyplot()
     letters = [r["algorithm"] for r in rows]
@@ -205,6 +220,11 @@ def plot_runs(runs, path, quantity: str = "position", title: str = "") -> Path:
         ``"position"``: p^z (mm) over time with E_x + E_z on a second axis;
         ``"energy"``: E_x and E_z (mJ) over time.
     title : str
+
+    Returns
+    -------
+    pathlib.Path
+        The figure written.
     """
     plt = _pyplot()
     fig, axes = plt.subplots(len(runs), 1, figsize=(7.5, 1.9 * len(runs) + 0.6), sharex=False, squeeze=False)
@@ -241,6 +261,11 @@ def plot_trajectories(runs, surface_x, surface_h, path, title: str = "", setpoin
     title : str
     setpoint : ndarray, shape (n, 2), optional
         The hand's set-point path (m), drawn dashed.
+
+    Returns
+    -------
+    pathlib.Path
+        The figure written.
     """
     plt = _pyplot()
     fig, axes = plt.subplots(len(runs), 2, figsize=(10, 2.2 * len(runs) + 0.6), squeeze=False)
@@ -276,6 +301,11 @@ def plot_robustness(robustness: dict, path) -> Path:
         ``passivity(...)["robustness"]`` of :mod:`haptex.experiments`.
     path : str or Path
         PNG file to write.
+
+    Returns
+    -------
+    pathlib.Path
+        The figure written.
     """
     plt = _pyplot()
     from matplotlib.colors import ListedColormap
@@ -310,6 +340,11 @@ def plot_speed_sweep(sweep: list, path) -> Path:
         ``conservativity(...)["speed_sweep"]`` of :mod:`haptex.experiments`.
     path : str or Path
         PNG file to write.
+
+    Returns
+    -------
+    pathlib.Path
+        The figure written.
     """
     plt = _pyplot()
     fig, axes = plt.subplots(1, 3, figsize=(12, 3.6), sharex=True)
@@ -341,6 +376,11 @@ def plot_wall_map(wall_map: dict, path) -> Path:
         From :func:`haptex.experiments.wall_map`.
     path : str or Path
         PNG file to write.
+
+    Returns
+    -------
+    pathlib.Path
+        The figure written.
     """
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(7, 5))
@@ -371,6 +411,11 @@ def plot_stabilisers(rows: list, path) -> Path:
         ``stabilisers(...)["rows"]`` of :mod:`haptex.experiments`.
     path : str or Path
         PNG file to write.
+
+    Returns
+    -------
+    pathlib.Path
+        The figure written.
     """
     plt = _pyplot()
     from .experiments import STABILISER_NAMES
@@ -411,6 +456,11 @@ def plot_atlas(ds, x: str, y: str, where: dict, path) -> Path:
         Values of the other dimensions (nearest coordinate).
     path : str or Path
         Figure file (PNG also writes its SVG twin).
+
+    Returns
+    -------
+    pathlib.Path
+        The figure written.
 
     Raises
     ------

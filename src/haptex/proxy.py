@@ -103,6 +103,12 @@ class GodObject:
         ``ALG_PROXY``, the parameters (κ0 in ``P_K0``, the longest descent step in ``P_DXMAX``),
         the texture's kernel data, no auxiliary data.
 
+        Returns
+        -------
+        tuple
+            (code, prm, kind, coeffs, aux) as :meth:`haptex.Algorithm.kernel_spec` returns
+            them.
+
         Raises
         ------
         ParameterError
@@ -133,6 +139,11 @@ class GodObject:
         max_evaluations : int, optional
             Unused (the descent is bounded by its steps); the argument of
             :meth:`haptex.objects.ObjectAlgorithm.object_spec`.
+
+        Returns
+        -------
+        tuple
+            The arrays of :meth:`kernel_spec` and the base's :class:`haptex.core._ext.Base`.
 
         Raises
         ------
@@ -216,6 +227,11 @@ class GodObject:
         ----------
         p : array_like, shape (d,)
             The probe's position (m).
+
+        Returns
+        -------
+        numpy.ndarray, shape (d,)
+            The force (N).
 
         Raises
         ------

@@ -167,6 +167,11 @@ class Chai3dNormalMap(_AnalysisOnly, ObjectAlgorithm):
         ----------
         p : array_like, shape (..., 3)
             Probe positions (m).
+
+        Returns
+        -------
+        numpy.ndarray, shape (...)
+            The angle (rad), NaN outside.
         """
         p = self._positions(p)
         f = self.force(p)
@@ -357,6 +362,11 @@ class HapiDepthMap(_AnalysisOnly):
         ----------
         p : array_like, shape (3,)
             The probe's position (m).
+
+        Returns
+        -------
+        numpy.ndarray, shape (3,)
+            The force (N).
 
         Raises
         ------

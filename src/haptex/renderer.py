@@ -42,6 +42,11 @@ def stabiliser_period(passivity_controller, period) -> float | None:
     period : float or None
         The servo period (s) it is given with, or None (then the stabiliser's own).
 
+    Returns
+    -------
+    float or None
+        The period (s), or None.
+
     Raises
     ------
     ParameterError
@@ -357,6 +362,11 @@ def evaluation_budget(max_evaluations):
     ----------
     max_evaluations : int or None
         The budget to check.
+
+    Returns
+    -------
+    int or None
+        The budget (texture evaluations a tick), or None.
 
     Raises
     ------

@@ -441,6 +441,11 @@ def remove_stale_scratch(target: Path) -> list[Path]:
     ----------
     target : pathlib.Path
         The report's directory, beside which the scratch directories lie.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The directories removed.
     """
     removed = []
     stem = f".{target.name or 'root'}."
@@ -697,6 +702,11 @@ def jsonable(obj):
     ----------
     obj : object
         Dicts, lists, tuples, NumPy and Python numbers, strings and None, nested.
+
+    Returns
+    -------
+    object
+        The copy: dicts, lists, str, int, float, bool and None only.
     """
     if isinstance(obj, dict):
         return {str(k): jsonable(v) for k, v in obj.items()}
@@ -727,6 +737,11 @@ def summary_json(data: dict, elapsed: float | None = None) -> dict:
         The report's computed results (:func:`compute`'s).
     elapsed : float, optional
         The run's wall-clock time (s), recorded when given.
+
+    Returns
+    -------
+    dict
+        The numbers (energies J, lengths m, stiffness N/m), JSON-ready.
     """
     pas, con, sur = data["passivity"], data["conservativity"], data["surface_activity"]
     return jsonable({

@@ -282,7 +282,13 @@ class ServoLoop:
         return st, {key: value[:n] for key, value in trace.items()}
 
     def backend_realtime(self) -> bool:
-        """Whether the backend paces the loop (the watchdog judges deadlines only then)."""
+        """Whether the backend paces the loop (the watchdog judges deadlines only then).
+
+        Returns
+        -------
+        bool
+            True when the backend paces the loop.
+        """
         return bool(getattr(self.backend, "realtime", True))
 
 

@@ -225,7 +225,14 @@ class SumOfGratings(Surface):
         return out.reshape(xy.shape[:-1] + weights.shape[1:])
 
     def kernel_data(self) -> tuple[int, np.ndarray]:
-        """(``SURFACE_GRATINGS``, [amplitudes, k_x, k_y, phases]) of shape (4, n)."""
+        """(``SURFACE_GRATINGS``, [amplitudes, k_x, k_y, phases]) of shape (4, n).
+
+        Returns
+        -------
+        tuple of (int, numpy.ndarray)
+            ``SURFACE_GRATINGS`` and the coefficients, shape (4, n): amplitudes (m), k_x,
+            k_y (rad/m), phases (rad).
+        """
         return _ext.SURFACE_GRATINGS, np.ascontiguousarray(
             np.vstack([self.amplitudes, self._kvec[:, 0], self._kvec[:, 1], self.phases]))
 
@@ -345,7 +352,13 @@ class SumOfGratings(Surface):
         return (max(float(h.min()) - pad, -total), min(float(h.max()) + pad, total))
 
     def spectrum(self) -> tuple[np.ndarray, np.ndarray]:
-        """Wave vectors / 2 pi, shape (n, 2) (1/m), and amplitudes a_k, shape (n,) (m)."""
+        """Wave vectors / 2 pi, shape (n, 2) (1/m), and amplitudes a_k, shape (n,) (m).
+
+        Returns
+        -------
+        tuple of numpy.ndarray
+            Wave vectors / 2 pi (1/m), shape (n, 2), and amplitudes (m), shape (n,).
+        """
         return self._kvec / (2 * np.pi), self.amplitudes.copy()
 
     @classmethod
@@ -520,7 +533,13 @@ class Extruded(Surface):
         return f"Extruded({self.profile!r})"
 
     def kernel_data(self) -> tuple[int, np.ndarray]:
-        """The profile's (kind, coeffs): over [x, y, z] the kernels read h(x) and ignore y."""
+        """The profile's (kind, coeffs): over [x, y, z] the kernels read h(x) and ignore y.
+
+        Returns
+        -------
+        tuple of (int, numpy.ndarray)
+            The profile's kind and coefficients.
+        """
         return self.profile.kernel_data()
 
     def height_at(self, xt):
@@ -828,7 +847,13 @@ class SampledSurface(Surface):
         return np.stack([np.stack([d[..., 3], d[..., 4]], -1), np.stack([d[..., 4], d[..., 5]], -1)], -2)
 
     def kernel_data(self) -> tuple[int, np.ndarray]:
-        """(``SURFACE_PATCHES``, :meth:`patches`)."""
+        """(``SURFACE_PATCHES``, :meth:`patches`).
+
+        Returns
+        -------
+        tuple of (int, numpy.ndarray)
+            ``SURFACE_PATCHES`` and the patches, shape (1, 8 + 16 n_cells).
+        """
         return _ext.SURFACE_PATCHES, self.patches()
 
     def patches(self) -> np.ndarray:
@@ -837,6 +862,11 @@ class SampledSurface(Surface):
         and per cell the coefficients c[a, b] of s^a t^b in the cell's local coordinates
         s, t in [0, 1], found by sampling the spline at 4 x 4 points of each cell (a bicubic
         is fixed by 16 values). Cached.
+
+        Returns
+        -------
+        numpy.ndarray, shape (1, 8 + 16 n_cells)
+            The header and each cell's 16 coefficients (m).
 
         Raises
         ------
@@ -893,6 +923,12 @@ class SampledSurface(Surface):
         sqrt(B_xxx^2 + 3 B_xxy^2 + 3 B_xyy^2 + B_yyy^2)), each derivative at most the sum of
         its terms' magnitudes on the patch (s, t in [0, 1]). Cached.
 
+        Returns
+        -------
+        numpy.ndarray, shape (nx, ny, 5)
+            Per patch: min h, max h (m), slope (m/m), curvature (1/m), third derivatives
+            (1/m²).
+
         Raises
         ------
         ParameterError
@@ -937,7 +973,14 @@ class SampledSurface(Surface):
         a side, from the finest. The base is one patch where the map has at most PYRAMID_BASE
         patches, else the smallest power of two that brings it there; levels stop once a side
         has at most two blocks. The closest-point search bounds a cell by the blocks that cover
-        it instead of the whole map's bounds. Cached."""
+        it instead of the whole map's bounds. Cached.
+
+        Returns
+        -------
+        numpy.ndarray, shape (n,)
+            The header (``PY_*``) and, level by level, five bounds a block: min h and max h
+            (m), slope (m/m), curvature (1/m) and third derivatives (1/m²).
+        """
         cached = self.__dict__.get("_pyramid")
         if cached is not None:
             return cached
@@ -1045,7 +1088,14 @@ class SampledSurface(Surface):
     def spectrum(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Amplitude spectrum of the samples: spatial frequencies f_x (shape (nx,)), f_y
         (shape (ny // 2 + 1,)) in 1/m, and amplitudes (m), shape (nx, ny // 2 + 1), scaled
-        so that a grating of amplitude a on the grid shows a (numpy's rfft2)."""
+        so that a grating of amplitude a on the grid shows a (numpy's rfft2).
+
+        Returns
+        -------
+        tuple of numpy.ndarray
+            f_x (1/m), shape (nx,); f_y (1/m), shape (ny // 2 + 1,); amplitudes (m), shape
+            (nx, ny // 2 + 1).
+        """
         H = np.fft.rfft2(self.h) / self.h.size
         amp = np.abs(H) * 2
         amp[0, 0] /= 2
@@ -1057,7 +1107,13 @@ class SampledSurface(Surface):
                               self._shortest if shortest is None else shortest, self.source)
 
     def leveled(self) -> SampledSurface:
-        """The map minus its least-squares plane a + b x + c y (removes tilt and offset)."""
+        """The map minus its least-squares plane a + b x + c y (removes tilt and offset).
+
+        Returns
+        -------
+        SampledSurface
+            The levelled map (m), on the same grid.
+        """
         X, Y = np.meshgrid(self.x - self.x[0], self.y - self.y[0], indexing="ij")
         basis = np.stack([np.ones(X.size), X.ravel(), Y.ravel()], -1)
         coef, *_ = np.linalg.lstsq(basis, self.h.ravel(), rcond=None)

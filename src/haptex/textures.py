@@ -274,7 +274,14 @@ class SumOfSinusoids(Texture):
 
     def kernel_data(self) -> tuple[int, np.ndarray]:
         """(kind, coeffs) for the compiled kernels: ``TEXTURE_FOURIER`` and a (3, n)
-        array of amplitudes (m), wavenumbers 2 pi / l (rad/m) and phases (rad)."""
+        array of amplitudes (m), wavenumbers 2 pi / l (rad/m) and phases (rad).
+
+        Returns
+        -------
+        tuple of (int, numpy.ndarray)
+            ``TEXTURE_FOURIER`` and the coefficients, shape (3, n): amplitudes (m),
+            wavenumbers (rad/m), phases (rad).
+        """
         return _ext.TEXTURE_FOURIER, self._coeffs
 
     # -- summary numbers --------------------------------------------------------------
@@ -319,7 +326,13 @@ class SumOfSinusoids(Texture):
         return self.period is not None
 
     def spectrum(self) -> tuple[np.ndarray, np.ndarray]:
-        """Line spectrum: spatial frequencies 1/l_k (1/m) and amplitudes a_k (m), shape (n,)."""
+        """Line spectrum: spatial frequencies 1/l_k (1/m) and amplitudes a_k (m), shape (n,).
+
+        Returns
+        -------
+        tuple of numpy.ndarray
+            Spatial frequencies 1/l_k (1/m) and amplitudes a_k (m), each shape (n,).
+        """
         order = np.argsort(self.periods)[::-1]
         return 1.0 / self.periods[order], self.amplitudes[order]
 
@@ -680,7 +693,14 @@ class SampledProfile(Texture):
         return self._eval(x, 2)
 
     def kernel_data(self) -> tuple[int, np.ndarray]:
-        """(``TEXTURE_SPLINE``, coefficients) for the compiled kernels."""
+        """(``TEXTURE_SPLINE``, coefficients) for the compiled kernels.
+
+        Returns
+        -------
+        tuple of (int, numpy.ndarray)
+            ``TEXTURE_SPLINE`` and the spline's coefficients, shape (4, m + 2): the
+            intervals' cubics (m), then the grid and the ends' values and slopes.
+        """
         return _ext.TEXTURE_SPLINE, self._coeffs
 
     # -- summary numbers ---------------------------------------------------------------------
@@ -734,7 +754,13 @@ class SampledProfile(Texture):
 
     def spectrum(self) -> tuple[np.ndarray, np.ndarray]:
         """Single-sided amplitude spectrum of the samples: spatial frequency (1/m) and
-        amplitude (m), from numpy's rfft (amplitude 2|H_k|/n, DC and Nyquist not doubled)."""
+        amplitude (m), from numpy's rfft (amplitude 2|H_k|/n, DC and Nyquist not doubled).
+
+        Returns
+        -------
+        tuple of numpy.ndarray
+            Spatial frequencies (1/m) and amplitudes (m), each shape (n // 2 + 1,).
+        """
         n = self.h.size
         H = np.fft.rfft(self.h - self.h.mean())
         amp = 2 * np.abs(H) / n
@@ -749,7 +775,13 @@ class SampledProfile(Texture):
                               self._shortest if shortest is None else shortest, self.source)
 
     def leveled(self) -> SampledProfile:
-        """The profile minus its least-squares straight line (removes tilt and offset)."""
+        """The profile minus its least-squares straight line (removes tilt and offset).
+
+        Returns
+        -------
+        SampledProfile
+            The levelled profile (m), on the same grid.
+        """
         line = np.polyval(np.polyfit(self.x - self.x[0], self.h, 1), self.x - self.x[0])
         return self._new(self.x, self.h - line)
 
@@ -1055,11 +1087,23 @@ class Flat(Texture):
         return np.zeros(np.shape(xt)[:-1] + (self.dimension, self.dimension))
 
     def kernel_data(self) -> tuple[int, np.ndarray]:
-        """(``TEXTURE_FLAT``, empty coefficients)."""
+        """(``TEXTURE_FLAT``, empty coefficients).
+
+        Returns
+        -------
+        tuple of (int, numpy.ndarray)
+            ``TEXTURE_FLAT`` and an empty array.
+        """
         return _ext.TEXTURE_FLAT, np.zeros((3, 0))
 
     def spectrum(self) -> tuple[np.ndarray, np.ndarray]:
-        """Empty: a flat surface has no texture."""
+        """Empty: a flat surface has no texture.
+
+        Returns
+        -------
+        tuple of numpy.ndarray
+            Two empty arrays: spatial frequencies (1/m) and amplitudes (m).
+        """
         return np.zeros(0), np.zeros(0)
 
 

@@ -262,6 +262,11 @@ def max_passive_stiffness(algorithm: Algorithm, device, max_penetration: float =
         Depth of the rendering region (m).
     x_range : (float, float), optional
         Abscissa range (m).
+
+    Returns
+    -------
+    float
+        sigma_0(B) / (2 T q) (N/m); 0 when q is unbounded.
     """
     _same_dimension(algorithm, device)
     q = characteristic_number(algorithm, max_penetration=max_penetration, x_range=x_range).value

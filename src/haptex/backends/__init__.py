@@ -94,6 +94,11 @@ def probed_period(stamps, spec: str) -> float:
     spec : str
         The device's name, for the error.
 
+    Returns
+    -------
+    float
+        The median interval (s).
+
     Raises
     ------
     DeviceError
@@ -286,6 +291,11 @@ def open_backend(spec: str, **options) -> DeviceBackend:
         Passed to the backend: :class:`~haptex.backends.simulated.SimulatedBackend`'s
         parameters; ``realtime`` for Force Dimension; ``device_name`` for OpenHaptics;
         ``preset`` and ``timeout`` for both Haply backends.
+
+    Returns
+    -------
+    DeviceBackend
+        The backend, closed: its ``open`` starts the exchange.
 
     Raises
     ------

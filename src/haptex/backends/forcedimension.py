@@ -143,7 +143,13 @@ class ForceDimensionBackend:
 
     def sample(self) -> Sample:
         """The handle now (at this tick's time when real-time): position (m), velocity (m/s)
-        as the SDK estimates it, buttons."""
+        as the SDK estimates it, buttons.
+
+        Returns
+        -------
+        Sample
+            Position (m) and velocity (m/s), each shape (3,), and the buttons.
+        """
         if self._id is None:
             raise DeviceError(f"device = {self.name!r} is not open: open it before sampling")
         t = self._k * self.period

@@ -167,7 +167,13 @@ class HaplyBackend:
 
     def sample(self) -> Sample:
         """The Inverse3's state in the service's next message: position (m), velocity (m/s)
-        when sent, the VerseGrip's buttons when one is there."""
+        when sent, the VerseGrip's buttons when one is there.
+
+        Returns
+        -------
+        Sample
+            Position (m) and velocity (m/s), each shape (3,), and the buttons.
+        """
         if self._ws is None:
             raise DeviceError(f"device = {self.name!r} is not open: open it before sampling")
         msg = self._receive(self._ws)

@@ -327,7 +327,13 @@ class HaplySerialBackend:
             os.close(fd)
 
     def sample(self) -> Sample:
-        """The Inverse3's state in its last answer: position (m), velocity (m/s)."""
+        """The Inverse3's state in its last answer: position (m), velocity (m/s).
+
+        Returns
+        -------
+        Sample
+            Position (m) and velocity (m/s), each shape (3,).
+        """
         if self._dev is None:
             raise DeviceError(f"device = {self.name!r} is not open: open it before sampling")
         return self._last

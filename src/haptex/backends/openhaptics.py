@@ -208,7 +208,13 @@ class OpenHapticsBackend:
             raise DeviceError(f"device = {self.name!r}: a synchronous call failed ({failed[0]!r})")
 
     def sample(self) -> Sample:
-        """The handle now, read in one synchronous callback (the force held unchanged)."""
+        """The handle now, read in one synchronous callback (the force held unchanged).
+
+        Returns
+        -------
+        Sample
+            Position (m) and velocity (m/s), each shape (3,), and the buttons.
+        """
         out = []
 
         def body():

@@ -121,7 +121,13 @@ class SimulatedBackend:
         self._open = False
 
     def sample(self) -> Sample:
-        """The handle's state at this tick, read through the preset's encoder."""
+        """The handle's state at this tick, read through the preset's encoder.
+
+        Returns
+        -------
+        Sample
+            Position (m, on the encoder's lattice) and velocity (m/s), each shape (d,).
+        """
         if not self._open:
             raise fail("device", self.name, "opened before it is sampled")
         t = self._plant.k * self.period

@@ -139,6 +139,11 @@ def num_threads() -> int:
     """Threads of the C core's batch loops: set by :func:`threads` for the calling thread, else
     ``HAPTEX_NUM_THREADS`` (a whole number >= 1), by default every core of the machine.
 
+    Returns
+    -------
+    int
+        Threads (>= 1).
+
     Raises
     ------
     ParameterError
@@ -211,6 +216,11 @@ def blas_held_to_one_thread(fn):
     ----------
     fn : callable
         The function wrapped.
+
+    Returns
+    -------
+    callable
+        ``fn`` wrapped: the same signature and result.
     """
 
     @functools.wraps(fn)

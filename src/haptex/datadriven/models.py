@@ -138,7 +138,13 @@ class ArmaModel:
         return out.reshape(f.shape)
 
     def output_variance(self) -> float:
-        """Variance of the model's stationary output ((m/s²)²): the integral of :meth:`psd`."""
+        """Variance of the model's stationary output ((m/s²)²): the integral of :meth:`psd`.
+
+        Returns
+        -------
+        float
+            The stationary output's variance ((m/s²)²).
+        """
         from scipy.signal import dimpulse
 
         # the impulse response's energy: sum h_k^2, h of gain B / A, to 1e-12 of its sum
@@ -423,7 +429,13 @@ class ModelSet:
     # ---- files ------------------------------------------------------------------------
 
     def to_dict(self) -> dict:
-        """haptex's model file as a dict (:data:`FORMAT`, version :data:`FORMAT_VERSION`, SI units)."""
+        """haptex's model file as a dict (:data:`FORMAT`, version :data:`FORMAT_VERSION`, SI units).
+
+        Returns
+        -------
+        dict
+            The set in haptex's model file layout, SI units.
+        """
         return {
             "format": FORMAT,
             "version": FORMAT_VERSION,

@@ -252,6 +252,11 @@ def build(settings: Settings) -> Scene:
     settings : Settings
         The page's controls.
 
+    Returns
+    -------
+    Scene
+        The texture, algorithm, device and their settings.
+
     Raises
     ------
     ParameterError
@@ -379,6 +384,11 @@ def window(scene: Scene) -> tuple[tuple[float, float], tuple[float, float] | Non
     ----------
     scene : Scene
         What the page shows.
+
+    Returns
+    -------
+    tuple
+        ((x0, x1), (y0, y1)) over a surface, ((x0, x1), None) over a profile (m).
     """
     return _texture_window(scene.texture)
 
@@ -414,6 +424,11 @@ def placed_mesh(path, uv_scale: float, anchor):
         Metres per unit of its texture coordinates.
     anchor : array_like, shape (2,)
         The surface coordinates (m) placed at the explorer's origin.
+
+    Returns
+    -------
+    Mesh
+        The mesh in the explorer's frame, its texture coordinates in metres.
 
     Raises
     ------
@@ -451,6 +466,11 @@ def heights(scene: Scene, x) -> np.ndarray:
         What the page shows.
     x : array_like
         Positions along the section (m).
+
+    Returns
+    -------
+    numpy.ndarray
+        h(x) (m), shape like ``x``.
     """
     tex = scene.texture
     x = np.asarray(x, dtype=np.float64)
@@ -471,6 +491,12 @@ def boundary(scene: Scene, x) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         What the page shows.
     x : array_like, shape (n,)
         Positions along the section (m).
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        (x, z, z0) (m), each shape (n,): the section's abscissae, the textured surface's and the
+        nominal surface's heights.
     """
     x = np.asarray(x, dtype=np.float64)
     base = getattr(scene.algorithm, "base", None)
@@ -490,6 +516,11 @@ def view_cost(scene: Scene) -> tuple[float, int]:
     ----------
     scene : Scene
         What the page shows.
+
+    Returns
+    -------
+    tuple of (float, int)
+        The planned seconds and field evaluations.
     """
     from ..analysis.characteristic import characteristic_points
     from ..analysis.cost import evaluation_time
@@ -507,6 +538,12 @@ def views(scene: Scene) -> Views:
     ----------
     scene : Scene
         What the page shows.
+
+    Returns
+    -------
+    Views
+        The arrows' positions (m) and forces (N), the gain and curl maps, q, and the height map
+        over a surface.
 
     Raises
     ------
@@ -558,6 +595,11 @@ def section_points(scene: Scene, xs, zs) -> np.ndarray:
         The points' x (m).
     zs : array_like, shape (N,)
         Their z (m).
+
+    Returns
+    -------
+    numpy.ndarray, shape (n, 2) or (n, 3)
+        The positions (m).
     """
     xs, zs = np.asarray(xs, dtype=np.float64), np.asarray(zs, dtype=np.float64)
     if scene.dimension == 2:
@@ -574,6 +616,11 @@ def simplify(points: np.ndarray) -> np.ndarray:
     ----------
     points : ndarray, shape (N, d)
         A closed or open polyline's vertices (m).
+
+    Returns
+    -------
+    numpy.ndarray, shape (m, d)
+        The path's vertices (m), m <= n, the straight runs' inner vertices dropped.
     """
     p = np.asarray(points, dtype=np.float64)
     if len(p) < 3:
@@ -604,6 +651,11 @@ def loop(scene: Scene, xs, zs) -> tuple[float, np.ndarray]:
         The drawn points' x (m).
     zs : array_like, shape (N,)
         Their z (m).
+
+    Returns
+    -------
+    tuple of (float, numpy.ndarray)
+        The loop energy (J) and the closed polygon (m), shape (N + 1, d).
 
     Raises
     ------
@@ -637,6 +689,12 @@ def fig3(scene: Scene) -> tuple[np.ndarray, float, float | None, str]:
     scene : Scene
         What the page shows (a sinusoid).
 
+    Returns
+    -------
+    tuple
+        (polygon (m), shape (n, d); loop energy (J); the paper's value (J) or None; where the
+        path comes from).
+
     Raises
     ------
     ParameterError
@@ -658,6 +716,12 @@ def scan(scene: Scene) -> Scan:
     ----------
     scene : Scene
         What the page shows.
+
+    Returns
+    -------
+    Scan
+        The stroke's times (s), the energy each axis absorbed (J), its oscillation verdict and
+        energy balance error.
     """
     from .. import operators as ops
     from ..simulate import simulate
