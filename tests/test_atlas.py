@@ -341,7 +341,7 @@ def test_a_corrupt_store_is_one_line(tmp_path, damage):
         sweep(spec, store, workers=1)
 
 
-@pytest.mark.slow
+@pytest.mark.long  # 7 s: two CLI runs in new interpreters (was -m slow, run by nothing)
 def test_atlas_plot_at_the_command_line_needs_every_other_dimension_fixed(tmp_path):
     spec = wall_spec({"stiffness": "1-30 kN/m, 6 log steps", "damping": ["0.5 N*s/m", "1 N*s/m"], "delay": [0, 1]},
                      duration="0.2 s")

@@ -299,7 +299,7 @@ def _cli(*args):
     return run_main(*args)  # the entry point in this process (test_cli.run_main)
 
 
-@pytest.mark.slow  # 12-17 s; design on objects is tested in-process by test_design_analyses_the_algorithms_asked_for (the suite under 10 minutes on a cold clone: 633 s measured before; run with -m slow)
+@pytest.mark.long  # 6 s (was -m slow, run by nothing)
 def test_design_on_a_sphere_from_the_command_line():
     # 'haptex design --object sphere:R': A, B, C, F, G analysed on the sphere (R = 40 periods
     # around); A's q is characteristic_number's; C is conservative there (a gradient), A
@@ -402,7 +402,7 @@ def test_bad_objects_on_the_command_line_print_one_line_and_exit_2(args, fragmen
 
 
 # -- meshes with vertex normals: a smooth base ---------------------------------------------------
-@pytest.mark.slow  # 10-13 s (the suite under 10 minutes on a cold clone: 633 s measured before; run with -m slow)
+@pytest.mark.long  # 7 s (was -m slow, run by nothing)
 def test_a_mesh_with_vertex_normals_is_a_smooth_base_that_tends_to_the_sphere():
     # each triangle swept along its vertices' normals into a prism (p = sum b_k (v_k + e N_k)):
     # u and e continuous across edges, so on the icosphere with its exact (radial) vertex
@@ -619,7 +619,7 @@ def test_f_on_a_sphere_is_almost_conservative_and_continuous():
     assert hx.continuity(o, 0.5e-3).continuous
 
 
-@pytest.mark.slow
+@pytest.mark.long  # 9 s (was -m slow, run by nothing)
 def test_the_spheres_q_of_f_tends_to_the_planes():
     # q_F on a sphere approaches the plane's as O(d/R): 6.2e-2, 5.7e-3, 5.7e-4 measured from R =
     # 32 mm to 3.2 m (1 mm deep), tenfold closer for each tenfold radius

@@ -107,7 +107,7 @@ def test_hapi_defaults_are_hapis():
             HapiDepthMap(hx.SumOfGratings.egg_crate(0.2e-3, 2e-3), **({"stiffness": 2000.0} | bad))
 
 
-@pytest.mark.slow  # 11-13 s: HAPI's reference algorithm in pure Python, not haptex's tick (the suite under 10 minutes on a cold clone: 633 s measured before; run with -m slow)
+@pytest.mark.long  # 4 s: HAPI's reference algorithm in pure Python, not haptex's tick (was -m slow, run by nothing)
 def test_hapis_local_search_stops_short_of_the_closest_point():
     # Its simplex stops at a relative spread of 1e-4 in the squared distance: along the stroke
     # its contact point is off the certified closest point (haptex's D, hx_closest.c) by 1.2 um
@@ -133,7 +133,7 @@ def test_hapis_local_search_stops_short_of_the_closest_point():
         assert np.all(np.linalg.norm(contact - pts, axis=1) >= cp.distance - 1e-12)
 
 
-@pytest.mark.slow  # 11-13 s: HAPI's reference algorithm in pure Python, not haptex's tick (the suite under 10 minutes on a cold clone: 633 s measured before; run with -m slow)
+@pytest.mark.long  # 4 s: HAPI's reference algorithm in pure Python, not haptex's tick (was -m slow, run by nothing)
 def test_hapis_tolerance_makes_its_loops_dissipative():
     # Around a 1.2 x 0.8 mm rectangle 0.25 mm deep, lap after lap, the proxy that stops early
     # lags behind and drags: its force does -0.7 to -1.7 uJ a lap (measured; -0.4 uJ at 0.1 mm
@@ -168,7 +168,7 @@ def test_hapis_tolerance_makes_its_loops_dissipative():
         assert abs(float(np.sum(0.5 * (fd[1:] + fd[:-1]) * np.diff(loop, axis=0)))) < 1e-12
 
 
-@pytest.mark.slow  # 11-13 s: HAPI's reference algorithm in pure Python, not haptex's tick (the suite under 10 minutes on a cold clone: 633 s measured before; run with -m slow)
+@pytest.mark.long  # 4 s: HAPI's reference algorithm in pure Python, not haptex's tick (was -m slow, run by nothing)
 def test_hapi_on_a_sphere_stops_short_and_drags_as_on_the_plane():
     # HAPI's depth map on an object's base (the proxy in the base's surface coordinates, the
     # simplex over S(u) = P(u, h(u))): Plane() is the plane model tick for tick; on a sphere of

@@ -217,7 +217,7 @@ def test_design_cli_reads_an_areal_map_as_a_surface(tmp_path):
     assert "--device pantograph is not allowed with a surface: the pantograph is planar" in r.stderr
 
 
-@pytest.mark.slow
+@pytest.mark.long  # 9 s (was -m slow, run by nothing)
 def test_design_cli_analyses_an_areal_map_on_a_3dof_device(tmp_path):
     x, y, h, A, L = _grating_map(periods=2, per=32, A=20e-6, L=2e-3, rows=32)
     f = tmp_path / "g.x3p"
