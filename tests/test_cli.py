@@ -458,7 +458,7 @@ def test_table_over_a_surface_prints_f():
     assert m and float(m.group(2)) <= 1.0 + 1e-9, out.getvalue()
 
 
-@pytest.mark.slow
+@pytest.mark.long  # 10 s: the whole 3-D Table II (was -m slow, run by nothing)
 def test_table_over_a_surface_prints_f_and_exits_cleanly():
     # README's `haptex table --surface egg-crate`, the whole command
     r = run_cli("table", "--surface", "egg-crate")

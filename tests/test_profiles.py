@@ -250,7 +250,7 @@ def test_design_on_real_profiles(which):
 
 
 @needs_data
-@pytest.mark.slow  # 17 s; the raw Dektak design is in the default run (tests/test_topography.py)
+@pytest.mark.long  # 12 s (was -m slow, run by nothing)
 def test_design_cli_on_the_dektak_file():
     r = subprocess.run([sys.executable, "-m", "haptex", "design", "--texture", str(DEKTAK), "--level", "--lowpass",
                         "20um", "--scale", "10,1000", "--stiffness", "500 N/m", "--window", "4mm,4.8mm", "--json"],

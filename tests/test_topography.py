@@ -192,7 +192,7 @@ def test_band_limited_keeps_the_rendered_texture_and_thins_its_samples():
     assert p.shortest_period == 200e-6
 
 
-@pytest.mark.slow
+@pytest.mark.long  # 8 s (was -m slow, run by nothing)
 @needs_data
 def test_design_cli_on_the_raw_dektak_scan_and_raw_on_request():
     r = subprocess.run([sys.executable, "-m", "haptex", "design", "--texture", str(DEKTAK), "--json"],
