@@ -1,4 +1,4 @@
-"""Heavy cases: in .ci/run's long set (``python -m pytest -q -n 2 -m long``)."""
+"""Heavy cases: 2,000 deep probes in .ci/run's long set; the full reproduce by hand (``-m slow``)."""
 
 import json
 import subprocess
@@ -11,9 +11,8 @@ import haptex as hx
 
 from .test_closest import brute_force_distance
 
-pytestmark = pytest.mark.long  # (a full reproduce, 15 s; 2,000 deep probes, 3 s)
 
-
+@pytest.mark.slow  # 15 s: run by hand (the report's tests run reproduce --quick in the long set)
 def test_full_reproduce_report(tmp_path):
     # the main job on the paper's parameters, as a newcomer runs it
     out = tmp_path / "report"
@@ -29,6 +28,7 @@ def test_full_reproduce_report(tmp_path):
         assert all(run["energy_balance_error"] < 1e-9 for run in summary[part]["runs"])
 
 
+@pytest.mark.long  # 3 s
 def test_closest_point_on_many_deep_points_of_a_rough_sum():
     # 2000 points down to 3 mm below a three-component sum: distances to 1e-9 m of a dense search
     # (20,001 samples of each window: equal to 400,001's to 1e-15 m on these probes, 2 s not 53 s)
