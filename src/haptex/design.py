@@ -14,6 +14,7 @@ from .analysis import (characteristic_number, checked_algorithms, conservativity
 from .catalogue import DEFAULT_HAND, presets
 from .devices import Device
 from .limits import stiffness_at, wall_limits
+from .surfaces import _symmetric_2x2_norm
 from .textures import Texture
 
 LETTERS = "".join(ALGORITHMS)
@@ -462,7 +463,7 @@ def _sample_numbers(texture) -> dict:
     else:
         hxx, hxy = np.gradient(g[0], *steps)
         hyy = np.gradient(g[1], steps[1], axis=1)
-        curv = np.abs(0.5 * (hxx + hyy)) + np.hypot(0.5 * (hxx - hyy), hxy)  # a symmetric 2x2's 2-norm
+        curv = _symmetric_2x2_norm(hxx, hxy, hyy)
     return {"max_slope": float(slope.max()), "max_curvature": float(curv.max()),
             "height_range": [float(h.min()), float(h.max())]}
 

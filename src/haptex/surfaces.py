@@ -152,12 +152,16 @@ class Surface(Texture):
         return best
 
 
-def _symmetric_2x2_norm(H: np.ndarray) -> np.ndarray:
-    """The 2-norm (largest |eigenvalue|) of symmetric 2 x 2 matrices H, shape (..., 2, 2), in
-    closed form: |a + c| / 2 + sqrt(((a - c) / 2)^2 + b^2) (numpy's SVD per matrix took 3 s on a
-    640 x 480 map's 4.9 million grid points; this, 0.1 s). Shape (...)."""
-    a, b, c = H[..., 0, 0], 0.5 * (H[..., 0, 1] + H[..., 1, 0]), H[..., 1, 1]
+def _symmetric_2x2_norm(a, b, c) -> np.ndarray:
+    """The 2-norm (largest |eigenvalue|) of the symmetric 2 x 2 matrices [[a, b], [b, c]] (arrays
+    of one shape), in closed form: |a + c| / 2 + sqrt(((a - c) / 2)^2 + b^2) (numpy's SVD per
+    matrix took 3 s on a 640 x 480 map's 4.9 million grid points; this, 0.1 s). Same shape."""
     return 0.5 * np.abs(a + c) + np.hypot(0.5 * (a - c), b)
+
+
+def _hessian_norm(H: np.ndarray) -> np.ndarray:
+    """:func:`_symmetric_2x2_norm` of Hessians H, shape (..., 2, 2): shape (...)."""
+    return _symmetric_2x2_norm(H[..., 0, 0], H[..., 0, 1], H[..., 1, 1])
 
 
 class SumOfGratings(Surface):
@@ -322,7 +326,7 @@ class SumOfGratings(Surface):
         """sup of the Hessian's 2-norm (1/m); the bound sum_k a_k k_k^2 without a cell."""
         if self.cell is None:
             return float(np.sum(self.amplitudes * (2 * np.pi / self.periods) ** 2))
-        return self._sup(lambda p: _symmetric_2x2_norm(self.hessian(p)))
+        return self._sup(lambda p: _hessian_norm(self.hessian(p)))
 
     @cached_property
     def curvature_bound(self) -> float:
@@ -1074,7 +1078,7 @@ class SampledSurface(Surface):
     @cached_property
     def max_curvature(self) -> float:
         """sup of the Hessian's 2-norm over the map (1/m), found like :attr:`max_slope`."""
-        return self._sup(lambda p: _symmetric_2x2_norm(self.hessian(p)))
+        return self._sup(lambda p: _hessian_norm(self.hessian(p)))
 
     @cached_property
     def height_range(self) -> tuple[float, float]:
