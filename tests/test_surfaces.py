@@ -588,6 +588,54 @@ def test_closest_point_on_a_height_map_agrees_with_brute_force(periodic):
     np.testing.assert_allclose(e.force(p)[:, 2], K0 * cp.distance, rtol=1e-12)
 
 
+def test_a_hermite_map_is_its_samples_heights_and_gradients():
+    # its definition: per cell, the bicubic through the corners' heights, gradients and twists,
+    # so at every sample the height and gradient given (here an egg-crate's own, numpy's closed
+    # form), and C^1 across the patch lines (the same gradient from either side)
+    n, cell = 24, 1.2e-3
+    x = np.arange(n) * (cell / n)
+    X, Y = np.meshgrid(x, x, indexing="ij")
+    k = 2 * np.pi / cell
+    h = A * np.sin(k * X) * np.sin(k * Y)
+    g = np.stack([A * k * np.cos(k * X) * np.sin(k * Y), A * k * np.sin(k * X) * np.cos(k * Y)], -1)
+    s = hx.SampledSurface(x, x, h, periodic=True, gradients=g)
+    P = np.stack([X, Y], -1)
+    np.testing.assert_allclose(s.height_at(P), h, rtol=0, atol=1e-18)
+    np.testing.assert_allclose(s.gradient(P), g, rtol=0, atol=1e-13)
+    rng = np.random.default_rng(5)
+    on = np.column_stack([x[rng.integers(1, n, 50)], rng.uniform(0, cell, 50)])  # points on lines x = x_i
+    eps = np.array([1e-12, 0.0])
+    np.testing.assert_allclose(s.gradient(on - eps), s.gradient(on + eps), rtol=0, atol=1e-7)
+    # between the samples, the cubic Hermite error bound (h^4 / 384 of the fourth derivative per axis)
+    mid = np.column_stack([rng.uniform(0, cell, 200), rng.uniform(0, cell, 200)])
+    exact = A * np.sin(k * mid[:, 0]) * np.sin(k * mid[:, 1])
+    assert np.max(np.abs(s.height_at(mid) - exact)) <= 2 * (cell / n) ** 4 / 384 * A * k**4 + 1e-18
+    with pytest.raises(hx.ParameterError, match=r"gradients = 'an array of shape \(24, 24\)' is not allowed: must be shape \(24, 24, 2\)"):
+        hx.SampledSurface(x, x, h, gradients=h)
+
+
+def test_closest_point_on_a_felt_map_with_kinks_agrees_with_brute_force():
+    # a felt map whose ball bridges the egg-crate's bowls (r = 2 mm, twice their curvature
+    # radius) has slopes that jump across its patch lines: the search's Taylor model holds
+    # within a patch only (PATCH_JOINS), cells are cut at the lines; its distances are never
+    # longer than the dense brute force's (to 1e-9 m), also on probes above the kinks, and the
+    # map is continuous across every patch line (heights from either side)
+    felt = hx.SumOfGratings.egg_crate(A, 2e-3).felt_by(2e-3)
+    assert felt.kinks.shape[0] > 0 and felt.patches()[0, hx.core._ext.PATCH_JOINS] == 1.0
+    # (with PATCH_JOINS set to 0 on these probes, the model across the lines misses the closest
+    # point on 2 of them by 1.0 um)
+    rng = np.random.default_rng(29)
+    xy = felt.kinks[rng.integers(0, len(felt.kinks), 150), :2] + rng.normal(0, 20e-6, (150, 2))
+    p = np.column_stack([xy, felt.height_at(xy) - rng.uniform(0.0, 0.6e-3, 150)])
+    cp = hx.closest_point(felt, p)
+    ref = _brute_force_distance(felt, p, 1.05 * cp.distance + 1e-6)
+    assert np.all(cp.distance <= ref + 1e-9), np.max(cp.distance - ref)
+    assert cp.work.max() <= 4 + 50 * 2 ** 16
+    on = np.column_stack([felt.x[rng.integers(1, felt.x.size, 60)], rng.uniform(0, 2e-3, 60)])
+    eps = np.array([1e-13, 0.0])
+    np.testing.assert_allclose(felt.height_at(on - eps), felt.height_at(on + eps), rtol=0, atol=3e-13)  # (slope x 2 eps)
+
+
 @pytest.mark.parametrize("tex", [hx.Grating(A, L), hx.SumOfGratings.egg_crate(A, L)], ids=["grating", "egg"])
 def test_the_medial_axis_below_a_peak_is_detected_as_a_tie(tex):
     # Remark 6 in 3-D: below a peak deeper than its radius of curvature (1/(A k^2) = 32 um) the

@@ -498,7 +498,10 @@ def surface_search_data(texture) -> tuple[int, np.ndarray, np.ndarray]:
         gaux[K.G_JERK] = float(np.sum(a * k ** 3))
     else:  # a height map: the patches' rigorous bounds, valid inside the map (everywhere if periodic)
         gaux[K.G_SLOPE_BOUND], gaux[K.G_CURV_BOUND], gaux[K.G_JERK] = texture.derivative_bounds
-        if texture.periodic:  # the convexity certificate needs the bound on the whole plane
+        hermite = texture.patches()[0, K.PATCH_JOINS] != 0.0  # bounds within each patch only
+        if hermite and texture.kinks.size:  # slopes that jump: no curvature bounds a cell across a kink
+            gaux[K.G_CURV] = 1e300  # (aux must be finite: the spread S r is then the bound)
+        if texture.periodic and not hermite:  # the convexity certificate needs the bound on the whole plane
             gaux[K.G_CONVEX] = gaux[K.G_CURV_BOUND]
         else:  # and beyond the edges, the tangent-plane extension's
             gaux[K.G_EDGE:K.G_EDGE + 4 * K.N_E] = texture.edge_bounds.ravel()

@@ -973,6 +973,10 @@ class ObjectAlgorithm(Algorithm):
                                     texture.phases)
         if texture.dimension == 1:
             texture = Extruded(texture)
+        if letter in "DE" and getattr(texture, "_gradients", None) is not None:
+            raise fail("texture", texture, f"a spline height map or a sum of gratings for {letter} on an object (a "
+                       "Hermite map, a felt map's, is joined only continuously across its patch lines, which the "
+                       "object's closest-point bounds do not allow: felt_by applies on the plane)")
         base.check_texture(texture)
         plane = algorithm(letter, texture, stiffness, **params)
         super().__init__(texture, stiffness, getattr(plane, "max_penetration", None))

@@ -77,10 +77,18 @@ class Surface(Texture):
     slope = curvature = height
 
     def _felt(self, r: float, spacing: float | None) -> "SampledSurface":
-        """A surface's felt texture (a ball of radius r > 0, m): the grid's heights dilated."""
+        """A surface's felt texture (a ball of radius r > 0, m): the ball's centre path at each grid
+        point, its contact found on the grid and refined on this surface itself, the path's
+        gradient there the contact's (the envelope theorem), and the map the bicubic Hermite
+        patches through those heights and gradients, each kinked edge's slopes kept within the
+        contacts' (:func:`_contact_map`)."""
         x, y, h, periodic, source = _surface_grid(self, r, spacing)
-        hf = _dilate(h, (x[1] - x[0], y[1] - y[0]), r, periodic, "tip_radius", r)
-        return SampledSurface(x, y, hf, periodic=periodic, source=f"{source} felt by a ball of r = {r * 1e3:g} mm")
+        hf, grads, edges, kinks = _contact_map(self, x, y, h, r, periodic)
+        out = SampledSurface(x, y, hf, periodic=periodic, gradients=grads,
+                             source=f"{source} felt by a ball of r = {r * 1e3:g} mm")
+        out._edges = edges
+        out.kinks = kinks
+        return out
 
     def kernel_data(self) -> tuple[int, np.ndarray]:
         """(kind, coeffs) of the compiled kernels (:mod:`haptex.core`): a sum of gratings
@@ -702,16 +710,35 @@ class SampledSurface(Surface):
         The shortest wavelength present (m); default the Nyquist period 2 max(dx, dy).
     source : str, optional
         Where the map came from (for reports).
+    gradients : array_like, shape (nx, ny, 2), optional
+        grad h (m/m) at each sample, when it is known exactly: the map is then the bicubic
+        Hermite interpolant through heights and gradients (its twist d^2 h / dx dy from central
+        differences of the gradients) instead of the C^2 spline: C^1 across the patch lines,
+        C^2 within a patch. A felt map (:func:`haptex.probe.felt_by`) is one, with each
+        kinked edge's slopes along it moved within the contacts' (then only C^0 there).
+
+    Attributes
+    ----------
+    kinks : numpy.ndarray, shape (k, 3)
+        For a felt map, each grid edge across which the ball's contact jumps (the ball
+        bridging a trough): its midpoint x, y (m) and the jump of the slope along it
+        (dimensionless); D and E see a discontinuity there. Empty otherwise.
 
     Raises
     ------
     ParameterError
         For fewer than 4 x 4 samples, NaNs or infinities, heights beyond +-1 km, a
         non-uniform or non-increasing axis, mismatched shapes, or more than
-        ``MAX_SAMPLES`` samples.
+        ``MAX_SAMPLES`` samples; gradients of another shape or not finite.
+
+    Notes
+    -----
+    Transformations (:meth:`leveled`, :meth:`lowpass`, :meth:`scaled`, cropping) return a
+    spline map of the new heights: a Hermite map's gradients are not carried over.
     """
 
-    def __init__(self, x, y, h, periodic: bool = False, shortest_period: float | None = None, source: str = ""):
+    def __init__(self, x, y, h, periodic: bool = False, shortest_period: float | None = None, source: str = "",
+                 gradients=None):
         from scipy.interpolate import NdBSpline, make_interp_spline
 
         from ._validation import MAX_LENGTH
@@ -738,6 +765,17 @@ class SampledSurface(Surface):
         self.dx, self.dy = dx, dy
         self.periodic = bool(periodic)
         self.source = source
+        self.kinks = np.zeros((0, 3))
+        self._gradients = self._edges = None
+        if gradients is not None:
+            try:
+                g = np.asarray(gradients, dtype=np.float64)
+            except (TypeError, ValueError):
+                g = None
+            if g is None or g.shape != h.shape + (2,) or not np.all(np.isfinite(g)):
+                raise fail("gradients", f"an array of shape {np.shape(gradients)}", f"shape ({x.size}, {y.size}, 2) "
+                           "of finite slopes (m/m), grad h at each sample")
+            self._gradients = np.ascontiguousarray(g)
         if self.periodic:
             xe, ye = np.r_[x, x[-1] + dx], np.r_[y, y[-1] + dy]
             he = np.pad(h, ((0, 1), (0, 1)), mode="wrap")
@@ -771,6 +809,8 @@ class SampledSurface(Surface):
         try:
             self.patches()
         except ParameterError:
+            if self._gradients is not None:  # (a Hermite map has no spline to fall back on)
+                raise
             return np.stack([self._spline_eval(xt, nu) for nu in _NU], -1)
         return core.texture_derivatives(self, plane(xt))
 
@@ -887,6 +927,44 @@ class SampledSurface(Surface):
         ny = self.y.size if self.periodic else self.y.size - 1
         check_budget("h", f"a {self.x.size} x {self.y.size} map", 3 * 16 * 8 * nx * ny,
                      "bicubic patches for the closest-point search (D, E)")
+        out = self._hermite_patches(nx, ny) if self._gradients is not None else self._spline_patches(nx, ny)
+        head = np.zeros(K.PATCH_DATA)
+        head[K.PATCH_X0], head[K.PATCH_Y0] = self.x[0], self.y[0]
+        head[K.PATCH_DX], head[K.PATCH_DY] = self.dx, self.dy
+        head[K.PATCH_NX], head[K.PATCH_NY] = nx, ny
+        head[K.PATCH_PERIODIC] = 1.0 if self.periodic else 0.0
+        head[K.PATCH_JOINS] = 0.0 if self._gradients is None else 1.0
+        arr = np.ascontiguousarray(np.concatenate([head, out.ravel()])[None, :])
+        self.__dict__["_patches"] = arr
+        return arr
+
+    def _hermite_patches(self, nx, ny) -> np.ndarray:
+        """A Hermite map's patches, shape (nx, ny, 4, 4): per cell the bicubic through its
+        corners' heights, slopes along each edge (the edge's own where a kink moved them) and
+        twists, c = A F A^T with A the cubic Hermite basis's coefficients (columns: value at 0,
+        value at 1, slope at 0, slope at 1; rows: powers of s) and F the corners' data in the
+        cell's units."""
+        g = self._gradients
+        ex, ey, flat = self._edges if self._edges is not None else (*_node_edges(g, self.periodic), None)
+        twist = _twist(g, self.dx, self.dy, self.periodic)
+        if flat is not None:  # (no twist beside a kink: its central differences straddle the jump)
+            twist[flat] = 0.0
+        mx, my = self.x.size, self.y.size
+        i = np.arange(nx)[:, None]
+        j = np.arange(ny)[None, :]
+        i1, j1 = (i + 1) % mx, (j + 1) % my
+        F = np.empty((nx, ny, 4, 4))
+        for a, ia in ((0, i), (1, i1)):
+            for b, jb in ((0, j), (1, j1)):
+                F[..., a, b] = self.h[ia, jb]
+                F[..., 2 + a, b] = ex[i, jb, a] * self.dx  # the slope along x of the x-edge at row j + b
+                F[..., a, 2 + b] = ey[ia, j, b] * self.dy  # the slope along y of the y-edge at column i + a
+                F[..., 2 + a, 2 + b] = twist[ia, jb] * self.dx * self.dy
+        A = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [-3.0, 3.0, -2.0, -1.0], [2.0, -2.0, 1.0, 1.0]])
+        return A @ F @ A.T
+
+    def _spline_patches(self, nx, ny) -> np.ndarray:
+        """The spline's patches, shape (nx, ny, 4, 4), by sampling it at 4 x 4 points a cell."""
         nodes = np.arange(4) / 3.0
         vand_inv = np.linalg.inv(nodes[:, None] ** np.arange(4)[None, :])  # values at s_k -> coefficients
         out = np.empty((nx, ny, 4, 4))
@@ -897,14 +975,7 @@ class SampledSurface(Surface):
             pts = np.stack(np.broadcast_arrays(X, Y), -1)
             vals = self._spline(pts.reshape(-1, 2)).reshape(i1 - i0, ny, 4, 4)
             out[i0:i1] = vand_inv @ vals @ vand_inv.T
-        head = np.zeros(K.PATCH_DATA)
-        head[K.PATCH_X0], head[K.PATCH_Y0] = self.x[0], self.y[0]
-        head[K.PATCH_DX], head[K.PATCH_DY] = self.dx, self.dy
-        head[K.PATCH_NX], head[K.PATCH_NY] = nx, ny
-        head[K.PATCH_PERIODIC] = 1.0 if self.periodic else 0.0
-        arr = np.ascontiguousarray(np.concatenate([head, out.ravel()])[None, :])
-        self.__dict__["_patches"] = arr
-        return arr
+        return out
 
     @cached_property
     def derivative_bounds(self) -> tuple[float, float, float]:
@@ -913,7 +984,9 @@ class SampledSurface(Surface):
         :meth:`patch_bounds`' over the patches. S >= ‖grad h‖ (m/m), C >= ||H||_2 (1/m) and
         J >= the norm of the third-derivative tensor (1/m^2). The spline is C^2, so H is
         Lipschitz with constant J across patches: the closest-point search's Taylor bound
-        (``_ext.G_JERK``) holds on any disc or square inside the map."""
+        (``_ext.G_JERK``) holds on any disc or square inside the map. A Hermite map's hold
+        within each patch only (``_ext.PATCH_JOINS``: the search cuts its cells at the patch
+        lines)."""
         b = self.patch_bounds()
         return float(b[..., 2].max()), float(b[..., 3].max()), float(b[..., 4].max())
 
@@ -1083,7 +1156,11 @@ class SampledSurface(Surface):
     @cached_property
     def height_range(self) -> tuple[float, float]:
         """(min h, max h) (m): the grid's extremes widened by the sampling error
-        sup ||H|| (dx^2 + dy^2) / 8."""
+        sup ||H|| (dx^2 + dy^2) / 8; a Hermite map's (whose slopes may jump across its patch
+        lines) the patches' Bernstein bounds (:meth:`patch_bounds`)."""
+        if self._gradients is not None:
+            b = self.patch_bounds()
+            return (float(b[..., 0].min()), float(b[..., 1].max()))
         pts, (dx, dy) = self._grid()
         hh = self.height_at(pts)
         pad = self.max_curvature * (dx * dx + dy * dy) / 8
@@ -1409,6 +1486,135 @@ def load_texture(path, *, spacing=None, x_unit=None, height_unit=None, variable=
            else SampledProfile(r.x, r.h, periodic=periodic, source=r.source))
     out.instrument_tip = r.instrument_tip
     return out
+
+
+def _node_edges(g, periodic):
+    """Each grid edge's slopes along it at its two ends, from the nodes' gradients g (nx, ny, 2):
+    x-edges (i to i + 1 at row j) shape (mx, ny, 2), y-edges (j to j + 1 at column i) shape
+    (nx, my, 2); m = n periodic, n - 1 otherwise."""
+    gx, gy = g[..., 0], g[..., 1]
+    if periodic:
+        return (np.stack([gx, np.roll(gx, -1, axis=0)], -1), np.stack([gy, np.roll(gy, -1, axis=1)], -1))
+    return np.stack([gx[:-1], gx[1:]], -1), np.stack([gy[:, :-1], gy[:, 1:]], -1)
+
+
+def _twist(g, dx, dy, periodic):
+    """d^2 h / dx dy at the nodes: the mean of the central differences of h_x along y and of h_y
+    along x (one-sided at a map's edges), shape (nx, ny)."""
+    if periodic:
+        hxy = (np.roll(g[..., 0], -1, axis=1) - np.roll(g[..., 0], 1, axis=1)) / (2 * dy)
+        hyx = (np.roll(g[..., 1], -1, axis=0) - np.roll(g[..., 1], 1, axis=0)) / (2 * dx)
+    else:
+        hxy = np.gradient(g[..., 0], dy, axis=1)
+        hyx = np.gradient(g[..., 1], dx, axis=0)
+    return 0.5 * (hxy + hyx)
+
+
+CONTACT_NEWTON_STEPS = 8
+"""Safeguarded Newton steps refining each grid point's contact on an areal texture (chosen: from
+the grid's arg-max, within one interval of the true contact, the error squares each step)."""
+
+
+def _contact_map(texture, x, y, h, r, periodic):
+    """The ball's centre path on the grid (x, y) over a surface: heights c - r (nx, ny), the
+    path's gradients (nx, ny, 2), the edges' slopes (:func:`_node_edges`' layout, each kinked
+    edge's moved by :func:`haptex.textures._kink_ends`) with the nodes beside a kink (no twist
+    there), and the kinks (k, 3): x, y (m) and the slope jump along the edge.
+
+    c(p) = max over |u| <= r of [H(p + u) + sqrt(r^2 - |u|^2)], H the texture's own height:
+    the maximum over the grid's offsets first (each grid point's arg-max contact), then refined
+    on H by safeguarded Newton steps within one interval of it (never below the grid's own
+    maximum); the gradient is grad H at the contact (the envelope theorem: the path's normal is
+    the contact's). A kinked edge joins neighbouring points whose contacts lie more than three
+    intervals apart (the ball bridging a trough), as on a profile."""
+    dx, dy = float(x[1] - x[0]), float(y[1] - y[0])
+    kx, ky = int(math.floor(r / dx)), int(math.floor(r / dy))
+    offs = [(a, b) for a in range(-kx, kx + 1) for b in range(-ky, ky + 1) if (a * dx) ** 2 + (b * dy) ** 2 <= r * r]
+    from .probe import _check_work
+
+    _check_work(h.size, len(offs), (dx, dy), "tip_radius", r)
+    nx, ny = h.shape
+    hp = np.pad(h, ((kx, kx), (ky, ky)), mode="wrap" if periodic else "edge")
+    best = np.full(h.shape, -np.inf)
+    ua = np.zeros(h.shape, dtype=np.int64)
+    ub = np.zeros(h.shape, dtype=np.int64)
+    for a, b in offs:
+        val = hp[kx + a:kx + a + nx, ky + b:ky + b + ny] + math.sqrt(max(r * r - (a * dx) ** 2 - (b * dy) ** 2, 0.0))
+        better = val > best
+        best[better] = val[better]
+        ua[better] = a
+        ub[better] = b
+    X, Y = np.meshgrid(x, y, indexing="ij")
+    P = np.stack([X, Y], -1)
+    if periodic:
+        u0 = np.stack([ua * dx, ub * dy], -1)
+        lo, hi = u0 - [dx, dy], u0 + [dx, dy]
+    else:  # the contact stays on the sampled rectangle (beyond it the padding repeats its edges)
+        ia = np.clip(np.arange(nx)[:, None] + ua, 0, nx - 1)
+        ib = np.clip(np.arange(ny)[None, :] + ub, 0, ny - 1)
+        u0 = np.stack([x[ia] - X, y[ib] - Y], -1)
+        lo = np.maximum(u0 - [dx, dy], np.stack([x[0] - X, y[0] - Y], -1))
+        hi = np.minimum(u0 + [dx, dy], np.stack([x[-1] - X, y[-1] - Y], -1))
+    rim = r * (1 - 1e-9)
+
+    def g_of(u):
+        return texture.height_at(P + u) + np.sqrt(np.maximum(r * r - np.sum(u * u, -1), 0.0))
+
+    u, gu = u0.copy(), g_of(u0)
+    for _ in range(CONTACT_NEWTON_STEPS):
+        q = P + u
+        s2 = np.maximum(r * r - np.sum(u * u, -1), (r - rim) * r)
+        sq = np.sqrt(s2)
+        grad = texture.gradient(q) - u / sq[..., None]
+        hess = texture.hessian(q) - (np.eye(2) / sq[..., None, None]
+                                     + u[..., :, None] * u[..., None, :] / (s2 * sq)[..., None, None])
+        # ascent on the concave part: -hess shifted to positive definite where it is not
+        lam = -_symmetric_2x2_norm(hess[..., 0, 0], hess[..., 0, 1], hess[..., 1, 1])
+        a, b_, c = -hess[..., 0, 0], -hess[..., 0, 1], -hess[..., 1, 1]
+        least = 0.5 * (a + c) - np.hypot(0.5 * (a - c), b_)
+        shift = np.where(least > 1e-12 * np.abs(lam), 0.0, np.abs(least) + 1e-6 * np.abs(lam) + 1e-300)
+        a, c = a + shift, c + shift
+        det = a * c - b_ * b_
+        step = np.stack([(c * grad[..., 0] - b_ * grad[..., 1]) / det, (a * grad[..., 1] - b_ * grad[..., 0]) / det], -1)
+        for _half in range(6):  # backtracking: only steps that raise g, inside the box and the disc
+            cand = np.clip(u + step, lo, hi)
+            norm = np.linalg.norm(cand, axis=-1)
+            cand = np.where((norm > rim)[..., None], cand * (rim / np.maximum(norm, 1e-300))[..., None], cand)
+            gc = g_of(cand)
+            up = gc > gu
+            u = np.where(up[..., None], cand, u)
+            gu = np.where(up, gc, gu)
+            if up.all():
+                break
+            step = np.where(up[..., None], 0.0, 0.5 * step)
+    keep = best > gu  # never below the grid's own maximum
+    u = np.where(keep[..., None], u0, u)
+    c = np.where(keep, best, gu) - r
+    grads = texture.gradient(P + u)
+    # the edges: kinked where the contact jumps by more than three intervals
+    step_x, step_y = np.array([dx, 0.0]), np.array([0.0, dy])
+    ex, ey = _node_edges(grads, periodic)
+    flat = np.zeros(h.shape, dtype=bool)
+    kinks = []
+    from .textures import _kink_ends
+
+    for axis, edges, d, unit in ((0, ex, dx, step_x), (1, ey, dy, step_y)):
+        nxt = np.roll(u, -1, axis=axis) if periodic else (u[1:] if axis == 0 else u[:, 1:])
+        here = u if periodic else (u[:-1] if axis == 0 else u[:, :-1])
+        jump = np.linalg.norm(nxt - here + unit, axis=-1) > 3 * d
+        if not jump.any():
+            continue
+        hn = np.roll(c, -1, axis=axis) if periodic else (c[1:] if axis == 0 else c[:, 1:])
+        hh = c if periodic else (c[:-1] if axis == 0 else c[:, :-1])
+        mean = (hn - hh) / d
+        s0, s1 = edges[..., 0][jump], edges[..., 1][jump]
+        edges[..., 0][jump], edges[..., 1][jump] = _kink_ends(s0, s1, mean[jump])  # (views: set in place)
+        ii, jj = np.nonzero(jump)
+        flat[ii, jj] = True
+        flat[(ii + (axis == 0)) % h.shape[0], (jj + (axis == 1)) % h.shape[1]] = True
+        mid = np.column_stack([x[ii] + 0.5 * dx * (axis == 0), y[jj] + 0.5 * dy * (axis == 1)])
+        kinks.append(np.column_stack([mid, s1 - s0]))
+    return c, grads, (ex, ey, flat), (np.concatenate(kinks) if kinks else np.zeros((0, 3)))
 
 
 def _surface_grid(texture, r, spacing):

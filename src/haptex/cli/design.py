@@ -107,9 +107,11 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
         import numpy as np
 
         kinks = np.asarray(getattr(tex, "kinks", np.zeros((0, 2))))
+        kinks = kinks[np.argsort(-np.abs(kinks[:, -1]), kind="stable")] if kinks.shape[1] == 3 else kinks
+        names = ("x", "slope_jump") if kinks.shape[1] == 2 else ("x", "y", "slope_jump")  # (a map's: the largest first)
         felt = {"tip_radius": tip_radius, "max_slope_point_probe": float(point.max_slope),
                 "max_slope_felt": float(tex.max_slope), "source": tex.source,
-                "kinks": [{"x": float(k[0]), "slope_jump": float(k[1])} for k in kinks[:100]],
+                "kinks": [dict(zip(names, map(float, k))) for k in kinks[:100]],
                 "kink_count": int(len(kinks))}
     base = object_from_spec(object_spec, uv_scale, vertex_normals)
     dev = _build_device(ctx, device_spec, joint_damping, mass, damping, sampling_period, delay,
@@ -173,7 +175,8 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
             worst = max(felt["kinks"], key=lambda k: abs(k["slope_jump"]))
             console.print(f"the ball bridges troughs: {felt['kink_count']} kink{'s' if felt['kink_count'] != 1 else ''} of "
                           "its path (slope jumps; D and E see a "
-                          f"discontinuity there), the largest {worst['slope_jump']:+.3g} at x = {worst['x'] * 1e3:.4g} mm")
+                          f"discontinuity there), the largest {worst['slope_jump']:+.3g} at x = {worst['x'] * 1e3:.4g} mm"
+                          + (f", y = {worst['y'] * 1e3:.4g} mm" if "y" in worst else ""))
     bl = data["band_limit"]
     rn = bl["raw"]
     if bl["sampled"]:

@@ -74,8 +74,14 @@ enum {
     HX_NO_MEMORY = -5      /* a binding could not allocate scratch */
 };
 
-/* a height map's patches (HX_SURFACE_PATCHES): the header, then 16 coefficients a cell */
-enum { HX_PATCH_X0, HX_PATCH_Y0, HX_PATCH_DX, HX_PATCH_DY, HX_PATCH_NX, HX_PATCH_NY, HX_PATCH_PERIODIC, HX_PATCH_DATA = 8 };
+/* a height map's patches (HX_SURFACE_PATCHES): the header, then 16 coefficients a cell.
+ * HX_PATCH_JOINS: 0 where the patches are one C^2 spline; 1 where they are joined only
+ * continuously across the patch lines (a Hermite map whose slopes jump there: a felt map's
+ * kinks), so that a Taylor model of the height holds on a cell within one patch only */
+enum {
+    HX_PATCH_X0, HX_PATCH_Y0, HX_PATCH_DX, HX_PATCH_DY, HX_PATCH_NX, HX_PATCH_NY, HX_PATCH_PERIODIC, HX_PATCH_JOINS,
+    HX_PATCH_DATA = 8
+};
 
 typedef struct {
     int kind;          /* HX_TEXTURE_* or HX_SURFACE_* */

@@ -195,6 +195,48 @@ static double model_margin(const sproblem *q, double cx, double cy)
     return fmin(fmin(cx - b[0], b[2] - cx), fmin(cy - b[1], b[3] - cy));
 }
 
+/* a height map joined only continuously across its patch lines (HX_PATCH_JOINS: a Hermite map
+ * whose slopes jump there): its Taylor model holds on a cell within one patch, not across */
+static int joined(const sproblem *q) { return q->tex->kind == HX_SURFACE_PATCHES && q->tex->c[HX_PATCH_JOINS] != 0.0; }
+
+/* the patch line (o + m d, m an integer; the patch grid continued beyond a map's edges) strictly
+ * inside [lo, hi] nearest its middle, NAN where [lo, hi] lies within one patch (its ends within
+ * 1e-12 of a step of a line taken at it, as patch_span) */
+static double patch_line(double lo, double hi, double o, double d)
+{
+    double f0 = (lo - o) / d + 1e-12, f1 = (hi - o) / d - 1e-12, m;
+    if (!(f0 > -1e15 && f1 < 1e15) || floor(f0) + 1.0 >= f1)
+        return NAN;
+    m = fmin(fmax(floor(0.5 * (f0 + f1) + 0.5), floor(f0) + 1.0), ceil(f1) - 1.0);
+    return o + m * d;
+}
+
+/* whether the cell [cx -+ wx] x [cy -+ wy] lies within one patch of a joined map (always, for
+ * any other surface) */
+static int within_patch(const sproblem *q, double cx, double cy, double wx, double wy)
+{
+    const double *hd = q->tex->c;
+    if (!joined(q))
+        return 1;
+    return isnan(patch_line(cx - wx, cx + wx, hd[HX_PATCH_X0], hd[HX_PATCH_DX])) &&
+           isnan(patch_line(cy - wy, cy + wy, hd[HX_PATCH_Y0], hd[HX_PATCH_DY]));
+}
+
+/* the distance from (x, y) to the nearest patch line of a joined map (HUGE_VAL for any other
+ * surface): a disc of that radius lies within the point's patch */
+static double patch_room(const sproblem *q, double x, double y)
+{
+    const double *hd = q->tex->c;
+    double u, v;
+    if (!joined(q))
+        return HUGE_VAL;
+    u = (x - hd[HX_PATCH_X0]) / hd[HX_PATCH_DX];
+    v = (y - hd[HX_PATCH_Y0]) / hd[HX_PATCH_DY];
+    u -= floor(u);
+    v -= floor(v);
+    return fmin(fmin(u, 1.0 - u) * hd[HX_PATCH_DX], fmin(v, 1.0 - v) * hd[HX_PATCH_DY]);
+}
+
 /* The half-width of the square around the probe that holds every point closer than d: a
  * point at lateral distance rho must have rho^2 + (h - p_z)^2 < d^2, and h >= G_HMIN over
  * gratings and a map; beyond a map's edges its tangent-plane extension descends at most at
@@ -683,7 +725,7 @@ static double basin_radius(const sproblem *q, double tx, double ty, double f)
 {
     const double *g = q->g;
     double jerk = g[HX_G_JERK], cb = g[HX_G_CURV_BOUND], sb = g[HX_G_SLOPE_BOUND], tie = g[HX_G_TIE];
-    double dz, a, b, c, lam, gn, tol, hn, sn, l0, rho, cap = HUGE_VAL, pv[HX_PY_N];
+    double dz, a, b, c, lam, gn, tol, hn, sn, l0, rho, room, cap = HUGE_VAL, pv[HX_PY_N];
     int k;
     hx_height e;
     surf(q, tx, ty, &e);
@@ -698,6 +740,9 @@ static double basin_radius(const sproblem *q, double tx, double ty, double f)
         return 0.0;
     hn = 0.5 * fabs(e.hxx + e.hyy) + hypot(0.5 * (e.hxx - e.hyy), e.hxy);
     sn = hypot(e.gx, e.gy);
+    room = patch_room(q, tx, ty); /* (a joined map: the disc within the best point's patch) */
+    if (!(room > 0.0))
+        return 0.0;
     l0 = 3.0 * sn * hn + fabs(dz) * jerk + 1e-300;
     rho = fmax(3.0 * fmax(lam, 0.0) / l0, pow(6.0 * tol / l0, 1.0 / 3.0));
     /* the pyramid's bounds on a square of 4 such radii around t (inside the map): the disc is
@@ -711,6 +756,7 @@ static double basin_radius(const sproblem *q, double tx, double ty, double f)
         l0 = 3.0 * sn * hn + fabs(dz) * jerk + 1e-300;
         rho = fmin(cap, fmax(3.0 * fmax(lam, 0.0) / l0, pow(6.0 * tol / l0, 1.0 / 3.0)));
     }
+    rho = fmin(rho, room);
     for (k = 0; k < 60; k++) {
         double cl = fmin(cb, hn + jerk * rho), sl = fmin(sb, sn + cl * rho);
         double lip = 3.0 * sl * cl + (fabs(dz) + sl * rho) * jerk;
@@ -768,14 +814,26 @@ static int cut_at(double lo, double hi, double a, double b, double *cut)
 }
 
 /* The pieces of a cell across a non-periodic map's edge lines, cut there (each then on one
- * side of that line), into out; their number. */
+ * side of that line), or else across a joined map's patch lines, cut at the one nearest its
+ * middle along each axis, into out; their number. */
 static int split_at_edges(const sproblem *q, double cx, double cy, double wx, double wy, double *out)
 {
     double b[4], xs[3], ys[3];
-    int nx, ny, i, j, n = 0;
-    map_box(q->tex, b);
-    nx = cut_at(cx - wx, cx + wx, b[0], b[2], xs);
-    ny = cut_at(cy - wy, cy + wy, b[1], b[3], ys);
+    int nx = 1, ny = 1, i, j, n = 0;
+    if (q->tex->c[HX_PATCH_PERIODIC] == 0.0) {
+        map_box(q->tex, b);
+        nx = cut_at(cx - wx, cx + wx, b[0], b[2], xs);
+        ny = cut_at(cy - wy, cy + wy, b[1], b[3], ys);
+    }
+    if (nx == 1 && ny == 1 && joined(q)) { /* then a joined map's patch lines, nearest the middle */
+        const double *hd = q->tex->c;
+        double lx = patch_line(cx - wx, cx + wx, hd[HX_PATCH_X0], hd[HX_PATCH_DX]);
+        double ly = patch_line(cy - wy, cy + wy, hd[HX_PATCH_Y0], hd[HX_PATCH_DY]);
+        nx = cut_at(cx - wx, cx + wx, lx, NAN, xs);
+        ny = cut_at(cy - wy, cy + wy, ly, NAN, ys);
+    }
+    if (nx == 1 && ny == 1) /* (nothing to cut at: quadrants) */
+        return split_cell(cx, cy, wx, wy, q->px, q->py, out);
     for (i = 0; i < nx; i++)
         for (j = 0; j < ny; j++) {
             out[4 * n] = 0.5 * (xs[i] + xs[i + 1]);
@@ -950,9 +1008,10 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
          * with edges; for the height range over any cell */
         have = ranged && pyramid_bounds(&q, cx, cy, wx, wy, pvb); /* (the footprint clamped to the map) */
         pv = have && (q.pyr.periodic || model_margin(&q, cx, cy) >= w) ? pvb : NULL;
-        cm = model && cell_bounds(&q, cx, cy, wx, wy, pv, have ? pvb : NULL, &csb, &ccb, &cj); /* the model holds on this cell */
+        cm = model && within_patch(&q, cx, cy, wx, wy) &&
+             cell_bounds(&q, cx, cy, wx, wy, pv, have ? pvb : NULL, &csb, &ccb, &cj); /* the model holds on this cell */
         if (model && !cm)
-            nodes++; /* (a cell across a map's edge: counted with the model's cells, so bounded) */
+            nodes++; /* (a cell across a map's edge or a joined map's patch line: counted with the model's cells, so bounded) */
         if (ranged) { /* the cell's height range first: a cell too far by it costs no evaluation */
             double gap;
             patch_range(&q, cx, cy, wx, wy, have ? pvb : NULL, &glo, &ghi, &beyond);
@@ -1021,7 +1080,7 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
                     continue;
             }
         }
-        if (model) /* (a cell across a map's edge is split there, below) */
+        if (model) /* (a cell across a map's edge or a joined map's patch line is split there, below) */
             leafy = nodes >= MAX_NODES || w <= fmax(1e-9 * leaf, 1e-15 * (fabs(cx) + fabs(cy)));
         else
             leafy = w <= leaf || leaves >= MAX_LEAVES;

@@ -68,6 +68,8 @@ int hx_texture_check(int kind, const double *c, long rows, long cols)
         for (i = 0; i < HX_PATCH_DATA; i++)
             if (!isfinite(c[i]))
                 return HX_BAD_COEFFS;
+        if (c[HX_PATCH_JOINS] != 0.0 && c[HX_PATCH_JOINS] != 1.0)
+            return HX_BAD_COEFFS;
         return HX_OK;
     }
     default:
