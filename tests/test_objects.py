@@ -674,3 +674,18 @@ def test_design_takes_d_and_e_on_a_sphere_when_asked():
     assert rows["D"]["conservative"] and not rows["D"]["continuous"]
     assert rows["E"]["continuous"] and not rows["E"]["conservative"]
     assert 1.0 <= rows["E"]["q"] <= 1.0 + 0.3e-3 / 12.7323954e-3
+
+
+def test_d_and_e_on_an_object_refuse_a_felt_map_and_a_takes_it():
+    # a felt (Hermite) map is joined only continuously across its patch lines where the ball
+    # bridges a trough; the object's closest-point search bounds the texture's curvature and
+    # third derivatives across the whole cell, which such a map breaks: D and E refuse it by
+    # name, the height-only algorithms take it (A here; the radius: a whole number of periods)
+    felt = hx.SumOfGratings.egg_crate(0.1e-3, 2e-3).felt_by(2e-3)
+    assert felt.kinks.shape[0] > 0
+    for letter in "DE":
+        with pytest.raises(ParameterError, match=r"texture = .* a spline height map or a sum of gratings for "
+                           + letter + " on an object"):
+            object_algorithm(letter, felt, Sphere(0.0098676064717), K0)
+    obj = object_algorithm("A", felt, Sphere(0.0098676064717), K0)
+    assert np.all(np.isfinite(obj.force(np.array([[0.0, 0.0, 0.0098676064717 - 0.05e-3]]))))

@@ -18,7 +18,7 @@ import numpy as np
 from . import core as _core
 from .core import _ext
 from ._validation import ParameterError, check_count, fail, finite, nonnegative, positive, whole
-from .probe import MAX_SAMPLES as MAX_PROBE_SAMPLES, _dilate, _spacing
+from .probe import MAX_SAMPLES as MAX_PROBE_SAMPLES, _spacing
 from .textures import MAX_HARMONICS, SampledProfile, Texture, _band_limited_samples, _vector, common_period
 
 __all__ = ["Surface", "SumOfGratings", "Grating", "BandLimitedNoise2D", "Extruded", "SampledSurface"]

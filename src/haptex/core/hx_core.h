@@ -272,7 +272,8 @@ int hx_surface_aux_check(const double *aux, long naux);
 /* The closest point of the surface (a sum of gratings or a height map's patches) to the probe
  * (px, py, pz), warm-started from (gx0, gy0) (NaN: none). Certified global to aux[HX_G_TIE]
  * by Taylor bounds (aux[HX_G_JERK] > 0): over a height map with edges on both sides of them,
- * cells cut at the edge lines (aux[HX_G_EDGE...] bound the extension beyond). Bounded work
+ * cells cut at the edge lines (aux[HX_G_EDGE...] bound the extension beyond); over a map
+ * joined only continuously (HX_PATCH_JOINS), within one patch, cells cut at its lines. Bounded work
  * (past it, leaves refined by projected Newton: not certified), counted. */
 hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double px, double py, double pz, double gx0,
                               double gy0);

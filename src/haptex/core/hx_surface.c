@@ -1010,8 +1010,8 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
         pv = have && (q.pyr.periodic || model_margin(&q, cx, cy) >= w) ? pvb : NULL;
         cm = model && within_patch(&q, cx, cy, wx, wy) &&
              cell_bounds(&q, cx, cy, wx, wy, pv, have ? pvb : NULL, &csb, &ccb, &cj); /* the model holds on this cell */
-        if (model && !cm)
-            nodes++; /* (a cell across a map's edge or a joined map's patch line: counted with the model's cells, so bounded) */
+        if (model && !cm) /* (a cell across a map's edge or a joined map's patch line: counted with */
+            nodes++;      /* the model's cells, so bounded) */
         if (ranged) { /* the cell's height range first: a cell too far by it costs no evaluation */
             double gap;
             patch_range(&q, cx, cy, wx, wy, have ? pvb : NULL, &glo, &ghi, &beyond);

@@ -12,11 +12,13 @@
  *                        linear extension of a non-periodic profile.
  *   HX_SURFACE_GRATINGS  4 x n: amplitudes (m), kx, ky (rad/m), phases (rad);
  *                        h(x, y) = sum a_i sin(kx_i x + ky_i y + phase_i).
- *   HX_SURFACE_PATCHES   1 x (8 + 16 nx ny): header [x0, y0, dx, dy, nx, ny, periodic, 0],
+ *   HX_SURFACE_PATCHES   1 x (8 + 16 nx ny): header [x0, y0, dx, dy, nx, ny, periodic, joins],
  *                        then per cell (i along x, row-major: cell (i, j) at 16 (i ny + j))
  *                        the coefficients c[a][b] of s^a t^b, s, t in [0, 1] the cell's
  *                        local coordinates. Outside a non-periodic map, the tangent-plane
  *                        extension h(c) + grad h(c) . (p - c), c the nearest point of the map.
+ *                        joins (HX_PATCH_JOINS): 0 for a C^2 spline, 1 for patches joined only
+ *                        continuously across their lines (a Hermite map, a felt map's kinks).
  */
 #include "hx_core.h"
 #include "hx_texture_eval.h"
