@@ -623,10 +623,10 @@ def test_closest_point_on_a_felt_map_with_kinks_agrees_with_brute_force():
     felt = hx.SumOfGratings.egg_crate(A, 2e-3).felt_by(2e-3)
     assert felt.kinks.shape[0] > 0 and felt.patches()[0, hx.core._ext.PATCH_JOINS] == 1.0
     # (with PATCH_JOINS set to 0 on these probes, the model across the lines misses the closest
-    # point on 2 of them by 1.0 um)
+    # point on one of them by 0.2 um; on 2 of 150 by up to 1.0 um)
     rng = np.random.default_rng(29)
-    xy = felt.kinks[rng.integers(0, len(felt.kinks), 150), :2] + rng.normal(0, 20e-6, (150, 2))
-    p = np.column_stack([xy, felt.height_at(xy) - rng.uniform(0.0, 0.6e-3, 150)])
+    xy = felt.kinks[rng.integers(0, len(felt.kinks), 80), :2] + rng.normal(0, 20e-6, (80, 2))
+    p = np.column_stack([xy, felt.height_at(xy) - rng.uniform(0.0, 0.6e-3, 80)])
     cp = hx.closest_point(felt, p)
     ref = _brute_force_distance(felt, p, 1.05 * cp.distance + 1e-6)
     assert np.all(cp.distance <= ref + 1e-9), np.max(cp.distance - ref)
