@@ -309,8 +309,20 @@ def _surfaces():
     return out
 
 
-@pytest.mark.parametrize("letter", list("WABCDEG"))
-@pytest.mark.parametrize("name, tex", _surfaces())
+def _surface_cases():
+    """(name, texture, letter) of the 3-D export's comparison: every letter on every surface; on
+    the gentle egg-crate (the convexity certificate's regime) and the extruded Dektak scan only
+    D and E, the closest-point searches they exercise, in the contributor's loop, the other
+    letters (their fields are the egg-crate's and the gratings' code) in .ci/run's long set."""
+    out = []
+    for name, tex in _surfaces():
+        for letter in "WABCDEG":
+            beyond = name in ("gentle-egg", "extruded-dektak") and letter not in "DE"
+            out.append(pytest.param(name, tex, letter, marks=[pytest.mark.long] if beyond else []))
+    return out
+
+
+@pytest.mark.parametrize("name, tex, letter", _surface_cases())
 def test_exported_3d_field_equals_the_library(tmp_path, objdir, letter, name, tex):
     # issue 16, "p and f of the texture's dimension, 2 or 3": over a surface the C tick equals
     # Algorithm.force in 3-D (10^5 points for the closed forms, 10^4 for D and E, each from a
@@ -531,8 +543,12 @@ def _exported_and_renderer_on_a_stroke(alg, tmp_path, objdir, n):
     return c, r, c.forces(p), np.array([r.step(tuple(q)) for q in p.tolist()])
 
 
-@pytest.mark.parametrize("base_name", ["sphere", "cylinder", "mesh", "prism mesh"])
-@pytest.mark.parametrize("letter", ["A", "G", "F"])
+# every letter on the analytic bases; on the meshes A on one and F on the other in the
+# contributor's loop, the rest (0.6-0.9 s each) in .ci/run's long set
+@pytest.mark.parametrize("letter, base_name", [
+    pytest.param(letter, base, marks=[pytest.mark.long] if "mesh" in base and (letter, base) not in
+                 (("A", "mesh"), ("F", "prism mesh")) else [])
+    for base in ("sphere", "cylinder", "mesh", "prism mesh") for letter in ("A", "G", "F")])
 def test_an_object_exports_and_ticks_as_the_renderer(tmp_path, objdir, base_name, letter):
     # issue 32: A, G and F (its presliding state in the surface coordinates) on the egg-crate on
     # a sphere, a cylinder and a 1,280-triangle mesh,

@@ -110,7 +110,13 @@ def _remedies(message: str) -> list:
     return out
 
 
-@pytest.mark.parametrize("path", _corpus(), ids=lambda f: f.name)
+IN_THE_LOOP = {"dektak-stylus-profile.csv", "grooves-4mm-profile.mat", "opdx-3.opdx", "mi-1.mi"}
+"""The corpus files whose walk runs in the contributor's loop (two profiles, a scan too short,
+an areal map: 0.1-1 s each); the others (2-3 s each) in .ci/run's long set."""
+
+
+@pytest.mark.parametrize("path", [pytest.param(f, id=f.name, marks=[] if f.name in IN_THE_LOOP else [pytest.mark.long])
+                                  for f in _corpus()])
 def test_every_file_of_the_corpus_is_answered_and_every_remedy_works_when_followed(path):
     # Issue 58: "every areal and line file ... gives, with default options or the options its
     # first refusal names, a result or a one-line refusal whose remedy works when followed"; and

@@ -225,7 +225,7 @@ def test_recommended_stiffness_holds_in_simulation_and_twice_the_real_limit_does
 
 # -- the design question on real profiles ------------------------------------------------------
 @needs_data
-@pytest.mark.parametrize("which", ["dektak", "grooves"])
+@pytest.mark.parametrize("which", ["dektak", pytest.param("grooves", marks=pytest.mark.long)])  # (1.7 s: long set)
 def test_design_on_real_profiles(which):
     if which == "dektak":
         p = hx.SampledProfile.from_file(DEKTAK).leveled().lowpass(20e-6).scaled(10, 1000)

@@ -29,16 +29,36 @@ def run_cli(*args):
     return subprocess.run([sys.executable, "-m", "haptex", *args], capture_output=True, text=True, timeout=600)
 
 
+def _dead_pid() -> int:
+    """The PID of a process that has exited (reaped), for a scratch directory left by a killed run."""
+    p = subprocess.Popen([sys.executable, "-c", "pass"])
+    p.wait()
+    return p.pid
+
+
 @pytest.fixture(scope="module")
 def report(tmp_path_factory):
-    out = tmp_path_factory.mktemp("rep") / "report"
-    r = run_cli("reproduce", "--quick", "--out", str(out))
+    # the module's one `reproduce --quick`, under a umask of 027 and beside a killed run's stale
+    # scratch, a running one's and another directory's (test_report_directory_follows_the_umask_...
+    # reads what it did to them: one run fewer, 17 s)
+    import os
+
+    where = tmp_path_factory.mktemp("rep")
+    out = where / "report"
+    dead = _dead_pid()
+    scratch = {"stale": [where / f".report.tmp-{dead}-abc", where / f".report.old-{dead}-def"],
+               "kept": [where / f".report.tmp-{os.getpid()}-ghi",  # a running process's scratch stays
+                        where / f".notes.tmp-{dead}-x"]}  # beside another directory: not ours to touch
+    for d in scratch["stale"] + scratch["kept"]:
+        d.mkdir()
+    r = subprocess.run([sys.executable, "-m", "haptex", "reproduce", "--quick", "--out", str(out)],
+                       capture_output=True, text=True, timeout=600, preexec_fn=lambda: os.umask(0o027))
     assert r.returncode == 0, r.stderr
-    return out, json.loads((out / "summary.json").read_text()), r
+    return out, json.loads((out / "summary.json").read_text()), r, scratch
 
 
 def test_every_claim_has_a_row(report):
-    _, summary, _ = report
+    _, summary, *_ = report
     ids = [c["id"] for c in summary["claims"]]
     assert len(ids) == len(set(ids))
     # the "not conservative" rows are per algorithm: IV-A.nc etc.
@@ -50,7 +70,7 @@ def test_every_claim_has_a_row(report):
 
 
 def test_verdicts_come_from_the_computed_numbers(report):
-    _, summary, _ = report
+    _, summary, *_ = report
     claims = {c["id"]: c for c in summary["claims"]}
     rows = {r["algorithm"]: r for r in summary["table_ii"]["rows"]}
     # eq. 10 at the paper's parameters: numeric sup and closed form printed as computed
@@ -73,7 +93,7 @@ def test_verdicts_come_from_the_computed_numbers(report):
 
 
 def test_report_files(report):
-    out, summary, r = report
+    out, summary, r, _ = report
     html = (out / "index.html").read_text()
     for name in ["fig2_W", "fig2_A", "fig2_B", "fig2_C", "fig2_D", "fig2_E", "fig2_F", "fig2_G", "fig3_loops",
                  "fig5_passivity", "fig5_robustness", "fig6_conservativity", "fig6_speed_sweep", "fig7_bump",
@@ -83,7 +103,8 @@ def test_report_files(report):
     assert "data:image/png;base64," in html  # self-contained
     assert html.count("<tr class='differs'>") + html.count("<tr class='matches'>") == len(summary["claims"])
     assert summary["generator"] == "haptex-report"
-    assert not [p for p in out.parent.iterdir() if p.name.startswith(".report")]  # no temporary left
+    kept = set(report[3]["kept"])  # (a running process's scratch, arranged beside it: not this run's)
+    assert not [p for p in out.parent.iterdir() if p.name.startswith(".report") and p not in kept]  # no temporary left
     assert "claims:" in r.stdout
     # issue 16: a quick run says so in the HTML, the JSON and the terminal (it did nowhere)
     assert summary["quick"] is True
@@ -118,72 +139,43 @@ def test_unwritable_path_is_one_line_exit_2():
     assert len(r.stderr.strip().splitlines()) == 1 and r.stderr.startswith("haptex: error: out = ")
 
 
-@pytest.mark.slow  # a full reproduce --quick in a subprocess (~20-30 s)
 def test_force_writes_into_a_foreign_directory_and_keeps_its_files(tmp_path):
+    # issue 17, reproducer 7: `reproduce --out .` computed everything, then "ValueError:
+    # PosixPath('.') has an empty name". Into the current directory, a foreign one: refused at
+    # once without --force; with it, written and the directory's own file kept; a second run
+    # over it (now a report with a foreign file) keeps the file too
     target = tmp_path / "mine"
     target.mkdir()
     (target / "notes.txt").write_text("keep me")
-    r = run_cli("reproduce", "--quick", "--force", "--out", str(target))
+    r = subprocess.run([sys.executable, "-m", "haptex", "reproduce", "--quick", "--out", "."], cwd=target,
+                       capture_output=True, text=True, timeout=600)
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and "use --force" in r.stderr
+    r = subprocess.run([sys.executable, "-m", "haptex", "reproduce", "--quick", "--out", ".", "--force"],
+                       cwd=target, capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stderr
     assert (target / "notes.txt").read_text() == "keep me"
     assert json.loads((target / "summary.json").read_text())["generator"] == "haptex-report"
-    # a second run over it (now a report with a foreign file) still keeps the file
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".mine.")]  # no scratch left beside it
     r = run_cli("reproduce", "--quick", "--out", str(target))
     assert r.returncode == 0, r.stderr
     assert (target / "notes.txt").read_text() == "keep me"
     assert (target / "index.html").exists()
 
 
-def _dead_pid() -> int:
-    """The PID of a process that has exited (reaped), for a scratch directory left by a killed run."""
-    p = subprocess.Popen([sys.executable, "-c", "pass"])
-    p.wait()
-    return p.pid
-
-
-@pytest.mark.slow  # a full reproduce --quick in a subprocess (~20-30 s)
-def test_report_directory_follows_the_umask_and_stale_scratch_is_cleaned(tmp_path):
+def test_report_directory_follows_the_umask_and_stale_scratch_is_cleaned(report):
     # issue 17, reproducer 10: reports were created 0700 (mkdtemp's mode) and a killed run's
-    # hidden .DIR.tmp-*/.DIR.old-* directories stayed forever
-    import os
-
-    target = tmp_path / "report"
-    dead = _dead_pid()
-    stale = [tmp_path / f".report.tmp-{dead}-abc", tmp_path / f".report.old-{dead}-def"]
-    live = tmp_path / f".report.tmp-{os.getpid()}-ghi"  # a running process's scratch stays
-    other = tmp_path / f".notes.tmp-{dead}-x"  # beside another directory: not ours to touch
-    for d in [*stale, live, other]:
-        d.mkdir()
-    r = subprocess.run([sys.executable, "-m", "haptex", "reproduce", "--quick", "--out", str(target)],
-                       capture_output=True, text=True, timeout=600, preexec_fn=lambda: os.umask(0o027))
-    assert r.returncode == 0, r.stderr
-    assert oct(target.stat().st_mode & 0o777) == oct(0o750)  # 0777 & ~umask, like mkdir
-    assert not any(d.exists() for d in stale)
-    assert live.exists() and other.exists()
-
-
-@pytest.mark.slow  # a full reproduce --quick in a subprocess (~20-30 s)
-def test_reproduce_into_the_current_directory(tmp_path):
-    # issue 17, reproducer 7: `reproduce --out .` computed everything, then
-    # "ValueError: PosixPath('.') has an empty name"
-    (tmp_path / "notes.txt").write_text("keep me")
-    r = subprocess.run([sys.executable, "-m", "haptex", "reproduce", "--quick", "--out", "."], cwd=tmp_path,
-                       capture_output=True, text=True, timeout=600)
-    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1  # a foreign directory: refused at once
-    assert "use --force" in r.stderr
-    r = subprocess.run([sys.executable, "-m", "haptex", "reproduce", "--quick", "--out", ".", "--force"],
-                       cwd=tmp_path, capture_output=True, text=True, timeout=600)
-    assert r.returncode == 0, r.stderr
-    assert (tmp_path / "notes.txt").read_text() == "keep me"
-    assert json.loads((tmp_path / "summary.json").read_text())["generator"] == "haptex-report"
-    assert not [p for p in tmp_path.parent.iterdir() if p.name.startswith(f".{tmp_path.name}.")]
+    # hidden .DIR.tmp-*/.DIR.old-* directories stayed forever (the module's run, under umask 027)
+    out, _, _, scratch = report
+    assert oct(out.stat().st_mode & 0o777) == oct(0o750)  # 0777 & ~umask, like mkdir
+    assert not any(d.exists() for d in scratch["stale"])
+    assert all(d.exists() for d in scratch["kept"])
 
 
 def test_a_quick_run_reaches_the_full_runs_verdicts(report, tmp_path):
     # issue 16, stumble 3: --quick flipped a verdict (33 / 9 against 34 / 8) and said nothing;
     # now every claim's verdict at quick resolution equals the full run's
     # (the suite's one full `haptex reproduce`: it also checks the full run's own output)
-    _, quick, _ = report
+    _, quick, *_ = report
     r = run_cli("reproduce", "--out", str(tmp_path / "full"))
     assert r.returncode == 0, r.stderr
     full = json.loads((tmp_path / "full" / "summary.json").read_text())
