@@ -139,6 +139,53 @@ def test_the_servo_thread_runs_on_windows_under_wine(tmp_path, tmp_path_factory)
     assert 0.0 < work_max < 1e-3
 
 
+@pytest.mark.skipif(MINGW is None or WINE is None or not os.path.exists("/dev/ptmx"),
+                    reason="no x86_64-w64-mingw32-gcc or Wine (apt-get install wine64), or no pseudo-terminals")
+def test_the_inverse3s_exchange_crosses_a_windows_com_port_under_wine(tmp_path, tmp_path_factory):
+    # hx_haply.c's Win32 path (CreateFile on \\.\COM7, 8N1, COMMTIMEOUTS to the deadline; stop 70
+    # compiled it only), built by mingw-w64 and run under Wine, whose COM7 is a pseudo-terminal
+    # whose far end is the emulated Inverse3 of vendor_stubs (its wakeup and force exchanges as
+    # Haply's own package sends them): the wakeup's id and model come through, every force
+    # command reaches the device as float32 rounded towards zero (never larger), each answer's
+    # position is read as sent, and the last command is zero (tests/firmware/haply_port.c)
+    from haptex.backends.simulated import SimulatedBackend
+
+    from . import vendor_stubs as vs
+
+    exe = tmp_path / "haply_port.exe"
+    core = [str(p) for p in sorted(hx.core.SOURCE_DIR.glob("hx_*.c"))]
+    r = subprocess.run([MINGW, "-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-ffunction-sections",
+                        "-Wl,--gc-sections", "-I", str(hx.core.SOURCE_DIR), "-o", str(exe), str(HERE / "haply_port.c"),
+                        *core, "-lm", "-static"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    prefix = tmp_path_factory.getbasetemp() / "wine"
+    env = dict(os.environ, WINEPREFIX=str(prefix), WINEDEBUG="-all")
+    if not (prefix / "dosdevices").exists():  # (a new prefix: Wine makes it, 13 s here)
+        subprocess.run([WINE, "wineboot", "-i"], env=env, capture_output=True, timeout=300)
+    emu = vs.InverseSerial(SimulatedBackend("inverse3", realtime=False))
+    try:
+        link = prefix / "dosdevices" / "com7"
+        if link.is_symlink() or link.exists():
+            link.unlink()
+        link.symlink_to(emu.port)
+        n = 100
+        r = subprocess.run([WINE, str(exe), "COM7", str(n)], capture_output=True, text=True, env=env, timeout=120)
+        assert r.returncode == 0, (r.stdout, r.stderr[-2000:])
+        wake, dev_id, model, exchanges, x, y, z, fz, status = r.stdout.split()
+        assert (int(wake), int(status)) == (0, 0)
+        assert (int(dev_id), int(model)) == vs.InverseSerial.INFO[:2] and emu.wakeups == 1
+        assert int(exchanges) == emu.commands == n + 1
+        asked = 0.1 * np.arange(n) / n
+        got = np.array(emu.forces)
+        want = asked.astype(np.float32).astype(np.float64)
+        want = np.where(np.abs(want) > asked, np.nextafter(want.astype(np.float32), np.float32(0)), want)
+        assert np.array_equal(got[:n, 2], want) and np.all(got[:n, :2] == 0.0) and np.all(got[n] == 0.0)
+        assert np.float32(float(fz)) == np.float32(want[-1])  # (printed to 9 digits: a float32 exactly)
+        assert np.array_equal(np.float32([float(x), float(y), float(z)]), np.float32(emu.answered))
+    finally:
+        emu.stop()
+
+
 @needs_arm
 @pytest.mark.parametrize("target", BOARDS)
 def test_haptex_export_for_a_cortex_m_builds_its_example_and_reports_its_size(tmp_path, target):

@@ -308,6 +308,7 @@ class InverseSerial:
                     self.truth = self.sim.state[:3].copy()  # the handle's true position at the reading (m)
                     s = self.sim.sample()
                     v = np.zeros(3) if s.velocity is None else s.velocity
+                    self.answered = np.asarray(s.position, dtype=np.float64)  # (the last state sent, as sent)
                     self._answer(b"\x2b" + struct.pack("<6f", *s.position, *v))
                 else:  # not a request this emulator knows: dropped
                     buf = buf[1:]
