@@ -460,7 +460,9 @@ def surface_search_data(texture) -> tuple[int, np.ndarray, np.ndarray]:
     :attr:`haptex.SampledSurface.derivative_bounds`, which hold inside the map: the C search
     applies them to cells wholly inside, block by block from
     :meth:`haptex.SampledSurface.bounds_pyramid` (appended after the ``N_GAUX`` constants, their
-    number in ``G_PYRAMID``), and the convexity certificate only to a periodic map).
+    number in ``G_PYRAMID``), and the convexity certificate only to a periodic spline map; over
+    a Hermite map (a felt map: ``PATCH_JOINS``) the bounds hold within each patch, no convexity
+    certificate, and where its slopes jump (``kinks``) no curvature bound across the lines).
     Cached on the texture.
 
     Parameters
@@ -501,8 +503,8 @@ def surface_search_data(texture) -> tuple[int, np.ndarray, np.ndarray]:
         hermite = texture.patches()[0, K.PATCH_JOINS] != 0.0  # bounds within each patch only
         if hermite and texture.kinks.size:  # slopes that jump: no curvature bounds a cell across a kink
             gaux[K.G_CURV] = 1e300  # (aux must be finite: the spread S r is then the bound)
-        if texture.periodic and not hermite:  # the convexity certificate needs the bound on the whole plane
-            gaux[K.G_CONVEX] = gaux[K.G_CURV_BOUND]
+        if texture.periodic:  # the convexity certificate needs the bound on the whole plane (a spline's)
+            gaux[K.G_CONVEX] = 0.0 if hermite else gaux[K.G_CURV_BOUND]
         else:  # and beyond the edges, the tangent-plane extension's
             gaux[K.G_EDGE:K.G_EDGE + 4 * K.N_E] = texture.edge_bounds.ravel()
         # (a plane has no third derivative: a tiny J keeps it on the Taylor bounds' path)

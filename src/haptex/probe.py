@@ -21,7 +21,6 @@ fine against its shortest period and the ball (the grid is stated in the felt te
 
 from __future__ import annotations
 
-
 import numpy as np
 
 from ._validation import ParameterError, fail, positive
