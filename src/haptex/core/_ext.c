@@ -737,7 +737,7 @@ static PyObject *Renderer_get_stiffness(RendererObject *self, void *closure)
 {
     double k0;
     (void)closure;
-    __atomic_load(&self->r.model.prm[HX_P_K0], &k0, __ATOMIC_RELAXED);
+    HX_LOAD_DOUBLE_RLX(&self->r.model.prm[HX_P_K0], &k0);
     return PyFloat_FromDouble(k0);
 }
 
@@ -1438,7 +1438,7 @@ static PyObject *Servo_get_done(ServoObject *self, void *closure)
 {
     (void)closure;
     if (self->threaded)
-        return PyBool_FromLong(__atomic_load_n(&self->th.done, __ATOMIC_ACQUIRE));
+        return PyBool_FromLong(HX_LOAD_ACQ(&self->th.done));
     return PyBool_FromLong(self->done);
 }
 

@@ -24,6 +24,54 @@ extern "C" {
 #define HX_INLINE static inline
 #endif
 
+/* ---- atomics: gcc's and clang's __atomic builtins, or, under MSVC (which has none of them),
+ * its Interlocked intrinsics on 32-bit words: each a full barrier, so acquire and release as
+ * asked and more. HX_MSVC_ATOMICS is set for MSVC itself; defined by hand it builds the same
+ * path with mingw-w64 or clang (the tests run it so under Wine). The flags it serves are int
+ * and unsigned long words, 32 bits on Windows. ---- */
+#if defined(_MSC_VER) && !defined(__clang__) && !defined(HX_MSVC_ATOMICS)
+#define HX_MSVC_ATOMICS 1
+#endif
+#ifdef HX_MSVC_ATOMICS
+#ifndef _WIN32
+#error "HX_MSVC_ATOMICS: Windows' Interlocked intrinsics on 32-bit long"
+#endif
+#include <intrin.h>
+#define HX_LOAD_ACQ(p) _InterlockedOr((volatile long *)(p), 0L)
+#define HX_LOAD_RLX(p) HX_LOAD_ACQ(p)
+#define HX_STORE_REL(p, v) ((void)_InterlockedExchange((volatile long *)(p), (long)(v)))
+#define HX_STORE_RLX(p, v) HX_STORE_REL(p, v)
+#define HX_CAS(p, expected, desired) hx__cas((volatile long *)(p), (expected), (desired))
+#define HX_FENCE_REL() hx__fence()
+#define HX_FENCE_ACQ() hx__fence()
+/* a double read whole (an aligned 8-byte load is single-copy atomic on x64 and ARM64) */
+#define HX_LOAD_DOUBLE_RLX(p, out) (*(out) = *(volatile const double *)(p))
+static inline int hx__cas(volatile long *p, int *expected, int desired)
+{
+    long old = _InterlockedCompareExchange(p, (long)desired, (long)*expected);
+    if (old == (long)*expected)
+        return 1;
+    *expected = (int)old;
+    return 0;
+}
+static inline void hx__fence(void)
+{
+    volatile long f = 0;
+    (void)_InterlockedExchange(&f, 0L);
+}
+#else
+#define HX_LOAD_ACQ(p) __atomic_load_n((p), __ATOMIC_ACQUIRE)
+#define HX_LOAD_RLX(p) __atomic_load_n((p), __ATOMIC_RELAXED)
+#define HX_STORE_REL(p, v) __atomic_store_n((p), (v), __ATOMIC_RELEASE)
+#define HX_STORE_RLX(p, v) __atomic_store_n((p), (v), __ATOMIC_RELAXED)
+/* a strong compare-and-swap of *p from *expected to desired: 1, or 0 with *expected the value found */
+#define HX_CAS(p, expected, desired) __atomic_compare_exchange_n((p), (expected), (desired), 0, __ATOMIC_ACQ_REL, \
+                                                                 __ATOMIC_ACQUIRE)
+#define HX_FENCE_REL() __atomic_thread_fence(__ATOMIC_RELEASE)
+#define HX_FENCE_ACQ() __atomic_thread_fence(__ATOMIC_ACQUIRE)
+#define HX_LOAD_DOUBLE_RLX(p, out) __atomic_load((p), (out), __ATOMIC_RELAXED)
+#endif
+
 /* ---- texture kinds (the layout of each kind's coefficients is in hx_texture.c) ---- */
 enum {
     HX_TEXTURE_FLAT = 0,     /* h = 0 */

@@ -184,21 +184,21 @@ void hx_render_step(hx_renderer *r, double x, double y, double z, double f[3])
     f[0] = f[1] = f[2] = 0.0;
     r->work = 0;
     /* between ticks only; a plain load first, so a tick without a change pays no locked exchange */
-    if (__atomic_load_n(&r->model_pending, __ATOMIC_ACQUIRE) == 1) {
+    if (HX_LOAD_ACQ(&r->model_pending) == 1) {
         int one = 1;
-        if (__atomic_compare_exchange_n(&r->model_pending, &one, 2, 0, __ATOMIC_ACQ_REL, __ATOMIC_ACQUIRE)) {
+        if (HX_CAS(&r->model_pending, &one, 2)) {
             r->model = r->model_next;
             memset(&r->st, 0, sizeof r->st);
             r->model_changes++;
-            __atomic_store_n(&r->model_pending, 0, __ATOMIC_RELEASE);
+            HX_STORE_REL(&r->model_pending, 0);
         }
     }
-    if (__atomic_load_n(&r->k0_pending, __ATOMIC_ACQUIRE) == 1) {
+    if (HX_LOAD_ACQ(&r->k0_pending) == 1) {
         int one = 1; /* 1 -> 2 (the tick copies it) -> 0; a writer never writes k0_next at 2 */
-        if (__atomic_compare_exchange_n(&r->k0_pending, &one, 2, 0, __ATOMIC_ACQ_REL, __ATOMIC_ACQUIRE)) {
+        if (HX_CAS(&r->k0_pending, &one, 2)) {
             r->model.prm[HX_P_K0] = r->k0_next;
             r->k0_changes++;
-            __atomic_store_n(&r->k0_pending, 0, __ATOMIC_RELEASE);
+            HX_STORE_REL(&r->k0_pending, 0);
         }
     }
     if (outside(x, r->limit) || outside(y, r->limit) || outside(z, r->limit)) {
@@ -249,8 +249,8 @@ void hx_render_step(hx_renderer *r, double x, double y, double z, double f[3])
 static void k0_claim(hx_renderer *r)
 {
     for (;;) {
-        int v = __atomic_load_n(&r->k0_pending, __ATOMIC_ACQUIRE);
-        if (v != 2 && __atomic_compare_exchange_n(&r->k0_pending, &v, 2, 0, __ATOMIC_ACQ_REL, __ATOMIC_ACQUIRE))
+        int v = HX_LOAD_ACQ(&r->k0_pending);
+        if (v != 2 && HX_CAS(&r->k0_pending, &v, 2))
             return;
     }
 }
@@ -259,18 +259,17 @@ void hx_render_set_stiffness(hx_renderer *r, double k0)
 {
     k0_claim(r);
     r->k0_next = k0;
-    __atomic_store_n(&r->k0_pending, 1, __ATOMIC_RELEASE);
+    HX_STORE_REL(&r->k0_pending, 1);
 }
 
 int hx_render_set_model(hx_renderer *r, const hx_model *m)
 {
     int withdrawn = 0;
     for (;;) {
-        int v = __atomic_load_n(&r->model_pending, __ATOMIC_ACQUIRE), one = 1;
+        int v = HX_LOAD_ACQ(&r->model_pending), one = 1;
         if (v == 0)
             break;
-        if (v == 1 && __atomic_compare_exchange_n(&r->model_pending, &one, 0, 0, __ATOMIC_ACQ_REL,
-                                                  __ATOMIC_ACQUIRE)) {
+        if (v == 1 && HX_CAS(&r->model_pending, &one, 0)) {
             withdrawn = 1; /* never taken: no tick reads it */
             break;
         }
@@ -278,8 +277,8 @@ int hx_render_set_model(hx_renderer *r, const hx_model *m)
     }
     r->model_next = *m;
     k0_claim(r);
-    __atomic_store_n(&r->k0_pending, 0, __ATOMIC_RELEASE); /* the model's own stiffness, not a waiting one */
-    __atomic_store_n(&r->model_pending, 1, __ATOMIC_RELEASE);
+    HX_STORE_REL(&r->k0_pending, 0); /* the model's own stiffness, not a waiting one */
+    HX_STORE_REL(&r->model_pending, 1);
     return withdrawn;
 }
 

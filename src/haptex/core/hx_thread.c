@@ -135,23 +135,23 @@ double hx_ticks_quantile(const unsigned int *hist, double q)
 static void publish(hx_thread *th, double t, const double p[3], const double f[3])
 {
     /* seqlock: odd while writing; the reader retries on odd or changed */
-    __atomic_store_n(&th->seq, th->seq + 1, __ATOMIC_RELAXED);
-    __atomic_thread_fence(__ATOMIC_RELEASE);
+    HX_STORE_RLX(&th->seq, th->seq + 1);
+    HX_FENCE_REL();
     th->snap.k = th->servo->k;
     th->snap.t = t;
     memcpy(th->snap.p, p, 3 * sizeof p[0]);
     memcpy(th->snap.f, f, 3 * sizeof f[0]);
-    __atomic_store_n(&th->seq, th->seq + 1, __ATOMIC_RELEASE);
+    HX_STORE_REL(&th->seq, th->seq + 1);
 }
 
 void hx_thread_snapshot(const hx_thread *th, hx_snapshot *out)
 {
     unsigned long a, b;
     do {
-        a = __atomic_load_n(&th->seq, __ATOMIC_ACQUIRE);
+        a = HX_LOAD_ACQ(&th->seq);
         memcpy(out, (const void *)&th->snap, sizeof *out);
-        __atomic_thread_fence(__ATOMIC_ACQUIRE);
-        b = __atomic_load_n(&th->seq, __ATOMIC_RELAXED);
+        HX_FENCE_ACQ();
+        b = HX_LOAD_RLX(&th->seq);
     } while ((a & 1UL) || a != b);
 }
 
@@ -294,7 +294,7 @@ static void run(hx_thread *th)
     if (th->locked)
         munlockall();
 #endif
-    __atomic_store_n(&th->done, 1, __ATOMIC_RELEASE);
+    HX_STORE_REL(&th->done, 1);
 }
 
 static void reset(hx_thread *th)
@@ -317,7 +317,7 @@ static unsigned __stdcall companion(void *arg)
 {
     /* below everything on its core (THREAD_PRIORITY_IDLE): any other thread there runs first */
     hx_thread *th = arg;
-    while (!__atomic_load_n(&th->done, __ATOMIC_ACQUIRE) && !th->stop)
+    while (!HX_LOAD_ACQ(&th->done) && !th->stop)
         YieldProcessor();
     return 0;
 }
@@ -398,7 +398,7 @@ static void *companion(void *arg)
     /* below everything on its core: any other task there runs first, the servo thread at once */
     hx_thread *th = arg;
     setpriority(PRIO_PROCESS, (id_t)syscall(SYS_gettid), 19);
-    while (!__atomic_load_n(&th->done, __ATOMIC_ACQUIRE) && !th->stop)
+    while (!HX_LOAD_ACQ(&th->done) && !th->stop)
 #if defined(__x86_64__) || defined(__i386__)
         __builtin_ia32_pause();
 #else
