@@ -118,7 +118,10 @@ def test_the_tick_compiles_for_windows_without_a_warning(tmp_path):
 WINE = shutil.which("wine64") or next((p for p in ("/usr/lib/wine/wine64",) if os.path.exists(p)), None)
 
 
+# (the Wine runs, 15 s each, share a Wine prefix: one xdist group of their own, firmware_wine, so
+# that they run beside the cross-compiled core's group rather than after it)
 @pytest.mark.skipif(MINGW is None or WINE is None, reason="no x86_64-w64-mingw32-gcc or Wine (apt-get install wine64)")
+@pytest.mark.xdist_group("wine")
 @pytest.mark.parametrize("atomics", ["builtin", "interlocked"])
 def test_the_servo_thread_runs_on_windows_under_wine(tmp_path, tmp_path_factory, atomics):
     # the native servo thread built for Windows and run under Wine: an exported texture (A on
@@ -155,6 +158,7 @@ def test_the_servo_thread_runs_on_windows_under_wine(tmp_path, tmp_path_factory,
 
 @pytest.mark.skipif(MINGW is None or WINE is None or not os.path.exists("/dev/ptmx"),
                     reason="no x86_64-w64-mingw32-gcc or Wine (apt-get install wine64), or no pseudo-terminals")
+@pytest.mark.xdist_group("wine")
 def test_the_inverse3s_exchange_crosses_a_windows_com_port_under_wine(tmp_path, tmp_path_factory):
     # hx_haply.c's Win32 path (CreateFile on \\.\COM7, 8N1, COMMTIMEOUTS to the deadline; stop 70
     # compiled it only), built by mingw-w64 and run under Wine, whose COM7 is a pseudo-terminal
