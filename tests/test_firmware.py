@@ -145,14 +145,16 @@ def test_the_servo_thread_runs_on_windows_under_wine(tmp_path, tmp_path_factory,
     assert r.returncode == 0, r.stderr[-2000:]
     (ticks, reads, writes, missed, overruns, fifo, awake, work_max, jitter, last, max_sent, elapsed, snapshots, torn,
      changes, k0_after) = (float(v) for v in r.stdout.split())
-    # the main thread read the thread's snapshots meanwhile (none torn: their tick counts never
-    # went back) and halved the stiffness halfway, which the tick took once
-    assert snapshots > 100 and torn == 0
+    # the main thread read the thread's snapshots meanwhile, one each 20 ms (none torn: their
+    # tick counts never went back), and halved the stiffness halfway, which the tick took once
+    assert snapshots > 50 and torn == 0  # (one each 20 ms of the 2 s)
     assert changes == 1 and k0_after == 0.5 * K0
     assert ticks == reads == 2000 and writes == 2001  # one command a tick, then zero on the way out
     assert last == 0.0 and 1.0 < max_sent <= 5.0  # (2 N: 0.2 mm into 2 kN/m, under the 5 N maximum)
     assert 1.99 <= elapsed < 2.5  # paced on the clock, not as fast as it goes
-    assert 0 <= missed <= 100 and 0 <= overruns <= missed + 100 and awake == 0  # (no companion under Wine)
+    # (timing under Wine is not judged: a bound that only a thread not paced at all would pass.
+    # Measured: 0-6 missed of 2000 alone; 9-126 with the other test worker busy beside it)
+    assert 0 <= missed <= 400 and 0 <= overruns <= missed + 100 and awake == 0, r.stdout  # (no companion under Wine)
     assert 0.0 < work_max < 1e-3
 
 
