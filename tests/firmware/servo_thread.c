@@ -95,7 +95,7 @@ int main(int argc, char **argv)
             halved = 1;
         }
 #ifdef _WIN32
-        Sleep(20); /* (Wine runs every thread at one priority: a reader waking each period took 20-30 more deadlines) */
+        Sleep(20); /* (Wine runs every thread at one priority: read each 1 ms, 126 of 2000 deadlines were missed) */
 #endif
     }
     hx_thread_join(&th);
