@@ -776,18 +776,19 @@ class SampledSurface(Surface):
                 raise fail("gradients", f"an array of shape {np.shape(gradients)}", f"shape ({x.size}, {y.size}, 2) "
                            "of finite slopes (m/m), grad h at each sample")
             self._gradients = np.ascontiguousarray(g)
-        if self.periodic:
-            xe, ye = np.r_[x, x[-1] + dx], np.r_[y, y[-1] + dy]
-            he = np.pad(h, ((0, 1), (0, 1)), mode="wrap")
-            bx = make_interp_spline(xe, he, k=3, bc_type="periodic", axis=0)
-            by = make_interp_spline(ye, bx.c, k=3, bc_type="periodic", axis=1)
-            self._size = (x.size * dx, y.size * dy)
-        else:
-            bx = make_interp_spline(x, h, k=3, axis=0)
-            by = make_interp_spline(y, bx.c, k=3, axis=1)
-            self._size = ((x.size - 1) * dx, (y.size - 1) * dy)
-        # make_interp_spline puts the interpolated axis first: by.c is (y coefficients, x coefficients)
-        self._spline = NdBSpline((bx.t, by.t), np.ascontiguousarray(np.moveaxis(by.c, 0, 1)), 3)
+        self._size = (x.size * dx, y.size * dy) if self.periodic else ((x.size - 1) * dx, (y.size - 1) * dy)
+        self._spline = None  # (a Hermite map is its patches alone: no spline of its heights is built)
+        if self._gradients is None:
+            if self.periodic:
+                xe, ye = np.r_[x, x[-1] + dx], np.r_[y, y[-1] + dy]
+                he = np.pad(h, ((0, 1), (0, 1)), mode="wrap")
+                bx = make_interp_spline(xe, he, k=3, bc_type="periodic", axis=0)
+                by = make_interp_spline(ye, bx.c, k=3, bc_type="periodic", axis=1)
+            else:
+                bx = make_interp_spline(x, h, k=3, axis=0)
+                by = make_interp_spline(y, bx.c, k=3, axis=1)
+            # make_interp_spline puts the interpolated axis first: by.c is (y coefficients, x coefficients)
+            self._spline = NdBSpline((bx.t, by.t), np.ascontiguousarray(np.moveaxis(by.c, 0, 1)), 3)
         nyquist = 2 * max(dx, dy)
         self._shortest = nyquist if shortest_period is None else max(positive("shortest_period", shortest_period, "m"),
                                                                      nyquist)
