@@ -93,6 +93,35 @@ def _spacing(texture, r, spacing, per_period: int, per_radius: int) -> float:
     return min(texture.shortest_period / per_period, r / per_radius)
 
 
+def _grid_contacts(h: np.ndarray, steps, r: float, periodic: bool):
+    """Each sample's highest grid offset under a ball of radius r (m) on heights h (a profile's
+    (n,) or a map's (nx, ny), grid steps ``steps`` (m) an axis): the maximum of
+    h(p + u) + sqrt(r^2 - |u|^2) over the offsets u = k * steps inside the disc (wrapped on a
+    periodic grid, the edge samples repeated beyond another), shape h.shape, and the maximising
+    offset in samples, one array of h.shape an axis (the first offset in C order on a tie).
+    Refused past :data:`MAX_DILATION_WORK`."""
+    import itertools
+
+    half = [int(np.floor(r / d)) for d in steps]
+    offs = [k for k in itertools.product(*(range(-m, m + 1) for m in half))
+            if sum((a * d) ** 2 for a, d in zip(k, steps)) <= r * r]
+    _check_work(h.size, len(offs), steps, "tip_radius", r)
+    hp = np.pad(h, [(m, m) for m in half], mode="wrap" if periodic else "edge")
+    best = np.full(h.shape, -np.inf)
+    arg = [np.zeros(h.shape, dtype=np.int64) for _ in steps]
+    for k in offs:
+        window = tuple(slice(m + a, m + a + n) for m, a, n in zip(half, k, h.shape))
+        rest = r * r
+        for a, d in zip(k, steps):
+            rest -= (a * d) ** 2
+        val = hp[window] + np.sqrt(max(rest, 0.0))
+        better = val > best
+        best[better] = val[better]
+        for axis, a in enumerate(k):
+            arg[axis][better] = a
+    return best, arg
+
+
 def _check_work(samples: int, footprint: int, steps, name: str, value) -> None:
     """Refuse a dilation of more than MAX_DILATION_WORK (samples x footprint points), naming a
     spacing that fits."""

@@ -1529,22 +1529,10 @@ def _contact_map(texture, x, y, h, r, periodic):
     the contact's). A kinked edge joins neighbouring points whose contacts lie more than three
     intervals apart (the ball bridging a trough), as on a profile."""
     dx, dy = float(x[1] - x[0]), float(y[1] - y[0])
-    kx, ky = int(math.floor(r / dx)), int(math.floor(r / dy))
-    offs = [(a, b) for a in range(-kx, kx + 1) for b in range(-ky, ky + 1) if (a * dx) ** 2 + (b * dy) ** 2 <= r * r]
-    from .probe import _check_work
+    from .probe import _grid_contacts
 
-    _check_work(h.size, len(offs), (dx, dy), "tip_radius", r)
     nx, ny = h.shape
-    hp = np.pad(h, ((kx, kx), (ky, ky)), mode="wrap" if periodic else "edge")
-    best = np.full(h.shape, -np.inf)
-    ua = np.zeros(h.shape, dtype=np.int64)
-    ub = np.zeros(h.shape, dtype=np.int64)
-    for a, b in offs:
-        val = hp[kx + a:kx + a + nx, ky + b:ky + b + ny] + math.sqrt(max(r * r - (a * dx) ** 2 - (b * dy) ** 2, 0.0))
-        better = val > best
-        best[better] = val[better]
-        ua[better] = a
-        ub[better] = b
+    best, (ua, ub) = _grid_contacts(h, (dx, dy), r, periodic)
     X, Y = np.meshgrid(x, y, indexing="ij")
     P = np.stack([X, Y], -1)
     if periodic:
@@ -1570,10 +1558,10 @@ def _contact_map(texture, x, y, h, r, periodic):
         hess = texture.hessian(q) - (np.eye(2) / sq[..., None, None]
                                      + u[..., :, None] * u[..., None, :] / (s2 * sq)[..., None, None])
         # ascent on the concave part: -hess shifted to positive definite where it is not
-        lam = -_symmetric_2x2_norm(hess[..., 0, 0], hess[..., 0, 1], hess[..., 1, 1])
+        scale = _symmetric_2x2_norm(hess[..., 0, 0], hess[..., 0, 1], hess[..., 1, 1])
         a, b_, c = -hess[..., 0, 0], -hess[..., 0, 1], -hess[..., 1, 1]
         least = 0.5 * (a + c) - np.hypot(0.5 * (a - c), b_)
-        shift = np.where(least > 1e-12 * np.abs(lam), 0.0, np.abs(least) + 1e-6 * np.abs(lam) + 1e-300)
+        shift = np.where(least > 1e-12 * scale, 0.0, np.abs(least) + 1e-6 * scale + 1e-300)
         a, c = a + shift, c + shift
         det = a * c - b_ * b_
         step = np.stack([(c * grad[..., 0] - b_ * grad[..., 1]) / det, (a * grad[..., 1] - b_ * grad[..., 0]) / det], -1)

@@ -14,7 +14,7 @@ from functools import cached_property
 import numpy as np
 
 from .core import _ext
-from .probe import MAX_SAMPLES as MAX_PROBE_SAMPLES, _check_work, _spacing
+from .probe import MAX_SAMPLES as MAX_PROBE_SAMPLES, _grid_contacts, _spacing
 from ._validation import MAX_LENGTH, ParameterError, check_count, fail, finite, nonnegative, positive, whole
 
 
@@ -1160,17 +1160,8 @@ def _contact_path(texture, x, h, r, periodic):
     trough), with the slope jump between them."""
     n = x.size
     dx = float(x[1] - x[0])
-    k = int(math.floor(r / dx))
-    _check_work(n, 2 * k + 1, (dx,), "tip_radius", r)
     idx = np.arange(n)
-    best = np.full(n, -np.inf)
-    arg = np.zeros(n, dtype=np.int64)
-    for j in range(-k, k + 1):
-        src = np.mod(idx + j, n) if periodic else np.clip(idx + j, 0, n - 1)
-        val = h[src] + math.sqrt(max(r * r - (j * dx) ** 2, 0.0))
-        better = val > best
-        best[better] = val[better]
-        arg[better] = j
+    _, (arg,) = _grid_contacts(h, (dx,), r, periodic)
     if periodic:
         u0 = arg * dx
         lo, hi = np.maximum(u0 - dx, -r), np.minimum(u0 + dx, r)
