@@ -7,8 +7,8 @@
    an X3P file SurfaceTopography wrote), each band-limited to what the pantograph (or the
    serial arm, over the map) renders at 0.1 m/s;
 3. the CLI on a 1024 x 1024 map of rough band-limited noise (issue 35's goal: within 60 s);
-4. that map felt by a ball (``felt_by``, scipy.ndimage's grey dilation) of 5, 10 and 20 um
-   (issue 58's goal: within 5 s).
+4. that map felt by a ball (``felt_by``: each sample's contact over the grid's offsets, refined
+   by Newton steps on the map) of 5, 10 and 20 um (issue 58's goal: within 5 s).
 """
 
 from __future__ import annotations
