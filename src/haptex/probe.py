@@ -108,18 +108,24 @@ def _grid_contacts(h: np.ndarray, steps, r: float, periodic: bool):
     _check_work(h.size, len(offs), steps, "tip_radius", r)
     hp = np.pad(h, [(m, m) for m in half], mode="wrap" if periodic else "edge")
     best = np.full(h.shape, -np.inf)
-    arg = [np.zeros(h.shape, dtype=np.int64) for _ in steps]
-    for k in offs:
-        window = tuple(slice(m + a, m + a + n) for m, a, n in zip(half, k, h.shape))
-        rest = r * r
-        for a, d in zip(k, steps):
-            rest -= (a * d) ** 2
-        val = hp[window] + np.sqrt(max(rest, 0.0))
-        better = val > best
-        best[better] = val[better]
-        for axis, a in enumerate(k):
-            arg[axis][better] = a
-    return best, arg
+    which = np.zeros(h.shape, dtype=np.int32)  # the best offset's index in offs
+    lift = [np.sqrt(max(r * r - sum((a * d) ** 2 for a, d in zip(k, steps)), 0.0)) for k in offs]
+    # blocks of rows small enough to stay in cache over the whole loop of offsets
+    rows = max(1, (1 << 15) // max(1, h[0].size))
+    for r0 in range(0, h.shape[0], rows):
+        r1 = min(h.shape[0], r0 + rows)
+        b, w = best[r0:r1], which[r0:r1]
+        val = np.empty(b.shape)
+        better = np.empty(b.shape, dtype=bool)
+        for i, k in enumerate(offs):  # (in place, with masks: no temporaries per offset)
+            window = (slice(half[0] + k[0] + r0, half[0] + k[0] + r1),) + tuple(
+                slice(m + a, m + a + n) for m, a, n in zip(half[1:], k[1:], h.shape[1:]))
+            np.add(hp[window], lift[i], out=val)
+            np.greater(val, b, out=better)
+            np.copyto(b, val, where=better)
+            np.copyto(w, i, where=better)
+    table = np.array(offs, dtype=np.int64).reshape(len(offs), len(steps))
+    return best, [table[which, axis] for axis in range(len(steps))]
 
 
 def _check_work(samples: int, footprint: int, steps, name: str, value) -> None:

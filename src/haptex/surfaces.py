@@ -11,7 +11,7 @@ so a profile is the 1-D case and :class:`Extruded` reproduces its numbers exactl
 from __future__ import annotations
 
 import math
-from functools import cached_property
+from functools import cached_property, partial
 
 import numpy as np
 
@@ -965,17 +965,29 @@ class SampledSurface(Surface):
         return A @ F @ A.T
 
     def _spline_patches(self, nx, ny) -> np.ndarray:
-        """The spline's patches, shape (nx, ny, 4, 4), by sampling it at 4 x 4 points a cell."""
+        """The spline's patches, shape (nx, ny, 4, 4), from its values at 4 x 4 points a cell:
+        the values D_x C D_y^T with C the spline's coefficients and D each axis's B-spline
+        design matrix at the cell's points (scipy's ``BSpline.design_matrix``; four nonzero
+        entries a row), so a map of n cells costs O(n), not n evaluations of the full tensor
+        spline."""
+        from scipy.interpolate import BSpline
+
         nodes = np.arange(4) / 3.0
         vand_inv = np.linalg.inv(nodes[:, None] ** np.arange(4)[None, :])  # values at s_k -> coefficients
+        (tx, ty), coef = self._spline.t, self._spline.c
+        px = (self.x[0] + (np.arange(nx)[:, None] + nodes[None, :]) * self.dx).ravel()
+        py = (self.y[0] + (np.arange(ny)[:, None] + nodes[None, :]) * self.dy).ravel()
+        # (extrapolate: the last cell's far points may round past the last knot)
+        dy_ = BSpline.design_matrix(py, ty, 3, extrapolate=True)
         out = np.empty((nx, ny, 4, 4))
-        for i0 in range(0, nx, max(1, 250_000 // ny)):
-            i1 = min(nx, i0 + max(1, 250_000 // ny))
-            X = self.x[0] + (np.arange(i0, i1)[:, None, None, None] + nodes[None, None, :, None]) * self.dx
-            Y = self.y[0] + (np.arange(ny)[None, :, None, None] + nodes[None, None, None, :]) * self.dy
-            pts = np.stack(np.broadcast_arrays(X, Y), -1)
-            vals = self._spline(pts.reshape(-1, 2)).reshape(i1 - i0, ny, 4, 4)
-            out[i0:i1] = vand_inv @ vals @ vand_inv.T
+        step = max(1, 250_000 // ny)
+        for i0 in range(0, nx, step):
+            i1 = min(nx, i0 + step)
+            dx_ = BSpline.design_matrix(px[4 * i0:4 * i1], tx, 3, extrapolate=True)
+            vals = np.asarray((dy_ @ (dx_ @ coef).T).T)  # (4 (i1 - i0), 4 ny)
+            # per cell vand_inv @ values @ vand_inv.T, as two products over all cells at once
+            half = (vals.reshape(-1, 4) @ vand_inv.T).reshape(i1 - i0, 4, ny, 4)  # (cell x, s_k, cell y, b)
+            out[i0:i1] = np.einsum("ak,ikjb->ijab", vand_inv, half, optimize=True)
         return out
 
     @cached_property
@@ -1516,6 +1528,65 @@ CONTACT_NEWTON_STEPS = 8
 the grid's arg-max, within one interval of the true contact, the error squares each step)."""
 
 
+def _refine_contacts(texture, P, u, lo, hi, r, rim, tol):
+    """Safeguarded Newton ascent of g(u) = H(P + u) + sqrt(r^2 - |u|^2) from offsets u (n, 2)
+    within the boxes [lo, hi] (n, 2) and the disc |u| <= rim: at most CONTACT_NEWTON_STEPS
+    steps, each on the samples still moving (an active set: a sample leaves it once its
+    accepted step is shorter than ``tol`` (m) or no halving of its step longer than ``tol``
+    raises g; Newton's error then ~ tol^2 times the curvature's ratio), each step's
+    H, grad H and Hessian from one evaluation of the texture. Returns u (n, 2) and g there (n,)."""
+    from . import core
+
+    # (a map's own evaluation, with its fallback past the patches' budget; the C core's otherwise)
+    deriv = texture._derivatives if isinstance(texture, SampledSurface) else partial(core.texture_derivatives, texture)
+    u = u.copy()
+    gu = np.empty(u.shape[0])
+    act = np.arange(u.shape[0])
+    for it in range(CONTACT_NEWTON_STEPS):
+        ua = u[act]
+        d = deriv(P[act] + ua)  # h, h_x, h_y, h_xx, h_xy, h_yy
+        s2 = np.maximum(r * r - np.einsum("ij,ij->i", ua, ua), (r - rim) * r)
+        sq = np.sqrt(s2)
+        if it == 0:
+            gu[act] = d[:, 0] + np.sqrt(np.maximum(r * r - np.einsum("ij,ij->i", ua, ua), 0.0))
+        g0 = d[:, 1] - ua[:, 0] / sq
+        g1 = d[:, 2] - ua[:, 1] / sq
+        w = 1.0 / (s2 * sq)
+        # the Hessian of g: H's minus the sphere cap's (I / sq + u u^T / sq^3)
+        h00 = d[:, 3] - (1.0 / sq + ua[:, 0] * ua[:, 0] * w)
+        h01 = d[:, 4] - ua[:, 0] * ua[:, 1] * w
+        h11 = d[:, 5] - (1.0 / sq + ua[:, 1] * ua[:, 1] * w)
+        # ascent on the concave part: -hess shifted to positive definite where it is not
+        scale = _symmetric_2x2_norm(h00, h01, h11)
+        a, b_, c = -h00, -h01, -h11
+        least = 0.5 * (a + c) - np.hypot(0.5 * (a - c), b_)
+        shift = np.where(least > 1e-12 * scale, 0.0, np.abs(least) + 1e-6 * scale + 1e-300)
+        a, c = a + shift, c + shift
+        det = a * c - b_ * b_
+        step = np.column_stack([(c * g0 - b_ * g1) / det, (a * g1 - b_ * g0) / det])
+        moved = np.zeros(act.size)
+        todo = np.arange(act.size)  # the samples whose step has not yet raised g
+        for _half in range(6):  # backtracking: only steps that raise g, inside the box and the disc
+            idx = act[todo]
+            cand = np.clip(u[idx] + step[todo], lo[idx], hi[idx])
+            norm = np.linalg.norm(cand, axis=-1)
+            cand = np.where((norm > rim)[:, None], cand * (rim / np.maximum(norm, 1e-300))[:, None], cand)
+            gc = deriv(P[idx] + cand)[:, 0] + np.sqrt(np.maximum(r * r - np.einsum("ij,ij->i", cand, cand), 0.0))
+            up = gc > gu[idx]
+            moved[todo[up]] = np.linalg.norm(cand[up] - u[idx[up]], axis=-1)
+            u[idx[up]] = cand[up]
+            gu[idx[up]] = gc[up]
+            todo = todo[~up]
+            todo = todo[np.einsum("ij,ij->i", step[todo], step[todo]) > tol * tol]  # (shorter: converged)
+            if todo.size == 0:
+                break
+            step[todo] *= 0.5
+        act = act[moved > tol]
+        if act.size == 0:
+            break
+    return u, gu
+
+
 def _contact_map(texture, x, y, h, r, periodic):
     """The ball's centre path on the grid (x, y) over a surface: heights c - r (nx, ny), the
     path's gradients (nx, ny, 2), the edges' slopes (:func:`_node_edges`' layout, each kinked
@@ -1545,37 +1616,9 @@ def _contact_map(texture, x, y, h, r, periodic):
         lo = np.maximum(u0 - [dx, dy], np.stack([x[0] - X, y[0] - Y], -1))
         hi = np.minimum(u0 + [dx, dy], np.stack([x[-1] - X, y[-1] - Y], -1))
     rim = r * (1 - 1e-9)
-
-    def g_of(u):
-        return texture.height_at(P + u) + np.sqrt(np.maximum(r * r - np.sum(u * u, -1), 0.0))
-
-    u, gu = u0.copy(), g_of(u0)
-    for _ in range(CONTACT_NEWTON_STEPS):
-        q = P + u
-        s2 = np.maximum(r * r - np.sum(u * u, -1), (r - rim) * r)
-        sq = np.sqrt(s2)
-        grad = texture.gradient(q) - u / sq[..., None]
-        hess = texture.hessian(q) - (np.eye(2) / sq[..., None, None]
-                                     + u[..., :, None] * u[..., None, :] / (s2 * sq)[..., None, None])
-        # ascent on the concave part: -hess shifted to positive definite where it is not
-        scale = _symmetric_2x2_norm(hess[..., 0, 0], hess[..., 0, 1], hess[..., 1, 1])
-        a, b_, c = -hess[..., 0, 0], -hess[..., 0, 1], -hess[..., 1, 1]
-        least = 0.5 * (a + c) - np.hypot(0.5 * (a - c), b_)
-        shift = np.where(least > 1e-12 * scale, 0.0, np.abs(least) + 1e-6 * scale + 1e-300)
-        a, c = a + shift, c + shift
-        det = a * c - b_ * b_
-        step = np.stack([(c * grad[..., 0] - b_ * grad[..., 1]) / det, (a * grad[..., 1] - b_ * grad[..., 0]) / det], -1)
-        for _half in range(6):  # backtracking: only steps that raise g, inside the box and the disc
-            cand = np.clip(u + step, lo, hi)
-            norm = np.linalg.norm(cand, axis=-1)
-            cand = np.where((norm > rim)[..., None], cand * (rim / np.maximum(norm, 1e-300))[..., None], cand)
-            gc = g_of(cand)
-            up = gc > gu
-            u = np.where(up[..., None], cand, u)
-            gu = np.where(up, gc, gu)
-            if up.all():
-                break
-            step = np.where(up[..., None], 0.0, 0.5 * step)
+    u, gu = _refine_contacts(texture, P.reshape(-1, 2), u0.reshape(-1, 2), lo.reshape(-1, 2), hi.reshape(-1, 2),
+                             r, rim, 1e-6 * min(dx, dy))
+    u, gu = u.reshape(u0.shape), gu.reshape(h.shape)
     keep = best > gu  # never below the grid's own maximum
     u = np.where(keep[..., None], u0, u)
     c = np.where(keep, best, gu) - r
