@@ -196,20 +196,83 @@ def test_the_felt_maps_slopes_are_the_contact_points_slopes(name, rel_r):
     assert q == pytest.approx(math.sqrt(1 + truth**2), rel=0.01)
 
 
-@pytest.mark.long  # (1-1.5 s each: the felt maps' first case, the grating's, is in the loop)
-@pytest.mark.parametrize("rel_r", [2.0, 1.0])
-def test_where_the_ball_bridges_a_bowl_the_felt_map_errs_on_the_steep_side(rel_r):
-    # over a bowl (the egg-crate's troughs) wider than the ball's curvature the path has a cone's
-    # apex: its slope is the same in every direction around it, which no tensor-product patch on
-    # the grid can follow (at a corner whose two edges both rise at slope M the patch's gradient
-    # is (M, M): sqrt(2) M). What is asserted is the limit's side and size: never flatter than
-    # the brute-force path (q not understated), at most sqrt(2) steeper. Measured: 0.381 for
-    # 0.302 at r = 2 rho, 0.318 for 0.314 at rho (the spline through the dilated heights: 0.366,
-    # 0.319).
+@pytest.mark.parametrize("rel_r", [2.0, pytest.param(1.8, marks=pytest.mark.long)])
+def test_where_the_ball_bridges_a_bowl_the_felt_map_is_the_paths(rel_r):
+    # issue 67's last case: over a bowl (the egg-crate's troughs) wider than the ball's
+    # curvature the ball rests on the bowl's rim, on one side or another, and the path has an
+    # apex whose slope is the same in every direction around it; no tensor-product patch on the
+    # grid follows it (at a corner whose two edges both rise at slope M the patch's gradient is
+    # (M, M)): the single Hermite patch read 0.381 for the brute-force path's 0.302 at r = 2 rho,
+    # its heights 6.2 um off inside the bowls. A cell across which the contact jumps is the
+    # maximum of one patch a contact (JOINS_BRANCHED): slope and q within 1 % of the brute-force
+    # path's (numpy on the analytic heights; measured +0.30 % at 2 rho, +0.43 % at 1.8 rho), and
+    # at r = 2 rho the heights at 200 points inside the bowls between the dense dilation's (its
+    # 201 x 201 offsets) and that plus its grid's miss, (du / 2)^2 / 2 (sup ||H|| + 1 / r)
+    # (measured -0.005 to +0.100 um; the miss 0.152 um)
+    tex, h, grad, cell, rho = AREAL_CASES["egg-crate"]
+    r = rel_r * rho
+    felt = tex.felt_by(r)
+    truth = _path_max_slope_2d(h, grad, cell, r)
+    assert felt.patches()[0, hx.core._ext.PATCH_JOINS] == hx.core._ext.JOINS_BRANCHED
+    assert felt.max_slope <= tex.max_slope * (1 + 1e-6)
+    assert felt.max_slope == pytest.approx(truth, rel=0.01)
+    q = hx.characteristic_number(hx.algorithm("A", felt, 2000.0)).value
+    assert q == pytest.approx(math.sqrt(1 + truth**2), rel=0.01)
+    if rel_r == 2.0:
+        rng = np.random.default_rng(7)
+        bowls = np.array([[0.5e-3, 1.5e-3], [1.5e-3, 0.5e-3]])[rng.integers(0, 2, 200)]
+        pts = bowls + rng.uniform(-0.25e-3, 0.25e-3, (200, 2))
+        ref = _dense_dilation(tex, pts, r, n=201)
+        miss = (2 * r / 200) ** 2 / 4 * (tex.max_curvature + 1 / r)
+        got = felt.height_at(pts)
+        assert np.all(got >= ref - 0.02e-6) and np.all(got <= ref + miss), (np.min(got - ref), np.max(got - ref))
+
+
+@pytest.mark.long  # (1-2 s each: the bowls' first case, 2 rho, is in the loop)
+@pytest.mark.parametrize("rel_r", [1.0, 1.5])
+def test_between_one_and_one_and_a_half_bowl_radii_the_felt_map_errs_on_the_steep_side(rel_r):
+    # not met (issue 67): between rho and about 1.6 rho the branches a cell's contacts give do
+    # not agree along its edges with its neighbours' (contacts that appear and vanish within a
+    # cell), so the cells stay single Hermite patches, whose apex is too steep: measured 0.3186
+    # at rho, 0.4091 at 1.5 rho for the path's 0.3141. What is asserted is the side and the
+    # size: never flatter than the brute-force path (q not understated), at most sqrt(2) steeper
     tex, h, grad, cell, rho = AREAL_CASES["egg-crate"]
     felt = tex.felt_by(rel_r * rho)
     truth = _path_max_slope_2d(h, grad, cell, rel_r * rho)
     assert 0.99 * truth <= felt.max_slope <= math.sqrt(2) * truth
+
+
+def test_a_felt_map_is_continuous_and_never_steeper_than_its_surface():
+    # the ball's centre path is continuous and its slope is a contact's (the envelope theorem):
+    # on a rough periodic map (band-limited noise, 2 um rms above 10 um, 1 um samples) felt by
+    # balls of 3 to 10 samples, where contacts jump between asperities all over it, the felt map
+    # has the same height on either side of every patch line (to 1e-12 m; its slope x 2e-13 m
+    # is 1e-12 m), a branched cell's highest patch included, and from 5 samples up no slope
+    # above the surface's own at 4 points a sample interval. Not met at 3 samples: 3.16 for the
+    # surface's 2.66 (a ball of 3 samples leaves the path's kinks between every pair of
+    # samples; the single patches of the last stop read the same there)
+    rng = np.random.default_rng(0)
+    m = 64
+    k = np.fft.fftfreq(m, 1e-6)
+    K = np.hypot(k[:, None], k[None, :])
+    spec = (rng.standard_normal((m, m)) + 1j * rng.standard_normal((m, m))) * (K <= 1 / 10e-6) * (K > 0)
+    hn = np.fft.ifft2(spec).real
+    hn *= 2e-6 / hn.std()
+    x = np.arange(m) * 1e-6
+    rough = hx.SampledSurface(x, x, hn, periodic=True)
+    K_ = hx.core._ext
+    branched = 0
+    for r in (3e-6, 5e-6, 10e-6):
+        felt = rough.felt_by(r)
+        branched += felt.patches()[0, K_.PATCH_JOINS] == K_.JOINS_BRANCHED
+        on_x = np.column_stack([x[rng.integers(0, m, 400)], rng.uniform(0, m * 1e-6, 400)])
+        on_y = on_x[:, ::-1]
+        for on, eps in ((on_x, np.array([1e-13, 0.0])), (on_y, np.array([0.0, 1e-13]))):
+            np.testing.assert_allclose(felt.height_at(on - eps), felt.height_at(on + eps), rtol=0, atol=1e-12)
+        if r >= 5e-6:
+            g = np.stack(np.meshgrid(np.arange(4 * m) * 0.25e-6, np.arange(4 * m) * 0.25e-6, indexing="ij"), -1)
+            assert np.max(np.linalg.norm(felt.gradient(g), axis=-1)) <= rough.max_slope * (1 + 1e-6)
+    assert branched  # (some cells are branched: the check reads them)
 
 
 def test_a_point_probe_is_the_texture_itself_and_bad_radii_are_refused():

@@ -616,12 +616,14 @@ def test_a_hermite_map_is_its_samples_heights_and_gradients():
 
 def test_closest_point_on_a_felt_map_with_kinks_agrees_with_brute_force():
     # a felt map whose ball bridges the egg-crate's bowls (r = 2 mm, twice their curvature
-    # radius) has slopes that jump across its patch lines: the search's Taylor model holds
-    # within a patch only (PATCH_JOINS), cells are cut at the lines; its distances are never
-    # longer than the dense brute force's (to 1e-9 m), also on probes above the kinks, and the
-    # map is continuous across every patch line (heights from either side)
+    # radius) has slopes that jump across its patch lines and creases inside its branched cells
+    # (the maximum of one patch a contact): the search's Taylor model holds within an unbranched
+    # patch only (PATCH_JOINS), cells are cut at the lines; its distances are never longer than
+    # the dense brute force's (to 1e-9 m), also on probes above the kinks, and the map is
+    # continuous across every patch line (heights from either side)
     felt = hx.SumOfGratings.egg_crate(A, 2e-3).felt_by(2e-3)
-    assert felt.kinks.shape[0] > 0 and felt.patches()[0, hx.core._ext.PATCH_JOINS] == 1.0
+    K = hx.core._ext
+    assert felt.kinks.shape[0] > 0 and felt.patches()[0, K.PATCH_JOINS] == K.JOINS_BRANCHED
     # (with PATCH_JOINS set to 0 on these probes, the model across the lines misses the closest
     # point on one of them by 0.2 um; on 2 of 150 by up to 1.0 um)
     rng = np.random.default_rng(29)

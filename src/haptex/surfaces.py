@@ -80,13 +80,14 @@ class Surface(Texture):
         """A surface's felt texture (a ball of radius r > 0, m): the ball's centre path at each grid
         point, its contact found on the grid and refined on this surface itself, the path's
         gradient there the contact's (the envelope theorem), and the map the bicubic Hermite
-        patches through those heights and gradients, each kinked edge's slopes kept within the
-        contacts' (:func:`_contact_map`)."""
+        patches through those heights and gradients; a cell across which the contact jumps is
+        the maximum of one patch per contact (:func:`_contact_map`)."""
         x, y, h, periodic, source = _surface_grid(self, r, spacing)
-        hf, grads, edges, kinks = _contact_map(self, x, y, h, r, periodic)
+        hf, grads, edges, kinks, branches = _contact_map(self, x, y, h, r, periodic)
         out = SampledSurface(x, y, hf, periodic=periodic, gradients=grads,
                              source=f"{source} felt by a ball of r = {r * 1e3:g} mm")
         out._edges = edges
+        out._branches = branches
         out.kinks = kinks
         return out
 
@@ -766,7 +767,7 @@ class SampledSurface(Surface):
         self.periodic = bool(periodic)
         self.source = source
         self.kinks = np.zeros((0, 3))
-        self._gradients = self._edges = None
+        self._gradients = self._edges = self._branches = None
         if gradients is not None:
             try:
                 g = np.asarray(gradients, dtype=np.float64)
@@ -902,16 +903,19 @@ class SampledSurface(Surface):
         return _ext.SURFACE_PATCHES, self.patches()
 
     def patches(self) -> np.ndarray:
-        """The spline as bicubic patches for the compiled closest-point search
-        (``haptex.core._ext.SURFACE_PATCHES``): shape (1, 8 + 16 n_cells), the header PATCH_*
-        and per cell the coefficients c[a, b] of s^a t^b in the cell's local coordinates
-        s, t in [0, 1], found by sampling the spline at 4 x 4 points of each cell (a bicubic
-        is fixed by 16 values). Cached.
+        """The map as bicubic patches for the C core (``haptex.core._ext.SURFACE_PATCHES``):
+        shape (1, 8 + 16 n_cells), the header PATCH_* and per cell the coefficients c[a, b] of
+        s^a t^b in the cell's local coordinates s, t in [0, 1]: a spline map's from its values
+        at 4 x 4 points of each cell (a bicubic is fixed by 16 values), a Hermite map's from its
+        corners' heights, slopes and twists. A felt map whose contact jumps inside some cells
+        (``PATCH_JOINS`` = ``JOINS_BRANCHED``) is followed by n_cells + 1 starts and its cells'
+        extra patches (``hx_core.h``): the height there is the highest patch's. Cached.
 
         Returns
         -------
-        numpy.ndarray, shape (1, 8 + 16 n_cells)
-            The header and each cell's 16 coefficients (m).
+        numpy.ndarray, shape (1, 8 + 16 n_cells) or (1, 8 + 17 n_cells + 1 + 16 n_extra)
+            The header and each cell's 16 coefficients (m), then a branched map's starts and
+            extra patches.
 
         Raises
         ------
@@ -926,7 +930,8 @@ class SampledSurface(Surface):
 
         nx = self.x.size if self.periodic else self.x.size - 1
         ny = self.y.size if self.periodic else self.y.size - 1
-        check_budget("h", f"a {self.x.size} x {self.y.size} map", 3 * 16 * 8 * nx * ny,
+        extra = 0 if self._branches is None else self._branches[3].shape[0]  # (a branched cell's other patches)
+        check_budget("h", f"a {self.x.size} x {self.y.size} map", 3 * 16 * 8 * (nx * ny + extra),
                      "bicubic patches for the closest-point search (D, E)")
         out = self._hermite_patches(nx, ny) if self._gradients is not None else self._spline_patches(nx, ny)
         head = np.zeros(K.PATCH_DATA)
@@ -934,8 +939,14 @@ class SampledSurface(Surface):
         head[K.PATCH_DX], head[K.PATCH_DY] = self.dx, self.dy
         head[K.PATCH_NX], head[K.PATCH_NY] = nx, ny
         head[K.PATCH_PERIODIC] = 1.0 if self.periodic else 0.0
-        head[K.PATCH_JOINS] = 0.0 if self._gradients is None else 1.0
-        arr = np.ascontiguousarray(np.concatenate([head, out.ravel()])[None, :])
+        head[K.PATCH_JOINS] = K.JOINS_SPLINE if self._gradients is None else K.JOINS_HERMITE
+        tail = []
+        if self._branches is not None:  # (a felt map's cells where the contact jumps: one patch a contact)
+            cells, first, starts, extra = self._branches
+            out.reshape(-1, 4, 4)[cells] = first
+            head[K.PATCH_JOINS] = K.JOINS_BRANCHED
+            tail = [starts.astype(np.float64), extra.ravel()]
+        arr = np.ascontiguousarray(np.concatenate([head, out.ravel(), *tail])[None, :])
         self.__dict__["_patches"] = arr
         return arr
 
@@ -1027,9 +1038,11 @@ class SampledSurface(Surface):
         cached = self.__dict__.get("_patch_bounds")
         if cached is not None:
             return cached
-        head = self.patches()[0, :_ext.PATCH_DATA]
-        nx, ny = int(head[_ext.PATCH_NX]), int(head[_ext.PATCH_NY])
-        pat = self.patches()[0, _ext.PATCH_DATA:].reshape(-1, 4, 4)
+        main, starts, extra = self._patch_blocks()
+        nx, ny = main.shape[:2]
+        pat = main.reshape(-1, 4, 4)
+        if extra is not None:  # (a branched cell's bounds: its patches', merged below)
+            pat = np.concatenate([pat, extra])
         dx, dy = self.dx, self.dy
         fall = _FALL  # the multipliers of ‖c[a, b]‖ in each derivative's bound
         bern = np.array([[math.comb(j, a) / math.comb(3, a) if a <= j else 0.0 for a in range(4)] for j in range(4)])
@@ -1051,9 +1064,30 @@ class SampledSurface(Surface):
             o[:, 2] = np.hypot(bx, by)
             o[:, 3] = 0.5 * (bxx + byy) + np.hypot(0.5 * (bxx - byy), bxy)
             o[:, 4] = np.sqrt(bound(3, 0) ** 2 + 3 * bound(2, 1) ** 2 + 3 * bound(1, 2) ** 2 + bound(0, 3) ** 2)
+        if extra is not None:  # the largest of each bound over a cell's patches (min h: the least)
+            own = np.repeat(np.arange(nx * ny), np.diff(starts).astype(np.int64))
+            more = out[nx * ny:]
+            out = out[:nx * ny]
+            np.minimum.at(out[:, 0], own, more[:, 0])
+            for k in range(1, 5):
+                np.maximum.at(out[:, k], own, more[:, k])
         out = out.reshape(nx, ny, 5)
         self.__dict__["_patch_bounds"] = out
         return out
+
+    def _patch_blocks(self):
+        """:meth:`patches` read back: the cells' patches (nx, ny, 4, 4) (cells, not samples),
+        and a branched map's starts (n_cells + 1,) and extra patches (E, 4, 4) (None, None
+        for any other)."""
+        arr = self.patches()[0]
+        K = _ext
+        nx, ny = int(arr[K.PATCH_NX]), int(arr[K.PATCH_NY])
+        end = K.PATCH_DATA + 16 * nx * ny
+        main = arr[K.PATCH_DATA:end].reshape(nx, ny, 4, 4)
+        if arr[K.PATCH_JOINS] != K.JOINS_BRANCHED:
+            return main, None, None
+        starts = arr[end:end + nx * ny + 1]
+        return main, starts, arr[end + nx * ny + 1:].reshape(-1, 4, 4)
 
     def bounds_pyramid(self) -> np.ndarray:
         """:meth:`patch_bounds` gathered over square blocks of patches, coarser level by level
@@ -1107,15 +1141,26 @@ class SampledSurface(Surface):
         for a periodic map (it has no edges)."""
         if self.periodic:
             return np.zeros((4, 7))
-        pat = self.patches()[0, 8:].reshape(self.x.size - 1, self.y.size - 1, 4, 4)
+        pat, starts, extra = self._patch_blocks()
         a = np.arange(4.0)
         fall = _FALL
         pq = [(1, 0), (0, 1), (1, 1), (0, 2), (1, 2), (0, 3), (1, 3)]
         out = np.zeros((4, 7))
         # (patches along the edge, c[normal power, tangential power], edge at s = 0 or 1, dn, dt)
-        edges = [(pat[0], 0.0, self.dx, self.dy), (pat[-1], 1.0, self.dx, self.dy),
-                 (pat[:, 0].transpose(0, 2, 1), 0.0, self.dy, self.dx),
-                 (pat[:, -1].transpose(0, 2, 1), 1.0, self.dy, self.dx)]
+        nx, ny = pat.shape[:2]
+
+        def along(i, j):  # the patches of the cells (i, j) along an edge, a branched cell's extras too
+            c = pat[i, j]
+            if extra is None:
+                return c
+            k = (np.broadcast_to(i, np.shape(c)[:1]) * ny + np.broadcast_to(j, np.shape(c)[:1])).astype(np.int64)
+            more = [extra[int(starts[m]):int(starts[m + 1])] for m in k]
+            return np.concatenate([c, *more])
+
+        cols, rows = np.arange(ny), np.arange(nx)
+        edges = [(along(0, cols), 0.0, self.dx, self.dy), (along(nx - 1, cols), 1.0, self.dx, self.dy),
+                 (along(rows, 0).transpose(0, 2, 1), 0.0, self.dy, self.dx),
+                 (along(rows, ny - 1).transpose(0, 2, 1), 1.0, self.dy, self.dx)]
         for k, (c, s_edge, dn, dt) in enumerate(edges):
             for m, (p, q) in enumerate(pq):
                 # d^p/ds^p of s^a at the edge: fall_p(a) s^(a - p), s = 0 or 1
@@ -1590,15 +1635,17 @@ def _refine_contacts(texture, P, u, lo, hi, r, rim, tol):
 def _contact_map(texture, x, y, h, r, periodic):
     """The ball's centre path on the grid (x, y) over a surface: heights c - r (nx, ny), the
     path's gradients (nx, ny, 2), the edges' slopes (:func:`_node_edges`' layout, each kinked
-    edge's moved by :func:`haptex.textures._kink_ends`) with the nodes beside a kink (no twist
-    there), and the kinks (k, 3): x, y (m) and the slope jump along the edge.
+    edge's moved by :func:`haptex.textures._kink_ends`, for a cell beside it that is not
+    branched) with the nodes beside a kink (no twist there), the kinks (k, 3): x, y (m) and the
+    slope jump along the edge, and the branched cells (:func:`_branch_patches`).
 
     c(p) = max over |u| <= r of [H(p + u) + sqrt(r^2 - |u|^2)], H the texture's own height:
     the maximum over the grid's offsets first (each grid point's arg-max contact), then refined
     on H by safeguarded Newton steps within one interval of it (never below the grid's own
     maximum); the gradient is grad H at the contact (the envelope theorem: the path's normal is
     the contact's). A kinked edge joins neighbouring points whose contacts lie more than three
-    intervals apart (the ball bridging a trough), as on a profile."""
+    intervals apart (the ball bridging a trough), as on a profile; the cells beside it are
+    branched."""
     dx, dy = float(x[1] - x[0]), float(y[1] - y[0])
     from .probe import _grid_contacts
 
@@ -1640,13 +1687,221 @@ def _contact_map(texture, x, y, h, r, periodic):
         hh = c if periodic else (c[:-1] if axis == 0 else c[:, :-1])
         mean = (hn - hh) / d
         s0, s1 = edges[..., 0][jump], edges[..., 1][jump]
+        # (a cell beside a kink that is not branched keeps its edges' slopes within the contacts')
         edges[..., 0][jump], edges[..., 1][jump] = _kink_ends(s0, s1, mean[jump])  # (views: set in place)
         ii, jj = np.nonzero(jump)
         flat[ii, jj] = True
         flat[(ii + (axis == 0)) % h.shape[0], (jj + (axis == 1)) % h.shape[1]] = True
         mid = np.column_stack([x[ii] + 0.5 * dx * (axis == 0), y[jj] + 0.5 * dy * (axis == 1)])
         kinks.append(np.column_stack([mid, s1 - s0]))
-    return c, grads, (ex, ey, flat), (np.concatenate(kinks) if kinks else np.zeros((0, 3)))
+    twist = _twist(grads, dx, dy, periodic)
+    twist[flat] = 0.0  # (no twist beside a kink: its central differences straddle the jump)
+    branches = _branch_patches(texture, x, y, P, u, twist, r, rim, periodic, c, ex, ey)
+    return c, grads, (ex, ey, flat), (np.concatenate(kinks) if kinks else np.zeros((0, 3))), branches
+
+
+BRANCH_JUMP = 3
+"""A felt map's cell is branched where two of its corners' contacts lie more than this many
+sample intervals apart (chosen: the grid's arg-max and its refinement move a contact by at most
+about one interval between neighbours on one side of a trough)."""
+
+
+def _branch_patches(texture, x, y, P, u, twist, r, rim, periodic, c, ex, ey):
+    """The branched cells of a felt map (``JOINS_BRANCHED``): where two corners' contacts lie
+    more than BRANCH_JUMP intervals apart, the ball's path is the maximum of smooth branches,
+    one a contact (the contact followed continuously as the ball moves). The candidates are the
+    contacts of the cell's corners and of the twelve grid points around them (near a bowl's
+    apex a point inside the cell may rest on a side none of its corners rests on), grouped (a
+    contact within BRANCH_JUMP intervals of a group's first joins it); each group's branch is
+    found at the cell's four corners by the Newton refinement (from the corner's own contact
+    where it is the group's: the path's value there exactly), and is the cubic Hermite patch
+    through its heights, gradients (the contacts', by the envelope theorem) and twists (the
+    node's at a corner whose own contact it is, else the cell's mean cross difference). A
+    branch is kept where it is a corner's own or the highest at one of 5 x 5 points of the
+    cell, at most ``_ext.MAX_BRANCHES`` a cell (a corner's own first, then the most points).
+    Returns None where no cell is branched, else (cells (m,) flat indices, first (m, 4, 4) each
+    cell's first branch, starts (n_cells + 1,), extra (E, 4, 4) the others)."""
+    dx, dy = float(x[1] - x[0]), float(y[1] - y[0])
+    nx, ny = u.shape[:2]
+    mx, my = (nx, ny) if periodic else (nx - 1, ny - 1)
+    i = np.arange(mx)[:, None]
+    j = np.arange(my)[None, :]
+    corner_at = ((0, 0), (1, 0), (0, 1), (1, 1))
+    rel = [u[(i + a) % nx, (j + b) % ny] + np.array([a * dx, b * dy]) for a, b in corner_at]
+    far = BRANCH_JUMP * min(dx, dy)
+    jumps = np.zeros((mx, my), dtype=bool)
+    for k in range(4):
+        for k2 in range(k + 1, 4):
+            d = rel[k] - rel[k2]
+            jumps |= d[..., 0] ** 2 + d[..., 1] ** 2 > far * far
+    bi, bj = np.nonzero(jumps)
+    if bi.size == 0:
+        return None
+    m = bi.size
+    # the candidates: the corners' contacts first, then the ring's, relative to the cell's origin
+    ring = [(a, b) for a in (-1, 0, 1, 2) for b in (-1, 0, 1, 2) if (a, b) not in corner_at]
+    cand = np.empty((m, 16, 2))
+    valid = np.ones((m, 16), dtype=bool)
+    for k, (a, b) in enumerate(corner_at + tuple(ring)):
+        ia, jb = bi + a, bj + b
+        if not periodic:
+            valid[:, k] = (ia >= 0) & (ia < nx) & (jb >= 0) & (jb < ny)
+            ia, jb = np.clip(ia, 0, nx - 1), np.clip(jb, 0, ny - 1)
+        cand[:, k] = u[ia % nx, jb % ny] + np.array([a * dx, b * dy])
+    isrep = np.zeros((m, 16), dtype=bool)
+    isrep[:, 0] = valid[:, 0]
+    for k in range(1, 16):  # (greedy: a candidate far from every earlier group's first starts a group)
+        near = (np.linalg.norm(cand[:, :k] - cand[:, k:k + 1], axis=-1) <= far) & isrep[:, :k]
+        isrep[:, k] = valid[:, k] & ~near.any(axis=1)
+    # each corner's own group: the first group within `far` of its contact
+    owner = np.empty((m, 4), dtype=np.int64)
+    for k in range(4):
+        near = (np.linalg.norm(cand[:, :k + 1] - cand[:, k:k + 1], axis=-1) <= far) & isrep[:, :k + 1]
+        owner[:, k] = np.argmax(near, axis=1)
+    rm, rk = np.nonzero(isrep)  # the groups: their cell (row of bi) and first candidate
+    R = rm.size
+    off = np.array([[0.0, 0.0], [dx, 0.0], [0.0, dy], [dx, dy]])
+    jm = np.repeat(rm, 4)  # the jobs: each group at each corner
+    jc = np.tile(np.arange(4), R)
+    own = owner[jm, jc] == np.repeat(rk, 4)
+    p0 = np.column_stack([x[bi[jm]], y[bj[jm]]]) + off[jc]
+    u0 = np.where(own[:, None], cand[jm, jc], cand[jm, np.repeat(rk, 4)]) - off[jc]
+    reach = np.where(own, 1.0, BRANCH_JUMP)[:, None] * [dx, dy]
+    lo, hi = u0 - reach, u0 + reach
+    if not periodic:  # (the contact stays on the sampled rectangle)
+        lo = np.maximum(lo, np.column_stack([x[0] - p0[:, 0], y[0] - p0[:, 1]]))
+        hi = np.minimum(hi, np.column_stack([x[-1] - p0[:, 0], y[-1] - p0[:, 1]]))
+        u0 = np.clip(u0, lo, hi)
+    ub, gb = _refine_contacts(texture, p0, u0, lo, hi, r, rim, 1e-6 * min(dx, dy))
+    # the group's contact is there (a local maximum of the objective) where the refinement ended
+    # inside its box and the disc, near the group's first contact; else the ball at that corner
+    # cannot rest on it (beyond its reach, or slid onto another group's)
+    edge = 1e-6 * min(dx, dy)
+    inside = (np.all(ub > lo + edge, axis=1) & np.all(ub < hi - edge, axis=1)
+              & (np.einsum("ij,ij->i", ub, ub) < (rim * (1 - 1e-6)) ** 2))
+    same = np.linalg.norm(ub + off[jc] - cand[jm, np.repeat(rk, 4)], axis=1) <= far
+    own = own.reshape(R, 4)
+    there = (own.ravel() | (inside & same)).reshape(R, 4)
+    G = texture.gradient(p0 + ub).reshape(R, 4, 2)
+    val = (gb - r).reshape(R, 4)
+    # where it is not, the group's tangent plane at its first corner that has it (its slopes the
+    # contact's: never steeper than the surface)
+    base = np.argmax(there, axis=1)
+    rows = np.arange(R)
+    for k in range(4):
+        miss = ~there[:, k]
+        step = off[k] - off[base[miss]]
+        val[miss, k] = val[rows[miss], base[miss]] + np.einsum("ij,ij->i", G[rows[miss], base[miss]], step)
+        G[miss, k] = G[rows[miss], base[miss]]
+    # the corners' Hermite data in the cell's units, as _hermite_patches'
+    mean_twist = 0.5 * ((G[:, 2, 0] - G[:, 0, 0] + G[:, 3, 0] - G[:, 1, 0]) / (2 * dy)
+                        + (G[:, 1, 1] - G[:, 0, 1] + G[:, 3, 1] - G[:, 2, 1]) / (2 * dx))
+    mean_twist[~there.all(axis=1)] = 0.0  # (a plane has none)
+    F = np.zeros((R, 4, 4))
+    for k, (a, b) in enumerate(corner_at):
+        node_twist = twist[(bi[rm] + a) % nx, (bj[rm] + b) % ny]
+        F[:, a, b] = val[:, k]
+        F[:, 2 + a, b] = G[:, k, 0] * dx
+        F[:, a, 2 + b] = G[:, k, 1] * dy
+        F[:, 2 + a, 2 + b] = np.where(own[:, k], node_twist, mean_twist) * dx * dy
+    A = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [-3.0, 3.0, -2.0, -1.0], [2.0, -2.0, 1.0, 1.0]])
+    pats = A @ F @ A.T
+    # which groups are kept: a corner's own, or the highest somewhere on 5 x 5 points of the cell
+    V = np.einsum("rab,as,bt->rst", pats, _POWERS, _POWERS).reshape(R, 25)
+    top = np.full((m, 25), -np.inf)
+    np.maximum.at(top, rm, V)
+    wins = np.sum(V >= top[rm] - 1e-12 * np.abs(top[rm]), axis=1)
+    mine = own.any(axis=1)
+    keep = (mine | (wins > 0)) & there.any(axis=1)
+    # a cell is branched where each of its kept groups is there at all four corners (each patch
+    # then through a contact's own data), and no kept patch is steeper where it is the highest
+    # than the surface's own slope bound allows; elsewhere (a rough map's contacts that appear
+    # and vanish within a cell) the single Hermite patch, its kinked edges kept within the contacts'
+    slope = _patch_slopes(pats, dx, dy)  # (R, 25) at the 5 x 5 points
+    bound = texture.max_slope  # (the path's slope is a contact's: never the surface's max)
+    steep = np.any((V >= top[rm] - 1e-12 * np.abs(top[rm])) & (slope > bound * (1 + 1e-9)), axis=1)
+    bad = np.zeros(m, dtype=bool)
+    np.logical_or.at(bad, rm, keep & steep)
+    order = np.lexsort((-wins, ~mine, rm))  # per cell: a corner's own first, then the most points
+    rank = np.empty(R, dtype=np.int64)
+    first_in_cell = np.r_[0, np.flatnonzero(np.diff(rm[order])) + 1]
+    pos = np.arange(R) - np.repeat(first_in_cell, np.diff(np.r_[first_in_cell, R]))
+    rank[order] = pos
+    keep &= rank < _ext.MAX_BRANCHES  # (kept ones rank first: mine, then wins > 0)
+    keep &= ~bad[rm]
+    keep &= ~_discontinuous(V.reshape(R, 5, 5), rm, keep, bi, bj, (mx, my), c, ex, ey, (dx, dy), periodic)[rm]
+    sel = order[keep[order]]  # the kept groups, cell by cell in rank order
+    if sel.size == 0:
+        return None
+    cell_of_sel = rm[sel]
+    is_first = np.r_[True, cell_of_sel[1:] != cell_of_sel[:-1]]
+    cells = bi * my + bj
+    starts = np.zeros(mx * my + 1, dtype=np.int64)
+    np.add.at(starts, cells[cell_of_sel[~is_first]] + 1, 1)
+    return cells[cell_of_sel[is_first]], pats[sel[is_first]], np.cumsum(starts), pats[sel[~is_first]]
+
+
+def _discontinuous(V, rm, keep, bi, bj, cells_shape, c, ex, ey, steps, periodic):
+    """The branched cells (rows of bi, bj) to leave unbranched so that the felt map stays
+    continuous: a branched cell's height along each of its edges (the highest of its kept
+    patches, V (R, 5, 5) at 5 x 5 points, R patches of cells rm) must be its neighbour's there,
+    at the five points: the neighbour's own highest if it is branched too, else the cubic
+    Hermite edge through the nodes' heights c and the edges' slopes ex, ey (kinked ones as
+    moved). Leaving a cell unbranched may part it from a branched neighbour: repeated until
+    none is (the set only shrinks). Returns (m,) bool."""
+    mx, my = cells_shape
+    dx, dy = steps
+    m = bi.size
+    s = _SAMPLES
+    basis = np.stack([2 * s**3 - 3 * s**2 + 1, -2 * s**3 + 3 * s**2, s**3 - 2 * s**2 + s, s**3 - s**2])
+    nx, ny = c.shape
+
+    def hermite(i, j, axis):  # the edge from node (i, j) along axis, at the five points
+        i1, j1 = (i + (axis == 0)) % nx, (j + (axis == 1)) % ny
+        e = ex[i % ex.shape[0], j % ex.shape[1]] if axis == 0 else ey[i % ey.shape[0], j % ey.shape[1]]
+        d = dx if axis == 0 else dy
+        return (c[i % nx, j % ny][:, None] * basis[0] + c[i1, j1][:, None] * basis[1]
+                + d * (e[:, 0][:, None] * basis[2] + e[:, 1][:, None] * basis[3]))
+
+    # each edge of a cell: its points in V, the neighbour across it, that neighbour's edge
+    # (bottom 0, top 1, left 2, right 3), the edge's first node and its axis
+    sides = [((slice(None), slice(None), 0), (0, -1), 1, (0, 0, 0)), ((slice(None), slice(None), 4), (0, 1), 0, (0, 1, 0)),
+             ((slice(None), 0, slice(None)), (-1, 0), 3, (0, 0, 1)), ((slice(None), 4, slice(None)), (1, 0), 2, (1, 0, 1))]
+    branched = np.zeros(m, dtype=bool)
+    np.logical_or.at(branched, rm[keep], True)
+    row = np.full(mx * my, -1, dtype=np.int64)
+    row[bi * my + bj] = np.arange(m)
+    tol = 1e-9 * min(dx, dy)
+    while True:
+        env = np.full((m, 4, 5), -np.inf)
+        live = keep & branched[rm]
+        for k, (pts, _, _, _) in enumerate(sides):
+            np.maximum.at(env[:, k], rm[live], V[live][pts])
+        off = np.zeros(m, dtype=bool)
+        for k, (_, (oi, oj), theirs, (ai, aj, axis)) in enumerate(sides):
+            ni, nj = bi + oi, bj + oj
+            inside = np.ones(m, dtype=bool) if periodic else (ni >= 0) & (ni < mx) & (nj >= 0) & (nj < my)
+            other = row[(ni % mx) * my + nj % my]
+            ref = hermite(bi + ai, bj + aj, axis)
+            both = (other >= 0) & branched[np.maximum(other, 0)]
+            ref[both] = env[other[both], theirs]
+            off |= branched & inside & np.any(np.abs(env[:, k] - ref) > tol, axis=1)
+        if not off.any():
+            return ~branched
+        branched &= ~off
+
+
+_SAMPLES = np.linspace(0.0, 1.0, 5)
+_POWERS = _SAMPLES ** np.arange(4)[:, None]  # (power a, point): s^a at 5 points of [0, 1]
+_SLOPES = np.arange(4)[:, None] * _SAMPLES ** np.maximum(np.arange(4) - 1, 0)[:, None]  # a s^(a - 1)
+
+
+def _patch_slopes(pats, dx, dy):
+    """The gradient's norm (m/m) of each bicubic patch (R, 4, 4) (cell dx by dy) at 5 x 5 points
+    of its cell, shape (R, 25)."""
+    gx = np.einsum("rab,as,bt->rst", pats, _SLOPES, _POWERS) / dx
+    gy = np.einsum("rab,as,bt->rst", pats, _POWERS, _SLOPES) / dy
+    return np.hypot(gx, gy).reshape(pats.shape[0], 25)
 
 
 def _surface_grid(texture, r, spacing):

@@ -72,10 +72,9 @@ static double *spline(long m, int periodic, long *rows, long *cols)
     return c;
 }
 
-static double *patches(long nx, long ny, int periodic, long cells, long *rows, long *cols)
+/* a patches header: an 8 mm square of nx x ny cells */
+static void patch_header(double *c, long nx, long ny, int periodic, int joins)
 {
-    long k = 8 + 16 * cells, i;
-    double *c = malloc(sizeof(double) * (size_t)k);
     c[0] = 0.0;
     c[1] = 0.0;
     c[2] = 8e-3 / (double)nx;
@@ -83,11 +82,48 @@ static double *patches(long nx, long ny, int periodic, long cells, long *rows, l
     c[4] = (double)nx;
     c[5] = (double)ny;
     c[6] = periodic;
-    c[7] = 0.0;
+    c[7] = (double)joins;
+}
+
+static double *patches(long nx, long ny, int periodic, long cells, long *rows, long *cols)
+{
+    long k = 8 + 16 * cells, i;
+    double *c = malloc(sizeof(double) * (size_t)k);
+    patch_header(c, nx, ny, periodic, HX_JOINS_SPLINE);
     for (i = 8; i < k; i++)
         c[i] = 1e-4 * (uniform() - 0.5);
     *rows = 1;
     *cols = k;
+    return c;
+}
+
+/* A branched map (HX_JOINS_BRANCHED, hx_core.h): nx x ny random cells, every third cell with
+ * extra random patches (1 to HX_MAX_BRANCHES - 1 of them, so some cells are a maximum of up to
+ * HX_MAX_BRANCHES patches); bad 1: a start that decreases; bad 2: a cell with HX_MAX_BRANCHES
+ * extra patches (one too many) */
+static double *branched(long nx, long ny, int periodic, int bad, long *rows, long *cols)
+{
+    long n = nx * ny, e = 0, k, i, extra[64];
+    double *c;
+    for (k = 0; k < n; k++) {
+        extra[k] = k % 3 == 0 ? 1 + k % (HX_MAX_BRANCHES - 1) : 0;
+        if (bad == 2 && k == 3)
+            extra[k] = HX_MAX_BRANCHES;
+        e += extra[k];
+    }
+    *cols = 8 + 16 * n + n + 1 + 16 * e;
+    *rows = 1;
+    c = malloc(sizeof(double) * (size_t)*cols);
+    patch_header(c, nx, ny, periodic, HX_JOINS_BRANCHED);
+    for (i = 8; i < 8 + 16 * n; i++)
+        c[i] = 1e-4 * (uniform() - 0.5);
+    c[8 + 16 * n] = 0.0;
+    for (k = 0; k < n; k++)
+        c[8 + 16 * n + k + 1] = c[8 + 16 * n + k] + (double)extra[k];
+    if (bad == 1)
+        c[8 + 16 * n + 2] = c[8 + 16 * n + 1] - 1.0;
+    for (i = 8 + 16 * n + n + 1; i < *cols; i++)
+        c[i] = 1e-4 * (uniform() - 0.5);
     return c;
 }
 
@@ -338,7 +374,7 @@ int main(int argc, char **argv)
         printf("scale %d: give 1 to 100\n", scale);
         return 2;
     }
-    for (variant = 0; variant < 9; variant++) {
+    for (variant = 0; variant < 13; variant++) {
         long rows = 0, cols = 0;
         int kind, expect = HX_OK;
         double *c;
@@ -352,6 +388,10 @@ int main(int argc, char **argv)
         case 5: kind = HX_SURFACE_PATCHES; c = patches(1, 1, 1, 1, &rows, &cols); break;
         case 6: kind = HX_SURFACE_PATCHES; c = patches(7, 5, 0, 34, &rows, &cols); expect = HX_BAD_COEFFS; break;
         case 7: kind = HX_TEXTURE_SPLINE; c = spline(17, 0, &rows, &cols); cols -= 1; expect = HX_BAD_COEFFS; break;
+        case 9: kind = HX_SURFACE_PATCHES; c = branched(7, 5, 0, 0, &rows, &cols); break;
+        case 10: kind = HX_SURFACE_PATCHES; c = branched(4, 3, 1, 0, &rows, &cols); break;
+        case 11: kind = HX_SURFACE_PATCHES; c = branched(7, 5, 0, 1, &rows, &cols); expect = HX_BAD_COEFFS; break;
+        case 12: kind = HX_SURFACE_PATCHES; c = branched(7, 5, 0, 2, &rows, &cols); expect = HX_BAD_COEFFS; break;
         default: kind = HX_TEXTURE_FLAT; c = NULL; break;
         }
         m.tex.kind = kind;

@@ -125,7 +125,15 @@ enum {
 /* a height map's patches (HX_SURFACE_PATCHES): the header, then 16 coefficients a cell.
  * HX_PATCH_JOINS: 0 where the patches are one C^2 spline; 1 where they are joined only
  * continuously across the patch lines (a Hermite map whose slopes jump there: a felt map's
- * kinks), so that a Taylor model of the height holds on a cell within one patch only */
+ * kinks), so that a Taylor model of the height holds on a cell within one patch only; 2 as 1,
+ * and some cells branched (HX_JOINS_BRANCHED): after the cells' coefficients, nx ny + 1 starts
+ * (start[k], k = i ny + j, the count of extra patches before cell k's; start[nx ny] = E, their
+ * total) and E extra patches of 16 coefficients; a branched cell's height is the largest of its
+ * own patch's and its extra patches' there (a maximum of smooth branches: a felt map where
+ * the ball's contact jumps inside the cell), its derivatives the largest's; at most
+ * HX_MAX_BRANCHES patches a cell. No Taylor model holds
+ * on a branched cell. */
+enum { HX_JOINS_SPLINE = 0, HX_JOINS_HERMITE = 1, HX_JOINS_BRANCHED = 2, HX_MAX_BRANCHES = 8 };
 enum {
     HX_PATCH_X0, HX_PATCH_Y0, HX_PATCH_DX, HX_PATCH_DY, HX_PATCH_NX, HX_PATCH_NY, HX_PATCH_PERIODIC, HX_PATCH_JOINS,
     HX_PATCH_DATA = 8

@@ -9,8 +9,10 @@
  * map with edges, cells wholly inside it are searched with the same Taylor bounds (the bicubic
  * spline is C^2 there, with the patches' rigorous bounds in aux), while cells reaching past an
  * edge (where the tangent-plane extension is only C^1) are searched to leaves of one sample
- * interval refined by projected Newton (not certified). Work is bounded (at most
- * MAX_NODES cells by the model, MAX_LEAVES leaves, STACK pending cells) and counted.
+ * interval refined by projected Newton (not certified). A branched cell of a felt map (the
+ * largest of several patches, HX_JOINS_BRANCHED) is searched whole, once its piece lies within
+ * it, along its creases (branched_piece: not certified). Work is bounded (at most MAX_NODES
+ * cells by the model, MAX_LEAVES leaves, STACK pending cells) and counted.
  */
 #include "hx_core.h"
 #include "hx_texture_eval.h"
@@ -36,6 +38,8 @@ typedef struct {
     const double *g; /* aux: HX_G_* */
     double px, py, pz;
     pyramid_t pyr;
+    const double *branch; /* NULL; else h is this one patch of a branched cell, origin (bx0, by0) */
+    double bx0, by0;
 } sproblem;
 
 static long blocks(long n, long k) { return (n + (1L << k) - 1) >> k; }
@@ -129,7 +133,23 @@ static int pyramid_bounds(const sproblem *q, double cx, double cy, double wx, do
     return 1;
 }
 
-static void surf(const sproblem *q, double x, double y, hx_height *e) { hx__texture_eval(q->tex, x, y, e); }
+/* h's derivatives at (x, y) on the patch c of the cell whose origin is (ox, oy) (the patch's
+ * polynomial, wherever (x, y) lies) */
+static void branch_at(const sproblem *q, const double *c, double ox, double oy, double x, double y, hx_height *e)
+{
+    const double *hd = q->tex->c;
+    double D[4][4];
+    patch_poly(c, (x - ox) / hd[HX_PATCH_DX], (y - oy) / hd[HX_PATCH_DY], hd[HX_PATCH_DX], hd[HX_PATCH_DY], 2, D);
+    patch_height(D, e);
+}
+
+static void surf(const sproblem *q, double x, double y, hx_height *e)
+{
+    if (q->branch != NULL)
+        branch_at(q, q->branch, q->bx0, q->by0, x, y, e);
+    else
+        hx__texture_eval(q->tex, x, y, e);
+}
 
 /* phi(t) at t = (tx, ty) with h's derivatives there in *e, h(t) - p_z in *dz and grad phi / 2
  * in (*g0, *g1) */
@@ -211,25 +231,43 @@ static double patch_line(double lo, double hi, double o, double d)
     return o + m * d;
 }
 
-/* whether the cell [cx -+ wx] x [cy -+ wy] lies within one patch of a joined map (always, for
- * any other surface) */
+/* whether the patch holding (x, y) (clamped to the map, wrapped if periodic) is a branched
+ * cell (HX_JOINS_BRANCHED: a maximum of patches, with creases inside); 0 on any other map */
+static int branched_at(const sproblem *q, double x, double y)
+{
+    const double *hd = q->tex->c, *pp[HX_MAX_BRANCHES];
+    long i, j;
+    double s, t, cx, cy;
+    int clamped;
+    if (q->tex->kind != HX_SURFACE_PATCHES || hd[HX_PATCH_JOINS] != (double)HX_JOINS_BRANCHED)
+        return 0;
+    if (!(isfinite(x) && isfinite(y)))
+        return 1;
+    patch_locate(hd, x, y, &i, &j, &s, &t, &cx, &cy, &clamped);
+    return cell_branches(hd, (long)hd[HX_PATCH_NX], (long)hd[HX_PATCH_NY], i, j, pp) > 1;
+}
+
+/* whether the Taylor model may hold on the cell [cx -+ wx] x [cy -+ wy]: within one patch of a
+ * joined map, and that patch not branched (always, for any other surface) */
 static int within_patch(const sproblem *q, double cx, double cy, double wx, double wy)
 {
     const double *hd = q->tex->c;
     if (!joined(q))
         return 1;
     return isnan(patch_line(cx - wx, cx + wx, hd[HX_PATCH_X0], hd[HX_PATCH_DX])) &&
-           isnan(patch_line(cy - wy, cy + wy, hd[HX_PATCH_Y0], hd[HX_PATCH_DY]));
+           isnan(patch_line(cy - wy, cy + wy, hd[HX_PATCH_Y0], hd[HX_PATCH_DY])) && !branched_at(q, cx, cy);
 }
 
 /* the distance from (x, y) to the nearest patch line of a joined map (HUGE_VAL for any other
- * surface): a disc of that radius lies within the point's patch */
+ * surface): a disc of that radius lies within the point's patch; 0 in a branched patch */
 static double patch_room(const sproblem *q, double x, double y)
 {
     const double *hd = q->tex->c;
     double u, v;
     if (!joined(q))
         return HUGE_VAL;
+    if (branched_at(q, x, y))
+        return 0.0;
     u = (x - hd[HX_PATCH_X0]) / hd[HX_PATCH_DX];
     v = (y - hd[HX_PATCH_Y0]) / hd[HX_PATCH_DY];
     u -= floor(u);
@@ -767,6 +805,140 @@ static double basin_radius(const sproblem *q, double tx, double ty, double f)
     return 0.0;
 }
 
+/* phi at (tx, ty) on the map itself (a branched cell's highest patch), offered as a candidate */
+static void offer_map_point(const sproblem *q, best_t *b, double tx, double ty, int stationary, double sep)
+{
+    hx_height e;
+    double dz, g0, g1, f = phi_at(q, tx, ty, &e, &dz, &g0, &g1);
+    offer_point(b, tx, ty, f, stationary, sep);
+}
+
+/* The closest point in a piece [x0, x1] x [y0, y1] of one branched cell, where h is the
+ * largest of n <= HX_MAX_BRANCHES smooth patches f_a, so phi has creases where two are equal:
+ * each patch's own projected Newton (surf_newton on phi_a) from the piece's point nearest the
+ * probe and from its centre; then on each pair's crease f_a = f_b sequential quadratic steps
+ * on phi_a / 2 (its Hessian as surf_newton's, mirrored where not positive definite; the crease
+ * linearised), from either patch's point; then where three patches meet (a bowl's apex) Newton
+ * on f_a = f_b = f_c. Every point reached is a candidate with its phi on the map itself: the
+ * least is offered. Not certified (a local search, as a leaf's); bounded: at most
+ * 2 n 40 + 2 C(n, 2) 30 + C(n, 3) 20 evaluation pairs. Returns the evaluations spent. */
+static long branched_piece(const sproblem *q, double x0, double x1, double y0, double y1, best_t *b, double sep)
+{
+    const double *hd = q->tex->c, *pp[HX_MAX_BRANCHES];
+    double dx = hd[HX_PATCH_DX], dy = hd[HX_PATCH_DY], s, t, cx, cy, ox, oy, pts[HX_MAX_BRANCHES][2];
+    double mx = 0.5 * (x0 + x1), my = 0.5 * (y0 + y1), room = fmin(x1 - x0, y1 - y0);
+    long i, j, work = 0;
+    int clamped, n, a, c, d, k, it;
+    sproblem one = *q;
+    patch_locate(hd, mx, my, &i, &j, &s, &t, &cx, &cy, &clamped);
+    n = cell_branches(hd, (long)hd[HX_PATCH_NX], (long)hd[HX_PATCH_NY], i, j, pp);
+    ox = mx - s * dx; /* the cell's origin in the piece's own period */
+    oy = my - t * dy;
+    one.branch = NULL;
+    one.bx0 = ox;
+    one.by0 = oy;
+    for (a = 0; a < n; a++) {
+        double bf = HUGE_VAL;
+        one.branch = pp[a];
+        for (k = 0; k < 2; k++) {
+            double sx = k == 0 ? fmin(fmax(q->px, x0), x1) : mx, sy = k == 0 ? fmin(fmax(q->py, y0), y1) : my;
+            newton_out r = surf_newton(&one, sx, sy, x0, x1, y0, y1);
+            work += r.it + 1;
+            offer_map_point(q, b, r.tx, r.ty, 0, sep);
+            if (r.f < bf) {
+                bf = r.f;
+                pts[a][0] = r.tx;
+                pts[a][1] = r.ty;
+            }
+        }
+    }
+    for (a = 0; a < n; a++)
+        for (c = a + 1; c < n; c++)
+            for (k = 0; k < 2; k++) { /* the crease f_a = f_c: min phi_a / 2 subject to g = f_a - f_c = 0 */
+                double tx = pts[k == 0 ? a : c][0], ty = pts[k == 0 ? a : c][1];
+                for (it = 0; it < 30; it++) {
+                    hx_height ea, ec;
+                    double dz, g, nx_, ny_, g0, g1, A, B, C, lam, mu, det, h0, h1, u0, u1, nn, ng, step_x, step_y;
+                    branch_at(q, pp[a], ox, oy, tx, ty, &ea);
+                    branch_at(q, pp[c], ox, oy, tx, ty, &ec);
+                    work += 2;
+                    dz = ea.h - q->pz;
+                    g = ea.h - ec.h;
+                    nx_ = ea.gx - ec.gx;
+                    ny_ = ea.gy - ec.gy;
+                    g0 = (tx - q->px) + dz * ea.gx;
+                    g1 = (ty - q->py) + dz * ea.gy;
+                    A = 1.0 + ea.gx * ea.gx + dz * ea.hxx;
+                    B = ea.gx * ea.gy + dz * ea.hxy;
+                    C = 1.0 + ea.gy * ea.gy + dz * ea.hyy;
+                    lam = 0.5 * (A + C) - sqrt(0.25 * (A - C) * (A - C) + B * B);
+                    if (!(lam > 1e-9 * (fabs(A) + fabs(C)))) {
+                        mu = fmax(-2.0 * lam, 1e-6 * (fabs(A) + fabs(C)) + 1e-300);
+                        A += mu;
+                        C += mu;
+                    }
+                    det = A * C - B * B;
+                    if (!(det > 0.0) || !(nx_ * nx_ + ny_ * ny_ > 0.0))
+                        break;
+                    /* H^-1 grad and H^-1 n: step = -H^-1 (grad + mu n), n . step = -g */
+                    h0 = (C * g0 - B * g1) / det;
+                    h1 = (A * g1 - B * g0) / det;
+                    u0 = (C * nx_ - B * ny_) / det;
+                    u1 = (A * ny_ - B * nx_) / det;
+                    nn = nx_ * u0 + ny_ * u1;
+                    ng = nx_ * h0 + ny_ * h1;
+                    mu = (g - ng) / nn;
+                    step_x = -(h0 + mu * u0);
+                    step_y = -(h1 + mu * u1);
+                    {
+                        double len = sqrt(step_x * step_x + step_y * step_y), cap = 0.5 * room / (len + 1e-300);
+                        double nxt = fmin(fmax(tx + (cap < 1.0 ? cap : 1.0) * step_x, x0), x1);
+                        double nyt = fmin(fmax(ty + (cap < 1.0 ? cap : 1.0) * step_y, y0), y1);
+                        int done = fabs(nxt - tx) <= 1e-13 * room && fabs(nyt - ty) <= 1e-13 * room;
+                        tx = nxt;
+                        ty = nyt;
+                        if (done)
+                            break;
+                    }
+                }
+                offer_map_point(q, b, tx, ty, 0, sep);
+                work++;
+            }
+    for (a = 0; a < n; a++) /* where three meet: f_a = f_c = f_d */
+        for (c = a + 1; c < n; c++)
+            for (d = c + 1; d < n; d++) {
+                double tx = mx, ty = my;
+                for (it = 0; it < 20; it++) {
+                    hx_height ea, ec, ed;
+                    double r0, r1, j00, j01, j10, j11, det, sx, sy, nxt, nyt;
+                    branch_at(q, pp[a], ox, oy, tx, ty, &ea);
+                    branch_at(q, pp[c], ox, oy, tx, ty, &ec);
+                    branch_at(q, pp[d], ox, oy, tx, ty, &ed);
+                    work += 3;
+                    r0 = ea.h - ec.h;
+                    r1 = ea.h - ed.h;
+                    j00 = ea.gx - ec.gx;
+                    j01 = ea.gy - ec.gy;
+                    j10 = ea.gx - ed.gx;
+                    j11 = ea.gy - ed.gy;
+                    det = j00 * j11 - j01 * j10;
+                    if (!(fabs(det) > 0.0))
+                        break;
+                    sx = -(j11 * r0 - j01 * r1) / det;
+                    sy = -(j00 * r1 - j10 * r0) / det;
+                    nxt = fmin(fmax(tx + sx, x0), x1);
+                    nyt = fmin(fmax(ty + sy, y0), y1);
+                    if (fabs(nxt - tx) <= 1e-13 * room && fabs(nyt - ty) <= 1e-13 * room)
+                        break;
+                    tx = nxt;
+                    ty = nyt;
+                }
+                offer_map_point(q, b, tx, ty, 0, sep);
+                work++;
+            }
+    return work;
+}
+
 /* The children of the cell [cx -+ wx] x [cy -+ wy] into out (4 values each: centre, half-widths),
  * their number returned: its quadrants, or its halves across the longer side when one side is
  * over twice the other (a cell cut at a map's edge); the child holding p_xy last (popped first). */
@@ -905,6 +1077,8 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
     q.pz = pz;
     q.pyr.levels = 0;
     q.pyr.periodic = 0;
+    q.branch = NULL;
+    q.bx0 = q.by0 = 0.0;
     surf(&q, px, py, &e0);
     dv = e0.h - pz;
     out.t = px;
@@ -1040,6 +1214,13 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
             double gap = fmax(0.0, fmax(lo - pz, pz - hi));
             if (dxy + gap * gap > reach * reach)
                 continue;
+        }
+        if (model && !cm && joined(&q) && model_margin(&q, cx, cy) >= w &&
+            isnan(patch_line(cx - wx, cx + wx, tex->c[HX_PATCH_X0], tex->c[HX_PATCH_DX])) &&
+            isnan(patch_line(cy - wy, cy + wy, tex->c[HX_PATCH_Y0], tex->c[HX_PATCH_DY])) && branched_at(&q, cx, cy)) {
+            /* a piece of one branched cell inside the map: searched along its creases, not split */
+            work += branched_piece(&q, cx - wx, cx + wx, cy - wy, cy + wy, &b, sep);
+            continue;
         }
         if (cm) {
             double dz = e.h - pz, g0 = (cx - px) + dz * e.gx, g1 = (cy - py) + dz * e.gy, qmin, cl, sl;

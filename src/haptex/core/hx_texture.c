@@ -18,7 +18,9 @@
  *                        local coordinates. Outside a non-periodic map, the tangent-plane
  *                        extension h(c) + grad h(c) . (p - c), c the nearest point of the map.
  *                        joins (HX_PATCH_JOINS): 0 for a C^2 spline, 1 for patches joined only
- *                        continuously across their lines (a Hermite map, a felt map's kinks).
+ *                        continuously across their lines (a Hermite map, a felt map's kinks),
+ *                        2 as 1 with branched cells: then nx ny + 1 starts and the extra
+ *                        patches follow (hx_core.h, HX_JOINS_BRANCHED).
  */
 #include "hx_core.h"
 #include "hx_texture_eval.h"
@@ -65,12 +67,26 @@ int hx_texture_check(int kind, const double *c, long rows, long cols)
         if (!isfinite(c[HX_PATCH_X0]) || !isfinite(c[HX_PATCH_Y0]) || !finite_positive(c[HX_PATCH_DX]) ||
             !finite_positive(c[HX_PATCH_DY]) || !is_count(nx, 1e9) || !is_count(ny, 1e9))
             return HX_BAD_COEFFS;
-        if ((double)(cols - HX_PATCH_DATA) != 16.0 * nx * ny)
-            return HX_BAD_COEFFS;
         for (i = 0; i < HX_PATCH_DATA; i++)
             if (!isfinite(c[i]))
                 return HX_BAD_COEFFS;
-        if (c[HX_PATCH_JOINS] != 0.0 && c[HX_PATCH_JOINS] != 1.0)
+        if (c[HX_PATCH_JOINS] == (double)HX_JOINS_BRANCHED) { /* the starts: 0, nondecreasing, E at the end */
+            const double *st = c + HX_PATCH_DATA + 16 * (long)nx * (long)ny;
+            long n = (long)nx * (long)ny, k;
+            double e;
+            if ((double)(cols - HX_PATCH_DATA) < 16.0 * nx * ny + nx * ny + 1.0 || st[0] != 0.0)
+                return HX_BAD_COEFFS;
+            for (k = 0; k < n; k++)
+                if (!(st[k + 1] >= st[k] && st[k + 1] - st[k] <= HX_MAX_BRANCHES - 1 && st[k + 1] == floor(st[k + 1])))
+                    return HX_BAD_COEFFS;
+            e = st[n];
+            if ((double)(cols - HX_PATCH_DATA) != 16.0 * nx * ny + nx * ny + 1.0 + 16.0 * e)
+                return HX_BAD_COEFFS;
+            return HX_OK;
+        }
+        if ((double)(cols - HX_PATCH_DATA) != 16.0 * nx * ny)
+            return HX_BAD_COEFFS;
+        if (c[HX_PATCH_JOINS] != (double)HX_JOINS_SPLINE && c[HX_PATCH_JOINS] != (double)HX_JOINS_HERMITE)
             return HX_BAD_COEFFS;
         return HX_OK;
     }

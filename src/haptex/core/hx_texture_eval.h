@@ -88,41 +88,26 @@ HX_INLINE void gratings_eval(const hx_texture *t, double x, double y, hx_height 
     }
 }
 
-/* The derivatives D[p][q] = d^(p+q) h / dx^p dy^q of the bicubic patch holding (x, y) clamped to
- * the map, for p + q <= order where (x, y) is inside it (order 0: h; 2: h and its first and
- * second derivatives), all 16 (p, q <= 3) where it is clamped (the tangent-plane extension reads
- * them); (*cx, *cy) receives the clamped point. The others are left unset. */
-HX_INLINE void patch_derivs(const hx_texture *t, double x, double y, double D[4][4], double *cx, double *cy,
-                            int order)
+/* a bicubic patch's value sum c[a][b] s^a t^b from the powers ps[a] = s^a, pt[b] = t^b */
+HX_INLINE double patch_value(const double *c, const double ps[4], const double pt[4])
 {
-    const double *hd = t->c;
-    double dx = hd[HX_PATCH_DX], dy = hd[HX_PATCH_DY];
-    long nx = (long)hd[HX_PATCH_NX], ny = (long)hd[HX_PATCH_NY], i, j;
-    double u = (x - hd[HX_PATCH_X0]) / dx, v = (y - hd[HX_PATCH_Y0]) / dy, s, tt;
-    double S[4][4] = {{0}}, T[4][4] = {{0}}, sx = 1.0, sy;
-    const double *c;
-    int a, b, p, q;
-    *cx = x;
-    *cy = y;
-    if (hd[HX_PATCH_PERIODIC] != 0.0) {
-        u -= (double)nx * floor(u / (double)nx);
-        v -= (double)ny * floor(v / (double)ny);
-    } else {
-        if (!(u >= 0.0 && u <= (double)nx)) {
-            u = u < 0.0 ? 0.0 : (double)nx;
-            *cx = hd[HX_PATCH_X0] + u * dx;
-            order = 6;
-        }
-        if (!(v >= 0.0 && v <= (double)ny)) {
-            v = v < 0.0 ? 0.0 : (double)ny;
-            *cy = hd[HX_PATCH_Y0] + v * dy;
-            order = 6;
-        }
+    double v = 0.0;
+    int a, b;
+    for (a = 0; a < 4; a++) {
+        double row = 0.0;
+        for (b = 0; b < 4; b++)
+            row += c[4 * a + b] * pt[b];
+        v += row * ps[a];
     }
-    i = cell_of(u, nx);
-    j = cell_of(v, ny);
-    s = u - (double)i;
-    tt = v - (double)j;
+    return v;
+}
+
+/* The derivatives D[p][q] = d^(p+q) h / dx^p dy^q, p + q <= order, of the bicubic patch c at
+ * its local coordinates (s, tt) (cells dx by dy) */
+HX_INLINE void patch_poly(const double *c, double s, double tt, double dx, double dy, int order, double D[4][4])
+{
+    double S[4][4] = {{0}}, T[4][4] = {{0}}, sx = 1.0, sy;
+    int a, b, p, q;
     /* S[p][a] = d^p/ds^p s^a, T[q][b] = d^q/dt^q t^b */
     S[0][0] = T[0][0] = 1.0;
     S[0][1] = s;
@@ -143,7 +128,6 @@ HX_INLINE void patch_derivs(const hx_texture *t, double x, double y, double D[4]
     T[2][2] = 2.0;
     T[2][3] = 6.0 * tt;
     T[3][3] = 6.0;
-    c = hd + HX_PATCH_DATA + 16 * (i * ny + j);
     for (p = 0; p < 4 && p <= order; p++) {
         double row[4];
         for (b = 0; b < 4; b++) {
@@ -164,6 +148,95 @@ HX_INLINE void patch_derivs(const hx_texture *t, double x, double y, double D[4]
     }
 }
 
+/* h, its gradient and Hessian from a patch's derivatives D (patch_poly's, order 2) */
+HX_INLINE void patch_height(double D[4][4], hx_height *o)
+{
+    o->h = D[0][0];
+    o->gx = D[1][0];
+    o->gy = D[0][1];
+    o->hxx = D[2][0];
+    o->hxy = D[1][1];
+    o->hyy = D[0][2];
+}
+
+/* A branched cell's patches (HX_JOINS_BRANCHED): its own and its extra ones into pp (at most
+ * HX_MAX_BRANCHES), their number; 1 (its own) in any other map's cell k = i ny + j */
+HX_INLINE int cell_branches(const double *hd, long nx, long ny, long i, long j, const double **pp)
+{
+    long k = i * ny + j, e, e0, e1;
+    int n = 1;
+    pp[0] = hd + HX_PATCH_DATA + 16 * k;
+    if (hd[HX_PATCH_JOINS] != (double)HX_JOINS_BRANCHED)
+        return 1;
+    e0 = (long)hd[HX_PATCH_DATA + 16 * nx * ny + k];
+    e1 = (long)hd[HX_PATCH_DATA + 16 * nx * ny + k + 1];
+    for (e = e0; e < e1 && n < HX_MAX_BRANCHES; e++)
+        pp[n++] = hd + HX_PATCH_DATA + 16 * nx * ny + nx * ny + 1 + 16 * e;
+    return n;
+}
+
+/* The cell holding the map's point (x, y) (wrapped if periodic, else clamped to the map: then
+ * *cx, *cy the clamped point) and the local coordinates in it */
+HX_INLINE void patch_locate(const double *hd, double x, double y, long *i, long *j, double *s, double *tt, double *cx,
+                            double *cy, int *clamped)
+{
+    long nx = (long)hd[HX_PATCH_NX], ny = (long)hd[HX_PATCH_NY];
+    double u = (x - hd[HX_PATCH_X0]) / hd[HX_PATCH_DX], v = (y - hd[HX_PATCH_Y0]) / hd[HX_PATCH_DY];
+    *cx = x;
+    *cy = y;
+    *clamped = 0;
+    if (hd[HX_PATCH_PERIODIC] != 0.0) {
+        u -= (double)nx * floor(u / (double)nx);
+        v -= (double)ny * floor(v / (double)ny);
+    } else {
+        if (!(u >= 0.0 && u <= (double)nx)) {
+            u = u < 0.0 ? 0.0 : (double)nx;
+            *cx = hd[HX_PATCH_X0] + u * hd[HX_PATCH_DX];
+            *clamped = 1;
+        }
+        if (!(v >= 0.0 && v <= (double)ny)) {
+            v = v < 0.0 ? 0.0 : (double)ny;
+            *cy = hd[HX_PATCH_Y0] + v * hd[HX_PATCH_DY];
+            *clamped = 1;
+        }
+    }
+    *i = cell_of(u, nx);
+    *j = cell_of(v, ny);
+    *s = u - (double)*i;
+    *tt = v - (double)*j;
+}
+
+/* The derivatives D[p][q] = d^(p+q) h / dx^p dy^q of the bicubic patch holding (x, y) clamped to
+ * the map, for p + q <= order where (x, y) is inside it (order 0: h; 2: h and its first and
+ * second derivatives), all 16 (p, q <= 3) where it is clamped (the tangent-plane extension reads
+ * them); (*cx, *cy) receives the clamped point. The others are left unset. In a branched cell
+ * (HX_JOINS_BRANCHED) the patch is the highest of the cell's there (the first on a tie). */
+HX_INLINE void patch_derivs(const hx_texture *t, double x, double y, double D[4][4], double *cx, double *cy,
+                            int order)
+{
+    const double *hd = t->c, *pp[HX_MAX_BRANCHES], *c;
+    long nx = (long)hd[HX_PATCH_NX], ny = (long)hd[HX_PATCH_NY], i, j;
+    double s, tt;
+    int clamped, n, k;
+    patch_locate(hd, x, y, &i, &j, &s, &tt, cx, cy, &clamped);
+    if (clamped)
+        order = 6;
+    n = cell_branches(hd, nx, ny, i, j, pp);
+    c = pp[0];
+    if (n > 1) { /* a branched cell: the highest of its patches */
+        double ps[4] = {1.0, s, s * s, s * s * s}, pt[4] = {1.0, tt, tt * tt, tt * tt * tt};
+        double top = patch_value(c, ps, pt);
+        for (k = 1; k < n; k++) {
+            double v = patch_value(pp[k], ps, pt);
+            if (v > top) {
+                top = v;
+                c = pp[k];
+            }
+        }
+    }
+    patch_poly(c, s, tt, hd[HX_PATCH_DX], hd[HX_PATCH_DY], order, D);
+}
+
 HX_INLINE void patches_eval(const hx_texture *t, double x, double y, hx_height *o)
 {
     double D[4][4], cx, cy, ex, ey;
@@ -174,12 +247,7 @@ HX_INLINE void patches_eval(const hx_texture *t, double x, double y, hx_height *
     ox = ex != 0.0;
     oy = ey != 0.0;
     if (!ox && !oy) {
-        o->h = D[0][0];
-        o->gx = D[1][0];
-        o->gy = D[0][1];
-        o->hxx = D[2][0];
-        o->hxy = D[1][1];
-        o->hyy = D[0][2];
+        patch_height(D, o);
         return;
     }
     /* the tangent-plane extension: c moves with p along an axis that is not clamped */
