@@ -196,7 +196,7 @@ def test_the_felt_maps_slopes_are_the_contact_points_slopes(name, rel_r):
     assert q == pytest.approx(math.sqrt(1 + truth**2), rel=0.01)
 
 
-@pytest.mark.parametrize("rel_r", [2.0, pytest.param(1.8, marks=pytest.mark.long)])
+@pytest.mark.parametrize("rel_r", [2.0, pytest.param(1.5, marks=pytest.mark.long)])
 def test_where_the_ball_bridges_a_bowl_the_felt_map_is_the_paths(rel_r):
     # issue 67's last case: over a bowl (the egg-crate's troughs) wider than the ball's
     # curvature the ball rests on the bowl's rim, on one side or another, and the path has an
@@ -205,7 +205,7 @@ def test_where_the_ball_bridges_a_bowl_the_felt_map_is_the_paths(rel_r):
     # (M, M)): the single Hermite patch read 0.381 for the brute-force path's 0.302 at r = 2 rho,
     # its heights 6.2 um off inside the bowls. A cell across which the contact jumps is the
     # maximum of one patch a contact (JOINS_BRANCHED): slope and q within 1 % of the brute-force
-    # path's (numpy on the analytic heights; measured +0.30 % at 2 rho, +0.43 % at 1.8 rho), and
+    # path's (numpy on the analytic heights; measured +0.30 % at 2 rho, +0.35 % at 1.5 rho), and
     # at r = 2 rho the heights at 200 points inside the bowls between the dense dilation's (its
     # 201 x 201 offsets) and that plus its grid's miss, (du / 2)^2 / 2 (sup ||H|| + 1 / r)
     # (measured -0.005 to +0.100 um; the miss 0.152 um)
@@ -214,7 +214,9 @@ def test_where_the_ball_bridges_a_bowl_the_felt_map_is_the_paths(rel_r):
     felt = tex.felt_by(r)
     truth = _path_max_slope_2d(h, grad, cell, r)
     assert felt.patches()[0, hx.core._ext.PATCH_JOINS] == hx.core._ext.JOINS_BRANCHED
-    assert felt.max_slope <= tex.max_slope * (1 + 1e-6)
+    # (the path's steepest is the surface's own here, 0.3142 at 1.5 rho: the branches' cubic
+    # Hermite error may pass it by up to STEEP_SLACK, which the construction checks)
+    assert felt.max_slope <= tex.max_slope * (1 + hx.surfaces.STEEP_SLACK)
     assert felt.max_slope == pytest.approx(truth, rel=0.01)
     q = hx.characteristic_number(hx.algorithm("A", felt, 2000.0)).value
     assert q == pytest.approx(math.sqrt(1 + truth**2), rel=0.01)
@@ -229,13 +231,14 @@ def test_where_the_ball_bridges_a_bowl_the_felt_map_is_the_paths(rel_r):
 
 
 @pytest.mark.long  # (1-2 s each: the bowls' first case, 2 rho, is in the loop)
-@pytest.mark.parametrize("rel_r", [1.0, 1.5])
-def test_between_one_and_one_and_a_half_bowl_radii_the_felt_map_errs_on_the_steep_side(rel_r):
-    # not met (issue 67): between rho and about 1.6 rho the branches a cell's contacts give do
-    # not agree along its edges with its neighbours' (contacts that appear and vanish within a
-    # cell), so the cells stay single Hermite patches, whose apex is too steep: measured 0.3186
-    # at rho, 0.4091 at 1.5 rho for the path's 0.3141. What is asserted is the side and the
-    # size: never flatter than the brute-force path (q not understated), at most sqrt(2) steeper
+@pytest.mark.parametrize("rel_r", [1.0, 1.2])
+def test_between_one_and_one_and_a_third_bowl_radii_the_felt_map_errs_on_the_steep_side(rel_r):
+    # not met (issue 67): from rho to about 1.3 rho the ball nests in the bowl and a cell's
+    # contacts give more branches than a cell holds (MAX_BRANCHES), or ones that do not meet
+    # the neighbours' along the edges, so the cells stay single Hermite patches, whose apex is
+    # too steep: measured 0.3186 at rho, 0.3834 at 1.2 rho for the path's 0.3141. What is
+    # asserted is the side and the size: never flatter than the brute-force path (q not
+    # understated), at most sqrt(2) steeper
     tex, h, grad, cell, rho = AREAL_CASES["egg-crate"]
     felt = tex.felt_by(rel_r * rho)
     truth = _path_max_slope_2d(h, grad, cell, rel_r * rho)

@@ -1696,7 +1696,7 @@ def _contact_map(texture, x, y, h, r, periodic):
         kinks.append(np.column_stack([mid, s1 - s0]))
     twist = _twist(grads, dx, dy, periodic)
     twist[flat] = 0.0  # (no twist beside a kink: its central differences straddle the jump)
-    branches = _branch_patches(texture, x, y, P, u, twist, r, rim, periodic, c, ex, ey)
+    branches = _branch_patches(texture, x, y, u, grads, twist, r, rim, periodic, c, ex, ey)
     return c, grads, (ex, ey, flat), (np.concatenate(kinks) if kinks else np.zeros((0, 3))), branches
 
 
@@ -1705,135 +1705,236 @@ BRANCH_JUMP = 3
 sample intervals apart (chosen: the grid's arg-max and its refinement move a contact by at most
 about one interval between neighbours on one side of a trough)."""
 
+BRANCH_REACH = 4
+"""A branch is followed to a corner from the contact of a grid point at most this many
+intervals away along each axis (chosen: a cell's own 4 x 4 block and what its neighbours pass
+it, see :func:`_branch_patches`)."""
 
-def _branch_patches(texture, x, y, P, u, twist, r, rim, periodic, c, ex, ey):
+STEEP_SLACK = 1e-2
+"""A branched cell's patch may be this much (relative) steeper than the surface where it is the
+highest, the Hermite interpolation's own error near the surface's steepest slope (chosen: on
+the egg-crate's bowls at 1.6 times their radius a branch through four contacts reaches 1.006
+times it, where the single patch the cell would fall back on, and its neighbours with it, reads
+1.3 times); steeper, the cell keeps its single patch."""
+
+BRANCH_CELLS = 20_000
+"""At most this many cells of a felt map are tried for branching (chosen: about 5 s on this
+project's machine, 0.26 ms a cell on a rough map); a map with more (a rough map felt by a ball
+of a few samples, where contacts jump between asperities everywhere) keeps its single patches."""
+
+BRANCH_ROUNDS = 6
+"""Rounds in which neighbouring branched cells whose highest patches part along a shared edge
+pass each other their branches (chosen; measured: two suffice on the egg-crate's bowls)."""
+
+
+def _branch_patches(texture, x, y, u, grads, twist, r, rim, periodic, c, ex, ey):
     """The branched cells of a felt map (``JOINS_BRANCHED``): where two corners' contacts lie
     more than BRANCH_JUMP intervals apart, the ball's path is the maximum of smooth branches,
-    one a contact (the contact followed continuously as the ball moves). The candidates are the
-    contacts of the cell's corners and of the twelve grid points around them (near a bowl's
-    apex a point inside the cell may rest on a side none of its corners rests on), grouped (a
-    contact within BRANCH_JUMP intervals of a group's first joins it); each group's branch is
-    found at the cell's four corners by the Newton refinement (from the corner's own contact
-    where it is the group's: the path's value there exactly), and is the cubic Hermite patch
-    through its heights, gradients (the contacts', by the envelope theorem) and twists (the
-    node's at a corner whose own contact it is, else the cell's mean cross difference). A
-    branch is kept where it is a corner's own or the highest at one of 5 x 5 points of the
-    cell, at most ``_ext.MAX_BRANCHES`` a cell (a corner's own first, then the most points).
-    Returns None where no cell is branched, else (cells (m,) flat indices, first (m, 4, 4) each
-    cell's first branch, starts (n_cells + 1,), extra (E, 4, 4) the others)."""
+    one a contact (the contact followed continuously as the ball moves). A cell's branches
+    start from the contacts of the grid points of its 4 x 4 block (near a bowl's apex a point
+    inside the cell may rest on a side none of its corners rests on; one of the contacts within
+    half an interval of each other); each is followed to the cell's four corners, one
+    computation per (corner, source grid point) so that every cell
+    meeting at a grid point reads the same: the point's own contact where it is the source (the
+    path's value there exactly), else the Newton refinement from the source's contact, kept
+    where it ends inside its box and the disc (else the ball there cannot rest on it: the
+    source's tangent plane, its slopes a contact's). A branch is the cubic Hermite patch through
+    its corners' heights, gradients (the contacts', by the envelope theorem) and twists (the
+    node's where the corner is the source, else the cell's mean cross difference); it is kept
+    where it is a corner's own or the highest at one of 5 x 5 points of the cell, one of those
+    alike at the four corners. Two branched neighbours whose highest patches part along their
+    shared edge pass each other their kept branches (BRANCH_ROUNDS rounds); a cell is branched
+    at the end where it keeps at most ``_ext.MAX_BRANCHES``, none steeper where it is the highest
+    than the surface (STEEP_SLACK), no cell of its cluster (its edge neighbours', and theirs)
+    fails that, and its edges meet its neighbours' (:func:`_discontinuous`). Not tried past
+    BRANCH_CELLS candidate cells. Returns None where no cell is branched, else (cells (m,) flat
+    indices, first (m, 4, 4) each cell's first branch, starts (n_cells + 1,), extra (E, 4, 4)
+    the others)."""
     dx, dy = float(x[1] - x[0]), float(y[1] - y[0])
     nx, ny = u.shape[:2]
     mx, my = (nx, ny) if periodic else (nx - 1, ny - 1)
     i = np.arange(mx)[:, None]
     j = np.arange(my)[None, :]
     corner_at = ((0, 0), (1, 0), (0, 1), (1, 1))
-    rel = [u[(i + a) % nx, (j + b) % ny] + np.array([a * dx, b * dy]) for a, b in corner_at]
     far = BRANCH_JUMP * min(dx, dy)
+    rel = [u[(i + a) % nx, (j + b) % ny] + np.array([a * dx, b * dy]) for a, b in corner_at]
     jumps = np.zeros((mx, my), dtype=bool)
     for k in range(4):
         for k2 in range(k + 1, 4):
             d = rel[k] - rel[k2]
             jumps |= d[..., 0] ** 2 + d[..., 1] ** 2 > far * far
     bi, bj = np.nonzero(jumps)
-    if bi.size == 0:
+    if bi.size == 0 or bi.size > BRANCH_CELLS:
         return None
     m = bi.size
-    # the candidates: the corners' contacts first, then the ring's, relative to the cell's origin
-    ring = [(a, b) for a in (-1, 0, 1, 2) for b in (-1, 0, 1, 2) if (a, b) not in corner_at]
-    cand = np.empty((m, 16, 2))
-    valid = np.ones((m, 16), dtype=bool)
-    for k, (a, b) in enumerate(corner_at + tuple(ring)):
-        ia, jb = bi + a, bj + b
-        if not periodic:
-            valid[:, k] = (ia >= 0) & (ia < nx) & (jb >= 0) & (jb < ny)
-            ia, jb = np.clip(ia, 0, nx - 1), np.clip(jb, 0, ny - 1)
-        cand[:, k] = u[ia % nx, jb % ny] + np.array([a * dx, b * dy])
-    isrep = np.zeros((m, 16), dtype=bool)
-    isrep[:, 0] = valid[:, 0]
-    for k in range(1, 16):  # (greedy: a candidate far from every earlier group's first starts a group)
-        near = (np.linalg.norm(cand[:, :k] - cand[:, k:k + 1], axis=-1) <= far) & isrep[:, :k]
-        isrep[:, k] = valid[:, k] & ~near.any(axis=1)
-    # each corner's own group: the first group within `far` of its contact
-    owner = np.empty((m, 4), dtype=np.int64)
-    for k in range(4):
-        near = (np.linalg.norm(cand[:, :k + 1] - cand[:, k:k + 1], axis=-1) <= far) & isrep[:, :k + 1]
-        owner[:, k] = np.argmax(near, axis=1)
-    rm, rk = np.nonzero(isrep)  # the groups: their cell (row of bi) and first candidate
-    R = rm.size
-    off = np.array([[0.0, 0.0], [dx, 0.0], [0.0, dy], [dx, dy]])
-    jm = np.repeat(rm, 4)  # the jobs: each group at each corner
-    jc = np.tile(np.arange(4), R)
-    own = owner[jm, jc] == np.repeat(rk, 4)
-    p0 = np.column_stack([x[bi[jm]], y[bj[jm]]]) + off[jc]
-    u0 = np.where(own[:, None], cand[jm, jc], cand[jm, np.repeat(rk, 4)]) - off[jc]
-    reach = np.where(own, 1.0, BRANCH_JUMP)[:, None] * [dx, dy]
-    lo, hi = u0 - reach, u0 + reach
-    if not periodic:  # (the contact stays on the sampled rectangle)
-        lo = np.maximum(lo, np.column_stack([x[0] - p0[:, 0], y[0] - p0[:, 1]]))
-        hi = np.minimum(hi, np.column_stack([x[-1] - p0[:, 0], y[-1] - p0[:, 1]]))
-        u0 = np.clip(u0, lo, hi)
-    ub, gb = _refine_contacts(texture, p0, u0, lo, hi, r, rim, 1e-6 * min(dx, dy))
-    # the group's contact is there (a local maximum of the objective) where the refinement ended
-    # inside its box and the disc, near the group's first contact; else the ball at that corner
-    # cannot rest on it (beyond its reach, or slid onto another group's)
-    edge = 1e-6 * min(dx, dy)
-    inside = (np.all(ub > lo + edge, axis=1) & np.all(ub < hi - edge, axis=1)
-              & (np.einsum("ij,ij->i", ub, ub) < (rim * (1 - 1e-6)) ** 2))
-    same = np.linalg.norm(ub + off[jc] - cand[jm, np.repeat(rk, 4)], axis=1) <= far
-    own = own.reshape(R, 4)
-    there = (own.ravel() | (inside & same)).reshape(R, 4)
-    G = texture.gradient(p0 + ub).reshape(R, 4, 2)
-    val = (gb - r).reshape(R, 4)
-    # where it is not, the group's tangent plane at its first corner that has it (its slopes the
-    # contact's: never steeper than the surface)
-    base = np.argmax(there, axis=1)
-    rows = np.arange(R)
-    for k in range(4):
-        miss = ~there[:, k]
-        step = off[k] - off[base[miss]]
-        val[miss, k] = val[rows[miss], base[miss]] + np.einsum("ij,ij->i", G[rows[miss], base[miss]], step)
-        G[miss, k] = G[rows[miss], base[miss]]
-    # the corners' Hermite data in the cell's units, as _hermite_patches'
-    mean_twist = 0.5 * ((G[:, 2, 0] - G[:, 0, 0] + G[:, 3, 0] - G[:, 1, 0]) / (2 * dy)
-                        + (G[:, 1, 1] - G[:, 0, 1] + G[:, 3, 1] - G[:, 2, 1]) / (2 * dx))
-    mean_twist[~there.all(axis=1)] = 0.0  # (a plane has none)
-    F = np.zeros((R, 4, 4))
-    for k, (a, b) in enumerate(corner_at):
-        node_twist = twist[(bi[rm] + a) % nx, (bj[rm] + b) % ny]
-        F[:, a, b] = val[:, k]
-        F[:, 2 + a, b] = G[:, k, 0] * dx
-        F[:, a, 2 + b] = G[:, k, 1] * dy
-        F[:, 2 + a, 2 + b] = np.where(own[:, k], node_twist, mean_twist) * dx * dy
+    W = 2 * BRANCH_REACH + 1
+    tol = 1e-8 * min(dx, dy)  # (the refinement leaves a contact's height within ~1e-13 of a 0.1 mm cell)
+    known = {"key": np.zeros(0, dtype=np.int64), "at": np.zeros(0, dtype=bool), "val": np.zeros(0),
+             "G": np.zeros((0, 2))}
+
+    def follow(ni, nj, sa, sb):  # the branch of the contact of grid point (ni + sa, nj + sb) at (ni, nj)
+        si, sj = (ni + sa) % nx, (nj + sb) % ny
+        step = np.column_stack([sa * dx, sb * dy])  # from the corner to its source
+        own_k = (sa == 0) & (sb == 0)
+        p0 = np.column_stack([x[ni], y[nj]])
+        u0 = u[si, sj] + step
+        span = np.maximum(np.maximum(np.abs(sa), np.abs(sb)), 1)[:, None] * np.where(own_k, 1.0, BRANCH_JUMP)[:, None]
+        lo, hi = u0 - span * [dx, dy], u0 + span * [dx, dy]
+        if not periodic:  # (the contact stays on the sampled rectangle)
+            lo = np.maximum(lo, np.column_stack([x[0] - p0[:, 0], y[0] - p0[:, 1]]))
+            hi = np.minimum(hi, np.column_stack([x[-1] - p0[:, 0], y[-1] - p0[:, 1]]))
+            u0 = np.clip(u0, lo, hi)
+        ub, gb = _refine_contacts(texture, p0, u0, lo, hi, r, rim, 1e-6 * min(dx, dy))
+        edge = 1e-6 * min(dx, dy)
+        inside = (np.all(ub > lo + edge, axis=1) & np.all(ub < hi - edge, axis=1)
+                  & (np.einsum("ij,ij->i", ub, ub) < (rim * (1 - 1e-6)) ** 2))
+        at = own_k | inside
+        gs = grads[si, sj]  # (the source's tangent plane where the branch is not there)
+        val = np.where(at, gb - r, c[si, sj] - np.einsum("ij,ij->i", gs, step))
+        return at, val, np.where(at[:, None], texture.gradient(p0 + ub), gs)
+
+    def corner_data(ni, nj, sa, sb):  # follow(), each (grid point, source) computed once
+        keys = ((ni * ny + nj) * W + sa + BRANCH_REACH) * W + sb + BRANCH_REACH
+        uk, first, inv = np.unique(keys, return_index=True, return_inverse=True)
+        new = ~np.isin(uk, known["key"])
+        if new.any():
+            f = first[new]
+            at, val, G = follow(ni[f], nj[f], sa[f], sb[f])
+            order = np.argsort(np.concatenate([known["key"], uk[new]]))
+            known["key"] = np.concatenate([known["key"], uk[new]])[order]
+            known["at"] = np.concatenate([known["at"], at])[order]
+            known["val"] = np.concatenate([known["val"], val])[order]
+            known["G"] = np.concatenate([known["G"], G])[order]
+        idx = np.searchsorted(known["key"], uk)[inv]
+        return known["at"][idx], known["val"][idx], known["G"][idx]
+
+    # the sources: (cell row, offset from its origin), from the 4 x 4 block (the corners first)
+    # each whose contact lies more than half an interval from every one before it (a contact
+    # that close is the same one, followed from a neighbour)
+    block = sorted(((a, b) for a in (-1, 0, 1, 2) for b in (-1, 0, 1, 2)), key=lambda o: (o not in corner_at, o))
+    q = np.stack([u[(bi + a) % nx, (bj + b) % ny] + np.array([a * dx, b * dy]) for a, b in block], 1)  # (m, 16, 2)
+    pick = np.zeros((m, len(block)), dtype=bool)
+    pick[:, 0] = True
+    for k in range(1, len(block)):
+        d2 = np.sum((q[:, :k] - q[:, k:k + 1]) ** 2, axis=2)
+        pick[:, k] = ~np.any(pick[:, :k] & (d2 <= (0.5 * min(dx, dy)) ** 2), axis=1)
+    src_m, kb = np.nonzero(pick)
+    src_a = np.array([o[0] for o in block])[kb]
+    src_b = np.array([o[1] for o in block])[kb]
     A = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [-3.0, 3.0, -2.0, -1.0], [2.0, -2.0, 1.0, 1.0]])
-    pats = A @ F @ A.T
-    # which groups are kept: a corner's own, or the highest somewhere on 5 x 5 points of the cell
-    V = np.einsum("rab,as,bt->rst", pats, _POWERS, _POWERS).reshape(R, 25)
-    top = np.full((m, 25), -np.inf)
-    np.maximum.at(top, rm, V)
-    wins = np.sum(V >= top[rm] - 1e-12 * np.abs(top[rm]), axis=1)
-    mine = own.any(axis=1)
-    keep = (mine | (wins > 0)) & there.any(axis=1)
-    # a cell is branched where each of its kept groups is there at all four corners (each patch
-    # then through a contact's own data), and no kept patch is steeper where it is the highest
-    # than the surface's own slope bound allows; elsewhere (a rough map's contacts that appear
-    # and vanish within a cell) the single Hermite patch, its kinked edges kept within the contacts'
-    slope = _patch_slopes(pats, dx, dy)  # (R, 25) at the 5 x 5 points
+    row = np.full(mx * my, -1, dtype=np.int64)
+    row[bi * my + bj] = np.arange(m)
+    sides = _SIDES
     bound = texture.max_slope  # (the path's slope is a contact's: never the surface's max)
-    steep = np.any((V >= top[rm] - 1e-12 * np.abs(top[rm])) & (slope > bound * (1 + 1e-9)), axis=1)
-    bad = np.zeros(m, dtype=bool)
-    np.logical_or.at(bad, rm, keep & steep)
-    order = np.lexsort((-wins, ~mine, rm))  # per cell: a corner's own first, then the most points
-    rank = np.empty(R, dtype=np.int64)
-    first_in_cell = np.r_[0, np.flatnonzero(np.diff(rm[order])) + 1]
-    pos = np.arange(R) - np.repeat(first_in_cell, np.diff(np.r_[first_in_cell, R]))
-    rank[order] = pos
-    keep &= rank < _ext.MAX_BRANCHES  # (kept ones rank first: mine, then wins > 0)
-    keep &= ~bad[rm]
-    keep &= ~_discontinuous(V.reshape(R, 5, 5), rm, keep, bi, bj, (mx, my), c, ex, ey, (dx, dy), periodic)[rm]
-    sel = order[keep[order]]  # the kept groups, cell by cell in rank order
+
+    def branch_patches(pm, pa, pb):  # the patches of the pairs (cell, source offset), with their data
+        n = pm.size
+        ca, cb = np.tile([0, 1, 0, 1], n), np.tile([0, 0, 1, 1], n)
+        at, val, G = corner_data((np.repeat(bi[pm], 4) + ca) % nx, (np.repeat(bj[pm], 4) + cb) % ny,
+                                 np.repeat(pa, 4) - ca, np.repeat(pb, 4) - cb)
+        there, val, G = at.reshape(n, 4), val.reshape(n, 4), G.reshape(n, 4, 2)
+        own = ((np.repeat(pa, 4) - ca == 0) & (np.repeat(pb, 4) - cb == 0)).reshape(n, 4)
+        # the corners' Hermite data in the cell's units, as _hermite_patches'
+        mean_twist = 0.5 * ((G[:, 2, 0] - G[:, 0, 0] + G[:, 3, 0] - G[:, 1, 0]) / (2 * dy)
+                            + (G[:, 1, 1] - G[:, 0, 1] + G[:, 3, 1] - G[:, 2, 1]) / (2 * dx))
+        mean_twist[~there.all(axis=1)] = 0.0  # (a plane has none)
+        F = np.zeros((n, 4, 4))
+        for k, (a, b) in enumerate(corner_at):
+            node_twist = twist[(bi[pm] + a) % nx, (bj[pm] + b) % ny]
+            F[:, a, b] = val[:, k]
+            F[:, 2 + a, b] = G[:, k, 0] * dx
+            F[:, a, 2 + b] = G[:, k, 1] * dy
+            F[:, 2 + a, 2 + b] = np.where(own[:, k], node_twist, mean_twist) * dx * dy
+        pats = A @ F @ A.T
+        return pats, there, own, val, (_POWERS.T @ pats @ _POWERS).reshape(n, 25), _patch_slopes(pats, dx, dy)
+
+    def usable(pm, pa, pb):  # sources within reach (and on the map)
+        ok = (np.abs(pa) <= BRANCH_REACH - 1) & (np.abs(pb) <= BRANCH_REACH - 1)
+        if not periodic:
+            ok &= (bi[pm] + pa >= 0) & (bi[pm] + pa < nx) & (bj[pm] + pb >= 0) & (bj[pm] + pb < ny)
+        return ok
+
+    ok = usable(src_m, src_a, src_b)
+    src_m, src_a, src_b = src_m[ok], src_a[ok], src_b[ok]
+    pats, there, own, val, V, slopes = branch_patches(src_m, src_a, src_b)
+    # the clusters of candidate cells (edge neighbours): a cell that cannot be branched keeps its
+    # single patch, which parts from its branched neighbours along the kinks between them, and
+    # so on across its cluster; a cluster with one such cell is not branched (and costs no more)
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    links = []
+    for _, (oi, oj), _, _ in sides:
+        ni, nj = bi + oi, bj + oj
+        other = row[(ni % mx) * my + nj % my]
+        inside = other >= 0 if periodic else (other >= 0) & (ni >= 0) & (ni < mx) & (nj >= 0) & (nj < my)
+        links.append((np.nonzero(inside)[0], other[inside]))
+    la = np.concatenate([lk[0] for lk in links])
+    lb = np.concatenate([lk[1] for lk in links])
+    _, cluster = connected_components(coo_matrix((np.ones(la.size), (la, lb)), shape=(m, m)), directed=False)
+    alive = np.ones(m, dtype=bool)
+    for _round in range(BRANCH_ROUNDS):
+        R = src_m.size
+        # kept: a corner's own, or the highest at one of 5 x 5 points; one of those alike
+        top = np.full((m, 25), -np.inf)
+        np.maximum.at(top, src_m, V)
+        high = V >= top[src_m] - tol
+        alike = np.where(there, np.round(val / (100 * tol)), np.nan)
+        _, first_alike = np.unique(np.column_stack([src_m, np.nan_to_num(alike, nan=-1e300), there]), axis=0,
+                                   return_index=True)
+        distinct = np.zeros(R, dtype=bool)
+        distinct[first_alike] = True
+        keep = (own.any(axis=1) | high.any(axis=1)) & there.any(axis=1) & distinct
+        # a cell none of whose kept patches is steeper, where it is the highest, than the surface
+        steep = np.any(high & (slopes > bound * (1 + STEEP_SLACK)), axis=1)
+        bad = np.zeros(m, dtype=bool)
+        np.logical_or.at(bad, src_m, keep & steep)
+        bad |= np.bincount(src_m[keep], minlength=m) > _ext.MAX_BRANCHES
+        alive &= ~np.isin(cluster, cluster[bad])
+        keep &= alive[src_m]
+        # branched neighbours whose highest patches part along a shared edge pass each other
+        # their kept branches
+        env = np.full((m, 4, 5), -np.inf)
+        for k, (pts, _, _, _) in enumerate(sides):
+            np.maximum.at(env[:, k], src_m[keep], V.reshape(R, 5, 5)[keep][pts])
+        live = np.isfinite(env[:, 0, 0])
+        give = []
+        kept = np.nonzero(keep)[0]
+        for k, (_, (oi, oj), theirs, _) in enumerate(sides):
+            ni, nj = bi + oi, bj + oj
+            inside = np.ones(m, dtype=bool) if periodic else (ni >= 0) & (ni < mx) & (nj >= 0) & (nj < my)
+            other = row[(ni % mx) * my + nj % my]
+            pair = live & inside & (other >= 0)
+            pair[pair] &= live[other[pair]]
+            part = np.zeros(m, dtype=bool)
+            part[pair] = np.any(np.abs(env[pair, k] - env[other[pair], theirs]) > tol, axis=1)
+            g = kept[part[src_m[kept]]]  # (a parted cell's kept sources to its neighbour, moved to its origin)
+            give.append(np.column_stack([other[src_m[g]], src_a[g] - oi, src_b[g] - oj]))
+        give = np.concatenate(give)
+        if give.size == 0 or _round == BRANCH_ROUNDS - 1:
+            break
+        w2 = 2 * BRANCH_REACH + 3
+
+        def code(mm, aa, bb):
+            return (mm * w2 + aa + BRANCH_REACH + 1) * w2 + bb + BRANCH_REACH + 1
+
+        fresh = np.unique(give[~np.isin(code(*give.T), code(src_m, src_a, src_b))], axis=0)
+        fresh = fresh[usable(*fresh.T)]
+        if fresh.size == 0:
+            break
+        more = branch_patches(*fresh.T)
+        src_m = np.concatenate([src_m, fresh[:, 0]])
+        src_a = np.concatenate([src_a, fresh[:, 1]])
+        src_b = np.concatenate([src_b, fresh[:, 2]])
+        pats, there, own, val, V, slopes = (np.concatenate([old_, new_]) for old_, new_ in
+                                            zip((pats, there, own, val, V, slopes), more))
+    keep &= ~_discontinuous(V.reshape(R, 5, 5), src_m, keep, bi, bj, (mx, my), c, ex, ey, (dx, dy), periodic)[src_m]
+    # per cell: a corner's own first, then the most points where it is the highest
+    sel = np.lexsort((-high.sum(axis=1), ~own.any(axis=1), src_m))
+    sel = sel[keep[sel]]
     if sel.size == 0:
         return None
-    cell_of_sel = rm[sel]
+    cell_of_sel = src_m[sel]
     is_first = np.r_[True, cell_of_sel[1:] != cell_of_sel[:-1]]
     cells = bi * my + bj
     starts = np.zeros(mx * my + 1, dtype=np.int64)
@@ -1863,15 +1964,12 @@ def _discontinuous(V, rm, keep, bi, bj, cells_shape, c, ex, ey, steps, periodic)
         return (c[i % nx, j % ny][:, None] * basis[0] + c[i1, j1][:, None] * basis[1]
                 + d * (e[:, 0][:, None] * basis[2] + e[:, 1][:, None] * basis[3]))
 
-    # each edge of a cell: its points in V, the neighbour across it, that neighbour's edge
-    # (bottom 0, top 1, left 2, right 3), the edge's first node and its axis
-    sides = [((slice(None), slice(None), 0), (0, -1), 1, (0, 0, 0)), ((slice(None), slice(None), 4), (0, 1), 0, (0, 1, 0)),
-             ((slice(None), 0, slice(None)), (-1, 0), 3, (0, 0, 1)), ((slice(None), 4, slice(None)), (1, 0), 2, (1, 0, 1))]
+    sides = _SIDES
     branched = np.zeros(m, dtype=bool)
     np.logical_or.at(branched, rm[keep], True)
     row = np.full(mx * my, -1, dtype=np.int64)
     row[bi * my + bj] = np.arange(m)
-    tol = 1e-9 * min(dx, dy)
+    tol = 1e-8 * min(dx, dy)  # (the refinement leaves a contact's height within ~1e-13 of a 0.1 mm cell)
     while True:
         env = np.full((m, 4, 5), -np.inf)
         live = keep & branched[rm]
@@ -1891,6 +1989,11 @@ def _discontinuous(V, rm, keep, bi, bj, cells_shape, c, ex, ey, steps, periodic)
         branched &= ~off
 
 
+_SIDES = [((slice(None), slice(None), 0), (0, -1), 1, (0, 0, 0)), ((slice(None), slice(None), 4), (0, 1), 0, (0, 1, 0)),
+          ((slice(None), 0, slice(None)), (-1, 0), 3, (0, 0, 1)), ((slice(None), 4, slice(None)), (1, 0), 2, (1, 0, 1))]
+"""Each edge of a cell: its points in a patch's 5 x 5 values, the neighbour across it, that
+neighbour's edge (bottom 0, top 1, left 2, right 3), the edge's first node and its axis."""
+
 _SAMPLES = np.linspace(0.0, 1.0, 5)
 _POWERS = _SAMPLES ** np.arange(4)[:, None]  # (power a, point): s^a at 5 points of [0, 1]
 _SLOPES = np.arange(4)[:, None] * _SAMPLES ** np.maximum(np.arange(4) - 1, 0)[:, None]  # a s^(a - 1)
@@ -1899,8 +2002,8 @@ _SLOPES = np.arange(4)[:, None] * _SAMPLES ** np.maximum(np.arange(4) - 1, 0)[:,
 def _patch_slopes(pats, dx, dy):
     """The gradient's norm (m/m) of each bicubic patch (R, 4, 4) (cell dx by dy) at 5 x 5 points
     of its cell, shape (R, 25)."""
-    gx = np.einsum("rab,as,bt->rst", pats, _SLOPES, _POWERS) / dx
-    gy = np.einsum("rab,as,bt->rst", pats, _POWERS, _SLOPES) / dy
+    gx = (_SLOPES.T @ pats @ _POWERS) / dx
+    gy = (_POWERS.T @ pats @ _SLOPES) / dy
     return np.hypot(gx, gy).reshape(pats.shape[0], 25)
 
 
