@@ -1789,8 +1789,10 @@ def _branch_patches(texture, x, y, u, grads, twist, r, rim, periodic, c, ex, ey)
         inside = (np.all(ub > lo + edge, axis=1) & np.all(ub < hi - edge, axis=1)
                   & (np.einsum("ij,ij->i", ub, ub) < (rim * (1 - 1e-6)) ** 2))
         at = own_k | inside
-        gs = grads[si, sj]  # (the source's tangent plane where the branch is not there)
-        val = np.where(at, gb - r, c[si, sj] - np.einsum("ij,ij->i", gs, step))
+        # (the source's tangent plane where the branch is not there, never above the path's own
+        # height there: the branches' highest is the path at every grid point)
+        gs = grads[si, sj]
+        val = np.where(at, gb - r, np.minimum(c[si, sj] - np.einsum("ij,ij->i", gs, step), c[ni, nj]))
         return at, val, np.where(at[:, None], texture.gradient(p0 + ub), gs)
 
     def corner_data(ni, nj, sa, sb):  # follow(), each (grid point, source) computed once
