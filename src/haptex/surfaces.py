@@ -1742,8 +1742,9 @@ def _branch_patches(texture, x, y, u, grads, twist, r, rim, periodic, c, ex, ey)
     its corners' heights, gradients (the contacts', by the envelope theorem) and twists (the
     node's where the corner is the source, else the cell's mean cross difference); it is kept
     where it is a corner's own or the highest at one of 5 x 5 points of the cell, one of those
-    alike at the four corners. Two branched neighbours whose highest patches part along their
-    shared edge pass each other their kept branches (BRANCH_ROUNDS rounds); a cell is branched
+    alike (there at the same corners, with the same heights there). Two branched neighbours
+    whose highest patches part along their shared edge pass each other their kept branches
+    (BRANCH_ROUNDS rounds); a cell is branched
     at the end where it keeps at most ``_ext.MAX_BRANCHES``, none steeper where it is the highest
     than the surface (STEEP_SLACK), no cell of its cluster (its edge neighbours', and theirs)
     fails that, and its edges meet its neighbours' (:func:`_discontinuous`). Not tried past
@@ -1877,7 +1878,9 @@ def _branch_patches(texture, x, y, u, grads, twist, r, rim, periodic, c, ex, ey)
     alive = np.ones(m, dtype=bool)
     for _round in range(BRANCH_ROUNDS):
         R = src_m.size
-        # kept: a corner's own, or the highest at one of 5 x 5 points; one of those alike
+        # kept: a corner's own, or the highest at one of 5 x 5 points; one of those alike (a
+        # branch filled where another is filled otherwise is the same contact: which of them a
+        # cell keeps, the edge check below holds to its neighbours')
         top = np.full((m, 25), -np.inf)
         np.maximum.at(top, src_m, V)
         high = V >= top[src_m] - tol
