@@ -213,7 +213,7 @@ def test_where_the_ball_bridges_a_bowl_the_felt_map_is_the_paths(rel_r):
     r = rel_r * rho
     felt = tex.felt_by(r)
     truth = _path_max_slope_2d(h, grad, cell, r)
-    assert felt.patches()[0, hx.core._ext.PATCH_JOINS] == hx.core._ext.JOINS_BRANCHED
+    assert felt.patches()[0, hx.core._ext.PATCH_JOINS] == hx.core._ext.JOINS_BRANCHED and felt.branched_cells == 88
     # (the path's steepest is the surface's own here, 0.3142 at 1.5 rho: the branches' cubic
     # Hermite error may pass it by up to STEEP_SLACK, which the construction checks)
     assert felt.max_slope <= tex.max_slope * (1 + hx.surfaces.STEEP_SLACK)
@@ -358,6 +358,7 @@ def test_design_takes_a_tip_radius_at_the_command_line():
     # the ball (5 mm) bridges each trough (at 1.5 mm, the sine's period 2 mm): one kink, its slope
     # jump twice the path's slope there (symmetric branches), which the brute-force path gives
     assert felt["kink_count"] == 1 and felt["kinks"][0]["x"] == pytest.approx(1.5e-3, abs=2e-5)
+    assert felt["branched_cells"] == 0  # (a profile has no cells)
     h, hp = _sines([0.1e-3], [2e-3], [0.0])
     side = abs(_brute_slopes(h, hp, np.array([1.5e-3 - 1e-7]), 5e-3)[0])
     assert felt["kinks"][0]["slope_jump"] == pytest.approx(2 * side, rel=0.01)

@@ -1075,6 +1075,19 @@ class SampledSurface(Surface):
         self.__dict__["_patch_bounds"] = out
         return out
 
+    @property
+    def branched_cells(self) -> int:
+        """How many cells of a felt map are branched (``JOINS_BRANCHED``): the highest of one
+        patch per contact, where the ball rests on several sides of a bowl (0 for any other
+        map).
+
+        Returns
+        -------
+        int
+            The number of branched cells.
+        """
+        return 0 if self._branches is None else int(self._branches[0].size)
+
     def _patch_blocks(self):
         """:meth:`patches` read back: the cells' patches (nx, ny, 4, 4) (cells, not samples),
         and a branched map's starts (n_cells + 1,) and extra patches (E, 4, 4) (None, None

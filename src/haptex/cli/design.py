@@ -112,7 +112,7 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
         felt = {"tip_radius": tip_radius, "max_slope_point_probe": float(point.max_slope),
                 "max_slope_felt": float(tex.max_slope), "source": tex.source,
                 "kinks": [dict(zip(names, map(float, k))) for k in kinks[:100]],
-                "kink_count": int(len(kinks))}
+                "kink_count": int(len(kinks)), "branched_cells": int(getattr(tex, "branched_cells", 0))}
     base = object_from_spec(object_spec, uv_scale, vertex_normals)
     dev = _build_device(ctx, device_spec, joint_damping, mass, damping, sampling_period, delay,
                         3 if base is not None else tex.dimension + 1)
@@ -177,6 +177,9 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
                           "its path (slope jumps; D and E see a "
                           f"discontinuity there), the largest {worst['slope_jump']:+.3g} at x = {worst['x'] * 1e3:.4g} mm"
                           + (f", y = {worst['y'] * 1e3:.4g} mm" if "y" in worst else ""))
+        if felt["branched_cells"]:
+            console.print(f"where it rests on several sides of a bowl, {felt['branched_cells']} cells are the highest of "
+                          "one patch per contact (branched)")
     bl = data["band_limit"]
     rn = bl["raw"]
     if bl["sampled"]:
