@@ -110,7 +110,7 @@ def _grid_contacts(h: np.ndarray, steps, r: float, periodic: bool):
     best = np.full(h.shape, -np.inf)
     which = np.zeros(h.shape, dtype=np.int32)  # the best offset's index in offs
     lift = [np.sqrt(max(r * r - sum((a * d) ** 2 for a, d in zip(k, steps)), 0.0)) for k in offs]
-    # blocks of rows small enough to stay in cache over the whole loop of offsets
+    # blocks of rows: the loop's scratch (a value and a mask a sample) is a block's, not the map's
     rows = max(1, (1 << 15) // max(1, h[0].size))
     for r0 in range(0, h.shape[0], rows):
         r1 = min(h.shape[0], r0 + rows)
