@@ -215,11 +215,13 @@ def _asan_fuzz(tmp_path, objdir, scale: int):
 def test_core_is_clean_under_asan_and_ubsan(tmp_path, objdir):
     """tests/c/core_fuzz.c under -fsanitize=address,undefined: coefficient arrays allocated to
     their exact size (a read one past is reported), headers that claim more cells than the
-    array holds refused by hx_texture_check, 4.3 x 10^5 fields at adversarial positions (0,
-    subnormals, cell edges, map ends, +-1 km), all finite; the servo tick over them and NaN
-    and infinite ones, on the plane and on every base (the analytic ones, a mesh, the prism
-    mesh): forces finite and <= max force, faults counted. The driver was checked to fail when
-    the cell index is not clamped (a heap-buffer-overflow report). 1.1 x 10^6 calls in all;
+    array holds refused by hx_texture_check (a felt map's branched layout too: a start that
+    decreases, a cell with one patch too many), fields at adversarial positions (0,
+    subnormals, cell edges, map ends, +-1 km), a branched map's among them, all finite; the
+    servo tick over them and NaN and infinite ones, on the plane and on every base (the
+    analytic ones, a mesh, the prism mesh): forces finite and <= max force, faults counted. The
+    driver was checked to fail when the cell index is not clamped (a heap-buffer-overflow
+    report). 1.3 x 10^6 calls in all;
     test_the_core_fuzz_runs_deep_under_asan_and_ubsan runs five times as many (slow)."""
     out = _asan_fuzz(tmp_path, objdir, 1)
     assert out.startswith("ok ") and int(out.split()[1]) > 1_000_000
