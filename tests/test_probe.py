@@ -218,8 +218,9 @@ def test_where_the_ball_bridges_a_bowl_the_felt_map_is_the_paths(rel_r):
     # Hermite error may pass it by up to STEEP_SLACK, which the construction checks)
     assert felt.max_slope <= tex.max_slope * (1 + hx.surfaces.STEEP_SLACK)
     assert felt.max_slope == pytest.approx(truth, rel=0.01)
-    q = hx.characteristic_number(hx.algorithm("A", felt, 2000.0)).value
-    assert q == pytest.approx(math.sqrt(1 + truth**2), rel=0.01)
+    if rel_r != 2.0:  # (q on a branched map, 1.7 s, in the long set's case; the loop's has the heights)
+        q = hx.characteristic_number(hx.algorithm("A", felt, 2000.0)).value
+        assert q == pytest.approx(math.sqrt(1 + truth**2), rel=0.01)
     if rel_r == 2.0:
         rng = np.random.default_rng(7)
         bowls = np.array([[0.5e-3, 1.5e-3], [1.5e-3, 0.5e-3]])[rng.integers(0, 2, 200)]
