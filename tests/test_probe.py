@@ -204,8 +204,9 @@ def test_where_the_ball_bridges_a_bowl_the_felt_map_is_the_paths(rel_r):
     # grid follows it (at a corner whose two edges both rise at slope M the patch's gradient is
     # (M, M)): the single Hermite patch read 0.381 for the brute-force path's 0.302 at r = 2 rho,
     # its heights 6.2 um off inside the bowls. A cell across which the contact jumps is the
-    # maximum of one patch a contact (JOINS_BRANCHED): slope and q within 1 % of the brute-force
-    # path's (numpy on the analytic heights; measured +0.30 % at 2 rho, +0.35 % at 1.5 rho), and
+    # maximum of one patch a contact (JOINS_BRANCHED): slope (and q, at 1.5 rho) within 1 % of
+    # the brute-force path's (numpy on the analytic heights; measured +0.30 % at 2 rho, +0.35 %
+    # at 1.5 rho), and
     # at r = 2 rho the heights at 200 points inside the bowls between the dense dilation's (its
     # 201 x 201 offsets) and that plus its grid's miss, (du / 2)^2 / 2 (sup ||H|| + 1 / r)
     # (measured -0.005 to +0.100 um; the miss 0.152 um)
