@@ -500,8 +500,9 @@ def surface_search_data(texture) -> tuple[int, np.ndarray, np.ndarray]:
         gaux[K.G_JERK] = float(np.sum(a * k ** 3))
     else:  # a height map: the patches' rigorous bounds, valid inside the map (everywhere if periodic)
         gaux[K.G_SLOPE_BOUND], gaux[K.G_CURV_BOUND], gaux[K.G_JERK] = texture.derivative_bounds
-        hermite = texture.patches()[0, K.PATCH_JOINS] != 0.0  # bounds within each patch only
-        if hermite and (texture.kinks.size or texture.patches()[0, K.PATCH_JOINS] == K.JOINS_BRANCHED):
+        joins = texture.patches()[0, K.PATCH_JOINS]
+        hermite = joins != K.JOINS_SPLINE  # bounds within each patch only
+        if hermite and (texture.kinks.size or joins == K.JOINS_BRANCHED):
             # (slopes that jump: no curvature bounds a cell across a kink or a branched cell)
             gaux[K.G_CURV] = 1e300  # (aux must be finite: the spread S r is then the bound)
         if texture.periodic:  # the convexity certificate needs the bound on the whole plane (a spline's)

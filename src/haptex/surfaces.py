@@ -953,14 +953,11 @@ class SampledSurface(Surface):
     def _hermite_patches(self, nx, ny) -> np.ndarray:
         """A Hermite map's patches, shape (nx, ny, 4, 4): per cell the bicubic through its
         corners' heights, slopes along each edge (the edge's own where a kink moved them) and
-        twists, c = A F A^T with A the cubic Hermite basis's coefficients (columns: value at 0,
-        value at 1, slope at 0, slope at 1; rows: powers of s) and F the corners' data in the
-        cell's units."""
+        twists (the node's, none beside a kink), c = A F A^T with A the cubic Hermite basis's
+        coefficients (:data:`_HERMITE`) and F the corners' data in the cell's units."""
         g = self._gradients
-        ex, ey, flat = self._edges if self._edges is not None else (*_node_edges(g, self.periodic), None)
-        twist = _twist(g, self.dx, self.dy, self.periodic)
-        if flat is not None:  # (no twist beside a kink: its central differences straddle the jump)
-            twist[flat] = 0.0
+        ex, ey, twist = (self._edges if self._edges is not None else
+                         (*_node_edges(g, self.periodic), _twist(g, self.dx, self.dy, self.periodic)))
         mx, my = self.x.size, self.y.size
         i = np.arange(nx)[:, None]
         j = np.arange(ny)[None, :]
@@ -972,8 +969,7 @@ class SampledSurface(Surface):
                 F[..., 2 + a, b] = ex[i, jb, a] * self.dx  # the slope along x of the x-edge at row j + b
                 F[..., a, 2 + b] = ey[ia, j, b] * self.dy  # the slope along y of the y-edge at column i + a
                 F[..., 2 + a, 2 + b] = twist[ia, jb] * self.dx * self.dy
-        A = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [-3.0, 3.0, -2.0, -1.0], [2.0, -2.0, 1.0, 1.0]])
-        return A @ F @ A.T
+        return _HERMITE @ F @ _HERMITE.T
 
     def _spline_patches(self, nx, ny) -> np.ndarray:
         """The spline's patches, shape (nx, ny, 4, 4), from its values at 4 x 4 points a cell:
@@ -1581,6 +1577,12 @@ def _twist(g, dx, dy, periodic):
     return 0.5 * (hxy + hyx)
 
 
+BRANCH_JUMP = 3
+"""A felt map's edge is kinked, and a cell branched, where two of its ends' or corners'
+contacts lie more than this many sample intervals apart (chosen: the grid's arg-max and its
+refinement move a contact by at most about one interval between neighbours on one side of a
+trough)."""
+
 CONTACT_NEWTON_STEPS = 8
 """Safeguarded Newton steps refining each grid point's contact on an areal texture (chosen: from
 the grid's arg-max, within one interval of the true contact, the error squares each step)."""
@@ -1649,16 +1651,16 @@ def _contact_map(texture, x, y, h, r, periodic):
     """The ball's centre path on the grid (x, y) over a surface: heights c - r (nx, ny), the
     path's gradients (nx, ny, 2), the edges' slopes (:func:`_node_edges`' layout, each kinked
     edge's moved by :func:`haptex.textures._kink_ends`, for a cell beside it that is not
-    branched) with the nodes beside a kink (no twist there), the kinks (k, 3): x, y (m) and the
-    slope jump along the edge, and the branched cells (:func:`_branch_patches`).
+    branched) with the nodes' twists (:func:`_twist`'s, none beside a kink), the kinks (k, 3):
+    x, y (m) and the slope jump along the edge, and the branched cells (:func:`_branch_patches`).
 
     c(p) = max over |u| <= r of [H(p + u) + sqrt(r^2 - |u|^2)], H the texture's own height:
     the maximum over the grid's offsets first (each grid point's arg-max contact), then refined
     on H by safeguarded Newton steps within one interval of it (never below the grid's own
     maximum); the gradient is grad H at the contact (the envelope theorem: the path's normal is
-    the contact's). A kinked edge joins neighbouring points whose contacts lie more than three
-    intervals apart (the ball bridging a trough), as on a profile; the cells beside it are
-    branched."""
+    the contact's). A kinked edge joins neighbouring points whose contacts lie more than
+    BRANCH_JUMP intervals apart (the ball bridging a trough), as on a profile; the cells beside
+    it are branched."""
     dx, dy = float(x[1] - x[0]), float(y[1] - y[0])
     from .probe import _grid_contacts
 
@@ -1693,7 +1695,7 @@ def _contact_map(texture, x, y, h, r, periodic):
     for axis, edges, d, unit in ((0, ex, dx, step_x), (1, ey, dy, step_y)):
         nxt = np.roll(u, -1, axis=axis) if periodic else (u[1:] if axis == 0 else u[:, 1:])
         here = u if periodic else (u[:-1] if axis == 0 else u[:, :-1])
-        jump = np.linalg.norm(nxt - here + unit, axis=-1) > 3 * d
+        jump = np.linalg.norm(nxt - here + unit, axis=-1) > BRANCH_JUMP * d
         if not jump.any():
             continue
         hn = np.roll(c, -1, axis=axis) if periodic else (c[1:] if axis == 0 else c[:, 1:])
@@ -1710,13 +1712,8 @@ def _contact_map(texture, x, y, h, r, periodic):
     twist = _twist(grads, dx, dy, periodic)
     twist[flat] = 0.0  # (no twist beside a kink: its central differences straddle the jump)
     branches = _branch_patches(texture, x, y, u, grads, twist, r, rim, periodic, c, ex, ey)
-    return c, grads, (ex, ey, flat), (np.concatenate(kinks) if kinks else np.zeros((0, 3))), branches
+    return c, grads, (ex, ey, twist), (np.concatenate(kinks) if kinks else np.zeros((0, 3))), branches
 
-
-BRANCH_JUMP = 3
-"""A felt map's cell is branched where two of its corners' contacts lie more than this many
-sample intervals apart (chosen: the grid's arg-max and its refinement move a contact by at most
-about one interval between neighbours on one side of a trough)."""
 
 BRANCH_REACH = 4
 """A branch is followed to a corner from the contact of a grid point at most this many
@@ -1837,7 +1834,6 @@ def _branch_patches(texture, x, y, u, grads, twist, r, rim, periodic, c, ex, ey)
     src_m, kb = np.nonzero(pick)
     src_a = np.array([o[0] for o in block])[kb]
     src_b = np.array([o[1] for o in block])[kb]
-    A = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [-3.0, 3.0, -2.0, -1.0], [2.0, -2.0, 1.0, 1.0]])
     row = np.full(mx * my, -1, dtype=np.int64)
     row[bi * my + bj] = np.arange(m)
     sides = _SIDES
@@ -1861,7 +1857,7 @@ def _branch_patches(texture, x, y, u, grads, twist, r, rim, periodic, c, ex, ey)
             F[:, 2 + a, b] = G[:, k, 0] * dx
             F[:, a, 2 + b] = G[:, k, 1] * dy
             F[:, 2 + a, 2 + b] = np.where(own[:, k], node_twist, mean_twist) * dx * dy
-        pats = A @ F @ A.T
+        pats = _HERMITE @ F @ _HERMITE.T
         return pats, there, own, val, (_POWERS.T @ pats @ _POWERS).reshape(n, 25), _patch_slopes(pats, dx, dy)
 
     def usable(pm, pa, pb):  # sources within reach (and on the map)
@@ -1971,8 +1967,7 @@ def _discontinuous(V, rm, keep, bi, bj, cells_shape, c, ex, ey, steps, periodic)
     mx, my = cells_shape
     dx, dy = steps
     m = bi.size
-    s = _SAMPLES
-    basis = np.stack([2 * s**3 - 3 * s**2 + 1, -2 * s**3 + 3 * s**2, s**3 - 2 * s**2 + s, s**3 - s**2])
+    basis = (_POWERS.T @ _HERMITE).T  # (value at 0, value at 1, slope at 0, slope at 1) at the points
     nx, ny = c.shape
 
     def hermite(i, j, axis):  # the edge from node (i, j) along axis, at the five points
@@ -2011,6 +2006,10 @@ _SIDES = [((slice(None), slice(None), 0), (0, -1), 1, (0, 0, 0)), ((slice(None),
           ((slice(None), 0, slice(None)), (-1, 0), 3, (0, 0, 1)), ((slice(None), 4, slice(None)), (1, 0), 2, (1, 0, 1))]
 """Each edge of a cell: its points in a patch's 5 x 5 values, the neighbour across it, that
 neighbour's edge (bottom 0, top 1, left 2, right 3), the edge's first node and its axis."""
+
+_HERMITE = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [-3.0, 3.0, -2.0, -1.0], [2.0, -2.0, 1.0, 1.0]])
+"""The cubic Hermite basis's coefficients: columns value at 0, value at 1, slope at 0, slope at
+1; rows powers of s (a patch is _HERMITE F _HERMITE^T, F its corners' data in cell units)."""
 
 _SAMPLES = np.linspace(0.0, 1.0, 5)
 _POWERS = _SAMPLES ** np.arange(4)[:, None]  # (power a, point): s^a at 5 points of [0, 1]

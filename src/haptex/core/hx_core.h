@@ -131,8 +131,7 @@ enum {
  * total) and E extra patches of 16 coefficients; a branched cell's height is the largest of its
  * own patch's and its extra patches' there (a maximum of smooth branches: a felt map where
  * the ball's contact jumps inside the cell), its derivatives the largest's; at most
- * HX_MAX_BRANCHES patches a cell. No Taylor model holds
- * on a branched cell. */
+ * HX_MAX_BRANCHES patches a cell. No Taylor model holds on a branched cell. */
 enum { HX_JOINS_SPLINE = 0, HX_JOINS_HERMITE = 1, HX_JOINS_BRANCHED = 2, HX_MAX_BRANCHES = 8 };
 enum {
     HX_PATCH_X0, HX_PATCH_Y0, HX_PATCH_DX, HX_PATCH_DY, HX_PATCH_NX, HX_PATCH_NY, HX_PATCH_PERIODIC, HX_PATCH_JOINS,

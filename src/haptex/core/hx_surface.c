@@ -247,15 +247,21 @@ static int branched_at(const sproblem *q, double x, double y)
     return cell_branches(hd, (long)hd[HX_PATCH_NX], (long)hd[HX_PATCH_NY], i, j, pp) > 1;
 }
 
+/* whether the cell [cx -+ wx] x [cy -+ wy] of a height map crosses none of its patch lines */
+static int one_patch(const sproblem *q, double cx, double cy, double wx, double wy)
+{
+    const double *hd = q->tex->c;
+    return isnan(patch_line(cx - wx, cx + wx, hd[HX_PATCH_X0], hd[HX_PATCH_DX])) &&
+           isnan(patch_line(cy - wy, cy + wy, hd[HX_PATCH_Y0], hd[HX_PATCH_DY]));
+}
+
 /* whether the Taylor model may hold on the cell [cx -+ wx] x [cy -+ wy]: within one patch of a
  * joined map, and that patch not branched (always, for any other surface) */
 static int within_patch(const sproblem *q, double cx, double cy, double wx, double wy)
 {
-    const double *hd = q->tex->c;
     if (!joined(q))
         return 1;
-    return isnan(patch_line(cx - wx, cx + wx, hd[HX_PATCH_X0], hd[HX_PATCH_DX])) &&
-           isnan(patch_line(cy - wy, cy + wy, hd[HX_PATCH_Y0], hd[HX_PATCH_DY])) && !branched_at(q, cx, cy);
+    return one_patch(q, cx, cy, wx, wy) && !branched_at(q, cx, cy);
 }
 
 /* the distance from (x, y) to the nearest patch line of a joined map (HUGE_VAL for any other
@@ -1215,9 +1221,8 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
             if (dxy + gap * gap > reach * reach)
                 continue;
         }
-        if (model && !cm && joined(&q) && model_margin(&q, cx, cy) >= w &&
-            isnan(patch_line(cx - wx, cx + wx, tex->c[HX_PATCH_X0], tex->c[HX_PATCH_DX])) &&
-            isnan(patch_line(cy - wy, cy + wy, tex->c[HX_PATCH_Y0], tex->c[HX_PATCH_DY])) && branched_at(&q, cx, cy)) {
+        if (model && !cm && joined(&q) && model_margin(&q, cx, cy) >= w && one_patch(&q, cx, cy, wx, wy) &&
+            branched_at(&q, cx, cy)) {
             /* a piece of one branched cell inside the map: searched along its creases, not split */
             work += branched_piece(&q, cx - wx, cx + wx, cy - wy, cy + wy, &b, sep);
             continue;
