@@ -1908,9 +1908,7 @@ def _branch_patches(texture, x, y, u, grads, twist, r, rim, periodic, c, ex, ey)
         keep &= alive[src_m]
         # branched neighbours whose highest patches part along a shared edge pass each other
         # their kept branches
-        env = np.full((m, 4, 5), -np.inf)
-        for k, (pts, _, _, _) in enumerate(sides):
-            np.maximum.at(env[:, k], src_m[keep], V.reshape(R, 5, 5)[keep][pts])
+        env = _edge_envelopes(V.reshape(R, 5, 5), src_m, keep, m)
         live = np.isfinite(env[:, 0, 0])
         give = []
         kept = np.nonzero(keep)[0]
@@ -1956,6 +1954,16 @@ def _branch_patches(texture, x, y, u, grads, twist, r, rim, periodic, c, ex, ey)
     return cells[cell_of_sel[is_first]], pats[sel[is_first]], np.cumsum(starts), pats[sel[~is_first]]
 
 
+def _edge_envelopes(V, cell, live, m):
+    """Each of m cells' height along its four edges (``_SIDES``' order) at the five points: the
+    highest of its live patches there, from their values V (R, 5, 5) at 5 x 5 points (patches of
+    cells ``cell`` (R,), those where ``live`` (R,)); -inf for a cell with none. Shape (m, 4, 5)."""
+    env = np.full((m, 4, 5), -np.inf)
+    for k, (pts, _, _, _) in enumerate(_SIDES):
+        np.maximum.at(env[:, k], cell[live], V[live][pts])
+    return env
+
+
 def _discontinuous(V, rm, keep, bi, bj, cells_shape, c, ex, ey, steps, periodic):
     """The branched cells (rows of bi, bj) to leave unbranched so that the felt map stays
     continuous: a branched cell's height along each of its edges (the highest of its kept
@@ -1984,10 +1992,7 @@ def _discontinuous(V, rm, keep, bi, bj, cells_shape, c, ex, ey, steps, periodic)
     row[bi * my + bj] = np.arange(m)
     tol = 1e-8 * min(dx, dy)  # (the refinement leaves a contact's height within ~1e-13 of a 0.1 mm cell)
     while True:
-        env = np.full((m, 4, 5), -np.inf)
-        live = keep & branched[rm]
-        for k, (pts, _, _, _) in enumerate(sides):
-            np.maximum.at(env[:, k], rm[live], V[live][pts])
+        env = _edge_envelopes(V, rm, keep & branched[rm], m)
         off = np.zeros(m, dtype=bool)
         for k, (_, (oi, oj), theirs, (ai, aj, axis)) in enumerate(sides):
             ni, nj = bi + oi, bj + oj
