@@ -271,7 +271,8 @@ def _bounded_path_max_slope(h, side, r, n=41):
     return best
 
 
-@pytest.mark.parametrize("r", [2e-3, pytest.param(1.5e-3, marks=pytest.mark.long)])
+@pytest.mark.parametrize("r", [2e-3, 0.1e-3, pytest.param(1.5e-3, marks=pytest.mark.long),
+                               pytest.param(0.3e-3, marks=pytest.mark.long)])
 def test_on_a_map_that_ends_at_its_edges_the_felt_bowls_are_the_paths(r):
     # issue 67 on a measured map's terms: the egg-crate's heights sampled 61 x 61 over 4 mm and
     # ending there (not periodic), its bowls' radius of curvature rho = 1.01 mm, felt by balls of
@@ -281,7 +282,11 @@ def test_on_a_map_that_ends_at_its_edges_the_felt_bowls_are_the_paths(r):
     # also keep the lower of two rim contacts. Every cell then kept its single patch: 0.4152 at
     # 2 mm, 0.4407 at 1.5 mm for the brute-force path's 0.3039 and 0.3141. The felt map's
     # steepest slope within 1 % of the brute-force path's (numpy on the analytic heights, with
-    # the contacts on the map), and never above the surface's own (0.1 pi) by more than 0.1 %
+    # the contacts on the map), and never above the surface's own (0.1 pi) by more than 0.1 %.
+    # Balls of 0.1 and 0.3 mm, inside the bowls' radius, pass from resting on the map's rim to
+    # resting inside it near the edges, where the path's curvature jumps: with the rim's true
+    # gradients the cubics through them overshot, 0.3315 and 0.3226 (their edges there are now
+    # moved as a kink's)
     side = 4e-3
     h = AREAL_CASES["egg-crate"][1]
     xs = np.linspace(0.0, side, 61)
@@ -289,7 +294,8 @@ def test_on_a_map_that_ends_at_its_edges_the_felt_bowls_are_the_paths(r):
     surf = hx.SampledSurface(xs, xs, h(np.column_stack([X.ravel(), Y.ravel()])).reshape(X.shape))
     felt = surf.felt_by(r)
     truth = _bounded_path_max_slope(h, side, r)
-    assert felt.branched_cells > 400  # (of the map's 3600: around every bowl)
+    if r > 1e-3:
+        assert felt.branched_cells > 400  # (of the map's 3600: around every bowl)
     assert felt.max_slope <= 0.1e-3 * math.pi / 1e-3 * (1 + 1e-3)
     assert felt.max_slope == pytest.approx(truth, rel=0.01)
 
