@@ -300,19 +300,36 @@ def test_on_a_map_that_ends_at_its_edges_the_felt_bowls_are_the_paths(r):
     assert felt.max_slope == pytest.approx(truth, rel=0.01)
 
 
-@pytest.mark.long  # (1-2 s each: the bowls' first case, 2 rho, is in the loop)
-@pytest.mark.parametrize("rel_r", [1.0, 1.2])
-def test_between_one_and_one_and_a_third_bowl_radii_the_felt_map_errs_on_the_steep_side(rel_r):
-    # not met (issue 67): from rho to about 1.3 rho the ball nests in the bowl and a cell's
-    # contacts give more branches than a cell holds (MAX_BRANCHES), or ones that do not meet
-    # the neighbours' along the edges, so the cells stay single Hermite patches, whose apex is
-    # too steep: measured 0.3186 at rho, 0.3834 at 1.2 rho for the path's 0.3141. What is
-    # asserted is the side and the size: never flatter than the brute-force path (q not
-    # understated), at most sqrt(2) steeper
+@pytest.mark.parametrize("rel_r", [1.2, pytest.param(1.1, marks=pytest.mark.long),
+                                   pytest.param(1.3, marks=pytest.mark.long)])
+def test_where_the_ball_nests_in_a_bowl_the_felt_map_is_refined_until_it_branches(rel_r):
+    # issue 67, from 1.05 to 1.3 bowl radii: the ball nests in the bowl, and on the default grid
+    # (r / 16) the branches of some cells jumped between the bowl's sides or outnumbered what a
+    # cell holds; those cells kept their single patches, whose apex is too steep: 0.3551 at 1.1
+    # rho, 0.3834 at 1.2, 0.3981 at 1.3 for the path's 0.3141. Whether a cell beside a kink is
+    # branched depends on where the grid's points fall (at 1.2 rho: 58 points a period branched,
+    # 51 and 100 did not), so an analytic surface's felt map is made again on finer grids
+    # (REFINE) until every such cell is. Slope within 1 % of the brute-force path's (numpy on
+    # the analytic heights; measured +0.01 % at 1.1 and 1.2 rho, +0.36 % at 1.3)
     tex, h, grad, cell, rho = AREAL_CASES["egg-crate"]
     felt = tex.felt_by(rel_r * rho)
     truth = _path_max_slope_2d(h, grad, cell, rel_r * rho)
-    assert 0.99 * truth <= felt.max_slope <= math.sqrt(2) * truth
+    assert felt.branched_cells > 0
+    assert felt.max_slope == pytest.approx(truth, rel=0.01)
+    given = tex.felt_by(rel_r * rho, spacing=0.1e-3)  # (a spacing given is the grid, not refined)
+    assert given.x[1] - given.x[0] == pytest.approx(0.1e-3)
+
+
+@pytest.mark.long  # (1-2 s: the bowls' first case, 2 rho, is in the loop)
+def test_at_the_bowls_own_radius_the_felt_map_errs_on_the_steep_side():
+    # not met (issue 67): at rho the bowl's bottom is the ball's focal point, the path's
+    # curvature unbounded there, and no grid tried (REFINE) makes its cells branch: 0.3186 for
+    # the path's 0.3141 (+1.4 %; +2.5 % at 1.02 rho). What is asserted is the side and the
+    # size: never flatter than the brute-force path (q not understated), at most 3 % steeper
+    tex, h, grad, cell, rho = AREAL_CASES["egg-crate"]
+    felt = tex.felt_by(rho)
+    truth = _path_max_slope_2d(h, grad, cell, rho)
+    assert 0.99 * truth <= felt.max_slope <= 1.03 * truth
 
 
 def test_a_felt_map_is_continuous_and_never_steeper_than_its_surface():

@@ -47,9 +47,11 @@ def felt_by(texture, tip_radius: float, *, spacing: float | None = None):
         itself.
     spacing : float, optional
         Grid spacing (m) on which an analytic texture is sampled; default the finer of a 256th
-        of its shortest period and a 32nd of r (a 16th of each over a surface). A sampled
-        texture keeps its own grid unless ``spacing`` is given: then it is resampled onto that
-        grid by its own spline (what a refusal for work suggests for a fine map and a large ball).
+        of its shortest period and a 32nd of r (a 16th of each over a surface, and finer, by the
+        factors ``haptex.surfaces.REFINE``, while some cell beside a kink cannot be
+        branched). A sampled texture keeps its own grid unless ``spacing`` is given: then it is
+        resampled onto that grid by its own spline (what a refusal for work suggests for a fine
+        map and a large ball).
 
     Returns
     -------
@@ -77,10 +79,15 @@ def felt_by(texture, tip_radius: float, *, spacing: float | None = None):
     gradients, and each grid edge across which the contact jumps has its slopes along it kept
     within the contacts' as on a profile (``kinks``: each such edge's midpoint and slope jump).
     Where the ball bridges a bowl (a trough closed in every direction) the path has a cone's
-    apex, which tensor-product patches cannot follow: the felt map is steeper there than the
-    path, by at most sqrt(2) (q on the safe side). The contact is refined from the grid's best
-    offset: a map whose spline peaks between its samples (not resolved by its grid) is felt at
-    that contact, below the continuous maximum.
+    apex, which tensor-product patches cannot follow: a cell across which the contact jumps is
+    the maximum of one Hermite patch per contact (``branched_cells``); where a cell cannot be
+    (at a bowl's own radius of curvature, on rough maps felt by balls of a few samples) it keeps
+    its single patch, steeper than the path (q on the safe side). On a map that ends at its
+    edges a contact may lie on the map's rim, where the path's gradient is u / sqrt(r^2 - |u|^2)
+    (u the contact's offset). The contact is refined from the grid's best offset: a map whose
+    spline peaks between its samples (not resolved by its grid) is felt at that contact, below
+    the continuous maximum. The measured-surfaces guide tabulates the errors against
+    brute-force ball paths.
     """
     if not callable(getattr(texture, "felt_by", None)):
         raise fail("texture", texture, "a haptex profile or surface (a Texture)")
