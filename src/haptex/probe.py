@@ -48,10 +48,10 @@ def felt_by(texture, tip_radius: float, *, spacing: float | None = None):
     spacing : float, optional
         Grid spacing (m) on which an analytic texture is sampled; default the finer of a 256th
         of its shortest period and a 32nd of r (a 16th of each over a surface, and finer, by the
-        factors ``haptex.surfaces.REFINE``, while some cell beside a kink cannot be
-        branched). A sampled texture keeps its own grid unless ``spacing`` is given: then it is
-        resampled onto that grid by its own spline (what a refusal for work suggests for a fine
-        map and a large ball).
+        factors ``haptex.surfaces.REFINE`` up to ``REFINE_SAMPLES`` samples, while some cell
+        beside a kink cannot be branched). A sampled texture keeps its own grid unless
+        ``spacing`` is given: then it is resampled onto that grid by its own spline (what a
+        refusal for work suggests for a fine map and a large ball).
 
     Returns
     -------

@@ -87,8 +87,17 @@ class Surface(Texture):
         best = None
         for k, factor in enumerate(REFINE if spacing is None and not isinstance(self, SampledSurface) else (None,)):
             sp = spacing if factor is None or k == 0 else factor * _default_spacing(self, r)
-            x, y, h, periodic, source = _surface_grid(self, r, sp)
-            hf, grads, edges, kinks, branches = _contact_map(self, x, y, h, r, periodic)
+            if k > 0:
+                cell = self.cell
+                if math.ceil(cell[0] / sp) * math.ceil(cell[1] / sp) > REFINE_SAMPLES:
+                    break
+            try:
+                x, y, h, periodic, source = _surface_grid(self, r, sp)
+                hf, grads, edges, kinks, branches = _contact_map(self, x, y, h, r, periodic)
+            except ParameterError:
+                if k == 0:
+                    raise
+                break  # (a finer grid past the dilation's work: the coarser one stands)
             out = SampledSurface(x, y, hf, periodic=periodic, gradients=grads,
                                  source=f"{source} felt by a ball of r = {r * 1e3:g} mm")
             out._edges = edges
@@ -1608,6 +1617,11 @@ every one of 1.05, 1.08, 1.1, ..., 1.3 rho, within 0.9 % of the brute-force path
 constructions, 0.3-0.8 s there)."""
 
 
+REFINE_SAMPLES = 128 * 128
+"""The largest grid (samples over the cell) a refined felt map is made on (chosen: the
+egg-crate's bowls need 66 x 66; a rough surface felt on a 400 x 400 grid took 200 s once)."""
+
+
 def _default_spacing(texture, r):
     from .probe import _spacing
 
@@ -1769,7 +1783,8 @@ def _contact_map(texture, x, y, h, r, periodic):
     BRANCH_JUMP intervals apart (the ball bridging a trough), as on a profile; the cells beside
     it are branched. Where a branch followed to a grid point stands higher than the contact the
     point's own search found (two rim contacts the grid's arg-max could not tell apart), that is
-    the point's contact, and the edges and branches are made once more."""
+    the point's contact, and the edges and branches are made once more (what was followed at or
+    from other points kept, :func:`_forget`)."""
     dx, dy = float(x[1] - x[0]), float(y[1] - y[0])
     from .probe import _grid_contacts
 
@@ -1793,17 +1808,38 @@ def _contact_map(texture, x, y, h, r, periodic):
     keep = best > gu  # never below the grid's own maximum
     u = np.where(keep[..., None], u0, u)
     c = np.where(keep, best, gu) - r
+    cache = {}  # (the branches followed, kept for the second pass where their points did not move)
     for _again in range(2):  # (once more where a branch found a grid point's higher contact)
-        out = _contact_edges(texture, x, y, P, u, c, r, rim, periodic)
+        out = _contact_edges(texture, x, y, P, u, c, r, rim, periodic, cache)
         if out[-1] is None:
             break
         node, ub, val = out[-1]
         u.reshape(-1, 2)[node] = ub
         c.ravel()[node] = val
+        _forget(cache, node, (nx, ny))
     return out[:-1]
 
 
-def _contact_edges(texture, x, y, P, u, c, r, rim, periodic):
+def _forget(cache, node, shape):
+    """Drop from :func:`_branch_patches`' cache what was followed at or from the grid points
+    ``node`` (flat indices), whose contacts have changed."""
+    known = cache.get("known")
+    if known is None:
+        return
+    nx, ny = shape
+    W = 2 * BRANCH_REACH + 1
+    g = known["key"] // (W * W)
+    sa = (known["key"] // W) % W - BRANCH_REACH
+    sb = known["key"] % W - BRANCH_REACH
+    src = ((g // ny + sa) % nx) * ny + (g % ny + sb) % ny
+    stay = ~(np.isin(g, node) | np.isin(src, node))
+    for name in known:
+        known[name] = known[name][stay]
+    for k in np.asarray(node).tolist():
+        cache["reps"].pop(int(k), None)
+
+
+def _contact_edges(texture, x, y, P, u, c, r, rim, periodic, cache=None):
     """The rest of :func:`_contact_map` from the contacts u (nx, ny, 2) and the path's heights
     c (nx, ny): (c, gradients, (ex, ey, twist), kinks, branches, better), ``better`` the grid
     points (flat indices, offsets, heights) where a branch stands higher than c, or None."""
@@ -1847,7 +1883,7 @@ def _contact_edges(texture, x, y, P, u, c, r, rim, periodic):
         kinks.append(np.column_stack([mid, jump_]))
     twist = _twist(grads, dx, dy, periodic)
     twist[flat] = 0.0  # (no twist beside a kink: its central differences straddle the jump)
-    branches, better = _branch_patches(texture, x, y, u, grads, twist, r, rim, periodic, c, ex, ey)
+    branches, better = _branch_patches(texture, x, y, u, grads, twist, r, rim, periodic, c, ex, ey, cache)
     return c, grads, (ex, ey, twist), (np.concatenate(kinks) if kinks else np.zeros((0, 3))), branches, better
 
 
@@ -1873,7 +1909,7 @@ BRANCH_ROUNDS = 6
 pass each other their branches (chosen; measured: two suffice on the egg-crate's bowls)."""
 
 
-def _branch_patches(texture, x, y, u, grads, twist, r, rim, periodic, c, ex, ey):
+def _branch_patches(texture, x, y, u, grads, twist, r, rim, periodic, c, ex, ey, cache=None):
     """The branched cells of a felt map (``JOINS_BRANCHED``): where two corners' contacts lie
     more than BRANCH_JUMP intervals apart, the ball's path is the maximum of smooth branches,
     one a contact (the contact followed continuously as the ball moves). A cell's branches
@@ -1919,8 +1955,10 @@ def _branch_patches(texture, x, y, u, grads, twist, r, rim, periodic, c, ex, ey)
     m = bi.size
     W = 2 * BRANCH_REACH + 1
     tol = 1e-8 * min(dx, dy)  # (the refinement leaves a contact's height within ~1e-13 of a 0.1 mm cell)
-    known = {"key": np.zeros(0, dtype=np.int64), "at": np.zeros(0, dtype=bool), "val": np.zeros(0),
-             "G": np.zeros((0, 2)), "U": np.zeros((0, 2)), "T": np.zeros(0)}
+    cache = {} if cache is None else cache  # (a caller's: what follow() found, for its next call)
+    known = cache.setdefault("known", {"key": np.zeros(0, dtype=np.int64), "at": np.zeros(0, dtype=bool),
+                                       "val": np.zeros(0), "G": np.zeros((0, 2)), "U": np.zeros((0, 2)),
+                                       "T": np.zeros(0)})
 
     def follow(ni, nj, sa, sb):  # the branch of the contact of grid point (ni + sa, nj + sb) at (ni, nj)
         si, sj = (ni + sa) % nx, (nj + sb) % ny
@@ -1970,7 +2008,7 @@ def _branch_patches(texture, x, y, u, grads, twist, r, rim, periodic, c, ex, ey)
             T[inner] = _path_twist(texture, p0[inner], ub[inner], r)
         return at, val, G, ub, T
 
-    reps = {}  # grid point -> the contacts followed there other than its own: (offset, value, gradient)
+    reps = cache.setdefault("reps", {})  # grid point -> the contacts followed there but its own
     same = 1e-4 * min(dx, dy)  # (two contacts closer than that are one, followed to within 1e-6)
 
     def corner_data(ni, nj, sa, sb):  # follow(), each (grid point, source) computed once
