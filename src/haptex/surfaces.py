@@ -1614,7 +1614,7 @@ the first without one is kept, else the one with the fewest (chosen: on the egg-
 from 1.05 to 1.3 times their radius whether a cell branches depends on where the grid's points
 fall, e.g. at 1.2 rho 58 points a period did and 51 and 100 did not; these five grids branch
 every one of 1.05, 1.08, 1.1, ..., 1.3 rho, within 0.9 % of the brute-force path; at most 5
-constructions, 0.3-0.8 s there)."""
+constructions, 0.1-1.3 s there)."""
 
 
 REFINE_SAMPLES = 128 * 128
