@@ -486,6 +486,24 @@ def test_a_ball_too_wide_for_a_fine_map_names_a_spacing_that_works(monkeypatch):
     assert felt.x[1] - felt.x[0] == pytest.approx(s * 1.01) and "resampled" in felt.source
 
 
+def test_a_dilation_too_large_for_an_analytic_surface_is_refused_before_it_is_sampled(monkeypatch):
+    # the work (samples x the ball's grid points) is known from the spacing and the radius: a
+    # rough analytic surface felt by a 5 um ball (1600 x 1600 samples, 797 points) took 39 s to
+    # be refused, the texture evaluated at 2.56 million points first. Here, with the cap lowered
+    # to 1e5, the refusal comes with the texture never evaluated
+    import haptex.probe
+
+    monkeypatch.setattr(haptex.probe, "MAX_DILATION_WORK", 1e5)
+    tex = hx.SumOfGratings.egg_crate(0.1e-3, 2e-3)
+
+    def never(*args, **kwargs):
+        raise AssertionError("the texture was sampled before the work was checked")
+
+    monkeypatch.setattr(tex, "height_at", never)
+    with pytest.raises(ParameterError, match=r"^tip_radius = 0.0005 is not allowed here: .* spacing=S\) with S >= "):
+        tex.felt_by(0.5e-3)
+
+
 # ---- the instrument's own tip (issue 58) ----------------------------------------------
 def _sine_map(A, period, n=4096, periods=8):
     x = np.arange(n) * (periods * period / n)

@@ -107,11 +107,8 @@ def _grid_contacts(h: np.ndarray, steps, r: float, periodic: bool):
     periodic grid, the edge samples repeated beyond another), shape h.shape, and the maximising
     offset in samples, one array of h.shape an axis (the first offset in C order on a tie).
     Refused past :data:`MAX_DILATION_WORK`."""
-    import itertools
-
     half = [int(np.floor(r / d)) for d in steps]
-    offs = [k for k in itertools.product(*(range(-m, m + 1) for m in half))
-            if sum((a * d) ** 2 for a, d in zip(k, steps)) <= r * r]
+    offs = _footprint(r, steps)
     _check_work(h.size, len(offs), steps, "tip_radius", r)
     hp = np.pad(h, [(m, m) for m in half], mode="wrap" if periodic else "edge")
     best = np.full(h.shape, -np.inf)
@@ -133,6 +130,15 @@ def _grid_contacts(h: np.ndarray, steps, r: float, periodic: bool):
             np.copyto(w, i, where=better)
     table = np.array(offs, dtype=np.int64).reshape(len(offs), len(steps))
     return best, [table[which, axis] for axis in range(len(steps))]
+
+
+def _footprint(r: float, steps) -> list:
+    """The grid offsets (tuples of samples, one an axis of ``steps``) inside a ball of radius r."""
+    import itertools
+
+    half = [int(np.floor(r / d)) for d in steps]
+    return [k for k in itertools.product(*(range(-m, m + 1) for m in half))
+            if sum((a * d) ** 2 for a, d in zip(k, steps)) <= r * r]
 
 
 def _check_work(samples: int, footprint: int, steps, name: str, value) -> None:
