@@ -1652,17 +1652,15 @@ def _on_rim(q, x, y):
             | (q[..., 1] >= y[-1] - tol))
 
 
-def _path_gradient(texture, P, u, r, rect):
+def _path_gradient(texture, P, u, r, rim):
     """The gradient (..., 2) of the ball's centre path at points P (..., 2) whose contacts are at
     offsets u (..., 2): the envelope theorem on c(p) = max over q of H(q) + sqrt(r^2 - |q - p|^2),
-    the set of q (the disc, and the sampled rectangle ``rect`` = (x, y) of a bounded map) not
-    moving with p, gives grad c = u / sqrt(r^2 - |u|^2); at a contact inside the rectangle that is
-    grad H there (the contact's own slope, which is evaluated), on its rim only the formula holds."""
+    the set of q (the disc, and a bounded map's sampled rectangle) not moving with p, gives
+    grad c = u / sqrt(r^2 - |u|^2); at a contact inside the rectangle that is grad H there (the
+    contact's own slope, which is evaluated), where ``rim`` (..., bool; None on a periodic map)
+    says it lies on its rim only the formula holds."""
     grads = texture.gradient(P + u)
-    if rect is None:
-        return grads
-    rim = _on_rim(P + u, *rect)
-    if rim.any():
+    if rim is not None and rim.any():
         ur = u[rim]
         grads[rim] = ur / np.sqrt(np.maximum(r * r - np.einsum("ij,ij->i", ur, ur), 1e-300))[:, None]
     return grads
@@ -1842,8 +1840,8 @@ def _contact_edges(texture, x, y, P, u, c, r, rim, periodic, cache=None):
     c (nx, ny): (c, gradients, (ex, ey, twist), kinks, branches, better), ``better`` the grid
     points (flat indices, offsets, heights) where a branch stands higher than c, or None."""
     dx, dy = float(x[1] - x[0]), float(y[1] - y[0])
-    grads = _path_gradient(texture, P, u, r, None if periodic else (x, y))
     on_rim = None if periodic else _on_rim(P + u, x, y)
+    grads = _path_gradient(texture, P, u, r, on_rim)
     # the edges: kinked where the contact jumps by more than three intervals
     step_x, step_y = np.array([dx, 0.0]), np.array([0.0, dy])
     ex, ey = _node_edges(grads, periodic)
@@ -1967,24 +1965,27 @@ def _branch_patches(texture, x, y, u, grads, twist, r, rim, periodic, c, ex, ey,
         span = np.maximum(np.maximum(np.abs(sa), np.abs(sb)), 1)[:, None] * np.where(own_k, 1.0, BRANCH_JUMP)[:, None]
         lo, hi = u0 - span * [dx, dy], u0 + span * [dx, dy]
         if not periodic:  # (the contact stays on the sampled rectangle)
-            lo = np.maximum(lo, np.column_stack([x[0] - p0[:, 0], y[0] - p0[:, 1]]))
-            hi = np.minimum(hi, np.column_stack([x[-1] - p0[:, 0], y[-1] - p0[:, 1]]))
+            map_lo = np.column_stack([x[0] - p0[:, 0], y[0] - p0[:, 1]])
+            map_hi = np.column_stack([x[-1] - p0[:, 0], y[-1] - p0[:, 1]])
+            lo, hi = np.maximum(lo, map_lo), np.minimum(hi, map_hi)
             u0 = np.clip(u0, lo, hi)
         ub, gb = _refine_contacts(texture, p0, u0, lo, hi, r, rim, 1e-6 * min(dx, dy))
         edge = 1e-6 * min(dx, dy)
         # inside its box, or on the map's own edge (the ball resting on the sampled rectangle's
         # rim: a contact as much as an inner one)
-        wall_lo, wall_hi = ub <= lo + edge, ub >= hi - edge
+        at_lo, at_hi = ub <= lo + edge, ub >= hi - edge
+        on_map_rim = None
+        wall = at_lo | at_hi
         if not periodic:
-            wall_lo &= lo > np.column_stack([x[0] - p0[:, 0], y[0] - p0[:, 1]]) + edge
-            wall_hi &= hi < np.column_stack([x[-1] - p0[:, 0], y[-1] - p0[:, 1]]) - edge
-        inside = ~np.any(wall_lo | wall_hi, axis=1) & (np.einsum("ij,ij->i", ub, ub) < (rim * (1 - 1e-6)) ** 2)
+            wall = (at_lo & (lo > map_lo + edge)) | (at_hi & (hi < map_hi - edge))
+            on_map_rim = np.any((at_lo & ~(lo > map_lo + edge)) | (at_hi & ~(hi < map_hi - edge)), axis=1)
+        inside = ~np.any(wall, axis=1) & (np.einsum("ij,ij->i", ub, ub) < (rim * (1 - 1e-6)) ** 2)
         at = own_k | inside
         # (the source's tangent plane where the branch is not there, never above the path's own
         # height there: the branches' highest is the path at every grid point)
         gs = grads[si, sj]
         val = np.where(at, gb - r, np.minimum(c[si, sj] - np.einsum("ij,ij->i", gs, step), c[ni, nj]))
-        G = np.where(at[:, None], _path_gradient(texture, p0, ub, r, None if periodic else (x, y)), gs)
+        G = np.where(at[:, None], _path_gradient(texture, p0, ub, r, on_map_rim), gs)
         # one contact, one set of data: a branch that ends on the grid point's own contact is
         # the path there (the node's height and gradient, as the unbranched patches read them),
         # and copies of another contact reached from different sources are the first's (each
@@ -2001,7 +2002,7 @@ def _branch_patches(texture, x, y, u, grads, twist, r, rim, periodic, c, ex, ey,
             else:
                 alike.append((ub[k].copy(), float(val[k]), G[k].copy()))
         T = np.full(at.size, np.nan)  # the branch's own twist where the contact is inside the map
-        inner = at & ~np.any((ub <= lo + edge) | (ub >= hi - edge), axis=1)
+        inner = at & ~np.any(at_lo | at_hi, axis=1)
         if inner.any():
             T[inner] = _path_twist(texture, p0[inner], ub[inner], r)
         return at, val, G, ub, T
