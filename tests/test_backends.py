@@ -497,6 +497,48 @@ def test_the_native_thread_speaks_the_inverse3s_serial_exchanges():
     emu.stop()
 
 
+@pytest.mark.skipif(not os.path.exists("/dev/ptmx"), reason="no pseudo-terminals")
+def test_the_core_opens_the_serial_port_raw_as_posix_defines_raw(tmp_path):
+    # issue 66: the native thread's port is opened by the core itself (hx_haply_open), the one
+    # function its Windows build runs under Wine on a COM port. Raw as POSIX's termios defines it
+    # (the tty module's setraw clears the same translation, echo and canonical bits): every byte
+    # value crosses unchanged (a cooked terminal turns CR into LF and would eat 0x03 and 0x7F);
+    # a path that is not a terminal is the system's ENOTTY, a missing one ENOENT.
+    import errno
+    import pty
+    import termios
+
+    from haptex.core import _ext
+
+    master, slave = pty.openpty()
+    try:
+        port = _ext.haply_open(os.ttyname(slave))
+        try:
+            iflag, oflag, cflag, lflag, _, _, cc = termios.tcgetattr(port)
+            assert not iflag & (termios.ICRNL | termios.INLCR | termios.IGNCR | termios.ISTRIP | termios.IXON)
+            assert not oflag & termios.OPOST and not lflag & (termios.ECHO | termios.ICANON | termios.ISIG)
+            assert cflag & termios.CSIZE == termios.CS8 and not cflag & termios.PARENB
+            assert (cc[termios.VMIN], cc[termios.VTIME]) == (1, 0)
+            sent = bytes(range(256))
+            os.write(master, sent)
+            got = b""
+            while len(got) < len(sent):
+                got += os.read(port, len(sent) - len(got))
+            assert got == sent
+        finally:
+            _ext.haply_close(port)
+    finally:
+        os.close(master)
+        os.close(slave)
+    (tmp_path / "file").write_text("")
+    with pytest.raises(OSError) as e:
+        _ext.haply_open(str(tmp_path / "file"))
+    assert e.value.errno == errno.ENOTTY
+    with pytest.raises(OSError) as e:
+        _ext.haply_open(str(tmp_path / "nothing"))
+    assert e.value.errno == errno.ENOENT
+
+
 @pytest.mark.long  # (.ci/run's long set: waits out the 1 s wakeup of a silent port)
 def test_a_wrong_serial_port_is_one_line_naming_what_to_check(tmp_path, capfd, monkeypatch):
     import os

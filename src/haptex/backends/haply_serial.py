@@ -10,7 +10,8 @@ is made, as the Inverse Service's is.
 
 The run itself, :meth:`HaplySerialBackend.drive_native`, goes through the C core's native servo
 thread (``hx_thread.c``), which speaks the same exchanges on the port itself (``hx_haply.c``):
-the package lets go of the port, the port is opened raw, the C core wakes the device, and each
+the package lets go of the port, the C core opens it raw (``hx_haply_open``: a POSIX terminal
+by its path, a Windows COM port by name, one function for both), wakes the device, and each
 tick's force command and its answer are one exchange in C with no Python and no GIL, paced by
 the device's answers. The package stays the backend's way in and out (the wakeup's info, the
 probe of the rate, :meth:`~HaplySerialBackend.open` and :meth:`~HaplySerialBackend.close`).
@@ -193,8 +194,9 @@ class HaplySerialBackend:
         model_as(self, "haply-serial", preset, probed_period(stamps, f"haply-serial:{port}"))
         self.realtime = True
         self._last = None
-        self.native = os.name == "posix"
-        """The C core's servo thread can drive it (:meth:`drive_native`; POSIX serial ports)."""
+        self.native = True
+        """The C core's servo thread can drive it (:meth:`drive_native`): the port opened by the
+        core's ``hx_haply_open`` on every host (POSIX terminals; Windows COM ports)."""
 
     def _connect(self) -> None:
         """Open the port and wake the device up (the package sends forces only after that)."""
@@ -253,8 +255,9 @@ class HaplySerialBackend:
     def drive_native(self, servo, core, n_ticks: int, on_tick=None, priority: int = PRIORITY,
                      keep_awake: bool = False) -> None:
         """Run ``n_ticks`` ticks in the C core's servo thread, which speaks the Inverse3's serial
-        exchanges itself (``hx_haply.c``): the package lets go of the port, the port is opened
-        raw, the device woken and its state read with zero force, then each tick's force command
+        exchanges itself (``hx_haply.c``): the package lets go of the port, the core opens it
+        raw (``hx_haply_open``: a POSIX terminal by its path, or a Windows COM port by name), the
+        device woken and its state read with zero force, then each tick's force command
         (float32, rounded towards zero) and its answer are one exchange in C with no GIL, paced
         by the device's answers. The thread sends zero force at its end; this thread waits
         (:func:`haptex.backends.wait_native`).
@@ -270,8 +273,8 @@ class HaplySerialBackend:
         on_tick : callable, optional
             The dashboard, ``on_tick(k, servo)`` about every 50 ms.
         priority : int, optional
-            The SCHED_FIFO priority to ask for (0: a plain thread), default
-            :data:`haptex.backends.PRIORITY`.
+            The SCHED_FIFO priority to ask for (0: a plain thread; on Windows any other value
+            asks for time-critical priority), default :data:`haptex.backends.PRIORITY`.
         keep_awake : bool, optional
             Pin the thread to one core and keep that core from halting with a companion
             thread spinning below it (:class:`haptex.servo.ServoLoop`'s ``keep_awake``);
@@ -286,27 +289,22 @@ class HaplySerialBackend:
             the wakeup or a force command within the timeout, or answers with another message
             (zero force sent, the thread ended; one line naming which).
         """
-        import termios
-        import tty
-
         from ..core import _ext
 
         if self._dev is None:
             raise DeviceError(f"device = {self.name!r} is not open: open it first")
         self._disconnect()  # (the package closes the port with its last reference)
         try:
-            fd = os.open(self.port, os.O_RDWR | os.O_NOCTTY)
+            port = _ext.haply_open(self.port)
         except OSError as exc:
-            raise DeviceError(f"device = {self.name!r} went away: {self.port} cannot be reopened ({exc.strerror})") \
-                from None
+            raise DeviceError(f"device = {self.name!r} went away: {self.port} cannot be reopened "
+                              f"({exc.strerror or exc})") from None
         try:
             try:
-                tty.setraw(fd)
-                termios.tcflush(fd, termios.TCIOFLUSH)
-                _ext.haply_wakeup(fd, WAKEUP_TIMEOUT)
-                servo.start(core, ("haply", fd, self.timeout), int(n_ticks), False, int(priority), True, 0.0,
+                _ext.haply_wakeup(port, WAKEUP_TIMEOUT)
+                servo.start(core, ("haply", port, self.timeout), int(n_ticks), False, int(priority), True, 0.0,
                             bool(keep_awake))
-            except (OSError, termios.error) as exc:
+            except OSError as exc:
                 why = exc.args[-1] if exc.args else exc
                 raise DeviceError(f"device = {self.name!r} stopped answering: {why}; no force was sent") from None
             try:
@@ -324,7 +322,7 @@ class HaplySerialBackend:
         finally:
             servo.stop()  # (the thread has ended here, but for a Ctrl-C it outlived: never close its port under it)
             servo.join()
-            os.close(fd)
+            _ext.haply_close(port)
 
     def sample(self) -> Sample:
         """The Inverse3's state in its last answer: position (m), velocity (m/s).

@@ -1485,7 +1485,7 @@ PyDoc_STRVAR(servo_start_doc,
              "start(renderer, device, n_ticks, paced, priority, lock_memory, spin, keep_awake)\n--\n\n"
              "Start the native servo thread: n_ticks ticks of renderer (a Renderer core) under the rules, on device: a "
              "Plant (the simulated device), ('dhd', dhdGetPosition's address, dhdSetForce's address, device id) "
-             "(3-D) or ('haply', fd, timeout): an Inverse3 woken on the raw serial port fd, answering each force "
+             "(3-D) or ('haply', port, timeout): an Inverse3 woken on the serial port haply_open opened, answering each force "
              "command within timeout s (3-D; a first zero-force exchange reads its state before the thread "
              "starts, OSError if it fails). paced: one tick a period on the clock (else as fast as it goes); priority: SCHED_FIFO priority "
              "to ask for (0: none); lock_memory: mlockall for the run where allowed; spin (s): sleep until this long "
@@ -1552,13 +1552,13 @@ static PyObject *Servo_start(ServoObject *self, PyObject *const *args, Py_ssize_
                PyUnicode_Check(PyTuple_GET_ITEM(args[1], 0)) &&
                PyUnicode_CompareWithASCIIString(PyTuple_GET_ITEM(args[1], 0), "haply") == 0) {
         const double zero[3] = {0.0, 0.0, 0.0};
-        long fd = PyLong_AsLong(PyTuple_GET_ITEM(args[1], 1));
+        Py_ssize_t fd = PyLong_AsSsize_t(PyTuple_GET_ITEM(args[1], 1));
         double timeout = PyFloat_AsDouble(PyTuple_GET_ITEM(args[1], 2));
         int xrc;
         if (PyErr_Occurred())
             return NULL;
-        if (fd < 0 || fd > 1L << 30 || !(timeout > 0.0 && timeout <= 1.0)) {
-            PyErr_SetString(PyExc_ValueError, "haply: a file descriptor >= 0 and a timeout in (0, 1] s");
+        if (fd < 0 || !(timeout > 0.0 && timeout <= 1.0)) {
+            PyErr_SetString(PyExc_ValueError, "haply: a port (haply_open's) >= 0 and a timeout in (0, 1] s");
             return NULL;
         }
         memset(&self->haply, 0, sizeof self->haply);
@@ -1574,7 +1574,7 @@ static PyObject *Servo_start(ServoObject *self, PyObject *const *args, Py_ssize_
         self->th.io.ctx = &self->haply;
     } else {
         PyErr_SetString(PyExc_TypeError,
-                        "device must be a Plant, ('dhd', get_position, set_force, id) or ('haply', fd, timeout) (3-D)");
+                        "device must be a Plant, ('dhd', get_position, set_force, id) or ('haply', port, timeout) (3-D)");
         return NULL;
     }
     self->th.servo = &self->s;
@@ -2466,7 +2466,7 @@ static PyObject *presliding_plane(PyObject *self, PyObject *const *args, Py_ssiz
 
 static int lsf_valid(const double *w, int n);
 
-PyDoc_STRVAR(haply_wakeup_doc, "haply_wakeup(fd, timeout)\n--\n\nWake the Inverse3 on the raw serial port fd "
+PyDoc_STRVAR(haply_wakeup_doc, "haply_wakeup(port, timeout)\n--\n\nWake the Inverse3 on the serial port haply_open opened "
                                "(hx_haply.c): 0x0A sent, and the 21 bytes after its 0x0B answer returned (id uint16, "
                                "model, hardware, firmware uint8, a 16-byte UUID); OSError naming the failure when no "
                                "answer comes within timeout s (0-10) or it is not the wakeup's. The GIL is released.");
@@ -2475,20 +2475,20 @@ static PyObject *haply_wakeup(PyObject *self, PyObject *const *args, Py_ssize_t 
 {
     hx_haply h;
     unsigned char info[21];
-    long fd;
+    Py_ssize_t fd;
     double timeout;
     int rc;
     (void)self;
     if (nargs != 2) {
-        PyErr_SetString(PyExc_TypeError, "haply_wakeup takes fd, timeout");
+        PyErr_SetString(PyExc_TypeError, "haply_wakeup takes port, timeout");
         return NULL;
     }
-    fd = PyLong_AsLong(args[0]);
+    fd = PyLong_AsSsize_t(args[0]);
     timeout = PyFloat_AsDouble(args[1]);
     if (PyErr_Occurred())
         return NULL;
-    if (fd < 0 || fd > 1L << 30 || !(timeout > 0.0 && timeout <= 10.0)) {
-        PyErr_SetString(PyExc_ValueError, "haply_wakeup: a file descriptor >= 0 and a timeout in (0, 10] s");
+    if (fd < 0 || !(timeout > 0.0 && timeout <= 10.0)) {
+        PyErr_SetString(PyExc_ValueError, "haply_wakeup: a port (haply_open's) >= 0 and a timeout in (0, 10] s");
         return NULL;
     }
     memset(&h, 0, sizeof h);
@@ -2499,6 +2499,50 @@ static PyObject *haply_wakeup(PyObject *self, PyObject *const *args, Py_ssize_t 
     if (rc != 0)
         return PyErr_Format(PyExc_OSError, "haply: the wakeup failed (%s)", haply_error(rc));
     return PyBytes_FromStringAndSize((const char *)info, sizeof info);
+}
+
+PyDoc_STRVAR(haply_open_doc, "haply_open(name)\n--\n\nOpen the Inverse3's serial port for haply_wakeup and the servo "
+                             "thread (hx_haply.c's hx_haply_open): on POSIX a terminal by its path, raw, buffers "
+                             "flushed; on Windows a COM port by name ('COM3'), raw 8N1, no flow control. Returns the "
+                             "port (an int: a file descriptor, or a HANDLE); OSError (the system's reason) if it "
+                             "cannot be opened or is not a serial port. haply_close(port) closes it.");
+
+static PyObject *haply_open(PyObject *self, PyObject *arg)
+{
+    const char *name;
+    intptr_t port = -1;
+    int rc;
+    (void)self;
+    name = PyUnicode_AsUTF8(arg);
+    if (name == NULL)
+        return NULL;
+    Py_BEGIN_ALLOW_THREADS
+    rc = hx_haply_open(name, &port);
+    Py_END_ALLOW_THREADS
+    if (rc != 0) {
+#ifdef _WIN32
+        return PyErr_SetFromWindowsErr(0);
+#else
+        return PyErr_SetFromErrno(PyExc_OSError);
+#endif
+    }
+    return PyLong_FromSsize_t((Py_ssize_t)port);
+}
+
+PyDoc_STRVAR(haply_close_doc, "haply_close(port)\n--\n\nClose a port haply_open opened.");
+
+static PyObject *haply_close(PyObject *self, PyObject *arg)
+{
+    Py_ssize_t port = PyLong_AsSsize_t(arg);
+    (void)self;
+    if (port == -1 && PyErr_Occurred())
+        return NULL;
+    if (port < 0) {
+        PyErr_SetString(PyExc_ValueError, "haply_close: a port haply_open returned");
+        return NULL;
+    }
+    hx_haply_close((intptr_t)port);
+    Py_RETURN_NONE;
 }
 
 PyDoc_STRVAR(vibration_doc, "vibration(v, speed, force, out, seed)\n--\n\nThe data-driven vibration (m/s^2) of "
@@ -2636,6 +2680,8 @@ static PyMethodDef methods[] = {
     {"field", (PyCFunction)(void (*)(void))field, METH_FASTCALL, field_doc},
     {"vibration", (PyCFunction)(void (*)(void))vibration, METH_FASTCALL, vibration_doc},
     {"haply_wakeup", (PyCFunction)(void (*)(void))haply_wakeup, METH_FASTCALL, haply_wakeup_doc},
+    {"haply_open", (PyCFunction)haply_open, METH_O, haply_open_doc},
+    {"haply_close", (PyCFunction)haply_close, METH_O, haply_close_doc},
     {"normal", (PyCFunction)(void (*)(void))normal, METH_FASTCALL, normal_doc},
     {"lsf_to_poly", (PyCFunction)(void (*)(void))lsf_to_poly, METH_FASTCALL, lsf_to_poly_doc},
     {"texture", (PyCFunction)(void (*)(void))texture, METH_FASTCALL, texture_doc},

@@ -15,8 +15,10 @@
  * and send zero). Forces are rounded towards zero to float32 (never larger than asked). The
  * port is the caller's (opened raw); nothing here allocates.
  *
- * On Windows the port is a COM port's HANDLE (hx_haply_open: CreateFile, 8N1, no flow control,
- * buffers purged): writes by WriteFile, reads by ReadFile under COMMTIMEOUTS that return at the
+ * hx_haply_open opens the port the same way on every host: on POSIX a terminal device by its
+ * path, raw (cfmakeraw: 8 bits, no parity, no echo or translation; the tty module's setraw does
+ * the same), buffers flushed; on Windows a COM port's HANDLE (CreateFile, 8N1, no flow control,
+ * buffers purged), whose writes are by WriteFile, reads by ReadFile under COMMTIMEOUTS that return at the
  * first byte there is or after the time left to the deadline (the same deadline as poll's).
  */
 #define _GNU_SOURCE
@@ -29,7 +31,9 @@
 #ifdef _WIN32
 #include <windows.h>
 #else
+#include <fcntl.h>
 #include <poll.h>
+#include <termios.h>
 #include <unistd.h>
 #endif
 
@@ -145,6 +149,33 @@ int hx_haply_open(const char *name, intptr_t *port)
 
 void hx_haply_close(intptr_t port) { CloseHandle((HANDLE)port); }
 #else
+int hx_haply_open(const char *name, intptr_t *port)
+{
+    struct termios t;
+    int fd = open(name, O_RDWR | O_NOCTTY | O_CLOEXEC);
+    if (fd < 0)
+        return HX_HAPLY_EREAD;
+    if (tcgetattr(fd, &t) != 0) { /* (not a terminal: ENOTTY) */
+        int e = errno;
+        close(fd);
+        errno = e;
+        return HX_HAPLY_EREAD;
+    }
+    cfmakeraw(&t); /* 8 bits, no parity, no echo, no translation: the wire's bytes as they are */
+    t.c_cc[VMIN] = 1;
+    t.c_cc[VTIME] = 0;
+    if (tcsetattr(fd, TCSANOW, &t) != 0 || tcflush(fd, TCIOFLUSH) != 0) {
+        int e = errno;
+        close(fd);
+        errno = e;
+        return HX_HAPLY_EREAD;
+    }
+    *port = (intptr_t)fd;
+    return 0;
+}
+
+void hx_haply_close(intptr_t port) { close((int)port); }
+
 /* write all n bytes, or fail */
 static int send_all(intptr_t port, const unsigned char *b, size_t n)
 {

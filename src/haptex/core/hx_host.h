@@ -74,12 +74,12 @@ int hx_haply_exchange(hx_haply *h, const double f[3]);
 /* hx_io's read and write over an hx_haply (ctx): the last answer's position; an exchange. */
 int hx_haply_read(void *ctx, double p[3]);
 int hx_haply_write(void *ctx, const double f[3]);
-#ifdef _WIN32
-/* Open a COM port by name ("COM3") for hx_haply: raw 8N1, no flow control, buffers purged;
- * 0 and its HANDLE in port, or HX_HAPLY_EREAD. */
+/* Open the Inverse3's port for hx_haply: 0 and the port in *port, or HX_HAPLY_EREAD (errno,
+ * or on Windows GetLastError, says why). POSIX: a terminal by its path ("/dev/ttyACM0"), raw
+ * (cfmakeraw), buffers flushed, a file descriptor. Windows: a COM port by name ("COM3"), raw
+ * 8N1, no flow control, buffers purged, its HANDLE. hx_haply_close closes it. */
 int hx_haply_open(const char *name, intptr_t *port);
 void hx_haply_close(intptr_t port);
-#endif
 
 /* ---- the native servo thread ---------------------------------------------------------- */
 
