@@ -11,6 +11,7 @@ where they fail."""
 import os
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -208,6 +209,41 @@ def test_the_inverse3s_exchange_crosses_a_windows_com_port_under_wine(tmp_path, 
         assert np.array_equal(np.float32([float(x), float(y), float(z)]), np.float32(emu.answered))
     finally:
         emu.stop()
+
+
+try:  # zig's clang with Apple's headers and libSystem's stubs, from PyPI (.ci/run installs it)
+    import ziglang  # noqa: F401
+
+    ZIG = [sys.executable, "-m", "ziglang", "cc"]
+except ModuleNotFoundError:
+    ZIG = None
+
+
+@pytest.mark.skipif(ZIG is None and os.environ.get("CI") != "true", reason="no ziglang (pip install ziglang)")
+def test_the_servo_thread_and_the_serial_exchange_build_for_macos(tmp_path):
+    # issue 66: macOS's path of the host's C, built for Apple's two CPUs (zig's clang, -std=c99
+    # -pedantic -Werror, Apple's headers): the servo thread (a relative nanosleep, no
+    # clock_nanosleep there; THREAD_TIME_CONSTRAINT_POLICY where a priority is asked) and the
+    # Inverse3's serial port (hx_haply_open: termios' cfmakeraw). The Wine run's harness, an
+    # exported texture and the thread linked for arm64 macOS into a Mach-O executable. Built,
+    # never run: no Mac here (the firmware guide's 'Where it runs' says so).
+    assert ZIG is not None, "CI installs ziglang (.ci/run)"
+    flags = ["-std=c99", "-O2", "-Wall", "-Wextra", "-pedantic", "-Werror", "-I", str(hx.core.SOURCE_DIR)]
+    for target in ("x86_64-macos", "aarch64-macos"):
+        for name in ("hx_thread.c", "hx_haply.c"):
+            r = subprocess.run([*ZIG, "-target", target, *flags, "-c", "-o", str(tmp_path / f"{target}-{name}.o"),
+                                str(hx.core.SOURCE_DIR / name)], capture_output=True, text=True)
+            assert r.returncode == 0, f"{target} {name}:\n{r.stderr}"
+    export_c(hx.algorithm("A", hx.Sinusoid(A, L), K0), tmp_path, 5.0)
+    exe = tmp_path / "servo_thread"
+    r = subprocess.run([*ZIG, "-target", "aarch64-macos", *[f for f in flags if f != "-pedantic"], "-I", str(tmp_path),
+                        "-o", str(exe), str(HERE / "servo_thread.c"), *map(str, sorted(tmp_path.glob("*.c"))),
+                        str(hx.core.SOURCE_DIR / "hx_thread.c"), "-lm"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    # a Mach-O 64-bit executable for arm64 (Apple's <mach-o/loader.h>: MH_MAGIC_64 0xfeedfacf,
+    # CPU_TYPE_ARM64 0x0100000c, MH_EXECUTE 2; little-endian)
+    magic, cpu, _, filetype = np.frombuffer(exe.read_bytes()[:16], dtype="<u4")
+    assert (magic, cpu, filetype) == (0xFEEDFACF, 0x0100000C, 2)
 
 
 @needs_arm
