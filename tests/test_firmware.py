@@ -8,6 +8,7 @@ differ from glibc's by an ulp). .ci/run installs the toolchain (gcc-arm-none-eab
 libnewlib-arm-none-eabi, qemu-system-arm); where it is missing the tests skip, except under CI,
 where they fail."""
 
+import importlib.util
 import os
 import shutil
 import subprocess
@@ -211,12 +212,8 @@ def test_the_inverse3s_exchange_crosses_a_windows_com_port_under_wine(tmp_path, 
         emu.stop()
 
 
-try:  # zig's clang with Apple's headers and libSystem's stubs, from PyPI (.ci/run installs it)
-    import ziglang  # noqa: F401
-
-    ZIG = [sys.executable, "-m", "ziglang", "cc"]
-except ModuleNotFoundError:
-    ZIG = None
+# zig's clang with Apple's headers and libSystem's stubs, from PyPI (.ci/run installs it)
+ZIG = [sys.executable, "-m", "ziglang", "cc"] if importlib.util.find_spec("ziglang") else None
 
 
 @pytest.mark.skipif(ZIG is None and os.environ.get("CI") != "true", reason="no ziglang (pip install ziglang)")
