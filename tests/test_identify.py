@@ -113,8 +113,9 @@ def _oracle_log(m, b, fc, delta, D, T, prog, noise=0.0, seed=1, sub=400, kp=50.0
 
 
 def _program(T, seconds, kind, seed=0):
-    """4 s of force steps then a 0.3 N logarithmic chirp from 5 Hz to 0.2 f_s (scipy), or random
-    forces (numpy's normal through a 2nd-order Butterworth low-pass at 0.02 f_s, 0.5 N rms)."""
+    """4 s of force steps then a 0.3 N logarithmic chirp from 5 Hz to 0.2 f_s (scipy; to 20 Hz for
+    kind 'below 20 Hz'), or random forces (numpy's normal through a 2nd-order Butterworth
+    low-pass at 0.02 f_s, 0.5 N rms)."""
     from scipy.signal import chirp
 
     n = int(round(seconds / T))
@@ -131,7 +132,8 @@ def _program(T, seconds, kind, seed=0):
         sign, k = -sign, k + length
     out[int(0.4 * n):] = 0
     tc = np.arange(n - int(0.4 * n)) * T
-    out[int(0.4 * n):] = 0.3 * chirp(tc, 5.0, tc[-1], 0.2 / T, method="logarithmic")
+    top = 20.0 if kind == "below 20 Hz" else 0.2 / T
+    out[int(0.4 * n):] = 0.3 * chirp(tc, 5.0, tc[-1], top, method="logarithmic")
     return out
 
 
@@ -145,12 +147,16 @@ ORACLE_CASES = [  # issue 65: the cases haptex's own logs did not catch, and the
     # a light, barely damped handle under random forces: the true delay's screening fit stopped
     # far from its optimum (residual 1.4 mm against 1 µm) and the delay came back one off
     dict(m=0.05, b=0.1, fc=0.0, delta=0.0, D=0, T=1e-3, noise=0.0, kind="random"),
+    # a coarse encoder whose rounding the 0.2 s windows' free starts fit instead of the damping:
+    # +5.4 % at stop 74 (and +14 % on another program's seed); identify fits an encoder's log
+    # on 1 s windows too and keeps them where they follow the positions to the rounding: +0.3 %
+    dict(m=0.5, b=3.0, fc=0.2, delta=60e-6, D=0, T=1e-3, noise=1e-6, kind="steps+chirp"),
 ]
 
 
 # case 0 (1 kHz, steps and a chirp, an encoder, friction, delay 2) in the contributor's loop; the
 # others (4 kHz, random forces, the slow handles: 4-8 s each) after it, in .ci/run's long set
-@pytest.mark.parametrize("case", [0, *(pytest.param(k, marks=pytest.mark.long) for k in (1, 2, 3, 4))])
+@pytest.mark.parametrize("case", [0, *(pytest.param(k, marks=pytest.mark.long) for k in (1, 2, 3, 4, 5))])
 def test_identify_recovers_an_independent_simulators_device(case):
     # the truth is the independent simulator's (above), never haptex's step. Stop 62's
     # identification, on the first case: delay 4 for 2, damping +66 % (its model kept the
@@ -175,6 +181,24 @@ def test_identify_recovers_an_independent_simulators_device(case):
             # step at T/400 against the exact hold, 5e-5 of the mass on case 4), not a measurement's
             assert got == pytest.approx(want, rel=1e-3, abs=1e-4), name
     assert "runner-up" in " ".join(r.notes)
+
+
+@pytest.mark.long  # (the independent simulator at T/400 and two window lengths: 12 s)
+def test_a_delay_the_log_cannot_tell_is_said_and_the_figures_deviations_cover_it():
+    # the same handle and encoder as case 5 under forces below 20 Hz (the issue's "today's
+    # case"), where a period's delay barely shows under 60 um of rounding: on every 1 s window
+    # delays 0 and 1 fit within 1 % of each other. Stop 74 returned delay 1 as determined, the
+    # mass 4.9 and the damping 2.7 of its deviations from the independent simulator's truth.
+    # Now the delay is said undetermined, or exact; and each figure's deviation spans both
+    # delays' fits, so the truth lies within 3 of them whichever is returned.
+    m, b, fc, delta, D = 0.5, 3.0, 0.2, 60e-6, 0
+    t, p, f = _oracle_log(m, b, fc, delta, D, 1e-3, _program(1e-3, 10.0, "below 20 Hz"), noise=1e-6)
+    r = I.identify(time=t, position=p, force=f)
+    d = r.device
+    assert d.delay == D or "delay" in r.undetermined
+    for name, got, want in (("mass", d.mass[0, 0], m), ("damping", d.damping[0, 0], b),
+                            ("coulomb_friction", d.coulomb_friction, fc)):
+        assert abs(got - want) <= 3 * r.uncertainty[name], (name, got, want, r.uncertainty[name])
 
 
 def test_a_log_written_by_another_program_is_read_by_its_columns(tmp_path, capsys):
