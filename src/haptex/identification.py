@@ -521,9 +521,11 @@ def identify(*, time, position, force, max_delay: int = MAX_DELAY, window: float
         Largest delay searched (periods), default :data:`MAX_DELAY`.
     window : float, optional
         Output-error window (s). Default None: :data:`WINDOW`, and also :data:`LONG_WINDOW`
-        when the damping's relative deviation at it passes :data:`LONG_WINDOW_TRIGGER` (and the
-        log holds :data:`MIN_WINDOWS` of them); the fit whose damping is the better determined
-        is kept, and a note says so.
+        (where the log holds :data:`MIN_WINDOWS` of them) on an encoder's log, or when the
+        damping's relative deviation passes :data:`LONG_WINDOW_TRIGGER`. On an encoder's log the
+        long windows are kept where their residual is within :data:`LONG_WINDOW_RMS` of the
+        rounding's (and the delay compared again on them, see :data:`DELAY_RECHECK`); otherwise
+        the fit whose damping is the better determined. A note says which.
     position_resolution : float, optional
         The encoder's step (m) when known; default None: found from the positions' lattice
         (0 when they lie on none).
