@@ -70,9 +70,8 @@ is within this fraction above the larger of the :data:`WINDOW` fit's and the rou
 (delta/sqrt(12)) (chosen: on the independent simulator's 60 µm logs the long windows read
 1.0-1.1 times the rounding, the short ones 0.9-1.0, fitting the rounding with their many free
 starts; a long fit stopped far from the positions read 3 mm, a model that drifts over a second
-would read more). The
-lattice's rounding is a function of the motion shared by every window, so the short windows'
-deviations (clustered by window) miss it: on one 500 g, 3 N·s/m, 0.2 N, 60 µm oracle trajectory
+would read more). The lattice's rounding is a function of the motion shared by every window, so
+the short windows' deviations (clustered by window) miss it: on one 500 g, 3 N·s/m, 0.2 N, 60 µm oracle trajectory
 rounded at ten lattice offsets, the damping spread over -5.4..+14.7 % at 0.2 s (sd 6.6 %, each
 fit reporting 0.4-4.9 %) and -0.2..+4.4 % at 1 s (sd 1.8 %)."""
 MIN_WINDOWS = 5
@@ -575,12 +574,12 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
             return first  # (a motion over too few encoder steps is not helped by longer windows)
         # the first fit's figures are the start (from the equation error's, a light handle's long
         # windows under random forces stopped at 3 mm of residual, the damping at its bound 0;
-        # a long fit that does not follow the positions is not kept, below). The delay is the first fit's (searched on the short windows, where it
-        # shows best); on an encoder's log whose runner-up delay screened within DELAY_RECHECK,
-        # it and its neighbours are compared again on the long windows, where the short
-        # windows' free starts fit the rounding instead (a 500 g,
-        # 3 N·s/m, 0.2 N handle on 60 µm: delays 0 and 1 at 15.6 and 15.2 µm on 0.2 s windows,
-        # 15.2 and 16.5 µm on 1 s windows; the truth 0)
+        # a long fit that does not follow the positions is not kept, below). The delay is the
+        # first fit's (searched on the short windows, where it shows best); on an encoder's log
+        # whose runner-up delay screened within DELAY_RECHECK, it and its neighbours are
+        # compared again on the long windows, where the short windows' free starts fit the
+        # rounding instead (a 500 g, 3 N·s/m, 0.2 N handle on 60 µm: delays 0 and 1 at 15.6 and
+        # 15.2 µm on 0.2 s windows, 15.2 and 16.5 µm on 1 s windows; the truth 0)
         D1 = first.device.delay
         screen = sorted(first.delay_residuals.values())
         near = len(screen) > 1 and screen[1] < (1.0 + DELAY_RECHECK) * screen[0]
