@@ -1622,8 +1622,14 @@ REFINE_SAMPLES = 128 * 128
 egg-crate's bowls need 66 x 66; a rough surface felt on a 400 x 400 grid took 200 s once)."""
 
 
-def _default_spacing(texture, r):
-    return _spacing(texture, r, None, 16, 16)
+FELT_SAMPLES = (16, 16)
+"""A felt map's default grid step: the smaller of a 16th of the texture's shortest period and a
+16th of the ball's radius (chosen)."""
+
+
+def _default_spacing(texture, r, spacing=None):
+    """``spacing`` (m) checked, or the felt map's default (:data:`FELT_SAMPLES`)."""
+    return _spacing(texture, r, spacing, *FELT_SAMPLES)
 
 
 def _single_kink_cells(felt):
@@ -2257,7 +2263,7 @@ def _surface_grid(texture, r, spacing):
             raise fail("tip_radius", r, f"at most the map's shorter side, {ext * 1e3:g} mm")
         if spacing is None:
             return x, y, texture.h, texture.periodic, texture.source or "map"
-        d = _spacing(texture, r, spacing, 16, 16)  # resampled by its spline onto a coarser grid
+        d = _default_spacing(texture, r, spacing)  # resampled by its spline onto a coarser grid
         grids = []
         for axis in (x, y):
             step = axis[1] - axis[0]
@@ -2272,7 +2278,7 @@ def _surface_grid(texture, r, spacing):
     cell = getattr(texture, "cell", None)
     if cell is None:
         raise fail("texture", texture, "a surface with a periodic cell, or a height map, for a ball to roll on")
-    d = _spacing(texture, r, spacing, 16, 16)
+    d = _default_spacing(texture, r, spacing)
     nx, ny = (int(math.ceil(c / d)) for c in cell)
     if nx * ny > MAX_PROBE_SAMPLES:
         raise fail("spacing", d, f"a spacing giving at most {MAX_PROBE_SAMPLES} samples over the cell "
