@@ -664,7 +664,8 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
         # screening's fits of every delay are skipped, the equation error's best delay is fitted
         delay = min(ee, key=lambda k: ee[k][0])
     screened = {}
-    for D in (range(max_delay + 1) if delay is None else (delay,) if isinstance(delay, int) else delay):
+    delays = range(max_delay + 1) if delay is None else (delay,) if isinstance(delay, int) else delay
+    for D in (() if start is not None and len(delays) == 1 else delays):  # (one delay from a fit: no screening)
         coef = ee[D][1]
         best = None
         if start is None:
@@ -692,10 +693,11 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
                 if sol.cost < screened[D].cost:
                     screened[D] = sol
     screen_rms = {D: float(np.sqrt(np.mean(sol.fun ** 2))) * res_sd for D, sol in screened.items()}
-    ranked = sorted(screen_rms, key=screen_rms.get)
+    ranked = sorted(screen_rms, key=screen_rms.get) or list(delays)
     D = ranked[0]
     runner = ranked[1] if len(ranked) > 1 else None
-    x0 = screened[D].x
+    x0 = screened[D].x if screened else np.concatenate([start.axes["mass"], start.axes["damping"],
+                                                         [start.device.coulomb_friction]])
     sol, W = _fit(p, f, T, D, H, {"m": x0[:d], "b": x0[d:2 * d], "fc": float(x0[2 * d]), "v": v}, res_sd)
     rms = {D: float(np.sqrt(np.mean(sol.fun ** 2))) * res_sd}
     x = sol.x
