@@ -13,13 +13,14 @@
  * the timeout, or that starts with another byte, fails the exchange (the thread then stops and
  * commands zero); a state that is not finite is passed on (the servo's rules count the fault
  * and send zero). Forces are rounded towards zero to float32 (never larger than asked). The
- * port is the caller's (opened raw); nothing here allocates.
+ * port is the caller's (opened raw, by hx_haply_open or its own way); nothing here allocates.
  *
  * hx_haply_open opens the port the same way on every host: on POSIX a terminal device by its
  * path, raw (cfmakeraw: 8 bits, no parity, no echo or translation; the tty module's setraw does
  * the same), buffers flushed; on Windows a COM port's HANDLE (CreateFile, 8N1, no flow control,
- * buffers purged), whose writes are by WriteFile, reads by ReadFile under COMMTIMEOUTS that return at the
- * first byte there is or after the time left to the deadline (the same deadline as poll's).
+ * buffers purged), whose writes are by WriteFile, reads by ReadFile under COMMTIMEOUTS that
+ * return at the first byte there is or after the time left to the deadline (the same deadline
+ * as poll's).
  */
 #define _GNU_SOURCE
 #include "hx_host.h"
