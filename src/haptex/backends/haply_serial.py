@@ -273,8 +273,9 @@ class HaplySerialBackend:
         on_tick : callable, optional
             The dashboard, ``on_tick(k, servo)`` about every 50 ms.
         priority : int, optional
-            The SCHED_FIFO priority to ask for (0: a plain thread; on Windows any other value
-            asks for time-critical priority), default :data:`haptex.backends.PRIORITY`.
+            The SCHED_FIFO priority to ask for (0: a plain thread; any other value asks on
+            Windows for time-critical priority, on macOS for the time-constraint policy),
+            default :data:`haptex.backends.PRIORITY`.
         keep_awake : bool, optional
             Pin the thread to one core and keep that core from halting with a companion
             thread spinning below it (:class:`haptex.servo.ServoLoop`'s ``keep_awake``);
