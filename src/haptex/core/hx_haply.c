@@ -116,10 +116,13 @@ int hx_haply_open(const char *name, intptr_t *port)
     char path[64];
     HANDLE h;
     DCB dcb;
-    /* COM10 and above need the device namespace; it serves COM1-9 as well */
+    /* COM10 and above need the device namespace; it serves COM1-9 as well (a name that already
+     * carries it is taken as it is) */
     if (strlen(name) + 5 > sizeof path)
         return HX_HAPLY_EREAD;
-    strcpy(path, "\\\\.\\");
+    path[0] = '\0';
+    if (strncmp(name, "\\\\.\\", 4) != 0)
+        strcpy(path, "\\\\.\\");
     strcat(path, name);
     h = CreateFileA(path, GENERIC_READ | GENERIC_WRITE, 0, NULL, OPEN_EXISTING, 0, NULL);
     if (h == INVALID_HANDLE_VALUE)
