@@ -77,8 +77,8 @@ int hx_haply_write(void *ctx, const double f[3]);
 /* Open the Inverse3's port for hx_haply: 0 and the port in *port, or HX_HAPLY_EREAD (errno,
  * or on Windows GetLastError, says why). POSIX: a terminal by its path ("/dev/ttyACM0"), raw
  * (cfmakeraw), buffers flushed, a file descriptor. Windows: a COM port by name ("COM3", or
- * "\\.\COM3" as it is), raw
- * 8N1, no flow control, buffers purged, its HANDLE. hx_haply_close closes it. */
+ * "\\.\COM3" as it is), raw 8N1, no flow control, buffers purged, its HANDLE. hx_haply_close
+ * closes it. */
 int hx_haply_open(const char *name, intptr_t *port);
 void hx_haply_close(intptr_t port);
 
