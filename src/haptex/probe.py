@@ -108,8 +108,8 @@ def _grid_contacts(h: np.ndarray, steps, r: float, periodic: bool):
     offset in samples, one array of h.shape an axis (the first offset in C order on a tie).
     Refused past :data:`MAX_DILATION_WORK`."""
     half = [int(np.floor(r / d)) for d in steps]
+    _check_work(h.size, _footprint_size(r, steps), steps, "tip_radius", r)  # (before the list is made)
     offs = _footprint(r, steps)
-    _check_work(h.size, len(offs), steps, "tip_radius", r)
     hp = np.pad(h, [(m, m) for m in half], mode="wrap" if periodic else "edge")
     best = np.full(h.shape, -np.inf)
     which = np.zeros(h.shape, dtype=np.int32)  # the best offset's index in offs
@@ -139,6 +139,22 @@ def _footprint(r: float, steps) -> list:
     half = [int(np.floor(r / d)) for d in steps]
     return [k for k in itertools.product(*(range(-m, m + 1) for m in half))
             if sum((a * d) ** 2 for a, d in zip(k, steps)) <= r * r]
+
+
+def _footprint_size(r: float, steps) -> int:
+    """``len(_footprint(r, steps))`` without making the list (the same inequality, the same
+    float operations, a row of the last axis at a time): what a work check needs, in memory of
+    one row where a refused ball would have listed millions of offsets."""
+    import itertools
+
+    half = [int(np.floor(r / d)) for d in steps]
+    last = np.arange(-half[-1], half[-1] + 1) * steps[-1]
+    tail = last ** 2
+    n = 0
+    for k in itertools.product(*(range(-m, m + 1) for m in half[:-1])):
+        lead = sum((a * d) ** 2 for a, d in zip(k, steps))
+        n += int(np.count_nonzero(lead + tail <= r * r))
+    return n
 
 
 def _check_work(samples: int, footprint: int, steps, name: str, value) -> None:

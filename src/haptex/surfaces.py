@@ -18,7 +18,7 @@ import numpy as np
 from . import core as _core
 from .core import _ext
 from ._validation import ParameterError, check_count, fail, finite, nonnegative, positive, whole
-from .probe import MAX_SAMPLES as MAX_PROBE_SAMPLES, _check_work, _footprint, _spacing
+from .probe import MAX_SAMPLES as MAX_PROBE_SAMPLES, _check_work, _footprint_size, _spacing
 from .textures import MAX_HARMONICS, SampledProfile, Texture, _band_limited_samples, _vector, common_period
 
 __all__ = ["Surface", "SumOfGratings", "Grating", "BandLimitedNoise2D", "Extruded", "SampledSurface"]
@@ -2271,7 +2271,7 @@ def _surface_grid(texture, r, spacing):
             grids.append(axis[0] + np.arange(max(4, int(math.floor(span / d)) + (0 if texture.periodic else 1))) * d)
         if grids[0].size * grids[1].size > MAX_PROBE_SAMPLES:
             raise fail("spacing", d, f"a spacing giving at most {MAX_PROBE_SAMPLES} samples over the map")
-        _check_work(grids[0].size * grids[1].size, len(_footprint(r, (d, d))), (d, d), "tip_radius", r)
+        _check_work(grids[0].size * grids[1].size, _footprint_size(r, (d, d)), (d, d), "tip_radius", r)
         X, Y = np.meshgrid(*grids, indexing="ij")
         h = texture.height_at(np.stack([X, Y], axis=-1))
         return grids[0], grids[1], h, texture.periodic, f"{texture.source or 'map'} resampled at {d * 1e6:.3g} um"
@@ -2285,7 +2285,7 @@ def _surface_grid(texture, r, spacing):
                    f"({cell[0] * 1e3:g} x {cell[1] * 1e3:g} mm)")
     x, y = np.arange(nx) * (cell[0] / nx), np.arange(ny) * (cell[1] / ny)
     steps = (cell[0] / nx, cell[1] / ny)
-    _check_work(nx * ny, len(_footprint(r, steps)), steps, "tip_radius", r)  # (before sampling it)
+    _check_work(nx * ny, _footprint_size(r, steps), steps, "tip_radius", r)  # (before sampling it)
     X, Y = np.meshgrid(x, y, indexing="ij")
     h = texture.height_at(np.stack([X, Y], axis=-1))
     return x, y, h, True, f"{type(texture).__name__} sampled at {cell[0] / nx * 1e6:.3g} um"
