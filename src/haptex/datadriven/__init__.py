@@ -31,7 +31,7 @@ a follower's vibration) and :mod:`.energy` (the power at a device's port).
 from .lsf import MAX_ORDER, poly_to_lsf, lsf_to_poly
 from .models import (FORMAT, FORMAT_VERSION, MAX_MODELS, MAX_SAMPLES, G, ArmaModel, ModelSet, SetCheck, check_models)
 from .formats import MAX_FILE_BYTES, read_hatt, read_models, write_hatt
-from .fitting import dft321, FitReport, fit, HELD
+from .fitting import dft321, FitReport, fit, HELD, TAPER
 from .recordings import (
     RECORDING_COLUMNS, Recording, RECORDING_QUANTITIES, SPEED_FILTER, read_recording, spectral_difference)
 from .surface import (
@@ -42,7 +42,7 @@ from .energy import VibrationEnergy, require_servo_rate, port_energy
 __all__ = [
     'MAX_ORDER', 'poly_to_lsf', 'lsf_to_poly', 'FORMAT', 'FORMAT_VERSION', 'MAX_MODELS', 'MAX_SAMPLES', 'G',
     'ArmaModel', 'ModelSet', 'SetCheck', 'check_models', 'MAX_FILE_BYTES', 'read_models', 'read_hatt', 'write_hatt',
-    'dft321', 'FitReport', 'fit', 'HELD', 'RECORDING_COLUMNS', 'Recording', 'RECORDING_QUANTITIES',
+    'dft321', 'FitReport', 'fit', 'HELD', 'TAPER', 'RECORDING_COLUMNS', 'Recording', 'RECORDING_QUANTITIES',
     'SPEED_FILTER', 'read_recording', 'spectral_difference', 'SURFACE_BAND', 'MAX_SURFACE_SAMPLES',
     'height_spectrum', 'surface_from', 'MAX_AREAL_SIDE', 'VIBRATION_BAND', 'MAX_FOLLOWER_SAMPLES',
     'FollowerVibration', 'FOLLOWER_LINES', 'follower_vibration', 'VibrationEnergy', 'require_servo_rate',
