@@ -309,8 +309,8 @@ def test_on_a_map_that_ends_at_its_edges_a_nesting_ball_errs_on_the_steep_side(r
     # kink's (stop 74) also beside cells the contact jumps across: their branches, through the
     # contacts' own slopes, then parted from those edges, and the continuity check unbranched
     # every cell of the map's one cluster: 0.3605, 0.4120, 0.4196 at 1.1, 1.2, 1.3 mm for the
-    # path's 0.3140 (+15 to +34 %). Not met, stated: the 1 % of issue 67; measured +2.80, +3.15,
-    # +0.97 % (a measured map keeps its grid, the refinement of analytic surfaces is not made).
+    # path's 0.3140 (+15 to +34 %). Not met, stated: the 1 % of issue 67; measured +2.89, +3.23,
+    # +1.25 % (a measured map keeps its grid, the refinement of analytic surfaces is not made).
     # Asserted: never flatter than the path (q not understated) and at most 4 % steeper
     side = 4e-3
     h = AREAL_CASES["egg-crate"][1]
@@ -322,8 +322,28 @@ def test_on_a_map_that_ends_at_its_edges_a_nesting_ball_errs_on_the_steep_side(r
     assert 0.999 * truth <= felt.max_slope <= 1.04 * truth
 
 
-@pytest.mark.parametrize("rel_r", [1.2, pytest.param(1.1, marks=pytest.mark.long),
-                                   pytest.param(1.3, marks=pytest.mark.long)])
+def test_a_felt_maps_steepest_slope_is_the_sup_of_its_patches_beside_its_kinks():
+    # max_slope is sup ||grad h|| over the map (its definition): never below the gradient's norm
+    # at any point of it, here numpy's maximum over 16 x 16 points a sample interval. On the
+    # egg-crate sampled 60 x 60 over its 4 mm cell (periodic) felt by a 1.2 mm ball, its bowls
+    # are branched cells, the highest of several patches; a steep patch is the highest in a
+    # sliver beside a crease, which the sup's four points an interval stepped over: 0.3152
+    # where the map reaches 0.3236 (issue 67: the felt map read 0.3 % steep where it is 3 %)
+    h = AREAL_CASES["egg-crate"][1]
+    xs = np.arange(60) * (4e-3 / 60)
+    X, Y = np.meshgrid(xs, xs, indexing="ij")
+    felt = hx.SampledSurface(xs, xs, h(np.column_stack([X.ravel(), Y.ravel()])).reshape(X.shape),
+                             periodic=True).felt_by(1.2e-3)
+    assert felt.branched_cells > 0
+    g = np.arange(0.0, 4e-3, (xs[1] - xs[0]) / 16)
+    dense = float(np.linalg.norm(felt.gradient(np.stack(np.meshgrid(g, g, indexing="ij"), -1)), axis=-1).max())
+    assert dense <= felt.max_slope <= 1.005 * dense
+
+
+@pytest.mark.parametrize("rel_r", [1.2, pytest.param(1.0, marks=pytest.mark.long), pytest.param(1.1, marks=pytest.mark.long),
+                                   pytest.param(1.3, marks=pytest.mark.long),
+                                   pytest.param(1.02, marks=pytest.mark.long),
+                                   pytest.param(1.17, marks=pytest.mark.long)])
 def test_where_the_ball_nests_in_a_bowl_the_felt_map_is_refined_until_it_branches(rel_r):
     # issue 67, from 1.05 to 1.3 bowl radii: the ball nests in the bowl, and on the default grid
     # (r / 16) the branches of some cells jumped between the bowl's sides or outnumbered what a
@@ -331,27 +351,33 @@ def test_where_the_ball_nests_in_a_bowl_the_felt_map_is_refined_until_it_branche
     # rho, 0.3834 at 1.2, 0.3981 at 1.3 for the path's 0.3141. Whether a cell beside a kink is
     # branched depends on where the grid's points fall (at 1.2 rho: 58 points a period branched,
     # 51 and 100 did not), so an analytic surface's felt map is made again on finer grids
-    # (REFINE) until every such cell is. Slope within 1 % of the brute-force path's (numpy on
-    # the analytic heights; measured +0.01 % at 1.1 and 1.2 rho, +0.36 % at 1.3)
+    # (REFINE) until every such cell is and the map is no steeper than the surface (the path's
+    # slope is a contact's; its sup sampled densely beside the kinks). Slope within 1 % of the
+    # brute-force path's (numpy on the analytic heights; measured +0.01 % at 1.0, 1.02, 1.1 and
+    # 1.2 rho, +0.00 % at 1.17, +0.36 % at 1.3). At 1.0 and 1.02 rho (the bowl's focal point)
+    # stop 75 kept a grid whose cells all branched, +1.42 and +2.46 %; at 1.17 one whose apex
+    # patches reach +3.3 % in slivers its sup stepped over (read +0.3 %)
     tex, h, grad, cell, rho = AREAL_CASES["egg-crate"]
     felt = tex.felt_by(rel_r * rho)
     truth = _path_max_slope_2d(h, grad, cell, rel_r * rho)
-    assert felt.branched_cells > 0
+    assert felt.branched_cells > 0 or rel_r < 1.05  # (at the focal point a grid of single patches, none steep)
     assert felt.max_slope == pytest.approx(truth, rel=0.01)
     given = tex.felt_by(rel_r * rho, spacing=0.1e-3)  # (a spacing given is the grid, not refined)
     assert given.x[1] - given.x[0] == pytest.approx(0.1e-3)
 
 
-@pytest.mark.long  # (1-2 s: the bowls' first case, 2 rho, is in the loop)
-def test_at_the_bowls_own_radius_the_felt_map_errs_on_the_steep_side():
-    # not met (issue 67): at rho the bowl's bottom is the ball's focal point, the path's
-    # curvature unbounded there, and no grid tried (REFINE) makes its cells branch: 0.3186 for
-    # the path's 0.3141 (+1.4 %; +2.5 % at 1.02 rho). What is asserted is the side and the
-    # size: never flatter than the brute-force path (q not understated), at most 3 % steeper
+@pytest.mark.long
+def test_where_no_grid_branches_a_nesting_ball_the_felt_map_errs_on_the_steep_side():
+    # not met (issue 67): at 1.09 times the bowls' radius no grid of REFINE (nor eight more
+    # between 0.4 and 1 of the default spacing) branches the bowls' cells (one cluster, some of
+    # its branches steeper than the surface): the least steep map is kept, 0.3502 for the
+    # brute-force path's 0.3141 (+11.5 %; the default grid's +15.2 %). Of 28 radii from 1.0 to
+    # 1.3 rho, 25 are within 1 %, 1.08 +2.2 %, 1.18 +1.1 %, 1.09 this. Asserted: the side (q not
+    # understated), and no steeper than the default grid's single patches
     tex, h, grad, cell, rho = AREAL_CASES["egg-crate"]
-    felt = tex.felt_by(rho)
-    truth = _path_max_slope_2d(h, grad, cell, rho)
-    assert 0.99 * truth <= felt.max_slope <= 1.03 * truth
+    felt = tex.felt_by(1.09 * rho)
+    truth = _path_max_slope_2d(h, grad, cell, 1.09 * rho)
+    assert truth <= felt.max_slope <= 1.13 * truth
 
 
 def test_a_felt_map_is_continuous_and_never_steeper_than_its_surface():

@@ -81,8 +81,10 @@ def felt_by(texture, tip_radius: float, *, spacing: float | None = None):
     Where the ball bridges a bowl (a trough closed in every direction) the path has a cone's
     apex, which tensor-product patches cannot follow: a cell across which the contact jumps is
     the maximum of one Hermite patch per contact (``branched_cells``); where a cell cannot be
-    (at a bowl's own radius of curvature, on rough maps felt by balls of a few samples) it keeps
-    its single patch, steeper than the path (q on the safe side). On a map that ends at its
+    (on rough maps felt by balls of a few samples, where a ball nests in a bowl on some grids)
+    it keeps its single patch, steeper than the path (q on the safe side). An analytic
+    surface's map is made again on finer grids while some such cell is left or the map is
+    steeper than the surface (``haptex.surfaces.REFINE``). On a map that ends at its
     edges a contact may lie on the map's rim, where the path's gradient is u / sqrt(r^2 - |u|^2)
     (u the contact's offset). The contact is refined from the grid's best offset: a map whose
     spline peaks between its samples (not resolved by its grid) is felt at that contact, below
