@@ -380,6 +380,80 @@ def test_where_no_grid_branches_a_nesting_ball_the_felt_map_errs_on_the_steep_si
     assert truth <= felt.max_slope <= 1.13 * truth
 
 
+def _rough_map(m=64, dx=1e-6):
+    """(the generator after it, heights (m, m)): isotropic band-limited noise, 2 um rms, wavelengths
+    >= 10 um, on a periodic grid of dx; numpy's FFT alone."""
+    rng = np.random.default_rng(0)
+    k = np.fft.fftfreq(m, dx)
+    K = np.hypot(k[:, None], k[None, :])
+    spec = (rng.standard_normal((m, m)) + 1j * rng.standard_normal((m, m))) * (K <= 1 / 10e-6) * (K > 0)
+    hn = np.fft.ifft2(spec).real
+    return rng, hn * (2e-6 / hn.std())
+
+
+def _periodic_map_path_max_slope(hn, dx, r, sub=8, top=200):
+    """The steepest slope of a ball's centre path over a periodic map, by brute force: the map is
+    scipy's periodic bicubic interpolant of its samples (make_interp_spline, as the surface is
+    defined); at every point p of a grid of dx/4 the arg-max u of H(p + u) + sqrt(r^2 - |u|^2)
+    over the offsets of a lattice of dx/sub in the disc (numpy, the heights on the lattice
+    evaluated once), then at the ``top`` steepest points the arg-max refined on the interpolant
+    itself (scipy's L-BFGS-B); the slope |u| / sqrt(r^2 - |u|^2) (the envelope theorem). Nothing
+    of haptex's."""
+    from scipy import optimize
+    from scipy.interpolate import NdBSpline, make_interp_spline
+
+    m = hn.shape[0]
+    L = m * dx
+    xe = np.r_[np.arange(m) * dx, L]
+    he = np.pad(hn, ((0, 1), (0, 1)), mode="wrap")
+    bx = make_interp_spline(xe, he, k=3, bc_type="periodic", axis=0)
+    by = make_interp_spline(xe, bx.c, k=3, bc_type="periodic", axis=1)
+    spl = NdBSpline((bx.t, by.t), np.moveaxis(by.c, 0, 1), 3)
+    g = np.arange(m * sub) * (dx / sub)
+    F = spl(np.stack(np.meshgrid(g, g, indexing="ij"), -1).reshape(-1, 2)).reshape(m * sub, m * sub)
+    R, step = int(r / (dx / sub)), sub // 4
+    best = np.full((m * 4, m * 4), -np.inf)
+    arg = np.zeros((m * 4, m * 4, 2))
+    for a in range(-R, R + 1):
+        for b in range(-R, R + 1):
+            lift = r * r - (a * a + b * b) * (dx / sub) ** 2
+            if lift >= 0:
+                v = np.roll(F, (-a, -b), (0, 1))[::step, ::step] + math.sqrt(lift)
+                up = v > best
+                best[up] = v[up]
+                arg[up] = (a * dx / sub, b * dx / sub)
+    slope = np.linalg.norm(arg, axis=-1) / np.sqrt(r * r - np.sum(arg**2, axis=-1))
+    P = np.stack(np.meshgrid(g[::step], g[::step], indexing="ij"), -1).reshape(-1, 2)
+    out = 0.0
+    for idx in np.argsort(slope.ravel())[-top:]:
+        p, u0 = P[idx], arg.reshape(-1, 2)[idx]
+
+        def neg(u, p=p):
+            return -(float(spl(np.mod(p + u, L)[None])[0]) + math.sqrt(max(r * r - u @ u, 0.0)))
+
+        res = optimize.minimize(neg, u0, method="L-BFGS-B", bounds=[(-r, r)] * 2, options={"ftol": 1e-15})
+        u = res.x if -res.fun >= best.ravel()[idx] else u0
+        out = max(out, float(np.linalg.norm(u) / math.sqrt(r * r - u @ u)))
+    return out
+
+
+@pytest.mark.long
+@pytest.mark.parametrize("r", [5e-6, pytest.param(10e-6, marks=pytest.mark.xfail(strict=True, reason=(
+    "issue 67, not met: no cell of this map felt by a 10 um ball is branched, and the single "
+    "patches bridging the path's V-shaped kinks stand above it, flatter: 1.3599 for the path's "
+    "1.4278 (-4.8 %, q understated)")))])
+def test_on_a_rough_map_the_felt_maps_steepest_slope_is_the_paths(r):
+    # issue 67's random areal maps: the rough periodic map of the test below (band-limited noise,
+    # 2 um rms, wavelengths >= 10 um, 1 um samples) felt by balls of 5 and 10 samples, against a
+    # brute-force ball path on scipy's interpolant of the same samples. Measured: 5 um 2.5172
+    # for 2.5393 (-0.87 %), 20 um 0.9063 for 0.9019 (+0.49 %; 23 s of brute force, not run),
+    # 10 um -4.8 % (xfail, strict: it passes the day it is met)
+    _, hn = _rough_map()
+    x = np.arange(hn.shape[0]) * 1e-6
+    felt = hx.SampledSurface(x, x, hn, periodic=True).felt_by(r)
+    assert felt.max_slope == pytest.approx(_periodic_map_path_max_slope(hn, 1e-6, r), rel=0.01)
+
+
 def test_a_felt_map_is_continuous_and_never_steeper_than_its_surface():
     # the ball's centre path is continuous and its slope is a contact's (the envelope theorem):
     # on a rough periodic map (band-limited noise, 2 um rms above 10 um, 1 um samples) felt by
@@ -389,13 +463,8 @@ def test_a_felt_map_is_continuous_and_never_steeper_than_its_surface():
     # above the surface's own at 4 points a sample interval. Not met at 3 samples: 3.16 for the
     # surface's 2.66 (a ball of 3 samples leaves the path's kinks between every pair of
     # samples; the single patches of the last stop read the same there)
-    rng = np.random.default_rng(0)
-    m = 64
-    k = np.fft.fftfreq(m, 1e-6)
-    K = np.hypot(k[:, None], k[None, :])
-    spec = (rng.standard_normal((m, m)) + 1j * rng.standard_normal((m, m))) * (K <= 1 / 10e-6) * (K > 0)
-    hn = np.fft.ifft2(spec).real
-    hn *= 2e-6 / hn.std()
+    rng, hn = _rough_map()
+    m = hn.shape[0]
     x = np.arange(m) * 1e-6
     rough = hx.SampledSurface(x, x, hn, periodic=True)
     K_ = hx.core._ext
