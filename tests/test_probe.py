@@ -573,11 +573,31 @@ def test_design_takes_a_tip_radius_at_the_command_line():
     # the ball (5 mm) bridges each trough (at 1.5 mm, the sine's period 2 mm): one kink, its slope
     # jump twice the path's slope there (symmetric branches), which the brute-force path gives
     assert felt["kink_count"] == 1 and felt["kinks"][0]["x"] == pytest.approx(1.5e-3, abs=2e-5)
-    assert felt["branched_cells"] == 0  # (a profile has no cells)
+    assert felt["branched_cells"] == felt["single_patch_cells"] == 0  # (a profile has no cells)
     h, hp = _sines([0.1e-3], [2e-3], [0.0])
     side = abs(_brute_slopes(h, hp, np.array([1.5e-3 - 1e-7]), 5e-3)[0])
     assert felt["kinks"][0]["slope_jump"] == pytest.approx(2 * side, rel=0.01)
     assert main(["design", "--texture", "sine:0.1mm,2mm", "--tip-radius", "0.5"]) == 2  # a radius needs its unit
+
+
+@pytest.mark.long  # (4 s of analysis)
+def test_design_says_how_many_cells_beside_kinks_keep_a_single_patch(capsys):
+    # at 1.09 times the egg-crate's bowls' radius no grid branches the bowls' cells (issue 67,
+    # measured +11.5 % against the brute-force path): design says how many cells beside kinks
+    # keep their single patch and that their slopes may be off, where it used to name only the
+    # kinks and the branched cells
+    import json
+
+    from haptex.cli import main
+
+    args = ["design", "--texture", "egg-crate:0.1mm,2mm", "--device", "omega-3", "--tip-radius", "1.104mm",
+            "--algorithms", "A"]
+    assert main(args + ["--json", "--quiet"]) == 0
+    felt = json.loads(capsys.readouterr().out)["felt_by_tip"]
+    assert felt["kink_count"] > 0 and felt["branched_cells"] == 0 and felt["single_patch_cells"] > 0
+    assert main(args + ["--quiet"]) == 0
+    out = " ".join(capsys.readouterr().out.split())
+    assert f"{felt['single_patch_cells']} cells beside kinks keep a single patch" in out
 
 
 def test_export_and_run_take_the_tip_radius_too(tmp_path):

@@ -112,7 +112,8 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
         felt = {"tip_radius": tip_radius, "max_slope_point_probe": float(point.max_slope),
                 "max_slope_felt": float(tex.max_slope), "source": tex.source,
                 "kinks": [dict(zip(names, map(float, k))) for k in kinks[:100]],
-                "kink_count": int(len(kinks)), "branched_cells": int(getattr(tex, "branched_cells", 0))}
+                "kink_count": int(len(kinks)), "branched_cells": int(getattr(tex, "branched_cells", 0)),
+                "single_patch_cells": _single_patch_cells(tex)}
     base = object_from_spec(object_spec, uv_scale, vertex_normals)
     dev = _build_device(ctx, device_spec, joint_damping, mass, damping, sampling_period, delay,
                         3 if base is not None else tex.dimension + 1)
@@ -180,6 +181,12 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
         if felt["branched_cells"]:
             console.print(f"where it rests on several sides of a bowl, {felt['branched_cells']} cells are the highest of "
                           "one patch per contact (branched)")
+        if felt["single_patch_cells"]:
+            n = felt["single_patch_cells"]
+            console.print(f"{n} cell{'s' if n != 1 else ''} beside kinks keep{'s' if n == 1 else ''} a single patch (no "
+                          "branches could be made there): the felt slopes there may differ from the ball's path "
+                          "either way (measured -5.8 to +5.5 % on a rough map, +11.5 % where a ball nests in a bowl; "
+                          "the measured-surfaces guide)")
     bl = data["band_limit"]
     rn = bl["raw"]
     if bl["sampled"]:
@@ -253,3 +260,13 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
     console.print("recommendation: " + data["recommendation"])
     if report_dir is not None:
         console.print(f"report: {report_dir / 'index.html'}")
+
+
+def _single_patch_cells(tex) -> int:
+    """How many cells of a felt map beside its kinks keep a single patch (0 for a profile: its
+    kinked intervals' quadratics keep the contacts' slopes)."""
+    if getattr(tex, "dimension", 1) != 2 or not len(getattr(tex, "kinks", ())):
+        return 0
+    from ..surfaces import _single_kink_cells
+
+    return int(_single_kink_cells(tex))
