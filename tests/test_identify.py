@@ -82,15 +82,19 @@ def test_identify_recovers_a_known_device_within_5_percent_from_10_s(case, noise
     assert all(math.isfinite(v) and v >= 0 for v in r.uncertainty.values())
 
 
-def _oracle_log(m, b, fc, delta, D, T, prog, noise=0.0, seed=1, sub=400, kp=50.0, kd=5.0):
-    """A logged run simulated by code that shares nothing with the C core: semi-implicit Euler on
-    Python floats at T / sub, continuous-time Coulomb friction (the handle sticks where its
-    velocity crosses zero while |u| <= f_c), the force held over each period and applied D
-    periods after the tick that read the position, the position read after Gaussian noise and
-    rounded to the encoder's step; the force commanded is the program plus a centering
-    spring-damper on the sensed position (closed loop, as haptex run --identify logs)."""
+def _oracle_log(m, b, fc, delta, D, T, prog, noise=0.0, seed=1, kp=50.0, kd=5.0):
+    """A logged run simulated by code that shares nothing with the C core: the handle's motion in
+    closed form, m v' = u - b v - f_c sign(v) over each period with its force u held, so
+    v(t) = v_inf + (v0 - v_inf) exp(-t b / m) with v_inf = (u - f_c s) / b and the position its
+    integral, continuous-time Coulomb friction (where the velocity crosses zero, at the instant
+    the closed form gives, the handle sticks while |u| <= f_c and else moves off along u), the
+    force applied D periods after the tick that read the position, the position read after
+    Gaussian noise and rounded to the encoder's step; the force commanded is the program plus a
+    centering spring-damper on the sensed position (closed loop, as haptex run --identify logs).
+    Exact to rounding: semi-implicit Euler at T / n (the oracle of stops 70-75) converges to it
+    at first order, 1.1e-7, 4.3e-8 and 2.4e-7 m off at T / 400 on 2-6 mm motions."""
     rng = np.random.default_rng(seed)
-    h, x, v = T / sub, 0.0, 0.0
+    x, v, tau = 0.0, 0.0, m / b
     queue, hist = [0.0] * D, [0.0] * 11
     pos, cmd = np.empty(prog.size), np.empty(prog.size)
     for k in range(prog.size):
@@ -102,13 +106,21 @@ def _oracle_log(m, b, fc, delta, D, T, prog, noise=0.0, seed=1, sub=400, kp=50.0
         pos[k], cmd[k] = sensed, f
         queue.append(f)
         u = queue.pop(0)
-        for _ in range(sub):
+        left = T
+        while left > 0.0:
             if v == 0.0 and abs(u) <= fc:
-                continue
-            a = (u - b * v - math.copysign(fc, v if v != 0.0 else u)) / m
-            vn = v + a * h
-            v = 0.0 if v != 0.0 and vn * v < 0.0 else vn
-            x += v * h
+                break  # stuck for the rest of the period
+            s = math.copysign(1.0, v if v != 0.0 else u)
+            vinf = (u - fc * s) / b
+            if v != 0.0 and vinf * v < 0.0:  # the velocity reaches zero: when?
+                tstar = tau * math.log((v - vinf) / -vinf)
+                if tstar < left:
+                    x += vinf * tstar + (v - vinf) * tau * (1.0 - math.exp(-tstar / tau))
+                    v, left = 0.0, left - tstar
+                    continue
+            e = math.exp(-left / tau)
+            x += vinf * left + (v - vinf) * tau * (1.0 - e)
+            v, left = vinf + (v - vinf) * e, 0.0
     return np.arange(prog.size) * T, pos, cmd
 
 
@@ -177,22 +189,29 @@ def test_identify_recovers_an_independent_simulators_device(case):
         assert got == pytest.approx(want, rel=0.05, abs=0.002), name
         if kw["noise"] or kw["delta"]:  # a measured log: the truth within 3 reported deviations
             assert abs(got - want) <= 3 * r.uncertainty[name], (name, got, want, r.uncertainty[name])
-        else:  # noise-free: the residual is the two simulators' disagreement (the oracle's Euler
-            # step at T/400 against the exact hold, 5e-5 of the mass on case 4), not a measurement's
-            assert got == pytest.approx(want, rel=1e-3, abs=1e-4), name
+        else:  # noise-free, no encoder: the model holds the truth and the oracle is exact, so the
+            # fit is the truth (measured: 1e-8 of each figure, 1e-9 N of friction where there is
+            # none; against stop 75's Euler oracle at T/400 it read 5e-5 of the mass)
+            assert got == pytest.approx(want, rel=1e-6, abs=1e-8), name
     assert "runner-up" in " ".join(r.notes)
 
 
-@pytest.mark.long  # (the independent simulator at T/400 and two window lengths: 12 s)
-def test_a_delay_the_log_cannot_tell_is_said_and_the_figures_deviations_cover_it():
+@pytest.mark.long  # (two window lengths: 6-10 s each)
+@pytest.mark.parametrize("seed", [0, 6])
+def test_a_delay_the_log_cannot_tell_is_said_and_the_figures_deviations_cover_it(seed):
     # the same handle and encoder as case 5 under forces below 20 Hz (the issue's "today's
     # case"), where a period's delay barely shows under 60 um of rounding: on every 1 s window
     # delays 0 and 1 fit within 1 % of each other. Stop 74 returned delay 1 as determined, the
     # mass 4.9 and the damping 2.7 of its deviations from the independent simulator's truth.
     # Now the delay is said undetermined, or exact; and each figure's deviation spans both
-    # delays' fits, so the truth lies within 3 of them whichever is returned.
+    # delays' fits, so the truth lies within 3 of them whichever is returned. On program seeds 6
+    # and 7 delay 1 came back determined, a figure 10.2 and 10.1 deviations off: delays 1 and 0
+    # fit to the rounding (17.3 µm) a little more than DELAY_MARGIN's 1 % apart, which is no
+    # evidence (on seed 2 the same flipped with the number of BLAS threads); now undetermined,
+    # within 1.3 and 1.0 (DELAY_FLOOR_MARGIN)
     m, b, fc, delta, D = 0.5, 3.0, 0.2, 60e-6, 0
-    t, p, f = _oracle_log(m, b, fc, delta, D, 1e-3, _program(1e-3, 10.0, "below 20 Hz"), noise=1e-6)
+    t, p, f = _oracle_log(m, b, fc, delta, D, 1e-3, _program(1e-3, 10.0, "below 20 Hz", seed=seed), noise=1e-6,
+                          seed=max(seed, 1))
     r = I.identify(time=t, position=p, force=f)
     d = r.device
     assert d.delay == D or "delay" in r.undetermined
