@@ -157,8 +157,9 @@ def test_the_servo_thread_runs_on_windows_under_wine(tmp_path, tmp_path_factory,
     # the slowest with the other test worker busy beside it)
     assert 1.99 <= elapsed < 6.0
     # (timing under Wine is not judged: a bound that only a thread not paced at all would pass.
-    # Measured: 0-6 missed of 2000 alone; 9-126 with the other test worker busy beside it)
-    assert 0 <= missed <= 400 and 0 <= overruns <= missed + 100 and awake == 0, r.stdout  # (no companion under Wine)
+    # Measured: 0-6 missed of 2000 alone; 9-126 with the other test worker busy beside it, 440
+    # once beside a memory-bound numpy brute force; the pacing is judged by the elapsed time above)
+    assert 0 <= missed <= 1000 and 0 <= overruns <= missed + 100 and awake == 0, r.stdout  # (no companion under Wine)
     # the tick's own time measured (not judged under Wine: a tick preempted under load took
     # 5.9 ms where it takes microseconds alone, against the 1 ms this asserted)
     assert 0.0 < work_max < elapsed
