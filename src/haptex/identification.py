@@ -93,7 +93,7 @@ simulator's 60 µm logs of a 500 g, 3 N·s/m, 0.2 N handle under forces below 20
 determined with a figure 8.5-10.2 deviations off on three program seeds of seven (which ones
 moved with the number of BLAS threads); now undetermined, within 1.0-1.3. Over the issue's 96
 60 µm and 7.5 µm logs of two seeds it also says undetermined, the delay still exact, for 6 logs
-of that handle: four below 20 Hz, two with delay 4 under steps and a chirp)."""
+of the 500 g handles with friction: four below 20 Hz, two with delay 4 under steps and a chirp)."""
 DELAY_RECHECK = 0.1
 """On an encoder's log whose runner-up delay screened within this fraction of the best one's
 residual, the best and its neighbours are compared again on :data:`LONG_WINDOW` windows
