@@ -739,8 +739,9 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
         sd = np.sqrt(np.maximum(np.maximum(np.diag(bread)[:ng] * s2, np.diag(sandwich)[:ng]), 0.0))
     except np.linalg.LinAlgError:  # pragma: no cover (pinv converges on any finite matrix)
         sd = np.full(ng, np.nan)
-    tied = runner is not None and (screen_rms[runner] < screen_rms[D] * (1.0 + DELAY_MARGIN) or (
-        delta > 0 and screen_rms[runner] - screen_rms[D] < DELAY_FLOOR_MARGIN * delta / math.sqrt(12.0)))
+    close = runner is not None and screen_rms[runner] < screen_rms[D] * (1.0 + DELAY_MARGIN)
+    tied = close or (runner is not None and delta > 0
+                     and screen_rms[runner] - screen_rms[D] < DELAY_FLOOR_MARGIN * delta / math.sqrt(12.0))
     if tied:  # a delay the log cannot tell: each figure's deviation spans the runner-up delay's fit too
         sd = np.hypot(sd, np.abs(screened[runner].x[:ng] - screened[D].x[:ng]))
     m, b, fc = x[:d], x[d:2 * d], float(x[2 * d])
@@ -765,8 +766,7 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
                      f"({len(range(0, W_all, every))} of {window:g} s); the "
                      f"runner-up, delay {runner}, {screen_rms[runner] * 1e6:.3g} µm")
         if tied:
-            alike = (f"within {100 * DELAY_MARGIN:g} % of each other"
-                     if screen_rms[runner] < screen_rms[D] * (1.0 + DELAY_MARGIN) else
+            alike = (f"within {100 * DELAY_MARGIN:g} % of each other" if close else
                      f"both to the rounding ({delta / math.sqrt(12.0) * 1e6:.3g} µm), less than "
                      f"{100 * DELAY_FLOOR_MARGIN:g} % of it apart")
             undetermined["delay"] = (f"delays {D} and {runner} fit {alike}: the "

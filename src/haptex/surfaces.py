@@ -88,12 +88,17 @@ class Surface(Texture):
         first grid without either is kept, else the one not steeper with the fewest such cells,
         else the least steep."""
         best = None
-        for k, factor in enumerate(REFINE if spacing is None and not isinstance(self, SampledSurface) else (None,)):
-            sp = spacing if factor is None or k == 0 else factor * _default_spacing(self, r)
-            if k > 0:
-                cell = self.cell
-                if math.ceil(cell[0] / sp) * math.ceil(cell[1] / sp) > REFINE_SAMPLES:
-                    break
+        refine = spacing is None and not isinstance(self, SampledSurface)
+        base = _default_spacing(self, r) if refine else None
+
+        def fits(factor):  # a grid of factor * base within REFINE_SAMPLES over the cell
+            sp = factor * base
+            return math.ceil(self.cell[0] / sp) * math.ceil(self.cell[1] / sp) <= REFINE_SAMPLES
+
+        for k, factor in enumerate(REFINE if refine else (None,)):
+            sp = spacing if not refine or k == 0 else factor * base
+            if k > 0 and not fits(factor):
+                break
             try:
                 x, y, h, periodic, source = _surface_grid(self, r, sp)
                 hf, grads, edges, kinks, branches = _contact_map(self, x, y, h, r, periodic)
@@ -106,11 +111,7 @@ class Surface(Texture):
             out._edges = edges
             out._branches = branches
             out.kinks = kinks
-            if factor is None:
-                return out
-            finer = REFINE[1] * _default_spacing(self, r) if k == 0 and len(REFINE) > 1 else None
-            if k == 0 and (finer is None or math.ceil(self.cell[0] / finer) * math.ceil(self.cell[1] / finer)
-                           > REFINE_SAMPLES):
+            if not refine or (k == 0 and not (len(REFINE) > 1 and fits(REFINE[1]))):
                 return out  # (no finer grid to make: nothing to compare it with)
             # (the path's slope is a contact's, never steeper than the surface: a map steeper
             # than that by more than STEEP_SLACK is a patch's overshoot, a grid to refine too)
