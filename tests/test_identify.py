@@ -317,11 +317,13 @@ def test_the_command_line_refuses_in_one_line(tmp_path, capsys):
     bad = tmp_path / "bad.csv"
     bad.write_text("time_s,x_m,speed\n0,0,0\n")
     assert main(["identify", str(bad), "-o", str(tmp_path / "d.toml")]) == 2
+    (tmp_path / "header.csv").write_text("time_s,x_m,fx_n\n")  # (a logger stopped before its first tick)
+    assert main(["identify", str(tmp_path / "header.csv"), "-o", str(tmp_path / "d.toml")]) == 2
     assert main(["run", "--device", "simulated:falcon", "--identify", "--duration", "1s"]) == 2  # no --record
     assert main(["run", "--device", "simulated:falcon", "--identify", "--record", str(tmp_path / "l.csv"),
                  "--algorithm", "C"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 3 and "--record" in err[1] and "--algorithm" in err[2]
+    assert len(err) == 4 and "has none" in err[1] and "--record" in err[2] and "--algorithm" in err[3]
     assert not (tmp_path / "d.toml").exists()
 
 

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -176,9 +177,13 @@ def _read_csv(p: Path, what: str) -> dict:
     if len(set(header)) != len(header) or not all(header):
         raise fail("path", str(p), f"a {what} whose header row names each column once")
     try:
-        data = np.loadtxt(p, delimiter=",", skiprows=1, ndmin=2)
+        with warnings.catch_warnings():  # (a header alone: said below, not warned)
+            warnings.simplefilter("ignore", UserWarning)
+            data = np.loadtxt(p, delimiter=",", skiprows=1, ndmin=2)
     except ValueError as exc:
         raise fail("path", str(p), f"numbers in every row ({str(exc).splitlines()[0]})") from None
+    if data.shape[0] == 0:
+        raise fail("path", str(p), f"a {what} with rows of numbers below its header (it has none)")
     if data.shape[1] != len(header):
         raise fail("path", str(p), f"{len(header)} values a row, as its header")
     return {h: data[:, k] for k, h in enumerate(header)}

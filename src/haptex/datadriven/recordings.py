@@ -150,8 +150,9 @@ def read_recording(path, *, sample_rate: float | None = None, columns=None) -> R
     got, ignored = take(table, columns, RECORDING_QUANTITIES, own, "recording")
     for q in ("acceleration", "force"):
         if q not in got:
-            raise fail("column", f"{q} missing", f"--column {q}=COLUMN[:UNIT], or haptex's {own[q][0]} "
-                       f"({RECORDING_COLUMNS.get(own[q][0], '')})")
+            mine = "acc_m_s2" if q == "acceleration" else own[q][0]
+            raise fail("column", f"{q} missing", f"--column {q}=COLUMN[:UNIT], or haptex's {mine} "
+                       f"({RECORDING_COLUMNS[mine]})")
     if "speed" not in got and "position" not in got:
         raise fail("column", "speed missing", "--column speed=COLUMN[:UNIT] or --column position=X[,Y]:UNIT "
                    "(the speed is then derived), or haptex's speed_m_s")
