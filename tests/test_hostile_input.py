@@ -280,3 +280,27 @@ def test_a_subnormal_amplitude_under_f_is_refused_by_name():
     for a in (1e-300, 0.0):
         alg = hx.algorithm("F", hx.Sinusoid(a, 1e-3), 2000.0, max_penetration=1e-3)
         assert np.isfinite(hx.characteristic_number(alg, max_penetration=1e-3).value)
+
+
+def test_an_npz_log_is_refused_from_its_headers_and_a_broken_one_in_one_line(tmp_path, capsys):
+    # a run log or recording as NPZ (issue 65's rig logs): numpy's .npy header (NEP 1: magic,
+    # version, a header dict with 'shape') declares 2e9 doubles in a 20 kB member of compressed
+    # zeros; read array by array, the file would inflate to 16 GB before the budget saw it. And
+    # a file named .npz that is no zip ended in zipfile's traceback with exit status 1.
+    from haptex.cli import main
+
+    head = np.lib.format
+    hdr = __import__("io").BytesIO()
+    head.write_array_header_1_0(hdr, {"descr": "<f8", "fortran_order": False, "shape": (2_000_000_000,)})
+    with zipfile.ZipFile(tmp_path / "bomb.npz", "w", zipfile.ZIP_DEFLATED) as z:
+        with z.open("time_s.npy", "w", force_zip64=True) as fh:
+            fh.write(hdr.getvalue() + bytes(1 << 22))  # (the rest never read)
+    (tmp_path / "broken.npz").write_bytes(b"PK\x03\x04 not a zip archive")
+    tracemalloc.start()
+    assert main(["identify", str(tmp_path / "bomb.npz"), "-o", str(tmp_path / "d.toml")]) == 2
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert main(["identify", str(tmp_path / "broken.npz"), "-o", str(tmp_path / "d.toml")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 2 and "14.9 GiB" in err[0] and "not a zip file" in err[1]
+    assert peak < 50e6  # (bytes: the header, not the array)

@@ -16,6 +16,7 @@ from __future__ import annotations
 import dataclasses
 import os
 import warnings
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -147,13 +148,23 @@ def read_table(path, what: str) -> dict:
         raise fail("path", str(path), f"an existing {what} (CSV, NPZ or HDF5)")
     kind = TABLE_SUFFIXES.get(p.suffix.lower(), "CSV")
     if kind == "NPZ":
-        out = {}
+        out, need = {}, 0.0
         try:
             with np.load(p, allow_pickle=False) as z:
                 for k in z.files:
-                    check_budget("path", str(path), 8.0 * z[k].size, f"reading this {what}")
+                    # (each array's size from its header, before it is read: a small file may
+                    # hold a huge compressed array)
+                    with z.zip.open(k + ".npy") as fh:
+                        version = np.lib.format.read_magic(fh)
+                        head = (np.lib.format.read_array_header_1_0 if version == (1, 0)
+                                else np.lib.format.read_array_header_2_0)
+                        shape = head(fh)[0]
+                    need += 8.0 * float(np.prod(shape, dtype=float))  # (all its arrays together)
+                    check_budget("path", str(path), need, f"reading this {what}")
                     out[k] = np.asarray(z[k], dtype=float)
-        except (ValueError, OSError) as exc:
+        except ParameterError:
+            raise
+        except (ValueError, OSError, EOFError, KeyError, zipfile.BadZipFile) as exc:
             raise fail("path", str(path), f"a readable .npz of numbers ({exc})") from None
     elif kind == "HDF5":
         out = _read_hdf5(p, what)
@@ -194,12 +205,13 @@ def _read_hdf5(p: Path, what: str) -> dict:
         import h5py
     except ImportError:  # pragma: no cover (a dependency)
         raise fail("path", str(p), "CSV or NPZ: reading HDF5 needs h5py (pip install h5py)") from None
-    out = {}
+    out, need = {}, [0.0]
     try:
         with h5py.File(p, "r") as f:
             def visit(name, obj):
                 if isinstance(obj, h5py.Dataset) and obj.dtype.kind in "iuf" and obj.ndim in (1, 2):
-                    check_budget("path", str(p), 8.0 * obj.size, f"reading this {what}")
+                    need[0] += 8.0 * obj.size  # (all its datasets together)
+                    check_budget("path", str(p), need[0], f"reading this {what}")
                     out[name] = np.asarray(obj[...], dtype=float)
 
             f.visititems(visit)
