@@ -246,6 +246,27 @@ def test_a_log_written_by_another_program_is_read_by_its_columns(tmp_path, capsy
     assert "--column force = '1 kg' is not allowed" in capsys.readouterr().err
 
 
+def test_a_force_that_does_not_move_the_handle_leaves_its_figures_undetermined_and_units_off_by_1000_are_noted(tmp_path):
+    # (1) positions that are not the force's: a handle dragged at a constant 1 mm/s (numpy's ramp,
+    # on a 1 um lattice) while the log's force column is a 0.3 N sine, by definition unrelated to
+    # it. Before this the fit returned a mass of 7e7 kg +- 14 % as determined. (2) the
+    # independent simulator's 0.2 kg handle logged in m but read as mm: the figures come out 1000
+    # times off (a mass of 200 kg), and the result says that such a mass is no haptic handle's
+    # (read right, the same log's figures are test_a_log_written_by_another_program_is_read_...'s)
+    t = np.arange(1500) * 1e-3
+    ramp = I.identify(time=t, position=np.round(t * 1e-3 / 1e-6) * 1e-6, force=0.3 * np.sin(2 * np.pi * 5 * t),
+                      max_delay=1)  # (the delay is not the test)
+    assert {"mass", "damping", "coulomb_friction"} <= set(ramp.undetermined)
+    assert "the motion is not the force's" in ramp.undetermined["mass"]
+    t, p, f = _oracle_log(0.2, 0.35, 0.06, 0.0, 1, 1e-3, _program(1e-3, 3.0, "steps+chirp"))
+    path = tmp_path / "log.csv"
+    np.savetxt(path, np.column_stack([t, p, f]), delimiter=",", header="t,x,fx", comments="")
+    lg = I.read_log(path, ["time=t:s", "position=x:mm", "force=fx:N"])
+    off = I.identify(time=lg.time, position=lg.position, force=lg.force, max_delay=3)
+    assert off.device.mass[0, 0] == pytest.approx(200.0, rel=0.05)
+    assert any("far from a haptic handle's" in n for n in off.notes) and not off.undetermined
+
+
 def test_what_a_log_cannot_tell_is_said_not_guessed():
     # a 0.5 kg handle with 0.2 N of friction under white forces of 0.3 N rms, read by a 60 um
     # encoder: it moves over 2 steps (the independent simulator), and the figures that motion

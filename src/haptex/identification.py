@@ -112,6 +112,10 @@ SCREEN_NFEV = 40
 MAX_SAMPLES = 2_000_000
 """Most samples identified at once (chosen: 33 min at 1 kHz; least squares holds a few
 copies of them)."""
+PLAUSIBLE_MASS = (1e-3, 20.0)
+"""The masses (kg) of haptic handles, widely (chosen: from a pantograph's few grams to the
+kilograms of an admittance-controlled arm); an identified mass outside is noted, most often a
+position or force read in the wrong unit (a factor of 1000)."""
 
 
 @dataclass(frozen=True)
@@ -772,6 +776,22 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
             undetermined["delay"] = (f"delays {D} and {runner} fit {alike}: the "
                                      "excitation has no power where the delay shows (add faster force changes); "
                                      "each figure's deviation includes the difference between their fits")
+    # the force's own share of the motion: over a window, a force of the log's RMS moves the
+    # fitted mass by about F t^2 / 2m; below the positions' resolution the motion is not the
+    # force's (the mass is then a lower bound, and the rest with it: a log whose force or
+    # position is in the wrong unit or column)
+    moved = float(np.sqrt(np.mean(f ** 2))) * (H * T) ** 2 / (2.0 * float(np.max(m)))
+    floor = max(float(rms[D]), delta / math.sqrt(12.0))
+    if moved < floor:
+        why = (f"the force moves the fitted mass ({float(np.max(m)):.3g} kg) by about {moved:.2g} m over a "
+               f"{H * T:g} s window, less than the positions' resolution ({floor:.2g} m): the motion is not "
+               "the force's (is the force column the one commanded to this axis?)")
+        for name in ("mass", "damping", "coulomb_friction"):
+            undetermined.setdefault(name, why)
+    elif not PLAUSIBLE_MASS[0] <= float(np.max(m)) <= PLAUSIBLE_MASS[1]:
+        notes.append(f"a mass of {float(np.max(m)):.3g} kg is far from a haptic handle's ({PLAUSIBLE_MASS[0] * 1e3:g} g "
+                     f"to {PLAUSIBLE_MASS[1]:g} kg): are the position and force in the units the log was written in? "
+                     "(name them with --column, e.g. position=px:mm)")
     if span < MIN_STEPS:
         why = (f"the motion spans {span:.0f} encoder steps of {delta * 1e6:.3g} µm, fewer than {MIN_STEPS}: "
                "a larger force (or a finer encoder) moves the handle over more of them")
