@@ -778,8 +778,8 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
                                      "each figure's deviation includes the difference between their fits")
     # the force's own share of the motion: over a window, a force of the log's RMS moves the
     # fitted mass by about F t^2 / 2m; below the positions' resolution the motion is not the
-    # force's (the mass is then a lower bound, and the rest with it: a log whose force or
-    # position is in the wrong unit or column)
+    # force's (the mass is then only a lower bound, and the rest with it: a force column that is
+    # not this axis's). A unit read wrong scales motion and figures alike: the mass's range says it
     moved = float(np.sqrt(np.mean(f ** 2))) * (H * T) ** 2 / (2.0 * float(np.max(m)))
     floor = max(float(rms[D]), delta / math.sqrt(12.0))
     if moved < floor:
