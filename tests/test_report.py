@@ -139,25 +139,31 @@ def test_unwritable_path_is_one_line_exit_2():
     assert len(r.stderr.strip().splitlines()) == 1 and r.stderr.startswith("haptex: error: out = ")
 
 
-def test_force_writes_into_a_foreign_directory_and_keeps_its_files(tmp_path):
+def test_force_writes_into_a_foreign_directory_and_keeps_its_files(tmp_path, monkeypatch, capsys):
     # issue 17, reproducer 7: `reproduce --out .` computed everything, then "ValueError:
     # PosixPath('.') has an empty name". Into the current directory, a foreign one: refused at
     # once without --force; with it, written and the directory's own file kept; a second run
-    # over it (now a report with a foreign file) keeps the file too
+    # over it (now a report with a foreign file) keeps the file too. The command runs in this
+    # process with the quick computation made once beforehand (what is tested is where the
+    # report is written; the module's fixture runs the whole command)
+    from haptex import report as rep
+    from haptex.cli import main
+
+    data = rep.compute(quick=True)
+    monkeypatch.setattr(rep, "compute", lambda **kw: data)
     target = tmp_path / "mine"
     target.mkdir()
     (target / "notes.txt").write_text("keep me")
-    r = subprocess.run([sys.executable, "-m", "haptex", "reproduce", "--quick", "--out", "."], cwd=target,
-                       capture_output=True, text=True, timeout=600)
-    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and "use --force" in r.stderr
-    r = subprocess.run([sys.executable, "-m", "haptex", "reproduce", "--quick", "--out", ".", "--force"],
-                       cwd=target, capture_output=True, text=True, timeout=600)
-    assert r.returncode == 0, r.stderr
+    monkeypatch.chdir(target)
+    assert main(["reproduce", "--quick", "--out", "."]) == 2  # (refused before anything is computed)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "use --force" in err[0]
+    assert main(["reproduce", "--quick", "--out", ".", "--force"]) == 0
     assert (target / "notes.txt").read_text() == "keep me"
     assert json.loads((target / "summary.json").read_text())["generator"] == "haptex-report"
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".mine.")]  # no scratch left beside it
-    r = run_cli("reproduce", "--quick", "--out", str(target))
-    assert r.returncode == 0, r.stderr
+    monkeypatch.chdir(tmp_path)
+    assert main(["reproduce", "--quick", "--out", str(target)]) == 0
     assert (target / "notes.txt").read_text() == "keep me"
     assert (target / "index.html").exists()
 
