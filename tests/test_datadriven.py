@@ -587,6 +587,10 @@ def test_dft321_keeps_the_sum_of_the_axes_power():
     (lambda a, v, f: (a, v * (1 + 0.9 * np.sin(np.arange(v.size) / 5)), f), r"speed = 'no steady window of 0.2 s"),
     (lambda a, v, f: (a[:100], v[:100], f[:100]), r"longer than one segment|at least 64|cells of at least"),
     (lambda a, v, f: (a, v[:-1], f), r"speed = 'shape"),
+    # a still accelerometer, or one that reads only gravity: no vibration to fit (the constant's
+    # 1e-29 left by the high-pass got 30 poles fitted to it, and zero an internal 'ar = [1, nan]')
+    (lambda a, v, f: (np.zeros_like(a), v, f), r"acceleration = 'constant over the steady windows"),
+    (lambda a, v, f: (np.full_like(a, 9.81), v, f), r"acceleration = 'constant over the steady windows"),
 ])
 def test_a_bad_recording_is_one_line_naming_the_column(change, match):
     truth = _set(ma=(1.0,))

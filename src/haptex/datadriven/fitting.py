@@ -225,6 +225,7 @@ def fit(acceleration, speed, normal_force, sample_rate: float, *, rate: float | 
     # the texture band, then the models' rate
     if n < 64:
         raise fail("acceleration", f"{n} samples", "a recording of at least 64 samples")
+    raw_ms = float(np.mean(np.square(acc)))  # (the recording's own scale: what the high-pass leaves of a constant is rounding)
     acc = sosfiltfilt(butter(4, hp, "highpass", fs=fs, output="sos"), acc, axis=0)
     if out_fs != fs:
         from fractions import Fraction
@@ -286,6 +287,13 @@ def fit(acceleration, speed, normal_force, sample_rate: float, *, rate: float | 
             ac += acovf((x - x.mean()) * taper, adjusted=False, fft=True, nlag=p_max) * x.size
             total += x.size
             energy += float(np.sum(taper**2))
+        # a still accelerometer (or one reading only gravity): no process to fit; what the
+        # high-pass leaves of a constant is rounding, 1e-16 of it, and Levinson's recursion fitted
+        # 30 poles to that (STILL, relative to the recording's mean square)
+        if not ac[0] / energy > STILL * raw_ms:
+            raise fail("acceleration", f"constant over the steady windows at {mv[g].mean():.3g} m/s, "
+                       f"{mf[g].mean():.3g} N", "a vibration (an acceleration that varies) in every steady window: "
+                       "is the acceleration column the accelerometer's?")
         _, _, _, s, phi = levinson_durbin(ac / energy, nlags=p_max, isacov=True)
         sig.append((np.asarray(s)[1:], np.asarray(phi), total))
     if order is None:
@@ -318,6 +326,13 @@ def fit(acceleration, speed, normal_force, sample_rate: float, *, rate: float | 
     s = ModelSet(models, name=name)
     s.report = report
     return s
+
+
+STILL = 1e-18
+"""A steady window's band-passed mean square at most this fraction of the recording's raw mean
+square is no vibration (chosen: a constant 1 or 9.81 m/s^2 through the 20 Hz high-pass of a
+2 s recording at 10 kHz leaves 6e-30 and 3e-29 of its mean square, measured; gravity read with
+1 mm/s^2 of noise, 1e-8)."""
 
 
 TAPER = 0.01
