@@ -141,6 +141,19 @@ def test_models_on_one_line_are_interpolated_along_it():
     assert line.last_counts["clamped"] == 0
 
 
+def test_a_negative_speed_or_force_is_refused_and_one_model_says_when_it_is_moved_to():
+    # HaTT's operating point is the tangential speed's magnitude and the normal force, both >= 0
+    # (Culbertson, Lopez Delgado & Kuchenbecker 2014, HaTT): -1 m/s was accepted and read as the hull's closest
+    # point without a word; and a set of one model (a recording at one speed and force) said
+    # every point was its own
+    s = _set()
+    for speed, force, name in ((-0.05, 1.0, "speed"), (0.05, -1.0, "force")):
+        with pytest.raises(ParameterError, match=rf"^{name} = -\S+ is not allowed: must be a number >= 0"):
+            s.weights(speed, force)
+    one = dd.ModelSet([s.models[4]])
+    assert one.weights(0.06, 1.2)[2] is False and one.weights(0.5, 1.2)[2] is True
+
+
 def test_the_same_seed_gives_the_same_signal():
     s = _set()
     a, b = s.synthesize(0.05, 1.0, 0.5, seed=3), s.synthesize(0.05, 1.0, 0.5, seed=3)

@@ -301,12 +301,17 @@ class ModelSet:
         Raises
         ------
         ParameterError
-            If speed or force is not finite.
+            If speed or force is not finite, or negative (HaTT's speed is the tangential speed's
+            magnitude and its force the normal force: both >= 0).
         """
         s, f = _finite("speed", speed, "m/s"), _finite("force", force, "N")
+        for name, v, unit in (("speed", s, "m/s, the tangential speed's magnitude"), ("force", f, "N, the normal force")):
+            if v < 0.0:
+                raise fail(name, v, f"a number >= 0 ({unit})")
         n = len(self.models)
-        if n == 1:
-            return np.array([0]), np.array([1.0]), False
+        if n == 1:  # (one model: everywhere its own point's, moved there unless at it)
+            m = self.models[0]
+            return np.array([0]), np.array([1.0]), bool(s != m.speed or f != m.force)
         x, y = self.speeds / self.speed_scale, self.forces / self.force_scale
         u, w = s / self.speed_scale, f / self.force_scale
         if len(self.triangles):
