@@ -247,7 +247,7 @@ def test_a_log_written_by_another_program_is_read_by_its_columns(tmp_path, capsy
     assert "--column force = '1 kg' is not allowed" in capsys.readouterr().err
 
 
-def test_a_force_that_does_not_move_the_handle_leaves_its_figures_undetermined_and_units_off_by_1000_are_noted(tmp_path):
+def test_a_force_that_moves_no_handle_leaves_the_figures_undetermined_and_a_unit_off_by_1000_is_noted(tmp_path):
     # (1) positions that are not the force's: a handle dragged at a constant 1 mm/s (numpy's ramp,
     # on a 1 um lattice) while the log's force column is a 0.3 N sine, by definition unrelated to
     # it. Before this the fit returned a mass of 7e7 kg +- 14 % as determined. (2) the

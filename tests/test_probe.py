@@ -450,7 +450,9 @@ def _periodic_map_path_max_slope(hn, dx, r, sub=4, top=60, levels=5, keep=12):
             gv = d[0] + s
             g0, g1 = d[1] - Ua[:, 0] / s, d[2] - Ua[:, 1] / s
             w = 1 / (s2 * s)
-            a_, b_, c_ = -(d[3] - 1 / s - Ua[:, 0] ** 2 * w), -(d[4] - Ua[:, 0] * Ua[:, 1] * w), -(d[5] - 1 / s - Ua[:, 1] ** 2 * w)
+            a_ = -(d[3] - 1 / s - Ua[:, 0] ** 2 * w)  # (minus the Hessian of H plus the sphere's cap)
+            b_ = -(d[4] - Ua[:, 0] * Ua[:, 1] * w)
+            c_ = -(d[5] - 1 / s - Ua[:, 1] ** 2 * w)
             low = 0.5 * (a_ + c_) - np.hypot(0.5 * (a_ - c_), b_)
             shift = np.where(low > 0, 0.0, 1e-3 / r - low)  # (where not concave: a gradient step)
             a_, c_ = a_ + shift, c_ + shift
