@@ -478,7 +478,7 @@ def _equation_error(p, f, T, max_delay):
 
 
 def _fit(p, f, T, D, H, init, res_sd, every: int = 1, max_nfev: int = 100, lsmr_tol: float = 1e-8,
-         continuity: float = None):
+         continuity: float | None = None):
     """Output-error fit at delay D over every ``every``-th window: (least-squares result, windows);
     contiguous windows matched by ``continuity`` (default :data:`CONTINUITY`), the matching rows
     left out of the result's residuals and Jacobian (the deviations are the windows' own)."""
