@@ -304,3 +304,12 @@ def test_an_npz_log_is_refused_from_its_headers_and_a_broken_one_in_one_line(tmp
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 2 and "14.9 GiB" in err[0] and "not a zip file" in err[1]
     assert peak < 50e6  # (bytes: the header, not the array)
+    # a member written without numpy's .npy suffix is an array numpy reads (its name as written):
+    # read too, not refused by the header check
+    from haptex._columns import read_table
+
+    arr = __import__("io").BytesIO()
+    head.write_array(arr, np.arange(3.0))
+    with zipfile.ZipFile(tmp_path / "plain.npz", "w") as z:
+        z.writestr("time_s", arr.getvalue())
+    assert np.array_equal(read_table(tmp_path / "plain.npz", "run log")["time_s"], np.arange(3.0))

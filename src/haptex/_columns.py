@@ -151,10 +151,11 @@ def read_table(path, what: str) -> dict:
         out, need = {}, 0.0
         try:
             with np.load(p, allow_pickle=False) as z:
+                members = set(z.zip.namelist())
                 for k in z.files:
                     # (each array's size from its header, before it is read: a small file may
-                    # hold a huge compressed array)
-                    with z.zip.open(k + ".npy") as fh:
+                    # hold a huge compressed array; numpy names a member k.npy, or k as written)
+                    with z.zip.open(k + ".npy" if k + ".npy" in members else k) as fh:
                         version = np.lib.format.read_magic(fh)
                         head = (np.lib.format.read_array_header_1_0 if version == (1, 0)
                                 else np.lib.format.read_array_header_2_0)
