@@ -72,6 +72,7 @@ def test_units_are_parsed_where_people_write_them():
         (["table", "--period", "2kg"], "period = '2kg' is not allowed"),
         (["table", "--amplitude", "nan"], "amplitude"),
         (["table", "--bogus"], "No such option"),
+        (["design", "--texture", ""], "texture = '' is not allowed: must be 'sine:AMPLITUDE,PERIOD'"),  # (was "path = '.'")
         (["reproduce", "--out", "/proc/haptex-cannot-be-here"], "out = '/proc/haptex-cannot-be-here' is not allowed"),
     ],
 )
@@ -170,7 +171,7 @@ def test_bad_3d_simulation_options_are_refused_in_one_line(args, fragment):
     (["simulate", "thrust", "--anchor", "0"], "anchor = '0' is not allowed"),
     (["simulate", "path"], "Missing option '--path'"),
     (["simulate", "scan", "--sampling-period", "0s"], "period = 0 is not allowed"),
-    (["simulate", "thrust", "--algorithm", "Q"], "letter = 'Q' is not allowed"),
+    (["simulate", "thrust", "--algorithm", "Q"], "--algorithm = 'Q' is not allowed"),
     (["simulate", "thrust", "--plot", "/proc/nope/x.png", "--duration", "0.01s"], "plot = '/proc/nope/x.png' is not allowed"),
 ])
 def test_simulate_bad_input(args, fragment):

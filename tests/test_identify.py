@@ -239,6 +239,27 @@ def test_windows_matched_end_to_start_find_the_delay_the_rounding_hides(seed):
         assert got == pytest.approx(want, rel=0.01)
 
 
+@pytest.mark.long  # (4 s each)
+@pytest.mark.parametrize("seed", [2, 3])
+def test_a_damping_the_log_cannot_tell_from_zero_is_said_not_determined(seed):
+    # a 500 g handle whose damping, 0.1 N·s/m, is a 5 s time constant, on a 60 um encoder under
+    # forces below 20 Hz (the independent simulator's log, truth delay 0): delays 0 and 1 fit
+    # alike, and their fits' dampings differ by about half of it, so the damping's deviation is
+    # 45 and 55 % of it (seeds 2, 3; measured). Stop 77 returned it as a number, +5.9 and +6.1 %
+    # off, past issue 65's 5 %, with nothing said. A figure within 3 of its deviations of zero is
+    # one the log does not tell from none: now said not determined, with its bound; the mass,
+    # 0.65 % deviation, stays a number (within 3 deviations of the truth), and the device file
+    # says which figure is not to be relied on
+    m, b, fc, delta = 0.5, 0.1, 0.2, 60e-6
+    t, p, f = _oracle_log(m, b, fc, delta, 0, 1e-3, _program(1e-3, 10.0, "below 20 Hz", seed=seed), noise=1e-6,
+                          seed=seed)
+    r = I.identify(time=t, position=p, force=f)
+    d = r.device
+    assert abs(d.damping[0, 0] - b) <= 0.05 * b or "damping" in r.undetermined
+    assert "damping" in r.undetermined and "3 deviations of zero" in r.undetermined["damping"]
+    assert "mass" not in r.undetermined and abs(d.mass[0, 0] - m) <= 3 * r.uncertainty["mass"]
+    assert "damping: not determined" in r.to_toml()
+
 def test_a_log_written_by_another_program_is_read_by_its_columns(tmp_path, capsys):
     # a CHAI3D-style log: time in ms, positions in mm on three axes, forces in N, and a button
     # column; the identification runs on it through --column and lists what it ignored. The

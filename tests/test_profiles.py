@@ -198,6 +198,24 @@ def test_section_V_numbers_of_the_rendering_limits():
     assert lim2["force reconstruction"].rhs == pytest.approx(100 * 0.1e-3) and not lim2["force reconstruction"].passed
 
 
+def test_a_flat_texture_meets_the_force_reconstruction_limit_vacuously_and_a_faint_one_does_not():
+    # limit 4 (Section II-B) asks that the texture's force amplitude span gamma force quanta:
+    # with no texture (amplitude 0) there is nothing to reconstruct, and an ideal device (no
+    # quantum) read 0 < 0, "violated" (stop 77 noticed: design called a flat texture
+    # unreproducible). A faint texture below the quanta still fails, at both sides of it
+    ideal = hx.Device.point_mass(0.1, 0.5, 1e-4)
+    coarse = hx.Device.point_mass(0.1, 0.5, 1e-4, force_resolution=0.05)
+
+    def met(amplitude, dev):
+        lim = {x.name: x for x in hx.texture_limits(hx.Sinusoid(amplitude, 1e-3), dev, 0.05, 100.0)}
+        return lim["force reconstruction"].passed
+
+    assert met(0.0, ideal) and met(0.0, coarse)
+    assert met(1e-9, ideal)  # (any amplitude spans an ideal device's quanta)
+    assert not met(2.4e-3, coarse) and not met(1e-6, coarse)  # (gamma b = 0.25 N; k A = 0.24 N, 1e-4 N)
+    assert met(2.6e-3, coarse)  # (0.26 N)
+
+
 def test_max_passive_stiffness_is_corollary_1():
     dev = hx.Device.point_mass(0.1, 0.5, 1e-4)
     assert hx.max_passive_stiffness(hx.algorithm("W", None, 1.0), dev) == pytest.approx(0.5 / (2 * 1e-4))

@@ -72,6 +72,10 @@ def _texture_from_spec(spec: str, spacing=None, x_unit=None, height_unit=None, l
     from .surfaces import load_texture
     from .textures import BandLimitedNoise, Sinusoid, SumOfSinusoids
 
+    if not str(spec).strip():  # (an empty path is the working folder, which no reader takes)
+        raise ParameterError(f"texture = {spec!r} is not allowed: must be 'sine:AMPLITUDE,PERIOD', 'sum:A1,L1;A2,L2', "
+                             "'noise:RMS,SHORTEST,LONGEST,LENGTH[,SEED]', 'egg-crate:AMPLITUDE,PERIOD', "
+                             "'grating:AMPLITUDE,PERIOD[,DIRECTION]' or a topography file's path")
     kind, _, rest = spec.partition(":")
     if kind in ("sine", "sum", "noise", "egg-crate", "grating") and rest:
         given = [flag for flag, v in (("--spacing", spacing), ("--x-unit", x_unit), ("--height-unit", height_unit),

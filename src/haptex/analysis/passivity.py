@@ -57,6 +57,7 @@ def texture_limits(texture: Texture, device, speed: float, stiffness: float, sam
        device's largest stiffness (its ``max_stiffness``, else sigma_0(B) / (2T))
     6. structural              v / l < F_0
 
+    Limit 4 counts as met for a flat texture (A_F = 0: no force to reconstruct, on any device).
     Limits 1-3 and 6 bound the shortest period from below; they count as met at equality,
     so that a texture band-limited to exactly :func:`rendering_cutoff`'s l_c passes them
     (its filter has already attenuated l_c itself).
@@ -95,7 +96,7 @@ def texture_limits(texture: Texture, device, speed: float, stiffness: float, sam
            for name, formula in PERIOD_LIMITS[:3]]
     out += [
         Limit("force reconstruction", "gamma b < A_F (printed: gamma b / l < A)", gamma * b, force_amp, "N",
-              gamma * b < force_amp),
+              gamma * b < force_amp or force_amp == 0.0),  # (a flat texture: nothing to reconstruct)
         Limit("gain", "kappa_0 M < K_max (printed: 2 pi A / l < A_0)", k0 * M, kmax, "N/m", k0 * M < kmax),
         Limit("device structural", "v / l < F_0", v / ell, device.first_resonance, "Hz",
               v / ell <= device.first_resonance),

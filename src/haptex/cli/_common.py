@@ -30,6 +30,22 @@ class Quantity(click.ParamType):
             self.fail(str(exc), param, ctx)
 
 
+def _letter(proxy: bool = False):
+    """A click callback checking ``--algorithm``: a letter of :data:`haptex.algorithms.ALGORITHMS`
+    (any case), or 'proxy' where ``proxy``; refused naming the option (the library's parameter
+    is ``letter``)."""
+
+    def check(ctx, param, value):
+        from ..algorithms import ALGORITHMS
+
+        if value is None or str(value).strip().upper() in ALGORITHMS or (proxy and str(value).strip().upper() == "PROXY"):
+            return value
+        allowed = ", ".join(sorted(ALGORITHMS, key=lambda c: (c != "W", c))) + (", or proxy" if proxy else "")
+        raise ParameterError(f"--algorithm = {value!r} is not allowed: must be one of {allowed}")
+
+    return check
+
+
 def _paper_options(func):
     opts = [
         click.option("--stiffness", type=Quantity("N/m"), default=PAPER_PARAMETERS["stiffness"],

@@ -12,7 +12,7 @@ import click
 from .._specs import object_from_spec, texture_from_spec as _texture_from_spec
 from .._validation import ParameterError
 from ..core import blas_held_to_one_thread as _core_blas_held
-from ._common import (Quantity, STABILISERS, _budget_needs_models, _check_plot_path, _felt_options, _jsonable,
+from ._common import (Quantity, STABILISERS, _budget_needs_models, _check_plot_path, _felt_options, _jsonable, _letter,
                       _object_options, _stabiliser, _vibration, _vibration_options)
 
 
@@ -26,7 +26,7 @@ from ._common import (Quantity, STABILISERS, _budget_needs_models, _check_plot_p
                    "'haptex[haply-serial]').")
 @click.option("--texture", "texture_spec", default="sine:0.2mm,2mm", show_default=True,
               help="A texture spec as for design (a profile is extruded across y on a 3-DOF device).")
-@click.option("--algorithm", "letter", default="A", show_default=True,
+@click.option("--algorithm", "letter", default="A", show_default=True, callback=_letter(proxy=True),
               help="W or A-G, or 'proxy': a god-object (haptex.proxy.GodObject, with history).")
 @click.option("--stiffness", type=Quantity("N/m"), default=500.0, show_default="500 N/m", help="kappa_0.")
 @click.option("--max-force", type=Quantity("N"), default=None, help="At most the device's (default: the device's).")

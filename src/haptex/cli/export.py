@@ -9,12 +9,12 @@ import click
 from .._specs import object_from_spec, texture_from_spec as _texture_from_spec
 from .._validation import ParameterError
 from ._common import (
-    Quantity, STABILISERS, _Spinner, _catalogued_device, _felt_options, _not_taken, _object_options, _stabiliser,
+    Quantity, STABILISERS, _Spinner, _catalogued_device, _felt_options, _letter, _not_taken, _object_options, _stabiliser,
     _budget_needs_models, _vibration, _vibration_options)
 
 
 @click.command()
-@click.option("--algorithm", "letter", required=True, help="W or A-G.")
+@click.option("--algorithm", "letter", required=True, callback=_letter(), help="W or A-G.")
 @click.option("--texture", "texture_spec", default=None,
               help="FILE, 'sine:AMPLITUDE,PERIOD', 'sum:A1,L1;A2,L2' or 'noise:RMS,SHORTEST,LONGEST,LENGTH[,SEED]' "
                    "(not for W).")

@@ -12,13 +12,13 @@ from .._specs import texture_from_spec as _texture_from_spec
 from .._validation import ParameterError
 from ._common import (
     Quantity, STABILISERS, _Spinner, _build_device, _check_plot_path, _check_save_path, _device_options,
-    _fitted, _given_for_letter, _jsonable, _paper_options, _parse_path, _parse_point, _refuse_unused,
+    _fitted, _given_for_letter, _jsonable, _letter, _paper_options, _parse_path, _parse_point, _refuse_unused,
     _budget_needs_models, _stabiliser, _vibration, _vibration_options_no_friction)
 
 
 def _sim_common(func):
     opts = [
-        click.option("--algorithm", "letter", default="A", show_default=True, help="W or A-G."),
+        click.option("--algorithm", "letter", default="A", show_default=True, callback=_letter(), help="W or A-G."),
         _paper_options,
         _device_options,
         click.option("--duration", type=Quantity("s"), default=2.0, show_default="2 s"),
