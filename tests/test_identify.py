@@ -239,6 +239,45 @@ def test_windows_matched_end_to_start_find_the_delay_the_rounding_hides(seed):
         assert got == pytest.approx(want, rel=0.01)
 
 
+@pytest.mark.long  # (6 s)
+def test_a_delay_whose_screening_fit_stopped_in_another_basin_is_fitted_again_from_the_best():
+    # issue 65 at 4 kHz (the goal's other rate): a 500 g, 0.1 N·s/m, 0.2 N handle under random
+    # forces, continuous and noise-free (the independent simulator's log, program seed 1): every
+    # delay's screening fit from the equation error stopped near 0.38 N·s/m (3 um of residual);
+    # the delays beside the best were fitted again from it, delay 1 reached 1.0 um from a better
+    # basin, and delay 0, the truth, was never fitted again from there: delay 1 was returned,
+    # determined, the damping +30.7 %. Measured from delay 1's figures, delay 0 fits to 0.03 um.
+    # The model holds the truth and the log is exact: delay exact, figures within 0.1 %
+    m, b, fc, T = 0.5, 0.1, 0.2, 0.25e-3
+    t, p, f = _oracle_log(m, b, fc, 0.0, 0, T, _program(T, 10.0, "random", seed=1))
+    r = I.identify(time=t, position=p, force=f)
+    d = r.device
+    assert d.delay == 0 and not r.undetermined
+    for got, want in ((d.mass[0, 0], m), (d.damping[0, 0], b), (d.coulomb_friction, fc)):
+        assert got == pytest.approx(want, rel=1e-3)
+
+
+@pytest.mark.long  # (9 s each)
+@pytest.mark.parametrize("seed", [1, 2])
+def test_at_4_khz_every_delay_the_log_cannot_tell_widens_the_figures_deviations(seed):
+    # issue 65's 4 kHz rate: a 500 g, 3 N·s/m, 0.2 N handle on a 60 um encoder with 1 um of
+    # noise, delay 4 (1 ms), steps and a chirp to 0.2 f_s (the independent simulator's log).
+    # Measured: every delay from 0 to 10 fits to the rounding within 0.25 um on 0.2 s windows
+    # (15.75-15.99 um, seed 1); delay 0 (seed 1) or 3 (seed 2) came back, said undetermined, but
+    # each figure's deviation spanned only the runner-up's fit: the mass +1.2 %, 3.8 of its
+    # deviations off (seed 1). Now each deviation spans every tied delay's fit (measured: mass
+    # 7.5 %, damping 17-21 %); asserted: the delay exact or said undetermined, naming the tied
+    # delays, and the truth within 3 deviations of every figure
+    m, b, fc, delta, D, T = 0.5, 3.0, 0.2, 60e-6, 4, 0.25e-3
+    t, p, f = _oracle_log(m, b, fc, delta, D, T, _program(T, 10.0, "steps+chirp", seed=seed), noise=1e-6, seed=seed)
+    r = I.identify(time=t, position=p, force=f)
+    d = r.device
+    assert d.delay == D or "delays 0-10 fit alike" in r.undetermined.get("delay", "")
+    for name, got, want in (("mass", d.mass[0, 0], m), ("damping", d.damping[0, 0], b),
+                            ("coulomb_friction", d.coulomb_friction, fc)):
+        assert abs(got - want) <= 3 * r.uncertainty[name], (name, got, want, r.uncertainty[name])
+
+
 @pytest.mark.long  # (4 s each)
 @pytest.mark.parametrize("seed", [2, 3])
 def test_a_damping_the_log_cannot_tell_from_zero_is_said_not_determined(seed):
