@@ -27,6 +27,8 @@ CASES = [  # (label, Device parameters)
      dict(mass=0.3, damping=2.0, period=1e-3, delay=0, position_resolution=63.5e-6, coulomb_friction=0.2)),
     ("50 g, 0.4 N s/m, 10 mN, 5 um, 4 kHz, delay 2",
      dict(mass=0.05, damping=0.4, period=0.25e-3, delay=2, position_resolution=5e-6, coulomb_friction=0.01)),
+    ("50 g, 0.1 N s/m, 0.2 N, 60 um, 4 kHz, delay 4 (the sweep's slowest)",
+     dict(mass=0.05, damping=0.1, period=0.25e-3, delay=4, position_resolution=60e-6, coulomb_friction=0.2)),
     ("120 g, 0.8 N s/m, 50 mN, continuous, 1 kHz, delay 3",
      dict(mass=0.12, damping=0.8, period=1e-3, delay=3, position_resolution=0.0, coulomb_friction=0.05)),
     ("500 g, 0.1 N s/m, 0.2 N, 60 um, 1 kHz, delay 1 (5 s time constant)",

@@ -494,7 +494,30 @@ def _fit(p, f, T, D, H, init, res_sd, every: int = 1, max_nfev: int = 100, lsmr_
     contiguous windows matched by ``continuity`` (default :data:`CONTINUITY`), the matching rows
     left out of the result's residuals and Jacobian (the deviations are the windows' own)."""
     from scipy.optimize import least_squares
-    from scipy.sparse import lil_matrix
+
+    residual, jac, x0, (lo, hi), scale, W, nl = _problem(p, f, T, D, H, init, res_sd, every, continuity)
+    d = p.shape[1]
+    # lsmr's tolerances tightened from scipy's 1e-6: with its default the steps were short of
+    # Gauss-Newton's and the fit stopped early (the independent simulator's 7.5 µm encoder log:
+    # damping +0.73 %, at 1e-8 +0.09 %; a 4 kHz log: 8.4 s, at 1e-8 2.8 s and exact)
+    try:
+        sol = least_squares(residual, x0, jac=jac, bounds=(lo, hi), x_scale=scale, method="trf", tr_solver="lsmr",
+                            xtol=1e-8, ftol=1e-8, max_nfev=max_nfev, tr_options={"atol": lsmr_tol, "btol": lsmr_tol})
+    except ValueError:  # (a step the matching made non-finite: a handle barely moving, stuck by its
+        if not nl:      # friction over 2 encoder steps; the windows alone, as before them)
+            raise
+        return _fit(p, f, T, D, H, init, res_sd, every, max_nfev, lsmr_tol, continuity=0.0)
+    if nl:
+        sol.fun = sol.fun[:W * H * d]
+        sol.jac = sol.jac[:W * H * d]
+    return sol, W
+
+
+def _problem(p, f, T, D, H, init, res_sd, every: int = 1, continuity: float | None = None):
+    """:func:`_fit`'s least-squares problem: (residual, jac, x0, (lo, hi), x_scale, windows,
+    matched pairs); x is the figures (masses, dampings, friction), then every window's start
+    position and velocity."""
+    from scipy.sparse import csc_matrix
 
     from .core import _ext
     from .simulate import _axis_coefficients
@@ -527,45 +550,93 @@ def _fit(p, f, T, D, H, init, res_sd, every: int = 1, max_nfev: int = 100, lsmr_
         ends["p"], ends["v"] = p0, v0
         return pos
 
+    last = {}
+
     def residual(x):
         r = ((model(x) - meas) / res_sd).ravel()
-        if link.size == 0:
-            return r
-        ps = x[ng:ng + W * d].reshape(W, d)
-        vs = x[ng + W * d:].reshape(W, d)
-        dp = (ends["p"][link] - ps[link + 1]) / res_sd
-        dv = (ends["v"][link] - vs[link + 1]) * (H * T) / res_sd
-        return np.concatenate([r, lam_c * dp.ravel(), lam_c * dv.ravel()])
+        if link.size:
+            ps = x[ng:ng + W * d].reshape(W, d)
+            vs = x[ng + W * d:].reshape(W, d)
+            dp = (ends["p"][link] - ps[link + 1]) / res_sd
+            dv = (ends["v"][link] - vs[link + 1]) * (H * T) / res_sd
+            r = np.concatenate([r, lam_c * dp.ravel(), lam_c * dv.ravel()])
+        last["x"], last["r"] = x.copy(), r
+        return r
 
     nl = link.size
-    sp = lil_matrix((W * H * d + 2 * nl * d, x0.size), dtype=int)
-    sp[:, :ng] = 1
-    for w in range(W):
-        r0, r1 = w * H * d, (w + 1) * H * d
-        sp[r0:r1, ng + w * d:ng + (w + 1) * d] = 1
-        sp[r0:r1, ng + W * d + w * d:ng + W * d + (w + 1) * d] = 1
-    for k, w in enumerate(link):
-        for part in range(2):
-            r0 = W * H * d + part * nl * d + k * d
-            for ww in (w, w + 1):
-                sp[r0:r0 + d, ng + ww * d:ng + (ww + 1) * d] = 1
-                sp[r0:r0 + d, ng + W * d + ww * d:ng + W * d + (ww + 1) * d] = 1
+    R = W * H * d + 2 * nl * d
+    # the Jacobian by forward differences, as scipy's (steps sqrt(eps) max(1, |x|), signed), in
+    # 2 d + 1 + 2 d simulations: each global figure alone, then one axis of every window's start
+    # position (or velocity) at once (a window's rows and end depend on its own start only); the
+    # matching rows from the windows' simulated ends, and their -1 on the next window's start
+    # exactly. Its pattern is fixed, so the sparse matrix is laid out once (scipy's sparse
+    # differences re-derived it at every Jacobian: at 4 kHz, two thirds of the fit's time)
+    rw = np.arange(W * H * d).reshape(W, H * d)  # (each window's rows)
+    glob_rows = np.tile(np.arange(R), ng)
+    glob_cols = np.repeat(np.arange(ng), R)
+    blk_rows, blk_cols = [], []  # (the start columns' entries, in the order jac() fills them)
+    lk_w = {int(w): k for k, w in enumerate(link)}  # (window -> its link to the next)
+    lk_next = {int(w) + 1: k for k, w in enumerate(link)}
+    for kind in range(2):  # 0: start positions, 1: start velocities
+        for a in range(d):
+            for w in range(W):
+                col = ng + kind * W * d + w * d + a
+                blk_rows.append(rw[w])
+                blk_cols.append(np.full(H * d, col))
+                if w in lk_w:  # (this window's end against the next one's start: dp then dv rows)
+                    k = lk_w[w]
+                    blk_rows.append(W * H * d + k * d + np.arange(d))
+                    blk_rows.append(W * H * d + nl * d + k * d + np.arange(d))
+                    blk_cols.append(np.full(2 * d, col))
+                if w in lk_next:  # (the previous window's end against this start: exactly -1)
+                    k = lk_next[w]
+                    blk_rows.append(np.array([W * H * d + kind * nl * d + k * d + a]))
+                    blk_cols.append(np.array([col]))
+    rows = np.concatenate([glob_rows, *blk_rows])
+    cols = np.concatenate([glob_cols, *blk_cols])
+    order = np.lexsort((rows, cols))  # (CSC: column-major, rows sorted within)
+    indptr = np.searchsorted(cols[order], np.arange(x0.size + 1))
+    eps = np.finfo(float).eps ** 0.5
+
+    def jac(x):
+        if "x" in last and np.array_equal(last["x"], x):  # (least squares evaluated x just before)
+            r0 = last["r"]
+            model(x)
+        else:
+            r0 = residual(x)
+        pos0, pe0, ve0 = pos.copy(), ends["p"].copy(), ends["v"].copy()
+        h_all = eps * np.where(x >= 0, 1.0, -1.0) * np.maximum(1.0, np.abs(x))
+        h_all = (x + h_all) - x
+        gcols = []
+        for j in range(ng):
+            xj = x.copy()
+            xj[j] += h_all[j]
+            gcols.append((residual(xj) - r0) / h_all[j])
+        vals = [np.concatenate(gcols)]
+        for kind in range(2):
+            for a in range(d):
+                sel = ng + kind * W * d + np.arange(W) * d + a
+                xj = x.copy()
+                xj[sel] += h_all[sel]
+                model(xj)
+                hw = h_all[sel]
+                dpos = ((pos - pos0) / res_sd).reshape(W, H * d) / hw[:, None]
+                dpe = (ends["p"] - pe0) / hw[:, None]
+                dve = (ends["v"] - ve0) / hw[:, None]
+                for w in range(W):
+                    vals.append(dpos[w])
+                    if w in lk_w:
+                        vals.append(lam_c * dpe[w] / res_sd)
+                        vals.append(lam_c * dve[w] * (H * T) / res_sd)
+                    if w in lk_next:
+                        vals.append(np.array([-lam_c * (1.0 if kind == 0 else H * T) / res_sd]))
+        last.clear()  # (the model's buffers now hold a perturbed run)
+        data = np.concatenate(vals)[order]
+        return csc_matrix((data, rows[order], indptr), shape=(R, x0.size))
+
     scale = np.concatenate([np.maximum(np.abs(x0[:ng]), 1e-3), np.full(W * d, res_sd),
                             np.full(W * d, max(res_sd / T / H, 1e-6))])
-    # lsmr's tolerances tightened from scipy's 1e-6: with its default the steps were short of
-    # Gauss-Newton's and the fit stopped early (the independent simulator's 7.5 µm encoder log:
-    # damping +0.73 %, at 1e-8 +0.09 %; a 4 kHz log: 8.4 s, at 1e-8 2.8 s and exact)
-    try:
-        sol = least_squares(residual, x0, bounds=(lo, hi), jac_sparsity=sp, x_scale=scale, method="trf",
-                            xtol=1e-8, ftol=1e-8, max_nfev=max_nfev, tr_options={"atol": lsmr_tol, "btol": lsmr_tol})
-    except ValueError:  # (a step the matching made non-finite: a handle barely moving, stuck by its
-        if not nl:      # friction over 2 encoder steps; the windows alone, as before them)
-            raise
-        return _fit(p, f, T, D, H, init, res_sd, every, max_nfev, lsmr_tol, continuity=0.0)
-    if nl:
-        sol.fun = sol.fun[:W * H * d]
-        sol.jac = sol.jac[:W * H * d]
-    return sol, W
+    return residual, jac, x0, (lo, hi), scale, W, nl
 
 
 def identify(*, time, position, force, max_delay: int = MAX_DELAY, window: float | None = None,
