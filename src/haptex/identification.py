@@ -265,7 +265,10 @@ class Identification:
         whole number, chosen by the residual; see ``delay_residuals``) and ``period`` (s,
         the ticks' jitter).
     axes : dict
-        ``mass`` and ``damping`` an axis (kg, N s/m), with their standard deviations.
+        ``mass`` and ``damping`` an axis (kg, N s/m), with their standard deviations
+        (``mass_sd``, ``damping_sd``); ``delay_ties``, the delays the log cannot tell from the
+        chosen one (the chosen first), and ``delay_spread``, the largest difference of their
+        fits' figures from the chosen one's (masses, dampings, friction; 0 without ties).
     residual_rms : float
         RMS difference of the model's positions from the logged ones (m).
     delay_residuals : dict
