@@ -135,6 +135,10 @@ best delay's cost (its fit's summed squared distances from the cells) is this ma
 every other's (chosen: on the independent simulator's 60 µm logs at 4 kHz, 500 g handles with
 0.2 N of friction and 1 µm of noise, the truth's cost lay 2.6 to 8.2 times below the next one's,
 where least squares on the positions fitted delays 0 to 10 alike)."""
+MAX_DENSE_FIT = 1_000_000
+"""Most Jacobian entries (rows x figures) for which an output-error fit solves its steps densely
+(scipy's exact trust region); a larger one uses lsmr (chosen: the final fit of a 10 s log at
+4 kHz on 0.2 s windows, 40,000 x 101, took 7.0 s dense and 0.35 s by lsmr)."""
 MAX_CELL_DENSE = 10_000_000
 """Most Jacobian entries (rows x figures) for which the cells' fit solves its steps densely
 (scipy's exact trust region: 6-16 evaluations, 0.4-0.8 s on a 10 s log at 4 kHz, where lsmr
@@ -513,9 +517,15 @@ def _fit(p, f, T, D, H, init, res_sd, every: int = 1, max_nfev: int = 100, lsmr_
     # lsmr's tolerances tightened from scipy's 1e-6: with its default the steps were short of
     # Gauss-Newton's and the fit stopped early (the independent simulator's 7.5 µm encoder log:
     # damping +0.73 %, at 1e-8 +0.09 %; a 4 kHz log: 8.4 s, at 1e-8 2.8 s and exact)
+    # a small problem's steps solved exactly, by scipy's SVD of the dense Jacobian (the screening's
+    # 8 windows: 6,400 x 19 at 4 kHz, its 22 fits 7.0 s by lsmr, 3.8 s so; the refits from the
+    # best converge in 20 evaluations where lsmr's stopped at 40); a large one's by lsmr
+    dense = (W * H + 2 * nl) * d * x0.size <= MAX_DENSE_FIT
+    opts = {"tr_solver": "exact", "jac": lambda x: jac(x).toarray()} if dense else {
+        "tr_solver": "lsmr", "jac": jac, "tr_options": {"atol": lsmr_tol, "btol": lsmr_tol}}
     try:
-        sol = least_squares(residual, x0, jac=jac, bounds=(lo, hi), x_scale=scale, method="trf", tr_solver="lsmr",
-                            xtol=1e-8, ftol=1e-8, max_nfev=max_nfev, tr_options={"atol": lsmr_tol, "btol": lsmr_tol})
+        sol = least_squares(residual, x0, bounds=(lo, hi), x_scale=scale, method="trf",
+                            xtol=1e-8, ftol=1e-8, max_nfev=max_nfev, **opts)
     except ValueError:  # (a step the matching made non-finite: a handle barely moving, stuck by its
         if not nl:      # friction over 2 encoder steps; the windows alone, as before them)
             raise
@@ -770,7 +780,7 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
         near = len(screen) > 1 and screen[1] < (1.0 + DELAY_RECHECK) * screen[0]
         delays = tuple(range(max(D1 - 1, 0), min(D1 + 1, max_delay) + 1)) if quantized and near else D1
         told, cells_note = None, None
-        if quantized and max_delay > 0:
+        if quantized:
             # an encoder's log: the delay is the one whose fit keeps the motion in the cells the
             # positions were rounded in (at 4 kHz on a 60 µm encoder, least squares on the
             # positions fitted delays 0 to 10 alike, and preferred 0 on 1 s windows for a true 4)
@@ -927,7 +937,7 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
         init = {"m": xb[:d], "b": xb[d:2 * d], "fc": float(xb[2 * d]), "v": v}
         for D in range(max(D0 - SCREEN_REACH, 0), min(D0 + SCREEN_REACH, max_delay) + 1):
             if D != D0 and D in screened:
-                sol, W = _fit(p, f, T, D, H, init, res_sd, every, SCREEN_NFEV, 1e-6)
+                sol, W = _fit(p, f, T, D, H, init, res_sd, every, SCREEN_NFEV)
                 if sol.cost < screened[D].cost:
                     screened[D] = sol
     screen_rms = {D: float(np.sqrt(np.mean(sol.fun ** 2))) * res_sd for D, sol in screened.items()}
