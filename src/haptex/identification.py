@@ -1081,7 +1081,7 @@ def _device(m, b, fc: float, T: float, D: int, delta: float, source: str):
         raise ParameterError(f"log = {source!r} is not allowed: the fitted model is not a device ({exc})") from None
 
 
-def _cells_fit(p, f, T, D, H, init, delta):
+def _cells_fit(p, f, T, D, H, init, delta, continuity: float | None = None):
     """The output-error fit at delay D on windows of H samples whose residual is each simulated
     position's distance from its encoder cell, [measured - delta/2, measured + delta/2] (zero
     inside it): (cost, figures (2 d + 1,), the model's positions over the windows (W, H, d) and
@@ -1094,7 +1094,7 @@ def _cells_fit(p, f, T, D, H, init, delta):
 
     res_sd = delta / math.sqrt(12.0)
     band = 0.5 * delta / res_sd  # (half a cell in the residuals' units)
-    residual, jac, x0, (lo, hi), scale, W, nl = _problem(p, f, T, D, H, init, res_sd)
+    residual, jac, x0, (lo, hi), scale, W, nl = _problem(p, f, T, D, H, init, res_sd, continuity=continuity)
     rows = W * H * p.shape[1]
 
     def outside(x):
@@ -1109,8 +1109,13 @@ def _cells_fit(p, f, T, D, H, init, delta):
         return J.toarray() if dense else J
 
     opts = {} if dense else {"tr_options": {"atol": 1e-8, "btol": 1e-8}}
-    sol = least_squares(outside, x0, jac=jac_outside, bounds=(lo, hi), x_scale=scale, method="trf",
-                        tr_solver="exact" if dense else "lsmr", xtol=1e-8, ftol=1e-8, max_nfev=100, **opts)
+    try:
+        sol = least_squares(outside, x0, jac=jac_outside, bounds=(lo, hi), x_scale=scale, method="trf",
+                            tr_solver="exact" if dense else "lsmr", xtol=1e-8, ftol=1e-8, max_nfev=100, **opts)
+    except ValueError:  # (a step the matching made non-finite, as in _fit: the windows alone)
+        if not nl:
+            raise
+        return _cells_fit(p, f, T, D, H, init, delta, continuity=0.0)
     e = residual(sol.x)[:rows].reshape(W, H, p.shape[1]) * res_sd
     idx = (D + H * np.arange(W))[:, None] + np.arange(H)[None, :]
     return 2.0 * float(sol.cost), sol.x[:2 * p.shape[1] + 1], p[idx] + e, idx
