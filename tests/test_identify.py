@@ -292,7 +292,7 @@ def test_a_delay_whose_screening_fit_stopped_in_another_basin_is_fitted_again_fr
 @pytest.mark.long  # (5 s)
 def test_a_screening_fit_that_stopped_short_does_not_hide_the_true_delay():
     # issue 65's continuous sensor with 1 um of noise at 4 kHz (not in its sweep before
-    # 2026-11-28, which had the continuous logs noise-free): a 50 g, 3 N·s/m, 0.2 N handle under
+    # this test, which had the continuous logs noise-free): a 50 g, 3 N·s/m, 0.2 N handle under
     # forces below 20 Hz, delay 0 (the independent simulator's log, program seed 1, noise 101).
     # The screening's fits of 8 windows stopped at 40 evaluations short of their optima, lsmr's
     # steps solved to 1e-6: delay 0 screened 1.62 um, delay 1 1.54 um, and delay 1 came back,
