@@ -506,33 +506,50 @@ def _equation_error(p, f, T, max_delay):
 
 
 def _fit(p, f, T, D, H, init, res_sd, every: int = 1, max_nfev: int = 100, lsmr_tol: float = 1e-8,
-         continuity: float | None = None):
+         continuity: float | None = None, band: float | None = None, dense_limit: int = MAX_DENSE_FIT):
     """Output-error fit at delay D over every ``every``-th window: (least-squares result, windows);
     contiguous windows matched by ``continuity`` (default :data:`CONTINUITY`), the matching rows
-    left out of the result's residuals and Jacobian (the deviations are the windows' own)."""
+    left out of the result's residuals and Jacobian (the deviations are the windows' own). With
+    ``band`` (in the residuals' units) each position's residual is its distance outside
+    [measured - band, measured + band], an encoder's cell (:func:`_cells_fit`), and the result
+    carries ``errors``, the positions' own residuals at its optimum. Steps are solved densely up
+    to ``dense_limit`` Jacobian entries."""
     from scipy.optimize import least_squares
+    from scipy.sparse import diags
 
     residual, jac, x0, (lo, hi), scale, W, nl = _problem(p, f, T, D, H, init, res_sd, every, continuity)
     d = p.shape[1]
+    rows = W * H * d
+    fun, fun_jac = residual, jac
+    if band is not None:
+        def fun(x):
+            e = residual(x)
+            return np.concatenate([np.sign(e[:rows]) * np.maximum(np.abs(e[:rows]) - band, 0.0), e[rows:]])
+
+        def fun_jac(x):
+            e = residual(x)  # (then jac reuses this evaluation)
+            return diags(np.concatenate([(np.abs(e[:rows]) > band).astype(float), np.ones(e.size - rows)])) @ jac(x)
     # lsmr's tolerances tightened from scipy's 1e-6: with its default the steps were short of
     # Gauss-Newton's and the fit stopped early (the independent simulator's 7.5 µm encoder log:
     # damping +0.73 %, at 1e-8 +0.09 %; a 4 kHz log: 8.4 s, at 1e-8 2.8 s and exact)
     # a small problem's steps solved exactly, by scipy's SVD of the dense Jacobian (the screening's
     # 8 windows: 6,400 x 19 at 4 kHz, its 22 fits 7.0 s by lsmr, 3.8 s so; the refits from the
     # best converge in 20 evaluations where lsmr's stopped at 40); a large one's by lsmr
-    dense = (W * H + 2 * nl) * d * x0.size <= MAX_DENSE_FIT
-    opts = {"tr_solver": "exact", "jac": lambda x: jac(x).toarray()} if dense else {
-        "tr_solver": "lsmr", "jac": jac, "tr_options": {"atol": lsmr_tol, "btol": lsmr_tol}}
+    dense = (W * H + 2 * nl) * d * x0.size <= dense_limit
+    opts = {"tr_solver": "exact", "jac": lambda x: fun_jac(x).toarray()} if dense else {
+        "tr_solver": "lsmr", "jac": fun_jac, "tr_options": {"atol": lsmr_tol, "btol": lsmr_tol}}
     try:
-        sol = least_squares(residual, x0, bounds=(lo, hi), x_scale=scale, method="trf",
+        sol = least_squares(fun, x0, bounds=(lo, hi), x_scale=scale, method="trf",
                             xtol=1e-8, ftol=1e-8, max_nfev=max_nfev, **opts)
     except ValueError:  # (a step the matching made non-finite: a handle barely moving, stuck by its
         if not nl:      # friction over 2 encoder steps; the windows alone, as before them)
             raise
-        return _fit(p, f, T, D, H, init, res_sd, every, max_nfev, lsmr_tol, continuity=0.0)
+        return _fit(p, f, T, D, H, init, res_sd, every, max_nfev, lsmr_tol, 0.0, band, dense_limit)
+    if band is not None:
+        sol.errors = residual(sol.x)[:rows]
     if nl:
-        sol.fun = sol.fun[:W * H * d]
-        sol.jac = sol.jac[:W * H * d]
+        sol.fun = sol.fun[:rows]
+        sol.jac = sol.jac[:rows]
     return sol, W
 
 
@@ -794,9 +811,8 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
                    f"delay {ranked[0]}")
             if len(ranked) > 1:
                 how += f", the runner-up, delay {ranked[1]}, {costs[ranked[1]]:.3g}"
-            if not walk:
+            if not walk:  # (the screening's delay: no note of the cells' own)
                 told = delays = D1
-                cells_note = None
             elif decisive:
                 told = delays = ranked[0]
                 cells_note = f"delay {told} periods: told by the encoder's cells ({how})"
@@ -1081,7 +1097,7 @@ def _device(m, b, fc: float, T: float, D: int, delta: float, source: str):
         raise ParameterError(f"log = {source!r} is not allowed: the fitted model is not a device ({exc})") from None
 
 
-def _cells_fit(p, f, T, D, H, init, delta, continuity: float | None = None):
+def _cells_fit(p, f, T, D, H, init, delta):
     """The output-error fit at delay D on windows of H samples whose residual is each simulated
     position's distance from its encoder cell, [measured - delta/2, measured + delta/2] (zero
     inside it): (cost, figures (2 d + 1,), the model's positions over the windows (W, H, d) and
@@ -1089,34 +1105,10 @@ def _cells_fit(p, f, T, D, H, init, delta, continuity: float | None = None):
     which least squares on the positions reads as 17 µm of noise on a 60 µm encoder; a wrong
     delay cannot keep the motion in every cell (set-membership identification: Milanese &
     Vicino, Automatica 27(6), 1991)."""
-    from scipy.optimize import least_squares
-    from scipy.sparse import diags
-
     res_sd = delta / math.sqrt(12.0)
-    band = 0.5 * delta / res_sd  # (half a cell in the residuals' units)
-    residual, jac, x0, (lo, hi), scale, W, nl = _problem(p, f, T, D, H, init, res_sd, continuity=continuity)
-    rows = W * H * p.shape[1]
-
-    def outside(x):
-        e = residual(x)
-        return np.concatenate([np.sign(e[:rows]) * np.maximum(np.abs(e[:rows]) - band, 0.0), e[rows:]])
-
-    dense = (rows + 2 * nl * p.shape[1]) * x0.size <= MAX_CELL_DENSE
-
-    def jac_outside(x):
-        e = residual(x)
-        J = diags(np.concatenate([(np.abs(e[:rows]) > band).astype(float), np.ones(e.size - rows)])) @ jac(x)
-        return J.toarray() if dense else J
-
-    opts = {} if dense else {"tr_options": {"atol": 1e-8, "btol": 1e-8}}
-    try:
-        sol = least_squares(outside, x0, jac=jac_outside, bounds=(lo, hi), x_scale=scale, method="trf",
-                            tr_solver="exact" if dense else "lsmr", xtol=1e-8, ftol=1e-8, max_nfev=100, **opts)
-    except ValueError:  # (a step the matching made non-finite, as in _fit: the windows alone)
-        if not nl:
-            raise
-        return _cells_fit(p, f, T, D, H, init, delta, continuity=0.0)
-    e = residual(sol.x)[:rows].reshape(W, H, p.shape[1]) * res_sd
+    # (half a cell in the residuals' units)
+    sol, W = _fit(p, f, T, D, H, init, res_sd, band=0.5 * delta / res_sd, dense_limit=MAX_CELL_DENSE)
+    e = sol.errors.reshape(W, H, p.shape[1]) * res_sd
     idx = (D + H * np.arange(W))[:, None] + np.arange(H)[None, :]
     return 2.0 * float(sol.cost), sol.x[:2 * p.shape[1] + 1], p[idx] + e, idx
 
