@@ -170,6 +170,13 @@ ORACLE_CASES = [  # issue 65: the cases haptex's own logs did not catch, and the
 ]
 
 
+def _within(r, m, b, fc, rel):
+    """Assert each figure (mass kg, damping N s/m, friction N) within ``rel`` of the truth."""
+    d = r.device
+    for got, want in ((d.mass[0, 0], m), (d.damping[0, 0], b), (d.coulomb_friction, fc)):
+        assert got == pytest.approx(want, rel=rel)
+
+
 def _within_three_deviations(r, m, b, fc):
     """Assert the truth (mass kg, damping N s/m, friction N) lies within 3 of each figure's
     reported standard deviations (issue 65's honesty of the deviations)."""
@@ -242,10 +249,9 @@ def test_windows_matched_end_to_start_find_the_delay_the_rounding_hides(seed):
     m, b, fc, delta, D = 0.5, 3.0, 0.2, 60e-6, 0
     t, p, f = _oracle_log(m, b, fc, delta, D, 1e-3, _program(1e-3, 10.0, "below 20 Hz", seed=seed), noise=1e-6,
                           seed=seed)
-    d = I.identify(time=t, position=p, force=f).device
-    assert d.delay == D
-    for got, want in ((d.mass[0, 0], m), (d.damping[0, 0], b), (d.coulomb_friction, fc)):
-        assert got == pytest.approx(want, rel=0.01)
+    r = I.identify(time=t, position=p, force=f)
+    assert r.device.delay == D
+    _within(r, m, b, fc, 0.01)
 
 
 @pytest.mark.parametrize("fc, d", [(0.0, 1), (0.06, 1), (0.06, 2)])
@@ -283,10 +289,8 @@ def test_a_delay_whose_screening_fit_stopped_in_another_basin_is_fitted_again_fr
     m, b, fc, T = 0.5, 0.1, 0.2, 0.25e-3
     t, p, f = _oracle_log(m, b, fc, 0.0, 0, T, _program(T, 10.0, "random", seed=1))
     r = I.identify(time=t, position=p, force=f)
-    d = r.device
-    assert d.delay == 0 and not r.undetermined
-    for got, want in ((d.mass[0, 0], m), (d.damping[0, 0], b), (d.coulomb_friction, fc)):
-        assert got == pytest.approx(want, rel=1e-3)
+    assert r.device.delay == 0 and not r.undetermined
+    _within(r, m, b, fc, 1e-3)
 
 
 @pytest.mark.long  # (5 s)
@@ -302,10 +306,8 @@ def test_a_screening_fit_that_stopped_short_does_not_hide_the_true_delay():
     m, b, fc, T = 0.05, 3.0, 0.2, 0.25e-3
     t, p, f = _oracle_log(m, b, fc, 0.0, 0, T, _program(T, 10.0, "below 20 Hz", seed=1), noise=1e-6, seed=101)
     r = I.identify(time=t, position=p, force=f)
-    d = r.device
-    assert d.delay == 0 and not r.undetermined, r.undetermined
-    for got, want in ((d.mass[0, 0], m), (d.damping[0, 0], b), (d.coulomb_friction, fc)):
-        assert got == pytest.approx(want, rel=0.01)
+    assert r.device.delay == 0 and not r.undetermined, r.undetermined
+    _within(r, m, b, fc, 0.01)
     _within_three_deviations(r, m, b, fc)
 
 
@@ -329,9 +331,7 @@ def test_at_4_khz_the_encoders_cells_tell_the_delay_its_rounding_hides(seed):
                           seed=seed + 100)
     r = I.identify(time=t, position=p, force=f)
     assert r.device.delay == D and "delay" not in r.undetermined, r.undetermined
-    d = r.device
-    for got, want in ((d.mass[0, 0], m), (d.damping[0, 0], b), (d.coulomb_friction, fc)):
-        assert got == pytest.approx(want, rel=0.05)
+    _within(r, m, b, fc, 0.05)
     _within_three_deviations(r, m, b, fc)
 
 
@@ -369,10 +369,8 @@ def test_an_encoders_cells_tell_a_5_s_time_constants_damping(seed):
     t, p, f = _oracle_log(m, b, fc, delta, 0, 1e-3, _program(1e-3, 10.0, "below 20 Hz", seed=seed), noise=1e-6,
                           seed=seed)
     r = I.identify(time=t, position=p, force=f)
-    d = r.device
-    assert d.delay == 0 and not r.undetermined, r.undetermined
-    for got, want in ((d.mass[0, 0], m), (d.damping[0, 0], b), (d.coulomb_friction, fc)):
-        assert got == pytest.approx(want, rel=0.05)
+    assert r.device.delay == 0 and not r.undetermined, r.undetermined
+    _within(r, m, b, fc, 0.05)
     _within_three_deviations(r, m, b, fc)
 
 
