@@ -375,16 +375,34 @@ def test_an_encoders_cells_tell_a_5_s_time_constants_damping(seed):
 
 
 @pytest.mark.long  # (10 s)
-def test_a_damping_the_log_cannot_tell_from_zero_is_said_not_determined():
+def test_an_encoders_cells_tell_a_5_s_time_constants_damping_under_random_forces_at_4_khz():
     # at 4 kHz the same 500 g, 0.1 N·s/m (5 s) handle with delay 4 under random forces (the
-    # independent simulator's log, program seed 1, noise 101): least squares on 1 s windows
-    # reads its damping -47 %, a deviation of 53 % of it. A figure within 3 of its deviations of
-    # zero is one the log does not tell from none: said not determined, with its bound (stop 77
-    # returned such dampings as numbers, +5.9 and +6.1 % off); the mass, 0.2 % deviation, stays
-    # a number within 3 deviations of the truth, and the device file says which figure is not
-    # to be relied on. (The cells' fit reads the damping +0.8 %; its deviation is least squares')
+    # independent simulator's log, program seed 1, noise 101). Least squares on 1 s windows
+    # reads its damping -47 %, a deviation of 53 % of it; the cells' fit reads +0.8 %, and stop
+    # 79 kept least squares' deviation for it, so said the damping not determined. The cells'
+    # own deviation (the M-estimator's sandwich on the 454 positions that left their cells) is
+    # 3.2 % of it: told. A profile of the cells' cost, refitted with the damping held, measured
+    # the log's information: 1.08 at the truth, 1.25 and 1.22 at 0.8 and 1.2 times it, 4.0 at
+    # 0.2 and 1.8 times. Asserted: every figure within 5 % and within 3 of its deviations
     m, b, fc, delta, T = 0.5, 0.1, 0.2, 60e-6, 0.25e-3
     t, p, f = _oracle_log(m, b, fc, delta, 4, T, _program(T, 10.0, "random", seed=1), noise=1e-6, seed=101)
+    r = I.identify(time=t, position=p, force=f)
+    assert r.device.delay == 4 and not r.undetermined, r.undetermined
+    _within(r, m, b, fc, 0.05)
+    _within_three_deviations(r, m, b, fc)
+    assert any("deviations the cells' own" in n for n in r.notes)
+
+
+def test_a_damping_the_log_cannot_tell_from_zero_is_said_not_determined():
+    # a 500 g handle damped by 0.5 mN·s/m (a 1,000 s time constant: a free mass over a 10 s log)
+    # on a 60 µm encoder at 1 kHz, delay 1, under random forces (the independent simulator's log,
+    # program seed 1, noise 101): the cells' fit reads its damping 1.0e-4 N·s/m, a deviation of
+    # 8.5e-4. A figure within 3 of its deviations of zero is one the log does not tell from
+    # none: said not determined, with its bound (stop 77 returned such dampings as numbers); the
+    # mass stays a number within 3 deviations of the truth, and the device file says which
+    # figure is not to be relied on
+    m, b, fc, delta, T = 0.5, 0.0005, 0.2, 60e-6, 1e-3
+    t, p, f = _oracle_log(m, b, fc, delta, 1, T, _program(T, 10.0, "random", seed=1), noise=1e-6, seed=101)
     r = I.identify(time=t, position=p, force=f)
     d = r.device
     assert "damping" in r.undetermined and "3 deviations of zero" in r.undetermined["damping"]

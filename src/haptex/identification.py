@@ -143,6 +143,13 @@ MAX_CELL_DENSE = 10_000_000
 """Most Jacobian entries (rows x figures) for which the cells' fit solves its steps densely
 (scipy's exact trust region: 6-16 evaluations, 0.4-0.8 s on a 10 s log at 4 kHz, where lsmr
 took its 200 without converging); a larger log's fit uses lsmr (chosen: 80 MB)."""
+CELL_DEVIATION_ROWS = 5
+"""Positions per fitted parameter (the figures and every window's start) that must lie outside
+their encoder cells at the cells' fit's optimum for its residuals to give the figures'
+deviations (:func:`_cells_fit`; chosen): with fewer the cost is flat inside the cells, in some
+directions or all, and the deviations stay least squares'. Measured on the independent
+simulator's 60 µm logs of 10 s: with 1 µm of noise 146 positions left their cells at 1 kHz and
+454 at 4 kHz (21 parameters); without noise, 1."""
 PLAUSIBLE_MASS = (1e-3, 20.0)
 """The masses (kg) of haptic handles, widely (chosen: from a pantograph's few grams to the
 kilograms of an admittance-controlled arm); an identified mass outside is noted, most often a
@@ -967,37 +974,7 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
     x = sol.x
     ng = 2 * d + 1
     J = sol.jac.toarray() if hasattr(sol.jac, "toarray") else np.asarray(sol.jac)
-    dof = max(sol.fun.size - x.size, 1)
-    # the residuals of one window are correlated (an encoder's rounding error persists while the
-    # handle moves slowly): the variance is inflated by (1 + rho) / (1 - rho), rho their lag-1
-    # autocorrelation along the windows (the effective sample size of an AR(1) error)
-    e = sol.fun.reshape(W, -1, d)
-    rho = float(np.sum(e[:, 1:] * e[:, :-1]) / max(np.sum(e * e), 1e-300))
-    rho = min(max(rho, 0.0), 0.99)
-    s2 = float(np.sum(sol.fun ** 2)) / dof * (1 + rho) / (1 - rho)
-    # Each standard deviation is the larger of two: the Gauss-Newton one above, and the
-    # window-clustered sandwich (Huber-White; Cameron & Miller 2015, J. Human Resources 50(2)),
-    # (J^T J)^-1 (sum_w J_w^T r_w r_w^T J_w) (J^T J)^-1, which holds whatever the correlation of
-    # the residuals within a window (an encoder's rounding error is a function of the motion,
-    # not an AR(1) noise). On the independent simulator's logs every figure's error is within
-    # 2 of either (seeds 1-3); on noise-free logs the Gauss-Newton one is the larger.
-    try:
-        norm = np.linalg.norm(J, axis=0)
-        norm[norm == 0] = 1.0
-        Jn = J / norm  # columns of one scale: pinv's cut-off must not drop the figures' own directions
-        bread = np.linalg.pinv(Jn.T @ Jn) / np.outer(norm, norm)
-        scores = np.einsum("wri,wr->wi", J.reshape(W, -1, J.shape[1]), sol.fun.reshape(W, -1))
-        sandwich = bread @ (scores.T @ scores * (W / max(W - 1, 1))) @ bread
-        # over few windows the clustered variance is itself uncertain (10 clusters on 1 s
-        # windows: by about a quarter): read with Student's t of W - 1 degrees of freedom, as
-        # Cameron & Miller's few-cluster inference does, scaled so that 3 deviations keep their
-        # normal coverage (t_9 at 99.87 %: 1.36 times; t_48: 1.05)
-        from scipy.stats import norm, t as student
-
-        few = float(student.ppf(norm.cdf(3.0), max(W - 1, 1)) / 3.0)
-        sd = np.sqrt(np.maximum(np.maximum(np.diag(bread)[:ng] * s2, np.diag(sandwich)[:ng] * few ** 2), 0.0))
-    except np.linalg.LinAlgError:  # pragma: no cover (pinv converges on any finite matrix)
-        sd = np.full(ng, np.nan)
+    sd = _deviations(J, sol.fun, W, ng, sol.fun.size - x.size)
     # the delays the log cannot tell from the best: within DELAY_MARGIN of its residual, or on an
     # encoder's log within DELAY_FLOOR_MARGIN of the rounding. Each figure's deviation spans every
     # one of their fits (at 4 kHz on a 60 um encoder a 500 g, 3 N·s/m handle's delays 0 to 10
@@ -1080,6 +1057,48 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
     return Identification(dev, unc, axes, rms[D], screen_rms, n, W, source, notes, undetermined, sources, trace)
 
 
+def _deviations(J, r, W: int, ng: int, dof: int) -> np.ndarray:
+    """The standard deviations (ng,) of a fit's first ``ng`` parameters, from its Jacobian ``J``
+    (rows, parameters) and residuals ``r`` (rows,) over ``W`` windows of equal rows, with ``dof``
+    degrees of freedom (the residuals that carry information less the parameters): the larger of
+    the Gauss-Newton and the window-clustered sandwich deviations. Serves least squares on the
+    positions and the encoder cells' fit alike (an M-estimator's asymptotic covariance is the
+    same sandwich, its residuals and Jacobian the cells' own: Huber, Proc. 5th Berkeley Symp.
+    1, 1967)."""
+    dof = max(dof, 1)
+    # the residuals of one window are correlated (an encoder's rounding error persists while the
+    # handle moves slowly): the variance is inflated by (1 + rho) / (1 - rho), rho their lag-1
+    # autocorrelation along the windows (the effective sample size of an AR(1) error)
+    e = r.reshape(W, -1, (ng - 1) // 2)  # (windows, samples, axes)
+    rho = float(np.sum(e[:, 1:] * e[:, :-1]) / max(np.sum(e * e), 1e-300))
+    rho = min(max(rho, 0.0), 0.99)
+    s2 = float(np.sum(r ** 2)) / dof * (1 + rho) / (1 - rho)
+    # Each standard deviation is the larger of two: the Gauss-Newton one above, and the
+    # window-clustered sandwich (Huber-White; Cameron & Miller 2015, J. Human Resources 50(2)),
+    # (J^T J)^-1 (sum_w J_w^T r_w r_w^T J_w) (J^T J)^-1, which holds whatever the correlation of
+    # the residuals within a window (an encoder's rounding error is a function of the motion,
+    # not an AR(1) noise). On the independent simulator's logs every figure's error is within
+    # 2 of either (seeds 1-3); on noise-free logs the Gauss-Newton one is the larger.
+    try:
+        size = np.linalg.norm(J, axis=0)
+        size[size == 0] = 1.0
+        Jn = J / size  # columns of one scale: pinv's cut-off must not drop the figures' own directions
+        bread = np.linalg.pinv(Jn.T @ Jn) / np.outer(size, size)
+        scores = np.einsum("wri,wr->wi", J.reshape(W, -1, J.shape[1]), r.reshape(W, -1))
+        sandwich = bread @ (scores.T @ scores * (W / max(W - 1, 1))) @ bread
+        # over few windows the clustered variance is itself uncertain (10 clusters on 1 s
+        # windows: by about a quarter): read with Student's t of W - 1 degrees of freedom, as
+        # Cameron & Miller's few-cluster inference does, scaled so that 3 deviations keep their
+        # normal coverage (t_9 at 99.87 %: 1.36 times; t_48: 1.05)
+        from scipy.stats import norm, t as student
+
+        few = float(student.ppf(norm.cdf(3.0), max(W - 1, 1)) / 3.0)
+        sd = np.sqrt(np.maximum(np.maximum(np.diag(bread)[:ng] * s2, np.diag(sandwich)[:ng] * few ** 2), 0.0))
+    except np.linalg.LinAlgError:  # pragma: no cover (pinv converges on any finite matrix)
+        sd = np.full(ng, np.nan)
+    return sd
+
+
 def _device(m, b, fc: float, T: float, D: int, delta: float, source: str):
     """The :class:`~haptex.Device` of fitted figures (masses and dampings an axis, kg and N s/m;
     friction N; period s; delay periods; encoder step m); a one-axis log's second axis copies the
@@ -1100,8 +1119,10 @@ def _device(m, b, fc: float, T: float, D: int, delta: float, source: str):
 def _cells_fit(p, f, T, D, H, init, delta):
     """The output-error fit at delay D on windows of H samples whose residual is each simulated
     position's distance from its encoder cell, [measured - delta/2, measured + delta/2] (zero
-    inside it): (cost, figures (2 d + 1,), the model's positions over the windows (W, H, d) and
-    their sample indices (W, H)). A rounded position says the handle was in that cell,
+    inside it): (cost, figures (2 d + 1,), the model's positions over the windows (W, H, d),
+    their sample indices (W, H), the figures' deviations (2 d + 1,) or None where fewer than
+    :data:`CELL_DEVIATION_ROWS` positions a parameter left their cells, and how many left them).
+    A rounded position says the handle was in that cell,
     which least squares on the positions reads as 17 µm of noise on a 60 µm encoder; a wrong
     delay cannot keep the motion in every cell (set-membership identification: Milanese &
     Vicino, Automatica 27(6), 1991)."""
@@ -1110,26 +1131,44 @@ def _cells_fit(p, f, T, D, H, init, delta):
     sol, W = _fit(p, f, T, D, H, init, res_sd, band=0.5 * delta / res_sd, dense_limit=MAX_CELL_DENSE)
     e = sol.errors.reshape(W, H, p.shape[1]) * res_sd
     idx = (D + H * np.arange(W))[:, None] + np.arange(H)[None, :]
-    return 2.0 * float(sol.cost), sol.x[:2 * p.shape[1] + 1], p[idx] + e, idx
+    ng = 2 * p.shape[1] + 1
+    # the figures' deviations, the M-estimator's own (:func:`_deviations` on the positions that
+    # left their cells: the measurement noise's share), where enough positions left them to tell
+    outside = int(np.count_nonzero(sol.fun))
+    sd = None
+    if outside >= CELL_DEVIATION_ROWS * sol.x.size:
+        J = sol.jac.toarray() if hasattr(sol.jac, "toarray") else np.asarray(sol.jac)
+        sd = _deviations(J, sol.fun, W, ng, outside - sol.x.size)
+    return 2.0 * float(sol.cost), sol.x[:ng], p[idx] + e, idx, sd, outside
 
 
 def _with_cells_figures(r: "Identification", fit, t, p) -> "Identification":
     """``r`` with its mass, damping and friction those of the cells' fit ``fit`` (as
     :func:`_cells_fit` returns it, at ``r``'s delay) and its trace and residual that fit's over
-    times ``t`` and positions ``p``; the deviations stay least squares' (inside the cells the
-    cost is flat: its residuals give no deviation), said in a note."""
-    _, x, model, idx = fit
+    times ``t`` and positions ``p``; the deviations the cells' fit's own where it has them (else
+    least squares': inside the cells the cost is flat and gives none), said in a note."""
+    _, x, model, idx, sd, outside = fit
     d = len(r.axes["mass"])
     m, b, fc = x[:d], x[d:2 * d], float(x[2 * d])
     dev = _device(m, b, fc, r.device.period, r.device.delay, r.device.position_resolution, r.source)
     unit = {"mass": "kg", "damping": "N·s/m"}
     was = ", ".join(f"{k} {', '.join(f'{v:.4g}' for v in r.axes[k])} {unit[k]}" for k in ("mass", "damping"))
+    axes, unc = {**r.axes, "mass": m.tolist(), "damping": b.tolist()}, r.uncertainty
+    if sd is None:
+        how = (f"their deviations are least squares' ({outside} positions left their cells at the cells' optimum, "
+               f"fewer than {CELL_DEVIATION_ROWS} a parameter: inside the cells the cost is flat and tells none)")
+    else:
+        how = (f"their deviations the cells' own (the {outside} positions that left their cells, read as an "
+               "M-estimator's: least squares' were " + ", ".join(
+                   f"{k} {', '.join(f'{v:.2g}' for v in r.axes[k + '_sd'])} {unit[k]}" for k in ("mass", "damping"))
+               + f", friction {r.uncertainty['coulomb_friction']:.2g} N)")
+        axes.update(mass_sd=sd[:d].tolist(), damping_sd=sd[d:2 * d].tolist())
+        unc = {**unc, "mass": float(np.max(sd[:d])), "damping": float(np.max(sd[d:2 * d])),
+               "coulomb_friction": float(sd[2 * d])}
     note = (f"mass, damping and friction: the cells' fit at delay {r.device.delay} (least squares on the positions "
-            f"read {was}, friction {r.device.coulomb_friction:.4g} N); their deviations are least squares' (inside "
-            "the cells the cells' cost is flat and gives none; on the independent simulator's 60 µm logs the cells' "
-            "figures lay closer to the truth)")
+            f"read {was}, friction {r.device.coulomb_friction:.4g} N); {how}")
     trace = {"time": t[idx].ravel(), "measured": p[idx][..., 0].ravel(), "model": model[..., 0].ravel()}
-    return dataclasses.replace(r, device=dev, axes={**r.axes, "mass": m.tolist(), "damping": b.tolist()},
+    return dataclasses.replace(r, device=dev, axes=axes, uncertainty=unc,
                                residual_rms=float(np.sqrt(np.mean((model - p[idx]) ** 2))), trace=trace,
                                notes=[*r.notes, note])
 
