@@ -393,16 +393,35 @@ def test_an_encoders_cells_tell_a_5_s_time_constants_damping_under_random_forces
     assert any("deviations the cells' own" in n for n in r.notes)
 
 
-def test_a_damping_the_log_cannot_tell_from_zero_is_said_not_determined():
+@pytest.mark.long  # (12 s)
+def test_a_noise_free_encoders_cells_bound_a_5_s_time_constants_damping():
+    # the same 4 kHz log without noise: no position leaves its cell at the cells' optimum, so
+    # the cells' cost is flat there and gives no deviation, and least squares' (47 % of the
+    # damping) said it not determined, where the cells' figure is +0.004 %. Held 30 % below and
+    # above it (CELL_PROBE) and refitted, the cells' fit leaves positions 1.0 µm outside their
+    # cells (measured; at 10 % 0.35 µm): every damping that keeps them in lies within 30 %,
+    # a deviation of 10 %. Asserted: told, every figure within 5 % and 3 deviations
+    m, b, fc, delta, T = 0.5, 0.1, 0.2, 60e-6, 0.25e-3
+    t, p, f = _oracle_log(m, b, fc, delta, 4, T, _program(T, 10.0, "random", seed=1))
+    r = I.identify(time=t, position=p, force=f)
+    assert r.device.delay == 4 and not r.undetermined, r.undetermined
+    _within(r, m, b, fc, 0.05)
+    _within_three_deviations(r, m, b, fc)
+    assert any("held 30 % below and above" in n and "outside their cells" in n for n in r.notes)
+
+
+@pytest.mark.parametrize("noise", [1e-6, pytest.param(0.0, marks=pytest.mark.long)])
+def test_a_damping_the_log_cannot_tell_from_zero_is_said_not_determined(noise):
     # a 500 g handle damped by 0.5 mN·s/m (a 1,000 s time constant: a free mass over a 10 s log)
     # on a 60 µm encoder at 1 kHz, delay 1, under random forces (the independent simulator's log,
-    # program seed 1, noise 101): the cells' fit reads its damping 1.0e-4 N·s/m, a deviation of
-    # 8.5e-4. A figure within 3 of its deviations of zero is one the log does not tell from
-    # none: said not determined, with its bound (stop 77 returned such dampings as numbers); the
-    # mass stays a number within 3 deviations of the truth, and the device file says which
-    # figure is not to be relied on
+    # program seed 1, noise 101): with 1 µm of noise the cells' fit reads its damping 1.0e-4
+    # N·s/m, a deviation of 8.5e-4; without, 5.3e-4 (least squares' deviation 2.8e-3: the damping
+    # held 30 % off keeps the positions in their cells). A figure within 3 of its deviations of
+    # zero is one the log does not tell from none: said not determined, with its bound (stop 77
+    # returned such dampings as numbers); the mass stays a number within 3 deviations of the
+    # truth, and the device file says which figure is not to be relied on
     m, b, fc, delta, T = 0.5, 0.0005, 0.2, 60e-6, 1e-3
-    t, p, f = _oracle_log(m, b, fc, delta, 1, T, _program(T, 10.0, "random", seed=1), noise=1e-6, seed=101)
+    t, p, f = _oracle_log(m, b, fc, delta, 1, T, _program(T, 10.0, "random", seed=1), noise=noise, seed=101)
     r = I.identify(time=t, position=p, force=f)
     d = r.device
     assert "damping" in r.undetermined and "3 deviations of zero" in r.undetermined["damping"]

@@ -150,6 +150,15 @@ deviations (:func:`_cells_fit`; chosen): with fewer the cost is flat inside the 
 directions or all, and the deviations stay least squares'. Measured on the independent
 simulator's 60 µm logs of 10 s: with 1 µm of noise 146 positions left their cells at 1 kHz and
 454 at 4 kHz (21 parameters); without noise, 1."""
+CELL_PROBE = 0.3
+"""Where no position leaves its cell at the cells' fit's optimum (a noise-free encoder) and a
+mass or damping's least-squares deviation would leave it not determined (:data:`TOLD`), it is
+held this fraction below and above its figure and the rest refitted to the cells; where both
+leave a position outside its cell (by more than three times the optimum's largest distance, and
+a thousandth of a step), every figure that keeps the positions in their cells lies within it,
+and its deviation is this fraction of it over :data:`TOLD` (chosen: below 1 / TOLD, so such a
+figure is told; at 4 kHz a 500 g, 0.1 N·s/m handle under random forces held at 0.7 and 1.3
+times its damping left positions 1.0 µm outside their 60 µm cells, at 0.9 and 1.1 times 0.35 µm)."""
 PLAUSIBLE_MASS = (1e-3, 20.0)
 """The masses (kg) of haptic handles, widely (chosen: from a pantograph's few grams to the
 kilograms of an admittance-controlled arm); an identified mass outside is noted, most often a
@@ -513,18 +522,22 @@ def _equation_error(p, f, T, max_delay):
 
 
 def _fit(p, f, T, D, H, init, res_sd, every: int = 1, max_nfev: int = 100, lsmr_tol: float = 1e-8,
-         continuity: float | None = None, band: float | None = None, dense_limit: int = MAX_DENSE_FIT):
+         continuity: float | None = None, band: float | None = None, dense_limit: int = MAX_DENSE_FIT,
+         hold: tuple[int, float] | None = None):
     """Output-error fit at delay D over every ``every``-th window: (least-squares result, windows);
     contiguous windows matched by ``continuity`` (default :data:`CONTINUITY`), the matching rows
     left out of the result's residuals and Jacobian (the deviations are the windows' own). With
     ``band`` (in the residuals' units) each position's residual is its distance outside
     [measured - band, measured + band], an encoder's cell (:func:`_cells_fit`), and the result
     carries ``errors``, the positions' own residuals at its optimum. Steps are solved densely up
-    to ``dense_limit`` Jacobian entries."""
+    to ``dense_limit`` Jacobian entries. ``hold`` (index, value) holds one figure at a value."""
     from scipy.optimize import least_squares
     from scipy.sparse import diags
 
     residual, jac, x0, (lo, hi), scale, W, nl = _problem(p, f, T, D, H, init, res_sd, every, continuity)
+    if hold is not None:  # (a band of 1e-9 of it: least squares needs lo < hi)
+        k, value = hold
+        x0[k], lo[k], hi[k] = value, value * (1.0 - 1e-9), value * (1.0 + 1e-9)
     d = p.shape[1]
     rows = W * H * d
     fun, fun_jac = residual, jac
@@ -551,7 +564,7 @@ def _fit(p, f, T, D, H, init, res_sd, every: int = 1, max_nfev: int = 100, lsmr_
     except ValueError:  # (a step the matching made non-finite: a handle barely moving, stuck by its
         if not nl:      # friction over 2 encoder steps; the windows alone, as before them)
             raise
-        return _fit(p, f, T, D, H, init, res_sd, every, max_nfev, lsmr_tol, 0.0, band, dense_limit)
+        return _fit(p, f, T, D, H, init, res_sd, every, max_nfev, lsmr_tol, 0.0, band, dense_limit, hold)
     if band is not None:
         sol.errors = residual(sol.x)[:rows]
     if nl:
@@ -872,7 +885,8 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
                     "power where the delay shows (add faster force changes); each figure's deviation includes the "
                     "differences between their fits")})
         if told is not None:
-            keep = _with_cells_figures(keep, fits[told], tc, pc)
+            keep = _with_cells_figures(keep, fits[told], tc, pc, _cells_probe(pc, fc_, T, first, max_delay, told,
+                                                                             fits[told][1]))
         return keep
     t, p, f = _checked(time, position, force)
     max_delay = whole("max_delay", max_delay, 0, 1000)
@@ -1116,7 +1130,7 @@ def _device(m, b, fc: float, T: float, D: int, delta: float, source: str):
         raise ParameterError(f"log = {source!r} is not allowed: the fitted model is not a device ({exc})") from None
 
 
-def _cells_fit(p, f, T, D, H, init, delta):
+def _cells_fit(p, f, T, D, H, init, delta, hold=None):
     """The output-error fit at delay D on windows of H samples whose residual is each simulated
     position's distance from its encoder cell, [measured - delta/2, measured + delta/2] (zero
     inside it): (cost, figures (2 d + 1,), the model's positions over the windows (W, H, d),
@@ -1125,10 +1139,10 @@ def _cells_fit(p, f, T, D, H, init, delta):
     A rounded position says the handle was in that cell,
     which least squares on the positions reads as 17 µm of noise on a 60 µm encoder; a wrong
     delay cannot keep the motion in every cell (set-membership identification: Milanese &
-    Vicino, Automatica 27(6), 1991)."""
+    Vicino, Automatica 27(6), 1991). ``hold`` as :func:`_fit`'s."""
     res_sd = delta / math.sqrt(12.0)
     # (half a cell in the residuals' units)
-    sol, W = _fit(p, f, T, D, H, init, res_sd, band=0.5 * delta / res_sd, dense_limit=MAX_CELL_DENSE)
+    sol, W = _fit(p, f, T, D, H, init, res_sd, band=0.5 * delta / res_sd, dense_limit=MAX_CELL_DENSE, hold=hold)
     e = sol.errors.reshape(W, H, p.shape[1]) * res_sd
     idx = (D + H * np.arange(W))[:, None] + np.arange(H)[None, :]
     ng = 2 * p.shape[1] + 1
@@ -1142,11 +1156,14 @@ def _cells_fit(p, f, T, D, H, init, delta):
     return 2.0 * float(sol.cost), sol.x[:ng], p[idx] + e, idx, sd, outside
 
 
-def _with_cells_figures(r: "Identification", fit, t, p) -> "Identification":
+def _with_cells_figures(r: "Identification", fit, t, p, probe=None) -> "Identification":
     """``r`` with its mass, damping and friction those of the cells' fit ``fit`` (as
     :func:`_cells_fit` returns it, at ``r``'s delay) and its trace and residual that fit's over
     times ``t`` and positions ``p``; the deviations the cells' fit's own where it has them (else
-    least squares': inside the cells the cost is flat and gives none), said in a note."""
+    least squares': inside the cells the cost is flat and gives none, or, for a mass or damping
+    least squares' would leave not determined, :data:`CELL_PROBE`'s bound where ``probe(index,
+    value)``, the largest distance (m) of a position outside its cell with that figure held,
+    finds one), said in a note."""
     _, x, model, idx, sd, outside = fit
     d = len(r.axes["mass"])
     m, b, fc = x[:d], x[d:2 * d], float(x[2 * d])
@@ -1157,6 +1174,23 @@ def _with_cells_figures(r: "Identification", fit, t, p) -> "Identification":
     if sd is None:
         how = (f"their deviations are least squares' ({outside} positions left their cells at the cells' optimum, "
                f"fewer than {CELL_DEVIATION_ROWS} a parameter: inside the cells the cost is flat and tells none)")
+        delta = r.device.position_resolution
+        tol = max(3.0 * float(np.max(np.abs(model - p[idx]))) - 1.5 * delta, 1e-3 * delta)
+        for name, off in (("mass", 0), ("damping", d)):
+            for a in range(d):
+                v = float(x[off + a])
+                if probe is None or not 0 < v <= TOLD * r.axes[name + "_sd"][a]:
+                    continue
+                out = min(probe(off + a, v * (1.0 + sgn * CELL_PROBE)) for sgn in (-1.0, 1.0))
+                held = f"; the {name} held {100 * CELL_PROBE:g} % below and above its figure"
+                if out > tol:
+                    axes[name + "_sd"] = [*axes[name + "_sd"]]
+                    axes[name + "_sd"][a] = CELL_PROBE * v / TOLD
+                    how += (f"{held} leaves positions {out * 1e6:.2g} µm or more outside their cells: every {name} "
+                            f"that keeps them in lies within it, its deviation {100 * CELL_PROBE / TOLD:.3g} % of it")
+                else:
+                    how += f"{held} keeps them within {max(out, 0.0) * 1e6:.2g} µm of their cells: not bounded"
+        unc = {**unc, "mass": float(np.max(axes["mass_sd"])), "damping": float(np.max(axes["damping_sd"]))}
     else:
         how = (f"their deviations the cells' own (the {outside} positions that left their cells, read as an "
                "M-estimator's: least squares' were " + ", ".join(
@@ -1173,6 +1207,35 @@ def _with_cells_figures(r: "Identification", fit, t, p) -> "Identification":
                                notes=[*r.notes, note])
 
 
+def _cells_probe(p, f, T, first: "Identification", max_delay: int, D: int, x):
+    """``probe(index, value)`` for :func:`_with_cells_figures`: the largest distance (m) of a
+    position outside its encoder cell when the cells' fit at delay D is refitted from figures
+    ``x`` with figure ``index`` held at ``value``."""
+    pd, fd, H, init = _cells_data(p, f, T, first, max_delay)
+    d = p.shape[1]
+    init = {**init, "m": x[:d], "b": x[d:2 * d], "fc": float(x[2 * d])}
+    delta = first.device.position_resolution
+
+    def probe(k, value):
+        _, _, model, idx, _, _ = _cells_fit(pd, fd, T, D, H, init, delta, hold=(k, value))
+        return float(np.max(np.abs(model - pd[idx]))) - 0.5 * delta
+
+    return probe
+
+
+def _cells_data(p, f, T, first: "Identification", max_delay: int):
+    """The cells' fits' data: (positions, forces) cut to the :data:`LONG_WINDOW` windows that
+    every delay up to ``max_delay`` holds, the window's samples, and the fits' start (``first``'s
+    figures, the velocities estimated)."""
+    H = int(round(LONG_WINDOW / T))
+    W = (p.shape[0] - max_delay) // H
+    p, f = p[:max_delay + W * H], f[:max_delay + W * H]
+    v, _ = _derivatives(p, T)
+    init = {"m": np.array(first.axes["mass"]), "b": np.array(first.axes["damping"]),
+            "fc": float(first.device.coulomb_friction), "v": v}
+    return p, f, H, init
+
+
 def _cells_delay(p, f, T, first: "Identification", max_delay: int, walk: bool = True):
     """The delay an encoder's log tells by its cells: each delay's :func:`_cells_fit` on
     :data:`LONG_WINDOW` windows (the same number for every delay) from ``first``'s figures,
@@ -1182,13 +1245,7 @@ def _cells_delay(p, f, T, first: "Identification", max_delay: int, walk: bool = 
     0-6). Returns (delays by cost, {delay: cost}, told, {delay: its fit}), told when the best's
     cost is :data:`CELL_MARGIN` times below every other's, each fit as :func:`_cells_fit`'s.
     Without ``walk`` only ``first``'s delay is fitted (told: its screening told it)."""
-    n, d = p.shape
-    H = int(round(LONG_WINDOW / T))
-    W = (n - max_delay) // H
-    p, f = p[:max_delay + W * H], f[:max_delay + W * H]  # (W windows at every delay)
-    v, _ = _derivatives(p, T)
-    init = {"m": np.array(first.axes["mass"]), "b": np.array(first.axes["damping"]),
-            "fc": float(first.device.coulomb_friction), "v": v}
+    p, f, H, init = _cells_data(p, f, T, first, max_delay)  # (W windows at every delay)
     delta = first.device.position_resolution
     D1 = first.device.delay
     todo = {k for k in ((D1 - 1, D1, D1 + 1) if walk else (D1,)) if 0 <= k <= max_delay}
