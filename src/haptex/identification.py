@@ -530,7 +530,7 @@ def _fit(p, f, T, D, H, init, res_sd, every: int = 1, max_nfev: int = 100, lsmr_
     ``band`` (in the residuals' units) each position's residual is its distance outside
     [measured - band, measured + band], an encoder's cell (:func:`_cells_fit`), and the result
     carries ``errors``, the positions' own residuals at its optimum. Steps are solved densely up
-    to ``dense_limit`` Jacobian entries. ``hold`` (index, value) holds one figure at a value."""
+    to ``dense_limit`` Jacobian entries. ``hold`` (index, value) holds one figure at a nonzero value."""
     from scipy.optimize import least_squares
     from scipy.sparse import diags
 
@@ -1210,13 +1210,17 @@ def _with_cells_figures(r: "Identification", fit, t, p, probe=None) -> "Identifi
 def _cells_probe(p, f, T, first: "Identification", max_delay: int, D: int, x):
     """``probe(index, value)`` for :func:`_with_cells_figures`: the largest distance (m) of a
     position outside its encoder cell when the cells' fit at delay D is refitted from figures
-    ``x`` with figure ``index`` held at ``value``."""
-    pd, fd, H, init = _cells_data(p, f, T, first, max_delay)
-    d = p.shape[1]
-    init = {**init, "m": x[:d], "b": x[d:2 * d], "fc": float(x[2 * d])}
-    delta = first.device.position_resolution
+    ``x`` with figure ``index`` held at ``value`` (the data cut at the first call: most logs
+    never call it)."""
+    data = []
 
     def probe(k, value):
+        if not data:
+            pd, fd, H, init = _cells_data(p, f, T, first, max_delay)
+            d = p.shape[1]
+            data.extend([pd, fd, H, {**init, "m": x[:d], "b": x[d:2 * d], "fc": float(x[2 * d])}])
+        pd, fd, H, init = data
+        delta = first.device.position_resolution
         _, _, model, idx, _, _ = _cells_fit(pd, fd, T, D, H, init, delta, hold=(k, value))
         return float(np.max(np.abs(model - pd[idx]))) - 0.5 * delta
 
