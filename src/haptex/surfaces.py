@@ -1964,7 +1964,7 @@ intervals away along each axis (chosen: a cell's own 4 x 4 block and what its ne
 it, see :func:`_branch_patches`; at 4, on the egg-crate's bowls felt by a ball of 1.09 times
 their radius, the contacts 4.4-5.5 intervals from their grid points, the branches passed between
 neighbours fell out of reach and 144 of 170 cells failed the edge check on 0.8 of the default
-grid; at 6, none)."""
+grid; at 6, with the twist bounded in :func:`_branch_patches`, none)."""
 
 STEEP_SLACK = 1e-2
 """A branched cell's patch may be this much (relative) steeper than the surface where it is the
