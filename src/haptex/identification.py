@@ -34,6 +34,7 @@ import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -817,6 +818,7 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
         near = len(screen) > 1 and screen[1] < (1.0 + DELAY_RECHECK) * screen[0]
         delays = tuple(range(max(D1 - 1, 0), min(D1 + 1, max_delay) + 1)) if quantized and near else D1
         told, cells_note = None, None
+        delay_notes = [n for n in first.notes if n.startswith("delay ")]
         if quantized:
             # an encoder's log: the delay is the one whose fit keeps the motion in the cells the
             # positions were rounded in (at 4 kHz on a 60 µm encoder, least squares on the
@@ -841,14 +843,14 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
                               "times apart)")
         second = _identify(window=LONG_WINDOW, delay=delays, start=first, **kw)
         if told is not None:  # (the cells' verdict on the delay, the screening's residuals kept)
-            second = dataclasses.replace(second, delay_residuals=first.delay_residuals, notes=[
-                *filter(None, [cells_note]), *(n for n in first.notes if n.startswith("delay ")), *second.notes])
+            second = dataclasses.replace(second, delay_residuals=first.delay_residuals,
+                                         notes=[*filter(None, [cells_note]), *delay_notes, *second.notes])
         elif isinstance(delays, tuple):  # (its own verdict on the delay, and its note)
             second = dataclasses.replace(second, delay_residuals=first.delay_residuals)
         else:
             second = dataclasses.replace(second, delay_residuals=first.delay_residuals, undetermined={
                 **{k: v for k, v in first.undetermined.items() if k == "delay"}, **second.undetermined},
-                notes=[n for n in first.notes if n.startswith("delay ")] + second.notes)
+                notes=delay_notes + second.notes)
         if cells_note is not None and told is None:
             second.notes.append(cells_note)
         rel2 = _damping_spread(second)
@@ -859,9 +861,8 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
             if keep is first and told is not None and (first.device.delay != told or "delay" in first.undetermined):
                 # (the short windows at the delay the cells told)
                 keep = _identify(window=WINDOW, delay=told, start=first, **kw)
-                keep = dataclasses.replace(keep, delay_residuals=first.delay_residuals, notes=[
-                    *filter(None, [cells_note]), *(n for n in first.notes if n.startswith("delay ")),
-                    *keep.notes])
+                keep = dataclasses.replace(keep, delay_residuals=first.delay_residuals,
+                                           notes=[*filter(None, [cells_note]), *delay_notes, *keep.notes])
             why = (f"on an encoder's log the long windows are kept where they follow the positions to the "
                    f"rounding (residual RMS {second.residual_rms * 1e6:.3g} µm at {LONG_WINDOW:g} s, "
                    f"{first.residual_rms * 1e6:.3g} µm at {WINDOW:g} s, the rounding's "
@@ -886,7 +887,7 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
                     "differences between their fits")})
         if told is not None:
             keep = _with_cells_figures(keep, fits[told], tc, pc, _cells_probe(pc, fc_, T, first, max_delay, told,
-                                                                             fits[told][1]))
+                                                                             fits[told].figures))
         return keep
     t, p, f = _checked(time, position, force)
     max_delay = whole("max_delay", max_delay, 0, 1000)
@@ -1130,13 +1131,23 @@ def _device(m, b, fc: float, T: float, D: int, delta: float, source: str):
         raise ParameterError(f"log = {source!r} is not allowed: the fitted model is not a device ({exc})") from None
 
 
-def _cells_fit(p, f, T, D, H, init, delta, hold=None):
+class _CellsFit(NamedTuple):
+    """:func:`_cells_fit`'s result."""
+
+    cost: float  # summed squared distances outside the cells, in the rounding's units
+    figures: np.ndarray  # (2 d + 1,) masses, dampings, friction
+    model: np.ndarray  # (W, H, d) the model's positions over the windows (m)
+    idx: np.ndarray  # (W, H) their sample indices
+    sd: np.ndarray | None  # (2 d + 1,) the figures' deviations, None where too few left their cells
+    outside: int  # positions outside their cells
+    beyond: float  # the largest distance of a position outside its cell (m; negative: all inside)
+
+
+def _cells_fit(p, f, T, D, H, init, delta, hold=None) -> _CellsFit:
     """The output-error fit at delay D on windows of H samples whose residual is each simulated
     position's distance from its encoder cell, [measured - delta/2, measured + delta/2] (zero
-    inside it): (cost, figures (2 d + 1,), the model's positions over the windows (W, H, d),
-    their sample indices (W, H), the figures' deviations (2 d + 1,) or None where fewer than
-    :data:`CELL_DEVIATION_ROWS` positions a parameter left their cells, and how many left them).
-    A rounded position says the handle was in that cell,
+    inside it), with the figures' deviations where at least :data:`CELL_DEVIATION_ROWS`
+    positions a parameter left their cells (:class:`_CellsFit`). A rounded position says the handle was in that cell,
     which least squares on the positions reads as 17 µm of noise on a 60 µm encoder; a wrong
     delay cannot keep the motion in every cell (set-membership identification: Milanese &
     Vicino, Automatica 27(6), 1991). ``hold`` as :func:`_fit`'s."""
@@ -1153,18 +1164,19 @@ def _cells_fit(p, f, T, D, H, init, delta, hold=None):
     if outside >= CELL_DEVIATION_ROWS * sol.x.size:
         J = sol.jac.toarray() if hasattr(sol.jac, "toarray") else np.asarray(sol.jac)
         sd = _deviations(J, sol.fun, W, ng, outside - sol.x.size)
-    return 2.0 * float(sol.cost), sol.x[:ng], p[idx] + e, idx, sd, outside
+    return _CellsFit(2.0 * float(sol.cost), sol.x[:ng], p[idx] + e, idx, sd, outside,
+                     float(np.max(np.abs(e))) - 0.5 * delta)
 
 
 def _with_cells_figures(r: "Identification", fit, t, p, probe=None) -> "Identification":
     """``r`` with its mass, damping and friction those of the cells' fit ``fit`` (as
-    :func:`_cells_fit` returns it, at ``r``'s delay) and its trace and residual that fit's over
+    :class:`_CellsFit`, at ``r``'s delay) and its trace and residual that fit's over
     times ``t`` and positions ``p``; the deviations the cells' fit's own where it has them (else
     least squares': inside the cells the cost is flat and gives none, or, for a mass or damping
     least squares' would leave not determined, :data:`CELL_PROBE`'s bound where ``probe(index,
     value)``, the largest distance (m) of a position outside its cell with that figure held,
     finds one), said in a note."""
-    _, x, model, idx, sd, outside = fit
+    x, model, idx, sd, outside = fit.figures, fit.model, fit.idx, fit.sd, fit.outside
     d = len(r.axes["mass"])
     m, b, fc = x[:d], x[d:2 * d], float(x[2 * d])
     dev = _device(m, b, fc, r.device.period, r.device.delay, r.device.position_resolution, r.source)
@@ -1175,7 +1187,7 @@ def _with_cells_figures(r: "Identification", fit, t, p, probe=None) -> "Identifi
         how = (f"their deviations are least squares' ({outside} positions left their cells at the cells' optimum, "
                f"fewer than {CELL_DEVIATION_ROWS} a parameter: inside the cells the cost is flat and tells none)")
         delta = r.device.position_resolution
-        tol = max(3.0 * float(np.max(np.abs(model - p[idx]))) - 1.5 * delta, 1e-3 * delta)
+        tol = max(3.0 * fit.beyond, 1e-3 * delta)
         for name, off in (("mass", 0), ("damping", d)):
             for a in range(d):
                 v = float(x[off + a])
@@ -1221,8 +1233,7 @@ def _cells_probe(p, f, T, first: "Identification", max_delay: int, D: int, x):
             data.extend([pd, fd, H, {**init, "m": x[:d], "b": x[d:2 * d], "fc": float(x[2 * d])}])
         pd, fd, H, init = data
         delta = first.device.position_resolution
-        _, _, model, idx, _, _ = _cells_fit(pd, fd, T, D, H, init, delta, hold=(k, value))
-        return float(np.max(np.abs(model - pd[idx]))) - 0.5 * delta
+        return _cells_fit(pd, fd, T, D, H, init, delta, hold=(k, value)).beyond
 
     return probe
 
@@ -1247,7 +1258,7 @@ def _cells_delay(p, f, T, first: "Identification", max_delay: int, walk: bool = 
     both of its neighbours are fitted (the cost falls towards the truth's delay on every side:
     on a 4 kHz log of :data:`CELL_MARGIN`'s, truth 4, 128, 56, 19, 4.4, 1.7, 4.8, 20 at delays
     0-6). Returns (delays by cost, {delay: cost}, told, {delay: its fit}), told when the best's
-    cost is :data:`CELL_MARGIN` times below every other's, each fit as :func:`_cells_fit`'s.
+    cost is :data:`CELL_MARGIN` times below every other's, each fit a :class:`_CellsFit`.
     Without ``walk`` only ``first``'s delay is fitted (told: its screening told it)."""
     p, f, H, init = _cells_data(p, f, T, first, max_delay)  # (W windows at every delay)
     delta = first.device.position_resolution
@@ -1257,7 +1268,7 @@ def _cells_delay(p, f, T, first: "Identification", max_delay: int, walk: bool = 
     while walk or not costs:
         for k in sorted(todo - costs.keys()):
             fits[k] = _cells_fit(p, f, T, k, H, init, delta)
-            costs[k] = fits[k][0]
+            costs[k] = fits[k].cost
         best = min(costs, key=costs.get)
         todo = {k for k in (best - 1, best + 1) if 0 <= k <= max_delay} - costs.keys()
         if not todo or not walk:
