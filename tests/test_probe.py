@@ -205,9 +205,10 @@ def test_where_the_ball_bridges_a_bowl_the_felt_map_is_the_paths(rel_r):
     # (M, M)): the single Hermite patch read 0.381 for the brute-force path's 0.302 at r = 2 rho,
     # its heights 6.2 um off inside the bowls. A cell across which the contact jumps is the
     # maximum of one patch a contact (JOINS_BRANCHED): slope (and q, at 1.5 rho) within 1 % of
-    # the brute-force path's (numpy on the analytic heights; measured +0.19 % at 2 rho, +0.05 %
-    # at 1.5 rho with each branch's own twist, +0.30 % and +0.35 % with the mean cross
-    # difference), and
+    # the brute-force path's (numpy on the analytic heights; measured +0.19 % at 2 rho, +0.22 %
+    # at 1.5 rho, where a branch absent at a corner takes its tangent plane one step toward its
+    # source and the first grid, 29 points a period, passes; +0.05 % on the finer grid the
+    # source's own tangent plane needed), and
     # at r = 2 rho the heights at 200 points inside the bowls between the dense dilation's (its
     # 201 x 201 offsets) and that plus its grid's miss, (du / 2)^2 / 2 (sup ||H|| + 1 / r)
     # (measured -0.005 to +0.100 um; the miss 0.152 um)
@@ -215,7 +216,9 @@ def test_where_the_ball_bridges_a_bowl_the_felt_map_is_the_paths(rel_r):
     r = rel_r * rho
     felt = tex.felt_by(r)
     truth = _path_max_slope_2d(h, grad, cell, r)
-    assert felt.patches()[0, hx.core._ext.PATCH_JOINS] == hx.core._ext.JOINS_BRANCHED and felt.branched_cells == 88
+    # (every cell beside a kink branched, none left with its single patch: 88 at 2 rho, 112 at 1.5)
+    assert felt.patches()[0, hx.core._ext.PATCH_JOINS] == hx.core._ext.JOINS_BRANCHED
+    assert felt.branched_cells > 0 and hx.surfaces._single_kink_cells(felt) == 0
     # (the path's steepest is the surface's own here, 0.3142 at 1.5 rho: the branches' cubic
     # Hermite error may pass it by up to STEEP_SLACK, which the construction checks)
     assert felt.max_slope <= tex.max_slope * (1 + hx.surfaces.STEEP_SLACK)
@@ -307,22 +310,28 @@ def test_on_a_map_that_ends_at_its_edges_the_felt_bowls_are_the_paths(r):
 
 @pytest.mark.parametrize("r", [1.2e-3, pytest.param(1.1e-3, marks=pytest.mark.long),
                                pytest.param(1.3e-3, marks=pytest.mark.long)])
-def test_on_a_map_that_ends_at_its_edges_a_nesting_ball_errs_on_the_steep_side(r):
+def test_on_a_map_that_ends_at_its_edges_a_nesting_ball_feels_the_paths_slope(r):
     # the bounded egg-crate map of the test above felt by balls that nest in its bowls (1.1-1.3
     # times their 1.01 mm radius), against the same brute-force path (numpy, contacts on the map).
     # Where the ball passes from the map's rim to its inside, the edge's slopes were moved as a
     # kink's (stop 74) also beside cells the contact jumps across: their branches, through the
     # contacts' own slopes, then parted from those edges, and the continuity check unbranched
     # every cell of the map's one cluster: 0.3605, 0.4120, 0.4196 at 1.1, 1.2, 1.3 mm for the
-    # path's 0.3140 (+15 to +34 %). Not met, stated: the 1 % of issue 67; measured +2.89, +3.15,
-    # +1.25 % (+3.23 at 1.2 mm before stop 80; a measured map keeps its grid, the refinement of
-    # analytic surfaces is not made; 12 branches a cell change nothing here).
-    # Asserted: never flatter than the path (q not understated) and at most 4 % steeper
+    # path's 0.3140 (+15 to +34 %). Then +2.89, +3.15, +1.25 % (a measured map keeps its grid):
+    # at a bowl's bottom, the apex of a cone, each contact on the ring the ball rests on is a
+    # branch that is there at two of its cell's four corners only, and at the other two its
+    # patch took its source's tangent plane (up to 6 intervals away), whose heights the corners'
+    # slopes do not join: the cubic between them reached 0.3236 where the path's steepest is
+    # 0.3141. Such a corner now takes the branch's tangent plane one grid step toward its
+    # source, where it is there: +0.35, +0.34, +0.48 %. Within 1 % of the path (issue 67's
+    # goal) and never steeper than the surface (0.1 pi) by more than the construction's
+    # STEEP_SLACK
     side, h = 4e-3, AREAL_CASES["egg-crate"][1]
     felt = _sampled_egg_crate(61, periodic=False).felt_by(r)
     truth = _bounded_path_max_slope(h, side, r)
     assert felt.branched_cells > 400
-    assert 0.999 * truth <= felt.max_slope <= 1.04 * truth
+    assert felt.max_slope <= 0.1e-3 * math.pi / 1e-3 * (1 + hx.surfaces.STEEP_SLACK)
+    assert felt.max_slope == pytest.approx(truth, rel=0.01)
 
 
 def test_a_felt_maps_steepest_slope_is_the_sup_of_its_patches_beside_its_kinks():
@@ -532,11 +541,12 @@ def test_on_a_rough_map_the_felt_maps_steepest_slope_is_near_the_paths(r):
     # issue 67's random areal maps, not met: the rough periodic map of the test below (band-limited
     # noise, 2 um rms, wavelengths >= 10 um, 1 um samples) felt by balls of 4 to 24 samples,
     # against a brute-force ball path on scipy's interpolant of the same samples. Few of the
-    # cells beside kinks branch (0-9 of 600-800 from 4 to 16 um; all from 20 um), and the single
-    # patches err either way: where they bridge the path's V-shaped kinks flatter than its sides
-    # (its steepest slope is on a crease), where they bridge a bowl steeper. Measured (felt
-    # against path): 4 um -1.00 %, 4.5 +0.22, 5 -1.51, 5.5 -3.69, 6 -2.41, 7 -4.50, 8 -7.44,
-    # 10 -6.70, 12 +4.18, 16 -2.59, 20 -0.02, 24 -0.03 %; the goal is 1 %. (Stop 76's brute
+    # cells beside kinks branch (0-9 of 600-800 from 4 to 12 um; all from 16 um, the test
+    # below), and the single patches err either way: where they bridge the path's V-shaped kinks
+    # flatter than its sides (its steepest slope is on a crease), where they bridge a bowl
+    # steeper. Measured (felt against path): 4 um -1.00 %, 4.5 +0.22, 5 -1.51, 5.5 -3.69,
+    # 6 -2.41, 7 -4.50, 8 -7.44, 10 -6.70, 12 +4.18 %, 16 and 20 um -0.00 and -0.02 % (stop 80's
+    # reach; -2.59 % at 16 um before); the goal is 1 %. (Stop 76's brute
     # force, a lattice of dx/4 refined at its steepest points, stepped over the creases: it read
     # the path up to 2.1 % flat, and these as -5.83 % at 8 um, -4.76 % at 10.) Asserted: within
     # 7 %, at two radii (the brute force takes 0.8-2 s there, 4-6 s at 20-24 um)
@@ -544,6 +554,20 @@ def test_on_a_rough_map_the_felt_maps_steepest_slope_is_near_the_paths(r):
     x = np.arange(hn.shape[0]) * 1e-6
     felt = hx.SampledSurface(x, x, hn, periodic=True).felt_by(r)
     assert felt.max_slope == pytest.approx(_periodic_map_path_max_slope(hn, 1e-6, r), rel=0.07)
+
+
+@pytest.mark.long
+def test_on_a_rough_map_where_every_cell_beside_a_kink_branches_the_felt_slope_is_the_paths():
+    # issue 67's goal (1 %) on the rough periodic map of the test above, at a radius where the
+    # felt map branches every cell beside its kinks (767 at 16 um), against the same brute-force
+    # path on scipy's interpolant (5.5 s): -0.002 % (stop 77 measured -2.59 % there, with 8
+    # branches a cell and a reach of 4; stop 80's 12 and 6 branch it all; 20 um, -0.015 %, the
+    # same way)
+    _, hn = _rough_map()
+    x = np.arange(hn.shape[0]) * 1e-6
+    felt = hx.SampledSurface(x, x, hn, periodic=True).felt_by(16e-6)
+    assert hx.surfaces._single_kink_cells(felt) == 0
+    assert felt.max_slope == pytest.approx(_periodic_map_path_max_slope(hn, 1e-6, 16e-6), rel=0.01)
 
 
 def test_a_felt_map_is_continuous_and_never_steeper_than_its_surface():

@@ -2012,7 +2012,9 @@ def _branch_patches(texture, x, y, u, grads, twist, r, rim, periodic, c, ex, ey,
     meeting at a grid point reads the same: the point's own contact where it is the source (the
     path's value there exactly), else the Newton refinement from the source's contact, kept
     where it ends inside its box (or on a bounded map's rim) and the disc (else the ball there
-    cannot rest on it: the source's tangent plane, its slopes a contact's); one contact reached
+    cannot rest on it: the branch's tangent plane at the grid neighbour one step toward the
+    source, along its larger offset first, where it is there, else the source's; its slopes a
+    contact's, its height never above the path's there); one contact reached
     from several sources is one set of data (the first's, or the point's own). A branch is the
     cubic Hermite patch through its corners' heights, gradients (the contacts', by the envelope
     theorem) and twists (the contact's own, :func:`_path_twist`, where it gives one; else the
@@ -2114,6 +2116,32 @@ def _branch_patches(texture, x, y, u, grads, twist, r, rim, periodic, c, ex, ey,
         idx = np.searchsorted(known["key"], uk)[inv]
         return known["at"][idx], known["val"][idx], known["G"][idx], known["T"][idx]
 
+    def toward_source(ni, nj, sa, sb, at, val, G):
+        # where the branch of source (ni + sa, nj + sb) is not at grid point (ni, nj): its tangent
+        # plane at the grid neighbour one step toward the source (along the source's larger
+        # offset first, then the other) where it is there, never above the path at (ni, nj); a
+        # function of (grid point, source) alone, so every cell meeting there reads the same
+        miss = np.nonzero(~at)[0]
+        val, G = val.copy(), G.copy()
+        sx, sy = np.sign(sa[miss]).astype(np.int64), np.sign(sb[miss]).astype(np.int64)
+        xs = np.abs(sa[miss]) >= np.abs(sb[miss])
+        left = np.ones(miss.size, dtype=bool)
+        for di, dj in ((np.where(xs, sx, 0), np.where(xs, 0, sy)), (np.where(xs, 0, sx), np.where(xs, sy, 0))):
+            gi, gj = ni[miss] + di, nj[miss] + dj
+            ok = left & ((di != 0) | (dj != 0))
+            if not periodic:
+                ok &= (gi >= 0) & (gi < nx) & (gj >= 0) & (gj < ny)
+            if not ok.any():
+                continue
+            there, v, g, _ = corner_data(gi[ok] % nx, gj[ok] % ny, sa[miss][ok] - di[ok], sb[miss][ok] - dj[ok])
+            w = np.nonzero(ok)[0][there]
+            k = miss[w]
+            v, g = v[there], g[there]
+            val[k] = np.minimum(v - g[:, 0] * di[w] * dx - g[:, 1] * dj[w] * dy, c[ni[k], nj[k]])
+            G[k] = g
+            left[w] = False
+        return val, G
+
     # the sources: (cell row, offset from its origin), from the 4 x 4 block (the corners first)
     # each whose contact lies more than half an interval from every one before it (a contact
     # that close is the same one, followed from a neighbour)
@@ -2135,8 +2163,10 @@ def _branch_patches(texture, x, y, u, grads, twist, r, rim, periodic, c, ex, ey,
     def branch_patches(pm, pa, pb):  # the patches of the pairs (cell, source offset), with their data
         n = pm.size
         ca, cb = np.tile([0, 1, 0, 1], n), np.tile([0, 0, 1, 1], n)
-        at, val, G, T = corner_data((np.repeat(bi[pm], 4) + ca) % nx, (np.repeat(bj[pm], 4) + cb) % ny,
-                                 np.repeat(pa, 4) - ca, np.repeat(pb, 4) - cb)
+        ni, nj = (np.repeat(bi[pm], 4) + ca) % nx, (np.repeat(bj[pm], 4) + cb) % ny
+        sa, sb = np.repeat(pa, 4) - ca, np.repeat(pb, 4) - cb
+        at, val, G, T = corner_data(ni, nj, sa, sb)
+        val, G = toward_source(ni, nj, sa, sb, at, val, G)
         there, val, G, T = at.reshape(n, 4), val.reshape(n, 4), G.reshape(n, 4, 2), T.reshape(n, 4)
         own = ((np.repeat(pa, 4) - ca == 0) & (np.repeat(pb, 4) - cb == 0)).reshape(n, 4)
         # the corners' Hermite data in the cell's units, as _hermite_patches'
