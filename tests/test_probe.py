@@ -308,7 +308,8 @@ def test_on_a_map_that_ends_at_its_edges_the_felt_bowls_are_the_paths(r):
 
 
 @pytest.mark.parametrize("r", [1.2e-3, pytest.param(1.1e-3, marks=pytest.mark.long),
-                               pytest.param(1.3e-3, marks=pytest.mark.long)])
+                               pytest.param(1.3e-3, marks=pytest.mark.long),
+                               pytest.param(1.0e-3, marks=pytest.mark.long)])
 def test_on_a_map_that_ends_at_its_edges_a_nesting_ball_feels_the_paths_slope(r):
     # the bounded egg-crate map of the test above felt by balls that nest in its bowls (1.1-1.3
     # times their 1.01 mm radius), against the same brute-force path (numpy, contacts on the map).
@@ -322,9 +323,12 @@ def test_on_a_map_that_ends_at_its_edges_a_nesting_ball_feels_the_paths_slope(r)
     # patch took its source's tangent plane (up to 6 intervals away), whose heights the corners'
     # slopes do not join: the cubic between them reached 0.3236 where the path's steepest is
     # 0.3141. Such a corner now takes the branch's tangent plane one grid step toward its
-    # source, where it is there: +0.35, +0.34, +0.48 %. Within 1 % of the path (issue 67's
-    # goal) and never steeper than the surface (0.1 pi) by more than the construction's
-    # STEEP_SLACK
+    # source, where it is there: +0.35, +0.34, +0.48 %. At 1.0 mm, the bowls' radius, +1.09 %
+    # (few cells branched), then +1.35 % (all branched, the rough maps' changes): where that
+    # plane stood above the path at the corner it kept its slope, crossing the path there; it
+    # takes the path's own height and gradient there now: -0.04 %. Within 1 % of the path
+    # (issue 67's goal) and never steeper than the surface (0.1 pi) by more than the
+    # construction's STEEP_SLACK
     side, h = 4e-3, AREAL_CASES["egg-crate"][1]
     felt = _sampled_egg_crate(61, periodic=False).felt_by(r)
     truth = _bounded_path_max_slope(h, side, r)
