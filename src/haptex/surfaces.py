@@ -2011,40 +2011,37 @@ def _jump_cells(u, dx, dy, periodic):
 
 def _branch_patches(texture, x, y, u, grads, twist, r, rim, periodic, c, ex, ey, cache=None, grown=None,
                     growth=BRANCH_GROWTH):
-    """The branched cells of a felt map (``JOINS_BRANCHED``): where two corners' contacts lie
-    more than BRANCH_JUMP intervals apart, the ball's path is the maximum of smooth branches,
-    one a contact (the contact followed continuously as the ball moves). A cell's branches
-    start from the contacts of the grid points of its 4 x 4 block (near a bowl's apex a point
-    inside the cell may rest on a side none of its corners rests on; one of the contacts within
-    half an interval of each other); each is followed to the cell's four corners, one
-    computation per (corner, source grid point) so that every cell
-    meeting at a grid point reads the same: the point's own contact where it is the source (the
-    path's value there exactly), else the Newton refinement from the source's contact, kept
-    where it ends inside its box (or on a bounded map's rim) and the disc (else the ball there
-    cannot rest on it: the branch's tangent plane at the grid neighbour one step toward the
-    source, along its larger offset first, where it is there, else the source's; its slopes a
-    contact's; where that plane stands above the path there, the path's own height and
-    gradient); one contact reached
-    from several sources is one set of data (the first's, or the point's own). A branch is the
-    cubic Hermite patch through its corners' heights, gradients (the contacts', by the envelope
-    theorem) and twists (the contact's own, :func:`_path_twist`, where it gives one; else the
-    node's where the corner is the source, else the cell's mean cross difference); it is kept
-    where it is a corner's own or the highest at one of 5 x 5 points of the cell (of those
-    within a tolerance of the highest there, the one there at most corners, a corner's own
-    first), one of those alike (there at the same corners, with the same heights at all four).
-    Two branched neighbours whose highest patches part along their shared edge pass each other their kept branches
-    (BRANCH_ROUNDS rounds); a cell is branched
-    at the end where it keeps at most ``_ext.MAX_BRANCHES``, none steeper where it is the highest
-    than the surface (STEEP_SLACK), no cell of its cluster (its edge neighbours', and theirs)
-    fails that, and its edges meet its neighbours' (:func:`_discontinuous`). The candidates are
-    the cells the contact jumps across, and ``grown`` ((mx, my) bool, or None) those a previous
-    try added: a cell beside them whose single patch a branched one does not meet is added and
-    the whole made again, at most ``growth`` times (BRANCH_GROWTH) and while every candidate can
-    be branched. Not tried past
+    """The branched cells of a felt map (``JOINS_BRANCHED``): where two corners' contacts lie more
+    than BRANCH_JUMP intervals apart, the ball's path is the maximum of smooth branches, one a
+    contact (the contact followed continuously as the ball moves). A cell's branches start from the
+    contacts of the grid points of its 4 x 4 block (near a bowl's apex a point inside the cell may
+    rest on a side none of its corners rests on; one of the contacts within half an interval of
+    each other); each is followed to the cell's four corners, one computation per (corner, source
+    grid point) so that every cell meeting at a grid point reads the same: the point's own contact
+    where it is the source (the path's value there exactly), else the Newton refinement from the
+    source's contact, kept where it ends inside its box (or on a bounded map's rim) and the disc
+    (else the ball there cannot rest on it: the branch's tangent plane at the grid neighbour one
+    step toward the source, along its larger offset first, where it is there, else the source's;
+    its slopes a contact's; where that plane stands above the path there, the path's own height and
+    gradient); one contact reached from several sources is one set of data (the first's, or the
+    point's own). A branch is the cubic Hermite patch through its corners' heights, gradients (the
+    contacts', by the envelope theorem) and twists (the contact's own, :func:`_path_twist`, where
+    it gives one; else the node's where the corner is the source, else the cell's mean cross
+    difference); it is kept where it is a corner's own or the highest at one of 5 x 5 points of the
+    cell (of those within a tolerance of the highest there, the one there at most corners, a
+    corner's own first), one of those alike (there at the same corners, with the same heights at
+    all four). Two branched neighbours whose highest patches part along their shared edge pass each
+    other their kept branches (BRANCH_ROUNDS rounds); a cell is branched at the end where it keeps
+    at most ``_ext.MAX_BRANCHES``, none steeper where it is the highest than the surface
+    (STEEP_SLACK), no cell of its cluster (its edge neighbours', and theirs) fails that, and its
+    edges meet its neighbours' (:func:`_discontinuous`). The candidates are the cells the contact
+    jumps across, and ``grown`` ((mx, my) bool, or None) those a previous try added: a cell beside
+    them whose single patch a branched one does not meet is added and the whole made again, at most
+    ``growth`` times (BRANCH_GROWTH) and while every candidate can be branched. Not tried past
     BRANCH_CELLS candidate cells. Returns (None where no cell is branched, else (cells (m,) flat
-    indices, first (m, 4, 4) each cell's first branch, starts (n_cells + 1,), extra (E, 4, 4)
-    the others); and the grid points where a branch stands higher than c: (flat indices,
-    offsets (k, 2), heights (k,)), or None)."""
+    indices, first (m, 4, 4) each cell's first branch, starts (n_cells + 1,), extra (E, 4, 4) the
+    others); and the grid points where a branch stands higher than c: (flat indices, offsets (k,
+    2), heights (k,)), or None)."""
     dx, dy = float(x[1] - x[0]), float(y[1] - y[0])
     nx, ny = u.shape[:2]
     mx, my = (nx, ny) if periodic else (nx - 1, ny - 1)
@@ -2245,11 +2242,10 @@ def _branch_patches(texture, x, y, u, grads, twist, r, rim, periodic, c, ex, ey,
     alive = np.ones(m, dtype=bool)
     for _round in range(BRANCH_ROUNDS):
         R = src_m.size
-        # kept: a corner's own, or the highest at one of 5 x 5 points; one of those alike (a
-        # branch filled where another is filled otherwise is the same contact: which of them a
-        # cell keeps, the edge check below holds to its neighbours'). Alike at all four corners:
-        # copies of one contact may differ where it is not (each filled from its own source),
-        # and a cell that kept one where its neighbour kept the other parted from it
+        # kept: a corner's own, or the highest at one of 5 x 5 points; one of those alike, the
+        # same heights at all four corners (copies of one contact reached from different
+        # sources agree where it is there but may differ where it is not, each filled from its
+        # own source: a cell that kept one where its neighbour kept the other parted from it)
         top = np.full((m, 25), -np.inf)
         np.maximum.at(top, src_m, V)
         high = V >= top[src_m] - tol
