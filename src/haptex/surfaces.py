@@ -2306,16 +2306,6 @@ def _branch_patches(texture, x, y, u, grads, twist, r, rim, periodic, c, ex, ey,
         src_b = np.concatenate([src_b, fresh[:, 2]])
         pats, there, own, val, V, slopes = (np.concatenate([old_, new_]) for old_, new_ in
                                             zip((pats, there, own, val, V, slopes), more))
-    # a grid point where a branch followed from elsewhere stands higher than the contact its own
-    # search found (the grid's arg-max took the lower of two maxima it could not tell apart):
-    # the path is that branch there, for the caller to take
-    up = known["at"] & (known["val"] > c.ravel()[known["key"] // (W * W)] + tol)
-    better = None
-    if up.any():
-        node = known["key"][up] // (W * W)
-        order = np.lexsort((-known["val"][up], node))
-        first = np.r_[True, node[order][1:] != node[order][:-1]]
-        better = node[order][first], known["U"][up][order][first], known["val"][up][order][first]
     if growth > 0 and alive.all():  # (cells beside the candidates that a branched one parts from:
         # candidates too; not where a cluster cannot be branched anyway: on a 128 x 128 rough map
         # felt by a 3 um ball, 205 of 2,175 candidates alive, 8 growths took 35 s, for 8 cells)
@@ -2326,6 +2316,16 @@ def _branch_patches(texture, x, y, u, grads, twist, r, rim, periodic, c, ex, ey,
             grown.ravel()[outside] = True
             return _branch_patches(texture, x, y, u, grads, twist, r, rim, periodic, c, ex, ey, cache, grown,
                                    growth - 1)
+    # a grid point where a branch followed from elsewhere stands higher than the contact its own
+    # search found (the grid's arg-max took the lower of two maxima it could not tell apart):
+    # the path is that branch there, for the caller to take
+    up = known["at"] & (known["val"] > c.ravel()[known["key"] // (W * W)] + tol)
+    better = None
+    if up.any():
+        node = known["key"][up] // (W * W)
+        order = np.lexsort((-known["val"][up], node))
+        first = np.r_[True, node[order][1:] != node[order][:-1]]
+        better = node[order][first], known["U"][up][order][first], known["val"][up][order][first]
     keep &= ~_discontinuous(V.reshape(R, 5, 5), src_m, keep, bi, bj, (mx, my), c, ex, ey, (dx, dy), periodic)[src_m]
     # per cell: a corner's own first, then the most points where it is the highest
     sel = np.lexsort((-high.sum(axis=1), ~own.any(axis=1), src_m))
@@ -2388,7 +2388,7 @@ def _discontinuous(V, rm, keep, bi, bj, cells_shape, c, ex, ey, steps, periodic,
     while True:
         env = _edge_envelopes(V, rm, keep & branched[rm], m)
         off = np.zeros(m, dtype=bool)
-        outside = []
+        outside = []  # (with strangers: the first check's unbranched non-candidates, then done)
         for k, (_, (oi, oj), theirs, _) in enumerate(sides):
             ni, nj = bi + oi, bj + oj
             inside = np.ones(m, dtype=bool) if periodic else (ni >= 0) & (ni < mx) & (nj >= 0) & (nj < my)
@@ -2398,7 +2398,8 @@ def _discontinuous(V, rm, keep, bi, bj, cells_shape, c, ex, ey, steps, periodic,
             ref[both] = env[other[both], theirs]
             parts = branched & inside & np.any(np.abs(env[:, k] - ref) > tol, axis=1)
             off |= parts
-            outside.append((ni[parts & (other < 0)] % mx) * my + nj[parts & (other < 0)] % my)
+            if strangers:
+                outside.append((ni[parts & (other < 0)] % mx) * my + nj[parts & (other < 0)] % my)
         if strangers:
             return np.unique(np.concatenate(outside))
         if not off.any():
