@@ -49,9 +49,12 @@ def felt_by(texture, tip_radius: float, *, spacing: float | None = None):
         Grid spacing (m) on which an analytic texture is sampled; default the finer of a 256th
         of its shortest period and a 32nd of r (a 16th of each over a surface, and finer, by the
         factors ``haptex.surfaces.REFINE`` up to ``REFINE_SAMPLES`` samples, while some cell
-        beside a kink cannot be branched). A sampled texture keeps its own grid unless
-        ``spacing`` is given: then it is resampled onto that grid by its own spline (what a
-        refusal for work suggests for a fine map and a large ball).
+        beside a kink cannot be branched or the map is steeper than the surface). A sampled
+        profile keeps its own grid, and a sampled surface too unless that leaves such a cell or
+        steepness (then its spline is resampled at those factors of its interval, within
+        ``REFINE_SAMPLES``). With ``spacing`` given a sampled texture is resampled onto that
+        grid by its own spline (what a refusal for work suggests for a fine map and a large
+        ball; on a periodic map the steps divide its cell, none finer than ``spacing``).
 
     Returns
     -------
@@ -84,9 +87,9 @@ def felt_by(texture, tip_radius: float, *, spacing: float | None = None):
     (on rough maps felt by balls of a few samples, where a ball nests in a bowl on some grids)
     it keeps its single patch: steeper than the path over a bowl (q on the safe side), but on a
     rough map, where it bridges the path's V-shaped kink, flatter (a 64 x 64 map of 1 um
-    samples felt by balls of 4 to 8 um: -7.4 to +0.2 %, a texture less active than felt where
-    flatter; from 10 um every such cell is branched, within 0.05 %; the measured-surfaces guide). An analytic
-    surface's map is made again on finer grids while some such cell is left or the map is
+    samples felt by balls of 4 to 7 um: -4.5 to +0.2 %, a texture less active than felt where
+    flatter; from 8 um every such cell is branched, within 0.05 %; the measured-surfaces
+    guide). The map is made again on finer grids while some such cell is left or the map is
     steeper than the surface (``haptex.surfaces.REFINE``). On a map that ends at its
     edges a contact may lie on the map's rim, where the path's gradient is u / sqrt(r^2 - |u|^2)
     (u the contact's offset). The contact is refined from the grid's best offset: a map whose

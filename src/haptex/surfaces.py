@@ -81,22 +81,29 @@ class Surface(Texture):
         point, its contact found on the grid and refined on this surface itself, the path's
         gradient there the contact's (the envelope theorem), and the map the bicubic Hermite
         patches through those heights and gradients; a cell across which the contact jumps is
-        the maximum of one patch per contact (:func:`_contact_map`). An analytic surface with
-        no spacing given is made again on finer grids (REFINE) while some cell beside a kink
+        the maximum of one patch per contact (:func:`_contact_map`). With no spacing given the
+        map is made again on finer grids (REFINE: of the default spacing, or of a sampled map's
+        interval, its spline resampled, the map's own grid first) while some cell beside a kink
         keeps its single patch or the map is steeper than the surface by more than STEEP_SLACK
         (its steepest slope sampled densely beside its kinks too, BRANCHED_SUP_POINTS); the
         first grid without either is kept, else the one not steeper with the fewest such cells,
         else the least steep."""
         best = None
-        refine = spacing is None and not isinstance(self, SampledSurface)
-        base = _default_spacing(self, r) if refine else None
+        refine = spacing is None
+        sampled = isinstance(self, SampledSurface)
+        if sampled:  # (its own grid first, then its spline resampled finer)
+            base = min(float(self.x[1] - self.x[0]), float(self.y[1] - self.y[0]))
+            extent = tuple(hi - lo for lo, hi in self.domain)
+        else:
+            base = _default_spacing(self, r) if refine else None
+            extent = self.cell
 
-        def fits(factor):  # a grid of factor * base within REFINE_SAMPLES over the cell
+        def fits(factor):  # a grid of factor * base within REFINE_SAMPLES over the cell (the map)
             sp = factor * base
-            return math.ceil(self.cell[0] / sp) * math.ceil(self.cell[1] / sp) <= REFINE_SAMPLES
+            return math.ceil(extent[0] / sp) * math.ceil(extent[1] / sp) <= REFINE_SAMPLES
 
         for k, factor in enumerate(REFINE if refine else (None,)):
-            sp = spacing if not refine or k == 0 else factor * base
+            sp = spacing if not refine else None if sampled and k == 0 else factor * base
             if k > 0 and not fits(factor):
                 break
             try:
@@ -1648,19 +1655,24 @@ takes 1.1 s)."""
 
 
 REFINE = (1.0, 0.8, 0.65, 0.5, 0.4)
-"""Spacings, relative to the default, at which an analytic surface's felt map is made again
-while some cell beside a kink keeps its single patch (its branches could not be made there) or
-the map is steeper than the surface by more than STEEP_SLACK (a path's slope is a contact's):
-the first with neither is kept, else the one not steeper with the fewest such cells, else the
-least steep (chosen: on the egg-crate's bowls from 1.0 to 1.3 times their radius whether a
-cell branches depends on where the grid's points fall, e.g. at 1.2 rho 58 points a period did
-and 51 and 100 did not; at 31 radii, 1.0 to 1.3 rho a hundredth apart, every one within 1 % of
-the brute-force path, the farthest 1.12 rho, +0.59 %; at most 5 constructions, 0.1-3 s there)."""
+"""Spacings, relative to the default (an analytic surface's) or to the map's interval (a sampled
+map's, its spline resampled; its own grid first), at which a felt map is made again while some
+cell beside a kink keeps its single patch (its branches could not be made there) or the map is
+steeper than the surface by more than STEEP_SLACK (a path's slope is a contact's): the first
+with neither is kept, else the one not steeper with the fewest such cells, else the least steep
+(chosen: on the egg-crate's bowls from 1.0 to 1.3 times their radius whether a cell branches
+depends on where the grid's points fall, e.g. at 1.2 rho 58 points a period did and 51 and 100
+did not; at 31 radii, 1.0 to 1.3 rho a hundredth apart, every one within 1 % of the
+brute-force path, the farthest 1.12 rho, +0.59 %; at most 5 constructions, 0.1-3 s there. On
+the egg-crate sampled 61 x 61 over 4 mm, ending there, felt by 1.02, 1.05, 1.07 mm balls, its
+own grid read +4.60, +5.37, +9.68 %, the grids chosen +0.02, +0.03, +0.00 %; a grid that
+branched nothing there read up to +27 %, steeper than the surface, and is not chosen)."""
 
 
 REFINE_SAMPLES = 128 * 128
-"""The largest grid (samples over the cell) a refined felt map is made on (chosen: the
-egg-crate's bowls need 66 x 66; a rough surface felt on a 400 x 400 grid took 200 s once)."""
+"""The largest grid (samples over the cell, or over a sampled map) a refined felt map is made on;
+a map that cannot be refined within it keeps its own grid, unrefined (chosen: the egg-crate's
+bowls need 66 x 66; a rough surface felt on a 400 x 400 grid took 200 s once)."""
 
 
 FELT_SAMPLES = (16, 16)
@@ -2441,14 +2453,20 @@ def _surface_grid(texture, r, spacing):
         grids = []
         for axis in (x, y):
             step = axis[1] - axis[0]
-            span = (axis[-1] - axis[0]) + (step if texture.periodic else 0.0)
-            grids.append(axis[0] + np.arange(max(4, int(math.floor(span / d)) + (0 if texture.periodic else 1))) * d)
+            if texture.periodic:  # (steps that divide the cell, none finer than d: a period's whole)
+                span = axis[-1] - axis[0] + step
+                n = max(4, int(math.floor(span / d)))
+                grids.append(axis[0] + np.arange(n) * (span / n))
+            else:
+                grids.append(axis[0] + np.arange(max(4, int(math.floor((axis[-1] - axis[0]) / d)) + 1)) * d)
         if grids[0].size * grids[1].size > MAX_PROBE_SAMPLES:
             raise fail("spacing", d, f"a spacing giving at most {MAX_PROBE_SAMPLES} samples over the map")
         _check_work(grids[0].size * grids[1].size, _footprint_size(r, (d, d)), (d, d), "tip_radius", r)
         X, Y = np.meshgrid(*grids, indexing="ij")
         h = texture.height_at(np.stack([X, Y], axis=-1))
-        return grids[0], grids[1], h, texture.periodic, f"{texture.source or 'map'} resampled at {d * 1e6:.3g} um"
+        steps = [f"{(g[1] - g[0]) * 1e6:.4g}" for g in grids]  # (d, or a periodic map's dividing its cell)
+        step = steps[0] if steps[0] == steps[1] else " x ".join(steps)
+        return grids[0], grids[1], h, texture.periodic, f"{texture.source or 'map'} resampled at {step} um"
     cell = getattr(texture, "cell", None)
     if cell is None:
         raise fail("texture", texture, "a surface with a periodic cell, or a height map, for a ball to roll on")

@@ -185,7 +185,7 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
             n = felt["single_patch_cells"]
             console.print(f"{n} cell{'s' if n != 1 else ''} beside kinks keep{'s' if n == 1 else ''} a single patch (no "
                           "branches could be made there): the felt slopes there may differ from the ball's path "
-                          "either way (measured -7.4 to +0.2 % on a rough map felt by a ball of 4 to 8 samples; "
+                          "either way (measured -4.5 to +0.2 % on a rough map felt by a ball of 4 to 7 samples; "
                           "the measured-surfaces guide)")
     bl = data["band_limit"]
     rn = bl["raw"]
