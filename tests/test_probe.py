@@ -827,6 +827,17 @@ def test_a_periodic_map_resampled_for_a_ball_keeps_its_cell():
     assert felt.periodic and felt.cell == pytest.approx(surf.cell, rel=1e-12)
     assert np.all(np.diff(felt.x) >= 0.65e-6 * (1 - 1e-12)) and felt.x.size == 98
 
+
+def test_a_periodic_profile_resampled_for_a_ball_keeps_its_period():
+    # as the map above, on a profile: 1,000 samples of 1 um closed into a 1 mm period, resampled
+    # at 0.65 um, took 1,538 steps of exactly 0.65 um, a period of 0.9997 mm
+    rng = np.random.default_rng(4)
+    x = np.arange(1000) * 1e-6
+    prof = hx.SampledProfile(x, rng.normal(size=1000) * 1e-7, periodic=True)
+    felt = prof.felt_by(5e-6, spacing=0.65e-6)
+    assert felt.periodic and felt.period == pytest.approx(prof.period, rel=1e-12)
+    assert np.all(np.diff(felt.x) >= 0.65e-6 * (1 - 1e-12)) and felt.x.size == 1538
+
 def test_a_dilation_too_large_for_an_analytic_surface_is_refused_before_it_is_sampled(monkeypatch):
     # the work (samples x the ball's grid points) is known from the spacing and the radius: a
     # rough analytic surface felt by a 5 um ball (1600 x 1600 samples, 797 points) took 39 s to

@@ -54,7 +54,8 @@ def felt_by(texture, tip_radius: float, *, spacing: float | None = None):
         steepness (then its spline is resampled at those factors of its interval, within
         ``REFINE_SAMPLES``). With ``spacing`` given a sampled texture is resampled onto that
         grid by its own spline (what a refusal for work suggests for a fine map and a large
-        ball; on a periodic map the steps divide its cell, none finer than ``spacing``).
+        ball; on a periodic profile or map the steps divide its period or cell, none finer than
+        ``spacing``).
 
     Returns
     -------

@@ -1236,10 +1236,14 @@ def _profile_grid(texture, r, spacing):
         if spacing is None:
             return texture.x, texture.h, texture.periodic, texture.source or "profile"
         dx = _spacing(texture, r, spacing, 256, 32)  # resampled by its spline onto a coarser grid
-        span = (texture.x[-1] - texture.x[0]) + (texture.dx if texture.periodic else 0.0)
-        n = max(4, int(math.floor(span / dx)) + (0 if texture.periodic else 1))
-        x = texture.x[0] + np.arange(n) * dx
-        return x, texture.height(x), texture.periodic, f"{texture.source or 'profile'} resampled at {dx * 1e6:.3g} um"
+        if texture.periodic:  # (steps that divide the period, none finer than dx)
+            span = texture.x[-1] - texture.x[0] + texture.dx
+            n = max(4, int(math.floor(span / dx)))
+            x = texture.x[0] + np.arange(n) * (span / n)
+        else:
+            x = texture.x[0] + np.arange(max(4, int(math.floor((texture.x[-1] - texture.x[0]) / dx)) + 1)) * dx
+        step = float(x[1] - x[0])
+        return x, texture.height(x), texture.periodic, f"{texture.source or 'profile'} resampled at {step * 1e6:.4g} um"
     period = texture.period
     if period is None:
         raise fail("texture", texture, "a periodic or sampled profile for a ball to roll on (sample it: "
