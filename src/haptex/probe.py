@@ -49,7 +49,8 @@ def felt_by(texture, tip_radius: float, *, spacing: float | None = None):
         Grid spacing (m) on which an analytic texture is sampled; default the finer of a 256th
         of its shortest period and a 32nd of r (a 16th of each over a surface, and finer, by the
         factors ``haptex.surfaces.REFINE`` up to ``REFINE_SAMPLES`` samples, while some cell
-        beside a kink cannot be branched or the map is steeper than the surface). A sampled
+        beside a kink cannot be branched or the map is steeper than the surface, and by
+        ``REFINE_STEEP`` while every grid is steeper than the surface). A sampled
         profile keeps its own grid, and a sampled surface too unless that leaves such a cell or
         steepness (then its spline is resampled at those factors of its interval, within
         ``REFINE_SAMPLES``). With ``spacing`` given a sampled texture is resampled onto that

@@ -85,9 +85,10 @@ class Surface(Texture):
         map is made again on finer grids (REFINE: of the default spacing, or of a sampled map's
         interval, its spline resampled, the map's own grid first) while some cell beside a kink
         keeps its single patch or the map is steeper than the surface by more than STEEP_SLACK
-        (its steepest slope sampled densely beside its kinks too, BRANCHED_SUP_POINTS); the
-        first grid without either is kept, else the one not steeper with the fewest such cells,
-        else the least steep."""
+        (its steepest slope sampled densely beside its kinks too, BRANCHED_SUP_POINTS), and
+        finer still (REFINE_STEEP) while every grid made is steeper than the surface; the first
+        grid without either is kept, else the one not steeper with the fewest such cells, else
+        the least steep."""
         best = None
         refine = spacing is None
         sampled = isinstance(self, SampledSurface)
@@ -98,14 +99,19 @@ class Surface(Texture):
             base = _default_spacing(self, r) if refine else None
             extent = self.cell
 
-        def fits(factor):  # a grid of factor * base within REFINE_SAMPLES over the cell (the map)
+        def fits(factor, cap=REFINE_SAMPLES):  # a grid of factor * base within cap samples over the cell (the map)
             sp = factor * base
-            return math.ceil(extent[0] / sp) * math.ceil(extent[1] / sp) <= REFINE_SAMPLES
+            return math.ceil(extent[0] / sp) * math.ceil(extent[1] / sp) <= cap
 
-        for k, factor in enumerate(REFINE if refine else (None,)):
+        for k, factor in enumerate(REFINE + REFINE_STEEP if refine else (None,)):
             sp = spacing if not refine else None if sampled and k == 0 else factor * base
-            if k > 0 and not fits(factor):
-                break
+            if k >= len(REFINE):  # (finer still while every grid made is steeper than the surface)
+                if not best[0][1]:
+                    break
+                if not fits(factor, REFINE_STEEP_SAMPLES):
+                    break
+            elif k > 0 and not fits(factor):
+                continue
             try:
                 x, y, h, periodic, source = _surface_grid(self, r, sp)
                 hf, grads, edges, kinks, branches = _contact_map(self, x, y, h, r, periodic)
@@ -1663,11 +1669,25 @@ with neither is kept, else the one not steeper with the fewest such cells, else 
 (chosen: on the egg-crate's bowls from 1.0 to 1.3 times their radius whether a cell branches
 depends on where the grid's points fall, e.g. at 1.2 rho 58 points a period did and 51 and 100
 did not; at 31 radii, 1.0 to 1.3 rho a hundredth apart, every one within 1 % of the
-brute-force path, the farthest 1.12 rho, +0.59 %; at most 5 constructions, 0.1-3 s there. On
-the egg-crate sampled 61 x 61 over 4 mm, ending there, felt by 1.02, 1.05, 1.07 mm balls, its
-own grid read +4.60, +5.37, +9.68 %, the grids chosen +0.02, +0.03, +0.00 %; a grid that
-branched nothing there read up to +27 %, steeper than the surface, and is not chosen)."""
+brute-force path, the farthest 1.12 rho, +0.59 %; at most 5 constructions (and REFINE_STEEP's),
+0.1-3 s there. On the egg-crate sampled 61 x 61 over 4 mm, ending there, felt by 1.02, 1.05,
+1.07 mm balls, its own grid read +4.60, +5.37, +9.68 %, the grids chosen +0.02, +0.03, +0.00 %;
+a grid that branched nothing there read up to +27 %, steeper than the surface, and is not
+chosen)."""
 
+
+REFINE_STEEP = (0.3, 0.25)
+"""Spacings, relative as REFINE's, at which a felt map is made again after REFINE's while every
+grid made so far is steeper than the surface by more than STEEP_SLACK (an overshoot, q too
+large), within REFINE_STEEP_SAMPLES (chosen: the tests' 64 x 64 rough map, 1 um samples, felt by
+balls of 0.85, 0.88, 0.9 um, just below its tightest trough's radius 0.91 um, read +4.28, +2.79,
++6.55 % steeper than the surface on its own grid, +2.8 to +16 % on REFINE's, +0.00 % at 0.25 of
+its interval; tried for every map that leaves single cells too, it took 13-31 s on that map and
+27 s on a 128 x 128 one for no gain)."""
+
+REFINE_STEEP_SAMPLES = 256 * 256
+"""The largest grid (samples over the cell, or over a sampled map) REFINE_STEEP's are made on
+(chosen: 0.25 of the 64 x 64 map's interval; 1-2 s a construction there)."""
 
 REFINE_SAMPLES = 128 * 128
 """The largest grid (samples over the cell, or over a sampled map) a refined felt map is made on;
