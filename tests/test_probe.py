@@ -337,7 +337,6 @@ def test_on_a_map_that_ends_at_its_edges_a_nesting_ball_feels_the_paths_slope(r)
     assert felt.max_slope == pytest.approx(truth, rel=0.01)
 
 
-
 @pytest.mark.long
 @pytest.mark.parametrize("r", [1.02e-3, 1.05e-3, 1.07e-3])
 def test_just_past_its_bowls_radius_a_measured_maps_felt_slope_is_the_paths(r):
@@ -559,7 +558,6 @@ def _periodic_map_path_max_slope(hn, dx, r, sub=4, top=60, levels=5, keep=12):
     return out
 
 
-
 @pytest.mark.long
 @pytest.mark.parametrize("r", [0.5e-6, 0.8e-6, 0.85e-6, 0.9e-6])
 def test_a_ball_inside_every_trough_of_a_rough_map_feels_the_maps_own_slopes(r):
@@ -694,8 +692,8 @@ def test_a_surface_is_dilated_as_its_definition_says():
     # (its spline peaks between samples) lies between the two: the contact is refined from the
     # grid's best offset (up to 3.3 um below the continuous maximum here, 5 um rms); a smooth
     # map is the continuous maximum itself. The felt map's grid is the map's own or, where that
-    # leaves cells beside kinks single, the map's spline resampled finer (here 8 um steps, not
-    # the map's 10 x 15 um): both bounds are taken on the felt map's own grid, the heights there
+    # leaves cells beside kinks single, the map's spline resampled finer (here 8.28 x 8.04 um
+    # steps, not the map's 10 x 15 um): both bounds are taken on the felt map's own grid, the heights there
     # the map's spline's (the surface as defined)
     rng = np.random.default_rng(3)
     x, y = np.arange(24) * 10e-6, np.arange(30) * 15e-6
@@ -816,7 +814,6 @@ def test_a_ball_too_wide_for_a_fine_map_names_a_spacing_that_works(monkeypatch):
     assert felt.x[1] - felt.x[0] == pytest.approx(s * 1.01) and "resampled" in felt.source
 
 
-
 def test_a_periodic_map_resampled_for_a_ball_keeps_its_cell():
     # a periodic map's felt texture is periodic on the map's own cell (its definition: the ball
     # rolls on the same periodic surface). Resampled at a spacing that does not divide the cell,
@@ -840,6 +837,7 @@ def test_a_periodic_profile_resampled_for_a_ball_keeps_its_period():
     felt = prof.felt_by(5e-6, spacing=0.65e-6)
     assert felt.periodic and felt.period == pytest.approx(prof.period, rel=1e-12)
     assert np.all(np.diff(felt.x) >= 0.65e-6 * (1 - 1e-12)) and felt.x.size == 1538
+
 
 def test_a_dilation_too_large_for_an_analytic_surface_is_refused_before_it_is_sampled(monkeypatch):
     # the work (samples x the ball's grid points) is known from the spacing and the radius: a

@@ -99,16 +99,14 @@ class Surface(Texture):
             base = _default_spacing(self, r) if refine else None
             extent = self.cell
 
-        def fits(factor, cap=REFINE_SAMPLES):  # a grid of factor * base within cap samples over the cell (the map)
+        def fits(factor, cap=REFINE_SAMPLES):  # a grid of factor * base within cap samples over the cell
             sp = factor * base
             return math.ceil(extent[0] / sp) * math.ceil(extent[1] / sp) <= cap
 
         for k, factor in enumerate(REFINE + REFINE_STEEP if refine else (None,)):
             sp = spacing if not refine else None if sampled and k == 0 else factor * base
             if k >= len(REFINE):  # (finer still while every grid made is steeper than the surface)
-                if not best[0][1]:
-                    break
-                if not fits(factor, REFINE_STEEP_SAMPLES):
+                if not best[0][1] or not fits(factor, REFINE_STEEP_SAMPLES):
                     break
             elif k > 0 and not fits(factor):
                 continue
