@@ -19,7 +19,8 @@ from . import core as _core
 from .core import _ext
 from ._validation import ParameterError, check_count, fail, finite, nonnegative, positive, whole
 from .probe import MAX_SAMPLES as MAX_PROBE_SAMPLES, _check_work, _footprint_size, _spacing
-from .textures import MAX_HARMONICS, SampledProfile, Texture, _band_limited_samples, _vector, common_period
+from .textures import (MAX_HARMONICS, SampledProfile, Texture, _band_limited_samples, _resampled_axis, _vector,
+                       common_period)
 
 __all__ = ["Surface", "SumOfGratings", "Grating", "BandLimitedNoise2D", "Extruded", "SampledSurface"]
 
@@ -2468,15 +2469,7 @@ def _surface_grid(texture, r, spacing):
         if spacing is None:
             return x, y, texture.h, texture.periodic, texture.source or "map"
         d = _default_spacing(texture, r, spacing)  # resampled by its spline onto a coarser grid
-        grids = []
-        for axis in (x, y):
-            step = axis[1] - axis[0]
-            if texture.periodic:  # (steps that divide the cell, none finer than d: a period's whole)
-                span = axis[-1] - axis[0] + step
-                n = max(4, int(math.floor(span / d)))
-                grids.append(axis[0] + np.arange(n) * (span / n))
-            else:
-                grids.append(axis[0] + np.arange(max(4, int(math.floor((axis[-1] - axis[0]) / d)) + 1)) * d)
+        grids = [_resampled_axis(axis[0], axis[-1], axis[1] - axis[0], d, texture.periodic) for axis in (x, y)]
         if grids[0].size * grids[1].size > MAX_PROBE_SAMPLES:
             raise fail("spacing", d, f"a spacing giving at most {MAX_PROBE_SAMPLES} samples over the map")
         _check_work(grids[0].size * grids[1].size, _footprint_size(r, (d, d)), (d, d), "tip_radius", r)

@@ -1229,6 +1229,18 @@ def _kink_ends(s0, s1, mean):
     return out0, out1
 
 
+def _resampled_axis(first, last, step, d, periodic):
+    """The abscissae (m) of a sampled axis (its first and last samples, their step, m) resampled at
+    spacing d (m): on a periodic axis n = max(4, floor(period / d)) steps that divide its period
+    (last - first + step), none finer than d but where the period holds fewer than 4; else steps
+    of d from the first sample, up to the last (at least 4 samples). Shape (n,)."""
+    if periodic:
+        span = last - first + step
+        n = max(4, int(math.floor(span / d)))
+        return first + np.arange(n) * (span / n)
+    return first + np.arange(max(4, int(math.floor((last - first) / d)) + 1)) * d
+
+
 def _profile_grid(texture, r, spacing):
     if isinstance(texture, SampledProfile):
         if not texture.periodic and r > (texture.x[-1] - texture.x[0]):
@@ -1236,12 +1248,7 @@ def _profile_grid(texture, r, spacing):
         if spacing is None:
             return texture.x, texture.h, texture.periodic, texture.source or "profile"
         dx = _spacing(texture, r, spacing, 256, 32)  # resampled by its spline onto a coarser grid
-        if texture.periodic:  # (steps that divide the period, none finer than dx)
-            span = texture.x[-1] - texture.x[0] + texture.dx
-            n = max(4, int(math.floor(span / dx)))
-            x = texture.x[0] + np.arange(n) * (span / n)
-        else:
-            x = texture.x[0] + np.arange(max(4, int(math.floor((texture.x[-1] - texture.x[0]) / dx)) + 1)) * dx
+        x = _resampled_axis(texture.x[0], texture.x[-1], texture.dx, dx, texture.periodic)
         step = float(x[1] - x[0])
         return x, texture.height(x), texture.periodic, f"{texture.source or 'profile'} resampled at {step * 1e6:.4g} um"
     period = texture.period
