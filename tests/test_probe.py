@@ -737,6 +737,35 @@ def test_a_measured_stylus_scan_felt_by_a_phantom_ball():
     assert felt.max_slope < 0.5 * level.max_slope
 
 
+def test_at_a_kink_of_the_felt_path_b_c_and_g_forces_jump_and_d_and_e_do_not():
+    # where the ball bridges a trough its path has a kink (a slope jump from -s to +s, s from the
+    # brute-force path): by the paper's fields B's force -k0 d^z n (eq. 11) jumps by
+    # k0 |d^z| |n(s) - n(-s)|, C's -k0 [-d^z h', d^z] (eq. 14) by k0 |d^z| 2 s, G's -k0 p^z n
+    # (eq. 28) by k0 |p^z| |n(s) - n(-s)|; A's (d^z alone) and F's do not, and nor do D's and
+    # E's (eqs. 17, 19): below a V-shaped kink the closest point is the kink's vertex itself, so
+    # that D's force is -k0 (p - vertex) and E's magnitude the distance to it, both continuous.
+    # design said "D and E see a discontinuity there" (2026-11-27's sixth session: wrong)
+    r, k0 = 1e-3, 2000.0
+    felt = hx.Sinusoid(0.2e-3, 2e-3).felt_by(r)
+    assert felt.kinks[:, 0] == pytest.approx([1.5e-3], abs=felt.x[1] - felt.x[0])  # (the trough, 3l/4)
+    h, hp = _sines([0.2e-3], [2e-3], [0.0])
+    s = abs(_brute_slopes(h, hp, np.array([1.5e-3 + 1e-9]), r)[0])  # (the path's slope beside the crease)
+    vertex = np.array([1.5e-3, _centre_path(hx.Sinusoid(0.2e-3, 2e-3), np.array([1.5e-3]), r)[0]])
+    dn = 2 * s / math.sqrt(1 + s * s)  # |n(s) - n(-s)|, n = [-h', 1] / sqrt(1 + h'^2)
+    xs = np.linspace(1.5e-3 - 20e-6, 1.5e-3 + 20e-6, 401)
+    for depth in (0.2e-3, 0.5e-3):
+        P = np.column_stack([xs, np.full(xs.size, vertex[1] - depth)])
+        for letter, jump in (("B", k0 * depth * dn), ("C", k0 * depth * 2 * s),
+                             ("G", k0 * abs(vertex[1] - depth) * dn), ("A", 0.0), ("D", 0.0), ("E", 0.0)):
+            f = hx.algorithm(letter, felt, k0).force(P)
+            steps = np.linalg.norm(np.diff(f, axis=0), axis=1)
+            # (a continuous field moves by at most k0 q |dx| a step: 2000 N/m x 0.1 um x q, q < 2 here)
+            assert steps.max() == pytest.approx(jump, rel=0.01, abs=4e-4), letter
+        # below the vertex D's force is the definition's, -k0 (p - vertex)
+        below = np.array([[1.5e-3, vertex[1] - depth]])
+        assert hx.algorithm("D", felt, k0).force(below)[0] == pytest.approx(-k0 * (below[0] - vertex), rel=1e-3)
+
+
 def test_design_takes_a_tip_radius_at_the_command_line():
     import json
 
@@ -756,6 +785,11 @@ def test_design_takes_a_tip_radius_at_the_command_line():
     h, hp = _sines([0.1e-3], [2e-3], [0.0])
     side = abs(_brute_slopes(h, hp, np.array([1.5e-3 - 1e-7]), 5e-3)[0])
     assert felt["kinks"][0]["slope_jump"] == pytest.approx(2 * side, rel=0.01)
+    # the report names the algorithms whose forces jump at a kink (the test above)
+    r = CliRunner().invoke(cli, ["design", "--texture", "sine:0.1mm,2mm", "--device", "omega-3", "--tip-radius", "5mm",
+                                 "--algorithms", "A", "--quiet"])
+    said = " ".join(r.output.split())
+    assert "B's, C's and G's forces jump there" in said and "D and E" not in said
     assert main(["design", "--texture", "sine:0.1mm,2mm", "--tip-radius", "0.5"]) == 2  # a radius needs its unit
 
 

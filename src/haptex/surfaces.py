@@ -768,7 +768,9 @@ class SampledSurface(Surface):
     kinks : numpy.ndarray, shape (k, 3)
         For a felt map, each grid edge across which the ball's contact jumps (the ball
         bridging a trough): its midpoint x, y (m) and the jump of the slope along it
-        (dimensionless); D and E see a discontinuity there. Empty otherwise.
+        (dimensionless): the forces of B, C and G (eqs. 11, 14, 28: they read the slope) jump
+        there; A's, D's, E's and F's do not (below a V-shaped crease the closest point is on the
+        crease). Empty otherwise.
 
     Raises
     ------

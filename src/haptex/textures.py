@@ -531,7 +531,9 @@ class SampledProfile(Texture):
     ----------
     kinks : numpy.ndarray, shape (k, 2)
         For a felt texture, the places (m) where the ball's contact jumps across a trough and
-        the slope jump there (dimensionless): D and E see a discontinuity there. Empty otherwise.
+        the slope jump there (dimensionless): the forces of B, C and G (eqs. 11, 14, 28: they
+        read the slope) jump there; A's, D's, E's and F's do not (below a V-shaped kink the
+        closest point is the kink itself). Empty otherwise.
 
     Raises
     ------

@@ -175,8 +175,8 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
         if felt["kink_count"]:
             worst = max(felt["kinks"], key=lambda k: abs(k["slope_jump"]))
             console.print(f"the ball bridges troughs: {felt['kink_count']} kink{'s' if felt['kink_count'] != 1 else ''} of "
-                          "its path (slope jumps; D and E see a "
-                          f"discontinuity there), the largest {worst['slope_jump']:+.3g} at x = {worst['x'] * 1e3:.4g} mm"
+                          "its path (slope jumps; B's, C's and G's forces jump there, A's, D's, E's and "
+                          f"F's do not), the largest {worst['slope_jump']:+.3g} at x = {worst['x'] * 1e3:.4g} mm"
                           + (f", y = {worst['y'] * 1e3:.4g} mm" if "y" in worst else ""))
         if felt["branched_cells"]:
             console.print(f"where it rests on several sides of a bowl, {felt['branched_cells']} cells are the highest of "
