@@ -123,6 +123,86 @@ def test_the_felt_slopes_are_the_contact_points_slopes(case, rel_r):
     assert q == pytest.approx(math.sqrt(1 + truth**2), rel=0.01)
 
 
+def _path_q(A_, l, r, dmax=1e-3, n=2000, m=20001):
+    """q = sup ||J||_2 / k0 of A-G on the ball's centre path over a sinusoid A_ sin(2 pi x / l),
+    from the paper's Jacobians with the path's h', h'' (nothing of haptex's). The path by brute
+    force: at n points of a period the arg-max u* of h(x + u) + sqrt(r^2 - u^2) over m offsets,
+    refined 2000 times finer and polished by Newton steps on h'(x + u) = u / sqrt(r^2 - u^2);
+    h' = h'(x + u*) (the envelope theorem) and, differentiating that condition, the path's
+    h'' = h''(s) phi' / (phi' - h''(s)), s = x + u*, phi' = r^2 / (r^2 - u*^2)^(3/2) (the sup of
+    B, C, G over the smooth parts, the kinks aside: there their forces jump, the test above).
+    Over penetrations d in (0, dmax]: A [[0, 0], [-h', 1]] (eq. 7); B -k0 d^z n(h') (eq. 11)
+    differentiated; C eq. 15; G -k0 p^z n(h') (eq. 28) differentiated, p^z = -d; D: the centre of
+    curvature below the path's sharpest crest, radius R, gives d / (R - d) at depth d, infinite
+    where R <= dmax (the crest of a symmetric path is the closest point down to its centre; 1 at
+    least, eq. 18); E 1 (eq. 21); F eq. 23 as haptex reads it (algorithm F's docstring: h~ = 0.8
+    h / max|h|, mu = 0.8, d^x_max = 1 mm, stick |d^x| <= d^x_max with dd^x/dp^x = 1, slip
+    d^x = +-d^x_max with 0). The 2 x 2 norms in closed form. Returns {letter: q}."""
+    k = 2 * np.pi / l
+    H, H1, H2 = (lambda x: A_ * np.sin(k * x)), (lambda x: A_ * k * np.cos(k * x)), (lambda x: -A_ * k * k * np.sin(k * x))
+    x = np.arange(n) * (l / n)
+    u = np.linspace(-r, r, m)
+    j = np.array([np.argmax(H(xi + u) + np.sqrt(np.maximum(r * r - u * u, 0.0))) for xi in x])
+    fine = u[np.maximum(j - 1, 0)][:, None] + np.linspace(0, 2, 4001)[None] * (u[1] - u[0])
+    us = fine[np.arange(n), np.argmax(H(x[:, None] + fine) + np.sqrt(np.maximum(r * r - fine**2, 0.0)), axis=1)]
+    for _ in range(5):
+        w = np.sqrt(r * r - us * us)
+        us -= (H1(x + us) - us / w) / (H2(x + us) - r * r / w**3)
+    w = np.sqrt(r * r - us * us)
+    hp, h1, phi = H(x + us) + w - r, H1(x + us), r * r / w**3
+    h2 = H2(x + us) * phi / (phi - H2(x + us))
+    d = np.linspace(dmax / 200, dmax, 200)[None, :]
+    S, C2 = h1[:, None] + 0 * d, h2[:, None] + 0 * d
+    nrm = np.sqrt(1 + S * S)
+    N, dN = np.stack([-S / nrm, 1 / nrm], -1), np.stack([-C2 / nrm**3, -S * C2 / nrm**3], -1)
+
+    def q(cols):  # the largest singular value of [[a, b], [c, e]] (columns given), in closed form
+        (a, c), (b, e) = (np.moveaxis(v, -1, 0) for v in cols)
+        t, det = a * a + b * b + c * c + e * e, a * e - b * c
+        return float(np.sqrt(0.5 * (t + np.sqrt(np.maximum(t * t - 4 * det * det, 0.0)))).max())
+
+    one, zero = np.ones_like(S), np.zeros_like(S)
+    out = {"A": q([np.stack([zero, -S], -1), np.stack([zero, one], -1)]),
+           "B": q([N * -S[..., None] - d[..., None] * dN, N]),
+           "C": q([np.stack([S * S + d * C2, -S], -1), np.stack([-S, one], -1)]),
+           "G": q([-d[..., None] * dN, N]), "E": 1.0}
+    radius = float(np.min(np.where(h2 < 0, (1 + h1**2) ** 1.5 / np.maximum(-h2, 1e-300), np.inf)))
+    out["D"] = math.inf if radius <= dmax else max(1.0, dmax / (radius - dmax))
+    ht, ht1 = 0.8 * hp / np.abs(hp).max(), 0.8 * h1 / np.abs(hp).max()
+    zz = np.linspace(dmax / 32, dmax, 32)
+    best = 0.0
+    for stick, defl in ((1.0, np.linspace(-1e-3, 1e-3, 33)), (0.0, np.array([-1e-3, 1e-3]))):
+        i, Z, Dx = np.meshgrid(np.arange(n), zz, defl, indexing="ij")
+        J00 = -0.8 * Z * ((1 - ht[i]) * stick - Dx * ht1[i]) / 1e-3
+        J01 = 0.8 * (1 - ht[i]) * Dx / 1e-3
+        best = max(best, q([np.stack([J00, 0 * J00], -1), np.stack([J01, -np.ones_like(J00)], -1)]))
+    out["F"] = best
+    return out
+
+
+@pytest.mark.long
+@pytest.mark.parametrize("rel_r", [0.5, 2.0])
+def test_q_of_every_algorithm_on_the_felt_profile_is_the_paths(rel_r):
+    # issue 67's goal: q of every algorithm on the felt surface within 1 % of q on the brute-force
+    # ball path (the paper's Jacobians with the path's h' and h'', _path_q), on the issue's
+    # sinusoid at half and twice its troughs' radius (0.253 and 1.013 mm). Measured: A-G within
+    # 0.07 % at 0.1, 0.5 and 2 rho (2026-11-27's sixth session; D infinite at 0.1 and 0.5 rho, the
+    # felt crests' centre of curvature within the 1 mm depth). Not met near the troughs' radius:
+    # the path's curvature there is kappa / (1 - r kappa) over a width of a few um, finer than the
+    # felt grid (7.8 um), so q of B, C and G reads -3.4, -19, -51 % at 0.8, 0.9, 0.95 rho (a
+    # spacing of 0.5 um given: -0.01, -0.04, -0.35 %) and -48, -29, -1.1 % at 1.05, 1.1, 1.2 rho
+    # (there a finer grid makes the kink's interval a ramp of slope |s+ - s-| / dx: q grows as
+    # 1 / dx; the ideal path's B, C and G forces jump there). 20-40 s a radius (D's and E's
+    # closest-point searches over the felt profile)
+    rho = (2e-3) ** 2 / (4 * math.pi**2 * 0.2e-3)
+    r = rel_r * rho
+    truth = _path_q(0.2e-3, 2e-3, r)
+    felt = hx.Sinusoid(0.2e-3, 2e-3).felt_by(r)
+    for letter in "ABCDEFG":
+        q = hx.characteristic_number(hx.algorithm(letter, felt, 2000.0)).value
+        assert q == pytest.approx(truth[letter], rel=0.01), letter
+
+
 def _brute_gradients_2d(h, grad, pts, r, n=61):
     """The ball's centre path's gradient at each in-plane point of pts (k, 2), by brute force:
     the arg-max u* of h(p + u) + sqrt(r^2 - |u|^2) over an n x n grid of offsets in the disc,
