@@ -762,7 +762,7 @@ def _thread_names(tids) -> dict:
 def test_keep_awake_pins_the_thread_and_a_companion_to_one_core_and_leaves_nothing_running():
     # keep_awake (issue 56): while the run goes, two new threads (the servo thread and its
     # spinning companion) are pinned to the same single core, the last of the process's; the
-    # run's ticks are the plain run's to the bit (not paced: nothing depends on the clock), and
+    # run's ticks are the plain run's to the bit but for the watchdog's zeros (below), and
     # when it returns both threads have ended
     before = _threads()
     during = []
@@ -788,8 +788,16 @@ def test_keep_awake_pins_the_thread_and_a_companion_to_one_core_and_leaves_nothi
     assert len(pinned) == 2, (new, _thread_names(new))
     assert not (set(_threads()) - set(before)) & pinned  # both ended with the run
     assert a.ticks == b.ticks == 400 and a.engaged_at == b.engaged_at is not None
-    for key in ("position", "force", "engaged"):  # the simulated device runs the same ticks
-        assert np.array_equal(ta[key], tb[key]), key
+    # the simulated device runs the same ticks, to the bit, until a sample of the paced run comes
+    # late and the watchdog answers it with zero force (rule 2), as on a loaded machine: a
+    # fresh-clone run beside other work failed here on the position (2026-11-27's sixth session)
+    n = len(tb["engaged"])
+    differ = np.flatnonzero(np.any(np.reshape(ta["position"], (n, -1)) != np.reshape(tb["position"], (n, -1)), axis=1)
+                            | np.any(np.reshape(ta["force"], (n, -1)) != np.reshape(tb["force"], (n, -1)), axis=1)
+                            | (np.asarray(ta["engaged"]) != np.asarray(tb["engaged"])))
+    if differ.size:
+        k = int(differ[0])
+        assert a.missed > 0 and not np.any(np.reshape(ta["force"], (n, -1))[k]), (k, a.missed)
 
 
 @pytest.mark.parametrize("case", ["python renderer", "python loop", "openhaptics"])
