@@ -52,6 +52,25 @@ def test_below_the_troughs_curvature_the_felt_profile_is_the_offset_curve():
     assert felt.max_slope == pytest.approx(SINE.max_slope, rel=1e-3)  # the offset curve keeps the normals
 
 
+@pytest.mark.parametrize("rel_r", [0.8, 0.9, 0.95, 0.99, 1.01, 1.05, 1.2, 2.0])
+def test_the_felt_profile_names_a_kink_only_where_the_ball_bridges_a_trough(rel_r):
+    # a ball narrower than a trough's radius of curvature rho = l^2 / (4 pi^2 A) touches it
+    # everywhere (the path is the offset curve, smooth); a wider one bridges it, its path kinked
+    # once a period, at the trough (x = 3 l / 4, by symmetry). Bridging needs the surface between
+    # the two contacts to curve more than the ball somewhere (r kappa > 1: where the ball is
+    # tangent from above at both ends, the gap closes only past such a point), so below rho no
+    # kink. Near rho the contact runs 1 / (1 - r kappa) times as fast as the ball, more than three
+    # intervals an interval, and the felt profile named 6 to 8 kinks a period at 0.8 to 1.05 rho,
+    # where design then said the ball bridges troughs (2026-11-27's sixth session)
+    sine = hx.Sinusoid(0.2e-3, 2e-3)
+    rho = (2e-3) ** 2 / (4 * math.pi**2 * 0.2e-3)
+    felt = sine.felt_by(rel_r * rho)
+    if rel_r < 1:
+        assert felt.kinks.shape == (0, 2)
+    else:
+        assert felt.kinks[:, 0] == pytest.approx([1.5e-3], abs=felt.x[1] - felt.x[0])
+
+
 @pytest.mark.parametrize("r", [4e-3, 6e-3, 10e-3])
 def test_a_ball_on_the_crests_lowers_q_a_as_the_closed_form_says(r):
     # a ball resting on two crests as points would have the slope m at the trough between them;
