@@ -50,8 +50,12 @@ def felt_by(texture, tip_radius: float, *, spacing: float | None = None):
         of its shortest period and a 32nd of r (a 16th of each over a surface, and finer, by the
         factors ``haptex.surfaces.REFINE`` up to ``REFINE_SAMPLES`` samples, while some cell
         beside a kink cannot be branched or the map is steeper than the surface, and by
-        ``REFINE_STEEP`` while every grid is steeper than the surface). A sampled
-        profile keeps its own grid, and a sampled surface too unless that leaves such a cell or
+        ``REFINE_STEEP`` while every grid is steeper than the surface). A profile's grid, a
+        sampled profile's own first (then its spline resampled), is halved while its segments'
+        curvature at the grid points misses the path's by more than
+        ``haptex.textures.PROFILE_CURVATURE_SLACK`` of the path's largest, within
+        ``PROFILE_REFINE_SAMPLES`` (near the troughs' radius the path's curvature spikes, and
+        B, C and G read it). A sampled surface keeps its own grid unless that leaves such a cell or
         steepness (then its spline is resampled at those factors of its interval, within
         ``REFINE_SAMPLES``). With ``spacing`` given a sampled texture is resampled onto that
         grid by its own spline (what a refusal for work suggests for a fine map and a large
@@ -77,8 +81,11 @@ def felt_by(texture, tip_radius: float, *, spacing: float | None = None):
     -----
     On a profile the felt heights and slopes are exact at the grid's points (the contact refined
     to 1e-10 of an interval by golden-section search on the texture); between them the profile is
-    the cubic through heights and slopes, and an interval holding a kink the quadratic between its
-    end slopes, so the slope never leaves the contacts' (``kinks`` lists each kink's place and
+    the cubic through heights and slopes; an interval across which the contact runs faster than
+    three intervals an interval is the quadratic between its end slopes, so the slope never
+    leaves the contacts', and one holding a kink (where the ball bridges the profile: it curves
+    more than the ball somewhere between the two contacts) is straight at its mean, the slope
+    jumping at its ends as the path's does at the kink (``kinks`` lists each kink's place and
     slope jump). On an areal map the contact is refined by safeguarded Newton steps on the
     surface, the map is the bicubic Hermite interpolant through the heights and the contacts'
     gradients, and each grid edge across which the contact jumps has its slopes along it kept
