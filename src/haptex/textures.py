@@ -1168,14 +1168,16 @@ bracket shrinks by 0.618^48 ~ 1e-10, far below any grid)."""
 
 
 def _contact_path(texture, x, h, r, periodic):
-    """The ball's centre path c(x) - r and its slope on the grid x, and the kinks.
+    """The ball's centre path on the grid x: (heights c(x) - r (n,), each interval's end slopes
+    (m, 2), the kinks (k, 2): place and slope jump, and the segments' curvature miss, a fraction
+    of the path's largest curvature).
 
     c(x) = max over |u| <= r of [H(x + u) + sqrt(r^2 - u^2)], H the texture's own height: the
     maximum over the grid's offsets first (each grid point's arg-max contact), then refined by
     golden-section search on H within one interval either side of it; the slope is H' at the
-    contact (the envelope theorem: the path's normal is the contact's). A kink is a pair of
-    neighbouring points whose contacts lie more than two intervals apart (the ball bridging a
-    trough), with the slope jump between them."""
+    contact (the envelope theorem: the path's normal is the contact's). A kink is an interval
+    across which the contact moves more than three intervals and the ball bridges the texture
+    (:func:`_bridges`), with the slope jump across it."""
     n = x.size
     dx = float(x[1] - x[0])
     idx = np.arange(n)
@@ -1217,22 +1219,20 @@ def _contact_path(texture, x, h, r, periodic):
     ahead = contact[nxt] + (n * dx if periodic else 0.0) * (nxt == 0)
     at = np.flatnonzero(np.abs(ahead - contact[:m]) > 3 * dx)
     ends = np.column_stack([slope[:m], slope[nxt]])
-    # In an interval where the contact jumps (the ball bridging a trough, or leaving a crest for
-    # the next), the path is two branches meeting at a kink inside it; a cubic through both
-    # exact end slopes overshoots them (by 40 % when the kink sits a sixth from one end). There
-    # the segment is the quadratic whose slope runs linearly between the end slopes with the
-    # interval's mean: one end keeps its exact slope, the other is moved within the two, so
-    # that the slope never leaves them; the kink sits at a sample to within an interval.
+    # In an interval where the contact moves more than three intervals, a cubic through both exact
+    # end slopes overshoots them (by 40 % when a kink sits a sixth from one end). The path has a
+    # kink (a slope jump) there only where the ball bridges the surface between the two contacts,
+    # which needs it to curve more than the ball somewhere there (r kappa > 1, kappa = h'' / (1 +
+    # h'^2)^1.5: tangent from above at both ends, the gap closes only past such a point); elsewhere
+    # the contact runs on, 1 / (1 - r kappa) times as fast as the ball near the troughs' radius,
+    # and the path is smooth (on a sinusoid at 0.8 to 1.05 times that radius 6 to 8 such intervals
+    # a period had been named kinks). There the segment is the quadratic whose slope runs
+    # linearly between the end slopes with the interval's mean (_kink_ends: the slope never
+    # leaves them); across a kink it is straight at the interval's mean, its slope jumping at
+    # both ends as the path's does at the kink (a ramp of the slope jump over one interval there
+    # read q of B, C, G 344 for the path's 2.73). The kink sits at a sample to within an interval.
     hh = c - r
     delta = (np.r_[hh, hh[0]][1:m + 1] - hh[:m]) / dx
-    # A kink (a slope jump) only where the ball bridges the surface between the two contacts, which
-    # needs it to curve more than the ball somewhere there (r kappa > 1, kappa = h'' / (1 + h'^2)^1.5:
-    # tangent from above at both ends, the gap closes only past such a point); elsewhere the contact
-    # runs on, 1 / (1 - r kappa) times as fast as the ball near the troughs' radius, and the path is
-    # smooth (on a sinusoid at 0.8 to 1.05 times that radius 6 to 8 such intervals a period had been
-    # named kinks): there the segment's slope runs between its ends' (_kink_ends), and across a
-    # kink it is straight at the interval's mean, its slope jumping at both ends as the path's does
-    # at the kink (a ramp of slope jump / dx there read q of B, C, G 344 for the path's 2.73)
     bridged = _bridges(texture, contact[at], ahead[at], r)
     run = at[~bridged]
     ends[run, 0], ends[run, 1] = _kink_ends(ends[run, 0], ends[run, 1], delta[run])
