@@ -218,10 +218,13 @@ def test_q_of_every_algorithm_on_the_felt_profile_is_the_paths(case, rel_r, lett
     # the jump over an interval as curvature: the two-tone at 2 rho +12,500 %, the four-tone at
     # 1.2 and 2 rho +2,278 and +639 % (2026-11-27's sixth session). Now the grid is halved while
     # the segments' curvature misses the path's (PROFILE_CURVATURE_SLACK) and a kink's interval is
-    # straight: within 0.3 % at every case here. Not met, measured: 1.05 rho (the sinusoid's C
-    # -5.4 %, the two-tone's B +190 %, the four-tone's +43 %: 32,768 samples, the cap, do not
-    # resolve it), the two-tone at 1.2 and 2 rho (+23 and -4.2 %: its kinks' intervals hold the
-    # path's curvature spike as its contact nears a fold), the four-tone at 0.95 rho (+1.6 %).
+    # straight: within 0.3 % at every case here. Not met, measured against this oracle on 16,000
+    # points a period (2,000 steps over the narrowest spikes: at 2,000 it read the two-tone at
+    # 1.05 rho 149 where the path reaches 440): at 1.05 rho B and C on the sinusoid -1.1 and
+    # -5.4 %, on the two-tone -1.8 and -32 % (q's search missing C's spike), on the four-tone
+    # +1.3 and +2.9 %; the two-tone at 1.2 rho -1.9 %, at 2 rho -9.1 and -12 % (its kinks'
+    # intervals hold the spike of the path's curvature where its contact nears a fold). The
+    # four-tone at 0.95 rho +0.09 % (+1.6 % against this 2,000-point oracle: not a case here).
     # A, D, E, F within 0.2 % wherever measured (D infinite at 0.5 rho on the sinusoid, as on the
     # path: the felt crests' centre of curvature within the 1 mm depth). 5-40 s a case
     amps, periods, phases, period = FELT_CASES[case]
