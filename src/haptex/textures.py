@@ -1234,9 +1234,9 @@ def _contact_path(texture, x, h, r, periodic):
     hh = c - r
     delta = (np.r_[hh, hh[0]][1:m + 1] - hh[:m]) / dx
     bridged = _bridges(texture, contact[at], ahead[at], r)
-    run = at[~bridged]
+    run, at = at[~bridged], at[bridged]  # (the contact running fast; the kinks)
     ends[run, 0], ends[run, 1] = _kink_ends(ends[run, 0], ends[run, 1], delta[run])
-    ends[at[bridged], 0] = ends[at[bridged], 1] = delta[at[bridged]]
+    ends[at, 0] = ends[at, 1] = delta[at]
     # the segments' curvature at their ends against the path's own there (differentiating the
     # contact condition h'(x + u) = u / sqrt(r^2 - u^2)), beside no kink: the largest miss, as a
     # fraction of the path's largest curvature (for the caller's refinement)
@@ -1247,11 +1247,10 @@ def _contact_path(texture, x, h, r, periodic):
     e0, e1 = ends[:, 0], ends[:, 1]
     d2 = np.column_stack([(6 * delta - 4 * e0 - 2 * e1) / dx, (2 * e0 + 4 * e1 - 6 * delta) / dx])
     smooth = np.ones(m, dtype=bool)
-    smooth[at[bridged]] = False
+    smooth[at] = False
     gap = np.maximum(np.abs(d2[:, 0] - curv[:m]), np.abs(d2[:, 1] - curv[nxt]))[smooth]
     scale = float(np.max(np.abs(curv)))
     miss = float(np.max(gap)) / scale if gap.size and scale > 0 else 0.0
-    at = at[bridged]
     kinks = np.column_stack([x[at] + 0.5 * dx, slope[nxt[at]] - slope[at]]) if at.size else np.zeros((0, 2))
     return hh, ends, kinks, (miss if math.isfinite(miss) else math.inf)
 
