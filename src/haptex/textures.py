@@ -129,10 +129,12 @@ class Texture:
         bridges a trough is a slope jump between two points and not an overshoot of a spline.
         With no spacing given the grid is halved while the segments' curvature at the grid points
         differs from the path's (its own there, from the contact's: h''(s) phi' / (phi' - h''(s)),
-        phi' = r^2 / (r^2 - u^2)^(3/2)) by more than PROFILE_CURVATURE_SLACK of the path's
-        largest, beside no kink, within PROFILE_REFINE_SAMPLES: near the troughs' radius the
-        path's curvature, kappa / (1 - r kappa), spikes over a few um, which B, C and G read; a
-        refined profile keeps the first grid's shortest period (its analyses' grids and limits)."""
+        phi' = r^2 / (r^2 - u^2)^(3/2)), or their largest from the path's at a kink where that is
+        the path's largest (:func:`_kink_limits`), by more than PROFILE_CURVATURE_SLACK of it,
+        within PROFILE_REFINE_SAMPLES: near the troughs' radius the path's curvature, kappa / (1
+        - r kappa), spikes over a few um, and beside a kink it is largest at the kink itself,
+        which B, C and G read; a refined profile keeps the first grid's shortest period (its
+        analyses' grids and limits)."""
         x, h, periodic, source = _profile_grid(self, r, spacing)
         hf, sf, kinks, miss = _contact_path(self, x, h, r, periodic)
         shortest = None  # (the first grid's, once refined)
@@ -1177,7 +1179,10 @@ def _contact_path(texture, x, h, r, periodic):
     golden-section search on H within one interval either side of it; the slope is H' at the
     contact (the envelope theorem: the path's normal is the contact's). A kink is an interval
     across which the contact moves more than three intervals and the ball bridges the texture
-    (:func:`_bridges`), with the slope jump across it."""
+    (:func:`_bridges`), with the slope jump across it. The miss is the largest of the
+    segments' at the grid points beside no kink and, where the path's curvature at a kink (either
+    side's limit, :func:`_kink_limits`) is its largest, by how much the segments' largest falls
+    short of it."""
     n = x.size
     dx = float(x[1] - x[0])
     idx = np.arange(n)
@@ -1250,16 +1255,64 @@ def _contact_path(texture, x, h, r, periodic):
     smooth[at] = False
     gap = np.maximum(np.abs(d2[:, 0] - curv[:m]), np.abs(d2[:, 1] - curv[nxt]))[smooth]
     scale = float(np.max(np.abs(curv)))
+    if at.size:  # beside a kink the path's curvature is largest at the kink itself: where that is
+        # its largest anywhere (B's, C's, G's sup), the segments' largest against it
+        left, right = _kink_limits(texture, x[at], u[at], ahead[at] - x[at] - dx, dx, r)
+        lim = np.abs(np.concatenate([left, right]))
+        lim = float(np.max(lim[np.isfinite(lim)], initial=0.0))
+        felt = np.abs(d2[smooth])
+        felt = float(np.max(felt[np.isfinite(felt)], initial=0.0))
+        if lim > max(scale, felt):
+            gap = np.append(gap, lim - felt)
+            scale = lim
     miss = float(np.max(gap)) / scale if gap.size and scale > 0 else 0.0
     kinks = np.column_stack([x[at] + 0.5 * dx, slope[nxt[at]] - slope[at]]) if at.size else np.zeros((0, 2))
     return hh, ends, kinks, (miss if math.isfinite(miss) else math.inf)
 
 
+def _kink_limits(texture, x0, u0, u1, dx, r, steps=48):
+    """The ball path's curvature either side of kinks (arrays of shape (k,): each interval's
+    first point x0 (m), the contact offsets u0 at it and u1 at x0 + dx on the branch beyond the
+    kink): each branch followed by Newton steps on the contact condition h'(x + u) = u / sqrt(r^2
+    - u^2) from its end's contact, the kink bisected where the two branches' heights meet, and
+    the path's curvature there on each branch, h''(s) phi' / (phi' - h''(s)), phi' = r^2 / (r^2
+    - u^2)^(3/2), s = x + u. Returns (left, right), NaN where a branch could not be followed."""
+    lo, hi = x0.copy(), x0 + dx
+    rim = r * (1 - 1e-12)
+
+    def branch(x, u):  # Newton from u on the contact condition at x: (u, height, curvature)
+        lost = np.zeros(u.shape, dtype=bool)  # (past the branch's fold: no maximum to follow)
+        for _ in range(12):
+            w = np.sqrt(np.maximum(r * r - u * u, 1e-300))
+            f = texture.slope(x + u) - u / w
+            fp = texture.curvature(x + u) - r * r / w**3
+            lost |= ~(fp < 0)
+            u = np.where(lost, u, np.clip(u - f / np.where(lost, -1.0, fp), -rim, rim))
+        w = np.sqrt(np.maximum(r * r - u * u, 1e-300))
+        ok = ~lost & (np.abs(texture.slope(x + u) - u / w) <= 1e-9 * (1 + np.abs(u / w)))
+        dphi = r * r / w**3
+        hs = texture.curvature(x + u)
+        return u, np.where(ok, texture.height(x + u) + w, np.nan), np.where(ok, hs * dphi / (dphi - hs), np.nan)
+
+    ua, ub = u0.copy(), u1.copy()
+    for _ in range(steps):
+        mid = 0.5 * (lo + hi)
+        ma, ha, _ = branch(mid, ua)
+        mb, hb, _ = branch(mid, ub)
+        first = ~(hb > ha)  # (the first branch still the higher: the kink beyond mid)
+        lo, ua = np.where(first, mid, lo), np.where(first, ma, ua)
+        hi, ub = np.where(first, hi, mid), np.where(first, ub, mb)
+    return branch(lo, ua)[2], branch(hi, ub)[2]
+
+
 PROFILE_CURVATURE_SLACK = 0.01
 """How far a felt profile's segments' curvature at its grid points may miss the ball path's own
-there, as a fraction of the path's largest, before its grid is halved (chosen: q of B, C, G
-reads the largest curvature; on `Sinusoid(0.2 mm, 2 mm)` at 0.8, 0.9, 0.95 times its troughs'
-radius the default grid (7.8 um) read them -3.4, -19, -51 %)."""
+there (and their largest the path's at a kink, where that is the path's largest), as a
+fraction of the path's largest, before its
+grid is halved (chosen: q of B, C, G reads the largest curvature; on `Sinusoid(0.2 mm, 2 mm)`
+at 0.8, 0.9, 0.95 times its troughs' radius the default grid (7.8 um) read them -3.4, -19,
+-51 %; beside the kinks of the two-tone profile at twice its troughs' radius, -9.6 and -12.6 %
+on 1,024 samples where its path's curvature is largest at the kink)."""
 
 PROFILE_REFINE_SAMPLES = 1 << 15
 """The most samples a felt profile is refined to (chosen: 128 times the default grid of a
