@@ -90,7 +90,9 @@ def felt_by(texture, tip_radius: float, *, spacing: float | None = None):
     slope jump). On an areal map the contact is refined by safeguarded Newton steps on the
     surface, the map is the bicubic Hermite interpolant through the heights and the contacts'
     gradients, and each grid edge across which the contact jumps has its slopes along it kept
-    within the contacts' as on a profile (``kinks``: each such edge's midpoint and slope jump).
+    within the contacts' as on a profile (``kinks``: each such edge's midpoint and slope jump;
+    none, and no cell branched, where r times the surface's ``max_curvature`` is at most 1: the
+    ball then touches it everywhere).
     Where the ball bridges a bowl (a trough closed in every direction) the path has a cone's
     apex, which tensor-product patches cannot follow: a cell across which the contact jumps is
     the maximum of one Hermite patch per contact (``branched_cells``); where a cell cannot be

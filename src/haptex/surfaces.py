@@ -767,7 +767,8 @@ class SampledSurface(Surface):
     ----------
     kinks : numpy.ndarray, shape (k, 3)
         For a felt map, each grid edge across which the ball's contact jumps (the ball
-        bridging a trough): its midpoint x, y (m) and the jump of the slope along it
+        bridging a trough; none where r max_curvature <= 1, where it cannot bridge anything):
+        its midpoint x, y (m) and the jump of the slope along it
         (dimensionless): the forces of B, C and G (eqs. 11, 14, 28: they read the slope) jump
         there; A's, D's, E's and F's do not (below a V-shaped crease the closest point is on the
         crease). Empty otherwise.
@@ -1907,6 +1908,17 @@ def _contact_map(texture, x, y, h, r, periodic):
     return out[:-1]
 
 
+def _may_bridge(texture, r) -> bool:
+    """Whether a ball of radius r (m) can bridge the surface anywhere: between two contacts the
+    ball's vertical section through them is a circle of radius at most r, tangent from above at
+    both, so the surface's section must curve more somewhere, its second derivative there above
+    1 / r; none can where r times the sup of the Hessian's 2-norm (``max_curvature``, a dense
+    grid's refined by quasi-Newton steps as the profile's bridging test samples its curvature;
+    the egg-crate's rigorous ``curvature_bound`` is 14 % above it) is at most 1, and the ball
+    touches the surface everywhere (its path the offset surface, smooth)."""
+    return not (r * float(texture.max_curvature) <= 1.0)
+
+
 def _forget(cache, node, shape):
     """Drop from :func:`_branch_patches`' cache what was followed at or from the grid points
     ``node`` (flat indices), whose contacts have changed."""
@@ -1933,6 +1945,7 @@ def _contact_edges(texture, x, y, P, u, c, r, rim, periodic, cache=None):
     dx, dy = float(x[1] - x[0]), float(y[1] - y[0])
     on_rim = None if periodic else _on_rim(P + u, x, y)
     grads = _path_gradient(texture, P, u, r, on_rim)
+    bridges = _may_bridge(texture, r)
     # the edges: kinked where the contact jumps by more than three intervals
     step_x, step_y = np.array([dx, 0.0]), np.array([0.0, dy])
     ex, ey = _node_edges(grads, periodic)
@@ -1945,6 +1958,7 @@ def _contact_edges(texture, x, y, P, u, c, r, rim, periodic, cache=None):
         nxt = np.roll(u, -1, axis=axis) if periodic else (u[1:] if axis == 0 else u[:, 1:])
         here = u if periodic else (u[:-1] if axis == 0 else u[:, :-1])
         jump = np.linalg.norm(nxt - here + unit, axis=-1) > BRANCH_JUMP * d
+        jump &= bridges  # (else the contact only runs fast: the path is smooth)
         # (and where the ball passes from resting on a bounded map's rim to resting inside it: the
         # path is C^1 there but its curvature jumps, and the cubic through both exact slopes
         # overshot them by up to 5.5 % on a 4 mm map felt by a 0.1 mm ball; not a kink)
@@ -1987,7 +2001,8 @@ def _contact_edges(texture, x, y, P, u, c, r, rim, periodic, cache=None):
         kinks.append(np.column_stack([mid, jump_]))
     twist = _twist(grads, dx, dy, periodic)
     twist[flat] = 0.0  # (no twist beside a kink: its central differences straddle the jump)
-    branches, better = _branch_patches(texture, x, y, u, grads, twist, r, rim, periodic, c, ex, ey, cache)
+    branches, better = (_branch_patches(texture, x, y, u, grads, twist, r, rim, periodic, c, ex, ey, cache)
+                        if bridges else (None, None))
     return c, grads, (ex, ey, twist), (np.concatenate(kinks) if kinks else np.zeros((0, 3))), branches, better
 
 
