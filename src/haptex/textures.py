@@ -1308,11 +1308,11 @@ def _kink_limits(texture, x0, u0, u1, dx, r, steps=48):
 PROFILE_CURVATURE_SLACK = 0.01
 """How far a felt profile's segments' curvature at its grid points may miss the ball path's own
 there (and their largest the path's at a kink, where that is the path's largest), as a
-fraction of the path's largest, before its
-grid is halved (chosen: q of B, C, G reads the largest curvature; on `Sinusoid(0.2 mm, 2 mm)`
-at 0.8, 0.9, 0.95 times its troughs' radius the default grid (7.8 um) read them -3.4, -19,
--51 %; beside the kinks of the two-tone profile at twice its troughs' radius, -9.6 and -12.6 %
-on 1,024 samples where its path's curvature is largest at the kink)."""
+fraction of the path's largest, before its grid is halved (chosen: q of B, C, G reads the
+largest curvature; on `Sinusoid(0.2 mm, 2 mm)` at 0.8, 0.9, 0.95 times its troughs' radius
+the default grid (7.8 um) read them -3.4, -19, -51 %; beside the kinks of the two-tone profile
+at twice its troughs' radius, -9.6 and -12.6 % on 1,024 samples, where its path's curvature
+is largest at the kink)."""
 
 PROFILE_REFINE_SAMPLES = 1 << 15
 """The most samples a felt profile is refined to (chosen: 128 times the default grid of a
