@@ -925,6 +925,8 @@ def test_at_a_kink_of_the_felt_path_b_c_and_g_forces_jump_and_d_and_e_do_not():
             steps = np.linalg.norm(np.diff(f, axis=0), axis=1)
             # (a continuous field moves by at most k0 q |dx| a step: 2000 N/m x 0.1 um x q, q < 2 here)
             assert steps.max() == pytest.approx(jump, rel=0.01, abs=4e-4), letter
+            # (what design's kink report and q's search read: the registry says which jump)
+            assert hx.algorithms.ALGORITHMS[letter].reads_slope == (jump > 0), letter
         # below the vertex D's force is the definition's, -k0 (p - vertex)
         below = np.array([[1.5e-3, vertex[1] - depth]])
         assert hx.algorithm("D", felt, k0).force(below)[0] == pytest.approx(-k0 * (below[0] - vertex), rel=1e-3)

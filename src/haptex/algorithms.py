@@ -211,6 +211,10 @@ class Algorithm:
         objects learn which letter takes what.
     textured : bool
         False for W only (the smooth wall takes no texture).
+    reads_slope : bool
+        True where the force reads the texture's slope (B, C and G: eqs. 11, 14, 28), so that its
+        Jacobian reads the curvature h'' and the force jumps where the texture's slope does (a
+        felt texture's kinks); False for W, A, D, E and F.
 
     Parameters
     ----------
@@ -236,6 +240,7 @@ class Algorithm:
     penetration_kind: str = "vertical"
     is_gradient: bool = False
     has_memory: bool = False
+    reads_slope: bool = False
     reference: str = ""
 
     surfaces = True
@@ -715,6 +720,7 @@ class GroovedNormal(_Vertical):
     """
 
     letter = "B"
+    reads_slope = True
     name = "grooved boundary, force normal to groove"
     parameters = ("max_penetration",)
     reference = "eq. 11, 12; Choi & Tan (2004) [19]"
@@ -766,6 +772,7 @@ class ChangeOfHeight(_Vertical):
     """
 
     letter = "C"
+    reads_slope = True
     name = "change of height"
     parameters = ("max_penetration",)
     reference = "eq. 13–15; Minsky (1995) [16]"
@@ -1076,6 +1083,7 @@ class ForceShading(Algorithm):
     """
 
     letter = "G"
+    reads_slope = True
     name = "force shading"
     parameters = ("max_penetration",)
     penetration_kind = "nominal"

@@ -196,9 +196,9 @@ def characteristic_number(
     whose abscissa spans one texture period (or ``x_range``). A grid of
     ``resolution = (n_x, n_depth)`` points is searched first, then the best grid points
     are refined by bounded quasi-Newton maximisation inside their grid cells, so the
-    result is the sup and not a grid sample. Over a sampled profile of at most
-    :data:`PROFILE_NODES` samples the grid also holds both ends of every interval, where its
-    spline's h'' (linear on each) peaks.
+    result is the sup and not a grid sample. For an algorithm that reads the slope (B, C, G:
+    its Jacobian reads h'') over a sampled profile of at most :data:`PROFILE_NODES` samples the
+    grid also holds both ends of every interval, where its spline's h'' (linear on each) peaks.
 
     Parameters
     ----------
@@ -258,7 +258,7 @@ def characteristic_number(
         return _q_friction(algorithm, dmax, ranges, counts, nd)
 
     axes = [np.linspace(a, b, n + 1) for (a, b), n in zip(ranges, counts)]
-    if tex.dimension == 1:
+    if tex.dimension == 1 and getattr(algorithm, "reads_slope", True):  # (its Jacobian reads h'')
         axes[0] = _with_nodes(tex, axes[0])
     ds = np.linspace(dmax / nd, dmax, nd)
     mesh = np.meshgrid(*axes, ds, indexing="ij")

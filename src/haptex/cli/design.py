@@ -175,8 +175,8 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
         if felt["kink_count"]:
             worst = max(felt["kinks"], key=lambda k: abs(k["slope_jump"]))
             console.print(f"the ball bridges troughs: {felt['kink_count']} kink{'s' if felt['kink_count'] != 1 else ''} of "
-                          "its path (slope jumps; B's, C's and G's forces jump there, A's, D's, E's and "
-                          f"F's do not), the largest {worst['slope_jump']:+.3g} at x = {worst['x'] * 1e3:.4g} mm"
+                          f"its path (slope jumps; {_letters(True)} forces jump there, {_letters(False)} do not), the "
+                          f"largest {worst['slope_jump']:+.3g} at x = {worst['x'] * 1e3:.4g} mm"
                           + (f", y = {worst['y'] * 1e3:.4g} mm" if "y" in worst else ""))
         if felt["branched_cells"]:
             console.print(f"where it rests on several sides of a bowl, {felt['branched_cells']} cells are the highest of "
@@ -270,3 +270,12 @@ def _single_patch_cells(tex) -> int:
     from ..surfaces import _single_kink_cells
 
     return int(_single_kink_cells(tex))
+
+
+def _letters(reads_slope: bool) -> str:
+    """The textured algorithms whose force reads the slope (or not), as the kink report names
+    them: "B's, C's and G's" (``Algorithm.reads_slope``)."""
+    from ..algorithms import ALGORITHMS
+
+    names = [f"{k}'s" for k in sorted(ALGORITHMS) if ALGORITHMS[k].textured and ALGORITHMS[k].reads_slope == reads_slope]
+    return names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]
