@@ -143,6 +143,30 @@ def test_the_felt_slopes_are_the_contact_points_slopes(case, rel_r):
     assert q == pytest.approx(math.sqrt(1 + truth**2), rel=0.01)
 
 
+def _norm2x2(cols):
+    """The largest singular value of [[a, b], [c, e]] in closed form (its two columns given, each
+    of shape (..., 2)), the largest over all the leading indices."""
+    (a, c), (b, e) = (np.moveaxis(v, -1, 0) for v in cols)
+    t, det = a * a + b * b + c * c + e * e, a * e - b * c
+    return float(np.sqrt(0.5 * (t + np.sqrt(np.maximum(t * t - 4 * det * det, 0.0)))).max())
+
+
+def _vertical_q(h1, h2, d):
+    """q = sup ||J||_2 / k0 of A, B, C and G over a profile's slopes h1 and second derivatives h2
+    (shape (n,)) and penetrations d (shape (k,), m), from the paper's Jacobians: A [[0, 0], [-h',
+    1]] (eq. 7); B -k0 d^z n(h') (eq. 11) differentiated; C eq. 15; G -k0 p^z n(h') (eq. 28)
+    differentiated, p^z = -d. Returns {letter: q}."""
+    d = np.asarray(d, dtype=float)[None, :]
+    S, C2 = np.asarray(h1, dtype=float)[:, None] + 0 * d, np.asarray(h2, dtype=float)[:, None] + 0 * d
+    nrm = np.sqrt(1 + S * S)
+    N, dN = np.stack([-S / nrm, 1 / nrm], -1), np.stack([-C2 / nrm**3, -S * C2 / nrm**3], -1)
+    one, zero = np.ones_like(S), np.zeros_like(S)
+    return {"A": _norm2x2([np.stack([zero, -S], -1), np.stack([zero, one], -1)]),
+            "B": _norm2x2([N * -S[..., None] - d[..., None] * dN, N]),
+            "C": _norm2x2([np.stack([S * S + d * C2, -S], -1), np.stack([-S, one], -1)]),
+            "G": _norm2x2([-d[..., None] * dN, N])}
+
+
 def _path_q(amps, periods, phases, period, r, dmax=1e-3, n=2000, m=20001):
     """q = sup ||J||_2 / k0 of A-G on the ball's centre path over a sum of sinusoids (one period),
     from the paper's Jacobians with the path's h', h'' (nothing of haptex's). The path by brute
@@ -153,8 +177,7 @@ def _path_q(amps, periods, phases, period, r, dmax=1e-3, n=2000, m=20001):
     B, C, G over the smooth parts, the kinks aside: there their forces jump, the test above),
     with each side's limit at every place the contact jumps (bisected 40 times): beside a kink
     the path's curvature is largest at the kink, a sup no sample attains.
-    Over penetrations d in (0, dmax]: A [[0, 0], [-h', 1]] (eq. 7); B -k0 d^z n(h') (eq. 11)
-    differentiated; C eq. 15; G -k0 p^z n(h') (eq. 28) differentiated, p^z = -d; D: the centre of
+    Over penetrations d in (0, dmax]: A, B, C, G by :func:`_vertical_q`; D: the centre of
     curvature below the path's sharpest crest, radius R, gives d / (R - d) at depth d, infinite
     where R <= dmax (the crest of a symmetric path is the closest point down to its centre; 1 at
     least, eq. 18); E 1 (eq. 21); F eq. 23 as haptex reads it (algorithm F's docstring: h~ = 0.8
@@ -196,21 +219,7 @@ def _path_q(amps, periods, phases, period, r, dmax=1e-3, n=2000, m=20001):
     w = np.sqrt(r * r - us * us)
     hp, h1, phi = H(x + us) + w - r, H1(x + us), r * r / w**3
     h2 = H2(x + us) * phi / (phi - H2(x + us))
-    d = np.linspace(dmax / 200, dmax, 200)[None, :]
-    S, C2 = h1[:, None] + 0 * d, h2[:, None] + 0 * d
-    nrm = np.sqrt(1 + S * S)
-    N, dN = np.stack([-S / nrm, 1 / nrm], -1), np.stack([-C2 / nrm**3, -S * C2 / nrm**3], -1)
-
-    def q(cols):  # the largest singular value of [[a, b], [c, e]] (columns given), in closed form
-        (a, c), (b, e) = (np.moveaxis(v, -1, 0) for v in cols)
-        t, det = a * a + b * b + c * c + e * e, a * e - b * c
-        return float(np.sqrt(0.5 * (t + np.sqrt(np.maximum(t * t - 4 * det * det, 0.0)))).max())
-
-    one, zero = np.ones_like(S), np.zeros_like(S)
-    out = {"A": q([np.stack([zero, -S], -1), np.stack([zero, one], -1)]),
-           "B": q([N * -S[..., None] - d[..., None] * dN, N]),
-           "C": q([np.stack([S * S + d * C2, -S], -1), np.stack([-S, one], -1)]),
-           "G": q([-d[..., None] * dN, N]), "E": 1.0}
+    out = dict(_vertical_q(h1, h2, np.linspace(dmax / 200, dmax, 200)), E=1.0)
     radius = float(np.min(np.where(h2 < 0, (1 + h1**2) ** 1.5 / np.maximum(-h2, 1e-300), np.inf)))
     out["D"] = math.inf if radius <= dmax else max(1.0, dmax / (radius - dmax))
     ht, ht1 = 0.8 * hp / np.abs(hp).max(), 0.8 * h1 / np.abs(hp).max()
@@ -220,7 +229,7 @@ def _path_q(amps, periods, phases, period, r, dmax=1e-3, n=2000, m=20001):
         i, Z, Dx = np.meshgrid(np.arange(x.size), zz, defl, indexing="ij")
         J00 = -0.8 * Z * ((1 - ht[i]) * stick - Dx * ht1[i]) / 1e-3
         J01 = 0.8 * (1 - ht[i]) * Dx / 1e-3
-        best = max(best, q([np.stack([J00, 0 * J00], -1), np.stack([J01, -np.ones_like(J00)], -1)]))
+        best = max(best, _norm2x2([np.stack([J00, 0 * J00], -1), np.stack([J01, -np.ones_like(J00)], -1)]))
     out["F"] = best
     return out
 

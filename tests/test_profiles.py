@@ -17,6 +17,7 @@ from haptex.design import design
 
 from .conftest import DEKTAK, GROOVES, needs_data
 from .test_cli import run_main
+from .test_probe import _vertical_q
 
 
 
@@ -145,7 +146,7 @@ def test_q_of_b_and_c_on_a_sampled_profile_reads_a_one_sample_spike_of_its_curva
     # (2,048 over 4,096 samples): the search read q 57 and 41 % low before it took every
     # interval's ends (2026-11-27). Truth: scipy's periodic CubicSpline's h', h'' at both ends
     # of every interval and the paper's Jacobians with their 2 x 2 norms in closed form, over
-    # 64 depths in (0, 1 mm]
+    # 64 depths in (0, 1 mm] (test_probe's _vertical_q, numpy alone)
     n, period = 4096, 2e-3
     x = np.arange(n) * (period / n)
     h = 0.05e-3 * np.sin(2 * np.pi * x / period)
@@ -153,18 +154,7 @@ def test_q_of_b_and_c_on_a_sampled_profile_reads_a_one_sample_spike_of_its_curva
     p = hx.SampledProfile(x, h, periodic=True, shortest_period=period / 32)  # (as a refined felt profile keeps its first grid's)
     ref = CubicSpline(np.r_[x, period], np.r_[h, h[0]], bc_type="periodic")
     ends = np.r_[x, x + (period / n) * (1 - 1e-9)]
-    d = np.linspace(1e-3 / 64, 1e-3, 64)[None, :]
-    S, C2 = ref(ends, 1)[:, None] + 0 * d, ref(ends, 2)[:, None] + 0 * d
-    nrm = np.sqrt(1 + S * S)
-    N, dN = np.stack([-S / nrm, 1 / nrm], -1), np.stack([-C2 / nrm**3, -S * C2 / nrm**3], -1)
-
-    def q(cols):  # the largest singular value of [[a, b], [c, e]] (its columns), in closed form
-        (a, c), (b, e) = (np.moveaxis(v, -1, 0) for v in cols)
-        t, det = a * a + b * b + c * c + e * e, a * e - b * c
-        return float(np.sqrt(0.5 * (t + np.sqrt(np.maximum(t * t - 4 * det * det, 0.0)))).max())
-
-    truth = {"B": q([N * -S[..., None] - d[..., None] * dN, N]),
-             "C": q([np.stack([S * S + d * C2, -S], -1), np.stack([-S, np.ones_like(S)], -1)])}
+    truth = _vertical_q(ref(ends, 1), ref(ends, 2), np.linspace(1e-3 / 64, 1e-3, 64))
     for letter in "BC":
         got = hx.characteristic_number(hx.algorithm(letter, p, 2000.0)).value
         assert got == pytest.approx(truth[letter], rel=1e-4), letter

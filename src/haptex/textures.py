@@ -1245,10 +1245,7 @@ def _contact_path(texture, x, h, r, periodic):
     # the segments' curvature at their ends against the path's own there (differentiating the
     # contact condition h'(x + u) = u / sqrt(r^2 - u^2)), beside no kink: the largest miss, as a
     # fraction of the path's largest curvature (for the caller's refinement)
-    dphi = r * r / np.maximum(r * r - u * u, 1e-300) ** 1.5
-    hs = texture.curvature(contact)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        curv = np.where(dphi - hs > 0, hs * dphi / (dphi - hs), np.inf)
+    curv = _path_curvature(texture, contact, u, r)
     e0, e1 = ends[:, 0], ends[:, 1]
     d2 = np.column_stack([(6 * delta - 4 * e0 - 2 * e1) / dx, (2 * e0 + 4 * e1 - 6 * delta) / dx])
     smooth = np.ones(m, dtype=bool)
@@ -1268,6 +1265,17 @@ def _contact_path(texture, x, h, r, periodic):
     miss = float(np.max(gap)) / scale if gap.size and scale > 0 else 0.0
     kinks = np.column_stack([x[at] + 0.5 * dx, slope[nxt[at]] - slope[at]]) if at.size else np.zeros((0, 2))
     return hh, ends, kinks, (miss if math.isfinite(miss) else math.inf)
+
+
+def _path_curvature(texture, s, u, r):
+    """The ball path's second derivative where its contact is s = x + u (m, any shape; u the
+    contact's offset from the ball's centre): differentiating the contact condition h'(x + u) =
+    u / sqrt(r^2 - u^2), h''(s) phi' / (phi' - h''(s)) with phi' = r^2 / (r^2 - u^2)^(3/2)
+    (1/m); infinite where phi' <= h''(s) (a fold: no maximum there)."""
+    dphi = r * r / np.maximum(r * r - u * u, 1e-300) ** 1.5
+    hs = texture.curvature(s)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(dphi - hs > 0, hs * dphi / (dphi - hs), np.inf)
 
 
 def _kink_limits(texture, x0, u0, u1, dx, r, steps=48):
@@ -1290,9 +1298,8 @@ def _kink_limits(texture, x0, u0, u1, dx, r, steps=48):
             u = np.where(lost, u, np.clip(u - f / np.where(lost, -1.0, fp), -rim, rim))
         w = np.sqrt(np.maximum(r * r - u * u, 1e-300))
         ok = ~lost & (np.abs(texture.slope(x + u) - u / w) <= 1e-9 * (1 + np.abs(u / w)))
-        dphi = r * r / w**3
-        hs = texture.curvature(x + u)
-        return u, np.where(ok, texture.height(x + u) + w, np.nan), np.where(ok, hs * dphi / (dphi - hs), np.nan)
+        return u, np.where(ok, texture.height(x + u) + w, np.nan), np.where(ok, _path_curvature(texture, x + u, u, r),
+                                                                            np.nan)
 
     ua, ub = u0.copy(), u1.copy()
     for _ in range(steps):
