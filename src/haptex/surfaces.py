@@ -1928,9 +1928,10 @@ in the ball's position near the troughs' radius; the egg-crate's bowls at 0.8, 0
 their radius read q of C +3.8, -19, -64 % on REFINE's grids)."""
 
 CURVATURE_REFINE_SAMPLES = 640 * 640
-"""The most samples (over the cell) a felt map is refined to for its curvature (chosen: 2-3 s
-a construction there, its patches 34 MB; on the egg-crate's bowls at 0.8 rho its curvature
-within 0.2 %, at 0.9 rho within 1.3 %)."""
+"""The most samples (over the cell) a felt map is refined to for its curvature (chosen: on the
+egg-crate's bowls at 0.85 and 0.88 times their radius q of C read +1.15 and +1.71 % with the cap
+at 512 x 512 and +0.32, +0.67 % at this one, on 608 x 608 and 576 x 576 samples, 4-5 s a
+construction, the patches 47 MB; at 0.92 and 0.95 times +1.98 and +1.47 % either way)."""
 
 
 def _curvature_refined(texture, felt, r):
