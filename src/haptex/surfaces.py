@@ -1920,30 +1920,52 @@ def _contact_map(texture, x, y, h, r, periodic):
 
 
 CURVATURE_SLACK = 0.01
-"""How far a felt map's largest curvature (:attr:`SampledSurface.max_curvature`, its Hermite
-patches') may miss the largest of the ball path's own at its nodes before its grid is halved,
-on a periodic map the ball cannot bridge (chosen as a profile's ``PROFILE_CURVATURE_SLACK``: q of
-B, C and G reads the largest curvature, kappa / (1 - r kappa) at a trough, a spike a few um wide
-in the ball's position near the troughs' radius; the egg-crate's bowls at 0.8, 0.9, 0.95 times
-their radius read q of C +3.8, -19, -64 % on REFINE's grids)."""
+"""How far a felt map's curvature may miss the ball path's own, as a fraction of the path's
+largest, before its grid is halved, on a periodic map the ball cannot bridge: its largest
+(:attr:`SampledSurface.max_curvature`, the Hermite patches') against the path's largest at its
+nodes and cells' centres, and its Hessian at each cell's centre against the path's there
+(chosen as a profile's ``PROFILE_CURVATURE_SLACK``: q of B, C and G reads the largest curvature,
+kappa / (1 - r kappa) at a trough, a spike a few um wide in the ball's position near the
+troughs' radius; the egg-crate's bowls at 0.8, 0.9, 0.95 times their radius read q of C +3.8,
+-19, -64 % on REFINE's grids. Comparing the largest alone stopped where it agreed by chance
+while the patches between the nodes did not: at 0.82 and 0.93 times on 39 and 136 samples a
+side, their Hessians at the cells' centres 6 and 23 % of the largest apart)."""
 
 CURVATURE_REFINE_SAMPLES = 640 * 640
 """The most samples (over the cell) a felt map is refined to for its curvature (chosen: on the
 egg-crate's bowls at 0.85 and 0.88 times their radius q of C read +1.15 and +1.71 % with the cap
-at 512 x 512 and +0.32, +0.67 % at this one, on 608 x 608 and 576 x 576 samples, 4-5 s a
-construction, the patches 47 MB; at 0.92 and 0.95 times +1.98 and +1.47 % either way)."""
+at 512 x 512 and +0.32, +0.67 % at this one, on 608 x 608 and 576 x 576 samples, 7-8 s a
+construction, the patches 47 MB; at 0.9, 0.92, 0.95 times +1.1, +1.98, +4.2 % on 544-576 a side,
+where the patches' Hessian still misses the path's by 1.1-4.2 % of its largest)."""
+
+
+def _smooth_contacts(texture, felt, P, r, tol):
+    """The contact offsets (n, 2) of the points P (n, 2) on a surface the ball of radius r (m)
+    cannot bridge, and the ascent's maximum there (n,): from the offset r g / sqrt(1 + |g|^2)
+    that the felt map's gradient g gives (the contact condition's inverse), refined on the
+    surface by :func:`_refine_contacts` (the disc its only bound: one contact, the ascent
+    concave), four times over (each call ends once every step is under ``tol``, m)."""
+    g = felt.gradient(P)
+    u = r * g / np.sqrt(1 + np.einsum("ij,ij->i", g, g))[:, None]
+    box = np.full_like(u, r)
+    for _ in range(4):
+        u, gu = _refine_contacts(texture, P, u, -box, box, r, r * (1 - 1e-9), tol)
+    return u, gu
 
 
 def _curvature_refined(texture, felt, r):
     """A periodic felt map of a surface the ball of radius r (m) cannot bridge
     (:func:`_may_bridge` false: one contact everywhere, found by Newton steps from any start, the
     ascent's Hessian A - B negative there), made again on grids halved from ``felt``'s while its
-    largest curvature misses the path's largest at its nodes (:func:`_path_hessian`, each node's
-    contact offset r g / sqrt(1 + |g|^2) from its gradient g, the contact condition's inverse) by
-    more than CURVATURE_SLACK, within CURVATURE_REFINE_SAMPLES: each grid's contacts start from
-    the last map's gradients and are refined on the surface itself (no dilation: no grid
-    arg-max), its twists the path's own. The first grid within the slack is kept, else the one
-    that misses least."""
+    curvature misses the path's (:func:`_path_hessian`) by more than CURVATURE_SLACK of the
+    path's largest, within CURVATURE_REFINE_SAMPLES: its largest (``max_curvature``, the
+    patches') against the path's largest at its nodes and cells' centres, and its Hessian at
+    each cell's centre against the path's there (the 2-norm of the difference; the patches
+    overshoot beside a spike, convex where the path is not: D's focal points). The nodes'
+    contacts are r g / sqrt(1 + |g|^2) from their gradients g, the centres' and each finer
+    grid's start from the last map's gradients and are refined on the surface itself
+    (:func:`_smooth_contacts`: no dilation), its twists the path's own. The first grid within the
+    slack is kept, else the one that misses least."""
     best = None
     cur, u = felt, None
     while True:
@@ -1953,12 +1975,17 @@ def _curvature_refined(texture, felt, r):
             g = cur._gradients.reshape(-1, 2)
             u = r * g / np.sqrt(1 + np.einsum("ij,ij->i", g, g))[:, None]
         hs = _path_hessian(texture, P, u, r, sound=0.0)
-        truth = float(np.nanmax(_hessian_norm(hs))) if np.isfinite(hs).any() else math.inf
-        miss = abs(cur.max_curvature / truth - 1.0) if truth > 0 else 0.0
+        Pc = P + 0.5 * np.array([cur.dx, cur.dy])
+        uc, _ = _smooth_contacts(texture, cur, Pc, r, 1e-6 * min(cur.dx, cur.dy))
+        hc = _path_hessian(texture, Pc, uc, r, sound=0.0)
+        both = np.concatenate([hs, hc])
+        truth = float(np.nanmax(_hessian_norm(both))) if np.isfinite(both).any() else math.inf
+        apart = _hessian_norm(cur.hessian(Pc) - hc)
+        miss = max(abs(cur.max_curvature / truth - 1.0), float(np.nanmax(apart)) / truth) if truth > 0 else 0.0
         if best is None or miss < best[0]:
             best = (miss, cur)
         # (halved along an axis the path curves along: a grating's map not across its lines)
-        bends = [bool(np.nanmax(np.abs(hs[:, a, a]) + np.abs(hs[:, a, 1 - a])) > CURVATURE_SLACK * truth)
+        bends = [bool(np.nanmax(np.abs(both[:, a, a]) + np.abs(both[:, a, 1 - a])) > CURVATURE_SLACK * truth)
                  for a in (0, 1)]
         nx, ny = (n * (2 if b else 1) for n, b in zip((cur.x.size, cur.y.size), bends))
         if miss <= CURVATURE_SLACK or nx * ny > CURVATURE_REFINE_SAMPLES:
@@ -1967,11 +1994,7 @@ def _curvature_refined(texture, felt, r):
         x, y = cur.x[0] + np.arange(nx) * dx, cur.y[0] + np.arange(ny) * dy
         X, Y = np.meshgrid(x, y, indexing="ij")
         P = np.stack([X, Y], -1).reshape(-1, 2)
-        g = cur.gradient(P)
-        u = r * g / np.sqrt(1 + np.einsum("ij,ij->i", g, g))[:, None]
-        box = np.full_like(u, r)
-        for _ in range(4):  # (Newton's active set: each call ends once every step is under tol)
-            u, gu = _refine_contacts(texture, P, u, -box, box, r, r * (1 - 1e-9), 1e-6 * min(dx, dy))
+        u, gu = _smooth_contacts(texture, cur, P, r, 1e-6 * min(dx, dy))
         grads = _path_gradient(texture, P, u, r, None).reshape(nx, ny, 2)
         twist = _path_twist(texture, P, u, r).reshape(nx, ny)
         twist = np.where(np.isfinite(twist), twist, _twist(grads, dx, dy, True))
