@@ -384,13 +384,17 @@ def _areal_path_q(h, grad, cell, r, dmax=1e-3, n=41):
     P = np.stack(np.meshgrid(xs, ys, indexing="ij"), -1).reshape(-1, 2)
     vals = q_at(P)
     best = {k: float(v.max()) for k, v in vals.items()}
+    seen = {}  # (the letters' largest points often coincide: each nested grid evaluated once)
     for k, v in vals.items():
         for i in np.argsort(v)[-3:]:
             centre, half = P[i], np.array(cell) / n
             for _ in range(5):
-                g = np.linspace(-1.0, 1.0, 11)
-                Q = centre + np.stack(np.meshgrid(g * half[0], g * half[1], indexing="ij"), -1).reshape(-1, 2)
-                vq = q_at(Q)[k]
+                key = (centre.tobytes(), half.tobytes())
+                if key not in seen:
+                    g = np.linspace(-1.0, 1.0, 11)
+                    Q = centre + np.stack(np.meshgrid(g * half[0], g * half[1], indexing="ij"), -1).reshape(-1, 2)
+                    seen[key] = (Q, q_at(Q))
+                Q, vq = seen[key][0], seen[key][1][k]
                 centre, half = Q[int(np.argmax(vq))], half / 5
                 best[k] = max(best[k], float(vq.max()))
     return best
