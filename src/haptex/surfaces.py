@@ -218,6 +218,12 @@ def _symmetric_2x2_norm(a, b, c) -> np.ndarray:
     return 0.5 * np.abs(a + c) + np.hypot(0.5 * (a - c), b)
 
 
+def _lowest_eigenvalue(H: np.ndarray) -> np.ndarray:
+    """The lower eigenvalue (1/m) of symmetric 2 x 2 Hessians H, shape (..., 2, 2): shape (...),
+    (a + c) / 2 - sqrt(((a - c) / 2)^2 + b^2); negative where the surface is convex."""
+    return 0.5 * (H[..., 0, 0] + H[..., 1, 1]) - np.hypot(0.5 * (H[..., 0, 0] - H[..., 1, 1]), H[..., 0, 1])
+
+
 def _hessian_norm(H: np.ndarray) -> np.ndarray:
     """:func:`_symmetric_2x2_norm` of Hessians H, shape (..., 2, 2): shape (...)."""
     return _symmetric_2x2_norm(H[..., 0, 0], H[..., 0, 1], H[..., 1, 1])
@@ -1924,12 +1930,15 @@ CURVATURE_SLACK = 0.01
 largest, before its grid is halved, on a periodic map the ball cannot bridge: its largest
 (:attr:`SampledSurface.max_curvature`, the Hermite patches') against the path's largest at its
 nodes and cells' centres, and its Hessian at each cell's centre against the path's there
-(chosen as a profile's ``PROFILE_CURVATURE_SLACK``: q of B, C and G reads the largest curvature,
-kappa / (1 - r kappa) at a trough, a spike a few um wide in the ball's position near the
-troughs' radius; the egg-crate's bowls at 0.8, 0.9, 0.95 times their radius read q of C +3.8,
--19, -64 % on REFINE's grids. Comparing the largest alone stopped where it agreed by chance
-while the patches between the nodes did not: at 0.82 and 0.93 times on 39 and 136 samples a
-side, their Hessians at the cells' centres 6 and 23 % of the largest apart)."""
+and its most convex curvature against the path's, relative to that (chosen as a profile's
+``PROFILE_CURVATURE_SLACK``: q of B, C and G reads the largest curvature, kappa / (1 - r kappa)
+at a trough, a spike a few um wide in the ball's position near the troughs' radius; the
+egg-crate's bowls at 0.8, 0.9, 0.95 times their radius read q of C +3.8, -19, -64 % on REFINE's
+grids. Comparing the largest alone stopped where it agreed by chance while the patches between
+the nodes did not: at 0.82 and 0.93 times on 39 and 136 samples a side, their Hessians at the
+cells' centres 6 and 23 % of the largest apart. D reads d_max / (R - d_max) below the most
+convex point, radius R: at 0.5 and 0.8 times +2.2 and +2.1 % without the convex comparison,
++0.31 and +0.51 % with it, on 128 and 640 samples a side)."""
 
 CURVATURE_REFINE_SAMPLES = 640 * 640
 """The most samples (over the cell) a felt map is refined to for its curvature (chosen: on the
@@ -1960,8 +1969,10 @@ def _curvature_refined(texture, felt, r):
     curvature misses the path's (:func:`_path_hessian`) by more than CURVATURE_SLACK of the
     path's largest, within CURVATURE_REFINE_SAMPLES: its largest (``max_curvature``, the
     patches') against the path's largest at its nodes and cells' centres, and its Hessian at
-    each cell's centre against the path's there (the 2-norm of the difference; the patches
-    overshoot beside a spike, convex where the path is not: D's focal points). The nodes'
+    each cell's centre against the path's there (the 2-norm of the difference); and, relative
+    to the path's most convex curvature (its lower eigenvalue's least), the map's most convex
+    against it and the lower eigenvalues at the centres (D reads the convex radius: the patches
+    overshoot beside a spike, convex where the path is not). The nodes'
     contacts are r g / sqrt(1 + |g|^2) from their gradients g, the centres' and each finer
     grid's start from the last map's gradients and are refined on the surface itself
     (:func:`_smooth_contacts`: no dilation), its twists the path's own. The first grid within the
@@ -1980,8 +1991,15 @@ def _curvature_refined(texture, felt, r):
         hc = _path_hessian(texture, Pc, uc, r, sound=0.0)
         both = np.concatenate([hs, hc])
         truth = float(np.nanmax(_hessian_norm(both))) if np.isfinite(both).any() else math.inf
-        apart = _hessian_norm(cur.hessian(Pc) - hc)
+        hm = cur.hessian(Pc)
+        apart = _hessian_norm(hm - hc)
         miss = max(abs(cur.max_curvature / truth - 1.0), float(np.nanmax(apart)) / truth) if truth > 0 else 0.0
+        # (and its most convex curvature against the path's, relative to that: D's focal points)
+        convex = max(0.0, -float(np.nanmin(_lowest_eigenvalue(both))))
+        if convex > 0:
+            own = cur._sup(lambda p: np.maximum(0.0, -_lowest_eigenvalue(cur.hessian(p))))
+            wrong = np.nanmax(np.abs(_lowest_eigenvalue(hm) - _lowest_eigenvalue(hc)))
+            miss = max(miss, abs(own / convex - 1.0), float(wrong) / convex)
         if best is None or miss < best[0]:
             best = (miss, cur)
         # (halved along an axis the path curves along: a grating's map not across its lines)
