@@ -2012,8 +2012,8 @@ def _curvature_refined(texture, felt, r):
         bends = [bool(np.nanmax(np.abs(both[:, a, a]) + np.abs(both[:, a, 1 - a])) > CURVATURE_SLACK * truth)
                  for a in (0, 1)]
         nx, ny = (n * (2 if b else 1) for n, b in zip((cur.x.size, cur.y.size), bends))
-        if miss <= CURVATURE_SLACK or nx * ny > CURVATURE_REFINE_SAMPLES:
-            return best[1]
+        if miss <= CURVATURE_SLACK or not any(bends) or nx * ny > CURVATURE_REFINE_SAMPLES:
+            return best[1]  # (no axis to halve: a path whose Hessians are all NaN would loop here)
         dx, dy = cur.dx * cur.x.size / nx, cur.dy * cur.y.size / ny
         x, y = cur.x[0] + np.arange(nx) * dx, cur.y[0] + np.arange(ny) * dy
         X, Y = np.meshgrid(x, y, indexing="ij")
