@@ -1982,8 +1982,9 @@ def _curvature_refined(texture, felt, r):
     contacts are r g / sqrt(1 + |g|^2) from their gradients g, the centres' and each finer
     grid's start from the last map's gradients and are refined on the surface itself
     (:func:`_smooth_contacts`: no dilation), its twists the path's own. The first grid within the
-    slack is kept, else the one that misses least; a map with no finer grid within the cap is
-    returned as it is."""
+    slack is kept, else the one that misses least, with ``felt``'s shortest period (its analyses'
+    grids: more samples of one path, not a shorter wavelength); a map with no finer grid within
+    the cap is returned as it is."""
     if 2 * felt.x.size * felt.y.size > CURVATURE_REFINE_SAMPLES:
         return felt  # (no finer grid within the cap: nothing to compare it with)
     best = None
@@ -2023,6 +2024,7 @@ def _curvature_refined(texture, felt, r):
         twist = _path_twist(texture, P, u, r).reshape(nx, ny)
         twist = np.where(np.isfinite(twist), twist, _twist(grads, dx, dy, True))
         out = SampledSurface(x, y, gu.reshape(nx, ny) - r, periodic=True, gradients=grads,
+                             shortest_period=felt.shortest_period,  # (more samples of one path, not a shorter wave)
                              source=f"{felt.source}, refined to {nx} x {ny} for its curvature")
         out._edges = (*_node_edges(grads, True), twist)
         cur = out
