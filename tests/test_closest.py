@@ -51,6 +51,25 @@ def test_deep_points_below_a_peak_where_two_closest_points_compete():
     assert not hx.closest_point(tex, [[L / 4, A - 10e-6]]).tie[0]  # above the centre of curvature
 
 
+def test_on_a_felt_profile_refined_for_its_curvature_the_closest_point_is_the_brute_forces():
+    # A felt profile refined for its curvature (issue 67) carries its first grid's band on up to
+    # 2^12 times its samples, cubic pieces whose second derivatives jump at their nodes and kinks
+    # where the ball bridges a trough; the search groups its intervals into leaves of up to half
+    # that band's shortest period, scanned at every node. Reference: the dense search above on the
+    # profile's own heights (the two-tone profile, 0.1 mm at 2 mm and 30 um at 0.5 mm, under a ball
+    # twice its troughs' radius: 32,768 samples, 4 kinks), 60 probes to 1.2 mm deep
+    tex = hx.SumOfSinusoids([0.1e-3, 0.03e-3], [2e-3, 0.5e-3], [0.0, 1.0])
+    xs = np.linspace(0, 2e-3, 40001)
+    felt = tex.felt_by(2.0 / float(np.max(np.abs(np.gradient(tex.slope(xs), xs)))))
+    assert felt.x.size >= 8 * 2e-3 / felt.shortest_period and len(felt.kinks) > 0  # (leaves of several intervals)
+    rng = np.random.default_rng(3)
+    x = np.concatenate([rng.uniform(0, 2e-3, 56), felt.kinks[:, 0]])
+    p = np.column_stack([x, felt.height(x) - rng.uniform(1e-6, 1.2e-3, x.size)])
+    cp = hx.closest_point(felt, p)
+    for (px, pz), d in zip(p, cp.distance):
+        assert abs(d - brute_force_distance(felt, px, pz)) < 1e-9
+
+
 @given(textures(), st.floats(0, 1), st.floats(1e-6, 1.2e-3))
 def test_any_texture_agrees_with_brute_force(tex, u, depth):
     px = u * 2e-3
