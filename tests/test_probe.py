@@ -531,8 +531,7 @@ def test_a_felt_map_refined_for_its_curvature_carries_its_first_grids_band():
     pytest.param(n, v, ls, marks=pytest.mark.long)
     for n, v, ls in [("egg-crate", 0.3, "BCG"), ("egg-crate", 0.5, "DEF"), ("egg-crate", 0.8, "BCG"),
                      ("egg-crate", 0.88, "BCFG"), ("grating", 0.5, "BCG"), ("grating", 0.9, "BCG"),
-                     ("grating", 0.95, "BCFG"), ("random", 0.5, "BCDEFG"), ("random", 0.8, "BCG"),
-                     ("random", 0.95, "BCG")]])
+                     ("grating", 0.95, "BCFG"), ("random", 0.5, "BCDEFG"), ("random", 0.95, "BCG")]])
 def test_q_of_every_algorithm_on_a_felt_map_below_the_troughs_radius_is_the_paths(name, rel_r, letters):
     # issue 67's goal on areal maps: q of every algorithm on the felt surface within 1 % of q on
     # the brute-force ball path. B, C and G read the path's Hessian, which below the troughs'
@@ -571,6 +570,32 @@ def test_q_of_every_algorithm_on_a_felt_map_below_the_troughs_radius_is_the_path
     for letter in letters:
         q = hx.characteristic_number(hx.algorithm(letter, felt, 2000.0)).value
         assert q == pytest.approx(truth.get(letter, 1.0), rel=0.01), letter
+
+
+@pytest.mark.long
+@pytest.mark.parametrize("name", ["grating", "egg-crate"])
+def test_q_on_a_felt_map_twice_the_troughs_radius_is_the_paths(name):
+    # issue 67's goal above the troughs' radius rho, where the ball bridges them: the path has
+    # kinks (lines on the grating, the bowls' apexes on the egg-crate) and its curvature is
+    # largest beside them, a one-sided limit; _areal_path_q's contacts are the brute force's
+    # (the higher branch wherever two compete) and its nested grids close in on that limit. It is
+    # checked here against the profile's oracle with the kinks' limits bisected (_path_q) on the
+    # grating, an extruded sinusoid (measured: within 0.02 % at 1.2 and 2 rho). q of B, C, G on
+    # the felt maps at 2 rho within 0.02 % (2026-11-27). Not met nearer rho, measured: the
+    # grating at 1.2 rho +32 % (53 x 53), the egg-crate at 1.05, 1.2, 1.5 rho -5.1, +650, +5.9 %
+    # (38, 27, 23 a side; at 1.2 rho +44 and +51 % on 54 and 108: the branched cells beside the
+    # apexes, not the grid). 20-40 s a case
+    tex, h, grad, cell, rho = AREAL_CASES[name]
+    truth = _areal_path_q(h, grad, cell, 2.0 * rho, letters="BCG")
+    if name == "grating":
+        line = _path_q((0.2e-3,), (2e-3,), (0.0,), 2e-3, 2.0 * rho)
+        for letter in "BCG":
+            assert truth[letter] == pytest.approx(line[letter], rel=1e-3), letter
+    felt = tex.felt_by(2.0 * rho)
+    assert len(felt.kinks) > 0  # (the ball bridges)
+    for letter in "BCG":
+        q = hx.characteristic_number(hx.algorithm(letter, felt, 2000.0)).value
+        assert q == pytest.approx(truth[letter], rel=0.01), letter
 
 
 @pytest.mark.parametrize("rel_r", [2.0, pytest.param(1.5, marks=pytest.mark.long)])
