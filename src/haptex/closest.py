@@ -391,8 +391,8 @@ def _spline_tree(prof: SampledProfile) -> np.ndarray:
     # a leaf holds k intervals, up to half the shortest period (a felt profile refined for its
     # curvature keeps its first grid's band on up to 2^12 times its samples: a leaf an interval
     # made D's search 112 s on the two-tone at 2 rho, 32,768 samples; 46 s), scanned at every
-    # node (A_STEP = dx): between two samples one cubic piece, whose |g''| the header bounds
-    # (a felt profile's h'' jumps at its nodes)
+    # node (A_STEP dx, or k dx / 8 below 8 intervals a leaf): between two samples one cubic
+    # piece, whose |g''| the header bounds (a felt profile's h'' jumps at its nodes)
     k = 1
     while m % (2 * k) == 0 and 2 * k * dx <= 0.5 * prof.shortest_period * (1 + 1e-9):
         k *= 2
