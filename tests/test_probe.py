@@ -363,9 +363,12 @@ ANGLES = np.linspace(0.0, 2 * np.pi, 120, endpoint=False)
 
 
 def _areal_path_q(h, grad, cell, r, dmax=1e-3, n=41, letters="BCDFG"):
-    """q = sup ||J||_2 / k0 of B, C, D and G on the ball's centre path over a periodic cell, below
-    the surface's tightest radius (one contact everywhere, the path smooth), from the fields'
-    definitions with nothing of haptex's: at each point p the contact offset u by brute force
+    """q = sup ||J||_2 / k0 of B, C, D, F and G on the ball's centre path over a periodic cell,
+    from the fields' definitions with nothing of haptex's. Below the surface's tightest radius
+    one contact everywhere, the path smooth; above it (the ball bridging) the contacts are the
+    brute force's higher branch and the nested grids below close in on the kinks' one-sided
+    limits (B, C, G checked against :func:`_path_q` on the grating; F's max|h| holds below the
+    radius only): at each point p the contact offset u by brute force
     (:func:`_brute_contacts_2d`), polished by Newton steps on grad h(p + u) = u / s, s = sqrt(r^2
     - |u|^2); the path's gradient grad h(p + u) (the envelope theorem) and its Hessian, from
     differentiating that condition, A (B - A)^-1 B, A = h's Hessian at the contact (central
