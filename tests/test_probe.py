@@ -346,9 +346,15 @@ def _random_tightest_radius(n=401):
     arg = P @ _RANDOM_K.T + _RANDOM_PH
     g = np.cos(arg) @ (_RANDOM_A[:, None] * _RANDOM_K)
     H = np.einsum("pk,k,ki,kj->pij", -np.sin(arg), _RANDOM_A, _RANDOM_K, _RANDOM_K)
+    return float(1 / np.abs(_principal_curvatures(g, H)).max())
+
+
+def _principal_curvatures(g, H):
+    """The principal curvatures (k, 2) (1/m) of a height field with gradients g (k, 2) and
+    Hessians H (k, 2, 2): the eigenvalues of the shape operator (I + g g^T)^-1 H / sqrt(1 +
+    |g|^2) (do Carmo, Differential Geometry of Curves and Surfaces, sec. 3-3)."""
     w = np.sqrt(1 + np.sum(g * g, axis=1))
-    kap = np.linalg.eigvals(np.linalg.solve(np.eye(2) + g[:, :, None] * g[:, None, :], H)).real / w[:, None]
-    return float(1 / np.abs(kap).max())
+    return np.linalg.eigvals(np.linalg.solve(np.eye(2) + g[:, :, None] * g[:, None, :], H)).real / w[:, None]
 
 
 AREAL_CASES["random"] = (
@@ -413,8 +419,7 @@ def _areal_path_q(h, grad, cell, r, dmax=1e-3, n=41, letters="BCDFG"):
         # D (eq. 17-18): d / (R - d) at depth d below the path's most convex point, R its
         # smallest principal radius there (the curvatures: eigenvalues of (I + g g^T)^-1 Hs / w);
         # infinite where R <= dmax (its focal point within reach); 1 at least
-        kap = np.linalg.eigvals(np.linalg.solve(np.eye(2) + g[:, :, None] * g[:, None, :], Hs)).real / w[:, None]
-        conv = np.maximum(0.0, -kap.min(axis=1))
+        conv = np.maximum(0.0, -_principal_curvatures(g, Hs).min(axis=1))
         radius = np.where(conv > 0, 1 / np.maximum(conv, 1e-300), np.inf)
         out = {"D": np.where(radius <= dmax, np.inf, np.maximum(1.0, dmax / np.maximum(radius - dmax, 1e-300)))}
         # F (eq. 22 over a surface as haptex's docstring reads it: f_t = -mu k0 t m d / d^x_max, m = 1
