@@ -598,9 +598,9 @@ def test_q_on_a_felt_map_above_the_troughs_radius_is_the_paths(name, rel_r):
     # (surfaces._bridged_refined), and a node beside a kink keeps its own contact's twist:
     # measured (2026-11-27, tenth session) C on the grating at 1.1, 1.2, 1.5 rho -0.62, -0.44,
     # +0.37 % (928 x 58, 424 x 53, 86 x 43), the egg-crate at 1.2, 1.5, 3 rho +0.38, -0.04,
-    # -0.00 % (216, 92, 23 a side). Not met: the egg-crate at 1.05 and 1.1 rho, -5.1 and -13.7 %
-    # (branches followed near their folds, where the contact runs faster than the box that keeps
-    # it on its branch). 20-30 s a case
+    # -0.04 % (216, 92, 46 a side). Not met: the egg-crate at 1.05 and 1.1 rho, -5.1 and -13.7 %
+    # (+134 % at 1.1 before; branches followed near their folds, where the contact runs faster
+    # than the box that keeps it on its branch). 20-30 s a case
     tex, h, grad, cell, rho = AREAL_CASES[name]
     truth = _areal_path_q(h, grad, cell, rel_r * rho, letters="BCG")
     if name == "grating":
