@@ -1922,15 +1922,23 @@ def _contact_map(texture, x, y, h, r, periodic):
     keep = best > gu  # never below the grid's own maximum
     u = np.where(keep[..., None], u0, u)
     c = np.where(keep, best, gu) - r
+    return _contact_paths(texture, x, y, P, u, c, r, rim, periodic)
+
+
+def _contact_paths(texture, x, y, P, u, c, r, rim, periodic, own_twists=False):
+    """:func:`_contact_edges` from the contacts u (nx, ny, 2) and heights c (nx, ny), made once
+    more where a branch followed to a grid point stands higher than its contact (that is then its
+    contact, u and c updated in place; what was followed at or from other points kept,
+    :func:`_forget`). Returns (c, gradients, (ex, ey, twist), kinks, branches)."""
     cache = {}  # (the branches followed, kept for the second pass where their points did not move)
     for _again in range(2):  # (once more where a branch found a grid point's higher contact)
-        out = _contact_edges(texture, x, y, P, u, c, r, rim, periodic, cache)
+        out = _contact_edges(texture, x, y, P, u, c, r, rim, periodic, cache, own_twists)
         if out[-1] is None:
             break
         node, ub, val = out[-1]
         u.reshape(-1, 2)[node] = ub
         c.ravel()[node] = val
-        _forget(cache, node, (nx, ny))
+        _forget(cache, node, c.shape)
     return out[:-1]
 
 
@@ -2171,16 +2179,8 @@ def _bridged_refined(texture, felt, r):
         P = np.stack([X, Y], -1)
         u, c = _bridged_contacts(texture, cur, P.reshape(-1, 2), r)
         u, c = u.reshape(nx, ny, 2), c.reshape(nx, ny)
-        cache = {}
-        for _again in range(2):  # (as _contact_map: once more where a branch found a higher contact)
-            out = _contact_edges(texture, x, y, P, u, c, r, r * (1 - 1e-9), True, cache, own_twists=True)
-            if out[-1] is None:
-                break
-            node, ub, val = out[-1]
-            u.reshape(-1, 2)[node] = ub
-            c.ravel()[node] = val
-            _forget(cache, node, (nx, ny))
-        hf, grads, edges, kinks, branches = out[:-1]
+        hf, grads, edges, kinks, branches = _contact_paths(texture, x, y, P, u, c, r, r * (1 - 1e-9), True,
+                                                            own_twists=True)
         finer = SampledSurface(x, y, hf, periodic=True, gradients=grads,
                                shortest_period=felt.shortest_period,  # (more samples of one path)
                                source=f"{felt.source}, refined to {nx} x {ny} for its curvature")
