@@ -1670,6 +1670,17 @@ CONTACT_NEWTON_STEPS = 8
 """Safeguarded Newton steps refining each grid point's contact on an areal texture (chosen: from
 the grid's arg-max, within one interval of the true contact, the error squares each step)."""
 
+CONTINUATION_STEPS = 8
+"""Steps a sample interval in which a felt map's branch whose contact left its box when followed
+in one step is followed again by continuation (:func:`_continued_contacts`; chosen: on the
+egg-crate's bowls felt by a ball of 1.1 times their radius, 44 % of the branches followed to a
+464 x 464 grid's corners left their box, and their tangent planes put there made patches whose
+curvature read 11.5 times the path's; followed in 8 steps an interval the map's largest
+curvature is within 0.3 % of the path's and q of C within 0.73 %). A branch so continued is kept
+at a corner only where its curvature there is within the twist's bound, 2 M / interval (at 1.007
+times the radius, continued branches nearer their folds branched 72 cells of a 32 x 32 map whose
+patches stood 0.63 % steeper than the surface)."""
+
 
 BRANCHED_SUP_POINTS = 32
 """Points a side of each cell of a felt map beside its kinks (branched or not) at which its sups
@@ -1879,6 +1890,48 @@ def _refine_contacts(texture, P, u, lo, hi, r, rim, tol):
         if act.size == 0:
             break
     return u, gu
+
+
+def _continued_contacts(texture, Ps, us, P, r, rim, reach, steps, tol):
+    """The contacts of branches followed by continuation: each ball position moved from Ps (n, 2)
+    to P (n, 2) in ``steps`` equal steps, its contact from offset us (n, 2) carried along by the
+    implicit-function predictor du = (B - A)^-1 A dP (A the surface's Hessian at the contact, B =
+    I / s + u u^T / s^3 the sphere's: the derivative of grad h(p + u) = u / s) and corrected by
+    :func:`_refine_contacts` (to ``tol``, m) within ``reach`` (2,) m of the prediction. A branch
+    ends (its fold: A - B no longer negative definite, or the correction at its box's wall, or
+    the contact off the disc) and is not followed further. Returns (u (n, 2), g (n,) the
+    ascent's maximum, -inf where it ended, alive (n,) bool)."""
+    from . import core
+
+    deriv = texture._derivatives if isinstance(texture, SampledSurface) else partial(core.texture_derivatives, texture)
+    u, g = us.copy(), np.full(us.shape[0], -np.inf)
+    alive = np.ones(us.shape[0], dtype=bool)
+    dP = (P - Ps) / steps
+    for k in range(1, steps + 1):
+        idx = np.nonzero(alive)[0]
+        if idx.size == 0:
+            break
+        ua = u[idx]
+        d = deriv(Ps[idx] + (k - 1) * dP[idx] + ua)
+        s = np.sqrt(np.maximum(r * r - np.einsum("ij,ij->i", ua, ua), 1e-300))
+        A = np.stack([np.stack([d[:, 3], d[:, 4]], -1), np.stack([d[:, 4], d[:, 5]], -1)], -2)
+        B = np.eye(2) / s[:, None, None] + ua[:, :, None] * ua[:, None, :] / (s**3)[:, None, None]
+        M = B - A  # (positive definite on a branch: the ascent's Hessian A - B negative there)
+        det = M[:, 0, 0] * M[:, 1, 1] - M[:, 0, 1] ** 2
+        ok = (M[:, 0, 0] > 0) & (det > 0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            du = np.linalg.solve(np.where(ok[:, None, None], M, np.eye(2)), (A @ dP[idx][..., None]))[..., 0]
+        du = np.clip(du, -reach, reach)
+        pred = ua + du
+        Pk = Ps[idx] + k * dP[idx]
+        lo, hi = pred - reach, pred + reach
+        v, gv = _refine_contacts(texture, Pk, pred, lo, hi, r, rim, tol)
+        wall = np.any((v <= lo + 1e-6 * reach) | (v >= hi - 1e-6 * reach), axis=1)
+        inside = np.einsum("ij,ij->i", v, v) < (rim * (1 - 1e-6)) ** 2
+        live = ok & ~wall & inside
+        u[idx], g[idx] = v, gv
+        alive[idx[~live]] = False
+    return u, np.where(alive, g, -np.inf), alive
 
 
 def _contact_map(texture, x, y, h, r, periodic):
@@ -2424,7 +2477,9 @@ def _branch_patches(texture, x, y, u, grads, twist, r, rim, periodic, c, ex, ey,
     grid point) so that every cell meeting at a grid point reads the same: the point's own contact
     where it is the source (the path's value there exactly), else the Newton refinement from the
     source's contact, kept where it ends inside its box (or on a bounded map's rim) and the disc
-    (else the ball there cannot rest on it: the branch's tangent plane at the grid neighbour one
+    (on a periodic map, one that left its box is followed again by continuation,
+    :func:`_continued_contacts`, CONTINUATION_STEPS steps an interval, and kept where it reaches
+    the corner before its fold; else the ball there cannot rest on it: the branch's tangent plane at the grid neighbour one
     step toward the source, along its larger offset first, where it is there, else the source's;
     its slopes a contact's; where that plane stands above the path there, the path's own height and
     gradient); one contact reached from several sources is one set of data (the first's, or the
@@ -2488,6 +2543,20 @@ def _branch_patches(texture, x, y, u, grads, twist, r, rim, periodic, c, ex, ey,
             wall = (at_lo & (lo > map_lo + edge)) | (at_hi & (hi < map_hi - edge))
             on_map_rim = np.any((at_lo & ~(lo > map_lo + edge)) | (at_hi & ~(hi < map_hi - edge)), axis=1)
         inside = ~np.any(wall, axis=1) & (np.einsum("ij,ij->i", ub, ub) < (rim * (1 - 1e-6)) ** 2)
+        # a branch whose contact ran past its box may still be there: near its fold the contact
+        # runs 1 / (1 - r kappa) times as fast as the ball; followed again by continuation,
+        # CONTINUATION_STEPS steps an interval (on a periodic map: a bounded one's rim contacts
+        # are no ascent's stationary points)
+        redo = np.nonzero(~own_k & np.any(wall, axis=1))[0] if periodic else np.zeros(0, dtype=np.int64)
+        if redo.size:
+            n_steps = CONTINUATION_STEPS * int(np.max(np.maximum(np.abs(sa[redo]), np.abs(sb[redo]))))
+            uc, gc, ok = _continued_contacts(texture, p0[redo] + step[redo], u[si[redo], sj[redo]], p0[redo], r, rim,
+                                             np.array([dx, dy]), n_steps, 1e-6 * min(dx, dy))
+            # (kept where a cubic can follow it: near its fold the branch's curvature grows
+            # without bound, and a patch through it overshoots; the twist's bound below)
+            ok[ok] = _hessian_norm(_path_hessian(texture, p0[redo[ok]], uc[ok], r, sound=0.0)) <= 2.0 * bound / min(dx, dy)
+            done = redo[ok]
+            ub[done], gb[done], inside[done], at_lo[done], at_hi[done] = uc[ok], gc[ok], True, False, False
         at = own_k | inside
         # (the source's tangent plane where the branch is not there, never above the path's own
         # height there: the branches' highest is the path at every grid point)
