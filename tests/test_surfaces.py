@@ -281,6 +281,40 @@ def test_a_sampled_egg_crate_is_the_egg_crate_to_the_splines_accuracy():
     assert q == pytest.approx(math.sqrt(1 + (A * k) ** 2), rel=1e-4)
 
 
+@pytest.mark.parametrize("centre", [(0.6137e-3, 1.3791e-3), (1.2519e-3, 0.3003e-3)])
+def test_q_on_a_map_finer_than_its_search_grid_finds_a_narrow_bump(centre):
+    # q is a sup over positions (eq. 5), and a map's curvature may peak within a sample: a gentle
+    # egg-crate sampled 512 x 512 with one bump a sample interval wide (0.5 um high). q of C read
+    # 14.5 where its Jacobian reaches 39.3 beside the bump (2026-11-27): the search's plane grid
+    # holds 256 cells a side, its refinement starts from the grid's 8 best cells. Truth: eq. 14's
+    # Jacobian over a surface, J / k0 = -((-g, 1)(-g, 1)^T + d^z [[-H, 0], [0, 0]]) at depth d^z
+    # = 0 and -1 mm, from the map's own gradient and Hessian (the texture under analysis) on a
+    # lattice of 161 x 161 points within 4 bump widths and the sample lines there (a cubic
+    # spline's second derivative is linear between its nodes, so it peaks on them), its largest
+    # 2-norm (numpy)
+    n, size = 512, 2e-3
+    w = size / n
+    x = np.arange(n) * size / n
+    X, Y = np.meshgrid(x, x, indexing="ij")
+    h = 20e-6 * np.sin(2 * np.pi * X / size) * np.sin(2 * np.pi * Y / size)
+    for a in (-1, 0, 1):  # (the bump's periodic images)
+        for b in (-1, 0, 1):
+            h += 0.5e-6 * np.exp(-((X - centre[0] + a * size) ** 2 + (Y - centre[1] + b * size) ** 2) / (2 * w * w))
+    tex = hx.SampledSurface(x, x, h, periodic=True)
+    axes = [np.union1d(c + np.linspace(-4 * w, 4 * w, 161), x[np.abs(x - c) <= 4 * w]) for c in centre]
+    P = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 2)
+    g, H = tex.gradient(P), tex.hessian(P)
+    m = np.column_stack([-g, np.ones(len(g))])
+    truth = 0.0
+    for dz in (0.0, -1e-3):
+        J = m[:, :, None] * m[:, None, :]
+        J[:, :2, :2] -= dz * H
+        truth = max(truth, float(np.linalg.norm(J, ord=2, axis=(1, 2)).max()))
+    assert truth > 30  # (the bump's, not the egg-crate's 1.06)
+    q = hx.characteristic_number(hx.algorithm("C", tex, K0)).value
+    assert q == pytest.approx(truth, rel=2e-3)
+
+
 def test_a_map_constant_across_the_scan_is_the_profiles_spline():
     # the tensor-product spline of data constant along y is the 1-D not-a-knot spline along x
     # (both interpolate the same samples with the same end conditions): it equals

@@ -196,10 +196,11 @@ class Surface(Texture):
         return np.stack([X, Y], -1), ((x1 - x0) / n[0], (y1 - y0) / n[1])
 
     @_core.blas_held_to_one_thread
-    def _sup(self, fun) -> float:
-        """sup over the cell of fun(xy) >= 0, fun vectorised over (..., 2). (BLAS held to one
-        thread: L-BFGS-B's triangular solves woke OpenBLAS's workers, which then spun for 0.1 s
-        beside whatever came next, a servo loop included.)"""
+    def _sup(self, fun, where=None) -> float:
+        """sup over the cell of fun(xy) >= 0, fun vectorised over (..., 2); the points (2,) it was
+        refined to from the grid's 8 largest samples appended to ``where`` (a list, or None).
+        (BLAS held to one thread: L-BFGS-B's triangular solves woke OpenBLAS's workers, which then
+        spun for 0.1 s beside whatever came next, a servo loop included.)"""
         pts, (dx, dy) = self._grid()
         vals = fun(pts)
         best = float(vals.max())
@@ -216,6 +217,8 @@ class Surface(Texture):
             r = optimize.minimize(neg, np.zeros(2), method="L-BFGS-B", bounds=[(-1.0, 1.0)] * 2,
                                   options={"ftol": 1e-16, "gtol": 1e-13})
             best = max(best, -float(r.fun) * max(best, 1e-300))
+            if where is not None:
+                where.append(start + r.x * scale)
         return best
 
 
@@ -1296,12 +1299,29 @@ class SampledSurface(Surface):
         """M = sup ‖grad h‖ of the spline over the map (m/m): a dense grid (4 points a
         sample interval; on a felt map, ``haptex.surfaces.BRANCHED_SUP_POINTS`` a side in each
         cell beside its kinks too) refined by bounded quasi-Newton steps."""
-        return math.sqrt(self._sup(lambda p: np.sum(self.gradient(p) ** 2, axis=-1)))
+        return math.sqrt(self._sup(lambda p: np.sum(self.gradient(p) ** 2, axis=-1),
+                                   self.__dict__.setdefault("_steepest", [])))
 
     @cached_property
     def max_curvature(self) -> float:
         """sup of the Hessian's 2-norm over the map (1/m), found like :attr:`max_slope`."""
-        return self._sup(lambda p: _hessian_norm(self.hessian(p)))
+        return self._sup(lambda p: _hessian_norm(self.hessian(p)), self.__dict__.setdefault("_steepest", []))
+
+    def steepest_points(self) -> np.ndarray:
+        """The points (k, 2) (m, k <= 16) where the map's slope and curvature are largest: those
+        :attr:`max_slope`'s and :attr:`max_curvature`'s searches refined from their grids' 8
+        largest samples (four a sample interval, and more in the cells beside a felt map's
+        kinks). :func:`haptex.characteristic_number` starts its refinement from them too: a map
+        finer than its plane grid (256 cells a side at most) may peak within a sample, where B's,
+        C's and G's Jacobians read the curvature (eqs. 11, 14, 28).
+
+        Returns
+        -------
+        numpy.ndarray, shape (k, 2)
+            The points (x, y) (m), k at most 16 (8 for each sup; fewer on a map of few samples).
+        """
+        self.max_slope, self.max_curvature  # (their searches record the points)
+        return np.array(self.__dict__.get("_steepest", []), dtype=float).reshape(-1, 2)
 
     @cached_property
     def height_range(self) -> tuple[float, float]:

@@ -198,7 +198,10 @@ def characteristic_number(
     are refined by bounded quasi-Newton maximisation inside their grid cells, so the
     result is the sup and not a grid sample. For an algorithm that reads the slope (B, C, G:
     its Jacobian reads h'') over a sampled profile of at most :data:`PROFILE_NODES` samples the
-    grid also holds both ends of every interval, where its spline's h'' (linear on each) peaks.
+    grid also holds both ends of every interval, where its spline's h'' (linear on each) peaks;
+    over a sampled map the refinement also starts from the map's own steepest points
+    (:meth:`~haptex.SampledSurface.steepest_points`, within one sample interval), since a map
+    finer than the plane grid may peak within a sample.
 
     Parameters
     ----------
@@ -288,6 +291,22 @@ def characteristic_number(
         val, found = _refine(neg_q, pt, norms[ijk], bounds)
         if val > best:
             best, where_pt = val, found
+    # a sampled map finer than the plane grid may peak within a sample (a felt map beside its
+    # kinks, a bump one sample wide): the refinement starts from its own steepest points too,
+    # at the shallowest and the deepest depth, within one sample interval and one depth step
+    steepest = getattr(tex, "steepest_points", None)
+    if steepest is not None and tex.dimension == 2 and not on_object:
+        step = (tex.dx, tex.dy)
+        for p in steepest():
+            if not all(a <= v <= b for v, (a, b) in zip(p, ranges)):
+                continue
+            for depth in (ds[0], dmax):
+                pt = [float(p[0]), float(p[1]), float(depth)]
+                bounds = [(v - e, v + e) for v, e in zip(pt[:2], step)]
+                bounds.append((max(dd * 1e-6, depth - dd), min(dmax, depth + dd)))
+                val, found = _refine(neg_q, pt, -neg_q(pt), bounds)
+                if val > best:
+                    best, where_pt = val, found
     where = _region_points(algorithm, np.array(where_pt[:-1])[None, :], np.array([where_pt[-1]]))[0]
     grid = "x".join(str(n) for n in counts + [nd])
     extent = " and ".join(f"{name} in [{a:g}, {b:g}] m" for name, (a, b) in zip("xy", ranges))
