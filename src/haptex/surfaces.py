@@ -1142,6 +1142,26 @@ class SampledSurface(Surface):
         return out
 
     @property
+    def crease_ends(self) -> np.ndarray:
+        """Where a felt map's creases end: the centres (k, 2) (m) of the cells with a single
+        kinked edge (a crease, a line of kinks where two branches of the ball's contact tie,
+        that enters a cell and does not leave it; none on a map without kinks). At a crease's end
+        its two branches merge at a fold and the ball's path curves without bound towards it (a
+        cusp), so q of B, C and G (their Jacobians read the curvature, eqs. 11, 14, 28) on the
+        ideal path is unbounded there; the map's own q, what is rendered, is finite.
+
+        Returns
+        -------
+        numpy.ndarray, shape (k, 2)
+            The cells' centres (x, y) (m).
+        """
+        cells = _kinked_edge_cells(self)
+        my = self.y.size if self.periodic else self.y.size - 1
+        flat, count = np.unique(cells, return_counts=True)
+        ci, cj = np.divmod(flat[count == 1], my)
+        return np.column_stack([self.x[ci] + 0.5 * self.dx, self.y[cj] + 0.5 * self.dy]).reshape(-1, 2)
+
+    @property
     def branched_cells(self) -> int:
         """How many cells of a felt map are branched (``JOINS_BRANCHED``): the highest of one
         patch per contact, where the ball rests on several sides of a bowl (0 for any other
@@ -1760,6 +1780,13 @@ def _default_spacing(texture, r, spacing=None):
 def _kink_cells(felt) -> np.ndarray:
     """The flat indices (i * cells a row + j) of a felt map's cells beside its kinks: the two
     cells sharing each kinked edge (on a map that ends at its edges, those on it)."""
+    return np.unique(_kinked_edge_cells(felt))
+
+
+def _kinked_edge_cells(felt) -> np.ndarray:
+    """The flat indices of the cells on either side of each kinked edge of a felt map, once an
+    edge (a cell as often as it has kinked edges; on a map that ends at its edges, the cells on
+    it)."""
     if felt.kinks is None or len(felt.kinks) == 0:
         return np.zeros(0, dtype=np.int64)
     dx, dy = float(felt.x[1] - felt.x[0]), float(felt.y[1] - felt.y[0])
@@ -1775,7 +1802,7 @@ def _kink_cells(felt) -> np.ndarray:
     else:
         on = (ci >= 0) & (ci < mx) & (cj >= 0) & (cj < my)
         ci, cj = ci[on], cj[on]
-    return np.unique(ci * my + cj)
+    return ci * my + cj
 
 
 def _single_kink_cells(felt):
@@ -2499,8 +2526,9 @@ def _branch_patches(texture, x, y, u, grads, twist, r, rim, periodic, c, ex, ey,
     source's contact, kept where it ends inside its box (or on a bounded map's rim) and the disc
     (on a periodic map, one that left its box is followed again by continuation,
     :func:`_continued_contacts`, CONTINUATION_STEPS steps an interval, and kept where it reaches
-    the corner before its fold; else the ball there cannot rest on it: the branch's tangent plane at the grid neighbour one
-    step toward the source, along its larger offset first, where it is there, else the source's;
+    the corner before its fold with its curvature within the twist's bound; else the ball there
+    cannot rest on it: the branch's tangent plane at the grid neighbour one step toward the
+    source, along its larger offset first, where it is there, else the source's;
     its slopes a contact's; where that plane stands above the path there, the path's own height and
     gradient); one contact reached from several sources is one set of data (the first's, or the
     point's own). A branch is the cubic Hermite patch through its corners' heights, gradients (the
@@ -2574,7 +2602,8 @@ def _branch_patches(texture, x, y, u, grads, twist, r, rim, periodic, c, ex, ey,
                                              np.array([dx, dy]), n_steps, 1e-6 * min(dx, dy))
             # (kept where a cubic can follow it: near its fold the branch's curvature grows
             # without bound, and a patch through it overshoots; the twist's bound below)
-            ok[ok] = _hessian_norm(_path_hessian(texture, p0[redo[ok]], uc[ok], r, sound=0.0)) <= 2.0 * bound / min(dx, dy)
+            curv = _hessian_norm(_path_hessian(texture, p0[redo[ok]], uc[ok], r, sound=0.0))
+            ok[ok] = curv <= 2.0 * bound / min(dx, dy)
             done = redo[ok]
             ub[done], gb[done], inside[done], at_lo[done], at_hi[done] = uc[ok], gc[ok], True, False, False
         at = own_k | inside

@@ -114,6 +114,8 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
                 "kinks": [dict(zip(names, map(float, k))) for k in kinks[:100]],
                 "kink_count": int(len(kinks)), "branched_cells": int(getattr(tex, "branched_cells", 0)),
                 "single_patch_cells": _single_patch_cells(tex)}
+        ends = np.asarray(getattr(tex, "crease_ends", np.zeros((0, 2))))
+        felt.update(crease_end_count=int(len(ends)), crease_ends=[{"x": float(a), "y": float(b)} for a, b in ends[:100]])
     base = object_from_spec(object_spec, uv_scale, vertex_normals)
     dev = _build_device(ctx, device_spec, joint_damping, mass, damping, sampling_period, delay,
                         3 if base is not None else tex.dimension + 1)
@@ -178,6 +180,12 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
                           f"its path (slope jumps; {_letters(True)} forces jump there, {_letters(False)} do not), the "
                           f"largest {worst['slope_jump']:+.3g} at x = {worst['x'] * 1e3:.4g} mm"
                           + (f", y = {worst['y'] * 1e3:.4g} mm" if "y" in worst else ""))
+        if felt["crease_end_count"]:
+            n, first = felt["crease_end_count"], felt["crease_ends"][0]
+            console.print(f"creases of kinks end at {n} place{'s' if n != 1 else ''} inside the map, the first "
+                          f"in the cell at x = {first['x'] * 1e3:.4g} mm, y = {first['y'] * 1e3:.4g} mm: there the ball's "
+                          f"two contacts merge and its path curves without bound, so {_letters(True)} q on the ideal "
+                          "path is unbounded near it; the q below is the felt map's, as rendered")
         if felt["branched_cells"]:
             console.print(f"where it rests on several sides of a bowl, {felt['branched_cells']} cells are the highest of "
                           "one patch per contact (branched)")
