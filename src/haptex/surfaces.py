@@ -794,6 +794,16 @@ class SampledSurface(Surface):
         (dimensionless): the forces of B, C and G (eqs. 11, 14, 28: they read the slope) jump
         there; A's, D's, E's and F's do not (below a V-shaped crease the closest point is on the
         crease). Empty otherwise.
+    curvature_miss : float or None
+        For a periodic felt map refined for its curvature (of a surface the ball cannot bridge,
+        or of an analytic one it bridges): how far its curvature misses the ball path's, as a
+        fraction of the path's largest (its largest, and its Hessian at the cells' centres,
+        against the path's there, at its nodes and at the kinks' one-sided limits). The
+        refinement stops within ``CURVATURE_SLACK`` (1 %) or at its cap, keeping the grid that
+        missed least; q of B, C and G (which read the curvature, eqs. 11, 14, 28) on the map is
+        then within about this fraction of q on the ball's path. None where it was not measured
+        (a map that ends at its edges, a sampled map the ball bridges, a first grid already past
+        the cap, any other map).
 
     Raises
     ------
@@ -837,6 +847,7 @@ class SampledSurface(Surface):
         self.periodic = bool(periodic)
         self.source = source
         self.kinks = np.zeros((0, 3))
+        self.curvature_miss = None
         self._gradients = self._edges = self._branches = None
         if gradients is not None:
             try:
@@ -2117,7 +2128,8 @@ def _curvature_refined(texture, felt, r):
         truth = float(np.nanmax(_hessian_norm(both))) if np.isfinite(both).any() else math.inf
         hm = cur.hessian(Pc)
         apart = _hessian_norm(hm - hc)
-        miss = max(abs(cur.max_curvature / truth - 1.0), float(np.nanmax(apart)) / truth) if truth > 0 else 0.0
+        curved = max(abs(cur.max_curvature / truth - 1.0), float(np.nanmax(apart)) / truth) if truth > 0 else 0.0
+        miss = curved  # (the curvature's own: what B, C and G read, the map's curvature_miss)
         # (and its most convex curvature against the path's, relative to that: D's focal points)
         convex = max(0.0, -float(np.nanmin(_lowest_eigenvalue(both))))
         if convex > 0:
@@ -2125,12 +2137,13 @@ def _curvature_refined(texture, felt, r):
             wrong = np.nanmax(np.abs(_lowest_eigenvalue(hm) - _lowest_eigenvalue(hc)))
             miss = max(miss, abs(own / convex - 1.0), float(wrong) / convex)
         if best is None or miss < best[0]:
-            best = (miss, cur)
+            best = (miss, cur, curved)
         # (halved along an axis the path curves along: a grating's map not across its lines)
         bends = [bool(np.nanmax(np.abs(both[:, a, a]) + np.abs(both[:, a, 1 - a])) > CURVATURE_SLACK * truth)
                  for a in (0, 1)]
         nx, ny = (n * (2 if b else 1) for n, b in zip((cur.x.size, cur.y.size), bends))
         if miss <= CURVATURE_SLACK or not any(bends) or nx * ny > CURVATURE_REFINE_SAMPLES:
+            best[1].curvature_miss = float(best[2])
             return best[1]  # (no axis to halve: a path whose Hessians are all NaN would loop here)
         dx, dy = cur.dx * cur.x.size / nx, cur.dy * cur.y.size / ny
         x, y = cur.x[0] + np.arange(nx) * dx, cur.y[0] + np.arange(ny) * dy
@@ -2272,6 +2285,7 @@ def _bridged_refined(texture, felt, r):
         bends = [bool(v > CURVATURE_SLACK * truth) for v in rows]
         nx, ny = (n * (2 if b else 1) for n, b in zip((cur.x.size, cur.y.size), bends))
         if miss <= CURVATURE_SLACK or not any(bends) or nx * ny > CURVATURE_REFINE_SAMPLES:
+            best[1].curvature_miss = float(best[0])
             return best[1]
         dx, dy = cur.dx * cur.x.size / nx, cur.dy * cur.y.size / ny
         x, y = cur.x[0] + np.arange(nx) * dx, cur.y[0] + np.arange(ny) * dy
@@ -2286,6 +2300,7 @@ def _bridged_refined(texture, felt, r):
                                source=f"{felt.source}, refined to {nx} x {ny} for its curvature")
         finer._edges, finer._branches, finer.kinks = edges, branches, kinks
         if _single_kink_cells(finer) > 0 or finer.max_slope > bound:
+            best[1].curvature_miss = float(best[0])
             return best[1]  # (a grid that cannot be branched, or overshoots: the coarser stand)
         cur = finer
 

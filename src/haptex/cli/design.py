@@ -11,6 +11,7 @@ import click
 from .._specs import object_from_spec, texture_from_spec as _texture_from_spec
 from .._validation import ParameterError
 from ..design import TIME_BUDGET
+from ..surfaces import CURVATURE_SLACK
 from ..tables import PAPER_PARAMETERS
 from ._common import (
     Quantity, _Spinner, _Steps, _build_device, _device_options, _felt_options, _fitted, _jsonable,
@@ -114,6 +115,8 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
                 "kinks": [dict(zip(names, map(float, k))) for k in kinks[:100]],
                 "kink_count": int(len(kinks)), "branched_cells": int(getattr(tex, "branched_cells", 0)),
                 "single_patch_cells": _single_patch_cells(tex)}
+        miss = getattr(tex, "curvature_miss", None)
+        felt["curvature_miss"] = None if miss is None else float(miss)
         ends = np.asarray(getattr(tex, "crease_ends", np.zeros((0, 2))))
         felt.update(crease_end_count=int(len(ends)), crease_ends=[{"x": float(a), "y": float(b)} for a, b in ends[:100]])
     base = object_from_spec(object_spec, uv_scale, vertex_normals)
@@ -180,6 +183,10 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
                           f"its path (slope jumps; {_letters(True)} forces jump there, {_letters(False)} do not), the "
                           f"largest {worst['slope_jump']:+.3g} at x = {worst['x'] * 1e3:.4g} mm"
                           + (f", y = {worst['y'] * 1e3:.4g} mm" if "y" in worst else ""))
+        if felt["curvature_miss"] is not None and felt["curvature_miss"] > CURVATURE_SLACK:
+            console.print(f"the felt map's curvature misses the ball path's by up to {felt['curvature_miss']:.1%} of its "
+                          f"largest (its refinement stopped at its cap or where a finer grid did worse): "
+                          f"{_letters(True)} q below may be off by about as much, either way")
         if felt["crease_end_count"]:
             n, first = felt["crease_end_count"], felt["crease_ends"][0]
             console.print(f"creases of kinks end at {n} place{'s' if n != 1 else ''} inside the map, the first "
