@@ -150,6 +150,7 @@ class Texture:
         out = SampledProfile(x, hf, periodic=periodic, slopes=sf, shortest_period=shortest,
                              source=f"{source} felt by a ball of r = {r * 1e3:g} mm")
         out.kinks = kinks
+        out.curvature_miss = float(miss)
         return out
 
     @property
@@ -552,6 +553,13 @@ class SampledProfile(Texture):
         the slope jump there (dimensionless): the forces of B, C and G (eqs. 11, 14, 28: they
         read the slope) jump there; A's, D's, E's and F's do not (below a V-shaped kink the
         closest point is the kink itself). Empty otherwise.
+    curvature_miss : float or None
+        For a felt profile: how far its segments' curvature misses the ball path's, as a
+        fraction of the path's largest (at its grid points, and at the kinks' one-sided limits
+        where those are the largest), on the grid it was made on; with no spacing given the
+        grid is halved while this passes ``PROFILE_CURVATURE_SLACK`` (1 %), within
+        ``PROFILE_REFINE_SAMPLES``. q of B, C and G (which read the curvature, eqs. 11, 14, 28)
+        is then within about this fraction of q on the ball's path. None for any other profile.
 
     Raises
     ------
@@ -599,6 +607,7 @@ class SampledProfile(Texture):
         self.periodic = bool(periodic)
         self.source = source
         self.kinks = np.zeros((0, 2))
+        self.curvature_miss = None
         if slopes is not None:
             from scipy.interpolate import PPoly
 

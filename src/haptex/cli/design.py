@@ -12,6 +12,7 @@ from .._specs import object_from_spec, texture_from_spec as _texture_from_spec
 from .._validation import ParameterError
 from ..design import TIME_BUDGET
 from ..surfaces import CURVATURE_SLACK
+from ..textures import PROFILE_CURVATURE_SLACK
 from ..tables import PAPER_PARAMETERS
 from ._common import (
     Quantity, _Spinner, _Steps, _build_device, _device_options, _felt_options, _fitted, _jsonable,
@@ -183,8 +184,8 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
                           f"its path (slope jumps; {_letters(True)} forces jump there, {_letters(False)} do not), the "
                           f"largest {worst['slope_jump']:+.3g} at x = {worst['x'] * 1e3:.4g} mm"
                           + (f", y = {worst['y'] * 1e3:.4g} mm" if "y" in worst else ""))
-        if felt["curvature_miss"] is not None and felt["curvature_miss"] > CURVATURE_SLACK:
-            console.print(f"the felt map's curvature misses the ball path's by up to {felt['curvature_miss']:.1%} of its "
+        if felt["curvature_miss"] is not None and felt["curvature_miss"] > min(CURVATURE_SLACK, PROFILE_CURVATURE_SLACK):
+            console.print(f"the felt texture's curvature misses the ball path's by up to {felt['curvature_miss']:.1%} of its "
                           f"largest (its refinement stopped at its cap or where a finer grid did worse): "
                           f"{_letters(True)} q below may be off by about as much, either way")
         if felt["crease_end_count"]:
