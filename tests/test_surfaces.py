@@ -281,7 +281,7 @@ def test_a_sampled_egg_crate_is_the_egg_crate_to_the_splines_accuracy():
     assert q == pytest.approx(math.sqrt(1 + (A * k) ** 2), rel=1e-4)
 
 
-@pytest.mark.parametrize("centre", [(0.6137e-3, 1.3791e-3), (1.2519e-3, 0.3003e-3)])
+@pytest.mark.parametrize("centre", [(0.6137e-3, 1.3791e-3), pytest.param((1.2519e-3, 0.3003e-3), marks=pytest.mark.long)])
 def test_q_on_a_map_finer_than_its_search_grid_finds_a_narrow_bump(centre):
     # q is a sup over positions (eq. 5), and a map's curvature may peak within a sample: a gentle
     # egg-crate sampled 512 x 512 with one bump a sample interval wide (0.5 um high). q of C read

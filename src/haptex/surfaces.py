@@ -2096,6 +2096,15 @@ def _smooth_contacts(texture, felt, P, r, tol):
     return u, gu
 
 
+def _finer_grid(cur, nx, ny):
+    """The grid of nx x ny points over a periodic map ``cur``'s cell, from its origin: (x (nx,),
+    y (ny,), the points (nx, ny, 2), dx, dy), in m."""
+    dx, dy = cur.dx * cur.x.size / nx, cur.dy * cur.y.size / ny
+    x, y = cur.x[0] + np.arange(nx) * dx, cur.y[0] + np.arange(ny) * dy
+    X, Y = np.meshgrid(x, y, indexing="ij")
+    return x, y, np.stack([X, Y], -1), dx, dy
+
+
 def _curvature_refined(texture, felt, r):
     """A periodic felt map of a surface the ball of radius r (m) cannot bridge
     (:func:`_may_bridge` false: one contact everywhere, found by Newton steps from any start, the
@@ -2145,10 +2154,8 @@ def _curvature_refined(texture, felt, r):
         if miss <= CURVATURE_SLACK or not any(bends) or nx * ny > CURVATURE_REFINE_SAMPLES:
             best[1].curvature_miss = float(best[2])
             return best[1]  # (no axis to halve: a path whose Hessians are all NaN would loop here)
-        dx, dy = cur.dx * cur.x.size / nx, cur.dy * cur.y.size / ny
-        x, y = cur.x[0] + np.arange(nx) * dx, cur.y[0] + np.arange(ny) * dy
-        X, Y = np.meshgrid(x, y, indexing="ij")
-        P = np.stack([X, Y], -1).reshape(-1, 2)
+        x, y, P, dx, dy = _finer_grid(cur, nx, ny)
+        P = P.reshape(-1, 2)
         u, gu = _smooth_contacts(texture, cur, P, r, 1e-6 * min(dx, dy))
         grads = _path_gradient(texture, P, u, r, None).reshape(nx, ny, 2)
         twist = _path_twist(texture, P, u, r).reshape(nx, ny)
@@ -2287,10 +2294,7 @@ def _bridged_refined(texture, felt, r):
         if miss <= CURVATURE_SLACK or not any(bends) or nx * ny > CURVATURE_REFINE_SAMPLES:
             best[1].curvature_miss = float(best[0])
             return best[1]
-        dx, dy = cur.dx * cur.x.size / nx, cur.dy * cur.y.size / ny
-        x, y = cur.x[0] + np.arange(nx) * dx, cur.y[0] + np.arange(ny) * dy
-        X, Y = np.meshgrid(x, y, indexing="ij")
-        P = np.stack([X, Y], -1)
+        x, y, P, dx, dy = _finer_grid(cur, nx, ny)
         u, c = _bridged_contacts(texture, cur, P.reshape(-1, 2), r)
         u, c = u.reshape(nx, ny, 2), c.reshape(nx, ny)
         hf, grads, edges, kinks, branches = _contact_paths(texture, x, y, P, u, c, r, r * (1 - 1e-9), True,
