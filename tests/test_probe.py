@@ -587,7 +587,8 @@ def test_q_of_every_algorithm_on_a_felt_map_below_the_troughs_radius_is_the_path
     # +0.78, +0.49 % until q's search also started from the map's own steepest points (eleventh
     # session: its 256-cell plane grid had stepped over the maps' sharpest curvature), now B, C, G
     # +2.11, +1.87, +2.11 % and +2.67, +2.50, +2.67 % (448 and 424 a side, the maps' largest
-    # curvature 1.3 % above the path's at 0.95; 0.8 rho, run here, +0.31, +0.26, +0.31 %). Tried: CURVATURE_REFINE_SAMPLES at 1,280 x 1,280 read the
+    # curvature 1.3 % above the path's at 0.95; 0.8 rho, run here, +0.31, +0.26, +0.31 %). Tried:
+    # CURVATURE_REFINE_SAMPLES at 1,280 x 1,280 read the
     # egg-crate at 0.9, 0.92, 0.95 rho +0.30, +0.61, +2.1 %, the random map at 0.9 and 0.95 -0.20
     # and +2.2 % (848 a side: not monotone), 21-24 s and up to 1.4 GB a map; not kept, since
     # design analyses the map band-limited to what the device renders, where it cost that for
@@ -621,7 +622,8 @@ def test_q_on_a_felt_map_above_the_troughs_radius_is_the_paths(name, rel_r):
     # the map is refined for its curvature as below rho, against the kinks' one-sided limits too
     # (surfaces._bridged_refined), and a node beside a kink keeps its own contact's twist:
     # measured (2026-11-27, tenth session) C on the grating at 1.1, 1.2, 1.5 rho -0.62, -0.44,
-    # +0.37 % (928 x 58, 424 x 53, 86 x 43), the egg-crate at 1.2, 1.5, 3 rho +0.38, -0.04,
+    # +0.37 % (928 x 58, 424 x 53, 86 x 43), the egg-crate at 1.2, 1.5, 3 rho +0.38 (+0.43 with
+    # q's search from the map's steepest points, eleventh session), -0.04,
     # -0.04 % (216, 92, 46 a side); the egg-crate at 1.1 rho -13.7 % (58 a side; +134 % before),
     # where 44 % of the branches followed to the corners of its finer grids ran past the box that
     # keeps a contact on its branch (near a fold the contact runs 1 / (1 - r kappa) times as fast
@@ -726,7 +728,7 @@ def test_a_felt_map_names_where_a_crease_ends(rel_r, monkeypatch, capsys):
 
         from haptex.cli import main
 
-        monkeypatch.setattr(importlib.import_module("haptex.cli.design"), "_texture_from_spec", lambda *a, **k: tex)
+        monkeypatch.setattr(importlib.import_module("haptex.cli.design"), "_texture_from_spec", lambda *a, **kw: tex)
         args = ["design", "--texture", "egg-crate:0.1mm,2mm", "--device", "omega-3", "--tip-radius",
                 f"{rel_r / (A * k * k) * 1e3:.6f}mm", "--algorithms", "A"]
         assert main(args + ["--json", "--quiet"]) == 0
