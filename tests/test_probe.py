@@ -627,10 +627,10 @@ def test_q_on_a_felt_map_above_the_troughs_radius_is_the_paths(name, rel_r):
     # -0.04 % (216, 92, 46 a side); the egg-crate at 1.1 rho -13.7 % (58 a side; +134 % before),
     # where 44 % of the branches followed to the corners of its finer grids ran past the box that
     # keeps a contact on its branch (near a fold the contact runs 1 / (1 - r kappa) times as fast
-    # as the ball): followed again by continuation (surfaces._continued_contacts), -0.73 % on
-    # 464 x 464 (2026-11-27, eleventh session). Not met: the egg-crate at 1.05 rho, -5.1 % (the
-    # finer grids' largest curvature 26 to 6.7 % short of the path's on 76 to 608 a side, within
-    # the cap). 20-30 s a case
+    # as the ball): followed again by continuation (surfaces._continued_contacts), -0.28 % on
+    # 464 x 464 (2026-11-27, eleventh session). Not met: the egg-crate at 1.05 rho, +3.26 % on
+    # 304 a side (the map's curvature_miss 3.47 %; -5.06 % on 38 a side with every corner's
+    # continuation in as many steps as the farthest source's). 20-30 s a case
     tex, h, grad, cell, rho = AREAL_CASES[name]
     truth = _areal_path_q(h, grad, cell, rel_r * rho, letters="BCG")
     if name == "grating":
@@ -651,7 +651,7 @@ def test_a_felt_maps_curvature_miss_bounds_its_q(name, rel_r, capsys):
     # grids did worse), the map says by how much (curvature_miss, a fraction of the path's
     # largest curvature), and q of B, C and G, which read that curvature, is then within about
     # that much of the path's. Truth: _areal_path_q, the brute-force oracle. Measured (2026-11-27,
-    # eleventh session): q of C +4.18, -5.06, +2.50 % where the maps said 4.18, 4.97 and 10.7 %
+    # eleventh session): q of C +4.18, +3.26, +2.50 % where the maps said 4.18, 3.47 and 10.7 %
     # (the egg-crate's bowls at 0.9 and 1.2 times +1.10 and +0.43 % for 1.10 and 0.53 %, the
     # random map at 0.9 +1.87 % for 2.21 %); design prints it where it passes CURVATURE_SLACK
     tex, h, grad, cell, rho = AREAL_CASES[name]
