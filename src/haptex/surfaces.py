@@ -1847,6 +1847,21 @@ def _path_gradient(texture, P, u, r, rim):
     return grads
 
 
+def _contact_hessians(texture, Q, u, r):
+    """At contact points Q (n, 2) with offsets u (n, 2) from the ball's centre (radius r, m): the
+    surface's Hessian A (n, 2, 2) there, the sphere's B = I / s + u u^T / s^3 (n, 2, 2) (the
+    derivative of u / s, s = sqrt(r^2 - |u|^2)) and s (n,): the contact condition grad h(Q) = u / s
+    differentiated."""
+    from . import core
+
+    deriv = texture._derivatives if isinstance(texture, SampledSurface) else partial(core.texture_derivatives, texture)
+    d = deriv(Q)
+    s = np.sqrt(np.maximum(r * r - np.einsum("ij,ij->i", u, u), 1e-300))
+    A = np.stack([np.stack([d[:, 3], d[:, 4]], -1), np.stack([d[:, 4], d[:, 5]], -1)], -2)
+    B = np.eye(2) / s[:, None, None] + u[:, :, None] * u[:, None, :] / (s**3)[:, None, None]
+    return A, B, s
+
+
 def _path_hessian(texture, P, u, r, sound=1e-3):
     """The Hessian (n, 2, 2) of the ball's centre path at points P (n, 2) whose contacts inside
     the surface are at offsets u (n, 2): the implicit function theorem on grad H(p + u) = u / s
@@ -1854,14 +1869,8 @@ def _path_hessian(texture, P, u, r, sound=1e-3):
     B = I / s + u u^T / s^3 the sphere's; NaN where |det(A - B)| is at most ``sound`` / s^2
     (near r = the surface's radius of curvature the contact is degenerate, A ~ B, and the
     path's curvature unbounded)."""
-    from . import core
-
-    deriv = texture._derivatives if isinstance(texture, SampledSurface) else partial(core.texture_derivatives, texture)
-    d = deriv(P + u)
-    s = np.sqrt(np.maximum(r * r - np.einsum("ij,ij->i", u, u), 1e-300))
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # (NaN where it has none)
-        A = np.stack([np.stack([d[:, 3], d[:, 4]], -1), np.stack([d[:, 4], d[:, 5]], -1)], -2)
-        B = np.eye(2) / s[:, None, None] + u[:, :, None] * u[:, None, :] / (s**3)[:, None, None]
+        A, B, s = _contact_hessians(texture, P + u, u, r)
         M = A - B
         det = M[:, 0, 0] * M[:, 1, 1] - M[:, 0, 1] ** 2
         inv = np.stack([np.stack([M[:, 1, 1], -M[:, 0, 1]], -1), np.stack([-M[:, 0, 1], M[:, 0, 0]], -1)], -2)
@@ -1960,9 +1969,6 @@ def _continued_contacts(texture, Ps, us, P, r, rim, reach, steps, tol):
     ends (its fold: A - B no longer negative definite, or the correction at its box's wall, or
     the contact off the disc) and is not followed further. Returns (u (n, 2), g (n,) the
     ascent's maximum, -inf where it ended, alive (n,) bool)."""
-    from . import core
-
-    deriv = texture._derivatives if isinstance(texture, SampledSurface) else partial(core.texture_derivatives, texture)
     u, g = us.copy(), np.full(us.shape[0], -np.inf)
     alive = np.ones(us.shape[0], dtype=bool)
     dP = (P - Ps) / steps
@@ -1971,10 +1977,7 @@ def _continued_contacts(texture, Ps, us, P, r, rim, reach, steps, tol):
         if idx.size == 0:
             break
         ua = u[idx]
-        d = deriv(Ps[idx] + (k - 1) * dP[idx] + ua)
-        s = np.sqrt(np.maximum(r * r - np.einsum("ij,ij->i", ua, ua), 1e-300))
-        A = np.stack([np.stack([d[:, 3], d[:, 4]], -1), np.stack([d[:, 4], d[:, 5]], -1)], -2)
-        B = np.eye(2) / s[:, None, None] + ua[:, :, None] * ua[:, None, :] / (s**3)[:, None, None]
+        A, B, _ = _contact_hessians(texture, Ps[idx] + (k - 1) * dP[idx] + ua, ua, r)
         M = B - A  # (positive definite on a branch: the ascent's Hessian A - B negative there)
         det = M[:, 0, 0] * M[:, 1, 1] - M[:, 0, 1] ** 2
         ok = (M[:, 0, 0] > 0) & (det > 0)
