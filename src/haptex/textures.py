@@ -129,24 +129,24 @@ class Texture:
         bridges a trough is a slope jump between two points and not an overshoot of a spline.
         With no spacing given the grid is halved while the segments' curvature at the grid points
         differs from the path's (its own there, from the contact's: h''(s) phi' / (phi' - h''(s)),
-        phi' = r^2 / (r^2 - u^2)^(3/2)), or their largest from the path's at a kink where that is
-        the path's largest (:func:`_kink_limits`), by more than PROFILE_CURVATURE_SLACK of it,
-        within PROFILE_REFINE_SAMPLES: near the troughs' radius the path's curvature, kappa / (1
-        - r kappa), spikes over a few um, and beside a kink it is largest at the kink itself,
-        which B, C and G read; a refined profile keeps the first grid's shortest period (its
-        analyses' grids and limits)."""
+        phi' = r^2 / (r^2 - u^2)^(3/2); beside a kink the path's one-sided limit there,
+        :func:`_kink_limits`, which the segments beside it take at their end by it), by more
+        than PROFILE_CURVATURE_SLACK of the path's largest, within PROFILE_REFINE_SAMPLES: near
+        the troughs' radius the path's curvature, kappa / (1 - r kappa), spikes over a few
+        hundred nm, and beside a kink it is largest at the kink itself, which B, C and G read.
+        Each finer grid's contacts are followed from the last grid's (:func:`_seeded_contacts`);
+        a refined profile keeps the first grid's shortest period (its analyses' grids and
+        limits)."""
         x, h, periodic, source = _profile_grid(self, r, spacing)
-        hf, sf, kinks, miss = _contact_path(self, x, h, r, periodic)
+        hf, sf, kinks, miss, contact = _contact_path(self, x, h, r, periodic)
         shortest = None  # (the first grid's, once refined)
-        while spacing is None and miss > PROFILE_CURVATURE_SLACK and 2 * x.size <= PROFILE_REFINE_SAMPLES:
-            try:
-                finer = _profile_grid(self, r, 0.5 * float(x[1] - x[0]))
-                more = _contact_path(self, finer[0], finer[1], r, finer[2])
-            except ParameterError:  # (past the dilation's work: the coarser grid stands)
-                break
+        while (spacing is None and PROFILE_CURVATURE_SLACK < miss < math.inf
+               and 2 * x.size <= PROFILE_REFINE_SAMPLES):  # (infinite: a grid point at a fold, on every grid)
+            finer = _profile_grid(self, r, 0.5 * float(x[1] - x[0]))
+            more = _contact_path(self, finer[0], finer[1], r, finer[2], seed=(x, contact))
             if shortest is None:
                 shortest = self.shortest_period if isinstance(self, SampledProfile) else 2.0 * float(x[1] - x[0])
-            (x, h, periodic, source), (hf, sf, kinks, miss) = finer, more
+            (x, h, periodic, source), (hf, sf, kinks, miss, contact) = finer, more
         out = SampledProfile(x, hf, periodic=periodic, slopes=sf, shortest_period=shortest,
                              source=f"{source} felt by a ball of r = {r * 1e3:g} mm")
         out.kinks = kinks
@@ -555,9 +555,9 @@ class SampledProfile(Texture):
         closest point is the kink itself). Empty otherwise.
     curvature_miss : float or None
         For a felt profile: how far its segments' curvature misses the ball path's, as a
-        fraction of the path's largest (at its grid points, and at the kinks' one-sided limits
-        where those are the largest), on the grid it was made on; with no spacing given the
-        grid is halved while this passes ``PROFILE_CURVATURE_SLACK`` (1 %), within
+        fraction of the path's largest (at its grid points, and at the kinks' one-sided limits,
+        which the segments beside a kink take at their end by it), on the grid it was made on;
+        with no spacing given the grid is halved while this passes ``PROFILE_CURVATURE_SLACK`` (1 %), within
         ``PROFILE_REFINE_SAMPLES``. q of B, C and G (which read the curvature, eqs. 11, 14, 28)
         is then within about this fraction of q on the ball's path. None for any other profile.
 
@@ -1178,54 +1178,70 @@ GOLDEN_STEPS = 48
 bracket shrinks by 0.618^48 ~ 1e-10, far below any grid)."""
 
 
-def _contact_path(texture, x, h, r, periodic):
+def _contact_path(texture, x, h, r, periodic, seed=None):
     """The ball's centre path on the grid x: (heights c(x) - r (n,), each interval's end slopes
-    (m, 2), the kinks (k, 2): place and slope jump, and the segments' curvature miss, a fraction
-    of the path's largest curvature).
+    (m, 2), the kinks (k, 2): place and slope jump, the segments' curvature miss, a fraction
+    of the path's largest curvature, and the contacts x + u (n,), m).
 
     c(x) = max over |u| <= r of [H(x + u) + sqrt(r^2 - u^2)], H the texture's own height: the
     maximum over the grid's offsets first (each grid point's arg-max contact), then refined by
     golden-section search on H within one interval either side of it; the slope is H' at the
-    contact (the envelope theorem: the path's normal is the contact's). A kink is an interval
+    contact (the envelope theorem: the path's normal is the contact's). Given ``seed``, a
+    coarser grid's (abscissae, contacts) from this function, the grid's offsets are not all
+    searched (:func:`_seeded_contacts`: the contacts between the two seeds about each point, in
+    work that grows with the grid, not with the ball's width). A kink is an interval
     across which the contact moves more than three intervals and the ball bridges the texture
-    (:func:`_bridges`), with the slope jump across it. The miss is the largest of the
-    segments' at the grid points beside no kink and, where the path's curvature at a kink (either
-    side's limit, :func:`_kink_limits`) is its largest, by how much the segments' largest falls
-    short of it."""
+    (:func:`_bridges`), with the slope jump across it; the segments either side of it take the
+    path's curvature on their side of the kink (its one-sided limit, :func:`_kink_limits`) at
+    their end by it, in place of their slope there (:func:`_curvature_ends`). The miss is the
+    largest of the segments' ends' against the path's there (at a grid point, or that limit),
+    beside no kink."""
     n = x.size
     dx = float(x[1] - x[0])
     idx = np.arange(n)
-    _, (arg,) = _grid_contacts(h, (dx,), r, periodic)
-    if periodic:
-        u0 = arg * dx
-        lo, hi = np.maximum(u0 - dx, -r), np.minimum(u0 + dx, r)
+    rival = None  # (the points with a second candidate that may be the higher, and it)
+    if seed is not None:
+        u0, rival = _seeded_contacts(texture, x, r, periodic, *seed)
+        u0 = u0 - x
+    elif periodic:
+        u0 = _grid_contacts(h, (dx,), r, periodic)[1][0] * dx
     else:  # the contact stays on the sampled range (beyond it the grid repeats its end heights)
-        u0 = (np.clip(idx + arg, 0, n - 1) - idx) * dx
-        lo = np.maximum(np.maximum(u0 - dx, -r), x[0] - x)
-        hi = np.minimum(np.minimum(u0 + dx, r), x[-1] - x)
+        u0 = (np.clip(idx + _grid_contacts(h, (dx,), r, periodic)[1][0], 0, n - 1) - idx) * dx
 
-    def g(u):
-        return texture.height(x + u) + np.sqrt(np.maximum(r * r - u * u, 0.0))
+    def polish(u0, at=slice(None)):  # golden-section search within an interval either side of u0
+        xa = x[at]  # (at the points ``at``): (u, its value)
 
-    phi = (math.sqrt(5.0) - 1.0) / 2.0
-    a, b = lo.copy(), hi.copy()
-    c1, c2 = b - phi * (b - a), a + phi * (b - a)
-    g1, g2 = g(c1), g(c2)
-    for _ in range(GOLDEN_STEPS):
-        left = g1 > g2
-        b = np.where(left, c2, b)
-        a = np.where(left, a, c1)
-        c2n = np.where(left, c1, a + phi * (b - a))
-        c1n = np.where(left, b - phi * (b - a), c2)
-        gn = g(np.where(left, c1n, c2n))
-        g2, g1 = np.where(left, g1, gn), np.where(left, gn, g2)
-        c1, c2 = c1n, c2n
-    u = 0.5 * (a + b)
-    gu = g(u)
-    grid = g(u0)
-    keep = grid > gu  # never below the grid's own maximum
-    u = np.where(keep, u0, u)
-    c = np.where(keep, grid, gu)
+        def g(u):
+            return texture.height(xa + u) + np.sqrt(np.maximum(r * r - u * u, 0.0))
+
+        lo, hi = np.maximum(u0 - dx, -r), np.minimum(u0 + dx, r)
+        if not periodic:
+            lo, hi = np.maximum(lo, x[0] - xa), np.minimum(hi, x[-1] - xa)
+        phi = (math.sqrt(5.0) - 1.0) / 2.0
+        a, b = lo.copy(), hi.copy()
+        c1, c2 = b - phi * (b - a), a + phi * (b - a)
+        g1, g2 = g(c1), g(c2)
+        for _ in range(GOLDEN_STEPS):
+            left = g1 > g2
+            b = np.where(left, c2, b)
+            a = np.where(left, a, c1)
+            c2n = np.where(left, c1, a + phi * (b - a))
+            c1n = np.where(left, b - phi * (b - a), c2)
+            gn = g(np.where(left, c1n, c2n))
+            g2, g1 = np.where(left, g1, gn), np.where(left, gn, g2)
+            c1, c2 = c1n, c2n
+        u = 0.5 * (a + b)
+        gu = g(u)
+        grid = g(u0)
+        keep = grid > gu  # never below the start's own value
+        return np.where(keep, u0, u), np.where(keep, grid, gu)
+
+    u, c = polish(u0)
+    if rival is not None and rival[0].size:
+        at, s2 = rival
+        u2, c2 = polish(s2 - x[at], at)
+        higher = c2 > c[at]
+        u[at[higher]], c[at[higher]] = u2[higher], c2[higher]
     slope = texture.slope(x + u)
     contact = u + x
     m = n if periodic else n - 1
@@ -1255,25 +1271,112 @@ def _contact_path(texture, x, h, r, periodic):
     # contact condition h'(x + u) = u / sqrt(r^2 - u^2)), beside no kink: the largest miss, as a
     # fraction of the path's largest curvature (for the caller's refinement)
     curv = _path_curvature(texture, contact, u, r)
+    target = np.column_stack([curv[:m], curv[nxt]])
+    finite = np.abs(curv[np.isfinite(curv)])
+    scale = float(np.max(finite, initial=0.0))  # (infinite at a fold: the gap there says so)
+    if at.size:  # beside a kink the path's curvature is largest at the kink itself (near a branch's
+        # fold, 1 / sqrt of the distance to it): the segments beside it take each side's limit at
+        # their end by the kink, for their slope there (the kink sits at that sample to within an
+        # interval), where the slope that gives them stays within the path's own between that
+        # sample and the kink; a grid point up to an interval away read it 6.7 % low on the
+        # four-tone profile at 1.02 times its troughs' radius on 327,680 samples, the miss halving
+        # with the grid. Where it would not (a limit by the fold, 2.4e11 1/m on the sinusoid at
+        # its troughs' radius, would have made a slope of 234,000), the segment keeps its slopes
+        # and its miss is measured against the limit
+        left, right, s_left, s_right = _kink_limits(texture, x[at], u[at], ahead[at] - x[at] - dx, dx, r)
+        lims = np.abs(np.concatenate([left, right]))
+        scale = max(scale, float(np.max(lims[np.isfinite(lims)], initial=0.0)))
+        plain = np.ones(m, dtype=bool)
+        plain[at] = False
+        before, after = (at - 1) % m, (at + 1) % m
+        ok = np.isfinite(left) & plain[before] & ((at >= 1) | periodic)
+        ok_r = np.isfinite(right) & plain[after] & ((at + 1 < m) | periodic)
+        before, left, s_left, after, right, s_right = before[ok], left[ok], s_left[ok], after[ok_r], right[ok_r], \
+            s_right[ok_r]
+        target[before, 1], target[after, 0] = left, right
+        fixed = np.zeros((m, 2), dtype=bool)
+        fixed[before, 1] = fixed[after, 0] = True
+        n0, n1 = _curvature_ends(ends[:, 0], ends[:, 1], delta, target, fixed, dx)
+        within = np.ones((m, 2), dtype=bool)  # (the new slope no farther from the sample's than the kink's)
+        within[before, 1] = np.abs(n1[before] - slope[at[ok]]) <= np.abs(s_left - slope[at[ok]]) + 1e-12
+        within[after, 0] = np.abs(n0[after] - slope[nxt[at[ok_r]]]) <= np.abs(s_right - slope[nxt[at[ok_r]]]) + 1e-12
+        fixed &= within
+        ends[:, 0], ends[:, 1] = _curvature_ends(ends[:, 0], ends[:, 1], delta, target, fixed, dx)
     e0, e1 = ends[:, 0], ends[:, 1]
     d2 = np.column_stack([(6 * delta - 4 * e0 - 2 * e1) / dx, (2 * e0 + 4 * e1 - 6 * delta) / dx])
     smooth = np.ones(m, dtype=bool)
     smooth[at] = False
-    gap = np.maximum(np.abs(d2[:, 0] - curv[:m]), np.abs(d2[:, 1] - curv[nxt]))[smooth]
-    scale = float(np.max(np.abs(curv)))
-    if at.size:  # beside a kink the path's curvature is largest at the kink itself: where that is
-        # its largest anywhere (B's, C's, G's sup), the segments' largest against it
-        left, right = _kink_limits(texture, x[at], u[at], ahead[at] - x[at] - dx, dx, r)
-        lim = np.abs(np.concatenate([left, right]))
-        lim = float(np.max(lim[np.isfinite(lim)], initial=0.0))
-        felt = np.abs(d2[smooth])
-        felt = float(np.max(felt[np.isfinite(felt)], initial=0.0))
-        if lim > max(scale, felt):
-            gap = np.append(gap, lim - felt)
-            scale = lim
+    gap = np.max(np.abs(d2 - target), axis=1)[smooth]
     miss = float(np.max(gap)) / scale if gap.size and scale > 0 else 0.0
     kinks = np.column_stack([x[at] + 0.5 * dx, slope[nxt[at]] - slope[at]]) if at.size else np.zeros((0, 2))
-    return hh, ends, kinks, (miss if math.isfinite(miss) else math.inf)
+    return hh, ends, kinks, (miss if math.isfinite(miss) else math.inf), contact
+
+
+def _curvature_ends(s0, s1, mean, target, fixed, dx):
+    """The end slopes (s0, s1) of cubic segments through their ends' heights (their mean slope
+    ``mean``, interval dx, m) whose second derivative at an end where ``fixed`` (m, 2) is the
+    ``target`` there (1/m), the other end keeping its slope; both ends fixed, both curvatures
+    (its slope then free). From the Hermite segment's end curvatures, (6 mean - 4 s0 - 2 s1) / dx
+    and (2 s0 + 4 s1 - 6 mean) / dx. Shapes (m,)."""
+    k0, k1 = target[:, 0], target[:, 1]
+    f0, f1 = fixed[:, 0], fixed[:, 1]
+    both = f0 & f1
+    n0 = np.where(both, mean - (2 * k0 + k1) * dx / 6, np.where(f0, (3 * mean - s1) / 2 - k0 * dx / 4, s0))
+    n1 = np.where(both, mean + (k0 + 2 * k1) * dx / 6, np.where(f1, (3 * mean - s0) / 2 + k1 * dx / 4, s1))
+    return n0, n1
+
+
+def _seeded_contacts(texture, x, r, periodic, xs, ss):
+    """Each grid point's best candidate contact s = x + u (m, shape (n,)) from a coarser grid's,
+    abscissae xs and contacts ss (shape (k,), increasing), and (indices, contacts) of the points
+    whose second candidate may be the higher: found in work proportional to the grid's points and
+    the contacts' travel, not to the ball's width.
+
+    The contact is nondecreasing in x (the ball's lift sqrt(r^2 - (s - x)^2) has increasing
+    differences in (s, x): Topkis' monotonicity theorem), so the contact at x lies between the
+    seeds' contacts at the coarse points either side (either side of the coarse point it falls
+    on, where it falls on one: a coarser grid may have taken the lower of two near-tied branches
+    beside a kink). That bracket is searched at the grid's own spacing dx (on the sampled range
+    of a bounded profile and within the ball), with the point itself (the ball's lowest point
+    never below the surface); its highest local maximum is the candidate, and its second where
+    that is within dx^2 (max|h''| + 1/r) / 4 of the first (a peak is within dx / 2 of a sample,
+    which reads it at most dx^2 (max|h''| + 1/r) / 8 low), for the caller's golden-section
+    refinement within an interval of each."""
+    dx = float(x[1] - x[0])
+    if periodic:
+        period = x.size * dx
+        xe, se = np.r_[xs[-1] - period, xs, xs[0] + period], np.r_[ss[-1] - period, ss, ss[0] + period]
+    else:
+        xe, se = xs, ss
+    j = np.clip(np.searchsorted(xe, x, side="right") - 1, 0, xe.size - 1)
+    on = np.isclose(x, xe[j], rtol=0.0, atol=1e-9 * dx)  # (on a coarse point: the points either side)
+    a = se[np.maximum(j - on, 0)] - dx
+    b = se[np.minimum(j + 1, xe.size - 1)] + dx
+    a, b = np.maximum(a, x - r), np.minimum(b, x + r)
+    if not periodic:
+        a, b = np.maximum(a, x[0]), np.minimum(b, x[-1])
+    b = np.maximum(a, b)
+    count = np.ceil((b - a) / dx).astype(np.int64) + 2  # (the bracket's points, its ends included,
+    # and the point itself: never below the surface there, h(x) + r, as the dilation's offset 0)
+    start = np.r_[0, np.cumsum(count)[:-1]]
+    owner = np.repeat(np.arange(x.size), count)
+    step = np.arange(owner.size) - start[owner]
+    last = step == count[owner] - 1
+    s = np.where(last, x[owner], np.minimum(a[owner] + step * dx, b[owner]))
+    v = texture.height(s) + np.sqrt(np.maximum(r * r - (s - x[owner]) ** 2, 0.0))
+    # the local maxima along each bracket (its ends and the point itself count as peaks)
+    inner = ~last & (step > 0) & (np.r_[step[1:], 0] > 0) & ~np.r_[last[1:], True]
+    prev, nxt = np.r_[-np.inf, v[:-1]], np.r_[v[1:], -np.inf]
+    peak = last | ~inner | ((v >= prev) & (v >= nxt))
+    cand = np.flatnonzero(peak)
+    order = cand[np.lexsort((-v[cand], owner[cand]))]  # (by point, then highest first)
+    first = np.r_[True, owner[order][1:] != owner[order][:-1]]
+    best = order[first]
+    rank = np.arange(order.size) - np.repeat(np.flatnonzero(first), np.diff(np.r_[np.flatnonzero(first), order.size]))
+    two = order[rank == 1]
+    bound = dx * dx * (texture.max_curvature + 1.0 / r) / 4
+    close = two[v[best[owner[two]]] - v[two] <= bound]
+    return s[best], (owner[close], s[close])
 
 
 def _path_curvature(texture, s, u, r):
@@ -1293,7 +1396,8 @@ def _kink_limits(texture, x0, u0, u1, dx, r, steps=48):
     kink): each branch followed by Newton steps on the contact condition h'(x + u) = u / sqrt(r^2
     - u^2) from its end's contact, the kink bisected where the two branches' heights meet, and
     the path's curvature there on each branch, h''(s) phi' / (phi' - h''(s)), phi' = r^2 / (r^2
-    - u^2)^(3/2), s = x + u. Returns (left, right), NaN where a branch could not be followed."""
+    - u^2)^(3/2), s = x + u. Returns (left, right, the left's slope, the right's slope): the
+    curvatures NaN where a branch could not be followed."""
     lo, hi = x0.copy(), x0 + dx
     rim = r * (1 - 1e-12)
 
@@ -1318,7 +1422,8 @@ def _kink_limits(texture, x0, u0, u1, dx, r, steps=48):
         first = ~(hb > ha)  # (the first branch still the higher: the kink beyond mid)
         lo, ua = np.where(first, mid, lo), np.where(first, ma, ua)
         hi, ub = np.where(first, hi, mid), np.where(first, ub, mb)
-    return branch(lo, ua)[2], branch(hi, ub)[2]
+    (ua, _, left), (ub, _, right) = branch(lo, ua), branch(hi, ub)
+    return left, right, ua / np.sqrt(r * r - ua * ua), ub / np.sqrt(r * r - ub * ub)
 
 
 PROFILE_CURVATURE_SLACK = 0.01
@@ -1330,9 +1435,12 @@ the default grid (7.8 um) read them -3.4, -19, -51 %; beside the kinks of the tw
 at twice its troughs' radius, -9.6 and -12.6 % on 1,024 samples, where its path's curvature
 is largest at the kink)."""
 
-PROFILE_REFINE_SAMPLES = 1 << 15
-"""The most samples a felt profile is refined to (chosen: 128 times the default grid of a
-sinusoid, 0.06 um over 2 mm)."""
+PROFILE_REFINE_SAMPLES = 1 << 19
+"""The most samples a felt profile is refined to (chosen: 2,048 times the default grid of a
+sinusoid, 4 nm over 2 mm, 16 MB of segments; the finer grids' contacts are followed from the
+coarser ones', :func:`_seeded_contacts`, a few seconds a profile. Near the troughs' radius the
+path's curvature spike, kappa / (1 - r kappa), is a few hundred nm wide: at 32,768 samples the
+two-tone profile at 1.05 times its troughs' radius read q of C -9.2 %, at 524,288 -0.01 %)."""
 
 
 BRIDGE_SAMPLES = 4096

@@ -197,11 +197,12 @@ def characteristic_number(
     ``resolution = (n_x, n_depth)`` points is searched first, then the best grid points
     are refined by bounded quasi-Newton maximisation inside their grid cells, so the
     result is the sup and not a grid sample. For an algorithm that reads the slope (B, C, G:
-    its Jacobian reads h'') over a sampled profile of at most :data:`PROFILE_NODES` samples the
-    grid also holds both ends of every interval, where its spline's h'' (linear on each) peaks;
-    over a sampled map the refinement also starts from the map's own steepest points
-    (:meth:`~haptex.SampledSurface.steepest_points`, within one sample interval), since a map
-    finer than the plane grid may peak within a sample.
+    its Jacobian reads h'') over a sampled profile the refinement also starts from the best of
+    both ends of every interval, where its spline's h'' (linear on each) peaks, at the
+    shallowest and the deepest depth (these Jacobians are affine in the depth, so their norms
+    peak at its ends: :func:`_node_starts`); over a sampled map the refinement also starts
+    from the map's own steepest points (:meth:`~haptex.SampledSurface.steepest_points`, within
+    one sample interval), since a map finer than the plane grid may peak within a sample.
 
     Parameters
     ----------
@@ -261,8 +262,6 @@ def characteristic_number(
         return _q_friction(algorithm, dmax, ranges, counts, nd)
 
     axes = [np.linspace(a, b, n + 1) for (a, b), n in zip(ranges, counts)]
-    if tex.dimension == 1 and getattr(algorithm, "reads_slope", True):  # (its Jacobian reads h'')
-        axes[0] = _with_nodes(tex, axes[0])
     ds = np.linspace(dmax / nd, dmax, nd)
     mesh = np.meshgrid(*axes, ds, indexing="ij")
     plane_pts = np.stack(mesh[:-1], axis=-1)
@@ -307,6 +306,14 @@ def characteristic_number(
                 val, found = _refine(neg_q, pt, -neg_q(pt), bounds)
                 if val > best:
                     best, where_pt = val, found
+    if tex.dimension == 1 and getattr(algorithm, "reads_slope", True) and not on_object:  # (it reads h'')
+        for pt, value, step in _node_starts(algorithm, ranges[0], (ds[0], dmax)):
+            a, b = ranges[0]
+            bounds = [(max(a, pt[0] - step), min(b, pt[0] + step)),
+                      (max(dd * 1e-6, pt[1] - dd), min(dmax, pt[1] + dd))]
+            val, found = _refine(neg_q, pt, value, bounds)
+            if val > best:
+                best, where_pt = val, found
     where = _region_points(algorithm, np.array(where_pt[:-1])[None, :], np.array([where_pt[-1]]))[0]
     grid = "x".join(str(n) for n in counts + [nd])
     extent = " and ".join(f"{name} in [{a:g}, {b:g}] m" for name, (a, b) in zip("xy", ranges))
@@ -320,29 +327,44 @@ def characteristic_number(
     )
 
 
-PROFILE_NODES = 1 << 16
-"""The most samples of a sampled profile whose intervals' ends join q's search grid (chosen: a
-felt profile refined near its troughs' radius holds up to 32,768)."""
+NODE_STARTS = 8
+"""How many of a sampled profile's interval ends start q's refinement (chosen: as many as the
+plane grid's own local maxima, :func:`_candidates`)."""
 
 
-def _with_nodes(tex, axis):
-    """The search axis (m) over a profile with, for a sampled one of at most PROFILE_NODES
-    samples, both ends of each of its intervals within the axis' range: a cubic segment's
-    second derivative is linear, so B's, C's and G's Jacobians (made of h' and h'') peak at
-    an interval's end, one sample wide where a felt profile follows a spike of the path's
+def _node_starts(algorithm, x_range, depths, count: int = NODE_STARTS, chunk: int = 1 << 16) -> list:
+    """The ``count`` best starts (x, depth) (m) of q's refinement among the ends of a sampled
+    profile's intervals (each node just either side, in x_range, repeated by its period) at the
+    two depths given: [((x, depth), ||J|| / kappa_0 there, the interval (m)), ...], best first;
+    empty for a texture without nodes. A cubic segment's h'' is linear, so B's, C's and G's
+    Jacobians (made of h' and h'', affine in the depth) peak at an interval's end and at the
+    depth range's ends: one sample wide where a felt profile follows a spike of the path's
     curvature (the two-tone at 1.05 times its troughs' radius: the uniform grid's 8,192 points
-    and their refinement read q of C 303 where the segments reach 444)."""
+    and their refinement read q of C 303 where the segments reach 444). Evaluated ``chunk``
+    points at a time: memory of a chunk whatever the profile's length."""
+    tex = algorithm.texture
     nodes = getattr(tex, "x", None)
-    if nodes is None or nodes.size > PROFILE_NODES:
-        return axis
-    a, b = float(axis[0]), float(axis[-1])
-    eps = 1e-9 * float(nodes[1] - nodes[0])
+    if nodes is None or nodes.size < 2:
+        return []
+    a, b = (float(v) for v in x_range)
+    step = float(nodes[1] - nodes[0])
+    eps = 1e-9 * step
     period = getattr(tex, "period", None)
     if period:
         k = np.arange(math.floor((a - nodes[-1]) / period), math.ceil((b - nodes[0]) / period) + 1)
         nodes = (nodes[None, :] + period * k[:, None]).ravel()
     ends = np.concatenate([nodes + eps, nodes - eps])
-    return np.unique(np.concatenate([axis, ends[(ends > a) & (ends < b)]]))
+    ends = ends[(ends > a) & (ends < b)]
+    k0 = algorithm.stiffness
+    best = []  # (value, x, depth)
+    for depth in depths:
+        for i in range(0, ends.size, chunk):
+            e = ends[i:i + chunk]
+            v = spectral_norm(algorithm.jacobian(_region_points(algorithm, e[:, None], np.full(e.size, depth)))) / k0
+            top = np.argsort(np.where(np.isfinite(v), v, -np.inf))[-count:]
+            best += [(float(v[j]), float(e[j]), float(depth)) for j in top]
+    best.sort(reverse=True)
+    return [((x, d), v, step) for v, x, d in best[:count]]
 
 
 def _object_focus(alg, ut, dmax: float):
