@@ -1296,6 +1296,31 @@ def test_a_measured_stylus_scan_felt_by_a_phantom_ball():
     assert felt.max_slope < 0.5 * level.max_slope
 
 
+def test_at_a_bounded_profiles_end_the_felt_path_is_the_balls_pivoting_on_its_last_point():
+    # a bounded profile (1.3 periods of a sinusoid, ending on a rise): the ball's contact stays on
+    # the sampled range, so within r of its end the ball pivots on the last point and its path
+    # is that point's circle, its slope (s - x) / sqrt(r^2 - (s - x)^2) (the envelope theorem
+    # for a constrained maximum), not the surface's slope at s. Truth: the maximum over 400,001
+    # offsets confined to the range, of the profile's own spline, and that slope at its arg-max.
+    # 2026-11-28: the felt slope there was the surface's (0.0097 where the path's is 0.0001 on
+    # the Dektak scan's end under a 0.5 mm ball), the last segments curving 12e6 1/m, and the
+    # profile said its curvature missed the path's by 581,000 %
+    x = np.linspace(0.0, 2.6e-3, 1301)
+    tex = hx.SampledProfile(x, 0.05e-3 * np.sin(2 * np.pi * x / 2e-3 - 1.2))
+    r = 0.2e-3
+    felt = tex.felt_by(r)
+    lo, hi = tex.domain
+    pts = np.linspace(hi - 1.5 * r, hi, 31)
+    u = np.linspace(-r, r, 400_001)
+    for xi in pts:
+        v = u[(xi + u >= lo) & (xi + u <= hi)]
+        g = tex.height(xi + v) + np.sqrt(r * r - v * v)
+        k = int(np.argmax(g))
+        assert felt.height(xi) == pytest.approx(g[k] - r, abs=1e-12)
+        assert felt.slope(xi) == pytest.approx(v[k] / math.sqrt(r * r - v[k] ** 2), abs=2e-4)
+    assert felt.curvature_miss <= 0.01
+
+
 @pytest.mark.long
 def test_a_measured_stylus_scan_felt_by_a_ball_is_its_centre_path_beside_every_kink():
     # the Dektak scan (9,600 samples of fine roughness) felt by a 0.5 mm ball, refined for its

@@ -1199,6 +1199,7 @@ def _contact_path(texture, x, h, r, periodic, seed=None):
     n = x.size
     dx = float(x[1] - x[0])
     idx = np.arange(n)
+    first, last = texture.domain if not periodic else (None, None)  # (a bounded profile's sampled range)
     rival = None  # (the points with a second candidate that may be the higher, and it)
     if seed is not None:
         u0, rival = _seeded_contacts(texture, x, r, periodic, *seed)
@@ -1216,7 +1217,7 @@ def _contact_path(texture, x, h, r, periodic, seed=None):
 
         lo, hi = np.maximum(u0 - dx, -r), np.minimum(u0 + dx, r)
         if not periodic:
-            lo, hi = np.maximum(lo, x[0] - xa), np.minimum(hi, x[-1] - xa)
+            lo, hi = np.maximum(lo, first - xa), np.minimum(hi, last - xa)
         phi = (math.sqrt(5.0) - 1.0) / 2.0
         a, b = lo.copy(), hi.copy()
         c1, c2 = b - phi * (b - a), a + phi * (b - a)
@@ -1242,7 +1243,15 @@ def _contact_path(texture, x, h, r, periodic, seed=None):
         u2, c2 = polish(s2 - x[at], at)
         higher = c2 > c[at]
         u[at[higher]], c[at[higher]] = u2[higher], c2[higher]
+    held = np.zeros(n, dtype=bool)
+    if not periodic:  # a contact held at the sampled range's end: the ball pivots on that point
+        below, above = u <= first - x + 1e-6 * dx, u >= last - x - 1e-6 * dx
+        held = below | above
+        u = np.where(below, first - x, np.where(above, last - x, u))
+        c = np.where(held, texture.height(x + u) + np.sqrt(np.maximum(r * r - u * u, 0.0)), c)
     slope = texture.slope(x + u)
+    # (the envelope theorem for the constrained maximum: the path's slope is the ball's there)
+    slope[held] = u[held] / np.sqrt(np.maximum(r * r - u[held] ** 2, 1e-300))
     contact = u + x
     m = n if periodic else n - 1
     nxt = (np.arange(m) + 1) % n
@@ -1271,6 +1280,7 @@ def _contact_path(texture, x, h, r, periodic, seed=None):
     # contact condition h'(x + u) = u / sqrt(r^2 - u^2)), beside no kink: the largest miss, as a
     # fraction of the path's largest curvature (for the caller's refinement)
     curv = _path_curvature(texture, contact, u, r)
+    curv[held] = -r * r / np.maximum(r * r - u[held] ** 2, 1e-300) ** 1.5  # (a circle of radius r about it)
     target = np.column_stack([curv[:m], curv[nxt]])
     finite = np.abs(curv[np.isfinite(curv)])
     scale = float(np.max(finite, initial=0.0))  # (infinite at a fold: the gap there says so)
@@ -1306,6 +1316,8 @@ def _contact_path(texture, x, h, r, periodic, seed=None):
     d2 = np.column_stack([(6 * delta - 4 * e0 - 2 * e1) / dx, (2 * e0 + 4 * e1 - 6 * delta) / dx])
     smooth = np.ones(m, dtype=bool)
     smooth[at] = False
+    smooth &= held[:m] == held[nxt]  # (where the contact reaches the range's end the path's curvature
+    # jumps to the pivot's circle's, within the interval: no cubic follows that, as at a kink)
     gap = np.max(np.abs(d2 - target), axis=1)[smooth]
     miss = float(np.max(gap)) / scale if gap.size and scale > 0 else 0.0
     kinks = np.column_stack([x[at] + 0.5 * dx, slope[nxt[at]] - slope[at]]) if at.size else np.zeros((0, 2))
@@ -1354,7 +1366,7 @@ def _seeded_contacts(texture, x, r, periodic, xs, ss):
     b = se[np.minimum(j + 1, xe.size - 1)] + dx
     a, b = np.maximum(a, x - r), np.minimum(b, x + r)
     if not periodic:
-        a, b = np.maximum(a, x[0]), np.minimum(b, x[-1])
+        a, b = np.maximum(a, texture.domain[0]), np.minimum(b, texture.domain[1])
     b = np.maximum(a, b)
     count = np.ceil((b - a) / dx).astype(np.int64) + 2  # (the bracket's points, its ends included,
     # and the point itself: never below the surface there, h(x) + r, as the dilation's offset 0)
