@@ -1302,9 +1302,9 @@ def test_at_a_bounded_profiles_end_the_felt_path_is_the_balls_pivoting_on_its_la
     # is that point's circle, its slope (s - x) / sqrt(r^2 - (s - x)^2) (the envelope theorem
     # for a constrained maximum), not the surface's slope at s. Truth: the maximum over 400,001
     # offsets confined to the range, of the profile's own spline, and that slope at its arg-max.
-    # 2026-11-28: the felt slope there was the surface's (0.0097 where the path's is 0.0001 on
-    # the Dektak scan's end under a 0.5 mm ball), the last segments curving 12e6 1/m, and the
-    # profile said its curvature missed the path's by 581,000 %
+    # 2026-11-28: the felt slope there was the surface's (here 0.12165 where the path's is
+    # 0.12135; at the Dektak scan's end under a 0.5 mm ball 0.0097 where it is 1e-5, the last
+    # segments curving 12e6 1/m, and the profile said its curvature missed the path's by 581,000 %)
     x = np.linspace(0.0, 2.6e-3, 1301)
     tex = hx.SampledProfile(x, 0.05e-3 * np.sin(2 * np.pi * x / 2e-3 - 1.2))
     r = 0.2e-3
