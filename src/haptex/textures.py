@@ -1239,10 +1239,10 @@ def _contact_path(texture, x, h, r, periodic, seed=None):
 
     u, c = polish(u0)
     if rival is not None and rival[0].size:
-        at, s2 = rival
-        u2, c2 = polish(s2 - x[at], at)
-        higher = c2 > c[at]
-        u[at[higher]], c[at[higher]] = u2[higher], c2[higher]
+        pts, s2 = rival
+        u2, c2 = polish(s2 - x[pts], pts)
+        higher = c2 > c[pts]
+        u[pts[higher]], c[pts[higher]] = u2[higher], c2[higher]
     held = np.zeros(n, dtype=bool)
     if not periodic:  # a contact held at the sampled range's end: the ball pivots on that point
         below, above = u <= first - x + 1e-6 * dx, u >= last - x - 1e-6 * dx

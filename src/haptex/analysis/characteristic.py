@@ -306,7 +306,8 @@ def characteristic_number(
                 val, found = _refine(neg_q, pt, -neg_q(pt), bounds)
                 if val > best:
                     best, where_pt = val, found
-    if tex.dimension == 1 and getattr(algorithm, "reads_slope", True) and not on_object:  # (it reads h'')
+    if tex.dimension == 1 and getattr(algorithm, "reads_slope", True):  # (it reads h''; on an object a
+        # profile is Extruded, a surface)
         for pt, value, step in _node_starts(algorithm, ranges[0], (ds[0], dmax)):
             a, b = ranges[0]
             bounds = [(max(a, pt[0] - step), min(b, pt[0] + step)),
