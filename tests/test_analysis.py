@@ -282,22 +282,36 @@ def _counted(a):
     return a
 
 
-def test_a_loop_below_a_band_limited_trough_is_integrated_in_bounded_work(felt_rendered):
+def test_a_loop_below_a_band_limited_trough_is_integrated_in_bounded_work(felt_rendered, monkeypatch):
     # D's force is the gradient of -k0 d^2 / 2 (eq. 17, d the distance to the closest point), so
     # its energy around any loop is zero (Section III-C): the truth, the closed form. Below the
-    # felt sinusoid's trough, band-limited as design renders it, D's closest point crosses the
-    # medial axis 5,215 times on the first random loop (5 segments), thousands of the crossings
-    # a few nm apart (the band-limit's ringing); path_work integrated each part between them by
-    # 16-point Gauss-Legendre on pieces of 1/8 of the period and doubled every piece of a part
-    # until two sums agreed: 315,728 force evaluations for this loop, 1.27 million for
-    # conservativity's four (34 s), and `haptex design` on this texture took 71 s where its
-    # estimate said 9 s (2026-11-28). Now only the pieces whose error estimate misses their share
-    # are halved, and parts narrower than 1e-4 of the period take the 2-point rule: 106,342.
+    # felt sinusoid's trough, band-limited as design renders it, the first random loop (5
+    # segments) was cut 5,215 times, thousands of the cuts a few nm apart: near a centre of
+    # curvature the closest point runs fast (1 / (1 - d kappa) times the probe), and the jump
+    # test took any motion past 1e-12 of the period in a bisected bracket for a jump, each found
+    # one splitting its bracket again (364,318 closest-point searches); path_work integrated each
+    # part between the cuts by 16-point Gauss-Legendre on pieces of 1/8 of the period and
+    # doubled every piece of a part until two sums agreed: 315,728 force evaluations for this
+    # loop, 1.27 million for conservativity's four (34 s), and `haptex design` on this texture
+    # took 71 s where its estimate said 9 s (2026-11-28). Now only the pieces whose error
+    # estimate misses their share are halved, parts narrower than 1e-4 of the period take the
+    # 2-point rule, and a jump moves the closest point by more than 1e-9 of the period (a
+    # smaller one is a non-smooth point the halving closes in on): 75,586 searches for the cuts
+    # and 73,216 force evaluations
     a = _counted(hx.algorithm("D", felt_rendered, K0))
+    searches = [0]
+    found = hx.algorithms.closest_point
+
+    def counting(tex, p):
+        searches[0] += len(p)
+        return found(tex, p)
+
+    monkeypatch.setattr(hx.algorithms, "closest_point", counting)
     loop = hx.random_loops(a, 4, 5, 1e-3, 0)[0]
     tol = 1e-9 * K0 * (16 * felt_rendered.shortest_period) ** 2  # (conservativity's verdict)
     assert abs(hx.loop_energy(a, loop, rtol=1e-10, atol=1e-3 * tol)) <= 1e-3 * tol
     assert a.counted[0] <= 160_000
+    assert searches[0] <= 150_000
 
 
 @pytest.mark.parametrize("letter", ["B", "E"])
