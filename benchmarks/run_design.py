@@ -1,7 +1,8 @@
 """`haptex design` on raw measured data (issue 13), wall time in one run on this machine:
 
 1. the CLI end to end (a fresh Python each, imports warm) on the paper's sinusoid and on
-   the raw Dektak scan with no options, and their ratio (goal <= 4);
+   the raw Dektak scan with no options, and their ratio (goal <= 4); the sinusoid felt by a
+   0.532 mm ball on the omega.3;
 2. design() from Python on a 10^6-sample synthetic profile (a random walk, 1 um a sample,
    levelled) and on a 1024 x 1024 areal map (a grating plus noise, 1 um a pixel, read from
    an X3P file SurfaceTopography wrote), each band-limited to what the pantograph (or the
@@ -44,6 +45,10 @@ def main() -> None:
         print(f"haptex design --texture dektak-stylus-profile.csv {raw:6.1f} s  ({raw / sine:.2f} x the sinusoid)")
     else:
         print(f"(the Dektak scan is not at {DEKTAK}: skipped)")
+    # the sinusoid felt by a ball just past its troughs' radius (0.51 mm), on the omega.3: its
+    # rendered texture band-limited below the kink, where D's and E's loops cross the medial axis
+    felt = cli("--texture", "sine:0.2mm,2mm", "--device", "omega-3", "--tip-radius", "0.532mm")
+    print(f"haptex design ... --tip-radius 0.532mm (omega-3)  {felt:6.1f} s  ({felt / sine:.2f} x the sinusoid)")
 
     rng = np.random.default_rng(1)
     n = 10**6
