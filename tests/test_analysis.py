@@ -297,7 +297,7 @@ def test_a_loop_below_a_band_limited_trough_is_integrated_in_bounded_work(felt_r
     # estimate misses their share are halved, parts narrower than 1e-4 of the period take the
     # 2-point rule, and a jump moves the closest point by more than 1e-9 of the period (a
     # smaller one is a non-smooth point the halving closes in on): 75,586 searches for the cuts
-    # and 73,216 force evaluations
+    # and 77,696 force evaluations
     a = _counted(hx.algorithm("D", felt_rendered, K0))
     searches = [0]
     found = hx.algorithms.closest_point
@@ -320,7 +320,7 @@ def test_path_work_is_quadpacks_integral_of_the_force(felt_rendered, letter):
     # adaptive Gauss-Kronrod, no code shared with path_work's) integral of the same force along
     # it, given the same cuts (where the closest point jumps, for E) and the spline's knots
     # (its third derivative jumps there: quad over a part holding hundreds of them missed by
-    # 6e-9 of the work where it claimed 1e-12), within path_work's tolerance: B and E are not
+    # 6e-9 of the work where it claimed 1e-12), within ten times path_work's rtol: B and E are not
     # gradient fields (Table II), so no closed form holds for them
     from scipy import integrate
 
