@@ -92,8 +92,9 @@ def _adaptive_gauss(fun, a: np.ndarray, b: np.ndarray, tol: float, nodes: int = 
 
 
 MAX_PATH_PIECES = 1_000_000
-"""Most quadrature pieces (1/8 of the shortest period each, 16 to 512 force evaluations)
-one :func:`path_work` call may integrate."""
+"""Most quadrature pieces (1/8 of the shortest period each; 48 force evaluations at least, and
+with the halvings' budget, ``WORK_FACTOR``, 16 (1 + 64) at most on average) one
+:func:`path_work` call may integrate."""
 
 
 def _check_path_size(algorithm: Algorithm, pts: np.ndarray) -> None:
