@@ -100,6 +100,19 @@ def explorer_process():
     Path(log.name).unlink(missing_ok=True)
 
 
+def counting(monkeypatch, owner, name):
+    """Patch ``owner.name`` (a function or method called as (first, points, ...)) to record how
+    many points each call evaluates; returns that list of counts."""
+    sizes = []
+    real = getattr(owner, name)
+
+    def counted(first, p, *a, **k):
+        sizes.append(int(np.prod(np.shape(p)[:-1])))
+        return real(first, p, *a, **k)
+    monkeypatch.setattr(owner, name, counted)
+    return sizes
+
+
 def server_log(proc, chars: int = 3000) -> str:
     """The tail of an :func:`explorer_process` server's output (for a failing test's message)."""
     try:

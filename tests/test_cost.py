@@ -13,19 +13,10 @@ from haptex.analysis.continuity import continuity, continuity_points
 from haptex.cli import main
 from haptex.explore import model
 
+from .conftest import counting
+
 SINE = hx.Sinusoid(0.8e-3, 1e-3)
 EGG = hx.SumOfGratings.egg_crate(0.3e-3, 2e-3)
-
-
-def _counting(monkeypatch, module, name):
-    sizes = []
-    real = getattr(module, name)
-
-    def counted(alg, p, *a, **k):
-        sizes.append(int(np.prod(np.shape(p)[:-1])))
-        return real(alg, p, *a, **k)
-    monkeypatch.setattr(module, name, counted)
-    return sizes
 
 
 @pytest.mark.parametrize("letter, texture", [("A", SINE), ("D", SINE), ("A", EGG), ("D", EGG), ("F", EGG)])
@@ -36,7 +27,7 @@ def test_continuity_plan_counts_the_points_it_evaluates(monkeypatch, letter, tex
     monkeypatch.setattr(mod, "SLAB_POINTS", 1 << 40)  # one slab a grid: one evaluation a grid
     alg = hx.algorithm(letter, texture, 2000.0)
     plan = continuity_points(alg, 1e-3)
-    sizes = _counting(monkeypatch, mod, "_static_force")
+    sizes = counting(monkeypatch, mod, "_static_force")
     continuity(alg, 1e-3)
     assert sizes == plan
 
@@ -45,13 +36,7 @@ def test_continuity_plan_counts_the_points_it_evaluates(monkeypatch, letter, tex
 def test_q_plan_counts_its_first_grid(monkeypatch, letter, texture):
     alg = hx.algorithm(letter, texture, 2000.0)
     plan = characteristic_points(alg, 1e-3)
-    sizes = []
-    real = type(alg).jacobian
-
-    def counted(self, p, *a, **k):
-        sizes.append(int(np.prod(np.shape(p)[:-1])))
-        return real(self, p, *a, **k)
-    monkeypatch.setattr(type(alg), "jacobian", counted)
+    sizes = counting(monkeypatch, type(alg), "jacobian")
     characteristic_number(alg, 1e-3)
     assert sizes[0] == plan  # the grid; then the refinement's single points
     assert max(sizes[1:], default=1) == 1
