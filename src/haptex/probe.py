@@ -56,10 +56,11 @@ def felt_by(texture, tip_radius: float, *, spacing: float | None = None):
         ``haptex.textures.PROFILE_CURVATURE_SLACK`` of the path's largest, or their largest
         misses the path's at a kink where that is its largest (each branch followed to where the
         ball touches both), within ``PROFILE_REFINE_SAMPLES`` (near the troughs' radius the path's
-        curvature spikes, and B, C and G read it). A periodic surface's map is halved likewise
-        while its curvature misses the path's by more than ``haptex.surfaces.CURVATURE_SLACK``,
+        curvature spikes, and B, C and G read it). A periodic surface's map is made on finer grids
+        likewise (as much finer as the last miss says, and not steeper than the surface) while
+        its curvature misses the path's by more than ``haptex.surfaces.CURVATURE_SLACK``,
         within ``CURVATURE_REFINE_SAMPLES``; where the ball bridges it (an analytic surface's)
-        against the kinks' one-sided limits too. A sampled surface keeps its own grid unless
+        on grids halved, against the kinks' one-sided limits too. A sampled surface keeps its own grid unless
         that leaves such a cell or steepness (then its spline is resampled at those factors of
         its interval, within ``REFINE_SAMPLES``). With ``spacing`` given a sampled texture is resampled onto that
         grid by its own spline (what a refusal for work suggests for a fine map and a large

@@ -2072,12 +2072,58 @@ cells' centres 6 and 23 % of the largest apart. D reads d_max / (R - d_max) belo
 convex point, radius R: at 0.5 and 0.8 times +2.2 and +2.1 % without the convex comparison,
 +0.31 and +0.51 % with it, on 128 and 640 samples a side)."""
 
-CURVATURE_REFINE_SAMPLES = 640 * 640
-"""The most samples (over the cell) a felt map is refined to for its curvature (chosen: on the
-egg-crate's bowls at 0.85 and 0.88 times their radius q of C read +1.15 and +1.71 % with the cap
-at 512 x 512 and +0.32, +0.67 % at this one, on 608 x 608 and 576 x 576 samples, 7-8 s a
-construction, the patches 47 MB; at 0.9, 0.92, 0.95 times +1.1, +1.98, +4.2 % on 544-576 a side,
-where the patches' Hessian still misses the path's by 1.1-4.2 % of its largest)."""
+CURVATURE_REFINE_SAMPLES = 768 * 768
+"""The most samples (over the cell) a felt map is refined to for its curvature (chosen: q of C on
+the egg-crate's bowls at 0.85 and 0.88 times their radius read +1.15 and +1.71 % with the cap at
+512 x 512 and +0.32, +0.67 % at 640 x 640; at 0.9 times +1.10 % on 576 a side (doubled grids, the
+next past 640), and with the grids of :func:`_refined_sizes` +0.65 % on 768, the tests' random
+map (AREAL_CASES) at 0.9 times its tightest radius +0.69 % on 768 (+1.87 % on 448), 7-9 s a
+construction, 610 MB at most for the process. Nearer the radius the spike is narrower than any
+grid within the cap resolves: at 0.95 times the egg-crate's +3.29 % on 760 a side (+2.1 % on
+1,280, 21-24 s and 1.4 GB), the random map's +3.22 % on 768 (+3.83 % on 640, +2.89 % on 848: not
+monotone))."""
+
+REFINE_AIM = 0.8
+"""The fraction of CURVATURE_SLACK a felt map's next grid aims its curvature's miss at (chosen: a
+bicubic Hermite patch's one-sided curvature at a node misses the path's by h^2 / 12 times its
+fourth derivative (Taylor), so the next grid is sqrt(miss / (REFINE_AIM CURVATURE_SLACK)) times
+finer along each axis the path curves along; measured on the egg-crate at 0.9 times its bowls'
+radius: +1.10 % on 576 a side, so +0.89 % predicted on 640, +0.91 % read)."""
+
+REFINE_GROWTH = (1.2, 4.0)
+"""The least and most a felt map's next grid is finer than the last along an axis it is refined
+along (chosen: a step the h^2 law's scatter cannot undo at least, at most what one reading of
+that law is trusted for; the doubling it replaces is within)."""
+
+
+FELT_STEEP_TOLERANCE = 1e-6
+"""How much (relative) steeper than the surface a felt map refined for its curvature may be before
+a finer grid is made (a path's slope is a contact's, the surface's there: the path's steepest is
+at most the surface's, equal to it where the ball cannot bridge; the Hermite patches between the
+nodes overshoot it by the interpolation's error, chosen: the egg-crate's bowls at 0.5 times their
+radius read 8.5e-6 below the surface's on 64 a side, 3.3e-6 above on 80)."""
+
+
+def _refined_sizes(sizes, bends, miss):
+    """The next grid's samples (nx, ny) after a periodic felt map of ``sizes`` samples whose
+    curvature missed the path's by ``miss`` (a fraction of its largest): along the axes where
+    ``bends`` (the path curves along them) sqrt(miss / (REFINE_AIM CURVATURE_SLACK)) times finer
+    (the h^2 law of a Hermite patch's curvature), within REFINE_GROWTH, in multiples of 8 (a
+    symmetric texture's troughs at a quarter of its cell stay on nodes); where that passes
+    CURVATURE_REFINE_SAMPLES the largest grid within it, those axes shrunk alike. None where no
+    grid within the cap is REFINE_GROWTH's least finer."""
+    lo, hi = REFINE_GROWTH
+    f = min(max(math.sqrt(miss / (REFINE_AIM * CURVATURE_SLACK)), lo), hi)
+    want = [n * f if b else float(n) for n, b in zip(sizes, bends)]
+    over = want[0] * want[1] / CURVATURE_REFINE_SAMPLES
+    if over > 1:
+        shrink = over ** (-0.5 if all(bends) else -1.0)
+        out = [8 * math.floor(v * shrink / 8) if b else n for v, n, b in zip(want, sizes, bends)]
+    else:
+        out = [8 * math.ceil(v / 8) if b else n for v, n, b in zip(want, sizes, bends)]
+    if any(b and m < lo * n for m, n, b in zip(out, sizes, bends)):
+        return None
+    return tuple(int(v) for v in out)
 
 
 def _contact_offsets(g, r):
@@ -2112,9 +2158,10 @@ def _finer_grid(cur, nx, ny):
 def _curvature_refined(texture, felt, r):
     """A periodic felt map of a surface the ball of radius r (m) cannot bridge
     (:func:`_may_bridge` false: one contact everywhere, found by Newton steps from any start, the
-    ascent's Hessian A - B negative there), made again on grids halved from ``felt``'s while its
-    curvature misses the path's (:func:`_path_hessian`) by more than CURVATURE_SLACK of the
-    path's largest, within CURVATURE_REFINE_SAMPLES: its largest (``max_curvature``, the
+    ascent's Hessian A - B negative there), made again on finer grids (:func:`_refined_sizes`:
+    as much finer as the last miss says, by the h^2 law) while its curvature misses the path's
+    (:func:`_path_hessian`) by more than CURVATURE_SLACK of the path's largest, within
+    CURVATURE_REFINE_SAMPLES: its largest (``max_curvature``, the
     patches') against the path's largest at its nodes and cells' centres, and its Hessian at
     each cell's centre against the path's there (the 2-norm of the difference); and, relative
     to the path's most convex curvature (its lower eigenvalue's least), the map's most convex
@@ -2123,10 +2170,11 @@ def _curvature_refined(texture, felt, r):
     contacts are r g / sqrt(1 + |g|^2) from their gradients g, the centres' and each finer
     grid's start from the last map's gradients and are refined on the surface itself
     (:func:`_smooth_contacts`: no dilation), its twists the path's own. The first grid within the
-    slack is kept, else the one that misses least, with ``felt``'s shortest period (its analyses'
+    slack and not steeper than the surface (FELT_STEEP_TOLERANCE) is kept, else the one that
+    misses least (a grid not steeper first), with ``felt``'s shortest period (its analyses'
     grids: more samples of one path, not a shorter wavelength); a map with no finer grid within
     the cap is returned as it is."""
-    if 2 * felt.x.size * felt.y.size > CURVATURE_REFINE_SAMPLES:
+    if _refined_sizes((felt.x.size, felt.y.size), (True, True), 0.0) is None:
         return felt  # (no finer grid within the cap: nothing to compare it with)
     best = None
     cur, u = felt, _contact_offsets(felt._gradients.reshape(-1, 2), r)
@@ -2149,15 +2197,19 @@ def _curvature_refined(texture, felt, r):
             own = cur._sup(lambda p: np.maximum(0.0, -_lowest_eigenvalue(cur.hessian(p))))
             wrong = np.nanmax(np.abs(_lowest_eigenvalue(hm) - _lowest_eigenvalue(hc)))
             miss = max(miss, abs(own / convex - 1.0), float(wrong) / convex)
-        if best is None or miss < best[0]:
-            best = (miss, cur, curved)
-        # (halved along an axis the path curves along: a grating's map not across its lines)
+        # (a path's slope is a contact's: a grid steeper than the surface is not kept while one is not)
+        steep = bool(cur.max_slope > texture.max_slope * (1 + FELT_STEEP_TOLERANCE))
+        if best is None or (steep, miss) < best[0]:
+            best = ((steep, miss), cur, curved)
+        # (refined along an axis the path curves along: a grating's map not across its lines)
         bends = [bool(np.nanmax(np.abs(both[:, a, a]) + np.abs(both[:, a, 1 - a])) > CURVATURE_SLACK * truth)
                  for a in (0, 1)]
-        nx, ny = (n * (2 if b else 1) for n, b in zip((cur.x.size, cur.y.size), bends))
-        if miss <= CURVATURE_SLACK or not any(bends) or nx * ny > CURVATURE_REFINE_SAMPLES:
+        sizes = None if (miss <= CURVATURE_SLACK and not steep) or not any(bends) else _refined_sizes(
+            (cur.x.size, cur.y.size), bends, miss)
+        if sizes is None:
             best[1].curvature_miss = float(best[2])
-            return best[1]  # (no axis to halve: a path whose Hessians are all NaN would loop here)
+            return best[1]  # (no axis to refine: a path whose Hessians are all NaN would loop here)
+        nx, ny = sizes
         x, y, P, dx, dy = _finer_grid(cur, nx, ny)
         P = P.reshape(-1, 2)
         u, gu = _smooth_contacts(texture, cur, P, r, 1e-6 * min(dx, dy))
