@@ -671,7 +671,12 @@ def test_a_felt_maps_curvature_miss_bounds_its_q(name, rel_r, capsys):
     # (the egg-crate's bowls at 0.9 and 1.2 times +1.10 and +0.43 % for 1.10 and 0.53 %, the
     # random map at 0.9 +1.87 % for 2.21 %); with the grids refined by the h^2 law within 768 x
     # 768 (2026-11-28) +3.29 and +3.22 % at 0.95 where the maps say 3.29 and 4.74 %, +0.65 and
-    # +0.69 % at 0.9 for 0.65 and 0.79 %; design prints it where it passes CURVATURE_SLACK
+    # +0.69 % at 0.9 for 0.65 and 0.79 %. design reports it (JSON) and prints it where it passes
+    # CURVATURE_SLACK and design analyses the felt texture itself; not where it analyses it
+    # band-limited to the device's cut-off (0.125 mm for the omega.3 at 0.1 m/s: the spike is a
+    # few um wide). Measured: q of B and C on the band-limited texture 5.2954 from the map
+    # refined to 760 a side (its miss 3.3 %), 5.3101 from the felt map on 128 a side, 5.388 on 64:
+    # 0.28 % apart where the message said 3.3 % (2026-11-28)
     tex, h, grad, cell, rho = AREAL_CASES[name]
     r = rel_r * (rho or _random_tightest_radius())
     felt = tex.felt_by(r)
@@ -687,11 +692,13 @@ def test_a_felt_maps_curvature_miss_bounds_its_q(name, rel_r, capsys):
         args = ["design", "--texture", "egg-crate:0.1mm,2mm", "--device", "omega-3", "--tip-radius",
                 f"{r * 1e3:.6f}mm", "--algorithms", "A"]
         assert main(args + ["--json", "--quiet"]) == 0
-        said = json.loads(capsys.readouterr().out)["felt_by_tip"]
-        assert said["curvature_miss"] == pytest.approx(felt.curvature_miss, rel=1e-3)
+        said = json.loads(capsys.readouterr().out)
+        assert said["felt_by_tip"]["curvature_miss"] == pytest.approx(felt.curvature_miss, rel=1e-3)
+        assert said["band_limit"]["applied"] and said["band_limit"]["cutoff"] > 20 * felt.dx
         assert main(args + ["--quiet"]) == 0
         out = " ".join(capsys.readouterr().out.split())
-        assert f"the felt texture's curvature misses the ball path's by up to {felt.curvature_miss:.1%}" in out
+        assert "the ball bridges" not in out and "felt by a ball of r" in out
+        assert "the felt texture's curvature misses" not in out  # (not in the band-limited texture it analyses)
 
 
 @pytest.mark.long
