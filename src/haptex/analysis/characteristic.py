@@ -306,8 +306,9 @@ def characteristic_number(
                 val, found = _refine(neg_q, pt, -neg_q(pt), bounds)
                 if val > best:
                     best, where_pt = val, found
-    if tex.dimension == 1 and getattr(algorithm, "reads_slope", True):  # (it reads h''; on an object a
-        # profile is Extruded, a surface)
+    # (a profile's algorithm that reads the slope reads h'' too; on an object a profile is
+    # Extruded, a surface)
+    if tex.dimension == 1 and getattr(algorithm, "reads_slope", True):
         for pt, value, step in _node_starts(algorithm, ranges[0], (ds[0], dmax)):
             a, b = ranges[0]
             bounds = [(max(a, pt[0] - step), min(b, pt[0] + step)),
