@@ -697,7 +697,7 @@ def test_a_felt_maps_curvature_miss_bounds_its_q(name, rel_r, capsys):
         assert said["band_limit"]["applied"] and said["band_limit"]["cutoff"] > 20 * felt.dx
         assert main(args + ["--quiet"]) == 0
         out = " ".join(capsys.readouterr().out.split())
-        assert "the ball bridges" not in out and "felt by a ball of r" in out
+        assert "felt by a ball of r" in out
         assert "the felt texture's curvature misses" not in out  # (not in the band-limited texture it analyses)
 
 
