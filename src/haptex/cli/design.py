@@ -186,8 +186,7 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
                           + (f", y = {worst['y'] * 1e3:.4g} mm" if "y" in worst else ""))
         # (the miss is the felt texture's, near spikes of its curvature a few um wide: where design
         # analyses it band-limited and resampled, they are not in what it analyses)
-        analysed = not (data.get("band_limit") or {}).get("applied", False)
-        if (analysed and felt["curvature_miss"] is not None
+        if (not data["band_limit"]["applied"] and felt["curvature_miss"] is not None
                 and felt["curvature_miss"] > min(CURVATURE_SLACK, PROFILE_CURVATURE_SLACK)):
             console.print(f"the felt texture's curvature misses the ball path's by up to {felt['curvature_miss']:.1%} of its "
                           f"largest (its refinement stopped at its cap or where a finer grid did worse): "
