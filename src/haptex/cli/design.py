@@ -116,8 +116,9 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
                 "kinks": [dict(zip(names, map(float, k))) for k in kinks[:100]],
                 "kink_count": int(len(kinks)), "branched_cells": int(getattr(tex, "branched_cells", 0)),
                 "single_patch_cells": _single_patch_cells(tex)}
-        miss = getattr(tex, "curvature_miss", None)
-        felt["curvature_miss"] = None if miss is None else float(miss)
+        for key in ("curvature_miss", "convex_miss"):
+            miss = getattr(tex, key, None)
+            felt[key] = None if miss is None else float(miss)
         ends = np.asarray(getattr(tex, "crease_ends", np.zeros((0, 2))))
         felt.update(crease_end_count=int(len(ends)), crease_ends=[{"x": float(a), "y": float(b)} for a, b in ends[:100]])
     base = object_from_spec(object_spec, uv_scale, vertex_normals)
