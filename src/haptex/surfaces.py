@@ -2149,11 +2149,15 @@ def _smooth_contacts(texture, felt, P, r, tol):
     cannot bridge, and the ascent's maximum there (n,): from the offset r g / sqrt(1 + |g|^2)
     that the felt map's gradient g gives (the contact condition's inverse), refined on the
     surface by :func:`_refine_contacts` (the disc its only bound: one contact, the ascent
-    concave), four times over (each call ends once every step is under ``tol``, m)."""
+    concave), up to four times over (each call ends once every step is under ``tol``, m; the next
+    is not made once a call moved no contact by more than that)."""
     u = _contact_offsets(felt.gradient(P), r)
     box = np.full_like(u, r)
     for _ in range(4):
+        last = u
         u, gu = _refine_contacts(texture, P, u, -box, box, r, r * (1 - 1e-9), tol)
+        if not np.any(np.abs(u - last) > tol):  # (still: a call from here would step as that one ended)
+            break
     return u, gu
 
 
