@@ -813,8 +813,9 @@ class SampledSurface(Surface):
         ``convex_miss`` (1 + q) (exactly so where the map's sup is that much more convex): on the
         egg-crate at 0.88, 0.9 and 0.95 times its bowls' radius 1.4, 3.0 and 49 %, q of D +3.07,
         +6.52 and +204 % (the saddles, where the concave spike crosses the convex direction),
-        where ``curvature_miss`` says 0.39, 0.65 and 3.3 %. None where ``curvature_miss`` is not
-        measured or the ball bridges the surface.
+        where ``curvature_miss`` says 0.39, 0.65 and 3.3 %; the refinement reads it with the
+        curvature's own. None where ``curvature_miss`` is not measured or the ball bridges the
+        surface.
 
     Raises
     ------
