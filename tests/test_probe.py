@@ -734,10 +734,9 @@ def test_a_felt_maps_convex_miss_bounds_q_of_d():
     # against the path's 519.5, q of D +6.52 % (+3.07 % at 0.88 times; 2026-11-28), its
     # convex_miss 3.0 % (1.4 %) where its curvature_miss (what B, C, G read) says 0.65 %
     # (0.39 %); at 0.8 times +0.75 % (528 a side; its convex miss 0.37 %), on the random map
-    # at 0.9 times +0.00 % (its crests away from the spikes; 0.10 %). The map
-    # states that miss (convex_miss), design's JSON carries it (the test above). Truth:
-    # _areal_path_q, D's closed form d_max / (R - d_max), R = rho + r at the crests (asserted).
-    # ~55 s
+    # at 0.9 times +0.00 % (its crests away from the spikes; 0.10 %). The map states that miss
+    # (convex_miss), design's JSON carries it (the test above). Truth: _areal_path_q, D's closed
+    # form d_max / (R - d_max), R = rho + r at the crests (asserted). ~55 s
     tex, h, grad, cell, rho = AREAL_CASES["egg-crate"]
     r = 0.9 * rho
     truth = _areal_path_q(h, grad, cell, r, letters="D")["D"]
