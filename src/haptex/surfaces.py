@@ -2216,7 +2216,7 @@ def _curvature_refined(texture, felt, r):
             wrong = np.abs(lm - lc)
             either = np.minimum(lm, lc) < 0
             bowed = max(abs(own / convex - 1.0), float(np.nanmax(wrong[either], initial=0.0)) / convex)
-            miss = max(miss, abs(own / convex - 1.0), float(np.nanmax(wrong)) / convex)
+            miss = max(miss, bowed, float(np.nanmax(wrong)) / convex)
         # (a path's slope is a contact's: a grid steeper than the surface is not kept while one is not)
         steep = bool(cur.max_slope > texture.max_slope * (1 + FELT_STEEP_TOLERANCE))
         if best is None or (steep, miss) < best[0]:
