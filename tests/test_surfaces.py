@@ -648,6 +648,107 @@ def test_a_hermite_map_is_its_samples_heights_and_gradients():
         hx.SampledSurface(x, x, h, gradients=h)
 
 
+def _graded_knots(n_base, centre, smallest, growth):
+    """A periodic axis of period L: cells of ``smallest`` at ``centre`` growing by ``growth`` a
+    cell to L / n_base, symmetric about the centre; (n + 1,) knots in [0, L], the last the
+    first plus L."""
+    right, w = [centre], smallest
+    while right[-1] + w < centre + L / 2:
+        right.append(right[-1] + w)
+        w = min(w * growth, L / n_base)
+    right = np.array(right)
+    kn = np.unique(np.round(np.r_[2 * centre - right[1:], right] % L, 15))
+    return np.r_[kn, kn[0] + L]
+
+
+def _graded_map():
+    """A Hermite map of h = A sin(kx) cos(ky) + 0.3 A sin(2kx + 1) (numpy's closed form) on axes
+    graded from 1 and 2 um about x = L/4 and y = 3L/4 (84 and 68 knots), periodic over L x L."""
+    kx, ky = _graded_knots(64, L / 4, 1e-6, 1.3), _graded_knots(48, 3 * L / 4, 2e-6, 1.25)
+    k = 2 * np.pi / L
+    X, Y = np.meshgrid(kx[:-1], ky[:-1], indexing="ij")
+    h = A * np.sin(k * X) * np.cos(k * Y) + 0.3 * A * np.sin(2 * k * X + 1)
+    g = np.stack([A * k * np.cos(k * X) * np.cos(k * Y) + 0.6 * A * k * np.cos(2 * k * X + 1),
+                  -A * k * np.sin(k * X) * np.sin(k * Y)], -1)
+    return kx, ky, h, g
+
+
+def test_a_hermite_map_on_graded_axes_is_the_tensor_product_of_cubic_hermite_splines():
+    # its definition (the uniform map's, cell by cell on cells of their own widths): along x
+    # through each row of nodes the cubic Hermite spline of (h, h_x) and of (h_y, h_xy), then
+    # along y the cubic Hermite spline of those two; the twist h_xy at a node the mean of the
+    # x- and y-derivatives of the quadratics through three nodes' h_y and h_x (the centred
+    # difference on a uniform axis). Truth: scipy's CubicHermiteSpline, nested as just said,
+    # against the C core's evaluation of the patches, at 200 points over three periods
+    from scipy.interpolate import CubicHermiteSpline as Hermite
+
+    kx, ky, h, g = _graded_map()
+    s = hx.SampledSurface(kx[:-1], ky[:-1], h, periodic=True, gradients=g, knots=(kx, ky))
+    assert s.patches()[0, _ext.PATCH_AXES] > 0
+
+    def quad_slope(f, kn, axis):  # the derivative at the middle node of the quadratic through three
+        hp = np.diff(kn).reshape([-1 if a == axis else 1 for a in range(2)])
+        hm = np.roll(hp, 1, axis=axis)
+        return (hm**2 * np.roll(f, -1, axis) - hp**2 * np.roll(f, 1, axis) + (hp**2 - hm**2) * f) / (hm * hp * (hm + hp))
+
+    twist = 0.5 * (quad_slope(g[..., 0], ky, 1) + quad_slope(g[..., 1], kx, 0))
+    wrap = [np.pad(a, ((0, 1), (0, 1)), mode="wrap") for a in (h, g[..., 0], g[..., 1], twist)]
+    H, GX, GY, TW = wrap
+    rng = np.random.default_rng(41)
+    pts = rng.uniform(-L, 2 * L, (200, 2))
+    pts[:40] = np.column_stack([L / 4 + rng.normal(0, 5e-6, 40), 3 * L / 4 + rng.normal(0, 9e-6, 40)])  # (fine cells)
+    ref = np.empty((len(pts), 6))
+    start = np.array([kx[0], ky[0]])
+    for m, (x, y) in enumerate(start + (pts - start) % L):  # (into the knots' period)
+        rows = [[Hermite(kx, H[:, j], GX[:, j])(x, nu), Hermite(kx, GY[:, j], TW[:, j])(x, nu)] for nu in (0, 1, 2)
+                for j in range(ky.size)]
+        f = np.array(rows).reshape(3, ky.size, 2)  # (d^nu/dx^nu, node j, [h or h_y along the row])
+        along = [Hermite(ky, f[nu, :, 0], f[nu, :, 1]) for nu in (0, 1, 2)]
+        ref[m] = [along[0](y), along[1](y), along[0](y, 1), along[2](y), along[1](y, 1), along[0](y, 2)]
+    d = np.column_stack([s.height_at(pts), s.gradient(pts), s.hessian(pts).reshape(-1, 4)[:, [0, 1, 3]]])
+    scale = np.array([A, A * 2 * np.pi / L, A * 2 * np.pi / L] + [A * (2 * np.pi / L) ** 2] * 3)
+    assert np.max(np.abs(d - ref) / scale) < 1e-9, np.max(np.abs(d - ref) / scale, axis=0)
+    # and at its nodes, the heights and gradients given
+    X, Y = np.meshgrid(kx[:-1], ky[:-1], indexing="ij")
+    P = np.stack([X, Y], -1)
+    np.testing.assert_allclose(s.height_at(P), h, rtol=0, atol=1e-18)
+    np.testing.assert_allclose(s.gradient(P), g, rtol=0, atol=1e-12)
+
+
+def test_closest_point_on_a_graded_map_agrees_with_brute_force():
+    # D and E's search on a map of cells from 1 um to 31 um wide (the patch lines it cuts its
+    # cells at, the bounds pyramid's blocks and each patch's bounds all in the cells' own
+    # widths): never longer than the dense brute force's distance (to 1e-9 m), probes over the
+    # finest cells and anywhere, down to 1 mm below the surface
+    kx, ky, h, g = _graded_map()
+    s = hx.SampledSurface(kx[:-1], ky[:-1], h, periodic=True, gradients=g, knots=(kx, ky))
+    rng = np.random.default_rng(43)
+    xy = np.r_[np.column_stack([L / 4 + rng.normal(0, 20e-6, 12), 3 * L / 4 + rng.normal(0, 20e-6, 12)]),
+               rng.uniform(0, L, (12, 2))]
+    p = np.column_stack([xy, s.height_at(xy) - rng.uniform(0.0, 1.0e-3, 24)])
+    cp = hx.closest_point(s, p)
+    ref = _brute_force_distance(s, p, 1.05 * cp.distance + 1e-6)
+    assert np.all(cp.distance <= ref + 1e-9), np.max(cp.distance - ref)
+
+
+def test_a_graded_map_refuses_what_needs_a_regular_grid_and_bad_knots():
+    kx, ky, h, g = _graded_map()
+    s = hx.SampledSurface(kx[:-1], ky[:-1], h, periodic=True, gradients=g, knots=(kx, ky))
+    for call in (s.spectrum, s.leveled, lambda: s.lowpass(0.5e-3), lambda: s.scaled(2.0), lambda: s.line(row=0)):
+        with pytest.raises(hx.ParameterError, match="of a map on graded axes is not allowed: it needs a regular grid"):
+            call()
+    with pytest.raises(hx.ParameterError, match=r"knots = 'given for a map without gradients or not periodic'"):
+        hx.SampledSurface(kx[:-1], ky[:-1], h, periodic=True, knots=(kx, ky))
+    with pytest.raises(hx.ParameterError, match=rf"knots\[0\] = 'an axis of {kx.size - 1} knots' is not allowed: must "
+                       rf"be {kx.size} knots whose first {kx.size - 1} are x, the last the period's end"):
+        hx.SampledSurface(kx[:-1], ky[:-1], h, periodic=True, gradients=g, knots=(kx[:-1], ky))
+    bad = kx.copy()
+    bad[-1] = bad[-2]
+    with pytest.raises(hx.ParameterError, match=rf"knots\[0\]\[{kx.size - 1}\] = .* is not allowed: knots must increase "
+                       "strictly"):
+        hx.SampledSurface(kx[:-1], ky[:-1], h, periodic=True, gradients=g, knots=(bad, ky))
+
+
 def test_closest_point_on_a_felt_map_with_kinks_agrees_with_brute_force():
     # a felt map whose ball bridges the egg-crate's bowls (r = 2 mm, twice their curvature
     # radius) has slopes that jump across its patch lines and creases inside its branched cells

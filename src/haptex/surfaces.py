@@ -738,6 +738,34 @@ def _grid_axis(name: str, values) -> tuple[np.ndarray, float]:
     return arr, float(d)
 
 
+def _graded_axes(x, y, knots, periodic, gradients):
+    """A periodic Hermite map's graded axes: (x, y, (x knots, y knots)), each axis's knots
+    strictly increasing, (n + 1,), the first n its samples (``SampledSurface``'s ``knots``)."""
+    if gradients is None or not periodic:
+        raise fail("knots", "given for a map without gradients or not periodic",
+                   "knots with gradients=... and periodic=True (a periodic Hermite map on graded axes)")
+    try:
+        kx, ky = knots
+    except (TypeError, ValueError):
+        raise fail("knots", f"{knots!r}", "a pair (x knots, y knots) of increasing positions (m)") from None
+    out = []
+    for name, samples, k in (("x", x, kx), ("y", y, ky)):
+        arr = _vector(name, samples)
+        kk = _vector(f"knots[{len(out)}]", k)
+        if arr.size < 4:
+            raise ParameterError(f"{name} has {arr.size} samples, which is not allowed: a height map needs at least "
+                                 "4 x 4 samples (a bicubic spline)")
+        if kk.size != arr.size + 1 or not np.array_equal(kk[:-1], arr):
+            raise fail(f"knots[{len(out)}]", f"an axis of {kk.size} knots",
+                       f"{arr.size + 1} knots whose first {arr.size} are {name}, the last the period's end")
+        step = np.diff(kk)
+        if not np.all(step > 0):
+            i = int(np.argmax(~(step > 0))) + 1
+            raise ParameterError(f"knots[{len(out)}][{i}] = {kk[i]:g} is not allowed: knots must increase strictly")
+        out.append(kk)
+    return out[0][:-1].copy(), out[1][:-1].copy(), (out[0], out[1])
+
+
 PYRAMID_BASE = 1 << 18
 """A map's bounds pyramid starts from blocks of one patch up to this many patches, else from
 blocks of 2^s patches a side that bring it there (about 14 MB at most)."""
@@ -784,6 +812,14 @@ class SampledSurface(Surface):
         differences of the gradients) instead of the C^2 spline: C^1 across the patch lines,
         C^2 within a patch. A felt map (:func:`haptex.probe.felt_by`) is one, with each
         kinked edge's slopes along it moved within the contacts' (then only C^0 there).
+    knots : tuple of two array_like, optional
+        For a periodic Hermite map (``gradients`` given) on graded axes: the cells' edges along
+        x and along y (m), shapes (nx + 1,) and (ny + 1,), strictly increasing, the first nx
+        (ny) of them ``x`` (``y``) and the last the period's end, so that the cells need not be
+        uniform: fine where the map curves sharply, coarse elsewhere. The C core finds a point's
+        cell by bisection of the knots (at most log2 n + 1 steps an axis). Transformations that
+        need a regular grid (:meth:`spectrum`, :meth:`lowpass`, :meth:`band_limited`,
+        :meth:`scaled`, :meth:`leveled`, :meth:`line`) refuse such a map.
 
     Attributes
     ----------
@@ -822,7 +858,8 @@ class SampledSurface(Surface):
     ParameterError
         For fewer than 4 x 4 samples, NaNs or infinities, heights beyond +-1 km, a
         non-uniform or non-increasing axis, mismatched shapes, or more than
-        ``MAX_SAMPLES`` samples; gradients of another shape or not finite.
+        ``MAX_SAMPLES`` samples; gradients of another shape or not finite; knots without
+        gradients or periodic, or not increasing from x (y).
 
     Notes
     -----
@@ -831,13 +868,18 @@ class SampledSurface(Surface):
     """
 
     def __init__(self, x, y, h, periodic: bool = False, shortest_period: float | None = None, source: str = "",
-                 gradients=None):
+                 gradients=None, knots=None):
         from scipy.interpolate import NdBSpline, make_interp_spline
 
         from ._validation import MAX_LENGTH
 
-        x, dx = _grid_axis("x", x)
-        y, dy = _grid_axis("y", y)
+        self._knots = None
+        if knots is None:
+            x, dx = _grid_axis("x", x)
+            y, dy = _grid_axis("y", y)
+        else:
+            x, y, self._knots = _graded_axes(x, y, knots, periodic, gradients)
+            dx, dy = (float(np.diff(k).max()) for k in self._knots)  # (the coarsest cells: Nyquist, leaves)
         try:
             h = np.asarray(h, dtype=np.float64)
         except (TypeError, ValueError):
@@ -870,7 +912,10 @@ class SampledSurface(Surface):
                 raise fail("gradients", f"an array of shape {np.shape(gradients)}", f"shape ({x.size}, {y.size}, 2) "
                            "of finite slopes (m/m), grad h at each sample")
             self._gradients = np.ascontiguousarray(g)
-        self._size = (x.size * dx, y.size * dy) if self.periodic else ((x.size - 1) * dx, (y.size - 1) * dy)
+        if self._knots is not None:
+            self._size = tuple(float(k[-1] - k[0]) for k in self._knots)
+        else:
+            self._size = (x.size * dx, y.size * dy) if self.periodic else ((x.size - 1) * dx, (y.size - 1) * dy)
         self._spline = None  # (a Hermite map is its patches alone: no spline of its heights is built)
         if self._gradients is None:
             if self.periodic:
@@ -889,6 +934,9 @@ class SampledSurface(Surface):
 
     def __repr__(self) -> str:
         what = f", source={self.source!r}" if self.source else ""
+        if self._knots is not None:
+            return (f"SampledSurface({self.x.size}x{self.y.size} samples on graded axes, cells up to {self.dx:g} by "
+                    f"{self.dy:g}, periodic={self.periodic}{what})")
         return (f"SampledSurface({self.x.size}x{self.y.size} samples, dx={self.dx:g}, dy={self.dy:g}, "
                 f"periodic={self.periodic}{what})")
 
@@ -995,6 +1043,20 @@ class SampledSurface(Surface):
         """
         return _ext.SURFACE_PATCHES, self.patches()
 
+    def _widths(self) -> tuple[np.ndarray, np.ndarray]:
+        """The cells' widths along x and y (m), shapes (nx,) and (ny,) (cells, not samples)."""
+        if self._knots is not None:
+            return np.diff(self._knots[0]), np.diff(self._knots[1])
+        nx = self.x.size if self.periodic else self.x.size - 1
+        ny = self.y.size if self.periodic else self.y.size - 1
+        return np.full(nx, self.dx), np.full(ny, self.dy)
+
+    def _regular(self, what: str) -> None:
+        """Refuse ``what`` (a transformation that needs a regular grid) on graded axes."""
+        if self._knots is not None:
+            raise ParameterError(f"{what} of a map on graded axes is not allowed: it needs a regular grid; "
+                                 "evaluate the map on one (height_at, gradient) and build a SampledSurface of that")
+
     def patches(self) -> np.ndarray:
         """The map as bicubic patches for the C core (``haptex.core._ext.SURFACE_PATCHES``):
         shape (1, 8 + 16 n_cells), the header PATCH_* and per cell the coefficients c[a, b] of
@@ -1029,7 +1091,8 @@ class SampledSurface(Surface):
         out = self._hermite_patches(nx, ny) if self._gradients is not None else self._spline_patches(nx, ny)
         head = np.zeros(K.PATCH_DATA)
         head[K.PATCH_X0], head[K.PATCH_Y0] = self.x[0], self.y[0]
-        head[K.PATCH_DX], head[K.PATCH_DY] = self.dx, self.dy
+        head[K.PATCH_DX], head[K.PATCH_DY] = (self.dx, self.dy) if self._knots is None else (
+            self._size[0] / nx, self._size[1] / ny)  # (graded: the cells' mean widths)
         head[K.PATCH_NX], head[K.PATCH_NY] = nx, ny
         head[K.PATCH_PERIODIC] = 1.0 if self.periodic else 0.0
         head[K.PATCH_JOINS] = K.JOINS_SPLINE if self._gradients is None else K.JOINS_HERMITE
@@ -1039,6 +1102,9 @@ class SampledSurface(Surface):
             out.reshape(-1, 4, 4)[cells] = first
             head[K.PATCH_JOINS] = K.JOINS_BRANCHED
             tail = [starts.astype(np.float64), extra.ravel()]
+        if self._knots is not None:  # (graded axes: their knots after all the rest, hx_core.h)
+            head[K.PATCH_AXES] = K.PATCH_DATA + out.size + sum(t.size for t in tail)
+            tail += list(self._knots)
         arr = np.ascontiguousarray(np.concatenate([head, out.ravel(), *tail])[None, :])
         self.__dict__["_patches"] = arr
         return arr
@@ -1049,8 +1115,10 @@ class SampledSurface(Surface):
         twists (the node's, none beside a kink), c = A F A^T with A the cubic Hermite basis's
         coefficients (:data:`_HERMITE`) and F the corners' data in the cell's units."""
         g = self._gradients
+        wx, wy = self._widths()
         ex, ey, twist = (self._edges if self._edges is not None else
-                         (*_node_edges(g, self.periodic), _twist(g, self.dx, self.dy, self.periodic)))
+                         (*_node_edges(g, self.periodic), _twist(g, self.dx, self.dy, self.periodic, self._knots)))
+        wx, wy = wx[:, None], wy[None, :]
         mx, my = self.x.size, self.y.size
         i = np.arange(nx)[:, None]
         j = np.arange(ny)[None, :]
@@ -1059,9 +1127,9 @@ class SampledSurface(Surface):
         for a, ia in ((0, i), (1, i1)):
             for b, jb in ((0, j), (1, j1)):
                 F[..., a, b] = self.h[ia, jb]
-                F[..., 2 + a, b] = ex[i, jb, a] * self.dx  # the slope along x of the x-edge at row j + b
-                F[..., a, 2 + b] = ey[ia, j, b] * self.dy  # the slope along y of the y-edge at column i + a
-                F[..., 2 + a, 2 + b] = twist[ia, jb] * self.dx * self.dy
+                F[..., 2 + a, b] = ex[i, jb, a] * wx  # the slope along x of the x-edge at row j + b
+                F[..., a, 2 + b] = ey[ia, j, b] * wy  # the slope along y of the y-edge at column i + a
+                F[..., 2 + a, 2 + b] = twist[ia, jb] * wx * wy
         return _HERMITE @ F @ _HERMITE.T
 
     def _spline_patches(self, nx, ny) -> np.ndarray:
@@ -1132,13 +1200,18 @@ class SampledSurface(Surface):
         pat = main.reshape(-1, 4, 4)
         if extra is not None:  # (a branched cell's bounds: its patches', merged below)
             pat = np.concatenate([pat, extra])
-        dx, dy = self.dx, self.dy
+        wx, wy = self._widths()
+        dxs, dys = np.repeat(wx, ny), np.tile(wy, nx)  # (each cell's widths, row-major as the patches)
+        if extra is not None:
+            own = np.repeat(np.arange(nx * ny), np.diff(starts).astype(np.int64))
+            dxs, dys = np.concatenate([dxs, dxs[own]]), np.concatenate([dys, dys[own]])
         fall = _FALL  # the multipliers of ‖c[a, b]‖ in each derivative's bound
         bern = np.array([[math.comb(j, a) / math.comb(3, a) if a <= j else 0.0 for a in range(4)] for j in range(4)])
         out = np.empty((pat.shape[0], 5))
         for i0 in range(0, pat.shape[0], 1 << 16):
             raw = pat[i0:i0 + (1 << 16)]
             c = np.abs(raw)
+            dx, dy = dxs[i0:i0 + raw.shape[0]], dys[i0:i0 + raw.shape[0]]
 
             def bound(p, q):
                 return np.einsum("nab,a,b->n", c, fall[p], fall[q]) / (dx ** p * dy ** q)
@@ -1314,6 +1387,10 @@ class SampledSurface(Surface):
         (x0, x1), (y0, y1) = self.domain
         need = math.ceil(16 * max(self.dx, self.dy) / self._shortest)
         per = max(1, min(4, need, int(math.sqrt(MAX_GRID / (self.x.size * self.y.size)))))
+        if self._knots is not None:  # (graded axes: per points in each cell, its steps the coarsest)
+            xs, ys = ((k[:-1, None] + np.diff(k)[:, None] * (np.arange(per) / per)).ravel() for k in self._knots)
+            X, Y = np.meshgrid(xs, ys, indexing="ij")
+            return np.stack([X, Y], -1), (self.dx / per, self.dy / per)
         n = [self.x.size * per, self.y.size * per]
         xs = np.linspace(x0, x1, n[0], endpoint=self.periodic is False)
         ys = np.linspace(y0, y1, n[1], endpoint=self.periodic is False)
@@ -1390,6 +1467,7 @@ class SampledSurface(Surface):
             f_x (1/m), shape (nx,); f_y (1/m), shape (ny // 2 + 1,); amplitudes (m), shape
             (nx, ny // 2 + 1).
         """
+        self._regular("The spectrum")
         H = np.fft.rfft2(self.h) / self.h.size
         amp = np.abs(H) * 2
         amp[0, 0] /= 2
@@ -1408,6 +1486,7 @@ class SampledSurface(Surface):
         SampledSurface
             The levelled map (m), on the same grid.
         """
+        self._regular("Levelling")
         X, Y = np.meshgrid(self.x - self.x[0], self.y - self.y[0], indexing="ij")
         basis = np.stack([np.ones(X.size), X.ravel(), Y.ravel()], -1)
         coef, *_ = np.linalg.lstsq(basis, self.h.ravel(), rcond=None)
@@ -1434,6 +1513,7 @@ class SampledSurface(Surface):
         ParameterError
             If the cut-off is not above the Nyquist period 2 max(dx, dy).
         """
+        self._regular("A lowpass")
         lc = positive("shortest_period", shortest_period, "m")
         nyq = 2 * max(self.dx, self.dy)
         if not lc > nyq:
@@ -1477,6 +1557,7 @@ class SampledSurface(Surface):
         ParameterError
             For a non-positive period or fewer than 4 samples per period.
         """
+        self._regular("Band-limiting")
         surf, h, (sx, sy) = _band_limited_samples(self, shortest_period, samples_per_period, (self.dx, self.dy))
         if h is None:
             return surf
@@ -1502,6 +1583,7 @@ class SampledSurface(Surface):
         ParameterError
             For a length factor not > 0 or a height factor not finite.
         """
+        self._regular("Scaling")
         from ._validation import finite
 
         lf = positive("length_factor", length_factor)
@@ -1529,6 +1611,7 @@ class SampledSurface(Surface):
         ParameterError
             If neither or both are given, or the row is out of range.
         """
+        self._regular("A line")
         if (y is None) == (row is None):
             raise ParameterError(f"y = {y!r}, row = {row!r} is not allowed: give exactly one of the two")
         if row is not None:
@@ -1711,9 +1794,12 @@ def _node_edges(g, periodic):
     return np.stack([gx[:-1], gx[1:]], -1), np.stack([gy[:, :-1], gy[:, 1:]], -1)
 
 
-def _twist(g, dx, dy, periodic):
+def _twist(g, dx, dy, periodic, knots=None):
     """d^2 h / dx dy at the nodes: the mean of the central differences of h_x along y and of h_y
-    along x (one-sided at a map's edges), shape (nx, ny)."""
+    along x (one-sided at a map's edges; on graded axes, ``knots``, the three-point difference
+    exact for quadratics), shape (nx, ny)."""
+    if knots is not None:
+        return 0.5 * (_periodic_difference(g[..., 0], knots[1], 1) + _periodic_difference(g[..., 1], knots[0], 0))
     if periodic:
         hxy = (np.roll(g[..., 0], -1, axis=1) - np.roll(g[..., 0], 1, axis=1)) / (2 * dy)
         hyx = (np.roll(g[..., 1], -1, axis=0) - np.roll(g[..., 1], 1, axis=0)) / (2 * dx)
@@ -1721,6 +1807,19 @@ def _twist(g, dx, dy, periodic):
         hxy = np.gradient(g[..., 0], dy, axis=1)
         hyx = np.gradient(g[..., 1], dx, axis=0)
     return 0.5 * (hxy + hyx)
+
+
+def _periodic_difference(f, knots, axis):
+    """df/du at the nodes of a periodic axis of n + 1 knots (the last the period's end), along
+    ``axis`` of f: (h-^2 f+ - h+^2 f- + (h+^2 - h-^2) f) / (h- h+ (h- + h+)), h- and h+ the
+    steps before and after (the derivative of the quadratic through the three nodes)."""
+    step = np.diff(knots)
+    hp, hm = step, np.roll(step, 1)
+    shape = [1] * f.ndim
+    shape[axis] = -1
+    hp, hm = hp.reshape(shape), hm.reshape(shape)
+    fp, fm = np.roll(f, -1, axis=axis), np.roll(f, 1, axis=axis)
+    return (hm * hm * fp - hp * hp * fm + (hp * hp - hm * hm) * f) / (hm * hp * (hm + hp))
 
 
 BRANCH_JUMP = 3

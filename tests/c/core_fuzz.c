@@ -83,17 +83,43 @@ static void patch_header(double *c, long nx, long ny, int periodic, int joins)
     c[5] = (double)ny;
     c[6] = periodic;
     c[7] = (double)joins;
+    c[HX_PATCH_AXES] = 0.0; /* uniform cells */
 }
 
 static double *patches(long nx, long ny, int periodic, long cells, long *rows, long *cols)
 {
-    long k = 8 + 16 * cells, i;
+    long k = HX_PATCH_DATA + 16 * cells, i;
     double *c = malloc(sizeof(double) * (size_t)k);
     patch_header(c, nx, ny, periodic, HX_JOINS_SPLINE);
-    for (i = 8; i < k; i++)
+    for (i = HX_PATCH_DATA; i < k; i++)
         c[i] = 1e-4 * (uniform() - 0.5);
     *rows = 1;
     *cols = k;
+    return c;
+}
+
+/* A Hermite map on graded axes (HX_PATCH_AXES): nx x ny random cells whose widths grow by 1.5
+ * a cell from 1 um; bad 1: a knot that does not increase; bad 2: the axes' column one off */
+static double *graded(long nx, long ny, int periodic, int bad, long *rows, long *cols)
+{
+    long body = HX_PATCH_DATA + 16 * nx * ny, i;
+    double *c, w;
+    *cols = body + nx + 1 + ny + 1;
+    *rows = 1;
+    c = malloc(sizeof(double) * (size_t)*cols);
+    patch_header(c, nx, ny, periodic, HX_JOINS_HERMITE);
+    c[HX_PATCH_AXES] = (double)(body + (bad == 2));
+    for (i = HX_PATCH_DATA; i < body; i++)
+        c[i] = 1e-4 * (uniform() - 0.5);
+    c[body] = c[body + nx + 1] = 0.0;
+    for (i = 0, w = 1e-6; i < nx; i++, w *= 1.5)
+        c[body + i + 1] = c[body + i] + w;
+    for (i = 0, w = 1e-6; i < ny; i++, w *= 1.5)
+        c[body + nx + 1 + i + 1] = c[body + nx + 1 + i] + w;
+    c[2] = c[body + nx] / (double)nx;
+    c[3] = c[body + nx + 1 + ny] / (double)ny;
+    if (bad == 1)
+        c[body + 3] = c[body + 2];
     return c;
 }
 
@@ -111,18 +137,18 @@ static double *branched(long nx, long ny, int periodic, int bad, long *rows, lon
             extra[k] = HX_MAX_BRANCHES;
         e += extra[k];
     }
-    *cols = 8 + 16 * n + n + 1 + 16 * e;
+    *cols = HX_PATCH_DATA + 16 * n + n + 1 + 16 * e;
     *rows = 1;
     c = malloc(sizeof(double) * (size_t)*cols);
     patch_header(c, nx, ny, periodic, HX_JOINS_BRANCHED);
-    for (i = 8; i < 8 + 16 * n; i++)
+    for (i = HX_PATCH_DATA; i < HX_PATCH_DATA + 16 * n; i++)
         c[i] = 1e-4 * (uniform() - 0.5);
-    c[8 + 16 * n] = 0.0;
+    c[HX_PATCH_DATA + 16 * n] = 0.0;
     for (k = 0; k < n; k++)
-        c[8 + 16 * n + k + 1] = c[8 + 16 * n + k] + (double)extra[k];
+        c[HX_PATCH_DATA + 16 * n + k + 1] = c[HX_PATCH_DATA + 16 * n + k] + (double)extra[k];
     if (bad == 1)
-        c[8 + 16 * n + 2] = c[8 + 16 * n + 1] - 1.0;
-    for (i = 8 + 16 * n + n + 1; i < *cols; i++)
+        c[HX_PATCH_DATA + 16 * n + 2] = c[HX_PATCH_DATA + 16 * n + 1] - 1.0;
+    for (i = HX_PATCH_DATA + 16 * n + n + 1; i < *cols; i++)
         c[i] = 1e-4 * (uniform() - 0.5);
     return c;
 }
@@ -374,7 +400,7 @@ int main(int argc, char **argv)
         printf("scale %d: give 1 to 100\n", scale);
         return 2;
     }
-    for (variant = 0; variant < 12; variant++) {
+    for (variant = 0; variant < 16; variant++) {
         long rows = 0, cols = 0;
         int kind, expect = HX_OK;
         double *c;
@@ -391,6 +417,10 @@ int main(int argc, char **argv)
         case 9: kind = HX_SURFACE_PATCHES; c = branched(7, 5, 0, 0, &rows, &cols); break;
         case 10: kind = HX_SURFACE_PATCHES; c = branched(7, 5, 0, 1, &rows, &cols); expect = HX_BAD_COEFFS; break;
         case 11: kind = HX_SURFACE_PATCHES; c = branched(7, 5, 0, 2, &rows, &cols); expect = HX_BAD_COEFFS; break;
+        case 12: kind = HX_SURFACE_PATCHES; c = graded(7, 5, 0, 0, &rows, &cols); break;
+        case 13: kind = HX_SURFACE_PATCHES; c = graded(6, 9, 1, 0, &rows, &cols); break;
+        case 14: kind = HX_SURFACE_PATCHES; c = graded(7, 5, 0, 1, &rows, &cols); expect = HX_BAD_COEFFS; break;
+        case 15: kind = HX_SURFACE_PATCHES; c = graded(7, 5, 0, 2, &rows, &cols); expect = HX_BAD_COEFFS; break;
         default: kind = HX_TEXTURE_FLAT; c = NULL; break;
         }
         m.tex.kind = kind;

@@ -137,9 +137,13 @@ enum {
  * evaluation pairs at most, is then 9,320 where it was 3,440). No Taylor model holds on a
  * branched cell. */
 enum { HX_JOINS_SPLINE = 0, HX_JOINS_HERMITE = 1, HX_JOINS_BRANCHED = 2, HX_MAX_BRANCHES = 12 };
+/* HX_PATCH_AXES: 0 where the cells are uniform (HX_PATCH_DX by HX_PATCH_DY); else graded axes
+ * (rectilinear cells of their own widths), the column where the tail's nx + 1 x knots and then
+ * ny + 1 y knots start, increasing, the first at X0 (Y0); the cells' coefficients are in each
+ * cell's own local coordinates as on a uniform map, and DX, DY are the cells' mean widths. */
 enum {
     HX_PATCH_X0, HX_PATCH_Y0, HX_PATCH_DX, HX_PATCH_DY, HX_PATCH_NX, HX_PATCH_NY, HX_PATCH_PERIODIC, HX_PATCH_JOINS,
-    HX_PATCH_DATA = 8
+    HX_PATCH_AXES, HX_PATCH_DATA = 9
 };
 
 typedef struct {

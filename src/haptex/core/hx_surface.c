@@ -38,8 +38,8 @@ typedef struct {
     const double *g; /* aux: HX_G_* */
     double px, py, pz;
     pyramid_t pyr;
-    const double *branch; /* NULL; else h is this one patch of a branched cell, origin (bx0, by0) */
-    double bx0, by0;
+    const double *branch; /* NULL; else h is this one patch of a branched cell, origin (bx0, by0), widths bw, bh */
+    double bx0, by0, bw, bh;
 } sproblem;
 
 static long blocks(long n, long k) { return (n + (1L << k) - 1) >> k; }
@@ -69,14 +69,14 @@ static void pyramid_init(sproblem *q)
     P->levels = l;
 }
 
-/* the patch indices [*a, *b] the interval [lo, hi] meets along an axis (origin o, step d, n
+/* the patch indices [*a, *b] the interval [lo, hi] meets along the axis ax of the map hd (n
  * patches): wrapped later if periodic (0 when it covers them all), else clamped; 0 if none. An
  * end within 1e-12 of a sample interval of a patch boundary is taken at it: the bound misses at
  * most slope 1e-12 d of height there, far below the search's tolerance G_TIE = 1e-9 of the
  * shortest wavelength (> 2 d). */
-static int patch_span(double lo, double hi, double o, double d, long n, int periodic, long *a, long *b)
+static int patch_span(double lo, double hi, const double *hd, int ax, long n, int periodic, long *a, long *b)
 {
-    double f0 = (lo - o) / d + 1e-12, f1 = (hi - o) / d - 1e-12;
+    double f0 = patch_cells(hd, ax, lo) + 1e-12, f1 = patch_cells(hd, ax, hi) - 1e-12;
     if (!(f0 > -1e15 && f1 < 1e15))
         return 0;
     *a = (long)floor(f0);
@@ -101,8 +101,8 @@ static int pyramid_bounds(const sproblem *q, double cx, double cy, double wx, do
     const double *c = q->tex->c;
     long ia, ib, ja, jb, l, k, nby, i, j;
     if (P->levels == 0 ||
-        !patch_span(cx - wx, cx + wx, c[HX_PATCH_X0], c[HX_PATCH_DX], P->nx, P->periodic, &ia, &ib) ||
-        !patch_span(cy - wy, cy + wy, c[HX_PATCH_Y0], c[HX_PATCH_DY], P->ny, P->periodic, &ja, &jb))
+        !patch_span(cx - wx, cx + wx, c, 0, P->nx, P->periodic, &ia, &ib) ||
+        !patch_span(cy - wy, cy + wy, c, 1, P->ny, P->periodic, &ja, &jb))
         return 0;
     for (l = 0; l < P->levels; l++) {
         k = P->shift + l;
@@ -133,20 +133,19 @@ static int pyramid_bounds(const sproblem *q, double cx, double cy, double wx, do
     return 1;
 }
 
-/* h's derivatives at (x, y) on the patch c of the cell whose origin is (ox, oy) (the patch's
- * polynomial, wherever (x, y) lies) */
-static void branch_at(const sproblem *q, const double *c, double ox, double oy, double x, double y, hx_height *e)
+/* h's derivatives at (x, y) on the patch c of the cell whose origin is (ox, oy) and widths w, v
+ * (the patch's polynomial, wherever (x, y) lies) */
+static void branch_at(const double *c, double ox, double oy, double w, double v, double x, double y, hx_height *e)
 {
-    const double *hd = q->tex->c;
     double D[4][4];
-    patch_poly(c, (x - ox) / hd[HX_PATCH_DX], (y - oy) / hd[HX_PATCH_DY], hd[HX_PATCH_DX], hd[HX_PATCH_DY], 2, D);
+    patch_poly(c, (x - ox) / w, (y - oy) / v, w, v, 2, D);
     patch_height(D, e);
 }
 
 static void surf(const sproblem *q, double x, double y, hx_height *e)
 {
     if (q->branch != NULL)
-        branch_at(q, q->branch, q->bx0, q->by0, x, y, e);
+        branch_at(q->branch, q->bx0, q->by0, q->bw, q->bh, x, y, e);
     else
         hx__texture_eval(q->tex, x, y, e);
 }
@@ -167,8 +166,8 @@ static void map_box(const hx_texture *t, double b[4])
 {
     b[0] = t->c[0];
     b[1] = t->c[1];
-    b[2] = b[0] + t->c[4] * t->c[2];
-    b[3] = b[1] + t->c[5] * t->c[3];
+    b[2] = patch_at(t->c, 0, t->c[HX_PATCH_NX]);
+    b[3] = patch_at(t->c, 1, t->c[HX_PATCH_NY]);
 }
 
 /* how far the rectangle [cx -+ wx] x [cy -+ wy] reaches beyond the map's box b (0 inside) */
@@ -219,16 +218,16 @@ static double model_margin(const sproblem *q, double cx, double cy)
  * whose slopes jump there): its Taylor model holds on a cell within one patch, not across */
 static int joined(const sproblem *q) { return q->tex->kind == HX_SURFACE_PATCHES && q->tex->c[HX_PATCH_JOINS] != 0.0; }
 
-/* the patch line (o + m d, m an integer; the patch grid continued beyond a map's edges) strictly
- * inside [lo, hi] nearest its middle, NAN where [lo, hi] lies within one patch (its ends within
- * 1e-12 of a step of a line taken at it, as patch_span) */
-static double patch_line(double lo, double hi, double o, double d)
+/* the patch line along axis ax of the map hd (the patch grid continued beyond a map's edges)
+ * strictly inside [lo, hi] nearest its middle in cells, NAN where [lo, hi] lies within one patch
+ * (its ends within 1e-12 of a cell of a line taken at it, as patch_span) */
+static double patch_line(double lo, double hi, const double *hd, int ax)
 {
-    double f0 = (lo - o) / d + 1e-12, f1 = (hi - o) / d - 1e-12, m;
+    double f0 = patch_cells(hd, ax, lo) + 1e-12, f1 = patch_cells(hd, ax, hi) - 1e-12, m;
     if (!(f0 > -1e15 && f1 < 1e15) || floor(f0) + 1.0 >= f1)
         return NAN;
     m = fmin(fmax(floor(0.5 * (f0 + f1) + 0.5), floor(f0) + 1.0), ceil(f1) - 1.0);
-    return o + m * d;
+    return patch_at(hd, ax, m);
 }
 
 /* whether the patch holding (x, y) (clamped to the map, wrapped if periodic) is a branched
@@ -237,13 +236,13 @@ static int branched_at(const sproblem *q, double x, double y)
 {
     const double *hd = q->tex->c, *pp[HX_MAX_BRANCHES];
     long i, j;
-    double s, t, cx, cy;
+    double s, t, cx, cy, w, v;
     int clamped;
     if (q->tex->kind != HX_SURFACE_PATCHES || hd[HX_PATCH_JOINS] != (double)HX_JOINS_BRANCHED)
         return 0;
     if (!(isfinite(x) && isfinite(y)))
         return 1;
-    patch_locate(hd, x, y, &i, &j, &s, &t, &cx, &cy, &clamped);
+    patch_locate(hd, x, y, &i, &j, &s, &t, &cx, &cy, &clamped, &w, &v);
     return cell_branches(hd, (long)hd[HX_PATCH_NX], (long)hd[HX_PATCH_NY], i, j, pp) > 1;
 }
 
@@ -251,8 +250,7 @@ static int branched_at(const sproblem *q, double x, double y)
 static int one_patch(const sproblem *q, double cx, double cy, double wx, double wy)
 {
     const double *hd = q->tex->c;
-    return isnan(patch_line(cx - wx, cx + wx, hd[HX_PATCH_X0], hd[HX_PATCH_DX])) &&
-           isnan(patch_line(cy - wy, cy + wy, hd[HX_PATCH_Y0], hd[HX_PATCH_DY]));
+    return isnan(patch_line(cx - wx, cx + wx, hd, 0)) && isnan(patch_line(cy - wy, cy + wy, hd, 1));
 }
 
 /* whether the Taylor model may hold on the cell [cx -+ wx] x [cy -+ wy]: within one patch of a
@@ -269,16 +267,18 @@ static int within_patch(const sproblem *q, double cx, double cy, double wx, doub
 static double patch_room(const sproblem *q, double x, double y)
 {
     const double *hd = q->tex->c;
-    double u, v;
+    double u, v, iu, iv;
     if (!joined(q))
         return HUGE_VAL;
     if (branched_at(q, x, y))
         return 0.0;
-    u = (x - hd[HX_PATCH_X0]) / hd[HX_PATCH_DX];
-    v = (y - hd[HX_PATCH_Y0]) / hd[HX_PATCH_DY];
-    u -= floor(u);
-    v -= floor(v);
-    return fmin(fmin(u, 1.0 - u) * hd[HX_PATCH_DX], fmin(v, 1.0 - v) * hd[HX_PATCH_DY]);
+    u = patch_cells(hd, 0, x);
+    v = patch_cells(hd, 1, y);
+    iu = floor(u);
+    iv = floor(v);
+    u -= iu;
+    v -= iv;
+    return fmin(fmin(u, 1.0 - u) * patch_width(hd, 0, (long)iu), fmin(v, 1.0 - v) * patch_width(hd, 1, (long)iv));
 }
 
 /* The half-width of the square around the probe that holds every point closer than d: a
@@ -831,18 +831,20 @@ static void offer_map_point(const sproblem *q, best_t *b, double tx, double ty, 
 static long branched_piece(const sproblem *q, double x0, double x1, double y0, double y1, best_t *b, double sep)
 {
     const double *hd = q->tex->c, *pp[HX_MAX_BRANCHES];
-    double dx = hd[HX_PATCH_DX], dy = hd[HX_PATCH_DY], s, t, cx, cy, ox, oy, pts[HX_MAX_BRANCHES][2];
+    double dx, dy, s, t, cx, cy, ox, oy, pts[HX_MAX_BRANCHES][2];
     double mx = 0.5 * (x0 + x1), my = 0.5 * (y0 + y1), room = fmin(x1 - x0, y1 - y0);
     long i, j, work = 0;
     int clamped, n, a, c, d, k, it;
     sproblem one = *q;
-    patch_locate(hd, mx, my, &i, &j, &s, &t, &cx, &cy, &clamped);
+    patch_locate(hd, mx, my, &i, &j, &s, &t, &cx, &cy, &clamped, &dx, &dy);
     n = cell_branches(hd, (long)hd[HX_PATCH_NX], (long)hd[HX_PATCH_NY], i, j, pp);
     ox = mx - s * dx; /* the cell's origin in the piece's own period */
     oy = my - t * dy;
     one.branch = NULL;
     one.bx0 = ox;
     one.by0 = oy;
+    one.bw = dx;
+    one.bh = dy;
     for (a = 0; a < n; a++) {
         double bf = HUGE_VAL;
         one.branch = pp[a];
@@ -865,8 +867,8 @@ static long branched_piece(const sproblem *q, double x0, double x1, double y0, d
                 for (it = 0; it < 30; it++) {
                     hx_height ea, ec;
                     double dz, g, nx_, ny_, g0, g1, A, B, C, lam, mu, det, h0, h1, u0, u1, nn, ng, step_x, step_y;
-                    branch_at(q, pp[a], ox, oy, tx, ty, &ea);
-                    branch_at(q, pp[c], ox, oy, tx, ty, &ec);
+                    branch_at(pp[a], ox, oy, dx, dy, tx, ty, &ea);
+                    branch_at(pp[c], ox, oy, dx, dy, tx, ty, &ec);
                     work += 2;
                     dz = ea.h - q->pz;
                     g = ea.h - ec.h;
@@ -917,9 +919,9 @@ static long branched_piece(const sproblem *q, double x0, double x1, double y0, d
                 for (it = 0; it < 20; it++) {
                     hx_height ea, ec, ed;
                     double r0, r1, j00, j01, j10, j11, det, sx, sy, nxt, nyt;
-                    branch_at(q, pp[a], ox, oy, tx, ty, &ea);
-                    branch_at(q, pp[c], ox, oy, tx, ty, &ec);
-                    branch_at(q, pp[d], ox, oy, tx, ty, &ed);
+                    branch_at(pp[a], ox, oy, dx, dy, tx, ty, &ea);
+                    branch_at(pp[c], ox, oy, dx, dy, tx, ty, &ec);
+                    branch_at(pp[d], ox, oy, dx, dy, tx, ty, &ed);
                     work += 3;
                     r0 = ea.h - ec.h;
                     r1 = ea.h - ed.h;
@@ -1005,8 +1007,8 @@ static int split_at_edges(const sproblem *q, double cx, double cy, double wx, do
     }
     if (nx == 1 && ny == 1 && joined(q)) { /* then a joined map's patch lines, nearest the middle */
         const double *hd = q->tex->c;
-        double lx = patch_line(cx - wx, cx + wx, hd[HX_PATCH_X0], hd[HX_PATCH_DX]);
-        double ly = patch_line(cy - wy, cy + wy, hd[HX_PATCH_Y0], hd[HX_PATCH_DY]);
+        double lx = patch_line(cx - wx, cx + wx, hd, 0);
+        double ly = patch_line(cy - wy, cy + wy, hd, 1);
         nx = cut_at(cx - wx, cx + wx, lx, NAN, xs);
         ny = cut_at(cy - wy, cy + wy, ly, NAN, ys);
     }
@@ -1085,6 +1087,7 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
     q.pyr.periodic = 0;
     q.branch = NULL;
     q.bx0 = q.by0 = 0.0;
+    q.bw = q.bh = 1.0;
     surf(&q, px, py, &e0);
     dv = e0.h - pz;
     out.t = px;

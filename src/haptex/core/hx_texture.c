@@ -12,7 +12,7 @@
  *                        linear extension of a non-periodic profile.
  *   HX_SURFACE_GRATINGS  4 x n: amplitudes (m), kx, ky (rad/m), phases (rad);
  *                        h(x, y) = sum a_i sin(kx_i x + ky_i y + phase_i).
- *   HX_SURFACE_PATCHES   1 x (8 + 16 nx ny): header [x0, y0, dx, dy, nx, ny, periodic, joins],
+ *   HX_SURFACE_PATCHES   1 x (9 + 16 nx ny): header [x0, y0, dx, dy, nx, ny, periodic, joins, axes],
  *                        then per cell (i along x, row-major: cell (i, j) at 16 (i ny + j))
  *                        the coefficients c[a][b] of s^a t^b, s, t in [0, 1] the cell's
  *                        local coordinates. Outside a non-periodic map, the tangent-plane
@@ -20,7 +20,9 @@
  *                        joins (HX_PATCH_JOINS): 0 for a C^2 spline, 1 for patches joined only
  *                        continuously across their lines (a Hermite map, a felt map's kinks),
  *                        2 as 1 with branched cells: then nx ny + 1 starts and the extra
- *                        patches follow (hx_core.h, HX_JOINS_BRANCHED).
+ *                        patches follow (hx_core.h, HX_JOINS_BRANCHED). axes
+ *                        (HX_PATCH_AXES): 0 for uniform cells dx by dy; for graded axes the
+ *                        column where nx + 1 x knots and ny + 1 y knots follow all that.
  */
 #include "hx_core.h"
 #include "hx_texture_eval.h"
@@ -59,7 +61,8 @@ int hx_texture_check(int kind, const double *c, long rows, long cols)
         return HX_OK;
     }
     case HX_SURFACE_PATCHES: {
-        double nx, ny;
+        double nx, ny, body;
+        int a;
         if (rows != 1 || cols < HX_PATCH_DATA)
             return HX_BAD_COEFFS;
         nx = c[HX_PATCH_NX];
@@ -70,24 +73,33 @@ int hx_texture_check(int kind, const double *c, long rows, long cols)
         for (i = 0; i < HX_PATCH_DATA; i++)
             if (!isfinite(c[i]))
                 return HX_BAD_COEFFS;
+        body = 16.0 * nx * ny; /* the columns after the header but a graded map's knots */
         if (c[HX_PATCH_JOINS] == (double)HX_JOINS_BRANCHED) { /* the starts: 0, nondecreasing, E at the end */
             const double *st = c + HX_PATCH_DATA + 16 * (long)nx * (long)ny;
             long n = (long)nx * (long)ny, k;
-            double e;
             if ((double)(cols - HX_PATCH_DATA) < 16.0 * nx * ny + nx * ny + 1.0 || st[0] != 0.0)
                 return HX_BAD_COEFFS;
             for (k = 0; k < n; k++)
                 if (!(st[k + 1] >= st[k] && st[k + 1] - st[k] <= HX_MAX_BRANCHES - 1 && st[k + 1] == floor(st[k + 1])))
                     return HX_BAD_COEFFS;
-            e = st[n];
-            if ((double)(cols - HX_PATCH_DATA) != 16.0 * nx * ny + nx * ny + 1.0 + 16.0 * e)
-                return HX_BAD_COEFFS;
-            return HX_OK;
+            body += nx * ny + 1.0 + 16.0 * st[n];
+        } else if (c[HX_PATCH_JOINS] != (double)HX_JOINS_SPLINE && c[HX_PATCH_JOINS] != (double)HX_JOINS_HERMITE) {
+            return HX_BAD_COEFFS;
         }
-        if ((double)(cols - HX_PATCH_DATA) != 16.0 * nx * ny)
+        if (c[HX_PATCH_AXES] == 0.0)
+            return (double)(cols - HX_PATCH_DATA) == body ? HX_OK : HX_BAD_COEFFS;
+        /* graded axes: the knots right after the body, each axis's increasing from its origin */
+        if (c[HX_PATCH_AXES] != (double)HX_PATCH_DATA + body || (double)cols != c[HX_PATCH_AXES] + nx + ny + 2.0)
             return HX_BAD_COEFFS;
-        if (c[HX_PATCH_JOINS] != (double)HX_JOINS_SPLINE && c[HX_PATCH_JOINS] != (double)HX_JOINS_HERMITE)
-            return HX_BAD_COEFFS;
+        for (a = 0; a < 2; a++) {
+            const double *kn = c + (long)c[HX_PATCH_AXES] + (a == 0 ? 0 : (long)nx + 1);
+            long n = (long)(a == 0 ? nx : ny), k;
+            if (kn[0] != c[HX_PATCH_X0 + a])
+                return HX_BAD_COEFFS;
+            for (k = 0; k < n; k++)
+                if (!(kn[k + 1] > kn[k]) || !isfinite(kn[k + 1]))
+                    return HX_BAD_COEFFS;
+        }
         return HX_OK;
     }
     default:

@@ -175,13 +175,99 @@ HX_INLINE int cell_branches(const double *hd, long nx, long ny, long i, long j, 
     return n;
 }
 
+/* A patch map's axis a (0: x, 1: y): its n + 1 knots where graded (HX_PATCH_AXES), else NULL */
+HX_INLINE const double *patch_knots(const double *hd, int a)
+{
+    long off = (long)hd[HX_PATCH_AXES];
+    return off > 0 ? hd + off + (a == 0 ? 0 : (long)hd[HX_PATCH_NX] + 1) : NULL;
+}
+
+/* The width of cell k along axis a (k wrapped if the map is periodic, else clamped to it) */
+HX_INLINE double patch_width(const double *hd, int a, long k)
+{
+    const double *kn = patch_knots(hd, a);
+    long n = (long)hd[HX_PATCH_NX + a];
+    if (kn == NULL)
+        return hd[HX_PATCH_DX + a];
+    if (hd[HX_PATCH_PERIODIC] != 0.0)
+        k = ((k % n) + n) % n;
+    else
+        k = k < 0 ? 0 : (k > n - 1 ? n - 1 : k);
+    return kn[k + 1] - kn[k];
+}
+
+/* A position x along axis a in cells: f with floor(f) its cell, counted on through a periodic
+ * map's periods (n cells each) and beyond a map's edges (at the edge cells' widths), and
+ * f - floor(f) its local coordinate in that cell; (x - origin) / step on a uniform axis. A
+ * graded axis's cell is found by bisection of its knots: at most log2(n) + 1 steps. */
+HX_INLINE double patch_cells(const double *hd, int a, double x)
+{
+    const double *kn = patch_knots(hd, a);
+    long n = (long)hd[HX_PATCH_NX + a], lo = 0, hi, per = 0;
+    double r, len;
+    if (kn == NULL)
+        return (x - hd[HX_PATCH_X0 + a]) / hd[HX_PATCH_DX + a];
+    r = x - kn[0];
+    len = kn[n] - kn[0];
+    if (!isfinite(r))
+        return r;
+    if (hd[HX_PATCH_PERIODIC] != 0.0) {
+        double p = floor(r / len);
+        if (!(fabs(p) < 1e15))
+            return r / len * (double)n;
+        r -= p * len;
+        per = (long)p;
+        if (r >= len) { /* (round-off) */
+            r -= len;
+            per++;
+        }
+        if (r < 0.0)
+            r = 0.0;
+    } else if (r < 0.0) {
+        return r / (kn[1] - kn[0]);
+    } else if (r >= len) {
+        return (double)n + (r - len) / (kn[n] - kn[n - 1]);
+    }
+    hi = n;
+    while (hi - lo > 1) { /* kn[lo] - kn[0] <= r < kn[hi] - kn[0] */
+        long mid = (lo + hi) / 2;
+        if (kn[mid] - kn[0] <= r)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    return (double)per * (double)n + (double)lo + (r - (kn[lo] - kn[0])) / (kn[lo + 1] - kn[lo]);
+}
+
+/* The position of f cells along axis a (patch_cells' inverse) */
+HX_INLINE double patch_at(const double *hd, int a, double f)
+{
+    const double *kn = patch_knots(hd, a);
+    long n = (long)hd[HX_PATCH_NX + a], k;
+    double p = 0.0;
+    if (kn == NULL)
+        return hd[HX_PATCH_X0 + a] + f * hd[HX_PATCH_DX + a];
+    if (!isfinite(f))
+        return f;
+    if (hd[HX_PATCH_PERIODIC] != 0.0) {
+        p = floor(f / (double)n);
+        f -= p * (double)n;
+    } else if (f < 0.0) {
+        return kn[0] + f * (kn[1] - kn[0]);
+    } else if (f > (double)n) {
+        return kn[n] + (f - (double)n) * (kn[n] - kn[n - 1]);
+    }
+    k = cell_of(f, n);
+    return kn[k] + p * (kn[n] - kn[0]) + (f - (double)k) * (kn[k + 1] - kn[k]);
+}
+
 /* The cell holding the map's point (x, y) (wrapped if periodic, else clamped to the map: then
- * *cx, *cy the clamped point) and the local coordinates in it */
+ * *cx, *cy the clamped point), the local coordinates in it and its widths (*wx, *wy) */
 HX_INLINE void patch_locate(const double *hd, double x, double y, long *i, long *j, double *s, double *tt, double *cx,
-                            double *cy, int *clamped)
+                            double *cy, int *clamped, double *wx, double *wy)
 {
     long nx = (long)hd[HX_PATCH_NX], ny = (long)hd[HX_PATCH_NY];
-    double u = (x - hd[HX_PATCH_X0]) / hd[HX_PATCH_DX], v = (y - hd[HX_PATCH_Y0]) / hd[HX_PATCH_DY];
+    double u = patch_cells(hd, 0, x), v = patch_cells(hd, 1, y);
     *cx = x;
     *cy = y;
     *clamped = 0;
@@ -191,12 +277,12 @@ HX_INLINE void patch_locate(const double *hd, double x, double y, long *i, long 
     } else {
         if (!(u >= 0.0 && u <= (double)nx)) {
             u = u < 0.0 ? 0.0 : (double)nx;
-            *cx = hd[HX_PATCH_X0] + u * hd[HX_PATCH_DX];
+            *cx = patch_at(hd, 0, u);
             *clamped = 1;
         }
         if (!(v >= 0.0 && v <= (double)ny)) {
             v = v < 0.0 ? 0.0 : (double)ny;
-            *cy = hd[HX_PATCH_Y0] + v * hd[HX_PATCH_DY];
+            *cy = patch_at(hd, 1, v);
             *clamped = 1;
         }
     }
@@ -204,6 +290,8 @@ HX_INLINE void patch_locate(const double *hd, double x, double y, long *i, long 
     *j = cell_of(v, ny);
     *s = u - (double)*i;
     *tt = v - (double)*j;
+    *wx = patch_width(hd, 0, *i);
+    *wy = patch_width(hd, 1, *j);
 }
 
 /* The derivatives D[p][q] = d^(p+q) h / dx^p dy^q of the bicubic patch holding (x, y) clamped to
@@ -216,9 +304,9 @@ HX_INLINE void patch_derivs(const hx_texture *t, double x, double y, double D[4]
 {
     const double *hd = t->c, *pp[HX_MAX_BRANCHES], *c;
     long nx = (long)hd[HX_PATCH_NX], ny = (long)hd[HX_PATCH_NY], i, j;
-    double s, tt;
+    double s, tt, wx, wy;
     int clamped, n, k;
-    patch_locate(hd, x, y, &i, &j, &s, &tt, cx, cy, &clamped);
+    patch_locate(hd, x, y, &i, &j, &s, &tt, cx, cy, &clamped, &wx, &wy);
     if (clamped)
         order = 6;
     n = cell_branches(hd, nx, ny, i, j, pp);
@@ -234,7 +322,7 @@ HX_INLINE void patch_derivs(const hx_texture *t, double x, double y, double D[4]
             }
         }
     }
-    patch_poly(c, s, tt, hd[HX_PATCH_DX], hd[HX_PATCH_DY], order, D);
+    patch_poly(c, s, tt, wx, wy, order, D);
 }
 
 HX_INLINE void patches_eval(const hx_texture *t, double x, double y, hx_height *o)
