@@ -731,12 +731,20 @@ def test_closest_point_on_a_graded_map_agrees_with_brute_force():
     assert np.all(cp.distance <= ref + 1e-9), np.max(cp.distance - ref)
 
 
-def test_a_graded_map_refuses_what_needs_a_regular_grid_and_bad_knots():
+def test_a_graded_map_is_sampled_regularly_where_a_grid_must_be_regular_and_refuses_bad_knots():
+    # what needs a regular grid (the FFT's spectrum, lowpass, band-limiting, a line) acts on the
+    # map's own heights at as many points a side at its cells' mean widths: by definition its
+    # line along a row is the map's height there (the C core's evaluation, itself checked
+    # against scipy above), its spectrum's frequencies numpy's fftfreq at that spacing
     kx, ky, h, g = _graded_map()
     s = hx.SampledSurface(kx[:-1], ky[:-1], h, periodic=True, gradients=g, knots=(kx, ky))
-    for call in (s.spectrum, s.leveled, lambda: s.lowpass(0.5e-3), lambda: s.scaled(2.0), lambda: s.line(row=0)):
-        with pytest.raises(hx.ParameterError, match="of a map on graded axes is not allowed: it needs a regular grid"):
-            call()
+    xr = kx[0] + np.arange(kx.size - 1) * (L / (kx.size - 1))
+    prof = s.line(row=3)
+    y3 = ky[0] + 3 * L / (ky.size - 1)
+    np.testing.assert_allclose(prof.h, s.height_at(np.column_stack([xr, np.full(xr.size, y3)])), rtol=0, atol=1e-18)
+    np.testing.assert_allclose(s.spectrum()[0], np.fft.fftfreq(kx.size - 1, L / (kx.size - 1)), rtol=1e-12)
+    low = s.lowpass(0.5e-3)
+    assert low.x.size == kx.size - 1 and low.shortest_period == 0.5e-3
     with pytest.raises(hx.ParameterError, match=r"knots = 'given for a map without gradients or not periodic'"):
         hx.SampledSurface(kx[:-1], ky[:-1], h, periodic=True, knots=(kx, ky))
     with pytest.raises(hx.ParameterError, match=rf"knots\[0\] = 'an axis of {kx.size - 1} knots' is not allowed: must "

@@ -116,7 +116,7 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
                 "kinks": [dict(zip(names, map(float, k))) for k in kinks[:100]],
                 "kink_count": int(len(kinks)), "branched_cells": int(getattr(tex, "branched_cells", 0)),
                 "single_patch_cells": _single_patch_cells(tex)}
-        for key in ("curvature_miss", "convex_miss"):
+        for key in ("curvature_miss", "peak_miss", "convex_miss"):
             miss = getattr(tex, key, None)
             felt[key] = None if miss is None else float(miss)
         ends = np.asarray(getattr(tex, "crease_ends", np.zeros((0, 2))))
