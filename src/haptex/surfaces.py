@@ -1054,7 +1054,8 @@ class SampledSurface(Surface):
         Returns
         -------
         tuple of (int, numpy.ndarray)
-            ``SURFACE_PATCHES`` and the patches, shape (1, 8 + 16 n_cells).
+            ``SURFACE_PATCHES`` and the patches, shape (1, 9 + 16 n_cells) (and more: see
+            :meth:`patches`).
         """
         return _ext.SURFACE_PATCHES, self.patches()
 
@@ -1084,18 +1085,20 @@ class SampledSurface(Surface):
 
     def patches(self) -> np.ndarray:
         """The map as bicubic patches for the C core (``haptex.core._ext.SURFACE_PATCHES``):
-        shape (1, 8 + 16 n_cells), the header PATCH_* and per cell the coefficients c[a, b] of
+        shape (1, 9 + 16 n_cells), the header PATCH_* and per cell the coefficients c[a, b] of
         s^a t^b in the cell's local coordinates s, t in [0, 1]: a spline map's from its values
         at 4 x 4 points of each cell (a bicubic is fixed by 16 values), a Hermite map's from its
         corners' heights, slopes and twists. A felt map whose contact jumps inside some cells
         (``PATCH_JOINS`` = ``JOINS_BRANCHED``) is followed by n_cells + 1 starts and its cells'
-        extra patches (``hx_core.h``): the height there is the highest patch's. Cached.
+        extra patches (``hx_core.h``): the height there is the highest patch's. A map on graded
+        axes (``knots``) ends with its nx + 1 and ny + 1 knots, their column in ``PATCH_AXES``
+        (0 on uniform cells, ``PATCH_DX`` by ``PATCH_DY``). Cached.
 
         Returns
         -------
-        numpy.ndarray, shape (1, 8 + 16 n_cells) or (1, 8 + 17 n_cells + 1 + 16 n_extra)
+        numpy.ndarray, shape (1, 9 + 16 n_cells) or (1, 9 + 17 n_cells + 1 + 16 n_extra)
             The header and each cell's 16 coefficients (m), then a branched map's starts and
-            extra patches.
+            extra patches, then a graded map's knots (nx + ny + 2 more).
 
         Raises
         ------
@@ -2527,11 +2530,10 @@ def _graded_refined(texture, felt, m, r):
     surface the ball cannot bridge: cells up to GRADED_BASE times the uniform grid's step, there
     as much finer than it as its miss says (the h^2 law: to REFINE_AIM CURVATURE_SLACK / 2) and
     halved up to GRADED_TRIES times while the largest curvature's miss (``peak``) passes
-    CURVATURE_SLACK,
-    within CURVATURE_REFINE_SAMPLES nodes; its nodes' contacts from the uniform map's gradients
-    refined on the surface (:func:`_smooth_contacts`), its heights, gradients and twists the
-    path's own (:func:`_felt_on`). The :func:`_felt_misses` dict of the one whose largest
-    curvature missed least, None where no graded grid is within the cap."""
+    CURVATURE_SLACK, within CURVATURE_REFINE_SAMPLES nodes; its nodes' contacts from the uniform
+    map's gradients refined on the surface (:func:`_smooth_contacts`), its heights, gradients
+    and twists the path's own (:func:`_felt_on`). The :func:`_felt_misses` dict of the one whose
+    largest curvature missed least, None where no graded grid is within the cap."""
     cur = m["map"]
     shrink = min(0.5, math.sqrt(0.5 * REFINE_AIM * CURVATURE_SLACK / max(m["curved"], 1e-300)))
     best = None

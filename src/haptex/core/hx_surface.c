@@ -278,7 +278,7 @@ static double patch_room(const sproblem *q, double x, double y)
     iv = floor(v);
     u -= iu;
     v -= iv;
-    return fmin(fmin(u, 1.0 - u) * patch_width(hd, 0, (long)iu), fmin(v, 1.0 - v) * patch_width(hd, 1, (long)iv));
+    return fmin(fmin(u, 1.0 - u) * patch_width(hd, 0, iu), fmin(v, 1.0 - v) * patch_width(hd, 1, iv));
 }
 
 /* The half-width of the square around the probe that holds every point closer than d: a

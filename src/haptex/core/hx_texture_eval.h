@@ -182,18 +182,18 @@ HX_INLINE const double *patch_knots(const double *hd, int a)
     return off > 0 ? hd + off + (a == 0 ? 0 : (long)hd[HX_PATCH_NX] + 1) : NULL;
 }
 
-/* The width of cell k along axis a (k wrapped if the map is periodic, else clamped to it) */
-HX_INLINE double patch_width(const double *hd, int a, long k)
+/* The width of cell k along axis a (k a whole number of cells, as patch_cells counts them:
+ * wrapped if the map is periodic, else clamped to it) */
+HX_INLINE double patch_width(const double *hd, int a, double k)
 {
     const double *kn = patch_knots(hd, a);
-    long n = (long)hd[HX_PATCH_NX + a];
+    long n = (long)hd[HX_PATCH_NX + a], i;
     if (kn == NULL)
         return hd[HX_PATCH_DX + a];
     if (hd[HX_PATCH_PERIODIC] != 0.0)
-        k = ((k % n) + n) % n;
-    else
-        k = k < 0 ? 0 : (k > n - 1 ? n - 1 : k);
-    return kn[k + 1] - kn[k];
+        k -= (double)n * floor(k / (double)n);
+    i = cell_of(k, n); /* (never an out-of-range cast, NaN included) */
+    return kn[i + 1] - kn[i];
 }
 
 /* A position x along axis a in cells: f with floor(f) its cell, counted on through a periodic
@@ -290,8 +290,8 @@ HX_INLINE void patch_locate(const double *hd, double x, double y, long *i, long 
     *j = cell_of(v, ny);
     *s = u - (double)*i;
     *tt = v - (double)*j;
-    *wx = patch_width(hd, 0, *i);
-    *wy = patch_width(hd, 1, *j);
+    *wx = patch_width(hd, 0, (double)*i);
+    *wy = patch_width(hd, 1, (double)*j);
 }
 
 /* The derivatives D[p][q] = d^(p+q) h / dx^p dy^q of the bicubic patch holding (x, y) clamped to
