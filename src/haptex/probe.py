@@ -225,6 +225,8 @@ def reliability_cutoff(texture, instrument_tip: float) -> float | None:
     from SurfaceTopography import Topography, UniformLineScan
 
     r = positive("instrument_tip", instrument_tip, "m")
+    if getattr(texture, "_knots", None) is not None:  # (a map on graded axes: at its cells' mean widths)
+        texture = texture._regular()
     h = getattr(texture, "h", None)  # a measured texture's heights on its grid
     if h is not None and h.ndim == 1:
         dx = float(texture.x[1] - texture.x[0])

@@ -819,8 +819,9 @@ class SampledSurface(Surface):
         uniform: fine where the map curves sharply, coarse elsewhere. The C core finds a point's
         cell by bisection of the knots (at most log2 n + 1 steps an axis). Transformations that
         need a regular grid (:meth:`spectrum`, :meth:`lowpass`, :meth:`band_limited`,
-        :meth:`scaled`, :meth:`leveled`, :meth:`line`) act on the map sampled at as many points
-        a side at its cells' mean widths (its own heights there).
+        :meth:`scaled`, :meth:`leveled`, :meth:`line`, the grid of
+        :func:`haptex.probe.felt_by`, :func:`haptex.probe.reliability_cutoff`) act on the map
+        sampled at as many points a side at its cells' mean widths (its own heights there).
 
     Attributes
     ----------
@@ -3366,6 +3367,7 @@ def _patch_slopes(pats, dx, dy):
 
 def _surface_grid(texture, r, spacing):
     if isinstance(texture, SampledSurface):
+        texture = texture._regular()  # (a map on graded axes: sampled at its cells' mean widths)
         x, y = texture.x, texture.y
         ext = min(x[-1] - x[0], y[-1] - y[0])
         if not texture.periodic and r > ext:
