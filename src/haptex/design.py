@@ -452,8 +452,9 @@ def _check_renderable(texture, device: Device, speed: float, cut, max_penetratio
 def _sample_numbers(texture) -> dict:
     """A sampled texture's max slope (1), max curvature (1/m) and height range (m) from its
     samples by central differences (numpy.gradient; at the samples' own positions on graded
-    axes): what the instrument measured, in time linear in the samples. The spline through them (what ``--raw`` analyses) may be steeper
-    between samples; the rendered texture's numbers are its spline's sups."""
+    axes): what the instrument measured, in time linear in the samples. The spline through them
+    (what ``--raw`` analyses) may be steeper between samples; the rendered texture's numbers are
+    its spline's sups."""
     h = texture.h
     steps = [texture.dx] if h.ndim == 1 else [texture.dx, texture.dy]
     if getattr(texture, "_knots", None) is not None:  # (a map on graded axes: its samples' own positions)

@@ -2349,7 +2349,8 @@ def _curvature_refined(texture, felt, r):
         if graded is not None and _felt_rank(graded) < _felt_rank(best):
             best = graded
     out = best["map"]
-    out.curvature_miss, out.peak_miss, out.convex_miss = float(best["curved"]), float(best["peak"]), float(best["bowed"])
+    out.curvature_miss, out.peak_miss = float(best["curved"]), float(best["peak"])
+    out.convex_miss = float(best["bowed"])
     return out
 
 
