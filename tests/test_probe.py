@@ -745,7 +745,7 @@ def test_where_no_grid_meets_the_slack_the_felt_map_kept_is_the_one_whose_larges
     # of 5.3 where the 768 grid's is 28 (2026-11-28). Now the one whose largest curvature meets
     # the slack first, then the most convex, then the least curvature miss (surfaces._felt_rank):
     # the 768 grid, 14 % short, which the map states (peak_miss). Truth: _areal_path_q, checked
-    # against its closed form d_max kappa / (1 - r kappa) at the troughs. ~40 s
+    # against its closed form d_max kappa / (1 - r kappa) at the troughs. ~20 s
     tex, h, grad, cell, rho = AREAL_CASES["egg-crate"]
     r = 0.99 * rho
     truth = _areal_path_q(h, grad, cell, r, letters="C")["C"]
