@@ -720,16 +720,28 @@ within reach of a deep probe, handles a quarter of the patches (chosen: a 1024 x
 of 1 um pixels kept all its 10^6 patches at 32, and one q of D took minutes)."""
 
 
-def _grid_axis(name: str, values) -> tuple[np.ndarray, float]:
-    """A uniform, strictly increasing sample axis (m) and its spacing."""
-    arr = _vector(name, values)
-    if arr.size < 4:
-        raise ParameterError(f"{name} has {arr.size} samples, which is not allowed: a height map needs at least "
-                             "4 x 4 samples (a bicubic spline)")
+def _increasing(name: str, arr: np.ndarray, what: str | None = None) -> np.ndarray:
+    """``arr`` (m), its steps checked strictly positive (``name`` the parameter refused, ``what``
+    the message's subject, default ``name``): the steps."""
     step = np.diff(arr)
     if not np.all(step > 0):
         i = int(np.argmax(~(step > 0))) + 1
-        raise ParameterError(f"{name}[{i}] = {arr[i]:g} is not allowed: {name} must increase strictly")
+        raise ParameterError(f"{name}[{i}] = {arr[i]:g} is not allowed: {what or name} must increase strictly")
+    return step
+
+
+def _four_samples(name: str, arr: np.ndarray) -> None:
+    """Refuse an axis of fewer than 4 samples (a bicubic patch needs 4 x 4)."""
+    if arr.size < 4:
+        raise ParameterError(f"{name} has {arr.size} samples, which is not allowed: a height map needs at least "
+                             "4 x 4 samples (a bicubic spline)")
+
+
+def _grid_axis(name: str, values) -> tuple[np.ndarray, float]:
+    """A uniform, strictly increasing sample axis (m) and its spacing."""
+    arr = _vector(name, values)
+    _four_samples(name, arr)
+    step = _increasing(name, arr)
     d = (arr[-1] - arr[0]) / (arr.size - 1)
     if np.max(np.abs(step - d)) > 1e-6 * d:
         i = int(np.argmax(np.abs(step - d)))
@@ -752,16 +764,11 @@ def _graded_axes(x, y, knots, periodic, gradients):
     for name, samples, k in (("x", x, kx), ("y", y, ky)):
         arr = _vector(name, samples)
         kk = _vector(f"knots[{len(out)}]", k)
-        if arr.size < 4:
-            raise ParameterError(f"{name} has {arr.size} samples, which is not allowed: a height map needs at least "
-                                 "4 x 4 samples (a bicubic spline)")
+        _four_samples(name, arr)
         if kk.size != arr.size + 1 or not np.array_equal(kk[:-1], arr):
             raise fail(f"knots[{len(out)}]", f"an axis of {kk.size} knots",
                        f"{arr.size + 1} knots whose first {arr.size} are {name}, the last the period's end")
-        step = np.diff(kk)
-        if not np.all(step > 0):
-            i = int(np.argmax(~(step > 0))) + 1
-            raise ParameterError(f"knots[{len(out)}][{i}] = {kk[i]:g} is not allowed: knots must increase strictly")
+        _increasing(f"knots[{len(out)}]", kk, "knots")
         out.append(kk)
     return out[0][:-1].copy(), out[1][:-1].copy(), (out[0], out[1])
 
@@ -1227,12 +1234,11 @@ class SampledSurface(Surface):
         main, starts, extra = self._patch_blocks()
         nx, ny = main.shape[:2]
         pat = main.reshape(-1, 4, 4)
-        if extra is not None:  # (a branched cell's bounds: its patches', merged below)
-            pat = np.concatenate([pat, extra])
         wx, wy = self._widths()
         dxs, dys = np.repeat(wx, ny), np.tile(wy, nx)  # (each cell's widths, row-major as the patches)
-        if extra is not None:
-            own = np.repeat(np.arange(nx * ny), np.diff(starts).astype(np.int64))
+        if extra is not None:  # (a branched cell's bounds: its patches', merged below)
+            own = np.repeat(np.arange(nx * ny), np.diff(starts).astype(np.int64))  # (each extra patch's cell)
+            pat = np.concatenate([pat, extra])
             dxs, dys = np.concatenate([dxs, dxs[own]]), np.concatenate([dys, dys[own]])
         fall = _FALL  # the multipliers of ‖c[a, b]‖ in each derivative's bound
         bern = np.array([[math.comb(j, a) / math.comb(3, a) if a <= j else 0.0 for a in range(4)] for j in range(4)])
@@ -1256,7 +1262,6 @@ class SampledSurface(Surface):
             o[:, 3] = 0.5 * (bxx + byy) + np.hypot(0.5 * (bxx - byy), bxy)
             o[:, 4] = np.sqrt(bound(3, 0) ** 2 + 3 * bound(2, 1) ** 2 + 3 * bound(1, 2) ** 2 + bound(0, 3) ** 2)
         if extra is not None:  # the largest of each bound over a cell's patches (min h: the least)
-            own = np.repeat(np.arange(nx * ny), np.diff(starts).astype(np.int64))
             more = out[nx * ny:]
             out = out[:nx * ny]
             np.minimum.at(out[:, 0], own, more[:, 0])
@@ -2393,14 +2398,15 @@ def _felt_misses(texture, cur, u, r):
     uc, _ = _smooth_contacts(texture, cur, Pc, r, 1e-6 * min(wx.min(), wy.min()))
     hc = _path_hessian(texture, Pc, uc, r, sound=0.0)
     both = np.concatenate([hs, hc])
-    truth = float(np.nanmax(_hessian_norm(both))) if np.isfinite(both).any() else math.inf
+    norms = _hessian_norm(both)
+    truth = float(np.nanmax(norms)) if np.isfinite(both).any() else math.inf
     hm = cur.hessian(Pc)
     apart = _hessian_norm(hm - hc)
     curved = max(abs(cur.max_curvature / truth - 1.0), float(np.nanmax(apart)) / truth) if truth > 0 else 0.0
     miss = curved  # (the curvature's own: what B, C and G read, the map's curvature_miss)
     # (the part the sup reads: the largest's miss, the centres' overshoot past the path's largest,
     # and their shortfall where the path comes within the slack of it)
-    nm, nc = _hessian_norm(hm), _hessian_norm(hc)
+    nm, nc = _hessian_norm(hm), norms[len(hs):]
     near = nc >= (1 - CURVATURE_SLACK) * truth
     peak = max(abs(cur.max_curvature / truth - 1.0), float(np.nanmax(nm - truth, initial=0.0)) / truth,
                float(np.nanmax((nc - nm)[near], initial=0.0)) / truth) if truth > 0 else 0.0
@@ -2471,31 +2477,30 @@ GRADED_TRIES = 3
 last's."""
 
 
-def _hot_intervals(m, cur, finest):
-    """Per axis, the intervals (a, b, w) (m) of a graded axis's cells no wider than w, from the
-    path's curvature at the uniform felt map ``cur``'s nodes (:func:`_felt_misses`' ``hs``): w =
-    ``finest`` where its 2-norm comes within GRADED_HOT of its largest (the spikes B, C and G's q
-    reads), the uniform grid's step where its convex curvature (the lower eigenvalue's negative)
-    comes within GRADED_HOT of its most convex (D's radius), unless that spans more than
-    GRADED_BROAD of an axis (a broad maximum, as the egg-crate's crests and saddles make), each
-    widened by a node either side."""
+def _hot_intervals(m, cur):
+    """Per axis, the intervals (a, b, spike) (m) where a graded axis's cells are fine, from the
+    path's curvature at the uniform felt map ``cur``'s nodes (:func:`_felt_misses`' ``hs``):
+    spike true where its 2-norm comes within GRADED_HOT of its largest (the spikes B, C and G's q
+    reads: the finest cells), false where its convex curvature (the lower eigenvalue's negative)
+    comes within GRADED_HOT of its most convex (D's radius: cells of the uniform grid's step),
+    unless that spans more than GRADED_BROAD of an axis (a broad maximum, as the egg-crate's
+    crests and saddles make), each widened by a node either side."""
     nx, ny = cur.x.size, cur.y.size
     f = np.nan_to_num(_hessian_norm(m["hs"]).reshape(nx, ny), nan=0.0)
     bow = np.nan_to_num(-_lowest_eigenvalue(m["hs"]).reshape(nx, ny), nan=0.0)  # (convex where positive)
-    sets = [(f >= (1 - GRADED_HOT) * f.max(), finest)]
+    sets = [(f >= (1 - GRADED_HOT) * f.max(), True)]
     if bow.max() > 0:
         convex = bow >= (1 - GRADED_HOT) * bow.max()
         if max(np.mean(np.any(convex, axis=1)), np.mean(np.any(convex, axis=0))) <= GRADED_BROAD:
-            sets.append((convex, None))
+            sets.append((convex, False))
     out = [[], []]
-    for hot, w in sets:
+    for hot, spike in sets:
         for axis, (step, start) in enumerate(((cur.dx, cur.x[0]), (cur.dy, cur.y[0]))):
             on = np.any(hot, axis=1 - axis)
             on = on | np.roll(on, 1) | np.roll(on, -1)
             idx = np.nonzero(on)[0]
             runs = np.split(idx, np.nonzero(np.diff(idx) > 1)[0] + 1) if idx.size else []
-            out[axis] += [(start + run[0] * step, start + run[-1] * step, step if w is None else w * step / cur.dx)
-                          for run in runs]
+            out[axis] += [(start + run[0] * step, start + run[-1] * step, spike) for run in runs]
     return out
 
 
@@ -2538,13 +2543,15 @@ def _graded_refined(texture, felt, m, r):
     largest curvature missed least, None where no graded grid is within the cap."""
     cur = m["map"]
     shrink = min(0.5, math.sqrt(0.5 * REFINE_AIM * CURVATURE_SLACK / max(m["curved"], 1e-300)))
+    hot = _hot_intervals(m, cur)
+    if not hot[0] or not hot[1]:
+        return None
     best = None
     for _ in range(GRADED_TRIES):
-        xi, yi = _hot_intervals(m, cur, shrink * cur.dx)
-        if not xi or not yi:
-            return None
-        kx = _graded_axis(xi, cur.x[0], cur._size[0], GRADED_BASE * cur.dx)
-        ky = _graded_axis(yi, cur.y[0], cur._size[1], GRADED_BASE * cur.dy)
+        kx, ky = (_graded_axis([(a, b, shrink * step if spike else step) for a, b, spike in spans], start, period,
+                               GRADED_BASE * step)
+                  for spans, start, period, step in ((hot[0], cur.x[0], cur._size[0], cur.dx),
+                                                     (hot[1], cur.y[0], cur._size[1], cur.dy)))
         if (kx.size - 1) * (ky.size - 1) > CURVATURE_REFINE_SAMPLES:
             break
         x, y = kx[:-1], ky[:-1]
