@@ -140,6 +140,18 @@ def analysis(args) -> None:
         work = hx.closest_point(surf, q[:100_000]).work
         print(f"closest point on the {name}, 0 to 1 mm deep: {t / n * cores * 1e6:.2f} us per point per core "
               f"({cores} cores), {work.mean():.0f} evaluations a point on average, {work.max()} at most")
+    # a felt profile refined for its curvature: the sinusoid (0.1 mm at 2 mm) felt by a ball of
+    # 0.99 times its troughs' radius, 262,144 samples, its leaves certified convex or scanned
+    rho = 2e-3**2 / (4 * np.pi**2 * 0.1e-3)
+    felt = hx.Sinusoid(0.1e-3, 2e-3).felt_by(0.99 * rho)
+    x = rng.uniform(0, 2e-3, n // 10)
+    q = np.column_stack([x, felt.height(x) - rng.uniform(0.0, 1e-3, x.size)])
+    hx.closest_point(felt, q[:10])
+    t = best_of(lambda: hx.closest_point(felt, q), repeat=1)
+    work = hx.closest_point(felt, q).work
+    print(f"closest point on the sinusoid felt by a ball of 0.99 rho ({felt.x.size} samples), 0 to 1 mm deep: "
+          f"{t / x.size * cores * 1e6:.2f} us per point per core ({cores} cores), {work.mean():.0f} evaluations a "
+          f"point on average, {work.max()} at most")
 
 
 if __name__ == "__main__":

@@ -70,6 +70,29 @@ def test_on_a_felt_profile_refined_for_its_curvature_the_closest_point_is_the_br
         assert abs(d - brute_force_distance(felt, px, pz)) < 1e-9
 
 
+def test_near_its_troughs_radius_a_felt_profiles_closest_point_is_the_brute_forces_in_bounded_work():
+    # The sinusoid (0.2 mm at 2 mm) felt by a ball of 0.99 times its troughs' radius is refined
+    # to 262,144 samples (the path's curvature a spike 0.5 um wide), its leaves 1,024 intervals
+    # of its first grid's band: each surviving leaf was scanned at every node, 16,139 texture
+    # evaluations a probe on average over D's q grid (96,690 at most), and q of D took 620 s
+    # (2026-11-28). A leaf on which the squared distance is certified convex for the probe
+    # (phi'' / 2 = 1 + h'^2 + (h - p^z) h'' > 0 from its bounds of h and h'') holds at most one
+    # minimum, found by Newton from its ends. Reference: the dense search above on the profile's
+    # own heights, 48 probes to 1.2 mm deep (8 of them below the crest, about its centre of
+    # curvature, 1.008 mm deep, where the leaves are not certified)
+    rho = 2e-3**2 / (4 * math.pi**2 * 0.2e-3)
+    felt = hx.Sinusoid(0.2e-3, 2e-3).felt_by(0.99 * rho)
+    assert felt.x.size >= 2**18  # (the refined profile the statement is for)
+    rng = np.random.default_rng(5)
+    x = np.concatenate([rng.uniform(0, 2e-3, 40), 0.5e-3 + rng.uniform(-2e-6, 2e-6, 8)])
+    depth = np.concatenate([rng.uniform(1e-6, 1.2e-3, 40), rng.uniform(0.9e-3, 1.1e-3, 8)])
+    p = np.column_stack([x, felt.height(x) - depth])
+    cp = hx.closest_point(felt, p)
+    for (px, pz), d in zip(p, cp.distance):
+        assert abs(d - brute_force_distance(felt, px, pz)) < 1e-9
+    assert np.mean(cp.work) <= 1000  # (a bound on counted work: 16,139 on average before)
+
+
 @given(textures(), st.floats(0, 1), st.floats(1e-6, 1.2e-3))
 def test_any_texture_agrees_with_brute_force(tex, u, depth):
     px = u * 2e-3

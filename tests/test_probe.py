@@ -324,6 +324,24 @@ def test_a_felt_profiles_convex_miss_bounds_its_most_convex_curvature(rel_r):
         assert abs(own / truth - 1) > 0.01 and felt.convex_miss > felt.curvature_miss  # (the case it is for)
 
 
+@pytest.mark.long
+def test_near_its_troughs_radius_q_of_d_on_a_felt_profile_is_within_its_convex_miss_of_the_paths():
+    # The case above at 0.99 rho, q of D itself: on the path d_max / (R - d_max) = 0.984 below its
+    # crests (R = rho + r), so 1 (eq. 18's floor; truth: _path_q, the brute-force oracle); the
+    # felt profile's most convex curvature +2.82 % reads more, within convex_miss (1 + q). Its
+    # search (1,025 x 64 closest points a grid, 262,144 samples) took 620 s and read 1.034
+    # (2026-11-28): each surviving leaf of 1,024 intervals was scanned at every node; now a leaf
+    # on which the squared distance is certified convex is solved by Newton (hx_closest.c,
+    # test_closest.py), the grid's closest points found once, not three times: 11 s, 1.045 (the
+    # refinement's best point beside the crest, x = 0.49975 mm, 0.9 mm deep). ~20 s
+    r = 0.99 * L**2 / (4 * math.pi**2 * A)
+    truth = _path_q((A,), (L,), (0.0,), L, r)["D"]
+    assert truth == 1.0  # (d_max / (R - d_max) = 0.984 below the crests' R = rho + r: eq. 18's floor)
+    felt = SINE.felt_by(r)
+    q = hx.characteristic_number(hx.algorithm("D", felt, 2000.0)).value
+    assert abs(q / truth - 1) <= felt.convex_miss * (1 + q) + 0.005
+
+
 def _brute_contacts_2d(h, pts, r, n=61):
     """The ball's contact offsets u* (k, 2) at each in-plane point of pts (k, 2), by brute force:
     the arg-max of h(p + u) + sqrt(r^2 - |u|^2) over an n x n grid of offsets in the disc,

@@ -221,6 +221,42 @@ static int fuzz_builders(long *evaluations)
         free(aux);
         return 1;
     }
+    { /* the leaves' bounds of h'' (a spline profile's, aux[HX_A_LEAFC]): refused outside the array
+       * or inside the tree; any values, NaN and infinities too, read only within it */
+        double *more = calloc((size_t)(naux + 2 * NL), sizeof(double)), odd[] = {NAN, HUGE_VAL, -HUGE_VAL, 0.0};
+        const double bad[] = {1.0, (double)HX_A_TREE + 4.0 * NL - 1.0, (double)naux + 0.5, (double)naux + 1.0};
+        memcpy(more, aux, sizeof(double) * (size_t)naux);
+        for (i = 0; i < 4; i++) {
+            more[HX_A_LEAFC] = bad[i];
+            if (hx_closest_aux_check(more, naux + 2 * NL) == HX_OK) {
+                printf("builders: leaf bounds at %g accepted\n", bad[i]);
+                free(more);
+                free(aux);
+                return 1;
+            }
+        }
+        more[HX_A_LEAFC] = (double)naux;
+        for (i = 0; i < 2 * NL; i++)
+            more[naux + i] = uniform() < 0.1 ? odd[i % 4] : 1e5 * (uniform() - 0.5);
+        if (hx_closest_aux_check(more, naux + 2 * NL) != HX_OK) {
+            printf("builders: leaf bounds after the tree refused\n");
+            free(more);
+            free(aux);
+            return 1;
+        }
+        for (k = 0; k < 2000; k++) {
+            double px = (uniform() - 0.5) * 3.0 * period, pz = (uniform() - 0.8) * 6e-3;
+            hx_closest r = hx_closest_profile(&t, more, px, pz, hx_texture_height(&t, px, 0.0) - pz, NAN);
+            *evaluations += r.work;
+            if (!(r.distance >= 0.0) || !isfinite(r.t)) {
+                printf("builders: closest point of (%g, %g) = %g at %g\n", px, pz, r.distance, r.t);
+                free(more);
+                free(aux);
+                return 1;
+            }
+        }
+        free(more);
+    }
     row = malloc(sizeof(double) * HX_PIECE * HX_TABLE_MAXP);
     for (cell = 0; cell < 4000; cell++) {
         double w = period / 128.0 * (cell % 7 == 0 ? 16.0 : 1.0), cx = (uniform() - 0.5) * 3.0 * period;

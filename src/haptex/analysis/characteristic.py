@@ -609,13 +609,19 @@ def _q_distance(alg, dmax, x0, x1, nx, nd, closed) -> CharacteristicNumber:
     T, R = np.meshgrid(ts, rs, indexing="ij")
     P = _normal_point(tex, T, R)
 
-    region = _unique_foot(tex, P, R)
-    norms = np.where(region, spectral_norm(alg.jacobian(P)) / k0, -np.inf)
+    # one closest-point search a grid point, as over a surface (_q_distance_surface)
+    cp = closest_point(tex, P)
+    region = _foot_is_unique(cp, R)
+    norms = np.full(R.shape, -np.inf)
+    if np.any(region):
+        norms[region] = spectral_norm(alg.jacobian_at_closest(P[region], cp.select(region))) / k0
     paper_value = None
     note = (f"grid {nx}x{nd} over closest-point x in [{x0:g}, {x1:g}] m and distance in (0, {dmax:g}] m, "
             "refined by L-BFGS-B")
     if alg.letter == "D":
-        paper_value = float(np.max(np.where(region, spectral_norm(alg.jacobian(P, form="paper")) / k0, -np.inf)))
+        # eq. 18's Jacobian is -kappa_0 n n^T inside the wall: its norm is kappa_0 wherever the
+        # region has a point
+        paper_value = 1.0 if np.any(region) else -math.inf
         focal = _unbounded_focus(tex, dmax, x0, x1)
         if focal is not None:
             rho, fx, fz = focal

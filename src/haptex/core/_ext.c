@@ -2722,7 +2722,7 @@ PyMODINIT_FUNC PyInit__ext(void)
         {"A_CURV", HX_A_CURV}, {"A_HMIN", HX_A_HMIN}, {"A_TMIN", HX_A_TMIN}, {"A_WCAP", HX_A_WCAP},
         {"A_X0", HX_A_X0}, {"A_XE", HX_A_XE}, {"A_HL", HX_A_HL}, {"A_SL", HX_A_SL}, {"A_HR", HX_A_HR},
         {"A_SR", HX_A_SR}, {"A_TIE", HX_A_TIE}, {"A_JERK", HX_A_JERK}, {"A_TABLE", HX_A_TABLE},
-        {"A_TREE", HX_A_TREE}, {"G_HMIN", HX_G_HMIN}, {"G_SLOPE", HX_G_SLOPE}, {"G_CURV", HX_G_CURV},
+        {"A_LEAFC", HX_A_LEAFC}, {"A_TREE", HX_A_TREE}, {"G_HMIN", HX_G_HMIN}, {"G_SLOPE", HX_G_SLOPE}, {"G_CURV", HX_G_CURV},
         {"G_LEAF", HX_G_LEAF}, {"G_TIE", HX_G_TIE}, {"G_HMAX", HX_G_HMAX}, {"G_CONVEX", HX_G_CONVEX},
         {"G_JERK", HX_G_JERK}, {"G_SLOPE_BOUND", HX_G_SLOPE_BOUND}, {"G_CURV_BOUND", HX_G_CURV_BOUND},
         {"N_GAUX", HX_N_GAUX}, {"G_EDGE", HX_G_EDGE}, {"G_PYRAMID", HX_G_PYRAMID}, {"PY_NX", HX_PY_NX},

@@ -9,7 +9,9 @@
  * [interval] x [lo, hi] is farther than the best distance (plus the tie tolerance); a leaf
  * is scanned every A_STEP for sign changes of g, each refined by safeguarded Newton, and an
  * interval on which two minima could hide (|g''| bounded from A_SLOPE, A_CURV, A_JERK) is
- * sampled 16 times finer. Over a periodic profile a servo tick first reads a cell table
+ * sampled 16 times finer; a leaf on which phi is certified convex for the probe (from bounds
+ * of h'' over each leaf, a spline profile's) is not scanned: Newton finds its one minimum.
+ * Over a periodic profile a servo tick first reads a cell table
  * (haptex.closest.table_search_data), the same certified answer in a few evaluations. Work
  * (texture evaluations) is counted.
  */
@@ -158,6 +160,34 @@ static long scan_interval(const problem *q, double a, double b, double g_a, int 
     return work;
 }
 
+/* a leaf on which phi is certified convex for this probe: g' = 1 + h'^2 + (h - pz) h'' > 0 from
+ * the tree's bounds of h (lo, hi) and the leaf's bounds of h'' (aux[HX_A_LEAFC]); then phi has
+ * at most one minimum on it, a root of g found by safeguarded Newton, or an end. 0: not
+ * certified (or no bounds of h''), the leaf is to be scanned */
+static int convex_leaf(const problem *q, int64_t leaf, double u, double w, double lo, double hi, search *s)
+{
+    const double *aux = q->aux;
+    double off = aux[HX_A_LEAFC], nl = aux[HX_A_NLEAF], c_lo, c_hi, e_lo = lo - q->pz, e_hi = hi - q->pz, least;
+    double f0, g0, f1, g1, gp;
+    if (off == 0.0 || leaf < 0)
+        return 0;
+    c_lo = aux[(int64_t)off + leaf];
+    c_hi = aux[(int64_t)off + (int64_t)nl + leaf];
+    least = fmin(fmin(e_lo * c_lo, e_lo * c_hi), fmin(e_hi * c_lo, e_hi * c_hi));
+    if (!(1.0 + least > 1e-3)) /* (NaN where a bound is infinite: not certified) */
+        return 0;
+    dphi(q, u, &f0, &g0, &gp);
+    dphi(q, u + w, &f1, &g1, &gp);
+    s->work += 2;
+    if (g0 > 0.0 && g1 <= 0.0) /* (g increases on a convex leaf: rounding, scanned) */
+        return 0;
+    if (g0 <= 0.0 && g1 > 0.0)
+        s->work += refine_and_offer(q, u, u + w, 0.5 * aux[HX_A_STEP], s);
+    else if ((g0 > 0.0 ? f0 : f1) < s->f) /* the least point is an end */
+        offer(s, g0 > 0.0 ? u : u + w, g0 > 0.0 ? f0 : f1, 0.5 * aux[HX_A_STEP]);
+    return 1;
+}
+
 static void scan_leaf(const problem *q, double u, double w, search *s)
 {
     const double *aux = q->aux;
@@ -235,7 +265,8 @@ static void descend(const problem *q, double root_u, double root_w, int64_t n_le
         if (box_lb(q->px, q->pz, u, w, lo, hi) > reach * reach)
             continue;
         if (i >= n_leaf || sp + 2 > STACK_DEPTH) {
-            scan_leaf(q, u, w, s);
+            if (!(table && i >= n_leaf && convex_leaf(q, i - n_leaf, u, w, lo, hi, s)))
+                scan_leaf(q, u, w, s);
             continue;
         }
         /* the child with the smaller lower bound is popped first */
@@ -462,7 +493,7 @@ static int table_check(const double *aux, long naux)
 
 int hx_closest_aux_check(const double *aux, long naux)
 {
-    double mode, nl;
+    double mode, nl, leafc;
     if (aux == NULL || naux < HX_A_TREE)
         return HX_BAD_COEFFS;
     mode = aux[HX_A_MODE];
@@ -476,6 +507,9 @@ int hx_closest_aux_check(const double *aux, long naux)
         return isfinite(aux[HX_A_WCAP]) && aux[HX_A_WCAP] >= 0.0 ? HX_OK : HX_BAD_COEFFS;
     nl = aux[HX_A_NLEAF];
     if (!(nl >= 1.0 && nl <= (double)(1L << 22) && nl == floor(nl)) || (double)naux < HX_A_TREE + 4.0 * nl)
+        return HX_BAD_COEFFS;
+    leafc = aux[HX_A_LEAFC]; /* the leaves' bounds of h'': after the tree, inside the array */
+    if (leafc != 0.0 && !(leafc >= HX_A_TREE + 4.0 * nl && leafc == floor(leafc) && leafc + 2.0 * nl <= (double)naux))
         return HX_BAD_COEFFS;
     if (!(aux[HX_A_TREELEN] > 0.0) || !isfinite(aux[HX_A_START]) ||
         (mode == HX_CP_PERIODIC && !(aux[HX_A_PERIOD] > 0.0 && isfinite(aux[HX_A_PERIOD]))))

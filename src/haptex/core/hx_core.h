@@ -243,12 +243,14 @@ void hx_presliding_plane(double d[2], const double dp[2], double d_max, double z
 /* ---- closest points (D, E) -------------------------------------------------------- */
 
 /* The search data of a profile (haptex.closest.search_data): a header, then the bound tree,
- * lo[i] = aux[HX_A_TREE + i] and hi[i] = aux[HX_A_TREE + 2 n_leaf + i], i = 1 .. 2 n_leaf - 1. */
+ * lo[i] = aux[HX_A_TREE + i] and hi[i] = aux[HX_A_TREE + 2 n_leaf + i], i = 1 .. 2 n_leaf - 1;
+ * where o = aux[HX_A_LEAFC] is not 0, bounds of h'' over each leaf j = 0 .. n_leaf - 1,
+ * aux[o + j] <= h'' <= aux[o + n_leaf + j] (a spline profile's). */
 enum { HX_CP_VERTICAL, HX_CP_PERIODIC, HX_CP_FINITE, HX_CP_OPEN };
 enum {
     HX_A_MODE, HX_A_START, HX_A_PERIOD, HX_A_TREELEN, HX_A_NLEAF, HX_A_STEP, HX_A_SLOPE, HX_A_CURV, HX_A_HMIN,
     HX_A_TMIN, HX_A_WCAP, HX_A_X0, HX_A_XE, HX_A_HL, HX_A_SL, HX_A_HR, HX_A_SR, HX_A_TIE, HX_A_JERK, HX_A_TABLE,
-    HX_A_TREE
+    HX_A_LEAFC, HX_A_TREE
 };
 
 typedef struct {
