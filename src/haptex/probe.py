@@ -85,7 +85,8 @@ def felt_by(texture, tip_radius: float, *, spacing: float | None = None):
     Notes
     -----
     On a profile the felt heights and slopes are exact at the grid's points (the contact refined
-    to 1e-10 of an interval by golden-section search on the texture); between them the profile is
+    by golden-section search on the texture, then by Newton on the contact condition, to the last
+    bits: the slopes within 1e-12 of the offset curve's); between them the profile is
     the cubic through heights and slopes; an interval across which the contact runs faster than
     three intervals an interval is the quadratic between its end slopes, so the slope never
     leaves the contacts', and one holding a kink (where the ball bridges the profile: it curves

@@ -1199,7 +1199,8 @@ def _contact_path(texture, x, h, r, periodic, seed=None):
 
     c(x) = max over |u| <= r of [H(x + u) + sqrt(r^2 - u^2)], H the texture's own height: the
     maximum over the grid's offsets first (each grid point's arg-max contact), then refined by
-    golden-section search on H within one interval either side of it; the slope is H' at the
+    golden-section search on H within one interval either side of it and by Newton on the contact
+    condition H'(x + u) = u / sqrt(r^2 - u^2) (CONTACT_NEWTON_STEPS); the slope is H' at the
     contact (the envelope theorem: the path's normal is the contact's). Given ``seed``, a
     coarser grid's (abscissae, contacts) from this function, the grid's offsets are not all
     searched (:func:`_seeded_contacts`: the contacts between the two seeds about each point, in
