@@ -267,8 +267,8 @@ def _path_q(amps, periods, phases, period, r, dmax=1e-3, n=2000, m=20001):
 
 @pytest.mark.long
 @pytest.mark.parametrize("case, rel_r, letters", [
-    (0, 0.5, "ABCDEFG"), (0, 2.0, "ABCDEFG"), (0, 0.9, "BCG"), (0, 0.95, "BCG"), (0, 1.05, "BCG"), (0, 1.2, "BCG"),
-    (1, 0.9, "BCG"), (1, 1.05, "BCG"), (1, 1.2, "BCG"), (1, 2.0, "ABCDFG"), (2, 1.05, "BCG"), (2, 1.2, "BCG"),
+    (0, 0.5, "ABCDEFG"), (0, 2.0, "ABCDEFG"), (0, 0.9, "BCG"), (0, 0.95, "BCG"), (0, 1.05, "BCDEFG"), (0, 1.2, "BCG"),
+    (1, 0.9, "BCG"), (1, 1.05, "BCG"), (1, 1.2, "BCG"), (1, 2.0, "ABCDFG"), (2, 1.05, "BCG"), (2, 1.2, "BCDEFG"),
     (2, 2.0, "ABCDFG")])
 def test_q_of_every_algorithm_on_the_felt_profile_is_the_paths(case, rel_r, letters):
     # issue 67's goal: q of every algorithm on the felt surface within 1 % of q on the brute-force
@@ -294,7 +294,11 @@ def test_q_of_every_algorithm_on_the_felt_profile_is_the_paths(case, rel_r, lett
     # within 0.2 % wherever measured (D infinite at 0.5 rho on the sinusoid, as on the path: the
     # felt crests' centre of curvature within the 1 mm depth; on the two-tone at 2 rho D's search
     # took 112 s on the 32,768 samples, a closest-point leaf an interval: 46 s with leaves of half
-    # the first grid's shortest period, test_closest.py). 5-90 s a case
+    # the first grid's shortest period, test_closest.py; 3.1 s with leaves certified convex solved
+    # by Newton, 2026-11-28). D, E, F near rho (2026-11-28): the sinusoid at 1.05 rho +0.001, 0.000,
+    # 0.000 % (65,536 samples, 5 s each), the four-tone at 1.2 rho 0.000, 0.000, +0.012 % (run
+    # here); at 0.9 rho and on the two-tone at 1.05 rho D infinite as on the path, E and F within
+    # 0.001 %. 5-90 s a case
     amps, periods, phases, period = FELT_CASES[case]
     _, hp = _sines(amps, periods, phases)
     xs = np.linspace(0, period, 40001)
