@@ -55,6 +55,7 @@ def test_below_the_troughs_curvature_the_felt_profile_is_the_offset_curve():
     assert felt.max_slope == pytest.approx(SINE.max_slope, rel=1e-3)  # the offset curve keeps the normals
 
 
+@pytest.mark.long
 def test_near_the_troughs_radius_the_felt_profiles_node_slopes_are_the_offset_curves_to_the_last_bits():
     # Below the troughs' radius rho the path is the offset curve (do Carmo, the parallel curve):
     # the node at x has its contact p where x = p - r h'(p) / sqrt(1 + h'(p)^2), and its slope is
@@ -64,7 +65,7 @@ def test_near_the_troughs_radius_the_felt_profiles_node_slopes_are_the_offset_cu
     # slopes off by up to 1.7e-8, which the cubic pieces read as curvature 2.8 % off at the crests
     # over 7.6 nm intervals (2026-11-28). (Where the contact runs more than three intervals an
     # interval, beside the troughs, a segment's slope runs linearly between its ends' with the
-    # interval's mean instead: those nodes are left out, 62 of the 4,096 here.)
+    # interval's mean instead: those nodes are left out, 62 of the 4,096 here.) ~5 s
     from scipy.optimize import brentq
 
     k = 2 * math.pi / L
