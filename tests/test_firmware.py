@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 
 import haptex as hx
+from haptex.core import _ext
 from haptex.export import FIRMWARE_FLAGS, TARGETS, build_defines, export_c
 
 from .cbuild import core_objects
@@ -55,7 +56,7 @@ def firmware(alg, out: Path, target: str, objdir: Path, p: np.ndarray, only: boo
     letter with the export's own build_defines: only its code linked): the ELF's path."""
     flags = tuple(TARGETS[target]["flags"]) + FIRMWARE_FLAGS + (build_defines(alg) if only else ())
     export_c(alg, out, 5.0, target=target)
-    rows = ",\n".join("{%r, %r, 0.0}" % (float(a), float(b)) for a, b in p)
+    rows = ",\n".join("{%r, %r, %r}" % tuple(float(v) for v in row) for row in np.pad(p, ((0, 0), (0, 3 - p.shape[1]))))
     (out / "stroke.h").write_text(f"#define STROKE_N {len(p)}\nstatic const double stroke[STROKE_N][3] = {{\n{rows}}};\n")
     objs = core_objects(objdir, flags, ARM_CC)
     elf = out / "fw.elf"
@@ -95,6 +96,42 @@ def test_the_exported_tick_runs_on_a_cortex_m_as_on_the_host(tmp_path, tmp_path_
     err = np.hypot(*(got - ref).T)
     assert np.all(err <= tol), (float(np.max(err / tol)), int(np.argmax(err / tol)))
     assert np.any(np.hypot(*ref.T) > 0.1)  # the stroke presses into the wall
+
+
+@needs_arm
+@pytest.mark.parametrize("letter", ["B", "D"])
+def test_a_map_on_graded_axes_ticks_on_a_cortex_m_as_on_the_host(tmp_path, tmp_path_factory, letter):
+    # A Hermite map on graded axes (its patch table carries each axis's knots, a position's cell
+    # found by bisection: HX_PATCH_AXES) exported for the M4F: B (the map's heights and
+    # gradients) and D (its closest point, the surface search's cells cut in their own widths)
+    # along a 3-D stroke over the finest cells, in and out of the wall. Oracle: the host's
+    # Renderer, as above
+    n = 24
+    k = 2 * np.pi / L
+    fine = np.r_[0.0, np.cumsum(np.minimum(2e-6 * 1.4 ** np.arange(64), L / n))]
+    half = fine[fine < L / 2]
+    kn = np.unique(np.round(np.r_[L / 4 - half, L / 4 + half] % L, 15))
+    kx = ky = np.r_[kn, kn[0] + L]
+    X, Y = np.meshgrid(kx[:-1], ky[:-1], indexing="ij")
+    a = 0.1e-3
+    h = a * np.sin(k * X) * np.cos(k * Y)
+    g = np.stack([a * k * np.cos(k * X) * np.cos(k * Y), -a * k * np.sin(k * X) * np.sin(k * Y)], -1)
+    surf = hx.SampledSurface(kx[:-1], ky[:-1], h, periodic=True, gradients=g, knots=(kx, ky))
+    assert 1e-6 < np.min(np.diff(kx)) < 3e-6 and kx.size < 60  # (graded: 2 um cells beside L / 4)
+    assert surf.patches()[0, _ext.PATCH_AXES] > 0  # (the table carries its knots)
+    alg = hx.algorithm(letter, surf, K0, **({"max_penetration": 0.5e-3} if letter == "B" else {}))
+    t = np.linspace(0.0, 1.0, 600)
+    p = np.column_stack([L / 4 + 40e-6 * np.sin(2 * np.pi * 3 * t), L / 4 + 30e-6 * np.cos(2 * np.pi * 2 * t),
+                         -0.15e-3 * np.sin(2 * np.pi * t) + 0.02e-3])
+    elf = firmware(alg, tmp_path, "cortex-m4", tmp_path_factory.getbasetemp(), p)
+    got = run(elf, "cortex-m4")
+    r = hx.Renderer(alg, max_force=5.0)
+    ref = np.array([r.step(tuple(v)) for v in p.tolist()])
+    assert got.shape == ref.shape
+    tol = 1e-12 * np.linalg.norm(ref, axis=1) + 16 * np.finfo(float).eps * K0 * a
+    err = np.linalg.norm(got - ref, axis=1)
+    assert np.all(err <= tol), (float(np.max(err / tol)), int(np.argmax(err / tol)))
+    assert np.any(np.linalg.norm(ref, axis=1) > 0.1)  # the stroke presses into the wall
 
 
 MINGW = shutil.which("x86_64-w64-mingw32-gcc")
