@@ -685,6 +685,7 @@ def test_a_hermite_map_on_graded_axes_is_the_tensor_product_of_cubic_hermite_spl
     kx, ky, h, g = _graded_map()
     s = hx.SampledSurface(kx[:-1], ky[:-1], h, periodic=True, gradients=g, knots=(kx, ky))
     assert s.patches()[0, _ext.PATCH_AXES] > 0
+    assert np.array_equal(s.knots[0], kx) and np.array_equal(s.knots[1], ky) and s._regular().knots is None
 
     def quad_slope(f, kn, axis):  # the derivative at the middle node of the quadratic through three
         hp = np.diff(kn).reshape([-1 if a == axis else 1 for a in range(2)])

@@ -1067,6 +1067,19 @@ class SampledSurface(Surface):
         """
         return _ext.SURFACE_PATCHES, self.patches()
 
+    @property
+    def knots(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """Each axis's knots on graded axes, or None on a uniform grid.
+
+        Returns
+        -------
+        (kx, ky) : tuple of ndarray, shapes (nx + 1,) and (ny + 1,), or None
+            The cells' edges (m), the last the period's end: the ``knots`` the map was made with,
+            or those :func:`haptex.probe.felt_by` chose for a felt map refined on graded axes
+            (fine cells where the ball's path curves fastest). Copies.
+        """
+        return None if self._knots is None else (self._knots[0].copy(), self._knots[1].copy())
+
     def _widths(self) -> tuple[np.ndarray, np.ndarray]:
         """The cells' widths along x and y (m), shapes (nx,) and (ny,) (cells, not samples)."""
         if self._knots is not None:
