@@ -1,7 +1,9 @@
 """Worst-case servo-tick latency (issue 17): Renderer.step over adversarial positions for
 W and A-G on the paper's sinusoid, the levelled Dektak profile and band-limited noise, and
 ([x, y, z], a tenth of the calls: D and E cost up to 10^3 evaluations a call there) on the
-egg-crate of the same A and l and on a gentle one (A = 0.1 mm, l = 2 mm).
+egg-crate of the same A and l and on a gentle one (A = 0.1 mm, l = 2 mm), and on the gentle one
+felt by a ball (Hermite patch tables: uniform at 0.5 times its bowls' radius, on graded axes at
+0.95 times).
 
 Positions: 1 nm to 1 km below the surface (log-uniform), at peaks, valleys and anywhere
 between, far along the workspace, plus NaN/inf/huge values, wrong types and huge jumps.
@@ -55,8 +57,16 @@ def main() -> None:
         textures["dektak"] = hx.SampledProfile.from_file(DEKTAK).leveled()
     textures["egg-crate"] = hx.SumOfGratings.egg_crate(0.8e-3, 1e-3)
     textures["gentle egg-crate"] = hx.SumOfGratings.egg_crate(0.1e-3, 2e-3)
+    # felt maps (Hermite patch tables): the gentle egg-crate felt by a ball of 0.5 times its bowls'
+    # radius (uniform, 144 a side) and of 0.95 times (graded axes, 578 a side, cells from 0.9 um)
+    rho = (2e-3) ** 2 / (4 * np.pi**2 * 0.1e-3)
+    felt = {"felt egg-crate 0.5 rho": 0.5, "felt egg-crate 0.95 rho (graded)": 0.95}
     if args.textures:
-        textures = {k: textures[k] for k in args.textures.split(",")}
+        wanted = args.textures.split(",")
+        textures = {k: textures[k] for k in wanted if k in textures}
+        felt = {k: v for k, v in felt.items() if k in wanted}
+    for name, rel in felt.items():
+        textures[name] = hx.SumOfGratings.egg_crate(0.1e-3, 2e-3).felt_by(rel * rho)
     probe = np.empty(10000)
     for i in range(probe.size):
         t0 = time.perf_counter_ns()
