@@ -1265,7 +1265,8 @@ def _contact_path(texture, x, h, r, periodic, seed=None):
             u = np.where((d2 < 0) & (un >= reach_lo) & (un <= reach_hi), un, u)
         flat = 1e-14 * r  # (g's rounding: a few ulps of the ball's height)
         gu, gg = g(u), g(golden)
-        u, gu = np.where(gu >= gg - flat, u, golden), np.maximum(gu, gg)
+        newton = gu >= gg - flat
+        u, gu = np.where(newton, u, golden), np.where(newton, gu, gg)
         grid = g(u0)
         keep = grid > gu + flat  # never below the start's own value
         return np.where(keep, u0, u), np.where(keep, grid, gu)
