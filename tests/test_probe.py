@@ -62,7 +62,7 @@ def test_near_the_troughs_radius_the_felt_profiles_node_slopes_are_the_offset_cu
     # h'(p). Truth: that equation solved by scipy's brentq to 1e-18 m at every 64th node of the
     # sinusoid felt at 0.99 rho (262,144 samples of 7.6 nm). The contacts were golden-section
     # maxima of the ball's height, good to about sqrt(eps) of its flat top (u to 1e-11 m): node
-    # slopes off by up to 1.7e-8, which the cubic pieces read as curvature 2.8 % off at the crests
+    # slopes off by up to 2.0e-8, which the cubic pieces read as curvature 2.8 % off at the crests
     # over 7.6 nm intervals (2026-11-28). (Where the contact runs more than three intervals an
     # interval, beside the troughs, a segment's slope runs linearly between its ends' with the
     # interval's mean instead: those nodes are left out, 62 of the 4,096 here.) ~5 s
@@ -372,7 +372,7 @@ def test_near_its_troughs_radius_q_of_d_on_a_felt_profile_is_the_paths(rel_r):
     # on which the squared distance is certified convex is solved by Newton (hx_closest.c,
     # test_closest.py) and the grid's closest points are found once, not three times: 11 s (1.045
     # on the old contacts); with the contacts polished, 1.00000 in 6 s, and 1.02484 at 0.95 rho
-    # (-0.07 %; 1.0276 in 46 s before). ~15 s
+    # (-0.07 %; 1.0279 in 46 s before). ~15 s
     r = rel_r * L**2 / (4 * math.pi**2 * A)
     truth = _path_q((A,), (L,), (0.0,), L, r)["D"]
     assert truth == pytest.approx(max(1.0, 1e-3 / (L**2 / (4 * math.pi**2 * A) + r - 1e-3)), rel=1e-4)
