@@ -24,6 +24,7 @@ from haptex.export import FIRMWARE_FLAGS, TARGETS, build_defines, export_c
 
 from .cbuild import core_objects
 from .conftest import K0, A, L
+from .test_surfaces import _graded_knots
 
 ARM_CC = shutil.which("arm-none-eabi-gcc")
 QEMU = shutil.which("qemu-system-arm")
@@ -106,12 +107,8 @@ def test_a_map_on_graded_axes_ticks_on_a_cortex_m_as_on_the_host(tmp_path, tmp_p
     # gradients) and D (its closest point, the surface search's cells cut in their own widths)
     # along a 3-D stroke over the finest cells, in and out of the wall. Oracle: the host's
     # Renderer, as above
-    n = 24
     k = 2 * np.pi / L
-    fine = np.r_[0.0, np.cumsum(np.minimum(2e-6 * 1.4 ** np.arange(64), L / n))]
-    half = fine[fine < L / 2]
-    kn = np.unique(np.round(np.r_[L / 4 - half, L / 4 + half] % L, 15))
-    kx = ky = np.r_[kn, kn[0] + L]
+    kx = ky = _graded_knots(24, L / 4, 2e-6, 1.4)
     X, Y = np.meshgrid(kx[:-1], ky[:-1], indexing="ij")
     a = 0.1e-3
     h = a * np.sin(k * X) * np.cos(k * Y)

@@ -405,7 +405,8 @@ def _spline_tree(prof: SampledProfile) -> np.ndarray:
     hi_leaf = np.maximum.reduce(vals)
     # h'' = 6 a3 t + 2 a2 on each interval, its bounds at the interval's ends; a leaf where h'
     # jumps between two of its intervals (beside a felt profile's kink) has none
-    c_lo, c_hi = np.minimum(2 * a2, 6 * a3 * dx + 2 * a2), np.maximum(2 * a2, 6 * a3 * dx + 2 * a2)
+    c_start, c_end = 2 * a2, 6 * a3 * dx + 2 * a2
+    c_lo, c_hi = np.minimum(c_start, c_end), np.maximum(c_start, c_end)
     s_end, s_next = (3 * a3 * dx + 2 * a2) * dx + a1, np.roll(a1, -1)
     jump = ~(np.abs(s_end - s_next) <= 1e-9 * (np.abs(s_end) + np.abs(s_next)) + 1e-15)
     # a leaf holds k intervals, up to half the shortest period and LEAF_INTERVALS (a felt profile

@@ -1230,9 +1230,10 @@ def _contact_path(texture, x, h, r, periodic, seed=None):
         def g(u):
             return texture.height(xa + u) + np.sqrt(np.maximum(r * r - u * u, 0.0))
 
-        lo, hi = np.maximum(u0 - dx, -r), np.minimum(u0 + dx, r)
-        if not periodic:
-            lo, hi = np.maximum(lo, first - xa), np.minimum(hi, last - xa)
+        # (what the ball reaches: within r, and on a bounded profile its sampled range)
+        reach_lo, reach_hi = (np.full(xa.shape, -r), np.full(xa.shape, r)) if periodic else \
+            (np.maximum(-r, first - xa), np.minimum(r, last - xa))
+        lo, hi = np.maximum(u0 - dx, reach_lo), np.minimum(u0 + dx, reach_hi)
         phi = (math.sqrt(5.0) - 1.0) / 2.0
         a, b = lo.copy(), hi.copy()
         c1, c2 = b - phi * (b - a), a + phi * (b - a)
@@ -1254,8 +1255,6 @@ def _contact_path(texture, x, h, r, periodic, seed=None):
         # from there, a step kept where g'' < 0 and the ball reaches (and, on a bounded profile,
         # the sampled range), gives u to the last bits; kept where g is not lower (to rounding)
         u = golden
-        reach_lo, reach_hi = (np.full(xa.shape, -r), np.full(xa.shape, r)) if periodic else \
-            (np.maximum(-r, first - xa), np.minimum(r, last - xa))
         for _ in range(CONTACT_NEWTON_STEPS):
             root = np.sqrt(np.maximum(r * r - u * u, 1e-300))
             d1 = texture.slope(xa + u) - u / root
