@@ -320,3 +320,33 @@ def test_the_registry_says_what_each_letters_constructor_takes():
         assert cls.textured == (letter != "W")
     assert taking("max_penetration") == ["B", "C", "F", "G"]  # Remark 3's d^z_max
     assert taking("friction") == ["F"] and taking("damping") == ["W"]
+
+
+def _rotation(rng):
+    """A random 3-D rotation (the Q of a normal matrix's QR, its signs fixed)."""
+    q, r = np.linalg.qr(rng.normal(size=(3, 3)))
+    return q * np.sign(np.diag(r))
+
+
+def test_the_spectral_norm_is_the_svds_largest_singular_value_on_every_kind_of_matrix():
+    # q is the largest singular value of J / kappa_0 (eq. 11). spectral_norm computes a 3x3's in
+    # closed form (Smith's trigonometric solution of J^T J's characteristic cubic), which loses
+    # half its digits where the two largest singular values coincide. Truth: LAPACK's SVD
+    # (numpy.linalg.svd), on random matrices from 1e-40 to 1e40 in their units and on the
+    # degenerate ones built from their singular values: two largest equal and nearly equal
+    # (1e-4 to 1e-14 apart), all three equal, rank one, rank two, 2x2 matrices too. With the
+    # closed form everywhere (SPECTRAL_REFINE = 0) the two-largest-equal cases read 3.9e-9 off
+    # (measured 2026-11-28): the test can fail.
+    rng = np.random.default_rng(20261128)
+    J = rng.normal(size=(20_000, 3, 3)) * 10.0 ** rng.uniform(-40, 40, size=(20_000, 1, 1))
+    built = []
+    for top in ([1.0, 1.0, 0.3], [1.0, 1.0, 1.0], [1.0, 0.0, 0.0], [1.0, 0.5, 0.0], [2.0, 2.0, 0.0]):
+        built += [_rotation(rng) @ np.diag(top) @ _rotation(rng) for _ in range(50)]
+    for gap in 10.0 ** -np.arange(4, 15):
+        built += [_rotation(rng) @ np.diag([1.0, 1.0 - gap, 0.2]) @ _rotation(rng) for _ in range(20)]
+    J = np.concatenate([J, 3e3 * np.array(built)])
+    truth = np.linalg.svd(J, compute_uv=False)[:, 0]
+    np.testing.assert_allclose(hx.spectral_norm(J), truth, rtol=1e-13)
+    K = rng.normal(size=(5_000, 2, 2)) * 10.0 ** rng.uniform(-40, 40, size=(5_000, 1, 1))
+    np.testing.assert_allclose(hx.spectral_norm(K), np.linalg.svd(K, compute_uv=False)[:, 0], rtol=1e-13)
+    assert hx.spectral_norm(np.zeros((3, 3))) == 0.0

@@ -38,8 +38,9 @@ def test_q_plan_counts_its_first_grid(monkeypatch, letter, texture):
     plan = characteristic_points(alg, 1e-3)
     sizes = counting(monkeypatch, type(alg), "jacobian")
     characteristic_number(alg, 1e-3)
-    assert sizes[0] == plan  # the grid; then the refinement's single points
-    assert max(sizes[1:], default=1) == 1
+    assert sizes[0] == plan  # the grid; then the refinement's points: one, or a finite-difference
+    # gradient's shifted points in one call (one a variable: the plane's and the depth)
+    assert max(sizes[1:], default=1) <= texture.dimension + 1
 
 
 def test_explorer_refuses_a_view_planned_past_its_budget_before_computing_it(monkeypatch):

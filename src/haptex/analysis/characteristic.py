@@ -112,17 +112,53 @@ def spectral_norm(j) -> np.ndarray:
     -------
     ndarray, shape (...)
         sigma_max(J), in the units of J: for 2x2 in closed form,
-        sqrt((‖J‖_F^2 + sqrt(‖J‖_F^4 - 4 det(J)^2)) / 2); for 3x3 as the square root of
-        the largest eigenvalue of J^T J by LAPACK's symmetric solver (half the time of its
-        SVD; relative error a few ulp, since only the largest is wanted).
+        sqrt((‖J‖_F^2 + sqrt(‖J‖_F^4 - 4 det(J)^2)) / 2); for 3x3 as the square root of the
+        largest eigenvalue of J^T J in closed form (the trigonometric solution of its
+        characteristic cubic; O. K. Smith, "Eigenvalues of a symmetric 3 x 3 matrix",
+        Commun. ACM 4(4), 1961). Where the two largest eigenvalues nearly coincide (the cubic's
+        cosine within SPECTRAL_REFINE of -1, where the closed form keeps only about half the
+        digits), where J is zero or past about 1e50 or 1e-50 in its units, it is LAPACK's
+        symmetric solver's instead. Within a few ulp of the SVD's either way
+        (``tests/test_algorithms.py``).
+
+    Raises
+    ------
+    numpy.linalg.LinAlgError
+        Where a 3x3 J holds a NaN (LAPACK's solver does not converge).
     """
     j = np.asarray(j, dtype=np.float64)
-    if j.shape[-2:] != (2, 2):
+    if j.shape[-2:] == (2, 2):
+        fro2 = np.sum(j * j, axis=(-2, -1))
+        det = j[..., 0, 0] * j[..., 1, 1] - j[..., 0, 1] * j[..., 1, 0]
+        disc = np.sqrt(np.maximum(fro2 * fro2 - 4 * det * det, 0.0))
+        return np.sqrt(0.5 * (fro2 + disc))
+    if j.shape[-2:] != (3, 3):
         return np.sqrt(np.maximum(np.linalg.eigvalsh(np.swapaxes(j, -1, -2) @ j)[..., -1], 0.0))
-    fro2 = np.sum(j * j, axis=(-2, -1))
-    det = j[..., 0, 0] * j[..., 1, 1] - j[..., 0, 1] * j[..., 1, 0]
-    disc = np.sqrt(np.maximum(fro2 * fro2 - 4 * det * det, 0.0))
-    return np.sqrt(0.5 * (fro2 + disc))
+    with np.errstate(all="ignore"):  # (out of range or not finite: LAPACK's below)
+        c0, c1, c2 = ([j[..., 0, k], j[..., 1, k], j[..., 2, k]] for k in range(3))  # (J's columns)
+        a00, a11, a22 = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2] for x in (c0, c1, c2))
+        a01, a02, a12 = (x[0] * y[0] + x[1] * y[1] + x[2] * y[2] for x, y in ((c0, c1), (c0, c2), (c1, c2)))
+        mean = (a00 + a11 + a22) / 3
+        b00, b11, b22 = a00 - mean, a11 - mean, a22 - mean
+        p = np.sqrt((b00 * b00 + b11 * b11 + b22 * b22 + 2 * (a01 * a01 + a02 * a02 + a12 * a12)) / 6)
+        det = b00 * (b11 * b22 - a12 * a12) - a01 * (a01 * b22 - a12 * a02) + a02 * (a01 * a12 - b11 * a02)
+        c = np.clip(0.5 * det / (p * p * p), -1.0, 1.0)
+        lam = mean + 2 * p * np.cos(np.arccos(c) / 3)
+    # (LAPACK's where the closed form is not sound: two largest nearly equal, the cosine's slope
+    # unbounded there; p^3 past the doubles' range, J above about 1e50 or below 1e-50 in its
+    # units, zero included; and any entry not finite, which LAPACK refuses as it always did)
+    other = ~((c > -1.0 + SPECTRAL_REFINE) & (p > 1e-100) & (p < 1e100))
+    if np.any(other):
+        lam = np.array(lam, dtype=np.float64, copy=True)
+        lam[other] = np.linalg.eigvalsh(np.swapaxes(j[other], -1, -2) @ j[other])[..., -1]
+    return np.sqrt(np.maximum(lam, 0.0))
+
+
+SPECTRAL_REFINE = 1e-6
+"""How near -1 the cosine of :func:`spectral_norm`'s closed form may come before its 3x3
+matrices' largest eigenvalue is LAPACK's instead: there an error of eps in the cosine moves
+the eigenvalue by about eps / (3 sqrt(2 delta)) of its scale, delta the distance from -1
+(chosen: 1e-6 keeps that below 3e-14)."""
 
 
 @dataclass(frozen=True)
@@ -276,9 +312,9 @@ def characteristic_number(
     norms = spectral_norm(algorithm.jacobian(_region_points(algorithm, plane_pts, mesh[-1]))) / k0
     dd = dmax / nd
 
-    def neg_q(v):
-        p = _region_points(algorithm, np.asarray(v[:-1])[None, :], np.array([v[-1]]))
-        return -float(spectral_norm(algorithm.jacobian(p))[0]) / k0
+    def neg_q(v):  # (k, d): the plane's coordinates and the depth a row
+        p = _region_points(algorithm, v[:, :-1], v[:, -1])
+        return -spectral_norm(algorithm.jacobian(p)) / k0
 
     start = [r[0] for r in ranges] + [dmax]
     best, where_pt = -np.inf, tuple(start)
@@ -303,7 +339,7 @@ def characteristic_number(
                 pt = [float(p[0]), float(p[1]), float(depth)]
                 bounds = [(v - e, v + e) for v, e in zip(pt[:2], step)]
                 bounds.append((max(dd * 1e-6, depth - dd), min(dmax, depth + dd)))
-                val, found = _refine(neg_q, pt, -neg_q(pt), bounds)
+                val, found = _refine(neg_q, pt, None, bounds)
                 if val > best:
                     best, where_pt = val, found
     # (a profile's algorithm that reads the slope reads h'' too; on an object a profile is
@@ -397,15 +433,38 @@ def _object_focus(alg, ut, dmax: float):
     return None
 
 
-def _refine(neg, start, value: float, bounds) -> tuple[float, tuple]:
+def _refine(neg, start, value, bounds) -> tuple[float, tuple]:
     """Bounded L-BFGS-B maximisation from a grid point: (value, point), the grid's own if
-    the refinement finds nothing larger."""
+    the refinement finds nothing larger (``value`` None: the start's own, computed here).
+    ``neg`` maps points (n, d) to the negated quantity (n,), row by row; L-BFGS-B's
+    finite-difference gradient evaluates its d shifted points in one call of it (SciPy's
+    ``workers``, a map-like callable: the values of one call a point to rounding, numpy's
+    vector loops and their scalar tails differing in the last bit, for a d-th of the Python
+    overhead)."""
     from scipy import optimize
 
-    r = optimize.minimize(neg, x0=list(start), method="L-BFGS-B", bounds=bounds,
-                          options={"ftol": 1e-15, "gtol": 1e-12})
+    start = np.asarray(start, dtype=np.float64)
+    fixed = np.array([lo == hi for lo, hi in bounds])  # (held here, as minimize would drop them)
+    free = ~fixed
+
+    def full(v):  # (n, free variables) -> (n, d)
+        out = np.repeat(start[None, :], len(v), axis=0)
+        out[:, fixed] = [lo for (lo, hi), f in zip(bounds, fixed) if f]
+        out[:, free] = v
+        return out
+
+    def one(v):
+        return float(neg(full(np.asarray(v, dtype=np.float64)[None, :]))[0])
+
+    def shifted(_fun, points):  # (map(_fun, points): each row's value as ``one`` computes it, to rounding)
+        return [float(v) for v in neg(full(np.array(list(points), dtype=np.float64)))]
+
+    if value is None:
+        value = -one(start[free])
+    r = optimize.minimize(one, x0=start[free], method="L-BFGS-B", bounds=[b for b, f in zip(bounds, free) if f],
+                          options={"ftol": 1e-15, "gtol": 1e-12, "workers": shifted})
     if -r.fun > value:
-        return -float(r.fun), tuple(float(v) for v in r.x)
+        return -float(r.fun), tuple(float(v) for v in full(r.x[None, :])[0])
     return float(value), tuple(float(v) for v in start)
 
 
@@ -513,7 +572,7 @@ def _q_friction(alg, dmax, ranges, counts, nd) -> CharacteristicNumber:
         a surface polar (r, angle), r fixed at d^x_max in slip."""
         if k == 1:
             return np.asarray(w)
-        return w[0] * np.array([math.cos(w[1]), math.sin(w[1])])
+        return w[..., :1] * np.stack([np.cos(w[..., 1]), np.sin(w[..., 1])], -1)
 
     def top(defl, phase, n_best=4):
         """The ``n_best`` largest norms of the grid and their indices, evaluated in slabs of
@@ -539,9 +598,9 @@ def _q_friction(alg, dmax, ranges, counts, nd) -> CharacteristicNumber:
             pt = [axes[a][ijk[a]] for a in range(k)] + [ds[ijk[k]]]
             d0 = defl[ijk[k + 1]]
 
-            def neg(v, phase=phase):
-                d = deflection(v[k + 1:], phase)
-                return -float(spectral_norm(jac(np.asarray(v[:k])[None, :], np.array([v[k]]), d[None, :], phase))[0]) / k0
+            def neg(v, phase=phase):  # (n, k + 1 + deflection's variables)
+                d = deflection(v[:, k + 1:], phase)
+                return -spectral_norm(jac(v[:, :k], v[:, k], d, phase)) / k0
 
             bounds = [(max(r[0], v - h), min(r[1], v + h)) for r, v, h in zip(ranges, pt, steps)]
             bounds.append((max(dd_ * 1e-6, pt[k] - dd_), min(depth_max, pt[k] + dd_)))
@@ -554,7 +613,7 @@ def _q_friction(alg, dmax, ranges, counts, nd) -> CharacteristicNumber:
                 bounds += [(0.0, dm) if phase == "stick" else (dm, dm), (a0 - np.pi / 8, a0 + np.pi / 8)]
             val, v = _refine(neg, (*pt, *w0), value, bounds)
             if val > best:
-                best, arg = val, (v[:k], v[k], deflection(v[k + 1:], phase), phase)
+                best, arg = val, (v[:k], v[k], deflection(np.asarray(v[k + 1:]), phase), phase)
     x0, x1 = ranges[0]
     bounds_paper = friction_bounds(alg, depth_max if alg.max_penetration is None else min(depth_max, alg.max_penetration))
     deflection = float(arg[2][0]) if k == 1 else [float(v) for v in arg[2]]
@@ -640,11 +699,9 @@ def _q_distance(alg, dmax, x0, x1, nx, nd, closed) -> CharacteristicNumber:
     dt = (x1 - x0) / nx
     dr = dmax / nd
 
-    def neg_q(v):
-        p = _normal_point(tex, np.array([v[0]]), v[1])
-        if not _unique_foot(tex, p, v[1])[0]:
-            return 0.0
-        return -float(spectral_norm(alg.jacobian(p))[0]) / k0
+    def neg_q(v):  # (n, 2): t and r a row; 0 off the region
+        p = _normal_point(tex, v[:, 0], v[:, 1])
+        return np.where(_unique_foot(tex, p, v[:, 1]), -spectral_norm(alg.jacobian(p)) / k0, 0.0)
 
     best, where_tr = -np.inf, (x0, dmax)
     for idx in _candidates(norms):
@@ -723,11 +780,9 @@ def _q_distance_surface(alg, dmax, ranges, counts, nd, closed, x_range, resoluti
     steps = [(b - a) / n for (a, b), n in zip(ranges, counts)]
     dr = dmax / nd
 
-    def neg_q(v):
-        p = _surface_normal_point(tex, np.array([v[:2]]), np.array([v[2]]))
-        if not _unique_foot(tex, p, v[2])[0]:
-            return 0.0
-        return -float(spectral_norm(alg.jacobian(p))[0]) / k0
+    def neg_q(v):  # (n, 3): the foot's x, y and r a row; 0 off the region
+        p = _surface_normal_point(tex, v[:, :2], v[:, 2])
+        return np.where(_unique_foot(tex, p, v[:, 2]), -spectral_norm(alg.jacobian(p)) / k0, 0.0)
 
     best, where_v = -np.inf, (ranges[0][0], ranges[1][0], dmax)
     for idx in _candidates(norms):
