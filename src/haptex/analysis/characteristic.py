@@ -650,6 +650,17 @@ def _unique_foot(tex: Texture, points, r):
     return _foot_is_unique(closest_point(tex, points), r)
 
 
+def _on_region(alg, points, r):
+    """-||J|| / kappa_0 (n,) of D or E at the normal points ``points`` (n, 2 or 3) at distances
+    r (n,) (m), 0 where their foot is not their unique closest point (:func:`_unique_foot`),
+    where the Jacobian is not evaluated (undefined there, a centre of curvature's NaN)."""
+    out = np.zeros(len(points))
+    on = _unique_foot(alg.texture, points, r)
+    if np.any(on):
+        out[on] = -spectral_norm(alg.jacobian(points[on])) / alg.stiffness
+    return out
+
+
 def _foot_is_unique(cp: ClosestPoint, r):
     """:func:`_unique_foot` on closest points already found: the distance is r and no tie."""
     return (cp.distance >= r * (1 - 1e-9)) & ~cp.tie
@@ -699,9 +710,8 @@ def _q_distance(alg, dmax, x0, x1, nx, nd, closed) -> CharacteristicNumber:
     dt = (x1 - x0) / nx
     dr = dmax / nd
 
-    def neg_q(v):  # (n, 2): t and r a row; 0 off the region
-        p = _normal_point(tex, v[:, 0], v[:, 1])
-        return np.where(_unique_foot(tex, p, v[:, 1]), -spectral_norm(alg.jacobian(p)) / k0, 0.0)
+    def neg_q(v):  # (n, 2): t and r a row; 0 off the region (its Jacobian not evaluated there)
+        return _on_region(alg, _normal_point(tex, v[:, 0], v[:, 1]), v[:, 1])
 
     best, where_tr = -np.inf, (x0, dmax)
     for idx in _candidates(norms):
@@ -780,9 +790,8 @@ def _q_distance_surface(alg, dmax, ranges, counts, nd, closed, x_range, resoluti
     steps = [(b - a) / n for (a, b), n in zip(ranges, counts)]
     dr = dmax / nd
 
-    def neg_q(v):  # (n, 3): the foot's x, y and r a row; 0 off the region
-        p = _surface_normal_point(tex, v[:, :2], v[:, 2])
-        return np.where(_unique_foot(tex, p, v[:, 2]), -spectral_norm(alg.jacobian(p)) / k0, 0.0)
+    def neg_q(v):  # (n, 3): the foot's x, y and r a row; 0 off the region (its Jacobian not evaluated there)
+        return _on_region(alg, _surface_normal_point(tex, v[:, :2], v[:, 2]), v[:, 2])
 
     best, where_v = -np.inf, (ranges[0][0], ranges[1][0], dmax)
     for idx in _candidates(norms):
