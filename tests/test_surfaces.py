@@ -700,11 +700,11 @@ def test_a_hermite_map_on_graded_axes_is_the_tensor_product_of_cubic_hermite_spl
     pts[:40] = np.column_stack([L / 4 + rng.normal(0, 5e-6, 40), 3 * L / 4 + rng.normal(0, 9e-6, 40)])  # (fine cells)
     ref = np.empty((len(pts), 6))
     start = np.array([kx[0], ky[0]])
-    for m, (x, y) in enumerate(start + (pts - start) % L):  # (into the knots' period)
-        rows = [[Hermite(kx, H[:, j], GX[:, j])(x, nu), Hermite(kx, GY[:, j], TW[:, j])(x, nu)] for nu in (0, 1, 2)
-                for j in range(ky.size)]
-        f = np.array(rows).reshape(3, ky.size, 2)  # (d^nu/dx^nu, node j, [h or h_y along the row])
-        along = [Hermite(ky, f[nu, :, 0], f[nu, :, 1]) for nu in (0, 1, 2)]
+    inside = start + (pts - start) % L  # (into the knots' period)
+    rows_h, rows_hy = Hermite(kx, H, GX), Hermite(kx, GY, TW)  # (each row of nodes a column of y)
+    f = np.stack([np.stack([rows_h(inside[:, 0], nu), rows_hy(inside[:, 0], nu)], -1) for nu in (0, 1, 2)], 1)
+    for m, (x, y) in enumerate(inside):  # f[m]: (d^nu/dx^nu, node j, [h or h_y along the row])
+        along = [Hermite(ky, f[m, nu, :, 0], f[m, nu, :, 1]) for nu in (0, 1, 2)]
         ref[m] = [along[0](y), along[1](y), along[0](y, 1), along[2](y), along[1](y, 1), along[0](y, 2)]
     d = np.column_stack([s.height_at(pts), s.gradient(pts), s.hessian(pts).reshape(-1, 4)[:, [0, 1, 3]]])
     scale = np.array([A, A * 2 * np.pi / L, A * 2 * np.pi / L] + [A * (2 * np.pi / L) ** 2] * 3)
