@@ -329,7 +329,7 @@ def _rotation(rng):
 
 
 def test_the_spectral_norm_is_the_svds_largest_singular_value_on_every_kind_of_matrix():
-    # q is the largest singular value of J / kappa_0 (eq. 11). spectral_norm computes a 3x3's in
+    # q is the largest singular value of J / kappa_0 (eq. 5). spectral_norm computes a 3x3's in
     # closed form (Smith's trigonometric solution of J^T J's characteristic cubic), which loses
     # half its digits where the two largest singular values coincide. Truth: LAPACK's SVD
     # (numpy.linalg.svd), on random matrices from 1e-40 to 1e40 in their units and on the
