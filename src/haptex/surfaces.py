@@ -873,8 +873,13 @@ class SampledSurface(Surface):
         egg-crate at 0.88, 0.9 and 0.95 times its bowls' radius 1.4, 3.0 and 49 %, q of D +3.07,
         +6.52 and +204 % (the saddles, where the concave spike crosses the convex direction),
         where ``curvature_miss`` says 0.39, 0.65 and 3.3 %; the refinement reads it with the
-        curvature's own. None where ``curvature_miss`` is not measured or the ball bridges the
-        surface.
+        curvature's own. At 0.95 times the map kept is on graded axes: 176 %, q of D 58.5 for
+        the path's 1.025. The same surface turned by 45 degrees (its two gratings along the
+        map's axes, the saddles' ridges along its cells' sides) reads 0.013 %, q of D 1.0249
+        (measured 2026-11-28): the miss is the tensor patches' across a ridge that runs
+        diagonally through their cells. q's note states this miss where it passes 1 %
+        (:func:`haptex.characteristic_number`). None where ``curvature_miss`` is not measured or
+        the ball bridges the surface.
 
     Raises
     ------

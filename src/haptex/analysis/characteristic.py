@@ -4,7 +4,7 @@ with its closed forms and F's presliding bounds (Campion & Hayward, Sections III
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -183,7 +183,10 @@ class CharacteristicNumber:
     max_penetration : float
         Depth bound of the region searched (m).
     note : str
-        How the value was obtained, in one sentence.
+        How the value was obtained, in one sentence; on a texture felt by a ball whose
+        curvature misses the ball path's by more than 1 % where q reads it (its ``peak_miss``
+        or ``curvature_miss`` for B, C and G, its ``convex_miss`` for D), by how much, and how
+        far q on the path may then be.
     paper_form_value : float or None
         For D only: the sup of the eq. 18 (flat-boundary) Jacobian, which is 1.
     extra : dict
@@ -281,6 +284,40 @@ def characteristic_number(
     >>> round(q.value, 4), round(q.closed_form, 4)
     (5.1251, 5.1251)
     """
+    return _stated_miss(_searched_q(algorithm, max_penetration, x_range, resolution), algorithm.texture)
+
+
+def _stated_miss(q: CharacteristicNumber, tex) -> CharacteristicNumber:
+    """``q`` with its note saying, on a felt texture whose refinement stopped short of its
+    slack (1 %, ``haptex.surfaces.CURVATURE_SLACK``), by how much the texture's curvature misses
+    the ball path's where ``q`` reads it: the largest (``peak_miss``, or a profile's
+    ``curvature_miss``) for B, C and G, which read it (eqs. 11, 14, 28), q on the path about as
+    far; the most convex (``convex_miss``) for D, q = d_max / (R - d_max) below a convex point of
+    radius R (eq. 18), on the path about ``convex_miss`` (1 + q) from it."""
+    from ..surfaces import CURVATURE_SLACK
+
+    if q.letter in "BCG":
+        name = "peak_miss" if getattr(tex, "peak_miss", None) is not None else "curvature_miss"
+        said = "largest"
+    elif q.letter == "D":
+        name, said = "convex_miss", "most convex"
+    else:
+        return q
+    miss = getattr(tex, name, None)
+    if miss is None or not miss > CURVATURE_SLACK:
+        return q
+    if q.letter != "D":
+        off = "; q on the ball's path may differ from this one by about as much"
+    elif math.isfinite(q.value):
+        off = f"; q on the ball's path may differ from this one by about {miss * (1 + q.value):.3g} of it"
+    else:
+        off = ""
+    return replace(q, note=f"{q.note}; the felt texture's {said} curvature misses the ball path's by "
+                            f"{miss:.3g} of it ({name}){off}")
+
+
+def _searched_q(algorithm, max_penetration, x_range, resolution) -> CharacteristicNumber:
+    """:func:`characteristic_number`'s search, its arguments as there."""
     dmax = check_analysis_scale(algorithm, max_penetration)
     ranges, counts, nd = _q_plan(algorithm, x_range, resolution)
     tex = algorithm.texture
