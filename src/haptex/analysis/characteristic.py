@@ -294,9 +294,10 @@ def _stated_miss(q: CharacteristicNumber, tex) -> CharacteristicNumber:
     ``curvature_miss``) for B, C and G, which read it (eqs. 11, 14, 28), q on the path about as
     far; the most convex (``convex_miss``) for D, q = d_max / (R - d_max) below a convex point of
     radius R (eq. 18), on the path about ``convex_miss`` (1 + q) from it."""
+    from ..algorithms import ALGORITHMS
     from ..surfaces import CURVATURE_SLACK
 
-    if q.letter in "BCG":
+    if q.letter in ALGORITHMS and ALGORITHMS[q.letter].reads_slope:  # (B, C, G: the registry's)
         name = "peak_miss" if getattr(tex, "peak_miss", None) is not None else "curvature_miss"
         said = "largest"
     elif q.letter == "D":
@@ -481,12 +482,11 @@ def _refine(neg, start, value, bounds) -> tuple[float, tuple]:
     from scipy import optimize
 
     start = np.asarray(start, dtype=np.float64)
-    fixed = np.array([lo == hi for lo, hi in bounds])  # (held here, as minimize would drop them)
-    free = ~fixed
+    free = np.array([lo != hi for lo, hi in bounds])  # (the fixed held here, as minimize would drop them)
+    base = np.array([v if f else lo for v, f, (lo, hi) in zip(start, free, bounds)])
 
     def full(v):  # (n, free variables) -> (n, d)
-        out = np.repeat(start[None, :], len(v), axis=0)
-        out[:, fixed] = [lo for (lo, hi), f in zip(bounds, fixed) if f]
+        out = np.repeat(base[None, :], len(v), axis=0)
         out[:, free] = v
         return out
 
