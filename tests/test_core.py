@@ -216,7 +216,8 @@ def test_core_is_clean_under_asan_and_ubsan(tmp_path, objdir):
     """tests/c/core_fuzz.c under -fsanitize=address,undefined: coefficient arrays allocated to
     their exact size (a read one past is reported), headers that claim more cells than the
     array holds refused by hx_texture_check (a felt map's branched layout too: a start that
-    decreases, a cell with one patch too many), fields at adversarial positions (0,
+    decreases, a cell with one patch too many; a turn that is NaN or past pi), fields at
+    adversarial positions (a map on turned axes among them: HX_PATCH_TURN, 0.7 rad; 0,
     subnormals, cell edges, map ends, +-1 km), a branched map's among them, all finite; the
     servo tick over them and NaN and infinite ones, on the plane and on every base (the
     analytic ones, a mesh, the prism mesh): forces finite and <= max force, faults counted. The

@@ -100,13 +100,21 @@ def test_the_exported_tick_runs_on_a_cortex_m_as_on_the_host(tmp_path, tmp_path_
 
 
 @needs_arm
-@pytest.mark.parametrize("letter", ["B", "D"])
-def test_a_map_on_graded_axes_ticks_on_a_cortex_m_as_on_the_host(tmp_path, tmp_path_factory, letter):
+@pytest.mark.parametrize("letter,turned", [("B", False), ("D", False), ("D", True)])
+def test_a_map_on_graded_axes_ticks_on_a_cortex_m_as_on_the_host(tmp_path, tmp_path_factory, letter, turned):
     # A Hermite map on graded axes (its patch table carries each axis's knots, a position's cell
     # found by bisection: HX_PATCH_AXES) exported for the M4F: B (the map's heights and
     # gradients) and D (its closest point, the surface search's cells cut in their own widths)
-    # along a 3-D stroke over the finest cells, in and out of the wall. Oracle: the host's
-    # Renderer, as above
+    # along a 3-D stroke over the finest cells, in and out of the wall; and D on a felt
+    # egg-crate, whose map is on axes turned 45 degrees to its gratings (HX_PATCH_TURN: the
+    # search turns the probe into the map's frame and its closest point back). Oracle: the
+    # host's Renderer, as above
+    if turned:
+        a = 0.1e-3
+        surf = hx.SumOfGratings.egg_crate(a, L).felt_by(0.1e-3, spacing=L / 16)  # (12 x 12 cells: a small table)
+        assert surf.patches()[0, _ext.PATCH_TURN] == pytest.approx(np.pi / 4)
+        _tick_as_on_the_host(surf, letter, a, tmp_path, tmp_path_factory)
+        return
     k = 2 * np.pi / L
     kx = ky = _graded_knots(24, L / 4, 2e-6, 1.4)
     X, Y = np.meshgrid(kx[:-1], ky[:-1], indexing="ij")
@@ -116,6 +124,12 @@ def test_a_map_on_graded_axes_ticks_on_a_cortex_m_as_on_the_host(tmp_path, tmp_p
     surf = hx.SampledSurface(kx[:-1], ky[:-1], h, periodic=True, gradients=g, knots=(kx, ky))
     assert 1e-6 < np.min(np.diff(kx)) < 3e-6 and kx.size < 60  # (graded: 2 um cells beside L / 4)
     assert surf.patches()[0, _ext.PATCH_AXES] > 0  # (the table carries its knots)
+    _tick_as_on_the_host(surf, letter, a, tmp_path, tmp_path_factory)
+
+
+def _tick_as_on_the_host(surf, letter, a, tmp_path, tmp_path_factory):
+    """The tick of ``letter`` on ``surf`` (amplitude a, m) along a 3-D stroke about (L/4, L/4),
+    on the M4F under QEMU against the host's Renderer."""
     alg = hx.algorithm(letter, surf, K0, **({"max_penetration": 0.5e-3} if letter == "B" else {}))
     t = np.linspace(0.0, 1.0, 600)
     p = np.column_stack([L / 4 + 40e-6 * np.sin(2 * np.pi * 3 * t), L / 4 + 30e-6 * np.cos(2 * np.pi * 2 * t),

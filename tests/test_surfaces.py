@@ -782,6 +782,30 @@ def test_closest_point_on_a_felt_map_with_kinks_agrees_with_brute_force():
     np.testing.assert_allclose(felt.height_at(on - eps), felt.height_at(on + eps), rtol=0, atol=3e-13)  # (slope x 2 eps)
 
 
+def test_closest_point_on_a_map_turned_to_its_gratings_agrees_with_brute_force():
+    # a felt egg-crate below its bowls' radius is a map on axes along its gratings, turned 45
+    # degrees from the plane's (PATCH_TURN): the search turns the probe into the map's frame and
+    # its closest point back. Its distances are never longer than the dense brute force's over
+    # the plane's points (to 1e-9 m), nor shorter by more than the brute force's grid allows,
+    # the closest point on the surface (its height there), and the probe above it along the
+    # surface's normal there (the first-order condition: p - c parallel to (-grad h, 1))
+    felt = hx.SumOfGratings.egg_crate(A, 2e-3).felt_by(0.5 * (2e-3) ** 2 / (4 * np.pi**2 * A))  # (half the bowls' radius)
+    assert felt.turn == pytest.approx(np.pi / 4)
+    rng = np.random.default_rng(31)
+    xy = rng.uniform(0, 2e-3, (80, 2))
+    p = np.column_stack([xy, felt.height_at(xy) - rng.uniform(0.0, 0.4e-3, 80)])
+    cp = hx.closest_point(felt, p)
+    ref = _brute_force_distance(felt, p, 1.05 * cp.distance + 1e-6)
+    assert np.all(cp.distance <= ref + 1e-9), np.max(cp.distance - ref)
+    assert np.all(cp.distance >= ref - 1e-9), np.max(ref - cp.distance)
+    c = np.column_stack([cp.x, cp.y])
+    np.testing.assert_allclose(cp.z, felt.height_at(c), rtol=0, atol=1e-12)
+    n = np.column_stack([-felt.gradient(c), np.ones(80)])
+    d = np.column_stack([c, cp.z]) - p
+    np.testing.assert_allclose(np.linalg.norm(np.cross(d, n), axis=1) / np.linalg.norm(n, axis=1),
+                               0.0, atol=1e-9)
+
+
 @pytest.mark.parametrize("tex", [hx.Grating(A, L), hx.SumOfGratings.egg_crate(A, L)], ids=["grating", "egg"])
 def test_the_medial_axis_below_a_peak_is_detected_as_a_tie(tex):
     # Remark 6 in 3-D: below a peak deeper than its radius of curvature (1/(A k^2) = 32 um) the

@@ -391,6 +391,57 @@ class SumOfGratings(Surface):
         return self.cell is not None
 
     @cached_property
+    def felt_turn(self) -> float:
+        """The angle (rad, in (-pi/4, pi/4]) by which :meth:`felt_by` turns its map's axes from
+        the plane's: where every grating's wave vector lies along one of two perpendicular
+        directions off the axes (the egg-crate's, at +-45 degrees: ``turn`` = pi/4) and the
+        texture turned onto them is periodic on a lattice that holds the plane's cell, the
+        felt map of a ball that cannot bridge it is made on axes along the gratings (:class:`~haptex.SampledSurface` with
+        ``turn``), where its tensor patches follow the saddles' ridges along their sides; 0
+        otherwise (the map on the plane's axes). Measured on the egg-crate at 0.95 times its
+        bowls' radius: q of D 58.5 on the plane's axes, 1.0249 on the turned ones, for the ball
+        path's 1.0248 (2026-11-28)."""
+        live = self.amplitudes > 0
+        if not live.any() or self.cell is None:
+            return 0.0
+        th = np.mod(self.directions[live], np.pi / 2)
+        spread = np.mod(th - th[0] + np.pi / 4, np.pi / 2) - np.pi / 4
+        if np.max(np.abs(spread)) > 1e-12:
+            return 0.0
+        turn = float(th[0] if th[0] <= np.pi / 4 else th[0] - np.pi / 2)
+        if abs(turn) < 1e-12:
+            return 0.0
+        frame = self._turned_by(turn)
+        if frame.cell is None:
+            return 0.0
+        c, s = math.cos(turn), math.sin(turn)
+        k = np.abs(frame._kvec[live])
+        along = [bool(np.any(k[:, a] > 1e-12 * k.max())) for a in (0, 1)]  # (else invariant along that axis)
+        for vx, vy in ((self.cell[0], 0.0), (0.0, self.cell[1])):  # the plane's cell on the map's lattice
+            for m, length, a in ((c * vx + s * vy, frame.cell[0], 0), (c * vy - s * vx, frame.cell[1], 1)):
+                if along[a] and abs(m / length - round(m / length)) > 1e-9:
+                    return 0.0
+        return turn
+
+    def _turned_by(self, turn: float) -> "SumOfGratings":
+        """This texture on axes turned by ``turn`` (rad): h'(m) = h(R(turn) m)."""
+        return SumOfGratings(self.amplitudes, self.periods, self.directions - turn, self.phases)
+
+    def _felt(self, r: float, spacing: float | None) -> "SampledSurface":
+        """Surface._felt's map, on axes turned to the gratings where :attr:`felt_turn` is not 0
+        and the ball cannot bridge the surface (:func:`_may_bridge`; where it bridges, the map
+        stays on the plane's axes: on the egg-crate at 1.05 times its bowls' radius the turned
+        grids left cells beside the bowls' apexes unbranched from the first refinement on, 22 x
+        22 and a 20 % curvature miss, where the plane's axes reach 304 a side and 3.5 %)."""
+        turn = self.felt_turn
+        if turn == 0.0 or _may_bridge(self, r):
+            return super()._felt(r, spacing)
+        out = _TurnedMap.of(self._turned_by(turn)._felt(r, spacing), turn, self.cell)
+        if type(self) is not SumOfGratings and out.source.startswith("SumOfGratings "):  # (its own name)
+            out.source = type(self).__name__ + out.source[len("SumOfGratings"):]
+        return out
+
+    @cached_property
     def max_slope(self) -> float:
         """M = sup ‖grad h‖ (m/m) over the plane (Remark 2 with the gradient's norm)."""
         if self.cell is None:
@@ -870,16 +921,24 @@ class SampledSurface(Surface):
         that, and the lower eigenvalues at the centres where either is convex. q of D, d_max /
         (R - d_max) below the most convex point of radius R (eq. 18), is then off by about
         ``convex_miss`` (1 + q) (exactly so where the map's sup is that much more convex): on the
-        egg-crate at 0.88, 0.9 and 0.95 times its bowls' radius 1.4, 3.0 and 49 %, q of D +3.07,
-        +6.52 and +204 % (the saddles, where the concave spike crosses the convex direction),
-        where ``curvature_miss`` says 0.39, 0.65 and 3.3 %; the refinement reads it with the
-        curvature's own. At 0.95 times the map kept is on graded axes: 176 %, q of D 58.5 for
-        the path's 1.025. The same surface turned by 45 degrees (its two gratings along the
-        map's axes, the saddles' ridges along its cells' sides) reads 0.013 %, q of D 1.0249
-        (measured 2026-11-28): the miss is the tensor patches' across a ridge that runs
-        diagonally through their cells. q's note states this miss where it passes 1 %
+        egg-crate's map on the plane's axes at 0.88, 0.9 and 0.95 times its bowls' radius 1.4,
+        3.0 and 176 %, q of D +3.07, +6.52 % and 58.5 for the path's 1.025 (the saddles, where
+        the concave spike crosses the convex direction diagonally through the cells), where
+        ``curvature_miss`` says 0.39, 0.65 and 8.9 %; the refinement reads it with the
+        curvature's own. Its map is now on axes along its gratings (``turn``), where the
+        saddles' ridges run along the cells' sides: 0.001 and 0.013 % at 0.9 and 0.95 times, q of
+        D within 0.001 % (2026-11-29). q's note states this miss where it passes 1 %
         (:func:`haptex.characteristic_number`). None where ``curvature_miss`` is not measured or
         the ball bridges the surface.
+    turn : float
+        The angle (rad) by which the map's axes are turned from the plane's: 0 but on a felt map
+        of a sum of gratings whose wave vectors lie along two perpendicular directions off the
+        plane's axes, made on axes along them (:attr:`haptex.SumOfGratings.felt_turn`, pi/4 on
+        the egg-crate). ``x``, ``y``, ``knots`` and the patches are then on the map's axes (the C
+        core's ``PATCH_TURN`` turns a point into them), while :attr:`cell`, :attr:`domain`,
+        ``kinks``, :attr:`crease_ends`, :meth:`steepest_points` and every evaluation are on the
+        plane's; :meth:`to_plane` turns the map's points. Its transformations act on its own
+        axes and keep the turn; :meth:`line` refuses it.
 
     Raises
     ------
@@ -984,6 +1043,28 @@ class SampledSurface(Surface):
                 raise
             return np.stack([self._spline_eval(xt, nu) for nu in _NU], -1)
         return core.texture_derivatives(self, plane(xt))
+
+    def _frame_kinks(self) -> np.ndarray:
+        """:attr:`kinks` on the map's own axes (a turned map's are reported on the plane)."""
+        return self.kinks
+
+    turn = 0.0
+
+    def to_plane(self, m) -> np.ndarray:
+        """Points on the map's axes (``x``, ``y``) as the plane's: the same points, unless the map
+        is turned (:attr:`turn`), where p = R(turn) m.
+
+        Parameters
+        ----------
+        m : array_like, shape (..., 2)
+            Points (m) on the map's axes.
+
+        Returns
+        -------
+        numpy.ndarray, shape (..., 2)
+            The same points on the plane's axes (m).
+        """
+        return np.array(m, dtype=float)
 
     def _spline_eval(self, xt, nu):
         """Derivative ``nu`` = (i, j) of the spline at in-plane positions (..., 2), by scipy."""
@@ -1795,6 +1876,113 @@ class SampledSurface(Surface):
         return cls(x, y, h, periodic=periodic, source=str(path))
 
 
+class _TurnedMap(SampledSurface):
+    """A periodic felt map on axes turned by ``turn`` (rad) from the plane's: its samples, cells,
+    knots and patches are on the map's own axes (``x``, ``y`` along them), its surface is
+    h(p) = h_m(R(turn)^T p) on the plane (the C core's ``PATCH_TURN``, which turns a point into
+    the map's frame, its gradient and Hessian back, and the closest-point search's probe), and
+    what it reports about places (:attr:`cell`, :attr:`domain`, :attr:`kinks`,
+    :attr:`crease_ends`, :meth:`steepest_points`) is on the plane. Made by
+    ``SumOfGratings.felt_by`` where the gratings' wave vectors lie along two perpendicular
+    directions off the plane's axes (the egg-crate's, at +-45 degrees): a tensor patch follows a
+    ridge along its side, not across its diagonal. Transformations act on the map in its frame
+    and keep the turn."""
+
+    _CACHES = ("_on_regular", "_patches", "_closest_cache", "_surface_search", "_steepest", "_frame")
+
+    @classmethod
+    def of(cls, frame: SampledSurface, turn: float, cell) -> "_TurnedMap":
+        """``frame`` (a periodic map on the map's axes) turned by ``turn`` (rad), periodic on the
+        plane's ``cell`` (L_x, L_y) (m)."""
+        out = cls.__new__(cls)
+        out.__dict__.update({k: v for k, v in frame.__dict__.items() if k not in cls._CACHES})
+        out.turn, out._cell = float(turn), (float(cell[0]), float(cell[1]))
+        out._frame = frame
+        out.kinks = frame.kinks.copy()
+        out.kinks[:, :2] = out.to_plane(frame.kinks[:, :2])
+        if "_steepest" in frame.__dict__:
+            out.__dict__["_steepest"] = list(out.to_plane(np.asarray(frame.__dict__["_steepest"]).reshape(-1, 2)))
+        return out
+
+    def to_plane(self, m) -> np.ndarray:
+        """Points on the map's axes as the plane's: p = R(turn) m.
+
+        Parameters
+        ----------
+        m : array_like, shape (..., 2)
+            Points (m) on the map's axes (``x``, ``y``).
+
+        Returns
+        -------
+        numpy.ndarray, shape (..., 2)
+            The same points on the plane's axes (m).
+        """
+        c, s = math.cos(self.turn), math.sin(self.turn)
+        m = np.asarray(m, dtype=float)
+        return np.stack([c * m[..., 0] - s * m[..., 1], s * m[..., 0] + c * m[..., 1]], -1)
+
+    def __repr__(self) -> str:
+        return super().__repr__()[:-1] + f", on axes turned {math.degrees(self.turn):g} deg)"
+
+    def _derivatives(self, xt) -> np.ndarray:
+        self.patches()  # (no spline fallback: its axes are the map's; ParameterError past the budget)
+        return _core.texture_derivatives(self, plane(xt))
+
+    def _frame_kinks(self) -> np.ndarray:
+        return self._frame.kinks
+
+    def patches(self) -> np.ndarray:
+        arr = super().patches()
+        arr[0, _ext.PATCH_TURN] = self.turn
+        return arr
+
+    @property
+    def cell(self) -> tuple[float, float]:
+        """The plane's periodic cell (L_x, L_y) (m), the texture's it was felt on."""
+        return self._cell
+
+    @property
+    def domain(self):
+        """One cell of the plane, ((0, L_x), (0, L_y)) (m)."""
+        return Surface.domain.fget(self)
+
+    def _grid(self):
+        pts, steps = super()._grid()
+        return self.to_plane(pts), steps
+
+    @property
+    def crease_ends(self) -> np.ndarray:
+        return self.to_plane(self._frame.crease_ends).reshape(-1, 2)
+
+    def _turned(self, out: SampledSurface) -> "_TurnedMap":
+        return _TurnedMap.of(out, self.turn, tuple(self._cell[a] * out._size[a] / self._size[a] for a in (0, 1)))
+
+    def spectrum(self):
+        """The map's amplitude spectrum on its own axes (:meth:`SampledSurface.spectrum`): f_x,
+        f_y along the map's axes, turned ``turn`` from the plane's."""
+        return self._frame.spectrum()
+
+    def leveled(self) -> "_TurnedMap":
+        return self._turned(self._frame.leveled())
+
+    def lowpass(self, shortest_period: float) -> "_TurnedMap":
+        return self._turned(self._frame.lowpass(shortest_period))
+
+    def band_limited(self, shortest_period: float, samples_per_period: int = SURFACE_SAMPLES_PER_CUTOFF) -> "_TurnedMap":
+        return self._turned(self._frame.band_limited(shortest_period, samples_per_period))
+
+    def scaled(self, length_factor: float = 1.0, height_factor: float = 1.0) -> "_TurnedMap":
+        return self._turned(self._frame.scaled(length_factor, height_factor))
+
+    def line(self, y: float | None = None, row: int | None = None):
+        raise ParameterError(f"texture = {self!r} is not allowed for line(): its rows run along axes turned "
+                             f"{math.degrees(self.turn):g} deg from x; take a line of the texture it was felt on, "
+                             "or evaluate height_at along the line you want")
+
+    def _felt(self, r: float, spacing: float | None) -> "_TurnedMap":
+        return self._turned(self._frame._felt(r, spacing))
+
+
 def load_texture(path, *, spacing=None, x_unit=None, height_unit=None, variable=None, periodic: bool = False,
                  fill_undefined: bool = False, crop=None) -> SampledProfile | SampledSurface:
     """A measured texture from any file haptex reads, as the file holds it: a line scan
@@ -1968,11 +2156,12 @@ def _kinked_edge_cells(felt) -> np.ndarray:
     """The flat indices of the cells on either side of each kinked edge of a felt map, once an
     edge (a cell as often as it has kinked edges; on a map that ends at its edges, the cells on
     it)."""
-    if felt.kinks is None or len(felt.kinks) == 0:
+    kinks = felt._frame_kinks()
+    if kinks is None or len(kinks) == 0:
         return np.zeros(0, dtype=np.int64)
     dx, dy = float(felt.x[1] - felt.x[0]), float(felt.y[1] - felt.y[0])
     mx, my = (felt.x.size, felt.y.size) if felt.periodic else (felt.x.size - 1, felt.y.size - 1)
-    k = felt.kinks[:, :2]
+    k = kinks[:, :2]
     i = np.floor((k[:, 0] - felt.x[0]) / dx + 1e-9).astype(int)
     j = np.floor((k[:, 1] - felt.y[0]) / dy + 1e-9).astype(int)
     along_x = np.abs((k[:, 0] - felt.x[0]) / dx - i - 0.5) < 1e-6  # (a kink at an x edge's middle)
@@ -2491,8 +2680,14 @@ step keep q of D to +0.001 % (its convex miss 2.1 % without them); the egg-crate
 saddles over all of them, where such cells made a grid past the cap)."""
 
 GRADED_TRIES = 3
-"""How many graded maps :func:`_graded_refined` makes at most, each with finest cells half the
-last's."""
+"""How many graded maps :func:`_graded_refined` makes at most, each with finer cells than the
+last's (GRADED_STEP)."""
+
+GRADED_STEP = (0.5, 0.85)
+"""The least and most a graded map's finest cells are of the last's when it missed the slack:
+the h^2 law's step towards REFINE_AIM of CURVATURE_SLACK, within these (chosen: halving, as
+before 2026-11-29, took the egg-crate's map at 0.95 times its bowls' radius, on axes along its
+gratings, from 539 x 540 nodes and a 1.04 % miss past CURVATURE_REFINE_SAMPLES)."""
 
 
 def _hot_intervals(m, cur):
@@ -2583,7 +2778,9 @@ def _graded_refined(texture, felt, m, r):
             best = g
         if g["peak"] <= CURVATURE_SLACK:
             break
-        shrink /= 2
+        # (finer by the h^2 law towards REFINE_AIM of the slack, at least GRADED_STEP[0] and at
+        # most GRADED_STEP[1] of the last: a miss just past the slack needs a little, not half)
+        shrink *= min(GRADED_STEP[1], max(GRADED_STEP[0], math.sqrt(REFINE_AIM * CURVATURE_SLACK / g["peak"])))
     return best
 
 

@@ -84,6 +84,7 @@ static void patch_header(double *c, long nx, long ny, int periodic, int joins)
     c[6] = periodic;
     c[7] = (double)joins;
     c[HX_PATCH_AXES] = 0.0; /* uniform cells */
+    c[HX_PATCH_TURN] = 0.0; /* along the plane's axes */
 }
 
 static double *patches(long nx, long ny, int periodic, long cells, long *rows, long *cols)
@@ -436,7 +437,7 @@ int main(int argc, char **argv)
         printf("scale %d: give 1 to 100\n", scale);
         return 2;
     }
-    for (variant = 0; variant < 16; variant++) {
+    for (variant = 0; variant < 19; variant++) {
         long rows = 0, cols = 0;
         int kind, expect = HX_OK;
         double *c;
@@ -457,6 +458,12 @@ int main(int argc, char **argv)
         case 13: kind = HX_SURFACE_PATCHES; c = graded(6, 9, 1, 0, &rows, &cols); break;
         case 14: kind = HX_SURFACE_PATCHES; c = graded(7, 5, 0, 1, &rows, &cols); expect = HX_BAD_COEFFS; break;
         case 15: kind = HX_SURFACE_PATCHES; c = graded(7, 5, 0, 2, &rows, &cols); expect = HX_BAD_COEFFS; break;
+        /* a map on turned axes (HX_PATCH_TURN), and turns refused: NaN, past pi */
+        case 16: kind = HX_SURFACE_PATCHES; c = graded(6, 9, 1, 0, &rows, &cols); c[HX_PATCH_TURN] = 0.7; break;
+        case 17: kind = HX_SURFACE_PATCHES; c = patches(7, 5, 0, 35, &rows, &cols); c[HX_PATCH_TURN] = NAN;
+            expect = HX_BAD_COEFFS; break;
+        case 18: kind = HX_SURFACE_PATCHES; c = patches(7, 5, 0, 35, &rows, &cols); c[HX_PATCH_TURN] = -3.2;
+            expect = HX_BAD_COEFFS; break;
         default: kind = HX_TEXTURE_FLAT; c = NULL; break;
         }
         m.tex.kind = kind;

@@ -140,10 +140,15 @@ enum { HX_JOINS_SPLINE = 0, HX_JOINS_HERMITE = 1, HX_JOINS_BRANCHED = 2, HX_MAX_
 /* HX_PATCH_AXES: 0 where the cells are uniform (HX_PATCH_DX by HX_PATCH_DY); else graded axes
  * (rectilinear cells of their own widths), the column where the tail's nx + 1 x knots and then
  * ny + 1 y knots start, increasing, the first at X0 (Y0); the cells' coefficients are in each
- * cell's own local coordinates as on a uniform map, and DX, DY are the cells' mean widths. */
+ * cell's own local coordinates as on a uniform map, and DX, DY are the cells' mean widths.
+ * HX_PATCH_TURN: the angle theta (rad, |theta| <= pi) by which the map's axes are turned from
+ * the plane's: the map holds h_m(m) and the surface is h(p) = h_m(R(theta)^T p) (a felt map on
+ * axes along a texture's gratings, haptex.SampledSurface.turn); 0 on a map along the plane's
+ * axes. X0, Y0 and the knots are then in the map's frame; the closest-point search turns the
+ * probe into it. */
 enum {
     HX_PATCH_X0, HX_PATCH_Y0, HX_PATCH_DX, HX_PATCH_DY, HX_PATCH_NX, HX_PATCH_NY, HX_PATCH_PERIODIC, HX_PATCH_JOINS,
-    HX_PATCH_AXES, HX_PATCH_DATA = 9
+    HX_PATCH_AXES, HX_PATCH_TURN, HX_PATCH_DATA = 10
 };
 
 typedef struct {

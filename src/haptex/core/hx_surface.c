@@ -147,7 +147,7 @@ static void surf(const sproblem *q, double x, double y, hx_height *e)
     if (q->branch != NULL)
         branch_at(q->branch, q->bx0, q->by0, q->bw, q->bh, x, y, e);
     else
-        hx__texture_eval(q->tex, x, y, e);
+        hx__frame_eval(q->tex, x, y, e);
 }
 
 /* phi(t) at t = (tx, ty) with h's derivatives there in *e, h(t) - p_z in *dz and grad phi / 2
@@ -1066,8 +1066,9 @@ int hx_surface_aux_check(const double *aux, long naux)
     return pyramid_check(aux, naux);
 }
 
-hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double px, double py, double pz, double gx0,
-                              double gy0)
+/* the search in the surface's own frame (a turned map's: hx__frame_eval) */
+static hx_closest closest_in_frame(const hx_texture *tex, const double *aux, double px, double py, double pz,
+                                   double gx0, double gy0)
 {
     sproblem q;
     hx_closest out;
@@ -1257,7 +1258,7 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
         if (cm) {
             /* the model's least point: polished to its local minimum when it is below the best
              * (in a far cell, within G_TIE above it) */
-            double sx = cx + ux, sy = cy + uy, ez = hx__texture_height(tex, sx, sy) - pz;
+            double sx = cx + ux, sy = cy + uy, ez = hx__frame_height(tex, sx, sy) - pz;
             double fs = (sx - px) * (sx - px) + (sy - py) * (sy - py) + ez * ez;
             work++;
             if (fs < b.bf || (far && fs <= reach * reach)) {
@@ -1279,12 +1280,12 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
             double sx = fmin(fmax(px, cx - wx), cx + wx), sy = fmin(fmax(py, cy - wy), cy + wy), fs, dzs;
             newton_out n;
             int qd;
-            dzs = hx__texture_height(tex, sx, sy) - pz;
+            dzs = hx__frame_height(tex, sx, sy) - pz;
             fs = (sx - px) * (sx - px) + (sy - py) * (sy - py) + dzs * dzs;
             for (qd = 0; qd < 5; qd++) {
                 double qx = qd == 0 ? cx : cx + ((qd & 1) ? 0.5 * wx : -0.5 * wx);
                 double qy = qd == 0 ? cy : cy + ((qd & 2) ? 0.5 * wy : -0.5 * wy);
-                double dq = hx__texture_height(tex, qx, qy) - pz;
+                double dq = hx__frame_height(tex, qx, qy) - pz;
                 double fq = (qx - px) * (qx - px) + (qy - py) * (qy - py) + dq * dq;
                 if (fq < fs) {
                     fs = fq;
@@ -1318,5 +1319,25 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
     out.distance = d;
     out.tie = b.second < HUGE_VAL && sqrt(b.second) - d <= fmax(tie_eps, 1e-9 * d);
     out.work = work;
+    return out;
+}
+
+hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double px, double py, double pz, double gx0,
+                              double gy0)
+{
+    /* a turned map (HX_PATCH_TURN): the probe and the guess turned into the map's frame, m = R^T
+     * p, and the closest point back, p = R m (the distance is the same in either frame) */
+    double th = hx__turn(tex), cs, sn, mx, my;
+    hx_closest out;
+    if (th == 0.0)
+        return closest_in_frame(tex, aux, px, py, pz, gx0, gy0);
+    cs = cos(th);
+    sn = sin(th);
+    out = closest_in_frame(tex, aux, cs * px + sn * py, cs * py - sn * px, pz, cs * gx0 + sn * gy0,
+                           cs * gy0 - sn * gx0);
+    mx = out.t;
+    my = out.y;
+    out.t = cs * mx - sn * my;
+    out.y = sn * mx + cs * my;
     return out;
 }

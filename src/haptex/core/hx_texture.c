@@ -12,7 +12,8 @@
  *                        linear extension of a non-periodic profile.
  *   HX_SURFACE_GRATINGS  4 x n: amplitudes (m), kx, ky (rad/m), phases (rad);
  *                        h(x, y) = sum a_i sin(kx_i x + ky_i y + phase_i).
- *   HX_SURFACE_PATCHES   1 x (9 + 16 nx ny): header [x0, y0, dx, dy, nx, ny, periodic, joins, axes],
+ *   HX_SURFACE_PATCHES   1 x (10 + 16 nx ny): header [x0, y0, dx, dy, nx, ny, periodic, joins, axes,
+ *                        turn],
  *                        then per cell (i along x, row-major: cell (i, j) at 16 (i ny + j))
  *                        the coefficients c[a][b] of s^a t^b, s, t in [0, 1] the cell's
  *                        local coordinates. Outside a non-periodic map, the tangent-plane
@@ -23,6 +24,8 @@
  *                        patches follow (hx_core.h, HX_JOINS_BRANCHED). axes
  *                        (HX_PATCH_AXES): 0 for uniform cells dx by dy; for graded axes the
  *                        column where nx + 1 x knots and ny + 1 y knots follow all that.
+ *                        turn (HX_PATCH_TURN): the map's axes turned from the plane's
+ *                        (rad, |turn| <= pi; 0 along them).
  */
 #include "hx_core.h"
 #include "hx_texture_eval.h"
@@ -68,7 +71,8 @@ int hx_texture_check(int kind, const double *c, long rows, long cols)
         nx = c[HX_PATCH_NX];
         ny = c[HX_PATCH_NY];
         if (!isfinite(c[HX_PATCH_X0]) || !isfinite(c[HX_PATCH_Y0]) || !finite_positive(c[HX_PATCH_DX]) ||
-            !finite_positive(c[HX_PATCH_DY]) || !is_count(nx, 1e9) || !is_count(ny, 1e9))
+            !finite_positive(c[HX_PATCH_DY]) || !is_count(nx, 1e9) || !is_count(ny, 1e9) ||
+            !(fabs(c[HX_PATCH_TURN]) <= 3.14159265358979323846))
             return HX_BAD_COEFFS;
         for (i = 0; i < HX_PATCH_DATA; i++)
             if (!isfinite(c[i]))

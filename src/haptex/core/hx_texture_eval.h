@@ -347,7 +347,9 @@ HX_INLINE void patches_eval(const hx_texture *t, double x, double y, hx_height *
     o->hxy = (ox && oy) ? 0.0 : D[1][1] + (ox ? 0.0 : D[2][1] * ex) + (oy ? 0.0 : D[1][2] * ey);
 }
 
-HX_INLINE void hx__texture_eval(const hx_texture *t, double x, double y, hx_height *out)
+/* h and its derivatives in the texture's own frame: a patch map's (its cells' axes) where the
+ * map is turned (HX_PATCH_TURN); hx__texture_eval turns the plane's point into it. */
+HX_INLINE void hx__frame_eval(const hx_texture *t, double x, double y, hx_height *out)
 {
     out->h = out->gx = out->gy = out->hxx = out->hxy = out->hyy = 0.0;
     switch (t->kind) {
@@ -368,7 +370,8 @@ HX_INLINE void hx__texture_eval(const hx_texture *t, double x, double y, hx_heig
     }
 }
 
-HX_INLINE double hx__texture_height(const hx_texture *t, double x, double y)
+/* h alone in the texture's own frame (as hx__frame_eval) */
+HX_INLINE double hx__frame_height(const hx_texture *t, double x, double y)
 {
     long i;
     double h = 0.0;
@@ -392,9 +395,51 @@ HX_INLINE double hx__texture_height(const hx_texture *t, double x, double y)
         return D[0][0] + D[1][0] * (x - cx) + D[0][1] * (y - cy);
     }
     default:
-        hx__texture_eval(t, x, y, &o);
+        hx__frame_eval(t, x, y, &o);
         return o.h;
     }
+}
+
+/* A patch map's turn theta (rad, HX_PATCH_TURN), 0 for every other kind: the map's axes are
+ * the plane's turned by theta, a point p of the plane is at m = R(theta)^T p on the map */
+HX_INLINE double hx__turn(const hx_texture *t)
+{
+    return t->kind == HX_SURFACE_PATCHES ? t->c[HX_PATCH_TURN] : 0.0;
+}
+
+/* h, its gradient and Hessian at (x, y) of the plane: on a turned map h(p) = h_m(R^T p), so
+ * grad h = R grad h_m and H = R H_m R^T */
+HX_INLINE void hx__texture_eval(const hx_texture *t, double x, double y, hx_height *out)
+{
+    double th = hx__turn(t), cs, sn, cc, ss, cn;
+    hx_height m;
+    if (th == 0.0) {
+        hx__frame_eval(t, x, y, out);
+        return;
+    }
+    cs = cos(th);
+    sn = sin(th);
+    hx__frame_eval(t, cs * x + sn * y, cs * y - sn * x, &m);
+    cc = cs * cs;
+    ss = sn * sn;
+    cn = cs * sn;
+    out->h = m.h;
+    out->gx = cs * m.gx - sn * m.gy;
+    out->gy = sn * m.gx + cs * m.gy;
+    out->hxx = cc * m.hxx - 2.0 * cn * m.hxy + ss * m.hyy;
+    out->hxy = cn * (m.hxx - m.hyy) + (cc - ss) * m.hxy;
+    out->hyy = ss * m.hxx + 2.0 * cn * m.hxy + cc * m.hyy;
+}
+
+/* h alone at (x, y) of the plane (as hx__texture_eval) */
+HX_INLINE double hx__texture_height(const hx_texture *t, double x, double y)
+{
+    double th = hx__turn(t), cs, sn;
+    if (th == 0.0)
+        return hx__frame_height(t, x, y);
+    cs = cos(th);
+    sn = sin(th);
+    return hx__frame_height(t, cs * x + sn * y, cs * y - sn * x);
 }
 
 #endif
