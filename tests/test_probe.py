@@ -824,11 +824,13 @@ def test_a_felt_maps_curvature_miss_bounds_its_q(name, rel_r, capsys):
         assert said["felt_by_tip"]["curvature_miss"] == pytest.approx(felt.curvature_miss, rel=1e-3)
         assert said["felt_by_tip"]["peak_miss"] == pytest.approx(felt.peak_miss, rel=1e-3)
         assert said["felt_by_tip"]["convex_miss"] == pytest.approx(felt.convex_miss, rel=1e-3)
+        assert said["felt_by_tip"]["turn"] == pytest.approx(math.pi / 4)  # (its map on axes along the gratings)
         # (the cut-off far longer than the spike, a few um wide: 20 times the 760 grid's step)
         assert said["band_limit"]["applied"] and said["band_limit"]["cutoff"] > 20 * 2e-3 / 760
         assert main(args + ["--quiet"]) == 0
         out = " ".join(capsys.readouterr().out.split())
         assert "felt by a ball of r" in out
+        assert "the felt map's cells run along the texture's gratings, turned 45 deg from x" in out
         assert "the felt texture's curvature misses" not in out  # (not in the band-limited texture it analyses)
 
 

@@ -115,7 +115,7 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
                 "max_slope_felt": float(tex.max_slope), "source": tex.source,
                 "kinks": [dict(zip(names, map(float, k))) for k in kinks[:100]],
                 "kink_count": int(len(kinks)), "branched_cells": int(getattr(tex, "branched_cells", 0)),
-                "single_patch_cells": _single_patch_cells(tex)}
+                "single_patch_cells": _single_patch_cells(tex), "turn": float(getattr(tex, "turn", 0.0))}
         for key in ("curvature_miss", "peak_miss", "convex_miss"):
             miss = getattr(tex, key, None)
             felt[key] = None if miss is None else float(miss)
@@ -179,6 +179,9 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
     if felt is not None:
         console.print(f"felt by a ball of r = {tip_radius * 1e3:g} mm: M = {felt['max_slope_point_probe']:.4g} for a point "
                       f"probe, {felt['max_slope_felt']:.4g} felt; the felt texture is analysed below")
+        if felt["turn"]:
+            console.print(f"the felt map's cells run along the texture's gratings, turned {math.degrees(felt['turn']):.4g} "
+                          "deg from x (its curvature's ridges along their sides; SampledSurface.turn)")
         if felt["kink_count"]:
             worst = max(felt["kinks"], key=lambda k: abs(k["slope_jump"]))
             console.print(f"the ball bridges troughs: {felt['kink_count']} kink{'s' if felt['kink_count'] != 1 else ''} of "
