@@ -132,27 +132,35 @@ def analysis(args) -> None:
         print(f"{letter:4} {t_f:10.3f} {t_j:13.3f} {t_q:8.2f}")
     # the closest point on a surface: time per point per core (both cores run the search)
     cores = hx.core.num_threads()
+
+    def closest(tex, q, what):
+        hx.closest_point(tex, q[:10])  # (compiles the search data)
+        t = best_of(lambda: hx.closest_point(tex, q), repeat=1)
+        work = hx.closest_point(tex, q[:100_000]).work
+        print(f"closest point on the {what}, 0 to 1 mm deep: {t / len(q) * cores * 1e6:.2f} us per point per core "
+              f"({cores} cores), {work.mean():.0f} evaluations a point on average, {work.max()} at most")
+
     for name, surf in (("grating (A = 0.8 mm, l = 1 mm, 0.3 rad)", hx.Grating(0.8e-3, 1e-3, 0.3)), ("egg-crate", egg)):
         xy = rng.uniform(0, 1e-3, (n, 2))
-        q = np.column_stack([xy, surf.height_at(xy) - rng.uniform(0.0, 1e-3, n)])
-        hx.closest_point(surf, q[:10])
-        t = best_of(lambda: hx.closest_point(surf, q), repeat=1)
-        work = hx.closest_point(surf, q[:100_000]).work
-        print(f"closest point on the {name}, 0 to 1 mm deep: {t / n * cores * 1e6:.2f} us per point per core "
-              f"({cores} cores), {work.mean():.0f} evaluations a point on average, {work.max()} at most")
+        closest(surf, np.column_stack([xy, surf.height_at(xy) - rng.uniform(0.0, 1e-3, n)]), name)
     # a felt profile refined for its curvature: the sinusoid (0.1 mm at 2 mm) felt by a ball of
     # 0.99 times its troughs' radius, 262,144 samples, its leaves certified convex or scanned
     rho = 2e-3**2 / (4 * np.pi**2 * 0.1e-3)
     felt = hx.Sinusoid(0.1e-3, 2e-3).felt_by(0.99 * rho)
     x = rng.uniform(0, 2e-3, n // 10)
-    q = np.column_stack([x, felt.height(x) - rng.uniform(0.0, 1e-3, x.size)])
-    hx.closest_point(felt, q[:10])
-    t = best_of(lambda: hx.closest_point(felt, q), repeat=1)
-    work = hx.closest_point(felt, q).work
-    print(f"closest point on the sinusoid felt by a ball of 0.99 rho ({felt.x.size} samples), 0 to 1 mm deep: "
-          f"{t / x.size * cores * 1e6:.2f} us per point per core ({cores} cores), {work.mean():.0f} evaluations a "
-          f"point on average, {work.max()} at most")
-
+    closest(felt, np.column_stack([x, felt.height(x) - rng.uniform(0.0, 1e-3, x.size)]),
+            f"sinusoid felt by a ball of 0.99 rho ({felt.x.size} samples)")
+    # a felt map on axes turned along its gratings: the egg-crate (0.1 mm at 2 mm) felt by a ball
+    # of 0.95 times its bowls' radius, on graded axes turned 45 degrees (PATCH_TURN)
+    felt = hx.SumOfGratings.egg_crate(0.1e-3, 2e-3).felt_by(0.95 * rho)
+    xy = rng.uniform(0, 2e-3, (n // 10, 2))
+    closest(felt, np.column_stack([xy, felt.height_at(xy) - rng.uniform(0.0, 1e-3, xy.shape[0])]),
+            f"egg-crate felt by a ball of 0.95 rho ({felt.x.size} x {felt.y.size} samples on axes turned "
+            f"{np.degrees(felt.turn):g} deg)")
+    t_turned = best_of(lambda: hx.core.texture_derivatives(felt, xy))
+    t_frame = best_of(lambda: hx.core.texture_derivatives(felt._frame, xy))
+    print(f"  its heights, gradients and Hessians: {t_turned / xy.shape[0] * 1e9:.0f} ns a point, "
+          f"{t_frame / xy.shape[0] * 1e9:.0f} on its own axes unturned")
 
 if __name__ == "__main__":
     main()
