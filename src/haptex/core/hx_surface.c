@@ -33,6 +33,14 @@ typedef struct {
     int periodic;
 } pyramid_t;
 
+/* the last interval [lo, hi] along each axis whose ends were counted in cells (patch_cells, a
+ * bisection of a graded axis's knots), and those counts: a cell's pyramid bounds, patch test and
+ * split read the same two intervals (they took half the search's time on a graded felt map) */
+typedef struct {
+    double lo[2], hi[2], f0[2], f1[2];
+    int set[2];
+} spanmemo;
+
 typedef struct {
     const hx_texture *tex;
     const double *g; /* aux: HX_G_* */
@@ -40,6 +48,7 @@ typedef struct {
     pyramid_t pyr;
     const double *branch; /* NULL; else h is this one patch of a branched cell, origin (bx0, by0), widths bw, bh */
     double bx0, by0, bw, bh;
+    spanmemo *memo; /* (the search's own, written through the const problem) */
 } sproblem;
 
 static long blocks(long n, long k) { return (n + (1L << k) - 1) >> k; }
@@ -74,9 +83,29 @@ static void pyramid_init(sproblem *q)
  * end within 1e-12 of a sample interval of a patch boundary is taken at it: the bound misses at
  * most slope 1e-12 d of height there, far below the search's tolerance G_TIE = 1e-9 of the
  * shortest wavelength (> 2 d). */
-static int patch_span(double lo, double hi, const double *hd, int ax, long n, int periodic, long *a, long *b)
+static void span_cells(const sproblem *q, int ax, double lo, double hi, double *f0, double *f1)
 {
-    double f0 = patch_cells(hd, ax, lo) + 1e-12, f1 = patch_cells(hd, ax, hi) - 1e-12;
+    spanmemo *m = q->memo;
+    if (m != NULL && m->set[ax] && m->lo[ax] == lo && m->hi[ax] == hi) {
+        *f0 = m->f0[ax];
+        *f1 = m->f1[ax];
+        return;
+    }
+    *f0 = patch_cells(q->tex->c, ax, lo) + 1e-12;
+    *f1 = patch_cells(q->tex->c, ax, hi) - 1e-12;
+    if (m != NULL) {
+        m->lo[ax] = lo;
+        m->hi[ax] = hi;
+        m->f0[ax] = *f0;
+        m->f1[ax] = *f1;
+        m->set[ax] = 1;
+    }
+}
+
+static int patch_span(const sproblem *q, double lo, double hi, int ax, long n, int periodic, long *a, long *b)
+{
+    double f0, f1;
+    span_cells(q, ax, lo, hi, &f0, &f1);
     if (!(f0 > -1e15 && f1 < 1e15))
         return 0;
     *a = (long)floor(f0);
@@ -98,11 +127,10 @@ static int patch_span(double lo, double hi, const double *hd, int ax, long n, in
 static int pyramid_bounds(const sproblem *q, double cx, double cy, double wx, double wy, double v[HX_PY_N])
 {
     const pyramid_t *P = &q->pyr;
-    const double *c = q->tex->c;
     long ia, ib, ja, jb, l, k, nby, i, j;
     if (P->levels == 0 ||
-        !patch_span(cx - wx, cx + wx, c, 0, P->nx, P->periodic, &ia, &ib) ||
-        !patch_span(cy - wy, cy + wy, c, 1, P->ny, P->periodic, &ja, &jb))
+        !patch_span(q, cx - wx, cx + wx, 0, P->nx, P->periodic, &ia, &ib) ||
+        !patch_span(q, cy - wy, cy + wy, 1, P->ny, P->periodic, &ja, &jb))
         return 0;
     for (l = 0; l < P->levels; l++) {
         k = P->shift + l;
@@ -221,13 +249,14 @@ static int joined(const sproblem *q) { return q->tex->kind == HX_SURFACE_PATCHES
 /* the patch line along axis ax of the map hd (the patch grid continued beyond a map's edges)
  * strictly inside [lo, hi] nearest its middle in cells, NAN where [lo, hi] lies within one patch
  * (its ends within 1e-12 of a cell of a line taken at it, as patch_span) */
-static double patch_line(double lo, double hi, const double *hd, int ax)
+static double patch_line(const sproblem *q, double lo, double hi, int ax)
 {
-    double f0 = patch_cells(hd, ax, lo) + 1e-12, f1 = patch_cells(hd, ax, hi) - 1e-12, m;
+    double f0, f1, m;
+    span_cells(q, ax, lo, hi, &f0, &f1);
     if (!(f0 > -1e15 && f1 < 1e15) || floor(f0) + 1.0 >= f1)
         return NAN;
     m = fmin(fmax(floor(0.5 * (f0 + f1) + 0.5), floor(f0) + 1.0), ceil(f1) - 1.0);
-    return patch_at(hd, ax, m);
+    return patch_at(q->tex->c, ax, m);
 }
 
 /* whether the patch holding (x, y) (clamped to the map, wrapped if periodic) is a branched
@@ -249,8 +278,7 @@ static int branched_at(const sproblem *q, double x, double y)
 /* whether the cell [cx -+ wx] x [cy -+ wy] of a height map crosses none of its patch lines */
 static int one_patch(const sproblem *q, double cx, double cy, double wx, double wy)
 {
-    const double *hd = q->tex->c;
-    return isnan(patch_line(cx - wx, cx + wx, hd, 0)) && isnan(patch_line(cy - wy, cy + wy, hd, 1));
+    return isnan(patch_line(q, cx - wx, cx + wx, 0)) && isnan(patch_line(q, cy - wy, cy + wy, 1));
 }
 
 /* whether the Taylor model may hold on the cell [cx -+ wx] x [cy -+ wy]: within one patch of a
@@ -1006,9 +1034,8 @@ static int split_at_edges(const sproblem *q, double cx, double cy, double wx, do
         ny = cut_at(cy - wy, cy + wy, b[1], b[3], ys);
     }
     if (nx == 1 && ny == 1 && joined(q)) { /* then a joined map's patch lines, nearest the middle */
-        const double *hd = q->tex->c;
-        double lx = patch_line(cx - wx, cx + wx, hd, 0);
-        double ly = patch_line(cy - wy, cy + wy, hd, 1);
+        double lx = patch_line(q, cx - wx, cx + wx, 0);
+        double ly = patch_line(q, cy - wy, cy + wy, 1);
         nx = cut_at(cx - wx, cx + wx, lx, NAN, xs);
         ny = cut_at(cy - wy, cy + wy, ly, NAN, ys);
     }
@@ -1071,6 +1098,7 @@ static hx_closest closest_in_frame(const hx_texture *tex, const double *aux, dou
                                    double gx0, double gy0)
 {
     sproblem q;
+    spanmemo memo;
     hx_closest out;
     best_t b;
     hx_height e0;
@@ -1089,6 +1117,8 @@ static hx_closest closest_in_frame(const hx_texture *tex, const double *aux, dou
     q.branch = NULL;
     q.bx0 = q.by0 = 0.0;
     q.bw = q.bh = 1.0;
+    memo.set[0] = memo.set[1] = 0;
+    q.memo = &memo;
     surf(&q, px, py, &e0);
     dv = e0.h - pz;
     out.t = px;
