@@ -867,7 +867,7 @@ def test_a_felt_maps_convex_miss_bounds_q_of_d():
     # (0.39 %); at 0.8 times +0.75 % (528 a side; its convex miss 0.37 %), on the random map
     # at 0.9 times +0.00 % (its crests away from the spikes; 0.10 %). The map states that miss
     # (convex_miss), design's JSON carries it (the test above). The egg-crate's own map is now
-    # on axes along its gratings, where the miss is 0.001 % (the test above it); here with a
+    # on axes along its gratings, where the miss is 0.001 % (the test below it); here with a
     # grating along x of 1 nm (1e-5 of its amplitude: q moves by about that), whose wave vector
     # is off those axes, so that its map stays on the plane's. Truth: _areal_path_q on the
     # egg-crate, D's closed form d_max / (R - d_max), R = rho + r at the crests (asserted). ~55 s
@@ -901,8 +901,8 @@ def test_on_axes_along_its_gratings_q_of_d_on_the_felt_egg_crate_is_the_paths(re
     # On axes along the gratings (felt_turn) the ridges run along the cells' sides. Truth: D's
     # closed form at the crests, R = rho + r (the egg-crate's crests are umbilic, of radius rho;
     # the oracle _areal_path_q reads the same, asserted in the test above). Measured
-    # (2026-11-29): +0.000 % at 0.9 and 0.95 (1.080963 and 1.024841 for 1.080961 and 1.024839);
-    # 0.9 not run here (136 s). ~120-210 s
+    # (2026-11-29): +0.000 and +0.003 % at 0.9 and 0.95 (1.080963 and 1.024872 for 1.080961 and
+    # 1.024839); 0.9 not run here (136 s). ~80-210 s
     tex, h, grad, cell, rho = AREAL_CASES["egg-crate"]
     r = rel_r * rho
     truth = 1e-3 / (rho + r - 1e-3)

@@ -396,9 +396,9 @@ class SumOfGratings(Surface):
         the plane's: where every grating's wave vector lies along one of two perpendicular
         directions off the axes (the egg-crate's, at +-45 degrees: ``turn`` = pi/4) and the
         texture turned onto them is periodic on a lattice that holds the plane's cell, the
-        felt map of a ball that cannot bridge it is made on axes along the gratings (:class:`~haptex.SampledSurface` with
-        ``turn``), where its tensor patches follow the saddles' ridges along their sides; 0
-        otherwise (the map on the plane's axes). Measured on the egg-crate at 0.95 times its
+        felt map of a ball that cannot bridge it is made on axes along the gratings
+        (:class:`~haptex.SampledSurface` with ``turn``), where its tensor patches follow the
+        saddles' ridges along their sides; 0 otherwise (the map on the plane's axes). Measured on the egg-crate at 0.95 times its
         bowls' radius: q of D 58.5 on the plane's axes, 1.0249 on the turned ones, for the ball
         path's 1.0248 (2026-11-28)."""
         live = self.amplitudes > 0
@@ -927,7 +927,7 @@ class SampledSurface(Surface):
         ``curvature_miss`` says 0.39, 0.65 and 8.9 %; the refinement reads it with the
         curvature's own. Its map is now on axes along its gratings (``turn``), where the
         saddles' ridges run along the cells' sides: 0.001 and 0.013 % at 0.9 and 0.95 times, q of
-        D within 0.001 % (2026-11-29). q's note states this miss where it passes 1 %
+        D within 0.003 % (2026-11-29). q's note states this miss where it passes 1 %
         (:func:`haptex.characteristic_number`). None where ``curvature_miss`` is not measured or
         the ball bridges the surface.
     turn : float
