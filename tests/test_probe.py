@@ -613,7 +613,7 @@ def test_on_axes_turned_to_its_gratings_the_felt_egg_crate_is_the_ball_paths():
     # and Hessian R H R^T back). Truth: the brute-force ball path (numpy on the analytic
     # heights: its height max h(p + u) + sqrt(r^2 - |u|^2) - r, its gradient the contact's), and
     # the map's Hessian against numpy's central differences of its own gradient (the definition;
-    # a Hessian turned the wrong way round fails it, its off-diagonal term 1e3 1/m off)
+    # a Hessian turned the wrong way round, R^T H R, fails it: 2.5e3 1/m off, measured)
     tex, h, grad, cell, rho = AREAL_CASES["egg-crate"]
     r = 0.5 * rho
     felt = tex.felt_by(r)
