@@ -86,20 +86,18 @@ static void pyramid_init(sproblem *q)
 static void span_cells(const sproblem *q, int ax, double lo, double hi, double *f0, double *f1)
 {
     spanmemo *m = q->memo;
-    if (m != NULL && m->set[ax] && m->lo[ax] == lo && m->hi[ax] == hi) {
+    if (m->set[ax] && m->lo[ax] == lo && m->hi[ax] == hi) {
         *f0 = m->f0[ax];
         *f1 = m->f1[ax];
         return;
     }
     *f0 = patch_cells(q->tex->c, ax, lo) + 1e-12;
     *f1 = patch_cells(q->tex->c, ax, hi) - 1e-12;
-    if (m != NULL) {
-        m->lo[ax] = lo;
-        m->hi[ax] = hi;
-        m->f0[ax] = *f0;
-        m->f1[ax] = *f1;
-        m->set[ax] = 1;
-    }
+    m->lo[ax] = lo;
+    m->hi[ax] = hi;
+    m->f0[ax] = *f0;
+    m->f1[ax] = *f1;
+    m->set[ax] = 1;
 }
 
 static int patch_span(const sproblem *q, double lo, double hi, int ax, long n, int periodic, long *a, long *b)
@@ -1357,14 +1355,13 @@ hx_closest hx_closest_surface(const hx_texture *tex, const double *aux, double p
 {
     /* a turned map (HX_PATCH_TURN): the probe and the guess turned into the map's frame, m = R^T
      * p, and the closest point back, p = R m (the distance is the same in either frame) */
-    double th = hx__turn(tex), cs, sn, mx, my;
+    double th = hx__turn(tex), cs, sn, mx, my, gx, gy;
     hx_closest out;
     if (th == 0.0)
         return closest_in_frame(tex, aux, px, py, pz, gx0, gy0);
-    cs = cos(th);
-    sn = sin(th);
-    out = closest_in_frame(tex, aux, cs * px + sn * py, cs * py - sn * px, pz, cs * gx0 + sn * gy0,
-                           cs * gy0 - sn * gx0);
+    hx__to_frame(th, gx0, gy0, &gx, &gy, &cs, &sn);
+    hx__to_frame(th, px, py, &mx, &my, &cs, &sn);
+    out = closest_in_frame(tex, aux, mx, my, pz, gx, gy);
     mx = out.t;
     my = out.y;
     out.t = cs * mx - sn * my;

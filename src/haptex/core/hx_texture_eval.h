@@ -407,19 +407,28 @@ HX_INLINE double hx__turn(const hx_texture *t)
     return t->kind == HX_SURFACE_PATCHES ? t->c[HX_PATCH_TURN] : 0.0;
 }
 
+/* The point p = (x, y) of the plane on a map turned by th: m = R(th)^T p in (*mx, *my), and R's
+ * cosine and sine in (*cs, *sn) (the way back: p = R m) */
+HX_INLINE void hx__to_frame(double th, double x, double y, double *mx, double *my, double *cs, double *sn)
+{
+    *cs = cos(th);
+    *sn = sin(th);
+    *mx = *cs * x + *sn * y;
+    *my = *cs * y - *sn * x;
+}
+
 /* h, its gradient and Hessian at (x, y) of the plane: on a turned map h(p) = h_m(R^T p), so
  * grad h = R grad h_m and H = R H_m R^T */
 HX_INLINE void hx__texture_eval(const hx_texture *t, double x, double y, hx_height *out)
 {
-    double th = hx__turn(t), cs, sn, cc, ss, cn;
+    double th = hx__turn(t), mx, my, cs, sn, cc, ss, cn;
     hx_height m;
     if (th == 0.0) {
         hx__frame_eval(t, x, y, out);
         return;
     }
-    cs = cos(th);
-    sn = sin(th);
-    hx__frame_eval(t, cs * x + sn * y, cs * y - sn * x, &m);
+    hx__to_frame(th, x, y, &mx, &my, &cs, &sn);
+    hx__frame_eval(t, mx, my, &m);
     cc = cs * cs;
     ss = sn * sn;
     cn = cs * sn;
@@ -434,12 +443,11 @@ HX_INLINE void hx__texture_eval(const hx_texture *t, double x, double y, hx_heig
 /* h alone at (x, y) of the plane (as hx__texture_eval) */
 HX_INLINE double hx__texture_height(const hx_texture *t, double x, double y)
 {
-    double th = hx__turn(t), cs, sn;
+    double th = hx__turn(t), mx, my, cs, sn;
     if (th == 0.0)
         return hx__frame_height(t, x, y);
-    cs = cos(th);
-    sn = sin(th);
-    return hx__frame_height(t, cs * x + sn * y, cs * y - sn * x);
+    hx__to_frame(th, x, y, &mx, &my, &cs, &sn);
+    return hx__frame_height(t, mx, my);
 }
 
 #endif
