@@ -716,6 +716,63 @@ def test_a_hermite_map_on_graded_axes_is_the_tensor_product_of_cubic_hermite_spl
     np.testing.assert_allclose(s.gradient(P), g, rtol=0, atol=1e-12)
 
 
+def test_a_graded_map_evaluates_each_point_in_the_cell_its_knots_say():
+    # the cell holding x on a graded axis is the k with kn[k] <= x < kn[k + 1] (truth numpy's
+    # searchsorted) and the height there that cell's bicubic at its local coordinates (the
+    # table's 16 coefficients c[a, b] of s^a t^b, summed by numpy), within a period (the
+    # period's end is its start's cell): at every knot of both axes, one ulp either side of each
+    # and at 2,000 random points. The C
+    # core finds the cell by a bucket index over each axis (the cells that hold the buckets'
+    # starts, after the knots, hx_core.h) that brackets a short bisection; a bracket is checked
+    # before it is used, so an index whose entries are valid cells but the wrong ones gives the
+    # same heights to the bit, and one whose entries are not cells is refused.
+    kx, ky, h, g = _graded_map()
+    s = hx.SampledSurface(kx[:-1], ky[:-1], h, periodic=True, gradients=g, knots=(kx, ky))
+    arr = s.patches()
+    head = arr[0]
+    nx, ny = int(head[_ext.PATCH_NX]), int(head[_ext.PATCH_NY])
+    cells = head[_ext.PATCH_DATA:_ext.PATCH_DATA + 16 * nx * ny].reshape(nx, ny, 4, 4)
+    rng = np.random.default_rng(7)
+    at_x = np.r_[kx, np.nextafter(kx, -np.inf), np.nextafter(kx, np.inf)]
+    at_y = np.r_[ky, np.nextafter(ky, -np.inf), np.nextafter(ky, np.inf)]
+    pts = np.r_[np.column_stack([at_x, rng.uniform(ky[0], ky[-1], at_x.size)]),
+                np.column_stack([rng.uniform(kx[0], kx[-1], at_y.size), at_y]),
+                np.column_stack([rng.uniform(kx[0], kx[-1], 2000), rng.uniform(ky[0], ky[-1], 2000)])]
+    pts = pts[(pts[:, 0] >= kx[0]) & (pts[:, 0] <= kx[-1]) & (pts[:, 1] >= ky[0]) & (pts[:, 1] <= ky[-1])]
+    i = np.clip(np.searchsorted(kx, pts[:, 0], side="right") - 1, 0, nx - 1)
+    j = np.clip(np.searchsorted(ky, pts[:, 1], side="right") - 1, 0, ny - 1)
+    u = (pts[:, 0] - kx[i]) / (kx[i + 1] - kx[i])
+    v = (pts[:, 1] - ky[j]) / (ky[j + 1] - ky[j])
+    powers = np.arange(4)
+    truth = np.einsum("nab,na,nb->n", cells[i, j], u[:, None] ** powers, v[:, None] ** powers)
+
+    def heights(table):
+        out = np.empty((len(pts), 6))
+        _ext.texture(_ext.SURFACE_PATCHES, table, np.ascontiguousarray(pts), out)
+        return out[:, 0]
+
+    got = heights(arr)
+    assert np.max(np.abs(got - truth)) <= 1e-14 * A, np.max(np.abs(got - truth))
+    # the index: after the knots, per axis its count of buckets B and B cells
+    tail = int(head[_ext.PATCH_AXES]) + nx + ny + 2
+    bx = int(head[tail])
+    by = int(head[tail + 1 + bx])
+    assert arr.shape[1] == tail + 2 + bx + by
+    for start, b, n in ((tail + 1, bx, nx), (tail + 2 + bx, by, ny)):
+        index = head[start:start + b]
+        assert np.all(index == np.floor(index)) and index.min() == 0 and index.max() <= n - 1
+        assert np.max(np.diff(index)) <= 1  # (a bucket no wider than the narrowest cell: a bracket of 2 cells)
+        wrong = arr.copy()
+        wrong[0, start:start + b] = np.sort(rng.integers(0, n, b))  # (valid: cells, nondecreasing; wrong)
+        assert not np.array_equal(wrong, arr)
+        assert np.array_equal(heights(wrong), got)
+        for bad in (-1.0, float(n), 0.5, np.nan):
+            broken = arr.copy()
+            broken[0, start + b // 2] = bad
+            with pytest.raises(ValueError, match="wrong shape or header"):
+                heights(broken)
+
+
 def test_closest_point_on_a_graded_map_agrees_with_brute_force():
     # D and E's search on a map of cells from 1 um to 31 um wide (the patch lines it cuts its
     # cells at, the bounds pyramid's blocks and each patch's bounds all in the cells' own

@@ -1199,13 +1199,14 @@ class SampledSurface(Surface):
         (``PATCH_JOINS`` = ``JOINS_BRANCHED``) is followed by n_cells + 1 starts and its cells'
         extra patches (``hx_core.h``): the height there is the highest patch's. A map on graded
         axes (``knots``) ends with its nx + 1 and ny + 1 knots, their column in ``PATCH_AXES``
-        (0 on uniform cells, ``PATCH_DX`` by ``PATCH_DY``). Cached.
+        (0 on uniform cells, ``PATCH_DX`` by ``PATCH_DY``), and each axis's bucket index, the C
+        core's short cut to a point's cell (``hx_core.h``). Cached.
 
         Returns
         -------
         numpy.ndarray, shape (1, 9 + 16 n_cells) or (1, 9 + 17 n_cells + 1 + 16 n_extra)
             The header and each cell's 16 coefficients (m), then a branched map's starts and
-            extra patches, then a graded map's knots (nx + ny + 2 more).
+            extra patches, then a graded map's knots (nx + ny + 2 more) and bucket indexes.
 
         Raises
         ------
@@ -1237,9 +1238,9 @@ class SampledSurface(Surface):
             out.reshape(-1, 4, 4)[cells] = first
             head[K.PATCH_JOINS] = K.JOINS_BRANCHED
             tail = [starts.astype(np.float64), extra.ravel()]
-        if self._knots is not None:  # (graded axes: their knots after all the rest, hx_core.h)
+        if self._knots is not None:  # (graded axes: their knots after all the rest, then their index, hx_core.h)
             head[K.PATCH_AXES] = K.PATCH_DATA + out.size + sum(t.size for t in tail)
-            tail += list(self._knots)
+            tail += list(self._knots) + [_knot_index(kn) for kn in self._knots]
         arr = np.ascontiguousarray(np.concatenate([head, out.ravel(), *tail])[None, :])
         self.__dict__["_patches"] = arr
         return arr
@@ -1415,7 +1416,8 @@ class SampledSurface(Surface):
         if arr[K.PATCH_JOINS] != K.JOINS_BRANCHED:
             return main, None, None
         starts = arr[end:end + nx * ny + 1]
-        return main, starts, arr[end + nx * ny + 1:].reshape(-1, 4, 4)
+        stop = int(arr[K.PATCH_AXES]) or arr.size  # (a graded map's knots after them)
+        return main, starts, arr[end + nx * ny + 1:stop].reshape(-1, 4, 4)
 
     def bounds_pyramid(self) -> np.ndarray:
         """:meth:`patch_bounds` gathered over square blocks of patches, coarser level by level
@@ -2038,6 +2040,19 @@ def _node_edges(g, periodic):
     if periodic:
         return (np.stack([gx, np.roll(gx, -1, axis=0)], -1), np.stack([gy, np.roll(gy, -1, axis=1)], -1))
     return np.stack([gx[:-1], gx[1:]], -1), np.stack([gy[:, :-1], gy[:, 1:]], -1)
+
+
+def _knot_index(kn):
+    """A graded axis's bucket index for the C core (``hx_core.h``, after the knots): [B, then the
+    cell holding each of B equal buckets' starts], B the axis's length over its narrowest cell
+    (rounded up), at most 16 n, so that a bucket holds at most one knot where it can (a point's
+    cell then one bisection step from its bucket's), shape (B + 1,)."""
+    n = kn.size - 1
+    r = kn - kn[0]
+    nb = int(min(np.ceil(r[-1] / np.min(np.diff(kn))), 16 * n))
+    starts = r[-1] * np.arange(nb) / nb
+    cells = np.clip(np.searchsorted(r, starts, side="right") - 1, 0, n - 1)
+    return np.r_[float(nb), cells.astype(np.float64)]
 
 
 def _twist(g, dx, dy, periodic, knots=None):

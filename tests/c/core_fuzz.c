@@ -100,12 +100,14 @@ static double *patches(long nx, long ny, int periodic, long cells, long *rows, l
 }
 
 /* A Hermite map on graded axes (HX_PATCH_AXES): nx x ny random cells whose widths grow by 1.5
- * a cell from 1 um; bad 1: a knot that does not increase; bad 2: the axes' column one off */
+ * a cell from 1 um, each axis's bucket index of 3 n buckets random cells (valid, nondecreasing:
+ * a hint the core checks, mostly wrong); bad 1: a knot that does not increase; bad 2: the axes'
+ * column one off; bad 3: an index entry past the last cell */
 static double *graded(long nx, long ny, int periodic, int bad, long *rows, long *cols)
 {
-    long body = HX_PATCH_DATA + 16 * nx * ny, i;
+    long body = HX_PATCH_DATA + 16 * nx * ny, i, a, at;
     double *c, w;
-    *cols = body + nx + 1 + ny + 1;
+    *cols = body + nx + 1 + ny + 1 + 2 + 3 * nx + 3 * ny;
     *rows = 1;
     c = malloc(sizeof(double) * (size_t)*cols);
     patch_header(c, nx, ny, periodic, HX_JOINS_HERMITE);
@@ -119,8 +121,21 @@ static double *graded(long nx, long ny, int periodic, int bad, long *rows, long 
         c[body + nx + 1 + i + 1] = c[body + nx + 1 + i] + w;
     c[2] = c[body + nx] / (double)nx;
     c[3] = c[body + nx + 1 + ny] / (double)ny;
+    for (a = 0, at = body + nx + ny + 2; a < 2; a++) {
+        long n = a == 0 ? nx : ny;
+        double cell = 0.0;
+        c[at] = (double)(3 * n);
+        for (i = 0; i < 3 * n; i++) {
+            if (uniform() < 0.4 && cell < (double)(n - 1))
+                cell += 1.0;
+            c[at + 1 + i] = cell;
+        }
+        at += 1 + 3 * n;
+    }
     if (bad == 1)
         c[body + 3] = c[body + 2];
+    if (bad == 3)
+        c[body + nx + ny + 3] = (double)nx;
     return c;
 }
 
@@ -437,7 +452,7 @@ int main(int argc, char **argv)
         printf("scale %d: give 1 to 100\n", scale);
         return 2;
     }
-    for (variant = 0; variant < 19; variant++) {
+    for (variant = 0; variant < 20; variant++) {
         long rows = 0, cols = 0;
         int kind, expect = HX_OK;
         double *c;
@@ -464,6 +479,7 @@ int main(int argc, char **argv)
             expect = HX_BAD_COEFFS; break;
         case 18: kind = HX_SURFACE_PATCHES; c = patches(7, 5, 0, 35, &rows, &cols); c[HX_PATCH_TURN] = -3.2;
             expect = HX_BAD_COEFFS; break;
+        case 19: kind = HX_SURFACE_PATCHES; c = graded(7, 5, 0, 3, &rows, &cols); expect = HX_BAD_COEFFS; break;
         default: kind = HX_TEXTURE_FLAT; c = NULL; break;
         }
         m.tex.kind = kind;

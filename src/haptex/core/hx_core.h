@@ -141,6 +141,12 @@ enum { HX_JOINS_SPLINE = 0, HX_JOINS_HERMITE = 1, HX_JOINS_BRANCHED = 2, HX_MAX_
  * (rectilinear cells of their own widths), the column where the tail's nx + 1 x knots and then
  * ny + 1 y knots start, increasing, the first at X0 (Y0); the cells' coefficients are in each
  * cell's own local coordinates as on a uniform map, and DX, DY are the cells' mean widths.
+ * After the knots each axis's bucket index, x's then y's: its count B (1 to 16 n + 16) and B
+ * cells (whole numbers in [0, n - 1], nondecreasing), bucket b of the axis's B equal buckets
+ * holding the cell that holds the bucket's start kn[0] + b (kn[n] - kn[0]) / B: a point's cell
+ * is found by a bisection between its bucket's cell and the next bucket's, that bracket checked
+ * against the knots first (a whole-axis bisection where it fails), so the index only saves
+ * steps and any valid one gives the same cells.
  * HX_PATCH_TURN: the angle theta (rad, |theta| <= pi) by which the map's axes are turned from
  * the plane's: the map holds h_m(m) and the surface is h(p) = h_m(R(theta)^T p) (a felt map on
  * axes along a texture's gratings, haptex.SampledSurface.turn); 0 on a map along the plane's

@@ -23,7 +23,8 @@
  *                        2 as 1 with branched cells: then nx ny + 1 starts and the extra
  *                        patches follow (hx_core.h, HX_JOINS_BRANCHED). axes
  *                        (HX_PATCH_AXES): 0 for uniform cells dx by dy; for graded axes the
- *                        column where nx + 1 x knots and ny + 1 y knots follow all that.
+ *                        column where nx + 1 x knots and ny + 1 y knots follow all that,
+ *                        then each axis's bucket index (hx_core.h).
  *                        turn (HX_PATCH_TURN): the map's axes turned from the plane's
  *                        (rad, |turn| <= pi; 0 along them).
  */
@@ -92,19 +93,31 @@ int hx_texture_check(int kind, const double *c, long rows, long cols)
         }
         if (c[HX_PATCH_AXES] == 0.0)
             return (double)(cols - HX_PATCH_DATA) == body ? HX_OK : HX_BAD_COEFFS;
-        /* graded axes: the knots right after the body, each axis's increasing from its origin */
-        if (c[HX_PATCH_AXES] != (double)HX_PATCH_DATA + body || (double)cols != c[HX_PATCH_AXES] + nx + ny + 2.0)
+        /* graded axes: the knots right after the body, each axis's increasing from its origin,
+         * then each axis's bucket index: B in [1, 16 n + 16] and B cells, whole, nondecreasing */
+        if (c[HX_PATCH_AXES] != (double)HX_PATCH_DATA + body || (double)cols < c[HX_PATCH_AXES] + nx + ny + 4.0)
             return HX_BAD_COEFFS;
-        for (a = 0; a < 2; a++) {
-            const double *kn = c + (long)c[HX_PATCH_AXES] + (a == 0 ? 0 : (long)nx + 1);
-            long n = (long)(a == 0 ? nx : ny), k;
-            if (kn[0] != c[HX_PATCH_X0 + a])
-                return HX_BAD_COEFFS;
-            for (k = 0; k < n; k++)
-                if (!(kn[k + 1] > kn[k]) || !isfinite(kn[k + 1]))
+        {
+            long at = (long)c[HX_PATCH_AXES] + (long)nx + (long)ny + 2;
+            for (a = 0; a < 2; a++) {
+                const double *kn = c + (long)c[HX_PATCH_AXES] + (a == 0 ? 0 : (long)nx + 1), *ix;
+                long n = (long)(a == 0 ? nx : ny), k, nb;
+                if (kn[0] != c[HX_PATCH_X0 + a])
                     return HX_BAD_COEFFS;
+                for (k = 0; k < n; k++)
+                    if (!(kn[k + 1] > kn[k]) || !isfinite(kn[k + 1]))
+                        return HX_BAD_COEFFS;
+                if (at >= cols || !is_count(c[at], 16.0 * (double)n + 16.0) || (double)(cols - at - 1) < c[at])
+                    return HX_BAD_COEFFS;
+                nb = (long)c[at];
+                ix = c + at + 1;
+                for (k = 0; k < nb; k++)
+                    if (!(ix[k] >= (k == 0 ? 0.0 : ix[k - 1]) && ix[k] <= (double)(n - 1) && ix[k] == floor(ix[k])))
+                        return HX_BAD_COEFFS;
+                at += 1 + nb;
+            }
+            return at == cols ? HX_OK : HX_BAD_COEFFS;
         }
-        return HX_OK;
     }
     default:
         return HX_BAD_KIND;

@@ -196,10 +196,22 @@ HX_INLINE double patch_width(const double *hd, int a, double k)
     return kn[i + 1] - kn[i];
 }
 
+/* A graded axis a's bucket index (after the knots, hx_core.h): its B cells into *nb */
+HX_INLINE const double *patch_index(const double *hd, int a, long *nb)
+{
+    const double *p = hd + (long)hd[HX_PATCH_AXES] + (long)hd[HX_PATCH_NX] + (long)hd[HX_PATCH_NY] + 2;
+    if (a == 1)
+        p += 1 + (long)p[0];
+    *nb = (long)p[0];
+    return p + 1;
+}
+
 /* A position x along axis a in cells: f with floor(f) its cell, counted on through a periodic
  * map's periods (n cells each) and beyond a map's edges (at the edge cells' widths), and
  * f - floor(f) its local coordinate in that cell; (x - origin) / step on a uniform axis. A
- * graded axis's cell is found by bisection of its knots: at most log2(n) + 1 steps. */
+ * graded axis's cell is found by bisection of its knots within the bracket its bucket index
+ * gives (one step where each bucket is no wider than the narrowest cell), else of them all: at
+ * most log2(n) + 1 steps. */
 HX_INLINE double patch_cells(const double *hd, int a, double x)
 {
     const double *kn = patch_knots(hd, a);
@@ -228,7 +240,17 @@ HX_INLINE double patch_cells(const double *hd, int a, double x)
     } else if (r >= len) {
         return (double)n + (r - len) / (kn[n] - kn[n - 1]);
     }
-    hi = n;
+    { /* the bracket [ix[b], ix[b + 1] + 1] of r's bucket b, if it holds r; else the whole axis */
+        long nb;
+        const double *ix = patch_index(hd, a, &nb);
+        double u = r / len * (double)nb;
+        long b = u < (double)nb ? (long)u : nb - 1, l0 = (long)ix[b], h0 = b + 1 < nb ? (long)ix[b + 1] + 1 : n;
+        if (kn[l0] - kn[0] <= r && r < kn[h0] - kn[0])
+            lo = l0;
+        else
+            h0 = n;
+        hi = h0;
+    }
     while (hi - lo > 1) { /* kn[lo] - kn[0] <= r < kn[hi] - kn[0] */
         long mid = (lo + hi) / 2;
         if (kn[mid] - kn[0] <= r)
