@@ -1148,7 +1148,7 @@ class SampledSurface(Surface):
         Returns
         -------
         tuple of (int, numpy.ndarray)
-            ``SURFACE_PATCHES`` and the patches, shape (1, 9 + 16 n_cells) (and more: see
+            ``SURFACE_PATCHES`` and the patches, shape (1, 10 + 16 n_cells) (and more: see
             :meth:`patches`).
         """
         return _ext.SURFACE_PATCHES, self.patches()
@@ -1192,7 +1192,7 @@ class SampledSurface(Surface):
 
     def patches(self) -> np.ndarray:
         """The map as bicubic patches for the C core (``haptex.core._ext.SURFACE_PATCHES``):
-        shape (1, 9 + 16 n_cells), the header PATCH_* and per cell the coefficients c[a, b] of
+        shape (1, 10 + 16 n_cells), the header PATCH_* and per cell the coefficients c[a, b] of
         s^a t^b in the cell's local coordinates s, t in [0, 1]: a spline map's from its values
         at 4 x 4 points of each cell (a bicubic is fixed by 16 values), a Hermite map's from its
         corners' heights, slopes and twists. A felt map whose contact jumps inside some cells
@@ -1204,7 +1204,7 @@ class SampledSurface(Surface):
 
         Returns
         -------
-        numpy.ndarray, shape (1, 9 + 16 n_cells) or (1, 9 + 17 n_cells + 1 + 16 n_extra)
+        numpy.ndarray, shape (1, 10 + 16 n_cells) or (1, 10 + 17 n_cells + 1 + 16 n_extra)
             The header and each cell's 16 coefficients (m), then a branched map's starts and
             extra patches, then a graded map's knots (nx + ny + 2 more) and bucket indexes.
 
