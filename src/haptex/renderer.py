@@ -352,7 +352,9 @@ def tick_model(algorithm: Algorithm, max_evaluations: int | None = None):
 
 MAX_EVALUATIONS = 5000
 """The default budget of texture evaluations for one tick's closest-point search (D, E over a
-surface; chosen): about 12 times the paper's egg-crate's typical tick (410), about 0.3 ms here."""
+surface; chosen): about 12 times the paper's egg-crate's typical tick (410), about 0.3 ms here over
+gratings; over a height map's patches each evaluation costs more, the budget 0.6-2.2 ms on a felt
+egg-crate's maps (benchmarks/README.md, "Worst-case servo tick")."""
 
 
 def evaluation_budget(max_evaluations):
@@ -514,7 +516,7 @@ class Renderer:
     max_evaluations : int or None, optional
         D and E over a surface: the texture evaluations one tick's closest-point search may
         spend (default :data:`MAX_EVALUATIONS`, chosen: 5,000, about 0.3 ms on this project's
-        machine). Past it the search ends with the best point found, not certified global,
+        machine over gratings, 0.6-2.2 ms over a felt map's patches). Past it the search ends with the best point found, not certified global,
         and the tick is counted in :attr:`cut`; a tick's work is then at most the budget plus
         250. ``None``: only the search's structural bound (2,048 cells; about 10^5
         evaluations measured 1 km under the paper's egg-crate).
