@@ -23,6 +23,12 @@ extern "C" {
 #else
 #define HX_INLINE static inline
 #endif
+/* a body that the compiler may keep out of line: a height map's bicubic patch evaluation (a
+ * few hundred instructions, some 100-300 ns a point), which forced into every caller made
+ * hx_closest.c, hx_forces.c and hx_sim.c take 7-9 s each to compile at -O2 (1.4-3.4 s so; the
+ * extension's build 27 -> 9.5 s) for no measured gain (2026-11-29: 89-93 ns and 259-321 ns a
+ * point on a uniform and a graded felt map either way) */
+#define HX_INLINE_LARGE static inline
 
 /* ---- atomics: gcc's and clang's __atomic builtins, or, under MSVC (which has none of them),
  * its Interlocked intrinsics on 32-bit words: each a full barrier, so acquire and release as

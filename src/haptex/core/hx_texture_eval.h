@@ -321,7 +321,7 @@ HX_INLINE void patch_locate(const double *hd, double x, double y, long *i, long 
  * second derivatives), all 16 (p, q <= 3) where it is clamped (the tangent-plane extension reads
  * them); (*cx, *cy) receives the clamped point. The others are left unset. In a branched cell
  * (HX_JOINS_BRANCHED) the patch is the highest of the cell's there (the first on a tie). */
-HX_INLINE void patch_derivs(const hx_texture *t, double x, double y, double D[4][4], double *cx, double *cy,
+HX_INLINE_LARGE void patch_derivs(const hx_texture *t, double x, double y, double D[4][4], double *cx, double *cy,
                             int order)
 {
     const double *hd = t->c, *pp[HX_MAX_BRANCHES], *c;
@@ -347,7 +347,7 @@ HX_INLINE void patch_derivs(const hx_texture *t, double x, double y, double D[4]
     patch_poly(c, s, tt, wx, wy, order, D);
 }
 
-HX_INLINE void patches_eval(const hx_texture *t, double x, double y, hx_height *o)
+HX_INLINE_LARGE void patches_eval(const hx_texture *t, double x, double y, hx_height *o)
 {
     double D[4][4], cx, cy, ex, ey;
     int ox, oy;
