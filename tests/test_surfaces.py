@@ -721,11 +721,11 @@ def test_a_graded_map_evaluates_each_point_in_the_cell_its_knots_say():
     # searchsorted) and the height there that cell's bicubic at its local coordinates (the
     # table's 16 coefficients c[a, b] of s^a t^b, summed by numpy), within a period (the
     # period's end is its start's cell): at every knot of both axes, one ulp either side of each
-    # and at 2,000 random points. The C
-    # core finds the cell by a bucket index over each axis (the cells that hold the buckets'
-    # starts, after the knots, hx_core.h) that brackets a short bisection; a bracket is checked
-    # before it is used, so an index whose entries are valid cells but the wrong ones gives the
-    # same heights to the bit, and one whose entries are not cells is refused.
+    # and at 2,000 random points. The C core finds the cell by a bucket index over each axis (the
+    # cells that hold the buckets' starts, after the knots, hx_core.h) that brackets a short
+    # bisection; a bracket is checked before it is used, so an index whose entries are valid
+    # cells but the wrong ones gives the same heights to the bit, and one whose entries are not
+    # cells is refused.
     kx, ky, h, g = _graded_map()
     s = hx.SampledSurface(kx[:-1], ky[:-1], h, periodic=True, gradients=g, knots=(kx, ky))
     arr = s.patches()
