@@ -398,9 +398,9 @@ class SumOfGratings(Surface):
         texture turned onto them is periodic on a lattice that holds the plane's cell, the
         felt map of a ball that cannot bridge it is made on axes along the gratings
         (:class:`~haptex.SampledSurface` with ``turn``), where its tensor patches follow the
-        saddles' ridges along their sides; 0 otherwise (the map on the plane's axes). Measured on the egg-crate at 0.95 times its
-        bowls' radius: q of D 58.5 on the plane's axes, 1.0249 on the turned ones, for the ball
-        path's 1.0248 (2026-11-28)."""
+        saddles' ridges along their sides; 0 otherwise (the map on the plane's axes). Measured
+        on the egg-crate at 0.95 times its bowls' radius: q of D 58.5 on the plane's axes,
+        1.0249 on the turned ones, for the ball path's 1.0248 (2026-11-28)."""
         live = self.amplitudes > 0
         if not live.any() or self.cell is None:
             return 0.0

@@ -245,11 +245,12 @@ HX_INLINE double patch_cells(const double *hd, int a, double x)
         const double *ix = patch_index(hd, a, &nb);
         double u = r / len * (double)nb;
         long b = u < (double)nb ? (long)u : nb - 1, l0 = (long)ix[b], h0 = b + 1 < nb ? (long)ix[b + 1] + 1 : n;
-        if (kn[l0] - kn[0] <= r && r < kn[h0] - kn[0])
+        if (kn[l0] - kn[0] <= r && r < kn[h0] - kn[0]) {
             lo = l0;
-        else
-            h0 = n;
-        hi = h0;
+            hi = h0;
+        } else {
+            hi = n;
+        }
     }
     while (hi - lo > 1) { /* kn[lo] - kn[0] <= r < kn[hi] - kn[0] */
         long mid = (lo + hi) / 2;
