@@ -326,3 +326,56 @@ def test_path_work_is_quadpacks_integral_of_the_force(felt_rendered, letter):
         assert got == pytest.approx(truth, rel=1e-9, abs=1e-15 * K0 * float(d @ d))
         checked += 1
     assert checked >= 3
+
+
+def _peaks_by_definition(values, count=8):
+    """The ``count`` largest local maxima of a grid, one per plateau (connected equal maxima,
+    its first point in C order), best first: scipy.ndimage's maximum filter over 3 x ... x 3
+    neighbourhoods (edges repeated), its labels and positions, as the candidates' definition
+    states (no haptex code); -inf and NaN are never maxima."""
+    from scipy import ndimage
+
+    v = np.where(np.isfinite(values), values, -np.inf)
+    peak = (ndimage.maximum_filter(v, size=3, mode="nearest") == v) & np.isfinite(v)
+    labels, n = ndimage.label(peak, structure=np.ones((3,) * v.ndim))
+    if n == 0:
+        return [int(np.argmax(v))]
+    pos = [np.ravel_multi_index(q, v.shape) for q in ndimage.maximum_position(v, labels, np.arange(1, n + 1))]
+    return sorted(pos, key=lambda i: -v.ravel()[i])[:count]
+
+
+@pytest.mark.parametrize("shape", [(40, 9), (24, 20, 6)])
+def test_the_region_is_searched_only_as_far_as_its_best_points_need(shape):
+    # D and E's Jacobians hold where a grid point's foot is its unique closest point (the
+    # region), and q's refinement starts from the best local maxima of ||J|| there. Each
+    # uniqueness costs a closest-point search (150,152 of them, 55 s, on the felt egg-crate at
+    # 0.95 rho, 2026-11-29): the analysis now decides it in decreasing order of ||J|| at the
+    # foot, only until the best maxima are settled. Truth: the definition (the local maxima of
+    # ||J|| where the foot is unique, every point decided, scipy.ndimage), on random grids with
+    # ties (values rounded to 0.1 or 0.5: plateaus), NaN and inf (centres of curvature: never
+    # maxima), and regions of 0 to 100 % of the points
+    from haptex.analysis.characteristic import _region_candidates
+
+    rng = np.random.default_rng(11)
+    for trial in range(30):
+        values = np.round(rng.normal(size=shape) * [1e8, 10, 2][trial % 3]) / [1e8, 10, 2][trial % 3]
+        values.ravel()[rng.integers(0, values.size, 5)] = rng.choice([np.nan, np.inf], 5)
+        unique = rng.random(shape) < [0.0, 0.05, 0.5, 0.9, 1.0][trial % 5]
+        asked = []
+
+        def decide(idx):
+            asked.append(len(idx))
+            return unique.ravel()[idx]
+
+        got, region, checked = _region_candidates(values, decide)
+        assert list(got) == _peaks_by_definition(np.where(unique, values, -np.inf)), trial
+        assert checked == sum(asked) <= values.size
+        assert np.array_equal(region, unique & (region | ~unique)) and not np.any(region & ~unique)
+    # a smooth field whose every foot is unique, with 12 maxima: its best 8 settle in the first
+    # batch (512 of 40,000 points); with 4 maxima, proving there is no fifth takes nearly every
+    # point's region (the analysis then costs what it did)
+    g = np.stack(np.meshgrid(*[np.linspace(0, 6, n) for n in (200, 200)], indexing="ij"))
+    for f, most in ((2, 512), (1, 40_000)):
+        smooth = np.sin(f * g[0]) * np.cos(f * g[1]) + 0.01 * g[0]
+        got, _, checked = _region_candidates(smooth, lambda idx: np.ones(len(idx), bool))
+        assert list(got) == _peaks_by_definition(smooth) and checked <= most

@@ -8,7 +8,7 @@ import pytest
 
 import haptex as hx
 from haptex.analysis import characteristic
-from haptex.analysis.characteristic import characteristic_number, characteristic_points
+from haptex.analysis.characteristic import REGION_FIRST, characteristic_number, characteristic_points
 from haptex.analysis.continuity import continuity, continuity_points
 from haptex.cli import main
 from haptex.explore import model
@@ -84,10 +84,12 @@ def test_design_reports_its_plan_with_units(capsys):
     assert main(["design", "--texture", "sine:0.2mm,2mm", "--json", "--quiet"]) == 0
     est = json.loads(capsys.readouterr().out)["estimate"]
     assert est["units"] == {"seconds": "s", "peak_bytes": "B", "seconds_per_search": "s"}
-    alg = hx.algorithm("D", hx.Sinusoid(0.2e-3, 2e-3), 2000.0)
-    # D's searches are counted once (E reads them), and they are D's plan
-    assert est["searches"] == sum(continuity_points(alg, 1e-3)) + characteristic_points(alg, 1e-3)
-    assert est["algorithms"]["E"]["seconds"] == 0.0
+    d, e = (hx.algorithm(L, hx.Sinusoid(0.2e-3, 2e-3), 2000.0) for L in "DE")
+    # the continuity grids' searches are counted once (E reads D's), and q's are each one's
+    # region's first batch (its grid's Jacobians at the feet need no search)
+    first = [min(characteristic_points(a, 1e-3), REGION_FIRST) for a in (d, e)]
+    assert est["searches"] == sum(continuity_points(d, 1e-3)) + sum(first)
+    assert est["algorithms"]["E"]["evaluations"] == first[1] and est["algorithms"]["E"]["seconds"] > 0
     assert set(est["algorithms"]) == set("WABCDEFG")
 
 

@@ -141,8 +141,9 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         for sampled textures its RMS height, dominant period and the RMS the cut-off
         removes). The other numbers are those of the rendered texture. ``estimate``: the
         planned cost (:mod:`haptex.analysis.cost`): ``seconds`` (the grids only, at one core's time an evaluation),
-        ``peak_bytes``, ``searches`` (closest-point searches of D and E, shared: E reads
-        D's), ``seconds_per_search`` and per algorithm ``evaluations`` and ``seconds``;
+        ``peak_bytes``, ``searches`` (closest-point searches of D and E: the continuity grids'
+        once, E reads D's, and each one's q region's first batch), ``seconds_per_search`` and
+        per algorithm ``evaluations`` and ``seconds``;
         ``time_budget`` (s) and ``left_out`` (letter: planned seconds).
         ``vibration``: the rendered texture in the data-driven language, what a tip following it
         along x at ``speed`` records in 20-450 Hz
@@ -191,7 +192,7 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
                        f"{estimate['seconds']:.3g} s ({costs}): give a larger --time-budget (time_budget=), or "
                        "fewer --algorithms")
         while estimate["seconds"] > time_budget and len(algs) > 1:
-            # the costliest first (E's planned time counts D's searches once D is out)
+            # the costliest first (E's planned time counts the continuity grids' searches once D is out)
             worst = max(estimate["algorithms"], key=lambda L: estimate["algorithms"][L]["seconds"])
             left_out[worst] = estimate["algorithms"][worst]["seconds"]
             del algs[worst]
@@ -293,10 +294,11 @@ def _estimate(algs: dict, max_penetration: float, x_range) -> dict:
     per, searched, each_search = {}, 0, 0.0
     for L, alg in algs.items():
         xr = None if L == "W" else x_range
-        shared = alg.penetration_kind == "distance" and searched  # E reads the closest points D searched
-        c = analysis_cost(alg, max_penetration, xr, seconds_each=0.0 if shared else None)
-        if c.searches and not shared:
-            searched, each_search = c.evaluations, c.seconds_each
+        shared = alg.penetration_kind == "distance" and searched  # E reads the continuity grids' closest points D searched
+        c = analysis_cost(alg, max_penetration, xr, continuity=not shared)
+        if c.searches:
+            searched += c.evaluations
+            each_search = each_search or c.seconds_each
         per[L] = {"evaluations": c.evaluations, "seconds": c.seconds, "peak_bytes": c.peak_bytes}
     return {"seconds": sum(v["seconds"] for v in per.values()),
             "peak_bytes": max((v["peak_bytes"] for v in per.values()), default=0),

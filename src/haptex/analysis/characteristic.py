@@ -61,7 +61,9 @@ def _friction_plan(alg, ranges, counts, nd) -> tuple[list[int], int, int, int]:
 def characteristic_points(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=None,
                           resolution=(256, 64)) -> int:
     """Field evaluations of the grid :func:`characteristic_number` searches first (its plan,
-    not run; the refinement of the best cells adds a few hundred): what its cost follows.
+    not run; the refinement of the best cells adds a few hundred): what its cost follows. For D
+    and E these are Jacobians at each point's foot, with a closest-point search only where the
+    region can change q (at least :data:`REGION_FIRST` of them).
 
     Parameters
     ----------
@@ -95,10 +97,11 @@ def characteristic_points(algorithm: Algorithm, max_penetration: float = 1e-3, x
     return math.prod(c + 1 for c in counts) * nd
 """Grid cells per shortest texture period along x and y of q's search grid over a surface
 (at least 32 a side, at most 256), before the refinement: 32 for fields evaluated directly;
-8 for D and E, whose every grid point is a closest-point search (5-90 us a point over a
-bicubic height map, growing with the depth) and whose norm varies with the boundary's
-curvature, which a texture band-limited to that period holds on no shorter scale (chosen:
-over the 14 x 10 cut-off periods of a MetroPro map, 32 made 1.06 million searches)."""
+8 for D and E, whose norm varies with the boundary's curvature, which a texture band-limited
+to that period holds on no shorter scale (chosen when every grid point was a closest-point
+search, 5-90 us a point over a bicubic height map, growing with the depth: over the 14 x 10
+cut-off periods of a MetroPro map, 32 made 1.06 million searches; now each point is a
+Jacobian at its foot and only the region's best points are searched, :func:`_region_candidates`)."""
 
 
 def spectral_norm(j) -> np.ndarray:
@@ -517,8 +520,83 @@ def _candidates(values: np.ndarray, count: int = 8) -> np.ndarray:
     # one candidate per connected plateau of local maxima, so ties do not crowd out others
     pos = ndimage.maximum_position(finite, labels, index=np.arange(1, n + 1))
     idx = np.array([np.ravel_multi_index(q, finite.shape) for q in pos])
-    order = np.argsort(finite.ravel()[idx])[::-1]
+    order = np.argsort(-finite.ravel()[idx], kind="stable")  # (equal maxima in the grid's order)
     return idx[order[:count]]
+
+
+REGION_FIRST = 512
+"""Grid points whose region D's and E's q decides first (closest-point searches), where ||J|| at
+the foot is largest (:func:`_region_candidates`; chosen: on the felt egg-crate at 0.5 and 0.95
+times its bowls' radius and a sampled one, the best 8 maxima settled within them)."""
+
+
+def _region_candidates(values: np.ndarray, unique, count: int = 8, first: int = REGION_FIRST):
+    """:func:`_candidates` of ``values`` where ``unique`` holds (the region), deciding
+    ``unique`` only where it can change them. A point is a local maximum of the region's grid
+    when it is in the region and no neighbour in the region is larger, so a point with a larger
+    neighbour known to be in the region can never be one: it is left undecided. The others are
+    decided in decreasing order of their values, in batches that double from ``first``, each
+    with its larger neighbours (so that a decided point's standing is final), until ``count``
+    maxima are settled and every point still open is smaller than the last of them (or no
+    point is open). D's and E's region (the foot its unique closest point) costs a
+    closest-point search a point; ||J|| at the foot costs none.
+
+    Parameters
+    ----------
+    values : ndarray, shape (n_1, ..., n_k)
+        ||J|| / kappa_0 at each grid point's foot; NaN and inf (a centre of curvature) are
+        never maxima, and decided only if no point of the region is found otherwise.
+    unique : callable
+        ``unique(idx)``: bool array, shape (len(idx),), for flat indices ``idx`` into ``values``.
+    count : int, optional
+        How many maxima (:func:`_candidates`' ``count``).
+    first : int, optional
+        The first batch's size.
+
+    Returns
+    -------
+    candidates : ndarray of int
+        Flat indices, best first: ``_candidates(np.where(region, values, -inf), count)`` with
+        every point decided.
+    region : ndarray of bool, shape of ``values``
+        True where a point was decided and is in the region (some point is, if any is).
+    checked : int
+        The points decided.
+    """
+    from scipy import ndimage
+
+    shape = values.shape
+    key = np.where(np.isfinite(values), values, -np.inf)
+    decided = np.zeros(shape, dtype=bool)
+    region = np.zeros(shape, dtype=bool)
+    masked = np.full(shape, -np.inf)
+    checked, batch = 0, first
+    while True:
+        # open: undecided, finite, and no larger neighbour known to be in the region
+        blocked = ndimage.maximum_filter(masked, size=3, mode="constant", cval=-np.inf) > key
+        open_ = ~decided & np.isfinite(key) & ~blocked
+        cands = _candidates(masked, count)
+        if region.any() or decided.all():
+            if cands.size >= count and np.isfinite(masked.ravel()[cands[-1]]):
+                open_ &= key >= masked.ravel()[cands[-1]]
+            if not open_.any():
+                return cands, region, checked
+        if not open_.any():  # (no point of the region yet: the rest decides whether it has one)
+            open_ = ~decided
+        pick = np.flatnonzero(open_)
+        pick = pick[np.argsort(-key.ravel()[pick], kind="stable")[:batch]]
+        chosen = np.zeros(shape, dtype=bool)
+        chosen.ravel()[pick] = True
+        # with their larger undecided neighbours: a chosen point's standing is then final
+        least = ndimage.minimum_filter(np.where(chosen, key, np.inf), size=3, mode="constant", cval=np.inf)
+        chosen |= ~decided & (key > least)
+        idx = np.flatnonzero(chosen)
+        on = np.asarray(unique(idx), dtype=bool)
+        decided.ravel()[idx] = True
+        region.ravel()[idx] = on
+        masked.ravel()[idx[on]] = key.ravel()[idx[on]]
+        checked += idx.size
+        batch *= 2
 
 
 def friction_bounds(algorithm, depth: float) -> dict:
@@ -698,6 +776,30 @@ def _on_region(alg, points, r):
     return out
 
 
+def _norms_on_region(alg, points, foot: ClosestPoint, shape):
+    """||J|| / kappa_0 of D or E on a grid of normal points (``points``, shape (n, k + 1), built
+    from the feet ``foot`` at the distances ``foot.distance``), -inf off the region (the foot
+    not the unique closest point) and where the region was not decided: a closest-point search
+    only where :func:`_region_candidates` needs one. Returns (norms of ``shape``, whether the
+    region has a point, points decided)."""
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # (a centre of curvature's)
+        values = (spectral_norm(alg.jacobian_at_closest(points, foot)) / alg.stiffness).reshape(shape)
+    r = foot.distance
+
+    def unique(idx):
+        return _unique_foot(alg.texture, points[idx], r[idx])
+
+    _, region, checked = _region_candidates(values, unique)
+    return np.where(region & np.isfinite(values), values, -np.inf), bool(region.any()), checked
+
+
+def _searched(checked: int, size: int) -> str:
+    """The note's account of the region's searches."""
+    if checked == size:
+        return "the foot's uniqueness searched at every point"
+    return f"the foot's uniqueness searched at {checked:,} of its {size:,} points, where ||J|| can be largest"
+
+
 def _foot_is_unique(cp: ClosestPoint, r):
     """:func:`_unique_foot` on closest points already found: the distance is r and no tie."""
     return (cp.distance >= r * (1 - 1e-9)) & ~cp.tie
@@ -715,22 +817,11 @@ def _q_distance(alg, dmax, x0, x1, nx, nd, closed) -> CharacteristicNumber:
     rs = np.linspace(dmax / nd, dmax, nd)
     T, R = np.meshgrid(ts, rs, indexing="ij")
     P = _normal_point(tex, T, R)
-
-    # one closest-point search a grid point, as over a surface (_q_distance_surface)
-    cp = closest_point(tex, P)
-    region = _foot_is_unique(cp, R)
-    norms = np.full(R.shape, -np.inf)
-    if np.any(region):
-        norms[region] = spectral_norm(alg.jacobian_at_closest(P[region], cp.select(region))) / k0
-    paper_value = None
-    note = (f"grid {nx}x{nd} over closest-point x in [{x0:g}, {x1:g}] m and distance in (0, {dmax:g}] m, "
-            "refined by L-BFGS-B")
     if alg.letter == "D":
-        # eq. 18's Jacobian is -kappa_0 n n^T inside the wall: its norm is kappa_0 wherever the
-        # region has a point
-        paper_value = 1.0 if np.any(region) else -math.inf
         focal = _unbounded_focus(tex, dmax, x0, x1)
         if focal is not None:
+            # (eq. 18's Jacobian is -kappa_0 n n^T inside the wall: its norm is kappa_0 wherever
+            # the region has a point, and the points just above this focus are in it)
             rho, fx, fz = focal
             return CharacteristicNumber(
                 letter="D",
@@ -740,10 +831,18 @@ def _q_distance(alg, dmax, x0, x1, nx, nd, closed) -> CharacteristicNumber:
                 max_penetration=dmax,
                 note=(
                     f"unbounded: ||J|| -> inf approaching the centre of curvature at depth {rho:.4g} m "
-                    f"below a peak (< max_penetration {dmax:g} m); eq. 18 gives {paper_value:.6g}"
+                    f"below a peak (< max_penetration {dmax:g} m); eq. 18 gives 1"
                 ),
-                paper_form_value=paper_value,
+                paper_form_value=1.0,
             )
+    foot = ClosestPoint(x=T.ravel(), z=tex.height(T).ravel(), distance=R.ravel(), tie=np.zeros(R.size, dtype=bool),
+                        work=np.zeros(R.size, dtype=np.int64))
+    norms, some, checked = _norms_on_region(alg, P.reshape(-1, 2), foot, R.shape)
+    note = (f"grid {nx}x{nd} over closest-point x in [{x0:g}, {x1:g}] m and distance in (0, {dmax:g}] m "
+            f"({_searched(checked, R.size)}), refined by L-BFGS-B")
+    # eq. 18's Jacobian is -kappa_0 n n^T inside the wall: its norm is kappa_0 wherever the
+    # region has a point
+    paper_value = (1.0 if some else -math.inf) if alg.letter == "D" else None
     dt = (x1 - x0) / nx
     dr = dmax / nd
 
@@ -791,20 +890,7 @@ def _q_distance_surface(alg, dmax, ranges, counts, nd, closed, x_range, resoluti
     T = np.stack([X, Y], -1)
     P = _surface_normal_point(tex, T, R)
 
-    # one closest-point search a grid point: it says where the foot is unique (the region), and
-    # the Jacobian there is evaluated at that closest point (not searched again)
-    cp = closest_point(tex, P)
-    region = _foot_is_unique(cp, R)
-    norms = np.full(R.shape, -np.inf)
-    if np.any(region):
-        norms[region] = spectral_norm(alg.jacobian_at_closest(P[region], cp.select(region))) / k0
-    note = (f"grid {counts[0]}x{counts[1]}x{nd} over the closest point's (x, y) and the distance in (0, {dmax:g}] m, "
-            "refined by L-BFGS-B")
-    paper_value = None
     if alg.letter == "D":
-        # eq. 18's Jacobian is -kappa_0 n n^T inside the wall, n the unit normal at the
-        # closest point: its norm is kappa_0 wherever the region has a point
-        paper_value = 1.0 if np.any(region) else -math.inf
         # principal curvatures of the graph: H v = kappa W (I + s s^T) v, W = sqrt(1 + |s|^2)
         t = T[..., 0, :]
         s_, hess = tex.gradient(t), tex.hessian(t)
@@ -819,11 +905,19 @@ def _q_distance_surface(alg, dmax, ranges, counts, nd, closed, x_range, resoluti
             i, j = np.unravel_index(idx, focal.shape)
             fp = _surface_normal_point(tex, t[i, j][None, :], np.array([rho]))
             if closest_point(tex, fp).distance[0] >= rho * (1 - 1e-6):
+                # (eq. 18 gives 1 wherever the region has a point: those just above this focus)
                 return CharacteristicNumber(
                     "D", math.inf, closed, tuple(float(v) for v in fp[0]), dmax,
                     f"unbounded: ||J|| -> inf approaching the centre of curvature at depth {rho:.4g} m below a "
-                    f"convex-up point (< max_penetration {dmax:g} m); eq. 18 gives {paper_value:.6g}",
-                    paper_value)
+                    f"convex-up point (< max_penetration {dmax:g} m); eq. 18 gives 1", 1.0)
+    foot = ClosestPoint(x=X.ravel(), y=Y.ravel(), z=tex.height_at(T).ravel(), distance=R.ravel(),
+                        tie=np.zeros(R.size, dtype=bool), work=np.zeros(R.size, dtype=np.int64))
+    norms, some, checked = _norms_on_region(alg, P.reshape(-1, 3), foot, R.shape)
+    note = (f"grid {counts[0]}x{counts[1]}x{nd} over the closest point's (x, y) and the distance in (0, {dmax:g}] m "
+            f"({_searched(checked, R.size)}), refined by L-BFGS-B")
+    # eq. 18's Jacobian is -kappa_0 n n^T inside the wall, n the unit normal at the closest
+    # point: its norm is kappa_0 wherever the region has a point
+    paper_value = (1.0 if some else -math.inf) if alg.letter == "D" else None
     steps = [(b - a) / n for (a, b), n in zip(ranges, counts)]
     dr = dmax / nd
 

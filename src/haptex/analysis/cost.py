@@ -8,7 +8,10 @@ would have been given idle).
 The grids dominate: :func:`~haptex.analysis.continuity` and the first search of
 :func:`~haptex.analysis.characteristic_number`. The refinement of q's best cells and the
 random loops of :func:`~haptex.analysis.conservativity` are not counted, so the estimate
-counts the grids' work at one thread's CPU time an evaluation. The searches of D and E run on
+counts the grids' work at one thread's CPU time an evaluation. For D and E, q's grid costs a
+Jacobian at each point's foot (no search: the Jacobian's time less the force's) and the
+closest-point searches of its region's first batch (``REGION_FIRST`` of its points, where
+||J|| is largest; more where the region's edge or few maxima need them). The searches of D and E run on
 every core, so on a multi-core machine the wall time can be shorter than planned (a 1025 x 1025
 map: 75 s planned, 41 s taken on 2 cores); the uncounted work can make it longer.
 """
@@ -23,7 +26,7 @@ import numpy as np
 
 from ..algorithms import Algorithm
 from ._region import _region_box, _static_force, check_analysis_scale
-from .characteristic import characteristic_points
+from .characteristic import REGION_FIRST, characteristic_points
 from .continuity import continuity_points, grid_points, peak_bytes
 
 CALIBRATION_PROBES = {"direct": 256, "distance": 2048}
@@ -47,7 +50,8 @@ class Cost:
     ----------
     letter : str
     evaluations : int
-        Field evaluations the grids plan (q's first search and the continuity grids).
+        Field evaluations the grids plan (q's first search and the continuity grids; for D and
+        E the closest-point searches: the continuity grids' and q's region's first batch).
     seconds_each : float
         Mean measured CPU time of one evaluation over the region on one thread (s), forces
         and Jacobians.
@@ -130,7 +134,8 @@ def evaluation_time(algorithm: Algorithm, max_penetration: float = 1e-3, x_range
     return min(rates)
 
 
-def analysis_cost(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=None, seconds_each=None) -> Cost:
+def analysis_cost(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=None, seconds_each=None,
+                  continuity: bool = True) -> Cost:
     """The planned cost of q and continuity for one algorithm (see the module docstring).
 
     Parameters
@@ -140,8 +145,12 @@ def analysis_cost(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=N
         Depth of the region (m).
     x_range : optional
         The analysed window, as the analyses take it.
-    seconds_each : float, optional
-        A measured evaluation time to reuse (s); default :func:`evaluation_time`.
+    seconds_each : float or (float, float), optional
+        A measured evaluation time to reuse (s), or the force's and the Jacobian's; default
+        :func:`evaluation_time`'s.
+    continuity : bool, optional
+        Count the continuity grids (False where another algorithm's searches are read: E
+        reads the closest points D searched on the same grids).
 
     Returns
     -------
@@ -152,15 +161,22 @@ def analysis_cost(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=N
     ParameterError
         As the analyses.
     """
-    cont = continuity_points(algorithm, max_penetration, x_range)
+    cont = continuity_points(algorithm, max_penetration, x_range) if continuity else []
     q = characteristic_points(algorithm, max_penetration, x_range)
     if seconds_each is None:
         each = evaluation_time(algorithm, max_penetration, x_range)
         each_j = evaluation_time(algorithm, max_penetration, x_range, jacobian=True)
+    elif np.ndim(seconds_each):
+        each, each_j = (float(v) for v in seconds_each)
     else:
         each = each_j = float(seconds_each)
-    n = int(sum(cont) + q)
-    seconds = sum(cont) * each + q * each_j
+    if algorithm.penetration_kind == "distance":  # q's grid: Jacobians at the feet, the region's searches
+        searched = min(q, REGION_FIRST)
+        n = int(sum(cont) + searched)
+        seconds = sum(cont) * each + searched * each_j + q * max(each_j - each, 0.0)
+    else:
+        n = int(sum(cont) + q)
+        seconds = sum(cont) * each + q * each_j
     return Cost(algorithm.letter, n, seconds / n, seconds,
                 peak_bytes(grid_points(algorithm, max_penetration, x_range)),
                 algorithm.penetration_kind == "distance")

@@ -522,13 +522,14 @@ def view_cost(scene: Scene) -> tuple[float, int]:
     tuple of (float, int)
         The planned seconds and field evaluations.
     """
-    from ..analysis.characteristic import characteristic_points
-    from ..analysis.cost import evaluation_time
+    from ..analysis.cost import analysis_cost, evaluation_time
 
     alg, dmax = scene.algorithm, scene.max_penetration
-    nq = characteristic_points(alg, dmax) + math.prod(MAP_GRID)
+    each, each_j = evaluation_time(alg, dmax), evaluation_time(alg, dmax, jacobian=True)
+    q = analysis_cost(alg, dmax, seconds_each=(each, each_j), continuity=False)  # (q's grid, as the analysis plans it)
+    nj = math.prod(MAP_GRID)
     nf = math.prod(ARROW_GRID) + math.prod(MAP_GRID)
-    return nq * evaluation_time(alg, dmax, jacobian=True) + nf * evaluation_time(alg, dmax), int(nq + nf)
+    return q.seconds + nj * each_j + nf * each, int(q.evaluations + nj + nf)
 
 
 def views(scene: Scene) -> Views:
