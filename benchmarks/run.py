@@ -40,6 +40,7 @@ import importlib
 import json
 import os
 import platform
+import re
 import sys
 import time
 
@@ -161,6 +162,11 @@ def analysis(args) -> None:
     t_frame = best_of(lambda: hx.core.texture_derivatives(felt._frame, xy))
     print(f"  its heights, gradients and Hessians: {t_turned / xy.shape[0] * 1e9:.0f} ns a point, "
           f"{t_frame / xy.shape[0] * 1e9:.0f} on its own axes unturned")
+    # q of D there: the grid's Jacobians at its feet, the region searched where ||J|| is largest
+    alg = hx.algorithm("D", felt, 2000.0)
+    t0 = time.perf_counter()
+    q = hx.characteristic_number(alg)
+    print(f"  q of D on it: {q.value:.6f} in {time.perf_counter() - t0:.1f} s ({re.search(r"the foot's uniqueness [^)]*", q.note).group(0)})")
 
 if __name__ == "__main__":
     main()
