@@ -166,7 +166,8 @@ def analysis(args) -> None:
     alg = hx.algorithm("D", felt, 2000.0)
     t0 = time.perf_counter()
     q = hx.characteristic_number(alg)
-    print(f"  q of D on it: {q.value:.6f} in {time.perf_counter() - t0:.1f} s ({re.search(r"the foot's uniqueness [^)]*", q.note).group(0)})")
+    searched = re.search(r"the foot's uniqueness [^)]*", q.note).group(0)
+    print(f"  q of D on it: {q.value:.6f} in {time.perf_counter() - t0:.1f} s ({searched})")
 
 if __name__ == "__main__":
     main()

@@ -487,7 +487,8 @@ CACHE_MIN_PROBES = 10_000
 CACHE_BYTES = 256 * 2**20
 """Closest points over a surface for one set of at least CACHE_MIN_PROBES probes are kept on
 the texture, the latest sets up to CACHE_BYTES in all: D and E search the same grids of
-probes in an analysis (q, continuity), and E's are then read, not searched."""
+probes in an analysis (continuity's; q's region is searched only where it can change q, each
+algorithm's own points), and E's are then read, not searched."""
 
 
 def surface_search_data(texture) -> tuple[int, np.ndarray, np.ndarray]:

@@ -294,7 +294,8 @@ def _estimate(algs: dict, max_penetration: float, x_range) -> dict:
     per, searched, each_search = {}, 0, 0.0
     for L, alg in algs.items():
         xr = None if L == "W" else x_range
-        shared = alg.penetration_kind == "distance" and searched  # E reads the continuity grids' closest points D searched
+        # (E reads the closest points D searched on the continuity grids)
+        shared = alg.penetration_kind == "distance" and searched
         c = analysis_cost(alg, max_penetration, xr, continuity=not shared)
         if c.searches:
             searched += c.evaluations

@@ -812,7 +812,6 @@ def _q_distance(alg, dmax, x0, x1, nx, nd, closed) -> CharacteristicNumber:
     p = (t, h(t)) + r n_in(t), kept only where (t, h(t)) is the unique closest point of p.
     """
     tex = alg.texture
-    k0 = alg.stiffness
     ts = np.linspace(x0, x1, nx + 1)
     rs = np.linspace(dmax / nd, dmax, nd)
     T, R = np.meshgrid(ts, rs, indexing="ij")

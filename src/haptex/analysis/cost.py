@@ -11,9 +11,10 @@ random loops of :func:`~haptex.analysis.conservativity` are not counted, so the 
 counts the grids' work at one thread's CPU time an evaluation. For D and E, q's grid costs a
 Jacobian at each point's foot (no search: the Jacobian's time less the force's) and the
 closest-point searches of its region's first batch (``REGION_FIRST`` of its points, where
-||J|| is largest; more where the region's edge or few maxima need them). The searches of D and E run on
-every core, so on a multi-core machine the wall time can be shorter than planned (a 1025 x 1025
-map: 75 s planned, 41 s taken on 2 cores); the uncounted work can make it longer.
+||J|| is largest; more where the region's edge or few maxima need them). The searches of D
+and E run on every core, so on a multi-core machine the wall time can be shorter than planned
+(a 1025 x 1025 map: 75 s planned, 41 s taken on 2 cores); the uncounted work can make it
+longer.
 """
 
 from __future__ import annotations
