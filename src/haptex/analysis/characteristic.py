@@ -780,8 +780,9 @@ def _norms_on_region(alg, points, foot: ClosestPoint, shape):
     """||J|| / kappa_0 of D or E on a grid of normal points (``points``, shape (n, k + 1), built
     from the feet ``foot`` at the distances ``foot.distance``), -inf off the region (the foot
     not the unique closest point) and where the region was not decided: a closest-point search
-    only where :func:`_region_candidates` needs one. Returns (norms of ``shape``, whether the
-    region has a point, points decided)."""
+    only where :func:`_region_candidates` needs one. Returns (norms of ``shape``, the
+    refinement's candidates (flat indices, best first), whether the region has a point, points
+    decided)."""
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # (a centre of curvature's)
         values = (spectral_norm(alg.jacobian_at_closest(points, foot)) / alg.stiffness).reshape(shape)
     r = foot.distance
@@ -789,8 +790,8 @@ def _norms_on_region(alg, points, foot: ClosestPoint, shape):
     def unique(idx):
         return _unique_foot(alg.texture, points[idx], r[idx])
 
-    _, region, checked = _region_candidates(values, unique)
-    return np.where(region & np.isfinite(values), values, -np.inf), bool(region.any()), checked
+    cands, region, checked = _region_candidates(values, unique)
+    return np.where(region & np.isfinite(values), values, -np.inf), cands, bool(region.any()), checked
 
 
 def _searched(checked: int, size: int) -> str:
@@ -836,7 +837,7 @@ def _q_distance(alg, dmax, x0, x1, nx, nd, closed) -> CharacteristicNumber:
             )
     foot = ClosestPoint(x=T.ravel(), z=tex.height(T).ravel(), distance=R.ravel(), tie=np.zeros(R.size, dtype=bool),
                         work=np.zeros(R.size, dtype=np.int64))
-    norms, some, checked = _norms_on_region(alg, P.reshape(-1, 2), foot, R.shape)
+    norms, cands, some, checked = _norms_on_region(alg, P.reshape(-1, 2), foot, R.shape)
     note = (f"grid {nx}x{nd} over closest-point x in [{x0:g}, {x1:g}] m and distance in (0, {dmax:g}] m "
             f"({_searched(checked, R.size)}), refined by L-BFGS-B")
     # eq. 18's Jacobian is -kappa_0 n n^T inside the wall: its norm is kappa_0 wherever the
@@ -849,7 +850,7 @@ def _q_distance(alg, dmax, x0, x1, nx, nd, closed) -> CharacteristicNumber:
         return _on_region(alg, _normal_point(tex, v[:, 0], v[:, 1]), v[:, 1])
 
     best, where_tr = -np.inf, (x0, dmax)
-    for idx in _candidates(norms):
+    for idx in cands:
         i, j = np.unravel_index(idx, norms.shape)
         bounds = [(T[i, j] - dt, T[i, j] + dt), (max(dr * 1e-6, R[i, j] - dr), min(dmax, R[i, j] + dr))]
         val, pt = _refine(neg_q, (T[i, j], R[i, j]), norms[i, j], bounds)
@@ -911,7 +912,7 @@ def _q_distance_surface(alg, dmax, ranges, counts, nd, closed, x_range, resoluti
                     f"convex-up point (< max_penetration {dmax:g} m); eq. 18 gives 1", 1.0)
     foot = ClosestPoint(x=X.ravel(), y=Y.ravel(), z=tex.height_at(T).ravel(), distance=R.ravel(),
                         tie=np.zeros(R.size, dtype=bool), work=np.zeros(R.size, dtype=np.int64))
-    norms, some, checked = _norms_on_region(alg, P.reshape(-1, 3), foot, R.shape)
+    norms, cands, some, checked = _norms_on_region(alg, P.reshape(-1, 3), foot, R.shape)
     note = (f"grid {counts[0]}x{counts[1]}x{nd} over the closest point's (x, y) and the distance in (0, {dmax:g}] m "
             f"({_searched(checked, R.size)}), refined by L-BFGS-B")
     # eq. 18's Jacobian is -kappa_0 n n^T inside the wall, n the unit normal at the closest
@@ -924,7 +925,7 @@ def _q_distance_surface(alg, dmax, ranges, counts, nd, closed, x_range, resoluti
         return _on_region(alg, _surface_normal_point(tex, v[:, :2], v[:, 2]), v[:, 2])
 
     best, where_v = -np.inf, (ranges[0][0], ranges[1][0], dmax)
-    for idx in _candidates(norms):
+    for idx in cands:
         i, j, m = np.unravel_index(idx, norms.shape)
         pt = (X[i, j, m], Y[i, j, m], R[i, j, m])
         bounds = [(pt[0] - steps[0], pt[0] + steps[0]), (pt[1] - steps[1], pt[1] + steps[1]),
