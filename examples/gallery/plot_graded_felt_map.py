@@ -9,7 +9,9 @@ spike a few µm wide in the ball's position. q of B, C and G reads that largest 
 within :data:`haptex.surfaces.CURVATURE_REFINE_SAMPLES` resolves it, so
 :func:`haptex.probe.felt_by` makes the felt map once more on graded axes
 (``SampledSurface(..., knots=(kx, ky))``): cells of about a µm where the path's curvature comes
-within 2 % of its largest, growing away from there. Here the egg-crate (0.1 mm, cells of 2 mm)
+within 2 % of its largest, fine across the spike only (along each axis as the largest
+curvature's direction says: the spike runs from each bowl along its troughs' lines, and needs
+no fine cells along them), growing away from there. Here the egg-crate (0.1 mm, cells of 2 mm)
 felt at 0.95 times its bowls' radius. Its gratings run at +-45 degrees, and so do its saddles'
 ridges, where the spike runs: the map is made on axes along them (``felt.turn``, pi/4), so that
 the ridges run along its cells' sides. The cell widths along the map's first axis, and q of C
@@ -44,5 +46,5 @@ fig, ax = plt.subplots(figsize=(9, 3.4))
 ax.semilogy(0.5 * (kx[1:] + kx[:-1]) * 1e3, np.diff(kx) * 1e6, ".", ms=2)
 ax.set_xlabel("along the map's first axis, turned 45 degrees from x (mm)")
 ax.set_ylabel("cell width (µm)")
-ax.set_title("the felt egg-crate's cells along x: finest at the bowls and the saddles' ridges")
+ax.set_title("the felt egg-crate's cells along the map's first axis: finest across the bowls")
 fig.tight_layout()

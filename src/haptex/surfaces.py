@@ -2685,7 +2685,11 @@ within this fraction of its largest, a node either side (chosen, measured as GRA
 5 % read the egg-crate's largest curvature +0.47, +0.51, +0.55 % on 507, 578, 741 a side, the
 random map's +0.74, +0.75, +0.75 % on 321 x 343, 338 x 371, 399 x 450; the egg-crate's saddles'
 diagonal ridges, within 2 % of the largest for about 90 um along, hold the sup where only the
-points were graded: +1.92 % then, with finest cells of 0.12 to 0.48 um)."""
+points were graded: +1.92 % then, with finest cells of 0.12 to 0.48 um; on the plane's axes,
+before the egg-crate's map was turned along its gratings). Across the spike only
+(:func:`_hot_intervals`: along each axis as the largest curvature's direction says; it was along
+both axes over the whole of where the curvature is hot, 697 x 697 at 0.99 times on the turned
+egg-crate, 357 x 357 now)."""
 
 GRADED_BROAD = 0.5
 """Where the path is most convex over more than this fraction of an axis's nodes, a graded
@@ -2694,9 +2698,15 @@ tightest radius is most convex over 9 and 15 % of its axes, where cells of its u
 step keep q of D to +0.001 % (its convex miss 2.1 % without them); the egg-crate's crests and
 saddles over all of them, where such cells made a grid past the cap)."""
 
-GRADED_TRIES = 3
+GRADED_TRIES = 4
 """How many graded maps :func:`_graded_refined` makes at most, each with finer cells than the
-last's (GRADED_STEP)."""
+last's (GRADED_STEP), within CURVATURE_REFINE_SAMPLES (chosen, measured 2026-11-29 on the
+egg-crate on axes along its gratings, whose path's curvature spike at its bowls is about 50 (1 -
+r / rho) um wide across each trough's line: at 0.99 times their radius rho the third map, 357 x
+357 with cells from 60 nm, meets the slack (q of C +0.85 %); at 0.995 the fourth, 450 x 450
+(+0.89 %); at 0.999 none, the third, 424 x 424 with cells from 15 nm, kept (+1.76 %, its
+peak_miss 1.75 %), the fourth and a fifth (with six tries) missing more (4.1 and 6.0 %, cells
+of 9 and 6 nm))."""
 
 GRADED_STEP = (0.5, 0.85)
 """The least and most a graded map's finest cells are of the last's when it missed the slack:
@@ -2706,29 +2716,45 @@ gratings, from 539 x 540 nodes and a 1.04 % miss past CURVATURE_REFINE_SAMPLES).
 
 
 def _hot_intervals(m, cur):
-    """Per axis, the intervals (a, b, spike) (m) where a graded axis's cells are fine, from the
+    """Per axis, the intervals (a, b, f) (m) where a graded axis's cells are fine, from the
     path's curvature at the uniform felt map ``cur``'s nodes (:func:`_felt_misses`' ``hs``):
-    spike true where its 2-norm comes within GRADED_HOT of its largest (the spikes B, C and G's q
-    reads: the finest cells), false where its convex curvature (the lower eigenvalue's negative)
-    comes within GRADED_HOT of its most convex (D's radius: cells of the uniform grid's step),
-    unless that spans more than GRADED_BROAD of an axis (a broad maximum, as the egg-crate's
-    crests and saddles make), each widened by a node either side."""
+    where its 2-norm comes within GRADED_HOT of its largest (the spikes B, C and G's q reads),
+    cells up to f times the finest there, f = 1 / |e_a|, e the direction of the node's largest
+    curvature, across which the contact, and with it the spike, runs 1 / (1 - r kappa) times as
+    fast as the ball (f = 1 along both axes where the other principal curvature comes within
+    GRADED_HOT of it, an umbilic spike; no interval along an axis the spike runs along, as the
+    turned egg-crate's do from its bowls along its troughs' lines); and f None where its convex curvature (the lower eigenvalue's negative) comes within
+    GRADED_HOT of its most convex (D's radius: cells of the uniform grid's step), unless that
+    spans more than GRADED_BROAD of an axis (a broad maximum, as the egg-crate's crests and
+    saddles make). Each node's interval spans a node either side."""
     nx, ny = cur.x.size, cur.y.size
-    f = np.nan_to_num(_hessian_norm(m["hs"]).reshape(nx, ny), nan=0.0)
-    bow = np.nan_to_num(-_lowest_eigenvalue(m["hs"]).reshape(nx, ny), nan=0.0)  # (convex where positive)
-    sets = [(f >= (1 - GRADED_HOT) * f.max(), True)]
+    hs = np.nan_to_num(m["hs"], nan=0.0, posinf=0.0, neginf=0.0)
+    f = _hessian_norm(hs)
+    top = f.max()
+    w, v = np.linalg.eigh(hs)  # (ascending; columns the directions)
+    big = np.argmax(np.abs(w), axis=1)
+    lead = np.abs(np.take_along_axis(v, big[:, None, None], axis=2)[..., 0])  # (|e|, per node)
+    umbilic = np.abs(np.take_along_axis(w, 1 - big[:, None], axis=1)[:, 0]) >= (1 - GRADED_HOT) * np.abs(
+        np.take_along_axis(w, big[:, None], axis=1)[:, 0])
+    across = np.where(umbilic[:, None], 1.0, lead).reshape(nx, ny, 2)
+    hot = (f >= (1 - GRADED_HOT) * top).reshape(nx, ny) if top > 0 else np.zeros((nx, ny), bool)
+    bow = -_lowest_eigenvalue(hs).reshape(nx, ny)  # (convex where positive)
+    convex = None
     if bow.max() > 0:
         convex = bow >= (1 - GRADED_HOT) * bow.max()
-        if max(np.mean(np.any(convex, axis=1)), np.mean(np.any(convex, axis=0))) <= GRADED_BROAD:
-            sets.append((convex, False))
+        if max(np.mean(np.any(convex, axis=1)), np.mean(np.any(convex, axis=0))) > GRADED_BROAD:
+            convex = None
     out = [[], []]
-    for hot, spike in sets:
-        for axis, (step, start) in enumerate(((cur.dx, cur.x[0]), (cur.dy, cur.y[0]))):
-            on = np.any(hot, axis=1 - axis)
+    for axis, (step, start) in enumerate(((cur.dx, cur.x[0]), (cur.dy, cur.y[0]))):
+        need = np.max(np.where(hot, across[..., axis], 0.0), axis=1 - axis)  # (per index along the axis)
+        for i in np.nonzero(need > 0)[0]:
+            out[axis].append((start + (i - 1) * step, start + (i + 1) * step, 1.0 / need[i]))
+        if convex is not None:
+            on = np.any(convex, axis=1 - axis)
             on = on | np.roll(on, 1) | np.roll(on, -1)
             idx = np.nonzero(on)[0]
             runs = np.split(idx, np.nonzero(np.diff(idx) > 1)[0] + 1) if idx.size else []
-            out[axis] += [(start + run[0] * step, start + run[-1] * step, spike) for run in runs]
+            out[axis] += [(start + run[0] * step, start + run[-1] * step, None) for run in runs]
     return out
 
 
@@ -2737,14 +2763,14 @@ def _graded_axis(intervals, start, period, widest):
     w within each of ``intervals`` (a, b, w) (m, taken modulo the period), away from them as wide
     as w + (GRADED_GROWTH - 1) times the distance, up to ``widest``; the last cell ends at the
     period's end (merged into the one before where it would be less than a third of it)."""
-    spans = [(a - start, b - start, w) for a, b, w in intervals]
+    spans = np.array([(a - start, b - start, w) for a, b, w in intervals], float).reshape(-1, 3)
+    lo = np.concatenate([spans[:, 0] + shift for shift in (-period, 0.0, period)])
+    hi = np.concatenate([spans[:, 1] + shift for shift in (-period, 0.0, period)])
+    ws = np.tile(spans[:, 2], 3)
 
     def width(x):
-        out = widest
-        for a, b, w in spans:
-            for shift in (-period, 0.0, period):
-                out = min(out, w + (GRADED_GROWTH - 1) * max(a + shift - x, 0.0, x - b - shift))
-        return out
+        return float(min(widest, np.min(ws + (GRADED_GROWTH - 1) * np.maximum(np.maximum(lo - x, 0.0), x - hi),
+                                        initial=math.inf)))
 
     knots, x = [0.0], 0.0
     while True:
@@ -2776,8 +2802,8 @@ def _graded_refined(texture, felt, m, r):
         return None
     best = None
     for _ in range(GRADED_TRIES):
-        kx, ky = (_graded_axis([(a, b, shrink * step if spike else step) for a, b, spike in spans], start, period,
-                               GRADED_BASE * step)
+        kx, ky = (_graded_axis([(a, b, step if f is None else min(shrink * step * f, GRADED_BASE * step))
+                                for a, b, f in spans], start, period, GRADED_BASE * step)
                   for spans, start, period, step in ((hot[0], cur.x[0], cur._size[0], cur.dx),
                                                      (hot[1], cur.y[0], cur._size[1], cur.dy)))
         if (kx.size - 1) * (ky.size - 1) > CURVATURE_REFINE_SAMPLES:
