@@ -17,6 +17,7 @@ import numpy as np
 
 from . import core as _core
 from .core import _ext
+from ._maximise import refine
 from ._validation import ParameterError, check_count, fail, finite, nonnegative, positive, whole
 from .probe import MAX_SAMPLES as MAX_PROBE_SAMPLES, _check_work, _footprint_size, _spacing
 from .textures import (MAX_HARMONICS, SampledProfile, Texture, _band_limited_samples, _resampled_axis, _vector,
@@ -197,28 +198,28 @@ class Surface(Texture):
 
     @_core.blas_held_to_one_thread
     def _sup(self, fun, where=None) -> float:
-        """sup over the cell of fun(xy) >= 0, fun vectorised over (..., 2); the points (2,) it was
-        refined to from the grid's 8 largest samples appended to ``where`` (a list, or None).
-        (BLAS held to one thread: L-BFGS-B's triangular solves woke OpenBLAS's workers, which then
-        spun for 0.1 s beside whatever came next, a servo loop included.)"""
+        """sup over the cell of fun(xy) >= 0, fun vectorised over (..., 2): the grid's largest,
+        refined from its 8 largest samples by :func:`haptex._maximise.refine` within a grid
+        step, in grid steps about each (so that the problem is well scaled); the points (2,) it
+        was refined to appended to ``where`` (a list, or None). (BLAS held to one thread:
+        L-BFGS-B's triangular solves woke OpenBLAS's workers, which then spun for 0.1 s beside
+        whatever came next, a servo loop included.)"""
         pts, (dx, dy) = self._grid()
         vals = fun(pts)
         best = float(vals.max())
         flat = vals.ravel()
         scale = np.array([dx, dy])
-        from scipy import optimize
 
         for idx in np.argpartition(flat, -8)[-8:] if flat.size > 8 else range(flat.size):  # the 8 largest
-            start = pts.reshape(-1, 2)[idx]
+            start, norm = pts.reshape(-1, 2)[idx], max(best, 1e-300)
 
-            def neg(u):  # in grid steps about the sample, so that the problem is well scaled
-                return -float(fun((start + u * scale)[None, :])[0]) / max(best, 1e-300)
+            def neg(u, start=start, norm=norm):  # (n, 2) steps about the sample
+                return -fun(start + u * scale) / norm
 
-            r = optimize.minimize(neg, np.zeros(2), method="L-BFGS-B", bounds=[(-1.0, 1.0)] * 2,
-                                  options={"ftol": 1e-16, "gtol": 1e-13})
-            best = max(best, -float(r.fun) * max(best, 1e-300))
+            found, u = refine(neg, np.zeros(2), None, [(-1.0, 1.0)] * 2, ftol=1e-16, gtol=1e-13)
+            best = max(best, found * norm)
             if where is not None:
-                where.append(start + r.x * scale)
+                where.append(start + np.array(u) * scale)
         return best
 
 

@@ -8,6 +8,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from .._maximise import refine as _refine
 from .._validation import fail
 from ..algorithms import Algorithm
 from ..closest import ClosestPoint, closest_point
@@ -472,40 +473,6 @@ def _object_focus(alg, ut, dmax: float):
         if value[0] <= dmax and alg.closest_points(point)[1][0] >= value[0] * (1 - 1e-6):
             return float(value[0]), point[0]
     return None
-
-
-def _refine(neg, start, value, bounds) -> tuple[float, tuple]:
-    """Bounded L-BFGS-B maximisation from a grid point: (value, point), the grid's own if
-    the refinement finds nothing larger (``value`` None: the start's own, computed here).
-    ``neg`` maps points (n, d) to the negated quantity (n,), row by row; L-BFGS-B's
-    finite-difference gradient evaluates its d shifted points in one call of it (SciPy's
-    ``workers``, a map-like callable: the values of one call a point to rounding, numpy's
-    vector loops and their scalar tails differing in the last bit, for a d-th of the Python
-    overhead)."""
-    from scipy import optimize
-
-    start = np.asarray(start, dtype=np.float64)
-    free = np.array([lo != hi for lo, hi in bounds])  # (the fixed held here, as minimize would drop them)
-    base = np.array([v if f else lo for v, f, (lo, hi) in zip(start, free, bounds)])
-
-    def full(v):  # (n, free variables) -> (n, d)
-        out = np.repeat(base[None, :], len(v), axis=0)
-        out[:, free] = v
-        return out
-
-    def one(v):
-        return float(neg(full(np.asarray(v, dtype=np.float64)[None, :]))[0])
-
-    def shifted(_fun, points):  # (map(_fun, points): each row's value as ``one`` computes it, to rounding)
-        return [float(v) for v in neg(full(np.array(list(points), dtype=np.float64)))]
-
-    if value is None:
-        value = -one(start[free])
-    r = optimize.minimize(one, x0=start[free], method="L-BFGS-B", bounds=[b for b, f in zip(bounds, free) if f],
-                          options={"ftol": 1e-15, "gtol": 1e-12, "workers": shifted})
-    if -r.fun > value:
-        return -float(r.fun), tuple(float(v) for v in full(r.x[None, :])[0])
-    return float(value), tuple(float(v) for v in start)
 
 
 def _candidates(values: np.ndarray, count: int = 8) -> np.ndarray:
