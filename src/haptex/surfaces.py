@@ -2724,10 +2724,11 @@ def _hot_intervals(m, cur):
     curvature, across which the contact, and with it the spike, runs 1 / (1 - r kappa) times as
     fast as the ball (f = 1 along both axes where the other principal curvature comes within
     GRADED_HOT of it, an umbilic spike; no interval along an axis the spike runs along, as the
-    turned egg-crate's do from its bowls along its troughs' lines); and f None where its convex curvature (the lower eigenvalue's negative) comes within
-    GRADED_HOT of its most convex (D's radius: cells of the uniform grid's step), unless that
-    spans more than GRADED_BROAD of an axis (a broad maximum, as the egg-crate's crests and
-    saddles make). Each node's interval spans a node either side."""
+    turned egg-crate's do from its bowls along its troughs' lines); and f None where its convex
+    curvature (the lower eigenvalue's negative) comes within GRADED_HOT of its most convex (D's
+    radius: cells of the uniform grid's step), unless that spans more than GRADED_BROAD of an
+    axis (a broad maximum, as the egg-crate's crests and saddles make). Each node's interval
+    spans a node either side."""
     nx, ny = cur.x.size, cur.y.size
     hs = np.nan_to_num(m["hs"], nan=0.0, posinf=0.0, neginf=0.0)
     f = _hessian_norm(hs)
