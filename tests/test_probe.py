@@ -446,15 +446,16 @@ _RANDOM_A = np.array([40e-6, 30e-6, 20e-6, 12e-6, 10e-6, 5e-6])
 _RANDOM_PH = np.array([0.3, 2.0, 4.1, 5.5, 1.1, 3.3])
 
 
-def _random_tightest_radius(n=401):
-    """The random map's tightest radius of curvature, 1 / sup |kappa| over its principal
+def _random_tightest_radius(n=401, a=_RANDOM_A, k=_RANDOM_K, ph=_RANDOM_PH):
+    """The tightest radius of curvature of a sum of gratings a sin(k . p + ph) periodic on the 2
+    mm cell (the random map's by default: 0.640 mm), 1 / sup |kappa| over its principal
     curvatures (the eigenvalues of (I + g g^T)^-1 H / sqrt(1 + |g|^2)) on an n x n grid of its
-    cell, from the analytic gradient and Hessian (numpy alone): 0.640 mm."""
+    cell, from the analytic gradient and Hessian (numpy alone)."""
     g1 = np.linspace(0, 2e-3, n)
     P = np.stack(np.meshgrid(g1, g1, indexing="ij"), -1).reshape(-1, 2)
-    arg = P @ _RANDOM_K.T + _RANDOM_PH
-    g = np.cos(arg) @ (_RANDOM_A[:, None] * _RANDOM_K)
-    H = np.einsum("pk,k,ki,kj->pij", -np.sin(arg), _RANDOM_A, _RANDOM_K, _RANDOM_K)
+    arg = P @ k.T + ph
+    g = np.cos(arg) @ (a[:, None] * k)
+    H = np.einsum("pk,k,ki,kj->pij", -np.sin(arg), a, k, k)
     return float(1 / np.abs(_principal_curvatures(g, H)).max())
 
 
@@ -472,6 +473,17 @@ AREAL_CASES["random"] = (
     lambda p: np.sum(_RANDOM_A * np.sin(p @ _RANDOM_K.T + _RANDOM_PH), axis=1),
     lambda p: np.cos(p @ _RANDOM_K.T + _RANDOM_PH) @ (_RANDOM_A[:, None] * _RANDOM_K),
     (2e-3, 2e-3), None)  # (rho: _random_tightest_radius, computed where a test needs it)
+# two gratings whose wave vectors meet at 63 deg (2 pi (1, 0) and 2 pi (1, 2) / 2 mm), 40 and 30
+# um: its troughs are neither umbilic nor along the axes, its tightest radius 0.633 mm
+_TWO_K = 2 * np.pi * np.array([(1, 0), (1, 2)]) / 2e-3
+_TWO_A, _TWO_PH = np.array([40e-6, 30e-6]), np.array([0.4, 1.7])
+AREAL_CASES["two-grating"] = (
+    hx.SumOfGratings(_TWO_A, 2 * np.pi / np.linalg.norm(_TWO_K, axis=1), np.arctan2(_TWO_K[:, 1], _TWO_K[:, 0]), _TWO_PH),
+    lambda p: np.sum(_TWO_A * np.sin(p @ _TWO_K.T + _TWO_PH), axis=1),
+    lambda p: np.cos(p @ _TWO_K.T + _TWO_PH) @ (_TWO_A[:, None] * _TWO_K),
+    (2e-3, 2e-3), None)
+_TIGHTEST = {"random": _random_tightest_radius,
+             "two-grating": lambda: _random_tightest_radius(a=_TWO_A, k=_TWO_K, ph=_TWO_PH)}
 
 
 ANGLES = np.linspace(0.0, 2 * np.pi, 120, endpoint=False)
@@ -569,9 +581,26 @@ def _areal_path_q(h, grad, cell, r, dmax=1e-3, n=41, letters="BCDFG"):
     vals = q_at(P)
     best = {k: float(v.max()) for k, v in vals.items()}
     seen = {}  # (the letters' largest points often coincide: each nested grid evaluated once)
+    # the spike of the path's curvature sits above the surface's most curved trough, a few um
+    # wide across it: where the troughs are not umbilic (a ridge along the trough's line) the
+    # grid can step over it (a sum of two gratings at 63 deg at 0.99 rho read q of C 109.2 on
+    # 41 x 41 and 157.9 on 161 x 161, where d_max kappa / (1 - r kappa) is 157.9), so the nested
+    # grids start from the ball's centres over the surface's most concave points too: the
+    # principal curvatures on a 201 x 201 grid of the cell (the Hessian by central differences
+    # of grad), the best 3 polished by scipy's Nelder-Mead, the centre p = s - r g / sqrt(1 +
+    # |g|^2) whose contact is s (the contact condition inverted)
+    S = np.stack(np.meshgrid(*(np.arange(201) * (c / 201) for c in cell), indexing="ij"), -1).reshape(-1, 2)
+
+    def concave(q):
+        return _principal_curvatures(grad(q), hess(q)).max(axis=1)
+
+    tops = [minimize(lambda v: -concave(np.asarray(v)[None])[0], S[i], method="Nelder-Mead",
+                     options={"xatol": 1e-12, "fatol": 1e-9}).x for i in np.argsort(concave(S))[-3:]]
+    gs = grad(np.array(tops))
+    above = np.array(tops) - r * gs / np.sqrt(1 + np.sum(gs * gs, axis=1))[:, None]
     for k, v in vals.items():
-        for i in np.argsort(v)[-3:]:
-            centre, half = P[i], np.array(cell) / n
+        for centre in [P[i] for i in np.argsort(v)[-3:]] + list(above):
+            half = np.array(cell) / n
             for _ in range(5):
                 key = (centre.tobytes(), half.tobytes())
                 if key not in seen:
@@ -687,7 +716,7 @@ def test_a_felt_map_refined_for_its_curvature_carries_its_first_grids_band():
                      ("egg-crate", 0.88, "BCFG"), ("grating", 0.5, "BCG"), ("grating", 0.9, "BCG"),
                      ("grating", 0.95, "BCFG"), ("random", 0.5, "BCDEFG"), ("random", 0.8, "BCG"),
                      ("egg-crate", 0.9, "BCG"), ("random", 0.9, "BCG"), ("egg-crate", 0.95, "BCG"),
-                     ("random", 0.95, "BCG"), ("egg-crate", 0.99, "BCG")]])
+                     ("random", 0.95, "BCG"), ("egg-crate", 0.99, "BCG"), ("two-grating", 0.95, "BC")]])
 def test_q_of_every_algorithm_on_a_felt_map_below_the_troughs_radius_is_the_paths(name, rel_r, letters):
     # issue 67's goal on areal maps: q of every algorithm on the felt surface within 1 % of q on
     # the brute-force ball path. B, C and G read the path's Hessian, which below the troughs'
@@ -729,7 +758,12 @@ def test_q_of_every_algorithm_on_a_felt_map_below_the_troughs_radius_is_the_path
     # each trough's line runs along it); with the finest cells only across the spike (their
     # width along each axis 1 / |e_a| times the finest, e the largest curvature's direction),
     # +0.85 % on 357 x 357 (surfaces._hot_intervals; run here, failed before); 0.95 rho then
-    # +0.62 % on 276 x 276 and the random map +0.31 % on 350 x 364 (B +0.32 %). Tried:
+    # +0.62 % on 276 x 276 and the random map +0.31 % on 350 x 364 (B +0.32 %). On two gratings
+    # at 63 deg (troughs neither umbilic nor along the axes) at 0.95 rho, B and C +0.6 % on 762 x
+    # 386 graded (run here; the oracle read -3 % there, -31 % at 0.99, until its nested grids
+    # also started above the surface's most concave points, 2026-11-29). Not met on it at 0.98
+    # and 0.99 rho: -3.4 and -24 % (the kept maps' peak_miss 20 and 15 %: their nodes and
+    # centres sample the spike below its top). Tried:
     # CURVATURE_REFINE_SAMPLES at 1,280 x 1,280
     # read the egg-crate at 0.9, 0.92, 0.95 rho +0.30, +0.61, +2.1 %, 21-24 s and up to 1.4 GB a
     # map; not kept, since design analyses the map band-limited to what the device renders, where
@@ -738,12 +772,15 @@ def test_q_of_every_algorithm_on_a_felt_map_below_the_troughs_radius_is_the_path
     # closest-point searches; E 1.0 s), 144 a side now (128 before: 144 the first grid within the
     # slack not steeper than the surface, surfaces.FELT_STEEP_TOLERANCE). 10-90 s a case
     tex, h, grad, cell, rho = AREAL_CASES[name]
-    r = rel_r * (rho or _random_tightest_radius())
+    r = rel_r * (rho or _TIGHTEST[name]())
     truth = _areal_path_q(h, grad, cell, r, letters=letters)
     if rho is not None:  # (the egg-crate's and grating's closed forms)
         assert truth["C"] == pytest.approx(max(1.0, 1e-3 / rho / (1 - rel_r)), rel=1e-4)  # the oracle at its troughs
         R = rho + r  # (the crests' radius, offset by the ball)
         assert truth["D"] == (math.inf if R <= 1e-3 else pytest.approx(max(1.0, 1e-3 / (R - 1e-3)), rel=1e-4))
+    elif name == "two-grating":  # (its tightest trough nearly level: d_max kappa / (1 - r kappa) there)
+        kappa = 1 / _TIGHTEST[name]()
+        assert truth["C"] == pytest.approx(1e-3 * kappa / (1 - r * kappa), rel=1e-3)
     felt = tex.felt_by(r)
     for letter in letters:
         q = hx.characteristic_number(hx.algorithm(letter, felt, 2000.0)).value
@@ -809,7 +846,7 @@ def test_a_felt_maps_curvature_miss_bounds_its_q(name, rel_r, capsys):
     # refined to 760 a side (its miss 3.3 %), 5.3101 from the felt map on 128 a side, 5.388 on 64:
     # 0.28 % apart where the message said 3.3 % (2026-11-28)
     tex, h, grad, cell, rho = AREAL_CASES[name]
-    r = rel_r * (rho or _random_tightest_radius())
+    r = rel_r * (rho or _TIGHTEST[name]())
     felt = tex.felt_by(r)
     truth = _areal_path_q(h, grad, cell, r, letters="C")["C"]
     said = hx.characteristic_number(hx.algorithm("C", felt, 2000.0))
