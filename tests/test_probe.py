@@ -446,7 +446,7 @@ _RANDOM_A = np.array([40e-6, 30e-6, 20e-6, 12e-6, 10e-6, 5e-6])
 _RANDOM_PH = np.array([0.3, 2.0, 4.1, 5.5, 1.1, 3.3])
 
 
-def _random_tightest_radius(n=401, a=_RANDOM_A, k=_RANDOM_K, ph=_RANDOM_PH):
+def _gratings_tightest_radius(n=401, a=_RANDOM_A, k=_RANDOM_K, ph=_RANDOM_PH):
     """The tightest radius of curvature of a sum of gratings a sin(k . p + ph) periodic on the 2
     mm cell (the random map's by default: 0.640 mm), 1 / sup |kappa| over its principal
     curvatures (the eigenvalues of (I + g g^T)^-1 H / sqrt(1 + |g|^2)) on an n x n grid of its
@@ -472,7 +472,7 @@ AREAL_CASES["random"] = (
                      _RANDOM_PH),
     lambda p: np.sum(_RANDOM_A * np.sin(p @ _RANDOM_K.T + _RANDOM_PH), axis=1),
     lambda p: np.cos(p @ _RANDOM_K.T + _RANDOM_PH) @ (_RANDOM_A[:, None] * _RANDOM_K),
-    (2e-3, 2e-3), None)  # (rho: _random_tightest_radius, computed where a test needs it)
+    (2e-3, 2e-3), None)  # (rho: _gratings_tightest_radius, computed where a test needs it)
 # two gratings whose wave vectors meet at 63 deg (2 pi (1, 0) and 2 pi (1, 2) / 2 mm), 40 and 30
 # um: its troughs are neither umbilic nor along the axes, its tightest radius 0.633 mm
 _TWO_K = 2 * np.pi * np.array([(1, 0), (1, 2)]) / 2e-3
@@ -482,8 +482,8 @@ AREAL_CASES["two-grating"] = (
     lambda p: np.sum(_TWO_A * np.sin(p @ _TWO_K.T + _TWO_PH), axis=1),
     lambda p: np.cos(p @ _TWO_K.T + _TWO_PH) @ (_TWO_A[:, None] * _TWO_K),
     (2e-3, 2e-3), None)
-_TIGHTEST = {"random": _random_tightest_radius,
-             "two-grating": lambda: _random_tightest_radius(a=_TWO_A, k=_TWO_K, ph=_TWO_PH)}
+_TIGHTEST = {"random": _gratings_tightest_radius,
+             "two-grating": lambda: _gratings_tightest_radius(a=_TWO_A, k=_TWO_K, ph=_TWO_PH)}
 
 
 ANGLES = np.linspace(0.0, 2 * np.pi, 120, endpoint=False)
@@ -763,8 +763,7 @@ def test_q_of_every_algorithm_on_a_felt_map_below_the_troughs_radius_is_the_path
     # 386 graded (run here; the oracle read -3 % there, -31 % at 0.99, until its nested grids
     # also started above the surface's most concave points, 2026-11-29). Not met on it at 0.98
     # and 0.99 rho: -3.4 and -24 % (the kept maps' peak_miss 20 and 15 %: their nodes and
-    # centres sample the spike below its top). Tried:
-    # CURVATURE_REFINE_SAMPLES at 1,280 x 1,280
+    # centres sample the spike below its top). Tried: CURVATURE_REFINE_SAMPLES at 1,280 x 1,280
     # read the egg-crate at 0.9, 0.92, 0.95 rho +0.30, +0.61, +2.1 %, 21-24 s and up to 1.4 GB a
     # map; not kept, since design analyses the map band-limited to what the device renders, where
     # it cost that for nothing and left D and E out of the default time budget (768 a side: 7-9 s,
