@@ -729,7 +729,8 @@ def _unique_foot(tex: Texture, points, r):
     """True where the probe positions ``points`` (normal points at distance r, m) have the
     point they were built from as their unique closest point: the distance is r and there
     is no tie (the region where D's and E's Jacobians are defined)."""
-    return _foot_is_unique(closest_point(tex, points), r)
+    cp = closest_point(tex, points)
+    return (cp.distance >= r * (1 - 1e-9)) & ~cp.tie
 
 
 def _on_region(alg, points, r):
@@ -766,11 +767,6 @@ def _searched(checked: int, size: int) -> str:
     if checked == size:
         return "the foot's uniqueness searched at every point"
     return f"the foot's uniqueness searched at {checked:,} of its {size:,} points, where ||J|| can be largest"
-
-
-def _foot_is_unique(cp: ClosestPoint, r):
-    """:func:`_unique_foot` on closest points already found: the distance is r and no tie."""
-    return (cp.distance >= r * (1 - 1e-9)) & ~cp.tie
 
 
 def _q_distance(alg, dmax, x0, x1, nx, nd, closed) -> CharacteristicNumber:
