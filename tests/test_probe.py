@@ -381,26 +381,49 @@ def test_near_its_troughs_radius_q_of_d_on_a_felt_profile_is_the_paths(rel_r):
     assert q == pytest.approx(truth, rel=0.01)
 
 
-def _brute_contacts_2d(h, pts, r, n=61):
-    """The ball's contact offsets u* (k, 2) at each in-plane point of pts (k, 2), by brute force:
-    the arg-max of h(p + u) + sqrt(r^2 - |u|^2) over an n x n grid of offsets in the disc,
-    refined twice on 21 x 21 grids around it (each a tenth of the last's span). h is a numpy
-    function of (m, 2) points; nothing of haptex's."""
+def _brute_argmax_2d(h, pts, r, n=61, refinements=2, side=None):
+    """The arg-max u* (k, 2) of h(p + u) + sqrt(r^2 - |u|^2) over offsets u at each in-plane point
+    p of pts (k, 2), by brute force: over an n x n grid of offsets in the disc, then
+    ``refinements`` times over a 21 x 21 grid around the best (each a tenth of the last's span);
+    given ``side``, only offsets with p + u on the square [0, side]^2 (a map that ends at its
+    edges). Points in batches, an offset outside the disc or the map -inf (the first of equal
+    maxima kept, as a loop over the points would). h is a numpy function of (m, 2) points;
+    nothing of haptex's."""
+    pts = np.asarray(pts, dtype=float).reshape(-1, 2)
     out = np.empty((len(pts), 2))
     g1 = np.linspace(-r, r, n)
     U = np.stack(np.meshgrid(g1, g1, indexing="ij"), -1).reshape(-1, 2)
     U = U[np.sum(U * U, axis=1) <= r * r]
-    for i, p in enumerate(pts):
-        u, step = U, 2 * r / (n - 1)
-        for _ in range(3):
-            val = h(p + u) + np.sqrt(np.maximum(r * r - np.sum(u * u, axis=1), 0.0))
-            best = u[int(np.argmax(val))]
+    ball = np.sqrt(np.maximum(r * r - np.sum(U * U, axis=1), 0.0))
+    batch = max(1, 2_000_000 // U.shape[0])
+    for lo in range(0, len(pts), batch):
+        p = pts[lo:lo + batch, None, :]
+        u, step = np.broadcast_to(U, (p.shape[0],) + U.shape), 2 * r / (n - 1)
+        for stage in range(refinements + 1):
+            q = p + u
+            val = h(q.reshape(-1, 2)).reshape(q.shape[:2])
+            if stage == 0:  # (U: in the disc)
+                val += ball
+            else:
+                uu = np.sum(u * u, axis=2)
+                val += np.sqrt(np.maximum(r * r - uu, 0.0))
+                val[uu > r * r] = -np.inf
+            if side is not None:
+                val[np.any((q < 0) | (q > side), axis=2)] = -np.inf
+            best = u[np.arange(u.shape[0]), np.argmax(val, axis=1)]
             g = np.linspace(-step, step, 21)
-            u = best + np.stack(np.meshgrid(g, g, indexing="ij"), -1).reshape(-1, 2)
-            u = u[np.sum(u * u, axis=1) <= r * r]
+            u = best[:, None, :] + np.stack(np.meshgrid(g, g, indexing="ij"), -1).reshape(1, -1, 2)
             step /= 10
-        out[i] = best
+        out[lo:lo + batch] = best
     return out
+
+
+def _brute_contacts_2d(h, pts, r, n=61):
+    """The ball's contact offsets u* (k, 2) at each in-plane point of pts (k, 2), by brute force
+    (:func:`_brute_argmax_2d`: an n x n grid of offsets in the disc, refined twice on 21 x 21
+    grids around its best, each a tenth of the last's span). h is a numpy function of (m, 2)
+    points; nothing of haptex's."""
+    return _brute_argmax_2d(h, pts, r, n)
 
 
 def _brute_gradients_2d(h, grad, pts, r, n=61):
@@ -1071,23 +1094,9 @@ def _bounded_path_max_slope(h, side, r, n=41):
     u* / sqrt(r^2 - |u*|^2) (the envelope theorem: the map's edge does not move with p, so this
     holds where the ball rests on the map's rim as well as inside, where it is grad h). numpy
     on the analytic heights; nothing of haptex's."""
-    g1 = np.linspace(-r, r, 61)
-    U0 = np.stack(np.meshgrid(g1, g1, indexing="ij"), -1).reshape(-1, 2)
-    U0 = U0[np.sum(U0 * U0, axis=1) <= r * r]
-
     def slopes(pts):
-        out = np.empty(len(pts))
-        for i, p in enumerate(pts):
-            u, step = U0, 2 * r / 60
-            for _ in range(4):
-                u = u[np.all((p + u >= 0) & (p + u <= side), axis=1)]
-                best = u[int(np.argmax(h(p + u) + np.sqrt(np.maximum(r * r - np.sum(u * u, axis=1), 0.0))))]
-                g = np.linspace(-step, step, 21)
-                u = best + np.stack(np.meshgrid(g, g, indexing="ij"), -1).reshape(-1, 2)
-                u = u[np.sum(u * u, axis=1) <= r * r]
-                step /= 10
-            out[i] = np.linalg.norm(best) / np.sqrt(r * r - best @ best)
-        return out
+        best = _brute_argmax_2d(h, pts, r, 61, refinements=3, side=side)
+        return np.linalg.norm(best, axis=1) / np.sqrt(r * r - np.sum(best * best, axis=1))
 
     g = np.linspace(0, side, n)
     P = np.stack(np.meshgrid(g, g, indexing="ij"), -1).reshape(-1, 2)
@@ -1519,6 +1528,28 @@ def _dense_dilation(surf, pts, r, n=161):
     return np.array([np.max(surf.height_at(p + U) + ball) for p in pts]) - r
 
 
+def _grid_dilation(surf, xs, ys, r, du):
+    """c(p) - r (nx, ny) at the nodes of a periodic grid xs, ys (its cell nx dx by ny dy) by brute
+    force: the maximum of h(p + u) + sqrt(r^2 - |u|^2) over the offsets u in the disc of a grid
+    whose steps (sx, sy), at most du, divide the nodes' (dx / kx, dy / ky), h the surface's own
+    heights sampled once on that finer grid over the cell. Returns it and (sx, sy)."""
+    dx, dy = xs[1] - xs[0], ys[1] - ys[0]
+    kx, ky = math.ceil(dx / du), math.ceil(dy / du)
+    sx, sy = dx / kx, dy / ky
+    Nx, Ny = xs.size * kx, ys.size * ky
+    fine = np.stack(np.meshgrid(xs[0] + np.arange(Nx) * sx, ys[0] + np.arange(Ny) * sy, indexing="ij"), -1)
+    hf = surf.height_at(fine)
+    I, J = np.arange(xs.size) * kx, np.arange(ys.size) * ky
+    out = np.full((xs.size, ys.size), -np.inf)
+    for a in range(-int(r / sx), int(r / sx) + 1):
+        rows = hf[(I + a) % Nx]
+        for b in range(-int(r / sy), int(r / sy) + 1):
+            u2 = (a * sx) ** 2 + (b * sy) ** 2
+            if u2 <= r * r:
+                np.maximum(out, rows[:, (J + b) % Ny] + math.sqrt(r * r - u2), out=out)
+    return out - r, (sx, sy)
+
+
 def test_a_surface_is_dilated_as_its_definition_says():
     # c(p) = max over |u| <= r of h(p + u) + sqrt(r^2 - |u|^2): at least the maximum over the
     # grid's own offsets (the ball resting on the samples), at most the dense brute force's over
@@ -1546,9 +1577,9 @@ def test_a_surface_is_dilated_as_its_definition_says():
             if u2 <= r * r:
                 ref = np.maximum(ref, np.roll(hf, (-a, -b), axis=(0, 1)) + math.sqrt(r * r - u2) - r)
     assert np.all(felt.h >= ref - 1e-18)
-    P = P.reshape(-1, 2)
-    miss = (2 * r / 160) ** 2 / 4 * (surf.max_curvature + 1 / r)
-    assert np.all(felt.h.ravel() <= _dense_dilation(surf, P, r) + miss)
+    dense, (sx, sy) = _grid_dilation(surf, fx, fy, r, 2 * r / 160)
+    miss = (sx * sx + sy * sy) / 8 * (surf.max_curvature + 1 / r)
+    assert np.all(felt.h <= dense + miss)
     xs = np.arange(32) * (2e-3 / 32)
     X, Y = np.meshgrid(xs, xs, indexing="ij")
     smooth = hx.SampledSurface(xs, xs, 0.1e-3 * np.sin(np.pi * X / 1e-3) * np.sin(np.pi * Y / 1e-3), periodic=True)
