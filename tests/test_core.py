@@ -279,14 +279,21 @@ def _reference_stroke(alg, pts, max_force, bmax, T, stored=False):
     forces, faults, clamps, active, E = [], 0, 0, 0, 0.0
     have = contact = False
     last_p = last_f = last_xy = d = last_z = None
+    good = [len(p) == dim and all(math.isfinite(c) and abs(c) <= 1e3 for c in p) for p in pts]
+    P = np.array([p for p, g in zip(pts, good) if g])
+    # (the stateless parts, the field's force and penetration, at every good position at once;
+    # the same NumPy fields, position by position)
+    field = None if alg.letter == "F" else alg.force(P)
+    pens = alg.penetration(P)
+    at = np.cumsum(good) - 1
     for k, p in enumerate(pts):
-        if len(p) != dim or not all(math.isfinite(c) and abs(c) <= 1e3 for c in p):
+        if not good[k]:
             faults += 1
             have = False
             forces.append(np.zeros(dim))
             continue
         if k == 0:
-            E = 0.5 * alg.stiffness * float(alg.penetration(np.array(p)[None, :])[0]) ** 2
+            E = 0.5 * alg.stiffness * float(pens[0]) ** 2
         p = np.array(p)
         pz = p[-1]
         if alg.letter == "F":
@@ -297,7 +304,7 @@ def _reference_stroke(alg, pts, max_force, bmax, T, stored=False):
             else:
                 contact, f = False, np.zeros(dim)
         else:
-            f = alg.force(p[None, :])[0]
+            f = field[at[k]].copy()
             if alg.letter == "W":
                 if pz < 0.0 and B and contact:
                     f[-1] -= B * (pz - last_z) / Tw
@@ -305,7 +312,7 @@ def _reference_stroke(alg, pts, max_force, bmax, T, stored=False):
         if have:
             dp = p - last_p
             E -= float(np.dot(last_f, dp))
-            pen = float(alg.penetration(p[None, :])[0])
+            pen = float(pens[at[k]])
             deficit = (0.5 * alg.stiffness * pen * pen if stored else 0.0) - E
             v2 = float(np.dot(dp, dp))
             if deficit > 0.0 and v2 > 0.0:
