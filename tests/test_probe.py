@@ -926,6 +926,27 @@ def test_where_no_grid_meets_the_slack_the_felt_map_kept_is_the_one_whose_larges
 
 
 @pytest.mark.long
+def test_where_the_spike_runs_at_an_angle_to_the_axes_the_stated_peak_miss_bounds_q():
+    # On two gratings at 63 deg at 0.99 times their tightest radius the path's curvature spike is
+    # about 0.5 um wide and runs at an angle to both axes: no map within the cap meets the slack
+    # (uniform or graded), and the kept one's q of C is short of the path's. The map says by how
+    # much (peak_miss, against the path's largest curvature): taken at its nodes and cells'
+    # centres alone, which sample the spike below its top, it said 15 % where q of C read -24 %
+    # (the kept map 832 x 416, 2026-11-29). The path's largest is climbed from its largest samples
+    # now. Truth: _areal_path_q (nested grids above the most concave points), asserted within
+    # 1e-3 of the closed form d_max kappa / (1 - r kappa) at the tightest trough (nearly level)
+    tex, h, grad, cell, _ = AREAL_CASES["two-grating"]
+    rho = _TIGHTEST["two-grating"]()
+    r = 0.99 * rho
+    truth = _areal_path_q(h, grad, cell, r, letters="C")["C"]
+    assert truth == pytest.approx(1e-3 / rho / 0.01, rel=1e-3)
+    felt = tex.felt_by(r)
+    q = hx.characteristic_number(hx.algorithm("C", felt, 2000.0)).value
+    assert felt.peak_miss > 0.01  # (the premise: no map met the slack)
+    assert abs(q / truth - 1) <= felt.peak_miss + 0.005, (q / truth - 1, felt.peak_miss)
+
+
+@pytest.mark.long
 def test_a_felt_maps_convex_miss_bounds_q_of_d():
     # q of D reads the path's most convex curvature 1 / R (eq. 18: d_max / (R - d_max) below
     # it): a map whose most convex curvature is m times more than the path's reads q off by
