@@ -1183,8 +1183,11 @@ def _vector(name: str, values) -> np.ndarray:
 
 
 GOLDEN_STEPS = 48
-"""Golden-section steps refining each contact point within two grid intervals (chosen: the
-bracket shrinks by 0.618^48 ~ 1e-10, far below any grid)."""
+"""Golden-section steps refining each contact point within two grid intervals at most (chosen:
+the bracket shrinks by 0.618^48 ~ 1e-10); fewer where the bracket reaches sqrt(eps) r first,
+past which the ball's height, flat at its top, no longer tells its points apart (on the
+Dektak scan's 307,168 intervals of 4.9 nm felt by a 0.5 mm ball, 15; Newton polishes from there,
+CONTACT_NEWTON_STEPS)."""
 #: Newton steps on the ball's contact condition after the golden section (:func:`_contact_path`;
 #: chosen: from the golden section's 1e-11 m two reach the last bits; from a contact past the
 #: bracket, where it runs fast, two more)
@@ -1238,7 +1241,9 @@ def _contact_path(texture, x, h, r, periodic, seed=None):
         a, b = lo.copy(), hi.copy()
         c1, c2 = b - phi * (b - a), a + phi * (b - a)
         g1, g2 = g(c1), g(c2)
-        for _ in range(GOLDEN_STEPS):
+        floor = math.sqrt(np.finfo(float).eps) * r  # (g's top: its points apart by rounding alone)
+        steps = GOLDEN_STEPS if 2 * dx <= floor else min(GOLDEN_STEPS, math.ceil(math.log(floor / (2 * dx)) / math.log(phi)))
+        for _ in range(max(steps, 1)):
             left = g1 > g2
             b = np.where(left, c2, b)
             a = np.where(left, a, c1)
