@@ -1242,8 +1242,8 @@ def _contact_path(texture, x, h, r, periodic, seed=None):
         c1, c2 = b - phi * (b - a), a + phi * (b - a)
         g1, g2 = g(c1), g(c2)
         floor = math.sqrt(np.finfo(float).eps) * r  # (g's top: its points apart by rounding alone)
-        steps = GOLDEN_STEPS if 2 * dx <= floor else min(GOLDEN_STEPS, math.ceil(math.log(floor / (2 * dx)) / math.log(phi)))
-        for _ in range(max(steps, 1)):
+        steps = min(GOLDEN_STEPS, max(1, math.ceil(math.log(floor / (2 * dx)) / math.log(phi))))
+        for _ in range(steps):
             left = g1 > g2
             b = np.where(left, c2, b)
             a = np.where(left, a, c1)
