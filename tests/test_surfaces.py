@@ -607,7 +607,7 @@ def test_closest_point_on_a_height_map_agrees_with_brute_force(periodic):
     # values and derivatives equal the spline's), with the tangent-plane extension beyond a
     # non-periodic map; the distance found is never longer than a dense brute-force search's
     # (to 1e-9 m), here probes within 0.3 mm of the edges too. The reference is the grid search
-    # of _brute_force_distance (its local minima polished on the exact gradient, once by BFGS): it
+    # of _brute_force_distance (its local minima polished by trust-region Newton, exact derivatives): it
     # equals the former reference's (the 40 best points of a 5 um grid, each polished by BFGS on
     # finite differences) to 4e-12 m, in a fortieth the time
     x, h = _egg_map()
