@@ -739,7 +739,8 @@ def test_a_felt_map_refined_for_its_curvature_carries_its_first_grids_band():
                      ("egg-crate", 0.88, "BCFG"), ("grating", 0.5, "BCG"), ("grating", 0.9, "BCG"),
                      ("grating", 0.95, "BCFG"), ("random", 0.5, "BCDEFG"), ("random", 0.8, "BCG"),
                      ("egg-crate", 0.9, "BCG"), ("random", 0.9, "BCG"), ("egg-crate", 0.95, "BCG"),
-                     ("random", 0.95, "BCG"), ("egg-crate", 0.99, "BCG"), ("two-grating", 0.95, "BC")]])
+                     ("random", 0.95, "BCG"), ("egg-crate", 0.99, "BCG"), ("two-grating", 0.95, "BC"),
+                     ("two-grating", 0.99, "BC")]])
 def test_q_of_every_algorithm_on_a_felt_map_below_the_troughs_radius_is_the_paths(name, rel_r, letters):
     # issue 67's goal on areal maps: q of every algorithm on the felt surface within 1 % of q on
     # the brute-force ball path. B, C and G read the path's Hessian, which below the troughs'
@@ -926,24 +927,27 @@ def test_where_no_grid_meets_the_slack_the_felt_map_kept_is_the_one_whose_larges
 
 
 @pytest.mark.long
-def test_where_the_spike_runs_at_an_angle_to_the_axes_the_stated_peak_miss_bounds_q():
-    # On two gratings at 63 deg at 0.99 times their tightest radius the path's curvature spike is
-    # about 0.5 um wide and runs at an angle to both axes: no map within the cap meets the slack
-    # (uniform or graded), and the kept one's q of C is short of the path's. The map says by how
-    # much (peak_miss, against the path's largest curvature): taken at its nodes and cells'
-    # centres alone, which sample the spike below its top, it said 15 % where q of C read -24 %
-    # (the kept map 832 x 416, 2026-11-29). The path's largest is climbed from its largest samples
-    # now. Truth: _areal_path_q (nested grids above the most concave points), asserted within
-    # 1e-3 of the closed form d_max kappa / (1 - r kappa) at the tightest trough (nearly level)
+def test_where_the_spike_runs_at_an_angle_to_the_axes_the_stated_peak_miss_is_qs():
+    # On two gratings at 63 deg at 0.98 times their tightest radius the path's curvature spike
+    # runs at an angle to both axes: no map within the cap meets the slack (uniform or graded),
+    # and the kept one's q of C is short of the path's. The map says by how much (peak_miss, the
+    # part of its curvature miss q of B, C, G read), against the path's largest curvature: taken
+    # at its nodes and cells' centres alone, which sample the spike below its top, it said 20.4 %
+    # where q of C read -3.4 % (a centre on the spike's flank counted as near the largest), and at
+    # 0.99 times 15.3 % where q read -23.8 % (2026-11-29). The path's largest is climbed from its
+    # largest samples now, and the maps are ranked by what they state: at 0.98 the same map
+    # states 3.4 %; at 0.99 a graded map is kept that meets the slack (the q test above). Truth:
+    # _areal_path_q (nested grids above the most concave points), asserted within 1e-3 of the
+    # closed form d_max kappa / (1 - r kappa) at the tightest trough (nearly level)
     tex, h, grad, cell, _ = AREAL_CASES["two-grating"]
     rho = _TIGHTEST["two-grating"]()
-    r = 0.99 * rho
+    r = 0.98 * rho
     truth = _areal_path_q(h, grad, cell, r, letters="C")["C"]
-    assert truth == pytest.approx(1e-3 / rho / 0.01, rel=1e-3)
+    assert truth == pytest.approx(1e-3 / rho / 0.02, rel=1e-3)
     felt = tex.felt_by(r)
     q = hx.characteristic_number(hx.algorithm("C", felt, 2000.0)).value
     assert felt.peak_miss > 0.01  # (the premise: no map met the slack)
-    assert abs(q / truth - 1) <= felt.peak_miss + 0.005, (q / truth - 1, felt.peak_miss)
+    assert abs(abs(q / truth - 1) - felt.peak_miss) <= 0.005, (q / truth - 1, felt.peak_miss)
 
 
 @pytest.mark.long

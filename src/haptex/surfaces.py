@@ -916,9 +916,11 @@ class SampledSurface(Surface):
         ``CURVATURE_SLACK`` of its largest, a fraction of the path's largest; at most
         ``curvature_miss`` (equal to it on a map the ball bridges). None where that is. Where
         it passes the slack the path's largest is climbed from its largest samples (nodes and
-        cells' centres sample a spike narrower than the cells below its top): on two gratings
-        at 63 degrees at 0.99 and 0.98 times their tightest radius, 23.6 and 3.4 % for q of C's
-        -23.8 and -3.4 %, where the samples alone said 15.3 and 20.4 % (2026-11-29).
+        cells' centres sample a spike narrower than the cells below its top), and the
+        refinement's maps are ranked by it: on two gratings at 63 degrees at 0.98 times their
+        tightest radius 3.4 % for q of C's -3.4 %, where the samples alone said 20.4 %; at 0.99
+        times a graded map is kept that meets the slack (q of C within 1 %), where the samples
+        kept a uniform one that said 15.3 % for -23.8 % (2026-11-29).
     convex_miss : float or None
         For a periodic felt map refined for its curvature of a surface the ball cannot bridge:
         how far its most convex curvature (the sup of its Hessian's lower eigenvalue where
@@ -2553,19 +2555,21 @@ def _curvature_refined(texture, felt, r):
     grid's start from the last map's gradients and are refined on the surface itself
     (:func:`_smooth_contacts`: no dilation), its twists the path's own. The first grid within the
     slack and not steeper than the surface (FELT_STEEP_TOLERANCE) is kept, else the one that
-    ranks first (:func:`_felt_rank`), with ``felt``'s shortest period (its analyses' grids:
-    more samples of one path, not a shorter wavelength); a map with no finer grid within the cap
-    is returned as it is. Where the kept uniform grid still misses the path's curvature by more
-    than the slack, a map on graded axes is made about where the path's curvature is hottest on
-    the last grid (:func:`_graded_refined`) and kept where it ranks before it."""
+    ranks first (:func:`_felt_rank`, on its misses as it states them, :func:`_climbed`), with
+    ``felt``'s shortest period (its analyses' grids: more samples of one path, not a shorter
+    wavelength); a map with no finer grid within the cap is returned as it is. Where the kept
+    uniform grid still misses the path's curvature by more than the slack, a map on graded axes
+    is made about where the path's curvature is hottest on the last grid
+    (:func:`_graded_refined`) and kept where it ranks before it."""
     if _refined_sizes((felt.x.size, felt.y.size), (True, True), 0.0) is None:
         return felt  # (no finer grid within the cap: nothing to compare it with)
     best = None
     cur, u = felt, _contact_offsets(felt._gradients.reshape(-1, 2), r)
     while True:
         m = _felt_misses(texture, cur, u, r)
-        if best is None or _felt_rank(m) < _felt_rank(best):
-            best = m
+        told = _climbed(texture, m, r)  # (ranked by what it states; refined by what it samples)
+        if best is None or _felt_rank(told) < _felt_rank(best):
+            best = told
         sizes = None if (m["miss"] <= CURVATURE_SLACK and not m["steep"]) or not any(m["bends"]) else _refined_sizes(
             (cur.x.size, cur.y.size), m["bends"], m["miss"])
         if sizes is None:  # (no axis to refine: a path whose Hessians are all NaN would loop here)
@@ -2580,8 +2584,6 @@ def _curvature_refined(texture, felt, r):
         graded = _graded_refined(texture, felt, m, r)  # from the finest grid's contacts)
         if graded is not None and _felt_rank(graded) < _felt_rank(best):
             best = graded
-    if best["peak"] > CURVATURE_SLACK:  # (stated: the path's largest climbed, not only sampled)
-        best = _with_path_top(texture, best, r)
     out = best["map"]
     out.curvature_miss, out.peak_miss = float(best["curved"]), float(best["peak"])
     out.convex_miss = float(best["bowed"])
@@ -2707,6 +2709,13 @@ def _path_top(texture, m, r):
     return best
 
 
+def _climbed(texture, m, r):
+    """:func:`_felt_misses`' dict ``m`` as a map states it: where its largest curvature's miss
+    passes CURVATURE_SLACK, against the path's largest climbed (:func:`_with_path_top`); else
+    ``m``. The maps are ranked by it (:func:`_felt_rank`), refined by ``m``'s samples."""
+    return _with_path_top(texture, m, r) if m["peak"] > CURVATURE_SLACK else m
+
+
 def _with_path_top(texture, m, r):
     """:func:`_felt_misses`' dict ``m`` with the path's largest curvature climbed (:func:`_path_top`)
     and the misses that read it, ``truth``, ``curved`` and ``peak``, made again against it."""
@@ -2723,8 +2732,8 @@ def _with_path_top(texture, m, r):
 
 
 def _felt_rank(m):
-    """How a felt map ranks among its refinements (:func:`_felt_misses`' dict; the least is
-    kept): not steeper than the surface first, then the one whose largest curvature meets
+    """How a felt map ranks among its refinements (:func:`_felt_misses`' dict as the map states
+    it, :func:`_climbed`; the least is kept): not steeper than the surface first, then the one whose largest curvature meets
     CURVATURE_SLACK (``peak``: q of B, C and G), then its most convex (``bowed``: D's), then the
     least curvature miss and the least miss (chosen: graded axes resolve the spikes where the
     largest curvature is but not a spike that runs along a diagonal, as the egg-crate's saddles'
@@ -2886,8 +2895,9 @@ def _graded_refined(texture, felt, m, r):
         out = _felt_on(texture, P, u, gu, r, x, y, (kx, ky), felt,
                        f"{felt.source}, refined to {x.size} x {y.size} on axes graded about its curvature's peaks")
         g = _felt_misses(texture, out, u, r)
-        if best is None or (g["steep"], g["peak"]) < (best["steep"], best["peak"]):
-            best = g
+        told = _climbed(texture, g, r)
+        if best is None or (told["steep"], told["peak"]) < (best["steep"], best["peak"]):
+            best = told
         if g["peak"] <= CURVATURE_SLACK:
             break
         # (finer by the h^2 law towards REFINE_AIM of the slack, at least GRADED_STEP[0] and at
