@@ -2733,14 +2733,14 @@ def _with_path_top(texture, m, r):
 
 def _felt_rank(m):
     """How a felt map ranks among its refinements (:func:`_felt_misses`' dict as the map states
-    it, :func:`_climbed`; the least is kept): not steeper than the surface first, then the one whose largest curvature meets
-    CURVATURE_SLACK (``peak``: q of B, C and G), then its most convex (``bowed``: D's), then the
-    least curvature miss and the least miss (chosen: graded axes resolve the spikes where the
-    largest curvature is but not a spike that runs along a diagonal, as the egg-crate's saddles'
-    do, where the convex curvature D reads is the small difference of its large entries; and at
-    0.99 times the egg-crate's radius, where no grid meets either, the least miss alone kept the
-    first 32 x 32 grid, its largest curvature 89 % short, for its convex miss 5.3 against the
-    768 grid's 28, whose largest is 14 % short)."""
+    it, :func:`_climbed`; the least is kept): not steeper than the surface first, then the one
+    whose largest curvature meets CURVATURE_SLACK (``peak``: q of B, C and G), then its most
+    convex (``bowed``: D's), then the least curvature miss and the least miss (chosen: graded
+    axes resolve the spikes where the largest curvature is but not a spike that runs along a
+    diagonal, as the egg-crate's saddles' do, where the convex curvature D reads is the small
+    difference of its large entries; and at 0.99 times the egg-crate's radius, where no grid
+    meets either, the least miss alone kept the first 32 x 32 grid, its largest curvature 89 %
+    short, for its convex miss 5.3 against the 768 grid's 28, whose largest is 14 % short)."""
     return (m["steep"], m["peak"] > CURVATURE_SLACK, m["bowed"] > CURVATURE_SLACK, m["curved"], m["miss"])
 
 
