@@ -2620,7 +2620,10 @@ def _felt_misses(texture, cur, u, r):
     convex, relative to the path's most convex: what D reads), ``miss`` (the larger, and the
     lower eigenvalues everywhere), ``steep`` (steeper than the surface by more than
     FELT_STEEP_TOLERANCE), ``bends`` (per axis, whether the path curves along it), the path's
-    largest curvature ``truth`` (1/m), its nodes' Hessians ``hs`` (n, 2, 2) and ``map``."""
+    largest curvature ``truth`` (1/m), its nodes' Hessians ``hs`` (n, 2, 2), ``map``, and what
+    the misses are made of (:func:`_stated_misses`, :func:`_path_top`): the path's curvature
+    ``norms`` (n + k,) at the ``nodes`` (n, 2) and the cells' ``centres`` (k, 2), the map's
+    ``nm`` and the path's ``nc`` (k,) at the centres, and ``apart``."""
     X, Y = np.meshgrid(cur.x, cur.y, indexing="ij")
     P = np.stack([X, Y], -1).reshape(-1, 2)
     hs = _path_hessian(texture, P, u, r, sound=0.0)
@@ -2632,15 +2635,10 @@ def _felt_misses(texture, cur, u, r):
     norms = _hessian_norm(both)
     truth = float(np.nanmax(norms)) if np.isfinite(both).any() else math.inf
     hm = cur.hessian(Pc)
-    apart = _hessian_norm(hm - hc)
-    curved = max(abs(cur.max_curvature / truth - 1.0), float(np.nanmax(apart)) / truth) if truth > 0 else 0.0
-    miss = curved  # (the curvature's own: what B, C and G read, the map's curvature_miss)
-    # (the part the sup reads: the largest's miss, the centres' overshoot past the path's largest,
-    # and their shortfall where the path comes within the slack of it)
     nm, nc = _hessian_norm(hm), norms[len(hs):]
-    near = nc >= (1 - CURVATURE_SLACK) * truth
-    peak = max(abs(cur.max_curvature / truth - 1.0), float(np.nanmax(nm - truth, initial=0.0)) / truth,
-               float(np.nanmax((nc - nm)[near], initial=0.0)) / truth) if truth > 0 else 0.0
+    apart = float(np.nanmax(_hessian_norm(hm - hc), initial=0.0))
+    curved, peak = _stated_misses(cur, nm, nc, apart, truth)
+    miss = curved  # (the curvature's own: what B, C and G read, the map's curvature_miss)
     # (and its most convex curvature against the path's, relative to that: D's focal points;
     # the map's convex_miss is the part D reads, its sup and the centres where either is convex)
     convex, bowed = max(0.0, -float(np.nanmin(_lowest_eigenvalue(both)))), 0.0
@@ -2657,8 +2655,25 @@ def _felt_misses(texture, cur, u, r):
     bends = [bool(np.nanmax(np.abs(both[:, a, a]) + np.abs(both[:, a, 1 - a])) > CURVATURE_SLACK * truth)
              for a in (0, 1)]
     return {"map": cur, "steep": steep, "miss": miss, "curved": curved, "peak": peak, "bowed": bowed,
-            "bends": bends, "truth": truth, "hs": hs, "norms": norms, "nm": nm,
-            "apart": float(np.nanmax(apart, initial=0.0))}
+            "bends": bends, "truth": truth, "hs": hs, "norms": norms, "nodes": P, "centres": Pc,
+            "nm": nm, "nc": nc, "apart": apart}
+
+
+def _stated_misses(cur, nm, nc, apart, truth):
+    """A felt map's misses of the path's curvature against the path's largest ``truth`` (1/m),
+    as fractions of it: (``curved``: its largest's miss and ``apart``, the largest 2-norm of its
+    Hessian's difference from the path's at its cells' centres; ``peak``, the part the sup reads:
+    its largest's miss, the centres' 2-norms nm (k,) past ``truth``, and their shortfall from the
+    path's nc (k,) where that comes within CURVATURE_SLACK of ``truth``); 0 where ``truth`` is
+    not positive. :func:`_felt_misses`' against its samples' largest, :func:`_with_path_top`'s
+    against the climbed."""
+    if not truth > 0:
+        return 0.0, 0.0
+    largest = abs(cur.max_curvature / truth - 1.0)
+    near = nc >= (1 - CURVATURE_SLACK) * truth
+    return (max(largest, apart / truth),
+            max(largest, float(np.nanmax(nm - truth, initial=0.0)) / truth,
+                float(np.nanmax((nc - nm)[near], initial=0.0)) / truth))
 
 
 PATH_TOP_STARTS = 4
@@ -2680,14 +2695,10 @@ def _path_top(texture, m, r):
     2-norm at a point from that point's contact, :func:`_smooth_contacts`, and
     :func:`_path_hessian`). Where the spike is narrower than the cells the samples see its sides
     only; any point's value bounds the sup from below, so the climbed is the nearer."""
-    from ._maximise import refine
-
     cur, norms = m["map"], np.nan_to_num(m["norms"], nan=0.0, posinf=0.0, neginf=0.0)
+    pts = np.concatenate([m["nodes"], m["centres"]])  # (norms' points)
     nx, ny = cur.x.size, cur.y.size
     wx, wy = cur._widths()
-    X, Y = np.meshgrid(cur.x, cur.y, indexing="ij")
-    P = np.stack([X, Y], -1).reshape(-1, 2)
-    pts = np.concatenate([P, P + 0.5 * np.stack(np.meshgrid(wx, wy, indexing="ij"), -1).reshape(-1, 2)])
     tol = 1e-6 * min(wx.min(), wy.min())
     best = float(norms.max())
     if not best > 0:
@@ -2722,13 +2733,8 @@ def _with_path_top(texture, m, r):
     top = _path_top(texture, m, r)
     if not top > m["truth"]:
         return m
-    cur, nm = m["map"], m["nm"]
-    nc = m["norms"][len(m["hs"]):]
-    near = nc >= (1 - CURVATURE_SLACK) * top
-    largest = abs(cur.max_curvature / top - 1.0)
-    peak = max(largest, float(np.nanmax(nm - top, initial=0.0)) / top,
-               float(np.nanmax((nc - nm)[near], initial=0.0)) / top)
-    return {**m, "truth": top, "curved": max(largest, m["apart"] / top), "peak": peak}
+    curved, peak = _stated_misses(m["map"], m["nm"], m["nc"], m["apart"], top)
+    return {**m, "truth": top, "curved": curved, "peak": peak}
 
 
 def _felt_rank(m):
