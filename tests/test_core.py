@@ -264,6 +264,12 @@ def _play(d, dp, dmax):
     return d * (dmax / n) if n > dmax else d
 
 
+def _good(pts, dim):
+    """Which positions of a stroke are not faults (numpy bool (n,)): of length ``dim``, finite
+    and within 1 km, as the renderer's rules say."""
+    return np.array([len(p) == dim and all(math.isfinite(c) and abs(c) <= 1e3 for c in p) for p in pts])
+
+
 def _reference_stroke(alg, pts, max_force, bmax, T, stored=False):
     """Renderer.step written from its rules in NumPy, the C tick's oracle: the field
     (Algorithm.force; F at the deflection of the sharp play operator, from the adhesion point
@@ -279,7 +285,7 @@ def _reference_stroke(alg, pts, max_force, bmax, T, stored=False):
     forces, faults, clamps, active, E = [], 0, 0, 0, 0.0
     have = contact = False
     last_p = last_f = last_xy = d = last_z = None
-    good = [len(p) == dim and all(math.isfinite(c) and abs(c) <= 1e3 for c in p) for p in pts]
+    good = _good(pts, dim)
     P = np.array([p for p, g in zip(pts, good) if g])
     # (the stateless parts, the field's force and penetration, at every good position at once;
     # the same NumPy fields, position by position)
@@ -368,7 +374,7 @@ def test_the_core_renderer_follows_its_rules_in_numpy(dim, letter):
         atol = K0 * 1e-9 * 2e-3 if letter.endswith(("gratings", "map")) else 2e-15 * K0 * math.sqrt(1 + tex.max_slope ** 2)
     ok = np.all(np.abs(got - ref) <= 1e-10 * np.abs(ref) + atol, axis=-1)
     if letter[0] in "DE":
-        good = np.array([len(p) == dim and all(math.isfinite(c) and abs(c) <= 1e3 for c in p) for p in pts])
+        good = _good(pts, dim)
         tie = np.zeros(len(pts), bool)
         tie[good] = hx.closest_point(tex, np.array([p for p, g in zip(pts, good) if g])).tie
         ok |= tie

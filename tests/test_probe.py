@@ -900,6 +900,19 @@ def test_a_felt_maps_curvature_miss_bounds_its_q(name, rel_r, capsys):
         assert "the felt texture's curvature misses" not in out  # (not in the band-limited texture it analyses)
 
 
+def _q_of_c_and_the_paths(name, rel_r):
+    """(q of C on the felt map, q of C on the brute-force ball path, the felt map) of an
+    AREAL_CASES texture at rel_r times its tightest radius rho, the path's (_areal_path_q)
+    asserted within 1e-3 of its closed form at that trough, d_max kappa / (1 - r kappa) (the
+    egg-crate's bowls umbilic, the two gratings' tightest trough nearly level)."""
+    tex, h, grad, cell, rho = AREAL_CASES[name]
+    rho = rho or _TIGHTEST[name]()
+    truth = _areal_path_q(h, grad, cell, rel_r * rho, letters="C")["C"]
+    assert truth == pytest.approx(1e-3 / rho / (1 - rel_r), rel=1e-3)
+    felt = tex.felt_by(rel_r * rho)
+    return hx.characteristic_number(hx.algorithm("C", felt, 2000.0)).value, truth, felt
+
+
 @pytest.mark.long
 def test_where_no_grid_meets_the_slack_the_felt_map_kept_is_the_one_whose_largest_curvature_is_nearest():
     # At 0.99 times the egg-crate's bowls' radius the path's curvature spike (kappa / (1 - r
@@ -915,12 +928,7 @@ def test_where_no_grid_meets_the_slack_the_felt_map_kept_is_the_one_whose_larges
     # kept map, 424 x 424 with cells from 15 nm, +1.76 % (its peak_miss 1.75 %; the old code's
     # kept map -32.6 %, 2026-11-29). Truth: _areal_path_q, checked against its closed form d_max
     # kappa / (1 - r kappa) at the troughs (within 1.6e-5 there). ~25 s
-    tex, h, grad, cell, rho = AREAL_CASES["egg-crate"]
-    r = 0.999 * rho
-    truth = _areal_path_q(h, grad, cell, r, letters="C")["C"]
-    assert truth == pytest.approx(1e-3 / rho / 0.001, rel=1e-3)
-    felt = tex.felt_by(r)
-    q = hx.characteristic_number(hx.algorithm("C", felt, 2000.0)).value
+    q, truth, felt = _q_of_c_and_the_paths("egg-crate", 0.999)
     assert felt.peak_miss > 0.01  # (the premise: no map met the slack)
     assert abs(q / truth - 1) < 0.2  # (the refinement before 2026-11-29's second session: -32.6 %)
     assert abs(q / truth - 1) <= felt.peak_miss + 0.005
@@ -939,13 +947,7 @@ def test_where_the_spike_runs_at_an_angle_to_the_axes_the_stated_peak_miss_is_qs
     # states 3.4 %; at 0.99 a graded map is kept that meets the slack (the q test above). Truth:
     # _areal_path_q (nested grids above the most concave points), asserted within 1e-3 of the
     # closed form d_max kappa / (1 - r kappa) at the tightest trough (nearly level)
-    tex, h, grad, cell, _ = AREAL_CASES["two-grating"]
-    rho = _TIGHTEST["two-grating"]()
-    r = 0.98 * rho
-    truth = _areal_path_q(h, grad, cell, r, letters="C")["C"]
-    assert truth == pytest.approx(1e-3 / rho / 0.02, rel=1e-3)
-    felt = tex.felt_by(r)
-    q = hx.characteristic_number(hx.algorithm("C", felt, 2000.0)).value
+    q, truth, felt = _q_of_c_and_the_paths("two-grating", 0.98)
     assert felt.peak_miss > 0.01  # (the premise: no map met the slack)
     assert abs(abs(q / truth - 1) - felt.peak_miss) <= 0.005, (q / truth - 1, felt.peak_miss)
 
