@@ -903,12 +903,13 @@ def test_a_felt_maps_curvature_miss_bounds_its_q(name, rel_r, capsys):
 def _q_of_c_and_the_paths(name, rel_r):
     """(q of C on the felt map, q of C on the brute-force ball path, the felt map) of an
     AREAL_CASES texture at rel_r times its tightest radius rho, the path's (_areal_path_q)
-    asserted within 1e-3 of its closed form at that trough, d_max kappa / (1 - r kappa) (the
-    egg-crate's bowls umbilic, the two gratings' tightest trough nearly level)."""
+    asserted within 2.5e-3 of its closed form at that trough, d_max kappa / (1 - r kappa) (the
+    egg-crate's bowls umbilic, the two gratings' tightest trough nearly level: the path's
+    0.09 % above it at 0.99 times, 0.18 % at 0.995, measured 2026-11-29)."""
     tex, h, grad, cell, rho = AREAL_CASES[name]
     rho = rho or _TIGHTEST[name]()
     truth = _areal_path_q(h, grad, cell, rel_r * rho, letters="C")["C"]
-    assert truth == pytest.approx(1e-3 / rho / (1 - rel_r), rel=1e-3)
+    assert truth == pytest.approx(1e-3 / rho / (1 - rel_r), rel=2.5e-3)
     felt = tex.felt_by(rel_r * rho)
     return hx.characteristic_number(hx.algorithm("C", felt, 2000.0)).value, truth, felt
 
@@ -935,7 +936,8 @@ def test_where_no_grid_meets_the_slack_the_felt_map_kept_is_the_one_whose_larges
 
 
 @pytest.mark.long
-def test_where_the_spike_runs_at_an_angle_to_the_axes_the_stated_peak_miss_is_qs():
+@pytest.mark.parametrize("rel_r", [0.98, 0.985, 0.995])
+def test_where_the_spike_runs_at_an_angle_to_the_axes_the_stated_peak_miss_is_qs(rel_r):
     # On two gratings at 63 deg at 0.98 times their tightest radius the path's curvature spike
     # runs at an angle to both axes: no map within the cap meets the slack (uniform or graded),
     # and the kept one's q of C is short of the path's. The map says by how much (peak_miss, the
@@ -944,10 +946,14 @@ def test_where_the_spike_runs_at_an_angle_to_the_axes_the_stated_peak_miss_is_qs
     # where q of C read -3.4 % (a centre on the spike's flank counted as near the largest), and at
     # 0.99 times 15.3 % where q read -23.8 % (2026-11-29). The path's largest is climbed from its
     # largest samples now, and the maps are ranked by what they state: at 0.98 the same map
-    # states 3.4 %; at 0.99 a graded map is kept that meets the slack (the q test above). Truth:
-    # _areal_path_q (nested grids above the most concave points), asserted within 1e-3 of the
-    # closed form d_max kappa / (1 - r kappa) at the tightest trough (nearly level)
-    q, truth, felt = _q_of_c_and_the_paths("two-grating", 0.98)
+    # states 3.4 %; at 0.99 a graded map is kept that meets the slack (the q test above). Over
+    # the neighbourhood: at 0.995 times a uniform 832 x 416 map was kept that stated 40 % where q
+    # read -49 % (each map stated against its own climbed top, which on a graded map 2 % short
+    # of the path's stopped under its own largest; the least curvature miss ranked before the
+    # least peak miss); at 0.985 -11 % (stated 11 %). Truth: _areal_path_q (nested grids above
+    # the most concave points), asserted within 1e-3 of the closed form d_max kappa / (1 - r
+    # kappa) at the tightest trough (nearly level)
+    q, truth, felt = _q_of_c_and_the_paths("two-grating", rel_r)
     assert felt.peak_miss > 0.01  # (the premise: no map met the slack)
     assert abs(abs(q / truth - 1) - felt.peak_miss) <= 0.005, (q / truth - 1, felt.peak_miss)
 
