@@ -2567,7 +2567,7 @@ def _curvature_refined(texture, felt, r):
     cur, u = felt, _contact_offsets(felt._gradients.reshape(-1, 2), r)
     while True:
         m = _felt_misses(texture, cur, u, r)
-        seen.append(_climbed(texture, m, r))  # (ranked by what it states; refined by what it samples)
+        seen.append(_stated(_climbed(texture, m, r)))  # (ranked by what it states; refined by what it samples)
         sizes = None if (m["miss"] <= CURVATURE_SLACK and not m["steep"]) or not any(m["bends"]) else _refined_sizes(
             (cur.x.size, cur.y.size), m["bends"], m["miss"])
         if sizes is None:  # (no axis to refine: a path whose Hessians are all NaN would loop here)
@@ -2753,6 +2753,14 @@ def _with_truth(m, top):
     return {**m, "truth": top, "curved": curved, "peak": peak}
 
 
+def _stated(m):
+    """:func:`_felt_misses`' dict ``m`` without what only its making and climbing read (the
+    path's Hessians and curvatures at its nodes, the nodes, centres and contacts): what ranks the
+    map and states its misses again (:func:`_with_truth`), kept for every map a refinement
+    makes."""
+    return {k: v for k, v in m.items() if k not in ("hs", "norms", "nodes", "centres", "contacts")}
+
+
 def _against_top(told):
     """Felt maps' :func:`_felt_misses` dicts (each as it states its misses, :func:`_climbed`) all
     stated against the largest of their paths' largest curvatures: the maps are of one path,
@@ -2935,7 +2943,7 @@ def _graded_refined(texture, felt, m, r):
         out = _felt_on(texture, P, u, gu, r, x, y, (kx, ky), felt,
                        f"{felt.source}, refined to {x.size} x {y.size} on axes graded about its curvature's peaks")
         g = _felt_misses(texture, out, u, r)
-        made.append(_climbed(texture, g, r))
+        made.append(_stated(_climbed(texture, g, r)))
         if g["peak"] <= CURVATURE_SLACK:
             break
         # (finer by the h^2 law towards REFINE_AIM of the slack, at least GRADED_STEP[0] and at
