@@ -2555,7 +2555,8 @@ def _curvature_refined(texture, felt, r):
     grid's start from the last map's gradients and are refined on the surface itself
     (:func:`_smooth_contacts`: no dilation), its twists the path's own. The first grid within the
     slack and not steeper than the surface (FELT_STEEP_TOLERANCE) is kept, else the one that
-    ranks first (:func:`_felt_rank`, on its misses as it states them, :func:`_climbed`), with
+    ranks first (:func:`_felt_rank`, on its misses as it states them, :func:`_climbed`, every
+    map's against the largest path top found on any, :func:`_against_top`), with
     ``felt``'s shortest period (its analyses' grids: more samples of one path, not a shorter
     wavelength); a map with no finer grid within the cap is returned as it is. Where the kept
     uniform grid still misses the path's curvature by more than the slack, a map on graded axes
