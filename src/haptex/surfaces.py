@@ -2627,8 +2627,9 @@ def _felt_misses(texture, cur, u, r):
     FELT_STEEP_TOLERANCE), ``bends`` (per axis, whether the path curves along it), the path's
     largest curvature ``truth`` (1/m), its nodes' Hessians ``hs`` (n, 2, 2), ``map``, and what
     the misses are made of (:func:`_stated_misses`, :func:`_path_top`): the path's curvature
-    ``norms`` (n + k,) at the ``nodes`` (n, 2) and the cells' ``centres`` (k, 2), the map's
-    ``nm`` and the path's ``nc`` (k,) at the centres, and ``apart``."""
+    ``norms`` (n + k,) at the nodes and the cells' centres, their contact points ``touches``
+    (n + k, 2) in the same order, the map's ``nm`` and the path's ``nc`` (k,) at the centres,
+    and ``apart``."""
     X, Y = np.meshgrid(cur.x, cur.y, indexing="ij")
     P = np.stack([X, Y], -1).reshape(-1, 2)
     hs = _path_hessian(texture, P, u, r, sound=0.0)
@@ -2660,8 +2661,8 @@ def _felt_misses(texture, cur, u, r):
     bends = [bool(np.nanmax(np.abs(both[:, a, a]) + np.abs(both[:, a, 1 - a])) > CURVATURE_SLACK * truth)
              for a in (0, 1)]
     return {"map": cur, "steep": steep, "miss": miss, "curved": curved, "peak": peak, "bowed": bowed,
-            "bends": bends, "truth": truth, "hs": hs, "norms": norms, "nodes": P, "centres": Pc,
-            "contacts": np.concatenate([u, uc]), "nm": nm, "nc": nc, "apart": apart}
+            "bends": bends, "truth": truth, "hs": hs, "norms": norms, "touches": np.concatenate([P + u, Pc + uc]),
+            "nm": nm, "nc": nc, "apart": apart}
 
 
 def _stated_misses(cur, nm, nc, apart, truth):
@@ -2709,7 +2710,7 @@ def _path_top(texture, m, r):
     Where the spike is narrower than the cells the samples see its sides only; any point's value
     bounds the sup from below, so the climbed is the nearer."""
     cur, norms = m["map"], np.nan_to_num(m["norms"], nan=0.0, posinf=0.0, neginf=0.0)
-    pts = np.concatenate([m["nodes"], m["centres"]]) + m["contacts"]  # (norms' contact points)
+    pts = m["touches"]  # (norms' contact points)
     nx, ny = cur.x.size, cur.y.size
     wx, wy = cur._widths()
     best = float(norms.max())
@@ -2756,10 +2757,10 @@ def _with_truth(m, top):
 
 def _stated(m):
     """:func:`_felt_misses`' dict ``m`` without what only its making and climbing read (the
-    path's Hessians and curvatures at its nodes, the nodes, centres and contacts): what ranks the
-    map and states its misses again (:func:`_with_truth`), kept for every map a refinement
-    makes."""
-    return {k: v for k, v in m.items() if k not in ("hs", "norms", "nodes", "centres", "contacts")}
+    path's Hessians at its nodes, its curvatures and contact points there and at the cells'
+    centres): what ranks the map and states its misses again (:func:`_with_truth`), kept for
+    every map a refinement makes."""
+    return {k: v for k, v in m.items() if k not in ("hs", "norms", "touches")}
 
 
 def _against_top(told):
