@@ -900,16 +900,16 @@ def test_a_felt_maps_curvature_miss_bounds_its_q(name, rel_r, capsys):
         assert "the felt texture's curvature misses" not in out  # (not in the band-limited texture it analyses)
 
 
-def _q_of_c_and_the_paths(name, rel_r):
+def _q_of_c_and_the_paths(name, rel_r, closed=1e-3):
     """(q of C on the felt map, q of C on the brute-force ball path, the felt map) of an
     AREAL_CASES texture at rel_r times its tightest radius rho, the path's (_areal_path_q)
-    asserted within 2.5e-3 of its closed form at that trough, d_max kappa / (1 - r kappa) (the
-    egg-crate's bowls umbilic, the two gratings' tightest trough nearly level: the path's
-    0.09 % above it at 0.99 times, 0.18 % at 0.995, measured 2026-11-29)."""
+    asserted within ``closed`` (relative) of its closed form at that trough, d_max kappa / (1 -
+    r kappa) (the egg-crate's bowls umbilic, the two gratings' tightest trough nearly level:
+    the path's 0.09 % above it at 0.99 times, 0.18 % at 0.995, measured 2026-11-29)."""
     tex, h, grad, cell, rho = AREAL_CASES[name]
     rho = rho or _TIGHTEST[name]()
     truth = _areal_path_q(h, grad, cell, rel_r * rho, letters="C")["C"]
-    assert truth == pytest.approx(1e-3 / rho / (1 - rel_r), rel=2.5e-3)
+    assert truth == pytest.approx(1e-3 / rho / (1 - rel_r), rel=closed)
     felt = tex.felt_by(rel_r * rho)
     return hx.characteristic_number(hx.algorithm("C", felt, 2000.0)).value, truth, felt
 
@@ -936,8 +936,8 @@ def test_where_no_grid_meets_the_slack_the_felt_map_kept_is_the_one_whose_larges
 
 
 @pytest.mark.long
-@pytest.mark.parametrize("rel_r", [0.98, 0.985, 0.995])
-def test_where_the_spike_runs_at_an_angle_to_the_axes_the_stated_peak_miss_is_qs(rel_r):
+@pytest.mark.parametrize("rel_r,closed", [(0.98, 1e-3), (0.985, 1e-3), (0.995, 2.5e-3)])
+def test_where_the_spike_runs_at_an_angle_to_the_axes_the_stated_peak_miss_is_qs(rel_r, closed):
     # On two gratings at 63 deg at 0.98 times their tightest radius the path's curvature spike
     # runs at an angle to both axes: no map within the cap meets the slack (uniform or graded),
     # and the kept one's q of C is short of the path's. The map says by how much (peak_miss, the
@@ -951,9 +951,9 @@ def test_where_the_spike_runs_at_an_angle_to_the_axes_the_stated_peak_miss_is_qs
     # read -49 % (each map stated against its own climbed top, which on a graded map 2 % short
     # of the path's stopped under its own largest; the least curvature miss ranked before the
     # least peak miss); at 0.985 -11 % (stated 11 %). Truth: _areal_path_q (nested grids above
-    # the most concave points), asserted within 2.5e-3 of the closed form d_max kappa / (1 - r
-    # kappa) at the tightest trough (nearly level)
-    q, truth, felt = _q_of_c_and_the_paths("two-grating", rel_r)
+    # the most concave points), asserted within 1e-3 of the closed form d_max kappa / (1 - r
+    # kappa) at the tightest trough (nearly level; 2.5e-3 at 0.995, where it is 0.18 % above it)
+    q, truth, felt = _q_of_c_and_the_paths("two-grating", rel_r, closed)
     assert felt.peak_miss > 0.01  # (the premise: no map met the slack)
     assert abs(abs(q / truth - 1) - felt.peak_miss) <= 0.005, (q / truth - 1, felt.peak_miss)
 
