@@ -740,7 +740,7 @@ def test_a_felt_map_refined_for_its_curvature_carries_its_first_grids_band():
                      ("grating", 0.95, "BCFG"), ("random", 0.5, "BCDEFG"), ("random", 0.8, "BCG"),
                      ("egg-crate", 0.9, "BCG"), ("random", 0.9, "BCG"), ("egg-crate", 0.95, "BCG"),
                      ("random", 0.95, "BCG"), ("egg-crate", 0.99, "BCG"), ("two-grating", 0.95, "BC"),
-                     ("two-grating", 0.99, "BC")]])
+                     ("two-grating", 0.98, "BC"), ("two-grating", 0.985, "BC"), ("two-grating", 0.99, "BC")]])
 def test_q_of_every_algorithm_on_a_felt_map_below_the_troughs_radius_is_the_paths(name, rel_r, letters):
     # issue 67's goal on areal maps: q of every algorithm on the felt surface within 1 % of q on
     # the brute-force ball path. B, C and G read the path's Hessian, which below the troughs'
@@ -793,7 +793,15 @@ def test_q_of_every_algorithm_on_a_felt_map_below_the_troughs_radius_is_the_path
     # it cost that for nothing and left D and E out of the default time budget (768 a side: 7-9 s,
     # 610 MB). Above rho: the test below. D takes 29-31 s on the egg-crate's map at 0.5 rho (its
     # closest-point searches; E 1.0 s), 144 a side now (128 before: 144 the first grid within the
-    # slack not steeper than the surface, surfaces.FELT_STEEP_TOLERANCE). 10-90 s a case
+    # slack not steeper than the surface, surfaces.FELT_STEEP_TOLERANCE). Two gratings at 0.98
+    # and 0.985 rho read C -3.4 and +2.8 % (stated by the maps), 0.99 +0.45 % (2026-11-29): the
+    # graded axes' finest cells went where the uniform map's nodes sampled the path's curvature
+    # within 2 % of its top, but along a ridge at an angle to the axes the nodes fall on its
+    # flanks by turns, and the fine band had gaps where the path is within 1 % of its top. Now
+    # also where contacts on a grid of the surface see it (surfaces._hot_intervals; the spike is
+    # 1 / (1 - r kappa) times wider in the contact than in the ball's position), graded maps up
+    # to 1,024 x 1,024 nodes: +0.91, +0.72, +0.84 % (875 x 475, 949 x 552, 1,037 x 634; run here,
+    # 0.98 and 0.985 failed before, 2026-11-29, later). 10-90 s a case
     tex, h, grad, cell, rho = AREAL_CASES[name]
     r = rel_r * (rho or _TIGHTEST[name]())
     truth = _areal_path_q(h, grad, cell, r, letters=letters)
@@ -936,7 +944,7 @@ def test_where_no_grid_meets_the_slack_the_felt_map_kept_is_the_one_whose_larges
 
 
 @pytest.mark.long
-@pytest.mark.parametrize("rel_r,closed", [(0.98, 1e-3), (0.985, 1e-3), (0.995, 2.5e-3)])
+@pytest.mark.parametrize("rel_r,closed", [(0.995, 2.5e-3)])
 def test_where_the_spike_runs_at_an_angle_to_the_axes_the_stated_peak_miss_is_qs(rel_r, closed):
     # On two gratings at 63 deg at 0.98 times their tightest radius the path's curvature spike
     # runs at an angle to both axes: no map within the cap meets the slack (uniform or graded),
@@ -952,7 +960,9 @@ def test_where_the_spike_runs_at_an_angle_to_the_axes_the_stated_peak_miss_is_qs
     # of the path's stopped under its own largest; the least curvature miss ranked before the
     # least peak miss); at 0.985 -11 % (stated 11 %). Truth: _areal_path_q (nested grids above
     # the most concave points), asserted within 1e-3 of the closed form d_max kappa / (1 - r
-    # kappa) at the tightest trough (nearly level; 2.5e-3 at 0.995, where it is 0.18 % above it)
+    # kappa) at the tightest trough (nearly level; 2.5e-3 at 0.995, where it is 0.18 % above it).
+    # Since the graded axes' fine band follows the ridge where contacts see it (2026-11-29, later), 0.98
+    # and 0.985 rho meet the slack (the q test above); 0.995 states 1.78 % for q's +1.78 %
     q, truth, felt = _q_of_c_and_the_paths("two-grating", rel_r, closed)
     assert felt.peak_miss > 0.01  # (the premise: no map met the slack)
     assert abs(abs(q / truth - 1) - felt.peak_miss) <= 0.005, (q / truth - 1, felt.peak_miss)

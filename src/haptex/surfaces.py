@@ -2837,6 +2837,16 @@ r / rho) um wide across each trough's line: at 0.99 times their radius rho the t
 peak_miss 1.75 %), the fourth and a fifth (with six tries) missing more (4.1 and 6.0 %, cells
 of 9 and 6 nm))."""
 
+GRADED_SAMPLES = 1024 * 1024
+"""The most nodes a felt map on graded axes may have (:func:`_graded_refined`; a uniform map's
+CURVATURE_REFINE_SAMPLES. Chosen, measured 2026-11-29 on two gratings at 63 deg, whose
+tightest trough's ridge runs at an angle to both axes, so that a graded axis is fine wherever
+the ridge crosses it: at 0.99 and 0.995 times their tightest radius the third graded map, 1,037
+x 634 and 1,127 x 778, passed 768 x 768 and the second was kept, 964 x 562 and 936 x 562, q of
+C +1.32 and +3.17 %; within this cap the third, +0.84 and +1.78 %, 34 and 43 s a felt map, 1.8
+GB peak resident, where 768 x 768 took 18 and 19 s. Where the graded maps are smaller, as the
+egg-crate's and the random map's, nothing changes.)"""
+
 GRADED_STEP = (0.5, 0.85)
 """The least and most a graded map's finest cells are of the last's when it missed the slack:
 the h^2 law's step towards REFINE_AIM of CURVATURE_SLACK, within these (chosen: halving, as
@@ -2844,19 +2854,30 @@ before 2026-11-29, took the egg-crate's map at 0.95 times its bowls' radius, on 
 gratings, from 539 x 540 nodes and a 1.04 % miss past CURVATURE_REFINE_SAMPLES)."""
 
 
-def _hot_intervals(m, cur):
-    """Per axis, the intervals (a, b, f) (m) where a graded axis's cells are fine, from the
-    path's curvature at the uniform felt map ``cur``'s nodes (:func:`_felt_misses`' ``hs``):
+def _hot_intervals(texture, m, cur, r):
+    """Per axis, the intervals (a, b, f, fixed) (a, b in m) where a graded axis's cells are
+    fine, f their width in the finest cells' (``fixed`` False) or in the uniform grid's steps
+    (True), from the path's curvature at the uniform felt map ``cur``'s nodes (:func:`_felt_misses`' ``hs``):
     where its 2-norm comes within GRADED_HOT of its largest (the spikes B, C and G's q reads),
     cells up to f times the finest there, f = 1 / |e_a|, e the direction of the node's largest
     curvature, across which the contact, and with it the spike, runs 1 / (1 - r kappa) times as
     fast as the ball (f = 1 along both axes where the other principal curvature comes within
     GRADED_HOT of it, an umbilic spike; no interval along an axis the spike runs along, as the
-    turned egg-crate's do from its bowls along its troughs' lines); and f None where its convex
+    turned egg-crate's do from its bowls along its troughs' lines); and fixed where its convex
     curvature (the lower eigenvalue's negative) comes within GRADED_HOT of its most convex (D's
-    radius: cells of the uniform grid's step), unless that spans more than GRADED_BROAD of an
+    radius: cells of the uniform grid's step, f 1), unless that spans more than GRADED_BROAD of an
     axis (a broad maximum, as the egg-crate's crests and saddles make). Each node's interval
-    spans a node either side."""
+    spans a node either side. Hot too, at the nearest node, the centre p = q - u of every ball
+    resting on a point q of the surface (the map's nodes taken as contact points of the
+    ``texture``, the ball's radius r (m), u :func:`_contact_offsets`) where the path's curvature
+    there (:func:`_path_hessian`) comes within GRADED_HOT of the largest of both, its direction
+    as the nodes': a spike 1 / (1 - r kappa) times wider in the contact than in the ball's
+    position is sampled all along its ridge by the contacts where the nodes, on a ridge at an
+    angle to the axes, fall on its flanks by turns (on two gratings at 63 deg at 0.985 times
+    their tightest radius the fine band had gaps where the path is within 1 % of its top, and
+    the graded maps' centres there read it 6 to 20 % short; with the contacts' band q of C
+    -3.4, +2.8, +0.45, -2.0 % at 0.98, 0.985, 0.99, 0.995 times became +0.91, +0.72, +0.84,
+    +1.78 %, measured 2026-11-29 with GRADED_SAMPLES)."""
     nx, ny = cur.x.size, cur.y.size
     hs = np.nan_to_num(m["hs"], nan=0.0, posinf=0.0, neginf=0.0)
     f = _hessian_norm(hs)
@@ -2866,7 +2887,25 @@ def _hot_intervals(m, cur):
     lead = np.abs(v[np.arange(len(v)), :, np.argmax(size, axis=1)])  # (|e| of the largest, per node)
     umbilic = size.min(axis=1) >= (1 - GRADED_HOT) * size.max(axis=1)
     across = np.where(umbilic[:, None], 1.0, lead).reshape(nx, ny, 2)
-    hot = (f >= (1 - GRADED_HOT) * top).reshape(nx, ny) if top > 0 else np.zeros((nx, ny), bool)
+    if top > 0:  # (the ridge's hot part as its contacts see it, the uniform map's nodes as contact points)
+        Q = np.stack(np.meshgrid(cur.x, cur.y, indexing="ij"), -1).reshape(-1, 2)
+        u = _contact_offsets(texture.gradient(Q), r)
+        hq = np.nan_to_num(_path_hessian(texture, Q - u, u, r, sound=0.0), nan=0.0, posinf=0.0, neginf=0.0)
+        fq = _hessian_norm(hq)
+        top = max(top, float(fq.max()))
+        on = fq >= (1 - GRADED_HOT) * top
+        wq, vq = np.linalg.eigh(hq[on])
+        sq = np.abs(wq)
+        lq = np.abs(vq[np.arange(len(vq)), :, np.argmax(sq, axis=1)])
+        lq = np.where((sq.min(axis=1) >= (1 - GRADED_HOT) * sq.max(axis=1))[:, None], 1.0, lq)
+        P = Q[on] - u[on]  # (their balls' centres, at the nearest nodes)
+        i = np.round((P[:, 0] - cur.x[0]) / cur.dx).astype(int) % nx
+        j = np.round((P[:, 1] - cur.y[0]) / cur.dy).astype(int) % ny
+        hot = (f >= (1 - GRADED_HOT) * top).reshape(nx, ny)
+        hot[i, j] = True
+        np.maximum.at(across, (i, j), lq)
+    else:
+        hot = np.zeros((nx, ny), bool)
     bow = -_lowest_eigenvalue(hs).reshape(nx, ny)  # (convex where positive)
     convex = None
     if bow.max() > 0:
@@ -2877,13 +2916,13 @@ def _hot_intervals(m, cur):
     for axis, (step, start) in enumerate(((cur.dx, cur.x[0]), (cur.dy, cur.y[0]))):
         need = np.max(np.where(hot, across[..., axis], 0.0), axis=1 - axis)  # (per index along the axis)
         for i in np.nonzero(need > 0)[0]:
-            out[axis].append((start + (i - 1) * step, start + (i + 1) * step, 1.0 / need[i]))
+            out[axis].append((start + (i - 1) * step, start + (i + 1) * step, 1.0 / need[i], False))
         if convex is not None:
             on = np.any(convex, axis=1 - axis)
             on = on | np.roll(on, 1) | np.roll(on, -1)
             idx = np.nonzero(on)[0]
             runs = np.split(idx, np.nonzero(np.diff(idx) > 1)[0] + 1) if idx.size else []
-            out[axis] += [(start + run[0] * step, start + run[-1] * step, None) for run in runs]
+            out[axis] += [(start + run[0] * step, start + run[-1] * step, 1.0, True) for run in runs]
     return out
 
 
@@ -2920,23 +2959,23 @@ def _graded_refined(texture, felt, m, r):
     surface the ball cannot bridge: cells up to GRADED_BASE times the uniform grid's step, there
     as much finer than it as its miss says (the h^2 law: to REFINE_AIM CURVATURE_SLACK / 2) and
     halved up to GRADED_TRIES times while the largest curvature's miss (``peak``) passes
-    CURVATURE_SLACK, within CURVATURE_REFINE_SAMPLES nodes; its nodes' contacts from the uniform
+    CURVATURE_SLACK, within GRADED_SAMPLES nodes; its nodes' contacts from the uniform
     map's gradients refined on the surface (:func:`_smooth_contacts`), its heights, gradients
     and twists the path's own (:func:`_felt_on`). The :func:`_felt_misses` dicts of the maps
     made, as each states its misses (:func:`_climbed`); none where no graded grid is within the
     cap."""
     cur = m["map"]
     shrink = min(0.5, math.sqrt(0.5 * REFINE_AIM * CURVATURE_SLACK / max(m["curved"], 1e-300)))
-    hot = _hot_intervals(m, cur)
+    hot = _hot_intervals(texture, m, cur, r)
     if not hot[0] or not hot[1]:
         return []
     made = []
     for _ in range(GRADED_TRIES):
-        kx, ky = (_graded_axis([(a, b, step if f is None else min(shrink * step * f, GRADED_BASE * step))
-                                for a, b, f in spans], start, period, GRADED_BASE * step)
+        kx, ky = (_graded_axis([(a, b, step * f if fixed else min(shrink * step * f, GRADED_BASE * step))
+                                for a, b, f, fixed in spans], start, period, GRADED_BASE * step)
                   for spans, start, period, step in ((hot[0], cur.x[0], cur._size[0], cur.dx),
                                                      (hot[1], cur.y[0], cur._size[1], cur.dy)))
-        if (kx.size - 1) * (ky.size - 1) > CURVATURE_REFINE_SAMPLES:
+        if (kx.size - 1) * (ky.size - 1) > GRADED_SAMPLES:
             break
         x, y = kx[:-1], ky[:-1]
         X, Y = np.meshgrid(x, y, indexing="ij")
