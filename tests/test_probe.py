@@ -739,8 +739,9 @@ def test_a_felt_map_refined_for_its_curvature_carries_its_first_grids_band():
                      ("egg-crate", 0.88, "BCFG"), ("grating", 0.5, "BCG"), ("grating", 0.9, "BCG"),
                      ("grating", 0.95, "BCFG"), ("random", 0.5, "BCDEFG"), ("random", 0.8, "BCG"),
                      ("egg-crate", 0.9, "BCG"), ("random", 0.9, "BCG"), ("egg-crate", 0.95, "BCG"),
-                     ("random", 0.95, "BCG"), ("egg-crate", 0.99, "BCG"), ("two-grating", 0.95, "BC"),
-                     ("two-grating", 0.98, "BC"), ("two-grating", 0.985, "BC"), ("two-grating", 0.99, "BC")]])
+                     ("random", 0.95, "BCDG"), ("egg-crate", 0.99, "BCG"), ("two-grating", 0.95, "BC"),
+                     ("two-grating", 0.98, "BC"), ("two-grating", 0.985, "BC"), ("two-grating", 0.99, "BC"),
+                     ("two-grating", 0.995, "BC")]])
 def test_q_of_every_algorithm_on_a_felt_map_below_the_troughs_radius_is_the_paths(name, rel_r, letters):
     # issue 67's goal on areal maps: q of every algorithm on the felt surface within 1 % of q on
     # the brute-force ball path. B, C and G read the path's Hessian, which below the troughs'
@@ -801,7 +802,13 @@ def test_q_of_every_algorithm_on_a_felt_map_below_the_troughs_radius_is_the_path
     # also where contacts on a grid of the surface see it (surfaces._hot_intervals; the spike is
     # 1 / (1 - r kappa) times wider in the contact than in the ball's position), graded maps up
     # to 1,024 x 1,024 nodes: +0.91, +0.72, +0.84 % (875 x 475, 949 x 552, 1,037 x 634; run here,
-    # 0.98 and 0.985 failed before, 2026-11-29, later). 10-90 s a case
+    # 0.98 and 0.985 failed before, 2026-11-29, later), 0.995 +1.78 % (1,127 x 778). Most of
+    # those nodes were the convex cells (where the path is within 2 % of its most convex, D's),
+    # at the uniform grid's step (1.85 um, refined for the troughs' spike) over 1 mm of a 2 mm
+    # axis; now as wide as the h^2 law says the crest needs (surfaces._hot_intervals), up to 3
+    # steps: +0.69, +0.79, +0.87, +0.98 % (510 x 338, 581 x 410, 673 x 496, 946 x 848; 0.995 run
+    # here, failed before; 0.95 +0.80 % on 406 x 245), and the random map's D +0.004 % at 0.95 rho (290 x 281; +0.001 % on
+    # 347 x 363 with the convex cells at the uniform step; run here). 10-90 s a case
     tex, h, grad, cell, rho = AREAL_CASES[name]
     r = rel_r * (rho or _TIGHTEST[name]())
     truth = _areal_path_q(h, grad, cell, r, letters=letters)
@@ -809,9 +816,9 @@ def test_q_of_every_algorithm_on_a_felt_map_below_the_troughs_radius_is_the_path
         assert truth["C"] == pytest.approx(max(1.0, 1e-3 / rho / (1 - rel_r)), rel=1e-4)  # the oracle at its troughs
         R = rho + r  # (the crests' radius, offset by the ball)
         assert truth["D"] == (math.inf if R <= 1e-3 else pytest.approx(max(1.0, 1e-3 / (R - 1e-3)), rel=1e-4))
-    elif name == "two-grating":  # (its tightest trough nearly level: d_max kappa / (1 - r kappa) there)
-        kappa = 1 / _TIGHTEST[name]()
-        assert truth["C"] == pytest.approx(1e-3 * kappa / (1 - r * kappa), rel=1e-3)
+    elif name == "two-grating":  # (its tightest trough nearly level: d_max kappa / (1 - r kappa) there;
+        kappa = 1 / _TIGHTEST[name]()  # the path 0.09 % above it at 0.99 rho, 0.18 % at 0.995)
+        assert truth["C"] == pytest.approx(1e-3 * kappa / (1 - r * kappa), rel=1e-3 if rel_r < 0.995 else 2.5e-3)
     felt = tex.felt_by(r)
     for letter in letters:
         q = hx.characteristic_number(hx.algorithm(letter, felt, 2000.0)).value
@@ -944,7 +951,7 @@ def test_where_no_grid_meets_the_slack_the_felt_map_kept_is_the_one_whose_larges
 
 
 @pytest.mark.long
-@pytest.mark.parametrize("rel_r,closed", [(0.995, 2.5e-3)])
+@pytest.mark.parametrize("rel_r,closed", [(0.9975, 4e-3), (0.999, 1e-2)])
 def test_where_the_spike_runs_at_an_angle_to_the_axes_the_stated_peak_miss_is_qs(rel_r, closed):
     # On two gratings at 63 deg at 0.98 times their tightest radius the path's curvature spike
     # runs at an angle to both axes: no map within the cap meets the slack (uniform or graded),
@@ -959,10 +966,11 @@ def test_where_the_spike_runs_at_an_angle_to_the_axes_the_stated_peak_miss_is_qs
     # read -49 % (each map stated against its own climbed top, which on a graded map 2 % short
     # of the path's stopped under its own largest; the least curvature miss ranked before the
     # least peak miss); at 0.985 -11 % (stated 11 %). Truth: _areal_path_q (nested grids above
-    # the most concave points), asserted within 1e-3 of the closed form d_max kappa / (1 - r
-    # kappa) at the tightest trough (nearly level; 2.5e-3 at 0.995, where it is 0.18 % above it).
-    # Since the graded axes' fine band follows the ridge where contacts see it (2026-11-29, later), 0.98
-    # and 0.985 rho meet the slack (the q test above); 0.995 states 1.78 % for q's +1.78 %
+    # the most concave points), asserted within 4e-3 and 1e-2 of the closed form d_max kappa /
+    # (1 - r kappa) at the tightest trough (nearly level: the path above it by 0.36 % at 0.9975 and
+    # 0.90 % at 0.999, measured 2026-11-29). Since the graded axes' fine band follows the ridge
+    # where contacts see it (2026-11-29, later), 0.98 to 0.995 rho meet the slack (the q test
+    # above); at 0.9975 and 0.999 none does: stated 2.60 and 28.7 % for q's +2.34 and -28.7 %
     q, truth, felt = _q_of_c_and_the_paths("two-grating", rel_r, closed)
     assert felt.peak_miss > 0.01  # (the premise: no map met the slack)
     assert abs(abs(q / truth - 1) - felt.peak_miss) <= 0.005, (q / truth - 1, felt.peak_miss)

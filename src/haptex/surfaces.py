@@ -2841,11 +2841,10 @@ GRADED_SAMPLES = 1024 * 1024
 """The most nodes a felt map on graded axes may have (:func:`_graded_refined`; a uniform map's
 CURVATURE_REFINE_SAMPLES. Chosen, measured 2026-11-29 on two gratings at 63 deg, whose
 tightest trough's ridge runs at an angle to both axes, so that a graded axis is fine wherever
-the ridge crosses it: at 0.99 and 0.995 times their tightest radius the third graded map, 1,037
-x 634 and 1,127 x 778, passed 768 x 768 and the second was kept, 964 x 562 and 936 x 562, q of
-C +1.32 and +3.17 %; within this cap the third, +0.84 and +1.78 %, 34 and 43 s a felt map, 1.8
-GB peak resident, where 768 x 768 took 18 and 19 s. Where the graded maps are smaller, as the
-egg-crate's and the random map's, nothing changes.)"""
+the ridge crosses it: at 0.995 times their tightest radius the fourth graded map, 946 x 848,
+meets CURVATURE_SLACK, q of C +0.98 %, 40 s a felt map and 1.45 GB peak resident; within 768 x
+768 the third, 762 x 638, was kept, +1.77 %, 28 s and 1.0 GB. Where the graded maps are
+smaller, as the egg-crate's and the random map's, nothing changes.)"""
 
 GRADED_STEP = (0.5, 0.85)
 """The least and most a graded map's finest cells are of the last's when it missed the slack:
@@ -2865,8 +2864,15 @@ def _hot_intervals(texture, m, cur, r):
     GRADED_HOT of it, an umbilic spike; no interval along an axis the spike runs along, as the
     turned egg-crate's do from its bowls along its troughs' lines); and fixed where its convex
     curvature (the lower eigenvalue's negative) comes within GRADED_HOT of its most convex (D's
-    radius: cells of the uniform grid's step, f 1), unless that spans more than GRADED_BROAD of an
-    axis (a broad maximum, as the egg-crate's crests and saddles make). Each node's interval
+    radius), unless that spans more than GRADED_BROAD of an axis (a broad maximum, as the
+    egg-crate's crests and saddles make): cells f uniform steps wide, as the h^2 law says the
+    crest needs for CURVATURE_SLACK (REFINE_AIM of it; the most convex curvature's second
+    difference along the axis where it is hot, h^2 / 12 times it the patches' miss), from 1 to
+    GRADED_BASE (they were 1 step, 2026-11-29: on two gratings at 63 deg the uniform grid's step,
+    1.85 um for the troughs' spike, over 1 mm of each 2 mm axis along a crest; the h^2 law says
+    3, and the graded maps at 0.98 to 0.995 times the tightest radius shrank from 875 x 475 -
+    1,127 x 778 to 510 x 338 - 762 x 638 nodes a try, and q of D on the random map at 0.95 times
+    read +0.004 % for +0.001 %, its map 290 x 281 for 347 x 363). Each node's interval
     spans a node either side. Hot too, at the nearest node, the centre p = q - u of every ball
     resting on a point q of the surface (the map's nodes taken as contact points of the
     ``texture``, the ball's radius r (m), u :func:`_contact_offsets`) where the path's curvature
@@ -2922,7 +2928,13 @@ def _hot_intervals(texture, m, cur, r):
             on = on | np.roll(on, 1) | np.roll(on, -1)
             idx = np.nonzero(on)[0]
             runs = np.split(idx, np.nonzero(np.diff(idx) > 1)[0] + 1) if idx.size else []
-            out[axis] += [(start + run[0] * step, start + run[-1] * step, 1.0, True) for run in runs]
+            # (the h^2 law: a patch's curvature misses by h^2 / 12 times the curvature's second
+            # derivative, here the most convex eigenvalue's second difference along the axis)
+            bend = np.abs(np.roll(bow, 1, axis) - 2 * bow + np.roll(bow, -1, axis)) / step**2
+            fourth = float(np.max(bend[convex], initial=0.0))
+            wide = GRADED_BASE if fourth == 0 else float(np.clip(
+                math.sqrt(12 * REFINE_AIM * CURVATURE_SLACK * bow.max() / fourth) / step, 1.0, GRADED_BASE))
+            out[axis] += [(start + run[0] * step, start + run[-1] * step, wide, True) for run in runs]
     return out
 
 
