@@ -794,21 +794,21 @@ def test_q_of_every_algorithm_on_a_felt_map_below_the_troughs_radius_is_the_path
     # it cost that for nothing and left D and E out of the default time budget (768 a side: 7-9 s,
     # 610 MB). Above rho: the test below. D takes 29-31 s on the egg-crate's map at 0.5 rho (its
     # closest-point searches; E 1.0 s), 144 a side now (128 before: 144 the first grid within the
-    # slack not steeper than the surface, surfaces.FELT_STEEP_TOLERANCE). Two gratings at 0.98
-    # and 0.985 rho read C -3.4 and +2.8 % (stated by the maps), 0.99 +0.45 % (2026-11-29): the
-    # graded axes' finest cells went where the uniform map's nodes sampled the path's curvature
-    # within 2 % of its top, but along a ridge at an angle to the axes the nodes fall on its
-    # flanks by turns, and the fine band had gaps where the path is within 1 % of its top. Now
-    # also where contacts on a grid of the surface see it (surfaces._hot_intervals; the spike is
-    # 1 / (1 - r kappa) times wider in the contact than in the ball's position), graded maps up
-    # to 1,024 x 1,024 nodes: +0.91, +0.72, +0.84 % (875 x 475, 949 x 552, 1,037 x 634; run here,
-    # 0.98 and 0.985 failed before, 2026-11-29, later), 0.995 +1.78 % (1,127 x 778). Most of
-    # those nodes were the convex cells (where the path is within 2 % of its most convex, D's),
-    # at the uniform grid's step (1.85 um, refined for the troughs' spike) over 1 mm of a 2 mm
-    # axis; now as wide as the h^2 law says the crest needs (surfaces._hot_intervals), up to 3
-    # steps: +0.69, +0.79, +0.87, +0.98 % (510 x 338, 581 x 410, 673 x 496, 946 x 848; 0.995 run
-    # here, failed before; 0.95 +0.80 % on 406 x 245), and the random map's D +0.004 % at 0.95 rho (290 x 281; +0.001 % on
-    # 347 x 363 with the convex cells at the uniform step; run here). 10-90 s a case
+    # slack not steeper than the surface, surfaces.FELT_STEEP_TOLERANCE). Two gratings at 0.98 and
+    # 0.985 rho read C -3.4 and +2.8 % (stated by the maps), 0.99 +0.45 % (2026-11-29): the graded
+    # axes' finest cells went where the uniform map's nodes sampled the path's curvature within 2 % of
+    # its top, but along a ridge at an angle to the axes the nodes fall on its flanks by turns, and
+    # the fine band had gaps where the path is within 1 % of its top. Now also where contacts on a
+    # grid of the surface see it (surfaces._hot_intervals; the spike is 1 / (1 - r kappa) times wider
+    # in the contact than in the ball's position), graded maps up to 1,024 x 1,024 nodes: +0.91,
+    # +0.72, +0.84 % (875 x 475, 949 x 552, 1,037 x 634; run here, 0.98 and 0.985 failed before,
+    # 2026-11-29, later), 0.995 +1.78 % (1,127 x 778). Most of those nodes were the convex cells
+    # (where the path is within 2 % of its most convex, D's), at the uniform grid's step (1.85 um,
+    # refined for the troughs' spike) over 1 mm of a 2 mm axis; now as wide as the h^2 law says the
+    # crest needs (surfaces._hot_intervals), up to 3 steps: +0.69, +0.79, +0.87, +0.98 % (510 x 338,
+    # 581 x 410, 673 x 496, 946 x 848; 0.995 run here, failed before; 0.95 +0.80 % on 406 x 245), and
+    # the random map's D +0.004 % at 0.95 rho (290 x 281; +0.001 % on 347 x 363 with the convex cells
+    # at the uniform step; run here). 10-90 s a case
     tex, h, grad, cell, rho = AREAL_CASES[name]
     r = rel_r * (rho or _TIGHTEST[name]())
     truth = _areal_path_q(h, grad, cell, r, letters=letters)
@@ -818,7 +818,8 @@ def test_q_of_every_algorithm_on_a_felt_map_below_the_troughs_radius_is_the_path
         assert truth["D"] == (math.inf if R <= 1e-3 else pytest.approx(max(1.0, 1e-3 / (R - 1e-3)), rel=1e-4))
     elif name == "two-grating":  # (its tightest trough nearly level: d_max kappa / (1 - r kappa) there;
         kappa = 1 / _TIGHTEST[name]()  # the path 0.09 % above it at 0.99 rho, 0.18 % at 0.995)
-        assert truth["C"] == pytest.approx(1e-3 * kappa / (1 - r * kappa), rel=1e-3 if rel_r < 0.995 else 2.5e-3)
+        assert truth["C"] == pytest.approx(1e-3 * kappa / (1 - r * kappa),
+                                           rel=1e-3 if rel_r < 0.995 else 2.5e-3)
     felt = tex.felt_by(r)
     for letter in letters:
         q = hx.characteristic_number(hx.algorithm(letter, felt, 2000.0)).value
