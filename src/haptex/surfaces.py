@@ -2809,8 +2809,9 @@ hottest curvature: its cells' width grows by GRADED_GROWTH - 1 times the distanc
 338 x 371, 332 x 365)."""
 
 GRADED_HOT = 2 * CURVATURE_SLACK
-"""A graded axis's finest cells cover where the path's curvature at the uniform map's nodes is
-within this fraction of its largest, a node either side (chosen, measured as GRADED_BASE: 1, 2,
+"""A graded axis's finest cells cover where the path's curvature at the uniform map's nodes (and
+at balls resting on the surface there, :func:`_hot_intervals`) is within this fraction of its
+largest, a node either side (chosen, measured as GRADED_BASE: 1, 2,
 5 % read the egg-crate's largest curvature +0.47, +0.51, +0.55 % on 507, 578, 741 a side, the
 random map's +0.74, +0.75, +0.75 % on 321 x 343, 338 x 371, 399 x 450; the egg-crate's saddles'
 diagonal ridges, within 2 % of the largest for about 90 um along, hold the sup where only the
@@ -2856,34 +2857,34 @@ gratings, from 539 x 540 nodes and a 1.04 % miss past CURVATURE_REFINE_SAMPLES).
 def _hot_intervals(texture, m, cur, r):
     """Per axis, the intervals (a, b, f, fixed) (a, b in m) where a graded axis's cells are
     fine, f their width in the finest cells' (``fixed`` False) or in the uniform grid's steps
-    (True), from the path's curvature at the uniform felt map ``cur``'s nodes (:func:`_felt_misses`' ``hs``):
-    where its 2-norm comes within GRADED_HOT of its largest (the spikes B, C and G's q reads),
-    cells up to f times the finest there, f = 1 / |e_a|, e the direction of the node's largest
-    curvature, across which the contact, and with it the spike, runs 1 / (1 - r kappa) times as
-    fast as the ball (f = 1 along both axes where the other principal curvature comes within
-    GRADED_HOT of it, an umbilic spike; no interval along an axis the spike runs along, as the
-    turned egg-crate's do from its bowls along its troughs' lines); and fixed where its convex
-    curvature (the lower eigenvalue's negative) comes within GRADED_HOT of its most convex (D's
-    radius), unless that spans more than GRADED_BROAD of an axis (a broad maximum, as the
-    egg-crate's crests and saddles make): cells f uniform steps wide, as the h^2 law says the
-    crest needs for CURVATURE_SLACK (REFINE_AIM of it; the most convex curvature's second
-    difference along the axis where it is hot, h^2 / 12 times it the patches' miss), from 1 to
-    GRADED_BASE (they were 1 step, 2026-11-29: on two gratings at 63 deg the uniform grid's step,
-    1.85 um for the troughs' spike, over 1 mm of each 2 mm axis along a crest; the h^2 law says
-    3, and the graded maps at 0.98 to 0.995 times the tightest radius shrank from 875 x 475 -
-    1,127 x 778 to 510 x 338 - 762 x 638 nodes a try, and q of D on the random map at 0.95 times
-    read +0.004 % for +0.001 %, its map 290 x 281 for 347 x 363). Each node's interval
-    spans a node either side. Hot too, at the nearest node, the centre p = q - u of every ball
-    resting on a point q of the surface (the map's nodes taken as contact points of the
-    ``texture``, the ball's radius r (m), u :func:`_contact_offsets`) where the path's curvature
-    there (:func:`_path_hessian`) comes within GRADED_HOT of the largest of both, its direction
-    as the nodes': a spike 1 / (1 - r kappa) times wider in the contact than in the ball's
-    position is sampled all along its ridge by the contacts where the nodes, on a ridge at an
-    angle to the axes, fall on its flanks by turns (on two gratings at 63 deg at 0.985 times
-    their tightest radius the fine band had gaps where the path is within 1 % of its top, and
-    the graded maps' centres there read it 6 to 20 % short; with the contacts' band q of C
-    -3.4, +2.8, +0.45, -2.0 % at 0.98, 0.985, 0.99, 0.995 times became +0.91, +0.72, +0.84,
-    +1.78 %, measured 2026-11-29 with GRADED_SAMPLES)."""
+    (True), from the path's curvature at the uniform felt map ``cur``'s nodes (:func:`_felt_misses`'
+    dict ``m``'s ``hs``) and at the centres of balls of radius r (m) resting on the ``texture``
+    at those nodes. Where its 2-norm comes within GRADED_HOT of the largest of both (the spikes
+    B, C and G's q reads), at a node or at the node nearest such a centre, cells up to f times
+    the finest, f = 1 / |e_a|, e the direction of the largest curvature there, across which the
+    contact, and with it the spike, runs 1 / (1 - r kappa) times as fast as the ball (f = 1
+    along both axes where the other principal curvature comes within GRADED_HOT of it, an
+    umbilic spike; no interval along an axis the spike runs along, as the turned egg-crate's do
+    from its bowls along its troughs' lines); each such node's interval spans a node either
+    side. (The centres p = q - u over contact points q, u :func:`_contact_offsets`, the path's
+    Hessian there :func:`_path_hessian`'s: the spike, 1 / (1 - r kappa) times wider in the
+    contact than in the ball's position, is sampled all along its ridge by the contacts where
+    the nodes, on a ridge at an angle to the axes, fall on its flanks by turns: on two gratings
+    at 63 deg at 0.985 times their tightest radius the fine band had gaps where the path is
+    within 1 % of its top, and the graded maps' centres there read it 6 to 20 % short; with the
+    contacts' band q of C -3.4, +2.8, +0.45, -2.0 % at 0.98, 0.985, 0.99, 0.995 times became
+    +0.91, +0.72, +0.84, +1.78 %, measured 2026-11-29 with GRADED_SAMPLES.) And ``fixed``
+    where the path's convex curvature (the lower eigenvalue's negative) at the nodes comes
+    within GRADED_HOT of its most convex (D's radius), a node either side, unless that spans
+    more than GRADED_BROAD of an axis (a broad maximum, as the egg-crate's crests and saddles
+    make): cells f uniform steps wide, as the h^2 law says the crest needs for CURVATURE_SLACK
+    (REFINE_AIM of it; h^2 / 12 times the most convex curvature's second difference along the
+    axis where it is hot, the patches' miss), from 1 to GRADED_BASE (they were 1 step before
+    2026-11-29's last session: on two gratings at 63 deg the uniform grid's step, 1.85 um for
+    the troughs' spike, over 1 mm of each 2 mm axis along a crest; the h^2 law says 3, and the
+    graded maps at 0.98 to 0.995 times the tightest radius shrank from 875 x 475 - 1,127 x 778
+    to 510 x 338 - 762 x 638 nodes a try, q of C +0.69 to +0.98 %, and q of D on the random map
+    at 0.95 times read +0.004 % for +0.001 %, its map 290 x 281 for 347 x 363)."""
     nx, ny = cur.x.size, cur.y.size
     hs = np.nan_to_num(m["hs"], nan=0.0, posinf=0.0, neginf=0.0)
     f = _hessian_norm(hs)
