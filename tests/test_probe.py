@@ -806,9 +806,9 @@ def test_q_of_every_algorithm_on_a_felt_map_below_the_troughs_radius_is_the_path
     # (where the path is within 2 % of its most convex, D's), at the uniform grid's step (1.85 um,
     # refined for the troughs' spike) over 1 mm of a 2 mm axis; now as wide as the h^2 law says the
     # crest needs (surfaces._hot_intervals), up to 3 steps: +0.69, +0.79, +0.87, +0.98 % (510 x 338,
-    # 581 x 410, 673 x 496, 946 x 848; 0.995 run here, failed before; 0.95 +0.80 % on 406 x 245), and
-    # the random map's D +0.004 % at 0.95 rho (290 x 281; +0.001 % on 347 x 363 with the convex cells
-    # at the uniform step; run here). 10-90 s a case
+    # 581 x 410, 673 x 496, 946 x 848; 0.995 run here, failed before; 0.95 +0.80 % on 406 x 245 for
+    # +0.55 % on 750 x 374), and the random map at 0.95 rho C +0.68 %, D +0.004 % (290 x 281; +0.31
+    # and +0.0015 % on 350 x 364 with the convex cells at the uniform step; D run here). 10-90 s a case
     tex, h, grad, cell, rho = AREAL_CASES[name]
     r = rel_r * (rho or _TIGHTEST[name]())
     truth = _areal_path_q(h, grad, cell, r, letters=letters)

@@ -2883,8 +2883,8 @@ def _hot_intervals(texture, m, cur, r):
     2026-11-29's last session: on two gratings at 63 deg the uniform grid's step, 1.85 um for
     the troughs' spike, over 1 mm of each 2 mm axis along a crest; the h^2 law says 3, and the
     graded maps at 0.98 to 0.995 times the tightest radius shrank from 875 x 475 - 1,127 x 778
-    to 510 x 338 - 762 x 638 nodes a try, q of C +0.69 to +0.98 %, and q of D on the random map
-    at 0.95 times read +0.004 % for +0.001 %, its map 290 x 281 for 347 x 363)."""
+    to 510 x 338 - 762 x 638 nodes a try, q of C +0.69 to +0.98 %; the random map at 0.95 times
+    290 x 281 for 347 x 363, q of C +0.68 % for +0.46 %, of D +0.004 %)."""
     nx, ny = cur.x.size, cur.y.size
     hs = np.nan_to_num(m["hs"], nan=0.0, posinf=0.0, neginf=0.0)
     f = _hessian_norm(hs)
