@@ -2718,8 +2718,7 @@ def _path_top(texture, m, r):
         return best
 
     def curvature(q):  # (n, 2) contact points -> the path's curvature over them (n,)
-        u = _contact_offsets(texture.gradient(q), r)
-        return np.nan_to_num(_hessian_norm(_path_hessian(texture, q - u, u, r, sound=0.0)), nan=0.0)
+        return np.nan_to_num(_hessian_norm(_resting(texture, q, r)[1]), nan=0.0)
 
     for k in np.argsort(norms)[-PATH_TOP_STARTS:]:
         i, j = divmod(int(k) % (nx * ny), ny)
@@ -2854,6 +2853,25 @@ before 2026-11-29, took the egg-crate's map at 0.95 times its bowls' radius, on 
 gratings, from 539 x 540 nodes and a 1.04 % miss past CURVATURE_REFINE_SAMPLES)."""
 
 
+def _resting(texture, q, r):
+    """Balls of radius r (m) resting on the surface ``texture`` at contact points q (n, 2) (m),
+    where it cannot be bridged: their contacts' offsets u (n, 2) (:func:`_contact_offsets`, the
+    centres over q - u) and the path's Hessians (n, 2, 2) (1/m) at those centres, in closed form
+    (:func:`_path_hessian`; NaN where it is unsound), no contact searched."""
+    u = _contact_offsets(texture.gradient(q), r)
+    return u, _path_hessian(texture, q - u, u, r, sound=0.0)
+
+
+def _across(h):
+    """|e_x|, |e_y| (k, 2) of the direction e of the largest |eigenvalue| of each symmetric
+    Hessian h (k, 2, 2) (the direction a spike is narrow across); 1 along both axes where the
+    other eigenvalue comes within GRADED_HOT of it (an umbilic spike)."""
+    w, v = np.linalg.eigh(h)  # (columns the directions)
+    size = np.abs(w)
+    lead = np.abs(v[np.arange(len(v)), :, np.argmax(size, axis=1)])
+    return np.where((size.min(axis=1) >= (1 - GRADED_HOT) * size.max(axis=1))[:, None], 1.0, lead)
+
+
 def _hot_intervals(texture, m, cur, r):
     """Per axis, the intervals (a, b, f, fixed) (a, b in m) where a graded axis's cells are
     fine, f their width in the finest cells' (``fixed`` False) or in the uniform grid's steps
@@ -2889,30 +2907,21 @@ def _hot_intervals(texture, m, cur, r):
     hs = np.nan_to_num(m["hs"], nan=0.0, posinf=0.0, neginf=0.0)
     f = _hessian_norm(hs)
     top = f.max()
-    w, v = np.linalg.eigh(hs)  # (columns the directions)
-    size = np.abs(w)
-    lead = np.abs(v[np.arange(len(v)), :, np.argmax(size, axis=1)])  # (|e| of the largest, per node)
-    umbilic = size.min(axis=1) >= (1 - GRADED_HOT) * size.max(axis=1)
-    across = np.where(umbilic[:, None], 1.0, lead).reshape(nx, ny, 2)
+    across = _across(hs).reshape(nx, ny, 2)
+    hot = np.zeros((nx, ny), bool)
     if top > 0:  # (the ridge's hot part as its contacts see it, the uniform map's nodes as contact points)
         Q = np.stack(np.meshgrid(cur.x, cur.y, indexing="ij"), -1).reshape(-1, 2)
-        u = _contact_offsets(texture.gradient(Q), r)
-        hq = np.nan_to_num(_path_hessian(texture, Q - u, u, r, sound=0.0), nan=0.0, posinf=0.0, neginf=0.0)
+        u, hq = _resting(texture, Q, r)
+        hq = np.nan_to_num(hq, nan=0.0, posinf=0.0, neginf=0.0)
         fq = _hessian_norm(hq)
         top = max(top, float(fq.max()))
         on = fq >= (1 - GRADED_HOT) * top
-        wq, vq = np.linalg.eigh(hq[on])
-        sq = np.abs(wq)
-        lq = np.abs(vq[np.arange(len(vq)), :, np.argmax(sq, axis=1)])
-        lq = np.where((sq.min(axis=1) >= (1 - GRADED_HOT) * sq.max(axis=1))[:, None], 1.0, lq)
         P = Q[on] - u[on]  # (their balls' centres, at the nearest nodes)
         i = np.round((P[:, 0] - cur.x[0]) / cur.dx).astype(int) % nx
         j = np.round((P[:, 1] - cur.y[0]) / cur.dy).astype(int) % ny
         hot = (f >= (1 - GRADED_HOT) * top).reshape(nx, ny)
         hot[i, j] = True
-        np.maximum.at(across, (i, j), lq)
-    else:
-        hot = np.zeros((nx, ny), bool)
+        np.maximum.at(across, (i, j), _across(hq[on]))
     bow = -_lowest_eigenvalue(hs).reshape(nx, ny)  # (convex where positive)
     convex = None
     if bow.max() > 0:
