@@ -1560,6 +1560,32 @@ def test_a_felt_map_is_continuous_and_never_steeper_than_its_surface():
     assert branched  # (some cells are branched: the check reads them)
 
 
+@pytest.mark.parametrize("rel_r", [1.5, pytest.param(1.05, marks=pytest.mark.long)])
+def test_at_its_nodes_a_felt_map_reads_a_limit_from_beside_them(rel_r):
+    # By definition a felt map the ball bridges is, in a branched cell, the highest of the cell's
+    # patches: at a grid node (where q's searches and grid-aligned probes read it) its second
+    # derivatives are the limit from some direction, the cell's piece on that side. Truth: the
+    # map's own values 1e-7 of a cell away along 16 directions (angles not along the axes or the
+    # diagonals, where the egg-crate's creases run through nodes). Before (2026-11-29): patches
+    # that tie at a node (a branch a neighbour passed the cell, meeting its own along the edge)
+    # were taken in their order, and 17 nodes at 1.5 rho read none of the 16 limits (up to 1.34
+    # 1/m off, of the map's largest 395), 59 at 1.2 rho (27 1/m), 16 at 1.05 rho (4,942 1/m: on
+    # the map kept at 1.05 rho, 304 a side, one such node read -19,367 1/m where its neighbours'
+    # cells read at most 10,988 and the path's branches 11,907, and made q of C +3.26 %). Now a
+    # tie is broken inside the cell (hx_texture_eval.h, HX_BRANCH_NUDGE): none; 1.5 rho 4 s
+    tex, rho = hx.SumOfGratings.egg_crate(0.1e-3, 2e-3), (2e-3) ** 2 / (4 * math.pi**2 * 0.1e-3)
+    felt = tex.felt_by(rel_r * rho)
+    assert felt.branched_cells > 0  # (the ball bridges the bowls: some cells are branched)
+    X, Y = np.meshgrid(felt.x, felt.y, indexing="ij")
+    p = np.stack([X.ravel(), Y.ravel()], -1)
+    at = felt._derivatives(p)[:, 3:]  # (h_xx, h_xy, h_yy)
+    angles = (np.arange(16) + 0.37) * 2 * np.pi / 16
+    off = np.min([np.abs(at - felt._derivatives(p + 1e-7 * felt.dx * np.array([np.cos(a), np.sin(a)]))[:, 3:]
+                         ).max(-1) for a in angles], axis=0)
+    largest = np.abs(at).max()
+    assert np.count_nonzero(off > 1e-3 * largest) == 0, (p[np.argmax(off)], off.max(), largest)
+
+
 def test_a_point_probe_is_the_texture_itself_and_bad_radii_are_refused():
     assert SINE.felt_by(0.0) is SINE
     for bad in (-1e-3, math.nan, math.inf):

@@ -143,6 +143,13 @@ enum {
  * evaluation pairs at most, is then 9,320 where it was 3,440). No Taylor model holds on a
  * branched cell. */
 enum { HX_JOINS_SPLINE = 0, HX_JOINS_HERMITE = 1, HX_JOINS_BRANCHED = 2, HX_MAX_BRANCHES = 12 };
+/* A branched cell's patches tie at a point where their heights are within HX_BRANCH_TIE of its
+ * height and the cell's widths (m; round-off is about 1e-16 of them); the tie is broken by their
+ * heights HX_BRANCH_NUDGE of the way from the point to the cell's centre (chosen: far enough that
+ * patches tangent along an edge differ there by their curvature, 1e-15 m on a 7 um cell, far
+ * above round-off; near enough to be the limit from inside the cell) */
+#define HX_BRANCH_TIE 1e-13
+#define HX_BRANCH_NUDGE 1e-4
 /* HX_PATCH_AXES: 0 where the cells are uniform (HX_PATCH_DX by HX_PATCH_DY); else graded axes
  * (rectilinear cells of their own widths), the column where the tail's nx + 1 x knots and then
  * ny + 1 y knots start, increasing, the first at X0 (Y0); the cells' coefficients are in each

@@ -321,7 +321,11 @@ HX_INLINE void patch_locate(const double *hd, double x, double y, long *i, long 
  * the map, for p + q <= order where (x, y) is inside it (order 0: h; 2: h and its first and
  * second derivatives), all 16 (p, q <= 3) where it is clamped (the tangent-plane extension reads
  * them); (*cx, *cy) receives the clamped point. The others are left unset. In a branched cell
- * (HX_JOINS_BRANCHED) the patch is the highest of the cell's there (the first on a tie). */
+ * (HX_JOINS_BRANCHED) the patch is the highest of the cell's there; of patches that tie there
+ * to round-off (HX_BRANCH_TIE of the height and the cell's widths: on the cell's edge, where a
+ * branch a neighbour passed it meets its own, and at a node on a crease), the highest at the
+ * point HX_BRANCH_NUDGE of the way to the cell's centre, so that the derivatives on the cell's
+ * edges and corners are the limits from inside it (the first on a tie there too). */
 HX_INLINE_LARGE void patch_derivs(const hx_texture *t, double x, double y, double D[4][4], double *cx, double *cy,
                             int order)
 {
@@ -336,13 +340,36 @@ HX_INLINE_LARGE void patch_derivs(const hx_texture *t, double x, double y, doubl
     c = pp[0];
     if (n > 1) { /* a branched cell: the highest of its patches */
         double ps[4] = {1.0, s, s * s, s * s * s}, pt[4] = {1.0, tt, tt * tt, tt * tt * tt};
-        double top = patch_value(c, ps, pt);
-        for (k = 1; k < n; k++) {
-            double v = patch_value(pp[k], ps, pt);
-            if (v > top) {
-                top = v;
-                c = pp[k];
+        double v[HX_MAX_BRANCHES], top, tol, in, best = 0.0;
+        int tied = 0;
+        for (k = 0; k < n; k++)
+            v[k] = patch_value(pp[k], ps, pt);
+        top = v[0];
+        for (k = 1; k < n; k++)
+            if (v[k] > top)
+                top = v[k];
+        tol = HX_BRANCH_TIE * (fabs(top) + wx + wy);
+        for (k = 0; k < n; k++)
+            tied += v[k] >= top - tol;
+        if (tied > 1) { /* (s, tt) nudged toward the cell's centre */
+            double si = s + HX_BRANCH_NUDGE * (0.5 - s), ti = tt + HX_BRANCH_NUDGE * (0.5 - tt);
+            double qs[4] = {1.0, si, si * si, si * si * si}, qt[4] = {1.0, ti, ti * ti, ti * ti * ti};
+            c = NULL;
+            for (k = 0; k < n; k++) {
+                if (v[k] < top - tol)
+                    continue;
+                in = patch_value(pp[k], qs, qt);
+                if (c == NULL || in > best) {
+                    best = in;
+                    c = pp[k];
+                }
             }
+        } else {
+            for (k = 0; k < n; k++)
+                if (v[k] == top) {
+                    c = pp[k];
+                    break;
+                }
         }
     }
     patch_poly(c, s, tt, wx, wy, order, D);
