@@ -849,7 +849,12 @@ def test_q_on_a_felt_map_above_the_troughs_radius_is_the_paths(name, rel_r):
     # as the ball): followed again by continuation (surfaces._continued_contacts), -0.28 % on
     # 464 x 464 (2026-11-27, eleventh session). Not met: the egg-crate at 1.05 rho, +3.26 % on
     # 304 a side (the map's curvature_miss 3.47 %; -5.06 % on 38 a side with every corner's
-    # continuation in as many steps as the farthest source's). 20-30 s a case
+    # continuation in as many steps as the farthest source's). That +3.26 % was one node's
+    # reading of a neighbour's branch where two patches tie (-19,367 1/m; see
+    # test_at_its_nodes_a_felt_map_reads_a_limit_from_beside_them); with ties broken inside the
+    # cell (2026-11-29) its grids read -5.0, -25.9, -14.3, -12.1, -6.7 % from 38 to 608 a side and
+    # the 38 is kept (curvature_miss 4.88 %, q -5.03 %): the branch's limit at the crease, near
+    # its fold, is not what cubic patches converge to as h^2. 20-30 s a case
     tex, h, grad, cell, rho = AREAL_CASES[name]
     truth = _areal_path_q(h, grad, cell, rel_r * rho, letters="BCG")
     if name == "grating":
@@ -892,7 +897,7 @@ def test_a_felt_maps_curvature_miss_bounds_its_q(name, rel_r, capsys):
     q = said.value
     assert felt.curvature_miss is not None and felt.peak_miss <= felt.curvature_miss
     assert abs(q / truth - 1) <= felt.peak_miss + 0.005
-    if felt.peak_miss > 0.01:  # (and q's note says so: on the egg-crate at 1.05 rho, 3.47 %)
+    if felt.peak_miss > 0.01:  # (and q's note says so: on the egg-crate at 1.05 rho, 4.88 %; 3.47 % before 2026-11-29)
         assert f"misses the ball path's by {felt.peak_miss:.3g} of it (peak_miss)" in said.note
     if (name, rel_r) == ("egg-crate", 0.95):
         import json
