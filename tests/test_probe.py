@@ -1573,11 +1573,12 @@ def test_at_its_nodes_a_felt_map_reads_a_limit_from_beside_them(rel_r):
     # map's own values 1e-7 of a cell away along 16 directions (angles not along the axes or the
     # diagonals, where the egg-crate's creases run through nodes). Before (2026-11-29): patches
     # that tie at a node (a branch a neighbour passed the cell, meeting its own along the edge)
-    # were taken in their order, and 17 nodes at 1.5 rho read none of the 16 limits (up to 1.34
-    # 1/m off, of the map's largest 395), 59 at 1.2 rho (27 1/m), 16 at 1.05 rho (4,942 1/m: on
-    # the map kept at 1.05 rho, 304 a side, one such node read -19,367 1/m where its neighbours'
-    # cells read at most 10,988 and the path's branches 11,907, and made q of C +3.26 %). Now a
-    # tie is broken inside the cell (hx_texture_eval.h, HX_BRANCH_NUDGE): none; 1.5 rho 4 s
+    # were taken in their order, and 18 nodes at 1.5 rho read none of the 16 limits (up to 1.34
+    # 1/m off, of the map's largest 395), 59 at 1.2 rho (27 1/m), 92 at 1.05 rho (the map kept
+    # then, 304 a side: one such node read -19,367 1/m where its neighbours' cells read at most
+    # 10,988 and the path's branches 11,907, and made q of C +3.26 %; 16 nodes, up to 4,942 1/m
+    # off, on the 38-a-side map kept for r one ulp away). Now a tie is broken inside the cell
+    # (hx_texture_eval.h, HX_BRANCH_NUDGE): none; 1.5 rho 4 s, 1.05 rho 20 s
     tex, rho = hx.SumOfGratings.egg_crate(0.1e-3, 2e-3), (2e-3) ** 2 / (4 * math.pi**2 * 0.1e-3)
     felt = tex.felt_by(rel_r * rho)
     assert felt.branched_cells > 0  # (the ball bridges the bowls: some cells are branched)
