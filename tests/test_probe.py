@@ -852,9 +852,9 @@ def test_q_on_a_felt_map_above_the_troughs_radius_is_the_paths(name, rel_r):
     # continuation in as many steps as the farthest source's). That +3.26 % was one node's
     # reading of a neighbour's branch where two patches tie (-19,367 1/m; see
     # test_at_its_nodes_a_felt_map_reads_a_limit_from_beside_them); with ties broken inside the
-    # cell (2026-11-29) its grids read -5.0, -25.9, -14.3, -12.1, -6.7 % from 38 to 608 a side and
-    # the 38 is kept (curvature_miss 4.88 %, q -5.03 %): the branch's limit at the crease, near
-    # its fold, is not what cubic patches converge to as h^2. 20-30 s a case
+    # cell (2026-11-29) its grids from 38 to 608 a side state misses of 4.9, 25.9, 14.3, 12.1,
+    # 6.7 % (q of C -5.03, -12.15, -6.68 % on 38, 304, 608) and the 38 is kept: the branch's
+    # limit at the crease, near its fold, is not what cubic patches converge to as h^2. 20-30 s a case
     tex, h, grad, cell, rho = AREAL_CASES[name]
     truth = _areal_path_q(h, grad, cell, rel_r * rho, letters="BCG")
     if name == "grating":
