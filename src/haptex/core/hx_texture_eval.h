@@ -340,14 +340,15 @@ HX_INLINE_LARGE void patch_derivs(const hx_texture *t, double x, double y, doubl
     c = pp[0];
     if (n > 1) { /* a branched cell: the highest of its patches */
         double ps[4] = {1.0, s, s * s, s * s * s}, pt[4] = {1.0, tt, tt * tt, tt * tt * tt};
-        double v[HX_MAX_BRANCHES], top, tol, in, best = 0.0;
+        double v[HX_MAX_BRANCHES], top = 0.0, tol, in, best = 0.0;
         int tied = 0;
-        for (k = 0; k < n; k++)
+        for (k = 0; k < n; k++) {
             v[k] = patch_value(pp[k], ps, pt);
-        top = v[0];
-        for (k = 1; k < n; k++)
-            if (v[k] > top)
+            if (k == 0 || v[k] > top) {
                 top = v[k];
+                c = pp[k];
+            }
+        }
         tol = HX_BRANCH_TIE * (fabs(top) + wx + wy);
         for (k = 0; k < n; k++)
             tied += v[k] >= top - tol;
@@ -364,12 +365,6 @@ HX_INLINE_LARGE void patch_derivs(const hx_texture *t, double x, double y, doubl
                     c = pp[k];
                 }
             }
-        } else {
-            for (k = 0; k < n; k++)
-                if (v[k] == top) {
-                    c = pp[k];
-                    break;
-                }
         }
     }
     patch_poly(c, s, tt, wx, wy, order, D);
