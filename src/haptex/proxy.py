@@ -183,9 +183,15 @@ class GodObject:
 
     def _surface(self, u) -> np.ndarray:
         """S(u): the textured boundary's point at surface coordinates u (m)."""
+        return self._surfaces(np.asarray(u, dtype=float)[None, :])[0]
+
+    def _surfaces(self, U) -> np.ndarray:
+        """S at the surface coordinates U (k, 2) (m), one evaluation of the texture and the base:
+        shape (k, 3)."""
+        h = self.texture.height_at(U)
         if self.base is None:
-            return np.append(u, self._h(u))
-        return self.base.point(np.asarray(u, dtype=float)[None, :], np.array([self._h(u)]))[0]
+            return np.column_stack([U, h])
+        return self.base.point(U, h)
 
     def _foot(self, p):
         """(u, inside) of the probe: its surface coordinates and whether it is inside."""
@@ -201,8 +207,8 @@ class GodObject:
         r = self._surface(u) - p
         phi = float(r @ r)
         for _ in range(MAX_STEPS):
-            J = np.column_stack([(self._surface(u + eps * e) - self._surface(u - eps * e)) / (2 * eps)
-                                 for e in np.eye(2)])
+            S = self._surfaces(u + eps * np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]]))
+            J = np.column_stack([(S[0] - S[1]) / (2 * eps), (S[2] - S[3]) / (2 * eps)])
             s = -np.linalg.lstsq(J, r, rcond=None)[0]
             n = float(np.linalg.norm(s))
             if n > self._max_step:
