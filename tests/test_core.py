@@ -433,11 +433,11 @@ def test_the_core_profile_search_agrees_with_brute_force(name):
                                   "height map, periodic"])
 def test_the_core_surface_search_agrees_with_brute_force(name):
     """The C surface search against a dense grid search of phi closed in on by nested grids
-    (test_surfaces._brute_force_distance, independent of the search: the surface's heights alone): at 60 probes from 1.5 mm
-    deep to above the surface, beyond a height map's edges too, the distance is never farther
-    than the reference by more than the tie tolerance (1e-9 of the shortest wavelength: the
-    search is certified global) nor closer than it by more than the reference's own accuracy,
-    and the closest point it returns is at that distance."""
+    (test_surfaces._brute_force_distance, independent of the search: the surface's heights
+    alone): at 60 probes from 1.5 mm deep to above the surface, beyond a height map's edges
+    too, the distance is never farther than the reference by more than the tie tolerance (1e-9
+    of the shortest wavelength: the search is certified global) nor closer than it by more than
+    the reference's own accuracy, and the closest point it returns is at that distance."""
     from haptex.closest import surface_search_data
 
     from .test_surfaces import _brute_force_distance
