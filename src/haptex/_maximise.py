@@ -7,13 +7,6 @@ from __future__ import annotations
 import numpy as np
 
 
-MAX_LINE_SEARCH = 8
-"""Function evaluations a line search of :func:`refine` may take (SciPy's ``maxls``; its default
-20). Chosen: the tolerances run L-BFGS-B to rounding, where its last line search fails on
-finite-difference noise and spent its 20; at 8, q of A-G on a sinusoid, the egg-crate and two
-felt egg-crate maps took 39 % fewer evaluations and moved by at most 6e-10 of q (2026-11-29)."""
-
-
 def refine(neg, start, value, bounds, ftol: float = 1e-15, gtol: float = 1e-12) -> tuple[float, tuple]:
     """Bounded L-BFGS-B maximisation from a grid point: (value, point), the grid's own if
     the refinement finds nothing larger (``value`` None: the start's own, computed here).
@@ -42,7 +35,7 @@ def refine(neg, start, value, bounds, ftol: float = 1e-15, gtol: float = 1e-12) 
     if value is None:
         value = -one(start[free])
     r = optimize.minimize(one, x0=start[free], method="L-BFGS-B", bounds=[b for b, f in zip(bounds, free) if f],
-                          options={"ftol": ftol, "gtol": gtol, "workers": shifted, "maxls": MAX_LINE_SEARCH})
+                          options={"ftol": ftol, "gtol": gtol, "workers": shifted})
     if -r.fun > value:
         return -float(r.fun), tuple(float(v) for v in full(r.x[None, :])[0])
     return float(value), tuple(float(v) for v in start)
