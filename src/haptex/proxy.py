@@ -176,7 +176,7 @@ class GodObject:
         u = self.surface_coordinates
         if u is None:
             return None
-        return np.append(u, self._h(u)) if self.base is None else self._surface(u)
+        return self._surface(u)
 
     def _h(self, u) -> float:
         return float(self.texture.height_at(np.asarray(u, dtype=float)[None, :])[0])
