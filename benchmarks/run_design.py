@@ -9,7 +9,12 @@
    serial arm, over the map) renders at 0.1 m/s;
 3. the CLI on a 1024 x 1024 map of rough band-limited noise (issue 35's goal: within 60 s);
 4. that map felt by a ball (``felt_by``: each sample's contact over the grid's offsets, refined
-   by Newton steps on the map) of 5, 10 and 20 um (issue 58's goal: within 5 s).
+   by Newton steps on the map) of 5, 10 and 20 um (issue 58's goal: within 5 s);
+5. felt maps refined for the ball path's curvature near the troughs' radius rho (issue 67):
+   the egg-crate (0.1 mm at 2 mm) at 0.95 rho (graded axes) and 1.04 rho (bridged: branched
+   cells), two gratings at 63 deg (40 and 30 um, 2 mm and 0.89 mm) at 0.995 times their
+   tightest radius (0.633 mm; the uniform grids to their cap). ``python
+   benchmarks/run_design.py felt`` runs this part alone.
 """
 
 from __future__ import annotations
@@ -94,7 +99,26 @@ def main() -> None:
             t = time.perf_counter()
             rough.felt_by(r)
             print(f"felt_by({r * 1e6:g} um), 1024 x 1024 map             {time.perf_counter() - t:6.2f} s")
+    felt_near_rho()
+
+
+def felt_near_rho() -> None:
+    """Part 5: felt_by near the troughs' radius, wall time of one construction each."""
+    import math
+
+    egg, rho = hx.SumOfGratings.egg_crate(0.1e-3, 2e-3), (2e-3) ** 2 / (4 * math.pi**2 * 0.1e-3)
+    k = 2 * np.pi * np.array([(1, 0), (1, 2)]) / 2e-3
+    two = hx.SumOfGratings([40e-6, 30e-6], 2 * np.pi / np.linalg.norm(k, axis=1), np.arctan2(k[:, 1], k[:, 0]),
+                           [0.4, 1.7])
+    for tex, r, what in ((egg, 0.95 * rho, "egg-crate, 0.95 rho"), (egg, 1.04 * rho, "egg-crate, 1.04 rho"),
+                         (two, 0.995 * 0.633e-3, "two gratings, 0.995 rho")):
+        t = time.perf_counter()
+        felt = tex.felt_by(r)
+        print(f"felt_by, {what:<24} {time.perf_counter() - t:6.2f} s  ({felt.x.size} x {felt.y.size})")
 
 
 if __name__ == "__main__":
-    main()
+    if sys.argv[1:] == ["felt"]:
+        felt_near_rho()
+    else:
+        main()
