@@ -2291,10 +2291,11 @@ def _refine_contacts(texture, P, u, lo, hi, r, rim, tol):
     for it in range(CONTACT_NEWTON_STEPS):
         ua, Pa, la, ha = (np.take(a, act, axis=0) for a in (u, P, lo, hi))
         d = deriv(Pa + ua)  # h, h_x, h_y, h_xx, h_xy, h_yy
-        s2 = np.maximum(r * r - np.einsum("ij,ij->i", ua, ua), (r - rim) * r)
+        left = r * r - np.einsum("ij,ij->i", ua, ua)  # (r^2 - |u|^2)
+        s2 = np.maximum(left, (r - rim) * r)
         sq = np.sqrt(s2)
         if it == 0:
-            gu[act] = d[:, 0] + np.sqrt(np.maximum(r * r - np.einsum("ij,ij->i", ua, ua), 0.0))
+            gu[act] = d[:, 0] + np.sqrt(np.maximum(left, 0.0))
         ga = gu[act]
         g0 = d[:, 1] - ua[:, 0] / sq
         g1 = d[:, 2] - ua[:, 1] / sq
