@@ -110,8 +110,8 @@ def felt_near_rho() -> None:
     k = 2 * np.pi * np.array([(1, 0), (1, 2)]) / 2e-3
     two = hx.SumOfGratings([40e-6, 30e-6], 2 * np.pi / np.linalg.norm(k, axis=1), np.arctan2(k[:, 1], k[:, 0]),
                            [0.4, 1.7])
-    for tex, r, what in ((egg, 0.95 * rho, "egg-crate, 0.95 rho"), (egg, 1.04 * rho, "egg-crate, 1.04 rho"),
-                         (two, 0.995 * 0.633e-3, "two gratings, 0.995 rho")):
+    for tex, r, what in ((egg, 0.95 * rho, "egg-crate, 0.95 rho"), (egg, 0.999 * rho, "egg-crate, 0.999 rho"),
+                         (egg, 1.04 * rho, "egg-crate, 1.04 rho"), (two, 0.995 * 0.633e-3, "two gratings, 0.995 rho")):
         t = time.perf_counter()
         felt = tex.felt_by(r)
         print(f"felt_by, {what:<24} {time.perf_counter() - t:6.2f} s  ({felt.x.size} x {felt.y.size})")

@@ -2716,7 +2716,7 @@ of its 4 largest samples 156,150 and 157,753, -1.1 and -0.10 %: the spike's ridg
 it past a cell from where the samples sit on its flanks)."""
 
 
-def _path_top(texture, m, r):
+def _path_top(texture, m, r, starts=None):
     """The ball path's largest curvature (1/m) near a felt map's samples of it (:func:`_felt_misses`'
     dict ``m``): its samples' largest, climbed from the PATH_TOP_STARTS largest by
     :func:`haptex._maximise.refine` (L-BFGS-B) over their contact points, within PATH_TOP_REACH
@@ -2726,28 +2726,34 @@ def _path_top(texture, m, r):
     and the path's Hessian there is :func:`_path_hessian`'s at that contact: a smooth function of
     q, evaluated in closed form (no contact searched), whose sup over q is the path's over p.
     Where the spike is narrower than the cells the samples see its sides only; any point's value
-    bounds the sup from below, so the climbed is the nearer."""
+    bounds the sup from below, so the climbed is the nearer. ``starts``: the samples to climb
+    from (indices into ``m``'s), the PATH_TOP_STARTS largest by default. Returns (the largest,
+    its contact point (2,) (m), or None where no sample curves, and each start's climbed
+    (value, contact point) in turn)."""
     cur, norms = m["map"], np.nan_to_num(m["norms"], nan=0.0, posinf=0.0, neginf=0.0)
     pts = m["touches"]  # (norms' contact points)
     nx, ny = cur.x.size, cur.y.size
     wx, wy = cur._widths()
     best = float(norms.max())
     if not best > 0:
-        return best
+        return best, None, []
+    place, climbed = pts[int(np.argmax(norms))], []
 
     def curvature(q):  # (n, 2) contact points -> the path's curvature over them (n,)
         return np.nan_to_num(_hessian_norm(_resting(texture, q, r)[1]), nan=0.0)
 
-    for k in np.argsort(norms)[-PATH_TOP_STARTS:]:
+    for k in np.argsort(norms)[-PATH_TOP_STARTS:] if starts is None else starts:
         i, j = divmod(int(k) % (nx * ny), ny)
         start, scale = pts[k], np.array([wx[i], wy[j]])
 
         def neg(v, start=start, scale=scale):  # (n, 2) steps about the sample's contact, in its cell's widths
             return -curvature(start + v * scale) / best
 
-        found, _ = refine(neg, np.zeros(2), None, [(-PATH_TOP_REACH, PATH_TOP_REACH)] * 2, ftol=1e-16, gtol=1e-13)
-        best = max(best, found * best)
-    return best
+        found, v = refine(neg, np.zeros(2), None, [(-PATH_TOP_REACH, PATH_TOP_REACH)] * 2, ftol=1e-16, gtol=1e-13)
+        climbed.append((found * best, start + np.asarray(v) * scale))
+        if found > 1.0:
+            best, place = climbed[-1]
+    return best, place, climbed
 
 
 def _climbed(texture, m, r):
@@ -2760,7 +2766,7 @@ def _climbed(texture, m, r):
 def _with_path_top(texture, m, r):
     """:func:`_felt_misses`' dict ``m`` with the path's largest curvature climbed (:func:`_path_top`)
     and the misses that read it, ``truth``, ``curved`` and ``peak``, made again against it."""
-    return _with_truth(m, _path_top(texture, m, r))
+    return _with_truth(m, _path_top(texture, m, r)[0])
 
 
 def _with_truth(m, top):
@@ -2853,7 +2859,10 @@ r / rho) um wide across each trough's line: at 0.99 times their radius rho the t
 357 with cells from 60 nm, meets the slack (q of C +0.85 %); at 0.995 the fourth, 450 x 450
 (+0.89 %); at 0.999 none, the third, 424 x 424 with cells from 15 nm, kept (+1.76 %, its
 peak_miss 1.75 %), the fourth and a fifth (with six tries) missing more (4.1 and 6.0 %, cells
-of 9 and 6 nm))."""
+of 9 and 6 nm)). Since 2026-11-30 the axes are also fine about the path's climbed tops
+(:func:`_top_intervals`, GRADED_TOP_CELLS): the first graded map meets the slack at 0.99, 0.995
+and 0.999 times, 359, 374 and 448 a side with cells from 46, 9.5 and 1.0 nm, q of C +0.62, +0.73
+and +0.38 %."""
 
 GRADED_SAMPLES = 1024 * 1024
 """The most nodes a felt map on graded axes may have (:func:`_graded_refined`; a uniform map's
@@ -2966,6 +2975,92 @@ def _hot_intervals(texture, m, cur, r):
     return out
 
 
+GRADED_TOP_CELLS = 10
+"""A graded axis's cells about the path's climbed top (:func:`_top_intervals`) are the spike's
+half-width there along the axis divided by this (chosen: the patches' curvature is linear
+across a cell, so the map's largest sits at a node within half a cell of the top, where a
+spike K / (1 + (d / w)^2) has fallen by (h / 2w)^2, 0.25 % at w / 10, and their curvature at
+the nodes misses by about h^2 K'' / 12, 0.2 % more; measured 2026-11-30 on the egg-crate at
+0.999 times its bowls' radius, the spike at a saddle 10 nm wide: see GRADED_TRIES)."""
+
+GRADED_TOP_ANGLE = 1e-3
+"""The most (rad) the direction across which the path's curvature spikes at its top may turn
+from an axis for :func:`_top_intervals` to grade the axes about it (chosen: a band of
+GRADED_TOP_REACH half-widths holds the spike's ridge, along which it stays within 1 % of its top
+for about 2.6 um on the egg-crate at 0.999 times its bowls' radius, where the ridge is 10 nm
+wide, only within about a milliradian; on two gratings at 63 deg, whose ridge runs at an angle
+to both axes, such bands made q of C at 0.9975 times their tightest radius +3.1 % where the map
+stated 8.3 %, 2026-11-30: none made there)."""
+
+GRADED_TOP_STARTS = 16
+"""How many of a uniform felt map's samples of the path's curvature within GRADED_HOT of their
+largest, PATH_TOP_REACH cells apart, :func:`_top_intervals` climbs from (chosen: the egg-crate's
+spikes top at its bowls and at both saddles of each turned cell, at one value)."""
+
+GRADED_TOP_REACH = 3
+"""How many of the spike's half-widths either side of the path's climbed top a graded axis's
+cells are GRADED_TOP_CELLS times finer than it (:func:`_top_intervals`; chosen: at 3 half-widths
+the spike has fallen to a tenth of its top, below what q reads)."""
+
+
+def _top_intervals(texture, m, r):
+    """Per axis, the intervals (a, b, w) (m) about the ball path's largest curvature, climbed
+    (:func:`_path_top`) from the uniform felt map of :func:`_felt_misses`' dict ``m``, in which a
+    graded axis's cells are w wide: the spike's half-width along the axis through the top (the
+    least offset, on a ladder halving from the map's step to 1e-12 m, either way, where the
+    path's curvature, at contacts refined on the surface, :func:`_smooth_contacts`, has fallen
+    to half the top's) over GRADED_TOP_CELLS, within GRADED_TOP_REACH half-widths either side;
+    none along an axis where it does not fall to half within a step (the hot intervals'
+    cells, :func:`_hot_intervals`, are fine enough there), nor where the path does not curve,
+    nor about a top whose spike runs across neither axis (GRADED_TOP_ANGLE). The tops: climbed
+    from the samples within GRADED_HOT of the largest, PATH_TOP_REACH cells apart (at most
+    GRADED_TOP_STARTS), each kept within GRADED_HOT of the highest.
+    Near the troughs' radius the spike is narrower than the hot intervals' finest cells: on the
+    egg-crate at 0.999 times its bowls' radius 10 nm wide at its saddles, cells of 15 to 31 nm
+    read the map's largest curvature +1.75 %, of 9 to 21 nm +4.1 % (2026-11-30)."""
+    cur, out = m["map"], [[], []]
+    norms = np.nan_to_num(m["norms"], nan=0.0, posinf=0.0, neginf=0.0)
+    nx, ny = cur.x.size, cur.y.size
+    # (the climbs' starts: the samples within GRADED_HOT of the largest, the largest first, each
+    # more than PATH_TOP_REACH cells from every one before it, at most GRADED_TOP_STARTS)
+    starts, taken = [], []
+    for k in np.argsort(norms)[::-1]:
+        if norms[k] < (1 - GRADED_HOT) * norms.max() or len(starts) == GRADED_TOP_STARTS:
+            break
+        ij = np.array(divmod(int(k) % (nx * ny), ny))
+        d = np.abs(np.array(taken) - ij) if taken else np.zeros((0, 2))
+        d = np.minimum(d, np.array([nx, ny]) - d)  # (periodic)
+        if not np.any(np.all(d <= PATH_TOP_REACH, axis=1)):
+            starts.append(int(k))
+            taken.append(ij)
+    top, _, climbed = _path_top(texture, m, r, starts)
+    if not top > 0:
+        return out
+    for value, q in climbed:
+        if value < (1 - GRADED_HOT) * top:
+            continue
+        u, hq = _resting(texture, np.asarray(q)[None], r)
+        p = np.asarray(q) - u[0]  # (the ball's centre over the top's contact)
+        across = _across(np.nan_to_num(hq))[0]
+        for axis, (step, start, period) in enumerate(((cur.dx, cur.x[0], cur._size[0]),
+                                                       (cur.dy, cur.y[0], cur._size[1]))):
+            if across[axis] < math.cos(GRADED_TOP_ANGLE) and across[1 - axis] < math.cos(GRADED_TOP_ANGLE):
+                break  # (a spike across neither axis: a band about its top would not hold its ridge)
+            ladder = step * 0.5 ** np.arange(int(math.ceil(math.log2(step / 1e-12))) + 1)
+            e = np.zeros(2)
+            e[axis] = 1.0
+            P = p + np.concatenate([ladder, -ladder])[:, None] * e
+            uc, _ = _smooth_contacts(texture, cur, P, r, 1e-3 * float(ladder[-1]))
+            k = np.nan_to_num(_hessian_norm(_path_hessian(texture, P, uc, r, sound=0.0)), nan=np.inf)
+            low = np.concatenate([ladder, ladder])[k <= 0.5 * value]
+            if low.size == 0:
+                continue
+            w = float(low.min())
+            at = start + float(np.mod(p[axis] - start, period))
+            out[axis].append((at - GRADED_TOP_REACH * w, at + GRADED_TOP_REACH * w, w / GRADED_TOP_CELLS))
+    return out
+
+
 def _graded_axis(intervals, start, period, widest):
     """Knots (n + 1,) of a periodic axis from ``start`` over ``period`` (m): cells no wider than
     w within each of ``intervals`` (a, b, w) (m, taken modulo the period), away from them as wide
@@ -2997,8 +3092,9 @@ def _graded_refined(texture, felt, m, r):
     """A periodic felt map on axes graded about where the path's curvature is hottest
     (:func:`_hot_intervals` on the uniform map of :func:`_felt_misses`' dict ``m``), for a
     surface the ball cannot bridge: cells up to GRADED_BASE times the uniform grid's step, there
-    as much finer than it as its miss says (the h^2 law: to REFINE_AIM CURVATURE_SLACK / 2) and
-    halved up to GRADED_TRIES times while the largest curvature's miss (``peak``) passes
+    as much finer than it as its miss says (the h^2 law: to REFINE_AIM CURVATURE_SLACK / 2), and
+    about the path's climbed tops a tenth of the spike's half-width (:func:`_top_intervals`); the
+    former made finer up to GRADED_TRIES times (GRADED_STEP) while the largest curvature's miss (``peak``) passes
     CURVATURE_SLACK, within GRADED_SAMPLES nodes; its nodes' contacts from the uniform
     map's gradients refined on the surface (:func:`_smooth_contacts`), its heights, gradients
     and twists the path's own (:func:`_felt_on`). The :func:`_felt_misses` dicts of the maps
@@ -3009,12 +3105,13 @@ def _graded_refined(texture, felt, m, r):
     hot = _hot_intervals(texture, m, cur, r)
     if not hot[0] or not hot[1]:
         return []
+    tops = _top_intervals(texture, m, r)
     made = []
     for _ in range(GRADED_TRIES):
         kx, ky = (_graded_axis([(a, b, step * f if fixed else min(shrink * step * f, GRADED_BASE * step))
-                                for a, b, f, fixed in spans], start, period, GRADED_BASE * step)
-                  for spans, start, period, step in ((hot[0], cur.x[0], cur._size[0], cur.dx),
-                                                     (hot[1], cur.y[0], cur._size[1], cur.dy)))
+                                for a, b, f, fixed in spans] + top, start, period, GRADED_BASE * step)
+                  for spans, top, start, period, step in ((hot[0], tops[0], cur.x[0], cur._size[0], cur.dx),
+                                                          (hot[1], tops[1], cur.y[0], cur._size[1], cur.dy)))
         if (kx.size - 1) * (ky.size - 1) > GRADED_SAMPLES:
             break
         x, y = kx[:-1], ky[:-1]
