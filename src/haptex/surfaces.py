@@ -2988,7 +2988,8 @@ GRADED_TOP_ANGLE = 1e-3
 from an axis for :func:`_top_intervals` to grade the axes about it (chosen: a band of
 GRADED_TOP_REACH half-widths holds the spike's ridge, along which it stays within 1 % of its top
 for about 2.6 um on the egg-crate at 0.999 times its bowls' radius, where the ridge is 10 nm
-wide, only within about a milliradian; on two gratings at 63 deg, whose ridge runs at an angle
+wide, only while the ridge turns from the axis by less than 30 nm / 2.6 um, about 10 mrad: a
+tenth of that allowed; on two gratings at 63 deg, whose ridge runs at an angle
 to both axes, such bands made q of C at 0.9975 times their tightest radius +3.1 % where the map
 stated 8.3 %, 2026-11-30: none made there)."""
 
@@ -3094,8 +3095,8 @@ def _graded_refined(texture, felt, m, r):
     surface the ball cannot bridge: cells up to GRADED_BASE times the uniform grid's step, there
     as much finer than it as its miss says (the h^2 law: to REFINE_AIM CURVATURE_SLACK / 2), and
     about the path's climbed tops a tenth of the spike's half-width (:func:`_top_intervals`); the
-    former made finer up to GRADED_TRIES times (GRADED_STEP) while the largest curvature's miss (``peak``) passes
-    CURVATURE_SLACK, within GRADED_SAMPLES nodes; its nodes' contacts from the uniform
+    former made finer up to GRADED_TRIES times (GRADED_STEP) while the largest curvature's miss
+    (``peak``) passes CURVATURE_SLACK, within GRADED_SAMPLES nodes; its nodes' contacts from the uniform
     map's gradients refined on the surface (:func:`_smooth_contacts`), its heights, gradients
     and twists the path's own (:func:`_felt_on`). The :func:`_felt_misses` dicts of the maps
     made, as each states its misses (:func:`_climbed`); none where no graded grid is within the
