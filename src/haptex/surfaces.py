@@ -2728,16 +2728,16 @@ def _path_top(texture, m, r, starts=None):
     Where the spike is narrower than the cells the samples see its sides only; any point's value
     bounds the sup from below, so the climbed is the nearer. ``starts``: the samples to climb
     from (indices into ``m``'s), the PATH_TOP_STARTS largest by default. Returns (the largest,
-    its contact point (2,) (m), or None where no sample curves, and each start's climbed
-    (value, contact point) in turn)."""
+    and each start's climbed (value, contact point (2,) (m)) in turn, none where no sample
+    curves)."""
     cur, norms = m["map"], np.nan_to_num(m["norms"], nan=0.0, posinf=0.0, neginf=0.0)
     pts = m["touches"]  # (norms' contact points)
     nx, ny = cur.x.size, cur.y.size
     wx, wy = cur._widths()
     best = float(norms.max())
     if not best > 0:
-        return best, None, []
-    place, climbed = pts[int(np.argmax(norms))], []
+        return best, []
+    climbed = []
 
     def curvature(q):  # (n, 2) contact points -> the path's curvature over them (n,)
         return np.nan_to_num(_hessian_norm(_resting(texture, q, r)[1]), nan=0.0)
@@ -2751,9 +2751,8 @@ def _path_top(texture, m, r, starts=None):
 
         found, v = refine(neg, np.zeros(2), None, [(-PATH_TOP_REACH, PATH_TOP_REACH)] * 2, ftol=1e-16, gtol=1e-13)
         climbed.append((found * best, start + np.asarray(v) * scale))
-        if found > 1.0:
-            best, place = climbed[-1]
-    return best, place, climbed
+        best = max(best, found * best)
+    return best, climbed
 
 
 def _climbed(texture, m, r):
@@ -3024,9 +3023,9 @@ def _top_intervals(texture, m, r):
     nx, ny = cur.x.size, cur.y.size
     # (the climbs' starts: the samples within GRADED_HOT of the largest, the largest first, each
     # more than PATH_TOP_REACH cells from every one before it, at most GRADED_TOP_STARTS)
-    starts, taken = [], []
+    starts, taken, hot = [], [], (1 - GRADED_HOT) * norms.max()
     for k in np.argsort(norms)[::-1]:
-        if norms[k] < (1 - GRADED_HOT) * norms.max() or len(starts) == GRADED_TOP_STARTS:
+        if norms[k] < hot or len(starts) == GRADED_TOP_STARTS:
             break
         ij = np.array(divmod(int(k) % (nx * ny), ny))
         d = np.abs(np.array(taken) - ij) if taken else np.zeros((0, 2))
@@ -3034,7 +3033,7 @@ def _top_intervals(texture, m, r):
         if not np.any(np.all(d <= PATH_TOP_REACH, axis=1)):
             starts.append(int(k))
             taken.append(ij)
-    top, _, climbed = _path_top(texture, m, r, starts)
+    top, climbed = _path_top(texture, m, r, starts)
     if not top > 0:
         return out
     for value, q in climbed:
@@ -3042,11 +3041,10 @@ def _top_intervals(texture, m, r):
             continue
         u, hq = _resting(texture, np.asarray(q)[None], r)
         p = np.asarray(q) - u[0]  # (the ball's centre over the top's contact)
-        across = _across(np.nan_to_num(hq))[0]
+        if _across(np.nan_to_num(hq))[0].max() < math.cos(GRADED_TOP_ANGLE):
+            continue  # (a spike across neither axis: a band about its top would not hold its ridge)
         for axis, (step, start, period) in enumerate(((cur.dx, cur.x[0], cur._size[0]),
                                                        (cur.dy, cur.y[0], cur._size[1]))):
-            if across[axis] < math.cos(GRADED_TOP_ANGLE) and across[1 - axis] < math.cos(GRADED_TOP_ANGLE):
-                break  # (a spike across neither axis: a band about its top would not hold its ridge)
             ladder = step * 0.5 ** np.arange(int(math.ceil(math.log2(step / 1e-12))) + 1)
             e = np.zeros(2)
             e[axis] = 1.0
