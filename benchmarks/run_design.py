@@ -13,7 +13,8 @@
 5. felt maps refined for the ball path's curvature near the troughs' radius rho (issue 67):
    the egg-crate (0.1 mm at 2 mm) at 0.95 rho (graded axes) and 1.04 rho (bridged: branched
    cells), two gratings at 63 deg (40 and 30 um, 2 mm and 0.89 mm) at 0.995 times their
-   tightest radius (0.633 mm; the uniform grids to their cap). ``python
+   tightest radius (0.633 mm; the uniform grids to their cap) and at 1.2 times (bridged along
+   creases at an angle to the axes: each refined grid's branches made both ways). ``python
    benchmarks/run_design.py felt`` runs this part alone.
 """
 
@@ -111,7 +112,8 @@ def felt_near_rho() -> None:
     two = hx.SumOfGratings([40e-6, 30e-6], 2 * np.pi / np.linalg.norm(k, axis=1), np.arctan2(k[:, 1], k[:, 0]),
                            [0.4, 1.7])
     for tex, r, what in ((egg, 0.95 * rho, "egg-crate, 0.95 rho"), (egg, 0.999 * rho, "egg-crate, 0.999 rho"),
-                         (egg, 1.04 * rho, "egg-crate, 1.04 rho"), (two, 0.995 * 0.633e-3, "two gratings, 0.995 rho")):
+                         (egg, 1.04 * rho, "egg-crate, 1.04 rho"), (two, 0.995 * 0.633e-3, "two gratings, 0.995 rho"),
+                         (two, 1.2 * 0.633e-3, "two gratings, 1.2 rho")):
         t = time.perf_counter()
         felt = tex.felt_by(r)
         print(f"felt_by, {what:<24} {time.perf_counter() - t:6.2f} s  ({felt.x.size} x {felt.y.size})")
