@@ -3239,22 +3239,24 @@ def _bridged_refined(texture, felt, r):
     curvature is largest; and its Hessian at those centres against the path's), within
     CURVATURE_REFINE_SAMPLES. Each finer grid's contacts start from the last map's
     (:func:`_bridged_contacts`: no dilation), its edges, kinks and branched cells made as the
-    first's (:func:`_contact_edges`), and where that misses by more than the slack, made again
-    with the hidden branches' corners from their neighbours' Taylor polynomials
-    (:func:`_branch_patches`' ``fold``), the one that misses less going on (two gratings at 1.2
-    times their tightest radius: 60 and 56.5 % on 344 x 176 and 688 x 352 the first way, 1.8 and
-    1.05 % the second; the egg-crate's bowls at 1.1 times their radius 13.7 % on 58 x 58 the
-    first way, 121 % the second, which left 116 and 232 a side unbranched or too steep, where the
-    first went on to 0.70 % on 464 x 464; 2026-11-30); a grid that leaves a cell beside a kink
-    unbranched or is steeper than the surface (STEEP_SLACK) both ways ends the refinement. The
-    first grid within the slack is kept, else the one that missed least, with ``felt``'s
-    shortest period."""
+    first's (:func:`_contact_edges`); where the first finer grid misses by more than the slack,
+    it is made again with the hidden branches' corners from their neighbours' Taylor polynomials
+    (:func:`_branch_patches`' ``fold``), the one that misses less going on and its way alone on
+    the finer grids (two gratings at 1.2 times their tightest radius: 676 % on 86 x 44 the first
+    way, 11 % the second, then 2.2, 1.8 and 1.05 % on 172 x 88, 344 x 176 and 688 x 352, where
+    the first way, made on each, read 270, 60 and 56.5 %; the egg-crate's bowls at 1.1 times
+    their radius 13.7 % on 58 x 58 the first way, 121 % the second, which also left 116 and 232
+    a side unbranched or too steep, where the first went on to 0.70 % on 464 x 464; 2026-11-30);
+    a grid that leaves a cell beside a kink unbranched or is steeper than the surface
+    (STEEP_SLACK) every way made ends the refinement. The first grid within the slack is kept,
+    else the one that missed least, with ``felt``'s shortest period."""
     if 2 * felt.x.size * felt.y.size > CURVATURE_REFINE_SAMPLES or felt._gradients is None:
         return felt
     best = None
     cur = felt
     bound = texture.max_slope * (1 + STEEP_SLACK)
     miss, rows, truth = _bridged_miss(texture, cur, r)
+    ways = (False, True)  # (without and with _branch_patches' fold)
     while True:
         if best is None or miss < best[0]:
             best = (miss, cur)
@@ -3265,10 +3267,11 @@ def _bridged_refined(texture, felt, r):
             return best[1]
         x, y, P, dx, dy = _finer_grid(cur, nx, ny)
         u0, c0 = _bridged_contacts(texture, cur, P.reshape(-1, 2), r)
-        tried = []
-        for fold in (False, True):  # (the branches' data both ways where the first misses: _branch_patches)
+        tried, made = [], 0
+        for fold in ways:
             if tried and tried[0][0] <= CURVATURE_SLACK:
                 break
+            made += 1
             u, c = u0.reshape(nx, ny, 2).copy(), c0.reshape(nx, ny).copy()
             hf, grads, edges, kinks, branches = _contact_paths(texture, x, y, P, u, c, r, r * (1 - 1e-9), True,
                                                                 own_twists=True, fold=fold)
@@ -3277,11 +3280,13 @@ def _bridged_refined(texture, felt, r):
                                    source=f"{felt.source}, refined to {nx} x {ny} for its curvature")
             finer._edges, finer._branches, finer.kinks = edges, branches, kinks
             if _single_kink_cells(finer) == 0 and finer.max_slope <= bound:
-                tried.append((*_bridged_miss(texture, finer, r), finer))
+                tried.append((*_bridged_miss(texture, finer, r), finer, fold))
         if not tried:
             best[1].curvature_miss = best[1].peak_miss = float(best[0])
             return best[1]  # (a grid that cannot be branched, or overshoots: the coarser stand)
-        miss, rows, truth, cur = min(tried, key=lambda t: t[0])
+        miss, rows, truth, cur, folded = min(tried, key=lambda t: t[0])
+        if made == 2:  # (the way that did better alone on the finer grids)
+            ways = (folded,)
 
 
 def _may_bridge(texture, r) -> bool:
