@@ -888,7 +888,7 @@ def test_q_on_a_felt_map_above_the_troughs_radius_is_the_paths(name, rel_r):
     # neighbour's second-order Taylor polynomial (surfaces._branch_patches' fold, tried where the
     # first way misses): +0.05, -0.02, +0.05 % (688 x 352, stated 1.05 %; failed before). The
     # oracle there took the lower branch within ~300 nm of the crease (the brute force's grid
-    # error), reading C 7.99 for 7.85, until its rival branch was polished too. 20-40 s a case
+    # error), reading C 7.99 for 7.85, until its rival branch was polished too. 20-70 s a case
     tex, h, grad, cell, rho = AREAL_CASES[name]
     rho = rho or _TIGHTEST[name]()
     truth = _areal_path_q(h, grad, cell, rel_r * rho, letters="BCG")

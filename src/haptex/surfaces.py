@@ -3552,9 +3552,9 @@ def _branch_patches(texture, x, y, u, grads, twist, r, rim, periodic, c, ex, ey,
     BRANCH_CELLS candidate cells. With ``fold`` (a periodic map), a corner where the branch is
     hidden (another contact higher there) or not there (past its fold) takes instead the
     second-order Taylor polynomial of the path at its first grid neighbour whose own contact the
-    branch is (_FOLD_NEIGHBOURS): near its fold a hidden branch curves without
-    bound, and a cubic through it misreads the visible side beside the kink; where no neighbour
-    gives one, as without. Returns (None where no cell is branched, else (cells (m,) flat
+    branch is (_FOLD_NEIGHBOURS): near its fold a hidden branch curves without bound, and a cubic
+    through it misreads the visible side beside the kink; where no neighbour gives one, as
+    without. Returns (None where no cell is branched, else (cells (m,) flat
     indices, first (m, 4, 4) each cell's first branch, starts (n_cells + 1,), extra (E, 4, 4) the
     others); and the grid points where a branch stands higher than c: (flat indices, offsets (k,
     2), heights (k,)), or None)."""
