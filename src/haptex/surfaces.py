@@ -3664,15 +3664,15 @@ def _branch_patches(texture, x, y, u, grads, twist, r, rim, periodic, c, ex, ey,
         idx = np.searchsorted(known["key"], uk)[inv]
         return known["at"][idx], known["val"][idx], known["G"][idx], known["T"][idx]
 
-    node_hessians = {}
+    node_hess, node_known = np.empty((nx * ny, 2, 2)), np.zeros(nx * ny, dtype=bool)
 
     def node_hessian(flat):  # the path's Hessian at grid points (flat indices) on their own contacts
-        new = np.setdiff1d(flat, np.fromiter(node_hessians, dtype=np.int64, count=len(node_hessians)))
+        new = np.unique(flat[~node_known[flat]])
         if new.size:
             gi, gj = np.divmod(new, ny)
-            H = _path_hessian(texture, np.column_stack([x[gi], y[gj]]), u[gi, gj], r, sound=0.0)
-            node_hessians.update(zip(new.tolist(), H))
-        return np.array([node_hessians[int(f)] for f in flat]).reshape(-1, 2, 2)
+            node_hess[new] = _path_hessian(texture, np.column_stack([x[gi], y[gj]]), u[gi, gj], r, sound=0.0)
+            node_known[new] = True
+        return node_hess[flat]
 
     def from_neighbour(ni, nj, sa, sb, own, at, val, G, T):
         # with ``fold``, a branch the path hides at the corner (another contact higher there) or
