@@ -1873,6 +1873,8 @@ def test_a_ball_too_wide_for_a_fine_map_names_a_spacing_that_works(monkeypatch):
     # the cap on a dilation's work (2e9 operations, 13 s here) lowered to 1e7 for the test: 200 x
     # 200 samples 1 um apart under a 30 um ball (2,821 footprint points, 1.1e8 operations) are
     # refused, and the spacing the refusal names resamples the map by its spline within the cap
+    # (here at twice the bound: this rough map at the bound itself, 1.9 um, takes 18 s to feel;
+    # the bound taken exactly: test_every_bound_a_refusal_for_work_names_is_a_result_taken_exactly)
     import re
 
     import haptex.probe
@@ -1884,8 +1886,119 @@ def test_a_ball_too_wide_for_a_fine_map_names_a_spacing_that_works(monkeypatch):
     with pytest.raises(ParameterError, match=r"tip_radius = 3e-05 is not allowed here: .* spacing=S\) with S >= ") as e:
         surf.felt_by(30e-6)
     s = float(re.search(r"S >= ([0-9.e+-]+) m", str(e.value)).group(1))
-    felt = surf.felt_by(30e-6, spacing=s * 1.01)
-    assert felt.x[1] - felt.x[0] == pytest.approx(s * 1.01) and "resampled" in felt.source
+    felt = surf.felt_by(30e-6, spacing=s * 2)
+    assert felt.x[1] - felt.x[0] == pytest.approx(s * 2) and "resampled" in felt.source
+
+
+def _ball_points(r, steps):
+    """The grid offsets k * steps (m an axis) inside a ball of radius r (m), counted by numpy:
+    a dilation's work a sample (Serra's structuring element on the grid)."""
+    axes = [np.arange(-int(r // d) - 1, int(r // d) + 2) * d for d in steps]
+    grid = np.meshgrid(*axes, indexing="ij")
+    return int(np.count_nonzero(sum(g * g for g in grid) <= r * r))
+
+
+def _named_bounds(msg):
+    """The bounds a refusal for work names, each as the command line and Python take it (m)."""
+    import re
+
+    from haptex._units import parse_quantity
+
+    out = {}
+    for key, cli, py in (("radius", r"--tip-radius (\S+) or less", r"felt_by\(([0-9.e+-]+)\)"),
+                         ("spacing", r"--tip-spacing (\S+) or more", r"spacing=S\) with S >= ([0-9.e+-]+) m")):
+        a, b = re.search(cli, msg), re.search(py, msg)
+        if a or b:
+            assert a and b, msg
+            out[key] = parse_quantity(a.group(1), "m", key, require_unit=True)
+            assert out[key] == float(b.group(1)), msg  # (the two syntaxes name one double)
+    crop = re.search(r"at most ([0-9,]+) samples", msg)
+    if crop:
+        out["samples"] = int(crop.group(1).replace(",", ""))
+    return out
+
+
+@pytest.mark.parametrize("periodic", [False, True])
+def test_every_bound_a_refusal_for_work_names_is_a_result_taken_exactly(monkeypatch, periodic):
+    # issue 67: every remedy a refusal names gives a result taken exactly at the bound it
+    # states. A ball too wide for a map's grid was refused naming "a smaller radius, a cropped
+    # map, or a coarser grid: felt_by(r, spacing=S) with S >= 2.2e-06 m" (metropro-1.dat under a
+    # 0.1 mm ball): no bound for the radius or the crop, a spacing 1.9 times the smallest that
+    # fits (the work goes as S^-4 on a map, the bound was (work / cap)^(1/2)), and no option at
+    # the command line that takes it. Truth: the refusal's definition, the samples times the
+    # ball's grid points (numpy's count, _ball_points) against the cap, lowered here to 2e6;
+    # walked over a neighbourhood of maps (50-130 samples a side, 1 and 1.5 um apart) and radii
+    # (12-40 um): each bound taken exactly gives a felt map, within the cap, and is the largest
+    # (the smallest spacing) to its 3 significant digits: 1.5 % past it is over the cap
+    import haptex.probe
+
+    cap = 2e6
+    monkeypatch.setattr(haptex.probe, "MAX_DILATION_WORK", cap)
+    for n, m, d, r in ((50, 60, 1e-6, 40e-6), (80, 70, 1e-6, 25e-6), (130, 90, 1.5e-6, 30e-6), (100, 100, 1e-6, 12e-6)):
+        x, y = np.arange(n) * d, np.arange(m) * d
+        h = 2e-8 * np.sin(2 * np.pi * x / (n * d))[:, None] * np.cos(2 * np.pi * y / (m * d))[None, :]
+        surf = hx.SampledSurface(x, y, h, periodic=periodic)
+        assert n * m * _ball_points(r, (d, d)) > cap
+        with pytest.raises(ParameterError) as refused:
+            surf.felt_by(r)
+        msg = str(refused.value)
+        assert msg.startswith(f"tip_radius = {r:g} is not allowed here"), msg
+        said = _named_bounds(msg)
+        a = int(r // d) + 2  # (the fewest samples a side of a part that holds the ball: r within each side)
+        croppable = not periodic and a * a * _ball_points(r, (d, d)) <= cap
+        assert set(said) == {"radius", "spacing"} | ({"samples"} if croppable else set()), msg
+        R = said["radius"]
+        assert n * m * _ball_points(R, (d, d)) <= cap < n * m * _ball_points(R * 1.015, (d, d))
+        assert surf.felt_by(R).x.size == n
+        S = said["spacing"]
+        felt = surf.felt_by(r, spacing=S)
+        steps = (felt.x[1] - felt.x[0], felt.y[1] - felt.y[0])
+        assert min(steps) >= S * (1 - 1e-12) and felt.x.size * felt.y.size * _ball_points(r, steps) <= cap
+        with pytest.raises(ParameterError, match="is not allowed here"):
+            surf.felt_by(r, spacing=S / 1.015)
+        if croppable:  # (a part of the map within it, each side holding the ball)
+            N = said["samples"]
+            assert N * _ball_points(r, (d, d)) <= cap < (N + 1) * _ball_points(r, (d, d))
+            b = min(m, N // a)
+            assert b >= a
+            assert hx.SampledSurface(x[:a], y[:b], h[:a, :b]).felt_by(r).y.size == b
+
+
+@needs_data
+@pytest.mark.long  # (a design at each bound: 18 s)
+def test_at_the_command_line_each_bound_a_refusal_for_work_names_gives_a_design(capsys):
+    # metropro-1.dat (640 x 480 samples 1.1 um apart) under a 0.1 mm ball: 26,045 grid points a
+    # sample, 8e9 operations, past the cap (2e9). The one line named "felt_by(r, spacing=S) with
+    # S >= 2.2e-06 m", which no option of the command line took. Now it names --tip-radius and
+    # --tip-spacing bounds; each taken exactly as written gives a design (exit 0). Truth: the
+    # refusal's definition, numpy's count of the ball's grid points (_ball_points) times the
+    # samples within the cap, and 1.5 % past each bound beyond it
+    import json
+    import re
+
+    from haptex.cli import main
+
+    path = str(DEKTAK.parent / "metropro-1.dat")
+    base = ["design", "--texture", path, "--algorithms", "A", "--quiet"]
+    assert main(base + ["--tip-radius", "0.1mm"]) == 2
+    msg = capsys.readouterr().err
+    assert msg.count("\n") == 1 and msg.startswith("haptex: error: tip_radius = 0.0001 is not allowed here")
+    radius = re.search(r"--tip-radius (\S+) or less", msg).group(1)
+    spacing = re.search(r"--tip-spacing (\S+) or more", msg).group(1)
+    tex = hx.load_texture(path)
+    n, d = tex.x.size * tex.y.size, (tex.x[1] - tex.x[0], tex.y[1] - tex.y[0])
+    R, S = _named_bounds(msg)["radius"], _named_bounds(msg)["spacing"]
+    assert n * _ball_points(R, d) <= 2e9 < n * _ball_points(R * 1.015, d)
+    for bound in (S, S / 1.015):
+        gx, gy = (int(math.floor((a[-1] - a[0]) / bound)) + 1 for a in (tex.x, tex.y))  # (the resampled grid)
+        assert (gx * gy * _ball_points(1e-4, (bound, bound)) <= 2e9) == (bound == S)
+    assert main(base + ["--tip-radius", radius]) == 0
+    capsys.readouterr()
+    assert main(base + ["--tip-radius", "0.1mm", "--tip-spacing", spacing, "--json"]) == 0
+    said = json.loads(capsys.readouterr().out)["felt_by_tip"]
+    assert said["tip_radius"] == 1e-4 and f"resampled at {spacing[:-2]} um" in said["source"]
+    assert main(["design", "--texture", "sine:0.1mm,2mm", "--tip-spacing", "1um", "--quiet"]) == 2  # (no ball)
+    assert "--tip-spacing is not allowed without --tip-radius" in capsys.readouterr().err
 
 
 def test_a_periodic_map_resampled_for_a_ball_keeps_its_cell():

@@ -133,7 +133,7 @@ def _grid_contacts(h: np.ndarray, steps, r: float, periodic: bool):
     offset in samples, one array of h.shape an axis (the first offset in C order on a tie).
     Refused past :data:`MAX_DILATION_WORK`."""
     half = [int(np.floor(r / d)) for d in steps]
-    _check_work(h.size, _footprint_size(r, steps), steps, "tip_radius", r)  # (before the list is made)
+    _check_work(h.size, steps, r, radius=False)  # (before the list is made; the callers name the remedies)
     offs = _footprint(r, steps)
     hp = np.pad(h, [(m, m) for m in half], mode="wrap" if periodic else "edge")
     best = np.full(h.shape, -np.inf)
@@ -182,16 +182,82 @@ def _footprint_size(r: float, steps) -> int:
     return n
 
 
-def _check_work(samples: int, footprint: int, steps, name: str, value) -> None:
-    """Refuse a dilation of more than MAX_DILATION_WORK (samples x footprint points), naming a
-    spacing that fits."""
+def _check_work(samples: int, steps, r: float, *, grid_at=None, radius: bool = True, crop: bool = False,
+                spacing: float | None = None) -> None:
+    """Refuse a dilation of more than MAX_DILATION_WORK (``samples`` x the ball's grid points on
+    a grid of ``steps``, m an axis, a ball of radius r, m), naming each remedy's bound as this
+    count gives it, so that one taken exactly at its bound is not refused again (issue 67): with
+    ``radius``, the largest radius on this grid; with ``crop``, the most samples a part of the map
+    may keep (where a part that holds the ball can: each side at least r); with ``grid_at`` (a
+    spacing S, m, -> (samples, steps) of the grid ``felt_by(r, spacing=S)`` makes), the finest
+    spacing (``spacing``: the one this grid was made at, which a smaller radius keeps). Each bound is rounded to 3 significant digits on its safe side (in um below 1 mm,
+    else mm, as the command line writes it; the same double in Python) and checked again."""
+    footprint = _footprint_size(r, steps)
     work = float(samples) * float(footprint)
-    if work > MAX_DILATION_WORK:
-        scale = (work / MAX_DILATION_WORK) ** (1.0 / len(steps))
-        raise ParameterError(
-            f"{name} = {value:g} is not allowed here: the ball covers {footprint} grid points, "
-            f"{work:.3g} operations over {samples} samples, more than {MAX_DILATION_WORK:.3g}; a smaller radius, a "
-            f"cropped map, or a coarser grid: felt_by(r, spacing=S) with S >= {max(steps) * scale:.3g} m")
+    if work <= MAX_DILATION_WORK:
+        return
+    ways = []
+    if radius and samples <= MAX_DILATION_WORK:  # (a ball of one grid point fits)
+        def fits(v):
+            return float(samples) * _footprint_size(v, steps) <= MAX_DILATION_WORK
+
+        lo, hi = 0.0, r  # (fits(lo), not fits(hi): the ball's grid points grow with its radius)
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if fits(mid) else (lo, mid)
+        value, text = _stated_length(lo, up=False, fits=fits)
+        if value > 0:
+            ways.append(f"a radius of at most {text} on this grid (--tip-radius {text} or less at the command line, "
+                        f"felt_by({value!r}{'' if spacing is None else f', spacing={spacing!r}'}) in Python)")
+    if crop:
+        most = int(MAX_DILATION_WORK // footprint)
+        side = [int(r // d) + 2 for d in steps]  # (samples a side of the smallest part that holds the ball)
+        if int(np.prod(side)) <= most:
+            ways.append(f"a part of the map of at most {most:,} samples, each side at least {r * 1e6:.4g} um long "
+                        "(--crop at the command line, crop= in load_texture)")
+    if grid_at is not None:
+        def fits(v):
+            n, st = grid_at(v)
+            return float(n) * _footprint_size(r, st) <= MAX_DILATION_WORK
+
+        lo = float(max(steps))
+        hi = lo * max(2.0, (work / MAX_DILATION_WORK) ** (1.0 / len(steps)))
+        for _ in range(60):  # (a bracket: the work falls as the spacing grows)
+            if fits(hi):
+                break
+            lo, hi = hi, 2 * hi
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (lo, mid) if fits(mid) else (mid, hi)
+        value, text = _stated_length(hi, up=True, fits=fits)
+        ways.append(f"a coarser grid (--tip-spacing {text} or more at the command line, felt_by(r, spacing=S) with "
+                    f"S >= {value!r} m in Python)")
+    remedy = "; ".join(ways) if ways else "a smaller radius"
+    raise ParameterError(
+        f"tip_radius = {r:g} is not allowed here: the ball covers {footprint} grid points, {work:.3g} operations "
+        f"over {samples} samples, more than {MAX_DILATION_WORK:.3g}; {remedy}")
+
+
+def _stated_length(v: float, up: bool, fits) -> tuple[float, str]:
+    """A length v (m) rounded up (or down) to 3 significant digits as a user writes it: (the
+    double, the command line's text in um below 1 mm, else mm), moved a last digit at a time
+    further to its safe side until ``fits`` holds of the double (0.0 where it cannot be)."""
+    import math
+
+    if not v > 0:
+        return 0.0, "0m"
+    unit, scale = ("um", 1e-6) if v < 1e-3 else ("mm", 1e-3)
+    e = 10.0 ** (math.floor(math.log10(v / scale)) - 2)
+    k = math.ceil(v / scale / e - 1e-9) if up else math.floor(v / scale / e + 1e-9)
+    for _ in range(1000):
+        if k <= 0:
+            return 0.0, "0m"
+        text = f"{k * e:.6g}"
+        value = float(f"{text}e{-6 if unit == 'um' else -3}")
+        if fits(value):
+            return value, text + unit
+        k += 1 if up else -1
+    return 0.0, "0m"
 
 
 def reliability_cutoff(texture, instrument_tip: float) -> float | None:

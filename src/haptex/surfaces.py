@@ -19,7 +19,7 @@ from . import core as _core
 from .core import _ext
 from ._maximise import refine
 from ._validation import ParameterError, check_count, fail, finite, nonnegative, positive, whole
-from .probe import MAX_SAMPLES as MAX_PROBE_SAMPLES, _check_work, _footprint_size, _spacing
+from .probe import MAX_SAMPLES as MAX_PROBE_SAMPLES, _check_work, _spacing
 from .textures import (MAX_HARMONICS, SampledProfile, Texture, _band_limited_samples, _resampled_axis, _vector,
                        common_period)
 
@@ -4021,13 +4021,20 @@ def _surface_grid(texture, r, spacing):
         ext = min(x[-1] - x[0], y[-1] - y[0])
         if not texture.periodic and r > ext:
             raise fail("tip_radius", r, f"at most the map's shorter side, {ext * 1e3:g} mm")
-        if spacing is None:
+
+        def grid_at(v):  # (the grid felt_by(r, spacing=v) makes, as its check below counts it)
+            gx, gy = (_resampled_axis(axis[0], axis[-1], axis[1] - axis[0], v, texture.periodic) for axis in (x, y))
+            return gx.size * gy.size, (v, v)
+
+        if spacing is None:  # (the map's own grid: a smaller radius, a part of it, or a coarser grid)
+            _check_work(x.size * y.size, (float(x[1] - x[0]), float(y[1] - y[0])), r, grid_at=grid_at,
+                        crop=not texture.periodic)
             return x, y, texture.h, texture.periodic, texture.source or "map"
         d = _default_spacing(texture, r, spacing)  # resampled by its spline onto a coarser grid
         grids = [_resampled_axis(axis[0], axis[-1], axis[1] - axis[0], d, texture.periodic) for axis in (x, y)]
         if grids[0].size * grids[1].size > MAX_PROBE_SAMPLES:
             raise fail("spacing", d, f"a spacing giving at most {MAX_PROBE_SAMPLES} samples over the map")
-        _check_work(grids[0].size * grids[1].size, _footprint_size(r, (d, d)), (d, d), "tip_radius", r)
+        _check_work(grids[0].size * grids[1].size, (d, d), r, grid_at=grid_at, spacing=d)
         X, Y = np.meshgrid(*grids, indexing="ij")
         h = texture.height_at(np.stack([X, Y], axis=-1))
         steps = [f"{(g[1] - g[0]) * 1e6:.4g}" for g in grids]  # (d, or a periodic map's dividing its cell)
@@ -4043,7 +4050,13 @@ def _surface_grid(texture, r, spacing):
                    f"({cell[0] * 1e3:g} x {cell[1] * 1e3:g} mm)")
     x, y = np.arange(nx) * (cell[0] / nx), np.arange(ny) * (cell[1] / ny)
     steps = (cell[0] / nx, cell[1] / ny)
-    _check_work(nx * ny, _footprint_size(r, steps), steps, "tip_radius", r)  # (before sampling it)
+
+    def grid_at(v):  # (the grid felt_by(r, spacing=v) makes)
+        mx, my = (int(math.ceil(c / v)) for c in cell)
+        return mx * my, (cell[0] / mx, cell[1] / my)
+
+    # (before sampling it; at the default spacing, which follows r, a smaller radius is no remedy)
+    _check_work(nx * ny, steps, r, grid_at=grid_at, radius=spacing is not None, spacing=spacing)
     X, Y = np.meshgrid(x, y, indexing="ij")
     h = texture.height_at(np.stack([X, Y], axis=-1))
     return x, y, h, True, f"{type(texture).__name__} sampled at {cell[0] / nx * 1e6:.3g} um"

@@ -14,7 +14,7 @@ from functools import cached_property
 import numpy as np
 
 from .core import _ext
-from .probe import MAX_SAMPLES as MAX_PROBE_SAMPLES, _grid_contacts, _spacing
+from .probe import MAX_SAMPLES as MAX_PROBE_SAMPLES, _check_work, _grid_contacts, _spacing
 from ._validation import MAX_LENGTH, ParameterError, check_count, fail, finite, nonnegative, positive, whole
 
 
@@ -142,7 +142,7 @@ class Texture:
         shortest = None  # (the first grid's, once refined)
         while (spacing is None and PROFILE_CURVATURE_SLACK < miss < math.inf
                and 2 * x.size <= PROFILE_REFINE_SAMPLES):  # (infinite: a grid point at a fold, on every grid)
-            finer = _profile_grid(self, r, 0.5 * float(x[1] - x[0]))
+            finer = _profile_grid(self, r, 0.5 * float(x[1] - x[0]), followed=True)
             more = _contact_path(self, finer[0], finer[1], r, finer[2], seed=(x, contact))
             if shortest is None:
                 shortest = self.shortest_period if isinstance(self, SampledProfile) else 2.0 * float(x[1] - x[0])
@@ -1554,15 +1554,28 @@ def _resampled_axis(first, last, step, d, periodic):
     return first + np.arange(max(4, int(math.floor((last - first) / d)) + 1)) * d
 
 
-def _profile_grid(texture, r, spacing):
+def _profile_grid(texture, r, spacing, followed=False):
+    """(x, heights, periodic, source) of the grid a profile is felt on at ``spacing`` (m; None:
+    a sampled profile's own, an analytic one's default), refused past the dilation's work
+    (:func:`haptex.probe._check_work`, naming its bounds) unless ``followed``: a refinement's
+    grid, whose contacts are followed from the last grid's, no dilation made."""
     if isinstance(texture, SampledProfile):
         if not texture.periodic and r > (texture.x[-1] - texture.x[0]):
             raise fail("tip_radius", r, f"at most the profile's length, {(texture.x[-1] - texture.x[0]) * 1e3:g} mm")
+
+        def grid_at(v):  # (the grid felt_by(r, spacing=v) makes)
+            g = _resampled_axis(texture.x[0], texture.x[-1], texture.dx, v, texture.periodic)
+            return g.size, (float(g[1] - g[0]),)
+
         if spacing is None:
+            if not followed:
+                _check_work(texture.x.size, (float(texture.dx),), r, grid_at=grid_at, crop=not texture.periodic)
             return texture.x, texture.h, texture.periodic, texture.source or "profile"
         dx = _spacing(texture, r, spacing, 256, 32)  # resampled by its spline onto a coarser grid
         x = _resampled_axis(texture.x[0], texture.x[-1], texture.dx, dx, texture.periodic)
         step = float(x[1] - x[0])
+        if not followed:
+            _check_work(x.size, (step,), r, grid_at=grid_at, spacing=dx)
         return x, texture.height(x), texture.periodic, f"{texture.source or 'profile'} resampled at {step * 1e6:.4g} um"
     period = texture.period
     if period is None:
@@ -1572,5 +1585,13 @@ def _profile_grid(texture, r, spacing):
     n = int(math.ceil(period / dx))
     if n > MAX_PROBE_SAMPLES:
         raise fail("spacing", dx, f"at least {period / MAX_PROBE_SAMPLES:g} m ({MAX_PROBE_SAMPLES} samples a period)")
+
+    def grid_at(v):  # (the grid felt_by(r, spacing=v) makes)
+        k = int(math.ceil(period / v))
+        return k, (period / k,)
+
+    # (before sampling it; at the default spacing, which follows r, a smaller radius is no remedy)
+    if not followed:
+        _check_work(n, (period / n,), r, grid_at=grid_at, radius=spacing is not None, spacing=spacing)
     x = np.arange(n) * (period / n)
     return x, texture.height(x), True, f"{type(texture).__name__} sampled at {period / n * 1e6:.3g} um"

@@ -85,9 +85,15 @@ def _parse_path(text: str, d: int = 2):
 
 
 def _felt_options(verb: str):
-    """``--crop`` and ``--tip-radius``, the same for every command that takes a measured texture
-    (design, export, run); ``verb`` says what the command does with the texture it feels."""
+    """``--crop``, ``--tip-radius`` and ``--tip-spacing``, the same for every command that takes a
+    measured texture (design, export, run); ``verb`` says what the command does with the texture
+    it feels."""
     def deco(func):
+        func = click.option("--tip-spacing", type=Quantity("m"), default=None,
+                            help="With --tip-radius: the grid spacing of the felt map, e.g. '2um' (a measured map "
+                                 "resampled by its spline; default: its own samples, or a 16th of the ball and of the "
+                                 "shortest period of a synthetic texture); a refusal for work names the finest that "
+                                 "fits.")(func)
         func = click.option("--tip-radius", type=Quantity("m"), default=0.0, show_default="0: a point probe",
                             help="Radius of the ball the texture is touched with, e.g. '0.5mm': the texture it feels "
                                  f"(the map dilated by the ball) is {verb}.")(func)

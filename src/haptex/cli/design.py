@@ -8,7 +8,7 @@ from pathlib import Path
 
 import click
 
-from .._specs import object_from_spec, texture_from_spec as _texture_from_spec
+from .._specs import check_tip_spacing, object_from_spec, texture_from_spec as _texture_from_spec
 from .._validation import ParameterError
 from ..design import TIME_BUDGET
 from ..surfaces import CURVATURE_SLACK
@@ -74,7 +74,7 @@ without D and E, whose closest-point searches dominate on large maps."""
 @click.pass_context
 def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, sampling_period, delay, stiffness, speed,
            max_penetration, spacing, x_unit, height_unit, level, lowpass, scale, periodic, window, fill_undefined, crop,
-           tip_radius, instrument_tip, raw, object_spec, uv_scale, vertex_normals, algorithms, time_budget, hand,
+           tip_radius, tip_spacing, instrument_tip, raw, object_spec, uv_scale, vertex_normals, algorithms, time_budget, hand,
            report_dir, force, as_json, quiet):
     """Which algorithm, how stiff, will it be passive, can the device render it?
 
@@ -85,6 +85,7 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
     from ..design import design as run_design
 
     hand = _hand(hand)  # a misspelt hand before the texture is read
+    check_tip_spacing(tip_radius, tip_spacing)
     with _Spinner("reading the texture", quiet or as_json):
         tex = _texture_from_spec(texture_spec, spacing, x_unit, height_unit, level, lowpass, scale, periodic,
                                  fill_undefined, crop)
@@ -105,7 +106,7 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
     if tip_radius:
         with _Spinner(f"rolling a ball of {tip_radius * 1e3:g} mm over the texture", quiet or as_json):
             point = tex
-            tex = tex.felt_by(tip_radius)
+            tex = tex.felt_by(tip_radius, spacing=tip_spacing)
         import numpy as np
 
         kinks = np.asarray(getattr(tex, "kinks", np.zeros((0, 2))))

@@ -62,7 +62,7 @@ from ._common import (Quantity, STABILISERS, _budget_needs_models, _check_plot_p
 @click.option("--quiet", is_flag=True, help="No live dashboard.")
 @_core_blas_held  # BLAS in the set-up (a preset's matrices, a slope bound) wakes no worker to spin beside the loop
 def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration, passivity_control, stabiliser, hand,
-               speed, fast, object_spec, uv_scale, tip_radius, crop, record, vibration_models, vibration_budget,
+               speed, fast, object_spec, uv_scale, tip_radius, tip_spacing, crop, record, vibration_models, vibration_budget,
                no_material_friction, find_limit_run, identify_run, keep_awake, as_json, quiet):
     """Render one texture on one device, with the safety rules of haptex.servo and a live dashboard."""
 
@@ -81,7 +81,7 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
         if identify_run:
             raise ParameterError("--find-limit is not allowed with --identify: one program a run")
         given = [n for n in ("texture_spec", "letter", "passivity_control", "stabiliser", "object_spec", "tip_radius",
-                             "crop", "speed", "duration", "vibration_models", "vibration_budget",
+                             "tip_spacing", "crop", "speed", "duration", "vibration_models", "vibration_budget",
                              "no_material_friction", "keep_awake")
                  if ctx.get_parameter_source(n) == click.core.ParameterSource.COMMANDLINE]
         if given:
@@ -95,7 +95,7 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
             raise ParameterError("--identify is not allowed without --record FILE.csv: the run's log is what "
                                  "'haptex identify' reads")
         texture_given = [n for n in ("texture_spec", "letter", "stiffness", "passivity_control", "stabiliser",
-                                     "object_spec", "tip_radius", "crop", "speed", "vibration_models",
+                                     "object_spec", "tip_radius", "tip_spacing", "crop", "speed", "vibration_models",
                                      "vibration_budget", "no_material_friction", "keep_awake")
                          if ctx.get_parameter_source(n) == click.core.ParameterSource.COMMANDLINE]
         if texture_given:
@@ -132,7 +132,7 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
     letter = letter.upper()
     if letter != "W":
         tex = _texture_from_spec(texture_spec, None, None, None, False, None, None, False, crop=crop,
-                                 tip_radius=tip_radius)
+                                 tip_radius=tip_radius, tip_spacing=tip_spacing)
         if tex.dimension == 1 and backend.dimension == 3:
             tex = Extruded(tex)
         elif tex.dimension == 2 and backend.dimension == 2:

@@ -51,7 +51,8 @@ from ._common import (
 @click.option("--quiet", is_flag=True, help="No progress display.")
 def export(letter, texture_spec, stiffness, max_force, max_penetration, friction, presliding, stick_deflection,
            spacing, x_unit, height_unit, level, lowpass, periodic, object_spec, uv_scale, passivity_control, stabiliser,
-           device_spec, vibration_models, vibration_budget, no_material_friction, tip_radius, crop, out, target, quiet):
+           device_spec, vibration_models, vibration_budget, no_material_friction, tip_radius, tip_spacing, crop, out, target,
+           quiet):
     """C99 source of one algorithm on one texture, for device firmware (<math.h> only)."""
     from ..algorithms import ALGORITHMS, algorithm
     from ..export import TICK_FILES, build_defines, export_c, firmware_command
@@ -62,7 +63,7 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
     if letter in ALGORITHMS and not ALGORITHMS[letter].textured:
         if texture_spec is not None:
             raise ParameterError("--texture is not allowed with --algorithm W: the smooth wall has no texture")
-        for flag, value in (("--tip-radius", tip_radius), ("--crop", crop)):
+        for flag, value in (("--tip-radius", tip_radius), ("--tip-spacing", tip_spacing), ("--crop", crop)):
             if value:
                 raise ParameterError(f"{flag} is not allowed with --algorithm W: the smooth wall has no texture")
         tex = None
@@ -71,7 +72,7 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
     else:
         with _Spinner("reading the texture", quiet):
             tex = _texture_from_spec(texture_spec, spacing, x_unit, height_unit, level, lowpass, None, periodic,
-                                     crop=crop, tip_radius=tip_radius)
+                                     crop=crop, tip_radius=tip_radius, tip_spacing=tip_spacing)
     params = {}
     for name, value in (("max_penetration", max_penetration), ("friction", friction), ("presliding", presliding),
                         ("stick_deflection", stick_deflection)):
