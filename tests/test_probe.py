@@ -1636,6 +1636,30 @@ def test_a_point_probe_is_the_texture_itself_and_bad_radii_are_refused():
         prof.felt_by(1e-3)
 
 
+def test_at_the_command_line_a_bad_tip_radius_is_named_as_typed(capsys, tmp_path):
+    # issue 67's bad input: a tip radius negative, NaN or larger than the map's extent gives one
+    # line naming --tip-radius, its value and the allowed range, exit status 2. The library's
+    # refusals name its parameter in SI ("tip_radius = 0.0001 is not allowed: must be at most the
+    # map's shorter side, 0.0199219 mm"); at the command line the option and its value are as the
+    # user typed them. Truth: the issue's wording, the values typed here
+    from haptex.cli import main
+
+    x = np.arange(64) * 1e-6  # (a 63 um map, 1 um samples)
+    path = tmp_path / "map.npy"
+    np.save(path, np.zeros((64, 64)))
+    npy = ["--texture", str(path), "--spacing", "1um", "--height-unit", "um"]
+    cases = [(["--texture", "sine:0.1mm,2mm", "--tip-radius", "-1mm"], "--tip-radius -1mm is not allowed: must be"),
+             (["--texture", "sine:0.1mm,2mm", "--tip-radius=nan mm"], "--tip-radius"),
+             ([*npy, "--tip-radius", "0.1mm"],
+              f"--tip-radius 0.1mm is not allowed: must be at most the map's shorter side, {x[-1] * 1e3:g} mm")]
+    for args, said in cases:
+        assert main(["design", *args, "--quiet"]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and err.startswith("haptex: error: ") and said in err, err
+    assert main(["design", *npy, "--tip-radius", "10um", "--tip-spacing", "-1um", "--quiet"]) == 2
+    assert "--tip-spacing -1um is not allowed: must be a finite number > 0 (m)" in capsys.readouterr().err
+
+
 def _dense_dilation(surf, pts, r, n=161):
     """c(p) - r at each point (k, 2) by brute force: the maximum of h(p + u) + sqrt(r^2 - |u|^2)
     over the offsets of an n x n grid inside the disc, h the surface's own heights."""
@@ -1982,7 +2006,7 @@ def test_at_the_command_line_each_bound_a_refusal_for_work_names_gives_a_design(
     base = ["design", "--texture", path, "--algorithms", "A", "--quiet"]
     assert main(base + ["--tip-radius", "0.1mm"]) == 2
     msg = capsys.readouterr().err
-    assert msg.count("\n") == 1 and msg.startswith("haptex: error: tip_radius = 0.0001 is not allowed here")
+    assert msg.count("\n") == 1 and msg.startswith("haptex: error: --tip-radius 0.1mm is not allowed here")
     radius = re.search(r"--tip-radius (\S+) or less", msg).group(1)
     spacing = re.search(r"--tip-spacing (\S+) or more", msg).group(1)
     tex = hx.load_texture(path)

@@ -76,12 +76,45 @@ def _run(argv) -> int:
         click.echo(f"haptex: error: {_one_line(exc)}", err=True)
         return 2
     except ParameterError as exc:  # one line, whatever text of the user's the message quotes
-        click.echo("haptex: error: " + str(exc).replace("\r", "\\r").replace("\n", "\\n"), err=True)
+        msg = _as_typed(str(exc), sys.argv[1:] if argv is None else list(argv))
+        click.echo("haptex: error: " + msg.replace("\r", "\\r").replace("\n", "\\n"), err=True)
         return 2
     except OSError as exc:  # the file system refused: still one line, never a traceback
         click.echo(f"haptex: error: {exc.strerror or exc}: {exc.filename or ''}".rstrip(": "), err=True)
         return 2
     return 0
+
+
+def _as_typed(msg: str, argv) -> str:
+    """A library refusal that names its parameter in Python and SI (``tip_radius = 0.0001 is not
+    allowed...``) as the command line gave it (``--tip-radius 0.1mm is not allowed...``): where
+    the command has an option of that name, the user typed it, and what they typed is that value
+    (the option's own conversion, to the message's digits); else the message as it is."""
+    import re
+
+    m = re.match(r"([a-z][a-z_]*) = (\S+) is not allowed", msg)
+    command = cli.commands.get(argv[0]) if argv else None
+    if m is None or command is None:
+        return msg
+    option = next((p for p in command.params if p.name == m.group(1) and isinstance(p, click.Option)), None)
+    if option is None:
+        return msg
+    typed = None
+    for i, arg in enumerate(argv):
+        for flag in option.opts:
+            if arg == flag and i + 1 < len(argv):
+                typed = argv[i + 1]
+            elif arg.startswith(flag + "="):
+                typed = arg[len(flag) + 1:]
+    if typed is None:
+        return msg
+    try:
+        value = option.type.convert(typed, option, None)
+    except (click.ClickException, ParameterError, ValueError, TypeError):
+        return msg
+    if not isinstance(value, float) or f"{value:g}" != m.group(2):
+        return msg
+    return f"{option.opts[-1]} {typed}" + msg[m.end(2):]
 
 
 # the commands, one module a group (click's layout for an application of this size)
