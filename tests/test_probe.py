@@ -1644,20 +1644,60 @@ def test_at_the_command_line_a_bad_tip_radius_is_named_as_typed(capsys, tmp_path
     # user typed them. Truth: the issue's wording, the values typed here
     from haptex.cli import main
 
-    x = np.arange(64) * 1e-6  # (a 63 um map, 1 um samples)
-    path = tmp_path / "map.npy"
+    path = tmp_path / "map.npy"  # (a 63 um map, 1 um samples)
     np.save(path, np.zeros((64, 64)))
     npy = ["--texture", str(path), "--spacing", "1um", "--height-unit", "um"]
     cases = [(["--texture", "sine:0.1mm,2mm", "--tip-radius", "-1mm"], "--tip-radius -1mm is not allowed: must be"),
              (["--texture", "sine:0.1mm,2mm", "--tip-radius=nan mm"], "--tip-radius"),
              ([*npy, "--tip-radius", "0.1mm"],
-              f"--tip-radius 0.1mm is not allowed: must be at most the map's shorter side, {x[-1] * 1e3:g} mm")]
+              f"--tip-radius 0.1mm is not allowed: must be at most the map's shorter side, 63um")]
     for args, said in cases:
         assert main(["design", *args, "--quiet"]) == 2
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and err.startswith("haptex: error: ") and said in err, err
     assert main(["design", *npy, "--tip-radius", "10um", "--tip-spacing", "-1um", "--quiet"]) == 2
     assert "--tip-spacing -1um is not allowed: must be a finite number > 0 (m)" in capsys.readouterr().err
+
+
+def test_a_tip_radius_refused_for_the_maps_extent_is_felt_at_the_bound_it_names():
+    # issue 67: every remedy a refusal names gives a result taken exactly at its bound. A ball
+    # wider than a map that ends at its edges is refused naming "at most the map's shorter side,
+    # 0.0828491 mm" (x3p-2.x3p, whose side is 0.08284907488 mm): the bound rounded to nearest, so
+    # taken as written it was refused again there, on mi-1.mi and on metropro-1.dat. Walked over
+    # maps and profiles whose extents are 39 samples of 1 + k / 7 um (k = 0..13: extents that
+    # round up and down) and, where ../shared/data is beside the checkout, the real ones. Truth:
+    # the refusal's definition, r at most the extent (numpy's x[-1] - x[0])
+    import re
+
+    from haptex._units import parse_quantity
+
+    real = []
+    if DEKTAK.exists():
+        real = [hx.load_texture(DEKTAK.parent / f) for f in ("x3p-2.x3p", "mi-1.mi", "di-1.di", "metropro-1.dat")]
+        real.append(hx.load_texture(DEKTAK))
+    synthetic = []
+    for k in range(14):
+        x = np.arange(40) * (1 + k / 7) * 1e-6
+        synthetic.append(hx.SampledSurface(x, x[:30] * 1.3, 1e-9 * np.sin(x / x[-1])[:, None] * np.ones(30)))
+        synthetic.append(hx.SampledProfile(x, 1e-9 * np.sin(x / x[-1])))
+    for tex in real + synthetic:
+        axes = (tex.x, tex.y) if tex.dimension == 2 else (tex.x,)
+        extent = min(a[-1] - a[0] for a in axes)
+        with pytest.raises(ParameterError) as refused:
+            tex.felt_by(2 * extent)
+        msg = str(refused.value)
+        cli = re.search(r"must be at most the (?:map's shorter side|profile's length), (\S+) \(", msg)
+        py = re.search(r"tip_radius <= ([0-9.e+-]+) in Python", msg)
+        assert cli and py, msg
+        bound = parse_quantity(cli.group(1), "m", "tip_radius", require_unit=True)
+        assert bound == float(py.group(1)) and extent * (1 - 1e-5) <= bound <= extent, msg
+        if tex in synthetic:
+            tex.felt_by(bound)  # (felt, within its work)
+        else:  # (the real maps' radius at their extent may be past the work: refused for that, not again for this)
+            try:
+                tex.felt_by(bound)
+            except ParameterError as again:
+                assert "is not allowed here: the ball covers" in str(again), str(again)
 
 
 def _dense_dilation(surf, pts, r, n=161):
@@ -2132,6 +2172,6 @@ def test_the_dektak_file_states_its_stylus_and_design_reports_it(capsys):
     out = capsys.readouterr().out
     assert "measured with a tip of r = 2.5 um (the file states it)" in out and "below 1.5" in out
     assert main(["design", "--texture", str(DEKTAK), "--device", "falcon", "--instrument-tip", "0um"]) == 2
-    assert "instrument_tip" in capsys.readouterr().err
+    assert "--instrument-tip 0um is not allowed" in capsys.readouterr().err  # (the option as typed)
     assert main(["design", "--texture", "sine:0.2mm,2mm", "--device", "pantograph", "--instrument-tip", "2um"]) == 2
     assert "--instrument-tip is not allowed with the synthetic texture" in capsys.readouterr().err

@@ -238,21 +238,30 @@ def _check_work(samples: int, steps, r: float, *, grid_at=None, radius: bool = T
         f"over {samples} samples, more than {MAX_DILATION_WORK:.3g}; {remedy}")
 
 
-def _stated_length(v: float, up: bool, fits) -> tuple[float, str]:
-    """A length v (m) rounded up (or down) to 3 significant digits as a user writes it: (the
-    double, the command line's text in um below 1 mm, else mm), moved a last digit at a time
+def _wider_than(r: float, extent: float, what: str) -> ParameterError:
+    """The refusal of a ball of radius r (m) wider than a bounded map's ``extent`` (m; ``what``
+    names it), its bound rounded down to 6 significant digits so that, taken as written, the
+    radius is not refused again (issue 67: "0.0828491 mm" for a side of 0.08284907 mm was)."""
+    value, text = _stated_length(extent, up=False, fits=lambda v: v <= extent, digits=6)
+    return ParameterError(f"tip_radius = {r:g} is not allowed: must be at most {what}, {text} "
+                          f"(tip_radius <= {value!r} in Python)")
+
+
+def _stated_length(v: float, up: bool, fits, digits: int = 3) -> tuple[float, str]:
+    """A length v (m) rounded up (or down) to ``digits`` significant digits as a user writes it:
+    (the double, the command line's text in um below 1 mm, else mm), moved a last digit at a time
     further to its safe side until ``fits`` holds of the double (0.0 where it cannot be)."""
     import math
 
     if not v > 0:
         return 0.0, "0m"
     unit, scale = ("um", 1e-6) if v < 1e-3 else ("mm", 1e-3)
-    e = 10.0 ** (math.floor(math.log10(v / scale)) - 2)
+    e = 10.0 ** (math.floor(math.log10(v / scale)) - digits + 1)
     k = math.ceil(v / scale / e - 1e-9) if up else math.floor(v / scale / e + 1e-9)
     for _ in range(1000):
         if k <= 0:
             return 0.0, "0m"
-        text = f"{k * e:.6g}"
+        text = f"{k * e:.{digits + 3}g}"
         value = float(f"{text}e{-6 if unit == 'um' else -3}")
         if fits(value):
             return value, text + unit
