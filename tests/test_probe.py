@@ -1650,7 +1650,7 @@ def test_at_the_command_line_a_bad_tip_radius_is_named_as_typed(capsys, tmp_path
     cases = [(["--texture", "sine:0.1mm,2mm", "--tip-radius", "-1mm"], "--tip-radius -1mm is not allowed: must be"),
              (["--texture", "sine:0.1mm,2mm", "--tip-radius=nan mm"], "--tip-radius"),
              ([*npy, "--tip-radius", "0.1mm"],
-              f"--tip-radius 0.1mm is not allowed: must be at most the map's shorter side, 63um")]
+              "--tip-radius 0.1mm is not allowed: must be at most the map's shorter side, 63um")]
     for args, said in cases:
         assert main(["design", *args, "--quiet"]) == 2
         err = capsys.readouterr().err
@@ -1937,7 +1937,7 @@ def test_a_ball_too_wide_for_a_fine_map_names_a_spacing_that_works(monkeypatch):
     # the cap on a dilation's work (2e9 operations, 13 s here) lowered to 1e7 for the test: 200 x
     # 200 samples 1 um apart under a 30 um ball (2,821 footprint points, 1.1e8 operations) are
     # refused, and the spacing the refusal names resamples the map by its spline within the cap
-    # (here at twice the bound: this rough map at the bound itself, 1.9 um, takes 18 s to feel;
+    # (here at twice the bound: this rough map at the bound itself, 1.85 um, takes 18 s to feel;
     # the bound taken exactly: test_every_bound_a_refusal_for_work_names_is_a_result_taken_exactly)
     import re
 
@@ -1987,7 +1987,7 @@ def test_every_bound_a_refusal_for_work_names_is_a_result_taken_exactly(monkeypa
     # issue 67: every remedy a refusal names gives a result taken exactly at the bound it
     # states. A ball too wide for a map's grid was refused naming "a smaller radius, a cropped
     # map, or a coarser grid: felt_by(r, spacing=S) with S >= 2.2e-06 m" (metropro-1.dat under a
-    # 0.1 mm ball): no bound for the radius or the crop, a spacing 1.9 times the smallest that
+    # 0.1 mm ball): no bound for the radius or the crop, a spacing 1.4 times the smallest that
     # fits (the work goes as S^-4 on a map, the bound was (work / cap)^(1/2)), and no option at
     # the command line that takes it. Truth: the refusal's definition, the samples times the
     # ball's grid points (numpy's count, _ball_points) against the cap, lowered here to 2e6;

@@ -190,8 +190,9 @@ def _check_work(samples: int, steps, r: float, *, grid_at=None, radius: bool = T
     ``radius``, the largest radius on this grid; with ``crop``, the most samples a part of the map
     may keep (where a part that holds the ball can: each side at least r); with ``grid_at`` (a
     spacing S, m, -> (samples, steps) of the grid ``felt_by(r, spacing=S)`` makes), the finest
-    spacing (``spacing``: the one this grid was made at, which a smaller radius keeps). Each bound is rounded to 3 significant digits on its safe side (in um below 1 mm,
-    else mm, as the command line writes it; the same double in Python) and checked again."""
+    spacing (``spacing``: the one this grid was made at, which a smaller radius keeps). Each
+    bound is rounded to 3 significant digits on its safe side (in um below 1 mm, else mm, as the
+    command line writes it; the same double in Python) and checked again."""
     footprint = _footprint_size(r, steps)
     work = float(samples) * float(footprint)
     if work <= MAX_DILATION_WORK:

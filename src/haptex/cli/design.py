@@ -74,8 +74,8 @@ without D and E, whose closest-point searches dominate on large maps."""
 @click.pass_context
 def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, sampling_period, delay, stiffness, speed,
            max_penetration, spacing, x_unit, height_unit, level, lowpass, scale, periodic, window, fill_undefined, crop,
-           tip_radius, tip_spacing, instrument_tip, raw, object_spec, uv_scale, vertex_normals, algorithms, time_budget, hand,
-           report_dir, force, as_json, quiet):
+           tip_radius, tip_spacing, instrument_tip, raw, object_spec, uv_scale, vertex_normals, algorithms, time_budget,
+           hand, report_dir, force, as_json, quiet):
     """Which algorithm, how stiff, will it be passive, can the device render it?
 
     A measured texture is band-limited to the shortest period the device renders at the

@@ -62,8 +62,8 @@ from ._common import (Quantity, STABILISERS, _budget_needs_models, _check_plot_p
 @click.option("--quiet", is_flag=True, help="No live dashboard.")
 @_core_blas_held  # BLAS in the set-up (a preset's matrices, a slope bound) wakes no worker to spin beside the loop
 def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration, passivity_control, stabiliser, hand,
-               speed, fast, object_spec, uv_scale, tip_radius, tip_spacing, crop, record, vibration_models, vibration_budget,
-               no_material_friction, find_limit_run, identify_run, keep_awake, as_json, quiet):
+               speed, fast, object_spec, uv_scale, tip_radius, tip_spacing, crop, record, vibration_models,
+               vibration_budget, no_material_friction, find_limit_run, identify_run, keep_awake, as_json, quiet):
     """Render one texture on one device, with the safety rules of haptex.servo and a live dashboard."""
 
     from ..algorithms import algorithm

@@ -51,8 +51,8 @@ from ._common import (
 @click.option("--quiet", is_flag=True, help="No progress display.")
 def export(letter, texture_spec, stiffness, max_force, max_penetration, friction, presliding, stick_deflection,
            spacing, x_unit, height_unit, level, lowpass, periodic, object_spec, uv_scale, passivity_control, stabiliser,
-           device_spec, vibration_models, vibration_budget, no_material_friction, tip_radius, tip_spacing, crop, out, target,
-           quiet):
+           device_spec, vibration_models, vibration_budget, no_material_friction, tip_radius, tip_spacing, crop, out,
+           target, quiet):
     """C99 source of one algorithm on one texture, for device firmware (<math.h> only)."""
     from ..algorithms import ALGORITHMS, algorithm
     from ..export import TICK_FILES, build_defines, export_c, firmware_command
