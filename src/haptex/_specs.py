@@ -43,12 +43,10 @@ def check_tip_spacing(tip_radius, tip_spacing) -> None:
     """Refuse a felt map's spacing that is not a finite length > 0 (m), or given without the ball
     it is for (``--tip-spacing`` without ``--tip-radius``: nothing is felt, and a spacing would
     be silently ignored)."""
-    import math
+    from ._validation import positive
 
-    from ._validation import fail
-
-    if tip_spacing is not None and not (math.isfinite(tip_spacing) and tip_spacing > 0):
-        raise fail("tip_spacing", tip_spacing, "a finite number > 0 (m), the felt map's grid spacing")
+    if tip_spacing is not None:
+        positive("tip_spacing", tip_spacing, "m")
     if tip_spacing is not None and not tip_radius:
         raise ParameterError(f"--tip-spacing is not allowed without --tip-radius: it is the grid of the map a ball "
                              f"feels (got {tip_spacing:g} m and no ball)")

@@ -202,11 +202,7 @@ def _check_work(samples: int, steps, r: float, *, grid_at=None, radius: bool = T
         def fits(v):
             return float(samples) * _footprint_size(v, steps) <= MAX_DILATION_WORK
 
-        lo, hi = 0.0, r  # (fits(lo), not fits(hi): the ball's grid points grow with its radius)
-        for _ in range(60):
-            mid = 0.5 * (lo + hi)
-            lo, hi = (mid, hi) if fits(mid) else (lo, mid)
-        value, text = _stated_length(lo, up=False, fits=fits)
+        value, text = _stated_length(_fitting_edge(fits, 0.0, r), up=False, fits=fits)  # (more points as r grows)
         if value > 0:
             ways.append(f"a radius of at most {text} on this grid (--tip-radius {text} or less at the command line, "
                         f"felt_by({value!r}{'' if spacing is None else f', spacing={spacing!r}'}) in Python)")
@@ -227,16 +223,25 @@ def _check_work(samples: int, steps, r: float, *, grid_at=None, radius: bool = T
             if fits(hi):
                 break
             lo, hi = hi, 2 * hi
-        for _ in range(60):
-            mid = 0.5 * (lo + hi)
-            lo, hi = (lo, mid) if fits(mid) else (mid, hi)
-        value, text = _stated_length(hi, up=True, fits=fits)
+        value, text = _stated_length(_fitting_edge(fits, hi, lo), up=True, fits=fits)
         ways.append(f"a coarser grid (--tip-spacing {text} or more at the command line, felt_by(r, spacing=S) with "
                     f"S >= {value!r} m in Python)")
     remedy = "; ".join(ways) if ways else "a smaller radius"
     raise ParameterError(
         f"tip_radius = {r:g} is not allowed here: the ball covers {footprint} grid points, {work:.3g} operations "
         f"over {samples} samples, more than {MAX_DILATION_WORK:.3g}; {remedy}")
+
+
+def _fitting_edge(fits, inside: float, outside: float, steps: int = 60) -> float:
+    """Bisection between a value where ``fits`` holds (``inside``) and one where it does not
+    (``outside``), either side of the other: the last value found where it holds."""
+    for _ in range(steps):
+        mid = 0.5 * (inside + outside)
+        if fits(mid):
+            inside = mid
+        else:
+            outside = mid
+    return inside
 
 
 def _wider_than(r: float, extent: float, what: str) -> ParameterError:

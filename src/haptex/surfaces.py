@@ -4022,8 +4022,11 @@ def _surface_grid(texture, r, spacing):
         if not texture.periodic and r > ext:
             raise _wider_than(r, ext, "the map's shorter side")
 
-        def grid_at(v):  # (the grid felt_by(r, spacing=v) makes, as its check below counts it)
-            gx, gy = (_resampled_axis(axis[0], axis[-1], axis[1] - axis[0], v, texture.periodic) for axis in (x, y))
+        def axes_at(v):  # (the grid felt_by(r, spacing=v) resamples the map on)
+            return [_resampled_axis(axis[0], axis[-1], axis[1] - axis[0], v, texture.periodic) for axis in (x, y)]
+
+        def grid_at(v):  # (as its check below counts it)
+            gx, gy = axes_at(v)
             return gx.size * gy.size, (v, v)
 
         if spacing is None:  # (the map's own grid: a smaller radius, a part of it, or a coarser grid)
@@ -4031,7 +4034,7 @@ def _surface_grid(texture, r, spacing):
                         crop=not texture.periodic)
             return x, y, texture.h, texture.periodic, texture.source or "map"
         d = _default_spacing(texture, r, spacing)  # resampled by its spline onto a coarser grid
-        grids = [_resampled_axis(axis[0], axis[-1], axis[1] - axis[0], d, texture.periodic) for axis in (x, y)]
+        grids = axes_at(d)
         if grids[0].size * grids[1].size > MAX_PROBE_SAMPLES:
             raise fail("spacing", d, f"a spacing giving at most {MAX_PROBE_SAMPLES} samples over the map")
         _check_work(grids[0].size * grids[1].size, (d, d), r, grid_at=grid_at, spacing=d)
@@ -4044,15 +4047,19 @@ def _surface_grid(texture, r, spacing):
     if cell is None:
         raise fail("texture", texture, "a surface with a periodic cell, or a height map, for a ball to roll on")
     d = _default_spacing(texture, r, spacing)
-    nx, ny = (int(math.ceil(c / d)) for c in cell)
+
+    def sizes_at(v):  # (the samples a side of the grid felt_by(r, spacing=v) makes)
+        return [int(math.ceil(c / v)) for c in cell]
+
+    nx, ny = sizes_at(d)
     if nx * ny > MAX_PROBE_SAMPLES:
         raise fail("spacing", d, f"a spacing giving at most {MAX_PROBE_SAMPLES} samples over the cell "
                    f"({cell[0] * 1e3:g} x {cell[1] * 1e3:g} mm)")
     x, y = np.arange(nx) * (cell[0] / nx), np.arange(ny) * (cell[1] / ny)
     steps = (cell[0] / nx, cell[1] / ny)
 
-    def grid_at(v):  # (the grid felt_by(r, spacing=v) makes)
-        mx, my = (int(math.ceil(c / v)) for c in cell)
+    def grid_at(v):
+        mx, my = sizes_at(v)
         return mx * my, (cell[0] / mx, cell[1] / my)
 
     # (before sampling it; at the default spacing, which follows r, a smaller radius is no remedy)

@@ -1563,8 +1563,11 @@ def _profile_grid(texture, r, spacing, followed=False):
         if not texture.periodic and r > (texture.x[-1] - texture.x[0]):
             raise _wider_than(r, texture.x[-1] - texture.x[0], "the profile's length")
 
-        def grid_at(v):  # (the grid felt_by(r, spacing=v) makes)
-            g = _resampled_axis(texture.x[0], texture.x[-1], texture.dx, v, texture.periodic)
+        def axis_at(v):  # (the grid felt_by(r, spacing=v) resamples the profile on)
+            return _resampled_axis(texture.x[0], texture.x[-1], texture.dx, v, texture.periodic)
+
+        def grid_at(v):
+            g = axis_at(v)
             return g.size, (float(g[1] - g[0]),)
 
         if spacing is None:
@@ -1572,7 +1575,7 @@ def _profile_grid(texture, r, spacing, followed=False):
                 _check_work(texture.x.size, (float(texture.dx),), r, grid_at=grid_at, crop=not texture.periodic)
             return texture.x, texture.h, texture.periodic, texture.source or "profile"
         dx = _spacing(texture, r, spacing, 256, 32)  # resampled by its spline onto a coarser grid
-        x = _resampled_axis(texture.x[0], texture.x[-1], texture.dx, dx, texture.periodic)
+        x = axis_at(dx)
         step = float(x[1] - x[0])
         if not followed:
             _check_work(x.size, (step,), r, grid_at=grid_at, spacing=dx)
@@ -1582,12 +1585,15 @@ def _profile_grid(texture, r, spacing, followed=False):
         raise fail("texture", texture, "a periodic or sampled profile for a ball to roll on (sample it: "
                    "SampledProfile(x, texture.height(x)))")
     dx = _spacing(texture, r, spacing, 256, 32)
-    n = int(math.ceil(period / dx))
+    def size_at(v):  # (the samples of the grid felt_by(r, spacing=v) makes)
+        return int(math.ceil(period / v))
+
+    n = size_at(dx)
     if n > MAX_PROBE_SAMPLES:
         raise fail("spacing", dx, f"at least {period / MAX_PROBE_SAMPLES:g} m ({MAX_PROBE_SAMPLES} samples a period)")
 
-    def grid_at(v):  # (the grid felt_by(r, spacing=v) makes)
-        k = int(math.ceil(period / v))
+    def grid_at(v):
+        k = size_at(v)
         return k, (period / k,)
 
     # (before sampling it; at the default spacing, which follows r, a smaller radius is no remedy)
