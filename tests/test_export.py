@@ -17,7 +17,7 @@ from haptex import core
 from haptex.export import TICK_FILES, export_c
 
 from .cbuild import CC, GROUP, SANITIZE, STRICT, core_objects, sanitizers_work
-from .conftest import DEKTAK, K0, A, L
+from .conftest import DEKTAK, K0, A, L, needs_data
 from .test_cli import run_main
 
 pytestmark = [pytest.mark.skipif(CC is None, reason="no C compiler on this machine"), pytest.mark.xdist_group(GROUP)]
@@ -219,9 +219,20 @@ def test_exported_stateful_ticks_follow_the_renderer_along_a_stroke(tmp_path, ob
 def test_what_cannot_be_exported_is_refused(tmp_path):
     from haptex import export as ex
 
-    big = hx.SampledProfile(np.arange(2_000_001) * 1e-7, np.zeros(2_000_001))
-    with pytest.raises(hx.ParameterError, match="its tables hold .* numbers, more than 1000000"):
+    # a profile of 2,000,001 samples: a cubic's 4 coefficients an interval, 8,000,000 numbers and
+    # a few of the layout's, past the 1,000,000 that fit; the refusal names the part that fits,
+    # 4 (n - 1) <= 1,000,000 less the layout's few: n within 3 samples of 250,001, and its --crop
+    # keeps those n samples (numpy's count of x <= X1)
+    import re
+
+    x = np.arange(2_000_001) * 1e-7
+    big = hx.SampledProfile(x, np.zeros(x.size))
+    with pytest.raises(hx.ParameterError, match=r"its tables hold 8,000,0\d\d numbers \(64 MB\), more than the "
+                                                r"1,000,000 that fit") as e:
         export_c(hx.algorithm("A", big, K0), tmp_path, 5.0)
+    n, x1 = re.search(r"a part of ([\d,]+) samples fits: --crop 0,([\d.]+)mm ", str(e.value)).groups()
+    n = int(n.replace(",", ""))
+    assert 249_998 <= n <= 250_001 and np.count_nonzero(x <= float(x1) * 1e-3) == n, (n, x1)
     assert ex.EXPORTABLE == "WABCDEFG"
     with pytest.raises(hx.ParameterError, match="max_force = -1 is not allowed"):
         export_c(hx.algorithm("A", hx.Sinusoid(A, L), K0), tmp_path, -1.0)
@@ -707,3 +718,45 @@ def test_haptex_export_takes_a_vibration_for_its_device(tmp_path):
                         (["--no-material-friction"], "--no-material-friction is not allowed without --vibration")):
         r = run_main(*args, *extra)
         assert r.returncode == 2 and what in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
+
+
+def _literals(source: str) -> int:
+    """The numbers a generated C source's constant tables hold, counted in the text (each
+    ``static const double NAME[N] = { ... };`` block's comma-separated items), not by haptex."""
+    import re
+
+    total = 0
+    for body in re.findall(r"static const double \w+\[\d+\] = \{(.*?)\};", source, flags=re.S):
+        items = [t for t in re.sub(r"/\*.*?\*/", "", body, flags=re.S).replace("\n", " ").split(",") if t.strip()]
+        total += len(items)
+    return total
+
+
+@needs_data
+@pytest.mark.long  # (an export of a million numbers, 9 s, and two refusals: 20 s)
+def test_a_map_too_large_to_export_names_a_crop_that_exports(tmp_path):
+    # mi-1.mi (SurfaceTopography's corpus: 256 x 256 samples, 20 um square) holds 16 numbers a
+    # bicubic patch, 1,040,411 in all: past the host's 1,000,000 (MAX_TABLE, chosen: 8 MB of
+    # constants). Before, the refusal ended "low-pass or window the texture first": no bound,
+    # and --lowpass takes a profile only. Now it names a --crop; taken as written, the export's
+    # source holds at most 1,000,000 numbers (counted in the written file); a part 3 % longer
+    # each side is refused, naming the same bound
+    import re
+
+    from .conftest import DATA
+
+    args = ["export", "--algorithm", "A", "--texture", str(DATA / "mi-1.mi"), "--stiffness", "1 kN/m",
+            "--max-force", "5 N", "--quiet"]
+    r = run_main(*args, "--out", str(tmp_path / "all"))
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert "1,040,411 numbers" in r.stderr and "more than the 1,000,000" in r.stderr, r.stderr
+    crop = re.search(r"--crop (\S+)", r.stderr)
+    assert crop, r.stderr
+    r2 = run_main(*args, "--out", str(tmp_path / "part"), "--crop", crop.group(1))
+    assert r2.returncode == 0, r2.stderr
+    held = _literals((tmp_path / "part" / "haptex_texture.c").read_text())
+    assert 900_000 < held <= 1_000_000, held  # (the bound within a tenth of the cap: it is not a token)
+    x0, x1, y0, y1 = crop.group(1).split(",")
+    wider = ",".join([x0, f"{float(x1[:-2]) * 1.03:.6g}um", y0, f"{float(y1[:-2]) * 1.03:.6g}um"])
+    r3 = run_main(*args, "--out", str(tmp_path / "wider"), "--crop", wider)
+    assert r3.returncode == 2 and f"--crop {crop.group(1)}" in r3.stderr, r3.stderr

@@ -323,3 +323,45 @@ def test_haptex_export_for_a_cortex_m_builds_its_example_and_reports_its_size(tm
                         "-semihosting-config", "enable=on,target=native", "-kernel", str(out / "haptex.elf")],
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stderr[-2000:]
+
+
+@needs_arm
+def test_a_map_too_large_for_the_boards_flash_is_refused_before_the_build_naming_a_crop_that_links(tmp_path,
+                                                                                                   monkeypatch):
+    # x3p-2.x3p (SurfaceTopography's corpus) cropped to 196 x 191 samples: 592,811 numbers of
+    # tables, within the host's 1,000,000 but 4.74 MB where QEMU's MPS2 boards hold 4 MiB of code
+    # memory (SSRAM1 at 0; Arm's AN386 and AN500, QEMU's mps2 machines; the export's mps2.ld).
+    # Before, haptex export built it for 20 s and reported the linker's last line, "collect2:
+    # error: ld returned 1 exit status". Now it is refused before the build (no ELF written),
+    # naming a --crop; taken as written, arm-none-eabi-gcc links it and arm-none-eabi-size reads
+    # at most 4 MiB of flash (text + data); a part 3 % longer each side is refused. And where a
+    # build still fails (here the code's reserve set below zero, so that the check lets the part
+    # through), the refusal quotes the linker's own error, not collect2's summary (40 s)
+    import re
+
+    from .conftest import DATA
+    from .test_cli import run_main
+
+    def args(crop, out):
+        return ["export", "--algorithm", "A", "--texture", str(DATA / "x3p-2.x3p"), "--stiffness", "1 kN/m",
+                "--max-force", "5 N", "--quiet", "--target", "cortex-m4", "--crop", crop, "--out", str(tmp_path / out)]
+
+    r = run_main(*args("0,25um,0,60um", "big"))
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert "4 MiB of flash" in r.stderr and not (tmp_path / "big" / "haptex.elf").exists(), r.stderr
+    crop = re.search(r"--crop (\S+)", r.stderr)
+    assert crop, r.stderr
+    r2 = run_main(*args(crop.group(1), "part"))
+    assert r2.returncode == 0, r2.stderr
+    size = subprocess.run(["arm-none-eabi-size", str(tmp_path / "part" / "haptex.elf")], capture_output=True, text=True)
+    text, data = (int(v) for v in size.stdout.splitlines()[1].split()[:2])
+    assert 3_500_000 < text + data <= 4 * 1024 * 1024, (text, data)
+    x0, x1, y0, y1 = crop.group(1).split(",")
+    wider = ",".join([x0, f"{float(x1[:-2]) * 1.03:.6g}um", y0, f"{float(y1[:-2]) * 1.03:.6g}um"])
+    r3 = run_main(*args(wider, "wider"))
+    assert r3.returncode == 2 and f"--crop {crop.group(1)}" in r3.stderr, r3.stderr
+    from haptex import export
+
+    monkeypatch.setattr(export, "FIRMWARE_CODE", -1024 * 1024)
+    r4 = run_main(*args("0,25um,0,60um", "linked"))
+    assert r4.returncode == 2 and "region `FLASH' overflowed by" in r4.stderr, r4.stderr

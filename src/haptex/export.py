@@ -39,7 +39,13 @@ def _num(v: float) -> str:
     v = float(v)
     if math.isinf(v):
         return "HUGE_VAL" if v > 0 else "(-HUGE_VAL)"
-    return repr(v) if ("e" in repr(v) or "." in repr(v)) else repr(v) + ".0"
+    text = repr(v)
+    return text if ("e" in text or "." in text) else text + ".0"
+
+
+def _nums(values) -> list:
+    """:func:`_num` of each value of an array (its Python floats: a third of the time of numpy's)."""
+    return [_num(v) for v in np.asarray(values, dtype=np.float64).ravel().tolist()]
 
 
 TICK_FILES = ("hx_core.h", "hx_fields.h", "hx_texture_eval.h", "hx_texture.c", "hx_forces.c", "hx_presliding.c",
@@ -52,14 +58,49 @@ TARGETS = {
     "host": {"cc": "cc", "flags": ()},
     "cortex-m4": {"cc": "arm-none-eabi-gcc", "flags": ("-mcpu=cortex-m4", "-mthumb", "-mfpu=fpv4-sp-d16",
                                                         "-mfloat-abi=hard"),
-                  "qemu": "mps2-an386", "fpu": "single precision: the core's doubles in libgcc's software routines"},
+                  "qemu": "mps2-an386", "fpu": "single precision: the core's doubles in libgcc's software routines",
+                  "flash": 4 * 1024 * 1024},
     "cortex-m7": {"cc": "arm-none-eabi-gcc", "flags": ("-mcpu=cortex-m7", "-mthumb", "-mfpu=fpv5-d16",
                                                         "-mfloat-abi=hard"),
-                  "qemu": "mps2-an500", "fpu": "double precision"},
+                  "qemu": "mps2-an500", "fpu": "double precision", "flash": 4 * 1024 * 1024},
 }
 """What :func:`export_c` writes for: the host's C compiler, or a Cortex-M4F or M7 (Debian's
 arm-none-eabi-gcc and newlib; the hard-float ABI of each one's FPU; ``qemu`` the QEMU board the
-tests run each on)."""
+tests run each on; ``flash`` its code memory in bytes, published: SSRAM1, 4 MB at address 0 on the
+MPS2 boards, Arm's Application Notes 386 and 500 and QEMU's ``mps2`` machines, the ``FLASH``
+region of the ``mps2.ld`` written beside the export)."""
+
+FIRMWARE_CODE = 256 * 1024
+"""Bytes of a board's flash kept for the code beside the tables (chosen: every letter's code and
+the objects' linked take 157 kB on a Cortex-M4F, A's alone 29 kB, arm-none-eabi-size
+2026-11-29); a Cortex-M export's tables may fill the rest, :func:`table_capacity`."""
+
+
+def table_capacity(target: str = "host") -> int:
+    """The most numbers an export's tables (texture coefficients, search data, a mesh's
+    triangles, a vibration's models) may hold for ``target``.
+
+    Parameters
+    ----------
+    target : {"host", "cortex-m4", "cortex-m7"}, optional
+        A key of :data:`TARGETS`.
+
+    Returns
+    -------
+    int
+        :data:`MAX_TABLE` on the host; on a Cortex-M the doubles (8 bytes each) its board's
+        flash holds beside :data:`FIRMWARE_CODE`, at most :data:`MAX_TABLE`: 491,520 on
+        QEMU's MPS2 boards (4 MiB).
+
+    Raises
+    ------
+    ParameterError
+        For an unknown target.
+    """
+    if target not in TARGETS:
+        raise fail("target", target, " or ".join(repr(t) for t in TARGETS))
+    flash = TARGETS[target].get("flash")
+    return MAX_TABLE if flash is None else min(MAX_TABLE, (flash - FIRMWARE_CODE) // 8)
 
 FIRMWARE_FLAGS = ("-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-ffunction-sections", "-fdata-sections")
 """The flags every exported file compiles with for a Cortex-M (each function and datum in its
@@ -150,6 +191,134 @@ def _templates():
                               keep_trailing_newline=True, autoescape=False)
 
 
+def _tick_tables(algorithm, max_evaluations, cap: int):
+    """The tick's arrays as :func:`export_c` writes them: (code, prm, kind, coeffs, aux,
+    search_table, base), a textured object's base tables in ``base`` (None on the plane); D's and
+    E's cell table over a profile left out where the tables would pass ``cap`` numbers with it
+    (the tree alone: the same closest points, more work a tick)."""
+    base = None
+    if getattr(algorithm, "base", None) is not None:  # a textured object: the base's tables too
+        code, prm, kind, coeffs, aux, _ = algorithm.object_spec(max_evaluations)
+        base = algorithm.base.core_arrays()
+        table = False
+    else:
+        code, prm, kind, coeffs, aux, table = tick_model(algorithm, max_evaluations)
+    coeffs = np.asarray(coeffs, dtype=np.float64)
+    if table and coeffs.size + aux.size > cap:
+        aux = aux[:int(aux[_ext.A_TABLE])].copy()
+        aux[_ext.A_TABLE] = 0.0
+        table = False
+    return code, prm, kind, coeffs, aux, table, base
+
+
+def _held(coeffs, aux, base) -> int:
+    """The numbers the tables of :func:`_tick_tables` hold."""
+    return int(coeffs.size + aux.size + (0 if base is None else base[2].size + base[3].size))
+
+
+def _plain_map(texture) -> bool:
+    """Whether ``texture`` is a sampled profile or map as read (a part of it is its samples in
+    a rectangle: what ``--crop`` keeps), not a felt map, a turned or graded one."""
+    from .surfaces import SampledSurface
+    from .textures import SampledProfile
+
+    if type(texture) is SampledSurface:
+        return texture._gradients is None and texture._knots is None and texture.curvature_miss is None
+    return type(texture) is SampledProfile and texture.curvature_miss is None and not texture.resampled
+
+
+def _part(texture, f: float):
+    """The part of a plain sampled texture from its first sample, f (0 < f <= 1) of its samples
+    along each axis (at least 4): (part, samples kept along each axis)."""
+    from .surfaces import SampledSurface
+    from .textures import SampledProfile
+
+    if isinstance(texture, SampledSurface):
+        i, j = (max(4, int(f * n)) for n in texture.h.shape)
+        return SampledSurface(texture.x[:i], texture.y[:j], texture.h[:i, :j], periodic=texture.periodic), (i, j)
+    i = max(4, int(f * texture.x.size))
+    return SampledProfile(texture.x[:i], texture.h[:i], periodic=texture.periodic), (i,)
+
+
+def _crop_that_fits(algorithm, cap: int, max_evaluations, others: int):
+    """The largest part from a plain sampled texture's first sample, in its proportions, whose
+    tables with ``others`` numbers beside them hold at most ``cap`` (bisection on the count
+    :func:`export_c` makes): (samples kept along each axis, the ``--crop`` text, the crop tuple
+    in m for ``load_texture``), the text read back as the command line reads it keeping no more
+    samples; None where 4 samples a side do not fit."""
+    from ._loaders import crop_region
+    from ._specs import quantity
+    from .algorithms import algorithm as make
+    from .probe import _stated_length
+
+    tex = algorithm.texture
+    params = {n: getattr(algorithm, n) for n in ALGORITHMS[algorithm.letter].parameters}
+
+    def fits(f):
+        part = make(algorithm.letter, _part(tex, f)[0], algorithm.stiffness, **params)
+        _, _, _, coeffs, aux, _, base = _tick_tables(part, max_evaluations, cap)
+        return _held(coeffs, aux, base) + others <= cap
+
+    if not fits(0.0):
+        return None
+    lo, hi = 0.0, 1.0
+    for _ in range(int(np.ceil(np.log2(max(_part(tex, 1.0)[1])))) + 1):  # (to less than a sample a side)
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if fits(mid) else (lo, mid)
+    n = _part(tex, lo)[1]
+    axes = [tex.x] if len(n) == 1 else [tex.x, tex.y]
+    def outward(v, up, fits):  # (v rounded away from the part to 6 digits, as the command line writes it)
+        if v == 0:
+            return "0"
+        if v < 0:
+            return "-" + _stated_length(-v, up=not up, digits=6, fits=lambda w: fits(-w))[1]
+        return _stated_length(v, up=up, digits=6, fits=fits)[1]
+
+    words = []
+    for a, k in zip(axes, n):  # (each bound short of the next sample)
+        words += [outward(float(a[0]), False, lambda v: True),
+                  outward(float(a[k - 1]), True, lambda v, a=a, k=k: k == a.size or v < a[k])]
+    typed = tuple(quantity(w, "m", "crop") for w in words)
+    kept = crop_region(tex.x, None if len(n) == 1 else tex.y, None, typed)
+    if [s.stop - s.start for s in kept] != list(n):
+        return None  # (not met on this project's maps: a bound that cannot be written short of the next sample)
+    exact = tuple(float(v) for a, k in zip(axes, n) for v in (a[0], a[k - 1]))
+    words = ",".join(words)
+    return n, words, exact
+
+
+def _too_large(algorithm, vibration, vib, held: int, cap: int, target: str, max_evaluations) -> ParameterError:
+    """The refusal of tables holding ``held`` numbers where ``cap`` fit on ``target``, naming
+    the remedy that exists: a crop of a sampled texture with its bound (taken as written, it is
+    exported), a mesh decimated, a smaller model set."""
+    where = (f"the host's MAX_TABLE, {MAX_TABLE * 8 / 1e6:g} MB of constants" if target == "host" else
+             f"the {TARGETS[target]['flash'] // (1024 * 1024)} MiB of flash of QEMU's {TARGETS[target]['qemu']} "
+             f"board, mps2.ld, less {FIRMWARE_CODE // 1024} KiB kept for the code")
+    size = f"its tables hold {held:,} numbers ({held * 8 / 1e6:.3g} MB), more than the {cap:,} that fit ({where})"
+    to = "" if target == "host" else f" to {target}"
+    if getattr(algorithm, "base", None) is not None:
+        return ParameterError(f"object = {algorithm.base!r} is not allowed for export{to}: {size}; decimate the "
+                              f"mesh first ({_ext.FACE + 9} numbers a triangle)")
+    others = 0 if vib is None else vib[0].size
+    if others > cap // 2:
+        return ParameterError(f"vibration = {vibration!r} is not allowed for export{to}: {size}, its model set's "
+                              f"{others:,} of them; fit fewer or shorter models")
+    tex = getattr(algorithm, "texture", None)
+    if tex is not None and _plain_map(tex):
+        found = _crop_that_fits(algorithm, cap, max_evaluations, others)
+        if found is not None:
+            n, words, bounds = found
+            remedy = (f"a part of {' x '.join(f'{k:,}' for k in n)} samples fits: --crop {words} at the command line "
+                      f"(crop={bounds!r} in load_texture)")
+        else:
+            remedy = "not even a part of 4 samples a side fits"
+    elif tex is not None and getattr(tex, "curvature_miss", None) is not None:
+        remedy = "crop the map it is felt on (--crop) or feel it on a coarser grid (--tip-spacing)"
+    else:
+        remedy = "sample it more coarsely or crop it"
+    return ParameterError(f"texture = {tex!r} is not allowed for export{to}: {size}; {remedy}")
+
+
 def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int | None = MAX_EVALUATIONS,
              passivity_controller: Stabiliser | None = None, period: float | None = None, *, vibration=None,
              vibration_mass: float | None = None, vibration_gain: float = 1.0, velocity_filter: float = 0.01,
@@ -238,30 +407,12 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
     fric = friction_settings(vibration, friction, friction_threshold)
     if target not in TARGETS:
         raise fail("target", target, " or ".join(repr(t) for t in TARGETS))
-    if vib is not None and vib[0].size > MAX_TABLE:
-        raise fail("vibration", vibration, f"a model set whose packed tables hold at most {MAX_TABLE} numbers "
-                                           f"(this one: {vib[0].size})")
-    base = None
-    if getattr(algorithm, "base", None) is not None:  # a textured object: the base's tables too
-        code, prm, kind, coeffs, aux, _ = algorithm.object_spec(max_evaluations)
-        base = algorithm.base.core_arrays()
-        table = False
-    else:
-        code, prm, kind, coeffs, aux, table = tick_model(algorithm, max_evaluations)
-    coeffs = np.asarray(coeffs, dtype=np.float64)
+    cap = table_capacity(target)
+    code, prm, kind, coeffs, aux, table, base = _tick_tables(algorithm, max_evaluations, cap)
+    held = _held(coeffs, aux, base) + (0 if vib is None else vib[0].size)
+    if held > cap:
+        raise _too_large(algorithm, vibration, vib, held, cap, target, max_evaluations)
     n_tri = 0 if base is None else len(base[2])
-    if base is not None and coeffs.size + aux.size + base[2].size + base[3].size > MAX_TABLE:
-        raise ParameterError(f"object = {algorithm.base!r} is not allowed for export: its tables hold "
-                             f"{coeffs.size + aux.size + base[2].size + base[3].size} numbers ({_ext.FACE + 9} a "
-                             f"triangle), more than {MAX_TABLE}; decimate the mesh first")
-    if table and coeffs.size + aux.size > MAX_TABLE:  # the tree alone: the same closest points, more work a tick
-        aux = aux[:int(aux[_ext.A_TABLE])].copy()
-        aux[_ext.A_TABLE] = 0.0
-        table = False
-    if coeffs.size + aux.size > MAX_TABLE:
-        raise ParameterError(f"texture = {algorithm.texture!r} is not allowed for export: its tables hold "
-                             f"{coeffs.size + aux.size} numbers, more than {MAX_TABLE}; low-pass or window the "
-                             "texture first")
     letter = algorithm.letter
     dim = algorithm.dimension
     kinds = {int(getattr(_ext, n)): "HX_" + n for n in _KINDS}
@@ -298,18 +449,18 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
         forces="[f_x, f_z]" if dim == 2 else "[f_x, f_y, f_z]", max_force=_num(fmax),
         workspace=_num(WORKSPACE_LIMIT), work=work, code_name=f"HX_ALG_{letter.upper()}", kind_name=kinds[int(kind)],
         params=[("HX_" + n, _num(prm[getattr(_ext, n)])) for n in _PARAMS], rows=rows, cols=cols,
-        coeffs=[_num(v) for v in coeffs.ravel()], aux=[_num(v) for v in aux], aux_what=aux_what,
+        coeffs=_nums(coeffs), aux=_nums(aux), aux_what=aux_what,
         base=None if base is None else dict(
             kind=f"HX_BASE_{type(algorithm.base).__name__.upper()}", radius=_num(base[1]), n_tri=n_tri,
             prism=int(bool(base[4])),
-            tri=[_num(v) for v in base[2].ravel()], face=[_num(v) for v in base[3].ravel()],
+            tri=_nums(base[2]), face=_nums(base[3]),
             what=repr(algorithm.base)),
         stabiliser=None if pc is None else dict(
             label=pc.label.replace("*/", "* /"),
             mode="HX_" + next(n for n in _STABS if int(getattr(_ext, n)) == pc.mode),
             damping=_num(pc.core_damping), period=_num(T), delay=0 if pc.delay is None else int(pc.delay)),
         vibration=None if vib is None else dict(
-            what=f"{vibration!r}".replace("*/", "* /"), values=[_num(v) for v in vib[0]], mass=_num(vib[1]),
+            what=f"{vibration!r}".replace("*/", "* /"), values=_nums(vib[0]), mass=_num(vib[1]),
             gain=_num(vib[2]), tau=_num(vib[3]), seed=f"{vib[4]}ULL", budget=_num(-1.0 if vib[5] is None else vib[5]),
             reserve=_num(vib[6]), friction=None if fric is None else dict(mu=_num(fric[0]), threshold=_num(fric[1]))))
     env = _templates()

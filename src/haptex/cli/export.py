@@ -133,9 +133,10 @@ def _report_firmware(out: Path, command: list, target: str) -> None:
         return
     args = [x for a in command for x in (sorted(str(p) for p in out.glob("*.c")) if a.endswith("*.c") else [a])]
     r = subprocess.run(args, capture_output=True, text=True)
-    if r.returncode != 0:
-        raise ParameterError(f"--target = {target!r} is not allowed here: the build failed "
-                             f"({(r.stderr.strip().splitlines() or ['?'])[-1][:200]})")
+    if r.returncode != 0:  # (the compiler's or linker's first error, not collect2's summary of it)
+        lines = r.stderr.strip().splitlines() or ["?"]
+        said = next((ln for ln in lines if ("error" in ln or "overflowed" in ln) and "collect2" not in ln), lines[-1])
+        raise ParameterError(f"--target = {target!r} is not allowed here: the build failed ({said.strip()[:200]})")
     size = subprocess.run(["arm-none-eabi-size", str(out / "haptex.elf")], capture_output=True, text=True)
     text, data, bss = (int(v) for v in size.stdout.splitlines()[1].split()[:3])
     click.echo(f"built {out / 'haptex.elf'} for {target} with the example main: flash {text + data} bytes "
