@@ -265,3 +265,34 @@ def test_no_blas_worker_is_woken_by_a_runs_set_up(monkeypatch, capsys):
     capsys.readouterr()
     kinds = {k for k, _ in seen}
     assert kinds == {"minimize", "renderer"} and {n for _, n in seen} == {1}, seen
+
+
+def test_d_and_e_in_haptex_run_search_within_half_the_devices_period(monkeypatch, capsys):
+    # D's closest-point search over a measured map spent up to the default 5,000 texture
+    # evaluations a tick (renderer.MAX_EVALUATIONS), 2.35 ms a tick on this project's machine
+    # over x3p-2.x3p 0.1 mm deep (0.47 us an evaluation): on the Falcon's 1 ms period, haptex
+    # run missed 577 deadlines of 1,000. Now its budget is what half the period holds at the
+    # cost of an evaluation measured before the run (haptex.servo.evaluation_seconds): with
+    # that cost set to 1 us (a bound on counted work, not a timing), the Falcon's 1 ms holds
+    # 500, the run's largest tick is at most 500 + 250 evaluations (the renderer's stated
+    # bound: the budget plus the search's last cell) and the ticks it cut are counted
+    from haptex import servo
+
+    from .conftest import DATA, needs_data
+
+    if not (DATA / "mi-1.mi").exists():
+        pytest.skip("../shared/data is not beside this checkout")
+    monkeypatch.setattr(servo, "evaluation_seconds", lambda renderer, depth: 1e-6)
+    assert main(["run", "--device", "simulated:falcon", "--texture", str(DATA / "mi-1.mi"), "--algorithm", "D",
+                 "--duration", "0.3s", "--fast", "--json", "--quiet"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["search_budget"] == 500 and out["search_evaluation_seconds"] == 1e-6
+    assert 0 < out["search_max_work"] <= 750 and out["search_cut"] > 0, out
+    # given by hand: taken as given (within the renderer's [100, 10^9]); refused outside it
+    assert main(["run", "--device", "simulated:falcon", "--texture", str(DATA / "mi-1.mi"), "--algorithm", "D",
+                 "--duration", "0.1s", "--fast", "--json", "--quiet", "--max-evaluations", "200"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["search_budget"] == 200 and out["search_max_work"] <= 450
+    assert main(["run", "--device", "simulated:falcon", "--algorithm", "D", "--max-evaluations", "50",
+                 "--duration", "0.1s", "--fast", "--quiet"]) == 2
+    assert "--max-evaluations 50 is not allowed" in capsys.readouterr().err

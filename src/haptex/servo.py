@@ -62,6 +62,96 @@ DEADLINE = 1.5
 """A sample later than this many periods after the previous one is a missed deadline."""
 
 
+SEARCH_SHARE = 0.5
+"""The share of the servo period D's and E's closest-point search over a surface may take in
+``haptex run`` (chosen: the rest for the device's exchange, the rules and the clock's jitter)."""
+
+SEARCH_PROBES = 32
+"""Ticks :func:`evaluation_seconds` times: a 4 x 8 grid over the texture (chosen: about 80 ms
+over a measured map at the default budget, before the run)."""
+
+
+def evaluation_seconds(renderer, depth: float) -> float:
+    """The cost of one texture evaluation in ``renderer``'s closest-point search on this
+    machine, measured: :data:`SEARCH_PROBES` ticks at ``depth`` below the texture's lowest
+    point (where the search is widest), on a grid over a sampled map's extent (else over four of
+    the texture's shortest periods), their time over the evaluations they counted
+    (:attr:`haptex.Renderer.last_work`).
+
+    Parameters
+    ----------
+    renderer : Renderer
+        D or E over a surface (the renderer's state is spent: make a new one for the run).
+    depth : float
+        Depth (m, > 0) of the probes below the texture's lowest point: the deepest the handle
+        goes, e.g. the device's force over the stiffness.
+
+    Returns
+    -------
+    float
+        Seconds an evaluation (s), the ticks' wall time over their work.
+
+    Raises
+    ------
+    ParameterError
+        If ``depth`` is not a finite length > 0.
+    """
+    import time
+
+    depth = positive("depth", depth, "m")
+    tex = renderer.algorithm.texture
+    lo = tex.height_range[0]
+    if hasattr(tex, "y"):
+        xs, ys = (np.linspace(float(a[0]), float(a[-1]), n) for a, n in ((tex.x, 4), (tex.y, 8)))
+    else:
+        xs, ys = (np.linspace(0.0, 4 * tex.shortest_period, n) for n in (4, 8))
+    pts = [(float(x), float(y), lo - depth) for x in xs for y in ys]
+    work, start = 0, time.perf_counter()
+    for p in pts:
+        renderer.step(p)
+        work += renderer.last_work
+    return (time.perf_counter() - start) / max(work, 1)
+
+
+def search_budget(algorithm, period: float, depth: float) -> tuple[int | None, float | None]:
+    """The closest-point search's budget of texture evaluations a tick that fits
+    :data:`SEARCH_SHARE` of the servo ``period``, from :func:`evaluation_seconds` on this machine
+    (``haptex run``'s default ``--max-evaluations``; the renderer's own default,
+    :data:`haptex.renderer.MAX_EVALUATIONS`, is at most that much; at least 100, the renderer's
+    smallest, where even that takes longer).
+
+    Parameters
+    ----------
+    algorithm : Algorithm
+        The algorithm rendered.
+    period : float
+        The servo period (s, > 0).
+    depth : float
+        The deepest the handle goes below the texture (m, > 0), as :func:`evaluation_seconds`.
+
+    Returns
+    -------
+    (int or None, float or None)
+        (the budget, the seconds an evaluation measured) for D or E over a surface on the
+        plane; (None, None) for every other algorithm (no budgeted search: a profile's is
+        bounded by its tree).
+
+    Raises
+    ------
+    ParameterError
+        If ``period`` or ``depth`` is not a finite value > 0.
+    """
+    from .renderer import MAX_EVALUATIONS, Renderer
+
+    period = positive("period", period, "s")
+    tex = getattr(algorithm, "texture", None)
+    if (getattr(algorithm, "letter", "") not in ("D", "E") or getattr(algorithm, "base", None) is not None
+            or tex is None or tex.dimension != 2):
+        return None, None
+    seconds = evaluation_seconds(Renderer(algorithm), depth)
+    return max(100, min(MAX_EVALUATIONS, int(SEARCH_SHARE * period / seconds))), seconds
+
+
 @dataclass
 class ServoStats:
     """What a run did, counted.

@@ -112,7 +112,9 @@ def _as_typed(msg: str, argv) -> str:
         value = option.type.convert(typed, option, None)
     except (click.ClickException, ParameterError, ValueError, TypeError):
         return msg
-    if not isinstance(value, float) or f"{value:g}" != m.group(2):
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return msg
+    if (f"{value:g}" if isinstance(value, float) else str(value)) != m.group(2):
         return msg
     return f"{option.opts[-1]} {typed}" + msg[m.end(2):]
 

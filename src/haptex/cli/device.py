@@ -46,6 +46,10 @@ from ._common import (Quantity, STABILISERS, _budget_needs_models, _check_plot_p
 @click.option("--record", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Write the run log (time, position, force, engaged) to FILE.csv (the columns of the file formats "
                    "page, read by 'haptex identify') or FILE.npz.")
+@click.option("--max-evaluations", type=int, default=None,
+              help="D and E over a surface: the texture evaluations one tick's closest-point search may spend, 100 "
+                   "to 10^9 (default: what half the device's period holds, measured on this machine before the "
+                   "run); past it the tick uses the best point found and is counted as cut.")
 @_vibration_options
 @click.option("--find-limit", "find_limit_run", is_flag=True,
               help="Instead of a texture: a smooth wall whose stiffness rises by 10% every 0.5 s while the handle "
@@ -62,8 +66,9 @@ from ._common import (Quantity, STABILISERS, _budget_needs_models, _check_plot_p
 @click.option("--quiet", is_flag=True, help="No live dashboard.")
 @_core_blas_held  # BLAS in the set-up (a preset's matrices, a slope bound) wakes no worker to spin beside the loop
 def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration, passivity_control, stabiliser, hand,
-               speed, fast, object_spec, uv_scale, tip_radius, tip_spacing, crop, record, vibration_models,
-               vibration_budget, no_material_friction, find_limit_run, identify_run, keep_awake, as_json, quiet):
+               speed, fast, object_spec, uv_scale, tip_radius, tip_spacing, crop, record, max_evaluations,
+               vibration_models, vibration_budget, no_material_friction, find_limit_run, identify_run, keep_awake,
+               as_json, quiet):
     """Render one texture on one device, with the safety rules of haptex.servo and a live dashboard."""
 
     from ..algorithms import algorithm
@@ -82,7 +87,7 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
             raise ParameterError("--find-limit is not allowed with --identify: one program a run")
         given = [n for n in ("texture_spec", "letter", "passivity_control", "stabiliser", "object_spec", "tip_radius",
                              "tip_spacing", "crop", "speed", "duration", "vibration_models", "vibration_budget",
-                             "no_material_friction", "keep_awake")
+                             "no_material_friction", "keep_awake", "max_evaluations")
                  if ctx.get_parameter_source(n) == click.core.ParameterSource.COMMANDLINE]
         if given:
             opt = next(o for o in ctx.command.params if o.name == given[0]).opts[-1]
@@ -96,7 +101,7 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
                                  "'haptex identify' reads")
         texture_given = [n for n in ("texture_spec", "letter", "stiffness", "passivity_control", "stabiliser",
                                      "object_spec", "tip_radius", "tip_spacing", "crop", "speed", "vibration_models",
-                                     "vibration_budget", "no_material_friction", "keep_awake")
+                                     "vibration_budget", "no_material_friction", "keep_awake", "max_evaluations")
                          if ctx.get_parameter_source(n) == click.core.ParameterSource.COMMANDLINE]
         if texture_given:
             opt = next(o for o in ctx.command.params if o.name == texture_given[0]).opts[-1]
@@ -169,8 +174,20 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
         own = backend.preset.device() if kind == "simulated" else dev
         vib = _vibration(vibration_models, dev.period, own.mass[0, 0], vibration_budget, backend.name,
                          False if no_material_friction else None)
+    from ..renderer import MAX_EVALUATIONS, evaluation_budget
+    from ..servo import SEARCH_SHARE, search_budget
+
+    evaluation_budget(max_evaluations)
+    seconds = None
+    if max_evaluations is None:  # (D and E over a surface: what half the period holds here; else the default)
+        reach = fmax / stiffness if math.isfinite(fmax) and stiffness > 0 else 1e-3
+        max_evaluations, seconds = search_budget(alg, dev.period, reach)
+        if max_evaluations is None:
+            max_evaluations = MAX_EVALUATIONS
+    searched = getattr(alg, "letter", "") in ("D", "E") and getattr(alg, "base", None) is None and \
+        tex is not None and tex.dimension == 2
     renderer = Renderer(alg, max_force=fmax if math.isfinite(fmax) else None, energy_monitor=True,
-                        passivity_controller=pc, period=dev.period, **vib)
+                        passivity_controller=pc, period=dev.period, max_evaluations=max_evaluations, **vib)
     loop = ServoLoop(backend, renderer, max_force=fmax if math.isfinite(fmax) else None, keep_awake=keep_awake)
     live = None
     if not (quiet or as_json):
@@ -214,6 +231,8 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
                "interrupted": stats.interrupted, "regime": verdict["regime"], "oscillating": osc.oscillating,
                "amplitude": osc.amplitude, "frequency": osc.frequency,
                "stabiliser": None if pc is None else pc.label,
+               **({"search_budget": max_evaluations, "search_evaluation_seconds": seconds,
+                   "search_max_work": renderer.max_work, "search_cut": renderer.cut} if searched else {}),
                "stabiliser_ticks": 0 if pc is None else renderer.controller_active,
                # (None: no component above the encoder's floor, nothing to judge)
                "buzz_db": None if verdict["buzz"] is None or verdict["buzz"].margin_db == -math.inf
@@ -231,6 +250,8 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
                          "period_std": "s", "jitter_max": "s", "jitter_p999": "s",
                          "stabiliser_ticks": "ticks", "buzz_db": "dB above the detection threshold",
                          "buzz_frequency": "Hz", "vibration_supplied": "J", "vibration_cut": "ticks",
+                         "search_budget": "evaluations", "search_evaluation_seconds": "s",
+                         "search_max_work": "evaluations", "search_cut": "ticks",
                          "vibration_budget": "W", "friction_mu": "1", "friction_dissipated": "J"}}
     if record is not None:
         _write_record(record, trace, dev.period)
@@ -253,6 +274,13 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
                f"{stats.driver}{' at SCHED_FIFO' if stats.fifo else ''}"
                f"{f', core {stats.awake_core} kept awake' if stats.awake_core is not None else ''}"
                + ("; interrupted (forces zeroed)" if stats.interrupted else ""))
+    if searched:
+        how = ("given" if seconds is None else
+               f"{SEARCH_SHARE:.0%} of the {dev.period * 1e3:.3g} ms period at {seconds * 1e6:.3g} us an evaluation, "
+               "measured before the run")
+        click.echo(f"{letter}'s closest-point search: at most {max_evaluations:,} evaluations a tick ({how}); "
+                   f"largest tick {renderer.max_work:,}; {renderer.cut} ticks cut (the best point found, not the "
+                   "certified closest)")
     if vib:
         fr = ("no material friction" if renderer.friction is None else
               f"the material's friction (mu {renderer.friction[0]:.3g}) dissipated {renderer.friction_dissipated:.3g} J")
