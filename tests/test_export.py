@@ -760,3 +760,21 @@ def test_a_map_too_large_to_export_names_a_crop_that_exports(tmp_path):
     wider = ",".join([x0, f"{float(x1[:-2]) * 1.03:.6g}um", y0, f"{float(y1[:-2]) * 1.03:.6g}um"])
     r3 = run_main(*args, "--out", str(tmp_path / "wider"), "--crop", wider)
     assert r3.returncode == 2 and f"--crop {crop.group(1)}" in r3.stderr, r3.stderr
+
+
+def test_haptex_export_takes_the_searchs_budget(tmp_path):
+    # --max-evaluations (export_c's max_evaluations): D over the egg-crate with a budget of 200
+    # evaluations writes it into the search's constants (aux[G_BUDGET], the core's layout) and
+    # states it in the header; outside [100, 10^9] it is refused as typed
+    from haptex.core import _ext
+
+    args = ["export", "--algorithm", "D", "--texture", "egg-crate:0.1mm,2mm", "--stiffness", "1 kN/m",
+            "--max-force", "5 N", "--quiet"]
+    r = run_main(*args, "--out", str(tmp_path / "fw"), "--max-evaluations", "200")
+    assert r.returncode == 0, r.stderr
+    assert "about 200 texture evaluations" in (tmp_path / "fw" / "haptex_texture.h").read_text()
+    source = (tmp_path / "fw" / "haptex_texture.c").read_text()
+    aux = source[source.index("static const double AUX["):].split("{", 1)[1].split("}", 1)[0]
+    assert float(aux.replace("\n", " ").split(",")[_ext.G_BUDGET]) == 200.0
+    r = run_main(*args, "--out", str(tmp_path / "no"), "--max-evaluations", "50")
+    assert r.returncode == 2 and "--max-evaluations 50 is not allowed" in r.stderr, r.stderr

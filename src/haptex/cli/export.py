@@ -48,11 +48,16 @@ from ._common import (
               help="What the source is compiled for: the host's cc, or a Cortex-M4F or M7 (arm-none-eabi-gcc, the "
                    "hard-float ABI; a bare-metal start, memory map and example main.c written beside; built and its "
                    "flash and RAM reported when arm-none-eabi-gcc is installed).")
+@click.option("--max-evaluations", type=int, default=None,
+              help="D and E over a surface: the texture evaluations one tick's closest-point search may spend, 100 "
+                   "to 10^9 (default 5,000, the renderer's: 1.5-2.5 ms on this project's PC over a measured map, "
+                   "more on a microcontroller; set it from your board's measured tick); past it the tick uses the "
+                   "best point found.")
 @click.option("--quiet", is_flag=True, help="No progress display.")
 def export(letter, texture_spec, stiffness, max_force, max_penetration, friction, presliding, stick_deflection,
            spacing, x_unit, height_unit, level, lowpass, periodic, object_spec, uv_scale, passivity_control, stabiliser,
            device_spec, vibration_models, vibration_budget, no_material_friction, tip_radius, tip_spacing, crop, out,
-           target, quiet):
+           target, max_evaluations, quiet):
     """C99 source of one algorithm on one texture, for device firmware (<math.h> only)."""
     from ..algorithms import ALGORITHMS, algorithm
     from ..export import TICK_FILES, build_defines, export_c, firmware_command
@@ -111,7 +116,8 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
         vib = _vibration(vibration_models, dev.period, dev.mass[0, 0], vibration_budget, dev.name,
                          False if no_material_friction else None)
     with _Spinner("writing the C source", quiet):
-        h_path, c_path = export_c(alg, out, max_force, passivity_controller=pc, period=period, target=target, **vib)
+        h_path, c_path = export_c(alg, out, max_force, passivity_controller=pc, period=period, target=target,
+                                  **({} if max_evaluations is None else {"max_evaluations": max_evaluations}), **vib)
     command = firmware_command(out, target, defines=build_defines(alg))
     click.echo(f"wrote {c_path}, {h_path} and the C core's {len(TICK_FILES)} files beside them"
                f"{'' if target == 'host' else ' (and startup.c, mps2.ld, main.c)'}: {alg!r}, max force "
