@@ -668,3 +668,22 @@ def test_a_remedy_taken_exactly_at_its_stated_bound_is_not_refused_again():
         assert speed and scale, msg
         design(tex, dev, 500.0, speed=float(speed.group(1)), algorithms="W")
         design(tex.scaled(float(scale.group(1))), dev, 500.0, speed=0.1, algorithms="W")
+
+
+@pytest.mark.long  # (D's analysis on the 256 x 256 AFM map: 11 s)
+def test_an_algorithm_passive_at_no_stiffness_is_not_recommended_at_a_lower_one():
+    # mi-1.mi's tightest radius of curvature, from numpy's second differences of its samples, is
+    # about 0.11 um, far within the 1 mm depth design analyses: D's q is unbounded there (eq.
+    # 18, d / (R - d) with R <= d), so no stiffness makes it passive (Corollary 1: kappa_0 <= K
+    # / q). Before, the recommendation read "conservative and continuous if the stiffness is
+    # lowered: D up to 0 N/m"
+    tex = hx.load_texture(_file("mi-1.mi"))
+    dx = float(tex.x[1] - tex.x[0])
+    curv = max(np.abs(np.diff(tex.h, 2, axis=a)).max() for a in (0, 1)) / dx**2
+    assert 1 / curv < 1e-3  # (the depth analysed, design's default max_penetration)
+    r = run_main("design", "--texture", str(_file("mi-1.mi")), "--speed", "0.019m/s", "--algorithms", "D", "--json")
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout)
+    assert [row["q"] for row in out["rows"] if row["algorithm"] == "D"] == ["inf"]  # (JSON has no infinity)
+    assert "up to 0 N/m" not in out["recommendation"], out["recommendation"]
+    assert "passive at no stiffness: D" in out["recommendation"], out["recommendation"]

@@ -244,6 +244,8 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
     if fair:
         text.append(f"passive and almost conservative (dissipative friction): {', '.join(fair)}")
     softer = [r for r in textured if r["conservative"] and r["continuous"] and not r["passive_at_stiffness"]]
+    never = [r["algorithm"] for r in softer if not r["max_passive_stiffness"] > 0]  # (q unbounded: Corollary 1)
+    softer = [r for r in softer if r["max_passive_stiffness"] > 0]
     if not good and not fair and not softer:
         text.append(f"no textured algorithm is passive, conservative and continuous at {stiffness:g} N/m")
     elif not good:
@@ -255,6 +257,9 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         if held and not wall.hand.none:
             text.append(f"stable but not passive at {stiffness:g} N/m with the hand {wall.hand.key!r}: "
                         f"{', '.join(held)} (its damping holds the loop; another grip may not)")
+    if never:
+        text.append("conservative and continuous on the grids checked but passive at no stiffness: "
+                    f"{', '.join(never)} (q unbounded)")
     if left_out:
         text.append(f"left out for the time budget of {time_budget:g} s: " + ", ".join(
             f"{L} (planned {v:.3g} s)" for L, v in left_out.items())
