@@ -214,6 +214,10 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         kstable = stiffness_at(wall.stable, q.value)
         cons = conservativity(alg, max_penetration=max_penetration, n_random=n_loops, x_range=xr)
         cont = continuity(alg, max_penetration=max_penetration, levels=3, x_range=xr)
+        # D's q unbounded is certified by a focal point within the depth analysed, its own closest
+        # point: below it the closest point is two, and the force's direction jumps across the
+        # medial axis (Remark 6), however much finer than the grids the map's features are
+        continuous = cont.continuous and not (L == "D" and math.isinf(q.value))
         try:
             path = None if base is not None else paper_loop(alg)[0]  # (on a plane only)
         except Exception:  # the Fig. 3 paths are defined for sinusoids only
@@ -224,7 +228,7 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
             "max_stable_stiffness": kstable, "stable_at_stiffness": bool(stiffness <= kstable),
             "conservative": cons.conservative, "almost_conservative": cons.almost,
             "max_abs_loop_energy": max((abs(e) for e in cons.random_loop_energies), default=0.0),
-            "continuous": cont.continuous, "has_paper_loop": path is not None,
+            "continuous": continuous, "has_paper_loop": path is not None,
         })
     wall_limit = wall["device"].value
     limits = texture_limits(texture, device, speed, stiffness, samples_per_period)
