@@ -14,6 +14,7 @@ from haptex.closest import ClosestPoint
 from haptex.analysis.work import loop_energy
 from haptex.objects import Cylinder, Mesh, Plane, Sphere, object_algorithm
 
+from .conftest import needs_data
 from .test_cli import run_main
 
 A, L, K0 = 0.2e-3, 2e-3, 2000.0
@@ -689,3 +690,32 @@ def test_d_and_e_on_an_object_refuse_a_felt_map_and_a_takes_it():
             object_algorithm(letter, felt, Sphere(0.0098676064717), K0)
     obj = object_algorithm("A", felt, Sphere(0.0098676064717), K0)
     assert np.all(np.isfinite(obj.force(np.array([[0.0, 0.0, 0.0098676064717 - 0.05e-3]]))))
+
+
+@needs_data
+def test_a_measured_profile_on_a_closed_base_is_led_to_a_seamless_radius():
+    # the Dektak scan (../shared/data) on a sphere: refused for its seam, naming --periodic; with
+    # it, refused for the radius, naming one the command line takes (--object sphere:...mm);
+    # that radius's circumference holds a whole number of the closed profile's periods (its
+    # length, numpy's n dx) to SEAM_TOLERANCE; a cylinder narrower than one period names the
+    # radius that holds one
+    import re
+
+    from haptex.objects import SEAM_TOLERANCE
+
+    from .conftest import DEKTAK
+
+    base = ["design", "--texture", str(DEKTAK), "--level", "--device", "point-mass"]
+    r = run_main(*base, "--object", "sphere:20mm")
+    assert r.returncode == 2 and "--periodic at the command line" in r.stderr, r.stderr
+    r = run_main(*base, "--periodic", "--object", "sphere:20mm")
+    mm = re.search(r"--object sphere:([\d.]+)mm at the command line", r.stderr)
+    assert r.returncode == 2 and mm, r.stderr
+    period = 1500 * 1e-6  # (the scan: 9,600 samples of 0.15625 um, 1.5 mm; the README of ../shared/data)
+    turns = 2 * math.pi * float(mm.group(1)) * 1e-3 / period
+    assert abs(turns - round(turns)) <= SEAM_TOLERANCE and round(turns) == 84, turns
+    r = run_main(*base, "--periodic", "--object", "cylinder:0.1mm")
+    mm = re.search(r"--object cylinder:([\d.]+)mm at the command line", r.stderr)
+    assert r.returncode == 2 and mm, r.stderr
+    turns = 2 * math.pi * float(mm.group(1)) * 1e-3 / period
+    assert abs(turns - 1) <= SEAM_TOLERANCE, turns

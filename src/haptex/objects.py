@@ -309,16 +309,25 @@ def _closed_period_check(base, texture: Surface, length: float) -> None:
     cell = texture.cell
     if cell is None:
         raise ParameterError(f"texture = {texture!r} is not allowed on {base!r}: a closed base needs a texture "
-                             f"periodic along u1 (its {length:.6g} m circumference would leave a seam)")
+                             f"periodic along u1 (its {length:.6g} m circumference would leave a seam); close a "
+                             "measured one into a periodic texture (--periodic at the command line, periodic=True "
+                             "in load_texture)")
     period = float(cell[0])
+    kind = type(base).__name__.lower()
+
+    def typed(radius):  # (as --object takes it)
+        return f"--object {kind}:{radius * 1e3:.12g}mm at the command line"
+
     if period > length * (1 + 1e-12):
+        fit = period / (2 * math.pi)
         raise ParameterError(f"texture = {texture!r} is not allowed on {base!r}: its period along u1, "
-                             f"{period:.6g} m, is longer than the base's circumference {length:.6g} m")
+                             f"{period:.6g} m, is longer than the base's circumference {length:.6g} m; a radius of "
+                             f"{fit:.12g} m holds one period ({typed(fit)})")
     turns = length / period
     if abs(turns - round(turns)) > SEAM_TOLERANCE:
         fit = round(turns) * period / (2 * math.pi)
         raise fail("radius", base.radius, f"a radius whose circumference holds a whole number of the texture's "
-                   f"{period:.6g} m periods along u1 (no seam), e.g. {fit:.12g} m")
+                   f"{period:.6g} m periods along u1 (no seam), e.g. {fit:.12g} m ({typed(fit)})")
 
 
 class _Round(Base):
