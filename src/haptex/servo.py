@@ -70,6 +70,12 @@ SEARCH_PROBES = 32
 """Ticks :func:`evaluation_seconds` times: a 4 x 8 grid over the texture (chosen: about 80 ms
 over a measured map at the default budget, before the run)."""
 
+SEARCH_DEPTHS = 4
+"""Depths :func:`search_budget` measures an evaluation's cost at, the handle's deepest and each a
+tenth of the last (chosen: the cost varies with the depth, 0.31-0.56 us an evaluation over
+mi-1.mi felt by a 2 um ball between 1 um and 18 mm on this project's machine); the largest is
+taken."""
+
 
 def evaluation_seconds(renderer, depth: float) -> float:
     """The cost of one texture evaluation in ``renderer``'s closest-point search on this
@@ -115,8 +121,8 @@ def evaluation_seconds(renderer, depth: float) -> float:
 
 def search_budget(algorithm, period: float, depth: float) -> tuple[int | None, float | None]:
     """The closest-point search's budget of texture evaluations a tick that fits
-    :data:`SEARCH_SHARE` of the servo ``period``, from :func:`evaluation_seconds` on this machine
-    (``haptex run``'s default ``--max-evaluations``; the renderer's own default,
+    :data:`SEARCH_SHARE` of the servo ``period``, from :func:`evaluation_seconds` on this machine,
+    its largest at :data:`SEARCH_DEPTHS` depths from ``depth`` down (``haptex run``'s default ``--max-evaluations``; the renderer's own default,
     :data:`haptex.renderer.MAX_EVALUATIONS`, is at most that much; at least 100, the renderer's
     smallest, where even that takes longer).
 
@@ -148,7 +154,12 @@ def search_budget(algorithm, period: float, depth: float) -> tuple[int | None, f
     if (getattr(algorithm, "letter", "") not in ("D", "E") or getattr(algorithm, "base", None) is not None
             or tex is None or tex.dimension != 2):
         return None, None
-    seconds = evaluation_seconds(Renderer(algorithm), depth)
+    depth = positive("depth", depth, "m")
+    renderer = Renderer(algorithm)
+    seconds = 0.0
+    for k in range(SEARCH_DEPTHS):  # (an evaluation's cost varies with the depth: 0.31-0.56 us over a felt map)
+        renderer.reset()
+        seconds = max(seconds, evaluation_seconds(renderer, depth * 10.0 ** -k))
     return max(100, min(MAX_EVALUATIONS, int(SEARCH_SHARE * period / seconds))), seconds
 
 
