@@ -216,15 +216,15 @@ def test_exported_stateful_ticks_follow_the_renderer_along_a_stroke(tmp_path, ob
     assert c.count("clamps") == r.clamps and c.count("faults") == 0 and c.count("max_work") == r.max_work
 
 
-def test_what_cannot_be_exported_is_refused(tmp_path):
+def test_what_cannot_be_exported_is_refused(tmp_path, monkeypatch):
+    import re
+
     from haptex import export as ex
 
     # a profile of 2,000,001 samples: a cubic's 4 coefficients an interval, 8,000,000 numbers and
     # a few of the layout's, past the 1,000,000 that fit; the refusal names the part that fits,
     # 4 (n - 1) <= 1,000,000 less the layout's few: n within 3 samples of 250,001, and its --crop
     # keeps those n samples (numpy's count of x <= X1)
-    import re
-
     x = np.arange(2_000_001) * 1e-7
     big = hx.SampledProfile(x, np.zeros(x.size))
     with pytest.raises(hx.ParameterError, match=r"its tables hold 8,000,0\d\d numbers \(64 MB\), more than the "
@@ -233,6 +233,13 @@ def test_what_cannot_be_exported_is_refused(tmp_path):
     n, x1 = re.search(r"a part of ([\d,]+) samples fits: --crop 0,([\d.]+)mm ", str(e.value)).groups()
     n = int(n.replace(",", ""))
     assert 249_998 <= n <= 250_001 and np.count_nonzero(x <= float(x1) * 1e-3) == n, (n, x1)
+    # a felt map's part is not its samples' (the ball reaches past a crop's edge): its remedies
+    # are the map's crop and a coarser felt grid, named as the command line takes them
+    felt = hx.SampledSurface(np.arange(40) * 1e-6, np.arange(40) * 1e-6, np.zeros((40, 40))).felt_by(3e-6)
+    monkeypatch.setattr(ex, "MAX_TABLE", 1000)  # (its 39 x 39 patches, 16 numbers each, past it)
+    with pytest.raises(hx.ParameterError, match=r"crop the map it is felt on \(--crop at the command line\) or "
+                                                r"feel it on a coarser grid \(--tip-spacing"):
+        export_c(hx.algorithm("A", felt, K0), tmp_path, 5.0)
     assert ex.EXPORTABLE == "WABCDEFG"
     with pytest.raises(hx.ParameterError, match="max_force = -1 is not allowed"):
         export_c(hx.algorithm("A", hx.Sinusoid(A, L), K0), tmp_path, -1.0)

@@ -222,9 +222,11 @@ def _plain_map(texture) -> bool:
     from .surfaces import SampledSurface
     from .textures import SampledProfile
 
+    if getattr(texture, "_felt_radius", None) is not None:
+        return False
     if type(texture) is SampledSurface:
-        return texture._gradients is None and texture._knots is None and texture.curvature_miss is None
-    return type(texture) is SampledProfile and texture.curvature_miss is None and not texture.resampled
+        return texture._gradients is None and texture._knots is None
+    return type(texture) is SampledProfile and not texture.resampled
 
 
 def _part(texture, f: float):
@@ -312,8 +314,9 @@ def _too_large(algorithm, vibration, vib, held: int, cap: int, target: str, max_
                       f"(crop={bounds!r} in load_texture)")
         else:
             remedy = "not even a part of 4 samples a side fits"
-    elif tex is not None and getattr(tex, "curvature_miss", None) is not None:
-        remedy = "crop the map it is felt on (--crop) or feel it on a coarser grid (--tip-spacing)"
+    elif getattr(tex, "_felt_radius", None) is not None:
+        remedy = ("crop the map it is felt on (--crop at the command line) or feel it on a coarser grid "
+                  "(--tip-spacing; felt_by(r, spacing=) in Python)")
     else:
         remedy = "sample it more coarsely or crop it"
     return ParameterError(f"texture = {tex!r} is not allowed for export{to}: {size}; {remedy}")

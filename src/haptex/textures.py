@@ -120,7 +120,11 @@ class Texture:
             As :func:`haptex.probe.felt_by`.
         """
         r = nonnegative("tip_radius", tip_radius, "m")
-        return self if r == 0.0 else self._felt(r, spacing)
+        if r == 0.0:
+            return self
+        out = self._felt(r, spacing)
+        out._felt_radius = r  # (what it was felt by: an export's refusal names --tip-spacing for it)
+        return out
 
     def _felt(self, r: float, spacing: float | None) -> "Texture":
         """A profile's felt texture (a ball of radius r > 0, m): the ball's centre path at each grid
