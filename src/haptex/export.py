@@ -251,13 +251,17 @@ def _crop_that_fits(algorithm, cap: int, max_evaluations, others: int):
     from ._loaders import crop_region
     from ._specs import quantity
     from .algorithms import algorithm as make
+    from .objects import object_algorithm
     from .probe import _stated_length
 
     tex = algorithm.texture
     params = {n: getattr(algorithm, n) for n in ALGORITHMS[algorithm.letter].parameters}
 
     def fits(f):
-        part = make(algorithm.letter, _part(tex, f)[0], algorithm.stiffness, **params)
+        if getattr(algorithm, "base", None) is None:
+            part = make(algorithm.letter, _part(tex, f)[0], algorithm.stiffness, **params)
+        else:  # (on its object: the base's tables beside the part's)
+            part = object_algorithm(algorithm.letter, _part(tex, f)[0], algorithm.base, algorithm.stiffness, **params)
         _, _, _, coeffs, aux, _, base = _tick_tables(part, max_evaluations, cap)
         return _held(coeffs, aux, base) + others <= cap
 
@@ -269,12 +273,13 @@ def _crop_that_fits(algorithm, cap: int, max_evaluations, others: int):
         lo, hi = (mid, hi) if fits(mid) else (lo, mid)
     n = _part(tex, lo)[1]
     axes = [tex.x] if len(n) == 1 else [tex.x, tex.y]
-    def outward(v, up, fits):  # (v rounded away from the part to 6 digits, as the command line writes it)
+
+    def outward(v, up, ok):  # (v rounded away from the part to 6 digits, as the command line writes it)
         if v == 0:
             return "0"
         if v < 0:
-            return "-" + _stated_length(-v, up=not up, digits=6, fits=lambda w: fits(-w))[1]
-        return _stated_length(v, up=up, digits=6, fits=fits)[1]
+            return "-" + _stated_length(-v, up=not up, digits=6, fits=lambda w: ok(-w))[1]
+        return _stated_length(v, up=up, digits=6, fits=ok)[1]
 
     words = []
     for a, k in zip(axes, n):  # (each bound short of the next sample)
@@ -289,18 +294,19 @@ def _crop_that_fits(algorithm, cap: int, max_evaluations, others: int):
     return n, words, exact
 
 
-def _too_large(algorithm, vibration, vib, held: int, cap: int, target: str, max_evaluations) -> ParameterError:
-    """The refusal of tables holding ``held`` numbers where ``cap`` fit on ``target``, naming
-    the remedy that exists: a crop of a sampled texture with its bound (taken as written, it is
-    exported), a mesh decimated, a smaller model set."""
+def _too_large(algorithm, vibration, vib, held: int, meshed: int, cap: int, target: str,
+               max_evaluations) -> ParameterError:
+    """The refusal of tables holding ``held`` numbers (``meshed`` of them a mesh's triangles)
+    where ``cap`` fit on ``target``, naming the remedy that exists: a crop of a sampled texture
+    with its bound (taken as written, it is exported), a mesh decimated, a smaller model set."""
     where = (f"the host's MAX_TABLE, {MAX_TABLE * 8 / 1e6:g} MB of constants" if target == "host" else
              f"the {TARGETS[target]['flash'] // (1024 * 1024)} MiB of flash of QEMU's {TARGETS[target]['qemu']} "
              f"board, mps2.ld, less {FIRMWARE_CODE // 1024} KiB kept for the code")
     size = f"its tables hold {held:,} numbers ({held * 8 / 1e6:.3g} MB), more than the {cap:,} that fit ({where})"
     to = "" if target == "host" else f" to {target}"
-    if getattr(algorithm, "base", None) is not None:
-        return ParameterError(f"object = {algorithm.base!r} is not allowed for export{to}: {size}; decimate the "
-                              f"mesh first ({_ext.FACE + 9} numbers a triangle)")
+    if meshed and 2 * meshed >= held:
+        return ParameterError(f"object = {algorithm.base!r} is not allowed for export{to}: {size}, {meshed:,} of "
+                              f"them its triangles' ({_ext.FACE + 9} a triangle); decimate the mesh first")
     others = 0 if vib is None else vib[0].size
     if others > cap // 2:
         return ParameterError(f"vibration = {vibration!r} is not allowed for export{to}: {size}, its model set's "
@@ -414,7 +420,8 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
     code, prm, kind, coeffs, aux, table, base = _tick_tables(algorithm, max_evaluations, cap)
     held = _held(coeffs, aux, base) + (0 if vib is None else vib[0].size)
     if held > cap:
-        raise _too_large(algorithm, vibration, vib, held, cap, target, max_evaluations)
+        meshed = 0 if base is None else base[2].size + base[3].size
+        raise _too_large(algorithm, vibration, vib, held, meshed, cap, target, max_evaluations)
     n_tri = 0 if base is None else len(base[2])
     letter = algorithm.letter
     dim = algorithm.dimension

@@ -119,6 +119,25 @@ def evaluation_seconds(renderer, depth: float) -> float:
     return (time.perf_counter() - start) / max(work, 1)
 
 
+def budgeted_search(algorithm) -> bool:
+    """Whether ``algorithm``'s tick is one :func:`search_budget` measures: D or E over a surface on
+    the plane (a profile's search is bounded by its tree; an object's keeps the renderer's default
+    budget, :data:`haptex.renderer.MAX_EVALUATIONS`).
+
+    Parameters
+    ----------
+    algorithm : Algorithm or GodObject
+        What is rendered.
+
+    Returns
+    -------
+    bool
+    """
+    tex = getattr(algorithm, "texture", None)
+    return (getattr(algorithm, "letter", "") in ("D", "E") and getattr(algorithm, "base", None) is None
+            and tex is not None and tex.dimension == 2)
+
+
 def search_budget(algorithm, period: float, depth: float) -> tuple[int | None, float | None]:
     """The closest-point search's budget of texture evaluations a tick that fits
     :data:`SEARCH_SHARE` of the servo ``period``, from :func:`evaluation_seconds` on this machine,
@@ -150,9 +169,7 @@ def search_budget(algorithm, period: float, depth: float) -> tuple[int | None, f
     from .renderer import MAX_EVALUATIONS, Renderer
 
     period = positive("period", period, "s")
-    tex = getattr(algorithm, "texture", None)
-    if (getattr(algorithm, "letter", "") not in ("D", "E") or getattr(algorithm, "base", None) is not None
-            or tex is None or tex.dimension != 2):
+    if not budgeted_search(algorithm):
         return None, None
     depth = positive("depth", depth, "m")
     renderer = Renderer(algorithm)

@@ -175,7 +175,7 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
         vib = _vibration(vibration_models, dev.period, own.mass[0, 0], vibration_budget, backend.name,
                          False if no_material_friction else None)
     from ..renderer import MAX_EVALUATIONS, evaluation_budget
-    from ..servo import SEARCH_SHARE, search_budget
+    from ..servo import SEARCH_SHARE, budgeted_search, search_budget
 
     evaluation_budget(max_evaluations)
     seconds = None
@@ -184,8 +184,7 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
         max_evaluations, seconds = search_budget(alg, dev.period, reach)
         if max_evaluations is None:
             max_evaluations = MAX_EVALUATIONS
-    searched = getattr(alg, "letter", "") in ("D", "E") and getattr(alg, "base", None) is None and \
-        tex is not None and tex.dimension == 2
+    searched = budgeted_search(alg)
     renderer = Renderer(alg, max_force=fmax if math.isfinite(fmax) else None, energy_monitor=True,
                         passivity_controller=pc, period=dev.period, max_evaluations=max_evaluations, **vib)
     loop = ServoLoop(backend, renderer, max_force=fmax if math.isfinite(fmax) else None, keep_awake=keep_awake)
