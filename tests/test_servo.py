@@ -278,7 +278,7 @@ def test_d_and_e_in_haptex_run_search_within_half_the_devices_period(monkeypatch
     # bound: the budget plus the search's last cell) and the ticks it cut are counted
     from haptex import servo
 
-    from .conftest import DATA, needs_data
+    from .conftest import DATA
 
     if not (DATA / "mi-1.mi").exists():
         pytest.skip("../shared/data is not beside this checkout")
