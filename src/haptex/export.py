@@ -97,10 +97,15 @@ def table_capacity(target: str = "host") -> int:
     ParameterError
         For an unknown target.
     """
+    flash = _target(target).get("flash")
+    return MAX_TABLE if flash is None else min(MAX_TABLE, (flash - FIRMWARE_CODE) // 8)
+
+
+def _target(target: str) -> dict:
+    """TARGETS[target], or the refusal of a target it does not hold."""
     if target not in TARGETS:
         raise fail("target", target, " or ".join(repr(t) for t in TARGETS))
-    flash = TARGETS[target].get("flash")
-    return MAX_TABLE if flash is None else min(MAX_TABLE, (flash - FIRMWARE_CODE) // 8)
+    return TARGETS[target]
 
 FIRMWARE_FLAGS = ("-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-ffunction-sections", "-fdata-sections")
 """The flags every exported file compiles with for a Cortex-M (each function and datum in its
@@ -169,9 +174,7 @@ def firmware_command(out, target: str, *, relative: bool = False, elf: str = "ha
     ParameterError
         For an unknown target.
     """
-    if target not in TARGETS:
-        raise fail("target", target, " or ".join(repr(t) for t in TARGETS))
-    t = TARGETS[target]
+    t = _target(target)
     d = Path(".") if relative else Path(out)
     if target == "host":
         return [t["cc"], "-std=c99", "-O2", *defines, "-o", str(d / "tick"), "your_loop.c", str(d / "*.c"), "-lm"]
@@ -229,17 +232,22 @@ def _plain_map(texture) -> bool:
     return type(texture) is SampledProfile and not texture.resampled
 
 
+def _part_sizes(texture, f: float) -> tuple:
+    """The samples along each axis of a plain sampled texture's part of f (0 <= f <= 1) of them,
+    at least 4."""
+    return tuple(max(4, int(f * n)) for n in texture.h.shape)
+
+
 def _part(texture, f: float):
-    """The part of a plain sampled texture from its first sample, f (0 < f <= 1) of its samples
-    along each axis (at least 4): (part, samples kept along each axis)."""
+    """The part of a plain sampled texture from its first sample, :func:`_part_sizes` of it."""
     from .surfaces import SampledSurface
     from .textures import SampledProfile
 
+    n = _part_sizes(texture, f)
     if isinstance(texture, SampledSurface):
-        i, j = (max(4, int(f * n)) for n in texture.h.shape)
-        return SampledSurface(texture.x[:i], texture.y[:j], texture.h[:i, :j], periodic=texture.periodic), (i, j)
-    i = max(4, int(f * texture.x.size))
-    return SampledProfile(texture.x[:i], texture.h[:i], periodic=texture.periodic), (i,)
+        i, j = n
+        return SampledSurface(texture.x[:i], texture.y[:j], texture.h[:i, :j], periodic=texture.periodic)
+    return SampledProfile(texture.x[:n[0]], texture.h[:n[0]], periodic=texture.periodic)
 
 
 def _crop_that_fits(algorithm, cap: int, max_evaluations, others: int):
@@ -259,19 +267,19 @@ def _crop_that_fits(algorithm, cap: int, max_evaluations, others: int):
 
     def fits(f):
         if getattr(algorithm, "base", None) is None:
-            part = make(algorithm.letter, _part(tex, f)[0], algorithm.stiffness, **params)
+            part = make(algorithm.letter, _part(tex, f), algorithm.stiffness, **params)
         else:  # (on its object: the base's tables beside the part's)
-            part = object_algorithm(algorithm.letter, _part(tex, f)[0], algorithm.base, algorithm.stiffness, **params)
+            part = object_algorithm(algorithm.letter, _part(tex, f), algorithm.base, algorithm.stiffness, **params)
         _, _, _, coeffs, aux, _, base = _tick_tables(part, max_evaluations, cap)
         return _held(coeffs, aux, base) + others <= cap
 
     if not fits(0.0):
         return None
     lo, hi = 0.0, 1.0
-    for _ in range(int(np.ceil(np.log2(max(_part(tex, 1.0)[1])))) + 1):  # (to less than a sample a side)
+    for _ in range(int(np.ceil(np.log2(max(tex.h.shape)))) + 1):  # (to less than a sample a side)
         mid = 0.5 * (lo + hi)
         lo, hi = (mid, hi) if fits(mid) else (lo, mid)
-    n = _part(tex, lo)[1]
+    n = _part_sizes(tex, lo)
     axes = [tex.x] if len(n) == 1 else [tex.x, tex.y]
 
     def outward(v, up, ok):  # (v rounded away from the part to 6 digits, as the command line writes it)
@@ -414,9 +422,7 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
     vib = vibration_settings(vibration, vibration_mass, vibration_gain, velocity_filter, seed, vibration_budget,
                              vibration_reserve)
     fric = friction_settings(vibration, friction, friction_threshold)
-    if target not in TARGETS:
-        raise fail("target", target, " or ".join(repr(t) for t in TARGETS))
-    cap = table_capacity(target)
+    cap = table_capacity(target)  # (an unknown target refused there)
     code, prm, kind, coeffs, aux, table, base = _tick_tables(algorithm, max_evaluations, cap)
     held = _held(coeffs, aux, base) + (0 if vib is None else vib[0].size)
     if held > cap:
