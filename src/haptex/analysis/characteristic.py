@@ -484,9 +484,12 @@ def _candidates(values: np.ndarray, count: int = 8) -> np.ndarray:
     labels, n = ndimage.label(peaks, structure=np.ones((3,) * values.ndim))
     if n == 0:
         return np.array([int(np.argmax(finite))])
-    # one candidate per connected plateau of local maxima, so ties do not crowd out others
-    pos = ndimage.maximum_position(finite, labels, index=np.arange(1, n + 1))
-    idx = np.array([np.ravel_multi_index(q, finite.shape) for q in pos])
+    # one candidate per connected plateau of local maxima (its points equal), so ties do not
+    # crowd out others: its first point in C order (ndimage.maximum_position's choice among
+    # equal points follows numpy's argsort, whose order of ties depends on the CPU)
+    at = np.flatnonzero(labels)
+    _, first = np.unique(labels.ravel()[at], return_index=True)
+    idx = at[first]
     order = np.argsort(-finite.ravel()[idx], kind="stable")  # (equal maxima in the grid's order)
     return idx[order[:count]]
 
