@@ -436,6 +436,17 @@ def test_a_folder_of_hatt_files_is_one_line_each(tmp_path, capsys):
     assert out[0].startswith("Models_Broken.xml: refused: <numTri> = 9 is not allowed")
     assert out[-1].startswith("2 of 3 model files read")
     assert main(["vibration", str(lib / "Models_Cork.xml"), str(lib / "Models_Denim.xml"), "--plot", "x.png"]) == 2
+    assert "--plot is not allowed with 2 model files: give one file" in capsys.readouterr().err
+    # one file with --check and --device: the refusal names --check, not 'one file' (it said "must
+    # be given with one file" to a user who had given one, 2026-11-30); each taken alone works
+    one = str(lib / "Models_Cork.xml")
+    assert main(["vibration", one, "--check", "--points", "20", "--device", "falcon"]) == 2
+    err = capsys.readouterr().err
+    assert "--device is not allowed with --check" in err and "one file" not in err
+    assert main(["vibration", one, "--check", "--points", "20"]) == 0
+    assert main(["vibration", one, "--plot", str(tmp_path / "cork.png")]) == 0 and (tmp_path / "cork.png").is_file()
+    capsys.readouterr()  # (--device alone reads on: these 2 kHz models are then refused for the Falcon's 1 kHz)
+    assert main(["vibration", one, "--device", "falcon"]) == 2 and "servo rate, 1000 Hz" in capsys.readouterr().err
     assert main(["vibration", str(tmp_path / "nothing")]) == 2
 
 

@@ -84,10 +84,12 @@ def vibration(models, speed, force, check, points, plot, device_spec, hand, as_j
     each: material, models, triangles, speed and force range, rms at the operating point."""
     files = _model_files(models)
     if len(files) != 1 or models[0].is_dir() or check:
+        # (--check reads each set on its own, one line each, as for a folder: no spectrum, no port)
+        why = ("--check: run it without --check for one set's spectrum and power" if check and len(files) == 1
+               and not models[0].is_dir() else f"{len(files)} model files: give one file")
         for name, given in (("--plot", plot), ("--device", device_spec)):
             if given is not None:
-                raise ParameterError(f"{name} = {given!r} is not allowed with several model files or --check: "
-                                     "must be given with one file")
+                raise ParameterError(f"{name} is not allowed with {why}")
         _library(files, speed, force, check, points, as_json)
         return
     models = files[0]
