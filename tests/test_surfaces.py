@@ -1124,3 +1124,18 @@ def test_q_of_d_and_e_on_a_sampled_map_searches_only_the_feet_that_decide_it(mon
         searched = sum(region) + sum(refined)
         assert "256x256x8" in q.note and searched <= 20_000 and sum(region) >= 512, (letter, searched)
         monkeypatch.undo()
+
+
+def test_a_sups_starting_samples_are_the_same_on_every_machine():
+    # A sup over the cell (max slope, curvature, q's grids) is refined from the grid's 8 largest
+    # samples; among equal samples (a symmetric texture's, bit for bit) numpy's argpartition
+    # chose by the CPU's SIMD selection (on an AVX-512 EPYC, 2026-11-30: samples 32-39 of a
+    # constant 64 x 64 grid), so another machine could start elsewhere. Truth: the definition,
+    # the 8 largest with ties in the grid's C order (numpy's stable argsort on -values); here
+    # every sample ties and a constant has nothing to climb, so the starts are where it ends
+    tex = hx.Grating(0.1e-3, 2e-3)
+    pts, _ = tex._grid()
+    where = []
+    assert tex._sup(lambda xy: np.ones(np.shape(xy)[:-1]), where) == 1.0
+    flat = pts.reshape(-1, 2)
+    np.testing.assert_array_equal(np.array(where), flat[np.argsort(-np.ones(len(flat)), kind="stable")[:8]])

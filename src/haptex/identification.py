@@ -1058,7 +1058,7 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
         info = np.sum(J[:, col].reshape(W, H * d) ** 2, axis=1)
         if not np.any(info > 0):
             continue
-        order = np.argsort(info)[::-1]
+        order = np.argsort(info, kind="stable")[::-1]
         top = np.sort(order[:int(np.searchsorted(np.cumsum(info[order]) / np.sum(info), 0.5)) + 1])
         u = f[idx[top] - D, 0].ravel()
         spec = np.abs(np.fft.rfft(u - u.mean())) ** 2

@@ -330,7 +330,7 @@ class HapiDepthMap(_AnalysisOnly):
         vals = np.array([f(v) for v in pts])
         it = 0
         while True:
-            order = np.argsort(vals)
+            order = np.argsort(vals, kind="stable")
             pts, vals = pts[order], vals[order]
             lo, hi = vals[0], vals[-1]
             if 2.0 * abs(hi - lo) <= self.epsilon * (abs(hi) + abs(lo)) + 1e-300 or it >= self.max_iterations:

@@ -210,7 +210,13 @@ class Surface(Texture):
         flat = vals.ravel()
         scale = np.array([dx, dy])
 
-        for idx in np.argpartition(flat, -8)[-8:] if flat.size > 8 else range(flat.size):  # the 8 largest
+        if flat.size > 8:  # the 8 largest, ties taken in the grid's order (argpartition's choice among
+            t = np.partition(flat, -8)[-8]  # equal values depends on the CPU's SIMD selection)
+            above = np.flatnonzero(flat > t)
+            starts = np.r_[above, np.flatnonzero(flat == t)[:8 - above.size]]
+        else:
+            starts = range(flat.size)
+        for idx in starts:
             start, norm = pts.reshape(-1, 2)[idx], max(best, 1e-300)
 
             def neg(u, start=start, norm=norm):  # (n, 2) steps about the sample
@@ -2742,7 +2748,7 @@ def _path_top(texture, m, r, starts=None):
     def curvature(q):  # (n, 2) contact points -> the path's curvature over them (n,)
         return np.nan_to_num(_hessian_norm(_resting(texture, q, r)[1]), nan=0.0)
 
-    for k in np.argsort(norms)[-PATH_TOP_STARTS:] if starts is None else starts:
+    for k in np.argsort(norms, kind="stable")[-PATH_TOP_STARTS:] if starts is None else starts:
         i, j = divmod(int(k) % (nx * ny), ny)
         start, scale = pts[k], np.array([wx[i], wy[j]])
 
@@ -3024,7 +3030,7 @@ def _top_intervals(texture, m, r):
     # (the climbs' starts: the samples within GRADED_HOT of the largest, the largest first, each
     # more than PATH_TOP_REACH cells from every one before it, at most GRADED_TOP_STARTS)
     starts, taken, hot = [], [], (1 - GRADED_HOT) * norms.max()
-    for k in np.argsort(norms)[::-1]:
+    for k in np.argsort(norms, kind="stable")[::-1]:
         if norms[k] < hot or len(starts) == GRADED_TOP_STARTS:
             break
         ij = np.array(divmod(int(k) % (nx * ny), ny))
@@ -3654,7 +3660,7 @@ def _branch_patches(texture, x, y, u, grads, twist, r, rim, periodic, c, ex, ey,
         if new.any():
             f = first[new]
             at, val, G, U, T = follow(ni[f], nj[f], sa[f], sb[f])
-            order = np.argsort(np.concatenate([known["key"], uk[new]]))
+            order = np.argsort(np.concatenate([known["key"], uk[new]]), kind="stable")
             known["key"] = np.concatenate([known["key"], uk[new]])[order]
             known["at"] = np.concatenate([known["at"], at])[order]
             known["val"] = np.concatenate([known["val"], val])[order]

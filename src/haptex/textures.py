@@ -333,7 +333,7 @@ class SumOfSinusoids(Texture):
         best = float(y.max())
         from scipy.optimize import minimize_scalar
 
-        for i in np.argsort(y)[-8:]:
+        for i in np.argsort(y, kind="stable")[-8:]:
             r = minimize_scalar(
                 lambda t: -abs(float(fun(np.array([t]))[0])),
                 bounds=(x[i] - dx, x[i] + dx),
@@ -356,7 +356,7 @@ class SumOfSinusoids(Texture):
         tuple of numpy.ndarray
             Spatial frequencies 1/l_k (1/m) and amplitudes a_k (m), each shape (n,).
         """
-        order = np.argsort(self.periods)[::-1]
+        order = np.argsort(self.periods, kind="stable")[::-1]
         return 1.0 / self.periods[order], self.amplitudes[order]
 
     @property

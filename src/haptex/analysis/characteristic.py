@@ -441,7 +441,7 @@ def _node_starts(algorithm, x_range, depths, count: int = NODE_STARTS, chunk: in
         for i in range(0, ends.size, chunk):
             e = ends[i:i + chunk]
             v = spectral_norm(algorithm.jacobian(_region_points(algorithm, e[:, None], np.full(e.size, depth)))) / k0
-            top = np.argsort(np.where(np.isfinite(v), v, -np.inf))[-count:]
+            top = np.argsort(np.where(np.isfinite(v), v, -np.inf), kind="stable")[-count:]
             best += [(float(v[j]), float(e[j]), float(depth)) for j in top]
     best.sort(reverse=True)
     return [((x, d), v, step) for v, x, d in best[:count]]
@@ -670,7 +670,7 @@ def _q_friction(alg, dmax, ranges, counts, nd) -> CharacteristicNumber:
             mesh = np.meshgrid(axes[0][i0:i0 + rows], *axes[1:], ds, np.arange(len(defl)), indexing="ij")
             xt = np.stack(mesh[:k], -1)
             norms = spectral_norm(jac(xt, mesh[k], defl[mesh[k + 1]], phase)) / k0
-            for idx in np.argsort(norms, axis=None)[-n_best:]:
+            for idx in np.argsort(norms, axis=None, kind="stable")[-n_best:]:
                 ijk = np.unravel_index(idx, norms.shape)
                 vals.append(float(norms[ijk]))
                 where.append((ijk[0] + i0, *ijk[1:]))
@@ -864,7 +864,7 @@ def _q_distance_surface(alg, dmax, ranges, counts, nd, closed, x_range, resoluti
         metric = np.eye(2) + s_[..., :, None] * s_[..., None, :]
         kappa = np.linalg.eigvals(np.linalg.solve(metric, hess)).real / w[..., None]
         focal = np.where(kappa < 0, -1.0 / np.where(kappa < 0, kappa, -1.0), np.inf).min(axis=-1)  # 1/‖kappa‖
-        for idx in np.argsort(focal, axis=None)[:8]:
+        for idx in np.argsort(focal, axis=None, kind="stable")[:8]:
             rho = float(focal.ravel()[idx])
             if not rho <= dmax:
                 break

@@ -80,7 +80,7 @@ def _adaptive_gauss(fun, a: np.ndarray, b: np.ndarray, tol: float, nodes: int = 
         ok = err <= tol * (b - a) / width
         most = max(budget // 2, 0)  # (the halves of the pieces halved now are halved next)
         if np.count_nonzero(~ok) > most:
-            ok[np.argsort(np.where(ok, -np.inf, err))[:err.size - most]] = True
+            ok[np.argsort(np.where(ok, -np.inf, err), kind="stable")[:err.size - most]] = True
         total += float(fine[ok].sum())
         spent += float(err[ok].sum())
         a, b = np.concatenate([a[~ok], m[~ok]]), np.concatenate([m[~ok], b[~ok]])
