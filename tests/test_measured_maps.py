@@ -670,6 +670,47 @@ def test_a_remedy_taken_exactly_at_its_stated_bound_is_not_refused_again():
         design(tex.scaled(float(scale.group(1))), dev, 500.0, speed=0.1, algorithms="W")
 
 
+def test_a_depth_refused_for_a_raw_maps_shortest_period_is_analysed_at_the_bound_it_names():
+    # The analysed region is at most 1000 shortest periods deep (MAX_REGION_PERIODS); a raw
+    # scan's shortest period is two samples, so design --raw refuses the default 1 mm on a fine
+    # map. The bound was stated with 6 digits rounded to nearest, "(0.00015625 m)" for mi-1.mi
+    # felt by a 5 um ball, and --max-penetration 0.15625mm was refused again (2026-11-30); its
+    # remedy named --lowpass, a line scan's option. Walked over a neighbourhood of spacings (maps
+    # of 1/3 to 1/12 um samples, the bound 1000 x 2 dx in floats): the depth the refusal states,
+    # as the command line reads it, passes the analysis' checks (a design on one of them), and
+    # 0.1 % deeper is refused
+    from haptex._specs import quantity
+    from haptex.analysis._region import check_analysis_scale
+    from haptex.design import design
+
+    point_mass = hx.Device.point_mass(dimension=3)
+    for k in range(3, 13):
+        x = np.arange(24) * (1e-6 / k)
+        h = 1e-9 * np.sin(2 * np.pi * x / x[8])[:, None] * np.cos(2 * np.pi * x / x[6])[None, :]
+        tex = hx.SampledSurface(x, x, h)
+        with pytest.raises(hx.ParameterError) as refused:
+            design(tex, point_mass, 500.0, speed=1e-4, band_limit=False, algorithms="A")
+        msg = str(refused.value)
+        text = re.search(r"--max-penetration (\S+) or less", msg).group(1)
+        value = float(re.search(r"max_penetration <= (\S+) in Python", msg).group(1))
+        assert quantity(text, "m", "--max-penetration") == value and value <= 2000 * float(x[1] - x[0])
+        assert "design does unless --raw" in msg  # (--lowpass is a line scan's)
+        a = hx.algorithm("A", tex, 500.0)
+        assert check_analysis_scale(a, value) == value
+        with pytest.raises(hx.ParameterError):
+            check_analysis_scale(a, 1.001 * value)
+        if k == 7:  # (2 s)
+            design(tex, point_mass, 500.0, speed=1e-4, band_limit=False, algorithms="A", max_penetration=value)
+
+
+def test_at_the_command_line_a_raw_instrument_maps_depth_refusal_names_the_depth_option():
+    # mi-1.mi (256 x 256 samples of 78 nm) with --raw: the bound as --max-penetration takes it,
+    # one line, exit status 2 (taken, a design in 13 s, measured 2026-11-30)
+    r = run_main("design", "--texture", str(_file("mi-1.mi")), "--raw", "--speed", "0.019m/s", "--algorithms", "A")
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
+    assert "--max-penetration 156.249um or less" in r.stderr and "design does unless --raw" in r.stderr
+
+
 @pytest.mark.long  # (D's analysis on the 256 x 256 AFM map: 11 s)
 def test_d_with_a_focal_point_in_reach_is_neither_continuous_nor_recommended_at_a_lower_stiffness():
     # mi-1.mi's tightest radius of curvature, from numpy's second differences of its samples, is

@@ -204,7 +204,8 @@ def test_design_cli_on_the_raw_dektak_scan_and_raw_on_request():
                        capture_output=True, text=True, timeout=120)
     # raw, the Nyquist period 0.31 um makes the 1 mm rendering region 3200 periods deep
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
-    assert "at most 1000 shortest texture periods" in r.stderr
+    assert "at most 1000 shortest periods of" in r.stderr and "um or less;" in r.stderr  # (--max-penetration's bound)
+    assert "--lowpass for a line scan" in r.stderr
 
 
 def test_design_cli_reads_an_areal_map_as_a_surface(tmp_path):

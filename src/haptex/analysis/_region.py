@@ -77,8 +77,16 @@ def check_analysis_scale(algorithm: Algorithm, max_penetration) -> float:
         raise ParameterError(f"texture = {tex!r} is not allowed in the analysis: its shortest period {ell:g} m or "
                              f"height range {hi - lo:g} m exceeds {MAX_LENGTH:g} m")
     if dmax > MAX_REGION_PERIODS * ell:
-        raise fail("max_penetration", dmax, f"at most {MAX_REGION_PERIODS:g} shortest texture periods "
-                   f"({MAX_REGION_PERIODS * ell:g} m) for {tex!r}; or band-limit the texture (lowpass, --lowpass)")
+        from ..probe import _stated_length
+
+        # (the bound rounded down to 6 digits, so that taken as written it is not refused again:
+        # "0.00015625 m" for mi-1.mi felt by a 5 um ball was, 2026-11-30)
+        value, text = _stated_length(MAX_REGION_PERIODS * ell, up=False, digits=6,
+                                     fits=lambda v: v <= MAX_REGION_PERIODS * ell)
+        raise fail("max_penetration", dmax, f"at most {MAX_REGION_PERIODS:g} shortest periods of {tex!r}, {text} "
+                   f"(--max-penetration {text} or less; max_penetration <= {value!r} in Python); or band-limit "
+                   "the texture (design does unless --raw, band_limit=False; lowpass() in Python, --lowpass for "
+                   "a line scan)")
     if hi - lo > MAX_REGION_PERIODS * ell:
         raise ParameterError(f"texture = {tex!r} is not allowed in the analysis: its height range {hi - lo:g} m spans "
                              f"more than {MAX_REGION_PERIODS:g} shortest periods ({MAX_REGION_PERIODS * ell:g} m); "
