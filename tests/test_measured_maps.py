@@ -703,6 +703,26 @@ def test_a_depth_refused_for_a_raw_maps_shortest_period_is_analysed_at_the_bound
             design(tex, point_mass, 500.0, speed=1e-4, band_limit=False, algorithms="A", max_penetration=value)
 
 
+def test_a_stiffness_the_recommendation_names_is_passive_taken_as_written():
+    # "conservative and continuous if the stiffness is lowered: C up to K N/m": K was Corollary
+    # 1's bound K_max / q rounded to nearest at 3 digits, so that taken as written it could be
+    # past it: mi-1.mi felt by a 2 um ball, "C up to 1.32e+03 N/m" for 1,315.8, and at 1320 N/m
+    # design said again "none is passive ... C up to 1.32e+03 N/m" (2026-11-30). Walked over a
+    # neighbourhood of sinusoids (0.1 to 0.3 mm on 2 mm, the bound's digits falling either way):
+    # at the stiffness named, C is passive and recommended, and the bound is within 1 % of the
+    # row's own (K_max / q, Corollary 1)
+    from haptex.design import design
+
+    point_mass = hx.Device.point_mass()
+    for amplitude in np.linspace(0.1e-3, 0.3e-3, 21):
+        out = design(hx.Sinusoid(amplitude, 2e-3), point_mass, 1e5, algorithms="C")
+        k = float(re.search(r"C up to (\S+) N/m", out["recommendation"]).group(1))
+        row = next(r for r in out["rows"] if r["algorithm"] == "C")
+        assert row["max_passive_stiffness"] * 0.99 <= k <= row["max_passive_stiffness"], (amplitude, k)
+        again = design(hx.Sinusoid(amplitude, 2e-3), point_mass, k, algorithms="C")
+        assert "C" in again["recommended"], (amplitude, k, again["recommendation"])
+
+
 def test_at_the_command_line_a_raw_instrument_maps_depth_refusal_names_the_depth_option():
     # mi-1.mi (256 x 256 samples of 78 nm) with --raw: the bound as --max-penetration takes it,
     # one line, exit status 2 (taken, a design in 13 s, measured 2026-11-30)

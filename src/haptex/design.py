@@ -256,7 +256,7 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         text.append(f"none is passive, conservative and continuous at {stiffness:g} N/m")
     if softer:
         text.append("conservative and continuous if the stiffness is lowered: " + ", ".join(
-            f"{r['algorithm']} up to {r['max_passive_stiffness']:.3g} N/m" for r in softer))
+            f"{r['algorithm']} up to {_at_most(r['max_passive_stiffness'])} N/m" for r in softer))
         held = [r["algorithm"] for r in softer if r["stable_at_stiffness"]]
         if held and not wall.hand.none:
             text.append(f"stable but not passive at {stiffness:g} N/m with the hand {wall.hand.key!r}: "
@@ -419,6 +419,18 @@ def _nice(v: float, up: bool) -> str:
     """v rounded up (or down) to two significant digits, as written on a command line."""
     e = 10.0 ** (math.floor(math.log10(v)) - 1)
     return f"{(math.ceil(v / e - 1e-9) if up else math.floor(v / e + 1e-9)) * e:.3g}"
+
+
+def _at_most(v: float, digits: int = 3) -> str:
+    """v > 0 rounded down to ``digits`` significant digits as written on a command line, in fixed
+    point ("1310" for 1,315.8): a bound a user takes as written is then within it (issue 67:
+    "C up to 1.32e+03 N/m" for 1,315.8 N/m was refused again at 1320)."""
+    e = 10.0 ** (math.floor(math.log10(v)) - digits + 1)
+    k = math.floor(v / e + 1e-9)
+    places = max(0, -math.floor(math.log10(e) + 1e-9))
+    while k > 0 and float(f"{k * e:.{places}f}") > v:  # (round-off at the last digit)
+        k -= 1
+    return f"{k * e:.{places}f}"
 
 
 def _check_renderable(texture, device: Device, speed: float, cut, max_penetration: float | None = None) -> None:

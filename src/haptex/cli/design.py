@@ -268,7 +268,7 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
         t.add_column(col)
     for r in data["rows"]:
         t.add_row(r["algorithm"], "unbounded" if math.isinf(r["q"]) else f"{r['q']:.4g}",
-                  f"{r['max_passive_stiffness']:.4g}", f"{r['max_stable_stiffness']:.4g}",
+                  _bound(r["max_passive_stiffness"]), _bound(r["max_stable_stiffness"]),
                   "yes" if r["passive_at_stiffness"] else "no",
                   "yes" if r["conservative"] else ("almost" if r["almost_conservative"] else "no"),
                   f"{r['max_abs_loop_energy']:.3g}", "yes" if r["continuous"] else "no")
@@ -303,3 +303,11 @@ def _letters(reads_slope: bool) -> str:
 
     names = [f"{k}'s" for k in sorted(ALGORITHMS) if ALGORITHMS[k].textured and ALGORITHMS[k].reads_slope == reads_slope]
     return names[0] if len(names) == 1 else ", ".join(names[:-1]) + " and " + names[-1]
+
+
+def _bound(v: float) -> str:
+    """A largest stiffness (N/m) at 4 digits rounded down, so that one taken from the table as
+    written is within it (0 and inf as they are)."""
+    from ..design import _at_most
+
+    return f"{float(_at_most(v, 4)):.4g}" if 0.0 < v < math.inf else f"{v:.4g}"
