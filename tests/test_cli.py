@@ -69,6 +69,8 @@ def test_units_are_parsed_where_people_write_them():
     "args, fragment",
     [
         (["table", "--stiffness", "-2 kN/m"], "--stiffness -2 kN/m is not allowed"),  # (the option as typed)
+        (["run", "--device", "simulated:falcon", "--max-force", "9N", "--duration", "0.1s"],
+         "--max-force 9N is not allowed: at most the device's 8.9 N"),  # (the library's "max_force = 9 N", with its unit)
         (["table", "--period", "2kg"], "period = '2kg' is not allowed"),
         (["table", "--amplitude", "nan"], "amplitude"),
         (["table", "--bogus"], "No such option"),

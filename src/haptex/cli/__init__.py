@@ -92,7 +92,7 @@ def _as_typed(msg: str, argv) -> str:
     (the option's own conversion, to the message's digits); else the message as it is."""
     import re
 
-    m = re.match(r"([a-z][a-z_]*) = (\S+) is not allowed", msg)
+    m = re.match(r"([a-z][a-z_]*) = (\S+)(?: [A-Za-z][A-Za-z/*^0-9]*)? is not allowed", msg)  # (and its unit, "9 N")
     command = cli.commands.get(argv[0]) if argv else None
     if m is None or command is None:
         return msg
@@ -116,7 +116,7 @@ def _as_typed(msg: str, argv) -> str:
         return msg
     if (f"{value:g}" if isinstance(value, float) else str(value)) != m.group(2):
         return msg
-    return f"{option.opts[-1]} {typed}" + msg[m.end(2):]
+    return f"{option.opts[-1]} {typed}" + msg[msg.index(" is not allowed", m.end(2)):]
 
 
 # the commands, one module a group (click's layout for an application of this size)
