@@ -9,6 +9,7 @@ augmented dynamics (haptex.backends.simulated), an implementation independent of
 the identification fits with.
 """
 
+import csv
 import json
 import math
 
@@ -570,3 +571,31 @@ def test_the_json_names_units_and_uncertainties(tmp_path):
     out = json.loads(r.stdout)
     assert r.exit_code == 0 and out["mass_kg"][0] == pytest.approx(0.1, rel=0.05)
     assert {"mass_sd_kg", "damping_sd_n_s_m", "coulomb_friction_sd_n", "delay_periods"} <= set(out)
+
+
+@pytest.mark.parametrize("dialect", ["comma", "tab", "semicolon", "spaces"])
+def test_a_log_in_any_delimited_text_with_a_preamble_is_read_by_its_columns(tmp_path, dialect):
+    # Rigs write delimited text of their own dialect: LabVIEW and spreadsheets tab- or
+    # semicolon-separated, C programs whitespace-aligned columns, each often behind comment lines
+    # and with units in the column names ("x [mm]"). A tab-separated log with a '#' line was
+    # refused "must be numbers in every row (could not convert string 't [ms]\tx [mm]\tF [N]'...)"
+    # (2026-11-30). Written here by Python's csv module (RFC 4180's fields, each dialect's
+    # delimiter) and read back: the columns are numpy's values to the digits written
+    t = np.arange(200) * 1e-3
+    x, f = 1e-3 * np.sin(2 * np.pi * 3 * t), 0.5 * np.cos(2 * np.pi * 3 * t)
+    names = ["t", "x", "F"] if dialect == "spaces" else ["t [ms]", "x [mm]", "F [N]"]
+    path = tmp_path / "rig.txt"
+    with path.open("w", newline="") as fh:
+        fh.write("# rig log, exported 2026-11-30\n# sample rate 1 kHz\n")
+        if dialect == "spaces":
+            fh.write(" ".join(f"{n:>14}" for n in names) + "\n")
+            for row in zip(t * 1e3, x * 1e3, f):
+                fh.write(" ".join(f"{v:14.9f}" for v in row) + "\n")
+        else:
+            w = csv.writer(fh, delimiter={"comma": ",", "tab": "\t", "semicolon": ";"}[dialect])
+            w.writerow(names)
+            w.writerows([f"{v:.9f}" for v in row] for row in zip(t * 1e3, x * 1e3, f))
+    lg = I.read_log(path, [f"time={names[0]}:ms", f"position={names[1]}:mm", f"force={names[2]}:N"])
+    np.testing.assert_allclose(lg.time, t, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(lg.position[:, 0], x, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(lg.force[:, 0], f, rtol=0, atol=1e-9)

@@ -182,16 +182,36 @@ def read_table(path, what: str) -> dict:
     return out
 
 
+CSV_DELIMITERS = (",", "\t", ";")
+"""The delimiters a delimited-text table may use, the first found in its header row taken (RFC
+4180's comma; tab-separated values, IANA's text/tab-separated-values; the semicolon of
+spreadsheets where the comma is the decimal mark); with none of them, runs of whitespace."""
+
+
 def _read_csv(p: Path, what: str) -> dict:
+    """A delimited-text table: '#' lines and blank lines before its header row skipped, the
+    header's delimiter (CSV_DELIMITERS, else whitespace) for every row, '#' comments ignored."""
+    import csv
+
     check_budget("path", str(p), 4.0 * p.stat().st_size, f"reading this {what}")  # text to float64, copies
+    skipped, line = 0, ""
     with p.open("r", encoding="utf-8", errors="replace") as fh:
-        header = [h.strip() for h in fh.readline().split(",")]
+        for line in fh:
+            if line.strip() and not line.lstrip().startswith("#"):
+                break
+            skipped += 1
+        else:
+            raise fail("path", str(p), f"a {what} with a header row naming its columns (none found: the file "
+                                       "is empty, or comments and blank lines only)")
+    delimiter = next((d for d in CSV_DELIMITERS if d in line), None)
+    fields = next(csv.reader([line], delimiter=delimiter)) if delimiter else line.split()
+    header = [h.strip() for h in fields]
     if len(set(header)) != len(header) or not all(header):
         raise fail("path", str(p), f"a {what} whose header row names each column once")
     try:
         with warnings.catch_warnings():  # (a header alone: said below, not warned)
             warnings.simplefilter("ignore", UserWarning)
-            data = np.loadtxt(p, delimiter=",", skiprows=1, ndmin=2)
+            data = np.loadtxt(p, delimiter=delimiter, skiprows=skipped + 1, comments="#", ndmin=2)
     except ValueError as exc:
         raise fail("path", str(p), f"numbers in every row ({str(exc).splitlines()[0]})") from None
     if data.shape[0] == 0:
