@@ -127,9 +127,10 @@ def read_table(path, what: str) -> dict:
     Parameters
     ----------
     path : str or os.PathLike
-        A CSV file with a header row naming its columns, an ``.npz`` (each array a column, a
-        2-D one (n, k) a group of k), or an HDF5 file (``.h5``, ``.hdf5``; each dataset by its
-        path, read with h5py).
+        A delimited-text file (comma, tab, semicolon or whitespace, ``CSV_DELIMITERS``;
+        '#' lines before its header row skipped) with a header row naming its columns, an
+        ``.npz`` (each array a column, a 2-D one (n, k) a group of k), or an HDF5 file (``.h5``,
+        ``.hdf5``; each dataset by its path, read with h5py).
     what : str
         What the file is (named in errors).
 
