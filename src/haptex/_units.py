@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import math
 import re
 import threading
+from decimal import Decimal
 from functools import lru_cache
 
 from ._validation import ParameterError
@@ -135,3 +137,24 @@ def _finite(value: float, raw: str, unit: str, name: str) -> float:
 
 def _example(unit: str) -> str:
     return {"m": "0.8mm", "N/m": "2 kN/m", "s": "100us", "N": "1.5 N", "m/s": "0.1 m/s"}.get(unit, f"1 {unit}")
+
+
+def stated_number(v: float, up: bool, fits, digits: int = 3, exponent: int = 0) -> tuple[float, str]:
+    """A bound v > 0 as a refusal or a recommendation states it: in units of 10^exponent, rounded
+    up (or down) to ``digits`` significant digits, then moved a last digit at a time further to
+    its safe side until ``fits`` holds of the double the text denotes, so that a user who takes it
+    as written is not refused again: (that double, the text); (0.0, "0") where it cannot."""
+    if not v > 0:
+        return 0.0, "0"
+    scale = 10.0 ** exponent
+    e = 10.0 ** (math.floor(math.log10(v / scale)) - digits + 1)
+    k = math.ceil(v / scale / e - 1e-9) if up else math.floor(v / scale / e + 1e-9)
+    for _ in range(1000):
+        if k <= 0:
+            return 0.0, "0"
+        text = f"{k * e:.{digits + 3}g}"
+        value = float(Decimal(text).scaleb(exponent))  # (the decimal's nearest double, as parse_quantity reads it)
+        if fits(value):
+            return value, text
+        k += 1 if up else -1
+    return 0.0, "0"

@@ -422,15 +422,13 @@ def _nice(v: float, up: bool) -> str:
 
 
 def _at_most(v: float, digits: int = 3) -> str:
-    """v > 0 rounded down to ``digits`` significant digits as written on a command line, in fixed
-    point ("1310" for 1,315.8): a bound a user takes as written is then within it (issue 67:
-    "C up to 1.32e+03 N/m" for 1,315.8 N/m was refused again at 1320)."""
-    e = 10.0 ** (math.floor(math.log10(v)) - digits + 1)
-    k = math.floor(v / e + 1e-9)
-    places = max(0, -math.floor(math.log10(e) + 1e-9))
-    while k > 0 and float(f"{k * e:.{places}f}") > v:  # (round-off at the last digit)
-        k -= 1
-    return f"{k * e:.{places}f}"
+    """v > 0 rounded down to ``digits`` significant digits as written on a command line ("1310"
+    for 1,315.8), within v as the text reads back (:func:`haptex._units.stated_number`): a bound
+    a user takes as written is then within it (issue 67: "C up to 1.32e+03 N/m" for 1,315.8 N/m
+    was refused again at 1320)."""
+    from ._units import stated_number
+
+    return stated_number(v, False, lambda w: w <= v, digits)[1]
 
 
 def _check_renderable(texture, device: Device, speed: float, cut, max_penetration: float | None = None) -> None:

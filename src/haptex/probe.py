@@ -256,23 +256,15 @@ def _wider_than(r: float, extent: float, what: str) -> ParameterError:
 def _stated_length(v: float, up: bool, fits, digits: int = 3) -> tuple[float, str]:
     """A length v (m) rounded up (or down) to ``digits`` significant digits as a user writes it:
     (the double, the command line's text in um below 1 mm, else mm), moved a last digit at a time
-    further to its safe side until ``fits`` holds of the double (0.0 where it cannot be)."""
-    import math
+    further to its safe side until ``fits`` holds of the double (0.0 where it cannot;
+    :func:`haptex._units.stated_number`)."""
+    from ._units import stated_number
 
     if not v > 0:
         return 0.0, "0m"
-    unit, scale = ("um", 1e-6) if v < 1e-3 else ("mm", 1e-3)
-    e = 10.0 ** (math.floor(math.log10(v / scale)) - digits + 1)
-    k = math.ceil(v / scale / e - 1e-9) if up else math.floor(v / scale / e + 1e-9)
-    for _ in range(1000):
-        if k <= 0:
-            return 0.0, "0m"
-        text = f"{k * e:.{digits + 3}g}"
-        value = float(f"{text}e{-6 if unit == 'um' else -3}")
-        if fits(value):
-            return value, text + unit
-        k += 1 if up else -1
-    return 0.0, "0m"
+    unit, exponent = ("um", -6) if v < 1e-3 else ("mm", -3)
+    value, text = stated_number(v, up, fits, digits, exponent)
+    return (value, text + unit) if value > 0 else (0.0, "0m")
 
 
 def reliability_cutoff(texture, instrument_tip: float) -> float | None:
