@@ -416,9 +416,11 @@ def _spans(texture) -> list[tuple[str, float]]:
 
 
 def _nice(v: float, up: bool) -> str:
-    """v rounded up (or down) to two significant digits, as written on a command line."""
-    e = 10.0 ** (math.floor(math.log10(v)) - 1)
-    return f"{(math.ceil(v / e - 1e-9) if up else math.floor(v / e + 1e-9)) * e:.3g}"
+    """v > 0 rounded up (or down) to two significant digits as written on a command line, never
+    on the wrong side of v as the text reads back (:func:`haptex._units.stated_number`)."""
+    from ._units import stated_number
+
+    return stated_number(v, up, (lambda w: w >= v) if up else (lambda w: w <= v), 2)[1]
 
 
 def _at_most(v: float, digits: int = 3) -> str:
