@@ -237,12 +237,44 @@ def test_what_cannot_be_exported_is_refused(tmp_path, monkeypatch):
     # are the map's crop and a coarser felt grid, named as the command line takes them
     felt = hx.SampledSurface(np.arange(40) * 1e-6, np.arange(40) * 1e-6, np.zeros((40, 40))).felt_by(3e-6)
     monkeypatch.setattr(ex, "MAX_TABLE", 1000)  # (its 39 x 39 patches, 16 numbers each, past it)
-    with pytest.raises(hx.ParameterError, match=r"crop the map it is felt on \(--crop at the command line\) or "
-                                                r"feel it on a coarser grid \(--tip-spacing"):
+    with pytest.raises(hx.ParameterError, match=r"feel it on a coarser grid: --tip-spacing \S+ fits \(felt_by\(r, "
+                                                r"spacing=\S+\) in Python\), or crop the map it is felt on \(--crop"):
         export_c(hx.algorithm("A", felt, K0), tmp_path, 5.0)
     assert ex.EXPORTABLE == "WABCDEFG"
     with pytest.raises(hx.ParameterError, match="max_force = -1 is not allowed"):
         export_c(hx.algorithm("A", hx.Sinusoid(A, L), K0), tmp_path, -1.0)
+
+
+def test_a_felt_maps_export_refused_for_its_size_names_a_tip_spacing_that_exports(tmp_path, monkeypatch, capsys):
+    # A measured map felt by a ball on its own grid is refused for export when its tables pass
+    # what fits (mi-1.mi under a 2 um ball: 1,105,997 numbers for the host's 1,000,000). The
+    # refusal named "--tip-spacing" with no value; now it names one, and that spacing taken as
+    # written exports. Truth: the tables' definition, 16 numbers a bicubic cell (its 16 Hermite
+    # coefficients) at least, so a felt grid of n x n samples needs 16 (n - 1)^2 <= the cap: the
+    # named spacing cannot be finer than that bound, and is within 1.5 times it (not needlessly
+    # coarse); the export at it writes its files (exit status 0).
+    import re
+
+    from haptex import export as ex
+    from haptex.cli import main
+
+    x = np.arange(48)
+    h = 0.5 * np.sin(2 * np.pi * x / 16)[:, None] * np.cos(2 * np.pi * x / 20)[None, :]  # (um, 1 um samples)
+    path = tmp_path / "map.npy"
+    np.save(path, h)
+    monkeypatch.setattr(ex, "MAX_TABLE", 12_000)
+    args = ["export", "--algorithm", "A", "--texture", str(path), "--spacing", "1um", "--height-unit", "um",
+            "--tip-radius", "3um", "--stiffness", "2kN/m", "--max-force", "3N", "--quiet"]
+    assert main(args + ["--out", str(tmp_path / "refused")]) == 2
+    msg = capsys.readouterr().err
+    assert msg.count("\n") == 1 and "is not allowed for export" in msg
+    spacing, unit = re.search(r"--tip-spacing ([0-9.]+)(um|mm) fits", msg).groups()
+    d = float(spacing) * (1e-6 if unit == "um" else 1e-3)
+    n = int(np.floor(47e-6 / d)) + 1  # (the felt grid's samples an axis: steps of d from the first sample)
+    finest = 47e-6 / (np.sqrt(12_000 / 16) + 1)  # (16 (n - 1)^2 <= 12,000, n - 1 = 47 um / d)
+    assert 16 * (n - 1) ** 2 <= 12_000 and finest <= d <= 1.5 * finest, (spacing, finest)
+    assert main(args + ["--tip-spacing", spacing + unit, "--out", str(tmp_path / "fits")]) == 0
+    assert (tmp_path / "fits" / "haptex_texture.c").exists()
 
 
 def _stabilisers():

@@ -250,6 +250,49 @@ def _part(texture, f: float):
     return SampledProfile(texture.x[:n[0]], texture.h[:n[0]], periodic=texture.periodic)
 
 
+def _held_on(algorithm, texture, max_evaluations, cap: int) -> int:
+    """The numbers the tables of ``algorithm`` with ``texture`` in place of its own hold (its
+    letter, stiffness and parameters; on its object, the base's tables beside the texture's)."""
+    from .algorithms import algorithm as make
+    from .objects import object_algorithm
+
+    params = {n: getattr(algorithm, n) for n in ALGORITHMS[algorithm.letter].parameters}
+    if getattr(algorithm, "base", None) is None:
+        other = make(algorithm.letter, texture, algorithm.stiffness, **params)
+    else:
+        other = object_algorithm(algorithm.letter, texture, algorithm.base, algorithm.stiffness, **params)
+    _, _, _, coeffs, aux, _, base = _tick_tables(other, max_evaluations, cap)
+    return _held(coeffs, aux, base)
+
+
+def _tip_spacing_that_fits(algorithm, held: int, cap: int, max_evaluations, others: int):
+    """A felt texture's grid spacing, coarser than its own, at which the texture felt by the
+    same ball from the same texture has tables that fit: (the double, the ``--tip-spacing`` text),
+    rounded up to 3 digits as the command line writes it, each candidate felt and its tables
+    counted as :func:`export_c` counts them (from the cells' count, its tables' share of the
+    numbers, then as much coarser as the last count says); None where 8 candidates do not fit
+    or the texture cannot be felt on them."""
+    from .probe import _stated_length
+
+    tex = algorithm.texture
+    source, r = getattr(tex, "_felt_from", None), tex._felt_radius
+    if source is None or others >= cap:
+        return None
+    dim = np.ndim(tex.h)
+    d = float(tex.x[1] - tex.x[0])
+    for _ in range(8):
+        d *= max(1.01, (held + others) / cap) ** (1.0 / dim)  # (the tables grow as the cells, (1 / d)^dim)
+        value, text = _stated_length(d, up=True, fits=lambda v, d=d: v >= d)
+        try:
+            held = _held_on(algorithm, source.felt_by(r, spacing=value), max_evaluations, cap)
+        except ParameterError:
+            return None
+        if held + others <= cap:
+            return value, text
+        d = value
+    return None
+
+
 def _crop_that_fits(algorithm, cap: int, max_evaluations, others: int):
     """The largest part from a plain sampled texture's first sample, in its proportions, whose
     tables with ``others`` numbers beside them hold at most ``cap`` (bisection on the count
@@ -258,20 +301,12 @@ def _crop_that_fits(algorithm, cap: int, max_evaluations, others: int):
     samples; None where 4 samples a side do not fit."""
     from ._loaders import crop_region
     from ._specs import quantity
-    from .algorithms import algorithm as make
-    from .objects import object_algorithm
     from .probe import _stated_length
 
     tex = algorithm.texture
-    params = {n: getattr(algorithm, n) for n in ALGORITHMS[algorithm.letter].parameters}
 
     def fits(f):
-        if getattr(algorithm, "base", None) is None:
-            part = make(algorithm.letter, _part(tex, f), algorithm.stiffness, **params)
-        else:  # (on its object: the base's tables beside the part's)
-            part = object_algorithm(algorithm.letter, _part(tex, f), algorithm.base, algorithm.stiffness, **params)
-        _, _, _, coeffs, aux, _, base = _tick_tables(part, max_evaluations, cap)
-        return _held(coeffs, aux, base) + others <= cap
+        return _held_on(algorithm, _part(tex, f), max_evaluations, cap) + others <= cap
 
     if not fits(0.0):
         return None
@@ -329,8 +364,11 @@ def _too_large(algorithm, vibration, vib, held: int, meshed: int, cap: int, targ
         else:
             remedy = "not even a part of 4 samples a side fits"
     elif getattr(tex, "_felt_radius", None) is not None:
-        remedy = ("crop the map it is felt on (--crop at the command line) or feel it on a coarser grid "
-                  "(--tip-spacing; felt_by(r, spacing=) in Python)")
+        found = _tip_spacing_that_fits(algorithm, held - others, cap, max_evaluations, others)
+        coarser = ("feel it on a coarser grid (--tip-spacing; felt_by(r, spacing=) in Python)" if found is None else
+                   f"feel it on a coarser grid: --tip-spacing {found[1]} fits (felt_by(r, spacing={found[0]!r}) "
+                   "in Python)")
+        remedy = f"{coarser}, or crop the map it is felt on (--crop at the command line)"
     else:
         remedy = "sample it more coarsely or crop it"
     return ParameterError(f"texture = {tex!r} is not allowed for export{to}: {size}; {remedy}")

@@ -123,7 +123,8 @@ class Texture:
         if r == 0.0:
             return self
         out = self._felt(r, spacing)
-        out._felt_radius = r  # (what it was felt by: an export's refusal names --tip-spacing for it)
+        out._felt_radius = r  # (what it was felt by, and what: an export's refusal names a --tip-spacing that fits)
+        out._felt_from = self
         return out
 
     def _felt(self, r: float, spacing: float | None) -> "Texture":
