@@ -1918,6 +1918,30 @@ def test_design_says_how_many_cells_beside_kinks_keep_a_single_patch(capsys):
     assert f"{felt['single_patch_cells']} cells beside kinks keep a single patch" in out
 
 
+@needs_data
+def test_a_map_too_short_for_the_device_is_refused_before_the_ball_rolls(capsys, monkeypatch):
+    # x3p-2.x3p (82.85 um a side) on the point mass at 0.1 m/s: shorter than 2 of the shortest
+    # period it renders (l_c = 50 um), with or without a ball, since a ball on a bounded map
+    # feels a map of the same extent. With --tip-radius 5um the refusal came after the ball had
+    # rolled (a felt map of 650 x 650 samples, 6 s and 0.8 GB); every other refusal of the
+    # options (--report with a map) likewise. Now both come first: no felt_by call (counted),
+    # and the refusal is the one the map as measured gets.
+    from haptex.cli import main
+
+    calls = []
+    felt_by = hx.SampledSurface.felt_by
+    monkeypatch.setattr(hx.SampledSurface, "felt_by", lambda self, *a, **k: calls.append(a) or felt_by(self, *a, **k))
+    path = str(DEKTAK.parent / "x3p-2.x3p")
+    assert main(["design", "--texture", path, "--quiet"]) == 2
+    plain = capsys.readouterr().err
+    assert "spans 82.85 um along x, less than 2 of the shortest period" in plain and plain.count("\n") == 1
+    assert main(["design", "--texture", path, "--tip-radius", "5um", "--quiet"]) == 2
+    assert capsys.readouterr().err == plain and calls == []
+    assert main(["design", "--texture", path, "--tip-radius", "5um", "--speed", "0.08m/s", "--report",
+                 "never-written", "--quiet"]) == 2
+    assert "--report is not allowed with a surface yet" in capsys.readouterr().err and calls == []
+
+
 def test_export_and_run_take_the_tip_radius_too(tmp_path):
     # the felt texture is what the exported tick renders (its source names the ball), and a run
     # on the simulated device takes it; the smooth wall has no texture to feel

@@ -358,12 +358,36 @@ def rendered_texture(texture: Texture, device: Device, speed: float = 0.1, sampl
     return _rendered(texture, rendering_cutoff(device, speed, samples_per_period).period, band_limit)[0]
 
 
-def _band_limited(texture: Texture, device: Device, speed: float, samples_per_period, band_limit: bool,
-                  instrument_tip: float | None = None, reliable: float | None = None,
-                  max_penetration: float | None = None):
-    """The texture the device renders, and what band-limiting did (see :func:`design`)."""
+def _check_span(texture: Texture, device: Device, speed: float = 0.1, max_penetration: float | None = None,
+               samples_per_period=5, instrument_tip: float | None = None,
+               reliability_cutoff: float | None = None) -> None:
+    """Refuse a measured texture too short for what ``device`` renders at ``speed``, as
+    :func:`design` does when it band-limits it, before anything costly is made of it (the
+    command line's ``--tip-radius``: a ball on a bounded map feels a map of the same extent).
+
+    Parameters
+    ----------
+    texture : Texture
+        A measured profile or map (one with ``band_limited``); any other is not checked.
+    device, speed, max_penetration, samples_per_period, instrument_tip, reliability_cutoff
+        As :func:`design`'s (m/s, m, samples, m, m).
+
+    Raises
+    ------
+    ParameterError
+        If an axis of the texture spans less than ``MIN_CUTOFF_PERIODS`` of the shortest period
+        the device renders, l_c (Section II-B's limits), naming a magnification and, where the
+        speed sets l_c, a slower scan (with the depth analysed at it).
+    """
+    if hasattr(texture, "band_limited"):
+        cut = _cutoff(texture, device, speed, samples_per_period, instrument_tip, reliability_cutoff)[0]
+        _check_renderable(texture, device, speed, cut, max_penetration)
+
+
+def _cutoff(texture: Texture, device: Device, speed: float, samples_per_period, instrument_tip, reliable):
+    """(The rendering cut-off, with the instrument tip's bound where there is one; that bound, m,
+    or None; the instrument tip's radius taken, m, or None)."""
     cut = rendering_cutoff(device, speed, samples_per_period)
-    sampled = hasattr(texture, "band_limited")
     tip = getattr(texture, "instrument_tip", None) if instrument_tip is None else instrument_tip
     if reliable is not None:
         reliable = positive("reliability_cutoff", reliable, "m")
@@ -375,6 +399,15 @@ def _band_limited(texture: Texture, device: Device, speed: float, samples_per_pe
         from .analysis.passivity import Cutoff
 
         cut = Cutoff.from_bounds({**cut.bounds, "instrument tip": reliable})
+    return cut, reliable, tip
+
+
+def _band_limited(texture: Texture, device: Device, speed: float, samples_per_period, band_limit: bool,
+                  instrument_tip: float | None = None, reliable: float | None = None,
+                  max_penetration: float | None = None):
+    """The texture the device renders, and what band-limiting did (see :func:`design`)."""
+    cut, reliable, tip = _cutoff(texture, device, speed, samples_per_period, instrument_tip, reliable)
+    sampled = hasattr(texture, "band_limited")
     if sampled and band_limit:
         _check_renderable(texture, device, speed, cut, max_penetration)
     rendered, filtered = _rendered(texture, cut.period, band_limit)

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._validation import ParameterError, fail, positive
+from ._validation import ParameterError, fail, nonnegative, positive
 
 MAX_DILATION_WORK = 2e9
 """Most (samples x footprint points) one dilation may cost (17 s and 0.8 GB measured here at the
@@ -242,6 +242,27 @@ def _fitting_edge(fits, inside: float, outside: float, steps: int = 60) -> float
         else:
             outside = mid
     return inside
+
+
+def _check_ball_fits(texture, r: float) -> None:
+    """Refuse a ball of radius r (m; a number >= 0 first) wider than a bounded sampled texture:
+    a profile's length, a map's shorter side (on its cells' mean widths where its axes are
+    graded), in :func:`_wider_than`'s words. Periodic and analytic textures have no extent."""
+    from .surfaces import SampledSurface
+    from .textures import SampledProfile
+
+    r = nonnegative("tip_radius", r, "m")
+    if getattr(texture, "periodic", True):
+        return
+    if isinstance(texture, SampledSurface):
+        texture = texture._regular()
+        extent, what = min(texture.x[-1] - texture.x[0], texture.y[-1] - texture.y[0]), "the map's shorter side"
+    elif isinstance(texture, SampledProfile):
+        extent, what = texture.x[-1] - texture.x[0], "the profile's length"
+    else:
+        return
+    if r > extent:
+        raise _wider_than(r, extent, what)
 
 
 def _wider_than(r: float, extent: float, what: str) -> ParameterError:

@@ -19,7 +19,7 @@ from . import core as _core
 from .core import _ext
 from ._maximise import refine
 from ._validation import ParameterError, check_count, fail, finite, nonnegative, positive, whole
-from .probe import MAX_SAMPLES as MAX_PROBE_SAMPLES, _check_work, _spacing, _wider_than
+from .probe import MAX_SAMPLES as MAX_PROBE_SAMPLES, _check_ball_fits, _check_work, _spacing
 from .textures import (MAX_HARMONICS, SampledProfile, Texture, _band_limited_samples, _resampled_axis, _vector,
                        common_period)
 
@@ -4024,9 +4024,7 @@ def _surface_grid(texture, r, spacing):
     if isinstance(texture, SampledSurface):
         texture = texture._regular()  # (a map on graded axes: sampled at its cells' mean widths)
         x, y = texture.x, texture.y
-        ext = min(x[-1] - x[0], y[-1] - y[0])
-        if not texture.periodic and r > ext:
-            raise _wider_than(r, ext, "the map's shorter side")
+        _check_ball_fits(texture, r)
 
         def axes_at(v):  # (the grid felt_by(r, spacing=v) resamples the map on)
             return [_resampled_axis(axis[0], axis[-1], axis[1] - axis[0], v, texture.periodic) for axis in (x, y)]

@@ -14,7 +14,7 @@ from functools import cached_property
 import numpy as np
 
 from .core import _ext
-from .probe import MAX_SAMPLES as MAX_PROBE_SAMPLES, _check_work, _grid_contacts, _spacing, _wider_than
+from .probe import MAX_SAMPLES as MAX_PROBE_SAMPLES, _check_ball_fits, _check_work, _grid_contacts, _spacing
 from ._validation import MAX_LENGTH, ParameterError, check_count, fail, finite, nonnegative, positive, whole
 
 
@@ -1565,8 +1565,7 @@ def _profile_grid(texture, r, spacing, followed=False):
     (:func:`haptex.probe._check_work`, naming its bounds) unless ``followed``: a refinement's
     grid, whose contacts are followed from the last grid's, no dilation made."""
     if isinstance(texture, SampledProfile):
-        if not texture.periodic and r > (texture.x[-1] - texture.x[0]):
-            raise _wider_than(r, texture.x[-1] - texture.x[0], "the profile's length")
+        _check_ball_fits(texture, r)
 
         def axis_at(v):  # (the grid felt_by(r, spacing=v) resamples the profile on)
             return _resampled_axis(texture.x[0], texture.x[-1], texture.dx, v, texture.periodic)

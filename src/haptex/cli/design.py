@@ -102,26 +102,6 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
         from ..probe import reliability_cutoff
 
         reliable = reliability_cutoff(tex, instrument_tip)
-    felt = None
-    if tip_radius:
-        with _Spinner(f"rolling a ball of {tip_radius * 1e3:g} mm over the texture", quiet or as_json):
-            point = tex
-            tex = tex.felt_by(tip_radius, spacing=tip_spacing)
-        import numpy as np
-
-        kinks = np.asarray(getattr(tex, "kinks", np.zeros((0, 2))))
-        kinks = kinks[np.argsort(-np.abs(kinks[:, -1]), kind="stable")] if kinks.shape[1] == 3 else kinks
-        names = ("x", "slope_jump") if kinks.shape[1] == 2 else ("x", "y", "slope_jump")  # (a map's: the largest first)
-        felt = {"tip_radius": tip_radius, "max_slope_point_probe": float(point.max_slope),
-                "max_slope_felt": float(tex.max_slope), "source": tex.source,
-                "kinks": [dict(zip(names, map(float, k))) for k in kinks[:100]],
-                "kink_count": int(len(kinks)), "branched_cells": int(getattr(tex, "branched_cells", 0)),
-                "single_patch_cells": _single_patch_cells(tex), "turn": float(getattr(tex, "turn", 0.0))}
-        for key in ("curvature_miss", "peak_miss", "convex_miss"):
-            miss = getattr(tex, key, None)
-            felt[key] = None if miss is None else float(miss)
-        ends = np.asarray(getattr(tex, "crease_ends", np.zeros((0, 2))))
-        felt.update(crease_end_count=int(len(ends)), crease_ends=[{"x": float(a), "y": float(b)} for a, b in ends[:100]])
     base = object_from_spec(object_spec, uv_scale, vertex_normals)
     dev = _build_device(ctx, device_spec, joint_damping, mass, damping, sampling_period, delay,
                         3 if base is not None else tex.dimension + 1)
@@ -143,6 +123,32 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
         check_output(report_dir, force)  # before the minutes of analysis
     elif force:
         raise ParameterError("--force is not allowed without --report: it applies to the report directory")
+    if tip_radius and not raw and base is None:  # (a ball on a bounded map feels one of the same extent)
+        from ..design import _check_span
+        from ..probe import _check_ball_fits
+
+        _check_ball_fits(tex, tip_radius)  # (the ball's own refusal first: it holds at every speed)
+        _check_span(tex, dev, speed, max_penetration, instrument_tip=instrument_tip, reliability_cutoff=reliable)
+    felt = None
+    if tip_radius:
+        with _Spinner(f"rolling a ball of {tip_radius * 1e3:g} mm over the texture", quiet or as_json):
+            point = tex
+            tex = tex.felt_by(tip_radius, spacing=tip_spacing)
+        import numpy as np
+
+        kinks = np.asarray(getattr(tex, "kinks", np.zeros((0, 2))))
+        kinks = kinks[np.argsort(-np.abs(kinks[:, -1]), kind="stable")] if kinks.shape[1] == 3 else kinks
+        names = ("x", "slope_jump") if kinks.shape[1] == 2 else ("x", "y", "slope_jump")  # (a map's: the largest first)
+        felt = {"tip_radius": tip_radius, "max_slope_point_probe": float(point.max_slope),
+                "max_slope_felt": float(tex.max_slope), "source": tex.source,
+                "kinks": [dict(zip(names, map(float, k))) for k in kinks[:100]],
+                "kink_count": int(len(kinks)), "branched_cells": int(getattr(tex, "branched_cells", 0)),
+                "single_patch_cells": _single_patch_cells(tex), "turn": float(getattr(tex, "turn", 0.0))}
+        for key in ("curvature_miss", "peak_miss", "convex_miss"):
+            miss = getattr(tex, key, None)
+            felt[key] = None if miss is None else float(miss)
+        ends = np.asarray(getattr(tex, "crease_ends", np.zeros((0, 2))))
+        felt.update(crease_end_count=int(len(ends)), crease_ends=[{"x": float(a), "y": float(b)} for a, b in ends[:100]])
     steps = _Steps(9, "design", quiet or as_json)
 
     def announce(est):
