@@ -1942,6 +1942,46 @@ def test_a_map_too_short_for_the_device_is_refused_before_the_ball_rolls(capsys,
     assert "--report is not allowed with a surface yet" in capsys.readouterr().err and calls == []
 
 
+def test_an_export_with_a_ball_refuses_its_other_settings_before_the_ball_rolls(capsys, monkeypatch, tmp_path):
+    # haptex export --tip-radius rolled the ball first (x3p-2.x3p under 5 um: 5-6 s) and only then
+    # refused a negative --max-force, an unknown --target, a --max-evaluations out of range, a
+    # negative --stiffness or a --device with nothing that reads it. Each is refused with the
+    # ball not rolled (felt_by calls counted: none), in one line naming the option as typed.
+    from haptex.cli import main
+
+    calls = []
+    felt_by = hx.Texture.felt_by
+    monkeypatch.setattr(hx.Texture, "felt_by", lambda self, *a, **k: calls.append(a) or felt_by(self, *a, **k))
+    path = tmp_path / "map.npy"
+    np.save(path, np.zeros((64, 64)))
+    base = ["export", "--algorithm", "A", "--texture", str(path), "--spacing", "1um", "--height-unit", "um",
+            "--tip-radius", "5um", "--stiffness", "1kN/m", "--max-force", "3N", "--out", str(tmp_path / "out"),
+            "--quiet"]
+    for extra, said in ((["--max-force", "-1N"], "--max-force -1N is not allowed"),
+                        (["--target", "cortex-m9"], "--target"),
+                        (["--max-evaluations", "5"], "--max-evaluations 5 is not allowed"),
+                        (["--stiffness", "-5N/m"], "--stiffness -5N/m is not allowed"),
+                        (["--device", "falcon"], "--device is not allowed without --passivity-control")):
+        assert main(base + extra) in (2,), extra
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and said in err and calls == [], (extra, err, calls)
+    assert not (tmp_path / "out").exists()
+    assert main(base) == 0 and len(calls) == 1  # (and the ball rolls once for an export that is made)
+    # haptex run likewise (--stiffness, --passivity-control, --duration were refused after 5 s of
+    # rolling on x3p-2.x3p; the passivity controller's refusal named its Python parameter,
+    # max_damping): none rolls the ball, and each names the option as typed
+    calls.clear()
+    run = ["run", "--device", "simulated:falcon", "--texture", "sine:0.1mm,2mm", "--tip-radius", "0.5mm", "--quiet",
+           "--fast", "--duration", "0.05s"]
+    for extra, said in ((["--stiffness", "-5N/m"], "--stiffness -5N/m is not allowed"),
+                        (["--passivity-control", "-1N*s/m"], "--passivity-control -1N*s/m is not allowed"),
+                        (["--duration", "-1s"], "--duration -1s is not allowed")):
+        assert main(run + extra) == 2, extra
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and said in err and calls == [], (extra, err, calls)
+    assert main(run) == 0 and len(calls) == 1
+
+
 def test_export_and_run_take_the_tip_radius_too(tmp_path):
     # the felt texture is what the exported tick renders (its source names the ball), and a run
     # on the simulated device takes it; the smooth wall has no texture to feel

@@ -374,6 +374,35 @@ def _too_large(algorithm, vibration, vib, held: int, meshed: int, cap: int, targ
     return ParameterError(f"texture = {tex!r} is not allowed for export{to}: {size}; {remedy}")
 
 
+def check_settings(max_force: float, max_evaluations: int | None = MAX_EVALUATIONS, target: str = "host") -> float:
+    """Refuse :func:`export_c`'s settings that do not depend on the algorithm, before anything
+    costly is made for it (the command line checks them before a ball rolls over the texture).
+
+    Parameters
+    ----------
+    max_force : float
+        The force saturation (N), > 0 or inf.
+    max_evaluations : int or None
+        D's and E's budget of texture evaluations a tick, 100 to 10^9, or None (unbounded).
+    target : str
+        A key of :data:`TARGETS`.
+
+    Returns
+    -------
+    float
+        ``max_force`` as a float (N).
+
+    Raises
+    ------
+    ParameterError
+        For a max force that is not > 0, a budget out of range, or an unknown target.
+    """
+    fmax = positive_or_inf("max_force", max_force, "N")
+    evaluation_budget(max_evaluations)
+    table_capacity(target)
+    return fmax
+
+
 def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int | None = MAX_EVALUATIONS,
              passivity_controller: Stabiliser | None = None, period: float | None = None, *, vibration=None,
              vibration_mass: float | None = None, vibration_gain: float = 1.0, velocity_filter: float = 0.01,
@@ -453,8 +482,7 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
 
     if not isinstance(algorithm, (Algorithm, GodObject)):
         raise ParameterError(f"algorithm = {algorithm!r} is not allowed: must be a haptex algorithm or a GodObject")
-    fmax = positive_or_inf("max_force", max_force, "N")
-    evaluation_budget(max_evaluations)
+    fmax = check_settings(max_force, max_evaluations, target)
     pc = passivity_controller
     T = stabiliser_period(pc, period)
     vib = vibration_settings(vibration, vibration_mass, vibration_gain, velocity_filter, seed, vibration_budget,

@@ -85,6 +85,10 @@ def _run(argv) -> int:
     return 0
 
 
+_LIBRARY_NAMES = {"max_damping": "passivity_control"}
+"""A library parameter the command line's option names otherwise: the option's name."""
+
+
 def _as_typed(msg: str, argv) -> str:
     """A library refusal that names its parameter in Python and SI (``tip_radius = 0.0001 is not
     allowed...``) as the command line gave it (``--tip-radius 0.1mm is not allowed...``): where
@@ -96,7 +100,8 @@ def _as_typed(msg: str, argv) -> str:
     command = cli.commands.get(argv[0]) if argv else None
     if m is None or command is None:
         return msg
-    option = next((p for p in command.params if p.name == m.group(1) and isinstance(p, click.Option)), None)
+    name = _LIBRARY_NAMES.get(m.group(1), m.group(1))
+    option = next((p for p in command.params if p.name == name and isinstance(p, click.Option)), None)
     if option is None:
         return msg
     typed = None

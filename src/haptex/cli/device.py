@@ -9,11 +9,11 @@ from pathlib import Path
 
 import click
 
-from .._specs import object_from_spec, texture_from_spec as _texture_from_spec
-from .._validation import ParameterError
+from .._specs import check_tip_spacing, object_from_spec, texture_from_spec as _texture_from_spec
+from .._validation import ParameterError, positive
 from ..core import blas_held_to_one_thread as _core_blas_held
-from ._common import (Quantity, STABILISERS, _budget_needs_models, _check_plot_path, _felt_options, _jsonable, _letter,
-                      _object_options, _stabiliser, _vibration, _vibration_options)
+from ._common import (Quantity, STABILISERS, _Spinner, _budget_needs_models, _check_plot_path, _felt_options, _jsonable,
+                      _letter, _object_options, _stabiliser, _vibration, _vibration_options)
 
 
 @click.command("run")
@@ -136,11 +136,9 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
     tex = None
     letter = letter.upper()
     if letter != "W":
-        tex = _texture_from_spec(texture_spec, None, None, None, False, None, None, False, crop=crop,
-                                 tip_radius=tip_radius, tip_spacing=tip_spacing)
-        if tex.dimension == 1 and backend.dimension == 3:
-            tex = Extruded(tex)
-        elif tex.dimension == 2 and backend.dimension == 2:
+        check_tip_spacing(tip_radius, tip_spacing)  # (the ball rolls below, once every other setting is checked)
+        tex = _texture_from_spec(texture_spec, None, None, None, False, None, None, False, crop=crop)
+        if tex.dimension == 2 and backend.dimension == 2:
             raise ParameterError(f"texture = {texture_spec!r} is not allowed on {backend.name}: a surface needs a "
                                  "3-DOF device")
     elif backend.dimension == 3:
@@ -148,23 +146,25 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
 
         tex = Flat(dimension=2)
     base = object_from_spec(object_spec, uv_scale)
-    if base is not None:
-        from ..objects import object_algorithm
+    if base is not None and backend.dimension != 3:
+        raise ParameterError(f"--object is not allowed on {backend.name}: an object needs a 3-DOF device")
 
-        if backend.dimension != 3:
-            raise ParameterError(f"--object is not allowed on {backend.name}: an object needs a 3-DOF device")
+    def rendered(tex):  # (the algorithm on the texture as the device renders it: a profile extruded on a 3-DOF one)
+        if tex is not None and tex.dimension == 1 and backend.dimension == 3:
+            tex = Extruded(tex)
+        if base is not None:
+            from ..objects import object_algorithm
+            from ..proxy import GodObject
+
+            return GodObject(tex, stiffness, base) if letter == "PROXY" else object_algorithm(letter, tex, base,
+                                                                                              stiffness)
         if letter == "PROXY":
             from ..proxy import GodObject
 
-            alg = GodObject(tex, stiffness, base)
-        else:
-            alg = object_algorithm(letter, tex, base, stiffness)
-    elif letter == "PROXY":
-        from ..proxy import GodObject
+            return GodObject(tex, stiffness)
+        return algorithm(letter, tex, stiffness)
 
-        alg = GodObject(tex, stiffness)
-    else:
-        alg = algorithm(letter, tex, stiffness)
+    alg = rendered(tex)
     pc = _stabiliser(passivity_control, stabiliser, dev, delay=dev.delay)
 
     vib = {}
@@ -178,6 +178,12 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
     from ..servo import SEARCH_SHARE, budgeted_search, search_budget
 
     evaluation_budget(max_evaluations)
+    positive("duration", duration, "s")
+    if tip_radius and letter != "W":
+        with _Spinner(f"rolling a ball of {tip_radius * 1e3:g} mm over the texture", quiet or as_json):
+            tex = tex.felt_by(tip_radius, spacing=tip_spacing)
+        alg = rendered(tex)
+    tex = getattr(alg, "texture", tex)  # (what is rendered: a profile's extrusion on a 3-DOF device)
     seconds = None
     if max_evaluations is None:  # (D and E over a surface: what half the period holds here; else the default)
         reach = fmax / stiffness if math.isfinite(fmax) and stiffness > 0 else 1e-3

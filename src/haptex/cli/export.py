@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from .._specs import object_from_spec, texture_from_spec as _texture_from_spec
+from .._specs import check_tip_spacing, object_from_spec, texture_from_spec as _texture_from_spec
 from .._validation import ParameterError
 from ._common import (
     Quantity, STABILISERS, _Spinner, _catalogued_device, _felt_options, _letter, _not_taken, _object_options, _stabiliser,
@@ -60,7 +60,7 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
            target, max_evaluations, quiet):
     """C99 source of one algorithm on one texture, for device firmware (<math.h> only)."""
     from ..algorithms import ALGORITHMS, algorithm
-    from ..export import TICK_FILES, build_defines, export_c, firmware_command
+    from ..export import TICK_FILES, build_defines, check_settings, export_c, firmware_command
     from ..objects import object_algorithm
 
     letter = str(letter).upper()
@@ -75,9 +75,10 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
     elif texture_spec is None:
         raise ParameterError(f"--texture is required with --algorithm {letter}: give a file, 'sine:...' or 'noise:...'")
     else:
-        with _Spinner("reading the texture", quiet):
+        check_tip_spacing(tip_radius, tip_spacing)
+        with _Spinner("reading the texture", quiet):  # (felt below, once every other setting is checked)
             tex = _texture_from_spec(texture_spec, spacing, x_unit, height_unit, level, lowpass, None, periodic,
-                                     crop=crop, tip_radius=tip_radius, tip_spacing=tip_spacing)
+                                     crop=crop)
     params = {}
     for name, value in (("max_penetration", max_penetration), ("friction", friction), ("presliding", presliding),
                         ("stick_deflection", stick_deflection)):
@@ -115,6 +116,13 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
                                  "acceleration into force, and its servo rate must be the models'")
         vib = _vibration(vibration_models, dev.period, dev.mass[0, 0], vibration_budget, dev.name,
                          False if no_material_friction else None)
+    check_settings(max_force, **({} if max_evaluations is None else {"max_evaluations": max_evaluations}),
+                   target=target)
+    if tip_radius:
+        with _Spinner(f"rolling a ball of {tip_radius * 1e3:g} mm over the texture", quiet):
+            tex = tex.felt_by(tip_radius, spacing=tip_spacing)
+        alg = object_algorithm(letter, tex, base, stiffness, **params) if base is not None else \
+            algorithm(letter, tex, stiffness, **params)
     with _Spinner("writing the C source", quiet):
         h_path, c_path = export_c(alg, out, max_force, passivity_controller=pc, period=period, target=target,
                                   **({} if max_evaluations is None else {"max_evaluations": max_evaluations}), **vib)
