@@ -71,6 +71,8 @@ def test_units_are_parsed_where_people_write_them():
         (["table", "--stiffness", "-2 kN/m"], "--stiffness -2 kN/m is not allowed"),  # (the option as typed)
         (["run", "--device", "simulated:falcon", "--max-force", "9N", "--duration", "0.1s"],
          "--max-force 9N is not allowed: at most the device's 8.9 N"),  # (the library's "max_force = 9 N", with its unit)
+        (["simulate", "scan", "--passivity-control", "-1N*s/m", "--duration", "0.1s"],
+         "--passivity-control -1N*s/m is not allowed"),  # (the library's "max_damping = -1", a subcommand's option)
         (["table", "--period", "2kg"], "period = '2kg' is not allowed"),
         (["table", "--amplitude", "nan"], "amplitude"),
         (["table", "--bogus"], "No such option"),

@@ -98,6 +98,8 @@ def _as_typed(msg: str, argv) -> str:
 
     m = re.match(r"([a-z][a-z_]*) = (\S+)(?: [A-Za-z][A-Za-z/*^0-9]*)? is not allowed", msg)  # (and its unit, "9 N")
     command = cli.commands.get(argv[0]) if argv else None
+    if isinstance(command, click.Group) and len(argv) > 1:  # (a subcommand's own options: simulate scan)
+        command = command.commands.get(argv[1])
     if m is None or command is None:
         return msg
     name = _LIBRARY_NAMES.get(m.group(1), m.group(1))
