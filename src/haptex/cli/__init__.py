@@ -85,15 +85,19 @@ def _run(argv) -> int:
     return 0
 
 
-_LIBRARY_NAMES = {"max_damping": "passivity_control"}
-"""A library parameter the command line's option names otherwise: the option's name."""
+_LIBRARY_NAMES = {"max_damping": ("passivity_control",), "period": ("sampling_period",),
+                  "stiffness": ("band_stiffness",)}
+"""Library parameters the command line's options name otherwise (the passivity controller's
+largest damping, the device's sampling period, the elastic band's stiffness): the options that
+may have given them, taken where the value typed is the value refused."""
 
 
 def _as_typed(msg: str, argv) -> str:
     """A library refusal that names its parameter in Python and SI (``tip_radius = 0.0001 is not
     allowed...``) as the command line gave it (``--tip-radius 0.1mm is not allowed...``): where
-    the command has an option of that name, the user typed it, and what they typed is that value
-    (the option's own conversion, to the message's digits); else the message as it is."""
+    the command has an option of that name (or of :data:`_LIBRARY_NAMES`), the user typed it, and
+    what they typed is that value (the option's own conversion, to the message's digits); else
+    the message as it is."""
     import re
 
     m = re.match(r"([a-z][a-z_]*) = (\S+)(?: [A-Za-z][A-Za-z/*^0-9]*)? is not allowed", msg)  # (and its unit, "9 N")
@@ -102,10 +106,24 @@ def _as_typed(msg: str, argv) -> str:
         command = command.commands.get(argv[1])
     if m is None or command is None:
         return msg
-    name = _LIBRARY_NAMES.get(m.group(1), m.group(1))
-    option = next((p for p in command.params if p.name == name and isinstance(p, click.Option)), None)
-    if option is None:
-        return msg
+    for name in (m.group(1),) + _LIBRARY_NAMES.get(m.group(1), ()):
+        option = next((p for p in command.params if p.name == name and isinstance(p, click.Option)), None)
+        typed = None if option is None else _typed(option, argv)
+        if typed is None:
+            continue
+        try:
+            value = option.type.convert(typed, option, None)
+        except (click.ClickException, ParameterError, ValueError, TypeError):
+            continue
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            continue
+        if (f"{value:g}" if isinstance(value, float) else str(value)) == m.group(2):
+            return f"{option.opts[-1]} {typed}" + msg[msg.index(" is not allowed", m.end(2)):]
+    return msg
+
+
+def _typed(option, argv):
+    """What the user typed for ``option`` (its last occurrence), or None."""
     typed = None
     for i, arg in enumerate(argv):
         for flag in option.opts:
@@ -113,17 +131,7 @@ def _as_typed(msg: str, argv) -> str:
                 typed = argv[i + 1]
             elif arg.startswith(flag + "="):
                 typed = arg[len(flag) + 1:]
-    if typed is None:
-        return msg
-    try:
-        value = option.type.convert(typed, option, None)
-    except (click.ClickException, ParameterError, ValueError, TypeError):
-        return msg
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        return msg
-    if (f"{value:g}" if isinstance(value, float) else str(value)) != m.group(2):
-        return msg
-    return f"{option.opts[-1]} {typed}" + msg[msg.index(" is not allowed", m.end(2)):]
+    return typed
 
 
 # the commands, one module a group (click's layout for an application of this size)

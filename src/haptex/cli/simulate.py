@@ -9,7 +9,7 @@ from pathlib import Path
 import click
 
 from .._specs import texture_from_spec as _texture_from_spec
-from .._validation import ParameterError
+from .._validation import ParameterError, nonnegative
 from ._common import (
     Quantity, STABILISERS, _Spinner, _build_device, _check_plot_path, _check_save_path, _device_options,
     _fitted, _given_for_letter, _jsonable, _letter, _paper_options, _parse_path, _parse_point, _refuse_unused,
@@ -150,7 +150,10 @@ def _simulate(ctx, mode, letter, stiffness, amplitude, period, max_penetration, 
         op = h.operator(depth=depth, velocity=velocity, dimension=d)
         start = [0.0] * d
     elif mode == "scan":
-        op = ops.ScanningHand(hand_stiffness, hand_damping, velocity=velocity, depth=depth, dimension=d)
+        # (the operator takes matrices, and refuses one not positive semi-definite: a scalar here)
+        op = ops.ScanningHand(nonnegative("hand_stiffness", hand_stiffness, "N/m"),
+                              nonnegative("hand_damping", hand_damping, "N*s/m"), velocity=velocity, depth=depth,
+                              dimension=d)
         start = [0.0] * d
     else:
         if path_text is None:
