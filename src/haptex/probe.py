@@ -248,16 +248,13 @@ def _check_ball_fits(texture, r: float) -> None:
     """Refuse a ball of radius r (m; a number >= 0 first) wider than a bounded sampled texture:
     a profile's length, a map's shorter side (on its cells' mean widths where its axes are
     graded), in :func:`_wider_than`'s words. Periodic and analytic textures have no extent."""
-    from .surfaces import SampledSurface
-    from .textures import SampledProfile
-
     r = nonnegative("tip_radius", r, "m")
-    if getattr(texture, "periodic", True):
+    if getattr(texture, "periodic", True) or not hasattr(texture, "h"):  # (periodic, or analytic: no extent)
         return
-    if isinstance(texture, SampledSurface):
+    if hasattr(texture, "_regular"):  # a sampled map (haptex.surfaces is not imported here: it imports this)
         texture = texture._regular()
         extent, what = min(texture.x[-1] - texture.x[0], texture.y[-1] - texture.y[0]), "the map's shorter side"
-    elif isinstance(texture, SampledProfile):
+    elif np.ndim(texture.h) == 1:
         extent, what = texture.x[-1] - texture.x[0], "the profile's length"
     else:
         return
