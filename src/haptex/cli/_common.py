@@ -67,11 +67,13 @@ def _paper_options(func):
     return func
 
 
-def _parse_point(text: str, name: str, d: int = 2):
+def _parse_point(text: str, name: str, d: int = 2, what: str | None = None):
+    """``d`` comma-separated lengths, each with its unit (m); ``what`` says what they are in a
+    refusal (default: a point's coordinates)."""
     parts = [p for p in str(text).replace(";", ",").split(",")]
     if len(parts) != d:
-        what = {2: "two lengths 'x,z', e.g. '0,-20mm'", 3: "three lengths 'x,y,z', e.g. '0,0,-20mm'",
-                4: "four lengths 'x0,x1,y0,y1', e.g. '0,0.3mm,0,0.3mm'"}[d]
+        what = what or {2: "two lengths 'x,z', e.g. '0,-20mm'", 3: "three lengths 'x,y,z', e.g. '0,0,-20mm'",
+                        4: "four lengths 'x0,x1,y0,y1', e.g. '0,0.3mm,0,0.3mm'"}[d]
         raise ParameterError(f"{name} = {text!r} is not allowed: must be {what}")
     return [_q(p.strip(), "m", name) for p in parts]
 

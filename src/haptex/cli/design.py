@@ -106,9 +106,9 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
     dev = _build_device(ctx, device_spec, joint_damping, mass, damping, sampling_period, delay,
                         3 if base is not None else tex.dimension + 1)
     x_range = None
-    if window and tex.dimension == 1:
-        x_range = _parse_point(window, "window")
-    elif window:
+    if window is not None and tex.dimension == 1:  # (an empty one is refused, not ignored)
+        x_range = _parse_point(window, "window", what="two abscissae 'x0,x1', e.g. '0,2mm'")
+    elif window is not None:
         x0, x1, y0, y1 = _parse_point(window, "window", 4)
         x_range = ((x0, x1), (y0, y1))
     if report_dir is not None:
