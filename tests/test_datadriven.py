@@ -396,7 +396,7 @@ def test_a_recording_as_the_rig_wrote_it(tmp_path, kind):
         dd.read_recording(path, columns=[f"acceleration={p}az:kg"])
 
 
-def test_haptexs_own_recording_with_a_column_more_reads_and_lists_it(tmp_path):
+def test_haptexs_own_recording_with_a_column_more_reads_and_lists_it(tmp_path, capsys):
     # issue 64: time_s,acc_m_s2,speed_m_s,force_n,pos_m was refused by its fifth column's name
     n = 1000
     data = np.column_stack([np.arange(n) / 1e3, np.sin(np.arange(n)), np.full(n, 0.05), np.ones(n),
@@ -404,6 +404,13 @@ def test_haptexs_own_recording_with_a_column_more_reads_and_lists_it(tmp_path):
     np.savetxt(tmp_path / "r.csv", data, delimiter=",", header="time_s,acc_m_s2,speed_m_s,force_n,pos_m", comments="")
     rec = dd.read_recording(tmp_path / "r.csv")
     assert rec.ignored == ("pos_m",) and rec.sample_rate == pytest.approx(1e3) and rec.speed[0] == 0.05
+    # a --sample-rate that contradicts the file's times: the refusal names the rate they give (1 ms
+    # steps: 1000 Hz) and the remedy the command line has, leaving it out (it said "None or 1000 Hz")
+    from haptex.cli import main
+
+    assert main(["fit", str(tmp_path / "r.csv"), "-o", str(tmp_path / "m.json"), "--sample-rate", "5kHz"]) == 2
+    assert capsys.readouterr().err == ("haptex: error: --sample-rate 5kHz is not allowed: must be 1000 Hz, the rate of "
+                                       "the file's times, or left out (None in Python)\n")
 
 
 def test_a_folder_of_hatt_files_is_one_line_each(tmp_path, capsys):

@@ -167,7 +167,8 @@ def read_recording(path, *, sample_rate: float | None = None, columns=None) -> R
             raise fail("time", "non-uniform or not increasing", "uniformly sampled times (s), increasing")
         fs = 1.0 / float(dt.mean())
         if sample_rate is not None and abs(fs - float(sample_rate)) > 1e-6 * fs:
-            raise fail("sample_rate", sample_rate, f"None or {fs:g} Hz (the file's times)")
+            raise fail("sample_rate", sample_rate, f"{fs:g} Hz, the rate of the file's times, or left out "
+                       "(None in Python)")
     elif sample_rate is None:
         raise fail("sample_rate", None, "a rate (Hz) for a recording without a time column")
     else:
