@@ -557,6 +557,10 @@ def test_the_command_line_refuses_in_one_line(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 4 and "has none" in err[1] and "--record" in err[2] and "--algorithm" in err[3]
     assert not (tmp_path / "d.toml").exists()
+    # a device file by another name: it said "use it as --device d.txt", which --device refuses
+    # (a TOML device file is FILE.toml); refused before the log is read, naming the .toml name
+    assert main(["identify", str(bad), "-o", str(tmp_path / "d.txt")]) == 2
+    assert "must end in .toml" in capsys.readouterr().err and not (tmp_path / "d.txt").exists()
 
 
 def test_the_json_names_units_and_uncertainties(tmp_path):

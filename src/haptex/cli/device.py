@@ -412,6 +412,9 @@ def identify_command(log, out, axis, max_delay, as_json, plot, columns):
     --column)."""
     from ..identification import AXES, identify, read_log
 
+    if out.suffix.lower() != ".toml":  # (what --device FILE.toml reads: another name would be refused there)
+        raise ParameterError(f"out = {str(out)!r} is not allowed: must end in .toml, the device file --device "
+                             f"reads (-o {out.with_suffix('.toml')})")
     if not (out.parent if str(out.parent) else Path(".")).is_dir():
         raise ParameterError(f"out = {str(out)!r} is not allowed: its directory does not exist")
     if plot is not None:
