@@ -81,6 +81,10 @@ def test_units_are_parsed_where_people_write_them():
         (["table", "--amplitude", "nan"], "amplitude"),
         (["table", "--bogus"], "No such option"),
         (["design", "--texture", ""], "texture = '' is not allowed: must be 'sine:AMPLITUDE,PERIOD'"),  # (was "path = '.'")
+        (["run", "--device", "simulated:falcon", "--algorithm", "W", "--texture", "sine:0.1mm,1mm", "--fast"],
+         "--texture is not allowed with --algorithm W: the smooth wall has no texture"),  # (was ignored, exit 0)
+        (["run", "--device", "simulated:falcon", "--algorithm", "W", "--tip-radius", "1mm", "--fast"],
+         "--tip-radius is not allowed with --algorithm W"),
         (["design", "--texture", "sine:0.1mm,2mm", "--window", ""],
          "window = '' is not allowed: must be two abscissae 'x0,x1'"),  # (an empty window was ignored, exit 0)
         (["reproduce", "--out", "/proc/haptex-cannot-be-here"], "out = '/proc/haptex-cannot-be-here' is not allowed"),

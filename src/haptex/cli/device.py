@@ -135,16 +135,22 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
         return _identification_run(backend, program, fmax, duration, record, as_json)
     tex = None
     letter = letter.upper()
-    if letter != "W":
+    if letter == "W":  # (as export refuses them: the smooth wall has no texture, and nothing is ignored)
+        given = [n for n in ("texture_spec", "tip_radius", "tip_spacing", "crop")
+                 if ctx.get_parameter_source(n) == click.core.ParameterSource.COMMANDLINE]
+        if given:
+            opt = next(o for o in ctx.command.params if o.name == given[0]).opts[-1]
+            raise ParameterError(f"{opt} is not allowed with --algorithm W: the smooth wall has no texture")
+        if backend.dimension == 3:
+            from ..textures import Flat
+
+            tex = Flat(dimension=2)
+    else:
         check_tip_spacing(tip_radius, tip_spacing)  # (the ball rolls below, once every other setting is checked)
         tex = _texture_from_spec(texture_spec, None, None, None, False, None, None, False, crop=crop)
         if tex.dimension == 2 and backend.dimension == 2:
             raise ParameterError(f"texture = {texture_spec!r} is not allowed on {backend.name}: a surface needs a "
                                  "3-DOF device")
-    elif backend.dimension == 3:
-        from ..textures import Flat
-
-        tex = Flat(dimension=2)
     base = object_from_spec(object_spec, uv_scale)
     if base is not None and backend.dimension != 3:
         raise ParameterError(f"--object is not allowed on {backend.name}: an object needs a 3-DOF device")
