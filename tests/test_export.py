@@ -817,3 +817,10 @@ def test_haptex_export_takes_the_searchs_budget(tmp_path):
     assert float(aux.replace("\n", " ").split(",")[_ext.G_BUDGET]) == 200.0
     r = run_main(*args, "--out", str(tmp_path / "no"), "--max-evaluations", "50")
     assert r.returncode == 2 and "--max-evaluations 50 is not allowed" in r.stderr, r.stderr
+    # where nothing reads it (A searches nothing; D over a profile is bounded by its tree:
+    # renderer.tick_model writes no budget there) it was ignored, exit 0; now refused
+    for letter, texture in (("A", "egg-crate:0.1mm,2mm"), ("D", "sine:0.1mm,2mm")):
+        r = run_main("export", "--algorithm", letter, "--texture", texture, "--stiffness", "1 kN/m", "--max-force",
+                     "5 N", "--quiet", "--out", str(tmp_path / "ignored"), "--max-evaluations", "200")
+        assert r.returncode == 2 and f"--max-evaluations is not allowed with --algorithm {letter}" in r.stderr
+    assert not (tmp_path / "ignored").exists()

@@ -173,6 +173,26 @@ STABILISERS = ("energy-bounding", "set-position")
 """The stabilisers ``--stabiliser`` names (the passivity controller has ``--passivity-control``)."""
 
 
+def _check_search_budget(max_evaluations, alg) -> None:
+    """Refuse ``--max-evaluations`` where nothing reads it: it budgets D's and E's closest-point
+    search over a surface or an object (:func:`haptex.renderer.tick_model`); over a profile, an
+    extruded one included, the search is bounded by the profile's tree, and the other
+    algorithms search nothing."""
+    if max_evaluations is None:
+        return
+    from ..surfaces import Extruded
+
+    tex = getattr(alg, "texture", None)
+    searched = getattr(alg, "letter", "") in ("D", "E") and (
+        getattr(alg, "base", None) is not None or (tex is not None and tex.dimension == 2
+                                                   and not isinstance(tex, Extruded)))
+    if not searched:
+        letter = getattr(alg, "letter", "proxy")
+        on = " over a profile" if letter in ("D", "E") else ""
+        raise ParameterError(f"--max-evaluations is not allowed with --algorithm {letter}{on}: it budgets D's and E's "
+                             "closest-point search over a surface or an object (a profile's is bounded by its tree)")
+
+
 def _stabiliser(passivity_control, stabiliser, dev, delay=None):
     """The stabiliser of ``--passivity-control`` or ``--stabiliser`` (one at a time), or None."""
     from ..renderer import EnergyBounding, PassiveSetPosition, PassivityController

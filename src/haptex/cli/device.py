@@ -12,8 +12,8 @@ import click
 from .._specs import check_tip_spacing, object_from_spec, texture_from_spec as _texture_from_spec
 from .._validation import ParameterError, positive
 from ..core import blas_held_to_one_thread as _core_blas_held
-from ._common import (Quantity, STABILISERS, _Spinner, _budget_needs_models, _check_plot_path, _felt_options, _jsonable,
-                      _letter, _object_options, _stabiliser, _vibration, _vibration_options)
+from ._common import (Quantity, STABILISERS, _Spinner, _budget_needs_models, _check_plot_path, _check_search_budget,
+                      _felt_options, _jsonable, _letter, _object_options, _stabiliser, _vibration, _vibration_options)
 
 
 @click.command("run")
@@ -184,6 +184,7 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
     from ..servo import SEARCH_SHARE, budgeted_search, search_budget
 
     evaluation_budget(max_evaluations)
+    _check_search_budget(max_evaluations, alg)
     positive("duration", duration, "s")
     if tip_radius and letter != "W":
         with _Spinner(f"rolling a ball of {tip_radius * 1e3:g} mm over the texture", quiet or as_json):

@@ -9,8 +9,8 @@ import click
 from .._specs import check_tip_spacing, object_from_spec, texture_from_spec as _texture_from_spec
 from .._validation import ParameterError
 from ._common import (
-    Quantity, STABILISERS, _Spinner, _catalogued_device, _felt_options, _letter, _not_taken, _object_options, _stabiliser,
-    _budget_needs_models, _vibration, _vibration_options)
+    Quantity, STABILISERS, _Spinner, _catalogued_device, _check_search_budget, _felt_options, _letter, _not_taken,
+    _object_options, _stabiliser, _budget_needs_models, _vibration, _vibration_options)
 
 
 @click.command()
@@ -118,6 +118,7 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
                          False if no_material_friction else None)
     check_settings(max_force, **({} if max_evaluations is None else {"max_evaluations": max_evaluations}),
                    target=target)
+    _check_search_budget(max_evaluations, alg)
     if tip_radius:
         with _Spinner(f"rolling a ball of {tip_radius * 1e3:g} mm over the texture", quiet):
             tex = tex.felt_by(tip_radius, spacing=tip_spacing)
