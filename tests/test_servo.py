@@ -296,3 +296,14 @@ def test_d_and_e_in_haptex_run_search_within_half_the_devices_period(monkeypatch
     assert main(["run", "--device", "simulated:falcon", "--algorithm", "D", "--max-evaluations", "50",
                  "--duration", "0.1s", "--fast", "--quiet"]) == 2
     assert "--max-evaluations 50 is not allowed" in capsys.readouterr().err
+    # over a profile extruded across y the tick searches the profile's tree (tick_model gives it the
+    # cell table, no budget): the run stated "at most 711 evaluations a tick (measured ...)", a
+    # budget nothing applied; now it states none, and one given by hand is refused
+    from haptex.core import _ext
+    from haptex.renderer import tick_model
+
+    extruded = hx.algorithm("D", hx.Extruded(hx.Sinusoid(1e-4, 2e-3)), 1e3)
+    assert tick_model(extruded, 500)[4][_ext.G_BUDGET] != 500.0  # (the tree's data: no budget written)
+    assert main(["run", "--device", "simulated:falcon", "--algorithm", "D", "--duration", "0.1s", "--fast",
+                 "--json", "--quiet"]) == 0
+    assert "search_budget" not in {k for k, v in json.loads(capsys.readouterr().out).items() if k != "units"}

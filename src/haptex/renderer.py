@@ -305,6 +305,32 @@ class PassiveSetPosition(_PaidByTheDamper):
     _name = "passive set-position modulation"
 
 
+def reads_search_budget(algorithm) -> bool:
+    """Whether ``algorithm``'s tick reads a budget of texture evaluations (``max_evaluations``):
+    D's and E's closest-point search over a surface on the plane or over an object's texture.
+    Over a profile, or a profile extruded across y, the search is the profile's tree (with its
+    cell table where the profile is periodic), bounded by its depth, and reads none; the other
+    algorithms search nothing.
+
+    Parameters
+    ----------
+    algorithm : Algorithm, ObjectAlgorithm or GodObject
+        What is rendered.
+
+    Returns
+    -------
+    bool
+    """
+    from .surfaces import Extruded
+
+    if getattr(algorithm, "letter", "") not in ("D", "E"):
+        return False
+    if getattr(algorithm, "base", None) is not None:
+        return True
+    tex = getattr(algorithm, "texture", None)
+    return tex is not None and tex.dimension == 2 and not isinstance(tex, Extruded)
+
+
 def tick_model(algorithm: Algorithm, max_evaluations: int | None = None):
     """The arrays of one algorithm's servo tick in the C core, as :class:`Renderer` and
     ``haptex export`` hand them to it.
@@ -335,18 +361,16 @@ def tick_model(algorithm: Algorithm, max_evaluations: int | None = None):
     """
     code, prm, kind, coeffs, aux = algorithm.kernel_spec()
     table = False
-    if algorithm.letter in ("D", "E"):
+    if reads_search_budget(algorithm):  # (a copy: the texture's own constants stay unbudgeted, the analysis certifies)
+        aux = aux.copy()
+        aux[_ext.G_BUDGET] = 0.0 if max_evaluations is None else float(max_evaluations)
+    elif algorithm.letter in ("D", "E"):  # (over a profile, or one extruded: its tree, with the cell table)
         from .surfaces import Extruded
 
         tex = algorithm.texture
-        profile = tex if tex.dimension == 1 else (tex.profile if isinstance(tex, Extruded) else None)
-        if profile is not None:
-            tabled = table_search_data(profile)
-            table = tabled[_ext.A_TABLE] != 0.0
-            aux = tabled
-        else:  # (a copy: the texture's own constants stay unbudgeted, the analysis certifies)
-            aux = aux.copy()
-            aux[_ext.G_BUDGET] = 0.0 if max_evaluations is None else float(max_evaluations)
+        tabled = table_search_data(tex.profile if isinstance(tex, Extruded) else tex)
+        table = tabled[_ext.A_TABLE] != 0.0
+        aux = tabled
     return code, prm, kind, coeffs, np.require(aux, np.float64, ["C"]), bool(table)
 
 

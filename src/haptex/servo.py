@@ -133,9 +133,9 @@ def budgeted_search(algorithm) -> bool:
     -------
     bool
     """
-    tex = getattr(algorithm, "texture", None)
-    return (getattr(algorithm, "letter", "") in ("D", "E") and getattr(algorithm, "base", None) is None
-            and tex is not None and tex.dimension == 2)
+    from .renderer import reads_search_budget
+
+    return reads_search_budget(algorithm) and getattr(algorithm, "base", None) is None
 
 
 def search_budget(algorithm, period: float, depth: float) -> tuple[int | None, float | None]:

@@ -178,15 +178,9 @@ def _check_search_budget(max_evaluations, alg) -> None:
     search over a surface or an object (:func:`haptex.renderer.tick_model`); over a profile, an
     extruded one included, the search is bounded by the profile's tree, and the other
     algorithms search nothing."""
-    if max_evaluations is None:
-        return
-    from ..surfaces import Extruded
+    from ..renderer import reads_search_budget
 
-    tex = getattr(alg, "texture", None)
-    searched = getattr(alg, "letter", "") in ("D", "E") and (
-        getattr(alg, "base", None) is not None or (tex is not None and tex.dimension == 2
-                                                   and not isinstance(tex, Extruded)))
-    if not searched:
+    if max_evaluations is not None and not reads_search_budget(alg):
         letter = getattr(alg, "letter", "proxy")
         on = " over a profile" if letter in ("D", "E") else ""
         raise ParameterError(f"--max-evaluations is not allowed with --algorithm {letter}{on}: it budgets D's and E's "
