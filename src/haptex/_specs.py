@@ -26,19 +26,6 @@ def split_spec(text: str, name: str, kind: str, count: tuple[int, int]):
     return parts
 
 
-def texture_from_spec(spec: str, spacing=None, x_unit=None, height_unit=None, level=False, lowpass=None, scale=None,
-                      periodic=False, fill_undefined=False, crop=None, tip_radius=0.0, tip_spacing=None):
-    """The texture a spec names (felt by a ball of ``tip_radius``, m, when it is > 0, on a grid
-    of ``tip_spacing``, m, when given).
-
-    ``tip_radius`` and ``tip_spacing`` apply to every kind (:func:`haptex.probe.felt_by`'s
-    radius and ``spacing``; a spacing without a radius is refused, not ignored); the other
-    parameters are :func:`_texture_from_spec`'s."""
-    check_tip_spacing(tip_radius, tip_spacing)
-    tex = _texture_from_spec(spec, spacing, x_unit, height_unit, level, lowpass, scale, periodic, fill_undefined, crop)
-    return tex.felt_by(tip_radius, spacing=tip_spacing) if tip_radius else tex
-
-
 def check_tip_spacing(tip_radius, tip_spacing) -> None:
     """Refuse a felt map's spacing that is not a finite length > 0 (m), or given without the ball
     it is for (``--tip-spacing`` without ``--tip-radius``: nothing is felt, and a spacing would
@@ -52,7 +39,7 @@ def check_tip_spacing(tip_radius, tip_spacing) -> None:
                              f"feels (got {tip_spacing:g} m and no ball)")
 
 
-def _texture_from_spec(spec: str, spacing=None, x_unit=None, height_unit=None, level=False, lowpass=None, scale=None,
+def texture_from_spec(spec: str, spacing=None, x_unit=None, height_unit=None, level=False, lowpass=None, scale=None,
                        periodic=False, fill_undefined=False, crop=None):
     """The texture a spec names.
 
