@@ -87,10 +87,12 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
                 raise _not_taken(name, letter)
             params[name] = value
     base = object_from_spec(object_spec, uv_scale)
-    if base is not None:
-        alg = object_algorithm(letter, tex, base, stiffness, **params)
-    else:
-        alg = algorithm(letter, tex, stiffness, **params)
+
+    def exported(tex):  # (the algorithm on the texture, on its object where there is one)
+        return (object_algorithm(letter, tex, base, stiffness, **params) if base is not None
+                else algorithm(letter, tex, stiffness, **params))
+
+    alg = exported(tex)  # (on the texture as read: its settings refused before a ball rolls over it)
     dev = None
     if device_spec is not None:
         if passivity_control is None and stabiliser is None and vibration_models is None:
@@ -122,8 +124,7 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
     if tip_radius:
         with _Spinner(f"rolling a ball of {tip_radius * 1e3:g} mm over the texture", quiet):
             tex = tex.felt_by(tip_radius, spacing=tip_spacing)
-        alg = object_algorithm(letter, tex, base, stiffness, **params) if base is not None else \
-            algorithm(letter, tex, stiffness, **params)
+        alg = exported(tex)
     with _Spinner("writing the C source", quiet):
         h_path, c_path = export_c(alg, out, max_force, passivity_controller=pc, period=period, target=target,
                                   **({} if max_evaluations is None else {"max_evaluations": max_evaluations}), **vib)
