@@ -398,8 +398,8 @@ class Algorithm:
             (:func:`haptex.friction.smooth_table`), else zeros(1).
         """
         kind, coeffs = self.texture.kernel_data()
-        return (_CODES[self.letter], self.kernel_params(), kind, np.require(coeffs, np.float64, ["C", "W"]),
-                np.require(self._aux(), np.float64, ["C", "W"]))
+        return (_CODES[self.letter], self.kernel_params(), kind, np.require(coeffs, np.float64, ["C"]),
+                np.require(self._aux(), np.float64, ["C"]))
 
     def kernel_params(self) -> np.ndarray:
         """The algorithm's parameter vector float64[6] of the C core (``hx_model.prm``, the

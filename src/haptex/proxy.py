@@ -124,7 +124,7 @@ class GodObject:
         prm = np.full(_ext.N_PARAMS, -1.0)
         prm[_ext.P_K0], prm[_ext.P_DXMAX] = self.stiffness, self._max_step
         kind, coeffs = self.texture.kernel_data()
-        return (_ext.ALG_PROXY, prm, kind, np.require(coeffs, np.float64, ["C", "W"]), np.zeros(1))
+        return (_ext.ALG_PROXY, prm, kind, np.require(coeffs, np.float64, ["C"]), np.zeros(1))
 
     def object_spec(self, max_evaluations=None):
         """Over a base (``max_evaluations``: unused, the descent is bounded by its steps): the

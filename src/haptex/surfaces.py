@@ -1218,7 +1218,9 @@ class SampledSurface(Surface):
         extra patches (``hx_core.h``): the height there is the highest patch's. A map on graded
         axes (``knots``) ends with its nx + 1 and ny + 1 knots, their column in ``PATCH_AXES``
         (0 on uniform cells, ``PATCH_DX`` by ``PATCH_DY``), and each axis's bucket index, the C
-        core's short cut to a point's cell (``hx_core.h``). Cached.
+        core's short cut to a point's cell (``hx_core.h``). Cached, read-only: the C core checks
+        it once (``haptex.core._ext.checked``; a branched map's check reads every cell's start,
+        0.4 ms on a 688 x 352 felt map) and not again on each evaluation.
 
         Returns
         -------
@@ -1250,6 +1252,7 @@ class SampledSurface(Surface):
         head[K.PATCH_NX], head[K.PATCH_NY] = nx, ny
         head[K.PATCH_PERIODIC] = 1.0 if self.periodic else 0.0
         head[K.PATCH_JOINS] = K.JOINS_SPLINE if self._gradients is None else K.JOINS_HERMITE
+        head[K.PATCH_TURN] = self.turn
         tail = []
         if self._branches is not None:  # (a felt map's cells where the contact jumps: one patch a contact)
             cells, first, starts, extra = self._branches
@@ -1259,7 +1262,8 @@ class SampledSurface(Surface):
         if self._knots is not None:  # (graded axes: their knots after all the rest, then their index, hx_core.h)
             head[K.PATCH_AXES] = K.PATCH_DATA + out.size + sum(t.size for t in tail)
             tail += list(self._knots) + [_knot_index(kn) for kn in self._knots]
-        arr = np.ascontiguousarray(np.concatenate([head, out.ravel(), *tail])[None, :])
+        # (a read-only copy the C core checks once: a branched map's check reads every cell's start)
+        arr = K.checked(K.SURFACE_PATCHES, np.concatenate([head, out.ravel(), *tail])[None, :])
         self.__dict__["_patches"] = arr
         return arr
 
@@ -1950,11 +1954,6 @@ class _TurnedMap(SampledSurface):
 
     def _frame_kinks(self) -> np.ndarray:
         return self._frame.kinks
-
-    def patches(self) -> np.ndarray:
-        arr = super().patches()
-        arr[0, _ext.PATCH_TURN] = self.turn
-        return arr
 
     @property
     def cell(self) -> tuple[float, float]:

@@ -50,6 +50,137 @@ static int get_doubles(PyObject *obj, Py_buffer *view, int writable, int ndim, c
     return 0;
 }
 
+/* ---- Checked: a texture's coefficients copied once and checked once ----------------------
+ * hx_texture_check reads every cell's start in a map with branched cells (a felt map's: 33 MB
+ * and 0.4 ms a call on a 688 x 352 map), once a call of texture, field and closest_surface.
+ * checked(kind, coeffs) copies the coefficients into memory of its own, checks them, and
+ * returns a read-only NumPy array over that memory whose base is the Checked object; NumPy
+ * lets no view of it be made writeable (its base exports no buffer), so the entry points skip
+ * their check for an array over exactly that memory, kind and shape (already_checked). */
+typedef struct {
+    PyObject_HEAD
+    int kind;
+    long rows, cols;
+    double *data;
+} CheckedObject;
+
+static void Checked_dealloc(CheckedObject *self)
+{
+    PyMem_Free(self->data);
+    Py_TYPE(self)->tp_free((PyObject *)self);
+}
+
+static PyTypeObject CheckedType = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = "haptex.core._ext.Checked",
+    .tp_basicsize = sizeof(CheckedObject),
+    .tp_dealloc = (destructor)Checked_dealloc,
+    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_doc = "The memory of a texture's coefficients copied and checked once (made by checked(); the base of its array).",
+};
+
+static long full_checks; /* hx_texture_check runs on a texture's coefficients (checks()) */
+
+/* coeffs' array (obj, its buffer v) over a Checked copy's memory of this kind and shape */
+static int already_checked(PyObject *obj, const Py_buffer *v, long kind, long rows, long cols)
+{
+    int depth;
+    const CheckedObject *chk;
+    for (depth = 0; depth < 8 && obj != NULL && PyArray_Check(obj); depth++)
+        obj = PyArray_BASE((PyArrayObject *)obj);
+    if (obj == NULL || !Py_IS_TYPE(obj, &CheckedType))
+        return 0;
+    chk = (const CheckedObject *)obj;
+    return chk->kind == kind && chk->rows == rows && chk->cols == cols && v->buf == (void *)chk->data &&
+           v->len == (Py_ssize_t)(rows * cols) * (Py_ssize_t)sizeof(double);
+}
+
+/* hx_texture_check of t, unless its coefficients (obj, buffer v) are a Checked copy's */
+static int texture_check(PyObject *obj, const Py_buffer *v, const hx_texture *t)
+{
+    if (already_checked(obj, v, t->kind, t->rows, t->cols))
+        return HX_OK;
+    full_checks++;
+    return hx_texture_check(t->kind, t->c, t->rows, t->cols);
+}
+
+PyDoc_STRVAR(checked_doc,
+"checked(kind, coeffs)\n--\n\n"
+"A read-only float64 array of coeffs' shape (1 or 2 dimensions) holding a copy of them, checked\n"
+"once (ValueError as texture's); texture, field and closest_surface do not check it again.");
+
+static PyObject *checked(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    long kind;
+    Py_buffer v;
+    CheckedObject *chk;
+    PyObject *arr;
+    npy_intp dims[2];
+    int rc, ndim;
+    (void)self;
+    if (nargs != 2) {
+        PyErr_SetString(PyExc_TypeError, "checked takes 2 arguments");
+        return NULL;
+    }
+    kind = PyLong_AsLong(args[0]);
+    if (kind == -1 && PyErr_Occurred())
+        return NULL;
+    if (get_doubles(args[1], &v, 0, -1, "coeffs") < 0)
+        return NULL;
+    ndim = v.ndim;
+    if (ndim < 1 || ndim > 2 || (long)(int)kind != kind) {
+        PyBuffer_Release(&v);
+        return core_error(HX_BAD_COEFFS);
+    }
+    dims[0] = v.shape[0];
+    dims[1] = ndim == 2 ? v.shape[1] : 1;
+    chk = PyObject_New(CheckedObject, &CheckedType);
+    if (chk == NULL) {
+        PyBuffer_Release(&v);
+        return NULL;
+    }
+    chk->kind = (int)kind;
+    chk->rows = ndim == 2 ? (long)v.shape[0] : 1;
+    chk->cols = ndim == 2 ? (long)v.shape[1] : (long)v.shape[0];
+    chk->data = (double *)PyMem_Malloc(v.len > 0 ? (size_t)v.len : sizeof(double));
+    if (chk->data == NULL) {
+        PyBuffer_Release(&v);
+        Py_DECREF(chk);
+        return PyErr_NoMemory();
+    }
+    memcpy(chk->data, v.buf, (size_t)v.len);
+    PyBuffer_Release(&v);
+    full_checks++;
+    rc = hx_texture_check(chk->kind, chk->data, chk->rows, chk->cols); /* (on the copy: what is read later) */
+    if (rc != HX_OK) {
+        Py_DECREF(chk);
+        return core_error(rc);
+    }
+    arr = PyArray_New(&PyArray_Type, ndim, dims, NPY_DOUBLE, NULL, chk->data, 0, NPY_ARRAY_C_CONTIGUOUS | NPY_ARRAY_ALIGNED,
+                      NULL);
+    if (arr == NULL) {
+        Py_DECREF(chk);
+        return NULL;
+    }
+    if (PyArray_SetBaseObject((PyArrayObject *)arr, (PyObject *)chk) < 0) { /* (steals chk) */
+        Py_DECREF(arr);
+        return NULL;
+    }
+    return arr;
+}
+
+PyDoc_STRVAR(checks_doc,
+"checks()\n--\n\n"
+"How many times a texture's coefficients were checked whole (hx_texture_check) by texture, field,\n"
+"closest_surface and checked since the module was loaded: counted work, for tests.");
+
+static PyObject *checks(PyObject *self, PyObject *unused)
+{
+    (void)self;
+    (void)unused;
+    return PyLong_FromLong(full_checks);
+}
+
 /* The model from (code, prm, kind, coeffs); coeffs' buffer stays held by the caller. */
 static int get_model(PyObject *const *args, hx_model *m, Py_buffer *prm, Py_buffer *coeffs)
 {
@@ -79,7 +210,9 @@ static int get_model(PyObject *const *args, hx_model *m, Py_buffer *prm, Py_buff
     if (coeffs->ndim > 2 || (long)kind != m->tex.kind || (long)code != m->code) {
         rc = HX_BAD_COEFFS;
     } else {
-        rc = hx_model_check(m);
+        rc = texture_check(args[3], coeffs, &m->tex);
+        if (rc == HX_OK)
+            rc = hx__model_check(m, 1);
     }
     if (rc != HX_OK) {
         PyBuffer_Release(prm);
@@ -197,7 +330,7 @@ static PyObject *texture(PyObject *self, PyObject *const *args, Py_ssize_t nargs
     t.c = (const double *)coeffs.buf;
     t.rows = coeffs.ndim == 2 ? (long)coeffs.shape[0] : 1;
     t.cols = coeffs.ndim == 2 ? (long)coeffs.shape[1] : (coeffs.ndim == 1 ? (long)coeffs.shape[0] : 0);
-    rc = coeffs.ndim > 2 || (long)t.kind != kind ? HX_BAD_COEFFS : hx_texture_check(t.kind, t.c, t.rows, t.cols);
+    rc = coeffs.ndim > 2 || (long)t.kind != kind ? HX_BAD_COEFFS : texture_check(args[1], &coeffs, &t);
     if (rc != HX_OK) {
         PyBuffer_Release(&coeffs);
         return core_error(rc);
@@ -2084,7 +2217,7 @@ static PyObject *closest_surface(PyObject *self, PyObject *const *args, Py_ssize
     tex.c = (const double *)b[0].buf;
     tex.rows = b[0].ndim == 2 ? (long)b[0].shape[0] : 1;
     tex.cols = b[0].ndim == 2 ? (long)b[0].shape[1] : (b[0].ndim == 1 ? (long)b[0].shape[0] : 0);
-    rc = b[0].ndim > 2 ? HX_BAD_COEFFS : hx_texture_check(tex.kind, tex.c, tex.rows, tex.cols);
+    rc = b[0].ndim > 2 ? HX_BAD_COEFFS : texture_check(args[1], &b[0], &tex);
     if (rc == HX_OK)
         rc = hx_surface_aux_check((const double *)b[1].buf, (long)b[1].shape[0]);
     if (rc != HX_OK) {
@@ -2685,6 +2818,8 @@ static PyMethodDef methods[] = {
     {"normal", (PyCFunction)(void (*)(void))normal, METH_FASTCALL, normal_doc},
     {"lsf_to_poly", (PyCFunction)(void (*)(void))lsf_to_poly, METH_FASTCALL, lsf_to_poly_doc},
     {"texture", (PyCFunction)(void (*)(void))texture, METH_FASTCALL, texture_doc},
+    {"checked", (PyCFunction)(void (*)(void))checked, METH_FASTCALL, checked_doc},
+    {"checks", (PyCFunction)checks, METH_NOARGS, checks_doc},
     {"run_lean", (PyCFunction)(void (*)(void))run_lean, METH_FASTCALL, run_lean_doc},
     {"run_general", (PyCFunction)(void (*)(void))run_general, METH_FASTCALL, run_general_doc},
     {"tail_amplitudes", (PyCFunction)(void (*)(void))tail_amplitudes, METH_FASTCALL, tail_amplitudes_doc},
@@ -2758,7 +2893,8 @@ PyMODINIT_FUNC PyInit__ext(void)
     if (PyType_Ready(&RendererType) < 0 || PyModule_AddObjectRef(mod, "Renderer", (PyObject *)&RendererType) < 0 ||
         PyType_Ready(&ServoType) < 0 || PyModule_AddObjectRef(mod, "Servo", (PyObject *)&ServoType) < 0 ||
         PyType_Ready(&BaseType) < 0 || PyModule_AddObjectRef(mod, "Base", (PyObject *)&BaseType) < 0 ||
-        PyType_Ready(&PlantType) < 0 || PyModule_AddObjectRef(mod, "Plant", (PyObject *)&PlantType) < 0) {
+        PyType_Ready(&PlantType) < 0 || PyModule_AddObjectRef(mod, "Plant", (PyObject *)&PlantType) < 0 ||
+        PyType_Ready(&CheckedType) < 0) {
         Py_DECREF(mod);
         return NULL;
     }

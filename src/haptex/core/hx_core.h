@@ -240,6 +240,10 @@ double hx_texture_height(const hx_texture *t, double x, double y);
  * HX_OK or an HX_BAD_* code. */
 int hx_model_check(const hx_model *m);
 
+/* hx_model_check, its texture's coefficients taken as checked when texture_checked is not 0 (the
+ * Python binding's copies checked once, haptex.core._ext.checked). */
+int hx__model_check(const hx_model *m, int texture_checked);
+
 /* The memoryless field of algorithm m->code at p = [x, y, z] (m): the force f (N) and, when
  * jac is not NULL, the Jacobian jac[3 * i + j] = d f_i / d p_j (N/m), row-major 3 x 3; both
  * zero outside the wall. Returns HX_OK, or HX_NOT_IN_CORE for D, E and F (not yet in C). */

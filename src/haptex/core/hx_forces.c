@@ -17,7 +17,9 @@
 #include <math.h>
 #include <stddef.h>
 
-int hx_model_check(const hx_model *m)
+int hx_model_check(const hx_model *m) { return hx__model_check(m, 0); }
+
+int hx__model_check(const hx_model *m, int texture_checked)
 {
     int rc;
     if (m->code < 0 || m->code >= HX_N_ALGS)
@@ -26,7 +28,7 @@ int hx_model_check(const hx_model *m)
     if (m->code != HX_ONLY_ALG)
         return HX_NOT_IN_CORE;
 #endif
-    rc = hx_texture_check(m->tex.kind, m->tex.c, m->tex.rows, m->tex.cols);
+    rc = texture_checked ? HX_OK : hx_texture_check(m->tex.kind, m->tex.c, m->tex.rows, m->tex.cols);
 #if !defined(HX_ONLY_ALG) || HX_ONLY_ALG == 6
     if (rc == HX_OK && m->code == HX_ALG_F) {
         if (!(m->prm[HX_P_DXMAX] > 0.0) || !isfinite(m->prm[HX_P_DXMAX]))
