@@ -3,7 +3,8 @@
 1. binding: ns per call of hx_field on one point through the extension's C API function
    (METH_FASTCALL, five buffers acquired and checked per call) and through ctypes on the
    same exported symbol (a Structure built once, pointers passed), and the floor of any
-   call from Python (a C API function doing nothing: len(()));
+   call from Python (a C API function doing nothing: len(())); a felt map's one-point
+   evaluation on its own table (checked once when made) and on a copy (checked on each call);
 2. throughput: force and Jacobian of W, A, B, C, G on 10^6 points by the core (one
    thread, GIL released) against the NumPy fields, over the paper's sinusoid (2-D) and the
    egg-crate (3-D).
@@ -62,6 +63,23 @@ def binding() -> None:
     print(f"| C API, METH_FASTCALL, five buffers checked | {fastcall:.0f} |")
     print(f"| ctypes on the exported hx_field, arguments prebuilt | {via_ctypes:.0f} |")
     print(f"| floor: a C API call that does nothing (len(())) | {floor:.0f} |")
+    # a felt map with branched cells, whose check reads every cell's start: its own table (a
+    # read-only copy checked once when made, _ext.checked) against a copy of it, checked whole on
+    # each call as any other array is (every call before 2026-12-01)
+    rho = 2e-3**2 / (4 * np.pi**2 * 0.1e-3)  # (the egg-crate's bowls' radius, 1.01 mm)
+    felt = hx.SumOfGratings.egg_crate(0.1e-3, 2e-3).felt_by(1.1 * rho)
+    kind, table = felt.kernel_data()
+    copy = table.copy()
+    xy = np.array([[1e-4, 2e-4]])
+    out = np.empty((1, 6))
+    once = _per_call(lambda: _ext.texture(kind, table, xy, out), 20_000)
+    each = _per_call(lambda: _ext.texture(kind, copy, xy, out), 2_000)
+    cells = int(table[0, _ext.PATCH_NX] * table[0, _ext.PATCH_NY])
+    print(f"\n| egg-crate felt by 1.1 rho ({cells:,} cells, {table.nbytes / 1e6:.0f} MB, branched): one point's h "
+          "and derivatives | ns per call |")
+    print("| --- | ---: |")
+    print(f"| its table, checked once when made | {once:.0f} |")
+    print(f"| a copy, checked whole on each call | {each:.0f} |")
 
 
 def throughput(points: int = 1_000_000) -> None:
