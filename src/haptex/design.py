@@ -9,6 +9,7 @@ import numpy as np
 
 from ._validation import ParameterError, fail, positive
 from .algorithms import ALGORITHMS
+from .analysis.passivity import SAMPLES_PER_PERIOD
 from .analysis import (characteristic_number, checked_algorithms, conservativity, continuity, paper_loop, rendering_cutoff,
                        texture_limits)
 from .catalogue import DEFAULT_HAND, presets
@@ -41,7 +42,7 @@ def _chosen(algorithms, defined, default, where: str) -> list[str]:
 
 
 def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.1, max_penetration: float = 1e-3,
-           samples_per_period=5, friction: float = 0.8, presliding: float = 1e-3, n_loops: int = 4,
+           samples_per_period=SAMPLES_PER_PERIOD, friction: float = 0.8, presliding: float = 1e-3, n_loops: int = 4,
            x_range=None, progress=None, band_limit: bool = True, hand=DEFAULT_HAND, on_estimate=None,
            base=None, algorithms=None, instrument_tip: float | None = None,
            reliability_cutoff: float | None = None, time_budget: float | None = TIME_BUDGET) -> dict:
@@ -62,7 +63,8 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
     max_penetration : float, optional
         Depth of the rendering region (m); also F's d^z_max.
     samples_per_period : float, optional
-        alpha, beta, gamma of Section II-B.
+        alpha, beta, gamma of Section II-B (default
+        :data:`haptex.analysis.passivity.SAMPLES_PER_PERIOD`, 5).
     friction, presliding : float, optional
         F's mu and d^x_max (m).
     n_loops : int, optional
@@ -326,7 +328,7 @@ def _rendered(texture: Texture, cutoff: float, band_limit: bool = True):
     return filtered.band_limited(cutoff), filtered  # resampling only: filtered is band-limited
 
 
-def rendered_texture(texture: Texture, device: Device, speed: float = 0.1, samples_per_period=5,
+def rendered_texture(texture: Texture, device: Device, speed: float = 0.1, samples_per_period=SAMPLES_PER_PERIOD,
                      band_limit: bool = True) -> Texture:
     """The texture :func:`design` analyses: a sampled texture band-limited to the device's
     cut-off at ``speed`` and resampled (see ``band_limit`` there); the texture itself
@@ -341,7 +343,8 @@ def rendered_texture(texture: Texture, device: Device, speed: float = 0.1, sampl
     speed : float, optional
         Scanning speed (m/s), > 0.
     samples_per_period : float, optional
-        Samples a cut-off period the scanning-velocity limit asks for (the paper's alpha).
+        Samples a cut-off period the scanning-velocity limit asks for (the paper's alpha;
+        default :data:`haptex.analysis.passivity.SAMPLES_PER_PERIOD`, 5).
     band_limit : bool, optional
         False: the texture as given.
 
@@ -359,7 +362,7 @@ def rendered_texture(texture: Texture, device: Device, speed: float = 0.1, sampl
 
 
 def _check_span(texture: Texture, device: Device, speed: float = 0.1, max_penetration: float | None = None,
-               samples_per_period=5, instrument_tip: float | None = None,
+               samples_per_period=SAMPLES_PER_PERIOD, instrument_tip: float | None = None,
                reliability_cutoff: float | None = None) -> None:
     """Refuse a measured texture too short for what ``device`` renders at ``speed``, as
     :func:`design` does when it band-limits it, before anything costly is made of it (the

@@ -40,7 +40,15 @@ class Limit:
     passed: bool
 
 
-def texture_limits(texture: Texture, device, speed: float, stiffness: float, samples_per_period=5) -> list[Limit]:
+SAMPLES_PER_PERIOD = 5
+"""alpha = beta = gamma of Section II-B, the samples a rendered period needs (the paper:
+"typically 5 to 10"): chosen, the paper's lowest, the default wherever ``samples_per_period``
+is taken (:func:`rendering_cutoff`, :func:`texture_limits`, :func:`haptex.design`,
+:func:`haptex.rendered_texture`)."""
+
+
+def texture_limits(texture: Texture, device, speed: float, stiffness: float,
+                   samples_per_period=SAMPLES_PER_PERIOD) -> list[Limit]:
     """The six necessary conditions of Section II-B for rendering a texture on a device.
 
     With l the texture's shortest period, M its Lipschitz bound (Remark 2: 2 pi A / l for
@@ -71,7 +79,7 @@ def texture_limits(texture: Texture, device, speed: float, stiffness: float, sam
     stiffness : float
         kappa_0 (N/m) the texture is rendered with.
     samples_per_period : float or (float, float, float), optional
-        alpha, beta, gamma ("typically 5 to 10"), default 5.
+        alpha, beta, gamma ("typically 5 to 10"), default :data:`SAMPLES_PER_PERIOD` (5).
 
     Returns
     -------
@@ -159,7 +167,7 @@ class Cutoff:
         return cls(lc, tuple(name for name, b in bounds.items() if b >= lc * (1 - 1e-12)), dict(bounds))
 
 
-def rendering_cutoff(device, speed: float, samples_per_period=5) -> Cutoff:
+def rendering_cutoff(device, speed: float, samples_per_period=SAMPLES_PER_PERIOD) -> Cutoff:
     """The shortest texture period a device can render at a scanning speed: the largest of
     the bounds the four period limits of Section II-B (scanning velocity, low- and
     high-speed reconstruction, device structural) put on the shortest period l,
@@ -177,7 +185,7 @@ def rendering_cutoff(device, speed: float, samples_per_period=5) -> Cutoff:
     speed : float
         Scanning velocity v (m/s), > 0.
     samples_per_period : float or (float, float, float), optional
-        alpha, beta, gamma (default 5).
+        alpha, beta, gamma (default :data:`SAMPLES_PER_PERIOD`, 5).
 
     Returns
     -------
