@@ -1774,6 +1774,18 @@ def test_a_surface_is_dilated_as_its_definition_says():
     assert egg.max_slope < hx.SumOfGratings.egg_crate(0.1e-3, 2e-3).max_slope * 1.01
 
 
+def test_a_felt_textures_source_states_its_grid_in_a_readable_unit():
+    # a felt texture's source states the grid it was resampled on, as the spacing given (its
+    # definition): in um, and in nm below 10 nm, where opdx-3.opdx felt by a 5 um ball, refined
+    # to 128 points a sample (0.13 nm), read "resampled at 0.0001301 um" (2026-11-30)
+    x = np.arange(400) * 20e-9
+    prof = hx.SampledProfile(x, 5e-9 * np.sin(2 * np.pi * x / 1e-6))
+    assert "resampled at 4 nm felt by" in prof.felt_by(0.2e-6, spacing=4e-9).source
+    assert "resampled at 0.04 um felt by" in prof.felt_by(0.2e-6, spacing=40e-9).source
+    surf = hx.SampledSurface(x[:40], x[:40], 5e-9 * np.sin(2 * np.pi * x[:40] / 1e-6)[:, None] * np.ones(40))
+    assert "resampled at 5 nm felt by" in surf.felt_by(0.2e-6, spacing=5e-9).source
+
+
 def test_a_measured_stylus_scan_felt_by_a_phantom_ball():
     # the Dektak scan of examples/data (1.5 mm, 9600 samples): a 0.5 mm ball bridges its fine
     # roughness; the felt slope falls, and never exceeds the point probe's anywhere

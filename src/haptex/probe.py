@@ -125,6 +125,15 @@ def _spacing(texture, r, spacing, per_period: int, per_radius: int) -> float:
     return min(texture.shortest_period / per_period, r / per_radius)
 
 
+def _steps_text(steps) -> str:
+    """A resampled grid's steps (m, one an axis) as a felt texture's ``source`` states them: to 4
+    digits in um, in nm where each is below 10 nm (opdx-3.opdx felt by a 5 um ball: "0.1301 nm",
+    not "0.0001301 um"); one value where the axes' agree, else "dx x dy"."""
+    scale, unit = (1e9, "nm") if max(steps) < 1e-8 else (1e6, "um")
+    said = [f"{d * scale:.4g}" for d in steps]
+    return f"{said[0] if len(set(said)) == 1 else ' x '.join(said)} {unit}"
+
+
 def _grid_contacts(h: np.ndarray, steps, r: float, periodic: bool):
     """Each sample's highest grid offset under a ball of radius r (m) on heights h (a profile's
     (n,) or a map's (nx, ny), grid steps ``steps`` (m) an axis): the maximum of

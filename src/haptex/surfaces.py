@@ -19,7 +19,7 @@ from . import core as _core
 from .core import _ext
 from ._maximise import refine
 from ._validation import ParameterError, check_count, fail, finite, nonnegative, positive, whole
-from .probe import MAX_SAMPLES as MAX_PROBE_SAMPLES, _check_ball_fits, _check_work, _spacing
+from .probe import MAX_SAMPLES as MAX_PROBE_SAMPLES, _check_ball_fits, _check_work, _spacing, _steps_text
 from .textures import (MAX_HARMONICS, SampledProfile, Texture, _band_limited_samples, _resampled_axis, _vector,
                        common_period)
 
@@ -4043,9 +4043,8 @@ def _surface_grid(texture, r, spacing):
         _check_work(grids[0].size * grids[1].size, (d, d), r, grid_at=grid_at, spacing=d)
         X, Y = np.meshgrid(*grids, indexing="ij")
         h = texture.height_at(np.stack([X, Y], axis=-1))
-        steps = [f"{(g[1] - g[0]) * 1e6:.4g}" for g in grids]  # (d, or a periodic map's dividing its cell)
-        step = steps[0] if steps[0] == steps[1] else " x ".join(steps)
-        return grids[0], grids[1], h, texture.periodic, f"{texture.source or 'map'} resampled at {step} um"
+        step = _steps_text([float(g[1] - g[0]) for g in grids])  # (d, or a periodic map's dividing its cell)
+        return grids[0], grids[1], h, texture.periodic, f"{texture.source or 'map'} resampled at {step}"
     cell = getattr(texture, "cell", None)
     if cell is None:
         raise fail("texture", texture, "a surface with a periodic cell, or a height map, for a ball to roll on")

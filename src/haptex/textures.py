@@ -14,7 +14,8 @@ from functools import cached_property
 import numpy as np
 
 from .core import _ext
-from .probe import MAX_SAMPLES as MAX_PROBE_SAMPLES, _check_ball_fits, _check_work, _grid_contacts, _spacing
+from .probe import (MAX_SAMPLES as MAX_PROBE_SAMPLES, _check_ball_fits, _check_work, _grid_contacts, _spacing,
+                    _steps_text)
 from ._validation import MAX_LENGTH, ParameterError, check_count, fail, finite, nonnegative, positive, whole
 
 
@@ -1583,7 +1584,7 @@ def _profile_grid(texture, r, spacing, followed=False):
         step = float(x[1] - x[0])
         if not followed:
             _check_work(x.size, (step,), r, grid_at=grid_at, spacing=dx)
-        return x, texture.height(x), texture.periodic, f"{texture.source or 'profile'} resampled at {step * 1e6:.4g} um"
+        return x, texture.height(x), texture.periodic, f"{texture.source or 'profile'} resampled at {_steps_text([step])}"
     period = texture.period
     if period is None:
         raise fail("texture", texture, "a periodic or sampled profile for a ball to roll on (sample it: "
