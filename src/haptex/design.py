@@ -9,9 +9,9 @@ import numpy as np
 
 from ._validation import ParameterError, fail, positive
 from .algorithms import ALGORITHMS
-from .analysis.passivity import SAMPLES_PER_PERIOD
 from .analysis import (characteristic_number, checked_algorithms, conservativity, continuity, paper_loop, rendering_cutoff,
                        texture_limits)
+from .analysis.passivity import SAMPLES_PER_PERIOD
 from .catalogue import DEFAULT_HAND, presets
 from .devices import Device
 from .limits import stiffness_at, wall_limits
