@@ -50,6 +50,17 @@ static int get_doubles(PyObject *obj, Py_buffer *view, int writable, int ndim, c
     return 0;
 }
 
+/* t over a coefficient buffer v (a 1-D array one row): HX_BAD_COEFFS past 2 dimensions or for a
+ * kind past an int, else HX_OK (its coefficients not yet checked: hx_texture_check) */
+static int texture_over(hx_texture *t, long kind, const Py_buffer *v)
+{
+    t->kind = (int)kind;
+    t->c = (const double *)v->buf;
+    t->rows = v->ndim == 2 ? (long)v->shape[0] : 1;
+    t->cols = v->ndim == 2 ? (long)v->shape[1] : (v->ndim == 1 ? (long)v->shape[0] : 0);
+    return v->ndim > 2 || (long)t->kind != kind ? HX_BAD_COEFFS : HX_OK;
+}
+
 /* ---- Checked: a texture's coefficients copied once and checked once ----------------------
  * hx_texture_check reads every cell's start in a map with branched cells (a felt map's: 33 MB
  * and 0.4 ms a call on a 688 x 352 map), once a call of texture, field and closest_surface.
@@ -113,6 +124,7 @@ static PyObject *checked(PyObject *self, PyObject *const *args, Py_ssize_t nargs
 {
     long kind;
     Py_buffer v;
+    hx_texture t;
     CheckedObject *chk;
     PyObject *arr;
     npy_intp dims[2];
@@ -128,7 +140,7 @@ static PyObject *checked(PyObject *self, PyObject *const *args, Py_ssize_t nargs
     if (get_doubles(args[1], &v, 0, -1, "coeffs") < 0)
         return NULL;
     ndim = v.ndim;
-    if (ndim < 1 || ndim > 2 || (long)(int)kind != kind) {
+    if (ndim < 1 || texture_over(&t, kind, &v) != HX_OK) {
         PyBuffer_Release(&v);
         return core_error(HX_BAD_COEFFS);
     }
@@ -139,9 +151,9 @@ static PyObject *checked(PyObject *self, PyObject *const *args, Py_ssize_t nargs
         PyBuffer_Release(&v);
         return NULL;
     }
-    chk->kind = (int)kind;
-    chk->rows = ndim == 2 ? (long)v.shape[0] : 1;
-    chk->cols = ndim == 2 ? (long)v.shape[1] : (long)v.shape[0];
+    chk->kind = t.kind;
+    chk->rows = t.rows;
+    chk->cols = t.cols;
     chk->data = (double *)PyMem_Malloc(v.len > 0 ? (size_t)v.len : sizeof(double));
     if (chk->data == NULL) {
         PyBuffer_Release(&v);
@@ -203,11 +215,7 @@ static int get_model(PyObject *const *args, hx_model *m, Py_buffer *prm, Py_buff
     m->base = NULL;
     for (i = 0; i < HX_N_PARAMS; i++)
         m->prm[i] = ((const double *)prm->buf)[i];
-    m->tex.kind = (int)kind;
-    m->tex.c = (const double *)coeffs->buf;
-    m->tex.rows = coeffs->ndim == 2 ? (long)coeffs->shape[0] : 1;
-    m->tex.cols = coeffs->ndim == 2 ? (long)coeffs->shape[1] : (coeffs->ndim == 1 ? (long)coeffs->shape[0] : 0);
-    if (coeffs->ndim > 2 || (long)kind != m->tex.kind || (long)code != m->code) {
+    if (texture_over(&m->tex, kind, coeffs) != HX_OK || (long)code != m->code) {
         rc = HX_BAD_COEFFS;
     } else {
         rc = texture_check(args[3], coeffs, &m->tex);
@@ -326,11 +334,9 @@ static PyObject *texture(PyObject *self, PyObject *const *args, Py_ssize_t nargs
         return NULL;
     if (get_doubles(args[1], &coeffs, 0, -1, "coeffs") < 0)
         return NULL;
-    t.kind = (int)kind;
-    t.c = (const double *)coeffs.buf;
-    t.rows = coeffs.ndim == 2 ? (long)coeffs.shape[0] : 1;
-    t.cols = coeffs.ndim == 2 ? (long)coeffs.shape[1] : (coeffs.ndim == 1 ? (long)coeffs.shape[0] : 0);
-    rc = coeffs.ndim > 2 || (long)t.kind != kind ? HX_BAD_COEFFS : texture_check(args[1], &coeffs, &t);
+    rc = texture_over(&t, kind, &coeffs);
+    if (rc == HX_OK)
+        rc = texture_check(args[1], &coeffs, &t);
     if (rc != HX_OK) {
         PyBuffer_Release(&coeffs);
         return core_error(rc);
@@ -649,10 +655,8 @@ static int Renderer_init(RendererObject *self, PyObject *args, PyObject *kwds)
     self->r.model.code = code;
     for (i = 0; i < HX_N_PARAMS; i++)
         self->r.model.prm[i] = ((const double *)prm.buf)[i];
-    self->r.model.tex.kind = kind;
+    texture_over(&self->r.model.tex, kind, &coeffs); /* (at most 2 dimensions: checked above) */
     self->r.model.tex.c = self->coeffs;
-    self->r.model.tex.rows = coeffs.ndim == 2 ? (long)coeffs.shape[0] : 1;
-    self->r.model.tex.cols = coeffs.ndim == 2 ? (long)coeffs.shape[1] : (coeffs.ndim == 1 ? (long)coeffs.shape[0] : 0);
     PyBuffer_Release(&coeffs);
     PyBuffer_Release(&prm);
     Py_CLEAR(self->base);
@@ -1966,11 +1970,9 @@ static int get_profile(PyObject *const *args, Py_buffer *coeffs, Py_buffer *aux,
         PyBuffer_Release(coeffs);
         return -1;
     }
-    tex->kind = (int)kind;
-    tex->c = (const double *)coeffs->buf;
-    tex->rows = coeffs->ndim == 2 ? (long)coeffs->shape[0] : 1;
-    tex->cols = coeffs->ndim == 2 ? (long)coeffs->shape[1] : (coeffs->ndim == 1 ? (long)coeffs->shape[0] : 0);
-    rc = coeffs->ndim > 2 ? HX_BAD_COEFFS : hx_texture_check(tex->kind, tex->c, tex->rows, tex->cols);
+    rc = texture_over(tex, kind, coeffs);
+    if (rc == HX_OK)
+        rc = hx_texture_check(tex->kind, tex->c, tex->rows, tex->cols);
     if (rc == HX_OK && aux != NULL)
         rc = hx_closest_aux_check((const double *)aux->buf, (long)aux->shape[0]);
     if (rc != HX_OK) {
@@ -2213,11 +2215,9 @@ static PyObject *closest_surface(PyObject *self, PyObject *const *args, Py_ssize
         if (!ok)
             goto done;
     }
-    tex.kind = (int)kind;
-    tex.c = (const double *)b[0].buf;
-    tex.rows = b[0].ndim == 2 ? (long)b[0].shape[0] : 1;
-    tex.cols = b[0].ndim == 2 ? (long)b[0].shape[1] : (b[0].ndim == 1 ? (long)b[0].shape[0] : 0);
-    rc = b[0].ndim > 2 ? HX_BAD_COEFFS : texture_check(args[1], &b[0], &tex);
+    rc = texture_over(&tex, kind, &b[0]);
+    if (rc == HX_OK)
+        rc = texture_check(args[1], &b[0], &tex);
     if (rc == HX_OK)
         rc = hx_surface_aux_check((const double *)b[1].buf, (long)b[1].shape[0]);
     if (rc != HX_OK) {
