@@ -9,6 +9,7 @@ the y-independent surface, so the 2-D answers are also checked against an extrud
 """
 
 import math
+import pickle
 import shutil
 import subprocess
 from pathlib import Path
@@ -216,6 +217,23 @@ def test_a_maps_table_is_checked_once_and_cannot_be_changed_after():
         _ext.checked(kind, copy)
     with pytest.raises(ValueError, match="coefficients"):
         _ext.texture(kind, copy, p[:1, :2], out)
+
+
+def test_a_map_sent_to_another_process_is_checked_once_there_too():
+    """A map pickled with its table (what a Dask worker of an atlas receives) arrives with a plain
+    array, writeable: read as it came, the C core checked it whole on every call there (a felt
+    map's branched cells: 0.4 ms a call). Its first use makes it the read-only table checked
+    once again (counted work: ``_ext.checks``, one check for 30 evaluations), the same heights."""
+    tex = _surfaces()["height map, periodic"]
+    p = RNG.uniform(0.0, 8e-3, (30, 2))
+    want = tex.height_at(p)
+    back = pickle.loads(pickle.dumps(tex))
+    before = _ext.checks()
+    got = np.array([back.height_at(row) for row in p])
+    assert _ext.checks() == before + 1
+    assert np.array_equal(got, want)
+    with pytest.raises(ValueError, match="read-only"):
+        back.kernel_data()[1][0, _ext.PATCH_DATA] = 1.0
 
 
 @pytest.mark.skipif(shutil.which("gcc") is None, reason="needs gcc (apt-get install gcc)")

@@ -1220,7 +1220,8 @@ class SampledSurface(Surface):
         (0 on uniform cells, ``PATCH_DX`` by ``PATCH_DY``), and each axis's bucket index, the C
         core's short cut to a point's cell (``hx_core.h``). Cached, read-only: the C core checks
         it once (``haptex.core._ext.checked``; a branched map's check reads every cell's start,
-        0.4 ms on a 688 x 352 felt map) and not again on each evaluation.
+        0.4 ms on a 688 x 352 felt map) and not again on each evaluation; a map unpickled (a Dask
+        worker's) makes the plain array it brought that table on its first use.
 
         Returns
         -------
@@ -1235,6 +1236,8 @@ class SampledSurface(Surface):
         """
         cached = self.__dict__.get("_patches")
         if cached is not None:
+            if cached.flags.writeable:  # (unpickled, on a Dask worker: a plain copy, made the checked table again)
+                cached = self.__dict__["_patches"] = _ext.checked(_ext.SURFACE_PATCHES, cached)
             return cached
         K = _ext
         from ._validation import check_budget
