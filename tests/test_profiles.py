@@ -308,3 +308,82 @@ def test_design_cli_refuses_a_mat_file_without_units():
     assert r.returncode == 2
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and "grooves-4mm-profile.mat does not state its sample spacing" in lines[0]
+
+
+def _flags_named(message: str) -> set:
+    """The command-line options a one-line refusal names (each '--word' in it)."""
+    import re
+
+    return set(re.findall(r"--[a-z][a-z-]*", message))
+
+
+def _options_of(command: str) -> set:
+    from haptex.cli import cli
+
+    return {opt for p in cli.commands[command].params for opt in p.opts}
+
+
+# design reads a measured file, export writes its C source, run renders it (on the simulated Falcon)
+_READERS = {"design": ("design", "--quiet"),
+            "export": ("export", "--algorithm", "A", "--stiffness", "1kN/m", "--max-force", "3N", "--quiet"),
+            "run": ("run", "--device", "simulated:falcon", "--fast", "--duration", "0.02s", "--quiet")}
+
+
+@needs_data
+@pytest.mark.parametrize("command", sorted(_READERS))
+def test_a_file_without_units_is_read_by_every_command_with_the_options_its_refusal_names(command, tmp_path):
+    # The MAT file as published (../shared/data/README.md: one variable z, no spacing, no height
+    # unit) is refused by each command that reads a texture, naming the options that give them;
+    # those options are the refusing command's own, and with them it reads the file (before
+    # 2026-12-01 run named --spacing and --height-unit and had neither).
+    args = (*_READERS[command], *(("--out", str(tmp_path / "out")) if command == "export" else ()))
+    r = run_main(*args, "--texture", str(GROOVES))
+    assert r.returncode == 2 and "does not state its sample spacing or height unit" in r.stderr
+    named = _flags_named(r.stderr)
+    assert named == {"--spacing", "--height-unit"} and named <= _options_of(command)
+    r = run_main(*args, "--texture", str(GROOVES), "--spacing", "0.5um", "--height-unit", "mm")
+    assert r.returncode == 0, r.stderr
+
+
+@pytest.mark.parametrize("command", sorted(_READERS))
+def test_a_mat_file_of_several_variables_is_read_by_every_command_naming_the_variable(command, tmp_path):
+    # A MATLAB file of two variables (written by scipy.io.savemat, the format as published) is
+    # refused naming them and the option that chooses one, an option of the refusing command;
+    # with it each command reads that variable (before 2026-12-01 no command could: the remedy
+    # was Python's variable=...). Design's JSON names the texture read: z's 4,000 samples at 0.5 um,
+    # 1.9995 mm (x's 10 samples would be 4.5 um).
+    from scipy.io import savemat
+
+    path = tmp_path / "two.mat"
+    savemat(path, {"z": 0.1 * np.sin(np.linspace(0.0, 20.0, 4000))[:, None], "x": np.zeros((10, 1))})
+    args = (*_READERS[command], *(("--out", str(tmp_path / "out")) if command == "export" else ()),
+            "--texture", str(path), "--spacing", "0.5um", "--height-unit", "mm")
+    r = run_main(*args)
+    assert r.returncode == 2 and "'z'" in r.stderr and "'x'" in r.stderr
+    assert "--variable" in _flags_named(r.stderr) <= _options_of(command)
+    r = run_main(*args, "--variable", "z", *(("--json",) if command == "design" else ()))
+    assert r.returncode == 0, r.stderr
+    if command == "design":
+        assert "n=4000, dx=5e-07, length=0.0019995," in json.loads(r.stdout)["texture"]
+
+
+@pytest.mark.parametrize("args,refusal", [
+    (("export", "--algorithm", "W", "--stiffness", "1kN/m", "--max-force", "3N", "--level"),
+     "--level is not allowed with --algorithm W"),
+    (("export", "--algorithm", "W", "--stiffness", "1kN/m", "--max-force", "3N", "--variable", "z"),
+     "--variable is not allowed with --algorithm W"),
+    (("run", "--device", "simulated:falcon", "--algorithm", "W", "--spacing", "1um"),
+     "--spacing is not allowed with --algorithm W"),
+    (("run", "--device", "simulated:falcon", "--identify", "--fill-undefined"),
+     "--fill-undefined is not allowed with --identify"),
+    (("design", "--texture", "sine:0.1mm,1mm", "--variable", "z"),
+     "--variable is not allowed with the synthetic texture 'sine:0.1mm,1mm'"),
+])
+def test_a_reading_option_where_no_file_is_read_is_refused(args, refusal, tmp_path):
+    # Nothing given is ignored: an option that says how a file is read, where none is (the smooth
+    # wall, the identification run, a synthetic texture), is refused naming it (before
+    # 2026-12-01 export's W wrote its source with --level given, exit 0).
+    extra = {"export": ("--out", str(tmp_path / "out")), "run": ("--record", str(tmp_path / "log.csv"), "--fast")}
+    r = run_main(*args, *extra.get(args[0], ()))
+    assert r.returncode == 2 and refusal in r.stderr, r.stderr
+    assert not (tmp_path / "out").exists() and not (tmp_path / "log.csv").exists()

@@ -749,7 +749,7 @@ def _load_mat(p: Path, spacing, height_unit, variable, x_unit) -> Reading:
     names = [k for k in data if not k.startswith("__")]
     if variable is None:
         if len(names) != 1:
-            raise ParameterError(f"{p}: holds variables {names}: pass variable=... to choose one")
+            raise ParameterError(f"{p}: holds variables {names}: choose one, {_hint('variable', names[0])}")
         variable = names[0]
     if variable not in data:
         raise ParameterError(f"variable = {variable!r} is not allowed: {p} holds {names}")

@@ -40,7 +40,7 @@ def check_tip_spacing(tip_radius, tip_spacing) -> None:
 
 
 def texture_from_spec(spec: str, spacing=None, x_unit=None, height_unit=None, level=False, lowpass=None, scale=None,
-                       periodic=False, fill_undefined=False, crop=None):
+                       periodic=False, fill_undefined=False, crop=None, variable=None):
     """The texture a spec names.
 
     Parameters
@@ -51,7 +51,7 @@ def texture_from_spec(spec: str, spacing=None, x_unit=None, height_unit=None, le
         (:class:`~haptex.BandLimitedNoise`), ``egg-crate:AMPLITUDE,PERIOD`` and
         ``grating:AMPLITUDE,PERIOD[,DIRECTION]`` (surfaces), each length with its unit
         ("0.8mm"); anything else is a file read by :func:`haptex.load_texture`.
-    spacing, x_unit, height_unit, periodic, fill_undefined
+    spacing, x_unit, height_unit, periodic, fill_undefined, variable
         As :func:`haptex.load_texture` takes them; files only.
     crop : str, optional
         ``"auto"`` or ``"X0,X1"`` / ``"X0,X1,Y0,Y1"``, each length with its unit (files only).
@@ -84,7 +84,7 @@ def texture_from_spec(spec: str, spacing=None, x_unit=None, height_unit=None, le
         given = [flag for flag, v in (("--spacing", spacing), ("--x-unit", x_unit), ("--height-unit", height_unit),
                                       ("--level", level), ("--lowpass", lowpass), ("--scale", scale),
                                       ("--periodic", periodic), ("--fill-undefined", fill_undefined),
-                                      ("--crop", crop))
+                                      ("--crop", crop), ("--variable", variable))
                  if v not in (None, False)]
         if given:
             raise ParameterError(f"{given[0]} is not allowed with the synthetic texture {kind + ':' + rest!r}: "
@@ -125,8 +125,8 @@ def texture_from_spec(spec: str, spacing=None, x_unit=None, height_unit=None, le
             raise ParameterError(f"crop = {str(crop)[:80]!r} is not allowed: give 'auto', X0,X1 (a line scan) or "
                                  "X0,X1,Y0,Y1 (a map), each length with its unit, e.g. 0.1mm,0.9mm")
         crop = tuple(quantity(v, "m", "crop") for v in parts)
-    prof = load_texture(spec, spacing=spacing, x_unit=x_unit, height_unit=height_unit, periodic=periodic,
-                        fill_undefined=fill_undefined, crop=crop)
+    prof = load_texture(spec, spacing=spacing, x_unit=x_unit, height_unit=height_unit, variable=variable,
+                        periodic=periodic, fill_undefined=fill_undefined, crop=crop)
     tip = prof.instrument_tip  # (the file's own tip: still the map's after levelling or a low-pass, not a scaling)
     if level:
         prof = prof.leveled()

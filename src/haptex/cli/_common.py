@@ -3,6 +3,7 @@ their specs, progress displays, output paths."""
 
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 
 import click
@@ -84,6 +85,49 @@ def _parse_path(text: str, d: int = 2):
         raise ParameterError(f"path = {text!r} is not allowed: must be at least two points "
                              + ("'x,z;x,z;...'" if d == 2 else "'x,y,z;x,y,z;...'"))
     return pts
+
+
+READING = ("spacing", "x_unit", "height_unit", "variable", "level", "lowpass", "scale", "periodic", "fill_undefined")
+"""The options that say how a measured file is read (:func:`_reading_options`), by parameter name."""
+
+
+def _reading_options(func):
+    """How a measured file is read, the same for every command that takes one (design, export,
+    run): ``--spacing``, ``--x-unit``, ``--height-unit``, ``--variable``, ``--level``,
+    ``--lowpass``, ``--scale``, ``--periodic`` and ``--fill-undefined`` (what a loader's refusal
+    names), handed to the command as one dict ``reading`` (:func:`haptex._specs.texture_from_spec`'s
+    keywords)."""
+
+    @functools.wraps(func)
+    def wrapped(*args, **kwargs):
+        return func(*args, reading={k: kwargs.pop(k) for k in READING}, **kwargs)
+
+    opts = [
+        click.option("--spacing", type=Quantity("m"), default=None,
+                     help="Sample spacing when the file does not state it, e.g. '0.5um'."),
+        click.option("--x-unit", default=None, help="Unit of the file's x column when it does not state it."),
+        click.option("--height-unit", default=None, help="Unit of the file's heights when it does not state it."),
+        click.option("--variable", default=None,
+                     help="The variable (a MATLAB file's) or channel (an SPM file's) to read, where the file holds "
+                          "several (default: a MATLAB file's only one, an SPM file's height channel)."),
+        click.option("--level", is_flag=True, help="Remove the file's best-fit line (a map's: its plane)."),
+        click.option("--lowpass", type=Quantity("m"), default=None,
+                     help="Band-limit the measured texture to this shortest period."),
+        click.option("--scale", default=None, help="'LENGTH_FACTOR,HEIGHT_FACTOR' to stretch the measured texture."),
+        click.option("--periodic", is_flag=True, help="Close the measured texture into a periodic one."),
+        click.option("--fill-undefined", is_flag=True,
+                     help="Fill a measured file's undefined (NaN) heights by interpolation instead of refusing the "
+                          "file."),
+    ]
+    for opt in reversed(opts):
+        wrapped = opt(wrapped)
+    return wrapped
+
+
+def _reading_given(ctx) -> list:
+    """The reading options (:data:`READING`) given on the command line, as their flags."""
+    return [o.opts[-1] for o in ctx.command.params
+            if o.name in READING and ctx.get_parameter_source(o.name) == click.core.ParameterSource.COMMANDLINE]
 
 
 def _felt_options(verb: str):

@@ -16,7 +16,7 @@ from ..textures import PROFILE_CURVATURE_SLACK
 from ..tables import PAPER_PARAMETERS
 from ._common import (
     Quantity, _Spinner, _Steps, _build_device, _device_options, _felt_options, _fitted, _jsonable,
-    _limits_table, _object_options, _parse_point)
+    _limits_table, _object_options, _parse_point, _reading_options)
 
 
 LONG_ANALYSIS = 180.0
@@ -35,18 +35,9 @@ without D and E, whose closest-point searches dominate on large maps."""
               help="The stiffness you want to render at.")
 @click.option("--speed", type=Quantity("m/s"), default=0.1, show_default="0.1 m/s", help="Scanning speed.")
 @click.option("--max-penetration", type=Quantity("m"), default=1e-3, show_default="1mm", help="Rendering depth.")
-@click.option("--spacing", type=Quantity("m"), default=None,
-              help="Sample spacing when the file does not state it, e.g. '0.5um'.")
-@click.option("--x-unit", default=None, help="Unit of the file's x column when it does not state it.")
-@click.option("--height-unit", default=None, help="Unit of the file's heights when it does not state it.")
-@click.option("--level", is_flag=True, help="Remove the profile's best-fit line.")
-@click.option("--lowpass", type=Quantity("m"), default=None, help="Band-limit the profile to this shortest period.")
-@click.option("--scale", default=None, help="'LENGTH_FACTOR,HEIGHT_FACTOR' to stretch the profile.")
-@click.option("--periodic", is_flag=True, help="Close the profile into a periodic texture.")
+@_reading_options
 @click.option("--window", default=None, help="'X0,X1' abscissa window to analyse (default: one period or the whole "
               "profile); over a surface 'X0,X1,Y0,Y1' (default: one periodic cell or the whole map).")
-@click.option("--fill-undefined", is_flag=True,
-              help="Fill a measured file's undefined (NaN) heights by interpolation instead of refusing the file.")
 @_felt_options("analysed")
 @click.option("--instrument-tip", type=Quantity("m"), default=None,
               help="Radius of the tip that measured the file, e.g. '2um': the map is not trusted below its "
@@ -73,9 +64,8 @@ without D and E, whose closest-point searches dominate on large maps."""
 @click.option("--quiet", is_flag=True, help="No progress display.")
 @click.pass_context
 def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, sampling_period, delay, stiffness, speed,
-           max_penetration, spacing, x_unit, height_unit, level, lowpass, scale, periodic, window, fill_undefined, crop,
-           tip_radius, tip_spacing, instrument_tip, raw, object_spec, uv_scale, vertex_normals, algorithms, time_budget,
-           hand, report_dir, force, as_json, quiet):
+           max_penetration, reading, window, crop, tip_radius, tip_spacing, instrument_tip, raw, object_spec, uv_scale,
+           vertex_normals, algorithms, time_budget, hand, report_dir, force, as_json, quiet):
     """Which algorithm, how stiff, will it be passive, can the device render it?
 
     A measured texture is band-limited to the shortest period the device renders at the
@@ -87,8 +77,7 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
     hand = _hand(hand)  # a misspelt hand before the texture is read
     check_tip_spacing(tip_radius, tip_spacing)
     with _Spinner("reading the texture", quiet or as_json):
-        tex = _texture_from_spec(texture_spec, spacing, x_unit, height_unit, level, lowpass, scale, periodic,
-                                 fill_undefined, crop)
+        tex = _texture_from_spec(texture_spec, **reading, crop=crop)
     if raw and not hasattr(tex, "band_limited"):
         raise ParameterError(f"--raw is not allowed with the synthetic texture {texture_spec!r}: it applies to measured "
                              "textures read from a file")

@@ -12,8 +12,9 @@ import click
 from .._specs import check_tip_spacing, object_from_spec, texture_from_spec as _texture_from_spec
 from .._validation import ParameterError, positive
 from ..core import blas_held_to_one_thread as _core_blas_held
-from ._common import (Quantity, STABILISERS, _Spinner, _budget_needs_models, _check_plot_path, _check_search_budget,
-                      _felt_options, _jsonable, _letter, _object_options, _stabiliser, _vibration, _vibration_options)
+from ._common import (READING, Quantity, STABILISERS, _Spinner, _budget_needs_models, _check_plot_path,
+                      _check_search_budget, _felt_options, _jsonable, _letter, _object_options, _reading_options,
+                      _stabiliser, _vibration, _vibration_options)
 
 
 @click.command("run")
@@ -42,6 +43,7 @@ from ._common import (Quantity, STABILISERS, _Spinner, _budget_needs_models, _ch
               "device's rate.")
 @_object_options("A-G and the proxy are rendered there on a 3-DOF device (D and E but on a faceted mesh: give "
                  "--vertex-normals), the object's top at the origin of its frame.")
+@_reading_options
 @_felt_options("rendered")
 @click.option("--record", type=click.Path(dir_okay=False, path_type=Path), default=None,
               help="Write the run log (time, position, force, engaged) to FILE.csv (the columns of the file formats "
@@ -66,7 +68,7 @@ from ._common import (Quantity, STABILISERS, _Spinner, _budget_needs_models, _ch
 @click.option("--quiet", is_flag=True, help="No live dashboard.")
 @_core_blas_held  # BLAS in the set-up (a preset's matrices, a slope bound) wakes no worker to spin beside the loop
 def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration, passivity_control, stabiliser, hand,
-               speed, fast, object_spec, uv_scale, tip_radius, tip_spacing, crop, record, max_evaluations,
+               speed, fast, object_spec, uv_scale, reading, tip_radius, tip_spacing, crop, record, max_evaluations,
                vibration_models, vibration_budget, no_material_friction, find_limit_run, identify_run, keep_awake,
                as_json, quiet):
     """Render one texture on one device, with the safety rules of haptex.servo and a live dashboard."""
@@ -100,8 +102,9 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
             raise ParameterError("--identify is not allowed without --record FILE.csv: the run's log is what "
                                  "'haptex identify' reads")
         texture_given = [n for n in ("texture_spec", "letter", "stiffness", "passivity_control", "stabiliser",
-                                     "object_spec", "tip_radius", "tip_spacing", "crop", "speed", "vibration_models",
-                                     "vibration_budget", "no_material_friction", "keep_awake", "max_evaluations")
+                                     "object_spec", "tip_radius", "tip_spacing", "crop", *READING, "speed",
+                                     "vibration_models", "vibration_budget", "no_material_friction", "keep_awake",
+                                     "max_evaluations")
                          if ctx.get_parameter_source(n) == click.core.ParameterSource.COMMANDLINE]
         if texture_given:
             opt = next(o for o in ctx.command.params if o.name == texture_given[0]).opts[-1]
@@ -136,7 +139,7 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
     tex = None
     letter = letter.upper()
     if letter == "W":  # (as export refuses them: the smooth wall has no texture, and nothing is ignored)
-        given = [n for n in ("texture_spec", "tip_radius", "tip_spacing", "crop")
+        given = [n for n in ("texture_spec", "tip_radius", "tip_spacing", "crop", *READING)
                  if ctx.get_parameter_source(n) == click.core.ParameterSource.COMMANDLINE]
         if given:
             opt = next(o for o in ctx.command.params if o.name == given[0]).opts[-1]
@@ -147,7 +150,7 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
             tex = Flat(dimension=2)
     else:
         check_tip_spacing(tip_radius, tip_spacing)  # (the ball rolls below, once every other setting is checked)
-        tex = _texture_from_spec(texture_spec, None, None, None, False, None, None, False, crop=crop)
+        tex = _texture_from_spec(texture_spec, **reading, crop=crop)
         if tex.dimension == 2 and backend.dimension == 2:
             raise ParameterError(f"texture = {texture_spec!r} is not allowed on {backend.name}: a surface needs a "
                                  "3-DOF device")

@@ -10,7 +10,8 @@ from .._specs import check_tip_spacing, object_from_spec, texture_from_spec as _
 from .._validation import ParameterError
 from ._common import (
     Quantity, STABILISERS, _Spinner, _catalogued_device, _check_search_budget, _felt_options, _letter, _not_taken,
-    _object_options, _stabiliser, _budget_needs_models, _vibration, _vibration_options)
+    _object_options, _reading_given, _reading_options, _stabiliser, _budget_needs_models, _vibration,
+    _vibration_options)
 
 
 @click.command()
@@ -25,12 +26,7 @@ from ._common import (
 @click.option("--presliding", type=Quantity("m"), default=None, help="F: d^x_max (default 1 mm).")
 @click.option("--stick-deflection", type=Quantity("m"), default=None,
               help="F: the smooth presliding model's elastic range z_stick (default: the sharp model).")
-@click.option("--spacing", type=Quantity("m"), default=None, help="Sample spacing when the file does not state it.")
-@click.option("--x-unit", default=None, help="Unit of the file's x column when it does not state it.")
-@click.option("--height-unit", default=None, help="Unit of the file's heights when it does not state it.")
-@click.option("--level", is_flag=True, help="Remove the profile's best-fit line.")
-@click.option("--lowpass", type=Quantity("m"), default=None, help="Band-limit the profile to this shortest period.")
-@click.option("--periodic", is_flag=True, help="Close the profile into a periodic texture.")
+@_reading_options
 @_object_options("A-G are exported there (D and E but on a faceted mesh: give --vertex-normals).")
 @click.option("--passivity-control", type=Quantity("N*s/m"), default=None,
               help="Export a passivity observer/controller with this largest damping (needs --device).")
@@ -55,9 +51,8 @@ from ._common import (
                    "best point found.")
 @click.option("--quiet", is_flag=True, help="No progress display.")
 def export(letter, texture_spec, stiffness, max_force, max_penetration, friction, presliding, stick_deflection,
-           spacing, x_unit, height_unit, level, lowpass, periodic, object_spec, uv_scale, passivity_control, stabiliser,
-           device_spec, vibration_models, vibration_budget, no_material_friction, tip_radius, tip_spacing, crop, out,
-           target, max_evaluations, quiet):
+           reading, object_spec, uv_scale, passivity_control, stabiliser, device_spec, vibration_models,
+           vibration_budget, no_material_friction, tip_radius, tip_spacing, crop, out, target, max_evaluations, quiet):
     """C99 source of one algorithm on one texture, for device firmware (<math.h> only)."""
     from ..algorithms import ALGORITHMS, algorithm
     from ..export import TICK_FILES, build_defines, check_settings, export_c, firmware_command
@@ -68,7 +63,8 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
     if letter in ALGORITHMS and not ALGORITHMS[letter].textured:
         if texture_spec is not None:
             raise ParameterError("--texture is not allowed with --algorithm W: the smooth wall has no texture")
-        for flag, value in (("--tip-radius", tip_radius), ("--tip-spacing", tip_spacing), ("--crop", crop)):
+        for flag, value in (("--tip-radius", tip_radius), ("--tip-spacing", tip_spacing), ("--crop", crop),
+                            *((flag, True) for flag in _reading_given(click.get_current_context()))):
             if value:
                 raise ParameterError(f"{flag} is not allowed with --algorithm W: the smooth wall has no texture")
         tex = None
@@ -77,8 +73,7 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
     else:
         check_tip_spacing(tip_radius, tip_spacing)
         with _Spinner("reading the texture", quiet):  # (felt below, once every other setting is checked)
-            tex = _texture_from_spec(texture_spec, spacing, x_unit, height_unit, level, lowpass, None, periodic,
-                                     crop=crop)
+            tex = _texture_from_spec(texture_spec, **reading, crop=crop)
     params = {}
     for name, value in (("max_penetration", max_penetration), ("friction", friction), ("presliding", presliding),
                         ("stick_deflection", stick_deflection)):
