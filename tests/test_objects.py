@@ -707,7 +707,7 @@ def test_a_measured_profile_on_a_closed_base_is_led_to_a_seamless_radius():
 
     base = ["design", "--texture", str(DEKTAK), "--level", "--device", "point-mass"]
     r = run_main(*base, "--object", "sphere:20mm")
-    assert r.returncode == 2 and "--periodic of haptex design and export" in r.stderr, r.stderr
+    assert r.returncode == 2 and "--periodic at the command line" in r.stderr, r.stderr
     r = run_main(*base, "--periodic", "--object", "sphere:20mm")
     mm = re.search(r"--object sphere:([\d.]+)mm at the command line", r.stderr)
     assert r.returncode == 2 and mm, r.stderr

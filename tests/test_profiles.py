@@ -387,3 +387,17 @@ def test_a_reading_option_where_no_file_is_read_is_refused(args, refusal, tmp_pa
     r = run_main(*args, *extra.get(args[0], ()))
     assert r.returncode == 2 and refusal in r.stderr, r.stderr
     assert not (tmp_path / "out").exists() and not (tmp_path / "log.csv").exists()
+
+
+@needs_data
+@pytest.mark.parametrize("name", ["grooves-4mm-profile.mat", "nc-1.nc"])
+def test_simulates_surface_is_synthetic_and_its_refusal_of_a_file_names_a_command_that_reads_it(name):
+    # haptex simulate --surface takes the synthetic surfaces its help names; a file (../shared/data's,
+    # as published) is refused naming the command that renders it on a simulated device, whose
+    # options those are (before 2026-12-01 the grooves file's refusal named --spacing and
+    # --height-unit, which simulate has not, and nc-1.nc was simulated unread by its options)
+    path = GROOVES.parent / name
+    r = run_main("simulate", "scan", "--surface", str(path), "--device", "delta", "--duration", "0.01s")
+    assert r.returncode == 2 and "'egg-crate:AMPLITUDE,PERIOD' or 'grating:" in r.stderr, r.stderr
+    assert "haptex run --device simulated:PRESET --texture FILE" in r.stderr
+    assert {"--device", "--texture"} <= _options_of("run")

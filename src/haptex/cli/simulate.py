@@ -115,7 +115,11 @@ def _simulate(ctx, mode, letter, stiffness, amplitude, period, max_penetration, 
     if surface_spec is not None:
         _refuse_unused(ctx, {"*": {"amplitude", "period"}}, repr(surface_spec), "--surface", owner="*",
                        what="the surface spec gives the texture")
-        tex = _texture_from_spec(surface_spec, None, None, None, False, None, None, False)
+        if str(surface_spec).partition(":")[0].strip() not in ("egg-crate", "grating"):  # (a file: run reads it)
+            raise ParameterError(f"surface = {surface_spec!r} is not allowed: must be 'egg-crate:AMPLITUDE,PERIOD' or "
+                                 "'grating:AMPLITUDE,PERIOD[,DIRECTION]' (a measured file is rendered on a simulated "
+                                 "device by 'haptex run --device simulated:PRESET --texture FILE')")
+        tex = _texture_from_spec(surface_spec)
         if tex.dimension != 2:
             raise ParameterError(f"surface = {surface_spec!r} is not allowed: must be 'egg-crate:AMPLITUDE,PERIOD' or "
                                  "'grating:AMPLITUDE,PERIOD[,DIRECTION]'")
