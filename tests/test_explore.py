@@ -214,6 +214,34 @@ def test_a_mat_file_is_read_once_its_spacing_and_height_unit_are_given():
     assert f'<span id="q-value">{q.value:.4g}</span>' in page.d_q.text
 
 
+def test_a_mat_file_of_several_variables_is_read_once_one_is_chosen(tmp_path):
+    """A MATLAB file of two variables (written by scipy.io.savemat, the format as published) is
+    refused naming them until one is chosen in the page's variable box (before 2026-12-01 the page
+    had none: such a file could not be explored); then analysed: its q is the library's for the
+    chosen variable's profile."""
+    import html
+
+    from bokeh.document import Document
+    from scipy.io import savemat
+
+    from haptex.explore import app
+
+    mat = tmp_path / "two.mat"
+    x = np.arange(4000) * 0.5e-6
+    savemat(mat, {"z": 20e-3 * np.sin(2 * np.pi * x / 0.2e-3)[:, None], "t": np.zeros((10, 1))})  # (mm)
+    page = app(Document())
+    page.settings.file, page.settings.file_name = str(mat), mat.name
+    page.w_spacing.value, page.w_height_unit.value = "0.5 um", "mm"
+    page.w_texture.value = "file"
+    assert "holds variables ['z', 't']" in html.unescape(page.d_message.text)
+    assert page.w_variable.visible
+    page.w_variable.value = "z"
+    assert page.d_message.text.endswith("></span>"), page.d_message.text  # no message: loaded
+    tex = hx.load_texture(mat, spacing=0.5e-6, height_unit="mm", variable="z")
+    q = hx.characteristic_number(hx.algorithm("A", tex, K0), max_penetration=1e-3)
+    assert f'<span id="q-value">{q.value:.4g}</span>' in page.d_q.text
+
+
 def test_the_page_shows_a_texture_on_an_object():
     """Issue 32's object view: the egg-crate on a sphere of 40 periods round, its top at the
     origin: q is the library's for the object (1.214, the plane's 1.181), the section y = y0 shows

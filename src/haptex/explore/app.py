@@ -152,6 +152,12 @@ def _build_views(settings):
     return scene, model.views(scene)
 
 
+def _waits(message: str) -> bool:
+    """Whether a file's refusal asks for what the page's file boxes give (its spacing, its units,
+    one of its variables): the file is kept for them."""
+    return "does not state" in message or "holds variables" in message
+
+
 def _span(ident: str, text: str) -> str:
     return f'<span id="{ident}">{html.escape(text)}</span>'
 
@@ -218,6 +224,7 @@ class ExplorerPage:
         self.w_spacing = text("spacing", "file: sample spacing (if unstated)", s.spacing)
         self.w_x_unit = text("x_unit", "file: position unit (if unstated)", s.x_unit, "x-unit")
         self.w_height_unit = text("height_unit", "file: height unit (if unstated)", s.height_unit, "height-unit")
+        self.w_variable = text("variable", "file: variable or channel (if several)", s.variable)
         self.w_pixel = text("pixel_size", "image: pixel size", s.pixel_size)
         self.w_hrange = text("height_range", "image: black-to-white height", s.height_range)
         self.w_algorithm = choice("algorithm", "algorithm", model.ALGORITHM_LABELS)
@@ -352,7 +359,8 @@ class ExplorerPage:
                                html_id="vibration-box")
 
         texture_box = column(self.w_texture, self.w_amplitude, self.w_period, self.w_terms, self.w_noise, self.w_file,
-                             self.w_spacing, self.w_x_unit, self.w_height_unit, self.w_pixel, self.w_hrange,
+                             self.w_spacing, self.w_x_unit, self.w_height_unit, self.w_variable, self.w_pixel,
+                             self.w_hrange,
                              self.w_section, self.w_object, self.w_mesh, self.w_uv_scale)
         controls = column(texture_box, self.w_algorithm, self.w_stiffness, self.w_dmax, self.w_friction,
                           self.w_presliding, self.w_device, self.w_hand, self.w_speed, self.w_duration,
@@ -398,7 +406,8 @@ class ExplorerPage:
         self.w_noise.visible = k == "noise"
         self.w_file.visible = k in ("file", "image")
         self.w_pixel.visible = self.w_hrange.visible = k == "image"
-        self.w_spacing.visible = self.w_x_unit.visible = self.w_height_unit.visible = k == "file"
+        self.w_spacing.visible = self.w_x_unit.visible = self.w_height_unit.visible = self.w_variable.visible = (
+            k == "file")
         self.w_section.visible = self.w_object.visible = self.scene is not None and self.scene.dimension == 3
         self.w_mesh.visible = self.w_uv_scale.visible = (self.w_object.visible
                                                          and str(self.settings.object).strip().lower() == "mesh")
@@ -435,8 +444,8 @@ class ExplorerPage:
                           "shows the previous object until then)")
             return
         def undo():
-            if name in ("texture", "spacing", "x_unit", "height_unit") and self.settings.texture == "file" \
-                    and "does not state" in self.d_message.text:
+            if name in ("texture", "spacing", "x_unit", "height_unit", "variable") and self.settings.texture == "file" \
+                    and _waits(self.d_message.text):
                 self._show_controls()  # kept: the file waits for what it does not state, in the boxes shown
                 return
             setattr(self.settings, name, old)
@@ -492,8 +501,8 @@ class ExplorerPage:
         setattr(self.settings, field, path)
         setattr(self.settings, name_field, name)
 
-        def undo():  # a file that lacks only its spacing or units is kept, for the boxes below it to complete
-            if "does not state" not in self.d_message.text:
+        def undo():  # a file that lacks only its spacing, units or variable is kept, for the boxes below it
+            if not _waits(self.d_message.text):
                 setattr(self.settings, field, before[0])
                 setattr(self.settings, name_field, before[1])
             self._show_controls()

@@ -77,6 +77,9 @@ class Settings:
         Measured file only, where the file does not state them (a MATLAB file, a text file
         of bare numbers): the sample spacing ("0.5 um"), the unit of its positions and of
         its heights ("um"); blank when the file states them.
+    variable : str
+        Measured file only: the variable (a MATLAB file's) or channel (an SPM file's) read,
+        where it holds several; blank: a MATLAB file's only one, an SPM file's height channel.
     algorithm : str
         W or A–G.
     stiffness : str
@@ -121,6 +124,7 @@ class Settings:
     spacing: str = ""
     x_unit: str = ""
     height_unit: str = ""
+    variable: str = ""
     algorithm: str = "A"
     stiffness: str = f"{PAPER_PARAMETERS['stiffness'] / 1e3:g} kN/m"
     max_penetration: str = f"{PAPER_PARAMETERS['max_penetration'] * 1e3:g} mm"
@@ -285,7 +289,8 @@ def build(settings: Settings) -> Scene:
                 tex = SampledSurface.from_image(s.file, quantity(s.pixel_size, "m", "pixel_size"), (0.0, lo_hi))
             else:  # what the file does not state (a .mat's spacing, a text file's units); blank: the file says
                 tex = texture_from_spec(s.file, spacing=s.spacing.strip() or None, x_unit=s.x_unit.strip() or None,
-                                        height_unit=s.height_unit.strip() or None)
+                                        height_unit=s.height_unit.strip() or None,
+                                        variable=s.variable.strip() or None)
         except ParameterError as exc:
             raise ParameterError(str(exc).replace(str(s.file), s.file_name or str(s.file))) from None
     else:
