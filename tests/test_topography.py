@@ -245,3 +245,24 @@ def test_a_matlab_matrix_is_an_areal_map_rows_along_y(tmp_path):
     s = hx.SampledSurface.from_file(f, spacing="2um", height_unit="um")
     assert s.h.shape == (9, 6) and np.allclose(s.h, img.T * 1e-6, rtol=1e-15, atol=0)
     assert s.dx == pytest.approx(2e-6) and s.dy == pytest.approx(2e-6)
+
+
+@needs_data
+def test_a_channel_named_twice_is_chosen_by_its_index():
+    # di-1.di (Bruker Dimension V, ../shared/data) holds four channels, the first two both named
+    # 'Height' (SurfaceTopography's reader lists them: Height, Height, Phase, AmplitudeError).
+    # The name alone is refused naming their indexes (before 2026-12-01 it read the first,
+    # silently); an index chooses one: channel 1's heights are SurfaceTopography's own for
+    # channel_index=1 (nm), unlike channel 0's. An index past the last is refused.
+    import SurfaceTopography
+
+    path = DEKTAK.parent / "di-1.di"
+    with pytest.raises(hx.ParameterError, match=r"2 channels named 'Height' \(0 and 1\).*--variable 0"):
+        hx.load_texture(path, variable="Height")
+    reader = SurfaceTopography.open_topography(str(path))
+    want = reader.topography(channel_index=1).heights() * 1e-9  # (its unit: nm)
+    got = hx.load_texture(path, variable="1")
+    assert np.allclose(got.h, want, rtol=1e-12, atol=0.0)
+    assert not np.allclose(hx.load_texture(path, variable="0").h, want)
+    with pytest.raises(hx.ParameterError, match=r"variable = '4' is not allowed.*0 to 3"):
+        hx.load_texture(path, variable="4")

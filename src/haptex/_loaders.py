@@ -230,6 +230,24 @@ def _read_text_columns(p: Path, spacing, x_unit, height_unit, x_column, height_c
     return Reading(x, None, h, p.name, "haptex: text columns")
 
 
+def _channel_index(p: Path, names: list, variable) -> int:
+    """The index of the channel ``variable`` names among an instrument file's channels ``names``:
+    a name held once, or an index (a whole number; two channels may share a name, as a trace and
+    a retrace 'Height')."""
+    v = str(variable).strip()
+    if v.isdigit() and int(v) < len(names):
+        return int(v)
+    which = [i for i, n in enumerate(names) if n == v]
+    if len(which) == 1:
+        return which[0]
+    if which:
+        raise ParameterError(f"variable = {variable!r} is not allowed: {p} holds {len(which)} channels named {v!r} "
+                             f"({', '.join(map(str, which[:-1]))} and {which[-1]}): choose one by its index, "
+                             f"{_hint('variable', str(which[0]))}")
+    raise ParameterError(f"variable = {variable!r} is not allowed: {p} holds the channels {names}: give one's name or "
+                         f"its index, 0 to {len(names) - 1}")
+
+
 def _read_st(p: Path, reader, spacing, x_unit, height_unit, variable, fill_undefined, crop=None) -> Reading:
     import warnings
 
@@ -240,10 +258,7 @@ def _read_st(p: Path, reader, spacing, x_unit, height_unit, variable, fill_undef
     if variable is None:
         ch = reader.default_channel
     else:
-        names = [c.name for c in channels]
-        if variable not in names:
-            raise ParameterError(f"variable = {variable!r} is not allowed: {p} holds the channels {names}")
-        ch = channels[names.index(variable)]
+        ch = channels[_channel_index(p, [c.name for c in channels], variable)]
     shape = tuple(int(n) for n in ch.nb_grid_pts)
     count = int(np.prod(shape))
     check_budget("path", str(p), ST_BYTES_PER_SAMPLE * count, f"a {' x '.join(map(str, shape))} {fmt} map")

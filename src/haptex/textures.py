@@ -946,8 +946,9 @@ class SampledProfile(Texture):
             Units of the file's positions and heights ("um", "nm", "mm", "m"). Required
             when the file does not state them, refused when it does; never guessed.
         variable : str, optional
-            The variable of a .mat file, or the channel of a multi-channel instrument file;
-            default its only variable, or the instrument's height channel.
+            The variable of a .mat file, or the channel of a multi-channel instrument file
+            (its name, or its index where two share a name); default its only variable, or the
+            instrument's height channel.
         x_column, height_column : int, optional
             Columns of a text file (0-based; x_column=None for heights only). Other than
             (0, 1) the file is read by haptex's text reader.

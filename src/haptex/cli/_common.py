@@ -108,8 +108,9 @@ def _reading_options(func):
         click.option("--x-unit", default=None, help="Unit of the file's x column when it does not state it."),
         click.option("--height-unit", default=None, help="Unit of the file's heights when it does not state it."),
         click.option("--variable", default=None,
-                     help="The variable (a MATLAB file's) or channel (an SPM file's) to read, where the file holds "
-                          "several (default: a MATLAB file's only one, an SPM file's height channel)."),
+                     help="The variable (a MATLAB file's) or channel (an SPM file's: its name, or its index where "
+                          "two share one) to read, where the file holds several (default: a MATLAB file's only one, "
+                          "an SPM file's height channel)."),
         click.option("--level", is_flag=True, help="Remove the file's best-fit line (a map's: its plane)."),
         click.option("--lowpass", type=Quantity("m"), default=None,
                      help="Band-limit the measured texture to this shortest period."),
