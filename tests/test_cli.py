@@ -96,6 +96,31 @@ def test_bad_input_prints_one_line_and_exits_2(args, fragment):
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("haptex: error: ") and fragment in lines[0]
     assert "Traceback" not in r.stderr
+    assert not unknown_options_named(args, lines[0])
+
+
+def unknown_options_named(args, line: str) -> set:
+    """The options a refusal of ``haptex ARGS`` names (outside quotes: a value the user gave, an
+    option click did not know) that neither the refusing command has nor a command the line names
+    ('haptex NAME'): a remedy must exist where it is read (README, "Bad input")."""
+    import re
+
+    import click
+
+    from haptex.cli import cli
+
+    def options(names):
+        cmd = cli
+        for name in names:
+            if not isinstance(cmd, click.Group) or name not in cmd.commands:
+                break
+            cmd = cmd.commands[name]
+        return {o for p in cmd.params for o in p.opts} | {"--help"}
+
+    own = options([a for a in args[:2] if not a.startswith("-")])
+    others = set().union(*(options([m]) for m in re.findall(r"haptex (\w+)", line))) if "haptex " in line else set()
+    bare = re.sub(r"'[^']*'|\"[^\"]*\"", "", line)
+    return set(re.findall(r"(?<![\w-])--[a-z][a-z-]*", bare)) - own - others
 
 
 def run_cli(*args, timeout=300):

@@ -25,6 +25,7 @@ import haptex as hx
 from haptex.cli import main
 
 from .conftest import DEKTAK, needs_data
+from .test_cli import unknown_options_named
 from .test_realtime import NOISE, NOISE_TABLE, SINE, WORK_BOUND
 
 # ---------------------------------------------------------------------------------------
@@ -67,6 +68,7 @@ def check_cli(args):
     assert status in (0, 2), (args, status, lines)
     if status == 2:
         assert len(lines) == 1 and lines[0].startswith("haptex: error: "), (args, lines)
+        assert not unknown_options_named(args, lines[0]), (args, lines)
     assert not runtime, (args, [str(w.message) for w in runtime])
 
 
