@@ -388,3 +388,16 @@ def test_simulates_surface_is_synthetic_and_its_refusal_of_a_file_names_a_comman
     assert r.returncode == 2 and "'egg-crate:AMPLITUDE,PERIOD' or 'grating:" in r.stderr, r.stderr
     assert "'haptex run --device simulated:PRESET --texture FILE'" in r.stderr
     assert not unknown_options_named(["run"], "--device simulated:PRESET --texture FILE")
+
+
+@needs_data
+@pytest.mark.parametrize("scale,reason", [
+    ("0,1", "scale = '0,1' is not allowed: length_factor = 0 is not allowed: must be a finite number > 0"),
+    ("1,nan", "scale = '1,nan' is not allowed: height_factor = nan is not allowed: must be a finite number"),
+    ("a,1", "scale = 'a,1' is not allowed: must be 'length_factor,height_factor', two numbers"),
+])
+def test_a_scale_refused_says_which_factor_and_what_it_may_be(scale, reason):
+    # README, "Bad input": the parameter, its value and what is allowed (before 2026-12-01 each
+    # read "must be 'length_factor,height_factor'", the factor's own reason dropped)
+    r = run_main("design", "--texture", str(DEKTAK), "--scale", scale, "--algorithms", "A", "--quiet")
+    assert r.returncode == 2 and reason in r.stderr, r.stderr

@@ -136,9 +136,14 @@ def texture_from_spec(spec: str, spacing=None, x_unit=None, height_unit=None, le
     if scale is not None:
         lf, hf = split_spec(scale, "scale", "scale", (2, 2))
         try:
-            prof = prof.scaled(float(lf), float(hf))
+            lf, hf = float(lf), float(hf)
         except ValueError:
-            raise ParameterError(f"scale = {scale!r} is not allowed: must be 'length_factor,height_factor'") from None
+            raise ParameterError(f"scale = {scale!r} is not allowed: must be 'length_factor,height_factor', two "
+                                 "numbers") from None
+        try:
+            prof = prof.scaled(lf, hf)
+        except ParameterError as exc:  # (the factor's own reason: a length factor not > 0, ...)
+            raise ParameterError(f"scale = {scale!r} is not allowed: {exc}") from None
     return prof
 
 
