@@ -360,8 +360,7 @@ class ExplorerPage:
 
         texture_box = column(self.w_texture, self.w_amplitude, self.w_period, self.w_terms, self.w_noise, self.w_file,
                              self.w_spacing, self.w_x_unit, self.w_height_unit, self.w_variable, self.w_pixel,
-                             self.w_hrange,
-                             self.w_section, self.w_object, self.w_mesh, self.w_uv_scale)
+                             self.w_hrange, self.w_section, self.w_object, self.w_mesh, self.w_uv_scale)
         controls = column(texture_box, self.w_algorithm, self.w_stiffness, self.w_dmax, self.w_friction,
                           self.w_presliding, self.w_device, self.w_hand, self.w_speed, self.w_duration,
                           row(self.b_fig3, self.b_clear), self.b_scan, self.w_vibration, width=240)

@@ -78,8 +78,9 @@ class Settings:
         of bare numbers): the sample spacing ("0.5 um"), the unit of its positions and of
         its heights ("um"); blank when the file states them.
     variable : str
-        Measured file only: the variable (a MATLAB file's) or channel (an SPM file's) read,
-        where it holds several; blank: a MATLAB file's only one, an SPM file's height channel.
+        Measured file only: the variable (a MATLAB file's) or channel (an SPM file's: its name,
+        or its index where two share one) read, where it holds several; blank: a MATLAB file's
+        only one, an SPM file's height channel.
     algorithm : str
         W or A–G.
     stiffness : str
