@@ -338,7 +338,7 @@ def test_a_mat_file_of_several_variables_is_read_by_every_command_naming_the_var
     # refused naming them and the option that chooses one, an option of the refusing command;
     # with it each command reads that variable (before 2026-12-01 no command could: the remedy
     # was Python's variable=...). Design's JSON names the texture read: z's 4,000 samples at 0.5 um,
-    # 1.9995 mm (x's 10 samples would be 4.5 um).
+    # 1.9995 mm (x's 10 samples would be 4.5 um), its source the variable.
     from scipy.io import savemat
 
     path = tmp_path / "two.mat"
@@ -351,7 +351,8 @@ def test_a_mat_file_of_several_variables_is_read_by_every_command_naming_the_var
     r = run_main(*args, "--variable", "z", *(("--json",) if command == "design" else ()))
     assert r.returncode == 0, r.stderr
     if command == "design":
-        assert "n=4000, dx=5e-07, length=0.0019995," in json.loads(r.stdout)["texture"]
+        assert "n=4000, dx=5e-07, length=0.0019995, periodic=False, source='two.mat, variable z'" in json.loads(
+            r.stdout)["texture"]
 
 
 @pytest.mark.parametrize("args,refusal", [

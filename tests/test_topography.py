@@ -253,7 +253,8 @@ def test_a_channel_named_twice_is_chosen_by_its_index():
     # 'Height' (SurfaceTopography's reader lists them: Height, Height, Phase, AmplitudeError).
     # The name alone is refused naming their indexes (before 2026-12-01 it read the first,
     # silently); an index chooses one: channel 1's heights are SurfaceTopography's own for
-    # channel_index=1 (nm), unlike channel 0's. An index past the last is refused.
+    # channel_index=1 (nm), unlike channel 0's, and its source names it. An index past the last
+    # is refused.
     import SurfaceTopography
 
     path = DEKTAK.parent / "di-1.di"
@@ -263,6 +264,7 @@ def test_a_channel_named_twice_is_chosen_by_its_index():
     want = reader.topography(channel_index=1).heights() * 1e-9  # (its unit: nm)
     got = hx.load_texture(path, variable="1")
     assert np.allclose(got.h, want, rtol=1e-12, atol=0.0)
+    assert got.source == "di-1.di, channel 1 (Height)"  # (the channel read, wherever the texture is shown)
     assert not np.allclose(hx.load_texture(path, variable="0").h, want)
     with pytest.raises(hx.ParameterError, match=r"variable = '4' is not allowed.*0 to 3"):
         hx.load_texture(path, variable="4")

@@ -325,9 +325,9 @@ def _read_st(p: Path, reader, spacing, x_unit, height_unit, variable, fill_undef
         (sx, sy) = (float(s) for s in sizes)
         x = (sx / h.shape[0]) * np.arange(h.shape[0]) * xf
         y = (sy / h.shape[1]) * np.arange(h.shape[1]) * xf
-    source = p.name
+    source = p.name if variable is None else f"{p.name}, channel {ch.index} ({ch.name})"  # (the one chosen)
     if crop is not None:
-        x, y, h, mask, source = _apply_crop(p, x, y, h, mask, crop, fill_undefined)
+        x, y, h, mask, source = _apply_crop(p, x, y, h, mask, crop, fill_undefined, source)
     undefined = 0 if mask is None else int(mask.sum())
     if undefined and not fill_undefined:
         first = np.unravel_index(int(np.argmax(mask.ravel())), mask.shape)
@@ -482,9 +482,10 @@ def _auto_note(x, y, mask) -> str:
             f"--crop {_extent(x, y, region)}")
 
 
-def _apply_crop(p: Path, x, y, h, mask, crop, fill_undefined):
+def _apply_crop(p: Path, x, y, h, mask, crop, fill_undefined, name=None):
     """The reading cropped; bounds given by hand must hold no undefined point unless they are
-    to be filled (the first is named)."""
+    to be filled (the first is named). ``name``: the source before the crop (default the file's
+    name)."""
     region = crop_region(x, y, mask, crop)
     if min(r.stop - r.start for r in region) < 4:
         raise ParameterError(f"{p}: crop = 'auto' finds no measured part of at least 4 samples a side")
@@ -499,14 +500,15 @@ def _apply_crop(p: Path, x, y, h, mask, crop, fill_undefined):
                              f"first at sample {first[0] if len(first) == 1 else first}; crop within the measured part "
                              f"({_auto_note(x, y, mask)}) or add --fill-undefined")
     size = " x ".join(str(r.stop - r.start) for r in region)
-    return x, y, h, mask, f"{p.name} (cropped to {size} samples: {_extent(x, y, tuple(slice(None) for _ in region))})"
+    return (x, y, h, mask,
+            f"{name or p.name} (cropped to {size} samples: {_extent(x, y, tuple(slice(None) for _ in region))})")
 
 
 def _cropped(p: Path, reading: Reading, crop) -> Reading:
     """A reading of haptex's own readers (MAT, text columns: no undefined points) cropped."""
     if crop is None:
         return reading
-    x, y, h, _, source = _apply_crop(p, reading.x, reading.y, reading.h, None, crop, False)
+    x, y, h, _, source = _apply_crop(p, reading.x, reading.y, reading.h, None, crop, False, reading.source)
     if y is None:
         _check(p, x, h)
     return Reading(x, y, h, source, reading.reader, reading.filled, reading.instrument_tip)
@@ -762,6 +764,7 @@ def _load_mat(p: Path, spacing, height_unit, variable, x_unit) -> Reading:
     except Exception as exc:  # scipy raises several kinds for unreadable files
         raise ParameterError(f"{p}: not a readable MATLAB file ({_first_line(exc)})") from None
     names = [k for k in data if not k.startswith("__")]
+    source = p.name if variable is None else f"{p.name}, variable {variable}"  # (the one chosen)
     if variable is None:
         if len(names) != 1:
             raise ParameterError(f"{p}: holds variables {names}: choose one, {_hint('variable', names[0])}")
@@ -787,9 +790,9 @@ def _load_mat(p: Path, spacing, height_unit, variable, x_unit) -> Reading:
         if bad.size:
             raise ParameterError(f"{p}: {bad.shape[0]} of {h.size} heights are not finite numbers (NaN or inf), "
                                  f"the first at sample {tuple(int(v) for v in bad[0])}")
-        return Reading(step * np.arange(h.shape[0]), step * np.arange(h.shape[1]), h, p.name, "haptex: MATLAB")
+        return Reading(step * np.arange(h.shape[0]), step * np.arange(h.shape[1]), h, source, "haptex: MATLAB")
     _check(p, None, h)
-    return Reading(step * np.arange(h.size), None, h, p.name, "haptex: MATLAB")
+    return Reading(step * np.arange(h.size), None, h, source, "haptex: MATLAB")
 
 
 def _mat_array(p: Path, variable: str, value) -> np.ndarray:
