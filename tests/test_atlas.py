@@ -14,6 +14,8 @@ from hypothesis import strategies as st
 import haptex as hx
 from haptex.atlas import SweepSpec, sweep
 
+from .conftest import GROOVES, needs_data
+
 M, T = 0.1, 1e-4
 
 
@@ -538,3 +540,34 @@ def test_an_atlas_of_a_texture_on_an_object_is_simulate_batch(tmp_path):
     extra = {**spec, "algorithm": {**spec["algorithm"], "max_penetration": "1 mm"}}
     with pytest.raises(hx.ParameterError, match="max_penetration is not allowed with algorithm.object"):
         SweepSpec.from_mapping(extra).build()
+
+
+@needs_data
+def test_a_spec_reads_a_measured_file_with_the_keys_its_refusal_names():
+    # A SPEC's algorithm.texture may be a measured file; one that does not state its spacing or
+    # height unit (../shared/data's grooves-4mm-profile.mat, as published) is refused naming the
+    # [algorithm] keys that give them, not options haptex sweep does not have (before 2026-12-01
+    # it named --spacing and --height-unit, and no key could give them); with those keys the
+    # SPEC's algorithm is on the file's 8,000 samples of 0.5 um (its README), levelled and
+    # band-limited as the keys say.
+    from .test_cli import unknown_options_named
+
+    spec = {"duration": "0.1 s", "algorithm": {"letter": "A", "texture": str(GROOVES), "stiffness": "1 kN/m"},
+            "device": {"preset": "pantograph"},
+            "operator": {"kind": "hand", "stiffness": "300 N/m", "damping": "1 N*s/m", "velocity": "10 mm/s",
+                         "depth": "0.5 mm"}, "axes": {"stiffness": ["1 kN/m", "2 kN/m"]}}
+    with pytest.raises(hx.ParameterError) as refused:
+        SweepSpec.from_mapping(spec).build()
+    msg = str(refused.value)
+    assert "give spacing = '0.5um', height_unit = 'mm' in the SPEC's [algorithm]" in msg, msg
+    assert not unknown_options_named(["sweep"], msg)
+    spec["algorithm"].update(spacing="0.5 um", height_unit="um", level=True, lowpass="20 um")
+    alg = SweepSpec.from_mapping(spec).build()[0]
+    want = hx.load_texture(GROOVES, spacing=0.5e-6, height_unit="um").leveled().lowpass(20e-6)
+    assert alg.texture.x.size == 8000 and np.array_equal(alg.texture.h, want.h)
+    spec["algorithm"]["level"] = "yes"
+    with pytest.raises(hx.ParameterError, match=r"algorithm.level = 'yes' is not allowed: must be true or false"):
+        SweepSpec.from_mapping(spec).build()
+    wall = {**spec, "algorithm": {"letter": "W", "stiffness": "1 kN/m", "spacing": "0.5 um"}}
+    with pytest.raises(hx.ParameterError, match=r"algorithm.spacing is not allowed with letter W"):
+        SweepSpec.from_mapping(wall).build()

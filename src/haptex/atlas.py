@@ -63,6 +63,10 @@ _TOP_KEYS = ("duration", "block", "algorithm", "device", "operator", "axes", "in
 _OPERATORS = {"push": ("force",), "band": ("stiffness", "anchor"), "hand": ("stiffness", "damping", "velocity", "depth"),
               "grip": ("hand", "velocity", "depth")}
 _ALG_QUANTITIES = {"stiffness": "N/m", "friction": "dimensionless", "presliding": "m", "max_penetration": "m"}
+_READING_KEYS = {"spacing": "m", "lowpass": "m", "x_unit": str, "height_unit": str, "variable": str, "scale": str,
+                 "crop": str, "level": bool, "periodic": bool, "fill_undefined": bool}
+"""How a measured file named by algorithm.texture is read: the keys of :func:`haptex.load_texture`
+and the command line's ``--spacing``, ... (a quantity's unit, or the value's type)."""
 _RANGE = re.compile(r"^\s*(?P<a>[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(?:–|—|-|\.\.|to)\s*"
                     r"(?P<b>[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(?P<unit>[^,]*?)\s*,\s*(?P<n>\d{1,15})\s*"
                     r"(?P<log>log\s+)?steps?\s*$")
@@ -309,11 +313,12 @@ class SweepSpec:
         texture_spec = alg_table.pop("texture", None)
         object_spec = alg_table.pop("object", None)
         uv_scale = alg_table.pop("uv_scale", None)
+        reading = {key: _reading_value(key, alg_table.pop(key)) for key in _READING_KEYS if key in alg_table}
         params = {}
         for key, value in alg_table.items():
             if key not in _ALG_QUANTITIES:
                 raise ParameterError(f"algorithm key {key!r} is not allowed: allowed keys are letter, texture, "
-                                     "object, uv_scale, " + ", ".join(_ALG_QUANTITIES))
+                                     "object, uv_scale, " + ", ".join([*_ALG_QUANTITIES, *_READING_KEYS]))
             params[key] = _quantity(f"algorithm.{key}", value, _ALG_QUANTITIES[key])
         swept = {a.name for a in self.axes}
         if "stiffness" not in params and "stiffness" not in swept:
@@ -325,9 +330,13 @@ class SweepSpec:
                 raise ParameterError(f"algorithm.texture is missing: algorithm {L} needs one, e.g. 'sine:0.8mm,1mm'")
             from ._specs import texture_from_spec
 
-            texture = texture_from_spec(str(texture_spec))
-        elif texture_spec is not None:
-            raise ParameterError("algorithm.texture is not allowed with letter W: the smooth wall has no texture")
+            try:
+                texture = texture_from_spec(str(texture_spec), **reading)
+            except ParameterError as exc:  # (a loader's remedy in the SPEC's words, not the command line's)
+                raise ParameterError(_in_spec_words(str(exc))) from None
+        elif texture_spec is not None or reading:
+            key = "texture" if texture_spec is not None else next(iter(reading))
+            raise ParameterError(f"algorithm.{key} is not allowed with letter W: the smooth wall has no texture")
         if not isinstance(self.mapping["device"], dict):
             raise fail("device", self.mapping["device"], "a table: preset = '...' and the device's keys")
         device = _device_from_table(dict(self.mapping["device"]), "spec [device]")
@@ -360,6 +369,36 @@ class SweepSpec:
             raise fail("initial_position", start, f"a list of {device.dimension} lengths, e.g. ['0 mm', '1 mm']")
         p0 = None if start is None else np.array([_quantity("initial_position", v, "m") for v in start])
         return alg, device, op, p0
+
+
+def _reading_value(key: str, value):
+    """A reading key of the SPEC's [algorithm] (:data:`_READING_KEYS`) checked: a quantity in SI,
+    a flag true or false, or text."""
+    kind = _READING_KEYS[key]
+    if kind is bool:
+        if not isinstance(value, bool):
+            raise fail(f"algorithm.{key}", value, "true or false")
+        return value
+    if kind is str:
+        if isinstance(value, bool) or not isinstance(value, str | int):
+            raise fail(f"algorithm.{key}", value, "a text, e.g. 'um'" if key.endswith("unit") else "a text")
+        return str(value)
+    return _quantity(f"algorithm.{key}", value, kind)
+
+
+_COMMAND_LINE_HINT = re.compile(r"--[a-z][a-z-]*(?: [^\s,;()]+)?(?: --[a-z][a-z-]*(?: [^\s,;()]+)?)* at the command "
+                                r"line, (.*?) in Python")
+
+
+def _in_spec_words(message: str) -> str:
+    """A loader's refusal with its remedy in a SPEC's words: "--spacing 0.5um at the command
+    line, spacing='0.5um' in Python" becomes "spacing = '0.5um' in the SPEC's [algorithm]" (the
+    same keys, written as TOML; haptex sweep has no such options)."""
+    def toml(m):
+        keys = re.sub(r"\b(\w+)=", r"\1 = ", m.group(1)).replace("= True", "= true").replace("= False", "= false")
+        return f"{keys} in the SPEC's [algorithm]"
+
+    return _COMMAND_LINE_HINT.sub(toml, message)
 
 
 def _quantity(name: str, value, unit: str) -> float:
