@@ -242,6 +242,41 @@ def test_a_mat_file_of_several_variables_is_read_once_one_is_chosen(tmp_path):
     assert f'<span id="q-value">{q.value:.4g}</span>' in page.d_q.text
 
 
+@pytest.mark.long  # (two maps' views, about 2 s each)
+def test_a_partly_measured_map_is_read_once_its_crop_or_fill_is_given(tmp_path):
+    """A map with undefined heights (NaN: an NPY file written by numpy, 32 x 24 samples, a 3 x 4
+    patch inside lost) is refused naming its measured part and the fill; the page's crop box (auto, or
+    the bounds the refusal names) and its fill switch are those remedies (before 2026-12-01 the
+    page had neither: such a map could not be explored): the map the page reads is the
+    library's, and its q the library's for it."""
+    import html
+
+    from bokeh.document import Document
+
+    from haptex.explore import app
+
+    h = np.sin(np.linspace(0, 6, 32))[:, None] * np.cos(np.linspace(0, 5, 24))[None, :] * 0.5
+    h[10:13, 5:9] = np.nan
+    path = tmp_path / "lost.npy"
+    np.save(path, h)
+    for remedy, kw in ((("w_crop", "0,31um,9um,23um"), {"crop": (0.0, 31e-6, 9e-6, 23e-6)}),
+                       (("w_fill", [0]), {"fill_undefined": True})):
+        page = app(Document())
+        page.settings.file, page.settings.file_name = str(path), path.name
+        page.settings.device = "point-mass"  # (a map: a 3-DOF device)
+        page.w_spacing.value, page.w_height_unit.value = "1 um", "um"
+        page.w_texture.value = "file"
+        said = html.unescape(page.d_message.text)
+        assert "12 of 768 heights are undefined" in said and "takes 32 x 15 samples: --crop 0,31um,9um,23um" in said
+        assert page.w_crop.visible and page.w_fill.visible
+        setattr(getattr(page, remedy[0]), "value" if remedy[0] == "w_crop" else "active", remedy[1])
+        assert page.d_message.text.endswith("></span>"), page.d_message.text  # no message: loaded
+        tex = hx.load_texture(path, spacing=1e-6, height_unit="um", **kw)
+        assert np.array_equal(page.scene.texture.h, tex.h) and page.scene.texture.source == tex.source
+    q = hx.characteristic_number(hx.algorithm("A", tex, K0), max_penetration=1e-3)
+    assert f'<span id="q-value">{q.value:.4g}</span>' in page.d_q.text
+
+
 def test_the_page_shows_a_texture_on_an_object():
     """Issue 32's object view: the egg-crate on a sphere of 40 periods round, its top at the
     origin: q is the library's for the object (1.214, the plane's 1.181), the section y = y0 shows

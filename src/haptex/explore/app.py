@@ -154,8 +154,8 @@ def _build_views(settings):
 
 def _waits(message: str) -> bool:
     """Whether a file's refusal asks for what the page's file boxes give (its spacing, its units,
-    one of its variables): the file is kept for them."""
-    return "does not state" in message or "holds variables" in message
+    one of its variables, a crop or the fill of its undefined heights): the file is kept for them."""
+    return any(w in message for w in ("does not state", "holds variables", "heights are undefined"))
 
 
 def _span(ident: str, text: str) -> str:
@@ -180,8 +180,8 @@ class ExplorerPage:
     def __init__(self, doc, settings: model.Settings | None = None, offload: bool = False):
         from bokeh.layouts import column, row
         from bokeh.events import Tap
-        from bokeh.models import (Arrow, Button, ColumnDataSource, Div, FileInput, FreehandDrawTool, Legend,
-                                  LinearColorMapper, PolyDrawTool, Range1d, Select, TextInput, VeeHead)
+        from bokeh.models import (Arrow, Button, CheckboxGroup, ColumnDataSource, Div, FileInput, FreehandDrawTool,
+                                  Legend, LinearColorMapper, PolyDrawTool, Range1d, Select, TextInput, VeeHead)
         from bokeh.palettes import Magma256, RdBu11, Viridis256, interp_palette
         from bokeh.plotting import figure
 
@@ -225,6 +225,10 @@ class ExplorerPage:
         self.w_x_unit = text("x_unit", "file: position unit (if unstated)", s.x_unit, "x-unit")
         self.w_height_unit = text("height_unit", "file: height unit (if unstated)", s.height_unit, "height-unit")
         self.w_variable = text("variable", "file: variable or channel (if several)", s.variable)
+        self.w_crop = text("crop", "file: crop (auto, or X0,X1[,Y0,Y1])", s.crop)
+        self.w_fill = CheckboxGroup(labels=["file: fill undefined heights"], active=[0] if s.fill_undefined else [],
+                                    width=220, html_id="fill-undefined")
+        self.w_fill.on_change("active", lambda attr, old, new: self._set("fill_undefined", bool(new)))
         self.w_pixel = text("pixel_size", "image: pixel size", s.pixel_size)
         self.w_hrange = text("height_range", "image: black-to-white height", s.height_range)
         self.w_algorithm = choice("algorithm", "algorithm", model.ALGORITHM_LABELS)
@@ -359,8 +363,9 @@ class ExplorerPage:
                                html_id="vibration-box")
 
         texture_box = column(self.w_texture, self.w_amplitude, self.w_period, self.w_terms, self.w_noise, self.w_file,
-                             self.w_spacing, self.w_x_unit, self.w_height_unit, self.w_variable, self.w_pixel,
-                             self.w_hrange, self.w_section, self.w_object, self.w_mesh, self.w_uv_scale)
+                             self.w_spacing, self.w_x_unit, self.w_height_unit, self.w_variable, self.w_crop,
+                             self.w_fill, self.w_pixel, self.w_hrange, self.w_section, self.w_object, self.w_mesh,
+                             self.w_uv_scale)
         controls = column(texture_box, self.w_algorithm, self.w_stiffness, self.w_dmax, self.w_friction,
                           self.w_presliding, self.w_device, self.w_hand, self.w_speed, self.w_duration,
                           row(self.b_fig3, self.b_clear), self.b_scan, self.w_vibration, width=240)
@@ -405,8 +410,8 @@ class ExplorerPage:
         self.w_noise.visible = k == "noise"
         self.w_file.visible = k in ("file", "image")
         self.w_pixel.visible = self.w_hrange.visible = k == "image"
-        self.w_spacing.visible = self.w_x_unit.visible = self.w_height_unit.visible = self.w_variable.visible = (
-            k == "file")
+        for w in (self.w_spacing, self.w_x_unit, self.w_height_unit, self.w_variable, self.w_crop, self.w_fill):
+            w.visible = k == "file"
         self.w_section.visible = self.w_object.visible = self.scene is not None and self.scene.dimension == 3
         self.w_mesh.visible = self.w_uv_scale.visible = (self.w_object.visible
                                                          and str(self.settings.object).strip().lower() == "mesh")
@@ -443,8 +448,7 @@ class ExplorerPage:
                           "shows the previous object until then)")
             return
         def undo():
-            if name in ("texture", "spacing", "x_unit", "height_unit", "variable") and self.settings.texture == "file" \
-                    and _waits(self.d_message.text):
+            if name in ("texture", *model.READING) and self.settings.texture == "file" and _waits(self.d_message.text):
                 self._show_controls()  # kept: the file waits for what it does not state, in the boxes shown
                 return
             setattr(self.settings, name, old)

@@ -52,6 +52,10 @@ MAX_PATH_VERTICES = 400
 #: it runs (a Python thread cannot be stopped once started; issue 33).
 MAX_VIEW_SECONDS = 60.0
 
+READING = ("spacing", "x_unit", "height_unit", "variable", "crop", "fill_undefined")
+"""The settings that say how a measured file is read (the page's file boxes; a refusal that
+asks for one keeps the file)."""
+
 
 @dataclass
 class Settings:
@@ -81,6 +85,12 @@ class Settings:
         Measured file only: the variable (a MATLAB file's) or channel (an SPM file's: its name,
         or its index where two share one) read, where it holds several; blank: a MATLAB file's
         only one, an SPM file's height channel.
+    crop : str
+        Measured file only: the part kept, "auto" (the largest measured part) or "X0,X1" /
+        "X0,X1,Y0,Y1" with units (as ``--crop``); blank: the whole file.
+    fill_undefined : bool
+        Measured file only: fill its undefined (NaN) heights by interpolation (as
+        ``--fill-undefined``) instead of refusing it.
     algorithm : str
         W or A–G.
     stiffness : str
@@ -126,6 +136,8 @@ class Settings:
     x_unit: str = ""
     height_unit: str = ""
     variable: str = ""
+    crop: str = ""
+    fill_undefined: bool = False
     algorithm: str = "A"
     stiffness: str = f"{PAPER_PARAMETERS['stiffness'] / 1e3:g} kN/m"
     max_penetration: str = f"{PAPER_PARAMETERS['max_penetration'] * 1e3:g} mm"
@@ -291,7 +303,8 @@ def build(settings: Settings) -> Scene:
             else:  # what the file does not state (a .mat's spacing, a text file's units); blank: the file says
                 tex = texture_from_spec(s.file, spacing=s.spacing.strip() or None, x_unit=s.x_unit.strip() or None,
                                         height_unit=s.height_unit.strip() or None,
-                                        variable=s.variable.strip() or None)
+                                        variable=s.variable.strip() or None, crop=s.crop.strip() or None,
+                                        fill_undefined=bool(s.fill_undefined))
         except ParameterError as exc:
             raise ParameterError(str(exc).replace(str(s.file), s.file_name or str(s.file))) from None
     else:
