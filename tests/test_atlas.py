@@ -543,13 +543,14 @@ def test_an_atlas_of_a_texture_on_an_object_is_simulate_batch(tmp_path):
 
 
 @needs_data
-def test_a_spec_reads_a_measured_file_with_the_keys_its_refusal_names():
+def test_a_spec_reads_a_measured_file_with_the_keys_its_refusal_names(tmp_path):
     # A SPEC's algorithm.texture may be a measured file; one that does not state its spacing or
     # height unit (../shared/data's grooves-4mm-profile.mat, as published) is refused naming the
     # [algorithm] keys that give them, not options haptex sweep does not have (before 2026-12-01
     # it named --spacing and --height-unit, and no key could give them); with those keys the
     # SPEC's algorithm is on the file's 8,000 samples of 0.5 um (its README), levelled and
-    # band-limited as the keys say.
+    # band-limited as the keys say; a map with undefined heights is refused naming its crop and
+    # fill as keys, and read with the crop it names.
     from .test_cli import unknown_options_named
 
     spec = {"duration": "0.1 s", "algorithm": {"letter": "A", "texture": str(GROOVES), "stiffness": "1 kN/m"},
@@ -568,6 +569,18 @@ def test_a_spec_reads_a_measured_file_with_the_keys_its_refusal_names():
     spec["algorithm"]["level"] = "yes"
     with pytest.raises(hx.ParameterError, match=r"algorithm.level = 'yes' is not allowed: must be true or false"):
         SweepSpec.from_mapping(spec).build()
+    lost = np.sin(np.linspace(0, 6, 32))[:, None] * np.cos(np.linspace(0, 5, 24))[None, :]
+    lost[10:13, 5:9] = np.nan  # (an NPY map, written by numpy, a 3 x 4 patch undefined)
+    np.save(tmp_path / "lost.npy", lost)
+    spec["algorithm"] = {"letter": "A", "texture": str(tmp_path / "lost.npy"), "stiffness": "1 kN/m",
+                         "spacing": "1 um", "height_unit": "um"}
+    with pytest.raises(hx.ParameterError) as refused:
+        SweepSpec.from_mapping(spec).build()
+    msg = str(refused.value)
+    assert "(crop = 'auto' in the SPEC's [algorithm], takes 32 x 15 samples: crop = '0,31um,9um,23um')" in msg, msg
+    assert "(fill_undefined = true in the SPEC's [algorithm])" in msg and not unknown_options_named(["sweep"], msg)
+    spec["algorithm"]["crop"] = "0,31um,9um,23um"
+    assert SweepSpec.from_mapping(spec).build()[0].texture.h.shape == (32, 15)
     wall = {**spec, "algorithm": {"letter": "W", "stiffness": "1 kN/m", "spacing": "0.5 um"}}
     with pytest.raises(hx.ParameterError, match=r"algorithm.spacing is not allowed with letter W"):
         SweepSpec.from_mapping(wall).build()

@@ -267,7 +267,9 @@ def test_a_partly_measured_map_is_read_once_its_crop_or_fill_is_given(tmp_path):
         page.w_spacing.value, page.w_height_unit.value = "1 um", "um"
         page.w_texture.value = "file"
         said = html.unescape(page.d_message.text)
-        assert "12 of 768 heights are undefined" in said and "takes 32 x 15 samples: --crop 0,31um,9um,23um" in said
+        assert "12 of 768 heights are undefined" in said and "(crop = 'auto' in the file boxes, takes 32 x 15 " \
+            "samples: crop = '0,31um,9um,23um'), or fill them by interpolation (fill_undefined = true in the file " \
+            "boxes)" in said and "--" not in said  # (the page's words, not the command line's)
         assert page.w_crop.visible and page.w_fill.visible
         setattr(getattr(page, remedy[0]), "value" if remedy[0] == "w_crop" else "active", remedy[1])
         assert page.d_message.text.endswith("></span>"), page.d_message.text  # no message: loaded

@@ -54,6 +54,28 @@ def _hint(name: str, example: str) -> str:
     return _hints([(name, example)])
 
 
+_COMMAND_LINE_HINT = re.compile(r"--[a-z][a-z-]*(?: [^\s,;()]+)?(?: --[a-z][a-z-]*(?: [^\s,;()]+)?)* at the command "
+                                r"line, (.*?) in Python")
+
+
+def remedy_in(message: str, where: str) -> str:
+    """A refusal whose remedies are written for the command line and Python (:func:`_hints`:
+    "--spacing 0.5um at the command line, spacing='0.5um' in Python") with them written for
+    another front end that takes the same keys: "spacing = '0.5um' ``where``" (a sweep SPEC's
+    [algorithm], the explorer's file boxes), each key = value as TOML writes it; an option named
+    alone ("takes 32 x 15 samples: --crop 0,31um,9um,23um", "add --fill-undefined") as its key
+    too."""
+    def keys(m):
+        text = re.sub(r"\b(\w+)=", r"\1 = ", m.group(1)).replace("= True", "= true").replace("= False", "= false")
+        return f"{text} {where}"
+
+    text = _COMMAND_LINE_HINT.sub(keys, message)
+    # (an option named alone: a flag, or one with its value, as the crop's bounds after "takes N samples:")
+    text = re.sub(r"--(fill-undefined|level|periodic)\b", lambda m: f"{m.group(1).replace('-', '_')} = true", text)
+    return re.sub(r"--([a-z][a-z-]*) ([^\s;()]*[^\s;(),])", lambda m: f"{m.group(1).replace('-', '_')} = "
+                  f"'{m.group(2)}'", text)
+
+
 def _hints(pairs) -> str:
     """How to give missing values (name, example), in both of haptex's syntaxes, once each."""
     cli = " ".join(f"--{n.replace('_', '-')} {e}" for n, e in pairs)

@@ -328,12 +328,13 @@ class SweepSpec:
         if str(L).upper() != "W":
             if texture_spec is None:
                 raise ParameterError(f"algorithm.texture is missing: algorithm {L} needs one, e.g. 'sine:0.8mm,1mm'")
+            from ._loaders import remedy_in
             from ._specs import texture_from_spec
 
             try:
                 texture = texture_from_spec(str(texture_spec), **reading)
             except ParameterError as exc:  # (a loader's remedy in the SPEC's words, not the command line's)
-                raise ParameterError(_in_spec_words(str(exc))) from None
+                raise ParameterError(remedy_in(str(exc), "in the SPEC's [algorithm]")) from None
         elif texture_spec is not None or reading:
             key = "texture" if texture_spec is not None else next(iter(reading))
             raise ParameterError(f"algorithm.{key} is not allowed with letter W: the smooth wall has no texture")
@@ -384,21 +385,6 @@ def _reading_value(key: str, value):
             raise fail(f"algorithm.{key}", value, "a text, e.g. 'um'" if key.endswith("unit") else "a text")
         return str(value)
     return _quantity(f"algorithm.{key}", value, kind)
-
-
-_COMMAND_LINE_HINT = re.compile(r"--[a-z][a-z-]*(?: [^\s,;()]+)?(?: --[a-z][a-z-]*(?: [^\s,;()]+)?)* at the command "
-                                r"line, (.*?) in Python")
-
-
-def _in_spec_words(message: str) -> str:
-    """A loader's refusal with its remedy in a SPEC's words: "--spacing 0.5um at the command
-    line, spacing='0.5um' in Python" becomes "spacing = '0.5um' in the SPEC's [algorithm]" (the
-    same keys, written as TOML; haptex sweep has no such options)."""
-    def toml(m):
-        keys = re.sub(r"\b(\w+)=", r"\1 = ", m.group(1)).replace("= True", "= true").replace("= False", "= false")
-        return f"{keys} in the SPEC's [algorithm]"
-
-    return _COMMAND_LINE_HINT.sub(toml, message)
 
 
 def _quantity(name: str, value, unit: str) -> float:

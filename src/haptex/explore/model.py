@@ -12,6 +12,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from .._loaders import remedy_in
 from .._specs import quantity, texture_from_spec
 from .._validation import ParameterError, fail
 from ..catalogue import presets
@@ -305,8 +306,9 @@ def build(settings: Settings) -> Scene:
                                         height_unit=s.height_unit.strip() or None,
                                         variable=s.variable.strip() or None, crop=s.crop.strip() or None,
                                         fill_undefined=bool(s.fill_undefined))
-        except ParameterError as exc:
-            raise ParameterError(str(exc).replace(str(s.file), s.file_name or str(s.file))) from None
+        except ParameterError as exc:  # (the file's own name; a reading remedy in the page's file boxes)
+            said = remedy_in(str(exc), "in the file boxes") if kind == "file" else str(exc)
+            raise ParameterError(said.replace(str(s.file), s.file_name or str(s.file))) from None
     else:
         raise fail("texture", kind, "one of " + ", ".join(v for v, _ in TEXTURES))
     dmax = quantity(s.max_penetration, "m", "max_penetration")
