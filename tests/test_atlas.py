@@ -584,3 +584,24 @@ def test_a_spec_reads_a_measured_file_with_the_keys_its_refusal_names(tmp_path):
     wall = {**spec, "algorithm": {"letter": "W", "stiffness": "1 kN/m", "spacing": "0.5 um"}}
     with pytest.raises(hx.ParameterError, match=r"algorithm.spacing is not allowed with letter W"):
         SweepSpec.from_mapping(wall).build()
+
+
+def test_a_spec_whose_object_leaves_a_seam_is_refused_naming_a_radius_in_its_own_key():
+    # The egg-crate (2 mm period) on a sphere of 20 mm: 62.83 periods round, a seam; the refusal
+    # names the nearest radius that holds 63 (63 x 2 mm / 2 pi = 20.0535228296 mm, the definition)
+    # as the SPEC writes it, algorithm.object, not haptex sweep's options (before 2026-12-01
+    # "--object sphere:...mm at the command line"), and that radius builds.
+    from .test_cli import unknown_options_named
+
+    spec = {"duration": "0.05 s", "algorithm": {"letter": "B", "texture": "egg-crate:0.2mm,2mm", "object": "sphere:20mm"},
+            "device": {"preset": "point-mass", "dimension": 3, "mass": "0.1 kg", "damping": "0.5 N*s/m",
+                       "period": "100 us"}, "operator": {"kind": "push", "force": "1 N"},
+            "axes": {"stiffness": ["0.5 kN/m", "2 kN/m"]}}
+    with pytest.raises(hx.ParameterError) as refused:
+        SweepSpec.from_mapping(spec).build()
+    msg = str(refused.value)
+    assert "(object = 'sphere:20.0535228296mm' in the SPEC's [algorithm])" in msg, msg
+    assert not unknown_options_named(["sweep"], msg)
+    assert f"{63 * 2.0 / (2 * np.pi):.12g}" == "20.0535228296"
+    spec["algorithm"]["object"] = "sphere:20.0535228296mm"
+    assert SweepSpec.from_mapping(spec).build()[0].base.radius == pytest.approx(20.0535228296e-3, rel=1e-12)

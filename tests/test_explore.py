@@ -279,6 +279,27 @@ def test_a_partly_measured_map_is_read_once_its_crop_or_fill_is_given(tmp_path):
     assert f'<span id="q-value">{q.value:.4g}</span>' in page.d_q.text
 
 
+def test_an_object_that_leaves_a_seam_is_refused_naming_a_radius_as_the_object_box_takes_it():
+    """The page's egg-crate (1 mm period) on a sphere of 20 mm: 125.66 periods round, a seam; the
+    refusal names the nearest radius holding 126 (126 x 1 mm / 2 pi = 20.0535228296 mm, the
+    definition) as the object box takes it, not as a command-line option (before 2026-12-01
+    "--object sphere:...mm at the command line"); the library takes that radius."""
+    import html
+
+    from bokeh.document import Document
+
+    from haptex.explore import app
+    from haptex.objects import Sphere, object_algorithm
+
+    page = app(Document())
+    page.settings.device, page.settings.texture = "point-mass", "egg-crate"  # (set: no view drawn for them)
+    page.w_object.value = "sphere:20mm"
+    said = html.unescape(page.d_message.text)
+    assert "(object = 'sphere:20.0535228296mm' in the object box)" in said and "--" not in said, said
+    assert f"{126 * 1.0 / (2 * np.pi):.12g}" == "20.0535228296"
+    object_algorithm("A", hx.SumOfGratings.egg_crate(0.8e-3, 1e-3), Sphere(20.0535228296e-3), K0)
+
+
 def test_the_page_shows_a_texture_on_an_object():
     """Issue 32's object view: the egg-crate on a sphere of 40 periods round, its top at the
     origin: q is the library's for the object (1.214, the plane's 1.181), the section y = y0 shows

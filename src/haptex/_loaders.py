@@ -62,14 +62,17 @@ def remedy_in(message: str, where: str) -> str:
     """A refusal whose remedies are written for the command line and Python (:func:`_hints`:
     "--spacing 0.5um at the command line, spacing='0.5um' in Python") with them written for
     another front end that takes the same keys: "spacing = '0.5um' ``where``" (a sweep SPEC's
-    [algorithm], the explorer's file boxes), each key = value as TOML writes it; an option named
-    alone ("takes 32 x 15 samples: --crop 0,31um,9um,23um", "add --fill-undefined") as its key
-    too."""
+    [algorithm], the explorer's file boxes), each key = value as TOML writes it; an option given
+    for the command line alone ("--object sphere:20.05mm at the command line") or named alone
+    ("takes 32 x 15 samples: --crop 0,31um,9um,23um", "add --fill-undefined") as its key too."""
     def keys(m):
         text = re.sub(r"\b(\w+)=", r"\1 = ", m.group(1)).replace("= True", "= true").replace("= False", "= false")
         return f"{text} {where}"
 
     text = _COMMAND_LINE_HINT.sub(keys, message)
+    # (an option with its value for the command line alone: a closed object's radius)
+    text = re.sub(r"--([a-z][a-z-]*) ([^\s;()]*[^\s;(),]) at the command line",
+                  lambda m: f"{m.group(1).replace('-', '_')} = '{m.group(2)}' {where}", text)
     # (an option named alone: a flag, or one with its value, as the crop's bounds after "takes N samples:")
     text = re.sub(r"--(fill-undefined|level|periodic)\b", lambda m: f"{m.group(1).replace('-', '_')} = true", text)
     return re.sub(r"--([a-z][a-z-]*) ([^\s;()]*[^\s;(),])", lambda m: f"{m.group(1).replace('-', '_')} = "

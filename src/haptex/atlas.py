@@ -300,6 +300,7 @@ class SweepSpec:
             position (m), shape (d,).
         """
         from .algorithms import algorithm
+        from ._loaders import remedy_in
         from .catalogue import _device_from_table
 
         alg_table = self.mapping.get("algorithm", {})
@@ -328,7 +329,6 @@ class SweepSpec:
         if str(L).upper() != "W":
             if texture_spec is None:
                 raise ParameterError(f"algorithm.texture is missing: algorithm {L} needs one, e.g. 'sine:0.8mm,1mm'")
-            from ._loaders import remedy_in
             from ._specs import texture_from_spec
 
             try:
@@ -356,7 +356,10 @@ class SweepSpec:
                 raise ParameterError("algorithm.object is not allowed on a planar device: an object needs a 3-DOF "
                                      "device")
             scale = None if uv_scale is None else _quantity("algorithm.uv_scale", uv_scale, "m")
-            alg = object_algorithm(str(L), texture, object_from_spec(str(object_spec), scale), stiffness)
+            try:
+                alg = object_algorithm(str(L), texture, object_from_spec(str(object_spec), scale), stiffness)
+            except ParameterError as exc:  # (a seam's radius as algorithm.object takes it)
+                raise ParameterError(remedy_in(str(exc), "in the SPEC's [algorithm]")) from None
         elif uv_scale is not None:
             raise ParameterError("algorithm.uv_scale is not allowed without algorithm.object: it scales a mesh's "
                                  "texture coordinates")

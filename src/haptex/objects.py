@@ -311,7 +311,7 @@ def _closed_period_check(base, texture: Surface, length: float) -> None:
         raise ParameterError(f"texture = {texture!r} is not allowed on {base!r}: a closed base needs a texture "
                              f"periodic along u1 (its {length:.6g} m circumference would leave a seam); close a "
                              "measured one into a periodic texture (--periodic at the command line, periodic=True in "
-                             "load_texture)")
+                             "Python)")
     period = float(cell[0])
     kind = type(base).__name__.lower()
 
