@@ -348,8 +348,9 @@ def build(settings: Settings) -> Scene:
                        f"one of {', '.join(OBJECT_DESIGN_LETTERS)} on an object (or the object 'plane')")
         try:
             alg = object_algorithm(letter, tex, base, stiffness, **params)
-        except ParameterError as exc:  # (a seam's radius as the object box takes it)
-            raise ParameterError(remedy_in(str(exc), "in the object box")) from None
+        except ParameterError as exc:  # (a seam's radius as the object box takes it; the page closes no file)
+            said = str(exc)
+            raise ParameterError(remedy_in(said, "in the object box") if "--object " in said else said) from None
     elif letter in ALGORITHMS and not ALGORITHMS[letter].textured:
         alg = algorithm(letter, Flat(dimension=2) if tex.dimension == 2 else None, stiffness)
         tex = alg.texture  # the smooth wall ignores the texture: show the flat boundary it renders
