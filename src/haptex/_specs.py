@@ -39,6 +39,13 @@ def check_tip_spacing(tip_radius, tip_spacing) -> None:
                              f"feels (got {tip_spacing:g} m and no ball)")
 
 
+READING_KEYS = {"spacing": "m", "x_unit": str, "height_unit": str, "variable": str, "level": bool, "lowpass": "m",
+                "scale": str, "periodic": bool, "fill_undefined": bool, "crop": str}
+""":func:`texture_from_spec`'s keywords that say how a measured file is read, each with a
+quantity's SI unit or its value's type: the command line's ``--spacing``, ... (``--crop`` with
+the ball's options) and a sweep SPEC's [algorithm] keys."""
+
+
 def texture_from_spec(spec: str, spacing=None, x_unit=None, height_unit=None, level=False, lowpass=None, scale=None,
                        periodic=False, fill_undefined=False, crop=None, variable=None):
     """The texture a spec names.

@@ -47,6 +47,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ._specs import READING_KEYS
 from ._units import parse_quantity
 from ._validation import ParameterError, check_budget, fail, whole
 
@@ -63,10 +64,6 @@ _TOP_KEYS = ("duration", "block", "algorithm", "device", "operator", "axes", "in
 _OPERATORS = {"push": ("force",), "band": ("stiffness", "anchor"), "hand": ("stiffness", "damping", "velocity", "depth"),
               "grip": ("hand", "velocity", "depth")}
 _ALG_QUANTITIES = {"stiffness": "N/m", "friction": "dimensionless", "presliding": "m", "max_penetration": "m"}
-_READING_KEYS = {"spacing": "m", "lowpass": "m", "x_unit": str, "height_unit": str, "variable": str, "scale": str,
-                 "crop": str, "level": bool, "periodic": bool, "fill_undefined": bool}
-"""How a measured file named by algorithm.texture is read: the keys of :func:`haptex.load_texture`
-and the command line's ``--spacing``, ... (a quantity's unit, or the value's type)."""
 _RANGE = re.compile(r"^\s*(?P<a>[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(?:–|—|-|\.\.|to)\s*"
                     r"(?P<b>[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(?P<unit>[^,]*?)\s*,\s*(?P<n>\d{1,15})\s*"
                     r"(?P<log>log\s+)?steps?\s*$")
@@ -314,12 +311,12 @@ class SweepSpec:
         texture_spec = alg_table.pop("texture", None)
         object_spec = alg_table.pop("object", None)
         uv_scale = alg_table.pop("uv_scale", None)
-        reading = {key: _reading_value(key, alg_table.pop(key)) for key in _READING_KEYS if key in alg_table}
+        reading = {key: _reading_value(key, alg_table.pop(key)) for key in READING_KEYS if key in alg_table}
         params = {}
         for key, value in alg_table.items():
             if key not in _ALG_QUANTITIES:
                 raise ParameterError(f"algorithm key {key!r} is not allowed: allowed keys are letter, texture, "
-                                     "object, uv_scale, " + ", ".join([*_ALG_QUANTITIES, *_READING_KEYS]))
+                                     "object, uv_scale, " + ", ".join([*_ALG_QUANTITIES, *READING_KEYS]))
             params[key] = _quantity(f"algorithm.{key}", value, _ALG_QUANTITIES[key])
         swept = {a.name for a in self.axes}
         if "stiffness" not in params and "stiffness" not in swept:
@@ -376,9 +373,9 @@ class SweepSpec:
 
 
 def _reading_value(key: str, value):
-    """A reading key of the SPEC's [algorithm] (:data:`_READING_KEYS`) checked: a quantity in SI,
-    a flag true or false, or text."""
-    kind = _READING_KEYS[key]
+    """A reading key of the SPEC's [algorithm] (:data:`haptex._specs.READING_KEYS`) checked: a
+    quantity in SI, a flag true or false, or text."""
+    kind = READING_KEYS[key]
     if kind is bool:
         if not isinstance(value, bool):
             raise fail(f"algorithm.{key}", value, "true or false")

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import click
 
-from .._specs import quantity as _q, split_spec as _split_spec
+from .._specs import READING_KEYS, quantity as _q, split_spec as _split_spec
 from .._validation import ParameterError
 from ..tables import PAPER_PARAMETERS
 
@@ -87,8 +87,9 @@ def _parse_path(text: str, d: int = 2):
     return pts
 
 
-READING = ("spacing", "x_unit", "height_unit", "variable", "level", "lowpass", "scale", "periodic", "fill_undefined")
-"""The options that say how a measured file is read (:func:`_reading_options`), by parameter name."""
+READING = tuple(k for k in READING_KEYS if k != "crop")
+"""The options that say how a measured file is read (:func:`_reading_options`), by parameter name:
+:data:`haptex._specs.READING_KEYS` but the crop (``--crop``, :func:`_felt_options`)."""
 
 
 def _reading_options(func):
