@@ -675,6 +675,52 @@ def test_the_felt_maps_slopes_are_the_contact_points_slopes(name, rel_r):
     assert q == pytest.approx(math.sqrt(1 + truth**2), rel=0.01)
 
 
+@pytest.mark.parametrize("name", ["random", "two-grating", "egg-crate"])
+def test_the_cores_contact_ascent_reaches_scipys_maximum_of_the_balls_lift(name):
+    # Every felt map's contacts come from the C core's ascent (hx_contact_ascent, hx_felt.c): the
+    # offset u maximising g(u) = h(p + u) + sqrt(r^2 - |u|^2) in a box and the disc. Truth:
+    # scipy's L-BFGS-B on the same g with the test's numpy heights and gradients (nothing of
+    # haptex's), from the same start, within the same box: the whole disc's box (the ball at
+    # 0.8 of the surface's tightest radius: g concave, one maximum), then a box that stops 1 to
+    # 3 um short of that maximum along x (the constrained maximum on its wall: the core holds
+    # that coordinate there and steps the other alone).
+    from haptex.surfaces import _refine_contacts
+
+    tex, h, grad, cell, rho = AREAL_CASES[name]
+    r = 0.8 * (rho or _TIGHTEST[name]())
+    rng = np.random.default_rng(7)
+    P = rng.uniform(0.0, cell[0], (40, 2))
+    g = grad(P)
+    start = r * g / np.sqrt(1 + np.sum(g * g, axis=1))[:, None]  # (the smooth contact from p's own slope)
+
+    def lift(u, p):
+        s = math.sqrt(r * r - u @ u)
+        return -(h((p + u)[None])[0] + s), -(grad((p + u)[None])[0] - u / s)
+
+    def scipys(x0, lo, hi):
+        out = []
+        for k in range(len(P)):
+            res = minimize(lift, x0[k], args=(P[k],), jac=True, method="L-BFGS-B", bounds=list(zip(lo[k], hi[k])),
+                           options={"ftol": 1e-15, "gtol": 1e-13, "maxiter": 500})
+            out.append((res.x, -res.fun))
+        return np.array([o[0] for o in out]), np.array([o[1] for o in out])
+
+    wide = np.full_like(start, 0.7 * r)
+    want, top = scipys(start, -wide, wide)
+    u, lifted = _refine_contacts(tex, P, start, -wide, wide, r, r * (1 - 1e-9), 1e-12)
+    assert np.max(np.abs(u - want)) < 1e-9  # (m; the contacts move ~0.1 mm over the cell)
+    assert np.max(np.abs(lifted - top)) < 1e-12
+    lo, hi = -wide.copy(), wide.copy()
+    lo[:, 0] = want[:, 0] + rng.uniform(1e-6, 3e-6, len(P))  # (the maximum 1-3 um outside the box along x)
+    start_in = np.clip(start, lo + 1e-7, hi)
+    want_box, top_box = scipys(start_in, lo, hi)
+    u, lifted = _refine_contacts(tex, P, start_in, lo, hi, r, r * (1 - 1e-9), 1e-12)
+    assert np.all(want_box[:, 0] == lo[:, 0])  # (scipy's maximum on the wall, as built)
+    assert np.max(np.abs(u - want_box)) < 1e-9
+    assert np.max(np.abs(lifted - top_box)) < 1e-12
+    assert np.all(top_box < top)  # (the box cost height)
+
+
 def test_on_axes_turned_to_its_gratings_the_felt_egg_crate_is_the_ball_paths():
     # The egg-crate's gratings run at +-45 degrees, its saddles' ridges along them: a tensor
     # patch on the plane's axes meets a ridge across its diagonal, and near the bowls' radius the

@@ -2283,89 +2283,25 @@ def _path_twist(texture, P, u, r):
 
 def _refine_contacts(texture, P, u, lo, hi, r, rim, tol):
     """Safeguarded Newton ascent of g(u) = H(P + u) + sqrt(r^2 - |u|^2) from offsets u (n, 2)
-    within the boxes [lo, hi] (n, 2) and the disc |u| <= rim: at most CONTACT_NEWTON_STEPS
-    steps, each on the samples still moving (an active set: a sample leaves it once its
-    accepted step is shorter than ``tol`` (m) or no halving of its step longer than ``tol``
-    raises g; Newton's error then ~ tol^2 times the curvature's ratio), each step's
-    H, grad H and Hessian from one evaluation of the texture. A coordinate at its bound whose
-    ascent points out of the box is held there and the other stepped by its own curvature
-    (projected Newton: on a map's rim the full step, clipped, stalled 1e-3 of an interval short).
-    Returns u (n, 2) and g there (n,)."""
-    from . import core
-
-    # (a map's own evaluation, with its fallback past the patches' budget; the C core's otherwise)
-    deriv = texture._derivatives if isinstance(texture, SampledSurface) else partial(core.texture_derivatives, texture)
-    u = np.array(u, dtype=np.float64, order="C")  # (a copy: the rows set below are its own)
-    gu = np.empty(u.shape[0])
-    act = np.arange(u.shape[0])
-    for it in range(CONTACT_NEWTON_STEPS):
-        ua, Pa, la, ha = (np.take(a, act, axis=0) for a in (u, P, lo, hi))
-        d = deriv(Pa + ua)  # h, h_x, h_y, h_xx, h_xy, h_yy
-        left = r * r - np.einsum("ij,ij->i", ua, ua)  # (r^2 - |u|^2)
-        s2 = np.maximum(left, (r - rim) * r)
-        sq = np.sqrt(s2)
-        if it == 0:
-            gu[act] = d[:, 0] + np.sqrt(np.maximum(left, 0.0))
-        ga = gu[act]
-        g0 = d[:, 1] - ua[:, 0] / sq
-        g1 = d[:, 2] - ua[:, 1] / sq
-        w = 1.0 / (s2 * sq)
-        # the Hessian of g: H's minus the sphere cap's (I / sq + u u^T / sq^3)
-        h00 = d[:, 3] - (1.0 / sq + ua[:, 0] * ua[:, 0] * w)
-        h01 = d[:, 4] - ua[:, 0] * ua[:, 1] * w
-        h11 = d[:, 5] - (1.0 / sq + ua[:, 1] * ua[:, 1] * w)
-        # ascent on the concave part: -hess shifted to positive definite where it is not
-        scale = _symmetric_2x2_norm(h00, h01, h11)
-        a, b_, c = -h00, -h01, -h11
-        least = 0.5 * (a + c) - np.hypot(0.5 * (a - c), b_)
-        shift = np.where(least > 1e-12 * scale, 0.0, np.abs(least) + 1e-6 * scale + 1e-300)
-        a, c = a + shift, c + shift
-        det = a * c - b_ * b_
-        step = np.column_stack([(c * g0 - b_ * g1) / det, (a * g1 - b_ * g0) / det])
-        # a coordinate held at its bound by an ascent that points out of the box is fixed there,
-        # the other stepped alone (projected Newton: the full step, clipped, moved the free one
-        # by the coupling to the held one and stalled short of the optimum on the bound)
-        edge = 1e-9 * np.maximum(ha - la, 1e-300)
-        held = (((ua <= la + edge) & (np.column_stack([g0, g1]) < 0))
-                | ((ua >= ha - edge) & (np.column_stack([g0, g1]) > 0)))
-        for k, (gk, hk) in enumerate(((g0, -h00), (g1, -h11))):  # (the free one's own curvature)
-            one = held[:, 1 - k] & ~held[:, k]
-            curv = np.where(hk[one] > 1e-12 * scale[one], hk[one], np.abs(hk[one]) + 1e-6 * scale[one] + 1e-300)
-            step[one, k], step[one, 1 - k] = gk[one] / curv, 0.0
-        step[held[:, 0] & held[:, 1]] = 0.0
-        moved = np.zeros(act.size)
-        todo = np.arange(act.size)  # the samples whose step has not yet raised g
-        for _half in range(6):  # backtracking: only steps that raise g, inside the box and the disc
-            ut = np.take(ua, todo, axis=0)
-            cand = np.clip(ut + np.take(step, todo, axis=0), np.take(la, todo, axis=0), np.take(ha, todo, axis=0))
-            norm = np.sqrt(cand[:, 0] * cand[:, 0] + cand[:, 1] * cand[:, 1])  # (numpy's norm, to the bit)
-            cand = np.where((norm > rim)[:, None], cand * (rim / np.maximum(norm, 1e-300))[:, None], cand)
-            gc = deriv(np.take(Pa, todo, axis=0) + cand)[:, 0] + np.sqrt(
-                np.maximum(r * r - np.einsum("ij,ij->i", cand, cand), 0.0))
-            up = gc > ga[todo]
-            tu, cu = todo[up], np.compress(up, cand, axis=0)
-            dv = cu - np.compress(up, ut, axis=0)
-            moved[tu] = np.sqrt(dv[:, 0] * dv[:, 0] + dv[:, 1] * dv[:, 1])
-            _set_rows(ua, tu, cu)
-            ga[tu] = gc[up]
-            todo = todo[~up]
-            st = np.take(step, todo, axis=0)
-            todo = todo[np.einsum("ij,ij->i", st, st) > tol * tol]  # (shorter: converged)
-            if todo.size == 0:
-                break
-            step[todo] *= 0.5
-        _set_rows(u, act, ua)
-        gu[act] = ga
-        act = act[moved > tol]
-        if act.size == 0:
-            break
-    return u, gu
-
-
-def _set_rows(a, idx, rows):
-    """a[idx] = rows for a C-ordered float array a (n, 2) and rows (k, 2): through a complex view,
-    one element a row (numpy's row assignment by an index array took 14 times as long here)."""
-    a.view(np.complex128)[idx, 0] = np.ascontiguousarray(rows, dtype=np.float64).view(np.complex128)[:, 0]
+    within the boxes [lo, hi] (n, 2) and the disc |u| <= rim, by the C core
+    (``hx_contact_ascent``, hx_felt.c; each point its own ascent, on the core's threads): at most
+    CONTACT_NEWTON_STEPS steps, each from one evaluation of H, grad H and its Hessian at the
+    contact, the ascent's Hessian shifted to negative definite where it is not; a step is kept
+    only where it raises g (inside the box and the disc), halved while longer than ``tol`` (m;
+    Newton's error then ~ tol^2 times the curvature's ratio), and a point stops once its kept
+    step is shorter than ``tol``. A coordinate at its bound whose ascent points out of the box
+    is held there and the other stepped by its own curvature (projected Newton: on a map's rim
+    the full step, clipped, stalled 1e-3 of an interval short). Returns u (n, 2) and g there
+    (n,). The texture's patches are built first (ParameterError past the memory budget)."""
+    kind, coeffs = texture.kernel_data()
+    coeffs = np.ascontiguousarray(coeffs, dtype=np.float64)  # (a map's checked table is kept as it is)
+    u = np.array(u, dtype=np.float64, order="C")  # (a copy: refined in place)
+    P, lo, hi = (np.ascontiguousarray(np.broadcast_to(a, u.shape), dtype=np.float64) for a in (P, lo, hi))
+    g = np.empty(u.shape[0])
+    _core.in_slices(lambda a, b: _ext.contact_ascent(kind, coeffs, P[a:b], u[a:b], lo[a:b], hi[a:b], g[a:b], float(r),
+                                                     float(rim), float(tol), CONTACT_NEWTON_STEPS),
+                    u.shape[0], least=256)
+    return u, g
 
 
 def _continued_contacts(texture, Ps, us, P, r, rim, reach, steps, tol):

@@ -2250,6 +2250,75 @@ done:
     Py_RETURN_NONE;
 }
 
+PyDoc_STRVAR(contact_ascent_doc,
+"contact_ascent(kind, coeffs, P, u, lo, hi, g, r, rim, tol, steps)\n--\n\n"
+"Each ball contact refined (hx_contact_ascent): the safeguarded Newton ascent of\n"
+"H(P + u) + sqrt(r^2 - |u|^2) from offsets u (float64 (N, 2), m, in place) within the boxes\n"
+"[lo, hi] (N, 2) and the disc |u| <= rim, its maximum into g (N,); r, rim, tol (m), at most\n"
+"steps Newton steps. The GIL is released.");
+
+static PyObject *contact_ascent(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    Py_buffer b[6];
+    static const char *names[6] = {"coeffs", "P", "u", "lo", "hi", "g"};
+    hx_texture tex;
+    long kind, steps;
+    double r, rim, tol;
+    int got, rc, i;
+    Py_ssize_t n;
+    (void)self;
+    if (nargs != 11) {
+        PyErr_SetString(PyExc_TypeError, "contact_ascent takes 11 arguments");
+        return NULL;
+    }
+    kind = PyLong_AsLong(args[0]);
+    if (kind == -1 && PyErr_Occurred())
+        return NULL;
+    r = PyFloat_AsDouble(args[7]);
+    rim = PyFloat_AsDouble(args[8]);
+    tol = PyFloat_AsDouble(args[9]);
+    steps = PyLong_AsLong(args[10]);
+    if (PyErr_Occurred())
+        return NULL;
+    if (!(r > 0.0) || !(rim > 0.0) || !(rim <= r) || !(tol >= 0.0) || steps < 0 || steps > 1000) {
+        PyErr_SetString(PyExc_ValueError, "contact_ascent: need r > 0, 0 < rim <= r, tol >= 0, 0 <= steps <= 1000");
+        return NULL;
+    }
+    for (got = 0; got < 6; got++) {
+        if (get_doubles(args[1 + got], &b[got], got == 2 || got == 5, got == 0 ? -1 : (got == 5 ? 1 : 2),
+                        names[got]) != 0)
+            goto done;
+    }
+    rc = texture_over(&tex, kind, &b[0]);
+    if (rc == HX_OK)
+        rc = texture_check(args[1], &b[0], &tex);
+    if (rc != HX_OK) {
+        core_error(rc);
+        goto done;
+    }
+    n = b[1].shape[0];
+    for (i = 1; i < 5; i++) {
+        if (b[i].shape[0] != n || b[i].shape[1] != 2) {
+            PyErr_SetString(PyExc_ValueError, "contact_ascent: P, u, lo and hi must be (N, 2) and g (N,)");
+            goto done;
+        }
+    }
+    if (b[5].shape[0] != n) {
+        PyErr_SetString(PyExc_ValueError, "contact_ascent: P, u, lo and hi must be (N, 2) and g (N,)");
+        goto done;
+    }
+    Py_BEGIN_ALLOW_THREADS
+    hx_contact_ascent(&tex, (long)n, (const double *)b[1].buf, (double *)b[2].buf, (const double *)b[3].buf,
+                      (const double *)b[4].buf, r, rim, tol, (int)steps, (double *)b[5].buf);
+    Py_END_ALLOW_THREADS
+done:
+    for (i = 0; i < got; i++)
+        PyBuffer_Release(&b[i]);
+    if (PyErr_Occurred())
+        return NULL;
+    Py_RETURN_NONE;
+}
+
 PyDoc_STRVAR(run_general_doc,
 "run_general(code, kind, nominal, kinematic, pc_on, pc_mode, n_steps, period, record_every, tail_start,\n"
 "            sp_t, prm, coeffs, aux, Phi, Wd, Wo, Bs, Binv, fast, mass, modal, K, C, f0, sp_p, vend, rest_len,\n"
@@ -2818,6 +2887,7 @@ static PyMethodDef methods[] = {
     {"normal", (PyCFunction)(void (*)(void))normal, METH_FASTCALL, normal_doc},
     {"lsf_to_poly", (PyCFunction)(void (*)(void))lsf_to_poly, METH_FASTCALL, lsf_to_poly_doc},
     {"texture", (PyCFunction)(void (*)(void))texture, METH_FASTCALL, texture_doc},
+    {"contact_ascent", (PyCFunction)(void (*)(void))contact_ascent, METH_FASTCALL, contact_ascent_doc},
     {"checked", (PyCFunction)(void (*)(void))checked, METH_FASTCALL, checked_doc},
     {"checks", (PyCFunction)checks, METH_NOARGS, checks_doc},
     {"run_lean", (PyCFunction)(void (*)(void))run_lean, METH_FASTCALL, run_lean_doc},

@@ -787,6 +787,14 @@ int hx_run_general(const hx_model *m, const hx_general_run *r);
 void hx_free_run(long n, const double *c, double fc, long windows, long steps, const double *force,
                  double *p0, double *v0, double *pos);
 
+/* The ball's contacts on texture t (haptex.surfaces' felt maps; hx_felt.c): for each of n centres
+ * P (n x 2, m) the offset U (n x 2, m, refined in place) that maximises g(u) = H(P + u) +
+ * sqrt(r^2 - |u|^2) within the box [lo, hi] (n x 2) and the disc |u| <= rim, by at most `steps`
+ * safeguarded Newton steps (a step kept only where it raises g, halved while longer than tol,
+ * m; a coordinate at its bound held there while the ascent points out), g there into G (n). */
+void hx_contact_ascent(const hx_texture *t, long n, const double *P, double *U, const double *lo, const double *hi,
+                       double r, double rim, double tol, int steps, double *G);
+
 
 #ifdef __cplusplus
 }
