@@ -224,11 +224,20 @@ def _path_q(amps, periods, phases, period, r, dmax=1e-3, n=2000, m=20001):
     H1, H2 = (lambda x: H(x, 1)), (lambda x: H(x, 2))
     u = np.linspace(-r, r, m)
 
+    def over(c, g):  # H(c_i + g_j), (c.size, g.size): by the angle addition, sin(A + B) = sin A cos B +
+        A, B = c[:, None] * k + ph, g[:, None] * k  # cos A sin B, two (n, J) x (J, m) products
+        return (a * np.sin(A)) @ np.cos(B).T + (a * np.cos(A)) @ np.sin(B).T
+
+    def best(c, g, lift):  # the arg-max over g of H(c_i + g) + lift (g.size,), in blocks of c
+        return np.concatenate([np.argmax(over(c[i:i + 200], g) + lift, axis=1) for i in range(0, c.size, 200)])
+
     def contact(x):  # the arg-max offsets u* (shape of x)
-        j = np.array([np.argmax(H(xi + u) + np.sqrt(np.maximum(r * r - u * u, 0.0))) for xi in x])
-        fine = u[np.maximum(j - 1, 0)][:, None] + np.linspace(0, 2, 4001)[None] * (u[1] - u[0])
-        us = fine[np.arange(x.size), np.argmax(H(x[:, None] + fine) + np.sqrt(np.maximum(r * r - fine**2, 0.0)),
-                                               axis=1)]
+        j = best(x, u, np.sqrt(np.maximum(r * r - u * u, 0.0)))
+        base, t = u[np.maximum(j - 1, 0)], np.linspace(0, 2, 4001) * (u[1] - u[0])  # (each point's own offsets:
+        fine = base[:, None] + t[None]  # its base and a grid t shared by all)
+        lift = np.sqrt(np.maximum(r * r - fine**2, 0.0))
+        us = fine[np.arange(x.size), np.concatenate(
+            [np.argmax(over(x[i:i + 200] + base[i:i + 200], t) + lift[i:i + 200], axis=1) for i in range(0, x.size, 200)])]
         for _ in range(5):
             w = np.sqrt(r * r - us * us)
             us = us - (H1(x + us) - us / w) / (H2(x + us) - r * r / w**3)
