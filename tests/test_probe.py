@@ -30,6 +30,35 @@ def _centre_path(tex, x, r, n=400_001):
     return np.array([np.max(tex.height(xi + u) + np.sqrt(np.maximum(r * r - u * u, 0.0))) - r for xi in x])
 
 
+@pytest.mark.parametrize("periodic", [True, False])
+@pytest.mark.parametrize("shape, steps, r", [((40, 33), (1e-6, 1.3e-6), 4.1e-6), ((257,), (1e-6,), 9.5e-6),
+                                             ((64, 64), (1e-6, 1e-6), 1e-6)])
+def test_the_grid_dilation_is_scipys_grey_dilation_by_the_balls_cap(shape, steps, r, periodic):
+    # Every felt texture starts from each sample's best grid offset under the ball
+    # (probe._grid_contacts): max over the offsets u in the disc of h(p + u) + sqrt(r^2 - |u|^2).
+    # Truth: scipy.ndimage.grey_dilation with the disc as footprint and the cap as a non-flat
+    # structuring element (Serra's grey-scale dilation), wrapped on a periodic grid, the edge
+    # samples repeated beyond a bounded one ('nearest'); the cap written here from the grid
+    # (its rounding a few ulps from the one haptex computes). The offsets it names reach that
+    # maximum. On a random map, a random profile and a ball of one grid step.
+    from scipy import ndimage
+
+    from haptex.probe import _grid_contacts
+
+    h = np.random.default_rng(2).normal(0.0, 1e-6, shape)
+    best, offsets = _grid_contacts(h, steps, r, periodic)
+    axes = np.meshgrid(*(np.arange(-int(r // d), int(r // d) + 1) * d for d in steps), indexing="ij")
+    left = r * r - sum(a * a for a in axes)
+    cap = np.sqrt(np.maximum(left, 0.0))
+    truth = ndimage.grey_dilation(h, footprint=left >= 0, structure=cap, mode="wrap" if periodic else "nearest")
+    ulps = 8 * np.spacing(np.max(np.abs(truth)))
+    assert np.max(np.abs(best - truth)) <= ulps
+    idx = np.indices(shape)
+    at = tuple((i + k) % n if periodic else np.clip(i + k, 0, n - 1) for i, k, n in zip(idx, offsets, shape))
+    reached = h[at] + np.sqrt(np.maximum(r * r - sum((k * d) ** 2 for k, d in zip(offsets, steps)), 0.0))
+    assert np.max(np.abs(reached - truth)) <= ulps
+
+
 @pytest.mark.parametrize("r", [0.3e-3, 0.5e-3, 0.9e-3, 3e-3])
 def test_the_felt_profile_is_the_balls_centre_path_on_its_grid(r):
     felt = SINE.felt_by(r)

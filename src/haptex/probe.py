@@ -139,30 +139,25 @@ def _grid_contacts(h: np.ndarray, steps, r: float, periodic: bool):
     (n,) or a map's (nx, ny), grid steps ``steps`` (m) an axis): the maximum of
     h(p + u) + sqrt(r^2 - |u|^2) over the offsets u = k * steps inside the disc (wrapped on a
     periodic grid, the edge samples repeated beyond another), shape h.shape, and the maximising
-    offset in samples, one array of h.shape an axis (the first offset in C order on a tie).
-    Refused past :data:`MAX_DILATION_WORK`."""
+    offset in samples, one array of h.shape an axis (the first offset in C order on a tie). By
+    the C core (``hx_grid_dilation``, hx_felt.c), on its threads in blocks of rows. Refused past
+    :data:`MAX_DILATION_WORK`."""
+    from .core import _ext, in_slices
+
     half = [int(np.floor(r / d)) for d in steps]
     _check_work(h.size, steps, r, radius=False)  # (before the list is made; the callers name the remedies)
     offs = _footprint(r, steps)
-    hp = np.pad(h, [(m, m) for m in half], mode="wrap" if periodic else "edge")
-    best = np.full(h.shape, -np.inf)
-    which = np.zeros(h.shape, dtype=np.int32)  # the best offset's index in offs
-    lift = [np.sqrt(max(r * r - sum((a * d) ** 2 for a, d in zip(k, steps)), 0.0)) for k in offs]
-    # blocks of rows: the loop's scratch (a value and a mask a sample) is a block's, not the map's
-    rows = max(1, (1 << 15) // max(1, h[0].size))
-    for r0 in range(0, h.shape[0], rows):
-        r1 = min(h.shape[0], r0 + rows)
-        b, w = best[r0:r1], which[r0:r1]
-        val = np.empty(b.shape)
-        better = np.empty(b.shape, dtype=bool)
-        for i, k in enumerate(offs):  # (in place, with masks: no temporaries per offset)
-            window = (slice(half[0] + k[0] + r0, half[0] + k[0] + r1),) + tuple(
-                slice(m + a, m + a + n) for m, a, n in zip(half[1:], k[1:], h.shape[1:]))
-            np.add(hp[window], lift[i], out=val)
-            np.greater(val, b, out=better)
-            np.copyto(b, val, where=better)
-            np.copyto(w, i, where=better)
+    lift = np.array([np.sqrt(max(r * r - sum((a * d) ** 2 for a, d in zip(k, steps)), 0.0)) for k in offs])
     table = np.array(offs, dtype=np.int64).reshape(len(offs), len(steps))
+    h2 = np.asarray(h, dtype=np.float64).reshape(h.shape[0], -1)  # (a profile: one column)
+    half2 = half + [0] * (2 - len(half))
+    hp = np.ascontiguousarray(np.pad(h2, [(m, m) for m in half2], mode="wrap" if periodic else "edge"))
+    pairs = np.ascontiguousarray(np.column_stack([table, np.zeros((len(offs), 2 - len(steps)), dtype=np.int64)]))
+    best = np.empty(h2.shape)
+    which = np.empty(h2.shape, dtype=np.int32)  # the best offset's index in offs
+    in_slices(lambda a, b: _ext.grid_dilation(hp[a:b + 2 * half2[0]], pairs, lift, half2[0], half2[1], best[a:b],
+                                              which[a:b]), h2.shape[0], least=8)
+    best, which = best.reshape(h.shape), which.reshape(h.shape)
     return best, [table[which, axis] for axis in range(len(steps))]
 
 

@@ -2319,6 +2319,85 @@ done:
     Py_RETURN_NONE;
 }
 
+PyDoc_STRVAR(grid_dilation_doc,
+"grid_dilation(hp, offs, lift, half0, half1, best, which)\n--\n\n"
+"The grid dilation by a ball's cap (hx_grid_dilation): for each sample of best (float64 (n0, n1)) the\n"
+"largest hp[sample + offset] + lift[k] over the offsets offs (int64 (k, 2), grid steps within [-half0,\n"
+"half0] x [-half1, half1]) of the heights hp (float64 (n0 + 2 half0, n1 + 2 half1): padded), and in which\n"
+"(int32 (n0, n1)) the first offset's index that reaches it. The GIL is released.");
+
+static PyObject *grid_dilation(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    Py_buffer hp, offs, lift, best, which;
+    long half0, half1;
+    Py_ssize_t k, n0, n1, n_off;
+    int ok = 0;
+    (void)self;
+    if (nargs != 7) {
+        PyErr_SetString(PyExc_TypeError, "grid_dilation takes 7 arguments");
+        return NULL;
+    }
+    half0 = PyLong_AsLong(args[3]);
+    half1 = PyLong_AsLong(args[4]);
+    if (PyErr_Occurred())
+        return NULL;
+    if (get_doubles(args[0], &hp, 0, 2, "hp") < 0)
+        return NULL;
+    if (PyObject_GetBuffer(args[1], &offs, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0)
+        goto fail_hp;
+    if (offs.itemsize != 8 || offs.ndim != 2 || !is_int64(offs.format) || offs.shape[1] != 2) {
+        PyErr_SetString(PyExc_ValueError, "offs must be a C-contiguous int64 array (k, 2)");
+        goto fail_offs;
+    }
+    if (get_doubles(args[2], &lift, 0, 1, "lift") < 0)
+        goto fail_offs;
+    if (get_doubles(args[5], &best, 1, 2, "best") < 0)
+        goto fail_lift;
+    if (PyObject_GetBuffer(args[6], &which, PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | PyBUF_WRITABLE) < 0)
+        goto fail_best;
+    n0 = best.shape[0];
+    n1 = best.shape[1];
+    n_off = offs.shape[0];
+    if (which.itemsize != (Py_ssize_t)sizeof(int) || which.ndim != 2 || which.format == NULL ||
+        (strcmp(which.format, "i") != 0 && strcmp(which.format, "l") != 0) || which.shape[0] != n0 ||
+        which.shape[1] != n1) {
+        PyErr_SetString(PyExc_ValueError, "which must be a C-contiguous int32 array of best's shape");
+        goto fail_which;
+    }
+    if (half0 < 0 || half1 < 0 || hp.shape[0] != n0 + 2 * half0 || hp.shape[1] != n1 + 2 * half1 ||
+        lift.shape[0] != n_off || n_off < 1 || n_off > 2147483647L) {
+        PyErr_SetString(PyExc_ValueError, "grid_dilation: hp must be best's shape padded by half0 and half1 a side, "
+                                          "lift one value an offset, at least one offset");
+        goto fail_which;
+    }
+    for (k = 0; k < n_off; k++) {
+        long long a = ((const long long *)offs.buf)[2 * k], b = ((const long long *)offs.buf)[2 * k + 1];
+        if (a < -half0 || a > half0 || b < -half1 || b > half1) {
+            PyErr_SetString(PyExc_ValueError, "grid_dilation: an offset past the padding");
+            goto fail_which;
+        }
+    }
+    Py_BEGIN_ALLOW_THREADS
+    hx_grid_dilation((const double *)hp.buf, (long)hp.shape[1], (long)n0, (long)n1, half0, half1,
+                     (const long long *)offs.buf, (const double *)lift.buf, (long)n_off, (double *)best.buf,
+                     (int *)which.buf);
+    Py_END_ALLOW_THREADS
+    ok = 1;
+fail_which:
+    PyBuffer_Release(&which);
+fail_best:
+    PyBuffer_Release(&best);
+fail_lift:
+    PyBuffer_Release(&lift);
+fail_offs:
+    PyBuffer_Release(&offs);
+fail_hp:
+    PyBuffer_Release(&hp);
+    if (!ok)
+        return NULL;
+    Py_RETURN_NONE;
+}
+
 PyDoc_STRVAR(run_general_doc,
 "run_general(code, kind, nominal, kinematic, pc_on, pc_mode, n_steps, period, record_every, tail_start,\n"
 "            sp_t, prm, coeffs, aux, Phi, Wd, Wo, Bs, Binv, fast, mass, modal, K, C, f0, sp_p, vend, rest_len,\n"
@@ -2888,6 +2967,7 @@ static PyMethodDef methods[] = {
     {"lsf_to_poly", (PyCFunction)(void (*)(void))lsf_to_poly, METH_FASTCALL, lsf_to_poly_doc},
     {"texture", (PyCFunction)(void (*)(void))texture, METH_FASTCALL, texture_doc},
     {"contact_ascent", (PyCFunction)(void (*)(void))contact_ascent, METH_FASTCALL, contact_ascent_doc},
+    {"grid_dilation", (PyCFunction)(void (*)(void))grid_dilation, METH_FASTCALL, grid_dilation_doc},
     {"checked", (PyCFunction)(void (*)(void))checked, METH_FASTCALL, checked_doc},
     {"checks", (PyCFunction)checks, METH_NOARGS, checks_doc},
     {"run_lean", (PyCFunction)(void (*)(void))run_lean, METH_FASTCALL, run_lean_doc},

@@ -794,6 +794,12 @@ void hx_free_run(long n, const double *c, double fc, long windows, long steps, c
  * m; a coordinate at its bound held there while the ascent points out), g there into G (n). */
 void hx_contact_ascent(const hx_texture *t, long n, const double *P, double *U, const double *lo, const double *hi,
                        double r, double rim, double tol, int steps, double *G);
+/* The grid dilation by a ball's cap (hx_felt.c): for each of n0 x n1 samples (row-major) the largest
+ * hp[sample + offset] + lift[k] over the n_off offsets offs (n_off x 2 grid steps, each within
+ * [-half0, half0] x [-half1, half1]) of heights hp padded by half0 rows and half1 columns a side
+ * (row length p1 = n1 + 2 half1), into best, and the first offset that reaches it into which. */
+void hx_grid_dilation(const double *hp, long p1, long n0, long n1, long half0, long half1, const long long *offs,
+                      const double *lift, long n_off, double *best, int *which);
 
 
 #ifdef __cplusplus

@@ -6,8 +6,9 @@
  *     g(u) = H(p + u) + sqrt(r^2 - |u|^2)
  *
  * over a box of offsets and the disc |u| <= rim (the centre path c(p) = max g: a grey-scale
- * dilation by the ball; Villarrubia, J. Res. NIST 102(4), 1997). Analysis only: not a servo
- * tick's (``haptex export`` does not ship this file).
+ * dilation by the ball; Villarrubia, J. Res. NIST 102(4), 1997): first over the grid's offsets
+ * (hx_grid_dilation), then refined on the texture itself (hx_contact_ascent). Analysis only: not
+ * a servo tick's (``haptex export`` does not ship this file).
  */
 #include "hx_core.h"
 
@@ -125,5 +126,30 @@ void hx_contact_ascent(const hx_texture *t, long n, const double *P, double *U, 
                 break;
         }
         G[i] = g;
+    }
+}
+
+void hx_grid_dilation(const double *hp, long p1, long n0, long n1, long half0, long half1, const long long *offs,
+                      const double *lift, long n_off, double *best, int *which)
+{
+    long i, j, k;
+    for (i = 0; i < n0; i++) { /* a row at a time, the offsets in their order (the first that reaches the maximum
+                                * kept), each along the row (contiguous) */
+        double *b = best + i * n1;
+        int *w = which + i * n1;
+        for (j = 0; j < n1; j++) {
+            b[j] = -HUGE_VAL;
+            w[j] = 0;
+        }
+        for (k = 0; k < n_off; k++) {
+            const double *row = hp + (i + half0 + (long)offs[2 * k]) * p1 + half1 + (long)offs[2 * k + 1];
+            double l = lift[k];
+            for (j = 0; j < n1; j++) { /* (branch-free: the compiler's vector loop) */
+                double v = row[j] + l;
+                int up = v > b[j];
+                b[j] = up ? v : b[j];
+                w[j] = up ? (int)k : w[j];
+            }
+        }
     }
 }
