@@ -20,14 +20,16 @@ static double sym_norm(double a, double b, double c)
     return 0.5 * fabs(a + c) + hypot(0.5 * (a - c), b);
 }
 
-/* the candidate offset u + s clipped to the box [lo, hi] and pulled onto the disc |u| <= rim */
+/* the candidate offset u + s clipped to the box [lo, hi] (min(max(v, lo), hi), as NumPy's clip: hi where a box
+ * cut by a map's edge has lo > hi) and pulled onto the disc |u| <= rim */
 static void candidate(const double *u, const double *s, const double *lo, const double *hi, double rim, double *c)
 {
     double norm;
     int k;
     for (k = 0; k < 2; k++) {
         double v = u[k] + s[k];
-        c[k] = v < lo[k] ? lo[k] : (v > hi[k] ? hi[k] : v);
+        double m = v < lo[k] ? lo[k] : v;
+        c[k] = m > hi[k] ? hi[k] : m;
     }
     norm = sqrt(c[0] * c[0] + c[1] * c[1]);
     if (norm > rim) {
