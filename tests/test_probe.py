@@ -257,16 +257,15 @@ def _path_q(amps, periods, phases, period, r, dmax=1e-3, n=2000, m=20001):
         A, B = c[:, None] * k + ph, g[:, None] * k  # cos A sin B, two (n, J) x (J, m) products
         return (a * np.sin(A)) @ np.cos(B).T + (a * np.cos(A)) @ np.sin(B).T
 
-    def best(c, g, lift):  # the arg-max over g of H(c_i + g) + lift (g.size,), in blocks of c
-        return np.concatenate([np.argmax(over(c[i:i + 200], g) + lift, axis=1) for i in range(0, c.size, 200)])
+    def argmax(c, g, lift):  # the arg-max over g of H(c_i + g) + lift_i, in blocks of 200 points c
+        lift = np.broadcast_to(lift, (c.size, g.size))
+        return np.concatenate([np.argmax(over(c[i:i + 200], g) + lift[i:i + 200], axis=1) for i in range(0, c.size, 200)])
 
     def contact(x):  # the arg-max offsets u* (shape of x)
-        j = best(x, u, np.sqrt(np.maximum(r * r - u * u, 0.0)))
+        j = argmax(x, u, np.sqrt(np.maximum(r * r - u * u, 0.0)))
         base, t = u[np.maximum(j - 1, 0)], np.linspace(0, 2, 4001) * (u[1] - u[0])  # (each point's own offsets:
         fine = base[:, None] + t[None]  # its base and a grid t shared by all)
-        lift = np.sqrt(np.maximum(r * r - fine**2, 0.0))
-        us = fine[np.arange(x.size), np.concatenate(
-            [np.argmax(over(x[i:i + 200] + base[i:i + 200], t) + lift[i:i + 200], axis=1) for i in range(0, x.size, 200)])]
+        us = fine[np.arange(x.size), argmax(x + base, t, np.sqrt(np.maximum(r * r - fine**2, 0.0)))]
         for _ in range(5):
             w = np.sqrt(r * r - us * us)
             us = us - (H1(x + us) - us / w) / (H2(x + us) - r * r / w**3)
