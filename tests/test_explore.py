@@ -300,6 +300,49 @@ def test_an_object_that_leaves_a_seam_is_refused_naming_a_radius_as_the_object_b
     object_algorithm("A", hx.SumOfGratings.egg_crate(0.8e-3, 1e-3), Sphere(20.0535228296e-3), K0)
 
 
+@pytest.mark.long  # (a map's views on the plane and on the sphere: about 10 s)
+def test_a_measured_map_on_a_closed_object_is_closed_by_the_pages_periodic_switch(tmp_path):
+    """A measured map (an NPY file written by numpy: one 1 mm period of an egg-crate, 32 x 32
+    samples) on a sphere is refused for its seam naming the periodic switch of the page's file
+    boxes (before 2026-12-01 it named "--periodic at the command line, periodic=True in Python":
+    the page had no such switch, and the map could not be put on an object there); with the
+    switch, the seam's radius is named as the object box takes it, and with that radius the
+    page's q is the library's for the map read periodic (load_texture(periodic=True)) on that
+    sphere."""
+    import html
+
+    from bokeh.document import Document
+
+    from haptex.explore import app
+    from haptex.objects import Sphere, object_algorithm
+
+    g = np.arange(32) / 32
+    path = tmp_path / "cell.npy"
+    np.save(path, 50.0 * np.sin(2 * np.pi * g)[:, None] * np.sin(2 * np.pi * g)[None, :])  # (um)
+    page = app(Document())
+    page.settings.file, page.settings.file_name = str(path), path.name
+    page.settings.device = "point-mass"  # (a map: a 3-DOF device)
+    page.w_spacing.value, page.w_height_unit.value = "31.25 um", "um"
+    page.w_texture.value = "file"
+    assert page.d_message.text.endswith("></span>"), page.d_message.text  # (read, on the plane)
+    assert page.w_periodic.visible and not page.settings.periodic
+    page.w_object.value = "sphere:20mm"
+    said = html.unescape(page.d_message.text)
+    assert "(periodic = true in the file boxes)" in said and "--" not in said, said
+    page.w_object.value = "plane"  # (the refused object undone)
+    page.w_periodic.active = [0]
+    assert page.d_message.text.endswith("></span>"), page.d_message.text
+    page.w_object.value = "sphere:20mm"
+    said = html.unescape(page.d_message.text)
+    assert "(object = 'sphere:20.0535228296mm' in the object box)" in said and "--" not in said, said
+    page.w_object.value = "sphere:20.0535228296mm"
+    assert page.d_message.text.endswith("></span>"), page.d_message.text
+    tex = hx.load_texture(path, spacing=31.25e-6, height_unit="um", periodic=True)
+    assert np.array_equal(page.scene.texture.h, tex.h) and page.scene.texture.periodic
+    q = hx.characteristic_number(object_algorithm("A", tex, Sphere(20.0535228296e-3), K0), max_penetration=1e-3)
+    assert f'<span id="q-value">{q.value:.4g}</span>' in page.d_q.text
+
+
 def test_the_page_shows_a_texture_on_an_object():
     """Issue 32's object view: the egg-crate on a sphere of 40 periods round, its top at the
     origin: q is the library's for the object (1.214, the plane's 1.181), the section y = y0 shows

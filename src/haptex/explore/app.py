@@ -229,6 +229,9 @@ class ExplorerPage:
         self.w_fill = CheckboxGroup(labels=["file: fill undefined heights"], active=[0] if s.fill_undefined else [],
                                     width=220, html_id="fill-undefined")
         self.w_fill.on_change("active", lambda attr, old, new: self._set("fill_undefined", bool(new)))
+        self.w_periodic = CheckboxGroup(labels=["file: periodic (one period: closes an object's seam)"],
+                                        active=[0] if s.periodic else [], width=220, html_id="file-periodic")
+        self.w_periodic.on_change("active", lambda attr, old, new: self._set("periodic", bool(new)))
         self.w_pixel = text("pixel_size", "image: pixel size", s.pixel_size)
         self.w_hrange = text("height_range", "image: black-to-white height", s.height_range)
         self.w_algorithm = choice("algorithm", "algorithm", model.ALGORITHM_LABELS)
@@ -364,7 +367,8 @@ class ExplorerPage:
 
         texture_box = column(self.w_texture, self.w_amplitude, self.w_period, self.w_terms, self.w_noise, self.w_file,
                              self.w_spacing, self.w_x_unit, self.w_height_unit, self.w_variable, self.w_crop,
-                             self.w_fill, self.w_pixel, self.w_hrange, self.w_section, self.w_object, self.w_mesh,
+                             self.w_fill, self.w_periodic, self.w_pixel, self.w_hrange, self.w_section,
+                             self.w_object, self.w_mesh,
                              self.w_uv_scale)
         controls = column(texture_box, self.w_algorithm, self.w_stiffness, self.w_dmax, self.w_friction,
                           self.w_presliding, self.w_device, self.w_hand, self.w_speed, self.w_duration,
@@ -412,6 +416,7 @@ class ExplorerPage:
         self.w_pixel.visible = self.w_hrange.visible = k == "image"
         for w in (self.w_spacing, self.w_x_unit, self.w_height_unit, self.w_variable, self.w_crop, self.w_fill):
             w.visible = k == "file"
+        self.w_periodic.visible = k in ("file", "image")
         self.w_section.visible = self.w_object.visible = self.scene is not None and self.scene.dimension == 3
         self.w_mesh.visible = self.w_uv_scale.visible = (self.w_object.visible
                                                          and str(self.settings.object).strip().lower() == "mesh")

@@ -53,7 +53,7 @@ MAX_PATH_VERTICES = 400
 #: it runs (a Python thread cannot be stopped once started; issue 33).
 MAX_VIEW_SECONDS = 60.0
 
-READING = ("spacing", "x_unit", "height_unit", "variable", "crop", "fill_undefined")
+READING = ("spacing", "x_unit", "height_unit", "variable", "crop", "fill_undefined", "periodic")
 """The settings that say how a measured file is read (the page's file boxes; a refusal that
 asks for one keeps the file)."""
 
@@ -92,6 +92,9 @@ class Settings:
     fill_undefined : bool
         Measured file only: fill its undefined (NaN) heights by interpolation (as
         ``--fill-undefined``) instead of refusing it.
+    periodic : bool
+        Measured file or image only: read it as one period of a periodic texture (as
+        ``--periodic``): what a closed object (a sphere, a cylinder) needs, whose seam it closes.
     algorithm : str
         W or A–G.
     stiffness : str
@@ -139,6 +142,7 @@ class Settings:
     variable: str = ""
     crop: str = ""
     fill_undefined: bool = False
+    periodic: bool = False
     algorithm: str = "A"
     stiffness: str = f"{PAPER_PARAMETERS['stiffness'] / 1e3:g} kN/m"
     max_penetration: str = f"{PAPER_PARAMETERS['max_penetration'] * 1e3:g} mm"
@@ -300,12 +304,13 @@ def build(settings: Settings) -> Scene:
         try:
             if kind == "image":
                 lo_hi = quantity(s.height_range, "m", "height_range")
-                tex = SampledSurface.from_image(s.file, quantity(s.pixel_size, "m", "pixel_size"), (0.0, lo_hi))
+                tex = SampledSurface.from_image(s.file, quantity(s.pixel_size, "m", "pixel_size"), (0.0, lo_hi),
+                                                periodic=bool(s.periodic))
             else:  # what the file does not state (a .mat's spacing, a text file's units); blank: the file says
                 tex = texture_from_spec(s.file, spacing=s.spacing.strip() or None, x_unit=s.x_unit.strip() or None,
                                         height_unit=s.height_unit.strip() or None,
                                         variable=s.variable.strip() or None, crop=s.crop.strip() or None,
-                                        fill_undefined=bool(s.fill_undefined))
+                                        fill_undefined=bool(s.fill_undefined), periodic=bool(s.periodic))
         except ParameterError as exc:  # (the file's own name; a reading remedy in the page's file boxes)
             said = remedy_in(str(exc), "in the file boxes") if kind == "file" else str(exc)
             raise ParameterError(said.replace(str(s.file), s.file_name or str(s.file))) from None
@@ -348,9 +353,13 @@ def build(settings: Settings) -> Scene:
                        f"one of {', '.join(OBJECT_DESIGN_LETTERS)} on an object (or the object 'plane')")
         try:
             alg = object_algorithm(letter, tex, base, stiffness, **params)
-        except ParameterError as exc:  # (a seam's radius as the object box takes it; the page closes no file)
+        except ParameterError as exc:  # (a seam's radius as the object box takes it; a file closed by its switch)
             said = str(exc)
-            raise ParameterError(remedy_in(said, "in the object box") if "--object " in said else said) from None
+            if "--object " in said:
+                said = remedy_in(said, "in the object box")
+            elif "--periodic" in said and kind in ("file", "image"):
+                said = remedy_in(said, "in the file boxes")
+            raise ParameterError(said) from None
     elif letter in ALGORITHMS and not ALGORITHMS[letter].textured:
         alg = algorithm(letter, Flat(dimension=2) if tex.dimension == 2 else None, stiffness)
         tex = alg.texture  # the smooth wall ignores the texture: show the flat boundary it renders
