@@ -253,9 +253,8 @@ def _path_q(amps, periods, phases, period, r, dmax=1e-3, n=2000, m=20001):
     H1, H2 = (lambda x: H(x, 1)), (lambda x: H(x, 2))
     u = np.linspace(-r, r, m)
 
-    def over(c, g):  # H(c_i + g_j), (c.size, g.size): by the angle addition, sin(A + B) = sin A cos B +
-        A, B = c[:, None] * k + ph, g[:, None] * k  # cos A sin B, two (n, J) x (J, m) products
-        return (a * np.sin(A)) @ np.cos(B).T + (a * np.cos(A)) @ np.sin(B).T
+    def over(c, g):  # H(c_i + g_j), (c.size, g.size): the angle addition (_sines_over)
+        return _sines_over(a, k[:, None], ph, c[:, None], g[:, None])
 
     def argmax(c, g, lift):  # the arg-max over g of H(c_i + g) + lift_i, in blocks of 200 points c
         lift = np.broadcast_to(lift, (c.size, g.size))
@@ -473,7 +472,13 @@ def _over_offsets(h, centre, grid, q):
     sines = getattr(h, "sines", None)
     if sines is None:
         return h(q.reshape(-1, 2)).reshape(q.shape[:2])
-    a, k, ph = sines
+    return _sines_over(*sines, centre, grid)
+
+
+def _sines_over(a, k, ph, centre, grid):
+    """sum_j a_j sin(k_j . (c + g) + ph_j) at every centre c (n, d) plus every offset g (m, d),
+    shape (n, m), for wave vectors k (J, d): by the angle addition, sin(A + B) = sin A cos B +
+    cos A sin B with A = k_j . c + ph_j and B = k_j . g, two (n, J) x (J, m) products."""
     A, B = centre @ k.T + ph, grid @ k.T
     return (a * np.sin(A)) @ np.cos(B).T + (a * np.cos(A)) @ np.sin(B).T
 

@@ -115,6 +115,14 @@ static int texture_check(PyObject *obj, const Py_buffer *v, const hx_texture *t)
     return hx_texture_check(t->kind, t->c, t->rows, t->cols);
 }
 
+/* t over the coefficients (obj, buffer v) of this kind, checked (texture_over, texture_check): HX_OK or the
+ * first failure's code */
+static int texture_of(hx_texture *t, long kind, PyObject *obj, const Py_buffer *v)
+{
+    int rc = texture_over(t, kind, v);
+    return rc == HX_OK ? texture_check(obj, v, t) : rc;
+}
+
 PyDoc_STRVAR(checked_doc,
 "checked(kind, coeffs)\n--\n\n"
 "A read-only float64 array of coeffs' shape (1 or 2 dimensions) holding a copy of them, checked\n"
@@ -334,9 +342,7 @@ static PyObject *texture(PyObject *self, PyObject *const *args, Py_ssize_t nargs
         return NULL;
     if (get_doubles(args[1], &coeffs, 0, -1, "coeffs") < 0)
         return NULL;
-    rc = texture_over(&t, kind, &coeffs);
-    if (rc == HX_OK)
-        rc = texture_check(args[1], &coeffs, &t);
+    rc = texture_of(&t, kind, args[1], &coeffs);
     if (rc != HX_OK) {
         PyBuffer_Release(&coeffs);
         return core_error(rc);
@@ -2215,9 +2221,7 @@ static PyObject *closest_surface(PyObject *self, PyObject *const *args, Py_ssize
         if (!ok)
             goto done;
     }
-    rc = texture_over(&tex, kind, &b[0]);
-    if (rc == HX_OK)
-        rc = texture_check(args[1], &b[0], &tex);
+    rc = texture_of(&tex, kind, args[1], &b[0]);
     if (rc == HX_OK)
         rc = hx_surface_aux_check((const double *)b[1].buf, (long)b[1].shape[0]);
     if (rc != HX_OK) {
@@ -2289,23 +2293,17 @@ static PyObject *contact_ascent(PyObject *self, PyObject *const *args, Py_ssize_
                         names[got]) != 0)
             goto done;
     }
-    rc = texture_over(&tex, kind, &b[0]);
-    if (rc == HX_OK)
-        rc = texture_check(args[1], &b[0], &tex);
+    rc = texture_of(&tex, kind, args[1], &b[0]);
     if (rc != HX_OK) {
         core_error(rc);
         goto done;
     }
     n = b[1].shape[0];
-    for (i = 1; i < 5; i++) {
-        if (b[i].shape[0] != n || b[i].shape[1] != 2) {
+    for (i = 1; i < 6; i++) {
+        if (b[i].shape[0] != n || (i < 5 && b[i].shape[1] != 2)) {
             PyErr_SetString(PyExc_ValueError, "contact_ascent: P, u, lo and hi must be (N, 2) and g (N,)");
             goto done;
         }
-    }
-    if (b[5].shape[0] != n) {
-        PyErr_SetString(PyExc_ValueError, "contact_ascent: P, u, lo and hi must be (N, 2) and g (N,)");
-        goto done;
     }
     Py_BEGIN_ALLOW_THREADS
     hx_contact_ascent(&tex, (long)n, (const double *)b[1].buf, (double *)b[2].buf, (const double *)b[3].buf,
