@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 import haptex as hx
 from haptex import core
 from haptex.core import _ext
+from haptex.surfaces import _TurnedMap
 
 from .conftest import K0, A, L, counting
 
@@ -1139,3 +1140,27 @@ def test_a_sups_starting_samples_are_the_same_on_every_machine():
     assert tex._sup(lambda xy: np.ones(np.shape(xy)[:-1]), where) == 1.0
     flat = pts.reshape(-1, 2)
     np.testing.assert_array_equal(np.array(where), flat[np.argsort(-np.ones(len(flat)), kind="stable")[:8]])
+
+
+@pytest.mark.parametrize("kind", ["map", "turned map", "gratings", "profile"])
+def test_a_textures_jet_is_its_height_gradient_and_hessian(kind):
+    # Texture._jet (what B, C, G, D, E and the objects' fields read: h, grad h and the Hessian in
+    # one evaluation of a height map's patches) is, by its definition, the three methods' values:
+    # asserted to the bit on a sampled map, a map on turned axes (_TurnedMap, the C core's
+    # PATCH_TURN), an analytic surface and a profile, at 500 points in and beyond the map
+    rng = np.random.default_rng(5)
+    if kind == "profile":
+        tex = hx.Sinusoid(A, L)
+        xt = rng.uniform(-L, 2 * L, (500, 1))
+    else:
+        g = np.linspace(0.0, 1e-3, 33, endpoint=False)
+        X, Y = np.meshgrid(g, g, indexing="ij")
+        h = 2e-6 * np.sin(2 * np.pi * X / 1e-3) * np.cos(4 * np.pi * Y / 1e-3) + 1e-7 * rng.standard_normal(X.shape)
+        tex = {"map": lambda: hx.SampledSurface(g, g, h, periodic=False),
+               "turned map": lambda: _TurnedMap.of(hx.SampledSurface(g, g, h, periodic=True), 0.3, (1e-3, 1e-3)),
+               "gratings": lambda: hx.SumOfGratings.egg_crate(0.1e-3, 2e-3)}[kind]()
+        xt = rng.uniform(-0.2e-3, 1.2e-3, (500, 2))
+    got = tex._jet(xt)
+    for a, b in zip(got, (tex.height_at(xt), tex.gradient(xt), tex.hessian(xt))):
+        assert a.shape == b.shape and np.array_equal(a, b)
+    assert tex._jet(xt, False)[2] is None

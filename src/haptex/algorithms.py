@@ -640,9 +640,7 @@ class _Vertical(Algorithm):
 
     def _evaluate(self, xt, z, jacobian):
         tex = self.texture
-        h = tex.height_at(xt)
-        s = tex.gradient(xt)
-        hess = tex.hessian(xt) if jacobian else None
+        h, s, hess = tex._jet(xt, jacobian)
         d = z - h
         inside = d < 0
         f, j = _zeros(xt, jacobian)
@@ -883,8 +881,7 @@ class _Distance(Algorithm):
         """grad h, shape (n, k), and its Hessian, shape (n, k, k), at the closest points."""
         tex = self.texture
         t = np.stack([cp.x] if cp.y is None else [cp.x, cp.y], axis=-1)
-        s = tex.gradient(t)
-        return s, tex.hessian(t)
+        return tex._jet(t)[1:]
 
 
 class GodObjectGradient(_Distance):
@@ -1097,7 +1094,7 @@ class ForceShading(Algorithm):
 
     def _evaluate(self, xt, z, jacobian):
         k = self.stiffness
-        s = self.texture.gradient(xt)
+        _, s, hess = self.texture._jet(xt, jacobian)
         g = _unit_scale(s)
         inside = z < 0
         d = np.where(inside, z, 0.0)
@@ -1106,7 +1103,6 @@ class ForceShading(Algorithm):
         np.multiply((k * dl * g)[..., None], s, out=f[..., :-1])
         f[..., -1] = -k * d * g
         if jacobian:
-            hess = self.texture.hessian(xt)
             g3 = g**3
             j[..., :-1, :-1] = (k * dl * g)[..., None, None] * _matmul(_normal_projector(s, g), hess)
             j[..., :-1, -1] = (k * np.where(follows, g, 0.0))[..., None] * s
@@ -1360,12 +1356,16 @@ class FrictionModulated(Algorithm):
         if self.max_penetration is not None:
             follows = depth < self.max_penetration
             depth = np.minimum(depth, self.max_penetration)
-        m = 1.0 - self._scale * self.texture.height_at(xt)
+        if D is None:
+            hgt, grad = self.texture.height_at(xt), None
+        else:
+            hgt, grad, _ = self.texture._jet(xt, False)
+        m = 1.0 - self._scale * hgt
         f, j = _zeros(xt, D is not None)
         f[..., :-1] = (-mu * k0 * depth * m / dm)[..., None] * dv
         f[..., -1] = np.where(inside, -k0 * z, 0.0)
         if j is not None:
-            grad_mod = self._scale * self.texture.gradient(xt)  # grad h~ = -grad m
+            grad_mod = self._scale * grad  # grad h~ = -grad m
             j[..., :-1, :-1] = (-mu * k0 * depth / dm)[..., None, None] * (m[..., None, None] * D - _outer(dv, grad_mod))
             j[..., :-1, -1] = np.where(inside & follows, mu * k0 * m / dm, 0.0)[..., None] * dv
             j[..., -1, -1] = np.where(inside, -k0, 0.0)

@@ -1401,12 +1401,12 @@ class ObjectAlgorithm(Algorithm):
         and the base's e and n = grad e there."""
         u, Ju, Hu, e, n, He = self.base.local(p, hessian)
         tex = self.texture
-        s = tex.gradient(u)
-        pen = tex.height_at(u) - e
+        hu, s, hess_u = tex._jet(u, hessian)
+        pen = hu - e
         gpen = np.einsum("...ki,...k->...i", Ju, s) - n
         hpen = None
         if hessian:
-            hpen = (np.einsum("...ki,...kl,...lj->...ij", Ju, tex.hessian(u), Ju)
+            hpen = (np.einsum("...ki,...kl,...lj->...ij", Ju, hess_u, Ju)
                     + np.einsum("...k,...kij->...ij", s, Hu) - He)
         return pen, gpen, hpen, e, n, He
 

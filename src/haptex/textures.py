@@ -87,6 +87,12 @@ class Texture:
         """
         return self.curvature(xt[..., 0])[..., None, None]
 
+    def _jet(self, xt, hessian: bool = True):
+        """(:meth:`height_at`, :meth:`gradient`, :meth:`hessian` or None) at in-plane positions
+        xt (..., dimension) (m): shapes (...), (..., dimension), (..., dimension, dimension). A
+        texture that evaluates them together (a height map's patches) answers in one call."""
+        return self.height_at(xt), self.gradient(xt), (self.hessian(xt) if hessian else None)
+
     def height(self, x):  # pragma: no cover - abstract
         raise NotImplementedError
 

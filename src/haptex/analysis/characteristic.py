@@ -859,7 +859,7 @@ def _q_distance_surface(alg, dmax, ranges, counts, nd, closed, x_range, resoluti
     if alg.letter == "D":
         # principal curvatures of the graph: H v = kappa W (I + s s^T) v, W = sqrt(1 + |s|^2)
         t = T[..., 0, :]
-        s_, hess = tex.gradient(t), tex.hessian(t)
+        _, s_, hess = tex._jet(t)
         w = np.sqrt(1.0 + np.sum(s_ * s_, axis=-1))
         metric = np.eye(2) + s_[..., :, None] * s_[..., None, :]
         kappa = np.linalg.eigvals(np.linalg.solve(metric, hess)).real / w[..., None]
