@@ -1407,7 +1407,9 @@ class SampledSurface(Surface):
     def crease_ends(self) -> np.ndarray:
         """Where a felt map's creases end: the centres (k, 2) (m) of the cells with a single
         kinked edge (a crease, a line of kinks where two branches of the ball's contact tie,
-        that enters a cell and does not leave it; none on a map without kinks). At a crease's end
+        that enters a cell and does not leave it; none on a map without kinks), but those at a
+        corner of which another kinked edge ends, not the cell's own nor the neighbour's across
+        its edge (the crease leaves through that grid node). At a crease's end
         its two branches merge at a fold and the ball's path curves without bound towards it (a
         cusp), so q of B, C and G (their Jacobians read the curvature, eqs. 11, 14, 28) on the
         ideal path is unbounded there; the map's own q, what is rendered, is finite.
@@ -1417,10 +1419,8 @@ class SampledSurface(Surface):
         numpy.ndarray, shape (k, 2)
             The cells' centres (x, y) (m).
         """
-        cells = _kinked_edge_cells(self)
         my = self.y.size if self.periodic else self.y.size - 1
-        flat, count = np.unique(cells, return_counts=True)
-        ci, cj = np.divmod(flat[count == 1], my)
+        ci, cj = np.divmod(_crease_end_cells(self), my)
         return np.column_stack([self.x[ci] + 0.5 * self.dx, self.y[cj] + 0.5 * self.dy]).reshape(-1, 2)
 
     @property
@@ -2196,27 +2196,84 @@ def _kink_cells(felt) -> np.ndarray:
     return np.unique(_kinked_edge_cells(felt))
 
 
-def _kinked_edge_cells(felt) -> np.ndarray:
-    """The flat indices of the cells on either side of each kinked edge of a felt map, once an
-    edge (a cell as often as it has kinked edges; on a map that ends at its edges, the cells on
-    it)."""
+def _kinked_edges(felt):
+    """A felt map's kinked edges: their first nodes' indices i, j (k,) and whether each runs
+    along x (k,) bool (from (i, j) to (i + 1, j); else to (i, j + 1)); on a periodic map the
+    indices wrapped, the nodes' (nx, ny) and the cells' alike."""
     kinks = felt._frame_kinks()
     if kinks is None or len(kinks) == 0:
-        return np.zeros(0, dtype=np.int64)
+        return np.zeros(0, dtype=int), np.zeros(0, dtype=int), np.zeros(0, dtype=bool)
     dx, dy = float(felt.x[1] - felt.x[0]), float(felt.y[1] - felt.y[0])
-    mx, my = (felt.x.size, felt.y.size) if felt.periodic else (felt.x.size - 1, felt.y.size - 1)
     k = kinks[:, :2]
     i = np.floor((k[:, 0] - felt.x[0]) / dx + 1e-9).astype(int)
     j = np.floor((k[:, 1] - felt.y[0]) / dy + 1e-9).astype(int)
     along_x = np.abs((k[:, 0] - felt.x[0]) / dx - i - 0.5) < 1e-6  # (a kink at an x edge's middle)
-    ci = np.concatenate([i, np.where(along_x, i, i - 1)])
-    cj = np.concatenate([j, np.where(along_x, j - 1, j)])
     if felt.periodic:
-        ci, cj = ci % mx, cj % my
-    else:
+        i, j = i % felt.x.size, j % felt.y.size
+    return i, j, along_x
+
+
+def _edge_cells(felt, i, j, along_x):
+    """The two cells (ci, cj), each (2, k), either side of kinked edges (:func:`_kinked_edges`):
+    an x edge's above and below it, a y edge's right and left; wrapped on a periodic map, -1 or
+    past the last cell off a bounded one."""
+    ci = np.stack([i, np.where(along_x, i, i - 1)])
+    cj = np.stack([j, np.where(along_x, j - 1, j)])
+    if felt.periodic:
+        ci, cj = ci % felt.x.size, cj % felt.y.size
+    return ci, cj
+
+
+def _kinked_edge_cells(felt) -> np.ndarray:
+    """The flat indices of the cells on either side of each kinked edge of a felt map, once an
+    edge (a cell as often as it has kinked edges; on a map that ends at its edges, the cells on
+    it)."""
+    mx, my = (felt.x.size, felt.y.size) if felt.periodic else (felt.x.size - 1, felt.y.size - 1)
+    ci, cj = (v.ravel() for v in _edge_cells(felt, *_kinked_edges(felt)))
+    if not felt.periodic:
         on = (ci >= 0) & (ci < mx) & (cj >= 0) & (cj < my)
         ci, cj = ci[on], cj[on]
     return ci * my + cj
+
+
+def _crease_end_cells(felt) -> np.ndarray:
+    """The flat indices of a felt map's cells where a crease ends (:attr:`SampledSurface.crease_ends`):
+    a cell with a single kinked edge, unless a corner of it is an end of another kinked edge that
+    is neither its own nor one of the cell's across that edge (a crease passing through a grid
+    node, from the cell's side to a diagonal neighbour: on the egg-crate just above its bowls'
+    radius, whose creases run along the diagonals through nodes to where they meet, such cells
+    were named ends, 2026-12-01)."""
+    i, j, ax = _kinked_edges(felt)
+    if i.size == 0:
+        return np.zeros(0, dtype=np.int64)
+    mx, my = (felt.x.size, felt.y.size) if felt.periodic else (felt.x.size - 1, felt.y.size - 1)
+    nx, ny = felt.x.size, felt.y.size
+    ci, cj = _edge_cells(felt, i, j, ax)
+    on = (ci >= 0) & (ci < mx) & (cj >= 0) & (cj < my)
+    cell = np.where(on, ci * my + cj, -1)  # (2, k): each edge's two cells, -1 off the map
+    flat, count = np.unique(cell[on], return_counts=True)
+    single = flat[count == 1]
+    if single.size == 0:
+        return single
+    ei, ej = np.where(ax, i + 1, i), np.where(ax, j, j + 1)  # (each edge's second node)
+    if felt.periodic:
+        ei, ej = ei % nx, ej % ny
+    at = {}  # node (flat) -> the edges ending there
+    for k, node in enumerate(np.concatenate([i * ny + j, ei * ny + ej]).tolist()):
+        at.setdefault(node, []).append(k % i.size)
+    lone = set(single.tolist())
+    edge_of = {c: k for k, pair in enumerate(cell.T.tolist()) for c in pair if c in lone}  # (its one kinked edge)
+    ends = []
+    for c in single.tolist():
+        k = edge_of[c]
+        mine = set(int(v) for v in cell[:, k] if v >= 0)
+        a, b = divmod(c, my)
+        corners = [((a + da) % nx) * ny + (b + db) % ny for da in (0, 1) for db in (0, 1)]
+        through = any(not (mine & set(int(v) for v in cell[:, e] if v >= 0))
+                      for n in corners for e in at.get(n, ()) if e != k)
+        if not through:
+            ends.append(c)
+    return np.array(ends, dtype=np.int64)
 
 
 def _single_kink_cells(felt):
