@@ -1272,9 +1272,9 @@ def test_just_above_its_bowls_radius_the_egg_crates_creases_end_nowhere(rel_r):
     # more than 10 lattice steps apart all the way (no end, where they would merge; measured: at
     # least 45, 91, 164 and 221 um at 1.02, 1.03, 1.05 and 1.07 rho; at 1.01 23 um, too near the
     # lattice to tell, not asserted). The felt maps named
-    # 8, 16, 8 and 4 crease ends about the bowls at 1.01, 1.02, 1.03, 1.05 rho (2026-12-01): cells
-    # with a single kinked edge where a diagonal crease passes through a grid node on its way to
-    # the meeting point (its neighbour's kinked edge touching the cell's corner, not its side)
+    # 16, 8 and 4 crease ends over the 2 mm cell at 1.02, 1.03, 1.05 rho (2026-12-01; 108 at 1.01,
+    # now 20): cells with a single kinked edge where a diagonal crease passes through a grid node
+    # on its way to the meeting point (another kinked edge ending at the cell's corner). 5 s a case
     tex, h, grad, cell, rho = AREAL_CASES["egg-crate"]
     r = rel_r * rho
     g = np.arange(-r, r + 2e-6, 4e-6)
