@@ -1026,7 +1026,7 @@ def test_q_on_a_felt_map_above_the_troughs_radius_is_the_paths(name, rel_r):
 
 
 @pytest.mark.long
-@pytest.mark.parametrize("name,rel_r", [("egg-crate", 0.95), ("egg-crate", 1.05), ("random", 0.95)])
+@pytest.mark.parametrize("name,rel_r", [("egg-crate", 0.95), ("egg-crate", 1.02), ("egg-crate", 1.05), ("random", 0.95)])
 def test_a_felt_maps_curvature_miss_bounds_its_q(name, rel_r, capsys):
     # Where the refinement for curvature stops short of its slack (at its cap, or where finer
     # grids did worse), the map says by how much (curvature_miss, a fraction of the path's
@@ -1053,9 +1053,31 @@ def test_a_felt_maps_curvature_miss_bounds_its_q(name, rel_r, capsys):
     said = hx.characteristic_number(hx.algorithm("C", felt, 2000.0))
     q = said.value
     assert felt.curvature_miss is not None and felt.peak_miss <= felt.curvature_miss
-    assert abs(q / truth - 1) <= felt.peak_miss + 0.005
+    if (name, rel_r) != ("egg-crate", 1.02):
+        assert abs(q / truth - 1) <= felt.peak_miss + 0.005
     if felt.peak_miss > 0.01:  # (and q's note says so: on the egg-crate at 1.05 rho, 4.88 %; 3.47 % before 2026-11-29)
         assert f"misses the ball path's by {felt.peak_miss:.3g} of it (peak_miss)" in said.note
+    # Where the map's largest curvature is short of the path's largest found (path_curvature,
+    # its samples: a lower bound of the path's sup), a fraction under 1 hides how far: just above
+    # the egg-crate's bowls' radius, at 1.02 times, the map's largest is 98.2 % short of the
+    # path's found, and the note said q on the path "may differ from this one by about as much"
+    # where the oracle's q of C is 22,000 times the map's (1.67e6 for 75.8; 2026-12-01). The note
+    # gives the ratio now, q on the path that many times the map's or more: the oracle's at least
+    # that (within 0.5 %); 1.054 at 1.05 times for the oracle's 1.053, 56.2 at 1.02
+    if felt.peak_miss > 0.01 and felt.max_curvature < felt.path_curvature:
+        factor = felt.path_curvature / felt.max_curvature
+        assert truth / q >= factor * (1 - 0.005)
+        assert f"the path's largest found is {factor:.3g} times the felt texture's" in said.note
+    if (name, rel_r) == ("egg-crate", 1.02):  # design says it too, where it analyses the felt texture itself
+        from haptex.cli import main
+
+        assert main(["design", "--texture", "egg-crate:0.1mm,2mm", "--device", "omega-3", "--tip-radius",
+                     f"{r * 1e3:.17g}mm", "--algorithms", "C", "--speed", "0.001m/s", "--quiet"]) == 0
+        out = " ".join(capsys.readouterr().out.split())
+        assert "felt texture is analysed below" in out  # (at 1 mm/s the device renders its 0.065 mm periods)
+        assert (f"the path's largest found is {felt.path_curvature / felt.max_curvature:.3g} times the felt "
+                "texture's, so B's, C's and G's q on the ideal path may be as many times the q below or more") in out
+        assert "creases of kinks end" not in out  # (none: the test above)
     if (name, rel_r) == ("egg-crate", 0.95):
         import json
 
@@ -1068,6 +1090,7 @@ def test_a_felt_maps_curvature_miss_bounds_its_q(name, rel_r, capsys):
         assert said["felt_by_tip"]["curvature_miss"] == pytest.approx(felt.curvature_miss, rel=1e-3)
         assert said["felt_by_tip"]["peak_miss"] == pytest.approx(felt.peak_miss, rel=1e-3)
         assert said["felt_by_tip"]["convex_miss"] == pytest.approx(felt.convex_miss, rel=1e-3)
+        assert said["felt_by_tip"]["path_curvature"] == pytest.approx(felt.path_curvature, rel=1e-3)
         assert said["felt_by_tip"]["turn"] == pytest.approx(math.pi / 4)  # (its map on axes along the gratings)
         # (the cut-off far longer than the spike, a few um wide: 20 times the 760 grid's step)
         assert said["band_limit"]["applied"] and said["band_limit"]["cutoff"] > 20 * 2e-3 / 760

@@ -948,6 +948,13 @@ class SampledSurface(Surface):
         D within 0.003 % (2026-11-29). q's note states this miss where it passes 1 %
         (:func:`haptex.characteristic_number`). None where ``curvature_miss`` is not measured or
         the ball bridges the surface.
+    path_curvature : float or None
+        Where ``curvature_miss`` is measured: the ball path's largest curvature (1/m) the
+        refinement found (its samples, climbed where they pass the slack, on every map it made:
+        the largest). A lower bound of the path's sup (every sample is a value of it): where the
+        map's own largest (``max_curvature``) is below it, q of B, C and G on the path may be
+        ``path_curvature / max_curvature`` times the map's or more (the note of
+        :func:`haptex.characteristic_number` says so). None where the misses are not measured.
     turn : float
         The angle (rad) by which the map's axes are turned from the plane's: 0 but on a felt map
         of a sum of gratings whose wave vectors lie along two perpendicular directions off the
@@ -1006,7 +1013,7 @@ class SampledSurface(Surface):
         self.periodic = bool(periodic)
         self.source = source
         self.kinks = np.zeros((0, 3))
-        self.curvature_miss = self.peak_miss = self.convex_miss = None
+        self.curvature_miss = self.peak_miss = self.convex_miss = self.path_curvature = None
         self._gradients = self._edges = self._branches = None
         if gradients is not None:
             try:
@@ -2619,6 +2626,7 @@ def _curvature_refined(texture, felt, r):
                 best = graded
     out = best["map"]
     out.curvature_miss, out.peak_miss = float(best["curved"]), float(best["peak"])
+    out.path_curvature = float(best["truth"]) if math.isfinite(best["truth"]) and best["truth"] > 0 else None
     out.convex_miss = float(best["bowed"])
     return out
 
@@ -3267,14 +3275,23 @@ def _bridged_refined(texture, felt, r):
     bound = texture.max_slope * (1 + STEEP_SLACK)
     miss, rows, truth = _bridged_miss(texture, cur, r)
     ways = (False, True)  # (without and with _branch_patches' fold)
+    tops = []  # (each map's samples of the path's largest curvature: the largest bounds its sup from below)
+
+    def kept():
+        out = best[1]
+        out.curvature_miss = out.peak_miss = float(best[0])
+        top = max((t for t in tops if math.isfinite(t)), default=0.0)
+        out.path_curvature = float(top) if top > 0 else None
+        return out
+
     while True:
+        tops.append(truth)
         if best is None or miss < best[0]:
             best = (miss, cur)
         bends = [bool(v > CURVATURE_SLACK * truth) for v in rows]
         nx, ny = (n * (2 if b else 1) for n, b in zip((cur.x.size, cur.y.size), bends))
         if miss <= CURVATURE_SLACK or not any(bends) or nx * ny > CURVATURE_REFINE_SAMPLES:
-            best[1].curvature_miss = best[1].peak_miss = float(best[0])
-            return best[1]
+            return kept()
         x, y, P, dx, dy = _finer_grid(cur, nx, ny)
         u0, c0 = _bridged_contacts(texture, cur, P.reshape(-1, 2), r)
         tried, made = [], 0
@@ -3291,9 +3308,9 @@ def _bridged_refined(texture, felt, r):
             finer._edges, finer._branches, finer.kinks = edges, branches, kinks
             if _single_kink_cells(finer) == 0 and finer.max_slope <= bound:
                 tried.append((*_bridged_miss(texture, finer, r), finer, fold))
+        tops.extend(t[2] for t in tried)
         if not tried:
-            best[1].curvature_miss = best[1].peak_miss = float(best[0])
-            return best[1]  # (a grid that cannot be branched, or overshoots: the coarser stand)
+            return kept()  # (a grid that cannot be branched, or overshoots: the coarser stand)
         miss, rows, truth, cur, folded = min(tried, key=lambda t: t[0])
         if made == 2:  # (the way that did better alone on the finer grids)
             ways = (folded,)

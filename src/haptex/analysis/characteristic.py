@@ -296,7 +296,9 @@ def _stated_miss(q: CharacteristicNumber, tex) -> CharacteristicNumber:
     slack (1 %, ``haptex.surfaces.CURVATURE_SLACK``), by how much the texture's curvature misses
     the ball path's where ``q`` reads it: the largest (``peak_miss``, or a profile's
     ``curvature_miss``) for B, C and G, which read it (eqs. 11, 14, 28), q on the path about as
-    far; the most convex (``convex_miss``) for D, q = d_max / (R - d_max) below a convex point of
+    far, or, where the texture's largest is short of the path's largest found (its
+    ``path_curvature``, a lower bound of the path's sup), their ratio, q on the path as many
+    times this one or more; the most convex (``convex_miss``) for D, q = d_max / (R - d_max) below a convex point of
     radius R (eq. 18), on the path about ``convex_miss`` (1 + q) from it."""
     from ..algorithms import ALGORITHMS
     from ..surfaces import CURVATURE_SLACK
@@ -311,7 +313,12 @@ def _stated_miss(q: CharacteristicNumber, tex) -> CharacteristicNumber:
     miss = getattr(tex, name, None)
     if miss is None or not miss > CURVATURE_SLACK:
         return q
-    if q.letter != "D":
+    top = getattr(tex, "path_curvature", None) if q.letter != "D" else None
+    own = float(tex.max_curvature) if top is not None else 0.0
+    if top is not None and 0.0 < own < top:  # (short of the path's: a ratio, which a fraction < 1 hides)
+        off = (f", short of it: the path's largest found is {top / own:.3g} times the felt texture's, and q on the "
+               "ball's path may be as many times this one or more")
+    elif q.letter != "D":
         off = "; q on the ball's path may differ from this one by about as much"
     elif math.isfinite(q.value):
         off = f"; q on the ball's path may differ from this one by about {miss * (1 + q.value):.3g} of it"

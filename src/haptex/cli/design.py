@@ -133,9 +133,10 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
                 "kinks": [dict(zip(names, map(float, k))) for k in kinks[:100]],
                 "kink_count": int(len(kinks)), "branched_cells": int(getattr(tex, "branched_cells", 0)),
                 "single_patch_cells": _single_patch_cells(tex), "turn": float(getattr(tex, "turn", 0.0))}
-        for key in ("curvature_miss", "peak_miss", "convex_miss"):
+        for key in ("curvature_miss", "peak_miss", "convex_miss", "path_curvature"):
             miss = getattr(tex, key, None)
             felt[key] = None if miss is None else float(miss)
+        felt["max_curvature_felt"] = float(tex.max_curvature) if felt["path_curvature"] is not None else None
         ends = np.asarray(getattr(tex, "crease_ends", np.zeros((0, 2))))
         felt.update(crease_end_count=int(len(ends)), crease_ends=[{"x": float(a), "y": float(b)} for a, b in ends[:100]])
     steps = _Steps(9, "design", quiet or as_json)
@@ -188,9 +189,12 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
         # analyses it band-limited and resampled, they are not in what it analyses)
         if (not data["band_limit"]["applied"] and felt["curvature_miss"] is not None
                 and felt["curvature_miss"] > min(CURVATURE_SLACK, PROFILE_CURVATURE_SLACK)):
+            top, own = felt["path_curvature"], felt["max_curvature_felt"]
+            off = (f"the path's largest found is {top / own:.3g} times the felt texture's, so {_letters(True)} q on the "
+                   "ideal path may be as many times the q below or more" if top is not None and 0 < own < top
+                   else f"{_letters(True)} q below may be off by about as much, either way")
             console.print(f"the felt texture's curvature misses the ball path's by up to {felt['curvature_miss']:.1%} of its "
-                          f"largest (its refinement stopped at its cap or where a finer grid did worse): "
-                          f"{_letters(True)} q below may be off by about as much, either way")
+                          f"largest (its refinement stopped at its cap or where a finer grid did worse): {off}")
         if felt["crease_end_count"]:
             n, first = felt["crease_end_count"], felt["crease_ends"][0]
             console.print(f"creases of kinks end at {n} place{'s' if n != 1 else ''} inside the map, the first "
