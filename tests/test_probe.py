@@ -1026,7 +1026,8 @@ def test_q_on_a_felt_map_above_the_troughs_radius_is_the_paths(name, rel_r):
 
 
 @pytest.mark.long
-@pytest.mark.parametrize("name,rel_r", [("egg-crate", 0.95), ("egg-crate", 1.02), ("egg-crate", 1.05), ("random", 0.95)])
+@pytest.mark.parametrize("name,rel_r", [("egg-crate", 0.95), ("egg-crate", 1.02), ("egg-crate", 1.05),
+                                        ("random", 0.95)])
 def test_a_felt_maps_curvature_miss_bounds_its_q(name, rel_r, capsys):
     # Where the refinement for curvature stops short of its slack (at its cap, or where finer
     # grids did worse), the map says by how much (curvature_miss, a fraction of the path's
