@@ -168,6 +168,15 @@ def analysis(args) -> None:
     q = hx.characteristic_number(alg)
     searched = re.search(r"the foot's uniqueness [^)]*", q.note).group(0)
     print(f"  q of D on it: {q.value:.6f} in {time.perf_counter() - t0:.1f} s ({searched})")
+    # B's, C's and G's Jacobians there: h, grad h and the Hessian from one evaluation of the
+    # patches (Texture._jet), against the three calls they made before 2026-12-01
+    p3 = np.column_stack([xy, felt.height_at(xy) - rng.uniform(0.0, 1e-3, xy.shape[0])])
+    t_jets = [best_of(lambda: hx.algorithm(k, felt, 2000.0).jacobian(p3)) for k in "BCG"]
+    t_one = best_of(lambda: felt._jet(xy))
+    t_three = best_of(lambda: (felt.height_at(xy), felt.gradient(xy), felt.hessian(xy)))
+    print(f"  B's, C's and G's Jacobians on it: {', '.join(f'{t * 1e3:.1f}' for t in t_jets)} ms for "
+          f"{xy.shape[0]} points (h, grad h and the Hessian {t_one * 1e3:.1f} ms in one evaluation, "
+          f"{t_three * 1e3:.1f} ms in three)")
 
 if __name__ == "__main__":
     main()
