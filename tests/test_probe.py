@@ -1064,7 +1064,7 @@ def test_a_felt_maps_curvature_miss_bounds_its_q(name, rel_r, capsys):
     # path's found, and the note said q on the path "may differ from this one by about as much"
     # where the oracle's q of C is 22,000 times the map's (1.67e6 for 75.8; 2026-12-01). The note
     # gives the ratio now, q on the path that many times the map's or more: the oracle's at least
-    # that (within 0.5 %); 1.054 at 1.05 times for the oracle's 1.053, 56.2 at 1.02
+    # that (within 0.5 %); 1.0534 at 1.05 times for the oracle's 1.0529, 56.2 at 1.02
     if felt.peak_miss > 0.01 and felt.max_curvature < felt.path_curvature:
         factor = felt.path_curvature / felt.max_curvature
         assert truth / q >= factor * (1 - 0.005)
