@@ -2220,27 +2220,34 @@ def _kinked_edges(felt):
     return i, j, along_x
 
 
-def _edge_cells(felt, i, j, along_x):
-    """The two cells (ci, cj), each (2, k), either side of kinked edges (:func:`_kinked_edges`):
-    an x edge's above and below it, a y edge's right and left; wrapped on a periodic map, -1 or
-    past the last cell off a bounded one."""
+def _edge_cells(felt, i, j, along_x) -> np.ndarray:
+    """The flat indices (2, k) of the two cells either side of kinked edges (:func:`_kinked_edges`):
+    an x edge's above and below it, a y edge's right and left; wrapped on a periodic map, -1 off a
+    bounded one."""
+    mx, my = (felt.x.size, felt.y.size) if felt.periodic else (felt.x.size - 1, felt.y.size - 1)
     ci = np.stack([i, np.where(along_x, i, i - 1)])
     cj = np.stack([j, np.where(along_x, j - 1, j)])
     if felt.periodic:
-        ci, cj = ci % felt.x.size, cj % felt.y.size
-    return ci, cj
+        return (ci % mx) * my + cj % my
+    on = (ci >= 0) & (ci < mx) & (cj >= 0) & (cj < my)
+    return np.where(on, ci * my + cj, -1)
 
 
 def _kinked_edge_cells(felt) -> np.ndarray:
     """The flat indices of the cells on either side of each kinked edge of a felt map, once an
     edge (a cell as often as it has kinked edges; on a map that ends at its edges, the cells on
     it)."""
-    mx, my = (felt.x.size, felt.y.size) if felt.periodic else (felt.x.size - 1, felt.y.size - 1)
-    ci, cj = (v.ravel() for v in _edge_cells(felt, *_kinked_edges(felt)))
-    if not felt.periodic:
-        on = (ci >= 0) & (ci < mx) & (cj >= 0) & (cj < my)
-        ci, cj = ci[on], cj[on]
-    return ci * my + cj
+    cell = _edge_cells(felt, *_kinked_edges(felt))
+    return cell[cell >= 0]
+
+
+def _shortfall(path_curvature, max_curvature):
+    """How many times a felt map's largest curvature ``max_curvature`` (1/m) the path's largest
+    found ``path_curvature`` (1/m, a lower bound of its sup) is, where the map's is short of it;
+    else None."""
+    if path_curvature is None or not 0.0 < max_curvature < path_curvature:
+        return None
+    return path_curvature / max_curvature
 
 
 def _crease_end_cells(felt) -> np.ndarray:
@@ -2253,12 +2260,10 @@ def _crease_end_cells(felt) -> np.ndarray:
     i, j, ax = _kinked_edges(felt)
     if i.size == 0:
         return np.zeros(0, dtype=np.int64)
-    mx, my = (felt.x.size, felt.y.size) if felt.periodic else (felt.x.size - 1, felt.y.size - 1)
+    my = felt.y.size if felt.periodic else felt.y.size - 1
     nx, ny = felt.x.size, felt.y.size
-    ci, cj = _edge_cells(felt, i, j, ax)
-    on = (ci >= 0) & (ci < mx) & (cj >= 0) & (cj < my)
-    cell = np.where(on, ci * my + cj, -1)  # (2, k): each edge's two cells, -1 off the map
-    flat, count = np.unique(cell[on], return_counts=True)
+    cell = _edge_cells(felt, i, j, ax)  # (2, k): each edge's two cells, -1 off the map
+    flat, count = np.unique(cell[cell >= 0], return_counts=True)
     single = flat[count == 1]
     if single.size == 0:
         return single
@@ -3275,7 +3280,7 @@ def _bridged_refined(texture, felt, r):
     bound = texture.max_slope * (1 + STEEP_SLACK)
     miss, rows, truth = _bridged_miss(texture, cur, r)
     ways = (False, True)  # (without and with _branch_patches' fold)
-    tops = []  # (each map's samples of the path's largest curvature: the largest bounds its sup from below)
+    tops = [truth]  # (each map's samples of the path's largest curvature: the largest bounds its sup from below)
 
     def kept():
         out = best[1]
@@ -3285,7 +3290,6 @@ def _bridged_refined(texture, felt, r):
         return out
 
     while True:
-        tops.append(truth)
         if best is None or miss < best[0]:
             best = (miss, cur)
         bends = [bool(v > CURVATURE_SLACK * truth) for v in rows]

@@ -301,7 +301,7 @@ def _stated_miss(q: CharacteristicNumber, tex) -> CharacteristicNumber:
     times this one or more; the most convex (``convex_miss``) for D, q = d_max / (R - d_max) below a convex point of
     radius R (eq. 18), on the path about ``convex_miss`` (1 + q) from it."""
     from ..algorithms import ALGORITHMS
-    from ..surfaces import CURVATURE_SLACK
+    from ..surfaces import CURVATURE_SLACK, _shortfall
 
     if q.letter in ALGORITHMS and ALGORITHMS[q.letter].reads_slope:  # (B, C, G: the registry's)
         name = "peak_miss" if getattr(tex, "peak_miss", None) is not None else "curvature_miss"
@@ -314,9 +314,9 @@ def _stated_miss(q: CharacteristicNumber, tex) -> CharacteristicNumber:
     if miss is None or not miss > CURVATURE_SLACK:
         return q
     top = getattr(tex, "path_curvature", None) if q.letter != "D" else None
-    own = float(tex.max_curvature) if top is not None else 0.0
-    if top is not None and 0.0 < own < top:  # (short of the path's: a ratio, which a fraction < 1 hides)
-        off = (f", short of it: the path's largest found is {top / own:.3g} times the felt texture's, and q on the "
+    ratio = _shortfall(top, float(tex.max_curvature)) if top is not None else None
+    if ratio is not None:  # (short of the path's: a ratio, which a fraction < 1 hides)
+        off = (f", short of it: the path's largest found is {ratio:.3g} times the felt texture's, and q on the "
                "ball's path may be as many times this one or more")
     elif q.letter != "D":
         off = "; q on the ball's path may differ from this one by about as much"

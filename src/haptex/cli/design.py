@@ -189,9 +189,11 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
         # analyses it band-limited and resampled, they are not in what it analyses)
         if (not data["band_limit"]["applied"] and felt["curvature_miss"] is not None
                 and felt["curvature_miss"] > min(CURVATURE_SLACK, PROFILE_CURVATURE_SLACK)):
-            top, own = felt["path_curvature"], felt["max_curvature_felt"]
-            off = (f"the path's largest found is {top / own:.3g} times the felt texture's, so {_letters(True)} q on "
-                   "the ideal path may be as many times the q below or more" if top is not None and 0 < own < top
+            from ..surfaces import _shortfall
+
+            ratio = _shortfall(felt["path_curvature"], felt["max_curvature_felt"] or 0.0)
+            off = (f"the path's largest found is {ratio:.3g} times the felt texture's, so {_letters(True)} q on "
+                   "the ideal path may be as many times the q below or more" if ratio is not None
                    else f"{_letters(True)} q below may be off by about as much, either way")
             console.print(f"the felt texture's curvature misses the ball path's by up to {felt['curvature_miss']:.1%} of its "
                           f"largest (its refinement stopped at its cap or where a finer grid did worse): {off}")
