@@ -1416,7 +1416,10 @@ class SampledSurface(Surface):
         kinked edge (a crease, a line of kinks where two branches of the ball's contact tie,
         that enters a cell and does not leave it; none on a map without kinks), but those at a
         corner of which another kinked edge ends, not the cell's own nor the neighbour's across
-        its edge (the crease leaves through that grid node). At a crease's end
+        its edge (the crease leaves through that grid node), or a grid edge whose ends' contacts
+        lie more than CREASE_GAP intervals apart on either side of ground the ball cannot touch
+        (the crease goes on there, its contacts parting by less than a kink's BRANCH_JUMP
+        intervals: :func:`_ending`). At a crease's end
         its two branches merge at a fold and the ball's path curves without bound towards it (a
         cusp), so q of B, C and G (their Jacobians read the curvature, eqs. 11, 14, 28) on the
         ideal path is unbounded there; the map's own q, what is rendered, is finite.
@@ -2125,6 +2128,20 @@ contacts lie more than this many sample intervals apart (chosen: the grid's arg-
 refinement move a contact by at most about one interval between neighbours on one side of a
 trough)."""
 
+CREASE_GAP = 0.5
+"""Where a felt map's line of kinked edges stops, its crease goes on (:func:`_ending`) across the
+grid edges whose ends' contacts lie more than this many intervals apart either side of ground the
+ball cannot touch (chosen: on the
+egg-crate at 1.01 times its bowls' radius, whose creases run bowl to saddle to bowl and end
+nowhere, their two contacts 20 um apart at least by brute force, the branches part by 0.8 to 2.4
+of the 25 um grid's intervals near the bowls, under BRANCH_JUMP's 3, and the map named 20
+ends)."""
+
+CREASE_WALK = 64
+"""Cells a crease is followed through past its last kink (:func:`_ending`); past them its end is
+named at that kink's cell (chosen: a crease's weak tail spans a few intervals where its branches
+merge; on a rough map, where contacts part everywhere, the walk would not stop)."""
+
 CONTACT_NEWTON_STEPS = 8
 """Safeguarded Newton steps refining each grid point's contact on an areal texture (chosen: from
 the grid's arg-max, within one interval of the true contact, the error squares each step)."""
@@ -2285,7 +2302,81 @@ def _crease_end_cells(felt) -> np.ndarray:
                       for n in corners for e in at.get(n, ()) if e != k)
         if not through:
             ends.append(c)
-    return np.array(ends, dtype=np.int64)
+    return _ending(felt, np.array(ends, dtype=np.int64), cell, edge_of, i, j, ax)
+
+
+def _ending(felt, ends, cell, edge_of, i, j, ax):
+    """Where the creases that stop at the cells ``ends`` (flat indices; ``cell`` (2, k) and
+    ``edge_of`` as in :func:`_crease_end_cells`, i, j, ax the kinked edges, :func:`_kinked_edges`)
+    end: each is followed from its cell along the grid edges whose ends' contacts (from the nodes'
+    gradients, :func:`_contact_offsets`) lie more than CREASE_GAP intervals apart either side of
+    ground the ball cannot touch (:func:`_section_bridges` in any direction): the crease goes on
+    there, its contacts parting by less than a kink's BRANCH_JUMP intervals (near the troughs'
+    radius, or where two grid points' contacts sit on a chord at an angle to the direction the
+    ball bridges). Each step looks at the edges at the corners of the cells reached, but those of
+    cells reached before (the crease's own, behind it). Where it meets a kinked edge the crease
+    goes on and ends nowhere there; where no such edge is left, it ends in the last cell reached
+    (the crease's extreme, an interval or a few past its last kink); past CREASE_WALK cells, at
+    its last kink's cell, as before. On a map with no record of what it was felt on and by,
+    ``ends`` as given. Returns the flat indices (k,) of the cells."""
+    texture, r = getattr(felt, "_felt_from", None), getattr(felt, "_felt_radius", None)
+    if ends.size == 0 or texture is None or r is None or felt._gradients is None:
+        return ends
+    nx, ny, periodic = felt.x.size, felt.y.size, felt.periodic
+    mx, my = (nx, ny) if periodic else (nx - 1, ny - 1)
+    u = _contact_offsets(felt._gradients.reshape(-1, 2), r).reshape(nx, ny, 2)
+    dx, dy = felt.dx, felt.dy
+    wrap = (lambda a, b: (a % nx, b % ny)) if periodic else (lambda a, b: (a, b))
+    kinked = set(zip(*wrap(i, j), ax.tolist())) if i.size else set()
+    kinked = {(int(a), int(b), bool(c)) for a, b, c in kinked}
+    weak = {}  # (edge) -> whether the crease goes on across it
+
+    def gone_on(edges):  # which edges (first node i, j, along x) the crease crosses weakly
+        todo = [e for e in edges if e not in weak]
+        if todo:
+            ei, ej, ex = (np.array(v) for v in zip(*todo))
+            fi, fj = np.where(ex, ei + 1, ei), np.where(ex, ej, ej + 1)
+            s0 = np.column_stack([felt.x[0] + ei * dx, felt.y[0] + ej * dy]) + u[ei % nx, ej % ny]
+            s1 = np.column_stack([felt.x[0] + fi * dx, felt.y[0] + fj * dy]) + u[fi % nx, fj % ny]
+            d = s1 - s0
+            on = (d[:, 0] / dx) ** 2 + (d[:, 1] / dy) ** 2 > CREASE_GAP**2
+            on[on] = _section_bridges(texture, s0[on], s1[on], r, any_direction=True)
+            weak.update(zip(todo, on.tolist()))
+        return [weak[e] for e in edges]
+
+    def around(c):  # the edges at cell c's corners: (edge, its two cells)
+        a, b = divmod(c, my)
+        out = {}
+        for na, nb in ((a, b), (a + 1, b), (a, b + 1), (a + 1, b + 1)):
+            for ea, eb, along in ((na, nb, True), (na - 1, nb, True), (na, nb, False), (na, nb - 1, False)):
+                if not periodic and not (0 <= ea and 0 <= eb and ea + along < nx and eb + (not along) < ny):
+                    continue
+                e = (*(int(v) for v in wrap(ea, eb)), along)
+                out[e] = [int(v) for v in _edge_cells(felt, np.array([e[0]]), np.array([e[1]]), np.array([along]))[:, 0]
+                          if v >= 0]
+        return out
+
+    found = []
+    for c in ends.tolist():
+        seen = set(int(v) for v in cell[:, edge_of[c]] if v >= 0)  # (the cell and the one across its kink)
+        queue, last, joined = [c], c, False
+        while queue and not joined and len(seen) <= CREASE_WALK:
+            cur = queue.pop(0)
+            last = cur
+            near = {e: two for e, two in around(cur).items() if set(two) & seen <= {cur}}
+            if any(e in kinked for e in near):
+                joined = True
+                break
+            edges = list(near)
+            for e, on in zip(edges, gone_on(edges)):
+                for v in near[e] if on else ():
+                    if v not in seen:
+                        seen.add(v)
+                        queue.append(v)
+        if joined:
+            continue
+        found.append(c if len(seen) > CREASE_WALK else last)
+    return np.unique(np.array(found, dtype=np.int64))
 
 
 def _single_kink_cells(felt):
@@ -3492,7 +3583,7 @@ def _jump_cells(u, dx, dy, periodic, texture=None, r=None, origin=(0.0, 0.0)):
     return jumps
 
 
-def _section_bridges(texture, s0, s1, r):
+def _section_bridges(texture, s0, s1, r, any_direction=False):
     """Whether a ball of radius r (m) can bridge the surface between contacts s0 and s1 (k, 2) (m):
     the ball's vertical section through both is a circle of radius at most r tangent from above at
     each, so the surface's section along the segment must curve more than it somewhere, r kappa >
@@ -3500,7 +3591,10 @@ def _section_bridges(texture, s0, s1, r):
     :func:`haptex.textures._bridges` (16 points a shortest period, at least 16, at most
     BRIDGE_SAMPLES a segment); elsewhere the contact only runs fast between them (near the
     troughs' radius 1 / (1 - r kappa) times as fast as the ball) and the path is smooth there.
-    Shape (k,) bool."""
+    With ``any_direction``, whether the segment crosses ground the ball cannot touch, r kappa > 1
+    along some direction e there (SECTION_DIRECTIONS of them): two contacts of neighbouring grid
+    points, not of one ball, either side of it (their chord at an angle to the direction it is
+    bridged along). Shape (k,) bool."""
     from . import core
     from .textures import BRIDGE_SAMPLES
 
@@ -3513,15 +3607,30 @@ def _section_bridges(texture, s0, s1, r):
     e = d / np.maximum(length, 1e-300)[:, None]
     t = np.linspace(0.0, 1.0, m)
     deriv = texture._derivatives if isinstance(texture, SampledSurface) else partial(core.texture_derivatives, texture)
-    rows = max(1, (1 << 18) // m)
+    rows = max(1, (1 << 18) // (m * (SECTION_DIRECTIONS if any_direction else 1)))
     for i in range(0, out.size, rows):
         pts = s0[i:i + rows, None] + d[i:i + rows, None] * t[None, :, None]
         q = deriv(pts.reshape(-1, 2)).reshape(pts.shape[0], m, 6)
-        ee = e[i:i + rows, None]
+        if any_direction:
+            ee = _SECTION_E[None, None]  # (1, 1, directions, 2)
+            q = q[..., None, :]
+        else:
+            ee = e[i:i + rows, None]
         slope = q[..., 1] * ee[..., 0] + q[..., 2] * ee[..., 1]
         bend = q[..., 3] * ee[..., 0] ** 2 + 2 * q[..., 4] * ee[..., 0] * ee[..., 1] + q[..., 5] * ee[..., 1] ** 2
-        out[i:i + rows] = np.max(r * bend / (1 + slope**2) ** 1.5, axis=1) > 1.0
+        kr = r * bend / (1 + slope**2) ** 1.5
+        out[i:i + rows] = np.max(kr.reshape(kr.shape[0], -1), axis=1) > 1.0
     return out
+
+
+SECTION_DIRECTIONS = 32
+"""Directions, over half a turn, in which :func:`_section_bridges` looks for a section the ball
+bridges with ``any_direction`` (chosen: on level ground a section's curvature is k1 cos^2 t + k2
+sin^2 t at an angle t to the most curved direction, k1, within 0.24 % of k1 - k2 of it at half the
+5.6 deg between two directions)."""
+
+_SECTION_E = np.stack([np.cos(np.pi * np.arange(SECTION_DIRECTIONS) / SECTION_DIRECTIONS),
+                       np.sin(np.pi * np.arange(SECTION_DIRECTIONS) / SECTION_DIRECTIONS)], -1)
 
 
 def _kinked(texture, s0, d, dx, dy, r):
