@@ -1321,6 +1321,48 @@ def test_just_above_its_bowls_radius_the_egg_crates_creases_end_nowhere(rel_r):
     assert felt.crease_ends.shape == (0, 2), felt.crease_ends
 
 
+@pytest.mark.long
+def test_on_a_measured_map_the_ring_where_the_ball_leaves_an_asperity_ends_nowhere():
+    # metropro-1.dat (the instrument's file) felt by a 5 um ball: two kinked edges, where the ball
+    # leaves the asperity it pivots on (its highest sample within 4 intervals of them) for the
+    # ground around it. Truth by brute force (the ball's highest contact on a 0.04 um lattice of
+    # its disc, the map's own spline the only thing of haptex's; scipy's connected components):
+    # at centres a quarter interval apart about the asperity, those joined to the centre above
+    # its top by steps whose contacts move by an interval at most (the contact followed
+    # continuously) are a closed patch where the ball pivots on the top, not reaching the
+    # window's edge: wherever the ball leaves it the contact jumps (by about two intervals), a
+    # ring of kinks that ends nowhere. The felt map named 4 crease ends there (2026-12-01: the
+    # ring's other edges part by under BRANCH_JUMP's 3 intervals, so only two were kinks); 6 s
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from pathlib import Path
+
+    tex = hx.load_texture(Path(__file__).parents[1] / "examples" / "data" / "metropro-1.dat")
+    r, dx = 5e-6, float(tex.x[1] - tex.x[0])
+    felt = tex.felt_by(r)
+    assert len(felt.kinks) == 2
+    i0, j0 = np.round((felt.kinks[:, :2].mean(axis=0) - [tex.x[0], tex.y[0]]) / dx).astype(int)
+    a, b = np.unravel_index(np.argmax(tex.h[i0 - 4:i0 + 5, j0 - 4:j0 + 5]), (9, 9))
+    top = np.array([tex.x[i0 - 4 + a], tex.y[j0 - 4 + b]])
+    g = np.arange(-r, r, 0.04e-6)
+    U = np.stack(np.meshgrid(g, g, indexing="ij"), -1).reshape(-1, 2)
+    U = U[np.sum(U * U, axis=1) < r * r]
+    cap = np.sqrt(r * r - np.sum(U * U, axis=1))
+    s = np.arange(-4, 4.01, 0.25) * dx
+    C = np.array([[p + U[np.argmax(tex.height_at(p + U) + cap)] for p in top + np.stack([np.full_like(s, sx), s], -1)]
+                  for sx in s])
+    n = len(s)
+    idx = np.arange(n * n).reshape(n, n)
+    pairs = [(idx[:-1], idx[1:], np.linalg.norm(np.diff(C, axis=0), axis=-1)),
+             (idx[:, :-1], idx[:, 1:], np.linalg.norm(np.diff(C, axis=1), axis=-1))]
+    a_, b_ = (np.concatenate([p[k][p[2] <= dx].ravel() for p in pairs]) for k in (0, 1))
+    _, label = connected_components(coo_matrix((np.ones(a_.size), (a_, b_)), shape=(n * n, n * n)), directed=False)
+    patch = (label == label[idx[n // 2, n // 2]]).reshape(n, n)
+    assert np.linalg.norm(C[n // 2, n // 2] - top) < 0.1 * dx  # (the ball above the top rests on it)
+    assert 20 <= patch.sum() and not (patch[[0, -1]].any() or patch[:, [0, -1]].any())  # (closed)
+    assert felt.crease_ends.shape == (0, 2), felt.crease_ends
+
+
 @pytest.mark.parametrize("rel_r", [2.0, pytest.param(1.5, marks=pytest.mark.long)])
 def test_where_the_ball_bridges_a_bowl_the_felt_map_is_the_paths(rel_r):
     # issue 67's last case: over a bowl (the egg-crate's troughs) wider than the ball's
