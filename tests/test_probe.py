@@ -2220,6 +2220,37 @@ def test_an_export_with_a_ball_refuses_its_other_settings_before_the_ball_rolls(
     assert main(run) == 0 and len(calls) == 1
 
 
+def test_with_a_ball_f_reads_the_felt_maps_heights_and_not_the_maps_as_read(monkeypatch, tmp_path):
+    # haptex export and run with F and --tip-radius built F on the map as read to check their
+    # settings before the ball rolled: its max|h| and steepest slope (eq. 22's h~ = h / max|h|),
+    # sups over the map's patches, for a modulation the felt map replaces (x3p-2.x3p, 650 x 650,
+    # felt by a 2 um ball at --tip-spacing 0.536um: the export 5.0 s, 4.6 s without them; the
+    # ball's construction reads the map's largest curvature itself). Counted: the map as read
+    # has neither computed (its cached properties unset) after an export and a run, and the felt
+    # map's F is what is exported
+    import importlib
+
+    from haptex.cli import main
+
+    read = []
+    for name in ("haptex.cli.export", "haptex.cli.device"):
+        mod = importlib.import_module(name)
+        monkeypatch.setattr(mod, "_texture_from_spec", lambda *a, _f=mod._texture_from_spec, **k: read.append(_f(*a, **k))
+                            or read[-1])
+    path = tmp_path / "map.npy"
+    np.save(path, 20 * np.sin(np.arange(48)[:, None] / 3) * np.cos(np.arange(48)[None, :] / 4))
+    given = ["--texture", str(path), "--spacing", "5um", "--height-unit", "nm", "--tip-radius", "20um",
+             "--tip-spacing", "7um", "--quiet"]
+    assert main(["export", "--algorithm", "F", "--stiffness", "1kN/m", "--max-force", "3N", "--out",
+                 str(tmp_path / "out"), *given]) == 0
+    assert main(["run", "--device", "simulated:falcon", "--algorithm", "F", "--fast", "--duration", "0.05s",
+                 *given]) == 0
+    assert len(read) == 2
+    for tex in read:
+        assert not {"height_range", "max_slope"} & set(vars(tex)), sorted(vars(tex))
+    assert "felt by a ball of r = 0.02 mm" in (tmp_path / "out" / "haptex_texture.c").read_text()
+
+
 def test_export_and_run_take_the_tip_radius_too(tmp_path):
     # the felt texture is what the exported tick renders (its source names the ball), and a run
     # on the simulated device takes it; the smooth wall has no texture to feel

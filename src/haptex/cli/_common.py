@@ -219,6 +219,20 @@ STABILISERS = ("energy-bounding", "set-position")
 """The stabilisers ``--stabiliser`` names (the passivity controller has ``--passivity-control``)."""
 
 
+def _before_the_ball(tex, tip_radius, base=None):
+    """The texture an algorithm's settings are checked on before a ball of ``tip_radius`` (m) rolls
+    over ``tex``: where one will and there is no object, a stand-in of its dimension (a 1 um
+    sinusoid or grating of 1 mm), since what reads the texture itself (F's max|h| and steepest
+    slope, eq. 22, sups over a map's patches: 1.9 s on x3p-2.x3p) is read on the felt texture
+    after; else ``tex`` (an object's checks read the texture on it)."""
+    if not tip_radius or tex is None or base is not None:
+        return tex
+    from ..surfaces import Grating
+    from ..textures import Sinusoid
+
+    return Sinusoid(1e-6, 1e-3) if tex.dimension == 1 else Grating(1e-6, 1e-3)
+
+
 def _check_search_budget(max_evaluations, alg) -> None:
     """Refuse ``--max-evaluations`` where nothing reads it: it budgets D's and E's closest-point
     search over a surface or an object (:func:`haptex.renderer.tick_model`); over a profile, an

@@ -12,9 +12,9 @@ import click
 from .._specs import check_tip_spacing, object_from_spec, texture_from_spec as _texture_from_spec
 from .._validation import ParameterError, positive
 from ..core import blas_held_to_one_thread as _core_blas_held
-from ._common import (READING, Quantity, STABILISERS, _Spinner, _budget_needs_models, _check_plot_path,
-                      _check_search_budget, _felt_options, _jsonable, _letter, _object_options, _reading_options,
-                      _stabiliser, _vibration, _vibration_options)
+from ._common import (READING, Quantity, STABILISERS, _Spinner, _before_the_ball, _budget_needs_models,
+                      _check_plot_path, _check_search_budget, _felt_options, _jsonable, _letter, _object_options,
+                      _reading_options, _stabiliser, _vibration, _vibration_options)
 
 
 @click.command("run")
@@ -173,7 +173,7 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
             return GodObject(tex, stiffness)
         return algorithm(letter, tex, stiffness)
 
-    alg = rendered(tex)
+    alg = rendered(_before_the_ball(tex, tip_radius if letter != "W" else None, base))  # (checked before the ball)
     pc = _stabiliser(passivity_control, stabiliser, dev, delay=dev.delay)
 
     vib = {}

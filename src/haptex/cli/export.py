@@ -9,9 +9,9 @@ import click
 from .._specs import check_tip_spacing, object_from_spec, texture_from_spec as _texture_from_spec
 from .._validation import ParameterError
 from ._common import (
-    Quantity, STABILISERS, _Spinner, _catalogued_device, _check_search_budget, _felt_options, _letter, _not_taken,
-    _object_options, _reading_given, _reading_options, _stabiliser, _budget_needs_models, _vibration,
-    _vibration_options)
+    Quantity, STABILISERS, _Spinner, _before_the_ball, _catalogued_device, _check_search_budget, _felt_options,
+    _letter, _not_taken, _object_options, _reading_given, _reading_options, _stabiliser, _budget_needs_models,
+    _vibration, _vibration_options)
 
 
 @click.command()
@@ -87,7 +87,7 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
         return (object_algorithm(letter, tex, base, stiffness, **params) if base is not None
                 else algorithm(letter, tex, stiffness, **params))
 
-    alg = exported(tex)  # (on the texture as read: its settings refused before a ball rolls over it)
+    alg = exported(_before_the_ball(tex, tip_radius, base))  # (its settings refused before a ball rolls over it)
     dev = None
     if device_spec is not None:
         if passivity_control is None and stabiliser is None and vibration_models is None:
