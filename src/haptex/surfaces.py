@@ -2131,11 +2131,10 @@ trough)."""
 CREASE_GAP = 0.5
 """Where a felt map's line of kinked edges stops, its crease goes on (:func:`_ending`) across the
 grid edges whose ends' contacts lie more than this many intervals apart either side of ground the
-ball cannot touch (chosen: on the
-egg-crate at 1.01 times its bowls' radius, whose creases run bowl to saddle to bowl and end
-nowhere, their two contacts 20 um apart at least by brute force, the branches part by 0.8 to 2.4
-of the 25 um grid's intervals near the bowls, under BRANCH_JUMP's 3, and the map named 20
-ends)."""
+ball cannot touch (chosen: on the egg-crate at 1.01 times its bowls' radius, whose creases run
+bowl to saddle to bowl and end nowhere, their two contacts 20 um apart at least by brute force,
+the branches part by 0.8 to 2.4 of the 25 um grid's intervals near the bowls, under BRANCH_JUMP's
+3, and the map named 20 ends)."""
 
 CREASE_WALK = 64
 """Cells a crease is followed through past its last kink (:func:`_ending`); past them its end is
@@ -2323,12 +2322,11 @@ def _ending(felt, ends, cell, edge_of, i, j, ax):
     if ends.size == 0 or texture is None or r is None or felt._gradients is None:
         return ends
     nx, ny, periodic = felt.x.size, felt.y.size, felt.periodic
-    mx, my = (nx, ny) if periodic else (nx - 1, ny - 1)
+    my = ny if periodic else ny - 1
     u = _contact_offsets(felt._gradients.reshape(-1, 2), r).reshape(nx, ny, 2)
     dx, dy = felt.dx, felt.dy
     wrap = (lambda a, b: (a % nx, b % ny)) if periodic else (lambda a, b: (a, b))
-    kinked = set(zip(*wrap(i, j), ax.tolist())) if i.size else set()
-    kinked = {(int(a), int(b), bool(c)) for a, b, c in kinked}
+    kinked = {(int(a), int(b), bool(c)) for a, b, c in zip(*wrap(i, j), ax)}
     weak = {}  # (edge) -> whether the crease goes on across it
 
     def gone_on(edges):  # which edges (first node i, j, along x) the crease crosses weakly
@@ -2360,9 +2358,8 @@ def _ending(felt, ends, cell, edge_of, i, j, ax):
     for c in ends.tolist():
         seen = set(int(v) for v in cell[:, edge_of[c]] if v >= 0)  # (the cell and the one across its kink)
         queue, last, joined = [c], c, False
-        while queue and not joined and len(seen) <= CREASE_WALK:
-            cur = queue.pop(0)
-            last = cur
+        while queue and len(seen) <= CREASE_WALK:
+            cur = last = queue.pop(0)
             near = {e: two for e, two in around(cur).items() if set(two) & seen <= {cur}}
             if any(e in kinked for e in near):
                 joined = True
