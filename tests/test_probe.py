@@ -1026,7 +1026,8 @@ def test_q_on_a_felt_map_above_the_troughs_radius_is_the_paths(name, rel_r):
 
 
 @pytest.mark.long
-@pytest.mark.parametrize("name,rel_r", [("egg-crate", 0.95), ("egg-crate", 1.02), ("egg-crate", 1.05),
+@pytest.mark.parametrize("name,rel_r", [("egg-crate", 0.95), ("egg-crate", 1.02), ("egg-crate", 1.03),
+                                        ("egg-crate", 1.05), ("egg-crate", 1.065), ("egg-crate", 1.08),
                                         ("random", 0.95)])
 def test_a_felt_maps_curvature_miss_bounds_its_q(name, rel_r, capsys):
     # Where the refinement for curvature stops short of its slack (at its cap, or where finer
@@ -1046,7 +1047,10 @@ def test_a_felt_maps_curvature_miss_bounds_its_q(name, rel_r, capsys):
     # band-limited to the device's cut-off (0.125 mm for the omega.3 at 0.1 m/s: the spike is a
     # few um wide). Measured: q of B and C on the band-limited texture 5.2954 from the map
     # refined to 760 a side (its miss 3.3 %), 5.3101 from the felt map on 128 a side, 5.388 on 64:
-    # 0.28 % apart where the message said 3.3 % (2026-11-28)
+    # 0.28 % apart where the message said 3.3 % (2026-11-28). Just above the egg-crate's bowls'
+    # radius the maps miss the path by far more (issue 67's goal not met there: q of C -54, -12,
+    # -5, -5, +19, -21, -19, +23 % at 1.03, 1.04, 1.05, 1.06, 1.065, 1.07, 1.075, 1.08 times,
+    # 2026-12-01), and say so: 1.03, 1.065 and 1.08 here, the largest short and over
     tex, h, grad, cell, rho = AREAL_CASES[name]
     r = rel_r * (rho or _TIGHTEST[name]())
     felt = tex.felt_by(r)
