@@ -10,6 +10,7 @@ sqrt(1 + M^2) (Section IV-A) follows that closed form.
 """
 
 import math
+from functools import partial
 
 import numpy as np
 import pytest
@@ -1337,9 +1338,10 @@ def test_on_a_measured_map_the_ring_where_the_ball_leaves_an_asperity_ends_nowhe
     # window's edge: wherever the ball leaves it the contact jumps (by about two intervals), a
     # ring of kinks that ends nowhere. The felt map named 4 crease ends there (2026-12-01: the
     # ring's other edges part by under BRANCH_JUMP's 3 intervals, so only two were kinks); 6 s
+    from pathlib import Path
+
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
-    from pathlib import Path
 
     tex = hx.load_texture(Path(__file__).parents[1] / "examples" / "data" / "metropro-1.dat")
     r, dx = 5e-6, float(tex.x[1] - tex.x[0])
@@ -2236,11 +2238,15 @@ def test_with_a_ball_f_reads_the_felt_maps_heights_and_not_the_maps_as_read(monk
 
     from haptex.cli import main
 
-    read = []
+    read = []  # (the textures the commands read)
+
+    def reading(spec, *a, _f, **k):
+        read.append(_f(spec, *a, **k))
+        return read[-1]
+
     for name in ("haptex.cli.export", "haptex.cli.device"):
         mod = importlib.import_module(name)
-        monkeypatch.setattr(mod, "_texture_from_spec", lambda *a, _f=mod._texture_from_spec, **k: read.append(_f(*a, **k))
-                            or read[-1])
+        monkeypatch.setattr(mod, "_texture_from_spec", partial(reading, _f=mod._texture_from_spec))
     path = tmp_path / "map.npy"
     np.save(path, 20 * np.sin(np.arange(48)[:, None] / 3) * np.cos(np.arange(48)[None, :] / 4))
     given = ["--texture", str(path), "--spacing", "5um", "--height-unit", "nm", "--tip-radius", "20um",
