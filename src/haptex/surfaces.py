@@ -2309,7 +2309,7 @@ def _ending(felt, ends, cell, edge_of, i, j, ax):
     ``edge_of`` as in :func:`_crease_end_cells`, i, j, ax the kinked edges, :func:`_kinked_edges`)
     end: each is followed from its cell along the grid edges whose ends' contacts (from the nodes'
     gradients, :func:`_contact_offsets`) lie more than CREASE_GAP intervals apart either side of
-    ground the ball cannot touch (:func:`_section_bridges` in any direction): the crease goes on
+    ground the ball cannot touch (:func:`_kinked` with that gap, in any direction): the crease goes on
     there, its contacts parting by less than a kink's BRANCH_JUMP intervals (near the troughs'
     radius, or where two grid points' contacts sit on a chord at an angle to the direction the
     ball bridges). Each step looks at the edges at the corners of the cells reached, but those of
@@ -2336,9 +2336,7 @@ def _ending(felt, ends, cell, edge_of, i, j, ax):
             fi, fj = np.where(ex, ei + 1, ei), np.where(ex, ej, ej + 1)
             s0 = np.column_stack([felt.x[0] + ei * dx, felt.y[0] + ej * dy]) + u[ei % nx, ej % ny]
             s1 = np.column_stack([felt.x[0] + fi * dx, felt.y[0] + fj * dy]) + u[fi % nx, fj % ny]
-            d = s1 - s0
-            on = (d[:, 0] / dx) ** 2 + (d[:, 1] / dy) ** 2 > CREASE_GAP**2
-            on[on] = _section_bridges(texture, s0[on], s1[on], r, any_direction=True)
+            on = _kinked(texture, s0, s1 - s0, dx, dy, r, CREASE_GAP, any_direction=True)
             weak.update(zip(todo, on.tolist()))
         return [weak[e] for e in edges]
 
@@ -3630,23 +3628,24 @@ _SECTION_E = np.stack([np.cos(np.pi * np.arange(SECTION_DIRECTIONS) / SECTION_DI
                        np.sin(np.pi * np.arange(SECTION_DIRECTIONS) / SECTION_DIRECTIONS)], -1)
 
 
-def _kinked(texture, s0, d, dx, dy, r):
+def _kinked(texture, s0, d, dx, dy, r, apart=BRANCH_JUMP, any_direction=False):
     """Whether the grid edges whose ends' contacts are at s0 and s0 + d (..., 2) (m) are kinked:
-    the contacts more than BRANCH_JUMP intervals apart (:func:`_far_apart`) and the surface
-    between them one the ball of radius r (m) can bridge (:func:`_section_bridges`). Shape
-    (...)."""
-    jump = _far_apart(d, dx, dy)
+    the contacts more than ``apart`` intervals apart (BRANCH_JUMP; :func:`_far_apart`) and the
+    surface between them one the ball of radius r (m) can bridge (:func:`_section_bridges`, with
+    ``any_direction`` as there: CREASE_GAP and True for a crease that goes on past its kinks,
+    :func:`_ending`). Shape (...)."""
+    jump = _far_apart(d, dx, dy, apart)
     if jump.any():
-        jump[jump] = _section_bridges(texture, s0[jump], s0[jump] + d[jump], r)
+        jump[jump] = _section_bridges(texture, s0[jump], s0[jump] + d[jump], r, any_direction)
     return jump
 
 
-def _far_apart(d, dx, dy):
-    """Whether two contacts d (..., 2) apart (m) lie more than BRANCH_JUMP intervals apart, each
-    axis in its own interval (dx, dy; a map refined along one axis only has cells longer than
-    they are wide, across which a contact that moves with the ball moves by more than BRANCH_JUMP
-    of the shorter interval). Shape (...)."""
-    return (d[..., 0] / dx) ** 2 + (d[..., 1] / dy) ** 2 > BRANCH_JUMP**2
+def _far_apart(d, dx, dy, apart=BRANCH_JUMP):
+    """Whether two contacts d (..., 2) apart (m) lie more than ``apart`` (BRANCH_JUMP) intervals
+    apart, each axis in its own interval (dx, dy; a map refined along one axis only has cells
+    longer than they are wide, across which a contact that moves with the ball moves by more than
+    BRANCH_JUMP of the shorter interval). Shape (...)."""
+    return (d[..., 0] / dx) ** 2 + (d[..., 1] / dy) ** 2 > apart**2
 
 
 _FOLD_NEIGHBOURS = ((-1, 0), (1, 0), (0, -1), (0, 1), (-1, -1), (1, -1), (-1, 1), (1, 1))
