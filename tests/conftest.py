@@ -125,3 +125,41 @@ def server_log(proc, chars: int = 3000) -> str:
 def objdir(tmp_path_factory):
     """Where tests/cbuild.py compiles the C core's objects, once per flag set in a process."""
     return tmp_path_factory.mktemp("core-objects")
+
+
+@pytest.fixture(scope="session")
+def shared(tmp_path_factory):
+    """``shared(key, make)``: ``make()`` computed once in a test run and read by every test that
+    asks for the same ``key`` (a str naming everything the value depends on), across
+    pytest-xdist's workers: a pickle in the directory the run's workers share (the parent of
+    each worker's base temporary directory, pytest-xdist's documented pattern), written by the
+    first worker to ask while the others wait on its lock (``fcntl.flock``). For deterministic
+    values that cost seconds and that several tests read (a felt map, an oracle's q): each
+    caller gets its own copy, unpickled, as ``make()`` returned it before any test used it, so
+    one test's caches or changes never reach another. Measured on .ci/run's long set
+    (2026-12-01): the felt maps several tests read were 83 s of its test time made again."""
+    import fcntl
+    import hashlib
+    import pickle
+
+    root = tmp_path_factory.getbasetemp()
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        root = root.parent
+    root = root / "shared"
+    root.mkdir(exist_ok=True)
+
+    def get(key: str, make):
+        stem = root / hashlib.sha256(key.encode()).hexdigest()[:24]
+        with open(stem.with_suffix(".lock"), "w") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)  # (released when the file closes)
+            path = stem.with_suffix(".pkl")
+            if path.exists():
+                return pickle.loads(path.read_bytes())
+            value = make()
+            data = pickle.dumps(value)
+            tmp = stem.with_suffix(".tmp")
+            tmp.write_bytes(data)
+            tmp.replace(path)
+            return pickle.loads(data)
+
+    return get

@@ -590,6 +590,13 @@ _TIGHTEST = {"random": _gratings_tightest_radius,
              "two-grating": lambda: _gratings_tightest_radius(a=_TWO_A, k=_TWO_K, ph=_TWO_PH)}
 
 
+def _felt_case(shared, name, r):
+    """AREAL_CASES[name]'s texture felt by a ball of radius r (m), made once in a test run and
+    read by every test that asks for the same (name, r) (conftest's ``shared``: each a copy as
+    ``felt_by`` returned it). The maps several tests read cost seconds each."""
+    return shared(f"felt {name} r={r!r}", lambda: AREAL_CASES[name][0].felt_by(r))
+
+
 ANGLES = np.linspace(0.0, 2 * np.pi, 120, endpoint=False)
 
 
@@ -836,7 +843,7 @@ def test_on_axes_turned_to_its_gratings_the_felt_egg_crate_is_the_ball_paths():
 @pytest.mark.parametrize("name,rel_r", [("grating", 0.9), pytest.param("egg-crate", 0.9, marks=pytest.mark.long),
                                         pytest.param("egg-crate", 0.8, marks=pytest.mark.long),
                                         pytest.param("egg-crate", 0.95, marks=pytest.mark.long)])
-def test_below_every_troughs_radius_the_felt_map_names_no_kink(name, rel_r):
+def test_below_every_troughs_radius_the_felt_map_names_no_kink(name, rel_r, shared):
     # A ball bridges a surface only where its section between the two contacts curves more than
     # the ball's (a circle of radius at most r tangent from above at both): below the surface's
     # tightest radius of curvature (1 / sup ||H||) it touches everywhere and its path is the
@@ -847,7 +854,7 @@ def test_below_every_troughs_radius_the_felt_map_names_no_kink(name, rel_r):
     # 24, 344, 264 kinks and 256, 328, 274 branched cells (2026-11-27). Truth: that
     # geometry, and the brute-force path's steepest slope (numpy on the analytic heights)
     tex, h, grad, cell, rho = AREAL_CASES[name]
-    felt = tex.felt_by(rel_r * rho)
+    felt = _felt_case(shared, name, rel_r * rho)
     assert len(felt.kinks) == 0 and felt.branched_cells == 0
     truth = _path_max_slope_2d(h, grad, cell, rel_r * rho)
     assert felt.max_slope == pytest.approx(truth, rel=0.01)
@@ -884,7 +891,7 @@ def test_a_felt_map_refined_for_its_curvature_carries_its_first_grids_band():
                      ("random", 0.95, "BCDG"), ("egg-crate", 0.99, "BCG"), ("two-grating", 0.95, "BC"),
                      ("two-grating", 0.98, "BC"), ("two-grating", 0.985, "BC"), ("two-grating", 0.99, "BC"),
                      ("two-grating", 0.995, "BC"), ("egg-crate", 0.995, "BCG")]])
-def test_q_of_every_algorithm_on_a_felt_map_below_the_troughs_radius_is_the_paths(name, rel_r, letters):
+def test_q_of_every_algorithm_on_a_felt_map_below_the_troughs_radius_is_the_paths(name, rel_r, letters, shared):
     # issue 67's goal on areal maps: q of every algorithm on the felt surface within 1 % of q on
     # the brute-force ball path. B, C and G read the path's Hessian, which below the troughs'
     # radius rho is kappa / (1 - r kappa) at a trough (the offset surface's), a spike a few um
@@ -967,7 +974,7 @@ def test_q_of_every_algorithm_on_a_felt_map_below_the_troughs_radius_is_the_path
         kappa = 1 / _TIGHTEST[name]()  # the path 0.09 % above it at 0.99 rho, 0.18 % at 0.995)
         assert truth["C"] == pytest.approx(1e-3 * kappa / (1 - r * kappa),
                                            rel=1e-3 if rel_r < 0.995 else 2.5e-3)
-    felt = tex.felt_by(r)
+    felt = _felt_case(shared, name, r)
     for letter in letters:
         q = hx.characteristic_number(hx.algorithm(letter, felt, 2000.0)).value
         assert q == pytest.approx(truth.get(letter, 1.0), rel=0.01), letter
@@ -976,7 +983,7 @@ def test_q_of_every_algorithm_on_a_felt_map_below_the_troughs_radius_is_the_path
 @pytest.mark.long
 @pytest.mark.parametrize("name,rel_r", [("grating", 2.0), ("egg-crate", 2.0), ("grating", 1.2), ("egg-crate", 1.2),
                                         ("egg-crate", 1.1), ("two-grating", 1.2)])
-def test_q_on_a_felt_map_above_the_troughs_radius_is_the_paths(name, rel_r):
+def test_q_on_a_felt_map_above_the_troughs_radius_is_the_paths(name, rel_r, shared):
     # issue 67's goal above the troughs' radius rho, where the ball bridges them: the path has
     # kinks (lines on the grating, the bowls' apexes on the egg-crate) and its curvature is
     # largest beside them, a one-sided limit; _areal_path_q's contacts are the brute force's
@@ -1019,7 +1026,7 @@ def test_q_on_a_felt_map_above_the_troughs_radius_is_the_paths(name, rel_r):
         line = _path_q((0.2e-3,), (2e-3,), (0.0,), 2e-3, rel_r * rho)
         for letter in "BCG":
             assert truth[letter] == pytest.approx(line[letter], rel=1e-3), letter
-    felt = tex.felt_by(rel_r * rho)
+    felt = _felt_case(shared, name, rel_r * rho)
     assert len(felt.kinks) > 0  # (the ball bridges)
     for letter in "BCG":
         q = hx.characteristic_number(hx.algorithm(letter, felt, 2000.0)).value
@@ -1030,7 +1037,7 @@ def test_q_on_a_felt_map_above_the_troughs_radius_is_the_paths(name, rel_r):
 @pytest.mark.parametrize("name,rel_r", [("egg-crate", 0.95), ("egg-crate", 1.02), ("egg-crate", 1.03),
                                         ("egg-crate", 1.05), ("egg-crate", 1.065), ("egg-crate", 1.08),
                                         ("random", 0.95)])
-def test_a_felt_maps_curvature_miss_bounds_its_q(name, rel_r, capsys):
+def test_a_felt_maps_curvature_miss_bounds_its_q(name, rel_r, capsys, shared):
     # Where the refinement for curvature stops short of its slack (at its cap, or where finer
     # grids did worse), the map says by how much (curvature_miss, a fraction of the path's
     # largest curvature; peak_miss the part of it the largest can see), and q of B, C and G,
@@ -1054,7 +1061,7 @@ def test_a_felt_maps_curvature_miss_bounds_its_q(name, rel_r, capsys):
     # 2026-12-01), and say so: 1.03, 1.065 and 1.08 here, the largest short and over
     tex, h, grad, cell, rho = AREAL_CASES[name]
     r = rel_r * (rho or _TIGHTEST[name]())
-    felt = tex.felt_by(r)
+    felt = _felt_case(shared, name, r)
     truth = _areal_path_q(h, grad, cell, r, letters="C")["C"]
     said = hx.characteristic_number(hx.algorithm("C", felt, 2000.0))
     q = said.value
@@ -1204,7 +1211,7 @@ def test_a_felt_maps_convex_miss_bounds_q_of_d():
 
 @pytest.mark.long
 @pytest.mark.parametrize("rel_r", [0.95])
-def test_on_axes_along_its_gratings_q_of_d_on_the_felt_egg_crate_is_the_paths(rel_r):
+def test_on_axes_along_its_gratings_q_of_d_on_the_felt_egg_crate_is_the_paths(rel_r, shared):
     # issue 67's goal for D on the egg-crate near its bowls' radius: q of D, d_max / (R - d_max)
     # below the path's most convex point of radius R (eq. 18), within 1 % of the path's. On the
     # plane's axes the map's most convex curvature, at the saddles where the concave spike
@@ -1218,7 +1225,7 @@ def test_on_axes_along_its_gratings_q_of_d_on_the_felt_egg_crate_is_the_paths(re
     tex, h, grad, cell, rho = AREAL_CASES["egg-crate"]
     r = rel_r * rho
     truth = 1e-3 / (rho + r - 1e-3)
-    felt = tex.felt_by(r)
+    felt = _felt_case(shared, "egg-crate", r)
     assert felt.turn == pytest.approx(math.pi / 4)
     assert felt.convex_miss < 0.01
     said = hx.characteristic_number(hx.algorithm("D", felt, 2000.0))
@@ -1243,7 +1250,7 @@ def test_just_above_the_troughs_radius_a_felt_grating_kinks_only_at_its_troughs(
 
 @pytest.mark.long
 @pytest.mark.parametrize("rel_r", [1.2, 1.5])
-def test_a_felt_map_names_where_a_crease_ends(rel_r, monkeypatch, capsys):
+def test_a_felt_map_names_where_a_crease_ends(rel_r, monkeypatch, capsys, shared):
     # A crease (a line of kinks, where two branches of the contact tie) can end inside the map:
     # there the two branches merge at a fold and the path's curvature grows without bound, so q
     # of B, C and G on the ball's ideal path is unbounded near it (stop 87's random map). Truth:
@@ -1269,8 +1276,7 @@ def test_a_felt_map_names_where_a_crease_ends(rel_r, monkeypatch, capsys):
     assert np.all(np.abs(ends[:, 0] - 0.75 * l) <= felt.dx)
     assert np.sort(np.abs((ends[:, 1] + Ly / 2) % Ly - Ly / 2)) == pytest.approx([ystar, ystar], abs=2 * felt.dy)
     for name in ("grating", "egg-crate"):
-        other, _, _, _, rho = AREAL_CASES[name]
-        closed = other.felt_by(rel_r * rho)
+        closed = _felt_case(shared, name, rel_r * AREAL_CASES[name][4])
         assert len(closed.kinks) > 0 and closed.crease_ends.shape == (0, 2)
     if rel_r == 1.2:  # design names them (the faded grating given in place of a spec's texture)
         import importlib
@@ -1290,7 +1296,7 @@ def test_a_felt_map_names_where_a_crease_ends(rel_r, monkeypatch, capsys):
 
 @pytest.mark.long
 @pytest.mark.parametrize("rel_r", [1.01, 1.015, 1.02, 1.03, 1.05, 1.07])
-def test_just_above_its_bowls_radius_the_egg_crates_creases_end_nowhere(rel_r):
+def test_just_above_its_bowls_radius_the_egg_crates_creases_end_nowhere(rel_r, shared):
     # Just above the egg-crate's bowls' radius rho the ball bridges each bowl and each saddle's
     # concave direction (its curvature there 1 / rho too): its creases run along the diagonals
     # from bowl to saddle to bowl, where they meet, and end nowhere, so the ideal path's
@@ -1321,7 +1327,7 @@ def test_just_above_its_bowls_radius_the_egg_crates_creases_end_nowhere(rel_r):
         p = bowl + d * np.array([1.0, 1.0]) / math.sqrt(2) + [1e-7, -1e-7]
         c = p + U[np.argmax(h(p + U) + cap)] - bowl
         assert math.hypot(c[0] - c[1], c[1] - c[0]) > 10 * step, d
-    felt = tex.felt_by(r)
+    felt = _felt_case(shared, "egg-crate", r)
     assert len(felt.kinks) > 0
     assert felt.crease_ends.shape == (0, 2), felt.crease_ends
 
@@ -1542,7 +1548,7 @@ def test_a_felt_maps_steepest_slope_is_the_sup_of_its_patches_beside_its_kinks()
                                    pytest.param(1.04, marks=pytest.mark.long),
                                    pytest.param(1.08, marks=pytest.mark.long),
                                    pytest.param(1.18, marks=pytest.mark.long)])
-def test_where_the_ball_nests_in_a_bowl_the_felt_map_is_refined_until_it_branches(rel_r):
+def test_where_the_ball_nests_in_a_bowl_the_felt_map_is_refined_until_it_branches(rel_r, shared):
     # issue 67, from 1.05 to 1.3 bowl radii: the ball nests in the bowl, and on the default grid
     # (r / 16) the branches of some cells jumped between the bowl's sides or outnumbered what a
     # cell holds; those cells kept their single patches, whose apex is too steep: 0.3551 at 1.1
@@ -1560,7 +1566,7 @@ def test_where_the_ball_nests_in_a_bowl_the_felt_map_is_refined_until_it_branche
     # to 11 branches, more than the 8 a cell held before stop 80 (+2.0 and +2.6 %), and at 1.18
     # +1.2 %; measured with 12 a cell: +0.04, +0.02, +0.17 and +0.01 %
     tex, h, grad, cell, rho = AREAL_CASES["egg-crate"]
-    felt = tex.felt_by(rel_r * rho)
+    felt = _felt_case(shared, "egg-crate", rel_r * rho)
     truth = _path_max_slope_2d(h, grad, cell, rel_r * rho)
     assert felt.branched_cells > 0 or rel_r < 1.05  # (at the focal point a grid of single patches, none steep)
     assert felt.max_slope == pytest.approx(truth, rel=0.01)
@@ -1832,7 +1838,7 @@ def test_a_felt_map_is_continuous_and_never_steeper_than_its_surface():
 
 
 @pytest.mark.parametrize("rel_r", [1.5, pytest.param(1.05, marks=pytest.mark.long)])
-def test_at_its_nodes_a_felt_map_reads_a_limit_from_beside_them(rel_r):
+def test_at_its_nodes_a_felt_map_reads_a_limit_from_beside_them(rel_r, shared):
     # By definition a felt map the ball bridges is, in a branched cell, the highest of the cell's
     # patches: at a grid node (where q's searches and grid-aligned probes read it) its second
     # derivatives are the limit from some direction, the cell's piece on that side. Truth: the
@@ -1845,8 +1851,7 @@ def test_at_its_nodes_a_felt_map_reads_a_limit_from_beside_them(rel_r):
     # 10,988 and the path's branches 11,907, and made q of C +3.26 %; 16 nodes, up to 4,942 1/m
     # off, on the 38-a-side map kept for r one ulp away). Now a tie is broken inside the cell
     # (hx_texture_eval.h, HX_BRANCH_NUDGE): none; 1.5 rho 4 s, 1.05 rho 20 s
-    tex, rho = hx.SumOfGratings.egg_crate(0.1e-3, 2e-3), (2e-3) ** 2 / (4 * math.pi**2 * 0.1e-3)
-    felt = tex.felt_by(rel_r * rho)
+    felt = _felt_case(shared, "egg-crate", rel_r * AREAL_CASES["egg-crate"][4])
     assert felt.branched_cells > 0  # (the ball bridges the bowls: some cells are branched)
     X, Y = np.meshgrid(felt.x, felt.y, indexing="ij")
     p = np.stack([X.ravel(), Y.ravel()], -1)
