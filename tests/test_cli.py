@@ -313,6 +313,37 @@ def test_cli_trust_one_line(bad_files, args, fragment):
     assert len(lines) == 1 and fragment in lines[0], r.stderr
 
 
+_KINDS = ["'sine:AMPLITUDE,PERIOD'", "'sum:A1,L1;A2,L2'", "'noise:RMS,SHORTEST,LONGEST,LENGTH[,SEED]'",
+          "'egg-crate:AMPLITUDE,PERIOD'", "'grating:AMPLITUDE,PERIOD[,DIRECTION]'"]
+
+
+@pytest.mark.parametrize("command", [["design"], ["export", "--algorithm", "A", "--stiffness", "1 kN/m", "--max-force", "5 N",
+                                                "--out", "{d}/x"],
+                                     ["run", "--device", "simulated:falcon", "--duration", "0.1s"]])
+@pytest.mark.parametrize("typed, meant", [("sinusoid:0.2mm,2mm", "sine:0.2mm,2mm"), ("Sine:0.2mm,2mm", "sine:0.2mm,2mm"),
+                                          ("egg_crate:0.1mm,2mm", "egg-crate:0.1mm,2mm"),
+                                          ("sinus:0.2mm,2mm", "sine:0.2mm,2mm"), ("grate:0.1mm,2mm", "grating:0.1mm,2mm"),
+                                          ("{d}/none.csv", None), ("sine:", None)])
+def test_a_texture_that_is_neither_a_file_nor_a_kind_is_named_with_every_kind(bad_files, command, typed, meant):
+    # A newcomer's first try, 'sinusoid:0.2mm,2mm' (haptex.Sinusoid's name), read "path =
+    # 'sinusoid:0.2mm,2mm' is not allowed: no such file": neither the option, nor the kinds a
+    # --texture may be, nor what was meant (2026-12-01). Truth: the kinds `haptex design
+    # --help` documents for --texture (its option's help), the one the user wrote misspelt
+    # named with the values as typed
+    typed = typed.replace("{d}", str(bad_files))
+    r = run_main(*[a.replace("{d}", str(bad_files)) for a in command], "--texture", typed)
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == 2 and len(lines) == 1, r.stderr
+    assert f"texture = {typed!r} is not allowed" in lines[0], r.stderr
+    assert all(kind in lines[0] for kind in _KINDS) and "topography file" in lines[0], r.stderr
+    if meant is not None:
+        assert f"did you mean {meant!r}?" in lines[0], r.stderr
+    else:
+        assert "did you mean" not in lines[0], r.stderr
+    helped = " ".join(run_main("design", "--help").stdout.split())
+    assert all(kind in helped for kind in _KINDS[:2] + _KINDS[3:])  # (the kinds the error names are --help's)
+
+
 def test_a_zero_needs_no_unit_and_a_single_column_of_heights_loads():
     # "0" is the same in every unit; a one-column file is heights (it failed on the columns)
     assert parse_quantity("0", "m", "amplitude", require_unit=True) == 0.0

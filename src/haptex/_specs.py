@@ -4,10 +4,45 @@ browser explorer."""
 
 from __future__ import annotations
 
+import difflib
 import re
+from pathlib import Path
 
 from ._units import parse_quantity
 from ._validation import ParameterError
+
+TEXTURE_KINDS = {"sine": "AMPLITUDE,PERIOD", "sum": "A1,L1;A2,L2", "noise": "RMS,SHORTEST,LONGEST,LENGTH[,SEED]",
+                 "egg-crate": "AMPLITUDE,PERIOD", "grating": "AMPLITUDE,PERIOD[,DIRECTION]"}
+"""The kinds of texture a spec names (``KIND:VALUES``, :func:`texture_from_spec`), each with its
+values as ``--help`` writes them."""
+_KINDS_TEXT = ", ".join(f"'{k}:{v}'" for k, v in TEXTURE_KINDS.items())
+_KIND_ALIASES = {"sinusoid": "sine", "sin": "sine", "sinus": "sine", "sumofsinusoids": "sum", "sines": "sum",
+                 "bandlimitednoise": "noise", "eggcrate": "egg-crate"}
+"""Names a newcomer writes for a kind: the Python classes' (``Sinusoid``, ``SumOfSinusoids``,
+``BandLimitedNoise``), without the hyphen (``eggcrate``, ``egg_crate``), a short form."""
+
+
+def _neither(spec: str, kind: str, rest: str) -> str:
+    """The refusal of a texture spec that is neither a file nor ``KIND:VALUES`` of a known kind:
+    what it lacks, every kind with its values, and the spec as meant where its kind reads as a
+    misspelt one (its case, an alias, or difflib's closest kind of the same first letter at a ratio
+    of 0.6 or more), with the values as typed."""
+    looks = re.fullmatch(r"[A-Za-z][A-Za-z_-]+", kind) is not None and ":" in spec  # (not a drive letter, C:)
+    if kind in TEXTURE_KINDS:
+        why = f"'{kind}' needs its values, '{kind}:{TEXTURE_KINDS[kind]}'"
+    elif looks:
+        why = f"no file has that name and '{kind}' is not a kind of texture"
+    else:
+        why = "no such file"
+    said = f"texture = {spec!r} is not allowed: {why}; must be {_KINDS_TEXT} or a topography file's path"
+    if looks and kind not in TEXTURE_KINDS and rest:
+        key = kind.lower().replace("_", "-")
+        meant = _KIND_ALIASES.get(key.replace("-", ""), key if key in TEXTURE_KINDS else None)
+        close = difflib.get_close_matches(key, [k for k in TEXTURE_KINDS if k[0] == key[0]], n=1, cutoff=0.6)
+        meant = meant or (close[0] if close else None)
+        if meant is not None:
+            said += f" (did you mean {meant + ':' + rest!r}?)"
+    return said
 
 
 def quantity(text, unit: str, name: str) -> float:
@@ -83,11 +118,11 @@ def texture_from_spec(spec: str, spacing=None, x_unit=None, height_unit=None, le
     from .textures import BandLimitedNoise, Sinusoid, SumOfSinusoids
 
     if not str(spec).strip():  # (an empty path is the working folder, which no reader takes)
-        raise ParameterError(f"texture = {spec!r} is not allowed: must be 'sine:AMPLITUDE,PERIOD', 'sum:A1,L1;A2,L2', "
-                             "'noise:RMS,SHORTEST,LONGEST,LENGTH[,SEED]', 'egg-crate:AMPLITUDE,PERIOD', "
-                             "'grating:AMPLITUDE,PERIOD[,DIRECTION]' or a topography file's path")
+        raise ParameterError(f"texture = {spec!r} is not allowed: must be {_KINDS_TEXT} or a topography file's path")
     kind, _, rest = spec.partition(":")
-    if kind in ("sine", "sum", "noise", "egg-crate", "grating") and rest:
+    if not (kind in TEXTURE_KINDS and rest) and not Path(spec).exists():
+        raise ParameterError(_neither(spec, kind, rest))
+    if kind in TEXTURE_KINDS and rest:
         given = [flag for flag, v in (("--spacing", spacing), ("--x-unit", x_unit), ("--height-unit", height_unit),
                                       ("--level", level), ("--lowpass", lowpass), ("--scale", scale),
                                       ("--periodic", periodic), ("--fill-undefined", fill_undefined),
