@@ -344,6 +344,35 @@ def test_a_texture_that_is_neither_a_file_nor_a_kind_is_named_with_every_kind(ba
     assert all(kind in helped for kind in _KINDS[:2] + _KINDS[3:])  # (the kinds the error names are --help's)
 
 
+@pytest.mark.parametrize("command", [["design", "--texture", "sine:0.2mm,2mm", "--device"], ["devices", "show"],
+                                     ["export", "--algorithm", "A", "--texture", "sine:0.2mm,2mm", "--stiffness", "1 kN/m",
+                                      "--max-force", "1 N", "--passivity-control", "1 N*s/m", "--out", "x", "--device"],
+                                     ["run", "--duration", "0.1s", "--device", "simulated:"]])
+@pytest.mark.parametrize("typed, meant", [("phantom", ["touch", "premium-1-5"]), ("Touch", ["touch"]),
+                                          ("omega.3", ["omega-3"]), ("omega3", ["omega-3"]), ("haply", ["inverse3"]),
+                                          ("falcon3d", ["falcon"]), ("geomagic", ["touch"]), ("novint-falcon", ["falcon"]),
+                                          ("kuka", [])])
+def test_a_device_named_as_its_maker_names_it_is_refused_naming_the_preset_meant(command, typed, meant):
+    # A researcher writes the device as its maker or the literature names it: 'phantom' (the
+    # PHANTOM Omni, now the Touch, and the PHANTOM Premium), 'omega.3' (Force Dimension's
+    # spelling), 'haply' (its Inverse3), 'falcon3d'. Each was refused listing the presets, without
+    # saying which one it is (2026-12-01). Truth: the products' names as `haptex devices --wide`
+    # prints them beside each preset (3D Systems Touch (Geomagic Touch, Phantom Omni), 3D Systems
+    # (SensAble) PHANTOM Premium 1.5, Force Dimension omega.3, Haply Inverse3, Novint Falcon)
+    args = command[:-1] + [command[-1] + typed] if command[-1].endswith(":") else command + [typed]
+    r = run_main(*args)
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == 2 and len(lines) == 1, r.stderr
+    assert "is not allowed" in lines[0] and "touch, premium-1-5, falcon, omega-3" in lines[0], r.stderr
+    if meant:
+        assert "did you mean " + " or ".join(repr(m) for m in meant) + "?" in lines[0], r.stderr
+    else:
+        assert "did you mean" not in lines[0], r.stderr
+    wide = " ".join(run_main("devices", "--wide").stdout.split())
+    for product in ("Phantom Omni", "PHANTOM Premium 1.5", "omega.3", "Haply Inverse3", "Novint Falcon"):
+        assert product in wide
+
+
 def test_a_zero_needs_no_unit_and_a_single_column_of_heights_loads():
     # "0" is the same in every unit; a one-column file is heights (it failed on the columns)
     assert parse_quantity("0", "m", "amplitude", require_unit=True) == 0.0

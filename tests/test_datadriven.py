@@ -454,6 +454,8 @@ def test_a_folder_of_hatt_files_is_one_line_each(tmp_path, capsys):
     assert main(["vibration", one, "--plot", str(tmp_path / "cork.png")]) == 0 and (tmp_path / "cork.png").is_file()
     capsys.readouterr()  # (--device alone reads on: these 2 kHz models are then refused for the Falcon's 1 kHz)
     assert main(["vibration", one, "--device", "falcon"]) == 2 and "servo rate, 1000 Hz" in capsys.readouterr().err
+    assert main(["vibration", one, "--device", "omega.3"]) == 2  # (Force Dimension's spelling: the preset named)
+    assert "did you mean 'omega-3'?" in capsys.readouterr().err
     assert main(["vibration", str(tmp_path / "nothing")]) == 2
 
 

@@ -404,8 +404,63 @@ def preset(name: str) -> Preset:
     """
     table = presets()
     if name not in table:
-        raise fail("device", name, "one of " + ", ".join(table))
+        raise fail("device", name, "one of " + ", ".join(table) + did_you_mean(name))
     return table[name]
+
+
+def meant(name: str) -> list[str]:
+    """The presets a device name that is not one of their keys may mean, from the products'
+    names (:attr:`Preset.label`): a key or a word of a label equal to ``name`` once both are
+    lower case and without punctuation ("Touch", "omega.3", "omega3", "geomagic", "haply"; words
+    of three characters or more, "the" aside), or
+    that starts the name or that the name starts, four characters at least ("falcon3d",
+    "novint-falcon"). "phantom" names two products: the PHANTOM Omni (now the Touch) and the
+    PHANTOM Premium 1.5.
+
+    Parameters
+    ----------
+    name : str
+        A device as a user wrote it.
+
+    Returns
+    -------
+    list of str
+        The keys of the presets it may mean, in :func:`presets`' order; empty where none.
+    """
+    import re
+
+    def bare(text):
+        return re.sub(r"[^a-z0-9]", "", str(text).lower())
+
+    typed = bare(name)
+    if not typed:
+        return []
+    hits = []
+    for key, p in presets().items():
+        words = {w for w in (bare(w) for w in re.split(r"[\s(),]+", p.label)) if len(w) >= 3 and w != "the"}
+        words.add(bare(key))
+        if typed in words or any(len(w) >= 4 and (typed.startswith(w) or w.startswith(typed)) and len(typed) >= 4
+                                 for w in words if not w.isdigit()):
+            hits.append(key)
+    return hits
+
+
+def did_you_mean(name: str) -> str:
+    """A refusal's remedy for a device name that is not a preset: the presets :func:`meant` finds.
+
+    Parameters
+    ----------
+    name : str
+        A device as a user wrote it.
+
+    Returns
+    -------
+    str
+        `` (did you mean 'touch' or 'premium-1-5'?)`` for "phantom"; "" where :func:`meant` finds
+        no preset.
+    """
+    keys = meant(name)
+    return f" (did you mean {' or '.join(repr(k) for k in keys)}?)" if keys else ""
 
 
 def hand(name) -> Hand:

@@ -338,7 +338,7 @@ def _build_device(ctx, spec: str, joint_damping, mass, damping, sampling_period,
         return Device.point_mass(_q(vals[0], "kg", "mass"), _q(vals[1], "N*s/m", "damping"),
                                  _q(vals[2], "s", "period"), position_resolution=delta, delay=delay,
                                  dimension=dimension)
-    from ..catalogue import presets
+    from ..catalogue import did_you_mean, presets
 
     if kind in presets() and not rest:
         _refuse_unused(ctx, {"*": {"joint_damping", "mass", "damping", "sampling_period"}}, kind, "--device",
@@ -346,7 +346,8 @@ def _build_device(ctx, spec: str, joint_damping, mass, damping, sampling_period,
         return _catalogued_device(kind, dimension, delay)
     raise ParameterError(f"device = {spec!r} is not allowed: must be 'pantograph', 'point-mass', "
                          "'point-mass:MASS,DAMPING,PERIOD[,RESOLUTION]', 'serial-arm', 'delta', a preset of "
-                         f"'haptex devices' ({', '.join(presets())}) or a TOML device file (FILE.toml)")
+                         f"'haptex devices' ({', '.join(presets())}) or a TOML device file (FILE.toml)"
+                         + did_you_mean(kind))
 
 
 class _Steps:

@@ -111,8 +111,10 @@ def vibration(models, speed, force, check, points, plot, device_spec, hand, as_j
     if device_spec is not None:
         dev = _catalogued_device(device_spec, 2)
         if dev is None:
-            raise ParameterError(f"--device = {device_spec!r} is not allowed: must be a preset of 'haptex devices' or "
-                                 "a device file FILE.toml")
+            from ..catalogue import did_you_mean, presets
+
+            raise ParameterError(f"--device = {device_spec!r} is not allowed: must be a preset of 'haptex devices' "
+                                 f"({', '.join(presets())}) or a device file FILE.toml" + did_you_mean(device_spec))
     s = read_models(models)
     idx, lam, clamped = s.weights(speed, force)
     m = s.model_at(speed, force)

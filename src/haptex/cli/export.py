@@ -93,12 +93,13 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
         if passivity_control is None and stabiliser is None and vibration_models is None:
             raise ParameterError("--device is not allowed without --passivity-control, --stabiliser or --vibration: "
                                  "the exported tick reads nothing else of the device")
-        from ..catalogue import presets
+        from ..catalogue import did_you_mean, presets
 
         dev = _catalogued_device(device_spec, alg.dimension)
         if dev is None:
             raise ParameterError(f"device = {device_spec!r} is not allowed: must be a preset of 'haptex devices' "
-                                 f"({', '.join(presets())}) or a TOML device file (FILE.toml)")
+                                 f"({', '.join(presets())}) or a TOML device file (FILE.toml)"
+                                 + did_you_mean(device_spec))
     pc = period = None
     if passivity_control is not None or stabiliser is not None:
         if dev is None:
