@@ -387,3 +387,70 @@ def test_the_region_is_searched_only_as_far_as_its_best_points_need(shape):
         smooth = np.sin(f * g[0]) * np.cos(f * g[1]) + 0.01 * g[0]
         got, _, checked = _region_candidates(smooth, lambda idx: np.ones(len(idx), bool))
         assert list(got) == _peaks_by_definition(smooth) and checked <= most
+
+
+_TAKE_AN_ALGORITHM = [  # (module, function, a GodObject too): every public function whose first parameter is an algorithm
+    ("haptex.analysis.characteristic", "characteristic_number", False),
+    ("haptex.analysis.characteristic", "characteristic_points", False),
+    ("haptex.analysis.characteristic", "friction_bounds", False),
+    ("haptex.analysis.continuity", "continuity", False), ("haptex.analysis.continuity", "continuity_points", False),
+    ("haptex.analysis.continuity", "grid_points", False), ("haptex.analysis.cost", "evaluation_time", False),
+    ("haptex.analysis.cost", "analysis_cost", False), ("haptex.analysis.maps", "field_map", False),
+    ("haptex.analysis.passivity", "passivity_condition", False),
+    ("haptex.analysis.passivity", "max_passive_stiffness", False), ("haptex.analysis.work", "path_work", False),
+    ("haptex.analysis.work", "loop_energy", False), ("haptex.analysis.work", "paper_loop", False),
+    ("haptex.analysis.work", "curl", False), ("haptex.analysis.work", "random_loops", False),
+    ("haptex.analysis.work", "conservativity", False), ("haptex.core", "field", True),
+    ("haptex.limits", "clean_stiffness", False), ("haptex.renderer", "Renderer", True),
+    ("haptex.simulate", "simulate", True), ("haptex.simulate", "simulate_batch", True),
+    ("haptex.export", "export_c", True), ("haptex.export", "build_defines", True),
+    ("haptex.renderer", "reads_search_budget", True), ("haptex.renderer", "tick_model", True),
+    ("haptex.servo", "budgeted_search", True), ("haptex.servo", "search_budget", True),
+    ("haptex.algorithms", "checked_algorithm", False),
+]
+
+
+@pytest.mark.parametrize("module, name, proxy", _TAKE_AN_ALGORITHM)
+def test_a_texture_given_for_an_algorithm_is_refused_naming_the_algorithm_that_renders_it(module, name, proxy):
+    # A newcomer's hx.characteristic_number(texture) (q of "the texture") raised "AttributeError:
+    # 'Sinusoid' object has no attribute 'stiffness'"; max_passive_stiffness said a pantograph
+    # "is not allowed ... a profile needs a planar device" (2026-12-01). Truth: each function's
+    # documented first parameter, an algorithm (haptex.algorithm(letter, texture, stiffness),
+    # eq. 5's q and the paper's analyses are an algorithm's, not a texture's); the list above is
+    # checked against the package's public functions whose first parameter is named so
+    import importlib
+    import inspect
+
+    fn = getattr(importlib.import_module(module), name)
+    assert list(inspect.signature(fn).parameters)[0] == "algorithm"
+    tex = hx.Sinusoid(0.2e-3, 2e-3)
+    others = [None] * sum(p.default is inspect.Parameter.empty for p in list(inspect.signature(fn).parameters.values())[1:])
+    with pytest.raises(hx.ParameterError) as e:
+        fn(tex, *others)
+    said = str(e.value)
+    assert said.startswith(f"algorithm = {tex!r} is not allowed: must be a haptex algorithm"), said
+    assert "haptex.algorithm('A', texture, 2000.0)" in said, said
+    assert ("GodObject" in said) == proxy, said
+
+
+def test_every_public_function_that_takes_an_algorithm_first_is_checked_above():
+    # (the list above is every one: a function added later is refused here until it is listed)
+    import importlib
+    import inspect
+    import pkgutil
+
+    found = set()
+    for m in pkgutil.walk_packages(hx.__path__, "haptex."):
+        if any(part.startswith("_") for part in m.name.split(".")[1:]):
+            continue
+        mod = importlib.import_module(m.name)
+        for n, obj in vars(mod).items():
+            if n.startswith("_") or not (inspect.isfunction(obj) or inspect.isclass(obj)) or obj.__module__ != m.name:
+                continue
+            try:
+                first = list(inspect.signature(obj).parameters)[:1]
+            except ValueError:  # (a class without a signature of its own)
+                continue
+            if first == ["algorithm"]:
+                found.add((m.name, n))
+    assert found == {(m, n) for m, n, _ in _TAKE_AN_ALGORITHM}

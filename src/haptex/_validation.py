@@ -39,6 +39,17 @@ def fail(name: str, value, allowed: str) -> ParameterError:
     return ParameterError(f"{name} = {_fmt(value)} is not allowed: must be {allowed}")
 
 
+def not_an_algorithm(value, proxy: bool = False) -> ParameterError:
+    """The refusal of ``value`` where an algorithm is taken (with ``proxy``, or a god-object):
+    what was given, and the call that makes an algorithm of a texture (its force field, and every
+    analysis of the paper, is an algorithm's: Table I). One text for
+    :func:`haptex.algorithms.checked_algorithm` and the core's :func:`haptex.core.field`, which
+    sits below the algorithms."""
+    return fail("algorithm", value, "a haptex algorithm" + (" or a haptex.proxy.GodObject" if proxy else "")
+                + " (a texture has a force field only once an algorithm renders it: haptex.algorithm('A', texture, "
+                "2000.0), its letter one of W, A-G, its stiffness in N/m)")
+
+
 def out_file(name: str, path):
     """``path`` as a :class:`pathlib.Path` to write, refused (naming ``name``) unless its folder
     exists."""

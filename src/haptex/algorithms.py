@@ -17,7 +17,8 @@ import warnings
 
 
 from .core import _ext
-from ._validation import ParameterError, fail, finite, in_range, nonnegative, optional_positive, positions, positive
+from ._validation import (ParameterError, fail, finite, in_range, nonnegative, not_an_algorithm, optional_positive,
+                          positions, positive)
 from .closest import closest_point, search_data
 from .friction import PreslidingState, smooth_table, step
 from .textures import Flat, Texture
@@ -1516,6 +1517,35 @@ place the letters are known (the CLI, design, tables, the atlas and export read 
 
 _CODES = {letter: getattr(_ext, f"ALG_{letter}") for letter in ALGORITHMS}
 """Each letter's code in the C core (``hx_core.h``, ``HX_ALG_*``)."""
+
+
+def checked_algorithm(algorithm, *, proxy: bool = False):
+    """``algorithm`` as given where it is one of haptex's algorithms, else a refusal that says
+    what renders a texture: the first check of every public function that takes an algorithm.
+
+    Parameters
+    ----------
+    algorithm : Algorithm or GodObject
+        An :class:`Algorithm` (:func:`algorithm`, on the plane or an object); with ``proxy``, a
+        :class:`haptex.proxy.GodObject` too.
+    proxy : bool, optional
+        Whether the caller also takes a god-object (the renderer, the simulator, the export).
+
+    Returns
+    -------
+    Algorithm or GodObject
+        ``algorithm`` itself.
+
+    Raises
+    ------
+    ParameterError
+        For anything else, naming it and the call that makes an algorithm of a texture
+        (``haptex.algorithm('A', texture, 2000.0)``): a texture's force field, and with it eq. 5's
+        q and every analysis of the paper, is an algorithm's (Table I), not the texture's.
+    """
+    if isinstance(algorithm, Algorithm) or (proxy and callable(getattr(algorithm, "kernel_spec", None))):
+        return algorithm  # (a god-object by its tick's arrays: the proxy module imports this one)
+    raise not_an_algorithm(algorithm, proxy)
 
 
 def algorithm(letter: str, texture: Texture | None = None, stiffness: float = 2000.0, **params) -> Algorithm:

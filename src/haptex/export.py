@@ -22,7 +22,7 @@ import numpy as np
 
 from . import core as _core
 from ._validation import ParameterError, fail, positive_or_inf
-from .algorithms import ALGORITHMS, Algorithm
+from .algorithms import ALGORITHMS, Algorithm, checked_algorithm
 from .core import _ext
 from .renderer import (FRICTION_THRESHOLD, MAX_EVALUATIONS, WORKSPACE_LIMIT, Stabiliser, evaluation_budget,
                        friction_settings, stabiliser_period, tick_model, vibration_settings)
@@ -137,10 +137,7 @@ def build_defines(algorithm) -> tuple[str, ...]:
     ParameterError
         For an object that is not an algorithm (as :func:`export_c`).
     """
-    from .proxy import GodObject
-
-    if not isinstance(algorithm, (Algorithm, GodObject)):
-        raise ParameterError(f"algorithm = {algorithm!r} is not allowed: must be a haptex algorithm or a GodObject")
+    algorithm = checked_algorithm(algorithm, proxy=True)
     on_object = getattr(algorithm, "base", None) is not None
     code = int(getattr(_ext, f"ALG_{algorithm.letter.upper()}"))  # (the template's HX_ALG_<letter>)
     return (f"-DHX_ONLY_ALG={code}",) + (() if on_object else ("-DHX_NO_OBJECTS",))
@@ -476,12 +473,11 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
     (zero force, return 1), the force is saturated to ``max_force``, a non-finite force is a
     fault, and the work is bounded and counted (``haptex_work``, ``haptex_cut``).
     """
+    algorithm = checked_algorithm(algorithm, proxy=True)
     from importlib.metadata import version
 
     from .proxy import GodObject
 
-    if not isinstance(algorithm, (Algorithm, GodObject)):
-        raise ParameterError(f"algorithm = {algorithm!r} is not allowed: must be a haptex algorithm or a GodObject")
     fmax = check_settings(max_force, max_evaluations, target)
     pc = passivity_controller
     T = stabiliser_period(pc, period)

@@ -25,6 +25,7 @@ import numpy as np
 from ._validation import fail, nonnegative, positive
 from .catalogue import DEFAULT_HAND, Hand, Preset, hand as _hand
 from .devices import Device, critical_stiffness
+from .algorithms import checked_algorithm
 
 DIOLAITI_NOTE = ("between the passive and the stable limit the wall is stable with this hand but not passive "
                  "(Diolaiti et al., IEEE Trans. Robotics 22(2), 2006): the hand's damping and the device's friction "
@@ -447,6 +448,7 @@ def clean_stiffness(algorithm, device, operator, rates, stiffness, duration: flo
         For a rate or stiffness not finite and > 0, candidates not ascending, or what
         :func:`haptex.simulate` refuses.
     """
+    algorithm = checked_algorithm(algorithm)
     from .simulate import simulate_batch
 
     ks = np.asarray(stiffness, dtype=np.float64)

@@ -17,7 +17,7 @@ import numpy as np
 from . import core as _core
 from .core import WORKSPACE_LIMIT, _ext
 from ._validation import fail, optional_positive, positive, whole
-from .algorithms import Algorithm
+from .algorithms import Algorithm, checked_algorithm
 from .closest import table_search_data
 
 __all__ = ["Renderer", "Stabiliser", "PassivityController", "EnergyBounding", "PassiveSetPosition", "WORKSPACE_LIMIT",
@@ -321,6 +321,7 @@ def reads_search_budget(algorithm) -> bool:
     -------
     bool
     """
+    algorithm = checked_algorithm(algorithm, proxy=True)
     from .surfaces import Extruded
 
     if getattr(algorithm, "letter", "") not in ("D", "E"):
@@ -359,6 +360,7 @@ def tick_model(algorithm: Algorithm, max_evaluations: int | None = None):
     search_table : bool
         True when aux holds a cell table.
     """
+    algorithm = checked_algorithm(algorithm, proxy=True)
     code, prm, kind, coeffs, aux = algorithm.kernel_spec()
     table = False
     if reads_search_budget(algorithm):  # (a copy: the texture's own constants stay unbudgeted, the analysis certifies)
@@ -616,8 +618,7 @@ class Renderer:
                  friction: bool | None = None, friction_threshold: float = FRICTION_THRESHOLD):
         from .proxy import GodObject
 
-        if not isinstance(algorithm, (Algorithm, GodObject)):
-            raise fail("algorithm", algorithm, "a haptex algorithm (haptex.algorithm(...)) or a haptex.proxy.GodObject")
+        algorithm = checked_algorithm(algorithm, proxy=True)
         optional_positive("max_force", max_force, "N")
         T = stabiliser_period(passivity_controller, period)
         self.max_evaluations = evaluation_budget(max_evaluations)

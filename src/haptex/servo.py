@@ -51,6 +51,7 @@ from ._validation import check_budget, fail, positive, whole
 from .backends import PRIORITY, Sample
 from . import core as _core
 from .core import _ext
+from .algorithms import checked_algorithm
 
 ENGAGE_FORCE = 0.5
 """N: the force below which the loop may engage (chosen: a light touch)."""
@@ -133,6 +134,7 @@ def budgeted_search(algorithm) -> bool:
     -------
     bool
     """
+    algorithm = checked_algorithm(algorithm, proxy=True)
     from .renderer import reads_search_budget
 
     return reads_search_budget(algorithm) and getattr(algorithm, "base", None) is None
@@ -166,6 +168,7 @@ def search_budget(algorithm, period: float, depth: float) -> tuple[int | None, f
     ParameterError
         If ``period`` or ``depth`` is not a finite value > 0.
     """
+    algorithm = checked_algorithm(algorithm, proxy=True)
     from .renderer import MAX_EVALUATIONS, Renderer
 
     period = positive("period", period, "s")

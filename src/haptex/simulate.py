@@ -29,7 +29,7 @@ from .core._ext import (DIVERGED_ENERGY, DIVERGED_FORCE, DIVERGED_POSITION, DIVE
                         S_PC_ACTIVE, S_PC_ENERGY, S_SAT, S_TAILSTART_E, S_VIB_CLAMPED, S_VIB_CUT,
                         S_VIB_SUPPLIED)
 from ._validation import ParameterError, fail, nonnegative, positions, positive, whole
-from .algorithms import Algorithm
+from .algorithms import Algorithm, checked_algorithm
 from .devices import SCALAR_FIELDS, Device, _matrix, definite, scalar_field
 from .operators import Operator
 from .renderer import Stabiliser
@@ -735,10 +735,7 @@ class SimulationResult:
 # public entry points
 # --------------------------------------------------------------------------------------
 def _prepare(algorithm, device, operator, duration, initial_position, initial_velocity):
-    from .proxy import GodObject
-
-    if not isinstance(algorithm, (Algorithm, GodObject)):
-        raise fail("algorithm", algorithm, "a haptex algorithm (haptex.algorithm(...)) or a haptex.proxy.GodObject")
+    algorithm = checked_algorithm(algorithm, proxy=True)
     if not isinstance(device, Device):
         raise fail("device", device, "a haptex.Device")
     if not isinstance(operator, Operator):
@@ -982,6 +979,7 @@ def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration:
     transition and Van Loan's quadratic forms; both are exact, and the energy balance closes
     to round-off on both.
     """
+    algorithm = checked_algorithm(algorithm, proxy=True)
     n_steps, p0, v0 = _prepare(algorithm, device, operator, duration, initial_position, initial_velocity)
     if isinstance(record_every, bool) or int(record_every) != record_every or record_every < 1:
         raise fail("record_every", record_every, "a whole number >= 1")
@@ -1423,6 +1421,7 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     building a device a value cost 0.3-0.7 ms; runs with the same dynamics share one
     discretisation.
     """
+    algorithm = checked_algorithm(algorithm, proxy=True)
     unknown = sorted(set(sweep) - set(SWEEP_KEYS))
     if unknown:
         raise ParameterError(f"sweep parameters {unknown} are not allowed: choose from {', '.join(SWEEP_KEYS)}")

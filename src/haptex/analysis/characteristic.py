@@ -10,7 +10,7 @@ import numpy as np
 
 from .._maximise import refine as _refine
 from .._validation import fail
-from ..algorithms import Algorithm
+from ..algorithms import Algorithm, checked_algorithm
 from ..closest import ClosestPoint, closest_point
 from ..textures import Flat, Sinusoid, Texture
 from ._region import _plane_ranges, _region_points, check_analysis_scale
@@ -87,6 +87,7 @@ def characteristic_points(algorithm: Algorithm, max_penetration: float = 1e-3, x
     ParameterError
         As :func:`characteristic_number`.
     """
+    algorithm = checked_algorithm(algorithm)
     check_analysis_scale(algorithm, max_penetration)
     ranges, counts, nd = _q_plan(algorithm, x_range, resolution)
     if algorithm.has_memory and algorithm.penetration_kind != "distance":  # F: a deflection per grid point too
@@ -288,6 +289,7 @@ def characteristic_number(
     >>> round(q.value, 4), round(q.closed_form, 4)
     (5.1251, 5.1251)
     """
+    algorithm = checked_algorithm(algorithm)
     return _stated_miss(_searched_q(algorithm, max_penetration, x_range, resolution), algorithm.texture)
 
 
@@ -599,6 +601,7 @@ def friction_bounds(algorithm, depth: float) -> dict:
         ``eq31_corrected``: eq. 31 with the inner root replaced by the closed form of the
         2x2 singular value, which equals ``bound_eq26``.
     """
+    algorithm = checked_algorithm(algorithm)
     mu = algorithm.friction
     dm = algorithm.presliding
     P = depth

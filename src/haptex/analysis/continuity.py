@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._validation import check_budget, whole
-from ..algorithms import Algorithm
+from ..algorithms import Algorithm, checked_algorithm
 from ..textures import Flat
 from ._region import _region_box, _static_force, check_analysis_scale
 
@@ -75,6 +75,7 @@ def continuity(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=None
     ParameterError
         If a parameter is out of range.
     """
+    algorithm = checked_algorithm(algorithm)
     box, steps0, levels = _plan(algorithm, max_penetration, x_range, levels, base)
     spacings, diffs = [], []
     where = (math.nan,) * len(box)
@@ -243,6 +244,7 @@ def continuity_points(algorithm: Algorithm, max_penetration: float = 1e-3, x_ran
     ParameterError
         As :func:`continuity`.
     """
+    algorithm = checked_algorithm(algorithm)
     sizes = grid_points(algorithm, max_penetration, x_range, levels, base)
     box, steps0, levels = _plan(algorithm, max_penetration, x_range, levels, base)
     evens = [math.prod(int(math.ceil((b - a) / (s / 2**lev))) // 2 + 1 for (a, b), s in zip(box, steps0))
@@ -278,6 +280,7 @@ def grid_points(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=Non
     ParameterError
         As :func:`continuity`.
     """
+    algorithm = checked_algorithm(algorithm)
     box, steps0, levels = _plan(algorithm, max_penetration, x_range, levels, base)
     return [math.prod(int(math.ceil((b - a) / (s / 2**lev))) + 1 for (a, b), s in zip(box, steps0))
             for lev in range(levels)]

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..algorithms import Algorithm
+from ..algorithms import Algorithm, checked_algorithm
 from ._region import _region_box, _static_force, check_analysis_scale
 from .characteristic import REGION_FIRST, characteristic_points
 from .continuity import continuity_points, grid_points, peak_bytes
@@ -105,6 +105,7 @@ def evaluation_time(algorithm: Algorithm, max_penetration: float = 1e-3, x_range
     ParameterError
         As the analyses (region too large, stiffness out of range).
     """
+    algorithm = checked_algorithm(algorithm)
     dmax = check_analysis_scale(algorithm, max_penetration)
     box = _region_box(algorithm, dmax, x_range)
     if probes is None:
@@ -162,6 +163,7 @@ def analysis_cost(algorithm: Algorithm, max_penetration: float = 1e-3, x_range=N
     ParameterError
         As the analyses.
     """
+    algorithm = checked_algorithm(algorithm)
     cont = continuity_points(algorithm, max_penetration, x_range) if continuity else []
     q = characteristic_points(algorithm, max_penetration, x_range)
     if seconds_each is None:

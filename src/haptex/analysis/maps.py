@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._validation import ParameterError, fail, finite, positive
-from ..algorithms import Algorithm
+from ..algorithms import Algorithm, checked_algorithm
 from .characteristic import spectral_norm
 from .work import curl_of_jacobian
 
@@ -109,6 +109,7 @@ def field_map(algorithm: Algorithm, x_range=None, z_range=None, n=(61, 61), max_
         If a window is empty or not finite, a grid size is out of range, ``y`` is given
         over a profile, or ``deflection`` is given to an algorithm other than F.
     """
+    algorithm = checked_algorithm(algorithm)
     tex = algorithm.texture
     nx, nz = (n, n) if np.ndim(n) == 0 else n
     for name, v in (("n", nx), ("n", nz)):

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._validation import ParameterError, positive
-from ..algorithms import Algorithm
+from ..algorithms import Algorithm, checked_algorithm
 from ..textures import Texture
 from .characteristic import CharacteristicNumber, characteristic_number
 
@@ -248,6 +248,7 @@ def passivity_condition(algorithm: Algorithm, device, max_penetration: float = 1
     A sufficient condition (eq. 1), derived from Theorem 1 of Miller, Colgate & Freeman
     [18]; the simulator shows how conservative it is for a given device.
     """
+    algorithm = checked_algorithm(algorithm)
     _same_dimension(algorithm, device)
     q = characteristic_number(algorithm, max_penetration=max_penetration, x_range=x_range)
     sup = algorithm.stiffness * q.value
@@ -277,6 +278,7 @@ def max_passive_stiffness(algorithm: Algorithm, device, max_penetration: float =
     float
         sigma_0(B) / (2 T q) (N/m); 0 when q is unbounded.
     """
+    algorithm = checked_algorithm(algorithm)
     _same_dimension(algorithm, device)
     q = characteristic_number(algorithm, max_penetration=max_penetration, x_range=x_range).value
     return 0.0 if math.isinf(q) else float(device.passivity_limit / q)

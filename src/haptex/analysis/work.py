@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._validation import ParameterError, check_count, fail, in_range, nonnegative, positions, positive, whole
-from ..algorithms import Algorithm, _breakpoints
+from ..algorithms import Algorithm, _breakpoints, checked_algorithm
 from ..textures import Flat, Sinusoid, Texture
 from ._region import _region_box, check_analysis_scale
 
@@ -157,6 +157,7 @@ def path_work(algorithm: Algorithm, path, rtol: float = 1e-12, atol: float = 0.0
     >>> round(hx.path_work(alg, hx.paper_loop(alg)[0]), 8)
     0.00064
     """
+    algorithm = checked_algorithm(algorithm)
     n = algorithm.dimension
     pts = positions(path, "path", dim=n)
     if pts.ndim != 2 or pts.shape[0] < 2:
@@ -219,6 +220,7 @@ def loop_energy(algorithm: Algorithm, loop, rtol: float = 1e-12, atol: float = 0
     float
         > 0 means the field generated energy around the loop (not conservative).
     """
+    algorithm = checked_algorithm(algorithm)
     n = algorithm.dimension
     pts = positions(loop, "loop", dim=n)
     if pts.ndim != 2 or pts.shape[0] < 3:
@@ -270,6 +272,7 @@ def paper_loop(algorithm: Algorithm, depth: float | None = None) -> tuple[np.nda
     >>> path.shape, expected  # the Fig. 3 rectangle; kappa_0 A^2 / 2 (J)
     ((5, 2), 0.00064)
     """
+    algorithm = checked_algorithm(algorithm)
     k0 = algorithm.stiffness
     letter = algorithm.letter
     if letter == "F":
@@ -346,6 +349,7 @@ def curl(algorithm: Algorithm, p) -> np.ndarray:
     numpy.ndarray
         Shape (...) over a profile, (..., 3) over a surface (N/m).
     """
+    algorithm = checked_algorithm(algorithm)
     return curl_of_jacobian(algorithm.jacobian(p))
 
 
@@ -439,6 +443,7 @@ def random_loops(algorithm: Algorithm, n: int = 6, vertices: int = 5, max_penetr
     the region: conservativity is local, and a loop's cost grows with the periods it
     crosses, so a 1 m profile costs what a short one does.
     """
+    algorithm = checked_algorithm(algorithm)
     box = _region_box(algorithm, check_analysis_scale(algorithm, max_penetration), x_range)
     rng = np.random.default_rng(seed)
     span = LOOP_SPAN_PERIODS * float(algorithm.texture.shortest_period)
@@ -486,6 +491,7 @@ def conservativity(algorithm: Algorithm, max_penetration: float = 1e-3, n_random
     -------
     Conservativity
     """
+    algorithm = checked_algorithm(algorithm)
     n_random = whole("n_random", n_random, 1, 10_000, "random loops, each a path_work call")
     loops = random_loops(algorithm, n_random, 5, max_penetration, seed, x_range)
     box = _region_box(algorithm, max_penetration, x_range)

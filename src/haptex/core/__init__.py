@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._validation import ParameterError, fail
+from .._validation import ParameterError, fail, not_an_algorithm
 from . import _ext
 
 __all__ = ["SOURCE_DIR", "IN_CORE", "WORKSPACE_LIMIT", "field", "texture_derivatives", "threads", "num_threads", "blas_held_to_one_thread",
@@ -70,6 +70,8 @@ def field(algorithm, p, jacobian: bool = True) -> tuple[np.ndarray, np.ndarray |
         For an algorithm the core does not evaluate yet, or positions of the wrong shape or
         not finite (as the NumPy fields).
     """
+    if not callable(getattr(algorithm, "kernel_spec", None)):  # (an algorithm or a god-object: the core packs either)
+        raise not_an_algorithm(algorithm, proxy=True)
     if algorithm.letter not in IN_CORE:
         raise ParameterError(f"algorithm = {algorithm.letter!r} is not allowed here: the C core evaluates "
                              f"{', '.join(sorted(IN_CORE))} so far")
