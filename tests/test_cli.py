@@ -344,6 +344,16 @@ def test_a_texture_that_is_neither_a_file_nor_a_kind_is_named_with_every_kind(ba
     assert all(kind in helped for kind in _KINDS[:2] + _KINDS[3:])  # (the kinds the error names are --help's)
 
 
+@pytest.mark.parametrize("typed", ["a" * 5000, "sinusoid:" + "1" * 5000])
+def test_a_texture_named_past_the_systems_longest_file_name_is_one_short_line(typed):
+    # (5,000 characters: past Linux's NAME_MAX of 255 bytes, where asking whether the file exists
+    # raises "File name too long" itself; the line quotes the first 120 characters)
+    r = run_main("design", "--texture", typed)
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == 2 and len(lines) == 1 and len(lines[0]) < 600, r.stderr[:300]
+    assert lines[0].startswith(f"haptex: error: texture = {typed[:120]!r}... is not allowed"), lines[0][:300]
+
+
 @pytest.mark.parametrize("command", [["design", "--texture", "sine:0.2mm,2mm", "--device"], ["devices", "show"],
                                      ["export", "--algorithm", "A", "--texture", "sine:0.2mm,2mm", "--stiffness", "1 kN/m",
                                       "--max-force", "1 N", "--passivity-control", "1 N*s/m", "--out", "x", "--device"],

@@ -22,6 +22,15 @@ _KIND_ALIASES = {"sinusoid": "sine", "sin": "sine", "sinus": "sine", "sumofsinus
 ``BandLimitedNoise``), without the hyphen (``eggcrate``, ``egg_crate``), a short form."""
 
 
+def _exists(spec: str) -> bool:
+    """Whether a file or folder has the name ``spec`` (False where the system cannot say: a name
+    too long for it, or one holding a NUL)."""
+    try:
+        return Path(spec).exists()
+    except (OSError, ValueError):
+        return False
+
+
 def _neither(spec: str, kind: str, rest: str) -> str:
     """The refusal of a texture spec that is neither a file nor ``KIND:VALUES`` of a known kind:
     what it lacks, every kind with its values, and the spec as meant where its kind reads as a
@@ -34,14 +43,15 @@ def _neither(spec: str, kind: str, rest: str) -> str:
         why = f"no file has that name and '{kind}' is not a kind of texture"
     else:
         why = "no such file"
-    said = f"texture = {spec!r} is not allowed: {why}; must be {_KINDS_TEXT} or a topography file's path"
+    shown = repr(spec) if len(spec) <= 120 else repr(spec[:120]) + "..."
+    said = f"texture = {shown} is not allowed: {why}; must be {_KINDS_TEXT} or a topography file's path"
     if looks and kind not in TEXTURE_KINDS and rest:
         key = kind.lower().replace("_", "-")
         meant = _KIND_ALIASES.get(key.replace("-", ""), key if key in TEXTURE_KINDS else None)
         close = difflib.get_close_matches(key, [k for k in TEXTURE_KINDS if k[0] == key[0]], n=1, cutoff=0.6)
         meant = meant or (close[0] if close else None)
         if meant is not None:
-            said += f" (did you mean {meant + ':' + rest!r}?)"
+            said += f" (did you mean {meant + ':' + rest!r}?)" if len(rest) <= 80 else f" (did you mean '{meant}:...'?)"
     return said
 
 
@@ -120,7 +130,7 @@ def texture_from_spec(spec: str, spacing=None, x_unit=None, height_unit=None, le
     if not str(spec).strip():  # (an empty path is the working folder, which no reader takes)
         raise ParameterError(f"texture = {spec!r} is not allowed: must be {_KINDS_TEXT} or a topography file's path")
     kind, _, rest = spec.partition(":")
-    if not (kind in TEXTURE_KINDS and rest) and not Path(spec).exists():
+    if not (kind in TEXTURE_KINDS and rest) and not _exists(spec):
         raise ParameterError(_neither(spec, kind, rest))
     if kind in TEXTURE_KINDS and rest:
         given = [flag for flag, v in (("--spacing", spacing), ("--x-unit", x_unit), ("--height-unit", height_unit),

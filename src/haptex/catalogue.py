@@ -412,10 +412,9 @@ def meant(name: str) -> list[str]:
     """The presets a device name that is not one of their keys may mean, from the products'
     names (:attr:`Preset.label`): a key or a word of a label equal to ``name`` once both are
     lower case and without punctuation ("Touch", "omega.3", "omega3", "geomagic", "haply"; words
-    of three characters or more, "the" aside), or
-    that starts the name or that the name starts, four characters at least ("falcon3d",
-    "novint-falcon"). "phantom" names two products: the PHANTOM Omni (now the Touch) and the
-    PHANTOM Premium 1.5.
+    of three characters or more, "the" aside), or that starts the name or that the name starts,
+    four characters at least ("falcon3d", "novint-falcon"). "phantom" names two products: the
+    PHANTOM Omni (now the Touch) and the PHANTOM Premium 1.5.
 
     Parameters
     ----------
