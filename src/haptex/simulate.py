@@ -735,8 +735,7 @@ class SimulationResult:
 # public entry points
 # --------------------------------------------------------------------------------------
 def _prepare(algorithm, device, operator, duration, initial_position, initial_velocity):
-    algorithm = checked_algorithm(algorithm, proxy=True)
-    if not isinstance(device, Device):
+    if not isinstance(device, Device):  # (the algorithm checked by the entry points)
         raise fail("device", device, "a haptex.Device")
     if not isinstance(operator, Operator):
         raise fail("operator", operator, "an operator from haptex.operators")
