@@ -454,3 +454,48 @@ def test_every_public_function_that_takes_an_algorithm_first_is_checked_above():
             if first == ["algorithm"]:
                 found.add((m.name, n))
     assert found == {(m, n) for m, n, _ in _TAKE_AN_ALGORITHM}
+
+
+def _device_takers():
+    """(name, call taking the device) of every public function whose ``device`` must be a
+    haptex.Device, each with its other arguments valid."""
+    from haptex import design, identification, limits
+    from haptex.analysis import passivity
+    from haptex.datadriven import ArmaModel, energy
+
+    tex = hx.Sinusoid(0.2e-3, 2e-3)
+    alg = hx.algorithm("A", tex, 2000.0)
+    model = ArmaModel(np.array([1.0, -0.5]), np.array([1.0]), 1e-4, 1.0, 10_000.0)
+    return [("texture_limits", lambda d: passivity.texture_limits(tex, d, 0.1, 2000.0)),
+            ("rendering_cutoff", lambda d: passivity.rendering_cutoff(d, 0.1)),
+            ("passivity_condition", lambda d: passivity.passivity_condition(alg, d)),
+            ("max_passive_stiffness", lambda d: passivity.max_passive_stiffness(alg, d)),
+            ("design", lambda d: design.design(tex, d, 2000.0)),
+            ("rendered_texture", lambda d: design.rendered_texture(tex, d, 0.1)),
+            ("simulated_log", lambda d: identification.simulated_log(d, 0.1)),
+            ("normal_axis", lambda d: limits.normal_axis(d)),
+            ("wall_limits", lambda d: limits.wall_limits(d)),
+            ("simulated_wall_limit", lambda d: limits.simulated_wall_limit(d, "light-touch", 1000.0)),
+            ("clean_stiffness", lambda d: limits.clean_stiffness(alg, d, None, [1000.0], [1000.0])),
+            ("simulate", lambda d: hx.simulate(alg, d, None, 0.1)),
+            ("simulate_batch", lambda d: hx.simulate_batch(alg, d, None, 0.1)),
+            ("port_energy", lambda d: energy.port_energy(model, d))]
+
+
+@pytest.mark.parametrize("typed, meant", [("touch", "touch"), ("omega.3", "omega-3"), ("kuka", None)])
+@pytest.mark.parametrize("case", range(14))
+def test_a_device_given_by_its_name_is_refused_naming_the_call_that_makes_it(case, typed, meant):
+    # A researcher's hx.max_passive_stiffness(alg, "touch") raised "AttributeError: 'str' object
+    # has no attribute 'dimension'" (design, wall_limits, rendering_cutoff, simulated_log: the
+    # same, each its own attribute; 2026-12-01). Truth: each function's documented parameter, a
+    # haptex.Device, which a preset of `haptex devices` makes with
+    # haptex.catalogue.preset(NAME).device()
+    name, call = _device_takers()[case]
+    with pytest.raises(hx.ParameterError) as e:
+        call(typed)
+    said = str(e.value)
+    assert said.startswith(f"device = {typed!r} is not allowed: must be a haptex.Device"), (name, said)
+    if meant is not None:
+        assert f"haptex.catalogue.preset({meant!r}).device()" in said, (name, said)
+    else:
+        assert "haptex.catalogue.preset(" in said and "'kuka'" not in said.split("must be")[1], (name, said)

@@ -408,6 +408,36 @@ def preset(name: str) -> Preset:
     return table[name]
 
 
+def checked_device(device) -> Device:
+    """``device`` as given where it is a :class:`~haptex.Device`, else a refusal naming the call
+    that makes one: the first check of every public function that takes a device.
+
+    Parameters
+    ----------
+    device : Device
+        The device (a preset's: ``haptex.catalogue.preset("touch").device()``).
+
+    Returns
+    -------
+    Device
+        ``device`` itself.
+
+    Raises
+    ------
+    ParameterError
+        For anything else: for a preset's name (or a product's, :func:`meant`) the call that
+        makes that preset's device, ``haptex.catalogue.preset('touch').device()``; otherwise the
+        call with a preset's name in it, and where the presets are listed.
+    """
+    if isinstance(device, Device):
+        return device
+    keys = ([device] if isinstance(device, str) and device in presets() else
+            meant(device) if isinstance(device, str) else [])
+    made = " or ".join(f"haptex.catalogue.preset({k!r}).device()" for k in keys) or \
+        "haptex.catalogue.preset(NAME).device(), NAME a preset of haptex.catalogue.presets()"
+    raise fail("device", device, f"a haptex.Device ({made}; .device(dimension=2) over a profile: its x-z plane)")
+
+
 def meant(name: str) -> list[str]:
     """The presets a device name that is not one of their keys may mean, from the products'
     names (:attr:`Preset.label`): a key or a word of a label equal to ``name`` once both are

@@ -39,6 +39,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ._validation import ParameterError, fail, positive, whole
+from .catalogue import checked_device
 
 LOG_COLUMNS = {
     "time_s": "the tick's time (s), increasing at the servo period",
@@ -1420,6 +1421,7 @@ def simulated_log(device, duration: float = 10.0, amplitude: float = 1.0, noise:
     ParameterError
         For a device with a structural mode, a negative noise, or as :func:`excitation`.
     """
+    device = checked_device(device)
     from ._validation import nonnegative
     from .core import _ext
     from .simulate import _axis_coefficients

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._validation import fail, nonnegative, positive
-from .catalogue import DEFAULT_HAND, Hand, Preset, hand as _hand
+from .catalogue import DEFAULT_HAND, Hand, Preset, checked_device, hand as _hand
 from .devices import Device, critical_stiffness
 from .algorithms import checked_algorithm
 
@@ -130,6 +130,7 @@ def normal_axis(device: Device) -> tuple[float, float, float | None]:
     tuple of (float, float, float or None)
         (m (kg), b (N s/m), m_handle (kg) or None).
     """
+    device = checked_device(device)
     m = 1.0 / float(np.linalg.inv(device.mass)[-1, -1])
     b = float(device.damping[-1, -1])
     mh = None if device.handle_mass is None else 1.0 / float(np.linalg.inv(device.handle_mass)[-1, -1])
@@ -185,6 +186,7 @@ def wall_limits(device: Device, hand=DEFAULT_HAND, virtual_damping: float = 0.0,
     ParameterError
         For an unknown hand or a negative virtual damping.
     """
+    device = checked_device(device)
     h = _hand(hand)
     bv = nonnegative("virtual_damping", virtual_damping, "N s/m")
     m, b, mh = normal_axis(device)
@@ -367,6 +369,7 @@ def simulated_wall_limit(device: Device, hand, guess: float, virtual_damping: fl
         The stiffness (N/m; inf when none on the grid is unstable) and the ratio between
         neighbouring stiffnesses of the grid.
     """
+    device = checked_device(device)
     from .algorithms import algorithm
     from .catalogue import hand as _hand
     from .simulate import UNSTABLE, simulate_batch
@@ -449,6 +452,7 @@ def clean_stiffness(algorithm, device, operator, rates, stiffness, duration: flo
         :func:`haptex.simulate` refuses.
     """
     algorithm = checked_algorithm(algorithm)
+    device = checked_device(device)
     from .simulate import simulate_batch
 
     ks = np.asarray(stiffness, dtype=np.float64)

@@ -30,6 +30,7 @@ from .core._ext import (DIVERGED_ENERGY, DIVERGED_FORCE, DIVERGED_POSITION, DIVE
                         S_VIB_SUPPLIED)
 from ._validation import ParameterError, fail, nonnegative, positions, positive, whole
 from .algorithms import Algorithm, checked_algorithm
+from .catalogue import checked_device
 from .devices import SCALAR_FIELDS, Device, _matrix, definite, scalar_field
 from .operators import Operator
 from .renderer import Stabiliser
@@ -735,8 +736,7 @@ class SimulationResult:
 # public entry points
 # --------------------------------------------------------------------------------------
 def _prepare(algorithm, device, operator, duration, initial_position, initial_velocity):
-    if not isinstance(device, Device):  # (the algorithm checked by the entry points)
-        raise fail("device", device, "a haptex.Device")
+    device = checked_device(device)  # (the algorithm checked by the entry points)
     if not isinstance(operator, Operator):
         raise fail("operator", operator, "an operator from haptex.operators")
     d = algorithm.dimension

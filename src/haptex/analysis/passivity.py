@@ -12,6 +12,7 @@ from .._validation import ParameterError, positive
 from ..algorithms import Algorithm, checked_algorithm
 from ..textures import Texture
 from .characteristic import CharacteristicNumber, characteristic_number
+from ..catalogue import checked_device
 
 
 # ------------------------------------------------------------------------------------
@@ -91,6 +92,7 @@ def texture_limits(texture: Texture, device, speed: float, stiffness: float,
     ParameterError
         For a non-positive speed, stiffness or sample count.
     """
+    device = checked_device(device)
     v = positive("speed", speed, "m/s")
     k0 = positive("stiffness", stiffness, "N/m")
     alpha, beta, gamma = _samples_per_period(samples_per_period)
@@ -196,6 +198,7 @@ def rendering_cutoff(device, speed: float, samples_per_period=SAMPLES_PER_PERIOD
     ParameterError
         For a non-positive speed or sample count.
     """
+    device = checked_device(device)
     v = positive("speed", speed, "m/s")
     alpha, beta, _ = _samples_per_period(samples_per_period)
     return Cutoff.from_bounds(_period_bounds(device, v, alpha, beta))
@@ -249,6 +252,7 @@ def passivity_condition(algorithm: Algorithm, device, max_penetration: float = 1
     [18]; the simulator shows how conservative it is for a given device.
     """
     algorithm = checked_algorithm(algorithm)
+    device = checked_device(device)
     _same_dimension(algorithm, device)
     q = characteristic_number(algorithm, max_penetration=max_penetration, x_range=x_range)
     sup = algorithm.stiffness * q.value
@@ -279,6 +283,7 @@ def max_passive_stiffness(algorithm: Algorithm, device, max_penetration: float =
         sigma_0(B) / (2 T q) (N/m); 0 when q is unbounded.
     """
     algorithm = checked_algorithm(algorithm)
+    device = checked_device(device)
     _same_dimension(algorithm, device)
     q = characteristic_number(algorithm, max_penetration=max_penetration, x_range=x_range).value
     return 0.0 if math.isinf(q) else float(device.passivity_limit / q)

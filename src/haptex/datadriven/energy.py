@@ -9,6 +9,7 @@ import numpy as np
 
 from .._validation import ParameterError, _fmt, fail, positive
 from .models import ArmaModel
+from ..catalogue import checked_device
 
 # ---------------------------------------------------------------------------------------
 # energy at the port
@@ -146,6 +147,7 @@ def port_energy(model: ArmaModel, device, hand=None, *, axis: int = 0, mass: flo
     b_h : b_d. This is the energy an energy-based stabiliser (a passivity observer,
     Hannaford & Ryu 2002; energy bounding, Kim & Ryu 2004) sees as supplied at the port.
     """
+    device = checked_device(device)
     from scipy.signal import cont2discrete, freqz
 
     T = float(device.period)
