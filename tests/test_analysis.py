@@ -499,3 +499,32 @@ def test_a_device_given_by_its_name_is_refused_naming_the_call_that_makes_it(cas
         assert f"haptex.catalogue.preset({meant!r}).device()" in said, (name, said)
     else:
         assert "haptex.catalogue.preset(" in said and "'kuka'" not in said.split("must be")[1], (name, said)
+
+
+_TAKE_A_TEXTURE = [("haptex.analysis.passivity", "texture_limits"), ("haptex.closest", "closest_point"),
+                   ("haptex.closest", "search_data"), ("haptex.closest", "table_search_data"),
+                   ("haptex.closest", "surface_search_data"), ("haptex.datadriven", "follower_vibration"),
+                   ("haptex.design", "design"), ("haptex.design", "rendered_texture"), ("haptex.probe", "felt_by"),
+                   ("haptex.probe", "reliability_cutoff"), ("haptex.proxy", "loop_work"), ("haptex", "algorithm")]
+
+
+@pytest.mark.parametrize("module, name", _TAKE_A_TEXTURE)
+def test_a_texture_written_as_the_command_line_writes_it_is_refused_naming_the_class_that_makes_it(module, name):
+    # hx.design("sine:0.2mm,2mm", device, 2000.0) raised "AttributeError: 'str' object has no
+    # attribute 'dimension'", texture_limits "... 'shortest_period'" (2026-12-01). Truth: each
+    # function's documented parameter, a haptex Texture (SI units: the command line's specs
+    # with their units are the command line's); haptex.algorithm('A', texture) as the first of
+    # them (its letter first)
+    import importlib
+    import inspect
+
+    fn = getattr(importlib.import_module(module), name)
+    params = list(inspect.signature(fn).parameters.values())
+    spec = "sine:0.2mm,2mm"
+    args = (["A", spec] if name == "algorithm" else
+            [spec] + [None] * sum(p.default is inspect.Parameter.empty for p in params[1:]))
+    with pytest.raises(hx.ParameterError) as e:
+        fn(*args)
+    said = str(e.value)
+    assert said.startswith(f"texture = {spec!r} is not allowed: must be a haptex Texture"), said
+    assert "haptex.Sinusoid(0.8e-3, 1e-3)" in said and "haptex.load_texture(PATH)" in said, said

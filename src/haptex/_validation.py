@@ -50,6 +50,15 @@ def not_an_algorithm(value, proxy: bool = False) -> ParameterError:
                 "2000.0), its letter one of W, A-G, its stiffness in N/m)")
 
 
+def not_a_texture(value, name: str = "texture") -> ParameterError:
+    """The refusal of ``value`` where a texture is taken: what makes one (a class of
+    :mod:`haptex.textures` or :mod:`haptex.surfaces` in SI units, or a measured file read by
+    :func:`haptex.load_texture`). One text for :func:`haptex.textures.checked_texture` and
+    :mod:`haptex.probe`, which sits below the textures."""
+    return fail(name, value, "a haptex Texture (a profile or a surface in metres, e.g. haptex.Sinusoid(0.8e-3, 1e-3); "
+                             "haptex.load_texture(PATH) for a measured file)")
+
+
 def out_file(name: str, path):
     """``path`` as a :class:`pathlib.Path` to write, refused (naming ``name``) unless its folder
     exists."""

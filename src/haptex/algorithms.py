@@ -21,7 +21,7 @@ from ._validation import (ParameterError, fail, finite, in_range, nonnegative, n
                           positions, positive)
 from .closest import closest_point, search_data
 from .friction import PreslidingState, smooth_table, step
-from .textures import Flat, Texture
+from .textures import Flat, Texture, checked_texture
 
 __all__ = ["Algorithm", "algorithm", "ALGORITHMS"]
 
@@ -1596,8 +1596,8 @@ def algorithm(letter: str, texture: Texture | None = None, stiffness: float = 20
     cls = ALGORITHMS[key]
     if cls.textured and texture is None:
         raise ParameterError(f"texture = None is not allowed for algorithm {key}: pass a Texture")
-    if texture is not None and not isinstance(texture, Texture):
-        raise fail("texture", texture, "a haptex Texture (e.g. haptex.Sinusoid(0.8e-3, 1e-3))")
+    if texture is not None:
+        texture = checked_texture(texture)
     try:
         return cls(texture, stiffness, **params)
     except TypeError as exc:

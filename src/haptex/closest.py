@@ -18,7 +18,7 @@ import numpy as np
 from . import core as _core
 from .core import _ext as K
 from ._validation import ParameterError, positions
-from .textures import SampledProfile, SumOfSinusoids, Texture
+from .textures import SampledProfile, SumOfSinusoids, Texture, checked_texture
 
 __all__ = ["ClosestPoint", "closest_point", "search_data", "table_search_data"]
 
@@ -161,6 +161,7 @@ def closest_point(texture: Texture, p) -> ClosestPoint:
     and is exact to 1e-15 m. Over ``Extruded(profile)`` the profile's search is exact and
     p_h^y = p^y.
     """
+    texture = checked_texture(texture)
     if texture.dimension == 2:
         return _closest_point_surface(texture, p)
     arr = positions(p)
@@ -201,6 +202,7 @@ def search_data(texture: Texture) -> np.ndarray:
         period holds more than 500,000 shortest periods) or more than
         ``FOURIER_WORK_LIMIT`` harmonic evaluations to build.
     """
+    texture = checked_texture(texture)
     cached = texture.__dict__.get("_search_data")
     if cached is not None:
         return cached
@@ -240,6 +242,7 @@ def table_search_data(texture: Texture) -> np.ndarray:
     ParameterError
         As :func:`search_data`.
     """
+    texture = checked_texture(texture)
     cached = texture.__dict__.get("_table_search_data")
     if cached is not None:
         return cached
@@ -519,6 +522,7 @@ def surface_search_data(texture) -> tuple[int, np.ndarray, np.ndarray]:
         (kind, coefficients, auxiliary data) as the C search reads them; the auxiliary array's
         slots are ``haptex.core._ext.G_*``.
     """
+    texture = checked_texture(texture)
     from .surfaces import SampledSurface
 
     cached = texture.__dict__.get("_surface_search")

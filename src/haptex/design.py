@@ -16,7 +16,7 @@ from .catalogue import DEFAULT_HAND, checked_device, presets
 from .devices import Device
 from .limits import stiffness_at, wall_limits
 from .surfaces import _symmetric_2x2_norm
-from .textures import Texture
+from .textures import Texture, checked_texture
 
 LETTERS = "".join(ALGORITHMS)
 TIME_BUDGET = 120.0
@@ -159,6 +159,7 @@ def design(texture: Texture, device: Device, stiffness: float, speed: float = 0.
         defined there, a ``time_budget`` that is not > 0, or ``algorithms`` given whose plan
         exceeds ``time_budget`` (naming each one's seconds).
     """
+    texture = checked_texture(texture)
     device = checked_device(device)
     if time_budget is not None:
         time_budget = positive("time_budget", time_budget, "s")
@@ -359,6 +360,7 @@ def rendered_texture(texture: Texture, device: Device, speed: float = 0.1, sampl
     ParameterError
         For a non-positive speed or sample count.
     """
+    texture = checked_texture(texture)
     device = checked_device(device)
     return _rendered(texture, rendering_cutoff(device, speed, samples_per_period).period, band_limit)[0]
 

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._validation import ParameterError, fail, nonnegative, positive
+from ._validation import ParameterError, fail, nonnegative, not_a_texture, positive
 
 MAX_DILATION_WORK = 2e9
 """Most (samples x footprint points) one dilation may cost (17 s and 0.8 GB measured here at the
@@ -114,8 +114,8 @@ def felt_by(texture, tip_radius: float, *, spacing: float | None = None):
     the continuous maximum. The measured-surfaces guide tabulates the errors against
     brute-force ball paths.
     """
-    if not callable(getattr(texture, "felt_by", None)):
-        raise fail("texture", texture, "a haptex profile or surface (a Texture)")
+    if not callable(getattr(texture, "felt_by", None)):  # (a Texture: this module sits below the textures)
+        raise not_a_texture(texture)
     return texture.felt_by(tip_radius, spacing=spacing)
 
 
@@ -320,6 +320,8 @@ def reliability_cutoff(texture, instrument_tip: float) -> float | None:
     """
     from SurfaceTopography import Topography, UniformLineScan
 
+    if not callable(getattr(texture, "felt_by", None)):  # (a Texture: this module sits below the textures)
+        raise not_a_texture(texture)
     r = positive("instrument_tip", instrument_tip, "m")
     if getattr(texture, "_knots", None) is not None:  # (a map on graded axes: at its cells' mean widths)
         texture = texture._regular()

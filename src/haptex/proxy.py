@@ -35,7 +35,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._validation import fail, positive
-from .textures import Texture
+from .textures import Texture, checked_texture
 
 MAX_STEPS = 200
 """Newton steps of one tick's descent at most (chosen; a tick's probe moves a few µm)."""
@@ -294,6 +294,7 @@ def loop_work(texture: Texture, stiffness: float, path, step: float | None = Non
         For a path of another dimension, fewer than 3 vertices, a start inside the wall, or a
         step that is not positive.
     """
+    texture = checked_texture(texture)
     g = GodObject(texture, stiffness, base)
     v = np.asarray(path, dtype=float)
     if v.ndim != 2 or v.shape[1] != g.dimension or len(v) < 3 or not np.all(np.isfinite(v)):

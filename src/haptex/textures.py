@@ -16,11 +16,40 @@ import numpy as np
 from .core import _ext
 from .probe import (MAX_SAMPLES as MAX_PROBE_SAMPLES, _check_ball_fits, _check_work, _grid_contacts, _spacing,
                     _steps_text)
-from ._validation import MAX_LENGTH, ParameterError, check_count, fail, finite, nonnegative, positive, whole
+from ._validation import (MAX_LENGTH, ParameterError, check_count, fail, finite, nonnegative, not_a_texture, positive,
+                          whole)
 
 
 MAX_HARMONICS = 100_000
 """Most harmonics a Fourier texture may have (each evaluation of h costs one per harmonic)."""
+
+
+def checked_texture(texture, name: str = "texture") -> "Texture":
+    """``texture`` as given where it is a :class:`Texture`, else a refusal naming what makes one:
+    the first check of every public function that takes a texture.
+
+    Parameters
+    ----------
+    texture : Texture
+        A profile h(x) or a surface h(x, y) (m).
+    name : str, optional
+        The parameter's name in the refusal.
+
+    Returns
+    -------
+    Texture
+        ``texture`` itself.
+
+    Raises
+    ------
+    ParameterError
+        For anything else (a spec as the command line writes it, "sine:0.2mm,2mm", among them),
+        naming a class that makes it (``haptex.Sinusoid(0.8e-3, 1e-3)``, SI units) and
+        :func:`haptex.load_texture` for a measured file.
+    """
+    if isinstance(texture, Texture):
+        return texture
+    raise not_a_texture(texture, name)
 
 
 class Texture:

@@ -10,7 +10,7 @@ import numpy as np
 
 from .._validation import ParameterError, positive
 from ..algorithms import Algorithm, checked_algorithm
-from ..textures import Texture
+from ..textures import Texture, checked_texture
 from .characteristic import CharacteristicNumber, characteristic_number
 from ..catalogue import checked_device
 
@@ -92,6 +92,7 @@ def texture_limits(texture: Texture, device, speed: float, stiffness: float,
     ParameterError
         For a non-positive speed, stiffness or sample count.
     """
+    texture = checked_texture(texture)
     device = checked_device(device)
     v = positive("speed", speed, "m/s")
     k0 = positive("stiffness", stiffness, "N/m")

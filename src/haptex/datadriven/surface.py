@@ -9,6 +9,7 @@ import numpy as np
 
 from .._validation import fail, positive
 from .models import ModelSet
+from ..textures import checked_texture
 
 # ---------------------------------------------------------------------------------------
 # a surface from a recording
@@ -346,6 +347,7 @@ def follower_vibration(texture, speed: float, *, band=VIBRATION_BAND, y: float |
         For a speed that is not > 0, a band that is not (low, high) with 0 < low < high, or a
         texture without a domain (an aperiodic sum over a surface).
     """
+    texture = checked_texture(texture)
     from ..perception import detection_threshold
 
     v = positive("speed", speed, "m/s")
