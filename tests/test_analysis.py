@@ -505,7 +505,8 @@ _TAKE_A_TEXTURE = [("haptex.analysis.passivity", "texture_limits"), ("haptex.clo
                    ("haptex.closest", "search_data"), ("haptex.closest", "table_search_data"),
                    ("haptex.closest", "surface_search_data"), ("haptex.datadriven", "follower_vibration"),
                    ("haptex.design", "design"), ("haptex.design", "rendered_texture"), ("haptex.probe", "felt_by"),
-                   ("haptex.probe", "reliability_cutoff"), ("haptex.proxy", "loop_work"), ("haptex", "algorithm")]
+                   ("haptex.probe", "reliability_cutoff"), ("haptex.proxy", "loop_work"), ("haptex", "algorithm"),
+                   ("haptex", "Algorithm"), ("haptex.algorithms", "ForceShading")]
 
 
 @pytest.mark.parametrize("module, name", _TAKE_A_TEXTURE)

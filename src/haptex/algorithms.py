@@ -254,6 +254,7 @@ class Algorithm:
     """Whether the algorithm is defined over surfaces h(x, y) yet (else profiles only)."""
 
     def __init__(self, texture: Texture, stiffness: float, max_penetration: float | None = None):
+        texture = checked_texture(texture)
         if texture.dimension != 1 and not self.surfaces:
             raise ParameterError(f"texture = {texture!r} is not allowed for algorithm {self.letter} yet: its 3-D "
                                  "form (a surface h(x, y)) is not implemented; W, A, B, C and G take surfaces")
