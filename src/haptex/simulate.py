@@ -736,7 +736,7 @@ class SimulationResult:
 # public entry points
 # --------------------------------------------------------------------------------------
 def _prepare(algorithm, device, operator, duration, initial_position, initial_velocity):
-    device = checked_device(device)  # (the algorithm checked by the entry points)
+    device = checked_device(device)  # (the algorithm is checked by the entry points, simulate and simulate_batch)
     if not isinstance(operator, Operator):
         raise fail("operator", operator, "an operator from haptex.operators")
     d = algorithm.dimension
