@@ -18,6 +18,7 @@ normal, up), so positions and forces pass unchanged.
 from __future__ import annotations
 
 import ctypes
+import sys
 import time
 
 import numpy as np
@@ -39,18 +40,29 @@ detail). A type not listed needs its preset named: ``forcedimension:PRESET``."""
 
 
 def _dhd():
-    """The binding's ``dhd`` module, or one line saying what is missing and how to get it."""
+    """The binding's ``dhd`` module, or one line saying what is missing and how to get it (what
+    the binding writes to stderr as it loads libdrd, "Could not find libdrd. Is it installed?",
+    held and quoted in that line: the command line's refusal is one line)."""
+    import contextlib
+    import io
+
+    said = io.StringIO()
     try:
-        import forcedimension_core  # noqa: F401 -- its import loads libdrd
-        from forcedimension_core import dhd
+        with contextlib.redirect_stderr(said):
+            import forcedimension_core  # noqa: F401 -- its import loads libdrd
+            from forcedimension_core import dhd
     except ModuleNotFoundError as exc:
         if exc.name is not None and not exc.name.startswith("forcedimension_core"):
             raise
         raise DeviceError("device = 'forcedimension' is not available: the Force Dimension binding is not installed "
                           "(pip install 'haptex[forcedimension]')") from None
     except ImportError:  # the binding is there but found no libdrd
+        words = " ".join(said.getvalue().split())[:200]
         raise DeviceError("device = 'forcedimension' is not available: the binding found no Force Dimension SDK "
-                          "(libdrd 3.16 or later); install the SDK and set FDSDK to its folder") from None
+                          f"(libdrd 3.16 or later{'; it said: ' + words if words else ''}); install the SDK and set "
+                          "FDSDK to its folder") from None
+    if said.getvalue().strip():  # (loaded, with a word on stderr: passed on as written)
+        sys.stderr.write(said.getvalue())
     for name in ("open", "close", "getSystemType", "enableForce", "getPosition", "getLinearVelocity",
                  "getButtonMask", "setForce", "errorGetLastStr"):
         if not hasattr(dhd, name):
