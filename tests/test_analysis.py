@@ -410,6 +410,17 @@ _TAKE_AN_ALGORITHM = [  # (module, function, a GodObject too): every public func
 ]
 
 
+def _first_alone(module, name):
+    """(the public function ``module.name``, None for each of its required arguments after the
+    first): a call that reaches its first argument's check and no other."""
+    import importlib
+    import inspect
+
+    fn = getattr(importlib.import_module(module), name)
+    params = list(inspect.signature(fn).parameters.values())[1:]
+    return fn, [None] * sum(p.default is inspect.Parameter.empty for p in params)
+
+
 @pytest.mark.parametrize("module, name, proxy", _TAKE_AN_ALGORITHM)
 def test_a_texture_given_for_an_algorithm_is_refused_naming_the_algorithm_that_renders_it(module, name, proxy):
     # A newcomer's hx.characteristic_number(texture) (q of "the texture") raised "AttributeError:
@@ -418,13 +429,11 @@ def test_a_texture_given_for_an_algorithm_is_refused_naming_the_algorithm_that_r
     # documented first parameter, an algorithm (haptex.algorithm(letter, texture, stiffness),
     # eq. 5's q and the paper's analyses are an algorithm's, not a texture's); the list above is
     # checked against the package's public functions whose first parameter is named so
-    import importlib
     import inspect
 
-    fn = getattr(importlib.import_module(module), name)
+    fn, others = _first_alone(module, name)
     assert list(inspect.signature(fn).parameters)[0] == "algorithm"
     tex = hx.Sinusoid(0.2e-3, 2e-3)
-    others = [None] * sum(p.default is inspect.Parameter.empty for p in list(inspect.signature(fn).parameters.values())[1:])
     with pytest.raises(hx.ParameterError) as e:
         fn(tex, *others)
     said = str(e.value)
@@ -483,7 +492,7 @@ def _device_takers():
 
 
 @pytest.mark.parametrize("typed, meant", [("touch", "touch"), ("omega.3", "omega-3"), ("kuka", None)])
-@pytest.mark.parametrize("case", range(14))
+@pytest.mark.parametrize("case", range(len(_device_takers())))
 def test_a_device_given_by_its_name_is_refused_naming_the_call_that_makes_it(case, typed, meant):
     # A researcher's hx.max_passive_stiffness(alg, "touch") raised "AttributeError: 'str' object
     # has no attribute 'dimension'" (design, wall_limits, rendering_cutoff, simulated_log: the
@@ -516,14 +525,9 @@ def test_a_texture_written_as_the_command_line_writes_it_is_refused_naming_the_c
     # function's documented parameter, a haptex Texture (SI units: the command line's specs
     # with their units are the command line's); haptex.algorithm('A', texture) as the first of
     # them (its letter first)
-    import importlib
-    import inspect
-
-    fn = getattr(importlib.import_module(module), name)
-    params = list(inspect.signature(fn).parameters.values())
+    fn, others = _first_alone(module, name)
     spec = "sine:0.2mm,2mm"
-    args = (["A", spec] if name == "algorithm" else
-            [spec] + [None] * sum(p.default is inspect.Parameter.empty for p in params[1:]))
+    args = ["A", spec] if name == "algorithm" else [spec] + others
     with pytest.raises(hx.ParameterError) as e:
         fn(*args)
     said = str(e.value)
