@@ -313,3 +313,91 @@ def test_an_npz_log_is_refused_from_its_headers_and_a_broken_one_in_one_line(tmp
     with zipfile.ZipFile(tmp_path / "plain.npz", "w") as z:
         z.writestr("time_s", arr.getvalue())
     assert np.array_equal(read_table(tmp_path / "plain.npz", "run log")["time_s"], np.arange(3.0))
+
+
+def _a_path_taken(module, name):
+    """(the public function ``module.name``, the call that gives it ``v`` for its path and
+    what a valid call gives for the rest): its path is the first parameter, or ``out`` after an
+    algorithm (export_c: the algorithm the README's first example renders) or a model set."""
+    import importlib
+
+    fn = getattr(importlib.import_module(module), name)
+    if name == "export_c":
+        alg = hx.algorithm("A", hx.Sinusoid(0.2e-3, 2e-3), 2000.0)
+        return lambda v: fn(alg, v, 5.0)
+    if name == "write_hatt":
+        from haptex.datadriven import ModelSet
+
+        return lambda v: fn(ModelSet.__new__(ModelSet), v)
+    extra = {"write_log": ([0.0, 1e-3], [0.0, 0.0], [0.0, 0.0]), "placed_mesh": (1e-3, None),
+             "firmware_command": ("cortex-m4",), "check_output": (False,), "sweep": ()}
+    return lambda v: fn(v, *extra.get(name, ()))
+
+
+_TAKE_A_PATH = [("haptex.surfaces", "load_texture", "path"), ("haptex.atlas", "open_atlas", "atlas"),
+                ("haptex.atlas", "sweep", "spec"), ("haptex.catalogue", "device_from_file", "device"),
+                ("haptex.datadriven", "read_hatt", "path"), ("haptex.datadriven", "read_models", "path"),
+                ("haptex.datadriven", "write_hatt", "path"), ("haptex.datadriven", "read_recording", "path"),
+                ("haptex.identification", "read_log", "path"), ("haptex.identification", "write_log", "path"),
+                ("haptex.identification", "identify_log", "path"), ("haptex.explore.model", "placed_mesh", "path"),
+                ("haptex.export", "export_c", "out"), ("haptex.export", "firmware_command", "out"),
+                ("haptex.report", "check_output", "out")]
+
+
+@pytest.mark.parametrize("module, name, said", _TAKE_A_PATH)
+@pytest.mark.parametrize("value", [3.5, None, ["a.txt"]])
+def test_a_path_given_as_anything_but_a_path_is_refused_naming_it(module, name, said, value):
+    # hx.load_texture(3.5) raised Python's "TypeError: expected str, bytes or os.PathLike object,
+    # not float" from pathlib, with no name of the parameter (2026-12-01's sweep of the public
+    # functions with a number, None and a list for every argument). Truth: each function's
+    # documented parameter, a file's path (str or os.PathLike, os.fspath's contract: PEP 519);
+    # the name is the one its missing file is refused with
+    with pytest.raises(hx.ParameterError) as e:
+        _a_path_taken(module, name)(value)
+    said_ = str(e.value)
+    assert said_.startswith(f"{said} = ") and "'s path (a str or pathlib.Path)" in said_, said_
+
+
+def test_every_public_function_that_takes_a_path_is_checked_above():
+    # the list above is every public function of the package with a parameter named path or
+    # out that is a file's or a folder's (found by walking the package; analysis.work's path
+    # and operators.KinematicPath's are a probe's path, the plots' path is written last, by plotting._finish)
+    import importlib
+    import inspect
+    import pkgutil
+
+    found = set()
+    for m in pkgutil.walk_packages(hx.__path__, "haptex."):
+        if any(part.startswith("_") for part in m.name.split(".")[1:]):
+            continue
+        mod = importlib.import_module(m.name)
+        for n, f in vars(mod).items():
+            if n.startswith("_") or not inspect.isfunction(f) or f.__module__ != mod.__name__:
+                continue
+            ps = list(inspect.signature(f).parameters)[:2]
+            if {"path", "out"} & set(ps) and m.name not in ("haptex.plotting", "haptex.analysis.work", "haptex.operators"):
+                found.add((m.name, n))
+    assert found - {("haptex.report", "write_report")} == {(m, n) for m, n, _ in _TAKE_A_PATH}
+
+
+@pytest.mark.parametrize("value", [3.5, "nonsense", [1.0, 2.0, 3.0], [[0.0, 0.1]], None])
+def test_a_handle_position_of_another_shape_is_refused_as_such_not_as_out_of_reach(value):
+    # five_bar_jacobian(0.1, 0.1, 0.05, 3.5) said "working_point = 3.5 is not allowed: motor 1
+    # cannot reach it", "nonsense" raised numpy's "could not convert string to float". Truth:
+    # its documented p, an array of shape (2,) in metres (Hayward's pantograph's handle
+    # position [x, y])
+    with pytest.raises(hx.ParameterError) as e:
+        hx.devices.five_bar_jacobian(0.1, 0.1, 0.05, value)
+    assert str(e.value).startswith("working_point = ") and "a handle position [x, y] in metres" in str(e.value)
+
+
+@pytest.mark.parametrize("value", [3.5, "nonsense", [1.0, 2.0], None, [[1.0, 2.0]]])
+def test_a_jacobian_of_another_shape_is_refused_naming_the_shapes_taken(value):
+    # spectral_norm(3.5) raised numpy's AxisError ("axis -1 is out of bounds for array of
+    # dimension 0"), [[1, 2]] returned a number for a 1 x 2 matrix. Truth: its documented j,
+    # shape (..., 2, 2) or (..., 3, 3)
+    from haptex.analysis.characteristic import spectral_norm
+
+    with pytest.raises(hx.ParameterError) as e:
+        spectral_norm(value)
+    assert str(e.value).startswith("j = ") and "(..., 2, 2) or (..., 3, 3)" in str(e.value), str(e.value)

@@ -14,14 +14,13 @@ every other column is ignored and listed, never refused.
 from __future__ import annotations
 
 import dataclasses
-import os
 import warnings
 import zipfile
 from pathlib import Path
 
 import numpy as np
 
-from ._validation import ParameterError, check_budget, fail
+from ._validation import ParameterError, a_path, check_budget, fail
 
 G = 9.80665
 """Standard gravity (m/s²): the unit ``g`` of an acceleration column."""
@@ -144,7 +143,7 @@ def read_table(path, what: str) -> dict:
         If the file is missing, larger than the memory budget allows, not of its kind, holds a
         value that is not a number, or columns of different lengths.
     """
-    p = Path(os.fspath(path))
+    p = a_path("path", path, f"a {what}'s path")
     if not p.is_file():
         raise fail("path", str(path), f"an existing {what} (CSV, NPZ or HDF5)")
     kind = TABLE_SUFFIXES.get(p.suffix.lower(), "CSV")

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ._units import parse_quantity
-from ._validation import ParameterError, check_budget
+from ._validation import ParameterError, a_path, check_budget
 
 _UNIT_WORDS = {
     "um": "um", "µm": "um", "μm": "um", "micrometer": "um", "micrometre": "um", "micron": "um", "microns": "um",
@@ -173,7 +173,7 @@ def read_topography(path, *, spacing=None, x_unit=None, height_unit=None, variab
     """Read a line scan or an areal map from a file; see ``SampledProfile.from_file`` and, for
     ``crop``, :func:`crop_region`."""
     crop = _checked_crop(crop)
-    p = Path(path)
+    p = a_path("path", path, "a topography file's path")
     if p.is_dir():
         raise ParameterError(f"path = {str(p)!r} is not allowed: it is a directory, not a topography file")
     if not p.exists():

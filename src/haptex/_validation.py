@@ -59,12 +59,21 @@ def not_a_texture(value, name: str = "texture") -> ParameterError:
                              "haptex.load_texture(PATH) for a measured file)")
 
 
+def a_path(name: str, value, what: str = "a file's path"):
+    """``value`` as a :class:`pathlib.Path`, refused naming ``name`` unless it is a str or an
+    os.PathLike (PEP 519's contract for a path; pathlib's own TypeError named no parameter).
+    ``what`` says what the path is of, e.g. "a topography file's path"."""
+    from pathlib import Path
+
+    if not isinstance(value, str | os.PathLike):
+        raise fail(name, value, f"{what} (a str or pathlib.Path)")
+    return Path(os.fspath(value))
+
+
 def out_file(name: str, path):
     """``path`` as a :class:`pathlib.Path` to write, refused (naming ``name``) unless its folder
     exists."""
-    from pathlib import Path
-
-    out = Path(os.fspath(path))
+    out = a_path(name, path)
     if not out.parent.is_dir():
         raise fail(name, str(out), "a file in an existing folder")
     return out

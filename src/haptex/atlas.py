@@ -49,7 +49,7 @@ import numpy as np
 
 from ._specs import READING_KEYS
 from ._units import parse_quantity
-from ._validation import ParameterError, check_budget, fail, whole
+from ._validation import ParameterError, a_path, check_budget, fail, whole
 
 MAX_RUNS = 10**9
 """Largest number of runs one sweep may hold (the grid's product)."""
@@ -172,7 +172,7 @@ class SweepSpec:
             If the file is missing, too large, not TOML/YAML, or the SPEC is invalid
             (see :meth:`from_mapping`).
         """
-        p = Path(path)
+        p = a_path("spec", path, "a TOML or YAML SPEC file's path")
         if not p.is_file():
             raise ParameterError(f"spec = {str(path)!r} is not allowed: {'a directory' if p.is_dir() else 'no such file'}")
         if p.stat().st_size > MAX_SPEC_BYTES:
@@ -683,7 +683,8 @@ def sweep(spec, out=None, *, scheduler: str | None = None, workers: int | None =
     Raises
     ------
     ParameterError
-        For an invalid SPEC (or one whose atlas would exceed the memory budget), a store
+        For a SPEC or ``out`` that is not a path (a str or os.PathLike, PEP 519), an invalid
+        SPEC (or one whose atlas would exceed the memory budget), a store
         written by another SPEC or being written by another sweep (its lock), too many
         local workers for the memory budget, or a scheduler that is not ``tcp://HOST:PORT``
         or does not answer (within 5 s to connect, 10 s to start the handshake).
@@ -697,7 +698,7 @@ def sweep(spec, out=None, *, scheduler: str | None = None, workers: int | None =
     else:
         _scheduler_address(scheduler)
     blocks = spec.blocks()
-    store = None if out is None else Path(out)
+    store = None if out is None else a_path("out", out, "a Zarr store's path")
     lock = None if store is None else _lock(store)
     try:
         done_blocks = set() if store is None else _open_store(store, spec, dimension, blocks)
@@ -949,11 +950,12 @@ def open_atlas(path):
     Raises
     ------
     ParameterError
-        If ``path`` is not a Zarr store written by haptex sweep.
+        If ``path`` is not a path (a str or os.PathLike, PEP 519) or not a Zarr store written
+        by haptex sweep.
     """
     import xarray as xr
 
-    p = Path(path)
+    p = a_path("atlas", path, "a Zarr store's path")
     if not p.exists():
         raise ParameterError(f"atlas = {str(path)!r} is not allowed: no such store")
     try:

@@ -20,7 +20,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from ._validation import ParameterError, fail, whole
+from ._validation import ParameterError, a_path, fail, whole
 from .devices import Device
 
 STATUSES = ("published", "identified", "chosen")
@@ -605,14 +605,14 @@ def device_from_file(path) -> Device:
     Raises
     ------
     ParameterError
-        If the file is missing, too large, not TOML, names an unknown key (or a pantograph
+        If ``path`` is not a path (a str or os.PathLike, PEP 519), the file is missing, too
+        large, not TOML, names an unknown key (or a pantograph
         key for another preset), or a value is missing its unit, has the wrong dimension or
         is out of range (the :class:`Device` checks).
     """
     import tomllib
-    from pathlib import Path
 
-    p = Path(path)
+    p = a_path("device", path, "a TOML device file's path")
     if not p.is_file():
         raise ParameterError(f"device = {str(path)!r} is not allowed: "
                              f"{'a directory' if p.is_dir() else 'no such file'} (a TOML device file)")

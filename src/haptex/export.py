@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from . import core as _core
-from ._validation import ParameterError, fail, positive_or_inf
+from ._validation import ParameterError, a_path, fail, positive_or_inf
 from .algorithms import ALGORITHMS, Algorithm, checked_algorithm
 from .core import _ext
 from .renderer import (FRICTION_THRESHOLD, MAX_EVALUATIONS, WORKSPACE_LIMIT, Stabiliser, evaluation_budget,
@@ -169,10 +169,11 @@ def firmware_command(out, target: str, *, relative: bool = False, elf: str = "ha
     Raises
     ------
     ParameterError
-        For an unknown target.
+        For an unknown target, or an ``out`` that is not a path (a str or os.PathLike,
+        PEP 519).
     """
     t = _target(target)
-    d = Path(".") if relative else Path(out)
+    d = Path(".") if relative else a_path("out", out, "the export's folder's path")
     if target == "host":
         return [t["cc"], "-std=c99", "-O2", *defines, "-o", str(d / "tick"), "your_loop.c", str(d / "*.c"), "-lm"]
     return [t["cc"], *t["flags"], *FIRMWARE_FLAGS, *defines, "-nostartfiles", "-T", str(d / "mps2.ld"),
@@ -462,7 +463,8 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
         :data:`MAX_TABLE` numbers, a bad ``max_force`` or ``max_evaluations``, a
         ``passivity_controller`` that is not a stabiliser or comes without a ``period``, a
         vibration refused as :class:`haptex.Renderer` refuses it (or whose tables exceed
-        :data:`MAX_TABLE`), an unknown ``target``, or an unwritable ``out``.
+        :data:`MAX_TABLE`), an unknown ``target``, an ``out`` that is not a path (a str or
+        os.PathLike, PEP 519) or is unwritable.
 
     Notes
     -----
@@ -474,6 +476,7 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
     fault, and the work is bounded and counted (``haptex_work``, ``haptex_cut``).
     """
     algorithm = checked_algorithm(algorithm, proxy=True)
+    out = a_path("out", out, "a folder's path")
     from importlib.metadata import version
 
     from .proxy import GodObject
@@ -542,7 +545,6 @@ def export_c(algorithm: Algorithm, out, max_force: float, max_evaluations: int |
             gain=_num(vib[2]), tau=_num(vib[3]), seed=f"{vib[4]}ULL", budget=_num(-1.0 if vib[5] is None else vib[5]),
             reserve=_num(vib[6]), friction=None if fric is None else dict(mu=_num(fric[0]), threshold=_num(fric[1]))))
     env = _templates()
-    out = Path(out)
     try:
         out.mkdir(parents=True, exist_ok=True)
         for name in TICK_FILES:

@@ -31,14 +31,13 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
-from ._validation import ParameterError, fail, positive, whole
+from ._validation import ParameterError, a_path, fail, positive, whole
 from .catalogue import checked_device
 
 LOG_COLUMNS = {
@@ -219,15 +218,16 @@ def write_log(path, time, position, force, engaged=None) -> Path:
     Raises
     ------
     ParameterError
-        For arrays of different lengths or a dimension other than 1-3.
+        For a ``path`` that is not a path (a str or os.PathLike, PEP 519), arrays of
+        different lengths or a dimension other than 1-3.
     """
+    out = a_path("path", path, "a run log's path")
     t, p, f = _shaped(time, position, force)
     cols = _columns(p.shape[1])
     data = [t[:, None], p, f]
     if engaged is not None:
         cols.append("engaged")
         data.append(np.asarray(engaged, dtype=np.float64).reshape(-1, 1))
-    out = Path(os.fspath(path))
     np.savetxt(out, np.hstack(data), delimiter=",", header=",".join(cols), comments="", fmt="%.17g")
     return out
 
@@ -259,7 +259,8 @@ def read_log(path, columns=None) -> RunLog:
     Raises
     ------
     ParameterError
-        If the file is missing or too large for the memory budget, a named column is missing
+        If ``path`` is not a path (a str or os.PathLike, PEP 519), the file is missing or too
+        large for the memory budget, a named column is missing
         (the file's columns are listed), time, position or force is missing, position and
         force have different numbers of axes, or a value is not a finite number.
     """
@@ -415,7 +416,7 @@ class Identification:
                      for name, why in self.undetermined.items())
         text = "\n".join(lines) + "\n"
         if path is not None:
-            Path(os.fspath(path)).write_text(text, encoding="utf-8")
+            a_path("path", path, "a TOML device file's path").write_text(text, encoding="utf-8")
         return text
 
     def report(self) -> str:

@@ -515,7 +515,8 @@ class Mesh(Base):
     Raises
     ------
     ParameterError
-        If the file is not a mesh trimesh reads or would take more than the memory budget; if
+        If ``mesh`` is neither a trimesh.Trimesh nor a path (a str or os.PathLike, PEP 519),
+        the file is not a mesh trimesh reads or would take more than the memory budget; if
         the mesh is not closed or not manifold (an edge not shared by exactly two triangles:
         the first such triangle is named), has a degenerate triangle (named), more than
         MAX_TRIANGLES triangles, or no UV map; or if ``uv`` has the wrong shape or a non-finite
@@ -529,12 +530,11 @@ class Mesh(Base):
         import trimesh
 
         if not isinstance(mesh, trimesh.Trimesh):
-            from pathlib import Path
+            from ._validation import a_path, check_budget
 
-            from ._validation import check_budget
-
-            if Path(str(mesh)).is_file():  # (a text mesh's arrays take about 20 x its bytes, with the queries')
-                check_budget("mesh", str(mesh), 20.0 * Path(str(mesh)).stat().st_size, "reading this mesh")
+            if a_path("mesh", mesh, "a trimesh.Trimesh or a mesh file's path").is_file():
+                # (a text mesh's arrays take about 20 x its bytes, with the queries')
+                check_budget("mesh", str(mesh), 20.0 * a_path("mesh", mesh).stat().st_size, "reading this mesh")
             try:
                 mesh = trimesh.load(str(mesh), force="mesh", process=False)
             except Exception as exc:  # (trimesh raises many kinds on a bad file)

@@ -6,6 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ._validation import a_path
+
 
 def _pyplot():
     import matplotlib
@@ -22,7 +24,7 @@ def _finish(plt, fig, path, title: str = "", dpi: int = 200, title_size=None) ->
     if title:
         fig.suptitle(title.replace("kappa_0", "\u03ba\u2080"), fontsize=title_size)
     fig.tight_layout()
-    out = Path(path)
+    out = a_path("path", path, "an image file's path")
     fig.savefig(out, dpi=dpi)
     if out.suffix.lower() == ".png":
         fig.savefig(out.with_suffix(".svg"))

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from . import experiments as ex
-from ._validation import ParameterError
+from ._validation import ParameterError, a_path
 from .algorithms import algorithm
 from .analysis import characteristic_number, friction_bounds, loop_energy
 from .devices import critical_stiffness
@@ -390,7 +390,7 @@ def check_output(out: Path, force: bool) -> None:
 
     Parameters
     ----------
-    out : pathlib.Path
+    out : str or os.PathLike
         The report's directory.
     force : bool
         Overwrite a directory that is not a previous report.
@@ -398,14 +398,16 @@ def check_output(out: Path, force: bool) -> None:
     Raises
     ------
     ParameterError
-        If ``out`` exists, is not empty, is not a previous report and ``force`` is
-        False; or if it or its parent is not writable (checked before any computing).
+        If ``out`` is not a path (a str or os.PathLike, PEP 519); if it exists, is not empty,
+        is not a previous report and ``force`` is False; or if it or its parent is not
+        writable (checked before any computing).
 
     Notes
     -----
     Hidden scratch directories that a killed run left beside ``out`` are removed here
     (:func:`remove_stale_scratch`).
     """
+    out = a_path("out", out, "a report folder's path")
     if out.exists():
         if not out.is_dir():
             raise ParameterError(f"out = {str(out)!r} is not allowed: it exists and is not a directory")
@@ -536,7 +538,7 @@ def write_report(data: dict, out: Path, force: bool = False, elapsed: float | No
 def _staged(out, force: bool):
     """Yield a scratch directory beside ``out`` to write a report into; on success put it in
     place (:func:`_install`), on any exception remove it."""
-    out = Path(out)
+    out = a_path("out", out, "a report folder's path")
     check_output(out, force)
     target = out.resolve()
     tmp = Path(tempfile.mkdtemp(prefix=_scratch_prefix(target, "tmp"), dir=target.parent))

@@ -18,7 +18,7 @@ import numpy as np
 from . import core as _core
 from .core import _ext
 from ._maximise import refine
-from ._validation import ParameterError, check_count, fail, finite, nonnegative, positive, whole
+from ._validation import ParameterError, a_path, check_count, fail, finite, nonnegative, positive, whole
 from .probe import MAX_SAMPLES as MAX_PROBE_SAMPLES, _check_ball_fits, _check_work, _spacing, _steps_text
 from .textures import (MAX_HARMONICS, SampledProfile, Texture, _band_limited_samples, _resampled_axis, _vector,
                        common_period)
@@ -1884,8 +1884,6 @@ class SampledSurface(Surface):
             If the file cannot be read as an image, the pixel size or height range is
             missing or invalid, or the image is smaller than 4 x 4 pixels.
         """
-        from pathlib import Path
-
         from PIL import Image, UnidentifiedImageError
 
         if pixel_size is None:
@@ -1901,7 +1899,7 @@ class SampledSurface(Surface):
             raise fail("height_range", height_range, "a pair (black, white) of heights in metres") from None
         if not (math.isfinite(black) and math.isfinite(white)) or black == white:
             raise fail("height_range", height_range, "two different finite heights (black, white) in metres")
-        p = Path(path)
+        p = a_path("path", path, "an image file's path")
         if not p.is_file():
             raise ParameterError(f"path = {str(path)!r} is not allowed: {'a directory' if p.is_dir() else 'no such file'}")
         try:
@@ -2058,8 +2056,9 @@ def load_texture(path, *, spacing=None, x_unit=None, height_unit=None, variable=
     Raises
     ------
     ParameterError
-        As :meth:`SampledSurface.from_file`: a file that cannot be read, a unit or size it
-        does not state and that is not given, undefined heights not filled, a bad crop.
+        As :meth:`SampledSurface.from_file`: a ``path`` that is not a path (a str or
+        os.PathLike, PEP 519), a file that cannot be read, a unit or size it does not state
+        and that is not given, undefined heights not filled, a bad crop.
     """
     from ._loaders import read_topography
 

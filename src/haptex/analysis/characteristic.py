@@ -128,17 +128,24 @@ def spectral_norm(j) -> np.ndarray:
 
     Raises
     ------
+    ParameterError
+        If ``j`` is not an array of that shape (numbers).
     numpy.linalg.LinAlgError
         Where a 3x3 J holds a NaN (LAPACK's solver does not converge).
     """
-    j = np.asarray(j, dtype=np.float64)
+    given = j
+    try:
+        j = np.asarray(j, dtype=np.float64)
+    except (TypeError, ValueError):
+        j = None
+    if j is None or j.shape[-2:] not in ((2, 2), (3, 3)):
+        raise fail("j", f"an array of shape {j.shape}" if j is not None and j.ndim else given,
+                   "an array of shape (..., 2, 2) or (..., 3, 3) (Jacobians, as Algorithm.jacobian returns them)")
     if j.shape[-2:] == (2, 2):
         fro2 = np.sum(j * j, axis=(-2, -1))
         det = j[..., 0, 0] * j[..., 1, 1] - j[..., 0, 1] * j[..., 1, 0]
         disc = np.sqrt(np.maximum(fro2 * fro2 - 4 * det * det, 0.0))
         return np.sqrt(0.5 * (fro2 + disc))
-    if j.shape[-2:] != (3, 3):
-        return np.sqrt(np.maximum(np.linalg.eigvalsh(np.swapaxes(j, -1, -2) @ j)[..., -1], 0.0))
     with np.errstate(all="ignore"):  # (out of range or not finite: LAPACK's below)
         c0, c1, c2 = ([j[..., 0, k], j[..., 1, k], j[..., 2, k]] for k in range(3))  # (J's columns)
         a00, a11, a22 = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2] for x in (c0, c1, c2))

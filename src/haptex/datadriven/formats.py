@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._validation import ParameterError, fail, out_file
+from .._validation import ParameterError, a_path, fail, out_file
 from .models import _ACC_UNITS, FORMAT, FORMAT_VERSION, ArmaModel, ModelSet
 
 # ---------------------------------------------------------------------------------------
@@ -34,7 +34,8 @@ def read_models(path) -> ModelSet:
     Raises
     ------
     ParameterError
-        If the file is missing, too large (:data:`MAX_FILE_BYTES`), of neither format, or
+        If ``path`` is not a path (a str or os.PathLike, PEP 519), the file is missing, too
+        large (:data:`MAX_FILE_BYTES`), of neither format, or
         its content is refused (the field, its value and what is allowed).
     """
     data = _read_bytes(path)
@@ -47,7 +48,7 @@ def read_models(path) -> ModelSet:
 
 
 def _read_bytes(path) -> bytes:
-    p = Path(os.fspath(path))
+    p = a_path("path", path, "a model file's path")
     if not p.is_file():
         raise fail("path", str(path), "an existing model file")
     if p.stat().st_size > MAX_FILE_BYTES:
@@ -124,7 +125,8 @@ def read_hatt(path, *, acceleration_unit: str | None = None) -> ModelSet:
     Raises
     ------
     ParameterError
-        If a tag is missing or not a number, a count (``numMod``, ``numTri``,
+        If ``path`` is not a path (a str or os.PathLike, PEP 519), a tag is missing or not a
+        number, a count (``numMod``, ``numTri``,
         ``numARCoeff``, ``numMACoeff``) disagrees with what it counts, a ``<tri>`` has other
         than three vertices or one out of range, ``maxSpeed``/``maxForce`` are not the lists'
         largest, ``mu`` is negative, a unit is not one HaTT uses, a model is unstable or not
@@ -328,19 +330,20 @@ def write_hatt(models: ModelSet, path, *, texture: int = 1) -> Path:
     ------
     ParameterError
         If ``models`` is not a :class:`ModelSet` or has no triangles (a set on one line),
-        ``texture`` is not a whole number >= 0, or the folder does not exist.
+        ``texture`` is not a whole number >= 0, ``path`` is not a path (a str or os.PathLike,
+        PEP 519) or its folder does not exist.
     """
     import xml.etree.ElementTree as ET  # writing: defusedxml guards parsing only
 
     if not isinstance(models, ModelSet):
         raise fail("models", type(models).__name__, "a ModelSet (haptex.datadriven.fit or read_models)")
+    path = out_file("path", path)
     if len(models.triangles) == 0:
         raise fail("models", repr(models), "a set with triangles (a HaTT file holds its Delaunay triangulation "
                    "and HaTT interpolates over it; a set on one line of speeds or forces has none): "
                    "haptex's JSON (ModelSet.write) keeps it")
     if isinstance(texture, bool) or not isinstance(texture, int | np.integer) or texture < 0:
         raise fail("texture", texture, "a whole number >= 0")
-    path = out_file("path", path)
     p, q = models.models[0].order
 
     def num(x) -> str:

@@ -128,7 +128,8 @@ def read_recording(path, *, sample_rate: float | None = None, columns=None) -> R
     Raises
     ------
     ParameterError
-        If the file is missing or larger than the memory budget allows, a named column is
+        If ``path`` is not a path (a str or os.PathLike, PEP 519), the file is missing or
+        larger than the memory budget allows, a named column is
         missing (the file's columns are listed), a quantity is missing (acceleration, force,
         and speed or position), a value is not a finite number, the times are not uniform,
         or neither times nor a sample rate are given.

@@ -467,15 +467,17 @@ def placed_mesh(path, uv_scale: float, anchor):
     Raises
     ------
     ParameterError
-        As :class:`haptex.objects.Mesh` (a file that is not a closed manifold mesh with
+        For a ``path`` that is not a path (a str or os.PathLike, PEP 519); as
+        :class:`haptex.objects.Mesh` (a file that is not a closed manifold mesh with
         texture coordinates, past the memory budget, ...), or where the mesh's UV map does not
         hold ``anchor``.
     """
     import trimesh
 
+    from .._validation import a_path
     from ..objects import Mesh
 
-    base = Mesh(path, uv_scale=uv_scale)
+    base = Mesh(a_path("path", path, "a mesh file's path"), uv_scale=uv_scale)
     anchor = np.asarray(anchor, dtype=float)
     try:
         p = base.point(anchor[None, :], np.zeros(1))[0]
