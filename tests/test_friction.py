@@ -1,5 +1,5 @@
 """Algorithm F and its presliding friction (Hayward & Armstrong [32]): eq. 24's stick and
-slip, the compiled kernel against plain Python and against an ODE solver, rate
+slip, the C core's against eq. 24 as written and against an ODE solver, rate
 independence, eq. 22's field and Jacobian, eq. 27's loop energy, dissipation in slip,
 the characteristic number against eq. 26 and Appendix I, and bad input."""
 
@@ -39,13 +39,24 @@ def test_stick_then_slip_as_eq_24():
 
 
 @given(st.lists(st.floats(-5e-3, 5e-3), min_size=1, max_size=200))
-def test_compiled_kernel_matches_plain_python(xs):
+def test_the_sharp_model_is_eq_24_as_written(xs):
+    # Truth: eq. 24 (Hayward & Armstrong's sharp presliding model) written out here, nothing of
+    # haptex's: the adhesion point w stays while |x - w| <= d_max, else it is dragged to x -+
+    # d_max; d = x - w. Both of haptex's entry points (the state update the algorithms use and
+    # the C core's step) follow it along any path, to the rounding of x - (x - w) (they compared
+    # with each other before, the first a plain-Python twin of the second)
     s = fr.PreslidingState.at(0.0, DM)
-    w = 0.0
+    w = w_core = 0.0
     for x in xs:
-        d_ref, s = fr.step(s, x)
-        d, w = fr.presliding_step(w, x, DM)
-        assert d == d_ref and w == s.adhesion
+        if x - w > DM:
+            w = x - DM
+        elif x - w < -DM:
+            w = x + DM
+        d, s = fr.step(s, x)
+        d_core, w_core = fr.presliding_step(w_core, x, DM)
+        for dd, ww in ((d, s.adhesion), (d_core, w_core)):
+            assert abs(dd) <= DM
+            assert dd == pytest.approx(x - w, abs=1e-18) and ww == pytest.approx(w, abs=1e-18)
 
 
 def test_smooth_variant_matches_an_ode_solver():

@@ -249,14 +249,8 @@ def step(state: PreslidingState, x: float) -> tuple[float, PreslidingState]:
     """
     x = finite("x", x, "m")
     dmax = state.max_deflection
-    if state.stick_deflection is None:
-        # plain-Python twin of the C core's sharp step (the tests compare the two)
-        w = state.adhesion
-        d = x - w
-        if d > dmax:
-            d, w = dmax, x - dmax
-        elif d < -dmax:
-            d, w = -dmax, x + dmax
+    if state.stick_deflection is None:  # (the C core's sharp step, as the renderer's)
+        d, w = presliding_step(state.adhesion, x, dmax)
     else:
         z = state.stick_deflection
         d = presliding_step_smooth(state.deflection, x - state.position, dmax, z, smooth_table(dmax, z))
