@@ -7,6 +7,7 @@ never make more than one line. The atlas's cases (SPEC size, lock, scheduler, SP
 are in test_atlas.py, the explorer's in test_explore_fuzz.py, the exported C's in
 test_export.py."""
 
+import math
 import struct
 import subprocess
 import sys
@@ -401,3 +402,102 @@ def test_a_jacobian_of_another_shape_is_refused_naming_the_shapes_taken(value):
     with pytest.raises(hx.ParameterError) as e:
         spectral_norm(value)
     assert str(e.value).startswith("j = ") and "(..., 2, 2) or (..., 3, 3)" in str(e.value), str(e.value)
+
+
+def _sweep_calls():
+    """Valid calls of the public API, each a function of one argument's value (the parameter
+    named by the case): the cheap ones the README's examples make."""
+    from haptex.operators import ConstantForce
+
+    sine = hx.Sinusoid(0.2e-3, 2e-3)
+    a = hx.algorithm("A", sine, 2000.0)
+    f = hx.algorithm("F", sine, 2000.0)
+    dev = hx.Device.point_mass(0.1, 0.5, 1e-3)
+    x = np.linspace(0.0, 4e-3, 401)
+    h = 1e-4 * np.sin(2 * np.pi * x / 1e-3)
+    xs = np.linspace(0.0, 2e-3, 17)
+    hs = 1e-4 * np.sin(2 * np.pi * xs[:, None] / 1e-3) * np.sin(2 * np.pi * xs[None, :] / 1e-3)
+    return {
+        "resolution": lambda v: hx.characteristic_number(a, x_range=(0.0, 2e-3), resolution=v),
+        "seed": lambda v: hx.conservativity(a, n_random=2, seed=v, x_range=(0.0, 2e-3)),
+        "random_loops.seed": lambda v: hx.random_loops(a, n=2, seed=v),
+        "n": lambda v: hx.random_loops(a, n=v),
+        "vertices": lambda v: hx.random_loops(a, n=2, vertices=v),
+        "delay": lambda v: hx.critical_stiffness(0.1, 0.5, 1e-3, delay=v),
+        "damping": lambda v: hx.critical_stiffness(0.1, v, 1e-3),
+        "period": lambda v: hx.critical_stiffness(0.1, 0.5, v),
+        "depth": lambda v: hx.friction_bounds(f, v),
+        "paper_loop.depth": lambda v: hx.paper_loop(a, depth=v),
+        "record_every": lambda v: hx.simulate(a, dev, ConstantForce([0.0, -1.0]), 0.01, initial_position=[0.0, 0.0],
+                                              record_every=v),
+        "letters": lambda v: hx.table_ii(letters=v),
+        "samples_per_period": lambda v: hx.texture_limits(sine, dev, 0.1, 2000.0, samples_per_period=v),
+        "hand": lambda v: hx.wall_limits(dev, hand=v),
+        "slopes": lambda v: hx.SampledProfile(x, h, slopes=v),
+        "periodic": lambda v: hx.SampledProfile(x, h, periodic=v),
+        "SampledSurface.periodic": lambda v: hx.SampledSurface(xs, xs, hs, periodic=v),
+        "energy_monitor": lambda v: hx.Renderer(a, max_force=5.0, energy_monitor=v),
+        "simulate_batch.record_every": lambda v: hx.simulate_batch(a, dev, ConstantForce([0.0, -1.0]), 0.01,
+                                                                   initial_position=[0.0, 0.0], record=True,
+                                                                   record_every=v),
+        "load_texture.spacing": lambda v: hx.load_texture(EXAMPLES / "dektak-stylus-profile.csv", spacing=v),
+        "load_texture.periodic": lambda v: hx.load_texture(EXAMPLES / "dektak-stylus-profile.csv", periodic=v),
+    }
+
+
+_SWEPT = [("resolution", v) for v in ("nonsense", 3.5, (1e9, 64), (256, 10**9), (256.5, 64), (256,))] + [
+    (p, v) for p in ("seed", "random_loops.seed") for v in ("nonsense", -1, 2.5, [1.0, 2.0], True)] + [
+    ("n", v) for v in ("nonsense", math.nan, math.inf, 1e300, 10**9, -1.0, 0)] + [
+    ("vertices", v) for v in ("nonsense", -1.0, 10**9, 0, 2.5)] + [
+    ("delay", v) for v in ("nonsense", math.nan, math.inf, [1.0, 2.0], 1e300, 10**9, True)] + [
+    ("damping", 1e300), ("period", 1e300)] + [
+    ("depth", v) for v in ("nonsense", [1.0, 2.0], 1e300, -1.0, math.nan, math.inf)] + [
+    ("paper_loop.depth", 0.5e-3)] + [
+    (p, v) for p in ("record_every", "simulate_batch.record_every")
+    for v in ("nonsense", math.nan, math.inf, [1.0, 2.0], 1e300, 0, 2.5)] + [
+    ("load_texture.spacing", v) for v in ("nonsense", "0.5um", 1e-6)] + [
+    ("letters", v) for v in (-1.0, [1.0, 2.0], True, 0)] + [
+    ("samples_per_period", v) for v in ("nonsense", [1.0, 2.0], True, 1e300)] + [
+    ("hand", [1.0, 2.0]), ("slopes", "nonsense")] + [
+    (p, v) for p in ("periodic", "SampledSurface.periodic", "energy_monitor", "load_texture.periodic")
+    for v in ("nonsense", 1.0, [1.0], math.nan)]
+
+
+@pytest.mark.parametrize("param, value", _SWEPT)
+def test_a_value_of_another_kind_or_out_of_range_is_refused_naming_its_parameter(param, value):
+    # A sweep of the public API's parameters (2026-12-01: 37 valid calls, each argument in
+    # turn given "nonsense", -1, NaN, inf, a list, True, 1e300, 10^9 and 0) found these raising
+    # Python's or numpy's errors (TypeError, ValueError, OverflowError, LinAlgError, a
+    # 'float' object is not iterable), running out of memory (critical_stiffness's delay and
+    # random_loops's vertices at 10^9) or running on (random_loops's n at 10^9), or taken
+    # silently: a boolean flag given a string, a depth paper_loop does not use for A, a
+    # spacing for a file that gives its positions (the dektak CSV's). Truth:
+    # each parameter as its docstring states it (its kind, its range); a refusal names it
+    import signal
+
+    def late(*_):
+        raise TimeoutError(f"{param} = {value!r} still running after 20 s")
+
+    old = signal.signal(signal.SIGALRM, late)
+    signal.alarm(20)
+    try:
+        with pytest.raises(hx.ParameterError) as e:
+            _sweep_calls()[param](value)
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
+    name = param.split(".")[-1]
+    assert str(e.value).startswith(f"{name} "), str(e.value)
+
+
+def test_a_spacing_given_for_a_file_of_positions_without_their_unit_is_refused(tmp_path):
+    # a plain two-column text file (x, h) without units: SurfaceTopography's reader takes its
+    # positions (x_unit gives their unit); a spacing given beside them was silently ignored
+    # (2026-12-01). Truth: the file's own first column, read back
+    path = tmp_path / "scan.txt"
+    x = np.arange(64) * 1e-6
+    np.savetxt(path, np.column_stack([x, 1e-7 * np.sin(x / 1e-5)]))
+    t = hx.load_texture(path, x_unit="m", height_unit="m")
+    assert t.dx == pytest.approx(1e-6)
+    with pytest.raises(hx.ParameterError, match=r"^spacing = '2um' is not allowed: .* states its positions"):
+        hx.load_texture(path, spacing="2um", x_unit="m", height_unit="m")

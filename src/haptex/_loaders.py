@@ -294,8 +294,9 @@ def _read_st(p: Path, reader, spacing, x_unit, height_unit, variable, fill_undef
     for name, given in (("x_unit", x_unit), ("height_unit", height_unit)):
         if stated and given is not None:
             raise ParameterError(f"{name} = {given!r} is not allowed: {p} states its unit ({unit}), which is used")
-    if stated and spacing is not None and ch.physical_sizes is not None:
-        raise ParameterError(f"spacing = {spacing!r} is not allowed: {p} states its physical size, which is used")
+    if spacing is not None and ch.physical_sizes is not None:  # (its positions, with or without their unit)
+        raise ParameterError(f"spacing = {spacing!r} is not allowed: {p} states its "
+                             f"{'physical size' if stated else 'positions'}, which are used; leave the spacing out")
     sizes = ch.physical_sizes
     if sizes is None and x_unit is not None:
         raise ParameterError(f"x_unit = {x_unit!r} is not allowed: {p} has no positions; give the sample spacing")
@@ -689,6 +690,9 @@ def _load_columns(p: Path, lines, spacing, x_unit, height_unit, x_column, height
         x = _spacing(spacing, str(p)) * np.arange(h.size)
         _check(p, None, h, line_no)
         return x, h
+    if spacing is not None:  # (not silently ignored: the file's own positions are used)
+        raise ParameterError(f"spacing = {spacing!r} is not allowed: {p} gives its positions (column {x_column}), "
+                             "which are used; leave the spacing out")
     if x_unit is None:
         raise ParameterError(f"{p}: the file does not state its x unit: give it, {_hint('x_unit', 'um')}")
     x = np.array([r[x_column] for r in rows]) * _unit_factor(x_unit, "x_unit", str(p))

@@ -139,6 +139,20 @@ def whole(name: str, value, lo: int = 0, hi: int | None = None, what: str = "") 
     return int(f)
 
 
+def flag(name: str, value) -> bool:
+    """``value`` as a bool, refused naming ``name`` unless it is one (a string such as 'no', a
+    number or NaN would be taken for True or False by Python's truth test)."""
+    if isinstance(value, bool | np.bool_):
+        return bool(value)
+    raise fail(name, value, "True or False")
+
+
+def random_seed(name: str, value) -> int:
+    """``value`` as a random seed: a whole number >= 0 (numpy's SeedSequence's entropy),
+    refused naming ``name`` otherwise (booleans too)."""
+    return whole(name, value, 0, None, "a random seed")
+
+
 def optional_positive(name: str, value, unit: str = "") -> float | None:
     """``None`` passes through; anything else must be finite and > 0."""
     return None if value is None else positive(name, value, unit)

@@ -509,15 +509,16 @@ def hand(name) -> Hand:
     Raises
     ------
     ParameterError
-        For a name that is not a hand, listing the ones that are.
+        For a name that is not a hand (or anything but a name, a Hand or None), listing the
+        ones that are.
     """
     if isinstance(name, Hand):
         return name
     table = hands()
     if name is None:
         return table["none"]
-    if name not in table:
-        raise fail("hand", name, "one of " + ", ".join(table))
+    if not isinstance(name, str) or name not in table:
+        raise fail("hand", name, "one of " + ", ".join(table) + " (or a haptex.catalogue.Hand)")
     return table[name]
 
 

@@ -16,7 +16,7 @@ import numpy as np
 
 from . import core as _core
 from .core import WORKSPACE_LIMIT, _ext
-from ._validation import fail, optional_positive, positive, whole
+from ._validation import fail, flag, optional_positive, positive, whole
 from .algorithms import Algorithm, checked_algorithm
 from .closest import table_search_data
 
@@ -640,7 +640,7 @@ class Renderer:
         pc = passivity_controller
         self._core = _core._ext.Renderer(
             code, prm, kind, coeffs, aux, self.dimension, math.inf if max_force is None else float(max_force),
-            WORKSPACE_LIMIT, bool(energy_monitor), pc is not None, 0.0 if pc is None else pc.core_damping,
+            WORKSPACE_LIMIT, flag("energy_monitor", energy_monitor), pc is not None, 0.0 if pc is None else pc.core_damping,
             0 if pc is None else pc.mode, 0.0 if T is None else T, self._step_checked,
             0 if pc is None or pc.delay is None else pc.delay, base)
         self.step = self._core.step

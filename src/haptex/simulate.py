@@ -935,7 +935,7 @@ def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration:
     initial_velocity : array_like, shape (d,), optional
         m/s; default zero.
     record_every : int, optional
-        Record one sample in this many (>= 1).
+        Record one sample in this many: a whole number from 1 to the run's number of samples.
     tail_fraction : float, optional
         Fraction of the run, at its end, on which the oscillation verdict is decided.
     passivity_controller : Stabiliser, optional
@@ -980,9 +980,7 @@ def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration:
     """
     algorithm = checked_algorithm(algorithm, proxy=True)
     n_steps, p0, v0 = _prepare(algorithm, device, operator, duration, initial_position, initial_velocity)
-    if isinstance(record_every, bool) or int(record_every) != record_every or record_every < 1:
-        raise fail("record_every", record_every, "a whole number >= 1")
-    record_every = int(record_every)
+    record_every = whole("record_every", record_every, 1, max(1, n_steps), "samples: the run's at most")
     if not 0 < tail_fraction <= 1:
         raise fail("tail_fraction", tail_fraction, "a number in (0, 1]")
     pc_on, pc_b, pc_ref = _controller(passivity_controller)
@@ -1425,6 +1423,7 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     if unknown:
         raise ParameterError(f"sweep parameters {unknown} are not allowed: choose from {', '.join(SWEEP_KEYS)}")
     n_steps, p0, v0 = _prepare(algorithm, device, operator, duration, initial_position, initial_velocity)
+    record_every = whole("record_every", record_every, 1, max(1, n_steps), "samples: the run's at most")
     d = p0.size
     if d == 2 and "initial_y" in sweep:
         raise ParameterError("initial_y is not allowed in the plane (a profile): it sweeps 3-D starts")
@@ -1441,7 +1440,7 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
         if not np.all(np.isfinite(a)):
             raise fail(k, a.tolist(), "finite values")
     width = 4 * d + 4
-    n_rec = n_steps // int(record_every) if record else 0
+    n_rec = n_steps // record_every if record else 0
     if N * n_rec * width * 8 > MEMORY_BUDGET:
         raise ParameterError(f"record = True is not allowed here: {N} runs x {n_rec} samples need more than the 2 GiB budget")
     # the stiffness only sets the parameter vector's P_K0: packed into it after the runs are built

@@ -18,7 +18,7 @@ import numpy as np
 from . import core as _core
 from .core import _ext
 from ._maximise import refine
-from ._validation import ParameterError, a_path, check_count, fail, finite, nonnegative, positive, whole
+from ._validation import ParameterError, a_path, check_count, fail, finite, flag, nonnegative, positive, whole
 from .probe import MAX_SAMPLES as MAX_PROBE_SAMPLES, _check_ball_fits, _check_work, _spacing, _steps_text
 from .textures import (MAX_HARMONICS, SampledProfile, Texture, _band_limited_samples, _resampled_axis, _vector,
                        common_period)
@@ -985,6 +985,7 @@ class SampledSurface(Surface):
 
         from ._validation import MAX_LENGTH
 
+        periodic = flag("periodic", periodic)
         self._knots = None
         if knots is None:
             x, dx = _grid_axis("x", x)
@@ -1010,7 +1011,7 @@ class SampledSurface(Surface):
                                  f"+-{MAX_LENGTH:g} m (check the unit)")
         self.x, self.y, self.h = x, y, np.ascontiguousarray(h)
         self.dx, self.dy = dx, dy
-        self.periodic = bool(periodic)
+        self.periodic = periodic
         self.source = source
         self.kinks = np.zeros((0, 3))
         self.curvature_miss = self.peak_miss = self.convex_miss = self.path_curvature = None

@@ -48,6 +48,19 @@ _EXPECTED = {
 }
 
 
+def _letters(letters) -> list:
+    """``table_ii``'s letters as a list of upper-case strings (a string of letters or an
+    iterable of one-letter strings), refused naming ``letters`` otherwise or when empty."""
+    allowed = "a string of the letters W, A-G or a list of them, e.g. 'ABC' or ['A', 'B']"
+    try:
+        items = list(letters) if not isinstance(letters, bytes) else None
+    except TypeError:
+        items = None
+    if not items or not all(isinstance(c, str) for c in items):
+        raise fail("letters", letters, allowed)
+    return [c.upper() for c in items]
+
+
 def table_ii(stiffness: float = PAPER_PARAMETERS["stiffness"], amplitude: float = PAPER_PARAMETERS["amplitude"],
              period: float = PAPER_PARAMETERS["period"],
              max_penetration: float = PAPER_PARAMETERS["max_penetration"], letters=None,
@@ -105,7 +118,7 @@ def table_ii(stiffness: float = PAPER_PARAMETERS["stiffness"], amplitude: float 
     tex = Sinusoid(A, l)
     if surface not in (None, "egg-crate"):
         raise fail("surface", surface, "None or 'egg-crate'")
-    order = list(ALGORITHMS) if letters is None else [c.upper() for c in letters]
+    order = list(ALGORITHMS) if letters is None else _letters(letters)
     if surface is not None:
         tex = SumOfGratings.egg_crate(A, l)
         order = [c for c in order if ALGORITHMS[c].surfaces] if letters is None else order

@@ -16,8 +16,8 @@ import numpy as np
 from .core import _ext
 from .probe import (MAX_SAMPLES as MAX_PROBE_SAMPLES, _check_ball_fits, _check_work, _grid_contacts, _spacing,
                     _steps_text)
-from ._validation import (MAX_LENGTH, ParameterError, check_count, fail, finite, nonnegative, not_a_texture, positive,
-                          whole)
+from ._validation import (MAX_LENGTH, ParameterError, check_count, fail, finite, flag, nonnegative, not_a_texture,
+                          positive, whole)
 
 
 MAX_HARMONICS = 100_000
@@ -654,14 +654,17 @@ class SampledProfile(Texture):
         self.x = x
         self.h = h
         self.dx = float(dx)
-        self.periodic = bool(periodic)
+        self.periodic = flag("periodic", periodic)
         self.source = source
         self.kinks = np.zeros((0, 2))
         self.curvature_miss = self.convex_miss = None
         if slopes is not None:
             from scipy.interpolate import PPoly
 
-            sl = np.asarray(slopes, dtype=float)
+            try:
+                sl = np.asarray(slopes, dtype=float)
+            except (TypeError, ValueError):
+                raise fail("slopes", slopes, "an array of finite slopes (1)") from None
             m_int = h.size if self.periodic else h.size - 1
             if sl.shape == (h.size,):
                 sl = np.column_stack([sl, np.r_[sl[1:], sl[:1]]])[:m_int]

@@ -9,7 +9,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .._maximise import refine as _refine
-from .._validation import fail
+from .._validation import fail, nonnegative, whole
 from ..algorithms import Algorithm, checked_algorithm
 from ..closest import ClosestPoint, closest_point
 from ..textures import Flat, Sinusoid, Texture
@@ -22,13 +22,23 @@ from ._region import _plane_ranges, _region_points, check_analysis_scale
 SURFACE_GRID_PER_PERIOD = {"direct": 32, "distance": 8}
 
 
+MAX_RESOLUTION = (8192, 1024)
+"""The largest ``resolution`` of :func:`characteristic_number`'s first grid (chosen: n_x as many
+cells as a profile's grid ever takes, 64 a shortest period up to 8,192; n_depth 16 times the
+default's 64)."""
+
+
 def _q_plan(algorithm: Algorithm, x_range, resolution) -> tuple[list, list[int], int]:
     """(in-plane ranges (m), cells per in-plane axis, depth samples) of the grid
     :func:`characteristic_number` searches first (F's and D's and E's searches over a surface
     adapt it further)."""
-    nx, nd = (int(v) for v in resolution)
-    if nx < 8 or nd < 4:
-        raise fail("resolution", resolution, "(n_x, n_depth) with n_x >= 8 and n_depth >= 4")
+    allowed = (f"a pair (n_x, n_depth) of whole numbers, 8 <= n_x <= {MAX_RESOLUTION[0]} and 4 <= n_depth <= "
+               f"{MAX_RESOLUTION[1]}")
+    try:
+        nx, nd = resolution
+        nx, nd = whole("resolution", nx, 8, MAX_RESOLUTION[0]), whole("resolution", nd, 4, MAX_RESOLUTION[1])
+    except (TypeError, ValueError):  # (not a pair, or a ParameterError naming one of its numbers)
+        raise fail("resolution", resolution, allowed) from None
     ranges = _plane_ranges(algorithm, x_range)
     tex = algorithm.texture
     if tex.dimension == 2:  # a surface: a 3-D grid, kept to ~10^6 points (refinement does the rest)
@@ -274,7 +284,8 @@ def characteristic_number(
     ------
     ParameterError
         If ``max_penetration`` <= 0, ``x_range`` is malformed or missing for an
-        aperiodic texture, or the resolution is below (8, 4).
+        aperiodic texture, or the resolution is not a pair of whole numbers from (8, 4) to
+        :data:`MAX_RESOLUTION`.
 
     Notes
     -----
@@ -585,6 +596,11 @@ def _region_candidates(values: np.ndarray, unique, count: int = 8, first: int = 
         batch *= 2
 
 
+MAX_FRICTION_DEPTH = 1.0
+"""The largest ``depth`` (m) :func:`friction_bounds` takes (chosen: a thousand times the paper's
+d^z_max; eq. 31 as printed holds (mu^4 p^z)^4 terms, which overflow a double past about 1e75 m)."""
+
+
 def friction_bounds(algorithm, depth: float) -> dict:
     """The paper's bounds on q_F: eq. 26's matrix norm and Appendix I's eq. 31 as printed.
 
@@ -607,11 +623,19 @@ def friction_bounds(algorithm, depth: float) -> dict:
         as (mu^4 p^z)^4 are kept, although they make it differ from the norm it bounds);
         ``eq31_corrected``: eq. 31 with the inner root replaced by the closed form of the
         2x2 singular value, which equals ``bound_eq26``.
+
+    Raises
+    ------
+    ParameterError
+        If ``algorithm`` is not one, or ``depth`` is not a number from 0 to
+        :data:`MAX_FRICTION_DEPTH`.
     """
     algorithm = checked_algorithm(algorithm)
     mu = algorithm.friction
     dm = algorithm.presliding
-    P = depth
+    P = nonnegative("depth", depth, "m")
+    if P > MAX_FRICTION_DEPTH:
+        raise fail("depth", depth, f"at most {MAX_FRICTION_DEPTH:g} m (MAX_FRICTION_DEPTH)")
     K = 0.5 * algorithm.modulation_max_slope  # pi A / l for h~ = A sin(2 pi x / l)
     a = 2 * mu * P * (1 / dm + K)
     b = 2 * mu

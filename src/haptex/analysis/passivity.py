@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validation import ParameterError, positive
+from .._validation import ParameterError, fail, positive
 from ..algorithms import Algorithm, checked_algorithm
 from ..textures import Texture, checked_texture
 from .characteristic import CharacteristicNumber, characteristic_number
@@ -80,7 +80,8 @@ def texture_limits(texture: Texture, device, speed: float, stiffness: float,
     stiffness : float
         kappa_0 (N/m) the texture is rendered with.
     samples_per_period : float or (float, float, float), optional
-        alpha, beta, gamma ("typically 5 to 10"), default :data:`SAMPLES_PER_PERIOD` (5).
+        alpha, beta, gamma ("typically 5 to 10"), default :data:`SAMPLES_PER_PERIOD` (5); each
+        from 2 (Nyquist's) to 1e6 (chosen).
 
     Returns
     -------
@@ -90,7 +91,8 @@ def texture_limits(texture: Texture, device, speed: float, stiffness: float,
     Raises
     ------
     ParameterError
-        For a non-positive speed, stiffness or sample count.
+        For a non-positive speed or stiffness, or a sample count not from 2 to 1e6 (or three
+        such).
     """
     texture = checked_texture(texture)
     device = checked_device(device)
@@ -121,9 +123,17 @@ PERIOD_LIMITS = (("scanning velocity", "alpha v T / l < 1"), ("low-speed reconst
 
 
 def _samples_per_period(samples_per_period) -> tuple[float, float, float]:
-    spp = np.broadcast_to(np.asarray(samples_per_period, dtype=np.float64), (3,))
+    allowed = ("a number of samples a period from 2 (Nyquist's) to 1e6, or three such (alpha, beta, gamma); the "
+               "paper's are 5 to 10")
+    try:
+        if isinstance(samples_per_period, bool | np.bool_ | str | bytes):
+            raise TypeError
+        spp = np.broadcast_to(np.asarray(samples_per_period, dtype=np.float64), (3,))
+    except (TypeError, ValueError):
+        raise fail("samples_per_period", samples_per_period, allowed) from None
     for name, val in zip(("alpha", "beta", "gamma"), spp):
-        positive(f"samples_per_period ({name})", val)
+        if not 2.0 <= val <= 1e6:  # (NaN too)
+            raise fail(f"samples_per_period ({name})", float(val), allowed)
     return tuple(float(v_) for v_ in spp)
 
 

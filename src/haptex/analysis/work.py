@@ -8,7 +8,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._validation import ParameterError, check_count, fail, in_range, nonnegative, positions, positive, whole
+from .._validation import (ParameterError, check_count, fail, in_range, nonnegative, positions, positive, random_seed,
+                           whole)
 from ..algorithms import Algorithm, _breakpoints, checked_algorithm
 from ..textures import Flat, Sinusoid, Texture
 from ._region import _region_box, check_analysis_scale
@@ -263,7 +264,8 @@ def paper_loop(algorithm: Algorithm, depth: float | None = None) -> tuple[np.nda
     Raises
     ------
     ParameterError
-        If the texture is not a Sinusoid (the paths are defined for one).
+        If the texture is not a Sinusoid (the paths are defined for one), or a ``depth`` is
+        given for A-E (their path has none) or is not a length > 0.
 
     Examples
     --------
@@ -277,6 +279,9 @@ def paper_loop(algorithm: Algorithm, depth: float | None = None) -> tuple[np.nda
     letter = algorithm.letter
     if letter == "F":
         return _paper_loop_f(algorithm, depth)
+    if letter not in ("G", "W") and depth is not None:  # (A-E's Fig. 3 rectangle has none)
+        raise fail("depth", depth, f"None for {letter} (the Fig. 3 path of A-E has no depth; the eq. 29 path of G "
+                                   "and W, and F's loop, take one)")
     if letter in ("G", "W"):
         a = 0.5e-3 if depth is None else positive("depth", depth, "m")
         if letter == "W":
@@ -436,6 +441,13 @@ def random_loops(algorithm: Algorithm, n: int = 6, vertices: int = 5, max_penetr
     list of ndarray, each of shape (vertices + 1, dimension), metres: [x, z] over a
     profile, [x, y, z] (polygons in space) over a surface.
 
+    Raises
+    ------
+    ParameterError
+        If ``n`` is not a whole number from 1 to 10,000, ``vertices`` from 3 to 10,000,
+        ``seed`` not a whole number >= 0, or the region is malformed (``max_penetration``,
+        ``x_range``).
+
     Notes
     -----
     Over a region wider than ``LOOP_SPAN_PERIODS`` shortest texture periods (a long
@@ -444,11 +456,13 @@ def random_loops(algorithm: Algorithm, n: int = 6, vertices: int = 5, max_penetr
     crosses, so a 1 m profile costs what a short one does.
     """
     algorithm = checked_algorithm(algorithm)
+    n = whole("n", n, 1, 10_000, "random loops")
+    vertices = whole("vertices", vertices, 3, 10_000, "a polygon's vertices")
+    rng = np.random.default_rng(random_seed("seed", seed))
     box = _region_box(algorithm, check_analysis_scale(algorithm, max_penetration), x_range)
-    rng = np.random.default_rng(seed)
     span = LOOP_SPAN_PERIODS * float(algorithm.texture.shortest_period)
     loops = []
-    for _ in range(int(n)):
+    for _ in range(n):
         cols = []
         for k, (a, b) in enumerate(box):
             if k < len(box) - 1 and b - a > span:  # an in-plane axis wider than the window
