@@ -173,7 +173,8 @@ def firmware_command(out, target: str, *, relative: bool = False, elf: str = "ha
         PEP 519).
     """
     t = _target(target)
-    d = Path(".") if relative else a_path("out", out, "the export's folder's path")
+    out = a_path("out", out, "the export's folder's path")
+    d = Path(".") if relative else out
     if target == "host":
         return [t["cc"], "-std=c99", "-O2", *defines, "-o", str(d / "tick"), "your_loop.c", str(d / "*.c"), "-lm"]
     return [t["cc"], *t["flags"], *FIRMWARE_FLAGS, *defines, "-nostartfiles", "-T", str(d / "mps2.ld"),

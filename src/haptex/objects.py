@@ -532,9 +532,9 @@ class Mesh(Base):
         if not isinstance(mesh, trimesh.Trimesh):
             from ._validation import a_path, check_budget
 
-            if a_path("mesh", mesh, "a trimesh.Trimesh or a mesh file's path").is_file():
-                # (a text mesh's arrays take about 20 x its bytes, with the queries')
-                check_budget("mesh", str(mesh), 20.0 * a_path("mesh", mesh).stat().st_size, "reading this mesh")
+            path = a_path("mesh", mesh, "a trimesh.Trimesh or a mesh file's path")
+            if path.is_file():  # (a text mesh's arrays take about 20 x its bytes, with the queries')
+                check_budget("mesh", str(mesh), 20.0 * path.stat().st_size, "reading this mesh")
             try:
                 mesh = trimesh.load(str(mesh), force="mesh", process=False)
             except Exception as exc:  # (trimesh raises many kinds on a bad file)

@@ -592,8 +592,8 @@ class Renderer:
     Raises
     ------
     ParameterError
-        If ``algorithm`` is not a haptex algorithm, ``max_force`` is not > 0, a controller
-        is given without a period, ``max_evaluations`` is not None or in [100, 10^9], or a
+        If ``algorithm`` is not a haptex algorithm, ``max_force`` is not > 0,
+        ``energy_monitor`` is not True or False, a controller is given without a period, ``max_evaluations`` is not None or in [100, 10^9], or a
         vibration is given without its mass or with a gain, filter, seed, budget or reserve out of
         range (or a budget without a vibration).
 
@@ -640,7 +640,8 @@ class Renderer:
         pc = passivity_controller
         self._core = _core._ext.Renderer(
             code, prm, kind, coeffs, aux, self.dimension, math.inf if max_force is None else float(max_force),
-            WORKSPACE_LIMIT, flag("energy_monitor", energy_monitor), pc is not None, 0.0 if pc is None else pc.core_damping,
+            WORKSPACE_LIMIT, flag("energy_monitor", energy_monitor), pc is not None,
+            0.0 if pc is None else pc.core_damping,
             0 if pc is None else pc.mode, 0.0 if T is None else T, self._step_checked,
             0 if pc is None or pc.delay is None else pc.delay, base)
         self.step = self._core.step

@@ -968,8 +968,9 @@ class SampledSurface(Surface):
     Raises
     ------
     ParameterError
-        For fewer than 4 x 4 samples, NaNs or infinities, heights beyond +-1 km, a
-        non-uniform or non-increasing axis, mismatched shapes, or more than
+        For a ``periodic`` that is not True or False, fewer than 4 x 4 samples, NaNs or
+        infinities, heights beyond +-1 km, a non-uniform or non-increasing axis, mismatched
+        shapes, or more than
         ``MAX_SAMPLES`` samples; gradients of another shape or not finite; knots without
         gradients or periodic, or not increasing from x (y).
 

@@ -614,8 +614,9 @@ class SampledProfile(Texture):
     Raises
     ------
     ParameterError
-        For mismatched lengths, fewer than 4 samples, non-finite values, or x not
-        strictly increasing (the message gives the first offending index).
+        For mismatched lengths, fewer than 4 samples, non-finite values, x not strictly
+        increasing (the message gives the first offending index), a ``periodic`` that is not
+        True or False, or ``slopes`` not numbers of the shapes above.
 
     Notes
     -----
@@ -664,7 +665,7 @@ class SampledProfile(Texture):
             try:
                 sl = np.asarray(slopes, dtype=float)
             except (TypeError, ValueError):
-                raise fail("slopes", slopes, "an array of finite slopes (1)") from None
+                raise fail("slopes", slopes, "an array of finite slopes (dimensionless), shape (n,) or (m, 2)") from None
             m_int = h.size if self.periodic else h.size - 1
             if sl.shape == (h.size,):
                 sl = np.column_stack([sl, np.r_[sl[1:], sl[:1]]])[:m_int]
