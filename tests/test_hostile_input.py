@@ -465,7 +465,7 @@ _SWEPT = [("resolution", v) for v in ("nonsense", 3.5, (1e9, 64), (256, 10**9), 
 
 @pytest.mark.parametrize("param, value", _SWEPT)
 def test_a_value_of_another_kind_or_out_of_range_is_refused_naming_its_parameter(param, value):
-    # A sweep of the public API's parameters (2026-12-01: 37 valid calls, each argument in
+    # A sweep of the public API's parameters (2026-12-01: 38 valid calls, each argument in
     # turn given "nonsense", -1, NaN, inf, a list, True, 1e300, 10^9 and 0) found these raising
     # Python's or numpy's errors (TypeError, ValueError, OverflowError, LinAlgError, a
     # 'float' object is not iterable), running out of memory (critical_stiffness's delay and
