@@ -501,3 +501,33 @@ def test_a_spacing_given_for_a_file_of_positions_without_their_unit_is_refused(t
     assert t.dx == pytest.approx(1e-6)
     with pytest.raises(hx.ParameterError, match=r"^spacing = '2um' is not allowed: .* states its positions"):
         hx.load_texture(path, spacing="2um", x_unit="m", height_unit="m")
+
+
+@pytest.mark.parametrize("make, r", [(lambda: hx.Sinusoid(0.2e-3, 2e-3), 1e9), (lambda: hx.Sinusoid(0.2e-3, 2e-3), 1e300),
+                                     (lambda: hx.SumOfGratings.egg_crate(0.1e-3, 2e-3), 1e9),
+                                     (lambda: hx.SumOfGratings.egg_crate(0.1e-3, 2e-3), 1e3)])
+def test_a_ball_of_any_size_is_refused_in_bounded_memory_and_time(make, r):
+    # felt_by(1e9) on a sinusoid ran out of memory counting the ball's grid points (numpy's
+    # arange of 2.6e14 offsets, "Unable to allocate 1.86 TiB"), 1e300 raised numpy's "Maximum
+    # allowed size exceeded", and at 1e3 m the count held 2 GB (2026-12-01's sweep). Truth: the
+    # work bound the refusal states (MAX_DILATION_WORK, samples x the ball's grid points), here
+    # past it by orders of magnitude; tracemalloc's peak and a 20 s alarm bound the refusal
+    import signal
+
+    def late(*_):
+        raise TimeoutError(f"felt_by({r}) still running after 20 s")
+
+    tex = make()
+    old = signal.signal(signal.SIGALRM, late)
+    signal.alarm(20)
+    tracemalloc.start()
+    try:
+        with pytest.raises(hx.ParameterError) as e:
+            tex.felt_by(r)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
+    assert str(e.value).startswith(f"tip_radius = {r:g} is not allowed"), str(e.value)
+    assert peak < 200e6  # (bytes)

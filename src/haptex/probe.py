@@ -21,6 +21,8 @@ fine against its shortest period and the ball (the grid is stated in the felt te
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ._validation import ParameterError, fail, nonnegative, not_a_texture, positive
@@ -78,7 +80,8 @@ def felt_by(texture, tip_radius: float, *, spacing: float | None = None):
     Raises
     ------
     ParameterError
-        If ``texture`` is not a texture, r is negative or not finite, larger than a non-periodic map's extent, the texture
+        If ``texture`` is not a texture, r is negative, not finite or past 1 km
+        (:data:`haptex._validation.MAX_LENGTH`), larger than a non-periodic map's extent, the texture
         has no period and is not sampled, or the dilation would exceed
         :data:`MAX_DILATION_WORK` (the message names a spacing that fits).
 
@@ -170,20 +173,38 @@ def _footprint(r: float, steps) -> list:
             if sum((a * d) ** 2 for a, d in zip(k, steps)) <= r * r]
 
 
-def _footprint_size(r: float, steps) -> int:
-    """``len(_footprint(r, steps))`` without making the list (the same inequality, the same
-    float operations, a row of the last axis at a time): what a work check needs, in memory of
-    one row where a refused ball would have listed millions of offsets."""
-    import itertools
-
+def _footprint_count(r: float, steps, stop: float = math.inf) -> tuple[int, bool]:
+    """(``len(_footprint(r, steps))``, True), without making the list (the same inequality, the
+    same float operations): a row of the last axis at a time, each row's count from its largest
+    offset m (2 m + 1: (a d)^2 grows with |a|, rounding included), found from sqrt and corrected
+    by the inequality itself; in constant memory where a row as an array held 2 GB for a ball of
+    1 km on a sinusoid's grid (and 1.9 TiB was asked for at 1e9 m). Once the count passes
+    ``stop`` it ends there, the rows taken from the ball's edge inwards: (a count above
+    ``stop``, False), a lower bound."""
     half = [int(np.floor(r / d)) for d in steps]
-    last = np.arange(-half[-1], half[-1] + 1) * steps[-1]
-    tail = last ** 2
+    d = steps[-1]
+    rows = range(-half[0], half[0] + 1) if len(steps) == 2 else (None,)  # (a map's rows, lazily; a profile's one)
     n = 0
-    for k in itertools.product(*(range(-m, m + 1) for m in half[:-1])):
-        lead = sum((a * d) ** 2 for a, d in zip(k, steps))
-        n += int(np.count_nonzero(lead + tail <= r * r))
-    return n
+    for i, a in enumerate(rows):
+        lead = 0.0 if a is None else (a * steps[0]) ** 2
+        if lead > r * r:
+            continue
+        m = min(half[-1], int(math.sqrt(max(r * r - lead, 0.0)) / d))
+        while m >= 0 and lead + (m * d) ** 2 > r * r:
+            m -= 1
+        while m < half[-1] and lead + ((m + 1) * d) ** 2 <= r * r:
+            m += 1
+        n += 2 * m + 1 if m >= 0 else 0
+        if n > stop and i < len(rows) - 1:
+            return n, False
+    return n, True
+
+
+def _fits_work(samples: int, r: float, steps) -> bool:
+    """Whether ``samples`` x the ball's grid points are within MAX_DILATION_WORK (counted no
+    further than that needs)."""
+    n, done = _footprint_count(r, steps, stop=MAX_DILATION_WORK / max(samples, 1))
+    return done and float(samples) * n <= MAX_DILATION_WORK
 
 
 def _check_work(samples: int, steps, r: float, *, grid_at=None, radius: bool = True, crop: bool = False,
@@ -197,20 +218,24 @@ def _check_work(samples: int, steps, r: float, *, grid_at=None, radius: bool = T
     spacing (``spacing``: the one this grid was made at, which a smaller radius keeps). Each
     bound is rounded to 3 significant digits on its safe side (in um below 1 mm, else mm, as the
     command line writes it; the same double in Python) and checked again."""
-    footprint = _footprint_size(r, steps)
+    footprint, exact = _footprint_count(r, steps, stop=MAX_DILATION_WORK / max(samples, 1))
     work = float(samples) * float(footprint)
-    if work <= MAX_DILATION_WORK:
+    if exact and work <= MAX_DILATION_WORK:
         return
+    if not exact:  # (the count stopped past the budget; exact where a crop may be named)
+        footprint, exact = _footprint_count(r, steps, stop=MAX_DILATION_WORK)
+        work = float(samples) * float(footprint)
+    covers = f"{footprint}" if exact else f"more than {footprint}"
     ways = []
     if radius and samples <= MAX_DILATION_WORK:  # (a ball of one grid point fits)
         def fits(v):
-            return float(samples) * _footprint_size(v, steps) <= MAX_DILATION_WORK
+            return _fits_work(samples, v, steps)
 
         value, text = _stated_length(_fitting_edge(fits, 0.0, r), up=False, fits=fits)  # (more points as r grows)
         if value > 0:
             ways.append(f"a radius of at most {text} on this grid (--tip-radius {text} or less at the command line, "
                         f"felt_by({value!r}{'' if spacing is None else f', spacing={spacing!r}'}) in Python)")
-    if crop:
+    if crop and exact:  # (a ball past the budget alone fits no part)
         most = int(MAX_DILATION_WORK // footprint)
         side = [int(r // d) + 2 for d in steps]  # (samples a side of the smallest part that holds the ball)
         if int(np.prod(side)) <= most:
@@ -219,21 +244,24 @@ def _check_work(samples: int, steps, r: float, *, grid_at=None, radius: bool = T
     if grid_at is not None:
         def fits(v):
             n, st = grid_at(v)
-            return float(n) * _footprint_size(r, st) <= MAX_DILATION_WORK
+            return _fits_work(n, r, st)
 
         lo = float(max(steps))
         hi = lo * max(2.0, (work / MAX_DILATION_WORK) ** (1.0 / len(steps)))
         for _ in range(60):  # (a bracket: the work falls as the spacing grows)
             if fits(hi):
                 break
+            if repr(grid_at(2 * hi)) == repr(grid_at(hi)):  # (the grid coarsens no further: its texture's own)
+                break
             lo, hi = hi, 2 * hi
-        value, text = _stated_length(_fitting_edge(fits, hi, lo), up=True, fits=fits)
-        ways.append(f"a coarser grid (--tip-spacing {text} or more at the command line, felt_by(r, spacing=S) with "
-                    f"S >= {value!r} m in Python)")
+        if fits(hi):  # (none where the grid's coarsest, its texture's own, still holds too many)
+            value, text = _stated_length(_fitting_edge(fits, hi, lo), up=True, fits=fits)
+            ways.append(f"a coarser grid (--tip-spacing {text} or more at the command line, felt_by(r, spacing=S) "
+                        f"with S >= {value!r} m in Python)")
     remedy = "; ".join(ways) if ways else "a smaller radius"
     raise ParameterError(
-        f"tip_radius = {r:g} is not allowed here: the ball covers {footprint} grid points, {work:.3g} operations "
-        f"over {samples} samples, more than {MAX_DILATION_WORK:.3g}; {remedy}")
+        f"tip_radius = {r:g} is not allowed here: the ball covers {covers} grid points, {'' if exact else 'more than '}"
+        f"{work:.3g} operations over {samples} samples, more than {MAX_DILATION_WORK:.3g}; {remedy}")
 
 
 def _fitting_edge(fits, inside: float, outside: float, steps: int = 60) -> float:

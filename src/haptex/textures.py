@@ -156,6 +156,8 @@ class Texture:
             As :func:`haptex.probe.felt_by`.
         """
         r = nonnegative("tip_radius", tip_radius, "m")
+        if r > MAX_LENGTH:  # (a kilometre: the ball's grid points past any work bound)
+            raise fail("tip_radius", tip_radius, f"a finite number from 0 to {MAX_LENGTH:g} m")
         if r == 0.0:
             return self
         out = self._felt(r, spacing)
