@@ -442,6 +442,13 @@ def _sweep_calls():
                                                                    record_every=v),
         "load_texture.spacing": lambda v: hx.load_texture(EXAMPLES / "dektak-stylus-profile.csv", spacing=v),
         "load_texture.periodic": lambda v: hx.load_texture(EXAMPLES / "dektak-stylus-profile.csv", periodic=v),
+        "time": lambda v: hx.identify(time=v, position=np.zeros(100), force=np.zeros(100)),
+        "position": lambda v: hx.identify(time=np.arange(100) * 1e-3, position=v, force=np.zeros(100)),
+        "position_resolution": lambda v: hx.identify(time=np.arange(100) * 1e-3, position=np.zeros(100),
+                                                     force=np.zeros(100), position_resolution=v),
+        "source": lambda v: hx.identify(time=np.arange(100) * 1e-3, position=np.zeros(100), force=np.zeros(100),
+                                        source=v),
+        "preset.device": lambda v: hx.catalogue.preset(v),
     }
 
 
@@ -458,7 +465,9 @@ _SWEPT = [("resolution", v) for v in ("nonsense", 3.5, (1e9, 64), (256, 10**9), 
     ("load_texture.spacing", v) for v in ("nonsense", "0.5um", 1e-6)] + [
     ("letters", v) for v in (-1.0, [1.0, 2.0], True, 0)] + [
     ("samples_per_period", v) for v in ("nonsense", [1.0, 2.0], True, 1e300)] + [
-    ("hand", [1.0, 2.0]), ("slopes", "nonsense")] + [
+    ("hand", [1.0, 2.0]), ("slopes", "nonsense"), ("time", "nonsense"), ("position", "nonsense"),
+    ("position_resolution", "nonsense"), ("position_resolution", [1.0, 2.0]), ("source", 3.5), ("source", None),
+    ("preset.device", [1.0, 2.0])] + [
     (p, v) for p in ("periodic", "SampledSurface.periodic", "energy_monitor", "load_texture.periodic")
     for v in ("nonsense", 1.0, [1.0], math.nan)]
 

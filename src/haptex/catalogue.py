@@ -403,8 +403,8 @@ def preset(name: str) -> Preset:
         For a name that is not a preset, listing the ones that are.
     """
     table = presets()
-    if name not in table:
-        raise fail("device", name, "one of " + ", ".join(table) + did_you_mean(name))
+    if not isinstance(name, str) or name not in table:
+        raise fail("device", name, "one of " + ", ".join(table) + (did_you_mean(name) if isinstance(name, str) else ""))
     return table[name]
 
 

@@ -448,9 +448,13 @@ class Identification:
 def _shaped(time, position, force):
     """(time (n,), position (n, d), force (n, d)) as float64, one axis made a column; refused
     unless the shapes agree and d is 1-3."""
-    t = np.asarray(time, dtype=np.float64)
-    p = np.asarray(position, dtype=np.float64)
-    f = np.asarray(force, dtype=np.float64)
+    def numbers(name, v, unit):
+        try:
+            return np.asarray(v, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise fail(name, v, f"an array of numbers ({unit})") from None
+
+    t, p, f = numbers("time", time, "s"), numbers("position", position, "m"), numbers("force", force, "N")
     p = p[:, None] if p.ndim == 1 else p
     f = f[:, None] if f.ndim == 1 else f
     if t.ndim != 1 or p.ndim != 2 or p.shape[1] not in AXES or f.shape != p.shape or len(t) != len(p):
@@ -760,6 +764,9 @@ def identify(*, time, position, force, max_delay: int = MAX_DELAY, window: float
     on the simulated backend, whose exact transition is computed independently (scipy's expm):
     ``tests/test_identify.py``.
     """
+    if not isinstance(source, str):
+        raise fail("source", source, "a str (where the log came from, as the device file names it)")
+    _encoder_step(position_resolution)  # (checked before the log is)
     r = _identify(time=time, position=position, force=force, max_delay=max_delay, window=window,
                   position_resolution=position_resolution, source=source, delay=None)
     return _told(r)
@@ -791,6 +798,19 @@ def _told(r: Identification) -> Identification:
             why += " (its fit moves with the delay the log cannot tell)"
         out[name] = f"{why}; {remedy[name]} would tell it"
     return r if out == r.undetermined else dataclasses.replace(r, undetermined=out)
+
+
+def _encoder_step(position_resolution) -> float | None:
+    """``identify``'s ``position_resolution`` checked: None, or a finite number >= 0 (m)."""
+    if position_resolution is None:
+        return None
+    try:
+        delta = float(position_resolution) if not isinstance(position_resolution, bool) else math.nan
+    except (TypeError, ValueError):
+        delta = math.nan
+    if not (math.isfinite(delta) and delta >= 0):
+        raise fail("position_resolution", position_resolution, "None or a finite number >= 0 (m)")
+    return delta
 
 
 def _identify(*, time, position, force, max_delay, window, position_resolution, source, delay, start=None):
@@ -926,9 +946,7 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
             notes.append("the axes' steps differ: " + ", ".join(f"{a} {s[0]:.4g} m" for a, s in zip(AXES[d], steps))
                          + "; the largest is kept")
     else:
-        delta = float(position_resolution)
-        if not (math.isfinite(delta) and delta >= 0):
-            raise fail("position_resolution", position_resolution, "None or a finite number >= 0 (m)")
+        delta = _encoder_step(position_resolution)
         delta_sd = 0.0
     ee, v = _equation_error(p, f, T, max_delay)
     res_sd = max(delta / math.sqrt(12.0), 1e-6)  # the residuals' scale (m): the rounding, or 1 µm
