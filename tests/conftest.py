@@ -113,6 +113,28 @@ def counting(monkeypatch, owner, name):
     return sizes
 
 
+def public_api():
+    """(module name, name, object, its parameters' names) of every public function and class of
+    the package's public modules, defined there (not imported), that has a signature: what the
+    tests that check a list of public functions against the package walk."""
+    import importlib
+    import inspect
+    import pkgutil
+
+    for m in pkgutil.walk_packages(hx.__path__, "haptex."):
+        if any(part.startswith("_") for part in m.name.split(".")[1:]):
+            continue
+        mod = importlib.import_module(m.name)
+        for n, obj in vars(mod).items():
+            if n.startswith("_") or not (inspect.isfunction(obj) or inspect.isclass(obj)) or obj.__module__ != m.name:
+                continue
+            try:
+                params = list(inspect.signature(obj).parameters)
+            except ValueError:  # (a class without a signature of its own)
+                continue
+            yield m.name, n, obj, params
+
+
 def server_log(proc, chars: int = 3000) -> str:
     """The tail of an :func:`explorer_process` server's output (for a failing test's message)."""
     try:

@@ -444,24 +444,9 @@ def test_a_texture_given_for_an_algorithm_is_refused_naming_the_algorithm_that_r
 
 def test_every_public_function_that_takes_an_algorithm_first_is_checked_above():
     # (the list above is every one: a function added later is refused here until it is listed)
-    import importlib
-    import inspect
-    import pkgutil
+    from .conftest import public_api
 
-    found = set()
-    for m in pkgutil.walk_packages(hx.__path__, "haptex."):
-        if any(part.startswith("_") for part in m.name.split(".")[1:]):
-            continue
-        mod = importlib.import_module(m.name)
-        for n, obj in vars(mod).items():
-            if n.startswith("_") or not (inspect.isfunction(obj) or inspect.isclass(obj)) or obj.__module__ != m.name:
-                continue
-            try:
-                first = list(inspect.signature(obj).parameters)[:1]
-            except ValueError:  # (a class without a signature of its own)
-                continue
-            if first == ["algorithm"]:
-                found.add((m.name, n))
+    found = {(m, n) for m, n, _, params in public_api() if params[:1] == ["algorithm"]}
     assert found == {(m, n) for m, n, _ in _TAKE_AN_ALGORITHM}
 
 

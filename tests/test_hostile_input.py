@@ -7,6 +7,7 @@ never make more than one line. The atlas's cases (SPEC size, lock, scheduler, SP
 are in test_atlas.py, the explorer's in test_explore_fuzz.py, the exported C's in
 test_export.py."""
 
+import contextlib
 import math
 import struct
 import subprocess
@@ -363,21 +364,13 @@ def test_every_public_function_that_takes_a_path_is_checked_above():
     # the list above is every public function of the package with a parameter named path or
     # out that is a file's or a folder's (found by walking the package; analysis.work's path
     # and operators.KinematicPath's are a probe's path, the plots' path is written last, by plotting._finish)
-    import importlib
     import inspect
-    import pkgutil
 
-    found = set()
-    for m in pkgutil.walk_packages(hx.__path__, "haptex."):
-        if any(part.startswith("_") for part in m.name.split(".")[1:]):
-            continue
-        mod = importlib.import_module(m.name)
-        for n, f in vars(mod).items():
-            if n.startswith("_") or not inspect.isfunction(f) or f.__module__ != mod.__name__:
-                continue
-            ps = list(inspect.signature(f).parameters)[:2]
-            if {"path", "out"} & set(ps) and m.name not in ("haptex.plotting", "haptex.analysis.work", "haptex.operators"):
-                found.add((m.name, n))
+    from .conftest import public_api
+
+    found = {(m, n) for m, n, f, params in public_api()
+             if inspect.isfunction(f) and {"path", "out"} & set(params[:2])
+             and m not in ("haptex.plotting", "haptex.analysis.work", "haptex.operators")}
     assert found - {("haptex.report", "write_report")} == {(m, n) for m, n, _ in _TAKE_A_PATH}
 
 
@@ -402,6 +395,24 @@ def test_a_jacobian_of_another_shape_is_refused_naming_the_shapes_taken(value):
     with pytest.raises(hx.ParameterError) as e:
         spectral_norm(value)
     assert str(e.value).startswith("j = ") and "(..., 2, 2) or (..., 3, 3)" in str(e.value), str(e.value)
+
+
+@contextlib.contextmanager
+def _within(seconds: float, what: str):
+    """Raise TimeoutError naming ``what`` if the block runs past ``seconds`` (SIGALRM; a call
+    that would run on is a failure, not a hung suite)."""
+    import signal
+
+    def late(*_):
+        raise TimeoutError(f"{what} still running after {seconds:g} s")
+
+    old = signal.signal(signal.SIGALRM, late)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, old)
 
 
 def _sweep_calls():
@@ -482,19 +493,8 @@ def test_a_value_of_another_kind_or_out_of_range_is_refused_naming_its_parameter
     # silently: a boolean flag given a string, a depth paper_loop does not use for A, a
     # spacing for a file that gives its positions (the dektak CSV's). Truth:
     # each parameter as its docstring states it (its kind, its range); a refusal names it
-    import signal
-
-    def late(*_):
-        raise TimeoutError(f"{param} = {value!r} still running after 20 s")
-
-    old = signal.signal(signal.SIGALRM, late)
-    signal.alarm(20)
-    try:
-        with pytest.raises(hx.ParameterError) as e:
-            _sweep_calls()[param](value)
-    finally:
-        signal.alarm(0)
-        signal.signal(signal.SIGALRM, old)
+    with _within(20.0, f"{param} = {value!r}"), pytest.raises(hx.ParameterError) as e:
+        _sweep_calls()[param](value)
     name = param.split(".")[-1]
     assert str(e.value).startswith(f"{name} "), str(e.value)
 
@@ -521,22 +521,13 @@ def test_a_ball_of_any_size_is_refused_in_bounded_memory_and_time(make, r):
     # allowed size exceeded", and at 1e3 m the count held 2 GB (2026-12-01's sweep). Truth: the
     # work bound the refusal states (MAX_DILATION_WORK, samples x the ball's grid points), here
     # past it by orders of magnitude; tracemalloc's peak and a 20 s alarm bound the refusal
-    import signal
-
-    def late(*_):
-        raise TimeoutError(f"felt_by({r}) still running after 20 s")
-
     tex = make()
-    old = signal.signal(signal.SIGALRM, late)
-    signal.alarm(20)
     tracemalloc.start()
     try:
-        with pytest.raises(hx.ParameterError) as e:
+        with _within(20.0, f"felt_by({r})"), pytest.raises(hx.ParameterError) as e:
             tex.felt_by(r)
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()
-        signal.alarm(0)
-        signal.signal(signal.SIGALRM, old)
     assert str(e.value).startswith(f"tip_radius = {r:g} is not allowed"), str(e.value)
     assert peak < 200e6  # (bytes)
