@@ -218,13 +218,10 @@ def _check_work(samples: int, steps, r: float, *, grid_at=None, radius: bool = T
     spacing (``spacing``: the one this grid was made at, which a smaller radius keeps). Each
     bound is rounded to 3 significant digits on its safe side (in um below 1 mm, else mm, as the
     command line writes it; the same double in Python) and checked again."""
-    footprint, exact = _footprint_count(r, steps, stop=MAX_DILATION_WORK / max(samples, 1))
+    footprint, exact = _footprint_count(r, steps, stop=MAX_DILATION_WORK)  # (exact where a crop may be named)
     work = float(samples) * float(footprint)
     if exact and work <= MAX_DILATION_WORK:
         return
-    if not exact:  # (the count stopped past the budget; exact where a crop may be named)
-        footprint, exact = _footprint_count(r, steps, stop=MAX_DILATION_WORK)
-        work = float(samples) * float(footprint)
     covers = f"{footprint}" if exact else f"more than {footprint}"
     ways = []
     if radius and samples <= MAX_DILATION_WORK:  # (a ball of one grid point fits)

@@ -16,8 +16,8 @@ import numpy as np
 from .core import _ext
 from .probe import (MAX_SAMPLES as MAX_PROBE_SAMPLES, _check_ball_fits, _check_work, _grid_contacts, _spacing,
                     _steps_text)
-from ._validation import (MAX_LENGTH, ParameterError, check_count, fail, finite, flag, nonnegative, not_a_texture,
-                          positive, whole)
+from ._validation import (MAX_LENGTH, ParameterError, check_count, fail, finite, flag, in_range, nonnegative,
+                          not_a_texture, positive, whole)
 
 
 MAX_HARMONICS = 100_000
@@ -155,9 +155,7 @@ class Texture:
         ParameterError
             As :func:`haptex.probe.felt_by`.
         """
-        r = nonnegative("tip_radius", tip_radius, "m")
-        if r > MAX_LENGTH:  # (a kilometre: the ball's grid points past any work bound)
-            raise fail("tip_radius", tip_radius, f"a finite number from 0 to {MAX_LENGTH:g} m")
+        r = in_range("tip_radius", tip_radius, 0.0, MAX_LENGTH, "m")  # (past a kilometre, past any work bound)
         if r == 0.0:
             return self
         out = self._felt(r, spacing)
