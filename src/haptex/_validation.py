@@ -148,9 +148,9 @@ def flag(name: str, value) -> bool:
 
 
 def random_seed(name: str, value) -> int:
-    """``value`` as a random seed: a whole number >= 0 (numpy's SeedSequence's entropy),
-    refused naming ``name`` otherwise (booleans too)."""
-    return whole(name, value, 0, None, "a random seed")
+    """``value`` as a seed of numpy's default_rng: a whole number from 0 to 2^64 - 1, refused
+    naming ``name`` otherwise (booleans too)."""
+    return whole(name, value, 0, 2**64 - 1, "numpy's default_rng seed")
 
 
 def optional_positive(name: str, value, unit: str = "") -> float | None:

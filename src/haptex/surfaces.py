@@ -18,7 +18,8 @@ import numpy as np
 from . import core as _core
 from .core import _ext
 from ._maximise import refine
-from ._validation import ParameterError, a_path, check_count, fail, finite, flag, nonnegative, positive, whole
+from ._validation import (ParameterError, a_path, check_count, fail, finite, flag, nonnegative, positive, random_seed,
+                          whole)
 from .probe import MAX_SAMPLES as MAX_PROBE_SAMPLES, _check_ball_fits, _check_work, _spacing, _steps_text
 from .textures import (MAX_HARMONICS, SampledProfile, Texture, _band_limited_samples, _resampled_axis, _vector,
                        common_period)
@@ -633,7 +634,7 @@ class BandLimitedNoise2D(SumOfGratings):
         if m.size == 0:
             raise fail("shortest_period", lmin, f"a band that contains a wave vector of the 1/size = {1 / side:g} "
                        "1/m lattice")
-        seed = whole("seed", seed, 0, 2**64 - 1, "numpy's default_rng seed")
+        seed = random_seed("seed", seed)
         phases = np.random.default_rng(seed).uniform(0.0, 2 * np.pi, m.size)
         amp = rms * math.sqrt(2.0 / m.size)
         self.rms, self.size, self.seed = rms, side, int(seed)

@@ -17,7 +17,7 @@ from .core import _ext
 from .probe import (MAX_SAMPLES as MAX_PROBE_SAMPLES, _check_ball_fits, _check_work, _grid_contacts, _spacing,
                     _steps_text)
 from ._validation import (MAX_LENGTH, ParameterError, check_count, fail, finite, flag, in_range, nonnegative,
-                          not_a_texture, positive, whole)
+                          not_a_texture, positive, random_seed, whole)
 
 
 MAX_HARMONICS = 100_000
@@ -536,7 +536,7 @@ class BandLimitedNoise(SumOfSinusoids):
         k = k[k >= 1]
         if k.size == 0:
             raise fail("shortest_period", lmin, f"a band that contains a harmonic of 1/length = {1 / L:g} 1/m")
-        seed = whole("seed", seed, 0, 2**64 - 1, "numpy's default_rng seed")
+        seed = random_seed("seed", seed)
         rng = np.random.default_rng(seed)
         phases = rng.uniform(0.0, 2 * np.pi, k.size)
         amp = rms * math.sqrt(2.0 / k.size)
