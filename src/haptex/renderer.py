@@ -593,9 +593,10 @@ class Renderer:
     ------
     ParameterError
         If ``algorithm`` is not a haptex algorithm, ``max_force`` is not > 0,
-        ``energy_monitor`` is not True or False, a controller is given without a period, ``max_evaluations`` is not None or in [100, 10^9], or a
-        vibration is given without its mass or with a gain, filter, seed, budget or reserve out of
-        range (or a budget without a vibration).
+        ``energy_monitor`` is not True or False, a controller is given without a period,
+        ``max_evaluations`` is not None or in [100, 10^9], or a vibration is given without its
+        mass or with a gain, filter, seed, budget or reserve out of range (or a budget without a
+        vibration).
 
     Notes
     -----
