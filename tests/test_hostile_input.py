@@ -531,3 +531,96 @@ def test_a_ball_of_any_size_is_refused_in_bounded_memory_and_time(make, r):
         tracemalloc.stop()
     assert str(e.value).startswith(f"tip_radius = {r:g} is not allowed"), str(e.value)
     assert peak < 200e6  # (bytes)
+
+
+def _one_model_set():
+    import haptex.datadriven as dd
+
+    ar = np.real(np.poly([0.9 * np.exp(0.3j), 0.9 * np.exp(-0.3j)]))  # (a stable AR(2): poles inside the unit circle)
+    return dd.ModelSet([dd.ArmaModel(ar, [1.0], 1.0, 1.0, 10_000.0, 0.05, 1.0)])
+
+
+def _seed_takers():
+    import haptex.datadriven as dd
+    from haptex.renderer import vibration_settings
+
+    models = _one_model_set()
+    return {"ModelSet.synthesize": lambda s: models.synthesize(0.05, 1.0, 0.01, seed=s),
+            "check_models": lambda s: dd.check_models(models, points=1, seconds=1.5, seed=s),
+            "vibration_settings": lambda s: vibration_settings(models, 0.1, seed=s),
+            "BandLimitedNoise": lambda s: hx.BandLimitedNoise(1e-5, 1e-3, 1e-2, 2e-2, seed=s),
+            "random_loops": lambda s: hx.random_loops(hx.algorithm("A", hx.Sinusoid(1e-4, 1e-3), 1e3), 1, seed=s)}
+
+
+@pytest.mark.parametrize("taker", sorted(_seed_takers()))
+@pytest.mark.parametrize("value, taken", [(0, True), (np.uint64(2**64 - 1), True), (np.int32(7), True), (7.0, True),
+                                          (2**64, False), (-1, False), (7.5, False), (True, False), (np.True_, False),
+                                          ("7", False), (None, False)])
+def test_every_seed_is_numpys_default_rng_seed_and_nothing_else(taker, value, taken):
+    # A seed is numpy's default_rng's: any whole number from 0 to 2^64 - 1 (numpy's SeedSequence
+    # takes exactly those as a single entropy value; NumPy's Random Generator docs), whether an
+    # int or a numpy integer; a bool, a fraction, a string or None (fresh entropy: not the same
+    # run twice) is refused naming `seed`. Before: the renderer's vibration refused numpy's
+    # uint64, check_models passed anything to default_rng (its own errors, or True taken as 1).
+    call = _seed_takers()[taker]
+    if taken:
+        call(value)
+    else:
+        with pytest.raises(hx.ParameterError, match=r"^seed = "):
+            call(value)
+
+
+def _whole_takers():
+    import haptex.datadriven as dd
+    from haptex import core
+
+    models = _one_model_set()
+
+    def threads(n):
+        with core.threads(n):
+            pass
+
+    rng = np.random.default_rng(1)
+    a = rng.normal(size=(64, 3))
+    return {("block", 4, None): lambda v: dd.dft321(a, block=v),
+            ("points", 1, 10**6): lambda v: dd.check_models(models, points=v, seconds=1.5),
+            ("threads", 1, 1024): threads}
+
+
+@pytest.mark.parametrize("key", sorted(_whole_takers(), key=str))
+@pytest.mark.parametrize("kind", ["int", "numpy", "float", "low", "high", "fraction", "bool", "text"])
+def test_every_count_takes_whole_numbers_of_any_kind_in_its_range(key, kind):
+    # A count (samples a block, points, threads) is a whole number in its stated range, given as
+    # an int, a numpy integer or a float with no fraction (as every count of haptex takes it,
+    # _validation.whole); a fraction, a bool or text is refused naming the parameter.
+    name, lo, hi = key
+    value = {"int": lo, "numpy": np.int64(lo), "float": float(lo), "low": lo - 1,
+             "high": (hi + 1) if hi is not None else None, "fraction": lo + 0.5, "bool": True, "text": str(lo)}[kind]
+    if value is None:
+        return
+    call = _whole_takers()[key]
+    if kind in ("int", "numpy", "float"):
+        call(value)
+    else:
+        with pytest.raises(hx.ParameterError, match=rf"^{name} = "):
+            call(value)
+
+
+@pytest.mark.parametrize("param", ["native", "keep_awake"])
+@pytest.mark.parametrize("value, taken", [(np.True_, True), (np.False_, True), (False, True), (1, False),
+                                          ("no", False), (None, False)])
+def test_a_servo_loops_switches_take_numpys_booleans_as_every_switch_does(param, value, taken):
+    # A switch is a bool, Python's or numpy's (as every other switch of haptex takes it,
+    # _validation.flag: e.g. a value read from an array); 1, 'no' or None refused naming it.
+    # Before: the servo loop alone refused numpy's np.True_.
+    from haptex.backends.simulated import SimulatedBackend
+    from haptex.servo import ServoLoop
+
+    backend = SimulatedBackend("omega-3", realtime=False)
+    renderer = hx.Renderer(hx.algorithm("A", hx.Grating(1e-4, 1e-3), 500.0), max_force=backend.max_force)
+    kw = {param: value}
+    if taken:
+        ServoLoop(backend, renderer, **kw)
+    else:
+        with pytest.raises(hx.ParameterError, match=rf"^{param} = "):
+            ServoLoop(backend, renderer, **kw)

@@ -119,10 +119,11 @@ def positive_or_inf(name: str, value, unit: str = "") -> float:
 
 
 def whole(name: str, value, lo: int = 0, hi: int | None = None, what: str = "") -> int:
-    """Return ``value`` as int if it is a whole number in [lo, hi] (a float like 2.0 is
-    accepted, 2.5 and booleans are not), else raise ParameterError."""
+    """Return ``value`` as int if it is a whole number in [lo, hi] (an int, a numpy integer or a
+    float with no fraction such as 2.0; not 2.5, a bool or text such as '2'), else raise
+    ParameterError."""
     allowed = f"a whole number >= {lo}" + ("" if hi is None else f" and <= {hi}") + (f" ({what})" if what else "")
-    if isinstance(value, bool | np.bool_):
+    if isinstance(value, bool | np.bool_ | str | bytes):
         raise fail(name, value, allowed)
     if isinstance(value, int | np.integer):  # exact, however large
         v = int(value)

@@ -16,7 +16,7 @@ import numpy as np
 
 from . import core as _core
 from .core import WORKSPACE_LIMIT, _ext
-from ._validation import fail, flag, optional_positive, positive, whole
+from ._validation import fail, flag, optional_positive, positive, random_seed, whole
 from .algorithms import Algorithm, checked_algorithm
 from .closest import table_search_data
 
@@ -492,8 +492,7 @@ def vibration_settings(vibration, vibration_mass=None, vibration_gain=1.0, veloc
     if vibration_mass is None:
         raise fail("vibration_mass", None, "a mass (kg) turning the vibration's acceleration into force, e.g. "
                    "the device's own: preset(NAME).device().mass[0, 0]")
-    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**64:
-        raise fail("seed", seed, "an integer in [0, 2**64)")
+    seed = random_seed("seed", seed)
     budget = None if vibration_budget is None else nonnegative("vibration_budget", vibration_budget, "W")
     if vibration_reserve is not None and budget is None:
         raise fail("vibration_reserve", vibration_reserve, "given with a vibration_budget (W), whose tank it is")

@@ -47,7 +47,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._validation import check_budget, fail, positive, whole
+from ._validation import check_budget, fail, flag, positive, whole
 from .backends import PRIORITY, Sample
 from . import core as _core
 from .core import _ext
@@ -290,12 +290,9 @@ class ServoLoop:
         self.deadline = positive("deadline", deadline, "periods")
         if self.deadline < 1.0:
             raise fail("deadline", deadline, ">= 1 period")
-        if not isinstance(native, bool):
-            raise fail("native", native, "True or False")
-        self.native = native
+        self.native = native = flag("native", native)
         self.priority = whole("priority", priority, 0, 99)
-        if not isinstance(keep_awake, bool):
-            raise fail("keep_awake", keep_awake, "True or False")
+        keep_awake = flag("keep_awake", keep_awake)
         if keep_awake and not (native and getattr(backend, "native", False) and getattr(backend, "drive", None) is None):
             raise fail("keep_awake", keep_awake, "a backend whose servo loop is the C core's own thread (simulated, "
                        "Force Dimension, Haply's serial port) with native=True; OpenHaptics' scheduler owns its thread, "

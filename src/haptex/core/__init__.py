@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._validation import ParameterError, fail, not_an_algorithm
+from .._validation import ParameterError, fail, not_an_algorithm, whole
 from . import _ext
 
 __all__ = ["SOURCE_DIR", "IN_CORE", "WORKSPACE_LIMIT", "field", "texture_derivatives", "threads", "num_threads", "blas_held_to_one_thread",
@@ -127,10 +127,9 @@ def threads(n: int):
     ParameterError
         If ``n`` is not a whole number from 1 to 1024.
     """
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= int(n) <= 1024:
-        raise fail("threads", n, "a whole number from 1 to 1024")
+    n = whole("threads", n, 1, 1024)
     old = getattr(_LOCAL, "threads", None)
-    _LOCAL.threads = int(n)
+    _LOCAL.threads = n
     try:
         yield
     finally:

@@ -6,7 +6,7 @@ import dataclasses
 
 import numpy as np
 
-from .._validation import fail, positive
+from .._validation import fail, positive, whole
 from .lsf import MAX_ORDER
 from .models import ArmaModel, ModelSet
 
@@ -56,8 +56,7 @@ def dft321(acceleration, block: int | None = None) -> np.ndarray:
     n = a.shape[0]
     if block is None:
         return _dft321_rows(a[None])[0]
-    if isinstance(block, bool) or not isinstance(block, int | np.integer) or block < 4:
-        raise fail("block", block, "an integer >= 4 (samples)")
+    block = whole("block", block, 4, what="samples")
     hop = min(int(block), n + n % 2) // 2
     L = 2 * hop
     w = np.sqrt(0.5 - 0.5 * np.cos(2 * np.pi * np.arange(L) / L))  # sqrt of the periodic Hann window
@@ -211,8 +210,7 @@ def fit(acceleration, speed, normal_force, sample_rate: float, *, rate: float | 
         raise fail("max_order", max_order, f"an integer in [1, {MAX_ORDER}]")
     if order is not None and (not 1 <= order <= MAX_ORDER or int(order) != order):
         raise fail("order", order, f"an integer in [1, {MAX_ORDER}]")
-    if isinstance(grid, bool) or not isinstance(grid, int | np.integer) or not 1 <= grid <= 100:
-        raise fail("grid", grid, "an integer in [1, 100] (cells a side)")
+    grid = whole("grid", grid, 1, 100, "cells a side")
     from .._validation import in_range, nonnegative
 
     in_range("steadiness", steadiness, 0.0, 1.0)

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._validation import ParameterError, a_path, fail, out_file
+from .._validation import ParameterError, a_path, fail, out_file, whole
 from .models import _ACC_UNITS, FORMAT, FORMAT_VERSION, ArmaModel, ModelSet
 
 # ---------------------------------------------------------------------------------------
@@ -342,8 +342,7 @@ def write_hatt(models: ModelSet, path, *, texture: int = 1) -> Path:
         raise fail("models", repr(models), "a set with triangles (a HaTT file holds its Delaunay triangulation "
                    "and HaTT interpolates over it; a set on one line of speeds or forces has none): "
                    "haptex's JSON (ModelSet.write) keeps it")
-    if isinstance(texture, bool) or not isinstance(texture, int | np.integer) or texture < 0:
-        raise fail("texture", texture, "a whole number >= 0")
+    texture = whole("texture", texture, 0)
     p, q = models.models[0].order
 
     def num(x) -> str:

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._validation import ParameterError, fail, out_file, positive
+from .._validation import ParameterError, fail, out_file, positive, random_seed, whole
 from .lsf import MAX_ORDER, lsf_to_poly, poly_to_lsf
 
 FORMAT = "haptex-arma-models"
@@ -422,12 +422,11 @@ class ModelSet:
                 raise fail("speed", f"{n} samples", f"at most {MAX_SAMPLES} samples")
             if duration is not None and abs(float(duration) * self.sample_rate - n) > 1:
                 raise fail("duration", duration, f"{n / self.sample_rate:g} s (the length of speed and force) or None")
-        if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or not 0 <= int(seed) < 2**64:
-            raise fail("seed", seed, "an integer in [0, 2**64)")
+        seed = random_seed("seed", seed)
         sp = np.ascontiguousarray(np.broadcast_to(sp, (n,)), dtype=float)
         fo = np.ascontiguousarray(np.broadcast_to(fo, (n,)), dtype=float)
         out = np.empty(n)
-        clamped, faults, work = _ext.vibration(self._packed, sp, fo, out, int(seed))
+        clamped, faults, work = _ext.vibration(self._packed, sp, fo, out, seed)
         self.last_counts = {"clamped": int(clamped), "faults": int(faults), "max_work": int(work)}
         return out
 
@@ -569,11 +568,11 @@ def check_models(models: ModelSet, *, points: int = 1000, seconds: float = 20.0,
     the interpolated AR polynomial, and the expected rms from the impulse response (scipy),
     while the set interpolates LSF (Culbertson et al. 2014) and synthesises in the C core.
     """
-    if isinstance(points, bool) or not isinstance(points, int | np.integer) or not 1 <= points <= 10**6:
-        raise fail("points", points, "an integer in [1, 1000000]")
+    points = whole("points", points, 1, 10**6)
     t = positive("seconds", seconds, "s")
     if not 1.0 < t <= 3600.0:
         raise fail("seconds", seconds, "a length in (1, 3600] s")
+    seed = random_seed("seed", seed)
     rng = np.random.default_rng(seed)
     vmax, fmax = float(models.speeds.max()), float(models.forces.max())
     unstable, worst = 0, 0.0
