@@ -540,34 +540,65 @@ def _one_model_set():
     return dd.ModelSet([dd.ArmaModel(ar, [1.0], 1.0, 1.0, 10_000.0, 0.05, 1.0)])
 
 
-def _seed_takers():
+def _seed_takers(tmp_path):
+    """Every public function or class that takes a ``seed``, called with ``seed=s`` (each its
+    cheapest valid call)."""
     import haptex.datadriven as dd
+    from haptex.analysis.cost import evaluation_time
+    from haptex.export import export_c
+    from haptex.identification import IdentificationProgram, excitation, simulated_log
+    from haptex.operators import ConstantForce
     from haptex.renderer import vibration_settings
 
     models = _one_model_set()
+    wall = hx.algorithm("A", hx.Sinusoid(1e-4, 1e-3), 1e3)
+    device = hx.Device.point_mass(0.1, 0.5, 1e-4)  # (the models' rate, 10 kHz)
+    vib = {"vibration": models, "vibration_mass": 0.1}
     return {"ModelSet.synthesize": lambda s: models.synthesize(0.05, 1.0, 0.01, seed=s),
             "check_models": lambda s: dd.check_models(models, points=1, seconds=1.5, seed=s),
+            "surface_from": lambda s: dd.surface_from(models, 0.01, seed=s),
             "vibration_settings": lambda s: vibration_settings(models, 0.1, seed=s),
+            "Renderer": lambda s: hx.Renderer(wall, max_force=10.0, seed=s, **vib),
+            "simulate": lambda s: hx.simulate(wall, device, ConstantForce([0.0, -1.0]), 0.005, seed=s, **vib),
+            "simulate_batch": lambda s: hx.simulate_batch(wall, device, ConstantForce([0.0, -1.0]), 0.005, seed=s,
+                                                          **vib),
+            "export_c": lambda s: export_c(wall, tmp_path / "out", 10.0, seed=s, **vib),
             "BandLimitedNoise": lambda s: hx.BandLimitedNoise(1e-5, 1e-3, 1e-2, 2e-2, seed=s),
-            "random_loops": lambda s: hx.random_loops(hx.algorithm("A", hx.Sinusoid(1e-4, 1e-3), 1e3), 1, seed=s)}
+            "BandLimitedNoise2D": lambda s: hx.BandLimitedNoise2D(1e-5, 1e-3, 1e-2, 2e-2, seed=s),
+            "random_loops": lambda s: hx.random_loops(wall, 1, seed=s),
+            "conservativity": lambda s: hx.conservativity(wall, n_random=1, seed=s),
+            "evaluation_time": lambda s: evaluation_time(wall, probes=8, seed=s),
+            "excitation": lambda s: excitation(1e-3, 0.01, seed=s),
+            "simulated_log": lambda s: simulated_log(device, 0.01, seed=s),
+            "IdentificationProgram": lambda s: IdentificationProgram(1, 1e-3, 0.01, 1.0, seed=s)}
 
 
-@pytest.mark.parametrize("taker", sorted(_seed_takers()))
+@pytest.mark.parametrize("taker", sorted(_seed_takers(Path("."))))
 @pytest.mark.parametrize("value, taken", [(0, True), (np.uint64(2**64 - 1), True), (np.int32(7), True), (7.0, True),
                                           (2**64, False), (-1, False), (7.5, False), (True, False), (np.True_, False),
                                           ("7", False), (None, False)])
-def test_every_seed_is_numpys_default_rng_seed_and_nothing_else(taker, value, taken):
+def test_every_seed_is_numpys_default_rng_seed_and_nothing_else(taker, value, taken, tmp_path):
     # A seed is numpy's default_rng's: any whole number from 0 to 2^64 - 1 (numpy's SeedSequence
     # takes exactly those as a single entropy value; NumPy's Random Generator docs), whether an
     # int or a numpy integer; a bool, a fraction, a string or None (fresh entropy: not the same
     # run twice) is refused naming `seed`. Before: the renderer's vibration refused numpy's
     # uint64, check_models passed anything to default_rng (its own errors, or True taken as 1).
-    call = _seed_takers()[taker]
+    call = _seed_takers(tmp_path)[taker]
     if taken:
         call(value)
     else:
         with pytest.raises(hx.ParameterError, match=r"^seed = "):
             call(value)
+
+
+def test_every_public_seed_is_checked_above():
+    # the list above is every public function and class with a `seed` parameter (found by
+    # walking the package), so that a new one is checked as these are
+    from .conftest import public_api
+
+    takers = {n for n in _seed_takers(Path("."))}
+    missing = sorted(f"{m}.{n}" for m, n, _, params in public_api() if "seed" in params and n not in takers)
+    assert not missing, missing
 
 
 def _whole_takers():

@@ -37,7 +37,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ._validation import ParameterError, a_path, fail, positive, whole
+from ._validation import ParameterError, a_path, fail, positive, random_seed, whole
 from .catalogue import checked_device
 
 LOG_COLUMNS = {
@@ -1380,14 +1380,15 @@ def excitation(period: float, duration: float = 10.0, amplitude: float = 1.0, se
     Raises
     ------
     ParameterError
-        For a non-positive period, duration or amplitude.
+        For a non-positive period, duration or amplitude, or a seed that is not numpy's
+        default_rng's (a whole number from 0 to 2^64 - 1).
     """
     from scipy.signal import chirp
 
     T = positive("period", period, "s")
     n = int(round(positive("duration", duration, "s") / T))
     A = positive("amplitude", amplitude, "N")
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(random_seed("seed", seed))
     t = np.arange(n) * T
     steps = np.empty(n)
     k = 0
@@ -1449,9 +1450,9 @@ def simulated_log(device, duration: float = 10.0, amplitude: float = 1.0, noise:
         raise fail("device", device.name, "a rigid device (the identification's model has no structural mode)")
     sigma = nonnegative("noise", noise, "m")
     T, D, delta = device.period, device.delay, device.position_resolution
-    program = IdentificationProgram(1, T, duration, amplitude, seed)
+    program = IdentificationProgram(1, T, duration, amplitude, seed)  # (seed checked there, by excitation)
     c = np.ascontiguousarray(_axis_coefficients(device.mass[0, 0], device.damping[0, 0], T).reshape(1, -1))
-    rng = np.random.default_rng(seed + 1)
+    rng = np.random.default_rng((int(seed) + 1) % 2**64)  # (the noise's stream: the next seed)
     n = program.program.size
     pos, force = np.empty(n), np.empty(n)
     p0, v0 = np.zeros((1, 1)), np.zeros((1, 1))

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._validation import random_seed
 from ..algorithms import Algorithm, checked_algorithm
 from ._region import _region_box, _static_force, check_analysis_scale
 from .characteristic import REGION_FIRST, characteristic_points
@@ -103,9 +104,11 @@ def evaluation_time(algorithm: Algorithm, max_penetration: float = 1e-3, x_range
     Raises
     ------
     ParameterError
-        As the analyses (region too large, stiffness out of range).
+        As the analyses (region too large, stiffness out of range), or a seed that is not
+        numpy's default_rng's (a whole number from 0 to 2^64 - 1).
     """
     algorithm = checked_algorithm(algorithm)
+    seed = random_seed("seed", seed)
     dmax = check_analysis_scale(algorithm, max_penetration)
     box = _region_box(algorithm, dmax, x_range)
     if probes is None:

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from .._validation import fail, positive
+from .._validation import fail, positive, random_seed
 from .models import ModelSet
 from ..textures import checked_texture
 
@@ -127,11 +127,13 @@ def surface_from(models: ModelSet, length: float, spacing: float | None = None, 
     ParameterError
         For a non-positive length or spacing, more than :data:`MAX_SURFACE_SAMPLES` samples
         (an areal surface: more than :data:`MAX_AREAL_SIDE` a side), a spectrum that no model
-        covers at any harmonic, or as :func:`height_spectrum`.
+        covers at any harmonic, a seed that is not numpy's default_rng's (a whole number from 0
+        to 2^64 - 1), or as :func:`height_spectrum`.
     """
     from ..textures import SampledProfile
 
     L = positive("length", length, "m")
+    seed = random_seed("seed", seed)
     moving = [m.speed for m in models.models if m.speed > 0]
     if not moving:
         raise fail("models", models, "a model set with at least one model at a speed > 0")
