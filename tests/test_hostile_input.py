@@ -655,3 +655,96 @@ def test_a_servo_loops_switches_take_numpys_booleans_as_every_switch_does(param,
     else:
         with pytest.raises(hx.ParameterError, match=rf"^{param} = "):
             ServoLoop(backend, renderer, **kw)
+
+
+def _felt_spacing_cases():
+    """(texture, the coarsest spacing (m) its felt grid can take, by its definition): 4 samples a
+    period of an analytic texture (its period, its cell's shorter side) or of a periodic sampled
+    one; 4 samples from a bounded scan's first to its last (3 steps)."""
+    from haptex.surfaces import SampledSurface
+    from haptex.textures import SampledProfile
+
+    x = np.linspace(0.0, 2e-3, 201)
+    g = np.linspace(0.0, 1e-3, 65)
+    G = 1e-5 * np.sin(2 * np.pi * g[:, None] / 5e-4) * np.cos(2 * np.pi * g[None, :] / 5e-4)
+    return {"Sinusoid": (hx.Sinusoid(2e-4, 2e-3), 2e-3 / 4),
+            "SampledProfile": (SampledProfile(x, 1e-5 * np.sin(2 * np.pi * x / 1e-3)), 2e-3 / 3),
+            "periodic SampledProfile": (SampledProfile(x[:-1], 1e-5 * np.sin(2 * np.pi * x[:-1] / 1e-3), periodic=True),
+                                        2e-3 / 4),
+            "Grating": (hx.Grating(1e-4, 1e-3), 1e-3 / 4),
+            "SampledSurface": (SampledSurface(g, g, G), 1e-3 / 3)}
+
+
+@pytest.mark.parametrize("name", sorted(_felt_spacing_cases()))
+def test_a_felt_grids_spacing_is_taken_up_to_the_coarsest_grid_and_refused_past_it(name):
+    # felt_by(r, spacing=S) resamples the texture at S (the remedies of a refusal for work name
+    # "S or more"): S past the coarsest grid the texture has (4 samples, definitions above) was
+    # taken and failed inside (numpy's IndexError on a sinusoid; on a scan, its grid's second
+    # point, beyond the scan, refused as a sample "beyond +-1000 m", naming x[1]) or made a finer
+    # grid than asked on a periodic scan. Now refused naming spacing and the coarsest it takes,
+    # and that bound gives a felt texture.
+    texture, coarsest = _felt_spacing_cases()[name]
+    r = 5e-5
+    felt = texture.felt_by(r, spacing=coarsest)
+    assert np.isfinite(felt.height(0.0) if texture.dimension == 1 else felt.height_at(np.zeros((1, 2)))).all()
+    with pytest.raises(hx.ParameterError, match=r"^spacing = ") as e:
+        texture.felt_by(r, spacing=coarsest * 1.01)
+    assert f"at most {coarsest:g} m" in str(e.value)
+
+
+@pytest.mark.parametrize("kind", ["profile", "surface"])
+@pytest.mark.parametrize("which", ["length_factor", "height_factor"])
+def test_a_scale_factor_is_refused_by_name_past_the_lengths_haptex_takes(kind, which):
+    # A sample must lie within +-MAX_LENGTH = 1000 m (haptex._validation, "check the unit"): a
+    # factor that scales a texture's abscissae or heights past it was refused naming the
+    # scaled samples (x[1], h[2], h), which the user never gave. Now the factor is named, with the
+    # largest it takes for this texture (max |x| or max |h| times it at most 1000 m), and that
+    # largest is taken.
+    from haptex._validation import MAX_LENGTH
+    from haptex.surfaces import SampledSurface
+    from haptex.textures import SampledProfile
+
+    x = np.linspace(1e-3, 3e-3, 101)
+    tex = (SampledProfile(x, 2e-5 * np.sin(2 * np.pi * x / 1e-3)) if kind == "profile" else
+           SampledSurface(x, x, 2e-5 * np.sin(2 * np.pi * x[:, None] / 1e-3) * np.ones(x.size)))
+    h = tex.h
+    largest = MAX_LENGTH / (3e-3 if which == "length_factor" else float(np.abs(h).max()))
+    kw = {which: largest * (1 - 1e-12)}
+    tex.scaled(**kw)
+    with pytest.raises(hx.ParameterError, match=rf"^{which} = ") as e:
+        tex.scaled(**{which: largest * 1.01})
+    assert f"at most {largest:.6g}" in str(e.value)
+
+
+def test_a_maps_cut_off_longer_than_the_map_is_refused_as_a_scans_is():
+    # SampledProfile.lowpass refuses a cut-off longer than the scan ("a longer cut-off leaves no
+    # period of the scan"); SampledSurface.lowpass took one and raised numpy's LinAlgError
+    # (Singular matrix) at 1e9 m, from scipy's filter at a cut-off near zero. Now refused as the
+    # scan's, naming shortest_period and the map's shorter side, which is taken.
+    from haptex.surfaces import SampledSurface
+
+    x, y = np.linspace(0.0, 2e-3, 201), np.linspace(0.0, 1e-3, 101)
+    s = SampledSurface(x, y, 2e-5 * np.sin(2 * np.pi * x[:, None] / 1e-3) * np.cos(2 * np.pi * y[None, :] / 5e-4))
+    assert np.isfinite(s.lowpass(1e-3).h).all() and np.isfinite(s.band_limited(1e-3).h).all()
+    for bad in (1.01e-3, 1e9):
+        for call in (s.lowpass, s.band_limited):
+            with pytest.raises(hx.ParameterError, match=r"^shortest_period = ") as e:
+                call(bad)
+            assert "at most the map's shorter side, 0.001 m" in str(e.value)
+
+
+@pytest.mark.parametrize("value", [np.nan, np.inf, -np.inf, "nonsense", None])
+def test_a_scans_height_at_a_position_that_is_not_a_number_is_refused_by_name(value):
+    # SampledProfile.height(x) at NaN raised "cannot convert float NaN to integer", at inf
+    # OverflowError, at 'nonsense' numpy's ValueError: x is named now, as every position is.
+    from haptex.textures import SampledProfile
+
+    x = np.linspace(0.0, 2e-3, 201)
+    prof = SampledProfile(x, 1e-5 * np.sin(2 * np.pi * x / 1e-3))
+    for method in (prof.height, prof.slope, prof.curvature):
+        with pytest.raises(hx.ParameterError, match=r"^x = "):
+            method(value)
+        with pytest.raises(hx.ParameterError, match=r"^x = "):
+            method(np.array([1e-3, value], dtype=object) if isinstance(value, str) or value is None
+                   else np.array([1e-3, value]))
+    assert prof.height(np.array([0.25e-3, 0.5e-3])) == pytest.approx([1e-5, 0.0], abs=1e-9)  # (sin at pi / 2, pi)

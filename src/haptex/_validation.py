@@ -154,6 +154,22 @@ def random_seed(name: str, value) -> int:
     return whole(name, value, 0, 2**64 - 1, "numpy's default_rng seed")
 
 
+def scale_factors(length_factor, height_factor, longest: float, highest: float) -> tuple[float, float]:
+    """(length factor, height factor) of a sampled texture's ``scaled``: the first > 0, the
+    second finite, each at most :data:`MAX_LENGTH` over the texture's largest |position|
+    ``longest`` or |height| ``highest`` (m), where its samples must lie; refused naming the
+    factor otherwise (not the scaled samples, which the user never gave)."""
+    lf = positive("length_factor", length_factor)
+    if longest > 0 and lf * longest > MAX_LENGTH:
+        raise fail("length_factor", length_factor, f"> 0 and at most {MAX_LENGTH / longest:.6g} (the texture's "
+                   f"positions, up to {longest:g} m, within +-{MAX_LENGTH:g} m)")
+    hf = _scalar("height_factor", height_factor, "a finite number")
+    if highest > 0 and abs(hf) * highest > MAX_LENGTH:
+        raise fail("height_factor", height_factor, f"a number of size at most {MAX_LENGTH / highest:.6g} (the "
+                   f"texture's heights, up to {highest:g} m, within +-{MAX_LENGTH:g} m)")
+    return lf, hf
+
+
 def optional_positive(name: str, value, unit: str = "") -> float | None:
     """``None`` passes through; anything else must be finite and > 0."""
     return None if value is None else positive(name, value, unit)

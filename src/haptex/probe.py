@@ -67,7 +67,9 @@ def felt_by(texture, tip_radius: float, *, spacing: float | None = None):
         its interval, within ``REFINE_SAMPLES``). With ``spacing`` given a sampled texture is resampled onto that
         grid by its own spline (what a refusal for work suggests for a fine map and a large
         ball; on a periodic profile or map the steps divide its period or cell, none finer than
-        ``spacing``).
+        ``spacing``). At most the coarsest grid the texture has: 4 samples along a period (an
+        analytic texture's period or its cell's shorter side, a periodic sampled texture's
+        period), or from a bounded scan's first sample to its last along its shorter side.
 
     Returns
     -------
@@ -82,8 +84,9 @@ def felt_by(texture, tip_radius: float, *, spacing: float | None = None):
     ParameterError
         If ``texture`` is not a texture, r is negative, not finite or past 1 km
         (:data:`haptex._validation.MAX_LENGTH`), larger than a non-periodic map's extent, the texture
-        has no period and is not sampled, or the dilation would exceed
-        :data:`MAX_DILATION_WORK` (the message names a spacing that fits).
+        has no period and is not sampled, ``spacing`` is not > 0 or past the coarsest grid (the
+        message names it), or the dilation would exceed :data:`MAX_DILATION_WORK` (the message
+        names a spacing that fits).
 
     Notes
     -----
@@ -123,9 +126,31 @@ def felt_by(texture, tip_radius: float, *, spacing: float | None = None):
 
 
 def _spacing(texture, r, spacing, per_period: int, per_radius: int) -> float:
+    """A felt grid's spacing (m): ``spacing`` checked (> 0 and at most :func:`_coarsest_spacing`),
+    or the default, the finer of a ``per_period``-th of the texture's shortest period and a
+    ``per_radius``-th of the ball's radius ``r`` (m)."""
     if spacing is not None:
-        return positive("spacing", spacing, "m")
+        v = positive("spacing", spacing, "m")
+        most, why = _coarsest_spacing(texture)
+        if v > most:
+            raise fail("spacing", spacing, f"a length > 0 and at most {most:g} m ({why}; --tip-spacing at the command "
+                       "line)")
+        return v
     return min(texture.shortest_period / per_period, r / per_radius)
+
+
+def _coarsest_spacing(texture) -> tuple[float, str]:
+    """The coarsest spacing (m) a felt grid of ``texture`` takes, and what sets it: 4 samples
+    along a period (an analytic texture's period or its cell's shorter side; a periodic sampled
+    texture's period along each axis), or from a bounded scan's first sample to its last (3 steps
+    along its shorter side): the fewest the felt grid is made of (``textures._resampled_axis``)."""
+    if getattr(texture, "h", None) is None:  # (analytic: its period, or its cell)
+        cell = getattr(texture, "cell", None) or (texture.period,)
+        return min(cell) / 4, "4 samples along the texture's period"
+    axes = [texture.x] + ([texture.y] if texture.dimension == 2 else [])
+    if texture.periodic:
+        return min(float(a[-1] - a[0] + (a[1] - a[0])) for a in axes) / 4, "4 samples along the map's period"
+    return min(float(a[-1] - a[0]) for a in axes) / 3, "4 samples from the first sample to the last"
 
 
 def _steps_text(steps) -> str:
@@ -208,14 +233,15 @@ def _fits_work(samples: int, r: float, steps) -> bool:
 
 
 def _check_work(samples: int, steps, r: float, *, grid_at=None, radius: bool = True, crop: bool = False,
-                spacing: float | None = None) -> None:
+                spacing: float | None = None, coarsest: float = math.inf) -> None:
     """Refuse a dilation of more than MAX_DILATION_WORK (``samples`` x the ball's grid points on
     a grid of ``steps``, m an axis, a ball of radius r, m), naming each remedy's bound as this
     count gives it, so that one taken exactly at its bound is not refused again (issue 67): with
     ``radius``, the largest radius on this grid; with ``crop``, the most samples a part of the map
     may keep (where a part that holds the ball can: each side at least r); with ``grid_at`` (a
     spacing S, m, -> (samples, steps) of the grid ``felt_by(r, spacing=S)`` makes), the finest
-    spacing (``spacing``: the one this grid was made at, which a smaller radius keeps). Each
+    spacing (``spacing``: the one this grid was made at, which a smaller radius keeps), up to
+    ``coarsest`` (m; :func:`_coarsest_spacing`: none named past it, which is refused). Each
     bound is rounded to 3 significant digits on its safe side (in um below 1 mm, else mm, as the
     command line writes it; the same double in Python) and checked again."""
     footprint, exact = _footprint_count(r, steps, stop=MAX_DILATION_WORK)  # (exact where a crop may be named)
@@ -240,19 +266,23 @@ def _check_work(samples: int, steps, r: float, *, grid_at=None, radius: bool = T
                         "(--crop at the command line, crop= in load_texture)")
     if grid_at is not None:
         def fits(v):
+            if not v <= coarsest:
+                return False
             n, st = grid_at(v)
             return _fits_work(n, r, st)
 
         lo = float(max(steps))
-        hi = lo * max(2.0, (work / MAX_DILATION_WORK) ** (1.0 / len(steps)))
+        hi = min(lo * max(2.0, (work / MAX_DILATION_WORK) ** (1.0 / len(steps))), coarsest)
         for _ in range(60):  # (a bracket: the work falls as the spacing grows)
-            if fits(hi):
+            if fits(hi) or hi >= coarsest:
                 break
             if repr(grid_at(2 * hi)) == repr(grid_at(hi)):  # (the grid coarsens no further: its texture's own)
                 break
-            lo, hi = hi, 2 * hi
-        if fits(hi):  # (none where the grid's coarsest, its texture's own, still holds too many)
+            lo, hi = hi, min(2 * hi, coarsest)
+        value = 0.0
+        if lo < hi and fits(hi):  # (none where the grid's coarsest, its texture's own, still holds too many)
             value, text = _stated_length(_fitting_edge(fits, hi, lo), up=True, fits=fits)
+        if value > 0:  # (0: none as the command line writes it, rounded up, within the coarsest)
             ways.append(f"a coarser grid (--tip-spacing {text} or more at the command line, felt_by(r, spacing=S) "
                         f"with S >= {value!r} m in Python)")
     remedy = "; ".join(ways) if ways else "a smaller radius"

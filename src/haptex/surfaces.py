@@ -20,7 +20,8 @@ from .core import _ext
 from ._maximise import refine
 from ._validation import (ParameterError, a_path, check_count, fail, finite, flag, nonnegative, positive, random_seed,
                           whole)
-from .probe import MAX_SAMPLES as MAX_PROBE_SAMPLES, _check_ball_fits, _check_work, _spacing, _steps_text
+from .probe import (MAX_SAMPLES as MAX_PROBE_SAMPLES, _check_ball_fits, _check_work, _coarsest_spacing, _spacing,
+                    _steps_text)
 from .textures import (MAX_HARMONICS, SampledProfile, Texture, _band_limited_samples, _resampled_axis, _vector,
                        common_period)
 
@@ -1693,14 +1694,18 @@ class SampledSurface(Surface):
         Raises
         ------
         ParameterError
-            If the cut-off is not above the Nyquist period 2 max(dx, dy).
+            If the cut-off is not above the Nyquist period 2 max(dx, dy), or is longer than the
+            map's shorter side (as :meth:`haptex.textures.SampledProfile.lowpass` refuses one
+            longer than the scan).
         """
         if self._knots is not None:
             return self._regular().lowpass(shortest_period)
         lc = positive("shortest_period", shortest_period, "m")
         nyq = 2 * max(self.dx, self.dy)
-        if not lc > nyq:
-            raise fail("shortest_period", lc, f"longer than the Nyquist period 2 max(dx, dy) = {nyq:g} m")
+        side = float(min(self.x[-1] - self.x[0], self.y[-1] - self.y[0]))
+        if not nyq < lc <= side:
+            raise fail("shortest_period", lc, f"longer than the Nyquist period 2 max(dx, dy) = {nyq:g} m and at most "
+                       f"the map's shorter side, {side:g} m (a longer cut-off leaves no period of the map)")
         if self.periodic:
             H = np.fft.rfft2(self.h)
             fx = np.fft.fftfreq(self.x.size, self.dx)[:, None]
@@ -1738,7 +1743,8 @@ class SampledSurface(Surface):
         Raises
         ------
         ParameterError
-            For a non-positive period or fewer than 4 samples per period.
+            For a non-positive period or fewer than 4 samples per period, or a period
+            :meth:`lowpass` refuses.
         """
         if self._knots is not None:
             return self._regular().band_limited(shortest_period, samples_per_period)
@@ -1765,14 +1771,16 @@ class SampledSurface(Surface):
         Raises
         ------
         ParameterError
-            For a length factor not > 0 or a height factor not finite.
+            For a length factor not > 0 or a height factor not finite, or either so large that
+            the scaled samples would lie beyond +-MAX_LENGTH (1000 m; the largest it takes is
+            said).
         """
         if self._knots is not None:
             return self._regular().scaled(length_factor, height_factor)
-        from ._validation import finite
+        from ._validation import scale_factors
 
-        lf = positive("length_factor", length_factor)
-        hf = finite("height_factor", height_factor)
+        lf, hf = scale_factors(length_factor, height_factor, float(max(np.abs(self.x).max(), np.abs(self.y).max())),
+                               float(np.abs(self.h).max()))
         return self._new(self.h * hf, self.x * lf, self.y * lf, self._shortest * lf)
 
     def line(self, y: float | None = None, row: int | None = None):
@@ -4167,13 +4175,14 @@ def _surface_grid(texture, r, spacing):
 
         if spacing is None:  # (the map's own grid: a smaller radius, a part of it, or a coarser grid)
             _check_work(x.size * y.size, (float(x[1] - x[0]), float(y[1] - y[0])), r, grid_at=grid_at,
-                        crop=not texture.periodic)
+                        crop=not texture.periodic, coarsest=_coarsest_spacing(texture)[0])
             return x, y, texture.h, texture.periodic, texture.source or "map"
         d = _default_spacing(texture, r, spacing)  # resampled by its spline onto a coarser grid
         grids = axes_at(d)
         if grids[0].size * grids[1].size > MAX_PROBE_SAMPLES:
             raise fail("spacing", d, f"a spacing giving at most {MAX_PROBE_SAMPLES} samples over the map")
-        _check_work(grids[0].size * grids[1].size, (d, d), r, grid_at=grid_at, spacing=d)
+        _check_work(grids[0].size * grids[1].size, (d, d), r, grid_at=grid_at, spacing=d,
+                    coarsest=_coarsest_spacing(texture)[0])
         X, Y = np.meshgrid(*grids, indexing="ij")
         h = texture.height_at(np.stack([X, Y], axis=-1))
         step = _steps_text([float(g[1] - g[0]) for g in grids])  # (d, or a periodic map's dividing its cell)
@@ -4198,7 +4207,8 @@ def _surface_grid(texture, r, spacing):
         return mx * my, (cell[0] / mx, cell[1] / my)
 
     # (before sampling it; at the default spacing, which follows r, a smaller radius is no remedy)
-    _check_work(nx * ny, steps, r, grid_at=grid_at, radius=spacing is not None, spacing=spacing)
+    _check_work(nx * ny, steps, r, grid_at=grid_at, radius=spacing is not None, spacing=spacing,
+                coarsest=_coarsest_spacing(texture)[0])
     X, Y = np.meshgrid(x, y, indexing="ij")
     h = texture.height_at(np.stack([X, Y], axis=-1))
     return x, y, h, True, f"{type(texture).__name__} sampled at {cell[0] / nx * 1e6:.3g} um"

@@ -14,10 +14,10 @@ from functools import cached_property
 import numpy as np
 
 from .core import _ext
-from .probe import (MAX_SAMPLES as MAX_PROBE_SAMPLES, _check_ball_fits, _check_work, _grid_contacts, _spacing,
-                    _steps_text)
+from .probe import (MAX_SAMPLES as MAX_PROBE_SAMPLES, _check_ball_fits, _check_work, _coarsest_spacing, _grid_contacts,
+                    _spacing, _steps_text)
 from ._validation import (MAX_LENGTH, ParameterError, check_count, fail, finite, flag, in_range, nonnegative,
-                          not_a_texture, positive, random_seed, whole)
+                          not_a_texture, positive, random_seed, scale_factors, whole)
 
 
 MAX_HARMONICS = 100_000
@@ -703,7 +703,13 @@ class SampledProfile(Texture):
 
     # -- evaluation (plain NumPy twin of the compiled TEXTURE_SPLINE evaluation) ------------
     def _eval(self, x, order):
-        x = np.asarray(x, dtype=np.float64)
+        try:
+            x = np.asarray(x, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise fail("x", x, "positions along the profile (m): finite numbers") from None
+        if not np.isfinite(x).all():
+            raise fail("x", x if x.ndim == 0 else f"an array holding {x[~np.isfinite(x)].flat[0]}",
+                       "positions along the profile (m): finite numbers")
         c = self._coeffs
         m, dx, x0 = self._m, self.dx, self.x[0]
         L = m * dx
@@ -742,6 +748,11 @@ class SampledProfile(Texture):
         -------
         numpy.ndarray
             The same shape: h(x) (m).
+
+        Raises
+        ------
+        ParameterError
+            If a position is not a finite number.
         """
         return self._eval(x, 0)
 
@@ -757,6 +768,11 @@ class SampledProfile(Texture):
         -------
         numpy.ndarray
             The same shape: h'(x) (dimensionless).
+
+        Raises
+        ------
+        ParameterError
+            If a position is not a finite number.
         """
         return self._eval(x, 1)
 
@@ -772,6 +788,11 @@ class SampledProfile(Texture):
         -------
         numpy.ndarray
             The same shape: h''(x) (1/m).
+
+        Raises
+        ------
+        ParameterError
+            If a position is not a finite number.
         """
         return self._eval(x, 2)
 
@@ -955,10 +976,11 @@ class SampledProfile(Texture):
         Raises
         ------
         ParameterError
-            For a length factor not > 0 or a height factor not finite.
+            For a length factor not > 0 or a height factor not finite, or either so large that
+            the scaled samples would lie beyond +-MAX_LENGTH (1000 m; the largest it takes is
+            said).
         """
-        lf = positive("length_factor", length_factor)
-        hf = finite("height_factor", height_factor)
+        lf, hf = scale_factors(length_factor, height_factor, float(np.abs(self.x).max()), float(np.abs(self.h).max()))
         return self._new(self.x * lf, self.h * hf, shortest=self._shortest * lf)
 
     @classmethod
@@ -1617,13 +1639,14 @@ def _profile_grid(texture, r, spacing, followed=False):
 
         if spacing is None:
             if not followed:
-                _check_work(texture.x.size, (float(texture.dx),), r, grid_at=grid_at, crop=not texture.periodic)
+                _check_work(texture.x.size, (float(texture.dx),), r, grid_at=grid_at, crop=not texture.periodic,
+                            coarsest=_coarsest_spacing(texture)[0])
             return texture.x, texture.h, texture.periodic, texture.source or "profile"
         dx = _spacing(texture, r, spacing, 256, 32)  # resampled by its spline onto a coarser grid
         x = axis_at(dx)
         step = float(x[1] - x[0])
         if not followed:
-            _check_work(x.size, (step,), r, grid_at=grid_at, spacing=dx)
+            _check_work(x.size, (step,), r, grid_at=grid_at, spacing=dx, coarsest=_coarsest_spacing(texture)[0])
         return x, texture.height(x), texture.periodic, f"{texture.source or 'profile'} resampled at {_steps_text([step])}"
     period = texture.period
     if period is None:
@@ -1643,6 +1666,7 @@ def _profile_grid(texture, r, spacing, followed=False):
 
     # (before sampling it; at the default spacing, which follows r, a smaller radius is no remedy)
     if not followed:
-        _check_work(n, (period / n,), r, grid_at=grid_at, radius=spacing is not None, spacing=spacing)
+        _check_work(n, (period / n,), r, grid_at=grid_at, radius=spacing is not None, spacing=spacing,
+                    coarsest=_coarsest_spacing(texture)[0])
     x = np.arange(n) * (period / n)
     return x, texture.height(x), True, f"{type(texture).__name__} sampled at {period / n * 1e6:.3g} um"
