@@ -748,3 +748,80 @@ def test_a_scans_height_at_a_position_that_is_not_a_number_is_refused_by_name(va
             method(np.array([1e-3, value], dtype=object) if isinstance(value, str) or value is None
                    else np.array([1e-3, value]))
     assert prof.height(np.array([0.25e-3, 0.5e-3])) == pytest.approx([1e-5, 0.0], abs=1e-9)  # (sin at pi / 2, pi)
+
+
+_JUNK = {"nonsense": "nonsense", "list": [1, 2], "True": True, "None": None, "nan": math.nan, "inf": math.inf}
+
+
+@pytest.mark.parametrize("field", ["acceleration", "speed", "normal_force", "sample_rate"])
+@pytest.mark.parametrize("junk", sorted(_JUNK))
+def test_a_recording_is_checked_when_it_is_made(field, junk):
+    # A Recording holds n samples of acceleration (n,) or (n, 3), speed and normal force (n,),
+    # finite, at a rate > 0 (its docstring): made with anything else it was kept, and failed
+    # later (fit's refusal, or write's numpy error), or never (write wrote it). Now refused
+    # naming the field, as fit refuses it.
+    import haptex.datadriven as dd
+
+    rng = np.random.default_rng(0)
+    kw = {"acceleration": rng.normal(size=(2000, 3)), "speed": np.full(2000, 0.05), "normal_force": np.full(2000, 1.0),
+          "sample_rate": 1e4}
+    dd.Recording(**kw)
+    kw[field] = [[1.0, 2.0]] if (field, junk) == ("acceleration", "list") else _JUNK[junk]  # ([1, 2]: two samples)
+    with pytest.raises(hx.ParameterError, match=rf"^{field} = "):
+        dd.Recording(**kw)
+
+
+@pytest.mark.parametrize("field, junks", [("ar", ["nonsense", "list", "None"]), ("ma", ["nonsense", "None"]),
+                                          ("variance", ["nonsense", "list", "True", "None", "nan", "inf"]),
+                                          ("gain", ["nonsense", "list", "True", "None", "nan", "inf"]),
+                                          ("speed", ["nonsense", "list", "True", "None", "inf"]),
+                                          ("force", ["nonsense", "list", "True", "None", "inf"])])
+def test_an_arma_models_fields_that_are_not_numbers_are_refused_by_name(field, junks):
+    # ArmaModel's fields: polynomials, a variance >= 0, a finite gain, a rate > 0 and the
+    # operating point's speed and force (finite, >= 0; NaN: not stated, the default). Text, a
+    # list, a bool or None raised Python's ValueError or TypeError from float(); a negative or
+    # infinite speed or force was kept. Now refused naming the field.
+    import haptex.datadriven as dd
+
+    ar = np.real(np.poly([0.9 * np.exp(0.3j), 0.9 * np.exp(-0.3j)]))
+    kw = {"ar": ar, "ma": np.array([1.0]), "variance": 1.0, "gain": 1.0, "sample_rate": 1e4, "speed": 0.05,
+          "force": 1.0}
+    dd.ArmaModel(**kw)
+    dd.ArmaModel(**{**kw, "speed": math.nan, "force": math.nan})  # (not stated)
+    bad = dict(_JUNK, negative=-1.0)
+    for junk in junks + (["negative"] if field in ("speed", "force", "variance") else []):
+        with pytest.raises(hx.ParameterError, match=rf"^{field} = "):
+            dd.ArmaModel(**{**kw, field: bad[junk]})
+
+
+@pytest.mark.parametrize("pose", ["nonsense", [1.0, 1.0, 1.0, 1.0], [1e3, 1e3]])
+@pytest.mark.parametrize("key", ["omega-3", "pantograph", "touch"])
+def test_a_presets_pose_is_refused_by_the_name_it_is_given_by(key, pose):
+    # Preset.device(pose=...) hands the pose to the device's constructor as its working_point
+    # or joint_angles: refused, the message named those (which its user never wrote), and on
+    # the pantograph a pose that is not numbers raised numpy's ValueError. Now `pose` is named.
+    from haptex import catalogue
+
+    with pytest.raises(hx.ParameterError, match=r"^pose = "):
+        catalogue.preset(key).device(pose=pose)
+
+
+def test_a_line_of_a_map_is_taken_within_its_rows_and_refused_beyond_them():
+    # SampledSurface.line(y) beyond a bounded map's rows returned its tangent-plane extension
+    # as if measured (and at 1e9 m refused the extrapolated heights, naming h[1]); a line is
+    # the map's own now: y within its rows (both ends taken), refused naming y beyond them. A
+    # periodic map's rows repeat: any y, as its period wraps it (the line at y + its cell's
+    # side is the line at y).
+    from haptex.surfaces import SampledSurface
+
+    x = np.linspace(0.0, 2e-3, 41)
+    h = 2e-5 * np.sin(2 * np.pi * x[:, None] / 1e-3) * np.cos(2 * np.pi * x[None, :] / 1e-3)
+    s = SampledSurface(x, x, h)
+    assert s.line(y=0.0).h == pytest.approx(h[:, 0], abs=1e-12)
+    assert s.line(y=2e-3).h == pytest.approx(h[:, -1], abs=1e-12)
+    for bad in (-1e-9, 2e-3 + 1e-9, -1.0, 1e9):
+        with pytest.raises(hx.ParameterError, match=r"^y = ") as e:
+            s.line(y=bad)
+        assert "0 to 0.002 m" in str(e.value)
+    p = SampledSurface(x[:-1], x[:-1], h[:-1, :-1], periodic=True)
+    assert p.line(y=0.5e-3 + 2e-3).h == pytest.approx(p.line(y=0.5e-3).h, abs=1e-12)

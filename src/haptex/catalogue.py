@@ -14,6 +14,7 @@ shows the preset's apparent mass and damping (the mean of the diagonal of M_x an
 
 from __future__ import annotations
 
+import contextlib
 import math
 from dataclasses import dataclass, field
 from functools import lru_cache
@@ -179,6 +180,21 @@ class Hand:
         return ScanningHand(self.stiffness, self.damping, velocity=velocity, depth=depth, dimension=dimension)
 
 
+@contextlib.contextmanager
+def _named_pose():
+    """A pose refused by the device's constructor, under the name the preset takes it by:
+    ``pose`` (the constructors' ``working_point`` or ``joint_angles``, which a user of
+    :meth:`Preset.device` never wrote)."""
+    try:
+        yield
+    except ParameterError as e:
+        said = str(e)
+        for inner in ("working_point", "joint_angles"):
+            if said.startswith(f"{inner} = "):
+                raise ParameterError(f"pose{said[len(inner):]} (the device's {inner})") from None
+        raise
+
+
 @dataclass(frozen=True)
 class Preset:
     """A device preset: its sourced figures and the :class:`Device` they make.
@@ -270,10 +286,12 @@ class Preset:
             if dimension not in (None, 2):
                 raise fail("dimension", dimension, f"2 for {self.key!r}: a planar device")
             kw = {"working_point": pose} if pose is not None else {}
-            dev = Device.pantograph(joint_damping=v("joint_damping"), first_resonance=v("first_resonance", math.inf),
-                                    name=self.key, **common, **kw)
+            with _named_pose():
+                dev = Device.pantograph(joint_damping=v("joint_damping"),
+                                        first_resonance=v("first_resonance", math.inf), name=self.key, **common, **kw)
         else:
-            dev = self._linkage(common, pose)
+            with _named_pose():
+                dev = self._linkage(common, pose)
             if dimension == 2:
                 dev = dev.planar()
             elif dimension not in (None, 3):

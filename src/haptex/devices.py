@@ -398,8 +398,8 @@ class Device:
         mh = positive("handle_mass", handle_mass, "kg")
         bj = nonnegative("joint_damping", joint_damping, "N m s/rad")
         bj_out = nonnegative("joint_damping_outside", joint_damping_outside, "N m s/rad")
+        J, angles = five_bar_jacobian(a1, a2, d, working_point)  # (which names a working point that is not one)
         p = np.asarray(working_point, dtype=np.float64)
-        J, angles = five_bar_jacobian(a1, a2, d, p)
         I_j = inertia + ml * a1 * a1 / 3
         M, B = _cartesian(J, I_j * np.eye(2), bj * np.eye(2), mh + ml)
         _, B_out = _cartesian(J, I_j * np.eye(2), bj_out * np.eye(2), mh + ml)

@@ -1790,7 +1790,8 @@ class SampledSurface(Surface):
         ----------
         y : float, optional
             Position of the line (m): the spline evaluated at (x_i, y) for every column
-            x_i (beyond the rows of a non-periodic map: its tangent-plane extension).
+            x_i; within the rows of a map that is not periodic (any y on a periodic one, which
+            its period wraps).
         row : int, optional
             Index j of a row of samples: h[:, j] as they are. Give exactly one of the two.
 
@@ -1802,7 +1803,8 @@ class SampledSurface(Surface):
         Raises
         ------
         ParameterError
-            If neither or both are given, or the row is out of range.
+            If neither or both are given, the row is out of range, or y is not finite or, on a
+            map that is not periodic, beyond its rows.
         """
         if self._knots is not None:
             return self._regular().line(y, row)
@@ -1813,6 +1815,10 @@ class SampledSurface(Surface):
             h, where = self.h[:, j], f"row {j}"
         else:
             yv = finite("y", y, "m")
+            lo, hi = float(self.y[0]), float(self.y[-1])
+            if not (self.periodic or lo <= yv <= hi):
+                raise fail("y", y, f"a position within the map's rows, {lo:g} to {hi:g} m (beyond them it has no "
+                           "measured heights)")
             h = self.height_at(np.stack([self.x, np.full(self.x.size, yv)], -1))
             where = f"y = {yv:g} m"
         return SampledProfile(self.x, h, periodic=self.periodic, source=f"{self.source}, {where}".lstrip(", "))

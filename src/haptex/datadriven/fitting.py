@@ -116,6 +116,40 @@ class FitReport:
     notes: tuple[str, ...] = ()
 
 
+def recording_arrays(acceleration, speed, normal_force, sample_rate):
+    """A recording's samples checked: (acceleration (n,) or (n, 3) m/s^2, speed (n,) m/s >= 0,
+    normal force (n,) N, all finite; the rate > 0, Hz), as float arrays and the rate; refused
+    naming the first that is not (:func:`fit` and :class:`~haptex.datadriven.Recording`)."""
+    fs = positive("sample_rate", sample_rate, "Hz")
+    try:
+        acc = np.asarray(acceleration, dtype=float)
+    except (TypeError, ValueError):
+        raise fail("acceleration", acceleration, "an (n,) or (n, 3) array of numbers (m/s^2)") from None
+    if not (acc.ndim == 1 or (acc.ndim == 2 and acc.shape[1] == 3)) or acc.shape[0] < 1:
+        raise fail("acceleration", f"shape {np.shape(acceleration)}", "an (n,) or (n, 3) array (m/s^2)")
+    n = acc.shape[0]
+    arrays = [acc]
+    for nm, given in (("speed", speed), ("normal_force", normal_force)):
+        try:
+            arrays.append(np.asarray(given, dtype=float))
+        except (TypeError, ValueError):
+            raise fail(nm, given, f"({n},): one number per sample of acceleration") from None
+    v, F = arrays[1:]
+    for nm, arr, unit in (("acceleration", acc, "m/s^2"), ("speed", v, "m/s"), ("normal_force", F, "N")):
+        if arr.shape[:1] != (n,) or (arr is not acc and arr.ndim != 1):
+            raise fail(nm, f"shape {arr.shape}", f"({n},): one value per sample of acceleration")
+        bad = ~np.isfinite(arr)
+        if bad.ndim == 2:
+            bad = bad.any(axis=1)
+        if bad.any():
+            k = int(np.argmax(bad))
+            raise fail(nm, f"{arr[k] if arr.ndim == 1 else arr[k].tolist()} at sample {k}", f"finite numbers ({unit})")
+    if np.any(v < 0):
+        k = int(np.argmax(v < 0))
+        raise fail("speed", f"{v[k]:g} m/s at sample {k}", "speeds >= 0 (m/s; the tangential speed's magnitude)")
+    return acc, v, F, fs
+
+
 def fit(acceleration, speed, normal_force, sample_rate: float, *, rate: float | None = None,
         order: int | None = None, ma_order: int = 0, max_order: int = 30, segment: float = 0.2,
         highpass: float = 20.0, steadiness: float = 0.2, min_speed: float = 0.005, min_force: float = 0.05,
@@ -184,32 +218,12 @@ def fit(acceleration, speed, normal_force, sample_rate: float, *, rate: float | 
     """
     from scipy.signal import butter, resample_poly, sosfiltfilt
 
-    fs = positive("sample_rate", sample_rate, "Hz")
-    acc = np.asarray(acceleration, dtype=float)
-    if not (acc.ndim == 1 or (acc.ndim == 2 and acc.shape[1] == 3)):
-        raise fail("acceleration", f"shape {np.shape(acceleration)}", "an (n,) or (n, 3) array (m/s^2)")
+    acc, v, F, fs = recording_arrays(acceleration, speed, normal_force, sample_rate)
     n = acc.shape[0]
-    v = np.asarray(speed, dtype=float)
-    F = np.asarray(normal_force, dtype=float)
-    for nm, arr, unit in (("acceleration", acc, "m/s^2"), ("speed", v, "m/s"), ("normal_force", F, "N")):
-        if arr.shape[:1] != (n,) or (arr is not acc and arr.ndim != 1):
-            raise fail(nm, f"shape {arr.shape}", f"({n},): one value per sample of acceleration")
-        bad = ~np.isfinite(arr)
-        if bad.ndim == 2:
-            bad = bad.any(axis=1)
-        if bad.any():
-            k = int(np.argmax(bad))
-            raise fail(nm, f"{arr[k] if arr.ndim == 1 else arr[k].tolist()} at sample {k}", f"finite numbers ({unit})")
-    if np.any(v < 0):
-        k = int(np.argmax(v < 0))
-        raise fail("speed", f"{v[k]:g} m/s at sample {k}", "speeds >= 0 (m/s; the tangential speed's magnitude)")
     out_fs = fs if rate is None else positive("rate", rate, "Hz")
-    if ma_order < 0 or ma_order > MAX_ORDER or int(ma_order) != ma_order:
-        raise fail("ma_order", ma_order, f"an integer in [0, {MAX_ORDER}]")
-    if not 1 <= max_order <= MAX_ORDER or int(max_order) != max_order:
-        raise fail("max_order", max_order, f"an integer in [1, {MAX_ORDER}]")
-    if order is not None and (not 1 <= order <= MAX_ORDER or int(order) != order):
-        raise fail("order", order, f"an integer in [1, {MAX_ORDER}]")
+    ma_order = whole("ma_order", ma_order, 0, MAX_ORDER)
+    max_order = whole("max_order", max_order, 1, MAX_ORDER)
+    order = None if order is None else whole("order", order, 1, MAX_ORDER)
     grid = whole("grid", grid, 1, 100, "cells a side")
     from .._validation import in_range, nonnegative
 

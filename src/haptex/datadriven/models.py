@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._validation import ParameterError, fail, out_file, positive, random_seed, whole
+from .._validation import ParameterError, fail, finite, nonnegative, out_file, positive, random_seed, whole
 from .lsf import MAX_ORDER, lsf_to_poly, poly_to_lsf
 
 FORMAT = "haptex-arma-models"
@@ -76,22 +76,23 @@ class ArmaModel:
 
     def __post_init__(self):
         for name in ("ar", "ma"):
-            v = np.array(getattr(self, name), dtype=float)
+            try:
+                v = np.array(getattr(self, name), dtype=float)
+            except (TypeError, ValueError):
+                v = np.zeros((0, 0))
             if v.ndim != 1 or v.size < 1 or v.size - 1 > MAX_ORDER:
                 raise fail(name, getattr(self, name), f"a polynomial [1, c_1, ..., c_n] with n <= {MAX_ORDER}")
             v.setflags(write=False)
             object.__setattr__(self, name, v)
         object.__setattr__(self, "_lsf", (_lsf_of("ar", self.ar), _lsf_of("ma", self.ma)))
-        var = float(self.variance)
-        if not (math.isfinite(var) and var >= 0):
-            raise fail("variance", self.variance, "a finite number >= 0 ((m/s^2)^2)")
-        if not math.isfinite(float(self.gain)):
-            raise fail("gain", self.gain, "a finite number")
-        object.__setattr__(self, "variance", var)
-        object.__setattr__(self, "gain", float(self.gain))
+        object.__setattr__(self, "variance", nonnegative("variance", self.variance, "(m/s^2)^2"))
+        object.__setattr__(self, "gain", finite("gain", self.gain))
         object.__setattr__(self, "sample_rate", positive("sample_rate", self.sample_rate, "Hz"))
-        object.__setattr__(self, "speed", float(self.speed))
-        object.__setattr__(self, "force", float(self.force))
+        for name, unit in (("speed", "m/s"), ("force", "N")):  # (NaN: the operating point not stated)
+            value = getattr(self, name)
+            if not (isinstance(value, float | np.floating) and math.isnan(value)):
+                value = nonnegative(name, value, unit)
+            object.__setattr__(self, name, value)
 
     @property
     def order(self) -> tuple[int, int]:

@@ -43,6 +43,12 @@ class Recording:
     speed_source : str, optional
         Where the speed came from: ``"given"`` (a speed column or array), or the positions'
         derivative and its filter.
+
+    Raises
+    ------
+    ParameterError
+        If a field is not of its shape, holds a value that is not a finite number, a speed is
+        negative or the rate is not > 0 (as :func:`fit` refuses them).
     """
 
     acceleration: np.ndarray
@@ -51,6 +57,13 @@ class Recording:
     sample_rate: float
     ignored: tuple = ()
     speed_source: str = "given"
+
+    def __post_init__(self):
+        from .fitting import recording_arrays
+
+        acc, v, F, fs = recording_arrays(self.acceleration, self.speed, self.normal_force, self.sample_rate)
+        for name, value in (("acceleration", acc), ("speed", v), ("normal_force", F), ("sample_rate", fs)):
+            object.__setattr__(self, name, value)
 
     def fit(self, **kwargs) -> ModelSet:
         """Fit a model set to this recording.
