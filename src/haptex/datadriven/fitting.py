@@ -116,7 +116,7 @@ class FitReport:
     notes: tuple[str, ...] = ()
 
 
-def recording_arrays(acceleration, speed, normal_force, sample_rate):
+def _recording_arrays(acceleration, speed, normal_force, sample_rate):
     """A recording's samples checked: (acceleration (n,) or (n, 3) m/s^2, speed (n,) m/s >= 0,
     normal force (n,) N, all finite; the rate > 0, Hz), as float arrays and the rate; refused
     naming the first that is not (:func:`fit` and :class:`~haptex.datadriven.Recording`)."""
@@ -218,7 +218,7 @@ def fit(acceleration, speed, normal_force, sample_rate: float, *, rate: float | 
     """
     from scipy.signal import butter, resample_poly, sosfiltfilt
 
-    acc, v, F, fs = recording_arrays(acceleration, speed, normal_force, sample_rate)
+    acc, v, F, fs = _recording_arrays(acceleration, speed, normal_force, sample_rate)
     n = acc.shape[0]
     out_fs = fs if rate is None else positive("rate", rate, "Hz")
     ma_order = whole("ma_order", ma_order, 0, MAX_ORDER)

@@ -59,9 +59,9 @@ class Recording:
     speed_source: str = "given"
 
     def __post_init__(self):
-        from .fitting import recording_arrays
+        from .fitting import _recording_arrays
 
-        acc, v, F, fs = recording_arrays(self.acceleration, self.speed, self.normal_force, self.sample_rate)
+        acc, v, F, fs = _recording_arrays(self.acceleration, self.speed, self.normal_force, self.sample_rate)
         for name, value in (("acceleration", acc), ("speed", v), ("normal_force", F), ("sample_rate", fs)):
             object.__setattr__(self, name, value)
 
