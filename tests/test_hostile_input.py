@@ -825,3 +825,46 @@ def test_a_line_of_a_map_is_taken_within_its_rows_and_refused_beyond_them():
         assert "0 to 0.002 m" in str(e.value)
     p = SampledSurface(x[:-1], x[:-1], h[:-1, :-1], periodic=True)
     assert p.line(y=0.5e-3 + 2e-3).h == pytest.approx(p.line(y=0.5e-3).h, abs=1e-12)
+
+
+@pytest.mark.parametrize("texture", ["sine:0.2mm,2mm", 3.5, None])
+def test_an_object_algorithm_names_a_texture_that_is_not_one_and_its_letter_as_algorithm_does(texture):
+    # object_algorithm(letter, texture, base, stiffness) raised Python's AttributeError ("'str'
+    # object has no attribute 'dimension'") for a texture that is not one, and named a bad
+    # letter `algorithm` where haptex.algorithm names it `letter`; now both as algorithm does.
+    from haptex import objects
+
+    sphere = objects.Sphere(0.0499746521309)  # (a whole number of the grating's 1 mm periods round it)
+    with pytest.raises(hx.ParameterError, match=r"^texture = "):
+        hx.object_algorithm("A", texture, sphere, 1e3)
+    with pytest.raises(hx.ParameterError, match=r"^letter = "):
+        hx.object_algorithm("Z", hx.Grating(1e-4, 1e-3), sphere, 1e3)
+
+
+@pytest.mark.parametrize("make, name", [(lambda v: hx.Device.point_mass(mass=v), "mass"),
+                                        (lambda v: hx.Device.point_mass(damping=v), "damping"),
+                                        (lambda v: hx.operators.ScanningHand(v, 1.0, velocity=0.02), "stiffness"),
+                                        (lambda v: hx.operators.ScanningHand(300.0, v, velocity=0.02), "damping")])
+def test_a_mass_damping_or_stiffness_given_as_a_bool_is_refused(make, name):
+    # A mass, damping or stiffness is a scalar (isotropic) or a matrix of numbers
+    # (_validation.matrix2): True was taken as 1 kg, 1 N s/m or 1 N/m (numpy converts it), where
+    # every scalar of haptex refuses a bool (_validation._real).
+    with pytest.raises(hx.ParameterError, match=rf"^{name} = "):
+        make(True)
+
+
+@pytest.mark.parametrize("field, value", [("link_proximal", 1e9), ("link_distal", 1e4), ("base", 1e300)])
+def test_a_pantographs_link_past_a_kilometre_is_refused_by_name(field, value):
+    # A link or base length past MAX_LENGTH (1 km: "far beyond any haptic workspace") was taken
+    # and the pantograph then refused its working point as out of reach, naming working_point.
+    with pytest.raises(hx.ParameterError, match=rf"^{field} = "):
+        hx.Device.pantograph(**{field: value})
+
+
+@pytest.mark.parametrize("period", [1.5, 1e300])
+def test_a_devices_sampling_period_past_a_second_is_refused_as_the_analyses_refuse_it(period):
+    # critical_stiffness takes a period > 0 and at most 1 s; a Device took 1e300 s, which every
+    # analysis of it then refused. Now the Device refuses it, naming period; 1 s is taken.
+    hx.Device.point_mass(period=1.0)
+    with pytest.raises(hx.ParameterError, match=r"^period = "):
+        hx.Device.point_mass(period=period)

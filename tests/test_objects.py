@@ -154,7 +154,7 @@ def test_the_spheres_numbers_tend_to_the_planes_as_the_radius_grows(letter):
     (lambda: object_algorithm("A", hx.SampledSurface(np.arange(8) * 1e-4, np.arange(8) * 1e-4, np.zeros((8, 8))),
                               Sphere(1.0), K0), r"a closed base needs a texture periodic along u1"),
     (lambda: object_algorithm("W", EGG, Plane(), K0),
-     r"^algorithm = 'W' is not allowed: must be one of A, B, C, D, E, F, G"),
+     r"^letter = 'W' is not allowed: must be one of A, B, C, D, E, F, G"),
     (lambda: Sphere(-1.0), r"^radius = -1 is not allowed"),
     (lambda: Cylinder(2e3), r"^radius = 2000 is not allowed: must be at most 1000 m"),
     (lambda: object_algorithm("A", EGG, "sphere", K0), r"^base = 'sphere' is not allowed"),

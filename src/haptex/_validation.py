@@ -182,8 +182,11 @@ def matrix2(name: str, value, what: str = "2x2 matrix", dim: int = 2) -> np.ndar
     Raises
     ------
     ParameterError
-        If the value is neither, or holds a non-finite entry.
+        If the value is neither (a bool is neither, as for every scalar of haptex), or holds a
+        non-finite entry.
     """
+    if isinstance(value, bool | np.bool_) or (isinstance(value, np.ndarray) and value.dtype == bool):
+        raise fail(name, value, f"a scalar or a {what}")
     try:
         arr = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError):

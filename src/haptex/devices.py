@@ -12,7 +12,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._validation import ParameterError, fail, matrix2, nonnegative, positive, positive_or_inf, whole
+from ._validation import (MAX_LENGTH, ParameterError, fail, in_range, matrix2, nonnegative, positive, positive_or_inf,
+                          whole)
 
 
 def _matrix(name: str, value, allow_zero: bool, dim: int = 2) -> np.ndarray:
@@ -101,7 +102,7 @@ class Device:
         Viscous damping matrix B at the handle (N s/m) while the handle is inside the
         virtual object; symmetric positive semi-definite.
     period : float
-        Sampling period T (s), > 0.
+        Sampling period T (s), > 0 and at most 1 s (as :func:`critical_stiffness` takes it).
     delay : int, optional
         Whole sampling periods between reading a position and applying the force it
         produced; 0 means the force computed from the position sampled at kT is held over
@@ -194,7 +195,9 @@ class Device:
         object.__setattr__(self, "damping", _matrix("damping", self.damping, allow_zero=True, dim=dim))
         out = self.damping if self.damping_outside is None else self.damping_outside
         object.__setattr__(self, "damping_outside", _matrix("damping_outside", out, allow_zero=True, dim=dim))
-        object.__setattr__(self, "period", positive("period", self.period, "s"))
+        object.__setattr__(self, "period", in_range("period", self.period, 0.0, 1.0, "s"))
+        if not self.period > 0:
+            raise fail("period", self.period, "a number > 0 and at most 1 s")
         for name in SCALAR_FIELDS:
             object.__setattr__(self, name, scalar_field(name, getattr(self, name)))
         object.__setattr__(self, "first_resonance", positive_or_inf("first_resonance", self.first_resonance, "Hz"))
@@ -390,9 +393,12 @@ class Device:
         ParameterError
             For non-positive lengths or masses, or a working point the linkage cannot reach.
         """
-        a1 = positive("link_proximal", link_proximal, "m")
-        a2 = positive("link_distal", link_distal, "m")
+        a1, a2 = (positive(name, value, "m") for name, value in (("link_proximal", link_proximal),
+                                                                  ("link_distal", link_distal)))
         d = nonnegative("base", base, "m")
+        for name, value in (("link_proximal", a1), ("link_distal", a2), ("base", d)):
+            if value > MAX_LENGTH:
+                raise fail(name, value, f"a length of at most {MAX_LENGTH:g} m (far beyond any haptic workspace)")
         inertia = positive("rotor_inertia", rotor_inertia, "kg m^2")
         ml = nonnegative("link_mass", link_mass, "kg")
         mh = positive("handle_mass", handle_mass, "kg")

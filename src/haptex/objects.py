@@ -92,7 +92,7 @@ from ._validation import ParameterError, fail, positions, positive
 from .algorithms import ALGORITHMS, Algorithm, algorithm
 from .core import _ext, in_slices
 from .surfaces import Extruded, SumOfGratings, Surface
-from .textures import Texture
+from .textures import Texture, checked_texture
 
 __all__ = ["Base", "Plane", "Cylinder", "Sphere", "Mesh", "ObjectAlgorithm", "object_algorithm", "OBJECT_LETTERS",
            "OBJECT_DESIGN_LETTERS", "OBJECT_TICK_LETTERS"]
@@ -960,8 +960,9 @@ class ObjectAlgorithm(Algorithm):
     penetration_kind = "vertical"
 
     def __init__(self, letter: str, texture: Texture, base: Base, stiffness: float, **params):
+        texture = checked_texture(texture)
         if letter not in OBJECT_TICK_LETTERS:
-            raise fail("algorithm", letter, f"one of {', '.join(OBJECT_TICK_LETTERS)} on an object so far (D, E and "
+            raise fail("letter", letter, f"one of {', '.join(OBJECT_TICK_LETTERS)} on an object so far (D, E and "
                        "the proxy algorithm over objects are not written yet)")
         if params and not getattr(ALGORITHMS.get(letter), "parameters", ()):  # (the registry)
             takers = "; ".join(f"{L} takes {', '.join(c.parameters)}" for L, c in ALGORITHMS.items()
