@@ -154,8 +154,8 @@ class Device:
     Raises
     ------
     ParameterError
-        For a non-symmetric or non-positive-definite mass, negative damping, T <= 0, a
-        negative or non-integer delay, negative resolutions, force limit or Coulomb
+        For a non-symmetric or non-positive-definite mass, negative damping, a mass or damping
+        given as a bool, T not in (0, 1] s, a negative or non-integer delay, negative resolutions, force limit or Coulomb
         friction.
 
     Notes
