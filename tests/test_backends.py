@@ -912,3 +912,38 @@ def test_a_priority_out_of_range_is_refused_by_name():
     sim = SimulatedBackend("falcon", realtime=False)
     with pytest.raises(hx.ParameterError, match="priority = 120 is not allowed"):
         ServoLoop(sim, hx.Renderer(hx.algorithm("A", SINE, 500.0)), priority=120)
+
+
+@needs_cc
+@pytest.mark.parametrize("kind", KINDS)
+def test_a_force_commanded_directly_is_never_nan_never_over_the_maximum_and_a_bad_one_zeroes_the_device(kind, stubs):
+    # The guide's rule for a force sent towards a device (never NaN, never above its maximum,
+    # zero within one tick of any fault) held in the servo loop, which clamps before it sends;
+    # a user's own loop calling backend.command() directly got numpy's ValueError for text or a
+    # wrong shape (the device kept its last force), and on Force Dimension's and OpenHaptics'
+    # backends NaN and 1e3 N went to the vendor's SDK as given. Now each backend sends a force
+    # above the maximum scaled to it (as the simulated backend, and amplifiers, clip), and for
+    # a force that is not 3 finite numbers sends zero, then refuses it naming `force`.
+    rig = Rig(kind, stubs)
+    b = rig.backend
+    b.open()
+    try:
+        sent = []
+        for force in ([0.5, 0.0, 0.0], [1e3, 0.0, 0.0], [np.nan, 0.0, 0.0], "nonsense", [1.0, 2.0], None):
+            b.sample()
+            bad = not (isinstance(force, list) and len(force) == 3 and np.all(np.isfinite(force)))
+            if bad:
+                with pytest.raises(hx.ParameterError, match=r"^force = "):
+                    b.command(force)
+            else:
+                b.command(force)
+            sent.append(bad)
+        b.sample()
+    finally:
+        b.close()
+    motors = rig.motors() if rig.behind is not None else None
+    if motors is None:  # (the simulated device: its held force after each command is its own)
+        return
+    assert np.all(np.isfinite(motors)) and np.all(np.linalg.norm(motors, axis=1) <= b.max_force * (1 + 1e-6))
+    assert np.linalg.norm(motors, axis=1).max() == pytest.approx(b.max_force, rel=1e-6)  # (the 1 kN, scaled)
+    assert np.all(motors[-1] == 0.0)  # (the last command refused: zero sent before the refusal)

@@ -45,6 +45,28 @@ VENDOR_WORKSPACE = 1.0
 beyond any desktop device's reach; the presets' published workspaces are boxes, not radii)."""
 
 
+def _force_to_send(force, dimension: int, max_force: float):
+    """(what a backend's ``command`` sends for ``force``, the refusal it raises after sending it
+    or None): the force (N) as floats of shape (dimension,), scaled along itself to
+    ``max_force`` (N) where its magnitude is above it (as the devices' amplifiers clip; the servo
+    loop clamps before it sends); zero where it is not ``dimension`` finite numbers, with the
+    refusal naming it, so that a device never gets NaN nor keeps an earlier force past a refused
+    one (the guide's rule for a force sent towards a device)."""
+    try:
+        f = np.asarray(force, dtype=np.float64)
+    except (TypeError, ValueError):
+        f = None
+    if f is None or f.shape != (dimension,) or not np.all(np.isfinite(f)):
+        shown = f.tolist() if f is not None and f.size <= 6 else force
+        return np.zeros(dimension), ParameterError(
+            f"force = {shown!r} is not allowed: must be {dimension} finite newtons (zero was sent instead; the servo "
+            "loop never sends anything else)")
+    norm = float(np.linalg.norm(f))
+    if norm > max_force:
+        f = f * (max_force / norm)
+    return f, None
+
+
 def model_as(backend, kind: str, key: str, period: float | None = None) -> None:
     """Model a vendor's 3-DOF device by a preset: set ``backend``'s preset, device (at the
     preset's period, or ``period`` s where the vendor's service sets its own), name

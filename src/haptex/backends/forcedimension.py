@@ -23,7 +23,7 @@ import time
 
 import numpy as np
 
-from . import PRIORITY, DeviceError, Sample, model_as, wait_native, wait_until
+from . import PRIORITY, DeviceError, Sample, _force_to_send, model_as, wait_native, wait_until
 from .simulated import SPIN
 
 NATIVE_FUNCTIONS = ("dhdGetPosition", "dhdSetForce")
@@ -182,10 +182,12 @@ class ForceDimensionBackend:
         """
         if self._id is None:
             return  # (closed: nothing is energised)
-        f = np.asarray(force, dtype=np.float64).reshape(3)
+        f, refused = _force_to_send(force, 3, self.max_force)
         if self._dhd.setForce([float(f[0]), float(f[1]), float(f[2])], self._id) < 0:
             raise DeviceError(f"device = {self.name!r} refused a force: {self._dhd.errorGetLastStr()}")
         self._k += 1
+        if refused is not None:
+            raise refused
 
     def drive_native(self, servo, core, n_ticks: int, on_tick=None, priority: int = PRIORITY,
                      keep_awake: bool = False) -> None:

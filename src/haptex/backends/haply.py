@@ -27,7 +27,7 @@ import time
 import numpy as np
 
 from .._validation import fail
-from . import PROBE_EXCHANGES, DeviceError, Sample, model_as, probed_period
+from . import PROBE_EXCHANGES, DeviceError, Sample, _force_to_send, model_as, probed_period
 
 DEFAULT_ADDRESS = "ws://127.0.0.1:10001"
 """The Inverse Service's default WebSocket address."""
@@ -217,4 +217,7 @@ class HaplyBackend:
         """
         if self._ws is None:
             return  # (closed: the service holds no force of ours)
-        self._send(self._ws, np.asarray(force, dtype=np.float64).reshape(3))
+        f, refused = _force_to_send(force, 3, self.max_force)
+        self._send(self._ws, f)
+        if refused is not None:
+            raise refused

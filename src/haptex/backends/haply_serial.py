@@ -48,7 +48,7 @@ import time
 import numpy as np
 
 from .._validation import fail
-from . import PRIORITY, PROBE_EXCHANGES, DeviceError, Sample, model_as, probed_period, wait_native
+from . import PRIORITY, PROBE_EXCHANGES, DeviceError, Sample, _force_to_send, model_as, probed_period, wait_native
 
 PACKAGE_VERSION = "0.1.13"
 """The least HaplyHardwareAPI version taken (the first with ``set_read_timeout``)."""
@@ -348,4 +348,7 @@ class HaplySerialBackend:
         """
         if self._dev is None:
             return  # (closed: the device holds no force of ours)
-        self._exchange(_float32_towards_zero(force))
+        f, refused = _force_to_send(force, 3, self.max_force)
+        self._exchange(_float32_towards_zero(f))
+        if refused is not None:
+            raise refused

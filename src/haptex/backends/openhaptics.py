@@ -30,7 +30,7 @@ import time
 
 import numpy as np
 
-from . import DeviceError, Sample, model_as, wait_native
+from . import DeviceError, Sample, _force_to_send, model_as, wait_native
 
 MODELS = (("premium 1.5", "premium-1-5"), ("touch", "touch"), ("omni", "touch"))
 """Substrings of HD's model string (``HD_DEVICE_MODEL_TYPE``, lower case) and the preset each
@@ -233,8 +233,12 @@ class OpenHapticsBackend:
         force : array_like, shape (3,)
             The force (N), in haptex's frame [x, y, z].
         """
-        f = np.asarray(force, dtype=np.float64).reshape(3).copy()
+        f, refused = _force_to_send(force, 3, self.max_force)
         self._last = f
+        if refused is not None:
+            if self._h is not None and self._running:
+                self._sync(lambda: (f, True))
+            raise refused
         if self._h is None or not self._running:
             return
         self._sync(lambda: (f, True))

@@ -13,7 +13,7 @@ import numpy as np
 
 from .._validation import fail, finite, nonnegative
 from ..core import _ext
-from . import PRIORITY, Sample, wait_native, wait_until
+from . import PRIORITY, Sample, _force_to_send, wait_native, wait_until
 
 SPIN = 3e-4
 """Seconds before a tick the real-time backend stops sleeping and spins on the clock (chosen:
@@ -149,13 +149,13 @@ class SimulatedBackend:
         """
         if not self._open:
             raise fail("device", self.name, "opened before it is commanded")
-        f = np.asarray(force, dtype=np.float64).reshape(self.dimension)
-        if not np.all(np.isfinite(f)):
-            raise fail("force", f.tolist(), "finite newtons (the servo loop never sends anything else)")
+        f, refused = _force_to_send(force, self.dimension, self.max_force)
         try:
             self._plant.write(f)
         except ValueError:
             raise fail("device", self.name, "a finite state") from None
+        if refused is not None:
+            raise refused
 
     def drive_native(self, servo, core, n_ticks: int, on_tick=None, priority: int = PRIORITY,
                      keep_awake: bool = False) -> None:
