@@ -281,12 +281,19 @@ class DeviceBackend(Protocol):
         """The handle's state now."""
 
     def command(self, force) -> None:
-        """Send a force (N), shape (d,): it acts until the next command.
+        """Send a force (N), shape (d,): it acts until the next command; above the backend's
+        ``max_force`` it is scaled to it along itself (as the amplifiers clip).
 
         Parameters
         ----------
         force : array_like, shape (d,)
             The force (N), d the backend's dimension (2: [x, z], 3: [x, y, z]).
+
+        Raises
+        ------
+        ParameterError
+            If ``force`` is not d finite numbers: zero is sent first, so that the device never
+            gets NaN nor keeps an earlier force past a refused one.
         """
 
     # A backend whose SDK calls back in its own servo thread also has

@@ -179,6 +179,12 @@ class ForceDimensionBackend:
         ----------
         force : array_like, shape (3,)
             The force (N), in haptex's frame [x, y, z].
+
+        Raises
+        ------
+        ParameterError
+            If ``force`` is not 3 finite numbers (N): zero is sent first. Above the device's
+            ``max_force`` it is scaled to it along itself.
         """
         if self._id is None:
             return  # (closed: nothing is energised)

@@ -214,6 +214,12 @@ class HaplyBackend:
         ----------
         force : array_like, shape (3,)
             The force (N), in haptex's frame [x, y, z].
+
+        Raises
+        ------
+        ParameterError
+            If ``force`` is not 3 finite numbers (N): zero is sent first. Above the device's
+            ``max_force`` it is scaled to it along itself.
         """
         if self._ws is None:
             return  # (closed: the service holds no force of ours)

@@ -345,6 +345,12 @@ class HaplySerialBackend:
         ----------
         force : array_like, shape (3,)
             The force (N), in haptex's frame [x, y, z].
+
+        Raises
+        ------
+        ParameterError
+            If ``force`` is not 3 finite numbers (N): zero is sent first. Above the device's
+            ``max_force`` it is scaled to it along itself.
         """
         if self._dev is None:
             return  # (closed: the device holds no force of ours)

@@ -232,6 +232,12 @@ class OpenHapticsBackend:
         ----------
         force : array_like, shape (3,)
             The force (N), in haptex's frame [x, y, z].
+
+        Raises
+        ------
+        ParameterError
+            If ``force`` is not 3 finite numbers (N): zero is sent first. Above the device's
+            ``max_force`` it is scaled to it along itself.
         """
         f, refused = _force_to_send(force, 3, self.max_force)
         self._last = f

@@ -146,6 +146,12 @@ class SimulatedBackend:
         ----------
         force : array_like, shape (3,)
             The force (N), in haptex's frame [x, y, z].
+
+        Raises
+        ------
+        ParameterError
+            If ``force`` is not ``dimension`` finite numbers (N): zero is sent first. Above the device's
+            ``max_force`` it is scaled to it along itself.
         """
         if not self._open:
             raise fail("device", self.name, "opened before it is commanded")
