@@ -868,3 +868,36 @@ def test_a_devices_sampling_period_past_a_second_is_refused_as_the_analyses_refu
     hx.Device.point_mass(period=1.0)
     with pytest.raises(hx.ParameterError, match=r"^period = "):
         hx.Device.point_mass(period=period)
+
+
+@pytest.mark.parametrize("exclude", ["nonsense", [-1.0], [math.nan], [math.inf], [0.0], True, [50.0, True]])
+def test_buzz_refuses_an_excluded_rate_that_is_not_a_rate(exclude):
+    # buzz(position, period, exclude): the rates (Hz) the rendering is meant to have, whose
+    # harmonics are not buzz. A rate that is not finite and > 0 was skipped silently (a typo'd
+    # exclusion judged the texture's own vibration as buzz), text raised numpy's ValueError.
+    from haptex.perception import buzz
+
+    t = np.arange(400) * 1e-3
+    p = np.column_stack([1e-3 * np.sin(2 * np.pi * 50 * t), np.zeros(400)])
+    assert buzz(p, 1e-3, exclude=[50.0]).amplitude < buzz(p, 1e-3).amplitude  # (the 50 Hz excluded: the premise)
+    assert buzz(p, 1e-3, exclude=None).amplitude == buzz(p, 1e-3).amplitude  # (None: none, as documented)
+    with pytest.raises(hx.ParameterError, match=r"^exclude = "):
+        buzz(p, 1e-3, exclude=exclude)
+
+
+@pytest.mark.parametrize("value, name", [("nonsense", "position"), ([["a", "b"]] * 20, "position")])
+def test_buzz_names_positions_that_are_not_numbers(value, name):
+    from haptex.perception import buzz
+
+    with pytest.raises(hx.ParameterError, match=rf"^{name} = "):
+        buzz(value, 1e-3)
+
+
+@pytest.mark.parametrize("frequency", ["nonsense", True, [100.0, None]])
+def test_the_detection_threshold_names_a_frequency_that_is_not_one(frequency):
+    # detection_threshold(frequency): finite frequencies > 0 (Hz); text raised numpy's
+    # ValueError, True was taken as 1 Hz.
+    from haptex.perception import detection_threshold
+
+    with pytest.raises(hx.ParameterError, match=r"^frequency = "):
+        detection_threshold(frequency)

@@ -48,6 +48,20 @@ LOWEST_FREQUENCY = 20.0
 """Hz: components below are the hand's own motion and the scan, not vibration (chosen)."""
 
 
+def _numbers(name: str, value, allowed: str) -> np.ndarray:
+    """``value`` as a float array, refused naming ``name`` where it is not numbers (text, None
+    among them, or booleans, which numpy would take for 0 and 1)."""
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+        kinds = np.asarray(value).dtype.kind
+    except (TypeError, ValueError):
+        raise fail(name, value, allowed) from None
+    if kinds in "bO" or isinstance(value, bool) or (isinstance(value, list | tuple) and any(
+            isinstance(v, bool | np.bool_) for v in value)):
+        raise fail(name, value, allowed)
+    return arr
+
+
 def detection_threshold(frequency) -> np.ndarray:
     """The vibrotactile detection threshold of a hand grasping a handle.
 
@@ -68,7 +82,7 @@ def detection_threshold(frequency) -> np.ndarray:
     ParameterError
         For a frequency that is not finite and > 0.
     """
-    f = np.asarray(frequency, dtype=np.float64)
+    f = _numbers("frequency", frequency, "finite frequencies > 0 (Hz)")
     if not np.all(np.isfinite(f) & (f > 0)):
         raise fail("frequency", f.tolist() if f.size < 8 else "an array", "finite frequencies > 0 (Hz)")
     t = THRESHOLD
@@ -174,8 +188,9 @@ def buzz(position, period: float, exclude=(), floor: float = 0.0) -> Buzz:
     period : float
         s, > 0.
     exclude : sequence of float, optional
-        Rates (Hz) the rendering is meant to have (a scan crossing the texture's periods): every
-        harmonic of them, +-1.5 bins, is the texture, not buzz.
+        Rates (Hz), each finite and > 0, the rendering is meant to have (a scan crossing the
+        texture's periods): every harmonic of them, +-1.5 bins, is the texture, not buzz (None:
+        none).
     floor : float, optional
         m, >= 0: components of at most this amplitude are not judged, as the positions cannot
         show them (for sensed positions, half the encoder's step after :func:`dequantise`;
@@ -188,8 +203,8 @@ def buzz(position, period: float, exclude=(), floor: float = 0.0) -> Buzz:
     Raises
     ------
     ParameterError
-        For fewer than 16 positions, non-finite positions, a period not > 0 or a floor not
-    finite and >= 0.
+        For fewer than 16 positions, positions that are not finite numbers, a period not > 0,
+        an excluded rate not finite and > 0, or a floor not finite and >= 0.
 
     Notes
     -----
@@ -201,11 +216,14 @@ def buzz(position, period: float, exclude=(), floor: float = 0.0) -> Buzz:
 
     T = positive("period", period, "s")
     floor = nonnegative("floor", floor, "m")
-    p = np.asarray(position, dtype=np.float64)
+    p = _numbers("position", position, "positions (m), shape (n, d) with n >= 16 samples")
     if p.ndim != 2 or p.shape[0] < 16:
         raise fail("position", f"an array of shape {p.shape}", "shape (n, d) with n >= 16 samples")
     if not np.all(np.isfinite(p)):
         raise fail("position", "an array with non-finite values", "finite positions (m)")
+    rates = np.atleast_1d(_numbers("exclude", () if exclude is None else exclude, "rates (Hz), each finite and > 0"))
+    if not np.all(np.isfinite(rates) & (rates > 0)):
+        raise fail("exclude", exclude, "rates (Hz), each finite and > 0")
     n = p.shape[0]
     t = np.arange(n) - 0.5 * (n - 1)
     slope = (t @ (p - p.mean(axis=0))) / (t @ t)
@@ -215,10 +233,9 @@ def buzz(position, period: float, exclude=(), floor: float = 0.0) -> Buzz:
     freq = np.fft.rfftfreq(n, T)
     keep = freq >= LOWEST_FREQUENCY
     res = 1.0 / (n * T)
-    for rate in np.atleast_1d(np.asarray(exclude, dtype=np.float64)):
-        if np.isfinite(rate) and rate > 0:
-            h = np.maximum(np.round(freq / rate), 1.0)  # the nearest harmonic of each bin
-            keep &= np.abs(freq - h * rate) > 1.5 * res
+    for rate in rates:
+        h = np.maximum(np.round(freq / rate), 1.0)  # the nearest harmonic of each bin
+        keep &= np.abs(freq - h * rate) > 1.5 * res
     if not np.any(keep):
         return Buzz(False, -np.inf, 0.0, 0.0, p.shape[1] - 1, floor)
     thr = detection_threshold(freq[keep])
