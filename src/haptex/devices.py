@@ -12,8 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._validation import (MAX_LENGTH, ParameterError, fail, in_range, matrix2, nonnegative, positive, positive_or_inf,
-                          whole)
+from ._validation import MAX_LENGTH, ParameterError, fail, matrix2, nonnegative, positive, positive_or_inf, whole
 
 
 def _matrix(name: str, value, allow_zero: bool, dim: int = 2) -> np.ndarray:
@@ -155,8 +154,8 @@ class Device:
     ------
     ParameterError
         For a non-symmetric or non-positive-definite mass, negative damping, a mass or damping
-        given as a bool, T not in (0, 1] s, a negative or non-integer delay, negative resolutions, force limit or Coulomb
-        friction.
+        given as a bool, T not in (0, 1] s, a negative or non-integer delay, negative
+        resolutions, force limit or Coulomb friction.
 
     Notes
     -----
@@ -195,9 +194,10 @@ class Device:
         object.__setattr__(self, "damping", _matrix("damping", self.damping, allow_zero=True, dim=dim))
         out = self.damping if self.damping_outside is None else self.damping_outside
         object.__setattr__(self, "damping_outside", _matrix("damping_outside", out, allow_zero=True, dim=dim))
-        object.__setattr__(self, "period", in_range("period", self.period, 0.0, 1.0, "s"))
-        if not self.period > 0:
-            raise fail("period", self.period, "a number > 0 and at most 1 s")
+        period = positive("period", self.period, "s")
+        if period > 1.0:
+            raise fail("period", self.period, "a number > 0 and at most 1 s (as critical_stiffness takes it)")
+        object.__setattr__(self, "period", period)
         for name in SCALAR_FIELDS:
             object.__setattr__(self, name, scalar_field(name, getattr(self, name)))
         object.__setattr__(self, "first_resonance", positive_or_inf("first_resonance", self.first_resonance, "Hz"))
