@@ -23,6 +23,7 @@ import scipy.io
 
 import haptex as hx
 from haptex._loaders import ST_BYTES_PER_SAMPLE, _mat_samples
+from .conftest import needs_data
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "data"
 
@@ -149,8 +150,8 @@ DEKTAK_EX = str(EXAMPLES / "dektak-stylus-profile.csv")
     (["design", "--texture", DEKTAK_EX, "--window", "0m,1e-320m"], "window"),
     (["table", "--amplitude", "1e-320m"], "amplitude"),
     (["simulate", "thrust", "--algorithm", "W", "--duration", "1e308s"], "duration"),
-    # in range, but past what the data hold: a cut-off longer than the scan, a window beyond it
-    (["design", "--texture", DEKTAK_EX, "--lowpass", "1m"], "shortest_period"),
+    # in range, but past what the data hold: a window beyond the scan (a cut-off longer than it:
+    # test_a_low_pass_the_measured_file_refuses_is_named_as_the_user_typed_it, as --lowpass)
     (["design", "--texture", DEKTAK_EX, "--window", "0mm,1m"], "window"),
 ])
 def test_values_that_would_overflow_are_refused_where_they_are_parsed(args, name, capsys):
@@ -901,3 +902,19 @@ def test_the_detection_threshold_names_a_frequency_that_is_not_one(frequency):
 
     with pytest.raises(hx.ParameterError, match=r"^frequency = "):
         detection_threshold(frequency)
+
+
+@needs_data
+@pytest.mark.parametrize("lowpass", ["1m", "0.1um"])
+def test_a_low_pass_the_measured_file_refuses_is_named_as_the_user_typed_it(lowpass, capsys):
+    # design --lowpass on a file: a cut-off past the scan's length (or below its Nyquist period)
+    # was refused naming `shortest_period`, the parameter of SampledProfile.lowpass that the
+    # command line's user never typed (and a test above pinned that name). Now as --lowpass,
+    # one line, status 2.
+    from haptex.cli import main
+
+    from .conftest import DEKTAK
+
+    assert main(["design", "--texture", str(DEKTAK), "--device", "omega-3", "--lowpass", lowpass, "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "lowpass" in err and "shortest_period" not in err, err

@@ -9,7 +9,7 @@ import re
 from pathlib import Path
 
 from ._units import parse_quantity
-from ._validation import ParameterError
+from ._validation import ParameterError, renamed
 
 TEXTURE_KINDS = {"sine": "AMPLITUDE,PERIOD", "sum": "A1,L1;A2,L2", "noise": "RMS,SHORTEST,LONGEST,LENGTH[,SEED]",
                  "egg-crate": "AMPLITUDE,PERIOD", "grating": "AMPLITUDE,PERIOD[,DIRECTION]"}
@@ -183,7 +183,8 @@ def texture_from_spec(spec: str, spacing=None, x_unit=None, height_unit=None, le
     if level:
         prof = prof.leveled()
     if lowpass is not None:
-        prof = prof.lowpass(lowpass)
+        with renamed("lowpass", "shortest_period"):  # (the option the user typed, not the method's parameter)
+            prof = prof.lowpass(lowpass)
     prof.instrument_tip = tip
     if scale is not None:
         lf, hf = split_spec(scale, "scale", "scale", (2, 2))

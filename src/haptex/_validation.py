@@ -7,6 +7,7 @@ can print it as one line.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 
@@ -168,6 +169,22 @@ def scale_factors(length_factor, height_factor, longest: float, highest: float) 
         raise fail("height_factor", height_factor, f"a number of size at most {MAX_LENGTH / highest:.6g} (the "
                    f"texture's heights, up to {highest:g} m, within +-{MAX_LENGTH:g} m)")
     return lf, hf
+
+
+@contextlib.contextmanager
+def renamed(outer: str, *inner: str, note: str = ""):
+    """A refusal of a value the caller handed on under another name, said under the name its user
+    gave it by: a ParameterError inside whose message begins ``INNER = `` (one of ``inner``) is
+    raised again as ``OUTER = ...`` (``note``, with ``{inner}`` for the name replaced, appended):
+    e.g. a preset's ``pose``, a device constructor's ``working_point``."""
+    try:
+        yield
+    except ParameterError as e:
+        said = str(e)
+        for name in inner:
+            if said.startswith(f"{name} = "):
+                raise ParameterError(f"{outer}{said[len(name):]}{note.format(inner=name)}") from None
+        raise
 
 
 def optional_positive(name: str, value, unit: str = "") -> float | None:

@@ -14,14 +14,13 @@ shows the preset's apparent mass and damping (the mean of the diagonal of M_x an
 
 from __future__ import annotations
 
-import contextlib
 import math
 from dataclasses import dataclass, field
 from functools import lru_cache
 
 import numpy as np
 
-from ._validation import ParameterError, a_path, fail, whole
+from ._validation import ParameterError, a_path, fail, renamed, whole
 from .devices import Device
 
 STATUSES = ("published", "identified", "chosen")
@@ -180,19 +179,11 @@ class Hand:
         return ScanningHand(self.stiffness, self.damping, velocity=velocity, depth=depth, dimension=dimension)
 
 
-@contextlib.contextmanager
 def _named_pose():
     """A pose refused by the device's constructor, under the name the preset takes it by:
     ``pose`` (the constructors' ``working_point`` or ``joint_angles``, which a user of
     :meth:`Preset.device` never wrote)."""
-    try:
-        yield
-    except ParameterError as e:
-        said = str(e)
-        for inner in ("working_point", "joint_angles"):
-            if said.startswith(f"{inner} = "):
-                raise ParameterError(f"pose{said[len(inner):]} (the device's {inner})") from None
-        raise
+    return renamed("pose", "working_point", "joint_angles", note=" (the device's {inner})")
 
 
 @dataclass(frozen=True)
