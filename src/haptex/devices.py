@@ -393,8 +393,8 @@ class Device:
         ParameterError
             For non-positive lengths or masses, or a working point the linkage cannot reach.
         """
-        a1, a2 = (positive(name, value, "m") for name, value in (("link_proximal", link_proximal),
-                                                                  ("link_distal", link_distal)))
+        a1 = positive("link_proximal", link_proximal, "m")
+        a2 = positive("link_distal", link_distal, "m")
         d = nonnegative("base", base, "m")
         for name, value in (("link_proximal", a1), ("link_distal", a2), ("base", d)):
             if value > MAX_LENGTH:

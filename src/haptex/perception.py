@@ -52,12 +52,12 @@ def _numbers(name: str, value, allowed: str) -> np.ndarray:
     """``value`` as a float array, refused naming ``name`` where it is not numbers (text, None
     among them, or booleans, which numpy would take for 0 and 1)."""
     try:
-        arr = np.asarray(value, dtype=np.float64)
-        kinds = np.asarray(value).dtype.kind
+        raw = np.asarray(value)
+        arr = raw.astype(np.float64)
     except (TypeError, ValueError):
         raise fail(name, value, allowed) from None
-    if kinds in "bO" or isinstance(value, bool) or (isinstance(value, list | tuple) and any(
-            isinstance(v, bool | np.bool_) for v in value)):
+    among = isinstance(value, list | tuple) and any(isinstance(v, bool | np.bool_) for v in value)
+    if raw.dtype.kind in "bO" or among:  # (a bool among numbers: numpy makes the list floats)
         raise fail(name, value, allowed)
     return arr
 

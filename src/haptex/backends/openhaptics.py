@@ -241,13 +241,10 @@ class OpenHapticsBackend:
         """
         f, refused = _force_to_send(force, 3, self.max_force)
         self._last = f
+        if self._h is not None and self._running:
+            self._sync(lambda: (f, True))
         if refused is not None:
-            if self._h is not None and self._running:
-                self._sync(lambda: (f, True))
             raise refused
-        if self._h is None or not self._running:
-            return
-        self._sync(lambda: (f, True))
 
     def drive(self, tick, n_ticks: int) -> None:
         """Run ``n_ticks`` ticks in HD's scheduler, each ``tick(sample) -> force`` inside the

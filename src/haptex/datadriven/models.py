@@ -79,8 +79,8 @@ class ArmaModel:
             try:
                 v = np.array(getattr(self, name), dtype=float)
             except (TypeError, ValueError):
-                v = np.zeros((0, 0))
-            if v.ndim != 1 or v.size < 1 or v.size - 1 > MAX_ORDER:
+                v = None
+            if v is None or v.ndim != 1 or v.size < 1 or v.size - 1 > MAX_ORDER:
                 raise fail(name, getattr(self, name), f"a polynomial [1, c_1, ..., c_n] with n <= {MAX_ORDER}")
             v.setflags(write=False)
             object.__setattr__(self, name, v)
