@@ -582,7 +582,9 @@ def test_table_over_a_surface_prints_f():
     assert m and float(m.group(2)) <= 1.0 + 1e-9, out.getvalue()
 
 
-@pytest.mark.long  # 10 s: the whole 3-D Table II (was -m slow, run by nothing)
+@pytest.mark.slow  # 12-15 s, by hand: the same whole command runs in .ci/run's long set with --json
+# (test_surfaces.py's test_table_ii_in_3d_on_the_egg_crate_at_the_command_line), its F line's text
+# in the contributor's loop (test_table_over_a_surface_prints_f)
 def test_table_over_a_surface_prints_f_and_exits_cleanly():
     # README's `haptex table --surface egg-crate`, the whole command
     r = run_cli("table", "--surface", "egg-crate")

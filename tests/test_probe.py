@@ -26,6 +26,13 @@ A, L = 0.1e-3, 2e-3  # a sinusoid whose troughs have a 1.01 mm radius of curvatu
 SINE = hx.Sinusoid(A, L)
 
 
+def _by_hand(*values):
+    """A denser point of a neighbourhood whose ends and hardest point .ci/run's long set runs:
+    marked ``slow`` (run by hand, ``python -m pytest -q -n 2 -m slow``, at each stop), so that
+    .ci/run keeps within its 600 s (these points were 330 s of its long set's test time)."""
+    return pytest.param(*values, marks=pytest.mark.slow)
+
+
 def _centre_path(tex, x, r, n=400_001):
     u = np.linspace(-r, r, n)
     return np.array([np.max(tex.height(xi + u) + np.sqrt(np.maximum(r * r - u * u, 0.0))) - r for xi in x])
@@ -182,9 +189,11 @@ FELT_CASES = [  # (amplitudes, periods, phases, period); radii in units of the t
 
 # the issue's sinusoid at radii 0.5 and 2 (a ball inside the troughs' curvature and one
 # bridging them) in the contributor's loop; the two-tone and four-tone profiles and radii 0.1
-# and 1 in .ci/run's long set (0.5-1.7 s each)
+# and 1 in .ci/run's long set (0.5-1.7 s each), radius 1 on the sinusoid and the four-tone
+# profile by hand (3-4 s each)
 @pytest.mark.parametrize("case, rel_r", [
-    pytest.param(case, rel_r, marks=[] if case == 0 and rel_r in (0.5, 2.0) else [pytest.mark.long])
+    pytest.param(case, rel_r, marks=[] if case == 0 and rel_r in (0.5, 2.0) else
+                 [pytest.mark.slow] if case != 1 and rel_r == 1.0 else [pytest.mark.long])
     for case in range(len(FELT_CASES)) for rel_r in (0.1, 0.5, 1.0, 2.0)])
 def test_the_felt_slopes_are_the_contact_points_slopes(case, rel_r):
     # issue 67: the felt surface's steepest slope within 1 % of the brute-force ball path's and
@@ -305,9 +314,9 @@ def _path_q(amps, periods, phases, period, r, dmax=1e-3, n=2000, m=20001):
 
 @pytest.mark.long
 @pytest.mark.parametrize("case, rel_r, letters", [
-    (0, 0.5, "ABCDEFG"), (0, 2.0, "ABCDEFG"), (0, 0.9, "BCG"), (0, 0.95, "BCG"), (0, 1.05, "BCDEFG"), (0, 1.2, "BCG"),
-    (1, 0.9, "BCG"), (1, 1.05, "BCG"), (1, 1.2, "BCG"), (1, 2.0, "ABCDFG"), (2, 1.05, "BCG"), (2, 1.2, "BCDEFG"),
-    (2, 2.0, "ABCDFG")])
+    _by_hand(0, 0.5, "ABCDEFG"), _by_hand(0, 2.0, "ABCDEFG"), (0, 0.9, "BCG"), (0, 0.95, "BCG"), _by_hand(0, 1.05, "BCDEFG"),
+    (0, 1.2, "BCG"), (1, 0.9, "BCG"), _by_hand(1, 1.05, "BCG"), (1, 1.2, "BCG"), _by_hand(1, 2.0, "ABCDFG"),
+    _by_hand(2, 1.05, "BCG"), _by_hand(2, 1.2, "BCDEFG"), (2, 2.0, "ABCDFG")])
 def test_q_of_every_algorithm_on_the_felt_profile_is_the_paths(case, rel_r, letters):
     # issue 67's goal: q of every algorithm on the felt surface within 1 % of q on the brute-force
     # ball path (the paper's Jacobians with the path's h' and h'', _path_q), on the sinusoid, the
@@ -349,7 +358,7 @@ def test_q_of_every_algorithm_on_the_felt_profile_is_the_paths(case, rel_r, lett
 
 
 @pytest.mark.long
-@pytest.mark.parametrize("case, rel_r", [(1, 1.05), (2, 1.02)])
+@pytest.mark.parametrize("case, rel_r", [_by_hand(1, 1.05), (2, 1.02)])
 def test_a_felt_profiles_curvature_miss_bounds_its_q(case, rel_r):
     # Where the profile's refinement for curvature reaches PROFILE_REFINE_SAMPLES short of its
     # slack, the profile says by how much (curvature_miss, a fraction of the path's largest
@@ -884,13 +893,14 @@ def test_a_felt_map_refined_for_its_curvature_carries_its_first_grids_band():
 
 @pytest.mark.parametrize("name,rel_r,letters", [("egg-crate", 0.5, "BCG")] + [
     pytest.param(n, v, ls, marks=pytest.mark.long)
+    for n, v, ls in [("grating", 0.95, "BCFG"), ("random", 0.9, "BCG"), ("egg-crate", 0.995, "BCG")]] + [
+    _by_hand(n, v, ls)  # (the denser points and letters: 0.3 to 0.99 rho, D, E and F on the maps)
     for n, v, ls in [("egg-crate", 0.3, "BCG"), ("egg-crate", 0.5, "DEF"), ("egg-crate", 0.8, "BCG"),
                      ("egg-crate", 0.88, "BCFG"), ("grating", 0.5, "BCG"), ("grating", 0.9, "BCG"),
-                     ("grating", 0.95, "BCFG"), ("random", 0.5, "BCDEFG"), ("random", 0.8, "BCG"),
-                     ("egg-crate", 0.9, "BCG"), ("random", 0.9, "BCG"), ("egg-crate", 0.95, "BCG"),
-                     ("random", 0.95, "BCDG"), ("egg-crate", 0.99, "BCG"), ("two-grating", 0.95, "BC"),
-                     ("two-grating", 0.98, "BC"), ("two-grating", 0.985, "BC"), ("two-grating", 0.99, "BC"),
-                     ("two-grating", 0.995, "BC"), ("egg-crate", 0.995, "BCG")]])
+                     ("random", 0.5, "BCDEFG"), ("random", 0.8, "BCG"), ("egg-crate", 0.9, "BCG"),
+                     ("egg-crate", 0.95, "BCG"), ("random", 0.95, "BCDG"), ("egg-crate", 0.99, "BCG"),
+                     ("two-grating", 0.95, "BC"), ("two-grating", 0.98, "BC"), ("two-grating", 0.985, "BC"),
+                     ("two-grating", 0.99, "BC"), ("two-grating", 0.995, "BC")]])
 def test_q_of_every_algorithm_on_a_felt_map_below_the_troughs_radius_is_the_paths(name, rel_r, letters, shared):
     # issue 67's goal on areal maps: q of every algorithm on the felt surface within 1 % of q on
     # the brute-force ball path. B, C and G read the path's Hessian, which below the troughs'
@@ -981,8 +991,8 @@ def test_q_of_every_algorithm_on_a_felt_map_below_the_troughs_radius_is_the_path
 
 
 @pytest.mark.long
-@pytest.mark.parametrize("name,rel_r", [("grating", 2.0), ("egg-crate", 2.0), ("grating", 1.2), ("egg-crate", 1.2),
-                                        ("egg-crate", 1.1), ("two-grating", 1.2)])
+@pytest.mark.parametrize("name,rel_r", [_by_hand("grating", 2.0), _by_hand("egg-crate", 2.0), _by_hand("grating", 1.2),
+                                        ("egg-crate", 1.2), _by_hand("egg-crate", 1.1), ("two-grating", 1.2)])
 def test_q_on_a_felt_map_above_the_troughs_radius_is_the_paths(name, rel_r, shared):
     # issue 67's goal above the troughs' radius rho, where the ball bridges them: the path has
     # kinks (lines on the grating, the bowls' apexes on the egg-crate) and its curvature is
@@ -1034,9 +1044,9 @@ def test_q_on_a_felt_map_above_the_troughs_radius_is_the_paths(name, rel_r, shar
 
 
 @pytest.mark.long
-@pytest.mark.parametrize("name,rel_r", [("egg-crate", 0.95), ("egg-crate", 1.02), ("egg-crate", 1.03),
-                                        ("egg-crate", 1.05), ("egg-crate", 1.065), ("egg-crate", 1.08),
-                                        ("random", 0.95)])
+@pytest.mark.parametrize("name,rel_r", [("egg-crate", 0.95), _by_hand("egg-crate", 1.02), _by_hand("egg-crate", 1.03),
+                                        _by_hand("egg-crate", 1.05), _by_hand("egg-crate", 1.065), _by_hand("egg-crate", 1.08),
+                                        _by_hand("random", 0.95)])
 def test_a_felt_maps_curvature_miss_bounds_its_q(name, rel_r, capsys, shared):
     # Where the refinement for curvature stops short of its slack (at its cap, or where finer
     # grids did worse), the map says by how much (curvature_miss, a fraction of the path's
@@ -1149,7 +1159,7 @@ def test_within_a_thousandth_of_the_bowls_radius_q_on_the_felt_map_is_the_paths(
 
 
 @pytest.mark.long
-@pytest.mark.parametrize("rel_r,closed", [(0.9975, 4e-3), (0.999, 1e-2)])
+@pytest.mark.parametrize("rel_r,closed", [_by_hand(0.9975, 4e-3), (0.999, 1e-2)])
 def test_where_the_spike_runs_at_an_angle_to_the_axes_the_stated_peak_miss_is_qs(rel_r, closed):
     # On two gratings at 63 deg at 0.98 times their tightest radius the path's curvature spike
     # runs at an angle to both axes: no map within the cap meets the slack (uniform or graded),
@@ -1249,7 +1259,7 @@ def test_just_above_the_troughs_radius_a_felt_grating_kinks_only_at_its_troughs(
 
 
 @pytest.mark.long
-@pytest.mark.parametrize("rel_r", [1.2, 1.5])
+@pytest.mark.parametrize("rel_r", [_by_hand(1.2), 1.5])
 def test_a_felt_map_names_where_a_crease_ends(rel_r, monkeypatch, capsys, shared):
     # A crease (a line of kinks, where two branches of the contact tie) can end inside the map:
     # there the two branches merge at a fold and the path's curvature grows without bound, so q
@@ -1295,7 +1305,7 @@ def test_a_felt_map_names_where_a_crease_ends(rel_r, monkeypatch, capsys, shared
 
 
 @pytest.mark.long
-@pytest.mark.parametrize("rel_r", [1.01, 1.015, 1.02, 1.03, 1.05, 1.07])
+@pytest.mark.parametrize("rel_r", [1.01, 1.015, _by_hand(1.02), _by_hand(1.03), 1.05, _by_hand(1.07)])
 def test_just_above_its_bowls_radius_the_egg_crates_creases_end_nowhere(rel_r, shared):
     # Just above the egg-crate's bowls' radius rho the ball bridges each bowl and each saddle's
     # concave direction (its curvature there 1 / rho too): its creases run along the diagonals
@@ -1507,7 +1517,7 @@ def test_on_a_map_that_ends_at_its_edges_a_nesting_ball_feels_the_paths_slope(r)
 
 
 @pytest.mark.long
-@pytest.mark.parametrize("r", [1.02e-3, 1.05e-3, 1.07e-3])
+@pytest.mark.parametrize("r", [1.02e-3, _by_hand(1.05e-3), _by_hand(1.07e-3)])
 def test_just_past_its_bowls_radius_a_measured_maps_felt_slope_is_the_paths(r):
     # the bounded egg-crate map and brute-force path of the test above, at 1.01 to 1.06 times the
     # bowls' radius, where the ball nests in them on some grids and not on others. On the map's
@@ -1540,14 +1550,14 @@ def test_a_felt_maps_steepest_slope_is_the_sup_of_its_patches_beside_its_kinks()
     assert dense <= felt.max_slope <= 1.005 * dense
 
 
-@pytest.mark.parametrize("rel_r", [1.2, pytest.param(1.0, marks=pytest.mark.long), pytest.param(1.1, marks=pytest.mark.long),
+@pytest.mark.parametrize("rel_r", [1.2, _by_hand(1.0), pytest.param(1.1, marks=pytest.mark.long),
                                    pytest.param(1.3, marks=pytest.mark.long),
-                                   pytest.param(1.02, marks=pytest.mark.long),
+                                   _by_hand(1.02),
                                    pytest.param(1.17, marks=pytest.mark.long),
-                                   pytest.param(1.09, marks=pytest.mark.long),
-                                   pytest.param(1.04, marks=pytest.mark.long),
-                                   pytest.param(1.08, marks=pytest.mark.long),
-                                   pytest.param(1.18, marks=pytest.mark.long)])
+                                   _by_hand(1.09),
+                                   _by_hand(1.04),
+                                   _by_hand(1.08),
+                                   _by_hand(1.18)])
 def test_where_the_ball_nests_in_a_bowl_the_felt_map_is_refined_until_it_branches(rel_r, shared):
     # issue 67, from 1.05 to 1.3 bowl radii: the ball nests in the bowl, and on the default grid
     # (r / 16) the branches of some cells jumped between the bowl's sides or outnumbered what a
@@ -1731,7 +1741,7 @@ def _periodic_map_path_max_slope(hn, dx, r, sub=4, top=60, levels=5, keep=12):
 
 
 @pytest.mark.long
-@pytest.mark.parametrize("r", [0.5e-6, 0.8e-6, 0.85e-6, 0.9e-6])
+@pytest.mark.parametrize("r", [_by_hand(0.5e-6), _by_hand(0.8e-6), _by_hand(0.85e-6), 0.9e-6])
 def test_a_ball_inside_every_trough_of_a_rough_map_feels_the_maps_own_slopes(r):
     # issue 67's lower radii (0.1 times the troughs' radius and up) on the rough map of the tests
     # below: a ball whose radius is below every trough's radius of curvature touches the map
@@ -1767,7 +1777,7 @@ def test_a_ball_inside_every_trough_of_a_rough_map_feels_the_maps_own_slopes(r):
     assert felt.max_slope <= steepest * (1 + hx.surfaces.STEEP_SLACK)
 
 @pytest.mark.long
-@pytest.mark.parametrize("r", [5e-6, 7e-6])
+@pytest.mark.parametrize("r", [5e-6, _by_hand(7e-6)])
 def test_on_a_rough_map_the_felt_maps_steepest_slope_is_near_the_paths(r):
     # issue 67's random areal maps, not met: the rough periodic map of the test below (band-limited
     # noise, 2 um rms, wavelengths >= 10 um, 1 um samples) felt by balls of 4 to 24 samples,
@@ -1790,7 +1800,7 @@ def test_on_a_rough_map_the_felt_maps_steepest_slope_is_near_the_paths(r):
 
 
 @pytest.mark.long
-@pytest.mark.parametrize("r", [8e-6, 10e-6, 12e-6, 16e-6])
+@pytest.mark.parametrize("r", [8e-6, _by_hand(10e-6), _by_hand(12e-6), _by_hand(16e-6)])
 def test_on_a_rough_map_where_every_cell_beside_a_kink_branches_the_felt_slope_is_the_paths(r):
     # issue 67's goal (1 %) on the rough periodic map of the test above, at radii where the felt
     # map branches every cell beside its kinks, against the same brute-force path on scipy's
