@@ -29,7 +29,7 @@ SINE = hx.Sinusoid(A, L)
 def _by_hand(*values):
     """A denser point of a neighbourhood whose ends and hardest point .ci/run's long set runs:
     marked ``slow`` (run by hand, ``python -m pytest -q -n 2 -m slow``, at each stop), so that
-    .ci/run keeps within its 600 s (these points were 330 s of its long set's test time)."""
+    .ci/run keeps nearer its 600 s (these 57 cases were about 420 s of its long set's test time)."""
     return pytest.param(*values, marks=pytest.mark.slow)
 
 
