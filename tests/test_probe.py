@@ -894,7 +894,7 @@ def test_a_felt_map_refined_for_its_curvature_carries_its_first_grids_band():
 @pytest.mark.parametrize("name,rel_r,letters", [("egg-crate", 0.5, "BCG")] + [
     pytest.param(n, v, ls, marks=pytest.mark.long)
     for n, v, ls in [("grating", 0.95, "BCFG"), ("random", 0.9, "BCG"), ("egg-crate", 0.995, "BCG")]] + [
-    _by_hand(n, v, ls)  # (the denser points and letters: 0.3 to 0.99 rho, D, E and F on the maps)
+    _by_hand(n, v, ls)  # (the denser points, 0.3 to 0.995 rho, and D and E on the maps)
     for n, v, ls in [("egg-crate", 0.3, "BCG"), ("egg-crate", 0.5, "DEF"), ("egg-crate", 0.8, "BCG"),
                      ("egg-crate", 0.88, "BCFG"), ("grating", 0.5, "BCG"), ("grating", 0.9, "BCG"),
                      ("random", 0.5, "BCDEFG"), ("random", 0.8, "BCG"), ("egg-crate", 0.9, "BCG"),
