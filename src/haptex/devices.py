@@ -15,6 +15,20 @@ import numpy as np
 from ._validation import MAX_LENGTH, ParameterError, fail, matrix2, nonnegative, positive, positive_or_inf, whole
 
 
+MAX_PERIOD = 1.0
+"""The longest sampling period (s) a :class:`Device` takes and :func:`critical_stiffness`
+analyses (chosen: a haptic device's servo loop runs at 100 Hz or faster, so a second is past
+any device's period)."""
+
+
+def _period(value) -> float:
+    """A sampling period (s): > 0 and at most :data:`MAX_PERIOD`, refused naming ``period``."""
+    T = positive("period", value, "s")
+    if T > MAX_PERIOD:
+        raise fail("period", value, f"a number > 0 and at most {MAX_PERIOD:g} s")
+    return T
+
+
 def _matrix(name: str, value, allow_zero: bool, dim: int = 2) -> np.ndarray:
     """A dim x dim symmetric matrix from a scalar (isotropic) or an array; checks definiteness."""
     arr = matrix2(name, value, f"{dim}x{dim} symmetric matrix", dim)
@@ -194,10 +208,7 @@ class Device:
         object.__setattr__(self, "damping", _matrix("damping", self.damping, allow_zero=True, dim=dim))
         out = self.damping if self.damping_outside is None else self.damping_outside
         object.__setattr__(self, "damping_outside", _matrix("damping_outside", out, allow_zero=True, dim=dim))
-        period = positive("period", self.period, "s")
-        if period > 1.0:
-            raise fail("period", self.period, "a number > 0 and at most 1 s (as critical_stiffness takes it)")
-        object.__setattr__(self, "period", period)
+        object.__setattr__(self, "period", _period(self.period))
         for name in SCALAR_FIELDS:
             object.__setattr__(self, name, scalar_field(name, getattr(self, name)))
         object.__setattr__(self, "first_resonance", positive_or_inf("first_resonance", self.first_resonance, "Hz"))
@@ -803,9 +814,7 @@ def critical_stiffness(mass: float, damping: float, period: float, delay: int = 
     """
     m = positive("mass", mass, "kg")
     b = nonnegative("damping", damping, "N s/m")
-    T = positive("period", period, "s")
-    if T > 1.0:
-        raise fail("period", period, "a number > 0 and at most 1 s")
+    T = _period(period)
     if b * T / m > 1e100:  # (e^{A T}'s entries overflow: scipy's expm returns NaN)
         raise fail("damping", damping, f"at most {1e100 * m / T:g} N s/m for this mass and period (b T / m <= 1e100)")
     d = whole("delay", delay, 0, MAX_ANALYSED_DELAY, "sampling periods of latency")
