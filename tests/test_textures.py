@@ -51,6 +51,41 @@ def test_incommensurate_periods_give_the_triangle_bound():
     assert tex.max_slope == pytest.approx(2 * math.pi * 1e-4 * (1 / 1e-3 + 1 / (math.sqrt(2) * 1e-3)), rel=1e-12)
 
 
+@pytest.mark.parametrize("periodic", [False, True])
+def test_a_sampled_profile_is_scipys_cubic_spline_and_straight_beyond_its_ends(periodic):
+    # A sampled profile is the cubic spline through its samples (scipy's CubicSpline: not-a-knot,
+    # or periodic over its period), beyond its ends on an open profile the straight lines by its
+    # end heights and slopes (h'' = 0 there); one position at a time as in an array, inside, on
+    # the ends and beyond both. Truth: scipy.interpolate.CubicSpline on the same samples
+    from scipy.interpolate import CubicSpline
+
+    rng = np.random.default_rng(3)
+    x = np.linspace(0.0, 1e-3, 41)
+    h = 1e-6 * np.sin(7e3 * x) + 1e-7 * rng.standard_normal(x.size)
+    tex = hx.SampledProfile(x, h, periodic=periodic)
+    if periodic:
+        dx = x[1] - x[0]
+        ref = CubicSpline(np.r_[x, x[-1] + dx], np.r_[h, h[0]], bc_type="periodic")
+        period = x[-1] + dx - x[0]
+    else:
+        ref = CubicSpline(x, h, bc_type="not-a-knot")
+    xs = np.r_[rng.uniform(-0.4e-3, 1.4e-3, 200), x[0], x[-1], x[17], -1e-9, 1e-3 + 1e-9]
+    for order, fun in enumerate((tex.height, tex.slope, tex.curvature)):
+        if periodic:
+            want = ref(x[0] + np.mod(xs - x[0], period), order)
+        else:
+            inside = np.clip(xs, x[0], x[-1])
+            d = xs - inside  # (beyond an end: the straight line by its height and slope)
+            want = ref(inside, order) + (ref(inside, 1) * d if order == 0 else 0.0)
+            want = np.where((d != 0) & (order == 2), 0.0, want)
+        scale = [1e-6, 1e-2, 1e2][order]  # (the profile's height, slope and curvature sizes)
+        got = fun(xs)
+        np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-9 * scale)
+        one = np.array([fun(v) for v in xs])  # (a position at a time: the same numbers, to the bit)
+        assert np.array_equal(one, got)
+        assert np.shape(fun(xs[0])) == () and fun(xs[:204].reshape(6, -1)).shape == (6, 34)
+
+
 @given(textures(), st.lists(st.floats(-5e-3, 5e-3), min_size=1, max_size=20))
 def test_compiled_texture_matches_numpy(tex, xs):
     for x in xs:
