@@ -5,6 +5,7 @@ import json
 import math
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -145,10 +146,20 @@ def test_force_writes_into_a_foreign_directory_and_keeps_its_files(tmp_path, mon
     # once without --force; with it, written and the directory's own file kept; a second run
     # over it (now a report with a foreign file) keeps the file too. The command runs in this
     # process with the quick computation made once beforehand (what is tested is where the
-    # report is written; the module's fixture runs the whole command)
+    # report is written; the module's fixture runs the whole command, its figures drawn: here
+    # each figure is an empty file at the path the report gives it, 10 s of drawing twice saved)
+    from haptex import plotting
     from haptex import report as rep
     from haptex.cli import main
 
+    def placeholder(*args, **kwargs):
+        path = Path(next(a for a in args if isinstance(a, (str, Path))))
+        path.write_bytes(b"")
+        return path
+
+    for name in ("plot_force_field", "plot_loop_energies", "plot_runs", "plot_wall_map", "plot_robustness",
+                 "plot_stabilisers", "plot_speed_sweep", "plot_trajectories"):
+        monkeypatch.setattr(plotting, name, placeholder)
     data = rep.compute(quick=True)
     monkeypatch.setattr(rep, "compute", lambda **kw: data)
     target = tmp_path / "mine"
