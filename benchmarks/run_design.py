@@ -15,7 +15,10 @@
    cells), two gratings at 63 deg (40 and 30 um, 2 mm and 0.89 mm) at 0.995 times their
    tightest radius (0.633 mm; the uniform grids to their cap) and at 1.2 times (bridged along
    creases at an angle to the axes: each refined grid's branches made both ways). ``python
-   benchmarks/run_design.py felt`` runs this part alone.
+   benchmarks/run_design.py felt`` runs this part alone;
+6. a measured profile felt by a ball: the raw Dektak scan (levelled, 9,600 samples) felt by
+   balls of 0.1, 0.5 and 1 mm, each refined for its path's curvature (the gallery's "A measured
+   scan as a ball feels it"). ``python benchmarks/run_design.py profile`` runs this part alone.
 """
 
 from __future__ import annotations
@@ -101,6 +104,7 @@ def main() -> None:
             rough.felt_by(r)
             print(f"felt_by({r * 1e6:g} um), 1024 x 1024 map             {time.perf_counter() - t:6.2f} s")
     felt_near_rho()
+    felt_profile()
 
 
 def felt_near_rho() -> None:
@@ -119,8 +123,23 @@ def felt_near_rho() -> None:
         print(f"felt_by, {what:<24} {time.perf_counter() - t:6.2f} s  ({felt.x.size} x {felt.y.size})")
 
 
+def felt_profile() -> None:
+    """Part 6: the Dektak scan felt by balls, wall time of one construction each."""
+    if not DEKTAK.exists():
+        print(f"(the Dektak scan is not at {DEKTAK}: skipped)")
+        return
+    scan = hx.load_texture(DEKTAK).leveled()
+    for r in (0.1e-3, 0.5e-3, 1e-3):
+        t = time.perf_counter()
+        felt = scan.felt_by(r)
+        what = f"felt_by({r * 1e3:g} mm), Dektak scan"
+        print(f"{what:<40} {time.perf_counter() - t:6.2f} s  ({felt.x.size} samples)")
+
+
 if __name__ == "__main__":
     if sys.argv[1:] == ["felt"]:
         felt_near_rho()
+    elif sys.argv[1:] == ["profile"]:
+        felt_profile()
     else:
         main()
