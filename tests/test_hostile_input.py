@@ -854,6 +854,31 @@ def test_a_mass_damping_or_stiffness_given_as_a_bool_is_refused(make, name):
         make(True)
 
 
+def _threshold(frequency):
+    from haptex.perception import detection_threshold
+
+    return detection_threshold(frequency)
+
+
+@pytest.mark.parametrize("make, name", [(lambda v: hx.Device.point_mass(mass=[[v, 0.0], [0.0, 1.0]]), "mass"),
+                                        (lambda v: hx.Device.point_mass(damping=np.array([[2.0, 0.0], [0.0, v]],
+                                                                                          dtype=object)), "damping"),
+                                        (lambda v: _threshold([[100.0, v]]), "frequency"),
+                                        (lambda v: _threshold(np.array([[100.0], [v]], dtype=object)), "frequency"),
+                                        (lambda v: hx.Sinusoid(1e-4, 1e-3, phase=v), "phase")])
+def test_a_bool_inside_a_matrix_or_an_array_of_numbers_is_refused(make, name):
+    # A matrix's entry or an array's number given as a bool (Python's or numpy's): numpy takes
+    # True for 1 (1 kg, 1 N s/m, 1 Hz) once it sits among numbers, where every scalar of haptex
+    # refuses a bool (_validation._real); the top-level bool was refused, the bool inside a row
+    # was not (matrix2 and perception's own check each looked at the outer value only), and a
+    # scalar took numpy's bool (np.True_ is not Python's). Truth: that rule, one implementation
+    # for arrays (_validation.numbers); an object array of numbers is numbers
+    for flag in (True, np.True_):
+        with pytest.raises(hx.ParameterError, match=rf"^{name} = "):
+            make(flag)
+    make(1.0)  # (the same value as a number: taken)
+
+
 @pytest.mark.parametrize("field, value", [("link_proximal", 1e9), ("link_distal", 1e4), ("base", 1e300)])
 def test_a_pantographs_link_past_a_kilometre_is_refused_by_name(field, value):
     # A link or base length past MAX_LENGTH (1 km: "far beyond any haptic workspace") was taken

@@ -192,6 +192,40 @@ def optional_positive(name: str, value, unit: str = "") -> float | None:
     return None if value is None else positive(name, value, unit)
 
 
+def numbers(name: str, value, allowed: str) -> np.ndarray:
+    """``value`` as a float64 array of its shape, refused naming ``name`` (``allowed`` saying
+    what is) where it is not numbers: text, None, or a bool anywhere in it, Python's or numpy's
+    (numpy takes True for 1 once it sits among numbers, where every scalar of haptex refuses a
+    bool, :func:`_real`). Finiteness and ranges are the caller's.
+
+    Raises
+    ------
+    ParameterError
+        If ``value`` is not numbers, as above.
+    """
+    try:
+        raw = np.asarray(value)
+        arr = raw.astype(np.float64)
+    except (TypeError, ValueError):
+        raise fail(name, value, allowed) from None
+    if raw.dtype.kind in "bUSV" or _holds_bool(value if raw.dtype.kind != "O" else raw.ravel().tolist()):
+        raise fail(name, value, allowed)
+    return arr
+
+
+def _holds_bool(value) -> bool:
+    """Whether a bool sits in ``value``'s nested lists and tuples (an array's own dtype tells
+    the rest: numpy keeps no trace of a bool it converted)."""
+    stack = [value]
+    while stack:
+        v = stack.pop()
+        if isinstance(v, bool | np.bool_):
+            return True
+        if isinstance(v, list | tuple):
+            stack.extend(v)
+    return False
+
+
 def matrix2(name: str, value, what: str = "2x2 matrix", dim: int = 2) -> np.ndarray:
     """A dim x dim float64 matrix (2x2 by default) from a scalar (times the identity:
     isotropic) or a dim x dim array.
@@ -199,15 +233,10 @@ def matrix2(name: str, value, what: str = "2x2 matrix", dim: int = 2) -> np.ndar
     Raises
     ------
     ParameterError
-        If the value is neither (a bool is neither, as for every scalar of haptex), or holds a
-        non-finite entry.
+        If the value is neither (a bool is neither, nor a matrix holding one: :func:`numbers`),
+        or holds a non-finite entry.
     """
-    if isinstance(value, bool | np.bool_) or (isinstance(value, np.ndarray) and value.dtype == bool):
-        raise fail(name, value, f"a scalar or a {what}")
-    try:
-        arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise fail(name, value, f"a scalar or a {what}") from None
+    arr = numbers(name, value, f"a scalar or a {what}")
     if arr.ndim == 0:
         arr = float(arr) * np.eye(dim)
     if arr.shape != (dim, dim) or not np.all(np.isfinite(arr)):
@@ -247,8 +276,9 @@ def positions(p, name: str = "p", dim: int = 2) -> np.ndarray:
 
 
 def _real(name: str, value, allowed: str) -> float:
-    """``value`` as a float (booleans and non-numbers refused; inf and NaN pass)."""
-    if isinstance(value, bool):
+    """``value`` as a float (booleans, Python's or numpy's, and non-numbers refused; inf and
+    NaN pass)."""
+    if isinstance(value, bool | np.bool_):
         raise fail(name, value, allowed)
     try:
         return float(value)

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._validation import fail, positive
+from ._validation import fail, numbers, positive
 
 __all__ = ["THRESHOLD", "detection_threshold", "Buzz", "buzz", "dequantise"]
 
@@ -46,20 +46,6 @@ THRESHOLD = {
 
 LOWEST_FREQUENCY = 20.0
 """Hz: components below are the hand's own motion and the scan, not vibration (chosen)."""
-
-
-def _numbers(name: str, value, allowed: str) -> np.ndarray:
-    """``value`` as a float array, refused naming ``name`` where it is not numbers (text, None
-    among them, or booleans, which numpy would take for 0 and 1)."""
-    try:
-        raw = np.asarray(value)
-        arr = raw.astype(np.float64)
-    except (TypeError, ValueError):
-        raise fail(name, value, allowed) from None
-    among = isinstance(value, list | tuple) and any(isinstance(v, bool | np.bool_) for v in value)
-    if raw.dtype.kind in "bO" or among:  # (a bool among numbers: numpy makes the list floats)
-        raise fail(name, value, allowed)
-    return arr
 
 
 def detection_threshold(frequency) -> np.ndarray:
@@ -82,7 +68,7 @@ def detection_threshold(frequency) -> np.ndarray:
     ParameterError
         For a frequency that is not finite and > 0.
     """
-    f = _numbers("frequency", frequency, "finite frequencies > 0 (Hz)")
+    f = numbers("frequency", frequency, "finite frequencies > 0 (Hz)")
     if not np.all(np.isfinite(f) & (f > 0)):
         raise fail("frequency", f.tolist() if f.size < 8 else "an array", "finite frequencies > 0 (Hz)")
     t = THRESHOLD
@@ -216,12 +202,12 @@ def buzz(position, period: float, exclude=(), floor: float = 0.0) -> Buzz:
 
     T = positive("period", period, "s")
     floor = nonnegative("floor", floor, "m")
-    p = _numbers("position", position, "positions (m), shape (n, d) with n >= 16 samples")
+    p = numbers("position", position, "positions (m), shape (n, d) with n >= 16 samples")
     if p.ndim != 2 or p.shape[0] < 16:
         raise fail("position", f"an array of shape {p.shape}", "shape (n, d) with n >= 16 samples")
     if not np.all(np.isfinite(p)):
         raise fail("position", "an array with non-finite values", "finite positions (m)")
-    rates = np.atleast_1d(_numbers("exclude", () if exclude is None else exclude, "rates (Hz), each finite and > 0"))
+    rates = np.atleast_1d(numbers("exclude", () if exclude is None else exclude, "rates (Hz), each finite and > 0"))
     if not np.all(np.isfinite(rates) & (rates > 0)):
         raise fail("exclude", exclude, "rates (Hz), each finite and > 0")
     n = p.shape[0]
