@@ -879,6 +879,17 @@ def test_a_bool_inside_a_matrix_or_an_array_of_numbers_is_refused(make, name):
     make(1.0)  # (the same value as a number: taken)
 
 
+@pytest.mark.parametrize("make, name", [(lambda v: hx.Device.point_mass(mass=[[v, 0.0], [0.0, 1.0]]), "mass"),
+                                        (lambda v: _threshold([100.0, v]), "frequency"),
+                                        (lambda v: _threshold(np.array([50.0, v])), "frequency")])
+def test_a_complex_number_among_numbers_is_refused_not_cut_to_its_real_part(make, name):
+    # numpy's astype(float) keeps a complex number's real part (with a warning): 1 + 1j kg was
+    # taken as 1 kg, 100 + 5j Hz as 100 Hz. A number here is real (_validation.numbers)
+    with pytest.raises(hx.ParameterError, match=rf"^{name} = "):
+        make(100.0 + 5j)
+    make(100.0)
+
+
 @pytest.mark.parametrize("field, value", [("link_proximal", 1e9), ("link_distal", 1e4), ("base", 1e300)])
 def test_a_pantographs_link_past_a_kilometre_is_refused_by_name(field, value):
     # A link or base length past MAX_LENGTH (1 km: "far beyond any haptic workspace") was taken

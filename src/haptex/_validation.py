@@ -194,9 +194,10 @@ def optional_positive(name: str, value, unit: str = "") -> float | None:
 
 def numbers(name: str, value, allowed: str) -> np.ndarray:
     """``value`` as a float64 array of its shape, refused naming ``name`` (``allowed`` saying
-    what is) where it is not numbers: text, None, or a bool anywhere in it, Python's or numpy's
-    (numpy takes True for 1 once it sits among numbers, where every scalar of haptex refuses a
-    bool, :func:`_real`). Finiteness and ranges are the caller's.
+    what is) where it is not real numbers: text, None, a complex number (numpy's astype keeps
+    its real part), or a bool anywhere in it, Python's or numpy's (numpy takes True for 1 once
+    it sits among numbers, where every scalar of haptex refuses a bool, :func:`_real`).
+    Finiteness and ranges are the caller's.
 
     Raises
     ------
@@ -205,12 +206,14 @@ def numbers(name: str, value, allowed: str) -> np.ndarray:
     """
     try:
         raw = np.asarray(value)
-        arr = raw.astype(np.float64)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError):  # (ragged nesting)
         raise fail(name, value, allowed) from None
-    if raw.dtype.kind in "bUSV" or _holds_bool(value if raw.dtype.kind != "O" else raw.ravel().tolist()):
-        raise fail(name, value, allowed)
-    return arr
+    if raw.dtype.kind in "bcUSV" or _holds_bool(value if raw.dtype.kind != "O" else raw.ravel().tolist()):
+        raise fail(name, value, allowed)  # (before numpy's cast, which would warn of what it drops)
+    try:
+        return raw.astype(np.float64)
+    except (TypeError, ValueError):  # (None or an object that is not a number)
+        raise fail(name, value, allowed) from None
 
 
 def _holds_bool(value) -> bool:
