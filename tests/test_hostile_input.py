@@ -883,8 +883,10 @@ def test_a_bool_inside_a_matrix_or_an_array_of_numbers_is_refused(make, name):
                                         (lambda v: _threshold([100.0, v]), "frequency"),
                                         (lambda v: _threshold(np.array([50.0, v])), "frequency")])
 def test_a_complex_number_among_numbers_is_refused_not_cut_to_its_real_part(make, name):
-    # numpy's astype(float) keeps a complex number's real part (with a warning): 1 + 1j kg was
-    # taken as 1 kg, 100 + 5j Hz as 100 Hz. A number here is real (_validation.numbers)
+    # numpy's astype(float) keeps a complex number's real part (with a warning): perception's
+    # check took 100 + 5j Hz as 100 Hz; a matrix, read through the same rule since, is held to it
+    # too (it took 1 + 1j kg as 1 kg between the two commits). A number here is real
+    # (_validation.numbers)
     with pytest.raises(hx.ParameterError, match=rf"^{name} = "):
         make(100.0 + 5j)
     make(100.0)
