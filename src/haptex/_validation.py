@@ -208,21 +208,21 @@ def numbers(name: str, value, allowed: str) -> np.ndarray:
         raw = np.asarray(value)
     except (TypeError, ValueError):  # (ragged nesting)
         raise fail(name, value, allowed) from None
-    if raw.dtype.kind in "bcUSV" or _holds_bool(value if raw.dtype.kind != "O" else raw.ravel().tolist()):
+    if raw.dtype.kind in "bcUSV" or _holds_bool_or_none(value if raw.dtype.kind != "O" else raw.ravel().tolist()):
         raise fail(name, value, allowed)  # (before numpy's cast, which would warn of what it drops)
     try:
         return raw.astype(np.float64)
-    except (TypeError, ValueError):  # (None or an object that is not a number)
+    except (TypeError, ValueError):  # (an object that is not a number)
         raise fail(name, value, allowed) from None
 
 
-def _holds_bool(value) -> bool:
-    """Whether a bool sits in ``value``'s nested lists and tuples (an array's own dtype tells
-    the rest: numpy keeps no trace of a bool it converted)."""
+def _holds_bool_or_none(value) -> bool:
+    """Whether a bool or None sits in ``value``'s nested lists and tuples (an array's own dtype
+    tells the rest: numpy keeps no trace of a bool it converted, and casts None to NaN)."""
     stack = [value]
     while stack:
         v = stack.pop()
-        if isinstance(v, bool | np.bool_):
+        if v is None or isinstance(v, bool | np.bool_):
             return True
         if isinstance(v, list | tuple):
             stack.extend(v)
