@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validation import ParameterError, fail, positive
+from .._validation import ParameterError, fail, numbers, positive
 from ..algorithms import Algorithm, checked_algorithm
 from ..textures import Texture, checked_texture
 from .characteristic import CharacteristicNumber, characteristic_number
@@ -125,11 +125,10 @@ PERIOD_LIMITS = (("scanning velocity", "alpha v T / l < 1"), ("low-speed reconst
 def _samples_per_period(samples_per_period) -> tuple[float, float, float]:
     allowed = ("a number of samples a period from 2 (Nyquist's) to 1e6, or three such (alpha, beta, gamma); the "
                "paper's are 5 to 10")
+    spp = numbers("samples_per_period", samples_per_period, allowed)
     try:
-        if isinstance(samples_per_period, bool | np.bool_ | str | bytes):
-            raise TypeError
-        spp = np.broadcast_to(np.asarray(samples_per_period, dtype=np.float64), (3,))
-    except (TypeError, ValueError):
+        spp = np.broadcast_to(spp, (3,))
+    except ValueError:  # (neither one nor three)
         raise fail("samples_per_period", samples_per_period, allowed) from None
     for name, val in zip(("alpha", "beta", "gamma"), spp):
         if not 2.0 <= val <= 1e6:  # (NaN too)
