@@ -892,6 +892,94 @@ def test_a_complex_number_among_numbers_is_refused_not_cut_to_its_real_part(make
     make(100.0)
 
 
+def _identify(time=None, position=None, force=None):
+    # a logged run's arrays (a mass pushed by a sine, 2,000 samples at 1 kHz): the entry at
+    # 0.5 s replaced (0.5 is its time, so that the number itself is taken)
+    t = np.arange(2000) * 1e-3
+    f = np.sin(2 * np.pi * 5 * t)
+    p = np.cumsum(np.cumsum(f)) * 1e-6
+    arrays = [a.tolist() for a in (t, p, f)]
+    for k, v in enumerate((time, position, force)):
+        if v is not None:
+            arrays[k][500] = v
+    return hx.identify(time=arrays[0], position=arrays[1], force=arrays[2])
+
+
+def _fit(acceleration=None, speed=None, normal_force=None):
+    # a recording's arrays (2,000 samples at 10 kHz): one entry replaced
+    from haptex.datadriven import fit
+
+    rng = np.random.default_rng(0)
+    arrays = [rng.normal(size=2000).tolist(), [0.1] * 2000, [1.0] * 2000]
+    for k, v in enumerate((acceleration, speed, normal_force)):
+        if v is not None:
+            arrays[k][100] = v
+    return fit(*arrays, sample_rate=10_000.0)
+
+
+def _dft321(acceleration):
+    from haptex.datadriven import dft321
+
+    return dft321(acceleration)
+
+
+def _sampled_profile(v):
+    h = [0.0] * 50
+    h[7] = v
+    return hx.SampledProfile(np.linspace(0.0, 1e-2, 50), h)
+
+
+def _sampled_surface(v):
+    h = np.zeros((8, 8), dtype=object)
+    h[3, 4] = v
+    return hx.SampledSurface(np.linspace(0.0, 1e-3, 8), np.linspace(0.0, 1e-3, 8), h.tolist())
+
+
+_MAP = hx.SampledSurface(np.linspace(0.0, 1e-3, 8), np.linspace(0.0, 1e-3, 8), np.zeros((8, 8)))
+
+
+@pytest.mark.parametrize("make, name", [
+    (lambda v: hx.algorithm("A", hx.Sinusoid(1e-4, 1e-3), 2000.0).force([[v, -2e-4]]), "p"),
+    (lambda v: hx.algorithm("B", hx.Sinusoid(1e-4, 1e-3), 2000.0).jacobian([[0.0, -2e-4], [v, -2e-4]]), "p"),
+    (lambda v: hx.algorithm("A", _MAP, 2000.0).force([[1e-4, 2e-4, v]]), "p"),
+    (lambda v: _MAP.height_at([[v, 2e-4]]), "xy"),
+    (lambda v: hx.SumOfSinusoids([3e-4, v], [1e-3, 2.5e-4]), "amplitudes"),
+    (lambda v: hx.SumOfSinusoids([3e-4, 1e-4], [1e-3, 2.5e-4], [0.0, v]), "phases"),
+    (lambda v: hx.SumOfGratings([1e-4, 1e-4], [1e-3, v], [0.0, 1.0]), "periods"),
+    (_sampled_profile, "h"),
+    (_sampled_surface, "h"),
+    (lambda v: hx.Renderer(hx.algorithm("A", hx.Sinusoid(1e-4, 1e-3), 2000.0)).step_many([[0.0, 1e-3], [v, 1e-3]]),
+     "points"),
+    (lambda v: _identify(time=v), "time"), (lambda v: _identify(position=v), "position"),
+    (lambda v: _identify(force=v), "force"),
+    (lambda v: _fit(acceleration=v), "acceleration"), (lambda v: _fit(speed=v), "speed"),
+    (lambda v: _fit(normal_force=v), "normal_force"),
+    (lambda v: _dft321([[v, 0.0, 0.0]] + [[0.0, 0.0, 0.0]] * 63), "acceleration")])
+def test_positions_and_samples_holding_a_bool_text_or_a_complex_number_are_refused(make, name):
+    # Positions (every field's force and Jacobian, a map's heights at points), a sum of
+    # sinusoids' or gratings' parameters and a sampled profile's or map's heights went through
+    # numpy's float cast, which takes True for 1 (1 m, 1 rad), parses text ("0.5") and keeps a
+    # complex number's real part (with a warning): a position of True metres was felt. Truth:
+    # haptex's rule for arrays of numbers (_validation.numbers; the scalars' since long), here
+    # at every public array of lengths; the same value as a number is taken.
+    for bad in (True, np.True_, 0.5 + 1j, "0.5"):
+        with pytest.raises(hx.ParameterError, match=rf"^{name}\b"):
+            make(bad)
+    make(0.5)
+
+
+@pytest.mark.parametrize("make, start", [
+    (lambda: hx.Device.point_mass(mass=np.array([[1.0, 0.0], [0.0, 1j]])), "mass = array([[1.+0.j, 0.+0.j], [0.+0.j"),
+    (lambda: hx.Renderer(hx.algorithm("A", hx.Sinusoid(1e-4, 1e-3), 2000.0)).step_many(np.zeros((5, 2), dtype=complex)),
+     "points = array([[0.+0.j, 0.+0.j], [0.+0.j")])
+def test_an_array_refused_is_named_on_one_line(make, start):
+    # numpy's repr of an array breaks its rows over lines: a complex mass matrix's error spanned
+    # two (README, "Bad input": one line, naming the value); now its rows follow on one line
+    with pytest.raises(hx.ParameterError) as err:
+        make()
+    assert str(err.value).startswith(start) and "\n" not in str(err.value)
+
+
 @pytest.mark.parametrize("field, value", [("link_proximal", 1e9), ("link_distal", 1e4), ("base", 1e300)])
 def test_a_pantographs_link_past_a_kilometre_is_refused_by_name(field, value):
     # A link or base length past MAX_LENGTH (1 km: "far beyond any haptic workspace") was taken

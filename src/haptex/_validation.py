@@ -8,8 +8,10 @@ can print it as one line.
 from __future__ import annotations
 
 import contextlib
+import itertools
 import math
 import os
+import re
 
 import numpy as np
 
@@ -31,7 +33,7 @@ class ParameterError(ValueError):
 def _fmt(value) -> str:
     if isinstance(value, float | np.floating):
         return f"{float(value):g}"
-    text = repr(value)
+    text = re.sub(r"\n\s*", " ", repr(value))  # (one line: numpy's repr of an array breaks its rows)
     return text if len(text) <= 60 else text[:57] + "..."
 
 
@@ -192,12 +194,13 @@ def optional_positive(name: str, value, unit: str = "") -> float | None:
     return None if value is None else positive(name, value, unit)
 
 
-def numbers(name: str, value, allowed: str) -> np.ndarray:
+def numbers(name: str, value, allowed: str, copy: bool = True) -> np.ndarray:
     """``value`` as a float64 array of its shape, refused naming ``name`` (``allowed`` saying
     what is) where it is not real numbers: text, None, a complex number (numpy's astype keeps
     its real part), or a bool anywhere in it, Python's or numpy's (numpy takes True for 1 once
     it sits among numbers, where every scalar of haptex refuses a bool, :func:`_real`).
-    Finiteness and ranges are the caller's.
+    Finiteness and ranges are the caller's. With ``copy=False`` a float64 array given is
+    returned itself (for positions read and not kept).
 
     Raises
     ------
@@ -208,25 +211,36 @@ def numbers(name: str, value, allowed: str) -> np.ndarray:
         raw = np.asarray(value)
     except (TypeError, ValueError):  # (ragged nesting)
         raise fail(name, value, allowed) from None
-    if raw.dtype.kind in "bcUSV" or _holds_bool_or_none(value if raw.dtype.kind != "O" else raw.ravel().tolist()):
+    kind = raw.dtype.kind
+    if kind in "bcUSV" or ((kind == "O" or not isinstance(value, np.ndarray))  # (an array's dtype says the rest)
+                           and _holds_bool_or_none(value if kind != "O" else raw.ravel().tolist())):
         raise fail(name, value, allowed)  # (before numpy's cast, which would warn of what it drops)
     try:
-        return raw.astype(np.float64)
+        return raw.astype(np.float64, copy=copy)
     except (TypeError, ValueError):  # (an object that is not a number)
         raise fail(name, value, allowed) from None
 
 
 def _holds_bool_or_none(value) -> bool:
     """Whether a bool or None sits in ``value``'s nested lists and tuples (an array's own dtype
-    tells the rest: numpy keeps no trace of a bool it converted, and casts None to NaN)."""
-    stack = [value]
-    while stack:
-        v = stack.pop()
-        if v is None or isinstance(v, bool | np.bool_):
+    tells the rest: numpy keeps no trace of a bool it converted, and casts None to NaN). Read a
+    level at a time by the types present (a list of 1,000 rows: about 0.1 ms, what numpy's own
+    conversion of it costs again)."""
+    level = [value]
+    while level:
+        kinds = set(map(type, level))
+        if any(issubclass(k, _FLAG_TYPES) for k in kinds):
             return True
-        if isinstance(v, list | tuple):
-            stack.extend(v)
+        nested = sum(issubclass(k, _SEQUENCE_TYPES) for k in kinds)
+        if not nested:
+            return False
+        level = list(itertools.chain.from_iterable(
+            level if nested == len(kinds) else (v for v in level if isinstance(v, _SEQUENCE_TYPES))))
     return False
+
+
+_FLAG_TYPES = (bool, np.bool_, type(None))
+_SEQUENCE_TYPES = (list, tuple)
 
 
 def matrix2(name: str, value, what: str = "2x2 matrix", dim: int = 2) -> np.ndarray:
@@ -256,13 +270,11 @@ def positions(p, name: str = "p", dim: int = 2) -> np.ndarray:
     ------
     ParameterError
         If the last axis is not of length ``dim`` (a profile given 3-D positions, or a
-        surface given 2-D ones) or a coordinate is not finite.
+        surface given 2-D ones), or a coordinate is not a finite real number (a bool, text or
+        a complex number is not one: :func:`numbers`).
     """
     what = "[x, z]" if dim == 2 else "[x, y, z]"
-    try:
-        arr = np.asarray(p, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise fail(name, p, f"an array of shape (..., {dim}) of finite positions {what} in metres") from None
+    arr = numbers(name, p, f"an array of shape (..., {dim}) of finite positions {what} in metres", copy=False)
     if arr.ndim == 0 or arr.shape[-1] != dim:
         over = "a profile h(x)" if dim == 2 else "a surface h(x, y)"
         raise ParameterError(

@@ -37,7 +37,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ._validation import ParameterError, a_path, fail, positive, random_seed, whole
+from ._validation import ParameterError, a_path, fail, numbers, positive, random_seed, whole
 from .catalogue import checked_device
 
 LOG_COLUMNS = {
@@ -447,14 +447,10 @@ class Identification:
 
 def _shaped(time, position, force):
     """(time (n,), position (n, d), force (n, d)) as float64, one axis made a column; refused
-    unless the shapes agree and d is 1-3."""
-    def numbers(name, v, unit):
-        try:
-            return np.asarray(v, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise fail(name, v, f"an array of numbers ({unit})") from None
-
-    t, p, f = numbers("time", time, "s"), numbers("position", position, "m"), numbers("force", force, "N")
+    unless the shapes agree and d is 1-3, or an entry is not a real number (a bool, text or a
+    complex number: :func:`~haptex._validation.numbers`)."""
+    t, p, f = (numbers(name, v, f"an array of numbers ({unit})", copy=False)
+               for name, v, unit in (("time", time, "s"), ("position", position, "m"), ("force", force, "N")))
     p = p[:, None] if p.ndim == 1 else p
     f = f[:, None] if f.ndim == 1 else f
     if t.ndim != 1 or p.ndim != 2 or p.shape[1] not in AXES or f.shape != p.shape or len(t) != len(p):
@@ -747,7 +743,8 @@ def identify(*, time, position, force, max_delay: int = MAX_DELAY, window: float
     Raises
     ------
     ParameterError
-        For arrays of different shapes, a non-finite value (naming the column and sample),
+        For arrays of different shapes, an entry that is not a real number (a bool, text or a
+    complex number), a non-finite value (naming the column and sample),
         times that do not increase or ticks whose interval strays more than 10 % from the
         median (missed ticks: cut the log), a log shorter than :data:`MIN_WINDOWS` windows,
         a constant force or position on an axis (nothing to identify), or settings out of

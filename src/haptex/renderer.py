@@ -16,7 +16,7 @@ import numpy as np
 
 from . import core as _core
 from .core import WORKSPACE_LIMIT, _ext
-from ._validation import fail, flag, optional_positive, positive, random_seed, whole
+from ._validation import fail, flag, numbers, optional_positive, positive, random_seed, whole
 from .algorithms import Algorithm, checked_algorithm
 from .closest import table_search_data
 
@@ -782,17 +782,18 @@ class Renderer:
         Raises
         ------
         ParameterError
-            If ``points`` is not an (n, dimension) array of real numbers.
+            If ``points`` is not an (n, dimension) array of real numbers (a bool, text or a
+            complex number anywhere in it is not one).
 
         Notes
         -----
         The loop runs with the GIL released (other Python threads go on).
         """
-        arr = np.asarray(points)
-        if arr.ndim != 2 or arr.shape[1] != self.dimension or arr.dtype.kind not in "iuf":
-            raise fail("points", f"shape {arr.shape}, dtype {arr.dtype}",
-                       f"an (n, {self.dimension}) array of real numbers (m)")
-        pts = np.ascontiguousarray(arr, dtype=np.float64)
+        allowed = f"an (n, {self.dimension}) array of real numbers (m)"
+        arr = numbers("points", points, allowed, copy=False)  # (no bool, text or complex number in it)
+        if arr.ndim != 2 or arr.shape[1] != self.dimension:
+            raise fail("points", f"shape {arr.shape}", allowed)
+        pts = np.ascontiguousarray(arr)
         out = np.empty_like(pts)
         self._core.run(pts, out)
         return out

@@ -18,8 +18,8 @@ import numpy as np
 from . import core as _core
 from .core import _ext
 from ._maximise import refine
-from ._validation import (ParameterError, a_path, check_count, fail, finite, flag, nonnegative, positive, random_seed,
-                          whole)
+from ._validation import (ParameterError, a_path, check_count, fail, finite, flag, nonnegative, numbers, positive,
+                          random_seed, whole)
 from .probe import (MAX_SAMPLES as MAX_PROBE_SAMPLES, _check_ball_fits, _check_work, _coarsest_spacing, _spacing,
                     _steps_text)
 from .textures import (MAX_HARMONICS, SampledProfile, Texture, _band_limited_samples, _resampled_axis, _vector,
@@ -51,10 +51,7 @@ def plane(xy, name: str = "xy") -> np.ndarray:
     ParameterError
         If the last axis is not of length 2 or a coordinate is not finite.
     """
-    try:
-        arr = np.asarray(xy, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise fail(name, xy, "an array of shape (..., 2) of finite in-plane positions [x, y] in metres") from None
+    arr = numbers(name, xy, "an array of shape (..., 2) of finite in-plane positions [x, y] in metres", copy=False)
     if arr.ndim == 0 or arr.shape[-1] != 2:
         raise ParameterError(f"{name} has shape {arr.shape}, which is not allowed: must be (..., 2) = [x, y] in metres")
     if not np.all(np.isfinite(arr)):
@@ -271,8 +268,8 @@ class SumOfGratings(Surface):
     Raises
     ------
     ParameterError
-        If the arrays are empty, of different lengths or not finite, an amplitude is
-        negative or a period not > 0.
+        If the arrays are empty, of different lengths or not finite real numbers (a bool,
+        text or a complex number is not one), an amplitude is negative or a period not > 0.
 
     Notes
     -----
@@ -971,7 +968,8 @@ class SampledSurface(Surface):
     ------
     ParameterError
         For a ``periodic`` that is not True or False, fewer than 4 x 4 samples, NaNs or
-        infinities, heights beyond +-1 km, a non-uniform or non-increasing axis, mismatched
+        infinities or entries that are not real numbers (a bool, text or a complex number),
+        heights beyond +-1 km, a non-uniform or non-increasing axis, mismatched
         shapes, or more than
         ``MAX_SAMPLES`` samples; gradients of another shape or not finite; knots without
         gradients or periodic, or not increasing from x (y).
@@ -996,10 +994,7 @@ class SampledSurface(Surface):
         else:
             x, y, self._knots = _graded_axes(x, y, knots, periodic, gradients)
             dx, dy = (float(np.diff(k).max()) for k in self._knots)  # (the coarsest cells: Nyquist, leaves)
-        try:
-            h = np.asarray(h, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise fail("h", "a non-numeric array", "an array of heights in metres, shape (nx, ny)") from None
+        h = numbers("h", h, "an array of heights in metres, shape (nx, ny)", copy=False)
         if h.shape != (x.size, y.size):
             raise ParameterError(f"h has shape {h.shape}, which is not allowed: must be (nx, ny) = ({x.size}, "
                                  f"{y.size}), h[i, j] at (x[i], y[j])")
@@ -1021,8 +1016,8 @@ class SampledSurface(Surface):
         self._gradients = self._edges = self._branches = None
         if gradients is not None:
             try:
-                g = np.asarray(gradients, dtype=np.float64)
-            except (TypeError, ValueError):
+                g = numbers("gradients", gradients, "an array of slopes", copy=False)
+            except ParameterError:
                 g = None
             if g is None or g.shape != h.shape + (2,) or not np.all(np.isfinite(g)):
                 raise fail("gradients", f"an array of shape {np.shape(gradients)}", f"shape ({x.size}, {y.size}, 2) "

@@ -17,7 +17,7 @@ from .core import _ext
 from .probe import (MAX_SAMPLES as MAX_PROBE_SAMPLES, _check_ball_fits, _check_work, _coarsest_spacing, _grid_contacts,
                     _spacing, _steps_text)
 from ._validation import (MAX_LENGTH, ParameterError, check_count, fail, finite, flag, in_range, nonnegative,
-                          not_a_texture, positive, random_seed, scale_factors, whole)
+                          not_a_texture, numbers, positive, random_seed, scale_factors, whole)
 
 
 MAX_HARMONICS = 100_000
@@ -217,7 +217,8 @@ class SumOfSinusoids(Texture):
     ------
     ParameterError
         If the arrays are empty or of different lengths, an amplitude is negative, a
-        period is not > 0, or any value is not finite.
+        period is not > 0, or any value is not a finite real number (a bool, text or a
+        complex number is not one).
 
     Notes
     -----
@@ -614,7 +615,8 @@ class SampledProfile(Texture):
     Raises
     ------
     ParameterError
-        For mismatched lengths, fewer than 4 samples, non-finite values, x not strictly
+        For mismatched lengths, fewer than 4 samples, values that are not finite real
+        numbers (a bool, text or a complex number is not one), x not strictly
         increasing (the message gives the first offending index), a ``periodic`` that is not
         True or False, or ``slopes`` not numbers of the shapes above.
 
@@ -1247,10 +1249,7 @@ def common_period(periods) -> float | None:
 
 
 def _vector(name: str, values) -> np.ndarray:
-    try:
-        arr = np.atleast_1d(np.asarray(values, dtype=np.float64))
-    except (TypeError, ValueError):
-        raise fail(name, values, "a 1-D sequence of finite numbers") from None
+    arr = np.atleast_1d(numbers(name, values, "a 1-D sequence of finite numbers", copy=False))
     if arr.ndim != 1 or arr.size == 0:
         raise fail(name, values, "a non-empty 1-D sequence of finite numbers")
     if not np.all(np.isfinite(arr)):

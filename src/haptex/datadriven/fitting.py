@@ -6,7 +6,7 @@ import dataclasses
 
 import numpy as np
 
-from .._validation import fail, positive, whole
+from .._validation import fail, numbers, positive, whole
 from .lsf import MAX_ORDER
 from .models import ArmaModel, ModelSet
 
@@ -45,10 +45,10 @@ def dft321(acceleration, block: int | None = None) -> np.ndarray:
     Raises
     ------
     ParameterError
-        If the array is not (n, 3) with n >= 2, not finite, or ``block`` is not an integer
-        >= 4.
+        If the array is not (n, 3) with n >= 2, not finite real numbers (a bool, text or a
+        complex number is not one), or ``block`` is not an integer >= 4.
     """
-    a = np.asarray(acceleration, dtype=float)
+    a = numbers("acceleration", acceleration, "an (n, 3) array of numbers (m/s^2)", copy=False)
     if a.ndim != 2 or a.shape[1] != 3 or a.shape[0] < 2:
         raise fail("acceleration", f"shape {a.shape}", "an (n, 3) array (three axes, m/s^2)")
     if not np.all(np.isfinite(a)):
@@ -121,19 +121,13 @@ def _recording_arrays(acceleration, speed, normal_force, sample_rate):
     normal force (n,) N, all finite; the rate > 0, Hz), as float arrays and the rate; refused
     naming the first that is not (:func:`fit` and :class:`~haptex.datadriven.Recording`)."""
     fs = positive("sample_rate", sample_rate, "Hz")
-    try:
-        acc = np.asarray(acceleration, dtype=float)
-    except (TypeError, ValueError):
-        raise fail("acceleration", acceleration, "an (n,) or (n, 3) array of numbers (m/s^2)") from None
+    acc = numbers("acceleration", acceleration, "an (n,) or (n, 3) array of numbers (m/s^2)", copy=False)
     if not (acc.ndim == 1 or (acc.ndim == 2 and acc.shape[1] == 3)) or acc.shape[0] < 1:
         raise fail("acceleration", f"shape {np.shape(acceleration)}", "an (n,) or (n, 3) array (m/s^2)")
     n = acc.shape[0]
     arrays = [acc]
     for nm, given in (("speed", speed), ("normal_force", normal_force)):
-        try:
-            arrays.append(np.asarray(given, dtype=float))
-        except (TypeError, ValueError):
-            raise fail(nm, given, f"({n},): one number per sample of acceleration") from None
+        arrays.append(numbers(nm, given, f"({n},): one number per sample of acceleration", copy=False))
     v, F = arrays[1:]
     for nm, arr, unit in (("acceleration", acc, "m/s^2"), ("speed", v, "m/s"), ("normal_force", F, "N")):
         if arr.shape[:1] != (n,) or (arr is not acc and arr.ndim != 1):
@@ -204,7 +198,8 @@ def fit(acceleration, speed, normal_force, sample_rate: float, *, rate: float | 
     Raises
     ------
     ParameterError
-        If the arrays disagree in length, hold NaN, a speed is negative, the recording is too
+        If the arrays disagree in length, hold NaN or an entry that is not a real number (a
+        bool, text or a complex number), a speed is negative, the recording is too
         short for the order (fewer than 10 p samples in a cell) or has no steady window.
 
     Notes

@@ -47,7 +47,8 @@ class Recording:
     Raises
     ------
     ParameterError
-        If a field is not of its shape, holds a value that is not a finite number, a speed is
+        If a field is not of its shape, holds a value that is not a finite real number (a
+        bool, text or a complex number is not one), a speed is
         negative or the rate is not > 0 (as :func:`fit` refuses them).
     """
 
