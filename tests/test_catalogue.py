@@ -150,6 +150,20 @@ def test_hand_and_preset_bad_input_is_refused_by_name():
         catalogue.custom_hand(50.0, 1.0, 100.0)
 
 
+def test_a_figure_name_no_preset_can_have_is_refused_not_answered_with_the_default():
+    # Preset.value(name, default) answered a misspelt figure ("max_froce") with the default, as
+    # dict.get does: a script's fallback silently replaced the published figure. Truth: the
+    # figures a device file may give (catalogue's schema, the same names its reader refuses
+    # others by); a figure this preset lacks still gives the default (the Falcon publishes no
+    # continuous force)
+    p = catalogue.preset("touch")
+    with pytest.raises(ParameterError, match=r"^name = 'max_froce' is not allowed: .*max_force"):
+        p.value("max_froce", 3.3)
+    assert p.value("max_force", 3.3) == p.figures["max_force"].value
+    lacking = [n for n in catalogue._UNITS if n not in p.figures]
+    assert lacking and all(p.value(n, "none") == "none" for n in lacking)
+
+
 def test_device_file_on_a_product_preset_replaces_its_figures(tmp_path):
     f = tmp_path / "our-falcon.toml"
     f.write_text('preset = "falcon"\ncoulomb_friction = "0.2 N"\ndelay = 1\n')

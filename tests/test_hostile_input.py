@@ -968,6 +968,68 @@ def test_positions_and_samples_holding_a_bool_text_or_a_complex_number_are_refus
     make(0.5)
 
 
+def _arma():
+    from haptex.datadriven import ArmaModel, ModelSet
+
+    return ModelSet([ArmaModel([1.0, -0.5], [1.0], 1.0, 1.0, 10_000.0, 0.1, 1.0)])
+
+
+def _mesh():
+    import trimesh
+
+    return trimesh.creation.icosphere(subdivisions=1, radius=0.05)
+
+
+def _f_algorithm():
+    return hx.algorithm("F", hx.Sinusoid(1e-4, 1e-3), 2000.0)
+
+
+@pytest.mark.parametrize("make, name, good", [
+    (lambda v: hx.Device.pantograph(working_point=[0.0, v]), "working_point", 0.15),
+    (lambda v: hx.Device.delta(working_point=[0.0, v, -0.12]), "working_point", 0.0),
+    (lambda v: __import__("haptex.devices", fromlist=["x"]).delta_kinematics(0.06, 0.02, 0.10, 0.13, [0.0, v, -0.12]),
+     "working_point", 0.0),
+    (lambda v: __import__("haptex.perception", fromlist=["x"]).dequantise([[0.0, 0.0], [v, 0.0]], 1e-5),
+     "position", 0.5),
+    (lambda v: __import__("haptex.limits", fromlist=["x"]).clean_stiffness(
+        hx.algorithm("A", hx.Sinusoid(1e-4, 1e-3), 2000.0), hx.Device.point_mass(), hx.operators.ConstantForce([0.0, -1.0]), [1000.0],
+        [100.0, v]), "stiffness", None),
+    (lambda v: _f_algorithm().force([[0.0, -1e-4]], deflection=[v]), "deflection", 1e-5),
+    (lambda v: _f_algorithm().modulation([0.0, v]), "x", 0.5),
+    (lambda v: __import__("haptex.friction", fromlist=["x"]).step_plane([0.0, v], [1e-5, 0.0], 1e-4),
+     "deflection", 1e-5),
+    (lambda v: __import__("haptex.friction", fromlist=["x"]).step_plane([0.0, 0.0], [v, 0.0], 1e-4),
+     "displacement", 1e-5),
+    (lambda v: hx.objects.Mesh(_mesh(), uv=np.full((len(_mesh().vertices), 2), v, dtype=object)), "uv", None),
+    (lambda v: hx.objects.Mesh(_mesh(), uv=_mesh().vertices[:, :2],
+                               normals=np.full((len(_mesh().vertices), 3), v, dtype=object)), "normals", None),
+    (lambda v: _arma().models[0].psd([10.0, v]), "frequency", 0.5),
+    (lambda v: _arma().synthesize([0.1, v], [1.0, 1.0]), "speed", 0.5),
+    (lambda v: _arma().synthesize([0.1, 0.1], [1.0, v]), "force", 0.5),
+    (lambda v: __import__("haptex.datadriven", fromlist=["x"]).height_spectrum(_arma(), [1e3, v]),
+     "wavenumber", 0.5),
+    (lambda v: __import__("haptex.datadriven", fromlist=["x"]).spectral_difference([v] + [0.0] * 99, [0.0] * 100,
+                                                                                     1000.0), "recorded", 0.5),
+    (lambda v: __import__("haptex.proxy", fromlist=["x"]).GodObject(hx.Sinusoid(1e-4, 1e-3), 2000.0).step(
+        [0.0, v]), "p", 0.5),
+    (lambda v: __import__("haptex.proxy", fromlist=["x"]).loop_work(hx.Sinusoid(1e-4, 1e-3), 2000.0,
+                                                                    [[0.0, 1e-3], [1e-3, v], [2e-3, 1e-3]]),
+     "path", 1e-3)])
+def test_every_other_public_array_holding_a_bool_text_or_a_complex_number_is_refused(make, name, good):
+    # The rest of the public arrays (devices' working points, dequantised positions, F's
+    # deflection and modulation, the presliding step, a mesh's UV map and normals, an ARMA
+    # model's frequencies, speeds and forces, a recording's signals, the god-object's probe and
+    # paths): numpy's float cast took True for 1, parsed text and cut a complex number to its
+    # real part. Truth: haptex's rule for arrays of numbers (_validation.numbers); the same
+    # value as a number is taken where the call is light enough to make (good), and it is the
+    # value the text and the complex number's real part spell
+    for bad in (True, np.True_, complex(0.5 if good is None else good, 1.0), str(0.5 if good is None else good)):
+        with pytest.raises(hx.ParameterError, match=rf"^{name}\b"):
+            make(bad)
+    if good is not None:
+        make(good)
+
+
 @pytest.mark.parametrize("make, start", [
     (lambda: hx.Device.point_mass(mass=np.array([[1.0, 0.0], [0.0, 1j]])), "mass = array([[1.+0.j, 0.+0.j], [0.+0.j"),
     (lambda: hx.Renderer(hx.algorithm("A", hx.Sinusoid(1e-4, 1e-3), 2000.0)).step_many(np.zeros((5, 2), dtype=complex)),

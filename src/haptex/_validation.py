@@ -213,7 +213,7 @@ def numbers(name: str, value, allowed: str, copy: bool = True) -> np.ndarray:
         raise fail(name, value, allowed) from None
     kind = raw.dtype.kind
     if kind in "bcUSV" or ((kind == "O" or not isinstance(value, np.ndarray))  # (an array's dtype says the rest)
-                           and _holds_bool_or_none(value if kind != "O" else raw.ravel().tolist())):
+                           and _holds_a_non_number(value if kind != "O" else raw.ravel().tolist())):
         raise fail(name, value, allowed)  # (before numpy's cast, which would warn of what it drops)
     try:
         return raw.astype(np.float64, copy=copy)
@@ -221,15 +221,16 @@ def numbers(name: str, value, allowed: str, copy: bool = True) -> np.ndarray:
         raise fail(name, value, allowed) from None
 
 
-def _holds_bool_or_none(value) -> bool:
-    """Whether a bool or None sits in ``value``'s nested lists and tuples (an array's own dtype
-    tells the rest: numpy keeps no trace of a bool it converted, and casts None to NaN). Read a
+def _holds_a_non_number(value) -> bool:
+    """Whether a bool, None, text or a complex number sits in ``value``'s nested lists and
+    tuples or an object array's elements (an array's own dtype tells the rest: numpy keeps no
+    trace of a bool it converted, casts None to NaN, and parses an object array's text). Read a
     level at a time by the types present (a list of 1,000 rows: about 0.1 ms, what numpy's own
     conversion of it costs again)."""
     level = [value]
     while level:
         kinds = set(map(type, level))
-        if any(issubclass(k, _FLAG_TYPES) for k in kinds):
+        if any(issubclass(k, _NON_NUMBERS) for k in kinds):
             return True
         nested = sum(issubclass(k, _SEQUENCE_TYPES) for k in kinds)
         if not nested:
@@ -239,7 +240,7 @@ def _holds_bool_or_none(value) -> bool:
     return False
 
 
-_FLAG_TYPES = (bool, np.bool_, type(None))
+_NON_NUMBERS = (bool, np.bool_, type(None), str, bytes, complex, np.complexfloating)
 _SEQUENCE_TYPES = (list, tuple)
 
 

@@ -18,7 +18,7 @@ import warnings
 
 from .core import _ext
 from ._validation import (ParameterError, fail, finite, in_range, nonnegative, not_an_algorithm, optional_positive,
-                          positions, positive)
+                          numbers, positions, positive)
 from .closest import closest_point, search_data
 from .friction import PreslidingState, smooth_table, step
 from .textures import Flat, Texture, checked_texture
@@ -1222,7 +1222,7 @@ class FrictionModulated(Algorithm):
         numpy.ndarray
             The modulation, shape (...).
         """
-        x = np.asarray(x, dtype=np.float64)
+        x = numbers("x", x, "abscissae (m), or in-plane positions [x, y] (m) over a surface", copy=False)
         if self.texture.dimension == 1:
             return 1.0 - self._scale * self.texture.height(x)
         return 1.0 - self._scale * self.texture.height_at(x)
@@ -1262,7 +1262,7 @@ class FrictionModulated(Algorithm):
         """Deflections broadcast to ``shape`` (profiles) or ``shape + (2,)`` (surfaces),
         each within the presliding range."""
         k = self.texture.dimension
-        d = np.asarray(deflection, dtype=np.float64)
+        d = numbers("deflection", deflection, "deflections (m)", copy=False)
         if k == 2 and d.ndim == 0:
             d = np.array([float(d), 0.0])  # a scalar over a surface: a deflection along x
         try:

@@ -223,7 +223,14 @@ class Preset:
         -------
         float or object
             The figure's value (SI units), or ``default``.
+
+        Raises
+        ------
+        ParameterError
+            For a name no preset can have (a misspelling: the names a device file may give).
         """
+        if name not in _UNITS:
+            raise fail("name", name, "a figure's name: " + ", ".join(_UNITS))
         f = self.figures.get(name)
         return default if f is None else f.value
 

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._validation import MAX_LENGTH, ParameterError, fail, matrix2, nonnegative, positive, positive_or_inf, whole
+from ._validation import MAX_LENGTH, ParameterError, fail, matrix2, nonnegative, numbers, positive, positive_or_inf, whole
 
 
 MAX_PERIOD = 1.0
@@ -567,10 +567,7 @@ class Device:
 
 
 def _triple(name: str, value) -> tuple[float, float, float]:
-    try:
-        arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise fail(name, value, "three finite numbers") from None
+    arr = numbers(name, value, "three finite numbers")
     if arr.shape != (3,) or not np.all(np.isfinite(arr)):
         raise fail(name, value, "three finite numbers")
     return tuple(float(v) for v in arr)
@@ -656,11 +653,12 @@ def delta_kinematics(R: float, r: float, a: float, b: float, p) -> tuple[np.ndar
     Raises
     ------
     ParameterError
-        If an arm cannot reach p.
+        If p is not three finite real numbers, or an arm cannot reach it (named
+        ``working_point``, as :meth:`Device.delta` takes it).
     """
     from scipy.optimize import brentq
 
-    p = np.asarray(p, dtype=np.float64)
+    p = np.array(_triple("working_point", p))
     angles = np.empty(3)
     ends = np.empty((3, 3))
     elbows = np.empty((3, 3))
@@ -720,8 +718,8 @@ def five_bar_jacobian(a1: float, a2: float, base: float, p) -> tuple[np.ndarray,
     """
     given = p
     try:
-        p = np.asarray(p, dtype=np.float64)
-    except (TypeError, ValueError):
+        p = numbers("working_point", p, "a handle position [x, y] in metres")
+    except ParameterError:
         p = None
     if p is None or p.shape != (2,) or not np.isfinite(p).all():
         raise fail("working_point", p.tolist() if p is not None and p.size <= 6 else given,

@@ -41,7 +41,7 @@ from functools import lru_cache
 import numpy as np
 
 from .core import _ext
-from ._validation import fail, finite, positive
+from ._validation import fail, finite, numbers, positive
 
 __all__ = ["PreslidingState", "step", "phase_of", "presliding_step", "presliding_step_smooth", "smooth_table"]
 
@@ -300,6 +300,12 @@ def step_plane(deflection, displacement, max_deflection: float, stick_deflection
     ndarray, shape (2,)
         The deflection after the step (m), |d| <= d_max.
 
+    Raises
+    ------
+    ParameterError
+        If the deflection or the displacement is not two finite real numbers (a bool, text or
+        a complex number is not one).
+
     Notes
     -----
     Sharp model: the adhesion point is dragged to within d_max (d + dp projected onto the
@@ -310,8 +316,11 @@ def step_plane(deflection, displacement, max_deflection: float, stick_deflection
     along the stroke, so the plane model is the 1-D model there, exactly. The step is first
     order in |dp| on curved paths: integrate along them in small steps.
     """
-    d = np.asarray(deflection, dtype=np.float64)
-    dp = np.asarray(displacement, dtype=np.float64)
+    d, dp = (numbers(name, v, "an in-plane vector [x, y] (m), shape (2,)", copy=False)
+             for name, v in (("deflection", deflection), ("displacement", displacement)))
+    for name, v in (("deflection", d), ("displacement", dp)):
+        if v.shape != (2,) or not np.all(np.isfinite(v)):
+            raise fail(name, v.tolist(), "a finite in-plane vector [x, y] (m), shape (2,)")
     z = -1.0 if stick_deflection is None else float(stick_deflection)
     tab = np.zeros(1) if table is None else table
     dx, dy, _ = _ext.presliding_plane(float(d[0]), float(d[1]), float(dp[0]), float(dp[1]),

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._validation import fail, nonnegative, positive
+from ._validation import fail, nonnegative, numbers, positive
 from .catalogue import DEFAULT_HAND, Hand, Preset, checked_device, hand as _hand
 from .devices import Device, critical_stiffness
 from .algorithms import checked_algorithm
@@ -455,11 +455,11 @@ def clean_stiffness(algorithm, device, operator, rates, stiffness, duration: flo
     device = checked_device(device)
     from .simulate import simulate_batch
 
-    ks = np.asarray(stiffness, dtype=np.float64)
+    ks = numbers("stiffness", stiffness, "finite stiffnesses > 0 (N/m), ascending")
     if ks.ndim != 1 or ks.size == 0 or not np.all(np.isfinite(ks) & (ks > 0)) or np.any(np.diff(ks) <= 0):
         raise fail("stiffness", ks.tolist() if ks.size < 8 else "an array", "finite stiffnesses > 0 (N/m), ascending")
     out = []
-    for rate in np.atleast_1d(np.asarray(rates, dtype=np.float64)):
+    for rate in np.atleast_1d(numbers("rate", rates, "servo rates > 0 (Hz)")):
         rate = positive("rate", float(rate), "Hz")
         dev = device.replace(period=1.0 / rate)
         batch = simulate_batch(algorithm, dev, operator, duration, initial_position=initial_position, stiffness=ks,

@@ -88,7 +88,7 @@ import math
 
 import numpy as np
 
-from ._validation import ParameterError, fail, positions, positive
+from ._validation import ParameterError, fail, numbers, positions, positive
 from .algorithms import ALGORITHMS, Algorithm, algorithm
 from .core import _ext, in_slices
 from .surfaces import Extruded, SumOfGratings, Surface
@@ -549,7 +549,7 @@ class Mesh(Base):
             if uv_scale is None:
                 raise fail("uv_scale", None, "metres per unit of the mesh's texture coordinates")
             uv = np.asarray(file_uv, dtype=float) * positive("uv_scale", uv_scale, "m")
-        uv = np.asarray(uv, dtype=float)
+        uv = numbers("uv", uv, f"surface coordinates (m), shape ({len(mesh.vertices)}, 2)", copy=False)
         if uv.shape != (len(mesh.vertices), 2) or not np.all(np.isfinite(uv)):
             raise fail("uv", f"shape {uv.shape}", f"finite surface coordinates (m), shape ({len(mesh.vertices)}, 2)")
         # closed and manifold on the positions (vertices split at UV seams are merged for this)
@@ -600,7 +600,7 @@ class Mesh(Base):
                 if np.sum(np.einsum("fkj,fj->fk", vn, self._normals) > 0) < vn.shape[0] * 1.5:
                     vn = -vn  # (trimesh's follow the winding: oriented outward like the triangles')
             else:
-                arr = np.asarray(normals, dtype=float)
+                arr = numbers("normals", normals, "'vertex' or an array of vertex normals", copy=False)
                 if arr.shape != (len(mesh.vertices), 3) or not np.all(np.isfinite(arr)) or np.any(
                         np.linalg.norm(arr, axis=1) == 0.0):
                     raise fail("normals", f"shape {arr.shape}", f"'vertex' or finite non-zero normals, shape "
@@ -1254,12 +1254,15 @@ class ObjectAlgorithm(Algorithm):
         Raises
         ------
         ParameterError
-            For a letter other than F.
+            For a letter other than F, or vertices that are not finite positions of shape
+            (N, 3).
         """
         if self.letter != "F":
             raise fail("algorithm", self.letter, "F for a path's work with its friction state (the other letters "
                        "are fields: haptex.analysis.work.path_work)")
-        pts = np.asarray(pts, dtype=np.float64)
+        pts = positions(pts, "pts", 3)
+        if pts.ndim != 2:
+            raise fail("pts", f"shape {pts.shape}", "(N, 3) vertices of a polyline (m)")
         us = np.linspace(0.0, 1.0, steps + 1)[1:]
         path = np.concatenate([pts[:1]] + [a + us[:, None] * (b - a) for a, b in zip(pts[:-1], pts[1:])])
         f = np.empty_like(path)

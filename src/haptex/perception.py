@@ -145,7 +145,7 @@ def dequantise(position, resolution: float) -> np.ndarray:
     from ._validation import nonnegative
 
     delta = nonnegative("resolution", resolution, "m")
-    p = np.asarray(position, dtype=np.float64)
+    p = numbers("position", position, "an (n, d) array of positions (m)", copy=False)
     if p.ndim != 2:
         raise fail("position", f"an array of shape {p.shape}", "shape (n, d)")
     if not np.all(np.isfinite(p)):

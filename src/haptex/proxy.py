@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._validation import fail, positive
+from ._validation import fail, numbers, positive
 from .textures import Texture, checked_texture
 
 MAX_STEPS = 200
@@ -244,7 +244,7 @@ class GodObject:
         ParameterError
             For a position of another shape or not finite.
         """
-        p = np.asarray(p, dtype=float).reshape(-1)
+        p = numbers("p", p, f"{self.dimension} finite coordinates (m)").reshape(-1)
         if p.shape != (self.dimension,) or not np.all(np.isfinite(p)):
             raise fail("p", p.tolist(), f"{self.dimension} finite coordinates (m)")
         if self._core is not None:  # the C core's tick
@@ -296,7 +296,7 @@ def loop_work(texture: Texture, stiffness: float, path, step: float | None = Non
     """
     texture = checked_texture(texture)
     g = GodObject(texture, stiffness, base)
-    v = np.asarray(path, dtype=float)
+    v = numbers("path", path, f"at least 3 finite vertices of {g.dimension} coordinates (m)", copy=False)
     if v.ndim != 2 or v.shape[1] != g.dimension or len(v) < 3 or not np.all(np.isfinite(v)):
         raise fail("path", np.shape(v), f"at least 3 finite vertices of {g.dimension} coordinates (m)")
     if start_outside and g._foot(v[0])[1]:

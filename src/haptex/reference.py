@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._validation import ParameterError, fail, positive
+from ._validation import ParameterError, fail, numbers, positive
 from .objects import Mesh, ObjectAlgorithm
 from .textures import Texture
 
@@ -373,7 +373,7 @@ class HapiDepthMap(_AnalysisOnly):
         ParameterError
             For a position that is not 3 finite coordinates.
         """
-        p = np.asarray(p, dtype=float).reshape(-1)
+        p = numbers("p", p, "3 finite coordinates [x, y, z] (m)").reshape(-1)
         if p.shape != (3,) or not np.all(np.isfinite(p)):
             raise fail("p", p.tolist(), "3 finite coordinates [x, y, z] (m)")
         self.last_iterations = 0

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._validation import ParameterError, fail, finite, nonnegative, out_file, positive, random_seed, whole
+from .._validation import ParameterError, fail, finite, nonnegative, numbers, out_file, positive, random_seed, whole
 from .lsf import MAX_ORDER, lsf_to_poly, poly_to_lsf
 
 FORMAT = "haptex-arma-models"
@@ -127,11 +127,12 @@ class ArmaModel:
         Raises
         ------
         ParameterError
-            If a frequency is negative, above the Nyquist frequency or not finite.
+            If a frequency is negative, above the Nyquist frequency, not finite or not a real
+            number (a bool, text or a complex number).
         """
         from scipy.signal import freqz
 
-        f = np.asarray(frequency, dtype=float)
+        f = numbers("frequency", frequency, f"frequencies in [0, {self.sample_rate / 2:g}] Hz", copy=False)
         if not np.all(np.isfinite(f)) or np.any(f < 0) or np.any(f > self.sample_rate / 2 * (1 + 1e-12)):
             raise fail("frequency", frequency, f"frequencies in [0, {self.sample_rate / 2:g}] Hz (the Nyquist frequency)")
         _, h = freqz(self.ma, self.ar, worN=np.atleast_1d(f).ravel(), fs=self.sample_rate)
@@ -398,13 +399,14 @@ class ModelSet:
         Raises
         ------
         ParameterError
-            If the lengths disagree, no length is given, the signal would exceed
+            If the lengths disagree, a speed or force is not a real number (a bool, text or
+            a complex number), no length is given, the signal would exceed
             :data:`MAX_SAMPLES` samples, or the seed is not an integer in range.
         """
         from ..core import _ext
 
-        sp = np.atleast_1d(np.asarray(speed, dtype=float))
-        fo = np.atleast_1d(np.asarray(force, dtype=float))
+        sp = np.atleast_1d(numbers("speed", speed, "a number or a one-dimensional array (m/s)", copy=False))
+        fo = np.atleast_1d(numbers("force", force, "a number or a one-dimensional array (N)", copy=False))
         if sp.ndim != 1 or fo.ndim != 1:
             raise fail("speed", speed, "a number or a one-dimensional array (m/s)")
         if sp.size == 1 and fo.size == 1:

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._validation import fail, out_file, positive
+from .._validation import fail, numbers, out_file, positive
 from .fitting import fit
 from .models import ModelSet
 
@@ -232,7 +232,8 @@ def spectral_difference(recorded, synthesized, sample_rate: float, band=(20.0, 4
     lo, hi = (float(b) for b in band)
     if not 0 < lo < hi <= fs / 2:
         raise fail("band", band, f"(low, high) with 0 < low < high <= {fs / 2:g} Hz")
-    x, y = np.asarray(recorded, dtype=float), np.asarray(synthesized, dtype=float)
+    x, y = (numbers(name, v, "a signal: an array of numbers", copy=False)
+            for name, v in (("recorded", recorded), ("synthesized", synthesized)))
     if x.size < 64 or y.size < 64:
         raise fail("recorded", f"{min(x.size, y.size)} samples", "signals of at least 64 samples")
     nper = int(min(max(64, round(0.1 * fs)), x.size, y.size))

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from .._validation import fail, positive, random_seed
+from .._validation import fail, numbers, positive, random_seed
 from .models import ModelSet
 from ..textures import checked_texture
 
@@ -58,7 +58,7 @@ def height_spectrum(models: ModelSet, wavenumber, *, band=SURFACE_BAND) -> np.nd
         If a wavenumber is not positive and finite, the band is outside (0, sample_rate / 2],
         or no model has a positive speed.
     """
-    k = np.asarray(wavenumber, dtype=float)
+    k = numbers("wavenumber", wavenumber, "finite spatial frequencies > 0 (cycles/m)", copy=False)
     if not np.all(np.isfinite(k) & (k > 0)):
         raise fail("wavenumber", wavenumber, "finite spatial frequencies > 0 (cycles/m)")
     lo, hi = (float(b) for b in band)
