@@ -1014,7 +1014,10 @@ def _f_algorithm():
         [0.0, v]), "p", 0.5),
     (lambda v: __import__("haptex.proxy", fromlist=["x"]).loop_work(hx.Sinusoid(1e-4, 1e-3), 2000.0,
                                                                     [[0.0, 1e-3], [1e-3, v], [2e-3, 1e-3]]),
-     "path", 1e-3)])
+     "path", 1e-3),
+    (lambda v: __import__("haptex.objects", fromlist=["x"]).object_algorithm(
+        "F", hx.SumOfGratings.egg_crate(1e-4, 2e-3), hx.objects.Plane(), 2000.0).path_work(
+        [[0.0, 0.0, -1e-4], [v, 0.0, -1e-4]]), "pts", 1e-3)])
 def test_every_other_public_array_holding_a_bool_text_or_a_complex_number_is_refused(make, name, good):
     # The rest of the public arrays (devices' working points, dequantised positions, F's
     # deflection and modulation, the presliding step, a mesh's UV map and normals, an ARMA
