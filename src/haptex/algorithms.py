@@ -1438,7 +1438,7 @@ class FrictionModulated(Algorithm):
         (:meth:`_contact_pieces`) is cut into ``steps`` equal sub-steps, the deflection
         stepped by :func:`haptex.friction.step_plane` (exact for straight strokes from rest,
         first order in the sub-step otherwise) and the work summed by the trapezoidal rule."""
-        from .friction import step_plane
+        from .friction import _step_plane
 
         table = None if self.stick_deflection is None else self._aux()
         total = 0.0
@@ -1454,7 +1454,7 @@ class FrictionModulated(Algorithm):
             d = np.zeros(2) if d is None else d
             ds[0] = d
             for i in range(1, us.size):
-                d = step_plane(d, p[i, :-1] - p[i - 1, :-1], self.presliding, self.stick_deflection, table)
+                d = _step_plane(d, p[i, :-1] - p[i - 1, :-1], self.presliding, self.stick_deflection, table)
                 ds[i] = d
             vals = self.force(p, ds) @ delta
             total += float(np.trapezoid(vals, us))

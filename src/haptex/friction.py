@@ -320,7 +320,15 @@ def step_plane(deflection, displacement, max_deflection: float, stick_deflection
              for name, v in (("deflection", deflection), ("displacement", displacement)))
     for name, v in (("deflection", d), ("displacement", dp)):
         if v.shape != (2,) or not np.all(np.isfinite(v)):
-            raise fail(name, v.tolist(), "a finite in-plane vector [x, y] (m), shape (2,)")
+            raise fail(name, v.tolist() if v.size <= 3 else f"shape {v.shape}",
+                       "a finite in-plane vector [x, y] (m), shape (2,)")
+    return _step_plane(d, dp, max_deflection, stick_deflection, table)
+
+
+def _step_plane(d, dp, max_deflection, stick_deflection, table) -> np.ndarray:
+    """:func:`step_plane` on vectors known to be two finite floats each (a path's own steps:
+    F's work along it calls it a sub-step at a time, where the check would cost five times
+    the step)."""
     z = -1.0 if stick_deflection is None else float(stick_deflection)
     tab = np.zeros(1) if table is None else table
     dx, dy, _ = _ext.presliding_plane(float(d[0]), float(d[1]), float(dp[0]), float(dp[1]),

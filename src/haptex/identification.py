@@ -744,7 +744,7 @@ def identify(*, time, position, force, max_delay: int = MAX_DELAY, window: float
     ------
     ParameterError
         For arrays of different shapes, an entry that is not a real number (a bool, text or a
-    complex number), a non-finite value (naming the column and sample),
+        complex number), a non-finite value (naming the column and sample),
         times that do not increase or ticks whose interval strays more than 10 % from the
         median (missed ticks: cut the log), a log shorter than :data:`MIN_WINDOWS` windows,
         a constant force or position on an axis (nothing to identify), or settings out of

@@ -244,7 +244,7 @@ class GodObject:
         ParameterError
             For a position of another shape or not finite.
         """
-        p = numbers("p", p, f"{self.dimension} finite coordinates (m)").reshape(-1)
+        p = numbers("p", p, f"{self.dimension} finite coordinates (m)", copy=False).reshape(-1)
         if p.shape != (self.dimension,) or not np.all(np.isfinite(p)):
             raise fail("p", p.tolist(), f"{self.dimension} finite coordinates (m)")
         if self._core is not None:  # the C core's tick

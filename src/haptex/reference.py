@@ -373,7 +373,7 @@ class HapiDepthMap(_AnalysisOnly):
         ParameterError
             For a position that is not 3 finite coordinates.
         """
-        p = numbers("p", p, "3 finite coordinates [x, y, z] (m)").reshape(-1)
+        p = numbers("p", p, "3 finite coordinates [x, y, z] (m)", copy=False).reshape(-1)
         if p.shape != (3,) or not np.all(np.isfinite(p)):
             raise fail("p", p.tolist(), "3 finite coordinates [x, y, z] (m)")
         self.last_iterations = 0
