@@ -1045,6 +1045,23 @@ def test_an_array_refused_is_named_on_one_line(make, start):
     assert str(err.value).startswith(start) and "\n" not in str(err.value)
 
 
+def test_a_long_list_refused_is_named_by_its_first_items_in_bounded_work():
+    # An error names the value it refuses: a list of a million positions holding a bool was
+    # written out whole (its repr, 24 MB) and then cut to 60 characters, 3 s for one line.
+    # Truth: the work counted as the items' own reprs made; the message shows the first ones
+    from haptex._validation import fail
+
+    class Item:
+        made = 0
+
+        def __repr__(self):
+            Item.made += 1
+            return "0.5"
+
+    err = fail("p", [[Item(), Item()] for _ in range(50_000)], "positions")
+    assert Item.made <= 16 and str(err).startswith("p = [[0.5, 0.5], [0.5, 0.5], ")
+
+
 @pytest.mark.parametrize("field, value", [("link_proximal", 1e9), ("link_distal", 1e4), ("base", 1e300)])
 def test_a_pantographs_link_past_a_kilometre_is_refused_by_name(field, value):
     # A link or base length past MAX_LENGTH (1 km: "far beyond any haptic workspace") was taken

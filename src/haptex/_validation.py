@@ -12,6 +12,7 @@ import itertools
 import math
 import os
 import re
+import reprlib
 
 import numpy as np
 
@@ -33,8 +34,15 @@ class ParameterError(ValueError):
 def _fmt(value) -> str:
     if isinstance(value, float | np.floating):
         return f"{float(value):g}"
-    text = re.sub(r"\n\s*", " ", repr(value))  # (one line: numpy's repr of an array breaks its rows)
+    # a list or tuple by its first items (a long one's whole repr cost seconds); numpy's repr
+    # of an array is summarised already, and breaks its rows, which are joined on one line
+    text = _SHORT.repr(value) if isinstance(value, list | tuple) else repr(value)
+    text = re.sub(r"\n\s*", " ", text)
     return text if len(text) <= 60 else text[:57] + "..."
+
+
+_SHORT = reprlib.Repr()  # (its keyword arguments are Python 3.12's)
+_SHORT.maxlevel, _SHORT.maxlist, _SHORT.maxtuple, _SHORT.maxstring, _SHORT.maxother = 4, 8, 8, 60, 60
 
 
 def fail(name: str, value, allowed: str) -> ParameterError:
