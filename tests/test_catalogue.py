@@ -154,8 +154,8 @@ def test_a_figure_name_no_preset_can_have_is_refused_not_answered_with_the_defau
     # Preset.value(name, default) answered a misspelt figure ("max_froce") with the default, as
     # dict.get does: a script's fallback silently replaced the published figure. Truth: the
     # figures a device file may give (catalogue's schema, the same names its reader refuses
-    # others by); a figure this preset lacks still gives the default (the Falcon publishes no
-    # continuous force)
+    # others by); a figure this preset lacks still gives the default (the Touch has no joint
+    # damping or first resonance among its figures)
     p = catalogue.preset("touch")
     with pytest.raises(ParameterError, match=r"^name = 'max_froce' is not allowed: .*max_force"):
         p.value("max_froce", 3.3)

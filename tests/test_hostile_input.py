@@ -958,8 +958,9 @@ _MAP = hx.SampledSurface(np.linspace(0.0, 1e-3, 8), np.linspace(0.0, 1e-3, 8), n
 def test_positions_and_samples_holding_a_bool_text_or_a_complex_number_are_refused(make, name):
     # Positions (every field's force and Jacobian, a map's heights at points), a sum of
     # sinusoids' or gratings' parameters and a sampled profile's or map's heights went through
-    # numpy's float cast, which takes True for 1 (1 m, 1 rad), parses text ("0.5") and keeps a
-    # complex number's real part (with a warning): a position of True metres was felt. Truth:
+    # numpy's float cast, which takes True for 1 (1 m, 1 rad), parses text ("0.5"), keeps a
+    # complex array's real part (with a warning) and raises a bare TypeError for a complex
+    # number in a list: a position of True metres was felt. Truth:
     # haptex's rule for arrays of numbers (_validation.numbers; the scalars' since long), here
     # at every public array of lengths; the same value as a number is taken.
     for bad in (True, np.True_, 0.5 + 1j, "0.5"):
@@ -992,8 +993,8 @@ def _f_algorithm():
     (lambda v: __import__("haptex.perception", fromlist=["x"]).dequantise([[0.0, 0.0], [v, 0.0]], 1e-5),
      "position", 0.5),
     (lambda v: __import__("haptex.limits", fromlist=["x"]).clean_stiffness(
-        hx.algorithm("A", hx.Sinusoid(1e-4, 1e-3), 2000.0), hx.Device.point_mass(), hx.operators.ConstantForce([0.0, -1.0]), [1000.0],
-        [100.0, v]), "stiffness", None),
+        hx.algorithm("A", hx.Sinusoid(1e-4, 1e-3), 2000.0), hx.Device.point_mass(),
+        hx.operators.ConstantForce([0.0, -1.0]), [1000.0], [100.0, v]), "stiffness", None),
     (lambda v: _f_algorithm().force([[0.0, -1e-4]], deflection=[v]), "deflection", 1e-5),
     (lambda v: _f_algorithm().modulation([0.0, v]), "x", 0.5),
     (lambda v: __import__("haptex.friction", fromlist=["x"]).step_plane([0.0, v], [1e-5, 0.0], 1e-4),
@@ -1022,8 +1023,8 @@ def test_every_other_public_array_holding_a_bool_text_or_a_complex_number_is_ref
     # The rest of the public arrays (devices' working points, dequantised positions, F's
     # deflection and modulation, the presliding step, a mesh's UV map and normals, an ARMA
     # model's frequencies, speeds and forces, a recording's signals, the god-object's probe and
-    # paths): numpy's float cast took True for 1, parsed text and cut a complex number to its
-    # real part. Truth: haptex's rule for arrays of numbers (_validation.numbers); the same
+    # paths): numpy's float cast took True for 1, parsed text and raised a bare TypeError for a
+    # complex number in a list (17 of these 19). Truth: haptex's rule for arrays of numbers (_validation.numbers); the same
     # value as a number is taken where the call is light enough to make (good), and it is the
     # value the text and the complex number's real part spell
     for bad in (True, np.True_, complex(0.5 if good is None else good, 1.0), str(0.5 if good is None else good)):
