@@ -716,14 +716,10 @@ def five_bar_jacobian(a1: float, a2: float, base: float, p) -> tuple[np.ndarray,
     Each distal link keeps |p - e_j| = a2, so (p - e_j) . dp = (p - e_j) . de_j/dtheta_j
     dtheta_j; J = A^-1 diag((p - e_j) . de_j/dtheta_j) with A's rows (p - e_j)^T.
     """
-    given = p
-    try:
-        p = numbers("working_point", p, "a handle position [x, y] in metres")
-    except ParameterError:
-        p = None
-    if p is None or p.shape != (2,) or not np.isfinite(p).all():
-        raise fail("working_point", p.tolist() if p is not None and p.size <= 6 else given,
-                   "a handle position [x, y] in metres, shape (2,), finite")
+    allowed = "a handle position [x, y] in metres, shape (2,), finite"
+    given, p = p, numbers("working_point", p, allowed)
+    if p.shape != (2,) or not np.isfinite(p).all():
+        raise fail("working_point", p.tolist() if p.size <= 6 else given, allowed)
     bases = np.array([[-base / 2, 0.0], [base / 2, 0.0]])
     angles = np.empty(2)
     elbows = np.empty((2, 2))

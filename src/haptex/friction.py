@@ -316,13 +316,14 @@ def step_plane(deflection, displacement, max_deflection: float, stick_deflection
     along the stroke, so the plane model is the 1-D model there, exactly. The step is first
     order in |dp| on curved paths: integrate along them in small steps.
     """
-    d, dp = (numbers(name, v, "an in-plane vector [x, y] (m), shape (2,)", copy=False)
-             for name, v in (("deflection", deflection), ("displacement", displacement)))
-    for name, v in (("deflection", d), ("displacement", dp)):
+    allowed = "a finite in-plane vector [x, y] (m), shape (2,)"
+    vectors = []
+    for name, given in (("deflection", deflection), ("displacement", displacement)):
+        v = numbers(name, given, allowed, copy=False)
         if v.shape != (2,) or not np.all(np.isfinite(v)):
-            raise fail(name, v.tolist() if v.size <= 3 else f"shape {v.shape}",
-                       "a finite in-plane vector [x, y] (m), shape (2,)")
-    return _step_plane(d, dp, max_deflection, stick_deflection, table)
+            raise fail(name, v.tolist() if v.size <= 3 else f"shape {v.shape}", allowed)
+        vectors.append(v)
+    return _step_plane(*vectors, max_deflection, stick_deflection, table)
 
 
 def _step_plane(d, dp, max_deflection, stick_deflection, table) -> np.ndarray:

@@ -1015,13 +1015,10 @@ class SampledSurface(Surface):
         self.curvature_miss = self.peak_miss = self.convex_miss = self.path_curvature = None
         self._gradients = self._edges = self._branches = None
         if gradients is not None:
-            try:
-                g = numbers("gradients", gradients, "an array of slopes", copy=False)
-            except ParameterError:
-                g = None
-            if g is None or g.shape != h.shape + (2,) or not np.all(np.isfinite(g)):
-                raise fail("gradients", f"an array of shape {np.shape(gradients)}", f"shape ({x.size}, {y.size}, 2) "
-                           "of finite slopes (m/m), grad h at each sample")
+            allowed = f"shape ({x.size}, {y.size}, 2) of finite slopes (m/m), grad h at each sample"
+            g = numbers("gradients", gradients, allowed, copy=False)
+            if g.shape != h.shape + (2,) or not np.all(np.isfinite(g)):
+                raise fail("gradients", f"an array of shape {np.shape(gradients)}", allowed)
             self._gradients = np.ascontiguousarray(g)
         if self._knots is not None:
             self._size = tuple(float(k[-1] - k[0]) for k in self._knots)
