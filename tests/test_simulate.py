@@ -597,6 +597,29 @@ def test_quantised_wall_with_coulomb_friction_is_passive_iff_K_below_2fc_over_de
     assert (absorbed > 0) is (factor < 1)
 
 
+@pytest.mark.parametrize("duration,period,speed", [(20.0, 1e-4, 0.01), (5.0, 1e-4, 0.01), (2500.0, 1e-3, 0.05)])
+def test_a_long_scans_verdict_reads_the_texture_rate_v_over_l(duration, period, speed):
+    # A scanning hand drags the handle over the paper's sinusoid at v: in steady state its p^z
+    # repeats with the texture, at v / l exactly (the closed form the verdicts' "driven" test
+    # reads). Before, a tail longer than its buffer (65,536 samples for simulate, 8,192 for a
+    # batch) was sampled every k-th step over k x the buffer's length (the integer part of its
+    # ratio: 82 % of a 20 s run's 8 s tail) and its spectrum read as if it spanned the whole
+    # tail, so that a 20 s scan at 10 Hz read 8.25 Hz and "limit cycle" (a 5 s batch run the
+    # same), and where k passed half the sampling rate over v / l the motion aliased (2,500 s
+    # at 1 kHz, k = 15, 50 Hz read as 16.4 Hz). Truth: v / l, within the periodogram's bins
+    # (1.5 / the tail's duration), for simulate and simulate_batch alike, and the verdict "driven"
+    dev = hx.Device.point_mass(0.1, 0.5, period)
+    hand = ScanningHand(300.0, 1.0, velocity=speed, depth=1e-3)
+    alg = hx.algorithm("A", SINE, K0)
+    r = hx.simulate(alg, dev, hand, duration, record_every=1000)
+    b = hx.simulate_batch(alg, dev, hand, duration, stiffness=[K0])
+    tail = r.oscillation.z  # (the tail: the last 40 % of the run, at most its last 65,536 steps)
+    span = min(0.4 * duration, 65536 * period)
+    assert tail.frequency == pytest.approx(speed / L, abs=1.5 / span), (tail.frequency, speed / L)
+    assert b.frequency[0] == pytest.approx(speed / L, abs=1.5 / span), (b.frequency[0], speed / L)
+    assert tail.texture_driven and r.regime == "driven" and b.regime[0] == "driven", (r.regime, b.regime[0])
+
+
 def test_wall_map_passive_points_rest_and_frictionless_points_below_colgate_go_unstable():
     # Issue 10's map in Diolaiti et al.'s plane: a passive wall (beta > 1/2 and sigma >= 1/2,
     # both worst cases tested exactly above) pushed by a constant force cannot sustain an
