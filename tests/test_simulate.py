@@ -620,6 +620,27 @@ def test_a_long_scans_verdict_reads_the_texture_rate_v_over_l(duration, period, 
     assert tail.texture_driven and r.regime == "driven" and b.regime[0] == "driven", (r.regime, b.regime[0])
 
 
+@pytest.mark.parametrize("speed", [0.06, 0.07])
+def test_a_run_recorded_one_sample_in_ten_judges_its_buzz_at_every_step(speed):
+    # A scan at v / l = 600 and 700 Hz over a 0.1 mm sinusoid, recorded one sample in ten (1 kHz
+    # of the 10 kHz servo, as haptex simulate records any run past 2 s): the recorded series
+    # folds the texture's rate to 1 kHz - v / l (400 and 300 Hz, the closed form of aliasing),
+    # which the buzz verdict does not know as the texture's, and it read a perceptible buzz
+    # there (+0.04 and +2.35 dB) where every step shows none (-28.4 and -18.5 dB, 2026-12-02). Truth:
+    # no component at the alias, and the verdict of the same run recorded at every step
+    dev = hx.Device.point_mass(0.1, 0.5, 1e-4)
+    hand = ScanningHand(300.0, 1.0, velocity=speed, depth=0.2e-3)
+    alg = hx.algorithm("A", hx.Sinusoid(0.05e-3, 0.1e-3), 2000.0)
+    every = hx.simulate(alg, dev, hand, 4.0).buzz
+    tenth = hx.simulate(alg, dev, hand, 4.0, record_every=10).buzz
+    alias = 1.0 / (10 * dev.period) - speed / 0.1e-3
+    batch = hx.simulate_batch(alg, dev, hand, 4.0, stiffness=[2000.0], record=True, record_every=10).runs[0].buzz
+    assert abs(tenth.frequency - alias) > 5.0, tenth
+    assert not every.perceptible and not tenth.perceptible, (every, tenth)
+    assert tenth.frequency == pytest.approx(every.frequency, abs=1.0)
+    assert batch == tenth  # (a batch's recorded run reads its tail alike)
+
+
 def test_wall_map_passive_points_rest_and_frictionless_points_below_colgate_go_unstable():
     # Issue 10's map in Diolaiti et al.'s plane: a passive wall (beta > 1/2 and sigma >= 1/2,
     # both worst cases tested exactly above) pushed by a constant force cannot sustain an

@@ -659,6 +659,12 @@ class SimulationResult:
     vibration_clamped : int
         Samples whose operating point (speed, force) lay outside the model set's hull and was
         moved to it.
+    tail_position : ndarray, shape (m, d), or None
+        Where the recording holds one sample in several (``record_every`` > 1): the positions
+        of the verdict's tail at every step (m; each axis less its least-squares line), what
+        :attr:`buzz` reads; None where ``position`` holds every step.
+    tail_period : float
+        The time between ``tail_position``'s rows (s): the device's period; 0 without them.
     """
 
     time: np.ndarray
@@ -684,18 +690,30 @@ class SimulationResult:
     vibration_supplied: float = 0.0
     vibration_cut: int = 0
     vibration_clamped: int = 0
+    tail_position: np.ndarray | None = None
+    tail_period: float = 0.0
 
     @property
     def buzz(self):
         """Whether the handle's vibration is perceptible: its displacement spectrum over the
         second half of the run against the hand's vibrotactile detection threshold, the
-        texture's own rates (:attr:`texture_rates`) excepted (:func:`haptex.perception.buzz`).
-        None when fewer than 32 samples are recorded or the run diverged. Up to the recorded
-        rate's Nyquist frequency: record every sample (``record_every=1``) to see all of it."""
+        texture's own rates (:attr:`texture_rates`) excepted (:func:`haptex.perception.buzz`),
+        up to the servo's Nyquist frequency. Where the recording holds one sample in several
+        (``record_every`` > 1), over the run's tail at every step instead
+        (:attr:`tail_position`): the recorded series folds what lies above its own Nyquist
+        frequency into its band (a scan at the texture's 700 Hz recorded at 1 kHz read a
+        perceptible buzz at 300 Hz). None when fewer than 32 samples are recorded (16 in the
+        tail) or the run diverged."""
         from .perception import buzz
 
+        if self.diverged:
+            return None
+        if self.tail_position is not None:
+            if self.tail_position.shape[0] < 16:
+                return None
+            return buzz(self.tail_position, self.tail_period, exclude=self.texture_rates)
         n = self.time.size
-        if n < 32 or self.diverged:
+        if n < 32:
             return None
         half = self.position[n // 2:]
         return buzz(half, float(self.time[1] - self.time[0]), exclude=self.texture_rates)
@@ -1044,7 +1062,8 @@ def simulate(algorithm: Algorithm, device: Device, operator: Operator, duration:
     rates = _texture_frequencies(algorithm, operator)
     osc = _oscillations(tail[None], (n_steps - tail_start) * device.period, _tail_energy(summary[None]),
                         np.array([_threshold(device.position_resolution)]), _frequency_table([rates]))
-    result = _result(rec, summary, osc[0], rates)
+    result = _result(rec, summary, osc[0], rates, np.ascontiguousarray(tail.T) if record_every > 1 else None,
+                     device.period)
     _warn_health([result])
     return result
 
@@ -1113,7 +1132,9 @@ def _texture_frequencies(algorithm, operator) -> tuple:
     return tuple(float(v / p) for p in np.atleast_1d(algorithm.texture.periods))
 
 
-def _result(rec, summary, osc: Oscillation, texture_rates: tuple = ()) -> SimulationResult:
+def _result(rec, summary, osc: Oscillation, texture_rates: tuple = (), tail=None, period: float = 0.0) -> SimulationResult:
+    """One run's result from its recorded rows, its summary and verdict; ``tail`` (m, d) its
+    tail at every step, kept where the recording skips steps (``period`` s apart), else None."""
     d = (rec.shape[1] - 4) // 4
     diverged = int(summary[S_DIVERGED]) or None
     if diverged is not None:  # rows are written in order and their time is > 0
@@ -1134,7 +1155,8 @@ def _result(rec, summary, osc: Oscillation, texture_rates: tuple = ()) -> Simula
         energy_y=rec[:, E + 1] if d == 3 else None, passivity_control_samples=int(summary[S_PC_ACTIVE]),
         observed_energy=float(summary[S_PC_ENERGY]), texture_rates=tuple(texture_rates),
         vibration_supplied=float(summary[S_VIB_SUPPLIED]), vibration_cut=int(summary[S_VIB_CUT]),
-        vibration_clamped=int(summary[S_VIB_CLAMPED]))
+        vibration_clamped=int(summary[S_VIB_CLAMPED]), tail_position=tail,
+        tail_period=float(period) if tail is not None else 0.0)
 
 
 _ALGORITHM_KEYS = ("stiffness", "amplitude", "texture_period", "friction", "presliding", "modulation_depth",
@@ -1542,6 +1564,13 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
     m_tail = n_steps - tail_start
     per_block = max(1, TAIL_BLOCK // (d * m_tail * 8))  # runs a block: the tail buffer is reused between blocks
     tail = np.zeros((min(N, per_block), d, m_tail))
+    # recorded one sample in several, each run's tail at every step is kept for its buzz (SimulationResult.buzz)
+    kept = None
+    if record and record_every > 1:
+        if N * (n_rec * width + m_tail * d) * 8 > MEMORY_BUDGET:
+            raise ParameterError(f"record = True is not allowed here: {N} runs x {n_rec} samples and their tails of "
+                                 f"{m_tail} steps need more than the 2 GiB budget")
+        kept = np.empty((N, m_tail, d))
     T = dev[0].period
     thresholds = _threshold(delta)
     rates = [_texture_frequencies(a, o) for a, _, o in runs]  # per distinct run
@@ -1595,6 +1624,8 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
                               rec[lo:hi], summary[lo:hi], block, threads, base=base, after=verdicts,
                               vibration=vib)
             tables += [parts[a] for a in sorted(parts)]
+            if kept is not None:
+                kept[lo:hi] = np.swapaxes(block, 1, 2)
             bar(idx.size)
     bar(None)
     w_cmd = -(summary[:, S_EX] + summary[:, S_EY] + summary[:, S_EZ])
@@ -1616,7 +1647,8 @@ def simulate_batch(algorithm: Algorithm, device: Device, operator: Operator, dur
         energy_per_cycle=t["energy_per_cycle"].astype(float),
         max_penetration=summary[:, S_MAXPEN].copy(), saturations=summary[:, S_SAT].astype(np.int64),
         diverged_at=diverged_at,
-        runs=[_result(rec[i], summary[i], o, tuple(float(f) for f in freqs[i] if f == f))
+        runs=[_result(rec[i], summary[i], o, tuple(float(f) for f in freqs[i] if f == f),
+                      None if kept is None else kept[i], T)
               for i, o in enumerate(_oscillation_objects(t))]
         if record else None,
         energy_y=summary[:, S_EY].copy() if d == 3 else None,
