@@ -396,6 +396,35 @@ def test_a_recording_as_the_rig_wrote_it(tmp_path, kind):
         dd.read_recording(path, columns=[f"acceleration={p}az:kg"])
 
 
+@pytest.mark.parametrize("fs,fmt", [(44100.0, "%.6f"), (10000.0, "%.4f"), (25600.0, "%.5f")])
+def test_a_recordings_times_written_to_the_microsecond_read_at_its_rate(tmp_path, fs, fmt):
+    # A rig's CSV writes its times to a fixed number of decimals (MATLAB's and LabVIEW's "%.6f":
+    # the microsecond): at 44.1 kHz the steps read 22 or 23 us, and the reader refused the file
+    # as "non-uniform" (steps within 1e-6 of each other), naming no remedy the user has. Truth:
+    # the times' closed form, round(k / fs) to the printed decimals; the rate then read from
+    # them is fs (to 1e-7: a least-squares line through 3 s of them), and where a sample is
+    # dropped (its time and the rest one interval late) or repeated the file is refused,
+    # naming where
+    n = int(3 * fs)
+    k = np.arange(n)
+    rng = np.random.default_rng(3)
+    body = [fmt % (i / fs) + f",{a:.6g},0.05,1.5" for i, a in zip(k, rng.normal(size=n))]
+    path = tmp_path / "r.csv"
+    path.write_text("time_s,acc_m_s2,speed_m_s,force_n\n" + "\n".join(body) + "\n")
+    rec = dd.read_recording(path)
+    assert rec.sample_rate == pytest.approx(fs, rel=1e-7)
+    for gone in (n // 2, n - 2):  # (the middle one, and the last but one: the last row one interval late)
+        cut = tmp_path / "cut.csv"
+        rows = body[:gone] + [fmt % ((i + 1) / fs) + line[line.index(","):] for i, line in zip(k[gone:], body[gone:])]
+        cut.write_text("time_s,acc_m_s2,speed_m_s,force_n\n" + "\n".join(rows[:-1]) + "\n")
+        with pytest.raises(ParameterError, match=r"^time = 'sample \d+: [+-][01]\.\d\d of an interval off uniform times' is not allowed: must be times"):
+            dd.read_recording(cut)
+    doubled = tmp_path / "twice.csv"
+    doubled.write_text("time_s,acc_m_s2,speed_m_s,force_n\n" + "\n".join(body[:100] + body[99:]) + "\n")
+    with pytest.raises(ParameterError, match=r"^time = 'sample 100 \(.* s\) not after the one before' is not allowed"):
+        dd.read_recording(doubled)
+
+
 def test_haptexs_own_recording_with_a_column_more_reads_and_lists_it(tmp_path, capsys):
     # issue 64: time_s,acc_m_s2,speed_m_s,force_n,pos_m was refused by its fifth column's name
     n = 1000

@@ -16,7 +16,7 @@ from .models import ModelSet
 # ---------------------------------------------------------------------------------------
 
 RECORDING_COLUMNS = {
-    "time_s": "time (s), uniformly sampled; or give the sample rate",
+    "time_s": "time (s), uniformly sampled (to within TIME_SLACK of an interval); or give the sample rate",
     "acc_m_s2": "acceleration along one axis (m/s²); or the three columns acc_x_m_s2, acc_y_m_s2, acc_z_m_s2",
     "speed_m_s": "tangential speed (m/s), >= 0",
     "force_n": "normal force (N)",
@@ -113,6 +113,41 @@ their SI units: ``acceleration`` one or three columns, ``force`` the normal forc
 the tangential speed, or ``position`` one to three columns along the surface (the speed is then
 derived: :data:`SPEED_FILTER`), ``time`` (else a sample rate)."""
 
+TIME_SLACK = 0.25
+"""How far (a fraction of the sample interval) a recording's time may lie from uniform times
+before the file is refused (chosen): a time column is written to a fixed number of decimals (at
+44.1 kHz to the microsecond its steps read 22 or 23 us, 0.04 of an interval off) or stamped by a
+jittery clock, and its samples are still uniform; a dropped or repeated sample moves the rest by
+a whole interval, half of it at least from any line through them all. The rate is the
+least-squares line's through the times."""
+
+
+def _uniform_rate(t: np.ndarray) -> float:
+    """The rate (Hz) of a recording's times t (n,), s: increasing, each within TIME_SLACK of an
+    interval of the least-squares line through them (the rate its slope's inverse). Raises
+    ParameterError naming the first sample that is not after the one before, or the one
+    farthest off that line."""
+    n = t.size
+    if n < 2:
+        raise fail("time", f"{n} sample", "uniformly sampled times (s), increasing: two at least")
+    dt = np.diff(t)
+    back = np.flatnonzero(~(dt > 0))
+    if back.size:
+        i = int(back[0]) + 1
+        raise fail("time", f"sample {i} ({t[i]:.9g} s) not after the one before",
+                   "increasing times (s), one a sample")
+    k = np.arange(n, dtype=np.float64)
+    slope, start = np.polyfit(k, t, 1)
+    off = (t - (start + slope * k)) / slope
+    i = int(np.argmax(np.abs(off)))
+    if abs(off[i]) > TIME_SLACK:
+        raise fail("time", f"sample {i}: {off[i]:+.2f} of an interval off uniform times",
+                   f"times within {TIME_SLACK:g} of an interval of uniform ones (their rounding or a clock's jitter "
+                   "below it; a dropped or repeated sample moves the rest by one), or the file resampled to a "
+                   "uniform rate first")
+    return 1.0 / float(slope)
+
+
 SPEED_FILTER = (0.021, 3)
 """The Savitzky-Golay filter (window in s, polynomial order) whose first derivative of the
 positions gives the speed when a recording has positions and no speed (chosen: 21 ms, cubic,
@@ -145,8 +180,9 @@ def read_recording(path, *, sample_rate: float | None = None, columns=None) -> R
         If ``path`` is not a path (a str or os.PathLike, PEP 519), the file is missing or
         larger than the memory budget allows, a named column is
         missing (the file's columns are listed), a quantity is missing (acceleration, force,
-        and speed or position), a value is not a finite number, the times are not uniform,
-        or neither times nor a sample rate are given.
+        and speed or position), a value is not a finite number, the times do not increase or
+        one lies more than :data:`TIME_SLACK` of an interval from uniform times (a dropped or
+        repeated sample), or neither times nor a sample rate are given.
 
     Notes
     -----
@@ -177,10 +213,7 @@ def read_recording(path, *, sample_rate: float | None = None, columns=None) -> R
     if force.shape[1] != 1:
         raise fail("--column", f"force with {force.shape[1]} columns", "one column: the normal force")
     if "time" in got:
-        dt = np.diff(got["time"][:, 0])
-        if dt.size < 1 or dt.min() <= 0 or dt.max() - dt.min() > 1e-6 * dt.mean():
-            raise fail("time", "non-uniform or not increasing", "uniformly sampled times (s), increasing")
-        fs = 1.0 / float(dt.mean())
+        fs = _uniform_rate(got["time"][:, 0])
         if sample_rate is not None and abs(fs - float(sample_rate)) > 1e-6 * fs:
             raise fail("sample_rate", sample_rate, f"{fs:g} Hz, the rate of the file's times, or left out "
                        "(None in Python)")
