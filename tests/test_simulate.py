@@ -623,11 +623,12 @@ def test_a_long_scans_verdict_reads_the_texture_rate_v_over_l(duration, period, 
 @pytest.mark.parametrize("speed", [0.06, 0.07])
 def test_a_run_recorded_one_sample_in_ten_judges_its_buzz_at_every_step(speed):
     # A scan at v / l = 600 and 700 Hz over a 0.1 mm sinusoid, recorded one sample in ten (1 kHz
-    # of the 10 kHz servo, as haptex simulate records any run past 2 s): the recorded series
-    # folds the texture's rate to 1 kHz - v / l (400 and 300 Hz, the closed form of aliasing),
-    # which the buzz verdict does not know as the texture's, and it read a perceptible buzz
-    # there (+0.04 and +2.35 dB) where every step shows none (-28.4 and -18.5 dB, 2026-12-02). Truth:
-    # no component at the alias, and the verdict of the same run recorded at every step
+    # of the 10 kHz servo; haptex simulate records one step in round(steps / 20,000), two from
+    # 30,000 steps on): the recorded series folds the texture's rate to 1 kHz - v / l (400 and
+    # 300 Hz, the closed form of aliasing), which the buzz verdict does not know as the
+    # texture's, and it read a perceptible buzz there (+0.04 and +2.35 dB) where every step
+    # shows none (-28.4 and -18.5 dB, 2026-12-02). Truth: no component at the alias, and the
+    # verdict of the same run recorded at every step
     dev = hx.Device.point_mass(0.1, 0.5, 1e-4)
     hand = ScanningHand(300.0, 1.0, velocity=speed, depth=0.2e-3)
     alg = hx.algorithm("A", hx.Sinusoid(0.05e-3, 0.1e-3), 2000.0)
