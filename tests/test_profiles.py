@@ -77,6 +77,22 @@ def test_csv_columns_with_units_from_the_caller(tmp_path):
     assert p.dx == pytest.approx(2e-6) and p.h[5] == pytest.approx(1e-6 * math.sin(2.0), rel=1e-6)
 
 
+@pytest.mark.parametrize("sep", [";", "\t", " "])
+def test_columns_written_with_a_decimal_comma_are_read_as_written(tmp_path, sep):
+    # A profile exported where the comma is the decimal mark (a German or French locale's CSV:
+    # Excel and the instruments' software there write "0,0005;0,000063", the cells parted by a
+    # semicolon, a tab or a space): the text-column reader split every cell at its comma too,
+    # so that "0,0005;0,000063" read as four numbers and x = 0 on every row ("x = 0 does not
+    # increase"). Truth: the numbers as written, the comma read as the decimal mark
+    x = np.arange(400) * 0.0005  # mm
+    z = 0.002 * np.sin(2 * np.pi * x / 0.1)  # mm
+    rows = "\n".join(f"{a:.4f}{sep}{b:.6f}".replace(".", ",") for a, b in zip(x, z))
+    f = write(tmp_path, "eu.csv", "X [mm]" + sep + "Z [mm]\n" + rows + "\n")
+    p = hx.SampledProfile.from_file(f, x_unit="mm", height_unit="mm")
+    assert p.x.size == 400 and p.dx == pytest.approx(0.5e-6, rel=1e-9)
+    np.testing.assert_allclose(p.h, np.round(z, 6) * 1e-3, rtol=0, atol=1e-15)
+
+
 @pytest.mark.parametrize("text, pattern", [
     ("0,1\n1,2\n2,nan\n3,4\n4,5\n", r"p.csv: 1 of 5 heights are undefined \(NaN: the instrument lost them\), the "
                                        r"first at sample 2; crop to the measured part \(.*\), or fill them by interpolation \(--fill-undefined"),

@@ -656,13 +656,29 @@ def _check(p: Path, x, h, lines_of=None):
         raise ParameterError(f"{p}: {h.size} samples, which is not allowed: at least 4 are needed")
 
 
+_DECIMAL_COMMA = re.compile(r"[+-]?\d*,\d+(?:[eE][+-]?\d+)?")
+"""A number written with a comma for its decimal mark ("0,0005", "-1,5e-3")."""
+
+
+def _cells(s: str) -> list[str]:
+    """A text line's cells: parted by commas, semicolons, tabs or spaces; where the line is
+    parted by semicolons, tabs or spaces and every cell holding a comma is a number written with
+    a decimal comma (a German or French locale's export: "0,0005;0,000063"), that comma is read
+    as the decimal mark."""
+    parts = [c for c in re.split(r"[;\t ]+", s) if c != ""]
+    commas = [c for c in parts if "," in c]
+    if len(parts) > 1 and commas and all(_DECIMAL_COMMA.fullmatch(c) for c in commas):
+        return [c.replace(",", ".") for c in parts]
+    return [c for c in re.split(r"[,;\t ]+", s) if c != ""]
+
+
 def _load_columns(p: Path, lines, spacing, x_unit, height_unit, x_column, height_column):
     rows, line_no = [], []
     for i, line in enumerate(lines):
         s = line.strip()
         if not s or s.startswith(("#", "%")):
             continue
-        cells = [c for c in re.split(r"[,;\t ]+", s) if c != ""]
+        cells = _cells(s)
         try:
             vals = [float(c) for c in cells]
         except ValueError:
