@@ -425,6 +425,24 @@ def test_a_recordings_times_written_to_the_microsecond_read_at_its_rate(tmp_path
         dd.read_recording(doubled)
 
 
+@pytest.mark.parametrize("sep", [";", "\t"])
+def test_a_recording_written_with_a_decimal_comma_reads_as_written(tmp_path, sep):
+    # A rig's CSV from a German or French locale: its cells parted by semicolons (or tabs) and
+    # its decimal mark a comma ("0,000023;0,8457;0,05;1,5"). numpy's loadtxt refused every row
+    # ("could not convert string '0,000023' to float"). Truth: the numbers as written, the
+    # comma read as the decimal mark (the profiles' text columns read them alike)
+    fs, n = 10000.0, 20000
+    rng = np.random.default_rng(4)
+    acc = np.round(rng.normal(size=n), 6)
+    rows = [sep.join(f"{v:.6f}".replace(".", ",") for v in (i / fs, a, 0.05, 1.5)) for i, a in enumerate(acc)]
+    path = tmp_path / "r.csv"
+    path.write_text(sep.join(["time_s", "acc_m_s2", "speed_m_s", "force_n"]) + "\n" + "\n".join(rows) + "\n")
+    rec = dd.read_recording(path)
+    assert rec.sample_rate == pytest.approx(fs, rel=1e-9)
+    np.testing.assert_array_equal(rec.acceleration, acc)
+    assert np.all(rec.speed == 0.05) and np.all(rec.normal_force == 1.5)
+
+
 def test_haptexs_own_recording_with_a_column_more_reads_and_lists_it(tmp_path, capsys):
     # issue 64: time_s,acc_m_s2,speed_m_s,force_n,pos_m was refused by its fifth column's name
     n = 1000

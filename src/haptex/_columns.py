@@ -14,6 +14,7 @@ every other column is ignored and listed, never refused.
 from __future__ import annotations
 
 import dataclasses
+import re
 import warnings
 import zipfile
 from pathlib import Path
@@ -188,6 +189,15 @@ CSV_DELIMITERS = (",", "\t", ";")
 spreadsheets where the comma is the decimal mark); with none of them, runs of whitespace."""
 
 
+_DECIMAL_COMMA = re.compile(r"[+-]?\d*,\d+(?:[eE][+-]?\d+)?")
+
+
+def decimal_comma(cell: str) -> bool:
+    """Whether a text cell is a number written with a comma for its decimal mark ("0,0005",
+    "-1,5e-3": a German or French locale's export), which the text readers then read as one."""
+    return _DECIMAL_COMMA.fullmatch(cell.strip()) is not None
+
+
 def _read_csv(p: Path, what: str) -> dict:
     """A delimited-text table: '#' lines and blank lines before its header row skipped, the
     header's delimiter (CSV_DELIMITERS, else whitespace) for every row, '#' comments ignored."""
@@ -203,15 +213,21 @@ def _read_csv(p: Path, what: str) -> dict:
         else:
             raise fail("path", str(p), f"a {what} with a header row naming its columns (none found: the file "
                                        "is empty, or comments and blank lines only)")
+        first = next((row for row in fh if row.strip() and not row.lstrip().startswith("#")), "")
     delimiter = next((d for d in CSV_DELIMITERS if d in line), None)
     fields = next(csv.reader([line], delimiter=delimiter)) if delimiter else line.split()
     header = [h.strip() for h in fields]
     if len(set(header)) != len(header) or not all(header):
         raise fail("path", str(p), f"a {what} whose header row names each column once")
+    # cells parted by anything but commas whose commas are decimal marks (a German or French
+    # locale's export: "0,000023;0,8457"): read with the comma as the decimal mark
+    cells = first.split(delimiter) if delimiter else first.split()
+    comma = delimiter != "," and any(decimal_comma(c) for c in cells)
     try:
         with warnings.catch_warnings():  # (a header alone: said below, not warned)
             warnings.simplefilter("ignore", UserWarning)
-            data = np.loadtxt(p, delimiter=delimiter, skiprows=skipped + 1, comments="#", ndmin=2)
+            data = np.loadtxt(p, delimiter=delimiter, skiprows=skipped + 1, comments="#", ndmin=2,
+                              converters=(lambda c: float(c.replace(",", "."))) if comma else None)
     except ValueError as exc:
         raise fail("path", str(p), f"numbers in every row ({str(exc).splitlines()[0]})") from None
     if data.shape[0] == 0:

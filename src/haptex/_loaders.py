@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ._columns import decimal_comma
 from ._units import parse_quantity
 from ._validation import ParameterError, a_path, check_budget
 
@@ -656,10 +657,6 @@ def _check(p: Path, x, h, lines_of=None):
         raise ParameterError(f"{p}: {h.size} samples, which is not allowed: at least 4 are needed")
 
 
-_DECIMAL_COMMA = re.compile(r"[+-]?\d*,\d+(?:[eE][+-]?\d+)?")
-"""A number written with a comma for its decimal mark ("0,0005", "-1,5e-3")."""
-
-
 def _cells(s: str) -> list[str]:
     """A text line's cells: parted by commas, semicolons, tabs or spaces; where the line is
     parted by semicolons, tabs or spaces and every cell holding a comma is a number written with
@@ -667,7 +664,7 @@ def _cells(s: str) -> list[str]:
     as the decimal mark."""
     parts = [c for c in re.split(r"[;\t ]+", s) if c != ""]
     commas = [c for c in parts if "," in c]
-    if len(parts) > 1 and commas and all(_DECIMAL_COMMA.fullmatch(c) for c in commas):
+    if len(parts) > 1 and commas and all(decimal_comma(c) for c in commas):
         return [c.replace(",", ".") for c in parts]
     return [c for c in re.split(r"[,;\t ]+", s) if c != ""]
 
