@@ -443,6 +443,19 @@ def test_a_recording_written_with_a_decimal_comma_reads_as_written(tmp_path, sep
     assert np.all(rec.speed == 0.05) and np.all(rec.normal_force == 1.5)
 
 
+def test_a_recording_saved_by_excel_with_a_byte_order_mark_reads_its_first_column(tmp_path):
+    # Excel's "CSV UTF-8" starts the file with a byte-order mark (EF BB BF, the Unicode
+    # standard's U+FEFF): the reader kept it as part of the first column's name, so that
+    # "time_s" was not found and the file was refused for want of a sample rate. Truth: the
+    # header as written, the mark not part of it (the Unicode standard's BOM, read as UTF-8's signature)
+    n, fs = 4000, 10000.0
+    rows = "\n".join(f"{i / fs:.6f},{np.sin(i):.6f},0.05,1.5" for i in range(n))
+    path = tmp_path / "excel.csv"
+    path.write_bytes(b"\xef\xbb\xbf" + ("time_s,acc_m_s2,speed_m_s,force_n\n" + rows + "\n").encode())
+    rec = dd.read_recording(path)
+    assert rec.sample_rate == pytest.approx(fs, rel=1e-9) and rec.ignored == ()
+
+
 def test_haptexs_own_recording_with_a_column_more_reads_and_lists_it(tmp_path, capsys):
     # issue 64: time_s,acc_m_s2,speed_m_s,force_n,pos_m was refused by its fifth column's name
     n = 1000

@@ -205,7 +205,7 @@ def _read_csv(p: Path, what: str) -> dict:
 
     check_budget("path", str(p), 4.0 * p.stat().st_size, f"reading this {what}")  # text to float64, copies
     skipped, line = 0, ""
-    with p.open("r", encoding="utf-8", errors="replace") as fh:
+    with p.open("r", encoding="utf-8-sig", errors="replace") as fh:  # (a byte-order mark is not the first name's)
         for line in fh:
             if line.strip() and not line.lstrip().startswith("#"):
                 break
