@@ -456,6 +456,22 @@ def test_a_recording_saved_by_excel_with_a_byte_order_mark_reads_its_first_colum
     assert rec.sample_rate == pytest.approx(fs, rel=1e-9) and rec.ignored == ()
 
 
+@pytest.mark.parametrize("sep", [",", ";", "\t"])
+def test_a_recording_whose_rows_end_in_a_delimiter_reads_as_written(tmp_path, sep):
+    # Rows that end in their delimiter ("0.0001,0.84,0.05,1.5,": a logger that writes a
+    # delimiter after every value, as the Dektak CSV of ../shared/data does) were refused as a
+    # header "naming each column once" (its last name empty). Truth: the numbers as written, no
+    # fifth column
+    n, fs = 4000, 10000.0
+    acc = np.round(np.sin(np.arange(n)), 6)
+    rows = "\n".join(sep.join([f"{i / fs:.6f}", f"{a:.6f}", "0.05", "1.5", ""]) for i, a in enumerate(acc))
+    path = tmp_path / "trail.csv"
+    path.write_text(sep.join(["time_s", "acc_m_s2", "speed_m_s", "force_n", ""]) + "\n" + rows + "\n")
+    rec = dd.read_recording(path)
+    assert rec.sample_rate == pytest.approx(fs, rel=1e-9) and rec.ignored == ()
+    np.testing.assert_array_equal(rec.acceleration, acc)
+
+
 def test_haptexs_own_recording_with_a_column_more_reads_and_lists_it(tmp_path, capsys):
     # issue 64: time_s,acc_m_s2,speed_m_s,force_n,pos_m was refused by its fifth column's name
     n = 1000

@@ -217,6 +217,8 @@ def _read_csv(p: Path, what: str) -> dict:
     delimiter = next((d for d in CSV_DELIMITERS if d in line), None)
     fields = next(csv.reader([line], delimiter=delimiter)) if delimiter else line.split()
     header = [h.strip() for h in fields]
+    while len(header) > 1 and not header[-1]:  # (rows that end in their delimiter: no column after it)
+        header.pop()
     if len(set(header)) != len(header) or not all(header):
         raise fail("path", str(p), f"a {what} whose header row names each column once")
     # cells parted by anything but commas whose commas are decimal marks (a German or French
@@ -227,7 +229,8 @@ def _read_csv(p: Path, what: str) -> dict:
         with warnings.catch_warnings():  # (a header alone: said below, not warned)
             warnings.simplefilter("ignore", UserWarning)
             data = np.loadtxt(p, delimiter=delimiter, skiprows=skipped + 1, comments="#", ndmin=2,
-                              converters=(lambda c: float(c.replace(",", "."))) if comma else None)
+                              converters=(lambda c: float(c.replace(",", "."))) if comma else None,
+                              usecols=range(len(header)) if len(fields) > len(header) else None)
     except ValueError as exc:
         raise fail("path", str(p), f"numbers in every row ({str(exc).splitlines()[0]})") from None
     if data.shape[0] == 0:
