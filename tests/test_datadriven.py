@@ -417,7 +417,8 @@ def test_a_recordings_times_written_to_the_microsecond_read_at_its_rate(tmp_path
         cut = tmp_path / "cut.csv"
         rows = body[:gone] + [fmt % ((i + 1) / fs) + line[line.index(","):] for i, line in zip(k[gone:], body[gone:])]
         cut.write_text("time_s,acc_m_s2,speed_m_s,force_n\n" + "\n".join(rows[:-1]) + "\n")
-        with pytest.raises(ParameterError, match=r"^time = 'sample \d+: [+-][01]\.\d\d of an interval off uniform times' is not allowed: must be times"):
+        with pytest.raises(ParameterError, match=r"^time = 'sample \d+: [+-][01]\.\d\d of an interval off "
+                                                 r"uniform times' is not allowed: must be times"):
             dd.read_recording(cut)
     doubled = tmp_path / "twice.csv"
     doubled.write_text("time_s,acc_m_s2,speed_m_s,force_n\n" + "\n".join(body[:100] + body[99:]) + "\n")
@@ -470,6 +471,38 @@ def test_a_recording_whose_rows_end_in_a_delimiter_reads_as_written(tmp_path, se
     rec = dd.read_recording(path)
     assert rec.sample_rate == pytest.approx(fs, rel=1e-9) and rec.ignored == ()
     np.testing.assert_array_equal(rec.acceleration, acc)
+
+
+@pytest.mark.parametrize("version", ["5", "7.3"])
+def test_a_recording_saved_by_matlab_reads_its_vectors(tmp_path, version):
+    # A rig programmed in MATLAB saves its recording with save(): a v5 MAT-file (scipy.io's
+    # savemat writes one, its vectors as MATLAB's 1 x n rows, a char array beside them), or a
+    # v7.3 one (HDF5 behind a 512-byte MATLAB header, MathWorks' documented layout), whose
+    # vectors h5py reads as (1, n) too. Refused before: the file was read as text ("'utf-8'
+    # codec can't decode"), and an NPZ of 1 x n rows as one row of n columns. Truth: the
+    # vectors as saved, the text beside them not a column
+    import scipy.io as sio
+
+    fs, n = 10000.0, 4000
+    cols = {"time_s": np.arange(n) / fs, "acc_m_s2": np.sin(np.arange(n)), "speed_m_s": np.full(n, 0.05),
+            "force_n": np.full(n, 1.5)}
+    path = tmp_path / "rec.mat"
+    if version == "5":
+        sio.savemat(path, {**cols, "rig": "bench 2, ADXL335"})  # (1-D arrays as 1 x n rows: savemat's default)
+    else:
+        h5py = pytest.importorskip("h5py")
+        with h5py.File(path, "w", userblock_size=512) as f:
+            for k, v in cols.items():
+                f.create_dataset(k, data=v[None, :])  # (MATLAB's 1 x n, as h5py reads a v7.3 row vector)
+        with open(path, "r+b") as fh:
+            fh.write(b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Wed Dec  2 08:00:00 2026 HDF5 schema 1.00 .")
+    rec = dd.read_recording(path)
+    assert rec.sample_rate == pytest.approx(fs, rel=1e-9)
+    np.testing.assert_array_equal(rec.acceleration, cols["acc_m_s2"])
+    assert rec.acceleration.shape == (n,) and np.all(rec.speed == 0.05) and rec.ignored == ()
+    npz = tmp_path / "rows.npz"
+    np.savez(npz, **{k: v[None, :] for k, v in cols.items()})
+    np.testing.assert_array_equal(dd.read_recording(npz).acceleration, cols["acc_m_s2"])
 
 
 def test_haptexs_own_recording_with_a_column_more_reads_and_lists_it(tmp_path, capsys):

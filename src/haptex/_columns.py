@@ -1,4 +1,4 @@
-"""Tables as rigs write them: columns named by the user, with their units, from CSV, NPZ or HDF5.
+"""Tables as rigs write them: columns named by the user, with their units, from CSV, NPZ, HDF5 or MATLAB MAT-files.
 
 A recording (:func:`haptex.datadriven.read_recording`) or a run log
 (:func:`haptex.identification.read_log`) written by another program has its own column names,
@@ -14,6 +14,7 @@ every other column is ignored and listed, never refused.
 from __future__ import annotations
 
 import dataclasses
+import math
 import re
 import warnings
 import zipfile
@@ -26,7 +27,8 @@ from ._validation import ParameterError, a_path, check_budget, fail
 G = 9.80665
 """Standard gravity (m/s²): the unit ``g`` of an acceleration column."""
 
-TABLE_SUFFIXES = {".csv": "CSV", ".txt": "CSV", ".npz": "NPZ", ".h5": "HDF5", ".hdf5": "HDF5", ".hdf": "HDF5"}
+TABLE_SUFFIXES = {".csv": "CSV", ".txt": "CSV", ".npz": "NPZ", ".h5": "HDF5", ".hdf5": "HDF5", ".hdf": "HDF5",
+                  ".mat": "MAT"}
 """The file kinds :func:`read_table` reads, by suffix (anything else is read as CSV)."""
 
 
@@ -121,6 +123,61 @@ def parse_column(spec: str, quantities: dict, name: str = "--column") -> ColumnS
     return ColumnSpec(q, columns, unit.strip(), unit_factor(unit, quantities[q], f"{name} {q}"))
 
 
+def mat_numbers(p: Path) -> int:
+    """The number of numbers a MATLAB v5 file's variables hold (the measured surfaces' reader
+    and :func:`read_table` check it against the memory budget before loadmat reads anything), from each variable's
+    dimensions (for a compressed variable, the first 128 bytes of its zlib stream are
+    inflated, nothing more): scipy inflates a whole variable even to list it (``whosmat``),
+    and a 389 KB file of 5 x 10^7 compressed zeros took 15 GB through ``design``. 0 when
+    the file is not a v5 MAT file (loadmat then says what it is)."""
+    import struct
+    import zlib
+
+    total = 0
+    with open(p, "rb") as fh:
+        header = fh.read(128)
+        if len(header) < 128 or header[126:128] not in (b"IM", b"MI"):
+            return 0
+        e = "<" if header[126:128] == b"IM" else ">"
+        if struct.unpack(e + "H", header[124:126])[0] != 0x0100:  # 0x0200: v7.3, an HDF5 file that loadmat refuses
+            return 0
+        for _ in range(100_000):
+            tag = fh.read(8)
+            if len(tag) < 8:
+                break
+            typ, nbytes = struct.unpack(e + "II", tag)
+            if typ >> 16:  # a small data element: its data sit in the tag
+                continue
+            start = fh.tell()
+            if typ == 15:  # miCOMPRESSED: a zlib stream holding a miMATRIX
+                inflate = zlib.decompressobj()
+                head = b""
+                while len(head) < 128:
+                    chunk = fh.read(min(4096, start + nbytes - fh.tell()))
+                    if not chunk:
+                        break
+                    try:
+                        head += inflate.decompress(chunk, 128 - len(head))
+                    except zlib.error:
+                        return 0  # loadmat names the corruption
+            elif typ == 14:  # miMATRIX, uncompressed
+                head = tag + fh.read(min(nbytes, 120))
+            else:
+                head = b""
+            if len(head) >= 40 and struct.unpack(e + "I", head[:4])[0] == 14:
+                # miMATRIX: array flags (16 bytes), then the dimensions: an int32 element
+                dtyp, dbytes = struct.unpack(e + "II", head[24:32])
+                if dtyp >> 16:  # one dimension packed in the tag
+                    count = max(struct.unpack(e + "i", head[28:32])[0], 0)
+                else:
+                    n = min(dbytes // 4, (len(head) - 32) // 4)
+                    dims = struct.unpack(e + f"{n}i", head[32:32 + 4 * n])
+                    count = math.prod(max(d, 0) for d in dims)
+                total += count
+            fh.seek(start + nbytes + ((-nbytes) % 8 if typ != 15 else 0))
+    return total
+
+
 def read_table(path, what: str) -> dict:
     """Every column of a table file: ``{name: float64 array of shape (n,) or (n, k)}``.
 
@@ -129,8 +186,10 @@ def read_table(path, what: str) -> dict:
     path : str or os.PathLike
         A delimited-text file (comma, tab, semicolon or whitespace, ``CSV_DELIMITERS``;
         '#' lines before its header row skipped) with a header row naming its columns, an
-        ``.npz`` (each array a column, a 2-D one (n, k) a group of k), or an HDF5 file (``.h5``,
-        ``.hdf5``; each dataset by its path, read with h5py).
+        ``.npz`` (each array a column, a 2-D one (n, k) a group of k), an HDF5 file (``.h5``,
+        ``.hdf5``; each dataset by its path, read with h5py) or a MATLAB ``.mat`` file (v5, or
+        v7.3 as HDF5; each numeric variable a column). A 1 x n array (MATLAB's row vector) is
+        the column of n.
     what : str
         What the file is (named in errors).
 
@@ -146,7 +205,7 @@ def read_table(path, what: str) -> dict:
     """
     p = a_path("path", path, f"a {what}'s path")
     if not p.is_file():
-        raise fail("path", str(path), f"an existing {what} (CSV, NPZ or HDF5)")
+        raise fail("path", str(path), f"an existing {what} (CSV, NPZ, HDF5 or MAT)")
     kind = TABLE_SUFFIXES.get(p.suffix.lower(), "CSV")
     if kind == "NPZ":
         out, need = {}, 0.0
@@ -170,8 +229,12 @@ def read_table(path, what: str) -> dict:
             raise fail("path", str(path), f"a readable .npz of numbers ({exc})") from None
     elif kind == "HDF5":
         out = _read_hdf5(p, what)
+    elif kind == "MAT":
+        out = _read_mat(p, what)
     else:
         out = _read_csv(p, what)
+    # MATLAB's vectors are 1 x n rows (save(), and h5py's reading of a v7.3 file): a column of n
+    out = {k: (v[0] if np.ndim(v) == 2 and v.shape[0] == 1 and v.shape[1] > 1 else v) for k, v in out.items()}
     lengths = {k: len(v) for k, v in out.items() if np.ndim(v) >= 1}
     out = {k: v for k, v in out.items() if np.ndim(v) in (1, 2)}
     if not out:
@@ -238,6 +301,29 @@ def _read_csv(p: Path, what: str) -> dict:
     if data.shape[1] != len(header):
         raise fail("path", str(p), f"{len(header)} values a row, as its header")
     return {h: data[:, k] for k, h in enumerate(header)}
+
+
+def _read_mat(p: Path, what: str) -> dict:
+    """A MATLAB MAT-file's numeric variables, each a column (a matrix a group): a v7.3 file is
+    HDF5 behind a 512-byte header (:func:`_read_hdf5`); a v5 one is counted before it is read
+    (:func:`mat_numbers`), then read by scipy's loadmat. Text, cells and structs are not columns."""
+    with open(p, "rb") as fh:
+        fh.seek(512)
+        if fh.read(8) == b"\x89HDF\r\n\x1a\n":  # (v7.3: the HDF5 signature after MATLAB's 512-byte header)
+            return _read_hdf5(p, what)
+    from scipy.io import loadmat
+
+    count = mat_numbers(p)
+    check_budget("path", str(p), 16.0 * count, f"reading this {what} ({count:.3g} numbers)")
+    try:
+        data = loadmat(p)
+    except MemoryError:
+        raise fail("path", str(p), f"a {what} that fits in memory") from None
+    except Exception as exc:  # noqa: BLE001 - scipy raises several kinds for an unreadable file
+        why = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise fail("path", str(p), f"a readable MATLAB file ({why})") from None
+    return {k: np.asarray(v, dtype=float) for k, v in data.items()
+            if not k.startswith("__") and isinstance(v, np.ndarray) and v.dtype.kind in "iuf" and v.ndim in (1, 2)}
 
 
 def _read_hdf5(p: Path, what: str) -> dict:

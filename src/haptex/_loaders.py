@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ._columns import decimal_comma
+from ._columns import mat_numbers as _mat_samples
 from ._units import parse_quantity
 from ._validation import ParameterError, a_path, check_budget
 
@@ -738,60 +739,6 @@ def _check_zip(p: Path) -> None:
     binary = sum(i.file_size for i in infos) - text
     check_budget("path", str(p), TEXT_BYTES_FACTOR * text + ZIP_DATA_BYTES_FACTOR * binary,
                  f"its contents ({text / 2**20:.4g} MiB of text and {binary / 2**20:.4g} MiB of data once decompressed)")
-
-
-def _mat_samples(p: Path) -> int:
-    """The number of numbers a MATLAB v5 file's variables hold, from each variable's
-    dimensions (for a compressed variable, the first 128 bytes of its zlib stream are
-    inflated, nothing more): scipy inflates a whole variable even to list it (``whosmat``),
-    and a 389 KB file of 5 x 10^7 compressed zeros took 15 GB through ``design``. 0 when
-    the file is not a v5 MAT file (loadmat then says what it is)."""
-    import struct
-    import zlib
-
-    total = 0
-    with open(p, "rb") as fh:
-        header = fh.read(128)
-        if len(header) < 128 or header[126:128] not in (b"IM", b"MI"):
-            return 0
-        e = "<" if header[126:128] == b"IM" else ">"
-        if struct.unpack(e + "H", header[124:126])[0] != 0x0100:  # 0x0200: v7.3, an HDF5 file that loadmat refuses
-            return 0
-        for _ in range(100_000):
-            tag = fh.read(8)
-            if len(tag) < 8:
-                break
-            typ, nbytes = struct.unpack(e + "II", tag)
-            if typ >> 16:  # a small data element: its data sit in the tag
-                continue
-            start = fh.tell()
-            if typ == 15:  # miCOMPRESSED: a zlib stream holding a miMATRIX
-                inflate = zlib.decompressobj()
-                head = b""
-                while len(head) < 128:
-                    chunk = fh.read(min(4096, start + nbytes - fh.tell()))
-                    if not chunk:
-                        break
-                    try:
-                        head += inflate.decompress(chunk, 128 - len(head))
-                    except zlib.error:
-                        return 0  # loadmat names the corruption
-            elif typ == 14:  # miMATRIX, uncompressed
-                head = tag + fh.read(min(nbytes, 120))
-            else:
-                head = b""
-            if len(head) >= 40 and struct.unpack(e + "I", head[:4])[0] == 14:
-                # miMATRIX: array flags (16 bytes), then the dimensions: an int32 element
-                dtyp, dbytes = struct.unpack(e + "II", head[24:32])
-                if dtyp >> 16:  # one dimension packed in the tag
-                    count = max(struct.unpack(e + "i", head[28:32])[0], 0)
-                else:
-                    n = min(dbytes // 4, (len(head) - 32) // 4)
-                    dims = struct.unpack(e + f"{n}i", head[32:32 + 4 * n])
-                    count = math.prod(max(d, 0) for d in dims)
-                total += count
-            fh.seek(start + nbytes + ((-nbytes) % 8 if typ != 15 else 0))
-    return total
 
 
 def _load_mat(p: Path, spacing, height_unit, variable, x_unit) -> Reading:

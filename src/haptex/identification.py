@@ -245,7 +245,7 @@ def read_log(path, columns=None) -> RunLog:
     Parameters
     ----------
     path : str or os.PathLike
-        CSV (a header row), NPZ or HDF5 (:func:`haptex._columns.read_table`).
+        CSV (a header row), NPZ, HDF5 or MATLAB .mat (:func:`haptex._columns.read_table`).
     columns : sequence of str, optional
         Column specs ``QUANTITY=COL[,COL...][:UNIT]`` (:data:`LOG_QUANTITIES`), e.g.
         ``["position=px,py,pz:mm", "force=fx,fy,fz:N", "time=t:ms"]`` for a CHAI3D or

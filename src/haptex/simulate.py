@@ -1132,7 +1132,8 @@ def _texture_frequencies(algorithm, operator) -> tuple:
     return tuple(float(v / p) for p in np.atleast_1d(algorithm.texture.periods))
 
 
-def _result(rec, summary, osc: Oscillation, texture_rates: tuple = (), tail=None, period: float = 0.0) -> SimulationResult:
+def _result(rec, summary, osc: Oscillation, texture_rates: tuple = (), tail=None,
+            period: float = 0.0) -> SimulationResult:
     """One run's result from its recorded rows, its summary and verdict; ``tail`` (m, d) its
     tail at every step, kept where the recording skips steps (``period`` s apart), else None."""
     d = (rec.shape[1] - 4) // 4

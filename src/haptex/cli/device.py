@@ -418,7 +418,7 @@ def _identification_run(backend, program, fmax: float, duration: float, record: 
                    "are ignored and listed.")
 def identify_command(log, out, axis, max_delay, as_json, plot, columns):
     """Fit a device model (mass, damping, Coulomb friction, encoder step, delay) to a run log
-    (haptex's CSV or NPZ, or another program's CSV, NPZ or HDF5 with its columns named by
+    (haptex's CSV or NPZ, or another program's CSV, NPZ, HDF5 or .mat with its columns named by
     --column)."""
     from ..identification import AXES, identify, read_log
 

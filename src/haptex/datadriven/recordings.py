@@ -155,13 +155,14 @@ as the identification's derivatives; it passes the hand's motion, < 10 Hz, withi
 
 
 def read_recording(path, *, sample_rate: float | None = None, columns=None) -> Recording:
-    """Read a recording: CSV, NPZ or HDF5, with haptex's column names or the rig's own.
+    """Read a recording: CSV, NPZ, HDF5 or MATLAB .mat, with haptex's column names or the rig's own.
 
     Parameters
     ----------
     path : str or os.PathLike
-        A CSV file with a header row naming its columns (any order), an ``.npz`` or an HDF5
-        file (``.h5``/``.hdf5``): :func:`haptex._columns.read_table`.
+        A CSV file with a header row naming its columns (any order), an ``.npz``, an HDF5
+        file (``.h5``/``.hdf5``) or a MATLAB ``.mat`` (v5 or v7.3):
+        :func:`haptex._columns.read_table`.
     sample_rate : float, optional
         Rate (Hz), when the file has no time column.
     columns : sequence of str, optional
