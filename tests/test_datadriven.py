@@ -154,6 +154,26 @@ def test_a_negative_speed_or_force_is_refused_and_one_model_says_when_it_is_move
     assert one.weights(0.06, 1.2)[2] is False and one.weights(0.5, 1.2)[2] is True
 
 
+def test_a_recordings_signed_velocity_is_refused_naming_the_positions_as_remedy(tmp_path):
+    # A rig that logs the handle's signed velocity (back-and-forth strokes: vx < 0 on the way
+    # back) was refused with "speeds >= 0", no way out named; the remedy the reader has is to
+    # give the positions (their derivative's magnitude is the speed). Truth: the refusal names
+    # it, and taking it reads the file
+    fs, n = 10000.0, 60000
+    t = np.arange(n) / fs
+    x = 0.02 * np.sin(np.pi * t)  # m, a stroke out and back each 2 s
+    cols = {"t": t, "az": np.random.default_rng(2).normal(size=n), "vx": np.gradient(x, t), "x": x,
+            "fz": np.full(n, 1.2)}
+    path = tmp_path / "signed.npz"
+    np.savez(path, **cols)
+    base = ["time=t:s", "acceleration=az:m/s^2", "force=fz:N"]
+    with pytest.raises(ParameterError, match=r"^speed = '-\S+ m/s at sample \d+' is not allowed: must be speeds >= 0 .*"
+                                             r"or the positions instead \(--column position=X\[,Y\]:UNIT"):
+        dd.read_recording(path, columns=base + ["speed=vx:m/s"]).fit()
+    rec = dd.read_recording(path, columns=base + ["position=x:m"])
+    assert rec.speed.min() >= 0 and rec.speed.max() == pytest.approx(0.02 * np.pi, rel=1e-3)
+
+
 def test_the_same_seed_gives_the_same_signal():
     s = _set()
     a, b = s.synthesize(0.05, 1.0, 0.5, seed=3), s.synthesize(0.05, 1.0, 0.5, seed=3)

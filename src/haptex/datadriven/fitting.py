@@ -140,7 +140,9 @@ def _recording_arrays(acceleration, speed, normal_force, sample_rate):
             raise fail(nm, f"{arr[k] if arr.ndim == 1 else arr[k].tolist()} at sample {k}", f"finite numbers ({unit})")
     if np.any(v < 0):
         k = int(np.argmax(v < 0))
-        raise fail("speed", f"{v[k]:g} m/s at sample {k}", "speeds >= 0 (m/s; the tangential speed's magnitude)")
+        raise fail("speed", f"{v[k]:g} m/s at sample {k}", "speeds >= 0 (m/s; the tangential speed's magnitude): "
+                   "a signed velocity's absolute value, or the positions instead (--column position=X[,Y]:UNIT, "
+                   "columns=['position=...'] in Python), whose derivative's magnitude is then taken")
     return acc, v, F, fs
 
 
