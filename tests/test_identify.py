@@ -603,3 +603,26 @@ def test_a_log_in_any_delimited_text_with_a_preamble_is_read_by_its_columns(tmp_
     np.testing.assert_allclose(lg.time, t, rtol=0, atol=1e-12)
     np.testing.assert_allclose(lg.position[:, 0], x, rtol=0, atol=1e-12)
     np.testing.assert_allclose(lg.force[:, 0], f, rtol=0, atol=1e-9)
+
+
+def test_a_log_of_encoder_counts_and_dac_steps_is_read_with_each_columns_step_as_its_unit(tmp_path):
+    # A rig's own log holds what its boards read and write: encoder counts (here 2.5 um a count)
+    # and DAC steps (0.02 N a step), at 1 kHz with times in ms. The column spec took a unit and
+    # no step ("position=enc:2.5um" refused: "'1 2.5um' is not allowed"), so the log had to be
+    # converted by hand first. Now a unit may carry its step. Truth: counts x 2.5e-6 m, steps
+    # x 0.02 N, ms x 1e-3 s (the closed form of each board's scale)
+    n = 2000
+    counts = np.round(400 * np.sin(np.arange(n) / 50)).astype(int)
+    steps = np.round(50 * np.cos(np.arange(n) / 70)).astype(int)
+    path = tmp_path / "rig.csv"
+    np.savetxt(path, np.column_stack([np.arange(n), counts, steps]), delimiter=",", header="t_ms,enc,dac",
+               comments="", fmt="%d")
+    lg = I.read_log(path, ["time=t_ms:ms", "position=enc:2.5um", "force=dac:0.02 N"])
+    np.testing.assert_allclose(lg.position[:, 0], counts * 2.5e-6, rtol=1e-15, atol=0)
+    np.testing.assert_allclose(lg.force[:, 0], steps * 0.02, rtol=1e-15, atol=0)
+    np.testing.assert_allclose(lg.time, np.arange(n) * 1e-3, rtol=1e-15, atol=0)
+    from haptex._columns import G, unit_factor
+
+    assert unit_factor("0.001 g", "m/s^2", "--column acceleration") == 0.001 * G  # (a milli-g step)
+    with pytest.raises(hx.ParameterError, match=r"^--column position = '2.5 N' is not allowed"):
+        I.read_log(path, ["time=t_ms:ms", "position=enc:2.5 N", "force=dac:0.02 N"])

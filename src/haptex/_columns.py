@@ -60,7 +60,8 @@ def unit_factor(unit: str, si: str, name: str) -> float:
     Parameters
     ----------
     unit : str
-        The unit as written, e.g. ``"mm"``, ``"ms"``, ``"g"``.
+        The unit as written, e.g. ``"mm"``, ``"ms"``, ``"g"``, or one step of a board's reading
+        with its unit, e.g. ``"2.5um"`` (an encoder's count), ``"0.02 N"`` (a DAC's step).
     si : str
         The quantity's SI unit, e.g. ``"m"``, ``"s"``, ``"m/s^2"``.
     name : str
@@ -80,11 +81,15 @@ def unit_factor(unit: str, si: str, name: str) -> float:
     u = unit.strip()
     if u == "g" and si == "m/s^2":
         return G
+    step = re.fullmatch(r"([+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)\s*g", u)
+    if step and si == "m/s^2":  # (an accelerometer's step in standard gravities: "0.001 g")
+        return float(step.group(1)) * G
     if si == "1":  # a pure number (a flag, a count): no unit to convert
         if u not in ("", "1"):
             raise fail(name, u, "no unit (a pure number)")
         return 1.0
-    return parse_quantity(f"1 {u}", si, name)
+    # a unit written with its step ("2.5um": one count of an encoder) is that quantity
+    return parse_quantity(u if re.match(r"[+-]?(\d|\.\d)", u) else f"1 {u}", si, name)
 
 
 def parse_column(spec: str, quantities: dict, name: str = "--column") -> ColumnSpec:
