@@ -626,3 +626,18 @@ def test_a_log_of_encoder_counts_and_dac_steps_is_read_with_each_columns_step_as
     assert unit_factor("0.001 g", "m/s^2", "--column acceleration") == 0.001 * G  # (a milli-g step)
     with pytest.raises(hx.ParameterError, match=r"^--column position = '2.5 N' is not allowed"):
         I.read_log(path, ["time=t_ms:ms", "position=enc:2.5 N", "force=dac:0.02 N"])
+
+
+def test_a_log_written_by_pandas_reads_its_true_and_false_as_one_and_zero(tmp_path):
+    # pandas' DataFrame.to_csv writes a bool column as True and False: a log with its engaged
+    # flag so was refused ("could not convert string 'False' to float64"). Truth: the flags as
+    # written, True 1 and False 0 (Python's bool as a number)
+    n = 3000
+    t = np.arange(n) * 1e-3
+    on = t > 0.1
+    lines = ["time_s,x_m,fx_n,engaged"] + [f"{a!r},{1e-3 * math.sin(20 * a)!r},{0.3 * math.sin(31 * a)!r},{b}"
+                                                          for a, b in zip(t.tolist(), on.tolist())]
+    path = tmp_path / "pandas.csv"
+    path.write_text("\n".join(lines) + "\n")
+    lg = I.read_log(path)
+    assert lg.engaged.tolist() == on.tolist() and lg.time[-1] == pytest.approx(t[-1])

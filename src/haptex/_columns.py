@@ -260,6 +260,10 @@ spreadsheets where the comma is the decimal mark); with none of them, runs of wh
 _DECIMAL_COMMA = re.compile(r"[+-]?\d*,\d+(?:[eE][+-]?\d+)?")
 
 
+_FLAGS = {"true": 1.0, "false": 0.0}
+"""A flag's cell written as a word (pandas' to_csv writes a bool column True and False): its number."""
+
+
 def decimal_comma(cell: str) -> bool:
     """Whether a text cell is a number written with a comma for its decimal mark ("0,0005",
     "-1,5e-3": a German or French locale's export), which the text readers then read as one."""
@@ -290,14 +294,22 @@ def _read_csv(p: Path, what: str) -> dict:
     if len(set(header)) != len(header) or not all(header):
         raise fail("path", str(p), f"a {what} whose header row names each column once")
     # cells parted by anything but commas whose commas are decimal marks (a German or French
-    # locale's export: "0,000023;0,8457"): read with the comma as the decimal mark
+    # locale's export: "0,000023;0,8457"): read with the comma as the decimal mark; a flag written
+    # True or False (pandas' to_csv of a bool column): 1 or 0
     cells = first.split(delimiter) if delimiter else first.split()
     comma = delimiter != "," and any(decimal_comma(c) for c in cells)
+    flags = any(c.strip().lower() in _FLAGS for c in cells)
+
+    def cell(c: str) -> float:
+        c = c.strip()
+        flag = _FLAGS.get(c.lower())
+        return flag if flag is not None else float(c.replace(",", ".") if comma else c)
+
     try:
         with warnings.catch_warnings():  # (a header alone: said below, not warned)
             warnings.simplefilter("ignore", UserWarning)
             data = np.loadtxt(p, delimiter=delimiter, skiprows=skipped + 1, comments="#", ndmin=2,
-                              converters=(lambda c: float(c.replace(",", "."))) if comma else None,
+                              converters=cell if comma or flags else None,
                               usecols=range(len(header)) if len(fields) > len(header) else None)
     except ValueError as exc:
         raise fail("path", str(p), f"numbers in every row ({str(exc).splitlines()[0]})") from None
