@@ -641,3 +641,16 @@ def test_a_log_written_by_pandas_reads_its_true_and_false_as_one_and_zero(tmp_pa
     path.write_text("\n".join(lines) + "\n")
     lg = I.read_log(path)
     assert lg.engaged.tolist() == on.tolist() and lg.time[-1] == pytest.approx(t[-1])
+
+
+def test_a_logs_bool_flag_in_an_hdf5_file_is_read_as_one_and_zero(tmp_path):
+    # An HDF5 log's engaged flag stored as a bool dataset (h5py writes numpy's bool as HDF5's
+    # enum) was passed over as no column; it is read as 1 and 0, as in CSV and NPZ
+    h5py = pytest.importorskip("h5py")
+    n = 3000
+    t = np.arange(n) * 1e-3
+    on = t > 0.1
+    path = tmp_path / "log.h5"
+    with h5py.File(path, "w") as f:
+        f["time_s"], f["x_m"], f["fx_n"], f["engaged"] = t, 1e-3 * np.sin(20 * t), 0.3 * np.sin(31 * t), on
+    assert I.read_log(path).engaged.tolist() == on.tolist()

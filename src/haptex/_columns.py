@@ -340,7 +340,8 @@ def _read_mat(p: Path, what: str) -> dict:
         why = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise fail("path", str(p), f"a readable MATLAB file ({why})") from None
     return {k: np.asarray(v, dtype=float) for k, v in data.items()
-            if not k.startswith("__") and isinstance(v, np.ndarray) and v.dtype.kind in "iuf" and v.ndim in (1, 2)}
+            if not k.startswith("__") and isinstance(v, np.ndarray) and v.dtype.kind in "biuf"
+            and v.ndim in (1, 2)}
 
 
 def _read_hdf5(p: Path, what: str) -> dict:
@@ -352,7 +353,7 @@ def _read_hdf5(p: Path, what: str) -> dict:
     try:
         with h5py.File(p, "r") as f:
             def visit(name, obj):
-                if isinstance(obj, h5py.Dataset) and obj.dtype.kind in "iuf" and obj.ndim in (1, 2):
+                if isinstance(obj, h5py.Dataset) and obj.dtype.kind in "biuf" and obj.ndim in (1, 2):
                     need[0] += 8.0 * obj.size  # (all its datasets together)
                     check_budget("path", str(p), need[0], f"reading this {what}")
                     out[name] = np.asarray(obj[...], dtype=float)
