@@ -129,12 +129,12 @@ def parse_column(spec: str, quantities: dict, name: str = "--column") -> ColumnS
 
 
 def mat_numbers(p: Path) -> int:
-    """The number of numbers a MATLAB v5 file's variables hold (the measured surfaces' reader
-    and :func:`read_table` check it against the memory budget before loadmat reads anything), from each variable's
-    dimensions (for a compressed variable, the first 128 bytes of its zlib stream are
-    inflated, nothing more): scipy inflates a whole variable even to list it (``whosmat``),
-    and a 389 KB file of 5 x 10^7 compressed zeros took 15 GB through ``design``. 0 when
-    the file is not a v5 MAT file (loadmat then says what it is)."""
+    """The number of numbers a MATLAB v5 file's variables hold, from each variable's dimensions
+    (for a compressed variable, the first 128 bytes of its zlib stream are inflated, nothing
+    more), which the measured surfaces' reader and :func:`read_table` check against the memory
+    budget before loadmat reads anything: scipy inflates a whole variable even to list it
+    (``whosmat``), and a 389 KB file of 5 x 10^7 compressed zeros took 15 GB through ``design``.
+    0 when the file is not a v5 MAT file (loadmat then says what it is)."""
     import struct
     import zlib
 

@@ -141,7 +141,7 @@ def _recording_arrays(acceleration, speed, normal_force, sample_rate):
     if np.any(v < 0):
         k = int(np.argmax(v < 0))
         raise fail("speed", f"{v[k]:g} m/s at sample {k}", "speeds >= 0 (m/s; the tangential speed's magnitude): "
-                   "a signed velocity's absolute value, or the positions instead (--column position=X[,Y]:UNIT, "
+                   "for a signed velocity, its absolute value, or the positions instead (--column position=X[,Y]:UNIT, "
                    "columns=['position=...'] in Python), whose derivative's magnitude is then taken")
     return acc, v, F, fs
 
