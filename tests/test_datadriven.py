@@ -418,8 +418,8 @@ def test_a_recording_as_the_rig_wrote_it(tmp_path, kind):
 
 @pytest.mark.parametrize("fs,fmt", [(44100.0, "%.6f"), (10000.0, "%.4f"), (25600.0, "%.5f")])
 def test_a_recordings_times_written_to_the_microsecond_read_at_its_rate(tmp_path, fs, fmt):
-    # A rig's CSV writes its times to a fixed number of decimals (MATLAB's and LabVIEW's "%.6f":
-    # the microsecond): at 44.1 kHz the steps read 22 or 23 us, and the reader refused the file
+    # A rig's CSV writes its times to a fixed number of decimals ("%f" in C's and MATLAB's
+    # fprintf: six, the microsecond): at 44.1 kHz the steps read 22 or 23 us, and the reader refused the file
     # as "non-uniform" (steps within 1e-6 of each other), naming no remedy the user has. Truth:
     # the times' closed form, round(k / fs) to the printed decimals; the rate then read from
     # them is fs (to 1e-7: a least-squares line through 3 s of them), and where a sample is
