@@ -142,7 +142,7 @@ def _recording_arrays(acceleration, speed, normal_force, sample_rate):
         k = int(np.argmax(v < 0))
         raise fail("speed", f"{v[k]:g} m/s at sample {k}", "speeds >= 0 (m/s; the tangential speed's magnitude): "
                    "for a signed velocity, its absolute value, or the positions instead (--column position=X[,Y]:UNIT, "
-                   "columns=['position=...'] in Python), whose derivative's magnitude is then taken")
+                   "read_recording's columns=['position=...'] in Python), whose derivative's magnitude is then taken")
     return acc, v, F, fs
 
 
