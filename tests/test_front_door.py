@@ -16,6 +16,7 @@ import haptex
 from haptex.cli import cli
 
 SRC = Path(haptex.__file__).parent
+ROOT = Path(__file__).resolve().parent.parent  # (the clone: its README and docs)
 
 
 def _options() -> set:
@@ -148,3 +149,67 @@ def test_the_modules_import_no_circle():
     circles = [c for c in circles if len(c) > 1]
     assert len(graph) > 40 and sum(map(len, graph.values())) > 150  # the reader sees the package
     assert circles == [], f"import circles: {circles}"
+
+
+# -- the commands the documentation shows --------------------------------------------------
+_WRITES = ("-o", "--out", "--record", "--save", "--plot")
+_FILE = re.compile(r"\.(csv|tsv|txt|mat|dat|mi|nc|x3p|opdx|di|toml|yaml|json|npz|zarr|h5|hdf5|obj|stl|png|xml)$", re.I)
+
+
+def _documented_commands():
+    """Every ``haptex`` command line in README.md's and the docs' shell blocks, with its page
+    (continuation lines joined, comments and printed output dropped): [(page, argv), ...]."""
+    import shlex
+
+    root = ROOT
+    out = []
+    for page in [root / "README.md", *sorted((root / "docs").rglob("*.md"))]:
+        for block in re.findall(r"```(?:bash|console|shell|sh)\n(.*?)```", page.read_text(), re.S):
+            for line in block.replace("\\\n", " ").splitlines():
+                line = line.strip().removeprefix("$ ")
+                for part in line.split("&&"):  # (README's "pip install . && haptex reproduce")
+                    part = part.strip()
+                    if part.startswith("haptex ") or part == "haptex":
+                        out.append((page.relative_to(root).as_posix(), shlex.split(part, comments=True)[1:]))
+    return out
+
+
+def _parse(argv):
+    """Parse argv as ``haptex`` would, down to its subcommand, running nothing (click raises
+    UsageError on an unknown option or a bad value); --help and --version end it with status 0."""
+    cmd, ctx, args = cli, None, list(argv)
+    try:
+        while True:
+            ctx = cmd.make_context(cmd.name or "haptex", args, parent=ctx)
+            if not isinstance(cmd, click.Group):
+                return
+            rest = [*getattr(ctx, "_protected_args", []), *ctx.args]
+            if not rest:
+                return
+            _, cmd, args = cmd.resolve_command(ctx, rest)
+    except click.exceptions.Exit as done:
+        assert done.exit_code == 0, argv
+
+
+def test_every_command_the_docs_show_parses_and_names_files_that_exist():
+    # A reader copies a guide's command into a shell at the clone's root (README: "Set up on a
+    # fresh machine"). Reference: the click commands themselves (each line parsed by them, as the
+    # shell would pass it), and the files in the clone and beside it: a file the project ships
+    # (examples/, ../shared/data/) must be named by its path from the clone's root. Before:
+    # running-on-a-device's "--texture grooves-4mm-profile.mat" and firmware-export's
+    # "--texture x3p-2.x3p" named shipped files without their folders ("no such file").
+    root = ROOT
+    shipped = {f.name for where in (root / "examples", root.parent / "shared" / "data") if where.exists()
+               for f in where.rglob("*") if f.is_file()}
+    commands = _documented_commands()
+    assert len(commands) > 50  # (the guides show that many)
+    written, wrong = {}, []
+    for page, argv in commands:
+        _parse(argv)
+        for before, arg in zip(["haptex", *argv], argv):
+            if before in _WRITES:
+                written.setdefault(page, set()).add(arg)
+            elif _FILE.search(arg) and arg not in written.get(page, ()) and not (root / arg).exists() \
+                    and Path(arg).name in shipped:
+                wrong.append(f"{page}: haptex {' '.join(argv)} (no {arg} from the clone's root)")
+    assert wrong == []
