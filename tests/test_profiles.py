@@ -120,6 +120,28 @@ def test_bad_unit_and_unreadable_encoding(tmp_path):
         hx.SampledProfile.from_file(b, x_unit="um", height_unit="um")
 
 
+def test_a_compressed_file_is_refused_as_the_archive_it_is(tmp_path):
+    # a gzip file (RFC 1952: it opens with the bytes 1f 8b) or a ZIP archive (PKWARE's APPNOTE:
+    # a local file header "PK\x03\x04"), made by Python's own gzip and zipfile, of a text matrix
+    # SurfaceTopography reads unpacked: neither it nor haptex's text reader opens them (as
+    # SurfaceTopography's corpus's matrix-4.txt.gz and container-*.zip), and the refusal said "not
+    # text either (NUL bytes)". It names the archive, what it holds and how to unpack it.
+    import gzip
+    import zipfile
+
+    text = "\n".join(" ".join(str(i * j) for i in range(6)) for j in range(6)) + "\n"
+    g = tmp_path / "map.txt.gz"
+    g.write_bytes(gzip.compress(text.encode()))
+    with pytest.raises(hx.ParameterError, match=r"map.txt.gz: a gzip-compressed file.*gunzip .*map.txt.gz"):
+        hx.load_texture(g, x_unit="um", height_unit="um")
+    z = tmp_path / "maps.zip"
+    with zipfile.ZipFile(z, "w", zipfile.ZIP_DEFLATED) as archive:
+        archive.writestr("one.txt", text)
+        archive.writestr("two.txt", text)
+    with pytest.raises(hx.ParameterError, match=r"maps.zip: a ZIP archive of 2 files \(one.txt, two.txt\).*unzip"):
+        hx.load_texture(z, x_unit="um", height_unit="um")
+
+
 def test_undefined_heights_are_filled_only_when_asked(tmp_path):
     f = write(tmp_path, "p.csv", "0,1\n1,2\n2,nan\n3,4\n4,5\n5,6\n")
     p = hx.SampledProfile.from_file(f, x_unit="um", height_unit="um", fill_undefined=True)

@@ -106,8 +106,32 @@ TEXT_BYTES_FACTOR = 40
 80 MB CSV peaked at 3.3 GB); binary formats take less, and are held to the same bound."""
 
 
+def _archive(path: Path, raw: bytes) -> str | None:
+    """What an archive holds and how to unpack it, or None for a file that is not one: gzip
+    (RFC 1952's magic bytes 1f 8b) and ZIP (PKWARE's local file header "PK\\x03\\x04"), whose
+    members neither SurfaceTopography's readers (but X3P's own, tried before) nor the text reader
+    open."""
+    if raw[:2] == b"\x1f\x8b":
+        return f"a gzip-compressed file: unpack it (gunzip -k {path}) and give the file inside"
+    if raw[:4] == b"PK\x03\x04":
+        import zipfile
+
+        try:
+            with zipfile.ZipFile(path) as archive:
+                names = [i.filename for i in archive.infolist()[:MAX_ZIP_MEMBERS + 1] if not i.is_dir()]
+        except (zipfile.BadZipFile, OSError, ValueError):
+            return "a damaged ZIP archive: unpack it with your archive tool and give one of its files"
+        shown = ", ".join(names[:5]) + (", ..." if len(names) > 5 else "")
+        return (f"a ZIP archive of {len(names)} file{'s' * (len(names) != 1)} ({shown}): unpack it "
+                f"(unzip {path}) and give one of its files")
+    return None
+
+
 def _read_text(path: Path, why: str | None = None) -> str:
     raw = path.read_bytes()
+    archive = _archive(path, raw)
+    if archive is not None:
+        raise ParameterError(f"{path}: {archive}")
     if b"\x00" in raw[:4096]:
         if why is not None:
             raise ParameterError(f"{path}: {why}, and it is not text either (NUL bytes); see SurfaceTopography's "
