@@ -233,6 +233,26 @@ def test_design_cli_analyses_an_areal_map_on_a_3dof_device(tmp_path):
     assert q["A"] == pytest.approx(math.sqrt(1 + (2 * np.pi * A / L) ** 2), rel=1e-4)
 
 
+@pytest.mark.parametrize("suffix", [".txt", ".asc", ".dat"])
+def test_a_text_file_of_x_y_z_rows_is_a_map_of_its_points(tmp_path, suffix):
+    # The XYZ layout (one point a row: x, y, height; SurfaceTopography's test corpus's xyz-1.txt,
+    # xyz-2.txt) under the extensions its plain-text matrix reader also claims: SurfaceTopography's
+    # own detection reads it as points (its XYZ reader is tried before the matrix reader), and
+    # haptex tried the readers of the extension first, so it read the three columns as a matrix
+    # three samples wide ("x has 3 samples, which is not allowed"). Reference: the rows as
+    # written, h = x + 10 y (um) on a 6 x 5 grid of 1 um, in an order of their own.
+    xs, ys = np.arange(6.0), np.arange(5.0)
+    rows = [(x, y, x + 10 * y) for y in ys for x in xs]
+    rows = rows[1::2] + rows[::2]  # (points need no order)
+    f = tmp_path / f"points{suffix}"
+    f.write_text("".join(f"{x:g} {y:g} {z:g}\n" for x, y, z in rows))
+    s = hx.load_texture(f, x_unit="um", height_unit="um")
+    assert isinstance(s, hx.SampledSurface) and s.h.shape == (6, 5)
+    np.testing.assert_allclose(s.x, xs * 1e-6, atol=1e-18)
+    np.testing.assert_allclose(s.y, ys * 1e-6, atol=1e-18)
+    np.testing.assert_allclose(s.h, (xs[:, None] + 10 * ys[None, :]) * 1e-6, rtol=1e-12)
+
+
 def test_a_matlab_matrix_is_an_areal_map_rows_along_y(tmp_path):
     # MATLAB stores a height map as an image: row j is y_j, column i is x_i; haptex's own
     # MATLAB reader (SurfaceTopography's drops non-numeric variables silently) keeps that

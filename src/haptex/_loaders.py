@@ -253,8 +253,12 @@ def _open_quietly(p: Path):
         # the readers that claim the file's extension first: detection alone tries readers in
         # a fixed order, and its text reader read a 4096 x 4096 X3P's 128 MB as lines for
         # 37 s before the X3P reader was tried (0.1 s by extension)
+        # (but not the extensions of its plain-text matrix reader, .txt, .asc, .dat: there its
+        # detection tries the XYZ reader of x, y, height rows first, and the matrix reader read
+        # such rows as a map three samples wide)
         suffix = p.suffix.lower().lstrip(".")
-        for r in readers:
+        text = {e for r in readers if r.format() == "asc" for e in (r.file_extensions() or [])}
+        for r in readers if suffix not in text else ():
             if suffix and suffix in (r.file_extensions() or []):
                 try:
                     return open_topography(str(p), format=r.format()), None
