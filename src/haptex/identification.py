@@ -78,6 +78,13 @@ rounded at ten lattice offsets, the damping spread over -5.4..+14.7 % at 0.2 s (
 fit reporting 0.4-4.9 %) and -0.2..+4.4 % at 1 s (sd 1.8 %)."""
 MIN_WINDOWS = 5
 """Fewest windows a log must fill (so 1 s at the default window)."""
+TICK_TOLERANCE = 0.1
+"""Largest relative departure of a tick's interval from the log's period (the intervals' median)
+for it to count as one period (chosen: a non-real-time loop's jitter; on the independent
+simulator's logs with every interval drawn within +-9 % the figures moved by at most 0.3 %
+(mass), 2.0 % (damping) and 0.14 % (friction)). A longer or shorter interval, a missed or
+doubled tick, *strays*: no output-error window spans one (each window's model holds the force
+for one period a tick), and the windows between them are fitted as any others."""
 MAX_DELAY = 10
 """Largest delay searched (periods, chosen: haptic devices' computation delays are 0-2)."""
 MIN_STEPS = 20
@@ -524,20 +531,56 @@ def _equation_error(p, f, T, max_delay):
     return out, v
 
 
+def _period(t: np.ndarray) -> tuple[float, np.ndarray]:
+    """A log's period (s), the median of its intervals, and which intervals stray from it by
+    more than :data:`TICK_TOLERANCE` of it: (T, stray (n - 1,) bool)."""
+    dt = np.diff(t)
+    T = float(np.median(dt))
+    return T, np.abs(dt - T) > TICK_TOLERANCE * T
+
+
+def _clear(stray: np.ndarray | None, n: int, H: int, reach: int) -> np.ndarray:
+    """Which windows j of the regular grid (samples D + H j onwards, D <= ``reach``) span no
+    stray interval, for every delay up to ``reach`` alike (so that their fits compare): window j
+    is kept when the intervals H j .. H j + H + reach - 1 (its forces, commanded up to ``reach``
+    ticks before, its H steps and the one to the next window's start) hold none. (n // H,) bool."""
+    W = max(n // H, 0)
+    if stray is None or not stray.any():
+        return np.ones(W, dtype=bool)
+    cum = np.concatenate([[0], np.cumsum(stray, dtype=np.int64)])
+    lo = H * np.arange(W)
+    hi = np.minimum(lo + H + reach, stray.size)
+    return cum[hi] - cum[np.minimum(lo, stray.size)] == 0
+
+
+def _starts(n: int, D: int, H: int, every: int = 1, gaps=None) -> np.ndarray:
+    """The first samples of a fit's windows of H samples at delay D: every ``every``-th of the
+    regular grid D + H j, those spanning a stray interval left out (``gaps``: (stray, reach) as
+    :func:`_clear` takes them, or None)."""
+    j = np.arange((n - D) // H)[::every]
+    if gaps is not None:
+        stray, reach = gaps
+        clear = _clear(stray, n, H, reach)
+        j = j[clear[j]]
+    return D + H * j
+
+
 def _fit(p, f, T, D, H, init, res_sd, every: int = 1, max_nfev: int = 100, lsmr_tol: float = 1e-8,
          continuity: float | None = None, band: float | None = None, dense_limit: int = MAX_DENSE_FIT,
-         hold: tuple[int, float] | None = None):
+         hold: tuple[int, float] | None = None, gaps=None):
     """Output-error fit at delay D over every ``every``-th window: (least-squares result, windows);
     contiguous windows matched by ``continuity`` (default :data:`CONTINUITY`), the matching rows
     left out of the result's residuals and Jacobian (the deviations are the windows' own). With
     ``band`` (in the residuals' units) each position's residual is its distance outside
     [measured - band, measured + band], an encoder's cell (:func:`_cells_fit`), and the result
     carries ``errors``, the positions' own residuals at its optimum. Steps are solved densely up
-    to ``dense_limit`` Jacobian entries. ``hold`` (index, value) holds one figure at a nonzero value."""
+    to ``dense_limit`` Jacobian entries. ``hold`` (index, value) holds one figure at a nonzero value.
+    ``gaps`` as :func:`_starts`' (windows spanning a stray interval left out); the result's
+    ``starts`` are the windows' first samples."""
     from scipy.optimize import least_squares
     from scipy.sparse import diags
 
-    residual, jac, x0, (lo, hi), scale, W, nl = _problem(p, f, T, D, H, init, res_sd, every, continuity)
+    residual, jac, x0, (lo, hi), scale, W, nl = _problem(p, f, T, D, H, init, res_sd, every, continuity, gaps)
     if hold is not None:  # (a band of 1e-9 of it: least squares needs lo < hi)
         k, value = hold
         x0[k], lo[k], hi[k] = value, value * (1.0 - 1e-9), value * (1.0 + 1e-9)
@@ -567,7 +610,8 @@ def _fit(p, f, T, D, H, init, res_sd, every: int = 1, max_nfev: int = 100, lsmr_
     except ValueError:  # (a step the matching made non-finite: a handle barely moving, stuck by its
         if not nl:      # friction over 2 encoder steps; the windows alone, as before them)
             raise
-        return _fit(p, f, T, D, H, init, res_sd, every, max_nfev, lsmr_tol, 0.0, band, dense_limit, hold)
+        return _fit(p, f, T, D, H, init, res_sd, every, max_nfev, lsmr_tol, 0.0, band, dense_limit, hold, gaps)
+    sol.starts = _starts(p.shape[0], D, H, every, gaps)
     if band is not None:
         sol.errors = residual(sol.x)[:rows]
     if nl:
@@ -576,17 +620,17 @@ def _fit(p, f, T, D, H, init, res_sd, every: int = 1, max_nfev: int = 100, lsmr_
     return sol, W
 
 
-def _problem(p, f, T, D, H, init, res_sd, every: int = 1, continuity: float | None = None):
+def _problem(p, f, T, D, H, init, res_sd, every: int = 1, continuity: float | None = None, gaps=None):
     """:func:`_fit`'s least-squares problem: (residual, jac, x0, (lo, hi), x_scale, windows,
     matched pairs); x is the figures (masses, dampings, friction), then every window's start
-    position and velocity."""
+    position and velocity; the windows :func:`_starts`' (``gaps`` as it takes them)."""
     from scipy.sparse import csc_matrix
 
     from .core import _ext
     from .simulate import _axis_coefficients
 
     n, d = p.shape
-    starts = D + H * np.arange((n - D) // H)[::every]
+    starts = _starts(n, D, H, every, gaps)
     W = starts.size
     idx = starts[:, None] + np.arange(H)[None, :]
     meas = p[idx]  # (W, H, d)
@@ -714,7 +758,9 @@ def identify(*, time, position, force, max_delay: int = MAX_DELAY, window: float
     Parameters
     ----------
     time : array_like, shape (n,)
-        The ticks' times (s), increasing; the period is their median interval.
+        The ticks' times (s), increasing; the period is their median interval. An interval more
+        than :data:`TICK_TOLERANCE` off it (a missed or late tick) is spanned by no window: the
+        windows between such intervals are fitted, and a note says how many there were.
     position : array_like, shape (n,) or (n, d), d in 1..3
         Sensed positions (m), axes :data:`AXES` [d].
     force : array_like, shape of ``position``
@@ -745,8 +791,9 @@ def identify(*, time, position, force, max_delay: int = MAX_DELAY, window: float
     ParameterError
         For arrays of different shapes, an entry that is not a real number (a bool, text or a
         complex number), a non-finite value (naming the column and sample),
-        times that do not increase or ticks whose interval strays more than 10 % from the
-        median (missed ticks: cut the log), a log shorter than :data:`MIN_WINDOWS` windows,
+        times that do not increase, intervals off the period (:data:`TICK_TOLERANCE`) so many
+        that fewer than :data:`MIN_WINDOWS` windows lie between them, a log shorter than
+        :data:`MIN_WINDOWS` windows,
         a constant force or position on an axis (nothing to identify), or settings out of
         range.
 
@@ -821,8 +868,11 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
         rel = _damping_spread(first)
         T = first.device.period
         quantized = first.device.position_resolution > 0
+        tc, pc, fc_ = _checked(time, position, force)
+        stray = _period(tc)[1]
+        long_clear = int(_clear(stray, first.samples - max_delay, round(LONG_WINDOW / T), max_delay).sum())
         if (not (quantized or rel > LONG_WINDOW_TRIGGER) or "damping" in first.undetermined
-                or first.samples - max_delay < MIN_WINDOWS * round(LONG_WINDOW / T)):
+                or long_clear < MIN_WINDOWS):
             return first  # (a motion over too few encoder steps is not helped by longer windows)
         # the first fit's figures are the start (from the equation error's, a light handle's long
         # windows under random forces stopped at 3 mm of residual, the damping at its bound 0;
@@ -842,11 +892,10 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
             # an encoder's log: the delay is the one whose fit keeps the motion in the cells the
             # positions were rounded in (at 4 kHz on a 60 µm encoder, least squares on the
             # positions fitted delays 0 to 10 alike, and preferred 0 on 1 s windows for a true 4)
-            tc, pc, fc_ = _checked(time, position, force)
             # (a delay the screening told clearly, its runner-up more than DELAY_RECHECK behind, is
             # not walked: its cells' fit gives the figures)
             walk = near or "delay" in first.undetermined
-            ranked, costs, decisive, fits = _cells_delay(pc, fc_, T, first, max_delay, walk)
+            ranked, costs, decisive, fits = _cells_delay(pc, fc_, T, first, max_delay, walk, stray)
             how = (f"{LONG_WINDOW:g} s windows fitted to each position's distance from its "
                    f"{first.device.position_resolution * 1e6:.3g} µm encoder cell: cost {costs[ranked[0]]:.3g} at "
                    f"delay {ranked[0]}")
@@ -906,7 +955,7 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
                     "differences between their fits")})
         if told is not None:
             keep = _with_cells_figures(keep, fits[told], tc, pc, _cells_probe(pc, fc_, T, first, max_delay, told,
-                                                                             fits[told].figures))
+                                                                             fits[told].figures, stray))
         return keep
     t, p, f = _checked(time, position, force)
     max_delay = whole("max_delay", max_delay, 0, 1000)
@@ -915,24 +964,31 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
     if n < 3:
         raise fail("time", f"{n} samples", f"at least {MIN_WINDOWS} windows of {window:g} s")
     dt = np.diff(t)
-    T = float(np.median(dt))
-    far = np.flatnonzero(np.abs(dt - T) > 0.1 * T)
-    if far.size:
-        k = int(far[0])
-        raise fail("time", f"an interval of {dt[k]:.3g} s at sample {k + 1}",
-                   f"ticks at one period (the median, {T:.3g} s, within 10 %): a missed tick; identify the log "
-                   "before or after it")
+    T, stray = _period(t)
     H = max(20, int(round(window / T)))
     if n - max_delay < MIN_WINDOWS * H:
         raise fail("time", f"{n} samples ({n * T:.3g} s)",
                    f"at least {MIN_WINDOWS} windows of {H} samples after the delay searched ({max_delay}): "
                    f"{(MIN_WINDOWS * H + max_delay) * T:.3g} s")
+    gaps = (stray, max_delay) if stray.any() else None
+    clear = _clear(stray, n - max_delay, H, max_delay)  # (the windows every delay holds)
+    if clear.sum() < MIN_WINDOWS:
+        k = int(np.flatnonzero(stray)[0])
+        raise fail("time", f"{int(stray.sum())} intervals off the period",
+                   f"ticks at one period (the median, {T:.3g} s, within {100 * TICK_TOLERANCE:g} %) over at least "
+                   f"{MIN_WINDOWS} windows of {H} samples between the intervals off it (the first {dt[k]:.3g} s, at "
+                   f"sample {k + 1}); {int(clear.sum())} are: log a longer run, or one whose loop keeps its period")
     for name, a in (("force", f), ("position", p)):
         flat = [AXES[d][j] for j in range(d) if np.ptp(a[:, j]) == 0]
         if flat:
             raise fail(name, f"constant along {flat[0]}", "a signal that varies on every axis (nothing to identify "
                        "on a still axis: excite it, e.g. with haptex run --identify)")
     notes = []
+    if gaps is not None:
+        k = int(np.flatnonzero(stray)[0])
+        notes.append(f"{int(stray.sum())} intervals stray more than {100 * TICK_TOLERANCE:g} % from the period "
+                     f"(missed or late ticks; the first {dt[k]:.3g} s, at sample {k + 1}): the {window:g} s windows "
+                     f"lie between them, {int(clear.sum())} of {clear.size}")
     if position_resolution is None:
         steps = [_lattice(p[:, j]) for j in range(d)]
         delta = max(s[0] for s in steps)
@@ -952,7 +1008,7 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
     # figures with its damping scaled (closed-loop logs bias the equation error's damping several
     # times over, and from there the output error stops in a local minimum). The delay with the
     # least screened residual is then fitted on every window from its screened optimum.
-    W_all = (n - max_delay) // H
+    W_all = int(clear.sum())  # (the windows between stray intervals)
     every = max(1, W_all // SCREEN_WINDOWS)
     span = float(np.max(np.ptp(p, axis=0))) / delta if delta > 0 else math.inf
     if delay is None and span < MIN_STEPS:
@@ -971,7 +1027,7 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
             inits = [{"m": np.array(start.axes["mass"]), "b": np.array(start.axes["damping"]),
                       "fc": float(start.device.coulomb_friction), "v": v}]
         for init in inits:
-            sol, W = _fit(p, f, T, D, H, init, res_sd, every, SCREEN_NFEV, 1e-6)  # ranking: scipy's tolerance
+            sol, W = _fit(p, f, T, D, H, init, res_sd, every, SCREEN_NFEV, 1e-6, gaps=gaps)  # ranking: scipy's
             if best is None or sol.cost < best.cost:
                 best = sol
         screened[D] = best
@@ -992,7 +1048,7 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
         init = {"m": xb[:d], "b": xb[d:2 * d], "fc": float(xb[2 * d]), "v": v}
         for D in range(max(D0 - SCREEN_REACH, 0), min(D0 + SCREEN_REACH, max_delay) + 1):
             if D != D0 and D in screened:
-                sol, W = _fit(p, f, T, D, H, init, res_sd, every, SCREEN_NFEV)
+                sol, W = _fit(p, f, T, D, H, init, res_sd, every, SCREEN_NFEV, gaps=gaps)
                 if sol.cost < screened[D].cost:
                     screened[D] = sol
     screen_rms = {D: float(np.sqrt(np.mean(sol.fun ** 2))) * res_sd for D, sol in screened.items()}
@@ -1001,7 +1057,8 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
     runner = ranked[1] if len(ranked) > 1 else None
     x0 = screened[D].x if screened else np.concatenate([start.axes["mass"], start.axes["damping"],
                                                          [start.device.coulomb_friction]])
-    sol, W = _fit(p, f, T, D, H, {"m": x0[:d], "b": x0[d:2 * d], "fc": float(x0[2 * d]), "v": v}, res_sd)
+    sol, W = _fit(p, f, T, D, H, {"m": x0[:d], "b": x0[d:2 * d], "fc": float(x0[2 * d]), "v": v}, res_sd,
+                  gaps=gaps)
     rms = {D: float(np.sqrt(np.mean(sol.fun ** 2))) * res_sd}
     x = sol.x
     ng = 2 * d + 1
@@ -1031,13 +1088,13 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
     if d == 1:
         notes.append("a one-axis log: the device's second axis copies the first")
     unc = {"mass": float(np.max(sd[:d])), "damping": float(np.max(sd[d:2 * d])), "coulomb_friction": float(sd[2 * d]),
-           "position_resolution": delta_sd, "delay": 0.0, "period": float(np.std(dt))}
+           "position_resolution": delta_sd, "delay": 0.0, "period": float(np.std(dt[~stray]))}
     axes = {"mass": m.tolist(), "damping": b.tolist(), "mass_sd": sd[:d].tolist(), "damping_sd": sd[d:2 * d].tolist(),
             "delay_spread": spread.tolist(), "delay_ties": [D, *ties]}
     undetermined = {}
     if runner is not None:
         notes.append(f"delay {D} periods: residual RMS {screen_rms[D] * 1e6:.3g} µm on the screening windows "
-                     f"({len(range(0, W_all, every))} of {window:g} s); the "
+                     f"({int(clear[::every].sum())} of {window:g} s); the "
                      f"runner-up, delay {runner}, {screen_rms[runner] * 1e6:.3g} µm")
         if tied:
             how = (f"within {100 * DELAY_MARGIN:g} % of each other" if close else
@@ -1069,7 +1126,7 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
             undetermined.setdefault(name, why)
     # where each figure came from: the windows carrying half of its information (the squared
     # Jacobian column, window by window) and the band holding 10-90 % of the force's power there
-    idx = (D + H * np.arange(W))[:, None] + np.arange(H)[None, :]  # the full fit's windows
+    idx = sol.starts[:, None] + np.arange(H)[None, :]  # the full fit's windows
     sources = {}
     for name, col in (("mass", 0), ("damping", d), ("coulomb_friction", 2 * d)):
         info = np.sum(J[:, col].reshape(W, H * d) ** 2, axis=1)
@@ -1160,19 +1217,20 @@ class _CellsFit(NamedTuple):
     beyond: float  # the largest distance of a position outside its cell (m; negative: all inside)
 
 
-def _cells_fit(p, f, T, D, H, init, delta, hold=None) -> _CellsFit:
+def _cells_fit(p, f, T, D, H, init, delta, hold=None, gaps=None) -> _CellsFit:
     """The output-error fit at delay D on windows of H samples whose residual is each simulated
     position's distance from its encoder cell, [measured - delta/2, measured + delta/2] (zero
     inside it), with the figures' deviations where at least :data:`CELL_DEVIATION_ROWS`
     positions a parameter left their cells (:class:`_CellsFit`). A rounded position says the handle was in that cell,
     which least squares on the positions reads as 17 µm of noise on a 60 µm encoder; a wrong
     delay cannot keep the motion in every cell (set-membership identification: Milanese &
-    Vicino, Automatica 27(6), 1991). ``hold`` as :func:`_fit`'s."""
+    Vicino, Automatica 27(6), 1991). ``hold`` and ``gaps`` as :func:`_fit`'s."""
     res_sd = delta / math.sqrt(12.0)
     # (half a cell in the residuals' units)
-    sol, W = _fit(p, f, T, D, H, init, res_sd, band=0.5 * delta / res_sd, dense_limit=MAX_CELL_DENSE, hold=hold)
+    sol, W = _fit(p, f, T, D, H, init, res_sd, band=0.5 * delta / res_sd, dense_limit=MAX_CELL_DENSE, hold=hold,
+                  gaps=gaps)
     e = sol.errors.reshape(W, H, p.shape[1]) * res_sd
-    idx = (D + H * np.arange(W))[:, None] + np.arange(H)[None, :]
+    idx = sol.starts[:, None] + np.arange(H)[None, :]
     ng = 2 * p.shape[1] + 1
     # the figures' deviations, the M-estimator's own (:func:`_deviations` on the positions that
     # left their cells: the measurement noise's share), where enough positions left them to tell
@@ -1236,39 +1294,41 @@ def _with_cells_figures(r: "Identification", fit, t, p, probe=None) -> "Identifi
                                notes=[*r.notes, note])
 
 
-def _cells_probe(p, f, T, first: "Identification", max_delay: int, D: int, x):
+def _cells_probe(p, f, T, first: "Identification", max_delay: int, D: int, x, stray=None):
     """``probe(index, value)`` for :func:`_with_cells_figures`: the largest distance (m) of a
     position outside its encoder cell when the cells' fit at delay D is refitted from figures
     ``x`` with figure ``index`` held at ``value`` (the data cut at the first call: most logs
-    never call it)."""
+    never call it); ``stray`` as :func:`_cells_data` takes it."""
     data = []
 
     def probe(k, value):
         if not data:
-            pd, fd, H, init = _cells_data(p, f, T, first, max_delay)
+            pd, fd, H, init, gaps = _cells_data(p, f, T, first, max_delay, stray)
             d = p.shape[1]
-            data.extend([pd, fd, H, {**init, "m": x[:d], "b": x[d:2 * d], "fc": float(x[2 * d])}])
-        pd, fd, H, init = data
+            data.extend([pd, fd, H, {**init, "m": x[:d], "b": x[d:2 * d], "fc": float(x[2 * d])}, gaps])
+        pd, fd, H, init, gaps = data
         delta = first.device.position_resolution
-        return _cells_fit(pd, fd, T, D, H, init, delta, hold=(k, value)).beyond
+        return _cells_fit(pd, fd, T, D, H, init, delta, hold=(k, value), gaps=gaps).beyond
 
     return probe
 
 
-def _cells_data(p, f, T, first: "Identification", max_delay: int):
+def _cells_data(p, f, T, first: "Identification", max_delay: int, stray=None):
     """The cells' fits' data: (positions, forces) cut to the :data:`LONG_WINDOW` windows that
-    every delay up to ``max_delay`` holds, the window's samples, and the fits' start (``first``'s
-    figures, the velocities estimated)."""
+    every delay up to ``max_delay`` holds, the window's samples, the fits' start (``first``'s
+    figures, the velocities estimated) and their ``gaps`` (:func:`_starts`': the intervals
+    ``stray`` (n - 1,) marks, cut alike, or None where none does)."""
     H = int(round(LONG_WINDOW / T))
     W = (p.shape[0] - max_delay) // H
     p, f = p[:max_delay + W * H], f[:max_delay + W * H]
     v, _ = _derivatives(p, T)
     init = {"m": np.array(first.axes["mass"]), "b": np.array(first.axes["damping"]),
             "fc": float(first.device.coulomb_friction), "v": v}
-    return p, f, H, init
+    cut = None if stray is None else stray[:p.shape[0] - 1]
+    return p, f, H, init, (cut, max_delay) if cut is not None and cut.any() else None
 
 
-def _cells_delay(p, f, T, first: "Identification", max_delay: int, walk: bool = True):
+def _cells_delay(p, f, T, first: "Identification", max_delay: int, walk: bool = True, stray=None):
     """The delay an encoder's log tells by its cells: each delay's :func:`_cells_fit` on
     :data:`LONG_WINDOW` windows (the same number for every delay) from ``first``'s figures,
     starting at ``first``'s delay and its neighbours and walking towards the least cost until
@@ -1276,15 +1336,16 @@ def _cells_delay(p, f, T, first: "Identification", max_delay: int, walk: bool = 
     on a 4 kHz log of :data:`CELL_MARGIN`'s, truth 4, 128, 56, 19, 4.4, 1.7, 4.8, 20 at delays
     0-6). Returns (delays by cost, {delay: cost}, told, {delay: its fit}), told when the best's
     cost is :data:`CELL_MARGIN` times below every other's, each fit a :class:`_CellsFit`.
-    Without ``walk`` only ``first``'s delay is fitted (told: its screening told it)."""
-    p, f, H, init = _cells_data(p, f, T, first, max_delay)  # (W windows at every delay)
+    Without ``walk`` only ``first``'s delay is fitted (told: its screening told it); ``stray``
+    as :func:`_cells_data` takes it."""
+    p, f, H, init, gaps = _cells_data(p, f, T, first, max_delay, stray)  # (W windows at every delay)
     delta = first.device.position_resolution
     D1 = first.device.delay
     todo = {k for k in ((D1 - 1, D1, D1 + 1) if walk else (D1,)) if 0 <= k <= max_delay}
     costs, fits = {}, {}
     while walk or not costs:
         for k in sorted(todo - costs.keys()):
-            fits[k] = _cells_fit(p, f, T, k, H, init, delta)
+            fits[k] = _cells_fit(p, f, T, k, H, init, delta, gaps=gaps)
             costs[k] = fits[k].cost
         best = min(costs, key=costs.get)
         todo = {k for k in (best - 1, best + 1) if 0 <= k <= max_delay} - costs.keys()
