@@ -525,6 +525,72 @@ def test_a_recording_saved_by_matlab_reads_its_vectors(tmp_path, version):
     np.testing.assert_array_equal(dd.read_recording(npz).acceleration, cols["acc_m_s2"])
 
 
+def test_a_recording_logged_by_ni_daqmx_to_tdms_reads_its_channels(tmp_path):
+    # An NI rig (DAQmx's logging, LabVIEW's TDMS Write) keeps a recording as TDMS: groups of
+    # channels, each a waveform whose timing is in its properties (wf_start_offset,
+    # wf_increment: NI's TDMS file format), and groups at other rates beside it. Written here by
+    # npTDMS's own writer; refused before (read as text: "could not convert"). Truth: the
+    # channels as written, the rate 1 / wf_increment, a group of another length not in the way.
+    from nptdms import ChannelObject, GroupObject, RootObject, TdmsWriter
+
+    fs, n = 10000.0, 4000
+    az = np.sin(np.arange(n) * 0.3)
+    wave = {"wf_start_offset": 0.0, "wf_increment": 1.0 / fs, "unit_string": "g"}
+    path = tmp_path / "scan.tdms"
+    with TdmsWriter(path) as w:
+        w.write_segment([RootObject({"name": "bench 2"}), GroupObject("rig"),
+                         ChannelObject("rig", "az", az, properties=wave),
+                         ChannelObject("rig", "fz", np.full(n, 1.5), properties={**wave, "unit_string": "N"}),
+                         ChannelObject("rig", "v", np.full(n, 50.0), properties={**wave, "unit_string": "mm/s"}),
+                         ChannelObject("slow", "temperature", np.full(40, 21.5))])
+    rec = dd.read_recording(path, columns=["acceleration=rig/az:g", "force=rig/fz:N", "speed=rig/v:mm/s",
+                                           "time=rig/time:s"])
+    assert rec.sample_rate == pytest.approx(fs, rel=1e-9)
+    np.testing.assert_allclose(rec.acceleration, az * 9.80665, rtol=1e-15)
+    assert np.all(rec.normal_force == 1.5) and rec.speed == pytest.approx(np.full(n, 0.05), rel=1e-15)
+    assert "slow/temperature" in rec.ignored
+    # without its time column named, the refusal names it (and the rate's option)
+    with pytest.raises(ParameterError, match=r"--sample-rate .*--column time=rig/time:s"):
+        dd.read_recording(path, columns=["acceleration=rig/az:g", "force=rig/fz:N", "speed=rig/v:mm/s"])
+    # a quantity from a group at another rate: one line naming both lengths
+    with pytest.raises(ParameterError, match=r"slow/temperature has 40 rows, rig/az 4000"):
+        dd.read_recording(path, columns=["acceleration=rig/az:g", "force=slow/temperature:N", "speed=rig/v:mm/s"],
+                          sample_rate=fs)
+
+
+@pytest.mark.parametrize("x_columns", ["No", "One"])
+def test_a_recording_written_as_a_labview_measurement_file_reads_its_channels(tmp_path, x_columns):
+    # LabVIEW's Write To Measurement File (.lvm): a file header and a segment header, each ended
+    # by ***End_of_Header***, tab-separated, the decimal mark the header's Decimal_Separator (a
+    # German locale's comma here), then a row of channel names and the rows; with X_Columns No
+    # there is no time column and the times are X0 + k Delta_X (NI's "Specification for the
+    # LabVIEW Measurement File", and the public examples of ladisk/lvm_read, whose reader haptex
+    # uses). Refused before (its first line read as the header). Truth: the values as written,
+    # the rate 1 / Delta_X.
+    fs, n = 25600.0, 3000
+    acc = np.round(np.sin(np.arange(n) * 0.2), 6)
+
+    def num(v):
+        return f"{v:.6f}".replace(".", ",")
+    head = ["LabVIEW Measurement\t", "Writer_Version\t2", "Reader_Version\t2", "Separator\tTab",
+            "Decimal_Separator\t,", "Multi_Headings\tNo", f"X_Columns\t{x_columns}", "Time_Pref\tRelative",
+            "Operator\tlab", "Date\t2026/12/02", "Time\t09:00:00,0", "***End_of_Header***\t", "\t",
+            "Channels\t3\t\t\t", f"Samples\t{n}\t{n}\t{n}\t", "Date\t2026/12/02\t2026/12/02\t2026/12/02\t",
+            "Time\t09:00:00,0\t09:00:00,0\t09:00:00,0\t", "Y_Unit_Label\tg\tNewtons\tm/s\t",
+            "X_Dimension\tTime\tTime\tTime\t", "X0\t0,0000000000000000E+0\t0,0000000000000000E+0\t0,0000000000000000E+0\t",
+            f"Delta_X\t{1 / fs:.6E}\t{1 / fs:.6E}\t{1 / fs:.6E}\t".replace(".", ","), "***End_of_Header***\t\t\t\t",
+            "X_Value\tacc\tforce\tspeed\tComment"]
+    rows = [("" if x_columns == "No" else num(k / fs)) + f"\t{num(a)}\t1,500000\t0,050000" for k, a in enumerate(acc)]
+    path = tmp_path / "scan.lvm"
+    path.write_text("\n".join(head + rows) + "\n")
+    rec = dd.read_recording(path, columns=["acceleration=acc:g", "force=force:N", "speed=speed:m/s",
+                                           "time=X_Value:s"])
+    assert rec.sample_rate == pytest.approx(fs, rel=1e-6)
+    np.testing.assert_allclose(rec.acceleration, acc * 9.80665, rtol=1e-12)
+    assert np.all(rec.normal_force == 1.5) and np.all(rec.speed == 0.05)
+    assert not list(tmp_path.glob("*.pkl"))  # (lvm_read's cache is not written beside the file)
+
+
 def test_haptexs_own_recording_with_a_column_more_reads_and_lists_it(tmp_path, capsys):
     # issue 64: time_s,acc_m_s2,speed_m_s,force_n,pos_m was refused by its fifth column's name
     n = 1000

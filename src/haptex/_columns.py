@@ -1,4 +1,5 @@
-"""Tables as rigs write them: columns named by the user, with their units, from CSV, NPZ, HDF5 or MATLAB MAT-files.
+"""Tables as rigs write them: columns named by the user, with their units, from CSV, NPZ,
+HDF5, MATLAB MAT-files, NI TDMS or LabVIEW Measurement Files.
 
 A recording (:func:`haptex.datadriven.read_recording`) or a run log
 (:func:`haptex.identification.read_log`) written by another program has its own column names,
@@ -28,7 +29,7 @@ G = 9.80665
 """Standard gravity (m/s²): the unit ``g`` of an acceleration column."""
 
 TABLE_SUFFIXES = {".csv": "CSV", ".txt": "CSV", ".npz": "NPZ", ".h5": "HDF5", ".hdf5": "HDF5", ".hdf": "HDF5",
-                  ".mat": "MAT"}
+                  ".mat": "MAT", ".tdms": "TDMS", ".lvm": "LVM"}
 """The file kinds :func:`read_table` reads, by suffix (anything else is read as CSV)."""
 
 
@@ -192,9 +193,13 @@ def read_table(path, what: str) -> dict:
         A delimited-text file (comma, tab, semicolon or whitespace, ``CSV_DELIMITERS``;
         '#' lines before its header row skipped) with a header row naming its columns, an
         ``.npz`` (each array a column, a 2-D one (n, k) a group of k), an HDF5 file (``.h5``,
-        ``.hdf5``; each dataset by its path, read with h5py) or a MATLAB ``.mat`` file (v5, or
-        v7.3 as HDF5; each numeric variable a column). A 1 x n array (MATLAB's row vector) is
-        the column of n.
+        ``.hdf5``; each dataset by its path, read with h5py), a MATLAB ``.mat`` file (v5, or
+        v7.3 as HDF5; each numeric variable a column), an NI TDMS file (``.tdms``, read with
+        npTDMS: each channel as ``group/channel``, and ``group/time`` where the group's
+        channels are waveforms of one timing) or a LabVIEW Measurement File (``.lvm``, read with
+        lvm_read: each channel by its name, ``X_Value`` the times). A 1 x n array (MATLAB's row
+        vector) is the column of n. Columns may differ in length (a file's groups at other
+        rates); those a quantity takes may not (:func:`take`).
     what : str
         What the file is (named in errors).
 
@@ -205,12 +210,12 @@ def read_table(path, what: str) -> dict:
     Raises
     ------
     ParameterError
-        If the file is missing, larger than the memory budget allows, not of its kind, holds a
-        value that is not a number, or columns of different lengths.
+        If the file is missing, larger than the memory budget allows, not of its kind, or holds
+        a value that is not a number.
     """
     p = a_path("path", path, f"a {what}'s path")
     if not p.is_file():
-        raise fail("path", str(path), f"an existing {what} (CSV, NPZ, HDF5 or MAT)")
+        raise fail("path", str(path), f"an existing {what} (CSV, NPZ, HDF5, MAT, TDMS or LVM)")
     kind = TABLE_SUFFIXES.get(p.suffix.lower(), "CSV")
     if kind == "NPZ":
         out, need = {}, 0.0
@@ -236,18 +241,17 @@ def read_table(path, what: str) -> dict:
         out = _read_hdf5(p, what)
     elif kind == "MAT":
         out = _read_mat(p, what)
+    elif kind == "TDMS":
+        out = _read_tdms(p, what)
+    elif kind == "LVM":
+        out = _read_lvm(p, what)
     else:
         out = _read_csv(p, what)
     # MATLAB's vectors are 1 x n rows (save(), and h5py's reading of a v7.3 file): a column of n
     out = {k: (v[0] if np.ndim(v) == 2 and v.shape[0] == 1 and v.shape[1] > 1 else v) for k, v in out.items()}
-    lengths = {k: len(v) for k, v in out.items() if np.ndim(v) >= 1}
     out = {k: v for k, v in out.items() if np.ndim(v) in (1, 2)}
     if not out:
         raise fail("path", str(path), f"a {what} with named columns")
-    n = max(lengths.values())
-    short = [k for k, v in out.items() if len(v) != n]
-    if short:
-        raise fail("column", f"{short[0]} has {len(out[short[0]])} rows", f"{n} rows, as the file's other columns")
     return out
 
 
@@ -344,6 +348,90 @@ def _read_mat(p: Path, what: str) -> dict:
             and v.ndim in (1, 2)}
 
 
+TDMS_BYTES_FACTOR = 3.0
+"""Bytes of memory a TDMS or LVM file's byte takes while it is read (its raw data as float64,
+a copy; LVM's text several bytes a number): the budget's count before reading."""
+
+
+def _read_tdms(p: Path, what: str) -> dict:
+    """An NI TDMS file's numeric channels (npTDMS), each as ``group/channel``; a group whose
+    channels are waveforms of one timing (the same wf_start_offset, wf_increment and length:
+    NI's waveform properties) also has ``group/time``, their times (s), unless it has a
+    channel named so."""
+    from nptdms import TdmsFile
+
+    check_budget("path", str(p), TDMS_BYTES_FACTOR * p.stat().st_size, f"reading this {what}")
+    try:
+        tdms = TdmsFile.read(p)
+    except MemoryError:
+        raise fail("path", str(p), f"a {what} that fits in memory") from None
+    except Exception as exc:  # noqa: BLE001 - npTDMS raises several kinds for an unreadable file
+        why = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise fail("path", str(p), f"a readable TDMS file ({why})") from None
+    out = {}
+    for group in tdms.groups():
+        timing = set()
+        for ch in group.channels():
+            data = ch[:]
+            if not (isinstance(data, np.ndarray) and data.dtype.kind in "biuf" and data.ndim == 1):
+                continue  # (strings, timestamps, DAQmx raw scalers' data without scaling)
+            out[f"{group.name}/{ch.name}"] = np.asarray(data, dtype=float)
+            props = ch.properties
+            timing.add((props.get("wf_start_offset"), props.get("wf_increment"), len(data))
+                       if "wf_increment" in props else None)
+        name = f"{group.name}/time"
+        if len(timing) == 1 and None not in timing and name not in out:
+            start, step, n = timing.pop()
+            out[name] = float(start or 0.0) + float(step) * np.arange(n)
+    return out
+
+
+def _read_lvm(p: Path, what: str) -> dict:
+    """A LabVIEW Measurement File's channels (lvm_read, its cache not written), each by its
+    name, ``X_Value`` their times: the file's own x column, or X0 + k Delta_X from the segment
+    header where it has none (X_Columns No), or where each channel has its own and they agree.
+    The segments of one set of channels (a loop's calls of Write To Measurement File) are one
+    table, in order."""
+    import lvm_read
+
+    check_budget("path", str(p), 8.0 * TDMS_BYTES_FACTOR * p.stat().st_size, f"reading this {what}")
+    try:
+        lvm = lvm_read.read(str(p), read_from_pickle=False, dump_file=False)
+    except MemoryError:
+        raise fail("path", str(p), f"a {what} that fits in memory") from None
+    except Exception as exc:  # noqa: BLE001 - lvm_read raises several kinds for an unreadable file
+        why = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise fail("path", str(p), f"a readable LabVIEW Measurement File ({why})") from None
+    parts, names = [], None
+    for k in range(int(lvm.get("Segments", 0))):
+        seg = lvm[k]
+        cols = [c for c in seg["Channel names"] if c != "Comment"]
+        data = np.asarray(seg["data"], dtype=float).reshape(len(seg["data"]), -1)
+        if data.shape[1] != len(cols):
+            raise fail("path", str(p), f"a LabVIEW Measurement File whose rows hold its {len(cols)} channels "
+                       f"(segment {k + 1}'s hold {data.shape[1]})")
+        table = {}
+        xs = [data[:, j] for j, c in enumerate(cols) if c == "X_Value"]
+        for j, c in enumerate(cols):
+            if c != "X_Value":
+                table[c] = data[:, j]
+        if xs and all(np.array_equal(x, xs[0], equal_nan=True) for x in xs):
+            table["X_Value"] = xs[0]
+        elif not xs:  # (X_Columns No: the times from the segment header, when its channels share them)
+            x0 = {float(v) for v in np.atleast_1d(seg.get("X0", [])) if np.isfinite(v)}
+            dx = {float(v) for v in np.atleast_1d(seg.get("Delta_X", [])) if np.isfinite(v)}
+            if len(x0) == 1 and len(dx) == 1:
+                table["X_Value"] = x0.pop() + dx.pop() * np.arange(data.shape[0])
+        if names is not None and list(table) != names:
+            raise fail("path", str(p), f"a LabVIEW Measurement File whose segments hold the same channels "
+                       f"(segment 1: {', '.join(names)}; segment {k + 1}: {', '.join(table)})")
+        names = list(table)
+        parts.append(table)
+    if not parts:
+        raise fail("path", str(p), f"a LabVIEW Measurement File with data (it has no segment)")
+    return {c: np.concatenate([t[c] for t in parts]) for c in names}
+
+
 def _read_hdf5(p: Path, what: str) -> dict:
     try:
         import h5py
@@ -402,7 +490,7 @@ def take(table: dict, columns, quantities: dict, defaults: dict, what: str) -> t
         raise fail("--column", [s.quantity for s in specs], "each quantity once")
     specs += [ColumnSpec(q, cols, quantities[q], 1.0) for q, cols in defaults.items()
               if q not in named and all(c in table for c in cols)]
-    values, used = {}, set()
+    values, used, rows = {}, set(), {}
     for s in specs:
         parts = []
         for c in s.columns:
@@ -410,6 +498,11 @@ def take(table: dict, columns, quantities: dict, defaults: dict, what: str) -> t
                 have = ", ".join(list(table)[:12]) + (", ..." if len(table) > 12 else "")
                 raise fail("--column", f"{s.quantity}={c}", f"a column of the {what}: {have}")
             v = np.asarray(table[c], dtype=float)
+            rows.setdefault(len(v), c)
+            if len(rows) > 1:  # (columns of a file's groups at other rates)
+                (n, first), (m, other) = rows.items()
+                raise fail("--column", f"{s.quantity}={c}", f"columns of one length: {other} has {m} rows, {first} "
+                           f"{n} (the file's groups at other rates: take the quantities from one)")
             parts.append(v.reshape(len(v), -1))
             used.add(c)
         arr = np.concatenate(parts, axis=1) * s.factor

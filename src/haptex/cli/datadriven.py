@@ -33,9 +33,9 @@ from ._common import Quantity, _catalogued_device, _check_plot_path
                    "board's step as the unit for raw counts, e.g. 'acceleration=az:0.001 g'. "
                    "Repeat for each; other columns are ignored and listed.")
 def fit_cmd(recording, out, sample_rate, rate, order, ma_order, segment, highpass, columns):
-    """Fit ARMA vibration models over (speed, force) to a recording (CSV, NPZ, HDF5 or .mat: haptex's
-    columns time_s, acc_m_s2 or acc_x/y/z_m_s2, speed_m_s, force_n, or the rig's own with
-    --column), and write them."""
+    """Fit ARMA vibration models over (speed, force) to a recording (CSV, NPZ, HDF5, .mat, TDMS or
+    LVM: haptex's columns time_s, acc_m_s2 or acc_x/y/z_m_s2, speed_m_s, force_n, or the rig's
+    own with --column), and write them."""
     from ..datadriven import read_recording
 
     if not out.parent.is_dir():

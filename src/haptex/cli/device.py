@@ -418,8 +418,8 @@ def _identification_run(backend, program, fmax: float, duration: float, record: 
                    "raw counts, e.g. 'position=enc:2.5um'. Repeat for each; other columns are ignored and listed.")
 def identify_command(log, out, axis, max_delay, as_json, plot, columns):
     """Fit a device model (mass, damping, Coulomb friction, encoder step, delay) to a run log
-    (haptex's CSV or NPZ, or another program's CSV, NPZ, HDF5 or .mat with its columns named by
-    --column)."""
+    (haptex's CSV or NPZ, or another program's CSV, NPZ, HDF5, .mat, TDMS or LVM with its columns
+    named by --column)."""
     from ..identification import AXES, identify, read_log
 
     if out.suffix.lower() != ".toml":  # (what --device FILE.toml reads: another name would be refused there)

@@ -155,14 +155,14 @@ as the identification's derivatives; it passes the hand's motion, < 10 Hz, withi
 
 
 def read_recording(path, *, sample_rate: float | None = None, columns=None) -> Recording:
-    """Read a recording: CSV, NPZ, HDF5 or MATLAB .mat, with haptex's column names or the rig's own.
+    """Read a recording: CSV, NPZ, HDF5, MATLAB .mat, TDMS or LVM, with haptex's names or the rig's.
 
     Parameters
     ----------
     path : str or os.PathLike
         A CSV file with a header row naming its columns (any order), an ``.npz``, an HDF5
-        file (``.h5``/``.hdf5``) or a MATLAB ``.mat`` (v5 or v7.3):
-        :func:`haptex._columns.read_table`.
+        file (``.h5``/``.hdf5``), a MATLAB ``.mat`` (v5 or v7.3), an NI ``.tdms`` or a
+        LabVIEW ``.lvm``: :func:`haptex._columns.read_table`.
     sample_rate : float, optional
         Rate (Hz), when the file has no time column.
     columns : sequence of str, optional
@@ -219,7 +219,9 @@ def read_recording(path, *, sample_rate: float | None = None, columns=None) -> R
             raise fail("sample_rate", sample_rate, f"{fs:g} Hz, the rate of the file's times, or left out "
                        "(None in Python)")
     elif sample_rate is None:
-        raise fail("sample_rate", None, "a rate (Hz) for a recording without a time column")
+        times = [c for c in ignored if c == "X_Value" or c.lower().rsplit("/", 1)[-1] in ("time", "time_s", "t")]
+        raise fail("sample_rate", None, "a rate (Hz) for a recording without a time column (--sample-rate at the "
+                   "command line)" + (f", or the file's times named: --column time={times[0]}:s" if times else ""))
     else:
         fs = positive("sample_rate", sample_rate, "Hz")
     if "speed" in got:
