@@ -4,7 +4,8 @@ A run log holds, at each servo tick, the time, the sensed position and the force
 (:data:`LOG_COLUMNS`; ``haptex run --record FILE.csv`` writes it). :func:`identify` fits the
 device model haptex simulates to it: a rigid handle of mass m and viscous damping b on each
 axis, isotropic Coulomb friction f_c (a sampled Karnopp model), the force held over each
-period (zero-order hold) and applied ``delay`` whole periods after it was commanded, the
+period (zero-order hold; each tick's own interval where the log's times say so,
+:data:`TICK_TOLERANCE`) and applied ``delay`` whole periods after it was commanded, the
 positions read on an encoder's lattice of step delta.
 
 The method is output-error identification over windows (Ljung, *System Identification:
@@ -78,13 +79,15 @@ rounded at ten lattice offsets, the damping spread over -5.4..+14.7 % at 0.2 s (
 fit reporting 0.4-4.9 %) and -0.2..+4.4 % at 1 s (sd 1.8 %)."""
 MIN_WINDOWS = 5
 """Fewest windows a log must fill (so 1 s at the default window)."""
-TICK_TOLERANCE = 0.1
+TICK_TOLERANCE = 0.5
 """Largest relative departure of a tick's interval from the log's period (the intervals' median)
-for it to count as one period (chosen: a non-real-time loop's jitter; on the independent
-simulator's logs with every interval drawn within +-9 % the figures moved by at most 0.3 %
-(mass), 2.0 % (damping) and 0.14 % (friction)). A longer or shorter interval, a missed or
-doubled tick, *strays*: no output-error window spans one (each window's model holds the force
-for one period a tick), and the windows between them are fitted as any others."""
+for it to count as a tick (chosen: a loop without a real-time clock, whose ticks come 0.5 to
+1.5 periods apart). Each such interval is modelled as it was logged, the force held over it (a
+loop's jitter; with each period taken as the median instead, intervals drawn within +-9 % moved
+the independent simulator's figures by up to 0.3 % (mass), 2.0 % (damping) and 0.14 %
+(friction)). A longer or shorter one *strays*: a missed tick, or samples the logger dropped while
+the loop ran on, which no model of the log can tell apart, so no output-error window spans it
+and the windows between them are fitted as any others."""
 MAX_DELAY = 10
 """Largest delay searched (periods, chosen: haptic devices' computation delays are 0-2)."""
 MIN_STEPS = 20
@@ -539,6 +542,26 @@ def _period(t: np.ndarray) -> tuple[float, np.ndarray]:
     return T, np.abs(dt - T) > TICK_TOLERANCE * T
 
 
+class _Ticks(NamedTuple):
+    """A log's ticks where they are not one period each (:func:`_ticks`)."""
+
+    intervals: np.ndarray | None  # (n - 1,) s, each tick's own; None: every one the period
+    stray: np.ndarray | None  # (n - 1,) bool, the intervals no window spans; None: none
+    reach: int  # the largest delay searched (the windows every delay holds alike)
+
+
+def _ticks(t: np.ndarray, max_delay: int) -> _Ticks | None:
+    """The ticks of times ``t`` (n,) as :func:`_fit` takes them: each interval its own where
+    they differ from the period by more than rounding (1e-9 of it), the strays
+    (:data:`TICK_TOLERANCE`) marked; None where every interval is the period."""
+    T, stray = _period(t)
+    dt = np.diff(t)
+    uneven = bool(np.any(np.abs(dt[~stray] - T) > 1e-9 * T))
+    if not uneven and not stray.any():
+        return None
+    return _Ticks(dt if uneven else None, stray if stray.any() else None, max_delay)
+
+
 def _clear(stray: np.ndarray | None, n: int, H: int, reach: int) -> np.ndarray:
     """Which windows j of the regular grid (samples D + H j onwards, D <= ``reach``) span no
     stray interval, for every delay up to ``reach`` alike (so that their fits compare): window j
@@ -553,21 +576,19 @@ def _clear(stray: np.ndarray | None, n: int, H: int, reach: int) -> np.ndarray:
     return cum[hi] - cum[np.minimum(lo, stray.size)] == 0
 
 
-def _starts(n: int, D: int, H: int, every: int = 1, gaps=None) -> np.ndarray:
+def _starts(n: int, D: int, H: int, every: int = 1, ticks: _Ticks | None = None) -> np.ndarray:
     """The first samples of a fit's windows of H samples at delay D: every ``every``-th of the
-    regular grid D + H j, those spanning a stray interval left out (``gaps``: (stray, reach) as
-    :func:`_clear` takes them, or None)."""
+    regular grid D + H j, those spanning a stray interval of ``ticks`` (:class:`_Ticks`) left
+    out (:func:`_clear`)."""
     j = np.arange((n - D) // H)[::every]
-    if gaps is not None:
-        stray, reach = gaps
-        clear = _clear(stray, n, H, reach)
-        j = j[clear[j]]
+    if ticks is not None and ticks.stray is not None:
+        j = j[_clear(ticks.stray, n, H, ticks.reach)[j]]
     return D + H * j
 
 
 def _fit(p, f, T, D, H, init, res_sd, every: int = 1, max_nfev: int = 100, lsmr_tol: float = 1e-8,
          continuity: float | None = None, band: float | None = None, dense_limit: int = MAX_DENSE_FIT,
-         hold: tuple[int, float] | None = None, gaps=None):
+         hold: tuple[int, float] | None = None, ticks: _Ticks | None = None):
     """Output-error fit at delay D over every ``every``-th window: (least-squares result, windows);
     contiguous windows matched by ``continuity`` (default :data:`CONTINUITY`), the matching rows
     left out of the result's residuals and Jacobian (the deviations are the windows' own). With
@@ -575,12 +596,13 @@ def _fit(p, f, T, D, H, init, res_sd, every: int = 1, max_nfev: int = 100, lsmr_
     [measured - band, measured + band], an encoder's cell (:func:`_cells_fit`), and the result
     carries ``errors``, the positions' own residuals at its optimum. Steps are solved densely up
     to ``dense_limit`` Jacobian entries. ``hold`` (index, value) holds one figure at a nonzero value.
-    ``gaps`` as :func:`_starts`' (windows spanning a stray interval left out); the result's
-    ``starts`` are the windows' first samples."""
+    ``ticks`` (:class:`_Ticks`): each step held over its own interval, and windows spanning a
+    stray interval left out (:func:`_starts`); the result's ``starts`` are the windows' first
+    samples."""
     from scipy.optimize import least_squares
     from scipy.sparse import diags
 
-    residual, jac, x0, (lo, hi), scale, W, nl = _problem(p, f, T, D, H, init, res_sd, every, continuity, gaps)
+    residual, jac, x0, (lo, hi), scale, W, nl = _problem(p, f, T, D, H, init, res_sd, every, continuity, ticks)
     if hold is not None:  # (a band of 1e-9 of it: least squares needs lo < hi)
         k, value = hold
         x0[k], lo[k], hi[k] = value, value * (1.0 - 1e-9), value * (1.0 + 1e-9)
@@ -610,8 +632,8 @@ def _fit(p, f, T, D, H, init, res_sd, every: int = 1, max_nfev: int = 100, lsmr_
     except ValueError:  # (a step the matching made non-finite: a handle barely moving, stuck by its
         if not nl:      # friction over 2 encoder steps; the windows alone, as before them)
             raise
-        return _fit(p, f, T, D, H, init, res_sd, every, max_nfev, lsmr_tol, 0.0, band, dense_limit, hold, gaps)
-    sol.starts = _starts(p.shape[0], D, H, every, gaps)
+        return _fit(p, f, T, D, H, init, res_sd, every, max_nfev, lsmr_tol, 0.0, band, dense_limit, hold, ticks)
+    sol.starts = _starts(p.shape[0], D, H, every, ticks)
     if band is not None:
         sol.errors = residual(sol.x)[:rows]
     if nl:
@@ -620,17 +642,19 @@ def _fit(p, f, T, D, H, init, res_sd, every: int = 1, max_nfev: int = 100, lsmr_
     return sol, W
 
 
-def _problem(p, f, T, D, H, init, res_sd, every: int = 1, continuity: float | None = None, gaps=None):
+def _problem(p, f, T, D, H, init, res_sd, every: int = 1, continuity: float | None = None,
+             ticks: _Ticks | None = None):
     """:func:`_fit`'s least-squares problem: (residual, jac, x0, (lo, hi), x_scale, windows,
     matched pairs); x is the figures (masses, dampings, friction), then every window's start
-    position and velocity; the windows :func:`_starts`' (``gaps`` as it takes them)."""
+    position and velocity; the windows :func:`_starts`', each step held over its own interval
+    where ``ticks`` has them (the last sample's, past the log, the period)."""
     from scipy.sparse import csc_matrix
 
     from .core import _ext
     from .simulate import _axis_coefficients
 
     n, d = p.shape
-    starts = _starts(n, D, H, every, gaps)
+    starts = _starts(n, D, H, every, ticks)
     W = starts.size
     idx = starts[:, None] + np.arange(H)[None, :]
     meas = p[idx]  # (W, H, d)
@@ -644,6 +668,8 @@ def _problem(p, f, T, D, H, init, res_sd, every: int = 1, continuity: float | No
     x0 = np.clip(x0, lo, hi)
     x0[:d] = np.maximum(x0[:d], 1e-3)
     pos = np.empty((W, H, d))
+    # (each step's own period, where the ticks have them: the interval after its sample)
+    step_T = None if ticks is None or ticks.intervals is None else np.append(ticks.intervals, T)[idx][:, :, None]
 
     ends = {}
     lam_c = CONTINUITY if continuity is None else continuity
@@ -654,7 +680,8 @@ def _problem(p, f, T, D, H, init, res_sd, every: int = 1, continuity: float | No
     def model(x):
         key = x[:2 * d].tobytes()
         if coef.get("key") != key:
-            coef["key"], coef["c"] = key, np.ascontiguousarray(_axis_coefficients(x[:d], x[d:2 * d], T))
+            coef["key"], coef["c"] = key, np.ascontiguousarray(_axis_coefficients(
+                x[:d], x[d:2 * d], T if step_T is None else step_T))
         c = coef["c"]
         p0 = x[ng:ng + W * d].reshape(W, d).copy()  # (free_run ends them at the windows' end states)
         v0 = x[ng + W * d:].reshape(W, d).copy()
@@ -758,9 +785,11 @@ def identify(*, time, position, force, max_delay: int = MAX_DELAY, window: float
     Parameters
     ----------
     time : array_like, shape (n,)
-        The ticks' times (s), increasing; the period is their median interval. An interval more
-        than :data:`TICK_TOLERANCE` off it (a missed or late tick) is spanned by no window: the
-        windows between such intervals are fitted, and a note says how many there were.
+        The ticks' times (s), increasing; the period is their median interval, and each
+        tick's force is held over its own interval. An interval more than
+        :data:`TICK_TOLERANCE` off the period (a missed tick, or samples not logged) is spanned
+        by no window: the windows between such intervals are fitted, and a note says how many
+        there were.
     position : array_like, shape (n,) or (n, d), d in 1..3
         Sensed positions (m), axes :data:`AXES` [d].
     force : array_like, shape of ``position``
@@ -869,8 +898,9 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
         T = first.device.period
         quantized = first.device.position_resolution > 0
         tc, pc, fc_ = _checked(time, position, force)
-        stray = _period(tc)[1]
-        long_clear = int(_clear(stray, first.samples - max_delay, round(LONG_WINDOW / T), max_delay).sum())
+        ticks = _ticks(tc, max_delay)
+        long_clear = int(_clear(None if ticks is None else ticks.stray, first.samples - max_delay,
+                                round(LONG_WINDOW / T), max_delay).sum())
         if (not (quantized or rel > LONG_WINDOW_TRIGGER) or "damping" in first.undetermined
                 or long_clear < MIN_WINDOWS):
             return first  # (a motion over too few encoder steps is not helped by longer windows)
@@ -895,7 +925,7 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
             # (a delay the screening told clearly, its runner-up more than DELAY_RECHECK behind, is
             # not walked: its cells' fit gives the figures)
             walk = near or "delay" in first.undetermined
-            ranked, costs, decisive, fits = _cells_delay(pc, fc_, T, first, max_delay, walk, stray)
+            ranked, costs, decisive, fits = _cells_delay(pc, fc_, T, first, max_delay, walk, ticks)
             how = (f"{LONG_WINDOW:g} s windows fitted to each position's distance from its "
                    f"{first.device.position_resolution * 1e6:.3g} µm encoder cell: cost {costs[ranked[0]]:.3g} at "
                    f"delay {ranked[0]}")
@@ -955,7 +985,7 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
                     "differences between their fits")})
         if told is not None:
             keep = _with_cells_figures(keep, fits[told], tc, pc, _cells_probe(pc, fc_, T, first, max_delay, told,
-                                                                             fits[told].figures, stray))
+                                                                             fits[told].figures, ticks))
         return keep
     t, p, f = _checked(time, position, force)
     max_delay = whole("max_delay", max_delay, 0, 1000)
@@ -970,7 +1000,7 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
         raise fail("time", f"{n} samples ({n * T:.3g} s)",
                    f"at least {MIN_WINDOWS} windows of {H} samples after the delay searched ({max_delay}): "
                    f"{(MIN_WINDOWS * H + max_delay) * T:.3g} s")
-    gaps = (stray, max_delay) if stray.any() else None
+    ticks = _ticks(t, max_delay)
     clear = _clear(stray, n - max_delay, H, max_delay)  # (the windows every delay holds)
     if clear.sum() < MIN_WINDOWS:
         k = int(np.flatnonzero(stray)[0])
@@ -984,11 +1014,15 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
             raise fail(name, f"constant along {flat[0]}", "a signal that varies on every axis (nothing to identify "
                        "on a still axis: excite it, e.g. with haptex run --identify)")
     notes = []
-    if gaps is not None:
+    if ticks is not None and ticks.intervals is not None:
+        jitter = float(np.max(np.abs(dt[~stray] - T)))
+        notes.append(f"the ticks' intervals depart from the period by up to {jitter:.3g} s "
+                     f"({100 * jitter / T:.2g} %): each force is held over its own interval")
+    if ticks is not None and ticks.stray is not None:
         k = int(np.flatnonzero(stray)[0])
         notes.append(f"{int(stray.sum())} intervals stray more than {100 * TICK_TOLERANCE:g} % from the period "
-                     f"(missed or late ticks; the first {dt[k]:.3g} s, at sample {k + 1}): the {window:g} s windows "
-                     f"lie between them, {int(clear.sum())} of {clear.size}")
+                     f"(missed ticks, or samples not logged; the first {dt[k]:.3g} s, at sample {k + 1}): the "
+                     f"{window:g} s windows lie between them, {int(clear.sum())} of {clear.size}")
     if position_resolution is None:
         steps = [_lattice(p[:, j]) for j in range(d)]
         delta = max(s[0] for s in steps)
@@ -1027,7 +1061,7 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
             inits = [{"m": np.array(start.axes["mass"]), "b": np.array(start.axes["damping"]),
                       "fc": float(start.device.coulomb_friction), "v": v}]
         for init in inits:
-            sol, W = _fit(p, f, T, D, H, init, res_sd, every, SCREEN_NFEV, 1e-6, gaps=gaps)  # ranking: scipy's
+            sol, W = _fit(p, f, T, D, H, init, res_sd, every, SCREEN_NFEV, 1e-6, ticks=ticks)  # ranking: scipy's
             if best is None or sol.cost < best.cost:
                 best = sol
         screened[D] = best
@@ -1048,7 +1082,7 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
         init = {"m": xb[:d], "b": xb[d:2 * d], "fc": float(xb[2 * d]), "v": v}
         for D in range(max(D0 - SCREEN_REACH, 0), min(D0 + SCREEN_REACH, max_delay) + 1):
             if D != D0 and D in screened:
-                sol, W = _fit(p, f, T, D, H, init, res_sd, every, SCREEN_NFEV, gaps=gaps)
+                sol, W = _fit(p, f, T, D, H, init, res_sd, every, SCREEN_NFEV, ticks=ticks)
                 if sol.cost < screened[D].cost:
                     screened[D] = sol
     screen_rms = {D: float(np.sqrt(np.mean(sol.fun ** 2))) * res_sd for D, sol in screened.items()}
@@ -1058,7 +1092,7 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
     x0 = screened[D].x if screened else np.concatenate([start.axes["mass"], start.axes["damping"],
                                                          [start.device.coulomb_friction]])
     sol, W = _fit(p, f, T, D, H, {"m": x0[:d], "b": x0[d:2 * d], "fc": float(x0[2 * d]), "v": v}, res_sd,
-                  gaps=gaps)
+                  ticks=ticks)
     rms = {D: float(np.sqrt(np.mean(sol.fun ** 2))) * res_sd}
     x = sol.x
     ng = 2 * d + 1
@@ -1217,18 +1251,18 @@ class _CellsFit(NamedTuple):
     beyond: float  # the largest distance of a position outside its cell (m; negative: all inside)
 
 
-def _cells_fit(p, f, T, D, H, init, delta, hold=None, gaps=None) -> _CellsFit:
+def _cells_fit(p, f, T, D, H, init, delta, hold=None, ticks=None) -> _CellsFit:
     """The output-error fit at delay D on windows of H samples whose residual is each simulated
     position's distance from its encoder cell, [measured - delta/2, measured + delta/2] (zero
     inside it), with the figures' deviations where at least :data:`CELL_DEVIATION_ROWS`
     positions a parameter left their cells (:class:`_CellsFit`). A rounded position says the handle was in that cell,
     which least squares on the positions reads as 17 µm of noise on a 60 µm encoder; a wrong
     delay cannot keep the motion in every cell (set-membership identification: Milanese &
-    Vicino, Automatica 27(6), 1991). ``hold`` and ``gaps`` as :func:`_fit`'s."""
+    Vicino, Automatica 27(6), 1991). ``hold`` and ``ticks`` as :func:`_fit`'s."""
     res_sd = delta / math.sqrt(12.0)
     # (half a cell in the residuals' units)
     sol, W = _fit(p, f, T, D, H, init, res_sd, band=0.5 * delta / res_sd, dense_limit=MAX_CELL_DENSE, hold=hold,
-                  gaps=gaps)
+                  ticks=ticks)
     e = sol.errors.reshape(W, H, p.shape[1]) * res_sd
     idx = sol.starts[:, None] + np.arange(H)[None, :]
     ng = 2 * p.shape[1] + 1
@@ -1294,41 +1328,44 @@ def _with_cells_figures(r: "Identification", fit, t, p, probe=None) -> "Identifi
                                notes=[*r.notes, note])
 
 
-def _cells_probe(p, f, T, first: "Identification", max_delay: int, D: int, x, stray=None):
+def _cells_probe(p, f, T, first: "Identification", max_delay: int, D: int, x, ticks: _Ticks | None = None):
     """``probe(index, value)`` for :func:`_with_cells_figures`: the largest distance (m) of a
     position outside its encoder cell when the cells' fit at delay D is refitted from figures
     ``x`` with figure ``index`` held at ``value`` (the data cut at the first call: most logs
-    never call it); ``stray`` as :func:`_cells_data` takes it."""
+    never call it); ``ticks`` as :func:`_cells_data` takes them."""
     data = []
 
     def probe(k, value):
         if not data:
-            pd, fd, H, init, gaps = _cells_data(p, f, T, first, max_delay, stray)
+            pd, fd, H, init, cut = _cells_data(p, f, T, first, max_delay, ticks)
             d = p.shape[1]
-            data.extend([pd, fd, H, {**init, "m": x[:d], "b": x[d:2 * d], "fc": float(x[2 * d])}, gaps])
-        pd, fd, H, init, gaps = data
+            data.extend([pd, fd, H, {**init, "m": x[:d], "b": x[d:2 * d], "fc": float(x[2 * d])}, cut])
+        pd, fd, H, init, cut = data
         delta = first.device.position_resolution
-        return _cells_fit(pd, fd, T, D, H, init, delta, hold=(k, value), gaps=gaps).beyond
+        return _cells_fit(pd, fd, T, D, H, init, delta, hold=(k, value), ticks=cut).beyond
 
     return probe
 
 
-def _cells_data(p, f, T, first: "Identification", max_delay: int, stray=None):
+def _cells_data(p, f, T, first: "Identification", max_delay: int, ticks: _Ticks | None = None):
     """The cells' fits' data: (positions, forces) cut to the :data:`LONG_WINDOW` windows that
     every delay up to ``max_delay`` holds, the window's samples, the fits' start (``first``'s
-    figures, the velocities estimated) and their ``gaps`` (:func:`_starts`': the intervals
-    ``stray`` (n - 1,) marks, cut alike, or None where none does)."""
+    figures, the velocities estimated) and the log's ``ticks`` (:class:`_Ticks`) cut alike."""
     H = int(round(LONG_WINDOW / T))
     W = (p.shape[0] - max_delay) // H
     p, f = p[:max_delay + W * H], f[:max_delay + W * H]
     v, _ = _derivatives(p, T)
     init = {"m": np.array(first.axes["mass"]), "b": np.array(first.axes["damping"]),
             "fc": float(first.device.coulomb_friction), "v": v}
-    cut = None if stray is None else stray[:p.shape[0] - 1]
-    return p, f, H, init, (cut, max_delay) if cut is not None and cut.any() else None
+    if ticks is not None:
+        cut = p.shape[0] - 1
+        ticks = _Ticks(None if ticks.intervals is None else ticks.intervals[:cut],
+                       None if ticks.stray is None else ticks.stray[:cut], ticks.reach)
+    return p, f, H, init, ticks
 
 
-def _cells_delay(p, f, T, first: "Identification", max_delay: int, walk: bool = True, stray=None):
+def _cells_delay(p, f, T, first: "Identification", max_delay: int, walk: bool = True,
+                 ticks: _Ticks | None = None):
     """The delay an encoder's log tells by its cells: each delay's :func:`_cells_fit` on
     :data:`LONG_WINDOW` windows (the same number for every delay) from ``first``'s figures,
     starting at ``first``'s delay and its neighbours and walking towards the least cost until
@@ -1338,14 +1375,14 @@ def _cells_delay(p, f, T, first: "Identification", max_delay: int, walk: bool = 
     cost is :data:`CELL_MARGIN` times below every other's, each fit a :class:`_CellsFit`.
     Without ``walk`` only ``first``'s delay is fitted (told: its screening told it); ``stray``
     as :func:`_cells_data` takes it."""
-    p, f, H, init, gaps = _cells_data(p, f, T, first, max_delay, stray)  # (W windows at every delay)
+    p, f, H, init, ticks = _cells_data(p, f, T, first, max_delay, ticks)  # (W windows at every delay)
     delta = first.device.position_resolution
     D1 = first.device.delay
     todo = {k for k in ((D1 - 1, D1, D1 + 1) if walk else (D1,)) if 0 <= k <= max_delay}
     costs, fits = {}, {}
     while walk or not costs:
         for k in sorted(todo - costs.keys()):
-            fits[k] = _cells_fit(p, f, T, k, H, init, delta, gaps=gaps)
+            fits[k] = _cells_fit(p, f, T, k, H, init, delta, ticks=ticks)
             costs[k] = fits[k].cost
         best = min(costs, key=costs.get)
         todo = {k for k in (best - 1, best + 1) if 0 <= k <= max_delay} - costs.keys()

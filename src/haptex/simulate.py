@@ -201,10 +201,11 @@ def _g_functions(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.
     return tuple(np.where(small, series[..., j], closed[j]) for j in range(4))
 
 
-def _axis_coefficients(m, b, T: float) -> np.ndarray:
+def _axis_coefficients(m, b, T) -> np.ndarray:
     """The exact zero-order hold of the 1-DOF mass-damper m dv/dt = w - b v over a period T
-    under a held force w, elementwise over arrays ``m`` (kg, > 0) and ``b`` (N s/m, >= 0):
-    shape broadcast(m, b) + (N_FAST,), in the C core's order (HX_F_*)
+    under a held force w, elementwise over arrays ``m`` (kg, > 0), ``b`` (N s/m, >= 0) and ``T``
+    (s, > 0; a float, or an array: each step's own period): shape broadcast(m, b, T) + (N_FAST,),
+    in the C core's order (HX_F_*)
 
     p+ = p + PV v + PW w,  v+ = VV v + VW w,  int_0^T b v^2 dt = CVV v^2 + CVW v w + CWW w^2,
 
@@ -212,7 +213,8 @@ def _axis_coefficients(m, b, T: float) -> np.ndarray:
     PW = T^2 g2(x) / m, CVV = b T g1(2x), CVW = T x g1(x)^2, CWW = T^2 x g3(x) / m
     (:func:`_g_functions`; at b = 0 the undamped mass: PW = T^2 / 2m, no dissipation). They
     are the Van Loan integrals of the general path on one axis (tests compare the two)."""
-    m, b = np.broadcast_arrays(np.asarray(m, dtype=np.float64), np.asarray(b, dtype=np.float64))
+    m, b, T = np.broadcast_arrays(np.asarray(m, dtype=np.float64), np.asarray(b, dtype=np.float64),
+                                  np.asarray(T, dtype=np.float64))
     x = b * T / m
     g1, g2, g3, g12 = _g_functions(x)
     ext = _core._ext

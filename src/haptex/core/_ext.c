@@ -2645,8 +2645,9 @@ static PyObject *tail_amplitudes(PyObject *self, PyObject *const *args, Py_ssize
 PyDoc_STRVAR(free_run_doc,
 "free_run(c, fc, force, p0, v0, pos)\n--\n\n"
 "hx_free_run, the GIL released: a free rigid handle under held forces, in windows. c float64 (n, N_FAST) the\n"
-"axes' zero-order-hold coefficients; fc the isotropic Coulomb friction (N); force (W, S, n) (N); p0, v0 (W, n)\n"
-"(m, m/s), each window's start, overwritten with its end state; pos (W, S, n) written (m), n in 1..3.");
+"axes' zero-order-hold coefficients, or (W, S, n, N_FAST) each step's own (ticks of their own lengths); fc the\n"
+"isotropic Coulomb friction (N); force (W, S, n) (N); p0, v0 (W, n) (m, m/s), each window's start, overwritten\n"
+"with its end state; pos (W, S, n) written (m), n in 1..3.");
 
 static PyObject *free_run(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
@@ -2662,8 +2663,13 @@ static PyObject *free_run(PyObject *self, PyObject *const *args, Py_ssize_t narg
     fc = PyFloat_AsDouble(args[1]);
     if (fc == -1.0 && PyErr_Occurred())
         return NULL;
-    if (get_doubles(args[0], &c, 0, 2, "c") < 0)
+    if (get_doubles(args[0], &c, 0, -1, "c") < 0)
         return NULL;
+    if (c.ndim != 2 && c.ndim != 4) {
+        PyErr_SetString(PyExc_ValueError, "free_run: c must be (n, N_FAST) or (W, S, n, N_FAST)");
+        PyBuffer_Release(&c);
+        return NULL;
+    }
     if (get_doubles(args[2], &f, 0, 3, "force") < 0)
         goto c_done;
     if (get_doubles(args[3], &p0, 1, 2, "p0") < 0)
@@ -2672,17 +2678,18 @@ static PyObject *free_run(PyObject *self, PyObject *const *args, Py_ssize_t narg
         goto p0_done;
     if (get_doubles(args[5], &pos, 1, 3, "pos") < 0)
         goto v0_done;
-    n = (long)c.shape[0];
+    n = (long)c.shape[c.ndim - 2];
     w = (long)f.shape[0];
     s = (long)f.shape[1];
-    if (n < 1 || n > 3 || c.shape[1] != HX_N_FAST || f.shape[2] != n || p0.shape[0] != w || p0.shape[1] != n ||
-        v0.shape[0] != w || v0.shape[1] != n || pos.shape[0] != w || pos.shape[1] != s || pos.shape[2] != n ||
-        !(fc >= 0.0)) {
-        PyErr_SetString(PyExc_ValueError, "free_run: shapes c (n, N_FAST), force and pos (W, S, n), p0 and v0 (W, n), "
-                                          "n in 1..3, fc >= 0");
+    if (n < 1 || n > 3 || c.shape[c.ndim - 1] != HX_N_FAST || f.shape[2] != n || p0.shape[0] != w ||
+        p0.shape[1] != n || v0.shape[0] != w || v0.shape[1] != n || pos.shape[0] != w || pos.shape[1] != s ||
+        pos.shape[2] != n || !(fc >= 0.0) || (c.ndim == 4 && (c.shape[0] != w || c.shape[1] != s))) {
+        PyErr_SetString(PyExc_ValueError, "free_run: shapes c (n, N_FAST) or (W, S, n, N_FAST), force and pos "
+                                          "(W, S, n), p0 and v0 (W, n), n in 1..3, fc >= 0");
     } else {
+        long c_step = c.ndim == 4 ? n * HX_N_FAST : 0;
         Py_BEGIN_ALLOW_THREADS
-        hx_free_run(n, (const double *)c.buf, fc, w, s, (const double *)f.buf, (double *)p0.buf,
+        hx_free_run(n, (const double *)c.buf, c_step, fc, w, s, (const double *)f.buf, (double *)p0.buf,
                     (double *)v0.buf, (double *)pos.buf);
         Py_END_ALLOW_THREADS
         ok = 1;

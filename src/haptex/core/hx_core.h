@@ -783,8 +783,10 @@ typedef struct {
 /* Run the general loop of model m. HX_OK, or HX_BAD_COEFFS before any sample. Stops, flagged
  * in the summary, at the first non-finite state. */
 int hx_run_general(const hx_model *m, const hx_general_run *r);
-/* a free rigid handle under a program of held forces, in windows (haptex.identify's model) */
-void hx_free_run(long n, const double *c, double fc, long windows, long steps, const double *force,
+/* a free rigid handle under a program of held forces, in windows (haptex.identify's model): each
+ * step's zero-order-hold coefficients at c + (its index) * c_step (0: one set for every step; n *
+ * HX_N_FAST: each step its own, a log's ticks of their own lengths) */
+void hx_free_run(long n, const double *c, long c_step, double fc, long windows, long steps, const double *force,
                  double *p0, double *v0, double *pos);
 
 /* The ball's contacts on texture t (haptex.surfaces' felt maps; hx_felt.c): for each of n centres

@@ -762,19 +762,22 @@ static void coulomb_exact_1d(double m, double lam, double T, double fc, double u
     }
 }
 
-void hx_free_run(long n, const double *c, double fc, long windows, long steps, const double *force,
+void hx_free_run(long n, const double *c, long c_step, double fc, long windows, long steps, const double *force,
                  double *p0, double *v0, double *pos)
 {
+    /* step k * steps + s's coefficients at c + (k * steps + s) * c_step: one set for every step
+     * (c_step 0), or each step its own (c_step n * HX_N_FAST: a log's ticks of their own lengths) */
     if (n == 1 && fc > 0.0) {
         /* one axis: the exact stick-slip step; m, b and T from the axis's coefficients
          * (VW / PV = 1 / m, VV = exp(-b T / m), PV = T g1(b T / m), g1(x) = (1 - e^-x) / x) */
-        double x = -log(c[HX_F_VV]), m = c[HX_F_PV] / c[HX_F_VW];
-        double g1 = x > 1e-8 ? -expm1(-x) / x : 1.0 - 0.5 * x;
-        double T = c[HX_F_PV] / g1, lam = x / T;
         long k, s;
         for (k = 0; k < windows; k++) {
             double p = p0[k], v = v0[k];
             for (s = 0; s < steps; s++) {
+                const double *cs = c + (k * steps + s) * c_step;
+                double x = -log(cs[HX_F_VV]), m = cs[HX_F_PV] / cs[HX_F_VW];
+                double g1 = x > 1e-8 ? -expm1(-x) / x : 1.0 - 0.5 * x;
+                double T = cs[HX_F_PV] / g1, lam = x / T;
                 pos[k * steps + s] = p;
                 coulomb_exact_1d(m, lam, T, fc, force[k * steps + s], &p, &v);
             }
@@ -786,9 +789,6 @@ void hx_free_run(long n, const double *c, double fc, long windows, long steps, c
     {
         double Binv[9], a[3], ff[3], p[3], v[3], np_, nv, de;
         long k, s, i, j;
-        for (i = 0; i < n; i++)
-            for (j = 0; j < n; j++)
-                Binv[n * i + j] = i == j ? 1.0 / c[i * HX_N_FAST + HX_F_VW] : 0.0;
         for (k = 0; k < windows; k++) {
             for (i = 0; i < n; i++) {
                 p[i] = p0[k * n + i];
@@ -796,10 +796,14 @@ void hx_free_run(long n, const double *c, double fc, long windows, long steps, c
             }
             for (s = 0; s < steps; s++) {
                 const double *u = force + (k * steps + s) * n;
+                const double *cs = c + (k * steps + s) * c_step;
                 int rest = 0, held = 0;
+                for (i = 0; i < n; i++)
+                    for (j = 0; j < n; j++)
+                        Binv[n * i + j] = i == j ? 1.0 / cs[i * HX_N_FAST + HX_F_VW] : 0.0;
                 for (i = 0; i < n; i++) {
                     pos[(k * steps + s) * n + i] = p[i];
-                    a[i] = c[i * HX_N_FAST + HX_F_VV] * v[i] + c[i * HX_N_FAST + HX_F_VW] * u[i];
+                    a[i] = cs[i * HX_N_FAST + HX_F_VV] * v[i] + cs[i * HX_N_FAST + HX_F_VW] * u[i];
                     ff[i] = 0.0;
                 }
                 if (fc > 0.0) {
@@ -812,7 +816,7 @@ void hx_free_run(long n, const double *c, double fc, long windows, long steps, c
                 for (i = 0; i < n; i++) {
                     if (held)
                         continue;
-                    axis_zoh(c + i * HX_N_FAST, p[i], v[i], u[i], ff[i], &np_, &nv, &de);
+                    axis_zoh(cs + i * HX_N_FAST, p[i], v[i], u[i], ff[i], &np_, &nv, &de);
                     p[i] = np_;
                     v[i] = rest ? 0.0 : nv;
                 }
