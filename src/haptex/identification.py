@@ -668,8 +668,12 @@ def _problem(p, f, T, D, H, init, res_sd, every: int = 1, continuity: float | No
     x0 = np.clip(x0, lo, hi)
     x0[:d] = np.maximum(x0[:d], 1e-3)
     pos = np.empty((W, H, d))
-    # (each step's own period, where the ticks have them: the interval after its sample)
-    step_T = None if ticks is None or ticks.intervals is None else np.append(ticks.intervals, T)[idx][:, :, None]
+    # (each step's own period, where the ticks have them: the interval after its sample; the
+    # coefficients computed once a distinct interval, a logger's clock rounding them to a few)
+    step_T = step_of = None
+    if ticks is not None and ticks.intervals is not None:
+        step_T, step_of = np.unique(np.append(ticks.intervals, T)[idx], return_inverse=True)
+        step_T, step_of = step_T[:, None], step_of.reshape(W, H)
 
     ends = {}
     lam_c = CONTINUITY if continuity is None else continuity
@@ -680,8 +684,8 @@ def _problem(p, f, T, D, H, init, res_sd, every: int = 1, continuity: float | No
     def model(x):
         key = x[:2 * d].tobytes()
         if coef.get("key") != key:
-            coef["key"], coef["c"] = key, np.ascontiguousarray(_axis_coefficients(
-                x[:d], x[d:2 * d], T if step_T is None else step_T))
+            c = _axis_coefficients(x[:d], x[d:2 * d], T if step_T is None else step_T)
+            coef["key"], coef["c"] = key, np.ascontiguousarray(c if step_of is None else c[step_of])
         c = coef["c"]
         p0 = x[ng:ng + W * d].reshape(W, d).copy()  # (free_run ends them at the windows' end states)
         v0 = x[ng + W * d:].reshape(W, d).copy()
