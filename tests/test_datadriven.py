@@ -591,6 +591,24 @@ def test_a_recording_written_as_a_labview_measurement_file_reads_its_channels(tm
     assert not list(tmp_path.glob("*.pkl"))  # (lvm_read's cache is not written beside the file)
 
 
+def test_a_matlab_matrix_of_channels_as_rows_is_read_as_columns(tmp_path):
+    # MATLAB keeps signals as row vectors, so three accelerometer axes saved as one matrix are
+    # [ax; ay; az], 3 x n (savemat writes it as given). Refused before ("acceleration with 4000
+    # columns"). A table's 2-D array with fewer rows than columns is channels as rows (a
+    # recording has more samples than channels), read as its transpose. Truth: the matrix as
+    # saved, its rows the three columns.
+    import scipy.io as sio
+
+    fs, n = 10000.0, 4000
+    k = np.arange(n)
+    acc = np.vstack([np.sin(0.1 * k), np.cos(0.2 * k), 0.5 * np.sin(0.3 * k)])  # (3, n): MATLAB's [ax; ay; az]
+    path = tmp_path / "rec.mat"
+    sio.savemat(path, {"t": k / fs, "acc": acc, "fz": np.full(n, 1.5), "v": np.full(n, 0.05)})
+    rec = dd.read_recording(path, columns=["acceleration=acc:m/s^2", "force=fz:N", "speed=v:m/s", "time=t:s"])
+    assert rec.acceleration.shape == (n, 3)
+    np.testing.assert_array_equal(rec.acceleration, acc.T)
+
+
 def test_haptexs_own_recording_with_a_column_more_reads_and_lists_it(tmp_path, capsys):
     # issue 64: time_s,acc_m_s2,speed_m_s,force_n,pos_m was refused by its fifth column's name
     n = 1000

@@ -198,7 +198,8 @@ def read_table(path, what: str) -> dict:
         npTDMS: each channel as ``group/channel``, and ``group/time`` where the group's
         channels are waveforms of one timing) or a LabVIEW Measurement File (``.lvm``, read with
         lvm_read: each channel by its name, ``X_Value`` the times). A 1 x n array (MATLAB's row
-        vector) is the column of n. Columns may differ in length (a file's groups at other
+        vector) is the column of n, and a k x n array with k < n (channels as rows) its
+        transpose, n rows of k. Columns may differ in length (a file's groups at other
         rates); those a quantity takes may not (:func:`take`).
     what : str
         What the file is (named in errors).
@@ -247,8 +248,11 @@ def read_table(path, what: str) -> dict:
         out = _read_lvm(p, what)
     else:
         out = _read_csv(p, what)
-    # MATLAB's vectors are 1 x n rows (save(), and h5py's reading of a v7.3 file): a column of n
-    out = {k: (v[0] if np.ndim(v) == 2 and v.shape[0] == 1 and v.shape[1] > 1 else v) for k, v in out.items()}
+    # MATLAB's vectors are 1 x n rows (save(), and h5py's reading of a v7.3 file): a column of n;
+    # and its signals k x n, channels as rows ([ax; ay; az]): a table has more samples than
+    # channels, so a 2-D array with fewer rows than columns is read as its transpose
+    out = {k: (v[0] if v.shape[0] == 1 else v.T) if np.ndim(v) == 2 and v.shape[0] < v.shape[1] else v
+           for k, v in out.items()}
     out = {k: v for k, v in out.items() if np.ndim(v) in (1, 2)}
     if not out:
         raise fail("path", str(path), f"a {what} with named columns")
