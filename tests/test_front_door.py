@@ -213,3 +213,77 @@ def test_every_command_the_docs_show_parses_and_names_files_that_exist():
                     and Path(arg).name in shipped:
                 wrong.append(f"{page}: haptex {' '.join(argv)} (no {arg} from the clone's root)")
     assert wrong == []
+
+
+def test_every_name_the_docs_python_uses_exists_and_takes_its_keywords():
+    # The guides' Python snippets use names from their prose (alg, tex), so they are not run as
+    # pasted; what a reader types from them is haptex's names and keywords. Reference: the
+    # modules themselves (importlib, getattr) and each callable's signature (inspect): every
+    # `from haptex... import name`, every attribute chain on haptex (hx), haptex.datadriven (dd)
+    # and haptex.core (core), and the keywords of every call of such a name.
+    import ast
+    import importlib
+    import importlib.util
+    import inspect
+
+    aliases = {"hx": "haptex", "dd": "haptex.datadriven", "core": "haptex.core"}
+    wrong, checked = [], 0
+    for page in [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]:
+        for block in re.findall(r"```(?:python|py)\n(.*?)```", page.read_text(), re.S):
+            tree = ast.parse(block)
+            names = dict(aliases)
+            for node in ast.walk(tree):
+                if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("haptex"):
+                    module = importlib.import_module(node.module)
+                    for a in node.names:
+                        if hasattr(module, "__path__") and importlib.util.find_spec(f"{node.module}.{a.name}"):
+                            importlib.import_module(f"{node.module}.{a.name}")  # (a package's submodule)
+                        if not hasattr(module, a.name):
+                            wrong.append(f"{page.name}: from {node.module} import {a.name}")
+                        elif inspect.ismodule(getattr(module, a.name)):
+                            names[a.asname or a.name] = f"{node.module}.{a.name}"
+                        else:
+                            names[a.asname or a.name] = (node.module, a.name)
+                        checked += 1
+                elif isinstance(node, ast.Import):
+                    for a in node.names:
+                        if a.name.startswith("haptex"):
+                            names[a.asname or a.name] = a.name
+
+            def resolve(expr):
+                """The object an attribute chain on a haptex name stands for, or None (not ours)."""
+                if isinstance(expr, ast.Name) and expr.id in names:
+                    where = names[expr.id]
+                    if isinstance(where, tuple):
+                        return getattr(importlib.import_module(where[0]), where[1])
+                    return importlib.import_module(where)
+                if isinstance(expr, ast.Attribute):
+                    base = resolve(expr.value)
+                    if base is None:
+                        return None
+                    if not hasattr(base, expr.attr):
+                        wrong.append(f"{page.name}: {ast.unparse(expr)}")
+                        return None
+                    return getattr(base, expr.attr)
+                return None
+
+            for node in ast.walk(tree):
+                if isinstance(node, ast.Attribute) and isinstance(node.ctx, ast.Load):
+                    resolve(node)
+                    checked += 1
+                elif isinstance(node, ast.Call) and node.keywords:
+                    target = resolve(node.func)
+                    if target is None or not callable(target):
+                        continue
+                    try:
+                        params = inspect.signature(target).parameters
+                    except (TypeError, ValueError):  # (a C function without a signature)
+                        continue
+                    if any(p.kind is p.VAR_KEYWORD for p in params.values()):
+                        continue
+                    for kw in node.keywords:
+                        if kw.arg is not None and kw.arg not in params:
+                            wrong.append(f"{page.name}: {ast.unparse(node.func)}(..., {kw.arg}=...)")
+                    checked += 1
+    assert checked > 60  # (the snippets hold that many)
+    assert sorted(set(wrong)) == []
