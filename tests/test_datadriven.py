@@ -549,6 +549,11 @@ def test_a_recording_logged_by_ni_daqmx_to_tdms_reads_its_channels(tmp_path):
     np.testing.assert_allclose(rec.acceleration, az * 9.80665, rtol=1e-15)
     assert np.all(rec.normal_force == 1.5) and rec.speed == pytest.approx(np.full(n, 0.05), rel=1e-15)
     assert "slow/temperature" in rec.ignored
+    # the channels' unit_string properties are their units where --column gives none
+    stated = dd.read_recording(path, columns=["acceleration=rig/az", "force=rig/fz", "speed=rig/v",
+                                              "time=rig/time"])
+    np.testing.assert_allclose(stated.acceleration, az * 9.80665, rtol=1e-15)
+    assert stated.speed == pytest.approx(np.full(n, 0.05), rel=1e-15)
     # without its time column named, the refusal names it (and the rate's option)
     with pytest.raises(ParameterError, match=r"--sample-rate .*--column time=rig/time:s"):
         dd.read_recording(path, columns=["acceleration=rig/az:g", "force=rig/fz:N", "speed=rig/v:mm/s"])
@@ -589,6 +594,11 @@ def test_a_recording_written_as_a_labview_measurement_file_reads_its_channels(tm
     np.testing.assert_allclose(rec.acceleration, acc * 9.80665, rtol=1e-12)
     assert np.all(rec.normal_force == 1.5) and np.all(rec.speed == 0.05)
     assert not list(tmp_path.glob("*.pkl"))  # (lvm_read's cache is not written beside the file)
+    # the segment header's Y_Unit_Label (g, LabVIEW's "Newtons", m/s) are the channels' units
+    # where --column gives none, the x column's seconds its X_Dimension's (Time)
+    stated = dd.read_recording(path, columns=["acceleration=acc", "force=force", "speed=speed", "time=X_Value"])
+    np.testing.assert_allclose(stated.acceleration, acc * 9.80665, rtol=1e-12)
+    assert stated.sample_rate == pytest.approx(fs, rel=1e-6) and np.all(stated.normal_force == 1.5)
 
 
 def test_a_matlab_matrix_of_channels_as_rows_is_read_as_columns(tmp_path):

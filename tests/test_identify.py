@@ -678,6 +678,25 @@ def test_a_log_of_encoder_counts_and_dac_steps_is_read_with_each_columns_step_as
         I.read_log(path, ["time=t_ms:ms", "position=enc:2.5 N", "force=dac:0.02 N"])
 
 
+@pytest.mark.parametrize("units", ["[s];[mm];[N]", "s;mm;N", "(s);(mm);(N)"])
+def test_a_log_with_a_units_row_reads_each_column_in_its_stated_unit(tmp_path, units):
+    # A DAQ program's export (DEWESoft, DIAdem, a spreadsheet) writes the units in the row below
+    # the names. Refused before ("could not convert string '[s]'"). The row is each column's
+    # unit where --column gives none (a column given without one was taken in SI: millimetres
+    # read as metres would be 1000 times off), and a unit given that contradicts it is refused,
+    # naming both. Truth: the numbers as written, times their stated units.
+    t = np.arange(3000) * 1e-3
+    x_mm = np.round(2.0 * np.sin(2 * np.pi * 3 * t), 9)  # (as written: nine decimals)
+    f = np.round(0.3 * np.cos(2 * np.pi * 5 * t), 9)
+    path = tmp_path / "daq.csv"
+    path.write_text("Time;X;F\n" + units + "\n" + "".join(f"{a:.6f};{b:.9f};{c:.9f}\n" for a, b, c in zip(t, x_mm, f)))
+    log = I.read_log(path, columns=["time=Time", "position=X", "force=F"])
+    np.testing.assert_allclose(log.position[:, 0], x_mm * 1e-3, rtol=1e-12)
+    np.testing.assert_allclose(log.force[:, 0], f, rtol=1e-12)
+    with pytest.raises(hx.ParameterError, match=r"position=X:m' .* the file states for X, mm"):
+        I.read_log(path, columns=["time=Time", "position=X:m", "force=F"])
+
+
 def test_a_log_written_by_pandas_reads_its_true_and_false_as_one_and_zero(tmp_path):
     # pandas' DataFrame.to_csv writes a bool column as True and False: a log with its engaged
     # flag so was refused ("could not convert string 'False' to float64"). Truth: the flags as

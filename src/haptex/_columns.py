@@ -47,12 +47,26 @@ class ColumnSpec:
         Their unit as written (``mm``, ``N``, ``ms``, ``g``).
     factor : float
         SI value of one ``unit``.
+    stated : bool, optional
+        Whether the user wrote the unit (else it is the quantity's SI unit, and the file's own
+        unit for the columns, where it states one, is taken instead: :func:`take`).
     """
 
     quantity: str
     columns: tuple[str, ...]
     unit: str
     factor: float
+    stated: bool = True
+
+
+class Table(dict):
+    """:func:`read_table`'s columns, ``{name: float64 array}``, with ``units``: the unit the file
+    states for a column (a CSV's units row, a TDMS channel's ``unit_string``, an LVM channel's
+    ``Y_Unit_Label``, an HDF5 dataset's ``units`` or ``unit`` attribute), by column name."""
+
+    def __init__(self, columns=(), units=None):
+        super().__init__(columns)
+        self.units = dict(units or {})
 
 
 def unit_factor(unit: str, si: str, name: str) -> float:
@@ -126,7 +140,7 @@ def parse_column(spec: str, quantities: dict, name: str = "--column") -> ColumnS
     columns = tuple(c.strip() for c in cols.split(",") if c.strip())
     if not columns:
         raise fail(name, text, f"at least one column after '{q}='")
-    return ColumnSpec(q, columns, unit.strip(), unit_factor(unit, quantities[q], f"{name} {q}"))
+    return ColumnSpec(q, columns, unit.strip(), unit_factor(unit, quantities[q], f"{name} {q}"), ":" in rest)
 
 
 def mat_numbers(p: Path) -> int:
@@ -184,8 +198,9 @@ def mat_numbers(p: Path) -> int:
     return total
 
 
-def read_table(path, what: str) -> dict:
-    """Every column of a table file: ``{name: float64 array of shape (n,) or (n, k)}``.
+def read_table(path, what: str) -> Table:
+    """Every column of a table file: ``{name: float64 array of shape (n,) or (n, k)}``, and the
+    units the file states (:class:`Table`).
 
     Parameters
     ----------
@@ -206,7 +221,7 @@ def read_table(path, what: str) -> dict:
 
     Returns
     -------
-    dict
+    Table
 
     Raises
     ------
@@ -251,9 +266,10 @@ def read_table(path, what: str) -> dict:
     # MATLAB's vectors are 1 x n rows (save(), and h5py's reading of a v7.3 file): a column of n;
     # and its signals k x n, channels as rows ([ax; ay; az]): a table has more samples than
     # channels, so a 2-D array with fewer rows than columns is read as its transpose
+    units = getattr(out, "units", {})
     out = {k: (v[0] if v.shape[0] == 1 else v.T) if np.ndim(v) == 2 and v.shape[0] < v.shape[1] else v
            for k, v in out.items()}
-    out = {k: v for k, v in out.items() if np.ndim(v) in (1, 2)}
+    out = Table({k: v for k, v in out.items() if np.ndim(v) in (1, 2)}, units)
     if not out:
         raise fail("path", str(path), f"a {what} with named columns")
     return out
@@ -278,9 +294,23 @@ def decimal_comma(cell: str) -> bool:
     return _DECIMAL_COMMA.fullmatch(cell.strip()) is not None
 
 
-def _read_csv(p: Path, what: str) -> dict:
+def _number(cell: str) -> bool:
+    """Whether a text cell is a number (a decimal comma's too) or a flag word."""
+    c = cell.strip()
+    if c.lower() in _FLAGS or decimal_comma(c):
+        return True
+    try:
+        float(c)
+    except ValueError:
+        return False
+    return True
+
+
+def _read_csv(p: Path, what: str) -> Table:
     """A delimited-text table: '#' lines and blank lines before its header row skipped, the
-    header's delimiter (CSV_DELIMITERS, else whitespace) for every row, '#' comments ignored."""
+    header's delimiter (CSV_DELIMITERS, else whitespace) for every row, '#' comments ignored; a
+    row of units below the header (no cell a number: "[s];[mm];[N]", as DAQ programs export)
+    gives the columns' units (brackets or parentheses around a unit dropped)."""
     import csv
 
     check_budget("path", str(p), 4.0 * p.stat().st_size, f"reading this {what}")  # text to float64, copies
@@ -293,7 +323,19 @@ def _read_csv(p: Path, what: str) -> dict:
         else:
             raise fail("path", str(p), f"a {what} with a header row naming its columns (none found: the file "
                                        "is empty, or comments and blank lines only)")
-        first = next((row for row in fh if row.strip() and not row.lstrip().startswith("#")), "")
+        below, first, units_row = 0, "", None
+        for row in fh:
+            below += 1
+            if not row.strip() or row.lstrip().startswith("#"):
+                continue
+            if units_row is None and not first:
+                d = next((d for d in CSV_DELIMITERS if d in line), None)
+                if not any(_number(c) for c in (row.split(d) if d else row.split()) if c.strip()):
+                    units_row, skipped = row, skipped + below  # (the data start after it)
+                    below = 0
+                    continue
+            first = row
+            break
     delimiter = next((d for d in CSV_DELIMITERS if d in line), None)
     fields = next(csv.reader([line], delimiter=delimiter)) if delimiter else line.split()
     header = [h.strip() for h in fields]
@@ -325,7 +367,14 @@ def _read_csv(p: Path, what: str) -> dict:
         raise fail("path", str(p), f"a {what} with rows of numbers below its header (it has none)")
     if data.shape[1] != len(header):
         raise fail("path", str(p), f"{len(header)} values a row, as its header")
-    return {h: data[:, k] for k, h in enumerate(header)}
+    units = {}
+    if units_row is not None:
+        given = next(csv.reader([units_row.strip("\r\n")], delimiter=delimiter)) if delimiter else units_row.split()
+        for h, u in zip(header, given):
+            u = re.sub(r"^[\[(](.*)[\])]$", r"\1", u.strip()).strip()
+            if u:
+                units[h] = u
+    return Table({h: data[:, k] for k, h in enumerate(header)}, units)
 
 
 def _read_mat(p: Path, what: str) -> dict:
@@ -376,7 +425,7 @@ def _read_tdms(p: Path, what: str) -> dict:
     except Exception as exc:  # noqa: BLE001 - npTDMS raises several kinds for an unreadable file
         why = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise fail("path", str(p), f"a readable TDMS file ({why})") from None
-    out = {}
+    out = Table()
     for group in tdms.groups():
         timing = set()
         for ch in group.channels():
@@ -385,12 +434,15 @@ def _read_tdms(p: Path, what: str) -> dict:
                 continue  # (strings, timestamps, DAQmx raw scalers' data without scaling)
             out[f"{group.name}/{ch.name}"] = np.asarray(data, dtype=float)
             props = ch.properties
+            if str(props.get("unit_string", "")).strip():
+                out.units[f"{group.name}/{ch.name}"] = str(props["unit_string"]).strip()
             timing.add((props.get("wf_start_offset"), props.get("wf_increment"), len(data))
                        if "wf_increment" in props else None)
         name = f"{group.name}/time"
         if len(timing) == 1 and None not in timing and name not in out:
             start, step, n = timing.pop()
             out[name] = float(start or 0.0) + float(step) * np.arange(n)
+            out.units[name] = "s"
     return out
 
 
@@ -410,7 +462,7 @@ def _read_lvm(p: Path, what: str) -> dict:
     except Exception as exc:  # noqa: BLE001 - lvm_read raises several kinds for an unreadable file
         why = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise fail("path", str(p), f"a readable LabVIEW Measurement File ({why})") from None
-    parts, names = [], None
+    parts, names, units = [], None, {}
     for k in range(int(lvm.get("Segments", 0))):
         seg = lvm[k]
         cols = [c for c in seg["Channel names"] if c != "Comment"]
@@ -419,6 +471,14 @@ def _read_lvm(p: Path, what: str) -> dict:
             raise fail("path", str(p), f"a LabVIEW Measurement File whose rows hold its {len(cols)} channels "
                        f"(segment {k + 1}'s hold {data.shape[1]})")
         table = {}
+        # (a segment header's values stand over the data's columns after the first, which is
+        # the x column's, or an empty one with X_Columns No, whose columns are its channels)
+        labels = [str(u).strip() for u in np.atleast_1d(seg.get("Y_Unit_Label", []))]
+        for c, u in zip(cols[1:] if cols and cols[0] == "X_Value" else cols, labels):
+            if u and c != "X_Value":
+                units[c] = u
+        if all(str(x).strip() == "Time" for x in np.atleast_1d(seg.get("X_Dimension", [])) if str(x).strip()):
+            units["X_Value"] = "s"
         xs = [data[:, j] for j, c in enumerate(cols) if c == "X_Value"]
         for j, c in enumerate(cols):
             if c != "X_Value":
@@ -437,7 +497,7 @@ def _read_lvm(p: Path, what: str) -> dict:
         parts.append(table)
     if not parts:
         raise fail("path", str(p), "a LabVIEW Measurement File with data (it has no segment)")
-    return {c: np.concatenate([t[c] for t in parts]) for c in names}
+    return Table({c: np.concatenate([t[c] for t in parts]) for c in names}, units)
 
 
 def _read_hdf5(p: Path, what: str) -> dict:
@@ -445,7 +505,7 @@ def _read_hdf5(p: Path, what: str) -> dict:
         import h5py
     except ImportError:  # pragma: no cover (a dependency)
         raise fail("path", str(p), "CSV or NPZ: reading HDF5 needs h5py (pip install h5py)") from None
-    out, need = {}, [0.0]
+    out, need = Table(), [0.0]
     try:
         with h5py.File(p, "r") as f:
             def visit(name, obj):
@@ -453,11 +513,43 @@ def _read_hdf5(p: Path, what: str) -> dict:
                     need[0] += 8.0 * obj.size  # (all its datasets together)
                     check_budget("path", str(p), need[0], f"reading this {what}")
                     out[name] = np.asarray(obj[...], dtype=float)
+                    unit = obj.attrs.get("units", obj.attrs.get("unit"))
+                    if isinstance(unit, bytes):
+                        unit = unit.decode("utf-8", "replace")
+                    if isinstance(unit, str) and unit.strip():
+                        out.units[name] = unit.strip()
 
             f.visititems(visit)
     except OSError as exc:
         raise fail("path", str(p), f"a readable HDF5 file ({exc})") from None
     return out
+
+
+def _with_file_unit(s: ColumnSpec, said: set, si: str) -> ColumnSpec:
+    """``s`` with the unit its file states for its columns (``said``, one or more units as
+    written) where ``s`` gives none; ``s`` itself where it gives the same (or a scale for a unit
+    of another dimension: a sensor's volts as newtons); refused where they disagree."""
+    spec = f"{s.quantity}={','.join(s.columns)}"
+    if len(said) > 1:
+        raise fail("--column", spec, f"columns of one unit (the file states {', '.join(sorted(said))}): name them "
+                   "in separate quantities, or convert the file")
+    unit = said.pop()
+    # (as files write them: LabVIEW's "Newtons", a superscript's "m/s²")
+    written = unit.replace("²", "^2").replace("³", "^3")
+    written = written.lower() if re.fullmatch(r"[A-Z][a-z]{2,}", written) else written
+    try:
+        factor = unit_factor(written, si, "unit")
+    except ParameterError:  # (not a unit of the quantity: a raw reading, volts or counts)
+        if s.stated:
+            return s
+        raise fail("--column", spec, f"a unit of {si}: the file states {unit}, so give the reading's scale, "
+                   f"--column {spec}:UNIT (one {unit} in {si}, e.g. a sensor's gain)") from None
+    if not s.stated:
+        return dataclasses.replace(s, unit=unit, factor=factor, stated=True)
+    if abs(s.factor - factor) > 1e-9 * abs(factor):
+        raise fail("--column", f"{spec}:{s.unit}", f"the unit the file states for {', '.join(s.columns)}, {unit} "
+                   "(leave the unit out to take it)")
+    return s
 
 
 def take(table: dict, columns, quantities: dict, defaults: dict, what: str) -> tuple[dict, list]:
@@ -499,6 +591,11 @@ def take(table: dict, columns, quantities: dict, defaults: dict, what: str) -> t
     specs += [ColumnSpec(q, cols, quantities[q], 1.0) for q, cols in defaults.items()
               if q not in named and all(c in table for c in cols)]
     values, used, rows = {}, set(), {}
+    stated_units = getattr(table, "units", {})
+    for i, s in enumerate(specs):
+        said = {stated_units[c] for c in s.columns if c in stated_units}
+        if said:  # (the file states the columns' unit: taken where the spec gives none, checked where it does)
+            s = specs[i] = _with_file_unit(s, said, quantities[s.quantity])
     for s in specs:
         parts = []
         for c in s.columns:
