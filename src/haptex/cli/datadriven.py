@@ -30,7 +30,8 @@ from ._common import Quantity, _catalogued_device, _check_plot_path
 @click.option("--column", "columns", multiple=True, metavar="QUANTITY=COL[,COL...][:UNIT]",
               help="The recording's own columns for a quantity (acceleration, force, speed, position, time), "
                    "e.g. 'acceleration=az:g', 'position=x,y:mm' (the speed is then derived), 'time=t:ms'; a "
-                   "board's step as the unit for raw counts, e.g. 'acceleration=az:0.001 g'. "
+                   "board's step as the unit for raw counts, e.g. 'acceleration=az:0.001 g'; without a unit, the "
+                   "one the file states (a units row, TDMS, LVM or HDF5 metadata), else SI. "
                    "Repeat for each; other columns are ignored and listed.")
 def fit_cmd(recording, out, sample_rate, rate, order, ma_order, segment, highpass, columns):
     """Fit ARMA vibration models over (speed, force) to a recording (CSV, NPZ, HDF5, .mat, TDMS or

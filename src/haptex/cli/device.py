@@ -415,7 +415,8 @@ def _identification_run(backend, program, fmax: float, duration: float, record: 
 @click.option("--column", "columns", multiple=True, metavar="QUANTITY=COL[,COL...][:UNIT]",
               help="The log's own columns for a quantity (time, position, force, engaged), e.g. "
                    "'position=px,py,pz:mm', 'force=fx,fy,fz:N', 'time=t:ms'; a board's step as the unit for "
-                   "raw counts, e.g. 'position=enc:2.5um'. Repeat for each; other columns are ignored and listed.")
+                   "raw counts, e.g. 'position=enc:2.5um'; without a unit, the one the file states (a units row, "
+                   "TDMS, LVM or HDF5 metadata), else SI. Repeat for each; other columns are ignored and listed.")
 def identify_command(log, out, axis, max_delay, as_json, plot, columns):
     """Fit a device model (mass, damping, Coulomb friction, encoder step, delay) to a run log
     (haptex's CSV or NPZ, or another program's CSV, NPZ, HDF5, .mat, TDMS or LVM with its columns
