@@ -113,7 +113,8 @@ def parse_column(spec: str, quantities: dict, name: str = "--column") -> ColumnS
     Parameters
     ----------
     spec : str
-        The spec as the user wrote it; the unit defaults to the quantity's SI unit.
+        The spec as the user wrote it; the unit defaults to the quantity's SI unit (and, in
+        :func:`take`, to the unit the file states for the columns, where it states one).
     quantities : dict
         The quantities allowed, each with its SI unit (``{"position": "m", ...}``).
     name : str, optional
@@ -582,7 +583,9 @@ def take(table: dict, columns, quantities: dict, defaults: dict, what: str) -> t
     ------
     ParameterError
         If a spec is malformed or names a quantity twice, names a column the table does not
-        have (the table's columns are listed), or holds a value that is not finite.
+        have (the table's columns are listed), gives a unit the file contradicts, gives none for
+        a column the file states in a unit of another dimension, takes columns of different
+        lengths, or holds a value that is not finite.
     """
     specs = [parse_column(c, quantities) for c in (columns or ())]
     named = {s.quantity for s in specs}
