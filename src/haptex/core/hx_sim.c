@@ -771,13 +771,18 @@ void hx_free_run(long n, const double *c, long c_step, double fc, long windows, 
         /* one axis: the exact stick-slip step; m, b and T from the axis's coefficients
          * (VW / PV = 1 / m, VV = exp(-b T / m), PV = T g1(b T / m), g1(x) = (1 - e^-x) / x) */
         long k, s;
+        double m = 0.0, T = 0.0, lam = 0.0;
         for (k = 0; k < windows; k++) {
             double p = p0[k], v = v0[k];
             for (s = 0; s < steps; s++) {
-                const double *cs = c + (k * steps + s) * c_step;
-                double x = -log(cs[HX_F_VV]), m = cs[HX_F_PV] / cs[HX_F_VW];
-                double g1 = x > 1e-8 ? -expm1(-x) / x : 1.0 - 0.5 * x;
-                double T = cs[HX_F_PV] / g1, lam = x / T;
+                if (c_step != 0 || (k == 0 && s == 0)) { /* (decoded once where every step shares them) */
+                    const double *cs = c + (k * steps + s) * c_step;
+                    double x = -log(cs[HX_F_VV]);
+                    double g1 = x > 1e-8 ? -expm1(-x) / x : 1.0 - 0.5 * x;
+                    m = cs[HX_F_PV] / cs[HX_F_VW];
+                    T = cs[HX_F_PV] / g1;
+                    lam = x / T;
+                }
                 pos[k * steps + s] = p;
                 coulomb_exact_1d(m, lam, T, fc, force[k * steps + s], &p, &v);
             }
@@ -798,9 +803,10 @@ void hx_free_run(long n, const double *c, long c_step, double fc, long windows, 
                 const double *u = force + (k * steps + s) * n;
                 const double *cs = c + (k * steps + s) * c_step;
                 int rest = 0, held = 0;
-                for (i = 0; i < n; i++)
-                    for (j = 0; j < n; j++)
-                        Binv[n * i + j] = i == j ? 1.0 / cs[i * HX_N_FAST + HX_F_VW] : 0.0;
+                if (c_step != 0 || (k == 0 && s == 0))
+                    for (i = 0; i < n; i++)
+                        for (j = 0; j < n; j++)
+                            Binv[n * i + j] = i == j ? 1.0 / cs[i * HX_N_FAST + HX_F_VW] : 0.0;
                 for (i = 0; i < n; i++) {
                     pos[(k * steps + s) * n + i] = p[i];
                     a[i] = cs[i * HX_N_FAST + HX_F_VV] * v[i] + cs[i * HX_N_FAST + HX_F_VW] * u[i];
