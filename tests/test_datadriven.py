@@ -603,10 +603,10 @@ def test_a_recording_written_as_a_labview_measurement_file_reads_its_channels(tm
 
 def test_a_matlab_matrix_of_channels_as_rows_is_read_as_columns(tmp_path):
     # MATLAB keeps signals as row vectors, so three accelerometer axes saved as one matrix are
-    # [ax; ay; az], 3 x n (savemat writes it as given). Refused before ("acceleration with 4000
-    # columns"). A table's 2-D array with fewer rows than columns is channels as rows (a
-    # recording has more samples than channels), read as its transpose. Truth: the matrix as
-    # saved, its rows the three columns.
+    # [ax; ay; az], 3 x n (savemat writes it as given). Refused before: read as 3 samples of
+    # 4000 columns beside columns of 4000 rows. A table's 2-D array with fewer rows than columns
+    # is channels as rows (a recording has more samples than channels), read as its transpose.
+    # Truth: the matrix as saved, its rows the three columns.
     import scipy.io as sio
 
     fs, n = 10000.0, 4000
