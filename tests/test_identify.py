@@ -247,6 +247,30 @@ def test_a_log_with_missed_ticks_is_identified_between_them():
     assert any("7 intervals stray" in n for n in r.notes), r.notes
 
 
+@pytest.mark.long  # (the command line end to end: 3 s)
+def test_a_jittered_log_in_milliseconds_with_a_hiccup_is_identified_at_the_command_line(tmp_path, capsys):
+    # A CHAI3D-style logger's CSV: its clock in ms to the microsecond, every tick 0.7-1.3
+    # periods apart, one 4 ms hiccup (the loop stalled), positions in mm on a 7.5 um encoder.
+    # Truth: the independent simulator (mass, damping, friction within 1 %, the delay exact);
+    # the note counts the one interval that strays, in the singular.
+    m, b, fc, D, T = 0.2, 0.35, 0.15, 2, 1e-3
+    rng = np.random.default_rng(3)
+    intervals = T * rng.uniform(0.7, 1.3, 10_000)
+    intervals[4_999] += 0.004
+    t, p, f = _oracle_log(m, b, fc, 7.5e-6, D, T, _program(T, 10.0, "steps+chirp"), intervals=intervals)
+    log = tmp_path / "chai3d.csv"
+    log.write_text("t,px,fx\n" + "".join(f"{a * 1e3:.3f},{x * 1e3:.6f},{u:.6f}\n" for a, x, u in zip(t, p, f)))
+    out = tmp_path / "dev.toml"
+    assert main(["identify", str(log), "-o", str(out), "--column", "time=t:ms", "--column", "position=px:mm",
+                 "--column", "force=fx:N", "--json"]) == 0
+    got = json.loads(capsys.readouterr().out)
+    dev = hx.device_from_file(out)
+    assert dev.delay == D
+    for value, want in ((dev.mass[0, 0], m), (dev.damping[0, 0], b), (dev.coulomb_friction, fc)):
+        assert value == pytest.approx(want, rel=0.01)
+    assert any(n.startswith("1 interval strays more than 50 %") for n in got["notes"]), got["notes"]
+
+
 def test_each_force_is_held_over_its_own_logged_interval():
     # A loop without a real-time clock: every interval drawn from 0.6 to 1.4 periods. Noise-free,
     # no encoder: the model holds the truth only if each force is held over the interval the log

@@ -1008,7 +1008,8 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
     clear = _clear(stray, n - max_delay, H, max_delay)  # (the windows every delay holds)
     if clear.sum() < MIN_WINDOWS:
         k = int(np.flatnonzero(stray)[0])
-        raise fail("time", f"{int(stray.sum())} intervals off the period",
+        count = int(stray.sum())
+        raise fail("time", f"{count} interval{'s' * (count != 1)} off the period",
                    f"ticks at one period (the median, {T:.3g} s, within {100 * TICK_TOLERANCE:g} %) over at least "
                    f"{MIN_WINDOWS} windows of {H} samples between the intervals off it (the first {dt[k]:.3g} s, at "
                    f"sample {k + 1}); {int(clear.sum())} are: log a longer run, or one whose loop keeps its period")
@@ -1023,8 +1024,9 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
         notes.append(f"the ticks' intervals depart from the period by up to {jitter:.3g} s "
                      f"({100 * jitter / T:.2g} %): each force is held over its own interval")
     if ticks is not None and ticks.stray is not None:
-        k = int(np.flatnonzero(stray)[0])
-        notes.append(f"{int(stray.sum())} intervals stray more than {100 * TICK_TOLERANCE:g} % from the period "
+        k, count = int(np.flatnonzero(stray)[0]), int(stray.sum())
+        notes.append(f"{count} interval{'s stray' if count != 1 else ' strays'} more than {100 * TICK_TOLERANCE:g} % "
+                     "from the period "
                      f"(missed ticks, or samples not logged; the first {dt[k]:.3g} s, at sample {k + 1}): the "
                      f"{window:g} s windows lie between them, {int(clear.sum())} of {clear.size}")
     if position_resolution is None:
