@@ -144,6 +144,24 @@ def parse_column(spec: str, quantities: dict, name: str = "--column") -> ColumnS
     return ColumnSpec(q, columns, unit.strip(), unit_factor(unit, quantities[q], f"{name} {q}"), ":" in rest)
 
 
+def first_line(exc: BaseException) -> str:
+    """A library's exception as the part of a one-line refusal that says why: its text on one
+    line (its type's name where it has none), at most 160 characters."""
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    return text if len(text) <= 160 else text[:157] + "..."
+
+
+def _library_read(p: Path, what: str, kind: str, read):
+    """``read()``, a library's reader of file ``p``, its failures refused in one line: out of
+    memory, or "a readable ``kind``" with the library's reason."""
+    try:
+        return read()
+    except MemoryError:
+        raise fail("path", str(p), f"a {what} that fits in memory") from None
+    except Exception as exc:  # noqa: BLE001 - the libraries raise several kinds for an unreadable file
+        raise fail("path", str(p), f"a readable {kind} ({first_line(exc)})") from None
+
+
 def mat_numbers(p: Path) -> int:
     """The number of numbers a MATLAB v5 file's variables hold, from each variable's dimensions
     (for a compressed variable, the first 128 bytes of its zlib stream are inflated, nothing
@@ -324,20 +342,18 @@ def _read_csv(p: Path, what: str) -> Table:
         else:
             raise fail("path", str(p), f"a {what} with a header row naming its columns (none found: the file "
                                        "is empty, or comments and blank lines only)")
+        delimiter = next((d for d in CSV_DELIMITERS if d in line), None)
         below, first, units_row = 0, "", None
         for row in fh:
             below += 1
             if not row.strip() or row.lstrip().startswith("#"):
                 continue
-            if units_row is None and not first:
-                d = next((d for d in CSV_DELIMITERS if d in line), None)
-                if not any(_number(c) for c in (row.split(d) if d else row.split()) if c.strip()):
-                    units_row, skipped = row, skipped + below  # (the data start after it)
-                    below = 0
-                    continue
+            if units_row is None and not any(_number(c) for c in (row.split(delimiter) if delimiter else row.split())
+                                             if c.strip()):
+                units_row, skipped, below = row, skipped + below, 0  # (the data start after it)
+                continue
             first = row
             break
-    delimiter = next((d for d in CSV_DELIMITERS if d in line), None)
     fields = next(csv.reader([line], delimiter=delimiter)) if delimiter else line.split()
     header = [h.strip() for h in fields]
     while len(header) > 1 and not header[-1]:  # (rows that end in their delimiter: no column after it)
@@ -390,13 +406,7 @@ def _read_mat(p: Path, what: str) -> dict:
 
     count = mat_numbers(p)
     check_budget("path", str(p), 16.0 * count, f"reading this {what} ({count:.3g} numbers)")
-    try:
-        data = loadmat(p)
-    except MemoryError:
-        raise fail("path", str(p), f"a {what} that fits in memory") from None
-    except Exception as exc:  # noqa: BLE001 - scipy raises several kinds for an unreadable file
-        why = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise fail("path", str(p), f"a readable MATLAB file ({why})") from None
+    data = _library_read(p, what, "MATLAB file", lambda: loadmat(p))
     return {k: np.asarray(v, dtype=float) for k, v in data.items()
             if not k.startswith("__") and isinstance(v, np.ndarray) and v.dtype.kind in "biuf"
             and v.ndim in (1, 2)}
@@ -419,13 +429,7 @@ def _read_tdms(p: Path, what: str) -> dict:
     from nptdms import TdmsFile
 
     check_budget("path", str(p), TDMS_BYTES_FACTOR * p.stat().st_size, f"reading this {what}")
-    try:
-        tdms = TdmsFile.read(p)
-    except MemoryError:
-        raise fail("path", str(p), f"a {what} that fits in memory") from None
-    except Exception as exc:  # noqa: BLE001 - npTDMS raises several kinds for an unreadable file
-        why = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise fail("path", str(p), f"a readable TDMS file ({why})") from None
+    tdms = _library_read(p, what, "TDMS file", lambda: TdmsFile.read(p))
     out = Table()
     for group in tdms.groups():
         timing = set()
@@ -456,13 +460,8 @@ def _read_lvm(p: Path, what: str) -> dict:
     import lvm_read
 
     check_budget("path", str(p), LVM_BYTES_FACTOR * p.stat().st_size, f"reading this {what}")
-    try:
-        lvm = lvm_read.read(str(p), read_from_pickle=False, dump_file=False)
-    except MemoryError:
-        raise fail("path", str(p), f"a {what} that fits in memory") from None
-    except Exception as exc:  # noqa: BLE001 - lvm_read raises several kinds for an unreadable file
-        why = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise fail("path", str(p), f"a readable LabVIEW Measurement File ({why})") from None
+    lvm = _library_read(p, what, "LabVIEW Measurement File",
+                        lambda: lvm_read.read(str(p), read_from_pickle=False, dump_file=False))
     parts, names, units = [], None, {}
     for k in range(int(lvm.get("Segments", 0))):
         seg = lvm[k]

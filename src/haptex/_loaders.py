@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._columns import decimal_comma
+from ._columns import decimal_comma, first_line as _first_line
 from ._columns import mat_numbers as _mat_samples
 from ._units import parse_quantity
 from ._validation import ParameterError, a_path, check_budget
@@ -220,11 +220,6 @@ def read_topography(path, *, spacing=None, x_unit=None, height_unit=None, variab
     if reader is None:
         return _cropped(p, _read_text_columns(p, spacing, x_unit, height_unit, x_column, height_column, why), crop)
     return _read_st(p, reader, spacing, x_unit, height_unit, variable, fill_undefined, crop)
-
-
-def _first_line(exc: BaseException) -> str:
-    text = " ".join(str(exc).split()) or type(exc).__name__
-    return text if len(text) <= 160 else text[:157] + "..."
 
 
 def _open(p: Path):
