@@ -550,12 +550,10 @@ class _Ticks(NamedTuple):
     reach: int  # the largest delay searched (the windows every delay holds alike)
 
 
-def _ticks(t: np.ndarray, max_delay: int) -> _Ticks | None:
-    """The ticks of times ``t`` (n,) as :func:`_fit` takes them: each interval its own where
-    they differ from the period by more than rounding (1e-9 of it), the strays
-    (:data:`TICK_TOLERANCE`) marked; None where every interval is the period."""
-    T, stray = _period(t)
-    dt = np.diff(t)
+def _ticks(dt: np.ndarray, T: float, stray: np.ndarray, max_delay: int) -> _Ticks | None:
+    """A log's intervals ``dt`` (n - 1,) as :func:`_fit` takes them, with the period ``T`` and
+    the strays :func:`_period` found: each interval its own where they differ from the period by
+    more than rounding (1e-9 of it), the strays marked; None where every interval is the period."""
     uneven = bool(np.any(np.abs(dt[~stray] - T) > 1e-9 * T))
     if not uneven and not stray.any():
         return None
@@ -901,13 +899,13 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
         rel = _damping_spread(first)
         T = first.device.period
         quantized = first.device.position_resolution > 0
-        tc, pc, fc_ = _checked(time, position, force)
-        ticks = _ticks(tc, max_delay)
-        long_clear = int(_clear(None if ticks is None else ticks.stray, first.samples - max_delay,
-                                round(LONG_WINDOW / T), max_delay).sum())
-        if (not (quantized or rel > LONG_WINDOW_TRIGGER) or "damping" in first.undetermined
-                or long_clear < MIN_WINDOWS):
+        if not (quantized or rel > LONG_WINDOW_TRIGGER) or "damping" in first.undetermined:
             return first  # (a motion over too few encoder steps is not helped by longer windows)
+        tc, pc, fc_ = _checked(time, position, force)
+        stray = _period(tc)[1]  # (the period: the first fit's, the same median)
+        ticks = _ticks(np.diff(tc), T, stray, max_delay)
+        if _clear(stray, first.samples - max_delay, round(LONG_WINDOW / T), max_delay).sum() < MIN_WINDOWS:
+            return first  # (fewer long windows than a fit needs, between the strays or in all)
         # the first fit's figures are the start (from the equation error's, a light handle's long
         # windows under random forces stopped at 3 mm of residual, the damping at its bound 0;
         # a long fit that does not follow the positions is not kept, below). The delay is the
@@ -1004,7 +1002,7 @@ def _identify(*, time, position, force, max_delay, window, position_resolution, 
         raise fail("time", f"{n} samples ({n * T:.3g} s)",
                    f"at least {MIN_WINDOWS} windows of {H} samples after the delay searched ({max_delay}): "
                    f"{(MIN_WINDOWS * H + max_delay) * T:.3g} s")
-    ticks = _ticks(t, max_delay)
+    ticks = _ticks(dt, T, stray, max_delay)
     clear = _clear(stray, n - max_delay, H, max_delay)  # (the windows every delay holds)
     if clear.sum() < MIN_WINDOWS:
         k = int(np.flatnonzero(stray)[0])
