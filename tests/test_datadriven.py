@@ -464,6 +464,35 @@ def test_a_recording_written_with_a_decimal_comma_reads_as_written(tmp_path, sep
     assert np.all(rec.speed == 0.05) and np.all(rec.normal_force == 1.5)
 
 
+@pytest.mark.parametrize("decimal", [".", ","])
+def test_a_recording_with_quoted_cells_reads_as_written(tmp_path, decimal):
+    # A CSV whose cells are quoted (RFC 4180; Python's csv.writer with QUOTE_ALL writes every
+    # cell so, and pandas' to_csv with decimal="," quotes each number beside the commas that part
+    # the cells: '"0,000100","0,845700"'): numpy's loadtxt read '"0.0010"' as one string and
+    # refused every row ("could not convert string", 2026-12-02). Truth: the numbers as Python's
+    # csv module and pandas wrote them
+    import csv
+
+    import pandas as pd
+
+    fs, n = 10000.0, 4000
+    acc = np.round(np.random.default_rng(5).normal(size=n), 6)
+    path = tmp_path / "quoted.csv"
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh, quoting=csv.QUOTE_ALL)
+        w.writerow(["time_s", "acc_m_s2", "speed_m_s", "force_n"])
+        for i, a in enumerate(acc):
+            w.writerow([f"{v:.6f}".replace(".", decimal) for v in (i / fs, a, 0.05, 1.5)])
+    frame = pd.DataFrame({"time_s": np.arange(n) / fs, "acc_m_s2": acc, "speed_m_s": 0.05, "force_n": 1.5})
+    by_pandas = tmp_path / "pandas.csv"
+    frame.to_csv(by_pandas, index=False, decimal=decimal, float_format="%.6f")
+    for f in (path, by_pandas):
+        rec = dd.read_recording(f)
+        assert rec.sample_rate == pytest.approx(fs, rel=1e-9)
+        np.testing.assert_array_equal(rec.acceleration, acc)
+        assert np.all(rec.speed == 0.05) and np.all(rec.normal_force == 1.5)
+
+
 def test_a_recording_saved_by_excel_with_a_byte_order_mark_reads_its_first_column(tmp_path):
     # Excel's "CSV UTF-8" starts the file with a byte-order mark (EF BB BF, the Unicode
     # standard's U+FEFF): the reader kept it as part of the first column's name, so that

@@ -93,6 +93,54 @@ def test_columns_written_with_a_decimal_comma_are_read_as_written(tmp_path, sep)
     np.testing.assert_allclose(p.h, np.round(z, 6) * 1e-3, rtol=0, atol=1e-15)
 
 
+@pytest.mark.parametrize("suffix", [".csv", ".txt"])
+def test_one_column_written_with_a_decimal_comma_is_read_as_written(tmp_path, suffix):
+    # One column of heights exported where the comma is the decimal mark (pandas' to_csv with
+    # decimal=",", as a German or French locale's spreadsheet writes it: "0,3456", "-1,3032"):
+    # every line split at its comma into "x" and "height", and the file refused for x that
+    # does not increase, or for stating positions it does not have ("spacing = 1e-06 is not
+    # allowed: ... states its positions", 2026-12-02). Truth: the numbers as pandas wrote
+    # them, the comma read as the decimal mark; a two-column file of whole numbers whose first
+    # column increases (test_bad_profiles_name_the_file_and_line's) is still x and height
+    import pandas as pd
+
+    rng = np.random.default_rng(3)
+    h = np.round(rng.normal(0.0, 0.8, 300), 4)  # um
+    for sep in (";", ","):  # (with "," pandas quotes each cell, "0,5", as RFC 4180 says)
+        f = tmp_path / f"heights{suffix}"
+        pd.DataFrame({"height": h}).to_csv(f, index=False, decimal=",", sep=sep)
+        assert "0," in f.read_text() and "." not in f.read_text()  # (as written: a comma for the decimal mark)
+        p = hx.SampledProfile.from_file(f, spacing="0.5um", height_unit="um")
+        assert p.x.size == 300 and p.dx == pytest.approx(0.5e-6)
+        np.testing.assert_allclose(p.h, h * 1e-6, rtol=0, atol=1e-18)
+    # (small heights, every whole part 0: "0,0012")
+    f2 = tmp_path / f"small{suffix}"
+    pd.DataFrame({"z": np.abs(h) * 1e-3}).to_csv(f2, index=False, header=False, decimal=",", float_format="%.7f")
+    p = hx.SampledProfile.from_file(f2, spacing="0.5um", height_unit="mm")
+    np.testing.assert_allclose(p.h, np.round(np.abs(h) * 1e-3, 7) * 1e-3, rtol=0, atol=1e-18)
+
+
+@pytest.mark.parametrize("decimal", [".", ","])
+def test_quoted_cells_are_read_as_written(tmp_path, decimal):
+    # A CSV whose every cell is quoted (RFC 4180 allows it; Python's csv.writer with QUOTE_ALL
+    # and the software built on it write it: '"0.500","0.479426"') was refused: "no numeric data
+    # found" (2026-12-02). Truth: the numbers as Python's csv module wrote them, with a decimal
+    # point, and with a decimal comma inside the quotes beside the commas that part the cells
+    import csv
+
+    x = np.arange(60) * 0.5  # um
+    z = np.round(np.sin(x / 3), 6)  # um
+    f = tmp_path / "quoted.csv"
+    with open(f, "w", newline="") as fh:
+        w = csv.writer(fh, quoting=csv.QUOTE_ALL)
+        w.writerow(["x (um)", "z (um)"])
+        for a, b in zip(x, z):
+            w.writerow([f"{a:.3f}".replace(".", decimal), f"{b:.6f}".replace(".", decimal)])
+    p = hx.SampledProfile.from_file(f, x_unit="um", height_unit="um")
+    assert p.x.size == 60 and p.dx == pytest.approx(0.5e-6)
+    np.testing.assert_allclose(p.h, z * 1e-6, rtol=0, atol=1e-18)
+
+
 @pytest.mark.parametrize("text, pattern", [
     ("0,1\n1,2\n2,nan\n3,4\n4,5\n", r"p.csv: 1 of 5 heights are undefined \(NaN: the instrument lost them\), the "
                                        r"first at sample 2; crop to the measured part \(.*\), or fill them by interpolation \(--fill-undefined"),

@@ -329,8 +329,12 @@ def _read_csv(p: Path, what: str) -> Table:
     """A delimited-text table: '#' lines and blank lines before its header row skipped, the
     header's delimiter (CSV_DELIMITERS, else whitespace) for every row, '#' comments ignored; a
     row of units below the header (no cell a number: "[s];[mm];[N]", as DAQ programs export)
-    gives the columns' units (brackets or parentheses around a unit dropped)."""
+    gives the columns' units (brackets or parentheses around a unit dropped). Cells may be
+    quoted (RFC 4180: '"0.5","1.2"'); a comma inside a quoted number is its decimal mark."""
     import csv
+
+    def split(row: str) -> list:
+        return next(csv.reader([row.strip("\r\n")], delimiter=delimiter)) if delimiter else row.split()
 
     check_budget("path", str(p), 4.0 * p.stat().st_size, f"reading this {what}")  # text to float64, copies
     skipped, line = 0, ""
@@ -348,13 +352,12 @@ def _read_csv(p: Path, what: str) -> Table:
             below += 1
             if not row.strip() or row.lstrip().startswith("#"):
                 continue
-            if units_row is None and not any(_number(c) for c in (row.split(delimiter) if delimiter else row.split())
-                                             if c.strip()):
+            if units_row is None and not any(_number(c) for c in split(row) if c.strip()):
                 units_row, skipped, below = row, skipped + below, 0  # (the data start after it)
                 continue
             first = row
             break
-    fields = next(csv.reader([line], delimiter=delimiter)) if delimiter else line.split()
+    fields = split(line)
     header = [h.strip() for h in fields]
     while len(header) > 1 and not header[-1]:  # (rows that end in their delimiter: no column after it)
         header.pop()
@@ -363,8 +366,8 @@ def _read_csv(p: Path, what: str) -> Table:
     # cells parted by anything but commas whose commas are decimal marks (a German or French
     # locale's export: "0,000023;0,8457"): read with the comma as the decimal mark; a flag written
     # True or False (pandas' to_csv of a bool column): 1 or 0
-    cells = first.split(delimiter) if delimiter else first.split()
-    comma = delimiter != "," and any(decimal_comma(c) for c in cells)
+    cells = split(first)
+    comma = (delimiter != "," or '"' in first) and any(decimal_comma(c) for c in cells)  # (quoted: its own mark)
     flags = any(c.strip().lower() in _FLAGS for c in cells)
 
     def cell(c: str) -> float:
@@ -375,7 +378,7 @@ def _read_csv(p: Path, what: str) -> Table:
     try:
         with warnings.catch_warnings():  # (a header alone: said below, not warned)
             warnings.simplefilter("ignore", UserWarning)
-            data = np.loadtxt(p, delimiter=delimiter, skiprows=skipped + 1, comments="#", ndmin=2,
+            data = np.loadtxt(p, delimiter=delimiter, skiprows=skipped + 1, comments="#", ndmin=2, quotechar='"',
                               converters=cell if comma or flags else None,
                               usecols=range(len(header)) if len(fields) > len(header) else None)
     except ValueError as exc:
@@ -386,7 +389,7 @@ def _read_csv(p: Path, what: str) -> Table:
         raise fail("path", str(p), f"{len(header)} values a row, as its header")
     units = {}
     if units_row is not None:
-        given = next(csv.reader([units_row.strip("\r\n")], delimiter=delimiter)) if delimiter else units_row.split()
+        given = split(units_row)
         for h, u in zip(header, given):
             u = re.sub(r"^[\[(](.*)[\])]$", r"\1", u.strip()).strip()
             if u:

@@ -9,9 +9,10 @@ SurfaceTopography fails on files our users and tests have:
   without saying so (a struct, a cell array, a sparse matrix, text) and keeps the real part
   of a complex array; ours refuses each of these by name (scipy.io.loadmat).
 - Text columns SurfaceTopography does not recognise (a stray word in a data row, a comment
-  line, more than three columns), a chosen column, and UTF-8 text that starts with a byte
-  order mark (SurfaceTopography 1.27 drops that first row without saying so): ours reads
-  them, or names the line that is wrong.
+  line, more than three columns), a chosen column, UTF-8 text that starts with a byte
+  order mark (SurfaceTopography 1.27 drops that first row without saying so), and one column
+  of numbers written with decimal commas (SurfaceTopography's readers split "0,3456" into x
+  and height): ours reads them, or names the line that is wrong.
 
 Units and sample spacing are taken from the file when it states them and otherwise
 required from the caller; nothing is guessed. Every error is one line naming the file.
@@ -214,12 +215,24 @@ def read_topography(path, *, spacing=None, x_unit=None, height_unit=None, variab
         return _cropped(p, _load_mat(p, spacing, height_unit, variable, x_unit), crop)
     with open(p, "rb") as fh:
         bom = fh.read(3) == b"\xef\xbb\xbf"
-    if (x_column, height_column) != (0, 1) or bom:  # see the module's docstring
+    if (x_column, height_column) != (0, 1) or bom or _probe_decimal_comma_column(p):  # see the module's docstring
         return _cropped(p, _read_text_columns(p, spacing, x_unit, height_unit, x_column, height_column, None), crop)
     reader, why = _open(p)
     if reader is None:
         return _cropped(p, _read_text_columns(p, spacing, x_unit, height_unit, x_column, height_column, why), crop)
     return _read_st(p, reader, spacing, x_unit, height_unit, variable, fill_undefined, crop)
+
+
+def _probe_decimal_comma_column(p: Path) -> bool:
+    """:func:`_decimal_comma_column` on the whole lines of the first DECIMAL_COMMA_PROBE bytes of
+    ``p``, where they are text (SurfaceTopography's readers split such a line at its comma into
+    x and height)."""
+    with open(p, "rb") as fh:
+        head = fh.read(DECIMAL_COMMA_PROBE)
+    if b"\0" in head:
+        return False
+    lines = head.decode("latin-1").split("\n")
+    return _decimal_comma_column(lines[:-1] if len(head) == DECIMAL_COMMA_PROBE else lines)
 
 
 def _open(p: Path):
@@ -685,7 +698,16 @@ def _cells(s: str) -> list[str]:
     """A text line's cells: parted by commas, semicolons, tabs or spaces; where the line is
     parted by semicolons, tabs or spaces and every cell holding a comma is a number written with
     a decimal comma (a German or French locale's export: "0,0005;0,000063"), that comma is read
-    as the decimal mark."""
+    as the decimal mark. Quoted cells (RFC 4180: '"0.5","1.2"', or '"0,5","1,2"' where the
+    comma is the decimal mark) are read by Python's csv module, parted by the semicolon, tab or
+    comma found outside the quotes; a comma inside a quoted number is its decimal mark."""
+    if '"' in s:
+        import csv
+
+        outside = re.sub(r'"[^"]*"', "", s)
+        delimiter = next((d for d in (";", "\t", ",") if d in outside), ",")
+        cells = [c.strip() for c in next(csv.reader([s], delimiter=delimiter, skipinitialspace=True))]
+        return [c.replace(",", ".") if decimal_comma(c) else c for c in cells if c]
     parts = [c for c in re.split(r"[;\t ]+", s) if c != ""]
     commas = [c for c in parts if "," in c]
     if len(parts) > 1 and commas and all(decimal_comma(c) for c in commas):
@@ -693,13 +715,46 @@ def _cells(s: str) -> list[str]:
     return [c for c in re.split(r"[,;\t ]+", s) if c != ""]
 
 
+DECIMAL_COMMA_PROBE = 1 << 16
+"""How many bytes of a text file :func:`load_surface` reads to tell one column of decimal-comma
+numbers from x, height pairs parted by commas (:func:`_decimal_comma_column`) before it chooses a
+reader (chosen: some thousand lines; the reader it chooses reads the whole file and decides again)."""
+
+
+def _decimal_comma_column(lines) -> bool:
+    """Whether a text file's data lines (``lines``, after any header) are one column of numbers
+    written with a decimal comma ("0,3456", "-1,3e-06": a German or French locale's export of one
+    column), not x, height pairs of whole numbers parted by a comma ("0,1", "1,2"): every data
+    line one such cell, and fewer than half of the whole parts before the commas larger than the
+    one before (a profile's positions increase; heights go up and down, or keep one whole part)."""
+    whole, quoted = [], False
+    for line in lines:
+        s = line.strip()
+        if not s or s.startswith(("#", "%")):
+            continue
+        if len(s) > 2 and s[0] == s[-1] == '"' and s.count('"') == 2:  # (one quoted cell: its comma is no delimiter)
+            s, quoted = s[1:-1], True
+        if not decimal_comma(s):
+            if whole:
+                return False
+            try:
+                float(s)
+            except ValueError:
+                continue  # (a header line before the data)
+            return False
+        whole.append(float(s.split(",")[0].lstrip("+-") or "0") * (-1.0 if s.startswith("-") else 1.0))
+    rises = sum(b > a for a, b in zip(whole, whole[1:]))
+    return len(whole) >= 2 and (quoted or 2 * rises < len(whole) - 1)
+
+
 def _load_columns(p: Path, lines, spacing, x_unit, height_unit, x_column, height_column):
     rows, line_no = [], []
+    one = _decimal_comma_column(lines)  # (one column of decimal-comma numbers, not x, height pairs)
     for i, line in enumerate(lines):
         s = line.strip()
         if not s or s.startswith(("#", "%")):
             continue
-        cells = _cells(s)
+        cells = [s.replace(",", ".")] if one and decimal_comma(s) else _cells(s)  # (a quoted one: _cells')
         try:
             vals = [float(c) for c in cells]
         except ValueError:
