@@ -247,6 +247,52 @@ def test_a_log_with_missed_ticks_is_identified_between_them():
     assert any("7 intervals stray" in n for n in r.notes), r.notes
 
 
+@pytest.mark.parametrize("case, clock", [(1, 1e-3), (0, 1 / 64)])
+def test_a_log_stamped_by_a_clock_coarser_than_its_period_is_identified(case, clock):
+    # A loop faster than the clock that stamps its log: a 4 kHz loop stamped in whole
+    # milliseconds (Arduino's millis(), a logger's %.3f seconds) or a 1 kHz loop by Windows'
+    # 64 Hz system tick (Python's time.time() on Windows before 8, GetTickCount): runs of equal
+    # times, then a step of the clock's resolution. Refused before: "time = ... increasing"
+    # (2026-12-02). The clock cannot tell the ticks apart, so they are taken one period each,
+    # the period the least-squares line's slope through the stamps over the sample index.
+    # Truth: the independent simulator's log at its own period, its times floored to the clock's
+    # resolution (as a clock that reads its last whole tick does): the figures within 1 % and 3
+    # deviations, the delay exact, the period within 0.1 %, and a note saying so
+    kw = ORACLE_CASES[case]
+    T = kw["T"]
+    t, p, f = _oracle_log(kw["m"], kw["b"], kw["fc"], kw["delta"], kw["D"], T, _program(T, 10.0, kw["kind"]),
+                          noise=kw["noise"], seed=7)
+    stamped = np.floor((t + 12.3456) / clock) * clock  # (a clock that started before the log)
+    assert np.any(np.diff(stamped) == 0) and np.all(np.diff(stamped) >= 0)
+    r = I.identify(time=stamped, position=p, force=f)
+    d = r.device
+    assert d.delay == kw["D"] and d.period == pytest.approx(T, rel=1e-3)
+    for name, got, want in (("mass", d.mass[0, 0], kw["m"]), ("damping", d.damping[0, 0], kw["b"]),
+                            ("coulomb_friction", d.coulomb_friction, kw["fc"])):
+        if want == 0.0:
+            assert abs(got) <= 3 * r.uncertainty[name] + 1e-6, name
+            continue
+        assert got == pytest.approx(want, rel=0.01), name
+        # (the noise-free log's deviations are its rounding's, 1e-16: the line's period is the
+        # loop's to about 1e-9, measured 5.6e-10 kg on 0.05)
+        assert abs(got - want) <= 3 * r.uncertainty[name] + 1e-6 * want, (name, got, want, r.uncertainty[name])
+    assert any("coarser than its period" in n for n in r.notes), r.notes
+
+
+def test_a_coarse_clocks_log_with_a_gap_is_refused_naming_it():
+    # The same 4 kHz loop in whole milliseconds, stalled 50 ms at sample 20,000: a clock that
+    # cannot tell the ticks apart cannot tell which ticks the gap held either, so the log is
+    # refused in one line naming the sample and a finer clock (the remedy a logger has)
+    kw = ORACLE_CASES[1]
+    T = kw["T"]
+    t, p, f = _oracle_log(kw["m"], kw["b"], kw["fc"], kw["delta"], kw["D"], T, _program(T, 10.0, kw["kind"]))
+    t[20_000:] += 0.05
+    stamped = np.floor(t / 1e-3) * 1e-3
+    with pytest.raises(hx.ParameterError, match=r"time = .* at sample 2\d{4}.* a clock finer than") as exc:
+        I.identify(time=stamped, position=p, force=f)
+    assert "\n" not in str(exc.value)
+
+
 @pytest.mark.long  # (the command line end to end: 3 s)
 def test_a_jittered_log_in_milliseconds_with_a_hiccup_is_identified_at_the_command_line(tmp_path, capsys):
     # A CHAI3D-style logger's CSV: its clock in ms to the microsecond, every tick 0.7-1.3

@@ -822,7 +822,9 @@ def identify(*, time, position, force, max_delay: int = MAX_DELAY, window: float
     ParameterError
         For arrays of different shapes, an entry that is not a real number (a bool, text or a
         complex number), a non-finite value (naming the column and sample),
-        times that do not increase, intervals off the period (:data:`TICK_TOLERANCE`) so many
+        times that do not increase (equal times are read as a clock coarser than the period's
+        where they are one, :func:`_coarse_clock`, and refused where it skips more than one of
+        its steps or a stamp strays from the line), intervals off the period (:data:`TICK_TOLERANCE`) so many
         that fewer than :data:`MIN_WINDOWS` windows lie between them, a log shorter than
         :data:`MIN_WINDOWS` windows,
         a constant force or position on an axis (nothing to identify), or settings out of
@@ -842,9 +844,59 @@ def identify(*, time, position, force, max_delay: int = MAX_DELAY, window: float
     if not isinstance(source, str):
         raise fail("source", source, "a str (where the log came from, as the device file names it)")
     _encoder_step(position_resolution)  # (checked before the log is)
+    time, clock = _coarse_clock(time)
     r = _identify(time=time, position=position, force=force, max_delay=max_delay, window=window,
                   position_resolution=position_resolution, source=source, delay=None)
-    return _told(r)
+    r = _told(r)
+    return r if clock is None else dataclasses.replace(r, notes=[clock, *r.notes])
+
+
+COARSE_CLOCK_SLACK = 1.5
+"""How far (in the clock's steps) a stamp of a clock coarser than its loop's period may lie from
+the least-squares line through the stamps over the sample index before the log is refused
+(:func:`_coarse_clock`; chosen: a clock that reads its last whole tick puts each stamp within
+one step below the loop's own time, within half a step either side of the line)."""
+
+
+def _coarse_clock(time):
+    """A log's times where the clock that stamped them is coarser than the loop's period (runs of
+    equal times, then a step of the clock's resolution: a 4 kHz loop in whole milliseconds, a
+    1 kHz loop by Windows' 64 Hz system tick): each tick one period, the least-squares line
+    through the stamps over the sample index, and a note that says so; (times, None) where the
+    times hold no equal neighbours (or are not a log's: :func:`_checked` refuses them).
+
+    Raises
+    ------
+    ParameterError
+        Where the clock skips more than one of its steps between two samples, or a stamp lies
+        more than :data:`COARSE_CLOCK_SLACK` steps off the line (the loop stalled or samples went
+        unlogged: a clock that cannot tell the ticks apart cannot tell which ticks a gap held).
+    """
+    try:
+        t = np.asarray(time, dtype=float)
+    except (TypeError, ValueError):
+        return time, None
+    if t.ndim != 1 or t.size < 3 or not np.all(np.isfinite(t)):
+        return time, None
+    dt = np.diff(t)
+    if dt.min() < 0 or not np.any(dt == 0) or not np.any(dt > 0):
+        return time, None
+    step = float(np.min(dt[dt > 0]))  # (the clock's resolution: its least step)
+    k = np.arange(t.size, dtype=float)
+    T, t0 = np.polyfit(k, t, 1)
+    if not 0 < T < step:  # (equal times from something else: a repeated row; refused as not increasing)
+        return time, None
+    clock = f"a clock that steps by {step:.3g} s, coarser than its period ({T:.3g} s)"
+    gaps = np.flatnonzero(dt > 2.5 * step)
+    off = np.abs(t - (t0 + T * k))
+    if gaps.size or off.max() > COARSE_CLOCK_SLACK * step:
+        j = int(gaps[0]) + 1 if gaps.size else int(np.argmax(off > COARSE_CLOCK_SLACK * step))
+        raise fail("time", f"{t[j] - t[j - 1]:.3g} s after {t[j - 1]:.6g} s at sample {j}",
+                   f"times from a clock finer than the loop's period (a microsecond clock): these are from {clock}, "
+                   "which cannot tell which ticks a gap held")
+    note = (f"the log's times are from {clock}: each tick is taken as one period, the least-squares line's "
+            "slope through the times over the sample index (the loop's jitter cannot be seen)")
+    return t0 + T * k, note
 
 
 def _told(r: Identification) -> Identification:
