@@ -592,15 +592,17 @@ def test_a_recording_logged_by_ni_daqmx_to_tdms_reads_its_channels(tmp_path):
                           sample_rate=fs)
 
 
-@pytest.mark.parametrize("x_columns", ["No", "One"])
-def test_a_recording_written_as_a_labview_measurement_file_reads_its_channels(tmp_path, x_columns):
+@pytest.mark.parametrize("x_columns, comments", [("No", False), ("One", False), ("One", True)])
+def test_a_recording_written_as_a_labview_measurement_file_reads_its_channels(tmp_path, x_columns, comments):
     # LabVIEW's Write To Measurement File (.lvm): a file header and a segment header, each ended
     # by ***End_of_Header***, tab-separated, the decimal mark the header's Decimal_Separator (a
     # German locale's comma here), then a row of channel names and the rows; with X_Columns No
     # there is no time column and the times are X0 + k Delta_X (NI's "Specification for the
     # LabVIEW Measurement File", and the public examples of ladisk/lvm_read, whose reader haptex
     # uses). Refused before (its first line read as the header). Truth: the values as written,
-    # the rate 1 / Delta_X.
+    # the rate 1 / Delta_X. With ``comments`` each row ends in its Comment column's text, as
+    # lvm_read's public with_comments.lvm ("OK", "LOST COMMUNICATION"): refused before ("rows
+    # hold its 3 channels (segment 1's hold 4)", 2026-12-02; lvm_read reads the text as NaN).
     fs, n = 25600.0, 3000
     acc = np.round(np.sin(np.arange(n) * 0.2), 6)
 
@@ -614,7 +616,8 @@ def test_a_recording_written_as_a_labview_measurement_file_reads_its_channels(tm
             "X_Dimension\tTime\tTime\tTime\t", "X0\t0,0000000000000000E+0\t0,0000000000000000E+0\t0,0000000000000000E+0\t",
             f"Delta_X\t{1 / fs:.6E}\t{1 / fs:.6E}\t{1 / fs:.6E}\t".replace(".", ","), "***End_of_Header***\t\t\t\t",
             "X_Value\tacc\tforce\tspeed\tComment"]
-    rows = [("" if x_columns == "No" else num(k / fs)) + f"\t{num(a)}\t1,500000\t0,050000" for k, a in enumerate(acc)]
+    rows = [("" if x_columns == "No" else num(k / fs)) + f"\t{num(a)}\t1,500000\t0,050000"
+            + (("\tOK" if k % 7 else "\tLOST COMMUNICATION") if comments else "") for k, a in enumerate(acc)]
     path = tmp_path / "scan.lvm"
     path.write_text("\n".join(head + rows) + "\n")
     rec = dd.read_recording(path, columns=["acceleration=acc:g", "force=force:N", "speed=speed:m/s",

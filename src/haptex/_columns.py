@@ -459,7 +459,7 @@ def _read_lvm(p: Path, what: str) -> dict:
     name, ``X_Value`` their times: the file's own x column, or X0 + k Delta_X from the segment
     header where it has none (X_Columns No), or where each channel has its own and they agree.
     The segments of one set of channels (a loop's calls of Write To Measurement File) are one
-    table, in order."""
+    table, in order. A Comment column (text a row, NI's last column) is no channel."""
     import lvm_read
 
     check_budget("path", str(p), LVM_BYTES_FACTOR * p.stat().st_size, f"reading this {what}")
@@ -468,8 +468,11 @@ def _read_lvm(p: Path, what: str) -> dict:
     parts, names, units = [], None, {}
     for k in range(int(lvm.get("Segments", 0))):
         seg = lvm[k]
-        cols = [c for c in seg["Channel names"] if c != "Comment"]
+        named = list(seg["Channel names"])
+        cols = [c for c in named if c != "Comment"]
         data = np.asarray(seg["data"], dtype=float).reshape(len(seg["data"]), -1)
+        if data.shape[1] == len(named) != len(cols):  # (rows with their Comment column's text: NaN to lvm_read)
+            data = data[:, [j for j, c in enumerate(named) if c != "Comment"]]
         if data.shape[1] != len(cols):
             raise fail("path", str(p), f"a LabVIEW Measurement File whose rows hold its {len(cols)} channels "
                        f"(segment {k + 1}'s hold {data.shape[1]})")
