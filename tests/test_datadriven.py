@@ -890,6 +890,42 @@ def test_a_bad_recording_is_one_line_naming_the_column(change, match):
     assert "\n" not in str(err.value)
 
 
+def test_a_recording_at_one_speed_and_force_is_fitted_from_its_acceleration_alone(tmp_path, capsys):
+    # A scan rig's stage at a set speed and a load cell at a set force, logging the acceleration
+    # alone (the speed and force in the file's name or the lab book, as in the Cluster Haptic
+    # Texture Database's "0_135_40_500_0.csv": 40 mm/s, 500 mN): refused before, "column = 'force
+    # missing'" (2026-12-02). --speed and --force give them, with their units, and the recording
+    # fits one model there. Truth: an ARMA(4, 1) process from scipy.signal.lfilter, its PSD by
+    # scipy.signal.freqz; the model's within 1 dB over 20-450 Hz (as the stitched processes')
+    from haptex.cli import main
+
+    fs = 2500.0
+    b, a, var = _physical_arma(fs, 1)
+    y = sg.lfilter(b, a, np.random.default_rng(12).normal(scale=np.sqrt(var), size=int(20 * fs) + 2000))[2000:]
+    rec = tmp_path / "0_135_40_500_0.csv"
+    rec.write_text("time,Z\n" + "".join(f"{k / fs:.6f},{v / 9.80665:.9f}\n" for k, v in enumerate(y)))
+    out = tmp_path / "one.json"
+    base = ["fit", str(rec), "-o", str(out), "--column", "acceleration=Z:g", "--column", "time=time:s"]
+    assert main(base) == 2 and "force missing" in capsys.readouterr().err
+    assert main(base + ["--speed", "40mm/s", "--force", "500mN"]) == 0
+    models = dd.read_models(out)
+    assert len(models.models) == 1
+    m = models.model_at(0.04, 0.5)
+    assert (m.speed, m.force) == pytest.approx((0.04, 0.5))
+    band = np.linspace(20, 450, 200)
+    d = np.mean(np.abs(10 * np.log10(_psd(m.ma * m.gain, m.ar, m.variance, fs, band) / _psd(b, a, var, fs, band))))
+    assert d < 1.0, d
+    # a speed or force given where the file has its column: refused, naming both
+    both = tmp_path / "both.csv"
+    both.write_text("time,Z,F\n" + "".join(f"{k / fs:.6f},{v / 9.80665:.9f},0.5\n" for k, v in enumerate(y[:5000])))
+    assert main(["fit", str(both), "-o", str(out), "--column", "acceleration=Z:g", "--column", "time=time:s",
+                 "--column", "force=F:N", "--speed", "40mm/s", "--force", "500mN"]) == 2
+    err = capsys.readouterr().err
+    assert "--force" in err and "column" in err and "\n" not in err.strip()
+    assert main(base + ["--speed", "40", "--force", "500mN"]) == 2  # (a speed needs its unit)
+    assert main(base + ["--speed", "-40mm/s", "--force", "500mN"]) == 2
+
+
 def test_fit_and_vibration_at_the_command_line(tmp_path):
     from haptex.cli import main
 

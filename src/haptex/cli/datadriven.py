@@ -33,7 +33,13 @@ from ._common import Quantity, _catalogued_device, _check_plot_path
                    "board's step as the unit for raw counts, e.g. 'acceleration=az:0.001 g'; without a unit, the "
                    "one the file states (a units row, TDMS, LVM or HDF5 metadata), else SI. "
                    "Repeat for each; other columns are ignored and listed.")
-def fit_cmd(recording, out, sample_rate, rate, order, ma_order, segment, highpass, columns):
+@click.option("--speed", type=Quantity("m/s"), default=None,
+              help="The tangential speed throughout, e.g. '40 mm/s', for a recording taken at one speed "
+                   "with no speed or position column.")
+@click.option("--force", type=Quantity("N"), default=None,
+              help="The normal force throughout, e.g. '500 mN', for a recording taken at one force with no "
+                   "force column.")
+def fit_cmd(recording, out, sample_rate, rate, order, ma_order, segment, highpass, columns, speed, force):
     """Fit ARMA vibration models over (speed, force) to a recording (CSV, NPZ, HDF5, .mat, TDMS or
     LVM: haptex's columns time_s, acc_m_s2 or acc_x/y/z_m_s2, speed_m_s, force_n, or the rig's
     own with --column), and write them."""
@@ -41,7 +47,7 @@ def fit_cmd(recording, out, sample_rate, rate, order, ma_order, segment, highpas
 
     if not out.parent.is_dir():
         raise ParameterError(f"--out = '{out}' is not allowed: must be a file in an existing folder")
-    rec = read_recording(recording, sample_rate=sample_rate, columns=columns)
+    rec = read_recording(recording, sample_rate=sample_rate, columns=columns, speed=speed, normal_force=force)
     if rec.ignored:
         click.echo(f"ignored columns: {', '.join(rec.ignored)}")
     if rec.speed_source != "given":
@@ -55,7 +61,8 @@ def fit_cmd(recording, out, sample_rate, rate, order, ma_order, segment, highpas
     else:
         models.write(out)
     r = models.report
-    click.echo(f"{len(models.models)} ARMA{r.order} models at {r.sample_rate:g} Hz from {r.segments} steady windows "
+    click.echo(f"{len(models.models)} ARMA{r.order} model{'s' * (len(models.models) != 1)} at {r.sample_rate:g} Hz "
+               f"from {r.segments} steady windows "
                f"of {r.windows} (order: {r.criterion}); written to {out}")
     for note in r.notes:
         click.echo(f"note: {note}")

@@ -154,7 +154,8 @@ positions gives the speed when a recording has positions and no speed (chosen: 2
 as the identification's derivatives; it passes the hand's motion, < 10 Hz, within 0.1 %)."""
 
 
-def read_recording(path, *, sample_rate: float | None = None, columns=None) -> Recording:
+def read_recording(path, *, sample_rate: float | None = None, columns=None, speed: float | None = None,
+                   normal_force: float | None = None) -> Recording:
     """Read a recording: CSV, NPZ, HDF5, MATLAB .mat, TDMS or LVM, with haptex's names or the rig's.
 
     Parameters
@@ -170,6 +171,12 @@ def read_recording(path, *, sample_rate: float | None = None, columns=None) -> R
         ``["acceleration=az:g", "force=fz:N", "position=x,y:mm", "time=t:ms"]``. A quantity
         not given is taken from haptex's own names (:data:`RECORDING_COLUMNS`) when the file
         has them. Columns named by neither are ignored and listed in ``Recording.ignored``.
+    speed : float, optional
+        The tangential speed (m/s, > 0) throughout, for a recording taken at one speed (a scan
+        rig's stage) that has no speed or position column (``--speed`` at the command line).
+    normal_force : float, optional
+        The normal force (N, > 0) throughout, for a recording taken at one force that has no
+        force column (``--force`` at the command line).
 
     Returns
     -------
@@ -181,7 +188,8 @@ def read_recording(path, *, sample_rate: float | None = None, columns=None) -> R
         If ``path`` is not a path (a str or os.PathLike, PEP 519), the file is missing or
         larger than the memory budget allows, a named column is
         missing (the file's columns are listed), a quantity is missing (acceleration, force,
-        and speed or position), a value is not a finite number, the times do not increase or
+        and speed or position) or given twice (a column and ``speed`` or ``normal_force``), a
+        given speed or force is not a positive number, a value is not a finite number, the times do not increase or
         one lies more than :data:`TIME_SLACK` of an interval from uniform times (a dropped or
         repeated sample), or neither times nor a sample rate are given.
 
@@ -200,14 +208,28 @@ def read_recording(path, *, sample_rate: float | None = None, columns=None) -> R
     own["acceleration"] = (("acc_m_s2",) if "acc_m_s2" in table else
                            ("acc_x_m_s2", "acc_y_m_s2", "acc_z_m_s2"))
     got, ignored = take(table, columns, RECORDING_QUANTITIES, own, "recording")
+    n = len(next(iter(got.values()))) if got else 0
+    for name, q, option, unit, value in (("speed", "speed", "--speed", "m/s", speed),
+                                         ("normal_force", "force", "--force", "N", normal_force)):
+        if value is None:
+            continue
+        value = positive(name, value, unit)
+        has = [k for k in ((q, "position") if q == "speed" else (q,)) if k in got]
+        if has:
+            raise fail(name, value, f"left out ({option} at the command line) where the recording has a {has[0]} "
+                       f"column: give its column or the {q}, not both")
+        if got:
+            got[q] = np.full((n, 1), value)
     for q in ("acceleration", "force"):
         if q not in got:
             mine = "acc_m_s2" if q == "acceleration" else own[q][0]
             raise fail("column", f"{q} missing", f"--column {q}=COLUMN[:UNIT], or haptex's {mine} "
-                       f"({RECORDING_COLUMNS[mine]})")
+                       f"({RECORDING_COLUMNS[mine]})" + (", or the force throughout (--force 0.5N at the command "
+                                                         "line, normal_force=0.5 in Python)" if q == "force" else ""))
     if "speed" not in got and "position" not in got:
         raise fail("column", "speed missing", "--column speed=COLUMN[:UNIT] or --column position=X[,Y]:UNIT "
-                   "(the speed is then derived), or haptex's speed_m_s")
+                   "(the speed is then derived), or haptex's speed_m_s, or the speed throughout (--speed 40mm/s "
+                   "at the command line, speed=0.04 in Python)")
     acc, force = got["acceleration"], got["force"]
     if acc.shape[1] not in (1, 3):
         raise fail("--column", f"acceleration with {acc.shape[1]} columns", "one column or three (x, y, z)")
@@ -225,7 +247,8 @@ def read_recording(path, *, sample_rate: float | None = None, columns=None) -> R
     else:
         fs = positive("sample_rate", sample_rate, "Hz")
     if "speed" in got:
-        speed, source = got["speed"][:, 0], "given"
+        source = "given" if speed is None else f"{speed:g} m/s throughout, as given"
+        speed = got["speed"][:, 0]
     else:
         pos = got["position"]
         window = max(5, 2 * int(round(SPEED_FILTER[0] * fs / 2)) + 1)
