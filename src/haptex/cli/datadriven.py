@@ -18,7 +18,8 @@ from ._common import Quantity, _catalogued_device, _check_plot_path
 @click.option("-o", "--out", type=click.Path(dir_okay=False, path_type=Path), required=True,
               help="Model file to write: haptex's JSON, or HaTT's XML layout for a name ending .xml.")
 @click.option("--sample-rate", type=Quantity("Hz"), default=None,
-              help="The recording's rate, e.g. '10 kHz', when it has no time_s column.")
+              help="The recording's rate, e.g. '10 kHz', when it has no time_s column, or where its "
+                   "samples were taken at one rate and only their times scatter (a host's stamps).")
 @click.option("--rate", type=Quantity("Hz"), default=None, show_default="the recording's",
               help="The models' rate: the renderer's servo rate, e.g. '1 kHz'.")
 @click.option("--order", type=int, default=None, show_default="chosen by BIC", help="AR order p.")

@@ -122,11 +122,24 @@ a whole interval, half of it at least from any line through them all. The rate i
 least-squares line's through the times."""
 
 
-def _uniform_rate(t: np.ndarray) -> float:
+STATED_TIME_SLACK = 0.5
+"""How far (a fraction of the sample interval) a recording's time may lie from uniform times where
+its rate is given beside them (``sample_rate``, ``--sample-rate``): the samples are then taken at
+that rate and the times' scatter is their stamps' (a host's arrival times; chosen: beyond half an
+interval a stamp is nearer another sample's time)."""
+
+STATED_RATE_SLACK = 1e-3
+"""How far (relative) a rate given beside a recording's times may be from theirs, the inverse slope
+of their least-squares line, before it is refused as another recording's (chosen: a crystal's
+tolerance is some 50 ppm)."""
+
+
+def _uniform_rate(t: np.ndarray, stated: float | None = None) -> float:
     """The rate (Hz) of a recording's times t (n,), s: increasing, each within TIME_SLACK of an
-    interval of the least-squares line through them (the rate its slope's inverse). Raises
-    ParameterError naming the first sample that is not after the one before, or the one
-    farthest off that line."""
+    interval of the least-squares line through them (the rate its slope's inverse); with a rate
+    ``stated`` (Hz), that rate, where it is within STATED_RATE_SLACK of the line's and each time
+    within STATED_TIME_SLACK of it. Raises ParameterError naming the first sample that is not
+    after the one before, the one farthest off that line, or the stated rate and the line's."""
     n = t.size
     if n < 2:
         raise fail("time", f"{n} sample", "uniformly sampled times (s), increasing: two at least")
@@ -138,14 +151,23 @@ def _uniform_rate(t: np.ndarray) -> float:
                    "increasing times (s), one a sample")
     k = np.arange(n, dtype=np.float64)
     slope, start = np.polyfit(k, t, 1)
+    fs = 1.0 / float(slope)
+    if stated is not None and abs(fs - stated) > STATED_RATE_SLACK * fs:
+        raise fail("sample_rate", stated, f"the rate of the file's times, {fs:.6g} Hz (their least-squares line), "
+                   f"within {STATED_RATE_SLACK:.1%}, or left out (None in Python)")
     off = (t - (start + slope * k)) / slope
     i = int(np.argmax(np.abs(off)))
-    if abs(off[i]) > TIME_SLACK:
+    slack = TIME_SLACK if stated is None else STATED_TIME_SLACK
+    if abs(off[i]) > slack:
+        rate = ("" if stated is not None else
+                f"; or, where the samples were taken at one rate and only their times scatter (a host's stamps), "
+                f"that rate: --sample-rate {fs:.6g} Hz at the command line, sample_rate={fs:.6g} in Python (times "
+                f"then within {STATED_TIME_SLACK:g} of an interval)")
         raise fail("time", f"sample {i}: {off[i]:+.2f} of an interval off uniform times",
-                   f"times within {TIME_SLACK:g} of an interval of uniform ones (their rounding or a clock's jitter "
+                   f"times within {slack:g} of an interval of uniform ones (their rounding or a clock's jitter "
                    "below it; a dropped or repeated sample moves the rest by one), or the file resampled to a "
-                   "uniform rate first")
-    return 1.0 / float(slope)
+                   f"uniform rate first{rate}")
+    return fs if stated is None else float(stated)
 
 
 SPEED_FILTER = (0.021, 3)
@@ -165,7 +187,9 @@ def read_recording(path, *, sample_rate: float | None = None, columns=None, spee
         file (``.h5``/``.hdf5``), a MATLAB ``.mat`` (v5 or v7.3), an NI ``.tdms`` or a
         LabVIEW ``.lvm``: :func:`haptex._columns.read_table`.
     sample_rate : float, optional
-        Rate (Hz), when the file has no time column.
+        Rate (Hz), when the file has no time column; or beside its times, where the samples
+        were taken at one rate and only their times scatter (a host's stamps, up to
+        :data:`STATED_TIME_SLACK` of an interval): within :data:`STATED_RATE_SLACK` of theirs.
     columns : sequence of str, optional
         Column specs ``QUANTITY=COL[,COL...][:UNIT]`` (:data:`RECORDING_QUANTITIES`), e.g.
         ``["acceleration=az:g", "force=fz:N", "position=x,y:mm", "time=t:ms"]``. A quantity
@@ -236,10 +260,8 @@ def read_recording(path, *, sample_rate: float | None = None, columns=None, spee
     if force.shape[1] != 1:
         raise fail("--column", f"force with {force.shape[1]} columns", "one column: the normal force")
     if "time" in got:
-        fs = _uniform_rate(got["time"][:, 0])
-        if sample_rate is not None and abs(fs - float(sample_rate)) > 1e-6 * fs:
-            raise fail("sample_rate", sample_rate, f"{fs:g} Hz, the rate of the file's times, or left out "
-                       "(None in Python)")
+        fs = _uniform_rate(got["time"][:, 0], None if sample_rate is None else positive("sample_rate", sample_rate,
+                                                                                        "Hz"))
     elif sample_rate is None:
         times = [c for c in ignored if c == "X_Value" or c.lower().rsplit("/", 1)[-1] in ("time", "time_s", "t")]
         raise fail("sample_rate", None, "a rate (Hz) for a recording without a time column (--sample-rate at the "
