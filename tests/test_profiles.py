@@ -120,6 +120,38 @@ def test_one_column_written_with_a_decimal_comma_is_read_as_written(tmp_path, su
     np.testing.assert_allclose(p.h, np.round(np.abs(h) * 1e-3, 7) * 1e-3, rtol=0, atol=1e-18)
 
 
+def test_a_table_of_named_columns_is_read_by_the_column_named(tmp_path, capsys):
+    # A stylus profilometer's export as its users document it (jonathan-bender/scaling-octo-telegram's
+    # README: tab-separated, "Counter, Altitude (um), Encoder1 (um), Encoder2 (um), Row number",
+    # the step in a separate parameters file, "X step distance = 0.005 mm"): SurfaceTopography's
+    # plain-text matrix reader read it as a map 5 samples wide, and design refused it for
+    # spanning "20 um along x" (2026-12-02). A text table of four or more named columns is read
+    # by its columns: the heights' named (by name or index, --variable), in the unit its name
+    # states ("Altitude (µm)"), the positions from the spacing. Truth: the numbers as written
+    from haptex.cli import main
+
+    n = 2000
+    alt = np.round(623.3 + 0.5 * np.sin(2 * np.pi * np.arange(n) * 0.005 / 0.4), 4)  # um
+    rows = "".join(f"{37 + k}\t{a:.4f}\t-1.4\t0\t1\n" for k, a in enumerate(alt))
+    f = tmp_path / "reading.txt"
+    f.write_text("Counter\tAltitude (\u00b5m)\tEncoder1 (\u00b5m)\tEncoder2 (\u00b5m)\tRow number\n" + rows,
+                 encoding="utf-8")
+    with pytest.raises(hx.ParameterError, match=r"reading.txt: a table of 5 named columns \(0 Counter, 1 Altitude "
+                       r"\(\u00b5m\), .*4 Row number\): choose the heights' column by its name or its index, "
+                       r"--variable 1 at the command line, variable='1' in Python"):
+        hx.SampledProfile.from_file(f, spacing="5um")
+    for which in ("1", "Altitude (\u00b5m)"):
+        p = hx.SampledProfile.from_file(f, spacing="5um", variable=which)
+        assert p.x.size == n and p.dx == pytest.approx(5e-6)
+        np.testing.assert_allclose(p.h, alt * 1e-6, rtol=1e-12)
+    with pytest.raises(hx.ParameterError, match="the file gives no abscissa: give the sample spacing"):
+        hx.SampledProfile.from_file(f, variable="1")
+    assert main(["design", "--texture", str(f), "--device", "omega-3", "--algorithms", "A", "--quiet"]) == 2
+    assert "--variable 1 at the command line" in capsys.readouterr().err
+    assert main(["design", "--texture", str(f), "--device", "omega-3", "--algorithms", "A", "--variable", "1",
+                 "--spacing", "5um", "--quiet"]) == 0
+
+
 @pytest.mark.parametrize("decimal", [".", ","])
 def test_quoted_cells_are_read_as_written(tmp_path, decimal):
     # A CSV whose every cell is quoted (RFC 4180 allows it; Python's csv.writer with QUOTE_ALL

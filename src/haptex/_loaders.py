@@ -12,7 +12,9 @@ SurfaceTopography fails on files our users and tests have:
   line, more than three columns), a chosen column, UTF-8 text that starts with a byte
   order mark (SurfaceTopography 1.27 drops that first row without saying so), and one column
   of numbers written with decimal commas (SurfaceTopography's readers split "0,3456" into x
-  and height): ours reads them, or names the line that is wrong.
+  and height), and a table of four or more named columns (a profilometer's "Counter,
+  Altitude (um), Encoder1 (um), ...", which SurfaceTopography's matrix reader took for a map):
+  ours reads them, or names the line that is wrong.
 
 Units and sample spacing are taken from the file when it states them and otherwise
 required from the caller; nothing is guessed. Every error is one line naming the file.
@@ -217,6 +219,9 @@ def read_topography(path, *, spacing=None, x_unit=None, height_unit=None, variab
         bom = fh.read(3) == b"\xef\xbb\xbf"
     if (x_column, height_column) != (0, 1) or bom or _probe_decimal_comma_column(p):  # see the module's docstring
         return _cropped(p, _read_text_columns(p, spacing, x_unit, height_unit, x_column, height_column, None), crop)
+    names = _named_columns(p)
+    if names is not None:  # (a table of named columns: SurfaceTopography's matrix reader read it as a map)
+        return _cropped(p, _read_named_columns(p, names, spacing, x_unit, height_unit, variable), crop)
     reader, why = _open(p)
     if reader is None:
         return _cropped(p, _read_text_columns(p, spacing, x_unit, height_unit, x_column, height_column, why), crop)
@@ -233,6 +238,71 @@ def _probe_decimal_comma_column(p: Path) -> bool:
         return False
     lines = head.decode("latin-1").split("\n")
     return _decimal_comma_column(lines[:-1] if len(head) == DECIMAL_COMMA_PROBE else lines)
+
+
+NAMED_COLUMNS = 4
+"""The fewest named columns a text table (a header row of names above rows of numbers) has that is
+read by its columns (:func:`_named_columns`) rather than by SurfaceTopography, whose XYZ reader
+takes two or three columns as x, (y,) height and whose plain-text matrix reader took a
+profilometer's "Counter, Altitude (um), Encoder1 (um), Encoder2 (um), Row number" for a map five
+samples wide."""
+
+
+def _named_columns(p: Path) -> list | None:
+    """The names of a text table's columns (a header row of names, none a number, above a row of
+    as many numbers: :data:`NAMED_COLUMNS` at least), from the first DECIMAL_COMMA_PROBE bytes of
+    ``p``; None for any other file."""
+    with open(p, "rb") as fh:
+        head = fh.read(DECIMAL_COMMA_PROBE)
+    if b"\0" in head:
+        return None
+    lines = [ln.strip() for ln in head.decode("utf-8", errors="replace").split("\n")]
+    lines = [ln for ln in lines if ln and not ln.startswith(("#", "%"))]
+    if len(lines) < 2:
+        return None
+    delimiter = next((d for d in ("\t", ";", ",") if d in lines[0]), None)  # (names may hold spaces)
+    names, row = ([c.strip() for c in ln.split(delimiter)] for ln in lines[:2])
+    while names and not names[-1]:  # (a row that ends in its delimiter)
+        names.pop()
+        row = row[:-1] if row and not row[-1] else row
+    if len(names) < NAMED_COLUMNS or len(row) != len(names) or not all(names):
+        return None
+
+    def number(c):
+        try:
+            float(c)
+            return True
+        except ValueError:
+            return False
+
+    return names if not any(number(c) for c in names) and all(number(c) for c in row) else None
+
+
+_UNIT_IN_NAME = re.compile(r"[(\[]\s*([^()\[\]]+?)\s*[)\]]\s*$")
+
+
+def _read_named_columns(p: Path, names, spacing, x_unit, height_unit, variable) -> Reading:
+    """A text table of named columns (:func:`_named_columns`) as a line scan: the heights the
+    column ``variable`` names (by name or index), in the unit the caller gives or else the one its
+    name states ("Altitude (um)", "z [nm]"), the positions from ``spacing``."""
+    if variable is None:
+        listed = ", ".join(f"{k} {n}" for k, n in enumerate(names))
+        raise ParameterError(f"{p}: a table of {len(names)} named columns ({listed}): choose the heights' column by "
+                             f"its name or its index, {_hint('variable', '1')}")
+    k = _channel_index(p, names, variable)
+    if x_unit is not None:
+        raise ParameterError(f"x_unit = {x_unit!r} is not allowed: {p}'s positions are its samples' order; give the "
+                             "sample spacing")
+    if height_unit is None:
+        stated = _UNIT_IN_NAME.search(names[k])
+        if stated:
+            try:
+                _unit_factor(stated.group(1), "height_unit", str(p))
+                height_unit = stated.group(1)
+            except ParameterError:
+                pass
+    r = _read_text_columns(p, spacing, None, height_unit, None, k, None)
+    return Reading(r.x, None, r.h, f"{p.name}, column {names[k]}", "haptex: text columns")
 
 
 def _open(p: Path):

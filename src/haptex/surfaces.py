@@ -1831,8 +1831,9 @@ class SampledSurface(Surface):
         x_unit, height_unit : str, optional
             Units of the positions and heights when the file does not state them.
         variable : str, optional
-            A .mat variable or an instrument file's channel (its name, or its index where
-            two share a name); default its only variable, or the instrument's height channel.
+            A .mat variable, an instrument file's channel (its name, or its index where two
+            share a name) or a text table's heights' column (its name or index); default its
+            only variable, or the instrument's height channel.
         periodic : bool, optional
             See :class:`SampledSurface`.
         fill_undefined : bool, optional
@@ -2047,9 +2048,10 @@ def load_texture(path, *, spacing=None, x_unit=None, height_unit=None, variable=
     height_unit : str, optional
         Unit of the heights, for a file that does not state it.
     variable : str, optional
-        A .mat variable or an instrument file's channel (its name, or its index where two
-        share a name, as a trace and a retrace 'Height'); default its only variable, or the
-        instrument's height channel.
+        A .mat variable, an instrument file's channel (its name, or its index where two
+        share a name, as a trace and a retrace 'Height'), or the heights' column of a text
+        table of four or more named columns (its name or index, the positions from
+        ``spacing``); default its only variable, or the instrument's height channel.
     periodic : bool, optional
         Close the texture periodically.
     fill_undefined : bool, optional

@@ -1017,9 +1017,11 @@ class SampledProfile(Texture):
             Units of the file's positions and heights ("um", "nm", "mm", "m"). Required
             when the file does not state them, refused when it does; never guessed.
         variable : str, optional
-            The variable of a .mat file, or the channel of a multi-channel instrument file
-            (its name, or its index where two share a name); default its only variable, or the
-            instrument's height channel.
+            The variable of a .mat file, the channel of a multi-channel instrument file (its
+            name, or its index where two share a name), or the heights' column of a text table
+            of four or more named columns (its name or index; the positions then from
+            ``spacing``, the unit the one its name states, "Altitude (um)", where not given);
+            default its only variable, or the instrument's height channel.
         x_column, height_column : int, optional
             Columns of a text file (0-based; x_column=None for heights only). Other than
             (0, 1) the file is read by haptex's text reader.

@@ -109,9 +109,10 @@ def _reading_options(func):
         click.option("--x-unit", default=None, help="Unit of the file's x column when it does not state it."),
         click.option("--height-unit", default=None, help="Unit of the file's heights when it does not state it."),
         click.option("--variable", default=None,
-                     help="The variable (a MATLAB file's) or channel (an SPM file's: its name, or its index where "
-                          "two share one) to read, where the file holds several (default: a MATLAB file's only one, "
-                          "an SPM file's height channel)."),
+                     help="The variable (a MATLAB file's), channel (an SPM file's: its name, or its index where "
+                          "two share one) or heights' column (a text table's of named columns: its name or index) "
+                          "to read, where the file holds several (default: a MATLAB file's only one, an SPM file's "
+                          "height channel)."),
         click.option("--level", is_flag=True, help="Remove the file's best-fit line (a map's: its plane)."),
         click.option("--lowpass", type=Quantity("m"), default=None,
                      help="Band-limit the measured texture to this shortest period."),
