@@ -677,6 +677,82 @@ def test_design_takes_d_and_e_on_a_sphere_when_asked():
     assert 1.0 <= rows["E"]["q"] <= 1.0 + 0.3e-3 / 12.7323954e-3
 
 
+def _atlas_cube(path, side=0.02, gap=0.04):
+    """A closed cube of ``side`` (m) whose UV map is an atlas, as modelling tools lay one out:
+    each face its own tile of a 3 x 2 grid, the tiles ``gap`` apart (in UV units) and from the
+    square's edges, so that most of the unit square is no chart; written by trimesh as an OBJ
+    with its texture coordinates (its vertices split at the tiles' seams)."""
+    import trimesh
+
+    box = trimesh.creation.box(extents=(side, side, side))
+    verts, faces, uv = [], [], []
+    normals = box.face_normals
+    for k, axis in enumerate([(0, 1), (0, -1), (1, 1), (1, -1), (2, 1), (2, -1)]):
+        tris = np.flatnonzero((np.argmax(np.abs(normals), axis=1) == axis[0])
+                              & (np.sign(normals[:, axis[0]]) == axis[1]))
+        corners = np.unique(box.faces[tris].ravel())
+        base = len(verts)
+        index = {c: base + i for i, c in enumerate(corners)}
+        pts = box.vertices[corners]
+        a, b = [d for d in range(3) if d != axis[0]]
+        span = (1.0 / 3.0 - 2 * gap, 0.5 - 2 * gap)
+        col, row = k % 3, k // 3
+        for q in pts:
+            verts.append(q)
+            uv.append((col / 3.0 + gap + span[0] * (q[a] / side + 0.5), row / 2.0 + gap + span[1] * (q[b] / side + 0.5)))
+        faces += [[index[c] for c in box.faces[t]] for t in tris]
+    mesh = trimesh.Trimesh(np.array(verts), np.array(faces), process=False,
+                           visual=trimesh.visual.TextureVisuals(uv=np.array(uv)))
+    mesh.export(path)
+    return np.array(uv)
+
+
+def _inside_uv(uvf, pts):
+    """Which points (n, 2) lie in some triangle of uvf (F, 3, 2): barycentric coordinates by
+    numpy, every triangle against every point."""
+    a, b, c = uvf[:, 0], uvf[:, 1], uvf[:, 2]
+    m = np.stack([b - a, c - a], -1)  # (F, 2, 2)
+    lam = np.einsum("fij,fnj->fni", np.linalg.inv(m), pts[None] - a[:, None])
+    return np.any((lam[..., 0] >= -1e-12) & (lam[..., 1] >= -1e-12) & (lam.sum(-1) <= 1 + 1e-12), axis=0)
+
+
+def test_a_texture_on_a_mesh_with_a_uv_atlas_is_analysed_inside_a_chart(tmp_path, capsys):
+    # A modelled object's UV map is an atlas of charts with gaps between them (trimesh's own
+    # textured model fuze.obj, and the cube here), not the unit square: design laid the
+    # texture's cell at the UV origin and refused "u = [0.00127, 0.00072] is not allowed: must
+    # be surface coordinates inside the mesh's UV map", a name the user never gave (2026-12-02).
+    # The analysis now lies on one cell inside a chart. Truth: every point of that region on a
+    # 41 x 41 grid lies in a UV triangle of the file as trimesh wrote it (numpy's barycentric
+    # coordinates); the cube's cell where no chart holds one is refused naming --uv-scale, and
+    # the scale it names gives a result
+    import re
+
+    import trimesh
+
+    from haptex.cli import main
+
+    f = tmp_path / "atlas-cube.obj"
+    _atlas_cube(f)
+    back = trimesh.load(str(f), force="mesh", process=False)
+    uvf = np.asarray(back.visual.uv)[np.asarray(back.faces)] * 0.06  # (--uv-scale 60mm)
+    alg = object_algorithm("A", hx.SumOfGratings.egg_crate(0.1e-3, 2e-3), Mesh(f, uv_scale=0.06), K0)
+    (x0, x1), (y0, y1) = alg.surface_range
+    assert (x1 - x0, y1 - y0) == pytest.approx((2e-3, 2e-3))
+    g = np.linspace(0.0, 1.0, 41)
+    pts = np.stack(np.meshgrid(x0 + g * (x1 - x0), y0 + g * (y1 - y0), indexing="ij"), -1).reshape(-1, 2)
+    assert np.all(_inside_uv(uvf, pts))
+    assert not np.all(_inside_uv(uvf, pts - [x0, y0]))  # (the cell at the origin: no chart holds it)
+    base = ["design", "--texture", "egg-crate:0.1mm,2mm", "--device", "omega-3", "--object", str(f),
+            "--algorithms", "A", "--quiet"]
+    assert main(base + ["--uv-scale", "60mm"]) == 0
+    capsys.readouterr()
+    assert main(base + ["--uv-scale", "5mm"]) == 2  # (tiles of 1.3 and 2.1 mm: no 2 mm square fits)
+    err = capsys.readouterr().err
+    scale = re.search(r"--uv-scale ([\d.]+)mm at the command line", err)
+    assert scale and "\n" not in err.strip(), err
+    assert main(base + ["--uv-scale", f"{scale.group(1)}mm"]) == 0
+
+
 def test_d_and_e_on_an_object_refuse_a_felt_map_and_a_takes_it():
     # a felt (Hermite) map is joined only continuously across its patch lines where the ball
     # bridges a trough; the object's closest-point search bounds the texture's curvature and

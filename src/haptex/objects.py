@@ -200,6 +200,22 @@ class Base:
             The texture to lay on the base.
         """
 
+    def surface_range(self, texture: Surface):
+        """The surface coordinates ((u1_0, u1_1), (u2_0, u2_1)) (m) over which the analyses lay
+        the texture's cell on this base, or None where it is the texture's own cell (every
+        surface coordinate lies on the base: the analytic bases; see :class:`Mesh`).
+
+        Parameters
+        ----------
+        texture : Surface
+            The texture laid on the base.
+
+        Returns
+        -------
+        list of (float, float) or None
+        """
+        return None
+
     def kinks(self, a, b, u, pts) -> list:
         """Parameters t in (0, 1) where the segment a -> b (sampled at parameters u, points
         pts) crosses from one smooth piece of the base's coordinates to another: none on the
@@ -480,6 +496,16 @@ LOCAL_CACHE_BYTES = 256 * 2**20
 latest up to LOCAL_CACHE_BYTES: the analyses of A, B, C and G lay the same grids."""
 
 
+CHART_SQUARE_POINTS = 17
+"""Points a side at which a square of surface coordinates is checked to lie in a mesh's UV map
+(:meth:`Mesh.surface_range`; chosen: a chart's gap narrower than a 16th of the texture's cell
+may pass between them)."""
+
+CHART_CANDIDATES = 2048
+"""How many of a mesh's UV triangles (the largest first) centre the squares tried for the
+texture's cell (:meth:`Mesh.surface_range`; chosen)."""
+
+
 class Mesh(Base):
     """A closed triangle mesh (read with trimesh) with a UV map in metres; its closest points
     come from the C core's bounding-volume hierarchy (exact; :class:`haptex.Renderer` ticks
@@ -549,6 +575,7 @@ class Mesh(Base):
             if uv_scale is None:
                 raise fail("uv_scale", None, "metres per unit of the mesh's texture coordinates")
             uv = np.asarray(file_uv, dtype=float) * positive("uv_scale", uv_scale, "m")
+        self._uv_scale = None if uv_scale is None else float(uv_scale)  # (a refusal's remedy names it)
         uv = numbers("uv", uv, f"surface coordinates (m), shape ({len(mesh.vertices)}, 2)", copy=False)
         if uv.shape != (len(mesh.vertices), 2) or not np.all(np.isfinite(uv)):
             raise fail("uv", f"shape {uv.shape}", f"finite surface coordinates (m), shape ({len(mesh.vertices)}, 2)")
@@ -855,6 +882,122 @@ class Mesh(Base):
         Hu = np.einsum("nka,najc->nkjc", duv, H[:, :2])
         return u, Ju, Hu, e, G[:, 2, :], H[:, 2], tid
 
+    def _uv_inside(self, flat) -> np.ndarray:
+        """Which surface coordinates (n, 2) (m) lie in a triangle of the UV map (n,) bool: the
+        candidates :meth:`point` tries (the 32 nearest triangles' centres), alike."""
+        return self._uv_locate(flat)[0]
+
+    def _uv_locate(self, flat):
+        """(found (n,), triangles (n,), barycentric (n, 2)) of surface coordinates flat (n, 2)
+        (m): the triangle whose UV triangle holds each, among the 32 whose centres are nearest."""
+        from scipy.spatial import cKDTree
+
+        if "_uv_tree" not in self.__dict__:
+            self._uvf = self.uv[self._faces]  # (F, 3, 2)
+            self._uv_tree = cKDTree(self._uvf.mean(axis=1))
+        uvf = self._uvf
+        k = min(32, len(self._faces))
+        _, cand = self._uv_tree.query(flat, k=k)
+        cand = np.asarray(cand).reshape(len(flat), k)
+        found = np.zeros(len(flat), dtype=bool)
+        face = np.zeros(len(flat), dtype=np.int64)
+        bary = np.zeros((len(flat), 2))
+        for c in range(k):
+            if found.all():
+                break
+            f = cand[:, c]
+            a, b, cc = uvf[f, 0], uvf[f, 1], uvf[f, 2]
+            m = np.stack([b - a, cc - a], axis=-1)  # (N, 2, 2)
+            det = np.linalg.det(m)
+            ok = (~found) & (np.abs(det) > 0)
+            lam = np.zeros((len(flat), 2))
+            lam[ok] = np.linalg.solve(m[ok], (flat[ok] - a[ok])[..., None])[..., 0]
+            inside = ok & (lam[:, 0] >= -1e-12) & (lam[:, 1] >= -1e-12) & (lam.sum(axis=1) <= 1 + 1e-12)
+            face[inside], bary[inside] = f[inside], lam[inside]
+            found |= inside
+        return found, face, bary
+
+    def _square_fits(self, origins, size, k=CHART_SQUARE_POINTS) -> np.ndarray:
+        """Which squares [o, o + size] (origins (c, 2), size (2,), m) lie in the UV map, on a
+        k x k grid of their points (c,) bool."""
+        out = np.zeros(len(origins), dtype=bool)
+        for g in (np.linspace(0.0, 1.0, 3), np.linspace(0.0, 1.0, k)):  # (its corners first: most fail there)
+            live = np.flatnonzero(out) if g.size > 3 else np.arange(len(origins))
+            if live.size == 0:
+                break
+            grid = np.stack(np.meshgrid(g, g, indexing="ij"), -1).reshape(-1, 2) * size  # (g^2, 2)
+            pts = origins[live, None, :] + grid[None]
+            out[live] = self._uv_inside(pts.reshape(-1, 2)).reshape(len(live), -1).all(axis=1)
+        return out
+
+    def _chart_square(self, size):
+        """The origin (2,) (m) of a square of ``size`` (2,) (m) inside the UV map, centred on one
+        of its triangles' centres, the largest triangles' first (CHART_CANDIDATES of them); None
+        where none holds it."""
+        uvf = self.uv[self._faces]
+        e1, e2 = uvf[:, 1] - uvf[:, 0], uvf[:, 2] - uvf[:, 0]
+        area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+        order = np.argsort(-area, kind="stable")[:CHART_CANDIDATES]
+        origins = uvf[order].mean(axis=1) - 0.5 * np.asarray(size)
+        for lo in range(0, len(origins), 256):
+            fits = self._square_fits(origins[lo:lo + 256], np.asarray(size))
+            if fits.any():
+                return origins[lo + int(np.argmax(fits))]
+        return None
+
+    def surface_range(self, texture: Surface):
+        """Where the analyses lay the texture's cell on this mesh: its own cell where the UV map
+        holds it (a map that covers its square, a sphere's), else a square of the cell's size
+        inside one chart of the UV map (a modelled object's atlas, its charts apart), centred
+        on one of its triangles' centres.
+
+        Parameters
+        ----------
+        texture : Surface
+            The texture laid on the mesh (with a cell: an aperiodic one's region is given).
+
+        Returns
+        -------
+        list of (float, float) or None
+            ((u1_0, u1_1), (u2_0, u2_1)) (m), or None (the texture's own cell).
+
+        Raises
+        ------
+        ParameterError
+            Where no chart holds one cell: naming the UV scale at which one would (the largest
+            square a chart holds, found by bisection on its size).
+        """
+        dom = getattr(texture, "domain", None)
+        if dom is None or texture.dimension != 2:
+            return None
+        (a, b), (c, d) = ((float(lo), float(hi)) for lo, hi in dom)
+        size = np.array([b - a, d - c])
+        if self._square_fits(np.array([[a, c]]), size)[0]:
+            return None
+        found = self._chart_square(size)
+        if found is not None:
+            return [(float(found[0]), float(found[0] + size[0])), (float(found[1]), float(found[1] + size[1]))]
+        lo, hi = 0.0, 1.0  # (the fraction of the cell a chart holds: lo fits, hi does not)
+        for _ in range(12):
+            mid = 0.5 * (lo + hi) if lo > 0 else hi / 4
+            if self._chart_square(size * mid) is not None:
+                lo = mid
+            else:
+                hi = mid
+            if lo > 0 and hi - lo < 0.02 * lo:
+                break
+        cell = f"{size[0] * 1e3:.3g} x {size[1] * 1e3:.3g} mm"
+        if lo == 0:
+            raise fail("mesh", "its UV map", f"charts that hold the texture's cell ({cell}) or a part of it of "
+                       "a thousandth of its size")
+        if self._uv_scale is None:
+            raise fail("uv", "its charts", f"a UV map one of whose charts holds the texture's cell ({cell}): this "
+                       f"one's hold {lo:.3g} of it; scale it by {1 / lo:.3g} or more")
+        need = math.ceil(self._uv_scale / lo * 1e4) / 1e4  # (m, rounded up to 0.1 mm)
+        raise fail("uv_scale", f"{self._uv_scale * 1e3:g} mm", f"one at which a chart of the mesh's UV map holds the "
+                   f"texture's cell ({cell}; at this one the largest holds {lo:.3g} of it): --uv-scale "
+                   f"{need * 1e3:g}mm at the command line, uv_scale={need:g} in Python, or more")
+
     def point(self, u, e):
         """The probe at surface coordinates u and offset e: the point of the triangle whose UV
         triangle holds u, moved e along that triangle's normal (with vertex normals: along the
@@ -877,39 +1020,19 @@ class Mesh(Base):
         ParameterError
             Where no triangle's UV triangle holds u.
         """
-        from scipy.spatial import cKDTree
-
         u = np.asarray(u, dtype=float)
         e = np.broadcast_to(np.asarray(e, dtype=float), u.shape[:-1])
         flat = u.reshape(-1, 2)
-        if "_uv_tree" not in self.__dict__:
-            self._uvf = self.uv[self._faces]  # (F, 3, 2)
-            self._uv_tree = cKDTree(self._uvf.mean(axis=1))
-        uvf = self._uvf
-        k = min(32, len(self._faces))
-        _, cand = self._uv_tree.query(flat, k=k)
-        cand = np.asarray(cand).reshape(len(flat), k)
+        found, f, lam = self._uv_locate(flat)
         out = np.full((len(flat), 3), np.nan)
-        found = np.zeros(len(flat), dtype=bool)
-        for c in range(k):
-            if found.all():
-                break
-            f = cand[:, c]
-            a, b, cc = uvf[f, 0], uvf[f, 1], uvf[f, 2]
-            m = np.stack([b - a, cc - a], axis=-1)  # (N, 2, 2)
-            det = np.linalg.det(m)
-            ok = (~found) & (np.abs(det) > 0)
-            lam = np.zeros((len(flat), 2))
-            lam[ok] = np.linalg.solve(m[ok], (flat[ok] - a[ok])[..., None])[..., 0]
-            inside = ok & (lam[:, 0] >= -1e-12) & (lam[:, 1] >= -1e-12) & (lam.sum(axis=1) <= 1 + 1e-12)
-            t = self._tri[f[inside]]
-            if self._vn is not None:
-                t = t + e.reshape(-1)[inside, None, None] * self._vn[f[inside]]
-                out[inside] = t[:, 0] + lam[inside, :1] * (t[:, 1] - t[:, 0]) + lam[inside, 1:] * (t[:, 2] - t[:, 0])
-            else:
-                out[inside] = (t[:, 0] + lam[inside, :1] * (t[:, 1] - t[:, 0]) + lam[inside, 1:] * (t[:, 2] - t[:, 0])
-                               + e.reshape(-1)[inside, None] * self._normals[f[inside]])
-            found |= inside
+        t = self._tri[f[found]]
+        ef = e.reshape(-1)[found]
+        if self._vn is not None:
+            t = t + ef[:, None, None] * self._vn[f[found]]
+            out[found] = t[:, 0] + lam[found, :1] * (t[:, 1] - t[:, 0]) + lam[found, 1:] * (t[:, 2] - t[:, 0])
+        else:
+            out[found] = (t[:, 0] + lam[found, :1] * (t[:, 1] - t[:, 0]) + lam[found, 1:] * (t[:, 2] - t[:, 0])
+                          + ef[:, None] * self._normals[f[found]])
         if not np.all(found):
             bad = flat[np.flatnonzero(~found)[0]]
             raise fail("u", bad.tolist(), "surface coordinates inside the mesh's UV map")
@@ -988,6 +1111,7 @@ class ObjectAlgorithm(Algorithm):
                        "Hermite map, a felt map's, is joined only continuously across its patch lines, which the "
                        "object's closest-point bounds do not allow: felt_by applies on the plane)")
         base.check_texture(texture)
+        self.surface_range = base.surface_range(texture)  # (where the analyses lay the cell: Base.surface_range)
         plane = algorithm(letter, texture, stiffness, **params)
         super().__init__(texture, stiffness, getattr(plane, "max_penetration", None))
         self.letter = letter

@@ -176,6 +176,9 @@ def _plane_ranges(alg: Algorithm, x_range) -> list[tuple[float, float]]:
     if tex.dimension == 1:
         return [_x_range(alg, x_range)]
     allowed = "((x_min, x_max), (y_min, y_max)) in finite metres, each min < max"
+    own = getattr(alg, "surface_range", None)  # (an object's: its texture's cell where its base has it)
+    if x_range is None and own is not None:
+        return [tuple(float(v) for v in r) for r in own]
     if x_range is None:
         if isinstance(tex, Flat):
             return [(0.0, 1e-3), (0.0, 1e-3)]
