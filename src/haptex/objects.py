@@ -1111,7 +1111,6 @@ class ObjectAlgorithm(Algorithm):
                        "Hermite map, a felt map's, is joined only continuously across its patch lines, which the "
                        "object's closest-point bounds do not allow: felt_by applies on the plane)")
         base.check_texture(texture)
-        self.surface_range = base.surface_range(texture)  # (where the analyses lay the cell: Base.surface_range)
         plane = algorithm(letter, texture, stiffness, **params)
         super().__init__(texture, stiffness, getattr(plane, "max_penetration", None))
         self.letter = letter
@@ -1141,6 +1140,23 @@ class ObjectAlgorithm(Algorithm):
 
     def _positions(self, p) -> np.ndarray:
         return positions(p, dim=3)
+
+    @property
+    def surface_range(self):
+        """Where the analyses lay the texture's cell on the base: ((u1_0, u1_1), (u2_0, u2_1))
+        (m), or None for the texture's own cell (:meth:`Base.surface_range`; on a mesh whose UV
+        atlas holds no cell at its origin, a square inside a chart). Found when an analysis
+        first asks (rendering, export and a servo loop need none: a texture renders over small
+        charts too).
+
+        Raises
+        ------
+        ParameterError
+            Where no chart of a mesh's UV map holds one cell (:meth:`Mesh.surface_range`).
+        """
+        if "_surface_range" not in self.__dict__:
+            self.__dict__["_surface_range"] = self.base.surface_range(self.texture)
+        return self.__dict__["_surface_range"]
 
     def region_points(self, ut, depth):
         """Probe positions (..., 3) (m) at surface coordinates ``ut`` (..., 2) and penetration
