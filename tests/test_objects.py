@@ -751,6 +751,16 @@ def test_a_texture_on_a_mesh_with_a_uv_atlas_is_analysed_inside_a_chart(tmp_path
     scale = re.search(r"--uv-scale ([\d.]+)mm at the command line", err)
     assert scale and "\n" not in err.strip(), err
     assert main(base + ["--uv-scale", f"{scale.group(1)}mm"]) == 0
+    # a mesh without texture coordinates (an STL, as CAD writes it): one line whose remedy a
+    # command-line user has (a modelling tool's unwrap), not Python's uv= alone
+    import trimesh
+
+    stl = tmp_path / "box.stl"
+    trimesh.creation.box(extents=(0.02, 0.02, 0.02)).export(stl)
+    capsys.readouterr()
+    assert main(base[:6] + [str(stl)] + base[7:] + ["--uv-scale", "60mm"]) == 2
+    err = capsys.readouterr().err
+    assert "no texture coordinates (unwrap it in a modelling tool" in err and "\n" not in err.strip(), err
 
 
 def test_d_and_e_on_an_object_refuse_a_felt_map_and_a_takes_it():

@@ -571,7 +571,9 @@ class Mesh(Base):
         if uv is None:
             file_uv = getattr(mesh.visual, "uv", None)
             if file_uv is None:
-                raise fail("uv", None, "a UV map: the mesh has no texture coordinates; give uv (n_vertices x 2, m)")
+                raise fail("uv", None, "a UV map: the mesh has no texture coordinates (unwrap it in a modelling "
+                           "tool, Blender's Smart UV Project for one, and export it as OBJ, PLY or glTF with them; "
+                           "in Python, uv= per vertex, n_vertices x 2, m)")
             if uv_scale is None:
                 raise fail("uv_scale", None, "metres per unit of the mesh's texture coordinates")
             uv = np.asarray(file_uv, dtype=float) * positive("uv_scale", uv_scale, "m")
