@@ -651,6 +651,10 @@ def _log(n=3000, T=1e-3):
 @pytest.mark.parametrize("what, change, match", [
     ("position", lambda t, p, f: (t, np.where(np.arange(p.size) == 7, np.nan, p), f), r"position = .* at sample 7"),
     ("time", lambda t, p, f: (t[::-1], p, f), r"time = .* increasing"),
+    # a row logged twice (its time repeated): not a clock coarser than the loop, whose equal times
+    # come in runs (test_a_log_stamped_by_a_clock_coarser_than_its_period_is_identified)
+    ("time", lambda t, p, f: (np.insert(t, 1500, t[1500]), np.insert(p, 1500, p[1500], axis=0),
+                              np.insert(f, 1500, f[1500], axis=0)), r"time = .* at sample 1501.* increasing"),
     # a late tick every 0.15 s: no 0.2 s window between two (one late tick alone is passed over:
     # test_a_log_with_missed_ticks_is_identified_between_them)
     ("time", lambda t, p, f: (t + 0.01 * (np.arange(t.size) // 150), p, f),

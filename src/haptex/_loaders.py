@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._columns import decimal_comma, first_line as _first_line
+from ._columns import _number, decimal_comma, first_line as _first_line
 from ._columns import mat_numbers as _mat_samples
 from ._units import parse_quantity
 from ._validation import ParameterError, a_path, check_budget
@@ -228,16 +228,22 @@ def read_topography(path, *, spacing=None, x_unit=None, height_unit=None, variab
     return _read_st(p, reader, spacing, x_unit, height_unit, variable, fill_undefined, crop)
 
 
-def _probe_decimal_comma_column(p: Path) -> bool:
-    """:func:`_decimal_comma_column` on the whole lines of the first DECIMAL_COMMA_PROBE bytes of
-    ``p``, where they are text (SurfaceTopography's readers split such a line at its comma into
-    x and height)."""
+def _text_head(p: Path) -> list | None:
+    """The whole lines of the first TEXT_PROBE bytes of ``p`` (UTF-8, undecodable bytes
+    replaced), or None where they are not text (a NUL byte)."""
     with open(p, "rb") as fh:
-        head = fh.read(DECIMAL_COMMA_PROBE)
+        head = fh.read(TEXT_PROBE)
     if b"\0" in head:
-        return False
-    lines = head.decode("latin-1").split("\n")
-    return _decimal_comma_column(lines[:-1] if len(head) == DECIMAL_COMMA_PROBE else lines)
+        return None
+    lines = head.decode("utf-8", errors="replace").split("\n")
+    return lines[:-1] if len(head) == TEXT_PROBE else lines
+
+
+def _probe_decimal_comma_column(p: Path) -> bool:
+    """:func:`_decimal_comma_column` on the head of ``p`` (:func:`_text_head`), where it is text
+    (SurfaceTopography's readers split such a line at its comma into x and height)."""
+    lines = _text_head(p)
+    return lines is not None and _decimal_comma_column(lines)
 
 
 NAMED_COLUMNS = 4
@@ -250,13 +256,9 @@ samples wide."""
 
 def _named_columns(p: Path) -> list | None:
     """The names of a text table's columns (a header row of names, none a number, above a row of
-    as many numbers: :data:`NAMED_COLUMNS` at least), from the first DECIMAL_COMMA_PROBE bytes of
-    ``p``; None for any other file."""
-    with open(p, "rb") as fh:
-        head = fh.read(DECIMAL_COMMA_PROBE)
-    if b"\0" in head:
-        return None
-    lines = [ln.strip() for ln in head.decode("utf-8", errors="replace").split("\n")]
+    as many numbers: :data:`NAMED_COLUMNS` at least), from the head of ``p``
+    (:func:`_text_head`); None for any other file."""
+    lines = [ln.strip() for ln in _text_head(p) or []]
     lines = [ln for ln in lines if ln and not ln.startswith(("#", "%"))]
     if len(lines) < 2:
         return None
@@ -267,15 +269,7 @@ def _named_columns(p: Path) -> list | None:
         row = row[:-1] if row and not row[-1] else row
     if len(names) < NAMED_COLUMNS or len(row) != len(names) or not all(names):
         return None
-
-    def number(c):
-        try:
-            float(c)
-            return True
-        except ValueError:
-            return False
-
-    return names if not any(number(c) for c in names) and all(number(c) for c in row) else None
+    return names if not any(_number(c) for c in names) and all(_number(c) for c in row) else None
 
 
 _UNIT_IN_NAME = re.compile(r"[(\[]\s*([^()\[\]]+?)\s*[)\]]\s*$")
@@ -785,10 +779,11 @@ def _cells(s: str) -> list[str]:
     return [c for c in re.split(r"[,;\t ]+", s) if c != ""]
 
 
-DECIMAL_COMMA_PROBE = 1 << 16
-"""How many bytes of a text file :func:`load_surface` reads to tell one column of decimal-comma
-numbers from x, height pairs parted by commas (:func:`_decimal_comma_column`) before it chooses a
-reader (chosen: some thousand lines; the reader it chooses reads the whole file and decides again)."""
+TEXT_PROBE = 1 << 16
+"""How many bytes of a text file :func:`read_topography` reads (:func:`_text_head`) to tell one
+column of decimal-comma numbers from x, height pairs parted by commas (:func:`_decimal_comma_column`)
+and a table of named columns (:func:`_named_columns`) before it chooses a reader (chosen: some
+thousand lines; the reader it chooses reads the whole file and decides again)."""
 
 
 def _decimal_comma_column(lines) -> bool:

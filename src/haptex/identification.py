@@ -823,8 +823,8 @@ def identify(*, time, position, force, max_delay: int = MAX_DELAY, window: float
         For arrays of different shapes, an entry that is not a real number (a bool, text or a
         complex number), a non-finite value (naming the column and sample),
         times that do not increase (equal times are read as a clock coarser than the period's
-        where they are one, :func:`_coarse_clock`, and refused where it skips more than one of
-        its steps or a stamp strays from the line), intervals off the period (:data:`TICK_TOLERANCE`) so many
+        where they are one, :func:`_coarse_clock`, and refused where it moves by more than two
+        of its steps between two samples or a stamp strays from the line), intervals off the period (:data:`TICK_TOLERANCE`) so many
         that fewer than :data:`MIN_WINDOWS` windows lie between them, a log shorter than
         :data:`MIN_WINDOWS` windows,
         a constant force or position on an axis (nothing to identify), or settings out of
@@ -851,6 +851,12 @@ def identify(*, time, position, force, max_delay: int = MAX_DELAY, window: float
     return r if clock is None else dataclasses.replace(r, notes=[clock, *r.notes])
 
 
+COARSE_CLOCK_RATIO = 0.9
+"""How much shorter than the least step of a log's clock its period (the least-squares line's slope
+through its times) must be for its equal times to be read as a clock coarser than the loop
+(:func:`_coarse_clock`; chosen: a log of one period whose row is repeated once in n samples has a
+line's period (1 - 1/n) steps, and is refused as times that do not increase)."""
+
 COARSE_CLOCK_SLACK = 1.5
 """How far (in the clock's steps) a stamp of a clock coarser than its loop's period may lie from
 the least-squares line through the stamps over the sample index before the log is refused
@@ -868,7 +874,7 @@ def _coarse_clock(time):
     Raises
     ------
     ParameterError
-        Where the clock skips more than one of its steps between two samples, or a stamp lies
+        Where the clock moves by more than two of its steps between two samples, or a stamp lies
         more than :data:`COARSE_CLOCK_SLACK` steps off the line (the loop stalled or samples went
         unlogged: a clock that cannot tell the ticks apart cannot tell which ticks a gap held).
     """
@@ -884,8 +890,8 @@ def _coarse_clock(time):
     step = float(np.min(dt[dt > 0]))  # (the clock's resolution: its least step)
     k = np.arange(t.size, dtype=float)
     T, t0 = np.polyfit(k, t, 1)
-    if not 0 < T < step:  # (equal times from something else: a repeated row; refused as not increasing)
-        return time, None
+    if not 0 < T < COARSE_CLOCK_RATIO * step:  # (equal times from something else: a repeated row, refused
+        return time, None  # as not increasing; with one in n samples the line's period is (1 - 1/n) steps)
     clock = f"a clock that steps by {step:.3g} s, coarser than its period ({T:.3g} s)"
     gaps = np.flatnonzero(dt > 2.5 * step)
     off = np.abs(t - (t0 + T * k))
