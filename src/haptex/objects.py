@@ -546,7 +546,7 @@ class Mesh(Base):
         the mesh is not closed or not manifold (an edge not shared by exactly two triangles:
         the first such triangle is named), has a degenerate triangle (named), more than
         MAX_TRIANGLES triangles, or no UV map; or if ``uv`` has the wrong shape or a non-finite
-        value.
+        value, or is given with ``uv_scale`` (which scales the file's coordinates only).
     """
 
     name = "mesh"
@@ -568,6 +568,8 @@ class Mesh(Base):
         faces = np.asarray(mesh.faces)
         if not 1 <= len(faces) <= MAX_TRIANGLES:
             raise fail("mesh", f"{len(faces)} triangles", f"1 to {MAX_TRIANGLES} triangles")
+        if uv is not None and uv_scale is not None:
+            raise fail("uv_scale", uv_scale, "None where uv is given (its coordinates are in metres already)")
         if uv is None:
             file_uv = getattr(mesh.visual, "uv", None)
             if file_uv is None:
