@@ -763,6 +763,36 @@ def test_a_texture_on_a_mesh_with_a_uv_atlas_is_analysed_inside_a_chart(tmp_path
     assert "no texture coordinates (unwrap it in a modelling tool" in err and "\n" not in err.strip(), err
 
 
+def test_a_mesh_in_millimetres_is_read_in_its_unit_and_its_extent_reported(tmp_path, capsys):
+    # STL, OBJ and PLY state no unit: a CAD part is written in millimetres, and haptex read every
+    # mesh as metres, silently, a 20 mm cube as 20 m (2026-12-02). --mesh-unit gives the unit, the
+    # report gives the mesh's extent, and a texture whose heights reach past half the mesh's
+    # smallest extent (the displaced surface through the object: a file in metres read as
+    # millimetres) is refused naming --mesh-unit. Truth: trimesh's extents of the files it wrote
+    # (a 20 mm cube, in mm and in m), times the unit
+    import trimesh
+
+    from haptex.cli import main
+
+    _atlas_cube(tmp_path / "m.obj", side=0.02)
+    mm = trimesh.load(str(tmp_path / "m.obj"), force="mesh", process=False)
+    mm.apply_scale(1000.0)
+    mm.export(tmp_path / "mm.obj")
+    assert trimesh.load(str(tmp_path / "mm.obj"), force="mesh").extents == pytest.approx([20.0] * 3)
+    base = ["design", "--texture", "egg-crate:0.1mm,2mm", "--device", "omega-3", "--algorithms", "A", "--object"]
+    for args, extent in (([str(tmp_path / "mm.obj"), "--uv-scale", "60mm", "--mesh-unit", "mm"], "20 x 20 x 20 mm"),
+                         ([str(tmp_path / "m.obj"), "--uv-scale", "60mm"], "20 x 20 x 20 mm"),
+                         ([str(tmp_path / "mm.obj"), "--uv-scale", "60mm"], "2e+04 x 2e+04 x 2e+04 mm")):
+        assert main(base + args) == 0, args
+        out = " ".join(capsys.readouterr().out.split())
+        assert f"on the object Mesh(12 triangles, {extent})" in out, out
+    assert main(base + [str(tmp_path / "m.obj"), "--uv-scale", "60mm", "--mesh-unit", "mm"]) == 2  # (a 20 um cube)
+    err = capsys.readouterr().err
+    assert "half the mesh's smallest extent (0.01 mm)" in err and "--mesh-unit mm" in err, err
+    assert main(base + ["sphere:20mm", "--mesh-unit", "mm"]) == 2
+    assert "--mesh-unit is not allowed with --object 'sphere:20mm'" in capsys.readouterr().err
+
+
 def test_d_and_e_on_an_object_refuse_a_felt_map_and_a_takes_it():
     # a felt (Hermite) map is joined only continuously across its patch lines where the ball
     # bridges a trough; the object's closest-point search bounds the texture's curvature and

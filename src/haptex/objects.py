@@ -88,6 +88,7 @@ import math
 
 import numpy as np
 
+from ._units import parse_quantity
 from ._validation import ParameterError, fail, numbers, positions, positive
 from .algorithms import ALGORITHMS, Algorithm, algorithm
 from .core import _ext, in_slices
@@ -528,6 +529,10 @@ class Mesh(Base):
         times ``uv_scale``.
     uv_scale : float, optional
         Metres per unit of the file's texture coordinates (required with them).
+    unit : float or str, optional
+        Metres per unit of the mesh's vertex coordinates, or the unit itself ("mm" for a CAD
+        part's STL, which states none): default 1, the coordinates read as metres (glTF's own
+        unit; OBJ, STL and PLY state none). ``--mesh-unit`` at the command line.
     normals : None, "vertex" or array_like of shape (n_vertices, 3), optional
         None (default): the closest point's coordinates above. ``"vertex"`` (trimesh's
         vertex normals, on the vertices merged across UV seams) or given unit normals: a
@@ -552,7 +557,7 @@ class Mesh(Base):
     name = "mesh"
     core_kind = _ext.BASE_MESH
 
-    def __init__(self, mesh, uv=None, uv_scale: float | None = None, normals=None):
+    def __init__(self, mesh, uv=None, uv_scale: float | None = None, normals=None, unit=1.0):
         import trimesh
 
         if not isinstance(mesh, trimesh.Trimesh):
@@ -565,6 +570,11 @@ class Mesh(Base):
                 mesh = trimesh.load(str(mesh), force="mesh", process=False)
             except Exception as exc:  # (trimesh raises many kinds on a bad file)
                 raise fail("mesh", str(mesh), f"a mesh file trimesh reads ({type(exc).__name__}: {exc})") from None
+        factor = unit if not isinstance(unit, str) else parse_quantity(f"1 {unit}", "m", "unit")
+        factor = positive("unit", factor, "m per unit of the mesh's coordinates")
+        if factor != 1.0:  # (the file's coordinates in another unit: its vertices in metres)
+            mesh = mesh.copy()
+            mesh.apply_scale(factor)
         faces = np.asarray(mesh.faces)
         if not 1 <= len(faces) <= MAX_TRIANGLES:
             raise fail("mesh", f"{len(faces)} triangles", f"1 to {MAX_TRIANGLES} triangles")
@@ -661,7 +671,8 @@ class Mesh(Base):
         return vn
 
     def __repr__(self) -> str:
-        return f"Mesh({len(self._faces)} triangles)"
+        ext = np.ptp(self._tri.reshape(-1, 3), axis=0) * 1e3
+        return f"Mesh({len(self._faces)} triangles, {ext[0]:.4g} x {ext[1]:.4g} x {ext[2]:.4g} mm)"
 
     def core_arrays(self):
         """The mesh's arrays for the C core: (kind, 0, tri, face, prism), tri (F, 9) the
@@ -885,6 +896,26 @@ class Mesh(Base):
         H = np.swapaxes(dG, 1, 2)  # (N, row, j, col): Hessian of unknown row
         Hu = np.einsum("nka,najc->nkjc", duv, H[:, :2])
         return u, Ju, Hu, e, G[:, 2, :], H[:, 2], tid
+
+    def check_texture(self, texture: Surface) -> None:
+        """The texture's heights must stay under half the mesh's smallest extent: past it the
+        surface displaced along the normal passes through the object (a mesh read in another
+        unit than its file's: a CAD part's STL in millimetres read as metres is 1,000 times too
+        large, one in metres read as millimetres 1,000 times too small).
+
+        Parameters
+        ----------
+        texture : Surface
+            The texture to lay on the mesh.
+        """
+        lo, hi = texture.height_range
+        reach = max(abs(float(lo)), abs(float(hi)))
+        half = 0.5 * float(np.min(np.ptp(self._tri.reshape(-1, 3), axis=0)))
+        if not reach < half:
+            raise fail("texture", f"heights up to {reach * 1e3:.3g} mm on {self!r}", f"heights under half the "
+                       f"mesh's smallest extent ({half * 1e3:.3g} mm): the mesh's coordinates in their own unit "
+                       "(--mesh-unit mm at the command line, unit='mm' in Python, for a file in millimetres), or a "
+                       "lower texture")
 
     def _uv_inside(self, flat) -> np.ndarray:
         """Which surface coordinates (n, 2) (m) lie in a triangle of the UV map (n,) bool: the

@@ -180,9 +180,12 @@ def _vibration_options_no_friction(func):
 
 
 def _object_options(what: str):
-    """``--object`` and ``--uv-scale``, the same for every command that takes an object (design,
+    """``--object``, ``--uv-scale`` and ``--mesh-unit``, the same for every command that takes an object (design,
     export, run); ``what`` says which letters the command takes there and what it does with them."""
     def deco(func):
+        func = click.option("--mesh-unit", default=None,
+                            help="With a mesh: the unit of its vertices' coordinates, e.g. 'mm' for a CAD part's STL "
+                                 "(default: metres; the report gives the mesh's extent).")(func)
         func = click.option("--uv-scale", type=Quantity("m"), default=None,
                             help="With a mesh: metres per unit of its texture coordinates, e.g. '10mm'.")(func)
         return click.option("--object", "object_spec", default=None,
