@@ -760,7 +760,50 @@ def test_a_texture_on_a_mesh_with_a_uv_atlas_is_analysed_inside_a_chart(tmp_path
     capsys.readouterr()
     assert main(base[:6] + [str(stl)] + base[7:] + ["--uv-scale", "60mm"]) == 2
     err = capsys.readouterr().err
-    assert "no texture coordinates (unwrap it in a modelling tool" in err and "\n" not in err.strip(), err
+    assert "no texture coordinates (a box projection, --box-uv" in err and "\n" not in err.strip(), err
+
+
+def test_a_mesh_without_texture_coordinates_takes_a_box_projection(tmp_path, capsys):
+    # A CAD part's STL has no texture coordinates: refused before, with a modelling tool the only
+    # remedy. uv="box" (--box-uv) lays the texture by box projection. Truth: the definition, by
+    # numpy on the triangles as trimesh wrote them: each UV triangle congruent to the triangle
+    # projected on the plane across its normal's largest axis (the same side lengths, the same
+    # area), the six sides' charts apart (their UV boxes disjoint); and design gives a result on
+    # a cylinder 20 mm across and 30 mm tall written as an STL in millimetres
+    import trimesh
+
+    from haptex.cli import main
+
+    part = trimesh.creation.cylinder(radius=10.0, height=30.0, sections=24)  # (mm, as CAD writes it)
+    f = tmp_path / "part.stl"
+    part.export(f)
+    back = trimesh.load(str(f), force="mesh")
+    m = Mesh(f, uv="box", unit="mm")
+    tri = np.asarray(back.vertices)[np.asarray(back.faces)] * 1e-3  # (F, 3, 3) m
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    k = np.argmax(np.abs(n), axis=1)
+    keep = np.stack([(k + 1) % 3, (k + 2) % 3], -1)
+    proj = np.take_along_axis(tri, keep[:, None, :].repeat(3, 1), axis=2)  # (F, 3, 2)
+    uvf = m.uv[m._faces]
+    assert len(uvf) == len(tri)
+    for a, b in ((0, 1), (1, 2), (2, 0)):
+        np.testing.assert_allclose(np.linalg.norm(uvf[:, a] - uvf[:, b], axis=1),
+                                   np.linalg.norm(proj[:, a] - proj[:, b], axis=1), rtol=1e-9, atol=1e-15)
+    side = np.where(n[np.arange(len(n)), k] >= 0, 0, 1) + 2 * k
+    boxes = {c: (uvf[side == c].reshape(-1, 2).min(0), uvf[side == c].reshape(-1, 2).max(0)) for c in np.unique(side)}
+    for c in boxes:
+        for d in boxes:
+            if c < d:
+                lo = np.maximum(boxes[c][0], boxes[d][0])
+                hi = np.minimum(boxes[c][1], boxes[d][1])
+                assert np.any(lo >= hi), (c, d)
+    base = ["design", "--texture", "egg-crate:0.1mm,2mm", "--device", "omega-3", "--algorithms", "A", "--object", str(f),
+            "--mesh-unit", "mm"]
+    assert main(base) == 2 and "--box-uv at the command line" in capsys.readouterr().err
+    assert main(base + ["--box-uv"]) == 0
+    assert "on the object Mesh(" in capsys.readouterr().out
+    assert main(base + ["--box-uv", "--uv-scale", "10mm"]) == 2
+    assert "--uv-scale is not allowed with --box-uv" in capsys.readouterr().err
 
 
 def test_a_mesh_in_millimetres_is_read_in_its_unit_and_its_extent_reported(tmp_path, capsys):

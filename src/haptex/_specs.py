@@ -200,11 +200,12 @@ def texture_from_spec(spec: str, spacing=None, x_unit=None, height_unit=None, le
     return prof
 
 
-def object_from_spec(spec, uv_scale=None, vertex_normals: bool = False, files: bool = True, mesh_unit=None):
+def object_from_spec(spec, uv_scale=None, vertex_normals: bool = False, files: bool = True, mesh_unit=None,
+                     box_uv: bool = False):
     """The base of an object spec (None for None): 'plane', 'sphere:RADIUS', 'cylinder:RADIUS'
     (RADIUS with its unit), or a closed triangle mesh file (with ``uv_scale``, metres per unit
-    of its texture coordinates, ``mesh_unit`` its vertices' unit, and ``vertex_normals`` for the
-    prism base); ``files=False``
+    of its texture coordinates, ``mesh_unit`` its vertices' unit, ``box_uv`` for a box projection
+    where it has none, and ``vertex_normals`` for the prism base); ``files=False``
     refuses files (the explorer).
 
     Raises
@@ -224,6 +225,8 @@ def object_from_spec(spec, uv_scale=None, vertex_normals: bool = False, files: b
             raise ParameterError("--vertex-normals is not allowed without --object: it applies to a mesh")
         if mesh_unit is not None:
             raise ParameterError("--mesh-unit is not allowed without --object: it is a mesh file's unit")
+        if box_uv:
+            raise ParameterError("--box-uv is not allowed without --object: it lays a texture on a mesh")
         return None
     kind, _, arg = str(spec).partition(":")
     kind = kind.strip().lower()
@@ -231,6 +234,8 @@ def object_from_spec(spec, uv_scale=None, vertex_normals: bool = False, files: b
         raise ParameterError(f"--vertex-normals is not allowed with --object {spec!r}: it applies to a mesh")
     if mesh_unit is not None and kind in ("plane", "sphere", "cylinder"):
         raise ParameterError(f"--mesh-unit is not allowed with --object {spec!r}: it is a mesh file's unit")
+    if box_uv and kind in ("plane", "sphere", "cylinder"):
+        raise ParameterError(f"--box-uv is not allowed with --object {spec!r}: it lays a texture on a mesh")
     if kind == "plane" and not arg:
         return Plane()
     if kind in ("sphere", "cylinder"):
@@ -240,5 +245,7 @@ def object_from_spec(spec, uv_scale=None, vertex_normals: bool = False, files: b
     path = Path(str(spec))
     if not files or not path.is_file():
         raise ParameterError(f"object = {str(spec)[:80]!r} is not allowed: must be {allowed}")
-    return Mesh(path, uv_scale=uv_scale, normals="vertex" if vertex_normals else None,
+    if box_uv and uv_scale is not None:
+        raise ParameterError("--uv-scale is not allowed with --box-uv: the box projection's coordinates are in metres")
+    return Mesh(path, uv="box" if box_uv else None, uv_scale=uv_scale, normals="vertex" if vertex_normals else None,
                 unit=1.0 if mesh_unit is None else mesh_unit)

@@ -497,6 +497,28 @@ LOCAL_CACHE_BYTES = 256 * 2**20
 latest up to LOCAL_CACHE_BYTES: the analyses of A, B, C and G lay the same grids."""
 
 
+def _box_projection(mesh):
+    """(the mesh with each triangle's vertices its own, their UV map (3F, 2) (m)) by box
+    projection: a triangle's coordinates on the plane across its normal's largest axis k, the
+    axes k + 1 and k + 2 (mod 3), the first negated where the normal points to -k; each of the six
+    (axis, side) charts moved along u1 to lie apart from the others by the mesh's largest extent."""
+    import trimesh
+
+    tri = np.asarray(mesh.vertices, dtype=float)[np.asarray(mesh.faces)]  # (F, 3, 3)
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    rows = np.arange(len(tri))
+    axis = np.argmax(np.abs(n), axis=1)
+    sign = np.where(n[rows, axis] >= 0, 1.0, -1.0)
+    u1 = sign[:, None] * tri[rows[:, None], np.arange(3)[None, :], ((axis + 1) % 3)[:, None]]  # (F, 3)
+    u2 = tri[rows[:, None], np.arange(3)[None, :], ((axis + 2) % 3)[:, None]]
+    chart = 2 * axis + (sign < 0)
+    gap = float(np.max(np.ptp(tri.reshape(-1, 3), axis=0)))
+    for c in np.unique(chart):
+        u1[chart == c] += c * 3 * gap - u1[chart == c].min()
+    out = trimesh.Trimesh(tri.reshape(-1, 3), np.arange(3 * len(tri)).reshape(-1, 3), process=False)
+    return out, np.stack([u1, u2], -1).reshape(-1, 2)
+
+
 CHART_SQUARE_POINTS = 17
 """Points a side at which a square of surface coordinates is checked to lie in a mesh's UV map
 (:meth:`Mesh.surface_range`; chosen: a chart's gap narrower than a 16th of the texture's cell
@@ -524,9 +546,14 @@ class Mesh(Base):
     ----------
     mesh : trimesh.Trimesh or str or pathlib.Path
         The mesh, or a file trimesh reads (OBJ, STL, PLY, glTF, ...).
-    uv : array_like, shape (n_vertices, 2), optional
+    uv : array_like, shape (n_vertices, 2), or "box", optional
         Surface coordinates of the vertices (m). Default: the file's texture coordinates
-        times ``uv_scale``.
+        times ``uv_scale``. ``"box"``: a box projection for a mesh without them (a CAD part's
+        STL): each triangle's coordinates on the plane across its normal's largest axis (the
+        other two axes in cyclic order, the first mirrored on the faces turned to the axis's
+        negative side, so that the texture reads unmirrored from outside), in metres; the six
+        sides' charts laid apart, the triangles' vertices split between them. The texture's
+        heights jump across the edges where a face's largest axis changes (its seams).
     uv_scale : float, optional
         Metres per unit of the file's texture coordinates (required with them).
     unit : float or str, optional
@@ -580,12 +607,17 @@ class Mesh(Base):
             raise fail("mesh", f"{len(faces)} triangles", f"1 to {MAX_TRIANGLES} triangles")
         if uv is not None and uv_scale is not None:
             raise fail("uv_scale", uv_scale, "None where uv is given (its coordinates are in metres already)")
+        if isinstance(uv, str):
+            if uv != "box":
+                raise fail("uv", uv, "'box' (a box projection) or the vertices' coordinates, n_vertices x 2 (m)")
+            mesh, uv = _box_projection(mesh)
+            faces = np.asarray(mesh.faces)
         if uv is None:
             file_uv = getattr(mesh.visual, "uv", None)
             if file_uv is None:
-                raise fail("uv", None, "a UV map: the mesh has no texture coordinates (unwrap it in a modelling "
-                           "tool, Blender's Smart UV Project for one, and export it as OBJ, PLY or glTF with them; "
-                           "in Python, uv= per vertex, n_vertices x 2, m)")
+                raise fail("uv", None, "a UV map: the mesh has no texture coordinates (a box projection, --box-uv "
+                           "at the command line, uv='box' in Python; or unwrap it in a modelling tool, Blender's Smart "
+                           "UV Project for one, and export it as OBJ, PLY or glTF with them)")
             if uv_scale is None:
                 raise fail("uv_scale", None, "metres per unit of the mesh's texture coordinates")
             uv = np.asarray(file_uv, dtype=float) * positive("uv_scale", uv_scale, "m")

@@ -183,6 +183,10 @@ def _object_options(what: str):
     """``--object``, ``--uv-scale`` and ``--mesh-unit``, the same for every command that takes an object (design,
     export, run); ``what`` says which letters the command takes there and what it does with them."""
     def deco(func):
+        func = click.option("--box-uv", is_flag=True,
+                            help="With a mesh without texture coordinates (a CAD part's STL): lay the texture by box "
+                                 "projection, each triangle's coordinates on the plane across its normal's largest "
+                                 "axis, in metres.")(func)
         func = click.option("--mesh-unit", default=None,
                             help="With a mesh: the unit of its vertices' coordinates, e.g. 'mm' for a CAD part's STL "
                                  "(default: metres; the report gives the mesh's extent).")(func)

@@ -65,7 +65,7 @@ without D and E, whose closest-point searches dominate on large maps."""
 @click.pass_context
 def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, sampling_period, delay, stiffness, speed,
            max_penetration, reading, window, crop, tip_radius, tip_spacing, instrument_tip, raw, object_spec, uv_scale,
-           mesh_unit, vertex_normals, algorithms, time_budget, hand, report_dir, force, as_json, quiet):
+           mesh_unit, box_uv, vertex_normals, algorithms, time_budget, hand, report_dir, force, as_json, quiet):
     """Which algorithm, how stiff, will it be passive, can the device render it?
 
     A measured texture is band-limited to the shortest period the device renders at the
@@ -91,7 +91,7 @@ def design(ctx, texture_spec, device_spec, joint_damping, mass, damping, samplin
         from ..probe import reliability_cutoff
 
         reliable = reliability_cutoff(tex, instrument_tip)
-    base = object_from_spec(object_spec, uv_scale, vertex_normals, mesh_unit=mesh_unit)
+    base = object_from_spec(object_spec, uv_scale, vertex_normals, mesh_unit=mesh_unit, box_uv=box_uv)
     dev = _build_device(ctx, device_spec, joint_damping, mass, damping, sampling_period, delay,
                         3 if base is not None else tex.dimension + 1)
     x_range = None

@@ -68,7 +68,7 @@ from ._common import (READING, Quantity, STABILISERS, _Spinner, _before_the_ball
 @click.option("--quiet", is_flag=True, help="No live dashboard.")
 @_core_blas_held  # BLAS in the set-up (a preset's matrices, a slope bound) wakes no worker to spin beside the loop
 def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration, passivity_control, stabiliser, hand,
-               speed, fast, object_spec, uv_scale, mesh_unit, reading, tip_radius, tip_spacing, crop, record, max_evaluations,
+               speed, fast, object_spec, uv_scale, mesh_unit, box_uv, reading, tip_radius, tip_spacing, crop, record, max_evaluations,
                vibration_models, vibration_budget, no_material_friction, find_limit_run, identify_run, keep_awake,
                as_json, quiet):
     """Render one texture on one device, with the safety rules of haptex.servo and a live dashboard."""
@@ -154,7 +154,7 @@ def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration
         if tex.dimension == 2 and backend.dimension == 2:
             raise ParameterError(f"texture = {texture_spec!r} is not allowed on {backend.name}: a surface needs a "
                                  "3-DOF device")
-    base = object_from_spec(object_spec, uv_scale, mesh_unit=mesh_unit)
+    base = object_from_spec(object_spec, uv_scale, mesh_unit=mesh_unit, box_uv=box_uv)
     if base is not None and backend.dimension != 3:
         raise ParameterError(f"--object is not allowed on {backend.name}: an object needs a 3-DOF device")
 

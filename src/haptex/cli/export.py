@@ -51,7 +51,7 @@ from ._common import (
                    "best point found.")
 @click.option("--quiet", is_flag=True, help="No progress display.")
 def export(letter, texture_spec, stiffness, max_force, max_penetration, friction, presliding, stick_deflection,
-           reading, object_spec, uv_scale, mesh_unit, passivity_control, stabiliser, device_spec, vibration_models,
+           reading, object_spec, uv_scale, mesh_unit, box_uv, passivity_control, stabiliser, device_spec, vibration_models,
            vibration_budget, no_material_friction, tip_radius, tip_spacing, crop, out, target, max_evaluations, quiet):
     """C99 source of one algorithm on one texture, for device firmware (<math.h> only)."""
     from ..algorithms import ALGORITHMS, algorithm
@@ -81,7 +81,7 @@ def export(letter, texture_spec, stiffness, max_force, max_penetration, friction
             if name not in takes:
                 raise _not_taken(name, letter)
             params[name] = value
-    base = object_from_spec(object_spec, uv_scale, mesh_unit=mesh_unit)
+    base = object_from_spec(object_spec, uv_scale, mesh_unit=mesh_unit, box_uv=box_uv)
 
     def exported(tex):  # (the algorithm on the texture, on its object where there is one)
         return (object_algorithm(letter, tex, base, stiffness, **params) if base is not None
