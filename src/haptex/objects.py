@@ -1055,8 +1055,8 @@ class Mesh(Base):
                 break
         cell = f"{size[0] * 1e3:.3g} x {size[1] * 1e3:.3g} mm"
         if lo == 0:
-            raise fail("mesh", "its UV map", f"charts that hold the texture's cell ({cell}) or a part of it of "
-                       "a thousandth of its size")
+            raise fail("mesh", "its UV map", f"charts that hold the texture's cell ({cell}), or a square of "
+                       f"{hi:.2g} of its size at least")
         if self._uv_scale is None:
             raise fail("uv", "its charts", f"a UV map one of whose charts holds the texture's cell ({cell}): this "
                        f"one's hold {lo:.3g} of it; scale it by {1 / lo:.3g} or more")
