@@ -834,6 +834,13 @@ def test_a_mesh_in_millimetres_is_read_in_its_unit_and_its_extent_reported(tmp_p
     assert "half the mesh's smallest extent (0.01 mm)" in err and "--mesh-unit mm" in err, err
     assert main(base + ["sphere:20mm", "--mesh-unit", "mm"]) == 2
     assert "--mesh-unit is not allowed with --object 'sphere:20mm'" in capsys.readouterr().err
+    for bad in ("banana", "-1 mm", "kg", "1e9"):  # (one line naming the option and what it takes)
+        assert main(base + [str(tmp_path / "mm.obj"), "--uv-scale", "60mm", "--mesh-unit", bad]) == 2
+        err = capsys.readouterr().err
+        assert f"unit = {bad!r} is not allowed" in err and "--mesh-unit at the command line" in err, err
+    # (in Python the unit as a word or as metres per unit: the same 20 mm cube)
+    assert repr(Mesh(tmp_path / "mm.obj", uv_scale=0.06, unit=1e-3)) == "Mesh(12 triangles, 20 x 20 x 20 mm)"
+    assert repr(Mesh(tmp_path / "mm.obj", uv_scale=0.06, unit="mm")) == "Mesh(12 triangles, 20 x 20 x 20 mm)"
 
 
 def test_d_and_e_on_an_object_refuse_a_felt_map_and_a_takes_it():

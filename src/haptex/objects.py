@@ -597,7 +597,15 @@ class Mesh(Base):
                 mesh = trimesh.load(str(mesh), force="mesh", process=False)
             except Exception as exc:  # (trimesh raises many kinds on a bad file)
                 raise fail("mesh", str(mesh), f"a mesh file trimesh reads ({type(exc).__name__}: {exc})") from None
-        factor = unit if not isinstance(unit, str) else parse_quantity(f"1 {unit}", "m", "unit")
+        factor = unit
+        if isinstance(unit, str):
+            try:
+                factor = parse_quantity(f"1 {unit.strip()}", "m", "unit") if unit.strip()[:1].isalpha() else None
+            except ParameterError:
+                factor = None
+            if factor is None:
+                raise fail("unit", unit, "the unit of the mesh's coordinates, a length such as 'mm', 'um', 'in' or "
+                           "'m' (--mesh-unit at the command line), or metres per unit as a number in Python")
         factor = positive("unit", factor, "m per unit of the mesh's coordinates")
         if factor != 1.0:  # (the file's coordinates in another unit: its vertices in metres)
             mesh = mesh.copy()
