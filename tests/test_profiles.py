@@ -118,6 +118,8 @@ def test_one_column_written_with_a_decimal_comma_is_read_as_written(tmp_path, su
     pd.DataFrame({"z": np.abs(h) * 1e-3}).to_csv(f2, index=False, header=False, decimal=",", float_format="%.7f")
     p = hx.SampledProfile.from_file(f2, spacing="0.5um", height_unit="mm")
     np.testing.assert_allclose(p.h, np.round(np.abs(h) * 1e-3, 7) * 1e-3, rtol=0, atol=1e-18)
+    with pytest.raises(hx.ParameterError, match="variable = '1' is not allowed: .* is read as text columns"):
+        hx.SampledProfile.from_file(f2, spacing="0.5um", height_unit="mm", variable="1")  # (not ignored)
 
 
 def test_a_table_of_named_columns_is_read_by_the_column_named(tmp_path, capsys):

@@ -218,6 +218,9 @@ def read_topography(path, *, spacing=None, x_unit=None, height_unit=None, variab
     with open(p, "rb") as fh:
         bom = fh.read(3) == b"\xef\xbb\xbf"
     if (x_column, height_column) != (0, 1) or bom or _probe_decimal_comma_column(p):  # see the module's docstring
+        if variable is not None:  # (not ignored: these columns are chosen by x_column and height_column)
+            raise ParameterError(f"variable = {variable!r} is not allowed: {p} is read as text columns, chosen by "
+                                 "x_column and height_column in Python")
         return _cropped(p, _read_text_columns(p, spacing, x_unit, height_unit, x_column, height_column, None), crop)
     names = _named_columns(p)
     if names is not None:  # (a table of named columns: SurfaceTopography's matrix reader read it as a map)
