@@ -67,7 +67,7 @@ def write(tmp_path, name, text, encoding="utf-8", newline="\n"):
 def test_csv_columns_with_units_from_the_caller(tmp_path):
     x = np.arange(20) * 2.0
     rows = "\n".join(f"{a:.1f},{1000 * math.sin(a / 5):.6f}" for a in x)
-    f = write(tmp_path, "p.csv", "x (um),h (nm)\n" + rows + "\n", newline="\r\n")
+    f = write(tmp_path, "p.csv", "x,h\n" + rows + "\n", newline="\r\n")
     with pytest.raises(hx.ParameterError, match=r"does not state its height unit or lateral unit: give --height-unit um "
                                                 r"--x-unit um at the command line, height_unit='um', x_unit='um' in Python$"):
         hx.SampledProfile.from_file(f)
@@ -75,6 +75,30 @@ def test_csv_columns_with_units_from_the_caller(tmp_path):
         hx.SampledProfile.from_file(f, height_unit="nm")
     p = hx.SampledProfile.from_file(f, x_unit="um", height_unit="nm")
     assert p.dx == pytest.approx(2e-6) and p.h[5] == pytest.approx(1e-6 * math.sin(2.0), rel=1e-6)
+
+
+@pytest.mark.parametrize("header", ["x (um),h (nm)", "x [\u00b5m];z [nm]", "X (mm)\tHeight (um)"])
+def test_columns_whose_names_state_their_units_are_read_in_them(tmp_path, header):
+    # A profile's two columns named with their units ("x (um),h (nm)", as spreadsheets and
+    # instruments' exports head them): SurfaceTopography's XYZ reader read past the names and
+    # haptex asked for the units the file states (2026-12-02; a table of four or more named
+    # columns took them from its names already). Truth: the numbers as written, in the units
+    # the names state (numpy); a unit given that contradicts a name's is refused naming both
+    import re
+
+    x = np.arange(40) * 2.0
+    z = np.round(1000 * np.sin(x / 5), 6)
+    sep = re.search(r"[,;\t]", header).group(0)
+    f = write(tmp_path, "p.csv", header + "\n" + "\n".join(f"{a:.1f}{sep}{b:.6f}" for a, b in zip(x, z)) + "\n")
+    units = re.findall(r"[(\[](.+?)[)\]]", header)
+    factor = {"um": 1e-6, "\u00b5m": 1e-6, "nm": 1e-9, "mm": 1e-3}
+    p = hx.SampledProfile.from_file(f)
+    assert p.dx == pytest.approx(2.0 * factor[units[0]])
+    np.testing.assert_allclose(p.h, z * factor[units[1]], rtol=1e-12)
+    other = "mm" if units[1] != "mm" else "nm"
+    with pytest.raises(hx.ParameterError, match=rf"height_unit = '{other}' is not allowed: .* states its heights' unit"):
+        hx.SampledProfile.from_file(f, height_unit=other)
+    assert hx.SampledProfile.from_file(f, height_unit=units[1]).h[3] == pytest.approx(p.h[3])  # (the same unit: read)
 
 
 @pytest.mark.parametrize("sep", [";", "\t", " "])

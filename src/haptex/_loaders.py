@@ -225,6 +225,16 @@ def read_topography(path, *, spacing=None, x_unit=None, height_unit=None, variab
     names = _named_columns(p)
     if names is not None:  # (a table of named columns: SurfaceTopography's matrix reader read it as a map)
         return _cropped(p, _read_named_columns(p, names, spacing, x_unit, height_unit, variable), crop)
+    stated = _named_units(p)
+    if stated is not None:  # (x and height named with their units: SurfaceTopography's XYZ reader reads past them)
+        for name, given, unit, what in (("x_unit", x_unit, stated[0], "positions'"),
+                                        ("height_unit", height_unit, stated[1], "heights'")):
+            if given is not None and _unit_factor(given, name, str(p)) != _unit_factor(unit, name, str(p)):
+                raise ParameterError(f"{name} = {given!r} is not allowed: {p} states its {what} unit ({unit}), "
+                                     "which is used")
+        if variable is not None:
+            raise ParameterError(f"variable = {variable!r} is not allowed: {p} holds one profile, x and height")
+        return _cropped(p, _read_text_columns(p, spacing, stated[0], stated[1], 0, 1, None), crop)
     reader, why = _open(p)
     if reader is None:
         return _cropped(p, _read_text_columns(p, spacing, x_unit, height_unit, x_column, height_column, why), crop)
@@ -276,6 +286,29 @@ def _named_columns(p: Path) -> list | None:
 
 
 _UNIT_IN_NAME = re.compile(r"[(\[]\s*([^()\[\]]+?)\s*[)\]]\s*$")
+
+
+def _named_units(p: Path) -> tuple | None:
+    """(x unit, height unit) of a text file of two columns each named with its length unit ("x
+    (um),h (nm)", "X [mm];Z [um]", parted by a comma, semicolon or tab), from its head
+    (:func:`_text_head`); None for any other file."""
+    lines = [ln.strip() for ln in _text_head(p) or []]
+    lines = [ln for ln in lines if ln and not ln.startswith(("#", "%"))]
+    delimiter = next((d for d in ("\t", ";", ",") if len(lines) > 1 and d in lines[0]), None)
+    if delimiter is None:
+        return None
+    names, row = ([c.strip() for c in ln.split(delimiter)] for ln in lines[:2])
+    if len(names) != 2 or len(row) != 2 or not all(_number(c) for c in row):
+        return None
+    units = [_UNIT_IN_NAME.search(n) for n in names]
+    if not all(units):
+        return None
+    try:
+        for u in units:
+            _unit_factor(u.group(1), "unit", str(p))
+    except ParameterError:
+        return None
+    return units[0].group(1), units[1].group(1)
 
 
 def _read_named_columns(p: Path, names, spacing, x_unit, height_unit, variable) -> Reading:
