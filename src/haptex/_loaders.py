@@ -12,9 +12,10 @@ SurfaceTopography fails on files our users and tests have:
   line, more than three columns), a chosen column, UTF-8 text that starts with a byte
   order mark (SurfaceTopography 1.27 drops that first row without saying so), and one column
   of numbers written with decimal commas (SurfaceTopography's readers split "0,3456" into x
-  and height), and a table of four or more named columns (a profilometer's "Counter,
-  Altitude (um), Encoder1 (um), ...", which SurfaceTopography's matrix reader took for a map):
-  ours reads them, or names the line that is wrong.
+  and height), a table of four or more named columns (a profilometer's "Counter,
+  Altitude (um), Encoder1 (um), ...", which SurfaceTopography's matrix reader took for a map),
+  and two columns named with their units ("x (um),h (nm)", whose units its XYZ reader reads
+  past): ours reads them, or names the line that is wrong.
 
 Units and sample spacing are taken from the file when it states them and otherwise
 required from the caller; nothing is guessed. Every error is one line naming the file.
