@@ -218,15 +218,16 @@ def read_topography(path, *, spacing=None, x_unit=None, height_unit=None, variab
         return _cropped(p, _load_mat(p, spacing, height_unit, variable, x_unit), crop)
     with open(p, "rb") as fh:
         bom = fh.read(3) == b"\xef\xbb\xbf"
-    if (x_column, height_column) != (0, 1) or bom or _probe_decimal_comma_column(p):  # see the module's docstring
+    head = _text_head(p)  # (read once: which of the text readers below takes the file)
+    if (x_column, height_column) != (0, 1) or bom or (head is not None and _decimal_comma_column(head)):
         if variable is not None:  # (not ignored: these columns are chosen by x_column and height_column)
             raise ParameterError(f"variable = {variable!r} is not allowed: {p} is read as text columns, chosen by "
                                  "x_column and height_column in Python")
         return _cropped(p, _read_text_columns(p, spacing, x_unit, height_unit, x_column, height_column, None), crop)
-    names = _named_columns(p)
+    names = _named_columns(head)
     if names is not None:  # (a table of named columns: SurfaceTopography's matrix reader read it as a map)
         return _cropped(p, _read_named_columns(p, names, spacing, x_unit, height_unit, variable), crop)
-    stated = _named_units(p)
+    stated = _named_units(head, p)
     if stated is not None:  # (x and height named with their units: SurfaceTopography's XYZ reader reads past them)
         for name, given, unit, what in (("x_unit", x_unit, stated[0], "positions'"),
                                         ("height_unit", height_unit, stated[1], "heights'")):
@@ -253,13 +254,6 @@ def _text_head(p: Path) -> list | None:
     return lines[:-1] if len(head) == TEXT_PROBE else lines
 
 
-def _probe_decimal_comma_column(p: Path) -> bool:
-    """:func:`_decimal_comma_column` on the head of ``p`` (:func:`_text_head`), where it is text
-    (SurfaceTopography's readers split such a line at its comma into x and height)."""
-    lines = _text_head(p)
-    return lines is not None and _decimal_comma_column(lines)
-
-
 NAMED_COLUMNS = 4
 """The fewest named columns a text table (a header row of names above rows of numbers) has that is
 read by its columns (:func:`_named_columns`) rather than by SurfaceTopography, whose XYZ reader
@@ -268,16 +262,28 @@ profilometer's "Counter, Altitude (um), Encoder1 (um), Encoder2 (um), Row number
 samples wide."""
 
 
-def _named_columns(p: Path) -> list | None:
-    """The names of a text table's columns (a header row of names, none a number, above a row of
-    as many numbers: :data:`NAMED_COLUMNS` at least), from the head of ``p``
-    (:func:`_text_head`); None for any other file."""
-    lines = [ln.strip() for ln in _text_head(p) or []]
+def _header_row(head):
+    """(delimiter, names, first row's cells) of a text file's head (:func:`_text_head`'s lines):
+    its first two lines that are neither blank nor comments, parted by the first of a tab, a
+    semicolon or a comma the first holds (names may hold spaces; None: runs of whitespace);
+    None where it has fewer than two such lines."""
+    lines = [ln.strip() for ln in head or []]
     lines = [ln for ln in lines if ln and not ln.startswith(("#", "%"))]
     if len(lines) < 2:
         return None
-    delimiter = next((d for d in ("\t", ";", ",") if d in lines[0]), None)  # (names may hold spaces)
+    delimiter = next((d for d in ("\t", ";", ",") if d in lines[0]), None)
     names, row = ([c.strip() for c in ln.split(delimiter)] for ln in lines[:2])
+    return delimiter, names, row
+
+
+def _named_columns(head) -> list | None:
+    """The names of a text table's columns (a header row of names, none a number, above a row of
+    as many numbers: :data:`NAMED_COLUMNS` at least), from a file's head (:func:`_header_row`);
+    None for any other file."""
+    found = _header_row(head)
+    if found is None:
+        return None
+    _, names, row = found
     while names and not names[-1]:  # (a row that ends in its delimiter)
         names.pop()
         row = row[:-1] if row and not row[-1] else row
@@ -289,27 +295,31 @@ def _named_columns(p: Path) -> list | None:
 _UNIT_IN_NAME = re.compile(r"[(\[]\s*([^()\[\]]+?)\s*[)\]]\s*$")
 
 
-def _named_units(p: Path) -> tuple | None:
-    """(x unit, height unit) of a text file of two columns each named with its length unit ("x
-    (um),h (nm)", "X [mm];Z [um]", parted by a comma, semicolon or tab), from its head
-    (:func:`_text_head`); None for any other file."""
-    lines = [ln.strip() for ln in _text_head(p) or []]
-    lines = [ln for ln in lines if ln and not ln.startswith(("#", "%"))]
-    delimiter = next((d for d in ("\t", ";", ",") if len(lines) > 1 and d in lines[0]), None)
-    if delimiter is None:
-        return None
-    names, row = ([c.strip() for c in ln.split(delimiter)] for ln in lines[:2])
-    if len(names) != 2 or len(row) != 2 or not all(_number(c) for c in row):
-        return None
-    units = [_UNIT_IN_NAME.search(n) for n in names]
-    if not all(units):
+def _unit_in_name(name: str, p: Path) -> str | None:
+    """The length unit a column's name ends with ("Altitude (um)", "z [nm]"), or None where it
+    names none (or none of length)."""
+    found = _UNIT_IN_NAME.search(name)
+    if not found:
         return None
     try:
-        for u in units:
-            _unit_factor(u.group(1), "unit", str(p))
+        _unit_factor(found.group(1), "unit", str(p))
     except ParameterError:
         return None
-    return units[0].group(1), units[1].group(1)
+    return found.group(1)
+
+
+def _named_units(head, p: Path) -> tuple | None:
+    """(x unit, height unit) of a text file of two columns each named with its length unit ("x
+    (um),h (nm)", "X [mm];Z [um]", parted by a comma, semicolon or tab), from its head
+    (:func:`_header_row`); None for any other file."""
+    found = _header_row(head)
+    if found is None or found[0] is None:
+        return None
+    _, names, row = found
+    if len(names) != 2 or len(row) != 2 or not all(_number(c) for c in row):
+        return None
+    units = [_unit_in_name(n, p) for n in names]
+    return tuple(units) if all(units) else None
 
 
 def _read_named_columns(p: Path, names, spacing, x_unit, height_unit, variable) -> Reading:
@@ -325,13 +335,7 @@ def _read_named_columns(p: Path, names, spacing, x_unit, height_unit, variable) 
         raise ParameterError(f"x_unit = {x_unit!r} is not allowed: {p}'s positions are its samples' order; give the "
                              "sample spacing")
     if height_unit is None:
-        stated = _UNIT_IN_NAME.search(names[k])
-        if stated:
-            try:
-                _unit_factor(stated.group(1), "height_unit", str(p))
-                height_unit = stated.group(1)
-            except ParameterError:
-                pass
+        height_unit = _unit_in_name(names[k], p)
     r = _read_text_columns(p, spacing, None, height_unit, None, k, None)
     return Reading(r.x, None, r.h, f"{p.name}, column {names[k]}", "haptex: text columns")
 
@@ -817,9 +821,10 @@ def _cells(s: str) -> list[str]:
 
 
 TEXT_PROBE = 1 << 16
-"""How many bytes of a text file :func:`read_topography` reads (:func:`_text_head`) to tell one
-column of decimal-comma numbers from x, height pairs parted by commas (:func:`_decimal_comma_column`)
-and a table of named columns (:func:`_named_columns`) before it chooses a reader (chosen: some
+"""How many bytes of a text file :func:`read_topography` reads once (:func:`_text_head`) to tell one
+column of decimal-comma numbers from x, height pairs parted by commas (:func:`_decimal_comma_column`),
+a table of named columns (:func:`_named_columns`) and two columns named with their units
+(:func:`_named_units`) before it chooses a reader (chosen: some
 thousand lines; the reader it chooses reads the whole file and decides again)."""
 
 
