@@ -218,24 +218,22 @@ def object_from_spec(spec, uv_scale=None, vertex_normals: bool = False, files: b
 
     from .objects import Cylinder, Mesh, Plane, Sphere
 
+    # (the options a mesh alone takes, each given or not, and why; --uv-scale is checked on the
+    # analytic bases nowhere yet)
+    mesh_only = [(option, why) for option, given, why in (
+        ("--uv-scale", uv_scale is not None, "it scales a mesh's texture coordinates"),
+        ("--vertex-normals", vertex_normals, "it applies to a mesh"),
+        ("--mesh-unit", mesh_unit is not None, "it is a mesh file's unit"),
+        ("--box-uv", box_uv, "it lays a texture on a mesh")) if given]
     if spec is None:
-        if uv_scale is not None:
-            raise ParameterError("--uv-scale is not allowed without --object: it scales a mesh's texture coordinates")
-        if vertex_normals:
-            raise ParameterError("--vertex-normals is not allowed without --object: it applies to a mesh")
-        if mesh_unit is not None:
-            raise ParameterError("--mesh-unit is not allowed without --object: it is a mesh file's unit")
-        if box_uv:
-            raise ParameterError("--box-uv is not allowed without --object: it lays a texture on a mesh")
+        if mesh_only:
+            raise ParameterError(f"{mesh_only[0][0]} is not allowed without --object: {mesh_only[0][1]}")
         return None
     kind, _, arg = str(spec).partition(":")
     kind = kind.strip().lower()
-    if vertex_normals and kind in ("plane", "sphere", "cylinder"):
-        raise ParameterError(f"--vertex-normals is not allowed with --object {spec!r}: it applies to a mesh")
-    if mesh_unit is not None and kind in ("plane", "sphere", "cylinder"):
-        raise ParameterError(f"--mesh-unit is not allowed with --object {spec!r}: it is a mesh file's unit")
-    if box_uv and kind in ("plane", "sphere", "cylinder"):
-        raise ParameterError(f"--box-uv is not allowed with --object {spec!r}: it lays a texture on a mesh")
+    analytic = [(option, why) for option, why in mesh_only if option != "--uv-scale"]
+    if analytic and kind in ("plane", "sphere", "cylinder"):
+        raise ParameterError(f"{analytic[0][0]} is not allowed with --object {spec!r}: {analytic[0][1]}")
     if kind == "plane" and not arg:
         return Plane()
     if kind in ("sphere", "cylinder"):

@@ -824,7 +824,8 @@ def identify(*, time, position, force, max_delay: int = MAX_DELAY, window: float
         complex number), a non-finite value (naming the column and sample),
         times that do not increase (equal times are read as a clock coarser than the period's
         where they are one, :func:`_coarse_clock`, and refused where it moves by more than two
-        of its steps between two samples or a stamp strays from the line), intervals off the period (:data:`TICK_TOLERANCE`) so many
+        of its steps between two samples or a stamp strays from the line), intervals off the
+        period (:data:`TICK_TOLERANCE`) so many
         that fewer than :data:`MIN_WINDOWS` windows lie between them, a log shorter than
         :data:`MIN_WINDOWS` windows,
         a constant force or position on an axis (nothing to identify), or settings out of

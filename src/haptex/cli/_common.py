@@ -180,8 +180,8 @@ def _vibration_options_no_friction(func):
 
 
 def _object_options(what: str):
-    """``--object``, ``--uv-scale`` and ``--mesh-unit``, the same for every command that takes an object (design,
-    export, run); ``what`` says which letters the command takes there and what it does with them."""
+    """``--object``, ``--uv-scale``, ``--mesh-unit`` and ``--box-uv``, the same for every command that
+    takes an object (design, export, run); ``what`` says which letters the command takes there and what it does with them."""
     def deco(func):
         func = click.option("--box-uv", is_flag=True,
                             help="With a mesh without texture coordinates (a CAD part's STL): lay the texture by box "

@@ -68,8 +68,8 @@ from ._common import (READING, Quantity, STABILISERS, _Spinner, _before_the_ball
 @click.option("--quiet", is_flag=True, help="No live dashboard.")
 @_core_blas_held  # BLAS in the set-up (a preset's matrices, a slope bound) wakes no worker to spin beside the loop
 def run_device(device_spec, texture_spec, letter, stiffness, max_force, duration, passivity_control, stabiliser, hand,
-               speed, fast, object_spec, uv_scale, mesh_unit, box_uv, reading, tip_radius, tip_spacing, crop, record, max_evaluations,
-               vibration_models, vibration_budget, no_material_friction, find_limit_run, identify_run, keep_awake,
+               speed, fast, object_spec, uv_scale, mesh_unit, box_uv, reading, tip_radius, tip_spacing, crop, record,
+               max_evaluations, vibration_models, vibration_budget, no_material_friction, find_limit_run, identify_run, keep_awake,
                as_json, quiet):
     """Render one texture on one device, with the safety rules of haptex.servo and a live dashboard."""
 

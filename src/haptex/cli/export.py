@@ -51,8 +51,9 @@ from ._common import (
                    "best point found.")
 @click.option("--quiet", is_flag=True, help="No progress display.")
 def export(letter, texture_spec, stiffness, max_force, max_penetration, friction, presliding, stick_deflection,
-           reading, object_spec, uv_scale, mesh_unit, box_uv, passivity_control, stabiliser, device_spec, vibration_models,
-           vibration_budget, no_material_friction, tip_radius, tip_spacing, crop, out, target, max_evaluations, quiet):
+           reading, object_spec, uv_scale, mesh_unit, box_uv, passivity_control, stabiliser, device_spec,
+           vibration_models, vibration_budget, no_material_friction, tip_radius, tip_spacing, crop, out, target,
+           max_evaluations, quiet):
     """C99 source of one algorithm on one texture, for device firmware (<math.h> only)."""
     from ..algorithms import ALGORITHMS, algorithm
     from ..export import TICK_FILES, build_defines, check_settings, export_c, firmware_command
