@@ -834,6 +834,9 @@ def test_a_mesh_in_millimetres_is_read_in_its_unit_and_its_extent_reported(tmp_p
     assert "half the mesh's smallest extent (0.01 mm)" in err and "--mesh-unit mm" in err, err
     assert main(base + ["sphere:20mm", "--mesh-unit", "mm"]) == 2
     assert "--mesh-unit is not allowed with --object 'sphere:20mm'" in capsys.readouterr().err
+    # (nor a UV scale on an analytic base, which has no UV map: it was ignored, 2026-12-02)
+    assert main(base + ["sphere:20mm", "--uv-scale", "10mm"]) == 2
+    assert "--uv-scale is not allowed with --object 'sphere:20mm': it scales a mesh's texture" in capsys.readouterr().err
     for bad in ("banana", "-1 mm", "kg", "1e9"):  # (one line naming the option and what it takes)
         assert main(base + [str(tmp_path / "mm.obj"), "--uv-scale", "60mm", "--mesh-unit", bad]) == 2
         err = capsys.readouterr().err

@@ -218,8 +218,7 @@ def object_from_spec(spec, uv_scale=None, vertex_normals: bool = False, files: b
 
     from .objects import Cylinder, Mesh, Plane, Sphere
 
-    # (the options a mesh alone takes, each given or not, and why; --uv-scale is checked on the
-    # analytic bases nowhere yet)
+    # (the options a mesh alone takes, each given or not, and why)
     mesh_only = [(option, why) for option, given, why in (
         ("--uv-scale", uv_scale is not None, "it scales a mesh's texture coordinates"),
         ("--vertex-normals", vertex_normals, "it applies to a mesh"),
@@ -231,9 +230,8 @@ def object_from_spec(spec, uv_scale=None, vertex_normals: bool = False, files: b
         return None
     kind, _, arg = str(spec).partition(":")
     kind = kind.strip().lower()
-    analytic = [(option, why) for option, why in mesh_only if option != "--uv-scale"]
-    if analytic and kind in ("plane", "sphere", "cylinder"):
-        raise ParameterError(f"{analytic[0][0]} is not allowed with --object {spec!r}: {analytic[0][1]}")
+    if mesh_only and kind in ("plane", "sphere", "cylinder"):
+        raise ParameterError(f"{mesh_only[0][0]} is not allowed with --object {spec!r}: {mesh_only[0][1]}")
     if kind == "plane" and not arg:
         return Plane()
     if kind in ("sphere", "cylinder"):
