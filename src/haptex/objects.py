@@ -957,11 +957,6 @@ class Mesh(Base):
                        "(--mesh-unit mm at the command line, unit='mm' in Python, for a file in millimetres), or a "
                        "lower texture")
 
-    def _uv_inside(self, flat) -> np.ndarray:
-        """Which surface coordinates (n, 2) (m) lie in a triangle of the UV map (n,) bool: the
-        candidates :meth:`point` tries (the 32 nearest triangles' centres), alike."""
-        return self._uv_locate(flat)[0]
-
     def _uv_locate(self, flat):
         """(found (n,), triangles (n,), barycentric (n, 2)) of surface coordinates flat (n, 2)
         (m): the triangle whose UV triangle holds each, among the 32 whose centres are nearest."""
@@ -1002,7 +997,7 @@ class Mesh(Base):
                 break
             grid = np.stack(np.meshgrid(g, g, indexing="ij"), -1).reshape(-1, 2) * size  # (g^2, 2)
             pts = origins[live, None, :] + grid[None]
-            out[live] = self._uv_inside(pts.reshape(-1, 2)).reshape(len(live), -1).all(axis=1)
+            out[live] = self._uv_locate(pts.reshape(-1, 2))[0].reshape(len(live), -1).all(axis=1)
         return out
 
     def _chart_square(self, size):
