@@ -11,6 +11,8 @@ force differs from the analytic sphere's to first order in the facet size.
 """
 
 import math
+import pathlib
+import tempfile
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -53,3 +55,19 @@ ax.set_ylabel("|f| (N)")
 ax.set_title("algorithm A, 0.1 mm inside the textured surface")
 ax.legend(fontsize=8)
 fig.tight_layout()
+
+# %%
+# A CAD part's STL states no unit and holds no texture coordinates: ``unit="mm"`` reads it in
+# millimetres (``--mesh-unit mm``; the mesh's repr gives its extent), and ``uv="box"`` lays the
+# texture by box projection (``--box-uv``): each triangle's coordinates on the plane across its
+# normal's largest axis. The analyses lay one cell of the texture inside a chart of that map
+# (``surface_range``; None where the cell at the origin lies on one already).
+part = trimesh.creation.cylinder(radius=10.0, height=30.0, sections=24)  # (in mm, as CAD writes it)
+with tempfile.TemporaryDirectory() as folder:
+    stl = pathlib.Path(folder) / "part.stl"
+    part.export(stl)
+    cad = Mesh(stl, unit="mm", uv="box")
+on_part = object_algorithm("A", egg, cad, 2000.0)
+cell = on_part.surface_range
+print(cad, "- the texture's cell analysed", "at the origin" if cell is None else
+      "at u = " + " x ".join(f"{a * 1e3:.2f}-{b * 1e3:.2f}" for a, b in cell) + " mm")
